@@ -1,0 +1,11 @@
+//! hapticd: a real-time daemon for string-driven haptic interfaces of the SPIDAR family.
+//!
+//! - [`mechanism`]: what a device is made of (YAML descriptors, plugins, validation);
+//! - [`solver`]: the computations every mechanism shares (pose, tension, force closure);
+//! - [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
+//! - [`plot`]: PNG line charts for experiments and `hapticctl`.
+
+pub mod mechanism;
+pub mod plot;
+pub mod plugin;
+pub mod solver;

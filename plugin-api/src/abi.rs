@@ -1,0 +1,152 @@
+//! The `#[repr(C)]` types of ABI v1. `include/hapticd_plugin.h` is generated from this file.
+//!
+//! Rules of the boundary: memory is never freed across it (the host copies what a plugin
+//! returns, a plugin's descriptor lives forever), every function returns a status code
+//! instead of unwinding, and every function states the thread it may be called on.
+
+use std::ffi::{c_char, c_void};
+
+/// Major ABI version: a plugin whose major differs from the host's is refused.
+pub const HAPTICD_ABI_MAJOR: u32 = 1;
+/// Minor ABI version: a plugin may be built against an older minor than the host's.
+pub const HAPTICD_ABI_MINOR: u32 = 0;
+
+/// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
+pub const HAPTICD_KIND_MECHANISM: u32 = 1;
+/// Plugin kind: scene physics (reserved in ABI 1.0; its vtable is defined by a later minor).
+pub const HAPTICD_KIND_SCENE: u32 = 2;
+
+/// Status: success.
+pub const HAPTICD_OK: i32 = 0;
+/// Status: an argument was out of range or a pointer was null.
+pub const HAPTICD_ERROR_ARGUMENT: i32 = -1;
+/// Status: the plugin panicked (or threw); the host disables it.
+pub const HAPTICD_ERROR_PANIC: i32 = -2;
+/// Status: the plugin failed for a reason it has logged through the host.
+pub const HAPTICD_ERROR_FAILED: i32 = -3;
+
+/// Log level: an error the user must act on.
+pub const HAPTICD_LOG_ERROR: u32 = 1;
+/// Log level: something unexpected that the plugin worked around.
+pub const HAPTICD_LOG_WARN: u32 = 2;
+/// Log level: normal operation.
+pub const HAPTICD_LOG_INFO: u32 = 3;
+/// Log level: detail for developers.
+pub const HAPTICD_LOG_DEBUG: u32 = 4;
+
+/// Longest effector name in bytes, including the terminating NUL.
+pub const HAPTICD_NAME_CAPACITY: usize = 32;
+
+/// Services the host offers a plugin. Valid for the life of the process.
+///
+/// A plugin carries its own copy of its language runtime, so its own logging would not
+/// reach the journal: it logs through `log` instead.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdHost {
+    /// The host's [`HAPTICD_ABI_MAJOR`].
+    pub abi_major: u32,
+    /// The host's [`HAPTICD_ABI_MINOR`].
+    pub abi_minor: u32,
+    /// Opaque host pointer, passed back to every host function.
+    pub context: *mut c_void,
+    /// [main, physics] Log a UTF-8 message of `len` bytes (not necessarily NUL-terminated).
+    /// Never call it from [rt] functions.
+    pub log: Option<
+        unsafe extern "C" fn(context: *mut c_void, level: u32, message: *const c_char, len: usize),
+    >,
+    /// [any] Monotonic clock in nanoseconds (CLOCK_MONOTONIC).
+    pub now_ns: Option<unsafe extern "C" fn(context: *mut c_void) -> u64>,
+}
+
+/// What `hapticd_plugin_entry` returns: who the plugin is and what it implements.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdPluginDescriptor {
+    /// ABI major the plugin was built against; must equal the host's.
+    pub abi_major: u32,
+    /// ABI minor the plugin was built against; must not exceed the host's.
+    pub abi_minor: u32,
+    /// [`HAPTICD_KIND_MECHANISM`] or [`HAPTICD_KIND_SCENE`].
+    pub kind: u32,
+    /// NUL-terminated name, unique among installed plugins of its kind (e.g. `spidar-g`).
+    pub name: *const c_char,
+    /// NUL-terminated version string of the plugin.
+    pub version: *const c_char,
+    /// NUL-terminated one-line description.
+    pub description: *const c_char,
+    /// The mechanism functions; non-null exactly when `kind` is [`HAPTICD_KIND_MECHANISM`].
+    pub mechanism: *const HapticdMechanismVtable,
+    /// Reserved for the scene-physics vtable; null in ABI 1.0.
+    pub scene: *const c_void,
+}
+
+/// Summary of a mechanism.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HapticdMechanismInfo {
+    /// Number of end effectors (grips or finger caps).
+    pub effector_count: u32,
+    /// Number of strings, all effectors together.
+    pub string_count: u32,
+    /// λ of the tension problem min |Wτ − f|² + λ|τ|² (thesis eq. 3.16).
+    pub lambda: f64,
+    /// Weight of the torque rows of W relative to the force rows, in 1/m² (1 = as written).
+    pub torque_weight: f64,
+}
+
+/// One end effector.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HapticdEffector {
+    /// NUL-terminated name, unique within the mechanism.
+    pub name: [c_char; HAPTICD_NAME_CAPACITY],
+    /// 3 for a point grip (translation only), 6 for a rigid grip.
+    pub dof: u32,
+    /// Grip position while calibrating, metres, frame-centred.
+    pub calibration_position: [f64; 3],
+    /// Grip orientation while calibrating, unit quaternion (w, x, y, z).
+    pub calibration_orientation: [f64; 4],
+}
+
+/// One string, from its motor on the frame to its knot on an effector.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HapticdString {
+    /// Index of the effector the string pulls on.
+    pub effector: u32,
+    /// Exit point of the string on the frame, metres, frame-centred.
+    pub motor: [f64; 3],
+    /// Attachment point on the effector, metres, effector frame (zero for a point grip).
+    pub knot: [f64; 3],
+    /// String length per encoder count, metres; negative when the encoder counts backwards.
+    pub metres_per_pulse: f64,
+    /// Amplifier input per newton of tension, V/N; negative when the motor is wound backwards.
+    pub volts_per_newton: f64,
+    /// Lowest tension the motor holds (keeps the string taut), newtons.
+    pub tension_min: f64,
+    /// Highest tension the motor may apply, newtons.
+    pub tension_max: f64,
+}
+
+/// Functions of a mechanism plugin. Fields appended by later minors are present only when
+/// `struct_size` covers them.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdMechanismVtable {
+    /// `sizeof(HapticdMechanismVtable)` as the plugin was compiled.
+    pub struct_size: u32,
+    /// [main] Write the mechanism summary to `out`.
+    pub info: Option<unsafe extern "C" fn(out: *mut HapticdMechanismInfo) -> i32>,
+    /// [main] Write effector `index` (0 ≤ index < effector_count) to `out`.
+    pub effector: Option<unsafe extern "C" fn(index: u32, out: *mut HapticdEffector) -> i32>,
+    /// [main] Write string `index` (0 ≤ index < string_count) to `out`.
+    pub string: Option<unsafe extern "C" fn(index: u32, out: *mut HapticdString) -> i32>,
+}
+
+/// Type of the exported entry symbol `hapticd_plugin_entry`.
+///
+/// [main] Called once after loading; returns null on failure. The returned descriptor must
+/// stay valid for the life of the process.
+pub type HapticdPluginEntry =
+    unsafe extern "C" fn(host: *const HapticdHost) -> *const HapticdPluginDescriptor;

@@ -1,0 +1,264 @@
+//! The Rust side of the boundary: what [`export_mechanism!`](crate::export_mechanism) expands to.
+//!
+//! Every exported function runs inside `catch_unwind`, because a panic unwinding through an
+//! `extern "C"` frame aborts the whole daemon.
+
+use std::ffi::{CStr, c_char};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicPtr, Ordering};
+
+use crate::abi::*;
+
+/// A mechanism as a Rust plugin author describes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MechanismSpec {
+    /// λ of the tension problem (thesis eq. 3.16).
+    pub lambda: f64,
+    /// Weight of torque rows relative to force rows (1 = every wrench component weighted 1).
+    pub torque_weight: f64,
+    /// End effectors, in order.
+    pub effectors: Vec<HapticdEffector>,
+    /// Strings, in order; each names its effector by index.
+    pub strings: Vec<HapticdString>,
+}
+
+impl HapticdEffector {
+    /// An effector named `name` with `dof` degrees of freedom, calibrated at the frame centre
+    /// with identity orientation.
+    ///
+    /// # Panics
+    /// If `name` does not fit in [`HAPTICD_NAME_CAPACITY`] − 1 bytes or contains NUL.
+    pub fn new(name: &str, dof: u32) -> Self {
+        assert!(
+            name.len() < HAPTICD_NAME_CAPACITY && !name.contains('\0'),
+            "effector name {name:?} must be shorter than {HAPTICD_NAME_CAPACITY} bytes, without NUL"
+        );
+        let mut buf = [0 as c_char; HAPTICD_NAME_CAPACITY];
+        for (slot, byte) in buf.iter_mut().zip(name.bytes()) {
+            *slot = byte as c_char;
+        }
+        Self {
+            name: buf,
+            dof,
+            calibration_position: [0.0; 3],
+            calibration_orientation: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+
+    /// The name up to its NUL, or `None` if it is unterminated or not UTF-8.
+    pub fn name_str(&self) -> Option<&str> {
+        // SAFETY: c_char and u8 have the same size and alignment.
+        let bytes: &[u8; HAPTICD_NAME_CAPACITY] = unsafe { &*self.name.as_ptr().cast() };
+        CStr::from_bytes_until_nul(bytes).ok()?.to_str().ok()
+    }
+}
+
+static HOST: AtomicPtr<HapticdHost> = AtomicPtr::new(std::ptr::null_mut());
+
+/// Log through the host (falls back to stderr before `hapticd_plugin_entry` ran).
+///
+/// [main, physics] only: logging is a syscall the real-time thread must not make.
+pub fn log(level: u32, message: &str) {
+    let host = HOST.load(Ordering::Acquire);
+    // SAFETY: the host guarantees the pointer it passed to the entry outlives the plugin.
+    match unsafe { host.as_ref() }.and_then(|h| h.log.map(|log| (h.context, log))) {
+        // SAFETY: message is valid for len bytes for the duration of the call.
+        Some((context, log)) => unsafe { log(context, level, message.as_ptr().cast(), message.len()) },
+        None => eprintln!("{message}"),
+    }
+}
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> &str {
+    payload
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("non-string panic payload")
+}
+
+/// Run `f`, turning a panic into [`HAPTICD_ERROR_PANIC`] (and a host log line).
+pub fn guard(what: &str, f: impl FnOnce() -> i32) -> i32 {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(status) => status,
+        Err(payload) => {
+            log(
+                HAPTICD_LOG_ERROR,
+                &format!("{what} panicked: {}", panic_message(payload.as_ref())),
+            );
+            HAPTICD_ERROR_PANIC
+        }
+    }
+}
+
+/// Write `value` through `out` if it is non-null.
+fn write_out<T>(out: *mut T, value: Option<T>) -> i32 {
+    match value {
+        Some(value) if !out.is_null() => {
+            // SAFETY: the caller passes a pointer to writable storage for one T.
+            unsafe { out.write(value) };
+            HAPTICD_OK
+        }
+        _ => HAPTICD_ERROR_ARGUMENT,
+    }
+}
+
+/// A descriptor that may live in a `static` (its pointers all point to `'static` data).
+#[repr(transparent)]
+#[doc(hidden)]
+pub struct StaticDescriptor(pub HapticdPluginDescriptor);
+
+// SAFETY: every pointer in a StaticDescriptor points to immutable 'static data.
+unsafe impl Sync for StaticDescriptor {}
+
+/// A vtable that may live in a `static`.
+#[repr(transparent)]
+#[doc(hidden)]
+pub struct StaticVtable(pub HapticdMechanismVtable);
+
+// SAFETY: a vtable holds only function pointers.
+unsafe impl Sync for StaticVtable {}
+
+/// The state behind an exported mechanism: the author's builder, run once.
+#[doc(hidden)]
+pub struct MechanismExport {
+    build: fn() -> MechanismSpec,
+    spec: OnceLock<Option<MechanismSpec>>,
+}
+
+impl MechanismExport {
+    /// A mechanism built by `build` on first use.
+    pub const fn new(build: fn() -> MechanismSpec) -> Self {
+        Self {
+            build,
+            spec: OnceLock::new(),
+        }
+    }
+
+    fn spec(&self) -> Option<&MechanismSpec> {
+        self.spec
+            .get_or_init(|| {
+                catch_unwind(self.build)
+                    .map_err(|payload| {
+                        log(
+                            HAPTICD_LOG_ERROR,
+                            &format!(
+                                "building the mechanism panicked: {}",
+                                panic_message(payload.as_ref())
+                            ),
+                        )
+                    })
+                    .ok()
+            })
+            .as_ref()
+    }
+
+    fn with_spec(&self, what: &str, f: impl FnOnce(&MechanismSpec) -> i32) -> i32 {
+        guard(what, || self.spec().map_or(HAPTICD_ERROR_PANIC, f))
+    }
+
+    /// Body of the exported `info` function.
+    pub fn info(&self, out: *mut HapticdMechanismInfo) -> i32 {
+        self.with_spec("info", |spec| {
+            let info = HapticdMechanismInfo {
+                effector_count: u32::try_from(spec.effectors.len()).unwrap_or(u32::MAX),
+                string_count: u32::try_from(spec.strings.len()).unwrap_or(u32::MAX),
+                lambda: spec.lambda,
+                torque_weight: spec.torque_weight,
+            };
+            write_out(out, Some(info))
+        })
+    }
+
+    /// Body of the exported `effector` function.
+    pub fn effector(&self, index: u32, out: *mut HapticdEffector) -> i32 {
+        self.with_spec("effector", |spec| {
+            write_out(out, spec.effectors.get(index as usize).copied())
+        })
+    }
+
+    /// Body of the exported `string` function.
+    pub fn string(&self, index: u32, out: *mut HapticdString) -> i32 {
+        self.with_spec("string", |spec| {
+            write_out(out, spec.strings.get(index as usize).copied())
+        })
+    }
+}
+
+/// Body of the exported entry: remember the host, hand out the descriptor.
+#[doc(hidden)]
+pub fn entry(
+    host: *const HapticdHost,
+    descriptor: &'static StaticDescriptor,
+) -> *const HapticdPluginDescriptor {
+    catch_unwind(|| {
+        // SAFETY: the host passes a pointer valid for the life of the process, or null.
+        if let Some(h) = unsafe { host.as_ref() } {
+            if h.abi_major != HAPTICD_ABI_MAJOR {
+                return std::ptr::null();
+            }
+            HOST.store(host.cast_mut(), Ordering::Release);
+        }
+        &descriptor.0 as *const HapticdPluginDescriptor
+    })
+    .unwrap_or(std::ptr::null())
+}
+
+/// Export a mechanism plugin: defines `hapticd_plugin_entry` and the vtable around a
+/// function that builds the [`MechanismSpec`].
+///
+/// ```ignore
+/// fn build() -> hapticd_plugin_api::MechanismSpec { /* ... */ }
+/// hapticd_plugin_api::export_mechanism!(
+///     name: "my-spidar",
+///     description: "A 4-string SPIDAR on a 0.4 m frame",
+///     build: build,
+/// );
+/// ```
+#[macro_export]
+macro_rules! export_mechanism {
+    (name: $name:literal, description: $description:literal, build: $build:path $(,)?) => {
+        const _: () = {
+            use $crate::abi::*;
+            use $crate::export::{MechanismExport, StaticDescriptor, StaticVtable};
+
+            static EXPORT: MechanismExport = MechanismExport::new($build);
+
+            unsafe extern "C" fn info(out: *mut HapticdMechanismInfo) -> i32 {
+                EXPORT.info(out)
+            }
+            unsafe extern "C" fn effector(index: u32, out: *mut HapticdEffector) -> i32 {
+                EXPORT.effector(index, out)
+            }
+            unsafe extern "C" fn string(index: u32, out: *mut HapticdString) -> i32 {
+                EXPORT.string(index, out)
+            }
+
+            static VTABLE: StaticVtable = StaticVtable(HapticdMechanismVtable {
+                struct_size: ::core::mem::size_of::<HapticdMechanismVtable>() as u32,
+                info: Some(info),
+                effector: Some(effector),
+                string: Some(string),
+            });
+
+            static DESCRIPTOR: StaticDescriptor = StaticDescriptor(HapticdPluginDescriptor {
+                abi_major: HAPTICD_ABI_MAJOR,
+                abi_minor: HAPTICD_ABI_MINOR,
+                kind: HAPTICD_KIND_MECHANISM,
+                name: concat!($name, "\0").as_ptr().cast(),
+                version: concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast(),
+                description: concat!($description, "\0").as_ptr().cast(),
+                mechanism: &VTABLE.0,
+                scene: ::core::ptr::null(),
+            });
+
+            /// [main] The plugin's entry point.
+            #[unsafe(no_mangle)]
+            pub extern "C" fn hapticd_plugin_entry(
+                host: *const HapticdHost,
+            ) -> *const HapticdPluginDescriptor {
+                $crate::export::entry(host, &DESCRIPTOR)
+            }
+        };
+    };
+}
