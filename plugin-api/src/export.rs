@@ -5,7 +5,7 @@
 
 use std::ffi::{CStr, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::OnceLock;
+use std::sync::{Once, OnceLock};
 use std::sync::atomic::{AtomicPtr, Ordering};
 
 use crate::abi::*;
@@ -69,26 +69,25 @@ pub fn log(level: u32, message: &str) {
     }
 }
 
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> &str {
-    payload
-        .downcast_ref::<&str>()
-        .copied()
-        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
-        .unwrap_or("non-string panic payload")
+/// Report panics through the host log: the plugin's own copy of std would print them to a
+/// stderr nobody reads. Installed in the plugin's std only; the host's hook is untouched.
+fn install_panic_hook() {
+    static HOOK: Once = Once::new();
+    HOOK.call_once(|| {
+        std::panic::set_hook(Box::new(|info| {
+            let at = info
+                .location()
+                .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                .unwrap_or_default();
+            let message = info.payload_as_str().unwrap_or("non-string panic payload");
+            log(HAPTICD_LOG_ERROR, &format!("panicked{at}: {message}"));
+        }))
+    });
 }
 
-/// Run `f`, turning a panic into [`HAPTICD_ERROR_PANIC`] (and a host log line).
-pub fn guard(what: &str, f: impl FnOnce() -> i32) -> i32 {
-    match catch_unwind(AssertUnwindSafe(f)) {
-        Ok(status) => status,
-        Err(payload) => {
-            log(
-                HAPTICD_LOG_ERROR,
-                &format!("{what} panicked: {}", panic_message(payload.as_ref())),
-            );
-            HAPTICD_ERROR_PANIC
-        }
-    }
+/// Run `f`, turning a panic into [`HAPTICD_ERROR_PANIC`] (the hook has logged it).
+pub fn guard(f: impl FnOnce() -> i32) -> i32 {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or(HAPTICD_ERROR_PANIC)
 }
 
 /// Write `value` through `out` if it is non-null.
@@ -137,29 +136,17 @@ impl MechanismExport {
 
     fn spec(&self) -> Option<&MechanismSpec> {
         self.spec
-            .get_or_init(|| {
-                catch_unwind(self.build)
-                    .map_err(|payload| {
-                        log(
-                            HAPTICD_LOG_ERROR,
-                            &format!(
-                                "building the mechanism panicked: {}",
-                                panic_message(payload.as_ref())
-                            ),
-                        )
-                    })
-                    .ok()
-            })
+            .get_or_init(|| catch_unwind(self.build).ok())
             .as_ref()
     }
 
-    fn with_spec(&self, what: &str, f: impl FnOnce(&MechanismSpec) -> i32) -> i32 {
-        guard(what, || self.spec().map_or(HAPTICD_ERROR_PANIC, f))
+    fn with_spec(&self, f: impl FnOnce(&MechanismSpec) -> i32) -> i32 {
+        guard(|| self.spec().map_or(HAPTICD_ERROR_PANIC, f))
     }
 
     /// Body of the exported `info` function.
     pub fn info(&self, out: *mut HapticdMechanismInfo) -> i32 {
-        self.with_spec("info", |spec| {
+        self.with_spec(|spec| {
             let info = HapticdMechanismInfo {
                 effector_count: u32::try_from(spec.effectors.len()).unwrap_or(u32::MAX),
                 string_count: u32::try_from(spec.strings.len()).unwrap_or(u32::MAX),
@@ -172,14 +159,14 @@ impl MechanismExport {
 
     /// Body of the exported `effector` function.
     pub fn effector(&self, index: u32, out: *mut HapticdEffector) -> i32 {
-        self.with_spec("effector", |spec| {
+        self.with_spec(|spec| {
             write_out(out, spec.effectors.get(index as usize).copied())
         })
     }
 
     /// Body of the exported `string` function.
     pub fn string(&self, index: u32, out: *mut HapticdString) -> i32 {
-        self.with_spec("string", |spec| {
+        self.with_spec(|spec| {
             write_out(out, spec.strings.get(index as usize).copied())
         })
     }
@@ -191,6 +178,7 @@ pub fn entry(
     host: *const HapticdHost,
     descriptor: &'static StaticDescriptor,
 ) -> *const HapticdPluginDescriptor {
+    install_panic_hook();
     catch_unwind(|| {
         // SAFETY: the host passes a pointer valid for the life of the process, or null.
         if let Some(h) = unsafe { host.as_ref() } {

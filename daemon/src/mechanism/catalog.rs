@@ -54,6 +54,11 @@ impl Catalog {
         &self.dirs
     }
 
+    /// Whether `spec` is a mechanism name rather than a path to a descriptor or plugin.
+    pub fn is_name(spec: &str) -> bool {
+        !spec.contains('/') && !is_mechanism_file(Path::new(spec))
+    }
+
     /// Every descriptor and plugin in the search path, loaded, in search order.
     pub fn entries(&self) -> Vec<Entry> {
         let mut entries: Vec<Entry> = Vec::new();
@@ -87,7 +92,7 @@ impl Catalog {
     /// installed mechanism.
     pub fn resolve(&self, spec: &str) -> Result<Mechanism, MechanismError> {
         let as_path = Path::new(spec);
-        if spec.contains('/') || is_mechanism_file(as_path) {
+        if !Self::is_name(spec) {
             return load(as_path);
         }
         self.entries()
@@ -98,7 +103,7 @@ impl Catalog {
                 MechanismError::file(
                     as_path,
                     format!(
-                        "no installed mechanism named {spec:?} (searched {}; set {PATH_VARIABLE} \
+                        "no installed mechanism of this name (searched {}; set {PATH_VARIABLE} \
                          or give a path to a .yaml or .so file)",
                         dirs.join(":")
                     ),

@@ -5,6 +5,7 @@
 //! [`Mechanism::from_spec`] validates it once, so a YAML file and a plugin are held to the
 //! same rules. The base part (pose, tension) lives in [`crate::solver`].
 
+pub mod analysis;
 pub mod catalog;
 pub mod descriptor;
 

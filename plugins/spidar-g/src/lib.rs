@@ -1,5 +1,9 @@
 //! SPIDAR-G, G6X3L geometry: one rigid cross-shaped grip (arm radius 0.0225 m) held by
 //! eight strings; four motors above the grip, four mirrored below it in y. Six DOF.
+//!
+//! The published geometry fixes the knots of the two strings along x; those of the strings
+//! along z are the assignment that keeps the grip force-closed over the widest region around
+//! the frame centre (a test checks closure there).
 
 use hapticd_plugin_api::{HapticdEffector, HapticdString, MechanismSpec};
 
@@ -14,7 +18,7 @@ const UPPER_MOTORS: [[f64; 3]; 4] = [
 const UPPER_KNOTS: [[f64; 3]; 4] = [
     [0.0159, 0.0, -0.0159],
     [0.0, 0.0225, 0.0],
-    [0.0159, 0.0, 0.0159],
+    [-0.0159, 0.0, -0.0159],
     [0.0, 0.0225, 0.0],
 ];
 /// String length per encoder count, metres.
