@@ -242,7 +242,13 @@ pub fn parse(text: &str, path: &Path) -> Result<Mechanism, MechanismError> {
 
 /// A YAML or schema error as a located diagnostic.
 fn yaml_error(path: &Path, error: &serde_saphyr::Error) -> MechanismError {
-    let message = error.without_snippet().to_string();
+    let rendered = error.without_snippet().to_string();
+    // The position goes in front, compiler style; the parser's advice about its own options
+    // means nothing to someone editing a descriptor.
+    let message = rendered
+        .rsplit_once(" at line ")
+        .map_or(rendered.as_str(), |(m, _)| m)
+        .replace(", set DuplicateKeyPolicy in Options if acceptable", "");
     let position = error
         .location()
         .filter(|l| l.line() > 0)
@@ -255,5 +261,179 @@ fn yaml_error(path: &Path, error: &serde_saphyr::Error) -> MechanismError {
             field: String::new(),
             message,
         }],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "\
+name: tiny
+end_effectors:
+  - name: finger
+    dof: 3
+strings:
+  - effector: finger
+    motor: [-0.2, 0.2, 0.2]
+    metres_per_pulse: 2.0e-5
+    volts_per_newton: 0.3653
+    tension_min: 0.5
+    tension_max: 10
+  - effector: finger
+    motor: [0.2, 0.2, -0.2]
+    metres_per_pulse: 2.0e-5
+    volts_per_newton: 0.3653
+    tension_min: 0.5
+    tension_max: 10
+  - effector: finger
+    motor: [-0.2, -0.2, -0.2]
+    metres_per_pulse: 2.0e-5
+    volts_per_newton: 0.3653
+    tension_min: 0.5
+    tension_max: 10
+  - effector: finger
+    motor: [0.2, -0.2, 0.2]
+    metres_per_pulse: 2.0e-5
+    volts_per_newton: 0.3653
+    tension_min: 0.5
+    tension_max: 10
+tension:
+  lambda: 0.02
+";
+
+    /// The single error of parsing `text`, rendered.
+    fn error_of(text: &str) -> String {
+        let e = parse(text, Path::new("m.yaml")).expect_err("descriptor should be refused");
+        assert_eq!(e.diagnostics[0].severity, Severity::Error);
+        e.diagnostics[0].to_string()
+    }
+
+    #[test]
+    fn a_good_descriptor_loads_with_its_values() {
+        let m = parse(GOOD, Path::new("m.yaml")).unwrap();
+        assert_eq!(m.name, "tiny");
+        assert_eq!(m.effectors[0].strings, vec![0, 1, 2, 3]);
+        assert_eq!(m.strings[2].motor, glam::DVec3::new(-0.2, -0.2, -0.2));
+        assert_eq!(m.tension.lambda, 0.02);
+        assert!(m.warnings.is_empty());
+    }
+
+    #[test]
+    fn unknown_keys_are_refused_with_their_position() {
+        let text = GOOD.replace("    dof: 3\n", "    dof: 3\n    colour: red\n");
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:5:5: error: unknown field `colour`"), "{e}");
+    }
+
+    #[test]
+    fn duplicate_keys_are_refused() {
+        let text = GOOD.replace("  lambda: 0.02\n", "  lambda: 0.02\n  lambda: 0.03\n");
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:32:3: error: duplicate mapping key: lambda"), "{e}");
+    }
+
+    #[test]
+    fn vectors_of_the_wrong_length_are_refused() {
+        let text = GOOD.replacen("[-0.2, 0.2, 0.2]", "[-0.2, 0.2]", 1);
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:7:5: error: invalid length 2, expected an array of length 3"), "{e}");
+    }
+
+    #[test]
+    fn non_finite_numbers_are_refused() {
+        let text = GOOD.replacen("metres_per_pulse: 2.0e-5", "metres_per_pulse: .nan", 1);
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:8:23: error: strings[0].metres_per_pulse: must be a finite"), "{e}");
+        let text = GOOD.replacen("[-0.2, 0.2, 0.2]", "[-0.2, .inf, 0.2]", 1);
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:7:12: error: strings[0].motor: must be a finite number"), "{e}");
+    }
+
+    #[test]
+    fn a_minimum_above_the_maximum_is_refused() {
+        let text = GOOD.replacen("tension_min: 0.5", "tension_min: 12", 1);
+        let e = error_of(&text);
+        assert!(
+            e.starts_with("m.yaml:10:18: error: strings[0].tension_min: tension_min 12 N exceeds tension_max 10 N"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn unknown_effector_names_are_refused() {
+        let text = GOOD.replacen("  - effector: finger", "  - effector: thumb", 1);
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:6:15: error: strings[0].effector: no end effector named \"thumb\""), "{e}");
+        let text = format!("{GOOD}calibration:\n  thumb: {{ position: [0, 0, 0] }}\n");
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:33:10: error: calibration.thumb: no end effector named"), "{e}");
+    }
+
+    #[test]
+    fn an_effector_with_fewer_strings_than_dof_is_refused() {
+        let text = GOOD.replace("dof: 3", "dof: 6");
+        let e = error_of(&text);
+        assert!(
+            e.contains("end_effectors[0]: effector \"finger\" has 4 strings but 6 degrees of freedom: its pose cannot be solved"),
+            "{e}"
+        );
+        assert!(e.starts_with("m.yaml:3:11:"), "{e}");
+    }
+
+    #[test]
+    fn an_effector_without_spare_strings_loads_with_a_warning() {
+        let cut = GOOD.rfind("  - effector").unwrap();
+        let end = GOOD.find("tension:\n").unwrap();
+        let text = format!("{}{}", &GOOD[..cut], &GOOD[end..]);
+        let m = parse(&text, Path::new("m.yaml")).unwrap();
+        assert_eq!(m.warnings.len(), 1);
+        let w = m.warnings[0].to_string();
+        assert!(w.starts_with("m.yaml:3:11: warning:") && w.contains("can never present force in every direction"), "{w}");
+    }
+
+    #[test]
+    fn a_point_grip_with_a_knot_offset_is_refused() {
+        let text = GOOD.replacen("    metres_per_pulse", "    knot: [0.01, 0, 0]\n    metres_per_pulse", 1);
+        let e = error_of(&text);
+        assert!(e.starts_with("m.yaml:8:11: error: strings[0].knot: a point grip (dof 3) has no knot offset"), "{e}");
+    }
+
+    #[test]
+    fn calibration_orientations_must_be_unit_quaternions() {
+        let text = format!("{GOOD}calibration:\n  finger: {{ orientation: [1, 1, 0, 0] }}\n");
+        let e = error_of(&text);
+        assert!(e.contains("calibration.finger.orientation: must be a unit quaternion"), "{e}");
+    }
+
+    #[test]
+    fn degenerate_geometry_is_refused() {
+        // All four motors on one line through the grip: the pose is unobservable.
+        let mut text = GOOD.to_string();
+        for (old, new) in [
+            ("[-0.2, 0.2, 0.2]", "[0.1, 0, 0]"),
+            ("[0.2, 0.2, -0.2]", "[0.2, 0, 0]"),
+            ("[-0.2, -0.2, -0.2]", "[-0.1, 0, 0]"),
+            ("[0.2, -0.2, 0.2]", "[-0.2, 0, 0]"),
+        ] {
+            text = text.replace(old, new);
+        }
+        let e = error_of(&text);
+        assert!(e.contains("do not determine its pose"), "{e}");
+    }
+
+    #[test]
+    fn malformed_yaml_is_located() {
+        let e = error_of("name: x\nend_effectors: [\n");
+        assert!(e.starts_with("m.yaml:2:16: error: unclosed bracket"), "{e}");
+    }
+
+    #[test]
+    fn every_error_is_reported_not_only_the_first() {
+        let text = GOOD
+            .replacen("tension_min: 0.5", "tension_min: -1", 1)
+            .replacen("volts_per_newton: 0.3653", "volts_per_newton: 0", 1);
+        let e = parse(&text, Path::new("m.yaml")).unwrap_err();
+        assert_eq!(e.diagnostics.len(), 2, "{e}");
     }
 }

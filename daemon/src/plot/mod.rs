@@ -92,6 +92,7 @@ impl Canvas {
         for (i, c) in text.chars().enumerate() {
             let left = x + i as i64 * (font::GLYPH_WIDTH as i64 + 1) * scale;
             for (row, bits) in font::glyph(c).iter().enumerate() {
+                let row = row + font::drop(c);
                 for col in 0..font::GLYPH_WIDTH {
                     if bits & (1 << (font::GLYPH_WIDTH - 1 - col)) != 0 {
                         let (px, py) = (left + col as i64 * scale, y + row as i64 * scale);
@@ -207,7 +208,7 @@ const WIDTH: usize = 960;
 const HEIGHT: usize = 600;
 const LEFT: i64 = 100;
 const RIGHT: i64 = 30;
-const TOP: i64 = 60;
+const TOP: i64 = 84;
 const BOTTOM: i64 = 70;
 
 impl Chart {
@@ -288,7 +289,8 @@ impl Chart {
             let w = Canvas::text_width(&label, 2);
             canvas.text(LEFT - 8 - w, sy(y) as i64 - 7, &label, 2, INK);
         }
-        for s in &self.series {
+        // The first series is drawn last, on top: it is usually the reference.
+        for s in self.series.iter().rev() {
             let mut previous: Option<(f64, f64)> = None;
             for &(x, y) in &s.points {
                 let here = (x.is_finite() && y.is_finite()).then(|| (sx(x), sy(y)));
@@ -321,7 +323,7 @@ impl Chart {
             2,
             INK,
         );
-        canvas.text(8, TOP - 24, &self.y_label, 2, INK);
+        canvas.text(8, TOP - 28, &self.y_label, 2, INK);
         self.draw_legend(&mut canvas, plot_right as i64, TOP);
         canvas
     }

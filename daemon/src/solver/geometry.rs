@@ -195,7 +195,7 @@ mod tests {
             for &y in &corners {
                 for &z in &corners {
                     let motor = DVec3::new(x, y, z) * 0.2;
-                    strings.push((motor, DVec3::new(x * 0.02, y * 0.02, -z * 0.02)));
+                    strings.push((motor, DVec3::new(y, z, x) * 0.02));
                 }
             }
         }

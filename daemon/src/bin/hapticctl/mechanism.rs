@@ -53,11 +53,11 @@ pub struct PoseArgs {
     mech: String,
     /// Measured length of every string, metres, in mechanism order.
     #[arg(long, value_name = "L1,...,LM", value_parser = parse_numbers, allow_hyphen_values = true)]
-    lengths: Vec<f64>,
+    lengths: Numbers,
     /// Start pose x,y,z[,w,x,y,z]: once for all effectors or once per effector, in order
     /// (default: each effector's calibration pose).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    from: Vec<Vec<f64>>,
+    from: Vec<Numbers>,
     /// Most Gauss–Newton iterations per effector.
     #[arg(long, default_value_t = 10)]
     iterations: usize,
@@ -74,16 +74,16 @@ pub struct TensionArgs {
     effector: Option<String>,
     /// Grip position x,y,z, metres.
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    position: Vec<f64>,
+    position: Numbers,
     /// Grip orientation w,x,y,z (6-DOF effectors; default identity).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    orientation: Option<Vec<f64>>,
+    orientation: Option<Numbers>,
     /// Force to present fx,fy,fz, newtons.
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    force: Vec<f64>,
+    force: Numbers,
     /// Torque to present tx,ty,tz, newton-metres (6-DOF effectors; default zero).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    torque: Option<Vec<f64>>,
+    torque: Option<Numbers>,
     /// Solve eq. 3.16 exactly as written with this λ, every wrench component weighted 1
     /// (default: the mechanism's own settings).
     #[arg(long, value_parser = parse_number, allow_hyphen_values = true)]
@@ -114,7 +114,7 @@ pub struct WorkspaceArgs {
     plane: Plane,
     /// A point of the slice x,y,z (default: the calibration position).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    at: Option<Vec<f64>>,
+    at: Option<Numbers>,
     /// Cells along each side.
     #[arg(long, default_value_t = 160)]
     resolution: usize,
@@ -134,16 +134,16 @@ pub struct SweepArgs {
     effector: Option<String>,
     /// Force presented along the path fx,fy,fz, newtons.
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true, default_value = "5,5,5")]
-    force: Vec<f64>,
+    force: Numbers,
     /// λ values to compare.
     #[arg(long, value_parser = parse_numbers, default_value = "0,0.001,0.01,0.1")]
-    lambdas: Vec<f64>,
+    lambdas: Numbers,
     /// Path start x,y,z (default: the frame's lower diagonal corner, slightly outside).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    from: Option<Vec<f64>>,
+    from: Option<Numbers>,
     /// Path end x,y,z (default: the opposite corner).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
-    to: Option<Vec<f64>>,
+    to: Option<Numbers>,
     /// Samples along the path.
     #[arg(long, default_value_t = 541)]
     samples: usize,
@@ -154,9 +154,20 @@ pub struct SweepArgs {
     output: Output,
 }
 
-/// A comma-separated list of finite numbers.
-fn parse_numbers(text: &str) -> Result<Vec<f64>, String> {
-    text.split(',').map(parse_number).collect()
+/// A comma-separated list of finite numbers, as one argument.
+#[derive(Debug, Clone)]
+struct Numbers(Vec<f64>);
+
+impl std::ops::Deref for Numbers {
+    type Target = [f64];
+
+    fn deref(&self) -> &[f64] {
+        &self.0
+    }
+}
+
+fn parse_numbers(text: &str) -> Result<Numbers, String> {
+    text.split(',').map(parse_number).collect::<Result<_, _>>().map(Numbers)
 }
 
 fn parse_number(text: &str) -> Result<f64, String> {
@@ -646,7 +657,7 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
     let series = result
         .tensions
         .iter()
-        .zip(&args.lambdas)
+        .zip(args.lambdas.iter())
         .enumerate()
         .map(|(i, (per_sample, lambda))| Series {
             label: format!("λ = {lambda}"),
@@ -689,7 +700,7 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
         json!({
             "plot": args.plot,
             "string": string,
-            "lambdas": args.lambdas,
+            "lambdas": &*args.lambdas,
             "largest_jump": jumps,
             "samples": args.samples,
         }),
