@@ -195,13 +195,36 @@ pub fn entry(
 /// Export a mechanism plugin: defines `hapticd_plugin_entry` and the vtable around a
 /// function that builds the [`MechanismSpec`].
 ///
-/// ```ignore
-/// fn build() -> hapticd_plugin_api::MechanismSpec { /* ... */ }
+/// ```
+/// use hapticd_plugin_api::{HapticdEffector, HapticdString, MechanismSpec};
+///
+/// fn build() -> MechanismSpec {
+///     let corners = [[-1.0, 1.0, 1.0], [1.0, 1.0, -1.0], [-1.0, -1.0, -1.0], [1.0, -1.0, 1.0]];
+///     MechanismSpec {
+///         lambda: 0.01,
+///         torque_weight: 1.0,
+///         effectors: vec![HapticdEffector::new("grip", 3)],
+///         strings: corners
+///             .iter()
+///             .map(|c| HapticdString {
+///                 effector: 0,
+///                 motor: c.map(|s| s * 0.2),
+///                 knot: [0.0; 3],
+///                 metres_per_pulse: 2.5e-5,
+///                 volts_per_newton: 0.3653,
+///                 tension_min: 0.5,
+///                 tension_max: 10.0,
+///             })
+///             .collect(),
+///     }
+/// }
+///
 /// hapticd_plugin_api::export_mechanism!(
 ///     name: "my-spidar",
 ///     description: "A 4-string SPIDAR on a 0.4 m frame",
 ///     build: build,
 /// );
+/// # fn main() {}
 /// ```
 #[macro_export]
 macro_rules! export_mechanism {

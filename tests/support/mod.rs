@@ -1,0 +1,156 @@
+//! Shared helpers of the end-to-end tests: where the built artifacts are, the shipped
+//! mechanisms, and a small deterministic random generator.
+
+#![allow(dead_code)] // each test binary uses its own subset
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glam::{DQuat, DVec3};
+use hapticd::mechanism::catalog;
+use hapticd::mechanism::{Mechanism, Pose};
+use hapticd::solver::closure::is_force_closed;
+use hapticd::solver::geometry::StringGeometry;
+
+/// The cargo profile directory the tests were built into (target/debug or target/release).
+pub fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test binary>
+    exe.parent()
+        .and_then(Path::parent)
+        .expect("test binary lives in target/<profile>/deps")
+        .to_path_buf()
+}
+
+/// A built artifact of the workspace; fails with advice when it was not built.
+pub fn artifact(file: &str) -> PathBuf {
+    let path = profile_dir().join(file);
+    assert!(
+        path.exists(),
+        "{} is missing: build the workspace first (cargo build --workspace{})",
+        path.display(),
+        if cfg!(debug_assertions) { "" } else { " --release" }
+    );
+    path
+}
+
+/// The repository root.
+pub fn repo_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ sits in the repository")
+        .to_path_buf()
+}
+
+/// The shared library of the Rust mechanism plugin crate `crate_name`.
+pub fn plugin_path(crate_name: &str) -> PathBuf {
+    artifact(&format!("lib{}.so", crate_name.replace('-', "_")))
+}
+
+/// The shipped mechanisms: the three plugins and the YAML-only example.
+pub fn shipped_mechanisms() -> Vec<Mechanism> {
+    let mut paths: Vec<PathBuf> = ["hapticd-spidar", "hapticd-spidar-g", "hapticd-spidar-ii"]
+        .iter()
+        .map(|c| plugin_path(c))
+        .collect();
+    paths.push(repo_dir().join("config/mechanisms/spidar-6s.yaml"));
+    paths
+        .iter()
+        .map(|p| catalog::load(p).unwrap_or_else(|e| panic!("{e}")))
+        .collect()
+}
+
+/// One shipped mechanism by name.
+pub fn shipped(name: &str) -> Mechanism {
+    shipped_mechanisms()
+        .into_iter()
+        .find(|m| m.name == name)
+        .unwrap_or_else(|| panic!("no shipped mechanism {name}"))
+}
+
+/// `hapticctl` as built.
+pub fn hapticctl() -> Command {
+    let mut command = Command::new(artifact("hapticctl"));
+    command.env_remove("HAPTICD_MECHANISM_PATH");
+    command
+}
+
+/// SplitMix64: deterministic, seedable, good enough to draw test cases.
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator with its own seed.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform direction.
+    pub fn unit(&mut self) -> DVec3 {
+        loop {
+            let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let n = v.length();
+            if n > 0.1 && n <= 1.0 {
+                return v / n;
+            }
+        }
+    }
+
+    /// Vector with every component uniform in [−a, a].
+    pub fn cube(&mut self, a: f64) -> DVec3 {
+        DVec3::new(self.range(-a, a), self.range(-a, a), self.range(-a, a))
+    }
+
+    /// Rotation about a random axis by an angle uniform in [0, max].
+    pub fn rotation(&mut self, max: f64) -> DQuat {
+        DQuat::from_axis_angle(self.unit(), self.range(0.0, max))
+    }
+}
+
+/// Half the extent of the frame: the largest motor coordinate of effector `index`.
+pub fn frame_half(m: &Mechanism, index: usize) -> f64 {
+    m.kinematics(index)
+        .motors()
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0, f64::max)
+}
+
+/// A random pose of effector `index` inside its complete region (or, for a mechanism that
+/// is never force-closed, near its calibration pose).
+pub fn pose_inside(m: &Mechanism, index: usize, rng: &mut Rng) -> Pose {
+    let effector = &m.effectors[index];
+    let kinematics = m.kinematics(index);
+    let half = frame_half(m, index);
+    let six = effector.dof.count() == 6;
+    let closable = effector.strings.len() > effector.dof.count();
+    loop {
+        let reach = if closable { 0.6 * half } else { 0.1 * half };
+        let pose = Pose {
+            position: effector.calibration.position + rng.cube(reach),
+            orientation: if six {
+                rng.rotation(0.3) * effector.calibration.orientation
+            } else {
+                DQuat::IDENTITY
+            },
+        };
+        let geometry = StringGeometry::at(&kinematics, &pose);
+        let slack = geometry.lengths().iter().all(|&l| l > 0.01);
+        if slack && (!closable || is_force_closed(&geometry)) {
+            return pose;
+        }
+    }
+}
