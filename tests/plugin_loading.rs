@@ -1,0 +1,198 @@
+//! Loading real plugins through the C ABI: the Rust plugins, the C example compiled here,
+//! and every refusal the loader owes the user, each with its message.
+
+mod support;
+
+use std::os::unix::fs::PermissionsExt;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glam::DVec3;
+use hapticd::mechanism::catalog;
+use hapticd::plugin;
+use hapticd::solver::geometry::StringGeometry;
+use hapticd::solver::tension::TensionSolver;
+use support::{plugin_path, repo_dir};
+
+/// A fresh private directory (mode 0755) under the system temporary directory.
+fn scratch(name: &str) -> PathBuf {
+    let dir = support::scratch_root().join(format!("hapticd-plugin-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    dir
+}
+
+/// Compile C `source` into `dir/name.so` against the generated header.
+fn compile_c(dir: &Path, name: &str, source: &str) -> PathBuf {
+    let c_file = dir.join(format!("{name}.c"));
+    std::fs::write(&c_file, source).unwrap();
+    let out = dir.join(format!("{name}.so"));
+    let compiler = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let status = Command::new(compiler)
+        .args(["-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-std=c11", "-I"])
+        .arg(repo_dir().join("plugin-api/include"))
+        .arg(&c_file)
+        .arg("-o")
+        .arg(&out)
+        .status()
+        .expect("a C compiler (cc) is installed");
+    assert!(status.success(), "compiling {name}.c failed");
+    std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o755)).unwrap();
+    out
+}
+
+/// A minimal C plugin whose descriptor says ABI `major`.`minor`.
+fn c_plugin_with_abi(major: u32, minor: u32) -> String {
+    format!(
+        r#"#include <stddef.h>
+#include "hapticd_plugin.h"
+static const HapticdPluginDescriptor d = {{ {major}, {minor}, HAPTICD_KIND_MECHANISM,
+    "old", "0", "built for another ABI", NULL, NULL }};
+const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) {{ (void)h; return &d; }}
+"#
+    )
+}
+
+fn refusal(path: &Path) -> String {
+    plugin::load(path).expect_err("the plugin should be refused").to_string()
+}
+
+#[test]
+fn the_rust_plugins_load_with_their_descriptors() {
+    for (krate, name, effectors, strings) in [
+        ("hapticd-spidar", "spidar", 1, 4),
+        ("hapticd-spidar-g", "spidar-g", 1, 8),
+        ("hapticd-spidar-ii", "spidar-ii", 2, 8),
+    ] {
+        let path = plugin_path(krate);
+        let loaded = plugin::load(&path).unwrap();
+        assert_eq!(loaded.name, name);
+        assert_eq!(loaded.version, env!("CARGO_PKG_VERSION"));
+        assert_eq!(loaded.abi, (1, 0));
+        assert!(loaded.is_mechanism());
+        let m = catalog::load(&path).unwrap();
+        assert_eq!((m.effectors.len(), m.strings.len()), (effectors, strings));
+        assert!(m.warnings.is_empty(), "{name}: {:?}", m.warnings);
+    }
+    let g = catalog::load(&plugin_path("hapticd-spidar-g")).unwrap();
+    // G6X3L: motor (0.0849, 0.076, 0) holds knot (0.0159, 0, −0.0159); motors 4–7 mirror 0–3 in y.
+    assert_eq!(g.strings[0].motor, DVec3::new(0.0849, 0.076, 0.0));
+    assert_eq!(g.strings[0].knot, DVec3::new(0.0159, 0.0, -0.0159));
+    for i in 0..4 {
+        assert_eq!(g.strings[i + 4].motor, g.strings[i].motor * DVec3::new(1.0, -1.0, 1.0));
+    }
+    // SPIDAR-II: the two fingers use complementary corners of the 0.53 m cube.
+    let ii = catalog::load(&plugin_path("hapticd-spidar-ii")).unwrap();
+    for i in 0..4 {
+        assert_eq!(ii.strings[i + 4].motor, -ii.strings[i].motor);
+        assert_eq!(ii.strings[i].motor.abs(), DVec3::splat(0.265));
+    }
+}
+
+#[test]
+fn the_c_example_plugin_compiles_loads_and_solves() {
+    let dir = scratch("c-example");
+    let source = std::fs::read_to_string(repo_dir().join("plugins/c-example/spidar_desk.c")).unwrap();
+    let path = compile_c(&dir, "libspidar_desk", &source);
+    let loaded = plugin::load(&path).unwrap();
+    assert_eq!((loaded.name.as_str(), loaded.version.as_str()), ("spidar-desk", "1.0.0"));
+    let m = catalog::load(&path).unwrap();
+    assert_eq!(m.effectors[0].name, "finger");
+    assert_eq!(m.strings.len(), 4);
+    assert_eq!(m.strings[1].motor, DVec3::new(0.15, 0.15, -0.15));
+    assert_eq!((m.strings[3].tension_min, m.strings[3].tension_max), (0.3, 6.0));
+    // The base part works on it unchanged: at the centre a small force is met exactly.
+    let g = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
+    let solution = TensionSolver::for_effector(&m, 0).solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!((solution.wrench[1] + 2.0).abs() < 0.05, "{:?}", solution.wrench);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_plugin_for_another_abi_major_is_refused() {
+    let dir = scratch("abi-major");
+    let path = compile_c(&dir, "old", &c_plugin_with_abi(2, 0));
+    let e = refusal(&path);
+    assert!(e.starts_with(&path.display().to_string()), "{e}");
+    assert!(e.contains("built for plugin ABI 2.0, but this hapticd speaks ABI 1.0"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_plugin_for_a_newer_abi_minor_is_refused() {
+    let dir = scratch("abi-minor");
+    let path = compile_c(&dir, "new", &c_plugin_with_abi(1, 7));
+    assert!(refusal(&path).contains("needs plugin ABI 1.7, newer than this hapticd's 1.0"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_library_without_the_entry_symbol_is_refused() {
+    let dir = scratch("no-entry");
+    let path = compile_c(&dir, "plain", "int answer(void) { return 42; }\n");
+    let e = refusal(&path);
+    assert!(e.contains("not a hapticd plugin: it exports no hapticd_plugin_entry"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn an_entry_that_returns_nothing_is_refused() {
+    let dir = scratch("null-entry");
+    let source = "#include \"hapticd_plugin.h\"\n#include <stddef.h>\n\
+        const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) { (void)h; return NULL; }\n";
+    let path = compile_c(&dir, "null", source);
+    assert!(refusal(&path).contains("returned no descriptor"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_file_that_is_not_a_library_is_refused() {
+    let dir = scratch("not-elf");
+    let path = dir.join("text.so");
+    std::fs::write(&path, "not a shared object").unwrap();
+    assert!(refusal(&path).contains("cannot load"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn files_and_directories_others_could_modify_are_refused() {
+    let dir = scratch("permissions");
+    let path = dir.join("libhapticd_spidar.so");
+    std::fs::copy(plugin_path("hapticd-spidar"), &path).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    assert!(plugin::check_permissions(&path).is_ok());
+
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o775)).unwrap();
+    let e = refusal(&path);
+    assert!(e.contains("unsafe permissions: the file") && e.contains("writable by group or others (mode 0775)"), "{e}");
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777)).unwrap();
+    let e = refusal(&path);
+    assert!(e.contains(&format!("directory {} is writable by group or others (mode 0777)", dir.display())), "{e}");
+    // A sticky world-writable directory (like /tmp) is safe: others cannot replace entries.
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
+    assert!(plugin::check_permissions(&path).is_ok());
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+
+    if nix::unistd::geteuid().is_root() {
+        nix::unistd::chown(&path, Some(nix::unistd::Uid::from_raw(65534)), None).unwrap();
+        let e = refusal(&path);
+        assert!(e.contains("is owned by uid 65534, not by root"), "{e}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_panicking_plugin_is_disabled_and_the_host_lives_on() {
+    let path = plugin_path("hapticd-test-panicking-mechanism");
+    let loaded = plugin::load(&path).unwrap();
+    let e = loaded.mechanism_spec().unwrap_err().to_string();
+    assert!(e.contains("the plugin panicked in info(); it is disabled"), "{e}");
+    // Calling it again is answered the same way, without running the builder again.
+    assert!(loaded.mechanism_spec().is_err());
+    // The host is unharmed: other plugins still load and work.
+    let m = catalog::load(&plugin_path("hapticd-spidar")).unwrap();
+    assert_eq!(m.name, "spidar");
+}

@@ -154,3 +154,8 @@ pub fn pose_inside(m: &Mechanism, index: usize, rng: &mut Rng) -> Pose {
         }
     }
 }
+
+/// Where tests may create files: cargo's per-target scratch directory, inside target/.
+pub fn scratch_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+}

@@ -1,0 +1,94 @@
+//! The per-tick computations never touch the heap: a counting allocator watches this
+//! thread while pose, tension, calibration and closure run for every shipped mechanism.
+
+mod support;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::DVec3;
+use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd::solver::calibration::{lengths_from_counts, offsets};
+use hapticd::solver::closure::is_force_closed;
+use hapticd::solver::pose::PoseSolver;
+use hapticd::solver::tension::TensionSolver;
+use support::{Rng, pose_inside, shipped_mechanisms};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    static WATCHING: Cell<bool> = const { Cell::new(false) };
+}
+
+// SAFETY: forwards to the system allocator unchanged; only counts.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if WATCHING.with(Cell::get) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: same contract as ours.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as ours.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if WATCHING.with(Cell::get) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: same contract as ours.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Allocations made by `f` on this thread.
+fn allocations_in(f: impl FnOnce()) -> usize {
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    WATCHING.with(|w| w.set(true));
+    f();
+    WATCHING.with(|w| w.set(false));
+    ALLOCATIONS.load(Ordering::Relaxed) - before
+}
+
+#[test]
+fn the_counter_sees_allocations() {
+    assert!(allocations_in(|| drop(std::hint::black_box(vec![1u8; 64]))) >= 1);
+}
+
+#[test]
+fn pose_tension_calibration_and_closure_do_not_allocate() {
+    let mut rng = Rng::new(20);
+    for m in shipped_mechanisms() {
+        let counts: Vec<i64> = (0..m.strings.len() as i64).map(|i| 1000 * i - 3000).collect();
+        let offsets = offsets(&m, &counts);
+        for index in 0..m.effectors.len() {
+            let poses: Vec<Pose> = (0..200).map(|_| pose_inside(&m, index, &mut rng)).collect();
+            let mut pose_solver = PoseSolver::new(m.kinematics(index), m.effectors[index].calibration);
+            let mut tension_solver = TensionSolver::for_effector(&m, index);
+            let kinematics = m.kinematics(index);
+            let mut lengths = [0.0; MAX_STRINGS_PER_EFFECTOR];
+            let mut all_lengths = [0.0; 2 * MAX_STRINGS_PER_EFFECTOR];
+            let n = allocations_in(|| {
+                for (k, pose) in poses.iter().enumerate() {
+                    lengths_from_counts(&m.strings, &offsets, &counts, &mut all_lengths);
+                    kinematics.lengths(pose, &mut lengths);
+                    let estimate = pose_solver.solve(&lengths[..kinematics.count()], 2);
+                    let force = DVec3::new(1.0, -2.0, 3.0) * (k as f64 * 0.01);
+                    let wrench = [force.x, force.y, force.z, 0.01, 0.0, -0.01];
+                    let solution = tension_solver.solve(pose_solver.geometry(), &wrench);
+                    std::hint::black_box((estimate, solution, is_force_closed(pose_solver.geometry())));
+                }
+            });
+            assert_eq!(n, 0, "{} effector {index}: {n} allocations", m.name);
+        }
+    }
+}
