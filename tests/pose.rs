@@ -51,7 +51,15 @@ fn exact_lengths_give_the_exact_pose_within_three_iterations() {
 /// ‖W⁺‖₂ ≤ √trace((W Wᵀ)⁻¹), computed by Gauss–Jordan inversion.
 fn pseudo_inverse_norm_bound(g: &StringGeometry) -> f64 {
     let n = g.dof();
-    let a = g.normal_matrix();
+    let mut a = [[0.0; 6]; 6];
+    for i in 0..g.count() {
+        let w = g.column(i);
+        for r in 0..n {
+            for c in 0..n {
+                a[r][c] += w[r] * w[c];
+            }
+        }
+    }
     let mut m = [[0.0; 12]; 6];
     for r in 0..n {
         m[r][..n].copy_from_slice(&a[r][..n]);

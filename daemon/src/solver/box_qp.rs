@@ -1,14 +1,14 @@
 //! Exact primal active-set solver for small box-constrained convex QPs:
 //! minimise ½ xᵀQx + cᵀx subject to l ≤ x ≤ u, Q symmetric positive definite.
 //!
-//! Each iteration solves the equality problem on the free variables by Cholesky and walks
+//! Each iteration solves the equality problem on the free variables by an LDLᵀ factorisation and walks
 //! toward its solution, stopping at the first bound it meets (which joins the working set);
 //! at the working set's optimum, the bound with the most negative multiplier is released.
 //! The iterate stays feasible throughout, so even a solve cut short by the iteration cap
 //! respects every bound. Warm starts keep the working set of the previous call, which in a
-//! 1 kHz loop usually is already optimal: one Cholesky and a multiplier check.
+//! 1 kHz loop usually is already optimal: one factorisation and a multiplier check.
 
-use super::linalg::{cholesky_factor, cholesky_solve};
+use super::linalg::{ldlt_factor, ldlt_solve};
 use crate::mechanism::MAX_STRINGS_PER_EFFECTOR;
 
 /// Most variables a problem may have.
@@ -78,7 +78,7 @@ impl ActiveSet {
 /// How a solve went.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct QpOutcome {
-    /// Active-set iterations (Cholesky solves) used.
+    /// Active-set iterations (factorisations) used.
     pub iterations: usize,
     /// False when the iteration cap or a singular Q stopped it; the iterate is still feasible.
     pub converged: bool,
@@ -131,13 +131,13 @@ pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
             y[r] = rhs;
         }
         if nf > 0 {
-            if !cholesky_factor(&mut a, nf, 0.0) {
+            if !ldlt_factor(&mut a, nf, 0.0) {
                 return QpOutcome {
                     iterations: iteration,
                     converged: false,
                 };
             }
-            cholesky_solve(&a, nf, &mut y);
+            ldlt_solve(&a, nf, &mut y);
         }
         let mut alpha = 1.0;
         let mut blocking = None;

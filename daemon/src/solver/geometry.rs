@@ -5,7 +5,7 @@
 //! on the grip, and −Wᵀ is the Jacobian of the lengths with respect to a pose change
 //! (translation, then a small rotation in world axes), the M of eq. 3.9.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::mechanism::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose};
 
@@ -101,11 +101,24 @@ impl StringGeometry {
     pub fn evaluate(&mut self, kinematics: &EffectorKinematics, pose: &Pose) {
         self.dof = kinematics.dof.count();
         self.count = kinematics.count;
+        if kinematics.dof == Dof::Three {
+            // A point grip has no knot offsets and no torque rows: skip the rotation.
+            for i in 0..self.count {
+                let span = kinematics.motors[i] - pose.position;
+                let length = span.length();
+                let phi = span * length.recip();
+                self.lengths[i] = length;
+                self.columns[i][..3].copy_from_slice(&phi.to_array());
+            }
+            return;
+        }
+        // One matrix per pose: cheaper than rotating each knot by the quaternion.
+        let rotation = DMat3::from_quat(pose.orientation);
         for i in 0..self.count {
-            let arm = pose.orientation * kinematics.knots[i];
+            let arm = rotation * kinematics.knots[i];
             let span = kinematics.motors[i] - (pose.position + arm);
             let length = span.length();
-            let phi = span / length;
+            let phi = span * length.recip();
             let torque = arm.cross(phi);
             self.lengths[i] = length;
             self.columns[i] = [phi.x, phi.y, phi.z, torque.x, torque.y, torque.z];
@@ -143,18 +156,20 @@ impl StringGeometry {
         w
     }
 
-    /// W Wᵀ, the Gauss–Newton normal matrix of the pose problem (leading dof×dof block).
-    pub fn normal_matrix(&self) -> [[f64; 6]; 6] {
-        let mut a = [[0.0; 6]; 6];
+    /// W Wᵀ, the Gauss–Newton normal matrix of the pose problem, for `N` = [`dof`](Self::dof)
+    /// (a compile-time size lets the small loops unroll).
+    pub fn normal_matrix<const N: usize>(&self) -> [[f64; N]; N] {
+        debug_assert_eq!(N, self.dof);
+        let mut a = [[0.0; N]; N];
         for column in &self.columns[..self.count] {
-            for r in 0..self.dof {
+            for r in 0..N {
                 for c in 0..=r {
                     a[r][c] += column[r] * column[c];
                 }
             }
         }
-        for r in 0..self.dof {
-            for c in r + 1..self.dof {
+        for r in 0..N {
+            for c in r + 1..N {
                 a[r][c] = a[c][r];
             }
         }
@@ -164,9 +179,16 @@ impl StringGeometry {
     /// Whether small pose changes are observable from the lengths: W has full row rank,
     /// judged scale-free on W Wᵀ normalised to unit diagonal.
     pub fn pose_observable(&self) -> bool {
-        let mut a = self.normal_matrix();
-        let n = self.dof;
-        let mut scale = [0.0; 6];
+        match self.dof {
+            3 => self.observable::<3>(),
+            _ => self.observable::<6>(),
+        }
+    }
+
+    fn observable<const N: usize>(&self) -> bool {
+        let mut a = self.normal_matrix::<N>();
+        let n = N;
+        let mut scale = [0.0; N];
         for i in 0..n {
             if !(a[i][i] > 0.0) {
                 return false;
@@ -178,7 +200,7 @@ impl StringGeometry {
                 a[r][c] *= scale[r] * scale[c];
             }
         }
-        super::linalg::cholesky_factor(&mut a, n, 1e-10)
+        super::linalg::ldlt_factor(&mut a, n, 1e-10)
     }
 }
 

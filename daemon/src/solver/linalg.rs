@@ -1,45 +1,50 @@
-//! Fixed-size dense linear algebra for the small symmetric systems of the solvers.
+//! Fixed-size dense linear algebra for the small symmetric positive-definite systems of the
+//! solvers.
 
-/// Factor the leading `n`×`n` block of the symmetric matrix `a` in place into its lower
-/// Cholesky factor L (a = L Lᵀ). Only the lower triangle is read. Returns `false` when the
-/// block is not numerically positive definite (a pivot falls below `min_pivot`).
-pub fn cholesky_factor<const N: usize>(a: &mut [[f64; N]; N], n: usize, min_pivot: f64) -> bool {
+/// Factor the leading `n`×`n` block of the symmetric matrix `a` in place as L D Lᵀ (L unit
+/// lower triangular): L below the diagonal, 1/D on it. Only the lower triangle is read.
+/// Returns `false` when a pivot of D falls below `min_pivot` (not positive definite).
+///
+/// LDLᵀ rather than Cholesky: no square roots, and one division per pivot, which keeps
+/// the dependent chain of slow instructions short in these tiny systems.
+pub fn ldlt_factor<const N: usize>(a: &mut [[f64; N]; N], n: usize, min_pivot: f64) -> bool {
+    let mut d = [0.0; N];
     for j in 0..n {
-        let mut d = a[j][j];
+        let mut pivot = a[j][j];
         for k in 0..j {
-            d -= a[j][k] * a[j][k];
+            pivot -= a[j][k] * a[j][k] * d[k];
         }
-        if !(d > min_pivot) {
+        if !(pivot > min_pivot) {
             return false;
         }
-        let d = d.sqrt();
-        a[j][j] = d;
+        d[j] = pivot;
+        let inverse = 1.0 / pivot;
+        a[j][j] = inverse;
         for i in j + 1..n {
             let mut s = a[i][j];
             for k in 0..j {
-                s -= a[i][k] * a[j][k];
+                s -= a[i][k] * a[j][k] * d[k];
             }
-            a[i][j] = s / d;
+            a[i][j] = s * inverse;
         }
     }
     true
 }
 
-/// Solve L Lᵀ x = b in place for the factor made by [`cholesky_factor`].
-pub fn cholesky_solve<const N: usize>(l: &[[f64; N]; N], n: usize, b: &mut [f64; N]) {
+/// Solve L D Lᵀ x = b in place for the factor made by [`ldlt_factor`].
+pub fn ldlt_solve<const N: usize>(f: &[[f64; N]; N], n: usize, b: &mut [f64; N]) {
     for i in 0..n {
-        let mut s = b[i];
         for k in 0..i {
-            s -= l[i][k] * b[k];
+            b[i] -= f[i][k] * b[k];
         }
-        b[i] = s / l[i][i];
+    }
+    for i in 0..n {
+        b[i] *= f[i][i];
     }
     for i in (0..n).rev() {
-        let mut s = b[i];
         for k in i + 1..n {
-            s -= l[k][i] * b[k];
+            b[i] -= f[k][i] * b[k];
         }
-        b[i] = s / l[i][i];
     }
 }
 
@@ -57,8 +62,8 @@ mod tests {
             b[i] = (0..3).map(|j| a0[i][j] * x[j]).sum();
         }
         let mut a = a0;
-        assert!(cholesky_factor(&mut a, 3, 0.0));
-        cholesky_solve(&a, 3, &mut b);
+        assert!(ldlt_factor(&mut a, 3, 0.0));
+        ldlt_solve(&a, 3, &mut b);
         for i in 0..3 {
             assert!((b[i] - x[i]).abs() < 1e-12, "{b:?}");
         }
@@ -67,6 +72,6 @@ mod tests {
     #[test]
     fn rejects_an_indefinite_matrix() {
         let mut a = [[1.0, 2.0], [2.0, 1.0]];
-        assert!(!cholesky_factor(&mut a, 2, 0.0));
+        assert!(!ldlt_factor(&mut a, 2, 0.0));
     }
 }

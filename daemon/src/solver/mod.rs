@@ -8,7 +8,7 @@
 //! - [`box_qp`]: the exact active-set solver behind it;
 //! - [`closure`]: the complete-presentation (force-closure) test;
 //! - [`calibration`]: encoder counts to lengths and the calibration offsets;
-//! - [`linalg`]: fixed-size Cholesky.
+//! - [`linalg`]: fixed-size LDLᵀ factorisation.
 
 pub mod box_qp;
 pub mod calibration;

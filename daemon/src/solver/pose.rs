@@ -9,7 +9,7 @@
 use glam::{DQuat, DVec3};
 
 use super::geometry::{EffectorKinematics, StringGeometry};
-use super::linalg::{cholesky_factor, cholesky_solve};
+use super::linalg::{ldlt_factor, ldlt_solve};
 use crate::mechanism::{Dof, Pose};
 
 /// Relative Levenberg–Marquardt damping: only guards against a singular normal matrix.
@@ -69,35 +69,10 @@ impl PoseSolver {
     /// Update the pose to match `measured` lengths (one per string, in effector order) with at
     /// most `iterations` Gauss–Newton steps.
     pub fn solve(&mut self, measured: &[f64], iterations: usize) -> PoseEstimate {
-        let n = self.kinematics.dof().count();
-        let mut taken = 0;
-        while taken < iterations {
-            let mut a = self.geometry.normal_matrix();
-            let mut step = [0.0; 6];
-            for (i, (&l, &m)) in self.geometry.lengths().iter().zip(measured).enumerate() {
-                let column = self.geometry.column(i);
-                for (s, c) in step.iter_mut().zip(column).take(n) {
-                    *s += c * (l - m);
-                }
-            }
-            for (i, row) in a.iter_mut().enumerate().take(n) {
-                row[i] *= 1.0 + DAMPING;
-            }
-            if !cholesky_factor(&mut a, n, 0.0) {
-                break;
-            }
-            cholesky_solve(&a, n, &mut step);
-            taken += 1;
-            self.pose.position += DVec3::new(step[0], step[1], step[2]);
-            if self.kinematics.dof() == Dof::Six {
-                let rotation = DQuat::from_scaled_axis(DVec3::new(step[3], step[4], step[5]));
-                self.pose.orientation = (rotation * self.pose.orientation).normalize();
-            }
-            self.geometry.evaluate(&self.kinematics, &self.pose);
-            if step.iter().all(|s| s.abs() < 1e-15) {
-                break;
-            }
-        }
+        let taken = match self.kinematics.dof() {
+            Dof::Three => self.iterate::<3>(measured, iterations),
+            Dof::Six => self.iterate::<6>(measured, iterations),
+        };
         let count = self.geometry.count();
         let squared: f64 = self
             .geometry
@@ -111,5 +86,39 @@ impl PoseSolver {
             residual: (squared / count as f64).sqrt(),
             iterations: taken,
         }
+    }
+
+    /// Gauss–Newton steps for an `N`-DOF effector; returns how many were taken.
+    fn iterate<const N: usize>(&mut self, measured: &[f64], iterations: usize) -> usize {
+        for taken in 0..iterations {
+            let mut a = self.geometry.normal_matrix::<N>();
+            let mut step = [0.0; N];
+            for (i, (&l, &m)) in self.geometry.lengths().iter().zip(measured).enumerate() {
+                let column = self.geometry.column(i);
+                for (s, c) in step.iter_mut().zip(column) {
+                    *s += c * (l - m);
+                }
+            }
+            for (i, row) in a.iter_mut().enumerate() {
+                row[i] *= 1.0 + DAMPING;
+            }
+            if !ldlt_factor(&mut a, N, 0.0) {
+                return taken;
+            }
+            ldlt_solve(&a, N, &mut step);
+            self.pose.position += DVec3::new(step[0], step[1], step[2]);
+            if N == 6 {
+                // normalize(1 + ½δθ) agrees with exp(½δθ) to second order, which keeps
+                // Gauss–Newton quadratic, without the sine and cosine.
+                let half = DVec3::new(step[3], step[4], step[5]) * 0.5;
+                let rotation = DQuat::from_xyzw(half.x, half.y, half.z, 1.0);
+                self.pose.orientation = (rotation * self.pose.orientation).normalize();
+            }
+            self.geometry.evaluate(&self.kinematics, &self.pose);
+            if step.iter().all(|s| s.abs() < 1e-15) {
+                return taken + 1;
+            }
+        }
+        iterations
     }
 }

@@ -1,0 +1,141 @@
+//! Per-solve cost of the base part on every shipped mechanism, and of a general-purpose QP
+//! solver (Clarabel) on the same tension problems, in one run.
+//!
+//! Run: `make bench` (builds the plugins in release first).
+
+#[path = "../support/mod.rs"]
+mod support;
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT};
+use divan::Bencher;
+use glam::DQuat;
+use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use hapticd::solver::geometry::StringGeometry;
+use hapticd::solver::pose::PoseSolver;
+use hapticd::solver::tension::TensionSolver;
+use support::shipped;
+
+const MECHANISMS: [&str; 4] = ["spidar", "spidar-g", "spidar-ii", "spidar-6s"];
+const CASES: usize = 256;
+
+fn main() {
+    divan::main();
+}
+
+/// The grip pose at sample `i` of a closed path through the workspace, the same one
+/// for both benchmarks, so each problem is close to the previous one as in the haptic loop.
+fn path_pose(m: &Mechanism, i: usize) -> Pose {
+    let t = i as f64 / CASES as f64 * std::f64::consts::TAU;
+    let half = support::frame_half(m, 0);
+    let calibration = m.effectors[0].calibration;
+    let turn = if m.effectors[0].dof.count() == 6 {
+        DQuat::from_axis_angle(glam::DVec3::new(1.0, 2.0, 3.0).normalize(), 0.2 * t.sin())
+    } else {
+        DQuat::IDENTITY
+    };
+    Pose {
+        position: calibration.position + glam::DVec3::new(t.cos(), (2.0 * t).sin(), t.sin()) * 0.2 * half,
+        orientation: turn * calibration.orientation,
+    }
+}
+
+/// String lengths along the path.
+fn pose_cases(m: &Mechanism) -> Vec<[f64; MAX_STRINGS_PER_EFFECTOR]> {
+    let k = m.kinematics(0);
+    (0..CASES)
+        .map(|i| {
+            let mut lengths = [0.0; MAX_STRINGS_PER_EFFECTOR];
+            k.lengths(&path_pose(m, i), &mut lengths);
+            lengths
+        })
+        .collect()
+}
+
+/// Tension problems along the path with a turning force.
+fn tension_cases(m: &Mechanism) -> Vec<(StringGeometry, [f64; 6])> {
+    let k = m.kinematics(0);
+    (0..CASES)
+        .map(|i| {
+            let t = i as f64 / CASES as f64 * std::f64::consts::TAU;
+            let pose = path_pose(m, i);
+            let force = glam::DVec3::new((3.0 * t).cos(), 0.5, (3.0 * t).sin()) * 4.0;
+            let torque = glam::DVec3::new(t.sin(), t.cos(), 0.0) * 0.05;
+            (
+                StringGeometry::at(&k, &pose),
+                [force.x, force.y, force.z, torque.x, torque.y, torque.z],
+            )
+        })
+        .collect()
+}
+
+#[divan::bench(args = MECHANISMS)]
+fn pose_two_iterations(bencher: Bencher, name: &str) {
+    let m = shipped(name);
+    let cases = pose_cases(&m);
+    let count = m.kinematics(0).count();
+    let mut solver = PoseSolver::new(m.kinematics(0), path_pose(&m, 0));
+    let mut i = 0;
+    bencher.bench_local(|| {
+        i = (i + 1) % CASES;
+        solver.solve(divan::black_box(&cases[i][..count]), 2)
+    });
+}
+
+#[divan::bench(args = MECHANISMS)]
+fn tension_active_set(bencher: Bencher, name: &str) {
+    let m = shipped(name);
+    let cases = tension_cases(&m);
+    let mut solver = TensionSolver::for_effector(&m, 0);
+    let mut i = 0;
+    bencher.bench_local(|| {
+        i = (i + 1) % CASES;
+        let (geometry, wrench) = &cases[i];
+        solver.solve(divan::black_box(geometry), wrench)
+    });
+}
+
+#[divan::bench(args = MECHANISMS)]
+fn tension_clarabel(bencher: Bencher, name: &str) {
+    let m = shipped(name);
+    let cases = tension_cases(&m);
+    let strings = &m.effectors[0].strings;
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .build()
+        .expect("valid settings");
+    let mut i = 0;
+    bencher.bench_local(|| {
+        i = (i + 1) % CASES;
+        let (g, f) = &cases[i];
+        let (n, count) = (g.dof(), g.count());
+        let lambda = m.tension.lambda;
+        let mut p = vec![vec![0.0; count]; count];
+        let mut q = vec![0.0; count];
+        let mut a = vec![vec![0.0; count]; 2 * count];
+        let mut b = vec![0.0; 2 * count];
+        for r in 0..count {
+            for c in r..count {
+                p[r][c] = (0..n).map(|k| g.column(r)[k] * g.column(c)[k]).sum::<f64>()
+                    + if r == c { lambda } else { 0.0 };
+            }
+            q[r] = -(0..n).map(|k| g.column(r)[k] * f[k]).sum::<f64>();
+            a[r][r] = 1.0;
+            b[r] = m.strings[strings[r]].tension_max;
+            a[count + r][r] = -1.0;
+            b[count + r] = -m.strings[strings[r]].tension_min;
+        }
+        let cones = [NonnegativeConeT(2 * count)];
+        let mut solver = DefaultSolver::new(
+            &CscMatrix::from(&p),
+            &q,
+            &CscMatrix::from(&a),
+            &b,
+            &cones,
+            settings.clone(),
+        )
+        .expect("QP set up");
+        solver.solve();
+        solver.solution.x[0]
+    });
+}
