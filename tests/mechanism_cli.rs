@@ -53,15 +53,26 @@ fn json(args: &[&str]) -> Value {
 fn failure(args: &[&str]) -> (i32, String) {
     let out = run(args);
     assert!(!out.status.success(), "{args:?} should fail");
-    (out.status.code().unwrap(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.code().unwrap(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 fn numbers(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
 }
 
 fn joined(values: &[f64]) -> String {
-    values.iter().map(|v| format!("{v:.17e}")).collect::<Vec<_>>().join(",")
+    values
+        .iter()
+        .map(|v| format!("{v:.17e}"))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 #[test]
@@ -82,16 +93,32 @@ fn inspect_reports_validity_and_warnings() {
     let six = json(&["mechanism", "inspect", "spidar-6s", "--json"]);
     assert_eq!(six["valid"], true);
     let warnings = six["warnings"].as_array().unwrap();
-    assert!(warnings[0].as_str().unwrap().contains("can never present force in every direction"));
+    assert!(
+        warnings[0]
+            .as_str()
+            .unwrap()
+            .contains("can never present force in every direction")
+    );
     assert_eq!(six["effectors"][0]["force_closed_at_calibration"], false);
     let g = json(&["mechanism", "inspect", "spidar-g", "--json"]);
     assert_eq!(g["effectors"][0]["force_closed_at_calibration"], true);
 
-    let broken = support::scratch_root().join(format!("hapticd-broken-{}.yaml", std::process::id()));
-    std::fs::write(&broken, "name: broken\nend_effectors: []\nstrings: []\nspeed: 3\n").unwrap();
+    let broken =
+        support::scratch_root().join(format!("hapticd-broken-{}.yaml", std::process::id()));
+    std::fs::write(
+        &broken,
+        "name: broken\nend_effectors: []\nstrings: []\nspeed: 3\n",
+    )
+    .unwrap();
     let (code, stderr) = failure(&["mechanism", "inspect", broken.to_str().unwrap()]);
     assert_eq!(code, 1);
-    assert!(stderr.contains(&format!("{}:4:1: error: unknown field `speed`", broken.display())), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "{}:4:1: error: unknown field `speed`",
+            broken.display()
+        )),
+        "{stderr}"
+    );
     std::fs::remove_file(broken).ok();
 }
 
@@ -108,11 +135,21 @@ fn pose_recovers_a_known_grip_pose_from_its_lengths() {
         .iter()
         .map(|s| (s.motor - (truth.position + truth.orientation * s.knot)).length())
         .collect();
-    let out = json(&["mechanism", "pose", "spidar-g", "--lengths", &joined(&lengths), "--json"]);
+    let out = json(&[
+        "mechanism",
+        "pose",
+        "spidar-g",
+        "--lengths",
+        &joined(&lengths),
+        "--json",
+    ]);
     let effector = &out["effectors"][0];
     assert_eq!(effector["name"], "grip");
     let p = numbers(&effector["position"]);
-    assert!((DVec3::new(p[0], p[1], p[2]) - truth.position).length() < 1e-9, "{p:?}");
+    assert!(
+        (DVec3::new(p[0], p[1], p[2]) - truth.position).length() < 1e-9,
+        "{p:?}"
+    );
     let q = numbers(&effector["orientation"]);
     let q = DQuat::from_xyzw(q[1], q[2], q[3], q[0]);
     assert!(q.angle_between(truth.orientation) < 1e-9);
@@ -129,7 +166,14 @@ fn pose_of_two_fingers_solves_each() {
         .iter()
         .map(|s| (s.motor - fingers[s.effector]).length())
         .collect();
-    let out = json(&["mechanism", "pose", "spidar-ii", "--lengths", &joined(&lengths), "--json"]);
+    let out = json(&[
+        "mechanism",
+        "pose",
+        "spidar-ii",
+        "--lengths",
+        &joined(&lengths),
+        "--json",
+    ]);
     for (i, finger) in fingers.iter().enumerate() {
         let p = numbers(&out["effectors"][i]["position"]);
         assert!((DVec3::new(p[0], p[1], p[2]) - *finger).length() < 1e-9);
@@ -140,8 +184,16 @@ fn pose_of_two_fingers_solves_each() {
 fn tension_produces_the_requested_force_inside_the_region() {
     let position = DVec3::new(0.02, -0.03, 0.01);
     let out = json(&[
-        "mechanism", "tension", "spidar", "--position", "0.02,-0.03,0.01", "--force", "1,-2,3",
-        "--lambda", "0", "--json",
+        "mechanism",
+        "tension",
+        "spidar",
+        "--position",
+        "0.02,-0.03,0.01",
+        "--force",
+        "1,-2,3",
+        "--lambda",
+        "0",
+        "--json",
     ]);
     let tensions = numbers(&out["tensions"]);
     assert_eq!(tensions.len(), 4);
@@ -152,7 +204,10 @@ fn tension_produces_the_requested_force_inside_the_region() {
         assert!((0.5..=20.0).contains(t));
         force += (s.motor - position).normalize() * *t;
     }
-    assert!((force - DVec3::new(1.0, -2.0, 3.0)).length() < 1e-6, "{force}");
+    assert!(
+        (force - DVec3::new(1.0, -2.0, 3.0)).length() < 1e-6,
+        "{force}"
+    );
     let wrench = numbers(&out["wrench"]);
     assert!((DVec3::new(wrench[0], wrench[1], wrench[2]) - force).length() < 1e-9);
 }
@@ -160,19 +215,68 @@ fn tension_produces_the_requested_force_inside_the_region() {
 #[test]
 fn bad_arguments_exit_with_status_two_and_say_why() {
     let cases: [(&[&str], &str); 7] = [
-        (&["mechanism", "pose", "spidar", "--lengths", "0.4,0.4,0.4"], "has 4 strings, but 3 lengths were given"),
-        (&["mechanism", "pose", "spidar", "--lengths", "0.4,NaN,0.4,0.4"], "\"NaN\" is not a finite number"),
-        (&["mechanism", "pose", "spidar", "--lengths", "0.4,x,0.4,0.4"], "\"x\" is not a number"),
         (
-            &["mechanism", "tension", "spidar-ii", "--effector", "pinky", "--position", "0,0,0", "--force", "0,0,1"],
+            &["mechanism", "pose", "spidar", "--lengths", "0.4,0.4,0.4"],
+            "has 4 strings, but 3 lengths were given",
+        ),
+        (
+            &[
+                "mechanism",
+                "pose",
+                "spidar",
+                "--lengths",
+                "0.4,NaN,0.4,0.4",
+            ],
+            "\"NaN\" is not a finite number",
+        ),
+        (
+            &["mechanism", "pose", "spidar", "--lengths", "0.4,x,0.4,0.4"],
+            "\"x\" is not a number",
+        ),
+        (
+            &[
+                "mechanism",
+                "tension",
+                "spidar-ii",
+                "--effector",
+                "pinky",
+                "--position",
+                "0,0,0",
+                "--force",
+                "0,0,1",
+            ],
             "has no effector \"pinky\" (effectors: index, thumb)",
         ),
         (
-            &["mechanism", "tension", "spidar", "--position", "0,0,0", "--force", "0,0,1", "--torque", "0,0,1"],
+            &[
+                "mechanism",
+                "tension",
+                "spidar",
+                "--position",
+                "0,0,0",
+                "--force",
+                "0,0,1",
+                "--torque",
+                "0,0,1",
+            ],
             "point grip (3 DOF)",
         ),
-        (&["mechanism", "tension", "spidar", "--position", "0,0", "--force", "0,0,1"], "--position needs 3 numbers"),
-        (&["mechanism", "inspect", "nonexistent"], "no installed mechanism of this name"),
+        (
+            &[
+                "mechanism",
+                "tension",
+                "spidar",
+                "--position",
+                "0,0",
+                "--force",
+                "0,0,1",
+            ],
+            "--position needs 3 numbers",
+        ),
+        (
+            &["mechanism", "inspect", "nonexistent"],
+            "no installed mechanism of this name",
+        ),
     ];
     for (args, message) in cases {
         let (code, stderr) = failure(args);
@@ -191,7 +295,13 @@ fn assert_png(path: &std::path::Path) {
 fn sweep_reproduces_the_jump_at_lambda_zero() {
     let plot = support::scratch_root().join(format!("hapticd-sweep-{}.png", std::process::id()));
     let out = json(&[
-        "mechanism", "sweep", "spidar", "--plot", plot.to_str().unwrap(), "--lambdas", "0,0.01,0.1",
+        "mechanism",
+        "sweep",
+        "spidar",
+        "--plot",
+        plot.to_str().unwrap(),
+        "--lambdas",
+        "0,0.01,0.1",
         "--json",
     ]);
     assert_png(&plot);
@@ -202,8 +312,16 @@ fn sweep_reproduces_the_jump_at_lambda_zero() {
 
 #[test]
 fn workspace_slice_of_spidar_is_the_tetrahedron_section() {
-    let plot = support::scratch_root().join(format!("hapticd-workspace-{}.png", std::process::id()));
-    let out = json(&["mechanism", "workspace", "spidar", "--plot", plot.to_str().unwrap(), "--json"]);
+    let plot =
+        support::scratch_root().join(format!("hapticd-workspace-{}.png", std::process::id()));
+    let out = json(&[
+        "mechanism",
+        "workspace",
+        "spidar",
+        "--plot",
+        plot.to_str().unwrap(),
+        "--json",
+    ]);
     assert_png(&plot);
     // At y = 0 the motor tetrahedron's section is the square with corners (±h, 0, 0),
     // (0, 0, ±h): area 2h² of the (2.2h)² slice.

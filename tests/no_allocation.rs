@@ -68,11 +68,14 @@ fn the_counter_sees_allocations() {
 fn pose_tension_calibration_and_closure_do_not_allocate() {
     let mut rng = Rng::new(20);
     for m in shipped_mechanisms() {
-        let counts: Vec<i64> = (0..m.strings.len() as i64).map(|i| 1000 * i - 3000).collect();
+        let counts: Vec<i64> = (0..m.strings.len() as i64)
+            .map(|i| 1000 * i - 3000)
+            .collect();
         let offsets = offsets(&m, &counts);
         for index in 0..m.effectors.len() {
             let poses: Vec<Pose> = (0..200).map(|_| pose_inside(&m, index, &mut rng)).collect();
-            let mut pose_solver = PoseSolver::new(m.kinematics(index), m.effectors[index].calibration);
+            let mut pose_solver =
+                PoseSolver::new(m.kinematics(index), m.effectors[index].calibration);
             let mut tension_solver = TensionSolver::for_effector(&m, index);
             let kinematics = m.kinematics(index);
             let mut lengths = [0.0; MAX_STRINGS_PER_EFFECTOR];
@@ -85,7 +88,11 @@ fn pose_tension_calibration_and_closure_do_not_allocate() {
                     let force = DVec3::new(1.0, -2.0, 3.0) * (k as f64 * 0.01);
                     let wrench = [force.x, force.y, force.z, 0.01, 0.0, -0.01];
                     let solution = tension_solver.solve(pose_solver.geometry(), &wrench);
-                    std::hint::black_box((estimate, solution, is_force_closed(pose_solver.geometry())));
+                    std::hint::black_box((
+                        estimate,
+                        solution,
+                        is_force_closed(pose_solver.geometry()),
+                    ));
                 }
             });
             assert_eq!(n, 0, "{} effector {index}: {n} allocations", m.name);

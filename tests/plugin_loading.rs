@@ -16,7 +16,8 @@ use support::{plugin_path, repo_dir};
 
 /// A fresh private directory (mode 0755) under the system temporary directory.
 fn scratch(name: &str) -> PathBuf {
-    let dir = support::scratch_root().join(format!("hapticd-plugin-test-{}-{name}", std::process::id()));
+    let dir =
+        support::scratch_root().join(format!("hapticd-plugin-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
@@ -30,7 +31,9 @@ fn compile_c(dir: &Path, name: &str, source: &str) -> PathBuf {
     let out = dir.join(format!("{name}.so"));
     let compiler = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let status = Command::new(compiler)
-        .args(["-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-std=c11", "-I"])
+        .args([
+            "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-std=c11", "-I",
+        ])
         .arg(repo_dir().join("plugin-api/include"))
         .arg(&c_file)
         .arg("-o")
@@ -55,7 +58,9 @@ const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) {{ (vo
 }
 
 fn refusal(path: &Path) -> String {
-    plugin::load(path).expect_err("the plugin should be refused").to_string()
+    plugin::load(path)
+        .expect_err("the plugin should be refused")
+        .to_string()
 }
 
 #[test]
@@ -80,7 +85,10 @@ fn the_rust_plugins_load_with_their_descriptors() {
     assert_eq!(g.strings[0].motor, DVec3::new(0.0849, 0.076, 0.0));
     assert_eq!(g.strings[0].knot, DVec3::new(0.0159, 0.0, -0.0159));
     for i in 0..4 {
-        assert_eq!(g.strings[i + 4].motor, g.strings[i].motor * DVec3::new(1.0, -1.0, 1.0));
+        assert_eq!(
+            g.strings[i + 4].motor,
+            g.strings[i].motor * DVec3::new(1.0, -1.0, 1.0)
+        );
     }
     // SPIDAR-II: the two fingers use complementary corners of the 0.53 m cube.
     let ii = catalog::load(&plugin_path("hapticd-spidar-ii")).unwrap();
@@ -93,19 +101,30 @@ fn the_rust_plugins_load_with_their_descriptors() {
 #[test]
 fn the_c_example_plugin_compiles_loads_and_solves() {
     let dir = scratch("c-example");
-    let source = std::fs::read_to_string(repo_dir().join("plugins/c-example/spidar_desk.c")).unwrap();
+    let source =
+        std::fs::read_to_string(repo_dir().join("plugins/c-example/spidar_desk.c")).unwrap();
     let path = compile_c(&dir, "libspidar_desk", &source);
     let loaded = plugin::load(&path).unwrap();
-    assert_eq!((loaded.name.as_str(), loaded.version.as_str()), ("spidar-desk", "1.0.0"));
+    assert_eq!(
+        (loaded.name.as_str(), loaded.version.as_str()),
+        ("spidar-desk", "1.0.0")
+    );
     let m = catalog::load(&path).unwrap();
     assert_eq!(m.effectors[0].name, "finger");
     assert_eq!(m.strings.len(), 4);
     assert_eq!(m.strings[1].motor, DVec3::new(0.15, 0.15, -0.15));
-    assert_eq!((m.strings[3].tension_min, m.strings[3].tension_max), (0.3, 6.0));
+    assert_eq!(
+        (m.strings[3].tension_min, m.strings[3].tension_max),
+        (0.3, 6.0)
+    );
     // The base part works on it unchanged: at the centre a small force is met exactly.
     let g = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
     let solution = TensionSolver::for_effector(&m, 0).solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
-    assert!((solution.wrench[1] + 2.0).abs() < 0.05, "{:?}", solution.wrench);
+    assert!(
+        (solution.wrench[1] + 2.0).abs() < 0.05,
+        "{:?}",
+        solution.wrench
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 
@@ -115,7 +134,10 @@ fn a_plugin_for_another_abi_major_is_refused() {
     let path = compile_c(&dir, "old", &c_plugin_with_abi(2, 0));
     let e = refusal(&path);
     assert!(e.starts_with(&path.display().to_string()), "{e}");
-    assert!(e.contains("built for plugin ABI 2.0, but this hapticd speaks ABI 1.0"), "{e}");
+    assert!(
+        e.contains("built for plugin ABI 2.0, but this hapticd speaks ABI 1.0"),
+        "{e}"
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 
@@ -132,7 +154,10 @@ fn a_library_without_the_entry_symbol_is_refused() {
     let dir = scratch("no-entry");
     let path = compile_c(&dir, "plain", "int answer(void) { return 42; }\n");
     let e = refusal(&path);
-    assert!(e.contains("not a hapticd plugin: it exports no hapticd_plugin_entry"), "{e}");
+    assert!(
+        e.contains("not a hapticd plugin: it exports no hapticd_plugin_entry"),
+        "{e}"
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 
@@ -165,12 +190,22 @@ fn files_and_directories_others_could_modify_are_refused() {
 
     std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o775)).unwrap();
     let e = refusal(&path);
-    assert!(e.contains("unsafe permissions: the file") && e.contains("writable by group or others (mode 0775)"), "{e}");
+    assert!(
+        e.contains("unsafe permissions: the file")
+            && e.contains("writable by group or others (mode 0775)"),
+        "{e}"
+    );
     std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
 
     std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777)).unwrap();
     let e = refusal(&path);
-    assert!(e.contains(&format!("directory {} is writable by group or others (mode 0777)", dir.display())), "{e}");
+    assert!(
+        e.contains(&format!(
+            "directory {} is writable by group or others (mode 0777)",
+            dir.display()
+        )),
+        "{e}"
+    );
     // A sticky world-writable directory (like /tmp) is safe: others cannot replace entries.
     std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o1777)).unwrap();
     assert!(plugin::check_permissions(&path).is_ok());
@@ -189,7 +224,10 @@ fn a_panicking_plugin_is_disabled_and_the_host_lives_on() {
     let path = plugin_path("hapticd-test-panicking-mechanism");
     let loaded = plugin::load(&path).unwrap();
     let e = loaded.mechanism_spec().unwrap_err().to_string();
-    assert!(e.contains("the plugin panicked in info(); it is disabled"), "{e}");
+    assert!(
+        e.contains("the plugin panicked in info(); it is disabled"),
+        "{e}"
+    );
     // Calling it again is answered the same way, without running the builder again.
     assert!(loaded.mechanism_spec().is_err());
     // The host is unharmed: other plugins still load and work.

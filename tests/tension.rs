@@ -13,14 +13,8 @@ use hapticd::mechanism::{Mechanism, Pose, TensionSettings};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::geometry::StringGeometry;
 use hapticd::solver::tension::TensionSolver;
+use support::qp::{clarabel_tensions, w_rows};
 use support::{Rng, frame_half, shipped, shipped_mechanisms};
-
-/// W as rows (dof × m).
-fn w_rows(g: &StringGeometry) -> Vec<Vec<f64>> {
-    (0..g.dof())
-        .map(|r| (0..g.count()).map(|i| g.column(i)[r]).collect())
-        .collect()
-}
 
 fn quiet_settings() -> clarabel::solver::DefaultSettings<f64> {
     DefaultSettingsBuilder::default()
@@ -34,8 +28,14 @@ fn quiet_settings() -> clarabel::solver::DefaultSettings<f64> {
         .expect("valid Clarabel settings")
 }
 
-/// Eq. 3.16 as written: min |Wτ − f|² + λ|τ|², lo ≤ τ ≤ hi, solved by Clarabel.
-fn reference_tensions(g: &StringGeometry, f: &[f64], lambda: f64, lo: &[f64], hi: &[f64]) -> Vec<f64> {
+/// Eq. 3.16 as written, solved by Clarabel, which must report it solved.
+fn reference_tensions(
+    g: &StringGeometry,
+    f: &[f64],
+    lambda: f64,
+    lo: &[f64],
+    hi: &[f64],
+) -> Vec<f64> {
     reference_solution(g, f, lambda, lo, hi, &[SolverStatus::Solved])
 }
 
@@ -48,31 +48,9 @@ fn reference_solution(
     hi: &[f64],
     accepted: &[SolverStatus],
 ) -> Vec<f64> {
-    let (n, m) = (g.dof(), g.count());
-    let w = w_rows(g);
-    let mut p = vec![vec![0.0; m]; m];
-    let mut q = vec![0.0; m];
-    for i in 0..m {
-        for j in i..m {
-            p[i][j] = (0..n).map(|r| w[r][i] * w[r][j]).sum::<f64>() + if i == j { lambda } else { 0.0 };
-        }
-        q[i] = -(0..n).map(|r| w[r][i] * f[r]).sum::<f64>();
-    }
-    let mut a = vec![vec![0.0; m]; 2 * m];
-    let mut b = vec![0.0; 2 * m];
-    for i in 0..m {
-        a[i][i] = 1.0;
-        b[i] = hi[i];
-        a[m + i][i] = -1.0;
-        b[m + i] = -lo[i];
-    }
-    let p = CscMatrix::from(&p);
-    let a = CscMatrix::from(&a);
-    let cones = [NonnegativeConeT(2 * m)];
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, quiet_settings()).expect("QP set up");
-    solver.solve();
-    assert!(accepted.contains(&solver.solution.status), "{:?}", solver.solution.status);
-    solver.solution.x.clone()
+    let (status, x) = clarabel_tensions(g, f, lambda, (lo, hi), quiet_settings());
+    assert!(accepted.contains(&status), "{status:?}");
+    x
 }
 
 fn objective(g: &StringGeometry, t: &[f64], f: &[f64], lambda: f64) -> f64 {
@@ -95,10 +73,18 @@ fn random_case(m: &Mechanism, index: usize, rng: &mut Rng) -> (StringGeometry, [
     let six = m.effectors[index].dof.count() == 6;
     let pose = Pose {
         position: rng.cube(0.8 * half),
-        orientation: if six { rng.rotation(0.5) } else { DQuat::IDENTITY },
+        orientation: if six {
+            rng.rotation(0.5)
+        } else {
+            DQuat::IDENTITY
+        },
     };
     let force = rng.unit() * rng.range(0.0, 15.0);
-    let torque = if six { rng.unit() * rng.range(0.0, 0.3) } else { DVec3::ZERO };
+    let torque = if six {
+        rng.unit() * rng.range(0.0, 0.3)
+    } else {
+        DVec3::ZERO
+    };
     (
         StringGeometry::at(&m.kinematics(index), &pose),
         [force.x, force.y, force.z, torque.x, torque.y, torque.z],
@@ -116,7 +102,10 @@ fn tensions_match_a_general_qp_solver_on_random_problems() {
             for _ in 0..1000 {
                 let (g, f) = random_case(&m, index, &mut rng);
                 let lambda = 10f64.powf(rng.range(-4.0, 0.0));
-                solver.set_settings(TensionSettings { lambda, torque_weight: 1.0 });
+                solver.set_settings(TensionSettings {
+                    lambda,
+                    torque_weight: 1.0,
+                });
                 let ours = solver.solve(&g, &f);
                 assert!(ours.converged);
                 let reference = reference_tensions(&g, &f, lambda, &lo, &hi);
@@ -125,7 +114,11 @@ fn tensions_match_a_general_qp_solver_on_random_problems() {
                     worst = worst.max((t - r).abs());
                 }
             }
-            assert!(worst < 1e-5, "{} effector {index}: largest difference {worst:.2e} N", m.name);
+            assert!(
+                worst < 1e-5,
+                "{} effector {index}: largest difference {worst:.2e} N",
+                m.name
+            );
         }
     }
 }
@@ -137,15 +130,25 @@ fn at_lambda_zero_the_objective_matches_the_general_solver() {
     for m in shipped_mechanisms() {
         let (lo, hi) = limits(&m, 0);
         let mut solver = TensionSolver::for_effector(&m, 0);
-        solver.set_settings(TensionSettings { lambda: 0.0, torque_weight: 1.0 });
+        solver.set_settings(TensionSettings {
+            lambda: 0.0,
+            torque_weight: 1.0,
+        });
         for _ in 0..300 {
             let (g, f) = random_case(&m, 0, &mut rng);
             let ours = solver.solve(&g, &f);
             // Without λ the problem is only semidefinite; interior points may stop short.
             let accepted = [SolverStatus::Solved, SolverStatus::AlmostSolved];
             let reference = reference_solution(&g, &f, 0.0, &lo, &hi, &accepted);
-            let (a, b) = (objective(&g, ours.tensions(), &f, 0.0), objective(&g, &reference, &f, 0.0));
-            assert!(a <= b + 1e-6 * (1.0 + b), "{}: ours {a}, reference {b}", m.name);
+            let (a, b) = (
+                objective(&g, ours.tensions(), &f, 0.0),
+                objective(&g, &reference, &f, 0.0),
+            );
+            assert!(
+                a <= b + 1e-6 * (1.0 + b),
+                "{}: ours {a}, reference {b}",
+                m.name
+            );
         }
     }
 }
@@ -181,7 +184,13 @@ fn with_lambda_tensions_are_continuous_across_the_region_boundary_and_without_th
     assert!(jc[0] > 15.0 && jf[0] > 15.0, "λ = 0 jumps: {jc:?} {jf:?}");
     // λ > 0: the largest step shrinks with the sample spacing (Lipschitz continuity).
     for l in 1..lambdas.len() {
-        assert!(jf[l] < 0.4 * jc[l], "λ = {}: {} → {}", lambdas[l], jc[l], jf[l]);
+        assert!(
+            jf[l] < 0.4 * jc[l],
+            "λ = {}: {} → {}",
+            lambdas[l],
+            jc[l],
+            jf[l]
+        );
         assert!(jf[l] < 0.5, "λ = {}: step {}", lambdas[l], jf[l]);
     }
 }
@@ -205,7 +214,13 @@ fn the_complete_region_of_a_four_string_spidar_is_the_motor_tetrahedron() {
     let (mut inside, mut outside) = (0, 0);
     for _ in 0..5000 {
         let position = rng.cube(0.3);
-        let g = StringGeometry::at(&k, &Pose { position, orientation: DQuat::IDENTITY });
+        let g = StringGeometry::at(
+            &k,
+            &Pose {
+                position,
+                orientation: DQuat::IDENTITY,
+            },
+        );
         let expected = inside_tetrahedron(position, k.motors());
         assert_eq!(is_force_closed(&g), expected, "at {position}");
         if expected { inside += 1 } else { outside += 1 }
@@ -227,8 +242,8 @@ fn positive_null_combination(g: &StringGeometry) -> Option<bool> {
     let p = CscMatrix::<f64>::zeros((m, m));
     let q = vec![0.0; m];
     let cones = [ZeroConeT(n), NonnegativeConeT(m)];
-    let mut solver =
-        DefaultSolver::new(&p, &q, &CscMatrix::from(&a), &b, &cones, quiet_settings()).expect("LP set up");
+    let mut solver = DefaultSolver::new(&p, &q, &CscMatrix::from(&a), &b, &cones, quiet_settings())
+        .expect("LP set up");
     solver.solve();
     match solver.solution.status {
         SolverStatus::Solved => Some(true),
@@ -255,7 +270,10 @@ fn force_closure_of_rigid_grips_matches_a_linear_program() {
         if name == "spidar-g" {
             assert!(closed > 20, "spidar-g: {closed} closed cases");
         } else {
-            assert_eq!(closed, 0, "six strings can never be force-closed in six DOF");
+            assert_eq!(
+                closed, 0,
+                "six strings can never be force-closed in six DOF"
+            );
         }
     }
 }

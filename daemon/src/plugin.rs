@@ -62,16 +62,21 @@ pub fn check_permissions(path: &Path) -> Result<(), PluginError> {
         .canonicalize()
         .map_err(|e| refuse(path, format!("cannot resolve path: {e}")))?;
     let euid = nix::unistd::geteuid().as_raw();
-    let meta = std::fs::metadata(&canonical)
-        .map_err(|e| refuse(path, format!("cannot stat: {e}")))?;
+    let meta =
+        std::fs::metadata(&canonical).map_err(|e| refuse(path, format!("cannot stat: {e}")))?;
     if !meta.is_file() {
         return Err(refuse(path, "is not a regular file"));
     }
     let mut current = Some(canonical.as_path());
     while let Some(p) = current {
-        let meta = std::fs::metadata(p).map_err(|e| refuse(path, format!("cannot stat {}: {e}", p.display())))?;
+        let meta = std::fs::metadata(p)
+            .map_err(|e| refuse(path, format!("cannot stat {}: {e}", p.display())))?;
         let mode = meta.permissions().mode();
-        let what = if p == canonical { "the file" } else { "directory" };
+        let what = if p == canonical {
+            "the file"
+        } else {
+            "directory"
+        };
         if meta.uid() != 0 && meta.uid() != euid {
             return Err(refuse(
                 path,
@@ -99,7 +104,12 @@ pub fn check_permissions(path: &Path) -> Result<(), PluginError> {
 }
 
 /// [main, physics] Host log service handed to plugins; `context` is the plugin's file name.
-unsafe extern "C" fn host_log(context: *mut c_void, level: u32, message: *const c_char, len: usize) {
+unsafe extern "C" fn host_log(
+    context: *mut c_void,
+    level: u32,
+    message: *const c_char,
+    len: usize,
+) {
     if message.is_null() {
         return;
     }
@@ -139,8 +149,13 @@ pub fn load(path: &Path) -> Result<LoadedPlugin, PluginError> {
     let library = unsafe { libloading::os::unix::Library::open(Some(path), flags) }
         .map_err(|e| refuse(path, format!("cannot load: {e}")))?;
     // SAFETY: the symbol's type is fixed by ABI v1.
-    let entry = unsafe { library.get::<HapticdPluginEntry>(b"hapticd_plugin_entry\0") }
-        .map_err(|_| refuse(path, "not a hapticd plugin: it exports no hapticd_plugin_entry"))?;
+    let entry =
+        unsafe { library.get::<HapticdPluginEntry>(b"hapticd_plugin_entry\0") }.map_err(|_| {
+            refuse(
+                path,
+                "not a hapticd plugin: it exports no hapticd_plugin_entry",
+            )
+        })?;
     let entry = *entry;
     // Never dlclose: a plugin's code must stay mapped while anything may call it.
     std::mem::forget(library);
@@ -218,14 +233,20 @@ impl LoadedPlugin {
         if !self.is_mechanism() {
             return Err(refuse(
                 path,
-                format!("is a plugin of kind {}, not a mechanism", self.descriptor.kind),
+                format!(
+                    "is a plugin of kind {}, not a mechanism",
+                    self.descriptor.kind
+                ),
             ));
         }
         // SAFETY: for kind MECHANISM the ABI requires a valid vtable pointer or null.
         let vtable = unsafe { self.descriptor.mechanism.as_ref() }
             .ok_or_else(|| refuse(path, "mechanism plugin without a mechanism vtable"))?;
         if (vtable.struct_size as usize) < std::mem::size_of::<HapticdMechanismVtable>() {
-            return Err(refuse(path, "mechanism vtable is smaller than ABI 1.0 requires"));
+            return Err(refuse(
+                path,
+                "mechanism vtable is smaller than ABI 1.0 requires",
+            ));
         }
         let (Some(info_fn), Some(effector_fn), Some(string_fn)) =
             (vtable.info, vtable.effector, vtable.string)

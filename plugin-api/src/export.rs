@@ -5,8 +5,8 @@
 
 use std::ffi::{CStr, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::{Once, OnceLock};
 use std::sync::atomic::{AtomicPtr, Ordering};
+use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
 
@@ -64,7 +64,9 @@ pub fn log(level: u32, message: &str) {
     // SAFETY: the host guarantees the pointer it passed to the entry outlives the plugin.
     match unsafe { host.as_ref() }.and_then(|h| h.log.map(|log| (h.context, log))) {
         // SAFETY: message is valid for len bytes for the duration of the call.
-        Some((context, log)) => unsafe { log(context, level, message.as_ptr().cast(), message.len()) },
+        Some((context, log)) => unsafe {
+            log(context, level, message.as_ptr().cast(), message.len())
+        },
         None => eprintln!("{message}"),
     }
 }
@@ -91,10 +93,13 @@ pub fn guard(f: impl FnOnce() -> i32) -> i32 {
 }
 
 /// Write `value` through `out` if it is non-null.
-fn write_out<T>(out: *mut T, value: Option<T>) -> i32 {
+///
+/// # Safety
+/// `out` is null or valid for writing one `T`.
+unsafe fn write_out<T>(out: *mut T, value: Option<T>) -> i32 {
     match value {
         Some(value) if !out.is_null() => {
-            // SAFETY: the caller passes a pointer to writable storage for one T.
+            // SAFETY: non-null, and valid for one T by this function's contract.
             unsafe { out.write(value) };
             HAPTICD_OK
         }
@@ -145,7 +150,10 @@ impl MechanismExport {
     }
 
     /// Body of the exported `info` function.
-    pub fn info(&self, out: *mut HapticdMechanismInfo) -> i32 {
+    ///
+    /// # Safety
+    /// `out` is null or valid for writing one value.
+    pub unsafe fn info(&self, out: *mut HapticdMechanismInfo) -> i32 {
         self.with_spec(|spec| {
             let info = HapticdMechanismInfo {
                 effector_count: u32::try_from(spec.effectors.len()).unwrap_or(u32::MAX),
@@ -153,28 +161,40 @@ impl MechanismExport {
                 lambda: spec.lambda,
                 torque_weight: spec.torque_weight,
             };
-            write_out(out, Some(info))
+            // SAFETY: forwarded from this function's contract.
+            unsafe { write_out(out, Some(info)) }
         })
     }
 
     /// Body of the exported `effector` function.
-    pub fn effector(&self, index: u32, out: *mut HapticdEffector) -> i32 {
+    ///
+    /// # Safety
+    /// `out` is null or valid for writing one value.
+    pub unsafe fn effector(&self, index: u32, out: *mut HapticdEffector) -> i32 {
         self.with_spec(|spec| {
-            write_out(out, spec.effectors.get(index as usize).copied())
+            // SAFETY: forwarded from this function's contract.
+            unsafe { write_out(out, spec.effectors.get(index as usize).copied()) }
         })
     }
 
     /// Body of the exported `string` function.
-    pub fn string(&self, index: u32, out: *mut HapticdString) -> i32 {
+    ///
+    /// # Safety
+    /// `out` is null or valid for writing one value.
+    pub unsafe fn string(&self, index: u32, out: *mut HapticdString) -> i32 {
         self.with_spec(|spec| {
-            write_out(out, spec.strings.get(index as usize).copied())
+            // SAFETY: forwarded from this function's contract.
+            unsafe { write_out(out, spec.strings.get(index as usize).copied()) }
         })
     }
 }
 
 /// Body of the exported entry: remember the host, hand out the descriptor.
+///
+/// # Safety
+/// `host` is null or valid for the rest of the process.
 #[doc(hidden)]
-pub fn entry(
+pub unsafe fn entry(
     host: *const HapticdHost,
     descriptor: &'static StaticDescriptor,
 ) -> *const HapticdPluginDescriptor {
@@ -235,14 +255,15 @@ macro_rules! export_mechanism {
 
             static EXPORT: MechanismExport = MechanismExport::new($build);
 
+            // SAFETY (all three): the host passes a pointer valid for one value, per the ABI.
             unsafe extern "C" fn info(out: *mut HapticdMechanismInfo) -> i32 {
-                EXPORT.info(out)
+                unsafe { EXPORT.info(out) }
             }
             unsafe extern "C" fn effector(index: u32, out: *mut HapticdEffector) -> i32 {
-                EXPORT.effector(index, out)
+                unsafe { EXPORT.effector(index, out) }
             }
             unsafe extern "C" fn string(index: u32, out: *mut HapticdString) -> i32 {
-                EXPORT.string(index, out)
+                unsafe { EXPORT.string(index, out) }
             }
 
             static VTABLE: StaticVtable = StaticVtable(HapticdMechanismVtable {
@@ -265,10 +286,11 @@ macro_rules! export_mechanism {
 
             /// [main] The plugin's entry point.
             #[unsafe(no_mangle)]
-            pub extern "C" fn hapticd_plugin_entry(
+            pub unsafe extern "C" fn hapticd_plugin_entry(
                 host: *const HapticdHost,
             ) -> *const HapticdPluginDescriptor {
-                $crate::export::entry(host, &DESCRIPTOR)
+                // SAFETY: the host keeps `host` valid for the life of the process (ABI v1).
+                unsafe { $crate::export::entry(host, &DESCRIPTOR) }
             }
         };
     };

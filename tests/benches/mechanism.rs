@@ -6,14 +6,14 @@
 #[path = "../support/mod.rs"]
 mod support;
 
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT};
+use clarabel::solver::DefaultSettingsBuilder;
 use divan::Bencher;
 use glam::DQuat;
 use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
 use hapticd::solver::geometry::StringGeometry;
 use hapticd::solver::pose::PoseSolver;
 use hapticd::solver::tension::TensionSolver;
+use support::qp::clarabel_tensions;
 use support::shipped;
 
 const MECHANISMS: [&str; 4] = ["spidar", "spidar-g", "spidar-ii", "spidar-6s"];
@@ -35,7 +35,8 @@ fn path_pose(m: &Mechanism, i: usize) -> Pose {
         DQuat::IDENTITY
     };
     Pose {
-        position: calibration.position + glam::DVec3::new(t.cos(), (2.0 * t).sin(), t.sin()) * 0.2 * half,
+        position: calibration.position
+            + glam::DVec3::new(t.cos(), (2.0 * t).sin(), t.sin()) * 0.2 * half,
         orientation: turn * calibration.orientation,
     }
 }
@@ -99,7 +100,11 @@ fn tension_active_set(bencher: Bencher, name: &str) {
 fn tension_clarabel(bencher: Bencher, name: &str) {
     let m = shipped(name);
     let cases = tension_cases(&m);
-    let strings = &m.effectors[0].strings;
+    let (lo, hi): (Vec<f64>, Vec<f64>) = m.effectors[0]
+        .strings
+        .iter()
+        .map(|&s| (m.strings[s].tension_min, m.strings[s].tension_max))
+        .unzip();
     let settings = DefaultSettingsBuilder::default()
         .verbose(false)
         .build()
@@ -108,34 +113,12 @@ fn tension_clarabel(bencher: Bencher, name: &str) {
     bencher.bench_local(|| {
         i = (i + 1) % CASES;
         let (g, f) = &cases[i];
-        let (n, count) = (g.dof(), g.count());
-        let lambda = m.tension.lambda;
-        let mut p = vec![vec![0.0; count]; count];
-        let mut q = vec![0.0; count];
-        let mut a = vec![vec![0.0; count]; 2 * count];
-        let mut b = vec![0.0; 2 * count];
-        for r in 0..count {
-            for c in r..count {
-                p[r][c] = (0..n).map(|k| g.column(r)[k] * g.column(c)[k]).sum::<f64>()
-                    + if r == c { lambda } else { 0.0 };
-            }
-            q[r] = -(0..n).map(|k| g.column(r)[k] * f[k]).sum::<f64>();
-            a[r][r] = 1.0;
-            b[r] = m.strings[strings[r]].tension_max;
-            a[count + r][r] = -1.0;
-            b[count + r] = -m.strings[strings[r]].tension_min;
-        }
-        let cones = [NonnegativeConeT(2 * count)];
-        let mut solver = DefaultSolver::new(
-            &CscMatrix::from(&p),
-            &q,
-            &CscMatrix::from(&a),
-            &b,
-            &cones,
+        clarabel_tensions(
+            divan::black_box(g),
+            f,
+            m.tension.lambda,
+            (&lo, &hi),
             settings.clone(),
         )
-        .expect("QP set up");
-        solver.solve();
-        solver.solution.x[0]
     });
 }

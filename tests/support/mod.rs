@@ -3,6 +3,8 @@
 
 #![allow(dead_code)] // each test binary uses its own subset
 
+pub mod qp;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -29,7 +31,11 @@ pub fn artifact(file: &str) -> PathBuf {
         path.exists(),
         "{} is missing: build the workspace first (cargo build --workspace{})",
         path.display(),
-        if cfg!(debug_assertions) { "" } else { " --release" }
+        if cfg!(debug_assertions) {
+            ""
+        } else {
+            " --release"
+        }
     );
     path
 }
@@ -101,7 +107,11 @@ impl Rng {
     /// Uniform direction.
     pub fn unit(&mut self) -> DVec3 {
         loop {
-            let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let v = DVec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
             let n = v.length();
             if n > 0.1 && n <= 1.0 {
                 return v / n;

@@ -194,7 +194,12 @@ pub fn parse(text: &str, path: &Path) -> Result<Mechanism, MechanismError> {
         at.add(format!("{field}.tension_min"), &s.tension_min);
         at.add(format!("{field}.tension_max"), &s.tension_max);
         let Some(effector) = index_of(&s.effector.value) else {
-            let known: Vec<_> = raw.end_effectors.value.iter().map(|e| &e.name.value).collect();
+            let known: Vec<_> = raw
+                .end_effectors
+                .value
+                .iter()
+                .map(|e| &e.name.value)
+                .collect();
             error(
                 &at,
                 format!("{field}.effector"),
@@ -237,7 +242,9 @@ pub fn parse(text: &str, path: &Path) -> Result<Mechanism, MechanismError> {
             diagnostics: errors,
         });
     }
-    Mechanism::from_spec(&raw.name.value, &raw.description, path, &spec, &|field| at.find(field))
+    Mechanism::from_spec(&raw.name.value, &raw.description, path, &spec, &|field| {
+        at.find(field)
+    })
 }
 
 /// A YAML or schema error as a located diagnostic.
@@ -323,31 +330,46 @@ tension:
     fn unknown_keys_are_refused_with_their_position() {
         let text = GOOD.replace("    dof: 3\n", "    dof: 3\n    colour: red\n");
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:5:5: error: unknown field `colour`"), "{e}");
+        assert!(
+            e.starts_with("m.yaml:5:5: error: unknown field `colour`"),
+            "{e}"
+        );
     }
 
     #[test]
     fn duplicate_keys_are_refused() {
         let text = GOOD.replace("  lambda: 0.02\n", "  lambda: 0.02\n  lambda: 0.03\n");
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:32:3: error: duplicate mapping key: lambda"), "{e}");
+        assert!(
+            e.starts_with("m.yaml:32:3: error: duplicate mapping key: lambda"),
+            "{e}"
+        );
     }
 
     #[test]
     fn vectors_of_the_wrong_length_are_refused() {
         let text = GOOD.replacen("[-0.2, 0.2, 0.2]", "[-0.2, 0.2]", 1);
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:7:5: error: invalid length 2, expected an array of length 3"), "{e}");
+        assert!(
+            e.starts_with("m.yaml:7:5: error: invalid length 2, expected an array of length 3"),
+            "{e}"
+        );
     }
 
     #[test]
     fn non_finite_numbers_are_refused() {
         let text = GOOD.replacen("metres_per_pulse: 2.0e-5", "metres_per_pulse: .nan", 1);
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:8:23: error: strings[0].metres_per_pulse: must be a finite"), "{e}");
+        assert!(
+            e.starts_with("m.yaml:8:23: error: strings[0].metres_per_pulse: must be a finite"),
+            "{e}"
+        );
         let text = GOOD.replacen("[-0.2, 0.2, 0.2]", "[-0.2, .inf, 0.2]", 1);
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:7:12: error: strings[0].motor: must be a finite number"), "{e}");
+        assert!(
+            e.starts_with("m.yaml:7:12: error: strings[0].motor: must be a finite number"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -364,10 +386,18 @@ tension:
     fn unknown_effector_names_are_refused() {
         let text = GOOD.replacen("  - effector: finger", "  - effector: thumb", 1);
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:6:15: error: strings[0].effector: no end effector named \"thumb\""), "{e}");
+        assert!(
+            e.starts_with(
+                "m.yaml:6:15: error: strings[0].effector: no end effector named \"thumb\""
+            ),
+            "{e}"
+        );
         let text = format!("{GOOD}calibration:\n  thumb: {{ position: [0, 0, 0] }}\n");
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:33:10: error: calibration.thumb: no end effector named"), "{e}");
+        assert!(
+            e.starts_with("m.yaml:33:10: error: calibration.thumb: no end effector named"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -389,21 +419,37 @@ tension:
         let m = parse(&text, Path::new("m.yaml")).unwrap();
         assert_eq!(m.warnings.len(), 1);
         let w = m.warnings[0].to_string();
-        assert!(w.starts_with("m.yaml:3:11: warning:") && w.contains("can never present force in every direction"), "{w}");
+        assert!(
+            w.starts_with("m.yaml:3:11: warning:")
+                && w.contains("can never present force in every direction"),
+            "{w}"
+        );
     }
 
     #[test]
     fn a_point_grip_with_a_knot_offset_is_refused() {
-        let text = GOOD.replacen("    metres_per_pulse", "    knot: [0.01, 0, 0]\n    metres_per_pulse", 1);
+        let text = GOOD.replacen(
+            "    metres_per_pulse",
+            "    knot: [0.01, 0, 0]\n    metres_per_pulse",
+            1,
+        );
         let e = error_of(&text);
-        assert!(e.starts_with("m.yaml:8:11: error: strings[0].knot: a point grip (dof 3) has no knot offset"), "{e}");
+        assert!(
+            e.starts_with(
+                "m.yaml:8:11: error: strings[0].knot: a point grip (dof 3) has no knot offset"
+            ),
+            "{e}"
+        );
     }
 
     #[test]
     fn calibration_orientations_must_be_unit_quaternions() {
         let text = format!("{GOOD}calibration:\n  finger: {{ orientation: [1, 1, 0, 0] }}\n");
         let e = error_of(&text);
-        assert!(e.contains("calibration.finger.orientation: must be a unit quaternion"), "{e}");
+        assert!(
+            e.contains("calibration.finger.orientation: must be a unit quaternion"),
+            "{e}"
+        );
     }
 
     #[test]

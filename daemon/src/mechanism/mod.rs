@@ -255,14 +255,19 @@ impl Mechanism {
         if name.is_empty() || name.chars().any(|c| c.is_whitespace() || c == '/') {
             f.error(
                 "name".into(),
-                format!("{name:?} is not a usable name: it must be non-empty, without spaces or '/'"),
+                format!(
+                    "{name:?} is not a usable name: it must be non-empty, without spaces or '/'"
+                ),
             );
         }
         if !(spec.lambda.is_finite() && spec.lambda >= 0.0) {
             f.error("tension.lambda".into(), "must be a finite number ≥ 0");
         }
         if !(spec.torque_weight.is_finite() && spec.torque_weight > 0.0) {
-            f.error("tension.torque_weight".into(), "must be a finite number > 0");
+            f.error(
+                "tension.torque_weight".into(),
+                "must be a finite number > 0",
+            );
         }
         let effectors = validate_effectors(&mut f, spec);
         let strings = validate_strings(&mut f, spec, &effectors);
@@ -317,7 +322,10 @@ impl Mechanism {
 
 fn validate_effectors(f: &mut Findings, spec: &MechanismSpec) -> Vec<Effector> {
     if spec.effectors.is_empty() {
-        f.error("end_effectors".into(), "a mechanism needs at least one end effector");
+        f.error(
+            "end_effectors".into(),
+            "a mechanism needs at least one end effector",
+        );
     }
     let mut effectors: Vec<Effector> = Vec::with_capacity(spec.effectors.len());
     for (i, raw) in spec.effectors.iter().enumerate() {
@@ -330,7 +338,10 @@ fn validate_effectors(f: &mut Findings, spec: &MechanismSpec) -> Vec<Effector> {
             }
         };
         if !name.is_empty() && effectors.iter().any(|e| e.name == name) {
-            f.error(format!("{field}.name"), format!("effector {name:?} is defined twice"));
+            f.error(
+                format!("{field}.name"),
+                format!("effector {name:?} is defined twice"),
+            );
         }
         let dof = match raw.dof {
             3 => Dof::Three,
@@ -403,15 +414,24 @@ fn validate_strings(
             ("volts_per_newton", raw.volts_per_newton),
         ] {
             if !value.is_finite() || value == 0.0 {
-                f.error(format!("{field}.{key}"), "must be a finite, non-zero number");
+                f.error(
+                    format!("{field}.{key}"),
+                    "must be a finite, non-zero number",
+                );
             }
         }
         let (lo, hi) = (raw.tension_min, raw.tension_max);
         if !(lo.is_finite() && lo >= 0.0) {
-            f.error(format!("{field}.tension_min"), "must be a finite number ≥ 0 N");
+            f.error(
+                format!("{field}.tension_min"),
+                "must be a finite number ≥ 0 N",
+            );
         }
         if !(hi.is_finite() && hi > 0.0) {
-            f.error(format!("{field}.tension_max"), "must be a finite number > 0 N");
+            f.error(
+                format!("{field}.tension_max"),
+                "must be a finite number > 0 N",
+            );
         } else if lo > hi {
             f.error(
                 format!("{field}.tension_min"),

@@ -105,7 +105,11 @@ const ASCII: [[u8; 7]; 95] = [
 /// Rows a glyph is drawn below the top of the line: letters with descenders sit two rows
 /// lower, their tails below the baseline.
 pub fn drop(c: char) -> usize {
-    if matches!(c, 'g' | 'p' | 'q' | 'y') { 2 } else { 0 }
+    if matches!(c, 'g' | 'p' | 'q' | 'y') {
+        2
+    } else {
+        0
+    }
 }
 
 /// The glyph of `c`; characters the font lacks are drawn as '?'.

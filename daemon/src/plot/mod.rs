@@ -83,7 +83,13 @@ impl Canvas {
             let t = s as f64 / steps as f64;
             let x = (x0 + t * (x1 - x0)).round() as i64;
             let y = (y0 + t * (y1 - y0)).round() as i64;
-            self.fill_rect(x - half, y - half, x - half + thickness, y - half + thickness, color);
+            self.fill_rect(
+                x - half,
+                y - half,
+                x - half + thickness,
+                y - half + thickness,
+                color,
+            );
         }
     }
 
@@ -236,11 +242,12 @@ impl Chart {
             let m = if hi > lo { (hi - lo) * 0.05 } else { 1.0 };
             (lo - m, hi + m)
         };
-        let y = if self.cells.is_some() { (y0, y1) } else { pad(y0, y1) };
-        (
-            self.x_range.unwrap_or((x0, x1)),
-            self.y_range.unwrap_or(y),
-        )
+        let y = if self.cells.is_some() {
+            (y0, y1)
+        } else {
+            pad(y0, y1)
+        };
+        (self.x_range.unwrap_or((x0, x1)), self.y_range.unwrap_or(y))
     }
 
     /// Draw the chart.
@@ -279,7 +286,13 @@ impl Chart {
             }
             let label = tick_label(x, xstep);
             let w = Canvas::text_width(&label, 2);
-            canvas.text(sx(x) as i64 - w / 2, plot_bottom as i64 + 10, &label, 2, INK);
+            canvas.text(
+                sx(x) as i64 - w / 2,
+                plot_bottom as i64 + 10,
+                &label,
+                2,
+                INK,
+            );
         }
         for &y in &yt {
             if self.cells.is_none() {
@@ -302,8 +315,20 @@ impl Chart {
         }
         // Mask anything drawn outside the plot area, then frame it.
         canvas.fill_rect(0, 0, WIDTH as i64, TOP - 1, WHITE);
-        canvas.fill_rect(0, plot_bottom as i64 + 2, WIDTH as i64, plot_bottom as i64 + 9, WHITE);
-        canvas.fill_rect(plot_right as i64 + 2, TOP, WIDTH as i64, plot_bottom as i64 + 2, WHITE);
+        canvas.fill_rect(
+            0,
+            plot_bottom as i64 + 2,
+            WIDTH as i64,
+            plot_bottom as i64 + 9,
+            WHITE,
+        );
+        canvas.fill_rect(
+            plot_right as i64 + 2,
+            TOP,
+            WIDTH as i64,
+            plot_bottom as i64 + 2,
+            WHITE,
+        );
         canvas.fill_rect(LEFT - 7, TOP, LEFT - 1, plot_bottom as i64 + 2, WHITE);
         for (a, b) in [
             ((plot_left, plot_top), (plot_right, plot_top)),
@@ -351,9 +376,24 @@ impl Chart {
         let (x, y) = (right - width - 10, top + 10);
         canvas.fill_rect(x, y, x + width, y + height, WHITE);
         canvas.line((x as f64, y as f64), ((x + width) as f64, y as f64), 1, INK);
-        canvas.line((x as f64, (y + height) as f64), ((x + width) as f64, (y + height) as f64), 1, INK);
-        canvas.line((x as f64, y as f64), (x as f64, (y + height) as f64), 1, INK);
-        canvas.line(((x + width) as f64, y as f64), ((x + width) as f64, (y + height) as f64), 1, INK);
+        canvas.line(
+            (x as f64, (y + height) as f64),
+            ((x + width) as f64, (y + height) as f64),
+            1,
+            INK,
+        );
+        canvas.line(
+            (x as f64, y as f64),
+            (x as f64, (y + height) as f64),
+            1,
+            INK,
+        );
+        canvas.line(
+            ((x + width) as f64, y as f64),
+            ((x + width) as f64, (y + height) as f64),
+            1,
+            INK,
+        );
         for (i, (label, color)) in entries.iter().enumerate() {
             let row = y + 8 + i as i64 * 22;
             canvas.fill_rect(x + 8, row + 3, x + 34, row + 11, *color);

@@ -102,7 +102,9 @@ pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
             Bound::Upper => upper[i],
             Bound::Free => x[i].clamp(lower[i], upper[i]),
         };
-        scale = scale.max(c[i].abs()).max(q[i][i] * lower[i].abs().max(upper[i].abs()));
+        scale = scale
+            .max(c[i].abs())
+            .max(q[i][i] * lower[i].abs().max(upper[i].abs()));
     }
     let tolerance = 1e-11 * scale;
     let max_iterations = 4 * n + 8;
@@ -164,7 +166,11 @@ pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
         }
         if let Some((i, bound)) = blocking {
             bounds[i] = bound;
-            x[i] = if bound == Bound::Lower { lower[i] } else { upper[i] };
+            x[i] = if bound == Bound::Lower {
+                lower[i]
+            } else {
+                upper[i]
+            };
             continue;
         }
         let mut worst = (-tolerance, None);

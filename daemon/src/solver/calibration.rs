@@ -30,7 +30,12 @@ pub fn offsets(mechanism: &Mechanism, counts: &[i64]) -> Vec<f64> {
 }
 
 /// Lengths from counts: lᵢ = offsetᵢ + countsᵢ · metres_per_pulseᵢ (allocation-free).
-pub fn lengths_from_counts(strings: &[StringSpec], offsets: &[f64], counts: &[i64], out: &mut [f64]) {
+pub fn lengths_from_counts(
+    strings: &[StringSpec],
+    offsets: &[f64],
+    counts: &[i64],
+    out: &mut [f64],
+) {
     for (((l, s), &offset), &count) in out.iter_mut().zip(strings).zip(offsets).zip(counts) {
         *l = offset + count as f64 * s.metres_per_pulse;
     }

@@ -190,7 +190,7 @@ impl StringGeometry {
         let n = N;
         let mut scale = [0.0; N];
         for i in 0..n {
-            if !(a[i][i] > 0.0) {
+            if a[i][i].is_nan() || a[i][i] <= 0.0 {
                 return false;
             }
             scale[i] = 1.0 / a[i][i].sqrt();

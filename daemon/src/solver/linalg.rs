@@ -14,7 +14,7 @@ pub fn ldlt_factor<const N: usize>(a: &mut [[f64; N]; N], n: usize, min_pivot: f
         for k in 0..j {
             pivot -= a[j][k] * a[j][k] * d[k];
         }
-        if !(pivot > min_pivot) {
+        if pivot.is_nan() || pivot <= min_pivot {
             return false;
         }
         d[j] = pivot;

@@ -10,6 +10,9 @@
 //! - [`calibration`]: encoder counts to lengths and the calibration offsets;
 //! - [`linalg`]: fixed-size LDLᵀ factorisation.
 
+// Small dense kernels read best with the indices of their formulas.
+#![allow(clippy::needless_range_loop)]
+
 pub mod box_qp;
 pub mod calibration;
 pub mod closure;

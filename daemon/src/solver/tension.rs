@@ -67,10 +67,12 @@ impl TensionSolver {
 
     /// The solver for effector `index` of `mechanism`, with the mechanism's settings.
     pub fn for_effector(mechanism: &Mechanism, index: usize) -> Self {
-        let limits = mechanism.effectors[index]
-            .strings
-            .iter()
-            .map(|&s| (mechanism.strings[s].tension_min, mechanism.strings[s].tension_max));
+        let limits = mechanism.effectors[index].strings.iter().map(|&s| {
+            (
+                mechanism.strings[s].tension_min,
+                mechanism.strings[s].tension_max,
+            )
+        });
         Self::new(limits, mechanism.tension)
     }
 
@@ -88,7 +90,13 @@ impl TensionSolver {
     pub fn solve(&mut self, geometry: &StringGeometry, target: &[f64; 6]) -> TensionSolution {
         debug_assert_eq!(geometry.count(), self.count);
         let (n, dof) = (self.count, geometry.dof());
-        let weight = |r: usize| if r < 3 { 1.0 } else { self.settings.torque_weight };
+        let weight = |r: usize| {
+            if r < 3 {
+                1.0
+            } else {
+                self.settings.torque_weight
+            }
+        };
         let mut q: Matrix = [[0.0; MAX_VARS]; MAX_VARS];
         let mut c: Vector = [0.0; MAX_VARS];
         let mut trace = 0.0;

@@ -11,10 +11,18 @@ const METRES_PER_PULSE: f64 = 2.924e-5;
 const VOLTS_PER_NEWTON: f64 = 0.3653;
 
 fn build() -> MechanismSpec {
-    let index = [[-1.0, 1.0, 1.0], [1.0, 1.0, -1.0], [-1.0, -1.0, -1.0], [1.0, -1.0, 1.0]];
+    let index = [
+        [-1.0, 1.0, 1.0],
+        [1.0, 1.0, -1.0],
+        [-1.0, -1.0, -1.0],
+        [1.0, -1.0, 1.0],
+    ];
     // The thumb uses the other four corners: each index corner mirrored through the centre.
     let thumb = index.map(|c| c.map(|s: f64| -s));
-    let mut effectors = vec![HapticdEffector::new("index", 3), HapticdEffector::new("thumb", 3)];
+    let mut effectors = vec![
+        HapticdEffector::new("index", 3),
+        HapticdEffector::new("thumb", 3),
+    ];
     // Fingers rest 5 cm apart along x while calibrating.
     effectors[0].calibration_position = [0.025, 0.0, 0.0];
     effectors[1].calibration_position = [-0.025, 0.0, 0.0];

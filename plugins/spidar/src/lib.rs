@@ -11,7 +11,12 @@ const METRES_PER_PULSE: f64 = 2.924e-5;
 const VOLTS_PER_NEWTON: f64 = 0.3653;
 
 fn build() -> MechanismSpec {
-    let corners = [[-1.0, 1.0, 1.0], [1.0, 1.0, -1.0], [-1.0, -1.0, -1.0], [1.0, -1.0, 1.0]];
+    let corners = [
+        [-1.0, 1.0, 1.0],
+        [1.0, 1.0, -1.0],
+        [-1.0, -1.0, -1.0],
+        [1.0, -1.0, 1.0],
+    ];
     MechanismSpec {
         lambda: 0.01,
         torque_weight: 1.0,

@@ -1,6 +1,6 @@
 //! `hapticctl mechanism …`: list, inspect, pose, tension, workspace and sweep.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DQuat, DVec3};
@@ -167,7 +167,10 @@ impl std::ops::Deref for Numbers {
 }
 
 fn parse_numbers(text: &str) -> Result<Numbers, String> {
-    text.split(',').map(parse_number).collect::<Result<_, _>>().map(Numbers)
+    text.split(',')
+        .map(parse_number)
+        .collect::<Result<_, _>>()
+        .map(Numbers)
 }
 
 fn parse_number(text: &str) -> Result<f64, String> {
@@ -226,7 +229,11 @@ fn load_failure(mech: &str, error: &MechanismError) -> Failure {
 fn effector_index(mechanism: &Mechanism, name: Option<&str>) -> Result<usize, Failure> {
     let Some(name) = name else { return Ok(0) };
     mechanism.effector_index(name).ok_or_else(|| {
-        let names: Vec<_> = mechanism.effectors.iter().map(|e| e.name.as_str()).collect();
+        let names: Vec<_> = mechanism
+            .effectors
+            .iter()
+            .map(|e| e.name.as_str())
+            .collect();
         Failure::usage(format!(
             "mechanism {} has no effector {name:?} (effectors: {})",
             mechanism.name,
@@ -416,7 +423,11 @@ fn pose(catalog: &Catalog, args: &PoseArgs) -> Result<(), Failure> {
     let mut text = String::new();
     for (index, effector) in m.effectors.iter().enumerate() {
         let mut start = effector.calibration;
-        if let Some(from) = args.from.get(index).or(args.from.first().filter(|_| args.from.len() == 1)) {
+        if let Some(from) = args
+            .from
+            .get(index)
+            .or(args.from.first().filter(|_| args.from.len() == 1))
+        {
             match from.len() {
                 3 => start.position = vec3(from, "--from")?,
                 7 => {
@@ -585,7 +596,7 @@ fn workspace(catalog: &Catalog, args: &WorkspaceArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn save(chart: &Chart, path: &PathBuf) -> Result<(), Failure> {
+fn save(chart: &Chart, path: &Path) -> Result<(), Failure> {
     chart
         .render()
         .save_png(path)
@@ -647,7 +658,9 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
             .unwrap_or(0),
     };
     // Abscissa: the first coordinate that changes along the path (x for the diagonal).
-    let axis = (0..3).find(|&a| (to[a] - from[a]).abs() > 1e-12).unwrap_or(0);
+    let axis = (0..3)
+        .find(|&a| (to[a] - from[a]).abs() > 1e-12)
+        .unwrap_or(0);
     let xs: Vec<f64> = result.positions.iter().map(|p| p[axis]).collect();
     let tmax = m.effectors[index]
         .strings
@@ -661,7 +674,11 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
         .enumerate()
         .map(|(i, (per_sample, lambda))| Series {
             label: format!("λ = {lambda}"),
-            points: xs.iter().zip(per_sample).map(|(&x, t)| (x, t[string])).collect(),
+            points: xs
+                .iter()
+                .zip(per_sample)
+                .map(|(&x, t)| (x, t[string]))
+                .collect(),
             color: PALETTE[i % PALETTE.len()],
         })
         .collect();
@@ -672,7 +689,10 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
             "{}: tension of string {string} for f = ({}, {}, {}) N",
             m.name, force.x, force.y, force.z
         ),
-        x_label: format!("grip {} along the path [m] (shaded: complete region)", axis_name(axis)),
+        x_label: format!(
+            "grip {} along the path [m] (shaded: complete region)",
+            axis_name(axis)
+        ),
         y_label: "tension [N]".into(),
         series,
         cells: Some(Cells {
