@@ -181,6 +181,8 @@ pub struct Chart {
     pub x_range: Option<(f64, f64)>,
     /// Data range of y; by default that of the data, with a margin.
     pub y_range: Option<(f64, f64)>,
+    /// Equal scales on both axes (maps); the legend then sits beside the plot.
+    pub equal_aspect: bool,
 }
 
 /// Round tick positions covering [lo, hi], about `target` of them.
@@ -210,8 +212,8 @@ fn tick_label(value: f64, step: f64) -> String {
     }
 }
 
-const WIDTH: usize = 960;
-const HEIGHT: usize = 600;
+const PLOT_WIDTH: f64 = 830.0;
+const PLOT_HEIGHT: f64 = 446.0;
 const LEFT: i64 = 100;
 const RIGHT: i64 = 30;
 const TOP: i64 = 84;
@@ -252,12 +254,20 @@ impl Chart {
 
     /// Draw the chart.
     pub fn render(&self) -> Canvas {
-        let mut canvas = Canvas::new(WIDTH, HEIGHT);
         let ((x0, x1), (y0, y1)) = self.data_range();
-        let (pw, ph) = (
-            WIDTH as f64 - (LEFT + RIGHT) as f64,
-            HEIGHT as f64 - (TOP + BOTTOM) as f64,
-        );
+        let (pw, ph, beside) = if self.equal_aspect {
+            let scale = PLOT_HEIGHT / (y1 - y0).max(x1 - x0);
+            (
+                (x1 - x0) * scale,
+                (y1 - y0) * scale,
+                self.legend_width() + 20,
+            )
+        } else {
+            (PLOT_WIDTH, PLOT_HEIGHT, 0)
+        };
+        let width = (LEFT + RIGHT + beside) as usize + pw as usize;
+        let height = (TOP + BOTTOM) as usize + ph as usize;
+        let mut canvas = Canvas::new(width, height);
         let sx = |x: f64| LEFT as f64 + (x - x0) / (x1 - x0) * pw;
         let sy = |y: f64| TOP as f64 + (y1 - y) / (y1 - y0) * ph;
 
@@ -314,18 +324,18 @@ impl Chart {
             }
         }
         // Mask anything drawn outside the plot area, then frame it.
-        canvas.fill_rect(0, 0, WIDTH as i64, TOP - 1, WHITE);
+        canvas.fill_rect(0, 0, width as i64, TOP - 1, WHITE);
         canvas.fill_rect(
             0,
             plot_bottom as i64 + 2,
-            WIDTH as i64,
+            width as i64,
             plot_bottom as i64 + 9,
             WHITE,
         );
         canvas.fill_rect(
             plot_right as i64 + 2,
             TOP,
-            WIDTH as i64,
+            width as i64,
             plot_bottom as i64 + 2,
             WHITE,
         );
@@ -339,21 +349,22 @@ impl Chart {
             canvas.line(a, b, 2, INK);
         }
         let title_width = Canvas::text_width(&self.title, 3);
-        canvas.text((WIDTH as i64 - title_width) / 2, 16, &self.title, 3, INK);
+        canvas.text((width as i64 - title_width) / 2, 16, &self.title, 3, INK);
         let xw = Canvas::text_width(&self.x_label, 2);
         canvas.text(
             LEFT + (pw as i64 - xw) / 2,
-            HEIGHT as i64 - 28,
+            height as i64 - 28,
             &self.x_label,
             2,
             INK,
         );
         canvas.text(8, TOP - 28, &self.y_label, 2, INK);
-        self.draw_legend(&mut canvas, plot_right as i64, TOP);
+        let legend_right = plot_right as i64 + beside;
+        self.draw_legend(&mut canvas, legend_right, TOP);
         canvas
     }
 
-    fn draw_legend(&self, canvas: &mut Canvas, right: i64, top: i64) {
+    fn legend_entries(&self) -> Vec<(&str, Rgb)> {
         let mut entries: Vec<(&str, Rgb)> = self
             .series
             .iter()
@@ -363,15 +374,24 @@ impl Chart {
         if let Some(c) = &self.cells {
             entries.extend(c.legend.iter().map(|(l, c)| (l.as_str(), *c)));
         }
-        if entries.is_empty() {
-            return;
-        }
-        let width = entries
+        entries
+    }
+
+    fn legend_width(&self) -> i64 {
+        self.legend_entries()
             .iter()
             .map(|(l, _)| Canvas::text_width(l, 2))
             .max()
             .unwrap_or(0)
-            + 50;
+            + 50
+    }
+
+    fn draw_legend(&self, canvas: &mut Canvas, right: i64, top: i64) {
+        let entries = self.legend_entries();
+        if entries.is_empty() {
+            return;
+        }
+        let width = self.legend_width();
         let height = entries.len() as i64 * 22 + 10;
         let (x, y) = (right - width - 10, top + 10);
         canvas.fill_rect(x, y, x + width, y + height, WHITE);
@@ -428,8 +448,8 @@ mod tests {
         };
         let canvas = chart.render();
         // The midpoint of the diagonal in data space maps to the plot centre.
-        let cx = LEFT as usize + (WIDTH - (LEFT + RIGHT) as usize) / 2;
-        let cy = TOP as usize + (HEIGHT - (TOP + BOTTOM) as usize) / 2;
+        let cx = LEFT as usize + PLOT_WIDTH as usize / 2;
+        let cy = TOP as usize + PLOT_HEIGHT as usize / 2;
         assert_eq!(canvas.pixel(cx, cy), PALETTE[1]);
         // The opposite corner region stays background.
         assert_eq!(canvas.pixel(cx + 100, cy + 100), WHITE);

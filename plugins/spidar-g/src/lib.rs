@@ -21,6 +21,10 @@ const UPPER_KNOTS: [[f64; 3]; 4] = [
     [-0.0159, 0.0, -0.0159],
     [0.0, 0.0225, 0.0],
 ];
+/// Torque-row weight: 1/r² for the grip radius r = 0.0225 m, so a torque error counts like the
+/// force error at the knots that would cause it (eq. 3.16 with every row weighted 1 would
+/// all but ignore torques of a few N·cm).
+const TORQUE_WEIGHT: f64 = 1.0 / (0.0225 * 0.0225);
 /// String length per encoder count, metres.
 const METRES_PER_PULSE: f64 = 1.66555e-5;
 /// Amplifier volts per newton of the maxon motor on an 8 mm pulley.
@@ -32,7 +36,7 @@ fn build() -> MechanismSpec {
     let lower = upper.clone().map(|(m, k)| (mirror(m), mirror(k)));
     MechanismSpec {
         lambda: 0.001,
-        torque_weight: 1.0,
+        torque_weight: TORQUE_WEIGHT,
         effectors: vec![HapticdEffector::new("grip", 6)],
         strings: upper
             .chain(lower)

@@ -136,7 +136,7 @@ pub struct SweepArgs {
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true, default_value = "5,5,5")]
     force: Numbers,
     /// λ values to compare.
-    #[arg(long, value_parser = parse_numbers, default_value = "0,0.001,0.01,0.1")]
+    #[arg(long, value_parser = parse_numbers, default_value = "0,0.01,0.05,0.2")]
     lambdas: Numbers,
     /// Path start x,y,z (default: the frame's lower diagonal corner, slightly outside).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
@@ -580,6 +580,7 @@ fn workspace(catalog: &Catalog, args: &WorkspaceArgs) -> Result<(), Failure> {
                 ("partial".into(), partial),
             ],
         }),
+        equal_aspect: true,
         ..Chart::default()
     };
     save(&chart, &args.plot)?;
