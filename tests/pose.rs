@@ -5,6 +5,7 @@ mod support;
 
 use glam::{DQuat, DVec3};
 use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use hapticd::solver::calibration::{calibration_lengths, lengths_from_counts, offsets};
 use hapticd::solver::geometry::StringGeometry;
 use hapticd::solver::pose::PoseSolver;
 use support::{Rng, pose_inside, shipped_mechanisms};
@@ -89,6 +90,20 @@ fn pseudo_inverse_norm_bound(g: &StringGeometry) -> f64 {
         }
     }
     (0..n).map(|i| m[i][n + i]).sum::<f64>().sqrt()
+}
+
+/// First-order bound on the pose error (metres and radians together) when every length is
+/// off by at most half an encoder count: ‖W⁺‖₂ · √m · mpp / 2.
+fn resolution_bound(m: &Mechanism, index: usize, pose: &Pose) -> f64 {
+    let strings = &m.effectors[index].strings;
+    let mpp_max = strings
+        .iter()
+        .map(|&s| m.strings[s].metres_per_pulse.abs())
+        .fold(0.0, f64::max);
+    pseudo_inverse_norm_bound(&StringGeometry::at(&m.kinematics(index), pose))
+        * (strings.len() as f64).sqrt()
+        * mpp_max
+        / 2.0
 }
 
 #[test]
@@ -176,4 +191,61 @@ fn zero_iterations_leave_the_error_of_the_move() {
     let mut solver = PoseSolver::new(m.kinematics(0), previous);
     let estimate = solver.solve(&lengths_at(m, 0, &now), 0);
     assert!((errors(&estimate.pose, &now).0 - 1e-3).abs() < 1e-12);
+}
+
+#[test]
+fn calibrated_encoder_counts_track_the_grip() {
+    let mut rng = Rng::new(4);
+    for mut m in shipped_mechanisms() {
+        for reversed in [false, true] {
+            if reversed {
+                // Encoders wired to count backwards: a negative metres-per-pulse undoes it.
+                for s in &mut m.strings {
+                    s.metres_per_pulse = -s.metres_per_pulse;
+                }
+            }
+            // Whatever the counters read at power-on, calibration anchors them.
+            let at_power_on: Vec<i64> = (0..m.strings.len() as i64)
+                .map(|i| (i * 7919) % 5000 - 2500)
+                .collect();
+            let offsets = offsets(&m, &at_power_on);
+            let calibration_lengths = calibration_lengths(&m);
+            for index in 0..m.effectors.len() {
+                let truth = pose_inside(&m, index, &mut rng);
+                // What the encoders read once the grip has moved to `truth`.
+                let counts: Vec<i64> = m
+                    .strings
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| {
+                        let pose = if s.effector == index {
+                            truth
+                        } else {
+                            m.effectors[s.effector].calibration
+                        };
+                        let length = (s.motor - pose.transform_point(s.knot)).length();
+                        at_power_on[i]
+                            + ((length - calibration_lengths[i]) / s.metres_per_pulse).round()
+                                as i64
+                    })
+                    .collect();
+                let mut lengths = vec![0.0; m.strings.len()];
+                lengths_from_counts(&m.strings, &offsets, &counts, &mut lengths);
+                let own: Vec<f64> = m.effectors[index]
+                    .strings
+                    .iter()
+                    .map(|&s| lengths[s])
+                    .collect();
+                let mut solver =
+                    PoseSolver::new(m.kinematics(index), m.effectors[index].calibration);
+                let estimate = solver.solve(&own, 20);
+                let (d, r) = errors(&estimate.pose, &truth);
+                assert!(
+                    d < 2e-4 && r < 2e-2,
+                    "{} reversed={reversed}: {d:.2e} m, {r:.2e} rad",
+                    m.name
+                );
+            }
+        }
+    }
 }
