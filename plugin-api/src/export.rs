@@ -88,7 +88,7 @@ fn install_panic_hook() {
 }
 
 /// Run `f`, turning a panic into [`HAPTICD_ERROR_PANIC`] (the hook has logged it).
-pub fn guard(f: impl FnOnce() -> i32) -> i32 {
+fn guard(f: impl FnOnce() -> i32) -> i32 {
     catch_unwind(AssertUnwindSafe(f)).unwrap_or(HAPTICD_ERROR_PANIC)
 }
 
