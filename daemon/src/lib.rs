@@ -5,6 +5,7 @@
 //! - [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //! - [`plot`]: PNG line charts for experiments and `hapticctl`.
 
+pub mod device;
 pub mod mechanism;
 pub mod plot;
 pub mod plugin;

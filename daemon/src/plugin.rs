@@ -136,8 +136,9 @@ unsafe extern "C" fn host_log(
 /// [any] Host clock service: CLOCK_MONOTONIC in nanoseconds.
 unsafe extern "C" fn host_now_ns(_context: *mut c_void) -> u64 {
     // CLOCK_MONOTONIC cannot fail; a panic here would abort through the C frame.
-    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
-        .map_or(0, |now| now.tv_sec() as u64 * 1_000_000_000 + now.tv_nsec() as u64)
+    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC).map_or(0, |now| {
+        now.tv_sec() as u64 * 1_000_000_000 + now.tv_nsec() as u64
+    })
 }
 
 /// Check, open and negotiate with the plugin at `path`.
