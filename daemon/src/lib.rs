@@ -9,4 +9,5 @@ pub mod device;
 pub mod mechanism;
 pub mod plot;
 pub mod plugin;
+pub mod sim;
 pub mod solver;

@@ -7,6 +7,7 @@
 pub mod counter;
 pub mod sh4;
 pub mod simple;
+pub mod transport;
 
 /// Cyverse's USB vendor ID.
 pub const CYVERSE_VENDOR: u16 = 0x0CEC;
@@ -67,9 +68,10 @@ pub struct Reading {
 }
 
 /// D/A value for `tension` newtons on a motor of `volts_per_newton`, saturated to the
-/// converter's range.
+/// converter's range. Truncated toward zero, so quantisation never raises a tension above
+/// what was asked (and so never above a limit).
 pub fn dac_for_tension(tension: f64, volts_per_newton: f64) -> i16 {
-    let digits = (tension * volts_per_newton * DAC_DIGITS_PER_VOLT).round();
+    let digits = (tension * volts_per_newton * DAC_DIGITS_PER_VOLT).trunc();
     digits.clamp(i16::MIN as f64, i16::MAX as f64) as i16
 }
 
@@ -84,11 +86,11 @@ mod tests {
 
     #[test]
     fn dac_scaling_follows_the_amplifier_constants() {
-        // 20 N on the 8 mm pulley motor: 20 × 0.3653 V/N × 415 digits/V = 3032 digits.
-        assert_eq!(dac_for_tension(20.0, 0.3653), 3032);
+        // 20 N on the 8 mm pulley motor: 20 × 0.3653 V/N × 415 digits/V = 3031.99 digits.
+        assert_eq!(dac_for_tension(20.0, 0.3653), 3031);
+        assert!(tension_for_dac(3031, 0.3653) <= 20.0);
         // A reversed motor (negative V/N) gets a negative value.
-        assert_eq!(dac_for_tension(1.0, -0.5776), -240);
-        assert!((tension_for_dac(3032, 0.3653) - 20.0).abs() < 0.01);
+        assert_eq!(dac_for_tension(1.0, -0.5776), -239);
         assert_eq!(dac_for_tension(1e9, 0.3653), i16::MAX);
     }
 }

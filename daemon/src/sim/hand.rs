@@ -1,0 +1,289 @@
+//! The simulated hand's script: where the hand wants each grip to be, and what else it does.
+//!
+//! ```yaml
+//! hands:
+//!   grip:                                   # an effector of the mechanism
+//!     - hold: { at: [0, 0.02, 0], seconds: 0.5 }
+//!     - move: { to: [0, -0.04, 0], seconds: 0.5 }
+//!     - push: { force: [0, -4, 0], seconds: 1 }
+//!     - shake: { amplitude: [0.01, 0, 0], frequency: 5, seconds: 2 }
+//!     - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 1, 0], period: 4, seconds: 4 }
+//!     - unplug: { seconds: 0.3 }            # the device disappears, then returns
+//! ```
+//!
+//! Steps run one after another; after the last one the hand holds still. `move`, `shake`
+//! and `trace` start from where the previous step left the target.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::DVec3;
+use serde::Deserialize;
+
+/// One step of a hand's script.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Step {
+    /// Hold still, at `at` if given (a jump) or where the target is.
+    Hold {
+        /// Where to hold, metres.
+        #[serde(default)]
+        at: Option<[f64; 3]>,
+        /// For how long.
+        seconds: f64,
+    },
+    /// Move in a straight line at constant speed.
+    Move {
+        /// Destination, metres.
+        to: [f64; 3],
+        /// Duration.
+        seconds: f64,
+    },
+    /// Hold the target and push with an extra force.
+    Push {
+        /// Force, newtons.
+        force: [f64; 3],
+        /// Duration.
+        seconds: f64,
+    },
+    /// Oscillate sinusoidally around the target.
+    Shake {
+        /// Peak displacement per axis, metres.
+        amplitude: [f64; 3],
+        /// Frequency, hertz.
+        frequency: f64,
+        /// Duration.
+        seconds: f64,
+    },
+    /// Go round a circle, starting at the point nearest the current target.
+    Trace {
+        /// Circle centre.
+        centre: [f64; 3],
+        /// Radius, metres.
+        radius: f64,
+        /// Normal of the circle's plane.
+        normal: [f64; 3],
+        /// Seconds per turn.
+        period: f64,
+        /// Duration.
+        seconds: f64,
+    },
+    /// The device disappears for a while (unplugged), then returns.
+    Unplug {
+        /// Duration.
+        seconds: f64,
+    },
+}
+
+impl Step {
+    fn seconds(&self) -> f64 {
+        match *self {
+            Step::Hold { seconds, .. }
+            | Step::Move { seconds, .. }
+            | Step::Push { seconds, .. }
+            | Step::Shake { seconds, .. }
+            | Step::Trace { seconds, .. }
+            | Step::Unplug { seconds } => seconds,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScript {
+    hands: BTreeMap<String, Vec<Step>>,
+}
+
+/// Scripts for the hands, by effector name.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Script {
+    /// Steps of each effector's hand.
+    pub hands: BTreeMap<String, Vec<Step>>,
+}
+
+impl Script {
+    /// Load a script file.
+    pub fn load(path: &Path) -> Result<Script, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        Script::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Parse script text.
+    pub fn parse(text: &str) -> Result<Script, String> {
+        let raw: RawScript = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
+        for (name, steps) in &raw.hands {
+            for (i, step) in steps.iter().enumerate() {
+                if !(step.seconds().is_finite() && step.seconds() >= 0.0) {
+                    return Err(format!(
+                        "hands.{name}[{i}]: seconds must be a finite number ≥ 0"
+                    ));
+                }
+            }
+        }
+        Ok(Script { hands: raw.hands })
+    }
+}
+
+/// What a hand does at one instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HandCommand {
+    /// Where the hand wants the grip.
+    pub target: DVec3,
+    /// Velocity of that target.
+    pub velocity: DVec3,
+    /// Extra force the hand pushes with.
+    pub push: DVec3,
+    /// Whether the device is unplugged now.
+    pub unplugged: bool,
+}
+
+/// One hand's script, evaluated in simulated time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandTrack {
+    steps: Vec<Step>,
+    /// Target at the start of each step (the end of the previous one).
+    starts: Vec<DVec3>,
+}
+
+impl HandTrack {
+    /// A track starting at `start`.
+    pub fn new(start: DVec3, steps: Vec<Step>) -> Self {
+        let mut starts = Vec::with_capacity(steps.len() + 1);
+        let mut at = start;
+        for step in &steps {
+            starts.push(at);
+            at = Self::end_of(step, at);
+        }
+        starts.push(at);
+        Self { steps, starts }
+    }
+
+    fn end_of(step: &Step, start: DVec3) -> DVec3 {
+        match *step {
+            Step::Hold { at, .. } => at.map_or(start, DVec3::from),
+            Step::Move { to, .. } => DVec3::from(to),
+            Step::Trace { .. } => Self::trace_at(step, start, step.seconds()).0,
+            _ => start,
+        }
+    }
+
+    fn trace_at(step: &Step, start: DVec3, t: f64) -> (DVec3, DVec3) {
+        let Step::Trace {
+            centre,
+            radius,
+            normal,
+            period,
+            ..
+        } = *step
+        else {
+            return (start, DVec3::ZERO);
+        };
+        let (centre, normal) = (DVec3::from(centre), DVec3::from(normal).normalize());
+        let mut u = (start - centre).reject_from(normal);
+        if u.length() < 1e-9 {
+            u = normal.any_orthonormal_vector();
+        }
+        let u = u.normalize();
+        let v = normal.cross(u);
+        let w = std::f64::consts::TAU / period;
+        let (s, c) = (w * t).sin_cos();
+        (
+            centre + radius * (c * u + s * v),
+            radius * w * (-s * u + c * v),
+        )
+    }
+
+    /// The hand's command `t` seconds after the script started.
+    pub fn at(&self, t: f64) -> HandCommand {
+        let mut begin = 0.0;
+        for (step, &start) in self.steps.iter().zip(&self.starts) {
+            let end = begin + step.seconds();
+            if t < end {
+                return Self::during(step, start, t - begin);
+            }
+            begin = end;
+        }
+        HandCommand {
+            target: *self.starts.last().expect("starts has steps + 1 entries"),
+            velocity: DVec3::ZERO,
+            push: DVec3::ZERO,
+            unplugged: false,
+        }
+    }
+
+    fn during(step: &Step, start: DVec3, t: f64) -> HandCommand {
+        let mut c = HandCommand {
+            target: start,
+            velocity: DVec3::ZERO,
+            push: DVec3::ZERO,
+            unplugged: false,
+        };
+        match *step {
+            Step::Hold { at, .. } => c.target = at.map_or(start, DVec3::from),
+            Step::Move { to, seconds } => {
+                let velocity = (DVec3::from(to) - start) / seconds.max(f64::EPSILON);
+                c.target = start + velocity * t;
+                c.velocity = velocity;
+            }
+            Step::Push { force, .. } => c.push = DVec3::from(force),
+            Step::Shake {
+                amplitude,
+                frequency,
+                ..
+            } => {
+                let w = std::f64::consts::TAU * frequency;
+                c.target = start + DVec3::from(amplitude) * (w * t).sin();
+                c.velocity = DVec3::from(amplitude) * w * (w * t).cos();
+            }
+            Step::Trace { .. } => (c.target, c.velocity) = Self::trace_at(step, start, t),
+            Step::Unplug { .. } => c.unplugged = true,
+        }
+        c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_follow_one_another() {
+        let script = Script::parse(
+            "hands:\n  grip:\n    - hold: { at: [0, 0.02, 0], seconds: 0.5 }\n    - move: { to: [0, -0.02, 0], seconds: 1 }\n    - push: { force: [0, -4, 0], seconds: 1 }\n    - unplug: { seconds: 0.5 }\n",
+        )
+        .unwrap();
+        let track = HandTrack::new(DVec3::ZERO, script.hands["grip"].clone());
+        assert_eq!(track.at(0.2).target, DVec3::new(0.0, 0.02, 0.0));
+        let mid = track.at(1.0);
+        assert!((mid.target.y - 0.0).abs() < 1e-12 && (mid.velocity.y + 0.04).abs() < 1e-12);
+        let push = track.at(2.0);
+        assert_eq!((push.target.y, push.push.y), (-0.02, -4.0));
+        assert!(track.at(2.7).unplugged && !track.at(3.1).unplugged);
+        assert_eq!(track.at(10.0).target, DVec3::new(0.0, -0.02, 0.0));
+    }
+
+    #[test]
+    fn a_trace_goes_round_its_circle() {
+        let step = Step::Trace {
+            centre: [0.0; 3],
+            radius: 0.1,
+            normal: [0.0, 1.0, 0.0],
+            period: 4.0,
+            seconds: 4.0,
+        };
+        let track = HandTrack::new(DVec3::new(0.1, 0.0, 0.0), vec![step]);
+        for t in [0.0, 0.7, 1.9, 3.3] {
+            let c = track.at(t);
+            assert!((c.target.length() - 0.1).abs() < 1e-12);
+            assert!((c.velocity.length() - 0.1 * std::f64::consts::TAU / 4.0).abs() < 1e-12);
+        }
+        assert!((track.at(4.0).target - DVec3::new(0.1, 0.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn bad_scripts_are_refused() {
+        assert!(Script::parse("hands:\n  grip:\n    - wave: { seconds: 1 }\n").is_err());
+        assert!(Script::parse("hands:\n  grip:\n    - hold: { seconds: -1 }\n").is_err());
+    }
+}
