@@ -6,6 +6,7 @@
 //! - [`plot`]: PNG line charts for experiments and `hapticctl`.
 
 pub mod device;
+pub mod haptics;
 pub mod mechanism;
 pub mod plot;
 pub mod plugin;

@@ -1,0 +1,91 @@
+//! Time-domain passivity observer and controller (Hannaford & Ryu, 2002) on one port.
+//!
+//! The observer sums the energy the user has put into the virtual world through this port,
+//! E = Σ −f·v·T (f: force on the hand, v: grip velocity). A passive world never returns more
+//! than it received, so E stays non-negative; when a stiff contact, a delay or a sampling
+//! artefact would make it negative, the controller adds just enough damping this tick to
+//! dissipate the excess. It is a safety net under every rendering method, not a substitute
+//! for choosing stable gains.
+
+use glam::DVec3;
+
+/// Passivity observer and controller of one effector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassivityController {
+    energy: f64,
+    max_damping: f64,
+    max_credit: f64,
+    dissipated: f64,
+}
+
+impl PassivityController {
+    /// A controller that adds at most `max_damping` N·s/m in one tick and lets at most
+    /// `max_credit` joules of dissipated energy be returned later.
+    pub fn new(max_damping: f64, max_credit: f64) -> Self {
+        Self {
+            energy: 0.0,
+            max_damping,
+            max_credit,
+            dissipated: 0.0,
+        }
+    }
+
+    /// Observed energy balance, joules (non-negative when passive).
+    pub fn energy(&self) -> f64 {
+        self.energy
+    }
+
+    /// Total energy the controller has removed, joules.
+    pub fn dissipated(&self) -> f64 {
+        self.dissipated
+    }
+
+    /// Forget the balance (after a fault, a scene change).
+    pub fn reset(&mut self) {
+        self.energy = 0.0;
+    }
+
+    /// The force to display instead of `force`, for grip velocity `velocity` over `dt`.
+    pub fn filter(&mut self, force: DVec3, velocity: DVec3, dt: f64) -> DVec3 {
+        self.energy = (self.energy - force.dot(velocity) * dt).min(self.max_credit);
+        let speed2 = velocity.length_squared();
+        if self.energy >= 0.0 || speed2 < 1e-12 {
+            return force;
+        }
+        let alpha = (-self.energy / (dt * speed2)).min(self.max_damping);
+        let removed = alpha * speed2 * dt;
+        self.energy += removed;
+        self.dissipated += removed;
+        force - alpha * velocity
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_damper_passes_unchanged() {
+        let mut pc = PassivityController::new(100.0, 1.0);
+        for k in 0..1000 {
+            let v = DVec3::new((k as f64 * 0.01).sin(), 0.0, 0.0);
+            let f = -5.0 * v;
+            assert_eq!(pc.filter(f, v, 1e-3), f);
+        }
+        assert!(pc.energy() > 0.0 && pc.dissipated() == 0.0);
+    }
+
+    #[test]
+    fn an_active_element_is_made_passive() {
+        // A negative damper pushes the hand along its motion: energy out of nowhere.
+        let mut pc = PassivityController::new(1e6, 1.0);
+        let mut net = 0.0;
+        for k in 0..1000 {
+            let v = DVec3::new(0.1 + 0.05 * (k as f64 * 0.02).sin(), 0.0, 0.0);
+            let f = pc.filter(3.0 * v, v, 1e-3);
+            net -= f.dot(v) * 1e-3;
+            assert!(net >= -1e-12, "the world gave back {net} J");
+        }
+        assert!(pc.dissipated() > 0.0);
+    }
+}

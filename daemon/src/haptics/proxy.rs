@@ -1,0 +1,405 @@
+//! The god-object (proxy) of thesis 4.1.1: a massless point that never enters a solid and
+//! moves toward the grip under Coulomb friction. The force shown to the user is a
+//! spring-damper between proxy and grip, so it always points out of the surface touched.
+//!
+//! Each tick the proxy walks toward the grip; when its path enters a shape, the entry's
+//! tangent plane becomes a constraint and the walk continues toward the point of the
+//! constrained set closest to the grip. Up to three planes are kept, which covers faces,
+//! edges and corners. Friction then decides how much of that frictionless motion happens:
+//! stuck while the grip stays inside the static friction cone (angle atan μ0), sliding so as
+//! to stay on the dynamic cone (atan μ) otherwise, and stuck again once sliding stops.
+
+use glam::DVec3;
+
+use super::obstacle::Shape;
+use crate::solver::linalg::{ldlt_factor, ldlt_solve};
+
+/// Most constraint planes at once (a corner).
+const MAX_PLANES: usize = 3;
+/// Most walk segments per tick.
+const MAX_WALKS: usize = 6;
+/// Grip-to-proxy distance under which there is no contact force, metres.
+const CONTACT: f64 = 1e-9;
+
+/// Parameters of the proxy's coupling and friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProxyParameters {
+    /// Spring between proxy and grip, N/m.
+    pub stiffness: f64,
+    /// Damper between proxy and grip, N·s/m.
+    pub damping: f64,
+    /// Static friction coefficient μ0.
+    pub static_friction: f64,
+    /// Dynamic friction coefficient μ (≤ μ0).
+    pub dynamic_friction: f64,
+}
+
+impl Default for ProxyParameters {
+    fn default() -> Self {
+        Self {
+            stiffness: 2_000.0,
+            damping: 5.0,
+            static_friction: 0.3,
+            dynamic_friction: 0.2,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Plane {
+    point: DVec3,
+    normal: DVec3,
+}
+
+impl Plane {
+    fn distance(&self, p: DVec3) -> f64 {
+        (p - self.point).dot(self.normal)
+    }
+}
+
+/// The proxy of one effector.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Proxy {
+    position: DVec3,
+    velocity: DVec3,
+    sliding: bool,
+    in_contact: bool,
+}
+
+/// What the proxy renders this tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProxyOutput {
+    /// Force on the user's hand, newtons.
+    pub force: DVec3,
+    /// Proxy position.
+    pub proxy: DVec3,
+    /// Whether the proxy touches a surface.
+    pub in_contact: bool,
+    /// Whether it is sliding (dynamic friction).
+    pub sliding: bool,
+}
+
+/// The point of {x : planes[i] · x ≥ 0 for all i} closest to `goal`, for up to three planes:
+/// every subset of planes is tried as equalities; the one whose multipliers are all
+/// non-negative and whose point violates no other plane is the optimum.
+fn closest_feasible(goal: DVec3, planes: &[Plane]) -> DVec3 {
+    let n = planes.len();
+    let mut best: Option<(f64, DVec3)> = None;
+    for mask in 0u32..(1 << n) {
+        let mut active = [0; MAX_PLANES];
+        let mut k = 0;
+        for i in (0..n).filter(|i| mask & (1 << i) != 0) {
+            active[k] = i;
+            k += 1;
+        }
+        // Solve (N Nᵀ) λ = −(N goal − d) for x = goal + Nᵀλ on the active planes; a
+        // singular Gram matrix (parallel planes) means the subset is redundant.
+        let mut a = [[0.0; MAX_PLANES]; MAX_PLANES];
+        let mut lambda = [0.0; MAX_PLANES];
+        for r in 0..k {
+            let pr = planes[active[r]];
+            for c in 0..k {
+                a[r][c] = pr.normal.dot(planes[active[c]].normal);
+            }
+            lambda[r] = -pr.distance(goal);
+        }
+        if !ldlt_factor(&mut a, k, 1e-9) {
+            continue;
+        }
+        ldlt_solve(&a, k, &mut lambda);
+        if lambda[..k].iter().any(|l| *l < -1e-12) {
+            continue;
+        }
+        let mut x = goal;
+        for r in 0..k {
+            x += planes[active[r]].normal * lambda[r];
+        }
+        if planes.iter().any(|p| p.distance(x) < -1e-9) {
+            continue;
+        }
+        let d = (x - goal).length_squared();
+        if best.is_none_or(|(bd, _)| d < bd) {
+            best = Some((d, x));
+        }
+    }
+    best.map_or(goal, |(_, x)| x)
+}
+
+impl Proxy {
+    /// A proxy at `position`, free.
+    pub fn new(position: DVec3) -> Self {
+        Self {
+            position,
+            velocity: DVec3::ZERO,
+            sliding: false,
+            in_contact: false,
+        }
+    }
+
+    /// Where the proxy is.
+    pub fn position(&self) -> DVec3 {
+        self.position
+    }
+
+    /// Put the proxy at `position`, free (after a scene change or a fault).
+    pub fn reset(&mut self, position: DVec3) {
+        *self = Self::new(position);
+    }
+
+    /// Move toward the grip at `grip` (velocity `grip_velocity`) among `shapes`, and return
+    /// the force to render. `dt` is the tick period.
+    pub fn update(
+        &mut self,
+        grip: DVec3,
+        grip_velocity: DVec3,
+        shapes: &[Shape],
+        parameters: &ProxyParameters,
+        dt: f64,
+    ) -> ProxyOutput {
+        let previous = self.position;
+        let mut planes = [Plane {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+        }; MAX_PLANES];
+        let mut count = 0;
+        let mut position = previous;
+        let mut met = None;
+        for _ in 0..MAX_WALKS {
+            let target = closest_feasible(grip, &planes[..count]);
+            let hit = shapes
+                .iter()
+                .filter_map(|s| s.entry(position, target))
+                .min_by(|a, b| a.t.total_cmp(&b.t));
+            let Some(e) = hit else {
+                position = target;
+                break;
+            };
+            position = e.point;
+            met.get_or_insert(e.point);
+            if count == MAX_PLANES {
+                break;
+            }
+            planes[count] = Plane {
+                point: e.point,
+                normal: e.normal,
+            };
+            count += 1;
+        }
+        let in_contact = count > 0 && (grip - position).length() > CONTACT;
+        if in_contact {
+            // Friction holds the proxy where it was, or where it met the surface this tick.
+            let anchor = if self.in_contact {
+                previous
+            } else {
+                met.unwrap_or(position)
+            };
+            position = self.apply_friction(anchor, position, grip, &planes[..count], parameters);
+        } else {
+            self.sliding = false;
+        }
+        self.velocity = (position - previous) / dt;
+        self.position = position;
+        self.in_contact = in_contact;
+        let force = if in_contact {
+            parameters.stiffness * (position - grip)
+                + parameters.damping * (self.velocity - grip_velocity)
+        } else {
+            DVec3::ZERO
+        };
+        ProxyOutput {
+            force,
+            proxy: position,
+            in_contact,
+            sliding: self.sliding,
+        }
+    }
+
+    /// Coulomb friction on the frictionless proxy position `free`: stay at `anchor` while
+    /// the grip is inside the friction cone, else slide to the cone's edge.
+    fn apply_friction(
+        &mut self,
+        anchor: DVec3,
+        free: DVec3,
+        grip: DVec3,
+        planes: &[Plane],
+        parameters: &ProxyParameters,
+    ) -> DVec3 {
+        // The anchor must lie on the constraint set (not across an edge just passed).
+        let on_surface = planes.iter().all(|p| p.distance(anchor) >= -1e-9)
+            && planes.iter().any(|p| p.distance(anchor).abs() <= 1e-7);
+        if !on_surface {
+            self.sliding = false;
+            return free;
+        }
+        let depth = (free - grip).length();
+        let slip = (anchor - free).length();
+        let mu = if self.sliding {
+            parameters.dynamic_friction
+        } else {
+            parameters.static_friction
+        };
+        if slip <= mu * depth {
+            self.sliding = false;
+            return anchor;
+        }
+        self.sliding = true;
+        free + (anchor - free) * (parameters.dynamic_friction * depth / slip)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 1e-3;
+
+    fn floor() -> Shape {
+        Shape::HalfSpace {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+        }
+    }
+
+    fn frictionless() -> ProxyParameters {
+        ProxyParameters {
+            stiffness: 1000.0,
+            damping: 0.0,
+            static_friction: 0.0,
+            dynamic_friction: 0.0,
+        }
+    }
+
+    #[test]
+    fn free_space_gives_no_force() {
+        let mut p = Proxy::new(DVec3::new(0.0, 0.1, 0.0));
+        let out = p.update(
+            DVec3::new(0.01, 0.05, 0.0),
+            DVec3::ZERO,
+            &[floor()],
+            &frictionless(),
+            DT,
+        );
+        assert_eq!(out.force, DVec3::ZERO);
+        assert_eq!(out.proxy, DVec3::new(0.01, 0.05, 0.0));
+    }
+
+    #[test]
+    fn a_floor_pushes_back_in_proportion_to_depth() {
+        let mut p = Proxy::new(DVec3::new(0.0, 0.01, 0.0));
+        let out = p.update(
+            DVec3::new(0.02, -0.003, 0.0),
+            DVec3::ZERO,
+            &[floor()],
+            &frictionless(),
+            DT,
+        );
+        assert!(
+            (out.proxy - DVec3::new(0.02, 0.0, 0.0)).length() < 1e-9,
+            "{}",
+            out.proxy
+        );
+        assert!(
+            (out.force - DVec3::new(0.0, 3.0, 0.0)).length() < 1e-6,
+            "{}",
+            out.force
+        );
+    }
+
+    #[test]
+    fn the_proxy_never_passes_through_a_thin_sphere_or_box_corner() {
+        let shapes = [
+            Shape::Sphere {
+                centre: DVec3::ZERO,
+                radius: 0.02,
+            },
+            Shape::Cuboid {
+                centre: DVec3::new(0.1, 0.0, 0.0),
+                half: DVec3::splat(0.02),
+                rotation: glam::DQuat::IDENTITY,
+            },
+        ];
+        let mut p = Proxy::new(DVec3::new(0.0, 0.05, 0.0));
+        // The grip sweeps straight through both solids.
+        for i in 0..400 {
+            let x = -0.05 + 0.2 * i as f64 / 400.0;
+            let grip = DVec3::new(x, 0.0, 0.005);
+            let out = p.update(grip, DVec3::ZERO, &shapes, &frictionless(), DT);
+            for s in &shapes {
+                assert!(
+                    s.signed_distance(out.proxy) > -1e-9,
+                    "inside at x = {x}: {}",
+                    out.proxy
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_corner_holds_the_proxy_on_three_faces() {
+        let cube = Shape::Cuboid {
+            centre: DVec3::ZERO,
+            half: DVec3::splat(0.05),
+            rotation: glam::DQuat::IDENTITY,
+        };
+        let mut p = Proxy::new(DVec3::splat(0.08));
+        // Approach the corner along the diagonal, then push in.
+        for i in 0..100 {
+            let grip = DVec3::splat(0.08 - 0.05 * i as f64 / 100.0);
+            let out = p.update(grip, DVec3::ZERO, &[cube], &frictionless(), DT);
+            assert!(cube.signed_distance(out.proxy) > -1e-9);
+        }
+        assert!(
+            (p.position() - DVec3::splat(0.05)).length() < 1e-6,
+            "{}",
+            p.position()
+        );
+    }
+
+    #[test]
+    fn friction_sticks_inside_the_cone_and_slides_on_it_outside() {
+        let parameters = ProxyParameters {
+            stiffness: 1000.0,
+            damping: 0.0,
+            static_friction: 0.5,
+            dynamic_friction: 0.3,
+        };
+        let mut p = Proxy::new(DVec3::new(0.0, 0.01, 0.0));
+        p.update(
+            DVec3::new(0.0, -0.01, 0.0),
+            DVec3::ZERO,
+            &[floor()],
+            &parameters,
+            DT,
+        );
+        // 10 mm deep; sideways by 4 mm: tangential 4 N ≤ 0.5 · 10 N, the proxy stays.
+        let out = p.update(
+            DVec3::new(0.004, -0.01, 0.0),
+            DVec3::ZERO,
+            &[floor()],
+            &parameters,
+            DT,
+        );
+        assert!(!out.sliding && out.proxy.x.abs() < 1e-9);
+        assert!((out.force.x + 4.0).abs() < 1e-6);
+        // Sideways by 8 mm: beyond μ0; it slides to the dynamic cone, 3 mm behind the grip.
+        let out = p.update(
+            DVec3::new(0.008, -0.01, 0.0),
+            DVec3::ZERO,
+            &[floor()],
+            &parameters,
+            DT,
+        );
+        assert!(out.sliding, "{out:?}");
+        assert!((out.proxy.x - 0.005).abs() < 1e-9, "{}", out.proxy);
+        assert!((out.force.x + 3.0).abs() < 1e-6 && (out.force.y - 10.0).abs() < 1e-6);
+        // The grip stops: the proxy stays 3 mm behind, inside the dynamic cone, and sticks.
+        let out = p.update(
+            DVec3::new(0.008, -0.01, 0.0),
+            DVec3::ZERO,
+            &[floor()],
+            &parameters,
+            DT,
+        );
+        assert!(!out.sliding && (out.proxy.x - 0.005).abs() < 1e-9);
+    }
+}
