@@ -10,5 +10,7 @@ pub mod haptics;
 pub mod mechanism;
 pub mod plot;
 pub mod plugin;
+pub mod runtime;
+pub mod scene;
 pub mod sim;
 pub mod solver;

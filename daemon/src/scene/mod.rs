@@ -1,0 +1,32 @@
+//! Scenes: what the user touches. A scene turns the pointers' motion (one pointer per end
+//! effector) into the wrench each one should feel.
+//!
+//! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy.
+
+pub mod static_scene;
+
+use glam::DVec3;
+
+use crate::mechanism::Pose;
+
+/// One pointer as the scene sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pointer {
+    /// Grip pose.
+    pub pose: Pose,
+    /// Grip velocity, m/s.
+    pub velocity: DVec3,
+}
+
+/// A world the haptic loop renders.
+pub trait Scene: Send {
+    /// [main] The scene's name.
+    fn name(&self) -> &str;
+
+    /// [rt] The wrench (force, then torque) to present on each pointer after a tick of `dt`
+    /// seconds. `wrenches` has one slot per pointer.
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]);
+
+    /// [rt] Forget contact state (after a fault, or when the pointers jumped).
+    fn reset(&mut self, pointers: &[Pointer]);
+}
