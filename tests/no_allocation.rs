@@ -5,7 +5,6 @@ mod support;
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::DVec3;
 use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
@@ -13,22 +12,26 @@ use hapticd::solver::calibration::{lengths_from_counts, offsets};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::pose::PoseSolver;
 use hapticd::solver::tension::TensionSolver;
-use support::{Rng, pose_inside, shipped_mechanisms};
+use support::{Rng, pose_inside, shipped_mechanisms, simulated_loop};
 
 struct Counting;
 
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
 thread_local! {
+    // Per thread, so tests running in parallel do not count each other's allocations.
     static WATCHING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count_if_watching() {
+    if WATCHING.with(Cell::get) {
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+    }
 }
 
 // SAFETY: forwards to the system allocator unchanged; only counts.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if WATCHING.with(Cell::get) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
+        count_if_watching();
         // SAFETY: same contract as ours.
         unsafe { System.alloc(layout) }
     }
@@ -39,9 +42,7 @@ unsafe impl GlobalAlloc for Counting {
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if WATCHING.with(Cell::get) {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
+        count_if_watching();
         // SAFETY: same contract as ours.
         unsafe { System.realloc(ptr, layout, new_size) }
     }
@@ -52,11 +53,11 @@ static GLOBAL: Counting = Counting;
 
 /// Allocations made by `f` on this thread.
 fn allocations_in(f: impl FnOnce()) -> usize {
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = ALLOCATIONS.with(Cell::get);
     WATCHING.with(|w| w.set(true));
     f();
     WATCHING.with(|w| w.set(false));
-    ALLOCATIONS.load(Ordering::Relaxed) - before
+    ALLOCATIONS.with(Cell::get) - before
 }
 
 #[test]
@@ -97,5 +98,20 @@ fn pose_tension_calibration_and_closure_do_not_allocate() {
             });
             assert_eq!(n, 0, "{} effector {index}: {n} allocations", m.name);
         }
+    }
+}
+
+#[test]
+fn a_haptic_loop_tick_does_not_allocate() {
+    for m in shipped_mechanisms() {
+        let script = "hands:\n  grip:\n    - move: { to: [0.01, -0.05, 0.01], seconds: 0.3 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 3, seconds: 1 }\n";
+        let mut haptic = simulated_loop(&m, script, 1e-3);
+        // Calibration (first tick), contact, sliding and release all happen in here.
+        let n = allocations_in(|| {
+            for _ in 0..1500 {
+                std::hint::black_box(haptic.tick(1e-3));
+            }
+        });
+        assert_eq!(n, 0, "{}: {n} allocations in 1500 ticks", m.name);
     }
 }

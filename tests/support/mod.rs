@@ -9,8 +9,14 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::{DQuat, DVec3};
+use hapticd::device::transport::Sh4Transport;
 use hapticd::mechanism::catalog;
 use hapticd::mechanism::{Mechanism, Pose};
+use hapticd::runtime::haptic_loop::{HapticLoop, LoopSettings};
+use hapticd::scene::Pointer;
+use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd::sim::hand::Script;
+use hapticd::sim::{SimParameters, SimulatedBoard};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::geometry::StringGeometry;
 
@@ -168,4 +174,23 @@ pub fn pose_inside(m: &Mechanism, index: usize, rng: &mut Rng) -> Pose {
 /// Where tests may create files: cargo's per-target scratch directory, inside target/.
 pub fn scratch_root() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+}
+
+/// The haptic loop of `m` on a simulated board whose hands follow `script`, rendering the
+/// shipped static scene, ticking every `dt` seconds.
+pub fn simulated_loop(m: &Mechanism, script: &str, dt: f64) -> HapticLoop {
+    let script = Script::parse(script).unwrap();
+    let board = SimulatedBoard::new(m, dt, &script, SimParameters::default());
+    let transport = Box::new(Sh4Transport::new(board, format!("sim:{}", m.name)));
+    let spec = StaticSceneSpec::load(&repo_dir().join("config/scenes/static.yaml")).unwrap();
+    let pointers: Vec<Pointer> = m
+        .effectors
+        .iter()
+        .map(|e| Pointer {
+            pose: e.calibration,
+            velocity: DVec3::ZERO,
+        })
+        .collect();
+    let scene = Box::new(StaticScene::new(spec, &pointers));
+    HapticLoop::new(m.clone(), transport, scene, LoopSettings::default()).unwrap()
 }

@@ -48,6 +48,12 @@ pub struct Pose {
     pub orientation: DQuat,
 }
 
+impl Default for Pose {
+    fn default() -> Self {
+        Pose::IDENTITY
+    }
+}
+
 impl Pose {
     /// The frame centre with identity orientation.
     pub const IDENTITY: Pose = Pose {

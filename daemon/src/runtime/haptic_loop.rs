@@ -1,0 +1,294 @@
+//! One device's haptic loop, one tick at a time:
+//!
+//! 1. one transport update: write the D/A values of the previous tick, read the counters;
+//! 2. counts → lengths → pose of each effector (two warm-started Gauss–Newton iterations);
+//! 3. the scene renders a wrench for each pointer;
+//! 4. passivity controller, then limits, NaN guard and fault ramp;
+//! 5. wrench → tensions (the box QP) → D/A values, never above a motor's limit.
+//!
+//! Everything is allocated in [`HapticLoop::new`]; a tick allocates nothing, takes no lock
+//! and makes no system call but the device I/O.
+
+use glam::DVec3;
+
+use crate::device::transport::{Transport, TransportError};
+use crate::device::{CHANNELS, Reading, dac_for_tension};
+use crate::haptics::passivity::PassivityController;
+use crate::haptics::safety::{SafetyGuard, SafetyLimits};
+use crate::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use crate::scene::{Pointer, Scene};
+use crate::solver::calibration::{lengths_from_counts, offsets_into};
+use crate::solver::pose::PoseSolver;
+use crate::solver::tension::TensionSolver;
+
+/// Most effectors a running device may have (the size of every per-tick record).
+pub const MAX_EFFECTORS: usize = 4;
+
+/// Settings of a haptic loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopSettings {
+    /// Gauss–Newton iterations per tick.
+    pub pose_iterations: usize,
+    /// Cut-off of the velocity filter, hertz.
+    pub velocity_cutoff: f64,
+    /// Force and torque limits and fault ramps.
+    pub safety: SafetyLimits,
+    /// Passivity controller: largest added damping (N·s/m) and energy credit (J).
+    pub passivity: (f64, f64),
+}
+
+impl Default for LoopSettings {
+    fn default() -> Self {
+        Self {
+            pose_iterations: 2,
+            velocity_cutoff: 200.0,
+            safety: SafetyLimits::default(),
+            passivity: (200.0, 0.05),
+        }
+    }
+}
+
+/// The device's state as the loop sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DeviceState {
+    /// Rendering forces.
+    #[default]
+    Running,
+    /// A fault drives the forces to zero (the transport error, or a non-finite wrench).
+    Fault,
+    /// The device does not answer.
+    Disconnected,
+}
+
+/// What one tick did: published to the rest of the daemon and to recordings.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Frame {
+    /// Loop time, seconds since start.
+    pub time: f64,
+    /// State after this tick.
+    pub state: DeviceState,
+    /// Last transport error, if the device is not answering.
+    pub error: Option<TransportError>,
+    /// Effectors in use.
+    pub effectors: usize,
+    /// Solved pose of each effector.
+    pub poses: [Pose; MAX_EFFECTORS],
+    /// Filtered velocity of each effector.
+    pub velocities: [DVec3; MAX_EFFECTORS],
+    /// Wrench displayed on each effector (after passivity and safety).
+    pub wrenches: [[f64; 6]; MAX_EFFECTORS],
+    /// Strings in use.
+    pub strings: usize,
+    /// Tension commanded on each string, newtons.
+    pub tensions: [f64; CHANNELS],
+    /// D/A value written next tick for each channel.
+    pub dac: [i16; CHANNELS],
+}
+
+struct EffectorLoop {
+    strings: [usize; MAX_STRINGS_PER_EFFECTOR],
+    count: usize,
+    pose: PoseSolver,
+    tension: TensionSolver,
+    passivity: PassivityController,
+    guard: SafetyGuard,
+    previous: DVec3,
+    velocity: DVec3,
+}
+
+/// The haptic loop of one device.
+pub struct HapticLoop {
+    mechanism: Mechanism,
+    transport: Box<dyn Transport>,
+    scene: Box<dyn Scene>,
+    settings: LoopSettings,
+    effectors: Vec<EffectorLoop>,
+    offsets: Vec<f64>,
+    calibrated: bool,
+    reading: Reading,
+    lengths: Vec<f64>,
+    pointers: Vec<Pointer>,
+    wrenches: Vec<[f64; 6]>,
+    frame: Frame,
+}
+
+/// Why a loop cannot be built.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LoopError(pub String);
+
+impl std::fmt::Display for LoopError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for LoopError {}
+
+impl HapticLoop {
+    /// A loop for `mechanism` on `transport`, rendering `scene`. Until calibrated, the first
+    /// reading is taken with every grip at its calibration pose.
+    pub fn new(
+        mechanism: Mechanism,
+        transport: Box<dyn Transport>,
+        scene: Box<dyn Scene>,
+        settings: LoopSettings,
+    ) -> Result<Self, LoopError> {
+        if mechanism.strings.len() > CHANNELS {
+            return Err(LoopError(format!(
+                "{} has {} strings; one amplifier board drives {CHANNELS}",
+                mechanism.name,
+                mechanism.strings.len()
+            )));
+        }
+        if mechanism.effectors.len() > MAX_EFFECTORS {
+            return Err(LoopError(format!(
+                "at most {MAX_EFFECTORS} effectors per device"
+            )));
+        }
+        let effectors: Vec<EffectorLoop> = mechanism
+            .effectors
+            .iter()
+            .enumerate()
+            .map(|(index, e)| {
+                let mut strings = [0; MAX_STRINGS_PER_EFFECTOR];
+                strings[..e.strings.len()].copy_from_slice(&e.strings);
+                EffectorLoop {
+                    strings,
+                    count: e.strings.len(),
+                    pose: PoseSolver::new(mechanism.kinematics(index), e.calibration),
+                    tension: TensionSolver::for_effector(&mechanism, index),
+                    passivity: PassivityController::new(settings.passivity.0, settings.passivity.1),
+                    guard: SafetyGuard::new(settings.safety),
+                    previous: e.calibration.position,
+                    velocity: DVec3::ZERO,
+                }
+            })
+            .collect();
+        let pointers: Vec<Pointer> = mechanism
+            .effectors
+            .iter()
+            .map(|e| Pointer {
+                pose: e.calibration,
+                velocity: DVec3::ZERO,
+            })
+            .collect();
+        let frame = Frame {
+            effectors: mechanism.effectors.len(),
+            strings: mechanism.strings.len(),
+            ..Frame::default()
+        };
+        Ok(Self {
+            offsets: vec![0.0; mechanism.strings.len()],
+            calibrated: false,
+            reading: Reading::default(),
+            lengths: vec![0.0; mechanism.strings.len()],
+            wrenches: vec![[0.0; 6]; pointers.len()],
+            pointers,
+            effectors,
+            settings,
+            mechanism,
+            transport,
+            scene,
+            frame,
+        })
+    }
+
+    /// The mechanism driven.
+    pub fn mechanism(&self) -> &Mechanism {
+        &self.mechanism
+    }
+
+    /// The transport.
+    pub fn transport(&self) -> &dyn Transport {
+        self.transport.as_ref()
+    }
+
+    /// The scene rendered.
+    pub fn scene(&self) -> &dyn Scene {
+        self.scene.as_ref()
+    }
+
+    /// The last tick's frame.
+    pub fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// [rt] Run one tick of `dt` seconds.
+    pub fn tick(&mut self, dt: f64) -> &Frame {
+        self.frame.time += dt;
+        let update = self.transport.update(&self.frame.dac, &mut self.reading);
+        let connected = update.is_ok();
+        if connected {
+            if !self.calibrated {
+                // Grips are held at their calibration poses when the device starts.
+                let counts = &self.reading.counts[..self.mechanism.strings.len()];
+                offsets_into(&self.mechanism, counts, &mut self.offsets);
+                self.calibrated = true;
+            }
+            self.solve_poses(dt);
+            if self.frame.state == DeviceState::Disconnected {
+                self.scene.reset(&self.pointers);
+            }
+            self.scene.render(&self.pointers, dt, &mut self.wrenches);
+        } else {
+            self.wrenches.fill([0.0; 6]);
+        }
+        let mut all_finite = true;
+        for (index, e) in self.effectors.iter_mut().enumerate() {
+            let mut wrench = self.wrenches[index];
+            let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
+            let force = e.passivity.filter(force, e.velocity, dt);
+            wrench[..3].copy_from_slice(&force.to_array());
+            all_finite &= e.guard.apply(&mut wrench, connected, dt);
+            self.frame.wrenches[index] = wrench;
+            self.frame.poses[index] = *e.pose.pose();
+            self.frame.velocities[index] = e.velocity;
+            let solved =
+                (e.guard.gain() > 0.0).then(|| e.tension.solve(e.pose.geometry(), &wrench));
+            for k in 0..e.count {
+                let s = &self.mechanism.strings[e.strings[k]];
+                let tension = solved.map_or(0.0, |t| t.tensions[k].clamp(0.0, s.tension_max));
+                self.frame.tensions[e.strings[k]] = tension;
+                self.frame.dac[e.strings[k]] = dac_for_tension(tension, s.volts_per_newton);
+            }
+        }
+        (self.frame.state, self.frame.error) = match update {
+            Err(e) => (DeviceState::Disconnected, Some(e)),
+            Ok(()) if !all_finite => (DeviceState::Fault, None),
+            Ok(()) => (DeviceState::Running, None),
+        };
+        &self.frame
+    }
+
+    fn solve_poses(&mut self, dt: f64) {
+        let strings = &self.mechanism.strings;
+        lengths_from_counts(
+            strings,
+            &self.offsets,
+            &self.reading.counts[..strings.len()],
+            &mut self.lengths,
+        );
+        let alpha = (-std::f64::consts::TAU * self.settings.velocity_cutoff * dt).exp();
+        for (e, pointer) in self.effectors.iter_mut().zip(&mut self.pointers) {
+            let mut own = [0.0; MAX_STRINGS_PER_EFFECTOR];
+            for (length, &s) in own.iter_mut().zip(&e.strings[..e.count]) {
+                *length = self.lengths[s];
+            }
+            let estimate = e.pose.solve(&own[..e.count], self.settings.pose_iterations);
+            let position = estimate.pose.position;
+            e.velocity = alpha * e.velocity + (1.0 - alpha) * (position - e.previous) / dt;
+            e.previous = position;
+            *pointer = Pointer {
+                pose: estimate.pose,
+                velocity: e.velocity,
+            };
+        }
+    }
+
+    /// [rt] Write zero currents to every motor (on shutdown).
+    pub fn zero_motors(&mut self) -> Result<(), TransportError> {
+        self.frame.dac = [0; CHANNELS];
+        self.frame.tensions = [0.0; CHANNELS];
+        self.transport.update(&[0; CHANNELS], &mut self.reading)
+    }
+}
