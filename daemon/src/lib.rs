@@ -5,6 +5,7 @@
 //! - [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //! - [`plot`]: PNG line charts for experiments and `hapticctl`.
 
+pub mod config;
 pub mod device;
 pub mod haptics;
 pub mod mechanism;
@@ -12,5 +13,6 @@ pub mod plot;
 pub mod plugin;
 pub mod runtime;
 pub mod scene;
+pub mod sd_notify;
 pub mod sim;
 pub mod solver;

@@ -1,0 +1,388 @@
+//! `hapticd`: the haptics daemon. Runs the haptic loop of a SPIDAR in real time; with no
+//! hardware (or with `--sim`) it drives the simulated SPIDAR.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use glam::DVec3;
+use hapticd::config::Config;
+use hapticd::device::transport::Sh4Transport;
+use hapticd::haptics::safety::SafetyLimits;
+use hapticd::mechanism::Mechanism;
+use hapticd::mechanism::catalog::Catalog;
+use hapticd::runtime::haptic_loop::{DeviceState, Frame, HapticLoop, LoopSettings};
+use hapticd::runtime::realtime::{LoopEvent, RealtimeLoop, RealtimeSettings, Scheduling};
+use hapticd::runtime::spsc;
+use hapticd::scene::Pointer;
+use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd::sd_notify;
+use hapticd::sim::hand::Script;
+use hapticd::sim::{SimParameters, SimulatedBoard};
+
+/// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
+#[derive(Parser)]
+#[command(name = "hapticd", version)]
+struct Cli {
+    /// Configuration file (default: /etc/hapticd/hapticd.yaml when it exists).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path).
+    #[arg(long, value_name = "MECH")]
+    sim: Option<String>,
+    /// Scene to render: a name in the scene directories, or a path.
+    #[arg(long)]
+    scene: Option<String>,
+    /// Script of the simulated hand.
+    #[arg(long, value_name = "FILE")]
+    hand: Option<PathBuf>,
+    /// Ticks per second (overrides the configuration).
+    #[arg(long)]
+    rate: Option<f64>,
+    /// Run this many seconds, then exit cleanly.
+    #[arg(long, value_name = "S")]
+    duration: Option<f64>,
+    /// Write every tick (time, poses, forces, tensions) to this CSV file.
+    #[arg(long, value_name = "FILE.csv")]
+    record: Option<PathBuf>,
+    /// Look for mechanisms in DIR (repeatable; overrides the configuration).
+    #[arg(long = "mechanism-dir", value_name = "DIR")]
+    mechanism_dirs: Vec<PathBuf>,
+}
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn request_stop(_: libc::c_int) {
+    STOP.store(true, Ordering::Release);
+}
+
+fn install_signal_handlers() -> Result<(), String> {
+    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
+    let action = SigAction::new(
+        SigHandler::Handler(request_stop),
+        SaFlags::SA_RESTART,
+        SigSet::empty(),
+    );
+    for signal in [Signal::SIGTERM, Signal::SIGINT] {
+        // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
+        unsafe { sigaction(signal, &action) }
+            .map_err(|e| format!("cannot handle {signal}: {e}"))?;
+    }
+    Ok(())
+}
+
+fn load_config(path: Option<&Path>) -> Result<Config, String> {
+    match path {
+        Some(p) => Config::load(p),
+        None => {
+            let default = Path::new("/etc/hapticd/hapticd.yaml");
+            if default.exists() {
+                Config::load(default)
+            } else {
+                Ok(Config::default())
+            }
+        }
+    }
+}
+
+fn find_scene(name: &str, config: &Config) -> Result<StaticSceneSpec, String> {
+    let path = Path::new(name);
+    if name.contains('/') || path.extension().is_some_and(|e| e == "yaml") {
+        return StaticSceneSpec::load(path);
+    }
+    config
+        .scene_dirs
+        .iter()
+        .map(|d| d.join(format!("{name}.yaml")))
+        .find(|p| p.exists())
+        .map_or_else(
+            || {
+                Err(format!(
+                    "no scene named {name:?} in {:?}",
+                    config.scene_dirs
+                ))
+            },
+            |p| StaticSceneSpec::load(&p),
+        )
+}
+
+fn csv_header(mechanism: &Mechanism) -> String {
+    let mut header = String::from("time,state");
+    for e in &mechanism.effectors {
+        for field in [
+            "x", "y", "z", "qw", "qx", "qy", "qz", "fx", "fy", "fz", "tx", "ty", "tz",
+        ] {
+            header += &format!(",{}_{field}", e.name);
+        }
+    }
+    for i in 0..mechanism.strings.len() {
+        header += &format!(",tension_{i}");
+    }
+    header
+}
+
+fn csv_row(frame: &Frame) -> String {
+    let state = match frame.state {
+        DeviceState::Running => "running",
+        DeviceState::Fault => "fault",
+        DeviceState::Disconnected => "disconnected",
+    };
+    let mut row = format!("{:.6},{state}", frame.time);
+    for e in 0..frame.effectors {
+        let (p, q, w) = (
+            frame.poses[e].position,
+            frame.poses[e].orientation,
+            frame.wrenches[e],
+        );
+        for v in [p.x, p.y, p.z, q.w, q.x, q.y, q.z] {
+            row += &format!(",{v:.7}");
+        }
+        for v in w {
+            row += &format!(",{v:.5}");
+        }
+    }
+    for t in &frame.tensions[..frame.strings] {
+        row += &format!(",{t:.5}");
+    }
+    row
+}
+
+/// Drain `frames` into a CSV file until `done` is set and the ring is empty.
+fn spawn_recorder(
+    path: PathBuf,
+    header: String,
+    mut frames: spsc::Consumer<Frame>,
+    done: &'static AtomicBool,
+) -> Result<std::thread::JoinHandle<std::io::Result<()>>, String> {
+    let file = std::fs::File::create(&path)
+        .map_err(|e| format!("{}: cannot create: {e}", path.display()))?;
+    Ok(std::thread::spawn(move || {
+        let mut out = std::io::BufWriter::new(file);
+        writeln!(out, "{header}")?;
+        loop {
+            let finished = done.load(Ordering::Acquire);
+            while let Some(frame) = frames.pop() {
+                writeln!(out, "{}", csv_row(&frame))?;
+            }
+            if finished {
+                return out.flush();
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }))
+}
+
+/// Print the loop's events as they come (the real-time thread must not write itself).
+fn spawn_event_logger(
+    mut events: spsc::Consumer<LoopEvent>,
+    done: &'static AtomicBool,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut overruns = 0u64;
+        loop {
+            let finished = done.load(Ordering::Acquire);
+            while let Some(event) = events.pop() {
+                match event {
+                    LoopEvent::State { time, state, error } => match error {
+                        Some(e) => eprintln!("hapticd: {time:.3} s: device {state:?}: {e}"),
+                        None => eprintln!("hapticd: {time:.3} s: device {state:?}"),
+                    },
+                    LoopEvent::Overrun { time, late_ns } => {
+                        overruns += 1;
+                        // The first few in full; then only every thousandth.
+                        if overruns <= 5 || overruns % 1000 == 0 {
+                            eprintln!(
+                                "hapticd: {time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
+                                late_ns as f64 / 1e3
+                            );
+                        }
+                    }
+                }
+            }
+            if finished {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    })
+}
+
+fn status_line(frame: &Frame, rt: &mut RealtimeLoop) -> String {
+    let p = frame.poses[0].position;
+    let f = DVec3::new(
+        frame.wrenches[0][0],
+        frame.wrenches[0][1],
+        frame.wrenches[0][2],
+    );
+    let stats = *rt.stats();
+    format!(
+        "t={:6.2} s  {:?}  grip ({:+.4}, {:+.4}, {:+.4}) m  force ({:+.2}, {:+.2}, {:+.2}) N  \
+         wait p99 {:.0} µs  busy {:.1} µs  overruns {}",
+        frame.time,
+        frame.state,
+        p.x,
+        p.y,
+        p.z,
+        f.x,
+        f.y,
+        f.z,
+        stats.wait_percentile_ns(0.99) as f64 / 1e3,
+        stats.busy_mean_ns() as f64 / 1e3,
+        stats.overruns
+    )
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    let mut config = load_config(cli.config.as_deref())?;
+    if let Some(rate) = cli.rate {
+        config.realtime.rate = rate;
+        config.check()?;
+    }
+    let catalog = if !cli.mechanism_dirs.is_empty() {
+        Catalog::new(cli.mechanism_dirs.clone())
+    } else if let Some(dirs) = &config.mechanism_dirs {
+        Catalog::new(dirs.clone())
+    } else {
+        Catalog::from_env()
+    };
+    let mechanism_name = cli
+        .sim
+        .clone()
+        .unwrap_or_else(|| config.simulator.mechanism.clone());
+    let mechanism = catalog
+        .resolve(&mechanism_name)
+        .map_err(|e| e.to_string())?;
+    let scene_spec = find_scene(cli.scene.as_deref().unwrap_or(&config.scene), &config)?;
+    let script = match cli.hand.as_ref().or(config.simulator.hand.as_ref()) {
+        Some(path) => Script::load(path)?,
+        None => Script::default(),
+    };
+    let rate = config.realtime.rate;
+    let board = SimulatedBoard::new(&mechanism, 1.0 / rate, &script, SimParameters::default());
+    let identity = format!("sim:{}", mechanism.name);
+    let transport = Box::new(Sh4Transport::new(board, identity.clone()));
+    let pointers: Vec<Pointer> = mechanism
+        .effectors
+        .iter()
+        .map(|e| Pointer {
+            pose: e.calibration,
+            velocity: DVec3::ZERO,
+        })
+        .collect();
+    let scene_name = scene_spec.name.clone();
+    let scene = Box::new(StaticScene::new(scene_spec, &pointers));
+    let settings = LoopSettings {
+        safety: SafetyLimits {
+            max_force: config.safety.max_force,
+            max_torque: config.safety.max_torque,
+            ..SafetyLimits::default()
+        },
+        ..LoopSettings::default()
+    };
+    let header = csv_header(&mechanism);
+    let haptic =
+        HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
+
+    // SAFETY: mlockall takes no pointers.
+    if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } != 0 {
+        eprintln!(
+            "hapticd: warning: cannot lock memory ({}); page faults may delay the haptic loop \
+             (raise LimitMEMLOCK=)",
+            std::io::Error::last_os_error()
+        );
+    }
+    install_signal_handlers()?;
+    static DONE: AtomicBool = AtomicBool::new(false);
+    let (event_tx, event_rx) = spsc::channel(1024);
+    let logger = spawn_event_logger(event_rx, &DONE);
+    let (recorder_tx, recorder) = match &cli.record {
+        Some(path) => {
+            let (tx, rx) = spsc::channel(1 << 16);
+            (
+                Some(tx),
+                Some(spawn_recorder(path.clone(), header, rx, &DONE)?),
+            )
+        }
+        None => (None, None),
+    };
+    let mut rt = RealtimeLoop::start(
+        haptic,
+        RealtimeSettings {
+            priority: config.realtime.priority,
+            rate,
+        },
+        event_tx,
+        recorder_tx,
+    )
+    .map_err(|e| format!("cannot start the haptic thread: {e}"))?;
+    match rt.scheduling() {
+        Scheduling::Fifo(priority) => eprintln!(
+            "hapticd: simulated {mechanism_name} ({identity}), scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
+        ),
+        Scheduling::Refused(why) => eprintln!(
+            "hapticd: WARNING: running WITHOUT real-time scheduling: {why}\n\
+             hapticd: simulated {mechanism_name} ({identity}), scene {scene_name}, {rate} Hz"
+        ),
+    }
+    let _ = sd_notify::notify(&format!(
+        "READY=1\nSTATUS=running {mechanism_name} at {rate} Hz"
+    ));
+    let started = Instant::now();
+    let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
+    let (mut last_ping, mut last_beat, mut last_status) = (Instant::now(), 0, Instant::now());
+    while !STOP.load(Ordering::Acquire) {
+        if cli
+            .duration
+            .is_some_and(|d| started.elapsed().as_secs_f64() >= d)
+        {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+        // Ping the watchdog only while the haptic loop is alive.
+        let beat = rt.heartbeat();
+        if let Some(interval) = watchdog {
+            if beat > last_beat && last_ping.elapsed() >= interval {
+                let _ = sd_notify::notify("WATCHDOG=1");
+                last_ping = Instant::now();
+            }
+        }
+        last_beat = beat;
+        if last_status.elapsed() >= Duration::from_millis(500) {
+            let frame = *rt.frame();
+            println!("{}", status_line(&frame, &mut rt));
+            last_status = Instant::now();
+        }
+    }
+    let _ = sd_notify::notify("STOPPING=1");
+    let stats = *rt.stats();
+    rt.stop();
+    DONE.store(true, Ordering::Release);
+    let _ = logger.join();
+    if let Some(r) = recorder {
+        r.join()
+            .map_err(|_| "the recorder thread panicked".to_string())?
+            .map_err(|e| format!("writing the recording: {e}"))?;
+    }
+    eprintln!(
+        "hapticd: stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; {} overruns",
+        stats.ticks,
+        stats.wait_percentile_ns(0.5) as f64 / 1e3,
+        stats.wait_percentile_ns(0.99) as f64 / 1e3,
+        stats.wait_max_ns as f64 / 1e3,
+        stats.overruns
+    );
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("hapticd: error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
