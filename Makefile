@@ -1,6 +1,6 @@
 # hapticd: build, run, test and install.
 #
-#   make run      build and run the demonstration on the shipped mechanisms
+#   make run      build hapticd and run it on the simulated SPIDAR-G with the default scene
 #   make check    install what the tests need (Debian/Ubuntu packages), then run every test
 #   make bench    benchmarks of the per-tick computations (release build)
 #   make figures  regenerate the figures shown in the README
@@ -24,13 +24,11 @@ stage:
 	rm -rf $(STAGE) && install -d -m 755 $(STAGE)
 	install -m 644 $(foreach p,$(PLUGINS),$(RELEASE)/lib$(subst -,_,$(p)).so) config/mechanisms/*.yaml $(STAGE)/
 
+# The simulated hand lowers the grip onto the floor, presses, slides and lifts off; the
+# status lines show the floor holding it at y = -0.03 m and the force it feels.
 run: stage
-	$(HAPTICCTL) mechanism list
-	$(HAPTICCTL) mechanism inspect spidar-g
-	$(HAPTICCTL) mechanism pose spidar --lengths 0.459,0.459,0.459,0.459
-	$(HAPTICCTL) mechanism tension spidar-g --position 0.01,0,0 --force 0,-3,0 --torque 0,0,0.02
-	$(HAPTICCTL) mechanism sweep spidar --plot target/sweep.png
-	$(HAPTICCTL) mechanism workspace spidar-g --plot target/workspace.png
+	$(RELEASE)/hapticd --mechanism-dir $(STAGE) --sim spidar-g \
+		--scene config/scenes/static.yaml --hand config/hands/press-floor.yaml --duration 4
 
 deps:
 	@missing=$$(for p in $(TEST_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \

@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use glam::DVec3;
 use hapticd::config::Config;
-use hapticd::device::transport::Sh4Transport;
+use hapticd::device::replay::{self, RecordingLink, ReplayLink};
+use hapticd::device::transport::{Link, Sh4Transport, Transport};
 use hapticd::haptics::safety::SafetyLimits;
 use hapticd::mechanism::Mechanism;
 use hapticd::mechanism::catalog::Catalog;
@@ -48,6 +49,12 @@ struct Cli {
     /// Write every tick (time, poses, forces, tensions) to this CSV file.
     #[arg(long, value_name = "FILE.csv")]
     record: Option<PathBuf>,
+    /// Record every bulk transfer with the device to this file (replayable with --replay).
+    #[arg(long, value_name = "FILE")]
+    record_traffic: Option<PathBuf>,
+    /// Instead of a device, answer from a traffic recording.
+    #[arg(long, value_name = "FILE")]
+    replay: Option<PathBuf>,
     /// Look for mechanisms in DIR (repeatable; overrides the configuration).
     #[arg(long = "mechanism-dir", value_name = "DIR")]
     mechanism_dirs: Vec<PathBuf>,
@@ -72,6 +79,18 @@ fn install_signal_handlers() -> Result<(), String> {
             .map_err(|e| format!("cannot handle {signal}: {e}"))?;
     }
     Ok(())
+}
+
+/// The SH4 protocol over `link`, its traffic recorded when `recorder` is given.
+fn sh4_transport<L: Link + 'static>(
+    link: L,
+    identity: &str,
+    recorder: Option<spsc::Producer<replay::Transfer>>,
+) -> Box<dyn Transport> {
+    match recorder {
+        Some(ring) => Box::new(Sh4Transport::new(RecordingLink::new(link, ring), identity)),
+        None => Box::new(Sh4Transport::new(link, identity)),
+    }
 }
 
 fn load_config(path: Option<&Path>) -> Result<Config, String> {
@@ -193,7 +212,7 @@ fn spawn_event_logger(
                     LoopEvent::Overrun { time, late_ns } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.
-                        if overruns <= 5 || overruns % 1000 == 0 {
+                        if overruns <= 5 || overruns.is_multiple_of(1000) {
                             eprintln!(
                                 "hapticd: {time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
                                 late_ns as f64 / 1e3
@@ -261,9 +280,32 @@ fn run(cli: Cli) -> Result<(), String> {
         None => Script::default(),
     };
     let rate = config.realtime.rate;
-    let board = SimulatedBoard::new(&mechanism, 1.0 / rate, &script, SimParameters::default());
-    let identity = format!("sim:{}", mechanism.name);
-    let transport = Box::new(Sh4Transport::new(board, identity.clone()));
+    static DONE: AtomicBool = AtomicBool::new(false);
+    let (traffic_tx, traffic_writer) = match &cli.record_traffic {
+        Some(path) => {
+            let (tx, rx) = spsc::channel(1 << 14);
+            let writer = replay::spawn_traffic_writer(path, rx, &DONE)
+                .map_err(|e| format!("{}: cannot create: {e}", path.display()))?;
+            (Some(tx), Some(writer))
+        }
+        None => (None, None),
+    };
+    let (transport, identity) = match &cli.replay {
+        Some(path) => {
+            let transfers = replay::read_recording(path).map_err(|e| e.to_string())?;
+            let identity = format!("replay:{}", path.display());
+            (
+                sh4_transport(ReplayLink::new(transfers), &identity, traffic_tx),
+                identity,
+            )
+        }
+        None => {
+            let board =
+                SimulatedBoard::new(&mechanism, 1.0 / rate, &script, SimParameters::default());
+            let identity = format!("sim:{}", mechanism.name);
+            (sh4_transport(board, &identity, traffic_tx), identity)
+        }
+    };
     let pointers: Vec<Pointer> = mechanism
         .effectors
         .iter()
@@ -295,7 +337,6 @@ fn run(cli: Cli) -> Result<(), String> {
         );
     }
     install_signal_handlers()?;
-    static DONE: AtomicBool = AtomicBool::new(false);
     let (event_tx, event_rx) = spsc::channel(1024);
     let logger = spawn_event_logger(event_rx, &DONE);
     let (recorder_tx, recorder) = match &cli.record {
@@ -320,11 +361,11 @@ fn run(cli: Cli) -> Result<(), String> {
     .map_err(|e| format!("cannot start the haptic thread: {e}"))?;
     match rt.scheduling() {
         Scheduling::Fifo(priority) => eprintln!(
-            "hapticd: simulated {mechanism_name} ({identity}), scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
+            "hapticd: {mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
         ),
         Scheduling::Refused(why) => eprintln!(
             "hapticd: WARNING: running WITHOUT real-time scheduling: {why}\n\
-             hapticd: simulated {mechanism_name} ({identity}), scene {scene_name}, {rate} Hz"
+             hapticd: {mechanism_name} on {identity}, scene {scene_name}, {rate} Hz"
         ),
     }
     let _ = sd_notify::notify(&format!(
@@ -343,11 +384,12 @@ fn run(cli: Cli) -> Result<(), String> {
         std::thread::sleep(Duration::from_millis(20));
         // Ping the watchdog only while the haptic loop is alive.
         let beat = rt.heartbeat();
-        if let Some(interval) = watchdog {
-            if beat > last_beat && last_ping.elapsed() >= interval {
-                let _ = sd_notify::notify("WATCHDOG=1");
-                last_ping = Instant::now();
-            }
+        if let Some(interval) = watchdog
+            && beat > last_beat
+            && last_ping.elapsed() >= interval
+        {
+            let _ = sd_notify::notify("WATCHDOG=1");
+            last_ping = Instant::now();
         }
         last_beat = beat;
         if last_status.elapsed() >= Duration::from_millis(500) {
@@ -361,10 +403,11 @@ fn run(cli: Cli) -> Result<(), String> {
     rt.stop();
     DONE.store(true, Ordering::Release);
     let _ = logger.join();
-    if let Some(r) = recorder {
-        r.join()
-            .map_err(|_| "the recorder thread panicked".to_string())?
-            .map_err(|e| format!("writing the recording: {e}"))?;
+    for writer in recorder.into_iter().chain(traffic_writer) {
+        writer
+            .join()
+            .map_err(|_| "a recording thread panicked".to_string())?
+            .map_err(|e| format!("writing a recording: {e}"))?;
     }
     eprintln!(
         "hapticd: stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; {} overruns",

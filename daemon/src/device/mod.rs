@@ -5,6 +5,7 @@
 //! exercised whatever the device.
 
 pub mod counter;
+pub mod replay;
 pub mod sh4;
 pub mod simple;
 pub mod transport;

@@ -200,7 +200,7 @@ impl RealtimeLoop {
                         next += (done - next) / period_ns * period_ns;
                     }
                     stats.record(woke.saturating_sub(next), done - woke, overrun);
-                    if stats.ticks % publish_every == 0 {
+                    if stats.ticks.is_multiple_of(publish_every) {
                         stats_writer.publish(|s| *s = stats);
                     }
                     beat.store(stats.ticks, Ordering::Release);

@@ -1,0 +1,210 @@
+//! `hapticd` as a process on the simulated SPIDAR-G: it runs for a set time, records, stops
+//! on SIGTERM with zero currents as the last bytes written, replays a recording exactly, and
+//! refuses a bad configuration with its place.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use hapticd::device::replay::{Direction, read_recording};
+use hapticd::device::sh4;
+use support::{artifact, plugin_path, repo_dir, scratch_root};
+
+/// The plugins staged as an install would have them.
+fn mechanisms() -> PathBuf {
+    let dir = scratch_root().join(format!("hapticd-process-{}", std::process::id()));
+    if !dir.exists() {
+        std::fs::create_dir_all(&dir).unwrap();
+        let from = plugin_path("hapticd-spidar-g");
+        std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
+    }
+    dir
+}
+
+fn hapticd(args: &[&str]) -> Command {
+    let mut c = Command::new(artifact("hapticd"));
+    c.arg("--mechanism-dir")
+        .arg(mechanisms())
+        .arg("--scene")
+        .arg(repo_dir().join("config/scenes/static.yaml"))
+        .args(args)
+        .env_remove("NOTIFY_SOCKET")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    c
+}
+
+fn scratch(name: &str) -> PathBuf {
+    scratch_root().join(format!("{}-{name}", std::process::id()))
+}
+
+fn press() -> String {
+    repo_dir()
+        .join("config/hands/press-floor.yaml")
+        .display()
+        .to_string()
+}
+
+fn finish(child: Child) -> Output {
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "hapticd failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// CSV rows as (time, grip y, force y).
+fn recorded(path: &Path) -> Vec<(f64, f64, f64)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t, y, fy) = (col("time"), col("grip_y"), col("grip_fy"));
+    lines
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            (
+                v[t].parse().unwrap(),
+                v[y].parse().unwrap(),
+                v[fy].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn runs_for_its_duration_and_records_the_grip_held_on_the_floor() {
+    let csv = scratch("run.csv");
+    let out = finish(
+        hapticd(&[
+            "--sim",
+            "spidar-g",
+            "--hand",
+            &press(),
+            "--duration",
+            "1.6",
+            "--record",
+            csv.to_str().unwrap(),
+        ])
+        .spawn()
+        .unwrap(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("motors at zero"), "{stderr}");
+    let rows = recorded(&csv);
+    assert!(rows.len() > 1400, "{} rows", rows.len());
+    // The hand lowers the grip onto the floor (y = −0.03) between 0.5 and 1 s, then presses.
+    for &(t, y, fy) in rows.iter().filter(|r| (1.3..1.5).contains(&r.0)) {
+        assert!((-0.036..-0.030).contains(&y), "t = {t}: y = {y}");
+        assert!(fy > 3.0, "t = {t}: fy = {fy}");
+    }
+    std::fs::remove_file(csv).ok();
+}
+
+#[test]
+fn sigterm_while_pushing_leaves_zero_currents_as_the_last_command() {
+    let traffic = scratch("sigterm.traffic");
+    let child = hapticd(&[
+        "--sim",
+        "spidar-g",
+        "--hand",
+        &press(),
+        "--record-traffic",
+        traffic.to_str().unwrap(),
+    ])
+    .spawn()
+    .unwrap();
+    // Wait until the grip presses on the floor (from 1 s on), then ask it to stop.
+    std::thread::sleep(Duration::from_millis(1500));
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGTERM,
+    )
+    .unwrap();
+    let started = Instant::now();
+    finish(child);
+    assert!(started.elapsed() < Duration::from_secs(2), "slow to stop");
+    let outs: Vec<[i16; 8]> = read_recording(&traffic)
+        .unwrap()
+        .iter()
+        .filter(|t| t.direction == Direction::Out)
+        .map(|t| sh4::Command::decode(t.bytes()).unwrap().dac)
+        .collect();
+    let pushing = outs[outs.len() - 2];
+    assert!(
+        pushing.iter().any(|&d| d > 100),
+        "not pushing before the signal: {pushing:?}"
+    );
+    assert_eq!(*outs.last().unwrap(), [0; 8]);
+    std::fs::remove_file(traffic).ok();
+}
+
+#[test]
+fn a_replayed_recording_reproduces_the_session() {
+    let (traffic, first, second) = (
+        scratch("replay.traffic"),
+        scratch("first.csv"),
+        scratch("second.csv"),
+    );
+    finish(
+        hapticd(&[
+            "--sim",
+            "spidar-g",
+            "--hand",
+            &press(),
+            "--duration",
+            "1.2",
+            "--record-traffic",
+            traffic.to_str().unwrap(),
+            "--record",
+            first.to_str().unwrap(),
+        ])
+        .spawn()
+        .unwrap(),
+    );
+    finish(
+        hapticd(&[
+            "--sim",
+            "spidar-g",
+            "--replay",
+            traffic.to_str().unwrap(),
+            "--duration",
+            "0.8",
+            "--record",
+            second.to_str().unwrap(),
+        ])
+        .spawn()
+        .unwrap(),
+    );
+    let (a, b) = (recorded(&first), recorded(&second));
+    assert!(b.len() > 700);
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x, y);
+    }
+    for f in [traffic, first, second] {
+        std::fs::remove_file(f).ok();
+    }
+}
+
+#[test]
+fn a_bad_configuration_is_refused_with_its_place() {
+    let config = scratch("bad.yaml");
+    std::fs::write(&config, "realtime:\n  rate: 1000\n  speed: 3\n").unwrap();
+    let out = hapticd(&["--config", config.to_str().unwrap(), "--duration", "0.1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "{}:3:3: error: unknown field `speed`",
+            config.display()
+        )),
+        "{stderr}"
+    );
+    std::fs::remove_file(config).ok();
+}
