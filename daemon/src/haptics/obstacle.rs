@@ -20,6 +20,15 @@ pub enum Shape {
         /// Radius.
         radius: f64,
     },
+    /// An infinitely long round bar.
+    Cylinder {
+        /// A point on the axis.
+        point: DVec3,
+        /// Unit direction of the axis.
+        axis: DVec3,
+        /// Radius.
+        radius: f64,
+    },
     /// An oriented box.
     Cuboid {
         /// Centre.
@@ -57,6 +66,11 @@ impl Shape {
         match *self {
             Shape::HalfSpace { point, normal } => (p - point).dot(normal),
             Shape::Sphere { centre, radius } => (p - centre).length() - radius,
+            Shape::Cylinder {
+                point,
+                axis,
+                radius,
+            } => (p - point).reject_from_normalized(axis).length() - radius,
             Shape::Cuboid {
                 centre,
                 half,
@@ -129,6 +143,40 @@ impl Shape {
                     t,
                     point,
                     normal: (point - centre) / radius,
+                })
+            }
+            Shape::Cylinder {
+                point,
+                axis,
+                radius,
+            } => {
+                // A sphere problem in the plane across the axis.
+                let (m, d2) = (
+                    (a - point).reject_from_normalized(axis),
+                    d.reject_from_normalized(axis),
+                );
+                let (qa, qb, qc) = (d2.dot(d2), m.dot(d2), m.dot(m) - radius * radius);
+                if qc <= 0.0 {
+                    let on_surface = m.length() >= radius - SURFACE;
+                    return if on_surface {
+                        at_start(m.normalize_or_zero())
+                    } else {
+                        None
+                    };
+                }
+                let disc = qb * qb - qa * qc;
+                if qa == 0.0 || disc < 0.0 {
+                    return None;
+                }
+                let t = (-qb - disc.sqrt()) / qa;
+                if !(0.0..=1.0).contains(&t) {
+                    return None;
+                }
+                let radial = m + d2 * t;
+                Some(Entry {
+                    t,
+                    point: a + d * t,
+                    normal: radial / radius,
                 })
             }
             Shape::Cuboid {
@@ -210,6 +258,17 @@ mod tests {
             0.0
         );
         assert!(ball.entry(e.point, DVec3::new(0.02, 0.01, 0.0)).is_none());
+
+        let bar = Shape::Cylinder {
+            point: DVec3::ZERO,
+            axis: DVec3::Y,
+            radius: 0.2,
+        };
+        let e = bar
+            .entry(DVec3::new(0.0, 0.3, 0.3), DVec3::new(0.0, -0.1, 0.0))
+            .unwrap();
+        assert!((e.point.z - 0.2).abs() < 1e-12 && (e.normal - DVec3::Z).length() < 1e-12);
+        assert!((bar.signed_distance(DVec3::new(0.3, 5.0, 0.0)) - 0.1).abs() < 1e-12);
 
         let tilted = Shape::Cuboid {
             centre: DVec3::ZERO,

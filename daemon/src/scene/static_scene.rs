@@ -7,6 +7,7 @@
 //!   - floor: { height: -0.03 }                               # the plane y = height, solid below
 //!   - plane: { point: [0.06, 0, 0], normal: [-1, 0, 0] }     # solid on the far side of normal
 //!   - sphere: { centre: [-0.03, -0.01, 0], radius: 0.015 }
+//!   - cylinder: { point: [0, 0, 0], axis: [0, 1, 0], radius: 0.2 }      # endless round bar
 //!   - box: { centre: [0.03, -0.02, 0], size: [0.02, 0.02, 0.02], orientation: [1, 0, 0, 0] }
 //! ```
 
@@ -130,6 +131,22 @@ impl StaticSceneSpec {
                 {
                     Shape::Sphere {
                         centre: DVec3::from(centre),
+                        radius,
+                    }
+                }
+                RawShape::Cylinder {
+                    point,
+                    axis,
+                    radius,
+                } if finite(&point)
+                    && finite(&axis)
+                    && DVec3::from(axis).length() > 1e-9
+                    && radius.is_finite()
+                    && radius > 0.0 =>
+                {
+                    Shape::Cylinder {
+                        point: DVec3::from(point),
+                        axis: DVec3::from(axis).normalize(),
                         radius,
                     }
                 }
