@@ -52,6 +52,11 @@ enum RawShape {
         centre: [f64; 3],
         radius: f64,
     },
+    Cylinder {
+        point: [f64; 3],
+        axis: [f64; 3],
+        radius: f64,
+    },
     Box {
         centre: [f64; 3],
         size: [f64; 3],
