@@ -14,13 +14,15 @@ use support::{artifact, plugin_path, repo_dir, scratch_root};
 
 /// The plugins staged as an install would have them.
 fn mechanisms() -> PathBuf {
-    let dir = scratch_root().join(format!("hapticd-process-{}", std::process::id()));
-    if !dir.exists() {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = scratch_root().join(format!("hapticd-process-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let from = plugin_path("hapticd-spidar-g");
         std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
-    }
-    dir
+        dir
+    })
+    .clone()
 }
 
 fn hapticd(args: &[&str]) -> Command {

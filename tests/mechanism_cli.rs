@@ -13,20 +13,20 @@ use support::{hapticctl, plugin_path, repo_dir};
 
 /// A directory holding the shipped plugins and the YAML example, as an installed system would.
 fn installed() -> PathBuf {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(install).clone()
+}
+
+fn install() -> PathBuf {
     let dir = support::scratch_root().join(format!("hapticd-cli-test-{}", std::process::id()));
-    if !dir.exists() {
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
-        for krate in ["hapticd-spidar", "hapticd-spidar-g", "hapticd-spidar-ii"] {
-            let from = plugin_path(krate);
-            std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
-        }
-        std::fs::copy(
-            repo_dir().join("config/mechanisms/spidar-6s.yaml"),
-            dir.join("spidar-6s.yaml"),
-        )
-        .unwrap();
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    for krate in ["hapticd-spidar", "hapticd-spidar-g", "hapticd-spidar-ii"] {
+        let from = plugin_path(krate);
+        std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
     }
+    let yaml = repo_dir().join("config/mechanisms/spidar-6s.yaml");
+    std::fs::copy(yaml, dir.join("spidar-6s.yaml")).unwrap();
     dir
 }
 

@@ -7,6 +7,7 @@
 
 pub mod config;
 pub mod device;
+pub mod experiments;
 pub mod haptics;
 pub mod mechanism;
 pub mod plot;

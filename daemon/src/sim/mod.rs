@@ -4,9 +4,11 @@
 //! exactly as with hardware.
 //!
 //! The model, per update of `period` seconds, integrated in steps of at most 20 µs:
-//! - motors: D/A value → tension (digits / 415 / V/N), never below zero (strings only pull);
-//! - strings: elastic (`string_stiffness` each), so the encoder, which counts string paid
-//!   out, reads the geometric length minus the stretch τ/k; counts are quantised;
+//! - motors: D/A value → force on the string (digits / 415 / V/N), never below zero (a motor
+//!   only reels in), acting on the pulley and rotor (`pulley_mass`, `pulley_damping`);
+//! - strings: elastic springs (`string_stiffness`, `string_damping`) from pulley to knot,
+//!   taut only when stretched; the encoder counts the string the pulley has paid out, so it
+//!   sees the stretch too; counts are quantised;
 //! - grips: 50 g point masses (rigid grips also turn, with a small inertia);
 //! - hands: a hand mass held to the grip by the skin (spring-damper) and to its scripted
 //!   target by the arm (spring-damper), plus any scripted push ([`hand`]).
@@ -26,7 +28,13 @@ use hand::{HandTrack, Script};
 pub struct SimParameters {
     /// Stiffness of each string, N/m (about 20 kN/m at the grip for four strings).
     pub string_stiffness: f64,
-    /// Mass of a grip, kg.
+    /// Internal damping of each string, N·s/m.
+    pub string_damping: f64,
+    /// Rotor and pulley inertia as a mass at the string, kg (J/r²).
+    pub pulley_mass: f64,
+    /// Viscous friction of motor and pulley, N·s/m at the string.
+    pub pulley_damping: f64,
+    /// Mass of a grip, kg (the mechanism adds the pulleys' share).
     pub grip_mass: f64,
     /// Rotational inertia of a rigid grip, kg·m².
     pub grip_inertia: f64,
@@ -46,7 +54,11 @@ impl Default for SimParameters {
     fn default() -> Self {
         Self {
             string_stiffness: 15_000.0,
-            grip_mass: 0.05,
+            string_damping: 2.0,
+            // With the grip, about 50 g at the hand, as measured on the 40 cm SPIDAR (thesis 3.2.1).
+            pulley_mass: 0.01,
+            pulley_damping: 0.5,
+            grip_mass: 0.035,
             grip_inertia: 2e-5,
             hand_mass: 0.3,
             skin: (3_000.0, 3.0),
@@ -67,6 +79,10 @@ struct SimString {
     volts_per_newton: f64,
     /// Encoder length at power-on: the counter reads zero there.
     origin: f64,
+    /// String paid out by the pulley, metres.
+    paid_out: f64,
+    /// Its rate, m/s.
+    pay_rate: f64,
 }
 
 /// One grip and the hand holding it.
@@ -92,6 +108,7 @@ pub struct SimulatedBoard {
     effectors: Vec<SimEffector>,
     dac: [i16; CHANNELS],
     tensions: [f64; CHANNELS],
+    motor_forces: [f64; CHANNELS],
     pending_out: bool,
     input_bits: u16,
 }
@@ -140,6 +157,8 @@ impl SimulatedBoard {
                 metres_per_pulse: s.metres_per_pulse,
                 volts_per_newton: s.volts_per_newton,
                 origin: (s.motor - effectors[s.effector].grip.transform_point(s.knot)).length(),
+                paid_out: (s.motor - effectors[s.effector].grip.transform_point(s.knot)).length(),
+                pay_rate: 0.0,
             })
             .collect();
         Self {
@@ -150,6 +169,7 @@ impl SimulatedBoard {
             effectors,
             dac: [0; CHANNELS],
             tensions: [0.0; CHANNELS],
+            motor_forces: [0.0; CHANNELS],
             pending_out: false,
             input_bits: 0,
         }
@@ -170,9 +190,14 @@ impl SimulatedBoard {
         self.effectors[index].grip_velocity
     }
 
-    /// Tension each motor applies now, newtons.
+    /// Tension in each string now, newtons.
     pub fn tensions(&self) -> &[f64; CHANNELS] {
         &self.tensions
+    }
+
+    /// Force each motor reels its string in with, newtons.
+    pub fn motor_forces(&self) -> &[f64; CHANNELS] {
+        &self.motor_forces
     }
 
     /// The last D/A values received.
@@ -198,9 +223,28 @@ impl SimulatedBoard {
 
     fn substep(&mut self, h: f64) {
         let p = self.parameters;
-        for (i, s) in self.strings.iter().enumerate() {
+        for (i, s) in self.strings.iter_mut().enumerate() {
             let commanded = self.dac[i] as f64 / DAC_DIGITS_PER_VOLT / s.volts_per_newton;
-            self.tensions[i] = commanded.max(0.0);
+            self.motor_forces[i] = commanded.max(0.0);
+            let e = &self.effectors[s.effector];
+            let arm = e.grip.orientation * s.knot;
+            let span = s.motor - (e.grip.position + arm);
+            let direction = span.normalize_or_zero();
+            // How fast the knot moves away from the motor.
+            let knot_velocity = e.grip_velocity + e.grip_spin.cross(arm);
+            let lengthening = -knot_velocity.dot(direction);
+            let stretch = span.length() - s.paid_out;
+            self.tensions[i] = if stretch > 0.0 {
+                (p.string_stiffness * stretch + p.string_damping * (lengthening - s.pay_rate))
+                    .max(0.0)
+            } else {
+                0.0
+            };
+            // The string pulls the pulley out, the motor reels it in.
+            let pulley_force =
+                self.tensions[i] - self.motor_forces[i] - p.pulley_damping * s.pay_rate;
+            s.pay_rate += pulley_force / p.pulley_mass * h;
+            s.paid_out += s.pay_rate * h;
         }
         let time = self.time;
         for (index, e) in self.effectors.iter_mut().enumerate() {
@@ -237,14 +281,11 @@ impl SimulatedBoard {
         self.time += h;
     }
 
-    /// Encoder counts now: string paid out (geometric length minus stretch), quantised.
+    /// Encoder counts now: string paid out since power-on, quantised.
     pub fn counts(&self) -> [i64; CHANNELS] {
         let mut counts = [0; CHANNELS];
-        for (i, s) in self.strings.iter().enumerate() {
-            let grip = &self.effectors[s.effector].grip;
-            let length = (s.motor - grip.transform_point(s.knot)).length();
-            let paid_out = length - self.tensions[i] / self.parameters.string_stiffness;
-            counts[i] = ((paid_out - s.origin) / s.metres_per_pulse).round() as i64;
+        for (c, s) in counts.iter_mut().zip(&self.strings) {
+            *c = ((s.paid_out - s.origin) / s.metres_per_pulse).round() as i64;
         }
         counts
     }
@@ -329,21 +370,31 @@ mod tests {
         let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default());
         let mut transport = Sh4Transport::new(board, "sim:test");
         let mut reading = Reading::default();
+        // Half a newton on every string keeps them taut, as the tension minimum does.
+        let dac = m
+            .strings
+            .iter()
+            .map(|s| dac_for_tension(0.5, s.volts_per_newton))
+            .collect::<Vec<_>>();
+        let mut out = [0; CHANNELS];
+        out[..4].copy_from_slice(&dac);
         for _ in 0..1000 {
-            transport.update(&[0; CHANNELS], &mut reading).unwrap();
+            transport.update(&out, &mut reading).unwrap();
         }
         let board = transport.link();
         let grip = board.grip(0).position;
         assert!(
-            (grip - DVec3::new(0.03, 0.0, 0.0)).length() < 1e-3,
+            (grip - DVec3::new(0.03, 0.0, 0.0)).length() < 3e-3,
             "{grip}"
         );
-        // With no tension, counts are the change of length over metres per pulse, whatever
-        // the encoder's direction.
+        // Counts are the string paid out: the change of length less the stretch, in metres
+        // per pulse, whatever the encoder's direction.
         for (i, s) in m.strings.iter().enumerate() {
-            let expected = ((s.motor - grip).length() - s.motor.length()) / s.metres_per_pulse;
+            let stretch = board.tensions()[i] / SimParameters::default().string_stiffness;
+            let expected =
+                ((s.motor - grip).length() - s.motor.length() - stretch) / s.metres_per_pulse;
             assert!(
-                (reading.counts[i] as f64 - expected).abs() <= 0.5 + 1e-9,
+                (reading.counts[i] as f64 - expected).abs() <= 0.5 + 1e-6,
                 "string {i}"
             );
         }
@@ -373,12 +424,23 @@ mod tests {
             "{moved} vs {expected}"
         );
         assert!((board.tensions()[0] - 5.0).abs() < 0.01);
+        // The encoder counts the stretched string too: 5 N on 15 kN/m is 0.33 mm.
+        let geometric =
+            (m.strings[0].motor - board.grip(0).position).length() - m.strings[0].motor.length();
+        let counted = board.counts()[0] as f64 * m.strings[0].metres_per_pulse;
+        assert!(
+            (geometric - counted - 5.0 / 15_000.0).abs() < 3e-5,
+            "{geometric} {counted}"
+        );
         // A negative D/A value on a forward motor asks the string to push: it cannot.
         dac[0] = -1000;
         Command { dac }.encode(&mut out);
-        board.write(&out).unwrap();
-        board.read(&mut [0u8; sh4::PACKET]).unwrap();
-        assert_eq!(board.tensions()[0], 0.0);
+        for _ in 0..500 {
+            board.write(&out).unwrap();
+            board.read(&mut [0u8; sh4::PACKET]).unwrap();
+            assert_eq!(board.motor_forces()[0], 0.0);
+        }
+        assert!(board.tensions()[0] < 0.05, "{}", board.tensions()[0]);
     }
 
     #[test]
