@@ -55,6 +55,8 @@ figures: stage
 	$(HAPTICCTL) mechanism sweep spidar --plot docs/figures/tension-sweep-spidar.png
 	$(HAPTICCTL) mechanism workspace spidar-g --plot docs/figures/workspace-spidar-g.png
 	$(HAPTICCTL) mechanism workspace spidar --plot docs/figures/workspace-spidar.png
+	$(HAPTICCTL) experiment stiffness spidar --plot docs/figures/wall-stiffness.png
+	$(HAPTICCTL) experiment cylinder --plot docs/figures/cylinder-tracing.png
 
 header:
 	HAPTICD_UPDATE_HEADER=1 $(CARGO) test -p hapticd-plugin-api --test c_header

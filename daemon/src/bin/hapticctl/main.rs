@@ -1,5 +1,6 @@
 //! `hapticctl`: the command-line companion of hapticd.
 
+mod experiment;
 mod mechanism;
 
 use std::path::PathBuf;
@@ -27,6 +28,9 @@ enum Command {
     /// Inspect mechanisms and run their pose and tension computations.
     #[command(subcommand)]
     Mechanism(mechanism::Command),
+    /// Run the thesis' closed-loop experiments on the simulated SPIDAR.
+    #[command(subcommand)]
+    Experiment(experiment::Command),
 }
 
 /// Why a command failed, with its exit status.
@@ -72,6 +76,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Mechanism(command) => mechanism::run(command, &catalog),
+        Command::Experiment(command) => experiment::run(command, &catalog),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -36,7 +36,7 @@ pub enum Command {
 pub struct Output {
     /// Print JSON instead of text.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
 }
 
 #[derive(Args)]
@@ -156,7 +156,7 @@ pub struct SweepArgs {
 
 /// A comma-separated list of finite numbers, as one argument.
 #[derive(Debug, Clone)]
-struct Numbers(Vec<f64>);
+pub struct Numbers(Vec<f64>);
 
 impl std::ops::Deref for Numbers {
     type Target = [f64];
@@ -166,7 +166,7 @@ impl std::ops::Deref for Numbers {
     }
 }
 
-fn parse_numbers(text: &str) -> Result<Numbers, String> {
+pub fn parse_numbers(text: &str) -> Result<Numbers, String> {
     text.split(',')
         .map(parse_number)
         .collect::<Result<_, _>>()
@@ -216,7 +216,7 @@ fn quat_wxyz(q: DQuat) -> [f64; 4] {
     [q.w, q.x, q.y, q.z]
 }
 
-fn resolve(catalog: &Catalog, mech: &str) -> Result<Mechanism, Failure> {
+pub fn resolve(catalog: &Catalog, mech: &str) -> Result<Mechanism, Failure> {
     catalog.resolve(mech).map_err(|e| load_failure(mech, &e))
 }
 
@@ -242,7 +242,7 @@ fn effector_index(mechanism: &Mechanism, name: Option<&str>) -> Result<usize, Fa
     })
 }
 
-fn print(output: &Output, value: Value, text: String) {
+pub fn print(output: &Output, value: Value, text: String) {
     if output.json {
         println!("{value}");
     } else {
@@ -597,7 +597,7 @@ fn workspace(catalog: &Catalog, args: &WorkspaceArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn save(chart: &Chart, path: &Path) -> Result<(), Failure> {
+pub fn save(chart: &Chart, path: &Path) -> Result<(), Failure> {
     chart
         .render()
         .save_png(path)

@@ -1,0 +1,216 @@
+//! `hapticctl experiment …`: the thesis' closed-loop experiments on the simulated SPIDAR,
+//! with their figures.
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+use hapticd::experiments::{shape_tracing, wall_stiffness};
+use hapticd::mechanism::catalog::Catalog;
+use hapticd::plot::{Chart, PALETTE, Series};
+use serde_json::json;
+
+use crate::Failure;
+use crate::mechanism::{Numbers, Output, parse_numbers, print, resolve, save};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Stiffest stable wall against loop rate (thesis Table 3.4).
+    Stiffness(StiffnessArgs),
+    /// Trace a 0.2 m bar with λ = 0 and λ = 0.2 (thesis 3.5.10, Fig. 3.19).
+    Cylinder(CylinderArgs),
+}
+
+#[derive(Args)]
+pub struct StiffnessArgs {
+    /// Mechanism with a point grip named `grip`.
+    #[arg(default_value = "spidar")]
+    mech: String,
+    /// Loop rates to try, hertz.
+    #[arg(long, value_parser = parse_numbers, default_value = "1000,2000,5000,10000")]
+    rates: Numbers,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+#[derive(Args)]
+pub struct CylinderArgs {
+    /// Loop rate, hertz.
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// Run one `experiment` subcommand.
+pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
+    match command {
+        Command::Stiffness(args) => stiffness(catalog, &args),
+        Command::Cylinder(args) => cylinder(&args),
+    }
+}
+
+fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
+    let m = resolve(catalog, &args.mech)?;
+    if m.effectors.len() != 1 || m.effectors[0].dof.count() != 3 {
+        return Err(Failure::usage(format!(
+            "{} is not a single point grip",
+            m.name
+        )));
+    }
+    if args
+        .rates
+        .iter()
+        .any(|r| !(100.0..=hapticd::config::MAX_RATE).contains(r))
+    {
+        return Err(Failure::usage(format!(
+            "rates must be 100–{} Hz",
+            hapticd::config::MAX_RATE
+        )));
+    }
+    let results: Vec<(f64, f64, f64)> = args
+        .rates
+        .iter()
+        .map(|&rate| {
+            let (k, b) = wall_stiffness::max_stable_stiffness(&m, rate);
+            (rate, k, b)
+        })
+        .collect();
+    let thesis = [(1000.0, 7.0), (5000.0, 25.5), (10_000.0, 28.5)];
+    let chart = Chart {
+        title: format!("{}: stiffest stable wall against loop rate", m.name),
+        x_label: "loop rate [kHz]".into(),
+        y_label: "stiffness [kN/m]".into(),
+        series: vec![
+            Series {
+                label: "simulated SPIDAR (hapticd)".into(),
+                points: results
+                    .iter()
+                    .map(|(r, k, _)| (r / 1000.0, k / 1000.0))
+                    .collect(),
+                color: PALETTE[0],
+            },
+            Series {
+                label: "thesis hardware (Table 3.4)".into(),
+                points: thesis.iter().map(|(r, k)| (r / 1000.0, *k)).collect(),
+                color: PALETTE[1],
+            },
+        ],
+        x_range: Some((0.0, 11.0)),
+        // Head room above the curves for the legend.
+        y_range: Some((
+            0.0,
+            1.4 * results
+                .iter()
+                .map(|(_, k, _)| k / 1000.0)
+                .fold(28.5, f64::max),
+        )),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (rate, k, b) in &results {
+        text += &format!(
+            "  {rate:>6.0} Hz: {:6.1} kN/m (damping {b} N·s/m)\n",
+            k / 1000.0
+        );
+    }
+    let rows: Vec<_> = results
+        .iter()
+        .map(|(rate, k, b)| json!({"rate": rate, "stiffness": k, "damping": b}))
+        .collect();
+    print(
+        &args.output,
+        json!({"plot": args.plot, "results": rows}),
+        text,
+    );
+    Ok(())
+}
+
+fn cylinder(args: &CylinderArgs) -> Result<(), Failure> {
+    if !(100.0..=hapticd::config::MAX_RATE).contains(&args.rate) {
+        return Err(Failure::usage(format!(
+            "--rate must be 100–{} Hz",
+            hapticd::config::MAX_RATE
+        )));
+    }
+    let lambdas = [0.0, 0.2];
+    let paths: Vec<Vec<(f64, f64)>> = lambdas
+        .iter()
+        .map(|&l| shape_tracing::trace(l, args.rate))
+        .collect();
+    let deviations: Vec<_> = paths
+        .iter()
+        .map(|p| shape_tracing::deviation(p, args.rate))
+        .collect();
+    let circle: Vec<(f64, f64)> = (0..=360)
+        .map(|d| {
+            let a = (d as f64).to_radians();
+            (
+                shape_tracing::RADIUS * a.cos(),
+                shape_tracing::RADIUS * a.sin(),
+            )
+        })
+        .collect();
+    // At y = 0 the complete region is the square with corners (±h, 0), (0, ±h).
+    let h = shape_tracing::HALF;
+    let region = vec![(h, 0.0), (0.0, h), (-h, 0.0), (0.0, -h), (h, 0.0)];
+    let series = vec![
+        Series {
+            label: "λ = 0".into(),
+            points: paths[0].clone(),
+            color: PALETTE[1],
+        },
+        Series {
+            label: "λ = 0.2".into(),
+            points: paths[1].clone(),
+            color: PALETTE[0],
+        },
+        Series {
+            label: "bar surface".into(),
+            points: circle,
+            color: PALETTE[6],
+        },
+        Series {
+            label: "complete-region edge".into(),
+            points: region,
+            color: PALETTE[2],
+        },
+    ];
+    let chart = Chart {
+        title: "tracing a 0.2 m bar on a 0.5 m SPIDAR, 2 kN/m".into(),
+        x_label: "x [m]".into(),
+        y_label: "z [m]".into(),
+        series,
+        x_range: Some((-0.26, 0.26)),
+        y_range: Some((-0.26, 0.26)),
+        equal_aspect: true,
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (lambda, d) in lambdas.iter().zip(&deviations) {
+        text += &format!(
+            "  λ = {lambda}: mean radius {:.4} m, roundness {:.2} mm, roughness {:.3} mm\n",
+            d.mean_radius,
+            d.roundness * 1e3,
+            d.roughness * 1e3
+        );
+    }
+    let rows: Vec<_> = lambdas
+        .iter()
+        .zip(&deviations)
+        .map(|(l, d)| json!({"lambda": l, "mean_radius": d.mean_radius, "roundness": d.roundness, "roughness": d.roughness}))
+        .collect();
+    print(
+        &args.output,
+        json!({"plot": args.plot, "results": rows}),
+        text,
+    );
+    Ok(())
+}
