@@ -9,6 +9,7 @@ pub mod replay;
 pub mod sh4;
 pub mod simple;
 pub mod transport;
+pub mod usb;
 
 /// Cyverse's USB vendor ID.
 pub const CYVERSE_VENDOR: u16 = 0x0CEC;

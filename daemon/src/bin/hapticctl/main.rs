@@ -1,5 +1,6 @@
 //! `hapticctl`: the command-line companion of hapticd.
 
+mod device;
 mod experiment;
 mod mechanism;
 
@@ -28,6 +29,9 @@ enum Command {
     /// Inspect mechanisms and run their pose and tension computations.
     #[command(subcommand)]
     Mechanism(mechanism::Command),
+    /// Find SPIDAR amplifiers on USB and exercise them.
+    #[command(subcommand)]
+    Device(device::Command),
     /// Run the thesis' closed-loop experiments on the simulated SPIDAR.
     #[command(subcommand)]
     Experiment(experiment::Command),
@@ -77,6 +81,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Mechanism(command) => mechanism::run(command, &catalog),
         Command::Experiment(command) => experiment::run(command, &catalog),
+        Command::Device(command) => device::run(command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
