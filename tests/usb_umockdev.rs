@@ -65,50 +65,65 @@ fn raw_count(k: usize, i: usize) -> u16 {
     ((65_000 + k * (i + 1) * 700) % 65_536) as u16
 }
 
-/// The bulk traffic the emulated board expects and answers: one 512-byte OUT with the D/A
-/// values, one 512-byte IN with their echo, the counters and the rotary switch at 3.
-fn ioctl_script() -> String {
+/// One update of the emulated board: the OUT transfer it expects (these D/A values) and the
+/// IN transfer it answers (their echo, `counts`, the rotary switch at 3).
+fn update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u16) -> String {
     let mut out = [0u8; 512];
     out[0] = 0x01;
     out[1] = 0x0E;
-    for (i, v) in DAC.iter().enumerate() {
+    let mut input = [0u8; 512];
+    for (i, v) in dac.iter().enumerate() {
         out[2 + 2 * i..4 + 2 * i].copy_from_slice(&v.to_le_bytes());
+        input[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
+        input[16 + 2 * i..18 + 2 * i].copy_from_slice(&counts(i).to_le_bytes());
     }
-    let mut script = String::new();
-    for k in 0..UPDATES {
-        let mut input = [0u8; 512];
-        for (i, v) in DAC.iter().enumerate() {
-            input[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
-            input[16 + 2 * i..18 + 2 * i].copy_from_slice(&raw_count(k, i).to_le_bytes());
-        }
-        input[48..50].copy_from_slice(&0x0030u16.to_le_bytes());
-        script += &format!("USBDEVFS_REAPURBNDELAY 0 3 2 0 0 512 512 0 {}\n", hex(&out));
-        script += &format!(
-            " USBDEVFS_REAPURBNDELAY 0 3 134 0 0 512 512 0 {}\n",
-            hex(&input)
-        );
-    }
-    script
+    input[48..50].copy_from_slice(&0x0030u16.to_le_bytes());
+    format!(
+        "USBDEVFS_REAPURBNDELAY 0 3 2 0 0 512 512 0 {}\n USBDEVFS_REAPURBNDELAY 0 3 134 0 0 512 512 0 {}\n",
+        hex(&out),
+        hex(&input)
+    )
 }
 
-fn emulated_amplifier() -> (PathBuf, PathBuf) {
-    let dir = scratch_root().join(format!("usb-{}", std::process::id()));
+/// The bulk traffic of the exchange tests: fixed D/A values, climbing counters.
+fn ioctl_script() -> String {
+    (0..UPDATES)
+        .map(|k| update_script(&DAC, |i| raw_count(k, i)))
+        .collect()
+}
+
+fn emulated_amplifier_with(name: &str, script: &str) -> (PathBuf, PathBuf) {
+    let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (device, ioctl) = (dir.join("amplifier.umockdev"), dir.join("amplifier.ioctl"));
     std::fs::write(&device, umockdev_description()).unwrap();
-    std::fs::write(&ioctl, ioctl_script()).unwrap();
+    std::fs::write(&ioctl, script).unwrap();
     (device, ioctl)
 }
 
+fn emulated_amplifier() -> (PathBuf, PathBuf) {
+    emulated_amplifier_with("exchange", &ioctl_script())
+}
+
 fn under_umockdev(device: &Path, ioctl: &Path, args: &[&str]) -> std::process::Output {
+    run_under_umockdev(device, ioctl, &artifact("hapticctl"), args)
+}
+
+fn run_under_umockdev(
+    device: &Path,
+    ioctl: &Path,
+    program: &Path,
+    args: &[&str],
+) -> std::process::Output {
     Command::new("umockdev-run")
         .arg("--device")
         .arg(device)
         .arg("--ioctl")
         .arg(format!("/dev/bus/usb/001/002={}", ioctl.display()))
         .arg("--")
-        .arg(artifact("hapticctl"))
+        .arg(program)
         .args(args)
+        .env_remove("NOTIFY_SOCKET")
         .output()
         .expect("umockdev-run is installed (Debian package umockdev; `make check` installs it)")
 }
@@ -185,4 +200,73 @@ fn different_dac_bytes_are_refused_by_the_emulated_board() {
     );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("update 0"));
+}
+
+#[test]
+fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
+    use hapticd::device::dac_for_tension;
+    use hapticd::device::replay::{Direction, read_recording};
+    use hapticd::solver::geometry::StringGeometry;
+    use hapticd::solver::tension::TensionSolver;
+
+    // The grip rests at its calibration pose and the scene does not touch it: every tick
+    // asks for zero force, which the tension solver meets with the same minimal tensions.
+    let m = support::shipped("spidar-g");
+    let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
+    let resting = TensionSolver::for_effector(&m, 0).solve(&geometry, &[0.0; 6]);
+    let mut dac = [0i16; 8];
+    for (i, s) in m.strings.iter().enumerate() {
+        dac[i] = dac_for_tension(resting.tensions[i], s.volts_per_newton);
+    }
+    assert!(dac.iter().all(|d| *d > 0));
+    // First the power-on D/A values (zero), then the resting ones, counters still.
+    let mut script = update_script(&[0; 8], |_| 0);
+    for _ in 0..600 {
+        script += &update_script(&dac, |_| 0);
+    }
+    let (device, ioctl) = emulated_amplifier_with("hapticd", &script);
+    let dir = ioctl.parent().unwrap().to_path_buf();
+    std::fs::copy(
+        support::plugin_path("hapticd-spidar-g"),
+        dir.join("libhapticd_spidar_g.so"),
+    )
+    .unwrap();
+    let traffic = dir.join("session.traffic");
+    let scene = support::repo_dir().join("config/scenes/static.yaml");
+    let out = run_under_umockdev(
+        &device,
+        &ioctl,
+        &artifact("hapticd"),
+        &[
+            "--mechanism-dir",
+            dir.to_str().unwrap(),
+            "--scene",
+            scene.to_str().unwrap(),
+            "--duration",
+            "0.3",
+            "--record-traffic",
+            traffic.to_str().unwrap(),
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("spidar-g on usb:1-2"), "{stderr}");
+    let outs: Vec<[i16; 8]> = read_recording(&traffic)
+        .unwrap()
+        .iter()
+        .filter(|t| t.direction == Direction::Out)
+        .map(|t| {
+            hapticd::device::sh4::Command::decode(t.bytes())
+                .unwrap()
+                .dac
+        })
+        .collect();
+    assert!(outs.len() > 200, "{} updates", outs.len());
+    assert_eq!(outs[0], [0; 8]);
+    assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
+    assert_eq!(
+        *outs.last().unwrap(),
+        [0; 8],
+        "the last command must be zero current"
+    );
 }

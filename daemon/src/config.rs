@@ -8,6 +8,8 @@
 //! mechanism_dirs: [/etc/hapticd/mechanisms, /usr/lib/hapticd/plugins, /usr/share/hapticd/mechanisms]
 //! scene_dirs: [/etc/hapticd/scenes, /usr/share/hapticd/scenes]
 //! scene: static             # default scene: a name in scene_dirs, or a path
+//! hardware:                 # a USB amplifier (0CEC:0205 or 0CEC:0203), when one is plugged in
+//!   mechanism: spidar-g     # the mechanism wired to it
 //! simulator:                # the simulated device, used when no hardware is present
 //!   mechanism: spidar-g
 //!   hand: /usr/share/hapticd/hands/press-floor.yaml   # optional script of the simulated hand
@@ -32,6 +34,8 @@ pub struct Config {
     pub scene_dirs: Vec<PathBuf>,
     /// The scene rendered at start.
     pub scene: String,
+    /// Connected amplifiers.
+    pub hardware: HardwareConfig,
     /// The simulated device.
     pub simulator: SimulatorConfig,
     /// Force limits.
@@ -46,6 +50,22 @@ pub struct RealtimeConfig {
     pub priority: i32,
     /// Ticks per second.
     pub rate: f64,
+}
+
+/// `hardware:`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HardwareConfig {
+    /// Mechanism of the SPIDAR wired to the amplifier.
+    pub mechanism: String,
+}
+
+impl Default for HardwareConfig {
+    fn default() -> Self {
+        Self {
+            mechanism: "spidar-g".into(),
+        }
+    }
 }
 
 /// `simulator:`.
@@ -82,6 +102,7 @@ impl Default for Config {
                 "/usr/share/hapticd/scenes".into(),
             ],
             scene: "static".into(),
+            hardware: HardwareConfig::default(),
             simulator: SimulatorConfig::default(),
             safety: SafetyConfig::default(),
         }

@@ -10,8 +10,10 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use glam::DVec3;
 use hapticd::config::Config;
+use hapticd::device::Protocol;
 use hapticd::device::replay::{self, RecordingLink, ReplayLink};
-use hapticd::device::transport::{Link, Sh4Transport, Transport};
+use hapticd::device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
+use hapticd::device::usb::find_devices;
 use hapticd::haptics::safety::SafetyLimits;
 use hapticd::mechanism::Mechanism;
 use hapticd::mechanism::catalog::Catalog;
@@ -31,7 +33,8 @@ struct Cli {
     /// Configuration file (default: /etc/hapticd/hapticd.yaml when it exists).
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path).
+    /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path),
+    /// even when hardware is plugged in.
     #[arg(long, value_name = "MECH")]
     sim: Option<String>,
     /// Scene to render: a name in the scene directories, or a path.
@@ -267,10 +270,22 @@ fn run(cli: Cli) -> Result<(), String> {
     } else {
         Catalog::from_env()
     };
-    let mechanism_name = cli
-        .sim
-        .clone()
-        .unwrap_or_else(|| config.simulator.mechanism.clone());
+    // Hardware unless told to simulate or replay; the simulated SPIDAR when none is found.
+    let usb = if cli.sim.is_none() && cli.replay.is_none() {
+        let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
+        let (mut found, problems) = find_devices(&context);
+        for p in problems {
+            eprintln!("hapticd: warning: {p}");
+        }
+        (!found.is_empty()).then(|| found.remove(0))
+    } else {
+        None
+    };
+    let mechanism_name = match (&cli.sim, &usb) {
+        (Some(sim), _) => sim.clone(),
+        (None, Some(_)) => config.hardware.mechanism.clone(),
+        (None, None) => config.simulator.mechanism.clone(),
+    };
     let mechanism = catalog
         .resolve(&mechanism_name)
         .map_err(|e| e.to_string())?;
@@ -290,8 +305,22 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         None => (None, None),
     };
-    let (transport, identity) = match &cli.replay {
-        Some(path) => {
+    let (transport, identity) = match (&cli.replay, usb) {
+        (_, Some(device)) => {
+            let identity = device.identity.clone();
+            let transport: Box<dyn Transport> = match (device.model.protocol, traffic_tx) {
+                (Protocol::Sh4, tx) => sh4_transport(device.link, &identity, tx),
+                (Protocol::Simple, None) => {
+                    Box::new(SimpleTransport::new(device.link, identity.clone()))
+                }
+                (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
+                    RecordingLink::new(device.link, ring),
+                    identity.clone(),
+                )),
+            };
+            (transport, identity)
+        }
+        (Some(path), None) => {
             let transfers = replay::read_recording(path).map_err(|e| e.to_string())?;
             let identity = format!("replay:{}", path.display());
             (
@@ -299,7 +328,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 identity,
             )
         }
-        None => {
+        (None, None) => {
             let board =
                 SimulatedBoard::new(&mechanism, 1.0 / rate, &script, SimParameters::default());
             let identity = format!("sim:{}", mechanism.name);
