@@ -210,3 +210,115 @@ fn a_bad_configuration_is_refused_with_its_place() {
     );
     std::fs::remove_file(config).ok();
 }
+
+/// CSV rows as (time, state, force y).
+fn states(path: &Path) -> Vec<(f64, String, f64)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t, s, fy) = (col("time"), col("state"), col("grip_fy"));
+    lines
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            (
+                v[t].parse().unwrap(),
+                v[s].to_string(),
+                v[fy].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
+    let csv = scratch("panic.csv");
+    let scene = plugin_path("hapticd-test-panicking-scene");
+    let out = finish(
+        Command::new(artifact("hapticd"))
+            .arg("--mechanism-dir")
+            .arg(mechanisms())
+            .args([
+                "--sim",
+                "spidar-g",
+                "--hand",
+                &press(),
+                "--duration",
+                "1.4",
+                "--record",
+                csv.to_str().unwrap(),
+            ])
+            .arg("--scene")
+            .arg(&scene)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("panicked") && stderr.contains("the floor gave way"),
+        "{stderr}"
+    );
+    let rows = states(&csv);
+    // Pressing on the plugin's floor before the panic (its 900th tick)...
+    assert!(
+        rows.iter()
+            .filter(|r| (0.84..0.895).contains(&r.0))
+            .all(|r| r.2 > 1.0 && r.1 == "running")
+    );
+    // ...and zero force within 10 ms of it, for good; the loop keeps running to the end.
+    for (t, state, fy) in rows.iter().filter(|r| r.0 >= 0.91) {
+        assert_eq!((state.as_str(), *fy), ("fault", 0.0), "t = {t}");
+    }
+    assert!(rows.last().unwrap().0 > 1.3);
+    std::fs::remove_file(csv).ok();
+}
+
+#[test]
+fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
+    let csv = scratch("stall.csv");
+    let scene = plugin_path("hapticd-test-stalling-scene");
+    finish(
+        Command::new(artifact("hapticd"))
+            .arg("--mechanism-dir")
+            .arg(mechanisms())
+            .args([
+                "--sim",
+                "spidar-g",
+                "--hand",
+                &press(),
+                "--duration",
+                "3",
+                "--record",
+                csv.to_str().unwrap(),
+            ])
+            .arg("--scene")
+            .arg(&scene)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let rows = states(&csv);
+    // The physics (50 Hz) hangs from about 1.2 s to 2.2 s. Before: the floor pushes back.
+    assert!(
+        rows.iter()
+            .filter(|r| (1.0..1.15).contains(&r.0))
+            .all(|r| r.2 > 1.0),
+        "no push before the stall"
+    );
+    // Planes three periods (60 ms) old are stale: from then on no force, until it returns.
+    let stalled: Vec<_> = rows.iter().filter(|r| (1.35..2.1).contains(&r.0)).collect();
+    assert!(
+        stalled.iter().all(|r| r.1 == "fault" && r.2 == 0.0),
+        "force during the stall"
+    );
+    assert!(
+        rows.iter()
+            .filter(|r| (2.7..2.95).contains(&r.0))
+            .all(|r| r.1 == "running" && r.2 > 1.0),
+        "no recovery"
+    );
+    std::fs::remove_file(csv).ok();
+}

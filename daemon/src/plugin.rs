@@ -228,6 +228,38 @@ impl LoadedPlugin {
         self.descriptor.kind == HAPTICD_KIND_MECHANISM
     }
 
+    /// Whether it is a scene plugin.
+    pub fn is_scene(&self) -> bool {
+        self.descriptor.kind == HAPTICD_KIND_SCENE
+    }
+
+    /// [main] The scene functions, checked to be complete.
+    pub fn scene_vtable(&self) -> Result<&'static HapticdSceneVtable, PluginError> {
+        let path = &self.path;
+        if !self.is_scene() {
+            return Err(refuse(
+                path,
+                format!("is a plugin of kind {}, not a scene", self.descriptor.kind),
+            ));
+        }
+        // SAFETY: for kind SCENE the ABI requires a valid vtable pointer or null.
+        let vtable = unsafe { self.descriptor.scene.as_ref() }
+            .ok_or_else(|| refuse(path, "scene plugin without a scene vtable"))?;
+        if (vtable.struct_size as usize) < std::mem::size_of::<HapticdSceneVtable>() {
+            return Err(refuse(
+                path,
+                "scene vtable is smaller than ABI 1.0 requires",
+            ));
+        }
+        if vtable.create.is_none() || vtable.destroy.is_none() {
+            return Err(refuse(
+                path,
+                "scene vtable has no create or destroy function",
+            ));
+        }
+        Ok(vtable)
+    }
+
     /// [main] Read the mechanism's geometry through its vtable.
     pub fn mechanism_spec(&self) -> Result<MechanismSpec, PluginError> {
         let path = &self.path;

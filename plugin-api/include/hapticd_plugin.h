@@ -33,9 +33,27 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
 #define HAPTICD_KIND_MECHANISM 1
 
 /*
- Plugin kind: scene physics (reserved in ABI 1.0; its vtable is defined by a later minor).
+ Plugin kind: scene physics.
  */
 #define HAPTICD_KIND_SCENE 2
+
+/*
+ Scene style: the plugin steps the whole world inside every haptic tick and returns the
+ wrench on each pointer (the penalty method of thesis Ch. 5).
+ */
+#define HAPTICD_SCENE_DIRECT 1
+
+/*
+ Scene style: the plugin steps the world in its own physics thread at its own rate,
+ publishes for each pointer the nearby surfaces as planes, and takes back the impulses the
+ haptic thread applied (the analytic method of thesis Ch. 6).
+ */
+#define HAPTICD_SCENE_MULTIRATE 2
+
+/*
+ Most planes published for one pointer per physics step.
+ */
+#define HAPTICD_MAX_PLANES 8
 
 /*
  Status: success.
@@ -184,6 +202,151 @@ typedef struct HapticdMechanismVtable {
 } HapticdMechanismVtable;
 
 /*
+ What a scene instance tells the host when created.
+ */
+typedef struct HapticdSceneInfo {
+  /*
+   [`HAPTICD_SCENE_DIRECT`] or [`HAPTICD_SCENE_MULTIRATE`].
+   */
+  uint32_t style;
+  /*
+   Multi-rate scenes: physics steps per second (10–1000). Ignored for direct scenes.
+   */
+  double physics_rate;
+} HapticdSceneInfo;
+
+/*
+ A pointer (end effector) as a scene sees it.
+ */
+typedef struct HapticdPointer {
+  /*
+   Grip position, metres.
+   */
+  double position[3];
+  /*
+   Grip orientation, unit quaternion (w, x, y, z).
+   */
+  double orientation[4];
+  /*
+   Grip velocity, m/s.
+   */
+  double velocity[3];
+} HapticdPointer;
+
+/*
+ A force and torque on a pointer (the torque about the grip centre).
+ */
+typedef struct HapticdWrench {
+  /*
+   Force, newtons.
+   */
+  double force[3];
+  /*
+   Torque, newton-metres.
+   */
+  double torque[3];
+} HapticdWrench;
+
+/*
+ Momentum the haptic thread gave an object over one physics period, and where.
+ */
+typedef struct HapticdImpulse {
+  /*
+   The object pushed.
+   */
+  uint32_t object;
+  /*
+   Where the force acted (its force-weighted mean point), metres.
+   */
+  double point[3];
+  /*
+   ∫F dt over the period, N·s.
+   */
+  double impulse[3];
+} HapticdImpulse;
+
+/*
+ A surface near a pointer: the solid lies behind the plane through `point` with outward
+ `normal`, and moves with `velocity` there.
+ */
+typedef struct HapticdPlane {
+  /*
+   The object the surface belongs to (the target of impulses).
+   */
+  uint32_t object;
+  /*
+   Nearest point of the object to the pointer, metres.
+   */
+  double point[3];
+  /*
+   Outward unit normal at that point.
+   */
+  double normal[3];
+  /*
+   Velocity of the object's surface at that point, m/s.
+   */
+  double velocity[3];
+} HapticdPlane;
+
+/*
+ The planes published for one pointer.
+ */
+typedef struct HapticdPlanes {
+  /*
+   Planes in use.
+   */
+  uint32_t count;
+  /*
+   The planes.
+   */
+  struct HapticdPlane planes[HAPTICD_MAX_PLANES];
+} HapticdPlanes;
+
+/*
+ Functions of a scene plugin. Fields appended by later minors are present only when
+ `struct_size` covers them.
+ */
+typedef struct HapticdSceneVtable {
+  /*
+   `sizeof(HapticdSceneVtable)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [main] Create an instance for `pointer_count` pointers from the NUL-terminated scene
+   file `path` (null: the plugin's default scene); write it to `instance` and describe it
+   in `info`.
+   */
+  int32_t (*create)(const char *path,
+                    uint32_t pointer_count,
+                    void **instance,
+                    struct HapticdSceneInfo *info);
+  /*
+   [main] Destroy an instance no thread uses any more.
+   */
+  void (*destroy)(void *instance);
+  /*
+   [rt] Direct scenes: advance `dt` seconds with the pointers at `pointers` and write
+   one wrench per pointer to `wrenches`. Must not allocate, lock, log or block.
+   */
+  int32_t (*step_direct)(void *instance,
+                         double dt,
+                         const struct HapticdPointer *pointers,
+                         uint32_t pointer_count,
+                         struct HapticdWrench *wrenches);
+  /*
+   [physics] Multi-rate scenes: apply `impulses`, advance `dt` seconds with the pointers
+   at `pointers`, and write each pointer's nearby planes to `planes` (one per pointer).
+   */
+  int32_t (*step_physics)(void *instance,
+                          double dt,
+                          const struct HapticdPointer *pointers,
+                          uint32_t pointer_count,
+                          const struct HapticdImpulse *impulses,
+                          uint32_t impulse_count,
+                          struct HapticdPlanes *planes);
+} HapticdSceneVtable;
+
+/*
  What `hapticd_plugin_entry` returns: who the plugin is and what it implements.
  */
 typedef struct HapticdPluginDescriptor {
@@ -216,9 +379,9 @@ typedef struct HapticdPluginDescriptor {
    */
   const struct HapticdMechanismVtable *mechanism;
   /*
-   Reserved for the scene-physics vtable; null in ABI 1.0.
+   The scene functions; non-null exactly when `kind` is [`HAPTICD_KIND_SCENE`].
    */
-  const void *scene;
+  const struct HapticdSceneVtable *scene;
 } HapticdPluginDescriptor;
 
 /*

@@ -13,8 +13,19 @@ pub const HAPTICD_ABI_MINOR: u32 = 0;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;
-/// Plugin kind: scene physics (reserved in ABI 1.0; its vtable is defined by a later minor).
+/// Plugin kind: scene physics.
 pub const HAPTICD_KIND_SCENE: u32 = 2;
+
+/// Scene style: the plugin steps the whole world inside every haptic tick and returns the
+/// wrench on each pointer (the penalty method of thesis Ch. 5).
+pub const HAPTICD_SCENE_DIRECT: u32 = 1;
+/// Scene style: the plugin steps the world in its own physics thread at its own rate,
+/// publishes for each pointer the nearby surfaces as planes, and takes back the impulses the
+/// haptic thread applied (the analytic method of thesis Ch. 6).
+pub const HAPTICD_SCENE_MULTIRATE: u32 = 2;
+
+/// Most planes published for one pointer per physics step.
+pub const HAPTICD_MAX_PLANES: usize = 8;
 
 /// Status: success.
 pub const HAPTICD_OK: i32 = 0;
@@ -59,6 +70,121 @@ pub struct HapticdHost {
     pub now_ns: Option<unsafe extern "C" fn(context: *mut c_void) -> u64>,
 }
 
+/// A pointer (end effector) as a scene sees it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdPointer {
+    /// Grip position, metres.
+    pub position: [f64; 3],
+    /// Grip orientation, unit quaternion (w, x, y, z).
+    pub orientation: [f64; 4],
+    /// Grip velocity, m/s.
+    pub velocity: [f64; 3],
+}
+
+/// A force and torque on a pointer (the torque about the grip centre).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdWrench {
+    /// Force, newtons.
+    pub force: [f64; 3],
+    /// Torque, newton-metres.
+    pub torque: [f64; 3],
+}
+
+/// A surface near a pointer: the solid lies behind the plane through `point` with outward
+/// `normal`, and moves with `velocity` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdPlane {
+    /// The object the surface belongs to (the target of impulses).
+    pub object: u32,
+    /// Nearest point of the object to the pointer, metres.
+    pub point: [f64; 3],
+    /// Outward unit normal at that point.
+    pub normal: [f64; 3],
+    /// Velocity of the object's surface at that point, m/s.
+    pub velocity: [f64; 3],
+}
+
+/// The planes published for one pointer.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdPlanes {
+    /// Planes in use.
+    pub count: u32,
+    /// The planes.
+    pub planes: [HapticdPlane; HAPTICD_MAX_PLANES],
+}
+
+/// Momentum the haptic thread gave an object over one physics period, and where.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdImpulse {
+    /// The object pushed.
+    pub object: u32,
+    /// Where the force acted (its force-weighted mean point), metres.
+    pub point: [f64; 3],
+    /// ∫F dt over the period, N·s.
+    pub impulse: [f64; 3],
+}
+
+/// What a scene instance tells the host when created.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdSceneInfo {
+    /// [`HAPTICD_SCENE_DIRECT`] or [`HAPTICD_SCENE_MULTIRATE`].
+    pub style: u32,
+    /// Multi-rate scenes: physics steps per second (10–1000). Ignored for direct scenes.
+    pub physics_rate: f64,
+}
+
+/// Functions of a scene plugin. Fields appended by later minors are present only when
+/// `struct_size` covers them.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdSceneVtable {
+    /// `sizeof(HapticdSceneVtable)` as the plugin was compiled.
+    pub struct_size: u32,
+    /// [main] Create an instance for `pointer_count` pointers from the NUL-terminated scene
+    /// file `path` (null: the plugin's default scene); write it to `instance` and describe it
+    /// in `info`.
+    pub create: Option<
+        unsafe extern "C" fn(
+            path: *const c_char,
+            pointer_count: u32,
+            instance: *mut *mut c_void,
+            info: *mut HapticdSceneInfo,
+        ) -> i32,
+    >,
+    /// [main] Destroy an instance no thread uses any more.
+    pub destroy: Option<unsafe extern "C" fn(instance: *mut c_void)>,
+    /// [rt] Direct scenes: advance `dt` seconds with the pointers at `pointers` and write
+    /// one wrench per pointer to `wrenches`. Must not allocate, lock, log or block.
+    pub step_direct: Option<
+        unsafe extern "C" fn(
+            instance: *mut c_void,
+            dt: f64,
+            pointers: *const HapticdPointer,
+            pointer_count: u32,
+            wrenches: *mut HapticdWrench,
+        ) -> i32,
+    >,
+    /// [physics] Multi-rate scenes: apply `impulses`, advance `dt` seconds with the pointers
+    /// at `pointers`, and write each pointer's nearby planes to `planes` (one per pointer).
+    pub step_physics: Option<
+        unsafe extern "C" fn(
+            instance: *mut c_void,
+            dt: f64,
+            pointers: *const HapticdPointer,
+            pointer_count: u32,
+            impulses: *const HapticdImpulse,
+            impulse_count: u32,
+            planes: *mut HapticdPlanes,
+        ) -> i32,
+    >,
+}
+
 /// What `hapticd_plugin_entry` returns: who the plugin is and what it implements.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
@@ -77,8 +203,8 @@ pub struct HapticdPluginDescriptor {
     pub description: *const c_char,
     /// The mechanism functions; non-null exactly when `kind` is [`HAPTICD_KIND_MECHANISM`].
     pub mechanism: *const HapticdMechanismVtable,
-    /// Reserved for the scene-physics vtable; null in ABI 1.0.
-    pub scene: *const c_void,
+    /// The scene functions; non-null exactly when `kind` is [`HAPTICD_KIND_SCENE`].
+    pub scene: *const HapticdSceneVtable,
 }
 
 /// Summary of a mechanism.

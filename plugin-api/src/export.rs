@@ -256,21 +256,21 @@ macro_rules! export_mechanism {
             static EXPORT: MechanismExport = MechanismExport::new($build);
 
             // SAFETY (all three): the host passes a pointer valid for one value, per the ABI.
-            unsafe extern "C" fn info(out: *mut HapticdMechanismInfo) -> i32 {
+            unsafe extern "C" fn __hapticd_info(out: *mut HapticdMechanismInfo) -> i32 {
                 unsafe { EXPORT.info(out) }
             }
-            unsafe extern "C" fn effector(index: u32, out: *mut HapticdEffector) -> i32 {
+            unsafe extern "C" fn __hapticd_effector(index: u32, out: *mut HapticdEffector) -> i32 {
                 unsafe { EXPORT.effector(index, out) }
             }
-            unsafe extern "C" fn string(index: u32, out: *mut HapticdString) -> i32 {
+            unsafe extern "C" fn __hapticd_string(index: u32, out: *mut HapticdString) -> i32 {
                 unsafe { EXPORT.string(index, out) }
             }
 
             static VTABLE: StaticVtable = StaticVtable(HapticdMechanismVtable {
                 struct_size: ::core::mem::size_of::<HapticdMechanismVtable>() as u32,
-                info: Some(info),
-                effector: Some(effector),
-                string: Some(string),
+                info: Some(__hapticd_info),
+                effector: Some(__hapticd_effector),
+                string: Some(__hapticd_string),
             });
 
             static DESCRIPTOR: StaticDescriptor = StaticDescriptor(HapticdPluginDescriptor {
@@ -282,6 +282,263 @@ macro_rules! export_mechanism {
                 description: concat!($description, "\0").as_ptr().cast(),
                 mechanism: &VTABLE.0,
                 scene: ::core::ptr::null(),
+            });
+
+            /// [main] The plugin's entry point.
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn hapticd_plugin_entry(
+                host: *const HapticdHost,
+            ) -> *const HapticdPluginDescriptor {
+                // SAFETY: the host keeps `host` valid for the life of the process (ABI v1).
+                unsafe { $crate::export::entry(host, &DESCRIPTOR) }
+            }
+        };
+    };
+}
+
+/// A scene instance, as a Rust plugin author implements it. Each method runs on the thread
+/// its style names; the default answers [`HAPTICD_ERROR_FAILED`] (wrong style).
+pub trait SceneInstance: Send {
+    /// [rt] Direct scenes: advance `dt` and write one wrench per pointer. Must not allocate,
+    /// lock, log or block.
+    fn step_direct(
+        &mut self,
+        dt: f64,
+        pointers: &[HapticdPointer],
+        wrenches: &mut [HapticdWrench],
+    ) -> i32 {
+        let _ = (dt, pointers, wrenches);
+        HAPTICD_ERROR_FAILED
+    }
+
+    /// [physics] Multi-rate scenes: apply `impulses`, advance `dt`, write each pointer's planes.
+    fn step_physics(
+        &mut self,
+        dt: f64,
+        pointers: &[HapticdPointer],
+        impulses: &[HapticdImpulse],
+        planes: &mut [HapticdPlanes],
+    ) -> i32 {
+        let _ = (dt, pointers, impulses, planes);
+        HAPTICD_ERROR_FAILED
+    }
+}
+
+/// How a Rust scene plugin creates instances: from the scene file (if any) and the number of
+/// pointers, an instance and its description, or a message for the host log.
+pub type SceneFactory =
+    fn(Option<&str>, usize) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String>;
+
+/// A vtable that may live in a `static`.
+#[repr(transparent)]
+#[doc(hidden)]
+pub struct StaticSceneVtable(pub HapticdSceneVtable);
+
+// SAFETY: a vtable holds only function pointers.
+unsafe impl Sync for StaticSceneVtable {}
+
+/// Body of the exported `create` function.
+///
+/// # Safety
+/// `path` is null or NUL-terminated; `instance` and `info` are valid for one write each.
+#[doc(hidden)]
+pub unsafe fn scene_create(
+    factory: SceneFactory,
+    path: *const c_char,
+    pointer_count: u32,
+    instance: *mut *mut std::ffi::c_void,
+    info: *mut HapticdSceneInfo,
+) -> i32 {
+    if instance.is_null() || info.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    guard(|| {
+        // SAFETY: the host passes null or a NUL-terminated string.
+        let path = unsafe { path.as_ref() }
+            .map(|p| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned());
+        match factory(path.as_deref(), pointer_count as usize) {
+            Ok((scene, description)) => {
+                // SAFETY: both pointers are valid for one write (checked non-null above).
+                unsafe {
+                    instance.write(Box::into_raw(Box::new(scene)).cast());
+                    info.write(description);
+                }
+                HAPTICD_OK
+            }
+            Err(message) => {
+                log(HAPTICD_LOG_ERROR, &message);
+                HAPTICD_ERROR_FAILED
+            }
+        }
+    })
+}
+
+/// The instance behind an opaque pointer made by [`scene_create`].
+///
+/// # Safety
+/// `instance` came from [`scene_create`], was not destroyed, and no other thread uses it.
+unsafe fn instance_mut<'a>(instance: *mut std::ffi::c_void) -> &'a mut Box<dyn SceneInstance> {
+    // SAFETY: per this function's contract.
+    unsafe { &mut *instance.cast::<Box<dyn SceneInstance>>() }
+}
+
+/// Body of the exported `destroy` function.
+///
+/// # Safety
+/// As [`instance_mut`]; the instance is not used afterwards.
+#[doc(hidden)]
+pub unsafe fn scene_destroy(instance: *mut std::ffi::c_void) {
+    if !instance.is_null() {
+        guard(|| {
+            // SAFETY: made by Box::into_raw in scene_create, destroyed once.
+            drop(unsafe { Box::from_raw(instance.cast::<Box<dyn SceneInstance>>()) });
+            HAPTICD_OK
+        });
+    }
+}
+
+/// Body of the exported `step_direct` function.
+///
+/// # Safety
+/// As [`instance_mut`]; `pointers` and `wrenches` hold `count` elements.
+#[doc(hidden)]
+pub unsafe fn scene_step_direct(
+    instance: *mut std::ffi::c_void,
+    dt: f64,
+    pointers: *const HapticdPointer,
+    count: u32,
+    wrenches: *mut HapticdWrench,
+) -> i32 {
+    if instance.is_null() || pointers.is_null() || wrenches.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    guard(|| {
+        // SAFETY: per this function's contract.
+        let (scene, pointers, wrenches) = unsafe {
+            (
+                instance_mut(instance),
+                std::slice::from_raw_parts(pointers, count as usize),
+                std::slice::from_raw_parts_mut(wrenches, count as usize),
+            )
+        };
+        scene.step_direct(dt, pointers, wrenches)
+    })
+}
+
+/// Body of the exported `step_physics` function.
+///
+/// # Safety
+/// As [`instance_mut`]; `pointers` and `planes` hold `count` elements, `impulses` holds
+/// `impulse_count` (or is null when there are none).
+#[doc(hidden)]
+pub unsafe fn scene_step_physics(
+    instance: *mut std::ffi::c_void,
+    dt: f64,
+    pointers: *const HapticdPointer,
+    count: u32,
+    impulses: *const HapticdImpulse,
+    impulse_count: u32,
+    planes: *mut HapticdPlanes,
+) -> i32 {
+    if instance.is_null()
+        || pointers.is_null()
+        || planes.is_null()
+        || (impulses.is_null() && impulse_count > 0)
+    {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    guard(|| {
+        // SAFETY: per this function's contract.
+        let (scene, pointers, planes) = unsafe {
+            (
+                instance_mut(instance),
+                std::slice::from_raw_parts(pointers, count as usize),
+                std::slice::from_raw_parts_mut(planes, count as usize),
+            )
+        };
+        let impulses = if impulse_count == 0 {
+            &[][..]
+        } else {
+            // SAFETY: non-null with impulse_count elements, per the contract.
+            unsafe { std::slice::from_raw_parts(impulses, impulse_count as usize) }
+        };
+        scene.step_physics(dt, pointers, impulses, planes)
+    })
+}
+
+/// Export a scene plugin: defines `hapticd_plugin_entry` and the scene vtable around a
+/// [`SceneFactory`].
+#[macro_export]
+macro_rules! export_scene {
+    (name: $name:literal, description: $description:literal, create: $create:path $(,)?) => {
+        const _: () = {
+            use $crate::abi::*;
+            use $crate::export::{StaticDescriptor, StaticSceneVtable};
+
+            // SAFETY (all four): the host keeps the ABI's contracts on every pointer.
+            unsafe extern "C" fn __hapticd_create(
+                path: *const ::core::ffi::c_char,
+                pointer_count: u32,
+                instance: *mut *mut ::core::ffi::c_void,
+                info: *mut HapticdSceneInfo,
+            ) -> i32 {
+                unsafe {
+                    $crate::export::scene_create($create, path, pointer_count, instance, info)
+                }
+            }
+            unsafe extern "C" fn __hapticd_destroy(instance: *mut ::core::ffi::c_void) {
+                unsafe { $crate::export::scene_destroy(instance) }
+            }
+            unsafe extern "C" fn __hapticd_step_direct(
+                instance: *mut ::core::ffi::c_void,
+                dt: f64,
+                pointers: *const HapticdPointer,
+                count: u32,
+                wrenches: *mut HapticdWrench,
+            ) -> i32 {
+                unsafe {
+                    $crate::export::scene_step_direct(instance, dt, pointers, count, wrenches)
+                }
+            }
+            unsafe extern "C" fn __hapticd_step_physics(
+                instance: *mut ::core::ffi::c_void,
+                dt: f64,
+                pointers: *const HapticdPointer,
+                count: u32,
+                impulses: *const HapticdImpulse,
+                impulse_count: u32,
+                planes: *mut HapticdPlanes,
+            ) -> i32 {
+                unsafe {
+                    $crate::export::scene_step_physics(
+                        instance,
+                        dt,
+                        pointers,
+                        count,
+                        impulses,
+                        impulse_count,
+                        planes,
+                    )
+                }
+            }
+
+            static VTABLE: StaticSceneVtable = StaticSceneVtable(HapticdSceneVtable {
+                struct_size: ::core::mem::size_of::<HapticdSceneVtable>() as u32,
+                create: Some(__hapticd_create),
+                destroy: Some(__hapticd_destroy),
+                step_direct: Some(__hapticd_step_direct),
+                step_physics: Some(__hapticd_step_physics),
+            });
+
+            static DESCRIPTOR: StaticDescriptor = StaticDescriptor(HapticdPluginDescriptor {
+                abi_major: HAPTICD_ABI_MAJOR,
+                abi_minor: HAPTICD_ABI_MINOR,
+                kind: HAPTICD_KIND_SCENE,
+                name: concat!($name, "\0").as_ptr().cast(),
+                version: concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast(),
+                description: concat!($description, "\0").as_ptr().cast(),
+                mechanism: ::core::ptr::null(),
+                scene: &VTABLE.0,
             });
 
             /// [main] The plugin's entry point.

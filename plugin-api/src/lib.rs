@@ -5,10 +5,11 @@
 //! refuses a plugin whose ABI major differs from its own or whose minor is newer.
 //!
 //! [`abi`] holds the `#[repr(C)]` types (the C header `include/hapticd_plugin.h` is generated
-//! from it); [`export`] and [`export_mechanism!`] are the safe side for Rust authors.
+//! from it); [`export`], [`export_mechanism!`] and [`export_scene!`] are the safe side for
+//! Rust authors.
 
 pub mod abi;
 pub mod export;
 
 pub use abi::*;
-pub use export::{MechanismSpec, log};
+pub use export::{MechanismSpec, SceneFactory, SceneInstance, log};

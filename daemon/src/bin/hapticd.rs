@@ -20,8 +20,8 @@ use hapticd::mechanism::catalog::Catalog;
 use hapticd::runtime::haptic_loop::{DeviceState, Frame, HapticLoop, LoopSettings};
 use hapticd::runtime::realtime::{LoopEvent, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::runtime::spsc;
-use hapticd::scene::Pointer;
 use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd::scene::{Pointer, Scene, plugin_scene};
 use hapticd::sd_notify;
 use hapticd::sim::hand::Script;
 use hapticd::sim::{SimParameters, SimulatedBoard};
@@ -37,7 +37,7 @@ struct Cli {
     /// even when hardware is plugged in.
     #[arg(long, value_name = "MECH")]
     sim: Option<String>,
-    /// Scene to render: a name in the scene directories, or a path.
+    /// Scene to render: a name in the scene directories, a scene file, or a scene plugin (.so).
     #[arg(long)]
     scene: Option<String>,
     /// Script of the simulated hand.
@@ -108,6 +108,20 @@ fn load_config(path: Option<&Path>) -> Result<Config, String> {
             }
         }
     }
+}
+
+/// The scene called `name`: a scene plugin (`.so`), a static scene file, or the name of a
+/// static scene in the scene directories.
+fn build_scene(
+    name: &str,
+    config: &Config,
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, String> {
+    if Path::new(name).extension().is_some_and(|e| e == "so") {
+        return plugin_scene::load(Path::new(name), None, pointers);
+    }
+    let spec = find_scene(name, config)?;
+    Ok(Box::new(StaticScene::new(spec, pointers)))
 }
 
 fn find_scene(name: &str, config: &Config) -> Result<StaticSceneSpec, String> {
@@ -289,7 +303,6 @@ fn run(cli: Cli) -> Result<(), String> {
     let mechanism = catalog
         .resolve(&mechanism_name)
         .map_err(|e| e.to_string())?;
-    let scene_spec = find_scene(cli.scene.as_deref().unwrap_or(&config.scene), &config)?;
     let script = match cli.hand.as_ref().or(config.simulator.hand.as_ref()) {
         Some(path) => Script::load(path)?,
         None => Script::default(),
@@ -343,8 +356,12 @@ fn run(cli: Cli) -> Result<(), String> {
             velocity: DVec3::ZERO,
         })
         .collect();
-    let scene_name = scene_spec.name.clone();
-    let scene = Box::new(StaticScene::new(scene_spec, &pointers));
+    let scene = build_scene(
+        cli.scene.as_deref().unwrap_or(&config.scene),
+        &config,
+        &pointers,
+    )?;
+    let scene_name = scene.name().to_string();
     let settings = LoopSettings {
         safety: SafetyLimits {
             max_force: config.safety.max_force,

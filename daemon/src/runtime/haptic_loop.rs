@@ -54,7 +54,7 @@ pub enum DeviceState {
     /// Rendering forces.
     #[default]
     Running,
-    /// A fault drives the forces to zero (the transport error, or a non-finite wrench).
+    /// A fault drives the forces to zero (a failed scene, or a non-finite wrench).
     Fault,
     /// The device does not answer.
     Disconnected,
@@ -218,6 +218,7 @@ impl HapticLoop {
         self.frame.time += dt;
         let update = self.transport.update(&self.frame.dac, &mut self.reading);
         let connected = update.is_ok();
+        let mut scene_ok = true;
         if connected {
             if !self.calibrated {
                 // Grips are held at their calibration poses when the device starts.
@@ -229,7 +230,7 @@ impl HapticLoop {
             if self.frame.state == DeviceState::Disconnected {
                 self.scene.reset(&self.pointers);
             }
-            self.scene.render(&self.pointers, dt, &mut self.wrenches);
+            scene_ok = self.scene.render(&self.pointers, dt, &mut self.wrenches);
         } else {
             self.wrenches.fill([0.0; 6]);
         }
@@ -239,7 +240,7 @@ impl HapticLoop {
             let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
             let force = e.passivity.filter(force, e.velocity, dt);
             wrench[..3].copy_from_slice(&force.to_array());
-            all_finite &= e.guard.apply(&mut wrench, connected, dt);
+            all_finite &= e.guard.apply(&mut wrench, connected && scene_ok, dt);
             self.frame.wrenches[index] = wrench;
             self.frame.poses[index] = *e.pose.pose();
             self.frame.velocities[index] = e.velocity;
@@ -254,7 +255,7 @@ impl HapticLoop {
         }
         (self.frame.state, self.frame.error) = match update {
             Err(e) => (DeviceState::Disconnected, Some(e)),
-            Ok(()) if !all_finite => (DeviceState::Fault, None),
+            Ok(()) if !all_finite || !scene_ok => (DeviceState::Fault, None),
             Ok(()) => (DeviceState::Running, None),
         };
         &self.frame

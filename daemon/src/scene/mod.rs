@@ -1,8 +1,10 @@
 //! Scenes: what the user touches. A scene turns the pointers' motion (one pointer per end
 //! effector) into the wrench each one should feel.
 //!
-//! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy.
+//! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
+//! - [`plugin_scene`]: scenes from plugins, direct or multi-rate.
 
+pub mod plugin_scene;
 pub mod static_scene;
 
 use glam::DVec3;
@@ -24,8 +26,9 @@ pub trait Scene: Send {
     fn name(&self) -> &str;
 
     /// [rt] The wrench (force, then torque) to present on each pointer after a tick of `dt`
-    /// seconds. `wrenches` has one slot per pointer.
-    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]);
+    /// seconds. `wrenches` has one slot per pointer. Returns false when the scene has failed
+    /// (a plugin error, stale physics): the loop then ramps the forces to zero.
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool;
 
     /// [rt] Forget contact state (after a fault, or when the pointers jumped).
     fn reset(&mut self, pointers: &[Pointer]);

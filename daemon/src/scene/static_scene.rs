@@ -220,7 +220,7 @@ impl Scene for StaticScene {
         &self.spec.name
     }
 
-    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) {
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
         for ((proxy, pointer), wrench) in self.proxies.iter_mut().zip(pointers).zip(wrenches) {
             let out = proxy.update(
                 pointer.pose.position,
@@ -231,6 +231,7 @@ impl Scene for StaticScene {
             );
             *wrench = [out.force.x, out.force.y, out.force.z, 0.0, 0.0, 0.0];
         }
+        true
     }
 
     fn reset(&mut self, pointers: &[Pointer]) {
