@@ -9,6 +9,7 @@ pub mod config;
 pub mod device;
 pub mod experiments;
 pub mod haptics;
+pub mod logging;
 pub mod mechanism;
 pub mod plot;
 pub mod plugin;

@@ -120,17 +120,13 @@ unsafe extern "C" fn host_log(
             CStr::from_ptr(context.cast::<c_char>()),
         )
     };
-    let level = match level {
-        HAPTICD_LOG_ERROR => "error",
-        HAPTICD_LOG_WARN => "warning",
-        HAPTICD_LOG_INFO => "info",
-        _ => "debug",
-    };
-    eprintln!(
-        "plugin {}: {level}: {}",
-        origin.to_string_lossy(),
-        String::from_utf8_lossy(bytes)
-    );
+    let (plugin, message) = (origin.to_string_lossy(), String::from_utf8_lossy(bytes));
+    match level {
+        HAPTICD_LOG_ERROR => tracing::error!(%plugin, "plugin {plugin}: {message}"),
+        HAPTICD_LOG_WARN => tracing::warn!(%plugin, "plugin {plugin}: {message}"),
+        HAPTICD_LOG_INFO => tracing::info!(%plugin, "plugin {plugin}: {message}"),
+        _ => tracing::debug!(%plugin, "plugin {plugin}: {message}"),
+    }
 }
 
 /// [any] Host clock service: CLOCK_MONOTONIC in nanoseconds.

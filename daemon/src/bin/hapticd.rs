@@ -222,16 +222,21 @@ fn spawn_event_logger(
             let finished = done.load(Ordering::Acquire);
             while let Some(event) = events.pop() {
                 match event {
-                    LoopEvent::State { time, state, error } => match error {
-                        Some(e) => eprintln!("hapticd: {time:.3} s: device {state:?}: {e}"),
-                        None => eprintln!("hapticd: {time:.3} s: device {state:?}"),
+                    LoopEvent::State { time, state, error } => match (state, error) {
+                        (_, Some(e)) => tracing::error!("{time:.3} s: device {state:?}: {e}"),
+                        (DeviceState::Running, None) => {
+                            tracing::info!("{time:.3} s: device {state:?}")
+                        }
+                        (_, None) => {
+                            tracing::error!("{time:.3} s: device {state:?}: forces ramped to zero")
+                        }
                     },
                     LoopEvent::Overrun { time, late_ns } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.
                         if overruns <= 5 || overruns.is_multiple_of(1000) {
-                            eprintln!(
-                                "hapticd: {time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
+                            tracing::warn!(
+                                "{time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
                                 late_ns as f64 / 1e3
                             );
                         }
@@ -289,7 +294,7 @@ fn run(cli: Cli) -> Result<(), String> {
         let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
         let (mut found, problems) = find_devices(&context);
         for p in problems {
-            eprintln!("hapticd: warning: {p}");
+            tracing::warn!("{p}");
         }
         (!found.is_empty()).then(|| found.remove(0))
     } else {
@@ -376,9 +381,8 @@ fn run(cli: Cli) -> Result<(), String> {
 
     // SAFETY: mlockall takes no pointers.
     if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } != 0 {
-        eprintln!(
-            "hapticd: warning: cannot lock memory ({}); page faults may delay the haptic loop \
-             (raise LimitMEMLOCK=)",
+        tracing::warn!(
+            "cannot lock memory ({}); page faults may delay the haptic loop (raise LimitMEMLOCK=)",
             std::io::Error::last_os_error()
         );
     }
@@ -406,13 +410,13 @@ fn run(cli: Cli) -> Result<(), String> {
     )
     .map_err(|e| format!("cannot start the haptic thread: {e}"))?;
     match rt.scheduling() {
-        Scheduling::Fifo(priority) => eprintln!(
-            "hapticd: {mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
+        Scheduling::Fifo(priority) => tracing::info!(
+            "{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
         ),
-        Scheduling::Refused(why) => eprintln!(
-            "hapticd: WARNING: running WITHOUT real-time scheduling: {why}\n\
-             hapticd: {mechanism_name} on {identity}, scene {scene_name}, {rate} Hz"
-        ),
+        Scheduling::Refused(why) => {
+            tracing::error!("running WITHOUT real-time scheduling: {why}");
+            tracing::info!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
+        }
     }
     let _ = sd_notify::notify(&format!(
         "READY=1\nSTATUS=running {mechanism_name} at {rate} Hz"
@@ -455,8 +459,8 @@ fn run(cli: Cli) -> Result<(), String> {
             .map_err(|_| "a recording thread panicked".to_string())?
             .map_err(|e| format!("writing a recording: {e}"))?;
     }
-    eprintln!(
-        "hapticd: stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; {} overruns",
+    tracing::info!(
+        "stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; {} overruns",
         stats.ticks,
         stats.wait_percentile_ns(0.5) as f64 / 1e3,
         stats.wait_percentile_ns(0.99) as f64 / 1e3,
@@ -467,10 +471,12 @@ fn run(cli: Cli) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    hapticd::logging::init("hapticd", false);
+    match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
-            eprintln!("hapticd: error: {message}");
+            tracing::error!("{message}");
             ExitCode::FAILURE
         }
     }

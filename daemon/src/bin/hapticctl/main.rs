@@ -73,6 +73,7 @@ impl Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    hapticd::logging::init("hapticctl", false);
     let catalog = if cli.mechanism_dirs.is_empty() {
         Catalog::from_env()
     } else {
