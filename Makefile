@@ -3,6 +3,7 @@
 #   make run      build hapticd and run it on the simulated SPIDAR-G with the default scene
 #   make check    install what the tests need (Debian/Ubuntu packages), then run every test
 #   make bench    benchmarks of the per-tick computations (release build)
+#   make latency  wake-up latency of the haptic thread against cyclictest (needs SCHED_FIFO)
 #   make figures  regenerate the figures shown in the README
 #   make header   regenerate plugin-api/include/hapticd_plugin.h from the Rust ABI
 
@@ -17,7 +18,7 @@ HAPTICCTL := $(RELEASE)/hapticctl --mechanism-dir $(STAGE)
 TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: run check deps test lint bench figures header stage
+.PHONY: run check deps test lint bench latency figures header stage
 
 stage:
 	$(CARGO) build --release -p hapticd $(addprefix -p ,$(PLUGINS))
@@ -49,7 +50,12 @@ check: deps lint test
 
 bench:
 	$(CARGO) build --release --workspace
-	$(CARGO) bench -p hapticd-e2e
+	$(CARGO) bench -p hapticd-e2e --bench mechanism
+
+latency:
+	@command -v cyclictest >/dev/null || $(SUDO) apt-get install -y -q --no-install-recommends rt-tests
+	$(CARGO) build --release --workspace
+	$(CARGO) bench -p hapticd-e2e --bench latency
 
 figures: stage
 	$(HAPTICCTL) mechanism sweep spidar --plot docs/figures/tension-sweep-spidar.png

@@ -122,3 +122,69 @@ fn tension_clarabel(bencher: Bencher, name: &str) {
         )
     });
 }
+
+/// A transport without I/O: the counters read zero at power-on (calibration), then the
+/// counts of `pressed` forever, so a tick costs only its computation.
+struct StillTransport {
+    calibrated: bool,
+    pressed: [i64; 8],
+}
+
+impl hapticd::device::transport::Transport for StillTransport {
+    fn update(
+        &mut self,
+        _dac: &[i16; 8],
+        reading: &mut hapticd::device::Reading,
+    ) -> Result<(), hapticd::device::transport::TransportError> {
+        reading.counts = if std::mem::replace(&mut self.calibrated, true) {
+            self.pressed
+        } else {
+            [0; 8]
+        };
+        Ok(())
+    }
+
+    fn reset(&mut self) -> Result<(), hapticd::device::transport::TransportError> {
+        Ok(())
+    }
+
+    fn identity(&self) -> &str {
+        "still"
+    }
+}
+
+/// One haptic tick (pose, proxy against the static scene, passivity, safety, tensions) with
+/// every grip pressed 2 mm into the floor; device I/O excluded.
+#[divan::bench(args = MECHANISMS)]
+fn haptic_tick(bencher: Bencher, name: &str) {
+    use hapticd::runtime::haptic_loop::{HapticLoop, LoopSettings};
+    use hapticd::scene::Pointer;
+    use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+
+    let m = shipped(name);
+    let mut pressed = [0i64; 8];
+    for (i, s) in m.strings.iter().enumerate() {
+        let rest = m.effectors[s.effector].calibration;
+        let mut pose = rest;
+        pose.position.y = -0.032;
+        let length = |p: &Pose| (s.motor - p.transform_point(s.knot)).length();
+        pressed[i] = ((length(&pose) - length(&rest)) / s.metres_per_pulse).round() as i64;
+    }
+    let spec =
+        StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
+    let pointers: Vec<Pointer> = m
+        .effectors
+        .iter()
+        .map(|e| Pointer {
+            pose: e.calibration,
+            velocity: glam::DVec3::ZERO,
+        })
+        .collect();
+    let scene = Box::new(StaticScene::new(spec, &pointers));
+    let transport = Box::new(StillTransport {
+        calibrated: false,
+        pressed,
+    });
+    let mut haptic = HapticLoop::new(m, transport, scene, LoopSettings::default()).unwrap();
+    bencher.bench_local(|| *haptic.tick(1e-3));
+}

@@ -386,6 +386,12 @@ fn run(cli: Cli) -> Result<(), String> {
             std::io::Error::last_os_error()
         );
     }
+    let _cpu_latency = hapticd::runtime::realtime::hold_low_cpu_latency().or_else(|| {
+        tracing::warn!(
+            "cannot hold /dev/cpu_dma_latency at 0: deep CPU idle states may delay wake-ups"
+        );
+        None
+    });
     install_signal_handlers()?;
     let (event_tx, event_rx) = spsc::channel(1024);
     let logger = spawn_event_logger(event_rx, &DONE);

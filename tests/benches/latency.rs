@@ -1,0 +1,112 @@
+//! Wake-up latency of hapticd's real-time thread against `cyclictest` (Debian rt-tests) at
+//! the same rate and priority, on the same machine, one after the other in one run.
+//!
+//! Run: `make latency` (needs the right to use SCHED_FIFO, e.g. root).
+
+#[path = "../support/mod.rs"]
+mod support;
+
+use std::process::Command;
+
+const SECONDS: u32 = 10;
+const RATE: u32 = 1000;
+const PRIORITY: u32 = 80;
+
+/// (p50, p99, max) in microseconds.
+type Latency = (f64, f64, f64);
+
+fn hapticd() -> Latency {
+    let dir = support::scratch_root().join("latency-mechanisms");
+    std::fs::create_dir_all(&dir).unwrap();
+    let plugin = support::plugin_path("hapticd-spidar-g");
+    std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
+    let out = Command::new(support::artifact("hapticd"))
+        .arg("--mechanism-dir")
+        .arg(&dir)
+        .arg("--scene")
+        .arg(support::repo_dir().join("config/scenes/static.yaml"))
+        .args([
+            "--sim",
+            "spidar-g",
+            "--rate",
+            &RATE.to_string(),
+            "--duration",
+            &SECONDS.to_string(),
+        ])
+        .env_remove("NOTIFY_SOCKET")
+        .output()
+        .expect("hapticd runs");
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        log.contains("SCHED_FIFO"),
+        "hapticd did not get real-time scheduling:\n{log}"
+    );
+    let line = log
+        .lines()
+        .find(|l| l.contains("wake latency"))
+        .expect("hapticd's final statistics");
+    let number = |key: &str| -> f64 {
+        let rest = &line[line.find(key).expect(key) + key.len()..];
+        rest.trim_start()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    (number("p50"), number("p99"), number("max"))
+}
+
+fn cyclictest() -> Latency {
+    let out = Command::new("cyclictest")
+        .args(["-q", "-m", "-t", "1", "-h", "2000"])
+        .args(["-p", &PRIORITY.to_string()])
+        .args(["-i", &(1_000_000 / RATE).to_string()])
+        .args(["-D", &format!("{SECONDS}s")])
+        .output()
+        .expect("cyclictest is installed (Debian package rt-tests)");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut histogram = Vec::new();
+    let mut max = 0.0;
+    for line in text.lines() {
+        if let Some(rest) = line.strip_prefix("# Max Latencies:") {
+            max = rest.trim().parse().unwrap();
+        } else if !line.starts_with('#') {
+            let mut fields = line.split_whitespace();
+            if let (Some(us), Some(count)) = (fields.next(), fields.next()) {
+                histogram.push((us.parse::<f64>().unwrap(), count.parse::<u64>().unwrap()));
+            }
+        }
+    }
+    let total: u64 = histogram.iter().map(|h| h.1).sum();
+    let percentile = |p: f64| {
+        let mut seen = 0;
+        for &(us, count) in &histogram {
+            seen += count;
+            if seen as f64 >= p * total as f64 {
+                // Same convention as hapticd's histogram: the bucket's upper edge.
+                return us + 1.0;
+            }
+        }
+        max
+    };
+    (percentile(0.5), percentile(0.99), max)
+}
+
+fn main() {
+    let ours = hapticd();
+    let reference = cyclictest();
+    println!("wake latency at {RATE} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs):");
+    println!("             p50      p99      max");
+    println!("hapticd   {:7.1}  {:7.1}  {:7.1}", ours.0, ours.1, ours.2);
+    println!(
+        "cyclictest{:7.1}  {:7.1}  {:7.1}",
+        reference.0, reference.1, reference.2
+    );
+    println!(
+        "ratio     {:7.2}  {:7.2}  {:7.2}",
+        ours.0 / reference.0,
+        ours.1 / reference.1,
+        ours.2 / reference.2
+    );
+}
