@@ -47,12 +47,7 @@ fn hapticd() -> Latency {
         .expect("hapticd's final statistics");
     let number = |key: &str| -> f64 {
         let rest = &line[line.find(key).expect(key) + key.len()..];
-        rest.trim_start()
-            .split_whitespace()
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap()
+        rest.split_whitespace().next().unwrap().parse().unwrap()
     };
     (number("p50"), number("p99"), number("max"))
 }
