@@ -9,13 +9,14 @@
 //!     - shake: { amplitude: [0.01, 0, 0], frequency: 5, seconds: 2 }
 //!     - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 1, 0], period: 4, seconds: 4 }
 //!     - unplug: { seconds: 0.3 }            # the device disappears, then returns
+//!     - path: { file: session.csv }         # follow a recorded path (hapticd --record)
 //! ```
 //!
 //! Steps run one after another; after the last one the hand holds still. `move`, `shake`
 //! and `trace` start from where the previous step left the target.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 use serde::Deserialize;
@@ -73,6 +74,15 @@ pub enum Step {
         /// Duration.
         seconds: f64,
     },
+    /// Follow a recorded path: a CSV file with a `time` column and the effector's
+    /// `NAME_x, NAME_y, NAME_z` columns (as `hapticd --record` writes) or plain `x, y, z`.
+    Path {
+        /// The CSV file; relative paths are taken from the script's directory.
+        file: PathBuf,
+        /// The samples: seconds from the first row, and positions.
+        #[serde(skip)]
+        samples: Vec<(f64, DVec3)>,
+    },
 }
 
 impl Step {
@@ -84,8 +94,62 @@ impl Step {
             | Step::Shake { seconds, .. }
             | Step::Trace { seconds, .. }
             | Step::Unplug { seconds } => seconds,
+            Step::Path { ref samples, .. } => samples.last().map_or(0.0, |s| s.0),
         }
     }
+}
+
+/// Read the path of effector `name` from a CSV recording.
+fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, String> {
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| format!("{}: cannot read: {e}", file.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let column = |wanted: &[String]| header.iter().position(|h| wanted.iter().any(|w| w == h));
+    let axis = |a: &str| column(&[format!("{name}_{a}"), a.to_string()]);
+    let (Some(t), Some(x), Some(y), Some(z)) =
+        (column(&["time".into()]), axis("x"), axis("y"), axis("z"))
+    else {
+        return Err(format!(
+            "{}: needs columns time and x, y, z (or {name}_x, …)",
+            file.display()
+        ));
+    };
+    let mut samples = Vec::new();
+    for (row, line) in lines.enumerate() {
+        let fields: Vec<&str> = line.split(',').collect();
+        let value = |c: usize| -> Result<f64, String> {
+            fields
+                .get(c)
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "{}: row {}: not a number in column {}",
+                        file.display(),
+                        row + 2,
+                        c + 1
+                    )
+                })
+        };
+        samples.push((value(t)?, DVec3::new(value(x)?, value(y)?, value(z)?)));
+    }
+    let start = samples.first().map_or(0.0, |s| s.0);
+    for s in &mut samples {
+        s.0 -= start;
+    }
+    if samples.len() < 2 || samples.windows(2).any(|w| w[1].0 <= w[0].0) {
+        return Err(format!(
+            "{}: needs two or more rows in increasing time",
+            file.display()
+        ));
+    }
+    Ok(samples)
 }
 
 #[derive(Deserialize)]
@@ -102,16 +166,29 @@ pub struct Script {
 }
 
 impl Script {
-    /// Load a script file.
+    /// Load a script file (recorded paths relative to its directory).
     pub fn load(path: &Path) -> Result<Script, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        Script::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+        let base = path.parent().unwrap_or(Path::new("."));
+        Script::parse_in(&text, base).map_err(|e| format!("{}: {e}", path.display()))
     }
 
-    /// Parse script text.
+    /// Parse script text (recorded paths relative to the working directory).
     pub fn parse(text: &str) -> Result<Script, String> {
-        let raw: RawScript = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
+        Script::parse_in(text, Path::new("."))
+    }
+
+    /// Parse script text, taking recorded paths relative to `base`.
+    pub fn parse_in(text: &str, base: &Path) -> Result<Script, String> {
+        let mut raw: RawScript = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
+        for (name, steps) in &mut raw.hands {
+            for step in steps.iter_mut() {
+                if let Step::Path { file, samples } = step {
+                    *samples = read_path(&base.join(&*file), name)?;
+                }
+            }
+        }
         for (name, steps) in &raw.hands {
             for (i, step) in steps.iter().enumerate() {
                 if !(step.seconds().is_finite() && step.seconds() >= 0.0) {
@@ -164,6 +241,7 @@ impl HandTrack {
             Step::Hold { at, .. } => at.map_or(start, DVec3::from),
             Step::Move { to, .. } => DVec3::from(to),
             Step::Trace { .. } => Self::trace_at(step, start, step.seconds()).0,
+            Step::Path { ref samples, .. } => samples.last().map_or(start, |s| s.1),
             _ => start,
         }
     }
@@ -238,6 +316,15 @@ impl HandTrack {
             }
             Step::Trace { .. } => (c.target, c.velocity) = Self::trace_at(step, start, t),
             Step::Unplug { .. } => c.unplugged = true,
+            Step::Path { ref samples, .. } => {
+                // The segment holding t, linearly.
+                let i = samples
+                    .partition_point(|s| s.0 <= t)
+                    .clamp(1, samples.len() - 1);
+                let ((t0, p0), (t1, p1)) = (samples[i - 1], samples[i]);
+                c.velocity = (p1 - p0) / (t1 - t0);
+                c.target = p0 + c.velocity * (t - t0);
+            }
         }
         c
     }
@@ -279,6 +366,30 @@ mod tests {
             assert!((c.velocity.length() - 0.1 * std::f64::consts::TAU / 4.0).abs() < 1e-12);
         }
         assert!((track.at(4.0).target - DVec3::new(0.1, 0.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn a_recorded_path_is_followed_between_its_samples() {
+        let dir = std::env::temp_dir().join(format!("hapticd-hand-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("path.csv"),
+            "time,state,grip_x,grip_y,grip_z\n10.0,running,0,0,0\n10.5,running,0.01,0,0\n11.0,running,0.01,-0.02,0\n",
+        )
+        .unwrap();
+        let script =
+            Script::parse_in("hands:\n  grip:\n    - path: { file: path.csv }\n", &dir).unwrap();
+        let track = HandTrack::new(DVec3::ZERO, script.hands["grip"].clone());
+        let c = track.at(0.25);
+        assert!((c.target - DVec3::new(0.005, 0.0, 0.0)).length() < 1e-12);
+        assert!((c.velocity - DVec3::new(0.02, 0.0, 0.0)).length() < 1e-12);
+        assert!((track.at(0.75).target - DVec3::new(0.01, -0.01, 0.0)).length() < 1e-12);
+        assert_eq!(track.at(5.0).target, DVec3::new(0.01, -0.02, 0.0));
+        std::fs::write(dir.join("bad.csv"), "time,x\n0,1\n").unwrap();
+        assert!(
+            Script::parse_in("hands:\n  grip:\n    - path: { file: bad.csv }\n", &dir).is_err()
+        );
+        std::fs::remove_dir_all(dir).ok();
     }
 
     #[test]
