@@ -26,11 +26,15 @@ fn mechanisms() -> PathBuf {
 }
 
 fn hapticd(args: &[&str]) -> Command {
+    hapticd_with_scene(&repo_dir().join("config/scenes/static.yaml"), args)
+}
+
+fn hapticd_with_scene(scene: &Path, args: &[&str]) -> Command {
     let mut c = Command::new(artifact("hapticd"));
     c.arg("--mechanism-dir")
         .arg(mechanisms())
         .arg("--scene")
-        .arg(repo_dir().join("config/scenes/static.yaml"))
+        .arg(scene)
         .args(args)
         .env_remove("NOTIFY_SOCKET")
         .stdout(Stdio::piped())
@@ -59,20 +63,32 @@ fn finish(child: Child) -> Output {
     out
 }
 
-/// CSV rows as (time, grip y, force y).
-fn recorded(path: &Path) -> Vec<(f64, f64, f64)> {
+/// The named columns of a recording, row by row.
+fn columns(path: &Path, names: &[&str]) -> Vec<Vec<String>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (t, y, fy) = (col("time"), col("grip_y"), col("grip_fy"));
+    let index: Vec<usize> = names
+        .iter()
+        .map(|n| header.iter().position(|h| h == n).unwrap())
+        .collect();
     lines
         .map(|l| {
             let v: Vec<&str> = l.split(',').collect();
+            index.iter().map(|&c| v[c].to_string()).collect()
+        })
+        .collect()
+}
+
+/// CSV rows as (time, grip y, force y).
+fn recorded(path: &Path) -> Vec<(f64, f64, f64)> {
+    columns(path, &["time", "grip_y", "grip_fy"])
+        .iter()
+        .map(|r| {
             (
-                v[t].parse().unwrap(),
-                v[y].parse().unwrap(),
-                v[fy].parse().unwrap(),
+                r[0].parse().unwrap(),
+                r[1].parse().unwrap(),
+                r[2].parse().unwrap(),
             )
         })
         .collect()
@@ -213,20 +229,9 @@ fn a_bad_configuration_is_refused_with_its_place() {
 
 /// CSV rows as (time, state, force y).
 fn states(path: &Path) -> Vec<(f64, String, f64)> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (t, s, fy) = (col("time"), col("state"), col("grip_fy"));
-    lines
-        .map(|l| {
-            let v: Vec<&str> = l.split(',').collect();
-            (
-                v[t].parse().unwrap(),
-                v[s].to_string(),
-                v[fy].parse().unwrap(),
-            )
-        })
+    columns(path, &["time", "state", "grip_fy"])
+        .iter()
+        .map(|r| (r[0].parse().unwrap(), r[1].clone(), r[2].parse().unwrap()))
         .collect()
 }
 
@@ -235,10 +240,9 @@ fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
     let csv = scratch("panic.csv");
     let scene = plugin_path("hapticd-test-panicking-scene");
     let out = finish(
-        Command::new(artifact("hapticd"))
-            .arg("--mechanism-dir")
-            .arg(mechanisms())
-            .args([
+        hapticd_with_scene(
+            &scene,
+            &[
                 "--sim",
                 "spidar-g",
                 "--hand",
@@ -247,13 +251,10 @@ fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
                 "1.4",
                 "--record",
                 csv.to_str().unwrap(),
-            ])
-            .arg("--scene")
-            .arg(&scene)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
+            ],
+        )
+        .spawn()
+        .unwrap(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -280,10 +281,9 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
     let csv = scratch("stall.csv");
     let scene = plugin_path("hapticd-test-stalling-scene");
     finish(
-        Command::new(artifact("hapticd"))
-            .arg("--mechanism-dir")
-            .arg(mechanisms())
-            .args([
+        hapticd_with_scene(
+            &scene,
+            &[
                 "--sim",
                 "spidar-g",
                 "--hand",
@@ -292,13 +292,10 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
                 "3",
                 "--record",
                 csv.to_str().unwrap(),
-            ])
-            .arg("--scene")
-            .arg(&scene)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
+            ],
+        )
+        .spawn()
+        .unwrap(),
     );
     let rows = states(&csv);
     // The physics (50 Hz) hangs from about 1.2 s to 2.2 s. Before: the floor pushes back.

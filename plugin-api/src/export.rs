@@ -251,7 +251,7 @@ macro_rules! export_mechanism {
     (name: $name:literal, description: $description:literal, build: $build:path $(,)?) => {
         const _: () = {
             use $crate::abi::*;
-            use $crate::export::{MechanismExport, StaticDescriptor, StaticVtable};
+            use $crate::export::{MechanismExport, StaticVtable};
 
             static EXPORT: MechanismExport = MechanismExport::new($build);
 
@@ -273,25 +273,13 @@ macro_rules! export_mechanism {
                 string: Some(__hapticd_string),
             });
 
-            static DESCRIPTOR: StaticDescriptor = StaticDescriptor(HapticdPluginDescriptor {
-                abi_major: HAPTICD_ABI_MAJOR,
-                abi_minor: HAPTICD_ABI_MINOR,
-                kind: HAPTICD_KIND_MECHANISM,
-                name: concat!($name, "\0").as_ptr().cast(),
-                version: concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast(),
-                description: concat!($description, "\0").as_ptr().cast(),
-                mechanism: &VTABLE.0,
-                scene: ::core::ptr::null(),
-            });
-
-            /// [main] The plugin's entry point.
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn hapticd_plugin_entry(
-                host: *const HapticdHost,
-            ) -> *const HapticdPluginDescriptor {
-                // SAFETY: the host keeps `host` valid for the life of the process (ABI v1).
-                unsafe { $crate::export::entry(host, &DESCRIPTOR) }
-            }
+            $crate::__hapticd_plugin_entry!(
+                HAPTICD_KIND_MECHANISM,
+                $name,
+                $description,
+                &VTABLE.0,
+                ::core::ptr::null()
+            );
         };
     };
 }
@@ -473,7 +461,7 @@ macro_rules! export_scene {
     (name: $name:literal, description: $description:literal, create: $create:path $(,)?) => {
         const _: () = {
             use $crate::abi::*;
-            use $crate::export::{StaticDescriptor, StaticSceneVtable};
+            use $crate::export::StaticSceneVtable;
 
             // SAFETY (all four): the host keeps the ABI's contracts on every pointer.
             unsafe extern "C" fn __hapticd_create(
@@ -530,25 +518,42 @@ macro_rules! export_scene {
                 step_physics: Some(__hapticd_step_physics),
             });
 
-            static DESCRIPTOR: StaticDescriptor = StaticDescriptor(HapticdPluginDescriptor {
-                abi_major: HAPTICD_ABI_MAJOR,
-                abi_minor: HAPTICD_ABI_MINOR,
-                kind: HAPTICD_KIND_SCENE,
+            $crate::__hapticd_plugin_entry!(
+                HAPTICD_KIND_SCENE,
+                $name,
+                $description,
+                ::core::ptr::null(),
+                &VTABLE.0
+            );
+        };
+    };
+}
+
+/// Defines the descriptor of a plugin of `$kind` and the `hapticd_plugin_entry` that hands
+/// it out.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __hapticd_plugin_entry {
+    ($kind:expr, $name:literal, $description:literal, $mechanism:expr, $scene:expr) => {
+        static DESCRIPTOR: $crate::export::StaticDescriptor =
+            $crate::export::StaticDescriptor($crate::abi::HapticdPluginDescriptor {
+                abi_major: $crate::abi::HAPTICD_ABI_MAJOR,
+                abi_minor: $crate::abi::HAPTICD_ABI_MINOR,
+                kind: $kind,
                 name: concat!($name, "\0").as_ptr().cast(),
                 version: concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast(),
                 description: concat!($description, "\0").as_ptr().cast(),
-                mechanism: ::core::ptr::null(),
-                scene: &VTABLE.0,
+                mechanism: $mechanism,
+                scene: $scene,
             });
 
-            /// [main] The plugin's entry point.
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn hapticd_plugin_entry(
-                host: *const HapticdHost,
-            ) -> *const HapticdPluginDescriptor {
-                // SAFETY: the host keeps `host` valid for the life of the process (ABI v1).
-                unsafe { $crate::export::entry(host, &DESCRIPTOR) }
-            }
-        };
+        /// [main] The plugin's entry point.
+        #[unsafe(no_mangle)]
+        pub unsafe extern "C" fn hapticd_plugin_entry(
+            host: *const $crate::abi::HapticdHost,
+        ) -> *const $crate::abi::HapticdPluginDescriptor {
+            // SAFETY: the host keeps `host` valid for the life of the process (ABI v1).
+            unsafe { $crate::export::entry(host, &DESCRIPTOR) }
+        }
     };
 }

@@ -172,14 +172,7 @@ fn haptic_tick(bencher: Bencher, name: &str) {
     }
     let spec =
         StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
-    let pointers: Vec<Pointer> = m
-        .effectors
-        .iter()
-        .map(|e| Pointer {
-            pose: e.calibration,
-            velocity: glam::DVec3::ZERO,
-        })
-        .collect();
+    let pointers = Pointer::at_calibration(&m);
     let scene = Box::new(StaticScene::new(spec, &pointers));
     let transport = Box::new(StillTransport {
         calibrated: false,

@@ -9,14 +9,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::{DQuat, DVec3};
-use hapticd::device::transport::Sh4Transport;
+use hapticd::experiments::Session;
 use hapticd::mechanism::catalog;
 use hapticd::mechanism::{Mechanism, Pose};
 use hapticd::runtime::haptic_loop::{HapticLoop, LoopSettings};
-use hapticd::scene::Pointer;
-use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd::scene::static_scene::StaticSceneSpec;
 use hapticd::sim::hand::Script;
-use hapticd::sim::{SimParameters, SimulatedBoard};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::geometry::StringGeometry;
 
@@ -179,18 +177,12 @@ pub fn scratch_root() -> PathBuf {
 /// The haptic loop of `m` on a simulated board whose hands follow `script`, rendering the
 /// shipped static scene, ticking every `dt` seconds.
 pub fn simulated_loop(m: &Mechanism, script: &str, dt: f64) -> HapticLoop {
-    let script = Script::parse(script).unwrap();
-    let board = SimulatedBoard::new(m, dt, &script, SimParameters::default());
-    let transport = Box::new(Sh4Transport::new(board, format!("sim:{}", m.name)));
-    let spec = StaticSceneSpec::load(&repo_dir().join("config/scenes/static.yaml")).unwrap();
-    let pointers: Vec<Pointer> = m
-        .effectors
-        .iter()
-        .map(|e| Pointer {
-            pose: e.calibration,
-            velocity: DVec3::ZERO,
-        })
-        .collect();
-    let scene = Box::new(StaticScene::new(spec, &pointers));
-    HapticLoop::new(m.clone(), transport, scene, LoopSettings::default()).unwrap()
+    Session {
+        mechanism: m.clone(),
+        scene: StaticSceneSpec::load(&repo_dir().join("config/scenes/static.yaml")).unwrap(),
+        script: Script::parse(script).unwrap(),
+        rate: 1.0 / dt,
+        settings: LoopSettings::default(),
+    }
+    .haptic_loop()
 }

@@ -353,14 +353,7 @@ fn run(cli: Cli) -> Result<(), String> {
             (sh4_transport(board, &identity, traffic_tx), identity)
         }
     };
-    let pointers: Vec<Pointer> = mechanism
-        .effectors
-        .iter()
-        .map(|e| Pointer {
-            pose: e.calibration,
-            velocity: DVec3::ZERO,
-        })
-        .collect();
+    let pointers = Pointer::at_calibration(&mechanism);
     let scene = build_scene(
         cli.scene.as_deref().unwrap_or(&config.scene),
         &config,

@@ -8,8 +8,6 @@
 pub mod shape_tracing;
 pub mod wall_stiffness;
 
-use glam::DVec3;
-
 use crate::device::transport::Sh4Transport;
 use crate::mechanism::Mechanism;
 use crate::runtime::haptic_loop::{Frame, HapticLoop, LoopSettings};
@@ -47,15 +45,7 @@ impl Session {
             board,
             format!("sim:{}", self.mechanism.name),
         ));
-        let pointers: Vec<Pointer> = self
-            .mechanism
-            .effectors
-            .iter()
-            .map(|e| Pointer {
-                pose: e.calibration,
-                velocity: DVec3::ZERO,
-            })
-            .collect();
+        let pointers = Pointer::at_calibration(&self.mechanism);
         let scene = Box::new(StaticScene::new(self.scene.clone(), &pointers));
         HapticLoop::new(self.mechanism.clone(), transport, scene, self.settings)
             .expect("experiments use mechanisms one board can drive")

@@ -117,32 +117,10 @@ impl Shape {
                 })
             }
             Shape::Sphere { centre, radius } => {
-                let m = a - centre;
-                let (qa, qb, qc) = (d.dot(d), m.dot(d), m.dot(m) - radius * radius);
-                if qc <= 0.0 {
-                    let on_surface = m.length() >= radius - SURFACE;
-                    return if on_surface {
-                        at_start(m.normalize_or_zero())
-                    } else {
-                        None
-                    };
-                }
-                if qa == 0.0 {
-                    return None;
-                }
-                let disc = qb * qb - qa * qc;
-                if disc < 0.0 {
-                    return None;
-                }
-                let t = (-qb - disc.sqrt()) / qa;
-                if !(0.0..=1.0).contains(&t) {
-                    return None;
-                }
-                let point = a + d * t;
-                Some(Entry {
+                round_entry(a - centre, d, radius).map(|(t, radial)| Entry {
                     t,
-                    point,
-                    normal: (point - centre) / radius,
+                    point: a + d * t,
+                    normal: radial / radius,
                 })
             }
             Shape::Cylinder {
@@ -150,30 +128,12 @@ impl Shape {
                 axis,
                 radius,
             } => {
-                // A sphere problem in the plane across the axis.
+                // The sphere problem again, in the plane across the axis.
                 let (m, d2) = (
                     (a - point).reject_from_normalized(axis),
                     d.reject_from_normalized(axis),
                 );
-                let (qa, qb, qc) = (d2.dot(d2), m.dot(d2), m.dot(m) - radius * radius);
-                if qc <= 0.0 {
-                    let on_surface = m.length() >= radius - SURFACE;
-                    return if on_surface {
-                        at_start(m.normalize_or_zero())
-                    } else {
-                        None
-                    };
-                }
-                let disc = qb * qb - qa * qc;
-                if qa == 0.0 || disc < 0.0 {
-                    return None;
-                }
-                let t = (-qb - disc.sqrt()) / qa;
-                if !(0.0..=1.0).contains(&t) {
-                    return None;
-                }
-                let radial = m + d2 * t;
-                Some(Entry {
+                round_entry(m, d2, radius).map(|(t, radial)| Entry {
                     t,
                     point: a + d * t,
                     normal: radial / radius,
@@ -220,6 +180,25 @@ impl Shape {
             }
         }
     }
+}
+
+/// Entry of a segment into a round surface (a sphere, or a cylinder seen across its axis):
+/// `m` is the start relative to the centre and `d` the motion, both in the round problem's
+/// space. Returns the fraction travelled and the radial vector at the entry (t = 0 when
+/// starting on the surface, within rounding, and heading in).
+fn round_entry(m: DVec3, d: DVec3, radius: f64) -> Option<(f64, DVec3)> {
+    let (qa, qb, qc) = (d.dot(d), m.dot(d), m.dot(m) - radius * radius);
+    if qc <= 0.0 {
+        let on_surface = m.length() >= radius - SURFACE;
+        let inward = qb < -1e-12 * d.length() * m.length();
+        return (on_surface && inward).then(|| (0.0, m.normalize_or_zero() * radius));
+    }
+    let disc = qb * qb - qa * qc;
+    if qa == 0.0 || disc < 0.0 {
+        return None;
+    }
+    let t = (-qb - disc.sqrt()) / qa;
+    (0.0..=1.0).contains(&t).then(|| (t, m + d * t))
 }
 
 #[cfg(test)]

@@ -164,14 +164,7 @@ impl HapticLoop {
                 }
             })
             .collect();
-        let pointers: Vec<Pointer> = mechanism
-            .effectors
-            .iter()
-            .map(|e| Pointer {
-                pose: e.calibration,
-                velocity: DVec3::ZERO,
-            })
-            .collect();
+        let pointers = Pointer::at_calibration(&mechanism);
         let frame = Frame {
             effectors: mechanism.effectors.len(),
             strings: mechanism.strings.len(),

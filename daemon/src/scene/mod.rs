@@ -9,7 +9,7 @@ pub mod static_scene;
 
 use glam::DVec3;
 
-use crate::mechanism::Pose;
+use crate::mechanism::{Mechanism, Pose};
 
 /// One pointer as the scene sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -18,6 +18,20 @@ pub struct Pointer {
     pub pose: Pose,
     /// Grip velocity, m/s.
     pub velocity: DVec3,
+}
+
+impl Pointer {
+    /// One pointer per effector of `mechanism`, at rest at its calibration pose.
+    pub fn at_calibration(mechanism: &Mechanism) -> Vec<Pointer> {
+        mechanism
+            .effectors
+            .iter()
+            .map(|e| Pointer {
+                pose: e.calibration,
+                velocity: DVec3::ZERO,
+            })
+            .collect()
+    }
 }
 
 /// A world the haptic loop renders.

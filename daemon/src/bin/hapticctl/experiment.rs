@@ -47,6 +47,18 @@ pub struct CylinderArgs {
     output: Output,
 }
 
+/// Loop rates the simulator can run: 100 Hz to its maximum.
+fn check_rate(rate: f64) -> Result<(), Failure> {
+    let max = hapticd::config::MAX_RATE;
+    if (100.0..=max).contains(&rate) {
+        Ok(())
+    } else {
+        Err(Failure::usage(format!(
+            "rates must be 100–{max} Hz, not {rate}"
+        )))
+    }
+}
+
 /// Run one `experiment` subcommand.
 pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
     match command {
@@ -63,15 +75,8 @@ fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
             m.name
         )));
     }
-    if args
-        .rates
-        .iter()
-        .any(|r| !(100.0..=hapticd::config::MAX_RATE).contains(r))
-    {
-        return Err(Failure::usage(format!(
-            "rates must be 100–{} Hz",
-            hapticd::config::MAX_RATE
-        )));
+    for &rate in args.rates.iter() {
+        check_rate(rate)?;
     }
     let results: Vec<(f64, f64, f64)> = args
         .rates
@@ -133,12 +138,7 @@ fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
 }
 
 fn cylinder(args: &CylinderArgs) -> Result<(), Failure> {
-    if !(100.0..=hapticd::config::MAX_RATE).contains(&args.rate) {
-        return Err(Failure::usage(format!(
-            "--rate must be 100–{} Hz",
-            hapticd::config::MAX_RATE
-        )));
-    }
+    check_rate(args.rate)?;
     let lambdas = [0.0, 0.2];
     let paths: Vec<Vec<(f64, f64)>> = lambdas
         .iter()
