@@ -1,0 +1,131 @@
+//! Exact intersection of convex polyhedra by plane clipping.
+//!
+//! Clipping keeps the part of a polyhedron where n·x ≤ d: each face loop is cut
+//! (Sutherland–Hodgman), the points where edges cross the plane are shared by the two faces
+//! of the edge, and the points on the plane close the hole as a new face, ordered by angle
+//! around their centroid. Intersecting A with B is clipping A by every face plane of B.
+//! The clipper keeps its work buffers between calls.
+
+use glam::DVec3;
+
+use super::polyhedron::{Plane, Polyhedron};
+
+/// Points closer to a plane than this count as on it, metres.
+const ON_PLANE: f64 = 1e-12;
+
+/// Reusable buffers for clipping.
+#[derive(Debug, Default)]
+pub struct Clipper {
+    distance: Vec<f64>,
+    kept: Vec<Option<usize>>,
+    /// Edge (from, to) of the input → index of its crossing point in the output.
+    crossings: Vec<(usize, usize, usize)>,
+    cap: Vec<(f64, usize)>,
+    spare: Polyhedron,
+}
+
+impl Clipper {
+    /// Write the part of `input` where `plane.distance(x) ≤ 0` to `out` (empty when none).
+    pub fn clip(&mut self, input: &Polyhedron, plane: Plane, out: &mut Polyhedron) {
+        out.vertices.clear();
+        out.faces.clear();
+        out.planes.clear();
+        self.distance.clear();
+        self.distance
+            .extend(input.vertices.iter().map(|&v| plane.distance(v)));
+        if self.distance.iter().all(|&s| s <= ON_PLANE) {
+            out.clone_from(input);
+            return;
+        }
+        if self.distance.iter().all(|&s| s >= -ON_PLANE) {
+            return;
+        }
+        self.kept.clear();
+        for (&v, &s) in input.vertices.iter().zip(&self.distance) {
+            if s <= ON_PLANE {
+                self.kept.push(Some(out.vertices.len()));
+                out.vertices.push(v);
+            } else {
+                self.kept.push(None);
+            }
+        }
+        self.crossings.clear();
+        for (face, face_plane) in input.faces.iter().zip(&input.planes) {
+            let mut loop_ = Vec::with_capacity(face.len() + 1);
+            for (k, &i) in face.iter().enumerate() {
+                let j = face[(k + 1) % face.len()];
+                if let Some(index) = self.kept[i] {
+                    loop_.push(index);
+                }
+                let (si, sj) = (self.distance[i], self.distance[j]);
+                if (si < -ON_PLANE && sj > ON_PLANE) || (si > ON_PLANE && sj < -ON_PLANE) {
+                    loop_.push(self.crossing(input, out, i, j));
+                }
+            }
+            if loop_.len() >= 3 {
+                out.faces.push(loop_);
+                out.planes.push(*face_plane);
+            }
+        }
+        self.close_cap(plane, out);
+    }
+
+    /// Index in `out` of the point where edge (i, j) of `input` crosses the plane, shared by
+    /// both faces of the edge.
+    fn crossing(&mut self, input: &Polyhedron, out: &mut Polyhedron, i: usize, j: usize) -> usize {
+        let key = (i.min(j), i.max(j));
+        if let Some(&(_, _, index)) = self.crossings.iter().find(|c| (c.0, c.1) == key) {
+            return index;
+        }
+        let (si, sj) = (self.distance[i], self.distance[j]);
+        let t = si / (si - sj);
+        let point = input.vertices[i].lerp(input.vertices[j], t);
+        let index = out.vertices.len();
+        out.vertices.push(point);
+        self.crossings.push((key.0, key.1, index));
+        index
+    }
+
+    /// Close the cut with a face of the points on the plane, counter-clockwise seen from
+    /// outside (along the plane's normal).
+    fn close_cap(&mut self, plane: Plane, out: &mut Polyhedron) {
+        self.cap.clear();
+        let on_plane = |v: DVec3| plane.distance(v).abs() <= 1e-9 * (1.0 + v.length());
+        let mut centre = DVec3::ZERO;
+        let mut count = 0;
+        for (index, &v) in out.vertices.iter().enumerate() {
+            if on_plane(v) {
+                centre += v;
+                count += 1;
+                self.cap.push((0.0, index));
+            }
+        }
+        if count < 3 {
+            return;
+        }
+        centre /= count as f64;
+        let u = plane.normal.any_orthonormal_vector();
+        let w = plane.normal.cross(u);
+        for (angle, index) in &mut self.cap {
+            let d = out.vertices[*index] - centre;
+            *angle = d.dot(w).atan2(d.dot(u));
+        }
+        self.cap.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        out.faces.push(self.cap.iter().map(|c| c.1).collect());
+        out.planes.push(plane);
+    }
+
+    /// Write the intersection of `a` and `b` to `out` (empty when they do not overlap).
+    pub fn intersect(&mut self, a: &Polyhedron, b: &Polyhedron, out: &mut Polyhedron) {
+        out.clone_from(a);
+        let mut spare = std::mem::take(&mut self.spare);
+        for &plane in &b.planes {
+            self.clip(out, plane, &mut spare);
+            std::mem::swap(out, &mut spare);
+            if out.faces.is_empty() {
+                break;
+            }
+        }
+        self.spare = spare;
+    }
+}
