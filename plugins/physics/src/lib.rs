@@ -3,9 +3,11 @@
 //!
 //! - [`polyhedron`]: convex polyhedra as faces (vertex loops) with their planes;
 //! - [`clip`]: the exact intersection of two convex polyhedra by clipping one with the
-//!   other's face planes, reusing its buffers so that steady-state contacts allocate nothing;
-//! - [`mass`]: volume, centroid and inertia from the faces (divergence theorem).
+//!   other's face planes, reusing its work buffers between calls;
+//! - [`mass`]: volume and centroid from the faces (divergence theorem);
+//! - [`contact`]: the normal spring and damper integrated over the intersection (eq. 5.8–5.13).
 
 pub mod clip;
+pub mod contact;
 pub mod mass;
 pub mod polyhedron;

@@ -2,115 +2,15 @@
 //! vertex enumeration (every triple of face planes), faces rebuilt by angle, volume and
 //! centroid summed over tetrahedra from an interior point.
 
+mod common;
+
+use common::{Rng, random_polyhedron, reference};
 use glam::{DQuat, DVec3};
 use hapticd_physics::clip::Clipper;
 use hapticd_physics::mass::volume_and_centroid;
 use hapticd_physics::polyhedron::{Plane, Polyhedron};
 
-/// SplitMix64, to draw reproducible cases.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            if (0.1..1.0).contains(&v.length()) {
-                return v.normalize();
-            }
-        }
-    }
-}
-
-/// Volume and centroid of {x : every plane}, by vertex enumeration.
-fn reference(planes: &[Plane]) -> (f64, DVec3) {
-    let mut vertices: Vec<DVec3> = Vec::new();
-    let n = planes.len();
-    for i in 0..n {
-        for j in i + 1..n {
-            for k in j + 1..n {
-                let (a, b, c) = (planes[i], planes[j], planes[k]);
-                let det = a.normal.dot(b.normal.cross(c.normal));
-                if det.abs() < 1e-12 {
-                    continue;
-                }
-                let x = (a.offset * b.normal.cross(c.normal)
-                    + b.offset * c.normal.cross(a.normal)
-                    + c.offset * a.normal.cross(b.normal))
-                    / det;
-                if planes.iter().all(|p| p.distance(x) <= 1e-9)
-                    && vertices.iter().all(|v| (*v - x).length() > 1e-9)
-                {
-                    vertices.push(x);
-                }
-            }
-        }
-    }
-    if vertices.len() < 4 {
-        return (0.0, DVec3::ZERO);
-    }
-    let inside = vertices.iter().sum::<DVec3>() / vertices.len() as f64;
-    let (mut volume, mut moment) = (0.0, DVec3::ZERO);
-    for plane in planes {
-        let on: Vec<DVec3> = vertices
-            .iter()
-            .copied()
-            .filter(|v| plane.distance(*v).abs() < 1e-9)
-            .collect();
-        if on.len() < 3 {
-            continue;
-        }
-        let centre = on.iter().sum::<DVec3>() / on.len() as f64;
-        let u = plane.normal.any_orthonormal_vector();
-        let w = plane.normal.cross(u);
-        let mut ordered = on.clone();
-        ordered.sort_by(|p, q| {
-            let angle = |v: &DVec3| (*v - centre).dot(w).atan2((*v - centre).dot(u));
-            angle(p).total_cmp(&angle(q))
-        });
-        for t in 0..ordered.len() {
-            let (b, c) = (ordered[t], ordered[(t + 1) % ordered.len()]);
-            let v = ((centre - inside).dot((b - inside).cross(c - inside)) / 6.0).abs();
-            volume += v;
-            moment += v * (inside + centre + b + c) / 4.0;
-        }
-    }
-    (volume, moment / volume)
-}
-
-/// A convex polyhedron around `centre`: `count` random tangent planes of a ball of radius
-/// `radius`, trimmed by a box.
-fn random_polyhedron(rng: &mut Rng, centre: DVec3, radius: f64, count: usize) -> Polyhedron {
-    let planes: Vec<Plane> = (0..count)
-        .map(|_| {
-            let normal = rng.unit();
-            Plane {
-                normal,
-                offset: normal.dot(centre) + radius,
-            }
-        })
-        .collect();
-    Polyhedron::from_planes(&planes, 10.0)
-}
-
-fn close(a: f64, b: f64, relative: f64) -> bool {
-    (a - b).abs() <= relative * a.abs().max(b.abs()).max(1e-300)
-}
+use common::close;
 
 #[test]
 fn boxes_have_their_exact_volume_and_centre() {
