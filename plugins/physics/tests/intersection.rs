@@ -106,3 +106,32 @@ fn separated_solids_do_not_intersect() {
     assert!(out.faces.is_empty());
     assert_eq!(volume_and_centroid(&out).0, 0.0);
 }
+
+#[test]
+fn a_box_has_the_textbook_inertia_in_any_pose() {
+    use hapticd_physics::mass::mass_properties;
+    // A 2 × 4 × 6 box: m = 48, Ixx = m(4² + 6²)/12, ...
+    let q = DQuat::from_axis_angle(DVec3::new(3.0, -1.0, 2.0).normalize(), 1.1);
+    let b =
+        Polyhedron::cuboid(DVec3::new(1.0, 2.0, 3.0)).transformed(q, DVec3::new(5.0, -3.0, 1.0));
+    let (m, c, inertia) = mass_properties(&b);
+    assert!(close(m, 48.0, 1e-12) && (c - DVec3::new(5.0, -3.0, 1.0)).length() < 1e-11);
+    let local = glam::DMat3::from_quat(q).transpose() * inertia * glam::DMat3::from_quat(q);
+    let expected = DVec3::new(
+        48.0 * (16.0 + 36.0) / 12.0,
+        48.0 * (4.0 + 36.0) / 12.0,
+        48.0 * (4.0 + 16.0) / 12.0,
+    );
+    for (i, e) in expected.to_array().iter().enumerate() {
+        assert!(
+            close(local.col(i)[i], *e, 1e-10),
+            "axis {i}: {} vs {e}",
+            local.col(i)[i]
+        );
+        for j in 0..3 {
+            if j != i {
+                assert!(local.col(i)[j].abs() < 1e-9);
+            }
+        }
+    }
+}

@@ -1,0 +1,87 @@
+//! Rigid bodies of convex polyhedra: mass properties from shape and density, and
+//! semi-implicit integration with a unit quaternion for orientation.
+
+use glam::{DMat3, DQuat, DVec3};
+
+use super::mass::mass_properties;
+use super::polyhedron::Polyhedron;
+
+/// A rigid body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Body {
+    /// The shape in the body's frame, centroid at the origin.
+    pub shape: Polyhedron,
+    /// Mass, kg.
+    pub mass: f64,
+    /// Inertia tensor about the centroid, body frame, kg·m².
+    pub inertia: DMat3,
+    /// Position of the centroid, metres.
+    pub position: DVec3,
+    /// Orientation.
+    pub orientation: DQuat,
+    /// Velocity of the centroid, m/s.
+    pub velocity: DVec3,
+    /// Angular velocity, world frame, rad/s.
+    pub spin: DVec3,
+    /// Fixed bodies never move (floors, walls).
+    pub fixed: bool,
+    world: Polyhedron,
+}
+
+impl Body {
+    /// A body of `shape` (given where it is in the world) and `density` kg/m³.
+    pub fn new(shape: &Polyhedron, density: f64, fixed: bool) -> Self {
+        let (volume, centroid, inertia) = mass_properties(shape);
+        let local = shape.transformed(DQuat::IDENTITY, -centroid);
+        Self {
+            world: shape.clone(),
+            shape: local,
+            mass: volume * density,
+            inertia: inertia * density,
+            position: centroid,
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+            fixed,
+        }
+    }
+
+    /// The shape where the body is now.
+    pub fn world_shape(&self) -> &Polyhedron {
+        &self.world
+    }
+
+    /// Recompute the world shape after a change of pose.
+    pub fn update_world_shape(&mut self) {
+        self.world.clone_from(&self.shape);
+        for (v, local) in self.world.vertices.iter_mut().zip(&self.shape.vertices) {
+            *v = self.orientation * *local + self.position;
+        }
+        for (plane, local) in self.world.planes.iter_mut().zip(&self.shape.planes) {
+            plane.normal = self.orientation * local.normal;
+            plane.offset = local.offset + plane.normal.dot(self.position);
+        }
+    }
+
+    /// Velocity of the body's material point at `x`.
+    pub fn velocity_at(&self, x: DVec3) -> DVec3 {
+        self.velocity + self.spin.cross(x - self.position)
+    }
+
+    /// Advance by `dt` under `force` and `torque` (about the centroid), semi-implicitly:
+    /// velocities first, then the pose with the new velocities.
+    pub fn integrate(&mut self, force: DVec3, torque: DVec3, dt: f64) {
+        if self.fixed {
+            return;
+        }
+        let rotation = DMat3::from_quat(self.orientation);
+        let inertia = rotation * self.inertia * rotation.transpose();
+        // Euler's equations in the world frame: I ω̇ = τ − ω × Iω.
+        let gyroscopic = self.spin.cross(inertia * self.spin);
+        self.velocity += force / self.mass * dt;
+        self.spin += inertia.inverse() * (torque - gyroscopic) * dt;
+        self.position += self.velocity * dt;
+        self.orientation = (DQuat::from_scaled_axis(self.spin * dt) * self.orientation).normalize();
+        self.update_world_shape();
+    }
+}

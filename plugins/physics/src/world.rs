@@ -1,0 +1,126 @@
+//! A world of rigid bodies in contact, stepped by the penalty method with forces integrated
+//! over each contact's intersection volume (thesis 5.3).
+
+use glam::DVec3;
+
+use super::body::Body;
+use super::clip::Clipper;
+use super::contact::{Wrench, damper, spring};
+use super::polyhedron::Polyhedron;
+
+/// How hard and how damped contacts are.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    /// Normal stiffness: force per unit depth per unit area, N/m³.
+    pub stiffness: f64,
+    /// Normal damping: force per unit approach speed per unit area, N·s/m³.
+    pub damping: f64,
+}
+
+/// Bodies, gravity and the contact material.
+#[derive(Debug)]
+pub struct World {
+    /// The bodies.
+    pub bodies: Vec<Body>,
+    /// Gravity, m/s².
+    pub gravity: DVec3,
+    /// Material of every contact.
+    pub material: Material,
+    clipper: Clipper,
+    overlap: Polyhedron,
+    wrenches: Vec<Wrench>,
+}
+
+fn bounds(p: &Polyhedron) -> (DVec3, DVec3) {
+    p.vertices
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        })
+}
+
+impl World {
+    /// A world of `bodies`.
+    pub fn new(bodies: Vec<Body>, gravity: DVec3, material: Material) -> Self {
+        let wrenches = vec![Wrench::default(); bodies.len()];
+        Self {
+            bodies,
+            gravity,
+            material,
+            clipper: Clipper::default(),
+            overlap: Polyhedron::default(),
+            wrenches,
+        }
+    }
+
+    /// The contact normal from body `i` to body `j` for their overlap: the area-weighted
+    /// face normals of the intersection, faces of `i` counted as they are and faces of `j`
+    /// reversed.
+    fn contact_normal(&self, j: usize) -> DVec3 {
+        let theirs = &self.bodies[j].world_shape().planes;
+        let mut sum = DVec3::ZERO;
+        for (face, plane) in self.overlap.faces.iter().zip(&self.overlap.planes) {
+            let v = &self.overlap.vertices;
+            let mut area = DVec3::ZERO;
+            for k in 1..face.len() - 1 {
+                area += (v[face[k]] - v[face[0]]).cross(v[face[k + 1]] - v[face[0]]) / 2.0;
+            }
+            let sign = if theirs.contains(plane) { -1.0 } else { 1.0 };
+            sum += sign * area.length() * plane.normal;
+        }
+        sum.normalize_or_zero()
+    }
+
+    /// Advance every body by `dt`.
+    pub fn step(&mut self, dt: f64) {
+        for (w, b) in self.wrenches.iter_mut().zip(&self.bodies) {
+            // Every torque here is about the world origin; gravity acts at the centroid.
+            let weight = b.mass * self.gravity;
+            *w = Wrench {
+                force: weight,
+                torque: b.position.cross(weight),
+            };
+        }
+        let n = self.bodies.len();
+        for i in 0..n {
+            for j in i + 1..n {
+                if self.bodies[i].fixed && self.bodies[j].fixed {
+                    continue;
+                }
+                let ((ai, bi), (aj, bj)) = (
+                    bounds(self.bodies[i].world_shape()),
+                    bounds(self.bodies[j].world_shape()),
+                );
+                if ai.cmpgt(bj).any() || aj.cmpgt(bi).any() {
+                    continue;
+                }
+                self.clipper.intersect(
+                    self.bodies[i].world_shape(),
+                    self.bodies[j].world_shape(),
+                    &mut self.overlap,
+                );
+                if self.overlap.faces.is_empty() {
+                    continue;
+                }
+                let normal = self.contact_normal(j);
+                let (a, b) = (&self.bodies[i], &self.bodies[j]);
+                // Forces on j, pushing it away from i along the normal.
+                let on_j = spring(&self.overlap, DVec3::ZERO, normal, self.material.stiffness)
+                    + damper(&self.overlap, normal, self.material.damping, |x| {
+                        a.velocity_at(x) - b.velocity_at(x)
+                    });
+                self.wrenches[j] = self.wrenches[j] + on_j;
+                self.wrenches[i] = self.wrenches[i]
+                    + Wrench {
+                        force: -on_j.force,
+                        torque: -on_j.torque,
+                    };
+            }
+        }
+        for (b, w) in self.bodies.iter_mut().zip(&self.wrenches) {
+            // Torques were taken about the origin; the body turns about its centroid.
+            let torque = w.torque - b.position.cross(w.force);
+            b.integrate(w.force, torque, dt);
+        }
+    }
+}
