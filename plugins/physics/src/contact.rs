@@ -94,3 +94,36 @@ pub fn damper(
     }
     w
 }
+
+/// Distributed Coulomb friction while sliding (eq. 5.14–5.16): at every point of the
+/// contact, μ times the local spring pressure, against the local sliding direction.
+/// `velocity(x)` is the velocity of the body pushed along `normal` relative to the other at
+/// x; the wrench returned acts on that body. Pressures and directions are taken at the
+/// triangle vertices and interpolated, as the damper's velocities are. Below `slip_speed`
+/// the force fades linearly to zero, so that an explicit step cannot reverse the sliding
+/// direction (it must exceed μ·g·dt).
+pub fn sliding_friction(
+    solid: &Polyhedron,
+    point: DVec3,
+    normal: DVec3,
+    (k_n, mu, slip_speed): (f64, f64, f64),
+    velocity: impl Fn(DVec3) -> DVec3,
+) -> Wrench {
+    let mut w = Wrench::default();
+    for tri in triangles(solid) {
+        let h = tri.map(|v| (v - point).dot(normal));
+        let p = [0, 1, 2].map(|i| tri[i] - h[i] * normal);
+        let area = (p[1] - p[0]).cross(p[2] - p[0]).dot(normal) / 2.0;
+        let f = [0, 1, 2].map(|i| {
+            let slip = velocity(tri[i]).reject_from_normalized(normal);
+            let direction = -slip / slip.length().max(slip_speed);
+            mu * k_n * h[i] * direction
+        });
+        let mean_f = (f[0] + f[1] + f[2]) / 3.0;
+        let mean_p = (p[0] + p[1] + p[2]) / 3.0;
+        let spread = (0..3).fold(DVec3::ZERO, |s, i| s + (p[i] - mean_p).cross(f[i] - mean_f));
+        w.force += area * mean_f;
+        w.torque += area * (mean_p.cross(mean_f) + spread / 12.0);
+    }
+    w
+}

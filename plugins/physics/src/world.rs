@@ -5,7 +5,8 @@ use glam::DVec3;
 
 use super::body::Body;
 use super::clip::Clipper;
-use super::contact::{Wrench, damper, spring};
+use super::contact::{Wrench, damper, sliding_friction, spring};
+use super::mass::volume_and_centroid;
 use super::polyhedron::Polyhedron;
 
 /// How hard and how damped contacts are.
@@ -15,6 +16,10 @@ pub struct Material {
     pub stiffness: f64,
     /// Normal damping: force per unit approach speed per unit area, N·s/m³.
     pub damping: f64,
+    /// Dynamic friction coefficient μ.
+    pub friction: f64,
+    /// Speed below which friction fades to zero, m/s (see [`sliding_friction`]).
+    pub slip_speed: f64,
 }
 
 /// Bodies, gravity and the contact material.
@@ -105,10 +110,20 @@ impl World {
                 let normal = self.contact_normal(j);
                 let (a, b) = (&self.bodies[i], &self.bodies[j]);
                 // Forces on j, pushing it away from i along the normal.
-                let on_j = spring(&self.overlap, DVec3::ZERO, normal, self.material.stiffness)
-                    + damper(&self.overlap, normal, self.material.damping, |x| {
+                let m = self.material;
+                // The contact plane passes through the overlap, where friction acts.
+                let (_, centre) = volume_and_centroid(&self.overlap);
+                let on_j = spring(&self.overlap, centre, normal, m.stiffness)
+                    + damper(&self.overlap, normal, m.damping, |x| {
                         a.velocity_at(x) - b.velocity_at(x)
-                    });
+                    })
+                    + sliding_friction(
+                        &self.overlap,
+                        centre,
+                        normal,
+                        (m.stiffness, m.friction, m.slip_speed),
+                        |x| b.velocity_at(x) - a.velocity_at(x),
+                    );
                 self.wrenches[j] = self.wrenches[j] + on_j;
                 self.wrenches[i] = self.wrenches[i]
                     + Wrench {

@@ -27,6 +27,8 @@ fn a_resting_box_settles_at_the_depth_that_carries_its_weight_without_drift_or_s
         Material {
             stiffness: k,
             damping,
+            friction: 0.5,
+            slip_speed: 0.05,
         },
     );
     for _ in 0..10_000 {
@@ -43,4 +45,38 @@ fn a_resting_box_settles_at_the_depth_that_carries_its_weight_without_drift_or_s
     assert!(drift < 1e-9, "drift {drift}");
     assert!(body.spin.length() < 1e-9 && body.orientation.angle_between(DQuat::IDENTITY) < 1e-9);
     assert!(body.velocity.length() < 1e-9);
+}
+
+#[test]
+fn a_block_sliding_on_the_floor_decelerates_at_mu_g() {
+    let (side, mass, k, mu) = (0.2, 1.0, 1e6, 0.4);
+    let area = side * side;
+    let block = Polyhedron::cuboid(DVec3::splat(side / 2.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, side / 2.0, 0.0));
+    let mut world = World::new(
+        vec![floor(), Body::new(&block, mass / side.powi(3), false)],
+        DVec3::new(0.0, -G, 0.0),
+        Material {
+            stiffness: k,
+            damping: 2.0 * (k * area * mass).sqrt() / area,
+            friction: mu,
+            slip_speed: 0.01,
+        },
+    );
+    // Settle on the floor, then slide along x at 1 m/s.
+    for _ in 0..1000 {
+        world.step(1e-4);
+    }
+    world.bodies[1].velocity.x = 1.0;
+    for _ in 0..1000 {
+        world.step(1e-4);
+    }
+    let deceleration = (1.0 - world.bodies[1].velocity.x) / 0.1;
+    assert!(
+        (deceleration - mu * G).abs() < 0.02 * mu * G,
+        "{deceleration} vs {}",
+        mu * G
+    );
+    // It slides straight, without turning.
+    assert!(world.bodies[1].velocity.z.abs() < 1e-9 && world.bodies[1].spin.y.abs() < 1e-6);
 }
