@@ -65,8 +65,8 @@ pub fn spring(solid: &Polyhedron, point: DVec3, normal: DVec3, k_n: f64) -> Wren
 }
 
 /// The penalty damper over the contact area of `solid`: damping `b_n` (N·s/m³) on the
-/// normal component of `velocity(x)`, the relative velocity of the two bodies at x. A damper
-/// that would pull the bodies together is cut to zero (it may only push).
+/// normal component of `velocity(x)`, the relative velocity of the two bodies at x. Where
+/// the bodies separate the damper does nothing: it may only push, never pull.
 pub fn damper(
     solid: &Polyhedron,
     normal: DVec3,
@@ -79,7 +79,8 @@ pub fn damper(
         if area <= 0.0 {
             continue;
         }
-        let v = tri.map(|x| velocity(x).dot(normal) * normal);
+        // Only approach is damped: a damper that would pull is cut, point by point.
+        let v = tri.map(|x| velocity(x).dot(normal).max(0.0) * normal);
         let mean_v = (v[0] + v[1] + v[2]) / 3.0;
         let mean_p = (tri[0] + tri[1] + tri[2]) / 3.0;
         let spread = (0..3).fold(DVec3::ZERO, |s, i| {
@@ -87,10 +88,6 @@ pub fn damper(
         });
         w.force += b_n * area * mean_v;
         w.torque += b_n * area * (mean_p.cross(mean_v) + spread / 12.0);
-    }
-    // The damper pushes the bodies apart along the normal, never pulls them together.
-    if w.force.dot(normal) < 0.0 {
-        return Wrench::default();
     }
     w
 }

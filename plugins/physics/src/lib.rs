@@ -6,12 +6,14 @@
 //!   other's face planes, reusing its work buffers between calls;
 //! - [`mass`]: volume and centroid from the faces (divergence theorem);
 //! - [`contact`]: the normal spring and damper integrated over the intersection (eq. 5.8–5.13);
+//! - [`friction`]: static friction springs and dynamic friction with their state machine;
 //! - [`body`]: rigid bodies and their integration;
 //! - [`world`]: bodies in contact, stepped by the penalty method.
 
 pub mod body;
 pub mod clip;
 pub mod contact;
+pub mod friction;
 pub mod mass;
 pub mod polyhedron;
 pub mod world;

@@ -5,7 +5,8 @@ use glam::DVec3;
 
 use super::body::Body;
 use super::clip::Clipper;
-use super::contact::{Wrench, damper, sliding_friction, spring};
+use super::contact::{Wrench, damper, spring};
+use super::friction::{FrictionParameters, FrictionState, friction};
 use super::mass::volume_and_centroid;
 use super::polyhedron::Polyhedron;
 
@@ -16,10 +17,8 @@ pub struct Material {
     pub stiffness: f64,
     /// Normal damping: force per unit approach speed per unit area, N·s/m³.
     pub damping: f64,
-    /// Dynamic friction coefficient μ.
-    pub friction: f64,
-    /// Speed below which friction fades to zero, m/s (see [`sliding_friction`]).
-    pub slip_speed: f64,
+    /// Friction.
+    pub friction: FrictionParameters,
 }
 
 /// Bodies, gravity and the contact material.
@@ -34,6 +33,8 @@ pub struct World {
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
+    /// Friction state of pair (i, j), i < j, at i·n + j.
+    friction: Vec<FrictionState>,
 }
 
 fn bounds(p: &Polyhedron) -> (DVec3, DVec3) {
@@ -48,7 +49,9 @@ impl World {
     /// A world of `bodies`.
     pub fn new(bodies: Vec<Body>, gravity: DVec3, material: Material) -> Self {
         let wrenches = vec![Wrench::default(); bodies.len()];
+        let friction = vec![FrictionState::default(); bodies.len() * bodies.len()];
         Self {
+            friction,
             bodies,
             gravity,
             material,
@@ -96,7 +99,9 @@ impl World {
                     bounds(self.bodies[i].world_shape()),
                     bounds(self.bodies[j].world_shape()),
                 );
+                let pair = i * n + j;
                 if ai.cmpgt(bj).any() || aj.cmpgt(bi).any() {
+                    self.friction[pair].in_contact = false;
                     continue;
                 }
                 self.clipper.intersect(
@@ -105,24 +110,29 @@ impl World {
                     &mut self.overlap,
                 );
                 if self.overlap.faces.is_empty() {
+                    self.friction[pair].in_contact = false;
                     continue;
                 }
                 let normal = self.contact_normal(j);
                 let (a, b) = (&self.bodies[i], &self.bodies[j]);
                 // Forces on j, pushing it away from i along the normal.
                 let m = self.material;
-                // The contact plane passes through the overlap, where friction acts.
-                let (_, centre) = volume_and_centroid(&self.overlap);
+                // The contact plane passes through the overlap.
+                let (volume, centre) = volume_and_centroid(&self.overlap);
                 let on_j = spring(&self.overlap, centre, normal, m.stiffness)
                     + damper(&self.overlap, normal, m.damping, |x| {
                         a.velocity_at(x) - b.velocity_at(x)
                     })
-                    + sliding_friction(
+                    + friction(
+                        &mut self.friction[pair],
                         &self.overlap,
-                        centre,
                         normal,
-                        (m.stiffness, m.friction, m.slip_speed),
+                        m.stiffness * volume,
+                        m.stiffness,
+                        &m.friction,
                         |x| b.velocity_at(x) - a.velocity_at(x),
+                        b.spin - a.spin,
+                        dt,
                     );
                 self.wrenches[j] = self.wrenches[j] + on_j;
                 self.wrenches[i] = self.wrenches[i]

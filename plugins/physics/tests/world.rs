@@ -1,11 +1,16 @@
-//! Bodies in contact under the contact-volume penalty method.
+//! Bodies in contact under the contact-volume penalty method: resting, sliding, and held or
+//! released by static friction on an incline.
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
+use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::world::{Material, World};
 
 const G: f64 = 9.81;
+const SIDE: f64 = 0.2;
+const MASS: f64 = 1.0;
+const K: f64 = 1e6;
 
 fn floor() -> Body {
     let slab = Polyhedron::cuboid(DVec3::new(2.0, 0.5, 2.0))
@@ -13,30 +18,39 @@ fn floor() -> Body {
     Body::new(&slab, 1000.0, true)
 }
 
+/// A 0.2 m cube of 1 kg standing on the floor at (x, z), critically damped in the normal
+/// direction, with friction μ0 / μ, under `gravity`.
+fn cube_on_floor(x: f64, z: f64, (mu0, mu): (f64, f64), gravity: DVec3) -> World {
+    let area = SIDE * SIDE;
+    let cube = Polyhedron::cuboid(DVec3::splat(SIDE / 2.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(x, SIDE / 2.0, z));
+    let critical = 2.0 * (K * area * MASS).sqrt() / area;
+    World::new(
+        vec![floor(), Body::new(&cube, MASS / SIDE.powi(3), false)],
+        gravity,
+        Material {
+            stiffness: K,
+            damping: critical,
+            friction: FrictionParameters {
+                static_coefficient: mu0,
+                dynamic_coefficient: mu,
+                stiffness: K,
+                damping: critical,
+                slip_speed: 1e-3,
+            },
+        },
+    )
+}
+
 #[test]
 fn a_resting_box_settles_at_the_depth_that_carries_its_weight_without_drift_or_spin() {
-    // A 0.2 m cube of 1 kg set on the floor (top at y = 0), with critical normal damping.
-    let (side, mass, k) = (0.2, 1.0, 1e6);
-    let area = side * side;
-    let cube = Polyhedron::cuboid(DVec3::splat(side / 2.0))
-        .transformed(DQuat::IDENTITY, DVec3::new(0.03, side / 2.0, -0.02));
-    let damping = 2.0 * (k * area * mass).sqrt() / area;
-    let mut world = World::new(
-        vec![floor(), Body::new(&cube, mass / side.powi(3), false)],
-        DVec3::new(0.0, -G, 0.0),
-        Material {
-            stiffness: k,
-            damping,
-            friction: 0.5,
-            slip_speed: 0.05,
-        },
-    );
+    let mut world = cube_on_floor(0.03, -0.02, (0.5, 0.4), DVec3::new(0.0, -G, 0.0));
     for _ in 0..10_000 {
         world.step(1e-3);
     }
     let body = &world.bodies[1];
-    let depth = side / 2.0 - body.position.y;
-    let expected = mass * G / (k * area);
+    let depth = SIDE / 2.0 - body.position.y;
+    let expected = MASS * G / (K * SIDE * SIDE);
     assert!(
         (depth - expected).abs() < 0.01 * expected,
         "depth {depth} vs {expected}"
@@ -49,34 +63,85 @@ fn a_resting_box_settles_at_the_depth_that_carries_its_weight_without_drift_or_s
 
 #[test]
 fn a_block_sliding_on_the_floor_decelerates_at_mu_g() {
-    let (side, mass, k, mu) = (0.2, 1.0, 1e6, 0.4);
-    let area = side * side;
-    let block = Polyhedron::cuboid(DVec3::splat(side / 2.0))
-        .transformed(DQuat::IDENTITY, DVec3::new(0.0, side / 2.0, 0.0));
-    let mut world = World::new(
-        vec![floor(), Body::new(&block, mass / side.powi(3), false)],
-        DVec3::new(0.0, -G, 0.0),
-        Material {
-            stiffness: k,
-            damping: 2.0 * (k * area * mass).sqrt() / area,
-            friction: mu,
-            slip_speed: 0.01,
-        },
-    );
-    // Settle on the floor, then slide along x at 1 m/s.
+    let mu = 0.4;
+    let mut world = cube_on_floor(0.0, 0.0, (0.5, mu), DVec3::new(0.0, -G, 0.0));
     for _ in 0..1000 {
         world.step(1e-4);
     }
     world.bodies[1].velocity.x = 1.0;
+    // Let the pitching the sudden start excites die out, then measure over 0.1 s.
+    for _ in 0..500 {
+        world.step(1e-4);
+    }
+    let v0 = world.bodies[1].velocity.x;
     for _ in 0..1000 {
         world.step(1e-4);
     }
-    let deceleration = (1.0 - world.bodies[1].velocity.x) / 0.1;
+    let deceleration = (v0 - world.bodies[1].velocity.x) / 0.1;
     assert!(
         (deceleration - mu * G).abs() < 0.02 * mu * G,
         "{deceleration} vs {}",
         mu * G
     );
-    // It slides straight, without turning.
+    // It slides straight, without turning, and comes to rest.
     assert!(world.bodies[1].velocity.z.abs() < 1e-9 && world.bodies[1].spin.y.abs() < 1e-6);
+    for _ in 0..3000 {
+        world.step(1e-4);
+    }
+    assert!(
+        world.bodies[1].velocity.length() < 1e-3,
+        "{}",
+        world.bodies[1].velocity
+    );
+}
+
+/// Gravity of an incline of slope `angle` (the floor stays flat; gravity tilts down +x).
+fn incline(angle: f64) -> DVec3 {
+    G * DVec3::new(angle.sin(), -angle.cos(), 0.0)
+}
+
+#[test]
+fn on_an_incline_below_the_friction_angle_the_block_sticks() {
+    let (mu0, mu) = (0.5, 0.4);
+    let angle = 0.3f64.atan(); // tan θ = 0.3 < μ0
+    let mut world = cube_on_floor(0.0, 0.0, (mu0, mu), DVec3::new(0.0, -G, 0.0));
+    for _ in 0..3000 {
+        world.step(1e-4);
+    }
+    world.gravity = incline(angle);
+    // The block leans (the contact is elastic) and then stays put.
+    for _ in 0..10_000 {
+        world.step(1e-4);
+    }
+    let settled = world.bodies[1].position;
+    for _ in 0..10_000 {
+        world.step(1e-4);
+    }
+    let moved = (world.bodies[1].position - settled).length();
+    assert!(moved < 1e-6, "still moving: {moved} m in a second");
+    assert!((settled.x).abs() < 1e-3, "slid to {}", settled.x);
+}
+
+#[test]
+fn on_an_incline_above_the_friction_angle_the_block_slides_at_the_kinetic_rate() {
+    let (mu0, mu) = (0.5, 0.4);
+    let angle = 0.7f64.atan(); // tan θ = 0.7 > μ0
+    let mut world = cube_on_floor(0.0, 0.0, (mu0, mu), DVec3::new(0.0, -G, 0.0));
+    for _ in 0..3000 {
+        world.step(1e-4);
+    }
+    world.gravity = incline(angle);
+    for _ in 0..3000 {
+        world.step(1e-4);
+    }
+    let v0 = world.bodies[1].velocity.x;
+    for _ in 0..5000 {
+        world.step(1e-4);
+    }
+    let acceleration = (world.bodies[1].velocity.x - v0) / 0.5;
+    let expected = G * (angle.sin() - mu * angle.cos());
+    assert!(
+        (acceleration - expected).abs() < 0.02 * expected,
+        "{acceleration} vs {expected}"
+    );
 }
