@@ -319,3 +319,62 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
     );
     std::fs::remove_file(csv).ok();
 }
+
+#[test]
+fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
+    let csv = scratch("penalty.csv");
+    let scene = plugin_path("hapticd-scene-penalty");
+    let blocks = repo_dir().join("config/scenes/blocks.yaml");
+    finish(
+        hapticd_with_scene(
+            &scene,
+            &[
+                "--scene-file",
+                blocks.to_str().unwrap(),
+                "--sim",
+                "spidar-g",
+                "--hand",
+                &press(),
+                "--duration",
+                "3",
+                "--record",
+                csv.to_str().unwrap(),
+            ],
+        )
+        .spawn()
+        .unwrap(),
+    );
+    let rows: Vec<(f64, f64, f64, f64)> = columns(&csv, &["time", "grip_y", "grip_fx", "grip_fy"])
+        .iter()
+        .map(|r| {
+            (
+                r[0].parse().unwrap(),
+                r[1].parse().unwrap(),
+                r[2].parse().unwrap(),
+                r[3].parse().unwrap(),
+            )
+        })
+        .collect();
+    // Pressing: the 1 cm pointer rests on the table top (y = −0.03), its centre above it.
+    for &(t, y, _, fy) in rows.iter().filter(|r| (1.3..1.5).contains(&r.0)) {
+        assert!(
+            (-0.031..-0.026).contains(&y) && (4.0..8.0).contains(&fy),
+            "t = {t}: y {y}, fy {fy}"
+        );
+    }
+    // Dragged toward −x along the table: friction always pushes back toward +x, sticking up
+    // to about μ0·N = 3 N and slipping below it (stick-slip).
+    let dragged: Vec<f64> = rows
+        .iter()
+        .filter(|r| (2.6..2.9).contains(&r.0))
+        .map(|r| r.2)
+        .collect();
+    let mean = dragged.iter().sum::<f64>() / dragged.len() as f64;
+    let peak = dragged.iter().copied().fold(0.0, f64::max);
+    assert!(
+        dragged.iter().all(|f| *f > 0.0) && mean > 1.5,
+        "mean friction {mean}"
+    );
+    assert!((2.5..3.3).contains(&peak), "peak friction {peak}");
+    std::fs::remove_file(csv).ok();
+}

@@ -40,6 +40,9 @@ struct Cli {
     /// Scene to render: a name in the scene directories, a scene file, or a scene plugin (.so).
     #[arg(long)]
     scene: Option<String>,
+    /// Scene file handed to a scene plugin given with --scene.
+    #[arg(long, value_name = "FILE")]
+    scene_file: Option<PathBuf>,
     /// Script of the simulated hand.
     #[arg(long, value_name = "FILE")]
     hand: Option<PathBuf>,
@@ -114,11 +117,12 @@ fn load_config(path: Option<&Path>) -> Result<Config, String> {
 /// static scene in the scene directories.
 fn build_scene(
     name: &str,
+    file: Option<&Path>,
     config: &Config,
     pointers: &[Pointer],
 ) -> Result<Box<dyn Scene>, String> {
     if Path::new(name).extension().is_some_and(|e| e == "so") {
-        return plugin_scene::load(Path::new(name), None, pointers);
+        return plugin_scene::load(Path::new(name), file, pointers);
     }
     let spec = find_scene(name, config)?;
     Ok(Box::new(StaticScene::new(spec, pointers)))
@@ -356,6 +360,7 @@ fn run(cli: Cli) -> Result<(), String> {
     let pointers = Pointer::at_calibration(&mechanism);
     let scene = build_scene(
         cli.scene.as_deref().unwrap_or(&config.scene),
+        cli.scene_file.as_deref(),
         &config,
         &pointers,
     )?;

@@ -23,8 +23,11 @@ pub struct Body {
     pub velocity: DVec3,
     /// Angular velocity, world frame, rad/s.
     pub spin: DVec3,
-    /// Fixed bodies never move (floors, walls).
+    /// Fixed bodies are not moved by forces (floors, walls, pointers).
     pub fixed: bool,
+    /// A fixed body that is moved from outside (a pointer following the grip); it still
+    /// touches other fixed bodies.
+    pub kinematic: bool,
     world: Polyhedron,
 }
 
@@ -43,6 +46,7 @@ impl Body {
             velocity: DVec3::ZERO,
             spin: DVec3::ZERO,
             fixed,
+            kinematic: false,
         }
     }
 
@@ -61,6 +65,15 @@ impl Body {
             plane.normal = self.orientation * local.normal;
             plane.offset = local.offset + plane.normal.dot(self.position);
         }
+    }
+
+    /// Put a fixed body at a pose, moving with the given velocities (a pointer that follows
+    /// the user's grip).
+    pub fn place(&mut self, position: DVec3, orientation: DQuat, velocity: DVec3, spin: DVec3) {
+        (self.position, self.orientation, self.velocity, self.spin) =
+            (position, orientation, velocity, spin);
+        self.kinematic = true;
+        self.update_world_shape();
     }
 
     /// Velocity of the body's material point at `x`.

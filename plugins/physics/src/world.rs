@@ -79,11 +79,31 @@ impl World {
         sum.normalize_or_zero()
     }
 
-    /// Advance every body by `dt`.
+    /// The contact force and torque (about its centroid) on body `i` in the last step.
+    pub fn contact_wrench(&self, i: usize) -> Wrench {
+        let (w, b) = (self.wrenches[i], &self.bodies[i]);
+        let weight = if b.fixed {
+            DVec3::ZERO
+        } else {
+            b.mass * self.gravity
+        };
+        let force = w.force - weight;
+        Wrench {
+            force,
+            torque: w.torque - b.position.cross(w.force),
+        }
+    }
+
+    /// Advance every body by `dt`. Fixed bodies stay where they are put (they may be moved
+    /// between steps, like a pointer following the grip).
     pub fn step(&mut self, dt: f64) {
         for (w, b) in self.wrenches.iter_mut().zip(&self.bodies) {
             // Every torque here is about the world origin; gravity acts at the centroid.
-            let weight = b.mass * self.gravity;
+            let weight = if b.fixed {
+                DVec3::ZERO
+            } else {
+                b.mass * self.gravity
+            };
             *w = Wrench {
                 force: weight,
                 torque: b.position.cross(weight),
@@ -92,7 +112,8 @@ impl World {
         let n = self.bodies.len();
         for i in 0..n {
             for j in i + 1..n {
-                if self.bodies[i].fixed && self.bodies[j].fixed {
+                let (a, b) = (&self.bodies[i], &self.bodies[j]);
+                if a.fixed && b.fixed && !a.kinematic && !b.kinematic {
                     continue;
                 }
                 let ((ai, bi), (aj, bj)) = (

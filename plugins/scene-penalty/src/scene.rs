@@ -1,0 +1,231 @@
+//! Scene files of the penalty scene: bodies of boxes, one material, gravity, the physics
+//! step, and the shape of each pointer.
+//!
+//! ```yaml
+//! name: blocks
+//! gravity: [0, -9.81, 0]
+//! dt: 0.00025                  # longest physics step; a haptic tick is split into steps
+//! material:
+//!   stiffness: 2.0e7           # N/m³: normal force per unit depth per unit area
+//!   damping: 2.0e4             # N·s/m³
+//!   static_friction: 0.5       # μ0
+//!   friction: 0.4              # μ
+//!   friction_stiffness: 2.0e7  # N/m³
+//!   friction_damping: 2.0e4    # N·s/m³
+//!   slip_speed: 0.001          # m/s
+//! bodies:
+//!   - name: floor
+//!     box: [0.3, 0.02, 0.3]    # edge lengths, metres
+//!     position: [0, -0.04, 0]
+//!     fixed: true
+//!   - name: block
+//!     box: [0.03, 0.03, 0.03]
+//!     position: [0.03, -0.015, 0]
+//!     orientation: [1, 0, 0, 0]
+//!     density: 500             # kg/m³
+//! pointer:
+//!   box: [0.01, 0.01, 0.01]    # each pointer: this solid at the grip pose
+//! ```
+
+use glam::{DQuat, DVec3};
+use hapticd_physics::body::Body;
+use hapticd_physics::friction::FrictionParameters;
+use hapticd_physics::polyhedron::Polyhedron;
+use hapticd_physics::world::{Material, World};
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: String,
+    #[serde(default = "earth")]
+    gravity: [f64; 3],
+    dt: f64,
+    material: RawMaterial,
+    bodies: Vec<RawBody>,
+    pointer: RawPointer,
+}
+
+fn earth() -> [f64; 3] {
+    [0.0, -9.81, 0.0]
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    stiffness: f64,
+    damping: f64,
+    static_friction: f64,
+    friction: f64,
+    friction_stiffness: f64,
+    friction_damping: f64,
+    slip_speed: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBody {
+    #[serde(default)]
+    name: String,
+    #[serde(rename = "box")]
+    size: [f64; 3],
+    position: [f64; 3],
+    #[serde(default = "identity")]
+    orientation: [f64; 4],
+    #[serde(default)]
+    fixed: bool,
+    #[serde(default = "water")]
+    density: f64,
+}
+
+fn identity() -> [f64; 4] {
+    [1.0, 0.0, 0.0, 0.0]
+}
+
+fn water() -> f64 {
+    1000.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPointer {
+    #[serde(rename = "box")]
+    size: [f64; 3],
+}
+
+/// A loaded scene: the world with one fixed body per pointer at its end.
+pub struct PenaltyScene {
+    /// The scene's name.
+    pub name: String,
+    /// The world.
+    pub world: World,
+    /// Longest physics step, seconds.
+    pub dt: f64,
+    /// Index of the first pointer body in the world.
+    pub first_pointer: usize,
+}
+
+fn solid(size: [f64; 3], position: [f64; 3], orientation: [f64; 4]) -> Result<Polyhedron, String> {
+    let [w, x, y, z] = orientation;
+    let q = DQuat::from_xyzw(x, y, z, w);
+    if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
+        return Err("orientation must be a unit quaternion (w, x, y, z)".into());
+    }
+    if size.iter().any(|s| !(s.is_finite() && *s > 0.0)) || position.iter().any(|p| !p.is_finite())
+    {
+        return Err("box sizes must be finite and > 0, positions finite".into());
+    }
+    Ok(Polyhedron::cuboid(DVec3::from(size) / 2.0)
+        .transformed(q.normalize(), DVec3::from(position)))
+}
+
+impl PenaltyScene {
+    /// Parse scene text for `pointers` pointers.
+    pub fn parse(text: &str, pointers: usize) -> Result<Self, String> {
+        let raw: RawScene = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
+        let m = &raw.material;
+        let values = [
+            m.stiffness,
+            m.damping,
+            m.static_friction,
+            m.friction,
+            m.friction_stiffness,
+            m.friction_damping,
+            m.slip_speed,
+        ];
+        if values.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || m.friction > m.static_friction {
+            return Err(
+                "material: values must be finite and ≥ 0, with friction ≤ static_friction".into(),
+            );
+        }
+        if !(raw.dt.is_finite() && raw.dt > 0.0) {
+            return Err("dt must be a finite number > 0".into());
+        }
+        let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
+        for (i, b) in raw.bodies.iter().enumerate() {
+            let shape = solid(b.size, b.position, b.orientation)
+                .map_err(|e| format!("bodies[{i}] {}: {e}", b.name))?;
+            if !(b.density.is_finite() && b.density > 0.0) {
+                return Err(format!("bodies[{i}] {}: density must be > 0", b.name));
+            }
+            bodies.push(Body::new(&shape, b.density, b.fixed));
+        }
+        let first_pointer = bodies.len();
+        for _ in 0..pointers {
+            let shape = solid(raw.pointer.size, [0.0; 3], identity())
+                .map_err(|e| format!("pointer: {e}"))?;
+            bodies.push(Body::new(&shape, 1000.0, true));
+        }
+        let material = Material {
+            stiffness: m.stiffness,
+            damping: m.damping,
+            friction: FrictionParameters {
+                static_coefficient: m.static_friction,
+                dynamic_coefficient: m.friction,
+                stiffness: m.friction_stiffness,
+                damping: m.friction_damping,
+                slip_speed: m.slip_speed,
+            },
+        };
+        Ok(Self {
+            name: raw.name,
+            world: World::new(bodies, DVec3::from(raw.gravity), material),
+            dt: raw.dt,
+            first_pointer,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_scene_parses() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/scenes/blocks.yaml");
+        let scene = PenaltyScene::parse(&std::fs::read_to_string(path).unwrap(), 2).unwrap();
+        assert_eq!(scene.world.bodies.len(), scene.first_pointer + 2);
+        assert!(scene.world.bodies[scene.first_pointer].fixed);
+    }
+
+    #[test]
+    fn bad_scenes_are_refused() {
+        let good = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../config/scenes/blocks.yaml"),
+        )
+        .unwrap();
+        assert!(PenaltyScene::parse(&good.replacen("dt: ", "dt: -", 1), 1).is_err());
+        assert!(PenaltyScene::parse(&format!("{good}\nspeed: 3\n"), 1).is_err());
+        assert!(PenaltyScene::parse(&good.replacen("density: 500", "density: 0", 1), 1).is_err());
+    }
+}
+
+#[cfg(test)]
+mod pointer_tests {
+    use super::*;
+
+    #[test]
+    fn a_pointer_pressed_into_the_table_is_pushed_out_by_its_depth() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../config/scenes/blocks.yaml");
+        let mut scene = PenaltyScene::parse(&std::fs::read_to_string(path).unwrap(), 1).unwrap();
+        let k = scene.first_pointer;
+        // The 1 cm pointer cube 3 mm into the table top (y = −0.03), away from the blocks.
+        scene.world.bodies[k].place(
+            DVec3::new(0.0, -0.028, -0.1),
+            DQuat::IDENTITY,
+            DVec3::ZERO,
+            DVec3::ZERO,
+        );
+        scene.world.step(1e-4);
+        let w = scene.world.contact_wrench(k);
+        // 2·10⁷ N/m³ × 1 cm² × 3 mm = 6 N, straight up through the contact.
+        assert!(
+            (w.force - DVec3::new(0.0, 6.0, 0.0)).length() < 1e-6,
+            "{w:?}"
+        );
+        assert!(w.torque.length() < 1e-9, "{w:?}");
+    }
+}
