@@ -55,9 +55,8 @@ impl Body {
         &self.world
     }
 
-    /// Recompute the world shape after a change of pose.
+    /// Recompute the world shape after a change of pose (its faces never change).
     pub fn update_world_shape(&mut self) {
-        self.world.clone_from(&self.shape);
         for (v, local) in self.world.vertices.iter_mut().zip(&self.shape.vertices) {
             *v = self.orientation * *local + self.position;
         }

@@ -4,7 +4,8 @@
 //! (Sutherland–Hodgman), the points where edges cross the plane are shared by the two faces
 //! of the edge, and the points on the plane close the hole as a new face, ordered by angle
 //! around their centroid. Intersecting A with B is clipping A by every face plane of B.
-//! The clipper keeps its work buffers between calls.
+//! The clipper keeps its work buffers, face lists included, between calls: once it has met
+//! contacts of some size it allocates nothing more.
 
 use glam::DVec3;
 
@@ -22,19 +23,19 @@ pub struct Clipper {
     crossings: Vec<(usize, usize, usize)>,
     cap: Vec<(f64, usize)>,
     spare: Polyhedron,
+    /// Emptied face lists, kept for reuse.
+    pool: Vec<Vec<usize>>,
 }
 
 impl Clipper {
     /// Write the part of `input` where `plane.distance(x) ≤ 0` to `out` (empty when none).
     pub fn clip(&mut self, input: &Polyhedron, plane: Plane, out: &mut Polyhedron) {
-        out.vertices.clear();
-        out.faces.clear();
-        out.planes.clear();
+        self.empty(out);
         self.distance.clear();
         self.distance
             .extend(input.vertices.iter().map(|&v| plane.distance(v)));
         if self.distance.iter().all(|&s| s <= ON_PLANE) {
-            out.clone_from(input);
+            self.copy(input, out);
             return;
         }
         if self.distance.iter().all(|&s| s >= -ON_PLANE) {
@@ -51,7 +52,7 @@ impl Clipper {
         }
         self.crossings.clear();
         for (face, face_plane) in input.faces.iter().zip(&input.planes) {
-            let mut loop_ = Vec::with_capacity(face.len() + 1);
+            let mut loop_ = self.pool.pop().unwrap_or_default();
             for (k, &i) in face.iter().enumerate() {
                 let j = face[(k + 1) % face.len()];
                 if let Some(index) = self.kept[i] {
@@ -65,9 +66,34 @@ impl Clipper {
             if loop_.len() >= 3 {
                 out.faces.push(loop_);
                 out.planes.push(*face_plane);
+            } else {
+                loop_.clear();
+                self.pool.push(loop_);
             }
         }
         self.close_cap(plane, out);
+    }
+
+    /// Empty `p`, keeping its face lists for reuse.
+    fn empty(&mut self, p: &mut Polyhedron) {
+        p.vertices.clear();
+        p.planes.clear();
+        for mut face in p.faces.drain(..) {
+            face.clear();
+            self.pool.push(face);
+        }
+    }
+
+    /// Make `out` a copy of `input`, with face lists from the pool.
+    fn copy(&mut self, input: &Polyhedron, out: &mut Polyhedron) {
+        self.empty(out);
+        out.vertices.extend_from_slice(&input.vertices);
+        out.planes.extend_from_slice(&input.planes);
+        for face in &input.faces {
+            let mut copy = self.pool.pop().unwrap_or_default();
+            copy.extend_from_slice(face);
+            out.faces.push(copy);
+        }
     }
 
     /// Index in `out` of the point where edge (i, j) of `input` crosses the plane, shared by
@@ -111,13 +137,15 @@ impl Clipper {
             *angle = d.dot(w).atan2(d.dot(u));
         }
         self.cap.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        out.faces.push(self.cap.iter().map(|c| c.1).collect());
+        let mut face = self.pool.pop().unwrap_or_default();
+        face.extend(self.cap.iter().map(|c| c.1));
+        out.faces.push(face);
         out.planes.push(plane);
     }
 
     /// Write the intersection of `a` and `b` to `out` (empty when they do not overlap).
     pub fn intersect(&mut self, a: &Polyhedron, b: &Polyhedron, out: &mut Polyhedron) {
-        out.clone_from(a);
+        self.copy(a, out);
         let mut spare = std::mem::take(&mut self.spare);
         for &plane in &b.planes {
             self.clip(out, plane, &mut spare);

@@ -1,0 +1,83 @@
+//! Once its contacts are established, a world step allocates nothing: a counting allocator
+//! watches this thread while blocks rest, slide and press on each other.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use glam::{DQuat, DVec3};
+use hapticd_physics::body::Body;
+use hapticd_physics::friction::FrictionParameters;
+use hapticd_physics::polyhedron::Polyhedron;
+use hapticd_physics::world::{Material, World};
+
+struct Counting;
+
+thread_local! {
+    static WATCHING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards to the system allocator unchanged; only counts.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if WATCHING.with(Cell::get) {
+            ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        }
+        // SAFETY: same contract as ours.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as ours.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn steps_with_established_contacts_do_not_allocate() {
+    let floor = Polyhedron::cuboid(DVec3::new(2.0, 0.5, 2.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, -0.5, 0.0));
+    let mut bodies = vec![Body::new(&floor, 1000.0, true)];
+    // Two stacked blocks and one sliding beside them.
+    for (k, position) in [
+        DVec3::new(0.0, 0.1, 0.0),
+        DVec3::new(0.02, 0.3, 0.0),
+        DVec3::new(0.5, 0.1, 0.0),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let cube = Polyhedron::cuboid(DVec3::splat(0.1))
+            .transformed(DQuat::from_rotation_y(0.1 * k as f64), *position);
+        bodies.push(Body::new(&cube, 125.0, false));
+    }
+    let critical = 2.0 * (1e6f64 * 0.04).sqrt() / 0.04;
+    let mut world = World::new(
+        bodies,
+        DVec3::new(0.0, -9.81, 0.0),
+        Material {
+            stiffness: 1e6,
+            damping: critical,
+            friction: FrictionParameters {
+                static_coefficient: 0.5,
+                dynamic_coefficient: 0.4,
+                stiffness: 1e6,
+                damping: critical,
+                slip_speed: 1e-3,
+            },
+        },
+    );
+    world.bodies[3].velocity.x = 0.5;
+    for _ in 0..500 {
+        world.step(1e-4);
+    }
+    WATCHING.with(|w| w.set(true));
+    for _ in 0..2000 {
+        world.step(1e-4);
+    }
+    WATCHING.with(|w| w.set(false));
+    assert_eq!(ALLOCATIONS.with(Cell::get), 0);
+}
