@@ -14,6 +14,7 @@ pub mod body;
 pub mod clip;
 pub mod contact;
 pub mod friction;
+pub mod gjk;
 pub mod mass;
 pub mod polyhedron;
 pub mod world;

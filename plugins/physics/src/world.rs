@@ -7,6 +7,7 @@ use super::body::Body;
 use super::clip::Clipper;
 use super::contact::{Wrench, damper, spring};
 use super::friction::{FrictionParameters, FrictionState, friction};
+use super::gjk;
 use super::mass::volume_and_centroid;
 use super::polyhedron::Polyhedron;
 
@@ -19,6 +20,54 @@ pub struct Material {
     pub damping: f64,
     /// Friction.
     pub friction: FrictionParameters,
+    /// How contact forces are computed.
+    pub model: ContactModel,
+}
+
+/// How contact forces are computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ContactModel {
+    /// Integrated over the intersection volume (the thesis' method): `stiffness` and
+    /// `damping` are per unit area.
+    #[default]
+    Volume,
+    /// At the deepest point only, for comparison (thesis Fig. 5.1, 5.12): `stiffness` (N/m)
+    /// and `damping` (N·s/m) act there, with sliding friction μ at that point.
+    Point,
+}
+
+/// The deepest-point contact: the overlap's lowest vertex along the normal carries a
+/// spring-damper on the overlap's thickness, and Coulomb friction.
+fn point_contact(
+    overlap: &Polyhedron,
+    normal: DVec3,
+    m: &Material,
+    velocity: impl Fn(DVec3) -> DVec3,
+) -> Wrench {
+    let along = |v: &DVec3| v.dot(normal);
+    let deepest = overlap
+        .vertices
+        .iter()
+        .copied()
+        .min_by(|a, b| along(a).total_cmp(&along(b)));
+    let top = overlap
+        .vertices
+        .iter()
+        .map(along)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let Some(point) = deepest else {
+        return Wrench::default();
+    };
+    let v = velocity(point);
+    let push = (m.stiffness * (top - along(&point)) - m.damping * v.dot(normal)).max(0.0);
+    let slip = v.reject_from_normalized(normal);
+    let friction =
+        -m.friction.dynamic_coefficient * push * slip / slip.length().max(m.friction.slip_speed);
+    let force = push * normal + friction;
+    Wrench {
+        force,
+        torque: point.cross(force),
+    }
 }
 
 /// Bodies, gravity and the contact material.
@@ -35,6 +84,8 @@ pub struct World {
     wrenches: Vec<Wrench>,
     /// Friction state of pair (i, j), i < j, at i·n + j.
     friction: Vec<FrictionState>,
+    /// Contact normal of pair (i, j) at the last step (zero when not in contact).
+    normals: Vec<DVec3>,
 }
 
 fn bounds(p: &Polyhedron) -> (DVec3, DVec3) {
@@ -51,6 +102,7 @@ impl World {
         let wrenches = vec![Wrench::default(); bodies.len()];
         let friction = vec![FrictionState::default(); bodies.len() * bodies.len()];
         Self {
+            normals: vec![DVec3::ZERO; friction.len()],
             friction,
             bodies,
             gravity,
@@ -94,6 +146,35 @@ impl World {
         }
     }
 
+    /// The contact normal of thesis 5.3.2: move body `j` out of body `i` along the
+    /// previous normal until they separate, and take the direction between their closest
+    /// points. `None` for a new contact (no previous normal).
+    fn separation_normal(&self, i: usize, j: usize, previous: DVec3) -> Option<DVec3> {
+        if previous == DVec3::ZERO {
+            return None;
+        }
+        let along = |v: &DVec3| v.dot(previous);
+        let extent = self
+            .overlap
+            .vertices
+            .iter()
+            .map(along)
+            .fold(f64::NEG_INFINITY, f64::max)
+            - self
+                .overlap
+                .vertices
+                .iter()
+                .map(along)
+                .fold(f64::INFINITY, f64::min);
+        let offset = previous * (extent * 1.01 + 1e-9);
+        let (a, b) = (
+            &self.bodies[i].world_shape().vertices,
+            &self.bodies[j].world_shape().vertices,
+        );
+        let (pa, pb) = gjk::closest_points(a, b, offset)?;
+        (pb - pa).try_normalize()
+    }
+
     /// Advance every body by `dt`. Fixed bodies stay where they are put (they may be moved
     /// between steps, like a pointer following the grip).
     pub fn step(&mut self, dt: f64) {
@@ -123,6 +204,7 @@ impl World {
                 let pair = i * n + j;
                 if ai.cmpgt(bj).any() || aj.cmpgt(bi).any() {
                     self.friction[pair].in_contact = false;
+                    self.normals[pair] = DVec3::ZERO;
                     continue;
                 }
                 self.clipper.intersect(
@@ -132,12 +214,28 @@ impl World {
                 );
                 if self.overlap.faces.is_empty() {
                     self.friction[pair].in_contact = false;
+                    self.normals[pair] = DVec3::ZERO;
                     continue;
                 }
-                let normal = self.contact_normal(j);
+                let normal = self
+                    .separation_normal(i, j, self.normals[pair])
+                    .unwrap_or_else(|| self.contact_normal(j));
+                self.normals[pair] = normal;
                 let (a, b) = (&self.bodies[i], &self.bodies[j]);
                 // Forces on j, pushing it away from i along the normal.
                 let m = self.material;
+                if m.model == ContactModel::Point {
+                    let on_j = point_contact(&self.overlap, normal, &m, |x| {
+                        b.velocity_at(x) - a.velocity_at(x)
+                    });
+                    self.wrenches[j] = self.wrenches[j] + on_j;
+                    self.wrenches[i] = self.wrenches[i]
+                        + Wrench {
+                            force: -on_j.force,
+                            torque: -on_j.torque,
+                        };
+                    continue;
+                }
                 // The contact plane passes through the overlap.
                 let (volume, centre) = volume_and_centroid(&self.overlap);
                 let on_j = spring(&self.overlap, centre, normal, m.stiffness)

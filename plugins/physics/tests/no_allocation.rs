@@ -8,7 +8,7 @@ use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::world::{Material, World};
+use hapticd_physics::world::{ContactModel, Material, World};
 
 struct Counting;
 
@@ -68,6 +68,7 @@ fn steps_with_established_contacts_do_not_allocate() {
                 damping: critical,
                 slip_speed: 1e-3,
             },
+            model: ContactModel::Volume,
         },
     );
     world.bodies[3].velocity.x = 0.5;

@@ -5,7 +5,7 @@ use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::world::{Material, World};
+use hapticd_physics::world::{ContactModel, Material, World};
 
 const G: f64 = 9.81;
 const SIDE: f64 = 0.2;
@@ -38,6 +38,7 @@ fn cube_on_floor(x: f64, z: f64, (mu0, mu): (f64, f64), gravity: DVec3) -> World
                 damping: critical,
                 slip_speed: 1e-3,
             },
+            model: ContactModel::Volume,
         },
     )
 }
@@ -144,4 +145,47 @@ fn on_an_incline_above_the_friction_angle_the_block_slides_at_the_kinetic_rate()
         (acceleration - expected).abs() < 0.02 * expected,
         "{acceleration} vs {expected}"
     );
+}
+
+/// The largest spin of a box set down flat on the floor, over the third second.
+fn late_spin(model: ContactModel) -> f64 {
+    let area = SIDE * SIDE;
+    let (k, b) = match model {
+        ContactModel::Volume => (K, 2.0 * (K * area * MASS).sqrt() / area),
+        ContactModel::Point => (K * area, 2.0 * (K * area * MASS).sqrt()),
+    };
+    let cube = Polyhedron::cuboid(DVec3::splat(SIDE / 2.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, SIDE / 2.0 + 0.01, 0.0));
+    let mut world = World::new(
+        vec![floor(), Body::new(&cube, MASS / SIDE.powi(3), false)],
+        DVec3::new(0.0, -G, 0.0),
+        Material {
+            stiffness: k,
+            damping: b,
+            friction: FrictionParameters {
+                static_coefficient: 0.5,
+                dynamic_coefficient: 0.4,
+                stiffness: K,
+                damping: b,
+                slip_speed: 1e-3,
+            },
+            model,
+        },
+    );
+    let mut spin: f64 = 0.0;
+    for step in 0..30_000 {
+        world.step(1e-4);
+        if step >= 20_000 {
+            spin = spin.max(world.bodies[1].spin.length());
+        }
+    }
+    spin
+}
+
+#[test]
+fn a_box_rests_still_on_volume_contact_but_rocks_on_its_deepest_point() {
+    // Thesis Fig. 5.1: with the deepest point alone the contact point jumps between corners
+    // and the torque with it, so the box never settles.
+    assert!(late_spin(ContactModel::Volume) < 1e-6);
+    assert!(late_spin(ContactModel::Point) > 1e-2);
 }

@@ -13,6 +13,7 @@
 //!   friction_stiffness: 2.0e7  # N/m³
 //!   friction_damping: 2.0e4    # N·s/m³
 //!   slip_speed: 0.001          # m/s
+//!   model: volume              # or point: the deepest point only, for comparison
 //! bodies:
 //!   - name: floor
 //!     box: [0.3, 0.02, 0.3]    # edge lengths, metres
@@ -31,7 +32,7 @@ use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::world::{Material, World};
+use hapticd_physics::world::{ContactModel, Material, World};
 use serde::Deserialize;
 
 #[derive(Deserialize)]
@@ -60,6 +61,16 @@ struct RawMaterial {
     friction_stiffness: f64,
     friction_damping: f64,
     slip_speed: f64,
+    #[serde(default)]
+    model: RawModel,
+}
+
+#[derive(Deserialize, Default, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawModel {
+    #[default]
+    Volume,
+    Point,
 }
 
 #[derive(Deserialize)]
@@ -165,6 +176,10 @@ impl PenaltyScene {
                 stiffness: m.friction_stiffness,
                 damping: m.friction_damping,
                 slip_speed: m.slip_speed,
+            },
+            model: match m.model {
+                RawModel::Volume => ContactModel::Volume,
+                RawModel::Point => ContactModel::Point,
             },
         };
         Ok(Self {
