@@ -75,6 +75,18 @@ impl Body {
         self.update_world_shape();
     }
 
+    /// How readily the body's material point at `x` moves along the unit `direction` under
+    /// a force there: 1/m + (r × d)·I⁻¹(r × d), zero for a body contacts cannot move.
+    pub fn inverse_mass_at(&self, x: DVec3, direction: DVec3) -> f64 {
+        if self.fixed {
+            return 0.0;
+        }
+        let rotation = DMat3::from_quat(self.orientation);
+        let arm = (x - self.position).cross(direction);
+        1.0 / self.mass
+            + arm.dot(rotation * (self.inertia.inverse() * (rotation.transpose() * arm)))
+    }
+
     /// Velocity of the body's material point at `x`.
     pub fn velocity_at(&self, x: DVec3) -> DVec3 {
         self.velocity + self.spin.cross(x - self.position)

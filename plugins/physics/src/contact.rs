@@ -65,8 +65,9 @@ pub fn spring(solid: &Polyhedron, point: DVec3, normal: DVec3, k_n: f64) -> Wren
 }
 
 /// The penalty damper over the contact area of `solid`: damping `b_n` (N·s/m³) on the
-/// normal component of `velocity(x)`, the relative velocity of the two bodies at x. Where
-/// the bodies separate the damper does nothing: it may only push, never pull.
+/// normal component of `velocity(x)`, the relative velocity of the two bodies at x. It acts
+/// both ways, resisting separation as well as approach, so that a rebound loses energy too;
+/// the caller keeps the total contact force from pulling.
 pub fn damper(
     solid: &Polyhedron,
     normal: DVec3,
@@ -79,8 +80,7 @@ pub fn damper(
         if area <= 0.0 {
             continue;
         }
-        // Only approach is damped: a damper that would pull is cut, point by point.
-        let v = tri.map(|x| velocity(x).dot(normal).max(0.0) * normal);
+        let v = tri.map(|x| velocity(x).dot(normal) * normal);
         let mean_v = (v[0] + v[1] + v[2]) / 3.0;
         let mean_p = (tri[0] + tri[1] + tri[2]) / 3.0;
         let spread = (0..3).fold(DVec3::ZERO, |s, i| {

@@ -48,47 +48,69 @@ pub struct FrictionState {
     centre: DVec3,
 }
 
-/// Area, centroid, polar moment and mean radius of the contact region: the faces of `solid`
-/// turned toward `normal`, projected onto the plane across it.
-fn contact_area(solid: &Polyhedron, normal: DVec3) -> (f64, DVec3, f64, f64) {
-    // Triangles of the faces turned toward the normal, projected, with their areas.
-    let triangles = || {
-        solid.faces.iter().flat_map(move |face| {
-            (1..face.len().saturating_sub(1)).filter_map(move |k| {
-                let t = [face[0], face[k], face[k + 1]]
-                    .map(|i| solid.vertices[i].reject_from_normalized(normal));
-                let s = (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
-                (s > 0.0).then_some((s, t))
+/// The contact region of an overlap: the faces of the intersection turned toward the
+/// normal, projected onto the plane across it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ContactPatch {
+    /// Area, m² (zero when nothing faces the normal).
+    pub area: f64,
+    /// Area centroid, projected onto the plane through the origin across the normal.
+    pub centroid: DVec3,
+    /// Polar moment of the area about its centroid, m⁴.
+    pub polar: f64,
+    /// Mean distance of the area from its centroid, m.
+    pub mean_radius: f64,
+}
+
+impl ContactPatch {
+    /// The patch of `solid` across `normal`.
+    pub fn of(solid: &Polyhedron, normal: DVec3) -> Self {
+        // Triangles of the faces turned toward the normal, projected, with their areas.
+        let triangles = || {
+            solid.faces.iter().flat_map(move |face| {
+                (1..face.len().saturating_sub(1)).filter_map(move |k| {
+                    let t = [face[0], face[k], face[k + 1]]
+                        .map(|i| solid.vertices[i].reject_from_normalized(normal));
+                    let s = (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
+                    (s > 0.0).then_some((s, t))
+                })
             })
-        })
-    };
-    let (area, moment) = triangles().fold((0.0, DVec3::ZERO), |(a, m), (s, t)| {
-        (a + s, m + s * (t[0] + t[1] + t[2]) / 3.0)
-    });
-    if area <= 0.0 {
-        return (0.0, DVec3::ZERO, 0.0, 0.0);
+        };
+        let (area, moment) = triangles().fold((0.0, DVec3::ZERO), |(a, m), (s, t)| {
+            (a + s, m + s * (t[0] + t[1] + t[2]) / 3.0)
+        });
+        if area <= 0.0 {
+            return Self::default();
+        }
+        let centroid = moment / area;
+        let (mut polar, mut radius) = (0.0, 0.0);
+        for (s, t) in triangles() {
+            let q = t.map(|x| x - centroid);
+            let sum = q[0] + q[1] + q[2];
+            // ∫|q|² over a triangle: S/12 (Σ|qᵢ|² + |Σqᵢ|²).
+            polar += s / 12.0
+                * (q.iter().map(|x| x.length_squared()).sum::<f64>() + sum.length_squared());
+            radius += s * (sum / 3.0).length();
+        }
+        Self {
+            area,
+            centroid,
+            polar,
+            mean_radius: radius / area,
+        }
     }
-    let centroid = moment / area;
-    let (mut polar, mut radius) = (0.0, 0.0);
-    for (s, t) in triangles() {
-        let q = t.map(|x| x - centroid);
-        let sum = q[0] + q[1] + q[2];
-        // ∫|q|² over a triangle: S/12 (Σ|qᵢ|² + |Σqᵢ|²).
-        polar +=
-            s / 12.0 * (q.iter().map(|x| x.length_squared()).sum::<f64>() + sum.length_squared());
-        radius += s * (sum / 3.0).length();
-    }
-    (area, centroid, polar, radius / area)
 }
 
 /// The friction wrench (torque about the origin) on the body pushed along `normal`, whose
 /// velocity relative to the other is `velocity(x)` and relative spin `spin`; `normal_force`
 /// is the contact's normal force and `pressure` its stiffness k_N (for the distributed
-/// dynamic friction). Updates `state` for a step of `dt`.
+/// dynamic friction); `patch` is the contact region of `solid`. Updates `state` for a step
+/// of `dt`.
 #[allow(clippy::too_many_arguments)]
 pub fn friction(
     state: &mut FrictionState,
     solid: &Polyhedron,
+    patch: &ContactPatch,
     normal: DVec3,
     normal_force: f64,
     pressure: f64,
@@ -97,7 +119,12 @@ pub fn friction(
     spin: DVec3,
     dt: f64,
 ) -> Wrench {
-    let (area, plane_centre, polar, mean_radius) = contact_area(solid, normal);
+    let ContactPatch {
+        area,
+        centroid: plane_centre,
+        polar,
+        mean_radius,
+    } = *patch;
     if area <= 0.0 {
         state.in_contact = false;
         return Wrench::default();

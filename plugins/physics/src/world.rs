@@ -6,7 +6,7 @@ use glam::DVec3;
 use super::body::Body;
 use super::clip::Clipper;
 use super::contact::{Wrench, damper, spring};
-use super::friction::{FrictionParameters, FrictionState, friction};
+use super::friction::{ContactPatch, FrictionParameters, FrictionState, friction};
 use super::gjk;
 use super::mass::volume_and_centroid;
 use super::polyhedron::Polyhedron;
@@ -37,11 +37,13 @@ pub enum ContactModel {
 }
 
 /// The deepest-point contact: the overlap's lowest vertex along the normal carries a
-/// spring-damper on the overlap's thickness, and Coulomb friction.
+/// spring-damper on the overlap's thickness, and Coulomb friction, fading below the slip
+/// speed one step of it can take away (`slip_per_newton` per newton of friction).
 fn point_contact(
     overlap: &Polyhedron,
     normal: DVec3,
     m: &Material,
+    slip_per_newton: f64,
     velocity: impl Fn(DVec3) -> DVec3,
 ) -> Wrench {
     let along = |v: &DVec3| v.dot(normal);
@@ -61,8 +63,9 @@ fn point_contact(
     let v = velocity(point);
     let push = (m.stiffness * (top - along(&point)) - m.damping * v.dot(normal)).max(0.0);
     let slip = v.reject_from_normalized(normal);
-    let friction =
-        -m.friction.dynamic_coefficient * push * slip / slip.length().max(m.friction.slip_speed);
+    let mu = m.friction.dynamic_coefficient;
+    let fade = m.friction.slip_speed.max(mu * push * slip_per_newton);
+    let friction = -mu * push * slip / slip.length().max(fade);
     let force = push * normal + friction;
     Wrench {
         force,
@@ -129,6 +132,12 @@ impl World {
             sum += sign * area.length() * plane.normal;
         }
         sum.normalize_or_zero()
+    }
+
+    /// The mean of the overlap's vertices: a point inside the contact.
+    fn overlap_centre(&self) -> DVec3 {
+        let v = &self.overlap.vertices;
+        v.iter().sum::<DVec3>() / v.len() as f64
     }
 
     /// The contact force and torque (about its centroid) on body `i` in the last step.
@@ -223,9 +232,22 @@ impl World {
                 self.normals[pair] = normal;
                 let (a, b) = (&self.bodies[i], &self.bodies[j]);
                 // Forces on j, pushing it away from i along the normal.
-                let m = self.material;
+                // An explicit damper of c over a step overshoots once c·dt/m nears 2 (a
+                // fast impact bounces off harder than it came). Damping c/(1 + c·dt/m) is
+                // what implicit Euler applies to the pair's relative motion: it can at most
+                // stop that motion in one step. m is the pair's effective mass at the
+                // contact, along the damped direction, turning included.
+                let (mut m, at) = (self.material, self.overlap_centre());
+                let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
+                let stable =
+                    |c: f64, area: f64, inverse_mass: f64| c / (1.0 + c * area * dt * inverse_mass);
+                let normal_mobility = inverse_mass(normal);
+                let (t1, t2) = normal.any_orthonormal_pair();
+                let tangent_mobility = inverse_mass(t1).max(inverse_mass(t2));
                 if m.model == ContactModel::Point {
-                    let on_j = point_contact(&self.overlap, normal, &m, |x| {
+                    m.damping = stable(m.damping, 1.0, normal_mobility);
+                    let slip_per_newton = dt * tangent_mobility;
+                    let on_j = point_contact(&self.overlap, normal, &m, slip_per_newton, |x| {
                         b.velocity_at(x) - a.velocity_at(x)
                     });
                     self.wrenches[j] = self.wrenches[j] + on_j;
@@ -238,13 +260,32 @@ impl World {
                 }
                 // The contact plane passes through the overlap.
                 let (volume, centre) = volume_and_centroid(&self.overlap);
-                let on_j = spring(&self.overlap, centre, normal, m.stiffness)
-                    + damper(&self.overlap, normal, m.damping, |x| {
-                        a.velocity_at(x) - b.velocity_at(x)
-                    })
+                let patch = ContactPatch::of(&self.overlap, normal);
+                m.damping = stable(m.damping, patch.area, normal_mobility);
+                m.friction.damping = stable(m.friction.damping, patch.area, tangent_mobility);
+                // Sliding friction must fade out over more than the speed one step of it
+                // takes away, or it reverses the slide every step instead of stopping it.
+                let kick = m.friction.dynamic_coefficient * m.stiffness * volume * dt;
+                m.friction.slip_speed = m.friction.slip_speed.max(kick * tangent_mobility);
+                let push = spring(&self.overlap, centre, normal, m.stiffness);
+                let mut resist = damper(&self.overlap, normal, m.damping, |x| {
+                    a.velocity_at(x) - b.velocity_at(x)
+                });
+                // The damper may slow a separation but never pull the bodies together.
+                let (pushing, resisting) = (push.force.dot(normal), resist.force.dot(normal));
+                if pushing + resisting < 0.0 {
+                    let keep = -pushing / resisting;
+                    resist = Wrench {
+                        force: keep * resist.force,
+                        torque: keep * resist.torque,
+                    };
+                }
+                let on_j = push
+                    + resist
                     + friction(
                         &mut self.friction[pair],
                         &self.overlap,
+                        &patch,
                         normal,
                         m.stiffness * volume,
                         m.stiffness,

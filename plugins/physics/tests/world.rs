@@ -1,7 +1,7 @@
 //! Bodies in contact under the contact-volume penalty method: resting, sliding, and held or
 //! released by static friction on an incline.
 
-use glam::{DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
@@ -188,4 +188,68 @@ fn a_box_rests_still_on_volume_contact_but_rocks_on_its_deepest_point() {
     // and the torque with it, so the box never settles.
     assert!(late_spin(ContactModel::Volume) < 1e-6);
     assert!(late_spin(ContactModel::Point) > 1e-2);
+}
+
+/// Thesis Fig. 5.11: a 2 m cube of 1 kg, tilted 0.1 rad about z, dropped from 1 m onto the
+/// floor with k = 1000, b = 50 and a 10 ms step. Returns its angular momentum about z at
+/// every step and the lowest normal contact force it ever felt.
+fn cube_drop(model: ContactModel, seconds: f64) -> (Vec<f64>, f64) {
+    let dt = 0.01;
+    let slab = Polyhedron::cuboid(DVec3::new(10.0, 0.5, 10.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, -0.5, 0.0));
+    let cube = Polyhedron::cuboid(DVec3::ONE)
+        .transformed(DQuat::from_rotation_z(0.1), DVec3::new(0.0, 2.0, 0.0));
+    let mut world = World::new(
+        vec![
+            Body::new(&slab, 1000.0, true),
+            Body::new(&cube, 1.0 / 8.0, false),
+        ],
+        DVec3::new(0.0, -9.8, 0.0),
+        Material {
+            stiffness: 1000.0,
+            damping: 50.0,
+            friction: FrictionParameters {
+                static_coefficient: 0.5,
+                dynamic_coefficient: 0.4,
+                stiffness: 1000.0,
+                damping: 50.0,
+                slip_speed: 1e-3,
+            },
+            model,
+        },
+    );
+    let mut momentum = Vec::new();
+    let mut least_push = f64::INFINITY;
+    for _ in 0..(seconds / dt) as usize {
+        world.step(dt);
+        let body = &world.bodies[1];
+        let rotation = DMat3::from_quat(body.orientation);
+        let inertia = rotation * body.inertia * rotation.transpose();
+        momentum.push((inertia * body.spin).z);
+        least_push = least_push.min(world.contact_wrench(1).force.y);
+    }
+    (momentum, least_push)
+}
+
+fn largest(values: &[f64]) -> f64 {
+    values.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+#[test]
+fn a_dropped_cube_settles_within_a_second_on_volume_contact_but_not_on_its_deepest_point() {
+    // Steps of 10 ms: landing at 0.45 s.
+    let (volume, least_push) = cube_drop(ContactModel::Volume, 4.0);
+    let peak = largest(&volume);
+    let after = largest(&volume[130..]);
+    assert!(
+        after < 0.02 * peak,
+        "volume: {after} after 1.3 s, peak {peak}"
+    );
+    assert!(least_push >= -1e-9, "the contact pulled: {least_push} N");
+    let (point, _) = cube_drop(ContactModel::Point, 4.0);
+    // Still swinging after 3 s by more than the volume contact keeps after 1.3 s.
+    let late = &point[300..];
+    assert!(largest(late) > 0.02 * peak, "point: {} late", largest(late));
+    let turns = late.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
+    assert!(turns >= 4, "point: {turns} reversals late");
 }
