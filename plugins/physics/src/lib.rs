@@ -8,7 +8,8 @@
 //! - [`contact`]: the normal spring and damper integrated over the intersection (eq. 5.8–5.13);
 //! - [`friction`]: static friction springs and dynamic friction with their state machine;
 //! - [`body`]: rigid bodies and their integration;
-//! - [`world`]: bodies in contact, stepped by the penalty method.
+//! - [`world`]: bodies in contact, stepped by the penalty method;
+//! - [`scene`]: scene files (YAML) describing a world and its pointers.
 
 pub mod body;
 pub mod clip;
@@ -17,4 +18,5 @@ pub mod friction;
 pub mod gjk;
 pub mod mass;
 pub mod polyhedron;
+pub mod scene;
 pub mod world;

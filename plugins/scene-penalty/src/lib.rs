@@ -3,22 +3,24 @@
 //! intersection volume. Each pointer is a solid placed at its grip's pose; the contact
 //! wrench on it is what the user feels (thesis 5.1).
 
-mod scene;
-
 use glam::{DQuat, DVec3};
+use hapticd_physics::scene::PenaltyScene;
 use hapticd_plugin_api::*;
-use scene::PenaltyScene;
 
-impl SceneInstance for PenaltyScene {
+/// The plugin's instance: a loaded scene.
+struct Penalty(PenaltyScene);
+
+impl SceneInstance for Penalty {
     fn step_direct(
         &mut self,
         dt: f64,
         pointers: &[HapticdPointer],
         wrenches: &mut [HapticdWrench],
     ) -> i32 {
+        let scene = &mut self.0;
         for (k, p) in pointers.iter().enumerate() {
             let [w, x, y, z] = p.orientation;
-            let body = &mut self.world.bodies[self.first_pointer + k];
+            let body = &mut scene.world.bodies[scene.first_pointer + k];
             body.place(
                 DVec3::from(p.position),
                 DQuat::from_xyzw(x, y, z, w).normalize(),
@@ -27,12 +29,12 @@ impl SceneInstance for PenaltyScene {
             );
         }
         // Split the tick into steps no longer than the scene's physics step.
-        let steps = (dt / self.dt).ceil().max(1.0) as usize;
+        let steps = (dt / scene.dt).ceil().max(1.0) as usize;
         let mut sum = [(DVec3::ZERO, DVec3::ZERO); 8];
         for _ in 0..steps {
-            self.world.step(dt / steps as f64);
+            scene.world.step(dt / steps as f64);
             for (k, s) in sum.iter_mut().enumerate().take(pointers.len()) {
-                let w = self.world.contact_wrench(self.first_pointer + k);
+                let w = scene.world.contact_wrench(scene.first_pointer + k);
                 s.0 += w.force;
                 s.1 += w.torque;
             }
@@ -71,7 +73,7 @@ fn create(
         style: HAPTICD_SCENE_DIRECT,
         physics_rate: 0.0,
     };
-    Ok((Box::new(scene), info))
+    Ok((Box::new(Penalty(scene)), info))
 }
 
 hapticd_plugin_api::export_scene!(

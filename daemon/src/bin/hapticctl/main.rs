@@ -3,6 +3,7 @@
 mod device;
 mod experiment;
 mod mechanism;
+mod scene;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -35,6 +36,9 @@ enum Command {
     /// Run the thesis' closed-loop experiments on the simulated SPIDAR.
     #[command(subcommand)]
     Experiment(experiment::Command),
+    /// Step penalty scene files headless.
+    #[command(subcommand)]
+    Scene(scene::Command),
 }
 
 /// Why a command failed, with its exit status.
@@ -83,6 +87,7 @@ fn main() -> ExitCode {
         Command::Mechanism(command) => mechanism::run(command, &catalog),
         Command::Experiment(command) => experiment::run(command, &catalog),
         Command::Device(command) => device::run(command),
+        Command::Scene(command) => scene::run(command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -24,15 +24,17 @@
 //!     position: [0.03, -0.015, 0]
 //!     orientation: [1, 0, 0, 0]
 //!     density: 500             # kg/m³
-//! pointer:
+//!     velocity: [0, 0, 0]      # m/s, optional
+//!     spin: [0, 0, 0]          # rad/s, optional
+//! pointer:                     # optional: scenes without one take no pointers
 //!   box: [0.01, 0.01, 0.01]    # each pointer: this solid at the grip pose
 //! ```
 
+use crate::body::Body;
+use crate::friction::FrictionParameters;
+use crate::polyhedron::Polyhedron;
+use crate::world::{ContactModel, Material, World};
 use glam::{DQuat, DVec3};
-use hapticd_physics::body::Body;
-use hapticd_physics::friction::FrictionParameters;
-use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::world::{ContactModel, Material, World};
 use serde::Deserialize;
 
 #[derive(Deserialize)]
@@ -44,7 +46,7 @@ struct RawScene {
     dt: f64,
     material: RawMaterial,
     bodies: Vec<RawBody>,
-    pointer: RawPointer,
+    pointer: Option<RawPointer>,
 }
 
 fn earth() -> [f64; 3] {
@@ -87,6 +89,10 @@ struct RawBody {
     fixed: bool,
     #[serde(default = "water")]
     density: f64,
+    #[serde(default)]
+    velocity: [f64; 3],
+    #[serde(default)]
+    spin: [f64; 3],
 }
 
 fn identity() -> [f64; 4] {
@@ -114,6 +120,8 @@ pub struct PenaltyScene {
     pub dt: f64,
     /// Index of the first pointer body in the world.
     pub first_pointer: usize,
+    /// Names of the scene's bodies (before the pointers), in world order.
+    pub names: Vec<String>,
 }
 
 fn solid(size: [f64; 3], position: [f64; 3], orientation: [f64; 4]) -> Result<Polyhedron, String> {
@@ -159,12 +167,26 @@ impl PenaltyScene {
             if !(b.density.is_finite() && b.density > 0.0) {
                 return Err(format!("bodies[{i}] {}: density must be > 0", b.name));
             }
-            bodies.push(Body::new(&shape, b.density, b.fixed));
+            let (velocity, spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
+            if !velocity.is_finite() || !spin.is_finite() {
+                return Err(format!(
+                    "bodies[{i}] {}: velocity and spin must be finite",
+                    b.name
+                ));
+            }
+            let mut body = Body::new(&shape, b.density, b.fixed);
+            (body.velocity, body.spin) = (velocity, spin);
+            bodies.push(body);
         }
         let first_pointer = bodies.len();
-        for _ in 0..pointers {
-            let shape = solid(raw.pointer.size, [0.0; 3], identity())
-                .map_err(|e| format!("pointer: {e}"))?;
+        if pointers > 0 && raw.pointer.is_none() {
+            return Err(format!(
+                "{pointers} pointers, but the scene has no pointer shape"
+            ));
+        }
+        for pointer in raw.pointer.iter().cycle().take(pointers) {
+            let shape =
+                solid(pointer.size, [0.0; 3], identity()).map_err(|e| format!("pointer: {e}"))?;
             bodies.push(Body::new(&shape, 1000.0, true));
         }
         let material = Material {
@@ -187,6 +209,7 @@ impl PenaltyScene {
             world: World::new(bodies, DVec3::from(raw.gravity), material),
             dt: raw.dt,
             first_pointer,
+            names: raw.bodies.into_iter().map(|b| b.name).collect(),
         })
     }
 }

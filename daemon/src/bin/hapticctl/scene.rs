@@ -1,0 +1,193 @@
+//! `hapticctl scene …`: step a penalty scene file headless, to try a scene before feeling it.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Subcommand, ValueEnum};
+use glam::{DMat3, DVec3};
+use hapticd::plot::{Chart, PALETTE, Series};
+use hapticd_physics::body::Body;
+use hapticd_physics::scene::PenaltyScene;
+use hapticd_physics::world::ContactModel;
+use serde_json::json;
+
+use crate::Failure;
+use crate::mechanism::{Output, print, save};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Step a scene file for a while and report, record or plot the bodies' motion.
+    Run(RunArgs),
+}
+
+#[derive(Args)]
+pub struct RunArgs {
+    /// Scene file (YAML, the penalty scene's format).
+    file: PathBuf,
+    /// Simulated time, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    duration: f64,
+    /// Physics step, seconds (default: the scene's `dt`).
+    #[arg(long)]
+    dt: Option<f64>,
+    /// Contact model instead of the scene's.
+    #[arg(long, value_enum)]
+    model: Option<Model>,
+    /// Write every step's body states to this CSV file.
+    #[arg(long)]
+    record: Option<PathBuf>,
+    /// Plot a quantity of every moving body against time to this PNG file.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// What `--plot` shows.
+    #[arg(long, value_enum, default_value_t = Quantity::Height)]
+    quantity: Quantity,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// Contact models.
+#[derive(Clone, Copy, ValueEnum)]
+enum Model {
+    /// Forces integrated over the intersection volume.
+    Volume,
+    /// The deepest point only.
+    Point,
+}
+
+/// Plotted quantities.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum Quantity {
+    /// Height of the centroid against gravity, m.
+    Height,
+    /// Angular momentum about the world z axis, kg·m²/s (thesis Fig. 5.12).
+    AngularMomentumZ,
+}
+
+/// Run one `scene` subcommand.
+pub fn run(command: Command) -> Result<(), Failure> {
+    match command {
+        Command::Run(args) => run_scene(&args),
+    }
+}
+
+/// Angular momentum of `body` about its centroid, world frame.
+fn angular_momentum(body: &Body) -> DVec3 {
+    let rotation = DMat3::from_quat(body.orientation);
+    rotation * body.inertia * rotation.transpose() * body.spin
+}
+
+fn load(path: &Path, model: Option<Model>) -> Result<PenaltyScene, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::failed(format!("{}: cannot read: {e}", path.display())))?;
+    let mut scene = PenaltyScene::parse(&text, 0)
+        .map_err(|e| Failure::failed(format!("{}: {e}", path.display())))?;
+    match model {
+        Some(Model::Volume) => scene.world.material.model = ContactModel::Volume,
+        Some(Model::Point) => scene.world.material.model = ContactModel::Point,
+        None => {}
+    }
+    Ok(scene)
+}
+
+fn run_scene(args: &RunArgs) -> Result<(), Failure> {
+    let mut scene = load(&args.file, args.model)?;
+    let dt = args.dt.unwrap_or(scene.dt);
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(Failure::usage("--dt must be a number > 0"));
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration / dt <= 1e8) {
+        return Err(Failure::usage(
+            "--duration must be > 0 and at most 10⁸ steps",
+        ));
+    }
+    let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
+    let moving: Vec<usize> = (0..scene.world.bodies.len())
+        .filter(|&i| !scene.world.bodies[i].fixed)
+        .collect();
+    let mut csv = String::from("t,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n");
+    let mut curves = vec![Vec::new(); moving.len()];
+    let steps = (args.duration / dt).round() as usize;
+    for step in 1..=steps {
+        scene.world.step(dt);
+        let t = step as f64 * dt;
+        for (curve, &i) in curves.iter_mut().zip(&moving) {
+            let b = &scene.world.bodies[i];
+            let value = match args.quantity {
+                Quantity::Height => b.position.dot(up),
+                Quantity::AngularMomentumZ => angular_momentum(b).z,
+            };
+            curve.push((t, value));
+            if args.record.is_some() {
+                let (p, q, v, w) = (b.position, b.orientation, b.velocity, b.spin);
+                // Writing to a String cannot fail.
+                let _ = writeln!(
+                    csv,
+                    "{t},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    scene.names[i], p.x, p.y, p.z, q.w, q.x, q.y, q.z, v.x, v.y, v.z, w.x, w.y, w.z
+                );
+            }
+        }
+    }
+    if let Some(path) = &args.record {
+        std::fs::write(path, &csv)
+            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.plot {
+        let (label, title) = match args.quantity {
+            Quantity::Height => ("height, m", "height"),
+            Quantity::AngularMomentumZ => ("angular momentum about z, kg·m²/s", "spin"),
+        };
+        let chart = Chart {
+            title: format!("{}: {title} of each body", scene.name),
+            x_label: "time, s".into(),
+            y_label: label.into(),
+            series: curves
+                .iter()
+                .zip(&moving)
+                .enumerate()
+                .map(|(k, (points, &i))| Series {
+                    label: scene.names[i].clone(),
+                    points: points.clone(),
+                    color: PALETTE[k % PALETTE.len()],
+                })
+                .collect(),
+            ..Chart::default()
+        };
+        save(&chart, path)?;
+    }
+    let bodies: Vec<_> = moving
+        .iter()
+        .map(|&i| {
+            let b = &scene.world.bodies[i];
+            json!({
+                "name": scene.names[i],
+                "position": b.position.to_array(),
+                "orientation": [b.orientation.w, b.orientation.x, b.orientation.y, b.orientation.z],
+                "velocity": b.velocity.to_array(),
+                "spin": b.spin.to_array(),
+                "angular_momentum": angular_momentum(b).to_array(),
+            })
+        })
+        .collect();
+    let mut text = format!("{}: {steps} steps of {dt} s\n", scene.name);
+    for &i in &moving {
+        let b = &scene.world.bodies[i];
+        let _ = writeln!(
+            text,
+            "  {:<12} at {:>8.4} {:>8.4} {:>8.4} m, speed {:.4} m/s, spin {:.4} rad/s",
+            scene.names[i],
+            b.position.x,
+            b.position.y,
+            b.position.z,
+            b.velocity.length(),
+            b.spin.length()
+        );
+    }
+    print(
+        &args.output,
+        json!({"scene": scene.name, "steps": steps, "dt": dt, "bodies": bodies}),
+        text,
+    );
+    Ok(())
+}

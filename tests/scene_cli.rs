@@ -1,0 +1,132 @@
+//! `hapticctl scene run` on the shipped scene files: the real binary stepping the penalty
+//! physics headless, checked against the thesis' experiments (5.4.2, 5.4.3).
+
+mod support;
+
+use std::process::Output;
+
+use serde_json::Value;
+use support::{hapticctl, repo_dir};
+
+fn run(args: &[&str]) -> Output {
+    hapticctl()
+        .args(["scene", "run"])
+        .args(args)
+        .output()
+        .expect("hapticctl runs")
+}
+
+fn scene(name: &str) -> String {
+    repo_dir()
+        .join("config/scenes")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+/// The final states of the moving bodies, from `--json`.
+fn bodies(output: &Output) -> Vec<Value> {
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    report["bodies"].as_array().unwrap().clone()
+}
+
+fn vector(value: &Value) -> [f64; 3] {
+    let v: Vec<f64> = value
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    [v[0], v[1], v[2]]
+}
+
+fn length(v: [f64; 3]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+#[test]
+fn the_dropped_cube_comes_to_rest_flat_on_the_floor_and_is_recorded_and_plotted() {
+    let dir = support::scratch_root().join(format!("hapticd-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, png) = (dir.join("drop.csv"), dir.join("drop.png"));
+    let output = run(&[
+        &scene("cube-drop.yaml"),
+        "--duration",
+        "2",
+        "--record",
+        csv.to_str().unwrap(),
+        "--plot",
+        png.to_str().unwrap(),
+        "--quantity",
+        "angular-momentum-z",
+        "--json",
+    ]);
+    let cube = &bodies(&output)[0];
+    // Flat on a face of 4 m², sunk by m·g/(k·A) = 9.8/4000 m.
+    let (height, depth) = (vector(&cube["position"])[1], 9.8 / 4000.0);
+    assert!((height - (1.0 - depth)).abs() < 0.01 * depth, "{height}");
+    assert!(length(vector(&cube["velocity"])) < 1e-3);
+    assert!(length(vector(&cube["angular_momentum"])) < 1e-3);
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 200);
+    assert!(rows.lines().nth(200).unwrap().starts_with("2,cube,"));
+    assert!(
+        std::fs::read(&png)
+            .unwrap()
+            .starts_with(b"\x89PNG\r\n\x1a\n")
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn on_its_deepest_point_alone_the_dropped_cube_keeps_rocking() {
+    let cube = &bodies(&run(&[
+        &scene("cube-drop.yaml"),
+        "--duration",
+        "4",
+        "--model",
+        "point",
+        "--json",
+    ]))[0];
+    assert!(length(vector(&cube["angular_momentum"])) > 1e-2);
+}
+
+#[test]
+fn a_stack_of_thirteen_blocks_stands_for_ten_seconds() {
+    let blocks = bodies(&run(&[&scene("stack.yaml"), "--duration", "10", "--json"]));
+    assert_eq!(blocks.len(), 13);
+    // Each contact below block n carries 13 − n + 1 blocks of 1 kg on 10⁶ N/m.
+    let mut sunk = 0.0;
+    for (n, block) in blocks.iter().enumerate() {
+        sunk += (13 - n) as f64 * 9.81 / 1e6;
+        let [x, y, z] = vector(&block["position"]);
+        let expected = 0.05 + 0.1 * n as f64 - sunk;
+        assert!(x.hypot(z) < 1e-6, "block {} drifted to {x}, {z}", n + 1);
+        assert!(
+            (y - expected).abs() < 1e-5,
+            "block {}: {y} vs {expected}",
+            n + 1
+        );
+        assert!(length(vector(&block["spin"])) < 1e-6);
+    }
+}
+
+#[test]
+fn a_scene_file_with_an_unknown_key_is_refused_with_its_line_and_column() {
+    let dir = support::scratch_root().join(format!("hapticd-bad-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.yaml");
+    let text = std::fs::read_to_string(scene("cube-drop.yaml")).unwrap();
+    std::fs::write(&file, text.replacen("dt: 0.01", "dt: 0.01\nspeed: 3", 1)).unwrap();
+    let output = run(&[file.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1));
+    let message = String::from_utf8_lossy(&output.stderr);
+    assert!(message.contains("unknown field `speed`"), "{message}");
+    assert!(message.contains("line 8 column 1"), "{message}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
