@@ -63,6 +63,8 @@ figures: stage
 	$(HAPTICCTL) mechanism workspace spidar --plot docs/figures/workspace-spidar.png
 	$(HAPTICCTL) experiment stiffness spidar --plot docs/figures/wall-stiffness.png
 	$(HAPTICCTL) experiment cylinder --plot docs/figures/cylinder-tracing.png
+	$(HAPTICCTL) scene run config/scenes/cube-drop.yaml --duration 2 --model volume --model point \
+		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 
 header:
 	HAPTICD_UPDATE_HEADER=1 $(CARGO) test -p hapticd-plugin-api --test c_header

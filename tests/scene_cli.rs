@@ -32,7 +32,7 @@ fn bodies(output: &Output) -> Vec<Value> {
         String::from_utf8_lossy(&output.stderr)
     );
     let report: Value = serde_json::from_slice(&output.stdout).unwrap();
-    report["bodies"].as_array().unwrap().clone()
+    report["runs"][0]["bodies"].as_array().unwrap().clone()
 }
 
 fn vector(value: &Value) -> [f64; 3] {
@@ -74,7 +74,7 @@ fn the_dropped_cube_comes_to_rest_flat_on_the_floor_and_is_recorded_and_plotted(
     assert!(length(vector(&cube["angular_momentum"])) < 1e-3);
     let rows = std::fs::read_to_string(&csv).unwrap();
     assert_eq!(rows.lines().count(), 1 + 200);
-    assert!(rows.lines().nth(200).unwrap().starts_with("2,cube,"));
+    assert!(rows.lines().nth(200).unwrap().starts_with("2,volume,cube,"));
     assert!(
         std::fs::read(&png)
             .unwrap()

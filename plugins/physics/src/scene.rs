@@ -219,12 +219,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_shipped_scene_parses() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../config/scenes/blocks.yaml");
-        let scene = PenaltyScene::parse(&std::fs::read_to_string(path).unwrap(), 2).unwrap();
+    fn the_shipped_scenes_parse() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes");
+        let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
+        let scene = PenaltyScene::parse(&read("blocks.yaml"), 2).unwrap();
         assert_eq!(scene.world.bodies.len(), scene.first_pointer + 2);
         assert!(scene.world.bodies[scene.first_pointer].fixed);
+        for (name, bodies) in [("cube-drop.yaml", 2), ("stack.yaml", 14)] {
+            let scene = PenaltyScene::parse(&read(name), 0).unwrap();
+            assert_eq!(scene.world.bodies.len(), bodies, "{name}");
+            assert!(
+                PenaltyScene::parse(&read(name), 1).is_err(),
+                "{name} has no pointer"
+            );
+        }
     }
 
     #[test]

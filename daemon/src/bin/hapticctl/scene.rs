@@ -30,9 +30,11 @@ pub struct RunArgs {
     /// Physics step, seconds (default: the scene's `dt`).
     #[arg(long)]
     dt: Option<f64>,
-    /// Contact model instead of the scene's.
-    #[arg(long, value_enum)]
-    model: Option<Model>,
+    /// Contact model instead of the scene's; repeat to run the scene once per model and
+    /// compare them on one plot. With `point`, the material's stiffness and damping act at
+    /// one point (N/m, N·s/m).
+    #[arg(long = "model", value_enum)]
+    models: Vec<Model>,
     /// Write every step's body states to this CSV file.
     #[arg(long)]
     record: Option<PathBuf>,
@@ -47,7 +49,7 @@ pub struct RunArgs {
 }
 
 /// Contact models.
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum Model {
     /// Forces integrated over the intersection volume.
     Volume,
@@ -90,24 +92,27 @@ fn load(path: &Path, model: Option<Model>) -> Result<PenaltyScene, Failure> {
     Ok(scene)
 }
 
-fn run_scene(args: &RunArgs) -> Result<(), Failure> {
-    let mut scene = load(&args.file, args.model)?;
-    let dt = args.dt.unwrap_or(scene.dt);
-    if !(dt.is_finite() && dt > 0.0) {
-        return Err(Failure::usage("--dt must be a number > 0"));
-    }
-    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration / dt <= 1e8) {
-        return Err(Failure::usage(
-            "--duration must be > 0 and at most 10⁸ steps",
-        ));
-    }
+/// One run of a scene: the plotted quantity of each moving body over time, and the CSV rows.
+struct Trace {
+    scene: PenaltyScene,
+    /// The contact model's name.
+    model: &'static str,
+    moving: Vec<usize>,
+    curves: Vec<Vec<(f64, f64)>>,
+    csv: String,
+}
+
+fn trace(mut scene: PenaltyScene, args: &RunArgs, dt: f64, steps: usize) -> Trace {
     let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
     let moving: Vec<usize> = (0..scene.world.bodies.len())
         .filter(|&i| !scene.world.bodies[i].fixed)
         .collect();
-    let mut csv = String::from("t,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n");
+    let mut csv = String::new();
     let mut curves = vec![Vec::new(); moving.len()];
-    let steps = (args.duration / dt).round() as usize;
+    let model = match scene.world.material.model {
+        ContactModel::Volume => "volume",
+        ContactModel::Point => "point",
+    };
     for step in 1..=steps {
         scene.world.step(dt);
         let t = step as f64 * dt;
@@ -123,70 +128,107 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
                 // Writing to a String cannot fail.
                 let _ = writeln!(
                     csv,
-                    "{t},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{t},{model},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     scene.names[i], p.x, p.y, p.z, q.w, q.x, q.y, q.z, v.x, v.y, v.z, w.x, w.y, w.z
                 );
             }
         }
     }
+    Trace {
+        scene,
+        model,
+        moving,
+        curves,
+        csv,
+    }
+}
+
+fn run_scene(args: &RunArgs) -> Result<(), Failure> {
+    let mut models: Vec<Option<Model>> = args.models.iter().copied().map(Some).collect();
+    models.dedup();
+    if models.is_empty() {
+        models.push(None);
+    }
+    let first = load(&args.file, models[0])?;
+    let dt = args.dt.unwrap_or(first.dt);
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(Failure::usage("--dt must be a number > 0"));
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration / dt <= 1e8) {
+        return Err(Failure::usage(
+            "--duration must be > 0 and at most 10⁸ steps",
+        ));
+    }
+    let steps = (args.duration / dt).round() as usize;
+    let mut traces = vec![trace(first, args, dt, steps)];
+    for &model in &models[1..] {
+        traces.push(trace(load(&args.file, model)?, args, dt, steps));
+    }
+    let name = traces[0].scene.name.clone();
     if let Some(path) = &args.record {
+        let mut csv = String::from("t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n");
+        for t in &traces {
+            csv.push_str(&t.csv);
+        }
         std::fs::write(path, &csv)
             .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
     }
     if let Some(path) = &args.plot {
         let (label, title) = match args.quantity {
             Quantity::Height => ("height, m", "height"),
-            Quantity::AngularMomentumZ => ("angular momentum about z, kg·m²/s", "spin"),
+            Quantity::AngularMomentumZ => ("angular momentum about z, kg m^2/s", "spin"),
         };
+        let mut series = Vec::new();
+        for t in &traces {
+            for (points, &i) in t.curves.iter().zip(&t.moving) {
+                series.push(Series {
+                    label: format!("{} ({})", t.scene.names[i], t.model),
+                    points: points.clone(),
+                    color: PALETTE[series.len() % PALETTE.len()],
+                });
+            }
+        }
         let chart = Chart {
-            title: format!("{}: {title} of each body", scene.name),
+            title: format!("{name}: {title} of each body"),
             x_label: "time, s".into(),
             y_label: label.into(),
-            series: curves
-                .iter()
-                .zip(&moving)
-                .enumerate()
-                .map(|(k, (points, &i))| Series {
-                    label: scene.names[i].clone(),
-                    points: points.clone(),
-                    color: PALETTE[k % PALETTE.len()],
-                })
-                .collect(),
+            series,
             ..Chart::default()
         };
         save(&chart, path)?;
     }
-    let bodies: Vec<_> = moving
-        .iter()
-        .map(|&i| {
-            let b = &scene.world.bodies[i];
-            json!({
-                "name": scene.names[i],
+    let mut text = String::new();
+    let mut runs = Vec::new();
+    for t in &traces {
+        let (world, model) = (&t.scene.world, t.model);
+        let _ = writeln!(text, "{name} ({model} contact): {steps} steps of {dt} s");
+        let mut bodies = Vec::new();
+        for &i in &t.moving {
+            let (b, body_name) = (&world.bodies[i], &t.scene.names[i]);
+            let _ = writeln!(
+                text,
+                "  {body_name:<12} at {:>8.4} {:>8.4} {:>8.4} m, speed {:.4} m/s, spin {:.4} rad/s",
+                b.position.x,
+                b.position.y,
+                b.position.z,
+                b.velocity.length(),
+                b.spin.length()
+            );
+            let q = b.orientation;
+            bodies.push(json!({
+                "name": body_name,
                 "position": b.position.to_array(),
-                "orientation": [b.orientation.w, b.orientation.x, b.orientation.y, b.orientation.z],
+                "orientation": [q.w, q.x, q.y, q.z],
                 "velocity": b.velocity.to_array(),
                 "spin": b.spin.to_array(),
                 "angular_momentum": angular_momentum(b).to_array(),
-            })
-        })
-        .collect();
-    let mut text = format!("{}: {steps} steps of {dt} s\n", scene.name);
-    for &i in &moving {
-        let b = &scene.world.bodies[i];
-        let _ = writeln!(
-            text,
-            "  {:<12} at {:>8.4} {:>8.4} {:>8.4} m, speed {:.4} m/s, spin {:.4} rad/s",
-            scene.names[i],
-            b.position.x,
-            b.position.y,
-            b.position.z,
-            b.velocity.length(),
-            b.spin.length()
-        );
+            }));
+        }
+        runs.push(json!({"model": model, "bodies": bodies}));
     }
     print(
         &args.output,
-        json!({"scene": scene.name, "steps": steps, "dt": dt, "bodies": bodies}),
+        json!({"scene": name, "steps": steps, "dt": dt, "runs": runs}),
         text,
     );
     Ok(())
