@@ -51,6 +51,7 @@ check: deps lint test
 bench:
 	$(CARGO) build --release --workspace
 	$(CARGO) bench -p hapticd-e2e --bench mechanism
+	$(CARGO) bench -p hapticd-e2e --bench physics
 
 latency:
 	@command -v cyclictest >/dev/null || $(SUDO) apt-get install -y -q --no-install-recommends rt-tests

@@ -15,7 +15,7 @@ use super::polyhedron::{Plane, Polyhedron};
 const ON_PLANE: f64 = 1e-12;
 
 /// Reusable buffers for clipping.
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Clipper {
     distance: Vec<f64>,
     kept: Vec<Option<usize>>,

@@ -152,12 +152,23 @@ pub fn closest_points(a: &[DVec3], b: &[DVec3], offset: DVec3) -> Option<(DVec3,
             return None;
         }
         let next = support(a, b, offset, -nearest);
-        // No progress toward the origin: `nearest` is the minimum.
-        if nearest.length_squared() - nearest.dot(next.w) <= 1e-12 * nearest.length_squared() {
+        // No progress toward the origin, or a support point already in the simplex (faces
+        // parallel to the search direction offer many equally near ones, and the search
+        // would cycle among them): `nearest` is the minimum.
+        let progress = nearest.length_squared() - nearest.dot(next.w);
+        if progress <= 1e-12 * nearest.length_squared()
+            || simplex.points().iter().any(|s| s.w == next.w)
+        {
             break;
         }
+        let (previous, before) = (simplex, nearest.length_squared());
         simplex.push(next);
         nearest = reduce(&mut simplex);
+        // Rounding can stall the search just short of the minimum: keep the better simplex.
+        if nearest.length_squared() >= before {
+            simplex = previous;
+            break;
+        }
         if simplex.len == 4 {
             return None;
         }

@@ -74,7 +74,7 @@ fn point_contact(
 }
 
 /// Bodies, gravity and the contact material.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct World {
     /// The bodies.
     pub bodies: Vec<Body>,
