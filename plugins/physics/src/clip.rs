@@ -14,6 +14,10 @@ use super::polyhedron::{Plane, Polyhedron};
 /// Points closer to a plane than this count as on it, metres.
 const ON_PLANE: f64 = 1e-12;
 
+/// Room in a new face list: any pooled list may serve any face, so each is made big enough
+/// for the faces of ordinary contacts (a box face cut by a box's six planes has at most 10).
+const FACE_CAPACITY: usize = 16;
+
 /// Reusable buffers for clipping.
 #[derive(Debug, Clone, Default)]
 pub struct Clipper {
@@ -52,7 +56,7 @@ impl Clipper {
         }
         self.crossings.clear();
         for (face, face_plane) in input.faces.iter().zip(&input.planes) {
-            let mut loop_ = self.pool.pop().unwrap_or_default();
+            let mut loop_ = self.face_list();
             for (k, &i) in face.iter().enumerate() {
                 let j = face[(k + 1) % face.len()];
                 if let Some(index) = self.kept[i] {
@@ -74,6 +78,13 @@ impl Clipper {
         self.close_cap(plane, out);
     }
 
+    /// An empty face list, from the pool when it has one.
+    fn face_list(&mut self) -> Vec<usize> {
+        self.pool
+            .pop()
+            .unwrap_or_else(|| Vec::with_capacity(FACE_CAPACITY))
+    }
+
     /// Empty `p`, keeping its face lists for reuse.
     fn empty(&mut self, p: &mut Polyhedron) {
         p.vertices.clear();
@@ -90,7 +101,7 @@ impl Clipper {
         out.vertices.extend_from_slice(&input.vertices);
         out.planes.extend_from_slice(&input.planes);
         for face in &input.faces {
-            let mut copy = self.pool.pop().unwrap_or_default();
+            let mut copy = self.face_list();
             copy.extend_from_slice(face);
             out.faces.push(copy);
         }
@@ -137,7 +148,7 @@ impl Clipper {
             *angle = d.dot(w).atan2(d.dot(u));
         }
         self.cap.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        let mut face = self.pool.pop().unwrap_or_default();
+        let mut face = self.face_list();
         face.extend(self.cap.iter().map(|c| c.1));
         out.faces.push(face);
         out.planes.push(plane);

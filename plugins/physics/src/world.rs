@@ -87,8 +87,16 @@ pub struct World {
     wrenches: Vec<Wrench>,
     /// Friction state of pair (i, j), i < j, at i·n + j.
     friction: Vec<FrictionState>,
-    /// Contact normal of pair (i, j) at the last step (zero when not in contact).
+    /// Contact normal of pair (i, j) at the last step it was in contact.
     normals: Vec<DVec3>,
+    /// The step at which pair (i, j) was last in contact.
+    touched: Vec<u64>,
+    /// Steps taken.
+    steps: u64,
+    /// Each body's bounding box at this step.
+    boxes: Vec<(DVec3, DVec3)>,
+    /// Bodies in order of their boxes' lower ends along the sweep axis.
+    order: Vec<usize>,
 }
 
 fn bounds(p: &Polyhedron) -> (DVec3, DVec3) {
@@ -99,20 +107,44 @@ fn bounds(p: &Polyhedron) -> (DVec3, DVec3) {
         })
 }
 
+/// The axis along which the boxes' centres spread most: sweeping along it leaves the
+/// fewest boxes overlapping in that one coordinate.
+fn widest_axis(boxes: &[(DVec3, DVec3)]) -> usize {
+    let (lo, hi) = boxes.iter().fold(
+        (DVec3::INFINITY, DVec3::NEG_INFINITY),
+        |(lo, hi), (a, b)| {
+            let centre = (*a + *b) / 2.0;
+            (lo.min(centre), hi.max(centre))
+        },
+    );
+    let spread = hi - lo;
+    if spread.x >= spread.y && spread.x >= spread.z {
+        0
+    } else if spread.y >= spread.z {
+        1
+    } else {
+        2
+    }
+}
+
 impl World {
     /// A world of `bodies`.
     pub fn new(bodies: Vec<Body>, gravity: DVec3, material: Material) -> Self {
-        let wrenches = vec![Wrench::default(); bodies.len()];
-        let friction = vec![FrictionState::default(); bodies.len() * bodies.len()];
+        let n = bodies.len();
+        let friction = vec![FrictionState::default(); n * n];
         Self {
-            normals: vec![DVec3::ZERO; friction.len()],
+            normals: vec![DVec3::ZERO; n * n],
+            touched: vec![0; n * n],
+            steps: 0,
+            boxes: vec![(DVec3::ZERO, DVec3::ZERO); n],
+            order: (0..n).collect(),
+            wrenches: vec![Wrench::default(); n],
             friction,
             bodies,
             gravity,
             material,
             clipper: Clipper::default(),
             overlap: Polyhedron::default(),
-            wrenches,
         }
     }
 
@@ -199,107 +231,33 @@ impl World {
                 torque: b.position.cross(weight),
             };
         }
+        // Broad phase: sort and sweep the bounding boxes along one axis.
+        self.steps += 1;
+        for (bounding, b) in self.boxes.iter_mut().zip(&self.bodies) {
+            *bounding = bounds(b.world_shape());
+        }
+        let axis = widest_axis(&self.boxes);
+        // Insertion sort: the order barely changes between steps, so this is near-linear,
+        // and it works in place.
+        let key = |k: usize| self.boxes[k].0[axis];
+        for sorted in 1..self.order.len() {
+            let mut k = sorted;
+            while k > 0 && key(self.order[k - 1]) > key(self.order[k]) {
+                self.order.swap(k - 1, k);
+                k -= 1;
+            }
+        }
         let n = self.bodies.len();
-        for i in 0..n {
-            for j in i + 1..n {
-                let (a, b) = (&self.bodies[i], &self.bodies[j]);
-                if a.fixed && b.fixed && !a.kinematic && !b.kinematic {
-                    continue;
+        for first in 0..n {
+            for second in first + 1..n {
+                let (p, q) = (self.order[first], self.order[second]);
+                if self.boxes[q].0[axis] > self.boxes[p].1[axis] {
+                    break;
                 }
-                let ((ai, bi), (aj, bj)) = (
-                    bounds(self.bodies[i].world_shape()),
-                    bounds(self.bodies[j].world_shape()),
-                );
-                let pair = i * n + j;
-                if ai.cmpgt(bj).any() || aj.cmpgt(bi).any() {
-                    self.friction[pair].in_contact = false;
-                    self.normals[pair] = DVec3::ZERO;
-                    continue;
+                let ((lo_p, hi_p), (lo_q, hi_q)) = (self.boxes[p], self.boxes[q]);
+                if lo_p.cmple(hi_q).all() && lo_q.cmple(hi_p).all() {
+                    self.collide(p.min(q), p.max(q), dt);
                 }
-                self.clipper.intersect(
-                    self.bodies[i].world_shape(),
-                    self.bodies[j].world_shape(),
-                    &mut self.overlap,
-                );
-                if self.overlap.faces.is_empty() {
-                    self.friction[pair].in_contact = false;
-                    self.normals[pair] = DVec3::ZERO;
-                    continue;
-                }
-                let normal = self
-                    .separation_normal(i, j, self.normals[pair])
-                    .unwrap_or_else(|| self.contact_normal(j));
-                self.normals[pair] = normal;
-                let (a, b) = (&self.bodies[i], &self.bodies[j]);
-                // Forces on j, pushing it away from i along the normal.
-                // An explicit damper of c over a step overshoots once c·dt/m nears 2 (a
-                // fast impact bounces off harder than it came). Damping c/(1 + c·dt/m) is
-                // what implicit Euler applies to the pair's relative motion: it can at most
-                // stop that motion in one step. m is the pair's effective mass at the
-                // contact, along the damped direction, turning included.
-                let (mut m, at) = (self.material, self.overlap_centre());
-                let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
-                let stable =
-                    |c: f64, area: f64, inverse_mass: f64| c / (1.0 + c * area * dt * inverse_mass);
-                let normal_mobility = inverse_mass(normal);
-                let (t1, t2) = normal.any_orthonormal_pair();
-                let tangent_mobility = inverse_mass(t1).max(inverse_mass(t2));
-                if m.model == ContactModel::Point {
-                    m.damping = stable(m.damping, 1.0, normal_mobility);
-                    let slip_per_newton = dt * tangent_mobility;
-                    let on_j = point_contact(&self.overlap, normal, &m, slip_per_newton, |x| {
-                        b.velocity_at(x) - a.velocity_at(x)
-                    });
-                    self.wrenches[j] = self.wrenches[j] + on_j;
-                    self.wrenches[i] = self.wrenches[i]
-                        + Wrench {
-                            force: -on_j.force,
-                            torque: -on_j.torque,
-                        };
-                    continue;
-                }
-                // The contact plane passes through the overlap.
-                let (volume, centre) = volume_and_centroid(&self.overlap);
-                let patch = ContactPatch::of(&self.overlap, normal);
-                m.damping = stable(m.damping, patch.area, normal_mobility);
-                m.friction.damping = stable(m.friction.damping, patch.area, tangent_mobility);
-                // Sliding friction must fade out over more than the speed one step of it
-                // takes away, or it reverses the slide every step instead of stopping it.
-                let kick = m.friction.dynamic_coefficient * m.stiffness * volume * dt;
-                m.friction.slip_speed = m.friction.slip_speed.max(kick * tangent_mobility);
-                let push = spring(&self.overlap, centre, normal, m.stiffness);
-                let mut resist = damper(&self.overlap, normal, m.damping, |x| {
-                    a.velocity_at(x) - b.velocity_at(x)
-                });
-                // The damper may slow a separation but never pull the bodies together.
-                let (pushing, resisting) = (push.force.dot(normal), resist.force.dot(normal));
-                if pushing + resisting < 0.0 {
-                    let keep = -pushing / resisting;
-                    resist = Wrench {
-                        force: keep * resist.force,
-                        torque: keep * resist.torque,
-                    };
-                }
-                let on_j = push
-                    + resist
-                    + friction(
-                        &mut self.friction[pair],
-                        &self.overlap,
-                        &patch,
-                        normal,
-                        m.stiffness * volume,
-                        m.stiffness,
-                        &m.friction,
-                        |x| b.velocity_at(x) - a.velocity_at(x),
-                        b.spin - a.spin,
-                        dt,
-                    );
-                self.wrenches[j] = self.wrenches[j] + on_j;
-                self.wrenches[i] = self.wrenches[i]
-                    + Wrench {
-                        force: -on_j.force,
-                        torque: -on_j.torque,
-                    };
             }
         }
         for (b, w) in self.bodies.iter_mut().zip(&self.wrenches) {
@@ -307,5 +265,103 @@ impl World {
             let torque = w.torque - b.position.cross(w.force);
             b.integrate(w.force, torque, dt);
         }
+    }
+
+    /// Add the contact wrenches between bodies `i` < `j`, whose boxes overlap, for a step
+    /// of `dt`.
+    fn collide(&mut self, i: usize, j: usize, dt: f64) {
+        let (a, b) = (&self.bodies[i], &self.bodies[j]);
+        if a.fixed && b.fixed && !a.kinematic && !b.kinematic {
+            return;
+        }
+        let pair = i * self.bodies.len() + j;
+        if self.touched[pair] + 1 != self.steps {
+            // A new contact: no previous normal, friction springs not yet attached.
+            self.friction[pair].in_contact = false;
+            self.normals[pair] = DVec3::ZERO;
+        }
+        self.clipper.intersect(
+            self.bodies[i].world_shape(),
+            self.bodies[j].world_shape(),
+            &mut self.overlap,
+        );
+        if self.overlap.faces.is_empty() {
+            return;
+        }
+        self.touched[pair] = self.steps;
+        let normal = self
+            .separation_normal(i, j, self.normals[pair])
+            .unwrap_or_else(|| self.contact_normal(j));
+        self.normals[pair] = normal;
+        let (a, b) = (&self.bodies[i], &self.bodies[j]);
+        // Forces on j, pushing it away from i along the normal.
+        // An explicit damper of c over a step overshoots once c·dt/m nears 2 (a
+        // fast impact bounces off harder than it came). Damping c/(1 + c·dt/m) is
+        // what implicit Euler applies to the pair's relative motion: it can at most
+        // stop that motion in one step. m is the pair's effective mass at the
+        // contact, along the damped direction, turning included.
+        let (mut m, at) = (self.material, self.overlap_centre());
+        let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
+        let stable =
+            |c: f64, area: f64, inverse_mass: f64| c / (1.0 + c * area * dt * inverse_mass);
+        let normal_mobility = inverse_mass(normal);
+        let (t1, t2) = normal.any_orthonormal_pair();
+        let tangent_mobility = inverse_mass(t1).max(inverse_mass(t2));
+        if m.model == ContactModel::Point {
+            m.damping = stable(m.damping, 1.0, normal_mobility);
+            let slip_per_newton = dt * tangent_mobility;
+            let on_j = point_contact(&self.overlap, normal, &m, slip_per_newton, |x| {
+                b.velocity_at(x) - a.velocity_at(x)
+            });
+            self.apply(i, j, on_j);
+            return;
+        }
+        // The contact plane passes through the overlap.
+        let (volume, centre) = volume_and_centroid(&self.overlap);
+        let patch = ContactPatch::of(&self.overlap, normal);
+        m.damping = stable(m.damping, patch.area, normal_mobility);
+        m.friction.damping = stable(m.friction.damping, patch.area, tangent_mobility);
+        // Sliding friction must fade out over more than the speed one step of it
+        // takes away, or it reverses the slide every step instead of stopping it.
+        let kick = m.friction.dynamic_coefficient * m.stiffness * volume * dt;
+        m.friction.slip_speed = m.friction.slip_speed.max(kick * tangent_mobility);
+        let push = spring(&self.overlap, centre, normal, m.stiffness);
+        let mut resist = damper(&self.overlap, normal, m.damping, |x| {
+            a.velocity_at(x) - b.velocity_at(x)
+        });
+        // The damper may slow a separation but never pull the bodies together.
+        let (pushing, resisting) = (push.force.dot(normal), resist.force.dot(normal));
+        if pushing + resisting < 0.0 {
+            let keep = -pushing / resisting;
+            resist = Wrench {
+                force: keep * resist.force,
+                torque: keep * resist.torque,
+            };
+        }
+        let on_j = push
+            + resist
+            + friction(
+                &mut self.friction[pair],
+                &self.overlap,
+                &patch,
+                normal,
+                m.stiffness * volume,
+                m.stiffness,
+                &m.friction,
+                |x| b.velocity_at(x) - a.velocity_at(x),
+                b.spin - a.spin,
+                dt,
+            );
+        self.apply(i, j, on_j);
+    }
+
+    /// Add the contact wrench `on_j` to body `j` and its reaction to body `i`.
+    fn apply(&mut self, i: usize, j: usize, on_j: Wrench) {
+        self.wrenches[j] = self.wrenches[j] + on_j;
+        self.wrenches[i] = self.wrenches[i]
+            + Wrench {
+                force: -on_j.force,
+                torque: -on_j.torque,
+            };
     }
 }
