@@ -146,13 +146,6 @@ pub fn friction(
     let slip = velocity(centre).reject_from_normalized(normal);
     let turn = spin.dot(normal);
     let p = parameters;
-    let dynamic = sliding_friction(
-        solid,
-        centre,
-        normal,
-        (pressure, p.dynamic_coefficient, p.slip_speed),
-        &velocity,
-    );
     if state.sliding && slip.length() < p.slip_speed && turn.abs() * mean_radius < p.slip_speed {
         // Stuck again: the springs start unstretched where the bodies came to rest.
         *state = FrictionState {
@@ -176,6 +169,13 @@ pub fn friction(
         }
         state.sliding = true;
     }
+    let dynamic = sliding_friction(
+        solid,
+        centre,
+        normal,
+        (pressure, p.dynamic_coefficient, p.slip_speed),
+        &velocity,
+    );
     // Sliding: re-anchor the springs to the dynamic friction.
     let dynamic_torque = (dynamic.torque - centre.cross(dynamic.force)).dot(normal);
     state.slide = -dynamic.force.reject_from_normalized(normal) / (p.stiffness * area);

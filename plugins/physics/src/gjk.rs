@@ -107,14 +107,17 @@ impl Simplex {
 }
 
 /// Reduce `simplex` to its sub-simplex nearest the origin; returns that nearest point.
+/// The point just added is always part of it (it is what brought the simplex closer), so
+/// only the sub-simplices holding it are tried.
 fn reduce(simplex: &mut Simplex) -> DVec3 {
     let n = simplex.len;
     let empty = Simplex {
         points: [simplex.points[0]; 4],
         len: 0,
     };
+    let newest = 1u32 << (n - 1);
     let mut best: Option<(f64, Simplex, DVec3)> = None;
-    for mask in 1u32..(1 << n) {
+    for mask in (1u32..(1 << n)).filter(|mask| mask & newest != 0) {
         let mut sub = empty;
         for i in (0..n).filter(|i| mask & (1 << i) != 0) {
             sub.push(simplex.points[i]);
