@@ -1,6 +1,7 @@
 //! One physics step of a stack of n blocks on a floor (thesis 5.4.2, Fig. 5.10), for the
 //! contact-volume penalty method, the deepest-point penalty method and rapier3d (a
-//! constraint-based engine), in one run.
+//! constraint-based engine), in one run; and one step of the shipped `blocks` scene with two
+//! pointers pressing on it (thesis 5.4.7).
 //!
 //! Run: `make bench`.
 
@@ -9,6 +10,7 @@ use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
+use hapticd_physics::scene::PenaltyScene;
 use hapticd_physics::world::{ContactModel, Material, World};
 use rapier3d::prelude::{ColliderBuilder, PhysicsWorld, RigidBodyBuilder, Vector};
 
@@ -104,4 +106,24 @@ fn rapier3d(bencher: Bencher, n: usize) {
         world.step();
     }
     bencher.bench_local(|| world.step());
+}
+
+/// Thesis 5.4.7: six blocks and a table, one pointer pressing on a block and one on the table.
+#[divan::bench]
+fn blocks_scene_two_pointers(bencher: Bencher) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../config/scenes/blocks.yaml");
+    let text = std::fs::read_to_string(path).expect("the shipped scene");
+    let mut scene = PenaltyScene::parse(&text, 2).expect("the shipped scene parses");
+    let k = scene.first_pointer;
+    // 1 cm pointer cubes, 2 mm into the 3 cm block (top at y = 0) and into the table.
+    for (pointer, at) in [
+        (k, DVec3::new(0.035, 0.003, 0.0)),
+        (k + 1, DVec3::new(0.0, -0.027, -0.1)),
+    ] {
+        scene.world.bodies[pointer].place(at, DQuat::IDENTITY, DVec3::ZERO, DVec3::ZERO);
+    }
+    for _ in 0..400 {
+        scene.world.step(scene.dt);
+    }
+    bencher.bench_local(|| scene.world.step(scene.dt));
 }
