@@ -9,6 +9,7 @@ pub mod replay;
 pub mod sh4;
 pub mod simple;
 pub mod transport;
+pub mod udev;
 pub mod usb;
 
 /// Cyverse's USB vendor ID.
@@ -36,7 +37,8 @@ pub enum Protocol {
     Simple,
 }
 
-/// Every USB controller hapticd drives. The udev rules are generated from this table.
+/// Every USB controller hapticd drives. The udev rules are generated from this table
+/// ([`udev::rules`]).
 pub const SUPPORTED_DEVICES: [SupportedDevice; 2] = [
     SupportedDevice {
         vendor: CYVERSE_VENDOR,

@@ -16,6 +16,9 @@ pub enum Command {
     List(Output),
     /// Run updates on the first amplifier found: write D/A values, print the counters.
     Exchange(ExchangeArgs),
+    /// Print the udev rules for the supported amplifiers (installed as
+    /// /usr/lib/udev/rules.d/70-hapticd.rules).
+    UdevRules,
 }
 
 #[derive(Args)]
@@ -37,6 +40,10 @@ fn context() -> Result<rusb::Context, Failure> {
 /// Run one `device` subcommand.
 pub fn run(command: Command) -> Result<(), Failure> {
     match command {
+        Command::UdevRules => {
+            print!("{}", hapticd::device::udev::rules());
+            Ok(())
+        }
         Command::List(output) => {
             let (found, problems) = find_devices(&context()?);
             for p in &problems {
