@@ -130,3 +130,42 @@ fn a_scene_file_with_an_unknown_key_is_refused_with_its_line_and_column() {
     assert!(message.contains("line 8 column 1"), "{message}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_step_time_experiment_plots_both_contact_models() {
+    let dir = support::scratch_root().join(format!("hapticd-timing-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("timing.png");
+    let output = hapticctl()
+        .args([
+            "experiment",
+            "stack-timing",
+            "--blocks",
+            "1,3",
+            "--samples",
+            "5",
+        ])
+        .args(["--plot", png.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let rows = report["results"].as_array().unwrap();
+    let blocks: Vec<u64> = rows.iter().map(|r| r["blocks"].as_u64().unwrap()).collect();
+    assert_eq!(blocks, [1, 3]);
+    for r in rows {
+        assert!(r["volume_us"].as_f64().unwrap() > 0.0 && r["point_us"].as_f64().unwrap() > 0.0);
+    }
+    assert!(
+        std::fs::read(&png)
+            .unwrap()
+            .starts_with(b"\x89PNG\r\n\x1a\n")
+    );
+    let refused = hapticctl()
+        .args(["experiment", "stack-timing", "--blocks", "2.5", "--plot"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -7,60 +7,14 @@
 
 use divan::Bencher;
 use glam::{DQuat, DVec3};
-use hapticd_physics::body::Body;
-use hapticd_physics::friction::FrictionParameters;
-use hapticd_physics::polyhedron::Polyhedron;
+use hapticd::experiments::stack_timing::{DENSITY, DT, SIDE, as_point_contacts, stack};
 use hapticd_physics::scene::PenaltyScene;
-use hapticd_physics::world::{ContactModel, Material, World};
 use rapier3d::prelude::{ColliderBuilder, PhysicsWorld, RigidBodyBuilder, Vector};
 
 const HEIGHTS: [usize; 7] = [1, 2, 5, 10, 20, 50, 100];
-const SIDE: f64 = 0.1;
-const DENSITY: f64 = 1000.0;
-/// Stiff enough for 100 blocks to stand (k > 6·ρ·g·(n − 1)²), with a step short enough
-/// for that stiffness.
-const K: f64 = 1e9;
-const DT: f64 = 2e-4;
 
 fn main() {
     divan::main();
-}
-
-/// A stack of `n` blocks, settled for 40 ms so every contact is established.
-fn stack(n: usize) -> World {
-    let area = SIDE * SIDE;
-    let mass = DENSITY * SIDE.powi(3);
-    let critical = 2.0 * (K * area * mass).sqrt() / area;
-    let floor = Polyhedron::cuboid(DVec3::new(1.0, 0.1, 1.0))
-        .transformed(DQuat::IDENTITY, DVec3::new(0.0, -0.1, 0.0));
-    let mut bodies = vec![Body::new(&floor, 1000.0, true)];
-    for i in 0..n {
-        let block = Polyhedron::cuboid(DVec3::splat(SIDE / 2.0)).transformed(
-            DQuat::IDENTITY,
-            DVec3::new(0.0, SIDE / 2.0 + SIDE * i as f64, 0.0),
-        );
-        bodies.push(Body::new(&block, DENSITY, false));
-    }
-    let mut world = World::new(
-        bodies,
-        DVec3::new(0.0, -9.81, 0.0),
-        Material {
-            stiffness: K,
-            damping: critical,
-            friction: FrictionParameters {
-                static_coefficient: 0.6,
-                dynamic_coefficient: 0.5,
-                stiffness: K,
-                damping: critical,
-                slip_speed: 1e-3,
-            },
-            model: ContactModel::Volume,
-        },
-    );
-    for _ in 0..200 {
-        world.step(DT);
-    }
-    world
 }
 
 #[divan::bench(args = HEIGHTS)]
@@ -69,15 +23,11 @@ fn volume_penalty(bencher: Bencher, n: usize) {
     bencher.bench_local(|| world.step(DT));
 }
 
-/// The deepest point cannot hold a stack (thesis 5.4.2: its 13 blocks fall after 1.8 s;
-/// these, stiffer, topple at once), so each step starts again from a stack settled on
-/// volume contacts.
+/// Each step starts again from a stack settled on volume contacts (see
+/// [`as_point_contacts`]).
 #[divan::bench(args = HEIGHTS)]
 fn point_penalty(bencher: Bencher, n: usize) {
-    let mut settled = stack(n);
-    settled.material.stiffness = K * SIDE * SIDE;
-    settled.material.damping *= SIDE * SIDE;
-    settled.material.model = ContactModel::Point;
+    let settled = as_point_contacts(&stack(n));
     bencher
         .with_inputs(|| settled.clone())
         .bench_local_refs(|world| world.step(DT));

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
-use hapticd::experiments::{shape_tracing, wall_stiffness};
+use hapticd::experiments::{shape_tracing, stack_timing, wall_stiffness};
 use hapticd::mechanism::catalog::Catalog;
 use hapticd::plot::{Chart, PALETTE, Series};
 use serde_json::json;
@@ -18,6 +18,23 @@ pub enum Command {
     Stiffness(StiffnessArgs),
     /// Trace a 0.2 m bar with λ = 0 and λ = 0.2 (thesis 3.5.10, Fig. 3.19).
     Cylinder(CylinderArgs),
+    /// Time one penalty physics step against stacked blocks (thesis Fig. 5.10).
+    StackTiming(StackTimingArgs),
+}
+
+#[derive(Args)]
+pub struct StackTimingArgs {
+    /// Stack heights, blocks.
+    #[arg(long, value_parser = parse_numbers, default_value = "1,2,5,10,20,50,100")]
+    blocks: Numbers,
+    /// Steps timed per height and model (the median is reported).
+    #[arg(long, default_value_t = 200)]
+    samples: usize,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
 }
 
 #[derive(Args)]
@@ -64,7 +81,71 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
     match command {
         Command::Stiffness(args) => stiffness(catalog, &args),
         Command::Cylinder(args) => cylinder(&args),
+        Command::StackTiming(args) => stack_timing(&args),
     }
+}
+
+fn stack_timing(args: &StackTimingArgs) -> Result<(), Failure> {
+    let heights: Vec<usize> = args.blocks.iter().map(|&n| n as usize).collect();
+    if args.samples == 0
+        || heights.is_empty()
+        || args
+            .blocks
+            .iter()
+            .any(|&n| !(1.0..=1000.0).contains(&n) || n.fract() != 0.0)
+    {
+        return Err(Failure::usage(
+            "--blocks must be whole numbers 1–1000 and --samples > 0",
+        ));
+    }
+    let results: Vec<(usize, f64, f64)> = heights
+        .iter()
+        .map(|&n| {
+            let (volume, point) = stack_timing::step_times(n, args.samples);
+            (n, volume * 1e6, point * 1e6)
+        })
+        .collect();
+    let curve = |pick: fn(&(usize, f64, f64)) -> f64| -> Vec<(f64, f64)> {
+        results.iter().map(|r| (r.0 as f64, pick(r))).collect()
+    };
+    let chart = Chart {
+        title: "time of one physics step against stacked blocks".into(),
+        x_label: "blocks".into(),
+        y_label: "time per step [us]".into(),
+        series: vec![
+            Series {
+                label: "contact-volume penalty".into(),
+                points: curve(|r| r.1),
+                color: PALETTE[0],
+            },
+            Series {
+                label: "deepest-point penalty".into(),
+                points: curve(|r| r.2),
+                color: PALETTE[1],
+            },
+        ],
+        // Head room above the curves for the legend.
+        y_range: Some((
+            0.0,
+            1.4 * results.iter().fold(0.0_f64, |m, r| m.max(r.1).max(r.2)),
+        )),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (n, volume, point) in &results {
+        text += &format!("  {n:>4} blocks: volume {volume:8.1} us, point {point:8.1} us\n");
+    }
+    let rows: Vec<_> = results
+        .iter()
+        .map(|(n, v, p)| json!({"blocks": n, "volume_us": v, "point_us": p}))
+        .collect();
+    print(
+        &args.output,
+        json!({"plot": args.plot, "results": rows}),
+        text,
+    );
+    Ok(())
 }
 
 fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
