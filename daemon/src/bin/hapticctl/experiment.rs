@@ -1,13 +1,13 @@
 //! `hapticctl experiment …`: the thesis' closed-loop experiments on the simulated SPIDAR,
 //! with their figures.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticd::experiments::{shape_tracing, stack_timing, wall_stiffness};
 use hapticd::mechanism::catalog::Catalog;
 use hapticd::plot::{Chart, PALETTE, Series};
-use serde_json::json;
+use serde_json::{Value, json};
 
 use crate::Failure;
 use crate::mechanism::{Numbers, Output, parse_numbers, print, resolve, save};
@@ -136,16 +136,17 @@ fn stack_timing(args: &StackTimingArgs) -> Result<(), Failure> {
     for (n, volume, point) in &results {
         text += &format!("  {n:>4} blocks: volume {volume:8.1} us, point {point:8.1} us\n");
     }
-    let rows: Vec<_> = results
+    let rows = results
         .iter()
-        .map(|(n, v, p)| json!({"blocks": n, "volume_us": v, "point_us": p}))
-        .collect();
-    print(
-        &args.output,
-        json!({"plot": args.plot, "results": rows}),
-        text,
-    );
+        .map(|(n, v, p)| json!({"blocks": n, "volume_us": v, "point_us": p}));
+    report(&args.output, &args.plot, rows, text);
     Ok(())
+}
+
+/// Print an experiment's result rows and the figure written, as JSON or as `text`.
+fn report(output: &Output, plot: &Path, rows: impl Iterator<Item = Value>, text: String) {
+    let rows: Vec<Value> = rows.collect();
+    print(output, json!({"plot": plot, "results": rows}), text);
 }
 
 fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
@@ -206,15 +207,10 @@ fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
             k / 1000.0
         );
     }
-    let rows: Vec<_> = results
+    let rows = results
         .iter()
-        .map(|(rate, k, b)| json!({"rate": rate, "stiffness": k, "damping": b}))
-        .collect();
-    print(
-        &args.output,
-        json!({"plot": args.plot, "results": rows}),
-        text,
-    );
+        .map(|(rate, k, b)| json!({"rate": rate, "stiffness": k, "damping": b}));
+    report(&args.output, &args.plot, rows, text);
     Ok(())
 }
 
