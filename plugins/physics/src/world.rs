@@ -82,6 +82,9 @@ pub struct World {
     pub gravity: DVec3,
     /// Material of every contact.
     pub material: Material,
+    /// A force on each body through its centroid besides gravity (a pulling spring, say),
+    /// newtons; it stays until changed.
+    pub loads: Vec<DVec3>,
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
@@ -139,6 +142,7 @@ impl World {
             boxes: vec![(DVec3::ZERO, DVec3::ZERO); n],
             order: (0..n).collect(),
             wrenches: vec![Wrench::default(); n],
+            loads: vec![DVec3::ZERO; n],
             friction,
             bodies,
             gravity,
@@ -172,15 +176,22 @@ impl World {
         v.iter().sum::<DVec3>() / v.len() as f64
     }
 
-    /// The contact force and torque (about its centroid) on body `i` in the last step.
-    pub fn contact_wrench(&self, i: usize) -> Wrench {
-        let (w, b) = (self.wrenches[i], &self.bodies[i]);
-        let weight = if b.fixed {
+    /// Weight and load of body `i`: the forces on it that are not contacts (none on a body
+    /// contacts cannot move).
+    fn body_force(&self, i: usize) -> DVec3 {
+        let b = &self.bodies[i];
+        if b.fixed {
             DVec3::ZERO
         } else {
-            b.mass * self.gravity
-        };
-        let force = w.force - weight;
+            b.mass * self.gravity + self.loads[i]
+        }
+    }
+
+    /// The contact force and torque (about its centroid) on body `i` in the last step.
+    pub fn contact_wrench(&self, i: usize) -> Wrench {
+        let w = self.wrenches[i];
+        let force = w.force - self.body_force(i);
+        let b = &self.bodies[i];
         Wrench {
             force,
             torque: w.torque - b.position.cross(w.force),
@@ -219,16 +230,12 @@ impl World {
     /// Advance every body by `dt`. Fixed bodies stay where they are put (they may be moved
     /// between steps, like a pointer following the grip).
     pub fn step(&mut self, dt: f64) {
-        for (w, b) in self.wrenches.iter_mut().zip(&self.bodies) {
-            // Every torque here is about the world origin; gravity acts at the centroid.
-            let weight = if b.fixed {
-                DVec3::ZERO
-            } else {
-                b.mass * self.gravity
-            };
-            *w = Wrench {
-                force: weight,
-                torque: b.position.cross(weight),
+        for i in 0..self.bodies.len() {
+            // Every torque here is about the world origin; these forces act at the centroid.
+            let force = self.body_force(i);
+            self.wrenches[i] = Wrench {
+                force,
+                torque: self.bodies[i].position.cross(force),
             };
         }
         // Broad phase: sort and sweep the bounding boxes along one axis.

@@ -253,3 +253,89 @@ fn a_dropped_cube_settles_within_a_second_on_volume_contact_but_not_on_its_deepe
     let turns = late.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
     assert!(turns >= 4, "point: {turns} reversals late");
 }
+
+/// Thesis Fig. 5.13: a 2.0 kg weight on paper (μ0 = 0.265, μ = 0.160) pulled through a
+/// 400 N/m spring whose end moves at 0.0642 m/s. Returns the spring force over 8 s.
+fn pulled_weight(mu0: f64, mu: f64) -> Vec<f64> {
+    let (mass, k, speed, dt) = (2.0, 400.0, 0.0642, 1e-4);
+    let size = DVec3::new(0.1, 0.05, 0.1);
+    let area = size.x * size.z;
+    let stiffness = 1e6;
+    let critical = 2.0 * (stiffness * area * mass).sqrt() / area;
+    let weight = Polyhedron::cuboid(size / 2.0)
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, size.y / 2.0, 0.0));
+    let mut world = World::new(
+        vec![
+            floor(),
+            Body::new(&weight, mass / (size.x * size.y * size.z), false),
+        ],
+        DVec3::new(0.0, -G, 0.0),
+        Material {
+            stiffness,
+            damping: critical,
+            friction: FrictionParameters {
+                static_coefficient: mu0,
+                dynamic_coefficient: mu,
+                stiffness,
+                damping: critical,
+                slip_speed: 1e-3,
+            },
+            model: ContactModel::Volume,
+        },
+    );
+    // Settle on the floor before pulling.
+    for _ in 0..2000 {
+        world.step(dt);
+    }
+    let start = world.bodies[1].position.x;
+    let mut forces = Vec::new();
+    for step in 0..80_000 {
+        let end = start + speed * step as f64 * dt;
+        let pull = k * (end - world.bodies[1].position.x);
+        world.loads[1] = DVec3::new(pull, 0.0, 0.0);
+        world.step(dt);
+        forces.push(pull);
+    }
+    forces
+}
+
+/// The largest spring force for a rigid stick broken at μ0·m·g and Coulomb slip at μ·m·g:
+/// while the weight catches up with the spring's end, the extension swings about μ·m·g/k
+/// with amplitude √(Δ² + v²·m/k), Δ = (μ0 − μ)·m·g/k.
+fn peak_pull(mu0: f64, mu: f64) -> f64 {
+    let (k, speed, weight) = (400.0, 0.0642, 2.0 * G);
+    let swing = (((mu0 - mu) * weight / k).powi(2) + speed * speed * 2.0 / k).sqrt();
+    mu * weight + k * swing
+}
+
+#[test]
+fn a_pulled_weight_sticks_and_slips_with_static_friction_but_not_with_kinetic_alone() {
+    let (mu0, mu, weight) = (0.265, 0.160, 2.0 * G);
+    let peak = |forces: &[f64]| forces.iter().fold(0.0_f64, |m, f| m.max(*f));
+    let forces = pulled_weight(mu0, mu);
+    let expected = peak_pull(mu0, mu);
+    assert!(
+        (peak(&forces) - expected).abs() < 0.03 * expected,
+        "peak {} N vs {expected} N",
+        peak(&forces)
+    );
+    // Every cycle builds up to that peak again and slips: the force falls through the
+    // middle between μ0·m·g and μ·m·g.
+    let middle = (mu0 + mu) / 2.0 * weight;
+    let slips = forces
+        .windows(2)
+        .filter(|w| w[0] >= middle && w[1] < middle)
+        .count();
+    assert!(slips >= 10, "{slips} slips in 8 s");
+    let last_cycle = &forces[forces.len() - 10_000..];
+    assert!(peak(last_cycle) > 0.97 * expected, "cycles die out");
+    // Kinetic friction alone (no static springs hold: μ0 = 0) never builds up past what
+    // the glide's own swing gives.
+    let gliding = pulled_weight(0.0, mu);
+    let expected = peak_pull(mu, mu);
+    assert!(
+        (peak(&gliding) - expected).abs() < 0.03 * expected,
+        "kinetic peak {} N vs {expected} N",
+        peak(&gliding)
+    );
+}
