@@ -67,6 +67,7 @@ figures: stage
 	$(HAPTICCTL) scene run config/scenes/cube-drop.yaml --duration 2 --model volume --model point \
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png
+	$(HAPTICCTL) experiment stick-slip --plot docs/figures/stick-slip.png
 
 header:
 	HAPTICD_UPDATE_HEADER=1 $(CARGO) test -p hapticd-plugin-api --test c_header

@@ -169,3 +169,39 @@ fn the_step_time_experiment_plots_both_contact_models() {
     assert_eq!(refused.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_stick_slip_experiment_reaches_the_exact_peaks_and_plots_them() {
+    let dir = support::scratch_root().join(format!("hapticd-stick-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("stick.png");
+    let output = hapticctl()
+        .args([
+            "experiment",
+            "stick-slip",
+            "--duration",
+            "1",
+            "--json",
+            "--plot",
+        ])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let rows = report["results"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for r in rows {
+        let (peak, expected) = (
+            r["peak"].as_f64().unwrap(),
+            r["expected_peak"].as_f64().unwrap(),
+        );
+        assert!((peak - expected).abs() < 0.03 * expected, "{r}");
+    }
+    assert!(
+        std::fs::read(&png)
+            .unwrap()
+            .starts_with(b"\x89PNG\r\n\x1a\n")
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -4,10 +4,12 @@
 //!
 //! - [`wall_stiffness`]: the stiffest wall that stays stable at a given loop rate (Table 3.4);
 //! - [`shape_tracing`]: tracing a cylinder across the edge of the complete region (3.5.10);
-//! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10).
+//! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
+//! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14).
 
 pub mod shape_tracing;
 pub mod stack_timing;
+pub mod stick_slip;
 pub mod wall_stiffness;
 
 use crate::device::transport::Sh4Transport;

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
+use hapticd::experiments::stick_slip::Rig;
 use hapticd::experiments::{shape_tracing, stack_timing, wall_stiffness};
 use hapticd::mechanism::catalog::Catalog;
 use hapticd::plot::{Chart, PALETTE, Series};
@@ -20,6 +21,20 @@ pub enum Command {
     Cylinder(CylinderArgs),
     /// Time one penalty physics step against stacked blocks (thesis Fig. 5.10).
     StackTiming(StackTimingArgs),
+    /// Pull a 2 kg weight through a spring: stick-slip (thesis Fig. 5.13/5.14).
+    StickSlip(StickSlipArgs),
+}
+
+#[derive(Args)]
+pub struct StickSlipArgs {
+    /// Simulated time, seconds.
+    #[arg(long, default_value_t = 3.0)]
+    duration: f64,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
 }
 
 #[derive(Args)]
@@ -82,7 +97,59 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::Stiffness(args) => stiffness(catalog, &args),
         Command::Cylinder(args) => cylinder(&args),
         Command::StackTiming(args) => stack_timing(&args),
+        Command::StickSlip(args) => stick_slip(&args),
     }
+}
+
+fn stick_slip(args: &StickSlipArgs) -> Result<(), Failure> {
+    if !(args.duration > 0.0 && args.duration <= 60.0) {
+        return Err(Failure::usage("--duration must be 0–60 s"));
+    }
+    let models = [
+        ("static and dynamic friction", Rig::THESIS),
+        (
+            "kinetic friction only",
+            Rig {
+                static_friction: 0.0,
+                ..Rig::THESIS
+            },
+        ),
+    ];
+    let runs: Vec<_> = models
+        .iter()
+        .map(|(label, rig)| {
+            let samples = rig.run(args.duration);
+            let peak = samples.iter().fold(0.0_f64, |m, s| m.max(s.1));
+            (*label, rig.peak_pull(), samples, peak)
+        })
+        .collect();
+    let chart = Chart {
+        title: "stick-slip: 2 kg pulled through 400 N/m at 64 mm/s".into(),
+        x_label: "time [s]".into(),
+        y_label: "spring force [N]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(k, (label, _, samples, _))| Series {
+                label: (*label).into(),
+                points: samples.iter().map(|s| (s.0, s.1)).collect(),
+                color: PALETTE[k],
+            })
+            .collect(),
+        // Head room above the curves for the legend.
+        y_range: Some((0.0, 1.5 * runs[0].1)),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (label, expected, _, peak) in &runs {
+        text += &format!("  {label}: peak {peak:.2} N (rigid-stick value {expected:.2} N)\n");
+    }
+    let rows = runs.iter().map(|(label, expected, _, peak)| {
+        json!({"model": label, "peak": peak, "expected_peak": expected})
+    });
+    report(&args.output, &args.plot, rows, text);
+    Ok(())
 }
 
 fn stack_timing(args: &StackTimingArgs) -> Result<(), Failure> {
