@@ -33,24 +33,11 @@ impl std::ops::Add for Wrench {
     }
 }
 
-/// Each triangle of `solid`'s surface fanned from its faces' first vertices.
-fn triangles(solid: &Polyhedron) -> impl Iterator<Item = [DVec3; 3]> + '_ {
-    solid.faces.iter().flat_map(move |face| {
-        (1..face.len().saturating_sub(1)).map(move |k| {
-            [
-                solid.vertices[face[0]],
-                solid.vertices[face[k]],
-                solid.vertices[face[k + 1]],
-            ]
-        })
-    })
-}
-
 /// The penalty spring over the intersection `solid`, for the contact plane through `point`
 /// with unit normal `normal` and stiffness `k_n` (N/m³: force per unit depth per unit area).
 pub fn spring(solid: &Polyhedron, point: DVec3, normal: DVec3, k_n: f64) -> Wrench {
     let mut w = Wrench::default();
-    for tri in triangles(solid) {
+    for tri in solid.triangles() {
         let h = tri.map(|v| (v - point).dot(normal));
         let p = [0, 1, 2].map(|i| tri[i] - h[i] * normal);
         // Signed projected area: positive for faces turned toward the normal.
@@ -75,7 +62,7 @@ pub fn damper(
     velocity: impl Fn(DVec3) -> DVec3,
 ) -> Wrench {
     let mut w = Wrench::default();
-    for tri in triangles(solid) {
+    for tri in solid.triangles() {
         let area = (tri[1] - tri[0]).cross(tri[2] - tri[0]).dot(normal) / 2.0;
         if area <= 0.0 {
             continue;
@@ -107,7 +94,7 @@ pub fn sliding_friction(
     velocity: impl Fn(DVec3) -> DVec3,
 ) -> Wrench {
     let mut w = Wrench::default();
-    for tri in triangles(solid) {
+    for tri in solid.triangles() {
         let h = tri.map(|v| (v - point).dot(normal));
         let p = [0, 1, 2].map(|i| tri[i] - h[i] * normal);
         let area = (p[1] - p[0]).cross(p[2] - p[0]).dot(normal) / 2.0;

@@ -67,13 +67,10 @@ impl ContactPatch {
     pub fn of(solid: &Polyhedron, normal: DVec3) -> Self {
         // Triangles of the faces turned toward the normal, projected, with their areas.
         let triangles = || {
-            solid.faces.iter().flat_map(move |face| {
-                (1..face.len().saturating_sub(1)).filter_map(move |k| {
-                    let t = [face[0], face[k], face[k + 1]]
-                        .map(|i| solid.vertices[i].reject_from_normalized(normal));
-                    let s = (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
-                    (s > 0.0).then_some((s, t))
-                })
+            solid.triangles().filter_map(move |t| {
+                let t = t.map(|v| v.reject_from_normalized(normal));
+                let s = (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
+                (s > 0.0).then_some((s, t))
             })
         };
         let (area, moment) = triangles().fold((0.0, DVec3::ZERO), |(a, m), (s, t)| {

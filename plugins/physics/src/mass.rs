@@ -11,17 +11,10 @@ pub fn volume_and_centroid(p: &Polyhedron) -> (f64, DVec3) {
         return (0.0, DVec3::ZERO);
     };
     let (mut six_volume, mut moment) = (0.0, DVec3::ZERO);
-    for face in &p.faces {
-        let a = p.vertices[face[0]] - origin;
-        for k in 1..face.len().saturating_sub(1) {
-            let (b, c) = (
-                p.vertices[face[k]] - origin,
-                p.vertices[face[k + 1]] - origin,
-            );
-            let det = a.dot(b.cross(c));
-            six_volume += det;
-            moment += det * (a + b + c);
-        }
+    for [a, b, c] in p.triangles().map(|t| t.map(|v| v - origin)) {
+        let det = a.dot(b.cross(c));
+        six_volume += det;
+        moment += det * (a + b + c);
     }
     if six_volume.abs() < 1e-300 {
         return (0.0, origin);
@@ -39,22 +32,15 @@ pub fn mass_properties(p: &Polyhedron) -> (f64, DVec3, DMat3) {
         return (0.0, DVec3::ZERO, DMat3::ZERO);
     };
     let mut covariance = DMat3::ZERO;
-    for face in &p.faces {
-        let a = p.vertices[face[0]] - origin;
-        for k in 1..face.len().saturating_sub(1) {
-            let (b, c) = (
-                p.vertices[face[k]] - origin,
-                p.vertices[face[k + 1]] - origin,
-            );
-            let det = a.dot(b.cross(c));
-            let m = DMat3::from_cols(a, b, c);
-            let j = DMat3::from_cols(
-                DVec3::new(2.0, 1.0, 1.0),
-                DVec3::new(1.0, 2.0, 1.0),
-                DVec3::new(1.0, 1.0, 2.0),
-            );
-            covariance += m * j * m.transpose() * (det / 120.0);
-        }
+    let j = DMat3::from_cols(
+        DVec3::new(2.0, 1.0, 1.0),
+        DVec3::new(1.0, 2.0, 1.0),
+        DVec3::new(1.0, 1.0, 2.0),
+    );
+    for [a, b, c] in p.triangles().map(|t| t.map(|v| v - origin)) {
+        let det = a.dot(b.cross(c));
+        let m = DMat3::from_cols(a, b, c);
+        covariance += m * j * m.transpose() * (det / 120.0);
     }
     // Move the second moments from the reference vertex to the centroid.
     let r = centroid - origin;

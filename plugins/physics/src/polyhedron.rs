@@ -99,6 +99,20 @@ impl Polyhedron {
         p
     }
 
+    /// Each triangle of the surface, fanned from its face's first vertex, counter-clockwise
+    /// seen from outside.
+    pub fn triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.faces.iter().flat_map(move |face| {
+            (1..face.len().saturating_sub(1)).map(move |k| {
+                [
+                    self.vertices[face[0]],
+                    self.vertices[face[k]],
+                    self.vertices[face[k + 1]],
+                ]
+            })
+        })
+    }
+
     /// Whether `p` is inside or on every face (within `tolerance`).
     pub fn contains(&self, p: DVec3, tolerance: f64) -> bool {
         self.planes
