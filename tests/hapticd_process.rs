@@ -25,8 +25,12 @@ fn mechanisms() -> PathBuf {
     .clone()
 }
 
+fn static_scene() -> PathBuf {
+    repo_dir().join("config/scenes/static.yaml")
+}
+
 fn hapticd(args: &[&str]) -> Command {
-    hapticd_with_scene(&repo_dir().join("config/scenes/static.yaml"), args)
+    hapticd_with_scene(&static_scene(), args)
 }
 
 fn hapticd_with_scene(scene: &Path, args: &[&str]) -> Command {
@@ -51,6 +55,16 @@ fn press() -> String {
         .join("config/hands/press-floor.yaml")
         .display()
         .to_string()
+}
+
+/// Run hapticd to the end on the simulated SPIDAR-G, touching `scene`, with the hand
+/// pressing on the floor for `seconds`, recording to `csv`, plus `extra` arguments.
+fn pressed(scene: &Path, seconds: &str, csv: &Path, extra: &[&str]) -> Output {
+    let hand = press();
+    let mut args = vec!["--sim", "spidar-g", "--hand", &hand, "--duration", seconds];
+    args.extend(["--record", csv.to_str().unwrap()]);
+    args.extend(extra);
+    finish(hapticd_with_scene(scene, &args).spawn().unwrap())
 }
 
 fn finish(child: Child) -> Output {
@@ -97,20 +111,7 @@ fn recorded(path: &Path) -> Vec<(f64, f64, f64)> {
 #[test]
 fn runs_for_its_duration_and_records_the_grip_held_on_the_floor() {
     let csv = scratch("run.csv");
-    let out = finish(
-        hapticd(&[
-            "--sim",
-            "spidar-g",
-            "--hand",
-            &press(),
-            "--duration",
-            "1.6",
-            "--record",
-            csv.to_str().unwrap(),
-        ])
-        .spawn()
-        .unwrap(),
-    );
+    let out = pressed(&static_scene(), "1.6", &csv, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("motors at zero"), "{stderr}");
     let rows = recorded(&csv);
@@ -168,21 +169,11 @@ fn a_replayed_recording_reproduces_the_session() {
         scratch("first.csv"),
         scratch("second.csv"),
     );
-    finish(
-        hapticd(&[
-            "--sim",
-            "spidar-g",
-            "--hand",
-            &press(),
-            "--duration",
-            "1.2",
-            "--record-traffic",
-            traffic.to_str().unwrap(),
-            "--record",
-            first.to_str().unwrap(),
-        ])
-        .spawn()
-        .unwrap(),
+    pressed(
+        &static_scene(),
+        "1.2",
+        &first,
+        &["--record-traffic", traffic.to_str().unwrap()],
     );
     finish(
         hapticd(&[
@@ -239,23 +230,7 @@ fn states(path: &Path) -> Vec<(f64, String, f64)> {
 fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
     let csv = scratch("panic.csv");
     let scene = plugin_path("hapticd-test-panicking-scene");
-    let out = finish(
-        hapticd_with_scene(
-            &scene,
-            &[
-                "--sim",
-                "spidar-g",
-                "--hand",
-                &press(),
-                "--duration",
-                "1.4",
-                "--record",
-                csv.to_str().unwrap(),
-            ],
-        )
-        .spawn()
-        .unwrap(),
-    );
+    let out = pressed(&scene, "1.4", &csv, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("panicked") && stderr.contains("the floor gave way"),
@@ -280,23 +255,7 @@ fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
 fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
     let csv = scratch("stall.csv");
     let scene = plugin_path("hapticd-test-stalling-scene");
-    finish(
-        hapticd_with_scene(
-            &scene,
-            &[
-                "--sim",
-                "spidar-g",
-                "--hand",
-                &press(),
-                "--duration",
-                "3",
-                "--record",
-                csv.to_str().unwrap(),
-            ],
-        )
-        .spawn()
-        .unwrap(),
-    );
+    pressed(&scene, "3", &csv, &[]);
     let rows = states(&csv);
     // The physics (50 Hz) hangs from about 1.2 s to 2.2 s. Before: the floor pushes back.
     assert!(
@@ -325,24 +284,11 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
     let csv = scratch("penalty.csv");
     let scene = plugin_path("hapticd-scene-penalty");
     let blocks = repo_dir().join("config/scenes/blocks.yaml");
-    finish(
-        hapticd_with_scene(
-            &scene,
-            &[
-                "--scene-file",
-                blocks.to_str().unwrap(),
-                "--sim",
-                "spidar-g",
-                "--hand",
-                &press(),
-                "--duration",
-                "3",
-                "--record",
-                csv.to_str().unwrap(),
-            ],
-        )
-        .spawn()
-        .unwrap(),
+    pressed(
+        &scene,
+        "3",
+        &csv,
+        &["--scene-file", blocks.to_str().unwrap()],
     );
     let rows: Vec<(f64, f64, f64, f64)> = columns(&csv, &["time", "grip_y", "grip_fx", "grip_fy"])
         .iter()
