@@ -44,7 +44,29 @@ fn the_shipped_udev_rules_are_those_generated_from_the_device_table() {
 #[test]
 fn the_unit_passes_systemd_analyze_verify_without_a_warning() {
     let unit = read("systemd/hapticd.service");
-    assert_eq!(values(&unit, "ExecStart"), ["/usr/bin/hapticd"]);
+    assert_eq!(
+        values(&unit, "ExecStart"),
+        ["/usr/bin/hapticd --bus system"]
+    );
+    for key in [
+        "LimitRTTIME",
+        "StateDirectory",
+        "ConfigurationDirectory",
+        "DeviceAllow",
+    ] {
+        assert_eq!(values(&unit, key).len(), 1, "{key}= is set once");
+    }
+    // Only the haptic thread is real-time, and lavapipe compiles shaders at run time.
+    for forbidden in [
+        "RestrictRealtime",
+        "MemoryDenyWriteExecute",
+        "CPUSchedulingPolicy",
+    ] {
+        assert!(
+            values(&unit, forbidden).is_empty(),
+            "{forbidden}= must not be set"
+        );
+    }
     // verify checks that the program exists: point it at the one just built.
     let dir = support::scratch_root().join(format!("hapticd-unit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

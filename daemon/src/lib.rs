@@ -5,12 +5,15 @@
 //! - [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //! - [`plot`]: PNG line charts for experiments and `hapticctl`.
 
+pub mod bus;
 pub mod config;
+pub mod control;
 pub mod device;
 pub mod experiments;
 pub mod haptics;
 pub mod logging;
 pub mod mechanism;
+pub mod parameters;
 pub mod plot;
 pub mod plugin;
 pub mod runtime;
@@ -18,3 +21,4 @@ pub mod scene;
 pub mod sd_notify;
 pub mod sim;
 pub mod solver;
+pub mod state;

@@ -2,29 +2,32 @@
 //! hardware (or with `--sim`) it drives the simulated SPIDAR.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use clap::Parser;
 use glam::DVec3;
+use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
+use hapticd::control::{self, Daemon, DeviceHandle, DeviceSetup, Telemetry};
 use hapticd::device::Protocol;
 use hapticd::device::replay::{self, RecordingLink, ReplayLink};
 use hapticd::device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
 use hapticd::device::usb::find_devices;
 use hapticd::haptics::safety::SafetyLimits;
 use hapticd::mechanism::Mechanism;
-use hapticd::mechanism::catalog::Catalog;
-use hapticd::runtime::haptic_loop::{DeviceState, Frame, HapticLoop, LoopSettings};
-use hapticd::runtime::realtime::{LoopEvent, RealtimeLoop, RealtimeSettings, Scheduling};
+use hapticd::parameters::Parameters;
+use hapticd::runtime::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, LoopSettings};
+use hapticd::runtime::realtime::{Channels, LoopEvent, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::runtime::spsc;
-use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
-use hapticd::scene::{Pointer, Scene, plugin_scene};
+use hapticd::scene::{self, Pointer};
 use hapticd::sd_notify;
 use hapticd::sim::hand::Script;
 use hapticd::sim::{SimParameters, SimulatedBoard};
+use hapticd::state::{DeviceRecord, StateDir};
 
 /// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
 #[derive(Parser)]
@@ -64,23 +67,47 @@ struct Cli {
     /// Look for mechanisms in DIR (repeatable; overrides the configuration).
     #[arg(long = "mechanism-dir", value_name = "DIR")]
     mechanism_dirs: Vec<PathBuf>,
+    /// Serve the D-Bus interface on `system`, `session` or a D-Bus address (default: the
+    /// system bus when available).
+    #[arg(long, value_name = "BUS")]
+    bus: Option<Bus>,
+    /// Keep calibration and changed parameters in DIR (default: $STATE_DIRECTORY).
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
-extern "C" fn request_stop(_: libc::c_int) {
-    STOP.store(true, Ordering::Release);
+/// Set by SIGXCPU: the haptic thread ran past LimitRTTIME= without sleeping.
+static OVERTIME: AtomicBool = AtomicBool::new(false);
+/// Set by SIGHUP: re-read the configuration and rescan plugins.
+static RELOAD: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(signal: libc::c_int) {
+    match signal {
+        libc::SIGHUP => RELOAD.store(true, Ordering::Release),
+        libc::SIGXCPU => {
+            OVERTIME.store(true, Ordering::Release);
+            STOP.store(true, Ordering::Release);
+        }
+        _ => STOP.store(true, Ordering::Release),
+    }
 }
 
 fn install_signal_handlers() -> Result<(), String> {
     use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
     let action = SigAction::new(
-        SigHandler::Handler(request_stop),
+        SigHandler::Handler(on_signal),
         SaFlags::SA_RESTART,
         SigSet::empty(),
     );
-    for signal in [Signal::SIGTERM, Signal::SIGINT] {
-        // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
+    for signal in [
+        Signal::SIGTERM,
+        Signal::SIGINT,
+        Signal::SIGHUP,
+        Signal::SIGXCPU,
+    ] {
+        // SAFETY: the handler only stores to atomics, which is async-signal-safe.
         unsafe { sigaction(signal, &action) }
             .map_err(|e| format!("cannot handle {signal}: {e}"))?;
     }
@@ -99,54 +126,21 @@ fn sh4_transport<L: Link + 'static>(
     }
 }
 
-fn load_config(path: Option<&Path>) -> Result<Config, String> {
-    match path {
-        Some(p) => Config::load(p),
-        None => {
-            let default = Path::new("/etc/hapticd/hapticd.yaml");
-            if default.exists() {
-                Config::load(default)
-            } else {
-                Ok(Config::default())
-            }
+/// The saved state of `identity`; a file that cannot be parsed is kept aside (never
+/// overwritten) and the device starts afresh.
+fn load_record(state_dir: Option<&StateDir>, identity: &str) -> DeviceRecord {
+    let Some(dir) = state_dir else {
+        return DeviceRecord::default();
+    };
+    dir.load(identity).unwrap_or_else(|e| {
+        let file = dir.device_file(identity);
+        let aside = file.with_extension("json.corrupt");
+        match std::fs::rename(&file, &aside) {
+            Ok(()) => tracing::error!("{e}; kept as {} and starting afresh", aside.display()),
+            Err(_) => tracing::error!("{e}; starting afresh"),
         }
-    }
-}
-
-/// The scene called `name`: a scene plugin (`.so`), a static scene file, or the name of a
-/// static scene in the scene directories.
-fn build_scene(
-    name: &str,
-    file: Option<&Path>,
-    config: &Config,
-    pointers: &[Pointer],
-) -> Result<Box<dyn Scene>, String> {
-    if Path::new(name).extension().is_some_and(|e| e == "so") {
-        return plugin_scene::load(Path::new(name), file, pointers);
-    }
-    let spec = find_scene(name, config)?;
-    Ok(Box::new(StaticScene::new(spec, pointers)))
-}
-
-fn find_scene(name: &str, config: &Config) -> Result<StaticSceneSpec, String> {
-    let path = Path::new(name);
-    if name.contains('/') || path.extension().is_some_and(|e| e == "yaml") {
-        return StaticSceneSpec::load(path);
-    }
-    config
-        .scene_dirs
-        .iter()
-        .map(|d| d.join(format!("{name}.yaml")))
-        .find(|p| p.exists())
-        .map_or_else(
-            || {
-                Err(format!(
-                    "no scene named {name:?} in {:?}",
-                    config.scene_dirs
-                ))
-            },
-            |p| StaticSceneSpec::load(&p),
-        )
+        DeviceRecord::default()
+    })
 }
 
 fn csv_header(mechanism: &Mechanism) -> String {
@@ -281,18 +275,16 @@ fn status_line(frame: &Frame, rt: &mut RealtimeLoop) -> String {
 }
 
 fn run(cli: Cli) -> Result<(), String> {
-    let mut config = load_config(cli.config.as_deref())?;
-    if let Some(rate) = cli.rate {
-        config.realtime.rate = rate;
-        config.check()?;
-    }
-    let catalog = if !cli.mechanism_dirs.is_empty() {
-        Catalog::new(cli.mechanism_dirs.clone())
-    } else if let Some(dirs) = &config.mechanism_dirs {
-        Catalog::new(dirs.clone())
-    } else {
-        Catalog::from_env()
+    let config_path = cli.config.clone().or_else(|| {
+        let default = PathBuf::from("/etc/hapticd/hapticd.yaml");
+        default.exists().then_some(default)
+    });
+    let mut config = match &config_path {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
     };
+    let mechanism_dirs = (!cli.mechanism_dirs.is_empty()).then(|| cli.mechanism_dirs.clone());
+    let catalog = control::catalog(&config, mechanism_dirs.as_deref());
     // Hardware unless told to simulate or replay; the simulated SPIDAR when none is found.
     let usb = if cli.sim.is_none() && cli.replay.is_none() {
         let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
@@ -304,11 +296,28 @@ fn run(cli: Cli) -> Result<(), String> {
     } else {
         None
     };
-    let mechanism_name = match (&cli.sim, &usb) {
-        (Some(sim), _) => sim.clone(),
-        (None, Some(_)) => config.hardware.mechanism.clone(),
-        (None, None) => config.simulator.mechanism.clone(),
+    let identity = match (&usb, &cli.replay) {
+        (Some(device), _) => device.identity.clone(),
+        (None, Some(path)) => format!("replay:{}", path.display()),
+        (None, None) => "sim".to_string(),
     };
+    let state_dir = cli
+        .state_dir
+        .clone()
+        .map(StateDir::new)
+        .or_else(StateDir::from_env);
+    let record = load_record(state_dir.as_ref(), &identity);
+    // The command line first, then what the user set over D-Bus, then the configuration.
+    let mechanism_name = match (&cli.sim, &record.mechanism, &usb) {
+        (Some(sim), _, _) => sim.clone(),
+        (None, Some(bound), _) => bound.clone(),
+        (None, None, Some(_)) => config.hardware.mechanism.clone(),
+        (None, None, None) => config.simulator.mechanism.clone(),
+    };
+    if let Some(rate) = cli.rate.or(record.parameters.rate()) {
+        config.realtime.rate = rate;
+        config.check()?;
+    }
     let mechanism = catalog
         .resolve(&mechanism_name)
         .map_err(|e| e.to_string())?;
@@ -327,44 +336,44 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         None => (None, None),
     };
-    let (transport, identity) = match (&cli.replay, usb) {
-        (_, Some(device)) => {
-            let identity = device.identity.clone();
-            let transport: Box<dyn Transport> = match (device.model.protocol, traffic_tx) {
-                (Protocol::Sh4, tx) => sh4_transport(device.link, &identity, tx),
-                (Protocol::Simple, None) => {
-                    Box::new(SimpleTransport::new(device.link, identity.clone()))
-                }
-                (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
-                    RecordingLink::new(device.link, ring),
-                    identity.clone(),
-                )),
-            };
-            (transport, identity)
-        }
+    let transport: Box<dyn Transport> = match (&cli.replay, usb) {
+        (_, Some(device)) => match (device.model.protocol, traffic_tx) {
+            (Protocol::Sh4, tx) => sh4_transport(device.link, &identity, tx),
+            (Protocol::Simple, None) => Box::new(SimpleTransport::new(device.link, &identity)),
+            (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
+                RecordingLink::new(device.link, ring),
+                &identity,
+            )),
+        },
         (Some(path), None) => {
             let transfers = replay::read_recording(path).map_err(|e| e.to_string())?;
-            let identity = format!("replay:{}", path.display());
-            (
-                sh4_transport(ReplayLink::new(transfers), &identity, traffic_tx),
-                identity,
-            )
+            sh4_transport(ReplayLink::new(transfers), &identity, traffic_tx)
         }
         (None, None) => {
             let board =
                 SimulatedBoard::new(&mechanism, 1.0 / rate, &script, SimParameters::default());
-            let identity = format!("sim:{}", mechanism.name);
-            (sh4_transport(board, &identity, traffic_tx), identity)
+            sh4_transport(board, &identity, traffic_tx)
         }
     };
     let pointers = Pointer::at_calibration(&mechanism);
-    let scene = build_scene(
+    let scene = scene::open(
         cli.scene.as_deref().unwrap_or(&config.scene),
         cli.scene_file.as_deref(),
-        &config,
+        &config.scene_dirs,
         &pointers,
-    )?;
+    )
+    .map_err(|e| e.to_string())?;
     let scene_name = scene.name().to_string();
+    let defaults = Parameters {
+        proxy: scene.proxy().unwrap_or_default(),
+        lambda: mechanism.tension.lambda,
+        max_force: config.safety.max_force,
+        max_torque: config.safety.max_torque,
+    };
+    let defaults = match record.parameters.check(&defaults) {
+        Ok(()) => defaults,
+        Err(e) => return Err(format!("saved parameters of {identity}: {e}")),
+    };
     let settings = LoopSettings {
         safety: SafetyLimits {
             max_force: config.safety.max_force,
@@ -374,8 +383,23 @@ fn run(cli: Cli) -> Result<(), String> {
         ..LoopSettings::default()
     };
     let header = csv_header(&mechanism);
-    let haptic =
+    let strings = mechanism.strings.len();
+    let mut haptic =
         HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
+    haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
+    match &record.calibration {
+        Some(c) if c.mechanism == mechanism_name && c.offsets.len() == strings => {
+            haptic
+                .restore_calibration(&c.offsets)
+                .map_err(|e| format!("saved calibration of {identity}: {e}"))?;
+            tracing::info!("restored the calibration of {identity}");
+        }
+        Some(c) => tracing::warn!(
+            "the saved calibration of {identity} is for {}, not {mechanism_name}: calibrate again",
+            c.mechanism
+        ),
+        None => {}
+    }
 
     // SAFETY: mlockall takes no pointers.
     if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } != 0 {
@@ -403,31 +427,78 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         None => (None, None),
     };
+    let (command_tx, command_rx) = spsc::channel(64);
+    let (retired_tx, mut retired_rx) = spsc::channel(4);
     let mut rt = RealtimeLoop::start(
         haptic,
         RealtimeSettings {
             priority: config.realtime.priority,
             rate,
         },
-        event_tx,
-        recorder_tx,
+        Channels {
+            events: event_tx,
+            recorder: recorder_tx,
+            commands: command_rx,
+            retired: retired_tx,
+        },
     )
     .map_err(|e| format!("cannot start the haptic thread: {e}"))?;
-    match rt.scheduling() {
-        Scheduling::Fifo(priority) => tracing::info!(
-            "{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
-        ),
+    let scheduling = match rt.scheduling() {
+        Scheduling::Fifo(priority) => {
+            tracing::info!(
+                "{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
+            );
+            format!("SCHED_FIFO {priority}")
+        }
         Scheduling::Refused(why) => {
             tracing::error!("running WITHOUT real-time scheduling: {why}");
             tracing::info!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
+            format!("SCHED_OTHER: {why}")
         }
+    };
+    if state_dir.is_none() {
+        tracing::warn!(
+            "no state directory (--state-dir or $STATE_DIRECTORY): calibration and parameter changes will not survive a restart"
+        );
     }
+    let device = Arc::new(DeviceHandle::new(
+        DeviceSetup {
+            identity: identity.clone(),
+            mechanism: mechanism_name.clone(),
+            pointers,
+            rate,
+            scheduling,
+            state_dir,
+            record,
+            defaults,
+        },
+        command_tx,
+    ));
+    let daemon = Arc::new(Daemon::new(
+        config,
+        config_path,
+        mechanism_dirs,
+        scene_name,
+        vec![device.clone()],
+    ));
+    let _service = match (
+        &cli.bus,
+        bus::serve(cli.bus.clone().unwrap_or(Bus::System), daemon.clone()),
+    ) {
+        (_, Ok(service)) => Some(service),
+        (Some(_), Err(e)) => return Err(e),
+        (None, Err(e)) => {
+            tracing::warn!("{e}; running without the D-Bus interface");
+            None
+        }
+    };
     let _ = sd_notify::notify(&format!(
         "READY=1\nSTATUS=running {mechanism_name} at {rate} Hz"
     ));
     let started = Instant::now();
     let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
-    let (mut last_ping, mut last_beat, mut last_status) = (Instant::now(), 0, Instant::now());
+    let (mut last_ping, mut last_beat) = (Instant::now(), 0);
+    let (mut last_status, mut last_publish) = (Instant::now(), Instant::now());
     while !STOP.load(Ordering::Acquire) {
         if cli
             .duration
@@ -446,6 +517,21 @@ fn run(cli: Cli) -> Result<(), String> {
             last_ping = Instant::now();
         }
         last_beat = beat;
+        if RELOAD.swap(false, Ordering::AcqRel) {
+            match daemon.reload() {
+                Ok(()) => tracing::info!("reloaded the configuration and plugins"),
+                Err(e) => tracing::error!("reload refused, nothing changed: {e}"),
+            }
+        }
+        // Scenes swapped out are freed here, off the real-time thread.
+        while retired_rx.pop().is_some() {}
+        if last_publish.elapsed() >= Duration::from_millis(100) {
+            device.publish(Telemetry {
+                frame: *rt.frame(),
+                stats: *rt.stats(),
+            });
+            last_publish = Instant::now();
+        }
         if last_status.elapsed() >= Duration::from_millis(500) {
             let frame = *rt.frame();
             println!("{}", status_line(&frame, &mut rt));
@@ -471,6 +557,13 @@ fn run(cli: Cli) -> Result<(), String> {
         stats.wait_max_ns as f64 / 1e3,
         stats.overruns
     );
+    if OVERTIME.load(Ordering::Acquire) {
+        return Err(
+            "the haptic thread ran past LimitRTTIME= without sleeping (SIGXCPU): motors zeroed, \
+             exiting for a restart"
+                .into(),
+        );
+    }
     Ok(())
 }
 

@@ -6,8 +6,12 @@
 //! 4. passivity controller, then limits, NaN guard and fault ramp;
 //! 5. wrench → tensions (the box QP) → D/A values, never above a motor's limit.
 //!
+//! Between ticks the loop takes [`LoopCommand`]s: new parameters, a calibration, a fault
+//! reset, a new scene (swapped in once the forces have ramped to zero, then ramped back up).
+//!
 //! Everything is allocated in [`HapticLoop::new`]; a tick allocates nothing, takes no lock
-//! and makes no system call but the device I/O.
+//! and makes no system call but the device I/O. A replaced scene is handed back through
+//! [`HapticLoop::take_retired`] so that it is freed off the real-time thread.
 
 use glam::DVec3;
 
@@ -15,7 +19,8 @@ use crate::device::transport::{Transport, TransportError};
 use crate::device::{CHANNELS, Reading, dac_for_tension};
 use crate::haptics::passivity::PassivityController;
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
-use crate::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use crate::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose, TensionSettings};
+use crate::parameters::Parameters;
 use crate::scene::{Pointer, Scene};
 use crate::solver::calibration::{lengths_from_counts, offsets_into};
 use crate::solver::pose::PoseSolver;
@@ -83,6 +88,27 @@ pub struct Frame {
     pub tensions: [f64; CHANNELS],
     /// D/A value written next tick for each channel.
     pub dac: [i16; CHANNELS],
+    /// Whether the counter offsets are set.
+    pub calibrated: bool,
+    /// Calibrations taken since start (the first reading counts as one).
+    pub calibrations: u32,
+    /// Counter offset of each string, metres.
+    pub offsets: [f64; CHANNELS],
+    /// Scenes swapped in since start.
+    pub scene_switches: u32,
+}
+
+/// A request to the haptic loop, applied between ticks.
+pub enum LoopCommand {
+    /// Render with these parameters from now on.
+    Tune(Parameters),
+    /// Take the counter offsets from the next reading: the grips are at their calibration
+    /// poses.
+    Calibrate,
+    /// Forget the scene's contact state and start the forces again from zero.
+    ResetFault,
+    /// Ramp the forces to zero, swap in this scene, ramp them back up.
+    SwitchScene(Box<dyn Scene>),
 }
 
 struct EffectorLoop {
@@ -110,6 +136,9 @@ pub struct HapticLoop {
     pointers: Vec<Pointer>,
     wrenches: Vec<[f64; 6]>,
     frame: Frame,
+    parameters: Option<Parameters>,
+    incoming: Option<Box<dyn Scene>>,
+    retired: Option<Box<dyn Scene>>,
 }
 
 /// Why a loop cannot be built.
@@ -183,7 +212,95 @@ impl HapticLoop {
             transport,
             scene,
             frame,
+            parameters: None,
+            incoming: None,
+            retired: None,
         })
+    }
+
+    /// Start from these counter offsets (a saved calibration) instead of calibrating on the
+    /// first reading. Refused unless there is one offset per string.
+    pub fn restore_calibration(&mut self, offsets: &[f64]) -> Result<(), LoopError> {
+        if offsets.len() != self.offsets.len() || offsets.iter().any(|o| !o.is_finite()) {
+            return Err(LoopError(format!(
+                "a calibration of {} finite offsets is needed for {}, not {offsets:?}",
+                self.offsets.len(),
+                self.mechanism.name
+            )));
+        }
+        self.offsets.copy_from_slice(offsets);
+        self.calibrated = true;
+        self.frame.calibrated = true;
+        self.frame.offsets[..offsets.len()].copy_from_slice(offsets);
+        Ok(())
+    }
+
+    /// [rt] Apply `command` (takes effect at the next tick).
+    pub fn command(&mut self, command: LoopCommand) {
+        match command {
+            LoopCommand::Tune(parameters) => {
+                for e in &mut self.effectors {
+                    let settings = e.tension.settings();
+                    e.tension.set_settings(TensionSettings {
+                        lambda: parameters.lambda,
+                        ..settings
+                    });
+                    e.guard.set_limits(SafetyLimits {
+                        max_force: parameters.max_force,
+                        max_torque: parameters.max_torque,
+                        ..*e.guard.limits()
+                    });
+                }
+                self.scene.set_proxy(&parameters.proxy);
+                self.parameters = Some(parameters);
+            }
+            LoopCommand::Calibrate => self.calibrated = false,
+            LoopCommand::ResetFault => {
+                self.scene.reset(&self.pointers);
+                for e in &mut self.effectors {
+                    e.passivity.reset();
+                }
+            }
+            LoopCommand::SwitchScene(scene) => {
+                // A scene still waiting for its turn is dropped for the newer one.
+                if let Some(waiting) = self.incoming.replace(scene) {
+                    self.retire(waiting);
+                }
+            }
+        }
+    }
+
+    fn retire(&mut self, scene: Box<dyn Scene>) {
+        // Only one scene waits to be freed; an older one must go here (it cannot happen
+        // while the daemon collects each retired scene before it sends the next).
+        drop(self.retired.replace(scene));
+    }
+
+    /// [rt] The scene last replaced, to be freed by another thread.
+    pub fn take_retired(&mut self) -> Option<Box<dyn Scene>> {
+        self.retired.take()
+    }
+
+    /// [rt] Give back a scene [`HapticLoop::take_retired`] returned but that could not be sent.
+    pub fn keep_retired(&mut self, scene: Box<dyn Scene>) {
+        self.retired = Some(scene);
+    }
+
+    /// Swap in the incoming scene once every effector's force is down to zero.
+    fn swap_scene_when_quiet(&mut self) {
+        if self.incoming.is_none() || self.effectors.iter().any(|e| e.guard.gain() > 0.0) {
+            return;
+        }
+        let Some(mut scene) = self.incoming.take() else {
+            return;
+        };
+        scene.reset(&self.pointers);
+        if let Some(p) = &self.parameters {
+            scene.set_proxy(&p.proxy);
+        }
+        let old = std::mem::replace(&mut self.scene, scene);
+        self.retire(old);
+        self.frame.scene_switches += 1;
     }
 
     /// The mechanism driven.
@@ -218,11 +335,15 @@ impl HapticLoop {
                 let counts = &self.reading.counts[..self.mechanism.strings.len()];
                 offsets_into(&self.mechanism, counts, &mut self.offsets);
                 self.calibrated = true;
+                self.frame.calibrated = true;
+                self.frame.calibrations += 1;
+                self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
             }
             self.solve_poses(dt);
             if self.frame.state == DeviceState::Disconnected {
                 self.scene.reset(&self.pointers);
             }
+            self.swap_scene_when_quiet();
             scene_ok = self.scene.render(&self.pointers, dt, &mut self.wrenches);
         } else {
             self.wrenches.fill([0.0; 6]);
@@ -233,7 +354,10 @@ impl HapticLoop {
             let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
             let force = e.passivity.filter(force, e.velocity, dt);
             wrench[..3].copy_from_slice(&force.to_array());
-            all_finite &= e.guard.apply(&mut wrench, connected && scene_ok, dt);
+            let switching = self.incoming.is_some();
+            all_finite &= e
+                .guard
+                .apply(&mut wrench, connected && scene_ok && !switching, dt);
             self.frame.wrenches[index] = wrench;
             self.frame.poses[index] = *e.pose.pose();
             self.frame.velocities[index] = e.velocity;

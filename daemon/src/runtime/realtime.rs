@@ -10,10 +10,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
-use super::haptic_loop::{DeviceState, Frame, HapticLoop};
+use super::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand};
 use super::spsc;
 use super::stats::LoopStats;
 use super::triple_buffer::{self, Reader};
+use crate::scene::Scene;
 
 /// How the loop should run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +53,18 @@ pub enum LoopEvent {
         /// How late, nanoseconds.
         late_ns: u64,
     },
+}
+
+/// The rings between the real-time thread and the rest of the daemon.
+pub struct Channels {
+    /// Events to log.
+    pub events: spsc::Producer<LoopEvent>,
+    /// Every frame, when recording.
+    pub recorder: Option<spsc::Producer<Frame>>,
+    /// Commands to apply between ticks.
+    pub commands: spsc::Consumer<LoopCommand>,
+    /// Scenes swapped out, to be freed off the real-time thread.
+    pub retired: spsc::Producer<Box<dyn Scene>>,
 }
 
 /// A running real-time loop.
@@ -159,13 +172,18 @@ fn prefault_stack() {
 }
 
 impl RealtimeLoop {
-    /// Start `haptic` on its own thread. Events go to `events`, every frame to `recorder`.
+    /// Start `haptic` on its own thread, talking through `channels`.
     pub fn start(
         mut haptic: HapticLoop,
         settings: RealtimeSettings,
-        mut events: spsc::Producer<LoopEvent>,
-        mut recorder: Option<spsc::Producer<Frame>>,
+        channels: Channels,
     ) -> std::io::Result<Self> {
+        let Channels {
+            mut events,
+            mut recorder,
+            mut commands,
+            mut retired,
+        } = channels;
         let stop = Arc::new(AtomicBool::new(false));
         let heartbeat = Arc::new(AtomicU64::new(0));
         let (mut stats_writer, stats) = triple_buffer::triple_buffer(LoopStats::default());
@@ -189,7 +207,15 @@ impl RealtimeLoop {
                     next += period_ns;
                     sleep_until(next);
                     let woke = monotonic_ns();
+                    while let Some(command) = commands.pop() {
+                        haptic.command(command);
+                    }
                     let frame = *haptic.tick(period);
+                    if let Some(scene) = haptic.take_retired()
+                        && let Err(scene) = retired.try_push(scene)
+                    {
+                        haptic.keep_retired(scene);
+                    }
                     frame_writer.publish(|f| *f = frame);
                     if let Some(r) = recorder.as_mut() {
                         r.push(frame);

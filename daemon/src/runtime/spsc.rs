@@ -1,6 +1,7 @@
-//! A bounded single-producer single-consumer ring of `Copy` values: how the real-time thread
-//! hands log events and per-tick records to ordinary threads without locks or allocation.
-//! When full, pushes fail (and the producer counts the loss) rather than block.
+//! A bounded single-producer single-consumer ring: how the real-time thread hands log events
+//! and per-tick records to ordinary threads, and takes commands (a new scene, parameters)
+//! from them, without locks or allocation. When full, pushes fail rather than block, and hand
+//! the value back, so the real-time thread never frees one by accident.
 
 use std::cell::UnsafeCell;
 use std::mem::MaybeUninit;
@@ -16,8 +17,19 @@ struct Ring<T> {
 }
 
 // SAFETY: slots are only written by the single producer before publishing `tail`, and only
-// read by the single consumer after observing it; T is Copy + Send.
-unsafe impl<T: Copy + Send> Sync for Ring<T> {}
+// read by the single consumer after observing it; T is Send.
+unsafe impl<T: Send> Sync for Ring<T> {}
+
+impl<T> Drop for Ring<T> {
+    fn drop(&mut self) {
+        let (mut head, tail) = (*self.head.get_mut(), *self.tail.get_mut());
+        while head != tail {
+            // SAFETY: slots from head to tail were written and never read.
+            unsafe { self.slots[head].get_mut().assume_init_drop() };
+            head = (head + 1) % self.slots.len();
+        }
+    }
+}
 
 /// The writing end.
 pub struct Producer<T> {
@@ -30,7 +42,7 @@ pub struct Consumer<T> {
 }
 
 /// A ring holding up to `capacity` values (allocated here, never again).
-pub fn channel<T: Copy + Send>(capacity: usize) -> (Producer<T>, Consumer<T>) {
+pub fn channel<T: Send>(capacity: usize) -> (Producer<T>, Consumer<T>) {
     let slots = (0..capacity + 1)
         .map(|_| UnsafeCell::new(MaybeUninit::uninit()))
         .collect();
@@ -42,23 +54,28 @@ pub fn channel<T: Copy + Send>(capacity: usize) -> (Producer<T>, Consumer<T>) {
     (Producer { ring: ring.clone() }, Consumer { ring })
 }
 
-impl<T: Copy + Send> Producer<T> {
+impl<T: Send> Producer<T> {
     /// [rt] Append `value`; returns false (dropping it) when the ring is full.
     pub fn push(&mut self, value: T) -> bool {
+        self.try_push(value).is_ok()
+    }
+
+    /// [rt] Append `value`, or hand it back when the ring is full.
+    pub fn try_push(&mut self, value: T) -> Result<(), T> {
         let ring = &*self.ring;
         let tail = ring.tail.load(Ordering::Relaxed);
         let next = (tail + 1) % ring.slots.len();
         if next == ring.head.load(Ordering::Acquire) {
-            return false;
+            return Err(value);
         }
         // SAFETY: the slot at `tail` is not visible to the consumer until `tail` advances.
         unsafe { (*ring.slots[tail].get()).write(value) };
         ring.tail.store(next, Ordering::Release);
-        true
+        Ok(())
     }
 }
 
-impl<T: Copy + Send> Consumer<T> {
+impl<T: Send> Consumer<T> {
     /// Take the oldest value, if any.
     pub fn pop(&mut self) -> Option<T> {
         let ring = &*self.ring;
@@ -67,7 +84,7 @@ impl<T: Copy + Send> Consumer<T> {
             return None;
         }
         // SAFETY: the producer initialised this slot before publishing `tail` past it.
-        let value = unsafe { (*ring.slots[head].get()).assume_init() };
+        let value = unsafe { (*ring.slots[head].get()).assume_init_read() };
         ring.head
             .store((head + 1) % ring.slots.len(), Ordering::Release);
         Some(value)
@@ -105,5 +122,23 @@ mod tests {
         assert!(tx.push(1) && tx.push(2));
         assert!(!tx.push(3));
         assert_eq!((rx.pop(), rx.pop(), rx.pop()), (Some(1), Some(2), None));
+    }
+
+    #[test]
+    fn owned_values_come_back_when_full_and_are_dropped_with_the_ring() {
+        let value = std::sync::Arc::new(());
+        let (mut tx, mut rx) = channel(1);
+        assert!(tx.try_push(value.clone()).is_ok());
+        let refused = tx.try_push(value.clone()).unwrap_err();
+        assert_eq!(std::sync::Arc::strong_count(&value), 3);
+        drop(refused);
+        assert!(rx.pop().is_some());
+        tx.push(value.clone());
+        drop((tx, rx));
+        assert_eq!(
+            std::sync::Arc::strong_count(&value),
+            1,
+            "unread value leaked"
+        );
     }
 }

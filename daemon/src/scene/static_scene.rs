@@ -247,6 +247,14 @@ impl Scene for StaticScene {
             }
         }
     }
+
+    fn set_proxy(&mut self, parameters: &ProxyParameters) {
+        self.spec.proxy = *parameters;
+    }
+
+    fn proxy(&self) -> Option<ProxyParameters> {
+        Some(self.spec.proxy)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,104 @@
+//! `org.hapticd.Hapticd1.Manager` at `/org/hapticd/Hapticd1`.
+
+use std::sync::Arc;
+
+use zbus::interface;
+use zbus::object_server::SignalEmitter;
+
+use super::{API_VERSION, device_path};
+use crate::control::{Daemon, Error};
+
+/// The daemon as a whole: its devices, scenes and mechanisms.
+pub struct ManagerInterface {
+    daemon: Arc<Daemon>,
+}
+
+impl ManagerInterface {
+    /// The manager of `daemon`.
+    pub fn new(daemon: Arc<Daemon>) -> Self {
+        Self { daemon }
+    }
+}
+
+/// Log a PropertiesChanged that could not be sent: the change itself stands.
+pub(super) fn report(result: zbus::Result<()>) {
+    if let Err(e) = result {
+        tracing::warn!("cannot announce a property change: {e}");
+    }
+}
+
+/// Run blocking control-plane work on a worker thread.
+pub(super) async fn off_thread<T: Send + 'static>(
+    work: impl FnOnce() -> Result<T, Error> + Send + 'static,
+) -> Result<T, Error> {
+    zruntime::unblock(work).await
+}
+
+/// The hapticd daemon: its devices, the scenes it can render and the mechanisms installed.
+#[interface(name = "org.hapticd.Hapticd1.Manager")]
+impl ManagerInterface {
+    /// Version of this D-Bus API; raised only when a change would break existing clients.
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn api_version(&self) -> u32 {
+        API_VERSION
+    }
+
+    /// Version of the hapticd daemon.
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn version(&self) -> String {
+        env!("CARGO_PKG_VERSION").to_string()
+    }
+
+    /// Object paths of the devices, each with the org.hapticd.Hapticd1.Device interface.
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn devices(&self) -> Vec<zbus::OwnedObjectPath> {
+        (0..self.daemon.devices().len())
+            .filter_map(|i| zbus::OwnedObjectPath::try_from(device_path(i)).ok())
+            .collect()
+    }
+
+    /// Names of the scenes found in the scene directories, for SwitchScene.
+    #[zbus(property)]
+    fn scenes(&self) -> Vec<String> {
+        self.daemon.scenes()
+    }
+
+    /// Name of the scene being rendered.
+    #[zbus(property)]
+    fn active_scene(&self) -> String {
+        self.daemon.active_scene()
+    }
+
+    /// Names of the installed mechanisms, as of the last ReloadPlugins.
+    #[zbus(property)]
+    fn mechanisms(&self) -> Vec<String> {
+        self.daemon.mechanisms()
+    }
+
+    /// Render another scene: a name from Scenes, a scene file or a scene plugin. It is loaded
+    /// off the haptic thread, then swapped in between ticks while the forces ramp down and
+    /// back up. A scene that fails to load leaves the running one in place.
+    async fn switch_scene(
+        &self,
+        scene: String,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+    ) -> Result<(), Error> {
+        let daemon = self.daemon.clone();
+        off_thread(move || daemon.switch_scene(&scene)).await?;
+        report(self.active_scene_changed(&emitter).await);
+        Ok(())
+    }
+
+    /// Re-read hapticd.yaml and look again for mechanism plugins, descriptors and scenes. A
+    /// malformed file is reported with file:line:column and nothing changes.
+    async fn reload_plugins(
+        &self,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+    ) -> Result<(), Error> {
+        let daemon = self.daemon.clone();
+        off_thread(move || daemon.reload()).await?;
+        report(self.mechanisms_changed(&emitter).await);
+        report(self.scenes_changed(&emitter).await);
+        Ok(())
+    }
+}

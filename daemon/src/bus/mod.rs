@@ -1,0 +1,132 @@
+//! The D-Bus service `org.hapticd.Hapticd1`: a manager object and one object per device, on
+//! the system bus (or the session bus, or any address, for development and tests).
+//!
+//! The service runs on its own thread. Requests that block (waiting for the haptic loop,
+//! writing state files) run on zbus's worker threads, so a slow one never holds up the
+//! others; the haptic loop only ever sees the commands they push into its ring. Ten times a
+//! second the thread compares each device's snapshot with what it last announced and emits
+//! PropertiesChanged for whatever changed.
+
+mod device;
+mod manager;
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+pub use device::DeviceInterface;
+pub use manager::ManagerInterface;
+
+use crate::control::Daemon;
+
+/// The service's well-known name.
+pub const BUS_NAME: &str = "org.hapticd.Hapticd1";
+/// The manager's object path.
+pub const MANAGER_PATH: &str = "/org/hapticd/Hapticd1";
+/// Version of the D-Bus API, raised only on incompatible changes.
+pub const API_VERSION: u32 = 1;
+/// How often telemetry is announced.
+const TELEMETRY_PERIOD: Duration = Duration::from_millis(100);
+
+/// The object path of device `index`.
+pub fn device_path(index: usize) -> String {
+    format!("{MANAGER_PATH}/device/{index}")
+}
+
+/// Which bus to serve on.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Bus {
+    /// The system bus.
+    System,
+    /// The user's session bus.
+    Session,
+    /// A bus at this D-Bus address (`unix:path=…`).
+    Address(String),
+}
+
+impl std::str::FromStr for Bus {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "system" => Bus::System,
+            "session" => Bus::Session,
+            a if a.contains(':') => Bus::Address(a.to_string()),
+            other => {
+                return Err(format!(
+                    "{other:?} is not a bus: give system, session or a D-Bus address"
+                ));
+            }
+        })
+    }
+}
+
+/// The running service; dropping it leaves the bus.
+pub struct Service {
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Drop for Service {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+async fn connect(bus: &Bus, daemon: &Arc<Daemon>) -> zbus::Result<zbus::Connection> {
+    let builder = match bus {
+        Bus::System => zbus::connection::Builder::system(),
+        Bus::Session => zbus::connection::Builder::session(),
+        Bus::Address(a) => zbus::connection::Builder::address(a.as_str()),
+    };
+    let mut builder = builder.serve_at(MANAGER_PATH, ManagerInterface::new(daemon.clone()));
+    for (index, device) in daemon.devices().iter().enumerate() {
+        builder = builder.serve_at(
+            device_path(index),
+            DeviceInterface::new(daemon.clone(), device.clone()),
+        );
+    }
+    builder.name(BUS_NAME).build().await
+}
+
+/// Serve `daemon` on `bus`; returns once the name is owned, or why it could not be.
+pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, String> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let (ready_tx, ready) = std::sync::mpsc::channel();
+    let stop_flag = stop.clone();
+    let thread = std::thread::Builder::new()
+        .name("hapticd-bus".into())
+        .spawn(move || {
+            let connection = match zbus::block_on(connect(&bus, &daemon)) {
+                Ok(c) => {
+                    let _ = ready_tx.send(Ok(()));
+                    c
+                }
+                Err(e) => {
+                    let _ = ready_tx.send(Err(format!("cannot serve {BUS_NAME} on {bus:?}: {e}")));
+                    return;
+                }
+            };
+            let mut announced = vec![None; daemon.devices().len()];
+            while !stop_flag.load(Ordering::Acquire) {
+                // Between these calls zbus's helper thread serves the requests.
+                std::thread::sleep(TELEMETRY_PERIOD);
+                for (index, last) in announced.iter_mut().enumerate() {
+                    let sent = zbus::block_on(device::announce(&connection, index, last.take()));
+                    *last = sent;
+                }
+            }
+        })
+        .map_err(|e| format!("cannot start the D-Bus thread: {e}"))?;
+    ready
+        .recv()
+        .map_err(|_| "the D-Bus thread ended before connecting".to_string())??;
+    Ok(Service {
+        stop,
+        thread: Some(thread),
+    })
+}
