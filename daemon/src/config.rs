@@ -136,6 +136,29 @@ impl Default for SafetyConfig {
     }
 }
 
+/// Where a YAML or schema error is (line, column, when known) and what it says, without the
+/// parser's own position suffix and its advice about its options, which mean nothing to
+/// someone editing a file.
+pub fn yaml_error(error: &serde_saphyr::Error) -> (Option<(u64, u64)>, String) {
+    let rendered = error.without_snippet().to_string();
+    let message = rendered
+        .rsplit_once(" at line ")
+        .map_or(rendered.as_str(), |(m, _)| m)
+        .replace(", set DuplicateKeyPolicy in Options if acceptable", "");
+    let position = error
+        .location()
+        .filter(|l| l.line() > 0)
+        .map(|l| (l.line(), l.column()));
+    (position, message)
+}
+
+/// [`yaml_error`] compiler style, to follow a file name: `:line:column: error: message`.
+pub fn located_yaml_error(error: &serde_saphyr::Error) -> String {
+    let (position, message) = yaml_error(error);
+    let at = position.map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
+    format!("{at}: error: {message}")
+}
+
 impl Config {
     /// Load and check `path`.
     pub fn load(path: &Path) -> Result<Config, String> {
@@ -149,16 +172,7 @@ impl Config {
         let config: Config = if text.trim().is_empty() {
             Config::default()
         } else {
-            serde_saphyr::from_str(text).map_err(|e| {
-                let at = e
-                    .location()
-                    .map_or(String::new(), |l| format!(":{}:{}", l.line(), l.column()));
-                let rendered = e.without_snippet().to_string();
-                let message = rendered
-                    .rsplit_once(" at line ")
-                    .map_or(rendered.as_str(), |(m, _)| m);
-                format!("{at}: error: {message}")
-            })?
+            serde_saphyr::from_str(text).map_err(|e| located_yaml_error(&e))?
         };
         config.check().map_err(|e| format!(": error: {e}"))?;
         Ok(config)

@@ -287,12 +287,19 @@ fn run(cli: Cli) -> Result<(), String> {
     let catalog = control::catalog(&config, mechanism_dirs.as_deref());
     // Hardware unless told to simulate or replay; the simulated SPIDAR when none is found.
     let usb = if cli.sim.is_none() && cli.replay.is_none() {
-        let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
-        let (mut found, problems) = find_devices(&context);
-        for p in problems {
-            tracing::warn!("{p}");
+        match rusb::Context::new() {
+            Ok(context) => {
+                let (mut found, problems) = find_devices(&context);
+                for p in problems {
+                    tracing::warn!("{p}");
+                }
+                (!found.is_empty()).then(|| found.remove(0))
+            }
+            Err(e) => {
+                tracing::warn!("cannot start libusb ({e}): no USB devices, simulating");
+                None
+            }
         }
-        (!found.is_empty()).then(|| found.remove(0))
     } else {
         None
     };
@@ -474,6 +481,10 @@ fn run(cli: Cli) -> Result<(), String> {
         },
         command_tx,
     ));
+    device.publish(Telemetry {
+        frame: *rt.frame(),
+        stats: *rt.stats(),
+    });
     let daemon = Arc::new(Daemon::new(
         config,
         config_path,

@@ -249,17 +249,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Mechanism, MechanismError> {
 
 /// A YAML or schema error as a located diagnostic.
 fn yaml_error(path: &Path, error: &serde_saphyr::Error) -> MechanismError {
-    let rendered = error.without_snippet().to_string();
-    // The position goes in front, compiler style; the parser's advice about its own options
-    // means nothing to someone editing a descriptor.
-    let message = rendered
-        .rsplit_once(" at line ")
-        .map_or(rendered.as_str(), |(m, _)| m)
-        .replace(", set DuplicateKeyPolicy in Options if acceptable", "");
-    let position = error
-        .location()
-        .filter(|l| l.line() > 0)
-        .map(|l| (l.line(), l.column()));
+    let (position, message) = crate::config::yaml_error(error);
     MechanismError {
         diagnostics: vec![Diagnostic {
             severity: Severity::Error,

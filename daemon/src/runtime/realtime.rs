@@ -187,7 +187,7 @@ impl RealtimeLoop {
         let stop = Arc::new(AtomicBool::new(false));
         let heartbeat = Arc::new(AtomicU64::new(0));
         let (mut stats_writer, stats) = triple_buffer::triple_buffer(LoopStats::default());
-        let (mut frame_writer, frames) = triple_buffer::triple_buffer(Frame::default());
+        let (mut frame_writer, frames) = triple_buffer::triple_buffer(*haptic.frame());
         let (granted, scheduling) = std::sync::mpsc::channel();
         let period_ns = (1e9 / settings.rate).round() as u64;
         let period = period_ns as f64 * 1e-9;

@@ -85,12 +85,17 @@ impl StaticSceneSpec {
     pub fn load(path: &Path) -> Result<Self, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        Self::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+        Self::parse(&text).map_err(|e| format!("{}{e}", path.display()))
     }
 
-    /// Parse and check scene text.
+    /// Parse and check scene text; errors start with `:line:column: ` when located.
     pub fn parse(text: &str) -> Result<Self, String> {
-        let raw: RawScene = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
+        let raw: RawScene =
+            serde_saphyr::from_str(text).map_err(|e| crate::config::located_yaml_error(&e))?;
+        Self::check(raw).map_err(|e| format!(": error: {e}"))
+    }
+
+    fn check(raw: RawScene) -> Result<Self, String> {
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         let proxy = match raw.proxy {
             None => ProxyParameters::default(),
@@ -279,5 +284,7 @@ mod tests {
         );
         assert!(StaticSceneSpec::parse("name: x\nshapes:\n  - cone: { height: 1 }\n").is_err());
         assert!(StaticSceneSpec::parse("name: x\nshapes:\n  - floor: { height: .nan }\n").is_err());
+        let e = StaticSceneSpec::parse("name: x\nshapes:\n  - floor: { hieght: 0 }\n").unwrap_err();
+        assert!(e.starts_with(":3:14: error: unknown field `hieght`"), "{e}");
     }
 }

@@ -1,0 +1,781 @@
+//! hapticd's D-Bus service, used the way the README tells users to: a private `dbus-daemon`
+//! with the system bus's default policy and the shipped policy file, the real `hapticd` on the
+//! simulated SPIDAR-G, and real `busctl` as the client.
+
+mod support;
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use support::{artifact, plugin_path, repo_dir};
+
+const NAME: &str = "org.hapticd.Hapticd1";
+const MANAGER: [&str; 3] = [
+    NAME,
+    "/org/hapticd/Hapticd1",
+    "org.hapticd.Hapticd1.Manager",
+];
+const DEVICE: [&str; 3] = [
+    NAME,
+    "/org/hapticd/Hapticd1/device/0",
+    "org.hapticd.Hapticd1.Device",
+];
+
+fn is_root() -> bool {
+    nix::unistd::geteuid().is_root()
+}
+
+/// A scratch directory others may enter (an unprivileged client must reach the socket).
+fn scratch(name: &str) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = std::env::temp_dir().join(format!("hapticd-dbus-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    dir
+}
+
+/// A private bus with the system bus's default policy plus the shipped hapticd policy.
+struct Bus {
+    dir: PathBuf,
+    address: String,
+    daemon: Child,
+}
+
+impl Bus {
+    fn start(dir: &Path) -> Bus {
+        let socket = dir.join("bus");
+        // Running as an ordinary user, the tests stand in for root in the policy.
+        let me = if is_root() {
+            String::new()
+        } else {
+            format!(
+                r#"<policy user="{}"><allow own="{NAME}"/><allow send_destination="{NAME}"/></policy>"#,
+                nix::unistd::geteuid()
+            )
+        };
+        let config = format!(
+            r#"<!DOCTYPE busconfig PUBLIC "-//freedesktop//DTD D-BUS Bus Configuration 1.0//EN"
+ "http://www.freedesktop.org/standards/dbus/1.0/busconfig.dtd">
+<busconfig>
+  <listen>unix:path={socket}</listen>
+  <auth>EXTERNAL</auth>
+  <policy context="default">
+    <allow user="*"/>
+    <deny own="*"/>
+    <deny send_type="method_call"/>
+    <allow send_type="signal"/>
+    <allow send_requested_reply="true" send_type="method_return"/>
+    <allow send_requested_reply="true" send_type="error"/>
+    <allow receive_type="method_call"/>
+    <allow receive_type="method_return"/>
+    <allow receive_type="error"/>
+    <allow receive_type="signal"/>
+    <allow send_destination="org.freedesktop.DBus" send_interface="org.freedesktop.DBus"/>
+    <allow send_destination="org.freedesktop.DBus" send_interface="org.freedesktop.DBus.Introspectable"/>
+  </policy>
+  <include>{policy}</include>
+  {me}
+</busconfig>
+"#,
+            socket = socket.display(),
+            policy = repo_dir()
+                .join("config/dbus/org.hapticd.Hapticd1.conf")
+                .display(),
+        );
+        let file = dir.join("bus.conf");
+        std::fs::write(&file, config).unwrap();
+        let daemon = Command::new("dbus-daemon")
+            .arg(format!("--config-file={}", file.display()))
+            .arg("--nofork")
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("dbus-daemon (package dbus-daemon) is installed by `make check`");
+        let started = Instant::now();
+        while !socket.exists() {
+            assert!(started.elapsed() < Duration::from_secs(10), "no bus socket");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Bus {
+            dir: dir.to_path_buf(),
+            address: format!("unix:path={}", socket.display()),
+            daemon,
+        }
+    }
+
+    /// `busctl` on this bus with `args`.
+    fn busctl(&self, args: &[&str]) -> Output {
+        Command::new("busctl")
+            .arg(format!("--address={}", self.address))
+            .args(args)
+            .output()
+            .expect("busctl (package systemd) is installed by `make check`")
+    }
+
+    /// `busctl` that must succeed; its output.
+    fn ok(&self, args: &[&str]) -> String {
+        let out = self.busctl(args);
+        assert!(
+            out.status.success(),
+            "busctl {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).trim().to_string()
+    }
+
+    /// The D-Bus error name and message of a call that must fail. busctl prints only the
+    /// message, so this asks dbus-send, which prints both.
+    fn error(&self, path: &str, method: &str, args: &[&str]) -> (String, String) {
+        dbus_send_error(Command::new("dbus-send"), &self.address, path, method, args)
+    }
+
+    /// [`Bus::error`] of setting `property` of the device to dbus-send's `variant`.
+    fn set_error(&self, property: &str, variant: &str) -> (String, String) {
+        self.error(
+            DEVICE[1],
+            "org.freedesktop.DBus.Properties.Set",
+            &[
+                &format!("string:{}", DEVICE[2]),
+                &format!("string:{property}"),
+                &format!("variant:{variant}"),
+            ],
+        )
+    }
+
+    fn get(&self, object: [&str; 3], property: &str) -> String {
+        self.ok(&["get-property", object[0], object[1], object[2], property])
+    }
+
+    fn set(&self, property: &str, signature: &str, value: &str) -> Output {
+        self.busctl(&[
+            "set-property",
+            DEVICE[0],
+            DEVICE[1],
+            DEVICE[2],
+            property,
+            signature,
+            value,
+        ])
+    }
+
+    fn call(&self, object: [&str; 3], method: &str, args: &[&str]) -> Output {
+        let mut all = vec!["call", object[0], object[1], object[2], method];
+        all.extend(args);
+        self.busctl(&all)
+    }
+}
+
+/// Run `dbus_send` (a `dbus-send` command, perhaps behind `setpriv`) for a call that must
+/// fail; its error name and message.
+fn dbus_send_error(
+    mut dbus_send: Command,
+    address: &str,
+    path: &str,
+    method: &str,
+    args: &[&str],
+) -> (String, String) {
+    let out = dbus_send
+        .arg(format!("--bus={address}"))
+        .arg("--print-reply")
+        .arg(format!("--dest={NAME}"))
+        .arg(path)
+        .arg(method)
+        .args(args)
+        .output()
+        .expect("dbus-send (package dbus-bin) comes with dbus-daemon");
+    assert!(!out.status.success(), "{method} {args:?} succeeded");
+    let text = String::from_utf8_lossy(&out.stderr);
+    let rest = text
+        .trim()
+        .strip_prefix("Error ")
+        .unwrap_or_else(|| panic!("not a D-Bus error: {text}"));
+    let (name, message) = rest.split_once(": ").unwrap_or((rest, ""));
+    (name.to_string(), message.to_string())
+}
+
+impl Drop for Bus {
+    fn drop(&mut self) {
+        let _ = self.daemon.kill();
+        let _ = self.daemon.wait();
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// Where one test's daemon keeps its files.
+struct Setup {
+    mechanisms: PathBuf,
+    state: PathBuf,
+    config: PathBuf,
+    log: PathBuf,
+}
+
+impl Setup {
+    fn new(dir: &Path) -> Setup {
+        let mechanisms = dir.join("mechanisms");
+        std::fs::create_dir_all(&mechanisms).unwrap();
+        let plugin = plugin_path("hapticd-spidar-g");
+        std::fs::copy(&plugin, mechanisms.join(plugin.file_name().unwrap())).unwrap();
+        let config = dir.join("hapticd.yaml");
+        std::fs::write(&config, default_config()).unwrap();
+        Setup {
+            mechanisms,
+            state: dir.join("state"),
+            config,
+            log: dir.join("hapticd.log"),
+        }
+    }
+}
+
+fn default_config() -> String {
+    format!(
+        "scene_dirs: [{}]\nscene: static\n",
+        repo_dir().join("config/scenes").display()
+    )
+}
+
+/// A running hapticd on `bus`, stopped with SIGTERM when dropped.
+struct Hapticd {
+    child: Option<Child>,
+    log: PathBuf,
+}
+
+impl Hapticd {
+    fn start(bus: &Bus, setup: &Setup, extra: &[&str]) -> Hapticd {
+        let log = std::fs::File::create(&setup.log).unwrap();
+        let child = Command::new(artifact("hapticd"))
+            .arg("--config")
+            .arg(&setup.config)
+            .arg("--mechanism-dir")
+            .arg(&setup.mechanisms)
+            .arg("--state-dir")
+            .arg(&setup.state)
+            .arg(format!("--bus={}", bus.address))
+            .args(extra)
+            .env_remove("NOTIFY_SOCKET")
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .unwrap();
+        let mut daemon = Hapticd {
+            child: Some(child),
+            log: setup.log.clone(),
+        };
+        let started = Instant::now();
+        while !bus
+            .busctl(&[
+                "get-property",
+                MANAGER[0],
+                MANAGER[1],
+                MANAGER[2],
+                "ApiVersion",
+            ])
+            .status
+            .success()
+        {
+            if let Some(status) = daemon.child.as_mut().unwrap().try_wait().unwrap() {
+                panic!("hapticd exited ({status}): {}", daemon.log());
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(30),
+                "{}",
+                daemon.log()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        daemon
+    }
+
+    fn log(&self) -> String {
+        let mut text = String::new();
+        if let Ok(mut f) = std::fs::File::open(&self.log) {
+            let _ = f.read_to_string(&mut text);
+        }
+        text
+    }
+
+    fn signal(&mut self, signal: nix::sys::signal::Signal) {
+        if let Some(mut child) = self.child.take() {
+            // It may have exited already: then there is only the status to collect.
+            let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+            let _ = nix::sys::signal::kill(pid, signal);
+            let _ = child.wait();
+        }
+    }
+
+    fn stop(mut self) {
+        self.signal(nix::sys::signal::Signal::SIGTERM);
+    }
+}
+
+impl Drop for Hapticd {
+    fn drop(&mut self) {
+        self.signal(nix::sys::signal::Signal::SIGTERM);
+    }
+}
+
+/// The numbers of a busctl value such as `ad 3 1 2 3` or `d 2000`.
+fn numbers(value: &str) -> Vec<f64> {
+    let mut words = value.split_whitespace().skip(1);
+    if value.starts_with('a') {
+        words.next();
+    }
+    words.map(|w| w.parse().unwrap()).collect()
+}
+
+fn number(value: &str) -> f64 {
+    numbers(value)[0]
+}
+
+/// The value of `key` in a busctl `a{sd}` value.
+fn entry(value: &str, key: &str) -> f64 {
+    let words: Vec<&str> = value.split_whitespace().collect();
+    let at = words
+        .iter()
+        .position(|w| *w == format!("\"{key}\""))
+        .unwrap();
+    words[at + 1].parse().unwrap()
+}
+
+const PARAMETERS: [(&str, f64); 8] = [
+    ("Stiffness", 3000.0),
+    ("Damping", 7.5),
+    ("StaticFriction", 0.5),
+    ("DynamicFriction", 0.25),
+    ("Lambda", 0.2),
+    ("MaxForce", 8.0),
+    ("MaxTorque", 0.2),
+    ("Rate", 2000.0),
+];
+
+#[test]
+fn every_property_and_method_answers_as_the_readme_shows() {
+    let dir = scratch("all");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    assert_eq!(bus.get(MANAGER, "ApiVersion"), "u 1");
+    assert_eq!(
+        bus.get(MANAGER, "Devices"),
+        "ao 1 \"/org/hapticd/Hapticd1/device/0\""
+    );
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
+    assert!(bus.get(MANAGER, "Scenes").contains("\"static\""));
+    assert_eq!(bus.get(MANAGER, "Mechanisms"), "as 1 \"spidar-g\"");
+    assert_eq!(bus.get(DEVICE, "Identity"), "s \"sim\"");
+    assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-g\"");
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    assert_eq!(bus.get(DEVICE, "Calibrated"), "b true");
+    assert_eq!(numbers(&bus.get(DEVICE, "CalibrationOffsets")).len(), 8);
+    assert_eq!(numbers(&bus.get(DEVICE, "Pose")).len(), 7);
+    assert_eq!(numbers(&bus.get(DEVICE, "Force")).len(), 6);
+    assert_eq!(numbers(&bus.get(DEVICE, "Tensions")).len(), 8);
+    assert_eq!(number(&bus.get(DEVICE, "LoopRate")), 1000.0);
+    let stats = bus.get(DEVICE, "Statistics");
+    assert!(entry(&stats, "ticks") > 0.0, "{stats}");
+    assert!(entry(&stats, "wait_p99_us") >= entry(&stats, "wait_p50_us"));
+    assert!(bus.get(DEVICE, "Scheduling").starts_with("s \"SCHED_"));
+    // The scene's proxy values are the defaults.
+    assert_eq!(number(&bus.get(DEVICE, "Stiffness")), 2000.0);
+    for (name, value) in PARAMETERS {
+        let out = bus.set(name, "d", &value.to_string());
+        assert!(out.status.success(), "{name}: {out:?}");
+        assert_eq!(number(&bus.get(DEVICE, name)), value, "{name}");
+    }
+    assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
+    assert!(bus.call(DEVICE, "ResetFault", &[]).status.success());
+    assert!(
+        bus.call(MANAGER, "SwitchScene", &["s", "static"])
+            .status
+            .success()
+    );
+    assert!(bus.call(MANAGER, "ReloadPlugins", &[]).status.success());
+    assert!(
+        bus.call(DEVICE, "BindMechanism", &["s", "spidar-g"])
+            .status
+            .success()
+    );
+    assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
+    // Everything changed is on disk, and nothing else.
+    let saved: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(setup.state.join("device-sim.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(saved["parameters"]["stiffness"], 3000.0);
+    assert_eq!(saved["parameters"]["rate"], 2000.0);
+    assert_eq!(saved["calibration"]["offsets"].as_array().unwrap().len(), 8);
+    daemon.stop();
+}
+
+#[test]
+fn bad_inputs_return_named_errors_and_change_nothing() {
+    let dir = scratch("bad");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let before = bus.get(DEVICE, "Stiffness");
+    let set = |property: &str, variant: &str| bus.set_error(property, variant);
+    let error = |prefix: &str, reason: &str| format!("{prefix}.{reason}");
+    let ours = |reason| error("org.hapticd.Hapticd1.Error", reason);
+    let fdo = |reason| error("org.freedesktop.DBus.Error", reason);
+    assert_eq!(set("Stiffness", "string:stiff").0, fdo("InvalidArgs"));
+    for value in ["nan", "inf", "-inf"] {
+        let (name, message) = set("Stiffness", &format!("double:{value}"));
+        assert_eq!(name, ours("NotFinite"), "{value}");
+        assert!(
+            message.contains("Stiffness must be a finite number"),
+            "{message}"
+        );
+    }
+    let (name, message) = set("Stiffness", "double:1e9");
+    assert_eq!(name, ours("OutOfRange"));
+    assert!(message.contains("(0, 100000]"), "{message}");
+    assert_eq!(set("MaxForce", "double:-1").0, ours("OutOfRange"));
+    assert_eq!(set("DynamicFriction", "double:0.9").0, ours("OutOfRange"));
+    assert_eq!(set("Rate", "double:50").0, ours("OutOfRange"));
+    assert_eq!(set("Stiffnes", "double:1").0, fdo("UnknownProperty"));
+    // zbus answers a write to a read-only property as to an unknown one.
+    let (name, message) = set("State", "string:fault");
+    assert_eq!(name, fdo("UnknownProperty"));
+    assert!(message.contains("State"), "{message}");
+    let call = |object: [&str; 3], method: &str, args: &[&str]| {
+        bus.error(object[1], &format!("{}.{method}", object[2]), args)
+    };
+    assert_eq!(
+        call(MANAGER, "SwitchScene", &["string:nowhere"]).0,
+        ours("UnknownScene")
+    );
+    let broken = dir.join("broken.yaml");
+    std::fs::write(&broken, "name: broken\nshapes:\n  - floor: { hieght: 0 }\n").unwrap();
+    let (name, message) = call(
+        MANAGER,
+        "SwitchScene",
+        &[&format!("string:{}", broken.display())],
+    );
+    assert_eq!(name, ours("SceneFailed"));
+    assert!(
+        message.contains("broken.yaml:3:") && message.contains("hieght"),
+        "{message}"
+    );
+    assert_eq!(
+        call(DEVICE, "BindMechanism", &["string:no-such"]).0,
+        ours("UnknownMechanism")
+    );
+    let elsewhere = [DEVICE[0], "/org/hapticd/Hapticd1/device/7", DEVICE[2]];
+    assert_eq!(call(elsewhere, "Calibrate", &[]).0, fdo("UnknownObject"));
+    assert_eq!(
+        call(DEVICE, "Calibrate", &["string:x"]).0,
+        fdo("InvalidArgs")
+    );
+    // Nothing changed, in the daemon or on disk.
+    assert_eq!(bus.get(DEVICE, "Stiffness"), before);
+    assert_eq!(bus.get(DEVICE, "DynamicFriction"), "d 0.2");
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
+    assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"\"");
+    assert!(!setup.state.join("device-sim.json").exists());
+}
+
+#[test]
+fn an_unprivileged_client_may_read_but_not_change() {
+    if !is_root() {
+        eprintln!("skipped: switching to an unprivileged uid needs root");
+        return;
+    }
+    let dir = scratch("unprivileged");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let as_nobody = |args: &[&str]| {
+        Command::new("setpriv")
+            .args(["--reuid=65534", "--regid=65534", "--clear-groups", "busctl"])
+            .arg(format!("--address={}", bus.address))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let read = as_nobody(&["get-property", DEVICE[0], DEVICE[1], DEVICE[2], "Stiffness"]);
+    assert!(read.status.success(), "{read:?}");
+    assert_eq!(String::from_utf8_lossy(&read.stdout).trim(), "d 2000");
+    let denied = |object: [&str; 3], method: &str, args: &[&str]| {
+        let mut setpriv = Command::new("setpriv");
+        setpriv.args([
+            "--reuid=65534",
+            "--regid=65534",
+            "--clear-groups",
+            "dbus-send",
+        ]);
+        let (name, _) = dbus_send_error(setpriv, &bus.address, object[1], method, args);
+        assert_eq!(name, "org.freedesktop.DBus.Error.AccessDenied", "{method}");
+    };
+    let set = [
+        "string:org.hapticd.Hapticd1.Device",
+        "string:Stiffness",
+        "variant:double:10",
+    ];
+    denied(DEVICE, "org.freedesktop.DBus.Properties.Set", &set);
+    denied(DEVICE, "org.hapticd.Hapticd1.Device.Calibrate", &[]);
+    denied(DEVICE, "org.hapticd.Hapticd1.Device.ResetFault", &[]);
+    denied(
+        MANAGER,
+        "org.hapticd.Hapticd1.Manager.SwitchScene",
+        &["string:static"],
+    );
+    denied(MANAGER, "org.hapticd.Hapticd1.Manager.ReloadPlugins", &[]);
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000");
+}
+
+#[test]
+fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
+    let dir = scratch("hundred");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let overruns = || entry(&bus.get(DEVICE, "Statistics"), "overruns");
+    let realtime = bus.get(DEVICE, "Scheduling").contains("SCHED_FIFO");
+    let before = overruns();
+    std::thread::scope(|s| {
+        for client in 0..100 {
+            let bus = &bus;
+            s.spawn(move || {
+                for round in 0..3 {
+                    bus.ok(&[
+                        "get-property",
+                        DEVICE[0],
+                        DEVICE[1],
+                        DEVICE[2],
+                        "Statistics",
+                    ]);
+                    let value = format!("{}", 1 + client + round);
+                    let out = bus.set("Damping", "d", &value);
+                    assert!(out.status.success(), "client {client}: {out:?}");
+                }
+            });
+        }
+    });
+    // The last write persisted is the value in force.
+    let saved: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(setup.state.join("device-sim.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        number(&bus.get(DEVICE, "Damping")),
+        saved["parameters"]["damping"].as_f64().unwrap()
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    if realtime {
+        assert_eq!(
+            overruns(),
+            before,
+            "the clients made the haptic loop overrun"
+        );
+    }
+}
+
+#[test]
+fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
+    let dir = scratch("kill");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let file = setup.state.join("device-sim.json");
+    for round in 0..3u64 {
+        let mut daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+        assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
+        let offsets = bus.get(DEVICE, "CalibrationOffsets");
+        let sent = std::sync::Mutex::new(Vec::new());
+        std::thread::scope(|s| {
+            s.spawn(|| {
+                for i in 0..400 {
+                    let value = 1000.0 + (round * 1000 + i) as f64;
+                    sent.lock().unwrap().push(value);
+                    if !bus
+                        .set("Stiffness", "d", &value.to_string())
+                        .status
+                        .success()
+                    {
+                        return;
+                    }
+                }
+            });
+            std::thread::sleep(Duration::from_millis(300 + 170 * round));
+            daemon.signal(nix::sys::signal::Signal::SIGKILL);
+        });
+        let text = std::fs::read_to_string(&file).unwrap();
+        let saved: serde_json::Value =
+            serde_json::from_str(&text).unwrap_or_else(|e| panic!("torn file ({e}): {text}"));
+        let stiffness = saved["parameters"]["stiffness"].as_f64().unwrap();
+        assert!(sent.lock().unwrap().contains(&stiffness), "{stiffness}");
+        let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+        assert_eq!(number(&bus.get(DEVICE, "Stiffness")), stiffness);
+        assert_eq!(bus.get(DEVICE, "CalibrationOffsets"), offsets);
+        assert!(daemon.log().contains("restored the calibration of sim"));
+        daemon.stop();
+    }
+}
+
+#[test]
+fn reload_finds_new_descriptors_and_refuses_malformed_files_with_their_place() {
+    let dir = scratch("reload");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // A descriptor dropped in shows up after ReloadPlugins and can be bound to the device.
+    let six = std::fs::read_to_string(repo_dir().join("config/mechanisms/spidar-6s.yaml"))
+        .unwrap()
+        .replace("name: spidar-6s", "name: lab-rig");
+    assert!(six.contains("name: lab-rig"));
+    std::fs::write(setup.mechanisms.join("lab-rig.yaml"), six).unwrap();
+    assert_eq!(bus.get(MANAGER, "Mechanisms"), "as 1 \"spidar-g\"");
+    assert!(bus.call(MANAGER, "ReloadPlugins", &[]).status.success());
+    assert_eq!(
+        bus.get(MANAGER, "Mechanisms"),
+        "as 2 \"lab-rig\" \"spidar-g\""
+    );
+    assert!(
+        bus.call(DEVICE, "BindMechanism", &["s", "lab-rig"])
+            .status
+            .success()
+    );
+    // A malformed descriptor: its place is reported and the list stays as it was.
+    let bad = setup.mechanisms.join("zz-bad.yaml");
+    std::fs::write(&bad, "name: bad\nstrings: [\n").unwrap();
+    let (name, message) = bus.error(
+        MANAGER[1],
+        "org.hapticd.Hapticd1.Manager.ReloadPlugins",
+        &[],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.InvalidConfiguration");
+    assert!(message.contains("zz-bad.yaml:"), "{message}");
+    assert_eq!(
+        bus.get(MANAGER, "Mechanisms"),
+        "as 2 \"lab-rig\" \"spidar-g\""
+    );
+    std::fs::remove_file(&bad).unwrap();
+    // A malformed configuration: file:line:column, and the running one stays.
+    std::fs::write(&setup.config, default_config() + "realtime:\n  rat: 5\n").unwrap();
+    let (name, message) = bus.error(
+        MANAGER[1],
+        "org.hapticd.Hapticd1.Manager.ReloadPlugins",
+        &[],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.InvalidConfiguration");
+    let place = format!("{}:4:3:", setup.config.display());
+    assert!(
+        message.contains(&place) && message.contains("rat"),
+        "{message}"
+    );
+    assert!(bus.get(MANAGER, "Scenes").contains("\"static\""));
+    std::fs::write(&setup.config, default_config()).unwrap();
+    daemon.stop();
+    // Without --sim the bound mechanism drives the device from the next start.
+    let daemon = Hapticd::start(&bus, &setup, &[]);
+    assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"lab-rig\"");
+    assert_eq!(numbers(&bus.get(DEVICE, "Tensions")).len(), 6);
+    daemon.stop();
+}
+
+#[test]
+fn switching_scenes_ramps_the_force_down_and_back_up() {
+    let dir = scratch("switch");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    // The hand pushes the grip 15 mm into the floor (y = -0.03) and holds it there.
+    let hand = dir.join("press.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - hold: { seconds: 0.3 }\n    - move: { to: [0, -0.045, 0], seconds: 0.3 }\n    - hold: { seconds: 60 }\n",
+    )
+    .unwrap();
+    // The same scene with a floor 5 mm higher.
+    let lower = dir.join("lower.yaml");
+    let scene = std::fs::read_to_string(repo_dir().join("config/scenes/static.yaml"))
+        .unwrap()
+        .replace("name: static", "name: lower")
+        .replace("floor: { height: -0.03 }", "floor: { height: -0.025 }");
+    assert!(scene.contains("-0.025"));
+    std::fs::write(&lower, scene).unwrap();
+    let csv = dir.join("run.csv");
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &[
+            "--sim",
+            "spidar-g",
+            "--hand",
+            hand.to_str().unwrap(),
+            "--record",
+            csv.to_str().unwrap(),
+        ],
+    );
+    std::thread::sleep(Duration::from_millis(1500));
+    let out = bus.call(MANAGER, "SwitchScene", &["s", lower.to_str().unwrap()]);
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"lower\"");
+    std::thread::sleep(Duration::from_millis(1000));
+    daemon.stop();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t, fy) = (column("time"), column("grip_fy"));
+    let rows: Vec<(f64, f64)> = lines
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            (v[t].parse().unwrap(), v[fy].parse().unwrap())
+        })
+        .collect();
+    let pressing = rows.iter().find(|r| r.0 > 1.0).unwrap().1;
+    assert!(pressing > 2.0, "the floor pushes back: {pressing} N");
+    // The swap: forces reach zero (never a jump), then come back slowly.
+    let zero = rows
+        .iter()
+        .position(|r| r.0 > 1.2 && r.1.abs() < 1e-9)
+        .expect("forces ramped to zero for the swap");
+    let step = rows[zero - 10..zero]
+        .windows(2)
+        .map(|w| (w[1].1 - w[0].1).abs())
+        .fold(0.0, f64::max);
+    assert!(step < 0.35 * pressing, "a jump of {step} N on the way down");
+    let after = |seconds: f64| rows[zero + (seconds * 1000.0) as usize].1;
+    let settled = after(0.8);
+    assert!(
+        settled > 1.1 * pressing,
+        "the higher floor pushes more: {settled} N"
+    );
+    assert!(after(0.02) < 0.3 * settled, "forces came back at once");
+}
+
+/// The interface XML installed for D-Bus tools: what the daemon introspects, interface by
+/// interface. `HAPTICD_UPDATE_INTERFACES=1` rewrites the files.
+#[test]
+fn the_interface_files_are_what_the_daemon_introspects() {
+    let dir = scratch("xml");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    for (path, interface) in [(MANAGER[1], MANAGER[2]), (DEVICE[1], DEVICE[2])] {
+        let xml = bus.ok(&["introspect", "--xml-interface", NAME, path]);
+        let start = xml
+            .find(&format!("<interface name=\"{interface}\">"))
+            .unwrap();
+        let end = start + xml[start..].find("</interface>").unwrap() + "</interface>".len();
+        let live = format!(
+            "<!DOCTYPE node PUBLIC \"-//freedesktop//DTD D-BUS Object Introspection 1.0//EN\"\n \
+             \"http://www.freedesktop.org/standards/dbus/1.0/introspect.dtd\">\n<node>\n {}\n</node>\n",
+            &xml[start..end]
+        );
+        let file = repo_dir().join(format!("config/dbus/{interface}.xml"));
+        if std::env::var_os("HAPTICD_UPDATE_INTERFACES").is_some() {
+            std::fs::write(&file, &live).unwrap();
+        }
+        let shipped = std::fs::read_to_string(&file).unwrap_or_default();
+        assert!(
+            shipped == live,
+            "{} is out of date: run HAPTICD_UPDATE_INTERFACES=1 cargo test -p hapticd-e2e \
+             --test dbus_service",
+            file.display()
+        );
+        assert!(live.contains("<!--\n     Version of this D-Bus API") || interface != MANAGER[2]);
+        assert!(live.contains("Take the counter offsets now") || interface != DEVICE[2]);
+    }
+}
