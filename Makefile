@@ -6,6 +6,7 @@
 #   make latency  wake-up latency of the haptic thread against cyclictest (needs SCHED_FIFO)
 #   make figures  regenerate the figures shown in the README
 #   make header   regenerate plugin-api/include/hapticd_plugin.h from the Rust ABI
+#   make install  install as a distribution would (DESTDIR, PREFIX=/usr, SYSCONFDIR=/etc)
 
 CARGO ?= cargo
 RELEASE := target/release
@@ -18,7 +19,7 @@ HAPTICCTL := $(RELEASE)/hapticctl --mechanism-dir $(STAGE)
 TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev systemd dbus-daemon
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: run check deps test lint bench latency figures header stage
+.PHONY: run check deps test lint bench latency figures header stage release install
 
 stage:
 	$(CARGO) build --release -p hapticd $(addprefix -p ,$(PLUGINS))
@@ -71,3 +72,42 @@ figures: stage
 
 header:
 	HAPTICD_UPDATE_HEADER=1 $(CARGO) test -p hapticd-plugin-api --test c_header
+
+# Installation, laid out as a distribution package would be. `make install` builds the
+# release binaries first; BUILT names another build directory (the tests install a debug build).
+PREFIX ?= /usr
+SYSCONFDIR ?= /etc
+DESTDIR ?=
+BUILT ?= $(RELEASE)
+MECHANISM_PLUGINS := $(PLUGINS)
+SCENE_PLUGINS := hapticd-scene-penalty
+so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
+
+release:
+	$(CARGO) build --release -p hapticd $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+
+install: release
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/hapticd/plugins \
+		$(DESTDIR)$(PREFIX)/lib/hapticd/scenes $(DESTDIR)$(PREFIX)/include \
+		$(DESTDIR)$(PREFIX)/share/hapticd/mechanisms $(DESTDIR)$(PREFIX)/share/hapticd/scenes \
+		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd \
+		$(DESTDIR)$(PREFIX)/lib/systemd/system $(DESTDIR)$(PREFIX)/lib/sysusers.d \
+		$(DESTDIR)$(PREFIX)/lib/udev/rules.d $(DESTDIR)$(PREFIX)/share/dbus-1/system.d \
+		$(DESTDIR)$(PREFIX)/share/dbus-1/system-services $(DESTDIR)$(PREFIX)/share/dbus-1/interfaces \
+		$(DESTDIR)$(SYSCONFDIR)/hapticd/mechanisms $(DESTDIR)$(SYSCONFDIR)/hapticd/scenes
+	install -m 755 $(BUILT)/hapticd $(BUILT)/hapticctl $(DESTDIR)$(PREFIX)/bin/
+	install -m 644 $(call so,$(MECHANISM_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/plugins/
+	install -m 644 $(call so,$(SCENE_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/scenes/
+	install -m 644 plugin-api/include/hapticd_plugin.h $(DESTDIR)$(PREFIX)/include/
+	install -m 644 config/mechanisms/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/mechanisms/
+	install -m 644 config/scenes/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/scenes/
+	install -m 644 config/hands/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/hands/
+	install -m 644 README.md $(DESTDIR)$(PREFIX)/share/doc/hapticd/
+	install -m 644 config/hapticd.yaml $(DESTDIR)$(SYSCONFDIR)/hapticd/
+	install -m 644 systemd/hapticd.service $(DESTDIR)$(PREFIX)/lib/systemd/system/
+	install -m 644 systemd/hapticd.sysusers $(DESTDIR)$(PREFIX)/lib/sysusers.d/hapticd.conf
+	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(PREFIX)/lib/udev/rules.d/
+	install -m 644 config/dbus/org.hapticd.Hapticd1.conf $(DESTDIR)$(PREFIX)/share/dbus-1/system.d/
+	install -m 644 systemd/org.hapticd.Hapticd1.service $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/
+	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
+		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces/

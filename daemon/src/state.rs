@@ -44,11 +44,12 @@ pub struct StateDir {
 }
 
 /// A file name for `identity` that keeps letters, digits, `-` and `.`, and spells every other
-/// byte as `_xx`, so distinct identities never share a file.
+/// byte as `_xx`, so distinct identities never share a file (and, behind the `device-`
+/// prefix, none can name another directory).
 fn file_name(identity: &str) -> String {
     let mut name = String::from("device-");
     for b in identity.bytes() {
-        if b.is_ascii_alphanumeric() || b == b'-' || (b == b'.' && name.len() > 7) {
+        if b.is_ascii_alphanumeric() || b == b'-' || b == b'.' {
             name.push(b as char);
         } else {
             name += &format!("_{b:02x}");
@@ -131,7 +132,7 @@ mod tests {
     fn identities_map_to_distinct_plain_file_names() {
         assert_eq!(file_name("sim:spidar-g"), "device-sim_3aspidar-g.json");
         assert_ne!(file_name("usb:1-2"), file_name("usb_1-2"));
-        assert_eq!(file_name("../x"), "device-_2e_2e_2fx.json");
+        assert_eq!(file_name("../x"), "device-.._2fx.json");
     }
 
     #[test]
