@@ -69,6 +69,8 @@ figures: stage
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png
 	$(HAPTICCTL) experiment stick-slip --plot docs/figures/stick-slip.png
+	$(HAPTICCTL) scene run config/scenes/top.yaml --duration 12 --model volume --model point \
+		--quantity spin --plot docs/figures/spinning-top.png
 
 header:
 	HAPTICD_UPDATE_HEADER=1 $(CARGO) test -p hapticd-plugin-api --test c_header

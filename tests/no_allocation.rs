@@ -7,7 +7,12 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use glam::DVec3;
+use hapticd::haptics::proxy::ProxyParameters;
 use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd::parameters::Parameters;
+use hapticd::runtime::haptic_loop::LoopCommand;
+use hapticd::scene::Scene;
+use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd::solver::calibration::{lengths_from_counts, offsets};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::pose::PoseSolver;
@@ -114,4 +119,52 @@ fn a_haptic_loop_tick_does_not_allocate() {
         });
         assert_eq!(n, 0, "{}: {n} allocations in 1500 ticks", m.name);
     }
+}
+
+#[test]
+fn commands_between_ticks_do_not_allocate() {
+    let m = support::shipped("spidar-g");
+    let script = "hands:\n  grip:\n    - move: { to: [0, -0.05, 0], seconds: 0.3 }\n    - hold: { seconds: 2 }\n";
+    let mut haptic = simulated_loop(&m, script, 1e-3);
+    let spec =
+        StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
+    // Everything a command carries is made before it reaches the loop, as the daemon does.
+    let incoming: Box<dyn Scene> = Box::new(StaticScene::new(
+        spec,
+        &hapticd::scene::Pointer::at_calibration(&m),
+    ));
+    let tune = LoopCommand::Tune(Parameters {
+        proxy: ProxyParameters {
+            stiffness: 1500.0,
+            ..ProxyParameters::default()
+        },
+        lambda: 0.1,
+        max_force: 5.0,
+        max_torque: 0.2,
+    });
+    let mut commands = vec![
+        tune,
+        LoopCommand::Calibrate,
+        LoopCommand::ResetFault,
+        LoopCommand::SwitchScene(incoming),
+    ];
+    let mut retired = None;
+    let n = allocations_in(|| {
+        for tick in 0..1000 {
+            if tick % 100 == 50
+                && let Some(command) = commands.pop()
+            {
+                haptic.command(command);
+            }
+            std::hint::black_box(haptic.tick(1e-3));
+            if let Some(scene) = haptic.take_retired() {
+                retired = Some(scene);
+            }
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations");
+    let frame = haptic.frame();
+    assert_eq!(frame.scene_switches, 1);
+    assert_eq!(frame.calibrations, 2, "the first reading, then the command");
+    assert!(retired.is_some(), "the old scene came back to be freed");
 }

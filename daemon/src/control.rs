@@ -307,6 +307,8 @@ pub struct Daemon {
     mechanism_dirs: Option<Vec<PathBuf>>,
     inner: Mutex<Installed>,
     devices: Vec<Arc<DeviceHandle>>,
+    /// One scene switch at a time: the haptic loop holds a single scene in waiting.
+    switching: Mutex<()>,
 }
 
 struct Installed {
@@ -367,6 +369,7 @@ impl Daemon {
                 active_scene,
             }),
             devices,
+            switching: Mutex::new(()),
         }
     }
 
@@ -393,6 +396,7 @@ impl Daemon {
     /// Load `name` for every device (off the real-time thread) and swap it in; on any
     /// failure the running scene stays.
     pub fn switch_scene(&self, name: &str) -> Result<(), Error> {
+        let _one_at_a_time = lock(&self.switching);
         let dirs = lock(&self.inner).config.scene_dirs.clone();
         let mut scenes = Vec::new();
         for device in &self.devices {

@@ -82,10 +82,13 @@ pub fn damper(
 /// Distributed Coulomb friction while sliding (eq. 5.14–5.16): at every point of the
 /// contact, μ times the local spring pressure, against the local sliding direction.
 /// `velocity(x)` is the velocity of the body pushed along `normal` relative to the other at
-/// x; the wrench returned acts on that body. Pressures and directions are taken at the
-/// triangle vertices and interpolated, as the damper's velocities are. Below `slip_speed`
-/// the force fades linearly to zero, so that an explicit step cannot reverse the sliding
-/// direction (it must exceed μ·g·dt).
+/// x; the wrench returned acts on that body. Each triangle is integrated with the
+/// edge-midpoint rule, exact for the pressure (linear) times a uniform direction; sampling
+/// inside the triangle matters where the direction turns: on a spinning patch the pressure
+/// peaks at the centre, where the sliding speed vanishes, and is zero at the rim, where it is
+/// largest, so vertex samples alone would miss the torque that brakes the spin. Below
+/// `slip_speed` the force fades linearly to zero, so that an explicit step cannot reverse the
+/// sliding direction (it must exceed μ·g·dt).
 pub fn sliding_friction(
     solid: &Polyhedron,
     point: DVec3,
@@ -98,16 +101,13 @@ pub fn sliding_friction(
         let h = tri.map(|v| (v - point).dot(normal));
         let p = [0, 1, 2].map(|i| tri[i] - h[i] * normal);
         let area = (p[1] - p[0]).cross(p[2] - p[0]).dot(normal) / 2.0;
-        let f = [0, 1, 2].map(|i| {
-            let slip = velocity(tri[i]).reject_from_normalized(normal);
+        for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+            let slip = velocity((tri[a] + tri[b]) / 2.0).reject_from_normalized(normal);
             let direction = -slip / slip.length().max(slip_speed);
-            mu * k_n * h[i] * direction
-        });
-        let mean_f = (f[0] + f[1] + f[2]) / 3.0;
-        let mean_p = (p[0] + p[1] + p[2]) / 3.0;
-        let spread = (0..3).fold(DVec3::ZERO, |s, i| s + (p[i] - mean_p).cross(f[i] - mean_f));
-        w.force += area * mean_f;
-        w.torque += area * (mean_p.cross(mean_f) + spread / 12.0);
+            let f = area / 3.0 * mu * k_n * (h[a] + h[b]) / 2.0 * direction;
+            w.force += f;
+            w.torque += ((p[a] + p[b]) / 2.0).cross(f);
+        }
     }
     w
 }

@@ -73,6 +73,67 @@ impl Polyhedron {
         p
     }
 
+    /// The convex hull of `points`: bounded by every plane through three of them that has all
+    /// the others on one side (coplanar faces merge into one). Cubic in the number of points,
+    /// which suits the tens of vertices a scene file gives. An error when the points span no
+    /// volume.
+    pub fn hull(points: &[DVec3]) -> Result<Self, String> {
+        if points.iter().any(|p| !p.is_finite()) {
+            return Err("hull vertices must be finite".into());
+        }
+        let centre = points.iter().copied().sum::<DVec3>() / points.len().max(1) as f64;
+        let radius = points
+            .iter()
+            .map(|p| (*p - centre).length())
+            .fold(0.0, f64::max);
+        let tolerance = 1e-9 * radius;
+        let mut planes: Vec<Plane> = Vec::new();
+        for (i, &a) in points.iter().enumerate() {
+            for (j, &b) in points.iter().enumerate().skip(i + 1) {
+                for &c in &points[j + 1..] {
+                    let normal = (b - a).cross(c - a);
+                    if normal.length() <= tolerance * radius {
+                        continue;
+                    }
+                    let normal = normal.normalize();
+                    let side = |p: &DVec3| normal.dot(*p - a);
+                    let plane = if points.iter().all(|p| side(p) <= tolerance) {
+                        Plane {
+                            normal,
+                            offset: normal.dot(a),
+                        }
+                    } else if points.iter().all(|p| side(p) >= -tolerance) {
+                        Plane {
+                            normal: -normal,
+                            offset: -normal.dot(a),
+                        }
+                    } else {
+                        continue;
+                    };
+                    let known = planes.iter().any(|q| {
+                        q.normal.dot(plane.normal) > 1.0 - 1e-12
+                            && (q.offset - plane.offset).abs() <= tolerance
+                    });
+                    if !known {
+                        planes.push(plane);
+                    }
+                }
+            }
+        }
+        if planes.len() < 4 {
+            return Err("hull vertices must not all lie in one plane".into());
+        }
+        let shifted: Vec<Plane> = planes
+            .iter()
+            .map(|q| Plane {
+                normal: q.normal,
+                offset: q.offset - q.normal.dot(centre),
+            })
+            .collect();
+        let hull = Self::from_planes(&shifted, 2.0 * radius);
+        Ok(hull.transformed(DQuat::IDENTITY, centre))
+    }
+
     /// Recompute every face plane from its vertices (Newell's method, robust for any convex
     /// polygon).
     pub fn update_planes(&mut self) {
@@ -139,4 +200,70 @@ pub fn newell(vertices: &[DVec3], face: &[usize]) -> (DVec3, DVec3) {
         normal.normalize_or_zero(),
         centre / face.len().max(1) as f64,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mass::volume_and_centroid;
+
+    #[test]
+    fn the_hull_of_a_box_with_points_inside_is_the_box() {
+        let half = DVec3::new(0.3, 0.2, 0.1);
+        let shift = DVec3::new(1.0, -2.0, 0.5);
+        let mut points: Vec<DVec3> = Polyhedron::cuboid(half)
+            .vertices
+            .iter()
+            .map(|v| *v + shift)
+            .collect();
+        // Interior points and points on faces and edges add nothing.
+        points.extend([shift, shift + DVec3::new(0.3, 0.0, 0.0), shift + half * 0.5]);
+        points.extend([shift + DVec3::new(0.3, 0.2, 0.0)]);
+        let hull = Polyhedron::hull(&points).unwrap();
+        assert_eq!(hull.faces.len(), 6);
+        assert_eq!(hull.vertices.len(), 8);
+        let (volume, centroid) = volume_and_centroid(&hull);
+        assert!(
+            (volume - 8.0 * half.x * half.y * half.z).abs() < 1e-12,
+            "{volume}"
+        );
+        assert!((centroid - shift).length() < 1e-12);
+    }
+
+    #[test]
+    fn the_hull_holds_every_point_and_its_corners_are_points() {
+        // Points on a sphere (all extreme) plus points inside it.
+        let mut points = Vec::new();
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for k in 0..40 {
+            let p = DVec3::new(next(), next(), next()).normalize();
+            points.push(if k % 3 == 0 { p * 0.5 } else { p });
+        }
+        let hull = Polyhedron::hull(&points).unwrap();
+        for p in &points {
+            assert!(hull.contains(*p, 1e-9), "{p} outside");
+        }
+        for v in &hull.vertices {
+            assert!(
+                points.iter().any(|p| (*p - *v).length() < 1e-9),
+                "{v} invented"
+            );
+        }
+        // Euler's formula for a convex polyhedron.
+        let edges: usize = hull.faces.iter().map(Vec::len).sum::<usize>() / 2;
+        assert_eq!(hull.vertices.len() + hull.faces.len(), edges + 2);
+    }
+
+    #[test]
+    fn flat_point_sets_are_refused() {
+        let square = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::X + DVec3::Y];
+        assert!(Polyhedron::hull(&square).is_err());
+        assert!(Polyhedron::hull(&[DVec3::ZERO, DVec3::NAN, DVec3::X, DVec3::Z]).is_err());
+    }
 }

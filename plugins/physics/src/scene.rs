@@ -1,5 +1,5 @@
-//! Scene files of the penalty scene: bodies of boxes, one material, gravity, the physics
-//! step, and the shape of each pointer.
+//! Scene files of the penalty scene: bodies of boxes or convex hulls, one material, gravity,
+//! the physics step, and the shape of each pointer.
 //!
 //! ```yaml
 //! name: blocks
@@ -14,6 +14,8 @@
 //!   friction_damping: 2.0e4    # N·s/m³
 //!   slip_speed: 0.001          # m/s
 //!   model: volume              # or point: the deepest point only, for comparison
+//!   point_stiffness: 1000      # N/m and N·s/m of the point model (default: the numbers of
+//!   point_damping: 50          #   stiffness and damping, which the point model reads per point)
 //! bodies:
 //!   - name: floor
 //!     box: [0.3, 0.02, 0.3]    # edge lengths, metres
@@ -26,8 +28,11 @@
 //!     density: 500             # kg/m³
 //!     velocity: [0, 0, 0]      # m/s, optional
 //!     spin: [0, 0, 0]          # rad/s, optional
+//!   - name: wedge
+//!     hull: [[0, 0, 0], [0.02, 0, 0], [0, 0.02, 0], [0, 0, 0.02]]   # instead of box: the convex
+//!     position: [-0.05, 0, 0]  #   hull of these points, relative to position
 //! pointer:                     # optional: scenes without one take no pointers
-//!   box: [0.01, 0.01, 0.01]    # each pointer: this solid at the grip pose
+//!   box: [0.01, 0.01, 0.01]    # each pointer: this solid (or a hull), centred at the grip
 //! ```
 
 use crate::body::Body;
@@ -65,6 +70,8 @@ struct RawMaterial {
     slip_speed: f64,
     #[serde(default)]
     model: RawModel,
+    point_stiffness: Option<f64>,
+    point_damping: Option<f64>,
 }
 
 #[derive(Deserialize, Default, Clone, Copy)]
@@ -81,7 +88,8 @@ struct RawBody {
     #[serde(default)]
     name: String,
     #[serde(rename = "box")]
-    size: [f64; 3],
+    size: Option<[f64; 3]>,
+    hull: Option<Vec<[f64; 3]>>,
     position: [f64; 3],
     #[serde(default = "identity")]
     orientation: [f64; 4],
@@ -107,7 +115,8 @@ fn water() -> f64 {
 #[serde(deny_unknown_fields)]
 struct RawPointer {
     #[serde(rename = "box")]
-    size: [f64; 3],
+    size: Option<[f64; 3]>,
+    hull: Option<Vec<[f64; 3]>>,
 }
 
 /// A loaded scene: the world with one fixed body per pointer at its end.
@@ -122,20 +131,40 @@ pub struct PenaltyScene {
     pub first_pointer: usize,
     /// Names of the scene's bodies (before the pointers), in world order.
     pub names: Vec<String>,
+    /// The material as the file gives it for each contact model.
+    materials: [Material; 2],
 }
 
-fn solid(size: [f64; 3], position: [f64; 3], orientation: [f64; 4]) -> Result<Polyhedron, String> {
+/// The solid of a `box:` or a `hull:` (exactly one), turned by `orientation` and moved to
+/// `position`.
+fn solid(
+    size: Option<[f64; 3]>,
+    hull: Option<&[[f64; 3]]>,
+    position: [f64; 3],
+    orientation: [f64; 4],
+) -> Result<Polyhedron, String> {
     let [w, x, y, z] = orientation;
     let q = DQuat::from_xyzw(x, y, z, w);
     if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
         return Err("orientation must be a unit quaternion (w, x, y, z)".into());
     }
-    if size.iter().any(|s| !(s.is_finite() && *s > 0.0)) || position.iter().any(|p| !p.is_finite())
-    {
-        return Err("box sizes must be finite and > 0, positions finite".into());
+    if position.iter().any(|p| !p.is_finite()) {
+        return Err("positions must be finite".into());
     }
-    Ok(Polyhedron::cuboid(DVec3::from(size) / 2.0)
-        .transformed(q.normalize(), DVec3::from(position)))
+    let local = match (size, hull) {
+        (Some(size), None) => {
+            if size.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+                return Err("box sizes must be finite and > 0".into());
+            }
+            Polyhedron::cuboid(DVec3::from(size) / 2.0)
+        }
+        (None, Some(points)) => {
+            let points: Vec<DVec3> = points.iter().map(|p| DVec3::from(*p)).collect();
+            Polyhedron::hull(&points)?
+        }
+        _ => return Err("give either box: or hull:".into()),
+    };
+    Ok(local.transformed(q.normalize(), DVec3::from(position)))
 }
 
 impl PenaltyScene {
@@ -152,7 +181,16 @@ impl PenaltyScene {
             m.friction_damping,
             m.slip_speed,
         ];
-        if values.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || m.friction > m.static_friction {
+        let point = [
+            m.point_stiffness.unwrap_or(m.stiffness),
+            m.point_damping.unwrap_or(m.damping),
+        ];
+        if values
+            .iter()
+            .chain(&point)
+            .any(|v| !(v.is_finite() && *v >= 0.0))
+            || m.friction > m.static_friction
+        {
             return Err(
                 "material: values must be finite and ≥ 0, with friction ≤ static_friction".into(),
             );
@@ -162,7 +200,7 @@ impl PenaltyScene {
         }
         let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
         for (i, b) in raw.bodies.iter().enumerate() {
-            let shape = solid(b.size, b.position, b.orientation)
+            let shape = solid(b.size, b.hull.as_deref(), b.position, b.orientation)
                 .map_err(|e| format!("bodies[{i}] {}: {e}", b.name))?;
             if !(b.density.is_finite() && b.density > 0.0) {
                 return Err(format!("bodies[{i}] {}: density must be > 0", b.name));
@@ -185,8 +223,8 @@ impl PenaltyScene {
             ));
         }
         for pointer in raw.pointer.iter().cycle().take(pointers) {
-            let shape =
-                solid(pointer.size, [0.0; 3], identity()).map_err(|e| format!("pointer: {e}"))?;
+            let shape = solid(pointer.size, pointer.hull.as_deref(), [0.0; 3], identity())
+                .map_err(|e| format!("pointer: {e}"))?;
             bodies.push(Body::new(&shape, 1000.0, true));
         }
         let material = Material {
@@ -199,18 +237,38 @@ impl PenaltyScene {
                 damping: m.friction_damping,
                 slip_speed: m.slip_speed,
             },
-            model: match m.model {
-                RawModel::Volume => ContactModel::Volume,
-                RawModel::Point => ContactModel::Point,
-            },
+            model: ContactModel::Volume,
         };
-        Ok(Self {
+        let materials = [
+            material,
+            Material {
+                stiffness: point[0],
+                damping: point[1],
+                model: ContactModel::Point,
+                ..material
+            },
+        ];
+        let mut scene = Self {
             name: raw.name,
             world: World::new(bodies, DVec3::from(raw.gravity), material),
             dt: raw.dt,
             first_pointer,
             names: raw.bodies.into_iter().map(|b| b.name).collect(),
-        })
+            materials,
+        };
+        scene.set_model(match m.model {
+            RawModel::Volume => ContactModel::Volume,
+            RawModel::Point => ContactModel::Point,
+        });
+        Ok(scene)
+    }
+
+    /// Use `model` for contacts, with the material the file gives for it.
+    pub fn set_model(&mut self, model: ContactModel) {
+        self.world.material = self.materials[match model {
+            ContactModel::Volume => 0,
+            ContactModel::Point => 1,
+        }];
     }
 }
 
@@ -225,7 +283,7 @@ mod tests {
         let scene = PenaltyScene::parse(&read("blocks.yaml"), 2).unwrap();
         assert_eq!(scene.world.bodies.len(), scene.first_pointer + 2);
         assert!(scene.world.bodies[scene.first_pointer].fixed);
-        for (name, bodies) in [("cube-drop.yaml", 2), ("stack.yaml", 14)] {
+        for (name, bodies) in [("cube-drop.yaml", 2), ("stack.yaml", 14), ("top.yaml", 2)] {
             let scene = PenaltyScene::parse(&read(name), 0).unwrap();
             assert_eq!(scene.world.bodies.len(), bodies, "{name}");
             assert!(

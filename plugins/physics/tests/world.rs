@@ -253,3 +253,62 @@ fn a_dropped_cube_settles_within_a_second_on_volume_contact_but_not_on_its_deepe
     let turns = late.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
     assert!(turns >= 4, "point: {turns} reversals late");
 }
+
+/// The shipped spinning top (thesis Fig. 5.16) with `model`, stepped `seconds`: its rate of
+/// turn at 1 s and at 3 s, and its final spin and speed.
+fn spinning_top(model: ContactModel, seconds: f64) -> (f64, f64, f64, f64, Body) {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes/top.yaml");
+    let mut scene =
+        hapticd_physics::scene::PenaltyScene::parse(&std::fs::read_to_string(path).unwrap(), 0)
+            .unwrap();
+    scene.set_model(model);
+    let dt = scene.dt;
+    let (mut at_1, mut at_3) = (0.0, 0.0);
+    for step in 1..=(seconds / dt).round() as usize {
+        scene.world.step(dt);
+        let t = step as f64 * dt;
+        let spin = scene.world.bodies[1].spin.length();
+        if (t - 1.0).abs() < dt / 2.0 {
+            at_1 = spin;
+        }
+        if (t - 3.0).abs() < dt / 2.0 {
+            at_3 = spin;
+        }
+    }
+    let top = scene.world.bodies[1].clone();
+    (at_1, at_3, top.spin.length(), top.velocity.length(), top)
+}
+
+#[test]
+fn a_spinning_top_is_braked_by_friction_over_its_tip_and_comes_to_rest() {
+    let (at_1, at_3, spin, speed, top) = spinning_top(ContactModel::Volume, 12.0);
+    // Standing on its tip, a 45° cone pressed to depth d with pressure k·(d − r) carries
+    // N = πkd³/3 = mg and is braked by T = ∫ μ·k(d − r)·r dA = μ·m·g·d/2.
+    let (k, mu, g) = (5.0e8, 0.8, 9.81);
+    let d = (3.0 * top.mass * g / (std::f64::consts::PI * k)).cbrt();
+    // The body frame is the world frame of the file, where the top stands tilted 0.1 rad.
+    let axis = top.orientation * (DQuat::from_rotation_z(0.1) * DVec3::Y);
+    let inertia = DMat3::from_quat(top.orientation)
+        * top.inertia
+        * DMat3::from_quat(top.orientation).transpose();
+    let i_axis = axis.dot(inertia * axis);
+    let expected = mu * top.mass * g * d / 2.0 / i_axis;
+    let braking = (at_1 - at_3) / 2.0;
+    assert!(
+        (braking / expected - 1.0).abs() < 0.05,
+        "braked at {braking:.2} rad/s², friction over the tip gives {expected:.2}"
+    );
+    // Then it falls, rolls on its rim and lies still.
+    assert!(
+        spin < 0.05 && speed < 1e-3,
+        "still turning: {spin} rad/s, {speed} m/s"
+    );
+}
+
+#[test]
+fn on_its_deepest_point_alone_the_top_spins_on_unbraked() {
+    let (at_1, at_3, spin, _, _) = spinning_top(ContactModel::Point, 12.0);
+    assert!(at_1 - at_3 < 1.0, "braked from {at_1} to {at_3} rad/s");
+    assert!(spin > 150.0, "{spin} rad/s");
+}

@@ -64,6 +64,8 @@ enum Quantity {
     Height,
     /// Angular momentum about the world z axis, kg·m²/s (thesis Fig. 5.12).
     AngularMomentumZ,
+    /// Rate of turn |ω|, rad/s (the spinning top of thesis Fig. 5.16).
+    Spin,
 }
 
 /// Run one `scene` subcommand.
@@ -85,8 +87,8 @@ fn load(path: &Path, model: Option<Model>) -> Result<PenaltyScene, Failure> {
     let mut scene = PenaltyScene::parse(&text, 0)
         .map_err(|e| Failure::failed(format!("{}: {e}", path.display())))?;
     match model {
-        Some(Model::Volume) => scene.world.material.model = ContactModel::Volume,
-        Some(Model::Point) => scene.world.material.model = ContactModel::Point,
+        Some(Model::Volume) => scene.set_model(ContactModel::Volume),
+        Some(Model::Point) => scene.set_model(ContactModel::Point),
         None => {}
     }
     Ok(scene)
@@ -121,6 +123,7 @@ fn trace(mut scene: PenaltyScene, args: &RunArgs, dt: f64, steps: usize) -> Trac
             let value = match args.quantity {
                 Quantity::Height => b.position.dot(up),
                 Quantity::AngularMomentumZ => angular_momentum(b).z,
+                Quantity::Spin => b.spin.length(),
             };
             curve.push((t, value));
             if args.record.is_some() {
@@ -177,6 +180,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         let (label, title) = match args.quantity {
             Quantity::Height => ("height, m", "height"),
             Quantity::AngularMomentumZ => ("angular momentum about z, kg m^2/s", "spin"),
+            Quantity::Spin => ("rate of turn, rad/s", "spin"),
         };
         let mut series = Vec::new();
         for t in &traces {
