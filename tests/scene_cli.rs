@@ -205,3 +205,35 @@ fn the_stick_slip_experiment_reaches_the_exact_peaks_and_plots_them() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
+    // The rig as a scene: the weight is a pointer on a 400 N/m virtual coupling, the
+    // spring's end a scripted grip.
+    let hand = repo_dir().join("config/hands/stick-slip-pull.yaml");
+    let output = run(&[
+        &scene("stick-slip.yaml"),
+        "--hand",
+        hand.to_str().unwrap(),
+        "--duration",
+        "2",
+        "--json",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let peak = report["runs"][0]["pointers"][0]["peak_force"]
+        .as_f64()
+        .unwrap();
+    let expected = hapticd::experiments::stick_slip::Rig::THESIS.peak_pull();
+    assert!(
+        (peak - expected).abs() < 0.03 * expected,
+        "peak {peak} N, rigid-stick value {expected} N"
+    );
+    // Without a hand there is nothing to hold the pointer.
+    let refused = run(&[&scene("stick-slip.yaml"), "--quantity", "pointer-force"]);
+    assert!(!refused.status.success());
+}

@@ -90,7 +90,7 @@ impl Rig {
             let t = step as f64 * DT;
             let x = world.bodies[1].position.x - start;
             let pull = self.spring * (self.speed * t - x);
-            world.loads[1] = DVec3::new(pull, 0.0, 0.0);
+            world.loads[1].force = DVec3::new(pull, 0.0, 0.0);
             world.step(DT);
             if step % 10 == 0 {
                 samples.push((t, pull, x));

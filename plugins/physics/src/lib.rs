@@ -8,12 +8,14 @@
 //! - [`contact`]: the normal spring and damper integrated over the intersection (eq. 5.8–5.13);
 //! - [`friction`]: static friction springs and dynamic friction with their state machine;
 //! - [`body`]: rigid bodies and their integration;
+//! - [`coupling`]: pointers tied to the grip by a 6-DOF spring and damper (thesis 4.1.2);
 //! - [`world`]: bodies in contact, stepped by the penalty method;
 //! - [`scene`]: scene files (YAML) describing a world and its pointers.
 
 pub mod body;
 pub mod clip;
 pub mod contact;
+pub mod coupling;
 pub mod friction;
 pub mod gjk;
 pub mod mass;

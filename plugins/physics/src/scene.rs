@@ -33,9 +33,17 @@
 //!     position: [-0.05, 0, 0]  #   hull of these points, relative to position
 //! pointer:                     # optional: scenes without one take no pointers
 //!   box: [0.01, 0.01, 0.01]    # each pointer: this solid (or a hull), centred at the grip
+//!   coupling:                  # optional (thesis 4.1.2): the solid is a body of the world,
+//!     stiffness: 400           #   tied to the grip by a spring (N/m) and damper (N·s/m),
+//!     damping: 5               #   and the user feels their stretch; without it the solid
+//!     rotational_stiffness: 0.5  # sits at the grip and the user feels its contacts
+//!     rotational_damping: 0.01   # (N·m/rad, N·m·s/rad; both optional, default 0)
+//!   density: 1000              # kg/m³ of a coupled pointer (its weight is felt too)
 //! ```
 
 use crate::body::Body;
+use crate::contact::Wrench;
+use crate::coupling::{Coupling, Grip};
 use crate::friction::FrictionParameters;
 use crate::polyhedron::Polyhedron;
 use crate::world::{ContactModel, Material, World};
@@ -117,6 +125,20 @@ struct RawPointer {
     #[serde(rename = "box")]
     size: Option<[f64; 3]>,
     hull: Option<Vec<[f64; 3]>>,
+    coupling: Option<RawCoupling>,
+    #[serde(default = "water")]
+    density: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCoupling {
+    stiffness: f64,
+    damping: f64,
+    #[serde(default)]
+    rotational_stiffness: f64,
+    #[serde(default)]
+    rotational_damping: f64,
 }
 
 /// A loaded scene: the world with one fixed body per pointer at its end.
@@ -129,11 +151,18 @@ pub struct PenaltyScene {
     pub dt: f64,
     /// Index of the first pointer body in the world.
     pub first_pointer: usize,
-    /// Names of the scene's bodies (before the pointers), in world order.
+    /// Names of the bodies in world order; pointers are `pointer 1`, `pointer 2`, …
     pub names: Vec<String>,
     /// The material as the file gives it for each contact model.
     materials: [Material; 2],
+    /// The coupling of each pointer; none for one placed at its grip.
+    couplings: Vec<Option<Coupling>>,
+    /// Whether the pointers have been put at their grips once.
+    pointers_placed: bool,
 }
+
+/// Most pointers a scene steps.
+pub const MAX_POINTERS: usize = 8;
 
 /// The solid of a `box:` or a `hull:` (exactly one), turned by `orientation` and moved to
 /// `position`.
@@ -222,10 +251,35 @@ impl PenaltyScene {
                 "{pointers} pointers, but the scene has no pointer shape"
             ));
         }
+        if pointers > MAX_POINTERS {
+            return Err(format!("at most {MAX_POINTERS} pointers"));
+        }
+        let mut couplings = Vec::with_capacity(pointers);
         for pointer in raw.pointer.iter().cycle().take(pointers) {
             let shape = solid(pointer.size, pointer.hull.as_deref(), [0.0; 3], identity())
                 .map_err(|e| format!("pointer: {e}"))?;
-            bodies.push(Body::new(&shape, 1000.0, true));
+            let coupling = pointer.coupling.as_ref().map(|c| Coupling {
+                stiffness: c.stiffness,
+                damping: c.damping,
+                rotational_stiffness: c.rotational_stiffness,
+                rotational_damping: c.rotational_damping,
+            });
+            if let Some(c) = &coupling {
+                let values = [
+                    c.stiffness,
+                    c.damping,
+                    c.rotational_stiffness,
+                    c.rotational_damping,
+                ];
+                if values.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                    return Err("pointer.coupling: values must be finite and ≥ 0".into());
+                }
+                if !(pointer.density.is_finite() && pointer.density > 0.0) {
+                    return Err("pointer.density must be > 0".into());
+                }
+            }
+            bodies.push(Body::new(&shape, pointer.density, coupling.is_none()));
+            couplings.push(coupling);
         }
         let material = Material {
             stiffness: m.stiffness,
@@ -253,14 +307,65 @@ impl PenaltyScene {
             world: World::new(bodies, DVec3::from(raw.gravity), material),
             dt: raw.dt,
             first_pointer,
-            names: raw.bodies.into_iter().map(|b| b.name).collect(),
+            names: raw
+                .bodies
+                .into_iter()
+                .map(|b| b.name)
+                .chain((1..=pointers).map(|k| format!("pointer {k}")))
+                .collect(),
             materials,
+            couplings,
+            pointers_placed: false,
         };
         scene.set_model(match m.model {
             RawModel::Volume => ContactModel::Volume,
             RawModel::Point => ContactModel::Point,
         });
         Ok(scene)
+    }
+
+    /// [rt] Step the world through `dt` (in steps no longer than the scene's) with pointer k
+    /// following `grips[k]`; `felt[k]` gets the wrench the user feels there (force, then
+    /// torque about the pointer), averaged over `dt`. Allocates nothing.
+    pub fn step_pointers(&mut self, dt: f64, grips: &[Grip], felt: &mut [Wrench]) {
+        let first = self.first_pointer;
+        for (k, grip) in grips.iter().enumerate() {
+            let body = &mut self.world.bodies[first + k];
+            let coupled = self.couplings[k].is_some();
+            // A coupled pointer starts at its grip, then moves on its own.
+            if !coupled || !self.pointers_placed {
+                body.place(grip.position, grip.orientation, grip.velocity, grip.spin);
+                body.kinematic = !coupled;
+            }
+        }
+        self.pointers_placed = true;
+        let steps = (dt / self.dt).ceil().max(1.0) as usize;
+        felt.fill(Wrench::default());
+        for _ in 0..steps {
+            for (k, grip) in grips.iter().enumerate() {
+                if let Some(c) = &self.couplings[k] {
+                    self.world.loads[first + k] = c.load(grip, &self.world.bodies[first + k]);
+                }
+            }
+            self.world.step(dt / steps as f64);
+            for (k, out) in felt.iter_mut().enumerate().take(grips.len()) {
+                *out = *out
+                    + match self.couplings[k] {
+                        None => self.world.contact_wrench(first + k),
+                        Some(_) => {
+                            let load = self.world.loads[first + k];
+                            Wrench {
+                                force: -load.force,
+                                torque: -load.torque,
+                            }
+                        }
+                    };
+            }
+        }
+        for out in felt.iter_mut() {
+            out.force /= steps as f64;
+            out.torque /= steps as f64;
+        }
     }
 
     /// Use `model` for contacts, with the material the file gives for it.
@@ -331,5 +436,60 @@ mod pointer_tests {
             "{w:?}"
         );
         assert!(w.torque.length() < 1e-9, "{w:?}");
+    }
+}
+
+#[cfg(test)]
+mod coupling_tests {
+    use super::*;
+
+    const SCENE: &str = "name: coupled
+dt: 0.0001
+material: { stiffness: 1.0e7, damping: 2.0e4, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: 0.001 }
+bodies:
+  - { name: floor, box: [1, 0.1, 1], position: [0, -0.05, 0], fixed: true }
+pointer:
+  box: [0.02, 0.02, 0.02]
+  density: 1000
+  coupling: { stiffness: 400, damping: 5, rotational_stiffness: 0.5, rotational_damping: 0.01 }
+";
+
+    #[test]
+    fn a_coupled_pointer_stays_on_the_floor_and_the_user_feels_the_stretch() {
+        let mut scene = PenaltyScene::parse(SCENE, 1).unwrap();
+        // The grip pushes 1 cm below where the 2 cm cube would rest on the floor (y = 0).
+        let grip = Grip {
+            position: DVec3::new(0.0, 0.0, 0.0),
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        };
+        let mut felt = [Wrench::default()];
+        for _ in 0..3000 {
+            scene.step_pointers(1e-3, &[grip], &mut felt);
+        }
+        let body = &scene.world.bodies[scene.first_pointer];
+        let (k, m, g) = (400.0, body.mass, 9.81);
+        // The user feels the spring's stretch, and nothing else (to the friction springs'
+        // micro-motion within the tick).
+        let stretch = body.position - grip.position;
+        let error = (felt[0].force - k * stretch).length();
+        assert!(
+            error < 1e-3 * felt[0].force.length(),
+            "{felt:?}, {}",
+            k * stretch
+        );
+        // The floor carries the weight and the spring's pull: depth = (m·g + k·s)/(k_N·A).
+        let depth = 0.01 - body.position.y;
+        let expected = (m * g + k * stretch.y) / (1.0e7 * 0.02 * 0.02);
+        assert!(
+            (depth / expected - 1.0).abs() < 5e-3,
+            "{depth} m, {expected} m"
+        );
+        assert!(
+            stretch.y > 0.009,
+            "the pointer went into the floor: {stretch}"
+        );
     }
 }

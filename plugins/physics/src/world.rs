@@ -73,6 +73,15 @@ fn point_contact(
     }
 }
 
+/// A force through a body's centroid and a torque about it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Load {
+    /// Force, newtons.
+    pub force: DVec3,
+    /// Torque about the centroid, newton-metres.
+    pub torque: DVec3,
+}
+
 /// Bodies, gravity and the contact material.
 #[derive(Debug, Clone)]
 pub struct World {
@@ -82,9 +91,9 @@ pub struct World {
     pub gravity: DVec3,
     /// Material of every contact.
     pub material: Material,
-    /// A force on each body through its centroid besides gravity (a pulling spring, say),
-    /// newtons; it stays until changed.
-    pub loads: Vec<DVec3>,
+    /// A load on each body besides gravity (a pulling spring, a virtual coupling); it stays
+    /// until changed.
+    pub loads: Vec<Load>,
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
@@ -142,7 +151,7 @@ impl World {
             boxes: vec![(DVec3::ZERO, DVec3::ZERO); n],
             order: (0..n).collect(),
             wrenches: vec![Wrench::default(); n],
-            loads: vec![DVec3::ZERO; n],
+            loads: vec![Load::default(); n],
             friction,
             bodies,
             gravity,
@@ -176,25 +185,28 @@ impl World {
         v.iter().sum::<DVec3>() / v.len() as f64
     }
 
-    /// Weight and load of body `i`: the forces on it that are not contacts (none on a body
-    /// contacts cannot move).
-    fn body_force(&self, i: usize) -> DVec3 {
+    /// Weight and load of body `i`: what acts on it besides contacts, as a wrench about the
+    /// origin (nothing on a body contacts cannot move).
+    fn body_wrench(&self, i: usize) -> Wrench {
         let b = &self.bodies[i];
         if b.fixed {
-            DVec3::ZERO
-        } else {
-            b.mass * self.gravity + self.loads[i]
+            return Wrench::default();
+        }
+        let force = b.mass * self.gravity + self.loads[i].force;
+        Wrench {
+            force,
+            torque: b.position.cross(force) + self.loads[i].torque,
         }
     }
 
     /// The contact force and torque (about its centroid) on body `i` in the last step.
     pub fn contact_wrench(&self, i: usize) -> Wrench {
-        let w = self.wrenches[i];
-        let force = w.force - self.body_force(i);
+        let (w, own) = (self.wrenches[i], self.body_wrench(i));
+        let force = w.force - own.force;
         let b = &self.bodies[i];
         Wrench {
             force,
-            torque: w.torque - b.position.cross(w.force),
+            torque: w.torque - own.torque - b.position.cross(force),
         }
     }
 
@@ -231,12 +243,8 @@ impl World {
     /// between steps, like a pointer following the grip).
     pub fn step(&mut self, dt: f64) {
         for i in 0..self.bodies.len() {
-            // Every torque here is about the world origin; these forces act at the centroid.
-            let force = self.body_force(i);
-            self.wrenches[i] = Wrench {
-                force,
-                torque: self.bodies[i].position.cross(force),
-            };
+            // Every torque here is about the world origin.
+            self.wrenches[i] = self.body_wrench(i);
         }
         // Broad phase: sort and sweep the bounding boxes along one axis.
         self.steps += 1;

@@ -1,10 +1,13 @@
 //! The penalty scene plugin (thesis Ch. 5): a world of rigid boxes stepped inside every
 //! haptic tick (direct style of the scene ABI) with forces integrated over each contact's
-//! intersection volume. Each pointer is a solid placed at its grip's pose; the contact
-//! wrench on it is what the user feels (thesis 5.1).
+//! intersection volume. Each pointer is a solid placed at its grip's pose, whose contact
+//! wrench the user feels (thesis 5.1), or a body tied to the grip by a virtual coupling
+//! (4.1.2), whose stretch the user feels.
 
 use glam::{DQuat, DVec3};
-use hapticd_physics::scene::PenaltyScene;
+use hapticd_physics::contact::Wrench;
+use hapticd_physics::coupling::Grip;
+use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene};
 use hapticd_plugin_api::*;
 
 /// The plugin's instance: a loaded scene.
@@ -17,33 +20,28 @@ impl SceneInstance for Penalty {
         pointers: &[HapticdPointer],
         wrenches: &mut [HapticdWrench],
     ) -> i32 {
-        let scene = &mut self.0;
-        for (k, p) in pointers.iter().enumerate() {
+        let mut grips = [Grip {
+            position: DVec3::ZERO,
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        }; MAX_POINTERS];
+        for (grip, p) in grips.iter_mut().zip(pointers) {
             let [w, x, y, z] = p.orientation;
-            let body = &mut scene.world.bodies[scene.first_pointer + k];
-            body.place(
-                DVec3::from(p.position),
-                DQuat::from_xyzw(x, y, z, w).normalize(),
-                DVec3::from(p.velocity),
-                DVec3::ZERO,
-            );
+            *grip = Grip {
+                position: DVec3::from(p.position),
+                orientation: DQuat::from_xyzw(x, y, z, w).normalize(),
+                velocity: DVec3::from(p.velocity),
+                spin: DVec3::ZERO,
+            };
         }
-        // Split the tick into steps no longer than the scene's physics step.
-        let steps = (dt / scene.dt).ceil().max(1.0) as usize;
-        let mut sum = [(DVec3::ZERO, DVec3::ZERO); 8];
-        for _ in 0..steps {
-            scene.world.step(dt / steps as f64);
-            for (k, s) in sum.iter_mut().enumerate().take(pointers.len()) {
-                let w = scene.world.contact_wrench(scene.first_pointer + k);
-                s.0 += w.force;
-                s.1 += w.torque;
-            }
-        }
-        // The user feels the contact force on the pointer, averaged over the tick.
-        for (out, (force, torque)) in wrenches.iter_mut().zip(sum) {
+        let n = pointers.len();
+        let mut felt = [Wrench::default(); MAX_POINTERS];
+        self.0.step_pointers(dt, &grips[..n], &mut felt[..n]);
+        for (out, w) in wrenches.iter_mut().zip(felt) {
             *out = HapticdWrench {
-                force: (force / steps as f64).to_array(),
-                torque: (torque / steps as f64).to_array(),
+                force: w.force.to_array(),
+                torque: w.torque.to_array(),
             };
         }
         HAPTICD_OK
@@ -54,9 +52,6 @@ fn create(
     path: Option<&str>,
     pointers: usize,
 ) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
-    if pointers > 8 {
-        return Err("at most 8 pointers".into());
-    }
     let path = path.ok_or("the penalty scene needs a scene file")?;
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
     let scene = PenaltyScene::parse(&text, pointers).map_err(|e| format!("{path}: {e}"))?;

@@ -4,9 +4,12 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand, ValueEnum};
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use hapticd::plot::{Chart, PALETTE, Series};
+use hapticd::sim::hand::{HandTrack, Script};
 use hapticd_physics::body::Body;
+use hapticd_physics::contact::Wrench;
+use hapticd_physics::coupling::Grip;
 use hapticd_physics::scene::PenaltyScene;
 use hapticd_physics::world::ContactModel;
 use serde_json::json;
@@ -44,6 +47,10 @@ pub struct RunArgs {
     /// What `--plot` shows.
     #[arg(long, value_enum, default_value_t = Quantity::Height)]
     quantity: Quantity,
+    /// Move the scene's pointers by this script (the simulated hand's format, one pointer per
+    /// hand, in the order of their names); the forces felt are reported.
+    #[arg(long, value_name = "SCRIPT")]
+    hand: Option<PathBuf>,
     #[command(flatten)]
     output: Output,
 }
@@ -66,6 +73,8 @@ enum Quantity {
     AngularMomentumZ,
     /// Rate of turn |ω|, rad/s (the spinning top of thesis Fig. 5.16).
     Spin,
+    /// Force felt at each pointer, N (with `--hand`).
+    PointerForce,
 }
 
 /// Run one `scene` subcommand.
@@ -81,10 +90,10 @@ fn angular_momentum(body: &Body) -> DVec3 {
     rotation * body.inertia * rotation.transpose() * body.spin
 }
 
-fn load(path: &Path, model: Option<Model>) -> Result<PenaltyScene, Failure> {
+fn load(path: &Path, model: Option<Model>, pointers: usize) -> Result<PenaltyScene, Failure> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Failure::failed(format!("{}: cannot read: {e}", path.display())))?;
-    let mut scene = PenaltyScene::parse(&text, 0)
+    let mut scene = PenaltyScene::parse(&text, pointers)
         .map_err(|e| Failure::failed(format!("{}: {e}", path.display())))?;
     match model {
         Some(Model::Volume) => scene.set_model(ContactModel::Volume),
@@ -94,38 +103,80 @@ fn load(path: &Path, model: Option<Model>) -> Result<PenaltyScene, Failure> {
     Ok(scene)
 }
 
-/// One run of a scene: the plotted quantity of each moving body over time, and the CSV rows.
+/// One run of a scene: the plotted quantity of each moving body (or pointer) over time, the
+/// last forces felt at the pointers, and the CSV rows.
 struct Trace {
     scene: PenaltyScene,
     /// The contact model's name.
     model: &'static str,
     moving: Vec<usize>,
+    /// Bodies whose curves are plotted.
+    plotted: Vec<usize>,
     curves: Vec<Vec<(f64, f64)>>,
+    felt: Vec<Wrench>,
+    /// Largest force felt at each pointer, N.
+    peaks: Vec<f64>,
     csv: String,
 }
 
-fn trace(mut scene: PenaltyScene, args: &RunArgs, dt: f64, steps: usize) -> Trace {
+/// The pointers' grips at `t`.
+fn grips(hands: &[HandTrack], t: f64) -> Vec<Grip> {
+    hands
+        .iter()
+        .map(|h| {
+            let c = h.at(t);
+            Grip {
+                position: c.target,
+                orientation: DQuat::IDENTITY,
+                velocity: c.velocity,
+                spin: DVec3::ZERO,
+            }
+        })
+        .collect()
+}
+
+fn trace(
+    mut scene: PenaltyScene,
+    args: &RunArgs,
+    hands: &[HandTrack],
+    dt: f64,
+    steps: usize,
+) -> Trace {
     let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
     let moving: Vec<usize> = (0..scene.world.bodies.len())
         .filter(|&i| !scene.world.bodies[i].fixed)
         .collect();
+    let plotted: Vec<usize> = match args.quantity {
+        Quantity::PointerForce => (scene.first_pointer..scene.world.bodies.len()).collect(),
+        _ => moving.clone(),
+    };
     let mut csv = String::new();
-    let mut curves = vec![Vec::new(); moving.len()];
+    let mut curves = vec![Vec::new(); plotted.len()];
+    let mut felt = vec![Wrench::default(); hands.len()];
+    let mut peaks = vec![0.0f64; hands.len()];
     let model = match scene.world.material.model {
         ContactModel::Volume => "volume",
         ContactModel::Point => "point",
     };
+    scene.dt = dt;
     for step in 1..=steps {
-        scene.world.step(dt);
         let t = step as f64 * dt;
-        for (curve, &i) in curves.iter_mut().zip(&moving) {
+        scene.step_pointers(dt, &grips(hands, t - dt), &mut felt);
+        for (peak, w) in peaks.iter_mut().zip(&felt) {
+            *peak = peak.max(w.force.length());
+        }
+        for (curve, &i) in curves.iter_mut().zip(&plotted) {
             let b = &scene.world.bodies[i];
             let value = match args.quantity {
                 Quantity::Height => b.position.dot(up),
                 Quantity::AngularMomentumZ => angular_momentum(b).z,
                 Quantity::Spin => b.spin.length(),
+                Quantity::PointerForce => felt[i - scene.first_pointer].force.length(),
             };
             curve.push((t, value));
+        }
+        for &i in &moving {
+            let b = &scene.world.bodies[i];
             if args.record.is_some() {
                 let (p, q, v, w) = (b.position, b.orientation, b.velocity, b.spin);
                 // Writing to a String cannot fail.
@@ -141,7 +192,10 @@ fn trace(mut scene: PenaltyScene, args: &RunArgs, dt: f64, steps: usize) -> Trac
         scene,
         model,
         moving,
+        plotted,
         curves,
+        felt,
+        peaks,
         csv,
     }
 }
@@ -152,7 +206,19 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     if models.is_empty() {
         models.push(None);
     }
-    let first = load(&args.file, models[0])?;
+    let hands: Vec<HandTrack> = match &args.hand {
+        Some(path) => Script::load(path)
+            .map_err(Failure::failed)?
+            .hands
+            .into_values()
+            .map(|steps| HandTrack::new(DVec3::ZERO, steps))
+            .collect(),
+        None => Vec::new(),
+    };
+    if args.quantity == Quantity::PointerForce && hands.is_empty() {
+        return Err(Failure::usage("--quantity pointer-force needs --hand"));
+    }
+    let first = load(&args.file, models[0], hands.len())?;
     let dt = args.dt.unwrap_or(first.dt);
     if !(dt.is_finite() && dt > 0.0) {
         return Err(Failure::usage("--dt must be a number > 0"));
@@ -163,9 +229,10 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         ));
     }
     let steps = (args.duration / dt).round() as usize;
-    let mut traces = vec![trace(first, args, dt, steps)];
+    let mut traces = vec![trace(first, args, &hands, dt, steps)];
     for &model in &models[1..] {
-        traces.push(trace(load(&args.file, model)?, args, dt, steps));
+        let scene = load(&args.file, model, hands.len())?;
+        traces.push(trace(scene, args, &hands, dt, steps));
     }
     let name = traces[0].scene.name.clone();
     if let Some(path) = &args.record {
@@ -181,10 +248,11 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             Quantity::Height => ("height, m", "height"),
             Quantity::AngularMomentumZ => ("angular momentum about z, kg m^2/s", "spin"),
             Quantity::Spin => ("rate of turn, rad/s", "spin"),
+            Quantity::PointerForce => ("force felt, N", "force felt"),
         };
         let mut series = Vec::new();
         for t in &traces {
-            for (points, &i) in t.curves.iter().zip(&t.moving) {
+            for (points, &i) in t.curves.iter().zip(&t.plotted) {
                 series.push(Series {
                     label: format!("{} ({})", t.scene.names[i], t.model),
                     points: points.clone(),
@@ -193,7 +261,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             }
         }
         let chart = Chart {
-            title: format!("{name}: {title} of each body"),
+            title: format!("{name}: {title}"),
             x_label: "time, s".into(),
             y_label: label.into(),
             series,
@@ -228,7 +296,24 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
                 "angular_momentum": angular_momentum(b).to_array(),
             }));
         }
-        runs.push(json!({"model": model, "bodies": bodies}));
+        let mut pointers = Vec::new();
+        for (k, (w, peak)) in t.felt.iter().zip(&t.peaks).enumerate() {
+            let f = w.force;
+            let _ = writeln!(
+                text,
+                "  pointer {} feels {:>8.3} {:>8.3} {:>8.3} N (at most {peak:.3} N)",
+                k + 1,
+                f.x,
+                f.y,
+                f.z
+            );
+            pointers.push(json!({
+                "force": f.to_array(),
+                "torque": w.torque.to_array(),
+                "peak_force": peak,
+            }));
+        }
+        runs.push(json!({"model": model, "bodies": bodies, "pointers": pointers}));
     }
     print(
         &args.output,

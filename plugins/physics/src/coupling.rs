@@ -1,0 +1,81 @@
+//! The virtual coupling of thesis 4.1.2: a pointer that is a body of the world, tied to the
+//! user's grip by a 6-DOF spring and damper instead of being placed at it. The world keeps
+//! the pointer out of other bodies however hard the user pushes; the user feels the
+//! coupling's stretch, so the force displayed is bounded by its stiffness and stays passive
+//! at any physics step that keeps the coupled body stable.
+
+use glam::{DQuat, DVec3};
+
+use crate::body::Body;
+use crate::world::Load;
+
+/// Where the user's grip is and how it moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grip {
+    /// Position, metres.
+    pub position: DVec3,
+    /// Orientation.
+    pub orientation: DQuat,
+    /// Velocity, m/s.
+    pub velocity: DVec3,
+    /// Angular velocity, rad/s.
+    pub spin: DVec3,
+}
+
+/// Stiffness and damping of a coupling.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coupling {
+    /// Translational spring, N/m.
+    pub stiffness: f64,
+    /// Translational damper, N·s/m.
+    pub damping: f64,
+    /// Rotational spring, N·m/rad.
+    pub rotational_stiffness: f64,
+    /// Rotational damper, N·m·s/rad.
+    pub rotational_damping: f64,
+}
+
+impl Coupling {
+    /// The load the coupling puts on `body` (its centroid is the coupled point) with the grip
+    /// at `grip`; the user feels the opposite.
+    pub fn load(&self, grip: &Grip, body: &Body) -> Load {
+        // The smallest rotation taking the body's orientation to the grip's.
+        let mut error = grip.orientation * body.orientation.inverse();
+        if error.w < 0.0 {
+            error = -error;
+        }
+        Load {
+            force: self.stiffness * (grip.position - body.position)
+                + self.damping * (grip.velocity - body.velocity),
+            torque: self.rotational_stiffness * error.to_scaled_axis()
+                + self.rotational_damping * (grip.spin - body.spin),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::polyhedron::Polyhedron;
+
+    #[test]
+    fn the_load_pulls_the_body_towards_the_grip_and_turns_it_the_short_way() {
+        let body = Body::new(&Polyhedron::cuboid(DVec3::splat(0.01)), 1000.0, false);
+        let coupling = Coupling {
+            stiffness: 400.0,
+            damping: 2.0,
+            rotational_stiffness: 0.5,
+            rotational_damping: 0.0,
+        };
+        let turn = DQuat::from_rotation_y(0.3);
+        let grip = Grip {
+            position: DVec3::new(0.01, 0.0, 0.0),
+            orientation: -turn, // the same rotation, other sign
+            velocity: DVec3::new(0.0, 0.1, 0.0),
+            spin: DVec3::ZERO,
+        };
+        let load = coupling.load(&grip, &body);
+        assert!((load.force - DVec3::new(4.0, 0.2, 0.0)).length() < 1e-12);
+        assert!((load.torque - DVec3::new(0.0, 0.15, 0.0)).length() < 1e-12);
+    }
+}
