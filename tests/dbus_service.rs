@@ -609,6 +609,12 @@ fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
         assert_eq!(number(&bus.get(DEVICE, "Stiffness")), stiffness);
         assert_eq!(bus.get(DEVICE, "CalibrationOffsets"), offsets);
         assert!(daemon.log().contains("restored the calibration of sim"));
+        let leftovers: Vec<_> = std::fs::read_dir(&setup.state)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty(), "{leftovers:?}");
         daemon.stop();
     }
 }

@@ -81,9 +81,19 @@ impl StateDir {
     }
 
     /// The record of device `identity`: empty when none was saved; an error naming the file
-    /// when it cannot be read or parsed.
+    /// when it cannot be read or parsed. Temporary files a crash left behind mid-save are
+    /// removed (the record itself is whole: the old one or the new one).
     pub fn load(&self, identity: &str) -> Result<DeviceRecord, String> {
         let path = self.device_file(identity);
+        let leftover = format!(".{}.", file_name(identity));
+        if let Ok(listing) = std::fs::read_dir(&self.dir) {
+            for entry in listing.filter_map(|e| e.ok()) {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if name.starts_with(&leftover) && name.ends_with(".tmp") {
+                    let _ = std::fs::remove_file(entry.path());
+                }
+            }
+        }
         match std::fs::read_to_string(&path) {
             Ok(text) => serde_json::from_str(&text)
                 .map_err(|e| format!("{}:{}:{}: error: {e}", path.display(), e.line(), e.column())),
@@ -150,6 +160,10 @@ mod tests {
         state.save("a", &record).unwrap();
         assert_eq!(state.load("a").unwrap(), record);
         std::fs::write(state.device_file("b"), "{\n  \"calibration\": 3\n}").unwrap();
+        let crashed = dir.join(".device-a.json.999.tmp");
+        std::fs::write(&crashed, "{").unwrap();
+        assert_eq!(state.load("a").unwrap(), record);
+        assert!(!crashed.exists(), "a crash's temporary file is left");
         let e = state.load("b").unwrap_err();
         assert!(e.contains("device-b.json:2:"), "{e}");
         let leftovers: Vec<_> = std::fs::read_dir(&dir)

@@ -82,3 +82,49 @@ fn steps_with_established_contacts_do_not_allocate() {
     WATCHING.with(|w| w.set(false));
     assert_eq!(ALLOCATIONS.with(Cell::get), 0);
 }
+
+/// Allocations in 1000 ticks of the blocks scene with two pointers pressing onto the table
+/// among the blocks and sliding, after 300 ticks to establish the contacts.
+fn allocations_in_blocks_ticks(coupled: bool) -> usize {
+    use hapticd_physics::contact::Wrench;
+    use hapticd_physics::coupling::Grip;
+    use hapticd_physics::scene::PenaltyScene;
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes/blocks.yaml");
+    let mut text = std::fs::read_to_string(path).unwrap();
+    if coupled {
+        text = text.replace(
+            "pointer:\n",
+            "pointer:\n  coupling: { stiffness: 300, damping: 3, rotational_stiffness: 0.3 }\n",
+        );
+        assert!(text.contains("coupling"));
+    }
+    let mut scene = PenaltyScene::parse(&text, 2).unwrap();
+    let grip = |t: f64, x: f64| Grip {
+        position: DVec3::new(x + 0.02 * t, -0.03, 0.0),
+        orientation: DQuat::IDENTITY,
+        velocity: DVec3::new(0.02, 0.0, 0.0),
+        spin: DVec3::ZERO,
+    };
+    let mut felt = [Wrench::default(); 2];
+    let mut tick = |k: usize| {
+        let t = k as f64 * 1e-3;
+        scene.step_pointers(1e-3, &[grip(t, -0.1), grip(t, 0.1)], &mut felt);
+    };
+    for k in 0..300 {
+        tick(k);
+    }
+    let before = ALLOCATIONS.with(Cell::get);
+    WATCHING.with(|w| w.set(true));
+    for k in 300..1300 {
+        tick(k);
+    }
+    WATCHING.with(|w| w.set(false));
+    ALLOCATIONS.with(Cell::get) - before
+}
+
+#[test]
+fn scene_ticks_with_placed_or_coupled_pointers_do_not_allocate() {
+    assert_eq!(allocations_in_blocks_ticks(false), 0, "placed pointers");
+    assert_eq!(allocations_in_blocks_ticks(true), 0, "coupled pointers");
+}
