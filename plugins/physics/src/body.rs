@@ -1,5 +1,6 @@
-//! Rigid bodies of convex polyhedra: mass properties from shape and density, and
-//! semi-implicit integration with a unit quaternion for orientation.
+//! Rigid bodies of convex polyhedra, or of several (a compound, for a body that is not
+//! convex): mass properties from shape and density, and semi-implicit integration with a
+//! unit quaternion for orientation.
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -9,8 +10,8 @@ use super::polyhedron::Polyhedron;
 /// A rigid body.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Body {
-    /// The shape in the body's frame, centroid at the origin.
-    pub shape: Polyhedron,
+    /// The convex pieces in the body's frame, the centroid of the whole at the origin.
+    pub pieces: Vec<Polyhedron>,
     /// Mass, kg.
     pub mass: f64,
     /// Inertia tensor about the centroid, body frame, kg·m².
@@ -28,17 +29,37 @@ pub struct Body {
     /// A fixed body that is moved from outside (a pointer following the grip); it still
     /// touches other fixed bodies.
     pub kinematic: bool,
-    world: Polyhedron,
+    world: Vec<Polyhedron>,
 }
 
 impl Body {
     /// A body of `shape` (given where it is in the world) and `density` kg/m³.
     pub fn new(shape: &Polyhedron, density: f64, fixed: bool) -> Self {
-        let (volume, centroid, inertia) = mass_properties(shape);
-        let local = shape.transformed(DQuat::IDENTITY, -centroid);
+        Self::compound(std::slice::from_ref(shape), density, fixed)
+    }
+
+    /// A body made of the convex `pieces` (given where they are in the world; they may
+    /// touch but should not overlap) and `density` kg/m³.
+    pub fn compound(pieces: &[Polyhedron], density: f64, fixed: bool) -> Self {
+        let properties: Vec<_> = pieces.iter().map(mass_properties).collect();
+        let volume: f64 = properties.iter().map(|p| p.0).sum();
+        let centroid = properties.iter().map(|p| p.0 * p.1).sum::<DVec3>() / volume;
+        // Each piece's inertia moved to the common centroid (parallel axes).
+        let inertia = properties
+            .iter()
+            .map(|&(v, c, i)| {
+                let r = c - centroid;
+                i + (DMat3::from_diagonal(DVec3::splat(r.length_squared()))
+                    - DMat3::from_cols(r * r.x, r * r.y, r * r.z))
+                    * v
+            })
+            .fold(DMat3::ZERO, |sum, i| sum + i);
         Self {
-            world: shape.clone(),
-            shape: local,
+            world: pieces.to_vec(),
+            pieces: pieces
+                .iter()
+                .map(|p| p.transformed(DQuat::IDENTITY, -centroid))
+                .collect(),
             mass: volume * density,
             inertia: inertia * density,
             position: centroid,
@@ -50,19 +71,21 @@ impl Body {
         }
     }
 
-    /// The shape where the body is now.
-    pub fn world_shape(&self) -> &Polyhedron {
+    /// The pieces where the body is now.
+    pub fn world_pieces(&self) -> &[Polyhedron] {
         &self.world
     }
 
-    /// Recompute the world shape after a change of pose (its faces never change).
+    /// Bring the world pieces up to date with the pose.
     pub fn update_world_shape(&mut self) {
-        for (v, local) in self.world.vertices.iter_mut().zip(&self.shape.vertices) {
-            *v = self.orientation * *local + self.position;
-        }
-        for (plane, local) in self.world.planes.iter_mut().zip(&self.shape.planes) {
-            plane.normal = self.orientation * local.normal;
-            plane.offset = local.offset + plane.normal.dot(self.position);
+        for (world, local) in self.world.iter_mut().zip(&self.pieces) {
+            for (v, l) in world.vertices.iter_mut().zip(&local.vertices) {
+                *v = self.orientation * *l + self.position;
+            }
+            for (plane, l) in world.planes.iter_mut().zip(&local.planes) {
+                plane.normal = self.orientation * l.normal;
+                plane.offset = l.offset + plane.normal.dot(self.position);
+            }
         }
     }
 

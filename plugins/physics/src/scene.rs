@@ -31,6 +31,12 @@
 //!   - name: wedge
 //!     hull: [[0, 0, 0], [0.02, 0, 0], [0, 0.02, 0], [0, 0, 0.02]]   # instead of box: the convex
 //!     position: [-0.05, 0, 0]  #   hull of these points, relative to position
+//!   - name: arch               # a body that is not convex: convex pieces, each a box or a
+//!     pieces:                  #   hull, placed relative to the body's position
+//!       - { box: [0.01, 0.03, 0.03], position: [-0.02, 0, 0] }
+//!       - { box: [0.01, 0.03, 0.03], position: [0.02, 0, 0] }
+//!       - { box: [0.05, 0.01, 0.03], position: [0, 0.02, 0] }
+//!     position: [0.1, 0.015, 0]
 //! pointer:                     # optional: scenes without one take no pointers
 //!   box: [0.01, 0.01, 0.01]    # each pointer: this solid (or a hull), centred at the grip
 //!   coupling:                  # optional (thesis 4.1.2): the solid is a body of the world,
@@ -98,6 +104,7 @@ struct RawBody {
     #[serde(rename = "box")]
     size: Option<[f64; 3]>,
     hull: Option<Vec<[f64; 3]>>,
+    pieces: Option<Vec<RawPiece>>,
     position: [f64; 3],
     #[serde(default = "identity")]
     orientation: [f64; 4],
@@ -109,6 +116,18 @@ struct RawBody {
     velocity: [f64; 3],
     #[serde(default)]
     spin: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPiece {
+    #[serde(rename = "box")]
+    size: Option<[f64; 3]>,
+    hull: Option<Vec<[f64; 3]>>,
+    #[serde(default)]
+    position: [f64; 3],
+    #[serde(default = "identity")]
+    orientation: [f64; 4],
 }
 
 fn identity() -> [f64; 4] {
@@ -164,14 +183,8 @@ pub struct PenaltyScene {
 /// Most pointers a scene steps.
 pub const MAX_POINTERS: usize = 8;
 
-/// The solid of a `box:` or a `hull:` (exactly one), turned by `orientation` and moved to
-/// `position`.
-fn solid(
-    size: Option<[f64; 3]>,
-    hull: Option<&[[f64; 3]]>,
-    position: [f64; 3],
-    orientation: [f64; 4],
-) -> Result<Polyhedron, String> {
+/// The rotation and translation a file's `orientation` (w, x, y, z) and `position` give.
+fn pose(position: [f64; 3], orientation: [f64; 4]) -> Result<(DQuat, DVec3), String> {
     let [w, x, y, z] = orientation;
     let q = DQuat::from_xyzw(x, y, z, w);
     if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
@@ -180,6 +193,18 @@ fn solid(
     if position.iter().any(|p| !p.is_finite()) {
         return Err("positions must be finite".into());
     }
+    Ok((q.normalize(), DVec3::from(position)))
+}
+
+/// The solid of a `box:` or a `hull:` (exactly one), turned by `orientation` and moved to
+/// `position`.
+fn solid(
+    size: Option<[f64; 3]>,
+    hull: Option<&[[f64; 3]]>,
+    position: [f64; 3],
+    orientation: [f64; 4],
+) -> Result<Polyhedron, String> {
+    let (turn, at) = pose(position, orientation)?;
     let local = match (size, hull) {
         (Some(size), None) => {
             if size.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
@@ -193,7 +218,33 @@ fn solid(
         }
         _ => return Err("give either box: or hull:".into()),
     };
-    Ok(local.transformed(q.normalize(), DVec3::from(position)))
+    Ok(local.transformed(turn, at))
+}
+
+/// The convex pieces of body `b` where the file puts them: its `box:` or `hull:`, or each of
+/// its `pieces:` placed on the body's pose.
+fn body_pieces(b: &RawBody) -> Result<Vec<Polyhedron>, String> {
+    let Some(pieces) = &b.pieces else {
+        return Ok(vec![solid(
+            b.size,
+            b.hull.as_deref(),
+            b.position,
+            b.orientation,
+        )?]);
+    };
+    if b.size.is_some() || b.hull.is_some() || pieces.is_empty() {
+        return Err("give either box:, hull: or a list of pieces:".into());
+    }
+    let (turn, at) = pose(b.position, b.orientation)?;
+    pieces
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let piece = solid(p.size, p.hull.as_deref(), p.position, p.orientation)
+                .map_err(|e| format!("pieces[{k}]: {e}"))?;
+            Ok(piece.transformed(turn, at))
+        })
+        .collect()
 }
 
 impl PenaltyScene {
@@ -229,8 +280,7 @@ impl PenaltyScene {
         }
         let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
         for (i, b) in raw.bodies.iter().enumerate() {
-            let shape = solid(b.size, b.hull.as_deref(), b.position, b.orientation)
-                .map_err(|e| format!("bodies[{i}] {}: {e}", b.name))?;
+            let pieces = body_pieces(b).map_err(|e| format!("bodies[{i}] {}: {e}", b.name))?;
             if !(b.density.is_finite() && b.density > 0.0) {
                 return Err(format!("bodies[{i}] {}: density must be > 0", b.name));
             }
@@ -241,7 +291,7 @@ impl PenaltyScene {
                     b.name
                 ));
             }
-            let mut body = Body::new(&shape, b.density, b.fixed);
+            let mut body = Body::compound(&pieces, b.density, b.fixed);
             (body.velocity, body.spin) = (velocity, spin);
             bodies.push(body);
         }

@@ -97,11 +97,13 @@ pub struct World {
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
-    /// Friction state of pair (i, j), i < j, at i·n + j.
+    /// Index of each body's first piece among all bodies' pieces, and their total at the end.
+    first_piece: Vec<usize>,
+    /// Friction state of the pair of pieces (p, q), p < q, at p·P + q (P pieces in all).
     friction: Vec<FrictionState>,
-    /// Contact normal of pair (i, j) at the last step it was in contact.
+    /// Contact normal of each pair of pieces at the last step it was in contact.
     normals: Vec<DVec3>,
-    /// The step at which pair (i, j) was last in contact.
+    /// The step at which each pair of pieces was last in contact.
     touched: Vec<u64>,
     /// Steps taken.
     steps: u64,
@@ -111,12 +113,17 @@ pub struct World {
     order: Vec<usize>,
 }
 
-fn bounds(p: &Polyhedron) -> (DVec3, DVec3) {
-    p.vertices
+fn bounds(pieces: &[Polyhedron]) -> (DVec3, DVec3) {
+    pieces
         .iter()
+        .flat_map(|p| &p.vertices)
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(*v), hi.max(*v))
         })
+}
+
+fn overlapping((lo_a, hi_a): (DVec3, DVec3), (lo_b, hi_b): (DVec3, DVec3)) -> bool {
+    lo_a.cmple(hi_b).all() && lo_b.cmple(hi_a).all()
 }
 
 /// The axis along which the boxes' centres spread most: sweeping along it leaves the
@@ -143,10 +150,18 @@ impl World {
     /// A world of `bodies`.
     pub fn new(bodies: Vec<Body>, gravity: DVec3, material: Material) -> Self {
         let n = bodies.len();
-        let friction = vec![FrictionState::default(); n * n];
+        let first_piece: Vec<usize> = std::iter::once(0)
+            .chain(bodies.iter().scan(0, |count, b| {
+                *count += b.pieces.len();
+                Some(*count)
+            }))
+            .collect();
+        let pairs = first_piece[n] * first_piece[n];
+        let friction = vec![FrictionState::default(); pairs];
         Self {
-            normals: vec![DVec3::ZERO; n * n],
-            touched: vec![0; n * n],
+            first_piece,
+            normals: vec![DVec3::ZERO; pairs],
+            touched: vec![0; pairs],
             steps: 0,
             boxes: vec![(DVec3::ZERO, DVec3::ZERO); n],
             order: (0..n).collect(),
@@ -161,11 +176,11 @@ impl World {
         }
     }
 
-    /// The contact normal from body `i` to body `j` for their overlap: the area-weighted
-    /// face normals of the intersection, faces of `i` counted as they are and faces of `j`
-    /// reversed.
-    fn contact_normal(&self, j: usize) -> DVec3 {
-        let theirs = &self.bodies[j].world_shape().planes;
+    /// The contact normal from one piece to another, `theirs`, for their overlap: the
+    /// area-weighted face normals of the intersection, faces of the first counted as they
+    /// are and faces of `theirs` reversed.
+    fn contact_normal(&self, theirs: &Polyhedron) -> DVec3 {
+        let theirs = &theirs.planes;
         let mut sum = DVec3::ZERO;
         for (face, plane) in self.overlap.faces.iter().zip(&self.overlap.planes) {
             let v = &self.overlap.vertices;
@@ -210,10 +225,10 @@ impl World {
         }
     }
 
-    /// The contact normal of thesis 5.3.2: move body `j` out of body `i` along the
+    /// The contact normal of thesis 5.3.2: move piece `b` out of piece `a` along the
     /// previous normal until they separate, and take the direction between their closest
     /// points. `None` for a new contact (no previous normal).
-    fn separation_normal(&self, i: usize, j: usize, previous: DVec3) -> Option<DVec3> {
+    fn separation_normal(&self, a: &Polyhedron, b: &Polyhedron, previous: DVec3) -> Option<DVec3> {
         if previous == DVec3::ZERO {
             return None;
         }
@@ -231,11 +246,7 @@ impl World {
                 .map(along)
                 .fold(f64::INFINITY, f64::min);
         let offset = previous * (extent * 1.01 + 1e-9);
-        let (a, b) = (
-            &self.bodies[i].world_shape().vertices,
-            &self.bodies[j].world_shape().vertices,
-        );
-        let (pa, pb) = gjk::closest_points(a, b, offset)?;
+        let (pa, pb) = gjk::closest_points(&a.vertices, &b.vertices, offset)?;
         (pb - pa).try_normalize()
     }
 
@@ -249,7 +260,7 @@ impl World {
         // Broad phase: sort and sweep the bounding boxes along one axis.
         self.steps += 1;
         for (bounding, b) in self.boxes.iter_mut().zip(&self.bodies) {
-            *bounding = bounds(b.world_shape());
+            *bounding = bounds(b.world_pieces());
         }
         let axis = widest_axis(&self.boxes);
         // Insertion sort: the order barely changes between steps, so this is near-linear,
@@ -269,8 +280,7 @@ impl World {
                 if self.boxes[q].0[axis] > self.boxes[p].1[axis] {
                     break;
                 }
-                let ((lo_p, hi_p), (lo_q, hi_q)) = (self.boxes[p], self.boxes[q]);
-                if lo_p.cmple(hi_q).all() && lo_q.cmple(hi_p).all() {
+                if overlapping(self.boxes[p], self.boxes[q]) {
                     self.collide(p.min(q), p.max(q), dt);
                 }
             }
@@ -283,30 +293,50 @@ impl World {
     }
 
     /// Add the contact wrenches between bodies `i` < `j`, whose boxes overlap, for a step
-    /// of `dt`.
+    /// of `dt`: between each piece of one and each piece of the other.
     fn collide(&mut self, i: usize, j: usize, dt: f64) {
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
         if a.fixed && b.fixed && !a.kinematic && !b.kinematic {
             return;
         }
-        let pair = i * self.bodies.len() + j;
+        let single = a.pieces.len() == 1 && b.pieces.len() == 1;
+        for ka in 0..a.pieces.len() {
+            for kb in 0..self.bodies[j].pieces.len() {
+                let (a, b) = (&self.bodies[i], &self.bodies[j]);
+                // Single pieces are their bodies, whose boxes were just found to overlap.
+                if single
+                    || overlapping(
+                        bounds(&a.world_pieces()[ka..=ka]),
+                        bounds(&b.world_pieces()[kb..=kb]),
+                    )
+                {
+                    self.collide_pieces((i, ka), (j, kb), dt);
+                }
+            }
+        }
+    }
+
+    /// Add the contact wrenches between piece `ka` of body `i` and piece `kb` of body `j`.
+    fn collide_pieces(&mut self, (i, ka): (usize, usize), (j, kb): (usize, usize), dt: f64) {
+        let pieces = self.first_piece[self.bodies.len()];
+        let pair = (self.first_piece[i] + ka) * pieces + self.first_piece[j] + kb;
         if self.touched[pair] + 1 != self.steps {
             // A new contact: no previous normal, friction springs not yet attached.
             self.friction[pair].in_contact = false;
             self.normals[pair] = DVec3::ZERO;
         }
-        self.clipper.intersect(
-            self.bodies[i].world_shape(),
-            self.bodies[j].world_shape(),
-            &mut self.overlap,
+        let (piece_a, piece_b) = (
+            &self.bodies[i].world_pieces()[ka],
+            &self.bodies[j].world_pieces()[kb],
         );
+        self.clipper.intersect(piece_a, piece_b, &mut self.overlap);
         if self.overlap.faces.is_empty() {
             return;
         }
         self.touched[pair] = self.steps;
         let normal = self
-            .separation_normal(i, j, self.normals[pair])
-            .unwrap_or_else(|| self.contact_normal(j));
+            .separation_normal(piece_a, piece_b, self.normals[pair])
+            .unwrap_or_else(|| self.contact_normal(piece_b));
         self.normals[pair] = normal;
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
         // Forces on j, pushing it away from i along the normal.

@@ -312,3 +312,106 @@ fn on_its_deepest_point_alone_the_top_spins_on_unbraked() {
     assert!(at_1 - at_3 < 1.0, "braked from {at_1} to {at_3} rad/s");
     assert!(spin > 150.0, "{spin} rad/s");
 }
+
+fn block(half: DVec3, centre: DVec3) -> Polyhedron {
+    Polyhedron::cuboid(half).transformed(DQuat::IDENTITY, centre)
+}
+
+#[test]
+fn a_compound_has_the_mass_properties_of_its_union() {
+    // Two unit cubes side by side are one 2 × 1 × 1 box, turned and moved.
+    let turn = DQuat::from_rotation_y(0.4) * DQuat::from_rotation_x(0.3);
+    let at = DVec3::new(0.3, -1.0, 2.0);
+    let place = |p: Polyhedron| p.transformed(turn, at);
+    let halves = [
+        place(block(DVec3::splat(0.5), DVec3::new(-0.5, 0.0, 0.0))),
+        place(block(DVec3::splat(0.5), DVec3::new(0.5, 0.0, 0.0))),
+    ];
+    let whole = Body::new(
+        &place(block(DVec3::new(1.0, 0.5, 0.5), DVec3::ZERO)),
+        3.0,
+        false,
+    );
+    let compound = Body::compound(&halves, 3.0, false);
+    assert!((compound.mass - whole.mass).abs() < 1e-12);
+    assert!((compound.position - whole.position).length() < 1e-12);
+    let difference = compound.inertia - whole.inertia;
+    assert!(difference.abs().to_cols_array().iter().all(|x| *x < 1e-12));
+    // An L of two boxes, against the box formula m(b² + c²)/12 and parallel axes.
+    let (long, short) = (DVec3::new(1.0, 0.1, 0.1), DVec3::new(0.1, 0.4, 0.1));
+    let (c_long, c_short) = (DVec3::new(0.5, 0.05, 0.05), DVec3::new(0.05, 0.3, 0.05));
+    let l = Body::compound(
+        &[block(long / 2.0, c_long), block(short / 2.0, c_short)],
+        1.0,
+        false,
+    );
+    let box_inertia = |size: DVec3| {
+        let m = size.x * size.y * size.z;
+        let s = size * size;
+        DMat3::from_diagonal(DVec3::new(s.y + s.z, s.x + s.z, s.x + s.y) * m / 12.0)
+    };
+    let (m_long, m_short) = (long.x * long.y * long.z, short.x * short.y * short.z);
+    let centroid = (m_long * c_long + m_short * c_short) / (m_long + m_short);
+    let shifted = |m: f64, r: DVec3| {
+        (DMat3::from_diagonal(DVec3::splat(r.length_squared()))
+            - DMat3::from_cols(r * r.x, r * r.y, r * r.z))
+            * m
+    };
+    let exact = box_inertia(long)
+        + shifted(m_long, c_long - centroid)
+        + box_inertia(short)
+        + shifted(m_short, c_short - centroid);
+    assert!((l.position - centroid).length() < 1e-12);
+    let error = (l.inertia - exact).abs().to_cols_array();
+    assert!(
+        error.iter().all(|x| *x < 1e-12),
+        "{:?} against {exact:?}",
+        l.inertia
+    );
+}
+
+#[test]
+fn an_arch_stands_on_its_legs_over_a_block_it_does_not_touch() {
+    let text = "name: arch
+dt: 0.0001
+material: { stiffness: 1.0e6, damping: 3.0e4, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e6, friction_damping: 3.0e4, slip_speed: 0.001 }
+bodies:
+  - { name: floor, box: [2, 0.5, 2], position: [0, -0.25, 0], fixed: true }
+  - name: arch
+    pieces:
+      - { box: [0.1, 0.3, 0.2], position: [-0.25, -0.05, 0] }
+      - { box: [0.1, 0.3, 0.2], position: [0.25, -0.05, 0] }
+      - { box: [0.6, 0.1, 0.2], position: [0, 0.15, 0] }
+    position: [0, 0.2, 0]
+    density: 500
+  - { name: block, box: [0.2, 0.2, 0.1], position: [0, 0.1, 0], density: 500 }
+";
+    let mut scene = hapticd_physics::scene::PenaltyScene::parse(text, 0).unwrap();
+    for _ in 0..20000 {
+        scene.world.step(scene.dt);
+    }
+    let (arch, block) = (&scene.world.bodies[1], &scene.world.bodies[2]);
+    // Its convex hull would cover the block; its pieces only touch the floor, on two legs.
+    let legs = 2.0 * 0.1 * 0.2;
+    let bottom = arch.world_pieces()[0]
+        .vertices
+        .iter()
+        .map(|v| v.y)
+        .fold(f64::INFINITY, f64::min);
+    let expected = arch.mass * G / (1.0e6 * legs);
+    assert!(
+        ((-bottom) / expected - 1.0).abs() < 0.01,
+        "sunk {} m, expected {expected} m",
+        -bottom
+    );
+    assert!(arch.velocity.length() < 1e-4 && arch.spin.length() < 1e-3);
+    let block_bottom = block.world_pieces()[0]
+        .vertices
+        .iter()
+        .map(|v| v.y)
+        .fold(f64::INFINITY, f64::min);
+    // The block carries its own weight only.
+    let block_expected = block.mass * G / (1.0e6 * 0.2 * 0.1);
+    assert!(((-block_bottom) / block_expected - 1.0).abs() < 0.01);
+}
