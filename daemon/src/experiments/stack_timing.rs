@@ -48,6 +48,7 @@ pub fn stack(n: usize) -> World {
                 slip_speed: 1e-3,
             },
             model: ContactModel::Volume,
+            scaling: None,
         },
     );
     for _ in 0..200 {

@@ -77,6 +77,7 @@ impl Rig {
                     slip_speed: 1e-3,
                 },
                 model: ContactModel::Volume,
+                scaling: None,
             },
         );
         // Settle on the floor before pulling.

@@ -16,6 +16,9 @@
 //!   model: volume              # or point: the deepest point only, for comparison
 //!   point_stiffness: 1000      # N/m and N·s/m of the point model (default: the numbers of
 //!   point_damping: 50          #   stiffness and damping, which the point model reads per point)
+//!   scaling: { spring: 0.05, damper: 0.4 }   # optional: instead of the numbers above, each
+//!                              #   contact a spring 2·spring·m/dt² and damper damper·m/dt for
+//!                              #   its pair's reduced mass m (stable for any masses)
 //! bodies:
 //!   - name: floor
 //!     box: [0.3, 0.02, 0.3]    # edge lengths, metres
@@ -52,7 +55,7 @@ use crate::contact::Wrench;
 use crate::coupling::{Coupling, Grip};
 use crate::friction::FrictionParameters;
 use crate::polyhedron::Polyhedron;
-use crate::world::{ContactModel, Material, World};
+use crate::world::{ContactModel, Material, Scaling, World};
 use glam::{DQuat, DVec3};
 use serde::Deserialize;
 
@@ -86,6 +89,14 @@ struct RawMaterial {
     model: RawModel,
     point_stiffness: Option<f64>,
     point_damping: Option<f64>,
+    scaling: Option<RawScaling>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScaling {
+    spring: f64,
+    damper: f64,
 }
 
 #[derive(Deserialize, Default, Clone, Copy)]
@@ -342,7 +353,16 @@ impl PenaltyScene {
                 slip_speed: m.slip_speed,
             },
             model: ContactModel::Volume,
+            scaling: m.scaling.as_ref().map(|s| Scaling {
+                spring: s.spring,
+                damper: s.damper,
+            }),
         };
+        if let Some(s) = &material.scaling
+            && !(s.spring.is_finite() && s.spring > 0.0 && s.damper.is_finite() && s.damper >= 0.0)
+        {
+            return Err("material.scaling: spring must be > 0 and damper ≥ 0, both finite".into());
+        }
         let materials = [
             material,
             Material {
@@ -458,6 +478,10 @@ mod tests {
         assert!(PenaltyScene::parse(&good.replacen("dt: ", "dt: -", 1), 1).is_err());
         assert!(PenaltyScene::parse(&format!("{good}\nspeed: 3\n"), 1).is_err());
         assert!(PenaltyScene::parse(&good.replacen("density: 500", "density: 0", 1), 1).is_err());
+        let scaled = "material:\n  scaling: { spring: 0.05, damper: 0.4 }\n";
+        assert!(PenaltyScene::parse(&good.replacen("material:\n", scaled, 1), 1).is_ok());
+        let unstable = "material:\n  scaling: { spring: 0, damper: 0.4 }\n";
+        assert!(PenaltyScene::parse(&good.replacen("material:\n", unstable, 1), 1).is_err());
     }
 }
 

@@ -22,6 +22,45 @@ pub struct Material {
     pub friction: FrictionParameters,
     /// How contact forces are computed.
     pub model: ContactModel,
+    /// When set, each contact's stiffness and damping follow from its pair's reduced mass
+    /// and the step instead (the numbers above are then unused).
+    pub scaling: Option<Scaling>,
+}
+
+/// Stiffness and damping set per contact from the pair's reduced mass m along the
+/// direction and the step dt, as Springhead does, so that any pair stays inside the explicit
+/// integrator's stability limit: the contact is a spring of 2·`spring`·m/dt² (N/m) on its
+/// mean depth and a damper of `damper`·m/dt (N·s/m), spread over the contact area; friction
+/// springs likewise with the tangential reduced mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scaling {
+    /// Spring ratio r_s (the spring alone would oscillate at √(2·r_s)/dt rad/s).
+    pub spring: f64,
+    /// Damper ratio r_d.
+    pub damper: f64,
+}
+
+impl Scaling {
+    /// `material` with the stiffness and damping for a contact of `area` (1 for the point
+    /// model) whose bodies move 1/m per newton along the normal (`normal_mobility`) and
+    /// along the contact (`tangent_mobility`). Pairs contacts cannot move keep `material`.
+    fn apply(
+        &self,
+        material: &mut Material,
+        area: f64,
+        (normal_mobility, tangent_mobility): (f64, f64),
+        dt: f64,
+    ) {
+        if normal_mobility <= 0.0 || tangent_mobility <= 0.0 || area <= 0.0 {
+            return;
+        }
+        let spring = |mobility: f64| 2.0 * self.spring / (mobility * dt * dt * area);
+        let damper = |mobility: f64| self.damper / (mobility * dt * area);
+        material.stiffness = spring(normal_mobility);
+        material.damping = damper(normal_mobility);
+        material.friction.stiffness = spring(tangent_mobility);
+        material.friction.damping = damper(tangent_mobility);
+    }
 }
 
 /// How contact forces are computed.
@@ -352,7 +391,11 @@ impl World {
         let normal_mobility = inverse_mass(normal);
         let (t1, t2) = normal.any_orthonormal_pair();
         let tangent_mobility = inverse_mass(t1).max(inverse_mass(t2));
+        let mobility = (normal_mobility, tangent_mobility);
         if m.model == ContactModel::Point {
+            if let Some(scaling) = m.scaling {
+                scaling.apply(&mut m, 1.0, mobility, dt);
+            }
             m.damping = stable(m.damping, 1.0, normal_mobility);
             let slip_per_newton = dt * tangent_mobility;
             let on_j = point_contact(&self.overlap, normal, &m, slip_per_newton, |x| {
@@ -364,6 +407,9 @@ impl World {
         // The contact plane passes through the overlap.
         let (volume, centre) = volume_and_centroid(&self.overlap);
         let patch = ContactPatch::of(&self.overlap, normal);
+        if let Some(scaling) = m.scaling {
+            scaling.apply(&mut m, patch.area, mobility, dt);
+        }
         m.damping = stable(m.damping, patch.area, normal_mobility);
         m.friction.damping = stable(m.friction.damping, patch.area, tangent_mobility);
         // Sliding friction must fade out over more than the speed one step of it

@@ -69,6 +69,7 @@ fn steps_with_established_contacts_do_not_allocate() {
                 slip_speed: 1e-3,
             },
             model: ContactModel::Volume,
+            scaling: None,
         },
     );
     world.bodies[3].velocity.x = 0.5;

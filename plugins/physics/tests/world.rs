@@ -39,6 +39,7 @@ fn cube_on_floor(x: f64, z: f64, (mu0, mu): (f64, f64), gravity: DVec3) -> World
                 slip_speed: 1e-3,
             },
             model: ContactModel::Volume,
+            scaling: None,
         },
     )
 }
@@ -170,6 +171,7 @@ fn late_spin(model: ContactModel) -> f64 {
                 slip_speed: 1e-3,
             },
             model,
+            scaling: None,
         },
     );
     let mut spin: f64 = 0.0;
@@ -216,6 +218,7 @@ fn cube_drop(model: ContactModel, seconds: f64) -> (Vec<f64>, f64) {
                 slip_speed: 1e-3,
             },
             model,
+            scaling: None,
         },
     );
     let mut momentum = Vec::new();
@@ -414,4 +417,41 @@ bodies:
     // The block carries its own weight only.
     let block_expected = block.mass * G / (1.0e6 * 0.2 * 0.1);
     assert!(((-block_bottom) / block_expected - 1.0).abs() < 0.01);
+}
+
+#[test]
+fn scaled_by_reduced_mass_and_step_light_and_heavy_boxes_sink_alike() {
+    // Stiffness 2·r_s·m/dt² on the mean depth carries m·g at depth g·dt²/(2·r_s), whatever m.
+    let (dt, r_s) = (1e-3, 0.05);
+    let text = format!(
+        "name: scaled
+dt: {dt}
+material: {{ stiffness: 1, damping: 1, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1, friction_damping: 1, slip_speed: 0.001,
+            scaling: {{ spring: {r_s}, damper: 0.5 }} }}
+bodies:
+  - {{ name: floor, box: [2, 0.5, 2], position: [0, -0.25, 0], fixed: true }}
+  - {{ name: light, box: [0.1, 0.1, 0.1], position: [-0.3, 0.05, 0], density: 100 }}
+  - {{ name: heavy, box: [0.1, 0.1, 0.1], position: [0.3, 0.05, 0], density: 10000 }}
+"
+    );
+    let mut scene = hapticd_physics::scene::PenaltyScene::parse(&text, 0).unwrap();
+    for _ in 0..3000 {
+        scene.world.step(dt);
+    }
+    let expected = G * dt * dt / (2.0 * r_s);
+    for body in &scene.world.bodies[1..] {
+        let bottom = body.world_pieces()[0]
+            .vertices
+            .iter()
+            .map(|v| v.y)
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (-bottom / expected - 1.0).abs() < 0.01,
+            "{} kg sank {} m, expected {expected} m",
+            body.mass,
+            -bottom
+        );
+        assert!(body.velocity.length() < 1e-6 && body.spin.length() < 1e-6);
+    }
 }
