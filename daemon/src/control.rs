@@ -326,8 +326,8 @@ pub fn catalog(config: &Config, mechanism_dirs: Option<&[PathBuf]>) -> Catalog {
     }
 }
 
-/// Names of the mechanisms `catalog` finds; an error listing every file that failed.
-fn scan_mechanisms(catalog: &Catalog) -> Result<Vec<String>, String> {
+/// Names of the mechanisms `catalog` finds, and why each file that failed did.
+fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<String>) {
     let mut names = Vec::new();
     let mut problems = Vec::new();
     for entry in catalog.entries() {
@@ -337,11 +337,7 @@ fn scan_mechanisms(catalog: &Catalog) -> Result<Vec<String>, String> {
             Err(e) => problems.push(e.to_string()),
         }
     }
-    if problems.is_empty() {
-        Ok(names)
-    } else {
-        Err(problems.join("\n"))
-    }
+    (names, problems)
 }
 
 impl Daemon {
@@ -353,13 +349,11 @@ impl Daemon {
         active_scene: String,
         devices: Vec<Arc<DeviceHandle>>,
     ) -> Self {
-        let catalog = catalog(&config, mechanism_dirs.as_deref());
-        let mechanisms = catalog
-            .entries()
-            .into_iter()
-            .filter(|e| !e.shadowed)
-            .filter_map(|e| e.mechanism.ok().map(|m| m.name))
-            .collect();
+        // At start a broken file only hides its own mechanism (the daemon runs regardless).
+        let (mechanisms, problems) = scan_mechanisms(&catalog(&config, mechanism_dirs.as_deref()));
+        for problem in problems {
+            tracing::warn!("{problem}");
+        }
         Self {
             config_path,
             mechanism_dirs,
@@ -422,8 +416,11 @@ impl Daemon {
             Some(path) => Config::load(path).map_err(Error::InvalidConfiguration)?,
             None => lock(&self.inner).config.clone(),
         };
-        let mechanisms = scan_mechanisms(&catalog(&config, self.mechanism_dirs.as_deref()))
-            .map_err(Error::InvalidConfiguration)?;
+        let (mechanisms, problems) =
+            scan_mechanisms(&catalog(&config, self.mechanism_dirs.as_deref()));
+        if !problems.is_empty() {
+            return Err(Error::InvalidConfiguration(problems.join("\n")));
+        }
         let mut inner = lock(&self.inner);
         inner.config = config;
         inner.mechanisms = mechanisms;

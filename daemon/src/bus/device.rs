@@ -82,11 +82,11 @@ pub(super) async fn announce(
     let device = iface.get().await;
     let now = device.device.telemetry();
     let emitter = iface.signal_emitter();
-    let changed = |f: &dyn Fn(&Telemetry) -> (bool, u32)| last.is_none_or(|l| f(&l) != f(&now));
-    if changed(&|t| (state_name(t) == "running", t.frame.state as u32)) {
+    if last.is_none_or(|l| state_name(&l) != state_name(&now)) {
         report(device.state_changed(emitter).await);
     }
-    if changed(&|t| (t.frame.calibrated, t.frame.calibrations)) {
+    let calibration = |t: &Telemetry| (t.frame.calibrated, t.frame.calibrations);
+    if last.is_none_or(|l| calibration(&l) != calibration(&now)) {
         report(device.calibrated_changed(emitter).await);
         report(device.calibration_offsets_changed(emitter).await);
     }
