@@ -852,3 +852,25 @@ fn the_interface_files_are_what_the_daemon_introspects() {
         assert!(live.contains("Take the counter offsets now") || interface != DEVICE[2]);
     }
 }
+
+#[test]
+fn a_damaged_state_file_is_kept_aside_and_the_device_starts_afresh() {
+    let dir = scratch("damaged");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    std::fs::create_dir_all(&setup.state).unwrap();
+    let file = setup.state.join("device-sim.json");
+    let aside = setup.state.join("device-sim.json.corrupt");
+    for damaged in [
+        "{\"parameters\": {\"stiffness\": 3000",
+        "{\"parameters\": {\"stiffness\": 1e12}}",
+    ] {
+        std::fs::write(&file, damaged).unwrap();
+        let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+        assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "{damaged}");
+        assert_eq!(std::fs::read_to_string(&aside).unwrap(), damaged);
+        assert!(!file.exists());
+        assert!(daemon.log().contains("starting afresh"), "{}", daemon.log());
+        daemon.stop();
+    }
+}

@@ -164,24 +164,7 @@ impl Overrides {
         value: f64,
         defaults: &Parameters,
     ) -> Result<Overrides, ParameterError> {
-        let (low, high) = name.range();
-        let what = name.as_str();
-        if !value.is_finite() {
-            return Err(ParameterError::NotFinite(format!(
-                "{what} must be a finite number, not {value}"
-            )));
-        }
-        let low_ok = if name.zero_allowed() {
-            value >= low
-        } else {
-            value > low
-        };
-        if !low_ok || value > high {
-            let open = if name.zero_allowed() { '[' } else { '(' };
-            return Err(ParameterError::OutOfRange(format!(
-                "{what} must be in {open}{low}, {high}], not {value}"
-            )));
-        }
+        check_value(name, value)?;
         let mut next = *self;
         *next.slot(name) = Some(value);
         let p = next.resolve(defaults);
@@ -210,6 +193,14 @@ impl Overrides {
         }
     }
 
+    /// Whether every stored value is finite and in its range on its own.
+    pub fn check_ranges(&self) -> Result<(), ParameterError> {
+        Name::ALL
+            .iter()
+            .filter_map(|&name| Some((name, self.get(name)?)))
+            .try_for_each(|(name, value)| check_value(name, value))
+    }
+
     /// Whether every stored value is one [`Overrides::with`] would accept (a state file may
     /// have been edited by hand).
     pub fn check(&self, defaults: &Parameters) -> Result<(), ParameterError> {
@@ -221,6 +212,29 @@ impl Overrides {
         }
         Ok(())
     }
+}
+
+/// Whether `value` is finite and in the range of `name`.
+fn check_value(name: Name, value: f64) -> Result<(), ParameterError> {
+    let (low, high) = name.range();
+    let what = name.as_str();
+    if !value.is_finite() {
+        return Err(ParameterError::NotFinite(format!(
+            "{what} must be a finite number, not {value}"
+        )));
+    }
+    let low_ok = if name.zero_allowed() {
+        value >= low
+    } else {
+        value > low
+    };
+    if !low_ok || value > high {
+        let open = if name.zero_allowed() { '[' } else { '(' };
+        return Err(ParameterError::OutOfRange(format!(
+            "{what} must be in {open}{low}, {high}], not {value}"
+        )));
+    }
+    Ok(())
 }
 
 /// The value of `name` in `parameters` (the rate is not a rendering parameter).

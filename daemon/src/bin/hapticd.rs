@@ -126,19 +126,32 @@ fn sh4_transport<L: Link + 'static>(
     }
 }
 
-/// The saved state of `identity`; a file that cannot be parsed is kept aside (never
-/// overwritten) and the device starts afresh.
+/// Keep the state file of `identity` aside (as `….json.corrupt`) because of `why`, so the
+/// device starts afresh without losing what the file held.
+fn set_aside(dir: &StateDir, identity: &str, why: &str) {
+    let file = dir.device_file(identity);
+    let aside = file.with_extension("json.corrupt");
+    match std::fs::rename(&file, &aside) {
+        Ok(()) => tracing::error!("{why}; kept as {} and starting afresh", aside.display()),
+        Err(_) => tracing::error!("{why}; starting afresh"),
+    }
+}
+
+/// The saved state of `identity`; a file that cannot be parsed, or holds a value out of
+/// range, is set aside and the device starts afresh.
 fn load_record(state_dir: Option<&StateDir>, identity: &str) -> DeviceRecord {
     let Some(dir) = state_dir else {
         return DeviceRecord::default();
     };
-    dir.load(identity).unwrap_or_else(|e| {
-        let file = dir.device_file(identity);
-        let aside = file.with_extension("json.corrupt");
-        match std::fs::rename(&file, &aside) {
-            Ok(()) => tracing::error!("{e}; kept as {} and starting afresh", aside.display()),
-            Err(_) => tracing::error!("{e}; starting afresh"),
-        }
+    let checked = dir.load(identity).and_then(|record| {
+        record
+            .parameters
+            .check_ranges()
+            .map(|()| record)
+            .map_err(|e| format!("{}: {e}", dir.device_file(identity).display()))
+    });
+    checked.unwrap_or_else(|why| {
+        set_aside(dir, identity, &why);
         DeviceRecord::default()
     })
 }
@@ -313,7 +326,7 @@ fn run(cli: Cli) -> Result<(), String> {
         .clone()
         .map(StateDir::new)
         .or_else(StateDir::from_env);
-    let record = load_record(state_dir.as_ref(), &identity);
+    let mut record = load_record(state_dir.as_ref(), &identity);
     // The command line first, then what the user set over D-Bus, then the configuration.
     let mechanism_name = match (&cli.sim, &record.mechanism, &usb) {
         (Some(sim), _, _) => sim.clone(),
@@ -377,10 +390,17 @@ fn run(cli: Cli) -> Result<(), String> {
         max_force: config.safety.max_force,
         max_torque: config.safety.max_torque,
     };
-    let defaults = match record.parameters.check(&defaults) {
-        Ok(()) => defaults,
-        Err(e) => return Err(format!("saved parameters of {identity}: {e}")),
-    };
+    if let Err(e) = record.parameters.check(&defaults)
+        && let Some(dir) = &state_dir
+    {
+        // Each value is in range, but together with this scene's they are not (μ > μ0).
+        set_aside(
+            dir,
+            &identity,
+            &format!("saved parameters of {identity}: {e}"),
+        );
+        record.parameters = Default::default();
+    }
     let settings = LoopSettings {
         safety: SafetyLimits {
             max_force: config.safety.max_force,
