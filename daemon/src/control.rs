@@ -109,8 +109,8 @@ pub struct DeviceSetup {
 }
 
 impl DeviceHandle {
-    /// A handle sending commands through `commands`. The loop should already have been
-    /// given [`DeviceHandle::parameters`].
+    /// A handle sending commands through `commands`; the loop should already render with
+    /// the record's parameters over the defaults.
     pub fn new(setup: DeviceSetup, commands: spsc::Producer<LoopCommand>) -> Self {
         Self {
             identity: setup.identity,
@@ -160,12 +160,6 @@ impl DeviceHandle {
         *lock(&self.telemetry)
     }
 
-    /// The values rendered with.
-    pub fn parameters(&self) -> Parameters {
-        let guard = lock(&self.record);
-        guard.0.parameters.resolve(&guard.1)
-    }
-
     /// The value of `name` in force (the configured rate for [`Name::Rate`]).
     pub fn parameter(&self, name: Name) -> f64 {
         let guard = lock(&self.record);
@@ -186,6 +180,16 @@ impl DeviceHandle {
             Some(dir) => dir.save(&self.identity, record).map_err(Error::NotSaved),
             None => Ok(()),
         }
+    }
+
+    /// Change the record by `change`, save it, and only then keep it.
+    fn remember(&self, change: impl FnOnce(&mut DeviceRecord)) -> Result<(), Error> {
+        let mut guard = lock(&self.record);
+        let mut next = guard.0.clone();
+        change(&mut next);
+        self.save(&next)?;
+        guard.0 = next;
+        Ok(())
     }
 
     /// Check, persist and apply `value` for `name`. The rate applies at the next start.
@@ -223,9 +227,9 @@ impl DeviceHandle {
         }
     }
 
-    /// Take the counter offsets now (the grips must be at their calibration poses), persist
-    /// them, and return them.
-    pub fn calibrate(&self) -> Result<Vec<f64>, Error> {
+    /// Take the counter offsets now (the grips must be at their calibration poses) and
+    /// persist them.
+    pub fn calibrate(&self) -> Result<(), Error> {
         let before = self.telemetry().frame;
         if before.state == DeviceState::Disconnected {
             return Err(Error::Disconnected(format!(
@@ -235,28 +239,20 @@ impl DeviceHandle {
         }
         self.send(LoopCommand::Calibrate)?;
         let frame = self.wait_for("calibrate", |f| f.calibrations > before.calibrations)?;
-        let offsets = frame.offsets[..frame.strings].to_vec();
-        let mut guard = lock(&self.record);
-        let next = DeviceRecord {
-            calibration: Some(Calibration {
+        self.remember(|record| {
+            record.calibration = Some(Calibration {
                 mechanism: self.mechanism.clone(),
-                offsets: offsets.clone(),
-            }),
-            ..guard.0.clone()
-        };
-        self.save(&next)?;
-        guard.0 = next;
-        Ok(offsets)
+                offsets: frame.offsets[..frame.strings].to_vec(),
+            });
+        })
     }
 
     /// Forget the scene's contact state and let forces come back; an error when the device
     /// is still faulted afterwards (a failed plugin scene stays failed until replaced).
     pub fn reset_fault(&self) -> Result<(), Error> {
         self.send(LoopCommand::ResetFault)?;
-        let settle = Instant::now() + Duration::from_millis(300);
-        while Instant::now() < settle {
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        // Long enough for a scene that still fails to fault the device again.
+        std::thread::sleep(Duration::from_millis(300));
         match self.telemetry().frame.state {
             DeviceState::Fault => Err(Error::StillFaulted(
                 "the scene keeps failing; switch to another scene".into(),
@@ -270,12 +266,14 @@ impl DeviceHandle {
     pub fn switch_scene(&self, scene: Box<dyn Scene>) -> Result<(), Error> {
         let before = self.telemetry().frame.scene_switches;
         let mut guard = lock(&self.record);
+        let mut defaults = guard.1;
         if let Some(proxy) = scene.proxy() {
-            guard.1.proxy = proxy;
+            defaults.proxy = proxy;
         }
-        let parameters = guard.0.parameters.resolve(&guard.1);
+        let parameters = guard.0.parameters.resolve(&defaults);
         self.send(LoopCommand::SwitchScene(scene))?;
         self.send(LoopCommand::Tune(parameters))?;
+        guard.1 = defaults;
         drop(guard);
         self.wait_for("swap the scene", |f| f.scene_switches > before)?;
         Ok(())
@@ -283,14 +281,7 @@ impl DeviceHandle {
 
     /// Bind `mechanism` to this device from its next start.
     pub fn bind_mechanism(&self, mechanism: String) -> Result<(), Error> {
-        let mut guard = lock(&self.record);
-        let next = DeviceRecord {
-            mechanism: Some(mechanism),
-            ..guard.0.clone()
-        };
-        self.save(&next)?;
-        guard.0 = next;
-        Ok(())
+        self.remember(|record| record.mechanism = Some(mechanism))
     }
 
     /// Pointers of this device at rest, for building scenes.

@@ -167,13 +167,7 @@ impl Overrides {
         check_value(name, value)?;
         let mut next = *self;
         *next.slot(name) = Some(value);
-        let p = next.resolve(defaults);
-        if p.proxy.dynamic_friction > p.proxy.static_friction {
-            return Err(ParameterError::OutOfRange(format!(
-                "DynamicFriction ({}) must not exceed StaticFriction ({})",
-                p.proxy.dynamic_friction, p.proxy.static_friction
-            )));
-        }
+        check_consistency(&next.resolve(defaults))?;
         Ok(next)
     }
 
@@ -201,16 +195,11 @@ impl Overrides {
             .try_for_each(|(name, value)| check_value(name, value))
     }
 
-    /// Whether every stored value is one [`Overrides::with`] would accept (a state file may
-    /// have been edited by hand).
+    /// Whether every stored value is in range and the values in force over `defaults` agree
+    /// with each other (a state file may have been edited by hand, or the scene changed).
     pub fn check(&self, defaults: &Parameters) -> Result<(), ParameterError> {
-        let mut rebuilt = Overrides::default();
-        for name in Name::ALL {
-            if let Some(value) = self.get(name) {
-                rebuilt = rebuilt.with(name, value, defaults)?;
-            }
-        }
-        Ok(())
+        self.check_ranges()?;
+        check_consistency(&self.resolve(defaults))
     }
 }
 
@@ -232,6 +221,17 @@ fn check_value(name: Name, value: f64) -> Result<(), ParameterError> {
         let open = if name.zero_allowed() { '[' } else { '(' };
         return Err(ParameterError::OutOfRange(format!(
             "{what} must be in {open}{low}, {high}], not {value}"
+        )));
+    }
+    Ok(())
+}
+
+/// Whether the values in force agree with each other: μ may not exceed μ0.
+fn check_consistency(p: &Parameters) -> Result<(), ParameterError> {
+    if p.proxy.dynamic_friction > p.proxy.static_friction {
+        return Err(ParameterError::OutOfRange(format!(
+            "DynamicFriction ({}) must not exceed StaticFriction ({})",
+            p.proxy.dynamic_friction, p.proxy.static_friction
         )));
     }
     Ok(())
@@ -299,5 +299,14 @@ mod tests {
         assert_eq!(back, set);
         let edited: Overrides = serde_json::from_str(r#"{"max_force":1e9}"#).unwrap();
         assert!(edited.check(&d).is_err());
+        // Lower friction, set μ first then μ0: consistent as a whole, whatever the order.
+        let lower = Overrides::default()
+            .with(Name::DynamicFriction, 0.05, &d)
+            .and_then(|o| o.with(Name::StaticFriction, 0.1, &d))
+            .unwrap();
+        assert!(lower.check(&d).is_ok());
+        let crossed: Overrides =
+            serde_json::from_str(r#"{"static_friction":0.1,"dynamic_friction":0.15}"#).unwrap();
+        assert!(crossed.check(&d).is_err());
     }
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use zbus::interface;
 use zbus::object_server::SignalEmitter;
 
-use super::manager::{off_thread, report};
+use super::{Workers, report};
 use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
 use crate::parameters::Name;
 use crate::runtime::haptic_loop::DeviceState;
@@ -15,17 +15,24 @@ use crate::runtime::haptic_loop::DeviceState;
 pub struct DeviceInterface {
     daemon: Arc<Daemon>,
     device: Arc<DeviceHandle>,
+    workers: Arc<Workers>,
 }
 
 impl DeviceInterface {
-    /// The interface of `device`.
-    pub fn new(daemon: Arc<Daemon>, device: Arc<DeviceHandle>) -> Self {
-        Self { daemon, device }
+    /// The interface of `device`, running blocking requests on `workers`.
+    pub fn new(daemon: Arc<Daemon>, device: Arc<DeviceHandle>, workers: Arc<Workers>) -> Self {
+        Self {
+            daemon,
+            device,
+            workers,
+        }
     }
 
     async fn set(&self, name: Name, value: f64) -> Result<(), Error> {
         let device = self.device.clone();
-        off_thread(move || device.set_parameter(name, value)).await
+        self.workers
+            .run(move || device.set_parameter(name, value))
+            .await
     }
 }
 
@@ -277,7 +284,7 @@ impl DeviceInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
     ) -> Result<(), Error> {
         let device = self.device.clone();
-        off_thread(move || device.calibrate()).await?;
+        self.workers.run(move || device.calibrate()).await?;
         report(self.calibrated_changed(&emitter).await);
         report(self.calibration_offsets_changed(&emitter).await);
         Ok(())
@@ -286,7 +293,7 @@ impl DeviceInterface {
     /// Forget the scene's contact state and let the forces come back after a fault.
     async fn reset_fault(&self) -> Result<(), Error> {
         let device = self.device.clone();
-        off_thread(move || device.reset_fault()).await
+        self.workers.run(move || device.reset_fault()).await
     }
 
     /// Drive this device with another installed mechanism from the next start (see
@@ -297,7 +304,9 @@ impl DeviceInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
     ) -> Result<(), Error> {
         let (daemon, device) = (self.daemon.clone(), self.device.clone());
-        off_thread(move || daemon.bind_mechanism(&device, &mechanism)).await?;
+        self.workers
+            .run(move || daemon.bind_mechanism(&device, &mechanism))
+            .await?;
         report(self.bound_mechanism_changed(&emitter).await);
         Ok(())
     }

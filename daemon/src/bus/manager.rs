@@ -5,33 +5,20 @@ use std::sync::Arc;
 use zbus::interface;
 use zbus::object_server::SignalEmitter;
 
-use super::{API_VERSION, device_path};
+use super::{API_VERSION, Workers, device_path, report};
 use crate::control::{Daemon, Error};
 
 /// The daemon as a whole: its devices, scenes and mechanisms.
 pub struct ManagerInterface {
     daemon: Arc<Daemon>,
+    workers: Arc<Workers>,
 }
 
 impl ManagerInterface {
-    /// The manager of `daemon`.
-    pub fn new(daemon: Arc<Daemon>) -> Self {
-        Self { daemon }
+    /// The manager of `daemon`, running blocking requests on `workers`.
+    pub fn new(daemon: Arc<Daemon>, workers: Arc<Workers>) -> Self {
+        Self { daemon, workers }
     }
-}
-
-/// Log a PropertiesChanged that could not be sent: the change itself stands.
-pub(super) fn report(result: zbus::Result<()>) {
-    if let Err(e) = result {
-        tracing::warn!("cannot announce a property change: {e}");
-    }
-}
-
-/// Run blocking control-plane work on a worker thread.
-pub(super) async fn off_thread<T: Send + 'static>(
-    work: impl FnOnce() -> Result<T, Error> + Send + 'static,
-) -> Result<T, Error> {
-    zruntime::unblock(work).await
 }
 
 /// The hapticd daemon: its devices, the scenes it can render and the mechanisms installed.
@@ -84,7 +71,9 @@ impl ManagerInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
     ) -> Result<(), Error> {
         let daemon = self.daemon.clone();
-        off_thread(move || daemon.switch_scene(&scene)).await?;
+        self.workers
+            .run(move || daemon.switch_scene(&scene))
+            .await?;
         report(self.active_scene_changed(&emitter).await);
         Ok(())
     }
@@ -96,7 +85,7 @@ impl ManagerInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
     ) -> Result<(), Error> {
         let daemon = self.daemon.clone();
-        off_thread(move || daemon.reload()).await?;
+        self.workers.run(move || daemon.reload()).await?;
         report(self.mechanisms_changed(&emitter).await);
         report(self.scenes_changed(&emitter).await);
         Ok(())

@@ -2,13 +2,14 @@
 //! the system bus (or the session bus, or any address, for development and tests).
 //!
 //! The service runs on its own thread. Requests that block (waiting for the haptic loop,
-//! writing state files) run on zbus's worker threads, so a slow one never holds up the
+//! writing state files) run on a few worker threads, so a slow one never holds up the
 //! others; the haptic loop only ever sees the commands they push into its ring. Ten times a
 //! second the thread compares each device's snapshot with what it last announced and emits
 //! PropertiesChanged for whatever changed.
 
 mod device;
 mod manager;
+mod workers;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -17,6 +18,7 @@ use std::time::Duration;
 
 pub use device::DeviceInterface;
 pub use manager::ManagerInterface;
+pub use workers::Workers;
 
 use crate::control::Daemon;
 
@@ -28,6 +30,13 @@ pub const MANAGER_PATH: &str = "/org/hapticd/Hapticd1";
 pub const API_VERSION: u32 = 1;
 /// How often telemetry is announced.
 const TELEMETRY_PERIOD: Duration = Duration::from_millis(100);
+
+/// Log a PropertiesChanged that could not be sent: the change itself stands.
+fn report(result: zbus::Result<()>) {
+    if let Err(e) = result {
+        tracing::warn!("cannot announce a property change: {e}");
+    }
+}
 
 /// The object path of device `index`.
 pub fn device_path(index: usize) -> String {
@@ -83,11 +92,15 @@ async fn connect(bus: &Bus, daemon: &Arc<Daemon>) -> zbus::Result<zbus::Connecti
         Bus::Session => zbus::connection::Builder::session(),
         Bus::Address(a) => zbus::connection::Builder::address(a.as_str()),
     };
-    let mut builder = builder.serve_at(MANAGER_PATH, ManagerInterface::new(daemon.clone()));
+    let workers = Arc::new(Workers::start().map_err(zbus::Error::from)?);
+    let mut builder = builder.serve_at(
+        MANAGER_PATH,
+        ManagerInterface::new(daemon.clone(), workers.clone()),
+    );
     for (index, device) in daemon.devices().iter().enumerate() {
         builder = builder.serve_at(
             device_path(index),
-            DeviceInterface::new(daemon.clone(), device.clone()),
+            DeviceInterface::new(daemon.clone(), device.clone(), workers.clone()),
         );
     }
     builder.name(BUS_NAME).build().await

@@ -288,7 +288,7 @@ impl HapticLoop {
 
     /// Swap in the incoming scene once every effector's force is down to zero.
     fn swap_scene_when_quiet(&mut self) {
-        if self.incoming.is_none() || self.effectors.iter().any(|e| e.guard.gain() > 0.0) {
+        if self.effectors.iter().any(|e| e.guard.gain() > 0.0) {
             return;
         }
         let Some(mut scene) = self.incoming.take() else {
@@ -349,12 +349,12 @@ impl HapticLoop {
             self.wrenches.fill([0.0; 6]);
         }
         let mut all_finite = true;
+        let switching = self.incoming.is_some();
         for (index, e) in self.effectors.iter_mut().enumerate() {
             let mut wrench = self.wrenches[index];
             let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
             let force = e.passivity.filter(force, e.velocity, dt);
             wrench[..3].copy_from_slice(&force.to_array());
-            let switching = self.incoming.is_some();
             all_finite &= e
                 .guard
                 .apply(&mut wrench, connected && scene_ok && !switching, dt);

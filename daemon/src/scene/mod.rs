@@ -54,7 +54,8 @@ pub trait Scene: Send {
     /// them).
     fn set_proxy(&mut self, _parameters: &ProxyParameters) {}
 
-    /// [main] The proxy parameters the scene was described with, if it renders through one.
+    /// [main] The proxy parameters the scene renders with, if it renders through a proxy
+    /// (before the loop tunes it: those its file gives).
     fn proxy(&self) -> Option<ProxyParameters> {
         None
     }
