@@ -3,7 +3,15 @@
 
 mod support;
 
-use hapticd::runtime::haptic_loop::{DeviceState, HapticLoop};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+
+use hapticd::device::transport::{Link, Sh4Transport, TransportError};
+use hapticd::runtime::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
+use hapticd::scene::Pointer;
+use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd::sim::hand::Script;
+use hapticd::sim::{SimParameters, SimulatedBoard};
 use support::{shipped, simulated_loop};
 
 const DT: f64 = 1e-3;
@@ -66,6 +74,108 @@ fn an_unplugged_device_faults_to_zero_and_resumes() {
     let (state, _, force) = states[1999];
     assert_eq!(state, DeviceState::Running);
     assert!(force > 3.0, "{force}");
+}
+
+/// A USB cable between the loop and a simulated amplifier: once pulled, every transfer fails
+/// as an unplugged amplifier's do, for good; a new cable reaches the same board, whose
+/// counters went on counting.
+struct Cable {
+    board: Arc<Mutex<SimulatedBoard>>,
+    pulled: Arc<AtomicBool>,
+}
+
+impl Cable {
+    fn board(&self) -> Result<std::sync::MutexGuard<'_, SimulatedBoard>, TransportError> {
+        if self.pulled.load(Ordering::Relaxed) {
+            return Err(TransportError::Disconnected);
+        }
+        Ok(self.board.lock().unwrap())
+    }
+}
+
+impl Link for Cable {
+    fn write(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        self.board()?.write(bytes)
+    }
+
+    fn read(&mut self, bytes: &mut [u8]) -> Result<usize, TransportError> {
+        self.board()?.read(bytes)
+    }
+
+    fn reset_in(&mut self) -> Result<(), TransportError> {
+        self.board()?.reset_in()
+    }
+}
+
+#[test]
+fn an_amplifier_opened_again_after_an_unplug_resumes_with_its_calibration() {
+    let m = shipped("spidar-g");
+    let board = Arc::new(Mutex::new(SimulatedBoard::new(
+        &m,
+        DT,
+        &Script::parse(PUSH_INTO_FLOOR).unwrap(),
+        SimParameters::default(),
+    )));
+    let first_cable = Arc::new(AtomicBool::new(false));
+    let link: Box<dyn Link> = Box::new(Cable {
+        board: board.clone(),
+        pulled: first_cable.clone(),
+    });
+    let spec =
+        StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
+    let scene = Box::new(StaticScene::new(spec, &Pointer::at_calibration(&m)));
+    let mut haptic = HapticLoop::new(
+        m.clone(),
+        Box::new(Sh4Transport::new(link, "usb:1-2")),
+        scene,
+        LoopSettings::default(),
+    )
+    .unwrap();
+    for _ in 0..1500 {
+        haptic.tick(DT);
+    }
+    let pressing = *haptic.frame();
+    assert_eq!(pressing.state, DeviceState::Running);
+    assert!(pressing.wrenches[0][1] > 3.0, "{:?}", pressing.wrenches[0]);
+    // Unplugged: the old link never answers again, and the motors get zero once the fault
+    // ramp (as for the simulator's own unplug) is over.
+    first_cable.store(true, Ordering::Relaxed);
+    for tick in 0..300 {
+        let frame = *haptic.tick(DT);
+        assert_eq!(frame.state, DeviceState::Disconnected);
+        if tick >= 10 {
+            assert_eq!(frame.dac, [0; 8]);
+        }
+    }
+    // Plugged back and opened again: the loop takes the new link between two ticks.
+    haptic.command(LoopCommand::Reconnect(Box::new(Cable {
+        board: board.clone(),
+        pulled: Arc::new(AtomicBool::new(false)),
+    })));
+    let Some(Retired::Link(mut dead)) = haptic.take_retired() else {
+        panic!("the dead link must come back to be closed off the real-time thread");
+    };
+    assert_eq!(dead.write(&[0; 512]), Err(TransportError::Disconnected));
+    let mut first_back = None;
+    for _ in 0..1000 {
+        let frame = *haptic.tick(DT);
+        first_back.get_or_insert(frame);
+    }
+    let first_back = first_back.unwrap();
+    assert_eq!(first_back.state, DeviceState::Running);
+    // The counters went on from their totals: the grip is where it was, with the same
+    // calibration, not re-calibrated at wherever it happened to be.
+    let moved = (first_back.poses[0].position - pressing.poses[0].position).length();
+    assert!(moved < 1e-3, "the grip jumped {moved} m across the unplug");
+    let frame = *haptic.frame();
+    assert_eq!(frame.calibrations, 1);
+    assert_eq!(frame.offsets, pressing.offsets);
+    assert_eq!(frame.state, DeviceState::Running);
+    assert!(
+        frame.wrenches[0][1] > 3.0,
+        "pressing again: {:?}",
+        frame.wrenches[0]
+    );
 }
 
 #[test]

@@ -11,6 +11,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use crate::config::Config;
+use crate::device::transport::Link;
 use crate::mechanism::catalog::Catalog;
 use crate::parameters::{self, Name, ParameterError, Parameters};
 use crate::runtime::haptic_loop::{DeviceState, Frame, LoopCommand};
@@ -225,6 +226,12 @@ impl DeviceHandle {
             }
             std::thread::sleep(Duration::from_millis(10));
         }
+    }
+
+    /// Hand the loop `link`, the device opened again after it came back; the loop retires
+    /// the dead one.
+    pub fn reconnect(&self, link: Box<dyn Link>) -> Result<(), Error> {
+        self.send(LoopCommand::Reconnect(link))
     }
 
     /// Take the counter offsets now (the grips must be at their calibration poses) and

@@ -14,6 +14,7 @@ use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon, DeviceHandle, DeviceSetup, Telemetry};
 use hapticd::device::Protocol;
+use hapticd::device::hotplug::{Lookup, Reconnector};
 use hapticd::device::replay::{self, RecordingLink, ReplayLink};
 use hapticd::device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
 use hapticd::device::usb::find_devices;
@@ -356,15 +357,23 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         None => (None, None),
     };
+    // A USB amplifier that is unplugged is opened again when it returns.
+    let mut reconnector = usb
+        .as_ref()
+        .map(|device| Reconnector::new(&identity, device.model));
     let transport: Box<dyn Transport> = match (&cli.replay, usb) {
-        (_, Some(device)) => match (device.model.protocol, traffic_tx) {
-            (Protocol::Sh4, tx) => sh4_transport(device.link, &identity, tx),
-            (Protocol::Simple, None) => Box::new(SimpleTransport::new(device.link, &identity)),
-            (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
-                RecordingLink::new(device.link, ring),
-                &identity,
-            )),
-        },
+        (_, Some(device)) => {
+            // Boxed, so that a link opened after an unplug can take its place.
+            let link: Box<dyn Link> = Box::new(device.link);
+            match (device.model.protocol, traffic_tx) {
+                (Protocol::Sh4, tx) => sh4_transport(link, &identity, tx),
+                (Protocol::Simple, None) => Box::new(SimpleTransport::new(link, &identity)),
+                (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
+                    RecordingLink::new(link, ring),
+                    &identity,
+                )),
+            }
+        }
         (Some(path), None) => {
             let transfers = replay::read_recording(path).map_err(|e| e.to_string())?;
             sh4_transport(ReplayLink::new(transfers), &identity, traffic_tx)
@@ -554,8 +563,19 @@ fn run(cli: Cli) -> Result<(), String> {
                 Err(e) => tracing::error!("reload refused, nothing changed: {e}"),
             }
         }
-        // Scenes swapped out are freed here, off the real-time thread.
+        // Scenes and links replaced are freed here, off the real-time thread.
         while retired_rx.pop().is_some() {}
+        if let Some(r) = reconnector.as_mut() {
+            let missing = rt.frame().state == DeviceState::Disconnected;
+            match r.poll(missing, Instant::now()) {
+                Lookup::Back(link) => match device.reconnect(link) {
+                    Ok(()) => tracing::info!("{identity} is back: reconnected"),
+                    Err(e) => tracing::warn!("{identity} is back but not reconnected: {e}"),
+                },
+                Lookup::Refused(why) => tracing::warn!("{why}"),
+                Lookup::Idle | Lookup::Absent => {}
+            }
+        }
         if last_publish.elapsed() >= Duration::from_millis(100) {
             device.publish(Telemetry {
                 frame: *rt.frame(),

@@ -5,6 +5,7 @@
 //! exercised whatever the device.
 
 pub mod counter;
+pub mod hotplug;
 pub mod replay;
 pub mod sh4;
 pub mod simple;

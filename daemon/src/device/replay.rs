@@ -154,6 +154,10 @@ impl<L: Link> Link for RecordingLink<L> {
     fn reset_in(&mut self) -> Result<(), TransportError> {
         self.inner.reset_in()
     }
+
+    fn replace(&mut self, link: Box<dyn Link>) -> Result<Box<dyn Link>, Box<dyn Link>> {
+        self.inner.replace(link)
+    }
 }
 
 /// A device that answers from a recording.

@@ -50,6 +50,14 @@ pub trait Transport: Send {
 
     /// A stable identity (bus path or serial, or `sim:NAME`), the key of persisted calibration.
     fn identity(&self) -> &str;
+
+    /// [rt] Carry on over `link`: the same controller, opened again after it came back. The
+    /// link replaced is returned, to be closed off the real-time thread; a transport whose
+    /// link cannot be replaced hands `link` back as the error. The counters go on from their
+    /// last totals, so a controller that kept its counts keeps its calibration.
+    fn replace_link(&mut self, link: Box<dyn Link>) -> Result<Box<dyn Link>, Box<dyn Link>> {
+        Err(link)
+    }
 }
 
 /// Bulk transfers to and from a controller.
@@ -60,6 +68,32 @@ pub trait Link: Send {
     fn read(&mut self, bytes: &mut [u8]) -> Result<usize, TransportError>;
     /// [main] Abort and reset the IN pipe.
     fn reset_in(&mut self) -> Result<(), TransportError>;
+
+    /// [rt] Put `link` in place of the device underneath and return the one it replaces;
+    /// a link that does not lead to a replaceable device hands `link` back as the error.
+    fn replace(&mut self, link: Box<dyn Link>) -> Result<Box<dyn Link>, Box<dyn Link>> {
+        Err(link)
+    }
+}
+
+/// A link chosen at run time (a USB amplifier): the one kind of link that can be replaced
+/// when its device comes back.
+impl Link for Box<dyn Link> {
+    fn write(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        self.as_mut().write(bytes)
+    }
+
+    fn read(&mut self, bytes: &mut [u8]) -> Result<usize, TransportError> {
+        self.as_mut().read(bytes)
+    }
+
+    fn reset_in(&mut self) -> Result<(), TransportError> {
+        self.as_mut().reset_in()
+    }
+
+    fn replace(&mut self, link: Box<dyn Link>) -> Result<Box<dyn Link>, Box<dyn Link>> {
+        Ok(std::mem::replace(self, link))
+    }
 }
 
 /// The SH4 amplifier protocol over a [`Link`].
@@ -128,6 +162,10 @@ impl<L: Link> Transport for Sh4Transport<L> {
     fn identity(&self) -> &str {
         &self.identity
     }
+
+    fn replace_link(&mut self, link: Box<dyn Link>) -> Result<Box<dyn Link>, Box<dyn Link>> {
+        self.link.replace(link)
+    }
 }
 
 /// The "Simple" amplifier protocol over a [`Link`]: an update is a D/A set, then a counter
@@ -195,6 +233,10 @@ impl<L: Link> Transport for SimpleTransport<L> {
 
     fn identity(&self) -> &str {
         &self.identity
+    }
+
+    fn replace_link(&mut self, link: Box<dyn Link>) -> Result<Box<dyn Link>, Box<dyn Link>> {
+        self.link.replace(link)
     }
 }
 

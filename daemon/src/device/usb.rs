@@ -44,6 +44,24 @@ fn transport_error(e: rusb::Error) -> TransportError {
 /// Open and claim every supported controller on the bus. Devices that cannot be opened are
 /// reported, not fatal.
 pub fn find_devices(context: &rusb::Context) -> (Vec<FoundDevice>, Vec<String>) {
+    scan(context, |_| true)
+}
+
+/// Open the controller known as `identity` again if it is on the bus (it was unplugged and
+/// may be back). A fresh libusb context enumerates the bus anew, whether or not hotplug
+/// events reached the daemon. `Ok(None)`: not there (yet).
+pub fn reopen(identity: &str) -> Result<Option<FoundDevice>, String> {
+    let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
+    let (mut found, mut problems) = scan(&context, |id| id == identity);
+    match (found.pop(), problems.pop()) {
+        (Some(device), _) => Ok(Some(device)),
+        (None, Some(problem)) => Err(problem),
+        (None, None) => Ok(None),
+    }
+}
+
+/// Open and claim the supported controllers whose identity `wanted` accepts.
+fn scan(context: &rusb::Context, wanted: impl Fn(&str) -> bool) -> (Vec<FoundDevice>, Vec<String>) {
     let mut found = Vec::new();
     let mut problems = Vec::new();
     let devices = match context.devices() {
@@ -63,6 +81,9 @@ pub fn find_devices(context: &rusb::Context) -> (Vec<FoundDevice>, Vec<String>) 
         let ports = device.port_numbers().unwrap_or_default();
         let path: Vec<String> = ports.iter().map(u8::to_string).collect();
         let identity = format!("usb:{}-{}", device.bus_number(), path.join("."));
+        if !wanted(&identity) {
+            continue;
+        }
         match open(&device, model) {
             Ok(link) => found.push(FoundDevice {
                 model: *model,

@@ -7,15 +7,16 @@
 //! 5. wrench → tensions (the box QP) → D/A values, never above a motor's limit.
 //!
 //! Between ticks the loop takes [`LoopCommand`]s: new parameters, a calibration, a fault
-//! reset, a new scene (swapped in once the forces have ramped to zero, then ramped back up).
+//! reset, a new scene (swapped in once the forces have ramped to zero, then ramped back up),
+//! the device opened again after it came back.
 //!
 //! Everything is allocated in [`HapticLoop::new`]; a tick allocates nothing, takes no lock
-//! and makes no system call but the device I/O. A replaced scene is handed back through
-//! [`HapticLoop::take_retired`] so that it is freed off the real-time thread.
+//! and makes no system call but the device I/O. A replaced scene or link is handed back
+//! through [`HapticLoop::take_retired`] so that it is freed off the real-time thread.
 
 use glam::DVec3;
 
-use crate::device::transport::{Transport, TransportError};
+use crate::device::transport::{Link, Transport, TransportError};
 use crate::device::{CHANNELS, Reading, dac_for_tension};
 use crate::haptics::passivity::PassivityController;
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
@@ -109,6 +110,16 @@ pub enum LoopCommand {
     ResetFault,
     /// Ramp the forces to zero, swap in this scene, ramp them back up.
     SwitchScene(Box<dyn Scene>),
+    /// Talk to the device through this link from now on: it was unplugged and is back.
+    Reconnect(Box<dyn Link>),
+}
+
+/// Something the loop no longer uses, handed back to be freed off the real-time thread.
+pub enum Retired {
+    /// A scene swapped out.
+    Scene(Box<dyn Scene>),
+    /// A link replaced (or one that could not be used), still open.
+    Link(Box<dyn Link>),
 }
 
 struct EffectorLoop {
@@ -138,7 +149,8 @@ pub struct HapticLoop {
     frame: Frame,
     parameters: Option<Parameters>,
     incoming: Option<Box<dyn Scene>>,
-    retired: Option<Box<dyn Scene>>,
+    retired_scene: Option<Box<dyn Scene>>,
+    retired_link: Option<Box<dyn Link>>,
 }
 
 /// Why a loop cannot be built.
@@ -214,7 +226,8 @@ impl HapticLoop {
             frame,
             parameters: None,
             incoming: None,
-            retired: None,
+            retired_scene: None,
+            retired_link: None,
         })
     }
 
@@ -264,26 +277,35 @@ impl HapticLoop {
             LoopCommand::SwitchScene(scene) => {
                 // A scene still waiting for its turn is dropped for the newer one.
                 if let Some(waiting) = self.incoming.replace(scene) {
-                    self.retire(waiting);
+                    self.keep_retired(Retired::Scene(waiting));
                 }
+            }
+            LoopCommand::Reconnect(link) => {
+                let old = match self.transport.replace_link(link) {
+                    Ok(old) => old,
+                    Err(refused) => refused,
+                };
+                self.keep_retired(Retired::Link(old));
             }
         }
     }
 
-    fn retire(&mut self, scene: Box<dyn Scene>) {
-        // Only one scene waits to be freed; an older one must go here (it cannot happen
-        // while the daemon collects each retired scene before it sends the next).
-        drop(self.retired.replace(scene));
+    /// [rt] Something the loop stopped using, to be freed by another thread.
+    pub fn take_retired(&mut self) -> Option<Retired> {
+        self.retired_link
+            .take()
+            .map(Retired::Link)
+            .or_else(|| self.retired_scene.take().map(Retired::Scene))
     }
 
-    /// [rt] The scene last replaced, to be freed by another thread.
-    pub fn take_retired(&mut self) -> Option<Box<dyn Scene>> {
-        self.retired.take()
-    }
-
-    /// [rt] Give back a scene [`HapticLoop::take_retired`] returned but that could not be sent.
-    pub fn keep_retired(&mut self, scene: Box<dyn Scene>) {
-        self.retired = Some(scene);
+    /// [rt] Hold `retired` until [`HapticLoop::take_retired`] hands it on (again, when it could
+    /// not be sent). One of each kind waits; an older one would be freed here, which cannot
+    /// happen while the daemon collects each before it sends the next.
+    pub fn keep_retired(&mut self, retired: Retired) {
+        match retired {
+            Retired::Scene(scene) => drop(self.retired_scene.replace(scene)),
+            Retired::Link(link) => drop(self.retired_link.replace(link)),
+        }
     }
 
     /// Swap in the incoming scene once every effector's force is down to zero.
@@ -299,7 +321,7 @@ impl HapticLoop {
             scene.set_proxy(&p.proxy);
         }
         let old = std::mem::replace(&mut self.scene, scene);
-        self.retire(old);
+        self.keep_retired(Retired::Scene(old));
         self.frame.scene_switches += 1;
     }
 

@@ -10,11 +10,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
-use super::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand};
+use super::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, Retired};
 use super::spsc;
 use super::stats::LoopStats;
 use super::triple_buffer::{self, Reader};
-use crate::scene::Scene;
 
 /// How the loop should run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -63,8 +62,8 @@ pub struct Channels {
     pub recorder: Option<spsc::Producer<Frame>>,
     /// Commands to apply between ticks.
     pub commands: spsc::Consumer<LoopCommand>,
-    /// Scenes swapped out, to be freed off the real-time thread.
-    pub retired: spsc::Producer<Box<dyn Scene>>,
+    /// Scenes and links replaced, to be freed off the real-time thread.
+    pub retired: spsc::Producer<Retired>,
 }
 
 /// A running real-time loop.
@@ -211,10 +210,10 @@ impl RealtimeLoop {
                         haptic.command(command);
                     }
                     let frame = *haptic.tick(period);
-                    if let Some(scene) = haptic.take_retired()
-                        && let Err(scene) = retired.try_push(scene)
+                    if let Some(old) = haptic.take_retired()
+                        && let Err(old) = retired.try_push(old)
                     {
-                        haptic.keep_retired(scene);
+                        haptic.keep_retired(old);
                     }
                     frame_writer.publish(|f| *f = frame);
                     if let Some(r) = recorder.as_mut() {
