@@ -42,20 +42,31 @@ fn root_hub_descriptors() -> Vec<u8> {
     d
 }
 
-fn umockdev_description() -> String {
-    let (amp, hub) = (hex(&amplifier_descriptors()), hex(&root_hub_descriptors()));
+/// The amplifier in port 2 of bus 1, at USB address `address`.
+fn amplifier_record(address: u8) -> String {
+    let amp = hex(&amplifier_descriptors());
     format!(
-        "P: /devices/pci0000:00/0000:00:14.0/usb1/1-2\nN: bus/usb/001/002={amp}\n\
-         E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/002\nE: DEVNUM=002\nE: DEVTYPE=usb_device\n\
-         E: DRIVER=usb\nE: PRODUCT=cec/205/100\nE: SUBSYSTEM=usb\nE: TYPE=0/0/0\n\
-         A: authorized=1\nA: bConfigurationValue=1\nA: bDeviceClass=00\nA: bNumConfigurations=1\n\
-         A: bNumInterfaces= 1\nA: busnum=1\\n\nH: descriptors={amp}\nA: dev=189:1\nA: devnum=2\\n\n\
-         A: devpath=2\nA: idProduct=0205\nA: idVendor=0cec\nA: speed=480\nA: version= 2.00\n\n\
-         P: /devices/pci0000:00/0000:00:14.0/usb1\nN: bus/usb/001/001={hub}\n\
+        "P: /devices/pci0000:00/0000:00:14.0/usb1/1-2\nN: bus/usb/001/{address:03}={amp}\n\
+         E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/{address:03}\nE: DEVNUM={address:03}\n\
+         E: DEVTYPE=usb_device\nE: DRIVER=usb\nE: PRODUCT=cec/205/100\nE: SUBSYSTEM=usb\n\
+         E: TYPE=0/0/0\nA: authorized=1\nA: bConfigurationValue=1\nA: bDeviceClass=00\n\
+         A: bNumConfigurations=1\nA: bNumInterfaces= 1\nA: busnum=1\\n\nH: descriptors={amp}\n\
+         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath=2\nA: idProduct=0205\n\
+         A: idVendor=0cec\nA: speed=480\nA: version= 2.00\n",
+        address - 1
+    )
+}
+
+/// The amplifier at address 2 behind the root hub of bus 1.
+fn umockdev_description() -> String {
+    let hub = hex(&root_hub_descriptors());
+    format!(
+        "{}\nP: /devices/pci0000:00/0000:00:14.0/usb1\nN: bus/usb/001/001={hub}\n\
          E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/001\nE: DEVNUM=001\nE: DEVTYPE=usb_device\n\
          E: DRIVER=usb\nE: SUBSYSTEM=usb\nA: bConfigurationValue=1\nA: bDeviceClass=09\n\
          A: bNumConfigurations=1\nA: busnum=1\\n\nH: descriptors={hub}\nA: dev=189:0\nA: devnum=1\\n\n\
-         A: devpath=0\nA: idProduct=0002\nA: idVendor=1d6b\nA: speed=480\n"
+         A: devpath=0\nA: idProduct=0002\nA: idVendor=1d6b\nA: speed=480\n",
+        amplifier_record(2)
     )
 }
 
@@ -68,12 +79,9 @@ fn raw_count(k: usize, i: usize) -> u16 {
 /// One update of the emulated board: the OUT transfer it expects (these D/A values) and the
 /// IN transfer it answers (their echo, `counts`, the rotary switch at 3).
 fn update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u16) -> String {
-    let mut out = [0u8; 512];
-    out[0] = 0x01;
-    out[1] = 0x0E;
+    let out = out_packet(dac);
     let mut input = [0u8; 512];
     for (i, v) in dac.iter().enumerate() {
-        out[2 + 2 * i..4 + 2 * i].copy_from_slice(&v.to_le_bytes());
         input[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
         input[16 + 2 * i..18 + 2 * i].copy_from_slice(&counts(i).to_le_bytes());
     }
@@ -82,6 +90,26 @@ fn update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u16) -> String {
         "USBDEVFS_REAPURBNDELAY 0 3 2 0 0 512 512 0 {}\n USBDEVFS_REAPURBNDELAY 0 3 134 0 0 512 512 0 {}\n",
         hex(&out),
         hex(&input)
+    )
+}
+
+/// The OUT transfer that sets these D/A values.
+fn out_packet(dac: &[i16; 8]) -> [u8; 512] {
+    let mut out = [0u8; 512];
+    out[0] = 0x01;
+    out[1] = 0x0E;
+    for (i, v) in dac.iter().enumerate() {
+        out[2 + 2 * i..4 + 2 * i].copy_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// An OUT transfer of these D/A values that fails as on a device just unplugged: the URB
+/// comes back with status −ENODEV, which libusb reports as "no device".
+fn unplugged_update(dac: &[i16; 8]) -> String {
+    format!(
+        "USBDEVFS_REAPURBNDELAY 0 3 2 -19 0 512 512 0 {}\n",
+        hex(&out_packet(dac))
     )
 }
 
@@ -202,15 +230,14 @@ fn different_dac_bytes_are_refused_by_the_emulated_board() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("update 0"));
 }
 
-#[test]
-fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
+/// The D/A values hapticd sends a SPIDAR-G whose grip rests at its calibration pose, out of
+/// reach of the static scene: every tick asks for zero force, which the tension solver meets
+/// with the same minimal tensions.
+fn resting_dac() -> [i16; 8] {
     use hapticd::device::dac_for_tension;
-    use hapticd::device::replay::{Direction, read_recording};
     use hapticd::solver::geometry::StringGeometry;
     use hapticd::solver::tension::TensionSolver;
 
-    // The grip rests at its calibration pose and the scene does not touch it: every tick
-    // asks for zero force, which the tension solver meets with the same minimal tensions.
     let m = support::shipped("spidar-g");
     let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
     let resting = TensionSolver::for_effector(&m, 0).solve(&geometry, &[0.0; 6]);
@@ -219,39 +246,35 @@ fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
         dac[i] = dac_for_tension(resting.tensions[i], s.volts_per_newton);
     }
     assert!(dac.iter().all(|d| *d > 0));
-    // First the power-on D/A values (zero), then the resting ones, counters still.
-    let mut script = update_script(&[0; 8], |_| 0);
-    for _ in 0..600 {
-        script += &update_script(&dac, |_| 0);
-    }
-    let (device, ioctl) = emulated_amplifier_with("hapticd", &script);
-    let dir = ioctl.parent().unwrap().to_path_buf();
+    dac
+}
+
+/// The arguments that run hapticd from `dir` (which gets the SPIDAR-G plugin) on the static
+/// scene, recording its USB traffic to `dir/session.traffic`.
+fn hapticd_arguments(dir: &Path) -> Vec<String> {
     std::fs::copy(
         support::plugin_path("hapticd-spidar-g"),
         dir.join("libhapticd_spidar_g.so"),
     )
     .unwrap();
-    let traffic = dir.join("session.traffic");
     let scene = support::repo_dir().join("config/scenes/static.yaml");
-    let out = run_under_umockdev(
-        &device,
-        &ioctl,
-        &artifact("hapticd"),
-        &[
-            "--mechanism-dir",
-            dir.to_str().unwrap(),
-            "--scene",
-            scene.to_str().unwrap(),
-            "--duration",
-            "0.5",
-            "--record-traffic",
-            traffic.to_str().unwrap(),
-        ],
-    );
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("spidar-g on usb:1-2"), "{stderr}");
-    let outs: Vec<[i16; 8]> = read_recording(&traffic)
+    [
+        "--mechanism-dir".as_ref(),
+        dir.as_os_str(),
+        "--scene".as_ref(),
+        scene.as_os_str(),
+        "--record-traffic".as_ref(),
+        dir.join("session.traffic").as_os_str(),
+    ]
+    .iter()
+    .map(|a| a.to_str().unwrap().to_string())
+    .collect()
+}
+
+/// The D/A values of every OUT transfer hapticd recorded in `dir/session.traffic`.
+fn dac_written(dir: &Path) -> Vec<[i16; 8]> {
+    use hapticd::device::replay::{Direction, read_recording};
+    read_recording(&dir.join("session.traffic"))
         .unwrap()
         .iter()
         .filter(|t| t.direction == Direction::Out)
@@ -260,7 +283,27 @@ fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
                 .unwrap()
                 .dac
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
+    let dac = resting_dac();
+    // First the power-on D/A values (zero), then the resting ones, counters still.
+    let mut script = update_script(&[0; 8], |_| 0);
+    for _ in 0..600 {
+        script += &update_script(&dac, |_| 0);
+    }
+    let (device, ioctl) = emulated_amplifier_with("hapticd", &script);
+    let dir = ioctl.parent().unwrap().to_path_buf();
+    let mut args = hapticd_arguments(&dir);
+    args.extend(["--duration".into(), "0.5".into()]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run_under_umockdev(&device, &ioctl, &artifact("hapticd"), &args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("spidar-g on usb:1-2"), "{stderr}");
+    let outs = dac_written(&dir);
     // 500 ticks at 1 kHz; the emulation is slow on a loaded machine, so ask for 40 % of them.
     assert!(outs.len() > 200, "{} updates", outs.len());
     assert_eq!(outs[0], [0; 8]);
@@ -270,4 +313,110 @@ fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
         [0; 8],
         "the last command must be zero current"
     );
+}
+
+#[test]
+fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_back() {
+    let dac = resting_dac();
+    // Before the unplug: power-on zeros, then resting tensions for 1.5 s at 1 kHz.
+    let mut first = update_script(&[0; 8], |_| 0);
+    for _ in 0..1500 {
+        first += &update_script(&dac, |_| 0);
+    }
+    // The unplug: from here every transfer fails with ENODEV, whatever the loop sends while
+    // its forces ramp down (the resting values) and after (zeros), for longer than the test
+    // leaves the amplifier away.
+    for _ in 0..50 {
+        first += &unplugged_update(&dac);
+    }
+    for _ in 0..4000 {
+        first += &unplugged_update(&[0; 8]);
+    }
+    // Plugged back, the board answers again: zeros first (what a disconnected loop sends),
+    // then the resting tensions.
+    let mut second = update_script(&[0; 8], |_| 0);
+    for _ in 0..3000 {
+        second += &update_script(&dac, |_| 0);
+    }
+    let dir = scratch_root().join(format!("usb-{}-replug", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("first.umockdev"), umockdev_description()).unwrap();
+    std::fs::write(dir.join("first.ioctl"), first).unwrap();
+    std::fs::write(dir.join("second.umockdev"), amplifier_record(3)).unwrap();
+    std::fs::write(dir.join("second.ioctl"), second).unwrap();
+    let frames = dir.join("frames.csv");
+    let out = Command::new("umockdev-wrapper")
+        .arg("/usr/bin/python3")
+        .arg(support::repo_dir().join("tests/umockdev/replug.py"))
+        .arg(&dir)
+        .arg("--")
+        .arg(artifact("hapticd"))
+        .args(hapticd_arguments(&dir))
+        .arg("--record")
+        .arg(&frames)
+        .output()
+        .expect(
+            "umockdev-wrapper and the umockdev GObject bindings are installed \
+             (umockdev, gir1.2-umockdev-1.0, python3-gi; `make check` installs them)",
+        );
+    let stderr = std::fs::read_to_string(dir.join("hapticd.stderr")).unwrap_or_default();
+    assert!(
+        out.status.success(),
+        "{}\n{stderr}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let moments: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("replug.json")).unwrap()).unwrap();
+    let at = |step: &str| moments[step].as_f64().unwrap();
+    // It came back only once the amplifier was on the bus again, not by itself.
+    assert!(at("plugged") < at("reconnected"), "{moments}\n{stderr}");
+    assert!(
+        stderr.contains("device Disconnected: device disconnected"),
+        "{stderr}"
+    );
+
+    // Frame by frame: running, then disconnected with the tensions down to zero within the
+    // 5 ms fault ramp, then running again on the same calibration until SIGTERM.
+    let csv = std::fs::read_to_string(&frames).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let tensions = |row: &Vec<&str>| -> Vec<f64> {
+        row[row.len() - 8..]
+            .iter()
+            .map(|t| t.parse().unwrap())
+            .collect()
+    };
+    let lost = rows.iter().position(|r| r[1] == "disconnected").unwrap();
+    let back = lost + rows[lost..].iter().position(|r| r[1] == "running").unwrap();
+    assert!(rows[..lost].iter().all(|r| r[1] == "running"));
+    assert!(back - lost > 500, "away for {} ticks", back - lost);
+    for row in &rows[lost + 10..back] {
+        assert_eq!(row[1], "disconnected");
+        assert!(tensions(row).iter().all(|t| *t == 0.0), "{row:?}");
+    }
+    assert!(rows[back..].iter().all(|r| r[1] == "running"));
+    assert!(
+        rows.len() - back > 100,
+        "{} ticks after the re-plug",
+        rows.len() - back
+    );
+    let (before, after) = (&rows[lost - 1], rows.last().unwrap());
+    assert!(tensions(after).iter().all(|t| *t > 0.0));
+    assert_eq!(tensions(before), tensions(after));
+    assert_eq!(
+        before[2..5],
+        after[2..5],
+        "the grip's position is unchanged"
+    );
+
+    // On the wire: zeros at power-on, resting values, the gap (nothing gets through), zeros
+    // again from the disconnected loop on the new address, resting values, zeros at exit.
+    let outs = dac_written(&dir);
+    let zeros: Vec<usize> = (0..outs.len()).filter(|&k| outs[k] == [0; 8]).collect();
+    assert_eq!(zeros.len(), 3, "{zeros:?} of {}", outs.len());
+    assert_eq!((zeros[0], zeros[2]), (0, outs.len() - 1));
+    assert!(outs.iter().all(|d| *d == [0; 8] || *d == dac));
 }
