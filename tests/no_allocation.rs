@@ -1,5 +1,7 @@
 //! The per-tick computations never touch the heap: a counting allocator watches this
-//! thread while pose, tension, calibration and closure run for every shipped mechanism.
+//! thread while pose, tension, calibration and closure run for every shipped mechanism, while
+//! whole haptic-loop ticks run on the simulated board and on an emulated USB amplifier, and
+//! while commands reach the loop between ticks.
 
 mod support;
 
@@ -7,10 +9,12 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use glam::DVec3;
+use hapticd::device::transport::Sh4Transport;
 use hapticd::haptics::proxy::ProxyParameters;
 use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
 use hapticd::parameters::Parameters;
-use hapticd::runtime::haptic_loop::{LoopCommand, Retired};
+use hapticd::runtime::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
+use hapticd::scene::Pointer;
 use hapticd::scene::Scene;
 use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd::sim::hand::Script;
@@ -19,6 +23,7 @@ use hapticd::solver::calibration::{lengths_from_counts, offsets};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::pose::PoseSolver;
 use hapticd::solver::tension::TensionSolver;
+use support::amplifier::{emulated_amplifier_with, resting_dac, umockdev_run, update_script};
 use support::{Rng, pose_inside, shipped_mechanisms, simulated_loop};
 
 struct Counting;
@@ -176,4 +181,54 @@ fn commands_between_ticks_do_not_allocate() {
     assert_eq!(frame.calibrations, 2, "the first reading, then the command");
     // The simulated board's transport cannot take another link: the one sent comes back.
     assert!(matches!(retired[..], [Retired::Link(_), Retired::Scene(_)]));
+}
+
+/// Set in the copy of this test binary that runs under umockdev.
+const UNDER_UMOCKDEV: &str = "HAPTICD_TEST_UNDER_UMOCKDEV";
+
+#[test]
+fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
+    const NAME: &str = "a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate";
+    let dac = resting_dac();
+    if std::env::var_os(UNDER_UMOCKDEV).is_none() {
+        // Only a process started under umockdev sees the emulated amplifier: this test runs
+        // again in such a copy of this binary, which takes the other branch.
+        let mut script = update_script(&[0; 8], |_| 0);
+        for _ in 0..400 {
+            script += &update_script(&dac, |_| 0);
+        }
+        let (device, ioctl) = emulated_amplifier_with("no-allocation", &script);
+        let out = umockdev_run(&device, &ioctl, &std::env::current_exe().unwrap())
+            .args(["--exact", NAME, "--nocapture"])
+            .env(UNDER_UMOCKDEV, "1")
+            .output()
+            .expect("umockdev-run is installed (Debian package umockdev)");
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert!(out.status.success(), "{stdout}{stderr}");
+        assert!(stdout.contains("1 passed"), "{stdout}");
+        return;
+    }
+    let (mut found, problems) = hapticd::device::usb::find_devices().unwrap();
+    assert!(problems.is_empty(), "{problems:?}");
+    let amplifier = found.pop().expect("the emulated amplifier");
+    let m = support::shipped("spidar-g");
+    let transport = Box::new(Sh4Transport::new(amplifier.link, amplifier.identity));
+    let spec =
+        StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
+    let scene = Box::new(StaticScene::new(spec, &Pointer::at_calibration(&m)));
+    let mut haptic = HapticLoop::new(m, transport, scene, LoopSettings::default()).unwrap();
+    let mut states = [DeviceState::Disconnected; 300];
+    // From the first update (calibration, power-on zeros) on: libusb only found the device;
+    // every transfer of these ticks goes through usbfs.
+    let n = allocations_in(|| {
+        for state in &mut states {
+            *state = haptic.tick(1e-3).state;
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 300 ticks on USB");
+    assert!(states.iter().all(|s| *s == DeviceState::Running));
+    assert_eq!(haptic.frame().dac, dac);
 }

@@ -1,132 +1,28 @@
-//! The real USB path (rusb on the system's libusb) against an emulated SH4 amplifier,
-//! 0x0CEC:0x0205, under umockdev: `hapticctl device` finds it, and 120 update cycles carry
-//! exactly the D/A bytes the emulated board expects and decode the counters it sends,
-//! across the 16-bit wrap.
+//! The real USB path (libusb finding the device, usbfs moving its transfers) against an
+//! emulated SH4 amplifier, 0x0CEC:0x0205, under umockdev: `hapticctl device` finds it, 120
+//! update cycles carry exactly the D/A bytes the emulated board expects and decode the
+//! counters it sends across the 16-bit wrap, hapticd drives it and leaves it at zero, and an
+//! unplug under the running daemon faults it to zero force until the amplifier is back.
 
 mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use support::amplifier::{
+    amplifier_record, emulated_amplifier_with, raw_count, resting_dac, umockdev_description,
+    umockdev_run, unplugged_update, update_script,
+};
 use support::{artifact, scratch_root};
 
 const UPDATES: usize = 120;
 const DAC: [i16; 8] = [1, -1, 300, -300, 1000, 0, i16::MAX, i16::MIN];
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02X}")).collect()
-}
-
-/// Device and configuration descriptors of the amplifier: one interface, bulk EP 0x02 OUT
-/// and EP 0x86 IN of 512 bytes.
-fn amplifier_descriptors() -> Vec<u8> {
-    let mut d = vec![
-        0x12, 0x01, 0x00, 0x02, 0x00, 0x00, 0x00, 0x40, 0xEC, 0x0C, 0x05, 0x02, 0x00, 0x01, 0x01,
-        0x02, 0x00, 0x01,
-    ];
-    d.extend([0x09, 0x02, 0x20, 0x00, 0x01, 0x01, 0x00, 0x80, 0x32]);
-    d.extend([0x09, 0x04, 0x00, 0x00, 0x02, 0xFF, 0x00, 0x00, 0x00]);
-    d.extend([0x07, 0x05, 0x02, 0x02, 0x00, 0x02, 0x00]);
-    d.extend([0x07, 0x05, 0x86, 0x02, 0x00, 0x02, 0x00]);
-    d
-}
-
-fn root_hub_descriptors() -> Vec<u8> {
-    let mut d = vec![
-        0x12, 0x01, 0x00, 0x02, 0x09, 0x00, 0x01, 0x40, 0x6B, 0x1D, 0x02, 0x00, 0x05, 0x06, 0x03,
-        0x02, 0x01, 0x01,
-    ];
-    d.extend([0x09, 0x02, 0x19, 0x00, 0x01, 0x01, 0x00, 0xE0, 0x00]);
-    d.extend([0x09, 0x04, 0x00, 0x00, 0x01, 0x09, 0x00, 0x00, 0x00]);
-    d.extend([0x07, 0x05, 0x81, 0x03, 0x04, 0x00, 0x0C]);
-    d
-}
-
-/// The amplifier in port 2 of bus 1, at USB address `address`.
-fn amplifier_record(address: u8) -> String {
-    let amp = hex(&amplifier_descriptors());
-    format!(
-        "P: /devices/pci0000:00/0000:00:14.0/usb1/1-2\nN: bus/usb/001/{address:03}={amp}\n\
-         E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/{address:03}\nE: DEVNUM={address:03}\n\
-         E: DEVTYPE=usb_device\nE: DRIVER=usb\nE: PRODUCT=cec/205/100\nE: SUBSYSTEM=usb\n\
-         E: TYPE=0/0/0\nA: authorized=1\nA: bConfigurationValue=1\nA: bDeviceClass=00\n\
-         A: bNumConfigurations=1\nA: bNumInterfaces= 1\nA: busnum=1\\n\nH: descriptors={amp}\n\
-         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath=2\nA: idProduct=0205\n\
-         A: idVendor=0cec\nA: speed=480\nA: version= 2.00\n",
-        address - 1
-    )
-}
-
-/// The amplifier at address 2 behind the root hub of bus 1.
-fn umockdev_description() -> String {
-    let hub = hex(&root_hub_descriptors());
-    format!(
-        "{}\nP: /devices/pci0000:00/0000:00:14.0/usb1\nN: bus/usb/001/001={hub}\n\
-         E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/001\nE: DEVNUM=001\nE: DEVTYPE=usb_device\n\
-         E: DRIVER=usb\nE: SUBSYSTEM=usb\nA: bConfigurationValue=1\nA: bDeviceClass=09\n\
-         A: bNumConfigurations=1\nA: busnum=1\\n\nH: descriptors={hub}\nA: dev=189:0\nA: devnum=1\\n\n\
-         A: devpath=0\nA: idProduct=0002\nA: idVendor=1d6b\nA: speed=480\n",
-        amplifier_record(2)
-    )
-}
-
-/// Raw counter of channel `i` in update `k`: starts near the top of the 16-bit range and
-/// climbs 700·(i + 1) per update, wrapping.
-fn raw_count(k: usize, i: usize) -> u16 {
-    ((65_000 + k * (i + 1) * 700) % 65_536) as u16
-}
-
-/// One update of the emulated board: the OUT transfer it expects (these D/A values) and the
-/// IN transfer it answers (their echo, `counts`, the rotary switch at 3).
-fn update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u16) -> String {
-    let out = out_packet(dac);
-    let mut input = [0u8; 512];
-    for (i, v) in dac.iter().enumerate() {
-        input[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
-        input[16 + 2 * i..18 + 2 * i].copy_from_slice(&counts(i).to_le_bytes());
-    }
-    input[48..50].copy_from_slice(&0x0030u16.to_le_bytes());
-    format!(
-        "USBDEVFS_REAPURBNDELAY 0 3 2 0 0 512 512 0 {}\n USBDEVFS_REAPURBNDELAY 0 3 134 0 0 512 512 0 {}\n",
-        hex(&out),
-        hex(&input)
-    )
-}
-
-/// The OUT transfer that sets these D/A values.
-fn out_packet(dac: &[i16; 8]) -> [u8; 512] {
-    let mut out = [0u8; 512];
-    out[0] = 0x01;
-    out[1] = 0x0E;
-    for (i, v) in dac.iter().enumerate() {
-        out[2 + 2 * i..4 + 2 * i].copy_from_slice(&v.to_le_bytes());
-    }
-    out
-}
-
-/// An OUT transfer of these D/A values that fails as on a device just unplugged: the URB
-/// comes back with status −ENODEV, which libusb reports as "no device".
-fn unplugged_update(dac: &[i16; 8]) -> String {
-    format!(
-        "USBDEVFS_REAPURBNDELAY 0 3 2 -19 0 512 512 0 {}\n",
-        hex(&out_packet(dac))
-    )
-}
 
 /// The bulk traffic of the exchange tests: fixed D/A values, climbing counters.
 fn ioctl_script() -> String {
     (0..UPDATES)
         .map(|k| update_script(&DAC, |i| raw_count(k, i)))
         .collect()
-}
-
-fn emulated_amplifier_with(name: &str, script: &str) -> (PathBuf, PathBuf) {
-    let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let (device, ioctl) = (dir.join("amplifier.umockdev"), dir.join("amplifier.ioctl"));
-    std::fs::write(&device, umockdev_description()).unwrap();
-    std::fs::write(&ioctl, script).unwrap();
-    (device, ioctl)
 }
 
 fn emulated_amplifier() -> (PathBuf, PathBuf) {
@@ -143,15 +39,8 @@ fn run_under_umockdev(
     program: &Path,
     args: &[&str],
 ) -> std::process::Output {
-    Command::new("umockdev-run")
-        .arg("--device")
-        .arg(device)
-        .arg("--ioctl")
-        .arg(format!("/dev/bus/usb/001/002={}", ioctl.display()))
-        .arg("--")
-        .arg(program)
+    umockdev_run(device, ioctl, program)
         .args(args)
-        .env_remove("NOTIFY_SOCKET")
         .output()
         .expect("umockdev-run is installed (Debian package umockdev; `make check` installs it)")
 }
@@ -228,25 +117,6 @@ fn different_dac_bytes_are_refused_by_the_emulated_board() {
     );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("update 0"));
-}
-
-/// The D/A values hapticd sends a SPIDAR-G whose grip rests at its calibration pose, out of
-/// reach of the static scene: every tick asks for zero force, which the tension solver meets
-/// with the same minimal tensions.
-fn resting_dac() -> [i16; 8] {
-    use hapticd::device::dac_for_tension;
-    use hapticd::solver::geometry::StringGeometry;
-    use hapticd::solver::tension::TensionSolver;
-
-    let m = support::shipped("spidar-g");
-    let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
-    let resting = TensionSolver::for_effector(&m, 0).solve(&geometry, &[0.0; 6]);
-    let mut dac = [0i16; 8];
-    for (i, s) in m.strings.iter().enumerate() {
-        dac[i] = dac_for_tension(resting.tensions[i], s.volts_per_newton);
-    }
-    assert!(dac.iter().all(|d| *d > 0));
-    dac
 }
 
 /// The arguments that run hapticd from `dir` (which gets the SPIDAR-G plugin) on the static

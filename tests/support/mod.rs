@@ -3,6 +3,7 @@
 
 #![allow(dead_code)] // each test binary uses its own subset
 
+pub mod amplifier;
 pub mod qp;
 
 use std::path::{Path, PathBuf};

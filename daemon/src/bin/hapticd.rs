@@ -301,16 +301,15 @@ fn run(cli: Cli) -> Result<(), String> {
     let catalog = control::catalog(&config, mechanism_dirs.as_deref());
     // Hardware unless told to simulate or replay; the simulated SPIDAR when none is found.
     let usb = if cli.sim.is_none() && cli.replay.is_none() {
-        match rusb::Context::new() {
-            Ok(context) => {
-                let (mut found, problems) = find_devices(&context);
+        match find_devices() {
+            Ok((mut found, problems)) => {
                 for p in problems {
                     tracing::warn!("{p}");
                 }
                 (!found.is_empty()).then(|| found.remove(0))
             }
             Err(e) => {
-                tracing::warn!("cannot start libusb ({e}): no USB devices, simulating");
+                tracing::warn!("{e}: no USB devices, simulating");
                 None
             }
         }

@@ -12,6 +12,7 @@ pub mod simple;
 pub mod transport;
 pub mod udev;
 pub mod usb;
+pub mod usbfs;
 
 /// Cyverse's USB vendor ID.
 pub const CYVERSE_VENDOR: u16 = 0x0CEC;

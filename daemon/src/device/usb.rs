@@ -1,11 +1,13 @@
-//! USB controllers through libusb (rusb): finding the supported amplifiers and moving their
-//! bulk transfers.
+//! USB controllers: libusb (rusb) finds the supported amplifiers; their bulk transfers go
+//! straight through usbfs ([`super::usbfs`]), so the real-time thread never enters libusb.
 
+use std::path::PathBuf;
 use std::time::Duration;
 
 use rusb::UsbContext;
 
 use super::transport::{Link, TransportError};
+use super::usbfs::UsbfsDevice;
 use super::{SUPPORTED_DEVICES, SupportedDevice, sh4, simple};
 
 /// How long one transfer may take before the device counts as not answering.
@@ -13,7 +15,7 @@ const TIMEOUT: Duration = Duration::from_millis(100);
 
 /// A claimed USB amplifier.
 pub struct UsbLink {
-    handle: rusb::DeviceHandle<rusb::Context>,
+    device: UsbfsDevice,
     out_endpoint: u8,
     in_endpoint: u8,
 }
@@ -28,31 +30,21 @@ pub struct FoundDevice {
     pub link: UsbLink,
 }
 
-fn transport_error(e: rusb::Error) -> TransportError {
-    match e {
-        rusb::Error::NoDevice | rusb::Error::NotFound => TransportError::Disconnected,
-        rusb::Error::Timeout => TransportError::Timeout,
-        rusb::Error::Io => TransportError::Io(5),
-        rusb::Error::Access => TransportError::Io(13),
-        rusb::Error::Busy => TransportError::Io(16),
-        rusb::Error::Pipe => TransportError::Io(32),
-        rusb::Error::Overflow => TransportError::Io(75),
-        _ => TransportError::Io(0),
-    }
+/// Every supported controller found on the bus, opened and claimed, and what went wrong
+/// with those that could not be opened. `Err` when libusb cannot start at all (no USB).
+pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<String>), String> {
+    Ok(scan(&context()?, |_| true))
 }
 
-/// Open and claim every supported controller on the bus. Devices that cannot be opened are
-/// reported, not fatal.
-pub fn find_devices(context: &rusb::Context) -> (Vec<FoundDevice>, Vec<String>) {
-    scan(context, |_| true)
+fn context() -> Result<rusb::Context, String> {
+    rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))
 }
 
 /// Open the controller known as `identity` again if it is on the bus (it was unplugged and
 /// may be back). A fresh libusb context enumerates the bus anew, whether or not hotplug
 /// events reached the daemon. `Ok(None)`: not there (yet).
 pub fn reopen(identity: &str) -> Result<Option<FoundDevice>, String> {
-    let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
-    let (mut found, mut problems) = scan(&context, |id| id == identity);
+    let (mut found, mut problems) = scan(&context()?, |id| id == identity);
     match (found.pop(), problems.pop()) {
         (Some(device), _) => Ok(Some(device)),
         (None, Some(problem)) => Err(problem),
@@ -96,19 +88,19 @@ fn scan(context: &rusb::Context, wanted: impl Fn(&str) -> bool) -> (Vec<FoundDev
     (found, problems)
 }
 
-fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> rusb::Result<UsbLink> {
-    let handle = device.open()?;
-    // Only detach a kernel driver that is really bound: asking fails on some systems.
-    if handle.kernel_driver_active(0).unwrap_or(false) {
-        handle.detach_kernel_driver(0)?;
-    }
-    handle.claim_interface(0)?;
+fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> std::io::Result<UsbLink> {
+    let node = PathBuf::from(format!(
+        "/dev/bus/usb/{:03}/{:03}",
+        device.bus_number(),
+        device.address()
+    ));
+    let device = UsbfsDevice::open(&node, 0, TIMEOUT)?;
     let (out_endpoint, in_endpoint) = match model.protocol {
         super::Protocol::Sh4 => (sh4::ENDPOINT_OUT, sh4::ENDPOINT_IN),
         super::Protocol::Simple => (simple::ENDPOINT_OUT, simple::ENDPOINT_IN),
     };
     Ok(UsbLink {
-        handle,
+        device,
         out_endpoint,
         in_endpoint,
     })
@@ -116,26 +108,14 @@ fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> rusb::
 
 impl Link for UsbLink {
     fn write(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
-        let n = self
-            .handle
-            .write_bulk(self.out_endpoint, bytes, TIMEOUT)
-            .map_err(transport_error)?;
-        if n == bytes.len() {
-            Ok(())
-        } else {
-            Err(TransportError::Io(5))
-        }
+        self.device.write(self.out_endpoint, bytes)
     }
 
     fn read(&mut self, bytes: &mut [u8]) -> Result<usize, TransportError> {
-        self.handle
-            .read_bulk(self.in_endpoint, bytes, TIMEOUT)
-            .map_err(transport_error)
+        self.device.read(self.in_endpoint, bytes)
     }
 
     fn reset_in(&mut self) -> Result<(), TransportError> {
-        self.handle
-            .clear_halt(self.in_endpoint)
-            .map_err(transport_error)
+        self.device.clear_halt(self.in_endpoint)
     }
 }

@@ -33,10 +33,6 @@ pub struct ExchangeArgs {
     output: Output,
 }
 
-fn context() -> Result<rusb::Context, Failure> {
-    rusb::Context::new().map_err(|e| Failure::failed(format!("cannot start libusb: {e}")))
-}
-
 /// Run one `device` subcommand.
 pub fn run(command: Command) -> Result<(), Failure> {
     match command {
@@ -45,7 +41,7 @@ pub fn run(command: Command) -> Result<(), Failure> {
             Ok(())
         }
         Command::List(output) => {
-            let (found, problems) = find_devices(&context()?);
+            let (found, problems) = find_devices().map_err(Failure::failed)?;
             for p in &problems {
                 eprintln!("hapticctl: {p}");
             }
@@ -87,7 +83,7 @@ fn exchange(args: &ExchangeArgs) -> Result<(), Failure> {
     for (d, v) in dac.iter_mut().zip(args.dac.iter()) {
         *d = *v as i16;
     }
-    let (found, problems) = find_devices(&context()?);
+    let (found, problems) = find_devices().map_err(Failure::failed)?;
     let Some(device) = found.into_iter().next() else {
         let why = if problems.is_empty() {
             "none is connected".to_string()

@@ -1,0 +1,154 @@
+//! An emulated Cyverse SH4 amplifier (0x0CEC:0x0205) for umockdev: its sysfs record and
+//! the usbdevfs traffic of its updates, as the kernel would pass them to libusb or hapticd.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use super::scratch_root;
+
+/// Bytes as the hexadecimal text of umockdev records.
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02X}")).collect()
+}
+
+/// Device and configuration descriptors of the amplifier: one interface, bulk EP 0x02 OUT
+/// and EP 0x86 IN of 512 bytes.
+fn amplifier_descriptors() -> Vec<u8> {
+    let mut d = vec![
+        0x12, 0x01, 0x00, 0x02, 0x00, 0x00, 0x00, 0x40, 0xEC, 0x0C, 0x05, 0x02, 0x00, 0x01, 0x01,
+        0x02, 0x00, 0x01,
+    ];
+    d.extend([0x09, 0x02, 0x20, 0x00, 0x01, 0x01, 0x00, 0x80, 0x32]);
+    d.extend([0x09, 0x04, 0x00, 0x00, 0x02, 0xFF, 0x00, 0x00, 0x00]);
+    d.extend([0x07, 0x05, 0x02, 0x02, 0x00, 0x02, 0x00]);
+    d.extend([0x07, 0x05, 0x86, 0x02, 0x00, 0x02, 0x00]);
+    d
+}
+
+/// Device and configuration descriptors of the root hub.
+fn root_hub_descriptors() -> Vec<u8> {
+    let mut d = vec![
+        0x12, 0x01, 0x00, 0x02, 0x09, 0x00, 0x01, 0x40, 0x6B, 0x1D, 0x02, 0x00, 0x05, 0x06, 0x03,
+        0x02, 0x01, 0x01,
+    ];
+    d.extend([0x09, 0x02, 0x19, 0x00, 0x01, 0x01, 0x00, 0xE0, 0x00]);
+    d.extend([0x09, 0x04, 0x00, 0x00, 0x01, 0x09, 0x00, 0x00, 0x00]);
+    d.extend([0x07, 0x05, 0x81, 0x03, 0x04, 0x00, 0x0C]);
+    d
+}
+
+/// The amplifier in port 2 of bus 1, at USB address `address`.
+pub fn amplifier_record(address: u8) -> String {
+    let amp = hex(&amplifier_descriptors());
+    format!(
+        "P: /devices/pci0000:00/0000:00:14.0/usb1/1-2\nN: bus/usb/001/{address:03}={amp}\n\
+         E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/{address:03}\nE: DEVNUM={address:03}\n\
+         E: DEVTYPE=usb_device\nE: DRIVER=usb\nE: PRODUCT=cec/205/100\nE: SUBSYSTEM=usb\n\
+         E: TYPE=0/0/0\nA: authorized=1\nA: bConfigurationValue=1\nA: bDeviceClass=00\n\
+         A: bNumConfigurations=1\nA: bNumInterfaces= 1\nA: busnum=1\\n\nH: descriptors={amp}\n\
+         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath=2\nA: idProduct=0205\n\
+         A: idVendor=0cec\nA: speed=480\nA: version= 2.00\n",
+        address - 1
+    )
+}
+
+/// The amplifier at address 2 behind the root hub of bus 1.
+pub fn umockdev_description() -> String {
+    let hub = hex(&root_hub_descriptors());
+    format!(
+        "{}\nP: /devices/pci0000:00/0000:00:14.0/usb1\nN: bus/usb/001/001={hub}\n\
+         E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/001\nE: DEVNUM=001\nE: DEVTYPE=usb_device\n\
+         E: DRIVER=usb\nE: SUBSYSTEM=usb\nA: bConfigurationValue=1\nA: bDeviceClass=09\n\
+         A: bNumConfigurations=1\nA: busnum=1\\n\nH: descriptors={hub}\nA: dev=189:0\nA: devnum=1\\n\n\
+         A: devpath=0\nA: idProduct=0002\nA: idVendor=1d6b\nA: speed=480\n",
+        amplifier_record(2)
+    )
+}
+
+/// Raw counter of channel `i` in update `k`: starts near the top of the 16-bit range and
+/// climbs 700·(i + 1) per update, wrapping.
+pub fn raw_count(k: usize, i: usize) -> u16 {
+    ((65_000 + k * (i + 1) * 700) % 65_536) as u16
+}
+
+/// One update of the emulated board: the OUT transfer it expects (these D/A values) and the
+/// IN transfer it answers (their echo, `counts`, the rotary switch at 3).
+pub fn update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u16) -> String {
+    let out = out_packet(dac);
+    let mut input = [0u8; 512];
+    for (i, v) in dac.iter().enumerate() {
+        input[2 * i..2 * i + 2].copy_from_slice(&v.to_le_bytes());
+        input[16 + 2 * i..18 + 2 * i].copy_from_slice(&counts(i).to_le_bytes());
+    }
+    input[48..50].copy_from_slice(&0x0030u16.to_le_bytes());
+    format!(
+        "USBDEVFS_REAPURBNDELAY 0 3 2 0 0 512 512 0 {}\n USBDEVFS_REAPURBNDELAY 0 3 134 0 0 512 512 0 {}\n",
+        hex(&out),
+        hex(&input)
+    )
+}
+
+/// The OUT transfer that sets these D/A values.
+fn out_packet(dac: &[i16; 8]) -> [u8; 512] {
+    let mut out = [0u8; 512];
+    out[0] = 0x01;
+    out[1] = 0x0E;
+    for (i, v) in dac.iter().enumerate() {
+        out[2 + 2 * i..4 + 2 * i].copy_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// An OUT transfer of these D/A values that fails as on a device just unplugged: the URB
+/// comes back with status −ENODEV, a disconnection.
+pub fn unplugged_update(dac: &[i16; 8]) -> String {
+    format!(
+        "USBDEVFS_REAPURBNDELAY 0 3 2 -19 0 512 512 0 {}\n",
+        hex(&out_packet(dac))
+    )
+}
+
+/// Files of an amplifier answering `script`, in a scratch directory of its own (`name`):
+/// its umockdev record and its ioctl script.
+pub fn emulated_amplifier_with(name: &str, script: &str) -> (PathBuf, PathBuf) {
+    let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (device, ioctl) = (dir.join("amplifier.umockdev"), dir.join("amplifier.ioctl"));
+    std::fs::write(&device, umockdev_description()).unwrap();
+    std::fs::write(&ioctl, script).unwrap();
+    (device, ioctl)
+}
+
+/// `program` under `umockdev-run` with the amplifier of `device` answering from `ioctl` at
+/// /dev/bus/usb/001/002 (arguments and environment still to be added).
+pub fn umockdev_run(device: &Path, ioctl: &Path, program: &Path) -> Command {
+    let mut command = Command::new("umockdev-run");
+    command
+        .arg("--device")
+        .arg(device)
+        .arg("--ioctl")
+        .arg(format!("/dev/bus/usb/001/002={}", ioctl.display()))
+        .arg("--")
+        .arg(program)
+        .env_remove("NOTIFY_SOCKET");
+    command
+}
+
+/// The D/A values hapticd sends a SPIDAR-G whose grip rests at its calibration pose, out of
+/// reach of the static scene: every tick asks for zero force, which the tension solver meets
+/// with the same minimal tensions.
+pub fn resting_dac() -> [i16; 8] {
+    use hapticd::device::dac_for_tension;
+    use hapticd::solver::geometry::StringGeometry;
+    use hapticd::solver::tension::TensionSolver;
+
+    let m = super::shipped("spidar-g");
+    let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
+    let resting = TensionSolver::for_effector(&m, 0).solve(&geometry, &[0.0; 6]);
+    let mut dac = [0i16; 8];
+    for (i, s) in m.strings.iter().enumerate() {
+        dac[i] = dac_for_tension(resting.tensions[i], s.volts_per_newton);
+    }
+    assert!(dac.iter().all(|d| *d > 0));
+    dac
+}
