@@ -1,6 +1,7 @@
 //! `hapticd` as a process on the simulated SPIDAR-G: it runs for a set time, records, stops
-//! on SIGTERM with zero currents as the last bytes written, replays a recording exactly, and
-//! refuses a bad configuration with its place.
+//! on SIGTERM with zero currents as the last bytes written, replays a recording exactly,
+//! refuses a bad configuration with its place, and its haptic thread makes no system call
+//! but its sleep.
 
 mod support;
 
@@ -322,5 +323,56 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
         "mean friction {mean}"
     );
     assert!((2.5..3.3).contains(&peak), "peak friction {peak}");
+    std::fs::remove_file(csv).ok();
+}
+
+#[test]
+fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
+    // strace sees every system call of every thread; the haptic thread names itself first.
+    let (trace, csv, hand) = (scratch("rt.strace"), scratch("strace.csv"), press());
+    let out = Command::new("strace")
+        .args(["-f", "-qq", "-o"])
+        .arg(&trace)
+        .arg(artifact("hapticd"))
+        .arg("--mechanism-dir")
+        .arg(mechanisms())
+        .arg("--scene")
+        .arg(static_scene())
+        .args(["--sim", "spidar-g", "--hand", &hand, "--duration", "1.5"])
+        .arg("--record")
+        .arg(&csv)
+        .env_remove("NOTIFY_SOCKET")
+        .output()
+        .expect("strace is installed (Debian package strace; `make check` installs it)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let trace = std::fs::read_to_string(&trace).unwrap();
+    let thread = trace
+        .lines()
+        .find(|l| l.contains("PR_SET_NAME, \"hapticd-rt\""))
+        .and_then(|l| l.split_whitespace().next())
+        .expect("the haptic thread names itself");
+    // The thread's calls in order; "<... resumed>" lines only finish a call already counted.
+    let calls: Vec<&str> = trace
+        .lines()
+        .filter_map(|l| l.strip_prefix(thread)?.strip_prefix(' '))
+        .map(str::trim_start)
+        .filter(|l| !l.starts_with("<...") && !l.starts_with("---") && !l.starts_with("+++"))
+        .map(|l| l.split('(').next().unwrap())
+        .collect();
+    let first = calls.iter().position(|c| *c == "clock_nanosleep").unwrap();
+    let last = calls.iter().rposition(|c| *c == "clock_nanosleep").unwrap();
+    // Between its first sleep and its last, through 1.5 s of pressing on the floor while
+    // every frame is recorded: nothing but sleeps (the clock is read through the vDSO).
+    let ticking = &calls[first..=last];
+    assert!(ticking.len() > 1000, "{} sleeps", ticking.len());
+    let mut others = std::collections::BTreeMap::new();
+    for call in ticking.iter().filter(|c| **c != "clock_nanosleep") {
+        *others.entry(*call).or_insert(0) += 1;
+    }
+    assert!(others.is_empty(), "the haptic thread called (times): {others:?}");
     std::fs::remove_file(csv).ok();
 }
