@@ -373,6 +373,9 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
     for call in ticking.iter().filter(|c| **c != "clock_nanosleep") {
         *others.entry(*call).or_insert(0) += 1;
     }
-    assert!(others.is_empty(), "the haptic thread called (times): {others:?}");
+    assert!(
+        others.is_empty(),
+        "the haptic thread called (times): {others:?}"
+    );
     std::fs::remove_file(csv).ok();
 }

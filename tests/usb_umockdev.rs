@@ -7,11 +7,11 @@
 mod support;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use support::amplifier::{
-    amplifier_record, emulated_amplifier_with, raw_count, resting_dac, umockdev_description,
-    umockdev_run, unplugged_update, update_script,
+    AMPLIFIER_SYSFS, amplifier_record, emulated_amplifier_with, raw_count, resting_dac,
+    root_hub_record, testbed_run, umockdev_description, umockdev_run, unplugged_update,
+    update_script,
 };
 use support::{artifact, scratch_root};
 
@@ -215,31 +215,34 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     std::fs::write(dir.join("second.umockdev"), amplifier_record(3)).unwrap();
     std::fs::write(dir.join("second.ioctl"), second).unwrap();
     let frames = dir.join("frames.csv");
-    let out = Command::new("umockdev-wrapper")
-        .arg("/usr/bin/python3")
-        .arg(support::repo_dir().join("tests/umockdev/replug.py"))
-        .arg(&dir)
-        .arg("--")
-        .arg(artifact("hapticd"))
-        .args(hapticd_arguments(&dir))
-        .arg("--record")
-        .arg(&frames)
-        .output()
-        .expect(
-            "umockdev-wrapper and the umockdev GObject bindings are installed \
-             (umockdev, gir1.2-umockdev-1.0, python3-gi; `make check` installs them)",
-        );
-    let stderr = std::fs::read_to_string(dir.join("hapticd.stderr")).unwrap_or_default();
-    assert!(
-        out.status.success(),
-        "{}\n{stderr}",
-        String::from_utf8_lossy(&out.stderr)
+    let mut args = hapticd_arguments(&dir);
+    args.extend(["--record".into(), frames.to_str().unwrap().into()]);
+    let unplug = format!("unplug={AMPLIFIER_SYSFS}");
+    let run = testbed_run(
+        &dir,
+        &[
+            "add=first.umockdev",
+            "ioctl=/dev/bus/usb/001/002=first.ioctl",
+            "start",
+            "wait=spidar-g on usb:1-2",
+            &unplug,
+            "wait=device Disconnected",
+            // Long enough for hapticd to look for it (every 0.5 s) and find nothing.
+            "sleep=1.2",
+            "add=second.umockdev",
+            "ioctl=/dev/bus/usb/001/003=second.ioctl",
+            "wait=is back: reconnected",
+            "sleep=0.6",
+        ],
+        &artifact("hapticd"),
+        &args,
     );
-    let moments: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("replug.json")).unwrap()).unwrap();
-    let at = |step: &str| moments[step].as_f64().unwrap();
+    let stderr = &run.stderr;
     // It came back only once the amplifier was on the bus again, not by itself.
-    assert!(at("plugged") < at("reconnected"), "{moments}\n{stderr}");
+    assert!(
+        run.at("add=second.umockdev") < run.at("wait=is back: reconnected"),
+        "{stderr}"
+    );
     assert!(
         stderr.contains("device Disconnected: device disconnected"),
         "{stderr}"
@@ -289,4 +292,51 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     assert_eq!(zeros.len(), 3, "{zeros:?} of {}", outs.len());
     assert_eq!((zeros[0], zeros[2]), (0, outs.len() - 1));
     assert!(outs.iter().all(|d| *d == [0; 8] || *d == dac));
+}
+
+#[test]
+fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
+    let dac = resting_dac();
+    let mut script = update_script(&[0; 8], |_| 0);
+    for _ in 0..3000 {
+        script += &update_script(&dac, |_| 0);
+    }
+    let dir = scratch_root().join(format!("usb-{}-arrival", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
+    std::fs::write(dir.join("amplifier.umockdev"), amplifier_record(2)).unwrap();
+    std::fs::write(dir.join("amplifier.ioctl"), script).unwrap();
+    let run = testbed_run(
+        &dir,
+        &[
+            "add=hub.umockdev",
+            "ioctl=/dev/bus/usb/001/002=amplifier.ioctl",
+            "start",
+            "wait=spidar-g on sim,",
+            "add=amplifier.umockdev",
+            "wait=plugged in: starting again on it",
+            "wait=spidar-g on usb:1-2",
+            "sleep=0.5",
+        ],
+        &artifact("hapticd"),
+        &hapticd_arguments(&dir),
+    );
+    assert!(
+        run.at("add=amplifier.umockdev") < run.at("wait=plugged in: starting again on it"),
+        "{}",
+        run.stderr
+    );
+    // The simulator's motors were zeroed before hapticd started again; the traffic file is
+    // the new run's: the amplifier's power-on zeros, resting tensions, zeros at SIGTERM.
+    assert_eq!(
+        run.stderr.matches("motors at zero").count(),
+        2,
+        "{}",
+        run.stderr
+    );
+    let outs = dac_written(&dir);
+    assert!(outs.len() > 100, "{} updates", outs.len());
+    assert_eq!(outs[0], [0; 8]);
+    assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
+    assert_eq!(*outs.last().unwrap(), [0; 8]);
 }

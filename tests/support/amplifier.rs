@@ -52,17 +52,21 @@ pub fn amplifier_record(address: u8) -> String {
     )
 }
 
-/// The amplifier at address 2 behind the root hub of bus 1.
-pub fn umockdev_description() -> String {
+/// The root hub of bus 1, alone.
+pub fn root_hub_record() -> String {
     let hub = hex(&root_hub_descriptors());
     format!(
-        "{}\nP: /devices/pci0000:00/0000:00:14.0/usb1\nN: bus/usb/001/001={hub}\n\
+        "P: /devices/pci0000:00/0000:00:14.0/usb1\nN: bus/usb/001/001={hub}\n\
          E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/001\nE: DEVNUM=001\nE: DEVTYPE=usb_device\n\
          E: DRIVER=usb\nE: SUBSYSTEM=usb\nA: bConfigurationValue=1\nA: bDeviceClass=09\n\
          A: bNumConfigurations=1\nA: busnum=1\\n\nH: descriptors={hub}\nA: dev=189:0\nA: devnum=1\\n\n\
-         A: devpath=0\nA: idProduct=0002\nA: idVendor=1d6b\nA: speed=480\n",
-        amplifier_record(2)
+         A: devpath=0\nA: idProduct=0002\nA: idVendor=1d6b\nA: speed=480\n"
     )
+}
+
+/// The amplifier at address 2 behind the root hub of bus 1.
+pub fn umockdev_description() -> String {
+    format!("{}\n{}", amplifier_record(2), root_hub_record())
 }
 
 /// Raw counter of channel `i` in update `k`: starts near the top of the 16-bit range and
@@ -151,4 +155,58 @@ pub fn resting_dac() -> [i16; 8] {
     }
     assert!(dac.iter().all(|d| *d > 0));
     dac
+}
+
+/// Where the emulated amplifier sits in sysfs (port 2 of bus 1).
+pub const AMPLIFIER_SYSFS: &str = "/sys/devices/pci0000:00/0000:00:14.0/usb1/1-2";
+
+/// What `tests/umockdev/testbed.py` left of a run: the program's standard error, and when
+/// each step ended (seconds since the start).
+pub struct TestbedRun {
+    /// The program's standard error.
+    pub stderr: String,
+    moments: serde_json::Value,
+}
+
+impl TestbedRun {
+    /// When `step` ended.
+    pub fn at(&self, step: &str) -> f64 {
+        self.moments
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["step"] == step)
+            .and_then(|m| m["at"].as_f64())
+            .unwrap_or_else(|| panic!("no step {step} in {}", self.moments))
+    }
+}
+
+/// Run `program` with `args` in a umockdev testbed that `steps` drive (see
+/// `tests/umockdev/testbed.py`), with its files in `dir`; panics unless every step and the
+/// program succeed.
+pub fn testbed_run(dir: &Path, steps: &[&str], program: &Path, args: &[String]) -> TestbedRun {
+    let out = Command::new("umockdev-wrapper")
+        .arg("/usr/bin/python3")
+        .arg(super::repo_dir().join("tests/umockdev/testbed.py"))
+        .arg(dir)
+        .args(steps)
+        .arg("--")
+        .arg(program)
+        .args(args)
+        .output()
+        .expect(
+            "umockdev-wrapper and the umockdev GObject bindings are installed \
+             (umockdev, gir1.2-umockdev-1.0, python3-gi; `make check` installs them)",
+        );
+    let stderr = std::fs::read_to_string(dir.join("program.stderr")).unwrap_or_default();
+    assert!(
+        out.status.success(),
+        "{}\n{stderr}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let moments = std::fs::read_to_string(dir.join("moments.json")).unwrap();
+    TestbedRun {
+        stderr,
+        moments: serde_json::from_str(&moments).unwrap(),
+    }
 }

@@ -2,6 +2,7 @@
 //! hardware (or with `--sim`) it drives the simulated SPIDAR.
 
 use std::io::Write;
+use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -14,7 +15,7 @@ use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon, DeviceHandle, DeviceSetup, Telemetry};
 use hapticd::device::Protocol;
-use hapticd::device::hotplug::{Lookup, Reconnector};
+use hapticd::device::hotplug::{Arrivals, Lookup, Reconnector};
 use hapticd::device::replay::{self, RecordingLink, ReplayLink};
 use hapticd::device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
 use hapticd::device::usb::find_devices;
@@ -288,7 +289,15 @@ fn status_line(frame: &Frame, rt: &mut RealtimeLoop) -> String {
     )
 }
 
-fn run(cli: Cli) -> Result<(), String> {
+/// How a run ended well.
+enum Ending {
+    /// Asked to stop, or its time was up.
+    Done,
+    /// An amplifier was plugged in while simulating: start again, on it.
+    Restart,
+}
+
+fn run(cli: Cli) -> Result<Ending, String> {
     let config_path = cli.config.clone().or_else(|| {
         let default = PathBuf::from("/etc/hapticd/hapticd.yaml");
         default.exists().then_some(default)
@@ -356,10 +365,13 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         None => (None, None),
     };
-    // A USB amplifier that is unplugged is opened again when it returns.
+    // A USB amplifier that is unplugged is opened again when it returns; one plugged in while
+    // hapticd simulates for want of hardware makes it start again, on that amplifier.
     let mut reconnector = usb
         .as_ref()
         .map(|device| Reconnector::new(&identity, device.model));
+    let mut arrivals =
+        (usb.is_none() && cli.sim.is_none() && cli.replay.is_none()).then(Arrivals::default);
     let transport: Box<dyn Transport> = match (&cli.replay, usb) {
         (_, Some(device)) => {
             // Boxed, so that a link opened after an unplug can take its place.
@@ -538,6 +550,7 @@ fn run(cli: Cli) -> Result<(), String> {
     let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
     let (mut last_ping, mut last_beat) = (Instant::now(), 0);
     let (mut last_status, mut last_publish) = (Instant::now(), Instant::now());
+    let mut ending = Ending::Done;
     while !STOP.load(Ordering::Acquire) {
         if cli
             .duration
@@ -575,6 +588,14 @@ fn run(cli: Cli) -> Result<(), String> {
                 Lookup::Idle | Lookup::Absent => {}
             }
         }
+        if let Some((plugged, model)) = arrivals.as_mut().and_then(|a| a.poll(Instant::now())) {
+            tracing::info!(
+                "{plugged} ({}) plugged in: starting again on it",
+                model.name
+            );
+            ending = Ending::Restart;
+            break;
+        }
         if last_publish.elapsed() >= Duration::from_millis(100) {
             device.publish(Telemetry {
                 frame: *rt.frame(),
@@ -588,7 +609,11 @@ fn run(cli: Cli) -> Result<(), String> {
             last_status = Instant::now();
         }
     }
-    let _ = sd_notify::notify("STOPPING=1");
+    // A restart is, to systemd, a reload: the new image says READY=1 again.
+    let _ = sd_notify::notify(match ending {
+        Ending::Done => "STOPPING=1",
+        Ending::Restart => "RELOADING=1",
+    });
     let stats = *rt.stats();
     rt.stop();
     DONE.store(true, Ordering::Release);
@@ -614,14 +639,24 @@ fn run(cli: Cli) -> Result<(), String> {
                 .into(),
         );
     }
-    Ok(())
+    Ok(ending)
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     hapticd::logging::init("hapticd", false);
     match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(Ending::Done) => ExitCode::SUCCESS,
+        Ok(Ending::Restart) => {
+            // The same program with the same arguments, in the same process (systemd keeps
+            // following it; the bus name is taken again by the new image).
+            let error = std::process::Command::new("/proc/self/exe")
+                .arg0(std::env::args_os().next().unwrap_or_default())
+                .args(std::env::args_os().skip(1))
+                .exec();
+            tracing::error!("cannot start again: {error}");
+            ExitCode::FAILURE
+        }
         Err(message) => {
             tracing::error!("{message}");
             ExitCode::FAILURE

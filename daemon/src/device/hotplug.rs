@@ -1,15 +1,51 @@
-//! Following a USB amplifier across an unplug: while the haptic loop reports it
-//! disconnected, look for it again by identity (its bus path) and, once it is back, hand
-//! the haptic loop a freshly opened link. Runs on the main thread, never on the real-time
-//! one; the loop keeps its calibration and parameters across the gap.
+//! Following USB amplifiers as they come and go, from the main thread (never the real-time
+//! one):
+//!
+//! - [`Reconnector`]: while the haptic loop reports its amplifier disconnected, look for it
+//!   again by identity (its bus path) and, once it is back, open it and hand the loop the new
+//!   link. The loop keeps its calibration and parameters across the gap.
+//! - [`Arrivals`]: while hapticd simulates for want of hardware, notice an amplifier plugged in.
+//!
+//! Both look in sysfs first, a few small reads every [`RETRY`], and only ask libusb (whose
+//! every context starts an event thread) once the amplifier is there.
 
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use super::transport::Link;
-use super::{SupportedDevice, usb};
+use super::{SUPPORTED_DEVICES, SupportedDevice, usb};
 
 /// How often a missing amplifier is looked for.
 pub const RETRY: Duration = Duration::from_millis(500);
+
+/// Where the kernel lists USB devices.
+const SYSFS_USB_DEVICES: &str = "/sys/bus/usb/devices";
+
+/// The supported amplifiers `devices` (a sysfs `bus/usb/devices` directory) lists, by
+/// identity (`usb:BUS-PORT.PORT…`, the name the kernel gives the device).
+fn listed(devices: &Path) -> Vec<(String, SupportedDevice)> {
+    let Ok(entries) = std::fs::read_dir(devices) else {
+        return Vec::new();
+    };
+    let hex = |dir: &Path, name: &str| {
+        let text = std::fs::read_to_string(dir.join(name)).ok()?;
+        u16::from_str_radix(text.trim(), 16).ok()
+    };
+    entries
+        .flatten()
+        .filter_map(|entry| {
+            let dir = entry.path();
+            let (vendor, product) = (hex(&dir, "idVendor")?, hex(&dir, "idProduct")?);
+            let model = SUPPORTED_DEVICES
+                .iter()
+                .find(|m| m.vendor == vendor && m.product == product)?;
+            Some((
+                format!("usb:{}", entry.file_name().to_string_lossy()),
+                *model,
+            ))
+        })
+        .collect()
+}
 
 /// What one look for a missing amplifier found.
 pub enum Lookup {
@@ -49,22 +85,90 @@ impl Reconnector {
             return Lookup::Idle;
         }
         self.next_look = now + RETRY;
-        let refused = match usb::reopen(&self.identity) {
-            Ok(Some(found)) if found.model == self.model => {
-                self.told = None;
-                return Lookup::Back(Box::new(found.link));
-            }
-            Ok(Some(found)) => format!(
+        let Some((_, model)) = listed(Path::new(SYSFS_USB_DEVICES))
+            .into_iter()
+            .find(|(identity, _)| *identity == self.identity)
+        else {
+            return Lookup::Absent;
+        };
+        let refused = if model != self.model {
+            format!(
                 "{} is now a {}, not the {} it was: not reconnected",
-                self.identity, found.model.name, self.model.name
-            ),
-            Ok(None) => return Lookup::Absent,
-            Err(e) => e,
+                self.identity, model.name, self.model.name
+            )
+        } else {
+            match usb::reopen(&self.identity) {
+                Ok(Some(found)) => {
+                    self.told = None;
+                    return Lookup::Back(Box::new(found.link));
+                }
+                Ok(None) => return Lookup::Absent,
+                Err(e) => e,
+            }
         };
         if self.told.as_ref() == Some(&refused) {
             return Lookup::Absent;
         }
         self.told = Some(refused.clone());
         Lookup::Refused(refused)
+    }
+}
+
+/// Notices a supported amplifier plugged in while hapticd simulates one for want of hardware.
+pub struct Arrivals {
+    next_look: Instant,
+}
+
+impl Default for Arrivals {
+    fn default() -> Self {
+        Self {
+            next_look: Instant::now(),
+        }
+    }
+}
+
+impl Arrivals {
+    /// The identity and model of a supported amplifier on the bus now, looked for at most
+    /// every [`RETRY`].
+    pub fn poll(&mut self, now: Instant) -> Option<(String, SupportedDevice)> {
+        if now < self.next_look {
+            return None;
+        }
+        self.next_look = now + RETRY;
+        listed(Path::new(SYSFS_USB_DEVICES)).into_iter().next()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sysfs_lists_the_supported_amplifiers_by_their_bus_path() {
+        let root = std::env::temp_dir().join(format!("hotplug-{}", std::process::id()));
+        for (name, vendor, product) in [
+            ("1-2", "0cec\n", "0205\n"),
+            ("3-1.4", "0cec", "0203"),
+            ("1-3", "046d\n", "c52b\n"),
+            ("usb1", "1d6b\n", "0002\n"),
+        ] {
+            let dir = root.join(name);
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(dir.join("idVendor"), vendor).unwrap();
+            std::fs::write(dir.join("idProduct"), product).unwrap();
+        }
+        // An interface directory has no IDs.
+        std::fs::create_dir_all(root.join("1-2:1.0")).unwrap();
+        let mut found = listed(&root);
+        found.sort_by(|a, b| a.0.cmp(&b.0));
+        std::fs::remove_dir_all(&root).unwrap();
+        assert_eq!(
+            found,
+            vec![
+                ("usb:1-2".to_string(), SUPPORTED_DEVICES[0]),
+                ("usb:3-1.4".to_string(), SUPPORTED_DEVICES[1]),
+            ]
+        );
+        assert!(listed(Path::new("/nonexistent")).is_empty());
     }
 }
