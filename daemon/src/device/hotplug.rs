@@ -9,7 +9,7 @@
 //! Both look in sysfs first, a few small reads every [`RETRY`], and only ask libusb (whose
 //! every context starts an event thread) once the amplifier is there.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use super::transport::Link;
@@ -116,26 +116,43 @@ impl Reconnector {
 
 /// Notices a supported amplifier plugged in while hapticd simulates one for want of hardware.
 pub struct Arrivals {
+    devices: PathBuf,
+    known: Vec<String>,
     next_look: Instant,
 }
 
 impl Default for Arrivals {
     fn default() -> Self {
-        Self {
-            next_look: Instant::now(),
-        }
+        Self::watching(SYSFS_USB_DEVICES)
     }
 }
 
 impl Arrivals {
-    /// The identity and model of a supported amplifier on the bus now, looked for at most
-    /// every [`RETRY`].
+    /// Watch `devices` (a sysfs `bus/usb/devices` directory). Amplifiers listed now are no
+    /// news: hapticd could not use them when it started, and starting again would not help.
+    fn watching(devices: impl Into<PathBuf>) -> Self {
+        let devices = devices.into();
+        Self {
+            known: listed(&devices).into_iter().map(|(id, _)| id).collect(),
+            devices,
+            next_look: Instant::now() + RETRY,
+        }
+    }
+
+    /// The identity and model of an amplifier plugged in since the last look, looked for at
+    /// most every [`RETRY`]. One unplugged and plugged in again is news again.
     pub fn poll(&mut self, now: Instant) -> Option<(String, SupportedDevice)> {
         if now < self.next_look {
             return None;
         }
         self.next_look = now + RETRY;
-        listed(Path::new(SYSFS_USB_DEVICES)).into_iter().next()
+        let listed = listed(&self.devices);
+        let new = listed
+            .iter()
+            .find(|(id, _)| !self.known.contains(id))
+            .cloned();
+        self.known = listed.into_iter().map(|(id, _)| id).collect();
+        new
     }
 }
 
@@ -143,20 +160,27 @@ impl Arrivals {
 mod tests {
     use super::*;
 
+    /// A sysfs `bus/usb/devices` directory of its own for a test.
+    fn bus(name: &str) -> PathBuf {
+        let root = std::env::temp_dir().join(format!("hotplug-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&root).unwrap();
+        root
+    }
+
+    fn plug(root: &Path, name: &str, vendor: &str, product: &str) {
+        let dir = root.join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("idVendor"), vendor).unwrap();
+        std::fs::write(dir.join("idProduct"), product).unwrap();
+    }
+
     #[test]
     fn sysfs_lists_the_supported_amplifiers_by_their_bus_path() {
-        let root = std::env::temp_dir().join(format!("hotplug-{}", std::process::id()));
-        for (name, vendor, product) in [
-            ("1-2", "0cec\n", "0205\n"),
-            ("3-1.4", "0cec", "0203"),
-            ("1-3", "046d\n", "c52b\n"),
-            ("usb1", "1d6b\n", "0002\n"),
-        ] {
-            let dir = root.join(name);
-            std::fs::create_dir_all(&dir).unwrap();
-            std::fs::write(dir.join("idVendor"), vendor).unwrap();
-            std::fs::write(dir.join("idProduct"), product).unwrap();
-        }
+        let root = bus("list");
+        plug(&root, "1-2", "0cec\n", "0205\n");
+        plug(&root, "3-1.4", "0cec", "0203");
+        plug(&root, "1-3", "046d\n", "c52b\n");
+        plug(&root, "usb1", "1d6b\n", "0002\n");
         // An interface directory has no IDs.
         std::fs::create_dir_all(root.join("1-2:1.0")).unwrap();
         let mut found = listed(&root);
@@ -170,5 +194,28 @@ mod tests {
             ]
         );
         assert!(listed(Path::new("/nonexistent")).is_empty());
+    }
+
+    #[test]
+    fn only_an_amplifier_plugged_in_after_the_start_is_news() {
+        let root = bus("arrivals");
+        // There at the start, but hapticd could not use it: starting again would not help.
+        plug(&root, "1-2", "0cec", "0205");
+        let mut arrivals = Arrivals::watching(&root);
+        let mut now = Instant::now();
+        let mut look = || {
+            now += RETRY;
+            arrivals.poll(now)
+        };
+        assert_eq!(look(), None);
+        plug(&root, "1-4", "0cec", "0203");
+        assert_eq!(look(), Some(("usb:1-4".into(), SUPPORTED_DEVICES[1])));
+        assert_eq!(look(), None);
+        // Unplugged, then plugged in again: news again.
+        std::fs::remove_dir_all(root.join("1-2")).unwrap();
+        assert_eq!(look(), None);
+        plug(&root, "1-2", "0cec", "0205");
+        assert_eq!(look(), Some(("usb:1-2".into(), SUPPORTED_DEVICES[0])));
+        std::fs::remove_dir_all(&root).unwrap();
     }
 }

@@ -52,54 +52,33 @@ pub fn reopen(identity: &str) -> Result<Option<FoundDevice>, String> {
     }
 }
 
-/// A supported controller on the bus, not opened.
-struct PluggedDevice {
-    model: SupportedDevice,
-    /// `usb:BUS-PORT.PORT…`.
-    identity: String,
-    device: rusb::Device<rusb::Context>,
-}
-
-/// The supported controllers `context` sees on the bus, without opening them.
-fn plugged(context: &rusb::Context) -> Result<Vec<PluggedDevice>, String> {
-    let devices = context
-        .devices()
-        .map_err(|e| format!("cannot list USB devices: {e}"))?;
-    Ok(devices
-        .iter()
-        .filter_map(|device| {
-            let descriptor = device.device_descriptor().ok()?;
-            let model = SUPPORTED_DEVICES.iter().find(|m| {
-                m.vendor == descriptor.vendor_id() && m.product == descriptor.product_id()
-            })?;
-            let ports = device.port_numbers().unwrap_or_default();
-            let path: Vec<String> = ports.iter().map(u8::to_string).collect();
-            Some(PluggedDevice {
-                model: *model,
-                identity: format!("usb:{}-{}", device.bus_number(), path.join(".")),
-                device,
-            })
-        })
-        .collect())
-}
-
 /// Open and claim the supported controllers whose identity `wanted` accepts.
 fn scan(context: &rusb::Context, wanted: impl Fn(&str) -> bool) -> (Vec<FoundDevice>, Vec<String>) {
     let mut found = Vec::new();
     let mut problems = Vec::new();
-    let devices = match plugged(context) {
+    let devices = match context.devices() {
         Ok(d) => d,
-        Err(e) => return (found, vec![e]),
+        Err(e) => return (found, vec![format!("cannot list USB devices: {e}")]),
     };
-    for plugged in devices.into_iter().filter(|d| wanted(&d.identity)) {
-        let PluggedDevice {
-            model,
-            identity,
-            device,
-        } = plugged;
-        match open(&device, &model) {
+    for device in devices.iter() {
+        let Ok(descriptor) = device.device_descriptor() else {
+            continue;
+        };
+        let Some(model) = SUPPORTED_DEVICES
+            .iter()
+            .find(|m| m.vendor == descriptor.vendor_id() && m.product == descriptor.product_id())
+        else {
+            continue;
+        };
+        let ports = device.port_numbers().unwrap_or_default();
+        let path: Vec<String> = ports.iter().map(u8::to_string).collect();
+        let identity = format!("usb:{}-{}", device.bus_number(), path.join("."));
+        if !wanted(&identity) {
+            continue;
+        }
+        match open(&device, model) {
             Ok(link) => found.push(FoundDevice {
-                model,
+                model: *model,
                 identity,
                 link,
             }),

@@ -73,7 +73,7 @@ fn os_error() -> TransportError {
 /// What an errno (from a call, or a URB's status) means to the loop.
 fn errno_error(errno: i32) -> TransportError {
     match errno {
-        libc::ENODEV | libc::ESHUTDOWN | libc::ENOENT => TransportError::Disconnected,
+        libc::ENODEV | libc::ESHUTDOWN => TransportError::Disconnected,
         libc::ETIMEDOUT => TransportError::Timeout,
         code => TransportError::Io(code),
     }

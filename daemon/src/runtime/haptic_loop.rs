@@ -281,10 +281,11 @@ impl HapticLoop {
                 }
             }
             LoopCommand::Reconnect(link) => {
-                let old = match self.transport.replace_link(link) {
-                    Ok(old) => old,
-                    Err(refused) => refused,
-                };
+                // The link replaced, or the one sent if this transport cannot take it.
+                let old = self
+                    .transport
+                    .replace_link(link)
+                    .unwrap_or_else(|sent| sent);
                 self.keep_retired(Retired::Link(old));
             }
         }
