@@ -23,7 +23,7 @@ use hapticd::solver::calibration::{lengths_from_counts, offsets};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::pose::PoseSolver;
 use hapticd::solver::tension::TensionSolver;
-use support::amplifier::{emulated_amplifier_with, resting_dac, umockdev_run, update_script};
+use support::amplifier::{SH4, emulated_amplifier_with, resting_dac, umockdev_run, update_script};
 use support::{Rng, pose_inside, shipped_mechanisms, simulated_loop};
 
 struct Counting;
@@ -197,7 +197,7 @@ fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
         for _ in 0..400 {
             script += &update_script(&dac, |_| 0);
         }
-        let (device, ioctl) = emulated_amplifier_with("no-allocation", &script);
+        let (device, ioctl) = emulated_amplifier_with("no-allocation", SH4, &script);
         let out = umockdev_run(&device, &ioctl, &std::env::current_exe().unwrap())
             .args(["--exact", NAME, "--nocapture"])
             .env(UNDER_UMOCKDEV, "1")

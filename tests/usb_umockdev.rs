@@ -2,16 +2,17 @@
 //! emulated SH4 amplifier, 0x0CEC:0x0205, under umockdev: `hapticctl device` finds it, 120
 //! update cycles carry exactly the D/A bytes the emulated board expects and decode the
 //! counters it sends across the 16-bit wrap, hapticd drives it and leaves it at zero, and an
-//! unplug under the running daemon faults it to zero force until the amplifier is back.
+//! unplug under the running daemon faults it to zero force until the amplifier is back. The
+//! Simple amplifier (0x0CEC:0x0203) is driven the same way across its 24-bit wrap.
 
 mod support;
 
 use std::path::{Path, PathBuf};
 
 use support::amplifier::{
-    AMPLIFIER_SYSFS, amplifier_record, emulated_amplifier_with, raw_count, resting_dac,
-    root_hub_record, testbed_run, umockdev_description, umockdev_run, unplugged_update,
-    update_script,
+    AMPLIFIER_SYSFS, SH4, SIMPLE, amplifier_record, emulated_amplifier_with, hex, raw_count,
+    resting_dac, root_hub_record, testbed_run, umockdev_description, umockdev_run,
+    unplugged_update, update_script,
 };
 use support::{artifact, scratch_root};
 
@@ -26,7 +27,7 @@ fn ioctl_script() -> String {
 }
 
 fn emulated_amplifier() -> (PathBuf, PathBuf) {
-    emulated_amplifier_with("exchange", &ioctl_script())
+    emulated_amplifier_with("exchange", SH4, &ioctl_script())
 }
 
 fn under_umockdev(device: &Path, ioctl: &Path, args: &[&str]) -> std::process::Output {
@@ -97,6 +98,73 @@ fn a_hundred_and_twenty_updates_carry_the_right_bytes_both_ways() {
     }
 }
 
+/// One update of the emulated Simple board, written from its documented bytes: the D/A set
+/// (`52` + 8 × int16) and the latch (`51`) it expects, and its 32-byte reply (8 × 24-bit
+/// counters, then the input bits with the rotary switch at 5).
+fn simple_update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u32) -> String {
+    let (mut set, mut latch, mut reply) = ([0u8; 32], [0u8; 32], [0u8; 32]);
+    set[0] = 0x52;
+    for (i, v) in dac.iter().enumerate() {
+        set[1 + 2 * i..3 + 2 * i].copy_from_slice(&v.to_le_bytes());
+        reply[3 * i..3 * i + 3].copy_from_slice(&counts(i).to_le_bytes()[..3]);
+    }
+    latch[0] = 0x51;
+    reply[24] = 0x50;
+    format!(
+        "USBDEVFS_REAPURBNDELAY 0 3 2 0 0 32 32 0 {}\n USBDEVFS_REAPURBNDELAY 0 3 2 0 0 32 32 0 {}\n \
+         USBDEVFS_REAPURBNDELAY 0 3 134 0 0 32 32 0 {}\n",
+        hex(&set),
+        hex(&latch),
+        hex(&reply)
+    )
+}
+
+#[test]
+fn the_simple_amplifier_unwraps_its_24_bit_counters_over_usb() {
+    // Counters start 77 216 below the top of the 24-bit range and climb 5000·(i + 1) per
+    // update: every channel wraps within the first 16 updates.
+    let raw = |k: usize, i: usize| ((16_700_000 + k * (i + 1) * 5000) % (1 << 24)) as u32;
+    let script: String = (0..UPDATES)
+        .map(|k| simple_update_script(&DAC, |i| raw(k, i)))
+        .collect();
+    let (device, ioctl) = emulated_amplifier_with("simple", SIMPLE, &script);
+    let dac = dac_argument(&DAC);
+    let count = UPDATES.to_string();
+    let args = [
+        "device", "exchange", "--count", &count, "--dac", &dac, "--json",
+    ];
+    let out = under_umockdev(&device, &ioctl, &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let result: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(result["model"], "Cyverse USB 2.0 Simple amplifier");
+    let updates = result["updates"].as_array().unwrap();
+    assert_eq!(updates.len(), UPDATES);
+    for (k, update) in updates.iter().enumerate() {
+        assert_eq!(update["board_channel"], 5);
+        for i in 0..8 {
+            // The first read, 16 700 000, is −77 216 as 24-bit two's complement.
+            let expected = -77_216 + (k * (i + 1) * 5000) as i64;
+            assert_eq!(update["counts"][i], expected, "update {k} channel {i}");
+        }
+    }
+    // Any other D/A value is not what the board expects: the set fails.
+    let mut other = DAC;
+    other[7] = 0;
+    let args = [
+        "device",
+        "exchange",
+        "--count",
+        "1",
+        "--dac",
+        &dac_argument(&other),
+    ];
+    assert!(!under_umockdev(&device, &ioctl, &args).status.success());
+}
+
 #[test]
 fn different_dac_bytes_are_refused_by_the_emulated_board() {
     // The board expects exactly the recorded OUT bytes: other D/A values fail the transfer.
@@ -164,7 +232,7 @@ fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
     for _ in 0..600 {
         script += &update_script(&dac, |_| 0);
     }
-    let (device, ioctl) = emulated_amplifier_with("hapticd", &script);
+    let (device, ioctl) = emulated_amplifier_with("hapticd", SH4, &script);
     let dir = ioctl.parent().unwrap().to_path_buf();
     let mut args = hapticd_arguments(&dir);
     args.extend(["--duration".into(), "0.5".into()]);
@@ -210,9 +278,9 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     }
     let dir = scratch_root().join(format!("usb-{}-replug", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("first.umockdev"), umockdev_description()).unwrap();
+    std::fs::write(dir.join("first.umockdev"), umockdev_description(SH4)).unwrap();
     std::fs::write(dir.join("first.ioctl"), first).unwrap();
-    std::fs::write(dir.join("second.umockdev"), amplifier_record(3)).unwrap();
+    std::fs::write(dir.join("second.umockdev"), amplifier_record(SH4, 3)).unwrap();
     std::fs::write(dir.join("second.ioctl"), second).unwrap();
     let frames = dir.join("frames.csv");
     let mut args = hapticd_arguments(&dir);
@@ -304,7 +372,7 @@ fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
     let dir = scratch_root().join(format!("usb-{}-arrival", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
-    std::fs::write(dir.join("amplifier.umockdev"), amplifier_record(2)).unwrap();
+    std::fs::write(dir.join("amplifier.umockdev"), amplifier_record(SH4, 2)).unwrap();
     std::fs::write(dir.join("amplifier.ioctl"), script).unwrap();
     let run = testbed_run(
         &dir,

@@ -1,5 +1,6 @@
-//! An emulated Cyverse SH4 amplifier (0x0CEC:0x0205) for umockdev: its sysfs record and
-//! the usbdevfs traffic of its updates, as the kernel would pass them to libusb or hapticd.
+//! Emulated Cyverse amplifiers for umockdev, the SH4 (0x0CEC:0x0205) and the Simple
+//! (0x0CEC:0x0203): their sysfs records and the usbdevfs traffic of SH4 updates, as the kernel
+//! would pass them to libusb or hapticd.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -7,15 +8,21 @@ use std::process::Command;
 use super::scratch_root;
 
 /// Bytes as the hexadecimal text of umockdev records.
-fn hex(bytes: &[u8]) -> String {
+pub fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02X}")).collect()
 }
 
-/// Device and configuration descriptors of the amplifier: one interface, bulk EP 0x02 OUT
+/// USB product ID of the SH4 amplifier (SPIDAR-G).
+pub const SH4: u16 = 0x0205;
+/// USB product ID of the Simple amplifier.
+pub const SIMPLE: u16 = 0x0203;
+
+/// Device and configuration descriptors of an amplifier: one interface, bulk EP 0x02 OUT
 /// and EP 0x86 IN of 512 bytes.
-fn amplifier_descriptors() -> Vec<u8> {
+fn amplifier_descriptors(product: u16) -> Vec<u8> {
+    let [low, high] = product.to_le_bytes();
     let mut d = vec![
-        0x12, 0x01, 0x00, 0x02, 0x00, 0x00, 0x00, 0x40, 0xEC, 0x0C, 0x05, 0x02, 0x00, 0x01, 0x01,
+        0x12, 0x01, 0x00, 0x02, 0x00, 0x00, 0x00, 0x40, 0xEC, 0x0C, low, high, 0x00, 0x01, 0x01,
         0x02, 0x00, 0x01,
     ];
     d.extend([0x09, 0x02, 0x20, 0x00, 0x01, 0x01, 0x00, 0x80, 0x32]);
@@ -37,16 +44,16 @@ fn root_hub_descriptors() -> Vec<u8> {
     d
 }
 
-/// The amplifier in port 2 of bus 1, at USB address `address`.
-pub fn amplifier_record(address: u8) -> String {
-    let amp = hex(&amplifier_descriptors());
+/// The amplifier `product` in port 2 of bus 1, at USB address `address`.
+pub fn amplifier_record(product: u16, address: u8) -> String {
+    let amp = hex(&amplifier_descriptors(product));
     format!(
         "P: /devices/pci0000:00/0000:00:14.0/usb1/1-2\nN: bus/usb/001/{address:03}={amp}\n\
          E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/{address:03}\nE: DEVNUM={address:03}\n\
-         E: DEVTYPE=usb_device\nE: DRIVER=usb\nE: PRODUCT=cec/205/100\nE: SUBSYSTEM=usb\n\
+         E: DEVTYPE=usb_device\nE: DRIVER=usb\nE: PRODUCT=cec/{product:x}/100\nE: SUBSYSTEM=usb\n\
          E: TYPE=0/0/0\nA: authorized=1\nA: bConfigurationValue=1\nA: bDeviceClass=00\n\
          A: bNumConfigurations=1\nA: bNumInterfaces= 1\nA: busnum=1\\n\nH: descriptors={amp}\n\
-         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath=2\nA: idProduct=0205\n\
+         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath=2\nA: idProduct={product:04x}\n\
          A: idVendor=0cec\nA: speed=480\nA: version= 2.00\n",
         address - 1
     )
@@ -64,9 +71,9 @@ pub fn root_hub_record() -> String {
     )
 }
 
-/// The amplifier at address 2 behind the root hub of bus 1.
-pub fn umockdev_description() -> String {
-    format!("{}\n{}", amplifier_record(2), root_hub_record())
+/// The amplifier `product` at address 2 behind the root hub of bus 1.
+pub fn umockdev_description(product: u16) -> String {
+    format!("{}\n{}", amplifier_record(product, 2), root_hub_record())
 }
 
 /// Raw counter of channel `i` in update `k`: starts near the top of the 16-bit range and
@@ -112,13 +119,13 @@ pub fn unplugged_update(dac: &[i16; 8]) -> String {
     )
 }
 
-/// Files of an amplifier answering `script`, in a scratch directory of its own (`name`):
-/// its umockdev record and its ioctl script.
-pub fn emulated_amplifier_with(name: &str, script: &str) -> (PathBuf, PathBuf) {
+/// Files of an amplifier `product` answering `script`, in a scratch directory of its own
+/// (`name`): its umockdev record and its ioctl script.
+pub fn emulated_amplifier_with(name: &str, product: u16, script: &str) -> (PathBuf, PathBuf) {
     let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (device, ioctl) = (dir.join("amplifier.umockdev"), dir.join("amplifier.ioctl"));
-    std::fs::write(&device, umockdev_description()).unwrap();
+    std::fs::write(&device, umockdev_description(product)).unwrap();
     std::fs::write(&ioctl, script).unwrap();
     (device, ioctl)
 }
