@@ -1,35 +1,39 @@
 //! `hapticd`: the haptics daemon. Runs the haptic loop of a SPIDAR in real time; with no
 //! hardware (or with `--sim`) it drives the simulated SPIDAR.
 
-use std::io::Write;
+mod events;
+mod recording;
+mod saved;
+mod signals;
+mod supervisor;
+mod transport;
+
 use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
 
 use clap::Parser;
-use glam::DVec3;
 use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon, DeviceHandle, DeviceSetup, Telemetry};
-use hapticd::device::Protocol;
-use hapticd::device::hotplug::{Arrivals, Lookup, Reconnector};
-use hapticd::device::replay::{self, RecordingLink, ReplayLink};
-use hapticd::device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
+use hapticd::device::hotplug::{Arrivals, Reconnector};
+use hapticd::device::replay;
 use hapticd::device::usb::find_devices;
 use hapticd::haptics::safety::SafetyLimits;
-use hapticd::mechanism::Mechanism;
 use hapticd::parameters::Parameters;
-use hapticd::runtime::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, LoopSettings};
-use hapticd::runtime::realtime::{Channels, LoopEvent, RealtimeLoop, RealtimeSettings, Scheduling};
+use hapticd::runtime::haptic_loop::{HapticLoop, LoopCommand, LoopSettings};
+use hapticd::runtime::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::runtime::spsc;
 use hapticd::scene::{self, Pointer};
 use hapticd::sd_notify;
 use hapticd::sim::hand::Script;
-use hapticd::sim::{SimParameters, SimulatedBoard};
-use hapticd::state::{DeviceRecord, StateDir};
+use hapticd::state::StateDir;
+
+use saved::{load_record, set_aside};
+use supervisor::{Ending, Supervisor};
+use transport::Source;
 
 /// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
 #[derive(Parser)]
@@ -76,225 +80,6 @@ struct Cli {
     /// Keep calibration and changed parameters in DIR (default: $STATE_DIRECTORY).
     #[arg(long, value_name = "DIR")]
     state_dir: Option<PathBuf>,
-}
-
-static STOP: AtomicBool = AtomicBool::new(false);
-
-/// Set by SIGXCPU: the haptic thread ran past LimitRTTIME= without sleeping.
-static OVERTIME: AtomicBool = AtomicBool::new(false);
-/// Set by SIGHUP: re-read the configuration and rescan plugins.
-static RELOAD: AtomicBool = AtomicBool::new(false);
-
-extern "C" fn on_signal(signal: libc::c_int) {
-    match signal {
-        libc::SIGHUP => RELOAD.store(true, Ordering::Release),
-        libc::SIGXCPU => {
-            OVERTIME.store(true, Ordering::Release);
-            STOP.store(true, Ordering::Release);
-        }
-        _ => STOP.store(true, Ordering::Release),
-    }
-}
-
-fn install_signal_handlers() -> Result<(), String> {
-    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
-    let action = SigAction::new(
-        SigHandler::Handler(on_signal),
-        SaFlags::SA_RESTART,
-        SigSet::empty(),
-    );
-    for signal in [
-        Signal::SIGTERM,
-        Signal::SIGINT,
-        Signal::SIGHUP,
-        Signal::SIGXCPU,
-    ] {
-        // SAFETY: the handler only stores to atomics, which is async-signal-safe.
-        unsafe { sigaction(signal, &action) }
-            .map_err(|e| format!("cannot handle {signal}: {e}"))?;
-    }
-    Ok(())
-}
-
-/// The SH4 protocol over `link`, its traffic recorded when `recorder` is given.
-fn sh4_transport<L: Link + 'static>(
-    link: L,
-    identity: &str,
-    recorder: Option<spsc::Producer<replay::Transfer>>,
-) -> Box<dyn Transport> {
-    match recorder {
-        Some(ring) => Box::new(Sh4Transport::new(RecordingLink::new(link, ring), identity)),
-        None => Box::new(Sh4Transport::new(link, identity)),
-    }
-}
-
-/// Keep the state file of `identity` aside (as `….json.corrupt`) because of `why`, so the
-/// device starts afresh without losing what the file held.
-fn set_aside(dir: &StateDir, identity: &str, why: &str) {
-    let file = dir.device_file(identity);
-    let aside = file.with_extension("json.corrupt");
-    match std::fs::rename(&file, &aside) {
-        Ok(()) => tracing::error!("{why}; kept as {} and starting afresh", aside.display()),
-        Err(_) => tracing::error!("{why}; starting afresh"),
-    }
-}
-
-/// The saved state of `identity`; a file that cannot be parsed, or holds a value out of
-/// range, is set aside and the device starts afresh.
-fn load_record(state_dir: Option<&StateDir>, identity: &str) -> DeviceRecord {
-    let Some(dir) = state_dir else {
-        return DeviceRecord::default();
-    };
-    let checked = dir.load(identity).and_then(|record| {
-        record
-            .parameters
-            .check_ranges()
-            .map(|()| record)
-            .map_err(|e| format!("{}: {e}", dir.device_file(identity).display()))
-    });
-    checked.unwrap_or_else(|why| {
-        set_aside(dir, identity, &why);
-        DeviceRecord::default()
-    })
-}
-
-fn csv_header(mechanism: &Mechanism) -> String {
-    let mut header = String::from("time,state");
-    for e in &mechanism.effectors {
-        for field in [
-            "x", "y", "z", "qw", "qx", "qy", "qz", "fx", "fy", "fz", "tx", "ty", "tz",
-        ] {
-            header += &format!(",{}_{field}", e.name);
-        }
-    }
-    for i in 0..mechanism.strings.len() {
-        header += &format!(",tension_{i}");
-    }
-    header
-}
-
-fn csv_row(frame: &Frame) -> String {
-    let state = match frame.state {
-        DeviceState::Running => "running",
-        DeviceState::Fault => "fault",
-        DeviceState::Disconnected => "disconnected",
-    };
-    let mut row = format!("{:.6},{state}", frame.time);
-    for e in 0..frame.effectors {
-        let (p, q, w) = (
-            frame.poses[e].position,
-            frame.poses[e].orientation,
-            frame.wrenches[e],
-        );
-        for v in [p.x, p.y, p.z, q.w, q.x, q.y, q.z] {
-            row += &format!(",{v:.7}");
-        }
-        for v in w {
-            row += &format!(",{v:.5}");
-        }
-    }
-    for t in &frame.tensions[..frame.strings] {
-        row += &format!(",{t:.5}");
-    }
-    row
-}
-
-/// Drain `frames` into a CSV file until `done` is set and the ring is empty.
-fn spawn_recorder(
-    path: PathBuf,
-    header: String,
-    mut frames: spsc::Consumer<Frame>,
-    done: &'static AtomicBool,
-) -> Result<std::thread::JoinHandle<std::io::Result<()>>, String> {
-    let file = std::fs::File::create(&path)
-        .map_err(|e| format!("{}: cannot create: {e}", path.display()))?;
-    Ok(std::thread::spawn(move || {
-        let mut out = std::io::BufWriter::new(file);
-        writeln!(out, "{header}")?;
-        loop {
-            let finished = done.load(Ordering::Acquire);
-            while let Some(frame) = frames.pop() {
-                writeln!(out, "{}", csv_row(&frame))?;
-            }
-            if finished {
-                return out.flush();
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }))
-}
-
-/// Print the loop's events as they come (the real-time thread must not write itself).
-fn spawn_event_logger(
-    mut events: spsc::Consumer<LoopEvent>,
-    done: &'static AtomicBool,
-) -> std::thread::JoinHandle<()> {
-    std::thread::spawn(move || {
-        let mut overruns = 0u64;
-        loop {
-            let finished = done.load(Ordering::Acquire);
-            while let Some(event) = events.pop() {
-                match event {
-                    LoopEvent::State { time, state, error } => match (state, error) {
-                        (_, Some(e)) => tracing::error!("{time:.3} s: device {state:?}: {e}"),
-                        (DeviceState::Running, None) => {
-                            tracing::info!("{time:.3} s: device {state:?}")
-                        }
-                        (_, None) => {
-                            tracing::error!("{time:.3} s: device {state:?}: forces ramped to zero")
-                        }
-                    },
-                    LoopEvent::Overrun { time, late_ns } => {
-                        overruns += 1;
-                        // The first few in full; then only every thousandth.
-                        if overruns <= 5 || overruns.is_multiple_of(1000) {
-                            tracing::warn!(
-                                "{time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
-                                late_ns as f64 / 1e3
-                            );
-                        }
-                    }
-                }
-            }
-            if finished {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    })
-}
-
-fn status_line(frame: &Frame, rt: &mut RealtimeLoop) -> String {
-    let p = frame.poses[0].position;
-    let f = DVec3::new(
-        frame.wrenches[0][0],
-        frame.wrenches[0][1],
-        frame.wrenches[0][2],
-    );
-    let stats = *rt.stats();
-    format!(
-        "t={:6.2} s  {:?}  grip ({:+.4}, {:+.4}, {:+.4}) m  force ({:+.2}, {:+.2}, {:+.2}) N  \
-         wait p99 {:.0} µs  busy {:.1} µs  overruns {}",
-        frame.time,
-        frame.state,
-        p.x,
-        p.y,
-        p.z,
-        f.x,
-        f.y,
-        f.z,
-        stats.wait_percentile_ns(0.99) as f64 / 1e3,
-        stats.busy_mean_ns() as f64 / 1e3,
-        stats.overruns
-    )
-}
-
-/// How a run ended well.
-enum Ending {
-    /// Asked to stop, or its time was up.
-    Done,
-    /// An amplifier was plugged in while simulating: start again, on it.
-    Restart,
 }
 
 fn run(cli: Cli) -> Result<Ending, String> {
@@ -367,34 +152,21 @@ fn run(cli: Cli) -> Result<Ending, String> {
     };
     // A USB amplifier that is unplugged is opened again when it returns; one plugged in while
     // hapticd simulates for want of hardware makes it start again, on that amplifier.
-    let mut reconnector = usb
+    let reconnector = usb
         .as_ref()
         .map(|device| Reconnector::new(&identity, device.model));
-    let mut arrivals =
+    let arrivals =
         (usb.is_none() && cli.sim.is_none() && cli.replay.is_none()).then(Arrivals::default);
-    let transport: Box<dyn Transport> = match (&cli.replay, usb) {
-        (_, Some(device)) => {
-            // Boxed, so that a link opened after an unplug can take its place.
-            let link: Box<dyn Link> = Box::new(device.link);
-            match (device.model.protocol, traffic_tx) {
-                (Protocol::Sh4, tx) => sh4_transport(link, &identity, tx),
-                (Protocol::Simple, None) => Box::new(SimpleTransport::new(link, &identity)),
-                (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
-                    RecordingLink::new(link, ring),
-                    &identity,
-                )),
-            }
-        }
-        (Some(path), None) => {
-            let transfers = replay::read_recording(path).map_err(|e| e.to_string())?;
-            sh4_transport(ReplayLink::new(transfers), &identity, traffic_tx)
-        }
-        (None, None) => {
-            let board =
-                SimulatedBoard::new(&mechanism, 1.0 / rate, &script, SimParameters::default());
-            sh4_transport(board, &identity, traffic_tx)
-        }
+    let source = match (usb, &cli.replay) {
+        (Some(device), _) => Source::Usb(device),
+        (None, Some(path)) => Source::Replay(path),
+        (None, None) => Source::Simulator {
+            mechanism: &mechanism,
+            rate,
+            script: &script,
+        },
     };
+    let transport = transport::open(source, &identity, traffic_tx)?;
     let pointers = Pointer::at_calibration(&mechanism);
     let scene = scene::open(
         cli.scene.as_deref().unwrap_or(&config.scene),
@@ -429,7 +201,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         },
         ..LoopSettings::default()
     };
-    let header = csv_header(&mechanism);
+    let header = recording::csv_header(&mechanism);
     let strings = mechanism.strings.len();
     let mut haptic =
         HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
@@ -461,21 +233,21 @@ fn run(cli: Cli) -> Result<Ending, String> {
         );
         None
     });
-    install_signal_handlers()?;
+    signals::install()?;
     let (event_tx, event_rx) = spsc::channel(1024);
-    let logger = spawn_event_logger(event_rx, &DONE);
+    let logger = events::spawn_event_logger(event_rx, &DONE);
     let (recorder_tx, recorder) = match &cli.record {
         Some(path) => {
             let (tx, rx) = spsc::channel(1 << 16);
             (
                 Some(tx),
-                Some(spawn_recorder(path.clone(), header, rx, &DONE)?),
+                Some(recording::spawn_recorder(path.clone(), header, rx, &DONE)?),
             )
         }
         None => (None, None),
     };
     let (command_tx, command_rx) = spsc::channel(64);
-    let (retired_tx, mut retired_rx) = spsc::channel(4);
+    let (retired_tx, retired_rx) = spsc::channel(4);
     let mut rt = RealtimeLoop::start(
         haptic,
         RealtimeSettings {
@@ -546,69 +318,16 @@ fn run(cli: Cli) -> Result<Ending, String> {
     let _ = sd_notify::notify(&format!(
         "READY=1\nSTATUS=running {mechanism_name} at {rate} Hz"
     ));
-    let started = Instant::now();
-    let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
-    let (mut last_ping, mut last_beat) = (Instant::now(), 0);
-    let (mut last_status, mut last_publish) = (Instant::now(), Instant::now());
-    let mut ending = Ending::Done;
-    while !STOP.load(Ordering::Acquire) {
-        if cli
-            .duration
-            .is_some_and(|d| started.elapsed().as_secs_f64() >= d)
-        {
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-        // Ping the watchdog only while the haptic loop is alive.
-        let beat = rt.heartbeat();
-        if let Some(interval) = watchdog
-            && beat > last_beat
-            && last_ping.elapsed() >= interval
-        {
-            let _ = sd_notify::notify("WATCHDOG=1");
-            last_ping = Instant::now();
-        }
-        last_beat = beat;
-        if RELOAD.swap(false, Ordering::AcqRel) {
-            match daemon.reload() {
-                Ok(()) => tracing::info!("reloaded the configuration and plugins"),
-                Err(e) => tracing::error!("reload refused, nothing changed: {e}"),
-            }
-        }
-        // Scenes and links replaced are freed here, off the real-time thread.
-        while retired_rx.pop().is_some() {}
-        if let Some(r) = reconnector.as_mut() {
-            let missing = rt.frame().state == DeviceState::Disconnected;
-            match r.poll(missing, Instant::now()) {
-                Lookup::Back(link) => match device.reconnect(link) {
-                    Ok(()) => tracing::info!("{identity} is back: reconnected"),
-                    Err(e) => tracing::warn!("{identity} is back but not reconnected: {e}"),
-                },
-                Lookup::Refused(why) => tracing::warn!("{why}"),
-                Lookup::Idle | Lookup::Absent => {}
-            }
-        }
-        if let Some((plugged, model)) = arrivals.as_mut().and_then(|a| a.poll(Instant::now())) {
-            tracing::info!(
-                "{plugged} ({}) plugged in: starting again on it",
-                model.name
-            );
-            ending = Ending::Restart;
-            break;
-        }
-        if last_publish.elapsed() >= Duration::from_millis(100) {
-            device.publish(Telemetry {
-                frame: *rt.frame(),
-                stats: *rt.stats(),
-            });
-            last_publish = Instant::now();
-        }
-        if last_status.elapsed() >= Duration::from_millis(500) {
-            let frame = *rt.frame();
-            println!("{}", status_line(&frame, &mut rt));
-            last_status = Instant::now();
-        }
+    let ending = Supervisor {
+        rt: &mut rt,
+        device,
+        daemon,
+        retired: retired_rx,
+        reconnector,
+        arrivals,
+        duration: cli.duration,
     }
+    .run();
     // A restart is, to systemd, a reload: the new image says READY=1 again.
     let _ = sd_notify::notify(match ending {
         Ending::Done => "STOPPING=1",
@@ -632,7 +351,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         stats.wait_max_ns as f64 / 1e3,
         stats.overruns
     );
-    if OVERTIME.load(Ordering::Acquire) {
+    if signals::OVERTIME.load(Ordering::Acquire) {
         return Err(
             "the haptic thread ran past LimitRTTIME= without sleeping (SIGXCPU): motors zeroed, \
              exiting for a restart"
