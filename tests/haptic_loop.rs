@@ -7,7 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use hapticd::device::transport::{Link, Sh4Transport, TransportError};
-use hapticd::runtime::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
+use hapticd::runtime::haptic_loop::{
+    DeviceState, Frame, HapticLoop, LoopCommand, LoopSettings, Retired,
+};
 use hapticd::scene::Pointer;
 use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd::sim::hand::Script;
@@ -82,6 +84,9 @@ fn an_unplugged_device_faults_to_zero_and_resumes() {
 struct Cable {
     board: Arc<Mutex<SimulatedBoard>>,
     pulled: Arc<AtomicBool>,
+    /// Added to each raw counter the board reports: a board that restarted its counts with
+    /// the strings elsewhere.
+    shift: [u16; 8],
 }
 
 impl Cable {
@@ -99,7 +104,14 @@ impl Link for Cable {
     }
 
     fn read(&mut self, bytes: &mut [u8]) -> Result<usize, TransportError> {
-        self.board()?.read(bytes)
+        let n = self.board()?.read(bytes)?;
+        // Encoder counts are the little-endian u16s at bytes 16..32 of the SH4 report.
+        for (i, shift) in self.shift.iter().enumerate() {
+            let at = 16 + 2 * i;
+            let raw = u16::from_le_bytes([bytes[at], bytes[at + 1]]).wrapping_add(*shift);
+            bytes[at..at + 2].copy_from_slice(&raw.to_le_bytes());
+        }
+        Ok(n)
     }
 
     fn reset_in(&mut self) -> Result<(), TransportError> {
@@ -107,8 +119,10 @@ impl Link for Cable {
     }
 }
 
-#[test]
-fn an_amplifier_opened_again_after_an_unplug_resumes_with_its_calibration() {
+/// A SPIDAR-G loop on a simulated amplifier pressing on the floor, its USB cable pulled
+/// after 1.5 s and left out for 0.3 s; returns the loop, the board, and the last frame
+/// before the unplug.
+fn pressed_then_unplugged() -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Frame) {
     let m = shipped("spidar-g");
     let board = Arc::new(Mutex::new(SimulatedBoard::new(
         &m,
@@ -120,6 +134,7 @@ fn an_amplifier_opened_again_after_an_unplug_resumes_with_its_calibration() {
     let link: Box<dyn Link> = Box::new(Cable {
         board: board.clone(),
         pulled: first_cable.clone(),
+        shift: [0; 8],
     });
     let spec =
         StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
@@ -147,10 +162,17 @@ fn an_amplifier_opened_again_after_an_unplug_resumes_with_its_calibration() {
             assert_eq!(frame.dac, [0; 8]);
         }
     }
+    (haptic, board, pressing)
+}
+
+#[test]
+fn an_amplifier_opened_again_after_an_unplug_resumes_with_its_calibration() {
+    let (mut haptic, board, pressing) = pressed_then_unplugged();
     // Plugged back and opened again: the loop takes the new link between two ticks.
     haptic.command(LoopCommand::Reconnect(Box::new(Cable {
         board: board.clone(),
         pulled: Arc::new(AtomicBool::new(false)),
+        shift: [0; 8],
     })));
     let Some(Retired::Link(mut dead)) = haptic.take_retired() else {
         panic!("the dead link must come back to be closed off the real-time thread");
@@ -187,4 +209,58 @@ fn zero_motors_writes_zero_currents() {
     assert!(haptic.frame().dac.iter().any(|d| *d != 0));
     haptic.zero_motors().unwrap();
     assert_eq!(haptic.frame().dac, [0; 8]);
+}
+
+#[test]
+fn counts_that_no_longer_fit_the_calibration_hold_the_forces_at_zero_until_it_is_redone() {
+    let (mut haptic, board, _) = pressed_then_unplugged();
+    // Back, but the board restarted its counters with the strings elsewhere: each counter is
+    // off by a different 1000·(i + 1) counts (3–23 cm of string).
+    let shift = std::array::from_fn(|i| 1000 * (i as u16 + 1));
+    haptic.command(LoopCommand::Reconnect(Box::new(Cable {
+        board,
+        pulled: Arc::new(AtomicBool::new(false)),
+        shift,
+    })));
+    for _ in 0..500 {
+        let frame = *haptic.tick(DT);
+        assert_eq!(frame.state, DeviceState::Uncalibrated);
+        assert!(!frame.calibrated);
+        assert_eq!(frame.dac, [0; 8], "no force on counts that fit no pose");
+    }
+    // A fault reset is not enough: only a calibration trusts the counts again.
+    haptic.command(LoopCommand::ResetFault);
+    assert_eq!(haptic.tick(DT).state, DeviceState::Uncalibrated);
+    haptic.command(LoopCommand::Calibrate);
+    let frame = *haptic.tick(DT);
+    assert_eq!(frame.state, DeviceState::Running);
+    assert!(frame.calibrated);
+    assert_eq!(frame.calibrations, 2);
+}
+
+#[test]
+fn a_saved_calibration_is_trusted_only_if_the_counts_fit_it() {
+    let m = shipped("spidar-g");
+    let script = "hands:\n  grip:\n    - hold: { seconds: 1 }\n";
+    let fitting = {
+        let mut haptic = simulated_loop(&m, script, DT);
+        haptic.tick(DT);
+        haptic.frame().offsets
+    };
+    // The offsets the device itself gave fit; offsets off by 2–16 cm, string by string, do
+    // not (the grip cannot be where those lengths meet).
+    for (offsets, expected) in [
+        (fitting, DeviceState::Running),
+        (
+            std::array::from_fn(|i| fitting[i] + 0.02 * (i as f64 + 1.0)),
+            DeviceState::Uncalibrated,
+        ),
+    ] {
+        let mut haptic = simulated_loop(&m, script, DT);
+        haptic.restore_calibration(&offsets[..8]).unwrap();
+        for _ in 0..100 {
+            assert_eq!(haptic.tick(DT).state, expected);
+        }
+        assert_eq!(haptic.frame().calibrations, 0);
+    }
 }

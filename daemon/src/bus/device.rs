@@ -40,6 +40,7 @@ fn state_name(t: &Telemetry) -> &'static str {
     match (t.frame.state, t.frame.calibrated) {
         (DeviceState::Disconnected, _) => "disconnected",
         (DeviceState::Fault, _) => "fault",
+        (DeviceState::Uncalibrated, _) => "uncalibrated",
         (DeviceState::Running, false) => "calibrating",
         (DeviceState::Running, true) => "running",
     }
@@ -129,7 +130,8 @@ impl DeviceInterface {
         self.device.bound_mechanism().unwrap_or_default()
     }
 
-    /// running, calibrating, fault (forces ramped to zero) or disconnected.
+    /// running, calibrating, fault (forces ramped to zero), disconnected, or uncalibrated (the
+    /// counts no longer fit the calibration: forces stay at zero until `Calibrate()`).
     #[zbus(property)]
     fn state(&self) -> String {
         state_name(&self.device.telemetry()).to_string()

@@ -30,6 +30,16 @@ use crate::solver::tension::TensionSolver;
 /// Most effectors a running device may have (the size of every per-tick record).
 pub const MAX_EFFECTORS: usize = 4;
 
+/// Largest root-mean-square misfit, metres, between the measured string lengths and the best
+/// pose for the counts to fit the calibration. Elastic stretch and encoder steps give well
+/// under a millimetre (0.06 mm pressing on the simulated SPIDAR-G), small errors of a
+/// descriptor a few; counts that a board restarted with its strings elsewhere miss by
+/// centimetres (4 to 8 cm in the tests).
+pub const FITTING_MISFIT: f64 = 0.01;
+
+/// Gauss–Newton iterations when the grip may have moved far since the last reading.
+const SEARCH_ITERATIONS: usize = 50;
+
 /// Settings of a haptic loop.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopSettings {
@@ -64,6 +74,9 @@ pub enum DeviceState {
     Fault,
     /// The device does not answer.
     Disconnected,
+    /// The counts no longer fit the calibration (checked when the device returns, and at
+    /// start on a saved calibration): forces stay at zero until it is calibrated again.
+    Uncalibrated,
 }
 
 /// What one tick did: published to the rest of the daemon and to recordings.
@@ -149,6 +162,8 @@ pub struct HapticLoop {
     frame: Frame,
     parameters: Option<Parameters>,
     incoming: Option<Box<dyn Scene>>,
+    check_fit: bool,
+    misfit: bool,
     retired_scene: Option<Box<dyn Scene>>,
     retired_link: Option<Box<dyn Link>>,
 }
@@ -226,6 +241,8 @@ impl HapticLoop {
             frame,
             parameters: None,
             incoming: None,
+            check_fit: false,
+            misfit: false,
             retired_scene: None,
             retired_link: None,
         })
@@ -243,6 +260,8 @@ impl HapticLoop {
         }
         self.offsets.copy_from_slice(offsets);
         self.calibrated = true;
+        // The board may have restarted its counts elsewhere since they were saved.
+        self.check_fit = true;
         self.frame.calibrated = true;
         self.frame.offsets[..offsets.len()].copy_from_slice(offsets);
         Ok(())
@@ -358,12 +377,23 @@ impl HapticLoop {
                 let counts = &self.reading.counts[..self.mechanism.strings.len()];
                 offsets_into(&self.mechanism, counts, &mut self.offsets);
                 self.calibrated = true;
+                (self.check_fit, self.misfit) = (false, false);
                 self.frame.calibrated = true;
                 self.frame.calibrations += 1;
                 self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
             }
-            self.solve_poses(dt);
-            if self.frame.state == DeviceState::Disconnected {
+            let returning = self.frame.state == DeviceState::Disconnected;
+            if std::mem::take(&mut self.check_fit) || returning {
+                // The grip may be anywhere: search for it, and trust the counts only if some
+                // pose fits them.
+                if self.solve_poses(dt, true) > FITTING_MISFIT {
+                    self.misfit = true;
+                    self.frame.calibrated = false;
+                }
+            } else {
+                self.solve_poses(dt, false);
+            }
+            if returning {
                 self.scene.reset(&self.pointers);
             }
             self.swap_scene_when_quiet();
@@ -378,9 +408,8 @@ impl HapticLoop {
             let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
             let force = e.passivity.filter(force, e.velocity, dt);
             wrench[..3].copy_from_slice(&force.to_array());
-            all_finite &= e
-                .guard
-                .apply(&mut wrench, connected && scene_ok && !switching, dt);
+            let healthy = connected && scene_ok && !switching && !self.misfit;
+            all_finite &= e.guard.apply(&mut wrench, healthy, dt);
             self.frame.wrenches[index] = wrench;
             self.frame.poses[index] = *e.pose.pose();
             self.frame.velocities[index] = e.velocity;
@@ -395,13 +424,21 @@ impl HapticLoop {
         }
         (self.frame.state, self.frame.error) = match update {
             Err(e) => (DeviceState::Disconnected, Some(e)),
+            Ok(()) if self.misfit => (DeviceState::Uncalibrated, None),
             Ok(()) if !all_finite || !scene_ok => (DeviceState::Fault, None),
             Ok(()) => (DeviceState::Running, None),
         };
         &self.frame
     }
 
-    fn solve_poses(&mut self, dt: f64) {
+    /// Solve every effector's pose, warm-started, or with a long `search` from the last pose
+    /// (the velocity then starts again from rest); returns the largest misfit (RMS, metres).
+    fn solve_poses(&mut self, dt: f64, search: bool) -> f64 {
+        let iterations = if search {
+            SEARCH_ITERATIONS
+        } else {
+            self.settings.pose_iterations
+        };
         let strings = &self.mechanism.strings;
         lengths_from_counts(
             strings,
@@ -410,20 +447,27 @@ impl HapticLoop {
             &mut self.lengths,
         );
         let alpha = (-std::f64::consts::TAU * self.settings.velocity_cutoff * dt).exp();
+        let mut misfit: f64 = 0.0;
         for (e, pointer) in self.effectors.iter_mut().zip(&mut self.pointers) {
             let mut own = [0.0; MAX_STRINGS_PER_EFFECTOR];
             for (length, &s) in own.iter_mut().zip(&e.strings[..e.count]) {
                 *length = self.lengths[s];
             }
-            let estimate = e.pose.solve(&own[..e.count], self.settings.pose_iterations);
+            let estimate = e.pose.solve(&own[..e.count], iterations);
+            misfit = misfit.max(estimate.residual);
             let position = estimate.pose.position;
-            e.velocity = alpha * e.velocity + (1.0 - alpha) * (position - e.previous) / dt;
+            e.velocity = if search {
+                DVec3::ZERO
+            } else {
+                alpha * e.velocity + (1.0 - alpha) * (position - e.previous) / dt
+            };
             e.previous = position;
             *pointer = Pointer {
                 pose: estimate.pose,
                 velocity: e.velocity,
             };
         }
+        misfit
     }
 
     /// [rt] Write zero currents to every motor (on shutdown).

@@ -23,6 +23,11 @@ pub fn spawn_event_logger(
                         (DeviceState::Running, None) => {
                             tracing::info!("{time:.3} s: device {state:?}")
                         }
+                        (DeviceState::Uncalibrated, None) => tracing::error!(
+                            "{time:.3} s: the counts no longer fit the calibration (did the \
+                             amplifier lose power?): forces held at zero until it is calibrated \
+                             again (Calibrate())"
+                        ),
                         (_, None) => {
                             tracing::error!("{time:.3} s: device {state:?}: forces ramped to zero")
                         }

@@ -32,6 +32,7 @@ fn csv_row(frame: &Frame) -> String {
         DeviceState::Running => "running",
         DeviceState::Fault => "fault",
         DeviceState::Disconnected => "disconnected",
+        DeviceState::Uncalibrated => "uncalibrated",
     };
     let mut row = format!("{:.6},{state}", frame.time);
     for e in 0..frame.effectors {
