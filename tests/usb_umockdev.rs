@@ -10,8 +10,8 @@ mod support;
 use std::path::{Path, PathBuf};
 
 use support::amplifier::{
-    AMPLIFIER_SYSFS, SH4, SIMPLE, amplifier_record, emulated_amplifier_with, hex, raw_count,
-    resting_dac, root_hub_record, testbed_run, umockdev_description, umockdev_run,
+    AMPLIFIER_SYSFS, SH4, SIMPLE, amplifier_in_port, amplifier_record, emulated_amplifier_with,
+    hex, raw_count, resting_dac, root_hub_record, testbed_run, umockdev_description, umockdev_run,
     unplugged_update, update_script,
 };
 use support::{artifact, scratch_root};
@@ -407,4 +407,74 @@ fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
     assert_eq!(outs[0], [0; 8]);
     assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
     assert_eq!(*outs.last().unwrap(), [0; 8]);
+}
+
+#[test]
+fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_other() {
+    let dac = resting_dac();
+    let mut good = update_script(&[0; 8], |_| 0);
+    for _ in 0..3000 {
+        good += &update_script(&dac, |_| 0);
+    }
+    let dir = scratch_root().join(format!("usb-{}-two", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
+    std::fs::write(dir.join("a.umockdev"), amplifier_in_port(SH4, 2, 2)).unwrap();
+    std::fs::write(dir.join("b.umockdev"), amplifier_in_port(SH4, 3, 3)).unwrap();
+    std::fs::write(dir.join("good.ioctl"), &good).unwrap();
+    let run = testbed_run(
+        &dir,
+        &[
+            "add=hub.umockdev",
+            "add=a.umockdev",
+            "add=b.umockdev",
+            "ioctl=/dev/bus/usb/001/002=good.ioctl",
+            // The second board fails every transfer with EIO.
+            "refuse=/dev/bus/usb/001/003",
+            "start",
+            "wait=ready: driving",
+            "sleep=0.8",
+        ],
+        &artifact("hapticd"),
+        &hapticd_arguments(&dir),
+    );
+    let stderr = &run.stderr;
+    let mut ticks = Vec::new();
+    for identity in ["usb:1-2", "usb:1-3"] {
+        assert!(
+            stderr.contains(&format!("spidar-g on {identity}")),
+            "{stderr}"
+        );
+        // Each loop ran on its own thread and ended at zero current.
+        let stopped = stderr
+            .lines()
+            .find(|l| l.contains(&format!("{identity}: stopped after")))
+            .unwrap_or_else(|| panic!("{identity} never stopped: {stderr}"));
+        assert!(stopped.contains("motors at zero"), "{stopped}");
+        let count: u64 = stopped
+            .split("stopped after ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap();
+        ticks.push(count);
+    }
+    assert!(ticks.iter().all(|t| *t > 300), "{ticks:?}");
+    assert!(
+        stderr.contains("usb:1-3: 0.001 s: device Disconnected: I/O error"),
+        "{stderr}"
+    );
+    // The good one never left the running state.
+    assert!(
+        !stderr
+            .lines()
+            .any(|l| l.contains("usb:1-2: ") && l.contains(" s: device ")),
+        "{stderr}"
+    );
+    // The traffic recording is the first amplifier's, untroubled: zeros, resting tensions,
+    // zeros.
+    let outs = dac_written(&dir);
+    assert!(outs.len() > 300, "{} updates", outs.len());
+    assert_eq!((outs[0], *outs.last().unwrap()), ([0; 8], [0; 8]));
+    assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
 }

@@ -46,14 +46,19 @@ fn root_hub_descriptors() -> Vec<u8> {
 
 /// The amplifier `product` in port 2 of bus 1, at USB address `address`.
 pub fn amplifier_record(product: u16, address: u8) -> String {
+    amplifier_in_port(product, 2, address)
+}
+
+/// The amplifier `product` in `port` of bus 1, at USB address `address`.
+pub fn amplifier_in_port(product: u16, port: u8, address: u8) -> String {
     let amp = hex(&amplifier_descriptors(product));
     format!(
-        "P: /devices/pci0000:00/0000:00:14.0/usb1/1-2\nN: bus/usb/001/{address:03}={amp}\n\
+        "P: /devices/pci0000:00/0000:00:14.0/usb1/1-{port}\nN: bus/usb/001/{address:03}={amp}\n\
          E: BUSNUM=001\nE: DEVNAME=/dev/bus/usb/001/{address:03}\nE: DEVNUM={address:03}\n\
          E: DEVTYPE=usb_device\nE: DRIVER=usb\nE: PRODUCT=cec/{product:x}/100\nE: SUBSYSTEM=usb\n\
          E: TYPE=0/0/0\nA: authorized=1\nA: bConfigurationValue=1\nA: bDeviceClass=00\n\
          A: bNumConfigurations=1\nA: bNumInterfaces= 1\nA: busnum=1\\n\nH: descriptors={amp}\n\
-         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath=2\nA: idProduct={product:04x}\n\
+         A: dev=189:{}\nA: devnum={address}\\n\nA: devpath={port}\nA: idProduct={product:04x}\n\
          A: idVendor=0cec\nA: speed=480\nA: version= 2.00\n",
         address - 1
     )

@@ -8,6 +8,9 @@ Run under umockdev-wrapper (the testbed sends uevents through the preloaded libu
 Steps, in order (files are in DIR):
     add=RECORD          add the devices of a umockdev record (with their "add" uevents)
     ioctl=NODE=SCRIPT   answer the ioctls of device node NODE from an ioctl script
+    refuse=NODE         device node NODE can be claimed, but every transfer fails with EIO
+                        (umockdev replays scripts one URB at a time across all devices, so
+                        a second device that must keep running cannot have a script)
     start               start the program, its standard error read line by line
     wait=TEXT           wait until the program writes a line containing TEXT
     unplug=SYSFS        a "remove" uevent, then the device is gone from sysfs and /dev
@@ -18,6 +21,7 @@ goes to DIR/program.stderr, the moment each step ended (seconds since the start)
 DIR/moments.json; the exit status is the program's (1 if a step failed).
 """
 
+import errno
 import json
 import os
 import queue
@@ -33,6 +37,23 @@ gi.require_version("UMockdev", "1.0")
 from gi.repository import GLib, UMockdev  # noqa: E402
 
 TIMEOUT = 20.0
+
+# <linux/usbdevice_fs.h>, 64-bit.
+USBDEVFS_GETDRIVER = 0x41045508
+USBDEVFS_CLAIMINTERFACE = 0x8004550F
+USBDEVFS_RELEASEINTERFACE = 0x80045510
+
+
+def refuse_transfers(_handler, client):
+    """Answer an ioctl of a device that can be claimed but fails every transfer."""
+    request = client.get_request()
+    if request in (USBDEVFS_CLAIMINTERFACE, USBDEVFS_RELEASEINTERFACE):
+        client.complete(0, 0)
+    elif request == USBDEVFS_GETDRIVER:
+        client.complete(-1, errno.ENODATA)
+    else:
+        client.complete(-1, errno.EIO)
+    return True
 
 
 class Program:
@@ -80,6 +101,7 @@ def main():
     start = time.monotonic()
     program = None
     moments = []
+    handlers = []
     failed = None
     try:
         for step in steps:
@@ -90,6 +112,11 @@ def main():
             elif verb == "ioctl":
                 node, _, script = argument.partition("=")
                 testbed.load_ioctl(node, path(script))
+            elif verb == "refuse":
+                handler = UMockdev.IoctlBase()
+                handler.connect("handle-ioctl", refuse_transfers)
+                testbed.attach_ioctl(argument, handler)
+                handlers.append(handler)
             elif verb == "start":
                 program = Program(command, env)
             elif verb == "wait":

@@ -4,7 +4,7 @@
 //! - [`Reconnector`]: while the haptic loop reports its amplifier disconnected, look for it
 //!   again by identity (its bus path) and, once it is back, open it and hand the loop the new
 //!   link. The loop keeps its calibration and parameters across the gap.
-//! - [`Arrivals`]: while hapticd simulates for want of hardware, notice an amplifier plugged in.
+//! - [`Arrivals`]: notice an amplifier plugged in that hapticd does not drive yet.
 //!
 //! Both look in sysfs first, a few small reads every [`RETRY`], and only ask libusb (whose
 //! every context starts an event thread) once the amplifier is there.
@@ -114,27 +114,29 @@ impl Reconnector {
     }
 }
 
-/// Notices a supported amplifier plugged in while hapticd simulates one for want of hardware.
+/// Notices a supported amplifier plugged in that hapticd does not drive yet.
 pub struct Arrivals {
     devices: PathBuf,
+    driven: Vec<String>,
     known: Vec<String>,
     next_look: Instant,
 }
 
-impl Default for Arrivals {
-    fn default() -> Self {
-        Self::watching(SYSFS_USB_DEVICES)
-    }
-}
-
 impl Arrivals {
+    /// Watch the bus; the amplifiers known as `driven` are hapticd's own (their comings and
+    /// goings are the [`Reconnector`]'s).
+    pub fn new(driven: Vec<String>) -> Self {
+        Self::watching(SYSFS_USB_DEVICES, driven)
+    }
+
     /// Watch `devices` (a sysfs `bus/usb/devices` directory). Amplifiers listed now are no
     /// news: hapticd could not use them when it started, and starting again would not help.
-    fn watching(devices: impl Into<PathBuf>) -> Self {
+    fn watching(devices: impl Into<PathBuf>, driven: Vec<String>) -> Self {
         let devices = devices.into();
         Self {
             known: listed(&devices).into_iter().map(|(id, _)| id).collect(),
             devices,
+            driven,
             next_look: Instant::now() + RETRY,
         }
     }
@@ -149,7 +151,7 @@ impl Arrivals {
         let listed = listed(&self.devices);
         let new = listed
             .iter()
-            .find(|(id, _)| !self.known.contains(id))
+            .find(|(id, _)| !self.known.contains(id) && !self.driven.contains(id))
             .cloned();
         self.known = listed.into_iter().map(|(id, _)| id).collect();
         new
@@ -201,7 +203,9 @@ mod tests {
         let root = bus("arrivals");
         // There at the start, but hapticd could not use it: starting again would not help.
         plug(&root, "1-2", "0cec", "0205");
-        let mut arrivals = Arrivals::watching(&root);
+        // Driven by hapticd: its returns are not arrivals.
+        plug(&root, "2-1", "0cec", "0205");
+        let mut arrivals = Arrivals::watching(&root, vec!["usb:2-1".into()]);
         let mut now = Instant::now();
         let mut look = || {
             now += RETRY;
@@ -216,6 +220,10 @@ mod tests {
         assert_eq!(look(), None);
         plug(&root, "1-2", "0cec", "0205");
         assert_eq!(look(), Some(("usb:1-2".into(), SUPPORTED_DEVICES[0])));
+        std::fs::remove_dir_all(root.join("2-1")).unwrap();
+        assert_eq!(look(), None);
+        plug(&root, "2-1", "0cec", "0205");
+        assert_eq!(look(), None);
         std::fs::remove_dir_all(&root).unwrap();
     }
 }

@@ -7,8 +7,10 @@ use hapticd::runtime::haptic_loop::DeviceState;
 use hapticd::runtime::realtime::LoopEvent;
 use hapticd::runtime::spsc;
 
-/// Print the loop's events as they come (the real-time thread must not write itself).
+/// Log the events of the loop of device `identity` as they come (the real-time thread must
+/// not write itself).
 pub fn spawn_event_logger(
+    identity: String,
     mut events: spsc::Consumer<LoopEvent>,
     done: &'static AtomicBool,
 ) -> std::thread::JoinHandle<()> {
@@ -19,17 +21,21 @@ pub fn spawn_event_logger(
             while let Some(event) = events.pop() {
                 match event {
                     LoopEvent::State { time, state, error } => match (state, error) {
-                        (_, Some(e)) => tracing::error!("{time:.3} s: device {state:?}: {e}"),
+                        (_, Some(e)) => {
+                            tracing::error!("{identity}: {time:.3} s: device {state:?}: {e}")
+                        }
                         (DeviceState::Running, None) => {
-                            tracing::info!("{time:.3} s: device {state:?}")
+                            tracing::info!("{identity}: {time:.3} s: device {state:?}")
                         }
                         (DeviceState::Uncalibrated, None) => tracing::error!(
-                            "{time:.3} s: the counts no longer fit the calibration (did the \
+                            "{identity}: {time:.3} s: the counts no longer fit the calibration (did the \
                              amplifier lose power?): forces held at zero until it is calibrated \
                              again (Calibrate())"
                         ),
                         (_, None) => {
-                            tracing::error!("{time:.3} s: device {state:?}: forces ramped to zero")
+                            tracing::error!(
+                                "{identity}: {time:.3} s: device {state:?}: forces ramped to zero"
+                            )
                         }
                     },
                     LoopEvent::Overrun { time, late_ns } => {
@@ -37,7 +43,7 @@ pub fn spawn_event_logger(
                         // The first few in full; then only every thousandth.
                         if overruns <= 5 || overruns.is_multiple_of(1000) {
                             tracing::warn!(
-                                "{time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
+                                "{identity}: {time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
                                 late_ns as f64 / 1e3
                             );
                         }

@@ -1,6 +1,7 @@
 //! `hapticd`: the haptics daemon. Runs the haptic loop of a SPIDAR in real time; with no
 //! hardware (or with `--sim`) it drives the simulated SPIDAR.
 
+mod device;
 mod events;
 mod recording;
 mod saved;
@@ -17,23 +18,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use clap::Parser;
 use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
-use hapticd::control::{self, Daemon, DeviceHandle, DeviceSetup, Telemetry};
-use hapticd::device::hotplug::{Arrivals, Reconnector};
-use hapticd::device::replay;
+use hapticd::control::{self, Daemon};
+use hapticd::device::hotplug::Arrivals;
 use hapticd::device::usb::find_devices;
-use hapticd::haptics::safety::SafetyLimits;
-use hapticd::parameters::Parameters;
-use hapticd::runtime::haptic_loop::{HapticLoop, LoopCommand, LoopSettings};
-use hapticd::runtime::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
-use hapticd::runtime::spsc;
-use hapticd::scene::{self, Pointer};
 use hapticd::sd_notify;
 use hapticd::sim::hand::Script;
 use hapticd::state::StateDir;
 
-use saved::{load_record, set_aside};
+use device::{Common, Device, Kind, Recording};
 use supervisor::{Ending, Supervisor};
-use transport::Source;
+
+/// Set when the daemon stops: the logging and recording threads finish then.
+static DONE: AtomicBool = AtomicBool::new(false);
 
 /// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
 #[derive(Parser)]
@@ -87,139 +83,54 @@ fn run(cli: Cli) -> Result<Ending, String> {
         let default = PathBuf::from("/etc/hapticd/hapticd.yaml");
         default.exists().then_some(default)
     });
-    let mut config = match &config_path {
+    let config = match &config_path {
         Some(path) => Config::load(path)?,
         None => Config::default(),
     };
     let mechanism_dirs = (!cli.mechanism_dirs.is_empty()).then(|| cli.mechanism_dirs.clone());
     let catalog = control::catalog(&config, mechanism_dirs.as_deref());
-    // Hardware unless told to simulate or replay; the simulated SPIDAR when none is found.
-    let usb = if cli.sim.is_none() && cli.replay.is_none() {
-        match find_devices() {
+    // Every amplifier plugged in, unless told to simulate or replay; the simulated SPIDAR
+    // when there is none.
+    let hardware = cli.sim.is_none() && cli.replay.is_none();
+    let mut kinds: Vec<Kind> = match (hardware, &cli.replay) {
+        (true, _) => match find_devices() {
             Ok((mut found, problems)) => {
                 for p in problems {
                     tracing::warn!("{p}");
                 }
-                (!found.is_empty()).then(|| found.remove(0))
+                // In bus order, so that device 0 is the same amplifier at every start.
+                found.sort_by(|a, b| a.identity.cmp(&b.identity));
+                found.into_iter().map(Kind::Usb).collect()
             }
             Err(e) => {
                 tracing::warn!("{e}: no USB devices, simulating");
-                None
+                Vec::new()
             }
-        }
-    } else {
-        None
+        },
+        (false, Some(path)) => vec![Kind::Replay(path.clone())],
+        (false, None) => Vec::new(),
     };
-    let identity = match (&usb, &cli.replay) {
-        (Some(device), _) => device.identity.clone(),
-        (None, Some(path)) => format!("replay:{}", path.display()),
-        (None, None) => "sim".to_string(),
+    // What is on the bus now is what hapticd could use: only later arrivals are news.
+    let arrivals = hardware.then(|| Arrivals::new(kinds.iter().map(Kind::identity).collect()));
+    if kinds.is_empty() {
+        kinds.push(Kind::Simulator);
+    }
+    let script = match cli.hand.as_ref().or(config.simulator.hand.as_ref()) {
+        Some(path) => Script::load(path)?,
+        None => Script::default(),
     };
     let state_dir = cli
         .state_dir
         .clone()
         .map(StateDir::new)
         .or_else(StateDir::from_env);
-    let mut record = load_record(state_dir.as_ref(), &identity);
-    // The command line first, then what the user set over D-Bus, then the configuration.
-    let mechanism_name = match (&cli.sim, &record.mechanism, &usb) {
-        (Some(sim), _, _) => sim.clone(),
-        (None, Some(bound), _) => bound.clone(),
-        (None, None, Some(_)) => config.hardware.mechanism.clone(),
-        (None, None, None) => config.simulator.mechanism.clone(),
-    };
-    if let Some(rate) = cli.rate.or(record.parameters.rate()) {
-        config.realtime.rate = rate;
-        config.check()?;
-    }
-    let mechanism = catalog
-        .resolve(&mechanism_name)
-        .map_err(|e| e.to_string())?;
-    let script = match cli.hand.as_ref().or(config.simulator.hand.as_ref()) {
-        Some(path) => Script::load(path)?,
-        None => Script::default(),
-    };
-    let rate = config.realtime.rate;
-    static DONE: AtomicBool = AtomicBool::new(false);
-    let (traffic_tx, traffic_writer) = match &cli.record_traffic {
-        Some(path) => {
-            let (tx, rx) = spsc::channel(1 << 14);
-            let writer = replay::spawn_traffic_writer(path, rx, &DONE)
-                .map_err(|e| format!("{}: cannot create: {e}", path.display()))?;
-            (Some(tx), Some(writer))
-        }
-        None => (None, None),
-    };
-    // A USB amplifier that is unplugged is opened again when it returns; one plugged in while
-    // hapticd simulates for want of hardware makes it start again, on that amplifier.
-    let reconnector = usb
-        .as_ref()
-        .map(|device| Reconnector::new(&identity, device.model));
-    let arrivals =
-        (usb.is_none() && cli.sim.is_none() && cli.replay.is_none()).then(Arrivals::default);
-    let source = match (usb, &cli.replay) {
-        (Some(device), _) => Source::Usb(device),
-        (None, Some(path)) => Source::Replay(path),
-        (None, None) => Source::Simulator {
-            mechanism: &mechanism,
-            rate,
-            script: &script,
-        },
-    };
-    let transport = transport::open(source, &identity, traffic_tx)?;
-    let pointers = Pointer::at_calibration(&mechanism);
-    let scene = scene::open(
-        cli.scene.as_deref().unwrap_or(&config.scene),
-        cli.scene_file.as_deref(),
-        &config.scene_dirs,
-        &pointers,
-    )
-    .map_err(|e| e.to_string())?;
-    let scene_name = scene.name().to_string();
-    let defaults = Parameters {
-        proxy: scene.proxy().unwrap_or_default(),
-        lambda: mechanism.tension.lambda,
-        max_force: config.safety.max_force,
-        max_torque: config.safety.max_torque,
-    };
-    if let Err(e) = record.parameters.check(&defaults)
-        && let Some(dir) = &state_dir
-    {
-        // Each value is in range, but together with this scene's they are not (μ > μ0).
-        set_aside(
-            dir,
-            &identity,
-            &format!("saved parameters of {identity}: {e}"),
+    if state_dir.is_none() {
+        tracing::warn!(
+            "no state directory (--state-dir or $STATE_DIRECTORY): calibration and parameter changes will not survive a restart"
         );
-        record.parameters = Default::default();
-    }
-    let settings = LoopSettings {
-        safety: SafetyLimits {
-            max_force: config.safety.max_force,
-            max_torque: config.safety.max_torque,
-            ..SafetyLimits::default()
-        },
-        ..LoopSettings::default()
-    };
-    let header = recording::csv_header(&mechanism);
-    let strings = mechanism.strings.len();
-    let mut haptic =
-        HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
-    haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
-    match &record.calibration {
-        Some(c) if c.mechanism == mechanism_name && c.offsets.len() == strings => {
-            haptic
-                .restore_calibration(&c.offsets)
-                .map_err(|e| format!("saved calibration of {identity}: {e}"))?;
-            tracing::info!("restored the calibration of {identity}");
-        }
-        Some(c) => tracing::warn!(
-            "the saved calibration of {identity} is for {}, not {mechanism_name}: calibrate again",
-            c.mechanism
-        ),
-        None => {}
     }
 
+    // Locked before the loops are built, so that nothing they touch is ever paged out.
     // SAFETY: mlockall takes no pointers.
     if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } != 0 {
         tracing::warn!(
@@ -234,96 +145,65 @@ fn run(cli: Cli) -> Result<Ending, String> {
         None
     });
     signals::install()?;
-    let (event_tx, event_rx) = spsc::channel(1024);
-    let logger = events::spawn_event_logger(event_rx, &DONE);
-    let (recorder_tx, recorder) = match &cli.record {
-        Some(path) => {
-            let (tx, rx) = spsc::channel(1 << 16);
-            (
-                Some(tx),
-                Some(recording::spawn_recorder(path.clone(), header, rx, &DONE)?),
-            )
-        }
-        None => (None, None),
+    let common = Common {
+        config: &config,
+        catalog: &catalog,
+        sim: cli.sim.as_deref(),
+        rate: cli.rate,
+        scene: cli.scene.as_deref().unwrap_or(&config.scene),
+        scene_file: cli.scene_file.as_deref(),
+        script: &script,
+        state_dir: state_dir.as_ref(),
+        done: &DONE,
     };
-    let (command_tx, command_rx) = spsc::channel(64);
-    let (retired_tx, retired_rx) = spsc::channel(4);
-    let mut rt = RealtimeLoop::start(
-        haptic,
-        RealtimeSettings {
-            priority: config.realtime.priority,
-            rate,
-        },
-        Channels {
-            events: event_tx,
-            recorder: recorder_tx,
-            commands: command_rx,
-            retired: retired_tx,
-        },
-    )
-    .map_err(|e| format!("cannot start the haptic thread: {e}"))?;
-    let scheduling = match rt.scheduling() {
-        Scheduling::Fifo(priority) => {
-            tracing::info!(
-                "{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
-            );
-            format!("SCHED_FIFO {priority}")
+    let mut devices = Vec::new();
+    for (index, kind) in kinds.into_iter().enumerate() {
+        // The recordings are of the first device.
+        let recording = match index {
+            0 => Recording {
+                frames: cli.record.as_deref(),
+                traffic: cli.record_traffic.as_deref(),
+            },
+            _ => Recording::default(),
+        };
+        match device::start(kind, &common, recording) {
+            Ok(started) => devices.push(started),
+            Err(e) => {
+                let _ = stop_all(devices);
+                return Err(e);
+            }
         }
-        Scheduling::Refused(why) => {
-            tracing::error!("running WITHOUT real-time scheduling: {why}");
-            tracing::info!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
-            format!("SCHED_OTHER: {why}")
-        }
-    };
-    if state_dir.is_none() {
-        tracing::warn!(
-            "no state directory (--state-dir or $STATE_DIRECTORY): calibration and parameter changes will not survive a restart"
-        );
     }
-    let device = Arc::new(DeviceHandle::new(
-        DeviceSetup {
-            identity: identity.clone(),
-            mechanism: mechanism_name.clone(),
-            pointers,
-            rate,
-            scheduling,
-            state_dir,
-            record,
-            defaults,
-        },
-        command_tx,
-    ));
-    device.publish(Telemetry {
-        frame: *rt.frame(),
-        stats: *rt.stats(),
-    });
+    let driven: Vec<String> = devices
+        .iter()
+        .map(|d| d.handle.identity().to_string())
+        .collect();
     let daemon = Arc::new(Daemon::new(
-        config,
+        config.clone(),
         config_path,
         mechanism_dirs,
-        scene_name,
-        vec![device.clone()],
+        devices[0].scene.clone(),
+        devices.iter().map(|d| d.handle.clone()).collect(),
     ));
-    let _service = match (
+    let service = match (
         &cli.bus,
         bus::serve(cli.bus.clone().unwrap_or(Bus::System), daemon.clone()),
     ) {
         (_, Ok(service)) => Some(service),
-        (Some(_), Err(e)) => return Err(e),
+        (Some(_), Err(e)) => {
+            let _ = stop_all(devices);
+            return Err(e);
+        }
         (None, Err(e)) => {
             tracing::warn!("{e}; running without the D-Bus interface");
             None
         }
     };
-    let _ = sd_notify::notify(&format!(
-        "READY=1\nSTATUS=running {mechanism_name} at {rate} Hz"
-    ));
+    tracing::info!("ready: driving {}", driven.join(", "));
+    let _ = sd_notify::notify(&format!("READY=1\nSTATUS=driving {}", driven.join(", ")));
     let ending = Supervisor {
-        rt: &mut rt,
-        device,
+        devices: &mut devices,
         daemon,
-        retired: retired_rx,
-        reconnector,
         arrivals,
         duration: cli.duration,
     }
@@ -333,24 +213,8 @@ fn run(cli: Cli) -> Result<Ending, String> {
         Ending::Done => "STOPPING=1",
         Ending::Restart => "RELOADING=1",
     });
-    let stats = *rt.stats();
-    rt.stop();
-    DONE.store(true, Ordering::Release);
-    let _ = logger.join();
-    for writer in recorder.into_iter().chain(traffic_writer) {
-        writer
-            .join()
-            .map_err(|_| "a recording thread panicked".to_string())?
-            .map_err(|e| format!("writing a recording: {e}"))?;
-    }
-    tracing::info!(
-        "stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; {} overruns",
-        stats.ticks,
-        stats.wait_percentile_ns(0.5) as f64 / 1e3,
-        stats.wait_percentile_ns(0.99) as f64 / 1e3,
-        stats.wait_max_ns as f64 / 1e3,
-        stats.overruns
-    );
+    drop(service);
+    stop_all(devices)?;
     if signals::OVERTIME.load(Ordering::Acquire) {
         return Err(
             "the haptic thread ran past LimitRTTIME= without sleeping (SIGXCPU): motors zeroed, \
@@ -359,6 +223,13 @@ fn run(cli: Cli) -> Result<Ending, String> {
         );
     }
     Ok(ending)
+}
+
+/// Stop every loop (each writes zero currents first), then let their threads finish.
+fn stop_all(devices: Vec<Device>) -> Result<(), String> {
+    let stopped: Vec<_> = devices.into_iter().map(Device::stop).collect();
+    DONE.store(true, Ordering::Release);
+    stopped.into_iter().try_for_each(|d| d.finish())
 }
 
 fn main() -> ExitCode {

@@ -1,20 +1,21 @@
-//! The main thread's watch over a running haptic loop: the systemd watchdog (pinged only
-//! while the loop's heartbeat advances), reloads, freeing what the loop retired, following the
-//! amplifier across unplugs and arrivals, telemetry for D-Bus at 10 Hz, and a status line on
-//! standard output twice a second.
+//! The main thread's watch over the running haptic loops: the systemd watchdog (pinged only
+//! while every loop's heartbeat advances), reloads, freeing what the loops retired, following
+//! amplifiers across unplugs and arrivals, telemetry for D-Bus at 10 Hz, and a status line per
+//! device on standard output twice a second.
 
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use hapticd::control::{Daemon, DeviceHandle, Telemetry};
-use hapticd::device::hotplug::{Arrivals, Lookup, Reconnector};
-use hapticd::runtime::haptic_loop::{DeviceState, Frame, Retired};
+use hapticd::control::{Daemon, Telemetry};
+use hapticd::device::hotplug::{Arrivals, Lookup};
+use hapticd::device::transport::TransportError;
+use hapticd::runtime::haptic_loop::Frame;
 use hapticd::runtime::realtime::RealtimeLoop;
-use hapticd::runtime::spsc;
 use hapticd::sd_notify;
 
+use crate::device::Device;
 use crate::signals::{RELOAD, STOP};
 
 /// How a run ended well.
@@ -27,17 +28,11 @@ pub enum Ending {
 
 /// What the main thread watches over.
 pub struct Supervisor<'a> {
-    /// The running loop.
-    pub rt: &'a mut RealtimeLoop,
-    /// The device it drives, as D-Bus sees it.
-    pub device: Arc<DeviceHandle>,
+    /// The running devices.
+    pub devices: &'a mut [Device],
     /// The daemon, for reloads.
     pub daemon: Arc<Daemon>,
-    /// Scenes and links the loop stopped using.
-    pub retired: spsc::Consumer<Retired>,
-    /// Set when the device is a USB amplifier: opens it again after an unplug.
-    pub reconnector: Option<Reconnector>,
-    /// Set when simulating for want of hardware: notices an amplifier plugged in.
+    /// Set unless told to simulate or replay: notices an amplifier plugged in.
     pub arrivals: Option<Arrivals>,
     /// Stop after this many seconds.
     pub duration: Option<f64>,
@@ -48,7 +43,7 @@ impl Supervisor<'_> {
     pub fn run(mut self) -> Ending {
         let started = Instant::now();
         let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
-        let (mut last_ping, mut last_beat) = (Instant::now(), 0);
+        let (mut last_ping, mut last_beats) = (Instant::now(), vec![0; self.devices.len()]);
         let (mut last_status, mut last_publish) = (Instant::now(), Instant::now());
         while !STOP.load(Ordering::Acquire) {
             if self
@@ -58,24 +53,26 @@ impl Supervisor<'_> {
                 break;
             }
             std::thread::sleep(Duration::from_millis(20));
-            let beat = self.rt.heartbeat();
+            let beats: Vec<u64> = self.devices.iter().map(|d| d.rt.heartbeat()).collect();
             if let Some(interval) = watchdog
-                && beat > last_beat
+                && beats.iter().zip(&last_beats).all(|(now, then)| now > then)
                 && last_ping.elapsed() >= interval
             {
                 let _ = sd_notify::notify("WATCHDOG=1");
                 last_ping = Instant::now();
             }
-            last_beat = beat;
+            last_beats = beats;
             if RELOAD.swap(false, Ordering::AcqRel) {
                 match self.daemon.reload() {
                     Ok(()) => tracing::info!("reloaded the configuration and plugins"),
                     Err(e) => tracing::error!("reload refused, nothing changed: {e}"),
                 }
             }
-            // Freed here, off the real-time thread.
-            while self.retired.pop().is_some() {}
-            self.follow_the_amplifier();
+            for device in self.devices.iter_mut() {
+                // Freed here, off the real-time thread.
+                while device.retired.pop().is_some() {}
+                follow_the_amplifier(device);
+            }
             if let Some((plugged, model)) =
                 self.arrivals.as_mut().and_then(|a| a.poll(Instant::now()))
             {
@@ -86,36 +83,47 @@ impl Supervisor<'_> {
                 return Ending::Restart;
             }
             if last_publish.elapsed() >= Duration::from_millis(100) {
-                self.device.publish(Telemetry {
-                    frame: *self.rt.frame(),
-                    stats: *self.rt.stats(),
-                });
+                for device in self.devices.iter_mut() {
+                    device.handle.publish(Telemetry {
+                        frame: *device.rt.frame(),
+                        stats: *device.rt.stats(),
+                    });
+                }
                 last_publish = Instant::now();
             }
             if last_status.elapsed() >= Duration::from_millis(500) {
-                let frame = *self.rt.frame();
-                println!("{}", status_line(&frame, self.rt));
+                let several = self.devices.len() > 1;
+                for device in self.devices.iter_mut() {
+                    let frame = *device.rt.frame();
+                    let line = status_line(&frame, &mut device.rt);
+                    match several {
+                        true => println!("{}: {line}", device.handle.identity()),
+                        false => println!("{line}"),
+                    }
+                }
                 last_status = Instant::now();
             }
         }
         Ending::Done
     }
+}
 
-    /// While the amplifier is missing, look for it and hand it back to the loop.
-    fn follow_the_amplifier(&mut self) {
-        let Some(reconnector) = self.reconnector.as_mut() else {
-            return;
-        };
-        let missing = self.rt.frame().state == DeviceState::Disconnected;
-        let identity = self.device.identity();
-        match reconnector.poll(missing, Instant::now()) {
-            Lookup::Back(link) => match self.device.reconnect(link) {
-                Ok(()) => tracing::info!("{identity} is back: reconnected"),
-                Err(e) => tracing::warn!("{identity} is back but not reconnected: {e}"),
-            },
-            Lookup::Refused(why) => tracing::warn!("{why}"),
-            Lookup::Idle | Lookup::Absent => {}
-        }
+/// While `device` is a missing amplifier, look for it and hand it back to its loop.
+fn follow_the_amplifier(device: &mut Device) {
+    let Some(reconnector) = device.reconnector.as_mut() else {
+        return;
+    };
+    // Gone from the bus; an amplifier that only times out or fails a transfer is still
+    // there, and its link is tried again every tick.
+    let missing = device.rt.frame().error == Some(TransportError::Disconnected);
+    let identity = device.handle.identity();
+    match reconnector.poll(missing, Instant::now()) {
+        Lookup::Back(link) => match device.handle.reconnect(link) {
+            Ok(()) => tracing::info!("{identity} is back: reconnected"),
+            Err(e) => tracing::warn!("{identity} is back but not reconnected: {e}"),
+        },
+        Lookup::Refused(why) => tracing::warn!("{why}"),
+        Lookup::Idle | Lookup::Absent => {}
     }
 }
 
