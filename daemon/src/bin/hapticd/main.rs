@@ -156,7 +156,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         state_dir: state_dir.as_ref(),
         done: &DONE,
     };
-    let mut devices = Vec::new();
+    let (mut devices, mut failures) = (Vec::new(), Vec::new());
     for (index, kind) in kinds.into_iter().enumerate() {
         // The recordings are of the first device.
         let recording = match index {
@@ -166,20 +166,26 @@ fn run(cli: Cli) -> Result<Ending, String> {
             },
             _ => Recording::default(),
         };
+        let identity = kind.identity();
         match device::start(kind, &common, recording) {
             Ok(started) => devices.push(started),
-            Err(e) => {
-                let _ = stop_all(devices);
-                return Err(e);
-            }
+            Err(e) => failures.push((identity, e)),
         }
+    }
+    // One device that cannot start leaves the others running; with none, hapticd fails.
+    if devices.is_empty() {
+        let why: Vec<String> = failures.into_iter().map(|(_, e)| e).collect();
+        return Err(why.join("\n"));
+    }
+    for (identity, e) in failures {
+        tracing::error!("{identity} is not driven: {e}");
     }
     let driven: Vec<String> = devices
         .iter()
         .map(|d| d.handle.identity().to_string())
         .collect();
     let daemon = Arc::new(Daemon::new(
-        config.clone(),
+        config,
         config_path,
         mechanism_dirs,
         devices[0].scene.clone(),
