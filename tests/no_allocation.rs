@@ -23,7 +23,9 @@ use hapticd::solver::calibration::{lengths_from_counts, offsets};
 use hapticd::solver::closure::is_force_closed;
 use hapticd::solver::pose::PoseSolver;
 use hapticd::solver::tension::TensionSolver;
-use support::amplifier::{SH4, emulated_amplifier_with, resting_dac, umockdev_run, update_script};
+use support::amplifier::{
+    SH4, emulated_amplifier_with, resting_dac, resting_session, umockdev_run,
+};
 use support::{Rng, pose_inside, shipped_mechanisms, simulated_loop};
 
 struct Counting;
@@ -194,10 +196,7 @@ fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
     if std::env::var_os(UNDER_UMOCKDEV).is_none() {
         // Only a process started under umockdev sees the emulated amplifier: this test runs
         // again in such a copy of this binary, which takes the other branch.
-        let mut script = update_script(&[0; 8], |_| 0);
-        for _ in 0..400 {
-            script += &update_script(&dac, |_| 0);
-        }
+        let script = resting_session(400);
         let (device, ioctl) = emulated_amplifier_with("no-allocation", SH4, &script);
         let out = umockdev_run(&device, &ioctl, &std::env::current_exe().unwrap())
             .args(["--exact", NAME, "--nocapture"])

@@ -11,10 +11,10 @@ use std::path::{Path, PathBuf};
 
 use support::amplifier::{
     AMPLIFIER_SYSFS, SH4, SIMPLE, amplifier_in_port, amplifier_record, emulated_amplifier_with,
-    hex, raw_count, resting_dac, root_hub_record, testbed_run, umockdev_description, umockdev_run,
-    unplugged_update, update_script,
+    hex, raw_count, resting_dac, resting_session, root_hub_record, scratch_dir, testbed_run,
+    umockdev_description, umockdev_run, unplugged_update, update_script,
 };
-use support::{artifact, scratch_root};
+use support::artifact;
 
 const UPDATES: usize = 120;
 const DAC: [i16; 8] = [1, -1, 300, -300, 1000, 0, i16::MAX, i16::MIN];
@@ -224,14 +224,23 @@ fn dac_written(dir: &Path) -> Vec<[i16; 8]> {
         .collect()
 }
 
+/// `outs` are the D/A values of a session at rest: power-on zeros, the resting values, and
+/// zero current as the last command.
+fn assert_resting_session(outs: &[[i16; 8]], dac: &[i16; 8]) {
+    assert_eq!(outs[0], [0; 8]);
+    assert!(outs[1..outs.len() - 1].iter().all(|d| d == dac));
+    assert_eq!(
+        outs[outs.len() - 1],
+        [0; 8],
+        "the last command must be zero current"
+    );
+}
+
 #[test]
 fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
     let dac = resting_dac();
     // First the power-on D/A values (zero), then the resting ones, counters still.
-    let mut script = update_script(&[0; 8], |_| 0);
-    for _ in 0..600 {
-        script += &update_script(&dac, |_| 0);
-    }
+    let script = resting_session(600);
     let (device, ioctl) = emulated_amplifier_with("hapticd", SH4, &script);
     let dir = ioctl.parent().unwrap().to_path_buf();
     let mut args = hapticd_arguments(&dir);
@@ -244,23 +253,14 @@ fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
     let outs = dac_written(&dir);
     // 500 ticks at 1 kHz; the emulation is slow on a loaded machine, so ask for 40 % of them.
     assert!(outs.len() > 200, "{} updates", outs.len());
-    assert_eq!(outs[0], [0; 8]);
-    assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
-    assert_eq!(
-        *outs.last().unwrap(),
-        [0; 8],
-        "the last command must be zero current"
-    );
+    assert_resting_session(&outs, &dac);
 }
 
 #[test]
 fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_back() {
     let dac = resting_dac();
     // Before the unplug: power-on zeros, then resting tensions for 1.5 s at 1 kHz.
-    let mut first = update_script(&[0; 8], |_| 0);
-    for _ in 0..1500 {
-        first += &update_script(&dac, |_| 0);
-    }
+    let mut first = resting_session(1500);
     // The unplug: from here every transfer fails with ENODEV, whatever the loop sends while
     // its forces ramp down (the resting values) and after (zeros), for longer than the test
     // leaves the amplifier away.
@@ -272,12 +272,8 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     }
     // Plugged back, the board answers again: zeros first (what a disconnected loop sends),
     // then the resting tensions.
-    let mut second = update_script(&[0; 8], |_| 0);
-    for _ in 0..3000 {
-        second += &update_script(&dac, |_| 0);
-    }
-    let dir = scratch_root().join(format!("usb-{}-replug", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let second = resting_session(3000);
+    let dir = scratch_dir("replug");
     std::fs::write(dir.join("first.umockdev"), umockdev_description(SH4)).unwrap();
     std::fs::write(dir.join("first.ioctl"), first).unwrap();
     std::fs::write(dir.join("second.umockdev"), amplifier_record(SH4, 3)).unwrap();
@@ -365,12 +361,8 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
 #[test]
 fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
     let dac = resting_dac();
-    let mut script = update_script(&[0; 8], |_| 0);
-    for _ in 0..3000 {
-        script += &update_script(&dac, |_| 0);
-    }
-    let dir = scratch_root().join(format!("usb-{}-arrival", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let script = resting_session(3000);
+    let dir = scratch_dir("arrival");
     std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
     std::fs::write(dir.join("amplifier.umockdev"), amplifier_record(SH4, 2)).unwrap();
     std::fs::write(dir.join("amplifier.ioctl"), script).unwrap();
@@ -404,20 +396,14 @@ fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
     );
     let outs = dac_written(&dir);
     assert!(outs.len() > 100, "{} updates", outs.len());
-    assert_eq!(outs[0], [0; 8]);
-    assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
-    assert_eq!(*outs.last().unwrap(), [0; 8]);
+    assert_resting_session(&outs, &dac);
 }
 
 #[test]
 fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_other() {
     let dac = resting_dac();
-    let mut good = update_script(&[0; 8], |_| 0);
-    for _ in 0..3000 {
-        good += &update_script(&dac, |_| 0);
-    }
-    let dir = scratch_root().join(format!("usb-{}-two", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let good = resting_session(3000);
+    let dir = scratch_dir("two");
     std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
     std::fs::write(dir.join("a.umockdev"), amplifier_in_port(SH4, 2, 2)).unwrap();
     std::fs::write(dir.join("b.umockdev"), amplifier_in_port(SH4, 3, 3)).unwrap();
@@ -475,6 +461,5 @@ fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_ot
     // zeros.
     let outs = dac_written(&dir);
     assert!(outs.len() > 300, "{} updates", outs.len());
-    assert_eq!((outs[0], *outs.last().unwrap()), ([0; 8], [0; 8]));
-    assert!(outs[1..outs.len() - 1].iter().all(|d| *d == dac));
+    assert_resting_session(&outs, &dac);
 }

@@ -104,6 +104,24 @@ pub fn update_script(dac: &[i16; 8], counts: impl Fn(usize) -> u16) -> String {
     )
 }
 
+/// A whole session of a board whose grip rests: the power-on zeros, then `updates` updates
+/// of the resting D/A values ([`resting_dac`]), the counters still.
+pub fn resting_session(updates: usize) -> String {
+    let dac = resting_dac();
+    let mut script = update_script(&[0; 8], |_| 0);
+    for _ in 0..updates {
+        script += &update_script(&dac, |_| 0);
+    }
+    script
+}
+
+/// A scratch directory of its own for the test files called `name`.
+pub fn scratch_dir(name: &str) -> PathBuf {
+    let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 /// The OUT transfer that sets these D/A values.
 fn out_packet(dac: &[i16; 8]) -> [u8; 512] {
     let mut out = [0u8; 512];
@@ -127,8 +145,7 @@ pub fn unplugged_update(dac: &[i16; 8]) -> String {
 /// Files of an amplifier `product` answering `script`, in a scratch directory of its own
 /// (`name`): its umockdev record and its ioctl script.
 pub fn emulated_amplifier_with(name: &str, product: u16, script: &str) -> (PathBuf, PathBuf) {
-    let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir(name);
     let (device, ioctl) = (dir.join("amplifier.umockdev"), dir.join("amplifier.ioctl"));
     std::fs::write(&device, umockdev_description(product)).unwrap();
     std::fs::write(&ioctl, script).unwrap();
