@@ -463,3 +463,41 @@ fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_ot
     assert!(outs.len() > 300, "{} updates", outs.len());
     assert_resting_session(&outs, &dac);
 }
+
+#[test]
+fn an_amplifier_plugged_in_while_driving_another_joins_it() {
+    let dir = scratch_dir("joining");
+    std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
+    std::fs::write(dir.join("a.umockdev"), amplifier_in_port(SH4, 2, 2)).unwrap();
+    std::fs::write(dir.join("b.umockdev"), amplifier_in_port(SH4, 3, 3)).unwrap();
+    std::fs::write(dir.join("good.ioctl"), resting_session(6000)).unwrap();
+    let run = testbed_run(
+        &dir,
+        &[
+            "add=hub.umockdev",
+            "add=a.umockdev",
+            "ioctl=/dev/bus/usb/001/002=good.ioctl",
+            "refuse=/dev/bus/usb/001/003",
+            "start",
+            "wait=ready: driving usb:1-2",
+            "add=b.umockdev",
+            "wait=usb:1-3 (Cyverse USB 2.0 SH4 amplifier (SPIDAR-G)) plugged in",
+            "wait=ready: driving usb:1-2, usb:1-3",
+            "sleep=0.3",
+        ],
+        &artifact("hapticd"),
+        &hapticd_arguments(&dir),
+    );
+    // The first amplifier was stopped at zero current before hapticd started again with both.
+    let stderr = &run.stderr;
+    let stops: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("stopped after"))
+        .collect();
+    assert_eq!(stops.len(), 3, "{stderr}");
+    assert!(
+        stops.iter().all(|l| l.contains("motors at zero")),
+        "{stderr}"
+    );
+    assert!(stops[0].contains("usb:1-2: "), "{stderr}");
+}

@@ -18,6 +18,11 @@ use super::{SUPPORTED_DEVICES, SupportedDevice, usb};
 /// How often a missing amplifier is looked for.
 pub const RETRY: Duration = Duration::from_millis(500);
 
+/// How long to wait before trying again an amplifier that is there but could not be opened:
+/// every try starts a libusb context, and with it a thread whose stack the daemon's locked
+/// memory must fault in.
+pub const RETRY_REFUSED: Duration = Duration::from_secs(5);
+
 /// Where the kernel lists USB devices.
 const SYSFS_USB_DEVICES: &str = "/sys/bus/usb/devices";
 
@@ -106,6 +111,7 @@ impl Reconnector {
                 Err(e) => e,
             }
         };
+        self.next_look = now + RETRY_REFUSED;
         if self.told.as_ref() == Some(&refused) {
             return Lookup::Absent;
         }
