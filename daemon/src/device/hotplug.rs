@@ -6,8 +6,9 @@
 //!   link. The loop keeps its calibration and parameters across the gap.
 //! - [`Arrivals`]: notice an amplifier plugged in that hapticd does not drive yet.
 //!
-//! Both look in sysfs first, a few small reads every [`RETRY`], and only ask libusb (whose
-//! every context starts an event thread) once the amplifier is there.
+//! Both read sysfs, a few small files every [`RETRY`]; an amplifier that is back is opened
+//! through its usbfs node straight away, without libusb (whose every context starts a thread
+//! that the daemon's locked memory would have to fault in).
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -18,36 +19,45 @@ use super::{SUPPORTED_DEVICES, SupportedDevice, usb};
 /// How often a missing amplifier is looked for.
 pub const RETRY: Duration = Duration::from_millis(500);
 
-/// How long to wait before trying again an amplifier that is there but could not be opened:
-/// every try starts a libusb context, and with it a thread whose stack the daemon's locked
-/// memory must fault in.
-pub const RETRY_REFUSED: Duration = Duration::from_secs(5);
-
 /// Where the kernel lists USB devices.
 const SYSFS_USB_DEVICES: &str = "/sys/bus/usb/devices";
 
-/// The supported amplifiers `devices` (a sysfs `bus/usb/devices` directory) lists, by
-/// identity (`usb:BUS-PORT.PORT…`, the name the kernel gives the device).
-fn listed(devices: &Path) -> Vec<(String, SupportedDevice)> {
+/// A supported amplifier that sysfs lists.
+#[derive(Debug, Clone, PartialEq)]
+struct Listed {
+    /// `usb:BUS-PORT.PORT…`, from the name the kernel gives the device.
+    identity: String,
+    /// Which amplifier it is.
+    model: SupportedDevice,
+    /// Its usbfs node, `/dev/bus/usb/BBB/DDD`, when sysfs gives its numbers.
+    node: Option<PathBuf>,
+}
+
+/// The supported amplifiers `devices` (a sysfs `bus/usb/devices` directory) lists.
+fn listed(devices: &Path) -> Vec<Listed> {
     let Ok(entries) = std::fs::read_dir(devices) else {
         return Vec::new();
     };
-    let hex = |dir: &Path, name: &str| {
+    let read = |dir: &Path, name: &str, radix: u32| {
         let text = std::fs::read_to_string(dir.join(name)).ok()?;
-        u16::from_str_radix(text.trim(), 16).ok()
+        u16::from_str_radix(text.trim(), radix).ok()
     };
     entries
         .flatten()
         .filter_map(|entry| {
             let dir = entry.path();
-            let (vendor, product) = (hex(&dir, "idVendor")?, hex(&dir, "idProduct")?);
+            let (vendor, product) = (read(&dir, "idVendor", 16)?, read(&dir, "idProduct", 16)?);
             let model = SUPPORTED_DEVICES
                 .iter()
                 .find(|m| m.vendor == vendor && m.product == product)?;
-            Some((
-                format!("usb:{}", entry.file_name().to_string_lossy()),
-                *model,
-            ))
+            let node = read(&dir, "busnum", 10)
+                .zip(read(&dir, "devnum", 10))
+                .map(|(bus, device)| PathBuf::from(format!("/dev/bus/usb/{bus:03}/{device:03}")));
+            Some(Listed {
+                identity: format!("usb:{}", entry.file_name().to_string_lossy()),
+                model: *model,
+                node,
+            })
         })
         .collect()
 }
@@ -90,28 +100,27 @@ impl Reconnector {
             return Lookup::Idle;
         }
         self.next_look = now + RETRY;
-        let Some((_, model)) = listed(Path::new(SYSFS_USB_DEVICES))
+        let Some(back) = listed(Path::new(SYSFS_USB_DEVICES))
             .into_iter()
-            .find(|(identity, _)| *identity == self.identity)
+            .find(|l| l.identity == self.identity)
         else {
             return Lookup::Absent;
         };
-        let refused = if model != self.model {
-            format!(
+        let refused = match (back.model == self.model, &back.node) {
+            (false, _) => format!(
                 "{} is now a {}, not the {} it was: not reconnected",
-                self.identity, model.name, self.model.name
-            )
-        } else {
-            match usb::reopen(&self.identity) {
-                Ok(Some(found)) => {
+                self.identity, back.model.name, self.model.name
+            ),
+            // Listed before its numbers are written: looked at again next time.
+            (true, None) => return Lookup::Absent,
+            (true, Some(node)) => match usb::open_node(node, &self.model) {
+                Ok(link) => {
                     self.told = None;
-                    return Lookup::Back(Box::new(found.link));
+                    return Lookup::Back(Box::new(link));
                 }
-                Ok(None) => return Lookup::Absent,
-                Err(e) => e,
-            }
+                Err(e) => format!("{} ({}): {e}", self.identity, self.model.name),
+            },
         };
-        self.next_look = now + RETRY_REFUSED;
         if self.told.as_ref() == Some(&refused) {
             return Lookup::Absent;
         }
@@ -140,7 +149,7 @@ impl Arrivals {
     fn watching(devices: impl Into<PathBuf>, driven: Vec<String>) -> Self {
         let devices = devices.into();
         Self {
-            known: listed(&devices).into_iter().map(|(id, _)| id).collect(),
+            known: listed(&devices).into_iter().map(|l| l.identity).collect(),
             devices,
             driven,
             next_look: Instant::now() + RETRY,
@@ -157,9 +166,9 @@ impl Arrivals {
         let listed = listed(&self.devices);
         let new = listed
             .iter()
-            .find(|(id, _)| !self.known.contains(id) && !self.driven.contains(id))
-            .cloned();
-        self.known = listed.into_iter().map(|(id, _)| id).collect();
+            .find(|l| !self.known.contains(&l.identity) && !self.driven.contains(&l.identity))
+            .map(|l| (l.identity.clone(), l.model));
+        self.known = listed.into_iter().map(|l| l.identity).collect();
         new
     }
 }
@@ -182,23 +191,37 @@ mod tests {
         std::fs::write(dir.join("idProduct"), product).unwrap();
     }
 
+    fn numbered(root: &Path, name: &str, bus: &str, device: &str) {
+        std::fs::write(root.join(name).join("busnum"), bus).unwrap();
+        std::fs::write(root.join(name).join("devnum"), device).unwrap();
+    }
+
     #[test]
     fn sysfs_lists_the_supported_amplifiers_by_their_bus_path() {
         let root = bus("list");
         plug(&root, "1-2", "0cec\n", "0205\n");
+        numbered(&root, "1-2", "1\n", "12\n");
         plug(&root, "3-1.4", "0cec", "0203");
         plug(&root, "1-3", "046d\n", "c52b\n");
         plug(&root, "usb1", "1d6b\n", "0002\n");
         // An interface directory has no IDs.
         std::fs::create_dir_all(root.join("1-2:1.0")).unwrap();
         let mut found = listed(&root);
-        found.sort_by(|a, b| a.0.cmp(&b.0));
+        found.sort_by(|a, b| a.identity.cmp(&b.identity));
         std::fs::remove_dir_all(&root).unwrap();
         assert_eq!(
             found,
             vec![
-                ("usb:1-2".to_string(), SUPPORTED_DEVICES[0]),
-                ("usb:3-1.4".to_string(), SUPPORTED_DEVICES[1]),
+                Listed {
+                    identity: "usb:1-2".into(),
+                    model: SUPPORTED_DEVICES[0],
+                    node: Some("/dev/bus/usb/001/012".into()),
+                },
+                Listed {
+                    identity: "usb:3-1.4".into(),
+                    model: SUPPORTED_DEVICES[1],
+                    node: None,
+                },
             ]
         );
         assert!(listed(Path::new("/nonexistent")).is_empty());

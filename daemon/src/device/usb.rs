@@ -1,7 +1,7 @@
 //! USB controllers: libusb (rusb) finds the supported amplifiers; their bulk transfers go
 //! straight through usbfs ([`super::usbfs`]), so the real-time thread never enters libusb.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use rusb::UsbContext;
@@ -38,18 +38,6 @@ pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<String>), String> {
 
 fn context() -> Result<rusb::Context, String> {
     rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))
-}
-
-/// Open the controller known as `identity` again if it is on the bus (it was unplugged and
-/// may be back). A fresh libusb context enumerates the bus anew, whether or not hotplug
-/// events reached the daemon. `Ok(None)`: not there (yet).
-pub fn reopen(identity: &str) -> Result<Option<FoundDevice>, String> {
-    let (mut found, mut problems) = scan(&context()?, |id| id == identity);
-    match (found.pop(), problems.pop()) {
-        (Some(device), _) => Ok(Some(device)),
-        (None, Some(problem)) => Err(problem),
-        (None, None) => Ok(None),
-    }
 }
 
 /// Open and claim the supported controllers whose identity `wanted` accepts.
@@ -94,7 +82,12 @@ fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> std::i
         device.bus_number(),
         device.address()
     ));
-    let device = UsbfsDevice::open(&node, 0, TIMEOUT)?;
+    open_node(&node, model)
+}
+
+/// Open and claim the amplifier `model` at its usbfs `node` (`/dev/bus/usb/BBB/DDD`).
+pub fn open_node(node: &Path, model: &SupportedDevice) -> std::io::Result<UsbLink> {
+    let device = UsbfsDevice::open(node, 0, TIMEOUT)?;
     let (out_endpoint, in_endpoint) = match model.protocol {
         super::Protocol::Sh4 => (sh4::ENDPOINT_OUT, sh4::ENDPOINT_IN),
         super::Protocol::Simple => (simple::ENDPOINT_OUT, simple::ENDPOINT_IN),
