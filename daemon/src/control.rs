@@ -264,6 +264,9 @@ impl DeviceHandle {
             DeviceState::Fault => Err(Error::StillFaulted(
                 "the scene keeps failing; switch to another scene".into(),
             )),
+            DeviceState::Uncalibrated => Err(Error::StillFaulted(
+                "the counts no longer fit the calibration; calibrate (Calibrate())".into(),
+            )),
             _ => Ok(()),
         }
     }

@@ -22,7 +22,7 @@ use crate::signals::{RELOAD, STOP};
 pub enum Ending {
     /// Asked to stop, or its time was up.
     Done,
-    /// An amplifier was plugged in while simulating: start again, on it.
+    /// An amplifier hapticd does not drive was plugged in: start again, with it.
     Restart,
 }
 
