@@ -893,3 +893,63 @@ fn a_damaged_state_file_is_kept_aside_and_the_device_starts_afresh() {
         daemon.stop();
     }
 }
+
+#[test]
+fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated() {
+    let dir = scratch("misfit");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let file = setup.state.join("device-sim.json");
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
+    daemon.stop();
+    // The saved offsets, each moved by a different 2·(i + 1) cm: no pose of the grip has
+    // those string lengths.
+    let mut saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    for (i, offset) in saved["calibration"]["offsets"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .enumerate()
+    {
+        *offset = (offset.as_f64().unwrap() + 0.02 * (i as f64 + 1.0)).into();
+    }
+    std::fs::write(&file, saved.to_string()).unwrap();
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let started = Instant::now();
+    while bus.get(DEVICE, "State") != "s \"uncalibrated\"" {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "{}",
+            daemon.log()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(bus.get(DEVICE, "Calibrated"), "b false");
+    for property in ["Force", "Tensions"] {
+        let values = numbers(&bus.get(DEVICE, property));
+        assert!(values.iter().all(|v| *v == 0.0), "{property}: {values:?}");
+    }
+    assert!(
+        daemon.log().contains("no longer fit the calibration"),
+        "{}",
+        daemon.log()
+    );
+    let (name, message) = bus.error(DEVICE[1], &format!("{}.ResetFault", DEVICE[2]), &[]);
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.StillFaulted", "{message}");
+    assert!(message.contains("calibrate"), "{message}");
+    // Calibrating trusts the counts again, and saves offsets that fit.
+    assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
+    let started = Instant::now();
+    while bus.get(DEVICE, "State") != "s \"running\"" {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "{}",
+            daemon.log()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(bus.get(DEVICE, "Calibrated"), "b true");
+    daemon.stop();
+}
