@@ -355,13 +355,19 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
         .find(|l| l.contains("PR_SET_NAME, \"hapticd-rt\""))
         .and_then(|l| l.split_whitespace().next())
         .expect("the haptic thread names itself");
-    // The thread's calls in order; "<... resumed>" lines only finish a call already counted.
+    // The thread's calls in order; "<... resumed>" lines only finish a call already counted,
+    // and a sleep that the tracer interrupted goes on as `restart_syscall`.
     let calls: Vec<&str> = trace
         .lines()
         .filter_map(|l| l.strip_prefix(thread)?.strip_prefix(' '))
         .map(str::trim_start)
         .filter(|l| !l.starts_with("<...") && !l.starts_with("---") && !l.starts_with("+++"))
-        .map(|l| l.split('(').next().unwrap())
+        .map(
+            |l| match l.contains("resuming interrupted clock_nanosleep") {
+                true => "clock_nanosleep",
+                false => l.split('(').next().unwrap(),
+            },
+        )
         .collect();
     let first = calls.iter().position(|c| *c == "clock_nanosleep").unwrap();
     let last = calls.iter().rposition(|c| *c == "clock_nanosleep").unwrap();
