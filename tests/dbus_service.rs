@@ -331,6 +331,19 @@ impl Hapticd {
         daemon
     }
 
+    /// Wait (up to 10 s) until the device's `State` is `state`.
+    fn wait_for_state(&self, bus: &Bus, state: &str) {
+        let (started, wanted) = (Instant::now(), format!("s \"{state}\""));
+        while bus.get(DEVICE, "State") != wanted {
+            assert!(
+                started.elapsed() < Duration::from_secs(10),
+                "never {state}: {}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     fn log(&self) -> String {
         let mut text = String::new();
         if let Ok(mut f) = std::fs::File::open(&self.log) {
@@ -917,15 +930,7 @@ fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated
     }
     std::fs::write(&file, saved.to_string()).unwrap();
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
-    let started = Instant::now();
-    while bus.get(DEVICE, "State") != "s \"uncalibrated\"" {
-        assert!(
-            started.elapsed() < Duration::from_secs(10),
-            "{}",
-            daemon.log()
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    daemon.wait_for_state(&bus, "uncalibrated");
     assert_eq!(bus.get(DEVICE, "Calibrated"), "b false");
     for property in ["Force", "Tensions"] {
         let values = numbers(&bus.get(DEVICE, property));
@@ -941,15 +946,7 @@ fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated
     assert!(message.contains("calibrate"), "{message}");
     // Calibrating trusts the counts again, and saves offsets that fit.
     assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
-    let started = Instant::now();
-    while bus.get(DEVICE, "State") != "s \"running\"" {
-        assert!(
-            started.elapsed() < Duration::from_secs(10),
-            "{}",
-            daemon.log()
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    daemon.wait_for_state(&bus, "running");
     assert_eq!(bus.get(DEVICE, "Calibrated"), "b true");
     daemon.stop();
 }

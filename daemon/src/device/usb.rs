@@ -33,20 +33,12 @@ pub struct FoundDevice {
 /// Every supported controller found on the bus, opened and claimed, and what went wrong
 /// with those that could not be opened. `Err` when libusb cannot start at all (no USB).
 pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<String>), String> {
-    Ok(scan(&context()?, |_| true))
-}
-
-fn context() -> Result<rusb::Context, String> {
-    rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))
-}
-
-/// Open and claim the supported controllers whose identity `wanted` accepts.
-fn scan(context: &rusb::Context, wanted: impl Fn(&str) -> bool) -> (Vec<FoundDevice>, Vec<String>) {
+    let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
     let mut found = Vec::new();
     let mut problems = Vec::new();
     let devices = match context.devices() {
         Ok(d) => d,
-        Err(e) => return (found, vec![format!("cannot list USB devices: {e}")]),
+        Err(e) => return Ok((found, vec![format!("cannot list USB devices: {e}")])),
     };
     for device in devices.iter() {
         let Ok(descriptor) = device.device_descriptor() else {
@@ -61,9 +53,6 @@ fn scan(context: &rusb::Context, wanted: impl Fn(&str) -> bool) -> (Vec<FoundDev
         let ports = device.port_numbers().unwrap_or_default();
         let path: Vec<String> = ports.iter().map(u8::to_string).collect();
         let identity = format!("usb:{}-{}", device.bus_number(), path.join("."));
-        if !wanted(&identity) {
-            continue;
-        }
         match open(&device, model) {
             Ok(link) => found.push(FoundDevice {
                 model: *model,
@@ -73,7 +62,7 @@ fn scan(context: &rusb::Context, wanted: impl Fn(&str) -> bool) -> (Vec<FoundDev
             Err(e) => problems.push(format!("{identity} ({}): {e}", model.name)),
         }
     }
-    (found, problems)
+    Ok((found, problems))
 }
 
 fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> std::io::Result<UsbLink> {

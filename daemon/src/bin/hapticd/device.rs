@@ -24,7 +24,7 @@ use hapticd::sim::hand::Script;
 use hapticd::state::StateDir;
 
 use crate::saved::{load_record, set_aside};
-use crate::transport::{self, Source};
+use crate::transport;
 use crate::{events, recording};
 
 /// What a device is.
@@ -137,16 +137,7 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         Kind::Usb(device) => Some(Reconnector::new(&identity, device.model)),
         _ => None,
     };
-    let source = match kind {
-        Kind::Usb(device) => Source::Usb(device),
-        Kind::Replay(ref path) => Source::Replay(path),
-        Kind::Simulator => Source::Simulator {
-            mechanism: &mechanism,
-            rate,
-            script: common.script,
-        },
-    };
-    let transport = transport::open(source, &identity, traffic)?;
+    let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
     let pointers = Pointer::at_calibration(&mechanism);
     let scene = scene::open(
         common.scene,

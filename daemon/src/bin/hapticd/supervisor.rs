@@ -53,15 +53,19 @@ impl Supervisor<'_> {
                 break;
             }
             std::thread::sleep(Duration::from_millis(20));
-            let beats: Vec<u64> = self.devices.iter().map(|d| d.rt.heartbeat()).collect();
+            let mut all_beating = true;
+            for (device, last) in self.devices.iter().zip(&mut last_beats) {
+                let beat = device.rt.heartbeat();
+                all_beating &= beat > *last;
+                *last = beat;
+            }
             if let Some(interval) = watchdog
-                && beats.iter().zip(&last_beats).all(|(now, then)| now > then)
+                && all_beating
                 && last_ping.elapsed() >= interval
             {
                 let _ = sd_notify::notify("WATCHDOG=1");
                 last_ping = Instant::now();
             }
-            last_beats = beats;
             if RELOAD.swap(false, Ordering::AcqRel) {
                 match self.daemon.reload() {
                     Ok(()) => tracing::info!("reloaded the configuration and plugins"),

@@ -1,43 +1,29 @@
 //! What the haptic loop talks to: a USB amplifier, a traffic recording or the simulated
 //! SPIDAR, each behind the transport of its protocol, its traffic recorded on request.
 
-use std::path::Path;
-
 use hapticd::device::Protocol;
 use hapticd::device::replay::{self, RecordingLink, ReplayLink, Transfer};
 use hapticd::device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
-use hapticd::device::usb::FoundDevice;
 use hapticd::mechanism::Mechanism;
 use hapticd::runtime::spsc;
 use hapticd::sim::hand::Script;
 use hapticd::sim::{SimParameters, SimulatedBoard};
 
-/// Where the device comes from.
-pub enum Source<'a> {
-    /// A USB amplifier, opened.
-    Usb(FoundDevice),
-    /// A traffic recording (`--replay`).
-    Replay(&'a Path),
-    /// The simulated SPIDAR of `mechanism`, stepped `rate` times a second, its hand following
-    /// `script`.
-    Simulator {
-        /// The mechanism simulated.
-        mechanism: &'a Mechanism,
-        /// Ticks per second.
-        rate: f64,
-        /// The simulated hand's script.
-        script: &'a Script,
-    },
-}
+use crate::device::Kind;
 
-/// The transport of `source`, known as `identity`, its traffic sent to `traffic` if given.
+/// The transport of device `kind`, known as `identity`, its traffic sent to `traffic` if
+/// given; the simulator simulates `mechanism`, stepped `rate` times a second, its hand
+/// following `script`.
 pub fn open(
-    source: Source<'_>,
+    kind: Kind,
     identity: &str,
     traffic: Option<spsc::Producer<Transfer>>,
+    mechanism: &Mechanism,
+    rate: f64,
+    script: &Script,
 ) -> Result<Box<dyn Transport>, String> {
-    Ok(match source {
-        Source::Usb(device) => {
+    Ok(match kind {
+        Kind::Usb(device) => {
             // Boxed, so that a link opened after an unplug can take its place.
             let link: Box<dyn Link> = Box::new(device.link);
             match (device.model.protocol, traffic) {
@@ -49,15 +35,11 @@ pub fn open(
                 )),
             }
         }
-        Source::Replay(path) => {
-            let transfers = replay::read_recording(path).map_err(|e| e.to_string())?;
+        Kind::Replay(path) => {
+            let transfers = replay::read_recording(&path).map_err(|e| e.to_string())?;
             sh4_transport(ReplayLink::new(transfers), identity, traffic)
         }
-        Source::Simulator {
-            mechanism,
-            rate,
-            script,
-        } => {
+        Kind::Simulator => {
             let board =
                 SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default());
             sh4_transport(board, identity, traffic)
