@@ -3,7 +3,7 @@
 
 mod support;
 
-use hapticd::experiments::{shape_tracing, wall_stiffness};
+use hapticctl::experiments::{shape_tracing, wall_stiffness};
 use support::shipped;
 
 #[test]

@@ -6,14 +6,14 @@ mod support;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-use hapticd::device::transport::{Link, Sh4Transport, TransportError};
-use hapticd::runtime::haptic_loop::{
+use hapticd_device::transport::{Link, Sh4Transport, TransportError};
+use hapticd_core::haptic_loop::{
     DeviceState, Frame, HapticLoop, LoopCommand, LoopSettings, Retired,
 };
-use hapticd::scene::Pointer;
-use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
-use hapticd::sim::hand::Script;
-use hapticd::sim::{SimParameters, SimulatedBoard};
+use hapticd_core::scene::Pointer;
+use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd_device::sim::hand::Script;
+use hapticd_device::sim::{SimParameters, SimulatedBoard};
 use support::{shipped, simulated_loop};
 
 const DT: f64 = 1e-3;

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use hapticd::device::replay::{Direction, read_recording};
-use hapticd::device::sh4;
+use hapticd_device::replay::{Direction, read_recording};
+use hapticd_device::sh4;
 use support::{artifact, plugin_path, repo_dir, scratch_root};
 
 /// The plugins staged as an install would have them.

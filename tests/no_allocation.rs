@@ -9,20 +9,20 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use glam::DVec3;
-use hapticd::device::transport::Sh4Transport;
-use hapticd::haptics::proxy::ProxyParameters;
-use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
-use hapticd::parameters::Parameters;
-use hapticd::runtime::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
-use hapticd::scene::Pointer;
-use hapticd::scene::Scene;
-use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
-use hapticd::sim::hand::Script;
-use hapticd::sim::{SimParameters, SimulatedBoard};
-use hapticd::solver::calibration::{lengths_from_counts, offsets};
-use hapticd::solver::closure::is_force_closed;
-use hapticd::solver::pose::PoseSolver;
-use hapticd::solver::tension::TensionSolver;
+use hapticd_device::transport::Sh4Transport;
+use hapticd_core::haptics::proxy::ProxyParameters;
+use hapticd_core::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd_core::parameters::Parameters;
+use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
+use hapticd_core::scene::Pointer;
+use hapticd_core::scene::Scene;
+use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd_device::sim::hand::Script;
+use hapticd_device::sim::{SimParameters, SimulatedBoard};
+use hapticd_core::solver::calibration::{lengths_from_counts, offsets};
+use hapticd_core::solver::closure::is_force_closed;
+use hapticd_core::solver::pose::PoseSolver;
+use hapticd_core::solver::tension::TensionSolver;
 use support::amplifier::{
     SH4, emulated_amplifier_with, resting_dac, resting_session, umockdev_run,
 };
@@ -141,7 +141,7 @@ fn commands_between_ticks_do_not_allocate() {
     // Everything a command carries is made before it reaches the loop, as the daemon does.
     let incoming: Box<dyn Scene> = Box::new(StaticScene::new(
         spec,
-        &hapticd::scene::Pointer::at_calibration(&m),
+        &hapticd_core::scene::Pointer::at_calibration(&m),
     ));
     let tune = LoopCommand::Tune(Parameters {
         proxy: ProxyParameters {
@@ -211,7 +211,7 @@ fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
         assert!(stdout.contains("1 passed"), "{stdout}");
         return;
     }
-    let (mut found, problems) = hapticd::device::usb::find_devices().unwrap();
+    let (mut found, problems) = hapticd_device::usb::find_devices().unwrap();
     assert!(problems.is_empty(), "{problems:?}");
     let amplifier = found.pop().expect("the emulated amplifier");
     let m = support::shipped("spidar-g");

@@ -8,10 +8,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::DVec3;
-use hapticd::mechanism::catalog;
+use hapticd::catalog;
 use hapticd::plugin;
-use hapticd::solver::geometry::StringGeometry;
-use hapticd::solver::tension::TensionSolver;
+use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_core::solver::tension::TensionSolver;
 use support::{plugin_path, repo_dir};
 
 /// A fresh private directory (mode 0755) under the system temporary directory.

@@ -4,10 +4,10 @@
 mod support;
 
 use glam::{DQuat, DVec3};
-use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
-use hapticd::solver::calibration::{calibration_lengths, lengths_from_counts, offsets};
-use hapticd::solver::geometry::StringGeometry;
-use hapticd::solver::pose::PoseSolver;
+use hapticd_core::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use hapticd_core::solver::calibration::{calibration_lengths, lengths_from_counts, offsets};
+use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_core::solver::pose::PoseSolver;
 use support::{Rng, pose_inside, shipped_mechanisms};
 
 fn lengths_at(m: &Mechanism, index: usize, pose: &Pose) -> Vec<f64> {

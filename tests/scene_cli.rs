@@ -228,7 +228,7 @@ fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
     let peak = report["runs"][0]["pointers"][0]["peak_force"]
         .as_f64()
         .unwrap();
-    let expected = hapticd::experiments::stick_slip::Rig::THESIS.peak_pull();
+    let expected = hapticctl::experiments::stick_slip::Rig::THESIS.peak_pull();
     assert!(
         (peak - expected).abs() < 0.03 * expected,
         "peak {peak} N, rigid-stick value {expected} N"

@@ -28,7 +28,7 @@ fn the_shipped_udev_rules_are_those_generated_from_the_device_table() {
         generated,
         "regenerate with: hapticctl device udev-rules > udev/70-hapticd.rules"
     );
-    for d in hapticd::device::SUPPORTED_DEVICES {
+    for d in hapticd_device::SUPPORTED_DEVICES {
         let ids = format!(
             "ATTR{{idVendor}}==\"{:04x}\", ATTR{{idProduct}}==\"{:04x}\"",
             d.vendor, d.product
@@ -89,7 +89,7 @@ fn the_unit_passes_systemd_analyze_verify_without_a_warning() {
 #[test]
 fn the_unit_runs_as_the_user_and_group_that_own_the_devices() {
     let unit = read("systemd/hapticd.service");
-    let group = hapticd::device::udev::GROUP;
+    let group = hapticd_device::udev::GROUP;
     assert_eq!(values(&unit, "User"), [group]);
     assert_eq!(values(&unit, "Group"), [group]);
     // hapticd speaks the readiness and watchdog protocol.

@@ -8,11 +8,11 @@ use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
 };
 use glam::{DQuat, DVec3};
-use hapticd::mechanism::analysis::tension_sweep;
-use hapticd::mechanism::{Mechanism, Pose, TensionSettings};
-use hapticd::solver::closure::is_force_closed;
-use hapticd::solver::geometry::StringGeometry;
-use hapticd::solver::tension::TensionSolver;
+use hapticd_core::mechanism::analysis::tension_sweep;
+use hapticd_core::mechanism::{Mechanism, Pose, TensionSettings};
+use hapticd_core::solver::closure::is_force_closed;
+use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_core::solver::tension::TensionSolver;
 use support::qp::{clarabel_tensions, w_rows};
 use support::{Rng, frame_half, shipped, shipped_mechanisms};
 

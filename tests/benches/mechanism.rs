@@ -9,10 +9,10 @@ mod support;
 use clarabel::solver::DefaultSettingsBuilder;
 use divan::Bencher;
 use glam::DQuat;
-use hapticd::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
-use hapticd::solver::geometry::StringGeometry;
-use hapticd::solver::pose::PoseSolver;
-use hapticd::solver::tension::TensionSolver;
+use hapticd_core::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_core::solver::pose::PoseSolver;
+use hapticd_core::solver::tension::TensionSolver;
 use support::qp::clarabel_tensions;
 use support::shipped;
 
@@ -130,12 +130,12 @@ struct StillTransport {
     pressed: [i64; 8],
 }
 
-impl hapticd::device::transport::Transport for StillTransport {
+impl hapticd_core::transport::Transport for StillTransport {
     fn update(
         &mut self,
         _dac: &[i16; 8],
-        reading: &mut hapticd::device::Reading,
-    ) -> Result<(), hapticd::device::transport::TransportError> {
+        reading: &mut hapticd_core::transport::Reading,
+    ) -> Result<(), hapticd_core::transport::TransportError> {
         reading.counts = if std::mem::replace(&mut self.calibrated, true) {
             self.pressed
         } else {
@@ -144,7 +144,7 @@ impl hapticd::device::transport::Transport for StillTransport {
         Ok(())
     }
 
-    fn reset(&mut self) -> Result<(), hapticd::device::transport::TransportError> {
+    fn reset(&mut self) -> Result<(), hapticd_core::transport::TransportError> {
         Ok(())
     }
 
@@ -157,9 +157,9 @@ impl hapticd::device::transport::Transport for StillTransport {
 /// every grip pressed 2 mm into the floor; device I/O excluded.
 #[divan::bench(args = MECHANISMS)]
 fn haptic_tick(bencher: Bencher, name: &str) {
-    use hapticd::runtime::haptic_loop::{HapticLoop, LoopSettings};
-    use hapticd::scene::Pointer;
-    use hapticd::scene::static_scene::{StaticScene, StaticSceneSpec};
+    use hapticd_core::haptic_loop::{HapticLoop, LoopSettings};
+    use hapticd_core::scene::Pointer;
+    use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 
     let m = shipped(name);
     let mut pressed = [0i64; 8];

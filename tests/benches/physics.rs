@@ -7,7 +7,7 @@
 
 use divan::Bencher;
 use glam::{DQuat, DVec3};
-use hapticd::experiments::stack_timing::{DENSITY, DT, SIDE, as_point_contacts, stack};
+use hapticctl::experiments::stack_timing::{DENSITY, DT, SIDE, as_point_contacts, stack};
 use hapticd_physics::scene::PenaltyScene;
 use rapier3d::prelude::{ColliderBuilder, PhysicsWorld, RigidBodyBuilder, Vector};
 

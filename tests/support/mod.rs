@@ -10,14 +10,14 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::{DQuat, DVec3};
-use hapticd::experiments::Session;
-use hapticd::mechanism::catalog;
-use hapticd::mechanism::{Mechanism, Pose};
-use hapticd::runtime::haptic_loop::{HapticLoop, LoopSettings};
-use hapticd::scene::static_scene::StaticSceneSpec;
-use hapticd::sim::hand::Script;
-use hapticd::solver::closure::is_force_closed;
-use hapticd::solver::geometry::StringGeometry;
+use hapticctl::experiments::Session;
+use hapticd::catalog;
+use hapticd_core::mechanism::{Mechanism, Pose};
+use hapticd_core::haptic_loop::{HapticLoop, LoopSettings};
+use hapticd_core::scene::static_scene::StaticSceneSpec;
+use hapticd_device::sim::hand::Script;
+use hapticd_core::solver::closure::is_force_closed;
+use hapticd_core::solver::geometry::StringGeometry;
 
 /// The cargo profile directory the tests were built into (target/debug or target/release).
 pub fn profile_dir() -> PathBuf {

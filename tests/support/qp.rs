@@ -3,7 +3,7 @@
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
-use hapticd::solver::geometry::StringGeometry;
+use hapticd_core::solver::geometry::StringGeometry;
 
 /// W as rows (dof × m).
 pub fn w_rows(g: &StringGeometry) -> Vec<Vec<f64>> {

@@ -1,0 +1,413 @@
+//! Findings about a file a person wrote, in the form compilers use
+//! (`file:line:column: error: field: message`), for every YAML format hapticd reads:
+//! configuration, mechanism descriptors, static and physics scenes, hand scripts.
+//!
+//! A loader reports every finding at once, not the first: syntax and schema errors come from
+//! the YAML parser with their place; checks of values name a field path such as
+//! `strings[3].tension_min` or `bodies[2].size`, and a [`YamlMap`] of the same text finds the
+//! line and column it was written at.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::DQuat;
+use serde::de::DeserializeOwned;
+use serde_saphyr::granit_parser::{Event, Parser};
+
+use crate::kinematics::quat_from_wxyz;
+
+/// Largest file any loader reads: far above any real descriptor or scene, and small
+/// enough that a mistaken path (a disk image, a device node) fails at once.
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
+/// A place in a text file: 1-based line and column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Position {
+    /// Line, from 1.
+    pub line: u64,
+    /// Column, from 1.
+    pub column: u64,
+}
+
+/// How serious a finding is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    /// The file cannot be used.
+    Error,
+    /// The file works, with a limitation worth knowing.
+    Warning,
+}
+
+/// One finding, located in its file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostic {
+    /// Error or warning.
+    pub severity: Severity,
+    /// File the finding is in (empty for text that came from no file).
+    pub file: PathBuf,
+    /// Where in the file, when the source has places (YAML does, plugins do not).
+    pub position: Option<Position>,
+    /// Field path such as `strings[3].tension_min`; empty for the whole file.
+    pub field: String,
+    /// What is wrong, in words.
+    pub message: String,
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(Position { line, column }) = self.position {
+            write!(f, ":{line}:{column}")?;
+        }
+        let kind = match self.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        };
+        write!(f, ": {kind}: ")?;
+        if !self.field.is_empty() {
+            write!(f, "{}: ", self.field)?;
+        }
+        f.write_str(&self.message)
+    }
+}
+
+/// Why a file could not be used: every finding, errors first, one per line when shown.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostics {
+    /// The findings, errors first.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl fmt::Display for Diagnostics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, d) in self.diagnostics.iter().enumerate() {
+            if i > 0 {
+                f.write_str("\n")?;
+            }
+            write!(f, "{d}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Diagnostics {}
+
+impl Diagnostics {
+    /// A single error about a whole file.
+    pub fn file(file: &Path, message: impl Into<String>) -> Self {
+        Self::at(file, None, String::new(), message)
+    }
+
+    /// A single error at `position` of `file`, about `field`.
+    pub fn at(
+        file: &Path,
+        position: Option<Position>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        Self {
+            diagnostics: vec![Diagnostic {
+                severity: Severity::Error,
+                file: file.to_path_buf(),
+                position,
+                field: field.into(),
+                message: message.into(),
+            }],
+        }
+    }
+
+    /// A YAML syntax or schema error of `file`, at its place, without the parser's own
+    /// position suffix and its advice about parser options, which mean nothing to someone
+    /// editing the file.
+    pub fn yaml(file: &Path, error: &serde_saphyr::Error) -> Self {
+        let rendered = error.without_snippet().to_string();
+        let message = rendered
+            .rsplit_once(" at line ")
+            .map_or(rendered.as_str(), |(m, _)| m)
+            .replace(", set DuplicateKeyPolicy in Options if acceptable", "");
+        let position = error
+            .location()
+            .filter(|l| l.line() > 0)
+            .map(|l| Position {
+                line: l.line(),
+                column: l.column(),
+            });
+        Self::at(file, position, String::new(), message)
+    }
+}
+
+/// Read `file` as text, refusing what cannot be a file a person wrote: anything but a
+/// regular file (a FIFO would block the reader for ever) or more than [`MAX_FILE_BYTES`].
+pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
+    use std::io::Read;
+    let cannot = |e: &dyn fmt::Display| Diagnostics::file(file, format!("cannot read: {e}"));
+    let opened = std::fs::File::open(file).map_err(|e| cannot(&e))?;
+    let meta = opened.metadata().map_err(|e| cannot(&e))?;
+    if !meta.is_file() {
+        return Err(Diagnostics::file(file, "not a regular file"));
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(Diagnostics::file(
+            file,
+            format!("{} bytes is more than the {MAX_FILE_BYTES} a file may have", meta.len()),
+        ));
+    }
+    let mut text = String::new();
+    opened
+        .take(MAX_FILE_BYTES + 1)
+        .read_to_string(&mut text)
+        .map_err(|e| cannot(&e))?;
+    Ok(text)
+}
+
+/// Parse YAML `text` (named `file` in findings) into `T`, with the map of its field paths
+/// for locating the findings of later checks.
+pub fn parse_yaml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<(T, YamlMap), Diagnostics> {
+    let value = serde_saphyr::from_str(text).map_err(|e| Diagnostics::yaml(file, &e))?;
+    Ok((value, YamlMap::new(text)))
+}
+
+/// [`read_text`] then [`parse_yaml`].
+pub fn load_yaml<T: DeserializeOwned>(file: &Path) -> Result<(T, YamlMap), Diagnostics> {
+    parse_yaml(&read_text(file)?, file)
+}
+
+/// Where each field path of a YAML text begins: `name`, `strings[3].tension_min`,
+/// `calibration.grip.position`. Paths name mapping keys with `.` and sequence items with
+/// `[i]`, as the checks of every loader do.
+#[derive(Debug, Default, Clone)]
+pub struct YamlMap {
+    places: HashMap<String, Position>,
+}
+
+/// A collection being walked while indexing.
+enum Open {
+    Mapping { path: String, key: Option<String> },
+    Sequence { path: String, next: usize },
+}
+
+impl YamlMap {
+    /// Index `text`. A text the parser rejects gives the paths before the fault (the
+    /// fault itself is reported by the deserialiser).
+    pub fn new(text: &str) -> Self {
+        let mut places = HashMap::new();
+        let mut stack: Vec<Open> = Vec::new();
+        for event in Parser::new_from_str(text) {
+            let Ok((event, span)) = event else { break };
+            let is_node = matches!(
+                event,
+                Event::Scalar(..) | Event::SequenceStart(..) | Event::MappingStart(..) | Event::Alias(_)
+            );
+            if !is_node {
+                if matches!(event, Event::SequenceEnd | Event::MappingEnd) {
+                    stack.pop();
+                    Self::value_done(&mut stack);
+                }
+                continue;
+            }
+            // A scalar in key position names the next value rather than being one.
+            if let (Some(Open::Mapping { key: key @ None, .. }), Event::Scalar(name, ..)) =
+                (stack.last_mut(), &event)
+            {
+                *key = Some(name.to_string());
+                continue;
+            }
+            let path = match stack.last_mut() {
+                None => String::new(),
+                Some(Open::Mapping { path, key }) => match key.as_deref() {
+                    Some(k) if path.is_empty() => k.to_string(),
+                    Some(k) => format!("{path}.{k}"),
+                    // A collection used as a key: nothing a check can name.
+                    None => format!("{path}.?"),
+                },
+                Some(Open::Sequence { path, next }) => format!("{path}[{next}]"),
+            };
+            let at = Position {
+                line: span.start.line() as u64,
+                column: span.start.col() as u64 + 1,
+            };
+            places.entry(path.clone()).or_insert(at);
+            match event {
+                Event::SequenceStart(..) => stack.push(Open::Sequence { path, next: 0 }),
+                Event::MappingStart(..) => stack.push(Open::Mapping { path, key: None }),
+                _ => Self::value_done(&mut stack),
+            }
+        }
+        Self { places }
+    }
+
+    /// A value of the innermost collection is complete: move to its next item or key.
+    fn value_done(stack: &mut [Open]) {
+        match stack.last_mut() {
+            Some(Open::Mapping { key, .. }) => *key = None,
+            Some(Open::Sequence { next, .. }) => *next += 1,
+            None => {}
+        }
+    }
+
+    /// Where `field` begins, or its nearest ancestor that is in the text.
+    pub fn find(&self, field: &str) -> Option<Position> {
+        let mut path = field;
+        loop {
+            if let Some(&at) = self.places.get(path) {
+                return Some(at);
+            }
+            path = &path[..path.rfind(['.', '['])?];
+        }
+    }
+}
+
+/// Collects the findings of checks on one file.
+pub struct Findings<'a> {
+    file: &'a Path,
+    locate: &'a dyn Fn(&str) -> Option<Position>,
+    list: Vec<Diagnostic>,
+}
+
+impl<'a> Findings<'a> {
+    /// Findings about `file`; `locate` maps a field path to its place.
+    pub fn new(file: &'a Path, locate: &'a dyn Fn(&str) -> Option<Position>) -> Self {
+        Self {
+            file,
+            locate,
+            list: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, severity: Severity, field: String, message: String) {
+        let position = (self.locate)(&field);
+        self.list.push(Diagnostic {
+            severity,
+            file: self.file.to_path_buf(),
+            position,
+            field,
+            message,
+        });
+    }
+
+    /// `field` is wrong.
+    pub fn error(&mut self, field: impl Into<String>, message: impl Into<String>) {
+        self.push(Severity::Error, field.into(), message.into());
+    }
+
+    /// `field` works, with a limitation worth knowing.
+    pub fn warning(&mut self, field: impl Into<String>, message: impl Into<String>) {
+        self.push(Severity::Warning, field.into(), message.into());
+    }
+
+    /// Whether every value is finite; an error on `field` if not.
+    pub fn finite(&mut self, field: impl Into<String>, values: &[f64]) -> bool {
+        let ok = values.iter().all(|v| v.is_finite());
+        if !ok {
+            self.error(field, "must be a finite number");
+        }
+        ok
+    }
+
+    /// Whether `value` lies in `lo..=hi` (so is finite); an error naming the range if not.
+    pub fn within(&mut self, field: impl Into<String>, value: f64, lo: f64, hi: f64, unit: &str) -> bool {
+        let ok = (lo..=hi).contains(&value);
+        if !ok {
+            self.error(field, format!("must be a number from {lo} to {hi}{unit}, not {value}"));
+        }
+        ok
+    }
+
+    /// A unit quaternion written `[w, x, y, z]`; an error if it is not one (the identity
+    /// stands in, so checks can go on).
+    pub fn unit_quaternion(&mut self, field: impl Into<String>, wxyz: [f64; 4]) -> DQuat {
+        let field = field.into();
+        let q = quat_from_wxyz(wxyz);
+        if !self.finite(field.clone(), &wxyz) {
+            return DQuat::IDENTITY;
+        }
+        if (q.length() - 1.0).abs() > 1e-6 {
+            self.error(
+                field,
+                format!("must be a unit quaternion (w, x, y, z); its norm is {}", q.length()),
+            );
+            return DQuat::IDENTITY;
+        }
+        q.normalize()
+    }
+
+    /// Whether any error was found so far.
+    pub fn has_errors(&self) -> bool {
+        self.list.iter().any(|d| d.severity == Severity::Error)
+    }
+
+    /// The warnings, if there is no error; otherwise every finding, errors first.
+    pub fn finish(self) -> Result<Vec<Diagnostic>, Diagnostics> {
+        let (errors, warnings): (Vec<_>, Vec<_>) = self
+            .list
+            .into_iter()
+            .partition(|d| d.severity == Severity::Error);
+        if errors.is_empty() {
+            Ok(warnings)
+        } else {
+            Err(Diagnostics {
+                diagnostics: errors.into_iter().chain(warnings).collect(),
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str = "\
+name: box
+bodies:
+  - shape: box
+    size: [1, 2, 3]
+  - { shape: sphere, radius: 0.5 }
+nested:
+  list:
+    - - 1
+      - 2
+";
+
+    fn at(line: u64, column: u64) -> Option<Position> {
+        Some(Position { line, column })
+    }
+
+    #[test]
+    fn paths_locate_keys_items_and_flow_collections() {
+        let map = YamlMap::new(TEXT);
+        assert_eq!(map.find("name"), at(1, 7));
+        assert_eq!(map.find("bodies[0].size"), at(4, 11));
+        assert_eq!(map.find("bodies[1].radius"), at(5, 30));
+        assert_eq!(map.find("nested.list[0][1]"), at(9, 9));
+        // An unknown path falls back to its nearest ancestor in the text.
+        assert_eq!(map.find("bodies[1].mass"), map.find("bodies[1]"));
+        assert_eq!(map.find("gravity"), None);
+    }
+
+    #[test]
+    fn findings_come_back_all_at_once_errors_first() {
+        let map = YamlMap::new(TEXT);
+        let locate = |f: &str| map.find(f);
+        let mut f = Findings::new(Path::new("s.yaml"), &locate);
+        f.warning("name", "short");
+        f.error("bodies[0].size", "too big");
+        f.finite("bodies[1].radius", &[f64::NAN]);
+        let shown = f.finish().unwrap_err().to_string();
+        let lines: Vec<_> = shown.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "s.yaml:4:11: error: bodies[0].size: too big",
+                "s.yaml:5:30: error: bodies[1].radius: must be a finite number",
+                "s.yaml:1:7: warning: name: short",
+            ]
+        );
+    }
+
+    #[test]
+    fn files_that_are_not_regular_are_refused_without_reading() {
+        let e = read_text(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(e.ends_with("not a regular file"), "{e}");
+    }
+}

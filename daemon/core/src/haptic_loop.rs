@@ -1,0 +1,484 @@
+//! One device's haptic loop, one tick at a time:
+//!
+//! 1. one transport update: write the D/A values of the previous tick, read the counters;
+//! 2. counts → lengths → pose of each effector (two warm-started Gauss–Newton iterations);
+//! 3. the scene renders a wrench for each pointer;
+//! 4. passivity controller, then limits, NaN guard and fault ramp;
+//! 5. wrench → tensions (the box QP) → D/A values, never above a motor's limit.
+//!
+//! Between ticks the loop takes [`LoopCommand`]s: new parameters, a calibration, a fault
+//! reset, a new scene (swapped in once the forces have ramped to zero, then ramped back up),
+//! the device opened again after it came back.
+//!
+//! Everything is allocated in [`HapticLoop::new`]; a tick allocates nothing, takes no lock
+//! and makes no system call but the device I/O. A replaced scene or link is handed back
+//! through [`HapticLoop::take_retired`] so that it is freed off the real-time thread.
+
+use glam::DVec3;
+
+use crate::haptics::passivity::PassivityController;
+use crate::haptics::safety::{SafetyGuard, SafetyLimits};
+use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose};
+use crate::mechanism::Mechanism;
+use crate::parameters::Parameters;
+use crate::scene::{Pointer, Scene};
+use crate::solver::calibration::{lengths_from_counts, offsets_into};
+use crate::solver::pose::PoseSolver;
+use crate::solver::tension::{TensionSettings, TensionSolver};
+use crate::transport::{CHANNELS, Link, Reading, Transport, TransportError, dac_for_tension};
+
+/// Largest root-mean-square misfit, metres, between the measured string lengths and the best
+/// pose for the counts to fit the calibration. Elastic stretch and encoder steps give well
+/// under a millimetre (0.06 mm pressing on the simulated SPIDAR-G), small errors of a
+/// descriptor a few; counts that a board restarted with its strings elsewhere miss by
+/// centimetres (4 to 8 cm in the tests).
+pub const FITTING_MISFIT: f64 = 0.01;
+
+/// Gauss–Newton iterations when the grip may have moved far since the last reading.
+const SEARCH_ITERATIONS: usize = 50;
+
+/// Settings of a haptic loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopSettings {
+    /// Gauss–Newton iterations per tick.
+    pub pose_iterations: usize,
+    /// Cut-off of the velocity filter, hertz.
+    pub velocity_cutoff: f64,
+    /// Force and torque limits and fault ramps.
+    pub safety: SafetyLimits,
+    /// Passivity controller: largest added damping (N·s/m) and energy credit (J).
+    pub passivity: (f64, f64),
+}
+
+impl Default for LoopSettings {
+    fn default() -> Self {
+        Self {
+            pose_iterations: 2,
+            velocity_cutoff: 200.0,
+            safety: SafetyLimits::default(),
+            passivity: (200.0, 0.05),
+        }
+    }
+}
+
+/// The device's state as the loop sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DeviceState {
+    /// Rendering forces.
+    #[default]
+    Running,
+    /// A fault drives the forces to zero (a failed scene, or a non-finite wrench).
+    Fault,
+    /// The device does not answer.
+    Disconnected,
+    /// The counts no longer fit the calibration (checked when the device returns, and at
+    /// start on a saved calibration): forces stay at zero until it is calibrated again.
+    Uncalibrated,
+}
+
+/// What one tick did: published to the rest of the daemon and to recordings.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Frame {
+    /// Loop time, seconds since start.
+    pub time: f64,
+    /// State after this tick.
+    pub state: DeviceState,
+    /// Last transport error, if the device is not answering.
+    pub error: Option<TransportError>,
+    /// Effectors in use.
+    pub effectors: usize,
+    /// Solved pose of each effector.
+    pub poses: [Pose; MAX_EFFECTORS],
+    /// Filtered velocity of each effector.
+    pub velocities: [DVec3; MAX_EFFECTORS],
+    /// Wrench displayed on each effector (after passivity and safety).
+    pub wrenches: [[f64; 6]; MAX_EFFECTORS],
+    /// Strings in use.
+    pub strings: usize,
+    /// Tension commanded on each string, newtons.
+    pub tensions: [f64; CHANNELS],
+    /// D/A value written next tick for each channel.
+    pub dac: [i16; CHANNELS],
+    /// Whether the counter offsets are set.
+    pub calibrated: bool,
+    /// Calibrations taken since start (the first reading counts as one).
+    pub calibrations: u32,
+    /// Counter offset of each string, metres.
+    pub offsets: [f64; CHANNELS],
+    /// Scenes swapped in since start.
+    pub scene_switches: u32,
+}
+
+/// A request to the haptic loop, applied between ticks.
+pub enum LoopCommand {
+    /// Render with these parameters from now on.
+    Tune(Parameters),
+    /// Take the counter offsets from the next reading: the grips are at their calibration
+    /// poses.
+    Calibrate,
+    /// Forget the scene's contact state and start the forces again from zero.
+    ResetFault,
+    /// Ramp the forces to zero, swap in this scene, ramp them back up.
+    SwitchScene(Box<dyn Scene>),
+    /// Talk to the device through this link from now on: it was unplugged and is back.
+    Reconnect(Box<dyn Link>),
+}
+
+/// Something the loop no longer uses, handed back to be freed off the real-time thread.
+pub enum Retired {
+    /// A scene swapped out.
+    Scene(Box<dyn Scene>),
+    /// A link replaced (or one that could not be used), still open.
+    Link(Box<dyn Link>),
+}
+
+struct EffectorLoop {
+    strings: [usize; MAX_STRINGS_PER_EFFECTOR],
+    count: usize,
+    pose: PoseSolver,
+    tension: TensionSolver,
+    passivity: PassivityController,
+    guard: SafetyGuard,
+    previous: DVec3,
+    velocity: DVec3,
+}
+
+/// The haptic loop of one device.
+pub struct HapticLoop {
+    mechanism: Mechanism,
+    transport: Box<dyn Transport>,
+    scene: Box<dyn Scene>,
+    settings: LoopSettings,
+    effectors: Vec<EffectorLoop>,
+    offsets: Vec<f64>,
+    calibration_lengths: Vec<f64>,
+    metres_per_pulse: Vec<f64>,
+    calibrated: bool,
+    reading: Reading,
+    lengths: Vec<f64>,
+    pointers: Vec<Pointer>,
+    wrenches: Vec<[f64; 6]>,
+    frame: Frame,
+    parameters: Option<Parameters>,
+    incoming: Option<Box<dyn Scene>>,
+    check_fit: bool,
+    misfit: bool,
+    retired_scene: Option<Box<dyn Scene>>,
+    retired_link: Option<Box<dyn Link>>,
+}
+
+/// Why a loop cannot be built.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LoopError(pub String);
+
+impl std::fmt::Display for LoopError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for LoopError {}
+
+impl HapticLoop {
+    /// A loop for `mechanism` on `transport`, rendering `scene`. Until calibrated, the first
+    /// reading is taken with every grip at its calibration pose.
+    pub fn new(
+        mechanism: Mechanism,
+        transport: Box<dyn Transport>,
+        scene: Box<dyn Scene>,
+        settings: LoopSettings,
+    ) -> Result<Self, LoopError> {
+        if mechanism.strings.len() > CHANNELS {
+            return Err(LoopError(format!(
+                "{} has {} strings; one amplifier board drives {CHANNELS}",
+                mechanism.name,
+                mechanism.strings.len()
+            )));
+        }
+        if mechanism.effectors.len() > MAX_EFFECTORS {
+            return Err(LoopError(format!(
+                "at most {MAX_EFFECTORS} effectors per device"
+            )));
+        }
+        let effectors: Vec<EffectorLoop> = mechanism
+            .effectors
+            .iter()
+            .enumerate()
+            .map(|(index, e)| {
+                let mut strings = [0; MAX_STRINGS_PER_EFFECTOR];
+                strings[..e.strings.len()].copy_from_slice(&e.strings);
+                EffectorLoop {
+                    strings,
+                    count: e.strings.len(),
+                    pose: PoseSolver::new(mechanism.kinematics(index), e.calibration),
+                    tension: mechanism.tension_solver(index),
+                    passivity: PassivityController::new(settings.passivity.0, settings.passivity.1),
+                    guard: SafetyGuard::new(settings.safety),
+                    previous: e.calibration.position,
+                    velocity: DVec3::ZERO,
+                }
+            })
+            .collect();
+        let pointers = Pointer::at_calibration(&mechanism);
+        let frame = Frame {
+            effectors: mechanism.effectors.len(),
+            strings: mechanism.strings.len(),
+            ..Frame::default()
+        };
+        Ok(Self {
+            offsets: vec![0.0; mechanism.strings.len()],
+            calibration_lengths: mechanism.calibration_lengths(),
+            metres_per_pulse: mechanism.strings.iter().map(|s| s.metres_per_pulse).collect(),
+            calibrated: false,
+            reading: Reading::default(),
+            lengths: vec![0.0; mechanism.strings.len()],
+            wrenches: vec![[0.0; 6]; pointers.len()],
+            pointers,
+            effectors,
+            settings,
+            mechanism,
+            transport,
+            scene,
+            frame,
+            parameters: None,
+            incoming: None,
+            check_fit: false,
+            misfit: false,
+            retired_scene: None,
+            retired_link: None,
+        })
+    }
+
+    /// Start from these counter offsets (a saved calibration) instead of calibrating on the
+    /// first reading. Refused unless there is one offset per string.
+    pub fn restore_calibration(&mut self, offsets: &[f64]) -> Result<(), LoopError> {
+        if offsets.len() != self.offsets.len() || offsets.iter().any(|o| !o.is_finite()) {
+            return Err(LoopError(format!(
+                "a calibration of {} finite offsets is needed for {}, not {offsets:?}",
+                self.offsets.len(),
+                self.mechanism.name
+            )));
+        }
+        self.offsets.copy_from_slice(offsets);
+        self.calibrated = true;
+        // The board may have restarted its counts elsewhere since they were saved.
+        self.check_fit = true;
+        self.frame.calibrated = true;
+        self.frame.offsets[..offsets.len()].copy_from_slice(offsets);
+        Ok(())
+    }
+
+    /// [rt] Apply `command` (takes effect at the next tick).
+    pub fn command(&mut self, command: LoopCommand) {
+        match command {
+            LoopCommand::Tune(parameters) => {
+                for e in &mut self.effectors {
+                    let settings = e.tension.settings();
+                    e.tension.set_settings(TensionSettings {
+                        lambda: parameters.lambda,
+                        ..settings
+                    });
+                    e.guard.set_limits(SafetyLimits {
+                        max_force: parameters.max_force,
+                        max_torque: parameters.max_torque,
+                        ..*e.guard.limits()
+                    });
+                }
+                self.scene.set_proxy(&parameters.proxy);
+                self.parameters = Some(parameters);
+            }
+            LoopCommand::Calibrate => self.calibrated = false,
+            LoopCommand::ResetFault => {
+                self.scene.reset(&self.pointers);
+                for e in &mut self.effectors {
+                    e.passivity.reset();
+                }
+            }
+            LoopCommand::SwitchScene(scene) => {
+                // A scene still waiting for its turn is dropped for the newer one.
+                if let Some(waiting) = self.incoming.replace(scene) {
+                    self.keep_retired(Retired::Scene(waiting));
+                }
+            }
+            LoopCommand::Reconnect(link) => {
+                // The link replaced, or the one sent if this transport cannot take it.
+                let old = self
+                    .transport
+                    .replace_link(link)
+                    .unwrap_or_else(|sent| sent);
+                self.keep_retired(Retired::Link(old));
+            }
+        }
+    }
+
+    /// [rt] Something the loop stopped using, to be freed by another thread.
+    pub fn take_retired(&mut self) -> Option<Retired> {
+        self.retired_link
+            .take()
+            .map(Retired::Link)
+            .or_else(|| self.retired_scene.take().map(Retired::Scene))
+    }
+
+    /// [rt] Hold `retired` until [`HapticLoop::take_retired`] hands it on (again, when it could
+    /// not be sent). One of each kind waits; an older one would be freed here, which cannot
+    /// happen while the daemon collects each before it sends the next.
+    pub fn keep_retired(&mut self, retired: Retired) {
+        match retired {
+            Retired::Scene(scene) => drop(self.retired_scene.replace(scene)),
+            Retired::Link(link) => drop(self.retired_link.replace(link)),
+        }
+    }
+
+    /// Swap in the incoming scene once every effector's force is down to zero.
+    fn swap_scene_when_quiet(&mut self) {
+        if self.effectors.iter().any(|e| e.guard.gain() > 0.0) {
+            return;
+        }
+        let Some(mut scene) = self.incoming.take() else {
+            return;
+        };
+        scene.reset(&self.pointers);
+        if let Some(p) = &self.parameters {
+            scene.set_proxy(&p.proxy);
+        }
+        let old = std::mem::replace(&mut self.scene, scene);
+        self.keep_retired(Retired::Scene(old));
+        self.frame.scene_switches += 1;
+    }
+
+    /// The mechanism driven.
+    pub fn mechanism(&self) -> &Mechanism {
+        &self.mechanism
+    }
+
+    /// The transport.
+    pub fn transport(&self) -> &dyn Transport {
+        self.transport.as_ref()
+    }
+
+    /// The scene rendered.
+    pub fn scene(&self) -> &dyn Scene {
+        self.scene.as_ref()
+    }
+
+    /// The last tick's frame.
+    pub fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// [rt] Run one tick of `dt` seconds.
+    pub fn tick(&mut self, dt: f64) -> &Frame {
+        self.frame.time += dt;
+        let update = self.transport.update(&self.frame.dac, &mut self.reading);
+        let connected = update.is_ok();
+        let mut scene_ok = true;
+        if connected {
+            if !self.calibrated {
+                // Grips are held at their calibration poses when the device starts.
+                let counts = &self.reading.counts[..self.mechanism.strings.len()];
+                offsets_into(
+                    &self.calibration_lengths,
+                    &self.metres_per_pulse,
+                    counts,
+                    &mut self.offsets,
+                );
+                self.calibrated = true;
+                (self.check_fit, self.misfit) = (false, false);
+                self.frame.calibrated = true;
+                self.frame.calibrations += 1;
+                self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
+            }
+            let returning = self.frame.state == DeviceState::Disconnected;
+            if std::mem::take(&mut self.check_fit) || returning {
+                // The grip may be anywhere: search for it, and trust the counts only if some
+                // pose fits them.
+                if self.solve_poses(dt, true) > FITTING_MISFIT {
+                    self.misfit = true;
+                    self.frame.calibrated = false;
+                }
+            } else {
+                self.solve_poses(dt, false);
+            }
+            if returning {
+                self.scene.reset(&self.pointers);
+            }
+            self.swap_scene_when_quiet();
+            scene_ok = self.scene.render(&self.pointers, dt, &mut self.wrenches);
+        } else {
+            self.wrenches.fill([0.0; 6]);
+        }
+        let mut all_finite = true;
+        let switching = self.incoming.is_some();
+        for (index, e) in self.effectors.iter_mut().enumerate() {
+            let mut wrench = self.wrenches[index];
+            let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
+            let force = e.passivity.filter(force, e.velocity, dt);
+            wrench[..3].copy_from_slice(&force.to_array());
+            let healthy = connected && scene_ok && !switching && !self.misfit;
+            all_finite &= e.guard.apply(&mut wrench, healthy, dt);
+            self.frame.wrenches[index] = wrench;
+            self.frame.poses[index] = *e.pose.pose();
+            self.frame.velocities[index] = e.velocity;
+            let solved =
+                (e.guard.gain() > 0.0).then(|| e.tension.solve(e.pose.geometry(), &wrench));
+            for k in 0..e.count {
+                let s = &self.mechanism.strings[e.strings[k]];
+                let tension = solved.map_or(0.0, |t| t.tensions[k].clamp(0.0, s.tension_max));
+                self.frame.tensions[e.strings[k]] = tension;
+                self.frame.dac[e.strings[k]] = dac_for_tension(tension, s.volts_per_newton);
+            }
+        }
+        (self.frame.state, self.frame.error) = match update {
+            Err(e) => (DeviceState::Disconnected, Some(e)),
+            Ok(()) if self.misfit => (DeviceState::Uncalibrated, None),
+            Ok(()) if !all_finite || !scene_ok => (DeviceState::Fault, None),
+            Ok(()) => (DeviceState::Running, None),
+        };
+        &self.frame
+    }
+
+    /// Solve every effector's pose, warm-started, or with a long `search` from the last pose
+    /// (the velocity then starts again from rest); returns the largest misfit (RMS, metres).
+    fn solve_poses(&mut self, dt: f64, search: bool) -> f64 {
+        let iterations = if search {
+            SEARCH_ITERATIONS
+        } else {
+            self.settings.pose_iterations
+        };
+        lengths_from_counts(
+            &self.offsets,
+            &self.metres_per_pulse,
+            &self.reading.counts,
+            &mut self.lengths,
+        );
+        let alpha = (-std::f64::consts::TAU * self.settings.velocity_cutoff * dt).exp();
+        let mut misfit: f64 = 0.0;
+        for (e, pointer) in self.effectors.iter_mut().zip(&mut self.pointers) {
+            let mut own = [0.0; MAX_STRINGS_PER_EFFECTOR];
+            for (length, &s) in own.iter_mut().zip(&e.strings[..e.count]) {
+                *length = self.lengths[s];
+            }
+            let estimate = e.pose.solve(&own[..e.count], iterations);
+            misfit = misfit.max(estimate.residual);
+            let position = estimate.pose.position;
+            e.velocity = if search {
+                DVec3::ZERO
+            } else {
+                alpha * e.velocity + (1.0 - alpha) * (position - e.previous) / dt
+            };
+            e.previous = position;
+            *pointer = Pointer {
+                pose: estimate.pose,
+                velocity: e.velocity,
+            };
+        }
+        misfit
+    }
+
+    /// [rt] Write zero currents to every motor (on shutdown).
+    pub fn zero_motors(&mut self) -> Result<(), TransportError> {
+        self.frame.dac = [0; CHANNELS];
+        self.frame.tensions = [0.0; CHANNELS];
+        self.transport.update(&[0; CHANNELS], &mut self.reading)
+    }
+}

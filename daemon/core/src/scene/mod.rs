@@ -1,0 +1,60 @@
+//! Scenes: what the user touches. A scene turns the pointers' motion (one pointer per end
+//! effector) into the wrench each one should feel.
+//!
+//! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
+//! - scenes from plugins, direct or multi-rate, live in the daemon (they load code).
+
+pub mod static_scene;
+
+use glam::DVec3;
+
+use crate::haptics::proxy::ProxyParameters;
+use crate::kinematics::Pose;
+use crate::mechanism::Mechanism;
+
+/// One pointer as the scene sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pointer {
+    /// Grip pose.
+    pub pose: Pose,
+    /// Grip velocity, m/s.
+    pub velocity: DVec3,
+}
+
+impl Pointer {
+    /// One pointer per effector of `mechanism`, at rest at its calibration pose.
+    pub fn at_calibration(mechanism: &Mechanism) -> Vec<Pointer> {
+        mechanism
+            .effectors
+            .iter()
+            .map(|e| Pointer {
+                pose: e.calibration,
+                velocity: DVec3::ZERO,
+            })
+            .collect()
+    }
+}
+
+/// A world the haptic loop renders.
+pub trait Scene: Send {
+    /// [main] The scene's name.
+    fn name(&self) -> &str;
+
+    /// [rt] The wrench (force, then torque) to present on each pointer after a tick of `dt`
+    /// seconds. `wrenches` has one slot per pointer. Returns false when the scene has failed
+    /// (a plugin error, stale physics): the loop then ramps the forces to zero.
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool;
+
+    /// [rt] Forget contact state (after a fault, or when the pointers jumped).
+    fn reset(&mut self, pointers: &[Pointer]);
+
+    /// [rt] Render with these proxy parameters from now on (scenes without a proxy ignore
+    /// them).
+    fn set_proxy(&mut self, _parameters: &ProxyParameters) {}
+
+    /// [main] The proxy parameters the scene renders with, if it renders through a proxy
+    /// (before the loop tunes it: those its file gives).
+    fn proxy(&self) -> Option<ProxyParameters> {
+        None
+    }
+}

@@ -1,0 +1,313 @@
+//! A static scene: fixed solids touched through the god-object proxy, with friction.
+//!
+//! ```yaml
+//! name: static
+//! proxy: { stiffness: 2000, damping: 5, static_friction: 0.3, dynamic_friction: 0.2 }
+//! shapes:
+//!   - floor: { height: -0.03 }                               # the plane y = height, solid below
+//!   - plane: { point: [0.06, 0, 0], normal: [-1, 0, 0] }     # solid on the far side of normal
+//!   - sphere: { centre: [-0.03, -0.01, 0], radius: 0.015 }
+//!   - cylinder: { point: [0, 0, 0], axis: [0, 1, 0], radius: 0.2 }      # endless round bar
+//!   - box: { centre: [0.03, -0.02, 0], size: [0.02, 0.02, 0.02], orientation: [1, 0, 0, 0] }
+//! ```
+
+use std::path::Path;
+
+use glam::DVec3;
+use serde::Deserialize;
+
+use super::{Pointer, Scene};
+use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use crate::haptics::obstacle::Shape;
+use crate::haptics::proxy::{Proxy, ProxyParameters};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: String,
+    #[serde(default)]
+    proxy: Option<RawProxy>,
+    shapes: Vec<RawShape>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawProxy {
+    stiffness: f64,
+    damping: f64,
+    static_friction: f64,
+    dynamic_friction: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
+enum RawShape {
+    Floor {
+        height: f64,
+    },
+    Plane {
+        point: [f64; 3],
+        normal: [f64; 3],
+    },
+    Sphere {
+        centre: [f64; 3],
+        radius: f64,
+    },
+    Cylinder {
+        point: [f64; 3],
+        axis: [f64; 3],
+        radius: f64,
+    },
+    Box {
+        centre: [f64; 3],
+        size: [f64; 3],
+        #[serde(default = "identity")]
+        orientation: [f64; 4],
+    },
+}
+
+fn identity() -> [f64; 4] {
+    [1.0, 0.0, 0.0, 0.0]
+}
+
+/// The description of a static scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StaticSceneSpec {
+    /// Scene name.
+    pub name: String,
+    /// Proxy coupling and friction.
+    pub proxy: ProxyParameters,
+    /// The solids.
+    pub shapes: Vec<Shape>,
+}
+
+impl StaticSceneSpec {
+    /// Load a scene file.
+    pub fn load(path: &Path) -> Result<Self, Diagnostics> {
+        Self::parse(&diagnostics::read_text(path)?, path)
+    }
+
+    /// Parse and check scene `text`; `path` names it in diagnostics, which come all at
+    /// once, each at its line and column.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, Diagnostics> {
+        let (raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let locate = |field: &str| map.find(field);
+        let mut f = Findings::new(path, &locate);
+        let proxy = match raw.proxy {
+            None => ProxyParameters::default(),
+            Some(p) => {
+                for (key, value) in [
+                    ("stiffness", p.stiffness),
+                    ("damping", p.damping),
+                    ("static_friction", p.static_friction),
+                    ("dynamic_friction", p.dynamic_friction),
+                ] {
+                    if !(value.is_finite() && value >= 0.0) {
+                        f.error(format!("proxy.{key}"), "must be a finite number ≥ 0");
+                    }
+                }
+                if p.dynamic_friction > p.static_friction {
+                    f.error(
+                        "proxy.dynamic_friction",
+                        "must not exceed static_friction",
+                    );
+                }
+                ProxyParameters {
+                    stiffness: p.stiffness,
+                    damping: p.damping,
+                    static_friction: p.static_friction,
+                    dynamic_friction: p.dynamic_friction,
+                }
+            }
+        };
+        let shapes = raw
+            .shapes
+            .into_iter()
+            .enumerate()
+            .map(|(i, s)| check_shape(&mut f, &format!("shapes[{i}]"), s))
+            .collect();
+        f.finish()?;
+        Ok(Self {
+            name: raw.name,
+            proxy,
+            shapes,
+        })
+    }
+}
+
+/// A direction given in a file: finite and not zero, made unit length.
+fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
+    let v = DVec3::from(v);
+    if f.finite(field.clone(), &v.to_array()) && v.length() <= 1e-9 {
+        f.error(field, "must not be zero");
+    }
+    v.normalize_or(DVec3::Y)
+}
+
+/// A length given in a file: finite and > 0.
+fn positive(f: &mut Findings, field: String, value: f64) {
+    if !(value.is_finite() && value > 0.0) {
+        f.error(field, "must be a finite number > 0");
+    }
+}
+
+fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
+    match shape {
+        RawShape::Floor { height } => {
+            f.finite(format!("{at}.floor.height"), &[height]);
+            Shape::HalfSpace {
+                point: DVec3::new(0.0, height, 0.0),
+                normal: DVec3::Y,
+            }
+        }
+        RawShape::Plane { point, normal } => {
+            f.finite(format!("{at}.plane.point"), &point);
+            Shape::HalfSpace {
+                point: DVec3::from(point),
+                normal: direction(f, format!("{at}.plane.normal"), normal),
+            }
+        }
+        RawShape::Sphere { centre, radius } => {
+            f.finite(format!("{at}.sphere.centre"), &centre);
+            positive(f, format!("{at}.sphere.radius"), radius);
+            Shape::Sphere {
+                centre: DVec3::from(centre),
+                radius,
+            }
+        }
+        RawShape::Cylinder {
+            point,
+            axis,
+            radius,
+        } => {
+            f.finite(format!("{at}.cylinder.point"), &point);
+            positive(f, format!("{at}.cylinder.radius"), radius);
+            Shape::Cylinder {
+                point: DVec3::from(point),
+                axis: direction(f, format!("{at}.cylinder.axis"), axis),
+                radius,
+            }
+        }
+        RawShape::Box {
+            centre,
+            size,
+            orientation,
+        } => {
+            f.finite(format!("{at}.box.centre"), &centre);
+            for (k, &side) in size.iter().enumerate() {
+                positive(f, format!("{at}.box.size[{k}]"), side);
+            }
+            Shape::Cuboid {
+                centre: DVec3::from(centre),
+                half: DVec3::from(size) / 2.0,
+                rotation: f.unit_quaternion(format!("{at}.box.orientation"), orientation),
+            }
+        }
+    }
+}
+
+/// A static scene with one proxy per pointer.
+pub struct StaticScene {
+    spec: StaticSceneSpec,
+    proxies: Vec<Proxy>,
+}
+
+impl StaticScene {
+    /// The scene for `pointers` pointers, each proxy starting at its pointer.
+    pub fn new(spec: StaticSceneSpec, pointers: &[Pointer]) -> Self {
+        Self {
+            proxies: pointers
+                .iter()
+                .map(|p| Proxy::new(p.pose.position))
+                .collect(),
+            spec,
+        }
+    }
+
+    /// Proxy positions.
+    pub fn proxies(&self) -> impl Iterator<Item = DVec3> + '_ {
+        self.proxies.iter().map(Proxy::position)
+    }
+
+    /// The scene description.
+    pub fn spec(&self) -> &StaticSceneSpec {
+        &self.spec
+    }
+}
+
+impl Scene for StaticScene {
+    fn name(&self) -> &str {
+        &self.spec.name
+    }
+
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
+        for ((proxy, pointer), wrench) in self.proxies.iter_mut().zip(pointers).zip(wrenches) {
+            let out = proxy.update(
+                pointer.pose.position,
+                pointer.velocity,
+                &self.spec.shapes,
+                &self.spec.proxy,
+                dt,
+            );
+            *wrench = [out.force.x, out.force.y, out.force.z, 0.0, 0.0, 0.0];
+        }
+        true
+    }
+
+    fn reset(&mut self, pointers: &[Pointer]) {
+        for (proxy, pointer) in self.proxies.iter_mut().zip(pointers) {
+            // Start outside every solid: a grip that is inside keeps its proxy where it was.
+            if !self
+                .spec
+                .shapes
+                .iter()
+                .any(|s| s.contains(pointer.pose.position, 0.0))
+            {
+                proxy.reset(pointer.pose.position);
+            }
+        }
+    }
+
+    fn set_proxy(&mut self, parameters: &ProxyParameters) {
+        self.spec.proxy = *parameters;
+    }
+
+    fn proxy(&self) -> Option<ProxyParameters> {
+        Some(self.spec.proxy)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_scene_parses() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes/static.yaml");
+        let spec = StaticSceneSpec::load(&path).unwrap();
+        assert_eq!(spec.name, "static");
+        assert!(spec.shapes.len() >= 4);
+    }
+
+    #[test]
+    fn bad_shapes_are_refused_each_at_its_place() {
+        let parse = |text: &str| StaticSceneSpec::parse(text, Path::new("s.yaml"));
+        assert!(parse("name: x\nshapes:\n  - cone: { height: 1 }\n").is_err());
+        let e = parse("name: x\nshapes:\n  - floor: { hieght: 0 }\n").unwrap_err();
+        assert!(e.to_string().starts_with("s.yaml:3:14: error: unknown field `hieght`"), "{e}");
+        let e = parse(
+            "name: x\nshapes:\n  - sphere: { centre: [0, 0, 0], radius: -1 }\n  - floor: { height: .nan }\n  - plane: { point: [0, 0, 0], normal: [0, 0, 0] }\n",
+        )
+        .unwrap_err()
+        .to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "s.yaml:3:42: error: shapes[0].sphere.radius: must be a finite number > 0",
+                "s.yaml:4:22: error: shapes[1].floor.height: must be a finite number",
+                "s.yaml:5:40: error: shapes[2].plane.normal: must not be zero",
+            ]
+        );
+    }
+}

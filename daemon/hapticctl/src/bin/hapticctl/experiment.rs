@@ -1,0 +1,360 @@
+//! `hapticctl experiment …`: the thesis' closed-loop experiments on the simulated SPIDAR,
+//! with their figures.
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Subcommand};
+use hapticctl::experiments::stick_slip::Rig;
+use hapticctl::experiments::{shape_tracing, stack_timing, wall_stiffness};
+use hapticd::catalog::Catalog;
+use hapticctl::plot::{Chart, PALETTE, Series};
+use serde_json::{Value, json};
+
+use crate::Failure;
+use crate::mechanism::{Numbers, Output, parse_numbers, print, resolve, save};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Stiffest stable wall against loop rate (thesis Table 3.4).
+    Stiffness(StiffnessArgs),
+    /// Trace a 0.2 m bar with λ = 0 and λ = 0.2 (thesis 3.5.10, Fig. 3.19).
+    Cylinder(CylinderArgs),
+    /// Time one penalty physics step against stacked blocks (thesis Fig. 5.10).
+    StackTiming(StackTimingArgs),
+    /// Pull a 2 kg weight through a spring: stick-slip (thesis Fig. 5.13/5.14).
+    StickSlip(StickSlipArgs),
+}
+
+#[derive(Args)]
+pub struct StickSlipArgs {
+    /// Simulated time, seconds.
+    #[arg(long, default_value_t = 3.0)]
+    duration: f64,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+#[derive(Args)]
+pub struct StackTimingArgs {
+    /// Stack heights, blocks.
+    #[arg(long, value_parser = parse_numbers, default_value = "1,2,5,10,20,50,100")]
+    blocks: Numbers,
+    /// Steps timed per height and model (the median is reported).
+    #[arg(long, default_value_t = 200)]
+    samples: usize,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+#[derive(Args)]
+pub struct StiffnessArgs {
+    /// Mechanism with a point grip named `grip`.
+    #[arg(default_value = "spidar")]
+    mech: String,
+    /// Loop rates to try, hertz.
+    #[arg(long, value_parser = parse_numbers, default_value = "1000,2000,5000,10000")]
+    rates: Numbers,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+#[derive(Args)]
+pub struct CylinderArgs {
+    /// Loop rate, hertz.
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// Loop rates the simulator can run: 100 Hz to its maximum.
+fn check_rate(rate: f64) -> Result<(), Failure> {
+    let max = hapticd_core::parameters::MAX_RATE;
+    if (100.0..=max).contains(&rate) {
+        Ok(())
+    } else {
+        Err(Failure::usage(format!(
+            "rates must be 100–{max} Hz, not {rate}"
+        )))
+    }
+}
+
+/// Run one `experiment` subcommand.
+pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
+    match command {
+        Command::Stiffness(args) => stiffness(catalog, &args),
+        Command::Cylinder(args) => cylinder(&args),
+        Command::StackTiming(args) => stack_timing(&args),
+        Command::StickSlip(args) => stick_slip(&args),
+    }
+}
+
+fn stick_slip(args: &StickSlipArgs) -> Result<(), Failure> {
+    if !(args.duration > 0.0 && args.duration <= 60.0) {
+        return Err(Failure::usage("--duration must be 0–60 s"));
+    }
+    let models = [
+        ("static and dynamic friction", Rig::THESIS),
+        (
+            "kinetic friction only",
+            Rig {
+                static_friction: 0.0,
+                ..Rig::THESIS
+            },
+        ),
+    ];
+    let runs: Vec<_> = models
+        .iter()
+        .map(|(label, rig)| {
+            let samples = rig.run(args.duration);
+            let peak = samples.iter().fold(0.0_f64, |m, s| m.max(s.1));
+            (*label, rig.peak_pull(), samples, peak)
+        })
+        .collect();
+    let chart = Chart {
+        title: "stick-slip: 2 kg pulled through 400 N/m at 64 mm/s".into(),
+        x_label: "time [s]".into(),
+        y_label: "spring force [N]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(k, (label, _, samples, _))| Series {
+                label: (*label).into(),
+                points: samples.iter().map(|s| (s.0, s.1)).collect(),
+                color: PALETTE[k],
+            })
+            .collect(),
+        // Head room above the curves for the legend.
+        y_range: Some((0.0, 1.5 * runs[0].1)),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (label, expected, _, peak) in &runs {
+        text += &format!("  {label}: peak {peak:.2} N (rigid-stick value {expected:.2} N)\n");
+    }
+    let rows = runs.iter().map(|(label, expected, _, peak)| {
+        json!({"model": label, "peak": peak, "expected_peak": expected})
+    });
+    report(&args.output, &args.plot, rows, text);
+    Ok(())
+}
+
+fn stack_timing(args: &StackTimingArgs) -> Result<(), Failure> {
+    let heights: Vec<usize> = args.blocks.iter().map(|&n| n as usize).collect();
+    if args.samples == 0
+        || heights.is_empty()
+        || args
+            .blocks
+            .iter()
+            .any(|&n| !(1.0..=1000.0).contains(&n) || n.fract() != 0.0)
+    {
+        return Err(Failure::usage(
+            "--blocks must be whole numbers 1–1000 and --samples > 0",
+        ));
+    }
+    let results: Vec<(usize, f64, f64)> = heights
+        .iter()
+        .map(|&n| {
+            let (volume, point) = stack_timing::step_times(n, args.samples);
+            (n, volume * 1e6, point * 1e6)
+        })
+        .collect();
+    let curve = |pick: fn(&(usize, f64, f64)) -> f64| -> Vec<(f64, f64)> {
+        results.iter().map(|r| (r.0 as f64, pick(r))).collect()
+    };
+    let chart = Chart {
+        title: "time of one physics step against stacked blocks".into(),
+        x_label: "blocks".into(),
+        y_label: "time per step [us]".into(),
+        series: vec![
+            Series {
+                label: "contact-volume penalty".into(),
+                points: curve(|r| r.1),
+                color: PALETTE[0],
+            },
+            Series {
+                label: "deepest-point penalty".into(),
+                points: curve(|r| r.2),
+                color: PALETTE[1],
+            },
+        ],
+        // Head room above the curves for the legend.
+        y_range: Some((
+            0.0,
+            1.4 * results.iter().fold(0.0_f64, |m, r| m.max(r.1).max(r.2)),
+        )),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (n, volume, point) in &results {
+        text += &format!("  {n:>4} blocks: volume {volume:8.1} us, point {point:8.1} us\n");
+    }
+    let rows = results
+        .iter()
+        .map(|(n, v, p)| json!({"blocks": n, "volume_us": v, "point_us": p}));
+    report(&args.output, &args.plot, rows, text);
+    Ok(())
+}
+
+/// Print an experiment's result rows and the figure written, as JSON or as `text`.
+fn report(output: &Output, plot: &Path, rows: impl Iterator<Item = Value>, text: String) {
+    let rows: Vec<Value> = rows.collect();
+    print(output, json!({"plot": plot, "results": rows}), text);
+}
+
+fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
+    let m = resolve(catalog, &args.mech)?;
+    if m.effectors.len() != 1 || m.effectors[0].dof.count() != 3 {
+        return Err(Failure::usage(format!(
+            "{} is not a single point grip",
+            m.name
+        )));
+    }
+    for &rate in args.rates.iter() {
+        check_rate(rate)?;
+    }
+    let results: Vec<(f64, f64, f64)> = args
+        .rates
+        .iter()
+        .map(|&rate| {
+            let (k, b) = wall_stiffness::max_stable_stiffness(&m, rate);
+            (rate, k, b)
+        })
+        .collect();
+    let thesis = [(1000.0, 7.0), (5000.0, 25.5), (10_000.0, 28.5)];
+    let chart = Chart {
+        title: format!("{}: stiffest stable wall against loop rate", m.name),
+        x_label: "loop rate [kHz]".into(),
+        y_label: "stiffness [kN/m]".into(),
+        series: vec![
+            Series {
+                label: "simulated SPIDAR (hapticd)".into(),
+                points: results
+                    .iter()
+                    .map(|(r, k, _)| (r / 1000.0, k / 1000.0))
+                    .collect(),
+                color: PALETTE[0],
+            },
+            Series {
+                label: "thesis hardware (Table 3.4)".into(),
+                points: thesis.iter().map(|(r, k)| (r / 1000.0, *k)).collect(),
+                color: PALETTE[1],
+            },
+        ],
+        x_range: Some((0.0, 11.0)),
+        // Head room above the curves for the legend.
+        y_range: Some((
+            0.0,
+            1.4 * results
+                .iter()
+                .map(|(_, k, _)| k / 1000.0)
+                .fold(28.5, f64::max),
+        )),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (rate, k, b) in &results {
+        text += &format!(
+            "  {rate:>6.0} Hz: {:6.1} kN/m (damping {b} N·s/m)\n",
+            k / 1000.0
+        );
+    }
+    let rows = results
+        .iter()
+        .map(|(rate, k, b)| json!({"rate": rate, "stiffness": k, "damping": b}));
+    report(&args.output, &args.plot, rows, text);
+    Ok(())
+}
+
+fn cylinder(args: &CylinderArgs) -> Result<(), Failure> {
+    check_rate(args.rate)?;
+    let lambdas = [0.0, 0.2];
+    let paths: Vec<Vec<(f64, f64)>> = lambdas
+        .iter()
+        .map(|&l| shape_tracing::trace(l, args.rate))
+        .collect();
+    let deviations: Vec<_> = paths
+        .iter()
+        .map(|p| shape_tracing::deviation(p, args.rate))
+        .collect();
+    let circle: Vec<(f64, f64)> = (0..=360)
+        .map(|d| {
+            let a = (d as f64).to_radians();
+            (
+                shape_tracing::RADIUS * a.cos(),
+                shape_tracing::RADIUS * a.sin(),
+            )
+        })
+        .collect();
+    // At y = 0 the complete region is the square with corners (±h, 0), (0, ±h).
+    let h = shape_tracing::HALF;
+    let region = vec![(h, 0.0), (0.0, h), (-h, 0.0), (0.0, -h), (h, 0.0)];
+    let series = vec![
+        Series {
+            label: "λ = 0".into(),
+            points: paths[0].clone(),
+            color: PALETTE[1],
+        },
+        Series {
+            label: "λ = 0.2".into(),
+            points: paths[1].clone(),
+            color: PALETTE[0],
+        },
+        Series {
+            label: "bar surface".into(),
+            points: circle,
+            color: PALETTE[6],
+        },
+        Series {
+            label: "complete-region edge".into(),
+            points: region,
+            color: PALETTE[2],
+        },
+    ];
+    let chart = Chart {
+        title: "tracing a 0.2 m bar on a 0.5 m SPIDAR, 2 kN/m".into(),
+        x_label: "x [m]".into(),
+        y_label: "z [m]".into(),
+        series,
+        x_range: Some((-0.26, 0.26)),
+        y_range: Some((-0.26, 0.26)),
+        equal_aspect: true,
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (lambda, d) in lambdas.iter().zip(&deviations) {
+        text += &format!(
+            "  λ = {lambda}: mean radius {:.4} m, roundness {:.2} mm, roughness {:.3} mm\n",
+            d.mean_radius,
+            d.roundness * 1e3,
+            d.roughness * 1e3
+        );
+    }
+    let rows: Vec<_> = lambdas
+        .iter()
+        .zip(&deviations)
+        .map(|(l, d)| json!({"lambda": l, "mean_radius": d.mean_radius, "roundness": d.roundness, "roughness": d.roughness}))
+        .collect();
+    print(
+        &args.output,
+        json!({"plot": args.plot, "results": rows}),
+        text,
+    );
+    Ok(())
+}

@@ -1,0 +1,99 @@
+//! `hapticctl`: the command-line companion of hapticd.
+
+mod device;
+mod experiment;
+mod mechanism;
+mod scene;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use hapticd_core::mechanism::MechanismError;
+use hapticd::catalog::Catalog;
+
+/// Control hapticd and work with SPIDAR mechanisms.
+#[derive(Parser)]
+#[command(name = "hapticctl", version)]
+struct Cli {
+    /// Look for mechanism descriptors and plugins in DIR instead of the default search path
+    /// (repeatable; default: $HAPTICD_MECHANISM_PATH, else /etc/hapticd/mechanisms,
+    /// /usr/lib/hapticd/plugins, /usr/share/hapticd/mechanisms).
+    #[arg(long = "mechanism-dir", value_name = "DIR", global = true)]
+    mechanism_dirs: Vec<PathBuf>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Inspect mechanisms and run their pose and tension computations.
+    #[command(subcommand)]
+    Mechanism(mechanism::Command),
+    /// Find SPIDAR amplifiers on USB and exercise them.
+    #[command(subcommand)]
+    Device(device::Command),
+    /// Run the thesis' closed-loop experiments on the simulated SPIDAR.
+    #[command(subcommand)]
+    Experiment(experiment::Command),
+    /// Step penalty scene files headless.
+    #[command(subcommand)]
+    Scene(scene::Command),
+}
+
+/// Why a command failed, with its exit status.
+pub struct Failure {
+    /// 1: the operation failed; 2: the arguments were wrong.
+    pub code: u8,
+    /// What to tell the user.
+    pub message: String,
+}
+
+impl Failure {
+    /// Bad arguments (exit status 2, like a usage error).
+    pub fn usage(message: impl std::fmt::Display) -> Self {
+        Self {
+            code: 2,
+            message: format!("hapticctl: error: {message}"),
+        }
+    }
+
+    /// The operation failed (exit status 1).
+    pub fn failed(message: impl std::fmt::Display) -> Self {
+        Self {
+            code: 1,
+            message: format!("hapticctl: error: {message}"),
+        }
+    }
+
+    /// Diagnostics that already say file, position and severity, with exit status `code`.
+    pub fn diagnostics(code: u8, error: &MechanismError) -> Self {
+        Self {
+            code,
+            message: error.to_string(),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    hapticd::logging::init("hapticctl", false);
+    let catalog = if cli.mechanism_dirs.is_empty() {
+        Catalog::from_env()
+    } else {
+        Catalog::new(cli.mechanism_dirs)
+    };
+    let result = match cli.command {
+        Command::Mechanism(command) => mechanism::run(command, &catalog),
+        Command::Experiment(command) => experiment::run(command, &catalog),
+        Command::Device(command) => device::run(command),
+        Command::Scene(command) => scene::run(command),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(failure) => {
+            eprintln!("{}", failure.message);
+            ExitCode::from(failure.code)
+        }
+    }
+}

@@ -1,0 +1,324 @@
+//! `hapticctl scene …`: step a penalty scene file headless, to try a scene before feeling it.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Subcommand, ValueEnum};
+use glam::{DMat3, DQuat, DVec3};
+use hapticctl::plot::{Chart, PALETTE, Series};
+use hapticd_device::sim::hand::{HandTrack, Script};
+use hapticd_physics::body::Body;
+use hapticd_physics::contact::Wrench;
+use hapticd_physics::coupling::Grip;
+use hapticd_physics::scene::PenaltyScene;
+use hapticd_physics::world::ContactModel;
+use serde_json::json;
+
+use crate::Failure;
+use crate::mechanism::{Output, print, save};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Step a scene file for a while and report, record or plot the bodies' motion.
+    Run(RunArgs),
+}
+
+#[derive(Args)]
+pub struct RunArgs {
+    /// Scene file (YAML, the penalty scene's format).
+    file: PathBuf,
+    /// Simulated time, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    duration: f64,
+    /// Physics step, seconds (default: the scene's `dt`).
+    #[arg(long)]
+    dt: Option<f64>,
+    /// Contact model instead of the scene's; repeat to run the scene once per model and
+    /// compare them on one plot. With `point`, the material's stiffness and damping act at
+    /// one point (N/m, N·s/m).
+    #[arg(long = "model", value_enum)]
+    models: Vec<Model>,
+    /// Write every step's body states to this CSV file.
+    #[arg(long)]
+    record: Option<PathBuf>,
+    /// Plot a quantity of every moving body against time to this PNG file.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// What `--plot` shows.
+    #[arg(long, value_enum, default_value_t = Quantity::Height)]
+    quantity: Quantity,
+    /// Move the scene's pointers by this script (the simulated hand's format, one pointer per
+    /// hand, in the order of their names); the forces felt are reported.
+    #[arg(long, value_name = "SCRIPT")]
+    hand: Option<PathBuf>,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// Contact models.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum Model {
+    /// Forces integrated over the intersection volume.
+    Volume,
+    /// The deepest point only.
+    Point,
+}
+
+/// Plotted quantities.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum Quantity {
+    /// Height of the centroid against gravity, m.
+    Height,
+    /// Angular momentum about the world z axis, kg·m²/s (thesis Fig. 5.12).
+    AngularMomentumZ,
+    /// Rate of turn |ω|, rad/s (the spinning top of thesis Fig. 5.16).
+    Spin,
+    /// Force felt at each pointer, N (with `--hand`).
+    PointerForce,
+}
+
+/// Run one `scene` subcommand.
+pub fn run(command: Command) -> Result<(), Failure> {
+    match command {
+        Command::Run(args) => run_scene(&args),
+    }
+}
+
+/// Angular momentum of `body` about its centroid, world frame.
+fn angular_momentum(body: &Body) -> DVec3 {
+    let rotation = DMat3::from_quat(body.orientation);
+    rotation * body.inertia * rotation.transpose() * body.spin
+}
+
+fn load(path: &Path, model: Option<Model>, pointers: usize) -> Result<PenaltyScene, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::failed(format!("{}: cannot read: {e}", path.display())))?;
+    let mut scene = PenaltyScene::parse(&text, pointers)
+        .map_err(|e| Failure::failed(format!("{}: {e}", path.display())))?;
+    match model {
+        Some(Model::Volume) => scene.set_model(ContactModel::Volume),
+        Some(Model::Point) => scene.set_model(ContactModel::Point),
+        None => {}
+    }
+    Ok(scene)
+}
+
+/// One run of a scene: the plotted quantity of each moving body (or pointer) over time, the
+/// last forces felt at the pointers, and the CSV rows.
+struct Trace {
+    scene: PenaltyScene,
+    /// The contact model's name.
+    model: &'static str,
+    moving: Vec<usize>,
+    /// Bodies whose curves are plotted.
+    plotted: Vec<usize>,
+    curves: Vec<Vec<(f64, f64)>>,
+    felt: Vec<Wrench>,
+    /// Largest force felt at each pointer, N.
+    peaks: Vec<f64>,
+    csv: String,
+}
+
+/// The pointers' grips at `t`.
+fn grips(hands: &[HandTrack], t: f64) -> Vec<Grip> {
+    hands
+        .iter()
+        .map(|h| {
+            let c = h.at(t);
+            Grip {
+                position: c.target,
+                orientation: DQuat::IDENTITY,
+                velocity: c.velocity,
+                spin: DVec3::ZERO,
+            }
+        })
+        .collect()
+}
+
+fn trace(
+    mut scene: PenaltyScene,
+    args: &RunArgs,
+    hands: &[HandTrack],
+    dt: f64,
+    steps: usize,
+) -> Trace {
+    let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
+    let moving: Vec<usize> = (0..scene.world.bodies.len())
+        .filter(|&i| !scene.world.bodies[i].fixed)
+        .collect();
+    let plotted: Vec<usize> = match args.quantity {
+        Quantity::PointerForce => (scene.first_pointer..scene.world.bodies.len()).collect(),
+        _ => moving.clone(),
+    };
+    let mut csv = String::new();
+    let mut curves = vec![Vec::new(); plotted.len()];
+    let mut felt = vec![Wrench::default(); hands.len()];
+    let mut peaks = vec![0.0f64; hands.len()];
+    let model = match scene.world.material.model {
+        ContactModel::Volume => "volume",
+        ContactModel::Point => "point",
+    };
+    scene.dt = dt;
+    for step in 1..=steps {
+        let t = step as f64 * dt;
+        scene.step_pointers(dt, &grips(hands, t - dt), &mut felt);
+        for (peak, w) in peaks.iter_mut().zip(&felt) {
+            *peak = peak.max(w.force.length());
+        }
+        for (curve, &i) in curves.iter_mut().zip(&plotted) {
+            let b = &scene.world.bodies[i];
+            let value = match args.quantity {
+                Quantity::Height => b.position.dot(up),
+                Quantity::AngularMomentumZ => angular_momentum(b).z,
+                Quantity::Spin => b.spin.length(),
+                Quantity::PointerForce => felt[i - scene.first_pointer].force.length(),
+            };
+            curve.push((t, value));
+        }
+        for &i in &moving {
+            let b = &scene.world.bodies[i];
+            if args.record.is_some() {
+                let (p, q, v, w) = (b.position, b.orientation, b.velocity, b.spin);
+                // Writing to a String cannot fail.
+                let _ = writeln!(
+                    csv,
+                    "{t},{model},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    scene.names[i], p.x, p.y, p.z, q.w, q.x, q.y, q.z, v.x, v.y, v.z, w.x, w.y, w.z
+                );
+            }
+        }
+    }
+    Trace {
+        scene,
+        model,
+        moving,
+        plotted,
+        curves,
+        felt,
+        peaks,
+        csv,
+    }
+}
+
+fn run_scene(args: &RunArgs) -> Result<(), Failure> {
+    let mut models: Vec<Option<Model>> = args.models.iter().copied().map(Some).collect();
+    models.dedup();
+    if models.is_empty() {
+        models.push(None);
+    }
+    let hands: Vec<HandTrack> = match &args.hand {
+        Some(path) => Script::load(path)
+            .map_err(Failure::failed)?
+            .hands
+            .into_values()
+            .map(|steps| HandTrack::new(DVec3::ZERO, steps))
+            .collect(),
+        None => Vec::new(),
+    };
+    if args.quantity == Quantity::PointerForce && hands.is_empty() {
+        return Err(Failure::usage("--quantity pointer-force needs --hand"));
+    }
+    let first = load(&args.file, models[0], hands.len())?;
+    let dt = args.dt.unwrap_or(first.dt);
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(Failure::usage("--dt must be a number > 0"));
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration / dt <= 1e8) {
+        return Err(Failure::usage(
+            "--duration must be > 0 and at most 10⁸ steps",
+        ));
+    }
+    let steps = (args.duration / dt).round() as usize;
+    let mut traces = vec![trace(first, args, &hands, dt, steps)];
+    for &model in &models[1..] {
+        let scene = load(&args.file, model, hands.len())?;
+        traces.push(trace(scene, args, &hands, dt, steps));
+    }
+    let name = traces[0].scene.name.clone();
+    if let Some(path) = &args.record {
+        let mut csv = String::from("t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n");
+        for t in &traces {
+            csv.push_str(&t.csv);
+        }
+        std::fs::write(path, &csv)
+            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.plot {
+        let (label, title) = match args.quantity {
+            Quantity::Height => ("height, m", "height"),
+            Quantity::AngularMomentumZ => ("angular momentum about z, kg m^2/s", "spin"),
+            Quantity::Spin => ("rate of turn, rad/s", "spin"),
+            Quantity::PointerForce => ("force felt, N", "force felt"),
+        };
+        let mut series = Vec::new();
+        for t in &traces {
+            for (points, &i) in t.curves.iter().zip(&t.plotted) {
+                series.push(Series {
+                    label: format!("{} ({})", t.scene.names[i], t.model),
+                    points: points.clone(),
+                    color: PALETTE[series.len() % PALETTE.len()],
+                });
+            }
+        }
+        let chart = Chart {
+            title: format!("{name}: {title}"),
+            x_label: "time, s".into(),
+            y_label: label.into(),
+            series,
+            ..Chart::default()
+        };
+        save(&chart, path)?;
+    }
+    let mut text = String::new();
+    let mut runs = Vec::new();
+    for t in &traces {
+        let (world, model) = (&t.scene.world, t.model);
+        let _ = writeln!(text, "{name} ({model} contact): {steps} steps of {dt} s");
+        let mut bodies = Vec::new();
+        for &i in &t.moving {
+            let (b, body_name) = (&world.bodies[i], &t.scene.names[i]);
+            let _ = writeln!(
+                text,
+                "  {body_name:<12} at {:>8.4} {:>8.4} {:>8.4} m, speed {:.4} m/s, spin {:.4} rad/s",
+                b.position.x,
+                b.position.y,
+                b.position.z,
+                b.velocity.length(),
+                b.spin.length()
+            );
+            let q = b.orientation;
+            bodies.push(json!({
+                "name": body_name,
+                "position": b.position.to_array(),
+                "orientation": [q.w, q.x, q.y, q.z],
+                "velocity": b.velocity.to_array(),
+                "spin": b.spin.to_array(),
+                "angular_momentum": angular_momentum(b).to_array(),
+            }));
+        }
+        let mut pointers = Vec::new();
+        for (k, (w, peak)) in t.felt.iter().zip(&t.peaks).enumerate() {
+            let f = w.force;
+            let _ = writeln!(
+                text,
+                "  pointer {} feels {:>8.3} {:>8.3} {:>8.3} N (at most {peak:.3} N)",
+                k + 1,
+                f.x,
+                f.y,
+                f.z
+            );
+            pointers.push(json!({
+                "force": f.to_array(),
+                "torque": w.torque.to_array(),
+                "peak_force": peak,
+            }));
+        }
+        runs.push(json!({"model": model, "bodies": bodies, "pointers": pointers}));
+    }
+    print(
+        &args.output,
+        json!({"scene": name, "steps": steps, "dt": dt, "runs": runs}),
+        text,
+    );
+    Ok(())
+}

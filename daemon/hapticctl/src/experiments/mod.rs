@@ -1,0 +1,66 @@
+//! The thesis' closed-loop experiments, run on the simulated SPIDAR in simulated time (no
+//! real-time thread: a second of haptics takes a few milliseconds), so they can be repeated
+//! anywhere and asserted in tests.
+//!
+//! - [`wall_stiffness`]: the stiffest wall that stays stable at a given loop rate (Table 3.4);
+//! - [`shape_tracing`]: tracing a cylinder across the edge of the complete region (3.5.10);
+//! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
+//! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14).
+
+pub mod shape_tracing;
+pub mod stack_timing;
+pub mod stick_slip;
+pub mod wall_stiffness;
+
+use hapticd_device::transport::Sh4Transport;
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::haptic_loop::{Frame, HapticLoop, LoopSettings};
+use hapticd_core::scene::Pointer;
+use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
+use hapticd_device::sim::hand::Script;
+use hapticd_device::sim::{SimParameters, SimulatedBoard};
+
+/// A closed-loop session on the simulated device.
+#[derive(Debug, Clone)]
+pub struct Session {
+    /// The mechanism simulated and driven.
+    pub mechanism: Mechanism,
+    /// The scene touched.
+    pub scene: StaticSceneSpec,
+    /// The simulated hand's script.
+    pub script: Script,
+    /// Loop rate, hertz.
+    pub rate: f64,
+    /// Loop settings.
+    pub settings: LoopSettings,
+}
+
+impl Session {
+    /// The haptic loop of this session, on a freshly powered simulated board.
+    pub fn haptic_loop(&self) -> HapticLoop {
+        let period = 1.0 / self.rate;
+        let board = SimulatedBoard::new(
+            &self.mechanism,
+            period,
+            &self.script,
+            SimParameters::default(),
+        );
+        let transport = Box::new(Sh4Transport::new(
+            board,
+            format!("sim:{}", self.mechanism.name),
+        ));
+        let pointers = Pointer::at_calibration(&self.mechanism);
+        let scene = Box::new(StaticScene::new(self.scene.clone(), &pointers));
+        HapticLoop::new(self.mechanism.clone(), transport, scene, self.settings)
+            .expect("experiments use mechanisms one board can drive")
+    }
+
+    /// Run for `seconds` of simulated time, handing every frame to `observe`.
+    pub fn run(&self, seconds: f64, mut observe: impl FnMut(&Frame)) {
+        let mut haptic = self.haptic_loop();
+        let ticks = (seconds * self.rate).round() as usize;
+        for _ in 0..ticks {
+            observe(haptic.tick(1.0 / self.rate));
+        }
+    }
+}

@@ -1,0 +1,121 @@
+//! Thesis Table 3.4 on the simulator: the stiffest wall a user can hold a finger against
+//! without it vibrating, at several loop rates. The simulated hand lowers the grip onto a
+//! floor, presses and holds; the wall is stable when, once settled, the grip stays within a
+//! fraction of a millimetre. The passivity controller is switched off: this measures the
+//! rendering itself, not its safety net.
+
+use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::haptics::proxy::ProxyParameters;
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::haptic_loop::{DeviceState, LoopSettings};
+use hapticd_core::scene::static_scene::StaticSceneSpec;
+use hapticd_device::sim::hand::Script;
+
+use super::Session;
+
+/// Height of the floor, metres.
+const FLOOR: f64 = -0.05;
+/// Largest peak-to-peak motion of a settled grip still called at rest, metres.
+const AT_REST: f64 = 3e-4;
+/// Largest peak-to-peak force of a settled grip still felt as a steady push, newtons.
+const STEADY_FORCE: f64 = 2.0;
+
+/// Lowest and highest of a series.
+#[derive(Clone, Copy)]
+struct Range {
+    low: f64,
+    high: f64,
+}
+
+impl Default for Range {
+    fn default() -> Self {
+        Self {
+            low: f64::INFINITY,
+            high: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl Range {
+    fn add(&mut self, v: f64) {
+        (self.low, self.high) = (self.low.min(v), self.high.max(v));
+    }
+
+    fn span(&self) -> f64 {
+        self.high - self.low
+    }
+}
+
+/// The hand: hold, lower to 2 cm below the floor, press and hold.
+fn press_script() -> Script {
+    Script::parse(&format!(
+        "hands:\n  grip:\n    - hold: {{ seconds: 0.1 }}\n    - move: {{ to: [0, {}, 0], seconds: 0.2 }}\n    - hold: {{ seconds: 2 }}\n",
+        FLOOR - 0.02
+    ))
+    .expect("a valid script")
+}
+
+/// Whether a floor of `stiffness` N/m and `damping` N·s/m holds the pressing hand still at
+/// `rate` Hz on `mechanism` (a point grip named `grip`).
+pub fn is_stable(mechanism: &Mechanism, rate: f64, stiffness: f64, damping: f64) -> bool {
+    let session = Session {
+        mechanism: mechanism.clone(),
+        scene: StaticSceneSpec {
+            name: "floor".into(),
+            proxy: ProxyParameters {
+                stiffness,
+                damping,
+                static_friction: 0.0,
+                dynamic_friction: 0.0,
+            },
+            shapes: vec![Shape::HalfSpace {
+                point: glam::DVec3::new(0.0, FLOOR, 0.0),
+                normal: glam::DVec3::Y,
+            }],
+        },
+        script: press_script(),
+        rate,
+        settings: LoopSettings {
+            passivity: (0.0, 0.0),
+            ..LoopSettings::default()
+        },
+    };
+    let (mut y, mut force, mut healthy) = (Range::default(), Range::default(), true);
+    session.run(1.0, |frame| {
+        healthy &= frame.state == DeviceState::Running;
+        if frame.time > 0.6 {
+            y.add(frame.poses[0].position.y);
+            force.add(frame.wrenches[0][1]);
+        }
+    });
+    // At rest on the floor, pressing with a steady force below the limit.
+    healthy
+        && y.span() < AT_REST
+        && y.high < FLOOR + 0.002
+        && force.span() < STEADY_FORCE
+        && force.high < 0.9 * session.settings.safety.max_force
+}
+
+/// The largest stable stiffness at `rate`, N/m, searched by bisection (in log scale) between
+/// 100 N/m and 1 MN/m, for the best of a few damping values. Returns it with its damping.
+pub fn max_stable_stiffness(mechanism: &Mechanism, rate: f64) -> (f64, f64) {
+    let mut best = (0.0, 0.0);
+    for damping in [2.0, 10.0, 40.0] {
+        let (mut low, mut high) = (100f64.ln(), 1e6f64.ln());
+        if !is_stable(mechanism, rate, low.exp(), damping) {
+            continue;
+        }
+        for _ in 0..12 {
+            let mid = 0.5 * (low + high);
+            if is_stable(mechanism, rate, mid.exp(), damping) {
+                low = mid;
+            } else {
+                high = mid;
+            }
+        }
+        if low.exp() > best.0 {
+            best = (low.exp(), damping);
+        }
+    }
+    best
+}

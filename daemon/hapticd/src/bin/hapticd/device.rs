@@ -1,0 +1,310 @@
+//! One device, from its saved state to its running real-time thread: which mechanism it
+//! drives, at which rate, its scene, its parameters and calibration, its loop and the threads
+//! that log and record it.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::thread::JoinHandle;
+
+use hapticd::config::Config;
+use hapticd::control::{DeviceHandle, DeviceSetup, Telemetry};
+use hapticd_device::hotplug::Reconnector;
+use hapticd_device::replay;
+use hapticd_device::usb::FoundDevice;
+use hapticd_core::haptics::safety::SafetyLimits;
+use hapticd::catalog::Catalog;
+use hapticd_core::parameters::Parameters;
+use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
+use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
+use hapticd_core::sync::spsc;
+use hapticd_core::stats::LoopStats;
+use hapticd_core::scene::{self, Pointer};
+use hapticd_device::sim::hand::Script;
+use hapticd::state::StateDir;
+
+use crate::saved::{load_record, set_aside};
+use crate::transport;
+use crate::{events, recording};
+
+/// What a device is.
+pub enum Kind {
+    /// A USB amplifier, opened.
+    Usb(FoundDevice),
+    /// A traffic recording played back.
+    Replay(PathBuf),
+    /// The simulated SPIDAR.
+    Simulator,
+}
+
+impl Kind {
+    /// The identity its calibration and parameters are kept under.
+    pub fn identity(&self) -> String {
+        match self {
+            Kind::Usb(device) => device.identity.clone(),
+            Kind::Replay(path) => format!("replay:{}", path.display()),
+            Kind::Simulator => "sim".into(),
+        }
+    }
+}
+
+/// What every device is started with.
+pub struct Common<'a> {
+    /// The configuration.
+    pub config: &'a Config,
+    /// The installed mechanisms.
+    pub catalog: &'a Catalog,
+    /// `--sim MECH`: the mechanism to simulate, whatever is saved or configured.
+    pub sim: Option<&'a str>,
+    /// `--rate`: ticks per second, whatever is saved or configured.
+    pub rate: Option<f64>,
+    /// `--scene`, or the configured scene.
+    pub scene: &'a str,
+    /// `--scene-file`, handed to a scene plugin.
+    pub scene_file: Option<&'a Path>,
+    /// The simulated hand's script.
+    pub script: &'a Script,
+    /// Where calibration and parameters are kept.
+    pub state_dir: Option<&'a StateDir>,
+    /// Set when the daemon stops: the logging and recording threads finish then.
+    pub done: &'static AtomicBool,
+}
+
+/// What one device records (the first device only: the files are named once).
+#[derive(Default)]
+pub struct Recording<'a> {
+    /// `--record`: every frame as CSV.
+    pub frames: Option<&'a Path>,
+    /// `--record-traffic`: every transfer with the device.
+    pub traffic: Option<&'a Path>,
+}
+
+/// A device whose loop runs.
+pub struct Device {
+    /// Its real-time loop.
+    pub rt: RealtimeLoop,
+    /// The device as the control plane sees it.
+    pub handle: Arc<DeviceHandle>,
+    /// Scenes and links the loop stopped using, to be freed by the main thread.
+    pub retired: spsc::Consumer<Retired>,
+    /// Set for a USB amplifier: opens it again after an unplug.
+    pub reconnector: Option<Reconnector>,
+    /// The scene it renders.
+    pub scene: String,
+    /// The thread logging its events.
+    pub logger: JoinHandle<()>,
+    /// The threads writing its recordings.
+    pub writers: Vec<JoinHandle<std::io::Result<()>>>,
+}
+
+/// Start the loop of `kind` with what `common` says, recording what `recording` asks.
+pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device, String> {
+    let identity = kind.identity();
+    let mut record = load_record(common.state_dir, &identity);
+    // The command line first, then what the user set over D-Bus, then the configuration.
+    let mechanism_name = match (common.sim, &record.mechanism, &kind) {
+        (Some(sim), _, _) => sim.to_string(),
+        (None, Some(bound), _) => bound.clone(),
+        (None, None, Kind::Usb(_)) => common.config.hardware.mechanism.clone(),
+        (None, None, _) => common.config.simulator.mechanism.clone(),
+    };
+    let rate = match common.rate.or(record.parameters.rate()) {
+        Some(rate) => {
+            let mut config = common.config.clone();
+            config.realtime.rate = rate;
+            config.check()?;
+            rate
+        }
+        None => common.config.realtime.rate,
+    };
+    let mechanism = common
+        .catalog
+        .resolve(&mechanism_name)
+        .map_err(|e| e.to_string())?;
+    let mut writers = Vec::new();
+    let traffic = match recording.traffic {
+        Some(path) => {
+            let (tx, rx) = spsc::channel(1 << 14);
+            writers.push(
+                replay::spawn_traffic_writer(path, rx, common.done)
+                    .map_err(|e| format!("{}: cannot create: {e}", path.display()))?,
+            );
+            Some(tx)
+        }
+        None => None,
+    };
+    let reconnector = match &kind {
+        Kind::Usb(device) => Some(Reconnector::new(&identity, device.model)),
+        _ => None,
+    };
+    let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
+    let pointers = Pointer::at_calibration(&mechanism);
+    let scene = scene::open(
+        common.scene,
+        common.scene_file,
+        &common.config.scene_dirs,
+        &pointers,
+    )
+    .map_err(|e| e.to_string())?;
+    let scene_name = scene.name().to_string();
+    let defaults = Parameters {
+        proxy: scene.proxy().unwrap_or_default(),
+        lambda: mechanism.tension.lambda,
+        max_force: common.config.safety.max_force,
+        max_torque: common.config.safety.max_torque,
+    };
+    if let Err(e) = record.parameters.check(&defaults)
+        && let Some(dir) = common.state_dir
+    {
+        // Each value is in range, but together with this scene's they are not (μ > μ0).
+        set_aside(
+            dir,
+            &identity,
+            &format!("saved parameters of {identity}: {e}"),
+        );
+        record.parameters = Default::default();
+    }
+    let settings = LoopSettings {
+        safety: SafetyLimits {
+            max_force: common.config.safety.max_force,
+            max_torque: common.config.safety.max_torque,
+            ..SafetyLimits::default()
+        },
+        ..LoopSettings::default()
+    };
+    let header = recording::csv_header(&mechanism);
+    let strings = mechanism.strings.len();
+    let mut haptic =
+        HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
+    haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
+    match &record.calibration {
+        Some(c) if c.mechanism == mechanism_name && c.offsets.len() == strings => {
+            haptic
+                .restore_calibration(&c.offsets)
+                .map_err(|e| format!("saved calibration of {identity}: {e}"))?;
+            tracing::info!("restored the calibration of {identity}");
+        }
+        Some(c) => tracing::warn!(
+            "the saved calibration of {identity} is for {}, not {mechanism_name}: calibrate again",
+            c.mechanism
+        ),
+        None => {}
+    }
+    let (event_tx, event_rx) = spsc::channel(1024);
+    let logger = events::spawn_event_logger(identity.clone(), event_rx, common.done);
+    let frames = match recording.frames {
+        Some(path) => {
+            let (tx, rx) = spsc::channel(1 << 16);
+            writers.push(recording::spawn_recorder(
+                path.to_path_buf(),
+                header,
+                rx,
+                common.done,
+            )?);
+            Some(tx)
+        }
+        None => None,
+    };
+    let (command_tx, command_rx) = spsc::channel(64);
+    let (retired_tx, retired) = spsc::channel(4);
+    let mut rt = RealtimeLoop::start(
+        haptic,
+        RealtimeSettings {
+            priority: common.config.realtime.priority,
+            rate,
+        },
+        Channels {
+            events: event_tx,
+            recorder: frames,
+            commands: command_rx,
+            retired: retired_tx,
+        },
+    )
+    .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
+    let scheduling = match rt.scheduling() {
+        Scheduling::Fifo(priority) => {
+            tracing::info!(
+                "{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
+            );
+            format!("SCHED_FIFO {priority}")
+        }
+        Scheduling::Refused(why) => {
+            tracing::error!("running WITHOUT real-time scheduling: {why}");
+            tracing::info!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
+            format!("SCHED_OTHER: {why}")
+        }
+    };
+    let handle = Arc::new(DeviceHandle::new(
+        DeviceSetup {
+            identity,
+            mechanism: mechanism_name,
+            pointers,
+            rate,
+            scheduling,
+            state_dir: common.state_dir.cloned(),
+            record,
+            defaults,
+        },
+        command_tx,
+    ));
+    handle.publish(Telemetry {
+        frame: *rt.frame(),
+        stats: *rt.stats(),
+    });
+    Ok(Device {
+        rt,
+        handle,
+        retired,
+        reconnector,
+        scene: scene_name,
+        logger,
+        writers,
+    })
+}
+
+impl Device {
+    /// Stop the loop, which writes zero currents first. Its threads finish once `done` is set.
+    pub fn stop(mut self) -> Stopped {
+        let stats = *self.rt.stats();
+        self.rt.stop();
+        Stopped {
+            identity: self.handle.identity().to_string(),
+            stats,
+            logger: self.logger,
+            writers: self.writers,
+        }
+    }
+}
+
+/// A device whose loop has stopped, its threads still finishing.
+pub struct Stopped {
+    identity: String,
+    stats: LoopStats,
+    logger: JoinHandle<()>,
+    writers: Vec<JoinHandle<std::io::Result<()>>>,
+}
+
+impl Stopped {
+    /// Wait for the logging and recording threads (`done` must be set), and log how the loop
+    /// ran.
+    pub fn finish(self) -> Result<(), String> {
+        let _ = self.logger.join();
+        for writer in self.writers {
+            writer
+                .join()
+                .map_err(|_| "a recording thread panicked".to_string())?
+                .map_err(|e| format!("writing a recording: {e}"))?;
+        }
+        let stats = self.stats;
+        tracing::info!(
+            "{}: stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; {} overruns",
+            self.identity,
+            stats.ticks,
+            stats.wait_percentile_ns(0.5) as f64 / 1e3,
+            stats.wait_percentile_ns(0.99) as f64 / 1e3,
+            stats.wait_max_ns as f64 / 1e3,
+            stats.overruns
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,261 @@
+//! `hapticd`: the haptics daemon. Runs the haptic loop of a SPIDAR in real time; with no
+//! hardware (or with `--sim`) it drives the simulated SPIDAR.
+
+mod device;
+mod events;
+mod recording;
+mod saved;
+mod signals;
+mod supervisor;
+mod transport;
+
+use std::os::unix::process::CommandExt;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use clap::Parser;
+use hapticd::bus::{self, Bus};
+use hapticd::config::Config;
+use hapticd::control::{self, Daemon};
+use hapticd_device::hotplug::Arrivals;
+use hapticd_device::usb::find_devices;
+use hapticd::sd_notify;
+use hapticd_device::sim::hand::Script;
+use hapticd::state::StateDir;
+
+use device::{Common, Device, Kind, Recording};
+use supervisor::{Ending, Supervisor};
+
+/// Set when the daemon stops: the logging and recording threads finish then.
+static DONE: AtomicBool = AtomicBool::new(false);
+
+/// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
+#[derive(Parser)]
+#[command(name = "hapticd", version)]
+struct Cli {
+    /// Configuration file (default: /etc/hapticd/hapticd.yaml when it exists).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path),
+    /// even when hardware is plugged in.
+    #[arg(long, value_name = "MECH")]
+    sim: Option<String>,
+    /// Scene to render: a name in the scene directories, a scene file, or a scene plugin (.so).
+    #[arg(long)]
+    scene: Option<String>,
+    /// Scene file handed to a scene plugin given with --scene.
+    #[arg(long, value_name = "FILE")]
+    scene_file: Option<PathBuf>,
+    /// Script of the simulated hand.
+    #[arg(long, value_name = "FILE")]
+    hand: Option<PathBuf>,
+    /// Ticks per second (overrides the configuration).
+    #[arg(long)]
+    rate: Option<f64>,
+    /// Run this many seconds, then exit cleanly.
+    #[arg(long, value_name = "S")]
+    duration: Option<f64>,
+    /// Write every tick (time, poses, forces, tensions) to this CSV file.
+    #[arg(long, value_name = "FILE.csv")]
+    record: Option<PathBuf>,
+    /// Record every bulk transfer with the device to this file (replayable with --replay).
+    #[arg(long, value_name = "FILE")]
+    record_traffic: Option<PathBuf>,
+    /// Instead of a device, answer from a traffic recording.
+    #[arg(long, value_name = "FILE")]
+    replay: Option<PathBuf>,
+    /// Look for mechanisms in DIR (repeatable; overrides the configuration).
+    #[arg(long = "mechanism-dir", value_name = "DIR")]
+    mechanism_dirs: Vec<PathBuf>,
+    /// Serve the D-Bus interface on `system`, `session` or a D-Bus address (default: the
+    /// system bus when available).
+    #[arg(long, value_name = "BUS")]
+    bus: Option<Bus>,
+    /// Keep calibration and changed parameters in DIR (default: $STATE_DIRECTORY).
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
+}
+
+fn run(cli: Cli) -> Result<Ending, String> {
+    let config_path = cli.config.clone().or_else(|| {
+        let default = PathBuf::from("/etc/hapticd/hapticd.yaml");
+        default.exists().then_some(default)
+    });
+    let config = match &config_path {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    let mechanism_dirs = (!cli.mechanism_dirs.is_empty()).then(|| cli.mechanism_dirs.clone());
+    let catalog = control::catalog(&config, mechanism_dirs.as_deref());
+    // Every amplifier plugged in, unless told to simulate or replay; the simulated SPIDAR
+    // when there is none.
+    let hardware = cli.sim.is_none() && cli.replay.is_none();
+    let mut kinds: Vec<Kind> = match (hardware, &cli.replay) {
+        (true, _) => match find_devices() {
+            Ok((mut found, problems)) => {
+                for p in problems {
+                    tracing::warn!("{p}");
+                }
+                // In bus order, so that device 0 is the same amplifier at every start.
+                found.sort_by(|a, b| a.identity.cmp(&b.identity));
+                found.into_iter().map(Kind::Usb).collect()
+            }
+            Err(e) => {
+                tracing::warn!("{e}: no USB devices, simulating");
+                Vec::new()
+            }
+        },
+        (false, Some(path)) => vec![Kind::Replay(path.clone())],
+        (false, None) => Vec::new(),
+    };
+    // What is on the bus now is what hapticd could use: only later arrivals are news.
+    let arrivals = hardware.then(|| Arrivals::new(kinds.iter().map(Kind::identity).collect()));
+    if kinds.is_empty() {
+        kinds.push(Kind::Simulator);
+    }
+    let script = match cli.hand.as_ref().or(config.simulator.hand.as_ref()) {
+        Some(path) => Script::load(path)?,
+        None => Script::default(),
+    };
+    let state_dir = cli
+        .state_dir
+        .clone()
+        .map(StateDir::new)
+        .or_else(StateDir::from_env);
+    if state_dir.is_none() {
+        tracing::warn!(
+            "no state directory (--state-dir or $STATE_DIRECTORY): calibration and parameter changes will not survive a restart"
+        );
+    }
+
+    // Locked before the loops are built, so that nothing they touch is ever paged out.
+    // SAFETY: mlockall takes no pointers.
+    if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } != 0 {
+        tracing::warn!(
+            "cannot lock memory ({}); page faults may delay the haptic loop (raise LimitMEMLOCK=)",
+            std::io::Error::last_os_error()
+        );
+    }
+    let _cpu_latency = hapticd::realtime::hold_low_cpu_latency().or_else(|| {
+        tracing::warn!(
+            "cannot hold /dev/cpu_dma_latency at 0: deep CPU idle states may delay wake-ups"
+        );
+        None
+    });
+    signals::install()?;
+    let common = Common {
+        config: &config,
+        catalog: &catalog,
+        sim: cli.sim.as_deref(),
+        rate: cli.rate,
+        scene: cli.scene.as_deref().unwrap_or(&config.scene),
+        scene_file: cli.scene_file.as_deref(),
+        script: &script,
+        state_dir: state_dir.as_ref(),
+        done: &DONE,
+    };
+    let (mut devices, mut failures) = (Vec::new(), Vec::new());
+    for (index, kind) in kinds.into_iter().enumerate() {
+        // The recordings are of the first device.
+        let recording = match index {
+            0 => Recording {
+                frames: cli.record.as_deref(),
+                traffic: cli.record_traffic.as_deref(),
+            },
+            _ => Recording::default(),
+        };
+        let identity = kind.identity();
+        match device::start(kind, &common, recording) {
+            Ok(started) => devices.push(started),
+            Err(e) => failures.push((identity, e)),
+        }
+    }
+    // One device that cannot start leaves the others running; with none, hapticd fails.
+    if devices.is_empty() {
+        let why: Vec<String> = failures.into_iter().map(|(_, e)| e).collect();
+        return Err(why.join("\n"));
+    }
+    for (identity, e) in failures {
+        tracing::error!("{identity} is not driven: {e}");
+    }
+    let driven: Vec<String> = devices
+        .iter()
+        .map(|d| d.handle.identity().to_string())
+        .collect();
+    let daemon = Arc::new(Daemon::new(
+        config,
+        config_path,
+        mechanism_dirs,
+        devices[0].scene.clone(),
+        devices.iter().map(|d| d.handle.clone()).collect(),
+    ));
+    let service = match (
+        &cli.bus,
+        bus::serve(cli.bus.clone().unwrap_or(Bus::System), daemon.clone()),
+    ) {
+        (_, Ok(service)) => Some(service),
+        (Some(_), Err(e)) => {
+            let _ = stop_all(devices);
+            return Err(e);
+        }
+        (None, Err(e)) => {
+            tracing::warn!("{e}; running without the D-Bus interface");
+            None
+        }
+    };
+    tracing::info!("ready: driving {}", driven.join(", "));
+    let _ = sd_notify::notify(&format!("READY=1\nSTATUS=driving {}", driven.join(", ")));
+    let ending = Supervisor {
+        devices: &mut devices,
+        daemon,
+        arrivals,
+        duration: cli.duration,
+    }
+    .run();
+    // A restart is, to systemd, a reload: the new image says READY=1 again.
+    let _ = sd_notify::notify(match ending {
+        Ending::Done => "STOPPING=1",
+        Ending::Restart => "RELOADING=1",
+    });
+    drop(service);
+    stop_all(devices)?;
+    if signals::OVERTIME.load(Ordering::Acquire) {
+        return Err(
+            "the haptic thread ran past LimitRTTIME= without sleeping (SIGXCPU): motors zeroed, \
+             exiting for a restart"
+                .into(),
+        );
+    }
+    Ok(ending)
+}
+
+/// Stop every loop (each writes zero currents first), then let their threads finish.
+fn stop_all(devices: Vec<Device>) -> Result<(), String> {
+    let stopped: Vec<_> = devices.into_iter().map(Device::stop).collect();
+    DONE.store(true, Ordering::Release);
+    stopped.into_iter().try_for_each(|d| d.finish())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    hapticd::logging::init("hapticd", false);
+    match run(cli) {
+        Ok(Ending::Done) => ExitCode::SUCCESS,
+        Ok(Ending::Restart) => {
+            // The same program with the same arguments, in the same process (systemd keeps
+            // following it; the bus name is taken again by the new image).
+            let error = std::process::Command::new("/proc/self/exe")
+                .arg0(std::env::args_os().next().unwrap_or_default())
+                .args(std::env::args_os().skip(1))
+                .exec();
+            tracing::error!("cannot start again: {error}");
+            ExitCode::FAILURE
+        }
+        Err(message) => {
+            tracing::error!("{message}");
+            ExitCode::FAILURE
+        }
+    }
+}

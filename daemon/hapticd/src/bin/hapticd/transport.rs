@@ -1,0 +1,60 @@
+//! What the haptic loop talks to: a USB amplifier, a traffic recording or the simulated
+//! SPIDAR, each behind the transport of its protocol, its traffic recorded on request.
+
+use hapticd_device::Protocol;
+use hapticd_device::replay::{self, RecordingLink, ReplayLink, Transfer};
+use hapticd_device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::sync::spsc;
+use hapticd_device::sim::hand::Script;
+use hapticd_device::sim::{SimParameters, SimulatedBoard};
+
+use crate::device::Kind;
+
+/// The transport of device `kind`, known as `identity`, its traffic sent to `traffic` if
+/// given; the simulator simulates `mechanism`, stepped `rate` times a second, its hand
+/// following `script`.
+pub fn open(
+    kind: Kind,
+    identity: &str,
+    traffic: Option<spsc::Producer<Transfer>>,
+    mechanism: &Mechanism,
+    rate: f64,
+    script: &Script,
+) -> Result<Box<dyn Transport>, String> {
+    Ok(match kind {
+        Kind::Usb(device) => {
+            // Boxed, so that a link opened after an unplug can take its place.
+            let link: Box<dyn Link> = Box::new(device.link);
+            match (device.model.protocol, traffic) {
+                (Protocol::Sh4, traffic) => sh4_transport(link, identity, traffic),
+                (Protocol::Simple, None) => Box::new(SimpleTransport::new(link, identity)),
+                (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
+                    RecordingLink::new(link, ring),
+                    identity,
+                )),
+            }
+        }
+        Kind::Replay(path) => {
+            let transfers = replay::read_recording(&path).map_err(|e| e.to_string())?;
+            sh4_transport(ReplayLink::new(transfers), identity, traffic)
+        }
+        Kind::Simulator => {
+            let board =
+                SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default());
+            sh4_transport(board, identity, traffic)
+        }
+    })
+}
+
+/// The SH4 protocol over `link`, its traffic recorded when `recorder` is given.
+fn sh4_transport<L: Link + 'static>(
+    link: L,
+    identity: &str,
+    recorder: Option<spsc::Producer<Transfer>>,
+) -> Box<dyn Transport> {
+    match recorder {
+        Some(ring) => Box::new(Sh4Transport::new(RecordingLink::new(link, ring), identity)),
+        None => Box::new(Sh4Transport::new(link, identity)),
+    }
+}

@@ -1,0 +1,315 @@
+//! `org.hapticd.Hapticd1.Device` at `/org/hapticd/Hapticd1/device/N`.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use zbus::interface;
+use zbus::object_server::SignalEmitter;
+
+use super::{Workers, report};
+use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
+use hapticd_core::parameters::Name;
+use hapticd_core::haptic_loop::DeviceState;
+
+/// One haptic device.
+pub struct DeviceInterface {
+    daemon: Arc<Daemon>,
+    device: Arc<DeviceHandle>,
+    workers: Arc<Workers>,
+}
+
+impl DeviceInterface {
+    /// The interface of `device`, running blocking requests on `workers`.
+    pub fn new(daemon: Arc<Daemon>, device: Arc<DeviceHandle>, workers: Arc<Workers>) -> Self {
+        Self {
+            daemon,
+            device,
+            workers,
+        }
+    }
+
+    async fn set(&self, name: Name, value: f64) -> Result<(), Error> {
+        let device = self.device.clone();
+        self.workers
+            .run(move || device.set_parameter(name, value))
+            .await
+    }
+}
+
+fn state_name(t: &Telemetry) -> &'static str {
+    match (t.frame.state, t.frame.calibrated) {
+        (DeviceState::Disconnected, _) => "disconnected",
+        (DeviceState::Fault, _) => "fault",
+        (DeviceState::Uncalibrated, _) => "uncalibrated",
+        (DeviceState::Running, false) => "calibrating",
+        (DeviceState::Running, true) => "running",
+    }
+}
+
+fn pose(t: &Telemetry) -> Vec<f64> {
+    t.frame.poses[..t.frame.effectors]
+        .iter()
+        .flat_map(|p| {
+            let (x, q) = (p.position, p.orientation);
+            [x.x, x.y, x.z, q.w, q.x, q.y, q.z]
+        })
+        .collect()
+}
+
+fn force(t: &Telemetry) -> Vec<f64> {
+    t.frame.wrenches[..t.frame.effectors].concat()
+}
+
+fn statistics(t: &Telemetry) -> HashMap<String, f64> {
+    let s = &t.stats;
+    let us = |ns: u64| ns as f64 / 1e3;
+    HashMap::from([
+        ("ticks".to_string(), s.ticks as f64),
+        ("overruns".to_string(), s.overruns as f64),
+        ("wait_p50_us".to_string(), us(s.wait_percentile_ns(0.5))),
+        ("wait_p99_us".to_string(), us(s.wait_percentile_ns(0.99))),
+        ("wait_max_us".to_string(), us(s.wait_max_ns)),
+        ("busy_mean_us".to_string(), us(s.busy_mean_ns())),
+        ("busy_max_us".to_string(), us(s.busy_max_ns)),
+    ])
+}
+
+/// Announce what changed on device `index` since `last` was announced; returns what is
+/// announced now.
+pub(super) async fn announce(
+    connection: &zbus::Connection,
+    index: usize,
+    last: Option<Telemetry>,
+) -> Option<Telemetry> {
+    let path = super::device_path(index);
+    let iface = connection
+        .object_server()
+        .interface::<_, DeviceInterface>(path.as_str())
+        .await
+        .ok()?;
+    let device = iface.get().await;
+    let now = device.device.telemetry();
+    let emitter = iface.signal_emitter();
+    if last.is_none_or(|l| state_name(&l) != state_name(&now)) {
+        report(device.state_changed(emitter).await);
+    }
+    let calibration = |t: &Telemetry| (t.frame.calibrated, t.frame.calibrations);
+    if last.is_none_or(|l| calibration(&l) != calibration(&now)) {
+        report(device.calibrated_changed(emitter).await);
+        report(device.calibration_offsets_changed(emitter).await);
+    }
+    if last.is_none_or(|l| l.frame.time != now.frame.time) {
+        report(device.pose_changed(emitter).await);
+        report(device.force_changed(emitter).await);
+        report(device.tensions_changed(emitter).await);
+        report(device.statistics_changed(emitter).await);
+    }
+    Some(now)
+}
+
+/// A haptic device: its state and telemetry (updated ten times a second), its calibration,
+/// and the rendering parameters, which are checked, saved and applied on write.
+#[interface(name = "org.hapticd.Hapticd1.Device")]
+impl DeviceInterface {
+    /// The device's identity: its USB bus path and serial, or sim:MECHANISM for the
+    /// simulated SPIDAR. Calibration and parameters are remembered under it.
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn identity(&self) -> String {
+        self.device.identity().to_string()
+    }
+
+    /// The mechanism driven.
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn mechanism(&self) -> String {
+        self.device.mechanism().to_string()
+    }
+
+    /// The mechanism bound with BindMechanism for the next start; empty when none.
+    #[zbus(property)]
+    fn bound_mechanism(&self) -> String {
+        self.device.bound_mechanism().unwrap_or_default()
+    }
+
+    /// running, calibrating, fault (forces ramped to zero), disconnected, or uncalibrated (the
+    /// counts no longer fit the calibration: forces stay at zero until `Calibrate()`).
+    #[zbus(property)]
+    fn state(&self) -> String {
+        state_name(&self.device.telemetry()).to_string()
+    }
+
+    /// Whether the counter offsets are set (by Calibrate, a saved calibration, or the first
+    /// reading with the grips at their calibration poses).
+    #[zbus(property)]
+    fn calibrated(&self) -> bool {
+        self.device.telemetry().frame.calibrated
+    }
+
+    /// Counter offset of each string, metres.
+    #[zbus(property)]
+    fn calibration_offsets(&self) -> Vec<f64> {
+        let f = self.device.telemetry().frame;
+        f.offsets[..f.strings].to_vec()
+    }
+
+    /// Pose of each end effector: x, y, z (m), then the orientation quaternion w, x, y, z.
+    #[zbus(property)]
+    fn pose(&self) -> Vec<f64> {
+        pose(&self.device.telemetry())
+    }
+
+    /// Wrench displayed on each end effector: force x, y, z (N), then torque x, y, z (N·m).
+    #[zbus(property)]
+    fn force(&self) -> Vec<f64> {
+        force(&self.device.telemetry())
+    }
+
+    /// Tension commanded on each string, newtons.
+    #[zbus(property)]
+    fn tensions(&self) -> Vec<f64> {
+        let f = self.device.telemetry().frame;
+        f.tensions[..f.strings].to_vec()
+    }
+
+    /// Haptic loop statistics: ticks, overruns, wake latency percentiles and maximum
+    /// (wait_*_us) and tick compute time (busy_*_us), in microseconds.
+    #[zbus(property)]
+    fn statistics(&self) -> HashMap<String, f64> {
+        statistics(&self.device.telemetry())
+    }
+
+    /// The real-time scheduling the haptic thread got (SCHED_FIFO and its priority, or why
+    /// it was refused).
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn scheduling(&self) -> String {
+        self.device.scheduling().to_string()
+    }
+
+    /// The rate the haptic loop runs at now, ticks per second.
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn loop_rate(&self) -> f64 {
+        self.device.rate()
+    }
+
+    /// Tick rate for the next start, Hz (100 to 10000; USB amplifiers reach about 4000).
+    #[zbus(property)]
+    fn rate(&self) -> f64 {
+        self.device.parameter(Name::Rate)
+    }
+
+    #[zbus(property)]
+    async fn set_rate(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::Rate, value).await
+    }
+
+    /// Proxy spring, N/m (0 < k ≤ 100000), for scenes rendered through the proxy.
+    #[zbus(property)]
+    fn stiffness(&self) -> f64 {
+        self.device.parameter(Name::Stiffness)
+    }
+
+    #[zbus(property)]
+    async fn set_stiffness(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::Stiffness, value).await
+    }
+
+    /// Proxy damper, N·s/m (0 to 500).
+    #[zbus(property)]
+    fn damping(&self) -> f64 {
+        self.device.parameter(Name::Damping)
+    }
+
+    #[zbus(property)]
+    async fn set_damping(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::Damping, value).await
+    }
+
+    /// Static friction coefficient μ0 of the proxy (0 to 2).
+    #[zbus(property)]
+    fn static_friction(&self) -> f64 {
+        self.device.parameter(Name::StaticFriction)
+    }
+
+    #[zbus(property)]
+    async fn set_static_friction(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::StaticFriction, value).await
+    }
+
+    /// Dynamic friction coefficient μ of the proxy (0 to StaticFriction).
+    #[zbus(property)]
+    fn dynamic_friction(&self) -> f64 {
+        self.device.parameter(Name::DynamicFriction)
+    }
+
+    #[zbus(property)]
+    async fn set_dynamic_friction(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::DynamicFriction, value).await
+    }
+
+    /// Regularisation λ of the string tension computation (0 to 10): larger values trade
+    /// force accuracy for smoother tensions.
+    #[zbus(property)]
+    fn lambda(&self) -> f64 {
+        self.device.parameter(Name::Lambda)
+    }
+
+    #[zbus(property)]
+    async fn set_lambda(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::Lambda, value).await
+    }
+
+    /// Largest force displayed on an end effector, N (0 < f ≤ 50).
+    #[zbus(property)]
+    fn max_force(&self) -> f64 {
+        self.device.parameter(Name::MaxForce)
+    }
+
+    #[zbus(property)]
+    async fn set_max_force(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::MaxForce, value).await
+    }
+
+    /// Largest torque displayed on an end effector, N·m (0 < τ ≤ 5).
+    #[zbus(property)]
+    fn max_torque(&self) -> f64 {
+        self.device.parameter(Name::MaxTorque)
+    }
+
+    #[zbus(property)]
+    async fn set_max_torque(&self, value: f64) -> Result<(), Error> {
+        self.set(Name::MaxTorque, value).await
+    }
+
+    /// Take the counter offsets now, with every grip held at its calibration pose; they are
+    /// saved and restored when the device returns or the daemon restarts.
+    async fn calibrate(
+        &self,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+    ) -> Result<(), Error> {
+        let device = self.device.clone();
+        self.workers.run(move || device.calibrate()).await?;
+        report(self.calibrated_changed(&emitter).await);
+        report(self.calibration_offsets_changed(&emitter).await);
+        Ok(())
+    }
+
+    /// Forget the scene's contact state and let the forces come back after a fault.
+    async fn reset_fault(&self) -> Result<(), Error> {
+        let device = self.device.clone();
+        self.workers.run(move || device.reset_fault()).await
+    }
+
+    /// Drive this device with another installed mechanism from the next start (see
+    /// Manager.Mechanisms); saved with the device's state.
+    async fn bind_mechanism(
+        &self,
+        mechanism: String,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+    ) -> Result<(), Error> {
+        let (daemon, device) = (self.daemon.clone(), self.device.clone());
+        self.workers
+            .run(move || daemon.bind_mechanism(&device, &mechanism))
+            .await?;
+        report(self.bound_mechanism_changed(&emitter).await);
+        Ok(())
+    }
+}

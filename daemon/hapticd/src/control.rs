@@ -1,0 +1,440 @@
+//! The control plane behind the D-Bus service: what a request does to a running device, and
+//! what is remembered. Every change is checked first, then persisted, then handed to the
+//! real-time thread through its command ring, so a refused or failed request changes nothing.
+//!
+//! The daemon's main thread copies the real-time snapshot into each [`DeviceHandle`] at
+//! 10 Hz; requests that must see the loop act (a calibration, a scene swap) wait for that
+//! snapshot to show it.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use crate::config::Config;
+use hapticd_core::transport::Link;
+use crate::catalog::Catalog;
+use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
+use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
+use hapticd_core::sync::spsc;
+use hapticd_core::stats::LoopStats;
+use hapticd_core::scene::{self, Pointer, Scene};
+use crate::state::{Calibration, DeviceRecord, StateDir};
+
+/// Errors of the control plane; on D-Bus each is `org.hapticd.Hapticd1.Error.<Variant>` with
+/// the message as its text.
+#[derive(Debug, Clone, PartialEq, zbus::DBusError)]
+#[zbus(prefix = "org.hapticd.Hapticd1.Error")]
+pub enum Error {
+    /// A value that is NaN or infinite.
+    NotFinite(String),
+    /// A value outside its range, or inconsistent with another one.
+    OutOfRange(String),
+    /// No scene of that name or path.
+    UnknownScene(String),
+    /// The scene exists but cannot be loaded.
+    SceneFailed(String),
+    /// No installed mechanism of that name.
+    UnknownMechanism(String),
+    /// A configuration file or descriptor is malformed; nothing was changed.
+    InvalidConfiguration(String),
+    /// The state could not be written; nothing was changed.
+    NotSaved(String),
+    /// The device is not answering.
+    Disconnected(String),
+    /// The real-time loop did not act on the request in time.
+    Timeout(String),
+    /// A fault that a reset does not clear.
+    StillFaulted(String),
+}
+
+impl From<ParameterError> for Error {
+    fn from(e: ParameterError) -> Self {
+        match e {
+            ParameterError::NotFinite(m) => Error::NotFinite(m),
+            ParameterError::OutOfRange(m) => Error::OutOfRange(m),
+        }
+    }
+}
+
+/// What the loop last published: its frame and statistics.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Telemetry {
+    /// The latest frame.
+    pub frame: Frame,
+    /// The latest loop statistics.
+    pub stats: LoopStats,
+}
+
+/// How long a request waits for the loop to act.
+const ACT_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// One running device as the control plane sees it.
+pub struct DeviceHandle {
+    identity: String,
+    mechanism: String,
+    pointers: Vec<Pointer>,
+    rate: f64,
+    scheduling: String,
+    state_dir: Option<StateDir>,
+    commands: Mutex<spsc::Producer<LoopCommand>>,
+    telemetry: Mutex<Telemetry>,
+    /// The remembered record and the defaults its parameter overrides apply to; one lock so
+    /// that concurrent requests persist in the order they take effect.
+    record: Mutex<(DeviceRecord, Parameters)>,
+}
+
+/// Lock `m`; a panicked holder cannot leave these values half-written (each is replaced
+/// whole), so a poisoned lock is used as it is.
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// What a [`DeviceHandle`] is made from.
+pub struct DeviceSetup {
+    /// The transport's identity (the key of the persisted state).
+    pub identity: String,
+    /// The mechanism's name.
+    pub mechanism: String,
+    /// One pointer per effector, at the calibration pose.
+    pub pointers: Vec<Pointer>,
+    /// Running tick rate, Hz.
+    pub rate: f64,
+    /// What the scheduler granted, in words.
+    pub scheduling: String,
+    /// Where state is persisted (none: nothing survives a restart).
+    pub state_dir: Option<StateDir>,
+    /// The record loaded at start.
+    pub record: DeviceRecord,
+    /// Defaults of the parameters (scene, mechanism, configuration).
+    pub defaults: Parameters,
+}
+
+impl DeviceHandle {
+    /// A handle sending commands through `commands`; the loop should already render with
+    /// the record's parameters over the defaults.
+    pub fn new(setup: DeviceSetup, commands: spsc::Producer<LoopCommand>) -> Self {
+        Self {
+            identity: setup.identity,
+            mechanism: setup.mechanism,
+            pointers: setup.pointers,
+            rate: setup.rate,
+            scheduling: setup.scheduling,
+            state_dir: setup.state_dir,
+            commands: Mutex::new(commands),
+            telemetry: Mutex::new(Telemetry::default()),
+            record: Mutex::new((setup.record, setup.defaults)),
+        }
+    }
+
+    /// The transport's identity.
+    pub fn identity(&self) -> &str {
+        &self.identity
+    }
+
+    /// The mechanism driven.
+    pub fn mechanism(&self) -> &str {
+        &self.mechanism
+    }
+
+    /// The mechanism the user bound for the next start, if any.
+    pub fn bound_mechanism(&self) -> Option<String> {
+        lock(&self.record).0.mechanism.clone()
+    }
+
+    /// Running tick rate, Hz.
+    pub fn rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// What the scheduler granted.
+    pub fn scheduling(&self) -> &str {
+        &self.scheduling
+    }
+
+    /// [main] Store the loop's latest snapshot.
+    pub fn publish(&self, telemetry: Telemetry) {
+        *lock(&self.telemetry) = telemetry;
+    }
+
+    /// The latest snapshot.
+    pub fn telemetry(&self) -> Telemetry {
+        *lock(&self.telemetry)
+    }
+
+    /// The value of `name` in force (the configured rate for [`Name::Rate`]).
+    pub fn parameter(&self, name: Name) -> f64 {
+        let guard = lock(&self.record);
+        let overrides = &guard.0.parameters;
+        parameters::value(&overrides.resolve(&guard.1), name)
+            .unwrap_or_else(|| overrides.rate().unwrap_or(self.rate))
+    }
+
+    fn send(&self, command: LoopCommand) -> Result<(), Error> {
+        lock(&self.commands)
+            .try_push(command)
+            .map_err(|_| Error::Timeout("the haptic loop is not taking commands".into()))
+    }
+
+    /// Save `record` (when there is a state directory).
+    fn save(&self, record: &DeviceRecord) -> Result<(), Error> {
+        match &self.state_dir {
+            Some(dir) => dir.save(&self.identity, record).map_err(Error::NotSaved),
+            None => Ok(()),
+        }
+    }
+
+    /// Change the record by `change`, save it, and only then keep it.
+    fn remember(&self, change: impl FnOnce(&mut DeviceRecord)) -> Result<(), Error> {
+        let mut guard = lock(&self.record);
+        let mut next = guard.0.clone();
+        change(&mut next);
+        self.save(&next)?;
+        guard.0 = next;
+        Ok(())
+    }
+
+    /// Check, persist and apply `value` for `name`. The rate applies at the next start.
+    pub fn set_parameter(&self, name: Name, value: f64) -> Result<(), Error> {
+        let mut guard = lock(&self.record);
+        let (record, defaults) = &mut *guard;
+        let overrides = record.parameters.with(name, value, defaults)?;
+        let next = DeviceRecord {
+            parameters: overrides,
+            ..record.clone()
+        };
+        self.save(&next)?;
+        if name != Name::Rate {
+            self.send(LoopCommand::Tune(overrides.resolve(defaults)))?;
+        }
+        *record = next;
+        Ok(())
+    }
+
+    /// Wait until the loop's snapshot satisfies `done`.
+    fn wait_for(&self, what: &str, done: impl Fn(&Frame) -> bool) -> Result<Frame, Error> {
+        let started = Instant::now();
+        loop {
+            let frame = self.telemetry().frame;
+            if done(&frame) {
+                return Ok(frame);
+            }
+            if started.elapsed() > ACT_TIMEOUT {
+                return Err(Error::Timeout(format!(
+                    "the haptic loop did not {what} within {} s",
+                    ACT_TIMEOUT.as_secs()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    /// Hand the loop `link`, the device opened again after it came back; the loop retires
+    /// the dead one.
+    pub fn reconnect(&self, link: Box<dyn Link>) -> Result<(), Error> {
+        self.send(LoopCommand::Reconnect(link))
+    }
+
+    /// Take the counter offsets now (the grips must be at their calibration poses) and
+    /// persist them.
+    pub fn calibrate(&self) -> Result<(), Error> {
+        let before = self.telemetry().frame;
+        if before.state == DeviceState::Disconnected {
+            return Err(Error::Disconnected(format!(
+                "{} is not answering; calibrate once it is back",
+                self.identity
+            )));
+        }
+        self.send(LoopCommand::Calibrate)?;
+        let frame = self.wait_for("calibrate", |f| f.calibrations > before.calibrations)?;
+        self.remember(|record| {
+            record.calibration = Some(Calibration {
+                mechanism: self.mechanism.clone(),
+                offsets: frame.offsets[..frame.strings].to_vec(),
+            });
+        })
+    }
+
+    /// Forget the scene's contact state and let forces come back; an error when the device
+    /// is still faulted afterwards (a failed plugin scene stays failed until replaced).
+    pub fn reset_fault(&self) -> Result<(), Error> {
+        self.send(LoopCommand::ResetFault)?;
+        // Long enough for a scene that still fails to fault the device again.
+        std::thread::sleep(Duration::from_millis(300));
+        match self.telemetry().frame.state {
+            DeviceState::Fault => Err(Error::StillFaulted(
+                "the scene keeps failing; switch to another scene".into(),
+            )),
+            DeviceState::Uncalibrated => Err(Error::StillFaulted(
+                "the counts no longer fit the calibration; calibrate (Calibrate())".into(),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// Swap in `scene` with a force ramp; its proxy parameters become the defaults that the
+    /// user's overrides apply to.
+    pub fn switch_scene(&self, scene: Box<dyn Scene>) -> Result<(), Error> {
+        let before = self.telemetry().frame.scene_switches;
+        let mut guard = lock(&self.record);
+        let mut defaults = guard.1;
+        if let Some(proxy) = scene.proxy() {
+            defaults.proxy = proxy;
+        }
+        let parameters = guard.0.parameters.resolve(&defaults);
+        self.send(LoopCommand::SwitchScene(scene))?;
+        self.send(LoopCommand::Tune(parameters))?;
+        guard.1 = defaults;
+        drop(guard);
+        self.wait_for("swap the scene", |f| f.scene_switches > before)?;
+        Ok(())
+    }
+
+    /// Bind `mechanism` to this device from its next start.
+    pub fn bind_mechanism(&self, mechanism: String) -> Result<(), Error> {
+        self.remember(|record| record.mechanism = Some(mechanism))
+    }
+
+    /// Pointers of this device at rest, for building scenes.
+    pub fn pointers(&self) -> &[Pointer] {
+        &self.pointers
+    }
+}
+
+/// The daemon as the control plane sees it: configuration, installed mechanisms and scenes,
+/// and the devices.
+pub struct Daemon {
+    config_path: Option<PathBuf>,
+    /// Mechanism directories given on the command line (they win over the configuration).
+    mechanism_dirs: Option<Vec<PathBuf>>,
+    inner: Mutex<Installed>,
+    devices: Vec<Arc<DeviceHandle>>,
+    /// One scene switch at a time: the haptic loop holds a single scene in waiting.
+    switching: Mutex<()>,
+}
+
+struct Installed {
+    config: Config,
+    mechanisms: Vec<String>,
+    active_scene: String,
+}
+
+/// The catalog `config` (or the command line) names.
+pub fn catalog(config: &Config, mechanism_dirs: Option<&[PathBuf]>) -> Catalog {
+    match (mechanism_dirs, &config.mechanism_dirs) {
+        (Some(dirs), _) => Catalog::new(dirs.to_vec()),
+        (None, Some(dirs)) => Catalog::new(dirs.clone()),
+        (None, None) => Catalog::from_env(),
+    }
+}
+
+/// Names of the mechanisms `catalog` finds, and why each file that failed did.
+fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<String>) {
+    let mut names = Vec::new();
+    let mut problems = Vec::new();
+    for entry in catalog.entries() {
+        match entry.mechanism {
+            Ok(m) if !entry.shadowed => names.push(m.name),
+            Ok(_) => {}
+            Err(e) => problems.push(e.to_string()),
+        }
+    }
+    (names, problems)
+}
+
+impl Daemon {
+    /// The daemon running `devices` with `config` (read from `config_path`, when given).
+    pub fn new(
+        config: Config,
+        config_path: Option<PathBuf>,
+        mechanism_dirs: Option<Vec<PathBuf>>,
+        active_scene: String,
+        devices: Vec<Arc<DeviceHandle>>,
+    ) -> Self {
+        // At start a broken file only hides its own mechanism (the daemon runs regardless).
+        let (mechanisms, problems) = scan_mechanisms(&catalog(&config, mechanism_dirs.as_deref()));
+        for problem in problems {
+            tracing::warn!("{problem}");
+        }
+        Self {
+            config_path,
+            mechanism_dirs,
+            inner: Mutex::new(Installed {
+                config,
+                mechanisms,
+                active_scene,
+            }),
+            devices,
+            switching: Mutex::new(()),
+        }
+    }
+
+    /// The devices.
+    pub fn devices(&self) -> &[Arc<DeviceHandle>] {
+        &self.devices
+    }
+
+    /// Installed mechanisms, as of the last reload.
+    pub fn mechanisms(&self) -> Vec<String> {
+        lock(&self.inner).mechanisms.clone()
+    }
+
+    /// Names of the scenes in the scene directories.
+    pub fn scenes(&self) -> Vec<String> {
+        scene::available(&lock(&self.inner).config.scene_dirs)
+    }
+
+    /// The scene rendered.
+    pub fn active_scene(&self) -> String {
+        lock(&self.inner).active_scene.clone()
+    }
+
+    /// Load `name` for every device (off the real-time thread) and swap it in; on any
+    /// failure the running scene stays.
+    pub fn switch_scene(&self, name: &str) -> Result<(), Error> {
+        let _one_at_a_time = lock(&self.switching);
+        let dirs = lock(&self.inner).config.scene_dirs.clone();
+        let mut scenes = Vec::new();
+        for device in &self.devices {
+            scenes.push(scene::open(name, None, &dirs, device.pointers()).map_err(
+                |e| match e {
+                    scene::OpenError::NotFound(m) => Error::UnknownScene(m),
+                    scene::OpenError::Invalid(m) => Error::SceneFailed(m),
+                },
+            )?);
+        }
+        let loaded = scenes.first().map(|s| s.name().to_string());
+        for (device, scene) in self.devices.iter().zip(scenes) {
+            device.switch_scene(scene)?;
+        }
+        lock(&self.inner).active_scene = loaded.unwrap_or_else(|| name.to_string());
+        Ok(())
+    }
+
+    /// Re-read the configuration file and rescan the mechanism directories. A malformed
+    /// file is reported with its place and nothing changes.
+    pub fn reload(&self) -> Result<(), Error> {
+        let config = match &self.config_path {
+            Some(path) => Config::load(path).map_err(Error::InvalidConfiguration)?,
+            None => lock(&self.inner).config.clone(),
+        };
+        let (mechanisms, problems) =
+            scan_mechanisms(&catalog(&config, self.mechanism_dirs.as_deref()));
+        if !problems.is_empty() {
+            return Err(Error::InvalidConfiguration(problems.join("\n")));
+        }
+        let mut inner = lock(&self.inner);
+        inner.config = config;
+        inner.mechanisms = mechanisms;
+        Ok(())
+    }
+
+    /// Bind installed mechanism `name` to `device` from its next start.
+    pub fn bind_mechanism(&self, device: &DeviceHandle, name: &str) -> Result<(), Error> {
+        if !lock(&self.inner).mechanisms.iter().any(|m| m == name) {
+            return Err(Error::UnknownMechanism(format!(
+                "no installed mechanism {name:?} (call ReloadPlugins after adding one)"
+            )));
+        }
+        device.bind_mechanism(name.to_string())
+    }
+}

@@ -1,0 +1,25 @@
+//! hapticd, the daemon: what turns the core's haptic loop into a system service.
+//!
+//! Layers, each using only those above it (and `hapticd-core`, `hapticd-device`):
+//!
+//! 1. [`clock`], [`logging`], [`sd_notify`], [`config`], [`state`]: the process's
+//!    surroundings (monotonic time, the journal, systemd, `/etc` and `/var/lib`).
+//! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
+//!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
+//!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
+//! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time.
+//! 4. [`control`]: the daemon's devices, their parameters and calibration, as the bus and
+//!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it.
+
+pub mod bus;
+pub mod catalog;
+pub mod clock;
+pub mod config;
+pub mod control;
+pub mod logging;
+pub mod plugin;
+pub mod plugin_scene;
+pub mod realtime;
+pub mod scenes;
+pub mod sd_notify;
+pub mod state;

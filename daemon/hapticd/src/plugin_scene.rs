@@ -1,0 +1,408 @@
+//! Scenes from plugins, in both styles of the scene ABI.
+//!
+//! - Direct ([`HAPTICD_SCENE_DIRECT`]): the plugin steps its world inside every haptic tick
+//!   and returns the wrench on each pointer.
+//! - Multi-rate ([`HAPTICD_SCENE_MULTIRATE`], thesis Ch. 6): the plugin steps in a physics
+//!   thread at its own rate and publishes, for each pointer, the nearby surfaces as planes.
+//!   The haptic thread interpolates each plane between the last two sets (6.3.2), renders
+//!   them through the proxy (6.3.3), sums the force it displays into an impulse per object
+//!   over each physics period (6.3.4) and hands those back (6.3.5).
+//!
+//! A plugin that fails or panics is disabled: its wrenches are zero and the loop reports the
+//! fault, so the forces ramp down. A multi-rate scene that stops publishing is treated the
+//! same way once its planes are three periods old.
+
+use std::ffi::{CString, c_void};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+
+use glam::DVec3;
+use hapticd_plugin_api::*;
+
+use super::{Pointer, Scene};
+use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
+use crate::plugin;
+use hapticd_core::kinematics::MAX_EFFECTORS;
+use crate::clock::{monotonic_ns, sleep_until};
+use hapticd_core::sync::spsc;
+use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
+
+/// A created scene instance; destroyed when dropped.
+struct Instance {
+    vtable: &'static HapticdSceneVtable,
+    pointer: *mut c_void,
+}
+
+// SAFETY: an instance is used by one thread at a time (the haptic thread for direct scenes,
+// the physics thread for multi-rate ones), as the ABI's thread annotations require.
+unsafe impl Send for Instance {}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        if let Some(destroy) = self.vtable.destroy {
+            // SAFETY: created by this vtable's create and no longer used.
+            unsafe { destroy(self.pointer) };
+        }
+    }
+}
+
+fn to_abi(pointer: &Pointer) -> HapticdPointer {
+    let q = pointer.pose.orientation;
+    HapticdPointer {
+        position: pointer.pose.position.to_array(),
+        orientation: [q.w, q.x, q.y, q.z],
+        velocity: pointer.velocity.to_array(),
+    }
+}
+
+/// Load the scene plugin at `path` for `pointers`, with an optional scene file.
+pub fn load(
+    path: &Path,
+    scene_file: Option<&Path>,
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, String> {
+    if pointers.len() > MAX_EFFECTORS {
+        return Err(format!("at most {MAX_EFFECTORS} pointers"));
+    }
+    let loaded = plugin::load(path).map_err(|e| e.to_string())?;
+    let vtable = loaded.scene_vtable().map_err(|e| e.to_string())?;
+    let file = scene_file
+        .map(|f| CString::new(f.as_os_str().as_encoded_bytes()))
+        .transpose()
+        .map_err(|_| "scene file path contains NUL".to_string())?;
+    let mut pointer = std::ptr::null_mut();
+    let mut info = HapticdSceneInfo::default();
+    let create = vtable.create.expect("checked by scene_vtable");
+    // SAFETY: arguments follow the ABI: a NUL-terminated path or null, valid out pointers.
+    let status = unsafe {
+        create(
+            file.as_ref().map_or(std::ptr::null(), |f| f.as_ptr()),
+            pointers.len() as u32,
+            &mut pointer,
+            &mut info,
+        )
+    };
+    if status != HAPTICD_OK || pointer.is_null() {
+        return Err(format!(
+            "{}: creating the scene failed (status {status})",
+            path.display()
+        ));
+    }
+    let instance = Instance { vtable, pointer };
+    match info.style {
+        HAPTICD_SCENE_DIRECT if vtable.step_direct.is_some() => Ok(Box::new(DirectScene {
+            name: loaded.name,
+            instance,
+            pointers: vec![HapticdPointer::default(); pointers.len()],
+            wrenches: vec![HapticdWrench::default(); pointers.len()],
+            failed: false,
+        })),
+        HAPTICD_SCENE_MULTIRATE
+            if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
+        {
+            Ok(Box::new(MultiRateScene::start(
+                loaded.name,
+                instance,
+                info.physics_rate,
+                pointers,
+            )))
+        }
+        style => Err(format!(
+            "{}: unsupported scene style {style} (physics rate {})",
+            path.display(),
+            info.physics_rate
+        )),
+    }
+}
+
+/// A direct scene: the plugin runs inside the haptic tick.
+struct DirectScene {
+    name: String,
+    instance: Instance,
+    pointers: Vec<HapticdPointer>,
+    wrenches: Vec<HapticdWrench>,
+    failed: bool,
+}
+
+impl Scene for DirectScene {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
+        wrenches.fill([0.0; 6]);
+        if self.failed {
+            return false;
+        }
+        for (out, p) in self.pointers.iter_mut().zip(pointers) {
+            *out = to_abi(p);
+        }
+        let step = self.instance.vtable.step_direct.expect("checked at load");
+        // SAFETY: buffers hold one element per pointer; the instance is this thread's.
+        let status = unsafe {
+            step(
+                self.instance.pointer,
+                dt,
+                self.pointers.as_ptr(),
+                self.pointers.len() as u32,
+                self.wrenches.as_mut_ptr(),
+            )
+        };
+        if status != HAPTICD_OK {
+            self.failed = true;
+            return false;
+        }
+        for (out, w) in wrenches.iter_mut().zip(&self.wrenches) {
+            *out = [
+                w.force[0],
+                w.force[1],
+                w.force[2],
+                w.torque[0],
+                w.torque[1],
+                w.torque[2],
+            ];
+        }
+        true
+    }
+
+    fn reset(&mut self, _pointers: &[Pointer]) {}
+}
+
+/// One published set of planes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct PlaneSet {
+    /// Increases with every physics step; 0 before the first.
+    sequence: u64,
+    planes: [HapticdPlanes; MAX_EFFECTORS],
+}
+
+/// Impulse summed over one physics period on one plane.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Accumulator {
+    impulse: DVec3,
+    weighted_point: DVec3,
+    weight: f64,
+}
+
+/// A multi-rate scene: the plugin runs in a physics thread.
+struct MultiRateScene {
+    name: String,
+    period: f64,
+    proxies: Vec<Proxy>,
+    parameters: ProxyParameters,
+    pointers_out: Writer<[HapticdPointer; MAX_EFFECTORS]>,
+    planes_in: Reader<PlaneSet>,
+    impulses_out: spsc::Producer<HapticdImpulse>,
+    previous: PlaneSet,
+    current: PlaneSet,
+    since_update: f64,
+    sums: [[Accumulator; HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
+    failed: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+/// Planes older than this many physics periods count as stale.
+const STALE_PERIODS: f64 = 3.0;
+
+impl MultiRateScene {
+    fn start(name: String, instance: Instance, rate: f64, pointers: &[Pointer]) -> Self {
+        let n = pointers.len();
+        let mut initial = [HapticdPointer::default(); MAX_EFFECTORS];
+        for (out, p) in initial.iter_mut().zip(pointers) {
+            *out = to_abi(p);
+        }
+        let (pointers_out, mut pointers_in) = triple_buffer::triple_buffer(initial);
+        let (mut planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
+        let (impulses_out, mut impulses_in) = spsc::channel(1024);
+        let (stop, failed) = (
+            Arc::new(AtomicBool::new(false)),
+            Arc::new(AtomicBool::new(false)),
+        );
+        let (stop_flag, failed_flag) = (stop.clone(), failed.clone());
+        let period_ns = (1e9 / rate) as u64;
+        let thread = std::thread::Builder::new()
+            .name("hapticd-physics".into())
+            .spawn(move || {
+                // Move the whole instance in (not just its fields): it is destroyed with it.
+                let instance = instance;
+                let step = instance.vtable.step_physics.expect("checked at load");
+                let mut impulses = Vec::with_capacity(1024);
+                let mut planes = [HapticdPlanes::default(); MAX_EFFECTORS];
+                let mut sequence = 0;
+                let mut next = monotonic_ns();
+                while !stop_flag.load(Ordering::Acquire) {
+                    impulses.clear();
+                    while let Some(i) = impulses_in.pop() {
+                        impulses.push(i);
+                    }
+                    let pointers = *pointers_in.latest();
+                    // SAFETY: buffers hold `n` pointers and planes and the impulses listed;
+                    // the instance belongs to this thread.
+                    let status = unsafe {
+                        step(
+                            instance.pointer,
+                            period_ns as f64 * 1e-9,
+                            pointers.as_ptr(),
+                            n as u32,
+                            impulses.as_ptr(),
+                            impulses.len() as u32,
+                            planes.as_mut_ptr(),
+                        )
+                    };
+                    if status != HAPTICD_OK {
+                        failed_flag.store(true, Ordering::Release);
+                        return;
+                    }
+                    sequence += 1;
+                    planes_out.publish(|set| {
+                        set.sequence = sequence;
+                        set.planes = planes;
+                    });
+                    next += period_ns;
+                    let now = monotonic_ns();
+                    if next > now {
+                        sleep_until(next);
+                    } else {
+                        next = now;
+                    }
+                }
+            })
+            .expect("spawning the physics thread");
+        Self {
+            name,
+            period: 1.0 / rate,
+            proxies: pointers
+                .iter()
+                .map(|p| Proxy::new(p.pose.position))
+                .collect(),
+            parameters: ProxyParameters::default(),
+            pointers_out,
+            planes_in,
+            impulses_out,
+            previous: PlaneSet::default(),
+            current: PlaneSet::default(),
+            since_update: 0.0,
+            sums: [[Accumulator::default(); HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
+            failed,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    /// Hand the impulses summed over the period that just ended to the physics thread.
+    fn send_impulses(&mut self) {
+        for (sums, planes) in self.sums.iter_mut().zip(&self.current.planes) {
+            for (sum, plane) in sums.iter_mut().zip(&planes.planes[..planes.count as usize]) {
+                if sum.weight > 0.0 {
+                    let point = sum.weighted_point / sum.weight;
+                    self.impulses_out.push(HapticdImpulse {
+                        object: plane.object,
+                        point: point.to_array(),
+                        impulse: sum.impulse.to_array(),
+                    });
+                }
+                *sum = Accumulator::default();
+            }
+        }
+    }
+
+    /// Plane `k` of pointer `p`, moved `fraction` of the way from its previous pose (same
+    /// object) to its current one.
+    fn interpolated(&self, p: usize, k: usize, fraction: f64) -> Shape {
+        let plane = &self.current.planes[p].planes[k];
+        let (mut point, mut normal) = (DVec3::from(plane.point), DVec3::from(plane.normal));
+        let earlier = &self.previous.planes[p];
+        if let Some(old) = earlier.planes[..earlier.count as usize]
+            .iter()
+            .find(|o| o.object == plane.object)
+        {
+            point = DVec3::from(old.point).lerp(point, fraction);
+            normal = DVec3::from(old.normal).lerp(normal, fraction);
+        }
+        Shape::HalfSpace {
+            point,
+            normal: normal.normalize_or(DVec3::Y),
+        }
+    }
+}
+
+impl Scene for MultiRateScene {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
+        wrenches.fill([0.0; 6]);
+        self.pointers_out.publish(|out| {
+            for (o, p) in out.iter_mut().zip(pointers) {
+                *o = to_abi(p);
+            }
+        });
+        let latest = *self.planes_in.latest();
+        if latest.sequence != self.current.sequence {
+            self.send_impulses();
+            self.previous = self.current;
+            self.current = latest;
+            self.since_update = 0.0;
+        } else {
+            self.since_update += dt;
+        }
+        let stale = self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.period;
+        if self.failed.load(Ordering::Acquire) || stale {
+            return false;
+        }
+        let fraction = (self.since_update / self.period).min(1.0);
+        for (p, (pointer, wrench)) in pointers.iter().zip(wrenches.iter_mut()).enumerate() {
+            let count = self.current.planes[p].count.min(HAPTICD_MAX_PLANES as u32) as usize;
+            let mut shapes = [Shape::HalfSpace {
+                point: DVec3::ZERO,
+                normal: DVec3::Y,
+            }; HAPTICD_MAX_PLANES];
+            for (k, shape) in shapes.iter_mut().enumerate().take(count) {
+                *shape = self.interpolated(p, k, fraction);
+            }
+            let out = self.proxies[p].update(
+                pointer.pose.position,
+                pointer.velocity,
+                &shapes[..count],
+                &self.parameters,
+                dt,
+            );
+            *wrench = [out.force.x, out.force.y, out.force.z, 0.0, 0.0, 0.0];
+            if out.in_contact {
+                // The surface the proxy rests on takes the reaction.
+                let touched = (0..count).min_by(|&a, &b| {
+                    let d = |k: usize| shapes[k].signed_distance(out.proxy).abs();
+                    d(a).total_cmp(&d(b))
+                });
+                if let Some(k) = touched {
+                    let sum = &mut self.sums[p][k];
+                    let magnitude = out.force.length() * dt;
+                    sum.impulse -= out.force * dt;
+                    sum.weighted_point += out.proxy * magnitude;
+                    sum.weight += magnitude;
+                }
+            }
+        }
+        true
+    }
+
+    fn reset(&mut self, pointers: &[Pointer]) {
+        for (proxy, pointer) in self.proxies.iter_mut().zip(pointers) {
+            proxy.reset(pointer.pose.position);
+        }
+    }
+}
+
+impl Drop for MultiRateScene {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}

@@ -1,0 +1,267 @@
+//! The real-time thread that runs a [`HapticLoop`] on time.
+//!
+//! Only this thread is real-time: `SCHED_FIFO | SCHED_RESET_ON_FORK`, at the configured
+//! priority clamped to what the system allows (and if refused, it runs anyway and says so).
+//! It sleeps with `clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)` on absolute deadlines,
+//! records WAIT/BUSY/overruns, and talks to the rest of the daemon only through lock-free
+//! triple buffers and rings. When asked to stop it writes zero currents before it exits.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::thread::JoinHandle;
+
+use hapticd_core::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, Retired};
+use hapticd_core::stats::LoopStats;
+use hapticd_core::sync::spsc;
+use hapticd_core::sync::triple_buffer::{self, Reader};
+
+use crate::clock::{monotonic_ns, sleep_until};
+
+/// How the loop should run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RealtimeSettings {
+    /// SCHED_FIFO priority wanted (1–99).
+    pub priority: i32,
+    /// Ticks per second.
+    pub rate: f64,
+}
+
+/// What the scheduler granted.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Scheduling {
+    /// SCHED_FIFO at this priority.
+    Fifo(i32),
+    /// Real-time scheduling was refused; the loop runs as an ordinary thread.
+    Refused(String),
+}
+
+/// Something the real-time thread wants logged, passed by value through a ring.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LoopEvent {
+    /// The device state changed at `time`.
+    State {
+        /// Loop time, seconds.
+        time: f64,
+        /// The new state.
+        state: DeviceState,
+        /// The transport error, if any.
+        error: Option<hapticd_core::transport::TransportError>,
+    },
+    /// A tick ended after the next deadline.
+    Overrun {
+        /// Loop time, seconds.
+        time: f64,
+        /// How late, nanoseconds.
+        late_ns: u64,
+    },
+}
+
+/// The rings between the real-time thread and the rest of the daemon.
+pub struct Channels {
+    /// Events to log.
+    pub events: spsc::Producer<LoopEvent>,
+    /// Every frame, when recording.
+    pub recorder: Option<spsc::Producer<Frame>>,
+    /// Commands to apply between ticks.
+    pub commands: spsc::Consumer<LoopCommand>,
+    /// Scenes and links replaced, to be freed off the real-time thread.
+    pub retired: spsc::Producer<Retired>,
+}
+
+/// A running real-time loop.
+pub struct RealtimeLoop {
+    stop: Arc<AtomicBool>,
+    heartbeat: Arc<AtomicU64>,
+    stats: Reader<LoopStats>,
+    frames: Reader<Frame>,
+    thread: Option<JoinHandle<HapticLoop>>,
+    scheduling: Scheduling,
+}
+
+/// Make the calling thread SCHED_FIFO at `priority`, or as close as the system allows.
+fn become_realtime(priority: i32) -> Scheduling {
+    let set = |priority: i32| {
+        let param = libc::sched_param {
+            sched_priority: priority,
+        };
+        // SAFETY: pid 0 is the calling thread; param is valid for the call.
+        let r = unsafe {
+            libc::sched_setscheduler(0, libc::SCHED_FIFO | libc::SCHED_RESET_ON_FORK, &param)
+        };
+        if r == 0 {
+            Ok(())
+        } else {
+            Err(std::io::Error::last_os_error())
+        }
+    };
+    // SAFETY: a pure query.
+    let max = unsafe { libc::sched_get_priority_max(libc::SCHED_FIFO) }.max(1);
+    let wanted = priority.clamp(1, max);
+    match set(wanted) {
+        Ok(()) => Scheduling::Fifo(wanted),
+        Err(first) => {
+            let mut limit = libc::rlimit {
+                rlim_cur: 0,
+                rlim_max: 0,
+            };
+            // SAFETY: getrlimit writes one rlimit to a valid pointer.
+            unsafe { libc::getrlimit(libc::RLIMIT_RTPRIO, &mut limit) };
+            let allowed = limit.rlim_cur.min(max as libc::rlim_t) as i32;
+            if allowed >= 1 && allowed < wanted && set(allowed).is_ok() {
+                return Scheduling::Fifo(allowed);
+            }
+            Scheduling::Refused(format!(
+                "SCHED_FIFO priority {wanted} refused ({first}); RLIMIT_RTPRIO is {}: grant \
+                 CAP_SYS_NICE or raise LimitRTPRIO=",
+                limit.rlim_cur
+            ))
+        }
+    }
+}
+
+/// Ask the kernel's PM QoS to keep CPUs out of deep idle states while the returned file stays
+/// open: waking from them costs tens of microseconds of latency, every tick (cyclictest does
+/// the same). `None` when not permitted.
+pub fn hold_low_cpu_latency() -> Option<std::fs::File> {
+    use std::io::Write;
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/cpu_dma_latency")
+        .ok()?;
+    file.write_all(&0i32.to_ne_bytes()).ok()?;
+    Some(file)
+}
+
+/// Touch a generous slice of stack now, so the loop never page-faults on it later.
+#[inline(never)]
+fn prefault_stack() {
+    let mut block = [0u8; 256 * 1024];
+    std::hint::black_box(&mut block);
+}
+
+impl RealtimeLoop {
+    /// Start `haptic` on its own thread, talking through `channels`.
+    pub fn start(
+        mut haptic: HapticLoop,
+        settings: RealtimeSettings,
+        channels: Channels,
+    ) -> std::io::Result<Self> {
+        let Channels {
+            mut events,
+            mut recorder,
+            mut commands,
+            mut retired,
+        } = channels;
+        let stop = Arc::new(AtomicBool::new(false));
+        let heartbeat = Arc::new(AtomicU64::new(0));
+        let (mut stats_writer, stats) = triple_buffer::triple_buffer(LoopStats::default());
+        let (mut frame_writer, frames) = triple_buffer::triple_buffer(*haptic.frame());
+        let (granted, scheduling) = std::sync::mpsc::channel();
+        let period_ns = (1e9 / settings.rate).round() as u64;
+        let period = period_ns as f64 * 1e-9;
+        // Stats reach the daemon at 10 Hz.
+        let publish_every = (settings.rate / 10.0).ceil().max(1.0) as u64;
+        let (stop_flag, beat) = (stop.clone(), heartbeat.clone());
+        let thread = std::thread::Builder::new()
+            .name("hapticd-rt".into())
+            .stack_size(2 * 1024 * 1024)
+            .spawn(move || {
+                let _ = granted.send(become_realtime(settings.priority));
+                prefault_stack();
+                let mut stats = LoopStats::default();
+                let mut state = DeviceState::Running;
+                let mut next = monotonic_ns();
+                while !stop_flag.load(Ordering::Acquire) {
+                    next += period_ns;
+                    sleep_until(next);
+                    let woke = monotonic_ns();
+                    while let Some(command) = commands.pop() {
+                        haptic.command(command);
+                    }
+                    let frame = *haptic.tick(period);
+                    if let Some(old) = haptic.take_retired()
+                        && let Err(old) = retired.try_push(old)
+                    {
+                        haptic.keep_retired(old);
+                    }
+                    frame_writer.publish(|f| *f = frame);
+                    if let Some(r) = recorder.as_mut() {
+                        r.push(frame);
+                    }
+                    if frame.state != state {
+                        state = frame.state;
+                        events.push(LoopEvent::State {
+                            time: frame.time,
+                            state,
+                            error: frame.error,
+                        });
+                    }
+                    let done = monotonic_ns();
+                    let overrun = done > next + period_ns;
+                    if overrun {
+                        events.push(LoopEvent::Overrun {
+                            time: frame.time,
+                            late_ns: done - next - period_ns,
+                        });
+                        // Skip the missed deadlines instead of racing to catch up.
+                        next += (done - next) / period_ns * period_ns;
+                    }
+                    stats.record(woke.saturating_sub(next), done - woke, overrun);
+                    if stats.ticks.is_multiple_of(publish_every) {
+                        stats_writer.publish(|s| *s = stats);
+                    }
+                    beat.store(stats.ticks, Ordering::Release);
+                }
+                let _ = haptic.zero_motors();
+                stats_writer.publish(|s| *s = stats);
+                frame_writer.publish(|f| *f = *haptic.frame());
+                haptic
+            })?;
+        let scheduling = scheduling
+            .recv()
+            .unwrap_or_else(|_| Scheduling::Refused("the real-time thread did not start".into()));
+        Ok(Self {
+            stop,
+            heartbeat,
+            stats,
+            frames,
+            thread: Some(thread),
+            scheduling,
+        })
+    }
+
+    /// What the scheduler granted.
+    pub fn scheduling(&self) -> &Scheduling {
+        &self.scheduling
+    }
+
+    /// Ticks run so far; advances while the loop is alive.
+    pub fn heartbeat(&self) -> u64 {
+        self.heartbeat.load(Ordering::Acquire)
+    }
+
+    /// The latest statistics (updated at 10 Hz).
+    pub fn stats(&mut self) -> &LoopStats {
+        self.stats.latest()
+    }
+
+    /// The latest frame.
+    pub fn frame(&mut self) -> &Frame {
+        self.frames.latest()
+    }
+
+    /// Stop the loop (it writes zero currents first) and take the haptic loop back.
+    pub fn stop(mut self) -> Option<HapticLoop> {
+        self.stop.store(true, Ordering::Release);
+        self.thread.take()?.join().ok()
+    }
+}
+
+impl Drop for RealtimeLoop {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}

@@ -1,0 +1,177 @@
+//! What hapticd remembers about each device across restarts: its calibration and the
+//! parameters the user changed, one JSON file per device identity under the state directory
+//! (`$STATE_DIRECTORY`, `/var/lib/hapticd` under systemd).
+//!
+//! Files are replaced atomically: written to a temporary file, flushed to disk, renamed over
+//! the old one, and the directory flushed, so a crash at any moment leaves the old file or the
+//! new one, never a mix.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use hapticd_core::parameters::Overrides;
+
+/// The calibration of a device: counter offsets for the mechanism it was taken with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// Mechanism the offsets belong to.
+    pub mechanism: String,
+    /// Offset of each string, metres.
+    pub offsets: Vec<f64>,
+}
+
+/// Everything remembered about one device.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DeviceRecord {
+    /// The last calibration, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<Calibration>,
+    /// Parameters the user changed.
+    pub parameters: Overrides,
+    /// Mechanism the user bound to the device, if not the configured one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mechanism: Option<String>,
+}
+
+/// The state directory.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StateDir {
+    dir: PathBuf,
+}
+
+/// A file name for `identity` that keeps letters, digits, `-` and `.`, and spells every other
+/// byte as `_xx`, so distinct identities never share a file (and, behind the `device-`
+/// prefix, none can name another directory).
+fn file_name(identity: &str) -> String {
+    let mut name = String::from("device-");
+    for b in identity.bytes() {
+        if b.is_ascii_alphanumeric() || b == b'-' || b == b'.' {
+            name.push(b as char);
+        } else {
+            name += &format!("_{b:02x}");
+        }
+    }
+    name + ".json"
+}
+
+impl StateDir {
+    /// The state directory at `dir` (created when first written).
+    pub fn new(dir: impl Into<PathBuf>) -> Self {
+        Self { dir: dir.into() }
+    }
+
+    /// `$STATE_DIRECTORY` (its first entry), when systemd set it.
+    pub fn from_env() -> Option<Self> {
+        let value = std::env::var_os("STATE_DIRECTORY")?;
+        std::env::split_paths(&value).next().map(Self::new)
+    }
+
+    /// The directory.
+    pub fn path(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The file of device `identity`.
+    pub fn device_file(&self, identity: &str) -> PathBuf {
+        self.dir.join(file_name(identity))
+    }
+
+    /// The record of device `identity`: empty when none was saved; an error naming the file
+    /// when it cannot be read or parsed. Temporary files a crash left behind mid-save are
+    /// removed (the record itself is whole: the old one or the new one).
+    pub fn load(&self, identity: &str) -> Result<DeviceRecord, String> {
+        let path = self.device_file(identity);
+        let leftover = format!(".{}.", file_name(identity));
+        if let Ok(listing) = std::fs::read_dir(&self.dir) {
+            for entry in listing.filter_map(|e| e.ok()) {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if name.starts_with(&leftover) && name.ends_with(".tmp") {
+                    let _ = std::fs::remove_file(entry.path());
+                }
+            }
+        }
+        match std::fs::read_to_string(&path) {
+            Ok(text) => serde_json::from_str(&text)
+                .map_err(|e| format!("{}:{}:{}: error: {e}", path.display(), e.line(), e.column())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(DeviceRecord::default()),
+            Err(e) => Err(format!("{}: cannot read: {e}", path.display())),
+        }
+    }
+
+    /// Replace the record of device `identity` atomically.
+    pub fn save(&self, identity: &str, record: &DeviceRecord) -> Result<(), String> {
+        let mut text = serde_json::to_vec_pretty(record).map_err(|e| e.to_string())?;
+        text.push(b'\n');
+        write_atomically(&self.device_file(identity), &text)
+    }
+}
+
+/// Replace `path` with `contents` so that a crash leaves either the old file or the new one.
+pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
+    let fail = |what: &str, e: std::io::Error| format!("{}: cannot {what}: {e}", path.display());
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| fail("create its directory", e))?;
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into());
+    let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut file = std::fs::File::create(&temporary).map_err(|e| fail("create", e))?;
+        file.write_all(contents).map_err(|e| fail("write", e))?;
+        file.sync_all().map_err(|e| fail("flush", e))?;
+        std::fs::rename(&temporary, path).map_err(|e| fail("replace", e))?;
+        std::fs::File::open(dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|e| fail("flush the directory of", e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identities_map_to_distinct_plain_file_names() {
+        assert_eq!(file_name("sim:spidar-g"), "device-sim_3aspidar-g.json");
+        assert_ne!(file_name("usb:1-2"), file_name("usb_1-2"));
+        assert_eq!(file_name("../x"), "device-.._2fx.json");
+    }
+
+    #[test]
+    fn records_round_trip_and_bad_files_name_their_place() {
+        let dir = std::env::temp_dir().join(format!("hapticd-state-{}", std::process::id()));
+        let state = StateDir::new(&dir);
+        assert_eq!(state.load("a").unwrap(), DeviceRecord::default());
+        let record = DeviceRecord {
+            calibration: Some(Calibration {
+                mechanism: "spidar".into(),
+                offsets: vec![0.1, -0.2],
+            }),
+            ..DeviceRecord::default()
+        };
+        state.save("a", &record).unwrap();
+        assert_eq!(state.load("a").unwrap(), record);
+        std::fs::write(state.device_file("b"), "{\n  \"calibration\": 3\n}").unwrap();
+        let crashed = dir.join(".device-a.json.999.tmp");
+        std::fs::write(&crashed, "{").unwrap();
+        assert_eq!(state.load("a").unwrap(), record);
+        assert!(!crashed.exists(), "a crash's temporary file is left");
+        let e = state.load("b").unwrap_err();
+        assert!(e.contains("device-b.json:2:"), "{e}");
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
