@@ -6,7 +6,9 @@ mod support;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-use hapticd_device::transport::{Link, Sh4Transport, TransportError};
+use hapticd_core::transport::{Link, TransportError};
+
+use hapticd_device::transport::Sh4Transport;
 use hapticd_core::haptic_loop::{
     DeviceState, Frame, HapticLoop, LoopCommand, LoopSettings, Retired,
 };

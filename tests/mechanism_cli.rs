@@ -125,7 +125,7 @@ fn inspect_reports_validity_and_warnings() {
 #[test]
 fn pose_recovers_a_known_grip_pose_from_its_lengths() {
     let m = support::shipped("spidar-g");
-    let truth = hapticd_core::mechanism::Pose {
+    let truth = hapticd_core::kinematics::Pose {
         position: DVec3::new(0.012, -0.008, 0.005),
         orientation: DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.2),
     };

@@ -11,7 +11,7 @@ use std::cell::Cell;
 use glam::DVec3;
 use hapticd_device::transport::Sh4Transport;
 use hapticd_core::haptics::proxy::ProxyParameters;
-use hapticd_core::mechanism::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};
 use hapticd_core::parameters::Parameters;
 use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::scene::Pointer;
@@ -19,10 +19,9 @@ use hapticd_core::scene::Scene;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
-use hapticd_core::solver::calibration::{lengths_from_counts, offsets};
+use hapticd_core::solver::calibration::lengths_from_counts;
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::pose::PoseSolver;
-use hapticd_core::solver::tension::TensionSolver;
 use support::amplifier::{
     SH4, emulated_amplifier_with, resting_dac, resting_session, umockdev_run,
 };
@@ -86,18 +85,19 @@ fn pose_tension_calibration_and_closure_do_not_allocate() {
         let counts: Vec<i64> = (0..m.strings.len() as i64)
             .map(|i| 1000 * i - 3000)
             .collect();
-        let offsets = offsets(&m, &counts);
+        let offsets = m.offsets(&counts);
+        let metres_per_pulse = m.metres_per_pulse();
         for index in 0..m.effectors.len() {
             let poses: Vec<Pose> = (0..200).map(|_| pose_inside(&m, index, &mut rng)).collect();
             let mut pose_solver =
                 PoseSolver::new(m.kinematics(index), m.effectors[index].calibration);
-            let mut tension_solver = TensionSolver::for_effector(&m, index);
+            let mut tension_solver = m.tension_solver(index);
             let kinematics = m.kinematics(index);
             let mut lengths = [0.0; MAX_STRINGS_PER_EFFECTOR];
             let mut all_lengths = [0.0; 2 * MAX_STRINGS_PER_EFFECTOR];
             let n = allocations_in(|| {
                 for (k, pose) in poses.iter().enumerate() {
-                    lengths_from_counts(&m.strings, &offsets, &counts, &mut all_lengths);
+                    lengths_from_counts(&offsets, &metres_per_pulse, &counts, &mut all_lengths);
                     kinematics.lengths(pose, &mut lengths);
                     let estimate = pose_solver.solve(&lengths[..kinematics.count()], 2);
                     let force = DVec3::new(1.0, -2.0, 3.0) * (k as f64 * 0.01);

@@ -11,7 +11,6 @@ use glam::DVec3;
 use hapticd::catalog;
 use hapticd::plugin;
 use hapticd_core::solver::geometry::StringGeometry;
-use hapticd_core::solver::tension::TensionSolver;
 use support::{plugin_path, repo_dir};
 
 /// A fresh private directory (mode 0755) under the system temporary directory.
@@ -119,7 +118,7 @@ fn the_c_example_plugin_compiles_loads_and_solves() {
     );
     // The base part works on it unchanged: at the centre a small force is met exactly.
     let g = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
-    let solution = TensionSolver::for_effector(&m, 0).solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
+    let solution = m.tension_solver(0).solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
     assert!(
         (solution.wrench[1] + 2.0).abs() < 0.05,
         "{:?}",

@@ -4,8 +4,9 @@
 mod support;
 
 use glam::{DQuat, DVec3};
-use hapticd_core::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
-use hapticd_core::solver::calibration::{calibration_lengths, lengths_from_counts, offsets};
+use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::solver::calibration::lengths_from_counts;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_core::solver::pose::PoseSolver;
 use support::{Rng, pose_inside, shipped_mechanisms};
@@ -200,8 +201,9 @@ fn calibrated_encoder_counts_track_the_grip() {
             let at_power_on: Vec<i64> = (0..m.strings.len() as i64)
                 .map(|i| (i * 7919) % 5000 - 2500)
                 .collect();
-            let offsets = offsets(&m, &at_power_on);
-            let calibration_lengths = calibration_lengths(&m);
+            let offsets = m.offsets(&at_power_on);
+            let calibration_lengths = m.calibration_lengths();
+            let metres_per_pulse = m.metres_per_pulse();
             for index in 0..m.effectors.len() {
                 let truth = pose_inside(&m, index, &mut rng);
                 // What the encoders read once the grip has moved to `truth`.
@@ -222,7 +224,7 @@ fn calibrated_encoder_counts_track_the_grip() {
                     })
                     .collect();
                 let mut lengths = vec![0.0; m.strings.len()];
-                lengths_from_counts(&m.strings, &offsets, &counts, &mut lengths);
+                lengths_from_counts(&offsets, &metres_per_pulse, &counts, &mut lengths);
                 let own: Vec<f64> = m.effectors[index]
                     .strings
                     .iter()

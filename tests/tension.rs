@@ -9,10 +9,11 @@ use clarabel::solver::{
 };
 use glam::{DQuat, DVec3};
 use hapticd_core::mechanism::analysis::tension_sweep;
-use hapticd_core::mechanism::{Mechanism, Pose, TensionSettings};
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::kinematics::Pose;
+use hapticd_core::solver::tension::TensionSettings;
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::geometry::StringGeometry;
-use hapticd_core::solver::tension::TensionSolver;
 use support::qp::{clarabel_tensions, w_rows};
 use support::{Rng, frame_half, shipped, shipped_mechanisms};
 
@@ -97,7 +98,7 @@ fn tensions_match_a_general_qp_solver_on_random_problems() {
     for m in shipped_mechanisms() {
         for index in 0..m.effectors.len() {
             let (lo, hi) = limits(&m, index);
-            let mut solver = TensionSolver::for_effector(&m, index);
+            let mut solver = m.tension_solver(index);
             let mut worst: f64 = 0.0;
             for _ in 0..1000 {
                 let (g, f) = random_case(&m, index, &mut rng);
@@ -129,7 +130,7 @@ fn at_lambda_zero_the_objective_matches_the_general_solver() {
     let mut rng = Rng::new(11);
     for m in shipped_mechanisms() {
         let (lo, hi) = limits(&m, 0);
-        let mut solver = TensionSolver::for_effector(&m, 0);
+        let mut solver = m.tension_solver(0);
         solver.set_settings(TensionSettings {
             lambda: 0.0,
             torque_weight: 1.0,
@@ -157,11 +158,11 @@ fn at_lambda_zero_the_objective_matches_the_general_solver() {
 fn warm_and_cold_starts_agree() {
     let mut rng = Rng::new(12);
     let m = shipped("spidar-g");
-    let mut warm = TensionSolver::for_effector(&m, 0);
+    let mut warm = m.tension_solver(0);
     for _ in 0..300 {
         let (g, f) = random_case(&m, 0, &mut rng);
         let a = warm.solve(&g, &f);
-        let b = TensionSolver::for_effector(&m, 0).solve(&g, &f);
+        let b = m.tension_solver(0).solve(&g, &f);
         for (x, y) in a.tensions().iter().zip(b.tensions()) {
             assert!((x - y).abs() < 1e-9);
         }

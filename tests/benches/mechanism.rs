@@ -9,10 +9,10 @@ mod support;
 use clarabel::solver::DefaultSettingsBuilder;
 use divan::Bencher;
 use glam::DQuat;
-use hapticd_core::mechanism::{MAX_STRINGS_PER_EFFECTOR, Mechanism, Pose};
+use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd_core::mechanism::Mechanism;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_core::solver::pose::PoseSolver;
-use hapticd_core::solver::tension::TensionSolver;
 use support::qp::clarabel_tensions;
 use support::shipped;
 
@@ -87,7 +87,7 @@ fn pose_two_iterations(bencher: Bencher, name: &str) {
 fn tension_active_set(bencher: Bencher, name: &str) {
     let m = shipped(name);
     let cases = tension_cases(&m);
-    let mut solver = TensionSolver::for_effector(&m, 0);
+    let mut solver = m.tension_solver(0);
     let mut i = 0;
     bencher.bench_local(|| {
         i = (i + 1) % CASES;

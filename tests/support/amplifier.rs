@@ -173,11 +173,10 @@ pub fn umockdev_run(device: &Path, ioctl: &Path, program: &Path) -> Command {
 pub fn resting_dac() -> [i16; 8] {
     use hapticd_core::transport::dac_for_tension;
     use hapticd_core::solver::geometry::StringGeometry;
-    use hapticd_core::solver::tension::TensionSolver;
 
     let m = super::shipped("spidar-g");
     let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
-    let resting = TensionSolver::for_effector(&m, 0).solve(&geometry, &[0.0; 6]);
+    let resting = m.tension_solver(0).solve(&geometry, &[0.0; 6]);
     let mut dac = [0i16; 8];
     for (i, s) in m.strings.iter().enumerate() {
         dac[i] = dac_for_tension(resting.tensions[i], s.volts_per_newton);

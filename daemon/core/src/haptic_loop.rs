@@ -228,7 +228,7 @@ impl HapticLoop {
         Ok(Self {
             offsets: vec![0.0; mechanism.strings.len()],
             calibration_lengths: mechanism.calibration_lengths(),
-            metres_per_pulse: mechanism.strings.iter().map(|s| s.metres_per_pulse).collect(),
+            metres_per_pulse: mechanism.metres_per_pulse(),
             calibrated: false,
             reading: Reading::default(),
             lengths: vec![0.0; mechanism.strings.len()],

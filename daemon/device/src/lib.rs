@@ -1,13 +1,22 @@
-//! SPIDAR controllers: their wire protocols, the transports that carry them, and the table
-//! of supported USB devices.
+//! SPIDAR controllers: their wire protocols, the links that carry their bytes, and the
+//! table of supported USB devices.
 //!
-//! Every transport, real or simulated, moves the same bytes, so the protocol codecs are
+//! - [`sh4`], [`simple`], [`counter`]: the two amplifiers' packets and 24-bit counters;
+//! - [`transport`]: those protocols as the core's [`hapticd_core::transport::Transport`];
+//! - [`usb`], [`usbfs`], [`hotplug`], [`udev`]: finding, opening and re-opening USB
+//!   amplifiers, and the udev rules that let the daemon do so;
+//! - [`replay`]: recording a link's traffic and playing it back as the device;
+//! - [`sim`]: the simulated SPIDAR, a first-class device (an SH4 board, motors, strings
+//!   and grip) moved by a scripted hand.
+//!
+//! Every link, real or simulated, moves the same bytes, so the protocol codecs are
 //! exercised whatever the device.
 
 pub mod counter;
 pub mod hotplug;
 pub mod replay;
 pub mod sh4;
+pub mod sim;
 pub mod simple;
 pub mod transport;
 pub mod udev;

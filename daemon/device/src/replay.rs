@@ -12,7 +12,7 @@
 use std::io::{Read, Write};
 use std::path::Path;
 
-use super::transport::{Link, TransportError};
+use hapticd_core::transport::{Link, TransportError};
 use hapticd_core::sync::spsc;
 
 /// File signature.

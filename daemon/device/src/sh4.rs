@@ -17,7 +17,7 @@
 //! | 48..50 | 16 input bits; bits 4..7 are the rotary switch (board channel) |
 //! | 50..54 | uint32 of unknown meaning |
 
-use super::CHANNELS;
+use hapticd_core::transport::{CHANNELS, DecodeError};
 
 /// Size of every packet, both directions.
 pub const PACKET: usize = 512;

@@ -4,10 +4,10 @@
 //! A [`Link`] moves raw bulk transfers; [`Sh4Transport`] speaks the SH4 protocol over any
 //! link, so the simulator and a replay exercise exactly the code that drives hardware.
 
-use super::counter::Unwrapper;
-use super::sh4::{self, Command, Report};
-use super::simple;
-use super::{CHANNELS, Reading};
+use crate::counter::Unwrapper;
+use crate::sh4::{self, Command, Report};
+use crate::simple;
+use hapticd_core::transport::{CHANNELS, DecodeError, Link, Reading, Transport, TransportError};
 
 /// The SH4 amplifier protocol over a [`Link`].
 pub struct Sh4Transport<L: Link> {
@@ -119,7 +119,7 @@ impl<L: Link> Transport for SimpleTransport<L> {
         self.send(simple::Command::Latch)?;
         let n = self.link.read(&mut self.input)?;
         if n < simple::PACKET {
-            return Err(TransportError::Protocol(sh4::DecodeError::Short(n)));
+            return Err(TransportError::Protocol(DecodeError::Short(n)));
         }
         let reply = simple::LatchReply::decode(&self.input);
         for ((count, counter), raw) in reading

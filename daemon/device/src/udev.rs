@@ -5,7 +5,7 @@
 
 use std::fmt::Write as _;
 
-use super::SUPPORTED_DEVICES;
+use crate::SUPPORTED_DEVICES;
 
 /// The group that owns the devices hapticd drives.
 pub const GROUP: &str = "hapticd";

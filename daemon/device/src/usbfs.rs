@@ -11,7 +11,7 @@ use std::os::fd::AsRawFd;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use super::transport::TransportError;
+use hapticd_core::transport::TransportError;
 
 /// The URB as usbfs takes it (`struct usbdevfs_urb`, without isochronous frames).
 #[repr(C)]

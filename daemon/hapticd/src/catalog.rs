@@ -5,7 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{Mechanism, MechanismError, descriptor};
+use hapticd_core::diagnostics::Diagnostics;
+use hapticd_core::mechanism::{Mechanism, descriptor};
 use crate::plugin;
 
 /// Default search path: local overrides, then plugins, then packaged descriptors.
@@ -24,7 +25,7 @@ pub struct Entry {
     /// The file.
     pub path: PathBuf,
     /// The mechanism, or why it could not be loaded.
-    pub mechanism: Result<Mechanism, MechanismError>,
+    pub mechanism: Result<Mechanism, Diagnostics>,
     /// Whether an earlier directory already provides a mechanism of the same name.
     pub shadowed: bool,
 }
@@ -90,7 +91,7 @@ impl Catalog {
 
     /// The mechanism `spec` names: a path to a `.yaml`/`.yml`/`.so` file, or the name of an
     /// installed mechanism.
-    pub fn resolve(&self, spec: &str) -> Result<Mechanism, MechanismError> {
+    pub fn resolve(&self, spec: &str) -> Result<Mechanism, Diagnostics> {
         let as_path = Path::new(spec);
         if !Self::is_name(spec) {
             return load(as_path);
@@ -100,7 +101,7 @@ impl Catalog {
             .find_map(|e| e.mechanism.ok().filter(|m| m.name == spec))
             .ok_or_else(|| {
                 let dirs: Vec<_> = self.dirs.iter().map(|d| d.display().to_string()).collect();
-                MechanismError::file(
+                Diagnostics::file(
                     as_path,
                     format!(
                         "no installed mechanism of this name (searched {}; set {PATH_VARIABLE} \
@@ -120,16 +121,16 @@ fn is_mechanism_file(path: &Path) -> bool {
 }
 
 /// Load the descriptor or plugin at `path`, judged by its extension.
-pub fn load(path: &Path) -> Result<Mechanism, MechanismError> {
+pub fn load(path: &Path) -> Result<Mechanism, Diagnostics> {
     match path.extension().and_then(|e| e.to_str()) {
         Some("so") => {
-            let refused = |e: plugin::PluginError| MechanismError::file(path, e.reason);
+            let refused = |e: plugin::PluginError| Diagnostics::file(path, e.reason);
             let plugin = plugin::load(path).map_err(refused)?;
             let spec = plugin.mechanism_spec().map_err(refused)?;
             Mechanism::from_spec(&plugin.name, &plugin.description, path, &spec, &|_| None)
         }
         Some("yaml" | "yml") => descriptor::load(path),
-        _ => Err(MechanismError::file(
+        _ => Err(Diagnostics::file(
             path,
             "not a mechanism: expected a .yaml descriptor or a .so plugin",
         )),

@@ -20,6 +20,8 @@
 
 use std::path::{Path, PathBuf};
 
+use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use hapticd_core::parameters::MAX_RATE;
 use serde::Deserialize;
 
 /// The whole configuration.
@@ -132,72 +134,51 @@ impl Default for SafetyConfig {
     }
 }
 
-/// Where a YAML or schema error is (line, column, when known) and what it says, without the
-/// parser's own position suffix and its advice about its options, which mean nothing to
-/// someone editing a file.
-pub fn yaml_error(error: &serde_saphyr::Error) -> (Option<(u64, u64)>, String) {
-    let rendered = error.without_snippet().to_string();
-    let message = rendered
-        .rsplit_once(" at line ")
-        .map_or(rendered.as_str(), |(m, _)| m)
-        .replace(", set DuplicateKeyPolicy in Options if acceptable", "");
-    let position = error
-        .location()
-        .filter(|l| l.line() > 0)
-        .map(|l| (l.line(), l.column()));
-    (position, message)
-}
-
-/// [`yaml_error`] compiler style, to follow a file name: `:line:column: error: message`.
-pub fn located_yaml_error(error: &serde_saphyr::Error) -> String {
-    let (position, message) = yaml_error(error);
-    let at = position.map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
-    format!("{at}: error: {message}")
-}
-
 impl Config {
     /// Load and check `path`.
-    pub fn load(path: &Path) -> Result<Config, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        Config::parse(&text).map_err(|e| format!("{}{e}", path.display()))
+    pub fn load(path: &Path) -> Result<Config, Diagnostics> {
+        Config::parse(&diagnostics::read_text(path)?, path)
     }
 
-    /// Parse and check configuration text; errors start with `:line:column: ` when located.
-    pub fn parse(text: &str) -> Result<Config, String> {
-        let config: Config = if text.trim().is_empty() {
-            Config::default()
+    /// Parse and check configuration `text`; `path` names it in diagnostics.
+    pub fn parse(text: &str, path: &Path) -> Result<Config, Diagnostics> {
+        let (config, map) = if text.trim().is_empty() {
+            (Config::default(), YamlMap::default())
         } else {
-            serde_saphyr::from_str(text).map_err(|e| located_yaml_error(&e))?
+            diagnostics::parse_yaml(text, path)?
         };
-        config.check().map_err(|e| format!(": error: {e}"))?;
+        let locate = |field: &str| map.find(field);
+        let mut f = Findings::new(path, &locate);
+        config.check_into(&mut f);
+        f.finish()?;
         Ok(config)
     }
 
-    /// Check values a parser cannot (ranges, finiteness); also after command-line overrides.
-    pub fn check(&self) -> Result<(), String> {
+    /// Check values a parser cannot (ranges, finiteness) after command-line overrides;
+    /// `source` names where they came from.
+    pub fn check(&self, source: &Path) -> Result<(), Diagnostics> {
+        let mut f = Findings::new(source, &|_| None);
+        self.check_into(&mut f);
+        f.finish().map(drop)
+    }
+
+    fn check_into(&self, f: &mut Findings) {
         let rt = &self.realtime;
         if !(1..=99).contains(&rt.priority) {
-            return Err(format!(
-                "realtime.priority must be 1–99, not {}",
-                rt.priority
-            ));
+            f.error(
+                "realtime.priority",
+                format!("must be 1–99, not {}", rt.priority),
+            );
         }
-        if !(rt.rate.is_finite() && (100.0..=MAX_RATE).contains(&rt.rate)) {
-            return Err(format!(
-                "realtime.rate must be 100–{MAX_RATE} Hz, not {}",
-                rt.rate
-            ));
+        f.within("realtime.rate", rt.rate, 100.0, MAX_RATE, " Hz");
+        for (key, value) in [
+            ("safety.max_force", self.safety.max_force),
+            ("safety.max_torque", self.safety.max_torque),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                f.error(key, "must be a finite number > 0");
+            }
         }
-        let s = &self.safety;
-        if !(s.max_force.is_finite()
-            && s.max_force > 0.0
-            && s.max_torque.is_finite()
-            && s.max_torque > 0.0)
-        {
-            return Err("safety.max_force and safety.max_torque must be finite and > 0".into());
-        }
-        Ok(())
     }
 }
 
@@ -210,15 +191,23 @@ mod tests {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/hapticd.yaml");
         let config = Config::load(&path).unwrap();
         assert_eq!(config.realtime.rate, 1000.0);
-        assert_eq!(Config::parse("").unwrap(), Config::default());
+        assert_eq!(Config::parse("", &path).unwrap(), Config::default());
     }
 
     #[test]
     fn bad_configurations_are_refused_with_their_place() {
-        let e = Config::parse("realtime:\n  rate: 1000\n  prio: 3\n").unwrap_err();
-        assert!(e.starts_with(":3:3: error: unknown field `prio`"), "{e}");
-        let e = Config::parse("realtime:\n  rate: 50000\n").unwrap_err();
-        assert!(e.contains("realtime.rate must be 100–10000 Hz"), "{e}");
-        assert!(Config::parse("safety:\n  max_force: .nan\n").is_err());
+        let parse = |text: &str| Config::parse(text, Path::new("h.yaml")).unwrap_err().to_string();
+        let e = parse("realtime:\n  rate: 1000\n  prio: 3\n");
+        assert!(e.starts_with("h.yaml:3:3: error: unknown field `prio`"), "{e}");
+        let e = parse("realtime:\n  priority: 0\n  rate: 50000\nsafety:\n  max_force: .nan\n");
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "h.yaml:2:13: error: realtime.priority: must be 1–99, not 0",
+                "h.yaml:3:9: error: realtime.rate: must be a number from 100 to 10000 Hz, not 50000",
+                "h.yaml:5:14: error: safety.max_force: must be a finite number > 0",
+            ]
+        );
     }
 }

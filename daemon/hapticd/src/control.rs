@@ -17,7 +17,7 @@ use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::sync::spsc;
 use hapticd_core::stats::LoopStats;
-use hapticd_core::scene::{self, Pointer, Scene};
+use hapticd_core::scene::{Pointer, Scene};
 use crate::state::{Calibration, DeviceRecord, StateDir};
 
 /// Errors of the control plane; on D-Bus each is `org.hapticd.Hapticd1.Error.<Variant>` with
@@ -380,7 +380,7 @@ impl Daemon {
 
     /// Names of the scenes in the scene directories.
     pub fn scenes(&self) -> Vec<String> {
-        scene::available(&lock(&self.inner).config.scene_dirs)
+        crate::scenes::available(&lock(&self.inner).config.scene_dirs)
     }
 
     /// The scene rendered.
@@ -395,10 +395,10 @@ impl Daemon {
         let dirs = lock(&self.inner).config.scene_dirs.clone();
         let mut scenes = Vec::new();
         for device in &self.devices {
-            scenes.push(scene::open(name, None, &dirs, device.pointers()).map_err(
+            scenes.push(crate::scenes::open(name, None, &dirs, device.pointers()).map_err(
                 |e| match e {
-                    scene::OpenError::NotFound(m) => Error::UnknownScene(m),
-                    scene::OpenError::Invalid(m) => Error::SceneFailed(m),
+                    crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
+                    crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),
                 },
             )?);
         }
@@ -414,7 +414,7 @@ impl Daemon {
     /// file is reported with its place and nothing changes.
     pub fn reload(&self) -> Result<(), Error> {
         let config = match &self.config_path {
-            Some(path) => Config::load(path).map_err(Error::InvalidConfiguration)?,
+            Some(path) => Config::load(path).map_err(|e| Error::InvalidConfiguration(e.to_string()))?,
             None => lock(&self.inner).config.clone(),
         };
         let (mechanisms, problems) =

@@ -21,7 +21,7 @@ use std::thread::JoinHandle;
 use glam::DVec3;
 use hapticd_plugin_api::*;
 
-use super::{Pointer, Scene};
+use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
 use crate::plugin;

@@ -49,7 +49,7 @@ pub fn open(
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }
-    let spec = hapticd_core::scene::static_scene::StaticSceneSpec::load(&path).map_err(OpenError::Invalid)?;
+    let spec = hapticd_core::scene::static_scene::StaticSceneSpec::load(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
     Ok(Box::new(hapticd_core::scene::static_scene::StaticScene::new(spec, pointers)))
 }
 

@@ -146,12 +146,21 @@ impl Mechanism {
             .collect()
     }
 
+    /// Metres per encoder count of every string, in string order.
+    pub fn metres_per_pulse(&self) -> Vec<f64> {
+        self.strings.iter().map(|s| s.metres_per_pulse).collect()
+    }
+
     /// Counter offsets that make `counts`, read with every grip at its calibration pose,
     /// give the calibration lengths (see [`crate::solver::calibration`]).
     pub fn offsets(&self, counts: &[i64]) -> Vec<f64> {
-        let scale: Vec<f64> = self.strings.iter().map(|s| s.metres_per_pulse).collect();
         let mut out = vec![0.0; self.strings.len()];
-        crate::solver::calibration::offsets_into(&self.calibration_lengths(), &scale, counts, &mut out);
+        crate::solver::calibration::offsets_into(
+            &self.calibration_lengths(),
+            &self.metres_per_pulse(),
+            counts,
+            &mut out,
+        );
         out
     }
 

@@ -18,9 +18,10 @@ pub mod hand;
 use glam::{DQuat, DVec3};
 
 use crate::sh4::{self, Command, Report};
-use crate::transport::{Link, TransportError};
-use crate::{CHANNELS, DAC_DIGITS_PER_VOLT};
-use hapticd_core::mechanism::{Dof, Mechanism, Pose};
+use hapticd_core::transport::{Link, TransportError};
+use hapticd_core::transport::{CHANNELS, DAC_DIGITS_PER_VOLT};
+use hapticd_core::kinematics::{Dof, Pose};
+use hapticd_core::mechanism::Mechanism;
 use hand::{HandTrack, Script};
 
 /// Physical constants of the simulated device and hand.
@@ -346,8 +347,9 @@ const EINVAL: i32 = 22;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::transport::{Sh4Transport, Transport};
-    use crate::{Reading, dac_for_tension};
+    use crate::transport::Sh4Transport;
+    use hapticd_core::transport::Transport;
+    use hapticd_core::transport::{Reading, dac_for_tension};
     use hapticd_core::mechanism::descriptor;
     use std::path::Path;
 

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use hapticd_core::mechanism::MechanismError;
+use hapticd_core::diagnostics::Diagnostics;
 use hapticd::catalog::Catalog;
 
 /// Control hapticd and work with SPIDAR mechanisms.
@@ -67,7 +67,7 @@ impl Failure {
     }
 
     /// Diagnostics that already say file, position and severity, with exit status `code`.
-    pub fn diagnostics(code: u8, error: &MechanismError) -> Self {
+    pub fn diagnostics(code: u8, error: &Diagnostics) -> Self {
         Self {
             code,
             message: error.to_string(),

@@ -6,12 +6,14 @@ use clap::{Args, Subcommand, ValueEnum};
 use glam::{DQuat, DVec3};
 use hapticd_core::mechanism::analysis::{region_slice, tension_sweep};
 use hapticd::catalog::Catalog;
-use hapticd_core::mechanism::{Dof, Mechanism, MechanismError, Pose, TensionSettings};
+use hapticd_core::kinematics::{Dof, Pose};
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::diagnostics::Diagnostics;
+use hapticd_core::solver::tension::TensionSettings;
 use hapticctl::plot::{Cells, Chart, PALETTE, Series};
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_core::solver::pose::PoseSolver;
-use hapticd_core::solver::tension::TensionSolver;
 use serde_json::{Value, json};
 
 use crate::Failure;
@@ -222,7 +224,7 @@ pub fn resolve(catalog: &Catalog, mech: &str) -> Result<Mechanism, Failure> {
 
 /// A name that matches no installed mechanism is a usage error (2); a file that exists but
 /// does not load is a failure (1).
-fn load_failure(mech: &str, error: &MechanismError) -> Failure {
+fn load_failure(mech: &str, error: &Diagnostics) -> Failure {
     Failure::diagnostics(if Catalog::is_name(mech) { 2 } else { 1 }, error)
 }
 
@@ -496,7 +498,7 @@ fn tension(catalog: &Catalog, args: &TensionArgs) -> Result<(), Failure> {
             orientation,
         },
     );
-    let mut solver = TensionSolver::for_effector(&m, index);
+    let mut solver = m.tension_solver(index);
     if let Some(lambda) = args.lambda {
         if lambda < 0.0 {
             return Err(Failure::usage("--lambda must be ≥ 0"));

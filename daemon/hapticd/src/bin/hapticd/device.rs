@@ -19,7 +19,8 @@ use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd_core::sync::spsc;
 use hapticd_core::stats::LoopStats;
-use hapticd_core::scene::{self, Pointer};
+use hapticd::scenes;
+use hapticd_core::scene::Pointer;
 use hapticd_device::sim::hand::Script;
 use hapticd::state::StateDir;
 
@@ -112,7 +113,10 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         Some(rate) => {
             let mut config = common.config.clone();
             config.realtime.rate = rate;
-            config.check()?;
+            // The rate comes from the command line or the saved parameters, not the file.
+            config
+                .check(std::path::Path::new("rate"))
+                .map_err(|e| e.to_string())?;
             rate
         }
         None => common.config.realtime.rate,
@@ -139,7 +143,7 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
     };
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
     let pointers = Pointer::at_calibration(&mechanism);
-    let scene = scene::open(
+    let scene = scenes::open(
         common.scene,
         common.scene_file,
         &common.config.scene_dirs,

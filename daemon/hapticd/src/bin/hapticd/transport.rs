@@ -3,7 +3,8 @@
 
 use hapticd_device::Protocol;
 use hapticd_device::replay::{self, RecordingLink, ReplayLink, Transfer};
-use hapticd_device::transport::{Link, Sh4Transport, SimpleTransport, Transport};
+use hapticd_core::transport::{Link, Transport};
+use hapticd_device::transport::{Sh4Transport, SimpleTransport};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
 use hapticd_device::sim::hand::Script;
