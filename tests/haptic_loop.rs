@@ -129,7 +129,7 @@ fn pressed_then_unplugged() -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Frame) {
     let board = Arc::new(Mutex::new(SimulatedBoard::new(
         &m,
         DT,
-        &Script::parse(PUSH_INTO_FLOOR).unwrap(),
+        &Script::parse(PUSH_INTO_FLOOR, std::path::Path::new("hand.yaml")).unwrap(),
         SimParameters::default(),
     )));
     let first_cable = Arc::new(AtomicBool::new(false));

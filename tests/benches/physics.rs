@@ -62,8 +62,8 @@ fn rapier3d(bencher: Bencher, n: usize) {
 #[divan::bench]
 fn blocks_scene_two_pointers(bencher: Bencher) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../config/scenes/blocks.yaml");
-    let text = std::fs::read_to_string(path).expect("the shipped scene");
-    let mut scene = PenaltyScene::parse(&text, 2).expect("the shipped scene parses");
+    let mut scene =
+        PenaltyScene::load(std::path::Path::new(path), 2).expect("the shipped scene parses");
     let k = scene.first_pointer;
     // 1 cm pointer cubes, 2 mm into the 3 cm block (top at y = 0) and into the table.
     for (pointer, at) in [

@@ -182,7 +182,7 @@ pub fn simulated_loop(m: &Mechanism, script: &str, dt: f64) -> HapticLoop {
     Session {
         mechanism: m.clone(),
         scene: StaticSceneSpec::load(&repo_dir().join("config/scenes/static.yaml")).unwrap(),
-        script: Script::parse(script).unwrap(),
+        script: Script::parse(script, std::path::Path::new("hand.yaml")).unwrap(),
         rate: 1.0 / dt,
         settings: LoopSettings::default(),
     }

@@ -93,6 +93,13 @@ impl fmt::Display for Diagnostics {
 
 impl std::error::Error for Diagnostics {}
 
+/// The binaries report every error as text, one path for all of them.
+impl From<Diagnostics> for String {
+    fn from(d: Diagnostics) -> String {
+        d.to_string()
+    }
+}
+
 impl Diagnostics {
     /// A single error about a whole file.
     pub fn file(file: &Path, message: impl Into<String>) -> Self {

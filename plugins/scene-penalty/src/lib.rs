@@ -53,8 +53,7 @@ fn create(
     pointers: usize,
 ) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
     let path = path.ok_or("the penalty scene needs a scene file")?;
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: cannot read: {e}"))?;
-    let scene = PenaltyScene::parse(&text, pointers).map_err(|e| format!("{path}: {e}"))?;
+    let scene = PenaltyScene::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())?;
     hapticd_plugin_api::log(
         HAPTICD_LOG_INFO,
         &format!(

@@ -19,11 +19,12 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use serde::Deserialize;
 
 /// One step of a hand's script.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
 pub enum Step {
     /// Hold still, at `at` if given (a jump) or where the target is.
     Hold {
@@ -85,7 +86,78 @@ pub enum Step {
     },
 }
 
+/// Fastest shake a script may ask for, hertz: far beyond a hand, well within the fastest
+/// tick rate.
+const MAX_SHAKE_FREQUENCY: f64 = 1000.0;
+
 impl Step {
+    /// The step's key in a script.
+    fn keyword(&self) -> &'static str {
+        match self {
+            Step::Hold { .. } => "hold",
+            Step::Move { .. } => "move",
+            Step::Push { .. } => "push",
+            Step::Shake { .. } => "shake",
+            Step::Trace { .. } => "trace",
+            Step::Unplug { .. } => "unplug",
+            Step::Path { .. } => "path",
+        }
+    }
+
+    /// Report what the hand cannot do: values that are not finite, a circle without a
+    /// plane or period, a shake too fast to simulate, negative durations.
+    fn check(&self, f: &mut Findings, at: &str) {
+        let seconds = self.seconds();
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            f.error(format!("{at}.seconds"), "must be a finite number ≥ 0");
+        }
+        match self {
+            Step::Hold { at: Some(p), .. } => {
+                f.finite(format!("{at}.at"), p);
+            }
+            Step::Move { to, .. } => {
+                f.finite(format!("{at}.to"), to);
+            }
+            Step::Push { force, .. } => {
+                f.finite(format!("{at}.force"), force);
+            }
+            Step::Shake {
+                amplitude,
+                frequency,
+                ..
+            } => {
+                f.finite(format!("{at}.amplitude"), amplitude);
+                f.within(
+                    format!("{at}.frequency"),
+                    *frequency,
+                    0.0,
+                    MAX_SHAKE_FREQUENCY,
+                    " Hz",
+                );
+            }
+            Step::Trace {
+                centre,
+                radius,
+                normal,
+                period,
+                ..
+            } => {
+                f.finite(format!("{at}.centre"), centre);
+                if !(radius.is_finite() && *radius >= 0.0) {
+                    f.error(format!("{at}.radius"), "must be a finite number ≥ 0");
+                }
+                if f.finite(format!("{at}.normal"), normal) && DVec3::from(*normal).length() < 1e-9
+                {
+                    f.error(format!("{at}.normal"), "must not be zero");
+                }
+                if !(period.is_finite() && *period > 0.0) {
+                    f.error(format!("{at}.period"), "must be a finite number > 0");
+                }
+            }
+            Step::Hold { at: None, .. } | Step::Unplug { .. } | Step::Path { .. } => {}
+        }
+    }
+
     fn seconds(&self) -> f64 {
         match *self {
             Step::Hold { seconds, .. }
@@ -167,37 +239,30 @@ pub struct Script {
 
 impl Script {
     /// Load a script file (recorded paths relative to its directory).
-    pub fn load(path: &Path) -> Result<Script, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    pub fn load(path: &Path) -> Result<Script, Diagnostics> {
+        Script::parse(&diagnostics::read_text(path)?, path)
+    }
+
+    /// Parse script `text` as if read from `path`: recorded paths are taken relative to its
+    /// directory, and findings name it.
+    pub fn parse(text: &str, path: &Path) -> Result<Script, Diagnostics> {
+        let (mut raw, map): (RawScript, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let locate = |field: &str| map.find(field);
+        let mut f = Findings::new(path, &locate);
         let base = path.parent().unwrap_or(Path::new("."));
-        Script::parse_in(&text, base).map_err(|e| format!("{}: {e}", path.display()))
-    }
-
-    /// Parse script text (recorded paths relative to the working directory).
-    pub fn parse(text: &str) -> Result<Script, String> {
-        Script::parse_in(text, Path::new("."))
-    }
-
-    /// Parse script text, taking recorded paths relative to `base`.
-    pub fn parse_in(text: &str, base: &Path) -> Result<Script, String> {
-        let mut raw: RawScript = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
         for (name, steps) in &mut raw.hands {
-            for step in steps.iter_mut() {
+            for (i, step) in steps.iter_mut().enumerate() {
+                let at = format!("hands.{name}[{i}].{}", step.keyword());
                 if let Step::Path { file, samples } = step {
-                    *samples = read_path(&base.join(&*file), name)?;
+                    match read_path(&base.join(&*file), name) {
+                        Ok(read) => *samples = read,
+                        Err(e) => f.error(format!("{at}.file"), e),
+                    }
                 }
+                step.check(&mut f, &at);
             }
         }
-        for (name, steps) in &raw.hands {
-            for (i, step) in steps.iter().enumerate() {
-                if !(step.seconds().is_finite() && step.seconds() >= 0.0) {
-                    return Err(format!(
-                        "hands.{name}[{i}]: seconds must be a finite number ≥ 0"
-                    ));
-                }
-            }
-        }
+        f.finish()?;
         Ok(Script { hands: raw.hands })
     }
 }
@@ -338,6 +403,7 @@ mod tests {
     fn steps_follow_one_another() {
         let script = Script::parse(
             "hands:\n  grip:\n    - hold: { at: [0, 0.02, 0], seconds: 0.5 }\n    - move: { to: [0, -0.02, 0], seconds: 1 }\n    - push: { force: [0, -4, 0], seconds: 1 }\n    - unplug: { seconds: 0.5 }\n",
+            Path::new("h.yaml"),
         )
         .unwrap();
         let track = HandTrack::new(DVec3::ZERO, script.hands["grip"].clone());
@@ -378,7 +444,8 @@ mod tests {
         )
         .unwrap();
         let script =
-            Script::parse_in("hands:\n  grip:\n    - path: { file: path.csv }\n", &dir).unwrap();
+            Script::parse("hands:\n  grip:\n    - path: { file: path.csv }\n", &dir.join("h.yaml"))
+                .unwrap();
         let track = HandTrack::new(DVec3::ZERO, script.hands["grip"].clone());
         let c = track.at(0.25);
         assert!((c.target - DVec3::new(0.005, 0.0, 0.0)).length() < 1e-12);
@@ -387,14 +454,35 @@ mod tests {
         assert_eq!(track.at(5.0).target, DVec3::new(0.01, -0.02, 0.0));
         std::fs::write(dir.join("bad.csv"), "time,x\n0,1\n").unwrap();
         assert!(
-            Script::parse_in("hands:\n  grip:\n    - path: { file: bad.csv }\n", &dir).is_err()
+            Script::parse(
+                "hands:\n  grip:\n    - path: { file: bad.csv }\n",
+                &dir.join("s.yaml")
+            )
+            .is_err()
         );
         std::fs::remove_dir_all(dir).ok();
     }
 
     #[test]
-    fn bad_scripts_are_refused() {
-        assert!(Script::parse("hands:\n  grip:\n    - wave: { seconds: 1 }\n").is_err());
-        assert!(Script::parse("hands:\n  grip:\n    - hold: { seconds: -1 }\n").is_err());
+    fn bad_scripts_are_refused_each_at_its_place() {
+        let parse = |text: &str| Script::parse(text, Path::new("h.yaml"));
+        assert!(parse("hands:\n  grip:\n    - wave: { seconds: 1 }\n").is_err());
+        assert!(parse("hands:\n  grip:\n    - hold: { seconds: 1, colour: red }\n").is_err());
+        let e = parse(
+            "hands:\n  grip:\n    - hold: { seconds: -1 }\n    - move: { to: [.nan, 0, 0], seconds: 1 }\n    - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 0, 0], period: 0, seconds: 1 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 1e308, seconds: 1 }\n",
+        )
+        .unwrap_err()
+        .to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "h.yaml:3:26: error: hands.grip[0].hold.seconds: must be a finite number ≥ 0",
+                "h.yaml:4:19: error: hands.grip[1].move.to: must be a finite number",
+                "h.yaml:5:62: error: hands.grip[2].trace.normal: must not be zero",
+                "h.yaml:5:81: error: hands.grip[2].trace.period: must be a finite number > 0",
+                "h.yaml:6:55: error: hands.grip[3].shake.frequency: must be a number from 0 to 1000 Hz, not 1e308",
+            ]
+        );
     }
 }

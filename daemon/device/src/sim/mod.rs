@@ -367,7 +367,10 @@ mod tests {
     fn counts_follow_the_grip_through_the_protocol() {
         let m = spidar();
         let script =
-            Script::parse("hands:\n  grip:\n    - move: { to: [0.03, 0, 0], seconds: 0.5 }\n")
+            Script::parse(
+                "hands:\n  grip:\n    - move: { to: [0.03, 0, 0], seconds: 0.5 }\n",
+                std::path::Path::new("h.yaml"),
+            )
                 .unwrap();
         let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default());
         let mut transport = Sh4Transport::new(board, "sim:test");
@@ -450,6 +453,7 @@ mod tests {
         let m = spidar();
         let script = Script::parse(
             "hands:\n  grip:\n    - hold: { seconds: 0.01 }\n    - unplug: { seconds: 0.01 }\n",
+            std::path::Path::new("h.yaml"),
         )
         .unwrap();
         let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default());

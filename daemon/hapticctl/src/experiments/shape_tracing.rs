@@ -51,10 +51,13 @@ pub fn mechanism(lambda: f64) -> Mechanism {
 
 /// The traced path (x, z) with tension weight `lambda`, one point per tick over one turn.
 pub fn trace(lambda: f64, rate: f64) -> Vec<(f64, f64)> {
-    let script = Script::parse(&format!(
-        "hands:\n  grip:\n    - move: {{ to: [{r}, 0, 0], seconds: 0.5 }}\n    - trace: {{ centre: [0, 0, 0], radius: {r}, normal: [0, 1, 0], period: {PERIOD}, seconds: {PERIOD} }}\n",
-        r = RADIUS - 0.015
-    ))
+    let script = Script::parse(
+        &format!(
+            "hands:\n  grip:\n    - move: {{ to: [{r}, 0, 0], seconds: 0.5 }}\n    - trace: {{ centre: [0, 0, 0], radius: {r}, normal: [0, 1, 0], period: {PERIOD}, seconds: {PERIOD} }}\n",
+            r = RADIUS - 0.015
+        ),
+        std::path::Path::new("cylinder-tracing hand"),
+    )
     .expect("a valid script");
     let session = Session {
         mechanism: mechanism(lambda),

@@ -48,10 +48,13 @@ impl Range {
 
 /// The hand: hold, lower to 2 cm below the floor, press and hold.
 fn press_script() -> Script {
-    Script::parse(&format!(
-        "hands:\n  grip:\n    - hold: {{ seconds: 0.1 }}\n    - move: {{ to: [0, {}, 0], seconds: 0.2 }}\n    - hold: {{ seconds: 2 }}\n",
-        FLOOR - 0.02
-    ))
+    Script::parse(
+        &format!(
+            "hands:\n  grip:\n    - hold: {{ seconds: 0.1 }}\n    - move: {{ to: [0, {}, 0], seconds: 0.2 }}\n    - hold: {{ seconds: 2 }}\n",
+            FLOOR - 0.02
+        ),
+        std::path::Path::new("wall-stiffness hand"),
+    )
     .expect("a valid script")
 }
 

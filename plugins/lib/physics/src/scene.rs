@@ -56,7 +56,10 @@ use crate::coupling::{Coupling, Grip};
 use crate::friction::FrictionParameters;
 use crate::polyhedron::Polyhedron;
 use crate::world::{ContactModel, Material, Scaling, World};
-use glam::{DQuat, DVec3};
+use std::path::Path;
+
+use glam::DVec3;
+use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use serde::Deserialize;
 
 #[derive(Deserialize)]
@@ -194,49 +197,50 @@ pub struct PenaltyScene {
 /// Most pointers a scene steps.
 pub const MAX_POINTERS: usize = 8;
 
-/// The rotation and translation a file's `orientation` (w, x, y, z) and `position` give.
-fn pose(position: [f64; 3], orientation: [f64; 4]) -> Result<(DQuat, DVec3), String> {
-    let [w, x, y, z] = orientation;
-    let q = DQuat::from_xyzw(x, y, z, w);
-    if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
-        return Err("orientation must be a unit quaternion (w, x, y, z)".into());
-    }
-    if position.iter().any(|p| !p.is_finite()) {
-        return Err("positions must be finite".into());
-    }
-    Ok((q.normalize(), DVec3::from(position)))
-}
-
-/// The solid of a `box:` or a `hull:` (exactly one), turned by `orientation` and moved to
-/// `position`.
+/// The solid of a `box:` or a `hull:` (exactly one) of the item at field path `at`, turned
+/// by its `orientation` and moved to its `position`; `None` after reporting what is wrong.
 fn solid(
+    f: &mut Findings,
+    at: &str,
     size: Option<[f64; 3]>,
     hull: Option<&[[f64; 3]]>,
     position: [f64; 3],
     orientation: [f64; 4],
-) -> Result<Polyhedron, String> {
-    let (turn, at) = pose(position, orientation)?;
+) -> Option<Polyhedron> {
+    let turn = f.unit_quaternion(format!("{at}.orientation"), orientation);
+    let placed = f.finite(format!("{at}.position"), &position);
     let local = match (size, hull) {
         (Some(size), None) => {
-            if size.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-                return Err("box sizes must be finite and > 0".into());
+            let mut ok = true;
+            for (k, side) in size.iter().enumerate() {
+                if !(side.is_finite() && *side > 0.0) {
+                    f.error(format!("{at}.box[{k}]"), "must be a finite number > 0");
+                    ok = false;
+                }
             }
-            Polyhedron::cuboid(DVec3::from(size) / 2.0)
+            ok.then(|| Polyhedron::cuboid(DVec3::from(size) / 2.0))
         }
         (None, Some(points)) => {
             let points: Vec<DVec3> = points.iter().map(|p| DVec3::from(*p)).collect();
-            Polyhedron::hull(&points)?
+            Polyhedron::hull(&points)
+                .map_err(|e| f.error(format!("{at}.hull"), e))
+                .ok()
         }
-        _ => return Err("give either box: or hull:".into()),
+        _ => {
+            f.error(at, "give either box: or hull:");
+            None
+        }
     };
-    Ok(local.transformed(turn, at))
+    placed.then_some(local?.transformed(turn, DVec3::from(position)))
 }
 
-/// The convex pieces of body `b` where the file puts them: its `box:` or `hull:`, or each of
-/// its `pieces:` placed on the body's pose.
-fn body_pieces(b: &RawBody) -> Result<Vec<Polyhedron>, String> {
+/// The convex pieces of body `b` (at field path `at`) where the file puts them: its `box:` or
+/// `hull:`, or each of its `pieces:` placed on the body's pose.
+fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<Polyhedron>> {
     let Some(pieces) = &b.pieces else {
-        return Ok(vec![solid(
+        return Some(vec![solid(
+            f,
+            at,
             b.size,
             b.hull.as_deref(),
             b.position,
@@ -244,104 +248,151 @@ fn body_pieces(b: &RawBody) -> Result<Vec<Polyhedron>, String> {
         )?]);
     };
     if b.size.is_some() || b.hull.is_some() || pieces.is_empty() {
-        return Err("give either box:, hull: or a list of pieces:".into());
+        f.error(at, "give either box:, hull: or a list of pieces:");
+        return None;
     }
-    let (turn, at) = pose(b.position, b.orientation)?;
-    pieces
+    let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
+    let placed = f.finite(format!("{at}.position"), &b.position);
+    let pieces: Vec<Option<Polyhedron>> = pieces
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            let piece = solid(p.size, p.hull.as_deref(), p.position, p.orientation)
-                .map_err(|e| format!("pieces[{k}]: {e}"))?;
-            Ok(piece.transformed(turn, at))
+            let piece = solid(
+                f,
+                &format!("{at}.pieces[{k}]"),
+                p.size,
+                p.hull.as_deref(),
+                p.position,
+                p.orientation,
+            )?;
+            Some(piece.transformed(turn, DVec3::from(b.position)))
         })
-        .collect()
+        .collect();
+    placed.then_some(())?;
+    pieces.into_iter().collect()
+}
+
+/// An error on `field` unless every value is finite and ≥ 0.
+fn non_negative(f: &mut Findings, field: String, value: f64) {
+    if !(value.is_finite() && value >= 0.0) {
+        f.error(field, "must be a finite number ≥ 0");
+    }
+}
+
+/// An error on `field` unless `value` is finite and > 0.
+fn positive(f: &mut Findings, field: String, value: f64) {
+    if !(value.is_finite() && value > 0.0) {
+        f.error(field, "must be a finite number > 0");
+    }
 }
 
 impl PenaltyScene {
-    /// Parse scene text for `pointers` pointers.
-    pub fn parse(text: &str, pointers: usize) -> Result<Self, String> {
-        let raw: RawScene = serde_saphyr::from_str(text).map_err(|e| e.to_string())?;
+    /// Load the scene file at `path` for `pointers` pointers.
+    pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        Self::parse(&diagnostics::read_text(path)?, path, pointers)
+    }
+
+    /// Parse scene `text` for `pointers` pointers; `path` names it in diagnostics, which
+    /// come all at once, each at its line and column.
+    pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        let (raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let locate = |field: &str| map.find(field);
+        let mut f = Findings::new(path, &locate);
+        f.finite("gravity", &raw.gravity);
+        positive(&mut f, "dt".into(), raw.dt);
         let m = &raw.material;
-        let values = [
-            m.stiffness,
-            m.damping,
-            m.static_friction,
-            m.friction,
-            m.friction_stiffness,
-            m.friction_damping,
-            m.slip_speed,
-        ];
+        for (key, value) in [
+            ("stiffness", m.stiffness),
+            ("damping", m.damping),
+            ("static_friction", m.static_friction),
+            ("friction", m.friction),
+            ("friction_stiffness", m.friction_stiffness),
+            ("friction_damping", m.friction_damping),
+            ("slip_speed", m.slip_speed),
+        ] {
+            non_negative(&mut f, format!("material.{key}"), value);
+        }
+        for (key, value) in [
+            ("point_stiffness", m.point_stiffness),
+            ("point_damping", m.point_damping),
+        ] {
+            if let Some(value) = value {
+                non_negative(&mut f, format!("material.{key}"), value);
+            }
+        }
+        if m.friction > m.static_friction {
+            f.error("material.friction", "must not exceed static_friction");
+        }
+        if let Some(s) = &m.scaling {
+            positive(&mut f, "material.scaling.spring".into(), s.spring);
+            non_negative(&mut f, "material.scaling.damper".into(), s.damper);
+        }
+        let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
+        for (i, b) in raw.bodies.iter().enumerate() {
+            let at = format!("bodies[{i}]");
+            let pieces = body_pieces(&mut f, &at, b);
+            positive(&mut f, format!("{at}.density"), b.density);
+            f.finite(format!("{at}.velocity"), &b.velocity);
+            f.finite(format!("{at}.spin"), &b.spin);
+            if let Some(pieces) = pieces
+                && !f.has_errors()
+            {
+                let mut body = Body::compound(&pieces, b.density, b.fixed);
+                (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
+                bodies.push(body);
+            }
+        }
+        let first_pointer = bodies.len();
+        if pointers > 0 && raw.pointer.is_none() {
+            f.error(
+                "",
+                format!("{pointers} pointers, but the scene has no pointer: shape"),
+            );
+        }
+        if pointers > MAX_POINTERS {
+            f.error("pointer", format!("at most {MAX_POINTERS} pointers"));
+        }
+        let mut couplings = Vec::with_capacity(pointers);
+        if let Some(pointer) = &raw.pointer {
+            if let Some(c) = &pointer.coupling {
+                for (key, value) in [
+                    ("stiffness", c.stiffness),
+                    ("damping", c.damping),
+                    ("rotational_stiffness", c.rotational_stiffness),
+                    ("rotational_damping", c.rotational_damping),
+                ] {
+                    non_negative(&mut f, format!("pointer.coupling.{key}"), value);
+                }
+                positive(&mut f, "pointer.density".into(), pointer.density);
+            }
+            let shape = solid(
+                &mut f,
+                "pointer",
+                pointer.size,
+                pointer.hull.as_deref(),
+                [0.0; 3],
+                identity(),
+            );
+            if let Some(shape) = shape
+                && !f.has_errors()
+            {
+                for _ in 0..pointers {
+                    let coupling = pointer.coupling.as_ref().map(|c| Coupling {
+                        stiffness: c.stiffness,
+                        damping: c.damping,
+                        rotational_stiffness: c.rotational_stiffness,
+                        rotational_damping: c.rotational_damping,
+                    });
+                    bodies.push(Body::new(&shape, pointer.density, coupling.is_none()));
+                    couplings.push(coupling);
+                }
+            }
+        }
+        f.finish()?;
         let point = [
             m.point_stiffness.unwrap_or(m.stiffness),
             m.point_damping.unwrap_or(m.damping),
         ];
-        if values
-            .iter()
-            .chain(&point)
-            .any(|v| !(v.is_finite() && *v >= 0.0))
-            || m.friction > m.static_friction
-        {
-            return Err(
-                "material: values must be finite and ≥ 0, with friction ≤ static_friction".into(),
-            );
-        }
-        if !(raw.dt.is_finite() && raw.dt > 0.0) {
-            return Err("dt must be a finite number > 0".into());
-        }
-        let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
-        for (i, b) in raw.bodies.iter().enumerate() {
-            let pieces = body_pieces(b).map_err(|e| format!("bodies[{i}] {}: {e}", b.name))?;
-            if !(b.density.is_finite() && b.density > 0.0) {
-                return Err(format!("bodies[{i}] {}: density must be > 0", b.name));
-            }
-            let (velocity, spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
-            if !velocity.is_finite() || !spin.is_finite() {
-                return Err(format!(
-                    "bodies[{i}] {}: velocity and spin must be finite",
-                    b.name
-                ));
-            }
-            let mut body = Body::compound(&pieces, b.density, b.fixed);
-            (body.velocity, body.spin) = (velocity, spin);
-            bodies.push(body);
-        }
-        let first_pointer = bodies.len();
-        if pointers > 0 && raw.pointer.is_none() {
-            return Err(format!(
-                "{pointers} pointers, but the scene has no pointer shape"
-            ));
-        }
-        if pointers > MAX_POINTERS {
-            return Err(format!("at most {MAX_POINTERS} pointers"));
-        }
-        let mut couplings = Vec::with_capacity(pointers);
-        for pointer in raw.pointer.iter().cycle().take(pointers) {
-            let shape = solid(pointer.size, pointer.hull.as_deref(), [0.0; 3], identity())
-                .map_err(|e| format!("pointer: {e}"))?;
-            let coupling = pointer.coupling.as_ref().map(|c| Coupling {
-                stiffness: c.stiffness,
-                damping: c.damping,
-                rotational_stiffness: c.rotational_stiffness,
-                rotational_damping: c.rotational_damping,
-            });
-            if let Some(c) = &coupling {
-                let values = [
-                    c.stiffness,
-                    c.damping,
-                    c.rotational_stiffness,
-                    c.rotational_damping,
-                ];
-                if values.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err("pointer.coupling: values must be finite and ≥ 0".into());
-                }
-                if !(pointer.density.is_finite() && pointer.density > 0.0) {
-                    return Err("pointer.density must be > 0".into());
-                }
-            }
-            bodies.push(Body::new(&shape, pointer.density, coupling.is_none()));
-            couplings.push(coupling);
-        }
         let material = Material {
             stiffness: m.stiffness,
             damping: m.damping,
@@ -358,11 +409,6 @@ impl PenaltyScene {
                 damper: s.damper,
             }),
         };
-        if let Some(s) = &material.scaling
-            && !(s.spring.is_finite() && s.spring > 0.0 && s.damper.is_finite() && s.damper >= 0.0)
-        {
-            return Err("material.scaling: spring must be > 0 and damper ≥ 0, both finite".into());
-        }
         let materials = [
             material,
             Material {
@@ -451,18 +497,24 @@ impl PenaltyScene {
 mod tests {
     use super::*;
 
+    fn shipped(name: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/scenes").join(name)
+    }
+
+    fn parse(text: &str, pointers: usize) -> Result<PenaltyScene, Diagnostics> {
+        PenaltyScene::parse(text, Path::new("s.yaml"), pointers)
+    }
+
     #[test]
     fn the_shipped_scenes_parse() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes");
-        let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
-        let scene = PenaltyScene::parse(&read("blocks.yaml"), 2).unwrap();
+        let scene = PenaltyScene::load(&shipped("blocks.yaml"), 2).unwrap();
         assert_eq!(scene.world.bodies.len(), scene.first_pointer + 2);
         assert!(scene.world.bodies[scene.first_pointer].fixed);
         for (name, bodies) in [("cube-drop.yaml", 2), ("stack.yaml", 14), ("top.yaml", 2)] {
-            let scene = PenaltyScene::parse(&read(name), 0).unwrap();
+            let scene = PenaltyScene::load(&shipped(name), 0).unwrap();
             assert_eq!(scene.world.bodies.len(), bodies, "{name}");
             assert!(
-                PenaltyScene::parse(&read(name), 1).is_err(),
+                PenaltyScene::load(&shipped(name), 1).is_err(),
                 "{name} has no pointer"
             );
         }
@@ -470,30 +522,52 @@ mod tests {
 
     #[test]
     fn bad_scenes_are_refused() {
-        let good = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../../config/scenes/blocks.yaml"),
-        )
-        .unwrap();
-        assert!(PenaltyScene::parse(&good.replacen("dt: ", "dt: -", 1), 1).is_err());
-        assert!(PenaltyScene::parse(&format!("{good}\nspeed: 3\n"), 1).is_err());
-        assert!(PenaltyScene::parse(&good.replacen("density: 500", "density: 0", 1), 1).is_err());
+        let good = std::fs::read_to_string(shipped("blocks.yaml")).unwrap();
+        assert!(parse(&good.replacen("dt: ", "dt: -", 1), 1).is_err());
+        assert!(parse(&format!("{good}\nspeed: 3\n"), 1).is_err());
+        assert!(parse(&good.replacen("density: 500", "density: 0", 1), 1).is_err());
         let scaled = "material:\n  scaling: { spring: 0.05, damper: 0.4 }\n";
-        assert!(PenaltyScene::parse(&good.replacen("material:\n", scaled, 1), 1).is_ok());
+        assert!(parse(&good.replacen("material:\n", scaled, 1), 1).is_ok());
         let unstable = "material:\n  scaling: { spring: 0, damper: 0.4 }\n";
-        assert!(PenaltyScene::parse(&good.replacen("material:\n", unstable, 1), 1).is_err());
+        assert!(parse(&good.replacen("material:\n", unstable, 1), 1).is_err());
+    }
+
+    #[test]
+    fn every_mistake_is_reported_at_its_line() {
+        let text = "\
+name: three mistakes
+gravity: [0, .nan, 0]
+dt: 0.001
+material: { stiffness: 1.0e7, damping: -5, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: 0.001 }
+bodies:
+  - { name: floor, box: [1, 0.1, 1], position: [0, -0.05, 0], fixed: true }
+  - name: block
+    box: [0.03, 0, 0.03]
+    position: [0, 0.1, 0]
+";
+        let e = parse(text, 0).err().expect("three mistakes").to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "s.yaml:2:10: error: gravity: must be a finite number",
+                "s.yaml:4:46: error: material.damping: must be a finite number ≥ 0",
+                "s.yaml:9:10: error: bodies[1].box[1]: must be a finite number > 0",
+            ]
+        );
     }
 }
 
 #[cfg(test)]
 mod pointer_tests {
     use super::*;
+    use glam::DQuat;
 
     #[test]
     fn a_pointer_pressed_into_the_table_is_pushed_out_by_its_depth() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../config/scenes/blocks.yaml");
-        let mut scene = PenaltyScene::parse(&std::fs::read_to_string(path).unwrap(), 1).unwrap();
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/scenes/blocks.yaml");
+        let mut scene = PenaltyScene::load(&path, 1).unwrap();
         let k = scene.first_pointer;
         // The 1 cm pointer cube 3 mm into the table top (y = −0.03), away from the blocks.
         scene.world.bodies[k].place(
@@ -516,6 +590,7 @@ mod pointer_tests {
 #[cfg(test)]
 mod coupling_tests {
     use super::*;
+    use glam::DQuat;
 
     const SCENE: &str = "name: coupled
 dt: 0.0001
@@ -531,7 +606,7 @@ pointer:
 
     #[test]
     fn a_coupled_pointer_stays_on_the_floor_and_the_user_feels_the_stretch() {
-        let mut scene = PenaltyScene::parse(SCENE, 1).unwrap();
+        let mut scene = PenaltyScene::parse(SCENE, Path::new("coupled.yaml"), 1).unwrap();
         // The grip pushes 1 cm below where the 2 cm cube would rest on the floor (y = 0).
         let grip = Grip {
             position: DVec3::new(0.0, 0.0, 0.0),

@@ -91,7 +91,7 @@ fn allocations_in_blocks_ticks(coupled: bool) -> usize {
     use hapticd_physics::coupling::Grip;
     use hapticd_physics::scene::PenaltyScene;
     let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes/blocks.yaml");
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/scenes/blocks.yaml");
     let mut text = std::fs::read_to_string(path).unwrap();
     if coupled {
         text = text.replace(
@@ -100,7 +100,7 @@ fn allocations_in_blocks_ticks(coupled: bool) -> usize {
         );
         assert!(text.contains("coupling"));
     }
-    let mut scene = PenaltyScene::parse(&text, 2).unwrap();
+    let mut scene = PenaltyScene::parse(&text, std::path::Path::new("test.yaml"), 2).unwrap();
     let grip = |t: f64, x: f64| Grip {
         position: DVec3::new(x + 0.02 * t, -0.03, 0.0),
         orientation: DQuat::IDENTITY,

@@ -91,10 +91,8 @@ fn angular_momentum(body: &Body) -> DVec3 {
 }
 
 fn load(path: &Path, model: Option<Model>, pointers: usize) -> Result<PenaltyScene, Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Failure::failed(format!("{}: cannot read: {e}", path.display())))?;
-    let mut scene = PenaltyScene::parse(&text, pointers)
-        .map_err(|e| Failure::failed(format!("{}: {e}", path.display())))?;
+    let mut scene =
+        PenaltyScene::load(path, pointers).map_err(|e| Failure::failed(e.to_string()))?;
     match model {
         Some(Model::Volume) => scene.set_model(ContactModel::Volume),
         Some(Model::Point) => scene.set_model(ContactModel::Point),

@@ -84,7 +84,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         default.exists().then_some(default)
     });
     let config = match &config_path {
-        Some(path) => Config::load(path).map_err(|e| e.to_string())?,
+        Some(path) => Config::load(path)?,
         None => Config::default(),
     };
     let mechanism_dirs = (!cli.mechanism_dirs.is_empty()).then(|| cli.mechanism_dirs.clone());
