@@ -8,7 +8,6 @@ use std::sync::{Arc, Mutex};
 
 use hapticd_core::transport::{Link, TransportError};
 
-use hapticd_device::transport::Sh4Transport;
 use hapticd_core::haptic_loop::{
     DeviceState, Frame, HapticLoop, LoopCommand, LoopSettings, Retired,
 };
@@ -16,6 +15,7 @@ use hapticd_core::scene::Pointer;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
+use hapticd_device::transport::Sh4Transport;
 use support::{shipped, simulated_loop};
 
 const DT: f64 = 1e-3;

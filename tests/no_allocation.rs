@@ -9,19 +9,19 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use glam::DVec3;
-use hapticd_device::transport::Sh4Transport;
+use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};
 use hapticd_core::parameters::Parameters;
-use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::Scene;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
-use hapticd_device::sim::hand::Script;
-use hapticd_device::sim::{SimParameters, SimulatedBoard};
 use hapticd_core::solver::calibration::lengths_from_counts;
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::pose::PoseSolver;
+use hapticd_device::sim::hand::Script;
+use hapticd_device::sim::{SimParameters, SimulatedBoard};
+use hapticd_device::transport::Sh4Transport;
 use support::amplifier::{
     SH4, emulated_amplifier_with, resting_dac, resting_session, umockdev_run,
 };

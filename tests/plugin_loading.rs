@@ -118,7 +118,9 @@ fn the_c_example_plugin_compiles_loads_and_solves() {
     );
     // The base part works on it unchanged: at the centre a small force is met exactly.
     let g = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
-    let solution = m.tension_solver(0).solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
+    let solution = m
+        .tension_solver(0)
+        .solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
     assert!(
         (solution.wrench[1] + 2.0).abs() < 0.05,
         "{:?}",

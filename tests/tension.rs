@@ -8,12 +8,12 @@ use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
 };
 use glam::{DQuat, DVec3};
-use hapticd_core::mechanism::analysis::tension_sweep;
-use hapticd_core::mechanism::Mechanism;
 use hapticd_core::kinematics::Pose;
-use hapticd_core::solver::tension::TensionSettings;
+use hapticd_core::mechanism::Mechanism;
+use hapticd_core::mechanism::analysis::tension_sweep;
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_core::solver::tension::TensionSettings;
 use support::qp::{clarabel_tensions, w_rows};
 use support::{Rng, frame_half, shipped, shipped_mechanisms};
 

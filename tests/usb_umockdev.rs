@@ -216,11 +216,7 @@ fn dac_written(dir: &Path) -> Vec<[i16; 8]> {
         .unwrap()
         .iter()
         .filter(|t| t.direction == Direction::Out)
-        .map(|t| {
-            hapticd_device::sh4::Command::decode(t.bytes())
-                .unwrap()
-                .dac
-        })
+        .map(|t| hapticd_device::sh4::Command::decode(t.bytes()).unwrap().dac)
         .collect()
 }
 

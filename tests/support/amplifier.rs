@@ -171,8 +171,8 @@ pub fn umockdev_run(device: &Path, ioctl: &Path, program: &Path) -> Command {
 /// reach of the static scene: every tick asks for zero force, which the tension solver meets
 /// with the same minimal tensions.
 pub fn resting_dac() -> [i16; 8] {
-    use hapticd_core::transport::dac_for_tension;
     use hapticd_core::solver::geometry::StringGeometry;
+    use hapticd_core::transport::dac_for_tension;
 
     let m = super::shipped("spidar-g");
     let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);

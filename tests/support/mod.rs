@@ -12,13 +12,13 @@ use std::process::Command;
 use glam::{DQuat, DVec3};
 use hapticctl::experiments::Session;
 use hapticd::catalog;
-use hapticd_core::mechanism::Mechanism;
-use hapticd_core::kinematics::Pose;
 use hapticd_core::haptic_loop::{HapticLoop, LoopSettings};
+use hapticd_core::kinematics::Pose;
+use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
-use hapticd_device::sim::hand::Script;
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_device::sim::hand::Script;
 
 /// The cargo profile directory the tests were built into (target/debug or target/release).
 pub fn profile_dir() -> PathBuf {

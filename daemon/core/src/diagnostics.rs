@@ -133,13 +133,10 @@ impl Diagnostics {
             .rsplit_once(" at line ")
             .map_or(rendered.as_str(), |(m, _)| m)
             .replace(", set DuplicateKeyPolicy in Options if acceptable", "");
-        let position = error
-            .location()
-            .filter(|l| l.line() > 0)
-            .map(|l| Position {
-                line: l.line(),
-                column: l.column(),
-            });
+        let position = error.location().filter(|l| l.line() > 0).map(|l| Position {
+            line: l.line(),
+            column: l.column(),
+        });
         Self::at(file, position, String::new(), message)
     }
 }
@@ -157,7 +154,10 @@ pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
     if meta.len() > MAX_FILE_BYTES {
         return Err(Diagnostics::file(
             file,
-            format!("{} bytes is more than the {MAX_FILE_BYTES} a file may have", meta.len()),
+            format!(
+                "{} bytes is more than the {MAX_FILE_BYTES} a file may have",
+                meta.len()
+            ),
         ));
     }
     let mut text = String::new();
@@ -170,7 +170,10 @@ pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
 
 /// Parse YAML `text` (named `file` in findings) into `T`, with the map of its field paths
 /// for locating the findings of later checks.
-pub fn parse_yaml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<(T, YamlMap), Diagnostics> {
+pub fn parse_yaml<T: DeserializeOwned>(
+    text: &str,
+    file: &Path,
+) -> Result<(T, YamlMap), Diagnostics> {
     let value = serde_saphyr::from_str(text).map_err(|e| Diagnostics::yaml(file, &e))?;
     Ok((value, YamlMap::new(text)))
 }
@@ -204,7 +207,10 @@ impl YamlMap {
             let Ok((event, span)) = event else { break };
             let is_node = matches!(
                 event,
-                Event::Scalar(..) | Event::SequenceStart(..) | Event::MappingStart(..) | Event::Alias(_)
+                Event::Scalar(..)
+                    | Event::SequenceStart(..)
+                    | Event::MappingStart(..)
+                    | Event::Alias(_)
             );
             if !is_node {
                 if matches!(event, Event::SequenceEnd | Event::MappingEnd) {
@@ -214,8 +220,12 @@ impl YamlMap {
                 continue;
             }
             // A scalar in key position names the next value rather than being one.
-            if let (Some(Open::Mapping { key: key @ None, .. }), Event::Scalar(name, ..)) =
-                (stack.last_mut(), &event)
+            if let (
+                Some(Open::Mapping {
+                    key: key @ None, ..
+                }),
+                Event::Scalar(name, ..),
+            ) = (stack.last_mut(), &event)
             {
                 *key = Some(name.to_string());
                 continue;
@@ -261,6 +271,20 @@ impl YamlMap {
                 return Some(at);
             }
             path = &path[..path.rfind(['.', '['])?];
+        }
+    }
+}
+
+/// A number as a person would write it: `1e308`, not three hundred digits.
+struct Number(f64);
+
+impl fmt::Display for Number {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+            write!(f, "{v:e}")
+        } else {
+            write!(f, "{v}")
         }
     }
 }
@@ -313,10 +337,23 @@ impl<'a> Findings<'a> {
     }
 
     /// Whether `value` lies in `lo..=hi` (so is finite); an error naming the range if not.
-    pub fn within(&mut self, field: impl Into<String>, value: f64, lo: f64, hi: f64, unit: &str) -> bool {
+    pub fn within(
+        &mut self,
+        field: impl Into<String>,
+        value: f64,
+        lo: f64,
+        hi: f64,
+        unit: &str,
+    ) -> bool {
         let ok = (lo..=hi).contains(&value);
         if !ok {
-            self.error(field, format!("must be a number from {lo} to {hi}{unit}, not {value}"));
+            self.error(
+                field,
+                format!(
+                    "must be a number from {lo} to {hi}{unit}, not {}",
+                    Number(value)
+                ),
+            );
         }
         ok
     }
@@ -332,7 +369,10 @@ impl<'a> Findings<'a> {
         if (q.length() - 1.0).abs() > 1e-6 {
             self.error(
                 field,
-                format!("must be a unit quaternion (w, x, y, z); its norm is {}", q.length()),
+                format!(
+                    "must be a unit quaternion (w, x, y, z); its norm is {}",
+                    q.length()
+                ),
             );
             return DQuat::IDENTITY;
         }

@@ -56,7 +56,6 @@ impl Pose {
 /// Most effectors a running device may have (the size of every per-tick record).
 pub const MAX_EFFECTORS: usize = 4;
 
-
 /// A quaternion from the order files, D-Bus and the plugin ABI write it in: `[w, x, y, z]`.
 pub fn quat_from_wxyz([w, x, y, z]: [f64; 4]) -> DQuat {
     DQuat::from_xyzw(x, y, z, w)

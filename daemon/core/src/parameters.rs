@@ -9,7 +9,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::haptics::proxy::ProxyParameters;
 
-
 /// Highest tick rate: the simulator's bound (USB devices are bound near 4 kHz by 125 µs
 /// microframes).
 pub const MAX_RATE: f64 = 10_000.0;

@@ -13,8 +13,8 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use hapticd_core::transport::Link;
 use crate::{SUPPORTED_DEVICES, SupportedDevice, usb};
+use hapticd_core::transport::Link;
 
 /// How often a missing amplifier is looked for.
 pub const RETRY: Duration = Duration::from_millis(500);

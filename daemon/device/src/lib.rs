@@ -64,4 +64,3 @@ pub const SUPPORTED_DEVICES: [SupportedDevice; 2] = [
         protocol: Protocol::Simple,
     },
 ];
-

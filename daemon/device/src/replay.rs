@@ -12,8 +12,8 @@
 use std::io::{Read, Write};
 use std::path::Path;
 
-use hapticd_core::transport::{Link, TransportError};
 use hapticd_core::sync::spsc;
+use hapticd_core::transport::{Link, TransportError};
 
 /// File signature.
 pub const MAGIC: &[u8; 8] = b"HAPTRAF1";

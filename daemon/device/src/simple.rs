@@ -14,8 +14,8 @@
 //! Reply to a latch: counter i is 24-bit two's complement at bytes 3i..3i+3; byte 24 holds
 //! 8 input bits, bits 4..7 the rotary switch.
 
-use hapticd_core::transport::CHANNELS;
 use crate::counter::sign_extend;
+use hapticd_core::transport::CHANNELS;
 
 /// Size of every transfer.
 pub const PACKET: usize = 32;

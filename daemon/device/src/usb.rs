@@ -6,9 +6,9 @@ use std::time::Duration;
 
 use rusb::UsbContext;
 
-use hapticd_core::transport::{Link, TransportError};
 use crate::usbfs::UsbfsDevice;
 use crate::{SUPPORTED_DEVICES, SupportedDevice, sh4, simple};
+use hapticd_core::transport::{Link, TransportError};
 
 /// How long one transfer may take before the device counts as not answering.
 const TIMEOUT: Duration = Duration::from_millis(100);

@@ -5,9 +5,9 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::plugin;
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::mechanism::{Mechanism, descriptor};
-use crate::plugin;
 
 /// Default search path: local overrides, then plugins, then packaged descriptors.
 pub const DEFAULT_DIRS: [&str; 3] = [

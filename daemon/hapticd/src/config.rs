@@ -196,9 +196,16 @@ mod tests {
 
     #[test]
     fn bad_configurations_are_refused_with_their_place() {
-        let parse = |text: &str| Config::parse(text, Path::new("h.yaml")).unwrap_err().to_string();
+        let parse = |text: &str| {
+            Config::parse(text, Path::new("h.yaml"))
+                .unwrap_err()
+                .to_string()
+        };
         let e = parse("realtime:\n  rate: 1000\n  prio: 3\n");
-        assert!(e.starts_with("h.yaml:3:3: error: unknown field `prio`"), "{e}");
+        assert!(
+            e.starts_with("h.yaml:3:3: error: unknown field `prio`"),
+            "{e}"
+        );
         let e = parse("realtime:\n  priority: 0\n  rate: 50000\nsafety:\n  max_force: .nan\n");
         let lines: Vec<_> = e.lines().collect();
         assert_eq!(

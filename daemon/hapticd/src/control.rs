@@ -10,15 +10,15 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use crate::config::Config;
-use hapticd_core::transport::Link;
 use crate::catalog::Catalog;
-use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
-use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
-use hapticd_core::sync::spsc;
-use hapticd_core::stats::LoopStats;
-use hapticd_core::scene::{Pointer, Scene};
+use crate::config::Config;
 use crate::state::{Calibration, DeviceRecord, StateDir};
+use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
+use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
+use hapticd_core::scene::{Pointer, Scene};
+use hapticd_core::stats::LoopStats;
+use hapticd_core::sync::spsc;
+use hapticd_core::transport::Link;
 
 /// Errors of the control plane; on D-Bus each is `org.hapticd.Hapticd1.Error.<Variant>` with
 /// the message as its text.
@@ -395,12 +395,12 @@ impl Daemon {
         let dirs = lock(&self.inner).config.scene_dirs.clone();
         let mut scenes = Vec::new();
         for device in &self.devices {
-            scenes.push(crate::scenes::open(name, None, &dirs, device.pointers()).map_err(
-                |e| match e {
+            scenes.push(
+                crate::scenes::open(name, None, &dirs, device.pointers()).map_err(|e| match e {
                     crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
                     crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),
-                },
-            )?);
+                })?,
+            );
         }
         let loaded = scenes.first().map(|s| s.name().to_string());
         for (device, scene) in self.devices.iter().zip(scenes) {
@@ -414,7 +414,9 @@ impl Daemon {
     /// file is reported with its place and nothing changes.
     pub fn reload(&self) -> Result<(), Error> {
         let config = match &self.config_path {
-            Some(path) => Config::load(path).map_err(|e| Error::InvalidConfiguration(e.to_string()))?,
+            Some(path) => {
+                Config::load(path).map_err(|e| Error::InvalidConfiguration(e.to_string()))?
+            }
             None => lock(&self.inner).config.clone(),
         };
         let (mechanisms, problems) =

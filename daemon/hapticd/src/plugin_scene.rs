@@ -21,12 +21,12 @@ use std::thread::JoinHandle;
 use glam::DVec3;
 use hapticd_plugin_api::*;
 
-use hapticd_core::scene::{Pointer, Scene};
+use crate::clock::{monotonic_ns, sleep_until};
+use crate::plugin;
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
-use crate::plugin;
 use hapticd_core::kinematics::MAX_EFFECTORS;
-use crate::clock::{monotonic_ns, sleep_until};
+use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
 

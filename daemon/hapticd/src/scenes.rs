@@ -49,8 +49,11 @@ pub fn open(
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }
-    let spec = hapticd_core::scene::static_scene::StaticSceneSpec::load(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
-    Ok(Box::new(hapticd_core::scene::static_scene::StaticScene::new(spec, pointers)))
+    let spec = hapticd_core::scene::static_scene::StaticSceneSpec::load(&path)
+        .map_err(|e| OpenError::Invalid(e.to_string()))?;
+    Ok(Box::new(
+        hapticd_core::scene::static_scene::StaticScene::new(spec, pointers),
+    ))
 }
 
 /// Names of the static scenes in `dirs`, first directory first, without repeats.
@@ -65,8 +68,9 @@ pub fn available(dirs: &[PathBuf]) -> Vec<String> {
             .filter_map(|e| {
                 let path = e.path();
                 let stem = path.file_stem()?.to_str()?.to_string();
-                (path.extension()? == "yaml" && hapticd_core::scene::static_scene::StaticSceneSpec::load(&path).is_ok())
-                    .then_some(stem)
+                (path.extension()? == "yaml"
+                    && hapticd_core::scene::static_scene::StaticSceneSpec::load(&path).is_ok())
+                .then_some(stem)
             })
             .collect();
         here.sort();

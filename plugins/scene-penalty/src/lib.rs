@@ -53,7 +53,8 @@ fn create(
     pointers: usize,
 ) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
     let path = path.ok_or("the penalty scene needs a scene file")?;
-    let scene = PenaltyScene::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())?;
+    let scene =
+        PenaltyScene::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())?;
     hapticd_plugin_api::log(
         HAPTICD_LOG_INFO,
         &format!(

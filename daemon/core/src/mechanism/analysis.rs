@@ -5,9 +5,9 @@ use glam::{DQuat, DVec3};
 
 use super::Mechanism;
 use crate::kinematics::Pose;
-use crate::solver::tension::TensionSettings;
 use crate::solver::closure::is_force_closed;
 use crate::solver::geometry::StringGeometry;
+use crate::solver::tension::TensionSettings;
 
 /// Tensions along a straight path for several λ.
 #[derive(Debug, Clone, PartialEq)]

@@ -94,10 +94,7 @@ impl Mechanism {
             f.error("tension.lambda", "must be a finite number ≥ 0");
         }
         if !(spec.torque_weight.is_finite() && spec.torque_weight > 0.0) {
-            f.error(
-                "tension.torque_weight",
-                "must be a finite number > 0",
-            );
+            f.error("tension.torque_weight", "must be a finite number > 0");
         }
         let effectors = validate_effectors(&mut f, spec);
         let strings = validate_strings(&mut f, spec, &effectors);
@@ -142,7 +139,13 @@ impl Mechanism {
     pub fn calibration_lengths(&self) -> Vec<f64> {
         self.strings
             .iter()
-            .map(|s| (s.motor - self.effectors[s.effector].calibration.transform_point(s.knot)).length())
+            .map(|s| {
+                (s.motor
+                    - self.effectors[s.effector]
+                        .calibration
+                        .transform_point(s.knot))
+                .length()
+            })
             .collect()
     }
 
@@ -214,7 +217,8 @@ fn validate_effectors(f: &mut Findings, spec: &MechanismSpec) -> Vec<Effector> {
         let calib = format!("calibration.{name}");
         let position = DVec3::from(raw.calibration_position);
         f.finite(format!("{calib}.position"), &raw.calibration_position);
-        let orientation = f.unit_quaternion(format!("{calib}.orientation"), raw.calibration_orientation);
+        let orientation =
+            f.unit_quaternion(format!("{calib}.orientation"), raw.calibration_orientation);
         effectors.push(Effector {
             name,
             dof,

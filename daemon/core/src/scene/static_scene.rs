@@ -107,10 +107,7 @@ impl StaticSceneSpec {
                     }
                 }
                 if p.dynamic_friction > p.static_friction {
-                    f.error(
-                        "proxy.dynamic_friction",
-                        "must not exceed static_friction",
-                    );
+                    f.error("proxy.dynamic_friction", "must not exceed static_friction");
                 }
                 ProxyParameters {
                     stiffness: p.stiffness,
@@ -294,7 +291,11 @@ mod tests {
         let parse = |text: &str| StaticSceneSpec::parse(text, Path::new("s.yaml"));
         assert!(parse("name: x\nshapes:\n  - cone: { height: 1 }\n").is_err());
         let e = parse("name: x\nshapes:\n  - floor: { hieght: 0 }\n").unwrap_err();
-        assert!(e.to_string().starts_with("s.yaml:3:14: error: unknown field `hieght`"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("s.yaml:3:14: error: unknown field `hieght`"),
+            "{e}"
+        );
         let e = parse(
             "name: x\nshapes:\n  - sphere: { centre: [0, 0, 0], radius: -1 }\n  - floor: { height: .nan }\n  - plane: { point: [0, 0, 0], normal: [0, 0, 0] }\n",
         )

@@ -73,7 +73,6 @@ impl TensionSolver {
         solver
     }
 
-
     /// Current settings.
     pub fn settings(&self) -> TensionSettings {
         self.settings

@@ -443,9 +443,11 @@ mod tests {
             "time,state,grip_x,grip_y,grip_z\n10.0,running,0,0,0\n10.5,running,0.01,0,0\n11.0,running,0.01,-0.02,0\n",
         )
         .unwrap();
-        let script =
-            Script::parse("hands:\n  grip:\n    - path: { file: path.csv }\n", &dir.join("h.yaml"))
-                .unwrap();
+        let script = Script::parse(
+            "hands:\n  grip:\n    - path: { file: path.csv }\n",
+            &dir.join("h.yaml"),
+        )
+        .unwrap();
         let track = HandTrack::new(DVec3::ZERO, script.hands["grip"].clone());
         let c = track.at(0.25);
         assert!((c.target - DVec3::new(0.005, 0.0, 0.0)).length() < 1e-12);
@@ -477,11 +479,11 @@ mod tests {
         assert_eq!(
             lines,
             [
-                "h.yaml:3:26: error: hands.grip[0].hold.seconds: must be a finite number ≥ 0",
+                "h.yaml:3:24: error: hands.grip[0].hold.seconds: must be a finite number ≥ 0",
                 "h.yaml:4:19: error: hands.grip[1].move.to: must be a finite number",
-                "h.yaml:5:62: error: hands.grip[2].trace.normal: must not be zero",
-                "h.yaml:5:81: error: hands.grip[2].trace.period: must be a finite number > 0",
-                "h.yaml:6:55: error: hands.grip[3].shake.frequency: must be a number from 0 to 1000 Hz, not 1e308",
+                "h.yaml:5:56: error: hands.grip[2].trace.normal: must not be zero",
+                "h.yaml:5:75: error: hands.grip[2].trace.period: must be a finite number > 0",
+                "h.yaml:6:52: error: hands.grip[3].shake.frequency: must be a number from 0 to 1000 Hz, not 1e308",
             ]
         );
     }

@@ -18,11 +18,11 @@ pub mod hand;
 use glam::{DQuat, DVec3};
 
 use crate::sh4::{self, Command, Report};
-use hapticd_core::transport::{Link, TransportError};
-use hapticd_core::transport::{CHANNELS, DAC_DIGITS_PER_VOLT};
+use hand::{HandTrack, Script};
 use hapticd_core::kinematics::{Dof, Pose};
 use hapticd_core::mechanism::Mechanism;
-use hand::{HandTrack, Script};
+use hapticd_core::transport::{CHANNELS, DAC_DIGITS_PER_VOLT};
+use hapticd_core::transport::{Link, TransportError};
 
 /// Physical constants of the simulated device and hand.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -348,9 +348,9 @@ const EINVAL: i32 = 22;
 mod tests {
     use super::*;
     use crate::transport::Sh4Transport;
+    use hapticd_core::mechanism::descriptor;
     use hapticd_core::transport::Transport;
     use hapticd_core::transport::{Reading, dac_for_tension};
-    use hapticd_core::mechanism::descriptor;
     use std::path::Path;
 
     const SPIDAR: &str = "name: s\nend_effectors:\n  - name: grip\n    dof: 3\nstrings:\n\
@@ -366,12 +366,11 @@ mod tests {
     #[test]
     fn counts_follow_the_grip_through_the_protocol() {
         let m = spidar();
-        let script =
-            Script::parse(
-                "hands:\n  grip:\n    - move: { to: [0.03, 0, 0], seconds: 0.5 }\n",
-                std::path::Path::new("h.yaml"),
-            )
-                .unwrap();
+        let script = Script::parse(
+            "hands:\n  grip:\n    - move: { to: [0.03, 0, 0], seconds: 0.5 }\n",
+            std::path::Path::new("h.yaml"),
+        )
+        .unwrap();
         let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default());
         let mut transport = Sh4Transport::new(board, "sim:test");
         let mut reading = Reading::default();

@@ -12,13 +12,13 @@ pub mod stack_timing;
 pub mod stick_slip;
 pub mod wall_stiffness;
 
-use hapticd_device::transport::Sh4Transport;
-use hapticd_core::mechanism::Mechanism;
 use hapticd_core::haptic_loop::{Frame, HapticLoop, LoopSettings};
+use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
+use hapticd_device::transport::Sh4Transport;
 
 /// A closed-loop session on the simulated device.
 #[derive(Debug, Clone)]

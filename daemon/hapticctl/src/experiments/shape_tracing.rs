@@ -8,10 +8,10 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use hapticd_core::haptic_loop::LoopSettings;
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::mechanism::{Mechanism, descriptor};
-use hapticd_core::haptic_loop::LoopSettings;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_device::sim::hand::Script;
 

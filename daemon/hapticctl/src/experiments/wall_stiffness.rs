@@ -4,10 +4,10 @@
 //! fraction of a millimetre. The passivity controller is switched off: this measures the
 //! rendering itself, not its safety net.
 
+use hapticd_core::haptic_loop::{DeviceState, LoopSettings};
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::mechanism::Mechanism;
-use hapticd_core::haptic_loop::{DeviceState, LoopSettings};
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_device::sim::hand::Script;
 

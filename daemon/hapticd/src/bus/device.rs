@@ -8,8 +8,8 @@ use zbus::object_server::SignalEmitter;
 
 use super::{Workers, report};
 use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
-use hapticd_core::parameters::Name;
 use hapticd_core::haptic_loop::DeviceState;
+use hapticd_core::parameters::Name;
 
 /// One haptic device.
 pub struct DeviceInterface {

@@ -498,7 +498,9 @@ mod tests {
     use super::*;
 
     fn shipped(name: &str) -> std::path::PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/scenes").join(name)
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../config/scenes")
+            .join(name)
     }
 
     fn parse(text: &str, pointers: usize) -> Result<PenaltyScene, Diagnostics> {
@@ -552,8 +554,8 @@ bodies:
             lines,
             [
                 "s.yaml:2:10: error: gravity: must be a finite number",
-                "s.yaml:4:46: error: material.damping: must be a finite number ≥ 0",
-                "s.yaml:9:10: error: bodies[1].box[1]: must be a finite number > 0",
+                "s.yaml:4:40: error: material.damping: must be a finite number ≥ 0",
+                "s.yaml:9:17: error: bodies[1].box[1]: must be a finite number > 0",
             ]
         );
     }

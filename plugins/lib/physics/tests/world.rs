@@ -262,9 +262,7 @@ fn a_dropped_cube_settles_within_a_second_on_volume_contact_but_not_on_its_deepe
 fn spinning_top(model: ContactModel, seconds: f64) -> (f64, f64, f64, f64, Body) {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/scenes/top.yaml");
-    let mut scene =
-        hapticd_physics::scene::PenaltyScene::load(&path, 0)
-            .unwrap();
+    let mut scene = hapticd_physics::scene::PenaltyScene::load(&path, 0).unwrap();
     scene.set_model(model);
     let dt = scene.dt;
     let (mut at_1, mut at_3) = (0.0, 0.0);
@@ -390,7 +388,9 @@ bodies:
     density: 500
   - { name: block, box: [0.2, 0.2, 0.1], position: [0, 0.1, 0], density: 500 }
 ";
-    let mut scene = hapticd_physics::scene::PenaltyScene::parse(text, std::path::Path::new("test.yaml"), 0).unwrap();
+    let mut scene =
+        hapticd_physics::scene::PenaltyScene::parse(text, std::path::Path::new("test.yaml"), 0)
+            .unwrap();
     for _ in 0..20000 {
         scene.world.step(scene.dt);
     }
@@ -435,7 +435,9 @@ bodies:
   - {{ name: heavy, box: [0.1, 0.1, 0.1], position: [0.3, 0.05, 0], density: 10000 }}
 "
     );
-    let mut scene = hapticd_physics::scene::PenaltyScene::parse(&text, std::path::Path::new("test.yaml"), 0).unwrap();
+    let mut scene =
+        hapticd_physics::scene::PenaltyScene::parse(&text, std::path::Path::new("test.yaml"), 0)
+            .unwrap();
     for _ in 0..3000 {
         scene.world.step(dt);
     }

@@ -2,11 +2,11 @@
 //! diagnosis (hapticd must not be running: it owns the devices it drives).
 
 use clap::{Args, Subcommand};
-use hapticd_device::transport::{Sh4Transport, SimpleTransport};
 use hapticd_core::transport::Transport;
-use hapticd_device::usb::find_devices;
 use hapticd_core::transport::{CHANNELS, Reading};
 use hapticd_device::Protocol;
+use hapticd_device::transport::{Sh4Transport, SimpleTransport};
+use hapticd_device::usb::find_devices;
 use serde_json::json;
 
 use crate::Failure;

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
 use hapticctl::experiments::{shape_tracing, stack_timing, wall_stiffness};
-use hapticd::catalog::Catalog;
 use hapticctl::plot::{Chart, PALETTE, Series};
+use hapticd::catalog::Catalog;
 use serde_json::{Value, json};
 
 use crate::Failure;

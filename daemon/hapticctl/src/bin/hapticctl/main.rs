@@ -9,8 +9,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use hapticd_core::diagnostics::Diagnostics;
 use hapticd::catalog::Catalog;
+use hapticd_core::diagnostics::Diagnostics;
 
 /// Control hapticd and work with SPIDAR mechanisms.
 #[derive(Parser)]
@@ -72,6 +72,13 @@ impl Failure {
             code,
             message: error.to_string(),
         }
+    }
+}
+
+/// A file that cannot be used fails the operation (exit status 1), each finding shown.
+impl From<Diagnostics> for Failure {
+    fn from(error: Diagnostics) -> Self {
+        Failure::diagnostics(1, &error)
     }
 }
 

@@ -4,16 +4,16 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DQuat, DVec3};
-use hapticd_core::mechanism::analysis::{region_slice, tension_sweep};
+use hapticctl::plot::{Cells, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
+use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::kinematics::{Dof, Pose};
 use hapticd_core::mechanism::Mechanism;
-use hapticd_core::diagnostics::Diagnostics;
-use hapticd_core::solver::tension::TensionSettings;
-use hapticctl::plot::{Cells, Chart, PALETTE, Series};
+use hapticd_core::mechanism::analysis::{region_slice, tension_sweep};
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_core::solver::pose::PoseSolver;
+use hapticd_core::solver::tension::TensionSettings;
 use serde_json::{Value, json};
 
 use crate::Failure;

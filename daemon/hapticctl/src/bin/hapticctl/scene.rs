@@ -91,8 +91,7 @@ fn angular_momentum(body: &Body) -> DVec3 {
 }
 
 fn load(path: &Path, model: Option<Model>, pointers: usize) -> Result<PenaltyScene, Failure> {
-    let mut scene =
-        PenaltyScene::load(path, pointers).map_err(|e| Failure::failed(e.to_string()))?;
+    let mut scene = PenaltyScene::load(path, pointers)?;
     match model {
         Some(Model::Volume) => scene.set_model(ContactModel::Volume),
         Some(Model::Point) => scene.set_model(ContactModel::Point),
@@ -205,8 +204,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         models.push(None);
     }
     let hands: Vec<HandTrack> = match &args.hand {
-        Some(path) => Script::load(path)
-            .map_err(Failure::failed)?
+        Some(path) => Script::load(path)?
             .hands
             .into_values()
             .map(|steps| HandTrack::new(DVec3::ZERO, steps))

@@ -3,8 +3,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use hapticd_core::haptic_loop::DeviceState;
 use hapticd::realtime::LoopEvent;
+use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::sync::spsc;
 
 /// Log the events of the loop of device `identity` as they come (the real-time thread must

@@ -19,11 +19,11 @@ use clap::Parser;
 use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon};
-use hapticd_device::hotplug::Arrivals;
-use hapticd_device::usb::find_devices;
 use hapticd::sd_notify;
-use hapticd_device::sim::hand::Script;
 use hapticd::state::StateDir;
+use hapticd_device::hotplug::Arrivals;
+use hapticd_device::sim::hand::Script;
+use hapticd_device::usb::find_devices;
 
 use device::{Common, Device, Kind, Recording};
 use supervisor::{Ending, Supervisor};

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use hapticd_core::mechanism::Mechanism;
 use hapticd_core::haptic_loop::{DeviceState, Frame};
+use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
 
 /// The CSV header for `mechanism`'s effectors and strings.

@@ -9,11 +9,11 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use hapticd::control::{Daemon, Telemetry};
-use hapticd_device::hotplug::{Arrivals, Lookup};
-use hapticd_core::transport::TransportError;
-use hapticd_core::haptic_loop::Frame;
 use hapticd::realtime::RealtimeLoop;
 use hapticd::sd_notify;
+use hapticd_core::haptic_loop::Frame;
+use hapticd_core::transport::TransportError;
+use hapticd_device::hotplug::{Arrivals, Lookup};
 
 use crate::device::Device;
 use crate::signals::{RELOAD, STOP};

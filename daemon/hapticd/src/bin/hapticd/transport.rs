@@ -1,14 +1,14 @@
 //! What the haptic loop talks to: a USB amplifier, a traffic recording or the simulated
 //! SPIDAR, each behind the transport of its protocol, its traffic recorded on request.
 
-use hapticd_device::Protocol;
-use hapticd_device::replay::{self, RecordingLink, ReplayLink, Transfer};
-use hapticd_core::transport::{Link, Transport};
-use hapticd_device::transport::{Sh4Transport, SimpleTransport};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
+use hapticd_core::transport::{Link, Transport};
+use hapticd_device::Protocol;
+use hapticd_device::replay::{self, RecordingLink, ReplayLink, Transfer};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
+use hapticd_device::transport::{Sh4Transport, SimpleTransport};
 
 use crate::device::Kind;
 
