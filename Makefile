@@ -22,7 +22,7 @@ SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 .PHONY: run check deps test lint bench latency figures header stage release install
 
 stage:
-	$(CARGO) build --release -p hapticd $(addprefix -p ,$(PLUGINS))
+	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(PLUGINS))
 	rm -rf $(STAGE) && install -d -m 755 $(STAGE)
 	install -m 644 $(foreach p,$(PLUGINS),$(RELEASE)/lib$(subst -,_,$(p)).so) config/mechanisms/*.yaml $(STAGE)/
 
@@ -86,7 +86,7 @@ SCENE_PLUGINS := hapticd-scene-penalty
 so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
 
 release:
-	$(CARGO) build --release -p hapticd $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 
 install: release
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/hapticd/plugins \

@@ -2,6 +2,7 @@
 //! convex polyhedra, their exact intersection, and the mass properties of a polyhedron.
 //!
 //! - [`polyhedron`]: convex polyhedra as faces (vertex loops) with their planes;
+//! - [`hull`]: polyhedra bounded by planes, and convex hulls of points;
 //! - [`clip`]: the exact intersection of two convex polyhedra by clipping one with the
 //!   other's face planes, reusing its work buffers between calls;
 //! - [`mass`]: volume and centroid from the faces (divergence theorem);
@@ -18,6 +19,7 @@ pub mod contact;
 pub mod coupling;
 pub mod friction;
 pub mod gjk;
+pub mod hull;
 pub mod mass;
 pub mod polyhedron;
 pub mod scene;

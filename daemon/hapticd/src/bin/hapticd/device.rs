@@ -2,7 +2,7 @@
 //! drives, at which rate, its scene, its parameters and calibration, its loop and the threads
 //! that log and record it.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread::JoinHandle;
@@ -22,32 +22,10 @@ use hapticd_core::sync::spsc;
 use hapticd_device::hotplug::Reconnector;
 use hapticd_device::replay;
 use hapticd_device::sim::hand::Script;
-use hapticd_device::usb::FoundDevice;
 
 use crate::saved::{load_record, set_aside};
-use crate::transport;
+use crate::transport::{self, Kind};
 use crate::{events, recording};
-
-/// What a device is.
-pub enum Kind {
-    /// A USB amplifier, opened.
-    Usb(FoundDevice),
-    /// A traffic recording played back.
-    Replay(PathBuf),
-    /// The simulated SPIDAR.
-    Simulator,
-}
-
-impl Kind {
-    /// The identity its calibration and parameters are kept under.
-    pub fn identity(&self) -> String {
-        match self {
-            Kind::Usb(device) => device.identity.clone(),
-            Kind::Replay(path) => format!("replay:{}", path.display()),
-            Kind::Simulator => "sim".into(),
-        }
-    }
-}
 
 /// What every device is started with.
 pub struct Common<'a> {

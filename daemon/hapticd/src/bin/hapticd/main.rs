@@ -25,7 +25,8 @@ use hapticd_device::hotplug::Arrivals;
 use hapticd_device::sim::hand::Script;
 use hapticd_device::usb::find_devices;
 
-use device::{Common, Device, Kind, Recording};
+use device::{Common, Device, Recording};
+use transport::Kind;
 use supervisor::{Ending, Supervisor};
 
 /// Set when the daemon stops: the logging and recording threads finish then.

@@ -1,6 +1,8 @@
 //! What the haptic loop talks to: a USB amplifier, a traffic recording or the simulated
 //! SPIDAR, each behind the transport of its protocol, its traffic recorded on request.
 
+use std::path::PathBuf;
+
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::{Link, Transport};
@@ -9,8 +11,28 @@ use hapticd_device::replay::{self, RecordingLink, ReplayLink, Transfer};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
 use hapticd_device::transport::{Sh4Transport, SimpleTransport};
+use hapticd_device::usb::FoundDevice;
 
-use crate::device::Kind;
+/// What a device is.
+pub enum Kind {
+    /// A USB amplifier, opened.
+    Usb(FoundDevice),
+    /// A traffic recording played back.
+    Replay(PathBuf),
+    /// The simulated SPIDAR.
+    Simulator,
+}
+
+impl Kind {
+    /// The identity its calibration and parameters are kept under.
+    pub fn identity(&self) -> String {
+        match self {
+            Kind::Usb(device) => device.identity.clone(),
+            Kind::Replay(path) => format!("replay:{}", path.display()),
+            Kind::Simulator => "sim".into(),
+        }
+    }
+}
 
 /// The transport of device `kind`, known as `identity`, its traffic sent to `traffic` if
 /// given; the simulator simulates `mechanism`, stepped `rate` times a second, its hand
