@@ -26,8 +26,8 @@ use hapticd_device::sim::hand::Script;
 use hapticd_device::usb::find_devices;
 
 use device::{Common, Device, Recording};
-use transport::Kind;
 use supervisor::{Ending, Supervisor};
+use transport::Kind;
 
 /// Set when the daemon stops: the logging and recording threads finish then.
 static DONE: AtomicBool = AtomicBool::new(false);

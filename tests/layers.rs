@@ -1,0 +1,297 @@
+//! The workspace's layering, checked: the core links no I/O library, and no crate's modules
+//! import each other in a circle.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ sits in the repository")
+        .to_path_buf()
+}
+
+/// The packages `package` depends on to build (not to test), by name.
+fn normal_dependencies(package: &str) -> BTreeSet<String> {
+    let output = Command::new(env!("CARGO"))
+        .current_dir(repo_dir())
+        .args([
+            "tree",
+            "--offline",
+            "--locked",
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+        ])
+        .args(["--format", "{p}", "-p", package])
+        .output()
+        .expect("cargo runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .filter_map(|line| line.split_whitespace().next())
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn the_core_links_no_io_library() {
+    let core = normal_dependencies("hapticd-core");
+    assert!(
+        core.contains("glam"),
+        "cargo tree lists dependencies: {core:?}"
+    );
+    let io = [
+        "zbus",
+        "rusb",
+        "libloading",
+        "clap",
+        "png",
+        "tracing-journald",
+        "libc",
+        "nix",
+    ];
+    let linked: Vec<_> = io.iter().filter(|c| core.contains(**c)).collect();
+    assert!(linked.is_empty(), "hapticd-core links {linked:?}");
+    // Physics is a library for plugins: it builds on the core alone.
+    let physics = normal_dependencies("hapticd-physics");
+    let linked: Vec<_> = io.iter().filter(|c| physics.contains(**c)).collect();
+    assert!(linked.is_empty(), "hapticd-physics links {linked:?}");
+}
+
+/// The module a source file defines, as path segments from the crate root.
+fn module_of(src: &Path, file: &Path) -> Vec<String> {
+    let relative = file.strip_prefix(src).expect("file under src");
+    let mut segments: Vec<String> = relative
+        .with_extension("")
+        .iter()
+        .map(|s| s.to_string_lossy().into_owned())
+        .collect();
+    if matches!(
+        segments.last().map(String::as_str),
+        Some("mod" | "lib" | "main")
+    ) {
+        segments.pop();
+    }
+    segments
+}
+
+/// Every path a `use` or expression names after `crate::` or `super::` in `text`, expanded
+/// from `{…}` groups, as segments from the crate root.
+fn paths_named(text: &str, module: &[String]) -> Vec<Vec<String>> {
+    let mut found = Vec::new();
+    // In `a/b.rs` and in `a/b/mod.rs` alike (module a::b), super is `a`.
+    let parent = module[..module.len().saturating_sub(1)].to_vec();
+    for (anchor, base) in [("crate::", Vec::new()), ("super::", parent)] {
+        let mut rest = text;
+        while let Some(at) = rest.find(anchor) {
+            let before = rest[..at].chars().next_back();
+            rest = &rest[at + anchor.len()..];
+            if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+                continue;
+            }
+            expand(rest, &base, &mut found);
+        }
+    }
+    found
+}
+
+/// Expand the path that starts `text` (after an anchor) onto `base`.
+fn expand(text: &str, base: &[String], found: &mut Vec<Vec<String>>) {
+    let mut path = base.to_vec();
+    let mut rest = text;
+    loop {
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 1;
+            let end = group
+                .char_indices()
+                .find(|&(_, c)| {
+                    depth += match c {
+                        '{' => 1,
+                        '}' => -1,
+                        _ => 0,
+                    };
+                    depth == 0
+                })
+                .map_or(group.len(), |(i, _)| i);
+            let mut depth = 0;
+            let mut start = 0;
+            let inner = &group[..end];
+            for (i, c) in inner.char_indices().chain([(inner.len(), ',')]) {
+                match c {
+                    '{' => depth += 1,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => {
+                        expand(inner[start..i].trim(), &path, found);
+                        start = i + 1;
+                    }
+                    _ => {}
+                }
+            }
+            return;
+        }
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if name.is_empty() || name == "self" {
+            break;
+        }
+        rest = &rest[name.len()..];
+        path.push(name);
+        match rest.strip_prefix("::") {
+            Some(more) => rest = more,
+            None => break,
+        }
+    }
+    found.push(path);
+}
+
+/// Source files under `dir`, leaving out the binaries' own modules.
+fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("readable source directory") {
+        let path = entry.expect("directory entry").path();
+        if path.is_dir() {
+            if path.file_name().is_some_and(|n| n != "bin") {
+                sources(&path, out);
+            }
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The edges between modules of the crate at `src`, at `depth` segments (1: top-level
+/// modules), unit tests left out.
+fn module_graph(src: &Path, depth: usize) -> BTreeMap<String, BTreeSet<String>> {
+    let mut files = Vec::new();
+    sources(src, &mut files);
+    let known: BTreeSet<Vec<String>> = files.iter().map(|f| module_of(src, f)).collect();
+    let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for file in &files {
+        let module = module_of(src, file);
+        if module.is_empty() {
+            continue;
+        }
+        let text = std::fs::read_to_string(file).expect("readable source");
+        let code = text.split("#[cfg(test)]").next().unwrap_or_default();
+        let from = module[..module.len().min(depth)].join("::");
+        for path in paths_named(code, &module) {
+            // The longest prefix that is a module of this crate.
+            let Some(target) = (1..=path.len())
+                .rev()
+                .map(|n| path[..n].to_vec())
+                .find(|p| known.contains(p))
+            else {
+                continue;
+            };
+            let to = target[..target.len().min(depth)].join("::");
+            // A module owning its submodules is no import.
+            if to != from && !to.starts_with(&format!("{from}::")) {
+                edges.entry(from.clone()).or_default().insert(to);
+            }
+        }
+    }
+    edges
+}
+
+/// A circle of imports in `edges`, if there is one.
+fn find_cycle(edges: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        node: &str,
+        edges: &BTreeMap<String, BTreeSet<String>>,
+        stack: &mut Vec<String>,
+        done: &mut BTreeSet<String>,
+    ) -> Option<Vec<String>> {
+        if let Some(at) = stack.iter().position(|n| n == node) {
+            let mut cycle = stack[at..].to_vec();
+            cycle.push(node.to_string());
+            return Some(cycle);
+        }
+        if done.contains(node) {
+            return None;
+        }
+        stack.push(node.to_string());
+        for next in edges.get(node).into_iter().flatten() {
+            if let Some(cycle) = visit(next, edges, stack, done) {
+                return Some(cycle);
+            }
+        }
+        stack.pop();
+        done.insert(node.to_string());
+        None
+    }
+    let mut done = BTreeSet::new();
+    edges
+        .keys()
+        .find_map(|n| visit(n, edges, &mut Vec::new(), &mut done))
+}
+
+#[test]
+fn no_modules_import_each_other_in_a_circle() {
+    let crates = [
+        "daemon/core/src",
+        "daemon/device/src",
+        "daemon/hapticd/src",
+        "daemon/hapticd/src/bin/hapticd",
+        "daemon/hapticctl/src",
+        "daemon/hapticctl/src/bin/hapticctl",
+        "plugins/lib/physics/src",
+    ];
+    for dir in crates {
+        let src = repo_dir().join(dir);
+        for depth in [1, 2] {
+            let edges = module_graph(&src, depth);
+            // The core's layers import one another: a finder that sees nothing is broken.
+            assert!(
+                !edges.is_empty() || dir != "daemon/core/src",
+                "{dir}: no imports found"
+            );
+            if let Some(cycle) = find_cycle(&edges) {
+                panic!("{dir}: modules import each other: {}", cycle.join(" → "));
+            }
+        }
+    }
+}
+
+#[test]
+fn the_circle_finder_finds_circles() {
+    let graph = |pairs: &[(&str, &str)]| {
+        let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (a, b) in pairs {
+            edges
+                .entry(a.to_string())
+                .or_default()
+                .insert(b.to_string());
+        }
+        edges
+    };
+    assert_eq!(
+        find_cycle(&graph(&[("a", "b"), ("b", "c"), ("c", "a")])),
+        Some(vec!["a".into(), "b".into(), "c".into(), "a".into()])
+    );
+    assert_eq!(
+        find_cycle(&graph(&[("a", "b"), ("b", "c"), ("a", "c")])),
+        None
+    );
+    let module = vec!["solver".to_string(), "tension".to_string()];
+    let named = paths_named(
+        "use super::box_qp::{self, Matrix};\nuse crate::{kinematics::Pose, mechanism};",
+        &module,
+    );
+    assert!(
+        named.contains(&vec!["solver".into(), "box_qp".into()]),
+        "{named:?}"
+    );
+    assert!(
+        named.contains(&vec!["kinematics".into(), "Pose".into()]),
+        "{named:?}"
+    );
+    assert!(named.contains(&vec!["mechanism".into()]), "{named:?}");
+}
