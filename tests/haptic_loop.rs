@@ -55,8 +55,11 @@ fn the_floor_holds_the_pushing_hand_on_its_surface() {
     assert!((-0.036..-0.030).contains(&mean), "grip held at y = {mean}");
     assert!(spread < 2e-4, "grip not at rest: spread {spread}");
     let force = frame.wrenches[0];
-    assert!(force[1] > 3.0 && force[1] < 8.0, "{force:?}");
-    assert!(force[0].abs() < 0.5 && force[2].abs() < 0.5, "{force:?}");
+    assert!(force.force.y > 3.0 && force.force.y < 8.0, "{force:?}");
+    assert!(
+        force.force.x.abs() < 0.5 && force.force.z.abs() < 0.5,
+        "{force:?}"
+    );
 }
 
 #[test]
@@ -66,7 +69,7 @@ fn an_unplugged_device_faults_to_zero_and_resumes() {
     let mut states = Vec::new();
     for _ in 0..2000 {
         let frame = *haptic.tick(DT);
-        states.push((frame.state, frame.dac, frame.wrenches[0][1]));
+        states.push((frame.state, frame.dac, frame.wrenches[0].force.y));
     }
     // While unplugged (1.0–1.2 s) the loop reports it and commands zero current.
     for (state, dac, _) in &states[1010..1190] {
@@ -153,7 +156,11 @@ fn pressed_then_unplugged() -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Frame) {
     }
     let pressing = *haptic.frame();
     assert_eq!(pressing.state, DeviceState::Running);
-    assert!(pressing.wrenches[0][1] > 3.0, "{:?}", pressing.wrenches[0]);
+    assert!(
+        pressing.wrenches[0].force.y > 3.0,
+        "{:?}",
+        pressing.wrenches[0]
+    );
     // Unplugged: the old link never answers again, and the motors get zero once the fault
     // ramp (as for the simulator's own unplug) is over.
     first_cable.store(true, Ordering::Relaxed);
@@ -196,7 +203,7 @@ fn an_amplifier_opened_again_after_an_unplug_resumes_with_its_calibration() {
     assert_eq!(frame.offsets, pressing.offsets);
     assert_eq!(frame.state, DeviceState::Running);
     assert!(
-        frame.wrenches[0][1] > 3.0,
+        frame.wrenches[0].force.y > 3.0,
         "pressing again: {:?}",
         frame.wrenches[0]
     );

@@ -11,7 +11,7 @@ use std::cell::Cell;
 use glam::DVec3;
 use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::proxy::ProxyParameters;
-use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use hapticd_core::parameters::Parameters;
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::Scene;
@@ -101,7 +101,10 @@ fn pose_tension_calibration_and_closure_do_not_allocate() {
                     kinematics.lengths(pose, &mut lengths);
                     let estimate = pose_solver.solve(&lengths[..kinematics.count()], 2);
                     let force = DVec3::new(1.0, -2.0, 3.0) * (k as f64 * 0.01);
-                    let wrench = [force.x, force.y, force.z, 0.01, 0.0, -0.01];
+                    let wrench = Wrench {
+                        force,
+                        torque: glam::DVec3::new(0.01, 0.0, -0.01),
+                    };
                     let solution = tension_solver.solve(pose_solver.geometry(), &wrench);
                     std::hint::black_box((
                         estimate,

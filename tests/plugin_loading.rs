@@ -10,6 +10,7 @@ use std::process::Command;
 use glam::DVec3;
 use hapticd::catalog;
 use hapticd::plugin;
+use hapticd_core::kinematics::Wrench;
 use hapticd_core::solver::geometry::StringGeometry;
 use support::{plugin_path, repo_dir};
 
@@ -120,9 +121,9 @@ fn the_c_example_plugin_compiles_loads_and_solves() {
     let g = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
     let solution = m
         .tension_solver(0)
-        .solve(&g, &[0.0, -2.0, 0.0, 0.0, 0.0, 0.0]);
+        .solve(&g, &Wrench::force(-2.0 * glam::DVec3::Y));
     assert!(
-        (solution.wrench[1] + 2.0).abs() < 0.05,
+        (solution.wrench.force.y + 2.0).abs() < 0.05,
         "{:?}",
         solution.wrench
     );

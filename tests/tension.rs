@@ -8,7 +8,7 @@ use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
 };
 use glam::{DQuat, DVec3};
-use hapticd_core::kinematics::Pose;
+use hapticd_core::kinematics::{Pose, Wrench};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::mechanism::analysis::tension_sweep;
 use hapticd_core::solver::closure::is_force_closed;
@@ -55,7 +55,7 @@ fn reference_solution(
 }
 
 fn objective(g: &StringGeometry, t: &[f64], f: &[f64], lambda: f64) -> f64 {
-    let achieved = g.wrench(t);
+    let achieved = g.wrench(t).to_array();
     let err: f64 = (0..g.dof()).map(|r| (achieved[r] - f[r]).powi(2)).sum();
     err + lambda * t.iter().map(|x| x * x).sum::<f64>()
 }
@@ -107,7 +107,7 @@ fn tensions_match_a_general_qp_solver_on_random_problems() {
                     lambda,
                     torque_weight: 1.0,
                 });
-                let ours = solver.solve(&g, &f);
+                let ours = solver.solve(&g, &Wrench::from_array(f));
                 assert!(ours.converged);
                 let reference = reference_tensions(&g, &f, lambda, &lo, &hi);
                 for (i, (t, r)) in ours.tensions().iter().zip(&reference).enumerate() {
@@ -137,7 +137,7 @@ fn at_lambda_zero_the_objective_matches_the_general_solver() {
         });
         for _ in 0..300 {
             let (g, f) = random_case(&m, 0, &mut rng);
-            let ours = solver.solve(&g, &f);
+            let ours = solver.solve(&g, &Wrench::from_array(f));
             // Without λ the problem is only semidefinite; interior points may stop short.
             let accepted = [SolverStatus::Solved, SolverStatus::AlmostSolved];
             let reference = reference_solution(&g, &f, 0.0, &lo, &hi, &accepted);
@@ -161,8 +161,8 @@ fn warm_and_cold_starts_agree() {
     let mut warm = m.tension_solver(0);
     for _ in 0..300 {
         let (g, f) = random_case(&m, 0, &mut rng);
-        let a = warm.solve(&g, &f);
-        let b = m.tension_solver(0).solve(&g, &f);
+        let a = warm.solve(&g, &Wrench::from_array(f));
+        let b = m.tension_solver(0).solve(&g, &Wrench::from_array(f));
         for (x, y) in a.tensions().iter().zip(b.tensions()) {
             assert!((x - y).abs() < 1e-9);
         }
@@ -174,7 +174,7 @@ fn with_lambda_tensions_are_continuous_across_the_region_boundary_and_without_th
     // Thesis Fig. 3.15: f = (5, 5, 5) N along the frame diagonal of the 4-string SPIDAR,
     // starting clear of the motor at (−h, −h, −h) where a string's direction is undefined.
     let m = shipped("spidar");
-    let wrench = [5.0, 5.0, 5.0, 0.0, 0.0, 0.0];
+    let wrench = Wrench::force(DVec3::splat(5.0));
     let path = (DVec3::splat(-0.2), DVec3::splat(0.27));
     let lambdas = [0.0, 0.01, 0.1];
     let coarse = tension_sweep(&m, 0, path, DQuat::IDENTITY, &wrench, &lambdas, 1001);

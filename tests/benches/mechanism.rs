@@ -9,7 +9,7 @@ mod support;
 use clarabel::solver::DefaultSettingsBuilder;
 use divan::Bencher;
 use glam::DQuat;
-use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};
+use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_core::solver::pose::PoseSolver;
@@ -92,7 +92,7 @@ fn tension_active_set(bencher: Bencher, name: &str) {
     bencher.bench_local(|| {
         i = (i + 1) % CASES;
         let (geometry, wrench) = &cases[i];
-        solver.solve(divan::black_box(geometry), wrench)
+        solver.solve(divan::black_box(geometry), &Wrench::from_array(*wrench))
     });
 }
 

@@ -176,7 +176,7 @@ pub fn resting_dac() -> [i16; 8] {
 
     let m = super::shipped("spidar-g");
     let geometry = StringGeometry::at(&m.kinematics(0), &m.effectors[0].calibration);
-    let resting = m.tension_solver(0).solve(&geometry, &[0.0; 6]);
+    let resting = m.tension_solver(0).solve(&geometry, &Default::default());
     let mut dac = [0i16; 8];
     for (i, s) in m.strings.iter().enumerate() {
         dac[i] = dac_for_tension(resting.tensions[i], s.volts_per_newton);

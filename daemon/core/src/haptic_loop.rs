@@ -18,7 +18,7 @@ use glam::DVec3;
 
 use crate::haptics::passivity::PassivityController;
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
-use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose};
+use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
 use crate::scene::{Pointer, Scene};
@@ -92,7 +92,7 @@ pub struct Frame {
     /// Filtered velocity of each effector.
     pub velocities: [DVec3; MAX_EFFECTORS],
     /// Wrench displayed on each effector (after passivity and safety).
-    pub wrenches: [[f64; 6]; MAX_EFFECTORS],
+    pub wrenches: [Wrench; MAX_EFFECTORS],
     /// Strings in use.
     pub strings: usize,
     /// Tension commanded on each string, newtons.
@@ -157,7 +157,7 @@ pub struct HapticLoop {
     reading: Reading,
     lengths: Vec<f64>,
     pointers: Vec<Pointer>,
-    wrenches: Vec<[f64; 6]>,
+    wrenches: Vec<Wrench>,
     frame: Frame,
     parameters: Option<Parameters>,
     incoming: Option<Box<dyn Scene>>,
@@ -232,7 +232,7 @@ impl HapticLoop {
             calibrated: false,
             reading: Reading::default(),
             lengths: vec![0.0; mechanism.strings.len()],
-            wrenches: vec![[0.0; 6]; pointers.len()],
+            wrenches: vec![Wrench::ZERO; pointers.len()],
             pointers,
             effectors,
             settings,
@@ -405,15 +405,13 @@ impl HapticLoop {
             self.swap_scene_when_quiet();
             scene_ok = self.scene.render(&self.pointers, dt, &mut self.wrenches);
         } else {
-            self.wrenches.fill([0.0; 6]);
+            self.wrenches.fill(Wrench::ZERO);
         }
         let mut all_finite = true;
         let switching = self.incoming.is_some();
         for (index, e) in self.effectors.iter_mut().enumerate() {
             let mut wrench = self.wrenches[index];
-            let force = DVec3::new(wrench[0], wrench[1], wrench[2]);
-            let force = e.passivity.filter(force, e.velocity, dt);
-            wrench[..3].copy_from_slice(&force.to_array());
+            wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);
             let healthy = connected && scene_ok && !switching && !self.misfit;
             all_finite &= e.guard.apply(&mut wrench, healthy, dt);
             self.frame.wrenches[index] = wrench;

@@ -2,6 +2,7 @@
 //! degrees of freedom, its pose, and the size limits that fix every real-time buffer.
 
 use glam::{DQuat, DVec3};
+use hapticd_plugin_api::HapticdWrench;
 
 /// Most strings one end effector may have; fixes the size of every real-time buffer.
 pub const MAX_STRINGS_PER_EFFECTOR: usize = 16;
@@ -64,4 +65,105 @@ pub fn quat_from_wxyz([w, x, y, z]: [f64; 4]) -> DQuat {
 /// A quaternion in the order files, D-Bus and the plugin ABI write it in: `[w, x, y, z]`.
 pub fn quat_to_wxyz(q: DQuat) -> [f64; 4] {
     [q.w, q.x, q.y, q.z]
+}
+
+/// A force and a torque: what a scene asks a pointer to feel, what the strings apply to a
+/// grip, what a body gets from a contact. For a grip the torque is about its centre.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Wrench {
+    /// Force, newtons.
+    pub force: DVec3,
+    /// Torque, newton-metres.
+    pub torque: DVec3,
+}
+
+impl Wrench {
+    /// No force, no torque.
+    pub const ZERO: Wrench = Wrench {
+        force: DVec3::ZERO,
+        torque: DVec3::ZERO,
+    };
+
+    /// A force alone.
+    pub const fn force(force: DVec3) -> Wrench {
+        Wrench {
+            force,
+            torque: DVec3::ZERO,
+        }
+    }
+
+    /// From the six components the solvers work on: force, then torque.
+    pub fn from_array(w: [f64; 6]) -> Wrench {
+        Wrench {
+            force: DVec3::new(w[0], w[1], w[2]),
+            torque: DVec3::new(w[3], w[4], w[5]),
+        }
+    }
+
+    /// The six components the solvers work on: force, then torque.
+    pub fn to_array(&self) -> [f64; 6] {
+        let (f, t) = (self.force, self.torque);
+        [f.x, f.y, f.z, t.x, t.y, t.z]
+    }
+
+    /// Whether every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.force.is_finite() && self.torque.is_finite()
+    }
+}
+
+impl std::ops::Add for Wrench {
+    type Output = Wrench;
+
+    fn add(self, other: Wrench) -> Wrench {
+        Wrench {
+            force: self.force + other.force,
+            torque: self.torque + other.torque,
+        }
+    }
+}
+
+impl std::ops::Mul<f64> for Wrench {
+    type Output = Wrench;
+
+    fn mul(self, scale: f64) -> Wrench {
+        Wrench {
+            force: self.force * scale,
+            torque: self.torque * scale,
+        }
+    }
+}
+
+impl From<Wrench> for HapticdWrench {
+    fn from(w: Wrench) -> Self {
+        HapticdWrench {
+            force: w.force.to_array(),
+            torque: w.torque.to_array(),
+        }
+    }
+}
+
+impl From<HapticdWrench> for Wrench {
+    fn from(w: HapticdWrench) -> Self {
+        Wrench {
+            force: DVec3::from(w.force),
+            torque: DVec3::from(w.torque),
+        }
+    }
+}
+
+/// `v` shortened to length `max` if it is longer. The length is taken without squaring
+/// the components, so a huge finite vector is shortened, not lost to overflow.
+pub fn clamp_length(v: DVec3, max: f64) -> DVec3 {
+    let scale = v.abs().max_element();
+    if scale == 0.0 || !scale.is_finite() {
+        return v;
+    }
+    let unit = v / scale;
+    let length = unit.length() * scale;
+    if length > max {
+        unit / unit.length() * max
+    } else {
+        v
+    }
 }

@@ -25,7 +25,7 @@ use crate::clock::{monotonic_ns, sleep_until};
 use crate::plugin;
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
-use hapticd_core::kinematics::MAX_EFFECTORS;
+use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench, quat_to_wxyz};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
@@ -50,10 +50,9 @@ impl Drop for Instance {
 }
 
 fn to_abi(pointer: &Pointer) -> HapticdPointer {
-    let q = pointer.pose.orientation;
     HapticdPointer {
         position: pointer.pose.position.to_array(),
-        orientation: [q.w, q.x, q.y, q.z],
+        orientation: quat_to_wxyz(pointer.pose.orientation),
         velocity: pointer.velocity.to_array(),
     }
 }
@@ -132,8 +131,8 @@ impl Scene for DirectScene {
         &self.name
     }
 
-    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
-        wrenches.fill([0.0; 6]);
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
+        wrenches.fill(Wrench::ZERO);
         if self.failed {
             return false;
         }
@@ -156,14 +155,7 @@ impl Scene for DirectScene {
             return false;
         }
         for (out, w) in wrenches.iter_mut().zip(&self.wrenches) {
-            *out = [
-                w.force[0],
-                w.force[1],
-                w.force[2],
-                w.torque[0],
-                w.torque[1],
-                w.torque[2],
-            ];
+            *out = Wrench::from(*w);
         }
         true
     }
@@ -335,8 +327,8 @@ impl Scene for MultiRateScene {
         &self.name
     }
 
-    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
-        wrenches.fill([0.0; 6]);
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
+        wrenches.fill(Wrench::ZERO);
         self.pointers_out.publish(|out| {
             for (o, p) in out.iter_mut().zip(pointers) {
                 *o = to_abi(p);
@@ -372,7 +364,7 @@ impl Scene for MultiRateScene {
                 &self.parameters,
                 dt,
             );
-            *wrench = [out.force.x, out.force.y, out.force.z, 0.0, 0.0, 0.0];
+            *wrench = Wrench::force(out.force);
             if out.in_contact {
                 // The surface the proxy rests on takes the reaction.
                 let touched = (0..count).min_by(|&a, &b| {

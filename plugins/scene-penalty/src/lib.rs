@@ -5,7 +5,7 @@
 //! (4.1.2), whose stretch the user feels.
 
 use glam::{DQuat, DVec3};
-use hapticd_physics::contact::Wrench;
+use hapticd_core::kinematics::{Wrench, quat_from_wxyz};
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene};
 use hapticd_plugin_api::*;
@@ -27,10 +27,9 @@ impl SceneInstance for Penalty {
             spin: DVec3::ZERO,
         }; MAX_POINTERS];
         for (grip, p) in grips.iter_mut().zip(pointers) {
-            let [w, x, y, z] = p.orientation;
             *grip = Grip {
                 position: DVec3::from(p.position),
-                orientation: DQuat::from_xyzw(x, y, z, w).normalize(),
+                orientation: quat_from_wxyz(p.orientation).normalize(),
                 velocity: DVec3::from(p.velocity),
                 spin: DVec3::ZERO,
             };
@@ -39,10 +38,7 @@ impl SceneInstance for Penalty {
         let mut felt = [Wrench::default(); MAX_POINTERS];
         self.0.step_pointers(dt, &grips[..n], &mut felt[..n]);
         for (out, w) in wrenches.iter_mut().zip(felt) {
-            *out = HapticdWrench {
-                force: w.force.to_array(),
-                torque: w.torque.to_array(),
-            };
+            *out = w.into();
         }
         HAPTICD_OK
     }

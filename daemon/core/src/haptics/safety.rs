@@ -1,6 +1,8 @@
 //! The last stage before the motors: force and torque limits, the NaN guard, and the ramp
 //! that takes forces to zero within a few ticks of any fault (and back up gently after).
 
+use crate::kinematics::{Wrench, clamp_length};
+
 /// Limits and ramp times of one effector.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SafetyLimits {
@@ -30,16 +32,7 @@ impl Default for SafetyLimits {
 pub struct SafetyGuard {
     limits: SafetyLimits,
     gain: f64,
-    last_good: [f64; 6],
-}
-
-fn clamp_norm(v: &mut [f64], max: f64) {
-    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    if norm > max {
-        for x in v {
-            *x *= max / norm;
-        }
-    }
+    last_good: Wrench,
 }
 
 impl SafetyGuard {
@@ -48,7 +41,7 @@ impl SafetyGuard {
         Self {
             limits,
             gain: 0.0,
-            last_good: [0.0; 6],
+            last_good: Wrench::ZERO,
         }
     }
 
@@ -67,14 +60,14 @@ impl SafetyGuard {
         self.gain
     }
 
-    /// Turn the requested `wrench` (force, then torque) into the one to display. `healthy` is
+    /// Turn the requested `wrench` into the one to display. `healthy` is
     /// false on any fault; a non-finite wrench is a fault too, and the last finite one is
     /// ramped down instead. Returns whether the wrench was finite.
-    pub fn apply(&mut self, wrench: &mut [f64; 6], healthy: bool, dt: f64) -> bool {
-        let finite = wrench.iter().all(|x| x.is_finite());
+    pub fn apply(&mut self, wrench: &mut Wrench, healthy: bool, dt: f64) -> bool {
+        let finite = wrench.is_finite();
         if finite {
-            clamp_norm(&mut wrench[..3], self.limits.max_force);
-            clamp_norm(&mut wrench[3..], self.limits.max_torque);
+            wrench.force = clamp_length(wrench.force, self.limits.max_force);
+            wrench.torque = clamp_length(wrench.torque, self.limits.max_torque);
             self.last_good = *wrench;
         } else {
             *wrench = self.last_good;
@@ -88,9 +81,7 @@ impl SafetyGuard {
                 self.gain = 0.0;
             }
         }
-        for x in wrench.iter_mut() {
-            *x *= self.gain;
-        }
+        *wrench = *wrench * self.gain;
         finite
     }
 }
@@ -98,11 +89,12 @@ impl SafetyGuard {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     fn healthy_guard() -> SafetyGuard {
         let mut g = SafetyGuard::new(SafetyLimits::default());
         for _ in 0..1000 {
-            g.apply(&mut [0.0; 6], true, 1e-3);
+            g.apply(&mut Wrench::default(), true, 1e-3);
         }
         g
     }
@@ -110,10 +102,24 @@ mod tests {
     #[test]
     fn forces_above_the_limit_are_clamped() {
         let mut g = healthy_guard();
-        let mut w = [30.0, 40.0, 0.0, 0.0, 0.0, 1.0];
+        let mut w = Wrench::from_array([30.0, 40.0, 0.0, 0.0, 0.0, 1.0]);
         g.apply(&mut w, true, 1e-3);
-        assert!((w[0] - 6.0).abs() < 1e-12 && (w[1] - 8.0).abs() < 1e-12);
-        assert!((w[5] - 0.3).abs() < 1e-12);
+        assert!((w.force - DVec3::new(6.0, 8.0, 0.0)).length() < 1e-12);
+        assert!((w.torque.z - 0.3).abs() < 1e-12);
+    }
+
+    #[test]
+    fn huge_finite_forces_are_clamped_not_lost_to_overflow() {
+        let mut g = healthy_guard();
+        for huge in [1e160, 1e300, f64::MAX] {
+            let mut w = Wrench::from_array([0.0, huge, 0.0, -huge, 0.0, huge]);
+            assert!(g.apply(&mut w, true, 1e-3));
+            assert!(
+                (w.force - DVec3::new(0.0, 10.0, 0.0)).length() < 1e-9,
+                "{w:?}"
+            );
+            assert!((w.torque.length() - 0.3).abs() < 1e-12, "{w:?}");
+        }
     }
 
     #[test]
@@ -121,12 +127,12 @@ mod tests {
         let mut g = healthy_guard();
         let mut previous = 5.0;
         for tick in 0..10 {
-            let mut w = [5.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let mut w = Wrench::force(DVec3::X * 5.0);
             g.apply(&mut w, false, 1e-3);
-            assert!(w[0] <= previous);
-            previous = w[0];
+            assert!(w.force.x <= previous);
+            previous = w.force.x;
             if tick >= 4 {
-                assert_eq!(w[0], 0.0, "tick {tick}");
+                assert_eq!(w.force.x, 0.0, "tick {tick}");
             }
         }
     }
@@ -134,9 +140,9 @@ mod tests {
     #[test]
     fn nan_is_a_fault_and_never_reaches_the_motors() {
         let mut g = healthy_guard();
-        g.apply(&mut [2.0, 0.0, 0.0, 0.0, 0.0, 0.0], true, 1e-3);
-        let mut w = [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0];
+        g.apply(&mut Wrench::force(DVec3::X * 2.0), true, 1e-3);
+        let mut w = Wrench::force(DVec3::new(f64::NAN, 0.0, 0.0));
         assert!(!g.apply(&mut w, true, 1e-3));
-        assert!(w.iter().all(|x| x.is_finite()) && w[0] < 2.0);
+        assert!(w.is_finite() && w.force.x < 2.0);
     }
 }

@@ -4,7 +4,7 @@
 use glam::{DQuat, DVec3};
 
 use super::Mechanism;
-use crate::kinematics::Pose;
+use crate::kinematics::{Pose, Wrench};
 use crate::solver::closure::is_force_closed;
 use crate::solver::geometry::StringGeometry;
 use crate::solver::tension::TensionSettings;
@@ -46,7 +46,7 @@ pub fn tension_sweep(
     effector: usize,
     (from, to): (DVec3, DVec3),
     orientation: DQuat,
-    wrench: &[f64; 6],
+    wrench: &Wrench,
     lambdas: &[f64],
     samples: usize,
 ) -> Sweep {

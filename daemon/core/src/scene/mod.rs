@@ -9,7 +9,7 @@ pub mod static_scene;
 use glam::DVec3;
 
 use crate::haptics::proxy::ProxyParameters;
-use crate::kinematics::Pose;
+use crate::kinematics::{Pose, Wrench};
 use crate::mechanism::Mechanism;
 
 /// One pointer as the scene sees it.
@@ -40,10 +40,10 @@ pub trait Scene: Send {
     /// [main] The scene's name.
     fn name(&self) -> &str;
 
-    /// [rt] The wrench (force, then torque) to present on each pointer after a tick of `dt`
-    /// seconds. `wrenches` has one slot per pointer. Returns false when the scene has failed
+    /// [rt] The wrench to present on each pointer (torque about the grip) after a tick of
+    /// `dt` seconds. `wrenches` has one slot per pointer. Returns false when the scene has failed
     /// (a plugin error, stale physics): the loop then ramps the forces to zero.
-    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool;
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool;
 
     /// [rt] Forget contact state (after a fault, or when the pointers jumped).
     fn reset(&mut self, pointers: &[Pointer]);

@@ -20,6 +20,7 @@ use super::{Pointer, Scene};
 use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
+use crate::kinematics::Wrench;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -237,7 +238,7 @@ impl Scene for StaticScene {
         &self.spec.name
     }
 
-    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [[f64; 6]]) -> bool {
+    fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
         for ((proxy, pointer), wrench) in self.proxies.iter_mut().zip(pointers).zip(wrenches) {
             let out = proxy.update(
                 pointer.pose.position,
@@ -246,7 +247,7 @@ impl Scene for StaticScene {
                 &self.spec.proxy,
                 dt,
             );
-            *wrench = [out.force.x, out.force.y, out.force.z, 0.0, 0.0, 0.0];
+            *wrench = Wrench::force(out.force);
         }
         true
     }

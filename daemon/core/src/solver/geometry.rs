@@ -7,7 +7,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::kinematics::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose};
+use crate::kinematics::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 
 /// The strings of one effector in fixed-size arrays, for use on the real-time thread.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -145,15 +145,15 @@ impl StringGeometry {
         &self.columns[i]
     }
 
-    /// The wrench W τ produced by `tensions` (force, then torque for 6 DOF).
-    pub fn wrench(&self, tensions: &[f64]) -> [f64; 6] {
+    /// The wrench W τ produced by `tensions` (no torque for 3 DOF).
+    pub fn wrench(&self, tensions: &[f64]) -> Wrench {
         let mut w = [0.0; 6];
         for (column, &t) in self.columns[..self.count].iter().zip(tensions) {
             for (wr, c) in w.iter_mut().zip(column) {
                 *wr += c * t;
             }
         }
-        w
+        Wrench::from_array(w)
     }
 
     /// W Wᵀ, the Gauss–Newton normal matrix of the pose problem, for `N` = [`dof`](Self::dof)
@@ -257,7 +257,7 @@ mod tests {
         let g = StringGeometry::at(&k, &Pose::IDENTITY);
         let mut t = [0.0; 8];
         t[3] = 1.0;
-        assert_eq!(g.wrench(&t), *g.column(3));
+        assert_eq!(g.wrench(&t).to_array(), *g.column(3));
         assert!(g.pose_observable());
     }
 }

@@ -9,6 +9,7 @@
 
 use super::box_qp::{self, ActiveSet, BoxQp, MAX_VARS, Matrix, Vector};
 use super::geometry::StringGeometry;
+use crate::kinematics::Wrench;
 
 /// Settings of the tension problem (thesis eq. 3.16).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,8 +30,8 @@ pub struct TensionSolution {
     pub tensions: [f64; MAX_VARS],
     /// Number of strings.
     pub count: usize,
-    /// The wrench W τ those tensions produce: force, then torque for 6 DOF.
-    pub wrench: [f64; 6],
+    /// The wrench W τ those tensions produce (no torque for 3 DOF).
+    pub wrench: Wrench,
     /// Active-set iterations used.
     pub iterations: usize,
     /// Whether the QP reached its optimum (the tensions respect the limits either way).
@@ -83,8 +84,9 @@ impl TensionSolver {
         self.settings = settings;
     }
 
-    /// Tensions that best produce `target` (force, then torque for 6 DOF) at `geometry`.
-    pub fn solve(&mut self, geometry: &StringGeometry, target: &[f64; 6]) -> TensionSolution {
+    /// Tensions that best produce `target` at `geometry` (its torque counts for 6 DOF).
+    pub fn solve(&mut self, geometry: &StringGeometry, target: &Wrench) -> TensionSolution {
+        let target = target.to_array();
         debug_assert_eq!(geometry.count(), self.count);
         let (n, dof) = (self.count, geometry.dof());
         let weight = |r: usize| {

@@ -88,7 +88,7 @@ pub fn is_stable(mechanism: &Mechanism, rate: f64, stiffness: f64, damping: f64)
         healthy &= frame.state == DeviceState::Running;
         if frame.time > 0.6 {
             y.add(frame.poses[0].position.y);
-            force.add(frame.wrenches[0][1]);
+            force.add(frame.wrenches[0].force.y);
         }
     });
     // At rest on the floor, pressing with a steady force below the limit.

@@ -9,6 +9,7 @@ use zbus::object_server::SignalEmitter;
 use super::{Workers, report};
 use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
 use hapticd_core::haptic_loop::DeviceState;
+use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_core::parameters::Name;
 
 /// One haptic device.
@@ -50,14 +51,17 @@ fn pose(t: &Telemetry) -> Vec<f64> {
     t.frame.poses[..t.frame.effectors]
         .iter()
         .flat_map(|p| {
-            let (x, q) = (p.position, p.orientation);
-            [x.x, x.y, x.z, q.w, q.x, q.y, q.z]
+            let (x, [w, qx, qy, qz]) = (p.position, quat_to_wxyz(p.orientation));
+            [x.x, x.y, x.z, w, qx, qy, qz]
         })
         .collect()
 }
 
 fn force(t: &Telemetry) -> Vec<f64> {
-    t.frame.wrenches[..t.frame.effectors].concat()
+    t.frame.wrenches[..t.frame.effectors]
+        .iter()
+        .flat_map(Wrench::to_array)
+        .collect()
 }
 
 fn statistics(t: &Telemetry) -> HashMap<String, f64> {

@@ -11,27 +11,9 @@
 
 use glam::DVec3;
 
+use hapticd_core::kinematics::Wrench;
+
 use super::polyhedron::Polyhedron;
-
-/// A force and its torque about the origin.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Wrench {
-    /// Force, newtons.
-    pub force: DVec3,
-    /// Torque about the origin, newton-metres.
-    pub torque: DVec3,
-}
-
-impl std::ops::Add for Wrench {
-    type Output = Wrench;
-
-    fn add(self, other: Wrench) -> Wrench {
-        Wrench {
-            force: self.force + other.force,
-            torque: self.torque + other.torque,
-        }
-    }
-}
 
 /// The penalty spring over the intersection `solid`, for the contact plane through `point`
 /// with unit normal `normal` and stiffness `k_n` (N/m³: force per unit depth per unit area).

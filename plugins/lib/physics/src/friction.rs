@@ -15,7 +15,9 @@
 
 use glam::DVec3;
 
-use super::contact::{Wrench, sliding_friction};
+use hapticd_core::kinematics::Wrench;
+
+use super::contact::sliding_friction;
 use super::polyhedron::Polyhedron;
 
 /// Friction parameters of a contact.

@@ -51,11 +51,11 @@
 //! ```
 
 use crate::body::Body;
-use crate::contact::Wrench;
 use crate::coupling::{Coupling, Grip};
 use crate::friction::FrictionParameters;
 use crate::polyhedron::Polyhedron;
 use crate::world::{ContactModel, Material, Scaling, World};
+use hapticd_core::kinematics::Wrench;
 use std::path::Path;
 
 use glam::DVec3;

@@ -5,7 +5,9 @@ use glam::DVec3;
 
 use super::body::Body;
 use super::clip::Clipper;
-use super::contact::{Wrench, damper, spring};
+use hapticd_core::kinematics::Wrench;
+
+use super::contact::{damper, spring};
 use super::friction::{ContactPatch, FrictionParameters, FrictionState, friction};
 use super::gjk;
 use super::mass::volume_and_centroid;

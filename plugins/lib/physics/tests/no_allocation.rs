@@ -87,7 +87,7 @@ fn steps_with_established_contacts_do_not_allocate() {
 /// Allocations in 1000 ticks of the blocks scene with two pointers pressing onto the table
 /// among the blocks and sliding, after 300 ticks to establish the contacts.
 fn allocations_in_blocks_ticks(coupled: bool) -> usize {
-    use hapticd_physics::contact::Wrench;
+    use hapticd_core::kinematics::Wrench;
     use hapticd_physics::coupling::Grip;
     use hapticd_physics::scene::PenaltyScene;
     let path =

@@ -7,7 +7,7 @@ use glam::{DQuat, DVec3};
 use hapticctl::plot::{Cells, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
-use hapticd_core::kinematics::{Dof, Pose};
+use hapticd_core::kinematics::{Dof, Pose, Wrench};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::mechanism::analysis::{region_slice, tension_sweep};
 use hapticd_core::solver::closure::is_force_closed;
@@ -508,9 +508,8 @@ fn tension(catalog: &Catalog, args: &TensionArgs) -> Result<(), Failure> {
             torque_weight: 1.0,
         });
     }
-    let target = [force.x, force.y, force.z, torque.x, torque.y, torque.z];
-    let solution = solver.solve(&geometry, &target);
-    let wrench = &solution.wrench[..effector.dof.count()];
+    let solution = solver.solve(&geometry, &Wrench { force, torque });
+    let wrench = &solution.wrench.to_array()[..effector.dof.count()];
     let mut text = String::new();
     for (i, t) in solution.tensions().iter().enumerate() {
         text += &format!("string {i}: {t:.6} N\n");
@@ -631,7 +630,7 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
         None => corner,
     };
     let orientation = m.effectors[index].calibration.orientation;
-    let wrench = [force.x, force.y, force.z, 0.0, 0.0, 0.0];
+    let wrench = Wrench::force(force);
     let result = tension_sweep(
         &m,
         index,

@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use hapticd_core::haptic_loop::{DeviceState, Frame};
+use hapticd_core::kinematics::quat_to_wxyz;
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
 
@@ -36,15 +37,15 @@ fn csv_row(frame: &Frame) -> String {
     };
     let mut row = format!("{:.6},{state}", frame.time);
     for e in 0..frame.effectors {
-        let (p, q, w) = (
-            frame.poses[e].position,
-            frame.poses[e].orientation,
-            frame.wrenches[e],
-        );
-        for v in [p.x, p.y, p.z, q.w, q.x, q.y, q.z] {
+        let p = frame.poses[e].position;
+        for v in p
+            .to_array()
+            .into_iter()
+            .chain(quat_to_wxyz(frame.poses[e].orientation))
+        {
             row += &format!(",{v:.7}");
         }
-        for v in w {
+        for v in frame.wrenches[e].to_array() {
             row += &format!(",{v:.5}");
         }
     }

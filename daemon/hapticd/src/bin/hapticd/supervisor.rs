@@ -7,7 +7,6 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use glam::DVec3;
 use hapticd::control::{Daemon, Telemetry};
 use hapticd::realtime::RealtimeLoop;
 use hapticd::sd_notify;
@@ -134,11 +133,7 @@ fn follow_the_amplifier(device: &mut Device) {
 /// One line of the state, the first grip's position and force, and the loop's timing.
 fn status_line(frame: &Frame, rt: &mut RealtimeLoop) -> String {
     let p = frame.poses[0].position;
-    let f = DVec3::new(
-        frame.wrenches[0][0],
-        frame.wrenches[0][1],
-        frame.wrenches[0][2],
-    );
+    let f = frame.wrenches[0].force;
     let stats = *rt.stats();
     format!(
         "t={:6.2} s  {:?}  grip ({:+.4}, {:+.4}, {:+.4}) m  force ({:+.2}, {:+.2}, {:+.2}) N  \
