@@ -16,7 +16,7 @@
 
 use glam::DVec3;
 
-use crate::haptics::passivity::PassivityController;
+use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
 use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use crate::mechanism::Mechanism;
@@ -46,8 +46,8 @@ pub struct LoopSettings {
     pub velocity_cutoff: f64,
     /// Force and torque limits and fault ramps.
     pub safety: SafetyLimits,
-    /// Passivity controller: largest added damping (N·s/m) and energy credit (J).
-    pub passivity: (f64, f64),
+    /// How hard the passivity controller may act.
+    pub passivity: PassivityLimits,
 }
 
 impl Default for LoopSettings {
@@ -56,7 +56,7 @@ impl Default for LoopSettings {
             pose_iterations: 2,
             velocity_cutoff: 200.0,
             safety: SafetyLimits::default(),
-            passivity: (200.0, 0.05),
+            passivity: PassivityLimits::default(),
         }
     }
 }
@@ -212,7 +212,7 @@ impl HapticLoop {
                     count: e.strings.len(),
                     pose: PoseSolver::new(mechanism.kinematics(index), e.calibration),
                     tension: mechanism.tension_solver(index),
-                    passivity: PassivityController::new(settings.passivity.0, settings.passivity.1),
+                    passivity: PassivityController::new(settings.passivity),
                     guard: SafetyGuard::new(settings.safety),
                     previous: e.calibration.position,
                     velocity: DVec3::ZERO,

@@ -78,9 +78,15 @@ pub struct DeviceHandle {
     state_dir: Option<StateDir>,
     commands: Mutex<spsc::Producer<LoopCommand>>,
     telemetry: Mutex<Telemetry>,
-    /// The remembered record and the defaults its parameter overrides apply to; one lock so
-    /// that concurrent requests persist in the order they take effect.
-    record: Mutex<(DeviceRecord, Parameters)>,
+    /// What is remembered, under one lock so that concurrent requests persist in the order
+    /// they take effect.
+    remembered: Mutex<Remembered>,
+}
+
+/// A device's persisted record and the defaults its parameter overrides apply to.
+struct Remembered {
+    record: DeviceRecord,
+    defaults: Parameters,
 }
 
 /// Lock `m`; a panicked holder cannot leave these values half-written (each is replaced
@@ -122,7 +128,10 @@ impl DeviceHandle {
             state_dir: setup.state_dir,
             commands: Mutex::new(commands),
             telemetry: Mutex::new(Telemetry::default()),
-            record: Mutex::new((setup.record, setup.defaults)),
+            remembered: Mutex::new(Remembered {
+                record: setup.record,
+                defaults: setup.defaults,
+            }),
         }
     }
 
@@ -138,7 +147,7 @@ impl DeviceHandle {
 
     /// The mechanism the user bound for the next start, if any.
     pub fn bound_mechanism(&self) -> Option<String> {
-        lock(&self.record).0.mechanism.clone()
+        lock(&self.remembered).record.mechanism.clone()
     }
 
     /// Running tick rate, Hz.
@@ -163,9 +172,9 @@ impl DeviceHandle {
 
     /// The value of `name` in force (the configured rate for [`Name::Rate`]).
     pub fn parameter(&self, name: Name) -> f64 {
-        let guard = lock(&self.record);
-        let overrides = &guard.0.parameters;
-        parameters::value(&overrides.resolve(&guard.1), name)
+        let guard = lock(&self.remembered);
+        let overrides = &guard.record.parameters;
+        parameters::value(&overrides.resolve(&guard.defaults), name)
             .unwrap_or_else(|| overrides.rate().unwrap_or(self.rate))
     }
 
@@ -185,18 +194,18 @@ impl DeviceHandle {
 
     /// Change the record by `change`, save it, and only then keep it.
     fn remember(&self, change: impl FnOnce(&mut DeviceRecord)) -> Result<(), Error> {
-        let mut guard = lock(&self.record);
-        let mut next = guard.0.clone();
+        let mut guard = lock(&self.remembered);
+        let mut next = guard.record.clone();
         change(&mut next);
         self.save(&next)?;
-        guard.0 = next;
+        guard.record = next;
         Ok(())
     }
 
     /// Check, persist and apply `value` for `name`. The rate applies at the next start.
     pub fn set_parameter(&self, name: Name, value: f64) -> Result<(), Error> {
-        let mut guard = lock(&self.record);
-        let (record, defaults) = &mut *guard;
+        let mut guard = lock(&self.remembered);
+        let Remembered { record, defaults } = &mut *guard;
         let overrides = record.parameters.with(name, value, defaults)?;
         let next = DeviceRecord {
             parameters: overrides,
@@ -275,15 +284,15 @@ impl DeviceHandle {
     /// user's overrides apply to.
     pub fn switch_scene(&self, scene: Box<dyn Scene>) -> Result<(), Error> {
         let before = self.telemetry().frame.scene_switches;
-        let mut guard = lock(&self.record);
-        let mut defaults = guard.1;
+        let mut guard = lock(&self.remembered);
+        let mut defaults = guard.defaults;
         if let Some(proxy) = scene.proxy() {
             defaults.proxy = proxy;
         }
-        let parameters = guard.0.parameters.resolve(&defaults);
+        let parameters = guard.record.parameters.resolve(&defaults);
         self.send(LoopCommand::SwitchScene(scene))?;
         self.send(LoopCommand::Tune(parameters))?;
-        guard.1 = defaults;
+        guard.defaults = defaults;
         drop(guard);
         self.wait_for("swap the scene", |f| f.scene_switches > before)?;
         Ok(())

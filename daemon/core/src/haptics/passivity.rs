@@ -9,23 +9,46 @@
 
 use glam::DVec3;
 
+/// How hard the controller may act.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassivityLimits {
+    /// Most damping added in one tick, N·s/m (0: the controller only observes).
+    pub max_damping: f64,
+    /// Most dissipated energy that may be returned later, joules.
+    pub max_credit: f64,
+}
+
+impl PassivityLimits {
+    /// Observe only: no damping is ever added.
+    pub const OFF: PassivityLimits = PassivityLimits {
+        max_damping: 0.0,
+        max_credit: 0.0,
+    };
+}
+
+impl Default for PassivityLimits {
+    fn default() -> Self {
+        Self {
+            max_damping: 200.0,
+            max_credit: 0.05,
+        }
+    }
+}
+
 /// Passivity observer and controller of one effector.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PassivityController {
     energy: f64,
-    max_damping: f64,
-    max_credit: f64,
+    limits: PassivityLimits,
     dissipated: f64,
 }
 
 impl PassivityController {
-    /// A controller that adds at most `max_damping` N·s/m in one tick and lets at most
-    /// `max_credit` joules of dissipated energy be returned later.
-    pub fn new(max_damping: f64, max_credit: f64) -> Self {
+    /// A controller acting within `limits`.
+    pub fn new(limits: PassivityLimits) -> Self {
         Self {
             energy: 0.0,
-            max_damping,
-            max_credit,
+            limits,
             dissipated: 0.0,
         }
     }
@@ -47,12 +70,12 @@ impl PassivityController {
 
     /// The force to display instead of `force`, for grip velocity `velocity` over `dt`.
     pub fn filter(&mut self, force: DVec3, velocity: DVec3, dt: f64) -> DVec3 {
-        self.energy = (self.energy - force.dot(velocity) * dt).min(self.max_credit);
+        self.energy = (self.energy - force.dot(velocity) * dt).min(self.limits.max_credit);
         let speed2 = velocity.length_squared();
         if self.energy >= 0.0 || speed2 < 1e-12 {
             return force;
         }
-        let alpha = (-self.energy / (dt * speed2)).min(self.max_damping);
+        let alpha = (-self.energy / (dt * speed2)).min(self.limits.max_damping);
         let removed = alpha * speed2 * dt;
         self.energy += removed;
         self.dissipated += removed;
@@ -66,7 +89,10 @@ mod tests {
 
     #[test]
     fn a_damper_passes_unchanged() {
-        let mut pc = PassivityController::new(100.0, 1.0);
+        let mut pc = PassivityController::new(PassivityLimits {
+            max_damping: 100.0,
+            max_credit: 1.0,
+        });
         for k in 0..1000 {
             let v = DVec3::new((k as f64 * 0.01).sin(), 0.0, 0.0);
             let f = -5.0 * v;
@@ -78,7 +104,10 @@ mod tests {
     #[test]
     fn an_active_element_is_made_passive() {
         // A negative damper pushes the hand along its motion: energy out of nowhere.
-        let mut pc = PassivityController::new(1e6, 1.0);
+        let mut pc = PassivityController::new(PassivityLimits {
+            max_damping: 1e6,
+            max_credit: 1.0,
+        });
         let mut net = 0.0;
         for k in 0..1000 {
             let v = DVec3::new(0.1 + 0.05 * (k as f64 * 0.02).sin(), 0.0, 0.0);

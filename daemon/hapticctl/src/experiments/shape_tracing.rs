@@ -10,6 +10,7 @@ use glam::DVec3;
 
 use hapticd_core::haptic_loop::LoopSettings;
 use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::haptics::passivity::PassivityLimits;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::mechanism::{Mechanism, descriptor};
 use hapticd_core::scene::static_scene::StaticSceneSpec;
@@ -78,7 +79,7 @@ pub fn trace(lambda: f64, rate: f64) -> Vec<(f64, f64)> {
         script,
         rate,
         settings: LoopSettings {
-            passivity: (0.0, 0.0),
+            passivity: PassivityLimits::OFF,
             ..LoopSettings::default()
         },
     };

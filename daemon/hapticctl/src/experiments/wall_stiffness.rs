@@ -6,6 +6,7 @@
 
 use hapticd_core::haptic_loop::{DeviceState, LoopSettings};
 use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::haptics::passivity::PassivityLimits;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
@@ -79,7 +80,7 @@ pub fn is_stable(mechanism: &Mechanism, rate: f64, stiffness: f64, damping: f64)
         script: press_script(),
         rate,
         settings: LoopSettings {
-            passivity: (0.0, 0.0),
+            passivity: PassivityLimits::OFF,
             ..LoopSettings::default()
         },
     };

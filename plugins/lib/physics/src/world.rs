@@ -149,35 +149,57 @@ pub struct World {
     /// Steps taken.
     steps: u64,
     /// Each body's bounding box at this step.
-    boxes: Vec<(DVec3, DVec3)>,
+    boxes: Vec<Aabb>,
     /// Bodies in order of their boxes' lower ends along the sweep axis.
     order: Vec<usize>,
 }
 
-fn bounds(pieces: &[Polyhedron]) -> (DVec3, DVec3) {
-    pieces
-        .iter()
-        .flat_map(|p| &p.vertices)
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(*v), hi.max(*v))
-        })
+/// An axis-aligned bounding box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Aabb {
+    min: DVec3,
+    max: DVec3,
 }
 
-fn overlapping((lo_a, hi_a): (DVec3, DVec3), (lo_b, hi_b): (DVec3, DVec3)) -> bool {
-    lo_a.cmple(hi_b).all() && lo_b.cmple(hi_a).all()
+impl Aabb {
+    /// Contains nothing: growing it by a point gives that point.
+    const EMPTY: Aabb = Aabb {
+        min: DVec3::INFINITY,
+        max: DVec3::NEG_INFINITY,
+    };
+
+    /// The box grown to take in `point`.
+    fn grow(self, point: DVec3) -> Aabb {
+        Aabb {
+            min: self.min.min(point),
+            max: self.max.max(point),
+        }
+    }
+
+    /// The box around every vertex of `pieces`.
+    fn around(pieces: &[Polyhedron]) -> Aabb {
+        pieces
+            .iter()
+            .flat_map(|p| &p.vertices)
+            .fold(Aabb::EMPTY, |b, v| b.grow(*v))
+    }
+
+    fn overlaps(&self, other: &Aabb) -> bool {
+        self.min.cmple(other.max).all() && other.min.cmple(self.max).all()
+    }
+
+    fn centre(&self) -> DVec3 {
+        (self.min + self.max) / 2.0
+    }
 }
 
 /// The axis along which the boxes' centres spread most: sweeping along it leaves the
 /// fewest boxes overlapping in that one coordinate.
-fn widest_axis(boxes: &[(DVec3, DVec3)]) -> usize {
-    let (lo, hi) = boxes.iter().fold(
-        (DVec3::INFINITY, DVec3::NEG_INFINITY),
-        |(lo, hi), (a, b)| {
-            let centre = (*a + *b) / 2.0;
-            (lo.min(centre), hi.max(centre))
-        },
-    );
-    let spread = hi - lo;
+fn widest_axis(boxes: &[Aabb]) -> usize {
+    let centres = boxes
+        .iter()
+        .fold(Aabb::EMPTY, |b, other| b.grow(other.centre()));
+    let spread = centres.max - centres.min;
     if spread.x >= spread.y && spread.x >= spread.z {
         0
     } else if spread.y >= spread.z {
@@ -204,7 +226,7 @@ impl World {
             normals: vec![DVec3::ZERO; pairs],
             touched: vec![0; pairs],
             steps: 0,
-            boxes: vec![(DVec3::ZERO, DVec3::ZERO); n],
+            boxes: vec![Aabb::EMPTY; n],
             order: (0..n).collect(),
             wrenches: vec![Wrench::default(); n],
             loads: vec![Load::default(); n],
@@ -301,12 +323,12 @@ impl World {
         // Broad phase: sort and sweep the bounding boxes along one axis.
         self.steps += 1;
         for (bounding, b) in self.boxes.iter_mut().zip(&self.bodies) {
-            *bounding = bounds(b.world_pieces());
+            *bounding = Aabb::around(b.world_pieces());
         }
         let axis = widest_axis(&self.boxes);
         // Insertion sort: the order barely changes between steps, so this is near-linear,
         // and it works in place.
-        let key = |k: usize| self.boxes[k].0[axis];
+        let key = |k: usize| self.boxes[k].min[axis];
         for sorted in 1..self.order.len() {
             let mut k = sorted;
             while k > 0 && key(self.order[k - 1]) > key(self.order[k]) {
@@ -318,10 +340,10 @@ impl World {
         for first in 0..n {
             for second in first + 1..n {
                 let (p, q) = (self.order[first], self.order[second]);
-                if self.boxes[q].0[axis] > self.boxes[p].1[axis] {
+                if self.boxes[q].min[axis] > self.boxes[p].max[axis] {
                     break;
                 }
-                if overlapping(self.boxes[p], self.boxes[q]) {
+                if self.boxes[p].overlaps(&self.boxes[q]) {
                     self.collide(p.min(q), p.max(q), dt);
                 }
             }
@@ -346,10 +368,8 @@ impl World {
                 let (a, b) = (&self.bodies[i], &self.bodies[j]);
                 // Single pieces are their bodies, whose boxes were just found to overlap.
                 if single
-                    || overlapping(
-                        bounds(&a.world_pieces()[ka..=ka]),
-                        bounds(&b.world_pieces()[kb..=kb]),
-                    )
+                    || Aabb::around(&a.world_pieces()[ka..=ka])
+                        .overlaps(&Aabb::around(&b.world_pieces()[kb..=kb]))
                 {
                     self.collide_pieces((i, ka), (j, kb), dt);
                 }
