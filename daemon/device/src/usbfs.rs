@@ -12,6 +12,8 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use hapticd_core::transport::TransportError;
+use nix::sys::ioctl::ioctl_num_type;
+use nix::{request_code_none, request_code_read, request_code_readwrite, request_code_write};
 
 /// The URB as usbfs takes it (`struct usbdevfs_urb`, without isochronous frames).
 #[repr(C)]
@@ -47,23 +49,18 @@ struct InterfaceIoctl {
 
 const URB_TYPE_BULK: u8 = 3;
 
-/// `_IOC(direction, 'U', number, size)`, as the kernel's headers build ioctl numbers.
-const fn ioc(direction: u64, number: u64, size: usize) -> u64 {
-    (direction << 30) | ((size as u64) << 16) | ((b'U' as u64) << 8) | number
-}
-const WRITE: u64 = 1;
-const READ: u64 = 2;
-
-const GETDRIVER: u64 = ioc(WRITE, 8, size_of::<GetDriver>());
-const SUBMITURB: u64 = ioc(READ, 10, size_of::<Urb>());
-const DISCARDURB: u64 = ioc(0, 11, 0);
-const REAPURB: u64 = ioc(WRITE, 12, size_of::<*mut Urb>());
-const REAPURBNDELAY: u64 = ioc(WRITE, 13, size_of::<*mut Urb>());
-const CLAIMINTERFACE: u64 = ioc(READ, 15, size_of::<u32>());
-const RELEASEINTERFACE: u64 = ioc(READ, 16, size_of::<u32>());
-const IOCTL: u64 = ioc(READ | WRITE, 18, size_of::<InterfaceIoctl>());
-const CLEAR_HALT: u64 = ioc(READ, 21, size_of::<u32>());
-const DISCONNECT: u64 = ioc(0, 22, 0);
+// The request numbers of <linux/usbdevice_fs.h>, built by nix for this architecture's
+// ioctl layout (the direction bits differ between, say, x86 and PowerPC).
+const GETDRIVER: ioctl_num_type = request_code_write!(b'U', 8, size_of::<GetDriver>());
+const SUBMITURB: ioctl_num_type = request_code_read!(b'U', 10, size_of::<Urb>());
+const DISCARDURB: ioctl_num_type = request_code_none!(b'U', 11);
+const REAPURB: ioctl_num_type = request_code_write!(b'U', 12, size_of::<*mut Urb>());
+const REAPURBNDELAY: ioctl_num_type = request_code_write!(b'U', 13, size_of::<*mut Urb>());
+const CLAIMINTERFACE: ioctl_num_type = request_code_read!(b'U', 15, size_of::<u32>());
+const RELEASEINTERFACE: ioctl_num_type = request_code_read!(b'U', 16, size_of::<u32>());
+const IOCTL: ioctl_num_type = request_code_readwrite!(b'U', 18, size_of::<InterfaceIoctl>());
+const CLEAR_HALT: ioctl_num_type = request_code_read!(b'U', 21, size_of::<u32>());
+const DISCONNECT: ioctl_num_type = request_code_none!(b'U', 22);
 
 /// The last OS error as a transport error.
 fn os_error() -> TransportError {
@@ -253,8 +250,9 @@ mod tests {
     use super::*;
 
     #[test]
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
     fn ioctl_numbers_are_the_kernel_abi() {
-        // The values of <linux/usbdevice_fs.h> on a 64-bit Linux.
+        // The values of <linux/usbdevice_fs.h> on 64-bit x86 and ARM.
         assert_eq!(size_of::<Urb>(), 56);
         assert_eq!(SUBMITURB, 0x8038_550a);
         assert_eq!(DISCARDURB, 0x550b);

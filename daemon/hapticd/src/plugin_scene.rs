@@ -102,12 +102,11 @@ pub fn load(
         HAPTICD_SCENE_MULTIRATE
             if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
         {
-            Ok(Box::new(MultiRateScene::start(
-                loaded.name,
-                instance,
-                info.physics_rate,
-                pointers,
-            )))
+            let scene = MultiRateScene::start(loaded.name, instance, info.physics_rate, pointers)
+                .map_err(|e| {
+                format!("{}: cannot start its physics thread: {e}", path.display())
+            })?;
+            Ok(Box::new(scene))
         }
         style => Err(format!(
             "{}: unsupported scene style {style} (physics rate {})",
@@ -201,7 +200,13 @@ struct MultiRateScene {
 const STALE_PERIODS: f64 = 3.0;
 
 impl MultiRateScene {
-    fn start(name: String, instance: Instance, rate: f64, pointers: &[Pointer]) -> Self {
+    /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
+    fn start(
+        name: String,
+        instance: Instance,
+        rate: f64,
+        pointers: &[Pointer],
+    ) -> std::io::Result<Self> {
         let n = pointers.len();
         let mut initial = [HapticdPointer::default(); MAX_EFFECTORS];
         for (out, p) in initial.iter_mut().zip(pointers) {
@@ -262,9 +267,8 @@ impl MultiRateScene {
                         next = now;
                     }
                 }
-            })
-            .expect("spawning the physics thread");
-        Self {
+            })?;
+        Ok(Self {
             name,
             period: 1.0 / rate,
             proxies: pointers
@@ -282,7 +286,7 @@ impl MultiRateScene {
             failed,
             stop,
             thread: Some(thread),
-        }
+        })
     }
 
     /// Hand the impulses summed over the period that just ended to the physics thread.

@@ -6,16 +6,20 @@ use std::os::unix::net::{SocketAddr, UnixDatagram};
 /// Send `state` (e.g. `READY=1`, `WATCHDOG=1`, `STATUS=…`) to the service manager. Returns
 /// false when not run by one (no `$NOTIFY_SOCKET`).
 pub fn notify(state: &str) -> std::io::Result<bool> {
-    let Some(path) = std::env::var_os("NOTIFY_SOCKET") else {
-        return Ok(false);
-    };
-    let path = path.to_string_lossy();
+    match std::env::var_os("NOTIFY_SOCKET") {
+        Some(socket) => notify_to(&socket.to_string_lossy(), state).map(|()| true),
+        None => Ok(false),
+    }
+}
+
+/// Send `state` to the notification socket at `path` (`@name`: an abstract socket).
+pub fn notify_to(path: &str, state: &str) -> std::io::Result<()> {
     let address = match path.strip_prefix('@') {
         Some(abstract_name) => SocketAddr::from_abstract_name(abstract_name.as_bytes())?,
-        None => SocketAddr::from_pathname(path.as_ref())?,
+        None => SocketAddr::from_pathname(path)?,
     };
     UnixDatagram::unbound()?.send_to_addr(state.as_bytes(), &address)?;
-    Ok(true)
+    Ok(())
 }
 
 /// The watchdog interval systemd expects pings within, if it set one for this process.
@@ -40,15 +44,21 @@ mod tests {
         let path = dir.join("notify.sock");
         let _ = std::fs::remove_file(&path);
         let listener = UnixDatagram::bind(&path).unwrap();
-        // SAFETY: this test alone reads or writes NOTIFY_SOCKET.
-        unsafe { std::env::set_var("NOTIFY_SOCKET", &path) };
-        assert!(notify("READY=1").unwrap());
+        notify_to(path.to_str().unwrap(), "READY=1").unwrap();
         let mut buf = [0u8; 64];
         let n = listener.recv(&mut buf).unwrap();
         assert_eq!(&buf[..n], b"READY=1");
-        // SAFETY: as above.
-        unsafe { std::env::remove_var("NOTIFY_SOCKET") };
-        assert!(!notify("READY=1").unwrap());
         std::fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn abstract_sockets_are_named_with_an_at_sign() {
+        let name = format!("hapticd-notify-test-{}", std::process::id());
+        let address = SocketAddr::from_abstract_name(name.as_bytes()).unwrap();
+        let listener = UnixDatagram::bind_addr(&address).unwrap();
+        notify_to(&format!("@{name}"), "WATCHDOG=1").unwrap();
+        let mut buf = [0u8; 64];
+        let n = listener.recv(&mut buf).unwrap();
+        assert_eq!(&buf[..n], b"WATCHDOG=1");
     }
 }

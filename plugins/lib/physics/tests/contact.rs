@@ -12,7 +12,7 @@ use hapticd_physics::polyhedron::{Plane, Polyhedron};
 
 #[test]
 fn the_spring_is_k_v_n_through_the_centroid_for_random_pairs() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let mut clipper = Clipper::default();
     let mut solid = Polyhedron::default();
     let mut checked = 0;
@@ -99,7 +99,7 @@ fn projected_area(points: &[DVec3], normal: DVec3) -> f64 {
 
 #[test]
 fn a_uniform_normal_motion_is_damped_over_the_projected_contact_area_both_ways() {
-    let mut rng = Rng(8);
+    let mut rng = Rng::new(8);
     let mut clipper = Clipper::default();
     let mut solid = Polyhedron::default();
     for _ in 0..100 {

@@ -65,7 +65,7 @@ fn overlapping_boxes_intersect_in_the_box_of_their_overlap() {
 
 #[test]
 fn random_convex_pairs_match_vertex_enumeration() {
-    let mut rng = Rng(42);
+    let mut rng = Rng::new(42);
     let mut clipper = Clipper::default();
     let mut out = Polyhedron::default();
     let mut overlapping = 0;

@@ -6,35 +6,9 @@
 use glam::DVec3;
 use hapticd_physics::polyhedron::{Plane, Polyhedron};
 
-/// SplitMix64, to draw reproducible cases.
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-
-    pub fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            if (0.1..1.0).contains(&v.length()) {
-                return v.normalize();
-            }
-        }
-    }
-}
+#[path = "../../../../../tests/support/rng.rs"]
+mod rng;
+pub use rng::Rng;
 
 /// Volume and centroid of {x : every plane}, by vertex enumeration.
 pub fn reference(planes: &[Plane]) -> (f64, DVec3) {
