@@ -12,6 +12,7 @@ use hapticd::catalog;
 use hapticd::plugin;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::solver::geometry::StringGeometry;
+use hapticd_plugin_api::{HAPTICD_ABI_MAJOR, HAPTICD_ABI_MINOR};
 use support::{plugin_path, repo_dir};
 
 /// A fresh private directory (mode 0755) under the system temporary directory.
@@ -74,7 +75,7 @@ fn the_rust_plugins_load_with_their_descriptors() {
         let loaded = plugin::load(&path).unwrap();
         assert_eq!(loaded.name, name);
         assert_eq!(loaded.version, env!("CARGO_PKG_VERSION"));
-        assert_eq!(loaded.abi, (1, 0));
+        assert_eq!(loaded.abi, (HAPTICD_ABI_MAJOR, HAPTICD_ABI_MINOR));
         assert!(loaded.is_mechanism());
         let m = catalog::load(&path).unwrap();
         assert_eq!((m.effectors.len(), m.strings.len()), (effectors, strings));
@@ -137,17 +138,26 @@ fn a_plugin_for_another_abi_major_is_refused() {
     let e = refusal(&path);
     assert!(e.starts_with(&path.display().to_string()), "{e}");
     assert!(
-        e.contains("built for plugin ABI 2.0, but this hapticd speaks ABI 1.0"),
+        e.contains("built for plugin ABI 2.0, but this hapticd speaks ABI 1.1"),
         "{e}"
     );
     std::fs::remove_dir_all(dir).ok();
 }
 
 #[test]
-fn a_plugin_for_a_newer_abi_minor_is_refused() {
+fn a_plugin_for_a_newer_abi_minor_loads_and_finds_no_unknown_extension() {
     let dir = scratch("abi-minor");
-    let path = compile_c(&dir, "new", &c_plugin_with_abi(1, 7));
-    assert!(refusal(&path).contains("needs plugin ABI 1.7, newer than this hapticd's 1.0"));
+    // A plugin from a later 1.x asks for a service this host does not have, and is told so.
+    let source = c_plugin_with_abi(1, 7).replace(
+        "hapticd_plugin_entry(const HapticdHost *h) {",
+        "hapticd_plugin_entry(const HapticdHost *h) {\n\
+         if (h->abi_minor < 1 || h->get_extension == NULL) return NULL;\n\
+         if (h->get_extension(h->context, \"hapticd.from-the-future/1\") != NULL) return NULL;\n",
+    );
+    assert!(source.contains("from-the-future"), "{source}");
+    let path = compile_c(&dir, "new", &source);
+    let loaded = plugin::load(&path).expect("a newer minor loads");
+    assert_eq!(loaded.abi, (1, 7));
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -23,9 +23,12 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
 #define HAPTICD_ABI_MAJOR 1
 
 /*
- Minor ABI version: a plugin may be built against an older minor than the host's.
+ Minor ABI version. Minors only append (struct fields, constants, extensions), so a
+ plugin of any minor loads: the host reads no field newer than its own minor, and a
+ plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
+ through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 0
+#define HAPTICD_ABI_MINOR 1
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -412,6 +415,14 @@ typedef struct HapticdHost {
    [any] Monotonic clock in nanoseconds (CLOCK_MONOTONIC).
    */
   uint64_t (*now_ns)(void *context);
+  /*
+   [any] Since ABI 1.1 (read it only when `abi_minor` ≥ 1): the host's extension called
+   `id`, a NUL-terminated name with its version such as `hapticd.example/1`, or null
+   when the host offers none of that name. Services added after 1.1 come as
+   extensions, so a plugin asks for what it can use instead of being refused by an
+   older host.
+   */
+  const void *(*get_extension)(void *context, const char *id);
 } HapticdHost;
 
 /*

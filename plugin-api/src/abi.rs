@@ -8,8 +8,11 @@ use std::ffi::{c_char, c_void};
 
 /// Major ABI version: a plugin whose major differs from the host's is refused.
 pub const HAPTICD_ABI_MAJOR: u32 = 1;
-/// Minor ABI version: a plugin may be built against an older minor than the host's.
-pub const HAPTICD_ABI_MINOR: u32 = 0;
+/// Minor ABI version. Minors only append (struct fields, constants, extensions), so a
+/// plugin of any minor loads: the host reads no field newer than its own minor, and a
+/// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
+/// through [`HapticdHost::get_extension`].
+pub const HAPTICD_ABI_MINOR: u32 = 1;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;
@@ -68,6 +71,13 @@ pub struct HapticdHost {
     >,
     /// [any] Monotonic clock in nanoseconds (CLOCK_MONOTONIC).
     pub now_ns: Option<unsafe extern "C" fn(context: *mut c_void) -> u64>,
+    /// [any] Since ABI 1.1 (read it only when `abi_minor` ≥ 1): the host's extension called
+    /// `id`, a NUL-terminated name with its version such as `hapticd.example/1`, or null
+    /// when the host offers none of that name. Services added after 1.1 come as
+    /// extensions, so a plugin asks for what it can use instead of being refused by an
+    /// older host.
+    pub get_extension:
+        Option<unsafe extern "C" fn(context: *mut c_void, id: *const c_char) -> *const c_void>,
 }
 
 /// A pointer (end effector) as a scene sees it.

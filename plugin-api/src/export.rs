@@ -71,6 +71,22 @@ pub fn log(level: u32, message: &str) {
     }
 }
 
+/// The host's extension called `id` (such as `c"hapticd.example/1"`), or null when the
+/// host offers none of that name, is older than ABI 1.1, or has not called the entry yet.
+pub fn extension(id: &std::ffi::CStr) -> *const std::ffi::c_void {
+    let host = HOST.load(Ordering::Acquire);
+    // SAFETY: the host guarantees the pointer it passed to the entry outlives the plugin.
+    let Some(host) = (unsafe { host.as_ref() }) else {
+        return std::ptr::null();
+    };
+    // A 1.0 host's struct ends before get_extension: read it only from a 1.1 host on.
+    match host.get_extension {
+        // SAFETY: id is NUL-terminated and outlives the call.
+        Some(get) if host.abi_minor >= 1 => unsafe { get(host.context, id.as_ptr()) },
+        _ => std::ptr::null(),
+    }
+}
+
 /// Report panics through the host log: the plugin's own copy of std would print them to a
 /// stderr nobody reads. Installed in the plugin's std only; the host's hook is untouched.
 fn install_panic_hook() {

@@ -2,7 +2,9 @@
 //!
 //! A plugin is a shared library exporting one symbol, `hapticd_plugin_entry`, that returns a
 //! [`HapticdPluginDescriptor`]: ABI version, kind, name, version and a vtable. The host
-//! refuses a plugin whose ABI major differs from its own or whose minor is newer.
+//! refuses a plugin whose ABI major differs from its own; minors only append, so plugins
+//! of older and newer minors load alike, and newer host services are found by name through
+//! [`HapticdHost::get_extension`] (see [`export::extension`]).
 //!
 //! [`abi`] holds the `#[repr(C)]` types (the C header `include/hapticd_plugin.h` is generated
 //! from it); [`export`], [`export_mechanism!`] and [`export_scene!`] are the safe side for

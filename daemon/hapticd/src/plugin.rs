@@ -134,6 +134,15 @@ unsafe extern "C" fn host_now_ns(_context: *mut c_void) -> u64 {
     crate::clock::monotonic_ns()
 }
 
+/// [any] Host extension lookup. ABI 1.1 defines no extension yet: every name is answered
+/// with null, which a plugin takes as "not offered".
+unsafe extern "C" fn host_get_extension(
+    _context: *mut c_void,
+    _id: *const c_char,
+) -> *const c_void {
+    std::ptr::null()
+}
+
 /// Check, open and negotiate with the plugin at `path`.
 pub fn load(path: &Path) -> Result<LoadedPlugin, PluginError> {
     check_permissions(path)?;
@@ -166,6 +175,7 @@ pub fn load(path: &Path) -> Result<LoadedPlugin, PluginError> {
         context: origin.into_raw().cast(),
         log: Some(host_log),
         now_ns: Some(host_now_ns),
+        get_extension: Some(host_get_extension),
     }));
     // SAFETY: entry has the ABI v1 signature; host lives forever.
     let descriptor = unsafe { entry(host).as_ref() }.ok_or_else(|| {
@@ -187,13 +197,12 @@ pub fn load(path: &Path) -> Result<LoadedPlugin, PluginError> {
         ));
     }
     if minor > HAPTICD_ABI_MINOR {
-        return Err(refuse(
-            path,
-            format!(
-                "needs plugin ABI {major}.{minor}, newer than this hapticd's \
-                 {HAPTICD_ABI_MAJOR}.{HAPTICD_ABI_MINOR}: update hapticd"
-            ),
-        ));
+        tracing::info!(
+            "{}: built for plugin ABI {major}.{minor}, newer than this hapticd's \
+             {HAPTICD_ABI_MAJOR}.{HAPTICD_ABI_MINOR}: it runs with the services of \
+             {HAPTICD_ABI_MAJOR}.{HAPTICD_ABI_MINOR}",
+            path.display()
+        );
     }
     let text = |ptr: *const c_char, what: &str| {
         if ptr.is_null() {
