@@ -336,6 +336,24 @@ impl<'a> Findings<'a> {
         ok
     }
 
+    /// Whether `value` is finite and > 0; an error on `field` if not.
+    pub fn positive(&mut self, field: impl Into<String>, value: f64) -> bool {
+        let ok = value.is_finite() && value > 0.0;
+        if !ok {
+            self.error(field, "must be a finite number > 0");
+        }
+        ok
+    }
+
+    /// Whether `value` is finite and ≥ 0; an error on `field` if not.
+    pub fn non_negative(&mut self, field: impl Into<String>, value: f64) -> bool {
+        let ok = value.is_finite() && value >= 0.0;
+        if !ok {
+            self.error(field, "must be a finite number ≥ 0");
+        }
+        ok
+    }
+
     /// Whether `value` lies in `lo..=hi` (so is finite); an error naming the range if not.
     pub fn within(
         &mut self,

@@ -175,9 +175,7 @@ impl Config {
             ("safety.max_force", self.safety.max_force),
             ("safety.max_torque", self.safety.max_torque),
         ] {
-            if !(value.is_finite() && value > 0.0) {
-                f.error(key, "must be a finite number > 0");
-            }
+            f.positive(key, value);
         }
     }
 }

@@ -90,12 +90,8 @@ impl Mechanism {
                 ),
             );
         }
-        if !(spec.lambda.is_finite() && spec.lambda >= 0.0) {
-            f.error("tension.lambda", "must be a finite number ≥ 0");
-        }
-        if !(spec.torque_weight.is_finite() && spec.torque_weight > 0.0) {
-            f.error("tension.torque_weight", "must be a finite number > 0");
-        }
+        f.non_negative("tension.lambda", spec.lambda);
+        f.positive("tension.torque_weight", spec.torque_weight);
         let effectors = validate_effectors(&mut f, spec);
         let strings = validate_strings(&mut f, spec, &effectors);
         let mut mechanism = Mechanism {

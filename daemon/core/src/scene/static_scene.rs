@@ -103,9 +103,7 @@ impl StaticSceneSpec {
                     ("static_friction", p.static_friction),
                     ("dynamic_friction", p.dynamic_friction),
                 ] {
-                    if !(value.is_finite() && value >= 0.0) {
-                        f.error(format!("proxy.{key}"), "must be a finite number ≥ 0");
-                    }
+                    f.non_negative(format!("proxy.{key}"), value);
                 }
                 if p.dynamic_friction > p.static_friction {
                     f.error("proxy.dynamic_friction", "must not exceed static_friction");
@@ -142,13 +140,6 @@ fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
     v.normalize_or(DVec3::Y)
 }
 
-/// A length given in a file: finite and > 0.
-fn positive(f: &mut Findings, field: String, value: f64) {
-    if !(value.is_finite() && value > 0.0) {
-        f.error(field, "must be a finite number > 0");
-    }
-}
-
 fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
     match shape {
         RawShape::Floor { height } => {
@@ -167,7 +158,7 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
         }
         RawShape::Sphere { centre, radius } => {
             f.finite(format!("{at}.sphere.centre"), &centre);
-            positive(f, format!("{at}.sphere.radius"), radius);
+            f.positive(format!("{at}.sphere.radius"), radius);
             Shape::Sphere {
                 centre: DVec3::from(centre),
                 radius,
@@ -179,7 +170,7 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
             radius,
         } => {
             f.finite(format!("{at}.cylinder.point"), &point);
-            positive(f, format!("{at}.cylinder.radius"), radius);
+            f.positive(format!("{at}.cylinder.radius"), radius);
             Shape::Cylinder {
                 point: DVec3::from(point),
                 axis: direction(f, format!("{at}.cylinder.axis"), axis),
@@ -193,7 +184,7 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
         } => {
             f.finite(format!("{at}.box.centre"), &centre);
             for (k, &side) in size.iter().enumerate() {
-                positive(f, format!("{at}.box.size[{k}]"), side);
+                f.positive(format!("{at}.box.size[{k}]"), side);
             }
             Shape::Cuboid {
                 centre: DVec3::from(centre),

@@ -107,10 +107,7 @@ impl Step {
     /// Report what the hand cannot do: values that are not finite, a circle without a
     /// plane or period, a shake too fast to simulate, negative durations.
     fn check(&self, f: &mut Findings, at: &str) {
-        let seconds = self.seconds();
-        if !(seconds.is_finite() && seconds >= 0.0) {
-            f.error(format!("{at}.seconds"), "must be a finite number ≥ 0");
-        }
+        f.non_negative(format!("{at}.seconds"), self.seconds());
         match self {
             Step::Hold { at: Some(p), .. } => {
                 f.finite(format!("{at}.at"), p);
@@ -143,16 +140,12 @@ impl Step {
                 ..
             } => {
                 f.finite(format!("{at}.centre"), centre);
-                if !(radius.is_finite() && *radius >= 0.0) {
-                    f.error(format!("{at}.radius"), "must be a finite number ≥ 0");
-                }
+                f.non_negative(format!("{at}.radius"), *radius);
                 if f.finite(format!("{at}.normal"), normal) && DVec3::from(*normal).length() < 1e-9
                 {
                     f.error(format!("{at}.normal"), "must not be zero");
                 }
-                if !(period.is_finite() && *period > 0.0) {
-                    f.error(format!("{at}.period"), "must be a finite number > 0");
-                }
+                f.positive(format!("{at}.period"), *period);
             }
             Step::Hold { at: None, .. } | Step::Unplug { .. } | Step::Path { .. } => {}
         }

@@ -213,10 +213,7 @@ fn solid(
         (Some(size), None) => {
             let mut ok = true;
             for (k, side) in size.iter().enumerate() {
-                if !(side.is_finite() && *side > 0.0) {
-                    f.error(format!("{at}.box[{k}]"), "must be a finite number > 0");
-                    ok = false;
-                }
+                ok &= f.positive(format!("{at}.box[{k}]"), *side);
             }
             ok.then(|| Polyhedron::cuboid(DVec3::from(size) / 2.0))
         }
@@ -272,20 +269,6 @@ fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<Polyhedron
     pieces.into_iter().collect()
 }
 
-/// An error on `field` unless every value is finite and ≥ 0.
-fn non_negative(f: &mut Findings, field: String, value: f64) {
-    if !(value.is_finite() && value >= 0.0) {
-        f.error(field, "must be a finite number ≥ 0");
-    }
-}
-
-/// An error on `field` unless `value` is finite and > 0.
-fn positive(f: &mut Findings, field: String, value: f64) {
-    if !(value.is_finite() && value > 0.0) {
-        f.error(field, "must be a finite number > 0");
-    }
-}
-
 impl PenaltyScene {
     /// Load the scene file at `path` for `pointers` pointers.
     pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
@@ -299,7 +282,7 @@ impl PenaltyScene {
         let locate = |field: &str| map.find(field);
         let mut f = Findings::new(path, &locate);
         f.finite("gravity", &raw.gravity);
-        positive(&mut f, "dt".into(), raw.dt);
+        f.positive("dt", raw.dt);
         let m = &raw.material;
         for (key, value) in [
             ("stiffness", m.stiffness),
@@ -310,28 +293,28 @@ impl PenaltyScene {
             ("friction_damping", m.friction_damping),
             ("slip_speed", m.slip_speed),
         ] {
-            non_negative(&mut f, format!("material.{key}"), value);
+            f.non_negative(format!("material.{key}"), value);
         }
         for (key, value) in [
             ("point_stiffness", m.point_stiffness),
             ("point_damping", m.point_damping),
         ] {
             if let Some(value) = value {
-                non_negative(&mut f, format!("material.{key}"), value);
+                f.non_negative(format!("material.{key}"), value);
             }
         }
         if m.friction > m.static_friction {
             f.error("material.friction", "must not exceed static_friction");
         }
         if let Some(s) = &m.scaling {
-            positive(&mut f, "material.scaling.spring".into(), s.spring);
-            non_negative(&mut f, "material.scaling.damper".into(), s.damper);
+            f.positive("material.scaling.spring", s.spring);
+            f.non_negative("material.scaling.damper", s.damper);
         }
         let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
         for (i, b) in raw.bodies.iter().enumerate() {
             let at = format!("bodies[{i}]");
             let pieces = body_pieces(&mut f, &at, b);
-            positive(&mut f, format!("{at}.density"), b.density);
+            f.positive(format!("{at}.density"), b.density);
             f.finite(format!("{at}.velocity"), &b.velocity);
             f.finite(format!("{at}.spin"), &b.spin);
             if let Some(pieces) = pieces
@@ -361,9 +344,9 @@ impl PenaltyScene {
                     ("rotational_stiffness", c.rotational_stiffness),
                     ("rotational_damping", c.rotational_damping),
                 ] {
-                    non_negative(&mut f, format!("pointer.coupling.{key}"), value);
+                    f.non_negative(format!("pointer.coupling.{key}"), value);
                 }
-                positive(&mut f, "pointer.density".into(), pointer.density);
+                f.positive("pointer.density", pointer.density);
             }
             let shape = solid(
                 &mut f,
