@@ -58,11 +58,13 @@ impl Pose {
 pub const MAX_EFFECTORS: usize = 4;
 
 /// A quaternion from the order files, D-Bus and the plugin ABI write it in: `[w, x, y, z]`.
+#[inline]
 pub fn quat_from_wxyz([w, x, y, z]: [f64; 4]) -> DQuat {
     DQuat::from_xyzw(x, y, z, w)
 }
 
 /// A quaternion in the order files, D-Bus and the plugin ABI write it in: `[w, x, y, z]`.
+#[inline]
 pub fn quat_to_wxyz(q: DQuat) -> [f64; 4] {
     [q.w, q.x, q.y, q.z]
 }
@@ -85,6 +87,7 @@ impl Wrench {
     };
 
     /// A force alone.
+    #[inline]
     pub const fn force(force: DVec3) -> Wrench {
         Wrench {
             force,
@@ -93,6 +96,7 @@ impl Wrench {
     }
 
     /// From the six components the solvers work on: force, then torque.
+    #[inline]
     pub fn from_array(w: [f64; 6]) -> Wrench {
         Wrench {
             force: DVec3::new(w[0], w[1], w[2]),
@@ -101,12 +105,14 @@ impl Wrench {
     }
 
     /// The six components the solvers work on: force, then torque.
+    #[inline]
     pub fn to_array(&self) -> [f64; 6] {
         let (f, t) = (self.force, self.torque);
         [f.x, f.y, f.z, t.x, t.y, t.z]
     }
 
     /// Whether every component is finite.
+    #[inline]
     pub fn is_finite(&self) -> bool {
         self.force.is_finite() && self.torque.is_finite()
     }
@@ -115,6 +121,7 @@ impl Wrench {
 impl std::ops::Add for Wrench {
     type Output = Wrench;
 
+    #[inline]
     fn add(self, other: Wrench) -> Wrench {
         Wrench {
             force: self.force + other.force,
@@ -126,6 +133,7 @@ impl std::ops::Add for Wrench {
 impl std::ops::Mul<f64> for Wrench {
     type Output = Wrench;
 
+    #[inline]
     fn mul(self, scale: f64) -> Wrench {
         Wrench {
             force: self.force * scale,
@@ -135,6 +143,7 @@ impl std::ops::Mul<f64> for Wrench {
 }
 
 impl From<Wrench> for HapticdWrench {
+    #[inline]
     fn from(w: Wrench) -> Self {
         HapticdWrench {
             force: w.force.to_array(),
@@ -144,6 +153,7 @@ impl From<Wrench> for HapticdWrench {
 }
 
 impl From<HapticdWrench> for Wrench {
+    #[inline]
     fn from(w: HapticdWrench) -> Self {
         Wrench {
             force: DVec3::from(w.force),
@@ -154,6 +164,7 @@ impl From<HapticdWrench> for Wrench {
 
 /// `v` shortened to length `max` if it is longer. The length is taken without squaring
 /// the components, so a huge finite vector is shortened, not lost to overflow.
+#[inline]
 pub fn clamp_length(v: DVec3, max: f64) -> DVec3 {
     let scale = v.abs().max_element();
     if scale == 0.0 || !scale.is_finite() {
