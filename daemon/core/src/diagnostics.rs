@@ -21,6 +21,12 @@ use crate::kinematics::quat_from_wxyz;
 /// enough that a mistaken path (a disk image, a device node) fails at once.
 pub const MAX_FILE_BYTES: u64 = 16 << 20;
 
+/// Longest name of a mechanism, effector or scene, bytes.
+pub const MAX_NAME_BYTES: usize = 64;
+
+/// Longest description or title, bytes.
+pub const MAX_TEXT_BYTES: usize = 1024;
+
 /// A place in a text file: 1-based line and column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Position {
@@ -276,7 +282,7 @@ impl YamlMap {
 }
 
 /// A number as a person would write it: `1e308`, not three hundred digits.
-struct Number(f64);
+pub struct Number(pub f64);
 
 impl fmt::Display for Number {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -336,6 +342,62 @@ impl<'a> Findings<'a> {
         ok
     }
 
+    /// Whether every component of `values` is finite and within ±`extent` `unit`; an error
+    /// on `field` if not.
+    pub fn coordinates(
+        &mut self,
+        field: impl Into<String>,
+        values: &[f64],
+        extent: f64,
+        unit: &str,
+    ) -> bool {
+        let ok = values.iter().all(|v| v.abs() <= extent);
+        if !ok {
+            self.error(
+                field,
+                format!("must be finite, each within ±{extent} {unit}"),
+            );
+        }
+        ok
+    }
+
+    /// Whether `value` can name something on the bus and on a command line: 1 to
+    /// [`MAX_NAME_BYTES`] bytes, without spaces, `/` or control characters (a NUL in a
+    /// D-Bus string makes the bus drop the sender).
+    pub fn name(&mut self, field: impl Into<String>, value: &str) -> bool {
+        let ok = !value.is_empty()
+            && value.len() <= MAX_NAME_BYTES
+            && !value
+                .chars()
+                .any(|c| c.is_whitespace() || c.is_control() || c == '/');
+        if !ok {
+            self.error(
+                field,
+                format!(
+                    "{value:?} is not a usable name: 1 to {MAX_NAME_BYTES} bytes, without \
+                     spaces, '/' or control characters"
+                ),
+            );
+        }
+        ok
+    }
+
+    /// Whether `value` is text to show (a description, a title): at most
+    /// [`MAX_TEXT_BYTES`] bytes and no control characters but line breaks.
+    pub fn text(&mut self, field: impl Into<String>, value: &str) -> bool {
+        let ok =
+            value.len() <= MAX_TEXT_BYTES && !value.chars().any(|c| c.is_control() && c != '\n');
+        if !ok {
+            self.error(
+                field,
+                format!(
+                    "must be at most {MAX_TEXT_BYTES} bytes of text without control characters"
+                ),
+            );
+        }
+        ok
+    }
+
     /// Whether `value` is finite and > 0; an error on `field` if not.
     pub fn positive(&mut self, field: impl Into<String>, value: f64) -> bool {
         let ok = value.is_finite() && value > 0.0;
@@ -368,7 +430,9 @@ impl<'a> Findings<'a> {
             self.error(
                 field,
                 format!(
-                    "must be a number from {lo} to {hi}{unit}, not {}",
+                    "must be a number from {} to {}{unit}, not {}",
+                    Number(lo),
+                    Number(hi),
                     Number(value)
                 ),
             );
@@ -395,6 +459,15 @@ impl<'a> Findings<'a> {
             return DQuat::IDENTITY;
         }
         q.normalize()
+    }
+
+    /// Every finding so far as the error, when checking cannot go on (at least one error
+    /// must have been reported).
+    pub fn into_error(self) -> Diagnostics {
+        debug_assert!(self.has_errors());
+        Diagnostics {
+            diagnostics: self.list,
+        }
     }
 
     /// Whether any error was found so far.

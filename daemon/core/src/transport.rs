@@ -22,6 +22,25 @@ pub struct Reading {
     pub board_channel: u8,
 }
 
+/// Highest command an amplifier channel may be given, volts. The current drive sets the
+/// motor current to make its sense-resistor voltage equal the D/A command, from a 24 V
+/// supply (thesis Fig. 3.4): a command above the supply asks for a current it cannot give,
+/// so a mechanism that needs one is refused rather than driven at full scale.
+pub const AMPLIFIER_MAX_VOLTS: f64 = 24.0;
+
+/// Largest D/A magnitude a string of `tension_max` newtons on a motor of
+/// `volts_per_newton` may be given: its tension limit, and never past
+/// [`AMPLIFIER_MAX_VOLTS`] (non-finite inputs give 0, no force).
+pub fn dac_limit(tension_max: f64, volts_per_newton: f64) -> i16 {
+    let volts = tension_max * volts_per_newton.abs();
+    if volts > 0.0 {
+        (volts.min(AMPLIFIER_MAX_VOLTS) * DAC_DIGITS_PER_VOLT).trunc() as i16
+    } else {
+        // Zero, negative or NaN: no force at all.
+        0
+    }
+}
+
 /// D/A value for `tension` newtons on a motor of `volts_per_newton`, saturated to the
 /// converter's range. Truncated toward zero, so quantisation never raises a tension above
 /// what was asked (and so never above a limit).
@@ -154,5 +173,30 @@ mod tests {
         // A reversed motor (negative V/N) gets a negative value.
         assert_eq!(dac_for_tension(1.0, -0.5776), -239);
         assert_eq!(dac_for_tension(1e9, 0.3653), i16::MAX);
+    }
+
+    #[test]
+    fn the_dac_limit_is_the_tension_limit_within_the_amplifiers_range() {
+        // 20 N at 0.3653 V/N is 7.306 V: 3031 digits, what 20 N itself gives.
+        assert_eq!(dac_limit(20.0, 0.3653), dac_for_tension(20.0, 0.3653));
+        assert_eq!(dac_limit(20.0, -0.3653), 3031);
+        // However large the descriptor's numbers, never past 24 V.
+        let ceiling = (AMPLIFIER_MAX_VOLTS * DAC_DIGITS_PER_VOLT) as i16;
+        for (t, v) in [
+            (1e308, 0.3653),
+            (20.0, 1e308),
+            (f64::MAX, f64::MAX),
+            (100.0, 1.0),
+        ] {
+            assert_eq!(dac_limit(t, v), ceiling, "{t} N, {v} V/N");
+        }
+        for (t, v) in [
+            (f64::NAN, 0.3653),
+            (20.0, f64::NAN),
+            (0.0, 0.3653),
+            (-1.0, 0.3653),
+        ] {
+            assert_eq!(dac_limit(t, v), 0, "{t} N, {v} V/N");
+        }
     }
 }

@@ -36,11 +36,16 @@ impl SceneInstance for Penalty {
         }
         let n = pointers.len();
         let mut felt = [Wrench::default(); MAX_POINTERS];
-        self.0.step_pointers(dt, &grips[..n], &mut felt[..n]);
+        let stepped = self.0.step_pointers(dt, &grips[..n], &mut felt[..n]);
         for (out, w) in wrenches.iter_mut().zip(felt) {
             *out = w.into();
         }
-        HAPTICD_OK
+        // A tick too long for the step, or a world gone non-finite: the host fades out.
+        if stepped {
+            HAPTICD_OK
+        } else {
+            HAPTICD_ERROR_FAILED
+        }
     }
 }
 
@@ -51,6 +56,9 @@ fn create(
     let path = path.ok_or("the penalty scene needs a scene file")?;
     let scene =
         PenaltyScene::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())?;
+    for warning in &scene.warnings {
+        hapticd_plugin_api::log(HAPTICD_LOG_WARN, &warning.to_string());
+    }
     hapticd_plugin_api::log(
         HAPTICD_LOG_INFO,
         &format!(

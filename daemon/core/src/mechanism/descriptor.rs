@@ -261,7 +261,7 @@ tension:
         let text = GOOD.replacen("[-0.2, 0.2, 0.2]", "[-0.2, .inf, 0.2]", 1);
         let e = error_of(&text);
         assert!(
-            e.starts_with("m.yaml:7:12: error: strings[0].motor: must be a finite number"),
+            e.starts_with("m.yaml:7:12: error: strings[0].motor: must be finite"),
             "{e}"
         );
     }

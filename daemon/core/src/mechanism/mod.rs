@@ -13,10 +13,11 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use hapticd_plugin_api::MechanismSpec;
 
-use crate::diagnostics::{Diagnostic, Diagnostics, Findings, Position};
+use crate::diagnostics::{Diagnostic, Diagnostics, Findings, Number, Position};
 use crate::kinematics::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose};
 use crate::solver::geometry::{EffectorKinematics, StringGeometry};
 use crate::solver::tension::{TensionSettings, TensionSolver};
+use crate::transport::AMPLIFIER_MAX_VOLTS;
 
 /// One string.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,6 +70,10 @@ pub struct Mechanism {
     pub warnings: Vec<Diagnostic>,
 }
 
+/// Farthest a motor, knot or calibration pose may lie from the frame centre, metres: far
+/// beyond any desk-top frame, near enough that lengths keep their precision.
+pub const MAX_EXTENT: f64 = 10.0;
+
 impl Mechanism {
     /// Validate a flat specification (from YAML or a plugin) into a mechanism.
     ///
@@ -82,14 +87,8 @@ impl Mechanism {
         locate: &dyn Fn(&str) -> Option<Position>,
     ) -> Result<Mechanism, Diagnostics> {
         let mut f = Findings::new(source, locate);
-        if name.is_empty() || name.chars().any(|c| c.is_whitespace() || c == '/') {
-            f.error(
-                "name",
-                format!(
-                    "{name:?} is not a usable name: it must be non-empty, without spaces or '/'"
-                ),
-            );
-        }
+        f.name("name", name);
+        f.text("description", description);
         f.non_negative("tension.lambda", spec.lambda);
         f.positive("tension.torque_weight", spec.torque_weight);
         let effectors = validate_effectors(&mut f, spec);
@@ -187,9 +186,10 @@ fn validate_effectors(f: &mut Findings, spec: &MechanismSpec) -> Vec<Effector> {
     for (i, raw) in spec.effectors.iter().enumerate() {
         let field = format!("end_effectors[{i}]");
         let name = match raw.name_str() {
-            Some(n) if !n.is_empty() => n.to_string(),
-            _ => {
-                f.error(format!("{field}.name"), "must be a non-empty UTF-8 name");
+            Some(n) if f.name(format!("{field}.name"), n) => n.to_string(),
+            Some(_) => String::new(),
+            None => {
+                f.error(format!("{field}.name"), "must be a UTF-8 name");
                 String::new()
             }
         };
@@ -212,7 +212,12 @@ fn validate_effectors(f: &mut Findings, spec: &MechanismSpec) -> Vec<Effector> {
         };
         let calib = format!("calibration.{name}");
         let position = DVec3::from(raw.calibration_position);
-        f.finite(format!("{calib}.position"), &raw.calibration_position);
+        f.coordinates(
+            format!("{calib}.position"),
+            &raw.calibration_position,
+            MAX_EXTENT,
+            "m",
+        );
         let orientation =
             f.unit_quaternion(format!("{calib}.orientation"), raw.calibration_orientation);
         effectors.push(Effector {
@@ -244,22 +249,29 @@ fn validate_strings(
             );
             continue;
         };
-        let motor_ok = f.finite(format!("{field}.motor"), &raw.motor);
-        let knot_ok = f.finite(format!("{field}.knot"), &raw.knot);
+        let motor_ok = f.coordinates(format!("{field}.motor"), &raw.motor, MAX_EXTENT, "m");
+        let knot_ok = f.coordinates(format!("{field}.knot"), &raw.knot, MAX_EXTENT, "m");
         if knot_ok && owner.dof == Dof::Three && raw.knot != [0.0; 3] {
             f.error(
                 format!("{field}.knot"),
                 "a point grip (dof 3) has no knot offset: use [0, 0, 0]",
             );
         }
-        for (key, value) in [
-            ("metres_per_pulse", raw.metres_per_pulse),
-            ("volts_per_newton", raw.volts_per_newton),
+        // Wider than any SPIDAR's encoders and motors, narrow enough that lengths and
+        // commands stay far from overflow.
+        for (key, value, lo, hi) in [
+            ("metres_per_pulse", raw.metres_per_pulse, 1e-9, 1e-2),
+            ("volts_per_newton", raw.volts_per_newton, 1e-6, 1e3),
         ] {
-            if !value.is_finite() || value == 0.0 {
+            if !(lo..=hi).contains(&value.abs()) {
                 f.error(
                     format!("{field}.{key}"),
-                    "must be a finite, non-zero number",
+                    format!(
+                        "must be a finite number of size {} to {} (either sign), not {}",
+                        Number(lo),
+                        Number(hi),
+                        Number(value)
+                    ),
                 );
             }
         }
@@ -279,6 +291,16 @@ fn validate_strings(
             f.error(
                 format!("{field}.tension_min"),
                 format!("tension_min {lo} N exceeds tension_max {hi} N"),
+            );
+        } else if hi * raw.volts_per_newton.abs() > AMPLIFIER_MAX_VOLTS {
+            f.error(
+                format!("{field}.tension_max"),
+                format!(
+                    "{hi} N at {} V/N asks the amplifier for {:.1} V; its current drive cannot \
+                     be commanded above {AMPLIFIER_MAX_VOLTS} V",
+                    raw.volts_per_newton,
+                    hi * raw.volts_per_newton.abs()
+                ),
             );
         }
         let spec = StringSpec {

@@ -94,6 +94,7 @@ impl StaticSceneSpec {
         let (raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
         let locate = |field: &str| map.find(field);
         let mut f = Findings::new(path, &locate);
+        f.name("name", &raw.name);
         let proxy = match raw.proxy {
             None => ProxyParameters::default(),
             Some(p) => {

@@ -7,7 +7,7 @@
 use glam::{DQuat, DVec3};
 
 use crate::body::Body;
-use crate::world::Load;
+use hapticd_core::kinematics::Wrench;
 
 /// Where the user's grip is and how it moves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,13 +38,13 @@ pub struct Coupling {
 impl Coupling {
     /// The load the coupling puts on `body` (its centroid is the coupled point) with the grip
     /// at `grip`; the user feels the opposite.
-    pub fn load(&self, grip: &Grip, body: &Body) -> Load {
+    pub fn load(&self, grip: &Grip, body: &Body) -> Wrench {
         // The smallest rotation taking the body's orientation to the grip's.
         let mut error = grip.orientation * body.orientation.inverse();
         if error.w < 0.0 {
             error = -error;
         }
-        Load {
+        Wrench {
             force: self.stiffness * (grip.position - body.position)
                 + self.damping * (grip.velocity - body.velocity),
             torque: self.rotational_stiffness * error.to_scaled_axis()

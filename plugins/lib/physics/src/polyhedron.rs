@@ -100,6 +100,36 @@ impl Polyhedron {
         })
     }
 
+    /// The least width across the solid: over every face normal, the extent of the vertices
+    /// along it (for a box, its shortest edge).
+    pub fn thickness(&self) -> f64 {
+        self.planes
+            .iter()
+            .map(|plane| {
+                let along = self.vertices.iter().map(|v| plane.normal.dot(*v));
+                let (lo, hi) = along.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
+                    (lo.min(d), hi.max(d))
+                });
+                hi - lo
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Area of the largest face: the largest patch a contact with a flat solid can have.
+    pub fn largest_face_area(&self) -> f64 {
+        self.faces
+            .iter()
+            .map(|face| {
+                let v = |k: usize| self.vertices[face[k % face.len()]];
+                (1..face.len().saturating_sub(1))
+                    .map(|k| (v(k) - v(0)).cross(v(k + 1) - v(0)))
+                    .sum::<DVec3>()
+                    .length()
+                    / 2.0
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// Whether `p` is inside or on every face (within `tolerance`).
     pub fn contains(&self, p: DVec3, tolerance: f64) -> bool {
         self.planes

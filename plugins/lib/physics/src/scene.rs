@@ -59,7 +59,7 @@ use hapticd_core::kinematics::Wrench;
 use std::path::Path;
 
 use glam::DVec3;
-use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings, YamlMap};
 use serde::Deserialize;
 
 #[derive(Deserialize)]
@@ -192,10 +192,40 @@ pub struct PenaltyScene {
     couplings: Vec<Option<Coupling>>,
     /// Whether the pointers have been put at their grips once.
     pointers_placed: bool,
+    /// What the file asks for that works, but worth knowing (a step near its stability
+    /// limit).
+    pub warnings: Vec<Diagnostic>,
 }
 
 /// Most pointers a scene steps.
 pub const MAX_POINTERS: usize = 8;
+
+// What a scene file may describe: the world of a desk and a room, in SI units, with room to
+// spare on every side, and none of the extremes where the numbers stop meaning anything
+// (a 1e-300 m box has no inertia to integrate; a position of 1e17 m has no millimetres).
+
+/// Shortest physics step, seconds; also what keeps one haptic tick to a bounded number of
+/// steps.
+pub const MIN_DT: f64 = 1e-6;
+/// Longest physics step, seconds.
+pub const MAX_DT: f64 = 0.1;
+/// Smallest and largest edge or thickness of a solid, metres.
+pub const SIZE_RANGE: (f64, f64) = (1e-4, 1e3);
+/// Farthest a body may be placed from the origin, metres.
+pub const MAX_EXTENT: f64 = 1e3;
+/// Lightest and densest material, kg/m³ (the thesis' 1 kg cube of 2 m is 0.125).
+pub const DENSITY_RANGE: (f64, f64) = (1e-3, 1e5);
+/// Strongest gravity, m/s² (a hundred times the earth's).
+pub const MAX_GRAVITY: f64 = 1e3;
+/// Fastest initial speed, m/s, and spin, rad/s.
+pub const MAX_SPEED: (f64, f64) = (1e3, 1e4);
+/// Most points of a hull (its construction is cubic in them).
+pub const MAX_HULL_POINTS: usize = 64;
+/// Most convex pieces in a world, pointers included: the world keeps state for every pair.
+pub const MAX_PIECES: usize = 256;
+/// Most physics steps in one call of [`PenaltyScene::step_pointers`]; a tick that would
+/// need more fails instead of holding the haptic thread.
+pub const MAX_STEPS_PER_CALL: usize = 1000;
 
 /// The solid of a `box:` or a `hull:` (exactly one) of the item at field path `at`, turned
 /// by its `orientation` and moved to its `position`; `None` after reporting what is wrong.
@@ -208,20 +238,52 @@ fn solid(
     orientation: [f64; 4],
 ) -> Option<Polyhedron> {
     let turn = f.unit_quaternion(format!("{at}.orientation"), orientation);
-    let placed = f.finite(format!("{at}.position"), &position);
+    let placed = f.coordinates(format!("{at}.position"), &position, MAX_EXTENT, "m");
+    let (smallest, largest) = SIZE_RANGE;
     let local = match (size, hull) {
         (Some(size), None) => {
             let mut ok = true;
             for (k, side) in size.iter().enumerate() {
-                ok &= f.positive(format!("{at}.box[{k}]"), *side);
+                ok &= f.within(format!("{at}.box[{k}]"), *side, smallest, largest, " m");
             }
             ok.then(|| Polyhedron::cuboid(DVec3::from(size) / 2.0))
         }
         (None, Some(points)) => {
+            if points.len() > MAX_HULL_POINTS {
+                f.error(
+                    format!("{at}.hull"),
+                    format!(
+                        "{} points; a hull takes at most {MAX_HULL_POINTS}",
+                        points.len()
+                    ),
+                );
+                return None;
+            }
+            let mut ok = true;
+            for (k, p) in points.iter().enumerate() {
+                ok &= f.coordinates(format!("{at}.hull[{k}]"), p, largest, "m");
+            }
+            if !ok {
+                return None;
+            }
             let points: Vec<DVec3> = points.iter().map(|p| DVec3::from(*p)).collect();
-            Polyhedron::hull(&points)
-                .map_err(|e| f.error(format!("{at}.hull"), e))
-                .ok()
+            match Polyhedron::hull(&points) {
+                Err(e) => {
+                    f.error(format!("{at}.hull"), e);
+                    None
+                }
+                Ok(hull) if hull.thickness() < smallest => {
+                    f.error(
+                        format!("{at}.hull"),
+                        format!(
+                            "the hull is {:.3e} m thin; solids must be at least {smallest} m thick",
+                            hull.thickness()
+                        ),
+                    );
+                    None
+                }
+                Ok(hull) => Some(hull),
+            }
         }
         _ => {
             f.error(at, "give either box: or hull:");
@@ -249,7 +311,7 @@ fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<Polyhedron
         return None;
     }
     let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
-    let placed = f.finite(format!("{at}.position"), &b.position);
+    let placed = f.coordinates(format!("{at}.position"), &b.position, MAX_EXTENT, "m");
     let pieces: Vec<Option<Polyhedron>> = pieces
         .iter()
         .enumerate()
@@ -269,6 +331,50 @@ fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<Polyhedron
     pieces.into_iter().collect()
 }
 
+/// ω·dt of the stiffest contact spring a body can meet above which an explicit step gains
+/// energy (and, past 2, diverges).
+const STABLE_OMEGA_DT: f64 = 1.0;
+
+/// Refuse a material too stiff for the step and the scene's movable bodies: the volume
+/// spring on a body's largest face (the largest patch it can rest on) is a spring of
+/// k = stiffness × area, and the step integrates m·ẍ = −k·x stably only while √(k/m)·dt < 2.
+/// Between 1 and 2 it still gains energy on every bounce: a warning.
+fn check_stability(f: &mut Findings, m: &RawMaterial, dt: f64, bodies: &[Body]) {
+    if m.scaling.is_some() {
+        return; // Per-contact springs scaled by mass and step: stable by construction.
+    }
+    for (i, body) in bodies.iter().enumerate().filter(|(_, b)| !b.fixed) {
+        let area = body
+            .pieces
+            .iter()
+            .map(Polyhedron::largest_face_area)
+            .fold(0.0, f64::max);
+        for (key, k) in [
+            ("stiffness", m.stiffness * area),
+            ("point_stiffness", m.point_stiffness.unwrap_or(0.0)),
+        ] {
+            let omega_dt = (k / body.mass).sqrt() * dt;
+            if omega_dt <= STABLE_OMEGA_DT {
+                continue;
+            }
+            let message = format!(
+                "with bodies[{i}] ({:.3} kg on a {area:.2e} m² face) the contact spring has \
+                 ω·dt = {omega_dt:.2} at dt = {dt} s; a step of at most {:.2e} s keeps it at 1",
+                body.mass,
+                dt / omega_dt
+            );
+            if omega_dt >= 2.0 {
+                f.error(format!("material.{key}"), format!("too stiff: {message}"));
+            } else {
+                f.warning(
+                    format!("material.{key}"),
+                    format!("gains energy: {message}"),
+                );
+            }
+        }
+    }
+}
+
 impl PenaltyScene {
     /// Load the scene file at `path` for `pointers` pointers.
     pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
@@ -281,8 +387,11 @@ impl PenaltyScene {
         let (raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
         let locate = |field: &str| map.find(field);
         let mut f = Findings::new(path, &locate);
-        f.finite("gravity", &raw.gravity);
-        f.positive("dt", raw.dt);
+        f.name("name", &raw.name);
+        if f.finite("gravity", &raw.gravity) && DVec3::from(raw.gravity).length() > MAX_GRAVITY {
+            f.error("gravity", format!("must be at most {MAX_GRAVITY} m/s²"));
+        }
+        f.within("dt", raw.dt, MIN_DT, MAX_DT, " s");
         let m = &raw.material;
         for (key, value) in [
             ("stiffness", m.stiffness),
@@ -307,16 +416,38 @@ impl PenaltyScene {
             f.error("material.friction", "must not exceed static_friction");
         }
         if let Some(s) = &m.scaling {
-            f.positive("material.scaling.spring", s.spring);
+            // A contact spring of 2·spring·m/dt² turns ω·dt into √(2·spring): stable below 2.
+            if f.positive("material.scaling.spring", s.spring) && s.spring >= 2.0 {
+                f.error(
+                    "material.scaling.spring",
+                    "must be below 2: larger springs cannot be stable at any step",
+                );
+            }
             f.non_negative("material.scaling.damper", s.damper);
+        }
+        let pieces: usize = raw
+            .bodies
+            .iter()
+            .map(|b| b.pieces.as_ref().map_or(1, Vec::len))
+            .sum::<usize>()
+            + pointers;
+        if pieces > MAX_PIECES {
+            f.error(
+                "bodies",
+                format!("{pieces} convex pieces; a world holds at most {MAX_PIECES}"),
+            );
+            return Err(f.into_error());
         }
         let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
         for (i, b) in raw.bodies.iter().enumerate() {
             let at = format!("bodies[{i}]");
+            f.text(format!("{at}.name"), &b.name);
             let pieces = body_pieces(&mut f, &at, b);
-            f.positive(format!("{at}.density"), b.density);
-            f.finite(format!("{at}.velocity"), &b.velocity);
-            f.finite(format!("{at}.spin"), &b.spin);
+            let (light, dense) = DENSITY_RANGE;
+            f.within(format!("{at}.density"), b.density, light, dense, " kg/m³");
+            let (speed, spin) = MAX_SPEED;
+            f.coordinates(format!("{at}.velocity"), &b.velocity, speed, "m/s");
+            f.coordinates(format!("{at}.spin"), &b.spin, spin, "rad/s");
             if let Some(pieces) = pieces
                 && !f.has_errors()
             {
@@ -346,7 +477,8 @@ impl PenaltyScene {
                 ] {
                     f.non_negative(format!("pointer.coupling.{key}"), value);
                 }
-                f.positive("pointer.density", pointer.density);
+                let (light, dense) = DENSITY_RANGE;
+                f.within("pointer.density", pointer.density, light, dense, " kg/m³");
             }
             let shape = solid(
                 &mut f,
@@ -371,7 +503,10 @@ impl PenaltyScene {
                 }
             }
         }
-        f.finish()?;
+        if !f.has_errors() {
+            check_stability(&mut f, m, raw.dt, &bodies[..first_pointer]);
+        }
+        let warnings = f.finish()?;
         let point = [
             m.point_stiffness.unwrap_or(m.stiffness),
             m.point_damping.unwrap_or(m.damping),
@@ -415,6 +550,7 @@ impl PenaltyScene {
             materials,
             couplings,
             pointers_placed: false,
+            warnings,
         };
         scene.set_model(match m.model {
             RawModel::Volume => ContactModel::Volume,
@@ -426,7 +562,16 @@ impl PenaltyScene {
     /// [rt] Step the world through `dt` (in steps no longer than the scene's) with pointer k
     /// following `grips[k]`; `felt[k]` gets the wrench the user feels there (force, then
     /// torque about the pointer), averaged over `dt`. Allocates nothing.
-    pub fn step_pointers(&mut self, dt: f64, grips: &[Grip], felt: &mut [Wrench]) {
+    ///
+    /// Returns false, and steps nothing, when `dt` is not a positive time or would take more
+    /// than [`MAX_STEPS_PER_CALL`] steps; and false when a wrench came out non-finite.
+    pub fn step_pointers(&mut self, dt: f64, grips: &[Grip], felt: &mut [Wrench]) -> bool {
+        felt.fill(Wrench::default());
+        let steps = (dt / self.dt).ceil().max(1.0);
+        if !(dt > 0.0 && steps <= MAX_STEPS_PER_CALL as f64) {
+            return false;
+        }
+        let steps = steps as usize;
         let first = self.first_pointer;
         for (k, grip) in grips.iter().enumerate() {
             let body = &mut self.world.bodies[first + k];
@@ -438,8 +583,6 @@ impl PenaltyScene {
             }
         }
         self.pointers_placed = true;
-        let steps = (dt / self.dt).ceil().max(1.0) as usize;
-        felt.fill(Wrench::default());
         for _ in 0..steps {
             for (k, grip) in grips.iter().enumerate() {
                 if let Some(c) = &self.couplings[k] {
@@ -451,20 +594,14 @@ impl PenaltyScene {
                 *out = *out
                     + match self.couplings[k] {
                         None => self.world.contact_wrench(first + k),
-                        Some(_) => {
-                            let load = self.world.loads[first + k];
-                            Wrench {
-                                force: -load.force,
-                                torque: -load.torque,
-                            }
-                        }
+                        Some(_) => self.world.loads[first + k] * -1.0,
                     };
             }
         }
         for out in felt.iter_mut() {
-            out.force /= steps as f64;
-            out.torque /= steps as f64;
+            *out = *out * (1.0 / steps as f64);
         }
+        felt.iter().all(Wrench::is_finite) && self.world.is_finite()
     }
 
     /// Use `model` for contacts, with the material the file gives for it.

@@ -114,15 +114,6 @@ fn point_contact(
     }
 }
 
-/// A force through a body's centroid and a torque about it.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Load {
-    /// Force, newtons.
-    pub force: DVec3,
-    /// Torque about the centroid, newton-metres.
-    pub torque: DVec3,
-}
-
 /// Bodies, gravity and the contact material.
 #[derive(Debug, Clone)]
 pub struct World {
@@ -132,9 +123,9 @@ pub struct World {
     pub gravity: DVec3,
     /// Material of every contact.
     pub material: Material,
-    /// A load on each body besides gravity (a pulling spring, a virtual coupling); it stays
-    /// until changed.
-    pub loads: Vec<Load>,
+    /// A load on each body besides gravity (a pulling spring, a virtual coupling), its
+    /// torque about the body's centroid; it stays until changed.
+    pub loads: Vec<Wrench>,
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
@@ -210,6 +201,16 @@ fn widest_axis(boxes: &[Aabb]) -> usize {
 }
 
 impl World {
+    /// Whether every body's state is finite: a world that overflowed stays broken.
+    pub fn is_finite(&self) -> bool {
+        self.bodies.iter().all(|b| {
+            b.position.is_finite()
+                && b.orientation.is_finite()
+                && b.velocity.is_finite()
+                && b.spin.is_finite()
+        })
+    }
+
     /// A world of `bodies`.
     pub fn new(bodies: Vec<Body>, gravity: DVec3, material: Material) -> Self {
         let n = bodies.len();
@@ -229,7 +230,7 @@ impl World {
             boxes: vec![Aabb::EMPTY; n],
             order: (0..n).collect(),
             wrenches: vec![Wrench::default(); n],
-            loads: vec![Load::default(); n],
+            loads: vec![Wrench::ZERO; n],
             friction,
             bodies,
             gravity,

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DMat3, DQuat, DVec3};
 use hapticctl::plot::{Chart, PALETTE, Series};
-use hapticd_core::kinematics::Wrench;
+use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_device::sim::hand::{HandTrack, Script};
 use hapticd_physics::body::Body;
 use hapticd_physics::coupling::Grip;
@@ -113,7 +113,32 @@ struct Trace {
     felt: Vec<Wrench>,
     /// Largest force felt at each pointer, N.
     peaks: Vec<f64>,
-    csv: String,
+    /// Mechanical energy of the moving bodies at the start, at the end and at its highest.
+    energy: Energy,
+}
+
+/// Kinetic and gravitational energy of a world's moving bodies over a run, joules (contact
+/// springs and the pointers' couplings hold the rest).
+#[derive(Debug, Clone, Copy)]
+struct Energy {
+    start: f64,
+    end: f64,
+    peak: f64,
+}
+
+/// ½mv² + ½ωᵀIω − m·g·x summed over the bodies that move.
+fn mechanical_energy(scene: &PenaltyScene, moving: &[usize]) -> f64 {
+    let g = scene.world.gravity;
+    moving
+        .iter()
+        .map(|&i| {
+            let b = &scene.world.bodies[i];
+            let rotation = DMat3::from_quat(b.orientation);
+            let inertia = rotation * b.inertia * rotation.transpose();
+            0.5 * b.mass * b.velocity.length_squared() + 0.5 * b.spin.dot(inertia * b.spin)
+                - b.mass * g.dot(b.position)
+        })
+        .sum()
 }
 
 /// The pointers' grips at `t`.
@@ -132,13 +157,14 @@ fn grips(hands: &[HandTrack], t: f64) -> Vec<Grip> {
         .collect()
 }
 
+/// Step `scene` and trace it; its body states go to `record` as they are computed.
 fn trace(
     mut scene: PenaltyScene,
     args: &RunArgs,
     hands: &[HandTrack],
-    dt: f64,
-    steps: usize,
-) -> Trace {
+    (dt, steps): (f64, usize),
+    mut record: Option<&mut Recording>,
+) -> Result<Trace, Failure> {
     let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
     let moving: Vec<usize> = (0..scene.world.bodies.len())
         .filter(|&i| !scene.world.bodies[i].fixed)
@@ -147,7 +173,6 @@ fn trace(
         Quantity::PointerForce => (scene.first_pointer..scene.world.bodies.len()).collect(),
         _ => moving.clone(),
     };
-    let mut csv = String::new();
     let mut curves = vec![Vec::new(); plotted.len()];
     let mut felt = vec![Wrench::default(); hands.len()];
     let mut peaks = vec![0.0f64; hands.len()];
@@ -156,9 +181,23 @@ fn trace(
         ContactModel::Point => "point",
     };
     scene.dt = dt;
+    let start = mechanical_energy(&scene, &moving);
+    let mut energy = Energy {
+        start,
+        end: start,
+        peak: start,
+    };
     for step in 1..=steps {
         let t = step as f64 * dt;
-        scene.step_pointers(dt, &grips(hands, t - dt), &mut felt);
+        if !scene.step_pointers(dt, &grips(hands, t - dt), &mut felt) {
+            return Err(Failure::failed(format!(
+                "{}: at t = {t:.4} s the world is no longer finite (bodies too fast, too \
+                 light or too stiffly sprung for a step of {dt} s)",
+                args.file.display()
+            )));
+        }
+        energy.end = mechanical_energy(&scene, &moving);
+        energy.peak = energy.peak.max(energy.end);
         for (peak, w) in peaks.iter_mut().zip(&felt) {
             *peak = peak.max(w.force.length());
         }
@@ -172,20 +211,19 @@ fn trace(
             };
             curve.push((t, value));
         }
-        for &i in &moving {
-            let b = &scene.world.bodies[i];
-            if args.record.is_some() {
-                let (p, q, v, w) = (b.position, b.orientation, b.velocity, b.spin);
-                // Writing to a String cannot fail.
-                let _ = writeln!(
-                    csv,
-                    "{t},{model},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    scene.names[i], p.x, p.y, p.z, q.w, q.x, q.y, q.z, v.x, v.y, v.z, w.x, w.y, w.z
-                );
+        if let Some(record) = record.as_deref_mut() {
+            for &i in &moving {
+                let b = &scene.world.bodies[i];
+                let (p, [qw, qx, qy, qz], v, w) =
+                    (b.position, quat_to_wxyz(b.orientation), b.velocity, b.spin);
+                record.row(format_args!(
+                    "{t},{model},{},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{}",
+                    scene.names[i], p.x, p.y, p.z, v.x, v.y, v.z, w.x, w.y, w.z
+                ))?;
             }
         }
     }
-    Trace {
+    Ok(Trace {
         scene,
         model,
         moving,
@@ -193,7 +231,43 @@ fn trace(
         curves,
         felt,
         peaks,
-        csv,
+        energy,
+    })
+}
+
+/// A CSV file written row by row as the run goes, so a failing disk is reported at once
+/// and a long run needs no memory for its rows.
+struct Recording {
+    path: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+}
+
+impl Recording {
+    fn create(path: &Path) -> Result<Self, Failure> {
+        let file = std::fs::File::create(path)
+            .map_err(|e| Failure::failed(format!("cannot create {}: {e}", path.display())))?;
+        let mut recording = Self {
+            path: path.to_path_buf(),
+            out: std::io::BufWriter::new(file),
+        };
+        recording.row(format_args!(
+            "t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz"
+        ))?;
+        Ok(recording)
+    }
+
+    fn row(&mut self, row: std::fmt::Arguments) -> Result<(), Failure> {
+        use std::io::Write;
+        writeln!(self.out, "{row}").map_err(|e| self.failed(e))
+    }
+
+    fn finish(mut self) -> Result<(), Failure> {
+        use std::io::Write;
+        self.out.flush().map_err(|e| self.failed(e))
+    }
+
+    fn failed(&self, e: std::io::Error) -> Failure {
+        Failure::failed(format!("cannot write {}: {e}", self.path.display()))
     }
 }
 
@@ -215,6 +289,9 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         return Err(Failure::usage("--quantity pointer-force needs --hand"));
     }
     let first = load(&args.file, models[0], hands.len())?;
+    for warning in &first.warnings {
+        eprintln!("{warning}");
+    }
     let dt = args.dt.unwrap_or(first.dt);
     if !(dt.is_finite() && dt > 0.0) {
         return Err(Failure::usage("--dt must be a number > 0"));
@@ -225,20 +302,16 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         ));
     }
     let steps = (args.duration / dt).round() as usize;
-    let mut traces = vec![trace(first, args, &hands, dt, steps)];
+    let mut record = args.record.as_deref().map(Recording::create).transpose()?;
+    let mut traces = vec![trace(first, args, &hands, (dt, steps), record.as_mut())?];
     for &model in &models[1..] {
         let scene = load(&args.file, model, hands.len())?;
-        traces.push(trace(scene, args, &hands, dt, steps));
+        traces.push(trace(scene, args, &hands, (dt, steps), record.as_mut())?);
+    }
+    if let Some(record) = record {
+        record.finish()?;
     }
     let name = traces[0].scene.name.clone();
-    if let Some(path) = &args.record {
-        let mut csv = String::from("t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n");
-        for t in &traces {
-            csv.push_str(&t.csv);
-        }
-        std::fs::write(path, &csv)
-            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
-    }
     if let Some(path) = &args.plot {
         let (label, title) = match args.quantity {
             Quantity::Height => ("height, m", "height"),
@@ -268,8 +341,21 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     let mut text = String::new();
     let mut runs = Vec::new();
     for t in &traces {
-        let (world, model) = (&t.scene.world, t.model);
+        let (world, model, energy) = (&t.scene.world, t.model, t.energy);
         let _ = writeln!(text, "{name} ({model} contact): {steps} steps of {dt} s");
+        let _ = writeln!(
+            text,
+            "  energy {:.6} J at the start, {:.6} J at the end, {:.6} J at most",
+            energy.start, energy.end, energy.peak
+        );
+        // Nothing drives a world without hands: energy it gains comes from the integration.
+        let gained = energy.peak - energy.start;
+        if hands.is_empty() && gained > 1e-3 * energy.start.abs().max(1e-6) {
+            eprintln!(
+                "hapticctl: warning: {name} ({model} contact) gained {gained:.6} J with nothing \
+                 driving it: the material is too stiff or too lightly damped for a step of {dt} s"
+            );
+        }
         let mut bodies = Vec::new();
         for &i in &t.moving {
             let (b, body_name) = (&world.bodies[i], &t.scene.names[i]);
@@ -282,11 +368,10 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
                 b.velocity.length(),
                 b.spin.length()
             );
-            let q = b.orientation;
             bodies.push(json!({
                 "name": body_name,
                 "position": b.position.to_array(),
-                "orientation": [q.w, q.x, q.y, q.z],
+                "orientation": quat_to_wxyz(b.orientation),
                 "velocity": b.velocity.to_array(),
                 "spin": b.spin.to_array(),
                 "angular_momentum": angular_momentum(b).to_array(),
@@ -309,7 +394,12 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
                 "peak_force": peak,
             }));
         }
-        runs.push(json!({"model": model, "bodies": bodies, "pointers": pointers}));
+        runs.push(json!({
+            "model": model,
+            "bodies": bodies,
+            "pointers": pointers,
+            "energy": {"start": energy.start, "end": energy.end, "peak": energy.peak},
+        }));
     }
     print(
         &args.output,
