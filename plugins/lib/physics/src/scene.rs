@@ -657,7 +657,7 @@ mod tests {
     #[test]
     fn every_mistake_is_reported_at_its_line() {
         let text = "\
-name: three mistakes
+name: three-mistakes
 gravity: [0, .nan, 0]
 dt: 0.001
 material: { stiffness: 1.0e7, damping: -5, static_friction: 0.5, friction: 0.4,
@@ -675,7 +675,7 @@ bodies:
             [
                 "s.yaml:2:10: error: gravity: must be a finite number",
                 "s.yaml:4:40: error: material.damping: must be a finite number ≥ 0",
-                "s.yaml:9:17: error: bodies[1].box[1]: must be a finite number > 0",
+                "s.yaml:9:17: error: bodies[1].box[1]: must be a number from 0.0001 to 1000 m, not 0",
             ]
         );
     }
