@@ -129,12 +129,15 @@ impl Link for Cable {
 /// before the unplug.
 fn pressed_then_unplugged() -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Frame) {
     let m = shipped("spidar-g");
-    let board = Arc::new(Mutex::new(SimulatedBoard::new(
-        &m,
-        DT,
-        &Script::parse(PUSH_INTO_FLOOR, std::path::Path::new("hand.yaml")).unwrap(),
-        SimParameters::default(),
-    )));
+    let board = Arc::new(Mutex::new(
+        SimulatedBoard::new(
+            &m,
+            DT,
+            &Script::parse(PUSH_INTO_FLOOR, std::path::Path::new("hand.yaml")).unwrap(),
+            SimParameters::default(),
+        )
+        .unwrap(),
+    ));
     let first_cable = Arc::new(AtomicBool::new(false));
     let link: Box<dyn Link> = Box::new(Cable {
         board: board.clone(),

@@ -160,12 +160,9 @@ fn commands_between_ticks_do_not_allocate() {
         LoopCommand::Calibrate,
         LoopCommand::ResetFault,
         LoopCommand::SwitchScene(incoming),
-        LoopCommand::Reconnect(Box::new(SimulatedBoard::new(
-            &m,
-            1e-3,
-            &Script::default(),
-            SimParameters::default(),
-        ))),
+        LoopCommand::Reconnect(Box::new(
+            SimulatedBoard::new(&m, 1e-3, &Script::default(), SimParameters::default()).unwrap(),
+        )),
     ];
     let mut retired = Vec::with_capacity(4);
     let n = allocations_in(|| {

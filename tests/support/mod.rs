@@ -141,4 +141,5 @@ pub fn simulated_loop(m: &Mechanism, script: &str, dt: f64) -> HapticLoop {
         settings: LoopSettings::default(),
     }
     .haptic_loop()
+    .expect("a mechanism one board drives")
 }

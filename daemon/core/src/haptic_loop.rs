@@ -25,7 +25,9 @@ use crate::scene::{Pointer, Scene};
 use crate::solver::calibration::{lengths_from_counts, offsets_into};
 use crate::solver::pose::PoseSolver;
 use crate::solver::tension::{TensionSettings, TensionSolver};
-use crate::transport::{CHANNELS, Link, Reading, Transport, TransportError, dac_for_tension};
+use crate::transport::{
+    CHANNELS, Link, Reading, Transport, TransportError, dac_for_tension, dac_limit,
+};
 
 /// Largest root-mean-square misfit, metres, between the measured string lengths and the best
 /// pose for the counts to fit the calibration. Elastic stretch and encoder steps give well
@@ -71,8 +73,9 @@ pub enum DeviceState {
     Fault,
     /// The device does not answer.
     Disconnected,
-    /// The counts no longer fit the calibration (checked when the device returns, and at
-    /// start on a saved calibration): forces stay at zero until it is calibrated again.
+    /// The counts fit no pose (checked every tick, with a search when the device returns,
+    /// at start on a saved calibration, and whenever the warm-started pose misses): forces
+    /// stay at zero until it is calibrated again.
     Uncalibrated,
 }
 
@@ -151,6 +154,8 @@ pub struct HapticLoop {
     settings: LoopSettings,
     effectors: Vec<EffectorLoop>,
     offsets: Vec<f64>,
+    /// Largest D/A magnitude of each string: its tension limit within the amplifier's range.
+    dac_limits: [i16; CHANNELS],
     calibration_lengths: Vec<f64>,
     metres_per_pulse: Vec<f64>,
     calibrated: bool,
@@ -227,6 +232,12 @@ impl HapticLoop {
         };
         Ok(Self {
             offsets: vec![0.0; mechanism.strings.len()],
+            dac_limits: std::array::from_fn(|i| {
+                mechanism
+                    .strings
+                    .get(i)
+                    .map_or(0, |s| dac_limit(s.tension_max, s.volts_per_newton))
+            }),
             calibration_lengths: mechanism.calibration_lengths(),
             metres_per_pulse: mechanism.metres_per_pulse(),
             calibrated: false,
@@ -287,7 +298,13 @@ impl HapticLoop {
                 self.scene.set_proxy(&parameters.proxy);
                 self.parameters = Some(parameters);
             }
-            LoopCommand::Calibrate => self.calibrated = false,
+            LoopCommand::Calibrate => {
+                self.calibrated = false;
+                // The grips are held at their calibration poses: search from there.
+                for (e, effector) in self.effectors.iter_mut().zip(&self.mechanism.effectors) {
+                    e.pose.reset(effector.calibration);
+                }
+            }
             LoopCommand::ResetFault => {
                 self.scene.reset(&self.pointers);
                 for e in &mut self.effectors {
@@ -389,15 +406,18 @@ impl HapticLoop {
                 self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
             }
             let returning = self.frame.state == DeviceState::Disconnected;
-            if std::mem::take(&mut self.check_fit) || returning {
-                // The grip may be anywhere: search for it, and trust the counts only if some
-                // pose fits them.
-                if self.solve_poses(dt, true) > FITTING_MISFIT {
-                    self.misfit = true;
-                    self.frame.calibrated = false;
-                }
-            } else {
-                self.solve_poses(dt, false);
+            // After a restore or a return the grip may be anywhere: search for it.
+            let search = std::mem::take(&mut self.check_fit) || returning;
+            let fits = |misfit: f64| misfit <= FITTING_MISFIT;
+            let mut misfit = self.solve_poses(dt, search);
+            if !search && !fits(misfit) {
+                // The warm start lost the grip (or the counts went wrong): search first.
+                misfit = self.solve_poses(dt, true);
+            }
+            // Counts that fit no pose (NaN included) are not trusted until calibrated again.
+            if !fits(misfit) {
+                self.misfit = true;
+                self.frame.calibrated = false;
             }
             if returning {
                 self.scene.reset(&self.pointers);
@@ -423,7 +443,10 @@ impl HapticLoop {
                 let s = &self.mechanism.strings[e.strings[k]];
                 let tension = solved.map_or(0.0, |t| t.tensions[k].clamp(0.0, s.tension_max));
                 self.frame.tensions[e.strings[k]] = tension;
-                self.frame.dac[e.strings[k]] = dac_for_tension(tension, s.volts_per_newton);
+                // Whatever the solver and the descriptor gave, never past the string's limit.
+                let limit = self.dac_limits[e.strings[k]];
+                self.frame.dac[e.strings[k]] =
+                    dac_for_tension(tension, s.volts_per_newton).clamp(-limit, limit);
             }
         }
         (self.frame.state, self.frame.error) = match update {

@@ -117,20 +117,21 @@ pub struct SimulatedBoard {
 impl SimulatedBoard {
     /// A board driving `mechanism`, updated every `period` seconds, its hands following
     /// `script` (effectors the script does not name hold their calibration pose). At power-on
-    /// every grip is at its calibration pose and every counter reads zero.
-    ///
-    /// # Panics
-    /// If the mechanism has more strings than the board has channels.
+    /// every grip is at its calibration pose and every counter reads zero. A mechanism with
+    /// more strings than the board has channels cannot be driven by it: an error naming it.
     pub fn new(
         mechanism: &Mechanism,
         period: f64,
         script: &Script,
         parameters: SimParameters,
-    ) -> Self {
-        assert!(
-            mechanism.strings.len() <= CHANNELS,
-            "one board drives at most {CHANNELS} strings"
-        );
+    ) -> Result<Self, String> {
+        if mechanism.strings.len() > CHANNELS {
+            return Err(format!(
+                "{} has {} strings; one amplifier board drives at most {CHANNELS}",
+                mechanism.name,
+                mechanism.strings.len()
+            ));
+        }
         let effectors: Vec<SimEffector> = mechanism
             .effectors
             .iter()
@@ -162,7 +163,7 @@ impl SimulatedBoard {
                 pay_rate: 0.0,
             })
             .collect();
-        Self {
+        Ok(Self {
             parameters,
             period,
             time: 0.0,
@@ -173,7 +174,7 @@ impl SimulatedBoard {
             motor_forces: [0.0; CHANNELS],
             pending_out: false,
             input_bits: 0,
-        }
+        })
     }
 
     /// Simulated time since power-on, seconds.
@@ -371,7 +372,7 @@ mod tests {
             std::path::Path::new("h.yaml"),
         )
         .unwrap();
-        let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default());
+        let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default()).unwrap();
         let mut transport = Sh4Transport::new(board, "sim:test");
         let mut reading = Reading::default();
         // Half a newton on every string keeps them taut, as the tension minimum does.
@@ -407,7 +408,8 @@ mod tests {
     #[test]
     fn tension_pulls_the_grip_and_stretches_the_string() {
         let m = spidar();
-        let mut board = SimulatedBoard::new(&m, 1e-3, &Script::default(), SimParameters::default());
+        let mut board =
+            SimulatedBoard::new(&m, 1e-3, &Script::default(), SimParameters::default()).unwrap();
         // 5 N on the first string only (toward its motor), counted in D/A digits.
         let mut dac = [0; CHANNELS];
         dac[0] = dac_for_tension(5.0, 0.3653);
@@ -455,7 +457,7 @@ mod tests {
             std::path::Path::new("h.yaml"),
         )
         .unwrap();
-        let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default());
+        let board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default()).unwrap();
         let mut t = Sh4Transport::new(board, "sim:test");
         let mut reading = Reading::default();
         let results: Vec<bool> = (0..40)

@@ -36,15 +36,16 @@ pub struct Session {
 }
 
 impl Session {
-    /// The haptic loop of this session, on a freshly powered simulated board.
-    pub fn haptic_loop(&self) -> HapticLoop {
+    /// The haptic loop of this session, on a freshly powered simulated board; an error for
+    /// a mechanism one board cannot drive.
+    pub fn haptic_loop(&self) -> Result<HapticLoop, String> {
         let period = 1.0 / self.rate;
         let board = SimulatedBoard::new(
             &self.mechanism,
             period,
             &self.script,
             SimParameters::default(),
-        );
+        )?;
         let transport = Box::new(Sh4Transport::new(
             board,
             format!("sim:{}", self.mechanism.name),
@@ -52,15 +53,16 @@ impl Session {
         let pointers = Pointer::at_calibration(&self.mechanism);
         let scene = Box::new(StaticScene::new(self.scene.clone(), &pointers));
         HapticLoop::new(self.mechanism.clone(), transport, scene, self.settings)
-            .expect("experiments use mechanisms one board can drive")
+            .map_err(|e| e.to_string())
     }
 
     /// Run for `seconds` of simulated time, handing every frame to `observe`.
-    pub fn run(&self, seconds: f64, mut observe: impl FnMut(&Frame)) {
-        let mut haptic = self.haptic_loop();
+    pub fn run(&self, seconds: f64, mut observe: impl FnMut(&Frame)) -> Result<(), String> {
+        let mut haptic = self.haptic_loop()?;
         let ticks = (seconds * self.rate).round() as usize;
         for _ in 0..ticks {
             observe(haptic.tick(1.0 / self.rate));
         }
+        Ok(())
     }
 }

@@ -84,12 +84,14 @@ pub fn trace(lambda: f64, rate: f64) -> Vec<(f64, f64)> {
         },
     };
     let mut path = Vec::new();
-    session.run(0.5 + PERIOD, |frame| {
-        if frame.time > 0.5 {
-            let p = frame.poses[0].position;
-            path.push((p.x, p.z));
-        }
-    });
+    session
+        .run(0.5 + PERIOD, |frame| {
+            if frame.time > 0.5 {
+                let p = frame.poses[0].position;
+                path.push((p.x, p.z));
+            }
+        })
+        .expect("the tracing mechanism has four strings, which one board drives");
     path
 }
 

@@ -47,21 +47,28 @@ impl Range {
     }
 }
 
-/// The hand: hold, lower to 2 cm below the floor, press and hold.
-fn press_script() -> Script {
+/// The hand on the first effector (`grip`): hold, lower to 2 cm below the floor, press and
+/// hold; the other effectors rest.
+fn press_script(grip: &str) -> Result<Script, String> {
     Script::parse(
         &format!(
-            "hands:\n  grip:\n    - hold: {{ seconds: 0.1 }}\n    - move: {{ to: [0, {}, 0], seconds: 0.2 }}\n    - hold: {{ seconds: 2 }}\n",
+            "hands:\n  {grip:?}:\n    - hold: {{ seconds: 0.1 }}\n    - move: {{ to: [0, {}, 0], seconds: 0.2 }}\n    - hold: {{ seconds: 2 }}\n",
             FLOOR - 0.02
         ),
         std::path::Path::new("wall-stiffness hand"),
     )
-    .expect("a valid script")
+    .map_err(|e| e.to_string())
 }
 
 /// Whether a floor of `stiffness` N/m and `damping` N·s/m holds the pressing hand still at
-/// `rate` Hz on `mechanism` (a point grip named `grip`).
-pub fn is_stable(mechanism: &Mechanism, rate: f64, stiffness: f64, damping: f64) -> bool {
+/// `rate` Hz on the first effector of `mechanism`; an error for a mechanism the simulated
+/// board cannot drive.
+pub fn is_stable(
+    mechanism: &Mechanism,
+    rate: f64,
+    stiffness: f64,
+    damping: f64,
+) -> Result<bool, String> {
     let session = Session {
         mechanism: mechanism.clone(),
         scene: StaticSceneSpec {
@@ -77,7 +84,7 @@ pub fn is_stable(mechanism: &Mechanism, rate: f64, stiffness: f64, damping: f64)
                 normal: glam::DVec3::Y,
             }],
         },
-        script: press_script(),
+        script: press_script(&mechanism.effectors[0].name)?,
         rate,
         settings: LoopSettings {
             passivity: PassivityLimits::OFF,
@@ -91,27 +98,27 @@ pub fn is_stable(mechanism: &Mechanism, rate: f64, stiffness: f64, damping: f64)
             y.add(frame.poses[0].position.y);
             force.add(frame.wrenches[0].force.y);
         }
-    });
+    })?;
     // At rest on the floor, pressing with a steady force below the limit.
-    healthy
+    Ok(healthy
         && y.span() < AT_REST
         && y.high < FLOOR + 0.002
         && force.span() < STEADY_FORCE
-        && force.high < 0.9 * session.settings.safety.max_force
+        && force.high < 0.9 * session.settings.safety.max_force)
 }
 
 /// The largest stable stiffness at `rate`, N/m, searched by bisection (in log scale) between
 /// 100 N/m and 1 MN/m, for the best of a few damping values. Returns it with its damping.
-pub fn max_stable_stiffness(mechanism: &Mechanism, rate: f64) -> (f64, f64) {
+pub fn max_stable_stiffness(mechanism: &Mechanism, rate: f64) -> Result<(f64, f64), String> {
     let mut best = (0.0, 0.0);
     for damping in [2.0, 10.0, 40.0] {
         let (mut low, mut high) = (100f64.ln(), 1e6f64.ln());
-        if !is_stable(mechanism, rate, low.exp(), damping) {
+        if !is_stable(mechanism, rate, low.exp(), damping)? {
             continue;
         }
         for _ in 0..12 {
             let mid = 0.5 * (low + high);
-            if is_stable(mechanism, rate, mid.exp(), damping) {
+            if is_stable(mechanism, rate, mid.exp(), damping)? {
                 low = mid;
             } else {
                 high = mid;
@@ -121,5 +128,5 @@ pub fn max_stable_stiffness(mechanism: &Mechanism, rate: f64) -> (f64, f64) {
             best = (low.exp(), damping);
         }
     }
-    best
+    Ok(best)
 }

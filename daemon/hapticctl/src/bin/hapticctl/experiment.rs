@@ -231,10 +231,10 @@ fn stiffness(catalog: &Catalog, args: &StiffnessArgs) -> Result<(), Failure> {
         .rates
         .iter()
         .map(|&rate| {
-            let (k, b) = wall_stiffness::max_stable_stiffness(&m, rate);
-            (rate, k, b)
+            let (k, b) = wall_stiffness::max_stable_stiffness(&m, rate).map_err(Failure::failed)?;
+            Ok((rate, k, b))
         })
-        .collect();
+        .collect::<Result<_, Failure>>()?;
     let thesis = [(1000.0, 7.0), (5000.0, 25.5), (10_000.0, 28.5)];
     let chart = Chart {
         title: format!("{}: stiffest stable wall against loop rate", m.name),

@@ -64,7 +64,7 @@ pub fn open(
         }
         Kind::Simulator => {
             let board =
-                SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default());
+                SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default())?;
             sh4_transport(board, identity, traffic)
         }
     })
