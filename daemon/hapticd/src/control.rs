@@ -405,10 +405,12 @@ impl Daemon {
         let mut scenes = Vec::new();
         for device in &self.devices {
             scenes.push(
-                crate::scenes::open(name, None, &dirs, device.pointers()).map_err(|e| match e {
-                    crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
-                    crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),
-                })?,
+                crate::scenes::open(name, None, &dirs, device.pointers(), device.rate()).map_err(
+                    |e| match e {
+                        crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
+                        crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),
+                    },
+                )?,
             );
         }
         let loaded = scenes.first().map(|s| s.name().to_string());

@@ -159,8 +159,8 @@ impl RealtimeLoop {
         let (granted, scheduling) = std::sync::mpsc::channel();
         let period_ns = (1e9 / settings.rate).round() as u64;
         let period = period_ns as f64 * 1e-9;
-        // Stats reach the daemon at 10 Hz.
-        let publish_every = (settings.rate / 10.0).ceil().max(1.0) as u64;
+        // Stats reach the daemon at 10 Hz, however long the ticks take.
+        const PUBLISH_NS: u64 = 100_000_000;
         let (stop_flag, beat) = (stop.clone(), heartbeat.clone());
         let thread = std::thread::Builder::new()
             .name("hapticd-rt".into())
@@ -171,6 +171,7 @@ impl RealtimeLoop {
                 let mut stats = LoopStats::default();
                 let mut state = DeviceState::Running;
                 let mut next = monotonic_ns();
+                let mut published = next;
                 while !stop_flag.load(Ordering::Acquire) {
                     next += period_ns;
                     sleep_until(next);
@@ -207,8 +208,9 @@ impl RealtimeLoop {
                         next += (done - next) / period_ns * period_ns;
                     }
                     stats.record(woke.saturating_sub(next), done - woke, overrun);
-                    if stats.ticks.is_multiple_of(publish_every) {
+                    if done - published >= PUBLISH_NS {
                         stats_writer.publish(|s| *s = stats);
+                        published = done;
                     }
                     beat.store(stats.ticks, Ordering::Release);
                 }
@@ -250,10 +252,14 @@ impl RealtimeLoop {
         self.frames.latest()
     }
 
-    /// Stop the loop (it writes zero currents first) and take the haptic loop back.
-    pub fn stop(mut self) -> Option<HapticLoop> {
+    /// Stop the loop (it writes zero currents first); its statistics to the last tick.
+    pub fn stop(mut self) -> LoopStats {
         self.stop.store(true, Ordering::Release);
-        self.thread.take()?.join().ok()
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+        // The thread published its last statistics before it returned.
+        *self.stats.latest()
     }
 }
 

@@ -2,7 +2,9 @@
 //! static scene in the configured directories.
 
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
+use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::{Pointer, Scene};
 
 /// Why a scene could not be opened.
@@ -22,9 +24,49 @@ impl std::fmt::Display for OpenError {
     }
 }
 
-/// [main] The scene `name` for `pointers`: a scene plugin (`.so`, given `file`), a static
-/// scene file (a path), or the name of a static scene in `dirs` (searched in order).
+/// [main] The scene `name` for `pointers`, to render at `rate` Hz: a scene plugin (`.so`,
+/// given `file`), a static scene file (a path), or the name of a static scene in `dirs`
+/// (searched in order). A scene that cannot compute a tick in half of one is refused.
 pub fn open(
+    name: &str,
+    file: Option<&Path>,
+    dirs: &[PathBuf],
+    pointers: &[Pointer],
+    rate: f64,
+) -> Result<Box<dyn Scene>, OpenError> {
+    let mut scene = find(name, file, dirs, pointers)?;
+    fits_tick(scene.as_mut(), pointers, rate)?;
+    Ok(scene)
+}
+
+/// Ticks a new scene is tried for before it reaches the haptic thread.
+const TRIAL_TICKS: usize = 3;
+
+/// Refuse `scene` if its fastest of a few trial ticks, run here off the real-time thread,
+/// takes more than half the tick: on the haptic thread it would overrun every tick.
+fn fits_tick(scene: &mut dyn Scene, pointers: &[Pointer], rate: f64) -> Result<(), OpenError> {
+    let period = 1.0 / rate;
+    let mut wrenches = vec![Wrench::ZERO; pointers.len()];
+    let mut fastest = Duration::MAX;
+    for _ in 0..TRIAL_TICKS {
+        let started = Instant::now();
+        scene.render(pointers, period, &mut wrenches);
+        fastest = fastest.min(started.elapsed());
+    }
+    scene.reset(pointers);
+    if fastest.as_secs_f64() > 0.5 * period {
+        return Err(OpenError::Invalid(format!(
+            "scene {} takes {:.0} µs to compute a tick, more than half of the {:.0} µs tick at \
+             {rate} Hz: give it a longer physics step or run the loop slower",
+            scene.name(),
+            fastest.as_secs_f64() * 1e6,
+            period * 1e6
+        )));
+    }
+    Ok(())
+}
+
+fn find(
     name: &str,
     file: Option<&Path>,
     dirs: &[PathBuf],

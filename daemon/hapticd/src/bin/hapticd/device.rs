@@ -126,6 +126,7 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         common.scene_file,
         &common.config.scene_dirs,
         &pointers,
+        rate,
     )
     .map_err(|e| e.to_string())?;
     let scene_name = scene.name().to_string();
@@ -246,9 +247,8 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
 
 impl Device {
     /// Stop the loop, which writes zero currents first. Its threads finish once `done` is set.
-    pub fn stop(mut self) -> Stopped {
-        let stats = *self.rt.stats();
-        self.rt.stop();
+    pub fn stop(self) -> Stopped {
+        let stats = self.rt.stop();
         Stopped {
             identity: self.handle.identity().to_string(),
             stats,
