@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use hapticd_device::replay::{Direction, read_recording};
+use hapticd_device::replay::{Direction, Recording};
 use hapticd_device::sh4;
 use support::{artifact, plugin_path, repo_dir, scratch_root};
 
@@ -148,11 +148,11 @@ fn sigterm_while_pushing_leaves_zero_currents_as_the_last_command() {
     let started = Instant::now();
     finish(child);
     assert!(started.elapsed() < Duration::from_secs(2), "slow to stop");
-    let outs: Vec<[i16; 8]> = read_recording(&traffic)
+    let outs: Vec<[i16; 8]> = Recording::read(&traffic)
         .unwrap()
-        .iter()
-        .filter(|t| t.direction == Direction::Out)
-        .map(|t| sh4::Command::decode(t.bytes()).unwrap().dac)
+        .transfers()
+        .filter(|(direction, _)| *direction == Direction::Out)
+        .map(|(_, bytes)| sh4::Command::decode(bytes).unwrap().dac)
         .collect();
     let pushing = outs[outs.len() - 2];
     assert!(

@@ -211,12 +211,12 @@ fn hapticd_arguments(dir: &Path) -> Vec<String> {
 
 /// The D/A values of every OUT transfer hapticd recorded in `dir/session.traffic`.
 fn dac_written(dir: &Path) -> Vec<[i16; 8]> {
-    use hapticd_device::replay::{Direction, read_recording};
-    read_recording(&dir.join("session.traffic"))
+    use hapticd_device::replay::{Direction, Recording};
+    Recording::read(&dir.join("session.traffic"))
         .unwrap()
-        .iter()
-        .filter(|t| t.direction == Direction::Out)
-        .map(|t| hapticd_device::sh4::Command::decode(t.bytes()).unwrap().dac)
+        .transfers()
+        .filter(|(direction, _)| *direction == Direction::Out)
+        .map(|(_, bytes)| hapticd_device::sh4::Command::decode(bytes).unwrap().dac)
         .collect()
 }
 

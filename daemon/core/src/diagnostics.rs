@@ -152,11 +152,12 @@ impl Diagnostics {
 pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
     use std::io::Read;
     let cannot = |e: &dyn fmt::Display| Diagnostics::file(file, format!("cannot read: {e}"));
-    let opened = std::fs::File::open(file).map_err(|e| cannot(&e))?;
-    let meta = opened.metadata().map_err(|e| cannot(&e))?;
+    // Look before opening: opening a FIFO waits for a writer that may never come.
+    let meta = std::fs::metadata(file).map_err(|e| cannot(&e))?;
     if !meta.is_file() {
         return Err(Diagnostics::file(file, "not a regular file"));
     }
+    let opened = std::fs::File::open(file).map_err(|e| cannot(&e))?;
     if meta.len() > MAX_FILE_BYTES {
         return Err(Diagnostics::file(
             file,
@@ -547,5 +548,23 @@ nested:
     fn files_that_are_not_regular_are_refused_without_reading() {
         let e = read_text(Path::new("/dev/zero")).unwrap_err().to_string();
         assert!(e.ends_with("not a regular file"), "{e}");
+        // A FIFO named like a descriptor: opening it would wait for a writer for ever.
+        let fifo = std::env::temp_dir().join(format!("hapticd-fifo-{}.yaml", std::process::id()));
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            let e = read_text(&fifo).unwrap_err().to_string();
+            std::fs::remove_file(&fifo).ok();
+            assert!(e.ends_with("not a regular file"), "{e}");
+        }
+    }
+
+    #[test]
+    fn files_larger_than_any_real_one_are_refused() {
+        let big = std::env::temp_dir().join(format!("hapticd-big-{}.yaml", std::process::id()));
+        let file = std::fs::File::create(&big).unwrap();
+        file.set_len(MAX_FILE_BYTES + 1).unwrap();
+        let e = read_text(&big).unwrap_err().to_string();
+        std::fs::remove_file(&big).ok();
+        assert!(e.contains("more than the 16777216 a file may have"), "{e}");
     }
 }

@@ -65,41 +65,90 @@ pub fn write_transfer(out: &mut impl Write, t: &Transfer) -> std::io::Result<()>
     out.write_all(t.bytes())
 }
 
-/// Read a whole recording.
-pub fn read_recording(path: &Path) -> std::io::Result<Vec<Transfer>> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)?.read_to_end(&mut bytes)?;
-    let invalid = |what: &str| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!("{}: {what}", path.display()),
-        )
-    };
-    if bytes.len() < 8 || &bytes[..8] != MAGIC {
-        return Err(invalid("not a hapticd traffic recording"));
-    }
-    let mut transfers = Vec::new();
-    let mut at = 8;
-    while at < bytes.len() {
-        let header = bytes
-            .get(at..at + 3)
-            .ok_or_else(|| invalid("truncated record"))?;
-        let direction = match header[0] {
-            0 => Direction::Out,
-            1 => Direction::In,
-            _ => return Err(invalid("bad direction byte")),
+/// Largest recording read back, bytes: over an hour of an SH4 amplifier at 1 kHz.
+pub const MAX_RECORDING_BYTES: u64 = 4 << 30;
+
+/// One transfer of a recording: where its bytes are in the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Record {
+    direction: Direction,
+    start: usize,
+    len: usize,
+}
+
+/// A recording as read from its file: the file's bytes and an index of its transfers, so
+/// it takes the memory of the file and a few bytes per transfer, however short they are.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Recording {
+    bytes: Vec<u8>,
+    records: Vec<Record>,
+}
+
+impl Recording {
+    /// Read and check a whole recording.
+    pub fn read(path: &Path) -> std::io::Result<Recording> {
+        let invalid = |what: String| {
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("{}: {what}", path.display()),
+            )
         };
-        let len = u16::from_le_bytes([header[1], header[2]]) as usize;
-        let data = bytes
-            .get(at + 3..at + 3 + len)
-            .ok_or_else(|| invalid("truncated record"))?;
-        if len > MAX_TRANSFER {
-            return Err(invalid("transfer too long"));
+        let file = std::fs::File::open(path)?;
+        let size = file.metadata()?.len();
+        if size > MAX_RECORDING_BYTES {
+            return Err(invalid(format!(
+                "{size} bytes is more than the {MAX_RECORDING_BYTES} a recording may have"
+            )));
         }
-        transfers.push(Transfer::new(direction, data));
-        at += 3 + len;
+        let mut bytes = Vec::with_capacity(size as usize);
+        file.take(MAX_RECORDING_BYTES).read_to_end(&mut bytes)?;
+        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+            return Err(invalid("not a hapticd traffic recording".into()));
+        }
+        let mut records = Vec::new();
+        let mut at = 8;
+        while at < bytes.len() {
+            let header = bytes
+                .get(at..at + 3)
+                .ok_or_else(|| invalid(format!("truncated record at byte {at}")))?;
+            let direction = match header[0] {
+                0 => Direction::Out,
+                1 => Direction::In,
+                other => return Err(invalid(format!("bad direction byte {other} at byte {at}"))),
+            };
+            let len = u16::from_le_bytes([header[1], header[2]]) as usize;
+            if len > MAX_TRANSFER {
+                return Err(invalid(format!("transfer of {len} bytes at byte {at}")));
+            }
+            if at + 3 + len > bytes.len() {
+                return Err(invalid(format!("truncated record at byte {at}")));
+            }
+            records.push(Record {
+                direction,
+                start: at + 3,
+                len,
+            });
+            at += 3 + len;
+        }
+        Ok(Recording { bytes, records })
     }
-    Ok(transfers)
+
+    /// The transfers in order: direction and bytes.
+    pub fn transfers(&self) -> impl Iterator<Item = (Direction, &[u8])> {
+        self.records
+            .iter()
+            .map(|r| (r.direction, &self.bytes[r.start..r.start + r.len]))
+    }
+
+    /// How many transfers it holds.
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    /// Whether it holds no transfer.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
 }
 
 /// A link that records every transfer of the link it wraps.
@@ -162,16 +211,16 @@ impl<L: Link> Link for RecordingLink<L> {
 
 /// A device that answers from a recording.
 pub struct ReplayLink {
-    transfers: Vec<Transfer>,
+    recording: Recording,
     next: usize,
     mismatches: u64,
 }
 
 impl ReplayLink {
-    /// Replay `transfers` in order.
-    pub fn new(transfers: Vec<Transfer>) -> Self {
+    /// Replay `recording` in order.
+    pub fn new(recording: Recording) -> Self {
         Self {
-            transfers,
+            recording,
             next: 0,
             mismatches: 0,
         }
@@ -182,12 +231,14 @@ impl ReplayLink {
         self.mismatches
     }
 
-    fn take(&mut self, direction: Direction) -> Option<Transfer> {
-        let t = *self.transfers.get(self.next)?;
-        (t.direction == direction).then(|| {
-            self.next += 1;
-            t
-        })
+    /// [rt] The next recorded transfer, if it goes in `direction`.
+    fn take(&mut self, direction: Direction) -> Option<&[u8]> {
+        let r = *self.recording.records.get(self.next)?;
+        if r.direction != direction {
+            return None;
+        }
+        self.next += 1;
+        Some(&self.recording.bytes[r.start..r.start + r.len])
     }
 }
 
@@ -196,7 +247,7 @@ impl Link for ReplayLink {
         let recorded = self
             .take(Direction::Out)
             .ok_or(TransportError::Disconnected)?;
-        if recorded.bytes() != bytes {
+        if recorded != bytes {
             self.mismatches += 1;
         }
         Ok(())
@@ -206,8 +257,8 @@ impl Link for ReplayLink {
         let recorded = self
             .take(Direction::In)
             .ok_or(TransportError::Disconnected)?;
-        let n = recorded.bytes().len().min(bytes.len());
-        bytes[..n].copy_from_slice(&recorded.bytes()[..n]);
+        let n = recorded.len().min(bytes.len());
+        bytes[..n].copy_from_slice(&recorded[..n]);
         Ok(n)
     }
 
@@ -274,9 +325,9 @@ mod tests {
             write_transfer(&mut file, &t).unwrap();
         }
         drop(file);
-        let transfers = read_recording(&path).unwrap();
-        assert_eq!(transfers.len(), 6);
-        let mut replay = ReplayLink::new(transfers);
+        let recording = Recording::read(&path).unwrap();
+        assert_eq!(recording.len(), 6);
+        let mut replay = ReplayLink::new(recording);
         for k in 0..3u8 {
             replay.write(&[k, 10, 20]).unwrap();
             let n = replay.read(&mut buf).unwrap();
@@ -285,5 +336,44 @@ mod tests {
         assert_eq!(replay.mismatches(), 0);
         assert_eq!(replay.write(&[0]), Err(TransportError::Disconnected));
         std::fs::remove_file(path).ok();
+    }
+
+    #[test]
+    fn a_recording_of_empty_transfers_takes_the_memory_of_its_file() {
+        let path = std::env::temp_dir().join(format!("hapticd-zeros-{}.bin", std::process::id()));
+        let mut bytes = MAGIC.to_vec();
+        bytes.resize(8 + 3 * 100_000, 0);
+        std::fs::write(&path, &bytes).unwrap();
+        let recording = Recording::read(&path).unwrap();
+        std::fs::remove_file(&path).ok();
+        assert_eq!(recording.len(), 100_000);
+        assert!(
+            recording
+                .transfers()
+                .all(|(d, b)| d == Direction::Out && b.is_empty())
+        );
+        // The index, not a 512-byte buffer per transfer.
+        let held = recording.bytes.capacity()
+            + recording.records.capacity() * std::mem::size_of::<Record>();
+        assert!(
+            held < 40 * bytes.len() / 3,
+            "{held} bytes for a {}-byte file",
+            bytes.len()
+        );
+    }
+
+    #[test]
+    fn damaged_recordings_are_refused_with_the_place() {
+        let path = std::env::temp_dir().join(format!("hapticd-bad-{}.bin", std::process::id()));
+        for (tail, want) in [
+            (&[2u8, 0, 0][..], "bad direction byte 2 at byte 8"),
+            (&[0, 5, 0, 1][..], "truncated record at byte 8"),
+            (&[1, 0xff, 0xff][..], "transfer of 65535 bytes at byte 8"),
+        ] {
+            std::fs::write(&path, [&MAGIC[..], tail].concat()).unwrap();
+            let e = Recording::read(&path).unwrap_err().to_string();
+            assert!(e.ends_with(want), "{e}");
+        }
+        std::fs::remove_file(&path).ok();
     }
 }

@@ -7,7 +7,7 @@ use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::{Link, Transport};
 use hapticd_device::Protocol;
-use hapticd_device::replay::{self, RecordingLink, ReplayLink, Transfer};
+use hapticd_device::replay::{Recording, RecordingLink, ReplayLink, Transfer};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
 use hapticd_device::transport::{Sh4Transport, SimpleTransport};
@@ -59,8 +59,8 @@ pub fn open(
             }
         }
         Kind::Replay(path) => {
-            let transfers = replay::read_recording(&path).map_err(|e| e.to_string())?;
-            sh4_transport(ReplayLink::new(transfers), identity, traffic)
+            let recording = Recording::read(&path).map_err(|e| e.to_string())?;
+            sh4_transport(ReplayLink::new(recording), identity, traffic)
         }
         Kind::Simulator => {
             let board =
