@@ -74,7 +74,7 @@ impl Name {
         }
     }
 
-    /// Allowed values, inclusive; a zero lower bound of a limit or spring is exclusive.
+    /// Allowed values; a zero lower bound of a limit or spring is exclusive.
     pub fn range(self) -> (f64, f64) {
         match self {
             Name::Stiffness => (0.0, 100_000.0),
@@ -87,11 +87,40 @@ impl Name {
         }
     }
 
-    fn zero_allowed(self) -> bool {
+    /// Whether the lower bound itself is allowed (a zero spring or limit is not).
+    fn includes_low(self) -> bool {
         matches!(
             self,
-            Name::Damping | Name::StaticFriction | Name::DynamicFriction | Name::Lambda
+            Name::Damping
+                | Name::StaticFriction
+                | Name::DynamicFriction
+                | Name::Lambda
+                | Name::Rate
         )
+    }
+
+    /// Whether `value` is finite and in this parameter's range, wherever it comes from: the
+    /// bus, the configuration or a scene file.
+    pub fn check(self, value: f64) -> Result<(), ParameterError> {
+        let (low, high) = self.range();
+        let what = self.as_str();
+        if !value.is_finite() {
+            return Err(ParameterError::NotFinite(format!(
+                "{what} must be a finite number, not {value}"
+            )));
+        }
+        let low_ok = if self.includes_low() {
+            value >= low
+        } else {
+            value > low
+        };
+        if !low_ok || value > high {
+            let open = if self.includes_low() { '[' } else { '(' };
+            return Err(ParameterError::OutOfRange(format!(
+                "{what} must be in {open}{low}, {high}], not {value}"
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -167,7 +196,7 @@ impl Overrides {
         value: f64,
         defaults: &Parameters,
     ) -> Result<Overrides, ParameterError> {
-        check_value(name, value)?;
+        name.check(value)?;
         let mut next = *self;
         *next.slot(name) = Some(value);
         check_consistency(&next.resolve(defaults))?;
@@ -195,7 +224,7 @@ impl Overrides {
         Name::ALL
             .iter()
             .filter_map(|&name| Some((name, self.get(name)?)))
-            .try_for_each(|(name, value)| check_value(name, value))
+            .try_for_each(|(name, value)| name.check(value))
     }
 
     /// Whether every stored value is in range and the values in force over `defaults` agree
@@ -207,28 +236,6 @@ impl Overrides {
 }
 
 /// Whether `value` is finite and in the range of `name`.
-fn check_value(name: Name, value: f64) -> Result<(), ParameterError> {
-    let (low, high) = name.range();
-    let what = name.as_str();
-    if !value.is_finite() {
-        return Err(ParameterError::NotFinite(format!(
-            "{what} must be a finite number, not {value}"
-        )));
-    }
-    let low_ok = if name.zero_allowed() {
-        value >= low
-    } else {
-        value > low
-    };
-    if !low_ok || value > high {
-        let open = if name.zero_allowed() { '[' } else { '(' };
-        return Err(ParameterError::OutOfRange(format!(
-            "{what} must be in {open}{low}, {high}], not {value}"
-        )));
-    }
-    Ok(())
-}
-
 /// Whether the values in force agree with each other: μ may not exceed μ0.
 fn check_consistency(p: &Parameters) -> Result<(), ParameterError> {
     if p.proxy.dynamic_friction > p.proxy.static_friction {

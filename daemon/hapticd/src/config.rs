@@ -21,7 +21,7 @@
 use std::path::{Path, PathBuf};
 
 use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
-use hapticd_core::parameters::MAX_RATE;
+use hapticd_core::parameters::Name;
 use serde::Deserialize;
 
 /// The whole configuration.
@@ -170,12 +170,15 @@ impl Config {
                 format!("must be 1–99, not {}", rt.priority),
             );
         }
-        f.within("realtime.rate", rt.rate, 100.0, MAX_RATE, " Hz");
-        for (key, value) in [
-            ("safety.max_force", self.safety.max_force),
-            ("safety.max_torque", self.safety.max_torque),
+        // The ranges the bus allows for the same values, so a start and a change agree.
+        for (key, name, value) in [
+            ("realtime.rate", Name::Rate, rt.rate),
+            ("safety.max_force", Name::MaxForce, self.safety.max_force),
+            ("safety.max_torque", Name::MaxTorque, self.safety.max_torque),
         ] {
-            f.positive(key, value);
+            if let Err(e) = name.check(value) {
+                f.error(key, e.to_string());
+            }
         }
     }
 }
@@ -210,8 +213,8 @@ mod tests {
             lines,
             [
                 "h.yaml:2:13: error: realtime.priority: must be 1–99, not 0",
-                "h.yaml:3:9: error: realtime.rate: must be a number from 100 to 10000 Hz, not 50000",
-                "h.yaml:5:14: error: safety.max_force: must be a finite number > 0",
+                "h.yaml:3:9: error: realtime.rate: Rate must be in [100, 10000], not 50000",
+                "h.yaml:5:14: error: safety.max_force: MaxForce must be a finite number, not NaN",
             ]
         );
     }

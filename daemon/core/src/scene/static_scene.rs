@@ -21,6 +21,7 @@ use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::kinematics::Wrench;
+use crate::parameters::Name;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -98,13 +99,16 @@ impl StaticSceneSpec {
         let proxy = match raw.proxy {
             None => ProxyParameters::default(),
             Some(p) => {
-                for (key, value) in [
-                    ("stiffness", p.stiffness),
-                    ("damping", p.damping),
-                    ("static_friction", p.static_friction),
-                    ("dynamic_friction", p.dynamic_friction),
+                // The ranges a user may tune them in over the bus.
+                for (key, name, value) in [
+                    ("stiffness", Name::Stiffness, p.stiffness),
+                    ("damping", Name::Damping, p.damping),
+                    ("static_friction", Name::StaticFriction, p.static_friction),
+                    ("dynamic_friction", Name::DynamicFriction, p.dynamic_friction),
                 ] {
-                    f.non_negative(format!("proxy.{key}"), value);
+                    if let Err(e) = name.check(value) {
+                        f.error(format!("proxy.{key}"), e.to_string());
+                    }
                 }
                 if p.dynamic_friction > p.static_friction {
                     f.error("proxy.dynamic_friction", "must not exceed static_friction");
