@@ -104,7 +104,11 @@ impl StaticSceneSpec {
                     ("stiffness", Name::Stiffness, p.stiffness),
                     ("damping", Name::Damping, p.damping),
                     ("static_friction", Name::StaticFriction, p.static_friction),
-                    ("dynamic_friction", Name::DynamicFriction, p.dynamic_friction),
+                    (
+                        "dynamic_friction",
+                        Name::DynamicFriction,
+                        p.dynamic_friction,
+                    ),
                 ] {
                     if let Err(e) = name.check(value) {
                         f.error(format!("proxy.{key}"), e.to_string());

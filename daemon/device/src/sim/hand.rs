@@ -86,9 +86,19 @@ pub enum Step {
     },
 }
 
-/// Fastest shake a script may ask for, hertz: far beyond a hand, well within the fastest
-/// tick rate.
+// What a hand can be asked to do, with room to spare: far beyond a person's hand, well
+// within what the simulator integrates at its fastest tick.
+
+/// Fastest shake, hertz.
 const MAX_SHAKE_FREQUENCY: f64 = 1000.0;
+/// Shortest turn of a traced circle, seconds.
+const MIN_TRACE_PERIOD: f64 = 0.01;
+/// Farthest target from the frame centre, metres (and the largest shake or circle).
+const MAX_REACH: f64 = 10.0;
+/// Strongest push, newtons.
+const MAX_PUSH: f64 = 1000.0;
+/// Longest step, seconds (eleven days).
+const MAX_STEP_SECONDS: f64 = 1e6;
 
 impl Step {
     /// The step's key in a script.
@@ -107,23 +117,29 @@ impl Step {
     /// Report what the hand cannot do: values that are not finite, a circle without a
     /// plane or period, a shake too fast to simulate, negative durations.
     fn check(&self, f: &mut Findings, at: &str) {
-        f.non_negative(format!("{at}.seconds"), self.seconds());
+        f.within(
+            format!("{at}.seconds"),
+            self.seconds(),
+            0.0,
+            MAX_STEP_SECONDS,
+            " s",
+        );
         match self {
             Step::Hold { at: Some(p), .. } => {
-                f.finite(format!("{at}.at"), p);
+                f.coordinates(format!("{at}.at"), p, MAX_REACH, "m");
             }
             Step::Move { to, .. } => {
-                f.finite(format!("{at}.to"), to);
+                f.coordinates(format!("{at}.to"), to, MAX_REACH, "m");
             }
             Step::Push { force, .. } => {
-                f.finite(format!("{at}.force"), force);
+                f.coordinates(format!("{at}.force"), force, MAX_PUSH, "N");
             }
             Step::Shake {
                 amplitude,
                 frequency,
                 ..
             } => {
-                f.finite(format!("{at}.amplitude"), amplitude);
+                f.coordinates(format!("{at}.amplitude"), amplitude, MAX_REACH, "m");
                 f.within(
                     format!("{at}.frequency"),
                     *frequency,
@@ -139,13 +155,19 @@ impl Step {
                 period,
                 ..
             } => {
-                f.finite(format!("{at}.centre"), centre);
-                f.non_negative(format!("{at}.radius"), *radius);
+                f.coordinates(format!("{at}.centre"), centre, MAX_REACH, "m");
+                f.within(format!("{at}.radius"), *radius, 0.0, MAX_REACH, " m");
                 if f.finite(format!("{at}.normal"), normal) && DVec3::from(*normal).length() < 1e-9
                 {
                     f.error(format!("{at}.normal"), "must not be zero");
                 }
-                f.positive(format!("{at}.period"), *period);
+                f.within(
+                    format!("{at}.period"),
+                    *period,
+                    MIN_TRACE_PERIOD,
+                    MAX_STEP_SECONDS,
+                    " s",
+                );
             }
             Step::Hold { at: None, .. } | Step::Unplug { .. } | Step::Path { .. } => {}
         }
@@ -166,8 +188,7 @@ impl Step {
 
 /// Read the path of effector `name` from a CSV recording.
 fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, String> {
-    let text = std::fs::read_to_string(file)
-        .map_err(|e| format!("{}: cannot read: {e}", file.display()))?;
+    let text = diagnostics::read_text(file).map_err(|e| e.to_string())?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines
         .next()
@@ -203,6 +224,16 @@ fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, String> {
                 })
         };
         samples.push((value(t)?, DVec3::new(value(x)?, value(y)?, value(z)?)));
+    }
+    if let Some(far) = samples
+        .iter()
+        .position(|s| s.1.abs().max_element() > MAX_REACH)
+    {
+        return Err(format!(
+            "{}: row {}: a position beyond {MAX_REACH} m",
+            file.display(),
+            far + 2
+        ));
     }
     let start = samples.first().map_or(0.0, |s| s.0);
     for s in &mut samples {
@@ -472,10 +503,10 @@ mod tests {
         assert_eq!(
             lines,
             [
-                "h.yaml:3:24: error: hands.grip[0].hold.seconds: must be a finite number ≥ 0",
-                "h.yaml:4:19: error: hands.grip[1].move.to: must be a finite number",
+                "h.yaml:3:24: error: hands.grip[0].hold.seconds: must be a number from 0 to 1000000 s, not -1",
+                "h.yaml:4:19: error: hands.grip[1].move.to: must be finite, each within ±10 m",
                 "h.yaml:5:56: error: hands.grip[2].trace.normal: must not be zero",
-                "h.yaml:5:75: error: hands.grip[2].trace.period: must be a finite number > 0",
+                "h.yaml:5:75: error: hands.grip[2].trace.period: must be a number from 0.01 to 1000000 s, not 0",
                 "h.yaml:6:52: error: hands.grip[3].shake.frequency: must be a number from 0 to 1000 Hz, not 1e308",
             ]
         );
