@@ -7,6 +7,14 @@ use hapticd_plugin_api::HapticdWrench;
 /// Most strings one end effector may have; fixes the size of every real-time buffer.
 pub const MAX_STRINGS_PER_EFFECTOR: usize = 16;
 
+/// Farthest anything in a scene may be placed from its origin, metres: a room with room to
+/// spare, and near enough that positions keep their millimetres.
+pub const WORLD_EXTENT: f64 = 1e3;
+
+/// Smallest and largest edge, radius or thickness of a solid in a scene, metres: below the
+/// smaller one there is no inertia to integrate nor a surface to feel.
+pub const SOLID_SIZES: (f64, f64) = (1e-4, 1e3);
+
 /// Degrees of freedom of an end effector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Dof {

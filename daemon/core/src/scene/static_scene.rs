@@ -20,7 +20,7 @@ use super::{Pointer, Scene};
 use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
-use crate::kinematics::Wrench;
+use crate::kinematics::{SOLID_SIZES, WORLD_EXTENT, Wrench};
 use crate::parameters::Name;
 
 #[derive(Deserialize)]
@@ -140,6 +140,17 @@ impl StaticSceneSpec {
     }
 }
 
+/// A size given in a file (an edge, a radius): within [`SOLID_SIZES`].
+fn check_size(f: &mut Findings, field: String, value: f64) {
+    let (smallest, largest) = SOLID_SIZES;
+    f.within(field, value, smallest, largest, " m");
+}
+
+/// A place given in a file: within [`WORLD_EXTENT`] of the origin.
+fn check_place(f: &mut Findings, field: String, value: &[f64]) {
+    f.coordinates(field, value, WORLD_EXTENT, "m");
+}
+
 /// A direction given in a file: finite and not zero, made unit length.
 fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
     let v = DVec3::from(v);
@@ -152,22 +163,22 @@ fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
 fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
     match shape {
         RawShape::Floor { height } => {
-            f.finite(format!("{at}.floor.height"), &[height]);
+            check_place(f, format!("{at}.floor.height"), &[height]);
             Shape::HalfSpace {
                 point: DVec3::new(0.0, height, 0.0),
                 normal: DVec3::Y,
             }
         }
         RawShape::Plane { point, normal } => {
-            f.finite(format!("{at}.plane.point"), &point);
+            check_place(f, format!("{at}.plane.point"), &point);
             Shape::HalfSpace {
                 point: DVec3::from(point),
                 normal: direction(f, format!("{at}.plane.normal"), normal),
             }
         }
         RawShape::Sphere { centre, radius } => {
-            f.finite(format!("{at}.sphere.centre"), &centre);
-            f.positive(format!("{at}.sphere.radius"), radius);
+            check_place(f, format!("{at}.sphere.centre"), &centre);
+            check_size(f, format!("{at}.sphere.radius"), radius);
             Shape::Sphere {
                 centre: DVec3::from(centre),
                 radius,
@@ -178,8 +189,8 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
             axis,
             radius,
         } => {
-            f.finite(format!("{at}.cylinder.point"), &point);
-            f.positive(format!("{at}.cylinder.radius"), radius);
+            check_place(f, format!("{at}.cylinder.point"), &point);
+            check_size(f, format!("{at}.cylinder.radius"), radius);
             Shape::Cylinder {
                 point: DVec3::from(point),
                 axis: direction(f, format!("{at}.cylinder.axis"), axis),
@@ -191,9 +202,9 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
             size,
             orientation,
         } => {
-            f.finite(format!("{at}.box.centre"), &centre);
+            check_place(f, format!("{at}.box.centre"), &centre);
             for (k, &side) in size.iter().enumerate() {
-                f.positive(format!("{at}.box.size[{k}]"), side);
+                check_size(f, format!("{at}.box.size[{k}]"), side);
             }
             Shape::Cuboid {
                 centre: DVec3::from(centre),
@@ -306,8 +317,8 @@ mod tests {
         assert_eq!(
             lines,
             [
-                "s.yaml:3:42: error: shapes[0].sphere.radius: must be a finite number > 0",
-                "s.yaml:4:22: error: shapes[1].floor.height: must be a finite number",
+                "s.yaml:3:42: error: shapes[0].sphere.radius: must be a number from 0.0001 to 1000 m, not -1",
+                "s.yaml:4:22: error: shapes[1].floor.height: must be finite, each within ±1000 m",
                 "s.yaml:5:40: error: shapes[2].plane.normal: must not be zero",
             ]
         );

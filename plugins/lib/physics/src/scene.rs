@@ -60,6 +60,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings, YamlMap};
+use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
 use serde::Deserialize;
 
 #[derive(Deserialize)]
@@ -209,10 +210,6 @@ pub const MAX_POINTERS: usize = 8;
 pub const MIN_DT: f64 = 1e-6;
 /// Longest physics step, seconds.
 pub const MAX_DT: f64 = 0.1;
-/// Smallest and largest edge or thickness of a solid, metres.
-pub const SIZE_RANGE: (f64, f64) = (1e-4, 1e3);
-/// Farthest a body may be placed from the origin, metres.
-pub const MAX_EXTENT: f64 = 1e3;
 /// Lightest and densest material, kg/m³ (the thesis' 1 kg cube of 2 m is 0.125).
 pub const DENSITY_RANGE: (f64, f64) = (1e-3, 1e5);
 /// Strongest gravity, m/s² (a hundred times the earth's).
@@ -238,8 +235,8 @@ fn solid(
     orientation: [f64; 4],
 ) -> Option<Polyhedron> {
     let turn = f.unit_quaternion(format!("{at}.orientation"), orientation);
-    let placed = f.coordinates(format!("{at}.position"), &position, MAX_EXTENT, "m");
-    let (smallest, largest) = SIZE_RANGE;
+    let placed = f.coordinates(format!("{at}.position"), &position, WORLD_EXTENT, "m");
+    let (smallest, largest) = SOLID_SIZES;
     let local = match (size, hull) {
         (Some(size), None) => {
             let mut ok = true;
@@ -311,7 +308,7 @@ fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<Polyhedron
         return None;
     }
     let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
-    let placed = f.coordinates(format!("{at}.position"), &b.position, MAX_EXTENT, "m");
+    let placed = f.coordinates(format!("{at}.position"), &b.position, WORLD_EXTENT, "m");
     let pieces: Vec<Option<Polyhedron>> = pieces
         .iter()
         .enumerate()
