@@ -56,8 +56,8 @@ pub struct LoadedPlugin {
 }
 
 /// Refuse `path` unless it is a regular file that only root or this process's user could
-/// have written, in directories only they could have written.
-pub fn check_permissions(path: &Path) -> Result<(), PluginError> {
+/// have written, in directories only they could have written; the file, resolved.
+pub fn check_permissions(path: &Path) -> Result<PathBuf, PluginError> {
     let canonical = path
         .canonicalize()
         .map_err(|e| refuse(path, format!("cannot resolve path: {e}")))?;
@@ -100,7 +100,7 @@ pub fn check_permissions(path: &Path) -> Result<(), PluginError> {
         }
         current = p.parent();
     }
-    Ok(())
+    Ok(canonical)
 }
 
 /// [main, physics] Host log service handed to plugins; `context` is the plugin's file name.
@@ -145,11 +145,12 @@ unsafe extern "C" fn host_get_extension(
 
 /// Check, open and negotiate with the plugin at `path`.
 pub fn load(path: &Path) -> Result<LoadedPlugin, PluginError> {
-    check_permissions(path)?;
+    // The resolved path: a bare file name would send dlopen searching the library path.
+    let resolved = check_permissions(path)?;
     let flags = libloading::os::unix::RTLD_NOW | libloading::os::unix::RTLD_LOCAL;
     // SAFETY: loading runs the library's initialisers; the permission check above is what
     // makes running this code acceptable.
-    let library = unsafe { libloading::os::unix::Library::open(Some(path), flags) }
+    let library = unsafe { libloading::os::unix::Library::open(Some(&resolved), flags) }
         .map_err(|e| refuse(path, format!("cannot load: {e}")))?;
     // SAFETY: the symbol's type is fixed by ABI v1.
     let entry =
