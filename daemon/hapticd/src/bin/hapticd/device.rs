@@ -74,6 +74,8 @@ pub struct Device {
     pub logger: JoinHandle<()>,
     /// The threads writing its recordings.
     pub writers: Vec<JoinHandle<std::io::Result<()>>>,
+    /// Why a recording stopped early, once one has.
+    pub recording_failed: Option<String>,
 }
 
 /// Start the loop of `kind` with what `common` says, recording what `recording` asks.
@@ -242,10 +244,28 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         scene: scene_name,
         logger,
         writers,
+        recording_failed: None,
     })
 }
 
 impl Device {
+    /// Report at once a recording whose writer stopped early (a full disk, a removed
+    /// directory): the loop goes on without it.
+    pub fn report_failed_recordings(&mut self) {
+        let (stopped, running): (Vec<_>, Vec<_>) =
+            self.writers.drain(..).partition(JoinHandle::is_finished);
+        self.writers = running;
+        for writer in stopped {
+            if let Err(error) = joined(writer) {
+                tracing::error!(
+                    "{}: recording stopped, the loop goes on without it: {error}",
+                    self.handle.identity()
+                );
+                self.recording_failed.get_or_insert(error);
+            }
+        }
+    }
+
     /// Stop the loop, which writes zero currents first. Its threads finish once `done` is set.
     pub fn stop(self) -> Stopped {
         let stats = self.rt.stop();
@@ -254,7 +274,16 @@ impl Device {
             stats,
             logger: self.logger,
             writers: self.writers,
+            recording_failed: self.recording_failed,
         }
+    }
+}
+
+/// How a recording's writer thread ended.
+fn joined(writer: JoinHandle<std::io::Result<()>>) -> Result<(), String> {
+    match writer.join() {
+        Ok(result) => result.map_err(|e| format!("writing a recording: {e}")),
+        Err(_) => Err("a recording thread panicked".to_string()),
     }
 }
 
@@ -264,18 +293,19 @@ pub struct Stopped {
     stats: LoopStats,
     logger: JoinHandle<()>,
     writers: Vec<JoinHandle<std::io::Result<()>>>,
+    recording_failed: Option<String>,
 }
 
 impl Stopped {
-    /// Wait for the logging and recording threads (`done` must be set), and log how the loop
-    /// ran.
+    /// Wait for the logging and recording threads (`done` must be set), log how the loop
+    /// ran, and fail if a recording did.
     pub fn finish(self) -> Result<(), String> {
         let _ = self.logger.join();
+        let mut failed = self.recording_failed;
         for writer in self.writers {
-            writer
-                .join()
-                .map_err(|_| "a recording thread panicked".to_string())?
-                .map_err(|e| format!("writing a recording: {e}"))?;
+            if let Err(e) = joined(writer) {
+                failed.get_or_insert(e);
+            }
         }
         let stats = self.stats;
         tracing::info!(
@@ -287,6 +317,6 @@ impl Stopped {
             stats.wait_max_ns as f64 / 1e3,
             stats.overruns
         );
-        Ok(())
+        failed.map_or(Ok(()), Err)
     }
 }

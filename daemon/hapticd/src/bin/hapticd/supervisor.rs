@@ -75,6 +75,7 @@ impl Supervisor<'_> {
                 // Freed here, off the real-time thread.
                 while device.retired.pop().is_some() {}
                 follow_the_amplifier(device);
+                device.report_failed_recordings();
             }
             if let Some((plugged, model)) =
                 self.arrivals.as_mut().and_then(|a| a.poll(Instant::now()))
