@@ -7,9 +7,11 @@ use glam::{DQuat, DVec3};
 use hapticctl::plot::{Cells, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
-use hapticd_core::kinematics::{Dof, Pose, Wrench};
-use hapticd_core::mechanism::Mechanism;
+use hapticd_core::diagnostics::Number;
+use hapticd_core::kinematics::{Dof, Pose, Wrench, quat_from_wxyz, quat_to_wxyz};
 use hapticd_core::mechanism::analysis::{region_slice, tension_sweep};
+use hapticd_core::mechanism::{MAX_EXTENT, Mechanism};
+use hapticd_core::parameters::Name;
 use hapticd_core::solver::closure::is_force_closed;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_core::solver::pose::PoseSolver;
@@ -204,18 +206,14 @@ fn quat(values: &[f64], what: &str) -> Result<DQuat, Failure> {
             values.len()
         )));
     };
-    let q = DQuat::from_xyzw(*x, *y, *z, *w);
-    if (q.length() - 1.0).abs() > 1e-6 {
+    let q = quat_from_wxyz([*w, *x, *y, *z]);
+    if !((q.length() - 1.0).abs() <= 1e-6) {
         return Err(Failure::usage(format!(
             "{what} must be a unit quaternion; its norm is {}",
             q.length()
         )));
     }
     Ok(q.normalize())
-}
-
-fn quat_wxyz(q: DQuat) -> [f64; 4] {
-    [q.w, q.x, q.y, q.z]
 }
 
 pub fn resolve(catalog: &Catalog, mech: &str) -> Result<Mechanism, Failure> {
@@ -389,7 +387,7 @@ fn inspect(catalog: &Catalog, args: &Inspect) -> Result<(), Failure> {
             "dof": e.dof.count(),
             "calibration": {
                 "position": e.calibration.position.to_array(),
-                "orientation": quat_wxyz(e.calibration.orientation),
+                "orientation": quat_to_wxyz(e.calibration.orientation),
             },
             "force_closed_at_calibration": closed,
             "strings": strings,
@@ -412,6 +410,14 @@ fn pose(catalog: &Catalog, args: &PoseArgs) -> Result<(), Failure> {
             m.name,
             m.strings.len(),
             args.lengths.len()
+        )));
+    }
+    // No string of a frame within 10 m of its centre is longer than its diagonal.
+    let longest = 2.0 * MAX_EXTENT * 3f64.sqrt();
+    if let Some(bad) = args.lengths.iter().find(|l| !(0.0..=longest).contains(*l)) {
+        return Err(Failure::usage(format!(
+            "string lengths must be between 0 and {longest:.1} m, not {}",
+            Number(*bad)
         )));
     }
     if !args.from.is_empty() && args.from.len() != 1 && args.from.len() != m.effectors.len() {
@@ -446,9 +452,16 @@ fn pose(catalog: &Catalog, args: &PoseArgs) -> Result<(), Failure> {
         let measured: Vec<f64> = effector.strings.iter().map(|&s| args.lengths[s]).collect();
         let mut solver = PoseSolver::new(m.kinematics(index), start);
         let estimate = solver.solve(&measured, args.iterations);
+        let pose = estimate.pose;
+        if !(pose.position.is_finite() && pose.orientation.is_normalized()) {
+            return Err(Failure::failed(format!(
+                "{}: these lengths fit no pose (the search left the frame)",
+                effector.name
+            )));
+        }
         squared += estimate.residual.powi(2) * measured.len() as f64;
         iterations = iterations.max(estimate.iterations);
-        let orientation = quat_wxyz(estimate.pose.orientation);
+        let orientation = quat_to_wxyz(estimate.pose.orientation);
         text += &format!(
             "{}: position {:?} m, orientation (w,x,y,z) {:?}\n",
             effector.name,
@@ -500,8 +513,8 @@ fn tension(catalog: &Catalog, args: &TensionArgs) -> Result<(), Failure> {
     );
     let mut solver = m.tension_solver(index);
     if let Some(lambda) = args.lambda {
-        if lambda < 0.0 {
-            return Err(Failure::usage("--lambda must be ≥ 0"));
+        if let Err(e) = Name::Lambda.check(lambda) {
+            return Err(Failure::usage(format!("--lambda: {e}")));
         }
         solver.set_settings(TensionSettings {
             lambda,
@@ -609,8 +622,16 @@ fn sweep(catalog: &Catalog, args: &SweepArgs) -> Result<(), Failure> {
     let m = resolve(catalog, &args.mech)?;
     let index = effector_index(&m, args.effector.as_deref())?;
     let force = vec3(&args.force, "--force")?;
-    if args.lambdas.iter().any(|l| *l < 0.0) || args.lambdas.is_empty() {
-        return Err(Failure::usage("--lambdas must be one or more numbers ≥ 0"));
+    // The tensions of every sample for every λ are held and plotted.
+    if args.lambdas.is_empty() || args.lambdas.len() > 16 {
+        return Err(Failure::usage("--lambdas takes one to 16 values"));
+    }
+    if let Some(e) = args
+        .lambdas
+        .iter()
+        .find_map(|&l| Name::Lambda.check(l).err())
+    {
+        return Err(Failure::usage(format!("--lambdas: {e}")));
     }
     if !(2..=100_000).contains(&args.samples) {
         return Err(Failure::usage("--samples must be between 2 and 100000"));
