@@ -207,7 +207,7 @@ fn quat(values: &[f64], what: &str) -> Result<DQuat, Failure> {
         )));
     };
     let q = quat_from_wxyz([*w, *x, *y, *z]);
-    if !((q.length() - 1.0).abs() <= 1e-6) {
+    if !q.is_finite() || (q.length() - 1.0).abs() > 1e-6 {
         return Err(Failure::usage(format!(
             "{what} must be a unit quaternion; its norm is {}",
             q.length()
