@@ -54,7 +54,7 @@ pub struct StackTimingArgs {
 
 #[derive(Args)]
 pub struct StiffnessArgs {
-    /// Mechanism with a point grip named `grip`.
+    /// Mechanism; its first effector presses on the wall.
     #[arg(default_value = "spidar")]
     mech: String,
     /// Loop rates to try, hertz.
