@@ -41,7 +41,8 @@ pub struct Transfer {
 }
 
 impl Transfer {
-    fn new(direction: Direction, bytes: &[u8]) -> Self {
+    /// A transfer of `bytes` (cut at [`MAX_TRANSFER`]).
+    pub fn new(direction: Direction, bytes: &[u8]) -> Self {
         let len = bytes.len().min(MAX_TRANSFER);
         let mut data = [0; MAX_TRANSFER];
         data[..len].copy_from_slice(&bytes[..len]);

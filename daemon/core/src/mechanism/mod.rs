@@ -17,7 +17,7 @@ use crate::diagnostics::{Diagnostic, Diagnostics, Findings, Number, Position};
 use crate::kinematics::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose};
 use crate::solver::geometry::{EffectorKinematics, StringGeometry};
 use crate::solver::tension::{TensionSettings, TensionSolver};
-use crate::transport::AMPLIFIER_MAX_VOLTS;
+use crate::transport::{AMPLIFIER_MAX_VOLTS, DAC_DIGITS_PER_VOLT, dac_limit};
 
 /// One string.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -291,6 +291,16 @@ fn validate_strings(
             f.error(
                 format!("{field}.tension_min"),
                 format!("tension_min {lo} N exceeds tension_max {hi} N"),
+            );
+        } else if dac_limit(hi, raw.volts_per_newton) == 0 {
+            f.error(
+                format!("{field}.tension_max"),
+                format!(
+                    "{hi} N at {} V/N is less than one step of the amplifier's D/A converter \
+                     ({:.3} N): the string could never pull",
+                    raw.volts_per_newton,
+                    1.0 / (DAC_DIGITS_PER_VOLT * raw.volts_per_newton.abs())
+                ),
             );
         } else if hi * raw.volts_per_newton.abs() > AMPLIFIER_MAX_VOLTS {
             f.error(
