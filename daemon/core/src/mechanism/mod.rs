@@ -259,11 +259,13 @@ fn validate_strings(
         }
         // Wider than any SPIDAR's encoders and motors, narrow enough that lengths and
         // commands stay far from overflow.
+        let mut constants_ok = true;
         for (key, value, lo, hi) in [
             ("metres_per_pulse", raw.metres_per_pulse, 1e-9, 1e-2),
             ("volts_per_newton", raw.volts_per_newton, 1e-6, 1e3),
         ] {
             if !(lo..=hi).contains(&value.abs()) {
+                constants_ok = false;
                 f.error(
                     format!("{field}.{key}"),
                     format!(
@@ -292,6 +294,8 @@ fn validate_strings(
                 format!("{field}.tension_min"),
                 format!("tension_min {lo} N exceeds tension_max {hi} N"),
             );
+        } else if !constants_ok {
+            // The motor constant is wrong already: what it would command means nothing.
         } else if dac_limit(hi, raw.volts_per_newton) == 0 {
             f.error(
                 format!("{field}.tension_max"),
