@@ -10,6 +10,7 @@ use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_device::sim::hand::{HandTrack, Script};
 use hapticd_physics::body::Body;
 use hapticd_physics::coupling::Grip;
+use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::scene::PenaltyScene;
 use hapticd_physics::world::ContactModel;
 use serde_json::json;
@@ -115,6 +116,8 @@ struct Trace {
     peaks: Vec<f64>,
     /// Mechanical energy of the moving bodies at the start, at the end and at its highest.
     energy: Energy,
+    /// Farthest a moving body went in one step, metres.
+    longest_stride: f64,
 }
 
 /// Kinetic and gravitational energy of a world's moving bodies over a run, joules (contact
@@ -182,6 +185,7 @@ fn trace(
     };
     scene.dt = dt;
     let start = mechanical_energy(&scene, &moving);
+    let mut longest_stride: f64 = 0.0;
     let mut energy = Energy {
         start,
         end: start,
@@ -198,6 +202,9 @@ fn trace(
         }
         energy.end = mechanical_energy(&scene, &moving);
         energy.peak = energy.peak.max(energy.end);
+        for &i in &moving {
+            longest_stride = longest_stride.max(scene.world.bodies[i].velocity.length() * dt);
+        }
         for (peak, w) in peaks.iter_mut().zip(&felt) {
             *peak = peak.max(w.force.length());
         }
@@ -232,6 +239,7 @@ fn trace(
         felt,
         peaks,
         energy,
+        longest_stride,
     })
 }
 
@@ -348,6 +356,21 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
             "  energy {:.6} J at the start, {:.6} J at the end, {:.6} J at most",
             energy.start, energy.end, energy.peak
         );
+        // A body that moves further in a step than half a solid is thick can pass through it.
+        let thinnest = world
+            .bodies
+            .iter()
+            .flat_map(|b| &b.pieces)
+            .map(Polyhedron::thickness)
+            .fold(f64::INFINITY, f64::min);
+        if t.longest_stride > 0.5 * thinnest {
+            eprintln!(
+                "hapticctl: warning: {name} ({model} contact): a body moved {:.4} m in one step, \
+                 more than half the thinnest solid ({thinnest:.4} m): it can pass through \
+                 without touching; use a shorter step",
+                t.longest_stride
+            );
+        }
         // Nothing drives a world without hands: energy it gains comes from the integration.
         let gained = energy.peak - energy.start;
         if hands.is_empty() && gained > 1e-3 * energy.start.abs().max(1e-6) {
