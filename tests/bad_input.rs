@@ -537,19 +537,20 @@ fn programs_refuse_what_one_board_or_one_tick_cannot_do_without_panicking() {
     let dir = mechanisms("ten", &[("spidar-10s.yaml", &ten)]);
     let dir_arg = dir.to_str().unwrap();
     let scene = repo_dir().join("config/scenes/static.yaml");
-    let out = run(
-        "hapticd",
-        &[
+    let scene_arg = scene.to_str().unwrap();
+    // hapticd on the simulated `mechanism` of `dir`, for a moment.
+    let simulate = |mechanism: &str, args: &[&str]| {
+        let common = [
             "--mechanism-dir",
             dir_arg,
             "--sim",
-            "spidar-10s",
-            "--scene",
-            scene.to_str().unwrap(),
+            mechanism,
             "--duration",
-            "0.2",
-        ],
-    );
+            "0.3",
+        ];
+        run("hapticd", &[&common[..], args].concat())
+    };
+    let out = simulate("spidar-10s", &["--scene", scene_arg]);
     assert_exit_1(&out, "one amplifier board drives at most 8");
     let out = run(
         "hapticctl",
@@ -577,19 +578,13 @@ fn programs_refuse_what_one_board_or_one_tick_cannot_do_without_panicking() {
     std::fs::write(&slow_file, slow).unwrap();
     let plugin = dir.join("libhapticd_scene_penalty.so");
     std::fs::copy(plugin_path("hapticd-scene-penalty"), &plugin).unwrap();
-    let out = run(
-        "hapticd",
+    let out = simulate(
+        "spidar-g",
         &[
-            "--mechanism-dir",
-            dir_arg,
-            "--sim",
-            "spidar-g",
             "--scene",
             plugin.to_str().unwrap(),
             "--scene-file",
             slow_file.to_str().unwrap(),
-            "--duration",
-            "0.5",
         ],
     );
     assert_exit_1(
@@ -605,20 +600,9 @@ fn programs_refuse_what_one_board_or_one_tick_cannot_do_without_panicking() {
     );
     let hand_file = dir.join("nan-hand.yaml");
     std::fs::write(&hand_file, hand).unwrap();
-    let out = run(
-        "hapticd",
-        &[
-            "--mechanism-dir",
-            dir_arg,
-            "--sim",
-            "spidar-g",
-            "--scene",
-            scene.to_str().unwrap(),
-            "--hand",
-            hand_file.to_str().unwrap(),
-            "--duration",
-            "0.2",
-        ],
+    let out = simulate(
+        "spidar-g",
+        &["--scene", scene_arg, "--hand", hand_file.to_str().unwrap()],
     );
     assert_exit_1(
         &out,
