@@ -54,7 +54,7 @@ fn pose_cases(m: &Mechanism) -> Vec<[f64; MAX_STRINGS_PER_EFFECTOR]> {
 }
 
 /// Tension problems along the path with a turning force.
-fn tension_cases(m: &Mechanism) -> Vec<(StringGeometry, [f64; 6])> {
+fn tension_cases(m: &Mechanism) -> Vec<(StringGeometry, Wrench)> {
     let k = m.kinematics(0);
     (0..CASES)
         .map(|i| {
@@ -62,10 +62,7 @@ fn tension_cases(m: &Mechanism) -> Vec<(StringGeometry, [f64; 6])> {
             let pose = path_pose(m, i);
             let force = glam::DVec3::new((3.0 * t).cos(), 0.5, (3.0 * t).sin()) * 4.0;
             let torque = glam::DVec3::new(t.sin(), t.cos(), 0.0) * 0.05;
-            (
-                StringGeometry::at(&k, &pose),
-                [force.x, force.y, force.z, torque.x, torque.y, torque.z],
-            )
+            (StringGeometry::at(&k, &pose), Wrench { force, torque })
         })
         .collect()
 }
@@ -92,7 +89,7 @@ fn tension_active_set(bencher: Bencher, name: &str) {
     bencher.bench_local(|| {
         i = (i + 1) % CASES;
         let (geometry, wrench) = &cases[i];
-        solver.solve(divan::black_box(geometry), &Wrench::from_array(*wrench))
+        solver.solve(divan::black_box(geometry), wrench)
     });
 }
 
@@ -115,7 +112,7 @@ fn tension_clarabel(bencher: Bencher, name: &str) {
         let (g, f) = &cases[i];
         clarabel_tensions(
             divan::black_box(g),
-            f,
+            &f.to_array(),
             m.tension.lambda,
             (&lo, &hi),
             settings.clone(),

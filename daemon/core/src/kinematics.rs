@@ -170,10 +170,15 @@ impl From<HapticdWrench> for Wrench {
     }
 }
 
-/// `v` shortened to length `max` if it is longer. The length is taken without squaring
-/// the components, so a huge finite vector is shortened, not lost to overflow.
+/// `v` shortened to length `max` if it is longer. A vector too long to square is measured
+/// scaled down, so a huge finite one is shortened, not lost to overflow.
 #[inline]
 pub fn clamp_length(v: DVec3, max: f64) -> DVec3 {
+    // The common case, every tick: short enough, measured directly.
+    let squared = v.length_squared();
+    if squared.is_finite() && squared <= max * max {
+        return v;
+    }
     let scale = v.abs().max_element();
     if scale == 0.0 || !scale.is_finite() {
         return v;

@@ -68,6 +68,7 @@ impl PoseSolver {
 
     /// Update the pose to match `measured` lengths (one per string, in effector order) with at
     /// most `iterations` Gauss–Newton steps.
+    #[inline]
     pub fn solve(&mut self, measured: &[f64], iterations: usize) -> PoseEstimate {
         let taken = match self.kinematics.dof() {
             Dof::Three => self.iterate::<3>(measured, iterations),

@@ -85,6 +85,7 @@ impl TensionSolver {
     }
 
     /// Tensions that best produce `target` at `geometry` (its torque counts for 6 DOF).
+    #[inline]
     pub fn solve(&mut self, geometry: &StringGeometry, target: &Wrench) -> TensionSolution {
         let target = target.to_array();
         debug_assert_eq!(geometry.count(), self.count);
