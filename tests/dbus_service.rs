@@ -466,6 +466,37 @@ fn every_property_and_method_answers_as_the_readme_shows() {
 }
 
 #[test]
+fn a_second_hapticd_refuses_to_take_the_name_of_a_running_one() {
+    let dir = scratch("second");
+    let bus = Bus::start(&dir);
+    let first = Hapticd::start(&bus, &Setup::new(&dir), &["--sim", "spidar-g"]);
+    let other = dir.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    let setup = Setup::new(&other);
+    let second = Command::new(artifact("hapticd"))
+        .arg("--config")
+        .arg(&setup.config)
+        .arg("--mechanism-dir")
+        .arg(&setup.mechanisms)
+        .args(["--sim", "spidar-g", "--duration", "2"])
+        .arg(format!("--bus={}", bus.address))
+        .env_remove("NOTIFY_SOCKET")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("org.hapticd.Hapticd1 is already owned")
+            && stderr.contains("will not take its place"),
+        "{stderr}"
+    );
+    // The first one still owns the name and answers for its device.
+    assert_eq!(bus.get(MANAGER, "ApiVersion"), "u 1");
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    first.stop();
+}
+
+#[test]
 fn bad_inputs_return_named_errors_and_change_nothing() {
     let dir = scratch("bad");
     let bus = Bus::start(&dir);

@@ -103,11 +103,35 @@ async fn connect(bus: &Bus, daemon: &Arc<Daemon>) -> zbus::Result<zbus::Connecti
             DeviceInterface::new(daemon.clone(), device.clone(), workers.clone()),
         );
     }
-    builder.name(BUS_NAME).build().await
+    // The name is ours only while no other hapticd has it, and nobody may take it from us:
+    // a second daemon would leave the first driving its amplifier unreachable.
+    builder
+        .name(BUS_NAME)
+        .allow_name_replacements(false)
+        .replace_existing_names(false)
+        .build()
+        .await
+}
+
+/// Why the service could not be served.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ServeError {
+    /// Another connection (another hapticd) owns the name on that bus.
+    NameTaken(String),
+    /// The bus could not be reached or the service not set up.
+    Unavailable(String),
+}
+
+impl std::fmt::Display for ServeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ServeError::NameTaken(m) | ServeError::Unavailable(m) => f.write_str(m),
+        }
+    }
 }
 
 /// Serve `daemon` on `bus`; returns once the name is owned, or why it could not be.
-pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, String> {
+pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, ServeError> {
     let stop = Arc::new(AtomicBool::new(false));
     let (ready_tx, ready) = std::sync::mpsc::channel();
     let stop_flag = stop.clone();
@@ -119,8 +143,17 @@ pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, String> {
                     let _ = ready_tx.send(Ok(()));
                     c
                 }
+                Err(zbus::Error::NameTaken) => {
+                    let _ = ready_tx.send(Err(ServeError::NameTaken(format!(
+                        "{BUS_NAME} is already owned on {bus:?}: another hapticd is running \
+                         there, and this one will not take its place"
+                    ))));
+                    return;
+                }
                 Err(e) => {
-                    let _ = ready_tx.send(Err(format!("cannot serve {BUS_NAME} on {bus:?}: {e}")));
+                    let _ = ready_tx.send(Err(ServeError::Unavailable(format!(
+                        "cannot serve {BUS_NAME} on {bus:?}: {e}"
+                    ))));
                     return;
                 }
             };
@@ -134,10 +167,10 @@ pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, String> {
                 }
             }
         })
-        .map_err(|e| format!("cannot start the D-Bus thread: {e}"))?;
-    ready
-        .recv()
-        .map_err(|_| "the D-Bus thread ended before connecting".to_string())??;
+        .map_err(|e| ServeError::Unavailable(format!("cannot start the D-Bus thread: {e}")))?;
+    ready.recv().map_err(|_| {
+        ServeError::Unavailable("the D-Bus thread ended before connecting".to_string())
+    })??;
     Ok(Service {
         stop,
         thread: Some(thread),

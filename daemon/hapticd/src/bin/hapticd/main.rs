@@ -197,9 +197,10 @@ fn run(cli: Cli) -> Result<Ending, String> {
         bus::serve(cli.bus.clone().unwrap_or(Bus::System), daemon.clone()),
     ) {
         (_, Ok(service)) => Some(service),
-        (Some(_), Err(e)) => {
+        // Another hapticd serves this bus: refuse, whichever bus was meant.
+        (_, Err(e @ bus::ServeError::NameTaken(_))) | (Some(_), Err(e)) => {
             let _ = stop_all(devices);
-            return Err(e);
+            return Err(e.to_string());
         }
         (None, Err(e)) => {
             tracing::warn!("{e}; running without the D-Bus interface");
