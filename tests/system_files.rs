@@ -48,12 +48,7 @@ fn the_unit_passes_systemd_analyze_verify_without_a_warning() {
         values(&unit, "ExecStart"),
         ["/usr/bin/hapticd --bus system"]
     );
-    for key in [
-        "LimitRTTIME",
-        "StateDirectory",
-        "ConfigurationDirectory",
-        "DeviceAllow",
-    ] {
+    for key in ["LimitRTTIME", "StateDirectory", "ConfigurationDirectory"] {
         assert_eq!(values(&unit, key).len(), 1, "{key}= is set once");
     }
     // Only the haptic thread is real-time, and lavapipe compiles shaders at run time.
@@ -101,6 +96,51 @@ fn the_unit_runs_as_the_user_and_group_that_own_the_devices() {
         .find(|l| l.starts_with("u "))
         .expect("a user entry");
     assert_eq!(entry.split_whitespace().nth(1), Some(group));
+}
+
+/// Every `/dev/…` path named in the sources of `dir`, outside unit tests.
+fn device_paths(dir: &std::path::Path, found: &mut Vec<String>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            device_paths(&path, found);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            let text = std::fs::read_to_string(&path).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap_or_default();
+            for literal in code.split('"').skip(1).step_by(2) {
+                if literal.starts_with("/dev/") {
+                    found.push(literal.to_string());
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn every_device_node_the_daemon_opens_is_allowed_by_the_unit() {
+    let unit = read("systemd/hapticd.service");
+    assert_eq!(values(&unit, "DevicePolicy"), ["closed"]);
+    let allowed = values(&unit, "DeviceAllow");
+    let mut paths = Vec::new();
+    for dir in ["daemon/hapticd/src", "daemon/device/src", "daemon/core/src"] {
+        device_paths(&repo_dir().join(dir), &mut paths);
+    }
+    assert!(
+        paths.iter().any(|p| p == "/dev/cpu_dma_latency"),
+        "{paths:?}"
+    );
+    for path in &paths {
+        // USB device nodes are allowed by their class; anything else by its path.
+        let rule = if path.starts_with("/dev/bus/usb/") {
+            "char-usb_device rw".to_string()
+        } else {
+            format!("{path} rw")
+        };
+        assert!(
+            allowed.contains(&rule.as_str()),
+            "{path} is opened but the unit allows only {allowed:?}"
+        );
+    }
 }
 
 /// `make install` of the build under test into a scratch DESTDIR: every file where a
