@@ -201,6 +201,24 @@ fn a_replayed_recording_reproduces_the_session() {
 }
 
 #[test]
+fn under_systemd_the_journal_gets_no_status_lines() {
+    let run = |journal: bool| {
+        let mut command = hapticd(&["--sim", "spidar-g", "--duration", "1.2"]);
+        if journal {
+            // What systemd sets when the streams go to the journal.
+            command.env("JOURNAL_STREAM", "8:12345");
+        }
+        let out = finish(command.spawn().unwrap());
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter(|l| l.starts_with("t="))
+            .count()
+    };
+    assert!(run(false) >= 2, "a terminal gets the status twice a second");
+    assert_eq!(run(true), 0, "the journal got status lines");
+}
+
+#[test]
 fn a_bad_configuration_is_refused_with_its_place() {
     let config = scratch("bad.yaml");
     std::fs::write(&config, "realtime:\n  rate: 1000\n  speed: 3\n").unwrap();

@@ -4,10 +4,15 @@
 
 use tracing_subscriber::layer::SubscriberExt;
 
+/// Whether systemd connected the standard streams to the journal (`$JOURNAL_STREAM`).
+pub fn under_journal() -> bool {
+    std::env::var_os("JOURNAL_STREAM").is_some()
+}
+
 /// Install the global logger for `program`. The journal is used when systemd connected
-/// standard error to it (`$JOURNAL_STREAM`), or when `journal` is true.
+/// standard error to it, or when `journal` is true.
 pub fn init(program: &str, journal: bool) {
-    let to_journal = journal || std::env::var_os("JOURNAL_STREAM").is_some();
+    let to_journal = journal || under_journal();
     if to_journal && let Ok(layer) = tracing_journald::layer() {
         let layer = layer.with_syslog_identifier(program.to_string());
         if tracing::subscriber::set_global_default(tracing_subscriber::registry().with(layer))

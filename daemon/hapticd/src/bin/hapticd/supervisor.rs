@@ -44,6 +44,7 @@ impl Supervisor<'_> {
         let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
         let (mut last_ping, mut last_beats) = (Instant::now(), vec![0; self.devices.len()]);
         let (mut last_status, mut last_publish) = (Instant::now(), Instant::now());
+        let quiet = hapticd::logging::under_journal();
         while !STOP.load(Ordering::Acquire) {
             if self
                 .duration
@@ -95,7 +96,9 @@ impl Supervisor<'_> {
                 }
                 last_publish = Instant::now();
             }
-            if last_status.elapsed() >= Duration::from_millis(500) {
+            // A person at a terminal reads the status; the journal gets events only (the
+            // status is on the bus for clients).
+            if !quiet && last_status.elapsed() >= Duration::from_millis(500) {
                 let several = self.devices.len() > 1;
                 for device in self.devices.iter_mut() {
                     let frame = *device.rt.frame();
