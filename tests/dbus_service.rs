@@ -939,6 +939,29 @@ fn a_damaged_state_file_is_kept_aside_and_the_device_starts_afresh() {
 }
 
 #[test]
+fn a_bound_mechanism_since_removed_falls_back_to_the_configured_one() {
+    let dir = scratch("unbound");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    std::fs::create_dir_all(&setup.state).unwrap();
+    let file = setup.state.join("device-sim.json");
+    std::fs::write(&file, r#"{"mechanism": "spidar-gone"}"#).unwrap();
+    // As the unit starts it: no --sim; with no amplifier plugged in, the simulated SPIDAR.
+    let daemon = Hapticd::start(&bus, &setup, &[]);
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-g\"");
+    // The binding is kept for when the mechanism comes back, and the log says where it is.
+    assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-gone\"");
+    let log = daemon.log();
+    assert!(
+        log.contains(&format!("\"spidar-gone\" bound in {}", file.display()))
+            && log.contains("\"spidar-g\" drives it until it can"),
+        "{log}"
+    );
+    daemon.stop();
+}
+
+#[test]
 fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated() {
     let dir = scratch("misfit");
     let bus = Bus::start(&dir);

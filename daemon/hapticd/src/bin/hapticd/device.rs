@@ -82,12 +82,34 @@ pub struct Device {
 pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device, String> {
     let identity = kind.identity();
     let mut record = load_record(common.state_dir, &identity);
-    // The command line first, then what the user set over D-Bus, then the configuration.
-    let mechanism_name = match (common.sim, &record.mechanism, &kind) {
-        (Some(sim), _, _) => sim.to_string(),
-        (None, Some(bound), _) => bound.clone(),
-        (None, None, Kind::Usb(_)) => common.config.hardware.mechanism.clone(),
-        (None, None, _) => common.config.simulator.mechanism.clone(),
+    let configured = match &kind {
+        Kind::Usb(_) => &common.config.hardware.mechanism,
+        _ => &common.config.simulator.mechanism,
+    };
+    // The command line first, then what the user bound over D-Bus, then the configuration.
+    let mut mechanism_name = match (common.sim, &record.mechanism) {
+        (Some(sim), _) => sim.to_string(),
+        (None, Some(bound)) => bound.clone(),
+        (None, None) => configured.clone(),
+    };
+    let mechanism = match common.catalog.resolve(&mechanism_name) {
+        Ok(m) => m,
+        // A binding to a mechanism since removed must not keep the device from starting: the
+        // binding stays saved (the plugin may come back) and the configured one drives.
+        Err(e) if common.sim.is_none() && record.mechanism.is_some() => {
+            let file = common.state_dir.map(|d| d.device_file(&identity));
+            tracing::warn!(
+                "{identity}: the mechanism {mechanism_name:?} bound in {} cannot be used, so \
+                 {configured:?} drives it until it can: {e}",
+                file.map_or("memory".into(), |f| f.display().to_string())
+            );
+            mechanism_name = configured.clone();
+            common
+                .catalog
+                .resolve(configured)
+                .map_err(|e| e.to_string())?
+        }
+        Err(e) => return Err(e.to_string()),
     };
     let rate = match common.rate.or(record.parameters.rate()) {
         Some(rate) => {
@@ -101,10 +123,6 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         }
         None => common.config.realtime.rate,
     };
-    let mechanism = common
-        .catalog
-        .resolve(&mechanism_name)
-        .map_err(|e| e.to_string())?;
     let mut writers = Vec::new();
     let traffic = match recording.traffic {
         Some(path) => {
