@@ -462,6 +462,23 @@ fn every_property_and_method_answers_as_the_readme_shows() {
     assert_eq!(saved["parameters"]["stiffness"], 3000.0);
     assert_eq!(saved["parameters"]["rate"], 2000.0);
     assert_eq!(saved["calibration"]["offsets"].as_array().unwrap().len(), 8);
+    // Every change leaves a trace in the log, with who asked for it.
+    let uid = nix::unistd::getuid();
+    let log = daemon.log();
+    for done in [
+        "set Stiffness of sim to 3000".to_string(),
+        "set Rate of sim to 2000".to_string(),
+        "calibrate sim".to_string(),
+        "reset the fault of sim".to_string(),
+        "switch to scene \"static\"".to_string(),
+        "reload the configuration and plugins".to_string(),
+        "bind sim to mechanism \"spidar-g\"".to_string(),
+    ] {
+        assert!(
+            log.contains(&format!("{done}, for uid {uid}")),
+            "{done}: {log}"
+        );
+    }
     daemon.stop();
 }
 
@@ -501,7 +518,7 @@ fn bad_inputs_return_named_errors_and_change_nothing() {
     let dir = scratch("bad");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
-    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
     let before = bus.get(DEVICE, "Stiffness");
     let set = |property: &str, variant: &str| bus.set_error(property, variant);
     let error = |prefix: &str, reason: &str| format!("{prefix}.{reason}");
@@ -562,6 +579,19 @@ fn bad_inputs_return_named_errors_and_change_nothing() {
     assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
     assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"\"");
     assert!(!setup.state.join("device-sim.json").exists());
+    // The refusals are in the log too, with who asked.
+    let log = daemon.log();
+    let uid = nix::unistd::getuid();
+    for refused in [
+        "refused to set MaxForce of sim to -1".to_string(),
+        "refused to switch to scene \"nowhere\"".to_string(),
+        "refused to bind sim to mechanism \"no-such\"".to_string(),
+    ] {
+        assert!(
+            log.contains(&format!("{refused}, for uid {uid}")),
+            "{refused}: {log}"
+        );
+    }
 }
 
 #[test]

@@ -6,7 +6,9 @@ use std::sync::Arc;
 use zbus::interface;
 use zbus::object_server::SignalEmitter;
 
-use super::{Workers, report};
+use zbus::message::Header;
+
+use super::{Workers, audit, caller, report};
 use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
 use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
@@ -29,11 +31,27 @@ impl DeviceInterface {
         }
     }
 
-    async fn set(&self, name: Name, value: f64) -> Result<(), Error> {
+    /// Set parameter `name` for the sender of `header`, and log it.
+    async fn set(
+        &self,
+        name: Name,
+        value: f64,
+        connection: &zbus::Connection,
+        header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
         let device = self.device.clone();
-        self.workers
+        let result = self
+            .workers
             .run(move || device.set_parameter(name, value))
-            .await
+            .await;
+        let who = caller(connection, header.as_ref()).await;
+        let what = format!(
+            "set {} of {} to {value}",
+            name.as_str(),
+            self.device.identity()
+        );
+        audit(&what, &who, &result);
+        result
     }
 }
 
@@ -201,8 +219,13 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_rate(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::Rate, value).await
+    async fn set_rate(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::Rate, value, connection, header).await
     }
 
     /// Proxy spring, N/m (0 < k ≤ 100000), for scenes rendered through the proxy.
@@ -212,8 +235,13 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_stiffness(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::Stiffness, value).await
+    async fn set_stiffness(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::Stiffness, value, connection, header).await
     }
 
     /// Proxy damper, N·s/m (0 to 500).
@@ -223,8 +251,13 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_damping(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::Damping, value).await
+    async fn set_damping(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::Damping, value, connection, header).await
     }
 
     /// Static friction coefficient μ0 of the proxy (0 to 2).
@@ -234,8 +267,14 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_static_friction(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::StaticFriction, value).await
+    async fn set_static_friction(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::StaticFriction, value, connection, header)
+            .await
     }
 
     /// Dynamic friction coefficient μ of the proxy (0 to StaticFriction).
@@ -245,8 +284,14 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_dynamic_friction(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::DynamicFriction, value).await
+    async fn set_dynamic_friction(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::DynamicFriction, value, connection, header)
+            .await
     }
 
     /// Regularisation λ of the string tension computation (0 to 10): larger values trade
@@ -257,8 +302,13 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_lambda(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::Lambda, value).await
+    async fn set_lambda(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::Lambda, value, connection, header).await
     }
 
     /// Largest force displayed on an end effector, N (0 < f ≤ 50).
@@ -268,8 +318,13 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_max_force(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::MaxForce, value).await
+    async fn set_max_force(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::MaxForce, value, connection, header).await
     }
 
     /// Largest torque displayed on an end effector, N·m (0 < τ ≤ 5).
@@ -279,8 +334,13 @@ impl DeviceInterface {
     }
 
     #[zbus(property)]
-    async fn set_max_torque(&self, value: f64) -> Result<(), Error> {
-        self.set(Name::MaxTorque, value).await
+    async fn set_max_torque(
+        &self,
+        value: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Option<Header<'_>>,
+    ) -> Result<(), Error> {
+        self.set(Name::MaxTorque, value, connection, header).await
     }
 
     /// Take the counter offsets now, with every grip held at its calibration pose; they are
@@ -288,18 +348,38 @@ impl DeviceInterface {
     async fn calibrate(
         &self,
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
     ) -> Result<(), Error> {
         let device = self.device.clone();
-        self.workers.run(move || device.calibrate()).await?;
+        let result = self.workers.run(move || device.calibrate()).await;
+        let who = caller(connection, Some(&header)).await;
+        audit(
+            &format!("calibrate {}", self.device.identity()),
+            &who,
+            &result,
+        );
+        result?;
         report(self.calibrated_changed(&emitter).await);
         report(self.calibration_offsets_changed(&emitter).await);
         Ok(())
     }
 
     /// Forget the scene's contact state and let the forces come back after a fault.
-    async fn reset_fault(&self) -> Result<(), Error> {
+    async fn reset_fault(
+        &self,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(), Error> {
         let device = self.device.clone();
-        self.workers.run(move || device.reset_fault()).await
+        let result = self.workers.run(move || device.reset_fault()).await;
+        let who = caller(connection, Some(&header)).await;
+        audit(
+            &format!("reset the fault of {}", self.device.identity()),
+            &who,
+            &result,
+        );
+        result
     }
 
     /// Drive this device with another installed mechanism from the next start (see
@@ -308,11 +388,17 @@ impl DeviceInterface {
         &self,
         mechanism: String,
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
     ) -> Result<(), Error> {
         let (daemon, device) = (self.daemon.clone(), self.device.clone());
-        self.workers
+        let what = format!("bind {} to mechanism {mechanism:?}", self.device.identity());
+        let result = self
+            .workers
             .run(move || daemon.bind_mechanism(&device, &mechanism))
-            .await?;
+            .await;
+        audit(&what, &caller(connection, Some(&header)).await, &result);
+        result?;
         report(self.bound_mechanism_changed(&emitter).await);
         Ok(())
     }

@@ -5,7 +5,9 @@ use std::sync::Arc;
 use zbus::interface;
 use zbus::object_server::SignalEmitter;
 
-use super::{API_VERSION, Workers, device_path, report};
+use zbus::message::Header;
+
+use super::{API_VERSION, Workers, audit, caller, device_path, report};
 use crate::control::{Daemon, Error};
 
 /// The daemon as a whole: its devices, scenes and mechanisms.
@@ -69,11 +71,14 @@ impl ManagerInterface {
         &self,
         scene: String,
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
     ) -> Result<(), Error> {
         let daemon = self.daemon.clone();
-        self.workers
-            .run(move || daemon.switch_scene(&scene))
-            .await?;
+        let what = format!("switch to scene {scene:?}");
+        let result = self.workers.run(move || daemon.switch_scene(&scene)).await;
+        audit(&what, &caller(connection, Some(&header)).await, &result);
+        result?;
         report(self.active_scene_changed(&emitter).await);
         Ok(())
     }
@@ -83,9 +88,17 @@ impl ManagerInterface {
     async fn reload_plugins(
         &self,
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
     ) -> Result<(), Error> {
         let daemon = self.daemon.clone();
-        self.workers.run(move || daemon.reload()).await?;
+        let result = self.workers.run(move || daemon.reload()).await;
+        audit(
+            "reload the configuration and plugins",
+            &caller(connection, Some(&header)).await,
+            &result,
+        );
+        result?;
         report(self.mechanisms_changed(&emitter).await);
         report(self.scenes_changed(&emitter).await);
         Ok(())

@@ -20,6 +20,8 @@ pub use device::DeviceInterface;
 pub use manager::ManagerInterface;
 pub use workers::Workers;
 
+use zbus::message::Header;
+
 use crate::control::Daemon;
 
 /// The service's well-known name.
@@ -35,6 +37,34 @@ const TELEMETRY_PERIOD: Duration = Duration::from_millis(100);
 fn report(result: zbus::Result<()>) {
     if let Err(e) = result {
         tracing::warn!("cannot announce a property change: {e}");
+    }
+}
+
+/// Who sent the request of `header`, as the bus knows them: their uid, or their bus name
+/// when the bus cannot say.
+async fn caller(connection: &zbus::Connection, header: Option<&Header<'_>>) -> String {
+    let Some(sender) = header.and_then(|h| h.sender()) else {
+        return "hapticd itself".to_string();
+    };
+    let reply = connection
+        .call_method(
+            Some("org.freedesktop.DBus"),
+            "/org/freedesktop/DBus",
+            Some("org.freedesktop.DBus"),
+            "GetConnectionUnixUser",
+            &(sender.as_str(),),
+        )
+        .await;
+    let uid = reply.ok().and_then(|m| m.body().deserialize::<u32>().ok());
+    uid.map_or_else(|| format!("bus name {sender}"), |uid| format!("uid {uid}"))
+}
+
+/// Log what a request that changes something did, and for whom: the journal keeps a trace
+/// of every change made over the bus.
+fn audit(what: &str, who: &str, result: &Result<(), crate::control::Error>) {
+    match result {
+        Ok(()) => tracing::info!("{what}, for {who}"),
+        Err(e) => tracing::info!("refused to {what}, for {who}: {e}"),
     }
 }
 
