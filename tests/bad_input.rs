@@ -120,6 +120,20 @@ fn descriptors_absurd_for_the_amplifier_or_the_bus_are_refused_at_their_place() 
 }
 
 #[test]
+fn descriptors_others_could_have_written_are_refused_like_plugins() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("writable");
+    let file = dir.join("spidar-6s.yaml");
+    std::fs::write(&file, shipped_text("config/mechanisms/spidar-6s.yaml")).unwrap();
+    std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o644)).unwrap();
+    assert!(hapticd::catalog::load(&file).is_ok());
+    std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o666)).unwrap();
+    let e = hapticd::catalog::load(&file).unwrap_err().to_string();
+    assert!(e.contains("writable by group or others (mode 0666)"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
 fn physics_scenes_that_cannot_run_safely_are_refused_at_their_place() {
     let blocks = shipped_text("config/scenes/blocks.yaml");
     let drop = shipped_text("config/scenes/cube-drop.yaml");

@@ -129,7 +129,11 @@ pub fn load(path: &Path) -> Result<Mechanism, Diagnostics> {
             let spec = plugin.mechanism_spec().map_err(refused)?;
             Mechanism::from_spec(&plugin.name, &plugin.description, path, &spec, &|_| None)
         }
-        Some("yaml" | "yml") => descriptor::load(path),
+        Some("yaml" | "yml") => {
+            // A descriptor sets motor voltages as surely as a plugin: the same owners only.
+            plugin::check_permissions(path).map_err(|e| Diagnostics::file(path, e.reason))?;
+            descriptor::load(path)
+        }
         _ => Err(Diagnostics::file(
             path,
             "not a mechanism: expected a .yaml descriptor or a .so plugin",

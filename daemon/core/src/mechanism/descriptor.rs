@@ -321,6 +321,26 @@ tension:
     }
 
     #[test]
+    fn a_grip_starting_outside_its_strings_span_loads_with_a_warning() {
+        // The four motors span a tetrahedron around the centre; a grip calibrated far outside
+        // it can be pulled towards the frame but not away from it.
+        let text = GOOD.replace(
+            "tension:\n",
+            "calibration:\n  finger: { position: [0.5, 0.5, 0.5] }\ntension:\n",
+        );
+        let m = parse(&text, Path::new("m.yaml")).unwrap();
+        let shown: Vec<String> = m.warnings.iter().map(ToString::to_string).collect();
+        assert_eq!(shown.len(), 1, "{shown:?}");
+        assert!(
+            shown[0].starts_with("m.yaml:3:5: warning:")
+                && shown[0].contains("not force-closed at its calibration pose"),
+            "{shown:?}"
+        );
+        // At the centre it is force-closed: no warning.
+        assert!(parse(GOOD, Path::new("m.yaml")).unwrap().warnings.is_empty());
+    }
+
+    #[test]
     fn a_point_grip_with_a_knot_offset_is_refused() {
         let text = GOOD.replacen(
             "    metres_per_pulse",

@@ -15,6 +15,7 @@ use hapticd_plugin_api::MechanismSpec;
 
 use crate::diagnostics::{Diagnostic, Diagnostics, Findings, Number, Position};
 use crate::kinematics::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose};
+use crate::solver::closure::is_force_closed;
 use crate::solver::geometry::{EffectorKinematics, StringGeometry};
 use crate::solver::tension::{TensionSettings, TensionSolver};
 use crate::transport::{AMPLIFIER_MAX_VOLTS, DAC_DIGITS_PER_VOLT, dac_limit};
@@ -385,6 +386,17 @@ fn validate_solvable(f: &mut Findings, mechanism: &Mechanism) {
                 format!(
                     "the strings of effector {:?} do not determine its pose at the calibration pose \
                      (their directions are degenerate)",
+                    effector.name
+                ),
+            );
+        } else if n > dof && !is_force_closed(&geometry) {
+            // Enough strings, badly placed: where the user starts, some push cannot be felt.
+            f.warning(
+                field,
+                format!(
+                    "effector {:?} is not force-closed at its calibration pose: the strings \
+                     cannot present force in every direction there (move the motors so that the \
+                     grip's starting place lies inside their span)",
                     effector.name
                 ),
             );
