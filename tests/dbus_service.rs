@@ -831,6 +831,19 @@ fn reload_finds_new_descriptors_and_refuses_malformed_files_with_their_place() {
         "{message}"
     );
     assert!(bus.get(MANAGER, "Scenes").contains("\"static\""));
+    // A default scene that is nowhere would break the next start: refused now.
+    let nowhere = default_config().replace("scene: static", "scene: nosuch");
+    std::fs::write(&setup.config, nowhere).unwrap();
+    let (name, message) = bus.error(
+        MANAGER[1],
+        "org.hapticd.Hapticd1.Manager.ReloadPlugins",
+        &[],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.InvalidConfiguration");
+    assert!(
+        message.contains("scene: no scene named \"nosuch\""),
+        "{message}"
+    );
     std::fs::write(&setup.config, default_config()).unwrap();
     daemon.stop();
     // Without --sim the bound mechanism drives the device from the next start.

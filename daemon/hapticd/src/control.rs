@@ -6,7 +6,7 @@
 //! 10 Hz; requests that must see the loop act (a calibration, a scene swap) wait for that
 //! snapshot to show it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -430,8 +430,16 @@ impl Daemon {
             }
             None => lock(&self.inner).config.clone(),
         };
-        let (mechanisms, problems) =
+        let (mechanisms, mut problems) =
             scan_mechanisms(&catalog(&config, self.mechanism_dirs.as_deref()));
+        // The default scene must be there: the next start would fail on it.
+        if let Err(e) = crate::scenes::locate(&config.scene, &config.scene_dirs) {
+            let file = self
+                .config_path
+                .as_deref()
+                .unwrap_or(Path::new("configuration"));
+            problems.push(format!("{}: error: scene: {e}", file.display()));
+        }
         if !problems.is_empty() {
             return Err(Error::InvalidConfiguration(problems.join("\n")));
         }

@@ -66,12 +66,9 @@ fn fits_tick(scene: &mut dyn Scene, pointers: &[Pointer], rate: f64) -> Result<(
     Ok(())
 }
 
-fn find(
-    name: &str,
-    file: Option<&Path>,
-    dirs: &[PathBuf],
-    pointers: &[Pointer],
-) -> Result<Box<dyn Scene>, OpenError> {
+/// The file of scene `name`: a path as given, or `NAME.yaml` in the first of `dirs` that
+/// has it.
+pub fn locate(name: &str, dirs: &[PathBuf]) -> Result<PathBuf, OpenError> {
     let path = Path::new(name);
     let is_path = name.contains('/') || path.extension().is_some();
     let path = if is_path {
@@ -88,6 +85,16 @@ fn find(
             path.display()
         )));
     }
+    Ok(path)
+}
+
+fn find(
+    name: &str,
+    file: Option<&Path>,
+    dirs: &[PathBuf],
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, OpenError> {
+    let path = locate(name, dirs)?;
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }

@@ -337,7 +337,12 @@ tension:
             "{shown:?}"
         );
         // At the centre it is force-closed: no warning.
-        assert!(parse(GOOD, Path::new("m.yaml")).unwrap().warnings.is_empty());
+        assert!(
+            parse(GOOD, Path::new("m.yaml"))
+                .unwrap()
+                .warnings
+                .is_empty()
+        );
     }
 
     #[test]
