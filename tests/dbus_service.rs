@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use support::{artifact, plugin_path, repo_dir};
+use support::{artifact, hapticctl, plugin_path, repo_dir};
 
 const NAME: &str = "org.hapticd.Hapticd1";
 const MANAGER: [&str; 3] = [
@@ -511,6 +511,66 @@ fn a_second_hapticd_refuses_to_take_the_name_of_a_running_one() {
     assert_eq!(bus.get(MANAGER, "ApiVersion"), "u 1");
     assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
     first.stop();
+}
+
+#[test]
+fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_scenes() {
+    let dir = scratch("client");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let ctl = |args: &[&str]| {
+        hapticctl()
+            .arg(format!("--bus={}", bus.address))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let said = |out: &Output| String::from_utf8_lossy(&out.stdout).into_owned();
+    let out = ctl(&["status"]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(
+        said(&out).contains("sim: running, spidar-g at 1000 Hz"),
+        "{}",
+        said(&out)
+    );
+    let status: serde_json::Value =
+        serde_json::from_slice(&ctl(&["status", "--json"]).stdout).unwrap();
+    assert_eq!(status["manager"]["ActiveScene"], "static");
+    assert_eq!(status["devices"][0]["State"], "running");
+    assert_eq!(status["devices"][0]["Mechanism"], "spidar-g");
+    // Parameters: set, read back from the bus and from hapticctl.
+    assert!(ctl(&["set", "Stiffness", "3000"]).status.success());
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 3000");
+    assert_eq!(
+        said(&ctl(&["get", "Stiffness", "--device", "sim"])),
+        "3000\n"
+    );
+    // Refusals carry the daemon's reason and exit 1; a wrong device is a usage error.
+    let out = ctl(&["set", "MaxForce", "500"]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("OutOfRange: MaxForce must be in (0, 50], not 500"),
+        "{stderr}"
+    );
+    assert_eq!(
+        ctl(&["get", "Stiffness", "--device", "7"]).status.code(),
+        Some(2)
+    );
+    // Calibration, scenes, reload and binding.
+    assert!(ctl(&["calibrate"]).status.success());
+    assert!(said(&ctl(&["scene", "list"])).contains("* static"));
+    assert!(ctl(&["scene", "switch", "static"]).status.success());
+    assert!(ctl(&["reload"]).status.success());
+    assert!(ctl(&["bind", "spidar-g"]).status.success());
+    assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
+    daemon.stop();
+    // No daemon on the bus: said plainly.
+    let out = ctl(&["status"]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("hapticd is not running on the"), "{stderr}");
 }
 
 #[test]

@@ -101,6 +101,21 @@ impl std::str::FromStr for Bus {
     }
 }
 
+impl Bus {
+    fn builder(&self) -> zbus::connection::Builder<'_> {
+        match self {
+            Bus::System => zbus::connection::Builder::system(),
+            Bus::Session => zbus::connection::Builder::session(),
+            Bus::Address(a) => zbus::connection::Builder::address(a.as_str()),
+        }
+    }
+
+    /// A client's connection to this bus.
+    pub async fn connection(&self) -> zbus::Result<zbus::Connection> {
+        self.builder().build().await
+    }
+}
+
 /// The running service; dropping it leaves the bus.
 pub struct Service {
     stop: Arc<AtomicBool>,
@@ -117,11 +132,7 @@ impl Drop for Service {
 }
 
 async fn connect(bus: &Bus, daemon: &Arc<Daemon>) -> zbus::Result<zbus::Connection> {
-    let builder = match bus {
-        Bus::System => zbus::connection::Builder::system(),
-        Bus::Session => zbus::connection::Builder::session(),
-        Bus::Address(a) => zbus::connection::Builder::address(a.as_str()),
-    };
+    let builder = bus.builder();
     let workers = Arc::new(Workers::start().map_err(zbus::Error::from)?);
     let mut builder = builder.serve_at(
         MANAGER_PATH,

@@ -1,5 +1,6 @@
 //! `hapticctl`: the command-line companion of hapticd.
 
+mod client;
 mod device;
 mod experiment;
 mod mechanism;
@@ -9,8 +10,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use hapticd::bus::Bus;
 use hapticd::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
+use mechanism::Output;
 
 /// Control hapticd and work with SPIDAR mechanisms.
 #[derive(Parser)]
@@ -21,6 +24,9 @@ struct Cli {
     /// /usr/lib/hapticd/plugins, /usr/share/hapticd/mechanisms).
     #[arg(long = "mechanism-dir", value_name = "DIR", global = true)]
     mechanism_dirs: Vec<PathBuf>,
+    /// The bus the running daemon serves: `system`, `session` or a D-Bus address.
+    #[arg(long, value_name = "BUS", global = true, default_value = "system")]
+    bus: Bus,
     #[command(subcommand)]
     command: Command,
 }
@@ -36,9 +42,21 @@ enum Command {
     /// Run the thesis' closed-loop experiments on the simulated SPIDAR.
     #[command(subcommand)]
     Experiment(experiment::Command),
-    /// Step penalty scene files headless.
+    /// Step penalty scene files headless, or list and switch the daemon's scenes.
     #[command(subcommand)]
     Scene(scene::Command),
+    /// The running daemon and each of its devices: state, mechanism, scene, rate, timing.
+    Status(Output),
+    /// A parameter or property of a device of the running daemon.
+    Get(client::GetArgs),
+    /// Change a parameter of a device; the daemon checks, saves and applies it.
+    Set(client::SetArgs),
+    /// Calibrate a device: every grip must be held at its calibration pose.
+    Calibrate(client::DeviceArg),
+    /// Drive a device with another installed mechanism from its next start.
+    Bind(client::BindArgs),
+    /// Re-read hapticd.yaml and rescan the mechanism plugins and descriptors.
+    Reload,
 }
 
 /// Why a command failed, with its exit status.
@@ -94,7 +112,23 @@ fn main() -> ExitCode {
         Command::Mechanism(command) => mechanism::run(command, &catalog),
         Command::Experiment(command) => experiment::run(command, &catalog),
         Command::Device(command) => device::run(command),
-        Command::Scene(command) => scene::run(command),
+        Command::Scene(command) => scene::run(command, &cli.bus),
+        Command::Status(output) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::status(&c, &output))
+        }
+        Command::Get(args) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::get(&c, &args))
+        }
+        Command::Set(args) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::set(&c, &args))
+        }
+        Command::Calibrate(device) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::calibrate(&c, &device))
+        }
+        Command::Bind(args) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::bind(&c, &args))
+        }
+        Command::Reload => client::Client::connect(&cli.bus).and_then(|c| client::reload(&c)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -16,12 +16,21 @@ use hapticd_physics::world::ContactModel;
 use serde_json::json;
 
 use crate::Failure;
+use crate::client::{self, Client};
 use crate::mechanism::{Output, print, save};
+use hapticd::bus::Bus;
 
 #[derive(Subcommand)]
 pub enum Command {
     /// Step a scene file for a while and report, record or plot the bodies' motion.
     Run(RunArgs),
+    /// The scenes the running daemon can switch to, the active one marked.
+    List(Output),
+    /// Switch the running daemon to a scene: a name from `list`, a scene file or a plugin.
+    Switch {
+        /// Scene name or path.
+        name: String,
+    },
 }
 
 #[derive(Args)]
@@ -78,10 +87,12 @@ enum Quantity {
     PointerForce,
 }
 
-/// Run one `scene` subcommand.
-pub fn run(command: Command) -> Result<(), Failure> {
+/// Run one `scene` subcommand; `list` and `switch` ask the daemon on `bus`.
+pub fn run(command: Command, bus: &Bus) -> Result<(), Failure> {
     match command {
         Command::Run(args) => run_scene(&args),
+        Command::List(output) => client::scenes(&Client::connect(bus)?, &output),
+        Command::Switch { name } => client::switch(&Client::connect(bus)?, &name),
     }
 }
 

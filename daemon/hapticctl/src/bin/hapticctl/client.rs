@@ -1,0 +1,311 @@
+//! `hapticctl status|get|set|calibrate|reload|bind` and `scene list|switch`: the running
+//! daemon, over D-Bus, as `busctl` would reach it but in words.
+
+use std::collections::BTreeMap;
+
+use clap::Args;
+use hapticd::bus::{BUS_NAME, Bus, MANAGER_PATH};
+use serde_json::{Value, json};
+use zbus::{Connection, OwnedVariant, Variant};
+
+use crate::Failure;
+use crate::mechanism::{Output, print};
+
+const MANAGER: &str = "org.hapticd.Hapticd1.Manager";
+const DEVICE: &str = "org.hapticd.Hapticd1.Device";
+const PROPERTIES: &str = "org.freedesktop.DBus.Properties";
+
+/// The parameters a client may set, with their ranges (as the daemon enforces them).
+const PARAMETERS: &str = "Stiffness (N/m, 0–100000), Damping (N·s/m, 0–500), StaticFriction \
+     (0–2), DynamicFriction (0–StaticFriction), Lambda (0–10), MaxForce (N, 0–50), MaxTorque \
+     (N·m, 0–5), Rate (Hz, 100–10000, at the next start)";
+
+/// A device: its index in `Devices`, or its identity (`sim`, `usb:1-2`).
+#[derive(Args)]
+pub struct DeviceArg {
+    /// Device index or identity (default: the first).
+    #[arg(long, default_value = "0")]
+    device: String,
+}
+
+#[derive(Args)]
+pub struct GetArgs {
+    /// Parameter or property name.
+    #[arg(long_help = format!("Parameter or property name: {PARAMETERS}; or any property of the device (State, Pose, Force, Statistics, …)."))]
+    name: String,
+    #[command(flatten)]
+    device: DeviceArg,
+    #[command(flatten)]
+    output: Output,
+}
+
+#[derive(Args)]
+pub struct SetArgs {
+    /// Parameter name.
+    #[arg(long_help = format!("Parameter name: {PARAMETERS}."))]
+    name: String,
+    /// New value.
+    #[arg(allow_negative_numbers = true)]
+    value: f64,
+    #[command(flatten)]
+    device: DeviceArg,
+}
+
+#[derive(Args)]
+pub struct BindArgs {
+    /// Installed mechanism to drive the device with from its next start.
+    mechanism: String,
+    #[command(flatten)]
+    device: DeviceArg,
+}
+
+/// A connection to the daemon on one bus.
+pub struct Client {
+    connection: Connection,
+    bus: Bus,
+}
+
+/// What a failed request means to the person who made it.
+fn failure(bus: &Bus, e: zbus::Error) -> Failure {
+    match e {
+        zbus::Error::FDO(fdo) => match *fdo {
+            zbus::fdo::Error::ServiceUnknown(_) | zbus::fdo::Error::NameHasNoOwner(_) => {
+                Failure::failed(format!(
+                    "hapticd is not running on the {} bus",
+                    bus_name(bus)
+                ))
+            }
+            zbus::fdo::Error::AccessDenied(m) => Failure::failed(format!(
+                "not allowed ({m}): root and members of the hapticd group may change things"
+            )),
+            other => Failure::failed(other.to_string()),
+        },
+        zbus::Error::MethodError(name, message, _) => Failure::failed(format!(
+            "{}: {}",
+            name.as_str()
+                .trim_start_matches("org.hapticd.Hapticd1.Error."),
+            message.unwrap_or_default()
+        )),
+        other => Failure::failed(format!("the {} bus: {other}", bus_name(bus))),
+    }
+}
+
+fn bus_name(bus: &Bus) -> String {
+    match bus {
+        Bus::System => "system".into(),
+        Bus::Session => "session".into(),
+        Bus::Address(a) => a.clone(),
+    }
+}
+
+/// A D-Bus value as JSON: numbers, strings, paths, arrays and string-keyed dictionaries.
+fn to_json(v: &Variant) -> Value {
+    match v {
+        Variant::Bool(b) => json!(b),
+        Variant::U8(n) => json!(n),
+        Variant::I16(n) => json!(n),
+        Variant::U16(n) => json!(n),
+        Variant::I32(n) => json!(n),
+        Variant::U32(n) => json!(n),
+        Variant::I64(n) => json!(n),
+        Variant::U64(n) => json!(n),
+        Variant::F64(x) => json!(x),
+        Variant::Str(s) => json!(s.as_str()),
+        Variant::ObjectPath(p) => json!(p.as_str()),
+        Variant::Variant(inner) => to_json(inner),
+        Variant::Array(a) => Value::Array(a.inner().iter().map(to_json).collect()),
+        Variant::Dict(d) => Value::Object(
+            d.iter()
+                .map(|(k, v)| {
+                    let key = match to_json(k) {
+                        Value::String(s) => s,
+                        other => other.to_string(),
+                    };
+                    (key, to_json(v))
+                })
+                .collect(),
+        ),
+        _ => Value::Null,
+    }
+}
+
+/// A JSON value in one line of text, strings without their quotes.
+fn words(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        // Counters travel as doubles: a whole number is shown as one.
+        Value::Number(n) => match n.as_f64() {
+            Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => format!("{}", x as i64),
+            _ => n.to_string(),
+        },
+        Value::Array(a) => a.iter().map(words).collect::<Vec<_>>().join(" "),
+        other => other.to_string(),
+    }
+}
+
+impl Client {
+    /// Connect to `bus`.
+    pub fn connect(bus: &Bus) -> Result<Client, Failure> {
+        let connection = zbus::block_on(bus.connection()).map_err(|e| failure(bus, e))?;
+        Ok(Client {
+            connection,
+            bus: bus.clone(),
+        })
+    }
+
+    fn call<B>(
+        &self,
+        path: &str,
+        interface: &str,
+        method: &str,
+        body: &B,
+    ) -> Result<zbus::Message, Failure>
+    where
+        B: serde::Serialize + zbus::Type,
+    {
+        zbus::block_on(self.connection.call_method(
+            Some(BUS_NAME),
+            path,
+            Some(interface),
+            method,
+            body,
+        ))
+        .map_err(|e| failure(&self.bus, e))
+    }
+
+    /// Every property of `interface` at `path`, as JSON.
+    fn properties(&self, path: &str, interface: &str) -> Result<BTreeMap<String, Value>, Failure> {
+        let reply = self.call(path, PROPERTIES, "GetAll", &(interface,))?;
+        let all: std::collections::HashMap<String, OwnedVariant> = reply
+            .body()
+            .deserialize()
+            .map_err(|e| failure(&self.bus, e))?;
+        Ok(all.iter().map(|(k, v)| (k.clone(), to_json(v))).collect())
+    }
+
+    /// The object path of the device `arg` names.
+    fn device(&self, arg: &DeviceArg) -> Result<String, Failure> {
+        let manager = self.properties(MANAGER_PATH, MANAGER)?;
+        let paths: Vec<String> = manager["Devices"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|p| p.as_str().map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        if let Ok(index) = arg.device.parse::<usize>() {
+            return paths.get(index).cloned().ok_or_else(|| {
+                Failure::usage(format!("no device {index}: hapticd drives {}", paths.len()))
+            });
+        }
+        for path in &paths {
+            if self.properties(path, DEVICE)?["Identity"] == json!(arg.device) {
+                return Ok(path.clone());
+            }
+        }
+        Err(Failure::usage(format!("no device {:?}", arg.device)))
+    }
+}
+
+/// `hapticctl status`: the daemon and each device in a few lines.
+pub fn status(client: &Client, output: &Output) -> Result<(), Failure> {
+    let manager = client.properties(MANAGER_PATH, MANAGER)?;
+    let mut text = format!(
+        "hapticd {}: scene {}, mechanisms {}\n",
+        words(&manager["Version"]),
+        words(&manager["ActiveScene"]),
+        words(&manager["Mechanisms"])
+    );
+    let mut devices = Vec::new();
+    for path in manager["Devices"].as_array().into_iter().flatten() {
+        let d = client.properties(path.as_str().unwrap_or_default(), DEVICE)?;
+        let stats = &d["Statistics"];
+        text += &format!(
+            "{}: {}, {} at {} Hz ({}), {} ticks, {} overruns, wake p99 {} µs\n",
+            words(&d["Identity"]),
+            words(&d["State"]),
+            words(&d["Mechanism"]),
+            words(&d["LoopRate"]),
+            words(&d["Scheduling"]),
+            words(&stats["ticks"]),
+            words(&stats["overruns"]),
+            words(&stats["wait_p99_us"]),
+        );
+        devices.push(Value::Object(d.into_iter().collect()));
+    }
+    let value =
+        json!({"manager": Value::Object(manager.into_iter().collect()), "devices": devices});
+    print(output, value, text);
+    Ok(())
+}
+
+/// `hapticctl get NAME`: one property of a device.
+pub fn get(client: &Client, args: &GetArgs) -> Result<(), Failure> {
+    let path = client.device(&args.device)?;
+    let all = client.properties(&path, DEVICE)?;
+    let value = all.get(&args.name).ok_or_else(|| {
+        Failure::usage(format!(
+            "no property {:?}: the device has {}",
+            args.name,
+            all.keys().cloned().collect::<Vec<_>>().join(", ")
+        ))
+    })?;
+    print(&args.output, value.clone(), format!("{}\n", words(value)));
+    Ok(())
+}
+
+/// `hapticctl set NAME VALUE`: change a parameter; the daemon checks, saves and applies it.
+pub fn set(client: &Client, args: &SetArgs) -> Result<(), Failure> {
+    let path = client.device(&args.device)?;
+    client.call(
+        &path,
+        PROPERTIES,
+        "Set",
+        &(DEVICE, args.name.as_str(), Variant::F64(args.value)),
+    )?;
+    Ok(())
+}
+
+/// `hapticctl calibrate`: take the counter offsets with every grip at its calibration pose.
+pub fn calibrate(client: &Client, device: &DeviceArg) -> Result<(), Failure> {
+    let path = client.device(device)?;
+    client.call(&path, DEVICE, "Calibrate", &())?;
+    Ok(())
+}
+
+/// `hapticctl bind MECHANISM`: drive the device with another mechanism from its next start.
+pub fn bind(client: &Client, args: &BindArgs) -> Result<(), Failure> {
+    let path = client.device(&args.device)?;
+    client.call(&path, DEVICE, "BindMechanism", &(args.mechanism.as_str(),))?;
+    Ok(())
+}
+
+/// `hapticctl reload`: re-read the configuration and rescan the plugins.
+pub fn reload(client: &Client) -> Result<(), Failure> {
+    client.call(MANAGER_PATH, MANAGER, "ReloadPlugins", &())?;
+    Ok(())
+}
+
+/// `hapticctl scene list`: the scenes the daemon can switch to, the active one marked.
+pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
+    let manager = client.properties(MANAGER_PATH, MANAGER)?;
+    let active = words(&manager["ActiveScene"]);
+    let names: Vec<String> = manager["Scenes"]
+        .as_array()
+        .map(|a| a.iter().map(words).collect())
+        .unwrap_or_default();
+    let mut lines = format!("active: {active}\n");
+    for name in &names {
+        let mark = if *name == active { "*" } else { " " };
+        lines += &format!("{mark} {name}\n");
+    }
+    print(output, json!({"active": active, "scenes": names}), lines);
+    Ok(())
+}
+
+/// `hapticctl scene switch NAME`: swap the scene in, forces ramped down and back up.
+pub fn switch(client: &Client, name: &str) -> Result<(), Failure> {
+    client.call(MANAGER_PATH, MANAGER, "SwitchScene", &(name,))?;
+    Ok(())
+}
