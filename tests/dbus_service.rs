@@ -264,10 +264,23 @@ impl Setup {
     }
 }
 
+/// The penalty scene plugin, staged once as an install would have it.
+fn scene_plugins() -> PathBuf {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = scratch("scene-plugins");
+        let plugin = plugin_path("hapticd-scene-penalty");
+        std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
+        dir
+    })
+    .clone()
+}
+
 fn default_config() -> String {
     format!(
-        "scene_dirs: [{}]\nscene: static\n",
-        repo_dir().join("config/scenes").display()
+        "scene_dirs: [{}]\nscene_plugin_dirs: [{}]\nscene: static\n",
+        repo_dir().join("config/scenes").display(),
+        scene_plugins().display()
     )
 }
 
@@ -571,6 +584,42 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("hapticd is not running on the"), "{stderr}");
+}
+
+#[test]
+fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
+    let dir = scratch("physics");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let scenes = bus.get(MANAGER, "Scenes");
+    for name in ["static", "blocks", "stack", "top"] {
+        assert!(scenes.contains(&format!("\"{name}\"")), "{scenes}");
+    }
+    assert!(
+        bus.call(MANAGER, "SwitchScene", &["s", "blocks"])
+            .status
+            .success()
+    );
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"blocks\"");
+    daemon.wait_for_state(&bus, "running");
+    // A world without a pointer shape cannot take the grip: refused with the reason.
+    let (name, message) = bus.error(
+        MANAGER[1],
+        "org.hapticd.Hapticd1.Manager.SwitchScene",
+        &["string:cube-drop"],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.SceneFailed");
+    assert!(message.contains("no pointer: shape"), "{message}");
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"blocks\"");
+    daemon.stop();
+    // A physics scene as the configured default, as an installed daemon starts.
+    let config = default_config().replace("scene: static", "scene: blocks");
+    std::fs::write(&setup.config, config).unwrap();
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"blocks\"");
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    daemon.stop();
 }
 
 #[test]
@@ -885,7 +934,7 @@ fn reload_finds_new_descriptors_and_refuses_malformed_files_with_their_place() {
         &[],
     );
     assert_eq!(name, "org.hapticd.Hapticd1.Error.InvalidConfiguration");
-    let place = format!("{}:4:3:", setup.config.display());
+    let place = format!("{}:5:3:", setup.config.display());
     assert!(
         message.contains(&place) && message.contains("rat"),
         "{message}"

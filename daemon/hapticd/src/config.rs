@@ -7,6 +7,7 @@
 //!   rate: 1000              # ticks per second (up to 4000 on USB, 10000 on the simulator)
 //! mechanism_dirs: [/etc/hapticd/mechanisms, /usr/lib/hapticd/plugins, /usr/share/hapticd/mechanisms]
 //! scene_dirs: [/etc/hapticd/scenes, /usr/share/hapticd/scenes]
+//! scene_plugin_dirs: [/usr/lib/hapticd/scenes]   # where physics scenes find their engine
 //! scene: static             # default scene: a name in scene_dirs, or a path
 //! hardware:                 # a USB amplifier (0CEC:0205 or 0CEC:0203), when one is plugged in
 //!   mechanism: spidar-g     # the mechanism wired to it
@@ -34,6 +35,9 @@ pub struct Config {
     pub mechanism_dirs: Option<Vec<PathBuf>>,
     /// Where scenes are looked up.
     pub scene_dirs: Vec<PathBuf>,
+    /// Where scene plugins are looked up; physics scene files run on the plugin of their
+    /// engine (`libhapticd_scene_penalty.so`).
+    pub scene_plugin_dirs: Vec<PathBuf>,
     /// The scene rendered at start.
     pub scene: String,
     /// Connected amplifiers.
@@ -99,6 +103,7 @@ impl Default for Config {
                 "/etc/hapticd/scenes".into(),
                 "/usr/share/hapticd/scenes".into(),
             ],
+            scene_plugin_dirs: vec!["/usr/lib/hapticd/scenes".into()],
             scene: "static".into(),
             hardware: HardwareConfig::default(),
             simulator: SimulatorConfig::default(),

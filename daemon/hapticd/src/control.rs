@@ -401,11 +401,15 @@ impl Daemon {
     /// failure the running scene stays.
     pub fn switch_scene(&self, name: &str) -> Result<(), Error> {
         let _one_at_a_time = lock(&self.switching);
-        let dirs = lock(&self.inner).config.scene_dirs.clone();
+        let config = lock(&self.inner).config.clone();
+        let places = crate::scenes::Places {
+            dirs: &config.scene_dirs,
+            plugin_dirs: &config.scene_plugin_dirs,
+        };
         let mut scenes = Vec::new();
         for device in &self.devices {
             scenes.push(
-                crate::scenes::open(name, None, &dirs, device.pointers(), device.rate()).map_err(
+                crate::scenes::open(name, None, places, device.pointers(), device.rate()).map_err(
                     |e| match e {
                         crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
                         crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),

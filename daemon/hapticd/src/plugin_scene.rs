@@ -91,9 +91,13 @@ pub fn load(
         ));
     }
     let instance = Instance { vtable, pointer };
+    // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
+    let name = scene_file
+        .and_then(|f| f.file_stem()?.to_str())
+        .map_or(loaded.name, str::to_string);
     match info.style {
         HAPTICD_SCENE_DIRECT if vtable.step_direct.is_some() => Ok(Box::new(DirectScene {
-            name: loaded.name,
+            name,
             instance,
             pointers: vec![HapticdPointer::default(); pointers.len()],
             wrenches: vec![HapticdWrench::default(); pointers.len()],
@@ -102,10 +106,8 @@ pub fn load(
         HAPTICD_SCENE_MULTIRATE
             if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
         {
-            let scene = MultiRateScene::start(loaded.name, instance, info.physics_rate, pointers)
-                .map_err(|e| {
-                format!("{}: cannot start its physics thread: {e}", path.display())
-            })?;
+            let scene = MultiRateScene::start(name, instance, info.physics_rate, pointers)
+                .map_err(|e| format!("{}: cannot start its physics thread: {e}", path.display()))?;
             Ok(Box::new(scene))
         }
         style => Err(format!(

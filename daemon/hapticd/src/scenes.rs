@@ -1,11 +1,16 @@
-//! Finding a scene by name: a scene plugin (`.so`), a static scene file, or the name of a
-//! static scene in the configured directories.
+//! Finding a scene by name: a scene plugin (`.so`), a scene file, or the name of a scene in
+//! the configured directories; physics scene files run on the scene plugin of their engine.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use hapticd_core::diagnostics;
 use hapticd_core::kinematics::Wrench;
+use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_core::scene::{Pointer, Scene};
+use hapticd_physics::scene::PenaltyScene;
+use serde::de::IgnoredAny;
 
 /// Why a scene could not be opened.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -24,17 +29,28 @@ impl std::fmt::Display for OpenError {
     }
 }
 
+/// Where scenes are found.
+#[derive(Debug, Clone, Copy)]
+pub struct Places<'a> {
+    /// Directories of scene files, searched in order.
+    pub dirs: &'a [PathBuf],
+    /// Directories of scene plugins, for the engines of physics scene files.
+    pub plugin_dirs: &'a [PathBuf],
+}
+
 /// [main] The scene `name` for `pointers`, to render at `rate` Hz: a scene plugin (`.so`,
-/// given `file`), a static scene file (a path), or the name of a static scene in `dirs`
-/// (searched in order). A scene that cannot compute a tick in half of one is refused.
+/// given `file`), a scene file (a path), or the name of a scene in `places` (searched in
+/// order). Static scene files render in the daemon; physics scene files (their `bodies:`
+/// say so) run on their engine's plugin. A scene that cannot compute a tick in half of one
+/// is refused.
 pub fn open(
     name: &str,
     file: Option<&Path>,
-    dirs: &[PathBuf],
+    places: Places,
     pointers: &[Pointer],
     rate: f64,
 ) -> Result<Box<dyn Scene>, OpenError> {
-    let mut scene = find(name, file, dirs, pointers)?;
+    let mut scene = find(name, file, places, pointers)?;
     fits_tick(scene.as_mut(), pointers, rate)?;
     Ok(scene)
 }
@@ -88,24 +104,53 @@ pub fn locate(name: &str, dirs: &[PathBuf]) -> Result<PathBuf, OpenError> {
     Ok(path)
 }
 
+/// The plugin that runs physics scene files, found in `plugin_dirs`.
+const PENALTY_ENGINE: &str = "libhapticd_scene_penalty.so";
+
+/// Whether the scene file at `path` describes a physics world (bodies) rather than static
+/// solids (shapes).
+fn is_physics(path: &Path) -> bool {
+    let Ok(text) = diagnostics::read_text(path) else {
+        return false;
+    };
+    let keys: Result<BTreeMap<String, IgnoredAny>, _> = serde_saphyr::from_str(&text);
+    keys.is_ok_and(|k| k.contains_key("bodies"))
+}
+
 fn find(
     name: &str,
     file: Option<&Path>,
-    dirs: &[PathBuf],
+    places: Places,
     pointers: &[Pointer],
 ) -> Result<Box<dyn Scene>, OpenError> {
-    let path = locate(name, dirs)?;
+    let path = locate(name, places.dirs)?;
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }
-    let spec = hapticd_core::scene::static_scene::StaticSceneSpec::load(&path)
-        .map_err(|e| OpenError::Invalid(e.to_string()))?;
-    Ok(Box::new(
-        hapticd_core::scene::static_scene::StaticScene::new(spec, pointers),
-    ))
+    if is_physics(&path) {
+        // Checked here first, so that mistakes come back with their places.
+        PenaltyScene::load(&path, pointers.len()).map_err(|e| OpenError::Invalid(e.to_string()))?;
+        let engine = places
+            .plugin_dirs
+            .iter()
+            .map(|d| d.join(PENALTY_ENGINE))
+            .find(|p| p.exists())
+            .ok_or_else(|| {
+                OpenError::Invalid(format!(
+                    "{}: a physics scene, but no {PENALTY_ENGINE} in {:?} to run it",
+                    path.display(),
+                    places.plugin_dirs
+                ))
+            })?;
+        return crate::plugin_scene::load(&engine, Some(&path), pointers)
+            .map_err(OpenError::Invalid);
+    }
+    let spec = StaticSceneSpec::load(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
+    Ok(Box::new(StaticScene::new(spec, pointers)))
 }
 
-/// Names of the static scenes in `dirs`, first directory first, without repeats.
+/// Names of the usable scene files in `dirs`, static and physics, first directory first,
+/// without repeats.
 pub fn available(dirs: &[PathBuf]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for dir in dirs {
@@ -117,9 +162,12 @@ pub fn available(dirs: &[PathBuf]) -> Vec<String> {
             .filter_map(|e| {
                 let path = e.path();
                 let stem = path.file_stem()?.to_str()?.to_string();
-                (path.extension()? == "yaml"
-                    && hapticd_core::scene::static_scene::StaticSceneSpec::load(&path).is_ok())
-                .then_some(stem)
+                let usable = if is_physics(&path) {
+                    PenaltyScene::load(&path, 0).is_ok()
+                } else {
+                    StaticSceneSpec::load(&path).is_ok()
+                };
+                (path.extension()? == "yaml" && usable).then_some(stem)
             })
             .collect();
         here.sort();

@@ -141,14 +141,12 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
     };
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
     let pointers = Pointer::at_calibration(&mechanism);
-    let scene = scenes::open(
-        common.scene,
-        common.scene_file,
-        &common.config.scene_dirs,
-        &pointers,
-        rate,
-    )
-    .map_err(|e| e.to_string())?;
+    let places = scenes::Places {
+        dirs: &common.config.scene_dirs,
+        plugin_dirs: &common.config.scene_plugin_dirs,
+    };
+    let scene = scenes::open(common.scene, common.scene_file, places, &pointers, rate)
+        .map_err(|e| e.to_string())?;
     let scene_name = scene.name().to_string();
     let defaults = Parameters {
         proxy: scene.proxy().unwrap_or_default(),
