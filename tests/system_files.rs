@@ -82,11 +82,25 @@ fn the_unit_passes_systemd_analyze_verify_without_a_warning() {
 }
 
 #[test]
-fn the_unit_runs_as_the_user_and_group_that_own_the_devices() {
+fn the_unit_runs_as_the_user_that_alone_owns_the_devices() {
     let unit = read("systemd/hapticd.service");
-    let group = hapticd_device::udev::GROUP;
-    assert_eq!(values(&unit, "User"), [group]);
-    assert_eq!(values(&unit, "Group"), [group]);
+    let user = hapticd_device::udev::USER;
+    assert_eq!(values(&unit, "User"), [user]);
+    assert_eq!(values(&unit, "Group"), [user]);
+    // The device nodes are the user's alone: the group tunes over the bus, never the motors.
+    let rules = read("udev/70-hapticd.rules");
+    for rule in rules.lines().filter(|l| l.contains("MODE=")) {
+        assert!(
+            rule.contains(&format!("OWNER=\"{user}\"")) && rule.contains("MODE=\"0600\""),
+            "{rule}"
+        );
+        assert!(!rule.contains("GROUP="), "{rule}");
+    }
+    let policy = read("config/dbus/org.hapticd.Hapticd1.conf");
+    assert!(
+        policy.contains(&format!("<policy group=\"{user}\">")),
+        "{policy}"
+    );
     // hapticd speaks the readiness and watchdog protocol.
     assert_eq!(values(&unit, "Type"), ["notify"]);
     assert_eq!(values(&unit, "WatchdogSec").len(), 1);
@@ -95,7 +109,7 @@ fn the_unit_runs_as_the_user_and_group_that_own_the_devices() {
         .lines()
         .find(|l| l.starts_with("u "))
         .expect("a user entry");
-    assert_eq!(entry.split_whitespace().nth(1), Some(group));
+    assert_eq!(entry.split_whitespace().nth(1), Some(user));
 }
 
 /// Every `/dev/…` path named in the sources of `dir`, outside unit tests.
