@@ -623,6 +623,48 @@ fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
 }
 
 #[test]
+fn hapticctl_monitor_prints_each_change_as_it_happens() {
+    use std::io::BufRead;
+    let dir = scratch("monitor");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let mut monitor = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["monitor", "--duration", "3"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(monitor.stdout.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    assert!(first.starts_with("watching hapticd on the"), "{first}");
+    // A parameter changed, then a calibration: its offsets, and the state it passes through.
+    assert!(bus.set("Stiffness", "d", "2500").status.success());
+    assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
+    let events: Vec<String> = lines.map(Result::unwrap).collect();
+    assert!(monitor.wait().unwrap().success());
+    let device = "/org/hapticd/Hapticd1/device/0";
+    assert_eq!(
+        events[0],
+        format!("{device}: Stiffness = 2500"),
+        "{events:?}"
+    );
+    // Telemetry (Pose, Force, Tensions, Statistics) is not an event.
+    assert!(!events.iter().any(|e| e.contains(": Pose =")), "{events:?}");
+    assert!(
+        events.contains(&format!("{device}: Calibrated = true")),
+        "{events:?}"
+    );
+    assert!(
+        events
+            .iter()
+            .any(|e| e.starts_with(&format!("{device}: CalibrationOffsets = "))),
+        "{events:?}"
+    );
+    daemon.stop();
+}
+
+#[test]
 fn bad_inputs_return_named_errors_and_change_nothing() {
     let dir = scratch("bad");
     let bus = Bus::start(&dir);

@@ -309,3 +309,79 @@ pub fn switch(client: &Client, name: &str) -> Result<(), Failure> {
     client.call(MANAGER_PATH, MANAGER, "SwitchScene", &(name,))?;
     Ok(())
 }
+
+#[derive(Args)]
+pub struct MonitorArgs {
+    /// Stop after this many events.
+    #[arg(long)]
+    count: Option<usize>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+/// Properties that change ten times a second: telemetry, not events.
+const TELEMETRY: [&str; 4] = ["Pose", "Force", "Tensions", "Statistics"];
+
+/// The next message of `stream`, waiting for it.
+async fn next(stream: &mut zbus::MessageStream) -> Option<zbus::Result<zbus::Message>> {
+    use zbus::export::futures_core::Stream;
+    std::future::poll_fn(|cx| std::pin::Pin::new(&mut *stream).poll_next(cx)).await
+}
+
+/// `hapticctl monitor`: every change of the daemon's state as it happens (a device's state,
+/// calibration, binding, parameters, the scene), one line each; readable by anyone.
+pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
+    if let Some(seconds) = args.duration {
+        if !(seconds.is_finite() && seconds > 0.0) {
+            return Err(Failure::usage("--duration must be a number of seconds > 0"));
+        }
+        std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_secs_f64(seconds));
+            std::process::exit(0);
+        });
+    }
+    let rule = format!(
+        "type='signal',sender='{BUS_NAME}',interface='{PROPERTIES}',member='PropertiesChanged'"
+    );
+    zbus::block_on(async {
+        let mut stream =
+            zbus::MessageStream::for_match_rule(rule.as_str(), &client.connection, None)
+                .await
+                .map_err(|e| failure(&client.bus, e))?;
+        println!("watching hapticd on the {} bus", bus_name(&client.bus));
+        let mut seen = 0;
+        while args.count.is_none_or(|n| seen < n) {
+            let Some(message) = next(&mut stream).await else {
+                return Err(Failure::failed("the bus closed the connection"));
+            };
+            let message = message.map_err(|e| failure(&client.bus, e))?;
+            let path = message
+                .header()
+                .path()
+                .map(|p| p.to_string())
+                .unwrap_or_default();
+            let changed: (
+                String,
+                std::collections::HashMap<String, OwnedVariant>,
+                Vec<String>,
+            ) = match message.body().deserialize() {
+                Ok(body) => body,
+                Err(_) => continue,
+            };
+            let mut events: Vec<_> = changed
+                .1
+                .iter()
+                .filter(|(name, _)| !TELEMETRY.contains(&name.as_str()))
+                .collect();
+            events.sort_by(|a, b| a.0.cmp(b.0));
+            for (name, value) in events {
+                println!("{path}: {name} = {}", words(&to_json(value)));
+                seen += 1;
+            }
+            use std::io::Write;
+            let _ = std::io::stdout().flush();
+        }
+        Ok(())
+    })
+}

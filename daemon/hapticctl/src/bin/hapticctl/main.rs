@@ -57,6 +57,8 @@ enum Command {
     Bind(client::BindArgs),
     /// Re-read hapticd.yaml and rescan the mechanism plugins and descriptors.
     Reload,
+    /// Print every change of the daemon's state as it happens (anyone may watch).
+    Monitor(client::MonitorArgs),
 }
 
 /// Why a command failed, with its exit status.
@@ -129,6 +131,9 @@ fn main() -> ExitCode {
             client::Client::connect(&cli.bus).and_then(|c| client::bind(&c, &args))
         }
         Command::Reload => client::Client::connect(&cli.bus).and_then(|c| client::reload(&c)),
+        Command::Monitor(args) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::monitor(&c, &args))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
