@@ -665,6 +665,34 @@ fn hapticctl_monitor_prints_each_change_as_it_happens() {
 }
 
 #[test]
+fn hapticctl_records_telemetry_from_the_bus() {
+    let dir = scratch("record");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let csv = dir.join("telemetry.csv");
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["record", "--duration", "1.5"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(rows[0], "time,pose,force");
+    // Ten bursts a second, each with the pose (x, y, z, w, x, y, z) and the wrench.
+    assert!(rows.len() >= 1 + 10, "{} rows", rows.len());
+    for row in &rows[1..] {
+        let fields: Vec<&str> = row.split(',').collect();
+        assert_eq!(fields.len(), 3, "{row}");
+        assert_eq!(fields[1].split(' ').count(), 7, "{row}");
+        assert_eq!(fields[2].split(' ').count(), 6, "{row}");
+    }
+    daemon.stop();
+}
+
+#[test]
 fn bad_inputs_return_named_errors_and_change_nothing() {
     let dir = scratch("bad");
     let bus = Bus::start(&dir);

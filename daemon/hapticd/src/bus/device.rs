@@ -3,6 +3,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
+use zbus::Variant;
 use zbus::interface;
 use zbus::object_server::SignalEmitter;
 
@@ -13,6 +14,9 @@ use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
 use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_core::parameters::Name;
+
+/// The interface's D-Bus name.
+const INTERFACE: &str = "org.hapticd.Hapticd1.Device";
 
 /// One haptic device.
 pub struct DeviceInterface {
@@ -121,10 +125,23 @@ pub(super) async fn announce(
         report(device.calibration_offsets_changed(emitter).await);
     }
     if last.is_none_or(|l| l.frame.time != now.frame.time) {
-        report(device.pose_changed(emitter).await);
-        report(device.force_changed(emitter).await);
-        report(device.tensions_changed(emitter).await);
-        report(device.statistics_changed(emitter).await);
+        // One signal for the whole burst: a client sees pose and force of the same tick.
+        let changed = HashMap::from([
+            ("Pose", Variant::from(pose(&now))),
+            ("Force", Variant::from(force(&now))),
+            ("Tensions", Variant::from(device.tensions())),
+            ("Statistics", Variant::from(statistics(&now))),
+        ]);
+        let interface = zbus::names::InterfaceName::from_static_str_unchecked(INTERFACE);
+        report(
+            zbus::fdo::Properties::properties_changed(
+                emitter,
+                interface,
+                changed,
+                (&[][..]).into(),
+            )
+            .await,
+        );
     }
     Some(now)
 }

@@ -385,3 +385,72 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
         Ok(())
     })
 }
+
+#[derive(Args)]
+pub struct RecordArgs {
+    /// Record for this many seconds.
+    #[arg(long)]
+    duration: f64,
+    /// The CSV file to write.
+    file: std::path::PathBuf,
+    #[command(flatten)]
+    device: DeviceArg,
+}
+
+/// `hapticctl record`: the device's telemetry as the bus carries it (ten rows a second):
+/// seconds since the start, pose (x, y, z, qw, qx, qy, qz per effector), force and torque.
+pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
+    use std::io::Write;
+    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= 86_400.0) {
+        return Err(Failure::usage(
+            "--duration must be a number of seconds from 0 to a day",
+        ));
+    }
+    let path = client.device(&args.device)?;
+    let cannot =
+        |e: std::io::Error| Failure::failed(format!("cannot write {}: {e}", args.file.display()));
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&args.file).map_err(cannot)?);
+    writeln!(out, "time,pose,force").map_err(cannot)?;
+    let rule = format!(
+        "type='signal',sender='{BUS_NAME}',path='{path}',interface='{PROPERTIES}',\
+         member='PropertiesChanged'"
+    );
+    let started = std::time::Instant::now();
+    let rows = zbus::block_on(async {
+        let mut stream =
+            zbus::MessageStream::for_match_rule(rule.as_str(), &client.connection, None)
+                .await
+                .map_err(|e| failure(&client.bus, e))?;
+        let mut rows = 0usize;
+        while started.elapsed().as_secs_f64() < args.duration {
+            let Some(message) = next(&mut stream).await else {
+                return Err(Failure::failed("the bus closed the connection"));
+            };
+            let message = message.map_err(|e| failure(&client.bus, e))?;
+            let Ok((_, changed, _)) = message.body().deserialize::<(
+                String,
+                std::collections::HashMap<String, OwnedVariant>,
+                Vec<String>,
+            )>() else {
+                continue;
+            };
+            // A telemetry burst carries the pose and the force together.
+            let (Some(pose), Some(force)) = (changed.get("Pose"), changed.get("Force")) else {
+                continue;
+            };
+            writeln!(
+                out,
+                "{:.3},{},{}",
+                started.elapsed().as_secs_f64(),
+                words(&to_json(pose)),
+                words(&to_json(force))
+            )
+            .map_err(cannot)?;
+            rows += 1;
+        }
+        Ok(rows)
+    })?;
+    out.flush().map_err(cannot)?;
+    eprintln!("{rows} rows in {}", args.file.display());
+    Ok(())
+}

@@ -59,6 +59,8 @@ enum Command {
     Reload,
     /// Print every change of the daemon's state as it happens (anyone may watch).
     Monitor(client::MonitorArgs),
+    /// Record a device's telemetry from the bus to a CSV file (ten rows a second).
+    Record(client::RecordArgs),
 }
 
 /// Why a command failed, with its exit status.
@@ -133,6 +135,9 @@ fn main() -> ExitCode {
         Command::Reload => client::Client::connect(&cli.bus).and_then(|c| client::reload(&c)),
         Command::Monitor(args) => {
             client::Client::connect(&cli.bus).and_then(|c| client::monitor(&c, &args))
+        }
+        Command::Record(args) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::record(&c, &args))
         }
     };
     match result {
