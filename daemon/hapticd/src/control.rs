@@ -72,6 +72,7 @@ const ACT_TIMEOUT: Duration = Duration::from_secs(3);
 pub struct DeviceHandle {
     identity: String,
     mechanism: String,
+    effectors: Vec<String>,
     pointers: Vec<Pointer>,
     rate: f64,
     scheduling: String,
@@ -101,6 +102,8 @@ pub struct DeviceSetup {
     pub identity: String,
     /// The mechanism's name.
     pub mechanism: String,
+    /// The mechanism's end effectors by name, in its order.
+    pub effectors: Vec<String>,
     /// One pointer per effector, at the calibration pose.
     pub pointers: Vec<Pointer>,
     /// Running tick rate, Hz.
@@ -122,6 +125,7 @@ impl DeviceHandle {
         Self {
             identity: setup.identity,
             mechanism: setup.mechanism,
+            effectors: setup.effectors,
             pointers: setup.pointers,
             rate: setup.rate,
             scheduling: setup.scheduling,
@@ -138,6 +142,11 @@ impl DeviceHandle {
     /// The transport's identity.
     pub fn identity(&self) -> &str {
         &self.identity
+    }
+
+    /// The mechanism's end effectors by name.
+    pub fn effectors(&self) -> &[String] {
+        &self.effectors
     }
 
     /// The mechanism driven.

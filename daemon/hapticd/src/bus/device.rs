@@ -150,8 +150,9 @@ pub(super) async fn announce(
 /// and the rendering parameters, which are checked, saved and applied on write.
 #[interface(name = "org.hapticd.Hapticd1.Device")]
 impl DeviceInterface {
-    /// The device's identity: its USB bus path and serial, or sim:MECHANISM for the
-    /// simulated SPIDAR. Calibration and parameters are remembered under it.
+    /// The device's identity: `usb:BUS-PORT` for an amplifier, `sim` for the simulated
+    /// SPIDAR, `replay:FILE` for a recording. Calibration and parameters are remembered
+    /// under it.
     #[zbus(property(emits_changed_signal = "const"))]
     fn identity(&self) -> String {
         self.device.identity().to_string()
@@ -161,6 +162,13 @@ impl DeviceInterface {
     #[zbus(property(emits_changed_signal = "const"))]
     fn mechanism(&self) -> String {
         self.device.mechanism().to_string()
+    }
+
+    /// The mechanism's end effectors by name, in the order of Pose (seven numbers each) and
+    /// Force (six each).
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn effectors(&self) -> Vec<String> {
+        self.device.effectors().to_vec()
     }
 
     /// The mechanism bound with BindMechanism for the next start; empty when none.

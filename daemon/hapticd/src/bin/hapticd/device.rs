@@ -175,6 +175,7 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
     };
     let header = recording::csv_header(&mechanism);
     let strings = mechanism.strings.len();
+    let effectors = mechanism.effectors.iter().map(|e| e.name.clone()).collect();
     let mut haptic =
         HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
     haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
@@ -239,6 +240,7 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         DeviceSetup {
             identity,
             mechanism: mechanism_name,
+            effectors,
             pointers,
             rate,
             scheduling,
