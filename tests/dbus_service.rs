@@ -579,6 +579,14 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     assert!(ctl(&["reload"]).status.success());
     assert!(ctl(&["bind", "spidar-g"]).status.success());
     assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
+    // top, refreshed twice into a pipe: two frames, each with the device's line.
+    let frames = said(&ctl(&["top", "--count", "2", "--interval", "0.2"]));
+    assert_eq!(frames.matches("OVERRUNS").count(), 2, "{frames}");
+    assert_eq!(
+        frames.lines().filter(|l| l.starts_with("sim ")).count(),
+        2,
+        "{frames}"
+    );
     daemon.stop();
     // No daemon on the bus: said plainly.
     let out = ctl(&["status"]);

@@ -454,3 +454,84 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     eprintln!("{rows} rows in {}", args.file.display());
     Ok(())
 }
+
+#[derive(Args)]
+pub struct TopArgs {
+    /// Stop after this many refreshes.
+    #[arg(long)]
+    count: Option<usize>,
+    /// Seconds between refreshes.
+    #[arg(long, default_value_t = 0.5)]
+    interval: f64,
+}
+
+/// The first three numbers of an array property (a position, a force).
+fn vector(v: &Value) -> [f64; 3] {
+    let n = |i: usize| v.get(i).and_then(Value::as_f64).unwrap_or(f64::NAN);
+    [n(0), n(1), n(2)]
+}
+
+/// `hapticctl top`: each device's loop, refreshed (like pw-top): state, ticks, overruns,
+/// wake-up latency and compute time, the force felt and where the grip is.
+pub fn top(client: &Client, args: &TopArgs) -> Result<(), Failure> {
+    use std::io::{IsTerminal, Write};
+    if !(0.05..=60.0).contains(&args.interval) {
+        return Err(Failure::usage("--interval must be from 0.05 to 60 seconds"));
+    }
+    let terminal = std::io::stdout().is_terminal();
+    let mut frame = 0;
+    while args.count.is_none_or(|n| frame < n) {
+        if frame > 0 {
+            std::thread::sleep(std::time::Duration::from_secs_f64(args.interval));
+        }
+        let manager = client.properties(MANAGER_PATH, MANAGER)?;
+        // On a terminal each refresh replaces the last; in a file they follow one another.
+        let mut screen = match (terminal, frame) {
+            (true, _) => "\x1b[H\x1b[2J".to_string(),
+            (false, 0) => String::new(),
+            (false, _) => "\n".to_string(),
+        };
+        screen += &format!(
+            "hapticd {}: scene {}\n{:<12} {:<13} {:>9} {:>8} {:>20} {:>14} {:>8}  {}\n",
+            words(&manager["Version"]),
+            words(&manager["ActiveScene"]),
+            "DEVICE",
+            "STATE",
+            "TICKS",
+            "OVERRUNS",
+            "WAIT p50/p99/max µs",
+            "BUSY mean/max",
+            "FORCE N",
+            "GRIP m",
+        );
+        for path in manager["Devices"].as_array().into_iter().flatten() {
+            let d = client.properties(path.as_str().unwrap_or_default(), DEVICE)?;
+            let s = &d["Statistics"];
+            let [fx, fy, fz] = vector(&d["Force"]);
+            let [x, y, z] = vector(&d["Pose"]);
+            screen += &format!(
+                "{:<12} {:<13} {:>9} {:>8} {:>20} {:>14} {:>8.2}  {x:+.4} {y:+.4} {z:+.4}\n",
+                words(&d["Identity"]),
+                words(&d["State"]),
+                words(&s["ticks"]),
+                words(&s["overruns"]),
+                format!(
+                    "{}/{}/{}",
+                    words(&s["wait_p50_us"]),
+                    words(&s["wait_p99_us"]),
+                    words(&s["wait_max_us"])
+                ),
+                format!(
+                    "{:.1}/{:.1}",
+                    s["busy_mean_us"].as_f64().unwrap_or(f64::NAN),
+                    s["busy_max_us"].as_f64().unwrap_or(f64::NAN)
+                ),
+                (fx * fx + fy * fy + fz * fz).sqrt(),
+            );
+        }
+        print!("{screen}");
+        let _ = std::io::stdout().flush();
+        frame += 1;
+    }
+    Ok(())
+}

@@ -61,6 +61,8 @@ enum Command {
     Monitor(client::MonitorArgs),
     /// Record a device's telemetry from the bus to a CSV file (ten rows a second).
     Record(client::RecordArgs),
+    /// Each device's loop, refreshed like pw-top: state, timing, force and grip.
+    Top(client::TopArgs),
 }
 
 /// Why a command failed, with its exit status.
@@ -138,6 +140,9 @@ fn main() -> ExitCode {
         }
         Command::Record(args) => {
             client::Client::connect(&cli.bus).and_then(|c| client::record(&c, &args))
+        }
+        Command::Top(args) => {
+            client::Client::connect(&cli.bus).and_then(|c| client::top(&c, &args))
         }
     };
     match result {
