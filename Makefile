@@ -96,8 +96,13 @@ install: release
 		$(DESTDIR)$(PREFIX)/lib/systemd/system $(DESTDIR)$(PREFIX)/lib/sysusers.d \
 		$(DESTDIR)$(PREFIX)/lib/udev/rules.d $(DESTDIR)$(PREFIX)/share/dbus-1/system.d \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/system-services $(DESTDIR)$(PREFIX)/share/dbus-1/interfaces \
-		$(DESTDIR)$(SYSCONFDIR)/hapticd/mechanisms $(DESTDIR)$(SYSCONFDIR)/hapticd/scenes
+		$(DESTDIR)$(SYSCONFDIR)/hapticd/mechanisms $(DESTDIR)$(SYSCONFDIR)/hapticd/scenes \
+		$(DESTDIR)$(PREFIX)/share/bash-completion/completions $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions \
+		$(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d
 	install -m 755 $(BUILT)/hapticd $(BUILT)/hapticctl $(DESTDIR)$(PREFIX)/bin/
+	$(BUILT)/hapticctl completions bash > $(DESTDIR)$(PREFIX)/share/bash-completion/completions/hapticctl
+	$(BUILT)/hapticctl completions zsh > $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions/_hapticctl
+	$(BUILT)/hapticctl completions fish > $(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d/hapticctl.fish
 	install -m 644 $(call so,$(MECHANISM_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/plugins/
 	install -m 644 $(call so,$(SCENE_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/scenes/
 	install -m 644 plugin-api/include/hapticd_plugin.h $(DESTDIR)$(PREFIX)/include/

@@ -193,8 +193,18 @@ fn make_install_lays_out_a_working_system() {
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Manager.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Device.xml",
         "usr/share/doc/hapticd/README.md",
+        "usr/share/bash-completion/completions/hapticctl",
+        "usr/share/zsh/vendor-completions/_hapticctl",
+        "usr/share/fish/vendor_completions.d/hapticctl.fish",
     ] {
         assert!(dest.join(file).is_file(), "{file} is not installed");
+    }
+    // The completions know the client's commands.
+    let bash =
+        std::fs::read_to_string(dest.join("usr/share/bash-completion/completions/hapticctl"))
+            .unwrap();
+    for command in ["status", "calibrate", "monitor", "scene"] {
+        assert!(bash.contains(command), "bash completion lacks {command}");
     }
     // The shipped configuration, with its directories moved under DESTDIR.
     let config = std::fs::read_to_string(dest.join("etc/hapticd/hapticd.yaml"))

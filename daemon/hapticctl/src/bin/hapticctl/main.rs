@@ -63,6 +63,11 @@ enum Command {
     Record(client::RecordArgs),
     /// Each device's loop, refreshed like pw-top: state, timing, force and grip.
     Top(client::TopArgs),
+    /// Print the completion script of a shell for hapticctl (installed by `make install`).
+    Completions {
+        /// bash, zsh, fish, elvish or powershell.
+        shell: clap_complete::Shell,
+    },
 }
 
 /// Why a command failed, with its exit status.
@@ -143,6 +148,15 @@ fn main() -> ExitCode {
         }
         Command::Top(args) => {
             client::Client::connect(&cli.bus).and_then(|c| client::top(&c, &args))
+        }
+        Command::Completions { shell } => {
+            use std::io::Write;
+            // Written whole, then sent: a reader that stops early is no failure.
+            let mut script = Vec::new();
+            let mut command = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(shell, &mut command, "hapticctl", &mut script);
+            let _ = std::io::stdout().write_all(&script);
+            Ok(())
         }
     };
     match result {
