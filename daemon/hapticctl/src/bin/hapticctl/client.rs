@@ -59,6 +59,9 @@ pub struct BindArgs {
     device: DeviceArg,
 }
 
+/// Properties changed, with their new values.
+type Changes = std::collections::HashMap<String, OwnedVariant>;
+
 /// A connection to the daemon on one bus.
 pub struct Client {
     connection: Connection,
@@ -183,6 +186,50 @@ impl Client {
         Ok(all.iter().map(|(k, v)| (k.clone(), to_json(v))).collect())
     }
 
+    /// Every property of every device the manager lists, in its order.
+    fn devices(
+        &self,
+        manager: &BTreeMap<String, Value>,
+    ) -> Result<Vec<BTreeMap<String, Value>>, Failure> {
+        manager["Devices"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|path| self.properties(path.as_str().unwrap_or_default(), DEVICE))
+            .collect()
+    }
+
+    /// The daemon's PropertiesChanged signals, of the object at `path` or of every object.
+    async fn changes(&self, path: Option<&str>) -> Result<zbus::MessageStream, Failure> {
+        let only = path.map_or(String::new(), |p| format!(",path='{p}'"));
+        let rule = format!(
+            "type='signal',sender='{BUS_NAME}'{only},interface='{PROPERTIES}',\
+             member='PropertiesChanged'"
+        );
+        zbus::MessageStream::for_match_rule(rule.as_str(), &self.connection, None)
+            .await
+            .map_err(|e| failure(&self.bus, e))
+    }
+
+    /// The next change of `stream`: the object's path and the properties changed with their
+    /// values (`None` for a signal that does not have that shape).
+    async fn next_change(
+        &self,
+        stream: &mut zbus::MessageStream,
+    ) -> Result<Option<(String, Changes)>, Failure> {
+        let Some(message) = next(stream).await else {
+            return Err(Failure::failed("the bus closed the connection"));
+        };
+        let message = message.map_err(|e| failure(&self.bus, e))?;
+        let path = message
+            .header()
+            .path()
+            .map(|p| p.to_string())
+            .unwrap_or_default();
+        let body: zbus::Result<(String, Changes, Vec<String>)> = message.body().deserialize();
+        Ok(body.ok().map(|(_, changed, _)| (path, changed)))
+    }
+
     /// The object path of the device `arg` names.
     fn device(&self, arg: &DeviceArg) -> Result<String, Failure> {
         let manager = self.properties(MANAGER_PATH, MANAGER)?;
@@ -218,8 +265,7 @@ pub fn status(client: &Client, output: &Output) -> Result<(), Failure> {
         words(&manager["Mechanisms"])
     );
     let mut devices = Vec::new();
-    for path in manager["Devices"].as_array().into_iter().flatten() {
-        let d = client.properties(path.as_str().unwrap_or_default(), DEVICE)?;
+    for d in client.devices(&manager)? {
         let stats = &d["Statistics"];
         text += &format!(
             "{}: {}, {} at {} Hz ({}), {} ticks, {} overruns, wake p99 {} µs\n",
@@ -341,36 +387,15 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
             std::process::exit(0);
         });
     }
-    let rule = format!(
-        "type='signal',sender='{BUS_NAME}',interface='{PROPERTIES}',member='PropertiesChanged'"
-    );
     zbus::block_on(async {
-        let mut stream =
-            zbus::MessageStream::for_match_rule(rule.as_str(), &client.connection, None)
-                .await
-                .map_err(|e| failure(&client.bus, e))?;
+        let mut stream = client.changes(None).await?;
         println!("watching hapticd on the {} bus", bus_name(&client.bus));
         let mut seen = 0;
         while args.count.is_none_or(|n| seen < n) {
-            let Some(message) = next(&mut stream).await else {
-                return Err(Failure::failed("the bus closed the connection"));
-            };
-            let message = message.map_err(|e| failure(&client.bus, e))?;
-            let path = message
-                .header()
-                .path()
-                .map(|p| p.to_string())
-                .unwrap_or_default();
-            let changed: (
-                String,
-                std::collections::HashMap<String, OwnedVariant>,
-                Vec<String>,
-            ) = match message.body().deserialize() {
-                Ok(body) => body,
-                Err(_) => continue,
+            let Some((path, changed)) = client.next_change(&mut stream).await? else {
+                continue;
             };
             let mut events: Vec<_> = changed
-                .1
                 .iter()
                 .filter(|(name, _)| !TELEMETRY.contains(&name.as_str()))
                 .collect();
@@ -411,27 +436,12 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
         |e: std::io::Error| Failure::failed(format!("cannot write {}: {e}", args.file.display()));
     let mut out = std::io::BufWriter::new(std::fs::File::create(&args.file).map_err(cannot)?);
     writeln!(out, "time,pose,force").map_err(cannot)?;
-    let rule = format!(
-        "type='signal',sender='{BUS_NAME}',path='{path}',interface='{PROPERTIES}',\
-         member='PropertiesChanged'"
-    );
     let started = std::time::Instant::now();
     let rows = zbus::block_on(async {
-        let mut stream =
-            zbus::MessageStream::for_match_rule(rule.as_str(), &client.connection, None)
-                .await
-                .map_err(|e| failure(&client.bus, e))?;
+        let mut stream = client.changes(Some(&path)).await?;
         let mut rows = 0usize;
         while started.elapsed().as_secs_f64() < args.duration {
-            let Some(message) = next(&mut stream).await else {
-                return Err(Failure::failed("the bus closed the connection"));
-            };
-            let message = message.map_err(|e| failure(&client.bus, e))?;
-            let Ok((_, changed, _)) = message.body().deserialize::<(
-                String,
-                std::collections::HashMap<String, OwnedVariant>,
-                Vec<String>,
-            )>() else {
+            let Some((_, changed)) = client.next_change(&mut stream).await? else {
                 continue;
             };
             // A telemetry burst carries the pose and the force together.
@@ -448,7 +458,7 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
             .map_err(cannot)?;
             rows += 1;
         }
-        Ok(rows)
+        Ok::<usize, Failure>(rows)
     })?;
     out.flush().map_err(cannot)?;
     eprintln!("{rows} rows in {}", args.file.display());
@@ -504,8 +514,7 @@ pub fn top(client: &Client, args: &TopArgs) -> Result<(), Failure> {
             "FORCE N",
             "GRIP m",
         );
-        for path in manager["Devices"].as_array().into_iter().flatten() {
-            let d = client.properties(path.as_str().unwrap_or_default(), DEVICE)?;
+        for d in client.devices(&manager)? {
             let s = &d["Statistics"];
             let [fx, fy, fz] = vector(&d["Force"]);
             let [x, y, z] = vector(&d["Pose"]);
