@@ -119,36 +119,22 @@ fn main() -> ExitCode {
     } else {
         Catalog::new(cli.mechanism_dirs)
     };
+    // Only the commands that talk to hapticd connect to the bus.
+    let connect = || client::Client::connect(&cli.bus);
     let result = match cli.command {
         Command::Mechanism(command) => mechanism::run(command, &catalog),
         Command::Experiment(command) => experiment::run(command, &catalog),
         Command::Device(command) => device::run(command),
         Command::Scene(command) => scene::run(command, &cli.bus),
-        Command::Status(output) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::status(&c, &output))
-        }
-        Command::Get(args) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::get(&c, &args))
-        }
-        Command::Set(args) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::set(&c, &args))
-        }
-        Command::Calibrate(device) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::calibrate(&c, &device))
-        }
-        Command::Bind(args) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::bind(&c, &args))
-        }
-        Command::Reload => client::Client::connect(&cli.bus).and_then(|c| client::reload(&c)),
-        Command::Monitor(args) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::monitor(&c, &args))
-        }
-        Command::Record(args) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::record(&c, &args))
-        }
-        Command::Top(args) => {
-            client::Client::connect(&cli.bus).and_then(|c| client::top(&c, &args))
-        }
+        Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
+        Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
+        Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),
+        Command::Calibrate(device) => connect().and_then(|c| client::calibrate(&c, &device)),
+        Command::Bind(args) => connect().and_then(|c| client::bind(&c, &args)),
+        Command::Reload => connect().and_then(|c| client::reload(&c)),
+        Command::Monitor(args) => connect().and_then(|c| client::monitor(&c, &args)),
+        Command::Record(args) => connect().and_then(|c| client::record(&c, &args)),
+        Command::Top(args) => connect().and_then(|c| client::top(&c, &args)),
         Command::Completions { shell } => {
             use std::io::Write;
             // Written whole, then sent: a reader that stops early is no failure.
