@@ -19,7 +19,7 @@ HAPTICCTL := $(RELEASE)/hapticctl --mechanism-dir $(STAGE)
 TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev gir1.2-umockdev-1.0 python3-gi strace systemd dbus-daemon
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: run check deps test lint bench latency figures header stage release install
+.PHONY: run check deps test lint bench latency figures header stage release install deb
 
 stage:
 	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(PLUGINS))
@@ -75,46 +75,82 @@ figures: stage
 header:
 	HAPTICD_UPDATE_HEADER=1 $(CARGO) test -p hapticd-plugin-api --test c_header
 
-# Installation, laid out as a distribution package would be. `make install` builds the
-# release binaries first; BUILT names another build directory (the tests install a debug build).
+# Installation, laid out as a distribution package would be. `make release` builds (cargo and
+# a C compiler); `make install` only copies, so `sudo make install` needs no cargo on root's
+# path. BUILT names another build directory (the tests install a debug build). Any PREFIX
+# works without rebuilding: hapticd finds its files from where its binary lies
+# (daemon/hapticd/src/layout.rs), and its configuration in SYSCONFDIR below.
 PREFIX ?= /usr
-SYSCONFDIR ?= /etc
+DEFAULT_SYSCONFDIR := $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
+SYSCONFDIR ?= $(DEFAULT_SYSCONFDIR)
 DESTDIR ?=
 BUILT ?= $(RELEASE)
+# systemd, udev and systemd-sysusers read packages' files under /usr/lib and /usr/local/lib;
+# for any other prefix the unit, rules and user go to the administrator's directories in /etc.
+SYSTEMLIBDIR ?= $(if $(filter /usr /usr/local,$(PREFIX)),$(PREFIX)/lib,/etc)
+# The system bus reads policies from /usr/share/dbus-1/system.d and /etc/dbus-1/system.d only.
+DBUSPOLICYDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/share/dbus-1/system.d,/etc/dbus-1/system.d)
 MECHANISM_PLUGINS := $(PLUGINS)
 SCENE_PLUGINS := hapticd-scene-penalty
+VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml)
 so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
+# The C example mechanism, built as a plugin author would build it.
+C_MECHANISM := $(BUILT)/libspidar_desk.so
+INSTALLED_FILES := $(BUILT)/hapticd $(BUILT)/hapticctl $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+CONFIG_ARG := $(if $(filter $(DEFAULT_SYSCONFDIR),$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/hapticd.yaml)
+MAN := $(BUILT)/man
 
-release:
+release: $(RELEASE)/libspidar_desk.so
 	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 
-install: release
+%/libspidar_desk.so: plugins/c-example/spidar_desk.c plugin-api/include/hapticd_plugin.h
+	@mkdir -p $(@D)
+	$(CC) -shared -fPIC -O2 -Wall -Wextra -Werror -std=c11 -Iplugin-api/include $< -o $@
+
+install: $(C_MECHANISM)
+	@for f in $(INSTALLED_FILES); do [ -e $$f ] || { echo "$$f is not built: run make release first" >&2; exit 1; }; done
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/hapticd/plugins \
-		$(DESTDIR)$(PREFIX)/lib/hapticd/scenes $(DESTDIR)$(PREFIX)/include \
+		$(DESTDIR)$(PREFIX)/lib/hapticd/scenes $(DESTDIR)$(PREFIX)/include/hapticd \
+		$(DESTDIR)$(PREFIX)/share/pkgconfig \
 		$(DESTDIR)$(PREFIX)/share/hapticd/mechanisms $(DESTDIR)$(PREFIX)/share/hapticd/scenes \
-		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd \
-		$(DESTDIR)$(PREFIX)/lib/systemd/system $(DESTDIR)$(PREFIX)/lib/sysusers.d \
-		$(DESTDIR)$(PREFIX)/lib/udev/rules.d $(DESTDIR)$(PREFIX)/share/dbus-1/system.d \
+		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples \
+		$(DESTDIR)$(SYSTEMLIBDIR)/systemd/system $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d \
+		$(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d $(DESTDIR)$(DBUSPOLICYDIR) \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/system-services $(DESTDIR)$(PREFIX)/share/dbus-1/interfaces \
 		$(DESTDIR)$(SYSCONFDIR)/hapticd/mechanisms $(DESTDIR)$(SYSCONFDIR)/hapticd/scenes \
 		$(DESTDIR)$(PREFIX)/share/bash-completion/completions $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions \
-		$(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d
+		$(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d \
+		$(DESTDIR)$(PREFIX)/share/man/man1 $(DESTDIR)$(PREFIX)/share/man/man5 $(DESTDIR)$(PREFIX)/share/man/man8
 	install -m 755 $(BUILT)/hapticd $(BUILT)/hapticctl $(DESTDIR)$(PREFIX)/bin/
 	$(BUILT)/hapticctl completions bash > $(DESTDIR)$(PREFIX)/share/bash-completion/completions/hapticctl
 	$(BUILT)/hapticctl completions zsh > $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions/_hapticctl
 	$(BUILT)/hapticctl completions fish > $(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d/hapticctl.fish
-	install -m 644 $(call so,$(MECHANISM_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/plugins/
+	rm -rf $(MAN) && $(BUILT)/hapticctl manual $(MAN)
+	for page in $(MAN)/*.[158]; do \
+		install -m 644 $$page $(DESTDIR)$(PREFIX)/share/man/man$${page##*.}/; done
+	install -m 644 $(call so,$(MECHANISM_PLUGINS)) $(C_MECHANISM) $(DESTDIR)$(PREFIX)/lib/hapticd/plugins/
 	install -m 644 $(call so,$(SCENE_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/scenes/
-	install -m 644 plugin-api/include/hapticd_plugin.h $(DESTDIR)$(PREFIX)/include/
+	install -m 644 plugin-api/include/hapticd_plugin.h $(DESTDIR)$(PREFIX)/include/hapticd/
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' plugin-api/hapticd-plugin.pc.in \
+		> $(DESTDIR)$(PREFIX)/share/pkgconfig/hapticd-plugin.pc
 	install -m 644 config/mechanisms/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/mechanisms/
 	install -m 644 config/scenes/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/scenes/
 	install -m 644 config/hands/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/hands/
-	install -m 644 README.md $(DESTDIR)$(PREFIX)/share/doc/hapticd/
-	install -m 644 config/hapticd.yaml $(DESTDIR)$(SYSCONFDIR)/hapticd/
-	install -m 644 systemd/hapticd.service $(DESTDIR)$(PREFIX)/lib/systemd/system/
-	install -m 644 systemd/hapticd.sysusers $(DESTDIR)$(PREFIX)/lib/sysusers.d/hapticd.conf
-	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(PREFIX)/lib/udev/rules.d/
-	install -m 644 config/dbus/org.hapticd.Hapticd1.conf $(DESTDIR)$(PREFIX)/share/dbus-1/system.d/
+	install -m 644 README.md LICENSE-MIT LICENSE-APACHE $(DESTDIR)$(PREFIX)/share/doc/hapticd/
+	install -m 644 plugins/c-example/*.c plugins/scene-floor/src/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/
+	mv $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/floor_scene.rs
+	sed -e 's|/etc/hapticd|$(SYSCONFDIR)/hapticd|g' -e 's|/usr/|$(PREFIX)/|g' config/hapticd.yaml \
+		> $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml
+	@# An edited configuration survives a reinstall; the shipped one stays in the documentation.
+	if [ -e $(DESTDIR)$(SYSCONFDIR)/hapticd/hapticd.yaml ]; then \
+		echo "keeping $(DESTDIR)$(SYSCONFDIR)/hapticd/hapticd.yaml (shipped: $(PREFIX)/share/doc/hapticd/hapticd.yaml)"; \
+	else install -m 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml $(DESTDIR)$(SYSCONFDIR)/hapticd/; fi
+	sed -e 's|^ExecStart=/usr/bin/hapticd|ExecStart=$(PREFIX)/bin/hapticd$(CONFIG_ARG)|' \
+		-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' systemd/hapticd.service \
+		> $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
+	install -m 644 systemd/hapticd.sysusers $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d/hapticd.conf
+	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d/
+	install -m 644 config/dbus/org.hapticd.Hapticd1.conf $(DESTDIR)$(DBUSPOLICYDIR)/
 	install -m 644 systemd/org.hapticd.Hapticd1.service $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces/

@@ -2,19 +2,14 @@
 //!
 //! Directories are searched in order and the first mechanism of a name wins, so
 //! `/etc/hapticd/mechanisms` overrides what the package installed.
+//! The default directories are the installation's ([`Layout::mechanism_dirs`]).
 
 use std::path::{Path, PathBuf};
 
+use crate::layout::Layout;
 use crate::plugin;
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::mechanism::{Mechanism, descriptor};
-
-/// Default search path: local overrides, then plugins, then packaged descriptors.
-pub const DEFAULT_DIRS: [&str; 3] = [
-    "/etc/hapticd/mechanisms",
-    "/usr/lib/hapticd/plugins",
-    "/usr/share/hapticd/mechanisms",
-];
 
 /// Environment variable that replaces the default search path (colon-separated).
 pub const PATH_VARIABLE: &str = "HAPTICD_MECHANISM_PATH";
@@ -46,7 +41,7 @@ impl Catalog {
     pub fn from_env() -> Self {
         match std::env::var_os(PATH_VARIABLE) {
             Some(path) => Self::new(std::env::split_paths(&path).collect()),
-            None => Self::new(DEFAULT_DIRS.iter().map(PathBuf::from).collect()),
+            None => Self::new(Layout::of_this_program().mechanism_dirs()),
         }
     }
 

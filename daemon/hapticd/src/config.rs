@@ -25,6 +25,8 @@ use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use hapticd_core::parameters::Name;
 use serde::Deserialize;
 
+use crate::layout::Layout;
+
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -96,14 +98,12 @@ pub struct SafetyConfig {
 
 impl Default for Config {
     fn default() -> Self {
+        let layout = Layout::of_this_program();
         Self {
             realtime: RealtimeConfig::default(),
             mechanism_dirs: None,
-            scene_dirs: vec![
-                "/etc/hapticd/scenes".into(),
-                "/usr/share/hapticd/scenes".into(),
-            ],
-            scene_plugin_dirs: vec!["/usr/lib/hapticd/scenes".into()],
+            scene_dirs: layout.scene_dirs(),
+            scene_plugin_dirs: layout.scene_plugin_dirs(),
             scene: "static".into(),
             hardware: HardwareConfig::default(),
             simulator: SimulatorConfig::default(),

@@ -2,8 +2,9 @@
 //!
 //! Layers, each using only those above it (and `hapticd-core`, `hapticd-device`):
 //!
-//! 1. [`clock`], [`logging`], [`sd_notify`], [`config`], [`state`]: the process's
-//!    surroundings (monotonic time, the journal, systemd, `/etc` and `/var/lib`).
+//! 1. [`clock`], [`logging`], [`sd_notify`], [`layout`], [`config`], [`state`]: the
+//!    process's surroundings (monotonic time, the journal, systemd, the installed tree,
+//!    `/etc` and `/var/lib`).
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
@@ -16,6 +17,7 @@ pub mod catalog;
 pub mod clock;
 pub mod config;
 pub mod control;
+pub mod layout;
 pub mod logging;
 pub mod plugin;
 pub mod plugin_scene;

@@ -19,6 +19,7 @@ use clap::Parser;
 use hapticd::bus::{self, Bus};
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon};
+use hapticd::layout::Layout;
 use hapticd::sd_notify;
 use hapticd::state::StateDir;
 use hapticd_device::hotplug::Arrivals;
@@ -36,7 +37,8 @@ static DONE: AtomicBool = AtomicBool::new(false);
 #[derive(Parser)]
 #[command(name = "hapticd", version)]
 struct Cli {
-    /// Configuration file (default: /etc/hapticd/hapticd.yaml when it exists).
+    /// Configuration file (default: /etc/hapticd/hapticd.yaml when it exists; for an
+    /// installation under another prefix, PREFIX/etc/hapticd/hapticd.yaml).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path),
@@ -81,7 +83,7 @@ struct Cli {
 
 fn run(cli: Cli) -> Result<Ending, String> {
     let config_path = cli.config.clone().or_else(|| {
-        let default = PathBuf::from("/etc/hapticd/hapticd.yaml");
+        let default = Layout::of_this_program().config_file();
         default.exists().then_some(default)
     });
     let config = match &config_path {
