@@ -133,14 +133,16 @@ install: $(C_MECHANISM)
 	install -m 644 plugin-api/include/hapticd_plugin.h $(DESTDIR)$(PREFIX)/include/hapticd/
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' plugin-api/hapticd-plugin.pc.in \
 		> $(DESTDIR)$(PREFIX)/share/pkgconfig/hapticd-plugin.pc
+	chmod 644 $(DESTDIR)$(PREFIX)/share/pkgconfig/hapticd-plugin.pc
 	install -m 644 config/mechanisms/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/mechanisms/
 	install -m 644 config/scenes/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/scenes/
 	install -m 644 config/hands/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/hands/
 	install -m 644 README.md LICENSE-MIT LICENSE-APACHE $(DESTDIR)$(PREFIX)/share/doc/hapticd/
-	install -m 644 plugins/c-example/*.c plugins/scene-floor/src/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/
-	mv $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/floor_scene.rs
-	sed -e 's|/etc/hapticd|$(SYSCONFDIR)/hapticd|g' -e 's|/usr/|$(PREFIX)/|g' config/hapticd.yaml \
-		> $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml
+	install -m 644 plugins/c-example/*.c $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/
+	install -m 644 plugins/scene-floor/src/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/floor_scene.rs
+	sed -e 's|/etc/hapticd|$(SYSCONFDIR)/hapticd|g' -e 's|/usr/|$(PREFIX)/|g' \
+		config/hapticd.yaml > $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml
+	chmod 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml
 	@# An edited configuration survives a reinstall; the shipped one stays in the documentation.
 	if [ -e $(DESTDIR)$(SYSCONFDIR)/hapticd/hapticd.yaml ]; then \
 		echo "keeping $(DESTDIR)$(SYSCONFDIR)/hapticd/hapticd.yaml (shipped: $(PREFIX)/share/doc/hapticd/hapticd.yaml)"; \
@@ -148,6 +150,7 @@ install: $(C_MECHANISM)
 	sed -e 's|^ExecStart=/usr/bin/hapticd|ExecStart=$(PREFIX)/bin/hapticd$(CONFIG_ARG)|' \
 		-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' systemd/hapticd.service \
 		> $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
+	chmod 644 $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
 	install -m 644 systemd/hapticd.sysusers $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d/hapticd.conf
 	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.conf $(DESTDIR)$(DBUSPOLICYDIR)/

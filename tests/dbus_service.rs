@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use support::bus::{NAME, PrivateBus};
 use support::{artifact, hapticctl, plugin_path, repo_dir};
 
-const NAME: &str = "org.hapticd.Hapticd1";
 const MANAGER: [&str; 3] = [
     NAME,
     "/org/hapticd/Hapticd1",
@@ -43,9 +43,8 @@ fn scratch(name: &str) -> PathBuf {
 
 /// A private bus with the system bus's default policy plus the shipped hapticd policy.
 struct Bus {
-    dir: PathBuf,
     address: String,
-    daemon: Child,
+    _private: PrivateBus,
     _turn: Turn,
 }
 
@@ -81,62 +80,13 @@ impl Bus {
     }
 
     fn start_in_turn(dir: &Path, turn: Turn) -> Bus {
-        let socket = dir.join("bus");
-        // Running as an ordinary user, the tests stand in for root in the policy.
-        let me = if is_root() {
-            String::new()
-        } else {
-            format!(
-                r#"<policy user="{}"><allow own="{NAME}"/><allow send_destination="{NAME}"/></policy>"#,
-                nix::unistd::geteuid()
-            )
-        };
-        let config = format!(
-            r#"<!DOCTYPE busconfig PUBLIC "-//freedesktop//DTD D-BUS Bus Configuration 1.0//EN"
- "http://www.freedesktop.org/standards/dbus/1.0/busconfig.dtd">
-<busconfig>
-  <listen>unix:path={socket}</listen>
-  <auth>EXTERNAL</auth>
-  <policy context="default">
-    <allow user="*"/>
-    <deny own="*"/>
-    <deny send_type="method_call"/>
-    <allow send_type="signal"/>
-    <allow send_requested_reply="true" send_type="method_return"/>
-    <allow send_requested_reply="true" send_type="error"/>
-    <allow receive_type="method_call"/>
-    <allow receive_type="method_return"/>
-    <allow receive_type="error"/>
-    <allow receive_type="signal"/>
-    <allow send_destination="org.freedesktop.DBus" send_interface="org.freedesktop.DBus"/>
-    <allow send_destination="org.freedesktop.DBus" send_interface="org.freedesktop.DBus.Introspectable"/>
-  </policy>
-  <include>{policy}</include>
-  {me}
-</busconfig>
-"#,
-            socket = socket.display(),
-            policy = repo_dir()
-                .join("config/dbus/org.hapticd.Hapticd1.conf")
-                .display(),
+        let private = PrivateBus::start(
+            dir,
+            &repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
         );
-        let file = dir.join("bus.conf");
-        std::fs::write(&file, config).unwrap();
-        let daemon = Command::new("dbus-daemon")
-            .arg(format!("--config-file={}", file.display()))
-            .arg("--nofork")
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("dbus-daemon (package dbus-daemon) is installed by `make check`");
-        let started = Instant::now();
-        while !socket.exists() {
-            assert!(started.elapsed() < Duration::from_secs(10), "no bus socket");
-            std::thread::sleep(Duration::from_millis(20));
-        }
         Bus {
-            dir: dir.to_path_buf(),
-            address: format!("unix:path={}", socket.display()),
-            daemon,
+            address: private.address.clone(),
+            _private: private,
             _turn: turn,
         }
     }
@@ -229,14 +179,6 @@ fn dbus_send_error(
         .unwrap_or_else(|| panic!("not a D-Bus error: {text}"));
     let (name, message) = rest.split_once(": ").unwrap_or((rest, ""));
     (name.to_string(), message.to_string())
-}
-
-impl Drop for Bus {
-    fn drop(&mut self) {
-        let _ = self.daemon.kill();
-        let _ = self.daemon.wait();
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
 }
 
 /// Where one test's daemon keeps its files.

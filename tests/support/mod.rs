@@ -4,6 +4,7 @@
 #![allow(dead_code)] // each test binary uses its own subset
 
 pub mod amplifier;
+pub mod bus;
 pub mod qp;
 pub mod rng;
 

@@ -5,6 +5,8 @@
 //! realtime:
 //!   priority: 80            # SCHED_FIFO priority of the haptic threads (clamped to RLIMIT_RTPRIO)
 //!   rate: 1000              # ticks per second (up to 4000 on USB, 10000 on the simulator)
+//! # the directories default to the installation's: these for PREFIX=/usr, and under
+//! # PREFIX (configuration in PREFIX/etc) for another
 //! mechanism_dirs: [/etc/hapticd/mechanisms, /usr/lib/hapticd/plugins, /usr/share/hapticd/mechanisms]
 //! scene_dirs: [/etc/hapticd/scenes, /usr/share/hapticd/scenes]
 //! scene_plugin_dirs: [/usr/lib/hapticd/scenes]   # where physics scenes find their engine

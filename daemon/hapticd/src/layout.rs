@@ -94,8 +94,11 @@ mod tests {
         );
         assert_eq!(
             opt.scene_dirs(),
-            ["/opt/hapticd/etc/hapticd/scenes", "/opt/hapticd/share/hapticd/scenes"]
-                .map(PathBuf::from)
+            [
+                "/opt/hapticd/etc/hapticd/scenes",
+                "/opt/hapticd/share/hapticd/scenes"
+            ]
+            .map(PathBuf::from)
         );
         assert_eq!(
             opt.scene_plugin_dirs(),

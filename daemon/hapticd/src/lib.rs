@@ -10,10 +10,12 @@
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time.
 //! 4. [`control`]: the daemon's devices, their parameters and calibration, as the bus and
-//!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it.
+//!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it; [`cli`]: the
+//!    daemon's command line.
 
 pub mod bus;
 pub mod catalog;
+pub mod cli;
 pub mod clock;
 pub mod config;
 pub mod control;

@@ -61,7 +61,12 @@ fn floor_height(text: &str) -> Result<f64, String> {
             .parse::<f64>()
             .ok()
             .filter(|y| y.is_finite() && y.abs() <= 1.0)
-            .ok_or_else(|| format!("floor_y must be a height within ±1 m, not `{}`", value.trim()))?;
+            .ok_or_else(|| {
+                format!(
+                    "floor_y must be a height within ±1 m, not `{}`",
+                    value.trim()
+                )
+            })?;
     }
     Ok(y)
 }
@@ -97,9 +102,24 @@ mod tests {
     #[test]
     fn a_scene_file_sets_the_height_and_mistakes_are_named() {
         assert_eq!(floor_height("").unwrap(), FLOOR_Y);
-        assert_eq!(floor_height("# a floor\nfloor_y: -0.1  # lower\n").unwrap(), -0.1);
-        assert!(floor_height("height: 1").unwrap_err().contains("only floor_y"));
-        assert!(floor_height("floor_y: .nan").unwrap_err().contains("within ±1 m"));
-        assert!(floor_height("floor_y: 5").unwrap_err().contains("within ±1 m"));
+        assert_eq!(
+            floor_height("# a floor\nfloor_y: -0.1  # lower\n").unwrap(),
+            -0.1
+        );
+        assert!(
+            floor_height("height: 1")
+                .unwrap_err()
+                .contains("only floor_y")
+        );
+        assert!(
+            floor_height("floor_y: .nan")
+                .unwrap_err()
+                .contains("within ±1 m")
+        );
+        assert!(
+            floor_height("floor_y: 5")
+                .unwrap_err()
+                .contains("within ±1 m")
+        );
     }
 }

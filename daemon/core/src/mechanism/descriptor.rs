@@ -1,25 +1,35 @@
-//! Mechanism descriptors in YAML: any string mechanism without a line of code.
+//! Mechanism descriptors in YAML: any string mechanism without a line of code. A complete
+//! one, a finger cap held by four strings from alternate corners of a 0.3 m cube:
 //!
 //! ```yaml
 //! name: my-spidar
-//! description: A SPIDAR-G on my desk   # optional
+//! description: A SPIDAR on my desk    # optional
 //! end_effectors:
-//!   - name: grip
-//!     dof: 6                 # 3: point grip; 6: rigid grip
+//!   - name: finger
+//!     dof: 3                          # 3: point grip; 6: rigid grip
 //! strings:
-//!   - effector: grip
-//!     motor: [0.0849, 0.076, 0.0]     # exit point on the frame, metres
-//!     knot: [0.0159, 0.0, -0.0159]    # attachment on the grip, grip frame (omit for dof 3)
-//!     metres_per_pulse: 1.66555e-5
-//!     volts_per_newton: 0.3653
-//!     tension_min: 0.3                # N
-//!     tension_max: 20.0               # N
+//!   - effector: finger
+//!     motor: [-0.15, 0.15, 0.15]      # exit point on the frame, metres
+//!     metres_per_pulse: 2.513e-5      # string paid out per encoder count
+//!     volts_per_newton: 0.3653        # amplifier input per newton of tension
+//!     tension_min: 0.3                # N: keeps the string taut
+//!     tension_max: 6.0                # N: never exceeded
+//!   - { effector: finger, motor: [0.15, 0.15, -0.15], metres_per_pulse: 2.513e-5,
+//!       volts_per_newton: 0.3653, tension_min: 0.3, tension_max: 6.0 }
+//!   - { effector: finger, motor: [-0.15, -0.15, -0.15], metres_per_pulse: 2.513e-5,
+//!       volts_per_newton: 0.3653, tension_min: 0.3, tension_max: 6.0 }
+//!   - { effector: finger, motor: [0.15, -0.15, 0.15], metres_per_pulse: 2.513e-5,
+//!       volts_per_newton: 0.3653, tension_min: 0.3, tension_max: 6.0 }
 //! calibration:                        # pose of each effector while calibrating (optional)
-//!   grip: { position: [0, 0, 0], orientation: [1, 0, 0, 0] }   # quaternion w, x, y, z
+//!   finger: { position: [0, 0, 0] }   # rigid grips add orientation: [w, x, y, z]
 //! tension:
-//!   lambda: 0.001                     # λ of eq. 3.16
+//!   lambda: 0.01                      # λ of eq. 3.16 (optional)
 //!   torque_weight: 1.0                # weight of torque rows (optional)
 //! ```
+//!
+//! A rigid grip (`dof: 6`) needs at least six strings to be located and seven to be pulled
+//! in every direction; each of its strings also gives `knot:`, where it is tied on the
+//! grip, in the grip's frame (metres).
 //!
 //! Unknown and duplicate keys are errors; every error names file, line and column.
 

@@ -3,6 +3,7 @@
 mod client;
 mod device;
 mod experiment;
+mod manual;
 mod mechanism;
 mod scene;
 
@@ -67,6 +68,12 @@ enum Command {
     Completions {
         /// bash, zsh, fish, elvish or powershell.
         shell: clap_complete::Shell,
+    },
+    /// Write the manual pages (hapticd(8), hapticctl(1) and the file formats' pages) into
+    /// DIR (installed by `make install`).
+    Manual {
+        /// The directory to write into (created if missing).
+        dir: PathBuf,
     },
 }
 
@@ -144,6 +151,7 @@ fn main() -> ExitCode {
             let _ = std::io::stdout().write_all(&script);
             Ok(())
         }
+        Command::Manual { dir } => manual::write(&dir),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -10,13 +10,13 @@ mod supervisor;
 mod transport;
 
 use std::os::unix::process::CommandExt;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 use hapticd::bus::{self, Bus};
+use hapticd::cli::Cli;
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon};
 use hapticd::layout::Layout;
@@ -32,54 +32,6 @@ use transport::Kind;
 
 /// Set when the daemon stops: the logging and recording threads finish then.
 static DONE: AtomicBool = AtomicBool::new(false);
-
-/// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
-#[derive(Parser)]
-#[command(name = "hapticd", version)]
-struct Cli {
-    /// Configuration file (default: /etc/hapticd/hapticd.yaml when it exists; for an
-    /// installation under another prefix, PREFIX/etc/hapticd/hapticd.yaml).
-    #[arg(long)]
-    config: Option<PathBuf>,
-    /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path),
-    /// even when hardware is plugged in.
-    #[arg(long, value_name = "MECH")]
-    sim: Option<String>,
-    /// Scene to render: a name in the scene directories, a scene file, or a scene plugin (.so).
-    #[arg(long)]
-    scene: Option<String>,
-    /// Scene file handed to a scene plugin given with --scene.
-    #[arg(long, value_name = "FILE")]
-    scene_file: Option<PathBuf>,
-    /// Script of the simulated hand.
-    #[arg(long, value_name = "FILE")]
-    hand: Option<PathBuf>,
-    /// Ticks per second (overrides the configuration).
-    #[arg(long)]
-    rate: Option<f64>,
-    /// Run this many seconds, then exit cleanly.
-    #[arg(long, value_name = "S")]
-    duration: Option<f64>,
-    /// Write every tick (time, poses, forces, tensions) to this CSV file.
-    #[arg(long, value_name = "FILE.csv")]
-    record: Option<PathBuf>,
-    /// Record every bulk transfer with the device to this file (replayable with --replay).
-    #[arg(long, value_name = "FILE")]
-    record_traffic: Option<PathBuf>,
-    /// Instead of a device, answer from a traffic recording.
-    #[arg(long, value_name = "FILE")]
-    replay: Option<PathBuf>,
-    /// Look for mechanisms in DIR (repeatable; overrides the configuration).
-    #[arg(long = "mechanism-dir", value_name = "DIR")]
-    mechanism_dirs: Vec<PathBuf>,
-    /// Serve the D-Bus interface on `system`, `session` or a D-Bus address (default: the
-    /// system bus when available).
-    #[arg(long, value_name = "BUS")]
-    bus: Option<Bus>,
-    /// Keep calibration and changed parameters in DIR (default: $STATE_DIRECTORY).
-    #[arg(long, value_name = "DIR")]
-    state_dir: Option<PathBuf>,
-}
 
 fn run(cli: Cli) -> Result<Ending, String> {
     let config_path = cli.config.clone().or_else(|| {

@@ -1,0 +1,345 @@
+//! `hapticctl manual DIR`: the manual pages, generated from the code so they cannot drift
+//! from it. The programs' pages come from their command-line definitions (clap); the file
+//! formats' pages from the documentation at the top of the module that parses each format.
+
+use std::io::Write;
+use std::path::Path;
+
+use clap::CommandFactory;
+
+use crate::Failure;
+
+/// The formats: page name, one-line summary, and the module documentation that describes
+/// each part (a section title and the parser's source).
+const FORMATS: [(&str, &str, &[(&str, &str)]); 4] = [
+    (
+        "hapticd.yaml",
+        "configuration of the hapticd haptics daemon",
+        &[(
+            "DESCRIPTION",
+            include_str!("../../../../hapticd/src/config.rs"),
+        )],
+    ),
+    (
+        "hapticd-mechanism",
+        "mechanism descriptors of hapticd: the strings of a SPIDAR in YAML",
+        &[(
+            "DESCRIPTION",
+            include_str!("../../../../core/src/mechanism/descriptor.rs"),
+        )],
+    ),
+    (
+        "hapticd-scene",
+        "scene files of hapticd: static scenes and physics scenes",
+        &[
+            (
+                "STATIC SCENES",
+                include_str!("../../../../core/src/scene/static_scene.rs"),
+            ),
+            (
+                "PHYSICS SCENES",
+                include_str!("../../../../../plugins/lib/physics/src/scene.rs"),
+            ),
+        ],
+    ),
+    (
+        "hapticd-hand",
+        "scripts of hapticd's simulated hand",
+        &[(
+            "DESCRIPTION",
+            include_str!("../../../../device/src/sim/hand.rs"),
+        )],
+    ),
+];
+
+/// What every page ends with.
+const SEE_ALSO: &str = "hapticd(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
+                        hapticd-scene(5), hapticd-hand(5), systemd.service(5), busctl(1)";
+
+/// The rest of hapticd(8), after what clap writes from its options.
+const DAEMON_SECTIONS: &str = r#".SH FILES
+.TP
+.I /etc/hapticd/hapticd.yaml
+The configuration, see hapticd.yaml(5).
+.TP
+.I /etc/hapticd/mechanisms, /usr/lib/hapticd/plugins, /usr/share/hapticd/mechanisms
+Mechanism descriptors (hapticd\-mechanism(5)) and plugins, searched in this order.
+.TP
+.I /etc/hapticd/scenes, /usr/share/hapticd/scenes, /usr/lib/hapticd/scenes
+Scene files (hapticd\-scene(5)) and the scene plugins physics scenes run on.
+.TP
+.I /var/lib/hapticd
+Calibration and changed parameters of each device (the unit's StateDirectory).
+.PP
+Installed under another prefix, hapticd reads PREFIX/etc/hapticd and PREFIX/lib and
+PREFIX/share in place of /etc/hapticd and /usr.
+.SH SIGNALS
+.TP
+.B SIGHUP
+Re\-read the configuration and rescan the plugins (systemctl reload hapticd).
+.TP
+.B SIGTERM, SIGINT
+Drive the motors to zero force and exit.
+.SH EXIT STATUS
+0 when stopped or after \-\-duration; 1 when it cannot start (the reason is logged);
+2 for bad arguments.
+"#;
+
+/// The rest of hapticctl(1).
+const CLIENT_SECTIONS: &str = r#".SH EXIT STATUS
+0 on success; 1 when the operation failed (a refused request gives the daemon's reason,
+and a daemon that is not running is said so); 2 for bad arguments.
+.SH ENVIRONMENT
+.TP
+.B HAPTICD_MECHANISM_PATH
+Colon\-separated directories that replace the default mechanism search path.
+"#;
+
+/// Write every page into `dir`.
+pub fn write(dir: &Path) -> Result<(), Failure> {
+    let failed = |e: std::io::Error| Failure::failed(format!("{}: {e}", dir.display()));
+    std::fs::create_dir_all(dir).map_err(failed)?;
+    let date = &page_date();
+    let version = env!("CARGO_PKG_VERSION");
+    let source = format!("hapticd {version}");
+    let program = |command: clap::Command, section: &str, extra: &str| -> Vec<u8> {
+        let mut page = Vec::new();
+        clap_mangen::Man::new(command)
+            .section(section)
+            .date(date)
+            .source(source.clone())
+            .manual("hapticd")
+            .render(&mut page)
+            .expect("rendering into memory");
+        page.extend_from_slice(extra.as_bytes());
+        page.extend_from_slice(format!(".SH SEE ALSO\n{}\n", escape(SEE_ALSO)).as_bytes());
+        page
+    };
+    let mut pages = vec![
+        (
+            "hapticd.8".to_string(),
+            program(hapticd::cli::Cli::command(), "8", DAEMON_SECTIONS),
+        ),
+        (
+            "hapticctl.1".to_string(),
+            program(crate::Cli::command(), "1", CLIENT_SECTIONS),
+        ),
+    ];
+    // A page per subcommand (hapticctl-scene-run.1, …) with all its options, as git has.
+    let mut client = crate::Cli::command().disable_help_subcommand(true);
+    client.build();
+    let mut pending: Vec<clap::Command> = client.get_subcommands().cloned().collect();
+    while let Some(command) = pending.pop() {
+        pending.extend(command.get_subcommands().cloned());
+        let name = command
+            .get_display_name()
+            .unwrap_or(command.get_name())
+            .to_string();
+        pages.push((format!("{name}.1"), program(command, "1", "")));
+    }
+    for (name, summary, parts) in FORMATS {
+        let mut page = format!(
+            ".TH {} 5 \"{date}\" \"{source}\" hapticd\n.SH NAME\n{} \\- {}\n",
+            name.to_uppercase(),
+            escape(name),
+            escape(summary)
+        );
+        for (title, module) in parts {
+            page.push_str(&format!(".SH {title}\n"));
+            page.push_str(&roff_from_markdown(&module_doc(module)));
+        }
+        page.push_str(&format!(".SH SEE ALSO\n{}\n", escape(SEE_ALSO)));
+        pages.push((format!("{name}.5"), page.into_bytes()));
+    }
+    for (file, page) in pages {
+        std::fs::File::create(dir.join(file))
+            .and_then(|mut f| f.write_all(&page))
+            .map_err(failed)?;
+    }
+    Ok(())
+}
+
+/// The pages' date: that of `$SOURCE_DATE_EPOCH` when set (reproducible builds), else today.
+fn page_date() -> String {
+    let seconds = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok())
+        .unwrap_or_else(|| {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs())
+        });
+    let (y, m, d) = civil_date(seconds / 86_400);
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+/// Year, month and day of `days` since 1970-01-01 (the proleptic Gregorian calendar, in
+/// eras of 400 years).
+fn civil_date(days: u64) -> (u64, u64, u64) {
+    let z = days + 719_468;
+    let era = z / 146_097;
+    let day_of_era = z % 146_097;
+    let year_of_era =
+        (day_of_era - day_of_era / 1460 + day_of_era / 36_524 - day_of_era / 146_096) / 365;
+    let day_of_year = day_of_era - (365 * year_of_era + year_of_era / 4 - year_of_era / 100);
+    let mp = (5 * day_of_year + 2) / 153;
+    let day = day_of_year - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = year_of_era + era * 400 + u64::from(month <= 2);
+    (year, month, day)
+}
+
+/// The `//!` documentation at the top of a Rust source file, as Markdown.
+fn module_doc(source: &str) -> String {
+    source
+        .lines()
+        .take_while(|l| l.starts_with("//!"))
+        .map(|l| l.trim_start_matches("//!").strip_prefix(' ').unwrap_or(""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Text made safe for roff: backslashes and minus signs.
+fn escape(text: &str) -> String {
+    text.replace('\\', "\\e").replace('-', "\\-")
+}
+
+/// A line of roff text that would otherwise read as a request (a leading dot or quote).
+fn text_line(text: String) -> String {
+    if text.starts_with(['.', '\'']) {
+        format!("\\&{text}\n")
+    } else {
+        format!("{text}\n")
+    }
+}
+
+/// Inline Markdown: `code` and **strong** in bold, rustdoc links as their text.
+fn inline(text: &str) -> String {
+    let text = text
+        .replace("[`", "`")
+        .replace("`]", "`")
+        .replace("**", "`");
+    let mut out = String::new();
+    for (i, part) in text.split('`').enumerate() {
+        if i % 2 == 1 {
+            out.push_str(&format!("\\fB{}\\fR", escape(part)));
+        } else {
+            out.push_str(&escape(part));
+        }
+    }
+    out
+}
+
+/// The subset of Markdown the module documentation uses: paragraphs, fenced examples and
+/// bulleted lists.
+fn roff_from_markdown(markdown: &str) -> String {
+    let mut out = String::new();
+    let mut in_code = false;
+    for line in markdown.lines() {
+        if line.starts_with("```") {
+            out.push_str(if in_code {
+                ".fi\n.RE\n"
+            } else {
+                ".PP\n.RS 4\n.nf\n"
+            });
+            in_code = !in_code;
+        } else if in_code {
+            out.push_str(&text_line(escape(line)));
+        } else if line.trim().is_empty() {
+            out.push_str(".PP\n");
+        } else if let Some(item) = line.strip_prefix("- ") {
+            out.push_str(".IP \\(bu 2\n");
+            out.push_str(&text_line(inline(item)));
+        } else {
+            out.push_str(&text_line(inline(line.trim_start())));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn markdown_becomes_roff_that_no_line_of_text_can_break() {
+        let roff = roff_from_markdown(
+            "A `key: value` and [`Thing`].\n\n```yaml\n.start: -1  # \\n\n```\n- one item\n",
+        );
+        assert_eq!(
+            roff,
+            "A \\fBkey: value\\fR and \\fBThing\\fR.\n.PP\n.PP\n.RS 4\n.nf\n\
+             \\&.start: \\-1  # \\en\n.fi\n.RE\n.IP \\(bu 2\none item\n"
+        );
+    }
+
+    #[test]
+    fn dates_follow_the_calendar() {
+        assert_eq!(civil_date(0), (1970, 1, 1));
+        // 2000-02-29 (a leap day of a century year) and 2026-11-30.
+        assert_eq!(civil_date(11_016), (2000, 2, 29));
+        assert_eq!(civil_date(20_787), (2026, 11, 30));
+    }
+
+    /// The fenced examples of a module's documentation.
+    fn examples(module: &str) -> Vec<String> {
+        let doc = module_doc(module);
+        doc.split("```")
+            .skip(1)
+            .step_by(2)
+            .map(|block| block.trim_start_matches("yaml").to_string())
+            .collect()
+    }
+
+    #[test]
+    fn the_examples_in_the_format_pages_are_accepted_by_the_parsers() {
+        use hapticd_core::diagnostics::Diagnostics;
+        use std::path::Path;
+        let path = Path::new("example.yaml");
+        type Parse = fn(&str, &Path) -> Result<(), Diagnostics>;
+        let parsers: [(&str, Parse); 5] = [
+            ("hapticd.yaml", |t, p| {
+                hapticd::config::Config::parse(t, p).map(drop)
+            }),
+            ("hapticd-mechanism", |t, p| {
+                hapticd_core::mechanism::descriptor::parse(t, p).map(drop)
+            }),
+            ("hapticd-scene", |t, p| {
+                hapticd_core::scene::static_scene::StaticSceneSpec::parse(t, p).map(drop)
+            }),
+            ("hapticd-scene", |t, p| {
+                hapticd_physics::scene::PenaltyScene::parse(t, p, 1).map(drop)
+            }),
+            ("hapticd-hand", |t, p| {
+                // Less the step that follows a recording, which the example cannot ship.
+                let t: String = t
+                    .lines()
+                    .filter(|l| !l.contains("path:"))
+                    .collect::<Vec<_>>()
+                    .join("\n");
+                hapticd_device::sim::hand::Script::parse(&t, p).map(drop)
+            }),
+        ];
+        let mut checked = 0;
+        for (name, _, parts) in FORMATS {
+            let candidates: Vec<Parse> = parsers
+                .iter()
+                .filter(|(n, _)| *n == name)
+                .map(|(_, p)| *p)
+                .collect();
+            for (_, module) in parts {
+                for example in examples(module) {
+                    // Each example is one of its page's formats.
+                    let results: Vec<_> = candidates.iter().map(|p| p(&example, path)).collect();
+                    assert!(
+                        results.iter().any(Result::is_ok),
+                        "{name}: {:?}\n{example}",
+                        results
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 5);
+    }
+}

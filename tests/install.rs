@@ -1,0 +1,312 @@
+//! Installing hapticd as the README says: `make install` into a scratch root, under the
+//! system prefix and under another, and the installed daemon started from the installed
+//! files alone; plugin authors building against the installed header and pkg-config file.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use support::bus::{NAME, PrivateBus};
+use support::{artifact, repo_dir};
+
+/// A fresh scratch root for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir =
+        support::scratch_root().join(format!("hapticd-install-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `make install DESTDIR=dest` of the build under test (no cargo: it only copies), with
+/// `extra` variables; fails the test with make's errors.
+fn make_install(dest: &Path, extra: &[&str]) -> Output {
+    let built = artifact("hapticd").parent().unwrap().to_path_buf();
+    let out = Command::new("make")
+        .current_dir(repo_dir())
+        .args(["-s", "install"])
+        .arg(format!("DESTDIR={}", dest.display()))
+        .arg(format!("BUILT={}", built.display()))
+        .args(extra)
+        .env("CARGO", "/nonexistent/cargo")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn read(path: PathBuf) -> String {
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The command line of the installed unit's `ExecStart`, run from the scratch root: the
+/// program moved under `dest`, the system bus (absent here) replaced by `bus`.
+fn exec_start(dest: &Path, unit: &str, bus: &str) -> Command {
+    let unit = read(dest.join(unit));
+    let line = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("ExecStart="))
+        .expect("the unit has ExecStart");
+    let mut words = line.split_whitespace();
+    let program = words.next().unwrap();
+    let mut command = Command::new(dest.join(program.trim_start_matches('/')));
+    for word in words {
+        command.arg(if word == "system" { bus } else { word });
+    }
+    command.env_remove("NOTIFY_SOCKET");
+    command
+}
+
+/// A manager property of the daemon on `bus`, as `busctl` prints it; None until it answers.
+fn manager_property(bus: &PrivateBus, property: &str) -> Option<String> {
+    let out = Command::new("busctl")
+        .arg(format!("--address={}", bus.address))
+        .args(["get-property", NAME, "/org/hapticd/Hapticd1"])
+        .arg(format!("{NAME}.Manager"))
+        .arg(property)
+        .output()
+        .expect("busctl (package systemd) is installed by `make check`");
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+/// Start `daemon` serving `bus`, wait until it answers, return its `Scenes` and
+/// `ActiveScene`, then stop it with SIGTERM as systemd does; it must exit cleanly.
+fn scenes_of_running(mut daemon: Command, bus: &PrivateBus, log: &Path) -> (String, String) {
+    let mut child = daemon
+        .stderr(std::fs::File::create(log).unwrap())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    let active = loop {
+        if let Some(active) = manager_property(bus, "ActiveScene") {
+            break active;
+        }
+        if started.elapsed().as_secs() > 20 || child.try_wait().unwrap().is_some() {
+            let _ = child.kill();
+            panic!("hapticd did not come up:\n{}", read(log.to_path_buf()));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let scenes = manager_property(bus, "Scenes").unwrap();
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGTERM,
+    )
+    .unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{}", read(log.to_path_buf()));
+    (scenes, active)
+}
+
+/// `make install` of the build under test into a scratch DESTDIR: every file where a
+/// distribution puts it, and the installed daemon runs from the installed plugins, scenes and
+/// configuration alone.
+#[test]
+fn make_install_lays_out_a_working_system() {
+    let dest = scratch("usr");
+    make_install(&dest, &[]);
+    for file in [
+        "usr/bin/hapticd",
+        "usr/bin/hapticctl",
+        "usr/lib/hapticd/plugins/libhapticd_spidar_g.so",
+        "usr/lib/hapticd/plugins/libspidar_desk.so",
+        "usr/lib/hapticd/scenes/libhapticd_scene_penalty.so",
+        "usr/share/hapticd/scenes/static.yaml",
+        "usr/share/hapticd/mechanisms/spidar-6s.yaml",
+        "usr/include/hapticd/hapticd_plugin.h",
+        "usr/share/pkgconfig/hapticd-plugin.pc",
+        "etc/hapticd/hapticd.yaml",
+        "usr/lib/systemd/system/hapticd.service",
+        "usr/lib/sysusers.d/hapticd.conf",
+        "usr/lib/udev/rules.d/70-hapticd.rules",
+        "usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf",
+        "usr/share/dbus-1/system-services/org.hapticd.Hapticd1.service",
+        "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Manager.xml",
+        "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Device.xml",
+        "usr/share/doc/hapticd/README.md",
+        "usr/share/doc/hapticd/LICENSE-MIT",
+        "usr/share/doc/hapticd/LICENSE-APACHE",
+        "usr/share/doc/hapticd/examples/floor_scene.c",
+        "usr/share/doc/hapticd/examples/floor_scene.rs",
+        "usr/share/bash-completion/completions/hapticctl",
+        "usr/share/zsh/vendor-completions/_hapticctl",
+        "usr/share/fish/vendor_completions.d/hapticctl.fish",
+        "usr/share/man/man8/hapticd.8",
+        "usr/share/man/man1/hapticctl.1",
+        "usr/share/man/man1/hapticctl-scene-run.1",
+        "usr/share/man/man5/hapticd.yaml.5",
+        "usr/share/man/man5/hapticd-mechanism.5",
+        "usr/share/man/man5/hapticd-scene.5",
+        "usr/share/man/man5/hapticd-hand.5",
+    ] {
+        assert!(dest.join(file).is_file(), "{file} is not installed");
+    }
+    // The completions know the client's commands, the manual its options.
+    let bash = read(dest.join("usr/share/bash-completion/completions/hapticctl"));
+    for command in ["status", "calibrate", "monitor", "scene"] {
+        assert!(bash.contains(command), "bash completion lacks {command}");
+    }
+    let page = read(dest.join("usr/share/man/man8/hapticd.8"));
+    for option in ["\\-\\-config", "\\-\\-scene", ".SH FILES", ".SH SIGNALS"] {
+        assert!(page.contains(option), "hapticd(8) lacks {option}");
+    }
+    // As the unit starts it, on a bus with the installed policy, less the configuration's
+    // place: a binary under DESTDIR/usr looks for DESTDIR/usr/etc, and /etc is the system's.
+    let bus = PrivateBus::start(
+        &scratch("usr-bus"),
+        &dest.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
+    );
+    let mut daemon = exec_start(
+        &dest,
+        "usr/lib/systemd/system/hapticd.service",
+        &bus.address,
+    );
+    daemon
+        .arg("--config")
+        .arg(dest.join("etc/hapticd/hapticd.yaml"));
+    let (scenes, active) = scenes_of_running(daemon, &bus, &dest.join("hapticd.log"));
+    assert_eq!(active, "s \"static\"");
+    for scene in ["static", "blocks", "top"] {
+        assert!(scenes.contains(&format!("\"{scene}\"")), "{scenes}");
+    }
+    std::fs::remove_dir_all(&dest).unwrap();
+}
+
+/// `make install PREFIX=/opt/hapticd`: the unit, rules and user go where systemd and udev
+/// read an administrator's files, and the daemon started as the unit starts it finds its
+/// configuration, mechanisms, scenes and scene plugins under the prefix, with no flag.
+#[test]
+fn an_install_under_another_prefix_runs_from_its_own_tree() {
+    let dest = scratch("opt");
+    make_install(&dest, &["PREFIX=/opt/hapticd"]);
+    for file in [
+        "etc/systemd/system/hapticd.service",
+        "etc/sysusers.d/hapticd.conf",
+        "etc/udev/rules.d/70-hapticd.rules",
+        "etc/dbus-1/system.d/org.hapticd.Hapticd1.conf",
+        "opt/hapticd/etc/hapticd/hapticd.yaml",
+        "opt/hapticd/lib/hapticd/plugins/libhapticd_spidar_g.so",
+        "opt/hapticd/share/man/man8/hapticd.8",
+    ] {
+        assert!(dest.join(file).is_file(), "{file} is not installed");
+    }
+    assert!(!dest.join("usr").exists(), "nothing lands under /usr");
+    let unit = read(dest.join("etc/systemd/system/hapticd.service"));
+    assert!(
+        unit.contains("\nExecStart=/opt/hapticd/bin/hapticd --bus system\n"),
+        "{unit}"
+    );
+    assert!(unit.contains("file:///opt/hapticd/share/doc/hapticd/README.md"));
+    let pc = read(dest.join("opt/hapticd/share/pkgconfig/hapticd-plugin.pc"));
+    assert!(pc.starts_with("prefix=/opt/hapticd\n"), "{pc}");
+    // A physics scene by name needs the scene directories and the engine's plugin.
+    let bus = PrivateBus::start(
+        &scratch("opt-bus"),
+        &dest.join("etc/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
+    );
+    let mut daemon = exec_start(&dest, "etc/systemd/system/hapticd.service", &bus.address);
+    daemon.args(["--scene", "blocks"]);
+    let (scenes, active) = scenes_of_running(daemon, &bus, &dest.join("hapticd.log"));
+    assert_eq!(active, "s \"blocks\"");
+    assert!(scenes.contains("\"static\""), "{scenes}");
+    std::fs::remove_dir_all(&dest).unwrap();
+}
+
+/// A reinstall keeps an edited configuration; the shipped one stays in the documentation.
+#[test]
+fn reinstalling_keeps_an_edited_configuration() {
+    let dest = scratch("reinstall");
+    make_install(&dest, &[]);
+    let config = dest.join("etc/hapticd/hapticd.yaml");
+    let edited = read(config.clone()).replace("rate: 1000 ", "rate: 2000 ");
+    std::fs::write(&config, &edited).unwrap();
+    let out = make_install(&dest, &[]);
+    assert_eq!(read(config), edited);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("keeping"));
+    assert_eq!(
+        read(dest.join("usr/share/doc/hapticd/hapticd.yaml")),
+        read(repo_dir().join("config/hapticd.yaml"))
+    );
+    std::fs::remove_dir_all(&dest).unwrap();
+}
+
+/// Plugin authors build the C examples against the installed header with pkg-config alone,
+/// and the installed hapticd runs the scene example: its floor holds the simulated hand.
+#[test]
+fn the_c_examples_build_against_the_installed_header_and_run() {
+    let dest = scratch("c");
+    make_install(&dest, &[]);
+    let cflags = Command::new("pkg-config")
+        .args(["--cflags", "hapticd-plugin"])
+        .env("PKG_CONFIG_PATH", dest.join("usr/share/pkgconfig"))
+        .env("PKG_CONFIG_SYSROOT_DIR", &dest)
+        .output()
+        .expect("pkg-config is installed (make check installs it)");
+    assert!(cflags.status.success());
+    let cflags = String::from_utf8(cflags.stdout).unwrap();
+    assert_eq!(
+        cflags.trim(),
+        format!("-I{}/usr/include/hapticd", dest.display())
+    );
+    let examples = dest.join("usr/share/doc/hapticd/examples");
+    for example in ["spidar_desk", "floor_scene"] {
+        let status = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
+            .args([
+                "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-std=c11",
+            ])
+            .args(cflags.split_whitespace())
+            .arg(examples.join(format!("{example}.c")))
+            .arg("-o")
+            .arg(dest.join(format!("lib{example}.so")))
+            .status()
+            .unwrap();
+        assert!(status.success(), "{example}.c does not build");
+    }
+    let csv = dest.join("floor.csv");
+    let bus = PrivateBus::start(
+        &scratch("c-bus"),
+        &dest.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
+    );
+    let run = Command::new(dest.join("usr/bin/hapticd"))
+        .arg("--config")
+        .arg(dest.join("etc/hapticd/hapticd.yaml"))
+        .arg("--scene")
+        .arg(dest.join("libfloor_scene.so"))
+        .arg("--hand")
+        .arg(dest.join("usr/share/hapticd/hands/press-floor.yaml"))
+        .arg(format!("--bus={}", bus.address))
+        .args(["--duration", "1.6", "--record"])
+        .arg(&csv)
+        .env_remove("NOTIFY_SOCKET")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    // Pressed down from 1.0 s on, the grip rests on the spring floor at y = −0.03 m,
+    // sunk by the hand's push over the 1000 N/m spring.
+    let text = read(csv);
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let (t, y, fy) = (
+        header.iter().position(|c| *c == "time").unwrap(),
+        header.iter().position(|c| *c == "grip_y").unwrap(),
+        header.iter().position(|c| *c == "grip_fy").unwrap(),
+    );
+    let row: Vec<&str> = text.lines().last().unwrap().split(',').collect();
+    let last = |column: usize| -> f64 { row[column].parse().unwrap() };
+    let (t, y, fy) = (last(t), last(y), last(fy));
+    assert!(t > 1.5);
+    let depth = -0.03 - y;
+    assert!((0.0..0.01).contains(&depth), "grip at y = {y}");
+    assert!(
+        (fy - 1000.0 * depth).abs() < 0.5,
+        "force {fy} N at depth {depth} m"
+    );
+    std::fs::remove_dir_all(&dest).unwrap();
+}
