@@ -9,29 +9,38 @@ use clap::CommandFactory;
 
 use crate::Failure;
 
-/// The formats: page name, one-line summary, and the module documentation that describes
-/// each part (a section title and the parser's source).
-const FORMATS: [(&str, &str, &[(&str, &str)]); 4] = [
-    (
-        "hapticd.yaml",
-        "configuration of the hapticd haptics daemon",
-        &[(
+/// A file format's page.
+struct Format {
+    /// The page's name (section 5).
+    name: &'static str,
+    /// What the NAME section says it is.
+    summary: &'static str,
+    /// Its sections: a title, and the source of the module whose documentation fills it.
+    parts: &'static [(&'static str, &'static str)],
+}
+
+/// The formats' pages.
+const FORMATS: [Format; 4] = [
+    Format {
+        name: "hapticd.yaml",
+        summary: "configuration of the hapticd haptics daemon",
+        parts: &[(
             "DESCRIPTION",
             include_str!("../../../../hapticd/src/config.rs"),
         )],
-    ),
-    (
-        "hapticd-mechanism",
-        "mechanism descriptors of hapticd: the strings of a SPIDAR in YAML",
-        &[(
+    },
+    Format {
+        name: "hapticd-mechanism",
+        summary: "mechanism descriptors of hapticd: the strings of a SPIDAR in YAML",
+        parts: &[(
             "DESCRIPTION",
             include_str!("../../../../core/src/mechanism/descriptor.rs"),
         )],
-    ),
-    (
-        "hapticd-scene",
-        "scene files of hapticd: static scenes and physics scenes",
-        &[
+    },
+    Format {
+        name: "hapticd-scene",
+        summary: "scene files of hapticd: static scenes and physics scenes",
+        parts: &[
             (
                 "STATIC SCENES",
                 include_str!("../../../../core/src/scene/static_scene.rs"),
@@ -41,15 +50,15 @@ const FORMATS: [(&str, &str, &[(&str, &str)]); 4] = [
                 include_str!("../../../../../plugins/lib/physics/src/scene.rs"),
             ),
         ],
-    ),
-    (
-        "hapticd-hand",
-        "scripts of hapticd's simulated hand",
-        &[(
+    },
+    Format {
+        name: "hapticd-hand",
+        summary: "scripts of hapticd's simulated hand",
+        parts: &[(
             "DESCRIPTION",
             include_str!("../../../../device/src/sim/hand.rs"),
         )],
-    ),
+    },
 ];
 
 /// What every page ends with.
@@ -137,7 +146,12 @@ pub fn write(dir: &Path) -> Result<(), Failure> {
             .to_string();
         pages.push((format!("{name}.1"), program(command, "1", "")));
     }
-    for (name, summary, parts) in FORMATS {
+    for Format {
+        name,
+        summary,
+        parts,
+    } in FORMATS
+    {
         let mut page = format!(
             ".TH {} 5 \"{date}\" \"{source}\" hapticd\n.SH NAME\n{} \\- {}\n",
             name.to_uppercase(),
@@ -321,7 +335,7 @@ mod tests {
             }),
         ];
         let mut checked = 0;
-        for (name, _, parts) in FORMATS {
+        for Format { name, parts, .. } in FORMATS {
             let candidates: Vec<Parse> = parsers
                 .iter()
                 .filter(|(n, _)| *n == name)
