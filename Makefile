@@ -6,7 +6,9 @@
 #   make latency  wake-up latency of the haptic thread against cyclictest (needs SCHED_FIFO)
 #   make figures  regenerate the figures shown in the README
 #   make header   regenerate plugin-api/include/hapticd_plugin.h from the Rust ABI
-#   make install  install as a distribution would (DESTDIR, PREFIX=/usr, SYSCONFDIR=/etc)
+#   make release  build everything make install copies (cargo and a C compiler)
+#   make install  install as a distribution would (DESTDIR, PREFIX=/usr, SYSCONFDIR=/etc); no cargo
+#   make deb      build the Debian packages hapticd and hapticd-dbgsym into target/deb
 
 CARGO ?= cargo
 RELEASE := target/release
@@ -16,10 +18,11 @@ PLUGINS := hapticd-spidar hapticd-spidar-g hapticd-spidar-ii
 HAPTICCTL := $(RELEASE)/hapticctl --mechanism-dir $(STAGE)
 
 # Debian packages the build and tests need beyond Rust itself.
-TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev gir1.2-umockdev-1.0 python3-gi strace systemd dbus-daemon
+TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev gir1.2-umockdev-1.0 python3-gi strace systemd dbus-daemon \
+	dpkg-dev binutils lintian man-db
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
-.PHONY: run check deps test lint bench latency figures header stage release install deb
+.PHONY: run check deps test lint bench latency figures header stage release install deb deb-from-built
 
 stage:
 	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(PLUGINS))
@@ -98,14 +101,14 @@ so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
 C_MECHANISM := $(BUILT)/libspidar_desk.so
 INSTALLED_FILES := $(BUILT)/hapticd $(BUILT)/hapticctl $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 CONFIG_ARG := $(if $(filter $(DEFAULT_SYSCONFDIR),$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/hapticd.yaml)
-MAN := $(BUILT)/man
 
 release: $(RELEASE)/libspidar_desk.so
 	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 
 %/libspidar_desk.so: plugins/c-example/spidar_desk.c plugin-api/include/hapticd_plugin.h
 	@mkdir -p $(@D)
-	$(CC) -shared -fPIC -O2 -Wall -Wextra -Werror -std=c11 -Iplugin-api/include $< -o $@
+	$(CC) -shared -fPIC -O2 -g -Wall -Wextra -Werror -std=c11 -fstack-protector-strong \
+		-D_FORTIFY_SOURCE=2 -Wl,-z,relro,-z,now -Iplugin-api/include $< -o $@.$$$$ && mv $@.$$$$ $@
 
 install: $(C_MECHANISM)
 	@for f in $(INSTALLED_FILES); do [ -e $$f ] || { echo "$$f is not built: run make release first" >&2; exit 1; }; done
@@ -125,9 +128,9 @@ install: $(C_MECHANISM)
 	$(BUILT)/hapticctl completions bash > $(DESTDIR)$(PREFIX)/share/bash-completion/completions/hapticctl
 	$(BUILT)/hapticctl completions zsh > $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions/_hapticctl
 	$(BUILT)/hapticctl completions fish > $(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d/hapticctl.fish
-	rm -rf $(MAN) && $(BUILT)/hapticctl manual $(MAN)
-	for page in $(MAN)/*.[158]; do \
-		install -m 644 $$page $(DESTDIR)$(PREFIX)/share/man/man$${page##*.}/; done
+	man=$$(mktemp -d) && $(BUILT)/hapticctl manual $$man && \
+	for page in $$man/*.[158]; do \
+		install -m 644 $$page $(DESTDIR)$(PREFIX)/share/man/man$${page##*.}/; done && rm -r $$man
 	install -m 644 $(call so,$(MECHANISM_PLUGINS)) $(C_MECHANISM) $(DESTDIR)$(PREFIX)/lib/hapticd/plugins/
 	install -m 644 $(call so,$(SCENE_PLUGINS)) $(DESTDIR)$(PREFIX)/lib/hapticd/scenes/
 	install -m 644 plugin-api/include/hapticd_plugin.h $(DESTDIR)$(PREFIX)/include/hapticd/
@@ -157,3 +160,15 @@ install: $(C_MECHANISM)
 	install -m 644 systemd/org.hapticd.Hapticd1.service $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces/
+
+# The Debian packages, from a tree installed under /usr (config/debian/build-deb strips it,
+# splits the debug information off and writes the control files). deb-from-built packages
+# BUILT as it is (the tests package a debug build into their own DEB).
+DEB ?= target/deb
+deb: release
+	$(MAKE) --no-print-directory deb-from-built BUILT=$(RELEASE)
+
+deb-from-built:
+	rm -rf $(DEB) && mkdir -p $(DEB)/root
+	$(MAKE) --no-print-directory -s install DESTDIR=$(abspath $(DEB)/root) PREFIX=/usr SYSCONFDIR=/etc BUILT=$(BUILT)
+	config/debian/build-deb $(DEB)/root $(DEB)

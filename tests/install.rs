@@ -310,3 +310,152 @@ fn the_c_examples_build_against_the_installed_header_and_run() {
     );
     std::fs::remove_dir_all(&dest).unwrap();
 }
+
+/// The ELF build id of `file`.
+fn build_id(file: &Path) -> String {
+    let out = Command::new("readelf")
+        .arg("-n")
+        .arg(file)
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("Build ID: "))
+        .unwrap_or_else(|| panic!("{} has no build id", file.display()))
+        .to_string()
+}
+
+/// `make deb`: lintian finds nothing to say, the binaries are stripped with their debug
+/// information in the dbgsym package under their build ids, the configuration is a
+/// conffile, and the daemon unpacked into a scratch root runs as the unit starts it.
+#[test]
+fn the_debian_package_is_lintian_clean_and_runs_unpacked() {
+    let dir = scratch("deb");
+    let built = artifact("hapticd").parent().unwrap().to_path_buf();
+    let out = Command::new("make")
+        .current_dir(repo_dir())
+        .args(["-s", "deb-from-built"])
+        .arg(format!("BUILT={}", built.display()))
+        .arg(format!("DEB={}", dir.join("deb").display()))
+        .env("CARGO", "/nonexistent/cargo")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let version = env!("CARGO_PKG_VERSION");
+    let arch = String::from_utf8(
+        Command::new("dpkg")
+            .arg("--print-architecture")
+            .output()
+            .unwrap()
+            .stdout,
+    )
+    .unwrap();
+    let package = dir.join(format!("deb/hapticd_{version}_{}.deb", arch.trim()));
+    let dbgsym = dir.join(format!("deb/hapticd-dbgsym_{version}_{}.deb", arch.trim()));
+
+    let lintian = Command::new("lintian")
+        .args([
+            "--pedantic",
+            "--display-info",
+            "--fail-on",
+            "error,warning,info,pedantic",
+        ])
+        .arg(&package)
+        .arg(&dbgsym)
+        .output()
+        .expect("lintian is installed (make check installs it)");
+    let said = String::from_utf8_lossy(&lintian.stdout);
+    assert!(lintian.status.success() && said.trim().is_empty(), "{said}");
+
+    let field = |deb: &Path, name: &str| {
+        let out = Command::new("dpkg-deb")
+            .arg("--field")
+            .arg(deb)
+            .arg(name)
+            .output()
+            .unwrap();
+        String::from_utf8(out.stdout).unwrap().trim().to_string()
+    };
+    assert!(field(&package, "Depends").contains("libc6"));
+    assert_eq!(field(&dbgsym, "Depends"), format!("hapticd (= {version})"));
+    let root = dir.join("root");
+    let dbg = dir.join("dbg");
+    for (deb, into) in [(&package, &root), (&dbgsym, &dbg)] {
+        let status = Command::new("dpkg-deb")
+            .arg("-x")
+            .arg(deb)
+            .arg(into)
+            .status()
+            .unwrap();
+        assert!(status.success());
+    }
+    let control = dir.join("control");
+    let status = Command::new("dpkg-deb")
+        .arg("-e")
+        .arg(&package)
+        .arg(&control)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert_eq!(
+        read(control.join("conffiles")),
+        "/etc/hapticd/hapticd.yaml\n"
+    );
+    for script in ["postinst", "prerm", "postrm"] {
+        let check = Command::new("sh")
+            .arg("-n")
+            .arg(control.join(script))
+            .status()
+            .unwrap();
+        assert!(check.success(), "{script} is not valid sh");
+    }
+    // Stripped, and the debug information is where gdb looks for it.
+    for file in [
+        "usr/bin/hapticd",
+        "usr/bin/hapticctl",
+        "usr/lib/hapticd/plugins/libhapticd_spidar_g.so",
+    ] {
+        let path = root.join(file);
+        let sections = Command::new("readelf")
+            .arg("-S")
+            .arg(&path)
+            .output()
+            .unwrap();
+        let sections = String::from_utf8_lossy(&sections.stdout);
+        // (.debug_gdb_scripts is loaded with the program: it stays.)
+        assert!(
+            !sections.contains(".debug_info") && !sections.contains(".symtab"),
+            "{file} is not stripped"
+        );
+        let id = build_id(&path);
+        let debug = dbg.join(format!(
+            "usr/lib/debug/.build-id/{}/{}.debug",
+            &id[..2],
+            &id[2..]
+        ));
+        assert!(debug.is_file(), "no debug information for {file}");
+    }
+    assert!(root.join("usr/share/man/man8/hapticd.8.gz").is_file());
+    assert!(root.join("usr/share/doc/hapticd/copyright").is_file());
+
+    let bus = PrivateBus::start(
+        &scratch("deb-bus"),
+        &root.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
+    );
+    let mut daemon = exec_start(
+        &root,
+        "usr/lib/systemd/system/hapticd.service",
+        &bus.address,
+    );
+    daemon
+        .arg("--config")
+        .arg(root.join("etc/hapticd/hapticd.yaml"));
+    let (scenes, active) = scenes_of_running(daemon, &bus, &dir.join("hapticd.log"));
+    assert_eq!(active, "s \"static\"");
+    assert!(scenes.contains("\"blocks\""), "{scenes}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
