@@ -13,6 +13,9 @@ pub struct LoopStats {
     pub overruns: u64,
     /// Longest wake-up latency, nanoseconds.
     pub wait_max_ns: u64,
+    /// The tick (counted from 1) that woke that late: whether a spike comes at start-up or
+    /// later tells its cause.
+    pub wait_max_tick: u64,
     /// Longest tick computation, nanoseconds.
     pub busy_max_ns: u64,
     /// Sum of tick computation times, nanoseconds.
@@ -27,6 +30,7 @@ impl Default for LoopStats {
             ticks: 0,
             overruns: 0,
             wait_max_ns: 0,
+            wait_max_tick: 0,
             busy_max_ns: 0,
             busy_total_ns: 0,
             wait_histogram: [0; BUCKETS],
@@ -39,7 +43,10 @@ impl LoopStats {
     pub fn record(&mut self, wait_ns: u64, busy_ns: u64, overrun: bool) {
         self.ticks += 1;
         self.overruns += u64::from(overrun);
-        self.wait_max_ns = self.wait_max_ns.max(wait_ns);
+        if wait_ns > self.wait_max_ns {
+            self.wait_max_ns = wait_ns;
+            self.wait_max_tick = self.ticks;
+        }
         self.busy_max_ns = self.busy_max_ns.max(busy_ns);
         self.busy_total_ns += busy_ns;
         let bucket = ((wait_ns / 1000) as usize).min(BUCKETS - 1);
@@ -87,5 +94,9 @@ mod tests {
             (s.overruns, s.busy_mean_ns(), s.wait_max_ns),
             (1, 2000, 99_500)
         );
+        // The 100th tick woke latest; a later tick as late does not move it.
+        assert_eq!(s.wait_max_tick, 100);
+        s.record(99_500, 2000, false);
+        assert_eq!(s.wait_max_tick, 100);
     }
 }
