@@ -403,3 +403,62 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
     );
     std::fs::remove_file(csv).ok();
 }
+
+/// The CPUs thread `tid` of process `pid` may run on, and its name.
+fn thread_cpus(pid: u32, tid: &str) -> (String, Vec<usize>) {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/status")).unwrap();
+    let field = |name: &str| {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(name))
+            .unwrap()
+            .trim()
+            .to_string()
+    };
+    let mut cpus = Vec::new();
+    for range in field("Cpus_allowed_list:").split(',') {
+        let (a, b) = range.split_once('-').unwrap_or((range, range));
+        cpus.extend(a.parse::<usize>().unwrap()..=b.parse::<usize>().unwrap());
+    }
+    (field("Name:"), cpus)
+}
+
+#[test]
+fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
+    let allowed = hapticd::cpus::allowed().unwrap();
+    let child = hapticd(&["--sim", "spidar-g", "--duration", "2"])
+        .spawn()
+        .unwrap();
+    let pid = child.id();
+    // Once started, list every thread's CPUs.
+    let started = std::time::Instant::now();
+    let threads = loop {
+        let threads: Vec<(String, Vec<usize>)> = std::fs::read_dir(format!("/proc/{pid}/task"))
+            .unwrap()
+            .filter_map(|t| t.ok())
+            .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
+            .collect();
+        if threads.iter().any(|(name, _)| name == "hapticd-rt") {
+            break threads;
+        }
+        assert!(started.elapsed().as_secs() < 10, "no haptic thread");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let out = finish(child);
+    if allowed.len() < 2 {
+        return; // One CPU: nothing to set apart.
+    }
+    let haptic = *allowed.last().unwrap();
+    for (name, cpus) in &threads {
+        if name == "hapticd-rt" {
+            assert_eq!(cpus, &[haptic]);
+        } else {
+            assert!(!cpus.contains(&haptic), "{name} may run on CPU {haptic}");
+        }
+    }
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        log.contains(&format!("runs on CPU {haptic} alone")),
+        "{log}"
+    );
+}

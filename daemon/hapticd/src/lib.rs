@@ -8,7 +8,8 @@
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
-//! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time.
+//! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
+//!    CPU of its own ([`cpus`]).
 //! 4. [`control`]: the daemon's devices, their parameters and calibration, as the bus and
 //!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it; [`cli`]: the
 //!    daemon's command line.
@@ -19,6 +20,7 @@ pub mod cli;
 pub mod clock;
 pub mod config;
 pub mod control;
+pub mod cpus;
 pub mod layout;
 pub mod logging;
 pub mod plugin;

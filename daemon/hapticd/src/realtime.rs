@@ -24,6 +24,8 @@ pub struct RealtimeSettings {
     pub priority: i32,
     /// Ticks per second.
     pub rate: f64,
+    /// The CPU the thread keeps to (see [`crate::cpus`]), or None for any.
+    pub cpu: Option<usize>,
 }
 
 /// What the scheduler granted.
@@ -76,6 +78,7 @@ pub struct RealtimeLoop {
     frames: Reader<Frame>,
     thread: Option<JoinHandle<HapticLoop>>,
     scheduling: Scheduling,
+    pinned: Option<Result<usize, String>>,
 }
 
 /// Make the calling thread SCHED_FIFO at `priority`, or as close as the system allows.
@@ -166,7 +169,13 @@ impl RealtimeLoop {
             .name("hapticd-rt".into())
             .stack_size(2 * 1024 * 1024)
             .spawn(move || {
-                let _ = granted.send(become_realtime(settings.priority));
+                let scheduling = become_realtime(settings.priority);
+                let pinned = settings.cpu.map(|cpu| {
+                    crate::cpus::pin(0, &[cpu])
+                        .map(|()| cpu)
+                        .map_err(|e| e.to_string())
+                });
+                let _ = granted.send((scheduling, pinned));
                 prefault_stack();
                 let mut stats = LoopStats::default();
                 let mut state = DeviceState::Running;
@@ -219,9 +228,12 @@ impl RealtimeLoop {
                 frame_writer.publish(|f| *f = *haptic.frame());
                 haptic
             })?;
-        let scheduling = scheduling
-            .recv()
-            .unwrap_or_else(|_| Scheduling::Refused("the real-time thread did not start".into()));
+        let (scheduling, pinned) = scheduling.recv().unwrap_or_else(|_| {
+            (
+                Scheduling::Refused("the real-time thread did not start".into()),
+                None,
+            )
+        });
         Ok(Self {
             stop,
             heartbeat,
@@ -229,7 +241,13 @@ impl RealtimeLoop {
             frames,
             thread: Some(thread),
             scheduling,
+            pinned,
         })
+    }
+
+    /// The CPU the thread keeps to, or why it could not (None: it was not asked to).
+    pub fn pinned(&self) -> Option<&Result<usize, String>> {
+        self.pinned.as_ref()
     }
 
     /// What the scheduler granted.

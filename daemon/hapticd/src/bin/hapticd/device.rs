@@ -79,7 +79,13 @@ pub struct Device {
 }
 
 /// Start the loop of `kind` with what `common` says, recording what `recording` asks.
-pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device, String> {
+/// Start the device of `kind`, its haptic thread on `cpu` when given.
+pub fn start(
+    kind: Kind,
+    common: &Common,
+    recording: Recording,
+    cpu: Option<usize>,
+) -> Result<Device, String> {
     let identity = kind.identity();
     let mut record = load_record(common.state_dir, &identity);
     let configured = match &kind {
@@ -214,6 +220,7 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         RealtimeSettings {
             priority: common.config.realtime.priority,
             rate,
+            cpu,
         },
         Channels {
             events: event_tx,
@@ -223,6 +230,13 @@ pub fn start(kind: Kind, common: &Common, recording: Recording) -> Result<Device
         },
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
+    match rt.pinned() {
+        Some(Ok(cpu)) => tracing::info!("the haptic thread of {identity} runs on CPU {cpu} alone"),
+        Some(Err(e)) => {
+            tracing::warn!("cannot keep the haptic thread of {identity} on its CPU: {e}")
+        }
+        None => {}
+    }
     let scheduling = match rt.scheduling() {
         Scheduling::Fifo(priority) => {
             tracing::info!(

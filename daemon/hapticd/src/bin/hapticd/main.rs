@@ -111,6 +111,14 @@ fn run(cli: Cli) -> Result<Ending, String> {
         state_dir: state_dir.as_ref(),
         done: &DONE,
     };
+    let plan = hapticd::cpus::allowed()
+        .ok()
+        .and_then(|allowed| hapticd::cpus::Plan::new(&allowed, kinds.len()));
+    if let Some(plan) = &plan
+        && let Err(e) = plan.keep_daemon_off()
+    {
+        tracing::warn!("cannot keep the daemon's threads off the haptic CPUs: {e}");
+    }
     let (mut devices, mut failures) = (Vec::new(), Vec::new());
     for (index, kind) in kinds.into_iter().enumerate() {
         // The recordings are of the first device.
@@ -122,7 +130,8 @@ fn run(cli: Cli) -> Result<Ending, String> {
             _ => Recording::default(),
         };
         let identity = kind.identity();
-        match device::start(kind, &common, recording) {
+        let cpu = plan.as_ref().map(|p| p.haptic[index]);
+        match device::start(kind, &common, recording, cpu) {
             Ok(started) => devices.push(started),
             Err(e) => failures.push((identity, e)),
         }

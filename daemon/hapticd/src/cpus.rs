@@ -1,0 +1,117 @@
+//! CPUs of their own for the haptic threads.
+//!
+//! On a kernel without full preemption (most distribution kernels), a thread that is inside a
+//! system call on the haptic thread's CPU when its deadline comes delays the wake-up until the
+//! call returns; the daemon's own helpers (the supervisor, loggers, the bus) wake at 10–100 Hz
+//! and would do that a few times a second. So each haptic thread gets the last free CPU the
+//! daemon may use, and every other thread of the daemon keeps off those CPUs. With a single
+//! CPU, or more devices than spare CPUs, threads stay where the scheduler puts them.
+
+use std::io;
+
+/// The CPUs the calling thread may run on, in order.
+pub fn allowed() -> io::Result<Vec<usize>> {
+    // SAFETY: cpu_set_t is plain data, all-zero is the empty set.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    // SAFETY: the size and pointer describe `set`.
+    if unsafe { libc::sched_getaffinity(0, std::mem::size_of_val(&set), &mut set) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok((0..libc::CPU_SETSIZE as usize)
+        // SAFETY: cpu is below CPU_SETSIZE.
+        .filter(|&cpu| unsafe { libc::CPU_ISSET(cpu, &set) })
+        .collect())
+}
+
+/// Restrict thread `tid` (0: the calling thread) to `cpus`.
+pub fn pin(tid: libc::pid_t, cpus: &[usize]) -> io::Result<()> {
+    // SAFETY: as in `allowed`.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    for &cpu in cpus {
+        // SAFETY: CPU_SET checks nothing but writes within `set` for cpu < CPU_SETSIZE,
+        // which `allowed` guarantees for every CPU it lists.
+        unsafe { libc::CPU_SET(cpu, &mut set) };
+    }
+    // SAFETY: the size and pointer describe `set`.
+    if unsafe { libc::sched_setaffinity(tid, std::mem::size_of_val(&set), &set) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(())
+}
+
+/// How the daemon's threads share the CPUs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Plan {
+    /// The CPU of each device's haptic thread, in device order.
+    pub haptic: Vec<usize>,
+    /// The CPUs left to every other thread.
+    pub others: Vec<usize>,
+}
+
+impl Plan {
+    /// A CPU for each of `devices` haptic threads from the end of `allowed`, when at least
+    /// one CPU is left for the rest; None otherwise.
+    pub fn new(allowed: &[usize], devices: usize) -> Option<Plan> {
+        let split = allowed.len().checked_sub(devices)?;
+        (devices > 0 && split > 0).then(|| Plan {
+            haptic: allowed[split..].iter().rev().copied().collect(),
+            others: allowed[..split].to_vec(),
+        })
+    }
+
+    /// Move every thread of this process (those started so far, and through the calling
+    /// thread those started later) onto the other CPUs.
+    pub fn keep_daemon_off(&self) -> io::Result<()> {
+        for task in std::fs::read_dir("/proc/self/task")? {
+            let tid = task?.file_name().to_string_lossy().parse().unwrap_or(0);
+            if tid > 0 {
+                // A thread may end between listing and pinning; that is no failure.
+                match pin(tid, &self.others) {
+                    Err(e) if e.raw_os_error() != Some(libc::ESRCH) => return Err(e),
+                    _ => {}
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn haptic_threads_take_cpus_from_the_end_and_leave_at_least_one() {
+        assert_eq!(
+            Plan::new(&[0, 1], 1),
+            Some(Plan {
+                haptic: vec![1],
+                others: vec![0]
+            })
+        );
+        assert_eq!(
+            Plan::new(&[0, 2, 3, 5], 2),
+            Some(Plan {
+                haptic: vec![5, 3],
+                others: vec![0, 2]
+            })
+        );
+        assert_eq!(Plan::new(&[0], 1), None);
+        assert_eq!(Plan::new(&[0, 1], 2), None);
+        assert_eq!(Plan::new(&[0, 1], 0), None);
+    }
+
+    #[test]
+    fn a_thread_pinned_to_one_allowed_cpu_runs_there_only() {
+        let cpus = allowed().unwrap();
+        let last = *cpus.last().unwrap();
+        std::thread::spawn(move || {
+            pin(0, &[last]).unwrap();
+            assert_eq!(allowed().unwrap(), [last]);
+            // SAFETY: a pure query.
+            assert_eq!(unsafe { libc::sched_getcpu() }, last as i32);
+        })
+        .join()
+        .unwrap();
+    }
+}
