@@ -298,6 +298,35 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
     std::fs::remove_file(csv).ok();
 }
 
+/// The smallest Rust scene plugin (plugins/scene-floor), with a scene file that lowers its
+/// floor: the pressing hand rests on the floor where the file puts it.
+#[test]
+fn the_minimal_rust_scene_plugin_holds_the_hand_on_the_floor_its_file_sets() {
+    let csv = scratch("floor.csv");
+    let file = scratch("floor.yaml");
+    std::fs::write(&file, "floor_y: -0.035   # half a centimetre lower\n").unwrap();
+    let scene = plugin_path("hapticd-scene-floor");
+    pressed(
+        &scene,
+        "1.6",
+        &csv,
+        &["--scene-file", file.to_str().unwrap()],
+    );
+    let held: Vec<(f64, f64, f64)> = recorded(&csv)
+        .into_iter()
+        .filter(|r| (1.3..1.6).contains(&r.0))
+        .collect();
+    assert!(!held.is_empty());
+    for (t, y, fy) in held {
+        // The proxy rests on the plane; the spring between it and the grip pushes up.
+        assert!(
+            (-0.045..-0.035).contains(&y) && fy > 1.0,
+            "t = {t}: y {y}, fy {fy}"
+        );
+    }
+    std::fs::remove_file(csv).ok();
+}
+
 #[test]
 fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
     let csv = scratch("penalty.csv");
