@@ -100,6 +100,25 @@ fn statistics(t: &Telemetry) -> HashMap<String, f64> {
     ])
 }
 
+/// The object of device `index` on `connection`.
+async fn device_interface(
+    connection: &zbus::Connection,
+    index: usize,
+) -> Option<zbus::object_server::InterfaceRef<DeviceInterface>> {
+    let path = super::device_path(index);
+    connection
+        .object_server()
+        .interface::<_, DeviceInterface>(path.as_str())
+        .await
+        .ok()
+}
+
+/// The telemetry of device `index` as it is now, for [`announce`] to compare with.
+pub(super) async fn baseline(connection: &zbus::Connection, index: usize) -> Option<Telemetry> {
+    let iface = device_interface(connection, index).await?;
+    Some(iface.get().await.device.telemetry())
+}
+
 /// Announce what changed on device `index` since `last` was announced; returns what is
 /// announced now.
 pub(super) async fn announce(
@@ -107,12 +126,7 @@ pub(super) async fn announce(
     index: usize,
     last: Option<Telemetry>,
 ) -> Option<Telemetry> {
-    let path = super::device_path(index);
-    let iface = connection
-        .object_server()
-        .interface::<_, DeviceInterface>(path.as_str())
-        .await
-        .ok()?;
+    let iface = device_interface(connection, index).await?;
     let device = iface.get().await;
     let now = device.device.telemetry();
     let emitter = iface.signal_emitter();

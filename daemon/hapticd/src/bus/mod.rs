@@ -198,7 +198,10 @@ pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, ServeError> {
                     return;
                 }
             };
-            let mut announced = vec![None; daemon.devices().len()];
+            // What clients could read when the name was taken: only changes from it are news.
+            let mut announced: Vec<_> = (0..daemon.devices().len())
+                .map(|index| zbus::block_on(device::baseline(&connection, index)))
+                .collect();
             while !stop_flag.load(Ordering::Acquire) {
                 // Between these calls zbus's helper thread serves the requests.
                 std::thread::sleep(TELEMETRY_PERIOD);
