@@ -1,11 +1,14 @@
 //! Haptic rendering (thesis Ch. 4): turning the grip's motion among virtual objects into the
 //! force the user feels, safely.
 //!
+//! - [`grasp`]: fingers holding an object, with the shape shell and the resultant shared
+//!   among them (4.2–4.7);
 //! - [`obstacle`]: solid shapes the proxy cannot enter;
 //! - [`proxy`]: the god-object with Coulomb friction;
 //! - [`passivity`]: the time-domain passivity observer and controller on each port;
 //! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault.
 
+pub mod grasp;
 pub mod obstacle;
 pub mod passivity;
 pub mod proxy;

@@ -1,0 +1,370 @@
+//! Holding an object between fingers (thesis 4.2–4.7).
+//!
+//! One spring from each finger to the object (the conventional method, 4.4) makes the
+//! fingers carry the resultant through the same springs that render the object's shape, so
+//! any push squeezes them together: finger distance l − (2f_g + f_r)/k (4.8). The resultant
+//! distribution method (4.5, 4.6) separates the two:
+//!
+//! - a massless **shape shell** ([`shell`]) with the object's shape is held between the
+//!   fingers by the grip springs; where it balances, the springs give the grip forces;
+//! - the object's dynamics hang from the shell by a spring and damper (the inertia spring,
+//!   kr), whose pull is the **resultant** the fingers must give the object;
+//! - the resultant goes straight to the fingers, each share along the direction its finger
+//!   presses and never against it ([`distribution`], 4.17); what the shares cannot deliver
+//!   goes back to the shell as a load, so the springs carry it (an object's weight, by
+//!   friction).
+//!
+//! Finger distance then no longer depends on the resultant: l − 2f_g/k (4.10).
+//!
+//! Each finger's contact is a god-object on the surface it entered through, sticking by
+//! Coulomb friction (μ) while the spring's tangential pull stays inside the cone. The object is
+//! a box. Everything per step is allocation-free.
+
+pub mod distribution;
+pub mod shell;
+
+use glam::{DQuat, DVec3};
+
+use distribution::{Distribution, Press};
+use shell::Load;
+
+/// Most fingers a grasp takes.
+pub const MAX_FINGERS: usize = 8;
+
+/// How the grasp is rendered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// The shape shell and the resultant distribution (4.5, 4.6).
+    Distributed,
+    /// One spring per finger to the object itself (4.4), for comparison.
+    Conventional,
+}
+
+/// Parameters of a grasp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GraspSettings {
+    /// Distributed or conventional.
+    pub method: Method,
+    /// Spring from each finger to the surface it holds, N/m (k).
+    pub grip_stiffness: f64,
+    /// Spring from the shell to the object, N/m (kr); its moments scale with the object's
+    /// size squared.
+    pub inertia_stiffness: f64,
+    /// Damper beside the inertia spring, N·s/m.
+    pub inertia_damping: f64,
+    /// Coulomb friction between the fingers and the object (μ).
+    pub friction: f64,
+}
+
+/// A rigid box: the object held.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Object {
+    /// Half its edge lengths, metres.
+    pub half: DVec3,
+    /// Mass, kilograms.
+    pub mass: f64,
+    /// Centre, metres.
+    pub position: DVec3,
+    /// Orientation.
+    pub orientation: DQuat,
+    /// Velocity of the centre, m/s.
+    pub velocity: DVec3,
+    /// Angular velocity in the object's own frame, rad/s.
+    pub spin: DVec3,
+}
+
+impl Object {
+    /// A box of edge lengths `size` and `mass` at rest at `position`.
+    pub fn at_rest(size: DVec3, mass: f64, position: DVec3) -> Self {
+        Self {
+            half: size / 2.0,
+            mass,
+            position,
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        }
+    }
+
+    /// Principal moments of inertia, kg·m².
+    fn inertia(&self) -> DVec3 {
+        let h2 = self.half * self.half;
+        self.mass / 3.0 * DVec3::new(h2.y + h2.z, h2.x + h2.z, h2.x + h2.y)
+    }
+
+    /// Advance `dt` under `force` and `torque` (world frame) and gravity.
+    fn advance(&mut self, force: DVec3, torque: DVec3, gravity: DVec3, dt: f64) {
+        self.velocity += (force / self.mass + gravity) * dt;
+        self.position += self.velocity * dt;
+        let inertia = self.inertia();
+        let w = self.spin;
+        let t = self.orientation.inverse() * torque;
+        self.spin += (t - w.cross(inertia * w)) / inertia * dt;
+        self.orientation = (self.orientation * DQuat::from_scaled_axis(self.spin * dt)).normalize();
+    }
+}
+
+/// A finger's god-object on the held surface, in that surface's frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Contact {
+    touching: bool,
+    /// Face entered: axis × 2, + 1 for the positive side.
+    face: usize,
+    /// Where the god-object rests, in the frame of the held surface.
+    local: DVec3,
+}
+
+impl Contact {
+    /// Outward unit normal of the face, in the surface's frame.
+    fn normal(&self) -> DVec3 {
+        let mut n = DVec3::ZERO;
+        n[self.face / 2] = if self.face % 2 == 1 { 1.0 } else { -1.0 };
+        n
+    }
+
+    /// Follow the finger at `x` (surface frame) into and along a box of half-size `half`.
+    fn update(&mut self, half: DVec3, x: DVec3, friction: f64) {
+        let depth = |face: usize| {
+            let sign = if face % 2 == 1 { 1.0 } else { -1.0 };
+            half[face / 2] - sign * x[face / 2]
+        };
+        if !self.touching {
+            if (0..3).any(|a| x[a].abs() >= half[a]) {
+                return;
+            }
+            // Entered through the face it is least deep below.
+            self.face = (0..6)
+                .min_by(|&a, &b| depth(a).total_cmp(&depth(b)))
+                .unwrap_or(0);
+            self.touching = true;
+            self.local = x;
+        }
+        let d = depth(self.face);
+        if d <= 0.0 {
+            self.touching = false;
+            return;
+        }
+        let axis = self.face / 2;
+        // The god-object keeps its place on the face while the spring's tangential pull
+        // stays within the friction cone, and is dragged along its edge otherwise.
+        let mut slip = self.local - x;
+        slip[axis] = 0.0;
+        let limit = friction.max(0.0) * d;
+        if slip.length() > limit {
+            slip *= limit / slip.length();
+        }
+        let mut p = x + slip;
+        p[axis] = self.normal()[axis] * half[axis];
+        for a in (0..3).filter(|&a| a != axis) {
+            p[a] = p[a].clamp(-half[a], half[a]);
+        }
+        self.local = p;
+    }
+}
+
+/// What one step gives each finger.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GraspFrame {
+    /// Force on each finger (what its device renders), newtons.
+    pub forces: [DVec3; MAX_FINGERS],
+    /// Each finger's grip force: the normal push of the surface it holds, newtons.
+    pub grips: [f64; MAX_FINGERS],
+    /// Each finger's share of the resultant, newtons (0 for the conventional method).
+    pub shares: [f64; MAX_FINGERS],
+    /// The force the fingers give the object, newtons.
+    pub resultant: DVec3,
+    /// Whether fingers hold the object from opposite sides.
+    pub grasped: bool,
+}
+
+/// An object that fingers can touch, push and hold.
+#[derive(Debug, Clone)]
+pub struct Grasp {
+    settings: GraspSettings,
+    gravity: DVec3,
+    object: Object,
+    /// The shell's pose and its velocity (for the inertia damper).
+    shell_position: DVec3,
+    shell_orientation: DQuat,
+    shell_velocity: DVec3,
+    shell_spin: DVec3,
+    contacts: [Contact; MAX_FINGERS],
+    /// What the shares did not deliver last step: the shell's load.
+    residual: Load,
+    distribution: Distribution,
+}
+
+impl Grasp {
+    /// `object`, rendered with `settings`, under `gravity` (m/s²).
+    pub fn new(object: Object, settings: GraspSettings, gravity: DVec3) -> Self {
+        Self {
+            settings,
+            gravity,
+            object,
+            shell_position: object.position,
+            shell_orientation: object.orientation,
+            shell_velocity: DVec3::ZERO,
+            shell_spin: DVec3::ZERO,
+            contacts: [Contact::default(); MAX_FINGERS],
+            residual: Load::default(),
+            distribution: Distribution::default(),
+        }
+    }
+
+    /// The object as it is now.
+    pub fn object(&self) -> &Object {
+        &self.object
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &GraspSettings {
+        &self.settings
+    }
+
+    /// [rt] Advance `dt` seconds with the fingers at `fingers` (at most [`MAX_FINGERS`]).
+    pub fn step(&mut self, fingers: &[DVec3], dt: f64) -> GraspFrame {
+        let n = fingers.len().min(MAX_FINGERS);
+        let distributed = self.settings.method == Method::Distributed;
+        let (centre, rotation) = if distributed {
+            (self.shell_position, self.shell_orientation)
+        } else {
+            (self.object.position, self.object.orientation)
+        };
+        for (contact, &x) in self.contacts.iter_mut().zip(&fingers[..n]) {
+            contact.update(
+                self.object.half,
+                rotation.inverse() * (x - centre),
+                self.settings.friction,
+            );
+        }
+        let grasped = self.opposed(n);
+        if distributed && grasped {
+            self.distributed_step(fingers, n, dt)
+        } else {
+            if distributed {
+                // Not held: the shell is the object's surface, and starts from it when held.
+                self.residual = Load::default();
+            }
+            self.spring_step(fingers, n, dt, grasped)
+        }
+    }
+
+    /// Whether two touching fingers press from opposite sides.
+    fn opposed(&self, n: usize) -> bool {
+        let touching = || self.contacts[..n].iter().filter(|c| c.touching);
+        touching().any(|a| touching().any(|b| a.normal().dot(b.normal()) < -0.5))
+    }
+
+    /// The shell balanced between the fingers, the resultant shared among them.
+    fn distributed_step(&mut self, fingers: &[DVec3], n: usize, dt: f64) -> GraspFrame {
+        let k = self.settings.grip_stiffness;
+        let (centre, rotation) = (self.shell_position, self.shell_orientation);
+        let mut held = [DVec3::ZERO; MAX_FINGERS];
+        let mut holding = [DVec3::ZERO; MAX_FINGERS];
+        let mut index = [0usize; MAX_FINGERS];
+        let mut m = 0;
+        for i in (0..n).filter(|&i| self.contacts[i].touching) {
+            held[m] = centre + rotation * self.contacts[i].local;
+            holding[m] = fingers[i];
+            index[m] = i;
+            m += 1;
+        }
+        let load = Load {
+            force: -self.residual.force,
+            torque: -self.residual.torque,
+        };
+        if let Some(d) = shell::balance(&held[..m], &holding[..m], k, centre, &load) {
+            self.shell_position = centre + d.translation;
+            self.shell_orientation = (DQuat::from_scaled_axis(d.rotation) * rotation).normalize();
+            self.shell_velocity = d.translation / dt;
+            self.shell_spin = d.rotation / dt;
+        }
+        let (centre, rotation) = (self.shell_position, self.shell_orientation);
+        // The inertia spring and damper: what the fingers must give the object.
+        let size = self.object.half.length();
+        let (kr, br) = (
+            self.settings.inertia_stiffness,
+            self.settings.inertia_damping,
+        );
+        let turn = (rotation * self.object.orientation.inverse()).to_scaled_axis();
+        let resultant = kr * (centre - self.object.position)
+            + br * (self.shell_velocity - self.object.velocity);
+        let moment = size
+            * size
+            * (kr * turn + br * (self.shell_spin - self.object.orientation * self.object.spin));
+        let mut frame = GraspFrame {
+            forces: [DVec3::ZERO; MAX_FINGERS],
+            grips: [0.0; MAX_FINGERS],
+            shares: [0.0; MAX_FINGERS],
+            resultant,
+            grasped: true,
+        };
+        let mut presses = [Press::default(); MAX_FINGERS];
+        for j in 0..m {
+            let contact = &self.contacts[index[j]];
+            let p = centre + rotation * contact.local;
+            let outward = rotation * contact.normal();
+            let force = k * (p - holding[j]);
+            frame.forces[index[j]] = force;
+            frame.grips[index[j]] = force.dot(outward).max(0.0);
+            presses[j] = Press {
+                point: p - centre,
+                direction: -outward,
+                grip: frame.grips[index[j]],
+            };
+        }
+        let mut shares = [0.0; MAX_FINGERS];
+        self.distribution.share(
+            &presses[..m],
+            resultant,
+            moment,
+            2.0 * size,
+            &mut shares[..m],
+        );
+        let mut residual = Load {
+            force: resultant,
+            torque: moment,
+        };
+        for j in 0..m {
+            let push = shares[j] * presses[j].direction;
+            frame.forces[index[j]] -= push;
+            frame.shares[index[j]] = shares[j];
+            residual.force -= push;
+            residual.torque -= presses[j].point.cross(push);
+        }
+        self.residual = residual;
+        self.object.advance(resultant, moment, self.gravity, dt);
+        frame
+    }
+
+    /// Each touching finger's spring acts on the object itself (the conventional method,
+    /// and any touch that is not a grasp).
+    fn spring_step(&mut self, fingers: &[DVec3], n: usize, dt: f64, grasped: bool) -> GraspFrame {
+        let k = self.settings.grip_stiffness;
+        let (centre, rotation) = (self.object.position, self.object.orientation);
+        let mut frame = GraspFrame {
+            forces: [DVec3::ZERO; MAX_FINGERS],
+            grips: [0.0; MAX_FINGERS],
+            shares: [0.0; MAX_FINGERS],
+            resultant: DVec3::ZERO,
+            grasped,
+        };
+        let mut torque = DVec3::ZERO;
+        for i in (0..n).filter(|&i| self.contacts[i].touching) {
+            let contact = &self.contacts[i];
+            let p = centre + rotation * contact.local;
+            let force = k * (p - fingers[i]);
+            frame.forces[i] = force;
+            frame.grips[i] = force.dot(rotation * contact.normal()).max(0.0);
+            frame.resultant -= force;
+            torque -= (p - centre).cross(force);
+        }
+        self.object
+            .advance(frame.resultant, torque, self.gravity, dt);
+        self.shell_position = self.object.position;
+        self.shell_orientation = self.object.orientation;
+        self.shell_velocity = self.object.velocity;
+        self.shell_spin = self.object.orientation * self.object.spin;
+        frame
+    }
+}
