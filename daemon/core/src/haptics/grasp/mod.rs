@@ -183,14 +183,13 @@ pub struct Grasp {
     settings: GraspSettings,
     gravity: DVec3,
     object: Object,
-    /// The shell's pose and its velocity (for the inertia damper).
+    /// The shell's pose.
     shell_position: DVec3,
     shell_orientation: DQuat,
-    shell_velocity: DVec3,
-    shell_spin: DVec3,
     contacts: [Contact; MAX_FINGERS],
-    /// What the shares did not deliver last step: the shell's load.
-    residual: Load,
+    /// What the fingers' shares gave the object last step (force, moment): the shell's
+    /// springs carry the rest of the resultant.
+    delivered: (DVec3, DVec3),
     distribution: Distribution,
 }
 
@@ -203,10 +202,8 @@ impl Grasp {
             object,
             shell_position: object.position,
             shell_orientation: object.orientation,
-            shell_velocity: DVec3::ZERO,
-            shell_spin: DVec3::ZERO,
             contacts: [Contact::default(); MAX_FINGERS],
-            residual: Load::default(),
+            delivered: (DVec3::ZERO, DVec3::ZERO),
             distribution: Distribution::default(),
         }
     }
@@ -243,7 +240,7 @@ impl Grasp {
         } else {
             if distributed {
                 // Not held: the shell is the object's surface, and starts from it when held.
-                self.residual = Load::default();
+                self.delivered = (DVec3::ZERO, DVec3::ZERO);
             }
             self.spring_step(fingers, n, dt, grasped)
         }
@@ -269,29 +266,36 @@ impl Grasp {
             index[m] = i;
             m += 1;
         }
-        let load = Load {
-            force: -self.residual.force,
-            torque: -self.residual.torque,
-        };
-        if let Some(d) = shell::balance(&held[..m], &holding[..m], k, centre, &load) {
-            self.shell_position = centre + d.translation;
-            self.shell_orientation = (DQuat::from_scaled_axis(d.rotation) * rotation).normalize();
-            self.shell_velocity = d.translation / dt;
-            self.shell_spin = d.rotation / dt;
-        }
-        let (centre, rotation) = (self.shell_position, self.shell_orientation);
-        // The inertia spring and damper: what the fingers must give the object.
+        // The inertia spring and damper pull the shell toward the object: as part of the
+        // balance, so the shell and the object settle together (a load that followed a step
+        // behind would make the damper, seeing the shell jump, push harder every step).
         let size = self.object.half.length();
         let (kr, br) = (
             self.settings.inertia_stiffness,
             self.settings.inertia_damping,
         );
-        let turn = (rotation * self.object.orientation.inverse()).to_scaled_axis();
-        let resultant = kr * (centre - self.object.position)
-            + br * (self.shell_velocity - self.object.velocity);
-        let moment = size
-            * size
-            * (kr * turn + br * (self.shell_spin - self.object.orientation * self.object.spin));
+        let spin = self.object.orientation * self.object.spin;
+        let pull = |at: DVec3, moved: DVec3| {
+            kr * (at - self.object.position) + br * (moved / dt - self.object.velocity)
+        };
+        let twist = |turned: DQuat, turn: DVec3| {
+            size * size
+                * (kr * (turned * self.object.orientation.inverse()).to_scaled_axis()
+                    + br * (turn / dt - spin))
+        };
+        let load = Load {
+            force: self.delivered.0 - pull(centre, DVec3::ZERO),
+            torque: self.delivered.1 - twist(rotation, DVec3::ZERO),
+            stiffness: kr + br / dt,
+            torsion: size * size * (kr + br / dt),
+        };
+        let d = shell::balance(&held[..m], &holding[..m], k, centre, &load).unwrap_or_default();
+        self.shell_position = centre + d.translation;
+        self.shell_orientation = (DQuat::from_scaled_axis(d.rotation) * rotation).normalize();
+        let (centre, rotation) = (self.shell_position, self.shell_orientation);
+        // What the fingers must give the object.
+        let resultant = pull(centre, d.translation);
+        let moment = twist(rotation, d.rotation);
         let mut frame = GraspFrame {
             forces: [DVec3::ZERO; MAX_FINGERS],
             grips: [0.0; MAX_FINGERS],
@@ -321,18 +325,14 @@ impl Grasp {
             2.0 * size,
             &mut shares[..m],
         );
-        let mut residual = Load {
-            force: resultant,
-            torque: moment,
-        };
+        self.delivered = (DVec3::ZERO, DVec3::ZERO);
         for j in 0..m {
             let push = shares[j] * presses[j].direction;
             frame.forces[index[j]] -= push;
             frame.shares[index[j]] = shares[j];
-            residual.force -= push;
-            residual.torque -= presses[j].point.cross(push);
+            self.delivered.0 += push;
+            self.delivered.1 += presses[j].point.cross(push);
         }
-        self.residual = residual;
         self.object.advance(resultant, moment, self.gravity, dt);
         frame
     }
@@ -363,8 +363,162 @@ impl Grasp {
             .advance(frame.resultant, torque, self.gravity, dt);
         self.shell_position = self.object.position;
         self.shell_orientation = self.object.orientation;
-        self.shell_velocity = self.object.velocity;
-        self.shell_spin = self.object.orientation * self.object.spin;
         frame
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const K: f64 = 800.0;
+    const WIDTH: f64 = 0.06;
+
+    fn settings(method: Method) -> GraspSettings {
+        GraspSettings {
+            method,
+            grip_stiffness: K,
+            inertia_stiffness: 800.0,
+            inertia_damping: 40.0,
+            friction: 1.0,
+        }
+    }
+
+    fn box_between_fingers(method: Method, gravity: DVec3) -> Grasp {
+        let object = Object::at_rest(DVec3::new(WIDTH, 0.1, 0.06), 1.0, DVec3::ZERO);
+        Grasp::new(object, settings(method), gravity)
+    }
+
+    /// Fingers on the x axis, `gap` apart, centred on `centre`.
+    fn fingers(centre: f64, gap: f64) -> [DVec3; 2] {
+        [
+            DVec3::new(centre - gap / 2.0, 0.0, 0.0),
+            DVec3::new(centre + gap / 2.0, 0.0, 0.0),
+        ]
+    }
+
+    #[test]
+    fn conventional_finger_distance_falls_with_the_resultant_as_4_8_says() {
+        // Fingers 5.5 cm apart squeeze the 6 cm box, pushing it along +x as they move.
+        let mut g = box_between_fingers(Method::Conventional, DVec3::ZERO);
+        for step in 0..300 {
+            let x = fingers(0.002 * (step as f64 * 0.01).sin(), 0.055);
+            let frame = g.step(&x, 0.001);
+            assert!(frame.grasped);
+            let (f1, f2) = (-frame.forces[0].x, -frame.forces[1].x); // on the object
+            let fr = f1 + f2;
+            let fg = f1.abs().min(f2.abs());
+            let distance = x[1].x - x[0].x;
+            // (4.8): x2 − x1 = l − (2 f_g + |f_r|)/k, the resultant squeezing the fingers.
+            assert!(
+                (distance - (WIDTH - (2.0 * fg + fr.abs()) / K)).abs() < 1e-12,
+                "step {step}: {distance} vs f_g {fg}, f_r {fr}"
+            );
+        }
+    }
+
+    #[test]
+    fn distributed_finger_distance_is_that_of_the_grip_alone_as_4_10_says() {
+        // The box hangs sideways (2 m/s² along +x) between fingers 5.5 cm apart: the
+        // fingers hold 2 N along x.
+        let mut g = box_between_fingers(Method::Distributed, DVec3::new(2.0, 0.0, 0.0));
+        let x = fingers(0.0, 0.055);
+        let mut frame = g.step(&x, 0.001);
+        for _ in 0..4000 {
+            frame = g.step(&x, 0.001);
+        }
+        let (g1, g2) = (frame.grips[0], frame.grips[1]);
+        let fr = frame.resultant.x;
+        let distance = x[1].x - x[0].x;
+        // The shell's springs: x2 − x1 = l − (g1 + g2)/k, and the grips differ only by what
+        // the shares leave to the shell (under 2 % of the resultant), so (4.10) l − 2f_g/k
+        // holds to that, where the conventional method would be off by f_r/k.
+        assert!((distance - (WIDTH - (g1 + g2) / K)).abs() < 1e-9);
+        assert!((fr + 2.0).abs() < 0.01, "resultant {fr}");
+        assert!((g1 - g2).abs() < 0.02 * fr.abs(), "grips {g1} {g2}");
+        assert!((frame.shares[1] - 2.0).abs() < 0.03, "{:?}", frame.shares);
+    }
+
+    #[test]
+    fn a_held_box_hangs_on_friction_and_slips_when_the_grip_is_too_weak() {
+        // g = 2 m/s² down, μ = 1: a grip of 4 N (2.5 mm squeeze) holds 2 N of weight;
+        // 0.4 N (0.25 mm) cannot.
+        for (gap, holds) in [(0.05, true), (0.0595, false)] {
+            let mut g = box_between_fingers(Method::Distributed, DVec3::new(0.0, -2.0, 0.0));
+            let x = fingers(0.0, gap);
+            for _ in 0..2000 {
+                g.step(&x, 0.001);
+            }
+            let y = g.object().position.y;
+            assert_eq!(y > -0.01, holds, "gap {gap}: the box is at y = {y}");
+        }
+    }
+
+    #[test]
+    fn shares_never_loosen_a_grip_over_random_grasps() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut d = Distribution::default();
+        for _ in 0..100_000 {
+            let n = 2 + ((random() + 1.0) * 2.0) as usize % 4;
+            let mut presses = [Press::default(); MAX_FINGERS];
+            for p in &mut presses[..n] {
+                p.point = 0.05 * DVec3::new(random(), random(), random());
+                p.direction = DVec3::new(random(), random(), random()).normalize_or(DVec3::X);
+                p.grip = 5.0 * (random() + 1.0);
+            }
+            let force = 20.0 * DVec3::new(random(), random(), random());
+            let torque = 0.5 * DVec3::new(random(), random(), random());
+            let mut shares = [0.0; MAX_FINGERS];
+            d.share(&presses[..n], force, torque, 0.1, &mut shares[..n]);
+            assert!(
+                shares[..n].iter().all(|s| s.is_finite() && *s >= 0.0),
+                "{shares:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn shares_change_continuously_along_a_smooth_path() {
+        let presses = [
+            Press {
+                point: DVec3::new(-0.03, 0.0, 0.0),
+                direction: DVec3::X,
+                grip: 2.0,
+            },
+            Press {
+                point: DVec3::new(0.03, 0.0, 0.0),
+                direction: -DVec3::X,
+                grip: 2.0,
+            },
+            Press {
+                point: DVec3::new(0.0, 0.0, 0.03),
+                direction: -DVec3::Z,
+                grip: 1.0,
+            },
+        ];
+        let mut d = Distribution::default();
+        let mut last = [0.0; 3];
+        let step = 1e-3;
+        for i in 0..=6283 {
+            // The resultant turns once round in the x–z plane, 3 N strong.
+            let a = i as f64 * step;
+            let force = 3.0 * DVec3::new(a.cos(), 0.0, a.sin());
+            let mut shares = [0.0; 3];
+            d.share(&presses, force, DVec3::ZERO, 0.06, &mut shares);
+            if i > 0 {
+                let jump = (0..3)
+                    .map(|j| (shares[j] - last[j]).abs())
+                    .fold(0.0, f64::max);
+                // The force moves 3 mN per step; no share may jump more than a few times that.
+                assert!(jump < 0.02, "step {i}: {last:?} → {shares:?}");
+            }
+            last = shares;
+        }
     }
 }

@@ -23,13 +23,18 @@ use crate::solver::linalg::{ldlt_factor, ldlt_solve};
 /// its size: enough to fix the turn two fingers leave free, far too little to change a grip.
 const OWN_ROTATIONAL_STIFFNESS: f64 = 1e-6;
 
-/// A load on the shell: force and moment about its centre.
+/// A load on the shell: force and moment about its centre where the shell is now, falling
+/// linearly as the shell moves (a spring the shell pulls on, such as the inertia spring).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Load {
     /// Force, newtons.
     pub force: DVec3,
     /// Moment about the shell's centre, newton-metres.
     pub torque: DVec3,
+    /// How much the force falls per metre the shell moves, N/m.
+    pub stiffness: f64,
+    /// How much the moment falls per radian the shell turns, N·m/rad.
+    pub torsion: f64,
 }
 
 /// How the shell moves to balance: translation and rotation vector (small).
@@ -72,7 +77,12 @@ pub fn balance(
     points[..n].copy_from_slice(held);
     let (mut moved_centre, mut turn) = (centre, DQuat::IDENTITY);
     for _ in 0..ITERATIONS {
-        let step = linear_balance(&points[..n], fingers, k, moved_centre, load)?;
+        let now = Load {
+            force: load.force - load.stiffness * (moved_centre - centre),
+            torque: load.torque - load.torsion * turn.to_scaled_axis(),
+            ..*load
+        };
+        let step = linear_balance(&points[..n], fingers, k, moved_centre, &now)?;
         let rotation = DQuat::from_scaled_axis(step.rotation);
         for p in &mut points[..n] {
             *p = moved_centre + step.translation + rotation * (*p - moved_centre);
@@ -124,8 +134,9 @@ fn linear_balance(
         }
     }
     let own = OWN_ROTATIONAL_STIFFNESS * k * size * size;
-    for (i, row) in a.iter_mut().enumerate().skip(3) {
-        row[i] += own;
+    for i in 0..3 {
+        a[i][i] += load.stiffness;
+        a[3 + i][3 + i] += own + load.torsion;
     }
     for i in 0..3 {
         b[i] += load.force[i];
@@ -178,7 +189,7 @@ mod tests {
         let fingers = [DVec3::new(-0.02, 0.0, 0.0), DVec3::new(0.02, 0.0, 0.0)];
         let load = Load {
             force: DVec3::new(3.0, 0.0, 0.0),
-            torque: DVec3::ZERO,
+            ..Load::default()
         };
         let d = balance(&held, &fingers, 800.0, DVec3::ZERO, &load).unwrap();
         // Linear along x: both springs take 1.5 N more on the same side.
@@ -202,6 +213,7 @@ mod tests {
         let load = Load {
             force: DVec3::new(0.2, -0.3, 0.1),
             torque: DVec3::new(0.002, 0.001, -0.003),
+            ..Load::default()
         };
         let d = balance(&held, &fingers, 800.0, DVec3::ZERO, &load).unwrap();
         let (f, t) = residual(&held, &fingers, 800.0, DVec3::ZERO, &load, &d);
