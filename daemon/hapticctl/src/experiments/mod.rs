@@ -2,11 +2,14 @@
 //! real-time thread: a second of haptics takes a few milliseconds), so they can be repeated
 //! anywhere and asserted in tests.
 //!
+//! - [`grasp`]: two fingers shake a held box, the grasp rendered by the resultant
+//!   distribution method or the conventional one (4.7, Tables 4.1–4.2);
 //! - [`wall_stiffness`]: the stiffest wall that stays stable at a given loop rate (Table 3.4);
 //! - [`shape_tracing`]: tracing a cylinder across the edge of the complete region (3.5.10);
 //! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
 //! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14).
 
+pub mod grasp;
 pub mod shape_tracing;
 pub mod stack_timing;
 pub mod stick_slip;

@@ -128,6 +128,22 @@ impl Canvas {
         out
     }
 
+    /// `canvases` one below the other, as wide as the widest (figures of several charts).
+    pub fn stacked(canvases: &[Canvas]) -> Canvas {
+        let width = canvases.iter().map(|c| c.width).max().unwrap_or(0);
+        let mut out = Canvas::new(width, canvases.iter().map(|c| c.height).sum());
+        let mut top = 0;
+        for c in canvases {
+            for row in 0..c.height {
+                let from = row * c.width * 3;
+                let to = ((top + row) * width) * 3;
+                out.pixels[to..to + c.width * 3].copy_from_slice(&c.pixels[from..from + c.width * 3]);
+            }
+            top += c.height;
+        }
+        out
+    }
+
     /// Write as PNG to `path`, atomically (a reader never sees half a file).
     pub fn save_png(&self, path: &Path) -> std::io::Result<()> {
         let tmp = path.with_extension("png.tmp");
@@ -451,6 +467,10 @@ mod tests {
         let cx = LEFT as usize + PLOT_WIDTH as usize / 2;
         let cy = TOP as usize + PLOT_HEIGHT as usize / 2;
         assert_eq!(canvas.pixel(cx, cy), PALETTE[1]);
+        // Stacked under a blank canvas, the same pixel moves down by its height.
+        let stacked = Canvas::stacked(&[Canvas::new(10, 7), canvas.clone()]);
+        assert_eq!(stacked.height(), canvas.height() + 7);
+        assert_eq!(stacked.pixel(cx, cy + 7), PALETTE[1]);
         // The opposite corner region stays background.
         assert_eq!(canvas.pixel(cx + 100, cy + 100), WHITE);
         let png = canvas.to_png();

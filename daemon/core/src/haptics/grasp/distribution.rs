@@ -8,10 +8,17 @@
 //! P = |F − Σ kᵢnᵢ|² + γ1 |N − Σ rᵢ × kᵢnᵢ|² + γ2 Σ (kᵢ − k·gᵢ)² + γ3 (Σ kᵢ² + k²)
 //! ```
 //!
-//! over kᵢ ≥ 0 and k ≥ 0, where gᵢ is finger i's grip force: the sum close to the resultant
-//! (requirement 1), shares in proportion to the grip forces with a common factor k
-//! (requirement 2), and γ3 > 0 makes P strictly convex, so the shares change continuously
-//! with the fingers and the load (requirement 3). The weights:
+//! over kᵢ ≥ 0 and k ≥ 0: the sum close to the resultant (requirement 1), shares in
+//! proportion to the grip forces with a common factor k (requirement 2), and γ3 > 0 makes P
+//! strictly convex, so the shares change continuously with the fingers and the load
+//! (requirement 3).
+//!
+//! Taken literally, gᵢ = |f_gi| asks every finger for a share in proportion to its grip, the
+//! finger in front of a push too: two fingers squeezing a box from opposite sides would both
+//! press harder, by several newtons, to give it one. 4.5.3 shares the resultant only among
+//! the fingers whose grip points the way of the push, so here gᵢ = |f_gi|·max(0, nᵢ·F̂):
+//! a finger's grip counts as far as it presses along the resultant, which keeps P continuous.
+//! The weights:
 //!
 //! - γ1 = 1/L², L the object's size, so a moment error counts like the force error that
 //!   would cause it at the object's edge;
@@ -32,6 +39,10 @@ pub const EVEN_SHARES_WEIGHT: f64 = 0.01;
 
 /// γ3 of (4.17).
 pub const REGULARISATION_WEIGHT: f64 = 1e-4;
+
+/// A resultant this small (newtons) has no direction to speak of: the alignment of every
+/// finger fades to zero with it, continuously.
+const ALIGNMENT_FLOOR: f64 = 1e-3;
 
 /// Largest share (newtons) or common factor the solver considers.
 const SHARE_LIMIT: f64 = 1e3;
@@ -76,6 +87,12 @@ impl Distribution {
         // near a kilonewton (the safety limits cap forces at 50 N).
         let upper: Vector = [SHARE_LIMIT; MAX_VARS];
         let k = n;
+        // How far each finger presses along the resultant (4.5.3): only those count.
+        let along = force / (force.length() + ALIGNMENT_FLOOR);
+        let mut grips = [0.0; MAX_FINGERS];
+        for (g, p) in grips.iter_mut().zip(&presses[..n]) {
+            *g = p.grip * p.direction.dot(along).max(0.0);
+        }
         for i in 0..n {
             let (ni, bi) = (
                 presses[i].direction,
@@ -89,9 +106,9 @@ impl Distribution {
                 q[i][j] = ni.dot(nj) + moment_weight * bi.dot(bj);
             }
             q[i][i] += EVEN_SHARES_WEIGHT + REGULARISATION_WEIGHT;
-            q[i][k] = -EVEN_SHARES_WEIGHT * presses[i].grip;
+            q[i][k] = -EVEN_SHARES_WEIGHT * grips[i];
             q[k][i] = q[i][k];
-            q[k][k] += EVEN_SHARES_WEIGHT * presses[i].grip * presses[i].grip;
+            q[k][k] += EVEN_SHARES_WEIGHT * grips[i] * grips[i];
             c[i] = -(force.dot(ni) + moment_weight * torque.dot(bi));
         }
         q[k][k] += REGULARISATION_WEIGHT;
@@ -139,6 +156,11 @@ mod tests {
         );
         assert_eq!(shares[1], 0.0);
         assert!((shares[0] - 3.0).abs() < 0.03, "{shares:?}");
+        // Uneven grips do not make the finger in front press too.
+        let mut uneven = two_fingers(1.9);
+        uneven[1].grip = 2.1;
+        d.share(&uneven, DVec3::new(-3.0, 0.0, 0.0), DVec3::ZERO, 0.06, &mut shares);
+        assert!(shares[0] < 1e-9 && (shares[1] - 3.0).abs() < 0.03, "{shares:?}");
         d.share(
             &two_fingers(2.0),
             DVec3::new(-1.0, 0.0, 0.0),

@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
-use hapticctl::experiments::{shape_tracing, stack_timing, wall_stiffness};
-use hapticctl::plot::{Chart, PALETTE, Series};
+use hapticctl::experiments::{grasp, shape_tracing, stack_timing, wall_stiffness};
+use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
+use hapticd_core::haptics::grasp::Method;
 use hapticd::catalog::Catalog;
 use serde_json::{Value, json};
 
@@ -23,6 +24,54 @@ pub enum Command {
     StackTiming(StackTimingArgs),
     /// Pull a 2 kg weight through a spring: stick-slip (thesis Fig. 5.13/5.14).
     StickSlip(StickSlipArgs),
+    /// Two fingers shake a held box: resultant distribution against one spring per finger
+    /// (thesis 4.7, Tables 4.1–4.2, Fig. 4.12).
+    Grasp(GraspArgs),
+}
+
+/// The rendering methods a grasp experiment compares.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum GraspMethod {
+    /// Shape shell and resultant distribution (4.5, 4.6).
+    Distributed,
+    /// One spring per finger to the object (4.4).
+    Conventional,
+}
+
+#[derive(Args)]
+pub struct GraspArgs {
+    /// Only this method (default: both, side by side).
+    #[arg(long, value_enum)]
+    method: Option<GraspMethod>,
+    /// The box's mass, kg (0.01–100).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.mass)]
+    mass: f64,
+    /// Its width between the fingers, metres (0.01–0.3).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.width)]
+    width: f64,
+    /// Its height, metres (0.01–0.5).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.height)]
+    height: f64,
+    /// Gravity, m/s² (0–20).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.gravity)]
+    gravity: f64,
+    /// Grip spring, N/m (10–10000).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.grip_stiffness)]
+    grip_stiffness: f64,
+    /// Inertia spring between shell and box, N/m (10–10000).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.inertia_stiffness)]
+    inertia_stiffness: f64,
+    /// Friction coefficient between fingers and box (0–5).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.friction)]
+    friction: f64,
+    /// Length of the run, seconds (1–600).
+    #[arg(long, default_value_t = grasp::Setup::THESIS.seconds)]
+    seconds: f64,
+    /// Write grip force, resultant and finger distance over one series of shakes to this PNG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    output: Output,
 }
 
 #[derive(Args)]
@@ -98,7 +147,138 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::Cylinder(args) => cylinder(&args),
         Command::StackTiming(args) => stack_timing(&args),
         Command::StickSlip(args) => stick_slip(&args),
+        Command::Grasp(args) => grasp(&args),
     }
+}
+
+fn grasp(args: &GraspArgs) -> Result<(), Failure> {
+    for (name, value, range) in [
+        ("--mass", args.mass, 0.01..=100.0),
+        ("--width", args.width, 0.01..=0.3),
+        ("--height", args.height, 0.01..=0.5),
+        ("--gravity", args.gravity, 0.0..=20.0),
+        ("--grip-stiffness", args.grip_stiffness, 10.0..=10000.0),
+        ("--inertia-stiffness", args.inertia_stiffness, 10.0..=10000.0),
+        ("--friction", args.friction, 0.0..=5.0),
+        ("--seconds", args.seconds, 1.0..=600.0),
+    ] {
+        if !range.contains(&value) {
+            return Err(Failure::usage(format!(
+                "{name} must be {}–{}, not {value}",
+                range.start(),
+                range.end()
+            )));
+        }
+    }
+    let methods: Vec<(&str, Method)> = [
+        (GraspMethod::Distributed, "distributed", Method::Distributed),
+        (GraspMethod::Conventional, "conventional", Method::Conventional),
+    ]
+    .into_iter()
+    .filter(|(m, _, _)| args.method.is_none_or(|only| only == *m))
+    .map(|(_, name, method)| (name, method))
+    .collect();
+    let runs: Vec<(&str, grasp::Setup, Vec<grasp::Sample>)> = methods
+        .iter()
+        .map(|&(name, method)| {
+            let setup = grasp::Setup {
+                method,
+                mass: args.mass,
+                width: args.width,
+                height: args.height,
+                gravity: args.gravity,
+                grip_stiffness: args.grip_stiffness,
+                inertia_stiffness: args.inertia_stiffness,
+                friction: args.friction,
+                seconds: args.seconds,
+                ..grasp::Setup::THESIS
+            };
+            (name, setup, grasp::run(&setup))
+        })
+        .collect();
+    let mut text = String::from(
+        "method         grip force [N]     finger distance [mm]   still: grip [N]   distance [mm]\n",
+    );
+    let mut rows = Vec::new();
+    for (name, setup, samples) in &runs {
+        let s = grasp::Summary::of(setup, samples);
+        let mm = 1e3;
+        text += &format!(
+            "{name:<14} {:5.2} ± {:5.3}      {:6.2} ± {:6.3}        {:5.2} ± {:5.3}    {:6.2} ± {:6.3}\n",
+            s.grip.mean,
+            s.grip.deviation,
+            s.distance.mean * mm,
+            s.distance.deviation * mm,
+            s.still_grip.mean,
+            s.still_grip.deviation,
+            s.still_distance.mean * mm,
+            s.still_distance.deviation * mm,
+        );
+        let spread = |x: grasp::Spread| json!({"mean": x.mean, "deviation": x.deviation});
+        rows.push(json!({
+            "method": name,
+            "grip": spread(s.grip),
+            "distance": spread(s.distance),
+            "still_grip": spread(s.still_grip),
+            "still_distance": spread(s.still_distance),
+            // What (4.10) predicts for the still grasp: l − 2 f_g / k.
+            "predicted_still_distance": setup.width - 2.0 * s.still_grip.mean / setup.grip_stiffness,
+        }));
+    }
+    if let Some(path) = &args.plot {
+        // One series of shakes and its still phase, after the first (Fig. 4.12's window).
+        let cycle = f64::from(grasp::Setup::THESIS.shakes) / grasp::Setup::THESIS.frequency
+            + grasp::Setup::THESIS.still;
+        let window = (cycle, (2.0 * cycle).min(args.seconds));
+        let series = |pick: fn(&grasp::Sample) -> f64, label: &str| -> Vec<Series> {
+            runs.iter()
+                .enumerate()
+                .map(|(k, (name, _, samples))| Series {
+                    label: format!("{label}, {name}"),
+                    points: samples
+                        .iter()
+                        .filter(|s| (window.0..=window.1).contains(&s.time))
+                        .step_by(5)
+                        .map(|s| (s.time, pick(s)))
+                        .collect(),
+                    color: PALETTE[k],
+                })
+                .collect()
+        };
+        let mut forces = series(|s| s.grip, "grip");
+        forces.extend(
+            series(|s| s.resultant.abs(), "|resultant|")
+                .into_iter()
+                .enumerate()
+                .map(|(k, s)| Series {
+                    color: PALETTE[k + 2],
+                    ..s
+                }),
+        );
+        let charts = [
+            Chart {
+                title: "shaking a held box: forces".into(),
+                x_label: "time [s]".into(),
+                y_label: "force [N]".into(),
+                series: forces,
+                ..Chart::default()
+            },
+            Chart {
+                title: "finger distance".into(),
+                x_label: "time [s]".into(),
+                y_label: "distance [mm]".into(),
+                series: series(|s| s.distance * 1e3, "distance"),
+                ..Chart::default()
+            },
+        ];
+        let canvas = Canvas::stacked(&charts.map(|c| c.render()));
+        canvas
+            .save_png(path)
+            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
+        text += &format!("wrote {}\n", path.display());
+    }
+    print(&args.output, json!({"plot": args.plot, "results": rows}), text);
+    Ok(())
 }
 
 fn stick_slip(args: &StickSlipArgs) -> Result<(), Failure> {
