@@ -203,9 +203,8 @@ pub struct Summary {
 impl Summary {
     /// Summarise the samples of `setup`'s run.
     pub fn of(setup: &Setup, samples: &[Sample]) -> Summary {
-        let settled = |s: &&Sample| {
-            s.still && (s.time % setup.cycle()) > setup.cycle() - setup.still + 0.5
-        };
+        let settled =
+            |s: &&Sample| s.still && (s.time % setup.cycle()) > setup.cycle() - setup.still + 0.5;
         Summary {
             grip: Spread::of(samples.iter().map(|s| s.grip)),
             distance: Spread::of(samples.iter().map(|s| s.distance)),

@@ -137,7 +137,8 @@ impl Canvas {
             for row in 0..c.height {
                 let from = row * c.width * 3;
                 let to = ((top + row) * width) * 3;
-                out.pixels[to..to + c.width * 3].copy_from_slice(&c.pixels[from..from + c.width * 3]);
+                out.pixels[to..to + c.width * 3]
+                    .copy_from_slice(&c.pixels[from..from + c.width * 3]);
             }
             top += c.height;
         }

@@ -159,8 +159,17 @@ mod tests {
         // Uneven grips do not make the finger in front press too.
         let mut uneven = two_fingers(1.9);
         uneven[1].grip = 2.1;
-        d.share(&uneven, DVec3::new(-3.0, 0.0, 0.0), DVec3::ZERO, 0.06, &mut shares);
-        assert!(shares[0] < 1e-9 && (shares[1] - 3.0).abs() < 0.03, "{shares:?}");
+        d.share(
+            &uneven,
+            DVec3::new(-3.0, 0.0, 0.0),
+            DVec3::ZERO,
+            0.06,
+            &mut shares,
+        );
+        assert!(
+            shares[0] < 1e-9 && (shares[1] - 3.0).abs() < 0.03,
+            "{shares:?}"
+        );
         d.share(
             &two_fingers(2.0),
             DVec3::new(-1.0, 0.0, 0.0),

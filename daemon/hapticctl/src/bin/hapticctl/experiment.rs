@@ -7,8 +7,8 @@ use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
 use hapticctl::experiments::{grasp, shape_tracing, stack_timing, wall_stiffness};
 use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
-use hapticd_core::haptics::grasp::Method;
 use hapticd::catalog::Catalog;
+use hapticd_core::haptics::grasp::Method;
 use serde_json::{Value, json};
 
 use crate::Failure;
@@ -158,7 +158,11 @@ fn grasp(args: &GraspArgs) -> Result<(), Failure> {
         ("--height", args.height, 0.01..=0.5),
         ("--gravity", args.gravity, 0.0..=20.0),
         ("--grip-stiffness", args.grip_stiffness, 10.0..=10000.0),
-        ("--inertia-stiffness", args.inertia_stiffness, 10.0..=10000.0),
+        (
+            "--inertia-stiffness",
+            args.inertia_stiffness,
+            10.0..=10000.0,
+        ),
         ("--friction", args.friction, 0.0..=5.0),
         ("--seconds", args.seconds, 1.0..=600.0),
     ] {
@@ -172,7 +176,11 @@ fn grasp(args: &GraspArgs) -> Result<(), Failure> {
     }
     let methods: Vec<(&str, Method)> = [
         (GraspMethod::Distributed, "distributed", Method::Distributed),
-        (GraspMethod::Conventional, "conventional", Method::Conventional),
+        (
+            GraspMethod::Conventional,
+            "conventional",
+            Method::Conventional,
+        ),
     ]
     .into_iter()
     .filter(|(m, _, _)| args.method.is_none_or(|only| only == *m))
@@ -277,7 +285,11 @@ fn grasp(args: &GraspArgs) -> Result<(), Failure> {
             .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
         text += &format!("wrote {}\n", path.display());
     }
-    print(&args.output, json!({"plot": args.plot, "results": rows}), text);
+    print(
+        &args.output,
+        json!({"plot": args.plot, "results": rows}),
+        text,
+    );
     Ok(())
 }
 
