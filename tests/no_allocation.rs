@@ -119,6 +119,37 @@ fn pose_tension_calibration_and_closure_do_not_allocate() {
 }
 
 #[test]
+fn a_grasp_step_does_not_allocate() {
+    use glam::DVec3;
+    use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Method, Object};
+    for method in [Method::Distributed, Method::Conventional] {
+        let settings = GraspSettings {
+            method,
+            grip_stiffness: 800.0,
+            inertia_stiffness: 800.0,
+            inertia_damping: 40.0,
+            friction: 1.0,
+        };
+        let object = Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO);
+        let mut grasp = Grasp::new(object, settings, DVec3::new(0.0, -2.0, 0.0));
+        // Touch, grasp, shake, and let go.
+        let n = allocations_in(|| {
+            for step in 0..2000 {
+                let t = step as f64 * 1e-3;
+                let gap = if step < 1500 { 0.055 } else { 0.08 };
+                let c = 0.02 * (10.0 * t).sin();
+                let fingers = [
+                    DVec3::new(c - gap / 2.0, 0.0, 0.0),
+                    DVec3::new(c + gap / 2.0, 0.0, 0.0),
+                ];
+                std::hint::black_box(grasp.step(&fingers, 1e-3));
+            }
+        });
+        assert_eq!(n, 0, "{method:?}: {n} allocations in 2000 steps");
+    }
+}
+
+#[test]
 fn a_haptic_loop_tick_does_not_allocate() {
     for m in shipped_mechanisms() {
         let script = "hands:\n  grip:\n    - move: { to: [0.01, -0.05, 0.01], seconds: 0.3 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 3, seconds: 0.9 }\n    - unplug: { seconds: 0.1 }\n";

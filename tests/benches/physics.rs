@@ -1,7 +1,8 @@
 //! One physics step of a stack of n blocks on a floor (thesis 5.4.2, Fig. 5.10), for the
 //! contact-volume penalty method, the deepest-point penalty method and rapier3d (a
 //! constraint-based engine), in one run; and one step of the shipped `blocks` scene with two
-//! pointers pressing on it (thesis 5.4.7).
+//! pointers pressing on it (thesis 5.4.7); and one step of a two-finger grasp of a box with
+//! the resultant distribution method and the conventional one (thesis 4.5–4.6).
 //!
 //! Run: `make bench`.
 
@@ -76,4 +77,33 @@ fn blocks_scene_two_pointers(bencher: Bencher) {
         scene.world.step(scene.dt);
     }
     bencher.bench_local(|| scene.world.step(scene.dt));
+}
+
+/// A 1 kg box held between two fingers, pushed sideways as the fingers move: one grasp step.
+#[divan::bench(args = ["distributed", "conventional"])]
+fn grasp_two_fingers(bencher: Bencher, method: &str) {
+    use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Method, Object};
+    let settings = GraspSettings {
+        method: if method == "distributed" {
+            Method::Distributed
+        } else {
+            Method::Conventional
+        },
+        grip_stiffness: 800.0,
+        inertia_stiffness: 800.0,
+        inertia_damping: 40.0,
+        friction: 1.0,
+    };
+    let object = Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO);
+    let mut grasp = Grasp::new(object, settings, DVec3::new(0.0, -2.0, 0.0));
+    let mut t = 0.0f64;
+    bencher.bench_local(|| {
+        t += 1e-3;
+        let c = 0.01 * (6.0 * t).sin();
+        let fingers = [
+            DVec3::new(c - 0.0275, 0.0, 0.0),
+            DVec3::new(c + 0.0275, 0.0, 0.0),
+        ];
+        grasp.step(&fingers, 1e-3)
+    });
 }
