@@ -72,6 +72,7 @@ figures: stage
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png
 	$(HAPTICCTL) experiment stick-slip --plot docs/figures/stick-slip.png
+	$(HAPTICCTL) experiment grasp --plot docs/figures/grasp-shake.png
 	$(HAPTICCTL) scene run config/scenes/top.yaml --duration 12 --model volume --model point \
 		--quantity spin --plot docs/figures/spinning-top.png
 
