@@ -121,7 +121,7 @@ fn pose_tension_calibration_and_closure_do_not_allocate() {
 #[test]
 fn a_grasp_step_does_not_allocate() {
     use glam::DVec3;
-    use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Method, Object};
+    use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
     for method in [Method::Distributed, Method::Conventional] {
         let settings = GraspSettings {
             method,
@@ -130,8 +130,11 @@ fn a_grasp_step_does_not_allocate() {
             inertia_damping: 40.0,
             friction: 1.0,
         };
-        let object = Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO);
-        let mut grasp = Grasp::new(object, settings, DVec3::new(0.0, -2.0, 0.0));
+        let mut grasp = Handheld {
+            grasp: Grasp::new(settings),
+            object: Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO),
+            gravity: DVec3::new(0.0, -2.0, 0.0),
+        };
         // Touch, grasp, shake, and let go.
         let n = allocations_in(|| {
             for step in 0..2000 {

@@ -82,7 +82,7 @@ fn blocks_scene_two_pointers(bencher: Bencher) {
 /// A 1 kg box held between two fingers, pushed sideways as the fingers move: one grasp step.
 #[divan::bench(args = ["distributed", "conventional"])]
 fn grasp_two_fingers(bencher: Bencher, method: &str) {
-    use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Method, Object};
+    use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
     let settings = GraspSettings {
         method: if method == "distributed" {
             Method::Distributed
@@ -94,8 +94,11 @@ fn grasp_two_fingers(bencher: Bencher, method: &str) {
         inertia_damping: 40.0,
         friction: 1.0,
     };
-    let object = Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO);
-    let mut grasp = Grasp::new(object, settings, DVec3::new(0.0, -2.0, 0.0));
+    let mut grasp = Handheld {
+        grasp: Grasp::new(settings),
+        object: Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO),
+        gravity: DVec3::new(0.0, -2.0, 0.0),
+    };
     let mut t = 0.0f64;
     bencher.bench_local(|| {
         t += 1e-3;

@@ -10,7 +10,7 @@
 //! hand, which is how the fingers carry the object's weight, by friction.
 
 use glam::DVec3;
-use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Method, Object};
+use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
 
 /// The set-up of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -129,7 +129,11 @@ pub fn run(setup: &Setup) -> Vec<Sample> {
         inertia_damping: 0.7 * (setup.inertia_stiffness * setup.mass).sqrt(),
         friction: setup.friction,
     };
-    let mut grasp = Grasp::new(object, settings, DVec3::new(0.0, -setup.gravity, 0.0));
+    let mut grasp = Handheld {
+        grasp: Grasp::new(settings),
+        object,
+        gravity: DVec3::new(0.0, -setup.gravity, 0.0),
+    };
     // The fingers start squeezed as the grip effort would hold them.
     let squeeze = setup.grip_effort / setup.grip_stiffness;
     let half = setup.width / 2.0 - squeeze;

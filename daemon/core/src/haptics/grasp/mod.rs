@@ -92,8 +92,9 @@ impl Object {
         self.mass / 3.0 * DVec3::new(h2.y + h2.z, h2.x + h2.z, h2.x + h2.y)
     }
 
-    /// Advance `dt` under `force` and `torque` (world frame) and gravity.
-    fn advance(&mut self, force: DVec3, torque: DVec3, gravity: DVec3, dt: f64) {
+    /// Advance `dt` under `force` and `torque` (world frame) and `gravity` (a body of its
+    /// own, for experiments; in a world, the world moves it).
+    pub fn advance(&mut self, force: DVec3, torque: DVec3, gravity: DVec3, dt: f64) {
         self.velocity += (force / self.mass + gravity) * dt;
         self.position += self.velocity * dt;
         let inertia = self.inertia();
@@ -173,16 +174,17 @@ pub struct GraspFrame {
     pub shares: [f64; MAX_FINGERS],
     /// The force the fingers give the object, newtons.
     pub resultant: DVec3,
+    /// Their moment on it about its centre, newton-metres.
+    pub moment: DVec3,
     /// Whether fingers hold the object from opposite sides.
     pub grasped: bool,
 }
 
-/// An object that fingers can touch, push and hold.
+/// How fingers touch, push and hold an object. The object moves elsewhere (in a world, or
+/// by [`Object::advance`]): each step takes it as it is and says what the fingers give it.
 #[derive(Debug, Clone)]
 pub struct Grasp {
     settings: GraspSettings,
-    gravity: DVec3,
-    object: Object,
     /// The shell's pose.
     shell_position: DVec3,
     shell_orientation: DQuat,
@@ -194,23 +196,16 @@ pub struct Grasp {
 }
 
 impl Grasp {
-    /// `object`, rendered with `settings`, under `gravity` (m/s²).
-    pub fn new(object: Object, settings: GraspSettings, gravity: DVec3) -> Self {
+    /// A grasp rendered with `settings`, nothing touched yet.
+    pub fn new(settings: GraspSettings) -> Self {
         Self {
             settings,
-            gravity,
-            object,
-            shell_position: object.position,
-            shell_orientation: object.orientation,
+            shell_position: DVec3::ZERO,
+            shell_orientation: DQuat::IDENTITY,
             contacts: [Contact::default(); MAX_FINGERS],
             delivered: (DVec3::ZERO, DVec3::ZERO),
             distribution: Distribution::default(),
         }
-    }
-
-    /// The object as it is now.
-    pub fn object(&self) -> &Object {
-        &self.object
     }
 
     /// The settings.
@@ -218,31 +213,34 @@ impl Grasp {
         &self.settings
     }
 
-    /// [rt] Advance `dt` seconds with the fingers at `fingers` (at most [`MAX_FINGERS`]).
-    pub fn step(&mut self, fingers: &[DVec3], dt: f64) -> GraspFrame {
+    /// [rt] Advance `dt` seconds with the fingers at `fingers` (at most [`MAX_FINGERS`]) on
+    /// `object` as it is now; the frame says what they feel and what they give it.
+    pub fn step(&mut self, fingers: &[DVec3], object: &Object, dt: f64) -> GraspFrame {
         let n = fingers.len().min(MAX_FINGERS);
         let distributed = self.settings.method == Method::Distributed;
-        let (centre, rotation) = if distributed {
+        // The shell is the object's surface until a grasp starts.
+        let (centre, rotation) = if distributed && self.opposed(n) {
             (self.shell_position, self.shell_orientation)
         } else {
-            (self.object.position, self.object.orientation)
+            (object.position, object.orientation)
         };
         for (contact, &x) in self.contacts.iter_mut().zip(&fingers[..n]) {
             contact.update(
-                self.object.half,
+                object.half,
                 rotation.inverse() * (x - centre),
                 self.settings.friction,
             );
         }
         let grasped = self.opposed(n);
         if distributed && grasped {
-            self.distributed_step(fingers, n, dt)
-        } else {
-            if distributed {
-                // Not held: the shell is the object's surface, and starts from it when held.
+            if (centre, rotation) == (object.position, object.orientation) {
+                // A grasp starts: the shell from the object's surface.
+                (self.shell_position, self.shell_orientation) = (centre, rotation);
                 self.delivered = (DVec3::ZERO, DVec3::ZERO);
             }
-            self.spring_step(fingers, n, dt, grasped)
+            self.distributed_step(fingers, n, object, dt)
+        } else {
+            self.spring_step(fingers, n, object, grasped)
         }
     }
 
@@ -253,7 +251,13 @@ impl Grasp {
     }
 
     /// The shell balanced between the fingers, the resultant shared among them.
-    fn distributed_step(&mut self, fingers: &[DVec3], n: usize, dt: f64) -> GraspFrame {
+    fn distributed_step(
+        &mut self,
+        fingers: &[DVec3],
+        n: usize,
+        object: &Object,
+        dt: f64,
+    ) -> GraspFrame {
         let k = self.settings.grip_stiffness;
         let (centre, rotation) = (self.shell_position, self.shell_orientation);
         let mut held = [DVec3::ZERO; MAX_FINGERS];
@@ -269,18 +273,18 @@ impl Grasp {
         // The inertia spring and damper pull the shell toward the object: as part of the
         // balance, so the shell and the object settle together (a load that followed a step
         // behind would make the damper, seeing the shell jump, push harder every step).
-        let size = self.object.half.length();
+        let size = object.half.length();
         let (kr, br) = (
             self.settings.inertia_stiffness,
             self.settings.inertia_damping,
         );
-        let spin = self.object.orientation * self.object.spin;
+        let spin = object.orientation * object.spin;
         let pull = |at: DVec3, moved: DVec3| {
-            kr * (at - self.object.position) + br * (moved / dt - self.object.velocity)
+            kr * (at - object.position) + br * (moved / dt - object.velocity)
         };
         let twist = |turned: DQuat, turn: DVec3| {
             size * size
-                * (kr * (turned * self.object.orientation.inverse()).to_scaled_axis()
+                * (kr * (turned * object.orientation.inverse()).to_scaled_axis()
                     + br * (turn / dt - spin))
         };
         let load = Load {
@@ -301,6 +305,7 @@ impl Grasp {
             grips: [0.0; MAX_FINGERS],
             shares: [0.0; MAX_FINGERS],
             resultant,
+            moment,
             grasped: true,
         };
         let mut presses = [Press::default(); MAX_FINGERS];
@@ -333,23 +338,28 @@ impl Grasp {
             self.delivered.0 += push;
             self.delivered.1 += presses[j].point.cross(push);
         }
-        self.object.advance(resultant, moment, self.gravity, dt);
         frame
     }
 
     /// Each touching finger's spring acts on the object itself (the conventional method,
     /// and any touch that is not a grasp).
-    fn spring_step(&mut self, fingers: &[DVec3], n: usize, dt: f64, grasped: bool) -> GraspFrame {
+    fn spring_step(
+        &mut self,
+        fingers: &[DVec3],
+        n: usize,
+        object: &Object,
+        grasped: bool,
+    ) -> GraspFrame {
         let k = self.settings.grip_stiffness;
-        let (centre, rotation) = (self.object.position, self.object.orientation);
+        let (centre, rotation) = (object.position, object.orientation);
         let mut frame = GraspFrame {
             forces: [DVec3::ZERO; MAX_FINGERS],
             grips: [0.0; MAX_FINGERS],
             shares: [0.0; MAX_FINGERS],
             resultant: DVec3::ZERO,
+            moment: DVec3::ZERO,
             grasped,
         };
-        let mut torque = DVec3::ZERO;
         for i in (0..n).filter(|&i| self.contacts[i].touching) {
             let contact = &self.contacts[i];
             let p = centre + rotation * contact.local;
@@ -357,12 +367,31 @@ impl Grasp {
             frame.forces[i] = force;
             frame.grips[i] = force.dot(rotation * contact.normal()).max(0.0);
             frame.resultant -= force;
-            torque -= (p - centre).cross(force);
+            frame.moment -= (p - centre).cross(force);
         }
+        frame
+    }
+}
+
+/// An object alone in the hand (nothing else in its world but gravity): the grasp and the
+/// object's motion together, for experiments and measurements.
+#[derive(Debug, Clone)]
+pub struct Handheld {
+    /// How the fingers hold it.
+    pub grasp: Grasp,
+    /// The object.
+    pub object: Object,
+    /// Gravity, m/s².
+    pub gravity: DVec3,
+}
+
+impl Handheld {
+    /// [rt] One step of `dt` with the fingers at `fingers`: what they feel, and the object
+    /// moved by what they give it.
+    pub fn step(&mut self, fingers: &[DVec3], dt: f64) -> GraspFrame {
+        let frame = self.grasp.step(fingers, &self.object, dt);
         self.object
-            .advance(frame.resultant, torque, self.gravity, dt);
-        self.shell_position = self.object.position;
-        self.shell_orientation = self.object.orientation;
+            .advance(frame.resultant, frame.moment, self.gravity, dt);
         frame
     }
 }
@@ -384,9 +413,12 @@ mod tests {
         }
     }
 
-    fn box_between_fingers(method: Method, gravity: DVec3) -> Grasp {
-        let object = Object::at_rest(DVec3::new(WIDTH, 0.1, 0.06), 1.0, DVec3::ZERO);
-        Grasp::new(object, settings(method), gravity)
+    fn box_between_fingers(method: Method, gravity: DVec3) -> Handheld {
+        Handheld {
+            grasp: Grasp::new(settings(method)),
+            object: Object::at_rest(DVec3::new(WIDTH, 0.1, 0.06), 1.0, DVec3::ZERO),
+            gravity,
+        }
     }
 
     /// Fingers on the x axis, `gap` apart, centred on `centre`.
@@ -449,7 +481,7 @@ mod tests {
             for _ in 0..2000 {
                 g.step(&x, 0.001);
             }
-            let y = g.object().position.y;
+            let y = g.object.position.y;
             assert_eq!(y > -0.01, holds, "gap {gap}: the box is at y = {y}");
         }
     }
