@@ -11,6 +11,7 @@
 //! - [`body`]: rigid bodies and their integration;
 //! - [`coupling`]: pointers tied to the grip by a 6-DOF spring and damper (thesis 4.1.2);
 //! - [`world`]: bodies in contact, stepped by the penalty method;
+//! - [`grasping`]: bodies held between pointers (thesis 4.2–4.7);
 //! - [`scene`]: scene files (YAML) describing a world and its pointers.
 
 pub mod body;
@@ -19,6 +20,7 @@ pub mod contact;
 pub mod coupling;
 pub mod friction;
 pub mod gjk;
+pub mod grasping;
 pub mod hull;
 pub mod mass;
 pub mod polyhedron;

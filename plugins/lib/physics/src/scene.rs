@@ -53,13 +53,15 @@
 use crate::body::Body;
 use crate::coupling::{Coupling, Grip};
 use crate::friction::FrictionParameters;
+use crate::grasping::Grasping;
 use crate::polyhedron::Polyhedron;
 use crate::world::{ContactModel, Material, Scaling, World};
 use hapticd_core::kinematics::Wrench;
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings, YamlMap};
+use hapticd_core::haptics::grasp::{GraspSettings, Method};
 use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
 use serde::Deserialize;
 
@@ -73,6 +75,25 @@ struct RawScene {
     material: RawMaterial,
     bodies: Vec<RawBody>,
     pointer: Option<RawPointer>,
+    grasp: Option<RawGrasp>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGrasp {
+    #[serde(default)]
+    method: RawGraspMethod,
+    grip_stiffness: f64,
+    inertia_stiffness: f64,
+    inertia_damping: Option<f64>,
+}
+
+#[derive(Deserialize, Default, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawGraspMethod {
+    #[default]
+    Distributed,
+    Conventional,
 }
 
 fn earth() -> [f64; 3] {
@@ -193,6 +214,8 @@ pub struct PenaltyScene {
     couplings: Vec<Option<Coupling>>,
     /// Whether the pointers have been put at their grips once.
     pointers_placed: bool,
+    /// Bodies held between pointers, when the file asks for grasping.
+    pub grasping: Option<Grasping>,
     /// What the file asks for that works, but worth knowing (a step near its stability
     /// limit).
     pub warnings: Vec<Diagnostic>,
@@ -200,6 +223,11 @@ pub struct PenaltyScene {
 
 /// Most pointers a scene steps.
 pub const MAX_POINTERS: usize = 8;
+
+/// Softest and stiffest grasp springs, N/m.
+pub const GRASP_STIFFNESS: (f64, f64) = (1.0, 1e5);
+/// Heaviest damper on the inertia spring, N·s/m.
+pub const MAX_GRASP_DAMPING: f64 = 1e4;
 
 // What a scene file may describe: the world of a desk and a room, in SI units, with room to
 // spare on every side, and none of the extremes where the numbers stop meaning anything
@@ -436,6 +464,9 @@ impl PenaltyScene {
             return Err(f.into_error());
         }
         let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
+        // Each body that is one box: its half edges and orientation (the body's frame starts
+        // as the world's), for grasping.
+        let mut boxes = Vec::with_capacity(raw.bodies.len());
         for (i, b) in raw.bodies.iter().enumerate() {
             let at = format!("bodies[{i}]");
             f.text(format!("{at}.name"), &b.name);
@@ -451,6 +482,14 @@ impl PenaltyScene {
                 let mut body = Body::compound(&pieces, b.density, b.fixed);
                 (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
                 bodies.push(body);
+                let [w, x, y, z] = b.orientation;
+                boxes.push(match (b.size, &b.hull, &b.pieces) {
+                    (Some(size), None, None) => Some((
+                        DVec3::from(size) / 2.0,
+                        DQuat::from_xyzw(x, y, z, w).normalize(),
+                    )),
+                    _ => None,
+                });
             }
         }
         let first_pointer = bodies.len();
@@ -500,10 +539,60 @@ impl PenaltyScene {
                 }
             }
         }
+        if let Some(g) = &raw.grasp {
+            let (soft, stiff) = GRASP_STIFFNESS;
+            f.within(
+                "grasp.grip_stiffness",
+                g.grip_stiffness,
+                soft,
+                stiff,
+                " N/m",
+            );
+            f.within(
+                "grasp.inertia_stiffness",
+                g.inertia_stiffness,
+                soft,
+                stiff,
+                " N/m",
+            );
+            if let Some(d) = g.inertia_damping {
+                f.within("grasp.inertia_damping", d, 0.0, MAX_GRASP_DAMPING, " N·s/m");
+            }
+            if pointers > 0 && raw.pointer.as_ref().is_some_and(|p| p.coupling.is_some()) {
+                f.error(
+                    "grasp",
+                    "grasping needs pointers at their grips, not coupled ones",
+                );
+            }
+        }
         if !f.has_errors() {
             check_stability(&mut f, m, raw.dt, &bodies[..first_pointer]);
         }
         let warnings = f.finish()?;
+        let grasping = raw.grasp.as_ref().filter(|_| pointers >= 2).map(|g| {
+            // The pointer's half size: where its solid meets a face its centre is that far out.
+            let pointer = bodies[first_pointer].pieces[0]
+                .vertices
+                .iter()
+                .fold(DVec3::ZERO, |m, v| m.max(v.abs()))
+                .min_element();
+            Grasping::new(&bodies[..first_pointer], &boxes, pointer, |mass| {
+                GraspSettings {
+                    method: match g.method {
+                        RawGraspMethod::Distributed => Method::Distributed,
+                        RawGraspMethod::Conventional => Method::Conventional,
+                    },
+                    grip_stiffness: g.grip_stiffness,
+                    inertia_stiffness: g.inertia_stiffness,
+                    // Near critical for the body on the inertia spring unless the file says.
+                    inertia_damping: g
+                        .inertia_damping
+                        .unwrap_or(1.4 * (g.inertia_stiffness * mass).sqrt()),
+                    // Holding is sticking: the static coefficient.
+                    friction: m.static_friction,
+                }
+            })
+        });
         let point = [
             m.point_stiffness.unwrap_or(m.stiffness),
             m.point_damping.unwrap_or(m.damping),
@@ -547,6 +636,7 @@ impl PenaltyScene {
             materials,
             couplings,
             pointers_placed: false,
+            grasping,
             warnings,
         };
         scene.set_model(match m.model {
@@ -580,19 +670,26 @@ impl PenaltyScene {
             }
         }
         self.pointers_placed = true;
+        let step = dt / steps as f64;
         for _ in 0..steps {
             for (k, grip) in grips.iter().enumerate() {
                 if let Some(c) = &self.couplings[k] {
                     self.world.loads[first + k] = c.load(grip, &self.world.bodies[first + k]);
                 }
             }
-            self.world.step(dt / steps as f64);
+            if let Some(g) = &mut self.grasping {
+                g.before_step(&mut self.world, first, grips.len(), step);
+            }
+            self.world.step(step);
             for (k, out) in felt.iter_mut().enumerate().take(grips.len()) {
                 *out = *out
                     + match self.couplings[k] {
                         None => self.world.contact_wrench(first + k),
                         Some(_) => self.world.loads[first + k] * -1.0,
                     };
+                if let Some(g) = &self.grasping {
+                    *out = *out + g.felt(k);
+                }
             }
         }
         for out in felt.iter_mut() {

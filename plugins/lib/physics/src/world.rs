@@ -114,6 +114,9 @@ fn point_contact(
     }
 }
 
+/// Pairs of bodies a world leaves out of its contacts without allocating.
+pub const IGNORED_PAIRS: usize = 16;
+
 /// Bodies, gravity and the contact material.
 #[derive(Debug, Clone)]
 pub struct World {
@@ -126,6 +129,10 @@ pub struct World {
     /// A load on each body besides gravity (a pulling spring, a virtual coupling), its
     /// torque about the body's centroid; it stays until changed.
     pub loads: Vec<Wrench>,
+    /// Pairs of bodies (i < j) whose contacts the steps leave out, such as a held body and
+    /// the pointers holding it, whose forces come from the grasp instead. Room for
+    /// [`IGNORED_PAIRS`] without allocating.
+    pub ignored_pairs: Vec<(usize, usize)>,
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
@@ -231,6 +238,7 @@ impl World {
             order: (0..n).collect(),
             wrenches: vec![Wrench::default(); n],
             loads: vec![Wrench::ZERO; n],
+            ignored_pairs: Vec::with_capacity(IGNORED_PAIRS),
             friction,
             bodies,
             gravity,
@@ -360,7 +368,9 @@ impl World {
     /// of `dt`: between each piece of one and each piece of the other.
     fn collide(&mut self, i: usize, j: usize, dt: f64) {
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
-        if a.fixed && b.fixed && !a.kinematic && !b.kinematic {
+        if (a.fixed && b.fixed && !a.kinematic && !b.kinematic)
+            || self.ignored_pairs.contains(&(i, j))
+        {
             return;
         }
         let single = a.pieces.len() == 1 && b.pieces.len() == 1;
