@@ -19,8 +19,10 @@ fn mechanisms() -> PathBuf {
     DIR.get_or_init(|| {
         let dir = scratch_root().join(format!("hapticd-process-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let from = plugin_path("hapticd-spidar-g");
-        std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
+        for plugin in ["hapticd-spidar-g", "hapticd-spidar-ii"] {
+            let from = plugin_path(plugin);
+            std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
+        }
         dir
     })
     .clone()
@@ -295,6 +297,62 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
             .all(|r| r.1 == "running" && r.2 > 1.0),
         "no recovery"
     );
+    std::fs::remove_file(csv).ok();
+}
+
+/// The simulated SPIDAR-II's two fingers pick up the 1 kg box of the grasp scene (thesis
+/// 4.7.1, g = 2 m/s²), hold it 3 cm up and put it down: while held, the fingers carry its
+/// weight between them by friction and stand as far apart as the grip alone says (4.10).
+#[test]
+fn two_simulated_fingers_lift_hold_and_put_down_a_box() {
+    let csv = scratch("grasp.csv");
+    let scene = plugin_path("hapticd-scene-penalty");
+    let file = repo_dir().join("config/scenes/grasp.yaml");
+    let hand = repo_dir().join("config/hands/grasp-lift.yaml");
+    finish(
+        hapticd_with_scene(
+            &scene,
+            &["--scene-file", file.to_str().unwrap(), "--sim", "spidar-ii"],
+        )
+        .arg("--hand")
+        .arg(&hand)
+        .args(["--duration", "6"])
+        .arg("--record")
+        .arg(&csv)
+        .spawn()
+        .unwrap(),
+    );
+    let names = [
+        "time", "index_x", "index_y", "index_fx", "index_fy", "thumb_x", "thumb_fx", "thumb_fy",
+    ];
+    let rows: Vec<Vec<f64>> = columns(&csv, &names)
+        .iter()
+        .map(|r| r.iter().map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let held: Vec<&Vec<f64>> = rows.iter().filter(|r| (3.0..4.5).contains(&r[0])).collect();
+    assert!(held.len() > 1000);
+    for r in held {
+        let (t, y, weight) = (r[0], r[2], -(r[4] + r[7]));
+        let grip = r[3].abs().min(r[6].abs());
+        let distance = r[1] - r[5];
+        // Lifted from the table (the box's middle was at y = −0.1).
+        assert!((-0.076..-0.07).contains(&y), "t = {t}: y {y}");
+        assert!((weight - 2.0).abs() < 0.2, "t = {t}: carrying {weight} N");
+        assert!((1.0..3.0).contains(&grip), "t = {t}: grip {grip} N");
+        // (4.10) with the fingers' 5 mm pointer cubes: l + 1 cm − 2 f_g / k.
+        let predicted = 0.07 - 2.0 * grip / 800.0;
+        assert!(
+            (distance - predicted).abs() < 5e-4,
+            "t = {t}: {distance} vs {predicted}"
+        );
+    }
+    // Put down and let go: nothing pulls on the fingers.
+    for r in rows.iter().filter(|r| r[0] > 5.6) {
+        assert!(
+            r[3] == 0.0 && r[4] == 0.0 && r[6] == 0.0 && r[7] == 0.0,
+            "{r:?}"
+        );
+    }
     std::fs::remove_file(csv).ok();
 }
 

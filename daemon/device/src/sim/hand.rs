@@ -13,7 +13,9 @@
 //! ```
 //!
 //! Steps run one after another; after the last one the hand holds still. `move`, `shake`
-//! and `trace` start from where the previous step left the target.
+//! and `trace` start from where the previous step left the target. `hold`, `move` and
+//! `shake` may also push with a `force` meanwhile: a finger squeezing what it holds
+//! (`- move: { to: [0.034, -0.07, 0], seconds: 0.5, force: [-2, 0, 0] }`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -33,6 +35,9 @@ pub enum Step {
         at: Option<[f64; 3]>,
         /// For how long.
         seconds: f64,
+        /// A force to push with meanwhile (a finger's grip effort), newtons.
+        #[serde(default)]
+        force: Option<[f64; 3]>,
     },
     /// Move in a straight line at constant speed.
     Move {
@@ -40,6 +45,9 @@ pub enum Step {
         to: [f64; 3],
         /// Duration.
         seconds: f64,
+        /// A force to push with meanwhile, newtons.
+        #[serde(default)]
+        force: Option<[f64; 3]>,
     },
     /// Hold the target and push with an extra force.
     Push {
@@ -56,6 +64,9 @@ pub enum Step {
         frequency: f64,
         /// Duration.
         seconds: f64,
+        /// A force to push with meanwhile, newtons.
+        #[serde(default)]
+        force: Option<[f64; 3]>,
     },
     /// Go round a circle, starting at the point nearest the current target.
     Trace {
@@ -124,6 +135,18 @@ impl Step {
             MAX_STEP_SECONDS,
             " s",
         );
+        if let Step::Hold {
+            force: Some(force), ..
+        }
+        | Step::Move {
+            force: Some(force), ..
+        }
+        | Step::Shake {
+            force: Some(force), ..
+        } = self
+        {
+            f.coordinates(format!("{at}.force"), force, MAX_PUSH, "N");
+        }
         match self {
             Step::Hold { at: Some(p), .. } => {
                 f.coordinates(format!("{at}.at"), p, MAX_REACH, "m");
@@ -386,9 +409,21 @@ impl HandTrack {
             push: DVec3::ZERO,
             unplugged: false,
         };
+        if let Step::Hold {
+            force: Some(force), ..
+        }
+        | Step::Move {
+            force: Some(force), ..
+        }
+        | Step::Shake {
+            force: Some(force), ..
+        } = *step
+        {
+            c.push = DVec3::from(force);
+        }
         match *step {
             Step::Hold { at, .. } => c.target = at.map_or(start, DVec3::from),
-            Step::Move { to, seconds } => {
+            Step::Move { to, seconds, .. } => {
                 let velocity = (DVec3::from(to) - start) / seconds.max(f64::EPSILON);
                 c.target = start + velocity * t;
                 c.velocity = velocity;
@@ -438,6 +473,31 @@ mod tests {
         assert_eq!((push.target.y, push.push.y), (-0.02, -4.0));
         assert!(track.at(2.7).unplugged && !track.at(3.1).unplugged);
         assert_eq!(track.at(10.0).target, DVec3::new(0.0, -0.02, 0.0));
+    }
+
+    #[test]
+    fn a_finger_pushes_while_it_moves_holds_or_shakes_if_told() {
+        let script = Script::parse(
+            "hands:\n  index:\n    - move: { to: [0.02, 0, 0], seconds: 1, force: [-2, 0, 0] }\n    - hold: { seconds: 1 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 1, seconds: 1, force: [0, 1, 0] }\n",
+            Path::new("h.yaml"),
+        )
+        .unwrap();
+        let hand = HandTrack::new(DVec3::ZERO, script.hands["index"].clone());
+        let moving = hand.at(0.5);
+        assert_eq!(moving.push, DVec3::new(-2.0, 0.0, 0.0));
+        assert!((moving.target.x - 0.01).abs() < 1e-12);
+        assert_eq!(hand.at(1.5).push, DVec3::ZERO);
+        assert_eq!(hand.at(2.5).push, DVec3::Y);
+        let e = Script::parse(
+            "hands:\n  index:\n    - hold: { seconds: 1, force: [.nan, 0, 0] }\n",
+            Path::new("h.yaml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("hands.index[0].hold.force: must be finite"),
+            "{e}"
+        );
     }
 
     #[test]

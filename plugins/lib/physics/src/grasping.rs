@@ -142,7 +142,8 @@ mod tests {
     use crate::coupling::Grip;
     use crate::scene::PenaltyScene;
 
-    /// Two fingers, left and right of the box's centre line at height `y`, `gap` apart.
+    /// Two fingers, left and right of the box's centre line at height `y`, `gap` apart
+    /// (the grasp scene's box stands on its table with its middle at x = z = 0).
     fn grips(gap: f64, y: f64) -> [Grip; 2] {
         [-1.0, 1.0].map(|side| Grip {
             position: DVec3::new(side * gap / 2.0, y, 0.0),
@@ -187,24 +188,26 @@ mod tests {
             // 2.5 mm further in, the 800 N/m springs grip with 2 N.
             let (open, closed) = (0.09, 0.07 - 0.005);
             run(&mut scene, 0.0, 0.3, |t| {
-                (open + (closed - open) * (t / 0.3), 0.0)
+                (open + (closed - open) * (t / 0.3), rest)
             });
-            run(&mut scene, 0.3, 0.2, |_| (closed, 0.0));
+            run(&mut scene, 0.3, 0.2, |_| (closed, rest));
             assert_eq!(
                 scene.grasping.as_ref().unwrap().held(),
                 Some(body),
                 "{method}"
             );
             // Lift 3 cm in half a second, hold half a second.
-            run(&mut scene, 0.5, 0.5, |t| (closed, 0.03 * (t - 0.5) / 0.5));
-            let felt = run(&mut scene, 1.0, 0.5, |_| (closed, 0.03));
+            run(&mut scene, 0.5, 0.5, |t| {
+                (closed, rest + 0.03 * (t - 0.5) / 0.5)
+            });
+            let felt = run(&mut scene, 1.0, 0.5, |_| (closed, rest + 0.03));
             let lifted = scene.world.bodies[body].position.y - rest;
             assert!((0.02..0.031).contains(&lifted), "{method}: lifted {lifted}");
             // The fingers carry the box's weight (2 N) between them, by friction.
             let weight = -(felt[0].y + felt[1].y);
             assert!((weight - 2.0).abs() < 0.2, "{method}: carried {weight} N");
             // Open: it falls back onto the table.
-            run(&mut scene, 1.5, 0.8, |_| (open, 0.03));
+            run(&mut scene, 1.5, 0.8, |_| (open, rest + 0.03));
             assert_eq!(scene.grasping.as_ref().unwrap().held(), None);
             let y = scene.world.bodies[body].position.y - rest;
             assert!(y.abs() < 0.003, "{method}: the box is {y} above its rest");

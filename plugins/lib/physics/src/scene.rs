@@ -49,6 +49,31 @@
 //!     rotational_damping: 0.01   # (N·m/rad, N·m·s/rad; both optional, default 0)
 //!   density: 1000              # kg/m³ of a coupled pointer (its weight is felt too)
 //! ```
+//!
+//! Scenes for two or more pointers may let them hold bodies (thesis 4.2–4.7): a body that is
+//! one `box:` is held while two pointers press it from opposite sides, and let go when they
+//! open (see `config/scenes/grasp.yaml`):
+//!
+//! ```yaml
+//! name: grasp
+//! gravity: [0, -2.0, 0]
+//! dt: 0.0005
+//! material: { stiffness: 2.0e7, damping: 2.0e4, static_friction: 1.0, friction: 1.0,
+//!             friction_stiffness: 2.0e7, friction_damping: 2.0e4, slip_speed: 0.02 }
+//! bodies:
+//!   - { name: table, box: [0.3, 0.04, 0.3], position: [0, -0.17, 0], fixed: true }
+//!   - { name: box, box: [0.06, 0.1, 0.06], position: [0, -0.1, 0], density: 2777.8 }
+//! pointer:
+//!   box: [0.01, 0.01, 0.01]
+//! grasp:
+//!   method: distributed        # the shape shell and the resultant shared among the fingers;
+//!                              #   or conventional: one spring per finger (for comparison)
+//!   grip_stiffness: 800        # N/m from each pointer to the surface it holds
+//!   inertia_stiffness: 800     # N/m from the shell to the body (moments scale with size²)
+//!   inertia_damping: 40        # N·s/m; optional, default near critical for each body
+//! ```
+//!
+//! Held bodies stick to the pointers up to the material's `static_friction`.
 
 use crate::body::Body;
 use crate::coupling::{Coupling, Grip};
@@ -719,6 +744,46 @@ mod tests {
 
     fn parse(text: &str, pointers: usize) -> Result<PenaltyScene, Diagnostics> {
         PenaltyScene::parse(text, Path::new("s.yaml"), pointers)
+    }
+
+    #[test]
+    fn grasp_settings_are_checked_each_at_its_place() {
+        let text = std::fs::read_to_string(shipped("grasp.yaml")).unwrap();
+        let scene = parse(&text, 2).unwrap();
+        assert!(scene.grasping.is_some());
+        // One pointer holds nothing: no grasping, and no error either.
+        assert!(parse(&text, 1).unwrap().grasping.is_none());
+        for (from, to, expected) in [
+            (
+                "grip_stiffness: 800",
+                "grip_stiffness: .nan",
+                "grasp.grip_stiffness",
+            ),
+            (
+                "inertia_stiffness: 800",
+                "inertia_stiffness: 1.0e9",
+                "grasp.inertia_stiffness",
+            ),
+            (
+                "method: distributed",
+                "method: telepathic",
+                "unknown variant `telepathic`",
+            ),
+            (
+                "grip_stiffness: 800",
+                "grip_stiffnes: 800",
+                "unknown field `grip_stiffnes`",
+            ),
+            (
+                "box: [0.01, 0.01, 0.01]      # each finger",
+                "box: [0.01, 0.01, 0.01]\n  coupling: { stiffness: 400, damping: 5 }\n  #",
+                "not coupled ones",
+            ),
+        ] {
+            assert!(text.contains(from), "{from}");
+            let e = parse(&text.replace(from, to), 2).err().unwrap().to_string();
+            assert!(e.contains(expected), "{to}: {e}");
+        }
     }
 
     #[test]
