@@ -120,10 +120,7 @@ fn linear_balance(
                 a[i][3 + j] -= k * rx[i][j];
                 a[3 + i][j] += k * rx[i][j];
                 // r × (Δθ × r) = −[r]×[r]× Δθ
-                let mut rr = 0.0;
-                for m in 0..3 {
-                    rr += rx[i][m] * rx[m][j];
-                }
+                let rr: f64 = (0..3).map(|m| rx[i][m] * rx[m][j]).sum();
                 a[3 + i][3 + j] -= k * rr;
             }
         }
