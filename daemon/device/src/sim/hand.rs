@@ -13,9 +13,10 @@
 //! ```
 //!
 //! Steps run one after another; after the last one the hand holds still. `move`, `shake`
-//! and `trace` start from where the previous step left the target. `hold`, `move` and
-//! `shake` may also push with a `force` meanwhile: a finger squeezing what it holds
-//! (`- move: { to: [0.034, -0.07, 0], seconds: 0.5, force: [-2, 0, 0] }`).
+//! and `trace` start from where the previous step left the target. During `hold`, `move` and
+//! `shake` a finger may `squeeze` what it holds with a grip effort, which the arm never pulls
+//! it back against (`- shake: { amplitude: [0.025, 0, 0], frequency: 2, seconds: 4,
+//! squeeze: [-2, 0, 0] }`): two fingers so scripted hold an object and shake it.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -35,9 +36,9 @@ pub enum Step {
         at: Option<[f64; 3]>,
         /// For how long.
         seconds: f64,
-        /// A force to push with meanwhile (a finger's grip effort), newtons.
+        /// A finger's grip effort meanwhile, newtons (see [`HandCommand::squeeze`]).
         #[serde(default)]
-        force: Option<[f64; 3]>,
+        squeeze: Option<[f64; 3]>,
     },
     /// Move in a straight line at constant speed.
     Move {
@@ -45,9 +46,9 @@ pub enum Step {
         to: [f64; 3],
         /// Duration.
         seconds: f64,
-        /// A force to push with meanwhile, newtons.
+        /// A finger's grip effort meanwhile, newtons.
         #[serde(default)]
-        force: Option<[f64; 3]>,
+        squeeze: Option<[f64; 3]>,
     },
     /// Hold the target and push with an extra force.
     Push {
@@ -64,9 +65,9 @@ pub enum Step {
         frequency: f64,
         /// Duration.
         seconds: f64,
-        /// A force to push with meanwhile, newtons.
+        /// A finger's grip effort meanwhile, newtons.
         #[serde(default)]
-        force: Option<[f64; 3]>,
+        squeeze: Option<[f64; 3]>,
     },
     /// Go round a circle, starting at the point nearest the current target.
     Trace {
@@ -136,16 +137,19 @@ impl Step {
             " s",
         );
         if let Step::Hold {
-            force: Some(force), ..
+            squeeze: Some(squeeze),
+            ..
         }
         | Step::Move {
-            force: Some(force), ..
+            squeeze: Some(squeeze),
+            ..
         }
         | Step::Shake {
-            force: Some(force), ..
+            squeeze: Some(squeeze),
+            ..
         } = self
         {
-            f.coordinates(format!("{at}.force"), force, MAX_PUSH, "N");
+            f.coordinates(format!("{at}.squeeze"), squeeze, MAX_PUSH, "N");
         }
         match self {
             Step::Hold { at: Some(p), .. } => {
@@ -323,6 +327,10 @@ pub struct HandCommand {
     pub velocity: DVec3,
     /// Extra force the hand pushes with.
     pub push: DVec3,
+    /// A finger's grip effort: the hand pushes with this force, and its arm never pulls the
+    /// finger back against it (it may push harder). People hold things so (thesis 4.3): they
+    /// keep their grip and move what they hold by pressing harder with the finger behind it.
+    pub squeeze: DVec3,
     /// Whether the device is unplugged now.
     pub unplugged: bool,
 }
@@ -398,6 +406,7 @@ impl HandTrack {
             target: *self.starts.last().expect("starts has steps + 1 entries"),
             velocity: DVec3::ZERO,
             push: DVec3::ZERO,
+            squeeze: DVec3::ZERO,
             unplugged: false,
         }
     }
@@ -407,19 +416,23 @@ impl HandTrack {
             target: start,
             velocity: DVec3::ZERO,
             push: DVec3::ZERO,
+            squeeze: DVec3::ZERO,
             unplugged: false,
         };
         if let Step::Hold {
-            force: Some(force), ..
+            squeeze: Some(squeeze),
+            ..
         }
         | Step::Move {
-            force: Some(force), ..
+            squeeze: Some(squeeze),
+            ..
         }
         | Step::Shake {
-            force: Some(force), ..
+            squeeze: Some(squeeze),
+            ..
         } = *step
         {
-            c.push = DVec3::from(force);
+            c.squeeze = DVec3::from(squeeze);
         }
         match *step {
             Step::Hold { at, .. } => c.target = at.map_or(start, DVec3::from),
@@ -476,26 +489,26 @@ mod tests {
     }
 
     #[test]
-    fn a_finger_pushes_while_it_moves_holds_or_shakes_if_told() {
+    fn a_finger_squeezes_while_it_moves_holds_or_shakes_if_told() {
         let script = Script::parse(
-            "hands:\n  index:\n    - move: { to: [0.02, 0, 0], seconds: 1, force: [-2, 0, 0] }\n    - hold: { seconds: 1 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 1, seconds: 1, force: [0, 1, 0] }\n",
+            "hands:\n  index:\n    - move: { to: [0.02, 0, 0], seconds: 1, squeeze: [-2, 0, 0] }\n    - hold: { seconds: 1 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 1, seconds: 1, squeeze: [0, 1, 0] }\n",
             Path::new("h.yaml"),
         )
         .unwrap();
         let hand = HandTrack::new(DVec3::ZERO, script.hands["index"].clone());
         let moving = hand.at(0.5);
-        assert_eq!(moving.push, DVec3::new(-2.0, 0.0, 0.0));
+        assert_eq!(moving.squeeze, DVec3::new(-2.0, 0.0, 0.0));
         assert!((moving.target.x - 0.01).abs() < 1e-12);
-        assert_eq!(hand.at(1.5).push, DVec3::ZERO);
-        assert_eq!(hand.at(2.5).push, DVec3::Y);
+        assert_eq!(hand.at(1.5).squeeze, DVec3::ZERO);
+        assert_eq!(hand.at(2.5).squeeze, DVec3::Y);
         let e = Script::parse(
-            "hands:\n  index:\n    - hold: { seconds: 1, force: [.nan, 0, 0] }\n",
+            "hands:\n  index:\n    - hold: { seconds: 1, squeeze: [.nan, 0, 0] }\n",
             Path::new("h.yaml"),
         )
         .unwrap_err()
         .to_string();
         assert!(
-            e.contains("hands.index[0].hold.force: must be finite"),
+            e.contains("hands.index[0].hold.squeeze: must be finite"),
             "{e}"
         );
     }

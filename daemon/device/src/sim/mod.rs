@@ -264,9 +264,13 @@ impl SimulatedBoard {
             let command = e.track.at(time);
             let skin = p.skin.0 * (e.hand - e.grip.position)
                 + p.skin.1 * (e.hand_velocity - e.grip_velocity);
-            let arm_force = p.arm.0 * (command.target - e.hand)
-                + p.arm.1 * (command.velocity - e.hand_velocity)
-                + command.push;
+            let mut arm_force = p.arm.0 * (command.target - e.hand)
+                + p.arm.1 * (command.velocity - e.hand_velocity);
+            if let Some(inward) = command.squeeze.try_normalize() {
+                // Squeezing, the arm may press the finger in harder, never pull it back.
+                arm_force -= arm_force.dot(inward).min(0.0) * inward;
+            }
+            arm_force += command.push + command.squeeze;
             // Semi-implicit Euler: velocities first, then positions with the new velocities.
             e.grip_velocity += (force + skin) / p.grip_mass * h;
             e.hand_velocity += (arm_force - skin) / p.hand_mass * h;
