@@ -19,16 +19,15 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// `make install DESTDIR=dest` of the build under test (no cargo: it only copies), with
-/// `extra` variables; fails the test with make's errors.
-fn make_install(dest: &Path, extra: &[&str]) -> Output {
+/// `make -s TARGET` of the build under test with `vars`, without cargo (installing only
+/// copies); fails the test with make's errors.
+fn make(target: &str, vars: &[String]) -> Output {
     let built = artifact("hapticd").parent().unwrap().to_path_buf();
     let out = Command::new("make")
         .current_dir(repo_dir())
-        .args(["-s", "install"])
-        .arg(format!("DESTDIR={}", dest.display()))
+        .args(["-s", target])
         .arg(format!("BUILT={}", built.display()))
-        .args(extra)
+        .args(vars)
         .env("CARGO", "/nonexistent/cargo")
         .output()
         .unwrap();
@@ -38,6 +37,13 @@ fn make_install(dest: &Path, extra: &[&str]) -> Output {
         String::from_utf8_lossy(&out.stderr)
     );
     out
+}
+
+/// `make install DESTDIR=dest` with `extra` variables.
+fn make_install(dest: &Path, extra: &[&str]) -> Output {
+    let mut vars = vec![format!("DESTDIR={}", dest.display())];
+    vars.extend(extra.iter().map(|v| v.to_string()));
+    make("install", &vars)
 }
 
 fn read(path: PathBuf) -> String {
@@ -105,6 +111,22 @@ fn scenes_of_running(mut daemon: Command, bus: &PrivateBus, log: &Path) -> (Stri
     (scenes, active)
 }
 
+/// The `Scenes` and `ActiveScene` of the daemon installed under `root` with the /usr
+/// prefix, started as its unit starts it on a bus (scratch directory `bus`) with its
+/// installed policy, less the configuration's place: a binary under ROOT/usr looks for
+/// ROOT/usr/etc, and /etc is the system's.
+fn scenes_of_installed(root: &Path, bus: &str) -> (String, String) {
+    let bus = PrivateBus::start(
+        &scratch(bus),
+        &root.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
+    );
+    let mut daemon = exec_start(root, "usr/lib/systemd/system/hapticd.service", &bus.address);
+    daemon
+        .arg("--config")
+        .arg(root.join("etc/hapticd/hapticd.yaml"));
+    scenes_of_running(daemon, &bus, &root.join("hapticd.log"))
+}
+
 /// `make install` of the build under test into a scratch DESTDIR: every file where a
 /// distribution puts it, and the installed daemon runs from the installed plugins, scenes and
 /// configuration alone.
@@ -157,21 +179,7 @@ fn make_install_lays_out_a_working_system() {
     for option in ["\\-\\-config", "\\-\\-scene", ".SH FILES", ".SH SIGNALS"] {
         assert!(page.contains(option), "hapticd(8) lacks {option}");
     }
-    // As the unit starts it, on a bus with the installed policy, less the configuration's
-    // place: a binary under DESTDIR/usr looks for DESTDIR/usr/etc, and /etc is the system's.
-    let bus = PrivateBus::start(
-        &scratch("usr-bus"),
-        &dest.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
-    );
-    let mut daemon = exec_start(
-        &dest,
-        "usr/lib/systemd/system/hapticd.service",
-        &bus.address,
-    );
-    daemon
-        .arg("--config")
-        .arg(dest.join("etc/hapticd/hapticd.yaml"));
-    let (scenes, active) = scenes_of_running(daemon, &bus, &dest.join("hapticd.log"));
+    let (scenes, active) = scenes_of_installed(&dest, "usr-bus");
     assert_eq!(active, "s \"static\"");
     for scene in ["static", "blocks", "top"] {
         assert!(scenes.contains(&format!("\"{scene}\"")), "{scenes}");
@@ -331,19 +339,9 @@ fn build_id(file: &Path) -> String {
 #[test]
 fn the_debian_package_is_lintian_clean_and_runs_unpacked() {
     let dir = scratch("deb");
-    let built = artifact("hapticd").parent().unwrap().to_path_buf();
-    let out = Command::new("make")
-        .current_dir(repo_dir())
-        .args(["-s", "deb-from-built"])
-        .arg(format!("BUILT={}", built.display()))
-        .arg(format!("DEB={}", dir.join("deb").display()))
-        .env("CARGO", "/nonexistent/cargo")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    make(
+        "deb-from-built",
+        &[format!("DEB={}", dir.join("deb").display())],
     );
     let version = env!("CARGO_PKG_VERSION");
     let arch = String::from_utf8(
@@ -442,19 +440,7 @@ fn the_debian_package_is_lintian_clean_and_runs_unpacked() {
     assert!(root.join("usr/share/man/man8/hapticd.8.gz").is_file());
     assert!(root.join("usr/share/doc/hapticd/copyright").is_file());
 
-    let bus = PrivateBus::start(
-        &scratch("deb-bus"),
-        &root.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
-    );
-    let mut daemon = exec_start(
-        &root,
-        "usr/lib/systemd/system/hapticd.service",
-        &bus.address,
-    );
-    daemon
-        .arg("--config")
-        .arg(root.join("etc/hapticd/hapticd.yaml"));
-    let (scenes, active) = scenes_of_running(daemon, &bus, &dir.join("hapticd.log"));
+    let (scenes, active) = scenes_of_installed(&root, "deb-bus");
     assert_eq!(active, "s \"static\"");
     assert!(scenes.contains("\"blocks\""), "{scenes}");
     std::fs::remove_dir_all(&dir).unwrap();

@@ -123,13 +123,7 @@ fn a_grasp_step_does_not_allocate() {
     use glam::DVec3;
     use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
     for method in [Method::Distributed, Method::Conventional] {
-        let settings = GraspSettings {
-            method,
-            grip_stiffness: 800.0,
-            inertia_stiffness: 800.0,
-            inertia_damping: 40.0,
-            friction: 1.0,
-        };
+        let settings = GraspSettings::thesis(method);
         let mut grasp = Handheld {
             grasp: Grasp::new(settings),
             object: Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO),

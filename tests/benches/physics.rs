@@ -83,17 +83,11 @@ fn blocks_scene_two_pointers(bencher: Bencher) {
 #[divan::bench(args = ["distributed", "conventional"])]
 fn grasp_two_fingers(bencher: Bencher, method: &str) {
     use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
-    let settings = GraspSettings {
-        method: if method == "distributed" {
-            Method::Distributed
-        } else {
-            Method::Conventional
-        },
-        grip_stiffness: 800.0,
-        inertia_stiffness: 800.0,
-        inertia_damping: 40.0,
-        friction: 1.0,
-    };
+    let settings = GraspSettings::thesis(if method == "distributed" {
+        Method::Distributed
+    } else {
+        Method::Conventional
+    });
     let mut grasp = Handheld {
         grasp: Grasp::new(settings),
         object: Object::at_rest(DVec3::new(0.06, 0.1, 0.06), 1.0, DVec3::ZERO),

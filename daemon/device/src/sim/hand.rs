@@ -136,20 +136,8 @@ impl Step {
             MAX_STEP_SECONDS,
             " s",
         );
-        if let Step::Hold {
-            squeeze: Some(squeeze),
-            ..
-        }
-        | Step::Move {
-            squeeze: Some(squeeze),
-            ..
-        }
-        | Step::Shake {
-            squeeze: Some(squeeze),
-            ..
-        } = self
-        {
-            f.coordinates(format!("{at}.squeeze"), squeeze, MAX_PUSH, "N");
+        if let Some(squeeze) = self.squeeze() {
+            f.coordinates(format!("{at}.squeeze"), &squeeze, MAX_PUSH, "N");
         }
         match self {
             Step::Hold { at: Some(p), .. } => {
@@ -197,6 +185,16 @@ impl Step {
                 );
             }
             Step::Hold { at: None, .. } | Step::Unplug { .. } | Step::Path { .. } => {}
+        }
+    }
+
+    /// The grip effort a `hold`, `move` or `shake` squeezes with, if any.
+    fn squeeze(&self) -> Option<[f64; 3]> {
+        match *self {
+            Step::Hold { squeeze, .. }
+            | Step::Move { squeeze, .. }
+            | Step::Shake { squeeze, .. } => squeeze,
+            _ => None,
         }
     }
 
@@ -419,21 +417,7 @@ impl HandTrack {
             squeeze: DVec3::ZERO,
             unplugged: false,
         };
-        if let Step::Hold {
-            squeeze: Some(squeeze),
-            ..
-        }
-        | Step::Move {
-            squeeze: Some(squeeze),
-            ..
-        }
-        | Step::Shake {
-            squeeze: Some(squeeze),
-            ..
-        } = *step
-        {
-            c.squeeze = DVec3::from(squeeze);
-        }
+        c.squeeze = step.squeeze().map_or(DVec3::ZERO, DVec3::from);
         match *step {
             Step::Hold { at, .. } => c.target = at.map_or(start, DVec3::from),
             Step::Move { to, seconds, .. } => {

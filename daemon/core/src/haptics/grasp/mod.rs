@@ -56,6 +56,20 @@ pub struct GraspSettings {
     pub friction: f64,
 }
 
+impl GraspSettings {
+    /// The thesis' set-up (4.7.1): both springs 800 N/m, μ = 1.0, and an inertia damper near
+    /// critical for its 1 kg box (40 N·s/m).
+    pub const fn thesis(method: Method) -> Self {
+        Self {
+            method,
+            grip_stiffness: 800.0,
+            inertia_stiffness: 800.0,
+            inertia_damping: 40.0,
+            friction: 1.0,
+        }
+    }
+}
+
 /// A rigid box: the object held.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Object {
@@ -403,19 +417,9 @@ mod tests {
     const K: f64 = 800.0;
     const WIDTH: f64 = 0.06;
 
-    fn settings(method: Method) -> GraspSettings {
-        GraspSettings {
-            method,
-            grip_stiffness: K,
-            inertia_stiffness: 800.0,
-            inertia_damping: 40.0,
-            friction: 1.0,
-        }
-    }
-
     fn box_between_fingers(method: Method, gravity: DVec3) -> Handheld {
         Handheld {
-            grasp: Grasp::new(settings(method)),
+            grasp: Grasp::new(GraspSettings::thesis(method)),
             object: Object::at_rest(DVec3::new(WIDTH, 0.1, 0.06), 1.0, DVec3::ZERO),
             gravity,
         }
