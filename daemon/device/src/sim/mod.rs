@@ -24,6 +24,10 @@ use hapticd_core::mechanism::Mechanism;
 use hapticd_core::transport::{CHANNELS, DAC_DIGITS_PER_VOLT};
 use hapticd_core::transport::{Link, TransportError};
 
+/// How far past its target a squeezing hand may press before its arm pulls it back, metres:
+/// deeper than any grip, short of running away when it misses.
+const SQUEEZE_REACH: f64 = 0.02;
+
 /// Physical constants of the simulated device and hand.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimParameters {
@@ -266,8 +270,11 @@ impl SimulatedBoard {
                 + p.skin.1 * (e.hand_velocity - e.grip_velocity);
             let mut arm_force = p.arm.0 * (command.target - e.hand)
                 + p.arm.1 * (command.velocity - e.hand_velocity);
-            if let Some(inward) = command.squeeze.try_normalize() {
-                // Squeezing, the arm may press the finger in harder, never pull it back.
+            if let Some(inward) = command.squeeze.try_normalize()
+                && (e.hand - command.target).dot(inward) < SQUEEZE_REACH
+            {
+                // Squeezing, the arm may press the finger in harder, never pull it back, as
+                // long as it has not gone far past its target (it missed what it squeezes).
                 arm_force -= arm_force.dot(inward).min(0.0) * inward;
             }
             arm_force += command.push + command.squeeze;
@@ -407,6 +414,29 @@ mod tests {
                 "string {i}"
             );
         }
+    }
+
+    #[test]
+    fn a_squeezing_finger_with_nothing_to_squeeze_stops_short_of_running_away() {
+        let m = spidar();
+        let name = &m.effectors[0].name;
+        let script = Script::parse(
+            &format!("hands:\n  {name}:\n    - hold: {{ seconds: 2, squeeze: [2, 0, 0] }}\n"),
+            std::path::Path::new("h.yaml"),
+        )
+        .unwrap();
+        let mut board = SimulatedBoard::new(&m, 1e-3, &script, SimParameters::default()).unwrap();
+        let mut out = [0u8; sh4::PACKET];
+        Command { dac: [0; CHANNELS] }.encode(&mut out);
+        for _ in 0..2000 {
+            board.write(&out).unwrap();
+            let mut input = [0u8; sh4::PACKET];
+            board.read(&mut input).unwrap();
+        }
+        // 2 N and no arm against it for the first 2 cm; there the arm (6 N at 2 cm) takes
+        // over again, and the finger stays.
+        let x = board.grip(0).position.x - m.effectors[0].calibration.position.x;
+        assert!((0.015..0.025).contains(&x), "moved {x}");
     }
 
     #[test]

@@ -2,13 +2,14 @@
 //!
 //! Every box-shaped body that can move is a candidate. Its grasp model
 //! ([`hapticd_core::haptics::grasp`]) follows the pointers into the box grown by the
-//! pointer's half size (so a finger touches where the pointer solid does). While no two
-//! pointers press a body from opposite sides, the penalty contacts act as they always do.
-//! Once they do, the body is held: the contacts between it and those pointers leave the
-//! world's step, the pointers feel the grasp's forces (grip, plus their share of the
-//! resultant), and the body gets the resultant as a load; its contacts with the rest of the
-//! world (the table it is lifted from, the block it knocks) go on. Opening the fingers ends
-//! the grasp.
+//! pointer's half size (so a finger touches where the pointer solid does), and the contacts
+//! between the body and the pointers touching it are the model's, not the world's: one
+//! spring per finger while they only touch or push it, and once two press it from opposite
+//! sides, the grasp: the pointers feel its forces (grip, plus their share of the resultant)
+//! and the body gets the resultant as a load. The same springs before, during and after a
+//! grasp, so none starts or ends with a jump. The body's contacts with the rest of the world
+//! (the table it is lifted from, the block it knocks) go on as always. Opening the fingers
+//! ends the grasp.
 
 use glam::{DQuat, DVec3};
 use hapticd_core::haptics::grasp::{Grasp, GraspSettings, MAX_FINGERS, Object};
@@ -34,7 +35,7 @@ pub struct Grasping {
     candidates: Vec<Candidate>,
     /// The held body's candidate, if one is held.
     held: Option<usize>,
-    /// Force on each pointer from the grasp in the last step.
+    /// Force on each pointer from the bodies it touches, in the last step.
     felt: [DVec3; MAX_FINGERS],
 }
 
@@ -81,8 +82,8 @@ impl Grasping {
     }
 
     /// [rt] Before a world step of `dt`: follow the pointers (bodies `first_pointer`… of
-    /// `world`), and for a held body set its load, the pointers' forces, and which contacts
-    /// the step leaves out. Allocation-free.
+    /// `world`); for each body they touch, set its load and the pointers' forces from its
+    /// grasp model, and leave their contacts out of the step. Allocation-free.
     pub fn before_step(
         &mut self,
         world: &mut World,
@@ -96,10 +97,8 @@ impl Grasping {
             *finger = world.bodies[first_pointer + k].position;
         }
         self.felt = [DVec3::ZERO; MAX_FINGERS];
+        self.held = None;
         world.ignored_pairs.clear();
-        if let Some(c) = self.held.take() {
-            world.loads[self.candidates[c].body] = Wrench::ZERO;
-        }
         for (c, candidate) in self.candidates.iter_mut().enumerate() {
             let b = &world.bodies[candidate.body];
             let orientation = b.orientation * candidate.turn;
@@ -112,20 +111,21 @@ impl Grasping {
                 spin: orientation.inverse() * b.spin,
             };
             let frame = candidate.model.step(&fingers[..n], &object, dt);
-            if !frame.grasped || self.held.is_some() {
-                continue;
-            }
-            self.held = Some(c);
+            // Touched or held, the body's contacts with the pointers are the model's: one
+            // spring per touching finger, or the grasp (no jump when a grasp starts or ends).
             world.loads[candidate.body] = Wrench {
                 force: frame.resultant,
                 torque: frame.moment,
             };
-            for k in 0..n {
-                if frame.forces[k] != DVec3::ZERO {
-                    self.felt[k] = frame.forces[k];
-                    let (p, q) = (candidate.body, first_pointer + k);
-                    // Within capacity (one pair per pointer): no allocation.
+            if frame.grasped && self.held.is_none() {
+                self.held = Some(c);
+            }
+            for k in (0..n).filter(|&k| frame.forces[k] != DVec3::ZERO) {
+                let (p, q) = (candidate.body, first_pointer + k);
+                // Past the room reserved, the penalty contact stays (rather than allocate).
+                if world.ignored_pairs.len() < world.ignored_pairs.capacity() {
                     world.ignored_pairs.push((p.min(q), p.max(q)));
+                    self.felt[k] += frame.forces[k];
                 }
             }
         }
