@@ -73,7 +73,8 @@
 //!   inertia_damping: 40        # N·s/m; optional, default near critical for each body
 //! ```
 //!
-//! Held bodies stick to the pointers up to the material's `static_friction`.
+//! In such a scene the pointers touch box bodies through the grasp springs (grasped or not),
+//! and held bodies stick to them up to the material's `static_friction`.
 
 use crate::body::Body;
 use crate::coupling::{Coupling, Grip};
