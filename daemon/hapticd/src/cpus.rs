@@ -8,6 +8,10 @@
 //! CPU, or more devices than spare CPUs, threads stay where the scheduler puts them.
 
 use std::io;
+use std::sync::OnceLock;
+
+/// Every CPU the daemon may use, as it was before [`Plan::keep_daemon_off`].
+static EVERY: OnceLock<Vec<usize>> = OnceLock::new();
 
 /// The CPUs the calling thread may run on, in order.
 pub fn allowed() -> io::Result<Vec<usize>> {
@@ -62,6 +66,9 @@ impl Plan {
     /// Move every thread of this process (those started so far, and through the calling
     /// thread those started later) onto the other CPUs.
     pub fn keep_daemon_off(&self) -> io::Result<()> {
+        let mut every = [self.others.as_slice(), self.haptic.as_slice()].concat();
+        every.sort_unstable();
+        let _ = EVERY.set(every);
         for task in std::fs::read_dir("/proc/self/task")? {
             let tid = task?.file_name().to_string_lossy().parse().unwrap_or(0);
             if tid > 0 {
@@ -74,6 +81,13 @@ impl Plan {
         }
         Ok(())
     }
+}
+
+/// Let the calling thread run on every CPU again: the physics thread of a multi-rate scene,
+/// which the haptic loop waits on (planes three periods old fault the scene), so starving it
+/// on the others' CPUs would cost more than its wake-ups cost the haptic thread.
+pub fn allow_every_cpu() -> io::Result<()> {
+    EVERY.get().map_or(Ok(()), |every| pin(0, every))
 }
 
 #[cfg(test)]

@@ -226,6 +226,8 @@ impl MultiRateScene {
         let thread = std::thread::Builder::new()
             .name("hapticd-physics".into())
             .spawn(move || {
+                // Spawned off the haptic CPUs like every helper, it may use them all.
+                let _ = crate::cpus::allow_every_cpu();
                 // Move the whole instance in (not just its fields): it is destroyed with it.
                 let instance = instance;
                 let step = instance.vtable.step_physics.expect("checked at load");

@@ -70,7 +70,7 @@
 //!                              #   or conventional: one spring per finger (for comparison)
 //!   grip_stiffness: 800        # N/m from each pointer to the surface it holds
 //!   inertia_stiffness: 800     # N/m from the shell to the body (moments scale with size²)
-//!   inertia_damping: 40        # N·s/m; optional, default near critical for each body
+//!   inertia_damping: 10        # N·s/m; optional, default 0.35·√(kr·m) for each body
 //! ```
 //!
 //! In such a scene the pointers touch box bodies through the grasp springs (grasped or not),
@@ -252,6 +252,9 @@ pub const MAX_POINTERS: usize = 8;
 
 /// Softest and stiffest grasp springs, N/m.
 pub const GRASP_STIFFNESS: (f64, f64) = (1.0, 1e5);
+/// The inertia damper a grasp gets when its file gives none: this times √(kr·m), about a
+/// 0.18 damping ratio (10 N·s/m for the thesis' 1 kg box on 800 N/m).
+pub const INERTIA_DAMPING_FACTOR: f64 = 0.35;
 /// Heaviest damper on the inertia spring, N·s/m.
 pub const MAX_GRASP_DAMPING: f64 = 1e4;
 
@@ -610,10 +613,12 @@ impl PenaltyScene {
                     },
                     grip_stiffness: g.grip_stiffness,
                     inertia_stiffness: g.inertia_stiffness,
-                    // Near critical for the body on the inertia spring unless the file says.
+                    // Unless the file says, a damping ratio of about 0.18 for the body on the
+                    // inertia spring: through the shares the damper acts on the fingers' own
+                    // motion, and with the device's tick of delay a heavier one shakes them.
                     inertia_damping: g
                         .inertia_damping
-                        .unwrap_or(1.4 * (g.inertia_stiffness * mass).sqrt()),
+                        .unwrap_or(INERTIA_DAMPING_FACTOR * (g.inertia_stiffness * mass).sqrt()),
                     // Holding is sticking: the static coefficient.
                     friction: m.static_friction,
                 }
