@@ -147,6 +147,42 @@ fn a_grasp_step_does_not_allocate() {
 }
 
 #[test]
+fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
+    use glam::{DQuat, DVec3};
+    use hapticd_core::kinematics::Wrench;
+    use hapticd_physics::coupling::Grip;
+    use hapticd_physics::scene::PenaltyScene;
+    let path = support::repo_dir().join("config/scenes/grasp.yaml");
+    let mut scene = PenaltyScene::load(&path, 2).unwrap();
+    let mut felt = [Wrench::default(); 2];
+    // Close on the box, lift it, let go: touch, grasp and release all happen in here.
+    let mut run = || {
+        for step in 0..1500 {
+            let t = step as f64 * 1e-3;
+            let gap = if t < 1.2 {
+                0.09 - 0.025 * (t / 0.3).min(1.0)
+            } else {
+                0.09
+            };
+            let y = -0.1 + 0.03 * ((t - 0.5) / 0.5).clamp(0.0, 1.0);
+            let grips = [-1.0, 1.0].map(|side| Grip {
+                position: DVec3::new(side * gap / 2.0, y, 0.0),
+                orientation: DQuat::IDENTITY,
+                velocity: DVec3::ZERO,
+                spin: DVec3::ZERO,
+            });
+            assert!(scene.step_pointers(1e-3, &grips, &mut felt));
+        }
+    };
+    // The world's clipping buffers grow to the largest overlaps they meet, the first times
+    // they meet them (with or without grasping); after that nothing allocates.
+    run();
+    run();
+    let n = allocations_in(run);
+    assert_eq!(n, 0, "{n} allocations in 1500 ticks");
+}
+
+#[test]
 fn a_haptic_loop_tick_does_not_allocate() {
     for m in shipped_mechanisms() {
         let script = "hands:\n  grip:\n    - move: { to: [0.01, -0.05, 0.01], seconds: 0.3 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 3, seconds: 0.9 }\n    - unplug: { seconds: 0.1 }\n";
