@@ -32,6 +32,7 @@
 
 use glam::DVec3;
 
+use super::MAX_FINGERS;
 use crate::solver::box_qp::{self, ActiveSet, BoxQp, MAX_VARS, Matrix, Vector};
 
 /// γ2 of (4.17).
@@ -47,8 +48,8 @@ const ALIGNMENT_FLOOR: f64 = 1e-3;
 /// Largest share (newtons) or common factor the solver considers.
 const SHARE_LIMIT: f64 = 1e3;
 
-/// Most fingers one distribution takes (one variable is the common factor k).
-pub const MAX_FINGERS: usize = MAX_VARS - 1;
+// One variable per finger, and the common factor k.
+const _: () = assert!(MAX_FINGERS < MAX_VARS);
 
 /// Where a finger presses on the object and how hard it grips.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -222,18 +222,14 @@ impl Grasp {
         }
     }
 
-    /// The settings.
-    pub fn settings(&self) -> &GraspSettings {
-        &self.settings
-    }
-
     /// [rt] Advance `dt` seconds with the fingers at `fingers` (at most [`MAX_FINGERS`]) on
     /// `object` as it is now; the frame says what they feel and what they give it.
     pub fn step(&mut self, fingers: &[DVec3], object: &Object, dt: f64) -> GraspFrame {
         let n = fingers.len().min(MAX_FINGERS);
         let distributed = self.settings.method == Method::Distributed;
         // The shell is the object's surface until a grasp starts.
-        let (centre, rotation) = if distributed && self.opposed(n) {
+        let holding = distributed && self.opposed(n);
+        let (centre, rotation) = if holding {
             (self.shell_position, self.shell_orientation)
         } else {
             (object.position, object.orientation)
@@ -247,7 +243,7 @@ impl Grasp {
         }
         let grasped = self.opposed(n);
         if distributed && grasped {
-            if (centre, rotation) == (object.position, object.orientation) {
+            if !holding {
                 // A grasp starts: the shell from the object's surface.
                 (self.shell_position, self.shell_orientation) = (centre, rotation);
                 self.delivered = (DVec3::ZERO, DVec3::ZERO);
