@@ -4,8 +4,9 @@
 //! (Sutherland–Hodgman), the points where edges cross the plane are shared by the two faces
 //! of the edge, and the points on the plane close the hole as a new face, ordered by angle
 //! around their centroid. Intersecting A with B is clipping A by every face plane of B.
-//! The clipper keeps its work buffers, face lists included, between calls: once it has met
-//! contacts of some size it allocates nothing more.
+//! The clipper keeps its work buffers, face lists included, between calls, and
+//! [`Clipper::reserve`] sizes them beforehand for the largest pieces of a world, so that
+//! clipping inside a haptic tick allocates nothing, from the first contact on.
 
 use glam::DVec3;
 
@@ -32,6 +33,31 @@ pub struct Clipper {
 }
 
 impl Clipper {
+    /// Room for intersecting pieces of at most `faces` faces each, and for `out`, the
+    /// intersection they are written to. A convex intersection has at most the faces of both
+    /// (2·faces), each with at most that many vertices, and at most twice as many vertices
+    /// as faces; every buffer gets that much and more.
+    pub fn reserve(&mut self, faces: usize, out: &mut Polyhedron) {
+        let faces = 2 * faces + 4;
+        let vertices = 2 * faces + 8;
+        self.distance.reserve(vertices);
+        self.kept.reserve(vertices);
+        // Each edge crosses at most once; a convex polyhedron has under three per vertex.
+        self.crossings.reserve(3 * vertices);
+        self.cap.reserve(vertices);
+        // Face lists live in the pool or in one of the three polyhedra clipping writes to.
+        let lists = 3 * faces;
+        self.pool.reserve(lists);
+        while self.pool.len() < lists {
+            self.pool.push(Vec::with_capacity(faces.max(FACE_CAPACITY)));
+        }
+        for p in [&mut self.spare, out] {
+            p.vertices.reserve(vertices);
+            p.faces.reserve(faces);
+            p.planes.reserve(faces);
+        }
+    }
+
     /// Write the part of `input` where `plane.distance(x) ≤ 0` to `out` (empty when none).
     pub fn clip(&mut self, input: &Polyhedron, plane: Plane, out: &mut Polyhedron) {
         self.empty(out);

@@ -679,8 +679,8 @@ impl PenaltyScene {
 
     /// [rt] Step the world through `dt` (in steps no longer than the scene's) with pointer k
     /// following `grips[k]`; `felt[k]` gets the wrench the user feels there (force, then
-    /// torque about the pointer), averaged over `dt`. Allocates nothing once the world's
-    /// clipping buffers have grown to the overlaps it meets (the first times it meets them).
+    /// torque about the pointer), averaged over `dt`. Allocates nothing: the world sized its
+    /// clipping buffers for its largest pieces when it was made.
     ///
     /// Returns false, and steps nothing, when `dt` is not a positive time or would take more
     /// than [`MAX_STEPS_PER_CALL`] steps; and false when a wrench came out non-finite.

@@ -229,6 +229,14 @@ impl World {
             .collect();
         let pairs = first_piece[n] * first_piece[n];
         let friction = vec![FrictionState::default(); pairs];
+        let (mut clipper, mut overlap) = (Clipper::default(), Polyhedron::default());
+        let faces = bodies
+            .iter()
+            .flat_map(|b| &b.pieces)
+            .map(|p| p.faces.len())
+            .max()
+            .unwrap_or(0);
+        clipper.reserve(faces, &mut overlap);
         Self {
             first_piece,
             normals: vec![DVec3::ZERO; pairs],
@@ -243,8 +251,8 @@ impl World {
             bodies,
             gravity,
             material,
-            clipper: Clipper::default(),
-            overlap: Polyhedron::default(),
+            clipper,
+            overlap,
         }
     }
 
