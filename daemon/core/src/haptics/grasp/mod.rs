@@ -184,6 +184,8 @@ pub struct GraspFrame {
     pub forces: [DVec3; MAX_FINGERS],
     /// Each finger's grip force: the normal push of the surface it holds, newtons.
     pub grips: [f64; MAX_FINGERS],
+    /// Outward normal of the surface each touching finger presses (zero for the others).
+    pub normals: [DVec3; MAX_FINGERS],
     /// Each finger's share of the resultant, newtons (0 for the conventional method).
     pub shares: [f64; MAX_FINGERS],
     /// The force the fingers give the object, newtons.
@@ -313,6 +315,7 @@ impl Grasp {
         let mut frame = GraspFrame {
             forces: [DVec3::ZERO; MAX_FINGERS],
             grips: [0.0; MAX_FINGERS],
+            normals: [DVec3::ZERO; MAX_FINGERS],
             shares: [0.0; MAX_FINGERS],
             resultant,
             moment,
@@ -326,6 +329,7 @@ impl Grasp {
             let force = k * (p - holding[j]);
             frame.forces[index[j]] = force;
             frame.grips[index[j]] = force.dot(outward).max(0.0);
+            frame.normals[index[j]] = outward;
             presses[j] = Press {
                 point: p - centre,
                 direction: -outward,
@@ -365,6 +369,7 @@ impl Grasp {
         let mut frame = GraspFrame {
             forces: [DVec3::ZERO; MAX_FINGERS],
             grips: [0.0; MAX_FINGERS],
+            normals: [DVec3::ZERO; MAX_FINGERS],
             shares: [0.0; MAX_FINGERS],
             resultant: DVec3::ZERO,
             moment: DVec3::ZERO,
@@ -375,7 +380,9 @@ impl Grasp {
             let p = centre + rotation * contact.local;
             let force = k * (p - fingers[i]);
             frame.forces[i] = force;
-            frame.grips[i] = force.dot(rotation * contact.normal()).max(0.0);
+            let outward = rotation * contact.normal();
+            frame.grips[i] = force.dot(outward).max(0.0);
+            frame.normals[i] = outward;
             frame.resultant -= force;
             frame.moment -= (p - centre).cross(force);
         }
@@ -496,24 +503,53 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
-        let mut d = Distribution::default();
+        let mut pushed = 0;
         for _ in 0..100_000 {
-            let n = 2 + ((random() + 1.0) * 2.0) as usize % 4;
-            let mut presses = [Press::default(); MAX_FINGERS];
-            for p in &mut presses[..n] {
-                p.point = 0.05 * DVec3::new(random(), random(), random());
-                p.direction = DVec3::new(random(), random(), random()).normalize_or(DVec3::X);
-                p.grip = 5.0 * (random() + 1.0);
+            // A box of 2–10 cm edges, moving and turning, that the shell starts from: the
+            // inertia spring's damper asks the fingers for a resultant at once.
+            let half = DVec3::new(random(), random(), random()) * 0.02 + DVec3::splat(0.03);
+            let object = Object {
+                velocity: DVec3::new(random(), random(), random()),
+                spin: 10.0 * DVec3::new(random(), random(), random()),
+                ..Object::at_rest(2.0 * half, 1.0, DVec3::ZERO)
+            };
+            // Two to four fingers, the first two on opposite faces, each 0.1–3 mm inside
+            // the face it presses, away from the face's edges.
+            let n = 2 + ((random() + 1.0) * 1.5) as usize % 3;
+            let mut fingers = [DVec3::ZERO; MAX_FINGERS];
+            let mut outward = [DVec3::ZERO; MAX_FINGERS];
+            for (k, (finger, normal)) in fingers.iter_mut().zip(&mut outward).take(n).enumerate() {
+                let face = match k {
+                    0 => 0,
+                    1 => 1,
+                    _ => ((random() + 1.0) * 3.0) as usize % 6,
+                };
+                let (axis, sign) = (face / 2, if face % 2 == 1 { 1.0 } else { -1.0 });
+                *finger = 0.6 * half * DVec3::new(random(), random(), random());
+                finger[axis] = sign * (half[axis] - 0.0001 - 0.0029 * (random() + 1.0) / 2.0);
+                normal[axis] = sign;
             }
-            let force = 20.0 * DVec3::new(random(), random(), random());
-            let torque = 0.5 * DVec3::new(random(), random(), random());
-            let mut shares = [0.0; MAX_FINGERS];
-            d.share(&presses[..n], force, torque, 0.1, &mut shares[..n]);
-            assert!(
-                shares[..n].iter().all(|s| s.is_finite() && *s >= 0.0),
-                "{shares:?}"
-            );
+            let mut grasp = Grasp::new(GraspSettings::thesis(Method::Distributed));
+            let frame = grasp.step(&fingers[..n], &object, 1e-3);
+            assert!(frame.grasped);
+            for (k, normal) in outward.iter().enumerate().take(n) {
+                // Each finger presses the face it was put against (the shell turns a little).
+                assert!(frame.normals[k].dot(*normal) > 0.99, "finger {k}");
+                // A share only adds to the finger's push away from the surface it presses.
+                // (Where the balance moved the shell's face past a finger, its spring pulls
+                // it in and its grip counts as 0: nothing to compare with there.)
+                assert!(frame.shares[k].is_finite() && frame.shares[k] >= 0.0);
+                let along = frame.forces[k].dot(frame.normals[k]);
+                assert!(
+                    frame.grips[k] == 0.0 || along >= frame.grips[k] - 1e-9,
+                    "finger {k}: {along} N outward against a grip of {}",
+                    frame.grips[k]
+                );
+                pushed += usize::from(frame.shares[k] > 0.5);
+            }
         }
+        // The shares were put to the test: most grasps gave some finger one.
+        assert!(pushed > 50_000, "{pushed} shares over 0.5 N");
     }
 
     #[test]

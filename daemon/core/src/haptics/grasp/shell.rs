@@ -46,14 +46,6 @@ pub struct Displacement {
     pub rotation: DVec3,
 }
 
-impl Displacement {
-    /// Where this displacement takes a point `p` of a shell centred at `centre`: exact
-    /// rotation, so repeated steps stay rigid.
-    pub fn apply(&self, centre: DVec3, p: DVec3) -> DVec3 {
-        centre + self.translation + DQuat::from_scaled_axis(self.rotation) * (p - centre)
-    }
-}
-
 /// Linearisations the balance takes: each re-linearises about where the last one moved the
 /// shell, so turns of a few degrees still balance to well under a millinewton.
 const ITERATIONS: usize = 3;
@@ -170,8 +162,9 @@ mod tests {
         let mut force = load.force;
         let mut torque = load.torque;
         let moved_centre = c + d.translation;
+        let turn = DQuat::from_scaled_axis(d.rotation);
         for (&p, &x) in held.iter().zip(fingers) {
-            let q = d.apply(c, p);
+            let q = moved_centre + turn * (p - c);
             let f = k * (x - q);
             force += f;
             torque += (q - moved_centre).cross(f);
