@@ -51,14 +51,11 @@ fn continuous_tensions_trace_the_bar_rounder_and_smoother() {
 /// `hapticctl experiment grasp --json` in the thesis' set-up: both methods' means and spreads.
 #[test]
 fn shaking_a_held_box_keeps_grip_and_finger_distance_steady_with_the_resultant_distributed() {
-    let out = hapticctl()
-        .args(["experiment", "grasp", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = support::succeeded(
+        hapticctl()
+            .args(["experiment", "grasp", "--json"])
+            .output()
+            .unwrap(),
     );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let method = |name: &str| {

@@ -461,11 +461,7 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
         .env_remove("NOTIFY_SOCKET")
         .output()
         .expect("strace is installed (Debian package strace; `make check` installs it)");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    support::succeeded(out);
     let trace = std::fs::read_to_string(&trace).unwrap();
     let thread = trace
         .lines()

@@ -31,12 +31,7 @@ fn make(target: &str, vars: &[String]) -> Output {
         .env("CARGO", "/nonexistent/cargo")
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
+    support::succeeded(out)
 }
 
 /// `make install DESTDIR=dest` with `extra` variables.

@@ -1,16 +1,13 @@
 //! The workspace's layering, checked: the core links no I/O library, and no crate's modules
 //! import each other in a circle.
 
+mod support;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn repo_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ sits in the repository")
-        .to_path_buf()
-}
+use support::repo_dir;
 
 /// The packages `package` depends on to build (not to test), by name.
 fn normal_dependencies(package: &str) -> BTreeSet<String> {
@@ -28,11 +25,7 @@ fn normal_dependencies(package: &str) -> BTreeSet<String> {
         .args(["--format", "{p}", "-p", package])
         .output()
         .expect("cargo runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let output = support::succeeded(output);
     String::from_utf8_lossy(&output.stdout)
         .lines()
         .filter_map(|line| line.split_whitespace().next())

@@ -126,6 +126,16 @@ pub fn pose_inside(m: &Mechanism, index: usize, rng: &mut Rng) -> Pose {
     }
 }
 
+/// `out` of a program that must have succeeded; fails the test with its standard error.
+pub fn succeeded(out: std::process::Output) -> std::process::Output {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Where tests may create files: cargo's per-target scratch directory, inside target/.
 pub fn scratch_root() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
