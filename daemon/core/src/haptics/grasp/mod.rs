@@ -553,6 +553,35 @@ mod tests {
     }
 
     #[test]
+    fn random_distributions_never_give_a_negative_share() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut d = Distribution::default();
+        for _ in 0..100_000 {
+            let n = 2 + ((random() + 1.0) * 2.0) as usize % 4;
+            let mut presses = [Press::default(); MAX_FINGERS];
+            for p in &mut presses[..n] {
+                p.point = 0.05 * DVec3::new(random(), random(), random());
+                p.direction = DVec3::new(random(), random(), random()).normalize_or(DVec3::X);
+                p.grip = 5.0 * (random() + 1.0);
+            }
+            let force = 20.0 * DVec3::new(random(), random(), random());
+            let torque = 0.5 * DVec3::new(random(), random(), random());
+            let mut shares = [0.0; MAX_FINGERS];
+            d.share(&presses[..n], force, torque, 0.1, &mut shares[..n]);
+            assert!(
+                shares[..n].iter().all(|s| s.is_finite() && *s >= 0.0),
+                "{shares:?}"
+            );
+        }
+    }
+
+    #[test]
     fn shares_change_continuously_along_a_smooth_path() {
         let presses = [
             Press {
