@@ -95,7 +95,7 @@ SYSTEMLIBDIR ?= $(if $(filter /usr /usr/local,$(PREFIX)),$(PREFIX)/lib,/etc)
 # The system bus reads policies from /usr/share/dbus-1/system.d and /etc/dbus-1/system.d only.
 DBUSPOLICYDIR ?= $(if $(filter /usr,$(PREFIX)),/usr/share/dbus-1/system.d,/etc/dbus-1/system.d)
 MECHANISM_PLUGINS := $(PLUGINS)
-SCENE_PLUGINS := hapticd-scene-penalty
+SCENE_PLUGINS := hapticd-scene-penalty hapticd-scene-rapier
 VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml)
 so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
 # The C example mechanism, built as a plugin author would build it.

@@ -135,6 +135,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/lib/hapticd/plugins/libhapticd_spidar_g.so",
         "usr/lib/hapticd/plugins/libspidar_desk.so",
         "usr/lib/hapticd/scenes/libhapticd_scene_penalty.so",
+        "usr/lib/hapticd/scenes/libhapticd_scene_rapier.so",
         "usr/share/hapticd/scenes/static.yaml",
         "usr/share/hapticd/mechanisms/spidar-6s.yaml",
         "usr/include/hapticd/hapticd_plugin.h",

@@ -40,7 +40,7 @@ pub struct Config {
     /// Where scenes are looked up.
     pub scene_dirs: Vec<PathBuf>,
     /// Where scene plugins are looked up; physics scene files run on the plugin of their
-    /// engine (`libhapticd_scene_penalty.so`).
+    /// engine (`libhapticd_scene_penalty.so`, `libhapticd_scene_rapier.so`).
     pub scene_plugin_dirs: Vec<PathBuf>,
     /// The scene rendered at start.
     pub scene: String,

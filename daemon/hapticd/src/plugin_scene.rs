@@ -18,14 +18,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
-use glam::DVec3;
 use hapticd_plugin_api::*;
 
 use crate::clock::{monotonic_ns, sleep_until};
 use crate::plugin;
-use hapticd_core::haptics::obstacle::Shape;
-use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
+use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench, quat_to_wxyz};
+use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
@@ -164,42 +163,17 @@ impl Scene for DirectScene {
     fn reset(&mut self, _pointers: &[Pointer]) {}
 }
 
-/// One published set of planes.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct PlaneSet {
-    /// Increases with every physics step; 0 before the first.
-    sequence: u64,
-    planes: [HapticdPlanes; MAX_EFFECTORS],
-}
-
-/// Impulse summed over one physics period on one plane.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct Accumulator {
-    impulse: DVec3,
-    weighted_point: DVec3,
-    weight: f64,
-}
-
-/// A multi-rate scene: the plugin runs in a physics thread.
+/// A multi-rate scene: the plugin runs in a physics thread, the haptic side in the tick.
 struct MultiRateScene {
     name: String,
-    period: f64,
-    proxies: Vec<Proxy>,
-    parameters: ProxyParameters,
+    renderer: PlaneRenderer,
     pointers_out: Writer<[HapticdPointer; MAX_EFFECTORS]>,
     planes_in: Reader<PlaneSet>,
     impulses_out: spsc::Producer<HapticdImpulse>,
-    previous: PlaneSet,
-    current: PlaneSet,
-    since_update: f64,
-    sums: [[Accumulator; HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
     failed: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
-
-/// Planes older than this many physics periods count as stale.
-const STALE_PERIODS: f64 = 3.0;
 
 impl MultiRateScene {
     /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
@@ -274,59 +248,14 @@ impl MultiRateScene {
             })?;
         Ok(Self {
             name,
-            period: 1.0 / rate,
-            proxies: pointers
-                .iter()
-                .map(|p| Proxy::new(p.pose.position))
-                .collect(),
-            parameters: ProxyParameters::default(),
+            renderer: PlaneRenderer::new(rate, pointers),
             pointers_out,
             planes_in,
             impulses_out,
-            previous: PlaneSet::default(),
-            current: PlaneSet::default(),
-            since_update: 0.0,
-            sums: [[Accumulator::default(); HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
             failed,
             stop,
             thread: Some(thread),
         })
-    }
-
-    /// Hand the impulses summed over the period that just ended to the physics thread.
-    fn send_impulses(&mut self) {
-        for (sums, planes) in self.sums.iter_mut().zip(&self.current.planes) {
-            for (sum, plane) in sums.iter_mut().zip(&planes.planes[..planes.count as usize]) {
-                if sum.weight > 0.0 {
-                    let point = sum.weighted_point / sum.weight;
-                    self.impulses_out.push(HapticdImpulse {
-                        object: plane.object,
-                        point: point.to_array(),
-                        impulse: sum.impulse.to_array(),
-                    });
-                }
-                *sum = Accumulator::default();
-            }
-        }
-    }
-
-    /// Plane `k` of pointer `p`, moved `fraction` of the way from its previous pose (same
-    /// object) to its current one.
-    fn interpolated(&self, p: usize, k: usize, fraction: f64) -> Shape {
-        let plane = &self.current.planes[p].planes[k];
-        let (mut point, mut normal) = (DVec3::from(plane.point), DVec3::from(plane.normal));
-        let earlier = &self.previous.planes[p];
-        if let Some(old) = earlier.planes[..earlier.count as usize]
-            .iter()
-            .find(|o| o.object == plane.object)
-        {
-            point = DVec3::from(old.point).lerp(point, fraction);
-            normal = DVec3::from(old.normal).lerp(normal, fraction);
-        }
-        Shape::HalfSpace {
-            point,
-            normal: normal.normalize_or(DVec3::Y),
-        }
     }
 }
 
@@ -336,65 +265,34 @@ impl Scene for MultiRateScene {
     }
 
     fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
-        wrenches.fill(Wrench::ZERO);
         self.pointers_out.publish(|out| {
             for (o, p) in out.iter_mut().zip(pointers) {
                 *o = to_abi(p);
             }
         });
-        let latest = *self.planes_in.latest();
-        if latest.sequence != self.current.sequence {
-            self.send_impulses();
-            self.previous = self.current;
-            self.current = latest;
-            self.since_update = 0.0;
-        } else {
-            self.since_update += dt;
-        }
-        let stale = self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.period;
-        if self.failed.load(Ordering::Acquire) || stale {
+        let latest = self.planes_in.latest();
+        let impulses = &mut self.impulses_out;
+        // A full channel (a stalled physics thread) drops an impulse rather than wait.
+        let fresh = self.renderer.tick(latest, pointers, dt, wrenches, |i| {
+            impulses.push(i);
+        });
+        if self.failed.load(Ordering::Acquire) || !fresh {
+            wrenches.fill(Wrench::ZERO);
             return false;
-        }
-        let fraction = (self.since_update / self.period).min(1.0);
-        for (p, (pointer, wrench)) in pointers.iter().zip(wrenches.iter_mut()).enumerate() {
-            let count = self.current.planes[p].count.min(HAPTICD_MAX_PLANES as u32) as usize;
-            let mut shapes = [Shape::HalfSpace {
-                point: DVec3::ZERO,
-                normal: DVec3::Y,
-            }; HAPTICD_MAX_PLANES];
-            for (k, shape) in shapes.iter_mut().enumerate().take(count) {
-                *shape = self.interpolated(p, k, fraction);
-            }
-            let out = self.proxies[p].update(
-                pointer.pose.position,
-                pointer.velocity,
-                &shapes[..count],
-                &self.parameters,
-                dt,
-            );
-            *wrench = Wrench::force(out.force);
-            if out.in_contact {
-                // The surface the proxy rests on takes the reaction.
-                let touched = (0..count).min_by(|&a, &b| {
-                    let d = |k: usize| shapes[k].signed_distance(out.proxy).abs();
-                    d(a).total_cmp(&d(b))
-                });
-                if let Some(k) = touched {
-                    let sum = &mut self.sums[p][k];
-                    let magnitude = out.force.length() * dt;
-                    sum.impulse -= out.force * dt;
-                    sum.weighted_point += out.proxy * magnitude;
-                    sum.weight += magnitude;
-                }
-            }
         }
         true
     }
 
     fn reset(&mut self, pointers: &[Pointer]) {
-        for (proxy, pointer) in self.proxies.iter_mut().zip(pointers) {
-            proxy.reset(pointer.pose.position);
-        }
+        self.renderer.reset(pointers);
+    }
+
+    fn set_proxy(&mut self, parameters: &ProxyParameters) {
+        self.renderer.set_parameters(parameters);
+    }
+
+    fn proxy(&self) -> Option<ProxyParameters> {
+        Some(self.renderer.parameters())
     }
 }
 

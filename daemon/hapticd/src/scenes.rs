@@ -9,7 +9,7 @@ use hapticd_core::diagnostics;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_core::scene::{Pointer, Scene};
-use hapticd_physics::scene::PenaltyScene;
+use hapticd_physics::scene::{Engine, SceneFile};
 use serde::de::IgnoredAny;
 
 /// Why a scene could not be opened.
@@ -104,8 +104,13 @@ pub fn locate(name: &str, dirs: &[PathBuf]) -> Result<PathBuf, OpenError> {
     Ok(path)
 }
 
-/// The plugin that runs physics scene files, found in `plugin_dirs`.
-const PENALTY_ENGINE: &str = "libhapticd_scene_penalty.so";
+/// The plugin that runs physics scene files of `engine`, found in `plugin_dirs`.
+fn engine_plugin(engine: Engine) -> &'static str {
+    match engine {
+        Engine::Penalty => "libhapticd_scene_penalty.so",
+        Engine::Rapier => "libhapticd_scene_rapier.so",
+    }
+}
 
 /// Whether the scene file at `path` describes a physics world (bodies) rather than static
 /// solids (shapes).
@@ -129,15 +134,19 @@ fn find(
     }
     if is_physics(&path) {
         // Checked here first, so that mistakes come back with their places.
-        PenaltyScene::load(&path, pointers.len()).map_err(|e| OpenError::Invalid(e.to_string()))?;
+        let plugin = engine_plugin(
+            SceneFile::load(&path, pointers.len())
+                .map_err(|e| OpenError::Invalid(e.to_string()))?
+                .engine(),
+        );
         let engine = places
             .plugin_dirs
             .iter()
-            .map(|d| d.join(PENALTY_ENGINE))
+            .map(|d| d.join(plugin))
             .find(|p| p.exists())
             .ok_or_else(|| {
                 OpenError::Invalid(format!(
-                    "{}: a physics scene, but no {PENALTY_ENGINE} in {:?} to run it",
+                    "{}: a physics scene, but no {plugin} in {:?} to run it",
                     path.display(),
                     places.plugin_dirs
                 ))
@@ -163,7 +172,7 @@ pub fn available(dirs: &[PathBuf]) -> Vec<String> {
                 let path = e.path();
                 let stem = path.file_stem()?.to_str()?.to_string();
                 let usable = if is_physics(&path) {
-                    PenaltyScene::load(&path, 0).is_ok()
+                    SceneFile::load(&path, 0).is_ok()
                 } else {
                     StaticSceneSpec::load(&path).is_ok()
                 };

@@ -141,6 +141,12 @@ impl Proxy {
         self.position
     }
 
+    /// Move the proxy to `position` without rendering, keeping its contact and friction
+    /// state: a surface it rests on carried it there.
+    pub fn carry(&mut self, position: DVec3) {
+        self.position = position;
+    }
+
     /// Put the proxy at `position`, free (after a scene change or a fault).
     pub fn reset(&mut self, position: DVec3) {
         *self = Self::new(position);

@@ -90,14 +90,19 @@ use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings, YamlMap
 use hapticd_core::haptics::grasp::{GraspSettings, Method};
 use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
 use serde::Deserialize;
+use serde::de::IgnoredAny;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawScene {
     name: String,
+    #[serde(default)]
+    engine: RawEngine,
     #[serde(default = "earth")]
     gravity: [f64; 3],
-    dt: f64,
+    dt: Option<f64>,
+    rate: Option<f64>,
+    feedback: Option<RawFeedback>,
     material: RawMaterial,
     bodies: Vec<RawBody>,
     pointer: Option<RawPointer>,
@@ -122,6 +127,21 @@ enum RawGraspMethod {
     Conventional,
 }
 
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+enum RawEngine {
+    #[default]
+    Penalty,
+    Rapier,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawFeedback {
+    Impulse,
+    Position,
+}
+
 fn earth() -> [f64; 3] {
     [0.0, -9.81, 0.0]
 }
@@ -129,15 +149,14 @@ fn earth() -> [f64; 3] {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawMaterial {
-    stiffness: f64,
-    damping: f64,
+    stiffness: Option<f64>,
+    damping: Option<f64>,
     static_friction: f64,
     friction: f64,
-    friction_stiffness: f64,
-    friction_damping: f64,
-    slip_speed: f64,
-    #[serde(default)]
-    model: RawModel,
+    friction_stiffness: Option<f64>,
+    friction_damping: Option<f64>,
+    slip_speed: Option<f64>,
+    model: Option<RawModel>,
     point_stiffness: Option<f64>,
     point_damping: Option<f64>,
     scaling: Option<RawScaling>,
@@ -166,6 +185,7 @@ struct RawBody {
     #[serde(rename = "box")]
     size: Option<[f64; 3]>,
     hull: Option<Vec<[f64; 3]>>,
+    sphere: Option<f64>,
     pieces: Option<Vec<RawPiece>>,
     position: [f64; 3],
     #[serde(default = "identity")]
@@ -186,6 +206,7 @@ struct RawPiece {
     #[serde(rename = "box")]
     size: Option<[f64; 3]>,
     hull: Option<Vec<[f64; 3]>>,
+    sphere: Option<f64>,
     #[serde(default)]
     position: [f64; 3],
     #[serde(default = "identity")]
@@ -206,6 +227,7 @@ struct RawPointer {
     #[serde(rename = "box")]
     size: Option<[f64; 3]>,
     hull: Option<Vec<[f64; 3]>>,
+    sphere: Option<f64>,
     coupling: Option<RawCoupling>,
     #[serde(default = "water")]
     density: f64,
@@ -281,28 +303,84 @@ pub const MAX_PIECES: usize = 256;
 /// need more fails instead of holding the haptic thread.
 pub const MAX_STEPS_PER_CALL: usize = 1000;
 
-/// The solid of a `box:` or a `hull:` (exactly one) of the item at field path `at`, turned
-/// by its `orientation` and moved to its `position`; `None` after reporting what is wrong.
+/// A convex piece as the file gives it, for engines with primitives of their own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Primitive {
+    /// A box of these half edges, turned by `rotation` from the world's axes.
+    Cuboid {
+        /// Half the edge lengths, metres.
+        half: DVec3,
+        /// The box's orientation.
+        rotation: DQuat,
+    },
+    /// A ball of this radius, metres (the penalty engine uses [`Polyhedron::ball`]).
+    Ball {
+        /// Radius, metres.
+        radius: f64,
+    },
+    /// The convex hull of the piece's vertices.
+    Hull,
+}
+
+/// The shape keys of one solid: exactly one of `box:`, `hull:` or `sphere:`.
+#[derive(Clone, Copy)]
+struct Given<'a> {
+    size: Option<[f64; 3]>,
+    hull: Option<&'a [[f64; 3]]>,
+    sphere: Option<f64>,
+}
+
+impl Given<'_> {
+    fn any(&self) -> bool {
+        self.size.is_some() || self.hull.is_some() || self.sphere.is_some()
+    }
+}
+
+macro_rules! given {
+    ($raw:expr) => {
+        Given {
+            size: $raw.size,
+            hull: $raw.hull.as_deref(),
+            sphere: $raw.sphere,
+        }
+    };
+}
+
+/// The solid of a `box:`, `hull:` or `sphere:` (exactly one) of the item at field path `at`,
+/// turned by its `orientation` and moved to its `position`, with the primitive it is;
+/// `None` after reporting what is wrong.
 fn solid(
     f: &mut Findings,
     at: &str,
-    size: Option<[f64; 3]>,
-    hull: Option<&[[f64; 3]]>,
+    given: Given,
     position: [f64; 3],
     orientation: [f64; 4],
-) -> Option<Polyhedron> {
+) -> Option<(Polyhedron, Primitive)> {
     let turn = f.unit_quaternion(format!("{at}.orientation"), orientation);
     let placed = f.coordinates(format!("{at}.position"), &position, WORLD_EXTENT, "m");
     let (smallest, largest) = SOLID_SIZES;
-    let local = match (size, hull) {
-        (Some(size), None) => {
+    let local = match (given.size, given.hull, given.sphere) {
+        (Some(size), None, None) => {
             let mut ok = true;
             for (k, side) in size.iter().enumerate() {
                 ok &= f.within(format!("{at}.box[{k}]"), *side, smallest, largest, " m");
             }
-            ok.then(|| Polyhedron::cuboid(DVec3::from(size) / 2.0))
+            let half = DVec3::from(size) / 2.0;
+            ok.then(|| {
+                let rotation = turn;
+                (Polyhedron::cuboid(half), Primitive::Cuboid { half, rotation })
+            })
         }
-        (None, Some(points)) => {
+        (None, None, Some(radius)) => f
+            .within(
+                format!("{at}.sphere"),
+                radius,
+                smallest / 2.0,
+                largest / 2.0,
+                " m",
+            )
+            .then(|| (Polyhedron::ball(radius), Primitive::Ball { radius })),
+        (None, Some(points), None) => {
             if points.len() > MAX_HULL_POINTS {
                 f.error(
                     format!("{at}.hull"),
@@ -336,49 +414,50 @@ fn solid(
                     );
                     None
                 }
-                Ok(hull) => Some(hull),
+                Ok(hull) => Some((hull, Primitive::Hull)),
             }
         }
         _ => {
-            f.error(at, "give either box: or hull:");
+            f.error(at, "give exactly one of box:, hull: or sphere:");
             None
         }
     };
-    placed.then_some(local?.transformed(turn, DVec3::from(position)))
+    let (local, primitive) = local?;
+    placed.then_some((local.transformed(turn, DVec3::from(position)), primitive))
 }
 
-/// The convex pieces of body `b` (at field path `at`) where the file puts them: its `box:` or
-/// `hull:`, or each of its `pieces:` placed on the body's pose.
-fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<Polyhedron>> {
+/// The convex pieces of body `b` (at field path `at`) where the file puts them, each with
+/// its primitive: its `box:`, `hull:` or `sphere:`, or each of its `pieces:` placed on the
+/// body's pose.
+fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<(Polyhedron, Primitive)>> {
     let Some(pieces) = &b.pieces else {
-        return Some(vec![solid(
-            f,
-            at,
-            b.size,
-            b.hull.as_deref(),
-            b.position,
-            b.orientation,
-        )?]);
+        return Some(vec![solid(f, at, given!(b), b.position, b.orientation)?]);
     };
-    if b.size.is_some() || b.hull.is_some() || pieces.is_empty() {
-        f.error(at, "give either box:, hull: or a list of pieces:");
+    if given!(b).any() || pieces.is_empty() {
+        f.error(at, "give either box:, hull:, sphere: or a list of pieces:");
         return None;
     }
     let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
     let placed = f.coordinates(format!("{at}.position"), &b.position, WORLD_EXTENT, "m");
-    let pieces: Vec<Option<Polyhedron>> = pieces
+    let pieces: Vec<Option<(Polyhedron, Primitive)>> = pieces
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            let piece = solid(
+            let (piece, primitive) = solid(
                 f,
                 &format!("{at}.pieces[{k}]"),
-                p.size,
-                p.hull.as_deref(),
+                given!(p),
                 p.position,
                 p.orientation,
             )?;
-            Some(piece.transformed(turn, DVec3::from(b.position)))
+            let primitive = match primitive {
+                Primitive::Cuboid { half, rotation } => Primitive::Cuboid {
+                    half,
+                    rotation: turn * rotation,
+                },
+                other => other,
+            };
+            Some((piece.transformed(turn, DVec3::from(b.position)), primitive))
         })
         .collect();
     placed.then_some(())?;
@@ -404,7 +483,7 @@ fn check_stability(f: &mut Findings, m: &RawMaterial, dt: f64, bodies: &[Body]) 
             .map(Polyhedron::largest_face_area)
             .fold(0.0, f64::max);
         for (key, k) in [
-            ("stiffness", m.stiffness * area),
+            ("stiffness", m.stiffness.unwrap_or(0.0) * area),
             ("point_stiffness", m.point_stiffness.unwrap_or(0.0)),
         ] {
             let omega_dt = (k / body.mass).sqrt() * dt;
@@ -429,7 +508,87 @@ fn check_stability(f: &mut Findings, m: &RawMaterial, dt: f64, bodies: &[Body]) 
     }
 }
 
-impl PenaltyScene {
+/// Which simulator steps a scene file's world (`engine:`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Engine {
+    /// The contact-volume penalty method inside every haptic tick (thesis Ch. 5).
+    Penalty,
+    /// rapier3d's constraint solver at `rate:` in a physics thread (thesis Ch. 6).
+    Rapier,
+}
+
+/// What a multi-rate world takes back from the haptic side (`feedback:`, thesis 6.2–6.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Feedback {
+    /// The impulse the hand gave each body over a physics period, at its point.
+    Impulse,
+    /// The conventional method: each pointer is a kinematic body moved to the hand's
+    /// position as the physics samples it.
+    Position,
+}
+
+/// A world for a multi-rate engine, as its scene file describes it.
+#[derive(Debug, Clone)]
+pub struct MultiRateWorld {
+    /// The scene's name.
+    pub name: String,
+    /// Gravity, m/s².
+    pub gravity: DVec3,
+    /// Physics steps per second.
+    pub rate: f64,
+    /// What the haptic side gives back.
+    pub feedback: Feedback,
+    /// μ0 of every contact.
+    pub static_friction: f64,
+    /// μ of every contact.
+    pub friction: f64,
+    /// The bodies (centroid, mass and inertia as the penalty engine has them).
+    pub bodies: Vec<Body>,
+    /// What each piece of each body is, in the order of [`Body::pieces`].
+    pub primitives: Vec<Vec<Primitive>>,
+    /// Names of the bodies.
+    pub names: Vec<String>,
+    /// The pointers' solid, centred at the origin, if the file gives one.
+    pub pointer: Option<(Body, Primitive)>,
+    /// What works but is worth knowing.
+    pub warnings: Vec<Diagnostic>,
+}
+
+/// A physics scene file, read for the engine it names.
+pub enum SceneFile {
+    /// `engine: penalty` (the default).
+    Penalty(PenaltyScene),
+    /// `engine: rapier`.
+    Rapier(MultiRateWorld),
+}
+
+/// Fastest and slowest physics of a multi-rate world, steps per second (the thesis runs
+/// 10 to 100).
+pub const RATE_RANGE: (f64, f64) = (10.0, 1000.0);
+
+/// Keys that only the penalty engine reads, with whether the file gives each.
+fn penalty_keys(raw: &RawScene) -> [(&'static str, bool); 12] {
+    let m = &raw.material;
+    [
+        ("dt", raw.dt.is_some()),
+        ("material.stiffness", m.stiffness.is_some()),
+        ("material.damping", m.damping.is_some()),
+        ("material.friction_stiffness", m.friction_stiffness.is_some()),
+        ("material.friction_damping", m.friction_damping.is_some()),
+        ("material.slip_speed", m.slip_speed.is_some()),
+        ("material.model", m.model.is_some()),
+        ("material.point_stiffness", m.point_stiffness.is_some()),
+        ("material.point_damping", m.point_damping.is_some()),
+        ("material.scaling", m.scaling.is_some()),
+        (
+            "pointer.coupling",
+            raw.pointer.as_ref().is_some_and(|p| p.coupling.is_some()),
+        ),
+        ("grasp", raw.grasp.is_some()),
+    ]
+}
+
+impl SceneFile {
     /// Load the scene file at `path` for `pointers` pointers.
     pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
         Self::parse(&diagnostics::read_text(path)?, path, pointers)
@@ -445,39 +604,55 @@ impl PenaltyScene {
         if f.finite("gravity", &raw.gravity) && DVec3::from(raw.gravity).length() > MAX_GRAVITY {
             f.error("gravity", format!("must be at most {MAX_GRAVITY} m/s²"));
         }
-        f.within("dt", raw.dt, MIN_DT, MAX_DT, " s");
         let m = &raw.material;
+        let penalty = match raw.engine {
+            RawEngine::Rapier => None,
+            RawEngine::Penalty => {
+                let dt = raw.dt.unwrap_or(MAX_DT);
+                f.within("dt", dt, MIN_DT, MAX_DT, " s");
+                Some((dt, Penalty::read(&mut f, m)))
+            }
+        };
         for (key, value) in [
-            ("stiffness", m.stiffness),
-            ("damping", m.damping),
             ("static_friction", m.static_friction),
             ("friction", m.friction),
-            ("friction_stiffness", m.friction_stiffness),
-            ("friction_damping", m.friction_damping),
-            ("slip_speed", m.slip_speed),
         ] {
             f.non_negative(format!("material.{key}"), value);
-        }
-        for (key, value) in [
-            ("point_stiffness", m.point_stiffness),
-            ("point_damping", m.point_damping),
-        ] {
-            if let Some(value) = value {
-                f.non_negative(format!("material.{key}"), value);
-            }
         }
         if m.friction > m.static_friction {
             f.error("material.friction", "must not exceed static_friction");
         }
-        if let Some(s) = &m.scaling {
-            // A contact spring of 2·spring·m/dt² turns ω·dt into √(2·spring): stable below 2.
-            if f.positive("material.scaling.spring", s.spring) && s.spring >= 2.0 {
-                f.error(
-                    "material.scaling.spring",
-                    "must be below 2: larger springs cannot be stable at any step",
-                );
+        let engine = match raw.engine {
+            RawEngine::Penalty => Engine::Penalty,
+            RawEngine::Rapier => Engine::Rapier,
+        };
+        match engine {
+            Engine::Penalty => {
+                for (key, given) in [("rate", raw.rate.is_some()), ("feedback", raw.feedback.is_some())] {
+                    if given {
+                        f.error(key, "only for engine: rapier (the penalty engine steps in every haptic tick)");
+                    }
+                }
+                for (key, given) in &penalty_keys(&raw)[..6] {
+                    if !given {
+                        f.error(*key, "missing: the penalty engine needs it");
+                    }
+                }
             }
-            f.non_negative("material.scaling.damper", s.damper);
+            Engine::Rapier => {
+                for (key, given) in penalty_keys(&raw) {
+                    if given {
+                        f.error(key, "only for engine: penalty (rapier's solver has no such setting)");
+                    }
+                }
+                let (slow, fast) = RATE_RANGE;
+                match raw.rate {
+                    Some(rate) => {
+                        f.within("rate", rate, slow, fast, " Hz");
+                    }
+                    None => f.error("rate", "missing: the rapier engine steps at this many Hz"),
+                }
+            }
         }
         let pieces: usize = raw
             .bodies
@@ -485,7 +660,7 @@ impl PenaltyScene {
             .map(|b| b.pieces.as_ref().map_or(1, Vec::len))
             .sum::<usize>()
             + pointers;
-        if pieces > MAX_PIECES {
+        if engine == Engine::Penalty && pieces > MAX_PIECES {
             f.error(
                 "bodies",
                 format!("{pieces} convex pieces; a world holds at most {MAX_PIECES}"),
@@ -493,6 +668,7 @@ impl PenaltyScene {
             return Err(f.into_error());
         }
         let mut bodies = Vec::with_capacity(raw.bodies.len() + pointers);
+        let mut primitives = Vec::with_capacity(raw.bodies.len());
         // Each body that is one box: its half edges and orientation (the body's frame starts
         // as the world's), for grasping.
         let mut boxes = Vec::with_capacity(raw.bodies.len());
@@ -508,17 +684,15 @@ impl PenaltyScene {
             if let Some(pieces) = pieces
                 && !f.has_errors()
             {
-                let mut body = Body::compound(&pieces, b.density, b.fixed);
+                let (solids, kinds): (Vec<Polyhedron>, Vec<Primitive>) = pieces.into_iter().unzip();
+                let mut body = Body::compound(&solids, b.density, b.fixed);
                 (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
                 bodies.push(body);
-                let [w, x, y, z] = b.orientation;
-                boxes.push(match (b.size, &b.hull, &b.pieces) {
-                    (Some(size), None, None) => Some((
-                        DVec3::from(size) / 2.0,
-                        DQuat::from_xyzw(x, y, z, w).normalize(),
-                    )),
+                boxes.push(match (kinds.as_slice(), &b.pieces) {
+                    ([Primitive::Cuboid { half, rotation }], None) => Some((*half, *rotation)),
                     _ => None,
                 });
+                primitives.push(kinds);
             }
         }
         let first_pointer = bodies.len();
@@ -531,8 +705,7 @@ impl PenaltyScene {
         if pointers > MAX_POINTERS {
             f.error("pointer", format!("at most {MAX_POINTERS} pointers"));
         }
-        let mut couplings = Vec::with_capacity(pointers);
-        if let Some(pointer) = &raw.pointer {
+        let pointer_solid = raw.pointer.as_ref().and_then(|pointer| {
             if let Some(c) = &pointer.coupling {
                 for (key, value) in [
                     ("stiffness", c.stiffness),
@@ -545,29 +718,8 @@ impl PenaltyScene {
                 let (light, dense) = DENSITY_RANGE;
                 f.within("pointer.density", pointer.density, light, dense, " kg/m³");
             }
-            let shape = solid(
-                &mut f,
-                "pointer",
-                pointer.size,
-                pointer.hull.as_deref(),
-                [0.0; 3],
-                identity(),
-            );
-            if let Some(shape) = shape
-                && !f.has_errors()
-            {
-                for _ in 0..pointers {
-                    let coupling = pointer.coupling.as_ref().map(|c| Coupling {
-                        stiffness: c.stiffness,
-                        damping: c.damping,
-                        rotational_stiffness: c.rotational_stiffness,
-                        rotational_damping: c.rotational_damping,
-                    });
-                    bodies.push(Body::new(&shape, pointer.density, coupling.is_none()));
-                    couplings.push(coupling);
-                }
-            }
-        }
+            solid(&mut f, "pointer", given!(pointer), [0.0; 3], identity())
+        });
         if let Some(g) = &raw.grasp {
             let (soft, stiff) = GRASP_STIFFNESS;
             f.within(
@@ -594,10 +746,47 @@ impl PenaltyScene {
                 );
             }
         }
-        if !f.has_errors() {
-            check_stability(&mut f, m, raw.dt, &bodies[..first_pointer]);
+        if let Some((dt, _)) = penalty
+            && !f.has_errors()
+        {
+            check_stability(&mut f, m, dt, &bodies);
         }
         let warnings = f.finish()?;
+        let Some((dt, penalty)) = penalty else {
+            let feedback = match raw.feedback {
+                Some(RawFeedback::Position) => Feedback::Position,
+                Some(RawFeedback::Impulse) | None => Feedback::Impulse,
+            };
+            return Ok(SceneFile::Rapier(MultiRateWorld {
+                name: raw.name,
+                gravity: DVec3::from(raw.gravity),
+                rate: raw.rate.unwrap_or(RATE_RANGE.0),
+                feedback,
+                static_friction: m.static_friction,
+                friction: m.friction,
+                bodies,
+                primitives,
+                names: raw.bodies.into_iter().map(|b| b.name).collect(),
+                pointer: pointer_solid.map(|(shape, primitive)| {
+                    let density = raw.pointer.as_ref().map_or(1000.0, |p| p.density);
+                    (Body::new(&shape, density, false), primitive)
+                }),
+                warnings,
+            }));
+        };
+        let mut couplings = Vec::with_capacity(pointers);
+        if let (Some(pointer), Some((shape, _))) = (&raw.pointer, &pointer_solid) {
+            for _ in 0..pointers {
+                let coupling = pointer.coupling.as_ref().map(|c| Coupling {
+                    stiffness: c.stiffness,
+                    damping: c.damping,
+                    rotational_stiffness: c.rotational_stiffness,
+                    rotational_damping: c.rotational_damping,
+                });
+                bodies.push(Body::new(shape, pointer.density, coupling.is_none()));
+                couplings.push(coupling);
+            }
+        }
         let grasping = raw.grasp.as_ref().filter(|_| pointers >= 2).map(|g| {
             // The pointer's half size: where its solid meets a face its centre is that far out.
             let pointer = bodies[first_pointer].pieces[0]
@@ -624,39 +813,32 @@ impl PenaltyScene {
                 }
             })
         });
-        let point = [
-            m.point_stiffness.unwrap_or(m.stiffness),
-            m.point_damping.unwrap_or(m.damping),
-        ];
         let material = Material {
-            stiffness: m.stiffness,
-            damping: m.damping,
+            stiffness: penalty.stiffness,
+            damping: penalty.damping,
             friction: FrictionParameters {
                 static_coefficient: m.static_friction,
                 dynamic_coefficient: m.friction,
-                stiffness: m.friction_stiffness,
-                damping: m.friction_damping,
-                slip_speed: m.slip_speed,
+                stiffness: penalty.friction_stiffness,
+                damping: penalty.friction_damping,
+                slip_speed: penalty.slip_speed,
             },
             model: ContactModel::Volume,
-            scaling: m.scaling.as_ref().map(|s| Scaling {
-                spring: s.spring,
-                damper: s.damper,
-            }),
+            scaling: penalty.scaling,
         };
         let materials = [
             material,
             Material {
-                stiffness: point[0],
-                damping: point[1],
+                stiffness: penalty.point[0],
+                damping: penalty.point[1],
                 model: ContactModel::Point,
                 ..material
             },
         ];
-        let mut scene = Self {
+        let mut scene = PenaltyScene {
             name: raw.name,
             world: World::new(bodies, DVec3::from(raw.gravity), material),
-            dt: raw.dt,
+            dt,
             first_pointer,
             names: raw
                 .bodies
@@ -670,11 +852,110 @@ impl PenaltyScene {
             grasping,
             warnings,
         };
-        scene.set_model(match m.model {
-            RawModel::Volume => ContactModel::Volume,
-            RawModel::Point => ContactModel::Point,
-        });
-        Ok(scene)
+        scene.set_model(penalty.model);
+        Ok(SceneFile::Penalty(scene))
+    }
+
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        match self {
+            SceneFile::Penalty(s) => &s.name,
+            SceneFile::Rapier(w) => &w.name,
+        }
+    }
+
+    /// What works in the file but is worth knowing.
+    pub fn warnings(&self) -> &[Diagnostic] {
+        match self {
+            SceneFile::Penalty(s) => &s.warnings,
+            SceneFile::Rapier(w) => &w.warnings,
+        }
+    }
+
+    /// The engine that runs the scene.
+    pub fn engine(&self) -> Engine {
+        match self {
+            SceneFile::Penalty(_) => Engine::Penalty,
+            SceneFile::Rapier(_) => Engine::Rapier,
+        }
+    }
+}
+
+/// The penalty engine's own material keys, checked (absent ones were reported and read 0).
+struct Penalty {
+    stiffness: f64,
+    damping: f64,
+    friction_stiffness: f64,
+    friction_damping: f64,
+    slip_speed: f64,
+    point: [f64; 2],
+    scaling: Option<Scaling>,
+    model: ContactModel,
+}
+
+impl Penalty {
+    fn read(f: &mut Findings, m: &RawMaterial) -> Self {
+        let mut value = |key: &str, v: Option<f64>| {
+            let v = v.unwrap_or(0.0);
+            f.non_negative(format!("material.{key}"), v);
+            v
+        };
+        let stiffness = value("stiffness", m.stiffness);
+        let damping = value("damping", m.damping);
+        let penalty = Penalty {
+            stiffness,
+            damping,
+            friction_stiffness: value("friction_stiffness", m.friction_stiffness),
+            friction_damping: value("friction_damping", m.friction_damping),
+            slip_speed: value("slip_speed", m.slip_speed),
+            point: [
+                m.point_stiffness
+                    .map_or(stiffness, |v| value("point_stiffness", Some(v))),
+                m.point_damping
+                    .map_or(damping, |v| value("point_damping", Some(v))),
+            ],
+            scaling: m.scaling.as_ref().map(|s| Scaling {
+                spring: s.spring,
+                damper: s.damper,
+            }),
+            model: match m.model.unwrap_or_default() {
+                RawModel::Volume => ContactModel::Volume,
+                RawModel::Point => ContactModel::Point,
+            },
+        };
+        if let Some(s) = &penalty.scaling {
+            // A contact spring of 2·spring·m/dt² turns ω·dt into √(2·spring): stable below 2.
+            if f.positive("material.scaling.spring", s.spring) && s.spring >= 2.0 {
+                f.error(
+                    "material.scaling.spring",
+                    "must be below 2: larger springs cannot be stable at any step",
+                );
+            }
+            f.non_negative("material.scaling.damper", s.damper);
+        }
+        penalty
+    }
+}
+
+impl PenaltyScene {
+    /// Load the penalty scene file at `path` for `pointers` pointers.
+    pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        Self::parse(&diagnostics::read_text(path)?, path, pointers)
+    }
+
+    /// Parse penalty scene `text` for `pointers` pointers (see [`SceneFile::parse`]); a
+    /// file for another engine is an error at its `engine:`.
+    pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        match SceneFile::parse(text, path, pointers)? {
+            SceneFile::Penalty(scene) => Ok(scene),
+            SceneFile::Rapier(_) => {
+                let (_, map): (IgnoredAny, YamlMap) = diagnostics::parse_yaml(text, path)?;
+                let locate = |field: &str| map.find(field);
+                let mut f = Findings::new(path, &locate);
+                f.error("engine", "a rapier scene; this runs penalty scenes only");
+                Err(f.into_error())
+            }
+        }
     }
 
     /// [rt] Step the world through `dt` (in steps no longer than the scene's) with pointer k

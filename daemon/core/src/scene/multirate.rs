@@ -1,0 +1,239 @@
+//! The haptic side of a multi-rate scene (thesis 6.3): the physics publishes, at its own
+//! rate, the surfaces near each pointer as planes; every haptic tick moves each plane from
+//! where the set before last had it toward where the last set has it (6.3.2, so the world
+//! felt lags one physics period and never jumps), renders the planes through the proxy
+//! (6.3.3), carries a proxy resting on a surface with the surface's own velocity (6.5.3),
+//! and sums the force it displays into an impulse on the touched object over each physics
+//! period (6.3.4), handed back when the next set arrives (6.3.5).
+//!
+//! The daemon runs this in the haptic thread against a physics thread; `hapticctl` runs it
+//! in step with the physics, at a chosen phase, for experiments. Neither allocates here.
+
+use glam::DVec3;
+use hapticd_plugin_api::{HAPTICD_MAX_PLANES, HapticdImpulse, HapticdPlane, HapticdPlanes};
+
+use crate::haptics::obstacle::Shape;
+use crate::haptics::proxy::{Proxy, ProxyParameters};
+use crate::kinematics::{MAX_EFFECTORS, Wrench};
+use crate::scene::Pointer;
+
+/// One set of planes as the physics published it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PlaneSet {
+    /// Increases with every physics step; 0 before the first.
+    pub sequence: u64,
+    /// The planes near each pointer.
+    pub planes: [HapticdPlanes; MAX_EFFECTORS],
+}
+
+/// Sets older than this many physics periods count as stale: the scene has failed.
+pub const STALE_PERIODS: f64 = 3.0;
+
+/// Impulse summed over one physics period on one plane.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Accumulator {
+    impulse: DVec3,
+    weighted_point: DVec3,
+    weight: f64,
+}
+
+/// A plane where the haptic side renders it this tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Surface {
+    /// A point of the plane.
+    pub point: DVec3,
+    /// Outward unit normal.
+    pub normal: DVec3,
+    /// Velocity of the solid's surface there.
+    pub velocity: DVec3,
+}
+
+/// The haptic side of a multi-rate scene for up to [`MAX_EFFECTORS`] pointers.
+#[derive(Debug, Clone)]
+pub struct PlaneRenderer {
+    period: f64,
+    proxies: Vec<Proxy>,
+    parameters: ProxyParameters,
+    previous: PlaneSet,
+    current: PlaneSet,
+    since_update: f64,
+    sums: [[Accumulator; HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
+    /// The plane each proxy rested on last tick, if any.
+    resting: [Option<usize>; MAX_EFFECTORS],
+}
+
+/// `plane` moved `fraction` of the way from `old` (its pose in the set before).
+fn between(old: Option<&HapticdPlane>, plane: &HapticdPlane, fraction: f64) -> Surface {
+    let now = Surface {
+        point: DVec3::from(plane.point),
+        normal: DVec3::from(plane.normal),
+        velocity: DVec3::from(plane.velocity),
+    };
+    let Some(old) = old else {
+        return now;
+    };
+    Surface {
+        point: DVec3::from(old.point).lerp(now.point, fraction),
+        normal: DVec3::from(old.normal)
+            .lerp(now.normal, fraction)
+            .normalize_or(now.normal),
+        velocity: DVec3::from(old.velocity).lerp(now.velocity, fraction),
+    }
+}
+
+impl PlaneRenderer {
+    /// A renderer for physics at `rate` Hz and these pointers (at most [`MAX_EFFECTORS`]).
+    pub fn new(rate: f64, pointers: &[Pointer]) -> Self {
+        Self {
+            period: 1.0 / rate,
+            proxies: pointers
+                .iter()
+                .take(MAX_EFFECTORS)
+                .map(|p| Proxy::new(p.pose.position))
+                .collect(),
+            parameters: ProxyParameters::default(),
+            previous: PlaneSet::default(),
+            current: PlaneSet::default(),
+            since_update: 0.0,
+            sums: [[Accumulator::default(); HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
+            resting: [None; MAX_EFFECTORS],
+        }
+    }
+
+    /// The proxy parameters rendered with.
+    pub fn parameters(&self) -> ProxyParameters {
+        self.parameters
+    }
+
+    /// [rt] Render with `parameters` from now on.
+    pub fn set_parameters(&mut self, parameters: &ProxyParameters) {
+        self.parameters = *parameters;
+    }
+
+    /// [rt] Put the proxies at the pointers, free.
+    pub fn reset(&mut self, pointers: &[Pointer]) {
+        for (proxy, pointer) in self.proxies.iter_mut().zip(pointers) {
+            proxy.reset(pointer.pose.position);
+        }
+        self.resting = [None; MAX_EFFECTORS];
+    }
+
+    /// Plane `k` of pointer `p` in the current set, moved `fraction` of a period from where
+    /// the set before had the same object's plane.
+    pub fn interpolated(&self, p: usize, k: usize, fraction: f64) -> Surface {
+        let plane = &self.current.planes[p].planes[k];
+        let earlier = &self.previous.planes[p];
+        let old = earlier.planes[..(earlier.count as usize).min(HAPTICD_MAX_PLANES)]
+            .iter()
+            .find(|o| o.object == plane.object);
+        between(old, plane, fraction)
+    }
+
+    /// [rt] One haptic tick of `dt`: take `latest` if the physics published it since the
+    /// last tick (the impulses summed over the period that ended go to `emit`), then write
+    /// each pointer's wrench. False, with zero wrenches, while no set has come yet or the
+    /// last one is [`STALE_PERIODS`] old.
+    pub fn tick(
+        &mut self,
+        latest: &PlaneSet,
+        pointers: &[Pointer],
+        dt: f64,
+        wrenches: &mut [Wrench],
+        mut emit: impl FnMut(HapticdImpulse),
+    ) -> bool {
+        wrenches.fill(Wrench::ZERO);
+        if latest.sequence != self.current.sequence {
+            self.hand_back(&mut emit);
+            self.previous = self.current;
+            self.current = *latest;
+            self.since_update = 0.0;
+        } else {
+            self.since_update += dt;
+        }
+        if self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.period {
+            return false;
+        }
+        let fraction = (self.since_update / self.period).min(1.0);
+        for (p, (pointer, wrench)) in pointers.iter().zip(wrenches.iter_mut()).enumerate() {
+            let Some(proxy) = self.proxies.get(p) else {
+                break;
+            };
+            let count = (self.current.planes[p].count as usize).min(HAPTICD_MAX_PLANES);
+            let mut surfaces = [Surface {
+                point: DVec3::ZERO,
+                normal: DVec3::Y,
+                velocity: DVec3::ZERO,
+            }; HAPTICD_MAX_PLANES];
+            let mut shapes = [Shape::HalfSpace {
+                point: DVec3::ZERO,
+                normal: DVec3::Y,
+            }; HAPTICD_MAX_PLANES];
+            for k in 0..count {
+                surfaces[k] = self.interpolated(p, k, fraction);
+                shapes[k] = Shape::HalfSpace {
+                    point: surfaces[k].point,
+                    normal: surfaces[k].normal,
+                };
+            }
+            // A proxy resting on a moving surface moves with it, and out of any plane that
+            // moved onto it, before it walks toward the grip.
+            let mut at = proxy.position();
+            if let Some(k) = self.resting[p].filter(|&k| k < count) {
+                at += surfaces[k].velocity * dt;
+            }
+            for s in &surfaces[..count] {
+                let depth = (at - s.point).dot(s.normal);
+                if depth < 0.0 {
+                    at -= s.normal * depth;
+                }
+            }
+            let proxy = &mut self.proxies[p];
+            proxy.carry(at);
+            let out = proxy.update(
+                pointer.pose.position,
+                pointer.velocity,
+                &shapes[..count],
+                &self.parameters,
+                dt,
+            );
+            *wrench = Wrench::force(out.force);
+            self.resting[p] = None;
+            if !out.in_contact {
+                continue;
+            }
+            // The surface the proxy rests on takes the reaction.
+            let touched = (0..count).min_by(|&a, &b| {
+                let d = |k: usize| shapes[k].signed_distance(out.proxy).abs();
+                d(a).total_cmp(&d(b))
+            });
+            if let Some(k) = touched {
+                self.resting[p] = Some(k);
+                let sum = &mut self.sums[p][k];
+                let magnitude = out.force.length() * dt;
+                sum.impulse -= out.force * dt;
+                sum.weighted_point += out.proxy * magnitude;
+                sum.weight += magnitude;
+            }
+        }
+        true
+    }
+
+    /// Emit the impulse summed on each plane of the current set, and start new sums.
+    fn hand_back(&mut self, emit: &mut impl FnMut(HapticdImpulse)) {
+        for (sums, planes) in self.sums.iter_mut().zip(&self.current.planes) {
+            let count = (planes.count as usize).min(HAPTICD_MAX_PLANES);
+            for (sum, plane) in sums.iter_mut().zip(&planes.planes[..count]) {
+                if sum.weight > 0.0 {
+                    emit(HapticdImpulse {
+                        object: plane.object,
+                        point: (sum.weighted_point / sum.weight).to_array(),
+                        impulse: sum.impulse.to_array(),
+                    });
+                }
+            }
+            *sums = [Accumulator::default(); HAPTICD_MAX_PLANES];
+        }
+        // Resting indices refer to the set being replaced.
+        self.resting = [None; MAX_EFFECTORS];
+    }
+}

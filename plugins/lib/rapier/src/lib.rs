@@ -1,0 +1,13 @@
+//! The constraint-based half of thesis Ch. 6 on rapier3d: a scene file's world stepped at a
+//! low rate, the surfaces near each pointer published as planes (the intermediate
+//! representation, 6.3.1) and the impulses the hand gave each body applied back (6.3.5).
+//!
+//! - [`world`]: a [`MultiRateWorld`](hapticd_physics::scene::MultiRateWorld) as a rapier
+//!   world; its physics step with impulse or position feedback;
+//! - [`surfaces`]: the nearest point, outward normal and surface velocity of every body
+//!   within reach of a pointer, found through rapier's query pipeline;
+//! - [`convert`]: between the project's `f64` glam types and rapier's `f32` ones.
+
+pub mod convert;
+pub mod surfaces;
+pub mod world;

@@ -1,0 +1,239 @@
+//! A scene file's world as a rapier world, stepped at the scene's rate in the physics thread.
+//!
+//! Each body of the file is a rigid body with one collider per convex piece (rapier's own
+//! box, ball or convex hull), of the same mass as the penalty engine gives it. Contacts
+//! between bodies use μ (`friction:`): rapier's Coulomb cone has one coefficient, so the
+//! sliding one keeps a body from sticking harder than the file allows. Every dynamic body
+//! has continuous collision detection, so a fast body at 10 Hz does not pass through a wall.
+//!
+//! Objects of planes and impulses are collider numbers in file order (one per convex
+//! piece), so a body that is not convex shows each piece as a plane of its own.
+
+use glam::{DQuat, DVec3};
+use hapticd_physics::body::Body;
+use hapticd_physics::mass::volume_and_centroid;
+use hapticd_physics::scene::{Feedback, MultiRateWorld, Primitive};
+use hapticd_plugin_api::{HapticdImpulse, HapticdPlanes, HapticdPointer};
+use rapier3d::prelude::{
+    ColliderBuilder, ColliderHandle, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle,
+};
+
+use crate::convert::{dquat, dvec, rotation, vector};
+use crate::surfaces::{self, Candidate};
+
+/// Where a body is and how it moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyState {
+    /// Centre of mass, metres.
+    pub position: DVec3,
+    /// Orientation.
+    pub orientation: DQuat,
+    /// Velocity of the centre of mass, m/s.
+    pub velocity: DVec3,
+    /// Angular velocity, rad/s.
+    pub spin: DVec3,
+}
+
+/// A multi-rate world on rapier.
+pub struct RapierWorld {
+    physics: PhysicsWorld,
+    /// The rigid body of each body of the file.
+    bodies: Vec<RigidBodyHandle>,
+    /// Each collider (object number) and the body it belongs to.
+    pieces: Vec<(ColliderHandle, usize)>,
+    /// Kinematic bodies following the pointers (position feedback only).
+    pointers: Vec<RigidBodyHandle>,
+    feedback: Feedback,
+    rate: f64,
+    reach: f64,
+    scratch: Vec<Candidate>,
+}
+
+/// The collider of `primitive`, piece `piece` of `body` (in the body's frame).
+fn collider(body: &Body, piece: usize, primitive: Primitive) -> ColliderBuilder {
+    let solid = &body.pieces[piece];
+    let centre = solid.vertices.iter().copied().sum::<DVec3>() / solid.vertices.len() as f64;
+    match primitive {
+        Primitive::Cuboid { half, rotation: r } => ColliderBuilder::cuboid(
+            half.x as f32,
+            half.y as f32,
+            half.z as f32,
+        )
+        .position(Pose::from_parts(vector(centre), rotation(r))),
+        Primitive::Ball { radius } => ColliderBuilder::ball(radius as f32).translation(vector(centre)),
+        Primitive::Hull => {
+            let points: Vec<_> = solid.vertices.iter().map(|v| vector(*v)).collect();
+            ColliderBuilder::convex_hull(&points)
+                .expect("the scene file's hull spans a volume (checked when read)")
+        }
+    }
+}
+
+impl RapierWorld {
+    /// The world of `spec` for `pointers` pointers.
+    pub fn new(spec: &MultiRateWorld, pointers: usize) -> Self {
+        let mut physics = PhysicsWorld::new();
+        physics.gravity = vector(spec.gravity);
+        physics.integration_parameters.dt = (1.0 / spec.rate) as f32;
+        let mut bodies = Vec::with_capacity(spec.bodies.len());
+        let mut pieces = Vec::new();
+        for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
+            let builder = if body.fixed {
+                RigidBodyBuilder::fixed()
+            } else {
+                RigidBodyBuilder::dynamic().ccd_enabled(true)
+            };
+            let handle = physics.insert_body(
+                builder
+                    .pose(Pose::from_parts(vector(body.position), rotation(body.orientation)))
+                    .linvel(vector(body.velocity))
+                    .angvel(vector(body.spin)),
+            );
+            let volume: f64 = body.pieces.iter().map(|p| volume_and_centroid(p).0).sum();
+            for (k, primitive) in primitives.iter().enumerate() {
+                let c = collider(body, k, *primitive)
+                    .density((body.mass / volume) as f32)
+                    .friction(spec.friction as f32)
+                    .user_data(pieces.len() as u128);
+                let c = physics
+                    .colliders
+                    .insert_with_parent(c, handle, &mut physics.bodies);
+                pieces.push((c, i));
+            }
+            bodies.push(handle);
+        }
+        let mut world = Self {
+            physics,
+            bodies,
+            pieces,
+            pointers: Vec::new(),
+            feedback: spec.feedback,
+            rate: spec.rate,
+            reach: surfaces::reach(spec.rate),
+            scratch: Vec::new(),
+        };
+        if let Some((shape, primitive)) = &spec.pointer {
+            for _ in 0..pointers {
+                let handle = world
+                    .physics
+                    .insert_body(RigidBodyBuilder::kinematic_position_based());
+                let c = collider(shape, 0, *primitive).friction(spec.friction as f32);
+                world
+                    .physics
+                    .colliders
+                    .insert_with_parent(c, handle, &mut world.physics.bodies);
+                world.pointers.push(handle);
+            }
+        }
+        world.set_feedback(spec.feedback);
+        world
+    }
+
+    /// Physics steps per second.
+    pub fn rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// What the world takes back from the hand.
+    pub fn feedback(&self) -> Feedback {
+        self.feedback
+    }
+
+    /// Take `feedback` from the hand from now on. Under impulse feedback the pointers'
+    /// bodies are parked far away, where they touch nothing.
+    pub fn set_feedback(&mut self, feedback: Feedback) {
+        self.feedback = feedback;
+        if feedback == Feedback::Impulse {
+            for (k, handle) in self.pointers.iter().enumerate() {
+                let away = DVec3::new(1e4 + 10.0 * k as f64, 1e4, 1e4);
+                self.physics.bodies[*handle].set_translation(vector(away), false);
+            }
+        }
+    }
+
+    /// How far from a pointer solids are published, metres.
+    pub fn reach(&self) -> f64 {
+        self.reach
+    }
+
+    /// Number of bodies of the file.
+    pub fn body_count(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// Body `i` of the file, as it is now.
+    pub fn body(&self, i: usize) -> BodyState {
+        let b = &self.physics.bodies[self.bodies[i]];
+        BodyState {
+            position: dvec(b.center_of_mass()),
+            orientation: dquat(*b.rotation()),
+            velocity: dvec(b.linvel()),
+            spin: dvec(b.angvel()),
+        }
+    }
+
+    /// The body that object (collider) `object` belongs to.
+    pub fn body_of(&self, object: u32) -> Option<usize> {
+        self.pieces.get(object as usize).map(|(_, body)| *body)
+    }
+
+    /// Give the body of `impulse.object` the momentum `impulse.impulse` at `impulse.point`:
+    /// Δv = J/m, Δω = I⁻¹((p − r) × J). Fixed bodies, unknown objects and non-finite
+    /// impulses are ignored.
+    pub fn apply(&mut self, impulse: &HapticdImpulse) {
+        let (j, p) = (DVec3::from(impulse.impulse), DVec3::from(impulse.point));
+        let Some(body) = self.body_of(impulse.object) else {
+            return;
+        };
+        if j.is_finite() && p.is_finite() {
+            self.physics.bodies[self.bodies[body]].apply_impulse_at_point(
+                vector(j),
+                vector(p),
+                true,
+            );
+        }
+    }
+
+    /// [physics] One physics step of `dt` seconds: take the hand's `impulses` (impulse
+    /// feedback) or move the pointers' bodies to `pointers` (position feedback), step, and
+    /// write each pointer's nearby planes to `planes`. False when the world is no longer
+    /// finite.
+    pub fn step(
+        &mut self,
+        dt: f64,
+        pointers: &[HapticdPointer],
+        impulses: &[HapticdImpulse],
+        planes: &mut [HapticdPlanes],
+    ) -> bool {
+        match self.feedback {
+            Feedback::Impulse => {
+                for impulse in impulses {
+                    self.apply(impulse);
+                }
+            }
+            Feedback::Position => {
+                for (handle, p) in self.pointers.iter().zip(pointers) {
+                    let at = DVec3::from(p.position);
+                    if at.is_finite() {
+                        self.physics.bodies[*handle].set_next_kinematic_translation(vector(at));
+                    }
+                }
+            }
+        }
+        self.physics.integration_parameters.dt = dt as f32;
+        self.physics.step();
+        for (out, p) in planes.iter_mut().zip(pointers) {
+            surfaces::near(
+                &self.physics,
+                DVec3::from(p.position),
+                self.reach,
+                &mut self.scratch,
+                out,
+            );
+        }
+        (0..self.bodies.len()).all(|i| {
+            let b = self.body(i);
+            b.position.is_finite() && b.velocity.is_finite() && b.spin.is_finite()
+        })
+    }
+}

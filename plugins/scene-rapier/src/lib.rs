@@ -1,0 +1,75 @@
+//! The rapier scene plugin (thesis Ch. 6): a scene file with `engine: rapier` stepped by
+//! rapier3d's constraint solver at the file's `rate:` in hapticd's physics thread (the
+//! multi-rate style of the scene ABI). Each step publishes the surfaces near each pointer
+//! as planes and applies the impulses the hand gave the bodies, or, with
+//! `feedback: position`, moves a kinematic body to each pointer instead.
+
+use hapticd_physics::scene::{Feedback, SceneFile};
+use hapticd_plugin_api::*;
+use hapticd_rapier::world::RapierWorld;
+
+/// The plugin's instance: a world.
+struct Rapier(RapierWorld);
+
+impl SceneInstance for Rapier {
+    fn step_physics(
+        &mut self,
+        dt: f64,
+        pointers: &[HapticdPointer],
+        impulses: &[HapticdImpulse],
+        planes: &mut [HapticdPlanes],
+    ) -> i32 {
+        if !(dt > 0.0 && dt.is_finite()) {
+            return HAPTICD_ERROR_ARGUMENT;
+        }
+        if self.0.step(dt, pointers, impulses, planes) {
+            HAPTICD_OK
+        } else {
+            hapticd_plugin_api::log(HAPTICD_LOG_ERROR, "the world is no longer finite");
+            HAPTICD_ERROR_FAILED
+        }
+    }
+}
+
+fn create(
+    path: Option<&str>,
+    pointers: usize,
+) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
+    let path = path.ok_or("the rapier scene needs a scene file")?;
+    let spec = match SceneFile::load(std::path::Path::new(path), pointers)
+        .map_err(|e| e.to_string())?
+    {
+        SceneFile::Rapier(spec) => spec,
+        SceneFile::Penalty(_) => {
+            return Err(format!("{path}: a penalty scene (give engine: rapier)"));
+        }
+    };
+    for warning in &spec.warnings {
+        hapticd_plugin_api::log(HAPTICD_LOG_WARN, &warning.to_string());
+    }
+    hapticd_plugin_api::log(
+        HAPTICD_LOG_INFO,
+        &format!(
+            "scene {}: {} bodies, {} pointers, {} Hz, {} feedback",
+            spec.name,
+            spec.bodies.len(),
+            pointers,
+            spec.rate,
+            match spec.feedback {
+                Feedback::Impulse => "impulse",
+                Feedback::Position => "position",
+            }
+        ),
+    );
+    let info = HapticdSceneInfo {
+        style: HAPTICD_SCENE_MULTIRATE,
+        physics_rate: spec.rate,
+    };
+    Ok((Box::new(Rapier(RapierWorld::new(&spec, pointers))), info))
+}
+
+hapticd_plugin_api::export_scene!(
+    name: "rapier",
+    description: "Rigid bodies on rapier3d at a low rate, felt through interpolated planes (thesis Ch. 6)",
+    create: create,
+);
