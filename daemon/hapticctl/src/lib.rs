@@ -2,4 +2,5 @@
 //! physics, and the PNG charts they draw.
 
 pub mod experiments;
+pub mod multirate;
 pub mod plot;

@@ -12,6 +12,8 @@
 use glam::DVec3;
 use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
 
+pub use super::Spread;
+
 /// The set-up of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Setup {
@@ -166,28 +168,6 @@ pub fn run(setup: &Setup) -> Vec<Sample> {
         }
     }
     samples
-}
-
-/// Mean and standard deviation.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Spread {
-    /// Mean.
-    pub mean: f64,
-    /// Standard deviation.
-    pub deviation: f64,
-}
-
-impl Spread {
-    /// Of `values` (none: zeros).
-    pub fn of(values: impl Iterator<Item = f64> + Clone) -> Spread {
-        let n = values.clone().count().max(1) as f64;
-        let mean = values.clone().sum::<f64>() / n;
-        let variance = values.map(|v| (v - mean).powi(2)).sum::<f64>() / n;
-        Spread {
-            mean,
-            deviation: variance.sqrt(),
-        }
-    }
 }
 
 /// The figures of Tables 4.1 and 4.2 for one run, over the whole run and over the still

@@ -2,6 +2,8 @@
 //! real-time thread: a second of haptics takes a few milliseconds), so they can be repeated
 //! anywhere and asserted in tests.
 //!
+//! - [`push_phase`]: a block pushed once at 20 Hz physics, for several sampling phases, with
+//!   impulse or position feedback (6.4.1–6.4.2, Fig. 6.6);
 //! - [`grasp`]: two fingers shake a held box, the grasp rendered by the resultant
 //!   distribution method or the conventional one (4.7, Tables 4.1–4.2);
 //! - [`wall_stiffness`]: the stiffest wall that stays stable at a given loop rate (Table 3.4);
@@ -10,6 +12,7 @@
 //! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14).
 
 pub mod grasp;
+pub mod push_phase;
 pub mod shape_tracing;
 pub mod stack_timing;
 pub mod stick_slip;
@@ -67,5 +70,27 @@ impl Session {
             observe(haptic.tick(1.0 / self.rate));
         }
         Ok(())
+    }
+}
+
+/// Mean and standard deviation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// Mean.
+    pub mean: f64,
+    /// Standard deviation.
+    pub deviation: f64,
+}
+
+impl Spread {
+    /// Of `values` (none: zeros).
+    pub fn of(values: impl Iterator<Item = f64> + Clone) -> Spread {
+        let n = values.clone().count().max(1) as f64;
+        let mean = values.clone().sum::<f64>() / n;
+        let variance = values.map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+        Spread {
+            mean,
+            deviation: variance.sqrt(),
+        }
     }
 }

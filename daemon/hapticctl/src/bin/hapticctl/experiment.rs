@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
-use hapticctl::experiments::{grasp, shape_tracing, stack_timing, wall_stiffness};
+use hapticctl::experiments::{grasp, push_phase, shape_tracing, stack_timing, wall_stiffness};
+use hapticd_physics::scene::Feedback;
 use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
 use hapticd_core::haptics::grasp::Method;
@@ -27,6 +28,33 @@ pub enum Command {
     /// Two fingers shake a held box: resultant distribution against one spring per finger
     /// (thesis 4.7, Tables 4.1–4.2, Fig. 4.12).
     Grasp(GraspArgs),
+    /// Push a block once at 20 Hz physics for several sampling phases, with impulse and with
+    /// position feedback (thesis 6.4.1–6.4.2, Fig. 6.6).
+    PushPhase(PushPhaseArgs),
+}
+
+#[derive(Args)]
+pub struct PushPhaseArgs {
+    /// Sampling phases, spread evenly over one physics period (2–100).
+    #[arg(long, default_value_t = 10)]
+    phases: usize,
+    /// Physics steps per second (10–100).
+    #[arg(long, default_value_t = push_phase::Setup::THESIS.rate)]
+    rate: f64,
+    /// The hand's speed toward the block, m/s (0.01–1).
+    #[arg(long, default_value_t = push_phase::Setup::THESIS.speed)]
+    speed: f64,
+    /// How far along x the hand reaches before it withdraws, metres (−0.05–0.2).
+    #[arg(long, default_value_t = push_phase::Setup::THESIS.reach, allow_negative_numbers = true)]
+    reach: f64,
+    /// A rapier scene file with a body called `block` instead of the shipped push scene.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Draw the block's way for every phase, one chart per feedback, to this PNG file.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    output: Output,
 }
 
 /// The rendering methods a grasp experiment compares.
@@ -148,7 +176,117 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::StackTiming(args) => stack_timing(&args),
         Command::StickSlip(args) => stick_slip(&args),
         Command::Grasp(args) => grasp(&args),
+        Command::PushPhase(args) => push(&args),
     }
+}
+
+fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
+    if !(2..=100).contains(&args.phases) {
+        return Err(Failure::usage("--phases must be 2–100"));
+    }
+    for (name, value, range) in [
+        ("--rate", args.rate, 10.0..=100.0),
+        ("--speed", args.speed, 0.01..=1.0),
+        ("--reach", args.reach, -0.05..=0.2),
+    ] {
+        if !range.contains(&value) {
+            return Err(Failure::usage(format!(
+                "{name} must be {}–{}, not {value}",
+                range.start(),
+                range.end()
+            )));
+        }
+    }
+    let scene = match &args.scene {
+        Some(path) => std::fs::read_to_string(path)
+            .map_err(|e| Failure::failed(format!("cannot read {}: {e}", path.display())))?,
+        None => push_phase::SCENE.to_string(),
+    };
+    let setup = push_phase::Setup {
+        rate: args.rate,
+        speed: args.speed,
+        reach: args.reach,
+        ..push_phase::Setup::THESIS
+    };
+    let failed = |e: String| Failure::failed(e);
+    let sweep = |feedback| -> Result<Vec<push_phase::Run>, Failure> {
+        let world = push_phase::world(&scene, &setup, feedback).map_err(failed)?;
+        push_phase::sweep(&world, &setup, args.phases).map_err(failed)
+    };
+    let (impulse, position) = (sweep(Feedback::Impulse)?, sweep(Feedback::Position)?);
+    // The same push with the physics as fast as the haptics: what both methods approximate.
+    let fast = push_phase::Setup {
+        rate: setup.haptic_rate,
+        ..setup
+    };
+    let reference = push_phase::world(&scene, &fast, Feedback::Impulse)
+        .and_then(|w| push_phase::run(&w, &fast, 0.0))
+        .map_err(failed)?
+        .stop();
+    let mut text = format!(
+        "block struck once, physics {} Hz, haptics {} Hz, {} phases; how far it went [mm]:\n",
+        setup.rate, setup.haptic_rate, args.phases
+    );
+    let mut rows = Vec::new();
+    for (name, runs) in [("impulse", &impulse), ("position", &position)] {
+        let s = push_phase::stops(runs);
+        let (low, high) = runs
+            .iter()
+            .map(push_phase::Run::stop)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+        text += &format!(
+            "{name:<9} {:7.2} ± {:6.3} (from {:.2} to {:.2}), peak force {:.2} N\n",
+            s.mean * 1e3,
+            s.deviation * 1e3,
+            low * 1e3,
+            high * 1e3,
+            runs.iter().map(|r| r.peak_force).fold(0.0, f64::max)
+        );
+        rows.push(json!({
+            "feedback": name,
+            "mean": s.mean,
+            "deviation": s.deviation,
+            "stops": runs.iter().map(push_phase::Run::stop).collect::<Vec<_>>(),
+        }));
+    }
+    text += &format!(
+        "physics at {} Hz: {:7.2}\n",
+        setup.haptic_rate,
+        reference * 1e3
+    );
+    if let Some(path) = &args.plot {
+        let chart = |title: &str, runs: &[push_phase::Run]| Chart {
+            title: title.into(),
+            x_label: "time [s]".into(),
+            y_label: "block moved [mm]".into(),
+            series: runs
+                .iter()
+                .enumerate()
+                .map(|(k, r)| Series {
+                    label: format!("phase {:.0} ms", r.phase * 1e3),
+                    points: r.block.iter().step_by(5).map(|&(t, x)| (t, x * 1e3)).collect(),
+                    color: PALETTE[k % PALETTE.len()],
+                })
+                .collect(),
+            ..Chart::default()
+        }
+        .render();
+        let title = |method: &str| format!("{method}, physics {} Hz", setup.rate);
+        let canvas = Canvas::stacked(&[
+            chart(&title("position feedback"), &position),
+            chart(&title("impulse feedback"), &impulse),
+        ]);
+        canvas
+            .save_png(path)
+            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
+        text += &format!("wrote {}\n", path.display());
+    }
+    print(
+        &args.output,
+        json!({"plot": args.plot, "reference": reference, "results": rows}),
+        text,
+    );
+    Ok(())
 }
 
 fn grasp(args: &GraspArgs) -> Result<(), Failure> {

@@ -1,4 +1,6 @@
-//! `hapticctl scene …`: step a penalty scene file headless, to try a scene before feeling it.
+//! `hapticctl scene …`: step a physics scene file headless, to try a scene before feeling
+//! it: a penalty scene step by step, a rapier scene with its haptic side in lockstep as
+//! hapticd runs it.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -6,12 +8,14 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DMat3, DQuat, DVec3};
 use hapticctl::plot::{Chart, PALETTE, Series};
+use hapticctl::multirate::Lockstep;
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
+use hapticd_core::scene::Pointer;
 use hapticd_device::sim::hand::{HandTrack, Script};
 use hapticd_physics::body::Body;
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::scene::PenaltyScene;
+use hapticd_physics::scene::{Feedback, MultiRateWorld, PenaltyScene, SceneFile};
 use hapticd_physics::world::ContactModel;
 use serde_json::json;
 
@@ -35,7 +39,7 @@ pub enum Command {
 
 #[derive(Args)]
 pub struct RunArgs {
-    /// Scene file (YAML, the penalty scene's format).
+    /// Scene file (YAML, the physics scenes' format).
     file: PathBuf,
     /// Simulated time, seconds.
     #[arg(long, default_value_t = 1.0)]
@@ -61,9 +65,38 @@ pub struct RunArgs {
     /// hand, in the order of their names); the forces felt are reported.
     #[arg(long, value_name = "SCRIPT")]
     hand: Option<PathBuf>,
+    /// Rapier scenes: how far the physics clock runs behind the haptic one, seconds (the
+    /// sampling phase of thesis 6.4.2; taken modulo the physics period).
+    #[arg(long, default_value_t = 0.0)]
+    phase: f64,
+    /// Rapier scenes: what the physics takes back from the hand, instead of the file's
+    /// `feedback:`.
+    #[arg(long, value_enum)]
+    feedback: Option<FeedbackArg>,
     #[command(flatten)]
     output: Output,
 }
+
+/// What a rapier world takes back from the hand.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+pub enum FeedbackArg {
+    /// The impulse the displayed force gave each body (thesis 6.3).
+    Impulse,
+    /// The hand's position, sampled at the physics rate (the conventional method).
+    Position,
+}
+
+impl From<FeedbackArg> for Feedback {
+    fn from(f: FeedbackArg) -> Self {
+        match f {
+            FeedbackArg::Impulse => Feedback::Impulse,
+            FeedbackArg::Position => Feedback::Position,
+        }
+    }
+}
+
+/// Haptic ticks per second of a rapier scene's run: hapticd's default loop rate.
+const HAPTIC_RATE: f64 = 1000.0;
 
 /// Contact models.
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -291,11 +324,6 @@ impl Recording {
 }
 
 fn run_scene(args: &RunArgs) -> Result<(), Failure> {
-    let mut models: Vec<Option<Model>> = args.models.iter().copied().map(Some).collect();
-    models.dedup();
-    if models.is_empty() {
-        models.push(None);
-    }
     let hands: Vec<HandTrack> = match &args.hand {
         Some(path) => Script::load(path)?
             .hands
@@ -306,6 +334,212 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     };
     if args.quantity == Quantity::PointerForce && hands.is_empty() {
         return Err(Failure::usage("--quantity pointer-force needs --hand"));
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= 1e5) {
+        return Err(Failure::usage("--duration must be > 0 and at most 10⁵ s"));
+    }
+    match SceneFile::load(&args.file, hands.len())? {
+        SceneFile::Rapier(spec) => run_multirate(args, spec, &hands),
+        SceneFile::Penalty(_) => run_penalty(args, &hands),
+    }
+}
+
+/// The pointers' grips at `t` as the haptic loop hands them over.
+fn hand_pointers(hands: &[HandTrack], t: f64) -> Vec<Pointer> {
+    let at: Vec<(DVec3, DVec3)> = hands
+        .iter()
+        .map(|h| {
+            let c = h.at(t);
+            (c.target, c.velocity)
+        })
+        .collect();
+    Lockstep::pointers(&at)
+}
+
+/// Step a rapier scene with its haptic side as hapticd does, and report like a penalty run.
+fn run_multirate(args: &RunArgs, mut spec: MultiRateWorld, hands: &[HandTrack]) -> Result<(), Failure> {
+    if !args.models.is_empty() || args.dt.is_some() {
+        return Err(Failure::usage(
+            "--model and --dt are for penalty scenes; a rapier scene steps at its rate:",
+        ));
+    }
+    if !args.phase.is_finite() {
+        return Err(Failure::usage("--phase must be a number of seconds"));
+    }
+    for warning in &spec.warnings {
+        eprintln!("{warning}");
+    }
+    if let Some(feedback) = args.feedback {
+        spec.feedback = feedback.into();
+    }
+    let pointers = hand_pointers(hands, 0.0);
+    let mut run = Lockstep::new(&spec, &pointers, HAPTIC_RATE, args.phase);
+    let ticks = (args.duration * HAPTIC_RATE).round() as usize;
+    let moving: Vec<usize> = (0..spec.bodies.len()).filter(|&i| !spec.bodies[i].fixed).collect();
+    let up = -spec.gravity.normalize_or(DVec3::NEG_Y);
+    let plotted = match args.quantity {
+        Quantity::PointerForce => hands.len(),
+        _ => moving.len(),
+    };
+    let mut curves = vec![Vec::new(); plotted];
+    let mut felt = vec![Wrench::default(); hands.len()];
+    let mut peaks = vec![0.0f64; hands.len()];
+    let mut record = args.record.as_deref().map(Recording::create).transpose()?;
+    for tick in 0..ticks {
+        let t = tick as f64 / HAPTIC_RATE;
+        run.tick(&hand_pointers(hands, t), &mut felt)
+            .map_err(|e| Failure::failed(format!("{}: {e}", args.file.display())))?;
+        for (peak, w) in peaks.iter_mut().zip(&felt) {
+            *peak = peak.max(w.force.length());
+        }
+        let t = run.time();
+        for (k, curve) in curves.iter_mut().enumerate() {
+            let value = match args.quantity {
+                Quantity::PointerForce => felt[k].force.length(),
+                Quantity::Height => run.world.body(moving[k]).position.dot(up),
+                Quantity::AngularMomentumZ => Err(Failure::usage(
+                    "--quantity angular-momentum-z is for penalty scenes",
+                ))?,
+                Quantity::Spin => run.world.body(moving[k]).spin.length(),
+            };
+            curve.push((t, value));
+        }
+        if let Some(record) = record.as_mut() {
+            for &i in &moving {
+                let b = run.world.body(i);
+                let (p, [qw, qx, qy, qz], v, w) =
+                    (b.position, quat_to_wxyz(b.orientation), b.velocity, b.spin);
+                record.row(format_args!(
+                    "{t},rapier,{},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{}",
+                    spec.names[i], p.x, p.y, p.z, v.x, v.y, v.z, w.x, w.y, w.z
+                ))?;
+            }
+        }
+    }
+    if let Some(record) = record {
+        record.finish()?;
+    }
+    if let Some(path) = &args.plot {
+        let series = curves
+            .into_iter()
+            .enumerate()
+            .map(|(k, points)| Series {
+                label: match args.quantity {
+                    Quantity::PointerForce => format!("pointer {}", k + 1),
+                    _ => spec.names[moving[k]].clone(),
+                },
+                points,
+                color: PALETTE[k % PALETTE.len()],
+            })
+            .collect();
+        save(&chart(&spec.name, args.quantity, series), path)?;
+    }
+    let mut text = format!(
+        "{} (rapier, {} Hz, {} feedback, phase {} s): {ticks} haptic ticks at {HAPTIC_RATE} Hz\n",
+        spec.name,
+        spec.rate,
+        match run.world.feedback() {
+            Feedback::Impulse => "impulse",
+            Feedback::Position => "position",
+        },
+        args.phase
+    );
+    let mut bodies = Vec::new();
+    for &i in &moving {
+        let b = run.world.body(i);
+        bodies.push(report_body(&mut text, &spec.names[i], b.position, b.orientation, b.velocity, b.spin));
+    }
+    let pointers = report_pointers(&mut text, &felt, &peaks);
+    print(
+        &args.output,
+        json!({"scene": spec.name, "steps": ticks, "dt": 1.0 / HAPTIC_RATE, "runs": [{
+            "model": "rapier",
+            "rate": spec.rate,
+            "phase": args.phase,
+            "bodies": bodies,
+            "pointers": pointers,
+        }]}),
+        text,
+    );
+    Ok(())
+}
+
+/// The chart of `quantity` for scene `name`.
+fn chart(name: &str, quantity: Quantity, series: Vec<Series>) -> Chart {
+    let (label, title) = match quantity {
+        Quantity::Height => ("height, m", "height"),
+        Quantity::AngularMomentumZ => ("angular momentum about z, kg m^2/s", "spin"),
+        Quantity::Spin => ("rate of turn, rad/s", "spin"),
+        Quantity::PointerForce => ("force felt, N", "force felt"),
+    };
+    Chart {
+        title: format!("{name}: {title}"),
+        x_label: "time, s".into(),
+        y_label: label.into(),
+        series,
+        ..Chart::default()
+    }
+}
+
+/// One body's line of the report, and its JSON.
+fn report_body(
+    text: &mut String,
+    name: &str,
+    position: DVec3,
+    orientation: DQuat,
+    velocity: DVec3,
+    spin: DVec3,
+) -> serde_json::Value {
+    let _ = writeln!(
+        text,
+        "  {name:<12} at {:>8.4} {:>8.4} {:>8.4} m, speed {:.4} m/s, spin {:.4} rad/s",
+        position.x,
+        position.y,
+        position.z,
+        velocity.length(),
+        spin.length()
+    );
+    json!({
+        "name": name,
+        "position": position.to_array(),
+        "orientation": quat_to_wxyz(orientation),
+        "velocity": velocity.to_array(),
+        "spin": spin.to_array(),
+    })
+}
+
+/// The pointers' lines of the report (last and largest force felt), and their JSON.
+fn report_pointers(text: &mut String, felt: &[Wrench], peaks: &[f64]) -> Vec<serde_json::Value> {
+    let mut pointers = Vec::new();
+    for (k, (w, peak)) in felt.iter().zip(peaks).enumerate() {
+        let f = w.force;
+        let _ = writeln!(
+            text,
+            "  pointer {} feels {:>8.3} {:>8.3} {:>8.3} N (at most {peak:.3} N)",
+            k + 1,
+            f.x,
+            f.y,
+            f.z
+        );
+        pointers.push(json!({
+            "force": f.to_array(),
+            "torque": w.torque.to_array(),
+            "peak_force": peak,
+        }));
+    }
+    pointers
+}
+
+fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
+    if args.feedback.is_some() || args.phase != 0.0 {
+        return Err(Failure::usage(
+            "--feedback and --phase are for rapier scenes; a penalty scene steps in the tick",
+        ));
+    }
+    let mut models: Vec<Option<Model>> = args.models.iter().copied().map(Some).collect();
+    models.dedup();
+    if models.is_empty() {
+        models.push(None);
     }
     let first = load(&args.file, models[0], hands.len())?;
     for warning in &first.warnings {
@@ -332,12 +566,6 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     }
     let name = traces[0].scene.name.clone();
     if let Some(path) = &args.plot {
-        let (label, title) = match args.quantity {
-            Quantity::Height => ("height, m", "height"),
-            Quantity::AngularMomentumZ => ("angular momentum about z, kg m^2/s", "spin"),
-            Quantity::Spin => ("rate of turn, rad/s", "spin"),
-            Quantity::PointerForce => ("force felt, N", "force felt"),
-        };
         let mut series = Vec::new();
         for t in &traces {
             for (points, &i) in t.curves.iter().zip(&t.plotted) {
@@ -348,14 +576,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
                 });
             }
         }
-        let chart = Chart {
-            title: format!("{name}: {title}"),
-            x_label: "time, s".into(),
-            y_label: label.into(),
-            series,
-            ..Chart::default()
-        };
-        save(&chart, path)?;
+        save(&chart(&name, args.quantity, series), path)?;
     }
     let mut text = String::new();
     let mut runs = Vec::new();
@@ -392,42 +613,19 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         }
         let mut bodies = Vec::new();
         for &i in &t.moving {
-            let (b, body_name) = (&world.bodies[i], &t.scene.names[i]);
-            let _ = writeln!(
-                text,
-                "  {body_name:<12} at {:>8.4} {:>8.4} {:>8.4} m, speed {:.4} m/s, spin {:.4} rad/s",
-                b.position.x,
-                b.position.y,
-                b.position.z,
-                b.velocity.length(),
-                b.spin.length()
+            let b = &world.bodies[i];
+            let mut body = report_body(
+                &mut text,
+                &t.scene.names[i],
+                b.position,
+                b.orientation,
+                b.velocity,
+                b.spin,
             );
-            bodies.push(json!({
-                "name": body_name,
-                "position": b.position.to_array(),
-                "orientation": quat_to_wxyz(b.orientation),
-                "velocity": b.velocity.to_array(),
-                "spin": b.spin.to_array(),
-                "angular_momentum": angular_momentum(b).to_array(),
-            }));
+            body["angular_momentum"] = json!(angular_momentum(b).to_array());
+            bodies.push(body);
         }
-        let mut pointers = Vec::new();
-        for (k, (w, peak)) in t.felt.iter().zip(&t.peaks).enumerate() {
-            let f = w.force;
-            let _ = writeln!(
-                text,
-                "  pointer {} feels {:>8.3} {:>8.3} {:>8.3} N (at most {peak:.3} N)",
-                k + 1,
-                f.x,
-                f.y,
-                f.z
-            );
-            pointers.push(json!({
-                "force": f.to_array(),
-                "torque": w.torque.to_array(),
-                "peak_force": peak,
-            }));
-        }
+        let pointers = report_pointers(&mut text, &t.felt, &t.peaks);
         runs.push(json!({
             "model": model,
             "bodies": bodies,

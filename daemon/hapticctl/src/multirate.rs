@@ -1,0 +1,117 @@
+//! A multi-rate scene run in simulated time exactly as hapticd runs it: haptic ticks at the
+//! loop's rate render the planes through [`PlaneRenderer`], and a physics step runs whenever
+//! the physics clock comes due, `phase` seconds after the haptic clock's start, taking the
+//! pointers the last tick published and the impulses handed back so far (hapticd's physics
+//! thread does the same against the real clock).
+
+use glam::DVec3;
+use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench, quat_to_wxyz};
+use hapticd_core::scene::Pointer;
+use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet};
+use hapticd_physics::scene::MultiRateWorld;
+use hapticd_plugin_api::{HapticdImpulse, HapticdPlanes, HapticdPointer};
+use hapticd_rapier::world::RapierWorld;
+
+/// A rapier world and the haptic side, stepped in lockstep.
+pub struct Lockstep {
+    /// The world.
+    pub world: RapierWorld,
+    renderer: PlaneRenderer,
+    haptic_period: f64,
+    physics_period: f64,
+    /// Haptic time, seconds.
+    time: f64,
+    next_physics: f64,
+    set: PlaneSet,
+    published: [HapticdPointer; MAX_EFFECTORS],
+    impulses: Vec<HapticdImpulse>,
+    count: usize,
+}
+
+/// The ABI form of a pointer.
+fn to_abi(p: &Pointer) -> HapticdPointer {
+    HapticdPointer {
+        position: p.pose.position.to_array(),
+        orientation: quat_to_wxyz(p.pose.orientation),
+        velocity: p.velocity.to_array(),
+    }
+}
+
+impl Lockstep {
+    /// The world of `spec` for `pointers`, haptics at `haptic_rate` Hz and the physics clock
+    /// `phase` seconds behind the haptic one (taken modulo the physics period).
+    pub fn new(spec: &MultiRateWorld, pointers: &[Pointer], haptic_rate: f64, phase: f64) -> Self {
+        let physics_period = 1.0 / spec.rate;
+        let mut published = [HapticdPointer::default(); MAX_EFFECTORS];
+        for (out, p) in published.iter_mut().zip(pointers) {
+            *out = to_abi(p);
+        }
+        Self {
+            world: RapierWorld::new(spec, pointers.len()),
+            renderer: PlaneRenderer::new(spec.rate, pointers),
+            haptic_period: 1.0 / haptic_rate,
+            physics_period,
+            time: 0.0,
+            next_physics: phase.rem_euclid(physics_period),
+            set: PlaneSet::default(),
+            published,
+            impulses: Vec::with_capacity(64),
+            count: pointers.len().min(MAX_EFFECTORS),
+        }
+    }
+
+    /// Haptic time, seconds.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// One haptic tick with the pointers at `pointers`: the physics steps first when its
+    /// clock is due; `wrenches` get what the hand feels. An error when the world stops being
+    /// finite.
+    pub fn tick(&mut self, pointers: &[Pointer], wrenches: &mut [Wrench]) -> Result<(), String> {
+        // Against rounding: a step due within a nanosecond of this tick is due now.
+        while self.next_physics <= self.time + 1e-9 {
+            let mut planes = [HapticdPlanes::default(); MAX_EFFECTORS];
+            let n = self.count;
+            if !self.world.step(
+                self.physics_period,
+                &self.published[..n],
+                &self.impulses,
+                &mut planes[..n],
+            ) {
+                return Err(format!("at t = {:.4} s the world is no longer finite", self.time));
+            }
+            self.impulses.clear();
+            self.set.sequence += 1;
+            self.set.planes = planes;
+            self.next_physics += self.physics_period;
+        }
+        let impulses = &mut self.impulses;
+        self.renderer.tick(
+            &self.set,
+            pointers,
+            self.haptic_period,
+            wrenches,
+            |i| impulses.push(i),
+        );
+        for (out, p) in self.published.iter_mut().zip(pointers) {
+            *out = to_abi(p);
+        }
+        self.time += self.haptic_period;
+        Ok(())
+    }
+
+    /// The pointers at `positions`, moving at `velocities`, as the loop hands them over.
+    pub fn pointers(positions: &[(DVec3, DVec3)]) -> Vec<Pointer> {
+        positions
+            .iter()
+            .map(|&(position, velocity)| Pointer {
+                pose: hapticd_core::kinematics::Pose {
+                    position,
+                    ..Default::default()
+                },
+                velocity,
+            })
+            .collect()
+    }
+}
