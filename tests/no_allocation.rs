@@ -326,3 +326,45 @@ fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
     assert!(states.iter().all(|s| *s == DeviceState::Running));
     assert_eq!(haptic.frame().dac, dac);
 }
+
+/// The haptic side of the rapier plugin's scene (thesis Ch. 6), loaded as hapticd loads it:
+/// ticks that take new planes, render them, carry the proxy and hand impulses back to the
+/// physics thread allocate nothing on the haptic thread (the physics thread may).
+#[test]
+fn a_haptic_tick_of_a_rapier_scene_does_not_allocate() {
+    use hapticd::plugin_scene;
+    let path = support::repo_dir().join("config/scenes/push.yaml");
+    // The finger pressed 5 mm into the block's near face (x = −0.02), pushing it.
+    let pointers = [Pointer {
+        pose: Pose {
+            position: DVec3::new(-0.015, 0.02, 0.0),
+            ..Pose::default()
+        },
+        velocity: DVec3::new(0.05, 0.0, 0.0),
+    }];
+    let mut scene = plugin_scene::load(
+        &support::plugin_path("hapticd-scene-rapier"),
+        Some(&path),
+        &pointers,
+    )
+    .unwrap();
+    let mut wrenches = [Wrench::ZERO];
+    let tick = std::time::Duration::from_millis(1);
+    // The first planes come with the physics thread's first step.
+    let started = std::time::Instant::now();
+    while !scene.render(&pointers, 1e-3, &mut wrenches) {
+        assert!(started.elapsed().as_secs() < 10, "no planes");
+        std::thread::sleep(tick);
+    }
+    let mut pushed = 0.0f64;
+    // 400 ms at 20 Hz: eight sets of planes taken and eight impulses handed back.
+    let n = allocations_in(|| {
+        for _ in 0..400 {
+            assert!(scene.render(&pointers, 1e-3, &mut wrenches));
+            pushed = pushed.max(-wrenches[0].force.x);
+            std::thread::sleep(tick);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 400 ticks");
+    assert!(pushed > 1.0, "the block did not push back: {pushed} N");
+}

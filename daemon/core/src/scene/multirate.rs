@@ -237,3 +237,129 @@ impl PlaneRenderer {
         self.resting = [None; MAX_EFFECTORS];
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::Pose;
+
+    const RATE: f64 = 20.0;
+    const TICK: f64 = 1e-3;
+
+    fn pointer(position: DVec3, velocity: DVec3) -> Pointer {
+        Pointer {
+            pose: Pose {
+                position,
+                ..Pose::default()
+            },
+            velocity,
+        }
+    }
+
+    /// A set whose pointer 0 sees one plane of `object`.
+    fn set(sequence: u64, object: u32, point: DVec3, normal: DVec3, velocity: DVec3) -> PlaneSet {
+        let mut s = PlaneSet {
+            sequence,
+            ..PlaneSet::default()
+        };
+        s.planes[0].count = 1;
+        s.planes[0].planes[0] = HapticdPlane {
+            object,
+            point: point.to_array(),
+            normal: normal.to_array(),
+            velocity: velocity.to_array(),
+        };
+        s
+    }
+
+    #[test]
+    fn a_plane_halfway_through_the_period_is_halfway() {
+        let above = [pointer(DVec3::new(0.0, 1.0, 0.0), DVec3::ZERO)];
+        let mut r = PlaneRenderer::new(RATE, &above);
+        let mut w = [Wrench::ZERO];
+        let tilted = DVec3::new(1.0, 1.0, 0.0).normalize();
+        let first = set(1, 7, DVec3::ZERO, DVec3::Y, DVec3::ZERO);
+        let second = set(2, 7, DVec3::new(0.2, 0.1, 0.0), tilted, DVec3::X);
+        assert!(r.tick(&first, &above, TICK, &mut w, |_| {}));
+        assert!(r.tick(&second, &above, TICK, &mut w, |_| {}));
+        let half = r.interpolated(0, 0, 0.5);
+        assert!((half.point - DVec3::new(0.1, 0.05, 0.0)).length() < 1e-15);
+        let bisector = (DVec3::Y + tilted).normalize();
+        assert!((half.normal - bisector).length() < 1e-15, "{}", half.normal);
+        assert!((half.velocity - DVec3::X * 0.5).length() < 1e-15);
+        // Ticks move it along: 25 ticks into a 50 ms period is halfway.
+        for _ in 0..25 {
+            r.tick(&second, &above, TICK, &mut w, |_| {});
+        }
+        assert!((r.since_update / r.period - 0.5).abs() < 1e-12);
+        // A plane of an object the set before did not have stands where it is.
+        let other = set(3, 8, DVec3::new(0.0, 0.3, 0.0), DVec3::Y, DVec3::ZERO);
+        r.tick(&other, &above, TICK, &mut w, |_| {});
+        assert_eq!(r.interpolated(0, 0, 0.5).point, DVec3::new(0.0, 0.3, 0.0));
+    }
+
+    #[test]
+    fn the_impulse_handed_back_is_minus_the_force_displayed_times_the_tick_summed() {
+        // The finger 2 mm into a floor that stays put.
+        let pressed = [pointer(DVec3::new(0.01, -0.002, 0.0), DVec3::ZERO)];
+        let mut r = PlaneRenderer::new(RATE, &[pointer(DVec3::new(0.01, 0.01, 0.0), DVec3::ZERO)]);
+        let mut w = [Wrench::ZERO];
+        let floor = |sequence| set(sequence, 3, DVec3::ZERO, DVec3::Y, DVec3::ZERO);
+        let mut sent = Vec::new();
+        let mut displayed = DVec3::ZERO;
+        for sequence in 1..=3 {
+            for _ in 0..50 {
+                r.tick(&floor(sequence), &pressed, TICK, &mut w, |i| sent.push(i));
+                if sequence == 2 {
+                    displayed += w[0].force * TICK;
+                }
+            }
+        }
+        // The first set's impulse came with the second, the second's with the third.
+        assert_eq!(sent.len(), 2, "{sent:?}");
+        let second = sent[1];
+        assert_eq!(second.object, 3);
+        assert!((DVec3::from(second.impulse) + displayed).length() < 1e-12);
+        // 2 kN/m × 2 mm for 50 ms, down into the floor, where the finger rests.
+        assert!((DVec3::from(second.impulse) - DVec3::new(0.0, -0.2, 0.0)).length() < 1e-9);
+        assert!((DVec3::from(second.point) - DVec3::new(0.01, 0.0, 0.0)).length() < 1e-9);
+    }
+
+    #[test]
+    fn a_finger_resting_on_a_moving_surface_moves_with_it() {
+        // A conveyor: a floor whose surface runs at 0.1 m/s along x; the finger presses
+        // 2 mm into it and keeps still. Static friction (μ0 = 0.3 at 4 N against 0.3 × 4 N)
+        // holds the proxy on the belt until the pull exceeds the friction cone.
+        let at = DVec3::new(0.0, 0.01, 0.0);
+        let mut r = PlaneRenderer::new(RATE, &[pointer(at, DVec3::ZERO)]);
+        let pressed = [pointer(DVec3::new(0.0, -0.002, 0.0), DVec3::ZERO)];
+        let mut w = [Wrench::ZERO];
+        let belt = |sequence| set(sequence, 1, DVec3::ZERO, DVec3::Y, DVec3::X * 0.1);
+        let mut sideways: f64 = 0.0;
+        for tick in 0..100 {
+            r.tick(&belt(1 + tick / 50), &pressed, TICK, &mut w, |_| {});
+            sideways = sideways.max(w[0].force.x);
+        }
+        let parameters = r.parameters();
+        let normal = parameters.stiffness * 0.002;
+        // The belt drags the finger along until friction slips, at the dynamic cone.
+        assert!(sideways > 0.5 * parameters.dynamic_friction * normal, "{sideways} N");
+        assert!(sideways <= parameters.static_friction * normal * (1.0 + 1e-9));
+    }
+
+    #[test]
+    fn no_planes_yet_or_stale_planes_render_nothing_and_say_so() {
+        let p = [pointer(DVec3::new(0.0, -0.002, 0.0), DVec3::ZERO)];
+        let mut r = PlaneRenderer::new(RATE, &p);
+        let mut w = [Wrench::force(DVec3::X)];
+        assert!(!r.tick(&PlaneSet::default(), &p, TICK, &mut w, |_| {}));
+        assert_eq!(w[0], Wrench::ZERO);
+        let floor = set(1, 1, DVec3::ZERO, DVec3::Y, DVec3::ZERO);
+        let ticks = (STALE_PERIODS / RATE / TICK).round() as usize;
+        for _ in 0..ticks {
+            assert!(r.tick(&floor, &p, TICK, &mut w, |_| {}));
+        }
+        assert!(!r.tick(&floor, &p, TICK, &mut w, |_| {}));
+        assert_eq!(w[0], Wrench::ZERO);
+    }
+}

@@ -1102,6 +1102,75 @@ mod tests {
     }
 
     #[test]
+    fn one_format_serves_both_engines_and_engine_specific_keys_are_located() {
+        let push = std::fs::read_to_string(shipped("push.yaml")).unwrap();
+        let SceneFile::Rapier(world) = SceneFile::parse(&push, Path::new("push.yaml"), 1).unwrap()
+        else {
+            panic!("push.yaml is a rapier scene");
+        };
+        assert_eq!((world.rate, world.feedback), (20.0, Feedback::Impulse));
+        assert_eq!(world.names, ["floor", "block"]);
+        assert!((world.bodies[1].mass - 8.0).abs() < 1e-9);
+        assert!(matches!(world.pointer, Some((_, Primitive::Ball { radius })) if radius == 0.005));
+        // The penalty engine reads the same bodies (and runs nothing else).
+        let as_penalty = push.replace("engine: rapier", "engine: penalty");
+        let e = SceneFile::parse(&as_penalty, Path::new("s.yaml"), 1).err().unwrap().to_string();
+        for expected in ["s.yaml:6:7: error: rate: only for engine: rapier", "material.stiffness: missing"] {
+            assert!(e.contains(expected), "{e}");
+        }
+        let blocks = std::fs::read_to_string(shipped("blocks.yaml")).unwrap();
+        let as_rapier = blocks.replace("name: blocks", "name: blocks\nengine: rapier\nrate: 50");
+        let e = parse(&as_rapier, 1).err().unwrap().to_string();
+        assert!(e.contains("s.yaml:8:5: error: dt: only for engine: penalty"), "{e}");
+        assert!(e.contains("s.yaml:10:14: error: material.stiffness: only for engine: penalty"), "{e}");
+        for (from, to, expected) in [
+            ("rate: 20 ", "rate: 5000 ", "rate: must be a number from 10 to 1000 Hz"),
+            ("feedback: impulse", "feedback: telepathy", "unknown variant `telepathy`"),
+            ("engine: rapier", "engine: bullet", "unknown variant `bullet`"),
+            ("sphere: 0.005", "sphere: .nan", "pointer.sphere: must be a number"),
+            ("box: [0.1, 0.1, 0.1]", "box: [0.1, 0.1, 0.1]\n    sphere: 0.1", "exactly one of"),
+        ] {
+            assert!(push.contains(from), "{from}");
+            let e = SceneFile::parse(&push.replace(from, to), Path::new("s.yaml"), 1)
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(e.contains(expected), "{to}: {e}");
+        }
+        // A rapier file is no penalty scene.
+        let e = PenaltyScene::parse(&push, Path::new("s.yaml"), 1).err().unwrap().to_string();
+        assert!(e.contains("s.yaml:5:9: error: engine: a rapier scene"), "{e}");
+    }
+
+    #[test]
+    fn a_sphere_under_the_penalty_engine_has_the_balls_mass_and_rests_at_its_radius() {
+        let text = "name: ball
+dt: 0.0005
+gravity: [0, -9.81, 0]
+material: { stiffness: 1.0e7, damping: 3.0e4, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: 0.001 }
+bodies:
+  - { name: floor, box: [0.4, 0.1, 0.4], position: [0, -0.05, 0], fixed: true }
+  - { name: ball, sphere: 0.02, position: [0, 0.02, 0], density: 1000 }
+";
+        let mut scene = parse(text, 0).unwrap();
+        let ball = &scene.world.bodies[1];
+        let exact = 1000.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.02f64.powi(3);
+        assert!((ball.mass / exact - 1.0).abs() < 1e-12, "{} kg", ball.mass);
+        // Within 1 % of a solid ball's 2/5·m·r² about every axis.
+        let moment = 0.4 * exact * 0.02f64.powi(2);
+        for k in 0..3 {
+            assert!((ball.inertia.col(k)[k] / moment - 1.0).abs() < 0.01);
+        }
+        for _ in 0..4000 {
+            assert!(scene.step_pointers(5e-4, &[], &mut []));
+        }
+        // At rest on the floor within the hull's 4 % and the spring's millimetre fraction.
+        let y = scene.world.bodies[1].position.y;
+        assert!((y - 0.02).abs() < 0.04 * 0.02, "{y}");
+    }
+
+    #[test]
     fn every_mistake_is_reported_at_its_line() {
         let text = "\
 name: three-mistakes
