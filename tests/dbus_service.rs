@@ -206,13 +206,15 @@ impl Setup {
     }
 }
 
-/// The penalty scene plugin, staged once as an install would have it.
+/// The physics engines' scene plugins, staged once as an install would have them.
 fn scene_plugins() -> PathBuf {
     static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     DIR.get_or_init(|| {
         let dir = scratch("scene-plugins");
-        let plugin = plugin_path("hapticd-scene-penalty");
-        std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
+        for engine in ["hapticd-scene-penalty", "hapticd-scene-rapier"] {
+            let plugin = plugin_path(engine);
+            std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
+        }
         dir
     })
     .clone()
@@ -544,16 +546,19 @@ fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
     let scenes = bus.get(MANAGER, "Scenes");
-    for name in ["static", "blocks", "stack", "top"] {
+    for name in ["static", "blocks", "stack", "top", "push", "balls"] {
         assert!(scenes.contains(&format!("\"{name}\"")), "{scenes}");
     }
-    assert!(
-        bus.call(MANAGER, "SwitchScene", &["s", "blocks"])
-            .status
-            .success()
-    );
-    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"blocks\"");
-    daemon.wait_for_state(&bus, "running");
+    // Penalty to rapier and back, as any switch.
+    for name in ["blocks", "balls", "blocks"] {
+        assert!(
+            bus.call(MANAGER, "SwitchScene", &["s", name])
+                .status
+                .success()
+        );
+        assert_eq!(bus.get(MANAGER, "ActiveScene"), format!("s \"{name}\""));
+        daemon.wait_for_state(&bus, "running");
+    }
     // A world without a pointer shape cannot take the grip: refused with the reason.
     let (name, message) = bus.error(
         MANAGER[1],

@@ -111,3 +111,35 @@ fn the_conventional_fingers_close_in_by_the_resultant_as_4_8_says() {
         assert!(s.distance < setup.width - 2.0 * s.grip / setup.grip_stiffness - 2e-3);
     }
 }
+
+/// Thesis 6.4.1–6.4.2 (Fig. 6.6): a finger strikes a block once, the world at 20 Hz, the
+/// haptics at 1 kHz with a 2 kN/m spring, for ten sampling phases. Where the block stops
+/// depends on the phase when the physics takes the hand's position, hardly when it takes
+/// the impulse of the force displayed; and the impulse method moves the block as far as
+/// the same strike does with the physics as fast as the haptics.
+#[test]
+fn impulse_feedback_makes_a_push_independent_of_the_sampling_phase() {
+    use hapticctl::experiments::push_phase::{self, Setup};
+    use hapticd_physics::scene::Feedback;
+    let setup = Setup::THESIS;
+    let sweep = |feedback| {
+        let world = push_phase::world(push_phase::SCENE, &setup, feedback).unwrap();
+        push_phase::stops(&push_phase::sweep(&world, &setup, 10).unwrap())
+    };
+    let (impulse, position) = (sweep(Feedback::Impulse), sweep(Feedback::Position));
+    assert!(
+        impulse.deviation <= 0.2 * position.deviation,
+        "impulse {impulse:?}, position {position:?}"
+    );
+    let fast = Setup {
+        rate: setup.haptic_rate,
+        ..setup
+    };
+    let world = push_phase::world(push_phase::SCENE, &fast, Feedback::Impulse).unwrap();
+    let reference = push_phase::run(&world, &fast, 0.0).unwrap().stop();
+    assert!(reference > 1e-3, "the block hardly moved: {reference} m");
+    assert!(
+        (impulse.mean / reference - 1.0).abs() <= 0.05,
+        "impulse {impulse:?} against {reference} m at 1 kHz"
+    );
+}

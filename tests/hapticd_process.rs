@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use hapticd_device::replay::{Direction, Recording};
 use hapticd_device::sh4;
-use support::{artifact, plugin_path, repo_dir, scratch_root};
+use support::{artifact, plugin_path, repo_dir, scratch_root, shipped};
 
 /// The plugins staged as an install would have them.
 fn mechanisms() -> PathBuf {
@@ -440,6 +440,54 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
         "mean friction {mean}"
     );
     assert!((2.5..3.3).contains(&peak), "peak friction {peak}");
+    std::fs::remove_file(csv).ok();
+}
+
+/// Thesis 6.4.3 through the daemon: the simulated hand stirs the twelve balls of the rapier
+/// scene, the world at 10 Hz in the physics thread and the haptics at 1 kHz. The loop runs
+/// throughout (never stale, never failed), the balls push back, and no string pulls harder
+/// than its limit.
+#[test]
+fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
+    let csv = scratch("balls.csv");
+    let scene = plugin_path("hapticd-scene-rapier");
+    let balls = repo_dir().join("config/scenes/balls.yaml");
+    let stir = repo_dir().join("config/hands/stir-balls.yaml");
+    let args = [
+        "--sim",
+        "spidar-g",
+        "--hand",
+        stir.to_str().unwrap(),
+        "--duration",
+        "6.5",
+        "--record",
+        csv.to_str().unwrap(),
+        "--scene-file",
+        balls.to_str().unwrap(),
+    ];
+    finish(hapticd_with_scene(&scene, &args).spawn().unwrap());
+    let rows = columns(&csv, &["time", "state", "grip_fx", "grip_fy", "grip_fz"]);
+    assert!(rows.len() > 6000, "{} rows", rows.len());
+    assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
+    let force = |r: &Vec<String>| {
+        (2..5)
+            .map(|c| r[c].parse::<f64>().unwrap().powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let stirring = rows
+        .iter()
+        .filter(|r| (1.0..5.0).contains(&r[0].parse::<f64>().unwrap()));
+    let pushed = stirring.clone().filter(|r| force(r) > 1.0).count();
+    assert!(pushed > 100, "the balls pushed back in {pushed} ticks");
+    let limit = shipped("spidar-g").strings.iter().map(|s| s.tension_max).fold(0.0, f64::max);
+    let tensions: Vec<String> = (0..8).map(|k| format!("tension_{k}")).collect();
+    let names: Vec<&str> = tensions.iter().map(String::as_str).collect();
+    for row in columns(&csv, &names) {
+        for t in row {
+            assert!(t.parse::<f64>().unwrap() <= limit + 1e-9, "{t} N");
+        }
+    }
     std::fs::remove_file(csv).ok();
 }
 

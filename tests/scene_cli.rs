@@ -242,3 +242,67 @@ fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
     let refused = run(&[&scene("stick-slip.yaml"), "--quantity", "pointer-force"]);
     assert!(!refused.status.success());
 }
+
+/// Thesis 6.4.3: a finger stirs twelve balls in a walled tray, the world at 10 Hz and the
+/// haptics at 1 kHz as hapticd runs them. The balls scatter, none leaves the tray or sinks
+/// into the floor (continuous collision detection at 10 Hz), and the force felt stays that
+/// of a 2 kN/m spring a few millimetres deep.
+#[test]
+fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes() {
+    let hand = repo_dir().join("config/hands/stir-balls.yaml");
+    let output = run(&[
+        &scene("balls.yaml"),
+        "--hand",
+        hand.to_str().unwrap(),
+        "--duration",
+        "6",
+        "--json",
+    ]);
+    let balls = bodies(&output);
+    assert_eq!(balls.len(), 12);
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let peak = report["runs"][0]["pointers"][0]["peak_force"].as_f64().unwrap();
+    assert!((1.0..20.0).contains(&peak), "peak force {peak} N");
+    let mut moved = 0;
+    for (k, ball) in balls.iter().enumerate() {
+        let [x, y, z] = vector(&ball["position"]);
+        // Inner faces of the walls at ±0.1 m, the floor's top at −0.03 m; radius 12 mm
+        // (rapier's contacts, soft at a 100 ms step, let a ball sink up to a millimetre).
+        assert!(x.abs() <= 0.1 - 0.0119 && z.abs() <= 0.1 - 0.0119, "ball {k}: {x}, {z}");
+        assert!((-0.03 + 0.011..0.05).contains(&y), "ball {k}: y = {y}");
+        let start = [-0.06 + 0.04 * (k / 3) as f64, -0.04 + 0.04 * (k % 3) as f64];
+        if (x - start[0]).hypot(z - start[1]) > 0.01 {
+            moved += 1;
+        }
+    }
+    assert!(moved >= 6, "only {moved} balls moved");
+}
+
+/// `--feedback` and `--phase` override a rapier scene's file, and only a rapier scene's.
+#[test]
+fn a_rapier_scene_runs_with_the_feedback_and_phase_asked_for() {
+    let hand = repo_dir().join("config/hands/push-once.yaml");
+    let hand = hand.to_str().unwrap();
+    let moved = |extra: &[&str]| {
+        let mut args = vec![scene("push.yaml")];
+        args.extend(["--hand", hand, "--duration", "1.5", "--json"].map(String::from));
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        vector(&bodies(&run(&args))[0]["position"])[0] - 0.03
+    };
+    // The scripted finger is not thrown back as a hand would be: it pushes the block on.
+    let impulse = moved(&[]);
+    assert!(impulse > 0.005, "{impulse}");
+    assert_eq!(moved(&["--feedback", "impulse", "--phase", "0"]), impulse);
+    let by_position = [moved(&["--feedback", "position", "--phase", "0.01"]), moved(&["--feedback", "position", "--phase", "0.04"])];
+    assert_ne!(by_position[0], by_position[1], "the sampling phase changed nothing");
+    for wrong in [
+        vec![scene("cube-drop.yaml"), "--phase".into(), "0.01".into()],
+        vec![scene("push.yaml"), "--dt".into(), "0.01".into()],
+        vec![scene("push.yaml"), "--feedback".into(), "telepathy".into()],
+    ] {
+        let args: Vec<&str> = wrong.iter().map(String::as_str).collect();
+        let out = run(&args);
+        assert_eq!(out.status.code(), Some(2), "{wrong:?}");
+    }
+}
