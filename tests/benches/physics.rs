@@ -12,6 +12,9 @@ use hapticctl::experiments::stack_timing::{DENSITY, DT, SIDE, as_point_contacts,
 use hapticd_physics::scene::PenaltyScene;
 use rapier3d::prelude::{ColliderBuilder, PhysicsWorld, RigidBodyBuilder, Vector};
 
+#[path = "../support/mod.rs"]
+mod support;
+
 const HEIGHTS: [usize; 7] = [1, 2, 5, 10, 20, 50, 100];
 
 fn main() {
@@ -103,4 +106,51 @@ fn grasp_two_fingers(bencher: Bencher, method: &str) {
         ];
         grasp.step(&fingers, 1e-3)
     });
+}
+
+/// Bodies in the rapier benchmarks: boxes and balls falling into a pile.
+const WORLDS: [usize; 4] = [10, 100, 1000, 10_000];
+
+/// The rapier world the scene plugin steps (`hapticd_rapier::world::RapierWorld`, which the
+/// plugin wraps), of `text`.
+fn rapier_world(text: &str) -> hapticd_rapier::world::RapierWorld {
+    use hapticd_physics::scene::SceneFile;
+    match SceneFile::parse(text, std::path::Path::new("pile.yaml"), 1).unwrap() {
+        SceneFile::Rapier(spec) => hapticd_rapier::world::RapierWorld::new(&spec, 1),
+        SceneFile::Penalty(_) => unreachable!("a rapier scene"),
+    }
+}
+
+/// One 60 Hz physics step of a multi-rate scene (thesis Ch. 6) against its number of bodies,
+/// a third of a second into their fall into a pile, the pointer's planes included.
+#[divan::bench(args = WORLDS, sample_count = 20, sample_size = 1)]
+fn rapier_scene_step(bencher: Bencher, n: usize) {
+    use hapticd_plugin_api::{HapticdPlanes, HapticdPointer};
+    let mut world = rapier_world(&support::pile::scene(n, 60.0, 0));
+    let pointer = [HapticdPointer {
+        position: [0.0, 0.05, 0.0],
+        ..HapticdPointer::default()
+    }];
+    let mut planes = [HapticdPlanes::default()];
+    for _ in 0..20 {
+        world.step(1.0 / 60.0, &pointer, &[], &mut planes);
+    }
+    bencher.bench_local(|| world.step(1.0 / 60.0, &pointer, &[], &mut planes));
+}
+
+/// The intermediate representation (6.3.1) of one pointer at a corner of one layer of
+/// bodies on a floor: the same few bodies are within reach however many lie beyond.
+#[divan::bench(args = WORLDS)]
+fn intermediate_representation(bencher: Bencher, n: usize) {
+    use glam::DVec3;
+    use hapticd_plugin_api::HapticdPlanes;
+    let mut world = rapier_world(&support::pile::scene(n, 60.0, 1));
+    let mut planes = HapticdPlanes::default();
+    // One step builds the broad phase's tree; the bodies have not moved yet.
+    world.step(1.0 / 60.0, &[], &[], &mut []);
+    let side = (n as f64).sqrt().ceil();
+    let corner = DVec3::new(-side * 0.015, 0.03, -side * 0.015);
+    world.surfaces_near(corner, &mut planes);
+    assert!(planes.count > 0, "nothing near the corner");
+    bencher.bench_local(|| world.surfaces_near(corner, &mut planes));
 }

@@ -1,5 +1,17 @@
-//! Scene files of the penalty scene: bodies of boxes or convex hulls, one material, gravity,
-//! the physics step, and the shape of each pointer.
+//! Physics scene files: bodies of boxes, spheres or convex hulls, one material, gravity, the
+//! shape of each pointer, and the engine that steps them (`engine:`):
+//!
+//! - `penalty` (the default): the contact-volume penalty method inside every haptic tick
+//!   (thesis Ch. 5), in steps of `dt`, with the material's stiffness, damping and friction
+//!   springs;
+//! - `rapier`: rapier3d's constraint solver at `rate:` steps per second in hapticd's physics
+//!   thread (thesis Ch. 6); the hand feels the surfaces near each pointer as planes moved
+//!   between physics steps, and gives each body back the impulse of the force it felt
+//!   (`feedback: impulse`) or, for comparison, pushes it with a solid placed where the hand
+//!   was when the physics sampled it (`feedback: position`).
+//!
+//! Bodies, gravity, `static_friction` and `friction` mean the same under both; a key only
+//! one engine reads is an error, at its place, under the other. A penalty scene:
 //!
 //! ```yaml
 //! name: blocks
@@ -34,6 +46,9 @@
 //!   - name: wedge
 //!     hull: [[0, 0, 0], [0.02, 0, 0], [0, 0.02, 0], [0, 0, 0.02]]   # instead of box: the convex
 //!     position: [-0.05, 0, 0]  #   hull of these points, relative to position
+//!   - name: marble
+//!     sphere: 0.008            # radius; the penalty engine uses a 42-vertex hull of the
+//!     position: [0, 0.05, 0]   #   ball's volume (within 4 % of its surface)
 //!   - name: arch               # a body that is not convex: convex pieces, each a box or a
 //!     pieces:                  #   hull, placed relative to the body's position
 //!       - { box: [0.01, 0.03, 0.03], position: [-0.02, 0, 0] }
@@ -75,6 +90,24 @@
 //!
 //! In such a scene the pointers touch box bodies through the grasp springs (grasped or not),
 //! and held bodies stick to them up to the material's `static_friction`.
+//!
+//! A rapier scene (see `config/scenes/balls.yaml`):
+//!
+//! ```yaml
+//! name: tray
+//! engine: rapier
+//! rate: 20                     # physics steps per second (10–1000)
+//! feedback: impulse            # or position
+//! gravity: [0, -9.81, 0]
+//! material:
+//!   static_friction: 0.3       # rapier's contacts stick and slide at μ; the proxy the
+//!   friction: 0.3              #   hand feels sticks at μ0
+//! bodies:
+//!   - { name: floor, box: [0.3, 0.02, 0.3], position: [0, -0.04, 0], fixed: true }
+//!   - { name: ball, sphere: 0.015, position: [0, -0.015, 0], density: 7800 }
+//! pointer:
+//!   sphere: 0.005              # the solid that pushes under feedback: position
+//! ```
 
 use crate::body::Body;
 use crate::coupling::{Coupling, Grip};

@@ -194,6 +194,12 @@ impl RapierWorld {
         }
     }
 
+    /// [physics] The planes of the solids within reach of a pointer at `point`, as a step
+    /// publishes them.
+    pub fn surfaces_near(&mut self, point: DVec3, out: &mut HapticdPlanes) {
+        surfaces::near(&self.physics, point, self.reach, &mut self.scratch, out);
+    }
+
     /// [physics] One physics step of `dt` seconds: take the hand's `impulses` (impulse
     /// feedback) or move the pointers' bodies to `pointers` (position feedback), step, and
     /// write each pointer's nearby planes to `planes`. False when the world is no longer
@@ -223,13 +229,7 @@ impl RapierWorld {
         self.physics.integration_parameters.dt = dt as f32;
         self.physics.step();
         for (out, p) in planes.iter_mut().zip(pointers) {
-            surfaces::near(
-                &self.physics,
-                DVec3::from(p.position),
-                self.reach,
-                &mut self.scratch,
-                out,
-            );
+            self.surfaces_near(DVec3::from(p.position), out);
         }
         (0..self.bodies.len()).all(|i| {
             let b = self.body(i);

@@ -322,7 +322,7 @@ mod tests {
                 hapticd_core::scene::static_scene::StaticSceneSpec::parse(t, p).map(drop)
             }),
             ("hapticd-scene", |t, p| {
-                hapticd_physics::scene::PenaltyScene::parse(t, p, 1).map(drop)
+                hapticd_physics::scene::SceneFile::parse(t, p, 1).map(drop)
             }),
             ("hapticd-hand", |t, p| {
                 // Less the step that follows a recording, which the example cannot ship.
@@ -354,6 +354,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, 6);
+        assert_eq!(checked, 7);
     }
 }
