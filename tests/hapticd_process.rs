@@ -480,7 +480,11 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
         .filter(|r| (1.0..5.0).contains(&r[0].parse::<f64>().unwrap()));
     let pushed = stirring.clone().filter(|r| force(r) > 1.0).count();
     assert!(pushed > 100, "the balls pushed back in {pushed} ticks");
-    let limit = shipped("spidar-g").strings.iter().map(|s| s.tension_max).fold(0.0, f64::max);
+    let limit = shipped("spidar-g")
+        .strings
+        .iter()
+        .map(|s| s.tension_max)
+        .fold(0.0, f64::max);
     let tensions: Vec<String> = (0..8).map(|k| format!("tension_{k}")).collect();
     let names: Vec<&str> = tensions.iter().map(String::as_str).collect();
     for row in columns(&csv, &names) {
@@ -548,8 +552,13 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
 }
 
 /// The CPUs thread `tid` of process `pid` may run on, and its name.
-fn thread_cpus(pid: u32, tid: &str) -> (String, Vec<usize>) {
+/// A thread's name, the CPUs it may run on, and its scheduling policy (1: SCHED_FIFO).
+fn thread_cpus(pid: u32, tid: &str) -> (String, Vec<usize>, u32) {
     let status = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/status")).unwrap();
+    // Field 41 of stat, counted after the parenthesised name (which may hold spaces).
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/stat")).unwrap();
+    let after_name = &stat[stat.rfind(')').unwrap() + 2..];
+    let policy = after_name.split(' ').nth(38).unwrap().parse().unwrap();
     let field = |name: &str| {
         status
             .lines()
@@ -563,25 +572,39 @@ fn thread_cpus(pid: u32, tid: &str) -> (String, Vec<usize>) {
         let (a, b) = range.split_once('-').unwrap_or((range, range));
         cpus.extend(a.parse::<usize>().unwrap()..=b.parse::<usize>().unwrap());
     }
-    (field("Name:"), cpus)
+    (field("Name:"), cpus, policy)
 }
 
 #[test]
 fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
     let allowed = hapticd::cpus::allowed().unwrap();
-    let child = hapticd(&["--sim", "spidar-g", "--duration", "2"])
-        .spawn()
-        .unwrap();
+    // A multi-rate scene: its physics thread keeps off the haptic CPU too.
+    let balls = repo_dir().join("config/scenes/balls.yaml");
+    let child = hapticd_with_scene(
+        &plugin_path("hapticd-scene-rapier"),
+        &[
+            "--sim",
+            "spidar-g",
+            "--duration",
+            "2",
+            "--scene-file",
+            balls.to_str().unwrap(),
+        ],
+    )
+    .spawn()
+    .unwrap();
     let pid = child.id();
     // Once started, list every thread's CPUs.
     let started = std::time::Instant::now();
     let threads = loop {
-        let threads: Vec<(String, Vec<usize>)> = std::fs::read_dir(format!("/proc/{pid}/task"))
-            .unwrap()
-            .filter_map(|t| t.ok())
-            .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
-            .collect();
-        if threads.iter().any(|(name, _)| name == "hapticd-rt") {
+        let threads: Vec<(String, Vec<usize>, u32)> =
+            std::fs::read_dir(format!("/proc/{pid}/task"))
+                .unwrap()
+                .filter_map(|t| t.ok())
+                .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
+                .collect();
+        let named = |n: &str| threads.iter().any(|t| t.0 == n);
+        if named("hapticd-rt") && named("hapticd-physics") {
             break threads;
         }
         assert!(started.elapsed().as_secs() < 10, "no haptic thread");
@@ -592,14 +615,18 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
         return; // One CPU: nothing to set apart.
     }
     let haptic = *allowed.last().unwrap();
-    for (name, cpus) in &threads {
+    let log = String::from_utf8_lossy(&out.stderr);
+    for (name, cpus, policy) in &threads {
         if name == "hapticd-rt" {
             assert_eq!(cpus, &[haptic]);
-        } else if name != "hapticd-physics" {
+        } else {
             assert!(!cpus.contains(&haptic), "{name} may run on CPU {haptic}");
         }
+        // Where real-time scheduling is allowed, the physics thread has it too, lowest.
+        if name == "hapticd-physics" && log.contains("SCHED_FIFO 80") {
+            assert_eq!(*policy, 1, "the physics thread is not SCHED_FIFO");
+        }
     }
-    let log = String::from_utf8_lossy(&out.stderr);
     assert!(
         log.contains(&format!("runs on CPU {haptic} alone")),
         "{log}"

@@ -261,14 +261,19 @@ fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes() {
     let balls = bodies(&output);
     assert_eq!(balls.len(), 12);
     let report: Value = serde_json::from_slice(&output.stdout).unwrap();
-    let peak = report["runs"][0]["pointers"][0]["peak_force"].as_f64().unwrap();
+    let peak = report["runs"][0]["pointers"][0]["peak_force"]
+        .as_f64()
+        .unwrap();
     assert!((1.0..20.0).contains(&peak), "peak force {peak} N");
     let mut moved = 0;
     for (k, ball) in balls.iter().enumerate() {
         let [x, y, z] = vector(&ball["position"]);
         // Inner faces of the walls at ±0.1 m, the floor's top at −0.03 m; radius 12 mm
         // (rapier's contacts, soft at a 100 ms step, let a ball sink up to a millimetre).
-        assert!(x.abs() <= 0.1 - 0.0119 && z.abs() <= 0.1 - 0.0119, "ball {k}: {x}, {z}");
+        assert!(
+            x.abs() <= 0.1 - 0.0119 && z.abs() <= 0.1 - 0.0119,
+            "ball {k}: {x}, {z}"
+        );
         assert!((-0.03 + 0.011..0.05).contains(&y), "ball {k}: y = {y}");
         let start = [-0.06 + 0.04 * (k / 3) as f64, -0.04 + 0.04 * (k % 3) as f64];
         if (x - start[0]).hypot(z - start[1]) > 0.01 {
@@ -294,8 +299,14 @@ fn a_rapier_scene_runs_with_the_feedback_and_phase_asked_for() {
     let impulse = moved(&[]);
     assert!(impulse > 0.005, "{impulse}");
     assert_eq!(moved(&["--feedback", "impulse", "--phase", "0"]), impulse);
-    let by_position = [moved(&["--feedback", "position", "--phase", "0.01"]), moved(&["--feedback", "position", "--phase", "0.04"])];
-    assert_ne!(by_position[0], by_position[1], "the sampling phase changed nothing");
+    let by_position = [
+        moved(&["--feedback", "position", "--phase", "0.01"]),
+        moved(&["--feedback", "position", "--phase", "0.04"]),
+    ];
+    assert_ne!(
+        by_position[0], by_position[1],
+        "the sampling phase changed nothing"
+    );
     for wrong in [
         vec![scene("cube-drop.yaml"), "--phase".into(), "0.01".into()],
         vec![scene("push.yaml"), "--dt".into(), "0.01".into()],

@@ -1,5 +1,7 @@
 //! Wake-up latency of hapticd's real-time thread against `cyclictest` (Debian rt-tests) at
-//! the same rate and priority, on the same machine, one after the other in one run.
+//! the same rate and priority, on the same machine, one after the other in one run; and with
+//! a world of 2000 bodies stepped by rapier at 60 Hz in the physics thread against the static
+//! scene (thesis Ch. 6 at scale).
 //!
 //! Run: `make latency` (needs the right to use SCHED_FIFO, e.g. root).
 
@@ -15,7 +17,11 @@ const PRIORITY: u32 = 80;
 /// (p50, p99, max) in microseconds.
 type Latency = (f64, f64, f64);
 
-fn hapticd() -> Latency {
+/// Bodies of the large world, and its physics rate.
+const WORLD: (usize, f64) = (2000, 60.0);
+
+/// hapticd's latency with `scene` (and more arguments).
+fn hapticd(scene: &[&std::ffi::OsStr]) -> Latency {
     let dir = support::scratch_root().join("latency-mechanisms");
     std::fs::create_dir_all(&dir).unwrap();
     let plugin = support::plugin_path("hapticd-spidar-g");
@@ -24,7 +30,7 @@ fn hapticd() -> Latency {
         .arg("--mechanism-dir")
         .arg(&dir)
         .arg("--scene")
-        .arg(support::repo_dir().join("config/scenes/static.yaml"))
+        .args(scene)
         .args([
             "--sim",
             "spidar-g",
@@ -88,9 +94,34 @@ fn cyclictest() -> Latency {
     (percentile(0.5), percentile(0.99), max)
 }
 
+/// hapticd with the static scene.
+fn static_scene() -> Latency {
+    hapticd(&[support::repo_dir()
+        .join("config/scenes/static.yaml")
+        .as_os_str()])
+}
+
+/// hapticd with a pile of boxes and balls on rapier in its physics thread, stirred by the
+/// simulated hand so that the bodies never fall asleep.
+fn large_world() -> Latency {
+    let (n, rate) = WORLD;
+    let file = support::scratch_root().join(format!("pile-{n}.yaml"));
+    std::fs::write(&file, support::pile::scene(n, rate, 0)).unwrap();
+    let plugin = support::plugin_path("hapticd-scene-rapier");
+    let stir = support::repo_dir().join("config/hands/stir-balls.yaml");
+    hapticd(&[
+        plugin.as_os_str(),
+        "--scene-file".as_ref(),
+        file.as_os_str(),
+        "--hand".as_ref(),
+        stir.as_os_str(),
+    ])
+}
+
 fn main() {
-    let ours = hapticd();
+    let ours = static_scene();
     let reference = cyclictest();
+    let world = large_world();
     println!("wake latency at {RATE} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs):");
     println!("             p50      p99      max");
     println!("hapticd   {:7.1}  {:7.1}  {:7.1}", ours.0, ours.1, ours.2);
@@ -103,5 +134,17 @@ fn main() {
         ours.0 / reference.0,
         ours.1 / reference.1,
         ours.2 / reference.2
+    );
+    let (n, rate) = WORLD;
+    println!("hapticd with {n} bodies on rapier at {rate} Hz:");
+    println!(
+        "          {:7.1}  {:7.1}  {:7.1}",
+        world.0, world.1, world.2
+    );
+    println!(
+        "ratio to the static scene {:7.2}  {:7.2}  {:7.2}",
+        world.0 / ours.0,
+        world.1 / ours.1,
+        world.2 / ours.2
     );
 }

@@ -109,7 +109,7 @@ fn grasp_two_fingers(bencher: Bencher, method: &str) {
 }
 
 /// Bodies in the rapier benchmarks: boxes and balls falling into a pile.
-const WORLDS: [usize; 4] = [10, 100, 1000, 10_000];
+const WORLDS: [usize; 6] = [10, 100, 1000, 2000, 5000, 10_000];
 
 /// The rapier world the scene plugin steps (`hapticd_rapier::world::RapierWorld`, which the
 /// plugin wraps), of `text`.
@@ -128,7 +128,7 @@ fn rapier_scene_step(bencher: Bencher, n: usize) {
     use hapticd_plugin_api::{HapticdPlanes, HapticdPointer};
     let mut world = rapier_world(&support::pile::scene(n, 60.0, 0));
     let pointer = [HapticdPointer {
-        position: [0.0, 0.05, 0.0],
+        position: [0.0, 0.02, 0.0],
         ..HapticdPointer::default()
     }];
     let mut planes = [HapticdPlanes::default()];
@@ -149,7 +149,7 @@ fn intermediate_representation(bencher: Bencher, n: usize) {
     // One step builds the broad phase's tree; the bodies have not moved yet.
     world.step(1.0 / 60.0, &[], &[], &mut []);
     let side = (n as f64).sqrt().ceil();
-    let corner = DVec3::new(-side * 0.015, 0.03, -side * 0.015);
+    let corner = DVec3::new(-side * 0.015, 0.0, -side * 0.015);
     world.surfaces_near(corner, &mut planes);
     assert!(planes.count > 0, "nothing near the corner");
     bencher.bench_local(|| world.surfaces_near(corner, &mut planes));

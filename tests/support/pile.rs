@@ -8,7 +8,8 @@ use std::fmt::Write as _;
 const SPACING: f64 = 0.03;
 
 /// A scene of `n` boxes and balls at `rate` Hz: stacked in a lattice `layers` deep (0: as
-/// cube-shaped as `n` allows) with its lowest layer resting on the floor's top at y = 0.
+/// cube-shaped as `n` allows) with its lowest layer resting on the floor's top at y = −0.03
+/// (the desk height of the shipped scenes).
 pub fn scene(n: usize, rate: f64, layers: usize) -> String {
     let layers = if layers == 0 {
         (n as f64).cbrt().ceil() as usize
@@ -20,13 +21,13 @@ pub fn scene(n: usize, rate: f64, layers: usize) -> String {
     let mut text = format!(
         "name: pile-{n}\nengine: rapier\nrate: {rate}\n\
          material: {{ static_friction: 0.5, friction: 0.5 }}\nbodies:\n  \
-         - {{ name: floor, box: [{width}, 0.1, {width}], position: [0, -0.05, 0], fixed: true }}\n"
+         - {{ name: floor, box: [{width}, 0.1, {width}], position: [0, -0.08, 0], fixed: true }}\n"
     );
     for k in 0..n {
         let (layer, cell) = (k / (side * side), k % (side * side));
         let at = [
             (cell % side) as f64 * SPACING,
-            0.01 + layer as f64 * SPACING,
+            -0.02 + layer as f64 * SPACING,
             (cell / side) as f64 * SPACING,
         ];
         let shape = if k % 2 == 0 {

@@ -79,7 +79,10 @@ impl Lockstep {
                 &self.impulses,
                 &mut planes[..n],
             ) {
-                return Err(format!("at t = {:.4} s the world is no longer finite", self.time));
+                return Err(format!(
+                    "at t = {:.4} s the world is no longer finite",
+                    self.time
+                ));
             }
             self.impulses.clear();
             self.set.sequence += 1;
@@ -87,13 +90,10 @@ impl Lockstep {
             self.next_physics += self.physics_period;
         }
         let impulses = &mut self.impulses;
-        self.renderer.tick(
-            &self.set,
-            pointers,
-            self.haptic_period,
-            wrenches,
-            |i| impulses.push(i),
-        );
+        self.renderer
+            .tick(&self.set, pointers, self.haptic_period, wrenches, |i| {
+                impulses.push(i)
+            });
         for (out, p) in self.published.iter_mut().zip(pointers) {
             *out = to_abi(p);
         }

@@ -4,14 +4,12 @@
 //! system call on the haptic thread's CPU when its deadline comes delays the wake-up until the
 //! call returns; the daemon's own helpers (the supervisor, loggers, the bus) wake at 10–100 Hz
 //! and would do that a few times a second. So each haptic thread gets the last free CPU the
-//! daemon may use, and every other thread of the daemon keeps off those CPUs. With a single
-//! CPU, or more devices than spare CPUs, threads stay where the scheduler puts them.
+//! daemon may use, and every other thread of the daemon keeps off those CPUs, a multi-rate
+//! scene's physics thread too (stepping a large world it would otherwise take the haptic
+//! CPU for milliseconds at a time). With a single CPU, or more devices than spare CPUs,
+//! threads stay where the scheduler puts them.
 
 use std::io;
-use std::sync::OnceLock;
-
-/// Every CPU the daemon may use, as it was before [`Plan::keep_daemon_off`].
-static EVERY: OnceLock<Vec<usize>> = OnceLock::new();
 
 /// The CPUs the calling thread may run on, in order.
 pub fn allowed() -> io::Result<Vec<usize>> {
@@ -66,9 +64,6 @@ impl Plan {
     /// Move every thread of this process (those started so far, and through the calling
     /// thread those started later) onto the other CPUs.
     pub fn keep_daemon_off(&self) -> io::Result<()> {
-        let mut every = [self.others.as_slice(), self.haptic.as_slice()].concat();
-        every.sort_unstable();
-        let _ = EVERY.set(every);
         for task in std::fs::read_dir("/proc/self/task")? {
             let tid = task?.file_name().to_string_lossy().parse().unwrap_or(0);
             if tid > 0 {
@@ -81,13 +76,6 @@ impl Plan {
         }
         Ok(())
     }
-}
-
-/// Let the calling thread run on every CPU again: the physics thread of a multi-rate scene,
-/// which the haptic loop waits on (planes three periods old fault the scene), so starving it
-/// on the others' CPUs would cost more than its wake-ups cost the haptic thread.
-pub fn allow_every_cpu() -> io::Result<()> {
-    EVERY.get().map_or(Ok(()), |every| pin(0, every))
 }
 
 #[cfg(test)]

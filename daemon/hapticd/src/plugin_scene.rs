@@ -15,7 +15,7 @@
 use std::ffi::{CString, c_void};
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
 use hapticd_plugin_api::*;
@@ -170,10 +170,17 @@ struct MultiRateScene {
     pointers_out: Writer<[HapticdPointer; MAX_EFFECTORS]>,
     planes_in: Reader<PlaneSet>,
     impulses_out: spsc::Producer<HapticdImpulse>,
+    rate: f64,
+    /// Physics steps taken, and how many of them came late.
+    steps: Arc<(AtomicU64, AtomicU64)>,
     failed: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
+
+/// SCHED_FIFO priority of a physics thread: the lowest, above every ordinary task and below
+/// every haptic thread.
+const PHYSICS_PRIORITY: i32 = 1;
 
 impl MultiRateScene {
     /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
@@ -196,12 +203,15 @@ impl MultiRateScene {
             Arc::new(AtomicBool::new(false)),
         );
         let (stop_flag, failed_flag) = (stop.clone(), failed.clone());
+        let steps = Arc::new((AtomicU64::new(0), AtomicU64::new(0)));
+        let counts = steps.clone();
         let period_ns = (1e9 / rate) as u64;
         let thread = std::thread::Builder::new()
             .name("hapticd-physics".into())
             .spawn(move || {
-                // Spawned off the haptic CPUs like every helper, it may use them all.
-                let _ = crate::cpus::allow_every_cpu();
+                // Off the haptic CPUs like every helper, but above every ordinary task there:
+                // a busy machine must not starve it into stale planes.
+                let _ = crate::realtime::become_realtime(PHYSICS_PRIORITY);
                 // Move the whole instance in (not just its fields): it is destroyed with it.
                 let instance = instance;
                 let step = instance.vtable.step_physics.expect("checked at load");
@@ -242,8 +252,13 @@ impl MultiRateScene {
                     if next > now {
                         sleep_until(next);
                     } else {
-                        next = now;
+                        // Late: a world too large for its rate. Still leave the CPU a tenth
+                        // of a period, to the helpers and to the kernel's RLIMIT_RTTIME.
+                        counts.1.fetch_add(1, Ordering::Relaxed);
+                        next = now + period_ns / 10;
+                        sleep_until(next);
                     }
+                    counts.0.fetch_add(1, Ordering::Relaxed);
                 }
             })?;
         Ok(Self {
@@ -252,6 +267,8 @@ impl MultiRateScene {
             pointers_out,
             planes_in,
             impulses_out,
+            rate,
+            steps,
             failed,
             stop,
             thread: Some(thread),
@@ -301,6 +318,18 @@ impl Drop for MultiRateScene {
         self.stop.store(true, Ordering::Release);
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
+        }
+        let (steps, late) = (
+            self.steps.0.load(Ordering::Relaxed),
+            self.steps.1.load(Ordering::Relaxed),
+        );
+        if late > 0 {
+            tracing::warn!(
+                "scene {}: {late} of {steps} physics steps came late: the world takes longer \
+                 than {:.1} ms to step; give it a lower rate or fewer bodies",
+                self.name,
+                1e3 / self.rate
+            );
         }
     }
 }

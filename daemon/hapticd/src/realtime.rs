@@ -1,7 +1,8 @@
 //! The real-time thread that runs a [`HapticLoop`] on time.
 //!
-//! Only this thread is real-time: `SCHED_FIFO | SCHED_RESET_ON_FORK`, at the configured
-//! priority clamped to what the system allows (and if refused, it runs anyway and says so).
+//! This thread is real-time: `SCHED_FIFO | SCHED_RESET_ON_FORK`, at the configured priority
+//! clamped to what the system allows (and if refused, it runs anyway and says so). (A
+//! multi-rate scene's physics thread is too, at priority 1, off this thread's CPU.)
 //! It sleeps with `clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)` on absolute deadlines,
 //! records WAIT/BUSY/overruns, and talks to the rest of the daemon only through lock-free
 //! triple buffers and rings. When asked to stop it writes zero currents before it exits.
@@ -82,7 +83,7 @@ pub struct RealtimeLoop {
 }
 
 /// Make the calling thread SCHED_FIFO at `priority`, or as close as the system allows.
-fn become_realtime(priority: i32) -> Scheduling {
+pub(crate) fn become_realtime(priority: i32) -> Scheduling {
     let set = |priority: i32| {
         let param = libc::sched_param {
             sched_priority: priority,

@@ -36,14 +36,13 @@ fn create(
     pointers: usize,
 ) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
     let path = path.ok_or("the rapier scene needs a scene file")?;
-    let spec = match SceneFile::load(std::path::Path::new(path), pointers)
-        .map_err(|e| e.to_string())?
-    {
-        SceneFile::Rapier(spec) => spec,
-        SceneFile::Penalty(_) => {
-            return Err(format!("{path}: a penalty scene (give engine: rapier)"));
-        }
-    };
+    let spec =
+        match SceneFile::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
+            SceneFile::Rapier(spec) => spec,
+            SceneFile::Penalty(_) => {
+                return Err(format!("{path}: a penalty scene (give engine: rapier)"));
+            }
+        };
     for warning in &spec.warnings {
         hapticd_plugin_api::log(HAPTICD_LOG_WARN, &warning.to_string());
     }

@@ -343,7 +343,10 @@ mod tests {
         let parameters = r.parameters();
         let normal = parameters.stiffness * 0.002;
         // The belt drags the finger along until friction slips, at the dynamic cone.
-        assert!(sideways > 0.5 * parameters.dynamic_friction * normal, "{sideways} N");
+        assert!(
+            sideways > 0.5 * parameters.dynamic_friction * normal,
+            "{sideways} N"
+        );
         assert!(sideways <= parameters.static_friction * normal * (1.0 + 1e-9));
     }
 

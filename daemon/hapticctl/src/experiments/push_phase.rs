@@ -95,7 +95,7 @@ pub fn world(scene: &str, setup: &Setup, feedback: Feedback) -> Result<MultiRate
         SceneFile::Rapier(mut world) => {
             world.rate = setup.rate;
             world.feedback = feedback;
-            Ok(world)
+            Ok(*world)
         }
         SceneFile::Penalty(_) => Err("the push experiment needs a rapier scene".into()),
     }
@@ -112,7 +112,10 @@ pub fn run(world: &MultiRateWorld, setup: &Setup, phase: f64) -> Result<Run, Str
     let hand = SimParameters::default();
     let (k, c) = hand.arm;
     let mass = hand.hand_mass;
-    let (height, origin) = (world.bodies[block].position.y, world.bodies[block].position.x);
+    let (height, origin) = (
+        world.bodies[block].position.y,
+        world.bodies[block].position.x,
+    );
     let mut finger = (setup.start, 0.0);
     let at = |x: f64, v: f64| Lockstep::pointers(&[(DVec3::new(x, height, 0.0), DVec3::X * v)]);
     let mut lockstep = Lockstep::new(world, &at(finger.0, 0.0), setup.haptic_rate, phase);
@@ -132,8 +135,10 @@ pub fn run(world: &MultiRateWorld, setup: &Setup, phase: f64) -> Result<Run, Str
         finger.1 += force / mass * dt;
         finger.0 += finger.1 * dt;
         out.peak_force = out.peak_force.max(felt[0].force.length());
-        out.block
-            .push((lockstep.time(), lockstep.world.body(block).position.x - origin));
+        out.block.push((
+            lockstep.time(),
+            lockstep.world.body(block).position.x - origin,
+        ));
     }
     Ok(out)
 }

@@ -401,7 +401,10 @@ fn solid(
             let half = DVec3::from(size) / 2.0;
             ok.then(|| {
                 let rotation = turn;
-                (Polyhedron::cuboid(half), Primitive::Cuboid { half, rotation })
+                (
+                    Polyhedron::cuboid(half),
+                    Primitive::Cuboid { half, rotation },
+                )
             })
         }
         (None, None, Some(radius)) => f
@@ -590,9 +593,9 @@ pub struct MultiRateWorld {
 /// A physics scene file, read for the engine it names.
 pub enum SceneFile {
     /// `engine: penalty` (the default).
-    Penalty(PenaltyScene),
+    Penalty(Box<PenaltyScene>),
     /// `engine: rapier`.
-    Rapier(MultiRateWorld),
+    Rapier(Box<MultiRateWorld>),
 }
 
 /// Fastest and slowest physics of a multi-rate world, steps per second (the thesis runs
@@ -606,7 +609,10 @@ fn penalty_keys(raw: &RawScene) -> [(&'static str, bool); 12] {
         ("dt", raw.dt.is_some()),
         ("material.stiffness", m.stiffness.is_some()),
         ("material.damping", m.damping.is_some()),
-        ("material.friction_stiffness", m.friction_stiffness.is_some()),
+        (
+            "material.friction_stiffness",
+            m.friction_stiffness.is_some(),
+        ),
         ("material.friction_damping", m.friction_damping.is_some()),
         ("material.slip_speed", m.slip_speed.is_some()),
         ("material.model", m.model.is_some()),
@@ -661,7 +667,10 @@ impl SceneFile {
         };
         match engine {
             Engine::Penalty => {
-                for (key, given) in [("rate", raw.rate.is_some()), ("feedback", raw.feedback.is_some())] {
+                for (key, given) in [
+                    ("rate", raw.rate.is_some()),
+                    ("feedback", raw.feedback.is_some()),
+                ] {
                     if given {
                         f.error(key, "only for engine: rapier (the penalty engine steps in every haptic tick)");
                     }
@@ -675,7 +684,10 @@ impl SceneFile {
             Engine::Rapier => {
                 for (key, given) in penalty_keys(&raw) {
                     if given {
-                        f.error(key, "only for engine: penalty (rapier's solver has no such setting)");
+                        f.error(
+                            key,
+                            "only for engine: penalty (rapier's solver has no such setting)",
+                        );
                     }
                 }
                 let (slow, fast) = RATE_RANGE;
@@ -790,7 +802,7 @@ impl SceneFile {
                 Some(RawFeedback::Position) => Feedback::Position,
                 Some(RawFeedback::Impulse) | None => Feedback::Impulse,
             };
-            return Ok(SceneFile::Rapier(MultiRateWorld {
+            return Ok(SceneFile::Rapier(Box::new(MultiRateWorld {
                 name: raw.name,
                 gravity: DVec3::from(raw.gravity),
                 rate: raw.rate.unwrap_or(RATE_RANGE.0),
@@ -805,7 +817,7 @@ impl SceneFile {
                     (Body::new(&shape, density, false), primitive)
                 }),
                 warnings,
-            }));
+            })));
         };
         let mut couplings = Vec::with_capacity(pointers);
         if let (Some(pointer), Some((shape, _))) = (&raw.pointer, &pointer_solid) {
@@ -886,7 +898,7 @@ impl SceneFile {
             warnings,
         };
         scene.set_model(penalty.model);
-        Ok(SceneFile::Penalty(scene))
+        Ok(SceneFile::Penalty(Box::new(scene)))
     }
 
     /// The scene's name.
@@ -980,7 +992,7 @@ impl PenaltyScene {
     /// file for another engine is an error at its `engine:`.
     pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
         match SceneFile::parse(text, path, pointers)? {
-            SceneFile::Penalty(scene) => Ok(scene),
+            SceneFile::Penalty(scene) => Ok(*scene),
             SceneFile::Rapier(_) => {
                 let (_, map): (IgnoredAny, YamlMap) = diagnostics::parse_yaml(text, path)?;
                 let locate = |field: &str| map.find(field);
@@ -1147,21 +1159,53 @@ mod tests {
         assert!(matches!(world.pointer, Some((_, Primitive::Ball { radius })) if radius == 0.005));
         // The penalty engine reads the same bodies (and runs nothing else).
         let as_penalty = push.replace("engine: rapier", "engine: penalty");
-        let e = SceneFile::parse(&as_penalty, Path::new("s.yaml"), 1).err().unwrap().to_string();
-        for expected in ["s.yaml:6:7: error: rate: only for engine: rapier", "material.stiffness: missing"] {
+        let e = SceneFile::parse(&as_penalty, Path::new("s.yaml"), 1)
+            .err()
+            .unwrap()
+            .to_string();
+        for expected in [
+            "s.yaml:6:7: error: rate: only for engine: rapier",
+            "material.stiffness: missing",
+        ] {
             assert!(e.contains(expected), "{e}");
         }
         let blocks = std::fs::read_to_string(shipped("blocks.yaml")).unwrap();
         let as_rapier = blocks.replace("name: blocks", "name: blocks\nengine: rapier\nrate: 50");
         let e = parse(&as_rapier, 1).err().unwrap().to_string();
-        assert!(e.contains("s.yaml:8:5: error: dt: only for engine: penalty"), "{e}");
-        assert!(e.contains("s.yaml:10:14: error: material.stiffness: only for engine: penalty"), "{e}");
+        assert!(
+            e.contains("s.yaml:8:5: error: dt: only for engine: penalty"),
+            "{e}"
+        );
+        assert!(
+            e.contains("s.yaml:10:14: error: material.stiffness: only for engine: penalty"),
+            "{e}"
+        );
         for (from, to, expected) in [
-            ("rate: 20 ", "rate: 5000 ", "rate: must be a number from 10 to 1000 Hz"),
-            ("feedback: impulse", "feedback: telepathy", "unknown variant `telepathy`"),
-            ("engine: rapier", "engine: bullet", "unknown variant `bullet`"),
-            ("sphere: 0.005", "sphere: .nan", "pointer.sphere: must be a number"),
-            ("box: [0.1, 0.1, 0.1]", "box: [0.1, 0.1, 0.1]\n    sphere: 0.1", "exactly one of"),
+            (
+                "rate: 20 ",
+                "rate: 5000 ",
+                "rate: must be a number from 10 to 1000 Hz",
+            ),
+            (
+                "feedback: impulse",
+                "feedback: telepathy",
+                "unknown variant `telepathy`",
+            ),
+            (
+                "engine: rapier",
+                "engine: bullet",
+                "unknown variant `bullet`",
+            ),
+            (
+                "sphere: 0.005",
+                "sphere: .nan",
+                "pointer.sphere: must be a number",
+            ),
+            (
+                "box: [0.1, 0.1, 0.1]",
+                "box: [0.1, 0.1, 0.1]\n    sphere: 0.1",
+                "exactly one of",
+            ),
         ] {
             assert!(push.contains(from), "{from}");
             let e = SceneFile::parse(&push.replace(from, to), Path::new("s.yaml"), 1)
@@ -1171,8 +1215,14 @@ mod tests {
             assert!(e.contains(expected), "{to}: {e}");
         }
         // A rapier file is no penalty scene.
-        let e = PenaltyScene::parse(&push, Path::new("s.yaml"), 1).err().unwrap().to_string();
-        assert!(e.contains("s.yaml:5:9: error: engine: a rapier scene"), "{e}");
+        let e = PenaltyScene::parse(&push, Path::new("s.yaml"), 1)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("s.yaml:5:9: error: engine: a rapier scene"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -51,11 +51,16 @@ pub fn near(
     out: &mut HapticdPlanes,
 ) {
     scratch.clear();
-    let box_ = Aabb::new(vector(point - DVec3::splat(reach)), vector(point + DVec3::splat(reach)));
+    let box_ = Aabb::new(
+        vector(point - DVec3::splat(reach)),
+        vector(point + DVec3::splat(reach)),
+    );
     let query = physics.query_pipeline_with_filter(QueryFilter::exclude_kinematic());
     let at = vector(point);
     for (_, collider) in query.intersect_aabb_conservative(box_) {
-        let projection = collider.shape().project_point(collider.position(), at, false);
+        let projection = collider
+            .shape()
+            .project_point(collider.position(), at, false);
         let nearest = dvec(projection.point);
         let offset = point - nearest;
         let distance = offset.length();
@@ -63,7 +68,11 @@ pub fn near(
             continue;
         }
         let normal = if distance > ON_SURFACE {
-            (if projection.is_inside { -offset } else { offset }) / distance
+            (if projection.is_inside {
+                -offset
+            } else {
+                offset
+            }) / distance
         } else {
             // On the surface: the direction from the solid's centre is outward enough for a
             // convex piece, and the next step moves the point off the surface anyway.

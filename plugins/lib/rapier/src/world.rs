@@ -49,18 +49,43 @@ pub struct RapierWorld {
     scratch: Vec<Candidate>,
 }
 
+/// The size of the world's typical moving body, metres: rapier scales its tolerances by it
+/// (contact prediction, allowed penetration, the broad phase's fattening). Its default of a
+/// metre suits a room; on a desk, centimetre bodies would each be paired with every body
+/// within 8 cm, and a falling pile of a thousand make two hundred thousand pairs.
+fn length_unit(bodies: &[Body]) -> f64 {
+    let mut sizes: Vec<f64> = bodies
+        .iter()
+        .filter(|b| !b.fixed)
+        .map(|b| {
+            let (low, high) = b
+                .pieces
+                .iter()
+                .flat_map(|p| &p.vertices)
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(low, high), v| {
+                    (low.min(*v), high.max(*v))
+                });
+            (high - low).max_element()
+        })
+        .collect();
+    sizes.sort_by(f64::total_cmp);
+    sizes
+        .get(sizes.len() / 2)
+        .map_or(1.0, |s| s.clamp(1e-3, 1.0))
+}
+
 /// The collider of `primitive`, piece `piece` of `body` (in the body's frame).
 fn collider(body: &Body, piece: usize, primitive: Primitive) -> ColliderBuilder {
     let solid = &body.pieces[piece];
     let centre = solid.vertices.iter().copied().sum::<DVec3>() / solid.vertices.len() as f64;
     match primitive {
-        Primitive::Cuboid { half, rotation: r } => ColliderBuilder::cuboid(
-            half.x as f32,
-            half.y as f32,
-            half.z as f32,
-        )
-        .position(Pose::from_parts(vector(centre), rotation(r))),
-        Primitive::Ball { radius } => ColliderBuilder::ball(radius as f32).translation(vector(centre)),
+        Primitive::Cuboid { half, rotation: r } => {
+            ColliderBuilder::cuboid(half.x as f32, half.y as f32, half.z as f32)
+                .position(Pose::from_parts(vector(centre), rotation(r)))
+        }
+        Primitive::Ball { radius } => {
+            ColliderBuilder::ball(radius as f32).translation(vector(centre))
+        }
         Primitive::Hull => {
             let points: Vec<_> = solid.vertices.iter().map(|v| vector(*v)).collect();
             ColliderBuilder::convex_hull(&points)
@@ -75,6 +100,7 @@ impl RapierWorld {
         let mut physics = PhysicsWorld::new();
         physics.gravity = vector(spec.gravity);
         physics.integration_parameters.dt = (1.0 / spec.rate) as f32;
+        physics.integration_parameters.length_unit = length_unit(&spec.bodies) as f32;
         let mut bodies = Vec::with_capacity(spec.bodies.len());
         let mut pieces = Vec::new();
         for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
@@ -85,7 +111,10 @@ impl RapierWorld {
             };
             let handle = physics.insert_body(
                 builder
-                    .pose(Pose::from_parts(vector(body.position), rotation(body.orientation)))
+                    .pose(Pose::from_parts(
+                        vector(body.position),
+                        rotation(body.orientation),
+                    ))
                     .linvel(vector(body.velocity))
                     .angvel(vector(body.spin)),
             );
@@ -247,7 +276,7 @@ mod tests {
         match SceneFile::parse(text, std::path::Path::new("t.yaml"), pointers).unwrap() {
             SceneFile::Rapier(spec) => {
                 let world = RapierWorld::new(&spec, pointers);
-                (spec, world)
+                (*spec, world)
             }
             SceneFile::Penalty(_) => panic!("not a rapier scene"),
         }
@@ -278,14 +307,28 @@ bodies:
         let m = 1000.0 * a * b * c;
         let inertia = DVec3::new(b * b + c * c, a * a + c * c, a * a + b * b) * (m / 12.0);
         let momentum = (after.velocity - before.velocity) * m;
-        assert!((momentum - j).length() < 1e-6 * j.length(), "{momentum} vs {j}");
+        assert!(
+            (momentum - j).length() < 1e-6 * j.length(),
+            "{momentum} vs {j}"
+        );
         let moment = (p - before.position).cross(j);
         let angular = (after.spin - before.spin) * inertia;
-        assert!((angular - moment).length() < 1e-5 * moment.length(), "{angular} vs {moment}");
+        assert!(
+            (angular - moment).length() < 1e-5 * moment.length(),
+            "{angular} vs {moment}"
+        );
         // Nothing happens to an object that is not there, or to an impulse that is not finite.
         for bad in [
-            HapticdImpulse { object: 9, point: p.to_array(), impulse: j.to_array() },
-            HapticdImpulse { object: 0, point: p.to_array(), impulse: [f64::NAN, 0.0, 0.0] },
+            HapticdImpulse {
+                object: 9,
+                point: p.to_array(),
+                impulse: j.to_array(),
+            },
+            HapticdImpulse {
+                object: 0,
+                point: p.to_array(),
+                impulse: [f64::NAN, 0.0, 0.0],
+            },
         ] {
             w.apply(&bad);
             assert_eq!(w.body(0), after);
@@ -342,7 +385,10 @@ feedback: position
         assert!(w.step(0.02, &[inside], &[], &mut planes));
         let leg = planes[0].planes[0];
         assert_eq!(w.body_of(leg.object), Some(2));
-        assert!((DVec3::from(leg.normal) - DVec3::NEG_X).length() < 1e-3, "{leg:?}");
+        assert!(
+            (DVec3::from(leg.normal) - DVec3::NEG_X).length() < 1e-3,
+            "{leg:?}"
+        );
         assert!((leg.point[0] + 0.36).abs() < 1e-4, "{leg:?}");
     }
 

@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
 use hapticctl::experiments::{grasp, push_phase, shape_tracing, stack_timing, wall_stiffness};
-use hapticd_physics::scene::Feedback;
 use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
 use hapticd_core::haptics::grasp::Method;
+use hapticd_physics::scene::Feedback;
 use serde_json::{Value, json};
 
 use crate::Failure;
@@ -233,7 +233,9 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
         let (low, high) = runs
             .iter()
             .map(push_phase::Run::stop)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+                (l.min(x), h.max(x))
+            });
         text += &format!(
             "{name:<9} {:7.2} ± {:6.3} (from {:.2} to {:.2}), peak force {:.2} N\n",
             s.mean * 1e3,
@@ -255,22 +257,29 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
         reference * 1e3
     );
     if let Some(path) = &args.plot {
-        let chart = |title: &str, runs: &[push_phase::Run]| Chart {
-            title: title.into(),
-            x_label: "time [s]".into(),
-            y_label: "block moved [mm]".into(),
-            series: runs
-                .iter()
-                .enumerate()
-                .map(|(k, r)| Series {
-                    label: format!("phase {:.0} ms", r.phase * 1e3),
-                    points: r.block.iter().step_by(5).map(|&(t, x)| (t, x * 1e3)).collect(),
-                    color: PALETTE[k % PALETTE.len()],
-                })
-                .collect(),
-            ..Chart::default()
-        }
-        .render();
+        let chart = |title: &str, runs: &[push_phase::Run]| {
+            Chart {
+                title: title.into(),
+                x_label: "time [s]".into(),
+                y_label: "block moved [mm]".into(),
+                series: runs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, r)| Series {
+                        label: format!("phase {:.0} ms", r.phase * 1e3),
+                        points: r
+                            .block
+                            .iter()
+                            .step_by(5)
+                            .map(|&(t, x)| (t, x * 1e3))
+                            .collect(),
+                        color: PALETTE[k % PALETTE.len()],
+                    })
+                    .collect(),
+                ..Chart::default()
+            }
+            .render()
+        };
         let title = |method: &str| format!("{method}, physics {} Hz", setup.rate);
         let canvas = Canvas::stacked(&[
             chart(&title("position feedback"), &position),

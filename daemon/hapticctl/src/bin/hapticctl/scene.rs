@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DMat3, DQuat, DVec3};
-use hapticctl::plot::{Chart, PALETTE, Series};
 use hapticctl::multirate::Lockstep;
+use hapticctl::plot::{Chart, PALETTE, Series};
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_core::scene::Pointer;
 use hapticd_device::sim::hand::{HandTrack, Script};
@@ -339,7 +339,7 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
         return Err(Failure::usage("--duration must be > 0 and at most 10⁵ s"));
     }
     match SceneFile::load(&args.file, hands.len())? {
-        SceneFile::Rapier(spec) => run_multirate(args, spec, &hands),
+        SceneFile::Rapier(spec) => run_multirate(args, *spec, &hands),
         SceneFile::Penalty(_) => run_penalty(args, &hands),
     }
 }
@@ -357,7 +357,11 @@ fn hand_pointers(hands: &[HandTrack], t: f64) -> Vec<Pointer> {
 }
 
 /// Step a rapier scene with its haptic side as hapticd does, and report like a penalty run.
-fn run_multirate(args: &RunArgs, mut spec: MultiRateWorld, hands: &[HandTrack]) -> Result<(), Failure> {
+fn run_multirate(
+    args: &RunArgs,
+    mut spec: MultiRateWorld,
+    hands: &[HandTrack],
+) -> Result<(), Failure> {
     if !args.models.is_empty() || args.dt.is_some() {
         return Err(Failure::usage(
             "--model and --dt are for penalty scenes; a rapier scene steps at its rate:",
@@ -375,7 +379,9 @@ fn run_multirate(args: &RunArgs, mut spec: MultiRateWorld, hands: &[HandTrack]) 
     let pointers = hand_pointers(hands, 0.0);
     let mut run = Lockstep::new(&spec, &pointers, HAPTIC_RATE, args.phase);
     let ticks = (args.duration * HAPTIC_RATE).round() as usize;
-    let moving: Vec<usize> = (0..spec.bodies.len()).filter(|&i| !spec.bodies[i].fixed).collect();
+    let moving: Vec<usize> = (0..spec.bodies.len())
+        .filter(|&i| !spec.bodies[i].fixed)
+        .collect();
     let up = -spec.gravity.normalize_or(DVec3::NEG_Y);
     let plotted = match args.quantity {
         Quantity::PointerForce => hands.len(),
@@ -447,7 +453,14 @@ fn run_multirate(args: &RunArgs, mut spec: MultiRateWorld, hands: &[HandTrack]) 
     let mut bodies = Vec::new();
     for &i in &moving {
         let b = run.world.body(i);
-        bodies.push(report_body(&mut text, &spec.names[i], b.position, b.orientation, b.velocity, b.spin));
+        bodies.push(report_body(
+            &mut text,
+            &spec.names[i],
+            b.position,
+            b.orientation,
+            b.velocity,
+            b.spin,
+        ));
     }
     let pointers = report_pointers(&mut text, &felt, &peaks);
     print(
@@ -556,10 +569,10 @@ fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
     }
     let steps = (args.duration / dt).round() as usize;
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
-    let mut traces = vec![trace(first, args, &hands, (dt, steps), record.as_mut())?];
+    let mut traces = vec![trace(first, args, hands, (dt, steps), record.as_mut())?];
     for &model in &models[1..] {
         let scene = load(&args.file, model, hands.len())?;
-        traces.push(trace(scene, args, &hands, (dt, steps), record.as_mut())?);
+        traces.push(trace(scene, args, hands, (dt, steps), record.as_mut())?);
     }
     if let Some(record) = record {
         record.finish()?;
