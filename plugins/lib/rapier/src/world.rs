@@ -142,10 +142,14 @@ impl RapierWorld {
             scratch: Vec::new(),
         };
         if let Some((shape, primitive)) = &spec.pointer {
+            // Sampled at the physics rate, a pointer jumps centimetres a step: its contacts
+            // are predicted along that jump (soft CCD), so it strikes what lies in its path
+            // instead of landing inside and being pushed out by position correction alone.
+            let jump = world.reach as f32;
             for _ in 0..pointers {
-                let handle = world
-                    .physics
-                    .insert_body(RigidBodyBuilder::kinematic_position_based());
+                let handle = world.physics.insert_body(
+                    RigidBodyBuilder::kinematic_position_based().soft_ccd_prediction(jump),
+                );
                 let c = collider(shape, 0, *primitive).friction(spec.friction as f32);
                 world
                     .physics
