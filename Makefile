@@ -73,6 +73,7 @@ figures: stage
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png
 	$(HAPTICCTL) experiment stick-slip --plot docs/figures/stick-slip.png
 	$(HAPTICCTL) experiment grasp --plot docs/figures/grasp-shake.png
+	$(HAPTICCTL) experiment push-phase --plot docs/figures/push-phase.png
 	$(HAPTICCTL) scene run config/scenes/top.yaml --duration 12 --model volume --model point \
 		--quantity spin --plot docs/figures/spinning-top.png
 

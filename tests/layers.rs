@@ -1,5 +1,5 @@
-//! The workspace's layering, checked: the core links no I/O library, and no crate's modules
-//! import each other in a circle.
+//! The workspace's layering, checked: the core links no I/O library, rapier3d stays in its
+//! plugin, and no crate's modules import each other in a circle.
 
 mod support;
 
@@ -56,6 +56,29 @@ fn the_core_links_no_io_library() {
     let physics = normal_dependencies("hapticd-physics");
     let linked: Vec<_> = io.iter().filter(|c| physics.contains(**c)).collect();
     assert!(linked.is_empty(), "hapticd-physics links {linked:?}");
+}
+
+/// rapier3d lives in its scene plugin (and hapticctl), loaded into the daemon only when a
+/// rapier scene runs: neither the daemon nor the core the haptic thread runs links it.
+#[test]
+fn only_the_rapier_plugin_and_hapticctl_link_rapier() {
+    for package in [
+        "hapticd",
+        "hapticd-core",
+        "hapticd-physics",
+        "hapticd-scene-penalty",
+    ] {
+        assert!(
+            !normal_dependencies(package).contains("rapier3d"),
+            "{package} links rapier3d"
+        );
+    }
+    for package in ["hapticd-scene-rapier", "hapticctl"] {
+        assert!(
+            normal_dependencies(package).contains("rapier3d"),
+            "{package}"
+        );
+    }
 }
 
 /// The module a source file defines, as path segments from the crate root.

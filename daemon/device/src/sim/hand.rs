@@ -172,7 +172,9 @@ impl Step {
             } => {
                 f.coordinates(format!("{at}.centre"), centre, MAX_REACH, "m");
                 f.within(format!("{at}.radius"), *radius, 0.0, MAX_REACH, " m");
-                if f.finite(format!("{at}.normal"), normal) && DVec3::from(*normal).length() < 1e-9
+                // A direction: its length must neither vanish nor overflow when normalised.
+                if f.coordinates(format!("{at}.normal"), normal, 1e6, "(a direction)")
+                    && DVec3::from(*normal).length() < 1e-9
                 {
                     f.error(format!("{at}.normal"), "must not be zero");
                 }
@@ -552,7 +554,7 @@ mod tests {
         assert!(parse("hands:\n  grip:\n    - wave: { seconds: 1 }\n").is_err());
         assert!(parse("hands:\n  grip:\n    - hold: { seconds: 1, colour: red }\n").is_err());
         let e = parse(
-            "hands:\n  grip:\n    - hold: { seconds: -1 }\n    - move: { to: [.nan, 0, 0], seconds: 1 }\n    - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 0, 0], period: 0, seconds: 1 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 1e308, seconds: 1 }\n",
+            "hands:\n  grip:\n    - hold: { seconds: -1 }\n    - move: { to: [.nan, 0, 0], seconds: 1 }\n    - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 0, 0], period: 0, seconds: 1 }\n    - trace: { centre: [0, 0, 0], radius: 0.1, normal: [-1e308, 1, 0], period: 1, seconds: 1 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 1e308, seconds: 1 }\n",
         )
         .unwrap_err()
         .to_string();
@@ -564,7 +566,8 @@ mod tests {
                 "h.yaml:4:19: error: hands.grip[1].move.to: must be finite, each within ±10 m",
                 "h.yaml:5:56: error: hands.grip[2].trace.normal: must not be zero",
                 "h.yaml:5:75: error: hands.grip[2].trace.period: must be a number from 0.01 to 1000000 s, not 0",
-                "h.yaml:6:52: error: hands.grip[3].shake.frequency: must be a number from 0 to 1000 Hz, not 1e308",
+                "h.yaml:6:56: error: hands.grip[3].trace.normal: must be finite, each within ±1000000 (a direction)",
+                "h.yaml:7:52: error: hands.grip[4].shake.frequency: must be a number from 0 to 1000 Hz, not 1e308",
             ]
         );
     }
