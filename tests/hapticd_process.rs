@@ -459,7 +459,7 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
         "--hand",
         stir.to_str().unwrap(),
         "--duration",
-        "6.5",
+        "7.5",
         "--record",
         csv.to_str().unwrap(),
         "--scene-file",
@@ -467,7 +467,7 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
     ];
     finish(hapticd_with_scene(&scene, &args).spawn().unwrap());
     let rows = columns(&csv, &["time", "state", "grip_fx", "grip_fy", "grip_fz"]);
-    assert!(rows.len() > 6000, "{} rows", rows.len());
+    assert!(rows.len() > 7000, "{} rows", rows.len());
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
     let force = |r: &Vec<String>| {
         (2..5)
@@ -477,7 +477,7 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
     };
     let stirring = rows
         .iter()
-        .filter(|r| (1.0..5.0).contains(&r[0].parse::<f64>().unwrap()));
+        .filter(|r| (1.0..6.5).contains(&r[0].parse::<f64>().unwrap()));
     let pushed = stirring.clone().filter(|r| force(r) > 1.0).count();
     assert!(pushed > 100, "the balls pushed back in {pushed} ticks");
     let limit = shipped("spidar-g")

@@ -246,7 +246,8 @@ fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
 /// Thesis 6.4.3: a finger stirs twelve balls in a walled tray, the world at 10 Hz and the
 /// haptics at 1 kHz as hapticd runs them. The balls scatter, none leaves the tray or sinks
 /// into the floor (continuous collision detection at 10 Hz), and the force felt stays that
-/// of a 2 kN/m spring a few millimetres deep.
+/// of the 2 kN/m proxy spring no deeper than a ball is wide (the scripted finger, unlike a
+/// hand, goes where its script says, even into a ball pinned against a wall).
 #[test]
 fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes() {
     let hand = repo_dir().join("config/hands/stir-balls.yaml");
@@ -255,7 +256,7 @@ fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes() {
         "--hand",
         hand.to_str().unwrap(),
         "--duration",
-        "6",
+        "7.5",
         "--json",
     ]);
     let balls = bodies(&output);
@@ -264,7 +265,7 @@ fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes() {
     let peak = report["runs"][0]["pointers"][0]["peak_force"]
         .as_f64()
         .unwrap();
-    assert!((1.0..20.0).contains(&peak), "peak force {peak} N");
+    assert!((1.0..2000.0 * 0.025).contains(&peak), "peak force {peak} N");
     let mut moved = 0;
     for (k, ball) in balls.iter().enumerate() {
         let [x, y, z] = vector(&ball["position"]);
@@ -280,7 +281,7 @@ fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes() {
             moved += 1;
         }
     }
-    assert!(moved >= 6, "only {moved} balls moved");
+    assert!(moved >= 9, "only {moved} balls moved");
 }
 
 /// `--feedback` and `--phase` override a rapier scene's file, and only a rapier scene's.

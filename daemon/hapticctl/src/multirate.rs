@@ -5,17 +5,19 @@
 //! thread does the same against the real clock).
 
 use glam::DVec3;
-use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench, quat_to_wxyz};
+use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench, quat_to_wxyz};
 use hapticd_core::scene::Pointer;
-use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet};
+use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
 use hapticd_physics::scene::MultiRateWorld;
 use hapticd_plugin_api::{HapticdImpulse, HapticdPlanes, HapticdPointer};
-use hapticd_rapier::world::RapierWorld;
+use hapticd_rapier::world::{BodyState, RapierWorld};
 
 /// A rapier world and the haptic side, stepped in lockstep.
 pub struct Lockstep {
     /// The world.
     pub world: RapierWorld,
+    /// Every body as the step before last and the last step left it.
+    poses: (Vec<BodyState>, Vec<BodyState>),
     renderer: PlaneRenderer,
     haptic_period: f64,
     physics_period: f64,
@@ -46,8 +48,11 @@ impl Lockstep {
         for (out, p) in published.iter_mut().zip(pointers) {
             *out = to_abi(p);
         }
+        let world = RapierWorld::new(spec, pointers.len());
+        let now: Vec<BodyState> = (0..world.body_count()).map(|i| world.body(i)).collect();
         Self {
-            world: RapierWorld::new(spec, pointers.len()),
+            poses: (now.clone(), now),
+            world,
             renderer: PlaneRenderer::new(spec.rate, pointers),
             haptic_period: 1.0 / haptic_rate,
             physics_period,
@@ -85,6 +90,10 @@ impl Lockstep {
                 ));
             }
             self.impulses.clear();
+            std::mem::swap(&mut self.poses.0, &mut self.poses.1);
+            for (i, pose) in self.poses.1.iter_mut().enumerate() {
+                *pose = self.world.body(i);
+            }
             self.set.sequence += 1;
             self.set.planes = planes;
             self.next_physics += self.physics_period;
@@ -101,12 +110,31 @@ impl Lockstep {
         Ok(())
     }
 
+    /// Body `i` where graphics and telemetry show it: between the last two physics steps by
+    /// the fraction the haptic side renders the planes at (thesis 6.5.2), so it moves
+    /// smoothly, a physics period behind, as the hand feels it.
+    pub fn body(&self, i: usize) -> BodyState {
+        let (before, after) = (&self.poses.0[i], &self.poses.1[i]);
+        let pose = |b: &BodyState| Pose {
+            position: b.position,
+            orientation: b.orientation,
+        };
+        let fraction = self.renderer.fraction();
+        let between = pose_between(&pose(before), &pose(after), fraction);
+        BodyState {
+            position: between.position,
+            orientation: between.orientation,
+            velocity: before.velocity.lerp(after.velocity, fraction),
+            spin: before.spin.lerp(after.spin, fraction),
+        }
+    }
+
     /// The pointers at `positions`, moving at `velocities`, as the loop hands them over.
     pub fn pointers(positions: &[(DVec3, DVec3)]) -> Vec<Pointer> {
         positions
             .iter()
             .map(|&(position, velocity)| Pointer {
-                pose: hapticd_core::kinematics::Pose {
+                pose: Pose {
                     position,
                     ..Default::default()
                 },

@@ -14,7 +14,7 @@ use hapticd_plugin_api::{HAPTICD_MAX_PLANES, HapticdImpulse, HapticdPlane, Hapti
 
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
-use crate::kinematics::{MAX_EFFECTORS, Wrench};
+use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use crate::scene::Pointer;
 
 /// One set of planes as the physics published it.
@@ -60,6 +60,16 @@ pub struct PlaneRenderer {
     sums: [[Accumulator; HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
     /// The plane each proxy rested on last tick, if any.
     resting: [Option<usize>; MAX_EFFECTORS],
+}
+
+/// A body's pose `fraction` of the way from where the step before last left it to where the
+/// last step left it (thesis 6.5.2): the position along the line, the orientation along the
+/// shortest turn.
+pub fn pose_between(before: &Pose, after: &Pose, fraction: f64) -> Pose {
+    Pose {
+        position: before.position.lerp(after.position, fraction),
+        orientation: before.orientation.slerp(after.orientation, fraction),
+    }
 }
 
 /// `plane` moved `fraction` of the way from `old` (its pose in the set before).
@@ -118,6 +128,14 @@ impl PlaneRenderer {
         self.resting = [None; MAX_EFFECTORS];
     }
 
+    /// How far the world felt has moved from the set before last toward the last: the
+    /// fraction of a physics period since the last set came, at most 1. Graphics and
+    /// telemetry move bodies by the same fraction (thesis 6.5.2), so what is seen is what
+    /// is felt.
+    pub fn fraction(&self) -> f64 {
+        (self.since_update / self.period).min(1.0)
+    }
+
     /// Plane `k` of pointer `p` in the current set, moved `fraction` of a period from where
     /// the set before had the same object's plane.
     pub fn interpolated(&self, p: usize, k: usize, fraction: f64) -> Surface {
@@ -153,7 +171,7 @@ impl PlaneRenderer {
         if self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.period {
             return false;
         }
-        let fraction = (self.since_update / self.period).min(1.0);
+        let fraction = self.fraction();
         for (p, (pointer, wrench)) in pointers.iter().zip(wrenches.iter_mut()).enumerate() {
             let Some(proxy) = self.proxies.get(p) else {
                 break;
@@ -241,7 +259,7 @@ impl PlaneRenderer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::Pose;
+    use glam::DQuat;
 
     const RATE: f64 = 20.0;
     const TICK: f64 = 1e-3;
@@ -296,6 +314,23 @@ mod tests {
         let other = set(3, 8, DVec3::new(0.0, 0.3, 0.0), DVec3::Y, DVec3::ZERO);
         r.tick(&other, &above, TICK, &mut w, |_| {});
         assert_eq!(r.interpolated(0, 0, 0.5).point, DVec3::new(0.0, 0.3, 0.0));
+    }
+
+    #[test]
+    fn a_body_halfway_between_two_steps_is_halfway_along_and_halfway_turned() {
+        let before = Pose {
+            position: DVec3::ZERO,
+            orientation: DQuat::IDENTITY,
+        };
+        let after = Pose {
+            position: DVec3::new(0.2, 0.0, -0.1),
+            orientation: DQuat::from_rotation_y(1.0),
+        };
+        let half = pose_between(&before, &after, 0.5);
+        assert!((half.position - DVec3::new(0.1, 0.0, -0.05)).length() < 1e-15);
+        let turned = half.orientation.to_scaled_axis();
+        assert!((turned - DVec3::Y * 0.5).length() < 1e-12, "{turned}");
+        assert_eq!(pose_between(&before, &after, 1.0).position, after.position);
     }
 
     #[test]

@@ -52,7 +52,8 @@ pub struct RunArgs {
     /// one point (N/m, N·s/m).
     #[arg(long = "model", value_enum)]
     models: Vec<Model>,
-    /// Write every step's body states to this CSV file.
+    /// Write every step's body states to this CSV file (rapier scenes: every haptic tick's,
+    /// the bodies moved between physics steps as graphics show them, thesis 6.5.2).
     #[arg(long)]
     record: Option<PathBuf>,
     /// Plot a quantity of every moving body against time to this PNG file.
@@ -356,7 +357,9 @@ fn hand_pointers(hands: &[HandTrack], t: f64) -> Vec<Pointer> {
     Lockstep::pointers(&at)
 }
 
-/// Step a rapier scene with its haptic side as hapticd does, and report like a penalty run.
+/// Step a rapier scene with its haptic side as hapticd does, and report like a penalty run:
+/// curves and records follow the bodies between physics steps (6.5.2), the report gives
+/// where the physics left them.
 fn run_multirate(
     args: &RunArgs,
     mut spec: MultiRateWorld,
@@ -402,17 +405,17 @@ fn run_multirate(
         for (k, curve) in curves.iter_mut().enumerate() {
             let value = match args.quantity {
                 Quantity::PointerForce => felt[k].force.length(),
-                Quantity::Height => run.world.body(moving[k]).position.dot(up),
+                Quantity::Height => run.body(moving[k]).position.dot(up),
                 Quantity::AngularMomentumZ => Err(Failure::usage(
                     "--quantity angular-momentum-z is for penalty scenes",
                 ))?,
-                Quantity::Spin => run.world.body(moving[k]).spin.length(),
+                Quantity::Spin => run.body(moving[k]).spin.length(),
             };
             curve.push((t, value));
         }
         if let Some(record) = record.as_mut() {
             for &i in &moving {
-                let b = run.world.body(i);
+                let b = run.body(i);
                 let (p, [qw, qx, qy, qz], v, w) =
                     (b.position, quat_to_wxyz(b.orientation), b.velocity, b.spin);
                 record.row(format_args!(
