@@ -13,7 +13,7 @@ use hapticd_physics::scene::Feedback;
 use serde_json::{Value, json};
 
 use crate::Failure;
-use crate::mechanism::{Numbers, Output, parse_numbers, print, resolve, save};
+use crate::mechanism::{Numbers, Output, parse_numbers, print, resolve, save, save_canvas};
 
 #[derive(Subcommand)]
 pub enum Command {
@@ -285,9 +285,7 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
             chart(&title("position feedback"), &position),
             chart(&title("impulse feedback"), &impulse),
         ]);
-        canvas
-            .save_png(path)
-            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
+        save_canvas(&canvas, path)?;
         text += &format!("wrote {}\n", path.display());
     }
     print(
@@ -427,9 +425,7 @@ fn grasp(args: &GraspArgs) -> Result<(), Failure> {
             },
         ];
         let canvas = Canvas::stacked(&charts.map(|c| c.render()));
-        canvas
-            .save_png(path)
-            .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))?;
+        save_canvas(&canvas, path)?;
         text += &format!("wrote {}\n", path.display());
     }
     print(

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DQuat, DVec3};
-use hapticctl::plot::{Cells, Chart, PALETTE, Series};
+use hapticctl::plot::{Canvas, Cells, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::diagnostics::Number;
@@ -611,9 +611,14 @@ fn workspace(catalog: &Catalog, args: &WorkspaceArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Draw `chart` to `path` as PNG.
 pub fn save(chart: &Chart, path: &Path) -> Result<(), Failure> {
-    chart
-        .render()
+    save_canvas(&chart.render(), path)
+}
+
+/// Write `canvas` to `path` as PNG.
+pub fn save_canvas(canvas: &Canvas, path: &Path) -> Result<(), Failure> {
+    canvas
         .save_png(path)
         .map_err(|e| Failure::failed(format!("cannot write {}: {e}", path.display())))
 }

@@ -266,12 +266,8 @@ fn trace(
         if let Some(record) = record.as_deref_mut() {
             for &i in &moving {
                 let b = &scene.world.bodies[i];
-                let (p, [qw, qx, qy, qz], v, w) =
-                    (b.position, quat_to_wxyz(b.orientation), b.velocity, b.spin);
-                record.row(format_args!(
-                    "{t},{model},{},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{}",
-                    scene.names[i], p.x, p.y, p.z, v.x, v.y, v.z, w.x, w.y, w.z
-                ))?;
+                let state = (b.position, b.orientation, b.velocity, b.spin);
+                record.body(t, model, &scene.names[i], state)?;
             }
         }
     }
@@ -307,6 +303,21 @@ impl Recording {
             "t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz"
         ))?;
         Ok(recording)
+    }
+
+    /// The row of body `name` at `t` under `model`: position, orientation, velocity, spin.
+    fn body(
+        &mut self,
+        t: f64,
+        model: &str,
+        name: &str,
+        (p, orientation, v, w): (DVec3, DQuat, DVec3, DVec3),
+    ) -> Result<(), Failure> {
+        let [qw, qx, qy, qz] = quat_to_wxyz(orientation);
+        self.row(format_args!(
+            "{t},{model},{name},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{}",
+            p.x, p.y, p.z, v.x, v.y, v.z, w.x, w.y, w.z
+        ))
     }
 
     fn row(&mut self, row: std::fmt::Arguments) -> Result<(), Failure> {
@@ -416,12 +427,8 @@ fn run_multirate(
         if let Some(record) = record.as_mut() {
             for &i in &moving {
                 let b = run.body(i);
-                let (p, [qw, qx, qy, qz], v, w) =
-                    (b.position, quat_to_wxyz(b.orientation), b.velocity, b.spin);
-                record.row(format_args!(
-                    "{t},rapier,{},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{}",
-                    spec.names[i], p.x, p.y, p.z, v.x, v.y, v.z, w.x, w.y, w.z
-                ))?;
+                let state = (b.position, b.orientation, b.velocity, b.spin);
+                record.body(t, "rapier", &spec.names[i], state)?;
             }
         }
     }
