@@ -1,0 +1,655 @@
+//! One Vulkan device and the pipeline that draws meshes; a frame is drawn into an offscreen
+//! image and read back. Dynamic rendering (Vulkan 1.3) keeps it to one pipeline object;
+//! Vulkan is loaded at run time, so a machine without it gets an error, not a crash.
+
+use ash::vk;
+use glam::DVec3;
+
+use crate::camera::Camera;
+use crate::mesh::Mesh;
+
+/// Largest picture edge, pixels.
+pub const MAX_EDGE: u32 = 8192;
+
+const COLOUR: vk::Format = vk::Format::R8G8B8A8_UNORM;
+const DEPTH: vk::Format = vk::Format::D32_SFLOAT;
+
+/// The vertex as the shader reads it: clip position, normal, colour.
+#[repr(C)]
+#[derive(Clone, Copy)]
+struct GpuVertex {
+    clip: [f32; 4],
+    normal: [f32; 3],
+    colour: [f32; 4],
+}
+
+/// Why nothing can be drawn.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Unavailable(pub String);
+
+impl std::fmt::Display for Unavailable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Unavailable {}
+
+fn failed(what: &str) -> impl Fn(vk::Result) -> Unavailable + '_ {
+    move |e| Unavailable(format!("{what}: {e}"))
+}
+
+/// A drawn picture: `width × height` RGBA pixels, rows top to bottom.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Picture {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// RGBA, 4 bytes a pixel.
+    pub rgba: Vec<u8>,
+}
+
+/// A Vulkan device ready to draw.
+pub struct Renderer {
+    _entry: ash::Entry,
+    instance: ash::Instance,
+    device: ash::Device,
+    memory_types: vk::PhysicalDeviceMemoryProperties,
+    queue: vk::Queue,
+    pool: vk::CommandPool,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    /// The device's name, as the driver gives it.
+    pub device_name: String,
+}
+
+/// An image or buffer with its memory.
+struct Allocation {
+    memory: vk::DeviceMemory,
+}
+
+impl Renderer {
+    /// Load Vulkan and make a device that can draw (the first that has a graphics queue).
+    pub fn new() -> Result<Self, Unavailable> {
+        // SAFETY: loading the system's Vulkan loader; its functions are used as Vulkan says.
+        let entry = unsafe { ash::Entry::load() }
+            .map_err(|e| Unavailable(format!("no Vulkan loader (libvulkan.so.1): {e}")))?;
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"hapticd")
+            .api_version(vk::API_VERSION_1_3);
+        let info = vk::InstanceCreateInfo::default().application_info(&app);
+        // SAFETY: valid create info; the instance is destroyed in Drop.
+        let instance = unsafe { entry.create_instance(&info, None) }
+            .map_err(failed("creating a Vulkan instance"))?;
+        match Self::with_instance(entry, instance.clone()) {
+            Ok(renderer) => Ok(renderer),
+            Err(e) => {
+                // SAFETY: nothing made from the instance survives.
+                unsafe { instance.destroy_instance(None) };
+                Err(e)
+            }
+        }
+    }
+
+    fn with_instance(entry: ash::Entry, instance: ash::Instance) -> Result<Self, Unavailable> {
+        // SAFETY: queries on a live instance.
+        let devices = unsafe { instance.enumerate_physical_devices() }
+            .map_err(failed("listing Vulkan devices"))?;
+        let (physical, family) = devices
+            .iter()
+            .find_map(|&d| {
+                // SAFETY: as above.
+                let properties = unsafe { instance.get_physical_device_properties(d) };
+                if properties.api_version < vk::API_VERSION_1_3 {
+                    return None;
+                }
+                // SAFETY: as above.
+                unsafe { instance.get_physical_device_queue_family_properties(d) }
+                    .iter()
+                    .position(|q| q.queue_flags.contains(vk::QueueFlags::GRAPHICS))
+                    .map(|f| (d, f as u32))
+            })
+            .ok_or_else(|| Unavailable("no Vulkan 1.3 device with a graphics queue".into()))?;
+        // SAFETY: as above.
+        let properties = unsafe { instance.get_physical_device_properties(physical) };
+        let device_name = properties
+            .device_name_as_c_str()
+            .map_or("unnamed".into(), |n| n.to_string_lossy().into_owned());
+        let priorities = [1.0];
+        let queues = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(family)
+            .queue_priorities(&priorities)];
+        let mut v13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true);
+        let info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queues)
+            .push_next(&mut v13);
+        // SAFETY: valid create info for a device of this instance.
+        let device = unsafe { instance.create_device(physical, &info, None) }
+            .map_err(failed("creating the Vulkan device"))?;
+        // SAFETY: the queue family and index exist on this device.
+        let queue = unsafe { device.get_device_queue(family, 0) };
+        // SAFETY: as above.
+        let memory_types = unsafe { instance.get_physical_device_memory_properties(physical) };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid create info; destroyed in Drop.
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .map_err(failed("creating a command pool"))?;
+        let (layout, pipeline) = Self::pipeline(&device)?;
+        Ok(Self {
+            _entry: entry,
+            instance,
+            device,
+            memory_types,
+            queue,
+            pool,
+            layout,
+            pipeline,
+            device_name,
+        })
+    }
+
+    fn pipeline(device: &ash::Device) -> Result<(vk::PipelineLayout, vk::Pipeline), Unavailable> {
+        let bytes = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.spv"));
+        let words: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+            .collect();
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: valid SPIR-V from naga; destroyed below once the pipeline holds it.
+        let module = unsafe { device.create_shader_module(&info, None) }
+            .map_err(failed("loading the shaders"))?;
+        let stages = [
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(module)
+                .name(c"vertex_main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(module)
+                .name(c"fragment_main"),
+        ];
+        let bindings = [vk::VertexInputBindingDescription::default()
+            .binding(0)
+            .stride(std::mem::size_of::<GpuVertex>() as u32)
+            .input_rate(vk::VertexInputRate::VERTEX)];
+        let attributes = [
+            (0, vk::Format::R32G32B32A32_SFLOAT, 0),
+            (1, vk::Format::R32G32B32_SFLOAT, 16),
+            (2, vk::Format::R32G32B32A32_SFLOAT, 28),
+        ]
+        .map(|(location, format, offset)| {
+            vk::VertexInputAttributeDescription::default()
+                .location(location)
+                .binding(0)
+                .format(format)
+                .offset(offset)
+        });
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+            .vertex_binding_descriptions(&bindings)
+            .vertex_attribute_descriptions(&attributes);
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        // Both sides drawn: meshes need no consistent winding, and depth hides the back.
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true)
+            .depth_compare_op(vk::CompareOp::LESS);
+        let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
+            .blend_enable(true)
+            .src_color_blend_factor(vk::BlendFactor::SRC_ALPHA)
+            .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+            .color_blend_op(vk::BlendOp::ADD)
+            .src_alpha_blend_factor(vk::BlendFactor::ONE)
+            .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+            .alpha_blend_op(vk::BlendOp::ADD)
+            .color_write_mask(vk::ColorComponentFlags::RGBA)];
+        let blend =
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        // SAFETY: an empty layout; destroyed in Drop.
+        let layout = unsafe {
+            device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default(), None)
+        }
+        .map_err(failed("creating the pipeline layout"))?;
+        let formats = [COLOUR];
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&formats)
+            .depth_attachment_format(DEPTH);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(layout)
+            .push_next(&mut rendering);
+        // SAFETY: every state the info points to lives until the call returns.
+        let pipelines =
+            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: the pipeline (if made) keeps what it needs of the module.
+        unsafe { device.destroy_shader_module(module, None) };
+        let pipeline =
+            pipelines.map_err(|(_, e)| Unavailable(format!("creating the pipeline: {e}")))?[0];
+        Ok((layout, pipeline))
+    }
+
+    fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Result<u32, Unavailable> {
+        (0..self.memory_types.memory_type_count)
+            .find(|&i| {
+                bits & (1 << i) != 0
+                    && self.memory_types.memory_types[i as usize]
+                        .property_flags
+                        .contains(flags)
+            })
+            .ok_or_else(|| Unavailable(format!("no memory with properties {:#x}", flags.as_raw())))
+    }
+
+    fn allocate(
+        &self,
+        requirements: vk::MemoryRequirements,
+        flags: vk::MemoryPropertyFlags,
+    ) -> Result<Allocation, Unavailable> {
+        let info = vk::MemoryAllocateInfo::default()
+            .allocation_size(requirements.size)
+            .memory_type_index(self.memory_type(requirements.memory_type_bits, flags)?);
+        // SAFETY: valid allocate info; freed by the caller.
+        let memory = unsafe { self.device.allocate_memory(&info, None) }
+            .map_err(failed("allocating memory"))?;
+        Ok(Allocation { memory })
+    }
+
+    /// Draw `meshes` seen by `camera` on a `width × height` picture over `background`.
+    pub fn draw(
+        &self,
+        meshes: &[&Mesh],
+        camera: &Camera,
+        (width, height): (u32, u32),
+        background: [f32; 4],
+    ) -> Result<Picture, Unavailable> {
+        if !(1..=MAX_EDGE).contains(&width) || !(1..=MAX_EDGE).contains(&height) {
+            return Err(Unavailable(format!(
+                "a picture is 1 to {MAX_EDGE} pixels each way, not {width} × {height}"
+            )));
+        }
+        if !camera.is_valid() {
+            return Err(Unavailable(
+                "the camera must be finite, off its target, and not look straight up or down"
+                    .into(),
+            ));
+        }
+        let transform = camera.view_projection(f64::from(width) / f64::from(height));
+        let vertices: Vec<GpuVertex> = meshes
+            .iter()
+            .flat_map(|m| &m.vertices)
+            .map(|v| {
+                let clip = transform * v.position.extend(1.0);
+                let n: DVec3 = v.normal;
+                GpuVertex {
+                    clip: clip.to_array().map(|c| c as f32),
+                    normal: n.to_array().map(|c| c as f32),
+                    colour: v.colour,
+                }
+            })
+            .collect();
+        let mut frame = Frame::new(self, width, height, vertices.len().max(1))?;
+        let result = frame.draw(self, &vertices, background);
+        frame.destroy(self);
+        result
+    }
+}
+
+/// The images and buffers of one frame.
+struct Frame {
+    colour: (vk::Image, Allocation, vk::ImageView),
+    depth: (vk::Image, Allocation, vk::ImageView),
+    vertices: (vk::Buffer, Allocation),
+    readback: (vk::Buffer, Allocation),
+    width: u32,
+    height: u32,
+}
+
+impl Frame {
+    fn image(
+        r: &Renderer,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        aspect: vk::ImageAspectFlags,
+        (width, height): (u32, u32),
+    ) -> Result<(vk::Image, Allocation, vk::ImageView), Unavailable> {
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width,
+                height,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let d = &r.device;
+        // SAFETY: valid create infos; everything is destroyed in `destroy`.
+        unsafe {
+            let image = d
+                .create_image(&info, None)
+                .map_err(failed("creating an image"))?;
+            let memory = r.allocate(
+                d.get_image_memory_requirements(image),
+                vk::MemoryPropertyFlags::DEVICE_LOCAL,
+            )?;
+            d.bind_image_memory(image, memory.memory, 0)
+                .map_err(failed("binding image memory"))?;
+            let view_info = vk::ImageViewCreateInfo::default()
+                .image(image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(format)
+                .subresource_range(range(aspect));
+            let view = d
+                .create_image_view(&view_info, None)
+                .map_err(failed("creating a view"))?;
+            Ok((image, memory, view))
+        }
+    }
+
+    fn buffer(
+        r: &Renderer,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<(vk::Buffer, Allocation), Unavailable> {
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        let d = &r.device;
+        // SAFETY: valid create info; destroyed in `destroy`.
+        unsafe {
+            let buffer = d
+                .create_buffer(&info, None)
+                .map_err(failed("creating a buffer"))?;
+            let memory = r.allocate(
+                d.get_buffer_memory_requirements(buffer),
+                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            )?;
+            d.bind_buffer_memory(buffer, memory.memory, 0)
+                .map_err(failed("binding buffer memory"))?;
+            Ok((buffer, memory))
+        }
+    }
+
+    fn new(r: &Renderer, width: u32, height: u32, vertices: usize) -> Result<Self, Unavailable> {
+        Ok(Self {
+            colour: Self::image(
+                r,
+                COLOUR,
+                vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                vk::ImageAspectFlags::COLOR,
+                (width, height),
+            )?,
+            depth: Self::image(
+                r,
+                DEPTH,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                vk::ImageAspectFlags::DEPTH,
+                (width, height),
+            )?,
+            vertices: Self::buffer(
+                r,
+                (vertices * std::mem::size_of::<GpuVertex>()) as u64,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+            )?,
+            readback: Self::buffer(
+                r,
+                u64::from(width) * u64::from(height) * 4,
+                vk::BufferUsageFlags::TRANSFER_DST,
+            )?,
+            width,
+            height,
+        })
+    }
+
+    fn draw(
+        &mut self,
+        r: &Renderer,
+        vertices: &[GpuVertex],
+        background: [f32; 4],
+    ) -> Result<Picture, Unavailable> {
+        let d = &r.device;
+        let (width, height) = (self.width, self.height);
+        // SAFETY: the buffers and images belong to this frame and the device; the command
+        // buffer is recorded, submitted and waited for before anything is read or freed.
+        unsafe {
+            if !vertices.is_empty() {
+                let size = std::mem::size_of_val(vertices);
+                let to = d
+                    .map_memory(
+                        self.vertices.1.memory,
+                        0,
+                        size as u64,
+                        vk::MemoryMapFlags::empty(),
+                    )
+                    .map_err(failed("mapping the vertices"))?;
+                std::ptr::copy_nonoverlapping(
+                    vertices.as_ptr().cast::<u8>(),
+                    to.cast::<u8>(),
+                    size,
+                );
+                d.unmap_memory(self.vertices.1.memory);
+            }
+            let alloc = vk::CommandBufferAllocateInfo::default()
+                .command_pool(r.pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            let cmd = d
+                .allocate_command_buffers(&alloc)
+                .map_err(failed("allocating commands"))?[0];
+            d.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+            .map_err(failed("recording"))?;
+            let barrier = |image, aspect, old, new, src_access, dst_access| {
+                vk::ImageMemoryBarrier::default()
+                    .image(image)
+                    .subresource_range(range(aspect))
+                    .old_layout(old)
+                    .new_layout(new)
+                    .src_access_mask(src_access)
+                    .dst_access_mask(dst_access)
+            };
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+                    | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[
+                    barrier(
+                        self.colour.0,
+                        vk::ImageAspectFlags::COLOR,
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                        vk::AccessFlags::empty(),
+                        vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                    ),
+                    barrier(
+                        self.depth.0,
+                        vk::ImageAspectFlags::DEPTH,
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                        vk::AccessFlags::empty(),
+                        vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                    ),
+                ],
+            );
+            let colour = [vk::RenderingAttachmentInfo::default()
+                .image_view(self.colour.2)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        float32: background,
+                    },
+                })];
+            let depth = vk::RenderingAttachmentInfo::default()
+                .image_view(self.depth.2)
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: 1.0,
+                        stencil: 0,
+                    },
+                });
+            let area = vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: vk::Extent2D { width, height },
+            };
+            d.cmd_begin_rendering(
+                cmd,
+                &vk::RenderingInfo::default()
+                    .render_area(area)
+                    .layer_count(1)
+                    .color_attachments(&colour)
+                    .depth_attachment(&depth),
+            );
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, r.pipeline);
+            d.cmd_set_viewport(
+                cmd,
+                0,
+                &[vk::Viewport {
+                    x: 0.0,
+                    y: 0.0,
+                    width: width as f32,
+                    height: height as f32,
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                }],
+            );
+            d.cmd_set_scissor(cmd, 0, &[area]);
+            if !vertices.is_empty() {
+                d.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.0], &[0]);
+                d.cmd_draw(cmd, vertices.len() as u32, 1, 0, 0);
+            }
+            d.cmd_end_rendering(cmd);
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(
+                    self.colour.0,
+                    vk::ImageAspectFlags::COLOR,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                    vk::AccessFlags::TRANSFER_READ,
+                )],
+            );
+            let copy = vk::BufferImageCopy::default()
+                .image_subresource(
+                    vk::ImageSubresourceLayers::default()
+                        .aspect_mask(vk::ImageAspectFlags::COLOR)
+                        .layer_count(1),
+                )
+                .image_extent(vk::Extent3D {
+                    width,
+                    height,
+                    depth: 1,
+                });
+            d.cmd_copy_image_to_buffer(
+                cmd,
+                self.colour.0,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                self.readback.0,
+                &[copy],
+            );
+            d.end_command_buffer(cmd).map_err(failed("recording"))?;
+            let fence = d
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .map_err(failed("creating a fence"))?;
+            let commands = [cmd];
+            let submitted = d
+                .queue_submit(
+                    r.queue,
+                    &[vk::SubmitInfo::default().command_buffers(&commands)],
+                    fence,
+                )
+                .and_then(|()| d.wait_for_fences(&[fence], true, u64::MAX));
+            d.destroy_fence(fence, None);
+            d.free_command_buffers(r.pool, &commands);
+            submitted.map_err(failed("drawing"))?;
+            let size = u64::from(width) * u64::from(height) * 4;
+            let from = d
+                .map_memory(self.readback.1.memory, 0, size, vk::MemoryMapFlags::empty())
+                .map_err(failed("mapping the picture"))?;
+            let rgba = std::slice::from_raw_parts(from.cast::<u8>(), size as usize).to_vec();
+            d.unmap_memory(self.readback.1.memory);
+            Ok(Picture {
+                width,
+                height,
+                rgba,
+            })
+        }
+    }
+
+    fn destroy(self, r: &Renderer) {
+        let d = &r.device;
+        // SAFETY: the frame's work has completed (or was never submitted).
+        unsafe {
+            for (image, memory, view) in [self.colour, self.depth] {
+                d.destroy_image_view(view, None);
+                d.destroy_image(image, None);
+                d.free_memory(memory.memory, None);
+            }
+            for (buffer, memory) in [self.vertices, self.readback] {
+                d.destroy_buffer(buffer, None);
+                d.free_memory(memory.memory, None);
+            }
+        }
+    }
+}
+
+fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange::default()
+        .aspect_mask(aspect)
+        .level_count(1)
+        .layer_count(1)
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        // SAFETY: no frame is in flight (draw waits for its own); objects die in reverse.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_pipeline(self.pipeline, None);
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device.destroy_command_pool(self.pool, None);
+            self.device.destroy_device(None);
+            self.instance.destroy_instance(None);
+        }
+    }
+}
