@@ -4,3 +4,4 @@
 pub mod experiments;
 pub mod multirate;
 pub mod plot;
+pub mod scenery;

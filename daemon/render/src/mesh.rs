@@ -120,4 +120,57 @@ impl Mesh {
             }
         }
     }
+
+    /// Add a round bar of `radius` along the unit `axis` through `centre`, `length` long,
+    /// capped at both ends.
+    pub fn cylinder(
+        &mut self,
+        centre: DVec3,
+        axis: DVec3,
+        radius: f64,
+        length: f64,
+        colour: [f32; 4],
+    ) {
+        let axis = axis.normalize_or(DVec3::Y);
+        let u = axis.any_orthonormal_vector();
+        let v = axis.cross(u);
+        let segments = 32;
+        let (bottom, top) = (centre - axis * length / 2.0, centre + axis * length / 2.0);
+        for j in 0..segments {
+            let at = |k: usize| {
+                let phi = std::f64::consts::TAU * k as f64 / segments as f64;
+                u * phi.cos() + v * phi.sin()
+            };
+            let (a, b) = (at(j), at(j + 1));
+            let side = [
+                (bottom + a * radius, a),
+                (bottom + b * radius, b),
+                (top + b * radius, b),
+                (bottom + a * radius, a),
+                (top + b * radius, b),
+                (top + a * radius, a),
+            ];
+            for (position, normal) in side {
+                self.vertices.push(Vertex {
+                    position,
+                    normal,
+                    colour,
+                });
+            }
+            self.triangle([top, top + a * radius, top + b * radius], colour);
+            self.triangle([bottom, bottom + b * radius, bottom + a * radius], colour);
+        }
+    }
+
+    /// Add a square panel of side `size` through `point`, facing `normal` (a wall drawn
+    /// where it is touched).
+    pub fn panel(&mut self, point: DVec3, normal: DVec3, size: f64, colour: [f32; 4]) {
+        let normal = normal.normalize_or(DVec3::Y);
+        let u = normal.any_orthonormal_vector() * (size / 2.0);
+        let v = normal.cross(u);
+        self.polygon(
+            &[point - u - v, point + u - v, point + u + v, point - u + v],
+            colour,
+        );
+    }
 }

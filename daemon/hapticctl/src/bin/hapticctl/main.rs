@@ -5,6 +5,7 @@ mod device;
 mod experiment;
 mod manual;
 mod mechanism;
+mod render;
 mod scene;
 
 use std::path::PathBuf;
@@ -46,6 +47,8 @@ enum Command {
     /// Step penalty scene files headless, or list and switch the daemon's scenes.
     #[command(subcommand)]
     Scene(scene::Command),
+    /// Draw one frame of a scene file to a PNG file with Vulkan (no daemon needed).
+    Render(render::RenderArgs),
     /// The running daemon and each of its devices: state, mechanism, scene, rate, timing.
     Status(Output),
     /// A parameter or property of a device of the running daemon.
@@ -133,6 +136,7 @@ fn main() -> ExitCode {
         Command::Experiment(command) => experiment::run(command, &catalog),
         Command::Device(command) => device::run(command),
         Command::Scene(command) => scene::run(command, &cli.bus),
+        Command::Render(args) => render::run(&args),
         Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
         Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
         Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),

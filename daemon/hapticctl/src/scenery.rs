@@ -1,0 +1,204 @@
+//! What a scene looks like: its solids as meshes for `hapticd-render`, where they are now,
+//! and a camera that frames them.
+
+use glam::{DQuat, DVec3};
+use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::scene::static_scene::StaticSceneSpec;
+use hapticd_physics::body::Body;
+use hapticd_physics::polyhedron::Polyhedron;
+use hapticd_physics::scene::{MultiRateWorld, Primitive};
+use hapticd_rapier::world::RapierWorld;
+use hapticd_render::camera::Camera;
+use hapticd_render::mesh::Mesh;
+
+/// Colours of fixed solids and of the floor's stripes.
+pub const FIXED: [f32; 4] = [0.55, 0.57, 0.6, 1.0];
+/// The floor's stripes, one every [`STRIPE`] metres.
+pub const FLOOR: [[f32; 4]; 2] = [[0.72, 0.72, 0.7, 1.0], [0.6, 0.6, 0.58, 1.0]];
+/// Width of a floor stripe, metres: a distance scale.
+pub const STRIPE: f64 = 0.01;
+/// Colours of moving bodies, in turn.
+pub const BODIES: [[f32; 4]; 6] = [
+    [0.80, 0.25, 0.20, 1.0],
+    [0.20, 0.45, 0.80, 1.0],
+    [0.90, 0.65, 0.15, 1.0],
+    [0.25, 0.65, 0.35, 1.0],
+    [0.60, 0.35, 0.70, 1.0],
+    [0.15, 0.65, 0.70, 1.0],
+];
+/// Pointers: where the fingers are.
+pub const POINTER: [f32; 4] = [0.95, 0.85, 0.2, 1.0];
+/// A translucent wall where a static scene's plane bounds the workspace.
+const WALL: [f32; 4] = [0.55, 0.6, 0.7, 0.35];
+/// How far a static scene's floor, walls and bars are drawn, metres.
+const REACH: f64 = 0.3;
+
+/// The solids of a picture and the box that holds the ones worth framing.
+#[derive(Debug, Clone, Default)]
+pub struct Scenery {
+    /// The meshes, drawn in order.
+    pub meshes: Vec<Mesh>,
+    low: Option<(DVec3, DVec3)>,
+}
+
+impl Scenery {
+    /// Make the camera frame `low..high` too.
+    fn frame(&mut self, low: DVec3, high: DVec3) {
+        self.low = Some(match self.low {
+            None => (low, high),
+            Some((l, h)) => (l.min(low), h.max(high)),
+        });
+    }
+
+    /// A camera that frames what is worth framing, from the front, right and above.
+    pub fn camera(&self) -> Camera {
+        let (low, high) = self.low.unwrap_or((DVec3::splat(-0.1), DVec3::splat(0.1)));
+        let centre = (low + high) / 2.0;
+        let radius = ((high - low).length() / 2.0).max(0.03);
+        let fov = 40f64.to_radians();
+        Camera::orbit(centre, 1.15 * radius / (fov / 2.0).sin(), 0.45, 0.75)
+    }
+
+    /// A static scene's solids.
+    pub fn of_static(spec: &StaticSceneSpec) -> Self {
+        let mut s = Self::default();
+        let mut mesh = Mesh::default();
+        for (k, shape) in spec.shapes.iter().enumerate() {
+            let colour = BODIES[k % BODIES.len()];
+            match *shape {
+                Shape::HalfSpace { point, normal } if normal.y > 0.999 => {
+                    mesh.floor(DVec3::ZERO, point.y, 2.0 * REACH, STRIPE, FLOOR);
+                }
+                Shape::HalfSpace { point, normal } => {
+                    mesh.panel(point, normal, REACH, WALL);
+                }
+                Shape::Sphere { centre, radius } => {
+                    mesh.ball(centre, radius, 16, colour);
+                    s.frame(centre - radius, centre + radius);
+                }
+                Shape::Cylinder {
+                    point,
+                    axis,
+                    radius,
+                } => mesh.cylinder(point, axis, radius, 2.0 * REACH, colour),
+                Shape::Cuboid {
+                    centre,
+                    half,
+                    rotation,
+                } => {
+                    mesh.cuboid(centre, half, rotation, colour);
+                    s.frame(centre - half.length(), centre + half.length());
+                }
+            }
+        }
+        // Translucent walls last, over what lies behind them.
+        let (walls, solid): (Vec<_>, Vec<_>) =
+            mesh.vertices.chunks(3).partition(|t| t[0].colour[3] < 1.0);
+        s.meshes.push(Mesh {
+            vertices: solid.concat(),
+        });
+        s.meshes.push(Mesh {
+            vertices: walls.concat(),
+        });
+        s
+    }
+
+    /// The bodies of a penalty world as they are now; bodies from `first_pointer` on are
+    /// pointers, drawn but not framed.
+    pub fn of_penalty(bodies: &[Body], first_pointer: usize) -> Self {
+        let mut s = Self::default();
+        let mut mesh = Mesh::default();
+        for (i, body) in bodies.iter().enumerate() {
+            let colour = if i >= first_pointer {
+                POINTER
+            } else {
+                colour_of(i, body.fixed)
+            };
+            for piece in body.world_pieces() {
+                polyhedron(&mut mesh, piece, colour);
+                if !body.fixed && i < first_pointer {
+                    let (low, high) = bounds(piece.vertices.iter().copied());
+                    s.frame(low, high);
+                }
+            }
+        }
+        s.frame_fixed_if_empty(bodies.iter().flat_map(|b| b.world_pieces()));
+        s.meshes.push(mesh);
+        s
+    }
+
+    /// The bodies of a rapier world as they are now (`spec` gives their shapes).
+    pub fn of_rapier(world: &RapierWorld, spec: &MultiRateWorld) -> Self {
+        let mut s = Self::default();
+        let mut mesh = Mesh::default();
+        for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
+            let state = world.body(i);
+            let place = |p: DVec3| state.position + state.orientation * p;
+            let colour = colour_of(i, body.fixed);
+            for (piece, primitive) in body.pieces.iter().zip(primitives) {
+                let centre =
+                    piece.vertices.iter().copied().sum::<DVec3>() / piece.vertices.len() as f64;
+                match *primitive {
+                    Primitive::Cuboid { half, rotation } => {
+                        mesh.cuboid(place(centre), half, state.orientation * rotation, colour);
+                    }
+                    Primitive::Ball { radius } => mesh.ball(place(centre), radius, 16, colour),
+                    Primitive::Hull => {
+                        let placed = piece.transformed(state.orientation, state.position);
+                        polyhedron(&mut mesh, &placed, colour);
+                    }
+                }
+                if !body.fixed {
+                    let (low, high) = bounds(piece.vertices.iter().map(|v| place(*v)));
+                    s.frame(low, high);
+                }
+            }
+        }
+        let fixed: Vec<Polyhedron> = spec
+            .bodies
+            .iter()
+            .flat_map(|b| {
+                b.pieces
+                    .iter()
+                    .map(|p| p.transformed(DQuat::IDENTITY, b.position))
+            })
+            .collect();
+        s.frame_fixed_if_empty(fixed.iter());
+        s.meshes.push(mesh);
+        s
+    }
+
+    /// Frame every solid when nothing moves.
+    fn frame_fixed_if_empty<'a>(&mut self, pieces: impl Iterator<Item = &'a Polyhedron>) {
+        if self.low.is_none() {
+            for piece in pieces {
+                let (low, high) = bounds(piece.vertices.iter().copied());
+                self.frame(low, high);
+            }
+        }
+    }
+}
+
+/// The colour of body `i`.
+fn colour_of(i: usize, fixed: bool) -> [f32; 4] {
+    if fixed {
+        FIXED
+    } else {
+        BODIES[i % BODIES.len()]
+    }
+}
+
+/// The faces of `p` (counter-clockwise from outside) into `mesh`.
+fn polyhedron(mesh: &mut Mesh, p: &Polyhedron, colour: [f32; 4]) {
+    for face in &p.faces {
+        let corners: Vec<DVec3> = face.iter().map(|&k| p.vertices[k]).collect();
+        mesh.polygon(&corners, colour);
+    }
+}
+
+/// The smallest axis-aligned box holding `points`.
+fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
+    points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| {
+        (l.min(p), h.max(p))
+    })
+}

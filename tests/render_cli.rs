@@ -1,0 +1,170 @@
+//! `hapticctl render` on the machine's Vulkan device (Mesa's lavapipe in CI): every shipped
+//! scene against its golden picture, and pictures that must show what moved.
+//!
+//! Goldens are 320 × 240 and compared within 2 levels per channel (lavapipe draws the same
+//! bytes on every run; the margin covers another CPU's rounding). A mismatch leaves the
+//! actual picture and the difference in `target/tmp/`. `HAPTICD_BLESS=1` rewrites the
+//! goldens from the current drawing.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+
+use support::{hapticctl, repo_dir, scratch_root};
+
+/// Decoded RGBA pixels with their size.
+struct Image {
+    width: u32,
+    height: u32,
+    rgba: Vec<u8>,
+}
+
+fn read_png(path: &Path) -> Image {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgba).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    rgba.truncate(info.buffer_size());
+    Image {
+        width: info.width,
+        height: info.height,
+        rgba,
+    }
+}
+
+fn write_png(path: &Path, image: &Image) {
+    let file = std::fs::File::create(path).unwrap();
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), image.width, image.height);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder
+        .write_header()
+        .unwrap()
+        .write_image_data(&image.rgba)
+        .unwrap();
+}
+
+/// Render `scene` (a file of config/scenes) to a scratch PNG with `extra` arguments.
+fn render(scene: &str, name: &str, extra: &[&str]) -> PathBuf {
+    let out = scratch_root().join(format!("render-{name}.png"));
+    let output = hapticctl()
+        .arg("render")
+        .arg(repo_dir().join("config/scenes").join(scene))
+        .arg("--out")
+        .arg(&out)
+        .args(extra)
+        .output()
+        .unwrap();
+    support::succeeded(output);
+    out
+}
+
+#[test]
+fn every_shipped_scene_matches_its_golden_picture() {
+    let mut scenes: Vec<String> = std::fs::read_dir(repo_dir().join("config/scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".yaml"))
+        .collect();
+    scenes.sort();
+    assert!(scenes.len() >= 9, "{scenes:?}");
+    let bless = std::env::var_os("HAPTICD_BLESS").is_some();
+    let mut failures = Vec::new();
+    for scene in &scenes {
+        let name = scene.trim_end_matches(".yaml");
+        let actual = read_png(&render(scene, name, &["--width", "320", "--height", "240"]));
+        let golden_path = repo_dir().join(format!("tests/golden/{name}.png"));
+        if bless {
+            write_png(&golden_path, &actual);
+            continue;
+        }
+        let golden = read_png(&golden_path);
+        assert_eq!((actual.width, actual.height), (320, 240), "{name}");
+        let diff: Vec<u8> = actual
+            .rgba
+            .iter()
+            .zip(&golden.rgba)
+            .map(|(a, g)| a.abs_diff(*g))
+            .collect();
+        let worst = diff.iter().copied().max().unwrap_or(0);
+        if worst > 2 || golden.rgba.len() != actual.rgba.len() {
+            // The difference, opaque and scaled so one level shows.
+            let shown: Vec<u8> = diff
+                .chunks(4)
+                .flat_map(|p| {
+                    let d = p[..3].iter().copied().max().unwrap().saturating_mul(16);
+                    [d, d, d, 255]
+                })
+                .collect();
+            let dir = scratch_root();
+            write_png(&dir.join(format!("render-{name}-actual.png")), &actual);
+            write_png(
+                &dir.join(format!("render-{name}-difference.png")),
+                &Image {
+                    rgba: shown,
+                    ..golden
+                },
+            );
+            failures.push(format!(
+                "{name}: off by up to {worst} (see {})",
+                dir.display()
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The share of the picture's rows, top to bottom, at which its blue pixels lie on average;
+/// None when there are hardly any.
+fn mean_blue_row(image: &Image) -> Option<f64> {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (k, p) in image.rgba.chunks(4).enumerate() {
+        let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));
+        if b > r + 60 && b > g + 30 {
+            sum += (k as u32 / image.width) as f64;
+            count += 1;
+        }
+    }
+    (count > 50).then(|| sum / count as f64 / f64::from(image.height))
+}
+
+/// The dropped cube of thesis Fig. 5.12, drawn at its start and after a second: lower in
+/// the picture once it has fallen.
+#[test]
+fn a_dropped_cube_is_drawn_lower_after_it_falls() {
+    let before = read_png(&render("cube-drop.yaml", "drop-0", &[]));
+    let after = read_png(&render("cube-drop.yaml", "drop-1", &["--at", "1"]));
+    // The cube is the scenery's second colour, blue; nothing else is.
+    let (high, low) = (mean_blue_row(&before), mean_blue_row(&after));
+    let (Some(high), Some(low)) = (high, low) else {
+        panic!("the cube is not in the picture: {high:?} {low:?}");
+    };
+    assert!(low > high + 0.05, "before at {high:.3}, after at {low:.3}");
+}
+
+#[test]
+fn bad_render_options_are_refused() {
+    for args in [
+        vec!["--width", "0"],
+        vec!["--height", "100000"],
+        vec!["--at", "NaN"],
+        vec!["--at", "-1"],
+    ] {
+        let output = hapticctl()
+            .arg("render")
+            .arg(repo_dir().join("config/scenes/blocks.yaml"))
+            .args(["--out", "/nonexistent/x.png"])
+            .args(&args)
+            .output()
+            .unwrap();
+        assert_eq!(output.status.code(), Some(2), "{args:?}");
+    }
+    // A static scene does not move.
+    let output = hapticctl()
+        .arg("render")
+        .arg(repo_dir().join("config/scenes/static.yaml"))
+        .args(["--out", "/nonexistent/x.png", "--at", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2));
+}
