@@ -44,10 +44,31 @@ fn write_png(path: &Path, image: &Image) {
         .unwrap();
 }
 
+/// The shipped mechanisms, staged as an install would have them.
+fn mechanisms() -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = scratch_root().join(format!("render-mechanisms-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+        for krate in ["hapticd-spidar", "hapticd-spidar-g", "hapticd-spidar-ii"] {
+            let plugin = support::plugin_path(krate);
+            std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
+        }
+        let yaml = repo_dir().join("config/mechanisms/spidar-6s.yaml");
+        std::fs::copy(yaml, dir.join("spidar-6s.yaml")).unwrap();
+        dir
+    })
+    .clone()
+}
+
 /// Render `scene` (a file of config/scenes) to a scratch PNG with `extra` arguments.
 fn render(scene: &str, name: &str, extra: &[&str]) -> PathBuf {
     let out = scratch_root().join(format!("render-{name}.png"));
     let output = hapticctl()
+        .arg("--mechanism-dir")
+        .arg(mechanisms())
         .arg("render")
         .arg(repo_dir().join("config/scenes").join(scene))
         .arg("--out")
@@ -60,7 +81,7 @@ fn render(scene: &str, name: &str, extra: &[&str]) -> PathBuf {
 }
 
 #[test]
-fn every_shipped_scene_matches_its_golden_picture() {
+fn every_shipped_scene_and_mechanism_matches_its_golden_picture() {
     let mut scenes: Vec<String> = std::fs::read_dir(repo_dir().join("config/scenes"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -68,11 +89,26 @@ fn every_shipped_scene_matches_its_golden_picture() {
         .collect();
     scenes.sort();
     assert!(scenes.len() >= 9, "{scenes:?}");
+    // Each scene, then the strings of each mechanism over the static scene, one grip
+    // pulled up and to the right so that their colours differ.
+    let mut pictures: Vec<(String, String, Vec<&str>)> = scenes
+        .iter()
+        .map(|s| (s.clone(), s.trim_end_matches(".yaml").to_string(), vec![]))
+        .collect();
+    for mechanism in ["spidar", "spidar-g", "spidar-ii", "spidar-6s"] {
+        pictures.push((
+            "static.yaml".into(),
+            format!("strings-{mechanism}"),
+            vec!["--mechanism", mechanism, "--force", "4,6,0"],
+        ));
+    }
     let bless = std::env::var_os("HAPTICD_BLESS").is_some();
     let mut failures = Vec::new();
-    for scene in &scenes {
-        let name = scene.trim_end_matches(".yaml");
-        let actual = read_png(&render(scene, name, &["--width", "320", "--height", "240"]));
+    for (scene, name, extra) in &pictures {
+        let name = name.as_str();
+        let mut args = vec!["--width", "320", "--height", "240"];
+        args.extend(extra);
+        let actual = read_png(&render(scene, name, &args));
         let golden_path = repo_dir().join(format!("tests/golden/{name}.png"));
         if bless {
             write_png(&golden_path, &actual);
@@ -142,6 +178,44 @@ fn a_dropped_cube_is_drawn_lower_after_it_falls() {
     assert!(low > high + 0.05, "before at {high:.3}, after at {low:.3}");
 }
 
+/// SPIDAR-G drawn over the blocks: pulled upward, its upper strings carry more tension and
+/// turn from blue toward red; nothing else changes.
+#[test]
+fn a_strings_colour_follows_its_tension() {
+    let dir = mechanisms();
+    let draw = |force: &str| {
+        let out = scratch_root().join(format!("render-strings-{force}.png"));
+        let output = hapticctl()
+            .arg("--mechanism-dir")
+            .arg(&dir)
+            .arg("render")
+            .arg(repo_dir().join("config/scenes/blocks.yaml"))
+            .args(["--mechanism", "spidar-g", "--force", force, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        support::succeeded(output);
+        read_png(&out)
+    };
+    let (slack, pulled) = (draw("0,0,0"), draw("0,15,0"));
+    // Red less blue, over the pixels that differ.
+    let (mut before, mut after, mut count) = (0i64, 0i64, 0i64);
+    for (a, b) in slack.rgba.chunks(4).zip(pulled.rgba.chunks(4)) {
+        if a != b {
+            before += i64::from(a[0]) - i64::from(a[2]);
+            after += i64::from(b[0]) - i64::from(b[2]);
+            count += 1;
+        }
+    }
+    assert!(count > 100, "only {count} pixels changed");
+    assert!(
+        after > before + 30 * count,
+        "red less blue {} before, {} after, over {count} pixels",
+        before / count,
+        after / count
+    );
+}
+
 #[test]
 fn bad_render_options_are_refused() {
     for args in [
@@ -164,6 +238,14 @@ fn bad_render_options_are_refused() {
         .arg("render")
         .arg(repo_dir().join("config/scenes/static.yaml"))
         .args(["--out", "/nonexistent/x.png", "--at", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    // A force needs a mechanism to present it.
+    let output = hapticctl()
+        .arg("render")
+        .arg(repo_dir().join("config/scenes/static.yaml"))
+        .args(["--out", "/nonexistent/x.png", "--force", "1,0,0"])
         .output()
         .unwrap();
     assert_eq!(output.status.code(), Some(2));

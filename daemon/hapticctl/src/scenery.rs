@@ -3,6 +3,8 @@
 
 use glam::{DQuat, DVec3};
 use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::kinematics::{Dof, Pose};
+use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::body::Body;
 use hapticd_physics::polyhedron::Polyhedron;
@@ -168,6 +170,41 @@ impl Scenery {
         s
     }
 
+    /// Add `mechanism` with each grip at its pose in `poses` (one per effector): each
+    /// motor's string exit, each string from its exit to its knot coloured by its tension in
+    /// `tensions` (one per string, newtons; see [`tension_colour`]), and each grip. The
+    /// camera frames the frame too.
+    pub fn add_mechanism(&mut self, mechanism: &Mechanism, poses: &[Pose], tensions: &[f64]) {
+        let mut mesh = Mesh::default();
+        for (k, string) in mechanism.strings.iter().enumerate() {
+            let pose = &poses[string.effector];
+            let knot = pose.position + pose.orientation * string.knot;
+            let span = knot - string.motor;
+            let colour = tension_colour(tensions[k], string.tension_min, string.tension_max);
+            mesh.cylinder(
+                string.motor + span / 2.0,
+                span,
+                STRING_RADIUS,
+                span.length(),
+                colour,
+            );
+            mesh.cuboid(string.motor, DVec3::splat(0.004), DQuat::IDENTITY, MOTOR);
+            self.frame(string.motor, string.motor);
+        }
+        for (effector, pose) in mechanism.effectors.iter().zip(poses) {
+            match effector.dof {
+                Dof::Three => mesh.ball(pose.position, 0.005, 12, POINTER),
+                Dof::Six => mesh.cuboid(
+                    pose.position,
+                    DVec3::splat(0.008),
+                    pose.orientation,
+                    POINTER,
+                ),
+            }
+        }
+        self.meshes.insert(0, mesh);
+    }
+
     /// Frame every solid when nothing moves.
     fn frame_fixed_if_empty<'a>(&mut self, pieces: impl Iterator<Item = &'a Polyhedron>) {
         if self.low.is_none() {
@@ -177,6 +214,22 @@ impl Scenery {
             }
         }
     }
+}
+
+/// Radius strings are drawn with, metres (thicker than real ones, to be seen).
+const STRING_RADIUS: f64 = 0.0007;
+/// Motors' string exits.
+const MOTOR: [f32; 4] = [0.2, 0.2, 0.22, 1.0];
+
+/// The colour of a string pulling `tension` newtons between `min` and `max`: blue at the
+/// least, through violet, red at the most.
+pub fn tension_colour(tension: f64, min: f64, max: f64) -> [f32; 4] {
+    let t = if max > min {
+        ((tension - min) / (max - min)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    } as f32;
+    [0.15 + 0.75 * t, 0.3 - 0.15 * t, 0.9 - 0.75 * t, 1.0]
 }
 
 /// The colour of body `i`.

@@ -136,7 +136,7 @@ fn main() -> ExitCode {
         Command::Experiment(command) => experiment::run(command, &catalog),
         Command::Device(command) => device::run(command),
         Command::Scene(command) => scene::run(command, &cli.bus),
-        Command::Render(args) => render::run(&args),
+        Command::Render(args) => render::run(&args, &catalog),
         Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
         Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
         Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),

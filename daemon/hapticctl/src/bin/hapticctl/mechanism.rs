@@ -189,7 +189,8 @@ fn parse_number(text: &str) -> Result<f64, String> {
     }
 }
 
-fn vec3(values: &[f64], what: &str) -> Result<DVec3, Failure> {
+/// Three numbers as a vector; a usage error naming `what` otherwise.
+pub fn vec3(values: &[f64], what: &str) -> Result<DVec3, Failure> {
     match values {
         [x, y, z] => Ok(DVec3::new(*x, *y, *z)),
         _ => Err(Failure::usage(format!(

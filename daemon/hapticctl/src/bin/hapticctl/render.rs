@@ -12,6 +12,11 @@ use hapticd_render::camera::Camera;
 use hapticd_render::vulkan::{MAX_EDGE, Picture, Renderer};
 
 use crate::Failure;
+use crate::mechanism::{Numbers, parse_numbers, resolve, vec3};
+use glam::DVec3;
+use hapticd::catalog::Catalog;
+use hapticd_core::kinematics::{Pose, Wrench};
+use hapticd_core::solver::geometry::StringGeometry;
 
 /// The background: a pale sky.
 const SKY: [f32; 4] = [0.93, 0.95, 0.98, 1.0];
@@ -33,6 +38,37 @@ pub struct RenderArgs {
     /// the scene as it was at the start.
     #[arg(long, default_value_t = 0.0)]
     at: f64,
+    /// Draw this mechanism too (a name or descriptor, as `hapticctl mechanism` takes it):
+    /// its motors, its grips at their calibration poses and its strings coloured by tension.
+    #[arg(long)]
+    mechanism: Option<String>,
+    /// With `--mechanism`: the force, newtons, each grip presents (x,y,z), which sets the
+    /// strings' tensions.
+    #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true)]
+    force: Option<Numbers>,
+}
+
+/// Add `name`'s mechanism to `scenery`, each grip presenting `force`.
+fn add_mechanism(
+    scenery: &mut Scenery,
+    catalog: &Catalog,
+    name: &str,
+    force: DVec3,
+) -> Result<(), Failure> {
+    let mechanism = resolve(catalog, name)?;
+    let poses: Vec<Pose> = mechanism.effectors.iter().map(|e| e.calibration).collect();
+    let mut tensions = vec![0.0; mechanism.strings.len()];
+    for (index, effector) in mechanism.effectors.iter().enumerate() {
+        let geometry = StringGeometry::at(&mechanism.kinematics(index), &poses[index]);
+        let solution = mechanism
+            .tension_solver(index)
+            .solve(&geometry, &Wrench::force(force));
+        for (&string, &t) in effector.strings.iter().zip(solution.tensions()) {
+            tensions[string] = t;
+        }
+    }
+    scenery.add_mechanism(&mechanism, &poses, &tensions);
+    Ok(())
 }
 
 /// Whether the file at `path` describes physics (its `bodies:`) rather than static solids.
@@ -104,8 +140,8 @@ pub fn save_png(picture: &Picture, path: &Path) -> Result<(), Failure> {
         .map_err(|e| failed(&e))
 }
 
-/// Draw one frame of `args.scene`.
-pub fn run(args: &RenderArgs) -> Result<(), Failure> {
+/// Draw one frame of `args.scene`, with the mechanism asked for from `catalog`.
+pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
     for (name, value) in [("--width", args.width), ("--height", args.height)] {
         if !(1..=MAX_EDGE).contains(&value) {
             return Err(Failure::usage(format!(
@@ -119,7 +155,21 @@ pub fn run(args: &RenderArgs) -> Result<(), Failure> {
             args.at
         )));
     }
-    let (scenery, camera) = scenery(&args.scene, args.at)?;
+    let (mut scenery, mut camera) = scenery(&args.scene, args.at)?;
+    match (&args.mechanism, &args.force) {
+        (Some(name), force) => {
+            let force = force
+                .as_deref()
+                .map_or(Ok(DVec3::ZERO), |f| vec3(f, "--force"))?;
+            if !force.is_finite() || force.length() > 1e3 {
+                return Err(Failure::usage("--force must be finite and at most 1000 N"));
+            }
+            add_mechanism(&mut scenery, catalog, name, force)?;
+            camera = scenery.camera();
+        }
+        (None, Some(_)) => return Err(Failure::usage("--force needs --mechanism")),
+        (None, None) => {}
+    }
     let renderer = Renderer::new().map_err(|e| Failure::failed(format!("cannot render: {e}")))?;
     let meshes: Vec<_> = scenery.meshes.iter().collect();
     let picture = renderer
