@@ -74,7 +74,7 @@ figures: stage
 	$(HAPTICCTL) experiment stick-slip --plot docs/figures/stick-slip.png
 	$(HAPTICCTL) experiment grasp --plot docs/figures/grasp-shake.png
 	$(HAPTICCTL) experiment push-phase --plot docs/figures/push-phase.png
-	$(HAPTICCTL) render config/scenes/blocks.yaml --mechanism spidar-g --force 3,8,0 \
+	$(HAPTICCTL) render config/scenes/blocks.yaml --mechanism spidar-g --force 4,12,0 \
 		--out docs/figures/render-blocks.png --width 640 --height 400
 	$(HAPTICCTL) render config/scenes/balls.yaml --out docs/figures/render-balls.png --width 640 --height 400
 	$(HAPTICCTL) scene run config/scenes/top.yaml --duration 12 --model volume --model point \

@@ -217,7 +217,7 @@ impl Scenery {
 }
 
 /// Radius strings are drawn with, metres (thicker than real ones, to be seen).
-const STRING_RADIUS: f64 = 0.0007;
+const STRING_RADIUS: f64 = 0.0012;
 /// Motors' string exits.
 const MOTOR: [f32; 4] = [0.2, 0.2, 0.22, 1.0];
 
