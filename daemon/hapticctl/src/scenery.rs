@@ -172,9 +172,15 @@ impl Scenery {
 
     /// Add `mechanism` with each grip at its pose in `poses` (one per effector): each
     /// motor's string exit, each string from its exit to its knot coloured by its tension in
-    /// `tensions` (one per string, newtons; see [`tension_colour`]), and each grip. The
-    /// camera frames the frame too.
-    pub fn add_mechanism(&mut self, mechanism: &Mechanism, poses: &[Pose], tensions: &[f64]) {
+    /// `tensions` (one per string, newtons; see [`tension_colour`]), each grip, and the force
+    /// it presents (`forces`, newtons) as an arrow. The camera frames the frame too.
+    pub fn add_mechanism(
+        &mut self,
+        mechanism: &Mechanism,
+        poses: &[Pose],
+        tensions: &[f64],
+        forces: &[DVec3],
+    ) {
         let mut mesh = Mesh::default();
         for (k, string) in mechanism.strings.iter().enumerate() {
             let pose = &poses[string.effector];
@@ -190,6 +196,9 @@ impl Scenery {
             );
             mesh.cuboid(string.motor, DVec3::splat(0.004), DQuat::IDENTITY, MOTOR);
             self.frame(string.motor, string.motor);
+        }
+        for (force, pose) in forces.iter().zip(poses) {
+            mesh.arrow(pose.position, *force * ARROW_PER_NEWTON, 0.006, ARROW);
         }
         for (effector, pose) in mechanism.effectors.iter().zip(poses) {
             match effector.dof {
@@ -218,6 +227,10 @@ impl Scenery {
 
 /// Radius strings are drawn with, metres (thicker than real ones, to be seen).
 const STRING_RADIUS: f64 = 0.0012;
+/// Length of a force arrow per newton, metres.
+const ARROW_PER_NEWTON: f64 = 0.005;
+/// Force arrows.
+const ARROW: [f32; 4] = [0.1, 0.7, 0.3, 1.0];
 /// Motors' string exits.
 const MOTOR: [f32; 4] = [0.2, 0.2, 0.22, 1.0];
 

@@ -173,4 +173,28 @@ impl Mesh {
             colour,
         );
     }
+
+    /// Add an arrow from `from` along `vector` (shaft and head), `width` across.
+    pub fn arrow(&mut self, from: DVec3, vector: DVec3, width: f64, colour: [f32; 4]) {
+        let length = vector.length();
+        if length < 1e-9 {
+            return;
+        }
+        let axis = vector / length;
+        let head = (3.0 * width).min(0.5 * length);
+        let shaft = length - head;
+        self.cylinder(from + axis * shaft / 2.0, axis, width / 4.0, shaft, colour);
+        let u = axis.any_orthonormal_vector();
+        let v = axis.cross(u);
+        let (base, tip) = (from + axis * shaft, from + vector);
+        let segments = 16;
+        for j in 0..segments {
+            let at = |k: usize| {
+                let phi = std::f64::consts::TAU * k as f64 / segments as f64;
+                base + (u * phi.cos() + v * phi.sin()) * (width / 2.0)
+            };
+            self.triangle([at(j), at(j + 1), tip], colour);
+            self.triangle([at(j + 1), at(j), base], colour);
+        }
+    }
 }

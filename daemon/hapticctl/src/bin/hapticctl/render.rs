@@ -43,7 +43,7 @@ pub struct RenderArgs {
     #[arg(long)]
     mechanism: Option<String>,
     /// With `--mechanism`: the force, newtons, each grip presents (x,y,z), which sets the
-    /// strings' tensions.
+    /// strings' tensions; drawn as an arrow at the grip (5 mm per newton).
     #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true)]
     force: Option<Numbers>,
 }
@@ -67,7 +67,8 @@ fn add_mechanism(
             tensions[string] = t;
         }
     }
-    scenery.add_mechanism(&mechanism, &poses, &tensions);
+    let forces = vec![force; poses.len()];
+    scenery.add_mechanism(&mechanism, &poses, &tensions, &forces);
     Ok(())
 }
 
