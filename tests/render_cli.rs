@@ -10,38 +10,15 @@ mod support;
 
 use std::path::{Path, PathBuf};
 
+use hapticd_render::picture::Picture;
 use support::{hapticctl, repo_dir, scratch_root};
 
-/// Decoded RGBA pixels with their size.
-struct Image {
-    width: u32,
-    height: u32,
-    rgba: Vec<u8>,
+fn read_png(path: &Path) -> Picture {
+    Picture::read_png(path).unwrap()
 }
 
-fn read_png(path: &Path) -> Image {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut rgba).unwrap();
-    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
-    rgba.truncate(info.buffer_size());
-    Image {
-        width: info.width,
-        height: info.height,
-        rgba,
-    }
-}
-
-fn write_png(path: &Path, image: &Image) {
-    let file = std::fs::File::create(path).unwrap();
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), image.width, image.height);
-    encoder.set_color(png::ColorType::Rgba);
-    encoder
-        .write_header()
-        .unwrap()
-        .write_image_data(&image.rgba)
-        .unwrap();
+fn write_png(path: &Path, picture: &Picture) {
+    picture.write_png(path).unwrap();
 }
 
 /// The shipped mechanisms, staged as an install would have them.
@@ -136,7 +113,7 @@ fn every_shipped_scene_and_mechanism_matches_its_golden_picture() {
             write_png(&dir.join(format!("render-{name}-actual.png")), &actual);
             write_png(
                 &dir.join(format!("render-{name}-difference.png")),
-                &Image {
+                &Picture {
                     rgba: shown,
                     ..golden
                 },
@@ -152,7 +129,7 @@ fn every_shipped_scene_and_mechanism_matches_its_golden_picture() {
 
 /// The share of the picture's rows, top to bottom, at which its blue pixels lie on average;
 /// None when there are hardly any.
-fn mean_blue_row(image: &Image) -> Option<f64> {
+fn mean_blue_row(image: &Picture) -> Option<f64> {
     let (mut sum, mut count) = (0.0, 0usize);
     for (k, p) in image.rgba.chunks(4).enumerate() {
         let (r, g, b) = (i32::from(p[0]), i32::from(p[1]), i32::from(p[2]));

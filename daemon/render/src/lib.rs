@@ -4,7 +4,8 @@
 //! - [`mesh`]: triangles of the things drawn (boxes, balls, convex polyhedra, a striped
 //!   floor), each vertex with its normal and colour;
 //! - [`camera`]: where the picture is taken from;
-//! - [`vulkan`]: the device, the pipeline, and one frame drawn and read back.
+//! - [`vulkan`]: the device, the pipeline, and one frame drawn and read back;
+//! - [`picture`]: the frame's pixels and its PNG file.
 //!
 //! Positions are projected on the host (a frame holds a few thousand vertices), so the one
 //! pipeline needs neither uniforms nor descriptors; its shaders are WGSL compiled to SPIR-V
@@ -12,4 +13,5 @@
 
 pub mod camera;
 pub mod mesh;
+pub mod picture;
 pub mod vulkan;

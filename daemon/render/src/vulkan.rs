@@ -7,6 +7,7 @@ use glam::DVec3;
 
 use crate::camera::Camera;
 use crate::mesh::Mesh;
+use crate::picture::Picture;
 
 /// Largest picture edge, pixels.
 pub const MAX_EDGE: u32 = 8192;
@@ -37,17 +38,6 @@ impl std::error::Error for Unavailable {}
 
 fn failed(what: &str) -> impl Fn(vk::Result) -> Unavailable + '_ {
     move |e| Unavailable(format!("{what}: {e}"))
-}
-
-/// A drawn picture: `width × height` RGBA pixels, rows top to bottom.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Picture {
-    /// Width, pixels.
-    pub width: u32,
-    /// Height, pixels.
-    pub height: u32,
-    /// RGBA, 4 bytes a pixel.
-    pub rgba: Vec<u8>,
 }
 
 /// A Vulkan device ready to draw.

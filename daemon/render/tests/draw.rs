@@ -4,7 +4,8 @@
 use glam::{DQuat, DVec3};
 use hapticd_render::camera::Camera;
 use hapticd_render::mesh::Mesh;
-use hapticd_render::vulkan::{Picture, Renderer};
+use hapticd_render::picture::Picture;
+use hapticd_render::vulkan::Renderer;
 
 const RED: [f32; 4] = [0.8, 0.1, 0.1, 1.0];
 const GREY: [[f32; 4]; 2] = [[0.6, 0.6, 0.6, 1.0], [0.45, 0.45, 0.45, 1.0]];

@@ -9,7 +9,7 @@ use hapticd_physics::scene::SceneFile;
 use hapticd_plugin_api::HapticdPlanes;
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::camera::Camera;
-use hapticd_render::vulkan::{MAX_EDGE, Picture, Renderer};
+use hapticd_render::vulkan::{MAX_EDGE, Renderer};
 
 use crate::Failure;
 use crate::mechanism::{Numbers, parse_numbers, resolve, vec3};
@@ -125,22 +125,6 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
     }
 }
 
-/// Write `picture` to `path` as PNG.
-pub fn save_png(picture: &Picture, path: &Path) -> Result<(), Failure> {
-    let failed = |e: &dyn std::fmt::Display| {
-        Failure::failed(format!("cannot write {}: {e}", path.display()))
-    };
-    let file = std::fs::File::create(path).map_err(|e| failed(&e))?;
-    let mut encoder =
-        png::Encoder::new(std::io::BufWriter::new(file), picture.width, picture.height);
-    encoder.set_color(png::ColorType::Rgba);
-    encoder.set_compression(png::Compression::Fast);
-    encoder
-        .write_header()
-        .and_then(|mut w| w.write_image_data(&picture.rgba))
-        .map_err(|e| failed(&e))
-}
-
 /// Draw one frame of `args.scene`, with the mechanism asked for from `catalog`.
 pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
     for (name, value) in [("--width", args.width), ("--height", args.height)] {
@@ -176,5 +160,5 @@ pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
     let picture = renderer
         .draw(&meshes, &camera, (args.width, args.height), SKY)
         .map_err(|e| Failure::failed(format!("cannot render: {e}")))?;
-    save_png(&picture, &args.out)
+    picture.write_png(&args.out).map_err(Failure::failed)
 }
