@@ -182,6 +182,18 @@ struct MultiRateScene {
 /// every haptic thread.
 const PHYSICS_PRIORITY: i32 = 1;
 
+/// Steps a physics thread runs as an ordinary thread before it may become real-time: long
+/// enough to see how long the world takes to step.
+const WARM_UP_STEPS: u64 = 5;
+
+/// Whether a step that took `took_ns` leaves room under the kernel's real-time budget
+/// (`budget_ns`, None: unlimited): a real-time thread that computes past RLIMIT_RTTIME
+/// without blocking gets SIGXCPU, which hapticd takes for its haptic thread overrunning, so
+/// only a world that steps in a quarter of it runs real-time.
+fn fits_realtime(took_ns: u64, budget_ns: Option<u64>) -> bool {
+    budget_ns.is_none_or(|budget| took_ns < budget / 4)
+}
+
 impl MultiRateScene {
     /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
     fn start(
@@ -209,9 +221,12 @@ impl MultiRateScene {
         let thread = std::thread::Builder::new()
             .name("hapticd-physics".into())
             .spawn(move || {
-                // Off the haptic CPUs like every helper, but above every ordinary task there:
-                // a busy machine must not starve it into stale planes.
-                let _ = crate::realtime::become_realtime(PHYSICS_PRIORITY);
+                // Off the haptic CPUs like every helper, but, once it is seen to step well
+                // within the real-time budget, above every ordinary task there: a busy
+                // machine must not starve it into stale planes.
+                let budget = crate::realtime::realtime_budget_ns();
+                // Real-time now, and whether a step ever took too long for it.
+                let (mut realtime, mut too_slow) = (false, false);
                 // Move the whole instance in (not just its fields): it is destroyed with it.
                 let instance = instance;
                 let step = instance.vtable.step_physics.expect("checked at load");
@@ -225,6 +240,7 @@ impl MultiRateScene {
                         impulses.push(i);
                     }
                     let pointers = *pointers_in.latest();
+                    let started = monotonic_ns();
                     // SAFETY: buffers hold `n` pointers and planes and the impulses listed;
                     // the instance belongs to this thread.
                     let status = unsafe {
@@ -241,6 +257,17 @@ impl MultiRateScene {
                     if status != HAPTICD_OK {
                         failed_flag.store(true, Ordering::Release);
                         return;
+                    }
+                    let fits = fits_realtime(monotonic_ns() - started, budget);
+                    too_slow |= !fits;
+                    if realtime && !fits {
+                        crate::realtime::become_ordinary();
+                        realtime = false;
+                    } else if !realtime && !too_slow && sequence >= WARM_UP_STEPS {
+                        realtime = matches!(
+                            crate::realtime::become_realtime(PHYSICS_PRIORITY),
+                            crate::realtime::Scheduling::Fifo(_)
+                        );
                     }
                     sequence += 1;
                     planes_out.publish(|set| {
@@ -331,5 +358,18 @@ impl Drop for MultiRateScene {
                 1e3 / self.rate
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_world_that_steps_in_a_quarter_of_the_budget_runs_real_time() {
+        let budget = Some(200_000_000); // LimitRTTIME=200ms
+        assert!(fits_realtime(49_000_000, budget));
+        assert!(!fits_realtime(50_000_000, budget));
+        assert!(fits_realtime(u64::MAX, None));
     }
 }

@@ -123,6 +123,26 @@ pub(crate) fn become_realtime(priority: i32) -> Scheduling {
     }
 }
 
+/// Make the calling thread an ordinary one again (SCHED_OTHER).
+pub(crate) fn become_ordinary() {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: pid 0 is the calling thread; param is valid for the call. Lowering one's own
+    // scheduling cannot be refused.
+    unsafe { libc::sched_setscheduler(0, libc::SCHED_OTHER, &param) };
+}
+
+/// How long a real-time thread may compute without blocking before the kernel sends
+/// SIGXCPU (RLIMIT_RTTIME, `LimitRTTIME=` of the unit), nanoseconds; None when unlimited.
+pub(crate) fn realtime_budget_ns() -> Option<u64> {
+    let mut limit = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit writes one rlimit to a valid pointer.
+    let known = unsafe { libc::getrlimit(libc::RLIMIT_RTTIME, &mut limit) } == 0;
+    (known && limit.rlim_cur != libc::RLIM_INFINITY).then(|| limit.rlim_cur.saturating_mul(1000))
+}
+
 /// Ask the kernel's PM QoS to keep CPUs out of deep idle states while the returned file stays
 /// open: waking from them costs tens of microseconds of latency, every tick (cyclictest does
 /// the same). `None` when not permitted.
