@@ -56,6 +56,7 @@ bench:
 	$(CARGO) build --release --workspace
 	$(CARGO) bench -p hapticd-e2e --bench mechanism
 	$(CARGO) bench -p hapticd-e2e --bench physics
+	$(CARGO) bench -p hapticd-e2e --bench render
 
 latency:
 	@command -v cyclictest >/dev/null || $(SUDO) apt-get install -y -q --no-install-recommends rt-tests

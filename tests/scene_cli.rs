@@ -318,3 +318,46 @@ fn a_rapier_scene_runs_with_the_feedback_and_phase_asked_for() {
         assert_eq!(out.status.code(), Some(2), "{wrong:?}");
     }
 }
+
+/// `--frames DIR` draws the run, 30 pictures a second of simulated time: the dropped cube
+/// moves from one to the next; and one run only.
+#[test]
+fn a_run_is_drawn_thirty_frames_a_second() {
+    use hapticd_render::picture::Picture;
+    let dir = support::scratch_root().join(format!("frames-{}", std::process::id()));
+    let output = run(&[
+        &scene("cube-drop.yaml"),
+        "--duration",
+        "0.5",
+        "--frames",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    // Frames at 0, 1/30, …, 15/30 s.
+    assert_eq!(names.len(), 16, "{names:?}");
+    assert_eq!(names[0], "frame-00000.png");
+    let first = Picture::read_png(&dir.join(&names[0])).unwrap();
+    let last = Picture::read_png(&dir.join(&names[15])).unwrap();
+    assert_eq!((first.width, first.height), (640, 480));
+    assert_ne!(first.rgba, last.rgba, "the cube did not move");
+    let both = run(&[
+        &scene("cube-drop.yaml"),
+        "--model",
+        "volume",
+        "--model",
+        "point",
+        "--frames",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(both.status.code(), Some(2));
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -9,7 +9,7 @@ use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::body::Body;
 use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::scene::{MultiRateWorld, Primitive};
-use hapticd_rapier::world::RapierWorld;
+use hapticd_rapier::world::BodyState;
 use hapticd_render::camera::Camera;
 use hapticd_render::mesh::Mesh;
 
@@ -129,12 +129,13 @@ impl Scenery {
         s
     }
 
-    /// The bodies of a rapier world as they are now (`spec` gives their shapes).
-    pub fn of_rapier(world: &RapierWorld, spec: &MultiRateWorld) -> Self {
+    /// The bodies of a rapier world where `state` puts them (`spec` gives their shapes):
+    /// the world's bodies now, or the poses between physics steps graphics show (6.5.2).
+    pub fn of_rapier(spec: &MultiRateWorld, state: impl Fn(usize) -> BodyState) -> Self {
         let mut s = Self::default();
         let mut mesh = Mesh::default();
         for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
-            let state = world.body(i);
+            let state = state(i);
             let place = |p: DVec3| state.position + state.orientation * p;
             let colour = colour_of(i, body.fixed);
             for (piece, primitive) in body.pieces.iter().zip(primitives) {

@@ -50,6 +50,8 @@ pub struct Renderer {
     pool: vk::CommandPool,
     layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
+    /// The images and buffers of the last frame, kept for the next one of the same size.
+    frame: Option<Frame>,
     /// The device's name, as the driver gives it.
     pub device_name: String,
 }
@@ -137,6 +139,7 @@ impl Renderer {
             pool,
             layout,
             pipeline,
+            frame: None,
             device_name,
         })
     }
@@ -267,7 +270,7 @@ impl Renderer {
 
     /// Draw `meshes` seen by `camera` on a `width × height` picture over `background`.
     pub fn draw(
-        &self,
+        &mut self,
         meshes: &[&Mesh],
         camera: &Camera,
         (width, height): (u32, u32),
@@ -298,9 +301,21 @@ impl Renderer {
                 }
             })
             .collect();
-        let mut frame = Frame::new(self, width, height, vertices.len().max(1))?;
+        // Allocating a frame's images costs more than drawing into them: keep them.
+        let fits =
+            |f: &Frame| (f.width, f.height) == (width, height) && f.capacity >= vertices.len();
+        let mut frame = match self.frame.take() {
+            Some(frame) if fits(&frame) => frame,
+            old => {
+                if let Some(old) = old {
+                    old.destroy(self);
+                }
+                // Room for growth, so a scene gaining a few vertices keeps its buffer.
+                Frame::new(self, width, height, (vertices.len() * 2).max(1024))?
+            }
+        };
         let result = frame.draw(self, &vertices, background);
-        frame.destroy(self);
+        self.frame = Some(frame);
         result
     }
 }
@@ -313,6 +328,8 @@ struct Frame {
     readback: (vk::Buffer, Allocation),
     width: u32,
     height: u32,
+    /// Vertices the vertex buffer holds.
+    capacity: usize,
 }
 
 impl Frame {
@@ -411,6 +428,7 @@ impl Frame {
             )?,
             width,
             height,
+            capacity: vertices,
         })
     }
 
@@ -635,6 +653,9 @@ impl Drop for Renderer {
         // SAFETY: no frame is in flight (draw waits for its own); objects die in reverse.
         unsafe {
             let _ = self.device.device_wait_idle();
+            if let Some(frame) = self.frame.take() {
+                frame.destroy(self);
+            }
             self.device.destroy_pipeline(self.pipeline, None);
             self.device.destroy_pipeline_layout(self.layout, None);
             self.device.destroy_command_pool(self.pool, None);

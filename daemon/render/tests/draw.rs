@@ -66,9 +66,9 @@ fn scene(block_x: f64) -> (Mesh, Mesh) {
 
 #[test]
 fn a_block_moved_to_the_left_is_drawn_on_the_left() {
-    let r = renderer();
+    let mut r = renderer();
     let camera = Camera::orbit(DVec3::ZERO, 0.5, 0.0, 0.5);
-    let draw = |x: f64| {
+    let mut draw = |x: f64| {
         let (floor, block) = scene(x);
         r.draw(&[&floor, &block], &camera, (320, 240), SKY).unwrap()
     };
@@ -88,17 +88,24 @@ fn a_block_moved_to_the_left_is_drawn_on_the_left() {
 
 #[test]
 fn a_frame_is_drawn_the_same_twice() {
-    let r = renderer();
+    let mut r = renderer();
     let camera = Camera::orbit(DVec3::ZERO, 0.5, 0.3, 0.4);
     let (floor, block) = scene(0.0);
     let a = r.draw(&[&floor, &block], &camera, (160, 120), SKY).unwrap();
     let b = r.draw(&[&floor, &block], &camera, (160, 120), SKY).unwrap();
     assert_eq!(a, b);
+    // Another size in between (the renderer keeps one frame's images), then the first again.
+    let large = r.draw(&[&floor, &block], &camera, (320, 240), SKY).unwrap();
+    assert_eq!(large.rgba.len(), 320 * 240 * 4);
+    assert_eq!(
+        r.draw(&[&floor, &block], &camera, (160, 120), SKY).unwrap(),
+        a
+    );
 }
 
 #[test]
 fn bad_sizes_and_cameras_are_refused() {
-    let r = renderer();
+    let mut r = renderer();
     let camera = Camera::orbit(DVec3::ZERO, 0.5, 0.0, 0.5);
     for size in [(0, 240), (320, 0), (100_000, 10)] {
         assert!(r.draw(&[], &camera, size, SKY).is_err(), "{size:?}");

@@ -109,7 +109,7 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
         }
         SceneFile::Rapier(spec) => {
             let mut world = RapierWorld::new(&spec, 0);
-            let camera = Scenery::of_rapier(&world, &spec).camera();
+            let camera = Scenery::of_rapier(&spec, |i| world.body(i)).camera();
             let steps = (at * spec.rate).round() as usize;
             let mut planes: [HapticdPlanes; 0] = [];
             for _ in 0..steps {
@@ -120,8 +120,61 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
                     )));
                 }
             }
-            Ok((Scenery::of_rapier(&world, &spec), camera))
+            Ok((Scenery::of_rapier(&spec, |i| world.body(i)), camera))
         }
+    }
+}
+
+/// Frames of a run written as PNG files at [`FRAME_RATE`] per second of simulated time
+/// (`hapticctl scene run --frames DIR`), for figures and videos.
+pub struct Frames {
+    dir: PathBuf,
+    renderer: Renderer,
+    /// Framed on the first frame, then kept, so the pictures follow one another.
+    camera: Option<Camera>,
+    next: f64,
+    written: usize,
+}
+
+/// Frames per second of simulated time.
+pub const FRAME_RATE: f64 = 30.0;
+
+/// Size of a frame, pixels.
+const FRAME_SIZE: (u32, u32) = (640, 480);
+
+impl Frames {
+    /// Frames into `dir` (made if missing).
+    pub fn create(dir: &Path) -> Result<Self, Failure> {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| Failure::failed(format!("cannot make {}: {e}", dir.display())))?;
+        let renderer =
+            Renderer::new().map_err(|e| Failure::failed(format!("cannot render: {e}")))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            renderer,
+            camera: None,
+            next: 0.0,
+            written: 0,
+        })
+    }
+
+    /// At simulated time `t`: draw `scenery()` if a frame is due.
+    pub fn offer(&mut self, t: f64, scenery: impl FnOnce() -> Scenery) -> Result<(), Failure> {
+        if t + 1e-9 < self.next {
+            return Ok(());
+        }
+        let scenery = scenery();
+        let camera = *self.camera.get_or_insert_with(|| scenery.camera());
+        let meshes: Vec<_> = scenery.meshes.iter().collect();
+        let picture = self
+            .renderer
+            .draw(&meshes, &camera, FRAME_SIZE, SKY)
+            .map_err(|e| Failure::failed(format!("cannot render: {e}")))?;
+        let path = self.dir.join(format!("frame-{:05}.png", self.written));
+        picture.write_png(&path).map_err(Failure::failed)?;
+        self.written += 1;
+        self.next += 1.0 / FRAME_RATE;
+        Ok(())
     }
 }
 
@@ -155,7 +208,8 @@ pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
         (None, Some(_)) => return Err(Failure::usage("--force needs --mechanism")),
         (None, None) => {}
     }
-    let renderer = Renderer::new().map_err(|e| Failure::failed(format!("cannot render: {e}")))?;
+    let mut renderer =
+        Renderer::new().map_err(|e| Failure::failed(format!("cannot render: {e}")))?;
     let meshes: Vec<_> = scenery.meshes.iter().collect();
     let picture = renderer
         .draw(&meshes, &camera, (args.width, args.height), SKY)

@@ -22,6 +22,8 @@ use serde_json::json;
 use crate::Failure;
 use crate::client::{self, Client};
 use crate::mechanism::{Output, print, save};
+use crate::render::Frames;
+use hapticctl::scenery::Scenery;
 use hapticd::bus::Bus;
 
 #[derive(Subcommand)]
@@ -66,6 +68,10 @@ pub struct RunArgs {
     /// hand, in the order of their names); the forces felt are reported.
     #[arg(long, value_name = "SCRIPT")]
     hand: Option<PathBuf>,
+    /// Draw the run into this directory, a PNG per frame at 30 frames per second of
+    /// simulated time (frame-00000.png, …), with Vulkan.
+    #[arg(long, value_name = "DIR")]
+    frames: Option<PathBuf>,
     /// Rapier scenes: how far the physics clock runs behind the haptic one, seconds (the
     /// sampling phase of thesis 6.4.2; taken modulo the physics period).
     #[arg(long, default_value_t = 0.0)]
@@ -212,6 +218,7 @@ fn trace(
     hands: &[HandTrack],
     (dt, steps): (f64, usize),
     mut record: Option<&mut Recording>,
+    mut frames: Option<&mut Frames>,
 ) -> Result<Trace, Failure> {
     let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
     let moving: Vec<usize> = (0..scene.world.bodies.len())
@@ -244,6 +251,11 @@ fn trace(
                  light or too stiffly sprung for a step of {dt} s)",
                 args.file.display()
             )));
+        }
+        if let Some(frames) = frames.as_deref_mut() {
+            frames.offer(t, || {
+                Scenery::of_penalty(&scene.world.bodies, scene.first_pointer)
+            })?;
         }
         energy.end = mechanical_energy(&scene, &moving);
         energy.peak = energy.peak.max(energy.end);
@@ -405,6 +417,7 @@ fn run_multirate(
     let mut felt = vec![Wrench::default(); hands.len()];
     let mut peaks = vec![0.0f64; hands.len()];
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
+    let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
     for tick in 0..ticks {
         let t = tick as f64 / HAPTIC_RATE;
         run.tick(&hand_pointers(hands, t), &mut felt)
@@ -413,6 +426,9 @@ fn run_multirate(
             *peak = peak.max(w.force.length());
         }
         let t = run.time();
+        if let Some(frames) = frames.as_mut() {
+            frames.offer(t, || Scenery::of_rapier(&spec, |i| run.body(i)))?;
+        }
         for (k, curve) in curves.iter_mut().enumerate() {
             let value = match args.quantity {
                 Quantity::PointerForce => felt[k].force.length(),
@@ -578,11 +594,31 @@ fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
         ));
     }
     let steps = (args.duration / dt).round() as usize;
+    if args.frames.is_some() && models.len() > 1 {
+        return Err(Failure::usage(
+            "--frames draws one run: give at most one --model",
+        ));
+    }
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
-    let mut traces = vec![trace(first, args, hands, (dt, steps), record.as_mut())?];
+    let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
+    let mut traces = vec![trace(
+        first,
+        args,
+        hands,
+        (dt, steps),
+        record.as_mut(),
+        frames.as_mut(),
+    )?];
     for &model in &models[1..] {
         let scene = load(&args.file, model, hands.len())?;
-        traces.push(trace(scene, args, hands, (dt, steps), record.as_mut())?);
+        traces.push(trace(
+            scene,
+            args,
+            hands,
+            (dt, steps),
+            record.as_mut(),
+            None,
+        )?);
     }
     if let Some(record) = record {
         record.finish()?;
