@@ -349,6 +349,35 @@ fn a_run_is_drawn_thirty_frames_a_second() {
     let last = Picture::read_png(&dir.join(&names[15])).unwrap();
     assert_eq!((first.width, first.height), (640, 480));
     assert_ne!(first.rgba, last.rgba, "the cube did not move");
+    // A rapier run draws each pointer: its proxy solid yellow, the grip faint. The same
+    // frame without a hand (the finger touches nothing yet) has fewer yellow pixels.
+    let yellow = |hand: bool| {
+        let out = dir.join(format!("balls-{hand}"));
+        let script = repo_dir().join("config/hands/stir-balls.yaml");
+        let mut args = vec![scene("balls.yaml"), "--duration".into(), "0.1".into()];
+        if hand {
+            args.extend(["--hand".into(), script.display().to_string()]);
+        }
+        args.extend(["--frames".into(), out.display().to_string()]);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let output = run(&args);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let frame = Picture::read_png(&out.join("frame-00003.png")).unwrap();
+        frame
+            .rgba
+            .chunks(4)
+            .filter(|p| p[0] > 150 && f32::from(p[1]) > 0.82 * f32::from(p[0]) && p[2] < 80)
+            .count()
+    };
+    let (with, without) = (yellow(true), yellow(false));
+    assert!(
+        with > without + 20,
+        "{with} yellow pixels with the hand, {without} without"
+    );
     let both = run(&[
         &scene("cube-drop.yaml"),
         "--model",

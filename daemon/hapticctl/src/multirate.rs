@@ -129,6 +129,11 @@ impl Lockstep {
         }
     }
 
+    /// Where each pointer's proxy rests.
+    pub fn proxies(&self) -> Vec<DVec3> {
+        self.renderer.proxies().collect()
+    }
+
     /// The pointers at `positions`, moving at `velocities`, as the loop hands them over.
     pub fn pointers(positions: &[(DVec3, DVec3)]) -> Vec<Pointer> {
         positions

@@ -215,6 +215,22 @@ impl Scenery {
         self.meshes.insert(0, mesh);
     }
 
+    /// Add pointers: each proxy (where the finger rests on surfaces) solid, and its grip
+    /// (where the hand is, inside a surface it presses) faint; the camera frames them too.
+    pub fn add_pointers(&mut self, proxies: &[DVec3], grips: &[DVec3]) {
+        let mut solid = Mesh::default();
+        let mut faint = Mesh::default();
+        for (proxy, grip) in proxies.iter().zip(grips) {
+            self.frame(proxy.min(*grip), proxy.max(*grip));
+            solid.ball(*proxy, POINTER_RADIUS, 10, POINTER);
+            let [r, g, b, _] = POINTER;
+            faint.ball(*grip, POINTER_RADIUS, 10, [r, g, b, 0.35]);
+        }
+        self.meshes.insert(0, solid);
+        // Translucent things last, over what lies behind them.
+        self.meshes.push(faint);
+    }
+
     /// Frame every solid when nothing moves.
     fn frame_fixed_if_empty<'a>(&mut self, pieces: impl Iterator<Item = &'a Polyhedron>) {
         if self.low.is_none() {
@@ -228,6 +244,8 @@ impl Scenery {
 
 /// Radius strings are drawn with, metres (thicker than real ones, to be seen).
 const STRING_RADIUS: f64 = 0.0012;
+/// Radius pointers are drawn with, metres.
+const POINTER_RADIUS: f64 = 0.004;
 /// Length of a force arrow per newton, metres.
 const ARROW_PER_NEWTON: f64 = 0.005;
 /// Force arrows.

@@ -110,6 +110,11 @@ impl PlaneRenderer {
         }
     }
 
+    /// Where each pointer's proxy is: the point the finger rests on surfaces at.
+    pub fn proxies(&self) -> impl Iterator<Item = DVec3> + '_ {
+        self.proxies.iter().map(Proxy::position)
+    }
+
     /// The proxy parameters rendered with.
     pub fn parameters(&self) -> ProxyParameters {
         self.parameters

@@ -420,14 +420,20 @@ fn run_multirate(
     let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
     for tick in 0..ticks {
         let t = tick as f64 / HAPTIC_RATE;
-        run.tick(&hand_pointers(hands, t), &mut felt)
+        let grips = hand_pointers(hands, t);
+        run.tick(&grips, &mut felt)
             .map_err(|e| Failure::failed(format!("{}: {e}", args.file.display())))?;
         for (peak, w) in peaks.iter_mut().zip(&felt) {
             *peak = peak.max(w.force.length());
         }
         let t = run.time();
         if let Some(frames) = frames.as_mut() {
-            frames.offer(t, || Scenery::of_rapier(&spec, |i| run.body(i)))?;
+            frames.offer(t, || {
+                let mut scenery = Scenery::of_rapier(&spec, |i| run.body(i));
+                let grips: Vec<DVec3> = grips.iter().map(|p| p.pose.position).collect();
+                scenery.add_pointers(&run.proxies(), &grips);
+                scenery
+            })?;
         }
         for (k, curve) in curves.iter_mut().enumerate() {
             let value = match args.quantity {
