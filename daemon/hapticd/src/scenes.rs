@@ -114,7 +114,7 @@ fn engine_plugin(engine: Engine) -> &'static str {
 
 /// Whether the scene file at `path` describes a physics world (bodies) rather than static
 /// solids (shapes).
-fn is_physics(path: &Path) -> bool {
+pub fn is_physics(path: &Path) -> bool {
     let Ok(text) = diagnostics::read_text(path) else {
         return false;
     };

@@ -72,17 +72,12 @@ fn add_mechanism(
     Ok(())
 }
 
-/// Whether the file at `path` describes physics (its `bodies:`) rather than static solids.
-fn is_physics(text: &str) -> bool {
-    text.lines().any(|l| l.starts_with("bodies:"))
-}
-
 /// What the scene file shows after `at` seconds, and a camera that frames it as it was at
 /// the start (so pictures at several times compare).
 fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Failure::failed(format!("cannot read {}: {e}", path.display())))?;
-    if !is_physics(&text) {
+    if !hapticd::scenes::is_physics(path) {
         if at != 0.0 {
             return Err(Failure::usage(
                 "--at is for physics scenes; a static scene stays put",
