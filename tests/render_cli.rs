@@ -227,3 +227,25 @@ fn bad_render_options_are_refused() {
         .unwrap();
     assert_eq!(output.status.code(), Some(2));
 }
+
+/// With no Vulkan driver to be found, render says so and writes nothing.
+#[test]
+fn without_a_vulkan_driver_render_says_why_and_writes_nothing() {
+    let out = scratch_root().join(format!("render-no-driver-{}.png", std::process::id()));
+    let output = hapticctl()
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .arg("render")
+        .arg(repo_dir().join("config/scenes/static.yaml"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("cannot render") && stderr.contains("Vulkan"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
