@@ -195,37 +195,25 @@ fn a_strings_colour_follows_its_tension() {
 
 #[test]
 fn bad_render_options_are_refused() {
-    for args in [
-        vec!["--width", "0"],
-        vec!["--height", "100000"],
-        vec!["--at", "NaN"],
-        vec!["--at", "-1"],
+    for (scene, args) in [
+        ("blocks.yaml", vec!["--width", "0"]),
+        ("blocks.yaml", vec!["--height", "100000"]),
+        ("blocks.yaml", vec!["--at", "NaN"]),
+        ("blocks.yaml", vec!["--at", "-1"]),
+        // A static scene does not move.
+        ("static.yaml", vec!["--at", "1"]),
+        // A force needs a mechanism to present it.
+        ("static.yaml", vec!["--force", "1,0,0"]),
     ] {
         let output = hapticctl()
             .arg("render")
-            .arg(repo_dir().join("config/scenes/blocks.yaml"))
+            .arg(repo_dir().join("config/scenes").join(scene))
             .args(["--out", "/nonexistent/x.png"])
             .args(&args)
             .output()
             .unwrap();
-        assert_eq!(output.status.code(), Some(2), "{args:?}");
+        assert_eq!(output.status.code(), Some(2), "{scene} {args:?}");
     }
-    // A static scene does not move.
-    let output = hapticctl()
-        .arg("render")
-        .arg(repo_dir().join("config/scenes/static.yaml"))
-        .args(["--out", "/nonexistent/x.png", "--at", "1"])
-        .output()
-        .unwrap();
-    assert_eq!(output.status.code(), Some(2));
-    // A force needs a mechanism to present it.
-    let output = hapticctl()
-        .arg("render")
-        .arg(repo_dir().join("config/scenes/static.yaml"))
-        .args(["--out", "/nonexistent/x.png", "--force", "1,0,0"])
-        .output()
-        .unwrap();
-    assert_eq!(output.status.code(), Some(2));
 }
 
 /// With no Vulkan driver to be found, render says so and writes nothing.

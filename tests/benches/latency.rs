@@ -118,33 +118,26 @@ fn large_world() -> Latency {
     ])
 }
 
+/// One row of the table: a label and three figures (latencies, or ratios).
+fn row(label: &str, (p50, p99, max): Latency, digits: usize) {
+    println!("{label:<26}{p50:7.digits$}  {p99:7.digits$}  {max:7.digits$}");
+}
+
+/// The ratios of `a` to `b`, figure by figure.
+fn ratio(a: Latency, b: Latency) -> Latency {
+    (a.0 / b.0, a.1 / b.1, a.2 / b.2)
+}
+
 fn main() {
     let ours = static_scene();
     let reference = cyclictest();
     let world = large_world();
-    println!("wake latency at {RATE} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs):");
-    println!("             p50      p99      max");
-    println!("hapticd   {:7.1}  {:7.1}  {:7.1}", ours.0, ours.1, ours.2);
-    println!(
-        "cyclictest{:7.1}  {:7.1}  {:7.1}",
-        reference.0, reference.1, reference.2
-    );
-    println!(
-        "ratio     {:7.2}  {:7.2}  {:7.2}",
-        ours.0 / reference.0,
-        ours.1 / reference.1,
-        ours.2 / reference.2
-    );
     let (n, rate) = WORLD;
-    println!("hapticd with {n} bodies on rapier at {rate} Hz:");
-    println!(
-        "          {:7.1}  {:7.1}  {:7.1}",
-        world.0, world.1, world.2
-    );
-    println!(
-        "ratio to the static scene {:7.2}  {:7.2}  {:7.2}",
-        world.0 / ours.0,
-        world.1 / ours.1,
-        world.2 / ours.2
-    );
+    println!("wake latency at {RATE} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs):");
+    println!("{:<26}    p50      p99      max", "");
+    row("hapticd", ours, 1);
+    row("cyclictest", reference, 1);
+    row("ratio", ratio(ours, reference), 2);
+    row(&format!("hapticd, {n} bodies, {rate} Hz"), world, 1);
+    row("ratio to the static scene", ratio(world, ours), 2);
 }

@@ -5,7 +5,7 @@
 //! thread does the same against the real clock).
 
 use glam::DVec3;
-use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench, quat_to_wxyz};
+use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
 use hapticd_physics::scene::MultiRateWorld;
@@ -30,15 +30,6 @@ pub struct Lockstep {
     count: usize,
 }
 
-/// The ABI form of a pointer.
-fn to_abi(p: &Pointer) -> HapticdPointer {
-    HapticdPointer {
-        position: p.pose.position.to_array(),
-        orientation: quat_to_wxyz(p.pose.orientation),
-        velocity: p.velocity.to_array(),
-    }
-}
-
 impl Lockstep {
     /// The world of `spec` for `pointers`, haptics at `haptic_rate` Hz and the physics clock
     /// `phase` seconds behind the haptic one (taken modulo the physics period).
@@ -46,7 +37,7 @@ impl Lockstep {
         let physics_period = 1.0 / spec.rate;
         let mut published = [HapticdPointer::default(); MAX_EFFECTORS];
         for (out, p) in published.iter_mut().zip(pointers) {
-            *out = to_abi(p);
+            *out = p.to_abi();
         }
         let world = RapierWorld::new(spec, pointers.len());
         let now: Vec<BodyState> = (0..world.body_count()).map(|i| world.body(i)).collect();
@@ -104,7 +95,7 @@ impl Lockstep {
                 impulses.push(i)
             });
         for (out, p) in self.published.iter_mut().zip(pointers) {
-            *out = to_abi(p);
+            *out = p.to_abi();
         }
         self.time += self.haptic_period;
         Ok(())

@@ -139,8 +139,7 @@ impl Scenery {
             let place = |p: DVec3| state.position + state.orientation * p;
             let colour = colour_of(i, body.fixed);
             for (piece, primitive) in body.pieces.iter().zip(primitives) {
-                let centre =
-                    piece.vertices.iter().copied().sum::<DVec3>() / piece.vertices.len() as f64;
+                let centre = piece.vertex_centre();
                 match *primitive {
                     Primitive::Cuboid { half, rotation } => {
                         mesh.cuboid(place(centre), half, state.orientation * rotation, colour);

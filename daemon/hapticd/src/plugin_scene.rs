@@ -23,7 +23,7 @@ use hapticd_plugin_api::*;
 use crate::clock::{monotonic_ns, sleep_until};
 use crate::plugin;
 use hapticd_core::haptics::proxy::ProxyParameters;
-use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench, quat_to_wxyz};
+use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
@@ -45,14 +45,6 @@ impl Drop for Instance {
             // SAFETY: created by this vtable's create and no longer used.
             unsafe { destroy(self.pointer) };
         }
-    }
-}
-
-fn to_abi(pointer: &Pointer) -> HapticdPointer {
-    HapticdPointer {
-        position: pointer.pose.position.to_array(),
-        orientation: quat_to_wxyz(pointer.pose.orientation),
-        velocity: pointer.velocity.to_array(),
     }
 }
 
@@ -137,7 +129,7 @@ impl Scene for DirectScene {
             return false;
         }
         for (out, p) in self.pointers.iter_mut().zip(pointers) {
-            *out = to_abi(p);
+            *out = p.to_abi();
         }
         let step = self.instance.vtable.step_direct.expect("checked at load");
         // SAFETY: buffers hold one element per pointer; the instance is this thread's.
@@ -205,7 +197,7 @@ impl MultiRateScene {
         let n = pointers.len();
         let mut initial = [HapticdPointer::default(); MAX_EFFECTORS];
         for (out, p) in initial.iter_mut().zip(pointers) {
-            *out = to_abi(p);
+            *out = p.to_abi();
         }
         let (pointers_out, mut pointers_in) = triple_buffer::triple_buffer(initial);
         let (mut planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
@@ -311,7 +303,7 @@ impl Scene for MultiRateScene {
     fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
         self.pointers_out.publish(|out| {
             for (o, p) in out.iter_mut().zip(pointers) {
-                *o = to_abi(p);
+                *o = p.to_abi();
             }
         });
         let latest = self.planes_in.latest();

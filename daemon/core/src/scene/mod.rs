@@ -12,8 +12,9 @@ pub mod static_scene;
 use glam::DVec3;
 
 use crate::haptics::proxy::ProxyParameters;
-use crate::kinematics::{Pose, Wrench};
+use crate::kinematics::{Pose, Wrench, quat_to_wxyz};
 use crate::mechanism::Mechanism;
+use hapticd_plugin_api::HapticdPointer;
 
 /// One pointer as the scene sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,6 +26,15 @@ pub struct Pointer {
 }
 
 impl Pointer {
+    /// The pointer as a scene plugin sees it.
+    pub fn to_abi(&self) -> HapticdPointer {
+        HapticdPointer {
+            position: self.pose.position.to_array(),
+            orientation: quat_to_wxyz(self.pose.orientation),
+            velocity: self.velocity.to_array(),
+        }
+    }
+
     /// One pointer per effector of `mechanism`, at rest at its calibration pose.
     pub fn at_calibration(mechanism: &Mechanism) -> Vec<Pointer> {
         mechanism

@@ -31,6 +31,12 @@ pub struct Polyhedron {
 }
 
 impl Polyhedron {
+    /// The mean of the vertices: the centre of a box or of a ball's hull, which are
+    /// symmetric (not the centroid of a general polyhedron, see [`crate::mass`]).
+    pub fn vertex_centre(&self) -> DVec3 {
+        self.vertices.iter().copied().sum::<DVec3>() / self.vertices.len().max(1) as f64
+    }
+
     /// An axis-aligned box centred at the origin with half edges `half`.
     pub fn cuboid(half: DVec3) -> Self {
         let vertices = (0..8)

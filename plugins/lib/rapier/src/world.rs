@@ -77,7 +77,7 @@ fn length_unit(bodies: &[Body]) -> f64 {
 /// The collider of `primitive`, piece `piece` of `body` (in the body's frame).
 fn collider(body: &Body, piece: usize, primitive: Primitive) -> ColliderBuilder {
     let solid = &body.pieces[piece];
-    let centre = solid.vertices.iter().copied().sum::<DVec3>() / solid.vertices.len() as f64;
+    let centre = solid.vertex_centre();
     match primitive {
         Primitive::Cuboid { half, rotation: r } => {
             ColliderBuilder::cuboid(half.x as f32, half.y as f32, half.z as f32)

@@ -413,9 +413,17 @@ impl Handheld {
     }
 }
 
+// The project's seeded test generator, shared with the end-to-end and physics tests.
+#[cfg(test)]
+#[allow(dead_code)]
+#[path = "../../../../../tests/support/rng.rs"]
+mod test_rng;
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use super::test_rng::Rng;
 
     const K: f64 = 800.0;
     const WIDTH: f64 = 0.06;
@@ -496,13 +504,8 @@ mod tests {
 
     #[test]
     fn shares_never_loosen_a_grip_over_random_grasps() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut random = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut random = move || rng.range(-1.0, 1.0);
         let mut pushed = 0;
         for _ in 0..100_000 {
             // A box of 2–10 cm edges, moving and turning, that the shell starts from: the
@@ -554,13 +557,8 @@ mod tests {
 
     #[test]
     fn random_distributions_never_give_a_negative_share() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut random = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut random = move || rng.range(-1.0, 1.0);
         let mut d = Distribution::default();
         for _ in 0..100_000 {
             let n = 2 + ((random() + 1.0) * 2.0) as usize % 4;
