@@ -52,8 +52,6 @@ pub struct Renderer {
     pipeline: vk::Pipeline,
     /// The images and buffers of the last frame, kept for the next one of the same size.
     frame: Option<Frame>,
-    /// The device's name, as the driver gives it.
-    pub device_name: String,
 }
 
 /// An image or buffer with its memory.
@@ -103,11 +101,6 @@ impl Renderer {
                     .map(|f| (d, f as u32))
             })
             .ok_or_else(|| Unavailable("no Vulkan 1.3 device with a graphics queue".into()))?;
-        // SAFETY: as above.
-        let properties = unsafe { instance.get_physical_device_properties(physical) };
-        let device_name = properties
-            .device_name_as_c_str()
-            .map_or("unnamed".into(), |n| n.to_string_lossy().into_owned());
         let priorities = [1.0];
         let queues = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(family)
@@ -140,7 +133,6 @@ impl Renderer {
             layout,
             pipeline,
             frame: None,
-            device_name,
         })
     }
 

@@ -901,22 +901,6 @@ impl SceneFile {
         Ok(SceneFile::Penalty(Box::new(scene)))
     }
 
-    /// The scene's name.
-    pub fn name(&self) -> &str {
-        match self {
-            SceneFile::Penalty(s) => &s.name,
-            SceneFile::Rapier(w) => &w.name,
-        }
-    }
-
-    /// What works in the file but is worth knowing.
-    pub fn warnings(&self) -> &[Diagnostic] {
-        match self {
-            SceneFile::Penalty(s) => &s.warnings,
-            SceneFile::Rapier(w) => &w.warnings,
-        }
-    }
-
     /// The engine that runs the scene.
     pub fn engine(&self) -> Engine {
         match self {

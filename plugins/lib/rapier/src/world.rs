@@ -44,7 +44,6 @@ pub struct RapierWorld {
     /// Kinematic bodies following the pointers (position feedback only).
     pointers: Vec<RigidBodyHandle>,
     feedback: Feedback,
-    rate: f64,
     reach: f64,
     scratch: Vec<Candidate>,
 }
@@ -137,7 +136,6 @@ impl RapierWorld {
             pieces,
             pointers: Vec::new(),
             feedback: spec.feedback,
-            rate: spec.rate,
             reach: surfaces::reach(spec.rate),
             scratch: Vec::new(),
         };
@@ -160,11 +158,6 @@ impl RapierWorld {
         }
         world.set_feedback(spec.feedback);
         world
-    }
-
-    /// Physics steps per second.
-    pub fn rate(&self) -> f64 {
-        self.rate
     }
 
     /// What the world takes back from the hand.
