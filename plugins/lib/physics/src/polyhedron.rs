@@ -32,7 +32,7 @@ pub struct Polyhedron {
 
 impl Polyhedron {
     /// The mean of the vertices: the centre of a box or of a ball's hull, which are
-    /// symmetric (not the centroid of a general polyhedron, see [`crate::mass`]).
+    /// symmetric (not the centroid of a general polyhedron, which the mass module gives).
     pub fn vertex_centre(&self) -> DVec3 {
         self.vertices.iter().copied().sum::<DVec3>() / self.vertices.len().max(1) as f64
     }
