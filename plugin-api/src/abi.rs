@@ -12,7 +12,7 @@ pub const HAPTICD_ABI_MAJOR: u32 = 1;
 /// plugin of any minor loads: the host reads no field newer than its own minor, and a
 /// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
 /// through [`HapticdHost::get_extension`].
-pub const HAPTICD_ABI_MINOR: u32 = 1;
+pub const HAPTICD_ABI_MINOR: u32 = 2;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;
@@ -139,6 +139,16 @@ pub struct HapticdImpulse {
     pub impulse: [f64; 3],
 }
 
+/// Where a body of a scene is: for pictures of the world.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdBodyPose {
+    /// The body's centre of mass, metres (the origin its shapes are placed around).
+    pub position: [f64; 3],
+    /// The body's orientation, unit quaternion (w, x, y, z).
+    pub orientation: [f64; 4],
+}
+
 /// What a scene instance tells the host when created.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -192,6 +202,18 @@ pub struct HapticdSceneVtable {
             impulse_count: u32,
             planes: *mut HapticdPlanes,
         ) -> i32,
+    >,
+    /// [the thread that steps the instance: rt for direct scenes, physics for multi-rate
+    /// ones] Since ABI 1.2 (absent from older plugins, and may be null): write the poses of
+    /// the world's first `capacity` bodies, in the scene file's order, to `poses` and return
+    /// how many bodies the world has. The host draws them; like a step it must not
+    /// allocate, lock, log or block.
+    pub poses: Option<
+        unsafe extern "C" fn(
+            instance: *mut c_void,
+            poses: *mut HapticdBodyPose,
+            capacity: u32,
+        ) -> u32,
     >,
 }
 

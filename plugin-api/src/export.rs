@@ -326,6 +326,13 @@ pub trait SceneInstance: Send {
         let _ = (dt, pointers, impulses, planes);
         HAPTICD_ERROR_FAILED
     }
+
+    /// [the stepping thread] Write the poses of the first bodies to `poses` (as many as it
+    /// holds) and return how many bodies the world has; the default has none to show.
+    fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
+        let _ = poses;
+        0
+    }
 }
 
 /// How a Rust scene plugin creates instances: from the scene file (if any) and the number of
@@ -470,6 +477,35 @@ pub unsafe fn scene_step_physics(
     })
 }
 
+/// Body of the exported `poses` function.
+///
+/// # Safety
+/// As [`instance_mut`]; `poses` holds `capacity` elements (or is null when it is 0).
+#[doc(hidden)]
+pub unsafe fn scene_poses(
+    instance: *mut std::ffi::c_void,
+    poses: *mut HapticdBodyPose,
+    capacity: u32,
+) -> u32 {
+    if instance.is_null() || (poses.is_null() && capacity > 0) {
+        return 0;
+    }
+    let mut count = 0;
+    guard(|| {
+        // SAFETY: per this function's contract.
+        let scene = unsafe { instance_mut(instance) };
+        let poses = if capacity == 0 {
+            &mut [][..]
+        } else {
+            // SAFETY: non-null with `capacity` elements, per the contract.
+            unsafe { std::slice::from_raw_parts_mut(poses, capacity as usize) }
+        };
+        count = u32::try_from(scene.poses(poses)).unwrap_or(u32::MAX);
+        HAPTICD_OK
+    });
+    count
+}
+
 /// Export a scene plugin: defines `hapticd_plugin_entry` and the scene vtable around a
 /// [`SceneFactory`].
 #[macro_export]
@@ -479,7 +515,7 @@ macro_rules! export_scene {
             use $crate::abi::*;
             use $crate::export::StaticSceneVtable;
 
-            // SAFETY (all four): the host keeps the ABI's contracts on every pointer.
+            // SAFETY (all five): the host keeps the ABI's contracts on every pointer.
             unsafe extern "C" fn __hapticd_create(
                 path: *const ::core::ffi::c_char,
                 pointer_count: u32,
@@ -526,12 +562,21 @@ macro_rules! export_scene {
                 }
             }
 
+            unsafe extern "C" fn __hapticd_poses(
+                instance: *mut ::core::ffi::c_void,
+                poses: *mut HapticdBodyPose,
+                capacity: u32,
+            ) -> u32 {
+                unsafe { $crate::export::scene_poses(instance, poses, capacity) }
+            }
+
             static VTABLE: StaticSceneVtable = StaticSceneVtable(HapticdSceneVtable {
                 struct_size: ::core::mem::size_of::<HapticdSceneVtable>() as u32,
                 create: Some(__hapticd_create),
                 destroy: Some(__hapticd_destroy),
                 step_direct: Some(__hapticd_step_direct),
                 step_physics: Some(__hapticd_step_physics),
+                poses: Some(__hapticd_poses),
             });
 
             $crate::__hapticd_plugin_entry!(

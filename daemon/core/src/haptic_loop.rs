@@ -378,6 +378,11 @@ impl HapticLoop {
         self.scene.as_ref()
     }
 
+    /// [rt] The scene rendered, to ask it what pictures show.
+    pub fn scene_mut(&mut self) -> &mut dyn Scene {
+        self.scene.as_mut()
+    }
+
     /// The last tick's frame.
     pub fn frame(&self) -> &Frame {
         &self.frame

@@ -12,6 +12,7 @@
 //! 5. [`scene`]: the [`scene::Scene`] trait the loop renders and the static scene.
 //! 6. [`transport`], [`parameters`], [`haptic_loop`]: the loop itself, talking to devices
 //!    through the [`transport::Transport`] trait that `hapticd-device` implements.
+//! 7. [`world_state`]: the loop's world as pictures show it, shared with the renderer.
 
 pub mod diagnostics;
 pub mod haptic_loop;
@@ -24,3 +25,4 @@ pub mod solver;
 pub mod stats;
 pub mod sync;
 pub mod transport;
+pub mod world_state;

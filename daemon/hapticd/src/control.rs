@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use crate::catalog::Catalog;
 use crate::config::Config;
 use crate::state::{Calibration, DeviceRecord, StateDir};
+use crate::world_share::SharedWorldFile;
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
 use hapticd_core::scene::{Pointer, Scene};
@@ -45,6 +46,8 @@ pub enum Error {
     Timeout(String),
     /// A fault that a reset does not clear.
     StillFaulted(String),
+    /// Something this request needs is not there (and the daemon runs without it).
+    Unavailable(String),
 }
 
 impl From<ParameterError> for Error {
@@ -77,6 +80,7 @@ pub struct DeviceHandle {
     rate: f64,
     scheduling: String,
     state_dir: Option<StateDir>,
+    world: Option<SharedWorldFile>,
     commands: Mutex<spsc::Producer<LoopCommand>>,
     telemetry: Mutex<Telemetry>,
     /// What is remembered, under one lock so that concurrent requests persist in the order
@@ -116,6 +120,8 @@ pub struct DeviceSetup {
     pub record: DeviceRecord,
     /// Defaults of the parameters (scene, mechanism, configuration).
     pub defaults: Parameters,
+    /// The memory the loop draws its world into, if it could be made.
+    pub world: Option<SharedWorldFile>,
 }
 
 impl DeviceHandle {
@@ -130,6 +136,7 @@ impl DeviceHandle {
             rate: setup.rate,
             scheduling: setup.scheduling,
             state_dir: setup.state_dir,
+            world: setup.world,
             commands: Mutex::new(commands),
             telemetry: Mutex::new(Telemetry::default()),
             remembered: Mutex::new(Remembered {
@@ -157,6 +164,16 @@ impl DeviceHandle {
     /// The mechanism the user bound for the next start, if any.
     pub fn bound_mechanism(&self) -> Option<String> {
         lock(&self.remembered).record.mechanism.clone()
+    }
+
+    /// A descriptor of the memory the loop draws its world into (read-only for others).
+    pub fn open_world(&self) -> Result<std::os::fd::OwnedFd, Error> {
+        let world = self.world.as_ref().ok_or_else(|| {
+            Error::Unavailable(format!("{}: no shared world (see the log)", self.identity))
+        })?;
+        world
+            .share()
+            .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
     }
 
     /// Running tick rate, Hz.
@@ -334,6 +351,7 @@ struct Installed {
     config: Config,
     mechanisms: Vec<String>,
     active_scene: String,
+    active_file: Option<PathBuf>,
 }
 
 /// The catalog `config` (or the command line) names.
@@ -360,12 +378,13 @@ fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<String>) {
 }
 
 impl Daemon {
-    /// The daemon running `devices` with `config` (read from `config_path`, when given).
+    /// The daemon running `devices` with `config` (read from `config_path`, when given),
+    /// rendering `active_scene` (from `active_file`, if it has one).
     pub fn new(
         config: Config,
         config_path: Option<PathBuf>,
         mechanism_dirs: Option<Vec<PathBuf>>,
-        active_scene: String,
+        (active_scene, active_file): (String, Option<PathBuf>),
         devices: Vec<Arc<DeviceHandle>>,
     ) -> Self {
         // At start a broken file only hides its own mechanism (the daemon runs regardless).
@@ -380,6 +399,7 @@ impl Daemon {
                 config,
                 mechanisms,
                 active_scene,
+                active_file,
             }),
             devices,
             switching: Mutex::new(()),
@@ -406,6 +426,11 @@ impl Daemon {
         lock(&self.inner).active_scene.clone()
     }
 
+    /// The file the scene rendered comes from, if any.
+    pub fn active_scene_file(&self) -> Option<PathBuf> {
+        lock(&self.inner).active_file.clone()
+    }
+
     /// Load `name` for every device (off the real-time thread) and swap it in; on any
     /// failure the running scene stays.
     pub fn switch_scene(&self, name: &str) -> Result<(), Error> {
@@ -430,7 +455,9 @@ impl Daemon {
         for (device, scene) in self.devices.iter().zip(scenes) {
             device.switch_scene(scene)?;
         }
-        lock(&self.inner).active_scene = loaded.unwrap_or_else(|| name.to_string());
+        let mut inner = lock(&self.inner);
+        inner.active_scene = loaded.unwrap_or_else(|| name.to_string());
+        inner.active_file = crate::scenes::file_of(name, None, &config.scene_dirs);
         Ok(())
     }
 

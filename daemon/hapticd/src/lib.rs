@@ -10,6 +10,7 @@
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
 //!    CPU of its own ([`cpus`]).
+//!    [`world_share`]: the memfd its picture of the world goes to the renderer in.
 //! 4. [`control`]: the daemon's devices, their parameters and calibration, as the bus and
 //!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it; [`cli`]: the
 //!    daemon's command line.
@@ -29,3 +30,4 @@ pub mod realtime;
 pub mod scenes;
 pub mod sd_notify;
 pub mod state;
+pub mod world_share;

@@ -236,8 +236,9 @@ impl LoadedPlugin {
         self.descriptor.kind == HAPTICD_KIND_SCENE
     }
 
-    /// [main] The scene functions, checked to be complete.
-    pub fn scene_vtable(&self) -> Result<&'static HapticdSceneVtable, PluginError> {
+    /// [main] The scene functions, checked to be complete. Functions a later ABI minor
+    /// appended are null when the plugin's vtable is older (shorter).
+    pub fn scene_vtable(&self) -> Result<HapticdSceneVtable, PluginError> {
         let path = &self.path;
         if !self.is_scene() {
             return Err(refuse(
@@ -245,15 +246,37 @@ impl LoadedPlugin {
                 format!("is a plugin of kind {}, not a scene", self.descriptor.kind),
             ));
         }
-        // SAFETY: for kind SCENE the ABI requires a valid vtable pointer or null.
-        let vtable = unsafe { self.descriptor.scene.as_ref() }
-            .ok_or_else(|| refuse(path, "scene plugin without a scene vtable"))?;
-        if (vtable.struct_size as usize) < std::mem::size_of::<HapticdSceneVtable>() {
+        let raw = self.descriptor.scene;
+        if raw.is_null() {
+            return Err(refuse(path, "scene plugin without a scene vtable"));
+        }
+        // SAFETY: for kind SCENE the ABI requires a valid vtable of at least its first
+        // field, which says how long the whole is.
+        let size = unsafe { std::ptr::addr_of!((*raw).struct_size).read() } as usize;
+        // The fields of ABI 1.0 and 1.1 end where `poses` (1.2) begins.
+        if size < std::mem::offset_of!(HapticdSceneVtable, poses) {
             return Err(refuse(
                 path,
                 "scene vtable is smaller than ABI 1.0 requires",
             ));
         }
+        let mut vtable = HapticdSceneVtable {
+            struct_size: 0,
+            create: None,
+            destroy: None,
+            step_direct: None,
+            step_physics: None,
+            poses: None,
+        };
+        // SAFETY: the plugin's vtable holds `size` bytes; only as many as both have are
+        // copied, and a null function pointer is the all-zero `None` the rest keep.
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                raw.cast::<u8>(),
+                std::ptr::addr_of_mut!(vtable).cast::<u8>(),
+                size.min(std::mem::size_of::<HapticdSceneVtable>()),
+            )
+        };
         if vtable.create.is_none() || vtable.destroy.is_none() {
             return Err(refuse(
                 path,

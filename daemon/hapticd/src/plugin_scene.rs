@@ -23,21 +23,36 @@ use hapticd_plugin_api::*;
 use crate::clock::{monotonic_ns, sleep_until};
 use crate::plugin;
 use hapticd_core::haptics::proxy::ProxyParameters;
+use glam::DVec3;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
-use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet};
+use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
+use hapticd_core::world_state::{MAX_BODIES, body_pose, pose_of};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
 
 /// A created scene instance; destroyed when dropped.
 struct Instance {
-    vtable: &'static HapticdSceneVtable,
+    vtable: HapticdSceneVtable,
     pointer: *mut c_void,
 }
 
 // SAFETY: an instance is used by one thread at a time (the haptic thread for direct scenes,
 // the physics thread for multi-rate ones), as the ABI's thread annotations require.
 unsafe impl Send for Instance {}
+
+impl Instance {
+    /// [the stepping thread] The plugin's bodies into `poses`; how many it has (none when
+    /// it cannot tell, before ABI 1.2).
+    fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
+        let Some(write) = self.vtable.poses else {
+            return 0;
+        };
+        let capacity = poses.len().min(u32::MAX as usize) as u32;
+        // SAFETY: `poses` holds `capacity` elements; the instance is this thread's.
+        unsafe { write(self.pointer, poses.as_mut_ptr(), capacity) as usize }
+    }
+}
 
 impl Drop for Instance {
     fn drop(&mut self) {
@@ -153,12 +168,35 @@ impl Scene for DirectScene {
     }
 
     fn reset(&mut self, _pointers: &[Pointer]) {}
+
+    fn write_bodies(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
+        self.instance.poses(poses)
+    }
+}
+
+/// The bodies as the last two physics steps left them, for pictures between steps.
+#[derive(Clone)]
+struct BodySet {
+    count: usize,
+    before: Box<[HapticdBodyPose]>,
+    after: Box<[HapticdBodyPose]>,
+}
+
+impl BodySet {
+    fn new() -> Self {
+        Self {
+            count: 0,
+            before: vec![HapticdBodyPose::default(); MAX_BODIES].into(),
+            after: vec![HapticdBodyPose::default(); MAX_BODIES].into(),
+        }
+    }
 }
 
 /// A multi-rate scene: the plugin runs in a physics thread, the haptic side in the tick.
 struct MultiRateScene {
     name: String,
     renderer: PlaneRenderer,
+    bodies_in: Reader<BodySet>,
     pointers_out: Writer<[HapticdPointer; MAX_EFFECTORS]>,
     planes_in: Reader<PlaneSet>,
     impulses_out: spsc::Producer<HapticdImpulse>,
@@ -201,6 +239,7 @@ impl MultiRateScene {
         }
         let (pointers_out, mut pointers_in) = triple_buffer::triple_buffer(initial);
         let (mut planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
+        let (mut bodies_out, bodies_in) = triple_buffer::triple_buffer(BodySet::new());
         let (impulses_out, mut impulses_in) = spsc::channel(1024);
         let (stop, failed) = (
             Arc::new(AtomicBool::new(false)),
@@ -224,6 +263,7 @@ impl MultiRateScene {
                 let step = instance.vtable.step_physics.expect("checked at load");
                 let mut impulses = Vec::with_capacity(1024);
                 let mut planes = [HapticdPlanes::default(); MAX_EFFECTORS];
+                let mut bodies = BodySet::new();
                 let mut sequence = 0;
                 let mut next = monotonic_ns();
                 while !stop_flag.load(Ordering::Acquire) {
@@ -266,6 +306,16 @@ impl MultiRateScene {
                         set.sequence = sequence;
                         set.planes = planes;
                     });
+                    std::mem::swap(&mut bodies.before, &mut bodies.after);
+                    let count = instance.poses(&mut bodies.after).min(MAX_BODIES);
+                    if sequence == 1 {
+                        bodies.before[..count].copy_from_slice(&bodies.after[..count]);
+                    }
+                    bodies_out.publish(|set| {
+                        set.count = count;
+                        set.before[..count].copy_from_slice(&bodies.before[..count]);
+                        set.after[..count].copy_from_slice(&bodies.after[..count]);
+                    });
                     next += period_ns;
                     let now = monotonic_ns();
                     if next > now {
@@ -283,6 +333,7 @@ impl MultiRateScene {
         Ok(Self {
             name,
             renderer: PlaneRenderer::new(rate, pointers),
+            bodies_in,
             pointers_out,
             planes_in,
             impulses_out,
@@ -329,6 +380,24 @@ impl Scene for MultiRateScene {
 
     fn proxy(&self) -> Option<ProxyParameters> {
         Some(self.renderer.parameters())
+    }
+
+    fn write_proxies(&self, proxies: &mut [DVec3]) -> bool {
+        for (out, p) in proxies.iter_mut().zip(self.renderer.proxies()) {
+            *out = p;
+        }
+        true
+    }
+
+    /// The bodies moved as far between the last two steps as the planes felt (6.5.2).
+    fn write_bodies(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
+        let fraction = self.renderer.fraction();
+        let set = self.bodies_in.latest();
+        let shown = set.before[..set.count].iter().zip(&set.after[..set.count]);
+        for (out, (before, after)) in poses.iter_mut().zip(shown) {
+            *out = body_pose(&pose_between(&pose_of(before), &pose_of(after), fraction));
+        }
+        set.count
     }
 }
 

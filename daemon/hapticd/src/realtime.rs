@@ -15,6 +15,7 @@ use hapticd_core::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, Ret
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader};
+use hapticd_core::world_state::WorldWriter;
 
 use crate::clock::{monotonic_ns, sleep_until};
 
@@ -69,7 +70,12 @@ pub struct Channels {
     pub commands: spsc::Consumer<LoopCommand>,
     /// Scenes and links replaced, to be freed off the real-time thread.
     pub retired: spsc::Producer<Retired>,
+    /// The world's picture for the renderer, written [`WORLD_RATE`] times a second.
+    pub world: Option<WorldWriter>,
 }
+
+/// Pictures of the world per second: the renderer's frame rate.
+pub const WORLD_RATE: f64 = 60.0;
 
 /// A running real-time loop.
 pub struct RealtimeLoop {
@@ -175,6 +181,7 @@ impl RealtimeLoop {
             mut recorder,
             mut commands,
             mut retired,
+            mut world,
         } = channels;
         let stop = Arc::new(AtomicBool::new(false));
         let heartbeat = Arc::new(AtomicU64::new(0));
@@ -185,6 +192,7 @@ impl RealtimeLoop {
         let period = period_ns as f64 * 1e-9;
         // Stats reach the daemon at 10 Hz, however long the ticks take.
         const PUBLISH_NS: u64 = 100_000_000;
+        let world_ns = (1e9 / WORLD_RATE) as u64;
         let (stop_flag, beat) = (stop.clone(), heartbeat.clone());
         let thread = std::thread::Builder::new()
             .name("hapticd-rt".into())
@@ -202,6 +210,7 @@ impl RealtimeLoop {
                 let mut state = DeviceState::Running;
                 let mut next = monotonic_ns();
                 let mut published = next;
+                let mut pictured = next;
                 while !stop_flag.load(Ordering::Acquire) {
                     next += period_ns;
                     sleep_until(next);
@@ -218,6 +227,12 @@ impl RealtimeLoop {
                     frame_writer.publish(|f| *f = frame);
                     if let Some(r) = recorder.as_mut() {
                         r.push(frame);
+                    }
+                    if let Some(w) = world.as_mut()
+                        && woke - pictured >= world_ns
+                    {
+                        w.write(|picture| picture.capture(&mut haptic, settings.rate));
+                        pictured = woke;
                     }
                     if frame.state != state {
                         state = frame.state;

@@ -104,6 +104,18 @@ pub fn locate(name: &str, dirs: &[PathBuf]) -> Result<PathBuf, OpenError> {
     Ok(path)
 }
 
+/// The file pictures of scene `name` are drawn from, absolute: the scene file, or for a
+/// scene plugin the `file` it is given; None when there is none.
+pub fn file_of(name: &str, file: Option<&Path>, dirs: &[PathBuf]) -> Option<PathBuf> {
+    let path = locate(name, dirs).ok()?;
+    let path = if path.extension().is_some_and(|e| e == "so") {
+        file?.to_path_buf()
+    } else {
+        path
+    };
+    std::fs::canonicalize(path).ok()
+}
+
 /// The plugin that runs physics scene files of `engine`, found in `plugin_dirs`.
 fn engine_plugin(engine: Engine) -> &'static str {
     match engine {

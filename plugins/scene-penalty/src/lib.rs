@@ -5,7 +5,7 @@
 //! (4.1.2), whose stretch the user feels.
 
 use glam::{DQuat, DVec3};
-use hapticd_core::kinematics::{Wrench, quat_from_wxyz};
+use hapticd_core::kinematics::{Wrench, quat_from_wxyz, quat_to_wxyz};
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene};
 use hapticd_plugin_api::*;
@@ -46,6 +46,18 @@ impl SceneInstance for Penalty {
         } else {
             HAPTICD_ERROR_FAILED
         }
+    }
+
+    /// Every body, the pointers' solids (after the scene file's bodies) too.
+    fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
+        let bodies = &self.0.world.bodies;
+        for (out, body) in poses.iter_mut().zip(bodies) {
+            *out = HapticdBodyPose {
+                position: body.position.to_array(),
+                orientation: quat_to_wxyz(body.orientation),
+            };
+        }
+        bodies.len()
     }
 }
 

@@ -5,6 +5,7 @@
 //! `feedback: position`, moves a kinematic body to each pointer instead.
 
 use hapticd_physics::scene::{Feedback, SceneFile};
+use hapticd_core::kinematics::quat_to_wxyz;
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
@@ -28,6 +29,17 @@ impl SceneInstance for Rapier {
             hapticd_plugin_api::log(HAPTICD_LOG_ERROR, "the world is no longer finite");
             HAPTICD_ERROR_FAILED
         }
+    }
+
+    fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
+        for (i, out) in poses.iter_mut().take(self.0.body_count()).enumerate() {
+            let body = self.0.body(i);
+            *out = HapticdBodyPose {
+                position: body.position.to_array(),
+                orientation: quat_to_wxyz(body.orientation),
+            };
+        }
+        self.0.body_count()
     }
 }
 

@@ -14,7 +14,7 @@ use glam::DVec3;
 use crate::haptics::proxy::ProxyParameters;
 use crate::kinematics::{Pose, Wrench, quat_to_wxyz};
 use crate::mechanism::Mechanism;
-use hapticd_plugin_api::HapticdPointer;
+use hapticd_plugin_api::{HapticdBodyPose, HapticdPointer};
 
 /// One pointer as the scene sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,5 +69,17 @@ pub trait Scene: Send {
     /// (before the loop tunes it: those its file gives).
     fn proxy(&self) -> Option<ProxyParameters> {
         None
+    }
+
+    /// [rt] For pictures: where each pointer's proxy rests (one per pointer in `proxies`),
+    /// or false, leaving them, when the scene renders without a proxy.
+    fn write_proxies(&self, _proxies: &mut [DVec3]) -> bool {
+        false
+    }
+
+    /// [rt] For pictures: the poses of the world's first bodies, in the scene file's order,
+    /// written to `poses` (as many as it holds); returns how many bodies the world has.
+    fn write_bodies(&mut self, _poses: &mut [HapticdBodyPose]) -> usize {
+        0
     }
 }

@@ -284,6 +284,13 @@ impl Scene for StaticScene {
     fn proxy(&self) -> Option<ProxyParameters> {
         Some(self.spec.proxy)
     }
+
+    fn write_proxies(&self, proxies: &mut [DVec3]) -> bool {
+        for (out, p) in proxies.iter_mut().zip(self.proxies()) {
+            *out = p;
+        }
+        true
+    }
 }
 
 #[cfg(test)]

@@ -382,6 +382,13 @@ impl DeviceInterface {
         self.set(Name::MaxTorque, value, connection, header).await
     }
 
+    /// The world as pictures show it: a sealed memfd, read-only to the caller, that the
+    /// haptic loop writes 60 times a second under a sequence lock (the layout is
+    /// `hapticd_core::world_state::SharedWorld`). The renderer draws from it.
+    fn open_world(&self) -> Result<zbus::OwnedFd, Error> {
+        Ok(self.device.open_world()?.into())
+    }
+
     /// Take the counter offsets now, with every grip held at its calibration pose; they are
     /// saved and restored when the device returns or the daemon restarts.
     async fn calibrate(

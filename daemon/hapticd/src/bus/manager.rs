@@ -58,6 +58,16 @@ impl ManagerInterface {
         self.daemon.active_scene()
     }
 
+    /// Absolute path of the file the active scene comes from (what the renderer draws its
+    /// solids from), or empty when it has none (a scene plugin run without a file).
+    #[zbus(property)]
+    fn active_scene_file(&self) -> String {
+        self.daemon
+            .active_scene_file()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default()
+    }
+
     /// Names of the installed mechanisms, as of the last ReloadPlugins.
     #[zbus(property)]
     fn mechanisms(&self) -> Vec<String> {
@@ -80,6 +90,7 @@ impl ManagerInterface {
         audit(&what, &caller(connection, Some(&header)).await, &result);
         result?;
         report(self.active_scene_changed(&emitter).await);
+        report(self.active_scene_file_changed(&emitter).await);
         Ok(())
     }
 

@@ -12,6 +12,7 @@ use hapticd::config::Config;
 use hapticd::control::{DeviceHandle, DeviceSetup, Telemetry};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::scenes;
+use hapticd::world_share::SharedWorldFile;
 use hapticd::state::StateDir;
 use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::safety::SafetyLimits;
@@ -215,6 +216,14 @@ pub fn start(
     };
     let (command_tx, command_rx) = spsc::channel(64);
     let (retired_tx, retired) = spsc::channel(4);
+    // Without it the loop runs as well; only pictures are missing.
+    let (world, world_writer) = match SharedWorldFile::create() {
+        Ok((file, writer)) => (Some(file), Some(writer)),
+        Err(e) => {
+            tracing::warn!("{identity}: no shared world for the renderer: {e}");
+            (None, None)
+        }
+    };
     let mut rt = RealtimeLoop::start(
         haptic,
         RealtimeSettings {
@@ -227,6 +236,7 @@ pub fn start(
             recorder: frames,
             commands: command_rx,
             retired: retired_tx,
+            world: world_writer,
         },
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
@@ -261,6 +271,7 @@ pub fn start(
             state_dir: common.state_dir.cloned(),
             record,
             defaults,
+            world,
         },
         command_tx,
     ));

@@ -20,6 +20,7 @@ use hapticd::cli::Cli;
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon};
 use hapticd::layout::Layout;
+use hapticd::scenes;
 use hapticd::sd_notify;
 use hapticd::state::StateDir;
 use hapticd_device::hotplug::Arrivals;
@@ -148,11 +149,16 @@ fn run(cli: Cli) -> Result<Ending, String> {
         .iter()
         .map(|d| d.handle.identity().to_string())
         .collect();
+    let scene_file = scenes::file_of(
+        cli.scene.as_deref().unwrap_or(&config.scene),
+        cli.scene_file.as_deref(),
+        &config.scene_dirs,
+    );
     let daemon = Arc::new(Daemon::new(
         config,
         config_path,
         mechanism_dirs,
-        devices[0].scene.clone(),
+        (devices[0].scene.clone(), scene_file),
         devices.iter().map(|d| d.handle.clone()).collect(),
     ));
     let service = match (

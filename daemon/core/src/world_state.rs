@@ -1,0 +1,376 @@
+//! The world as pictures show it: one device's bodies, pointers and strings in a fixed-size
+//! `#[repr(C)]` block that the haptic thread writes into shared memory (a memfd the daemon
+//! hands to the renderer process) at the renderer's frame rate, under a sequence lock: the
+//! writer never waits, and a reader copies the block and copies again if a write overlapped.
+//!
+//! Nothing here allocates or calls the system: the daemon maps the memory and passes it in.
+
+use std::sync::atomic::{AtomicU64, Ordering, fence};
+
+use glam::DVec3;
+use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
+
+use crate::haptic_loop::{DeviceState, HapticLoop};
+use crate::kinematics::{Dof, MAX_EFFECTORS, Pose, quat_from_wxyz, quat_to_wxyz};
+use crate::transport::CHANNELS;
+
+/// Most bodies a picture shows; a larger world shows its first ones.
+pub const MAX_BODIES: usize = 4096;
+
+/// First bytes of a shared world, so that a reader knows what it mapped.
+pub const MAGIC: [u8; 8] = *b"hapticdW";
+
+/// Layout version: raised with any change to [`WorldFrame`].
+pub const VERSION: u32 = 1;
+
+/// One picture of the world.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct WorldFrame {
+    /// Loop time, seconds.
+    pub time: f64,
+    /// Haptic ticks per second.
+    pub rate: f64,
+    /// [`DeviceState`] as [`state_code`] numbers it.
+    pub state: u32,
+    /// Scenes swapped in since start: a change means other bodies.
+    pub scene_switches: u32,
+    /// Effectors (pointers) in use.
+    pub effectors: u32,
+    /// Strings in use.
+    pub strings: u32,
+    /// Bodies in the scene's world (only the first [`MAX_BODIES`] are in `bodies`).
+    pub body_count: u32,
+    /// 1 when `proxies` holds where each pointer's proxy rests, 0 when the scene has none.
+    pub has_proxies: u32,
+    /// Each effector's grip pose.
+    pub grips: [HapticdBodyPose; MAX_EFFECTORS],
+    /// Each effector's degrees of freedom (3 or 6).
+    pub dofs: [u32; MAX_EFFECTORS],
+    /// Where each pointer's proxy rests, metres.
+    pub proxies: [[f64; 3]; MAX_EFFECTORS],
+    /// The wrench each effector displays.
+    pub wrenches: [HapticdWrench; MAX_EFFECTORS],
+    /// The effector each string pulls.
+    pub string_effectors: [u32; CHANNELS],
+    /// Each string's exit on the frame, metres.
+    pub motors: [[f64; 3]; CHANNELS],
+    /// Each string's knot, where the grip is now, metres.
+    pub knots: [[f64; 3]; CHANNELS],
+    /// Each string's tension, newtons.
+    pub tensions: [f64; CHANNELS],
+    /// Each string's least and greatest tension, newtons.
+    pub tension_ranges: [[f64; 2]; CHANNELS],
+    /// The first bodies' poses, in the scene file's order.
+    pub bodies: [HapticdBodyPose; MAX_BODIES],
+}
+
+impl WorldFrame {
+    /// A picture of nothing: no effector, no string, no body.
+    pub fn empty() -> Self {
+        Self {
+            time: 0.0,
+            rate: 0.0,
+            state: 0,
+            scene_switches: 0,
+            effectors: 0,
+            strings: 0,
+            body_count: 0,
+            has_proxies: 0,
+            grips: [HapticdBodyPose::default(); MAX_EFFECTORS],
+            dofs: [0; MAX_EFFECTORS],
+            proxies: [[0.0; 3]; MAX_EFFECTORS],
+            wrenches: [HapticdWrench::default(); MAX_EFFECTORS],
+            string_effectors: [0; CHANNELS],
+            motors: [[0.0; 3]; CHANNELS],
+            knots: [[0.0; 3]; CHANNELS],
+            tensions: [0.0; CHANNELS],
+            tension_ranges: [[0.0; 2]; CHANNELS],
+            bodies: [HapticdBodyPose::default(); MAX_BODIES],
+        }
+    }
+
+    /// [rt] Draw `haptic` as its last tick left it: its grips, strings and the wrenches
+    /// shown, the proxies and bodies of its scene.
+    pub fn capture(&mut self, haptic: &mut HapticLoop, rate: f64) {
+        let frame = *haptic.frame();
+        self.time = frame.time;
+        self.rate = rate;
+        self.state = state_code(frame.state);
+        self.scene_switches = frame.scene_switches;
+        self.effectors = frame.effectors as u32;
+        self.strings = frame.strings as u32;
+        for (k, effector) in haptic.mechanism().effectors.iter().enumerate() {
+            self.grips[k] = body_pose(&frame.poses[k]);
+            self.dofs[k] = match effector.dof {
+                Dof::Three => 3,
+                Dof::Six => 6,
+            };
+            self.wrenches[k] = frame.wrenches[k].into();
+        }
+        for (k, string) in haptic.mechanism().strings.iter().enumerate() {
+            let pose = &frame.poses[string.effector];
+            self.string_effectors[k] = string.effector as u32;
+            self.motors[k] = string.motor.to_array();
+            self.knots[k] = pose.transform_point(string.knot).to_array();
+            self.tensions[k] = frame.tensions[k];
+            self.tension_ranges[k] = [string.tension_min, string.tension_max];
+        }
+        let mut proxies = [DVec3::ZERO; MAX_EFFECTORS];
+        let scene = haptic.scene_mut();
+        self.has_proxies = scene.write_proxies(&mut proxies) as u32;
+        for (out, p) in self.proxies.iter_mut().zip(proxies) {
+            *out = p.to_array();
+        }
+        self.body_count = scene.write_bodies(&mut self.bodies).min(u32::MAX as usize) as u32;
+    }
+
+    /// The bodies written, as poses.
+    pub fn body_poses(&self) -> impl Iterator<Item = Pose> + '_ {
+        self.bodies[..(self.body_count as usize).min(MAX_BODIES)]
+            .iter()
+            .map(pose_of)
+    }
+
+    /// The device state written.
+    pub fn device_state(&self) -> DeviceState {
+        match self.state {
+            1 => DeviceState::Fault,
+            2 => DeviceState::Disconnected,
+            3 => DeviceState::Uncalibrated,
+            _ => DeviceState::Running,
+        }
+    }
+}
+
+/// The number a [`DeviceState`] is written as.
+pub fn state_code(state: DeviceState) -> u32 {
+    match state {
+        DeviceState::Running => 0,
+        DeviceState::Fault => 1,
+        DeviceState::Disconnected => 2,
+        DeviceState::Uncalibrated => 3,
+    }
+}
+
+/// A pose as the ABI writes it.
+pub fn body_pose(pose: &Pose) -> HapticdBodyPose {
+    HapticdBodyPose {
+        position: pose.position.to_array(),
+        orientation: quat_to_wxyz(pose.orientation),
+    }
+}
+
+/// A pose from the ABI's (its orientation normalised).
+pub fn pose_of(pose: &HapticdBodyPose) -> Pose {
+    Pose {
+        position: DVec3::from(pose.position),
+        orientation: quat_from_wxyz(pose.orientation).normalize(),
+    }
+}
+
+/// The shared block: a header, the sequence and the frame.
+#[repr(C)]
+pub struct SharedWorld {
+    /// [`MAGIC`].
+    pub magic: [u8; 8],
+    /// [`VERSION`].
+    pub version: u32,
+    /// `size_of::<SharedWorld>()` as the writer has it.
+    pub size: u32,
+    /// Even when the frame is whole, odd while it is written; +2 per frame.
+    pub sequence: AtomicU64,
+    /// The latest frame.
+    pub frame: WorldFrame,
+}
+
+/// Bytes of a shared world.
+pub const SHARED_SIZE: usize = std::mem::size_of::<SharedWorld>();
+
+/// The writing side, over a block the caller mapped.
+pub struct WorldWriter {
+    shared: *mut SharedWorld,
+}
+
+// SAFETY: the writer is the block's one writer; it moves to the haptic thread once.
+unsafe impl Send for WorldWriter {}
+
+impl WorldWriter {
+    /// A writer over `shared`, which it initialises: an empty frame at sequence 0.
+    ///
+    /// # Safety
+    /// `shared` is valid for writes of [`SHARED_SIZE`] bytes, aligned for `SharedWorld`,
+    /// for as long as the writer lives, and no one else writes it.
+    pub unsafe fn new(shared: *mut SharedWorld) -> Self {
+        // SAFETY: per this function's contract.
+        unsafe {
+            shared.write(SharedWorld {
+                magic: MAGIC,
+                version: VERSION,
+                size: SHARED_SIZE as u32,
+                sequence: AtomicU64::new(0),
+                frame: WorldFrame::empty(),
+            })
+        };
+        Self { shared }
+    }
+
+    /// [rt] Write a frame with `fill`, which finds the last one in place.
+    pub fn write(&mut self, fill: impl FnOnce(&mut WorldFrame)) {
+        // SAFETY: valid for the writer's life (see `new`); readers only read.
+        let shared = unsafe { &mut *self.shared };
+        let sequence = shared.sequence.load(Ordering::Relaxed);
+        shared.sequence.store(sequence + 1, Ordering::Relaxed);
+        // The odd sequence is seen before any byte of the frame changes.
+        fence(Ordering::Release);
+        fill(&mut shared.frame);
+        shared.sequence.store(sequence + 2, Ordering::Release);
+    }
+}
+
+/// Why a mapped block is not a shared world this reader understands.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NotAWorld(pub String);
+
+impl std::fmt::Display for NotAWorld {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for NotAWorld {}
+
+/// The reading side, over a block mapped read-only.
+pub struct WorldReader {
+    shared: *const SharedWorld,
+}
+
+// SAFETY: the reader only reads the block, through volatile copies checked by the sequence.
+unsafe impl Send for WorldReader {}
+
+impl WorldReader {
+    /// A reader over `shared`, checked to be a shared world of this layout.
+    ///
+    /// # Safety
+    /// `shared` is valid for reads of `len` bytes, aligned for `SharedWorld`, for as long
+    /// as the reader lives.
+    pub unsafe fn new(shared: *const SharedWorld, len: usize) -> Result<Self, NotAWorld> {
+        if len < SHARED_SIZE {
+            return Err(NotAWorld(format!(
+                "{len} bytes, a shared world has {SHARED_SIZE}"
+            )));
+        }
+        // SAFETY: the header lies within the `len` bytes checked above.
+        let (magic, version, size) = unsafe {
+            (
+                std::ptr::addr_of!((*shared).magic).read_volatile(),
+                std::ptr::addr_of!((*shared).version).read_volatile(),
+                std::ptr::addr_of!((*shared).size).read_volatile(),
+            )
+        };
+        if magic != MAGIC || version != VERSION || size as usize != SHARED_SIZE {
+            return Err(NotAWorld(format!(
+                "not a shared world of layout {VERSION} ({SHARED_SIZE} bytes): magic \
+                 {magic:?}, layout {version}, {size} bytes"
+            )));
+        }
+        Ok(Self { shared })
+    }
+
+    /// Copy the latest whole frame into `out` and return its sequence; None when every try
+    /// overlapped a write (a writer that died mid-write leaves the sequence odd).
+    pub fn read(&self, out: &mut WorldFrame) -> Option<u64> {
+        const TRIES: usize = 100;
+        // SAFETY: the sequence lies in the block (see `new`) and is only used atomically.
+        let sequence = unsafe { &(*self.shared).sequence };
+        for _ in 0..TRIES {
+            let before = sequence.load(Ordering::Acquire);
+            if before % 2 == 1 {
+                std::hint::spin_loop();
+                continue;
+            }
+            // SAFETY: in the block; a torn copy is detected below and thrown away.
+            *out = unsafe { std::ptr::addr_of!((*self.shared).frame).read_volatile() };
+            fence(Ordering::Acquire);
+            if sequence.load(Ordering::Relaxed) == before {
+                return Some(before);
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn block() -> Box<std::mem::MaybeUninit<SharedWorld>> {
+        Box::new_uninit()
+    }
+
+    #[test]
+    fn a_reader_sees_the_whole_frame_written() {
+        let mut memory = block();
+        let shared = memory.as_mut_ptr();
+        // SAFETY: the box holds one SharedWorld for the test's life.
+        let mut writer = unsafe { WorldWriter::new(shared) };
+        // SAFETY: as above.
+        let reader = unsafe { WorldReader::new(shared, SHARED_SIZE) }.unwrap();
+        let mut out = Box::new(WorldFrame::empty());
+        assert_eq!(reader.read(&mut out), Some(0));
+        writer.write(|f| {
+            f.body_count = 2;
+            f.bodies[1].position = [1.0, 2.0, 3.0];
+            f.time = 0.5;
+        });
+        assert_eq!(reader.read(&mut out), Some(2));
+        assert_eq!((out.body_count, out.time), (2, 0.5));
+        assert_eq!(out.bodies[1].position, [1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn a_frame_being_written_is_not_read() {
+        let mut memory = block();
+        let shared = memory.as_mut_ptr();
+        // SAFETY: the box holds one SharedWorld for the test's life.
+        let mut writer = unsafe { WorldWriter::new(shared) };
+        // SAFETY: as above.
+        let reader = unsafe { WorldReader::new(shared, SHARED_SIZE) }.unwrap();
+        let mut out = Box::new(WorldFrame::empty());
+        writer.write(|_| {
+            let seen = reader.read(&mut WorldFrame::empty());
+            assert_eq!(seen, None, "a reader finished a frame still being written");
+        });
+        assert!(reader.read(&mut out).is_some());
+    }
+
+    #[test]
+    fn a_block_of_another_layout_is_refused() {
+        let mut memory = block();
+        let shared = memory.as_mut_ptr();
+        // SAFETY: the box holds one SharedWorld for the test's life.
+        drop(unsafe { WorldWriter::new(shared) });
+        // SAFETY: as above.
+        let short = unsafe { WorldReader::new(shared, SHARED_SIZE - 1) };
+        assert!(short.is_err_and(|e| e.0.contains("bytes")));
+        // SAFETY: as above; the header is rewritten in place.
+        unsafe { (*shared).version = VERSION + 1 };
+        // SAFETY: as above.
+        let newer = unsafe { WorldReader::new(shared, SHARED_SIZE) };
+        assert!(newer.is_err_and(|e| e.0.contains("layout")));
+    }
+
+    #[test]
+    fn state_codes_round_trip() {
+        let mut frame = WorldFrame::empty();
+        for state in [
+            DeviceState::Running,
+            DeviceState::Fault,
+            DeviceState::Disconnected,
+            DeviceState::Uncalibrated,
+        ] {
+            frame.state = state_code(state);
+            assert_eq!(frame.device_state(), state);
+        }
+    }
+}
