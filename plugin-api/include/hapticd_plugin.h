@@ -28,7 +28,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 1
+#define HAPTICD_ABI_MINOR 2
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -306,6 +306,20 @@ typedef struct HapticdPlanes {
 } HapticdPlanes;
 
 /*
+ Where a body of a scene is: for pictures of the world.
+ */
+typedef struct HapticdBodyPose {
+  /*
+   The body's centre of mass, metres (the origin its shapes are placed around).
+   */
+  double position[3];
+  /*
+   The body's orientation, unit quaternion (w, x, y, z).
+   */
+  double orientation[4];
+} HapticdBodyPose;
+
+/*
  Functions of a scene plugin. Fields appended by later minors are present only when
  `struct_size` covers them.
  */
@@ -347,6 +361,14 @@ typedef struct HapticdSceneVtable {
                           const struct HapticdImpulse *impulses,
                           uint32_t impulse_count,
                           struct HapticdPlanes *planes);
+  /*
+   [the thread that steps the instance: rt for direct scenes, physics for multi-rate
+   ones] Since ABI 1.2 (absent from older plugins, and may be null): write the poses of
+   the world's first `capacity` bodies, in the scene file's order, to `poses` and return
+   how many bodies the world has. The host draws them; like a step it must not
+   allocate, lock, log or block.
+   */
+  uint32_t (*poses)(void *instance, struct HapticdBodyPose *poses, uint32_t capacity);
 } HapticdSceneVtable;
 
 /*
