@@ -9,7 +9,7 @@ mod support;
 
 use divan::Bencher;
 use glam::DVec3;
-use hapticctl::scenery::Scenery;
+use hapticd_render::scenery::Scenery;
 use hapticd_physics::scene::PenaltyScene;
 use hapticd_render::vulkan::Renderer;
 

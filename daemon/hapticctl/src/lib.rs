@@ -4,4 +4,3 @@
 pub mod experiments;
 pub mod multirate;
 pub mod plot;
-pub mod scenery;

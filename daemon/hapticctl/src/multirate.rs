@@ -106,12 +106,8 @@ impl Lockstep {
     /// smoothly, a physics period behind, as the hand feels it.
     pub fn body(&self, i: usize) -> BodyState {
         let (before, after) = (&self.poses.0[i], &self.poses.1[i]);
-        let pose = |b: &BodyState| Pose {
-            position: b.position,
-            orientation: b.orientation,
-        };
         let fraction = self.renderer.fraction();
-        let between = pose_between(&pose(before), &pose(after), fraction);
+        let between = pose_between(&before.pose(), &after.pose(), fraction);
         BodyState {
             position: between.position,
             orientation: between.orientation,

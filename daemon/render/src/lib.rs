@@ -5,7 +5,8 @@
 //!   floor), each vertex with its normal and colour;
 //! - [`camera`]: where the picture is taken from;
 //! - [`vulkan`]: the device, the pipeline, and one frame drawn and read back;
-//! - [`picture`]: the frame's pixels and its PNG file.
+//! - [`picture`]: the frame's pixels and its PNG file;
+//! - [`scenery`]: what a scene, a mechanism and the pointers look like, as meshes.
 //!
 //! Positions are projected on the host (a frame holds a few thousand vertices), so the one
 //! pipeline needs neither uniforms nor descriptors; its shaders are WGSL compiled to SPIR-V
@@ -14,4 +15,5 @@
 pub mod camera;
 pub mod mesh;
 pub mod picture;
+pub mod scenery;
 pub mod vulkan;

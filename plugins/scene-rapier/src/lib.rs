@@ -5,7 +5,7 @@
 //! `feedback: position`, moves a kinematic body to each pointer instead.
 
 use hapticd_physics::scene::{Feedback, SceneFile};
-use hapticd_core::kinematics::quat_to_wxyz;
+use hapticd_core::world_state::body_pose;
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
@@ -33,11 +33,7 @@ impl SceneInstance for Rapier {
 
     fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
         for (i, out) in poses.iter_mut().take(self.0.body_count()).enumerate() {
-            let body = self.0.body(i);
-            *out = HapticdBodyPose {
-                position: body.position.to_array(),
-                orientation: quat_to_wxyz(body.orientation),
-            };
+            *out = body_pose(&self.0.body(i).pose());
         }
         self.0.body_count()
     }

@@ -34,6 +34,16 @@ pub struct BodyState {
     pub spin: DVec3,
 }
 
+impl BodyState {
+    /// Where the body is: its centre of mass and orientation.
+    pub fn pose(&self) -> hapticd_core::kinematics::Pose {
+        hapticd_core::kinematics::Pose {
+            position: self.position,
+            orientation: self.orientation,
+        }
+    }
+}
+
 /// A multi-rate world on rapier.
 pub struct RapierWorld {
     physics: PhysicsWorld,

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use hapticctl::scenery::Scenery;
+use hapticd_render::scenery::Scenery;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::scene::SceneFile;
 use hapticd_plugin_api::HapticdPlanes;
@@ -104,7 +104,7 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
         }
         SceneFile::Rapier(spec) => {
             let mut world = RapierWorld::new(&spec, 0);
-            let camera = Scenery::of_rapier(&spec, |i| world.body(i)).camera();
+            let camera = Scenery::of_rapier(&spec, |i| world.body(i).pose()).camera();
             let steps = (at * spec.rate).round() as usize;
             let mut planes: [HapticdPlanes; 0] = [];
             for _ in 0..steps {
@@ -115,7 +115,7 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
                     )));
                 }
             }
-            Ok((Scenery::of_rapier(&spec, |i| world.body(i)), camera))
+            Ok((Scenery::of_rapier(&spec, |i| world.body(i).pose()), camera))
         }
     }
 }

@@ -23,7 +23,7 @@ use crate::Failure;
 use crate::client::{self, Client};
 use crate::mechanism::{Output, print, save};
 use crate::render::Frames;
-use hapticctl::scenery::Scenery;
+use hapticd_render::scenery::Scenery;
 use hapticd::bus::Bus;
 
 #[derive(Subcommand)]
@@ -429,7 +429,7 @@ fn run_multirate(
         let t = run.time();
         if let Some(frames) = frames.as_mut() {
             frames.offer(t, || {
-                let mut scenery = Scenery::of_rapier(&spec, |i| run.body(i));
+                let mut scenery = Scenery::of_rapier(&spec, |i| run.body(i).pose());
                 let grips: Vec<DVec3> = grips.iter().map(|p| p.pose.position).collect();
                 scenery.add_pointers(&run.proxies(), &grips);
                 scenery

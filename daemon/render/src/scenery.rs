@@ -1,5 +1,5 @@
-//! What a scene looks like: its solids as meshes for `hapticd-render`, where they are now,
-//! and a camera that frames them.
+//! What a scene looks like: its solids as meshes, where they are now, and a camera that
+//! frames them.
 
 use glam::{DQuat, DVec3};
 use hapticd_core::haptics::obstacle::Shape;
@@ -9,9 +9,9 @@ use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::body::Body;
 use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::scene::{MultiRateWorld, Primitive};
-use hapticd_rapier::world::BodyState;
-use hapticd_render::camera::Camera;
-use hapticd_render::mesh::Mesh;
+
+use crate::camera::Camera;
+use crate::mesh::Mesh;
 
 /// Colours of fixed solids and of the floor's stripes.
 pub const FIXED: [f32; 4] = [0.55, 0.57, 0.6, 1.0];
@@ -131,7 +131,7 @@ impl Scenery {
 
     /// The bodies of a rapier world where `state` puts them (`spec` gives their shapes):
     /// the world's bodies now, or the poses between physics steps graphics show (6.5.2).
-    pub fn of_rapier(spec: &MultiRateWorld, state: impl Fn(usize) -> BodyState) -> Self {
+    pub fn of_rapier(spec: &MultiRateWorld, state: impl Fn(usize) -> Pose) -> Self {
         let mut s = Self::default();
         let mut mesh = Mesh::default();
         for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
