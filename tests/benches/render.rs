@@ -9,8 +9,8 @@ mod support;
 
 use divan::Bencher;
 use glam::DVec3;
-use hapticd_render::scenery::Scenery;
 use hapticd_physics::scene::PenaltyScene;
+use hapticd_render::scenery::Scenery;
 use hapticd_render::vulkan::Renderer;
 
 const SIZE: (u32, u32) = (1280, 720);

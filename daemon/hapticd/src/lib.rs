@@ -10,7 +10,8 @@
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
 //!    CPU of its own ([`cpus`]).
-//!    [`world_share`]: the memfd its picture of the world goes to the renderer in.
+//!    [`world_share`]: the memfd its picture of the world goes to the renderer in (on
+//!    [`shared_memory`], which [`frame_ring`] shares frames with viewers through too).
 //! 4. [`control`]: the daemon's devices, their parameters and calibration, as the bus and
 //!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it; [`cli`]: the
 //!    daemon's command line.
@@ -22,6 +23,7 @@ pub mod clock;
 pub mod config;
 pub mod control;
 pub mod cpus;
+pub mod frame_ring;
 pub mod layout;
 pub mod logging;
 pub mod plugin;
@@ -29,5 +31,6 @@ pub mod plugin_scene;
 pub mod realtime;
 pub mod scenes;
 pub mod sd_notify;
+pub mod shared_memory;
 pub mod state;
 pub mod world_share;

@@ -22,14 +22,14 @@ use hapticd_plugin_api::*;
 
 use crate::clock::{monotonic_ns, sleep_until};
 use crate::plugin;
-use hapticd_core::haptics::proxy::ProxyParameters;
 use glam::DVec3;
+use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
-use hapticd_core::world_state::{MAX_BODIES, body_pose, pose_of};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
+use hapticd_core::world_state::{MAX_BODIES, body_pose, pose_of};
 
 /// A created scene instance; destroyed when dropped.
 struct Instance {

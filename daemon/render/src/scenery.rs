@@ -13,6 +13,32 @@ use hapticd_physics::scene::{MultiRateWorld, Primitive};
 use crate::camera::Camera;
 use crate::mesh::Mesh;
 
+/// A string as drawn: from its motor's exit to its knot, and how hard it pulls.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrawnString {
+    /// The string's exit on the frame, metres.
+    pub motor: DVec3,
+    /// Its knot on the grip, metres.
+    pub knot: DVec3,
+    /// Its tension, newtons.
+    pub tension: f64,
+    /// Its least and greatest tension, newtons.
+    pub range: [f64; 2],
+}
+
+/// A grip as drawn: where it is and the wrench it presents.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrawnGrip {
+    /// Its pose.
+    pub pose: Pose,
+    /// A point grip (3) or a rigid one (6).
+    pub dof: Dof,
+    /// The force it presents, newtons.
+    pub force: DVec3,
+    /// The torque it presents, newton-metres (rigid grips).
+    pub torque: DVec3,
+}
+
 /// Colours of fixed solids and of the floor's stripes.
 pub const FIXED: [f32; 4] = [0.55, 0.57, 0.6, 1.0];
 /// The floor's stripes, one every [`STRIPE`] metres.
@@ -30,6 +56,8 @@ pub const BODIES: [[f32; 4]; 6] = [
 ];
 /// Pointers: where the fingers are.
 pub const POINTER: [f32; 4] = [0.95, 0.85, 0.2, 1.0];
+/// A grip where a proxy shows where the finger rests: the hand, inside what it presses.
+const FAINT_POINTER: [f32; 4] = [0.95, 0.85, 0.2, 0.35];
 /// A translucent wall where a static scene's plane bounds the workspace.
 const WALL: [f32; 4] = [0.55, 0.6, 0.7, 0.35];
 /// How far a static scene's floor, walls and bars are drawn, metres.
@@ -181,12 +209,42 @@ impl Scenery {
         tensions: &[f64],
         forces: &[DVec3],
     ) {
+        let strings: Vec<DrawnString> = mechanism
+            .strings
+            .iter()
+            .zip(tensions)
+            .map(|(string, &tension)| DrawnString {
+                motor: string.motor,
+                knot: poses[string.effector].transform_point(string.knot),
+                tension,
+                range: [string.tension_min, string.tension_max],
+            })
+            .collect();
+        let grips: Vec<DrawnGrip> = mechanism
+            .effectors
+            .iter()
+            .zip(poses)
+            .zip(forces)
+            .map(|((effector, pose), force)| DrawnGrip {
+                pose: *pose,
+                dof: effector.dof,
+                force: *force,
+                torque: DVec3::ZERO,
+            })
+            .collect();
+        self.add_device(&strings, &grips, true);
+    }
+
+    /// Add a device as it is now: each string from its motor's exit to its knot coloured by
+    /// its tension, each motor, each grip (`solid_grips`, or faint where something else
+    /// shows where the finger rests), and the force each grip presents as an arrow, its
+    /// torque as a second one along the axis it turns about. The camera frames the frame too.
+    pub fn add_device(&mut self, strings: &[DrawnString], grips: &[DrawnGrip], solid_grips: bool) {
         let mut mesh = Mesh::default();
-        for (k, string) in mechanism.strings.iter().enumerate() {
-            let pose = &poses[string.effector];
-            let knot = pose.position + pose.orientation * string.knot;
-            let span = knot - string.motor;
-            let colour = tension_colour(tensions[k], string.tension_min, string.tension_max);
+        for string in strings {
+            let span = string.knot - string.motor;
+            let [low, high] = string.range;
+            let colour = tension_colour(string.tension, low, high);
             mesh.cylinder(
                 string.motor + span / 2.0,
                 span,
@@ -197,21 +255,43 @@ impl Scenery {
             mesh.cuboid(string.motor, DVec3::splat(0.004), DQuat::IDENTITY, MOTOR);
             self.frame(string.motor, string.motor);
         }
-        for (force, pose) in forces.iter().zip(poses) {
-            mesh.arrow(pose.position, *force * ARROW_PER_NEWTON, 0.006, ARROW);
-        }
-        for (effector, pose) in mechanism.effectors.iter().zip(poses) {
-            match effector.dof {
-                Dof::Three => mesh.ball(pose.position, 0.005, 12, POINTER),
-                Dof::Six => mesh.cuboid(
-                    pose.position,
-                    DVec3::splat(0.008),
-                    pose.orientation,
-                    POINTER,
-                ),
+        let mut faint = Mesh::default();
+        for grip in grips {
+            let position = grip.pose.position;
+            mesh.arrow(position, grip.force * ARROW_PER_NEWTON, 0.006, ARROW);
+            if grip.dof == Dof::Six && grip.torque.length() > 0.0 {
+                mesh.arrow(
+                    position,
+                    grip.torque * ARROW_PER_NEWTON_METRE,
+                    0.004,
+                    TORQUE,
+                );
+            }
+            let (target, colour) = if solid_grips {
+                (&mut mesh, POINTER)
+            } else {
+                (&mut faint, FAINT_POINTER)
+            };
+            match grip.dof {
+                Dof::Three => target.ball(position, 0.005, 12, colour),
+                Dof::Six => {
+                    target.cuboid(position, DVec3::splat(0.008), grip.pose.orientation, colour)
+                }
             }
         }
         self.meshes.insert(0, mesh);
+        // Translucent things last, over what lies behind them.
+        self.meshes.push(faint);
+    }
+
+    /// Add the proxies: where each finger rests on surfaces, solid.
+    pub fn add_proxies(&mut self, proxies: &[DVec3]) {
+        let mut solid = Mesh::default();
+        for proxy in proxies {
+            self.frame(*proxy, *proxy);
+            solid.ball(*proxy, POINTER_RADIUS, 10, POINTER);
+        }
+        self.meshes.insert(0, solid);
     }
 
     /// Add pointers: each proxy (where the finger rests on surfaces) solid, and its grip
@@ -222,8 +302,7 @@ impl Scenery {
         for (proxy, grip) in proxies.iter().zip(grips) {
             self.frame(proxy.min(*grip), proxy.max(*grip));
             solid.ball(*proxy, POINTER_RADIUS, 10, POINTER);
-            let [r, g, b, _] = POINTER;
-            faint.ball(*grip, POINTER_RADIUS, 10, [r, g, b, 0.35]);
+            faint.ball(*grip, POINTER_RADIUS, 10, FAINT_POINTER);
         }
         self.meshes.insert(0, solid);
         // Translucent things last, over what lies behind them.
@@ -249,6 +328,10 @@ const POINTER_RADIUS: f64 = 0.004;
 const ARROW_PER_NEWTON: f64 = 0.005;
 /// Force arrows.
 const ARROW: [f32; 4] = [0.1, 0.7, 0.3, 1.0];
+/// Length of a torque arrow per newton-metre, metres.
+const ARROW_PER_NEWTON_METRE: f64 = 0.1;
+/// Torque arrows.
+const TORQUE: [f32; 4] = [0.7, 0.2, 0.7, 1.0];
 /// Motors' string exits.
 const MOTOR: [f32; 4] = [0.2, 0.2, 0.22, 1.0];
 

@@ -4,8 +4,8 @@
 //! as planes and applies the impulses the hand gave the bodies, or, with
 //! `feedback: position`, moves a kinematic body to each pointer instead.
 
-use hapticd_physics::scene::{Feedback, SceneFile};
 use hapticd_core::world_state::body_pose;
+use hapticd_physics::scene::{Feedback, SceneFile};
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 

@@ -3,12 +3,12 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use hapticd_render::scenery::Scenery;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::scene::SceneFile;
 use hapticd_plugin_api::HapticdPlanes;
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::camera::Camera;
+use hapticd_render::scenery::Scenery;
 use hapticd_render::vulkan::{MAX_EDGE, Renderer};
 
 use crate::Failure;

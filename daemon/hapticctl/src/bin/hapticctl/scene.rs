@@ -23,8 +23,8 @@ use crate::Failure;
 use crate::client::{self, Client};
 use crate::mechanism::{Output, print, save};
 use crate::render::Frames;
-use hapticd_render::scenery::Scenery;
 use hapticd::bus::Bus;
+use hapticd_render::scenery::Scenery;
 
 #[derive(Subcommand)]
 pub enum Command {

@@ -1,0 +1,135 @@
+//! Memory shared with other processes by handing them a descriptor over the bus: a memfd
+//! sealed once its owner has mapped it writable, so that whoever is handed it can map it
+//! read-only and nothing else: neither write it, nor grow or shrink it under its owner.
+
+use std::ffi::c_void;
+use std::io;
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+
+/// A shared mapping of a file, unmapped when dropped.
+pub struct Mapping {
+    address: *mut c_void,
+    len: usize,
+}
+
+// SAFETY: a mapping is plain memory; who reads or writes it is up to its owner.
+unsafe impl Send for Mapping {}
+
+impl Mapping {
+    fn new(fd: &OwnedFd, len: usize, protection: libc::c_int) -> io::Result<Self> {
+        if len == 0 {
+            return Err(io::Error::new(io::ErrorKind::InvalidData, "an empty file"));
+        }
+        // SAFETY: a fresh shared mapping of an open descriptor; the kernel checks the rest.
+        let address = unsafe {
+            libc::mmap(
+                std::ptr::null_mut(),
+                len,
+                protection,
+                libc::MAP_SHARED,
+                fd.as_raw_fd(),
+                0,
+            )
+        };
+        if address == libc::MAP_FAILED {
+            return Err(io::Error::last_os_error());
+        }
+        Ok(Self { address, len })
+    }
+
+    /// All of `fd`, mapped read-only.
+    pub fn read_only(fd: &OwnedFd) -> io::Result<Self> {
+        // SAFETY: fstat writes one stat to a valid pointer.
+        let mut stat: libc::stat = unsafe { std::mem::zeroed() };
+        // SAFETY: as above, on a descriptor the caller owns.
+        if unsafe { libc::fstat(fd.as_raw_fd(), &mut stat) } != 0 {
+            return Err(io::Error::last_os_error());
+        }
+        Self::new(fd, stat.st_size as usize, libc::PROT_READ)
+    }
+
+    /// The first byte, page-aligned.
+    pub fn address(&self) -> *mut c_void {
+        self.address
+    }
+
+    /// Bytes mapped.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether nothing is mapped (never: an empty file is refused).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+impl Drop for Mapping {
+    fn drop(&mut self) {
+        // SAFETY: mapped in `new` and not used past the owner's life.
+        unsafe { libc::munmap(self.address, self.len) };
+    }
+}
+
+/// A new memfd of `len` zero bytes called `name`, and its owner's writable mapping. The
+/// file is sealed: the mapping returned stays writable, but no one can map or write it
+/// writable again, nor change its size.
+pub fn sealed(name: &str, len: usize) -> io::Result<(OwnedFd, Mapping)> {
+    let name = std::ffi::CString::new(name)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "a name with NUL"))?;
+    // SAFETY: a NUL-terminated name and known flags.
+    let raw =
+        unsafe { libc::memfd_create(name.as_ptr(), libc::MFD_CLOEXEC | libc::MFD_ALLOW_SEALING) };
+    if raw < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: memfd_create returned a descriptor this process now owns.
+    let fd = unsafe { OwnedFd::from_raw_fd(raw) };
+    let size = libc::off_t::try_from(len)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "too large"))?;
+    // SAFETY: resizing a descriptor this process owns.
+    if unsafe { libc::ftruncate(fd.as_raw_fd(), size) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    let mapping = Mapping::new(&fd, len, libc::PROT_READ | libc::PROT_WRITE)?;
+    let seals =
+        libc::F_SEAL_SHRINK | libc::F_SEAL_GROW | libc::F_SEAL_FUTURE_WRITE | libc::F_SEAL_SEAL;
+    // SAFETY: fcntl on a descriptor this process owns.
+    if unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_ADD_SEALS, seals) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok((fd, mapping))
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// `fd` can be neither mapped writable, resized, written nor sealed otherwise.
+    pub(crate) fn assert_sealed(fd: &OwnedFd) {
+        // SAFETY: a pure query of a descriptor the test owns.
+        let size = unsafe { libc::lseek(fd.as_raw_fd(), 0, libc::SEEK_END) } as usize;
+        assert!(Mapping::new(fd, size, libc::PROT_READ | libc::PROT_WRITE).is_err());
+        // SAFETY: resizing a descriptor the test owns (the seal refuses it).
+        assert_ne!(unsafe { libc::ftruncate(fd.as_raw_fd(), 0) }, 0);
+        let written = std::fs::File::from(fd.try_clone().unwrap());
+        assert!(std::io::Write::write_all(&mut &written, b"x").is_err());
+        // SAFETY: fcntl on a descriptor the test owns (F_SEAL_SEAL refuses more seals).
+        assert_ne!(
+            unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_ADD_SEALS, libc::F_SEAL_WRITE) },
+            0
+        );
+    }
+
+    #[test]
+    fn the_owner_writes_what_a_reader_maps_and_no_one_else_can() {
+        let (fd, mapping) = sealed("test", 8192).unwrap();
+        // SAFETY: the mapping holds 8192 writable bytes.
+        unsafe { mapping.address().cast::<u8>().add(100).write(42) };
+        let reader = Mapping::read_only(&fd).unwrap();
+        assert_eq!(reader.len(), 8192);
+        // SAFETY: within the 8192 bytes mapped.
+        assert_eq!(unsafe { reader.address().cast::<u8>().add(100).read() }, 42);
+        assert_sealed(&fd);
+    }
+}
