@@ -115,10 +115,9 @@ pub(crate) mod tests {
         let written = std::fs::File::from(fd.try_clone().unwrap());
         assert!(std::io::Write::write_all(&mut &written, b"x").is_err());
         // SAFETY: fcntl on a descriptor the test owns (F_SEAL_SEAL refuses more seals).
-        assert_ne!(
-            unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_ADD_SEALS, libc::F_SEAL_WRITE) },
-            0
-        );
+        let resealed =
+            unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_ADD_SEALS, libc::F_SEAL_WRITE) };
+        assert_ne!(resealed, 0);
     }
 
     #[test]

@@ -52,6 +52,8 @@ pub struct Renderer {
     pipeline: vk::Pipeline,
     /// The images and buffers of the last frame, kept for the next one of the same size.
     frame: Option<Frame>,
+    /// The device's name, as its driver gives it.
+    device_name: String,
 }
 
 /// An image or buffer with its memory.
@@ -86,7 +88,7 @@ impl Renderer {
         // SAFETY: queries on a live instance.
         let devices = unsafe { instance.enumerate_physical_devices() }
             .map_err(failed("listing Vulkan devices"))?;
-        let (physical, family) = devices
+        let (physical, family, device_name) = devices
             .iter()
             .find_map(|&d| {
                 // SAFETY: as above.
@@ -98,7 +100,13 @@ impl Renderer {
                 unsafe { instance.get_physical_device_queue_family_properties(d) }
                     .iter()
                     .position(|q| q.queue_flags.contains(vk::QueueFlags::GRAPHICS))
-                    .map(|f| (d, f as u32))
+                    .map(|f| {
+                        let name = properties
+                            .device_name_as_c_str()
+                            .map(|n| n.to_string_lossy().into_owned())
+                            .unwrap_or_default();
+                        (d, f as u32, name)
+                    })
             })
             .ok_or_else(|| Unavailable("no Vulkan 1.3 device with a graphics queue".into()))?;
         let priorities = [1.0];
@@ -133,7 +141,13 @@ impl Renderer {
             layout,
             pipeline,
             frame: None,
+            device_name,
         })
+    }
+
+    /// The device drawn on, as its driver names it (`llvmpipe (LLVM 15.0.6, 256 bits)`).
+    pub fn device_name(&self) -> &str {
+        &self.device_name
     }
 
     fn pipeline(device: &ash::Device) -> Result<(vk::PipelineLayout, vk::Pipeline), Unavailable> {

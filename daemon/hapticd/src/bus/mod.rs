@@ -102,7 +102,8 @@ impl std::str::FromStr for Bus {
 }
 
 impl Bus {
-    fn builder(&self) -> zbus::connection::Builder<'_> {
+    /// A connection builder for this bus, to serve on it.
+    pub fn builder(&self) -> zbus::connection::Builder<'_> {
         match self {
             Bus::System => zbus::connection::Builder::system(),
             Bus::Session => zbus::connection::Builder::session(),

@@ -1,0 +1,101 @@
+//! hapticd-render: draws hapticd's world (the scene, the pointers, the strings) with Vulkan
+//! and serves the pictures on D-Bus as `org.hapticd.Renderer1`.
+//!
+//! A process of its own, not a thread of hapticd: a Vulkan driver may compile code at run
+//! time (which hapticd's `MemoryDenyWriteExecute=yes` forbids), loads hundreds of
+//! megabytes that hapticd's `mlockall` would lock, and takes its process down when it
+//! crashes. hapticd hands it the world through shared memory and never waits for it.
+//!
+//! - [`world_source`]: hapticd's world and the scene's solids, as meshes;
+//! - [`drawing`]: the thread that owns the Vulkan device and draws;
+//! - [`status_line`]: the line of text under each picture;
+//! - [`options`]: the options of requests, checked;
+//! - [`bus`]: the D-Bus interface.
+
+mod bus;
+mod drawing;
+mod options;
+mod status_line;
+mod world_source;
+
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use clap::Parser;
+use hapticd::bus::{Bus, Workers};
+
+/// Draws hapticd's world with Vulkan and serves the pictures on D-Bus.
+///
+/// hapticd-render.service runs it beside hapticd.service, which wants it. It draws the
+/// active scene, the grips, the strings coloured by tension and the forces, for `hapticctl
+/// snapshot` and `hapticctl view`. Without a Vulkan driver it stays up and says why.
+#[derive(Parser)]
+#[command(name = "hapticd-render", version)]
+struct Cli {
+    /// The bus hapticd is on, where pictures are served: `system`, `session` or a D-Bus
+    /// address.
+    #[arg(long, value_name = "BUS", default_value = "system")]
+    bus: Bus,
+    /// hapticd's device to draw (0: the first).
+    #[arg(long, default_value_t = 0)]
+    device: usize,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    hapticd::logging::init("hapticd-render", false);
+    // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
+    // threads (they inherit the affinity).
+    if let Some(plan) = hapticd::cpus::allowed()
+        .ok()
+        .and_then(|allowed| hapticd::cpus::Plan::new(&allowed, 1))
+        && let Err(e) = plan.keep_daemon_off()
+    {
+        tracing::warn!("cannot keep off the haptic CPU: {e}");
+    }
+    let (jobs, availability) = match drawing::start(cli.bus.clone(), cli.device) {
+        Ok(started) => started,
+        Err(e) => {
+            tracing::error!("cannot start the drawing thread: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    match &availability {
+        drawing::Availability::Available(device) => tracing::info!("drawing on {device}"),
+        drawing::Availability::Unavailable(why) => tracing::warn!(
+            "no pictures on this machine: {why}; hapticd runs without them, and \
+             org.hapticd.Renderer1 says so"
+        ),
+    }
+    let workers = match Workers::start() {
+        Ok(w) => Arc::new(w),
+        Err(e) => {
+            tracing::error!("cannot start the worker threads: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let interface = bus::RendererInterface::new(jobs.clone(), workers, availability);
+    let connection = zbus::block_on(async {
+        cli.bus
+            .builder()
+            .serve_at(bus::OBJECT_PATH, interface)
+            .name(bus::BUS_NAME)
+            .allow_name_replacements(false)
+            .replace_existing_names(false)
+            .build()
+            .await
+    });
+    let connection = match connection {
+        Ok(c) => c,
+        Err(e) => {
+            tracing::error!("cannot serve {} on {:?}: {e}", bus::BUS_NAME, cli.bus);
+            return ExitCode::FAILURE;
+        }
+    };
+    let _ = jobs.send(drawing::Job::Connected(connection.clone()));
+    let _ = hapticd::sd_notify::notify("READY=1");
+    // zbus's own thread serves the bus; SIGTERM ends the process (nothing to save).
+    loop {
+        std::thread::park();
+    }
+}

@@ -1,0 +1,307 @@
+//! Where the pictures come from: hapticd on the bus. The shapes come from the active scene's
+//! file (`ActiveSceneFile`), read again whenever hapticd swaps scenes; where everything is,
+//! from the world hapticd's haptic loop writes into shared memory (`OpenWorld`), read at
+//! every frame. A hapticd that restarts is found again by its new bus name.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use hapticd::bus::{BUS_NAME, Bus, MANAGER_PATH, device_path};
+use hapticd::world_share::MappedWorld;
+use hapticd_core::haptic_loop::DeviceState;
+use hapticd_core::kinematics::Dof;
+use hapticd_core::scene::static_scene::StaticSceneSpec;
+use hapticd_core::world_state::{WorldFrame, pose_of};
+use hapticd_physics::body::Body;
+use hapticd_physics::scene::{MultiRateWorld, SceneFile};
+use hapticd_render::camera::Camera;
+use hapticd_render::scenery::{DrawnGrip, DrawnString, Scenery};
+
+/// How often the bus is asked again whether hapticd and its scene are the same.
+const RECHECK: Duration = Duration::from_secs(1);
+
+/// The solids of a scene file.
+enum Solids {
+    /// No file (a scene plugin run without one): only the device is drawn.
+    None,
+    /// Fixed shapes.
+    Static(StaticSceneSpec),
+    /// A penalty world: its bodies, the pointers' solids from `first_pointer` on.
+    Penalty {
+        bodies: Vec<Body>,
+        first_pointer: usize,
+    },
+    /// A rapier world.
+    Rapier(Box<MultiRateWorld>),
+}
+
+/// The scene being drawn.
+struct Scene {
+    file: String,
+    switches: u32,
+    effectors: u32,
+    solids: Solids,
+    /// Framed when the scene was first drawn, then kept, so that pictures follow one
+    /// another.
+    camera: Camera,
+}
+
+/// One picture's worth: what to draw, from where by default, and a line saying what it is.
+pub struct View {
+    /// The meshes.
+    pub scenery: Scenery,
+    /// The scene's camera.
+    pub camera: Camera,
+    /// Scene, rate and state, for the status line.
+    pub status: String,
+}
+
+/// Why there is nothing to draw.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NoWorld(pub String);
+
+/// hapticd's world, as the renderer sees it.
+pub struct WorldSource {
+    bus: Bus,
+    device: usize,
+    connection: Option<zbus::Connection>,
+    /// hapticd's unique bus name when its world was opened.
+    owner: Option<String>,
+    world: Option<MappedWorld>,
+    frame: Box<WorldFrame>,
+    scene: Option<Scene>,
+    /// The active scene's file as last asked.
+    file: String,
+    checked: Option<Instant>,
+}
+
+impl WorldSource {
+    /// The world of hapticd's device `device` on `bus` (not asked for until drawn).
+    pub fn new(bus: Bus, device: usize) -> Self {
+        Self {
+            bus,
+            device,
+            connection: None,
+            owner: None,
+            world: None,
+            frame: Box::new(WorldFrame::empty()),
+            scene: None,
+            file: String::new(),
+            checked: None,
+        }
+    }
+
+    /// What to draw now.
+    pub fn view(&mut self) -> Result<View, NoWorld> {
+        if self.checked.is_none_or(|t| t.elapsed() >= RECHECK) || self.world.is_none() {
+            self.check()?;
+        }
+        let world = self.world.as_ref().expect("check opened it");
+        if world.read(&mut self.frame).is_none() {
+            return Err(NoWorld("hapticd's world could not be read whole".into()));
+        }
+        let frame = &*self.frame;
+        let stale = self.scene.as_ref().is_none_or(|s| {
+            s.file != self.file
+                || s.switches != frame.scene_switches
+                || s.effectors != frame.effectors
+        });
+        if stale {
+            self.scene = Some(load(&self.file, frame)?);
+        }
+        let scene = self.scene.as_mut().expect("loaded above");
+        Ok(View {
+            scenery: scenery(&mut scene.solids, frame),
+            camera: scene.camera,
+            status: status(&scene.file, frame),
+        })
+    }
+
+    /// Ask the bus who hapticd is and what it renders; open its world again if it is new.
+    fn check(&mut self) -> Result<(), NoWorld> {
+        let bus_error =
+            |e: zbus::Error| NoWorld(format!("hapticd is not reachable on {:?}: {e}", self.bus));
+        if self.connection.is_none() {
+            self.connection = Some(zbus::block_on(self.bus.connection()).map_err(bus_error)?);
+        }
+        let connection = self.connection.as_ref().expect("connected above");
+        let owner = zbus::block_on(call::<String>(
+            connection,
+            "org.freedesktop.DBus",
+            "/org/freedesktop/DBus",
+            "org.freedesktop.DBus",
+            "GetNameOwner",
+            &(BUS_NAME,),
+        ))
+        .map_err(|_| {
+            self.world = None;
+            NoWorld(format!("hapticd is not running ({BUS_NAME} has no owner)"))
+        })?;
+        let file: zbus::OwnedVariant = zbus::block_on(call(
+            connection,
+            BUS_NAME,
+            MANAGER_PATH,
+            "org.freedesktop.DBus.Properties",
+            "Get",
+            &("org.hapticd.Hapticd1.Manager", "ActiveSceneFile"),
+        ))
+        .map_err(|e| NoWorld(format!("cannot ask hapticd for its scene: {e}")))?;
+        self.file = String::try_from(file).unwrap_or_default();
+        if self.world.is_none() || self.owner.as_deref() != Some(owner.as_str()) {
+            let fd: zbus::OwnedFd = zbus::block_on(call(
+                connection,
+                BUS_NAME,
+                &device_path(self.device),
+                "org.hapticd.Hapticd1.Device",
+                "OpenWorld",
+                &(),
+            ))
+            .map_err(|e| {
+                NoWorld(format!(
+                    "hapticd gives no world of device {}: {e}",
+                    self.device
+                ))
+            })?;
+            let world = MappedWorld::open(&fd.into()).map_err(NoWorld)?;
+            self.world = Some(world);
+            self.owner = Some(owner);
+            self.scene = None;
+        }
+        self.checked = Some(Instant::now());
+        Ok(())
+    }
+}
+
+/// Call `method` and decode its reply.
+async fn call<T>(
+    connection: &zbus::Connection,
+    destination: &str,
+    path: &str,
+    interface: &str,
+    method: &str,
+    body: &(impl serde::Serialize + zbus::zvariant::DynamicType),
+) -> zbus::Result<T>
+where
+    T: for<'d> zbus::zvariant::DynamicDeserialize<'d>,
+{
+    let reply = connection
+        .call_method(Some(destination), path, Some(interface), method, body)
+        .await?;
+    reply.body().deserialize()
+}
+
+/// The solids of scene file `file` as hapticd runs it with `frame`'s pointers.
+fn load(file: &str, frame: &WorldFrame) -> Result<Scene, NoWorld> {
+    let solids = solids(file, frame.effectors as usize)?;
+    let mut scene = Scene {
+        file: file.to_string(),
+        switches: frame.scene_switches,
+        effectors: frame.effectors,
+        solids,
+        camera: Camera::orbit(DVec3::ZERO, 1.0, 0.45, 0.75),
+    };
+    scene.camera = scenery(&mut scene.solids, frame).camera();
+    Ok(scene)
+}
+
+fn solids(file: &str, pointers: usize) -> Result<Solids, NoWorld> {
+    if file.is_empty() {
+        return Ok(Solids::None);
+    }
+    let path = PathBuf::from(file);
+    let failed = |e: &dyn std::fmt::Display| NoWorld(format!("cannot draw {file}: {e}"));
+    if !hapticd::scenes::is_physics(&path) {
+        return StaticSceneSpec::load(&path)
+            .map(Solids::Static)
+            .map_err(|e| failed(&e));
+    }
+    Ok(
+        match SceneFile::load(Path::new(file), pointers).map_err(|e| failed(&e))? {
+            SceneFile::Penalty(scene) => Solids::Penalty {
+                bodies: scene.world.bodies,
+                first_pointer: scene.first_pointer,
+            },
+            SceneFile::Rapier(spec) => Solids::Rapier(spec),
+        },
+    )
+}
+
+/// `solids` where `frame` has them, and the device.
+fn scenery(solids: &mut Solids, frame: &WorldFrame) -> Scenery {
+    let poses: Vec<_> = frame.body_poses().collect();
+    let mut scenery = match solids {
+        Solids::None => Scenery::default(),
+        Solids::Static(spec) => Scenery::of_static(spec),
+        Solids::Penalty {
+            bodies,
+            first_pointer,
+        } => {
+            for (body, pose) in bodies.iter_mut().zip(&poses) {
+                body.position = pose.position;
+                body.orientation = pose.orientation;
+                body.update_world_shape();
+            }
+            Scenery::of_penalty(bodies, *first_pointer)
+        }
+        Solids::Rapier(spec) => Scenery::of_rapier(spec, |i| {
+            poses
+                .get(i)
+                .copied()
+                .unwrap_or_else(|| hapticd_core::kinematics::Pose {
+                    position: spec.bodies[i].position,
+                    orientation: spec.bodies[i].orientation,
+                })
+        }),
+    };
+    let effectors = (frame.effectors as usize).min(frame.grips.len());
+    let strings: Vec<DrawnString> = (0..(frame.strings as usize).min(frame.motors.len()))
+        .map(|k| DrawnString {
+            motor: DVec3::from(frame.motors[k]),
+            knot: DVec3::from(frame.knots[k]),
+            tension: frame.tensions[k],
+            range: frame.tension_ranges[k],
+        })
+        .collect();
+    let grips: Vec<DrawnGrip> = (0..effectors)
+        .map(|k| DrawnGrip {
+            pose: pose_of(&frame.grips[k]),
+            dof: if frame.dofs[k] == 6 {
+                Dof::Six
+            } else {
+                Dof::Three
+            },
+            force: DVec3::from(frame.wrenches[k].force),
+            torque: DVec3::from(frame.wrenches[k].torque),
+        })
+        .collect();
+    // The proxies, or a penalty world's pointer solids, show where the fingers rest.
+    let rests_shown = frame.has_proxies != 0 || matches!(solids, Solids::Penalty { .. });
+    scenery.add_device(&strings, &grips, !rests_shown);
+    if frame.has_proxies != 0 {
+        let proxies: Vec<DVec3> = frame.proxies[..effectors]
+            .iter()
+            .map(|p| DVec3::from(*p))
+            .collect();
+        scenery.add_proxies(&proxies);
+    }
+    scenery
+}
+
+/// `blocks | 1000 Hz | running | 12.3 s`.
+fn status(file: &str, frame: &WorldFrame) -> String {
+    let scene = Path::new(file).file_stem().map_or_else(
+        || "no scene file".into(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let state = match frame.device_state() {
+        DeviceState::Running => "running",
+        DeviceState::Fault => "fault",
+        DeviceState::Disconnected => "disconnected",
+        DeviceState::Uncalibrated => "uncalibrated",
+    };
+    format!(
+        "{scene} | {:.0} Hz | {state} | {:.1} s",
+        frame.rate, frame.time
+    )
+}
