@@ -105,11 +105,11 @@ VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml)
 so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
 # The C example mechanism, built as a plugin author would build it.
 C_MECHANISM := $(BUILT)/libspidar_desk.so
-INSTALLED_FILES := $(BUILT)/hapticd $(BUILT)/hapticctl $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+INSTALLED_FILES := $(BUILT)/hapticd $(BUILT)/hapticd-render $(BUILT)/hapticctl $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 CONFIG_ARG := $(if $(filter $(DEFAULT_SYSCONFDIR),$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/hapticd.yaml)
 
 release: $(RELEASE)/libspidar_desk.so
-	$(CARGO) build --release -p hapticd -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+	$(CARGO) build --release -p hapticd -p hapticd-render-service -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 
 %/libspidar_desk.so: plugins/c-example/spidar_desk.c plugin-api/include/hapticd_plugin.h
 	@mkdir -p $(@D)
@@ -130,7 +130,7 @@ install: $(C_MECHANISM)
 		$(DESTDIR)$(PREFIX)/share/bash-completion/completions $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions \
 		$(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d \
 		$(DESTDIR)$(PREFIX)/share/man/man1 $(DESTDIR)$(PREFIX)/share/man/man5 $(DESTDIR)$(PREFIX)/share/man/man8
-	install -m 755 $(BUILT)/hapticd $(BUILT)/hapticctl $(DESTDIR)$(PREFIX)/bin/
+	install -m 755 $(BUILT)/hapticd $(BUILT)/hapticd-render $(BUILT)/hapticctl $(DESTDIR)$(PREFIX)/bin/
 	$(BUILT)/hapticctl completions bash > $(DESTDIR)$(PREFIX)/share/bash-completion/completions/hapticctl
 	$(BUILT)/hapticctl completions zsh > $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions/_hapticctl
 	$(BUILT)/hapticctl completions fish > $(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d/hapticctl.fish
@@ -160,11 +160,17 @@ install: $(C_MECHANISM)
 		-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' systemd/hapticd.service \
 		> $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
 	chmod 644 $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
+	sed -e 's|^ExecStart=/usr/bin/hapticd-render|ExecStart=$(PREFIX)/bin/hapticd-render|' \
+		-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' systemd/hapticd-render.service \
+		> $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd-render.service
+	chmod 644 $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd-render.service
 	install -m 644 systemd/hapticd.sysusers $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d/hapticd.conf
 	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d/
-	install -m 644 config/dbus/org.hapticd.Hapticd1.conf $(DESTDIR)$(DBUSPOLICYDIR)/
+	install -m 644 config/dbus/org.hapticd.Hapticd1.conf config/dbus/org.hapticd.Renderer1.conf \
+		$(DESTDIR)$(DBUSPOLICYDIR)/
 	install -m 644 systemd/org.hapticd.Hapticd1.service $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
+		config/dbus/org.hapticd.Renderer1.xml \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces/
 
 # The Debian packages, from a tree installed under /usr (config/debian/build-deb strips it,

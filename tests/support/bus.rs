@@ -7,6 +7,8 @@ use std::time::{Duration, Instant};
 
 /// The name hapticd owns.
 pub const NAME: &str = "org.hapticd.Hapticd1";
+/// The name hapticd-render owns.
+pub const RENDERER: &str = "org.hapticd.Renderer1";
 
 /// A running `dbus-daemon`, stopped (and its directory removed) when dropped.
 pub struct PrivateBus {
@@ -19,13 +21,18 @@ pub struct PrivateBus {
 impl PrivateBus {
     /// A bus whose socket and configuration live in `dir`, applying the hapticd `policy`.
     pub fn start(dir: &Path, policy: &Path) -> PrivateBus {
+        Self::with_policies(dir, &[policy])
+    }
+
+    /// A bus whose socket and configuration live in `dir`, applying `policies`.
+    pub fn with_policies(dir: &Path, policies: &[&Path]) -> PrivateBus {
         let socket = dir.join("bus");
         // Running as an ordinary user, the tests stand in for root in the policy.
         let me = if nix::unistd::geteuid().is_root() {
             String::new()
         } else {
             format!(
-                r#"<policy user="{}"><allow own="{NAME}"/><allow send_destination="{NAME}"/></policy>"#,
+                r#"<policy user="{}"><allow own="{NAME}"/><allow send_destination="{NAME}"/><allow own="{RENDERER}"/></policy>"#,
                 nix::unistd::geteuid()
             )
         };
@@ -49,12 +56,15 @@ impl PrivateBus {
     <allow send_destination="org.freedesktop.DBus" send_interface="org.freedesktop.DBus"/>
     <allow send_destination="org.freedesktop.DBus" send_interface="org.freedesktop.DBus.Introspectable"/>
   </policy>
-  <include>{policy}</include>
+  {policies}
   {me}
 </busconfig>
 "#,
             socket = socket.display(),
-            policy = policy.display(),
+            policies = policies
+                .iter()
+                .map(|p| format!("<include>{}</include>", p.display()))
+                .collect::<String>(),
         );
         let file = dir.join("bus.conf");
         std::fs::write(&file, config).unwrap();

@@ -5,6 +5,7 @@ mod device;
 mod experiment;
 mod manual;
 mod mechanism;
+mod pictures;
 mod render;
 mod scene;
 
@@ -49,6 +50,8 @@ enum Command {
     Scene(scene::Command),
     /// Draw one frame of a scene file to a PNG file with Vulkan (no daemon needed).
     Render(render::RenderArgs),
+    /// Write a picture of the running daemon's world to a PNG file (from hapticd-render).
+    Snapshot(pictures::SnapshotArgs),
     /// The running daemon and each of its devices: state, mechanism, scene, rate, timing.
     Status(Output),
     /// A parameter or property of a device of the running daemon.
@@ -137,6 +140,7 @@ fn main() -> ExitCode {
         Command::Device(command) => device::run(command),
         Command::Scene(command) => scene::run(command, &cli.bus),
         Command::Render(args) => render::run(&args, &catalog),
+        Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
         Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
         Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
         Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),
