@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use support::bus::{NAME, PrivateBus};
+use hapticd_render::picture::Picture;
+use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{artifact, hapticctl, plugin_path, repo_dir};
 
 const MANAGER: [&str; 3] = [
@@ -22,6 +23,8 @@ const DEVICE: [&str; 3] = [
     "/org/hapticd/Hapticd1/device/0",
     "org.hapticd.Hapticd1.Device",
 ];
+
+const PICTURES: [&str; 3] = [RENDERER, "/org/hapticd/Renderer1", "org.hapticd.Renderer1"];
 
 /// Taken shared by every test's bus, and exclusively by the one that measures the loop's
 /// timing.
@@ -80,9 +83,12 @@ impl Bus {
     }
 
     fn start_in_turn(dir: &Path, turn: Turn) -> Bus {
-        let private = PrivateBus::start(
+        let private = PrivateBus::with_policies(
             dir,
-            &repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
+            &[
+                &repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
+                &repo_dir().join("config/dbus/org.hapticd.Renderer1.conf"),
+            ],
         );
         Bus {
             address: private.address.clone(),
@@ -114,7 +120,14 @@ impl Bus {
     /// The D-Bus error name and message of a call that must fail. busctl prints only the
     /// message, so this asks dbus-send, which prints both.
     fn error(&self, path: &str, method: &str, args: &[&str]) -> (String, String) {
-        dbus_send_error(Command::new("dbus-send"), &self.address, path, method, args)
+        dbus_send_error(
+            Command::new("dbus-send"),
+            &self.address,
+            NAME,
+            path,
+            method,
+            args,
+        )
     }
 
     /// [`Bus::error`] of setting `property` of the device to dbus-send's `variant`.
@@ -158,6 +171,7 @@ impl Bus {
 fn dbus_send_error(
     mut dbus_send: Command,
     address: &str,
+    destination: &str,
     path: &str,
     method: &str,
     args: &[&str],
@@ -165,7 +179,7 @@ fn dbus_send_error(
     let out = dbus_send
         .arg(format!("--bus={address}"))
         .arg("--print-reply")
-        .arg(format!("--dest={NAME}"))
+        .arg(format!("--dest={destination}"))
         .arg(path)
         .arg(method)
         .args(args)
@@ -758,7 +772,7 @@ fn an_unprivileged_client_may_read_but_not_change() {
             "--clear-groups",
             "dbus-send",
         ]);
-        let (name, _) = dbus_send_error(setpriv, &bus.address, object[1], method, args);
+        let (name, _) = dbus_send_error(setpriv, &bus.address, NAME, object[1], method, args);
         assert_eq!(name, "org.freedesktop.DBus.Error.AccessDenied", "{method}");
     };
     let set = [
@@ -1070,8 +1084,9 @@ fn the_interface_files_are_what_the_daemon_introspects() {
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
-    for (path, interface) in [(MANAGER[1], MANAGER[2]), (DEVICE[1], DEVICE[2])] {
-        let xml = bus.ok(&["introspect", "--xml-interface", NAME, path]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    for [name, path, interface] in [MANAGER, DEVICE, PICTURES] {
+        let xml = bus.ok(&["introspect", "--xml-interface", name, path]);
         let start = xml
             .find(&format!("<interface name=\"{interface}\">"))
             .unwrap();
@@ -1094,6 +1109,7 @@ fn the_interface_files_are_what_the_daemon_introspects() {
         );
         assert!(live.contains("<!--\n     Version of this D-Bus API") || interface != MANAGER[2]);
         assert!(live.contains("Take the counter offsets now") || interface != DEVICE[2]);
+        assert!(live.contains("One picture of the world now") || interface != PICTURES[2]);
     }
 }
 
@@ -1184,4 +1200,284 @@ fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated
     daemon.wait_for_state(&bus, "running");
     assert_eq!(bus.get(DEVICE, "Calibrated"), "b true");
     daemon.stop();
+}
+
+/// A running hapticd-render on `bus`, started as its unit starts it; killed when dropped.
+struct Renderer {
+    child: Child,
+    log: PathBuf,
+}
+
+impl Renderer {
+    /// Start the renderer with `env` added, and wait until it answers on the bus.
+    fn start(bus: &Bus, dir: &Path, env: &[(&str, &str)]) -> Renderer {
+        static STARTED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let log = dir.join(format!("render-{n}.log"));
+        let child = Command::new(artifact("hapticd-render"))
+            .arg(format!("--bus={}", bus.address))
+            .envs(env.iter().copied())
+            .env_remove("NOTIFY_SOCKET")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .unwrap();
+        let mut renderer = Renderer { child, log };
+        let started = Instant::now();
+        while !bus
+            .busctl(&[
+                "get-property",
+                PICTURES[0],
+                PICTURES[1],
+                PICTURES[2],
+                "Available",
+            ])
+            .status
+            .success()
+        {
+            if let Some(status) = renderer.child.try_wait().unwrap() {
+                panic!("hapticd-render exited ({status}): {}", renderer.log());
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(30),
+                "{}",
+                renderer.log()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        renderer
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// Kill it as a driver crash would: SIGKILL, no chance to tidy up.
+    fn kill_9(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        self.kill_9();
+    }
+}
+
+impl Bus {
+    /// A Snapshot with `options` (busctl's `a{sv}` words after the count).
+    fn snapshot(&self, options: &[&str]) -> Result<Picture, String> {
+        let count = (options.len() / 3).to_string();
+        let mut args = vec![
+            "--json=short",
+            "call",
+            PICTURES[0],
+            PICTURES[1],
+            PICTURES[2],
+        ];
+        args.extend(["Snapshot", "a{sv}", &count]);
+        args.extend(options);
+        let out = self.busctl(&args);
+        if !out.status.success() {
+            return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
+        }
+        let reply: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let bytes: Vec<u8> = reply["data"][0]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|b| b.as_u64().unwrap() as u8)
+            .collect();
+        Picture::from_png(&bytes)
+    }
+
+    /// A client connection of the test's own.
+    fn connect(&self) -> zbus::Connection {
+        zbus::block_on(zbus::connection::Builder::address(self.address.as_str()).build()).unwrap()
+    }
+
+    /// The D-Bus error name and message of a Snapshot with `options` that must fail.
+    fn snapshot_error(&self, options: &[(&str, zbus::Variant<'_>)]) -> (String, String) {
+        let options: std::collections::HashMap<&str, &zbus::Variant<'_>> =
+            options.iter().map(|(k, v)| (*k, v)).collect();
+        let reply = zbus::block_on(self.connect().call_method(
+            Some(RENDERER),
+            PICTURES[1],
+            Some(PICTURES[2]),
+            "Snapshot",
+            &(options,),
+        ));
+        match reply {
+            Err(zbus::Error::MethodError(name, message, _)) => {
+                (name.to_string(), message.unwrap_or_default())
+            }
+            other => panic!("not refused with a method error: {other:?}"),
+        }
+    }
+}
+
+/// Share of `picture`'s pixels that are not the sky it is drawn over.
+fn drawn_share(picture: &Picture) -> f64 {
+    let sky = [237, 242, 250];
+    let drawn = picture
+        .rgba
+        .chunks(4)
+        .filter(|p| {
+            p[..3]
+                .iter()
+                .zip(sky)
+                .any(|(&c, s): (&u8, i32)| (i32::from(c) - s).abs() > 8)
+        })
+        .count();
+    drawn as f64 / (picture.rgba.len() / 4) as f64
+}
+
+#[test]
+fn a_snapshot_is_a_picture_of_the_running_scene_and_bad_options_are_refused() {
+    let dir = scratch("snapshot");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "blocks"]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    assert_eq!(bus.get(PICTURES, "Available"), "b true");
+    assert!(bus.get(PICTURES, "Driver").len() > 4);
+    assert_eq!(bus.get(PICTURES, "UnavailableReason"), "s \"\"");
+    assert!(
+        bus.get(MANAGER, "ActiveSceneFile")
+            .ends_with("config/scenes/blocks.yaml\""),
+        "{}",
+        bus.get(MANAGER, "ActiveSceneFile")
+    );
+    let picture = bus
+        .snapshot(&["width", "u", "320", "height", "u", "240"])
+        .unwrap();
+    assert_eq!((picture.width, picture.height), (320, 240));
+    let drawn = drawn_share(&picture);
+    assert!((0.2..0.95).contains(&drawn), "{drawn} of the picture drawn");
+    // Seen from the other side the scene is another picture; the defaults are 640 × 480.
+    let behind = bus.snapshot(&["azimuth", "d", "3.6"]).unwrap();
+    assert_eq!((behind.width, behind.height), (640, 480));
+    // hapticctl asks the same renderer.
+    let file = dir.join("snapshot.png");
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["snapshot", "--width", "200", "--height", "100"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let written = Picture::read_png(&file).unwrap();
+    assert_eq!((written.width, written.height), (200, 100));
+    use zbus::Variant;
+    for (key, value, error) in [
+        ("width", Variant::from(0u32), "OutOfRange"),
+        ("height", Variant::from(100_000u32), "OutOfRange"),
+        ("distance", Variant::from(f64::NAN), "NotFinite"),
+        ("azimuth", Variant::from(f64::INFINITY), "NotFinite"),
+        (
+            "target",
+            Variant::from(vec![0.0, f64::NAN, 0.0]),
+            "NotFinite",
+        ),
+        ("zoom", Variant::from(2.0), "InvalidOption"),
+        ("width", Variant::from("wide"), "InvalidOption"),
+    ] {
+        let (name, message) = bus.snapshot_error(&[(key, value)]);
+        assert_eq!(
+            name,
+            format!("org.hapticd.Renderer1.Error.{error}"),
+            "{key}: {message}"
+        );
+        assert!(message.contains(key), "{message}");
+    }
+    let refused = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["snapshot", "--width", "0"])
+        .arg(dir.join("none.png"))
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2), "{refused:?}");
+    assert!(!dir.join("none.png").exists());
+}
+
+#[test]
+fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
+    let unit = std::fs::read_to_string(repo_dir().join("systemd/hapticd-render.service")).unwrap();
+    assert!(
+        unit.contains("\nRestart=always\n"),
+        "systemd brings it back"
+    );
+    let dir = scratch("kill-renderer");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "blocks"]);
+    let overruns = || entry(&bus.get(DEVICE, "Statistics"), "overruns");
+    let ticks = || entry(&bus.get(DEVICE, "Statistics"), "ticks");
+    let mut renderer = Renderer::start(&bus, &dir, &[]);
+    // A viewer's stream keeps the renderer drawing 60 frames a second when it is killed.
+    let viewer = bus.connect();
+    let options = std::collections::HashMap::from([("rate", zbus::Variant::from(60.0))]);
+    let stream = zbus::block_on(viewer.call_method(
+        Some(RENDERER),
+        PICTURES[1],
+        Some(PICTURES[2]),
+        "OpenFrameStream",
+        &(options,),
+    ));
+    let ring: zbus::OwnedFd = stream.unwrap().body().deserialize().unwrap();
+    let ring = hapticd::frame_ring::FrameRingReader::open(&ring.into()).unwrap();
+    let started = Instant::now();
+    while ring.latest() < 10 {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "no frames drawn"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    bus.snapshot(&[]).unwrap();
+    let (before, ticked) = (overruns(), ticks());
+    let force = bus.get(DEVICE, "Force");
+    renderer.kill_9();
+    let error = bus.snapshot(&[]).unwrap_err();
+    assert!(error.contains("org.hapticd.Renderer1"), "{error}");
+    // Started again as systemd's Restart= does: it finds hapticd's world by itself.
+    let _again = Renderer::start(&bus, &dir, &[]);
+    let picture = bus
+        .snapshot(&["width", "u", "64", "height", "u", "48"])
+        .unwrap();
+    assert_eq!((picture.width, picture.height), (64, 48));
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(ticks() > ticked, "the loop stopped");
+    assert_eq!(overruns(), before, "{}", daemon.log());
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    assert_eq!(bus.get(DEVICE, "Force"), force, "the force changed");
+}
+
+#[test]
+fn without_a_vulkan_driver_the_renderer_says_why_once_and_hapticd_runs_on() {
+    let dir = scratch("no-driver");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let none = "/nonexistent/icd.json";
+    let renderer = Renderer::start(
+        &bus,
+        &dir,
+        &[("VK_DRIVER_FILES", none), ("VK_ICD_FILENAMES", none)],
+    );
+    assert_eq!(bus.get(PICTURES, "Available"), "b false");
+    assert_eq!(bus.get(PICTURES, "Driver"), "s \"\"");
+    assert!(bus.get(PICTURES, "UnavailableReason").len() > 10);
+    for _ in 0..3 {
+        let (name, _) = bus.snapshot_error(&[]);
+        assert_eq!(name, "org.hapticd.Renderer1.Error.Unavailable");
+    }
+    let log = renderer.log();
+    assert_eq!(
+        log.matches("no pictures on this machine").count(),
+        1,
+        "{log}"
+    );
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
 }
