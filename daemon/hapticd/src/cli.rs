@@ -1,5 +1,5 @@
-//! hapticd's command line, here rather than in the binary so that `hapticctl manual` can
-//! write the hapticd(8) page from the same definition.
+//! The command lines of hapticd and hapticd-render, here rather than in the binaries so
+//! that `hapticctl manual` can write their pages from the same definitions.
 
 use std::path::PathBuf;
 
@@ -58,4 +58,25 @@ pub struct Cli {
     /// Keep calibration and changed parameters in DIR (default: $STATE_DIRECTORY).
     #[arg(long, value_name = "DIR")]
     pub state_dir: Option<PathBuf>,
+}
+
+/// Draws hapticd's world with Vulkan and serves the pictures on D-Bus.
+///
+/// hapticd-render draws the active scene of hapticd's first device, its grips, its strings
+/// coloured by tension and the forces they present, from the world hapticd writes into
+/// shared memory, and serves the pictures as org.hapticd.Renderer1 (Snapshot,
+/// OpenFrameStream) for `hapticctl snapshot` and `hapticctl view`. It is a process of its
+/// own, started by hapticd-render.service, which hapticd.service wants: a Vulkan driver may
+/// compile code at run time, is large and takes its process down when it crashes. Without
+/// a Vulkan driver it stays up and says why.
+#[derive(Parser)]
+#[command(name = "hapticd-render", version)]
+pub struct RenderCli {
+    /// The bus hapticd is on, where the pictures are served: `system`, `session` or a
+    /// D-Bus address.
+    #[arg(long, value_name = "BUS", default_value = "system")]
+    pub bus: Bus,
+    /// hapticd's device to draw (0: the first).
+    #[arg(long, default_value_t = 0)]
+    pub device: usize,
 }

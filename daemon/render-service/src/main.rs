@@ -22,27 +22,11 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use clap::Parser;
-use hapticd::bus::{Bus, Workers};
-
-/// Draws hapticd's world with Vulkan and serves the pictures on D-Bus.
-///
-/// hapticd-render.service runs it beside hapticd.service, which wants it. It draws the
-/// active scene, the grips, the strings coloured by tension and the forces, for `hapticctl
-/// snapshot` and `hapticctl view`. Without a Vulkan driver it stays up and says why.
-#[derive(Parser)]
-#[command(name = "hapticd-render", version)]
-struct Cli {
-    /// The bus hapticd is on, where pictures are served: `system`, `session` or a D-Bus
-    /// address.
-    #[arg(long, value_name = "BUS", default_value = "system")]
-    bus: Bus,
-    /// hapticd's device to draw (0: the first).
-    #[arg(long, default_value_t = 0)]
-    device: usize,
-}
+use hapticd::bus::Workers;
+use hapticd::cli::RenderCli;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = RenderCli::parse();
     hapticd::logging::init("hapticd-render", false);
     // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
     // threads (they inherit the affinity).

@@ -62,7 +62,7 @@ const FORMATS: [Format; 4] = [
 ];
 
 /// What every page ends with.
-const SEE_ALSO: &str = "hapticd(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
+const SEE_ALSO: &str = "hapticd(8), hapticd-render(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
                         hapticd-scene(5), hapticd-hand(5), systemd.service(5), busctl(1)";
 
 /// The rest of hapticd(8), after what clap writes from its options.
@@ -92,6 +92,16 @@ Drive the motors to zero force and exit.
 .SH EXIT STATUS
 0 when stopped or after \-\-duration; 1 when it cannot start (the reason is logged);
 2 for bad arguments.
+"#;
+
+/// The rest of hapticd-render(8).
+const RENDERER_SECTIONS: &str = r#".SH ENVIRONMENT
+.TP
+.B VK_DRIVER_FILES
+The Vulkan drivers to load (the loader's own variable); Mesa's lavapipe draws on the CPU
+where there is no GPU.
+.SH EXIT STATUS
+1 when it cannot serve its name on the bus (the reason is logged); 2 for bad arguments.
 "#;
 
 /// The rest of hapticctl(1).
@@ -128,6 +138,10 @@ pub fn write(dir: &Path) -> Result<(), Failure> {
         (
             "hapticd.8".to_string(),
             program(hapticd::cli::Cli::command(), "8", DAEMON_SECTIONS),
+        ),
+        (
+            "hapticd-render.8".to_string(),
+            program(hapticd::cli::RenderCli::command(), "8", RENDERER_SECTIONS),
         ),
         (
             "hapticctl.1".to_string(),
