@@ -19,7 +19,8 @@ HAPTICCTL := $(RELEASE)/hapticctl --mechanism-dir $(STAGE)
 
 # Debian packages the build and tests need beyond Rust itself.
 TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev gir1.2-umockdev-1.0 python3-gi strace systemd dbus-daemon \
-	dpkg-dev binutils lintian man-db mesa-vulkan-drivers libvulkan1
+	dpkg-dev binutils lintian man-db mesa-vulkan-drivers libvulkan1 \
+	xvfb libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)
 
 .PHONY: run check deps test lint bench latency figures header stage release install deb deb-from-built

@@ -1481,3 +1481,152 @@ fn without_a_vulkan_driver_the_renderer_says_why_once_and_hapticd_runs_on() {
     );
     assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
 }
+
+/// An X server without a screen (Xvfb) whose framebuffer is a file to read screenshots
+/// from; stopped when dropped.
+struct Xvfb {
+    child: Child,
+    display: String,
+    framebuffer: PathBuf,
+}
+
+impl Xvfb {
+    /// A `width × height` screen.
+    fn start(dir: &Path, width: u32, height: u32) -> Xvfb {
+        let fbdir = dir.join("xvfb");
+        std::fs::create_dir_all(&fbdir).unwrap();
+        // A display number of this process's own, clear of a desktop's :0 and :1.
+        let display = format!(":{}", 100 + std::process::id() % 20_000);
+        let child = Command::new("Xvfb")
+            .arg(&display)
+            .args([
+                "-screen",
+                "0",
+                &format!("{width}x{height}x24"),
+                "-nolisten",
+                "tcp",
+            ])
+            .arg("-fbdir")
+            .arg(&fbdir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb (package xvfb) is installed by `make check`");
+        let framebuffer = fbdir.join("Xvfb_screen0");
+        let started = Instant::now();
+        while !framebuffer.exists() {
+            assert!(
+                started.elapsed() < Duration::from_secs(10),
+                "Xvfb did not start"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Xvfb {
+            child,
+            display,
+            framebuffer,
+        }
+    }
+
+    /// The screen now, from the XWD file Xvfb keeps it in (32-bit pixels, masks in the
+    /// header).
+    fn screenshot(&self) -> Picture {
+        let file = std::fs::read(&self.framebuffer).unwrap();
+        let word = |k: usize| u32::from_be_bytes(file[4 * k..4 * k + 4].try_into().unwrap());
+        let (header, width, height) = (word(0) as usize, word(4), word(5));
+        let (little_endian, bits, stride) = (word(7) == 0, word(11), word(12) as usize);
+        let masks = [word(14), word(15), word(16)];
+        let colours = word(19) as usize;
+        assert_eq!(bits, 32, "a 24-bit screen keeps 32-bit pixels");
+        let pixels = &file[header + 12 * colours..];
+        let mut rgba = Vec::with_capacity((width * height * 4) as usize);
+        for y in 0..height as usize {
+            for x in 0..width as usize {
+                let bytes: [u8; 4] = pixels[y * stride + 4 * x..][..4].try_into().unwrap();
+                let value = if little_endian {
+                    u32::from_le_bytes(bytes)
+                } else {
+                    u32::from_be_bytes(bytes)
+                };
+                for mask in masks {
+                    rgba.push(((value & mask) >> mask.trailing_zeros()) as u8);
+                }
+                rgba.push(255);
+            }
+        }
+        Picture {
+            width,
+            height,
+            rgba,
+        }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
+    let dir = scratch("view");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    // The static scene with the grip at rest: every frame is the same but for the clock.
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    let (width, height) = (320, 240);
+    let screen = Xvfb::start(&dir, width, height);
+    let mut viewer = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["view", "--width", "320", "--height", "240"])
+        .env("DISPLAY", &screen.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let mut shot = screen.screenshot();
+    while !(0.2..0.95).contains(&drawn_share(&shot)) {
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the window never showed the scene ({} drawn)",
+            drawn_share(&shot)
+        );
+        assert!(
+            viewer.try_wait().unwrap().is_none(),
+            "hapticctl view exited"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+        shot = screen.screenshot();
+    }
+    let snapshot = bus
+        .snapshot(&["width", "u", "320", "height", "u", "240"])
+        .unwrap();
+    let _ = viewer.kill();
+    let _ = viewer.wait();
+    // Above the status line (whose clock moves on) the window shows what Snapshot draws.
+    let band = 13 * width as usize * 4;
+    let above = shot.rgba.len() - band;
+    let worst = shot.rgba[..above]
+        .iter()
+        .zip(&snapshot.rgba[..above])
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    assert!(
+        worst <= 2,
+        "the window differs from Snapshot by {worst} LSB"
+    );
+    let line = |p: &Picture| {
+        drawn_share(&Picture {
+            width,
+            height: 13,
+            rgba: p.rgba[above..].to_vec(),
+        })
+    };
+    assert!(line(&shot) > 0.3, "no status line in the window");
+}

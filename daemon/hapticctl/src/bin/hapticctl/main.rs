@@ -52,6 +52,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Write a picture of the running daemon's world to a PNG file (from hapticd-render).
     Snapshot(pictures::SnapshotArgs),
+    /// Show the running daemon's world live in a window (from hapticd-render).
+    View(pictures::ViewerArgs),
     /// The running daemon and each of its devices: state, mechanism, scene, rate, timing.
     Status(Output),
     /// A parameter or property of a device of the running daemon.
@@ -141,6 +143,7 @@ fn main() -> ExitCode {
         Command::Scene(command) => scene::run(command, &cli.bus),
         Command::Render(args) => render::run(&args, &catalog),
         Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
+        Command::View(args) => pictures::view(&args, &cli.bus),
         Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
         Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
         Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),

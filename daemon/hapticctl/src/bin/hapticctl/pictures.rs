@@ -1,11 +1,23 @@
 //! Pictures of the running daemon's world, from hapticd-render (`org.hapticd.Renderer1`):
-//! `hapticctl snapshot` writes one to a PNG file.
+//! `hapticctl snapshot` writes one to a PNG file, `hapticctl view` shows them live in a
+//! window (winit, on Wayland or X11), copying each frame of its stream to the window's
+//! pixels (softbuffer): the viewer needs no GPU of its own.
 
 use std::collections::HashMap;
+use std::num::NonZeroU32;
 use std::path::PathBuf;
+use std::rc::Rc;
+use std::time::{Duration, Instant};
 
 use clap::Args;
 use hapticd::bus::Bus;
+use hapticd::frame_ring::FrameRingReader;
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::WindowEvent;
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Fullscreen, Window, WindowId};
 use zbus::Variant;
 
 use crate::Failure;
@@ -117,4 +129,205 @@ pub fn snapshot(args: &SnapshotArgs, bus: &Bus) -> Result<(), Failure> {
         .map_err(|e| Failure::failed(format!("the renderer's answer: {e}")))?;
     std::fs::write(&args.out, png)
         .map_err(|e| Failure::failed(format!("cannot write {}: {e}", args.out.display())))
+}
+
+#[derive(Args)]
+pub struct ViewerArgs {
+    /// Fill the screen, without decorations (for a dedicated screen or a kiosk).
+    #[arg(long)]
+    fullscreen: bool,
+    /// Frames per second to ask for (1–120).
+    #[arg(long, default_value_t = 30.0)]
+    rate: f64,
+    /// The frames' size and camera (the window scales them to its size).
+    #[command(flatten)]
+    view: ViewArgs,
+}
+
+/// Ask the renderer on `bus` for a stream of frames; the connection must stay open for
+/// the frames to keep coming.
+fn open_stream(
+    bus: &Bus,
+    args: &ViewerArgs,
+) -> Result<(zbus::Connection, FrameRingReader), Failure> {
+    let connection = zbus::block_on(bus.connection())
+        .map_err(|e| Failure::failed(format!("cannot reach the bus {bus:?}: {e}")))?;
+    let mut options = args.view.options();
+    options.insert("rate", Variant::from(args.rate));
+    let reply = zbus::block_on(connection.call_method(
+        Some(RENDERER),
+        RENDERER_PATH,
+        Some(RENDERER),
+        "OpenFrameStream",
+        &(options,),
+    ))
+    .map_err(renderer_failure)?;
+    let fd: zbus::OwnedFd = reply
+        .body()
+        .deserialize()
+        .map_err(|e| Failure::failed(format!("the renderer's answer: {e}")))?;
+    let ring = FrameRingReader::open(&fd.into()).map_err(Failure::failed)?;
+    Ok((connection, ring))
+}
+
+/// After this long without a frame the stream is asked for again (a renderer restarted).
+const STALL: Duration = Duration::from_secs(2);
+
+/// The window and what it shows.
+struct Viewer<'a> {
+    bus: &'a Bus,
+    args: &'a ViewerArgs,
+    /// The stream: its bus connection (kept open) and its ring.
+    stream: (zbus::Connection, FrameRingReader),
+    window: Option<Rc<Window>>,
+    surface: Option<softbuffer::Surface<Rc<Window>, Rc<Window>>>,
+    rgba: Vec<u8>,
+    shown: u64,
+    /// When a frame last came, or the stream was last asked for.
+    fresh: Instant,
+    failure: Option<Failure>,
+}
+
+impl Viewer<'_> {
+    fn fail(&mut self, event_loop: &ActiveEventLoop, failure: Failure) {
+        self.failure = Some(failure);
+        event_loop.exit();
+    }
+
+    /// Show the latest frame, scaled to the window.
+    fn present(&mut self) -> Result<(), String> {
+        let (Some(window), Some(surface)) = (&self.window, &mut self.surface) else {
+            return Ok(());
+        };
+        let size = window.inner_size();
+        let (Some(width), Some(height)) =
+            (NonZeroU32::new(size.width), NonZeroU32::new(size.height))
+        else {
+            return Ok(());
+        };
+        surface.resize(width, height).map_err(|e| e.to_string())?;
+        let mut buffer = surface.buffer_mut().map_err(|e| e.to_string())?;
+        let ring = &self.stream.1;
+        if let Some(number) = ring.read(&mut self.rgba) {
+            self.shown = number;
+            self.fresh = Instant::now();
+        }
+        let (fw, fh) = ring.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        for y in 0..h {
+            let sy = y * fh as usize / h;
+            for x in 0..w {
+                let sx = x * fw as usize / w;
+                let at = (sy * fw as usize + sx) * 4;
+                buffer[y * w + x] = match self.rgba.get(at..at + 3) {
+                    Some(&[r, g, b]) => u32::from(r) << 16 | u32::from(g) << 8 | u32::from(b),
+                    _ => 0x20_22_28,
+                };
+            }
+        }
+        buffer.present().map_err(|e| e.to_string())
+    }
+}
+
+impl ApplicationHandler for Viewer<'_> {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.window.is_some() {
+            return;
+        }
+        let (width, height) = self.stream.1.size();
+        let mut attributes = Window::default_attributes()
+            .with_title("hapticd")
+            .with_inner_size(PhysicalSize::new(width, height));
+        if self.args.fullscreen {
+            attributes = attributes.with_fullscreen(Some(Fullscreen::Borderless(None)));
+        }
+        let window = match event_loop.create_window(attributes) {
+            Ok(w) => Rc::new(w),
+            Err(e) => return self.fail(event_loop, Failure::failed(format!("no window: {e}"))),
+        };
+        let surface = softbuffer::Context::new(window.clone())
+            .and_then(|context| softbuffer::Surface::new(&context, window.clone()));
+        match surface {
+            Ok(surface) => {
+                self.surface = Some(surface);
+                self.window = Some(window);
+            }
+            Err(e) => self.fail(
+                event_loop,
+                Failure::failed(format!("cannot draw in the window: {e}")),
+            ),
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::KeyboardInput { event, .. }
+                if event.state.is_pressed()
+                    && matches!(
+                        event.logical_key.as_ref(),
+                        Key::Named(NamedKey::Escape) | Key::Character("q")
+                    ) =>
+            {
+                event_loop.exit()
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.present() {
+                    self.fail(
+                        event_loop,
+                        Failure::failed(format!("cannot show a frame: {e}")),
+                    );
+                }
+            }
+            WindowEvent::Resized(_) => {
+                if let Some(window) = &self.window {
+                    window.request_redraw();
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if self.stream.1.latest() != self.shown
+            && let Some(window) = &self.window
+        {
+            window.request_redraw();
+        }
+        // A renderer that restarted draws into a new ring: ask for one again.
+        if self.fresh.elapsed() > STALL {
+            self.fresh = Instant::now();
+            if let Ok(stream) = open_stream(self.bus, self.args) {
+                self.stream = stream;
+                self.shown = 0;
+            }
+        }
+        let period = Duration::from_secs_f64(1.0 / self.args.rate.clamp(1.0, 120.0));
+        event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + period / 2));
+    }
+}
+
+/// `hapticctl view`: a window showing the daemon's world live.
+pub fn view(args: &ViewerArgs, bus: &Bus) -> Result<(), Failure> {
+    let stream = open_stream(bus, args)?;
+    let event_loop = EventLoop::new().map_err(|e| {
+        Failure::failed(format!(
+            "no display to open a window on (Wayland or X11): {e}"
+        ))
+    })?;
+    let mut viewer = Viewer {
+        bus,
+        args,
+        stream,
+        window: None,
+        surface: None,
+        rgba: Vec::new(),
+        shown: 0,
+        fresh: Instant::now(),
+        failure: None,
+    };
+    event_loop
+        .run_app(&mut viewer)
+        .map_err(|e| Failure::failed(format!("the window's event loop: {e}")))?;
+    viewer.failure.map_or(Ok(()), Err)
 }
