@@ -1,7 +1,8 @@
 //! Wake-up latency of hapticd's real-time thread against `cyclictest` (Debian rt-tests) at
 //! the same rate and priority, on the same machine, one after the other in one run; and with
 //! a world of 2000 bodies stepped by rapier at 60 Hz in the physics thread against the static
-//! scene (thesis Ch. 6 at scale).
+//! scene (thesis Ch. 6 at scale); and with hapticd-render drawing the blocks scene at 60
+//! frames a second (1280 × 720, for a viewer's stream) against no renderer.
 //!
 //! Run: `make latency` (needs the right to use SCHED_FIFO, e.g. root).
 
@@ -22,11 +23,17 @@ const WORLD: (usize, f64) = (2000, 60.0);
 
 /// hapticd's latency with `scene` (and more arguments).
 fn hapticd(scene: &[&std::ffi::OsStr]) -> Latency {
+    hapticd_beside(scene, || ())
+}
+
+/// hapticd's latency with `scene` (and more arguments), with whatever `beside` starts once
+/// hapticd is running kept running until it ends.
+fn hapticd_beside<T>(scene: &[&std::ffi::OsStr], beside: impl FnOnce() -> T) -> Latency {
     let dir = support::scratch_root().join("latency-mechanisms");
     std::fs::create_dir_all(&dir).unwrap();
     let plugin = support::plugin_path("hapticd-spidar-g");
     std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
-    let out = Command::new(support::artifact("hapticd"))
+    let child = Command::new(support::artifact("hapticd"))
         .arg("--mechanism-dir")
         .arg(&dir)
         .arg("--scene")
@@ -40,8 +47,12 @@ fn hapticd(scene: &[&std::ffi::OsStr]) -> Latency {
             &SECONDS.to_string(),
         ])
         .env_remove("NOTIFY_SOCKET")
-        .output()
+        .stderr(std::process::Stdio::piped())
+        .spawn()
         .expect("hapticd runs");
+    let kept = beside();
+    let out = child.wait_with_output().unwrap();
+    drop(kept);
     let log = String::from_utf8_lossy(&out.stderr);
     assert!(
         log.contains("SCHED_FIFO"),
@@ -118,6 +129,76 @@ fn large_world() -> Latency {
     ])
 }
 
+/// hapticd with the blocks scene on a private bus, and hapticd-render drawing it for a
+/// viewer at 60 frames a second when `drawn`.
+fn blocks(drawn: bool) -> Latency {
+    let dir = support::scratch_root().join(format!("latency-bus-{drawn}"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let repo = support::repo_dir();
+    let bus = support::bus::PrivateBus::with_policies(
+        &dir,
+        &[
+            &repo.join("config/dbus/org.hapticd.Hapticd1.conf"),
+            &repo.join("config/dbus/org.hapticd.Renderer1.conf"),
+        ],
+    );
+    let config = dir.join("hapticd.yaml");
+    let plugins = dir.join("scene-plugins");
+    std::fs::create_dir_all(&plugins).unwrap();
+    let penalty = support::plugin_path("hapticd-scene-penalty");
+    std::fs::copy(&penalty, plugins.join(penalty.file_name().unwrap())).unwrap();
+    std::fs::write(
+        &config,
+        format!("scene_plugin_dirs: [{}]\n", plugins.display()),
+    )
+    .unwrap();
+    let blocks = repo.join("config/scenes/blocks.yaml");
+    let address = format!("--bus={}", bus.address);
+    hapticd_beside(
+        &[
+            blocks.as_os_str(),
+            "--config".as_ref(),
+            config.as_os_str(),
+            address.as_ref(),
+        ],
+        || drawn.then(|| draw(&bus.address)),
+    )
+}
+
+/// hapticd-render on `address`, drawing 60 frames a second for a stream kept open: the
+/// renderer and the viewer's connection, to drop when done.
+fn draw(address: &str) -> (support::Killed, zbus::Connection) {
+    let connection =
+        zbus::block_on(zbus::connection::Builder::address(address).build()).unwrap();
+    let renderer = support::Killed(
+        Command::new(support::artifact("hapticd-render"))
+            .arg(format!("--bus={address}"))
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let options = std::collections::HashMap::from([
+        ("rate", zbus::Variant::from(60.0)),
+        ("width", zbus::Variant::from(1280u32)),
+        ("height", zbus::Variant::from(720u32)),
+    ]);
+    let started = std::time::Instant::now();
+    loop {
+        let reply = zbus::block_on(connection.call_method(
+            Some("org.hapticd.Renderer1"),
+            "/org/hapticd/Renderer1",
+            Some("org.hapticd.Renderer1"),
+            "OpenFrameStream",
+            &(&options,),
+        ));
+        if reply.is_ok() {
+            return (renderer, connection);
+        }
+        assert!(started.elapsed().as_secs() < 20, "no stream: {reply:?}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
 /// One row of the table: a label and three figures (latencies, or ratios).
 fn row(label: &str, (p50, p99, max): Latency, digits: usize) {
     println!("{label:<26}{p50:7.digits$}  {p99:7.digits$}  {max:7.digits$}");
@@ -132,6 +213,7 @@ fn main() {
     let ours = static_scene();
     let reference = cyclictest();
     let world = large_world();
+    let (plain, drawn) = (blocks(false), blocks(true));
     let (n, rate) = WORLD;
     println!("wake latency at {RATE} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs):");
     println!("{:<26}    p50      p99      max", "");
@@ -140,4 +222,7 @@ fn main() {
     row("ratio", ratio(ours, reference), 2);
     row(&format!("hapticd, {n} bodies, {rate} Hz"), world, 1);
     row("ratio to the static scene", ratio(world, ours), 2);
+    row("hapticd, blocks", plain, 1);
+    row("blocks, drawn at 60 fps", drawn, 1);
+    row("ratio drawn / not drawn", ratio(drawn, plain), 2);
 }
