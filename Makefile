@@ -79,6 +79,17 @@ figures: stage
 	$(HAPTICCTL) render config/scenes/blocks.yaml --mechanism spidar-g --force 4,12,0 \
 		--out docs/figures/render-blocks.png --width 640 --height 400
 	$(HAPTICCTL) render config/scenes/balls.yaml --out docs/figures/render-balls.png --width 640 --height 400
+	@# The running daemon as hapticctl view shows it: hapticd on the simulated SPIDAR-II, two
+	@# fingers in the blocks scene, and hapticd-render beside it, on a bus of their own.
+	$(CARGO) build --release -p hapticd-render-service -p hapticd-scene-penalty
+	install -m 644 $(RELEASE)/libhapticd_scene_penalty.so $(STAGE)/
+	printf 'scene_plugin_dirs: [%s]\n' $(abspath $(STAGE)) > $(STAGE)/figures.yaml
+	dbus-run-session -- sh -c '$(RELEASE)/hapticd --bus session --config $(STAGE)/figures.yaml \
+		--mechanism-dir $(STAGE) --sim spidar-ii --scene config/scenes/blocks.yaml \
+		--hand config/hands/press-blocks.yaml --duration 5 >/dev/null 2>&1 & sleep 1; \
+		$(RELEASE)/hapticd-render --bus session 2>/dev/null & sleep 2.5; \
+		$(HAPTICCTL) --bus session snapshot docs/figures/snapshot-blocks-spidar-ii.png \
+		--width 800 --height 500 --distance 0.45; kill $$!; wait'
 	$(HAPTICCTL) scene run config/scenes/top.yaml --duration 12 --model volume --model point \
 		--quantity spin --plot docs/figures/spinning-top.png
 

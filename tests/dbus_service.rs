@@ -1609,7 +1609,7 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
     let _ = viewer.kill();
     let _ = viewer.wait();
     // Above the status line (whose clock moves on) the window shows what Snapshot draws.
-    let band = 13 * width as usize * 4;
+    let band = 15 * width as usize * 4;
     let above = shot.rgba.len() - band;
     let worst = shot.rgba[..above]
         .iter()

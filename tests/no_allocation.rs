@@ -22,6 +22,7 @@ use hapticd_core::solver::pose::PoseSolver;
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
 use hapticd_device::transport::Sh4Transport;
+use hapticd_plugin_api::HapticdBodyPose;
 use support::amplifier::{
     SH4, emulated_amplifier_with, resting_dac, resting_session, umockdev_run,
 };
@@ -357,14 +358,80 @@ fn a_haptic_tick_of_a_rapier_scene_does_not_allocate() {
         std::thread::sleep(tick);
     }
     let mut pushed = 0.0f64;
-    // 400 ms at 20 Hz: eight sets of planes taken and eight impulses handed back.
+    let mut bodies = [HapticdBodyPose::default(); 4];
+    let mut proxies = [DVec3::ZERO; 1];
+    let mut block_x = Vec::with_capacity(400);
+    let mut proxy_x = f64::INFINITY;
+    // 400 ms at 20 Hz: eight sets of planes taken and eight impulses handed back; the world's
+    // picture taken every tick, as the haptic thread takes it for the renderer.
     let n = allocations_in(|| {
         for _ in 0..400 {
             assert!(scene.render(&pointers, 1e-3, &mut wrenches));
             pushed = pushed.max(-wrenches[0].force.x);
+            assert_eq!(
+                scene.write_bodies(&mut bodies),
+                2,
+                "the floor and the block"
+            );
+            assert!(scene.write_proxies(&mut proxies));
+            block_x.push(bodies[1].position[0]);
+            proxy_x = proxy_x.min(proxies[0].x);
             std::thread::sleep(tick);
         }
     });
     assert_eq!(n, 0, "{n} allocations in 400 ticks");
     assert!(pushed > 1.0, "the block did not push back: {pushed} N");
+    // Pushed along +x, the block is seen moving between physics steps (6.5.2), not in eight
+    // jumps of an eighth of its travel: far more places than steps, and no jump as large.
+    let mut places = block_x.clone();
+    places.dedup();
+    assert!(places.len() > 50, "{} places in 400 ticks", places.len());
+    let travel = block_x[399] - block_x[0];
+    let jump = block_x
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    assert!(travel > 0.01, "the block moved {travel} m");
+    assert!(jump < travel / 16.0, "a jump of {jump} m in {travel} m");
+    // While the block pushed back, the proxy rested on its face, short of the finger.
+    assert!(proxy_x < pointers[0].pose.position.x - 1e-3, "{proxy_x}");
+}
+
+/// A direct scene's picture through the real loader: the penalty plugin writes its bodies'
+/// poses, the pointer's solid last, without allocating.
+#[test]
+fn the_bodies_of_a_penalty_plugin_are_pictured_without_allocating() {
+    use hapticd::plugin_scene;
+    let path = support::repo_dir().join("config/scenes/blocks.yaml");
+    let pointers = [Pointer {
+        pose: Pose {
+            position: DVec3::new(0.0, 0.05, 0.0),
+            ..Pose::default()
+        },
+        velocity: DVec3::ZERO,
+    }];
+    let mut scene = plugin_scene::load(
+        &support::plugin_path("hapticd-scene-penalty"),
+        Some(&path),
+        &pointers,
+    )
+    .unwrap();
+    let mut wrenches = [Wrench::ZERO];
+    let mut bodies = [HapticdBodyPose::default(); 16];
+    let mut count = 0;
+    let n = allocations_in(|| {
+        for _ in 0..100 {
+            assert!(scene.render(&pointers, 1e-3, &mut wrenches));
+            count = scene.write_bodies(&mut bodies);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 100 ticks");
+    // Seven bodies in the file, then the pointer's solid, at the grip.
+    assert_eq!(count, 8);
+    assert_eq!(bodies[0].position, [0.0, -0.05, 0.0], "the fixed table");
+    assert!((DVec3::from(bodies[7].position) - pointers[0].pose.position).length() < 1e-9);
+    // Only as many as asked for are written.
+    let mut two = [HapticdBodyPose::default(); 2];
+    assert_eq!(scene.write_bodies(&mut two), 8);
+    assert_eq!(two[1], bodies[1]);
 }

@@ -137,8 +137,9 @@ fn a_plugin_for_another_abi_major_is_refused() {
     let path = compile_c(&dir, "old", &c_plugin_with_abi(2, 0));
     let e = refusal(&path);
     assert!(e.starts_with(&path.display().to_string()), "{e}");
+    let speaks = format!("this hapticd speaks ABI {HAPTICD_ABI_MAJOR}.{HAPTICD_ABI_MINOR}");
     assert!(
-        e.contains("built for plugin ABI 2.0, but this hapticd speaks ABI 1.1"),
+        e.contains(&format!("built for plugin ABI 2.0, but {speaks}")),
         "{e}"
     );
     std::fs::remove_dir_all(dir).ok();
@@ -158,6 +159,51 @@ fn a_plugin_for_a_newer_abi_minor_loads_and_finds_no_unknown_extension() {
     let path = compile_c(&dir, "new", &source);
     let loaded = plugin::load(&path).expect("a newer minor loads");
     assert_eq!(loaded.abi, (1, 7));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A scene plugin built against ABI 1.1, whose vtable ends before `poses` (1.2): the host
+/// reads no function past its end (here a poisoned word lies there) and runs the scene
+/// with no bodies to show.
+#[test]
+fn a_scene_plugin_of_an_older_minor_runs_without_what_came_later() {
+    let dir = scratch("older-scene");
+    let source = r#"#include <stddef.h>
+#include <stdint.h>
+#include "hapticd_plugin.h"
+static int made;
+static int32_t create(const char *path, uint32_t n, void **instance, HapticdSceneInfo *info) {
+    (void)path; (void)n; *instance = &made; info->style = HAPTICD_SCENE_DIRECT; return 0;
+}
+static void destroy(void *instance) { (void)instance; }
+static int32_t step(void *instance, double dt, const HapticdPointer *p, uint32_t n,
+                    HapticdWrench *w) {
+    (void)instance; (void)dt; (void)p;
+    for (uint32_t k = 0; k < n; k++) { w[k] = (HapticdWrench){ { 0, 1, 0 }, { 0, 0, 0 } }; }
+    return 0;
+}
+/* The vtable of ABI 1.1, and after it a word that is no function. */
+struct Older {
+    uint32_t struct_size;
+    void *create, *destroy, *step_direct, *step_physics;
+};
+static const struct { struct Older vtable; uintptr_t poison; } table = {
+    { sizeof(struct Older), (void *)create, (void *)destroy, (void *)step, NULL }, 1 };
+static const HapticdPluginDescriptor d = { 1, 1, HAPTICD_KIND_SCENE, "older", "0",
+    "a scene of ABI 1.1", NULL, (const HapticdSceneVtable *)&table };
+const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) { (void)h; return &d; }
+"#;
+    let path = compile_c(&dir, "older", source);
+    let pointers = [hapticd_core::scene::Pointer {
+        pose: Default::default(),
+        velocity: Default::default(),
+    }];
+    let mut scene = hapticd::plugin_scene::load(&path, None, &pointers).unwrap();
+    let mut wrenches = [Wrench::ZERO];
+    assert!(scene.render(&pointers, 1e-3, &mut wrenches));
+    assert_eq!(wrenches[0].force.y, 1.0);
+    let mut poses = [hapticd_plugin_api::HapticdBodyPose::default(); 4];
+    assert_eq!(scene.write_bodies(&mut poses), 0);
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -168,8 +168,7 @@ fn blocks(drawn: bool) -> Latency {
 /// hapticd-render on `address`, drawing 60 frames a second for a stream kept open: the
 /// renderer and the viewer's connection, to drop when done.
 fn draw(address: &str) -> (support::Killed, zbus::Connection) {
-    let connection =
-        zbus::block_on(zbus::connection::Builder::address(address).build()).unwrap();
+    let connection = zbus::block_on(zbus::connection::Builder::address(address).build()).unwrap();
     let renderer = support::Killed(
         Command::new(support::artifact("hapticd-render"))
             .arg(format!("--bus={address}"))

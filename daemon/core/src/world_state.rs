@@ -349,7 +349,7 @@ mod tests {
         let mut memory = block();
         let shared = memory.as_mut_ptr();
         // SAFETY: the box holds one SharedWorld for the test's life.
-        drop(unsafe { WorldWriter::new(shared) });
+        let _writer = unsafe { WorldWriter::new(shared) };
         // SAFETY: as above.
         let short = unsafe { WorldReader::new(shared, SHARED_SIZE - 1) };
         assert!(short.is_err_and(|e| e.0.contains("bytes")));

@@ -1,78 +1,28 @@
-//! The status line under a picture (scene, rate, state, time): white 5 × 7 pixel letters on
-//! a dark band, written into the pixels after they are read back, so no font, texture or
-//! second pipeline is needed.
+//! The status line under a picture (scene, rate, state, time): white letters of the 5 × 7
+//! bitmap font on a dark band, written into the pixels after they are read back, so no
+//! font file, texture or second pipeline is needed.
 
+use hapticd_render::font::{self, GLYPH_WIDTH};
 use hapticd_render::picture::Picture;
 
-/// Rows of a glyph, top down, five bits each (the highest is the leftmost pixel).
-type Glyph = [u8; 7];
-
-/// The letters a status line uses; anything else is drawn as `?` (capitals as small ones).
-fn glyph(c: char) -> Glyph {
-    match c.to_ascii_lowercase() {
-        '0' => [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
-        '1' => [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        '2' => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
-        '3' => [0x1E, 0x01, 0x01, 0x0E, 0x01, 0x01, 0x1E],
-        '4' => [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
-        '5' => [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
-        '6' => [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
-        '7' => [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
-        '8' => [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
-        '9' => [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
-        'a' => [0x00, 0x00, 0x0E, 0x01, 0x0F, 0x11, 0x0F],
-        'b' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1E],
-        'c' => [0x00, 0x00, 0x0E, 0x10, 0x10, 0x11, 0x0E],
-        'd' => [0x01, 0x01, 0x0D, 0x13, 0x11, 0x11, 0x0F],
-        'e' => [0x00, 0x00, 0x0E, 0x11, 0x1F, 0x10, 0x0E],
-        'f' => [0x06, 0x09, 0x08, 0x1C, 0x08, 0x08, 0x08],
-        'g' => [0x00, 0x0F, 0x11, 0x11, 0x0F, 0x01, 0x0E],
-        'h' => [0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11],
-        'i' => [0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E],
-        'j' => [0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0C],
-        'k' => [0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12],
-        'l' => [0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        'm' => [0x00, 0x00, 0x1A, 0x15, 0x15, 0x11, 0x11],
-        'n' => [0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11],
-        'o' => [0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E],
-        'p' => [0x00, 0x00, 0x1E, 0x11, 0x1E, 0x10, 0x10],
-        'q' => [0x00, 0x00, 0x0D, 0x13, 0x0F, 0x01, 0x01],
-        'r' => [0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10],
-        's' => [0x00, 0x00, 0x0E, 0x10, 0x0E, 0x01, 0x1E],
-        't' => [0x08, 0x08, 0x1C, 0x08, 0x08, 0x09, 0x06],
-        'u' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0D],
-        'v' => [0x00, 0x00, 0x11, 0x11, 0x11, 0x0A, 0x04],
-        'w' => [0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A],
-        'x' => [0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11],
-        'y' => [0x00, 0x00, 0x11, 0x11, 0x0F, 0x01, 0x0E],
-        'z' => [0x00, 0x00, 0x1F, 0x02, 0x04, 0x08, 0x1F],
-        ' ' => [0; 7],
-        '|' => [0x04; 7],
-        '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C],
-        '-' => [0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00],
-        ':' => [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00],
-        '_' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F],
-        '/' => [0x01, 0x02, 0x02, 0x04, 0x08, 0x08, 0x10],
-        _ => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x00, 0x04],
-    }
-}
-
 /// Pixels a glyph takes across, its gap included.
-const ADVANCE: usize = 6;
+const ADVANCE: usize = GLYPH_WIDTH + 1;
 /// The band's margin around the letters.
 const MARGIN: usize = 3;
+/// Rows of a line: the glyphs' seven and two for descenders.
+const LINE: usize = 9;
 
 /// Write `text` along the bottom left of `picture`, as much of it as fits; letters twice
 /// as large on pictures at least 480 pixels high.
 pub fn write(picture: &mut Picture, text: &str) {
     let scale = if picture.height >= 480 { 2 } else { 1 };
     let (width, height) = (picture.width as usize, picture.height as usize);
-    let band = (7 + 2 * MARGIN) * scale;
+    let band = (LINE + 2 * MARGIN) * scale;
     if height < band || width < 2 * MARGIN * scale {
         return;
     }
     let fits = (width - 2 * MARGIN * scale) / (ADVANCE * scale);
-    let letters: Vec<Glyph> = text.chars().take(fits).map(glyph).collect();
+    let letters: Vec<char> = text.chars().take(fits).collect();
     let band_width = (letters.len() * ADVANCE + 2 * MARGIN) * scale;
     let mut blend = |x: usize, y: usize, colour: [u8; 3], alpha: u16| {
         let at = (y * width + x) * 4;
@@ -86,14 +36,14 @@ pub fn write(picture: &mut Picture, text: &str) {
             blend(x, y, [20, 22, 28], 170);
         }
     }
-    for (k, rows) in letters.iter().enumerate() {
-        for (row, bits) in rows.iter().enumerate() {
-            for column in 0..5 {
-                if bits & (0x10 >> column) == 0 {
+    for (k, &c) in letters.iter().enumerate() {
+        for (row, bits) in font::glyph(c).iter().enumerate() {
+            for column in 0..GLYPH_WIDTH {
+                if bits & (1 << (GLYPH_WIDTH - 1 - column)) == 0 {
                     continue;
                 }
                 let x0 = (MARGIN + k * ADVANCE + column) * scale;
-                let y0 = top + (MARGIN + row) * scale;
+                let y0 = top + (MARGIN + row + font::drop(c)) * scale;
                 for dy in 0..scale {
                     for dx in 0..scale {
                         blend(x0 + dx, y0 + dy, [255, 255, 255], 255);
@@ -129,30 +79,22 @@ mod tests {
     }
 
     #[test]
-    fn every_letter_of_a_status_has_its_own_glyph() {
-        let unknown = glyph('\u{1}');
-        for c in
-            "blocks | 1000 hz | running fault disconnected uncalibrated | 12.3 s no scene file_-:/"
-                .chars()
-        {
-            assert!(c == '?' || glyph(c) != unknown, "{c:?} has no glyph");
-        }
-        let distinct: std::collections::BTreeSet<Glyph> =
-            ('a'..='z').chain('0'..='9').map(glyph).collect();
-        assert_eq!(distinct.len(), 36, "two letters look alike");
-    }
-
-    #[test]
     fn the_line_is_written_at_the_bottom_left_and_only_there() {
         let mut p = grey(200, 100);
         write(&mut p, "1 |");
-        let columns = white_columns(&p);
-        // '1' spans columns 1..4 of its cell, '|' column 2 of the third cell.
-        assert_eq!(
-            columns,
-            [MARGIN + 1, MARGIN + 2, MARGIN + 3, MARGIN + 2 * ADVANCE + 2]
-        );
-        let band_top = 100 - (7 + 2 * MARGIN);
+        // Each letter's lit columns, in its cell.
+        let lit = |c: char, cell: usize| -> Vec<usize> {
+            (0..GLYPH_WIDTH)
+                .filter(|col| {
+                    font::glyph(c)
+                        .iter()
+                        .any(|bits| bits & (1 << (GLYPH_WIDTH - 1 - col)) != 0)
+                })
+                .map(|col| MARGIN + cell * ADVANCE + col)
+                .collect()
+        };
+        assert_eq!(white_columns(&p), [lit('1', 0), lit('|', 2)].concat());
+        let band_top = 100 - (LINE + 2 * MARGIN);
         assert_eq!(
             &p.rgba[..band_top * 200 * 4],
             &grey(200, 100).rgba[..band_top * 200 * 4]
@@ -167,12 +109,12 @@ mod tests {
 
     #[test]
     fn a_long_line_is_cut_to_the_picture_and_large_pictures_get_large_letters() {
-        let mut small = grey(40, 20);
-        write(&mut small, "llllllllllllllllllll");
-        assert!(white_columns(&small).iter().all(|&x| x < 40));
-        let mut large = grey(640, 480);
-        write(&mut large, "l");
-        // 'l' is columns 1..3 of its cell, two pixels each at this size.
-        assert_eq!(white_columns(&large).len(), 6);
+        let mut narrow = grey(40, 20);
+        write(&mut narrow, "llllllllllllllllllll");
+        assert!(white_columns(&narrow).iter().all(|&x| x < 40));
+        let (mut small, mut large) = (grey(640, 479), grey(640, 480));
+        write(&mut small, "m");
+        write(&mut large, "m");
+        assert_eq!(white_columns(&large).len(), 2 * white_columns(&small).len());
     }
 }

@@ -4,6 +4,7 @@
 //! - [`mesh`]: triangles of the things drawn (boxes, balls, convex polyhedra, a striped
 //!   floor), each vertex with its normal and colour;
 //! - [`camera`]: where the picture is taken from;
+//! - [`font`]: a small bitmap font, for text written into pictures;
 //! - [`vulkan`]: the device, the pipeline, and one frame drawn and read back;
 //! - [`picture`]: the frame's pixels and its PNG file;
 //! - [`scenery`]: what a scene, a mechanism and the pointers look like, as meshes.
@@ -13,6 +14,7 @@
 //! by naga at build time.
 
 pub mod camera;
+pub mod font;
 pub mod mesh;
 pub mod picture;
 pub mod scenery;

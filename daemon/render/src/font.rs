@@ -1,5 +1,6 @@
-//! A 5×7 bitmap font for chart labels: printable ASCII plus the Greek letters the thesis'
-//! symbols need (λ, μ, τ). Each glyph is seven rows, bit 4 the leftmost pixel.
+//! A 5×7 bitmap font for chart labels and the renderer's status line: printable ASCII plus
+//! the Greek letters the thesis' symbols need (λ, μ, τ). Each glyph is seven rows, bit 4 the
+//! leftmost pixel.
 
 /// Width of a glyph in font pixels.
 pub const GLYPH_WIDTH: usize = 5;

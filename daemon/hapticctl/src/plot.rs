@@ -1,10 +1,10 @@
 //! PNG line charts and region maps, drawn without a font or graphics stack so that every
 //! experiment can write its figure on a bare server.
 
-mod font;
-
 use std::io::Write;
 use std::path::Path;
+
+use hapticd_render::font;
 
 /// An RGB colour.
 pub type Rgb = [u8; 3];
