@@ -89,7 +89,7 @@ figures: stage
 		--hand config/hands/press-blocks.yaml --duration 5 >/dev/null 2>&1 & sleep 1; \
 		$(RELEASE)/hapticd-render --bus session 2>/dev/null & sleep 2.5; \
 		$(HAPTICCTL) --bus session snapshot docs/figures/snapshot-blocks-spidar-ii.png \
-		--width 800 --height 500 --distance 0.45; kill $$!; wait'
+		--width 800 --height 500 --distance 0.55 --elevation 0.7; kill $$!; wait'
 	$(HAPTICCTL) scene run config/scenes/top.yaml --duration 12 --model volume --model point \
 		--quantity spin --plot docs/figures/spinning-top.png
 
