@@ -7,7 +7,7 @@ mod support;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use support::bus::{NAME, PrivateBus};
+use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{artifact, repo_dir};
 
 /// A fresh scratch root for one test.
@@ -131,6 +131,7 @@ fn make_install_lays_out_a_working_system() {
     make_install(&dest, &[]);
     for file in [
         "usr/bin/hapticd",
+        "usr/bin/hapticd-render",
         "usr/bin/hapticctl",
         "usr/lib/hapticd/plugins/libhapticd_spidar_g.so",
         "usr/lib/hapticd/plugins/libspidar_desk.so",
@@ -142,12 +143,15 @@ fn make_install_lays_out_a_working_system() {
         "usr/share/pkgconfig/hapticd-plugin.pc",
         "etc/hapticd/hapticd.yaml",
         "usr/lib/systemd/system/hapticd.service",
+        "usr/lib/systemd/system/hapticd-render.service",
         "usr/lib/sysusers.d/hapticd.conf",
         "usr/lib/udev/rules.d/70-hapticd.rules",
         "usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf",
+        "usr/share/dbus-1/system.d/org.hapticd.Renderer1.conf",
         "usr/share/dbus-1/system-services/org.hapticd.Hapticd1.service",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Manager.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Device.xml",
+        "usr/share/dbus-1/interfaces/org.hapticd.Renderer1.xml",
         "usr/share/doc/hapticd/README.md",
         "usr/share/doc/hapticd/LICENSE-MIT",
         "usr/share/doc/hapticd/LICENSE-APACHE",
@@ -157,6 +161,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/share/zsh/vendor-completions/_hapticctl",
         "usr/share/fish/vendor_completions.d/hapticctl.fish",
         "usr/share/man/man8/hapticd.8",
+        "usr/share/man/man8/hapticd-render.8",
         "usr/share/man/man1/hapticctl.1",
         "usr/share/man/man1/hapticctl-scene-run.1",
         "usr/share/man/man5/hapticd.yaml.5",
@@ -180,7 +185,71 @@ fn make_install_lays_out_a_working_system() {
     for scene in ["static", "blocks", "top"] {
         assert!(scenes.contains(&format!("\"{scene}\"")), "{scenes}");
     }
+    let picture = snapshot_of_installed(&dest);
+    assert_eq!((picture.width, picture.height), (64, 48));
     std::fs::remove_dir_all(&dest).unwrap();
+}
+
+/// A picture from the renderer installed under `root`, started as its unit starts it beside
+/// the installed daemon, on a bus with both installed policies.
+fn snapshot_of_installed(root: &Path) -> hapticd_render::picture::Picture {
+    let policies = root.join("usr/share/dbus-1/system.d");
+    let bus = PrivateBus::with_policies(
+        &scratch("render-bus"),
+        &[
+            &policies.join("org.hapticd.Hapticd1.conf"),
+            &policies.join("org.hapticd.Renderer1.conf"),
+        ],
+    );
+    let mut daemon = exec_start(root, "usr/lib/systemd/system/hapticd.service", &bus.address);
+    daemon
+        .arg("--config")
+        .arg(root.join("etc/hapticd/hapticd.yaml"));
+    let _daemon = support::Killed(daemon.stderr(std::process::Stdio::null()).spawn().unwrap());
+    let renderer = exec_start(
+        root,
+        "usr/lib/systemd/system/hapticd-render.service",
+        &bus.address,
+    );
+    let _renderer = support::Killed(
+        { renderer }
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let started = std::time::Instant::now();
+    loop {
+        let out = Command::new("busctl")
+            .arg(format!("--address={}", bus.address))
+            .args([
+                "--json=short",
+                "call",
+                RENDERER,
+                "/org/hapticd/Renderer1",
+                RENDERER,
+            ])
+            .args([
+                "Snapshot", "a{sv}", "2", "width", "u", "64", "height", "u", "48",
+            ])
+            .output()
+            .unwrap();
+        if out.status.success() {
+            let reply: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            let png: Vec<u8> = reply["data"][0]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|b| b.as_u64().unwrap() as u8)
+                .collect();
+            return hapticd_render::picture::Picture::from_png(&png).unwrap();
+        }
+        assert!(
+            started.elapsed().as_secs() < 30,
+            "no picture from the installed renderer: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
 }
 
 /// `make install PREFIX=/opt/hapticd`: the unit, rules and user go where systemd and udev
