@@ -206,13 +206,13 @@ fn snapshot_of_installed(root: &Path) -> hapticd_render::picture::Picture {
         .arg("--config")
         .arg(root.join("etc/hapticd/hapticd.yaml"));
     let _daemon = support::Killed(daemon.stderr(std::process::Stdio::null()).spawn().unwrap());
-    let renderer = exec_start(
+    let mut renderer = exec_start(
         root,
         "usr/lib/systemd/system/hapticd-render.service",
         &bus.address,
     );
     let _renderer = support::Killed(
-        { renderer }
+        renderer
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap(),
