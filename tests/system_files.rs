@@ -80,6 +80,47 @@ fn the_unit_passes_systemd_analyze_verify_without_a_warning() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The renderer's unit: beside hapticd's, wanted by it, restarted when its driver crashes,
+/// free to compile shaders, and as sandboxed as that allows.
+#[test]
+fn the_renderer_unit_is_wanted_by_hapticd_and_restarts_with_back_off() {
+    let haptic = read("systemd/hapticd.service");
+    assert_eq!(values(&haptic, "Wants"), ["hapticd-render.service"]);
+    assert_eq!(values(&haptic, "MemoryDenyWriteExecute"), ["yes"]);
+    let unit = read("systemd/hapticd-render.service");
+    assert_eq!(values(&unit, "PartOf"), ["hapticd.service"]);
+    assert_eq!(values(&unit, "Restart"), ["always"]);
+    assert_eq!(values(&unit, "RestartSteps").len(), 1);
+    assert_eq!(values(&unit, "User"), ["hapticd-render"]);
+    assert!(values(&unit, "MemoryDenyWriteExecute").is_empty());
+    assert_eq!(values(&unit, "CapabilityBoundingSet"), [""]);
+    let sysusers = read("systemd/hapticd.sysusers");
+    assert!(sysusers.lines().any(|l| l.starts_with("u hapticd-render ")));
+    let dir = support::scratch_root().join(format!("render-unit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("hapticd-render.service");
+    let built = format!("ExecStart={}", artifact("hapticd-render").display());
+    std::fs::write(
+        &file,
+        unit.replace("ExecStart=/usr/bin/hapticd-render", &built),
+    )
+    .unwrap();
+    let out = Command::new("systemd-analyze")
+        .arg("verify")
+        .arg(&file)
+        .output()
+        .unwrap();
+    // systemd before 254 has no growing restart delay: it names the two settings and
+    // restarts every second instead. Anything else is a mistake.
+    let diagnostics = String::from_utf8_lossy(&out.stderr);
+    let other: Vec<&str> = diagnostics
+        .lines()
+        .filter(|l| !l.contains("RestartSteps") && !l.contains("RestartMaxDelaySec"))
+        .collect();
+    assert!(out.status.success() && other.is_empty(), "{diagnostics}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn the_unit_runs_as_the_user_that_alone_owns_the_devices() {
     let unit = read("systemd/hapticd.service");
