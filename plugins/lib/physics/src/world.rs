@@ -114,6 +114,9 @@ fn point_contact(
     }
 }
 
+/// Largest one-step phase ω·dt of a contact's friction springs.
+const FRICTION_PHASE: f64 = 0.5;
+
 /// Pairs of bodies a world leaves out of its contacts without allocating.
 pub const IGNORED_PAIRS: usize = 16;
 
@@ -146,6 +149,9 @@ pub struct World {
     touched: Vec<u64>,
     /// Steps taken.
     steps: u64,
+    /// Each body's contacts at the last step, and so far at this one.
+    contacts: Vec<u32>,
+    counting: Vec<u32>,
     /// Each body's bounding box at this step.
     boxes: Vec<Aabb>,
     /// Bodies in order of their boxes' lower ends along the sweep axis.
@@ -242,6 +248,8 @@ impl World {
             normals: vec![DVec3::ZERO; pairs],
             touched: vec![0; pairs],
             steps: 0,
+            contacts: vec![0; n],
+            counting: vec![0; n],
             boxes: vec![Aabb::EMPTY; n],
             order: (0..n).collect(),
             wrenches: vec![Wrench::default(); n],
@@ -365,6 +373,8 @@ impl World {
                 }
             }
         }
+        std::mem::swap(&mut self.contacts, &mut self.counting);
+        self.counting.fill(0);
         for (b, w) in self.bodies.iter_mut().zip(&self.wrenches) {
             // Torques were taken about the origin; the body turns about its centroid.
             let torque = w.torque - b.position.cross(w.force);
@@ -414,6 +424,8 @@ impl World {
             return;
         }
         self.touched[pair] = self.steps;
+        self.counting[i] += 1;
+        self.counting[j] += 1;
         let normal = self
             .separation_normal(piece_a, piece_b, self.normals[pair])
             .unwrap_or_else(|| self.contact_normal(piece_b));
@@ -427,6 +439,12 @@ impl World {
         // contact, along the damped direction, turning included.
         let (mut m, at) = (self.material, self.overlap_centre());
         let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
+        // A body between several contacts (a block in a stack) takes every one's damper
+        // in the same step: each may stop only its share of the motion, or together they
+        // overshoot and the stack rings from step to step.
+        let shares = |k: usize| f64::from(self.contacts[k].max(1));
+        let damped_mobility =
+            |d: DVec3| a.inverse_mass_at(at, d) * shares(i) + b.inverse_mass_at(at, d) * shares(j);
         let stable =
             |c: f64, area: f64, inverse_mass: f64| c / (1.0 + c * area * dt * inverse_mass);
         let normal_mobility = inverse_mass(normal);
@@ -451,8 +469,15 @@ impl World {
         if let Some(scaling) = m.scaling {
             scaling.apply(&mut m, patch.area, mobility, dt);
         }
-        m.damping = stable(m.damping, patch.area, normal_mobility);
-        m.friction.damping = stable(m.friction.damping, patch.area, tangent_mobility);
+        m.damping = stable(m.damping, patch.area, damped_mobility(normal));
+        let tangent_shared = damped_mobility(t1).max(damped_mobility(t2));
+        m.friction.damping = stable(m.friction.damping, patch.area, tangent_shared);
+        // A friction spring stiffer than the step allows (explicitly integrated, with the
+        // bodies' turning at the contact and their other contacts) rings between sticking
+        // and slipping for ever: hold its one-step phase ω·dt to what the integrator takes
+        // with room.
+        let stiffest = FRICTION_PHASE.powi(2) / (tangent_shared * dt * dt * patch.area);
+        m.friction.stiffness = m.friction.stiffness.min(stiffest);
         // Sliding friction must fade out over more than the speed one step of it
         // takes away, or it reverses the slide every step instead of stopping it.
         let kick = m.friction.dynamic_coefficient * m.stiffness * volume * dt;
