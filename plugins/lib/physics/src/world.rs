@@ -1,7 +1,7 @@
 //! A world of rigid bodies in contact, stepped by the penalty method with forces integrated
 //! over each contact's intersection volume (thesis 5.3).
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 use super::body::Body;
 use super::clip::Clipper;
@@ -156,7 +156,27 @@ pub struct World {
     boxes: Vec<Aabb>,
     /// Bodies in order of their boxes' lower ends along the sweep axis.
     order: Vec<usize>,
+    /// Whether bodies at rest may sleep (see [`World::step`]).
+    pub sleeping: bool,
+    /// Which bodies sleep, and where each was put to sleep.
+    asleep: Vec<Option<(DVec3, DQuat)>>,
+    /// Steps each body has moved slower than [`SLEEP_SPEED`].
+    still: Vec<u32>,
+    /// The bodies touching in this step, as a union-find forest over body indices.
+    island: Vec<usize>,
+    /// Whether a pointer moved by hand reaches a body in this step.
+    held: Vec<bool>,
+    /// The fewest still steps of any body of the island rooted at a body.
+    island_still: Vec<u32>,
+    /// Gravity and loads at the last step: a change wakes the bodies.
+    last_gravity: DVec3,
+    last_loads: Vec<Wrench>,
 }
+
+/// A body whose every point moves slower than this (m/s) is still.
+pub const SLEEP_SPEED: f64 = 1e-3;
+/// How long (s) a group of touching bodies must all be still before it sleeps.
+pub const SLEEP_AFTER: f64 = 0.5;
 
 /// An axis-aligned bounding box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -252,6 +272,14 @@ impl World {
             counting: vec![0; n],
             boxes: vec![Aabb::EMPTY; n],
             order: (0..n).collect(),
+            sleeping: true,
+            asleep: vec![None; n],
+            still: vec![0; n],
+            island: (0..n).collect(),
+            held: vec![false; n],
+            island_still: vec![0; n],
+            last_gravity: gravity,
+            last_loads: vec![Wrench::ZERO; n],
             wrenches: vec![Wrench::default(); n],
             loads: vec![Wrench::ZERO; n],
             ignored_pairs: Vec::with_capacity(IGNORED_PAIRS),
@@ -340,10 +368,25 @@ impl World {
 
     /// Advance every body by `dt`. Fixed bodies stay where they are put (they may be moved
     /// between steps, like a pointer following the grip).
+    ///
+    /// Bodies at rest sleep: when every body of a group touching one another (and fixed
+    /// bodies) has moved slower than [`SLEEP_SPEED`] at every point for [`SLEEP_AFTER`]
+    /// seconds, and no pointer moved by hand reaches it, the group stops where it is and
+    /// costs nothing until a moving body or pointer reaches one of its bodies, or gravity,
+    /// a load, a velocity or a pose is changed from outside; the bodies then wake with their
+    /// contacts and friction springs as they were. So a resting body keeps still to within
+    /// what it moves in that half second.
     pub fn step(&mut self, dt: f64) {
+        self.wake_the_disturbed();
         for i in 0..self.bodies.len() {
-            // Every torque here is about the world origin.
-            self.wrenches[i] = self.body_wrench(i);
+            // Every torque here is about the world origin; a sleeping body is in balance.
+            self.wrenches[i] = if self.asleep[i].is_some() {
+                Wrench::ZERO
+            } else {
+                self.body_wrench(i)
+            };
+            self.island[i] = i;
+            self.held[i] = false;
         }
         // Broad phase: sort and sweep the bounding boxes along one axis.
         self.steps += 1;
@@ -362,35 +405,194 @@ impl World {
             }
         }
         let n = self.bodies.len();
-        for first in 0..n {
-            for second in first + 1..n {
-                let (p, q) = (self.order[first], self.order[second]);
-                if self.boxes[q].min[axis] > self.boxes[p].max[axis] {
-                    break;
-                }
-                if self.boxes[p].overlaps(&self.boxes[q]) {
-                    self.collide(p.min(q), p.max(q), dt);
+        // First wake what moving bodies reach, then take the contacts: a body woken in the
+        // middle of the second pass would miss the contacts taken before it.
+        for waking in [true, false] {
+            for first in 0..n {
+                for second in first + 1..n {
+                    let (p, q) = (self.order[first], self.order[second]);
+                    if self.boxes[q].min[axis] > self.boxes[p].max[axis] {
+                        break;
+                    }
+                    if !self.boxes[p].overlaps(&self.boxes[q]) {
+                        continue;
+                    }
+                    let (i, j) = (p.min(q), p.max(q));
+                    if waking {
+                        self.reach(i, j);
+                    } else {
+                        self.meet(i, j, dt);
+                    }
                 }
             }
         }
         std::mem::swap(&mut self.contacts, &mut self.counting);
         self.counting.fill(0);
-        for (b, w) in self.bodies.iter_mut().zip(&self.wrenches) {
-            // Torques were taken about the origin; the body turns about its centroid.
-            let torque = w.torque - b.position.cross(w.force);
-            b.integrate(w.force, torque, dt);
+        for (b, (w, asleep)) in self
+            .bodies
+            .iter_mut()
+            .zip(self.wrenches.iter().zip(&self.asleep))
+        {
+            if asleep.is_none() {
+                // Torques were taken about the origin; the body turns about its centroid.
+                let torque = w.torque - b.position.cross(w.force);
+                b.integrate(w.force, torque, dt);
+            }
+        }
+        if self.sleeping {
+            self.fall_asleep(dt);
         }
     }
 
+    /// Whether body `i` moves this step: awake and free, or a pointer moved by hand.
+    fn moves(&self, i: usize) -> bool {
+        let b = &self.bodies[i];
+        self.asleep[i].is_none() && (!b.fixed || b.kinematic)
+    }
+
+    /// Bodies `i` and `j` overlap in the broad phase: a moving one wakes a sleeping one,
+    /// and a pointer moved by hand keeps the other awake (a body it holds too, whose
+    /// contacts with it are left out).
+    fn reach(&mut self, i: usize, j: usize) {
+        match (self.moves(i), self.moves(j)) {
+            (true, false) => self.wake(j),
+            (false, true) => self.wake(i),
+            _ => {}
+        }
+        let by_hand = |k: usize| self.bodies[k].fixed && self.bodies[k].kinematic;
+        if by_hand(i) || by_hand(j) {
+            self.held[i] = true;
+            self.held[j] = true;
+        }
+    }
+
+    /// Bodies `i` < `j` overlap in the broad phase: add their contact wrenches and join
+    /// their islands; two that do not move keep their contacts as they were.
+    fn meet(&mut self, i: usize, j: usize, dt: f64) {
+        if !self.moves(i) && !self.moves(j) {
+            self.keep_contacts(i, j);
+            return;
+        }
+        if self.collide(i, j, dt) && !self.bodies[i].fixed && !self.bodies[j].fixed {
+            let (ri, rj) = (self.root(i), self.root(j));
+            self.island[ri] = rj;
+        }
+    }
+
+    /// The root of body `i`'s island.
+    fn root(&mut self, mut i: usize) -> usize {
+        while self.island[i] != i {
+            self.island[i] = self.island[self.island[i]];
+            i = self.island[i];
+        }
+        i
+    }
+
+    /// Keep the contacts between the pieces of bodies `i` and `j` that touched at the last
+    /// step as they are (neither moves).
+    fn keep_contacts(&mut self, i: usize, j: usize) {
+        let pieces = self.first_piece[self.bodies.len()];
+        for p in self.first_piece[i]..self.first_piece[i + 1] {
+            for q in self.first_piece[j]..self.first_piece[j + 1] {
+                let pair = p * pieces + q;
+                if self.touched[pair] + 1 == self.steps {
+                    self.touched[pair] = self.steps;
+                    self.counting[i] += 1;
+                    self.counting[j] += 1;
+                }
+            }
+        }
+    }
+
+    /// Wake body `i`.
+    fn wake(&mut self, i: usize) {
+        if self.asleep[i].take().is_some() {
+            self.still[i] = 0;
+            self.wrenches[i] = self.body_wrench(i);
+        }
+    }
+
+    /// Wake the sleeping bodies that something changed from outside since the last step:
+    /// gravity, their load, their velocity or their pose (or all, with sleeping off).
+    fn wake_the_disturbed(&mut self) {
+        let gravity = self.gravity != self.last_gravity;
+        self.last_gravity = self.gravity;
+        for i in 0..self.bodies.len() {
+            let b = &self.bodies[i];
+            let disturbed = self.asleep[i].is_some_and(|(position, orientation)| {
+                gravity
+                    || self.loads[i] != self.last_loads[i]
+                    || b.velocity != DVec3::ZERO
+                    || b.spin != DVec3::ZERO
+                    || b.position != position
+                    || b.orientation != orientation
+            });
+            if disturbed || !self.sleeping {
+                self.asleep[i] = None;
+            }
+            self.last_loads[i] = self.loads[i];
+        }
+    }
+
+    /// Count each free body's still steps, and put to sleep the islands whose every body
+    /// has been still long enough and that no pointer moved by hand reaches.
+    fn fall_asleep(&mut self, dt: f64) {
+        let n = self.bodies.len();
+        for i in 0..n {
+            if !self.awake(i) {
+                continue;
+            }
+            let b = &self.bodies[i];
+            let reach = (self.boxes[i].max - self.boxes[i].min).length() / 2.0;
+            let slow = b.velocity.length() + b.spin.length() * reach < SLEEP_SPEED;
+            self.still[i] = if slow {
+                self.still[i].saturating_add(1)
+            } else {
+                0
+            };
+            self.island_still[i] = u32::MAX;
+        }
+        for i in 0..n {
+            if self.awake(i) {
+                let r = self.root(i);
+                let still = if self.held[i] { 0 } else { self.still[i] };
+                self.island_still[r] = self.island_still[r].min(still);
+            }
+        }
+        let needed = (SLEEP_AFTER / dt).ceil() as u32;
+        for i in 0..n {
+            if self.awake(i) {
+                let r = self.root(i);
+                if self.island_still[r] >= needed {
+                    let b = &mut self.bodies[i];
+                    b.velocity = DVec3::ZERO;
+                    b.spin = DVec3::ZERO;
+                    self.asleep[i] = Some((b.position, b.orientation));
+                }
+            }
+        }
+    }
+
+    /// Whether body `i` is free to move and awake.
+    fn awake(&self, i: usize) -> bool {
+        !self.bodies[i].fixed && self.asleep[i].is_none()
+    }
+
+    /// Whether body `i` sleeps.
+    pub fn is_asleep(&self, i: usize) -> bool {
+        self.asleep[i].is_some()
+    }
+
     /// Add the contact wrenches between bodies `i` < `j`, whose boxes overlap, for a step
-    /// of `dt`: between each piece of one and each piece of the other.
-    fn collide(&mut self, i: usize, j: usize, dt: f64) {
+    /// of `dt`: between each piece of one and each piece of the other. Whether they touch.
+    fn collide(&mut self, i: usize, j: usize, dt: f64) -> bool {
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
         if (a.fixed && b.fixed && !a.kinematic && !b.kinematic)
             || self.ignored_pairs.contains(&(i, j))
         {
-            return;
+            return false;
         }
+        let mut touched = false;
         let single = a.pieces.len() == 1 && b.pieces.len() == 1;
         for ka in 0..a.pieces.len() {
             for kb in 0..self.bodies[j].pieces.len() {
@@ -400,14 +602,21 @@ impl World {
                     || Aabb::around(&a.world_pieces()[ka..=ka])
                         .overlaps(&Aabb::around(&b.world_pieces()[kb..=kb]))
                 {
-                    self.collide_pieces((i, ka), (j, kb), dt);
+                    touched |= self.collide_pieces((i, ka), (j, kb), dt);
                 }
             }
         }
+        touched
     }
 
-    /// Add the contact wrenches between piece `ka` of body `i` and piece `kb` of body `j`.
-    fn collide_pieces(&mut self, (i, ka): (usize, usize), (j, kb): (usize, usize), dt: f64) {
+    /// Add the contact wrenches between piece `ka` of body `i` and piece `kb` of body `j`;
+    /// whether they touch.
+    fn collide_pieces(
+        &mut self,
+        (i, ka): (usize, usize),
+        (j, kb): (usize, usize),
+        dt: f64,
+    ) -> bool {
         let pieces = self.first_piece[self.bodies.len()];
         let pair = (self.first_piece[i] + ka) * pieces + self.first_piece[j] + kb;
         if self.touched[pair] + 1 != self.steps {
@@ -421,7 +630,7 @@ impl World {
         );
         self.clipper.intersect(piece_a, piece_b, &mut self.overlap);
         if self.overlap.faces.is_empty() {
-            return;
+            return false;
         }
         self.touched[pair] = self.steps;
         self.counting[i] += 1;
@@ -461,7 +670,7 @@ impl World {
                 b.velocity_at(x) - a.velocity_at(x)
             });
             self.apply(i, j, on_j);
-            return;
+            return true;
         }
         // The contact plane passes through the overlap.
         let (volume, centre) = volume_and_centroid(&self.overlap);
@@ -510,6 +719,7 @@ impl World {
                 dt,
             );
         self.apply(i, j, on_j);
+        true
     }
 
     /// Add the contact wrench `on_j` to body `j` and its reaction to body `i`.

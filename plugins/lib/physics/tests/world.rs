@@ -506,3 +506,57 @@ fn a_stiff_stack_comes_to_rest() {
         assert!(x < 1e-6, "block {k} moved {x} m sideways");
     }
 }
+
+/// A block set down on the floor sleeps once still for half a second, where it would have
+/// stayed awake to within a micrometre; a block dropped onto it wakes it, and both sleep
+/// again once at rest; tilting gravity wakes them.
+#[test]
+fn resting_bodies_sleep_until_something_reaches_them() {
+    let dt = 1e-3;
+    let mut world = cube_on_floor(0.0, 0.0, (0.5, 0.4), DVec3::new(0.0, -G, 0.0));
+    let mut awake = world.clone();
+    awake.sleeping = false;
+    let mut asleep_at = None;
+    for k in 0..2000 {
+        world.step(dt);
+        awake.step(dt);
+        if asleep_at.is_none() && world.is_asleep(1) {
+            asleep_at = Some(k as f64 * dt);
+        }
+    }
+    let at = asleep_at.expect("the resting block never slept");
+    assert!((0.5..1.5).contains(&at), "asleep at {at} s");
+    assert!(!awake.is_asleep(1));
+    let apart = (world.bodies[1].position - awake.bodies[1].position).length();
+    assert!(
+        apart < 1e-6,
+        "sleeping moved the block {apart} m from where it rests"
+    );
+    // A second block dropped from 5 cm above it.
+    let mut bodies = world.bodies.clone();
+    let dropped = Polyhedron::cuboid(DVec3::splat(SIDE / 2.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, 2.5 * SIDE + 0.05, 0.0));
+    bodies.push(Body::new(&dropped, MASS / SIDE.powi(3), false));
+    let mut world = World::new(bodies, DVec3::new(0.0, -G, 0.0), world.material);
+    // Settle the lower one to sleep again in the new world first.
+    let low = world.bodies[1].position.y;
+    let mut woke = false;
+    for _ in 0..3000 {
+        world.step(dt);
+        woke |= !world.is_asleep(1) && world.bodies[2].position.y < 1.6 * SIDE;
+    }
+    assert!(woke, "the falling block did not wake the one it landed on");
+    let sunk = low - world.bodies[1].position.y;
+    let expected = MASS * G / (K * SIDE * SIDE);
+    assert!(
+        (sunk - expected).abs() < 0.05 * expected,
+        "the lower block carries both: sank {sunk} more, expected {expected}"
+    );
+    assert!(
+        world.is_asleep(1) && world.is_asleep(2),
+        "at rest again, they sleep"
+    );
+    world.gravity = incline(0.7f64.atan());
+    world.step(dt);
+    assert!(!world.is_asleep(1) && !world.is_asleep(2));
+}
