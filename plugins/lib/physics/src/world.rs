@@ -149,8 +149,9 @@ pub struct World {
     touched: Vec<u64>,
     /// Steps taken.
     steps: u64,
-    /// Each body's contacts at the last step, and so far at this one.
+    /// Each body's contacts at the last step (they share its motion among their dampers).
     contacts: Vec<u32>,
+    /// Each body's contacts so far in this step.
     counting: Vec<u32>,
     /// Each body's bounding box at this step.
     boxes: Vec<Aabb>,
