@@ -1282,14 +1282,7 @@ impl Bus {
         if !out.status.success() {
             return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
         }
-        let reply: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        let bytes: Vec<u8> = reply["data"][0]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|b| b.as_u64().unwrap() as u8)
-            .collect();
-        Picture::from_png(&bytes)
+        support::bus::snapshot_of_busctl_json(&out.stdout)
     }
 
     /// A client connection of the test's own.

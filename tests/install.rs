@@ -234,14 +234,7 @@ fn snapshot_of_installed(root: &Path) -> hapticd_render::picture::Picture {
             .output()
             .unwrap();
         if out.status.success() {
-            let reply: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-            let png: Vec<u8> = reply["data"][0]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|b| b.as_u64().unwrap() as u8)
-                .collect();
-            return hapticd_render::picture::Picture::from_png(&png).unwrap();
+            return support::bus::snapshot_of_busctl_json(&out.stdout).unwrap();
         }
         assert!(
             started.elapsed().as_secs() < 30,

@@ -94,3 +94,16 @@ impl Drop for PrivateBus {
         let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
+
+/// The picture a `busctl --json=short call … Snapshot …` printed (its `ay` reply, a PNG).
+pub fn snapshot_of_busctl_json(stdout: &[u8]) -> Result<hapticd_render::picture::Picture, String> {
+    let reply: serde_json::Value =
+        serde_json::from_slice(stdout).map_err(|e| format!("not busctl's JSON: {e}"))?;
+    let bytes: Vec<u8> = reply["data"][0]
+        .as_array()
+        .ok_or("no byte array in the reply")?
+        .iter()
+        .map(|b| b.as_u64().unwrap_or_default() as u8)
+        .collect();
+    hapticd_render::picture::Picture::from_png(&bytes)
+}
