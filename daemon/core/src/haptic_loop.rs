@@ -79,6 +79,18 @@ pub enum DeviceState {
     Uncalibrated,
 }
 
+impl DeviceState {
+    /// The state in one lowercase word, as the bus and the pictures say it.
+    pub fn name(self) -> &'static str {
+        match self {
+            DeviceState::Running => "running",
+            DeviceState::Fault => "fault",
+            DeviceState::Disconnected => "disconnected",
+            DeviceState::Uncalibrated => "uncalibrated",
+        }
+    }
+}
+
 /// What one tick did: published to the rest of the daemon and to recordings.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Frame {

@@ -54,13 +54,8 @@ impl Mapping {
     }
 
     /// Bytes mapped.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.len
-    }
-
-    /// Whether nothing is mapped (never: an empty file is refused).
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
     }
 }
 

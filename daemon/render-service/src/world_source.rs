@@ -9,7 +9,6 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use hapticd::bus::{BUS_NAME, Bus, MANAGER_PATH, device_path};
 use hapticd::world_share::MappedWorld;
-use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::kinematics::Dof;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_core::world_state::{WorldFrame, pose_of};
@@ -294,12 +293,7 @@ fn status(file: &str, frame: &WorldFrame) -> String {
         || "no scene file".into(),
         |s| s.to_string_lossy().into_owned(),
     );
-    let state = match frame.device_state() {
-        DeviceState::Running => "running",
-        DeviceState::Fault => "fault",
-        DeviceState::Disconnected => "disconnected",
-        DeviceState::Uncalibrated => "uncalibrated",
-    };
+    let state = frame.device_state().name();
     format!(
         "{scene} | {:.0} Hz | {state} | {:.1} s",
         frame.rate, frame.time

@@ -297,14 +297,12 @@ impl Scenery {
     /// Add pointers: each proxy (where the finger rests on surfaces) solid, and its grip
     /// (where the hand is, inside a surface it presses) faint; the camera frames them too.
     pub fn add_pointers(&mut self, proxies: &[DVec3], grips: &[DVec3]) {
-        let mut solid = Mesh::default();
+        self.add_proxies(&proxies[..proxies.len().min(grips.len())]);
         let mut faint = Mesh::default();
-        for (proxy, grip) in proxies.iter().zip(grips) {
-            self.frame(proxy.min(*grip), proxy.max(*grip));
-            solid.ball(*proxy, POINTER_RADIUS, 10, POINTER);
+        for (_, grip) in proxies.iter().zip(grips) {
+            self.frame(*grip, *grip);
             faint.ball(*grip, POINTER_RADIUS, 10, FAINT_POINTER);
         }
-        self.meshes.insert(0, solid);
         // Translucent things last, over what lies behind them.
         self.meshes.push(faint);
     }

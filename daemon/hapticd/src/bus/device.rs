@@ -61,11 +61,8 @@ impl DeviceInterface {
 
 fn state_name(t: &Telemetry) -> &'static str {
     match (t.frame.state, t.frame.calibrated) {
-        (DeviceState::Disconnected, _) => "disconnected",
-        (DeviceState::Fault, _) => "fault",
-        (DeviceState::Uncalibrated, _) => "uncalibrated",
         (DeviceState::Running, false) => "calibrating",
-        (DeviceState::Running, true) => "running",
+        (state, _) => state.name(),
     }
 }
 
