@@ -110,6 +110,23 @@ impl Body {
             + arm.dot(rotation * (self.inertia.inverse() * (rotation.transpose() * arm)))
     }
 
+    /// How readily the body turns about the unit `axis` through its centroid under a
+    /// torque: a·I⁻¹a, zero for a body contacts cannot move.
+    pub fn inverse_inertia_about(&self, axis: DVec3) -> f64 {
+        if self.fixed {
+            return 0.0;
+        }
+        let rotation = DMat3::from_quat(self.orientation);
+        axis.dot(rotation * (self.inertia.inverse() * (rotation.transpose() * axis)))
+    }
+
+    /// The moment of inertia about the line through `point` along the unit `axis`
+    /// (infinite for a body contacts cannot move).
+    pub fn inertia_about_line(&self, point: DVec3, axis: DVec3) -> f64 {
+        let arm = (self.position - point).cross(axis);
+        1.0 / self.inverse_inertia_about(axis) + self.mass * arm.length_squared()
+    }
+
     /// Velocity of the body's material point at `x`.
     pub fn velocity_at(&self, x: DVec3) -> DVec3 {
         self.velocity + self.spin.cross(x - self.position)

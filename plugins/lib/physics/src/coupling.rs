@@ -37,18 +37,23 @@ pub struct Coupling {
 
 impl Coupling {
     /// The load the coupling puts on `body` (its centroid is the coupled point) with the grip
-    /// at `grip`; the user feels the opposite.
-    pub fn load(&self, grip: &Grip, body: &Body) -> Wrench {
+    /// at `grip`, for a step of `dt`; the user feels the opposite. Each damper is held to
+    /// what implicit Euler would apply over the step (c/(1 + c·dt/m)), so that however it is
+    /// set it can at most stop the body's motion relative to the grip, never reverse it.
+    pub fn load(&self, grip: &Grip, body: &Body, dt: f64) -> Wrench {
         // The smallest rotation taking the body's orientation to the grip's.
         let mut error = grip.orientation * body.orientation.inverse();
         if error.w < 0.0 {
             error = -error;
         }
+        let stable = |c: f64, mobility: f64| c / (1.0 + c * dt * mobility);
+        let turning = grip.spin - body.spin;
+        let turning_mobility = body.inverse_inertia_about(turning.normalize_or_zero());
         Wrench {
             force: self.stiffness * (grip.position - body.position)
-                + self.damping * (grip.velocity - body.velocity),
+                + stable(self.damping, 1.0 / body.mass) * (grip.velocity - body.velocity),
             torque: self.rotational_stiffness * error.to_scaled_axis()
-                + self.rotational_damping * (grip.spin - body.spin),
+                + stable(self.rotational_damping, turning_mobility) * turning,
         }
     }
 }
@@ -74,8 +79,10 @@ mod tests {
             velocity: DVec3::new(0.0, 0.1, 0.0),
             spin: DVec3::ZERO,
         };
-        let load = coupling.load(&grip, &body);
-        assert!((load.force - DVec3::new(4.0, 0.2, 0.0)).length() < 1e-12);
+        let dt = 1e-4;
+        let load = coupling.load(&grip, &body, dt);
+        let damping = 2.0 / (1.0 + 2.0 * dt / body.mass);
+        assert!((load.force - DVec3::new(4.0, 0.1 * damping, 0.0)).length() < 1e-12);
         assert!((load.torque - DVec3::new(0.0, 0.15, 0.0)).length() < 1e-12);
     }
 }

@@ -6,12 +6,21 @@
 //! centroid, θ: twist about the normal). Integrated over the contact area about its
 //! centroid, where the first moment vanishes, this gives
 //!   f = −k_S·A·r − b_S·A·v,   m = −(k_S·θ + b_S·ω)·J·n   (J: polar moment of the area),
-//! the planar form of eq. 5.22–5.28. The contact breaks loose when that force or torque
-//! exceeds the largest static friction, μ0·N (or μ0·N·ρ̄ for the torque, ρ̄ the mean distance
-//! of the area from its centroid), and slides with the distributed dynamic friction of
-//! [`sliding_friction`] until it comes to rest. There the springs start again unstretched:
-//! anchoring them at the dynamic friction instead (as Fig. 5.8 does) stores that force in
-//! the springs, which then push a block that has just stopped back and forth.
+//! the planar form of eq. 5.22–5.28.
+//!
+//! The thesis lets the contact break loose when that force or torque exceeds the largest
+//! static friction, μ0·N (μ0·N·ρ̄ for the torque, ρ̄ the mean distance of the area from its
+//! centroid). But the springs carry more than the load while they catch bodies a sudden load
+//! has set moving, and a block that pitches or settles to a new load sees its normal force
+//! swing: a block set down on a slope a little below the friction angle then slid off. So
+//! the contact here breaks loose when the load itself (the forces on the two bodies other
+//! than this contact's, [`Loading`]) exceeds μ0 times the larger of the normal force and the
+//! load pressing the bodies together, or when the springs and dampers pull more than twice
+//! that (bodies set moving from outside). It then slides with the distributed dynamic
+//! friction of [`sliding_friction`] until the slide slows below the slip speed; there the
+//! springs start again unstretched: anchoring them at the dynamic friction instead (as
+//! Fig. 5.8 does) stores that force in the springs, which then push a block that has just
+//! stopped back and forth.
 
 use glam::DVec3;
 
@@ -48,6 +57,33 @@ pub struct FrictionState {
     twist: f64,
     /// Where the contact centroid was.
     centre: DVec3,
+    /// Sliding velocity at the contact centroid and spin about the normal at the last step.
+    slip: DVec3,
+    turn: f64,
+    /// Friction torque about the normal at the last step.
+    twist_held: f64,
+}
+
+/// How far past the largest static friction a stuck contact's springs and dampers may pull
+/// for a moment while they catch the bodies' inertia under a load the contact holds. Beyond
+/// it the bodies are moving faster than a load could make them (set moving from outside, or
+/// thrown against each other), and the contact slides.
+const OVERSHOOT: f64 = 2.0;
+
+/// What the rest of the world asks of a contact: the forces on its two bodies other than
+/// its own, as the contact would have to hold them to keep the bodies still relative to each
+/// other. A load that arrives at once first moves the bodies, and the friction springs then
+/// catch them with more than the load for a moment: that surplus is the bodies' inertia, and
+/// must not break a contact that holds the load itself (nor must the normal force's dip
+/// while the bodies settle to a lighter load lower the limit).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Loading {
+    /// The tangential force on the pushed body relative to the other, N.
+    pub load: DVec3,
+    /// The force pressing them together, N.
+    pub pressing: f64,
+    /// Their moment of inertia about the normal, at the contact, kg·m².
+    pub turning: f64,
 }
 
 /// The contact region of an overlap: the faces of the intersection turned toward the
@@ -65,6 +101,11 @@ pub struct ContactPatch {
 }
 
 impl ContactPatch {
+    /// The area centroid on the plane across `normal` through `point`.
+    pub fn point_on(&self, point: DVec3, normal: DVec3) -> DVec3 {
+        self.centroid + point.dot(normal) * normal
+    }
+
     /// The patch of `solid` across `normal`.
     pub fn of(solid: &Polyhedron, normal: DVec3) -> Self {
         // Triangles of the faces turned toward the normal, projected, with their areas.
@@ -103,8 +144,9 @@ impl ContactPatch {
 /// The friction wrench (torque about the origin) on the body pushed along `normal`, whose
 /// velocity relative to the other is `velocity(x)` and relative spin `spin`; `normal_force`
 /// is the contact's normal force and `pressure` its stiffness k_N (for the distributed
-/// dynamic friction); `patch` is the contact region of `solid`. Updates `state` for a step
-/// of `dt`.
+/// dynamic friction); `patch` is the contact region of `solid`; `loading` is what the rest
+/// of the world asks of it (none for bodies it cannot move, such as a pointer held to its
+/// grip against a fixed table: what the springs hold is then the load). Updates `state` for a step of `dt`.
 #[allow(clippy::too_many_arguments)]
 pub fn friction(
     state: &mut FrictionState,
@@ -116,6 +158,7 @@ pub fn friction(
     parameters: &FrictionParameters,
     velocity: impl Fn(DVec3) -> DVec3,
     spin: DVec3,
+    loading: Option<&Loading>,
     dt: f64,
 ) -> Wrench {
     let ContactPatch {
@@ -145,22 +188,38 @@ pub fn friction(
     let slip = velocity(centre).reject_from_normalized(normal);
     let turn = spin.dot(normal);
     let p = parameters;
-    if state.sliding && slip.length() < p.slip_speed && turn.abs() * mean_radius < p.slip_speed {
-        // Stuck again: the springs start unstretched where the bodies came to rest.
-        *state = FrictionState {
-            in_contact: true,
-            sliding: false,
-            centre,
-            ..FrictionState::default()
-        };
+    // The spin about the normal has no load from outside worked out for it: its load is
+    // what changed the spin over the last step less the friction torque that acted.
+    let twist_load =
+        loading.map(|l| (l.turning * (turn - state.turn) / dt - state.twist_held).abs());
+    let slowing = slip.length() + turn.abs() * mean_radius
+        <= state.slip.length() + state.turn.abs() * mean_radius;
+    (state.slip, state.turn) = (slip, turn);
+    if state.sliding
+        && slowing
+        && slip.length() < p.slip_speed
+        && turn.abs() * mean_radius < p.slip_speed
+    {
+        // Stuck again where the slide comes to rest (not where it starts from rest, just
+        // broken loose): the springs start unstretched.
+        state.sliding = false;
+        (state.slide, state.twist) = (DVec3::ZERO, 0.0);
     }
     if !state.sliding {
         state.slide += slip * dt;
         state.twist += turn * dt;
         let force = -(p.stiffness * state.slide + p.damping * slip) * area;
         let torque = -(p.stiffness * state.twist + p.damping * turn) * polar * normal;
-        let limit = p.static_coefficient * normal_force;
-        if force.length() <= limit && torque.length() <= limit * mean_radius {
+        // Bodies whose motion the contact cannot change: what the springs hold is the load.
+        let pressing = loading.map_or(0.0, |l| l.pressing);
+        let load = loading.map_or(force.length(), |l| l.load.length());
+        let twist_load = twist_load.unwrap_or(torque.length());
+        let limit = p.static_coefficient * normal_force.max(pressing);
+        let holds = |load: f64, held: f64, limit: f64| load <= limit && held <= OVERSHOOT * limit;
+        if holds(load, force.length(), limit)
+            && holds(twist_load, torque.length(), limit * mean_radius)
+        {
+            state.twist_held = torque.dot(normal);
             return Wrench {
                 force,
                 torque: torque + centre.cross(force),
@@ -177,6 +236,7 @@ pub fn friction(
     );
     // Sliding: re-anchor the springs to the dynamic friction.
     let dynamic_torque = (dynamic.torque - centre.cross(dynamic.force)).dot(normal);
+    state.twist_held = dynamic_torque;
     state.slide = -dynamic.force.reject_from_normalized(normal) / (p.stiffness * area);
     state.twist = if polar > 0.0 {
         -dynamic_torque / (p.stiffness * polar)

@@ -1016,7 +1016,7 @@ impl PenaltyScene {
         for _ in 0..steps {
             for (k, grip) in grips.iter().enumerate() {
                 if let Some(c) = &self.couplings[k] {
-                    self.world.loads[first + k] = c.load(grip, &self.world.bodies[first + k]);
+                    self.world.loads[first + k] = c.load(grip, &self.world.bodies[first + k], step);
                 }
             }
             if let Some(g) = &mut self.grasping {

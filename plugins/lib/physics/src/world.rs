@@ -8,7 +8,7 @@ use super::clip::Clipper;
 use hapticd_core::kinematics::Wrench;
 
 use super::contact::{damper, spring};
-use super::friction::{ContactPatch, FrictionParameters, FrictionState, friction};
+use super::friction::{ContactPatch, FrictionParameters, FrictionState, Loading, friction};
 use super::gjk;
 use super::mass::volume_and_centroid;
 use super::polyhedron::Polyhedron;
@@ -114,6 +114,55 @@ fn point_contact(
     }
 }
 
+/// The torque on `bodies.1` that damps the rocking of two bodies on their contact `patch`
+/// as the normal damper damps their approach.
+///
+/// The normal damper, spread evenly over the patch, damps rocking about the patch's
+/// tangential axes by c·I_A (I_A: the patch's second moment), against a spring of k·I_A:
+/// a damping ratio that falls with the patch's size. A tall block on a small patch, as when
+/// it leans onto one edge, then rocks for seconds after a load changes, and every swing
+/// asks its friction for more than the load does. This adds what brings rocking up to the
+/// normal damper's own ratio of critical damping (at most critical), for bodies pivoting
+/// about the patch; `damping` is (as set, as stabilised), `shares` each body's number of
+/// contacts. Rocking that the step could not stop in one go is left as it is.
+fn rocking_damper(
+    (a, b): (&Body, &Body),
+    shares: (f64, f64),
+    patch: &ContactPatch,
+    normal: DVec3,
+    at: DVec3,
+    (stiffness, damping, stable_damping): (f64, f64, f64),
+    dt: f64,
+) -> DVec3 {
+    let normal_mobility = a.inverse_mass_at(at, normal) + b.inverse_mass_at(at, normal);
+    // The normal damper's share of critical damping, ζ = c·A/(2√(k·A·m)).
+    let ratio = (damping * patch.area * normal_mobility.sqrt()
+        / (2.0 * (stiffness * patch.area).sqrt()))
+    .min(1.0);
+    let second_moment = patch.polar / 2.0;
+    let line = patch.point_on(at, normal);
+    let relative_spin = b.spin - a.spin;
+    let (t1, t2) = normal.any_orthonormal_pair();
+    let mut torque = DVec3::ZERO;
+    for t in [t1, t2] {
+        let pivoting = 1.0 / a.inertia_about_line(line, t) + 1.0 / b.inertia_about_line(line, t);
+        let turning = a.inverse_inertia_about(t) * shares.0 + b.inverse_inertia_about(t) * shares.1;
+        if pivoting <= 0.0 || turning <= 0.0 {
+            continue;
+        }
+        let extra =
+            ratio * 2.0 * (stiffness * second_moment / pivoting).sqrt() - damping * second_moment;
+        // Explicitly applied, with the normal damper's own part, it may at most stop the
+        // rocking in one step.
+        let room = 1.0 / (dt * turning) - stable_damping * second_moment;
+        let c = (extra / (1.0 + extra * dt * turning)).min(room);
+        if c > 0.0 {
+            torque -= c * relative_spin.dot(t) * t;
+        }
+    }
+    torque
+}
+
 /// Largest one-step phase ω·dt of a contact's friction springs.
 const FRICTION_PHASE: f64 = 0.5;
 
@@ -147,6 +196,10 @@ pub struct World {
     normals: Vec<DVec3>,
     /// The step at which each pair of pieces was last in contact.
     touched: Vec<u64>,
+    /// The contact force of each pair of pieces (on the second) at that step.
+    pair_forces: Vec<DVec3>,
+    /// The force on each body at the last step (zero on a sleeping one: it is in balance).
+    forces: Vec<DVec3>,
     /// Steps taken.
     steps: u64,
     /// Each body's contacts at the last step (they share its motion among their dampers).
@@ -268,6 +321,8 @@ impl World {
             first_piece,
             normals: vec![DVec3::ZERO; pairs],
             touched: vec![0; pairs],
+            pair_forces: vec![DVec3::ZERO; pairs],
+            forces: vec![DVec3::ZERO; n],
             steps: 0,
             contacts: vec![0; n],
             counting: vec![0; n],
@@ -429,11 +484,13 @@ impl World {
         }
         std::mem::swap(&mut self.contacts, &mut self.counting);
         self.counting.fill(0);
-        for (b, (w, asleep)) in self
+        for ((b, force), (w, asleep)) in self
             .bodies
             .iter_mut()
+            .zip(&mut self.forces)
             .zip(self.wrenches.iter().zip(&self.asleep))
         {
+            *force = w.force;
             if asleep.is_none() {
                 // Torques were taken about the origin; the body turns about its centroid.
                 let torque = w.torque - b.position.cross(w.force);
@@ -624,6 +681,7 @@ impl World {
             // A new contact: no previous normal, friction springs not yet attached.
             self.friction[pair].in_contact = false;
             self.normals[pair] = DVec3::ZERO;
+            self.pair_forces[pair] = DVec3::ZERO;
         }
         let (piece_a, piece_b) = (
             &self.bodies[i].world_pieces()[ka],
@@ -679,7 +737,17 @@ impl World {
         if let Some(scaling) = m.scaling {
             scaling.apply(&mut m, patch.area, mobility, dt);
         }
+        let raw_damping = m.damping;
         m.damping = stable(m.damping, patch.area, damped_mobility(normal));
+        let rocking = rocking_damper(
+            (a, b),
+            (shares(i), shares(j)),
+            &patch,
+            normal,
+            at,
+            (m.stiffness, raw_damping, m.damping),
+            dt,
+        );
         let tangent_shared = damped_mobility(t1).max(damped_mobility(t2));
         m.friction.damping = stable(m.friction.damping, patch.area, tangent_shared);
         // A friction spring stiffer than the step allows (explicitly integrated, with the
@@ -705,20 +773,41 @@ impl World {
                 torque: keep * resist.torque,
             };
         }
+        // What else acted on each body at the last step, and what it would take to hold
+        // their centroids' accelerations together.
+        let inverse = |body: &Body| if body.fixed { 0.0 } else { 1.0 / body.mass };
+        let movable = inverse(a) + inverse(b);
+        let loading = (movable > 0.0).then(|| {
+            let contact = self.pair_forces[pair];
+            let apart =
+                (self.forces[j] - contact) * inverse(b) - (self.forces[i] + contact) * inverse(a);
+            let asked = apart / movable;
+            Loading {
+                load: asked.reject_from_normalized(normal),
+                pressing: -asked.dot(normal),
+                turning: 1.0 / (a.inverse_inertia_about(normal) + b.inverse_inertia_about(normal)),
+            }
+        });
         let on_j = push
             + resist
+            + Wrench {
+                force: DVec3::ZERO,
+                torque: rocking,
+            }
             + friction(
                 &mut self.friction[pair],
                 &self.overlap,
                 &patch,
                 normal,
-                m.stiffness * volume,
+                (push.force + resist.force).dot(normal),
                 m.stiffness,
                 &m.friction,
                 |x| b.velocity_at(x) - a.velocity_at(x),
                 b.spin - a.spin,
+                loading.as_ref(),
                 dt,
             );
+        self.pair_forces[pair] = on_j.force;
         self.apply(i, j, on_j);
         true
     }
