@@ -1346,4 +1346,28 @@ pointer:
             "the pointer went into the floor: {stretch}"
         );
     }
+
+    #[test]
+    fn a_coupling_damped_far_past_the_step_still_settles() {
+        // Explicitly, 1000 N·s/m on 8 g and 1 N·m·s on 5·10⁻⁷ kg·m² would reverse the pointer's
+        // motion 12 and 190 times over in each 0.1 ms step.
+        let scene = SCENE.replace(
+            "damping: 5, rotational_stiffness: 0.5, rotational_damping: 0.01",
+            "damping: 1000, rotational_stiffness: 0.5, rotational_damping: 1.0",
+        );
+        let mut scene = PenaltyScene::parse(&scene, Path::new("coupled.yaml"), 1).unwrap();
+        let grip = Grip {
+            position: DVec3::new(0.0, 0.02, 0.0),
+            orientation: DQuat::from_rotation_z(0.5),
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        };
+        let mut felt = [Wrench::default()];
+        for _ in 0..1000 {
+            assert!(scene.step_pointers(1e-3, &[grip], &mut felt));
+        }
+        let body = &scene.world.bodies[scene.first_pointer];
+        assert!(body.spin.length() < 1e-3 && body.velocity.length() < 1e-3);
+        assert!(body.orientation.angle_between(grip.orientation) < 0.02);
+    }
 }
