@@ -154,7 +154,8 @@ fn rocking_damper(
             ratio * 2.0 * (stiffness * second_moment / pivoting).sqrt() - damping * second_moment;
         // Explicitly applied, with the normal damper's own part, it may at most stop the
         // rocking in one step.
-        let room = 1.0 / (dt * turning) - stable_damping * second_moment;
+        let room = (ROCKING_ROOM / (dt * turning))
+            .min(1.0 / (dt * turning) - stable_damping * second_moment);
         let c = (extra / (1.0 + extra * dt * turning)).min(room);
         if c > 0.0 {
             torque -= c * relative_spin.dot(t) * t;
@@ -162,6 +163,9 @@ fn rocking_damper(
     }
     torque
 }
+
+/// The largest share of a body's spin the rocking damper may take away in one step.
+const ROCKING_ROOM: f64 = 0.25;
 
 /// Largest one-step phase ω·dt of a contact's friction springs.
 const FRICTION_PHASE: f64 = 0.5;
@@ -417,9 +421,20 @@ impl World {
                 .iter()
                 .map(along)
                 .fold(f64::INFINITY, f64::min);
-        let offset = previous * (extent * 1.01 + 1e-9);
-        let (pa, pb) = gjk::closest_points(&a.vertices, &b.vertices, offset)?;
-        (pb - pa).try_normalize()
+        // Apart by a hundredth of the depth, and by at least a ten-thousandth of the
+        // overlap's size: two flush faces pressed 30 nm together and apart by a hundredth of
+        // that make a Minkowski difference a million times wider than tall, whose nearest
+        // point the search then finds off to the side.
+        let size = Aabb::around(std::slice::from_ref(&self.overlap));
+        let gap = extent * 0.01 + (size.max - size.min).length() * 1e-4 + 1e-12;
+        let (pa, pb) = gjk::closest_points(&a.vertices, &b.vertices, previous * (extent + gap))?;
+        // Moved out so, they are at most `gap` apart: a search that stopped farther out
+        // missed the nearest points.
+        let apart = pb - pa;
+        if apart.length() > 2.0 * gap {
+            return None;
+        }
+        apart.try_normalize()
     }
 
     /// Advance every body by `dt`. Fixed bodies stay where they are put (they may be moved
