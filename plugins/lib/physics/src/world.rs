@@ -226,6 +226,8 @@ pub struct World {
     held: Vec<bool>,
     /// The fewest still steps of any body of the island rooted at a body.
     island_still: Vec<u32>,
+    /// Whether the last step found every body asleep (and was skipped).
+    quiet: bool,
     /// Gravity and loads at the last step: a change wakes the bodies.
     last_gravity: DVec3,
     last_loads: Vec<Wrench>,
@@ -338,6 +340,7 @@ impl World {
             island: (0..n).collect(),
             held: vec![false; n],
             island_still: vec![0; n],
+            quiet: false,
             last_gravity: gravity,
             last_loads: vec![Wrench::ZERO; n],
             wrenches: vec![Wrench::default(); n],
@@ -449,6 +452,17 @@ impl World {
     /// what it moves in that half second.
     pub fn step(&mut self, dt: f64) {
         self.wake_the_disturbed();
+        // Nothing moves: the step would change nothing. It is not counted either, so the
+        // contacts stay those of the last step taken.
+        if self.sleeping && (0..self.bodies.len()).all(|i| !self.moves(i)) {
+            if !self.quiet {
+                self.wrenches.fill(Wrench::ZERO);
+                self.forces.fill(DVec3::ZERO);
+                self.quiet = true;
+            }
+            return;
+        }
+        self.quiet = false;
         for i in 0..self.bodies.len() {
             // Every torque here is about the world origin; a sleeping body is in balance.
             self.wrenches[i] = if self.asleep[i].is_some() {
