@@ -30,6 +30,8 @@ pub struct Body {
     /// touches other fixed bodies.
     pub kinematic: bool,
     world: Vec<Polyhedron>,
+    /// The inverse inertia tensor in the world frame, at the pose of the world pieces.
+    world_inverse_inertia: DMat3,
 }
 
 impl Body {
@@ -54,14 +56,16 @@ impl Body {
                     * v
             })
             .fold(DMat3::ZERO, |sum, i| sum + i);
+        let inertia = inertia * density;
         Self {
             world: pieces.to_vec(),
+            world_inverse_inertia: inertia.inverse(),
             pieces: pieces
                 .iter()
                 .map(|p| p.transformed(DQuat::IDENTITY, -centroid))
                 .collect(),
             mass: volume * density,
-            inertia: inertia * density,
+            inertia,
             position: centroid,
             orientation: DQuat::IDENTITY,
             velocity: DVec3::ZERO,
@@ -76,8 +80,10 @@ impl Body {
         &self.world
     }
 
-    /// Bring the world pieces up to date with the pose.
+    /// Bring the world pieces (and the world-frame inertia) up to date with the pose.
     pub fn update_world_shape(&mut self) {
+        let rotation = DMat3::from_quat(self.orientation);
+        self.world_inverse_inertia = rotation * self.inertia.inverse() * rotation.transpose();
         for (world, local) in self.world.iter_mut().zip(&self.pieces) {
             for (v, l) in world.vertices.iter_mut().zip(&local.vertices) {
                 *v = self.orientation * *l + self.position;
@@ -104,10 +110,8 @@ impl Body {
         if self.fixed {
             return 0.0;
         }
-        let rotation = DMat3::from_quat(self.orientation);
         let arm = (x - self.position).cross(direction);
-        1.0 / self.mass
-            + arm.dot(rotation * (self.inertia.inverse() * (rotation.transpose() * arm)))
+        1.0 / self.mass + arm.dot(self.world_inverse_inertia * arm)
     }
 
     /// How readily the body turns about the unit `axis` through its centroid under a
@@ -116,8 +120,7 @@ impl Body {
         if self.fixed {
             return 0.0;
         }
-        let rotation = DMat3::from_quat(self.orientation);
-        axis.dot(rotation * (self.inertia.inverse() * (rotation.transpose() * axis)))
+        axis.dot(self.world_inverse_inertia * axis)
     }
 
     /// The moment of inertia about the line through `point` along the unit `axis`
@@ -143,7 +146,7 @@ impl Body {
         // Euler's equations in the world frame: I ω̇ = τ − ω × Iω.
         let gyroscopic = self.spin.cross(inertia * self.spin);
         self.velocity += force / self.mass * dt;
-        self.spin += inertia.inverse() * (torque - gyroscopic) * dt;
+        self.spin += self.world_inverse_inertia * (torque - gyroscopic) * dt;
         self.position += self.velocity * dt;
         self.orientation = (DQuat::from_scaled_axis(self.spin * dt) * self.orientation).normalize();
         self.update_world_shape();

@@ -171,7 +171,7 @@ impl Clipper {
         let w = plane.normal.cross(u);
         for (angle, index) in &mut self.cap {
             let d = out.vertices[*index] - centre;
-            *angle = d.dot(w).atan2(d.dot(u));
+            *angle = pseudo_angle(d.dot(u), d.dot(w));
         }
         self.cap.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let mut face = self.face_list();
@@ -185,6 +185,10 @@ impl Clipper {
         self.copy(a, out);
         let mut spare = std::mem::take(&mut self.spare);
         for &plane in &b.planes {
+            // Most of a contact's planes leave the overlap whole: no copy for those.
+            if out.vertices.iter().all(|&v| plane.distance(v) <= ON_PLANE) {
+                continue;
+            }
             self.clip(out, plane, &mut spare);
             std::mem::swap(out, &mut spare);
             if out.faces.is_empty() {
@@ -192,5 +196,18 @@ impl Clipper {
             }
         }
         self.spare = spare;
+    }
+}
+
+/// A number that grows with the angle of (x, y) from the x axis, as atan2 does, from 0 to 4
+/// over the turn: enough to sort points around a centre, at a fraction of atan2's cost.
+fn pseudo_angle(x: f64, y: f64) -> f64 {
+    let p = y / (x.abs() + y.abs()).max(f64::MIN_POSITIVE);
+    if x < 0.0 {
+        2.0 - p
+    } else if y < 0.0 {
+        4.0 + p
+    } else {
+        p
     }
 }

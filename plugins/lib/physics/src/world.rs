@@ -10,7 +10,6 @@ use hapticd_core::kinematics::Wrench;
 use super::contact::{damper, spring};
 use super::friction::{ContactPatch, FrictionParameters, FrictionState, Loading, friction};
 use super::gjk;
-use super::mass::volume_and_centroid;
 use super::polyhedron::Polyhedron;
 
 /// How hard and how damped contacts are.
@@ -167,6 +166,13 @@ fn rocking_damper(
 /// The largest share of a body's spin the rocking damper may take away in one step.
 const ROCKING_ROOM: f64 = 0.25;
 
+/// How far (radians) two bodies may turn relative to each other before their contact normal
+/// is searched for again: it is found again to within this.
+const NORMAL_TURN: f64 = 1e-5;
+/// How far (in sizes of their overlap) two bodies may move relative to each other before
+/// their contact normal is searched for again.
+const NORMAL_SHIFT: f64 = 1e-3;
+
 /// Largest one-step phase ω·dt of a contact's friction springs.
 const FRICTION_PHASE: f64 = 0.5;
 
@@ -198,6 +204,10 @@ pub struct World {
     friction: Vec<FrictionState>,
     /// Contact normal of each pair of pieces at the last step it was in contact.
     normals: Vec<DVec3>,
+    /// Where the second body of each pair was relative to the first (turn, shift, in the
+    /// first's frame) when their normal was last searched for, and that normal in the first's
+    /// frame.
+    found: Vec<(DQuat, DVec3, DVec3)>,
     /// The step at which each pair of pieces was last in contact.
     touched: Vec<u64>,
     /// The contact force of each pair of pieces (on the second) at that step.
@@ -326,6 +336,7 @@ impl World {
         Self {
             first_piece,
             normals: vec![DVec3::ZERO; pairs],
+            found: vec![(DQuat::IDENTITY, DVec3::ZERO, DVec3::ZERO); pairs],
             touched: vec![0; pairs],
             pair_forces: vec![DVec3::ZERO; pairs],
             forces: vec![DVec3::ZERO; n],
@@ -406,8 +417,14 @@ impl World {
 
     /// The contact normal of thesis 5.3.2: move piece `b` out of piece `a` along the
     /// previous normal until they separate, and take the direction between their closest
-    /// points. `None` for a new contact (no previous normal).
-    fn separation_normal(&self, a: &Polyhedron, b: &Polyhedron, previous: DVec3) -> Option<DVec3> {
+    /// points. `None` for a new contact (no previous normal). `size` is the overlap's.
+    fn separation_normal(
+        &self,
+        a: &Polyhedron,
+        b: &Polyhedron,
+        previous: DVec3,
+        size: f64,
+    ) -> Option<DVec3> {
         if previous == DVec3::ZERO {
             return None;
         }
@@ -428,8 +445,7 @@ impl World {
         // overlap's size: two flush faces pressed 30 nm together and apart by a hundredth of
         // that make a Minkowski difference a million times wider than tall, whose nearest
         // point the search then finds off to the side.
-        let size = Aabb::around(std::slice::from_ref(&self.overlap));
-        let gap = extent * 0.01 + (size.max - size.min).length() * 1e-4 + 1e-12;
+        let gap = extent * 0.01 + size * 1e-4 + 1e-12;
         let (pa, pb) = gjk::closest_points(&a.vertices, &b.vertices, previous * (extent + gap))?;
         // Moved out so, they are at most `gap` apart: a search that stopped farther out
         // missed the nearest points.
@@ -723,9 +739,29 @@ impl World {
         self.touched[pair] = self.steps;
         self.counting[i] += 1;
         self.counting[j] += 1;
-        let normal = self
-            .separation_normal(piece_a, piece_b, self.normals[pair])
-            .unwrap_or_else(|| self.contact_normal(piece_b));
+        // The normal of the last step, carried along by body i, serves again while body j
+        // has moved less than a tolerance relative to i since it was found: at rest the
+        // search of 5.3.2 would find it again.
+        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+        let turn = bi.orientation.inverse() * bj.orientation;
+        let shift = bi.orientation.inverse() * (bj.position - bi.position);
+        let (found_turn, found_shift, found_normal) = self.found[pair];
+        let size = {
+            let around = Aabb::around(std::slice::from_ref(&self.overlap));
+            (around.max - around.min).length()
+        };
+        let still = self.normals[pair] != DVec3::ZERO
+            && turn.dot(found_turn).abs() > (NORMAL_TURN / 2.0).cos()
+            && (shift - found_shift).length() < NORMAL_SHIFT * size;
+        let normal = if still {
+            bi.orientation * found_normal
+        } else {
+            let normal = self
+                .separation_normal(piece_a, piece_b, self.normals[pair], size)
+                .unwrap_or_else(|| self.contact_normal(piece_b));
+            self.found[pair] = (turn, shift, bi.orientation.inverse() * normal);
+            normal
+        };
         self.normals[pair] = normal;
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
         // Forces on j, pushing it away from i along the normal.
@@ -760,8 +796,6 @@ impl World {
             self.apply(i, j, on_j);
             return true;
         }
-        // The contact plane passes through the overlap.
-        let (volume, centre) = volume_and_centroid(&self.overlap);
         let patch = ContactPatch::of(&self.overlap, normal);
         if let Some(scaling) = m.scaling {
             scaling.apply(&mut m, patch.area, mobility, dt);
@@ -787,9 +821,11 @@ impl World {
         m.friction.stiffness = m.friction.stiffness.min(stiffest);
         // Sliding friction must fade out over more than the speed one step of it
         // takes away, or it reverses the slide every step instead of stopping it.
-        let kick = m.friction.dynamic_coefficient * m.stiffness * volume * dt;
+        // The spring's force is k_N·V whichever point of the contact's normal line it is
+        // taken from.
+        let push = spring(&self.overlap, at, normal, m.stiffness);
+        let kick = m.friction.dynamic_coefficient * push.force.dot(normal) * dt;
         m.friction.slip_speed = m.friction.slip_speed.max(kick * tangent_mobility);
-        let push = spring(&self.overlap, centre, normal, m.stiffness);
         let mut resist = damper(&self.overlap, normal, m.damping, |x| {
             a.velocity_at(x) - b.velocity_at(x)
         });
