@@ -560,3 +560,54 @@ fn resting_bodies_sleep_until_something_reaches_them() {
     world.step(dt);
     assert!(!world.is_asleep(1) && !world.is_asleep(2));
 }
+
+#[test]
+fn flush_faces_pressed_nanometres_deep_far_from_the_origin_keep_an_upright_normal() {
+    // Blocks of 1 kg on contacts of 3·10¹⁰ N/m³ sink 33 nm per block they carry: the
+    // search for the normal works on a Minkowski difference ten million times wider than
+    // the gap it is moved apart by, at coordinates near 8.5 m. The top block turns on the
+    // one below without friction, so the search runs again every few steps.
+    let (k, side, dt, base) = (3e10, 0.1, 2.5e-5, 8.4);
+    let area = side * side;
+    let critical = 2.0 * (k * area * MASS).sqrt() / area;
+    let slab = Polyhedron::cuboid(DVec3::new(1.0, 0.1, 1.0))
+        .transformed(DQuat::IDENTITY, DVec3::new(0.0, base - 0.1, 0.0));
+    let mut bodies = vec![Body::new(&slab, 1000.0, true)];
+    let mut bottom = base;
+    for carried in [2.0, 1.0] {
+        bottom -= carried * MASS * G / (k * area);
+        let block = Polyhedron::cuboid(DVec3::splat(side / 2.0))
+            .transformed(DQuat::IDENTITY, DVec3::new(0.0, bottom + side / 2.0, 0.0));
+        bodies.push(Body::new(&block, MASS / side.powi(3), false));
+        bottom += side;
+    }
+    let mut world = World::new(
+        bodies,
+        DVec3::new(0.0, -G, 0.0),
+        Material {
+            stiffness: k,
+            damping: critical,
+            friction: FrictionParameters {
+                static_coefficient: 0.0,
+                dynamic_coefficient: 0.0,
+                stiffness: k,
+                damping: critical,
+                slip_speed: 1e-3,
+            },
+            model: ContactModel::Volume,
+            scaling: None,
+        },
+    );
+    world.bodies[2].spin = DVec3::new(0.0, 1.0, 0.0);
+    for _ in 0..20_000 {
+        world.step(dt);
+        for i in 1..=2 {
+            let sideways = world.contact_wrench(i).force.reject_from(DVec3::Y).length();
+            assert!(
+                sideways < 1e-6 * MASS * G,
+                "block {i}: {sideways} N sideways"
+            );
+        }
+    }
+    assert!(world.bodies[2].spin.y > 0.99, "{}", world.bodies[2].spin);
+}
