@@ -74,6 +74,7 @@ figures: stage
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png
 	$(HAPTICCTL) experiment stick-slip --plot docs/figures/stick-slip.png
+	$(HAPTICCTL) experiment incline --plot docs/figures/incline.png
 	$(HAPTICCTL) experiment grasp --plot docs/figures/grasp-shake.png
 	$(HAPTICCTL) experiment push-phase --plot docs/figures/push-phase.png
 	$(HAPTICCTL) render config/scenes/blocks.yaml --mechanism spidar-g --force 4,12,0 \

@@ -212,6 +212,51 @@ fn the_stick_slip_experiment_reaches_the_exact_peaks_and_plots_them() {
 }
 
 #[test]
+fn the_incline_experiment_holds_below_the_friction_angle_and_slides_past_it() {
+    let dir = support::scratch_root().join(format!("hapticd-incline-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("incline.png");
+    let output = hapticctl()
+        .args([
+            "experiment",
+            "incline",
+            "--fractions",
+            "0.99,1.01",
+            "--duration",
+            "1",
+            "--json",
+            "--plot",
+        ])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let moved: Vec<f64> = report["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["moved"].as_f64().unwrap())
+        .collect();
+    // Held (the elastic contact leans a fraction of a millimetre), then slid a metre and more.
+    assert!(moved[0].abs() < 1e-3 && moved[1] > 0.3, "{moved:?}");
+    assert!(
+        std::fs::read(&png)
+            .unwrap()
+            .starts_with(b"\x89PNG\r\n\x1a\n")
+    );
+    for bad in ["--fractions=-1", "--duration=0"] {
+        let refused = hapticctl()
+            .args(["experiment", "incline", bad, "--plot"])
+            .arg(&png)
+            .output()
+            .unwrap();
+        assert_eq!(refused.status.code(), Some(2), "{bad}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
     // The rig as a scene: the weight is a pointer on a 400 N/m virtual coupling, the
     // spring's end a scripted grip.

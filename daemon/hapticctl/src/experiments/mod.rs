@@ -9,9 +9,11 @@
 //! - [`wall_stiffness`]: the stiffest wall that stays stable at a given loop rate (Table 3.4);
 //! - [`shape_tracing`]: tracing a cylinder across the edge of the complete region (3.5.10);
 //! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
-//! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14).
+//! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14);
+//! - [`incline`]: a block on a slope just below and just past the friction angle (5.3.6).
 
 pub mod grasp;
+pub mod incline;
 pub mod push_phase;
 pub mod shape_tracing;
 pub mod stack_timing;

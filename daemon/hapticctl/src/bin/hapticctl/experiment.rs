@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
-use hapticctl::experiments::{grasp, push_phase, shape_tracing, stack_timing, wall_stiffness};
+use hapticctl::experiments::{
+    grasp, incline, push_phase, shape_tracing, stack_timing, wall_stiffness,
+};
 use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
 use hapticd_core::haptics::grasp::Method;
@@ -25,6 +27,9 @@ pub enum Command {
     StackTiming(StackTimingArgs),
     /// Pull a 2 kg weight through a spring: stick-slip (thesis Fig. 5.13/5.14).
     StickSlip(StickSlipArgs),
+    /// Tilt a block's floor to fractions of the friction angle, at once: it holds below the
+    /// angle and slides past it (thesis 5.3.6).
+    Incline(InclineArgs),
     /// Two fingers shake a held box: resultant distribution against one spring per finger
     /// (thesis 4.7, Tables 4.1–4.2, Fig. 4.12).
     Grasp(GraspArgs),
@@ -115,6 +120,21 @@ pub struct StickSlipArgs {
 }
 
 #[derive(Args)]
+pub struct InclineArgs {
+    /// Fractions of the friction angle.
+    #[arg(long, value_parser = parse_numbers, default_value = "0.9,0.95,0.99,1.01")]
+    fractions: Numbers,
+    /// Simulated time after the tilt, seconds.
+    #[arg(long, default_value_t = 3.0)]
+    duration: f64,
+    /// Write the figure to this PNG file.
+    #[arg(long)]
+    plot: PathBuf,
+    #[command(flatten)]
+    output: Output,
+}
+
+#[derive(Args)]
 pub struct StackTimingArgs {
     /// Stack heights, blocks.
     #[arg(long, value_parser = parse_numbers, default_value = "1,2,5,10,20,50,100")]
@@ -175,6 +195,7 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::Cylinder(args) => cylinder(&args),
         Command::StackTiming(args) => stack_timing(&args),
         Command::StickSlip(args) => stick_slip(&args),
+        Command::Incline(args) => incline(&args),
         Command::Grasp(args) => grasp(&args),
         Command::PushPhase(args) => push(&args),
     }
@@ -482,6 +503,61 @@ fn stick_slip(args: &StickSlipArgs) -> Result<(), Failure> {
     }
     let rows = runs.iter().map(|(label, expected, _, peak)| {
         json!({"model": label, "peak": peak, "expected_peak": expected})
+    });
+    report(&args.output, &args.plot, rows, text);
+    Ok(())
+}
+
+fn incline(args: &InclineArgs) -> Result<(), Failure> {
+    if !(args.duration > 0.0 && args.duration <= 60.0) {
+        return Err(Failure::usage("--duration must be 0–60 s"));
+    }
+    if args.fractions.is_empty() || args.fractions.iter().any(|f| !(0.0..=2.0).contains(f)) {
+        return Err(Failure::usage("--fractions must be 0–2"));
+    }
+    let (_, cube) = incline::SHAPES[0];
+    let runs: Vec<_> = args
+        .fractions
+        .iter()
+        .map(|&fraction| {
+            let block = incline::Incline {
+                size: cube,
+                damping: 1.0,
+                fraction,
+                ramp: 0.0,
+            };
+            (fraction, block.run(args.duration).0)
+        })
+        .collect();
+    let chart = Chart {
+        title: format!(
+            "a 0.2 m cube on a slope, μ0 = {}, μ = {}",
+            incline::STATIC_FRICTION,
+            incline::FRICTION
+        ),
+        x_label: "time after the tilt [s]".into(),
+        y_label: "way down the slope [mm]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(k, (fraction, samples))| Series {
+                label: format!("{fraction} of the friction angle"),
+                points: samples.iter().map(|s| (s.time, s.moved * 1e3)).collect(),
+                color: PALETTE[k % PALETTE.len()],
+            })
+            .collect(),
+        // Creep at the scale of the 1 mm the tests allow; a sliding block leaves the chart.
+        y_range: Some((-0.5, 2.0)),
+        ..Chart::default()
+    };
+    save(&chart, &args.plot)?;
+    let mut text = format!("wrote {}\n", args.plot.display());
+    for (fraction, samples) in &runs {
+        let moved = samples.last().map_or(0.0, |s| s.moved);
+        text += &format!("  {fraction} of the friction angle: {:.4} mm\n", moved * 1e3);
+    }
+    let rows = runs.iter().map(|(fraction, samples)| {
+        json!({"fraction": fraction, "moved": samples.last().map_or(0.0, |s| s.moved)})
     });
     report(&args.output, &args.plot, rows, text);
     Ok(())
