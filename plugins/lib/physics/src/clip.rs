@@ -72,8 +72,13 @@ impl Clipper {
             return;
         }
         self.kept.clear();
+        self.cap.clear();
         for (&v, &s) in input.vertices.iter().zip(&self.distance) {
             if s <= ON_PLANE {
+                // A vertex left on the plane is a corner of the cap too.
+                if on_plane(v, s) {
+                    self.cap.push((0.0, out.vertices.len()));
+                }
                 self.kept.push(Some(out.vertices.len()));
                 out.vertices.push(v);
             } else {
@@ -146,27 +151,18 @@ impl Clipper {
         let index = out.vertices.len();
         out.vertices.push(point);
         self.crossings.push((key.0, key.1, index));
+        self.cap.push((0.0, index));
         index
     }
 
-    /// Close the cut with a face of the points on the plane, counter-clockwise seen from
-    /// outside (along the plane's normal).
+    /// Close the cut with a face of the points on the plane (gathered in `cap` as the cut
+    /// made or kept them), counter-clockwise seen from outside (along the plane's normal).
     fn close_cap(&mut self, plane: Plane, out: &mut Polyhedron) {
-        self.cap.clear();
-        let on_plane = |v: DVec3| plane.distance(v).abs() <= 1e-9 * (1.0 + v.length());
-        let mut centre = DVec3::ZERO;
-        let mut count = 0;
-        for (index, &v) in out.vertices.iter().enumerate() {
-            if on_plane(v) {
-                centre += v;
-                count += 1;
-                self.cap.push((0.0, index));
-            }
-        }
-        if count < 3 {
+        if self.cap.len() < 3 {
             return;
         }
-        centre /= count as f64;
+        let centre =
+            self.cap.iter().map(|c| out.vertices[c.1]).sum::<DVec3>() / self.cap.len() as f64;
         let u = plane.normal.any_orthonormal_vector();
         let w = plane.normal.cross(u);
         for (angle, index) in &mut self.cap {
@@ -197,6 +193,12 @@ impl Clipper {
         }
         self.spare = spare;
     }
+}
+
+/// Whether a vertex at `v`, `distance` from a plane, lies on it (to rounding, which grows
+/// with the coordinates).
+fn on_plane(v: DVec3, distance: f64) -> bool {
+    distance.abs() <= 1e-9 * (1.0 + v.length())
 }
 
 /// A number that grows with the angle of (x, y) from the x axis, as atan2 does, from 0 to 4

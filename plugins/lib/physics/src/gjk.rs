@@ -144,7 +144,9 @@ fn reduce(simplex: &mut Simplex) -> DVec3 {
 /// Closest points (on `a`, on `b` moved by `offset`) of two convex vertex sets, or `None`
 /// when they overlap.
 pub fn closest_points(a: &[DVec3], b: &[DVec3], offset: DVec3) -> Option<(DVec3, DVec3)> {
-    let first = support(a, b, offset, DVec3::X);
+    // b moved apart along `offset` has its points nearest a that way: start the search
+    // there (at rest, where the last step's normal moved it, it then ends in a step or two).
+    let first = support(a, b, offset, offset.try_normalize().unwrap_or(DVec3::X));
     let mut simplex = Simplex {
         points: [first; 4],
         len: 1,

@@ -554,7 +554,10 @@ fn incline(args: &InclineArgs) -> Result<(), Failure> {
     let mut text = format!("wrote {}\n", args.plot.display());
     for (fraction, samples) in &runs {
         let moved = samples.last().map_or(0.0, |s| s.moved);
-        text += &format!("  {fraction} of the friction angle: {:.4} mm\n", moved * 1e3);
+        text += &format!(
+            "  {fraction} of the friction angle: {:.4} mm\n",
+            moved * 1e3
+        );
     }
     let rows = runs.iter().map(|(fraction, samples)| {
         json!({"fraction": fraction, "moved": samples.last().map_or(0.0, |s| s.moved)})
