@@ -19,17 +19,22 @@ use super::polyhedron::Polyhedron;
 /// with unit normal `normal` and stiffness `k_n` (N/m³: force per unit depth per unit area).
 pub fn spring(solid: &Polyhedron, point: DVec3, normal: DVec3, k_n: f64) -> Wrench {
     let mut w = Wrench::default();
-    for tri in solid.triangles() {
-        let h = tri.map(|v| (v - point).dot(normal));
-        let p = [0, 1, 2].map(|i| tri[i] - h[i] * normal);
+    // Each corner's depth h and its projection p onto the contact plane.
+    let project = |v: DVec3| {
+        let h = (v - point).dot(normal);
+        (h, v - h * normal)
+    };
+    solid.fans(None, project, |[(h0, p0), (h1, p1), (h2, p2)]| {
         // Signed projected area: positive for faces turned toward the normal.
-        let area = (p[1] - p[0]).cross(p[2] - p[0]).dot(normal) / 2.0;
-        let mean_h = (h[0] + h[1] + h[2]) / 3.0;
-        let mean_p = (p[0] + p[1] + p[2]) / 3.0;
-        let spread = (0..3).fold(DVec3::ZERO, |s, i| s + (h[i] - mean_h) * (p[i] - mean_p));
+        let area = (p1 - p0).cross(p2 - p0).dot(normal) / 2.0;
+        let mean_h = (h0 + h1 + h2) / 3.0;
+        let mean_p = (p0 + p1 + p2) / 3.0;
+        let spread = (h0 - mean_h) * (p0 - mean_p)
+            + (h1 - mean_h) * (p1 - mean_p)
+            + (h2 - mean_h) * (p2 - mean_p);
         w.force += k_n * area * mean_h * normal;
         w.torque += k_n * area * (mean_h * mean_p + spread / 12.0).cross(normal);
-    }
+    });
     w
 }
 
@@ -44,20 +49,17 @@ pub fn damper(
     velocity: impl Fn(DVec3) -> DVec3,
 ) -> Wrench {
     let mut w = Wrench::default();
-    for tri in solid.triangles() {
-        let area = (tri[1] - tri[0]).cross(tri[2] - tri[0]).dot(normal) / 2.0;
-        if area <= 0.0 {
-            continue;
-        }
-        let v = tri.map(|x| velocity(x).dot(normal) * normal);
-        let mean_v = (v[0] + v[1] + v[2]) / 3.0;
-        let mean_p = (tri[0] + tri[1] + tri[2]) / 3.0;
-        let spread = (0..3).fold(DVec3::ZERO, |s, i| {
-            s + (tri[i] - mean_p).cross(v[i] - mean_v)
-        });
+    let approach = |x: DVec3| (x, velocity(x).dot(normal) * normal);
+    solid.fans(Some(normal), approach, |[(x0, v0), (x1, v1), (x2, v2)]| {
+        let area = (x1 - x0).cross(x2 - x0).dot(normal) / 2.0;
+        let mean_v = (v0 + v1 + v2) / 3.0;
+        let mean_p = (x0 + x1 + x2) / 3.0;
+        let spread = (x0 - mean_p).cross(v0 - mean_v)
+            + (x1 - mean_p).cross(v1 - mean_v)
+            + (x2 - mean_p).cross(v2 - mean_v);
         w.force += b_n * area * mean_v;
         w.torque += b_n * area * (mean_p.cross(mean_v) + spread / 12.0);
-    }
+    });
     w
 }
 

@@ -108,30 +108,29 @@ impl ContactPatch {
 
     /// The patch of `solid` across `normal`.
     pub fn of(solid: &Polyhedron, normal: DVec3) -> Self {
-        // Triangles of the faces turned toward the normal, projected, with their areas.
-        let triangles = || {
-            solid.triangles().filter_map(move |t| {
-                let t = t.map(|v| v.reject_from_normalized(normal));
-                let s = (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
-                (s > 0.0).then_some((s, t))
-            })
-        };
-        let (area, moment) = triangles().fold((0.0, DVec3::ZERO), |(a, m), (s, t)| {
-            (a + s, m + s * (t[0] + t[1] + t[2]) / 3.0)
+        // The faces turned toward the normal, projected onto the plane across it.
+        let project = |v: DVec3| v.reject_from_normalized(normal);
+        let area_of = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
+        let (mut area, mut moment) = (0.0, DVec3::ZERO);
+        solid.fans(Some(normal), project, |t| {
+            let s = area_of(&t);
+            area += s;
+            moment += s * (t[0] + t[1] + t[2]) / 3.0;
         });
         if area <= 0.0 {
             return Self::default();
         }
         let centroid = moment / area;
         let (mut polar, mut radius) = (0.0, 0.0);
-        for (s, t) in triangles() {
+        solid.fans(Some(normal), project, |t| {
+            let s = area_of(&t);
             let q = t.map(|x| x - centroid);
             let sum = q[0] + q[1] + q[2];
             // ∫|q|² over a triangle: S/12 (Σ|qᵢ|² + |Σqᵢ|²).
             polar += s / 12.0
                 * (q.iter().map(|x| x.length_squared()).sum::<f64>() + sum.length_squared());
             radius += s * (sum / 3.0).length();
-        }
+        });
         Self {
             area,
             centroid,

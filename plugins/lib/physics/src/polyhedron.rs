@@ -106,6 +106,34 @@ impl Polyhedron {
         })
     }
 
+    /// The triangles of [`Polyhedron::triangles`] on the faces turned toward `toward` (all
+    /// faces when `None`), each corner mapped by `each`, which sees every vertex of a face
+    /// once rather than once per triangle.
+    pub fn fans<T: Copy>(
+        &self,
+        toward: Option<DVec3>,
+        each: impl Fn(DVec3) -> T,
+        mut triangle: impl FnMut([T; 3]),
+    ) {
+        for (face, plane) in self.faces.iter().zip(&self.planes) {
+            if toward.is_some_and(|n| plane.normal.dot(n) <= 0.0) {
+                continue;
+            }
+            let Some((&first, rest)) = face.split_first() else {
+                continue;
+            };
+            let first = each(self.vertices[first]);
+            let mut previous = None;
+            for &k in rest {
+                let next = each(self.vertices[k]);
+                if let Some(previous) = previous {
+                    triangle([first, previous, next]);
+                }
+                previous = Some(next);
+            }
+        }
+    }
+
     /// The least width across the solid: over every face normal, the extent of the vertices
     /// along it (for a box, its shortest edge).
     pub fn thickness(&self) -> f64 {
