@@ -66,8 +66,8 @@ pub fn damper(
 /// Distributed Coulomb friction while sliding (eq. 5.14–5.16): at every point of the
 /// contact, μ times the local spring pressure, against the local sliding direction.
 /// `velocity(x)` is the velocity of the body pushed along `normal` relative to the other at
-/// x; the wrench returned acts on that body. Each triangle is integrated with the
-/// edge-midpoint rule, exact for the pressure (linear) times a uniform direction; sampling
+/// x (a rigid motion's); the wrench returned acts on that body. Each triangle is integrated
+/// with the edge-midpoint rule, exact for the pressure (linear) times a uniform direction; sampling
 /// inside the triangle matters where the direction turns: on a spinning patch the pressure
 /// peaks at the centre, where the sliding speed vanishes, and is zero at the rim, where it is
 /// largest, so vertex samples alone would miss the torque that brakes the spin. Below
@@ -81,17 +81,27 @@ pub fn sliding_friction(
     velocity: impl Fn(DVec3) -> DVec3,
 ) -> Wrench {
     let mut w = Wrench::default();
-    for tri in solid.triangles() {
-        let h = tri.map(|v| (v - point).dot(normal));
-        let p = [0, 1, 2].map(|i| tri[i] - h[i] * normal);
-        let area = (p[1] - p[0]).cross(p[2] - p[0]).dot(normal) / 2.0;
+    // Each corner's depth, projection onto the contact plane and sliding velocity; a rigid
+    // motion's velocity at an edge's midpoint is the mean of its ends'.
+    let corner = |v: DVec3| {
+        let h = (v - point).dot(normal);
+        (
+            h,
+            v - h * normal,
+            velocity(v).reject_from_normalized(normal),
+        )
+    };
+    solid.fans(None, corner, |t| {
+        let [(_, p0, _), (_, p1, _), (_, p2, _)] = t;
+        let area = (p1 - p0).cross(p2 - p0).dot(normal) / 2.0;
         for (a, b) in [(0, 1), (1, 2), (2, 0)] {
-            let slip = velocity((tri[a] + tri[b]) / 2.0).reject_from_normalized(normal);
+            let ((ha, pa, sa), (hb, pb, sb)) = (t[a], t[b]);
+            let slip = (sa + sb) / 2.0;
             let direction = -slip / slip.length().max(slip_speed);
-            let f = area / 3.0 * mu * k_n * (h[a] + h[b]) / 2.0 * direction;
+            let f = area / 3.0 * mu * k_n * (ha + hb) / 2.0 * direction;
             w.force += f;
-            w.torque += ((p[a] + p[b]) / 2.0).cross(f);
+            w.torque += ((pa + pb) / 2.0).cross(f);
         }
-    }
+    });
     w
 }
