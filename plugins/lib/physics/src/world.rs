@@ -750,30 +750,7 @@ impl World {
         self.touched[pair] = self.steps;
         self.counting[i] += 1;
         self.counting[j] += 1;
-        // The normal of the last step, carried along by body i, serves again while body j
-        // has moved less than a tolerance relative to i since it was found: at rest the
-        // search of 5.3.2 would find it again.
-        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-        let turn = bi.orientation.inverse() * bj.orientation;
-        let shift = bi.orientation.inverse() * (bj.position - bi.position);
-        let (found_turn, found_shift, found_normal) = self.found[pair];
-        let size = {
-            let around = Aabb::around(std::slice::from_ref(&self.overlap));
-            (around.max - around.min).length()
-        };
-        let still = self.normals[pair] != DVec3::ZERO
-            && turn.dot(found_turn).abs() > (NORMAL_TURN / 2.0).cos()
-            && (shift - found_shift).length() < NORMAL_SHIFT * size;
-        let normal = if still {
-            bi.orientation * found_normal
-        } else {
-            let normal = self
-                .separation_normal(piece_a, piece_b, self.normals[pair], size)
-                .unwrap_or_else(|| self.contact_normal(piece_b));
-            self.found[pair] = (turn, shift, bi.orientation.inverse() * normal);
-            normal
-        };
-        self.normals[pair] = normal;
+        let normal = self.normal((i, ka), (j, kb), pair);
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
         // Forces on j, pushing it away from i along the normal.
         // An explicit damper of c over a step overshoots once c·dt/m nears 2 (a
@@ -830,11 +807,11 @@ impl World {
         // with room.
         let stiffest = FRICTION_PHASE.powi(2) / (tangent_shared * dt * dt * patch.area);
         m.friction.stiffness = m.friction.stiffness.min(stiffest);
-        // Sliding friction must fade out over more than the speed one step of it
-        // takes away, or it reverses the slide every step instead of stopping it.
         // The spring's force is k_N·V whichever point of the contact's normal line it is
         // taken from.
         let push = spring(&self.overlap, at, normal, m.stiffness);
+        // Sliding friction must fade out over more than the speed one step of it
+        // takes away, or it reverses the slide every step instead of stopping it.
         let kick = m.friction.dynamic_coefficient * push.force.dot(normal) * dt;
         m.friction.slip_speed = m.friction.slip_speed.max(kick * tangent_mobility);
         let mut resist = damper(&self.overlap, normal, m.damping, |x| {
@@ -849,21 +826,7 @@ impl World {
                 torque: keep * resist.torque,
             };
         }
-        // What else acted on each body at the last step, and what it would take to hold
-        // their centroids' accelerations together.
-        let inverse = |body: &Body| if body.fixed { 0.0 } else { 1.0 / body.mass };
-        let movable = inverse(a) + inverse(b);
-        let loading = (movable > 0.0).then(|| {
-            let contact = self.pair_forces[pair];
-            let apart =
-                (self.forces[j] - contact) * inverse(b) - (self.forces[i] + contact) * inverse(a);
-            let asked = apart / movable;
-            Loading {
-                load: asked.reject_from_normalized(normal),
-                pressing: -asked.dot(normal),
-                turning: 1.0 / (a.inverse_inertia_about(normal) + b.inverse_inertia_about(normal)),
-            }
-        });
+        let loading = self.loading(i, j, pair, normal);
         let on_j = push
             + resist
             + Wrench {
@@ -886,6 +849,57 @@ impl World {
         self.pair_forces[pair] = on_j.force;
         self.apply(i, j, on_j);
         true
+    }
+
+    /// The contact normal between piece `ka` of body `i` and piece `kb` of body `j`, whose
+    /// overlap has just been found, for their `pair`. The normal of the last step, carried
+    /// along by body i, serves again while body j has moved less than a tolerance relative
+    /// to i since it was searched for: at rest the search of 5.3.2 would find it again.
+    fn normal(&mut self, (i, ka): (usize, usize), (j, kb): (usize, usize), pair: usize) -> DVec3 {
+        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+        let turn = bi.orientation.inverse() * bj.orientation;
+        let shift = bi.orientation.inverse() * (bj.position - bi.position);
+        let (found_turn, found_shift, found_normal) = self.found[pair];
+        let size = {
+            let around = Aabb::around(std::slice::from_ref(&self.overlap));
+            (around.max - around.min).length()
+        };
+        let still = self.normals[pair] != DVec3::ZERO
+            && turn.dot(found_turn).abs() > (NORMAL_TURN / 2.0).cos()
+            && (shift - found_shift).length() < NORMAL_SHIFT * size;
+        let normal = if still {
+            bi.orientation * found_normal
+        } else {
+            let (piece_a, piece_b) = (&bi.world_pieces()[ka], &bj.world_pieces()[kb]);
+            let normal = self
+                .separation_normal(piece_a, piece_b, self.normals[pair], size)
+                .unwrap_or_else(|| self.contact_normal(piece_b));
+            self.found[pair] = (turn, shift, bi.orientation.inverse() * normal);
+            normal
+        };
+        self.normals[pair] = normal;
+        normal
+    }
+
+    /// What the rest of the world asks of the contact `pair` between bodies `i` and `j`
+    /// across `normal`: what else acted on each at the last step, as the force it would
+    /// take to hold their centroids' accelerations together. None when the contact cannot
+    /// move either body.
+    fn loading(&self, i: usize, j: usize, pair: usize, normal: DVec3) -> Option<Loading> {
+        let (a, b) = (&self.bodies[i], &self.bodies[j]);
+        let inverse = |body: &Body| if body.fixed { 0.0 } else { 1.0 / body.mass };
+        let movable = inverse(a) + inverse(b);
+        (movable > 0.0).then(|| {
+            let contact = self.pair_forces[pair];
+            let apart =
+                (self.forces[j] - contact) * inverse(b) - (self.forces[i] + contact) * inverse(a);
+            let asked = apart / movable;
+            Loading {
+                load: asked.reject_from_normalized(normal),
+                pressing: -asked.dot(normal),
+                turning: 1.0 / (a.inverse_inertia_about(normal) + b.inverse_inertia_about(normal)),
+            }
+        })
     }
 
     /// Add the contact wrench `on_j` to body `j` and its reaction to body `i`.
