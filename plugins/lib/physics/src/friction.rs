@@ -145,7 +145,8 @@ impl ContactPatch {
 /// is the contact's normal force and `pressure` its stiffness k_N (for the distributed
 /// dynamic friction); `patch` is the contact region of `solid`; `loading` is what the rest
 /// of the world asks of it (none for bodies it cannot move, such as a pointer held to its
-/// grip against a fixed table: what the springs hold is then the load). Updates `state` for a step of `dt`.
+/// grip against a fixed table: what the springs hold is then the load). Updates `state`
+/// for a step of `dt`.
 #[allow(clippy::too_many_arguments)]
 pub fn friction(
     state: &mut FrictionState,
