@@ -49,6 +49,47 @@ fn length(v: [f64; 3]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// The result rows of `hapticctl experiment NAME ARGS… --json --plot FILE`, once it has
+/// drawn its figure.
+fn experiment(name: &str, args: &[&str]) -> Vec<Value> {
+    let dir = support::scratch_root().join(format!("hapticd-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("figure.png");
+    let output = hapticctl()
+        .args(["experiment", name])
+        .args(args)
+        .args(["--json", "--plot"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        std::fs::read(&png)
+            .unwrap()
+            .starts_with(b"\x89PNG\r\n\x1a\n")
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    report["results"].as_array().unwrap().clone()
+}
+
+/// The exit code of `hapticctl experiment NAME ARGS… --plot FILE`.
+fn refused(name: &str, args: &[&str]) -> Option<i32> {
+    let png = support::scratch_root().join(format!("hapticd-refused-{}.png", std::process::id()));
+    let output = hapticctl()
+        .args(["experiment", name])
+        .args(args)
+        .arg("--plot")
+        .arg(&png)
+        .output()
+        .unwrap();
+    output.status.code()
+}
+
 #[test]
 fn the_dropped_cube_comes_to_rest_flat_on_the_floor_and_is_recorded_and_plotted() {
     let dir = support::scratch_root().join(format!("hapticd-scene-{}", std::process::id()));
@@ -138,63 +179,18 @@ fn a_scene_file_with_an_unknown_key_is_refused_with_its_line_and_column() {
 
 #[test]
 fn the_step_time_experiment_plots_both_contact_models() {
-    let dir = support::scratch_root().join(format!("hapticd-timing-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let png = dir.join("timing.png");
-    let output = hapticctl()
-        .args([
-            "experiment",
-            "stack-timing",
-            "--blocks",
-            "1,3",
-            "--samples",
-            "5",
-        ])
-        .args(["--plot", png.to_str().unwrap(), "--json"])
-        .output()
-        .unwrap();
-    assert!(output.status.success());
-    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
-    let rows = report["results"].as_array().unwrap();
+    let rows = experiment("stack-timing", &["--blocks", "1,3", "--samples", "5"]);
     let blocks: Vec<u64> = rows.iter().map(|r| r["blocks"].as_u64().unwrap()).collect();
     assert_eq!(blocks, [1, 3]);
-    for r in rows {
+    for r in &rows {
         assert!(r["volume_us"].as_f64().unwrap() > 0.0 && r["point_us"].as_f64().unwrap() > 0.0);
     }
-    assert!(
-        std::fs::read(&png)
-            .unwrap()
-            .starts_with(b"\x89PNG\r\n\x1a\n")
-    );
-    let refused = hapticctl()
-        .args(["experiment", "stack-timing", "--blocks", "2.5", "--plot"])
-        .arg(&png)
-        .output()
-        .unwrap();
-    assert_eq!(refused.status.code(), Some(2));
-    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(refused("stack-timing", &["--blocks", "2.5"]), Some(2));
 }
 
 #[test]
 fn the_stick_slip_experiment_reaches_the_exact_peaks_and_plots_them() {
-    let dir = support::scratch_root().join(format!("hapticd-stick-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let png = dir.join("stick.png");
-    let output = hapticctl()
-        .args([
-            "experiment",
-            "stick-slip",
-            "--duration",
-            "1",
-            "--json",
-            "--plot",
-        ])
-        .arg(&png)
-        .output()
-        .unwrap();
-    assert!(output.status.success());
-    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
-    let rows = report["results"].as_array().unwrap();
+    let rows = experiment("stick-slip", &["--duration", "1"]);
     assert_eq!(rows.len(), 2);
     for r in rows {
         let (peak, expected) = (
@@ -203,57 +199,17 @@ fn the_stick_slip_experiment_reaches_the_exact_peaks_and_plots_them() {
         );
         assert!((peak - expected).abs() < 0.03 * expected, "{r}");
     }
-    assert!(
-        std::fs::read(&png)
-            .unwrap()
-            .starts_with(b"\x89PNG\r\n\x1a\n")
-    );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn the_incline_experiment_holds_below_the_friction_angle_and_slides_past_it() {
-    let dir = support::scratch_root().join(format!("hapticd-incline-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let png = dir.join("incline.png");
-    let output = hapticctl()
-        .args([
-            "experiment",
-            "incline",
-            "--fractions",
-            "0.99,1.01",
-            "--duration",
-            "1",
-            "--json",
-            "--plot",
-        ])
-        .arg(&png)
-        .output()
-        .unwrap();
-    assert!(output.status.success());
-    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
-    let moved: Vec<f64> = report["results"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["moved"].as_f64().unwrap())
-        .collect();
-    // Held (the elastic contact leans a fraction of a millimetre), then slid a metre and more.
+    let rows = experiment("incline", &["--fractions", "0.99,1.01", "--duration", "1"]);
+    let moved: Vec<f64> = rows.iter().map(|r| r["moved"].as_f64().unwrap()).collect();
+    // Held (the elastic contact gives a fraction of a millimetre), then slid a metre and more.
     assert!(moved[0].abs() < 1e-3 && moved[1] > 0.3, "{moved:?}");
-    assert!(
-        std::fs::read(&png)
-            .unwrap()
-            .starts_with(b"\x89PNG\r\n\x1a\n")
-    );
     for bad in ["--fractions=-1", "--duration=0"] {
-        let refused = hapticctl()
-            .args(["experiment", "incline", bad, "--plot"])
-            .arg(&png)
-            .output()
-            .unwrap();
-        assert_eq!(refused.status.code(), Some(2), "{bad}");
+        assert_eq!(refused("incline", &[bad]), Some(2), "{bad}");
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

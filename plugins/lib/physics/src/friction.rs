@@ -17,8 +17,9 @@
 //! than this contact's, [`Loading`]) exceeds μ0 times the larger of the normal force and the
 //! load pressing the bodies together, or when the springs and dampers pull more than twice
 //! that (bodies set moving from outside). It then slides with the distributed dynamic
-//! friction of [`sliding_friction`] until the slide slows below the slip speed; there the
-//! springs start again unstretched: anchoring them at the dynamic friction instead (as
+//! friction of [`sliding_friction`] until the slide slows below the slip speed with a load
+//! the dynamic friction could hold (the thesis' step 3); there the springs start again
+//! unstretched: anchoring them at the dynamic friction instead (as
 //! Fig. 5.8 does) stores that force in the springs, which then push a block that has just
 //! stopped back and forth.
 
@@ -57,8 +58,7 @@ pub struct FrictionState {
     twist: f64,
     /// Where the contact centroid was.
     centre: DVec3,
-    /// Sliding velocity at the contact centroid and spin about the normal at the last step.
-    slip: DVec3,
+    /// Spin about the normal at the last step.
     turn: f64,
     /// Friction torque about the normal at the last step.
     twist_held: f64,
@@ -188,22 +188,25 @@ pub fn friction(
     let slip = velocity(centre).reject_from_normalized(normal);
     let turn = spin.dot(normal);
     let p = parameters;
+    let pressing = normal_force.max(loading.map_or(0.0, |l| l.pressing));
     // The spin about the normal has no load from outside worked out for it: its load is
     // what changed the spin over the last step less the friction torque that acted.
     let twist_load =
         loading.map(|l| (l.turning * (turn - state.turn) / dt - state.twist_held).abs());
-    let slowing = slip.length() + turn.abs() * mean_radius
-        <= state.slip.length() + state.turn.abs() * mean_radius;
-    (state.slip, state.turn) = (slip, turn);
-    if state.sliding
-        && slowing
-        && slip.length() < p.slip_speed
-        && turn.abs() * mean_radius < p.slip_speed
-    {
-        // Stuck again where the slide comes to rest (not where it starts from rest, just
-        // broken loose): the springs start unstretched.
-        state.sliding = false;
-        (state.slide, state.twist) = (DVec3::ZERO, 0.0);
+    state.turn = turn;
+    // A slide comes to rest where it is slow and holding the bodies asks no more than the
+    // dynamic friction (5.3.6, step 3): a block just broken loose by a load past μ0·N
+    // starts from rest too, but slides on. Bodies the contact cannot move ask the dampers'
+    // force at that speed.
+    if state.sliding && slip.length() < p.slip_speed && turn.abs() * mean_radius < p.slip_speed {
+        let hold = loading.map_or(p.damping * area * slip.length(), |l| l.load.length());
+        let twist_hold = twist_load.unwrap_or(p.damping * polar * turn.abs());
+        let dynamic = p.dynamic_coefficient * pressing;
+        if hold <= dynamic && twist_hold <= dynamic * mean_radius {
+            // The springs start unstretched.
+            state.sliding = false;
+            (state.slide, state.twist) = (DVec3::ZERO, 0.0);
+        }
     }
     if !state.sliding {
         state.slide += slip * dt;
@@ -211,10 +214,9 @@ pub fn friction(
         let force = -(p.stiffness * state.slide + p.damping * slip) * area;
         let torque = -(p.stiffness * state.twist + p.damping * turn) * polar * normal;
         // Bodies whose motion the contact cannot change: what the springs hold is the load.
-        let pressing = loading.map_or(0.0, |l| l.pressing);
         let load = loading.map_or(force.length(), |l| l.load.length());
         let twist_load = twist_load.unwrap_or(torque.length());
-        let limit = p.static_coefficient * normal_force.max(pressing);
+        let limit = p.static_coefficient * pressing;
         let holds = |load: f64, held: f64, limit: f64| load <= limit && held <= OVERSHOOT * limit;
         if holds(load, force.length(), limit)
             && holds(twist_load, torque.length(), limit * mean_radius)
