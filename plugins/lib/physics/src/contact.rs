@@ -24,17 +24,21 @@ pub fn spring(solid: &Polyhedron, point: DVec3, normal: DVec3, k_n: f64) -> Wren
         let h = (v - point).dot(normal);
         (h, v - h * normal)
     };
-    solid.fans(None, project, |[(h0, p0), (h1, p1), (h2, p2)]| {
-        // Signed projected area: positive for faces turned toward the normal.
-        let area = (p1 - p0).cross(p2 - p0).dot(normal) / 2.0;
-        let mean_h = (h0 + h1 + h2) / 3.0;
-        let mean_p = (p0 + p1 + p2) / 3.0;
-        let spread = (h0 - mean_h) * (p0 - mean_p)
-            + (h1 - mean_h) * (p1 - mean_p)
-            + (h2 - mean_h) * (p2 - mean_p);
-        w.force += k_n * area * mean_h * normal;
-        w.torque += k_n * area * (mean_h * mean_p + spread / 12.0).cross(normal);
-    });
+    solid.fans(
+        |plane| plane.spans(normal),
+        project,
+        |[(h0, p0), (h1, p1), (h2, p2)]| {
+            // Signed projected area: positive for faces turned toward the normal.
+            let area = (p1 - p0).cross(p2 - p0).dot(normal) / 2.0;
+            let mean_h = (h0 + h1 + h2) / 3.0;
+            let mean_p = (p0 + p1 + p2) / 3.0;
+            let spread = (h0 - mean_h) * (p0 - mean_p)
+                + (h1 - mean_h) * (p1 - mean_p)
+                + (h2 - mean_h) * (p2 - mean_p);
+            w.force += k_n * area * mean_h * normal;
+            w.torque += k_n * area * (mean_h * mean_p + spread / 12.0).cross(normal);
+        },
+    );
     w
 }
 
@@ -50,16 +54,20 @@ pub fn damper(
 ) -> Wrench {
     let mut w = Wrench::default();
     let approach = |x: DVec3| (x, velocity(x).dot(normal) * normal);
-    solid.fans(Some(normal), approach, |[(x0, v0), (x1, v1), (x2, v2)]| {
-        let area = (x1 - x0).cross(x2 - x0).dot(normal) / 2.0;
-        let mean_v = (v0 + v1 + v2) / 3.0;
-        let mean_p = (x0 + x1 + x2) / 3.0;
-        let spread = (x0 - mean_p).cross(v0 - mean_v)
-            + (x1 - mean_p).cross(v1 - mean_v)
-            + (x2 - mean_p).cross(v2 - mean_v);
-        w.force += b_n * area * mean_v;
-        w.torque += b_n * area * (mean_p.cross(mean_v) + spread / 12.0);
-    });
+    solid.fans(
+        |plane| plane.faces(normal),
+        approach,
+        |[(x0, v0), (x1, v1), (x2, v2)]| {
+            let area = (x1 - x0).cross(x2 - x0).dot(normal) / 2.0;
+            let mean_v = (v0 + v1 + v2) / 3.0;
+            let mean_p = (x0 + x1 + x2) / 3.0;
+            let spread = (x0 - mean_p).cross(v0 - mean_v)
+                + (x1 - mean_p).cross(v1 - mean_v)
+                + (x2 - mean_p).cross(v2 - mean_v);
+            w.force += b_n * area * mean_v;
+            w.torque += b_n * area * (mean_p.cross(mean_v) + spread / 12.0);
+        },
+    );
     w
 }
 
@@ -91,17 +99,21 @@ pub fn sliding_friction(
             velocity(v).reject_from_normalized(normal),
         )
     };
-    solid.fans(None, corner, |t| {
-        let [(_, p0, _), (_, p1, _), (_, p2, _)] = t;
-        let area = (p1 - p0).cross(p2 - p0).dot(normal) / 2.0;
-        for (a, b) in [(0, 1), (1, 2), (2, 0)] {
-            let ((ha, pa, sa), (hb, pb, sb)) = (t[a], t[b]);
-            let slip = (sa + sb) / 2.0;
-            let direction = -slip / slip.length().max(slip_speed);
-            let f = area / 3.0 * mu * k_n * (ha + hb) / 2.0 * direction;
-            w.force += f;
-            w.torque += ((pa + pb) / 2.0).cross(f);
-        }
-    });
+    solid.fans(
+        |plane| plane.spans(normal),
+        corner,
+        |t| {
+            let [(_, p0, _), (_, p1, _), (_, p2, _)] = t;
+            let area = (p1 - p0).cross(p2 - p0).dot(normal) / 2.0;
+            for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+                let ((ha, pa, sa), (hb, pb, sb)) = (t[a], t[b]);
+                let slip = (sa + sb) / 2.0;
+                let direction = -slip / slip.length().max(slip_speed);
+                let f = area / 3.0 * mu * k_n * (ha + hb) / 2.0 * direction;
+                w.force += f;
+                w.torque += ((pa + pb) / 2.0).cross(f);
+            }
+        },
+    );
     w
 }

@@ -112,25 +112,33 @@ impl ContactPatch {
         let project = |v: DVec3| v.reject_from_normalized(normal);
         let area_of = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) / 2.0;
         let (mut area, mut moment) = (0.0, DVec3::ZERO);
-        solid.fans(Some(normal), project, |t| {
-            let s = area_of(&t);
-            area += s;
-            moment += s * (t[0] + t[1] + t[2]) / 3.0;
-        });
+        solid.fans(
+            |plane| plane.faces(normal),
+            project,
+            |t| {
+                let s = area_of(&t);
+                area += s;
+                moment += s * (t[0] + t[1] + t[2]) / 3.0;
+            },
+        );
         if area <= 0.0 {
             return Self::default();
         }
         let centroid = moment / area;
         let (mut polar, mut radius) = (0.0, 0.0);
-        solid.fans(Some(normal), project, |t| {
-            let s = area_of(&t);
-            let q = t.map(|x| x - centroid);
-            let sum = q[0] + q[1] + q[2];
-            // ∫|q|² over a triangle: S/12 (Σ|qᵢ|² + |Σqᵢ|²).
-            polar += s / 12.0
-                * (q.iter().map(|x| x.length_squared()).sum::<f64>() + sum.length_squared());
-            radius += s * (sum / 3.0).length();
-        });
+        solid.fans(
+            |plane| plane.faces(normal),
+            project,
+            |t| {
+                let s = area_of(&t);
+                let q = t.map(|x| x - centroid);
+                let sum = q[0] + q[1] + q[2];
+                // ∫|q|² over a triangle: S/12 (Σ|qᵢ|² + |Σqᵢ|²).
+                polar += s / 12.0
+                    * (q.iter().map(|x| x.length_squared()).sum::<f64>() + sum.length_squared());
+                radius += s * (sum / 3.0).length();
+            },
+        );
         Self {
             area,
             centroid,

@@ -17,6 +17,17 @@ impl Plane {
     pub fn distance(&self, p: DVec3) -> f64 {
         self.normal.dot(p) - self.offset
     }
+
+    /// Whether a face on this plane is turned toward `normal`.
+    pub fn faces(&self, normal: DVec3) -> bool {
+        self.normal.dot(normal) > 0.0
+    }
+
+    /// Whether a face on this plane is seen other than edge-on along `normal`: one seen
+    /// edge-on has no area across the normal, and adds nothing to an integral over it.
+    pub fn spans(&self, normal: DVec3) -> bool {
+        self.normal.dot(normal).abs() > 1e-12
+    }
 }
 
 /// A convex polyhedron.
@@ -106,17 +117,17 @@ impl Polyhedron {
         })
     }
 
-    /// The triangles of [`Polyhedron::triangles`] on the faces turned toward `toward` (all
-    /// faces when `None`), each corner mapped by `each`, which sees every vertex of a face
-    /// once rather than once per triangle.
+    /// The triangles of [`Polyhedron::triangles`] on the faces whose planes `keep` keeps,
+    /// each corner mapped by `each`, which sees every vertex of a face once rather than once
+    /// per triangle.
     pub fn fans<T: Copy>(
         &self,
-        toward: Option<DVec3>,
+        keep: impl Fn(&Plane) -> bool,
         each: impl Fn(DVec3) -> T,
         mut triangle: impl FnMut([T; 3]),
     ) {
         for (face, plane) in self.faces.iter().zip(&self.planes) {
-            if toward.is_some_and(|n| plane.normal.dot(n) <= 0.0) {
+            if !keep(plane) {
                 continue;
             }
             let Some((&first, rest)) = face.split_first() else {
