@@ -178,18 +178,26 @@ impl Clipper {
 
     /// Write the intersection of `a` and `b` to `out` (empty when they do not overlap).
     pub fn intersect(&mut self, a: &Polyhedron, b: &Polyhedron, out: &mut Polyhedron) {
-        self.copy(a, out);
+        let inside = |p: &Polyhedron, plane: &Plane| {
+            p.vertices.iter().all(|&v| plane.distance(v) <= ON_PLANE)
+        };
+        // Most of a contact's planes leave the overlap whole: they cost no copy, and the
+        // first that cuts cuts `a` itself.
+        let Some(first) = b.planes.iter().position(|plane| !inside(a, plane)) else {
+            self.copy(a, out);
+            return;
+        };
+        self.clip(a, b.planes[first], out);
         let mut spare = std::mem::take(&mut self.spare);
-        for &plane in &b.planes {
-            // Most of a contact's planes leave the overlap whole: no copy for those.
-            if out.vertices.iter().all(|&v| plane.distance(v) <= ON_PLANE) {
+        for &plane in &b.planes[first + 1..] {
+            if out.faces.is_empty() {
+                break;
+            }
+            if inside(out, &plane) {
                 continue;
             }
             self.clip(out, plane, &mut spare);
             std::mem::swap(out, &mut spare);
-            if out.faces.is_empty() {
-                break;
-            }
         }
         self.spare = spare;
     }
