@@ -167,10 +167,10 @@ const ROCKING_ROOM: f64 = 0.25;
 
 /// How far (radians) two bodies may turn relative to each other before their contact normal
 /// is searched for again: it is found again to within this.
-const NORMAL_TURN: f64 = 1e-5;
+const NORMAL_TURN: f64 = 1e-4;
 /// How far (in sizes of their overlap) two bodies may move relative to each other before
 /// their contact normal is searched for again.
-const NORMAL_SHIFT: f64 = 1e-3;
+const NORMAL_SHIFT: f64 = 1e-2;
 
 /// Largest one-step phase ω·dt of a contact's friction springs.
 const FRICTION_PHASE: f64 = 0.5;
