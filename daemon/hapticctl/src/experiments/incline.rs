@@ -91,9 +91,8 @@ impl Incline {
         world
     }
 
-    /// Tilt the slope and keep it for `seconds` after it has tilted; returns, from the start
-    /// and every millisecond, the time since the tilt began, how far the middle of the block's base has
-    /// moved down the slope (m) and its speed down the slope (m/s); and the world at the end.
+    /// Tilt the slope and keep it for `seconds` after it has tilted; returns a [`Sample`] of
+    /// the block's base at the start and every millisecond, and the world at the end.
     pub fn run(&self, seconds: f64) -> (Vec<Sample>, World) {
         let mut world = self.world();
         let start = base(&world, self.size.y);
