@@ -122,19 +122,20 @@ fn point_contact(
 /// it leans onto one edge, then rocks for seconds after a load changes, and every swing
 /// asks its friction for more than the load does. This adds what brings rocking up to the
 /// normal damper's own ratio of critical damping (at most critical), for bodies pivoting
-/// about the patch; `damping` is (as set, as stabilised), `shares` each body's number of
-/// contacts. Applied explicitly, it takes at most a quarter of the bodies' relative spin in
-/// a step, and with the normal damper's own part never more than all of it.
+/// about the patch, about the `tangents` across the normal; the normal contact's stiffness,
+/// damping (as set, as stabilised) and the pair's mobility along the normal at `at` come
+/// with them, and `shares` is each body's number of contacts. Applied explicitly, it takes
+/// at most a quarter of the bodies' relative spin in a step, and with the normal damper's
+/// own part never more than all of it.
 fn rocking_damper(
     (a, b): (&Body, &Body),
     shares: (f64, f64),
     patch: &ContactPatch,
-    normal: DVec3,
+    (normal, tangents): (DVec3, [DVec3; 2]),
     at: DVec3,
-    (stiffness, damping, stable_damping): (f64, f64, f64),
+    (stiffness, damping, stable_damping, normal_mobility): (f64, f64, f64, f64),
     dt: f64,
 ) -> DVec3 {
-    let normal_mobility = a.inverse_mass_at(at, normal) + b.inverse_mass_at(at, normal);
     // The normal damper's share of critical damping, ζ = c·A/(2√(k·A·m)).
     let ratio = (damping * patch.area * normal_mobility.sqrt()
         / (2.0 * (stiffness * patch.area).sqrt()))
@@ -142,9 +143,8 @@ fn rocking_damper(
     let second_moment = patch.polar / 2.0;
     let line = patch.point_on(at, normal);
     let relative_spin = b.spin - a.spin;
-    let (t1, t2) = normal.any_orthonormal_pair();
     let mut torque = DVec3::ZERO;
-    for t in [t1, t2] {
+    for t in tangents {
         let pivoting = 1.0 / a.inertia_about_line(line, t) + 1.0 / b.inertia_about_line(line, t);
         let turning = a.inverse_inertia_about(t) * shares.0 + b.inverse_inertia_about(t) * shares.1;
         if pivoting <= 0.0 || turning <= 0.0 {
@@ -199,18 +199,8 @@ pub struct World {
     wrenches: Vec<Wrench>,
     /// Index of each body's first piece among all bodies' pieces, and their total at the end.
     first_piece: Vec<usize>,
-    /// Friction state of the pair of pieces (p, q), p < q, at p·P + q (P pieces in all).
-    friction: Vec<FrictionState>,
-    /// Contact normal of each pair of pieces at the last step it was in contact.
-    normals: Vec<DVec3>,
-    /// Where the second body of each pair was relative to the first (turn, shift, in the
-    /// first's frame) when their normal was last searched for, and that normal in the first's
-    /// frame.
-    found: Vec<(DQuat, DVec3, DVec3)>,
-    /// The step at which each pair of pieces was last in contact.
-    touched: Vec<u64>,
-    /// The contact force of each pair of pieces (on the second) at that step.
-    pair_forces: Vec<DVec3>,
+    /// The contact of the pair of pieces (p, q), p < q, at p·P + q (P pieces in all).
+    pairs: Vec<Pair>,
     /// The force on each body at the last step (zero on a sleeping one: it is in balance).
     forces: Vec<DVec3>,
     /// Steps taken.
@@ -240,6 +230,22 @@ pub struct World {
     /// Gravity and loads at the last step: a change wakes the bodies.
     last_gravity: DVec3,
     last_loads: Vec<Wrench>,
+}
+
+/// What a world keeps of the contact between two pieces from one step to the next.
+#[derive(Debug, Clone, Copy, Default)]
+struct Pair {
+    /// The step at which they were last in contact.
+    touched: u64,
+    /// Their contact normal at that step.
+    normal: DVec3,
+    /// Where the second body was relative to the first (turn, shift, in the first's frame)
+    /// when their normal was last searched for, and that normal in the first's frame.
+    found: (DQuat, DVec3, DVec3),
+    /// The contact force on the second at that step.
+    force: DVec3,
+    /// Their friction.
+    friction: FrictionState,
 }
 
 /// A body whose every point moves slower than this (m/s) is still.
@@ -323,7 +329,6 @@ impl World {
             }))
             .collect();
         let pairs = first_piece[n] * first_piece[n];
-        let friction = vec![FrictionState::default(); pairs];
         let (mut clipper, mut overlap) = (Clipper::default(), Polyhedron::default());
         let faces = bodies
             .iter()
@@ -334,10 +339,7 @@ impl World {
         clipper.reserve(faces, &mut overlap);
         Self {
             first_piece,
-            normals: vec![DVec3::ZERO; pairs],
-            found: vec![(DQuat::IDENTITY, DVec3::ZERO, DVec3::ZERO); pairs],
-            touched: vec![0; pairs],
-            pair_forces: vec![DVec3::ZERO; pairs],
+            pairs: vec![Pair::default(); pairs],
             forces: vec![DVec3::ZERO; n],
             steps: 0,
             contacts: vec![0; n],
@@ -356,7 +358,6 @@ impl World {
             wrenches: vec![Wrench::default(); n],
             loads: vec![Wrench::ZERO; n],
             ignored_pairs: Vec::with_capacity(IGNORED_PAIRS),
-            friction,
             bodies,
             gravity,
             material,
@@ -597,8 +598,8 @@ impl World {
         for p in self.first_piece[i]..self.first_piece[i + 1] {
             for q in self.first_piece[j]..self.first_piece[j + 1] {
                 let pair = p * pieces + q;
-                if self.touched[pair] + 1 == self.steps {
-                    self.touched[pair] = self.steps;
+                if self.pairs[pair].touched + 1 == self.steps {
+                    self.pairs[pair].touched = self.steps;
                     self.counting[i] += 1;
                     self.counting[j] += 1;
                 }
@@ -721,11 +722,9 @@ impl World {
     ) -> bool {
         let pieces = self.first_piece[self.bodies.len()];
         let pair = (self.first_piece[i] + ka) * pieces + self.first_piece[j] + kb;
-        if self.touched[pair] + 1 != self.steps {
-            // A new contact: no previous normal, friction springs not yet attached.
-            self.friction[pair].in_contact = false;
-            self.normals[pair] = DVec3::ZERO;
-            self.pair_forces[pair] = DVec3::ZERO;
+        if self.pairs[pair].touched + 1 != self.steps {
+            // A new contact: no previous normal or force, friction springs not yet attached.
+            self.pairs[pair] = Pair::default();
         }
         let (piece_a, piece_b) = (
             &self.bodies[i].world_pieces()[ka],
@@ -746,7 +745,7 @@ impl World {
         if self.overlap.faces.is_empty() {
             return false;
         }
-        self.touched[pair] = self.steps;
+        self.pairs[pair].touched = self.steps;
         self.counting[i] += 1;
         self.counting[j] += 1;
         let normal = self.normal((i, ka), (j, kb), pair);
@@ -793,9 +792,9 @@ impl World {
             (a, b),
             (shares(i), shares(j)),
             &patch,
-            normal,
+            (normal, [t1, t2]),
             at,
-            (m.stiffness, raw_damping, m.damping),
+            (m.stiffness, raw_damping, m.damping, normal_mobility),
             dt,
         );
         let tangent_shared = damped_mobility(t1).max(damped_mobility(t2));
@@ -833,7 +832,7 @@ impl World {
                 torque: rocking,
             }
             + friction(
-                &mut self.friction[pair],
+                &mut self.pairs[pair].friction,
                 &self.overlap,
                 &patch,
                 normal,
@@ -845,7 +844,7 @@ impl World {
                 loading.as_ref(),
                 dt,
             );
-        self.pair_forces[pair] = on_j.force;
+        self.pairs[pair].force = on_j.force;
         self.apply(i, j, on_j);
         true
     }
@@ -858,12 +857,13 @@ impl World {
         let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
         let turn = bi.orientation.inverse() * bj.orientation;
         let shift = bi.orientation.inverse() * (bj.position - bi.position);
-        let (found_turn, found_shift, found_normal) = self.found[pair];
+        let (found_turn, found_shift, found_normal) = self.pairs[pair].found;
+        let previous = self.pairs[pair].normal;
         let size = {
             let around = Aabb::around(std::slice::from_ref(&self.overlap));
             (around.max - around.min).length()
         };
-        let still = self.normals[pair] != DVec3::ZERO
+        let still = previous != DVec3::ZERO
             && turn.dot(found_turn).abs() > (NORMAL_TURN / 2.0).cos()
             && (shift - found_shift).length() < NORMAL_SHIFT * size;
         let normal = if still {
@@ -871,12 +871,12 @@ impl World {
         } else {
             let (piece_a, piece_b) = (&bi.world_pieces()[ka], &bj.world_pieces()[kb]);
             let normal = self
-                .separation_normal(piece_a, piece_b, self.normals[pair], size)
+                .separation_normal(piece_a, piece_b, previous, size)
                 .unwrap_or_else(|| self.contact_normal(piece_b));
-            self.found[pair] = (turn, shift, bi.orientation.inverse() * normal);
+            self.pairs[pair].found = (turn, shift, bi.orientation.inverse() * normal);
             normal
         };
-        self.normals[pair] = normal;
+        self.pairs[pair].normal = normal;
         normal
     }
 
@@ -889,7 +889,7 @@ impl World {
         let inverse = |body: &Body| if body.fixed { 0.0 } else { 1.0 / body.mass };
         let movable = inverse(a) + inverse(b);
         (movable > 0.0).then(|| {
-            let contact = self.pair_forces[pair];
+            let contact = self.pairs[pair].force;
             let apart =
                 (self.forces[j] - contact) * inverse(b) - (self.forces[i] + contact) * inverse(a);
             let asked = apart / movable;
