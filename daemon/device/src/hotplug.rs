@@ -14,7 +14,6 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use crate::{SUPPORTED_DEVICES, SupportedDevice, usb};
-use hapticd_core::transport::Link;
 
 /// How often a missing amplifier is looked for.
 pub const RETRY: Duration = Duration::from_millis(500);
@@ -69,7 +68,7 @@ pub enum Lookup {
     /// Not on the bus (yet).
     Absent,
     /// Back and opened: hand this link to the loop.
-    Back(Box<dyn Link>),
+    Back(usb::UsbLink),
     /// On the bus but unusable now (cannot be opened or claimed, or another model sits in
     /// its socket); looked for again later. Each reason is told once, not at every look.
     Refused(String),
@@ -116,7 +115,7 @@ impl Reconnector {
             (true, Some(node)) => match usb::open_node(node, &self.model) {
                 Ok(link) => {
                     self.told = None;
-                    return Lookup::Back(Box::new(link));
+                    return Lookup::Back(link);
                 }
                 Err(e) => format!("{} ({}): {e}", self.identity, self.model.name),
             },

@@ -6,6 +6,7 @@
 //! - [`usb`], [`usbfs`], [`hotplug`], [`udev`]: finding, opening and re-opening USB
 //!   amplifiers, and the udev rules that let the daemon do so;
 //! - [`replay`]: recording a link's traffic and playing it back as the device;
+//! - [`guardian`]: the process that zeroes the amplifiers should the daemon die;
 //! - [`sim`]: the simulated SPIDAR, a first-class device (an SH4 board, motors, strings
 //!   and grip) moved by a scripted hand.
 //!
@@ -13,6 +14,7 @@
 //! exercised whatever the device.
 
 pub mod counter;
+pub mod guardian;
 pub mod hotplug;
 pub mod replay;
 pub mod sh4;

@@ -274,16 +274,21 @@ pub fn spawn_traffic_writer(
     mut ring: spsc::Consumer<Transfer>,
     done: &'static std::sync::atomic::AtomicBool,
 ) -> std::io::Result<std::thread::JoinHandle<std::io::Result<()>>> {
-    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut out = std::fs::File::create(path)?;
     out.write_all(MAGIC)?;
     Ok(std::thread::spawn(move || {
+        // Whole records per write: a daemon killed between two writes leaves a file that
+        // ends on a record, which the guardian's zero-current record can follow.
+        let mut batch = Vec::new();
         loop {
             let finished = done.load(std::sync::atomic::Ordering::Acquire);
             while let Some(t) = ring.pop() {
-                write_transfer(&mut out, &t)?;
+                write_transfer(&mut batch, &t)?;
             }
+            out.write_all(&batch)?;
+            batch.clear();
             if finished {
-                return out.flush();
+                return Ok(());
             }
             std::thread::sleep(std::time::Duration::from_millis(10));
         }

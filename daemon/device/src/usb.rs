@@ -15,6 +15,7 @@ const TIMEOUT: Duration = Duration::from_millis(100);
 
 /// A claimed USB amplifier.
 pub struct UsbLink {
+    node: PathBuf,
     device: UsbfsDevice,
     out_endpoint: u8,
     in_endpoint: u8,
@@ -82,10 +83,18 @@ pub fn open_node(node: &Path, model: &SupportedDevice) -> std::io::Result<UsbLin
         super::Protocol::Simple => (simple::ENDPOINT_OUT, simple::ENDPOINT_IN),
     };
     Ok(UsbLink {
+        node: node.to_path_buf(),
         device,
         out_endpoint,
         in_endpoint,
     })
+}
+
+impl UsbLink {
+    /// The usbfs node it was opened at (`/dev/bus/usb/BBB/DDD`).
+    pub fn node(&self) -> &Path {
+        &self.node
+    }
 }
 
 impl Link for UsbLink {

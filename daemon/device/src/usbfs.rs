@@ -76,6 +76,14 @@ fn errno_error(errno: i32) -> TransportError {
     }
 }
 
+/// Open the usbfs `node` for transfers, claiming nothing yet.
+pub fn open_node(node: &Path) -> std::io::Result<File> {
+    std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(node)
+}
+
 /// One claimed interface of a device node, moving bulk transfers one at a time.
 pub struct UsbfsDevice {
     node: File,
@@ -93,10 +101,7 @@ impl UsbfsDevice {
     /// Open `node`, take `interface` from any kernel driver bound to it, and claim it.
     /// Transfers give up after `timeout`.
     pub fn open(node: &Path, interface: u32, timeout: Duration) -> std::io::Result<Self> {
-        let node = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(node)?;
+        let node = open_node(node)?;
         let fd = node.as_raw_fd();
         let mut bound = GetDriver {
             interface,
@@ -116,9 +121,16 @@ impl UsbfsDevice {
                 return Err(std::io::Error::last_os_error());
             }
         }
+        Self::claim(node, interface, timeout)
+    }
+
+    /// Claim `interface` of a device `node` already opened (with [`open_node`]), as the
+    /// guardian does once the daemon that held it is gone. Transfers give up after
+    /// `timeout`.
+    pub fn claim(node: File, interface: u32, timeout: Duration) -> std::io::Result<Self> {
         let mut claimed = interface;
         // SAFETY: CLAIMINTERFACE reads one unsigned int.
-        if unsafe { libc::ioctl(fd, CLAIMINTERFACE as _, &mut claimed) } != 0 {
+        if unsafe { libc::ioctl(node.as_raw_fd(), CLAIMINTERFACE as _, &mut claimed) } != 0 {
             return Err(std::io::Error::last_os_error());
         }
         Ok(Self {

@@ -132,27 +132,37 @@ impl Drop for Service {
     }
 }
 
-async fn connect(bus: &Bus, daemon: &Arc<Daemon>) -> zbus::Result<zbus::Connection> {
-    let builder = bus.builder();
-    let workers = Arc::new(Workers::start().map_err(zbus::Error::from)?);
-    let mut builder = builder.serve_at(
-        MANAGER_PATH,
-        ManagerInterface::new(daemon.clone(), workers.clone()),
-    );
-    for (index, device) in daemon.devices().iter().enumerate() {
-        builder = builder.serve_at(
-            device_path(index),
-            DeviceInterface::new(daemon.clone(), device.clone(), workers.clone()),
-        );
-    }
-    // The name is ours only while no other hapticd has it, and nobody may take it from us:
-    // a second daemon would leave the first driving its amplifier unreachable.
-    builder
+/// [main] Connect to `bus` and own [`BUS_NAME`] there. The name is ours only while no other
+/// hapticd has it, and nobody may take it from us: a second daemon would leave the first
+/// driving its amplifier unreachable.
+async fn connect(bus: &Bus) -> zbus::Result<zbus::Connection> {
+    bus.builder()
         .name(BUS_NAME)
         .allow_name_replacements(false)
         .replace_existing_names(false)
         .build()
         .await
+}
+
+/// Put the manager and every device of `daemon` on `connection`.
+async fn publish(connection: &zbus::Connection, daemon: &Arc<Daemon>) -> zbus::Result<()> {
+    let workers = Arc::new(Workers::start().map_err(zbus::Error::from)?);
+    let objects = connection.object_server();
+    objects
+        .at(
+            MANAGER_PATH,
+            ManagerInterface::new(daemon.clone(), workers.clone()),
+        )
+        .await?;
+    for (index, device) in daemon.devices().iter().enumerate() {
+        objects
+            .at(
+                device_path(index),
+                DeviceInterface::new(daemon.clone(), device.clone(), workers.clone()),
+            )
+            .await?;
+    }
+    Ok(())
 }
 
 /// Why the service could not be served.
@@ -172,52 +182,60 @@ impl std::fmt::Display for ServeError {
     }
 }
 
-/// Serve `daemon` on `bus`; returns once the name is owned, or why it could not be.
-pub fn serve(bus: Bus, daemon: Arc<Daemon>) -> Result<Service, ServeError> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let (ready_tx, ready) = std::sync::mpsc::channel();
-    let stop_flag = stop.clone();
-    let thread = std::thread::Builder::new()
-        .name("hapticd-bus".into())
-        .spawn(move || {
-            let connection = match zbus::block_on(connect(&bus, &daemon)) {
-                Ok(c) => {
-                    let _ = ready_tx.send(Ok(()));
-                    c
+/// The bus name, owned before any device is opened (a second hapticd must learn that the
+/// name is taken before it touches an amplifier the first one drives); its objects are put
+/// on it by [`Claim::serve`].
+pub struct Claim {
+    bus: Bus,
+    connection: zbus::Connection,
+}
+
+/// [main] Own [`BUS_NAME`] on `bus`, or say why it cannot be.
+pub fn claim(bus: Bus) -> Result<Claim, ServeError> {
+    match zbus::block_on(connect(&bus)) {
+        Ok(connection) => Ok(Claim { bus, connection }),
+        Err(zbus::Error::NameTaken) => Err(ServeError::NameTaken(format!(
+            "{BUS_NAME} is already owned on {bus:?}: another hapticd is running there, and \
+             this one will not take its place"
+        ))),
+        Err(e) => Err(ServeError::Unavailable(format!(
+            "cannot serve {BUS_NAME} on {bus:?}: {e}"
+        ))),
+    }
+}
+
+impl Claim {
+    /// [main] Serve `daemon` under the owned name, and announce its devices' changes from a
+    /// thread of its own.
+    pub fn serve(self, daemon: Arc<Daemon>) -> Result<Service, ServeError> {
+        let Claim { bus, connection } = self;
+        zbus::block_on(publish(&connection, &daemon)).map_err(|e| {
+            ServeError::Unavailable(format!("cannot serve {BUS_NAME} on {bus:?}: {e}"))
+        })?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_flag = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("hapticd-bus".into())
+            .spawn(move || {
+                // What clients could read when the objects appeared: only changes from it
+                // are news.
+                let mut announced: Vec<_> = (0..daemon.devices().len())
+                    .map(|index| zbus::block_on(device::baseline(&connection, index)))
+                    .collect();
+                while !stop_flag.load(Ordering::Acquire) {
+                    // Between these calls zbus's helper thread serves the requests.
+                    std::thread::sleep(TELEMETRY_PERIOD);
+                    for (index, last) in announced.iter_mut().enumerate() {
+                        let sent =
+                            zbus::block_on(device::announce(&connection, index, last.take()));
+                        *last = sent;
+                    }
                 }
-                Err(zbus::Error::NameTaken) => {
-                    let _ = ready_tx.send(Err(ServeError::NameTaken(format!(
-                        "{BUS_NAME} is already owned on {bus:?}: another hapticd is running \
-                         there, and this one will not take its place"
-                    ))));
-                    return;
-                }
-                Err(e) => {
-                    let _ = ready_tx.send(Err(ServeError::Unavailable(format!(
-                        "cannot serve {BUS_NAME} on {bus:?}: {e}"
-                    ))));
-                    return;
-                }
-            };
-            // What clients could read when the name was taken: only changes from it are news.
-            let mut announced: Vec<_> = (0..daemon.devices().len())
-                .map(|index| zbus::block_on(device::baseline(&connection, index)))
-                .collect();
-            while !stop_flag.load(Ordering::Acquire) {
-                // Between these calls zbus's helper thread serves the requests.
-                std::thread::sleep(TELEMETRY_PERIOD);
-                for (index, last) in announced.iter_mut().enumerate() {
-                    let sent = zbus::block_on(device::announce(&connection, index, last.take()));
-                    *last = sent;
-                }
-            }
+            })
+            .map_err(|e| ServeError::Unavailable(format!("cannot start the D-Bus thread: {e}")))?;
+        Ok(Service {
+            stop,
+            thread: Some(thread),
         })
-        .map_err(|e| ServeError::Unavailable(format!("cannot start the D-Bus thread: {e}")))?;
-    ready.recv().map_err(|_| {
-        ServeError::Unavailable("the D-Bus thread ended before connecting".to_string())
-    })??;
-    Ok(Service {
-        stop,
-        thread: Some(thread),
-    })
+    }
 }

@@ -20,6 +20,8 @@ use hapticd_core::parameters::Parameters;
 use hapticd_core::scene::Pointer;
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
+use hapticd_device::Protocol;
+use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::Reconnector;
 use hapticd_device::replay;
 use hapticd_device::sim::hand::Script;
@@ -48,6 +50,8 @@ pub struct Common<'a> {
     pub state_dir: Option<&'a StateDir>,
     /// Set when the daemon stops: the logging and recording threads finish then.
     pub done: &'static AtomicBool,
+    /// The process that zeroes the amplifiers should this one die.
+    pub guardian: &'a Guardian,
 }
 
 /// What one device records (the first device only: the files are named once).
@@ -67,8 +71,10 @@ pub struct Device {
     pub handle: Arc<DeviceHandle>,
     /// Scenes and links the loop stopped using, to be freed by the main thread.
     pub retired: spsc::Consumer<Retired>,
-    /// Set for a USB amplifier: opens it again after an unplug.
-    pub reconnector: Option<Reconnector>,
+    /// Its slot with the guardian.
+    pub slot: u32,
+    /// Set for a USB amplifier: opens it again after an unplug, and the protocol it speaks.
+    pub reconnector: Option<(Reconnector, Protocol)>,
     /// The scene it renders.
     pub scene: String,
     /// The thread logging its events.
@@ -79,10 +85,11 @@ pub struct Device {
     pub recording_failed: Option<String>,
 }
 
-/// Start the loop of `kind` with what `common` says, recording what `recording` asks.
-/// Start the device of `kind`, its haptic thread on `cpu` when given.
+/// Start the device of `kind` with what `common` says, recording what `recording` asks, its
+/// haptic thread on `cpu` when given; the guardian knows it as `slot`.
 pub fn start(
     kind: Kind,
+    slot: u32,
     common: &Common,
     recording: Recording,
     cpu: Option<usize>,
@@ -131,6 +138,11 @@ pub fn start(
         None => common.config.realtime.rate,
     };
     let mut writers = Vec::new();
+    // Simulated and replayed devices speak the SH4 protocol.
+    let protocol = match &kind {
+        Kind::Usb(device) => device.model.protocol,
+        _ => Protocol::Sh4,
+    };
     let traffic = match recording.traffic {
         Some(path) => {
             let (tx, rx) = spsc::channel(1 << 14);
@@ -138,12 +150,18 @@ pub fn start(
                 replay::spawn_traffic_writer(path, rx, common.done)
                     .map_err(|e| format!("{}: cannot create: {e}", path.display()))?,
             );
+            common.guardian.watch_recording(slot, protocol, path);
             Some(tx)
         }
         None => None,
     };
     let reconnector = match &kind {
-        Kind::Usb(device) => Some(Reconnector::new(&identity, device.model)),
+        Kind::Usb(device) => {
+            common
+                .guardian
+                .watch_amplifier(slot, protocol, device.link.node());
+            Some((Reconnector::new(&identity, device.model), protocol))
+        }
         _ => None,
     };
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
@@ -283,6 +301,7 @@ pub fn start(
         rt,
         handle,
         retired,
+        slot,
         reconnector,
         scene: scene_name,
         logger,

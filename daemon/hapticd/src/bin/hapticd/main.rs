@@ -23,6 +23,7 @@ use hapticd::layout::Layout;
 use hapticd::scenes;
 use hapticd::sd_notify;
 use hapticd::state::StateDir;
+use hapticd_device::guardian::{self, Guardian};
 use hapticd_device::hotplug::Arrivals;
 use hapticd_device::sim::hand::Script;
 use hapticd_device::usb::find_devices;
@@ -45,6 +46,23 @@ fn run(cli: Cli) -> Result<Ending, String> {
     };
     let mechanism_dirs = (!cli.mechanism_dirs.is_empty()).then(|| cli.mechanism_dirs.clone());
     let catalog = control::catalog(&config, mechanism_dirs.as_deref());
+    // Before any amplifier is opened: a second hapticd learns here that the name is taken,
+    // not after it has pulled on a string the first one drives.
+    let claim = match (&cli.bus, bus::claim(cli.bus.clone().unwrap_or(Bus::System))) {
+        (_, Ok(claim)) => Some(claim),
+        // Another hapticd serves this bus: refuse, whichever bus was meant.
+        (_, Err(e @ bus::ServeError::NameTaken(_))) | (Some(_), Err(e)) => {
+            return Err(e.to_string());
+        }
+        (None, Err(e)) => {
+            tracing::warn!("{e}; running without the D-Bus interface");
+            None
+        }
+    };
+    // Before any amplifier is opened too: whatever ends this process from here on, the
+    // guardian zeroes what it drove.
+    let guardian = Guardian::spawn()
+        .map_err(|e| format!("cannot start the guardian that zeroes the motors: {e}"))?;
     // Every amplifier plugged in, unless told to simulate or replay; the simulated SPIDAR
     // when there is none.
     let hardware = cli.sim.is_none() && cli.replay.is_none();
@@ -111,6 +129,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         script: &script,
         state_dir: state_dir.as_ref(),
         done: &DONE,
+        guardian: &guardian,
     };
     let plan = hapticd::cpus::allowed()
         .ok()
@@ -132,7 +151,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         };
         let identity = kind.identity();
         let cpu = plan.as_ref().map(|p| p.haptic[index]);
-        match device::start(kind, &common, recording, cpu) {
+        match device::start(kind, index as u32, &common, recording, cpu) {
             Ok(started) => devices.push(started),
             Err(e) => failures.push((identity, e)),
         }
@@ -161,19 +180,11 @@ fn run(cli: Cli) -> Result<Ending, String> {
         (devices[0].scene.clone(), scene_file),
         devices.iter().map(|d| d.handle.clone()).collect(),
     ));
-    let service = match (
-        &cli.bus,
-        bus::serve(cli.bus.clone().unwrap_or(Bus::System), daemon.clone()),
-    ) {
-        (_, Ok(service)) => Some(service),
-        // Another hapticd serves this bus: refuse, whichever bus was meant.
-        (_, Err(e @ bus::ServeError::NameTaken(_))) | (Some(_), Err(e)) => {
-            let _ = stop_all(devices);
+    let service = match claim.map(|c| c.serve(daemon.clone())).transpose() {
+        Ok(service) => service,
+        Err(e) => {
+            let _ = stop_all(devices, &guardian);
             return Err(e.to_string());
-        }
-        (None, Err(e)) => {
-            tracing::warn!("{e}; running without the D-Bus interface");
-            None
         }
     };
     tracing::info!("ready: driving {}", driven.join(", "));
@@ -183,6 +194,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         daemon,
         arrivals,
         duration: cli.duration,
+        guardian: &guardian,
     }
     .run();
     // A restart is, to systemd, a reload: the new image says READY=1 again.
@@ -191,7 +203,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
         Ending::Restart => "RELOADING=1",
     });
     drop(service);
-    stop_all(devices)?;
+    stop_all(devices, &guardian)?;
     if signals::OVERTIME.load(Ordering::Acquire) {
         return Err(
             "the haptic thread ran past LimitRTTIME= without sleeping (SIGXCPU): motors zeroed, \
@@ -202,14 +214,19 @@ fn run(cli: Cli) -> Result<Ending, String> {
     Ok(ending)
 }
 
-/// Stop every loop (each writes zero currents first), then let their threads finish.
-fn stop_all(devices: Vec<Device>) -> Result<(), String> {
+/// Stop every loop (each writes zero currents first), tell the guardian the motors are at
+/// zero, then let the loops' threads finish.
+fn stop_all(devices: Vec<Device>, guardian: &Guardian) -> Result<(), String> {
     let stopped: Vec<_> = devices.into_iter().map(Device::stop).collect();
+    guardian.disarm();
     DONE.store(true, Ordering::Release);
     stopped.into_iter().try_for_each(|d| d.finish())
 }
 
 fn main() -> ExitCode {
+    if guardian::is_guardian() {
+        return guardian::run();
+    }
     let cli = Cli::parse();
     hapticd::logging::init("hapticd", false);
     match run(cli) {

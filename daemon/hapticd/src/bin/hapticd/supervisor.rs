@@ -12,6 +12,7 @@ use hapticd::realtime::RealtimeLoop;
 use hapticd::sd_notify;
 use hapticd_core::haptic_loop::Frame;
 use hapticd_core::transport::TransportError;
+use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::{Arrivals, Lookup};
 
 use crate::device::Device;
@@ -35,6 +36,8 @@ pub struct Supervisor<'a> {
     pub arrivals: Option<Arrivals>,
     /// Stop after this many seconds.
     pub duration: Option<f64>,
+    /// The process that zeroes the amplifiers should this one die.
+    pub guardian: &'a Guardian,
 }
 
 impl Supervisor<'_> {
@@ -75,8 +78,11 @@ impl Supervisor<'_> {
             for device in self.devices.iter_mut() {
                 // Freed here, off the real-time thread.
                 while device.retired.pop().is_some() {}
-                follow_the_amplifier(device);
+                follow_the_amplifier(device, self.guardian);
                 device.report_failed_recordings();
+            }
+            if let Some(news) = self.guardian.revive() {
+                tracing::error!("{news}");
             }
             if let Some((plugged, model)) =
                 self.arrivals.as_mut().and_then(|a| a.poll(Instant::now()))
@@ -115,9 +121,10 @@ impl Supervisor<'_> {
     }
 }
 
-/// While `device` is a missing amplifier, look for it and hand it back to its loop.
-fn follow_the_amplifier(device: &mut Device) {
-    let Some(reconnector) = device.reconnector.as_mut() else {
+/// While `device` is a missing amplifier, look for it and hand it back to its loop (and its
+/// new node to the guardian).
+fn follow_the_amplifier(device: &mut Device, guardian: &Guardian) {
+    let Some((reconnector, protocol)) = device.reconnector.as_mut() else {
         return;
     };
     // Gone from the bus; an amplifier that only times out or fails a transfer is still
@@ -125,10 +132,13 @@ fn follow_the_amplifier(device: &mut Device) {
     let missing = device.rt.frame().error == Some(TransportError::Disconnected);
     let identity = device.handle.identity();
     match reconnector.poll(missing, Instant::now()) {
-        Lookup::Back(link) => match device.handle.reconnect(link) {
-            Ok(()) => tracing::info!("{identity} is back: reconnected"),
-            Err(e) => tracing::warn!("{identity} is back but not reconnected: {e}"),
-        },
+        Lookup::Back(link) => {
+            guardian.watch_amplifier(device.slot, *protocol, link.node());
+            match device.handle.reconnect(Box::new(link)) {
+                Ok(()) => tracing::info!("{identity} is back: reconnected"),
+                Err(e) => tracing::warn!("{identity} is back but not reconnected: {e}"),
+            }
+        }
         Lookup::Refused(why) => tracing::warn!("{why}"),
         Lookup::Idle | Lookup::Absent => {}
     }

@@ -1,0 +1,462 @@
+//! The dead man's switch: a guardian process that outlives hapticd and drives its amplifiers
+//! to zero current when hapticd dies without doing so itself.
+//!
+//! A dying process cannot be trusted to run code: SIGKILL, the OOM killer, an `exit()` or
+//! `abort()` inside a plugin's constructor end it wherever it is, with the last D/A command
+//! still applied by the amplifier (which holds its outputs until told otherwise). So hapticd
+//! starts the guardian first of all (its own executable again, named [`PROGRAM`]), tells it
+//! over a socket which amplifier nodes and traffic recordings it drives, and tells it when it
+//! has stopped the motors itself. The guardian holds a pidfd of hapticd: once it becomes
+//! readable (the kernel has then closed every file of the dead process, so the amplifier's
+//! interface is free) and no orderly stop was announced, it opens the amplifier's interface,
+//! sends one zero-current command, appends the same command to the traffic recording (the
+//! simulator's amplifier is that recording), and exits.
+//!
+//! The guardian ignores SIGTERM, SIGINT and SIGHUP, so a stop that signals the whole service
+//! (systemd's `KillMode=control-group`) cannot end it before the daemon.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::Write;
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitCode, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use crate::replay::{Direction, Transfer, write_transfer};
+use crate::usbfs::{UsbfsDevice, open_node};
+use crate::{Protocol, sh4, simple};
+use hapticd_core::transport::CHANNELS;
+
+/// The name the guardian runs under (its `argv[0]`): hapticd's `main` becomes the guardian
+/// when it is started so.
+pub const PROGRAM: &str = "hapticd-guardian";
+
+/// How long the guardian tries to claim an amplifier whose interface is still held (the
+/// dead daemon's file can outlive it for a moment in a child it forked).
+const CLAIM_PATIENCE: Duration = Duration::from_secs(1);
+
+/// Largest message on the socket: a verb, a slot, a protocol and a path.
+const MAX_MESSAGE: usize = 8 + 4096;
+
+/// What one message tells the guardian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+enum Verb {
+    /// Slot N is the amplifier at this usbfs node.
+    Amplifier = 1,
+    /// Slot N's traffic is recorded to this file.
+    Recording = 2,
+    /// The daemon has zeroed every motor itself and is stopping.
+    Disarm = 3,
+}
+
+impl Verb {
+    fn from_byte(byte: u8) -> Option<Self> {
+        [Verb::Amplifier, Verb::Recording, Verb::Disarm]
+            .into_iter()
+            .find(|v| *v as u8 == byte)
+    }
+}
+
+fn protocol_byte(protocol: Protocol) -> u8 {
+    match protocol {
+        Protocol::Sh4 => 0,
+        Protocol::Simple => 1,
+    }
+}
+
+fn protocol_of(byte: u8) -> Option<Protocol> {
+    match byte {
+        0 => Some(Protocol::Sh4),
+        1 => Some(Protocol::Simple),
+        _ => None,
+    }
+}
+
+/// The zero-current command of `protocol`, and the OUT endpoint it goes to.
+pub fn zero_current(protocol: Protocol) -> (u8, Vec<u8>) {
+    let zeros = [0i16; CHANNELS];
+    match protocol {
+        Protocol::Sh4 => {
+            let mut out = [0u8; sh4::PACKET];
+            sh4::Command { dac: zeros }.encode(&mut out);
+            (sh4::ENDPOINT_OUT, out.to_vec())
+        }
+        Protocol::Simple => {
+            let mut out = [0u8; simple::PACKET];
+            simple::Command::SetDac(zeros).encode(&mut out);
+            (simple::ENDPOINT_OUT, out.to_vec())
+        }
+    }
+}
+
+/// One message: verb, slot, protocol, path.
+fn message(verb: Verb, slot: u32, protocol: Protocol, path: &Path) -> Vec<u8> {
+    let mut m = vec![verb as u8];
+    m.extend(slot.to_le_bytes());
+    m.push(protocol_byte(protocol));
+    m.extend(path.as_os_str().as_encoded_bytes());
+    m
+}
+
+/// A connected pair of `SOCK_SEQPACKET` sockets: each message arrives whole, and the peer's
+/// end closing reads as end of file.
+fn socket_pair() -> std::io::Result<(OwnedFd, OwnedFd)> {
+    let mut fds = [0; 2];
+    // SAFETY: socketpair writes two descriptors into the array it is given.
+    let status = unsafe {
+        libc::socketpair(
+            libc::AF_UNIX,
+            libc::SOCK_SEQPACKET | libc::SOCK_CLOEXEC,
+            0,
+            fds.as_mut_ptr(),
+        )
+    };
+    if status != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    // SAFETY: socketpair succeeded: both descriptors are new and ours.
+    Ok(unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) })
+}
+
+/// The daemon's side of its guardian. Every call is on the main thread; a guardian that died
+/// is started again and told everything anew.
+pub struct Guardian {
+    inner: Mutex<Inner>,
+}
+
+struct Inner {
+    child: Child,
+    socket: OwnedFd,
+    /// Every message that still holds, to tell a guardian started again.
+    watched: BTreeMap<(u8, u32), Vec<u8>>,
+}
+
+impl Guardian {
+    /// [main] Start the guardian of this process.
+    pub fn spawn() -> std::io::Result<Self> {
+        let (child, socket) = start()?;
+        Ok(Self {
+            inner: Mutex::new(Inner {
+                child,
+                socket,
+                watched: BTreeMap::new(),
+            }),
+        })
+    }
+
+    /// [main] Slot `slot` is the `protocol` amplifier at usbfs `node` (replacing what the
+    /// slot was: an amplifier plugged back in may have a new node).
+    pub fn watch_amplifier(&self, slot: u32, protocol: Protocol, node: &Path) {
+        self.tell(message(Verb::Amplifier, slot, protocol, node));
+    }
+
+    /// [main] Slot `slot`'s traffic, in `protocol`, is recorded to `path`.
+    pub fn watch_recording(&self, slot: u32, protocol: Protocol, path: &Path) {
+        self.tell(message(Verb::Recording, slot, protocol, path));
+    }
+
+    /// [main] The motors are at zero and the daemon is stopping in order: nothing to do when
+    /// it ends.
+    pub fn disarm(&self) {
+        self.tell(vec![Verb::Disarm as u8]);
+    }
+
+    /// [main] Start the guardian again if it has died; returns what to tell the journal.
+    pub fn revive(&self) -> Option<String> {
+        let mut inner = lock(&self.inner);
+        let status = match inner.child.try_wait() {
+            Ok(None) => return None,
+            Ok(Some(status)) => status.to_string(),
+            Err(e) => e.to_string(),
+        };
+        match start() {
+            Ok((child, socket)) => {
+                inner.child = child;
+                inner.socket = socket;
+                let messages: Vec<Vec<u8>> = inner.watched.values().cloned().collect();
+                let failed = messages.iter().any(|m| send(&inner.socket, m).is_err());
+                Some(format!(
+                    "the guardian that zeroes the motors should hapticd die ended ({status}); \
+                     started again{}",
+                    if failed {
+                        ", but it cannot be told what to guard"
+                    } else {
+                        ""
+                    }
+                ))
+            }
+            Err(e) => Some(format!(
+                "the guardian that zeroes the motors should hapticd die ended ({status}) and \
+                 cannot be started again: {e}"
+            )),
+        }
+    }
+
+    fn tell(&self, message: Vec<u8>) {
+        let mut inner = lock(&self.inner);
+        // A dead guardian is revived with the whole list; the send itself may then fail.
+        let _ = send(&inner.socket, &message);
+        let key = (message[0], message.get(1..5).map_or(0, slot_of));
+        inner.watched.insert(key, message);
+    }
+}
+
+fn lock(inner: &Mutex<Inner>) -> std::sync::MutexGuard<'_, Inner> {
+    inner
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn slot_of(bytes: &[u8]) -> u32 {
+    u32::from_le_bytes(bytes.try_into().unwrap_or_default())
+}
+
+fn send(socket: &OwnedFd, message: &[u8]) -> std::io::Result<()> {
+    // SAFETY: send reads `message.len()` bytes of a live slice; MSG_NOSIGNAL turns a dead
+    // peer into EPIPE instead of a signal.
+    let sent = unsafe {
+        libc::send(
+            socket.as_raw_fd(),
+            message.as_ptr().cast(),
+            message.len(),
+            libc::MSG_NOSIGNAL,
+        )
+    };
+    if sent < 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
+/// Start the guardian of this process: this executable again, as [`PROGRAM`], its standard
+/// input one end of a socket pair and its argument this process's pid.
+fn start() -> std::io::Result<(Child, OwnedFd)> {
+    let (ours, theirs) = socket_pair()?;
+    let child = Command::new("/proc/self/exe")
+        .arg0(PROGRAM)
+        .arg(std::process::id().to_string())
+        .stdin(Stdio::from(theirs))
+        .stdout(Stdio::null())
+        .spawn()?;
+    Ok((child, ours))
+}
+
+/// Whether this process was started as the guardian.
+pub fn is_guardian() -> bool {
+    std::env::args_os()
+        .next()
+        .is_some_and(|name| Path::new(&name).file_name() == Some(PROGRAM.as_ref()))
+}
+
+/// What the guardian holds for one slot.
+#[derive(Default)]
+struct Slot {
+    amplifier: Option<(Protocol, PathBuf, File)>,
+    recording: Option<(Protocol, PathBuf, File)>,
+}
+
+/// The guardian's whole life: guard the daemon whose pid is its argument, from the messages
+/// on its standard input, until it ends.
+pub fn run() -> ExitCode {
+    ignore_stop_signals();
+    let Some(daemon) = std::env::args()
+        .nth(1)
+        .and_then(|pid| pid.parse::<libc::pid_t>().ok())
+    else {
+        eprintln!("{PROGRAM}: started by hand? It takes the pid of the hapticd it guards");
+        return ExitCode::FAILURE;
+    };
+    // SAFETY: pidfd_open takes a pid and flags and returns a new descriptor or -1.
+    let pidfd = unsafe { libc::syscall(libc::SYS_pidfd_open, daemon, 0) };
+    // The daemon may have died before the pidfd was opened (then the pid may even be
+    // another process's): its child is ours only while it is our parent.
+    // SAFETY: getppid takes nothing.
+    if pidfd < 0 || unsafe { libc::getppid() } != daemon {
+        return ExitCode::SUCCESS;
+    }
+    // SAFETY: pidfd_open succeeded: the descriptor is new and ours.
+    let pidfd = unsafe { OwnedFd::from_raw_fd(pidfd as i32) };
+    // SAFETY: mlockall takes no pointers; failing only means the guardian may page-fault.
+    unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+    let mut slots: BTreeMap<u32, Slot> = BTreeMap::new();
+    let mut buffer = vec![0u8; MAX_MESSAGE];
+    loop {
+        let mut fds = [
+            libc::pollfd {
+                fd: 0,
+                events: libc::POLLIN,
+                revents: 0,
+            },
+            libc::pollfd {
+                fd: pidfd.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            },
+        ];
+        // SAFETY: poll reads and writes the two pollfds that live across the call.
+        if unsafe { libc::poll(fds.as_mut_ptr(), 2, -1) } < 0 {
+            continue;
+        }
+        if fds[1].revents != 0 {
+            break;
+        }
+        if fds[0].revents == 0 {
+            continue;
+        }
+        // SAFETY: recv writes at most `buffer.len()` bytes into the buffer.
+        let n = unsafe { libc::recv(0, buffer.as_mut_ptr().cast(), buffer.len(), 0) };
+        if n <= 0 {
+            // The daemon's end closed: it died, or replaced its image (it announces that
+            // with Disarm first, having zeroed its motors).
+            break;
+        }
+        if apply(&buffer[..n as usize], &mut slots) {
+            return ExitCode::SUCCESS;
+        }
+    }
+    zero_everything(daemon, &slots);
+    ExitCode::SUCCESS
+}
+
+/// Take in one message; true when it is the orderly stop.
+fn apply(message: &[u8], slots: &mut BTreeMap<u32, Slot>) -> bool {
+    let verb = message.first().copied().and_then(Verb::from_byte);
+    if verb == Some(Verb::Disarm) {
+        return true;
+    }
+    let (Some(verb), Some(slot), Some(protocol)) = (
+        verb,
+        message.get(1..5).map(slot_of),
+        message.get(5).copied().and_then(protocol_of),
+    ) else {
+        eprintln!("{PROGRAM}: a message it does not understand, ignored");
+        return false;
+    };
+    // SAFETY: the bytes were encoded from an OsStr by the daemon (same platform).
+    let path =
+        PathBuf::from(unsafe { std::ffi::OsStr::from_encoded_bytes_unchecked(&message[6..]) });
+    let entry = slots.entry(slot).or_default();
+    match verb {
+        Verb::Amplifier => match open_node(&path) {
+            Ok(file) => entry.amplifier = Some((protocol, path, file)),
+            Err(e) => eprintln!("{PROGRAM}: cannot open {}: {e}", path.display()),
+        },
+        Verb::Recording => match std::fs::OpenOptions::new().append(true).open(&path) {
+            Ok(file) => entry.recording = Some((protocol, path, file)),
+            Err(e) => eprintln!("{PROGRAM}: cannot open {}: {e}", path.display()),
+        },
+        Verb::Disarm => unreachable!("handled above"),
+    }
+    false
+}
+
+/// The daemon died without stopping its motors: zero every amplifier and recording.
+fn zero_everything(daemon: libc::pid_t, slots: &BTreeMap<u32, Slot>) {
+    for slot in slots.values() {
+        if let Some((protocol, node, file)) = &slot.amplifier {
+            match zero_amplifier(*protocol, file) {
+                Ok(()) => eprintln!(
+                    "{PROGRAM}: hapticd (pid {daemon}) ended without stopping its motors: \
+                     sent zero current to {}",
+                    node.display()
+                ),
+                Err(e) => eprintln!(
+                    "{PROGRAM}: hapticd (pid {daemon}) ended without stopping its motors, and \
+                     zero current could not be sent to {}: {e}",
+                    node.display()
+                ),
+            }
+        }
+        if let Some((protocol, path, file)) = &slot.recording {
+            let (_, zero) = zero_current(*protocol);
+            match write_transfer(&mut &*file, &Transfer::new(Direction::Out, &zero)) {
+                Ok(()) => eprintln!(
+                    "{PROGRAM}: hapticd (pid {daemon}) ended without stopping its motors: \
+                     zero current recorded to {}",
+                    path.display()
+                ),
+                Err(e) => eprintln!("{PROGRAM}: cannot append to {}: {e}", path.display()),
+            }
+        }
+    }
+}
+
+/// Claim the amplifier's interface (free once the daemon's files are closed) and send it the
+/// zero-current command.
+fn zero_amplifier(protocol: Protocol, node: &File) -> std::io::Result<()> {
+    let (endpoint, zero) = zero_current(protocol);
+    let deadline = Instant::now() + CLAIM_PATIENCE;
+    let mut device = loop {
+        match UsbfsDevice::claim(node.try_clone()?, 0, Duration::from_millis(100)) {
+            Ok(device) => break device,
+            Err(e) if e.raw_os_error() == Some(libc::EBUSY) && Instant::now() < deadline => {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            Err(e) => return Err(e),
+        }
+    };
+    device
+        .write(endpoint, &zero)
+        .map_err(|e| std::io::Error::other(format!("{e:?}")))?;
+    std::io::stderr().flush()
+}
+
+/// SIGTERM, SIGINT and SIGHUP reach every process of a stopping service at once: the
+/// guardian outlives them, and ends by itself once the daemon has.
+fn ignore_stop_signals() {
+    for signal in [libc::SIGTERM, libc::SIGINT, libc::SIGHUP] {
+        // SAFETY: SIG_IGN installs no handler code.
+        unsafe { libc::signal(signal, libc::SIG_IGN) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn zero_current_is_all_zero_d_a_values_in_each_protocol() {
+        let (endpoint, sh4_zero) = zero_current(Protocol::Sh4);
+        assert_eq!(endpoint, sh4::ENDPOINT_OUT);
+        assert_eq!(sh4::Command::decode(&sh4_zero).unwrap().dac, [0; CHANNELS]);
+        let (endpoint, simple_zero) = zero_current(Protocol::Simple);
+        assert_eq!(endpoint, simple::ENDPOINT_OUT);
+        let packet: &[u8; simple::PACKET] = simple_zero.as_slice().try_into().unwrap();
+        assert_eq!(
+            simple::Command::decode(packet),
+            Some(simple::Command::SetDac([0; CHANNELS]))
+        );
+    }
+
+    #[test]
+    fn messages_round_trip_through_the_guardian_s_reading() {
+        let dir = std::env::temp_dir().join(format!("guardian-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let recording = dir.join("session.traffic");
+        std::fs::write(&recording, crate::replay::MAGIC).unwrap();
+        let mut slots = BTreeMap::new();
+        let told = message(Verb::Recording, 7, Protocol::Simple, &recording);
+        assert!(!apply(&told, &mut slots));
+        let (protocol, path, _) = slots[&7].recording.as_ref().unwrap();
+        assert_eq!(
+            (*protocol, path.as_path()),
+            (Protocol::Simple, recording.as_path())
+        );
+        assert!(apply(&[Verb::Disarm as u8], &mut slots));
+        zero_everything(0, &slots);
+        let transfers: Vec<_> = crate::replay::Recording::read(&recording)
+            .unwrap()
+            .transfers()
+            .map(|(d, bytes)| (d, bytes.to_vec()))
+            .collect();
+        assert_eq!(
+            transfers,
+            [(Direction::Out, zero_current(Protocol::Simple).1)]
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
