@@ -11,7 +11,8 @@ use std::time::{Duration, Instant};
 
 use hapticd_device::replay::{Direction, Recording};
 use hapticd_device::sh4;
-use support::{artifact, plugin_path, repo_dir, scratch_root, shipped};
+use support::daemon::Isolated;
+use support::{plugin_path, repo_dir, scratch_root, shipped};
 
 /// The plugins staged as an install would have them.
 fn mechanisms() -> PathBuf {
@@ -32,20 +33,18 @@ fn static_scene() -> PathBuf {
     repo_dir().join("config/scenes/static.yaml")
 }
 
-fn hapticd(args: &[&str]) -> Command {
-    hapticd_with_scene(&static_scene(), args)
+/// A private bus and a configuration of test `name`'s own for its hapticd.
+fn on_bus(name: &str) -> Isolated {
+    Isolated::on_private_bus(&scratch(&format!("{name}.daemon")), &mechanisms())
 }
 
-fn hapticd_with_scene(scene: &Path, args: &[&str]) -> Command {
-    let mut c = Command::new(artifact("hapticd"));
-    c.arg("--mechanism-dir")
-        .arg(mechanisms())
-        .arg("--scene")
-        .arg(scene)
-        .args(args)
-        .env_remove("NOTIFY_SOCKET")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
+fn hapticd(at: &Isolated, args: &[&str]) -> Command {
+    hapticd_with_scene(at, &static_scene(), args)
+}
+
+fn hapticd_with_scene(at: &Isolated, scene: &Path, args: &[&str]) -> Command {
+    let mut c = at.hapticd(&["--scene", scene.to_str().unwrap()]);
+    c.args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
     c
 }
 
@@ -60,14 +59,16 @@ fn press() -> String {
         .to_string()
 }
 
-/// Run hapticd to the end on the simulated SPIDAR-G, touching `scene`, with the hand
-/// pressing on the floor for `seconds`, recording to `csv`, plus `extra` arguments.
+/// Run hapticd to the end on the simulated SPIDAR-G on a bus of its own, touching `scene`,
+/// with the hand pressing on the floor for `seconds`, recording to `csv`, plus `extra`
+/// arguments.
 fn pressed(scene: &Path, seconds: &str, csv: &Path, extra: &[&str]) -> Output {
     let hand = press();
     let mut args = vec!["--sim", "spidar-g", "--hand", &hand, "--duration", seconds];
     args.extend(["--record", csv.to_str().unwrap()]);
     args.extend(extra);
-    finish(hapticd_with_scene(scene, &args).spawn().unwrap())
+    let at = on_bus(csv.file_name().unwrap().to_str().unwrap());
+    finish(hapticd_with_scene(&at, scene, &args).spawn().unwrap())
 }
 
 fn finish(child: Child) -> Output {
@@ -130,14 +131,18 @@ fn runs_for_its_duration_and_records_the_grip_held_on_the_floor() {
 #[test]
 fn sigterm_while_pushing_leaves_zero_currents_as_the_last_command() {
     let traffic = scratch("sigterm.traffic");
-    let child = hapticd(&[
-        "--sim",
-        "spidar-g",
-        "--hand",
-        &press(),
-        "--record-traffic",
-        traffic.to_str().unwrap(),
-    ])
+    let at = on_bus("sigterm");
+    let child = hapticd(
+        &at,
+        &[
+            "--sim",
+            "spidar-g",
+            "--hand",
+            &press(),
+            "--record-traffic",
+            traffic.to_str().unwrap(),
+        ],
+    )
     .spawn()
     .unwrap();
     // Wait until the grip presses on the floor (from 1 s on), then ask it to stop.
@@ -178,17 +183,21 @@ fn a_replayed_recording_reproduces_the_session() {
         &first,
         &["--record-traffic", traffic.to_str().unwrap()],
     );
+    let at = on_bus("replay");
     finish(
-        hapticd(&[
-            "--sim",
-            "spidar-g",
-            "--replay",
-            traffic.to_str().unwrap(),
-            "--duration",
-            "0.8",
-            "--record",
-            second.to_str().unwrap(),
-        ])
+        hapticd(
+            &at,
+            &[
+                "--sim",
+                "spidar-g",
+                "--replay",
+                traffic.to_str().unwrap(),
+                "--duration",
+                "0.8",
+                "--record",
+                second.to_str().unwrap(),
+            ],
+        )
         .spawn()
         .unwrap(),
     );
@@ -204,8 +213,9 @@ fn a_replayed_recording_reproduces_the_session() {
 
 #[test]
 fn under_systemd_the_journal_gets_no_status_lines() {
+    let at = on_bus("journal");
     let run = |journal: bool| {
-        let mut command = hapticd(&["--sim", "spidar-g", "--duration", "1.2"]);
+        let mut command = hapticd(&at, &["--sim", "spidar-g", "--duration", "1.2"]);
         if journal {
             // What systemd sets when the streams go to the journal.
             command.env("JOURNAL_STREAM", "8:12345");
@@ -222,11 +232,11 @@ fn under_systemd_the_journal_gets_no_status_lines() {
 
 #[test]
 fn a_bad_configuration_is_refused_with_its_place() {
-    let config = scratch("bad.yaml");
-    std::fs::write(&config, "realtime:\n  rate: 1000\n  speed: 3\n").unwrap();
-    let out = hapticd(&["--config", config.to_str().unwrap(), "--duration", "0.1"])
-        .output()
-        .unwrap();
+    // Refused before it serves: an address where no bus listens is all it needs.
+    let at = Isolated::without_bus(&scratch("bad.daemon"), &mechanisms());
+    let config = at.config();
+    std::fs::write(config, "realtime:\n  rate: 1000\n  speed: 3\n").unwrap();
+    let out = hapticd(&at, &["--duration", "0.1"]).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -236,7 +246,6 @@ fn a_bad_configuration_is_refused_with_its_place() {
         )),
         "{stderr}"
     );
-    std::fs::remove_file(config).ok();
 }
 
 /// CSV rows as (time, state, force y).
@@ -278,7 +287,8 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
     let scene = plugin_path("hapticd-test-stalling-scene");
     pressed(&scene, "3", &csv, &[]);
     let rows = states(&csv);
-    // The physics (50 Hz) hangs from about 1.2 s to 2.2 s. Before: the floor pushes back.
+    // The physics (50 Hz) hangs 0.4 s after the grip reaches its floor (at 0.8 s), from about
+    // 1.2 s to 2.2 s. Before: the floor pushes back.
     assert!(
         rows.iter()
             .filter(|r| (1.0..1.15).contains(&r.0))
@@ -311,8 +321,10 @@ fn two_simulated_fingers_pick_up_shake_and_put_down_a_box() {
     let scene = plugin_path("hapticd-scene-penalty");
     let file = repo_dir().join("config/scenes/grasp.yaml");
     let hand = repo_dir().join("config/hands/grasp-shake.yaml");
+    let at = on_bus("grasp");
     finish(
         hapticd_with_scene(
+            &at,
             &scene,
             &["--scene-file", file.to_str().unwrap(), "--sim", "spidar-ii"],
         )
@@ -468,7 +480,8 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
         "--scene-file",
         balls.to_str().unwrap(),
     ];
-    finish(hapticd_with_scene(&scene, &args).spawn().unwrap());
+    let at = on_bus("balls");
+    finish(hapticd_with_scene(&at, &scene, &args).spawn().unwrap());
     let rows = columns(&csv, &["time", "state", "grip_fx", "grip_fy", "grip_fz"]);
     assert!(rows.len() > 7000, "{} rows", rows.len());
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
@@ -502,18 +515,26 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
 fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
     // strace sees every system call of every thread; the haptic thread names itself first.
     let (trace, csv, hand) = (scratch("rt.strace"), scratch("strace.csv"), press());
-    let out = Command::new("strace")
+    let at = on_bus("strace");
+    let daemon = hapticd(
+        &at,
+        &["--sim", "spidar-g", "--hand", &hand, "--duration", "1.5"],
+    );
+    let mut strace = Command::new("strace");
+    strace
         .args(["-f", "-qq", "-o"])
         .arg(&trace)
-        .arg(artifact("hapticd"))
-        .arg("--mechanism-dir")
-        .arg(mechanisms())
-        .arg("--scene")
-        .arg(static_scene())
-        .args(["--sim", "spidar-g", "--hand", &hand, "--duration", "1.5"])
+        .arg(daemon.get_program())
+        .args(daemon.get_args())
         .arg("--record")
-        .arg(&csv)
-        .env_remove("NOTIFY_SOCKET")
+        .arg(&csv);
+    for (name, value) in daemon.get_envs() {
+        match value {
+            Some(value) => strace.env(name, value),
+            None => strace.env_remove(name),
+        };
+    }
+    let out = strace
         .output()
         .expect("strace is installed (Debian package strace; `make check` installs it)");
     support::succeeded(out);
@@ -583,7 +604,9 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
     let allowed = hapticd::cpus::allowed().unwrap();
     // A multi-rate scene: its physics thread keeps off the haptic CPU too.
     let balls = repo_dir().join("config/scenes/balls.yaml");
+    let at = on_bus("cpus");
     let child = hapticd_with_scene(
+        &at,
         &plugin_path("hapticd-scene-rapier"),
         &[
             "--sim",
@@ -637,4 +660,55 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
         log.contains(&format!("runs on CPU {haptic} alone")),
         "{log}"
     );
+}
+
+/// Every place a test starts hapticd names the bus it serves on: one started without `--bus`
+/// serves on the system bus, where the machine's own hapticd makes it refuse to start (and
+/// with none there, it takes the name the machine's would). The block around each start
+/// must say `--bus`; `support::daemon::Isolated` does, with a configuration of the test's own.
+#[test]
+fn every_test_starts_hapticd_on_a_bus_of_its_own() {
+    let binary = "\"hapticd\"";
+    let starts = [format!("artifact({binary})"), format!("run({binary}")];
+    let mut unbound = Vec::new();
+    for dir in ["tests", "tests/support"] {
+        for entry in std::fs::read_dir(repo_dir().join(dir)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            for start in &starts {
+                for (at, _) in text.match_indices(start.as_str()) {
+                    let rest = &text[at + start.len()..];
+                    // Where the binary lies, not a run of it.
+                    if rest.starts_with(".parent()") || rest.starts_with(".display()") {
+                        continue;
+                    }
+                    if !enclosing_block_rest(rest).contains("--bus") {
+                        let line = text[..at].lines().count();
+                        unbound.push(format!("{}:{line}", path.display()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        unbound.is_empty(),
+        "hapticd started without --bus (start it through support::daemon::Isolated): {unbound:?}"
+    );
+}
+
+/// `text` up to the brace that closes the block it starts in.
+fn enclosing_block_rest(text: &str) -> &str {
+    let mut depth = 0;
+    for (i, c) in text.char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' if depth == 0 => return &text[..i],
+            '}' => depth -= 1,
+            _ => {}
+        }
+    }
+    text
 }

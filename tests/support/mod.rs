@@ -5,6 +5,7 @@
 
 pub mod amplifier;
 pub mod bus;
+pub mod daemon;
 pub mod pile;
 pub mod qp;
 pub mod rng;
