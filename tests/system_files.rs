@@ -94,6 +94,9 @@ fn the_renderer_unit_is_wanted_by_hapticd_and_restarts_with_back_off() {
     assert_eq!(values(&unit, "User"), ["hapticd-render"]);
     assert!(values(&unit, "MemoryDenyWriteExecute").is_empty());
     assert_eq!(values(&unit, "CapabilityBoundingSet"), [""]);
+    // Bounded, so that a renderer asked for too much is killed alone (and restarted).
+    assert_eq!(values(&unit, "MemoryHigh"), ["640M"]);
+    assert_eq!(values(&unit, "MemoryMax"), ["768M"]);
     let sysusers = read("systemd/hapticd.sysusers");
     assert!(sysusers.lines().any(|l| l.starts_with("u hapticd-render ")));
     let dir = support::scratch_root().join(format!("render-unit-{}", std::process::id()));

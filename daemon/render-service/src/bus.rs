@@ -14,7 +14,9 @@ use zbus::interface;
 use zbus::message::Header;
 
 use crate::drawing::{Availability, Job};
+use crate::limits::Limits;
 use crate::options;
+use crate::statistics::Statistics;
 
 /// The service's well-known name.
 pub const BUS_NAME: &str = "org.hapticd.Renderer1";
@@ -41,6 +43,17 @@ pub enum Error {
     NoWorld(String),
     /// Drawing failed.
     Failed(String),
+    /// A frame of more pixels than `max-frame-pixels`.
+    FrameTooLarge(String),
+    /// The caller's connection, its user, or everyone together hold as many streams as
+    /// they may (`max-streams-per-caller`, `max-streams-per-user`, `max-streams`).
+    TooManyStreams(String),
+    /// The stream would take its user, or the renderer, past the pixels a second they may
+    /// draw (`max-pixel-rate-per-user`, `max-pixel-rate`).
+    PixelRateTooHigh(String),
+    /// The stream's ring would take the streams past the memory they may hold
+    /// (`max-stream-memory`).
+    TooMuchMemory(String),
 }
 
 /// The renderer on the bus.
@@ -48,15 +61,26 @@ pub struct RendererInterface {
     jobs: Mutex<Sender<Job>>,
     workers: Arc<Workers>,
     availability: Availability,
+    limits: Limits,
+    statistics: Arc<Statistics>,
 }
 
 impl RendererInterface {
-    /// The interface sending work to the drawing thread through `jobs`.
-    pub fn new(jobs: Sender<Job>, workers: Arc<Workers>, availability: Availability) -> Self {
+    /// The interface sending work to the drawing thread through `jobs`, which counts into
+    /// `statistics` and keeps the streams within `limits`.
+    pub fn new(
+        jobs: Sender<Job>,
+        workers: Arc<Workers>,
+        availability: Availability,
+        limits: Limits,
+        statistics: Arc<Statistics>,
+    ) -> Self {
         Self {
             jobs: Mutex::new(jobs),
             workers,
             availability,
+            limits,
+            statistics,
         }
     }
 
@@ -105,32 +129,84 @@ impl RendererInterface {
         }
     }
 
+    /// What the renderer will take on, by the names of its command line's options:
+    /// `max-frame-pixels`, `max-streams-per-caller`, `max-streams-per-user`,
+    /// `max-streams`, `max-pixel-rate-per-user`, `max-pixel-rate` (pixels a second; a
+    /// frame counts as at least 320 × 240), `max-stream-memory` (MiB).
+    #[zbus(property(emits_changed_signal = "const"))]
+    fn limits(&self) -> HashMap<String, u64> {
+        let l = &self.limits;
+        HashMap::from([
+            ("max-frame-pixels".to_string(), l.max_frame_pixels),
+            (
+                "max-streams-per-caller".to_string(),
+                l.max_streams_per_caller.into(),
+            ),
+            (
+                "max-streams-per-user".to_string(),
+                l.max_streams_per_user.into(),
+            ),
+            ("max-streams".to_string(), l.max_streams.into()),
+            (
+                "max-pixel-rate-per-user".to_string(),
+                l.max_pixel_rate_per_user,
+            ),
+            ("max-pixel-rate".to_string(), l.max_pixel_rate),
+            ("max-stream-memory".to_string(), l.max_stream_memory),
+        ])
+    }
+
+    /// What the renderer has open and has done: `streams` and `drawings` open (identical
+    /// streams share one drawing), the `pixel_rate` they draw and the `stream_memory`
+    /// (bytes) their rings hold; `frames_drawn` for streams since it started (a shared
+    /// drawing's once), `frames_late` (drawn when the next was already due, so frames were
+    /// dropped), `snapshots` drawn, and `snapshot_wait_frames_max`, the most stream frames
+    /// begun while a Snapshot waited for its turn.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn statistics(&self) -> HashMap<String, u64> {
+        self.statistics.by_name()
+    }
+
     /// One picture of the world now, as a PNG file's bytes. Options: `width`, `height`
-    /// (pixels, 1–8192; default 640 × 480), and changes to the scene's camera: `azimuth`,
-    /// `elevation` (radians), `distance` (metres), `target` (x, y, z in metres).
+    /// (pixels, 1–8192, at most `max-frame-pixels` in all; default 640 × 480), and changes
+    /// to the scene's camera: `azimuth`, `elevation` (radians), `distance` (metres),
+    /// `target` (x, y, z in metres).
     async fn snapshot(&self, options: HashMap<String, OwnedVariant>) -> Result<Vec<u8>, Error> {
         let request = options::parse(&options, DEFAULT_SIZE)?;
-        self.ask(|reply| Job::Snapshot { request, reply }).await
+        self.limits.check_frame(&request)?;
+        let stamp = self.statistics.frames_begun();
+        self.ask(|reply| Job::Snapshot {
+            request,
+            stamp,
+            reply,
+        })
+        .await
     }
 
     /// A stream of frames for a viewer: a sealed, read-only memfd holding a ring of RGBA
     /// frames (`hapticd::frame_ring` describes its layout), drawn `rate` times a second
     /// (1–120, default 30) with the options of Snapshot, each announced to the caller
-    /// alone by a Frame signal. The frames stop when the caller leaves the bus.
+    /// alone by a Frame signal. The frames stop when the caller leaves the bus. Streams
+    /// asking for the same picture share one ring, drawn once. Refused beyond the
+    /// `Limits`: `TooManyStreams`, `PixelRateTooHigh`, `FrameTooLarge`, `TooMuchMemory`.
     async fn open_frame_stream(
         &self,
         options: HashMap<String, OwnedVariant>,
         #[zbus(header)] header: Header<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
     ) -> Result<zbus::OwnedFd, Error> {
         let request = options::parse(&options, DEFAULT_SIZE)?;
+        self.limits.check_frame(&request)?;
         let owner = header
             .sender()
             .map(|s| s.to_string())
             .ok_or_else(|| Error::Failed("a request without a sender".into()))?;
+        let uid = unix_user(connection, &owner).await?;
         let fd = self
             .ask(|reply| Job::OpenStream {
                 request,
                 owner,
+                uid,
                 reply,
             })
             .await?;
@@ -143,4 +219,20 @@ impl RendererInterface {
         emitter: &zbus::object_server::SignalEmitter<'_>,
         number: u64,
     ) -> zbus::Result<()>;
+}
+
+/// The Unix user of the connection `name`, as the bus daemon knows it.
+async fn unix_user(connection: &zbus::Connection, name: &str) -> Result<u32, Error> {
+    let reply = connection
+        .call_method(
+            Some("org.freedesktop.DBus"),
+            "/org/freedesktop/DBus",
+            Some("org.freedesktop.DBus"),
+            "GetConnectionUnixUser",
+            &(name,),
+        )
+        .await;
+    reply
+        .and_then(|m| m.body().deserialize::<u32>())
+        .map_err(|e| Error::Failed(format!("cannot tell the user of {name}: {e}")))
 }

@@ -10,23 +10,41 @@
 //! - [`drawing`]: the thread that owns the Vulkan device and draws;
 //! - [`status_line`]: the line of text under each picture;
 //! - [`options`]: the options of requests, checked;
+//! - [`limits`]: what the renderer will take on (streams, pixels a second, memory);
+//! - [`statistics`]: what it has open and has done, for the bus;
 //! - [`bus`]: the D-Bus interface.
 
 mod bus;
 mod drawing;
+mod limits;
 mod options;
+mod statistics;
 mod status_line;
 mod world_source;
 
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use clap::Parser;
+use clap::{Args, FromArgMatches};
 use hapticd::bus::Workers;
 use hapticd::cli::RenderCli;
 
+use crate::limits::Limits;
+use crate::statistics::Statistics;
+
 fn main() -> ExitCode {
-    let cli = RenderCli::parse();
+    // hapticd's shared command line (name, version, description and all), and the
+    // limits, which are this program's alone.
+    let command =
+        Limits::augment_args(clap::Command::new("hapticd-render")).next_help_heading(None::<&str>);
+    let matches = RenderCli::augment_args(command).get_matches();
+    let (cli, limits) = match (
+        RenderCli::from_arg_matches(&matches),
+        Limits::from_arg_matches(&matches),
+    ) {
+        (Ok(cli), Ok(limits)) => (cli, limits),
+        (Err(e), _) | (_, Err(e)) => e.exit(),
+    };
     hapticd::logging::init("hapticd-render", false);
     // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
     // threads (they inherit the affinity).
@@ -37,7 +55,9 @@ fn main() -> ExitCode {
     {
         tracing::warn!("cannot keep off the haptic CPU: {e}");
     }
-    let (jobs, availability) = match drawing::start(cli.bus.clone(), cli.device) {
+    let statistics = Arc::new(Statistics::default());
+    let started = drawing::start(cli.bus.clone(), cli.device, limits, statistics.clone());
+    let (jobs, availability) = match started {
         Ok(started) => started,
         Err(e) => {
             tracing::error!("cannot start the drawing thread: {e}");
@@ -58,7 +78,8 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let interface = bus::RendererInterface::new(jobs.clone(), workers, availability);
+    let interface =
+        bus::RendererInterface::new(jobs.clone(), workers, availability, limits, statistics);
     let connection = zbus::block_on(async {
         cli.bus
             .builder()
