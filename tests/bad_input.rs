@@ -8,6 +8,7 @@ mod support;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use hapticd::config::Config;
@@ -23,7 +24,8 @@ use hapticd_core::transport::{
 use hapticd_device::sim::hand::Script;
 use hapticd_physics::scene::PenaltyScene;
 use hapticd_plugin_api::{HapticdEffector, HapticdString, MechanismSpec};
-use support::{Rng, artifact, plugin_path, repo_dir, scratch_root};
+use support::bus::{NAME, PrivateBus};
+use support::{Killed, Rng, artifact, plugin_path, repo_dir, scratch_root};
 
 fn shipped_text(relative: &str) -> String {
     std::fs::read_to_string(repo_dir().join(relative)).unwrap()
@@ -425,8 +427,10 @@ fn no_accepted_mechanism_gets_a_dac_command_past_its_string_limit() {
             continue;
         };
         for tick in 0..300 {
-            if tick % 50 == 49 {
-                haptic.command(LoopCommand::Calibrate);
+            match tick % 50 {
+                48 => haptic.command(LoopCommand::MeasureOffsets),
+                49 => haptic.command(LoopCommand::UseOffsets(haptic.frame().measured)),
+                _ => {}
             }
             let frame = *haptic.tick(1e-3);
             ticks += 1;
@@ -474,7 +478,9 @@ fn counts_that_stop_fitting_any_pose_mid_run_fault_to_zero_force() {
     }
     assert!(zero_after.is_some_and(|t| t <= 6), "{zero_after:?}");
     // Calibrating again (the grip held at its calibration pose) brings the forces back.
-    haptic.command(LoopCommand::Calibrate);
+    haptic.command(LoopCommand::MeasureOffsets);
+    haptic.tick(1e-3);
+    haptic.command(LoopCommand::UseOffsets(haptic.frame().measured));
     for _ in 0..300 {
         haptic.tick(1e-3);
     }
@@ -637,4 +643,420 @@ fn programs_refuse_what_one_board_or_one_tick_cannot_do_without_panicking() {
     let out = run("hapticctl", &["scene", "run", stiff_file.to_str().unwrap()]);
     assert_exit_1(&out, "material.stiffness: too stiff");
     std::fs::remove_dir_all(dir).ok();
+}
+
+/// `command` run to its end, which must come within `seconds` (a reader stuck on a FIFO
+/// never ends: it is killed and the test fails).
+fn finished_within(mut command: Command, seconds: u64) -> Output {
+    let child = command
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = child.id();
+    let started = Instant::now();
+    let mut child = Some(child);
+    loop {
+        if child.as_mut().unwrap().try_wait().unwrap().is_some() {
+            return child.take().unwrap().wait_with_output().unwrap();
+        }
+        if started.elapsed() > Duration::from_secs(seconds) {
+            let mut stuck = child.take().unwrap();
+            let _ = stuck.kill();
+            let out = stuck.wait_with_output().unwrap();
+            panic!(
+                "{command:?} (pid {pid}) still ran after {seconds} s: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A FIFO at `path`, which no one will ever write.
+fn fifo(path: &Path) -> PathBuf {
+    nix::unistd::mkfifo(path, nix::sys::stat::Mode::from_bits_truncate(0o600)).unwrap();
+    path.to_path_buf()
+}
+
+/// `hapticd` on the simulated SPIDAR-G (the plugin staged in `mechanisms`), with a
+/// configuration of its own in `dir`, serving on `address`, never the machine's buses.
+fn hapticd_command(dir: &Path, mechanisms: &Path, address: &str, args: &[&str]) -> Command {
+    let config = dir.join("hapticd.yaml");
+    std::fs::write(
+        &config,
+        format!(
+            "mechanism_dirs: [{}]\nscene_dirs: [{}]\nscene: static\n",
+            mechanisms.display(),
+            repo_dir().join("config/scenes").display()
+        ),
+    )
+    .unwrap();
+    let mut command = Command::new(artifact("hapticd"));
+    command
+        .arg("--config")
+        .arg(&config)
+        .args(["--sim", "spidar-g", &format!("--bus={address}")])
+        .args(args)
+        .env("DBUS_SYSTEM_BUS_ADDRESS", address)
+        .env("DBUS_SESSION_BUS_ADDRESS", address)
+        .env_remove("NOTIFY_SOCKET")
+        .env_remove("JOURNAL_STREAM")
+        .env_remove("STATE_DIRECTORY")
+        .env_remove("HAPTICD_MECHANISM_PATH");
+    command
+}
+
+/// A private bus in `dir`/bus with the shipped policy.
+fn private_bus(dir: &Path) -> PrivateBus {
+    let at = dir.join("bus");
+    std::fs::create_dir_all(&at).unwrap();
+    PrivateBus::start(
+        &at,
+        &repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
+    )
+}
+
+const DEVICE: [&str; 3] = [
+    NAME,
+    "/org/hapticd/Hapticd1/device/0",
+    "org.hapticd.Hapticd1.Device",
+];
+
+/// Taken by each test that runs a hapticd on a bus: one at a time, so that on a small
+/// machine a start is not slowed by another test's haptic thread on the same CPU.
+static ONE_DAEMON: Mutex<()> = Mutex::new(());
+
+/// A running hapticd on a private bus; killed when dropped.
+struct Served {
+    bus: PrivateBus,
+    daemon: Option<Killed>,
+    log: PathBuf,
+}
+
+impl Served {
+    /// hapticd started in `dir` with `args`, once its device runs; it must get there within
+    /// 60 s whatever its state directory holds (a FIFO held it for 12 minutes).
+    fn start(dir: &Path, args: &[&str]) -> Served {
+        let mechanisms = dir.join("mechanisms");
+        std::fs::create_dir_all(&mechanisms).unwrap();
+        let plugin = plugin_path("hapticd-spidar-g");
+        std::fs::copy(&plugin, mechanisms.join(plugin.file_name().unwrap())).unwrap();
+        let bus = private_bus(dir);
+        let log = dir.join("hapticd.log");
+        let mut command = hapticd_command(dir, &mechanisms, &bus.address, args);
+        command
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap());
+        let mut served = Served {
+            daemon: Some(Killed(command.spawn().unwrap())),
+            bus,
+            log,
+        };
+        let started = Instant::now();
+        loop {
+            let state = served.busctl(&["get-property", DEVICE[0], DEVICE[1], DEVICE[2], "State"]);
+            if state == Ok("s \"running\"".into()) {
+                break;
+            }
+            if let Some(status) = served.daemon.as_mut().unwrap().0.try_wait().unwrap() {
+                panic!("hapticd exited ({status}): {}", served.log());
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(60),
+                "hapticd not running after 60 s ({state:?}): {}",
+                served.log()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        served
+    }
+
+    /// What `busctl` printed, or its error.
+    fn busctl(&self, args: &[&str]) -> Result<String, String> {
+        let out = Command::new("busctl")
+            .arg(format!("--address={}", self.bus.address))
+            .args(args)
+            .output()
+            .expect("busctl (package systemd) is installed by `make check`");
+        let text = |b: &[u8]| String::from_utf8_lossy(b).trim().to_string();
+        match out.status.success() {
+            true => Ok(text(&out.stdout)),
+            false => Err(text(&out.stderr)),
+        }
+    }
+
+    fn get(&self, property: &str) -> String {
+        let got = self.busctl(&["get-property", DEVICE[0], DEVICE[1], DEVICE[2], property]);
+        got.unwrap_or_else(|e| panic!("{property}: {e}"))
+    }
+
+    /// The numbers of a property such as `ad 3 1 2 3`.
+    fn numbers(&self, property: &str) -> Vec<f64> {
+        let value = self.get(property);
+        let mut words = value.split_whitespace().skip(1);
+        if value.starts_with('a') {
+            words.next();
+        }
+        words.map(|w| w.parse().unwrap()).collect()
+    }
+
+    fn calibrate(&self) -> Result<String, String> {
+        self.busctl(&["call", DEVICE[0], DEVICE[1], DEVICE[2], "Calibrate"])
+    }
+
+    fn set(&self, property: &str, value: &str) -> Result<String, String> {
+        let [name, path, interface] = DEVICE;
+        self.busctl(&["set-property", name, path, interface, property, "d", value])
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// Stop hapticd with SIGTERM, which it must obey within 5 s.
+    fn stop(mut self) {
+        let mut daemon = self.daemon.take().unwrap();
+        let pid = nix::unistd::Pid::from_raw(daemon.0.id() as i32);
+        nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
+        let started = Instant::now();
+        while daemon.0.try_wait().unwrap().is_none() {
+            assert!(
+                started.elapsed() < Duration::from_secs(5),
+                "SIGTERM ignored: {}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+#[test]
+fn a_state_file_that_is_no_record_is_left_as_it_is_and_the_device_runs_without_it() {
+    let _one = ONE_DAEMON.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch("unusable-state");
+    let state = dir.join("state");
+    let outside = dir.join("elsewhere.json");
+    // A record that would change the stiffness, were it read through the link.
+    std::fs::write(&outside, r#"{"parameters": {"stiffness": 3000}}"#).unwrap();
+    let file = state.join("device-sim.json");
+    type Make<'a> = &'a dyn Fn();
+    let cases: [(&str, Make, &str); 4] = [
+        ("a FIFO", &|| drop(fifo(&file)), "not a regular file"),
+        (
+            "a link to /dev/zero",
+            &|| std::os::unix::fs::symlink("/dev/zero", &file).unwrap(),
+            "a link to /dev/zero, outside",
+        ),
+        (
+            "a link out of the state directory",
+            &|| std::os::unix::fs::symlink(&outside, &file).unwrap(),
+            &format!("a link to {}, outside", outside.display()),
+        ),
+        (
+            "a sparse file of 20 GB",
+            &|| {
+                let f = std::fs::File::create(&file).unwrap();
+                f.set_len(20 << 30).unwrap();
+            },
+            "21474836480 bytes is more than the 16777216",
+        ),
+    ];
+    let shape = || {
+        let meta = std::fs::symlink_metadata(&file).unwrap();
+        let target = std::fs::read_link(&file).ok();
+        (meta.file_type(), meta.len(), target)
+    };
+    for (case, make, expected) in cases {
+        std::fs::create_dir_all(&state).unwrap();
+        make();
+        let before = shape();
+        let daemon = Served::start(&dir, &["--state-dir", state.to_str().unwrap()]);
+        let log = daemon.log();
+        assert!(
+            log.contains(&format!("{}: error: {expected}", file.display()))
+                && log.contains("left as it is"),
+            "{case}: {log}"
+        );
+        assert_eq!(daemon.get("Stiffness"), "d 2000", "{case}: the scene's own");
+        // Nothing replaces it: a save is refused, and refused changes nothing.
+        let e = daemon.calibrate().unwrap_err();
+        assert!(
+            e.contains(expected) && e.contains("remove it to save"),
+            "{case}: {e}"
+        );
+        let e = daemon.set("Stiffness", "2500").unwrap_err();
+        assert!(e.contains("remove it to save"), "{case}: {e}");
+        assert_eq!(daemon.get("Stiffness"), "d 2000", "{case}");
+        daemon.stop();
+        assert_eq!(shape(), before, "{case}: the file was touched");
+        std::fs::remove_dir_all(&state).unwrap();
+    }
+    assert_eq!(
+        std::fs::read_to_string(&outside).unwrap(),
+        r#"{"parameters": {"stiffness": 3000}}"#
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A hand that takes the grip 3 cm above its calibration pose and holds it there.
+const HAND_UP_3CM: &str = "hands:\n  grip:\n    - hold: { seconds: 0.2 }\n    - move: { to: [0, 0.03, 0], seconds: 0.5 }\n    - hold: { seconds: 600 }\n";
+
+/// Where the grip is, metres.
+fn grip(daemon: &Served) -> DVec3 {
+    let pose = daemon.numbers("Pose");
+    DVec3::new(pose[0], pose[1], pose[2])
+}
+
+/// Wait until the grip has been carried up by [`HAND_UP_3CM`].
+fn wait_until_up(daemon: &Served) -> DVec3 {
+    let started = Instant::now();
+    loop {
+        let at = grip(daemon);
+        if (at.y - 0.03).abs() < 0.003 {
+            // Settled: the hand holds it.
+            std::thread::sleep(Duration::from_millis(300));
+            return grip(daemon);
+        }
+        assert!(started.elapsed() < Duration::from_secs(10), "grip at {at}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_calibration_or_parameter_that_cannot_be_saved_is_refused_and_not_used() {
+    let _one = ONE_DAEMON.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch("unsaved");
+    let hand = dir.join("up.yaml");
+    std::fs::write(&hand, HAND_UP_3CM).unwrap();
+    let state = dir.join("state");
+    let daemon = Served::start(
+        &dir,
+        &[
+            "--state-dir",
+            state.to_str().unwrap(),
+            "--hand",
+            hand.to_str().unwrap(),
+        ],
+    );
+    let up = wait_until_up(&daemon);
+    let offsets = daemon.get("CalibrationOffsets");
+    // The state directory replaced by a file: as root too, nothing can be written in it.
+    std::fs::create_dir_all(&state).unwrap();
+    std::fs::remove_dir(&state).unwrap();
+    std::fs::write(&state, "not a directory").unwrap();
+    let e = daemon.calibrate().unwrap_err();
+    assert!(e.contains("cannot create its directory"), "{e}");
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(daemon.get("CalibrationOffsets"), offsets);
+    let still = grip(&daemon);
+    assert!(
+        (still - up).length() < 1e-3,
+        "the grip moved from {up} to {still}"
+    );
+    let e = daemon.set("Stiffness", "2500").unwrap_err();
+    assert!(e.contains("cannot create its directory"), "{e}");
+    assert_eq!(daemon.get("Stiffness"), "d 2000");
+    // Once it can be saved, the calibration is taken here: the grip is at its calibration
+    // pose now (as the test could have seen above, had the refused one been used).
+    std::fs::remove_file(&state).unwrap();
+    daemon.calibrate().unwrap();
+    // Within the few millimetres the hand still settles by between measure and use.
+    assert!(grip(&daemon).length() < 3e-3, "{}", grip(&daemon));
+    assert_ne!(daemon.get("CalibrationOffsets"), offsets);
+    let saved = std::fs::read_to_string(state.join("device-sim.json")).unwrap();
+    assert!(saved.contains("\"offsets\""), "{saved}");
+    daemon.stop();
+
+    // Without a state directory a calibration holds for this run, as the start says.
+    let daemon = Served::start(&dir, &["--hand", hand.to_str().unwrap()]);
+    assert!(
+        daemon.log().contains("no state directory"),
+        "{}",
+        daemon.log()
+    );
+    wait_until_up(&daemon);
+    daemon.calibrate().unwrap();
+    assert!(grip(&daemon).length() < 3e-3, "{}", grip(&daemon));
+    daemon.stop();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn files_named_on_the_command_line_are_read_only_if_regular_and_named_when_refused() {
+    let dir = scratch("named-files");
+    let pipe = fifo(&dir.join("pipe.yaml"));
+    let pipe_csv = fifo(&dir.join("pipe.csv"));
+    let zero = PathBuf::from("/dev/zero");
+    let refused = |out: Output, file: &Path, what: &str| {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{what}: {stderr}");
+        let expected = format!("{}: error: not a regular file", file.display());
+        assert!(
+            stderr.contains(&expected),
+            "{what}: {expected:?} not in\n{stderr}"
+        );
+    };
+    for file in [&pipe, &zero] {
+        let f = file.to_str().unwrap();
+        let hapticctl = |args: &[&str]| {
+            let mut command = support::hapticctl();
+            command.args(args);
+            finished_within(command, 20)
+        };
+        let out = hapticctl(&["experiment", "push-phase", "--scene", f]);
+        refused(out, file, "push-phase --scene");
+        let png = dir.join("out.png");
+        let out = hapticctl(&["render", f, "--out", png.to_str().unwrap()]);
+        refused(out, file, "render");
+        let scene = repo_dir().join("config/scenes/cube-drop.yaml");
+        let out = hapticctl(&["scene", "run", scene.to_str().unwrap(), "--hand", f]);
+        refused(out, file, "scene run --hand");
+        let out = hapticctl(&["scene", "run", f]);
+        refused(out, file, "scene run");
+    }
+    // A hand script following a recorded path that is a FIFO.
+    let follows = dir.join("follow.yaml");
+    std::fs::write(
+        &follows,
+        format!(
+            "hands:\n  grip:\n    - path: {{ file: {} }}\n",
+            pipe_csv.display()
+        ),
+    )
+    .unwrap();
+    let mut command = support::hapticctl();
+    let scene = repo_dir().join("config/scenes/cube-drop.yaml");
+    command.args(["scene", "run", scene.to_str().unwrap(), "--hand"]);
+    command.arg(&follows);
+    refused(
+        finished_within(command, 20),
+        &pipe_csv,
+        "a path step's recording",
+    );
+
+    // hapticd: a hand script, a recorded path and a traffic recording, each a FIFO.
+    let _one = ONE_DAEMON.lock().unwrap_or_else(|p| p.into_inner());
+    let mechanisms = dir.join("mechanisms");
+    std::fs::create_dir_all(&mechanisms).unwrap();
+    let plugin = plugin_path("hapticd-spidar-g");
+    std::fs::copy(&plugin, mechanisms.join(plugin.file_name().unwrap())).unwrap();
+    let bus = private_bus(&dir);
+    let traffic = fifo(&dir.join("traffic.bin"));
+    for (args, file) in [
+        (["--hand", pipe.to_str().unwrap()], &pipe),
+        (["--hand", follows.to_str().unwrap()], &pipe_csv),
+        (["--replay", traffic.to_str().unwrap()], &traffic),
+    ] {
+        let mut command = hapticd_command(&dir, &mechanisms, &bus.address, &args);
+        command.args(["--duration", "0.5"]);
+        refused(
+            finished_within(command, 20),
+            file,
+            &format!("hapticd {args:?}"),
+        );
+    }
+    drop(bus);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -243,7 +243,14 @@ fn counts_that_no_longer_fit_the_calibration_hold_the_forces_at_zero_until_it_is
     // A fault reset is not enough: only a calibration trusts the counts again.
     haptic.command(LoopCommand::ResetFault);
     assert_eq!(haptic.tick(DT).state, DeviceState::Uncalibrated);
-    haptic.command(LoopCommand::Calibrate);
+    haptic.command(LoopCommand::MeasureOffsets);
+    let measured = haptic.tick(DT).measured;
+    assert_eq!(
+        haptic.frame().state,
+        DeviceState::Uncalibrated,
+        "measured, not yet used"
+    );
+    haptic.command(LoopCommand::UseOffsets(measured));
     let frame = *haptic.tick(DT);
     assert_eq!(frame.state, DeviceState::Running);
     assert!(frame.calibrated);

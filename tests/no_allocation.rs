@@ -252,7 +252,7 @@ fn commands_between_ticks_do_not_allocate() {
     });
     let mut commands = vec![
         tune,
-        LoopCommand::Calibrate,
+        LoopCommand::MeasureOffsets,
         LoopCommand::ResetFault,
         LoopCommand::SwitchScene(incoming),
         LoopCommand::Reconnect(Box::new(
@@ -267,6 +267,10 @@ fn commands_between_ticks_do_not_allocate() {
             {
                 haptic.command(command);
             }
+            // After every command above: calibrate with the offsets measured.
+            if tick == 750 {
+                haptic.command(LoopCommand::UseOffsets(haptic.frame().measured));
+            }
             std::hint::black_box(haptic.tick(1e-3));
             while let Some(old) = haptic.take_retired() {
                 retired.push(old);
@@ -276,6 +280,7 @@ fn commands_between_ticks_do_not_allocate() {
     assert_eq!(n, 0, "{n} allocations");
     let frame = haptic.frame();
     assert_eq!(frame.scene_switches, 1);
+    assert_eq!(frame.measurements, 1);
     assert_eq!(frame.calibrations, 2, "the first reading, then the command");
     // The simulated board's transport cannot take another link: the one sent comes back.
     assert!(matches!(retired[..], [Retired::Link(_), Retired::Scene(_)]));

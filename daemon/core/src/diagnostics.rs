@@ -147,32 +147,198 @@ impl Diagnostics {
     }
 }
 
-/// Read `file` as text, refusing what cannot be a file a person wrote: anything but a
-/// regular file (a FIFO would block the reader for ever) or more than [`MAX_FILE_BYTES`].
-pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
-    use std::io::Read;
-    let cannot = |e: &dyn fmt::Display| Diagnostics::file(file, format!("cannot read: {e}"));
-    // Look before opening: opening a FIFO waits for a writer that may never come.
-    let meta = std::fs::metadata(file).map_err(|e| cannot(&e))?;
+/// `O_NONBLOCK` of Linux (the core links no libc): opening a FIFO then returns at once
+/// instead of waiting for a writer.
+#[cfg(any(target_arch = "mips", target_arch = "mips64"))]
+const O_NONBLOCK: i32 = 0o200;
+#[cfg(any(target_arch = "sparc", target_arch = "sparc64"))]
+const O_NONBLOCK: i32 = 0x4000;
+#[cfg(not(any(
+    target_arch = "mips",
+    target_arch = "mips64",
+    target_arch = "sparc",
+    target_arch = "sparc64"
+)))]
+const O_NONBLOCK: i32 = 0o4000;
+
+/// What a guarded read accepts, besides being a regular file.
+#[derive(Debug, Clone, Copy)]
+pub struct FileRules<'a> {
+    /// Largest size, bytes.
+    pub max_bytes: u64,
+    /// A directory the file must lie in once its links are followed, if any.
+    pub within: Option<&'a Path>,
+}
+
+impl FileRules<'_> {
+    /// Files a person wrote: at most [`MAX_FILE_BYTES`], anywhere.
+    pub const TEXT: FileRules<'static> = FileRules {
+        max_bytes: MAX_FILE_BYTES,
+        within: None,
+    };
+}
+
+/// Why a guarded read refused a file or failed.
+#[derive(Debug)]
+pub enum Refusal {
+    /// The system refused (`NotFound` included).
+    Io(std::io::Error),
+    /// A FIFO, a device, a directory: reading it could block for ever or never end.
+    NotRegular,
+    /// More bytes than the rules allow.
+    TooLarge {
+        /// The file's size (or what was read of it before it grew past the limit).
+        bytes: u64,
+        /// The limit.
+        max: u64,
+    },
+    /// A link to a file outside the directory the rules confine it to.
+    Outside {
+        /// Where the link leads.
+        target: PathBuf,
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// Not UTF-8 text.
+    NotText,
+}
+
+/// A file a guarded read refused, named as it was given.
+#[derive(Debug)]
+pub struct FileError {
+    /// The file, as given.
+    pub file: PathBuf,
+    /// Why.
+    pub refusal: Refusal,
+}
+
+impl FileError {
+    /// Whether the file is simply not there.
+    pub fn is_missing(&self) -> bool {
+        matches!(&self.refusal, Refusal::Io(e) if e.kind() == std::io::ErrorKind::NotFound)
+    }
+
+    /// What is wrong, without the file's name.
+    pub fn message(&self) -> String {
+        match &self.refusal {
+            Refusal::Io(e) => format!("cannot read: {e}"),
+            Refusal::NotRegular => "not a regular file".into(),
+            Refusal::TooLarge { bytes, max } => {
+                format!("{bytes} bytes is more than the {max} a file may have")
+            }
+            Refusal::Outside { target, dir } => {
+                format!("a link to {}, outside {}", target.display(), dir.display())
+            }
+            Refusal::NotText => "not UTF-8 text".into(),
+        }
+    }
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: error: {}", self.file.display(), self.message())
+    }
+}
+
+impl std::error::Error for FileError {}
+
+impl From<FileError> for Diagnostics {
+    fn from(e: FileError) -> Self {
+        Diagnostics::file(&e.file, e.message())
+    }
+}
+
+/// The binaries report every error as text.
+impl From<FileError> for String {
+    fn from(e: FileError) -> String {
+        e.to_string()
+    }
+}
+
+/// Whether `file` may be read under `rules`, looking without opening it (opening a FIFO
+/// waits for a writer; opening a device may start it): the path to open, links resolved
+/// when the rules confine the file to a directory.
+pub fn check_file(file: &Path, rules: FileRules) -> Result<PathBuf, FileError> {
+    let refuse = |refusal| FileError {
+        file: file.to_path_buf(),
+        refusal,
+    };
+    let path = match rules.within {
+        Some(dir) => {
+            let target = file.canonicalize().map_err(|e| refuse(Refusal::Io(e)))?;
+            let dir = dir.canonicalize().map_err(|e| refuse(Refusal::Io(e)))?;
+            if !target.starts_with(&dir) {
+                return Err(refuse(Refusal::Outside { target, dir }));
+            }
+            target
+        }
+        None => file.to_path_buf(),
+    };
+    let meta = std::fs::metadata(&path).map_err(|e| refuse(Refusal::Io(e)))?;
     if !meta.is_file() {
-        return Err(Diagnostics::file(file, "not a regular file"));
+        return Err(refuse(Refusal::NotRegular));
     }
-    let opened = std::fs::File::open(file).map_err(|e| cannot(&e))?;
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(Diagnostics::file(
-            file,
-            format!(
-                "{} bytes is more than the {MAX_FILE_BYTES} a file may have",
-                meta.len()
-            ),
-        ));
+    if meta.len() > rules.max_bytes {
+        return Err(refuse(Refusal::TooLarge {
+            bytes: meta.len(),
+            max: rules.max_bytes,
+        }));
     }
-    let mut text = String::new();
+    Ok(path)
+}
+
+/// The bytes of `file`, refusing what cannot be a file a person or hapticd wrote: anything
+/// but a regular file, more than `rules.max_bytes`, or a link out of `rules.within`. The
+/// one reader of every file hapticd and its tools are given.
+pub fn read_file(file: &Path, rules: FileRules) -> Result<Vec<u8>, FileError> {
+    use std::io::Read;
+    use std::os::unix::fs::OpenOptionsExt;
+    let refuse = |refusal| FileError {
+        file: file.to_path_buf(),
+        refusal,
+    };
+    let path = check_file(file, rules)?;
+    // Non-blocking, in case a FIFO took the file's place since it was looked at.
+    let opened = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(O_NONBLOCK)
+        .open(&path)
+        .map_err(|e| refuse(Refusal::Io(e)))?;
+    let meta = opened.metadata().map_err(|e| refuse(Refusal::Io(e)))?;
+    if !meta.is_file() {
+        return Err(refuse(Refusal::NotRegular));
+    }
+    let too_large = |bytes| {
+        refuse(Refusal::TooLarge {
+            bytes,
+            max: rules.max_bytes,
+        })
+    };
+    if meta.len() > rules.max_bytes {
+        return Err(too_large(meta.len()));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
     opened
-        .take(MAX_FILE_BYTES + 1)
-        .read_to_string(&mut text)
-        .map_err(|e| cannot(&e))?;
-    Ok(text)
+        .take(rules.max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| refuse(Refusal::Io(e)))?;
+    // It may have grown since it was measured.
+    if bytes.len() as u64 > rules.max_bytes {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+/// [`read_file`] of text under [`FileRules::TEXT`], as findings about the file.
+pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
+    let bytes = read_file(file, FileRules::TEXT)?;
+    String::from_utf8(bytes).map_err(|_| {
+        FileError {
+            file: file.to_path_buf(),
+            refusal: Refusal::NotText,
+        }
+        .into()
+    })
 }
 
 /// Parse YAML `text` (named `file` in findings) into `T`, with the map of its field paths
@@ -566,5 +732,68 @@ nested:
         let e = read_text(&big).unwrap_err().to_string();
         std::fs::remove_file(&big).ok();
         assert!(e.contains("more than the 16777216 a file may have"), "{e}");
+    }
+
+    #[test]
+    fn opening_a_fifo_without_blocking_returns_at_once() {
+        use std::os::unix::fs::OpenOptionsExt;
+        let fifo = std::env::temp_dir().join(format!("hapticd-nb-{}", std::process::id()));
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            return;
+        }
+        // Opened blocking, this waits for a writer that never comes: the test would hang.
+        let opened = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(O_NONBLOCK)
+            .open(&fifo);
+        std::fs::remove_file(&fifo).ok();
+        assert!(opened.is_ok(), "{opened:?}");
+    }
+
+    #[test]
+    fn links_out_of_the_confining_directory_are_refused_and_links_within_it_followed() {
+        let root = std::env::temp_dir().join(format!("hapticd-within-{}", std::process::id()));
+        let dir = root.join("state");
+        std::fs::create_dir_all(&dir).unwrap();
+        let inside = dir.join("a.json");
+        let outside = root.join("b.json");
+        for file in [&inside, &outside] {
+            std::fs::write(file, "{}").unwrap();
+        }
+        let rules = FileRules {
+            max_bytes: 100,
+            within: Some(&dir),
+        };
+        let near = dir.join("near.json");
+        std::os::unix::fs::symlink(&inside, &near).unwrap();
+        let far = dir.join("far.json");
+        std::os::unix::fs::symlink(&outside, &far).unwrap();
+        let (near_read, far_read) = (read_file(&near, rules), read_file(&far, rules));
+        // Without confinement the same link is just a file.
+        let unconfined = read_file(&far, FileRules::TEXT);
+        std::fs::remove_dir_all(&root).ok();
+        assert_eq!(near_read.unwrap(), b"{}");
+        let e = far_read.unwrap_err();
+        assert!(matches!(e.refusal, Refusal::Outside { .. }), "{e}");
+        let shown = e.to_string();
+        let expected = format!(
+            "{}: error: a link to {}, outside ",
+            far.display(),
+            outside.display()
+        );
+        assert!(shown.starts_with(&expected), "{shown}");
+        assert_eq!(unconfined.unwrap(), b"{}");
+    }
+
+    #[test]
+    fn missing_files_are_told_apart_from_refused_ones() {
+        let e = read_file(Path::new("/nonexistent/hapticd"), FileRules::TEXT).unwrap_err();
+        assert!(e.is_missing(), "{e}");
+        let e = read_file(Path::new("/dev/zero"), FileRules::TEXT).unwrap_err();
+        assert!(
+            !e.is_missing() && matches!(e.refusal, Refusal::NotRegular),
+            "{e}"
+        );
     }
 }

@@ -120,6 +120,10 @@ pub struct Frame {
     pub calibrations: u32,
     /// Counter offset of each string, metres.
     pub offsets: [f64; CHANNELS],
+    /// Offsets measured by [`LoopCommand::MeasureOffsets`] and not yet used, metres.
+    pub measured: [f64; CHANNELS],
+    /// Measurements taken since start.
+    pub measurements: u32,
     /// Scenes swapped in since start.
     pub scene_switches: u32,
 }
@@ -128,9 +132,13 @@ pub struct Frame {
 pub enum LoopCommand {
     /// Render with these parameters from now on.
     Tune(Parameters),
-    /// Take the counter offsets from the next reading: the grips are at their calibration
-    /// poses.
-    Calibrate,
+    /// Measure the counter offsets of the next reading into [`Frame::measured`] (the grips
+    /// are at their calibration poses), without using them: a calibration is used only once
+    /// it is saved.
+    MeasureOffsets,
+    /// Calibrate with these counter offsets (one per string, from
+    /// [`LoopCommand::MeasureOffsets`]): the grips are near their calibration poses.
+    UseOffsets([f64; CHANNELS]),
     /// Forget the scene's contact state and start the forces again from zero.
     ResetFault,
     /// Ramp the forces to zero, swap in this scene, ramp them back up.
@@ -171,6 +179,8 @@ pub struct HapticLoop {
     calibration_lengths: Vec<f64>,
     metres_per_pulse: Vec<f64>,
     calibrated: bool,
+    /// A measurement of the offsets is asked for.
+    measure: bool,
     reading: Reading,
     lengths: Vec<f64>,
     pointers: Vec<Pointer>,
@@ -253,6 +263,7 @@ impl HapticLoop {
             calibration_lengths: mechanism.calibration_lengths(),
             metres_per_pulse: mechanism.metres_per_pulse(),
             calibrated: false,
+            measure: false,
             reading: Reading::default(),
             lengths: vec![0.0; mechanism.strings.len()],
             wrenches: vec![Wrench::ZERO; pointers.len()],
@@ -310,12 +321,19 @@ impl HapticLoop {
                 self.scene.set_proxy(&parameters.proxy);
                 self.parameters = Some(parameters);
             }
-            LoopCommand::Calibrate => {
-                self.calibrated = false;
+            LoopCommand::MeasureOffsets => self.measure = true,
+            LoopCommand::UseOffsets(offsets) => {
+                let strings = self.offsets.len();
+                self.offsets.copy_from_slice(&offsets[..strings]);
+                self.calibrated = true;
+                (self.check_fit, self.misfit) = (false, false);
                 // The grips are held at their calibration poses: search from there.
                 for (e, effector) in self.effectors.iter_mut().zip(&self.mechanism.effectors) {
                     e.pose.reset(effector.calibration);
                 }
+                self.frame.calibrated = true;
+                self.frame.calibrations += 1;
+                self.frame.offsets[..strings].copy_from_slice(&self.offsets);
             }
             LoopCommand::ResetFault => {
                 self.scene.reset(&self.pointers);
@@ -421,6 +439,16 @@ impl HapticLoop {
                 self.frame.calibrated = true;
                 self.frame.calibrations += 1;
                 self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
+            }
+            if std::mem::take(&mut self.measure) {
+                let strings = self.offsets.len();
+                offsets_into(
+                    &self.calibration_lengths,
+                    &self.metres_per_pulse,
+                    &self.reading.counts[..strings],
+                    &mut self.frame.measured[..strings],
+                );
+                self.frame.measurements += 1;
             }
             let returning = self.frame.state == DeviceState::Disconnected;
             // After a restore or a return the grip may be anywhere: search for it.

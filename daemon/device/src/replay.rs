@@ -9,9 +9,10 @@
 //! recording: each read returns the next recorded IN transfer, so a session replays
 //! deterministically; it counts OUT transfers that differ from the recorded ones.
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::Path;
 
+use hapticd_core::diagnostics::{self, FileRules};
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::{Link, TransportError};
 
@@ -94,15 +95,12 @@ impl Recording {
                 format!("{}: {what}", path.display()),
             )
         };
-        let file = std::fs::File::open(path)?;
-        let size = file.metadata()?.len();
-        if size > MAX_RECORDING_BYTES {
-            return Err(invalid(format!(
-                "{size} bytes is more than the {MAX_RECORDING_BYTES} a recording may have"
-            )));
-        }
-        let mut bytes = Vec::with_capacity(size as usize);
-        file.take(MAX_RECORDING_BYTES).read_to_end(&mut bytes)?;
+        // Guarded as every file is, with room for hours of traffic.
+        let rules = FileRules {
+            max_bytes: MAX_RECORDING_BYTES,
+            within: None,
+        };
+        let bytes = diagnostics::read_file(path, rules).map_err(std::io::Error::other)?;
         if bytes.len() < 8 || &bytes[..8] != MAGIC {
             return Err(invalid("not a hapticd traffic recording".into()));
         }
@@ -381,5 +379,10 @@ mod tests {
             assert!(e.ends_with(want), "{e}");
         }
         std::fs::remove_file(&path).ok();
+        // Read as every file is: a device never, however large recordings may be.
+        let e = Recording::read(Path::new("/dev/zero"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "/dev/zero: error: not a regular file");
     }
 }

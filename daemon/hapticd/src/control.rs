@@ -48,6 +48,8 @@ pub enum Error {
     StillFaulted(String),
     /// Something this request needs is not there (and the daemon runs without it).
     Unavailable(String),
+    /// A path where only a name is taken (files come by descriptor).
+    NameExpected(String),
 }
 
 impl From<ParameterError> for Error {
@@ -57,6 +59,10 @@ impl From<ParameterError> for Error {
             ParameterError::OutOfRange(m) => Error::OutOfRange(m),
         }
     }
+}
+
+fn not_taking_commands() -> Error {
+    Error::Timeout("the haptic loop is not taking commands".into())
 }
 
 /// What the loop last published: its frame and statistics.
@@ -207,7 +213,7 @@ impl DeviceHandle {
     fn send(&self, command: LoopCommand) -> Result<(), Error> {
         lock(&self.commands)
             .try_push(command)
-            .map_err(|_| Error::Timeout("the haptic loop is not taking commands".into()))
+            .map_err(|_| not_taking_commands())
     }
 
     /// Save `record` (when there is a state directory).
@@ -216,6 +222,20 @@ impl DeviceHandle {
             Some(dir) => dir.save(&self.identity, record).map_err(Error::NotSaved),
             None => Ok(()),
         }
+    }
+
+    /// Save `record`, and only once it is saved hand the loop `command`. A full command ring
+    /// is found before saving (only this handle fills it), so what is saved is also applied
+    /// and what failed to save is not.
+    fn save_then_send(&self, record: &DeviceRecord, command: LoopCommand) -> Result<(), Error> {
+        let mut commands = lock(&self.commands);
+        if !commands.has_room() {
+            return Err(not_taking_commands());
+        }
+        self.save(record)?;
+        commands
+            .try_push(command)
+            .map_err(|_| not_taking_commands())
     }
 
     /// Change the record by `change`, save it, and only then keep it.
@@ -237,9 +257,10 @@ impl DeviceHandle {
             parameters: overrides,
             ..record.clone()
         };
-        self.save(&next)?;
-        if name != Name::Rate {
-            self.send(LoopCommand::Tune(overrides.resolve(defaults)))?;
+        if name == Name::Rate {
+            self.save(&next)?;
+        } else {
+            self.save_then_send(&next, LoopCommand::Tune(overrides.resolve(defaults)))?;
         }
         *record = next;
         Ok(())
@@ -269,8 +290,9 @@ impl DeviceHandle {
         self.send(LoopCommand::Reconnect(link))
     }
 
-    /// Take the counter offsets now (the grips must be at their calibration poses) and
-    /// persist them.
+    /// Take the counter offsets now (the grips must be at their calibration poses), persist
+    /// them, and only then use them: offsets that could not be saved are not used (without
+    /// a state directory they are used for this run only).
     pub fn calibrate(&self) -> Result<(), Error> {
         let before = self.telemetry().frame;
         if before.state == DeviceState::Disconnected {
@@ -279,14 +301,23 @@ impl DeviceHandle {
                 self.identity
             )));
         }
-        self.send(LoopCommand::Calibrate)?;
-        let frame = self.wait_for("calibrate", |f| f.calibrations > before.calibrations)?;
-        self.remember(|record| {
-            record.calibration = Some(Calibration {
+        self.send(LoopCommand::MeasureOffsets)?;
+        let measured = self.wait_for("measure the offsets", |f| {
+            f.measurements > before.measurements
+        })?;
+        let mut guard = lock(&self.remembered);
+        let next = DeviceRecord {
+            calibration: Some(Calibration {
                 mechanism: self.mechanism.clone(),
-                offsets: frame.offsets[..frame.strings].to_vec(),
-            });
-        })
+                offsets: measured.measured[..measured.strings].to_vec(),
+            }),
+            ..guard.record.clone()
+        };
+        self.save_then_send(&next, LoopCommand::UseOffsets(measured.measured))?;
+        guard.record = next;
+        drop(guard);
+        self.wait_for("calibrate", |f| f.calibrations > before.calibrations)?;
+        Ok(())
     }
 
     /// Forget the scene's contact state and let forces come back; an error when the device
@@ -345,6 +376,8 @@ pub struct Daemon {
     devices: Vec<Arc<DeviceHandle>>,
     /// One scene switch at a time: the haptic loop holds a single scene in waiting.
     switching: Mutex<()>,
+    /// Where scene files callers send are kept.
+    received: PathBuf,
 }
 
 struct Installed {
@@ -403,6 +436,7 @@ impl Daemon {
             }),
             devices,
             switching: Mutex::new(()),
+            received: crate::received::directory(),
         }
     }
 
@@ -431,9 +465,47 @@ impl Daemon {
         lock(&self.inner).active_file.clone()
     }
 
-    /// Load `name` for every device (off the real-time thread) and swap it in; on any
-    /// failure the running scene stays.
+    /// Load the scene called `name` (a scene file of the scene directories, or a scene
+    /// plugin of the scene plugin directories) for every device, off the real-time thread,
+    /// and swap it in; on any failure the running scene stays. A path is refused: a caller's
+    /// own file comes by descriptor ([`Daemon::switch_scene_file`]).
     pub fn switch_scene(&self, name: &str) -> Result<(), Error> {
+        if !crate::scenes::is_name(name) {
+            return Err(Error::NameExpected(format!(
+                "{name:?} is not a scene name: switch to a name from Scenes or a scene plugin \
+                 of the scene plugin directories, or send your file (hapticctl scene switch \
+                 ./FILE.yaml sends it)"
+            )));
+        }
+        let scene_dirs = lock(&self.inner).config.scene_dirs.clone();
+        let file = crate::scenes::file_of(name, None, &scene_dirs);
+        self.swap_in(name, file)
+    }
+
+    /// Load the scene file a caller sent as `fd`, calling it `name`, and swap it in as
+    /// [`Daemon::switch_scene`] does. Only the descriptor is read, never a path.
+    pub fn switch_scene_file(&self, fd: std::os::fd::OwnedFd, name: &str) -> Result<(), Error> {
+        if !crate::scenes::is_name(name) {
+            return Err(Error::NameExpected(format!(
+                "{name:?} cannot name a scene: a file name without its directory and extension"
+            )));
+        }
+        let kept =
+            crate::received::keep(fd, name, &self.received).map_err(|e| Error::SceneFailed(e.0))?;
+        let sent = |e: Error| match e {
+            // The copy's place means nothing to the caller: its messages name the scene.
+            Error::SceneFailed(m) => {
+                Error::SceneFailed(m.replace(&kept.display().to_string(), &format!("{name}.yaml")))
+            }
+            other => other,
+        };
+        self.swap_in(&kept.display().to_string(), Some(kept.clone()))
+            .map_err(sent)
+    }
+
+    /// Load `scene` (a name, or a path the daemon chose) for every device and swap it in;
+    /// pictures come from `file` from then on.
+    fn swap_in(&self, scene: &str, file: Option<PathBuf>) -> Result<(), Error> {
         let _one_at_a_time = lock(&self.switching);
         let config = lock(&self.inner).config.clone();
         let places = crate::scenes::Places {
@@ -443,12 +515,11 @@ impl Daemon {
         let mut scenes = Vec::new();
         for device in &self.devices {
             scenes.push(
-                crate::scenes::open(name, None, places, device.pointers(), device.rate()).map_err(
-                    |e| match e {
+                crate::scenes::open(scene, None, places, device.pointers(), device.rate())
+                    .map_err(|e| match e {
                         crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
                         crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),
-                    },
-                )?,
+                    })?,
             );
         }
         let loaded = scenes.first().map(|s| s.name().to_string());
@@ -456,8 +527,8 @@ impl Daemon {
             device.switch_scene(scene)?;
         }
         let mut inner = lock(&self.inner);
-        inner.active_scene = loaded.unwrap_or_else(|| name.to_string());
-        inner.active_file = crate::scenes::file_of(name, None, &config.scene_dirs);
+        inner.active_scene = loaded.unwrap_or_else(|| scene.to_string());
+        inner.active_file = file;
         Ok(())
     }
 

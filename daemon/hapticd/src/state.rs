@@ -4,13 +4,16 @@
 //!
 //! Files are replaced atomically: written to a temporary file, flushed to disk, renamed over
 //! the old one, and the directory flushed, so a crash at any moment leaves the old file or the
-//! new one, never a mix.
+//! new one, never a mix. They are read as every file is (`hapticd_core::diagnostics::
+//! read_file`): only a regular file of at most 16 MiB inside the state directory; anything
+//! else in a record's place is left as it is, neither read nor replaced.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use hapticd_core::diagnostics::{self, FileRules, Refusal};
 use hapticd_core::parameters::Overrides;
 
 /// The calibration of a device: counter offsets for the mechanism it was taken with.
@@ -41,6 +44,25 @@ pub struct DeviceRecord {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct StateDir {
     dir: PathBuf,
+}
+
+/// Why a record could not be loaded.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LoadError {
+    /// What is in the record's place is not a file hapticd could have written (a FIFO, a
+    /// device, a link out of the directory, a huge file): it is left as it is, and not
+    /// replaced by a save until someone removes it.
+    Unusable(String),
+    /// The record cannot be read or does not parse.
+    Damaged(String),
+}
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LoadError::Unusable(m) | LoadError::Damaged(m) => f.write_str(m),
+        }
+    }
 }
 
 /// A file name for `identity` that keeps letters, digits, `-` and `.`, and spells every other
@@ -80,10 +102,18 @@ impl StateDir {
         self.dir.join(file_name(identity))
     }
 
+    /// How records are read: small regular files inside the directory.
+    fn rules(&self) -> FileRules<'_> {
+        FileRules {
+            within: Some(&self.dir),
+            ..FileRules::TEXT
+        }
+    }
+
     /// The record of device `identity`: empty when none was saved; an error naming the file
     /// when it cannot be read or parsed. Temporary files a crash left behind mid-save are
     /// removed (the record itself is whole: the old one or the new one).
-    pub fn load(&self, identity: &str) -> Result<DeviceRecord, String> {
+    pub fn load(&self, identity: &str) -> Result<DeviceRecord, LoadError> {
         let path = self.device_file(identity);
         let leftover = format!(".{}.", file_name(identity));
         if let Ok(listing) = std::fs::read_dir(&self.dir) {
@@ -94,20 +124,44 @@ impl StateDir {
                 }
             }
         }
-        match std::fs::read_to_string(&path) {
-            Ok(text) => serde_json::from_str(&text)
-                .map_err(|e| format!("{}:{}:{}: error: {e}", path.display(), e.line(), e.column())),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(DeviceRecord::default()),
-            Err(e) => Err(format!("{}: cannot read: {e}", path.display())),
+        match diagnostics::read_file(&path, self.rules()) {
+            Ok(bytes) => serde_json::from_slice(&bytes).map_err(|e| {
+                LoadError::Damaged(format!(
+                    "{}:{}:{}: error: {e}",
+                    path.display(),
+                    e.line(),
+                    e.column()
+                ))
+            }),
+            Err(e) if e.is_missing() => Ok(DeviceRecord::default()),
+            Err(e) if unusable(&e.refusal) => Err(LoadError::Unusable(e.to_string())),
+            Err(e) => Err(LoadError::Damaged(e.to_string())),
         }
     }
 
-    /// Replace the record of device `identity` atomically.
+    /// Replace the record of device `identity` atomically; refused, touching nothing, when
+    /// what is in its place is not a record hapticd could have written.
     pub fn save(&self, identity: &str, record: &DeviceRecord) -> Result<(), String> {
+        let path = self.device_file(identity);
+        if let Err(e) = diagnostics::check_file(&path, self.rules())
+            && unusable(&e.refusal)
+        {
+            return Err(format!(
+                "{e}; hapticd neither reads nor replaces it: remove it to save"
+            ));
+        }
         let mut text = serde_json::to_vec_pretty(record).map_err(|e| e.to_string())?;
         text.push(b'\n');
-        write_atomically(&self.device_file(identity), &text)
+        write_atomically(&path, &text)
     }
+}
+
+/// Whether `refusal` says the file is not one hapticd could have written.
+fn unusable(refusal: &Refusal) -> bool {
+    matches!(
+        refusal,
+        Refusal::NotRegular | Refusal::TooLarge { .. } | Refusal::Outside { .. }
+    )
 }
 
 /// Replace `path` with `contents` so that a crash leaves either the old file or the new one.
@@ -120,18 +174,30 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
         .map_or_else(String::new, |n| n.to_string_lossy().into());
     let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
-        let mut file = std::fs::File::create(&temporary).map_err(|e| fail("create", e))?;
+        // A new file of its own: never written through a link left under the temporary name.
+        let _ = std::fs::remove_file(&temporary);
+        let mut file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temporary)
+            .map_err(|e| fail("create", e))?;
         file.write_all(contents).map_err(|e| fail("write", e))?;
         file.sync_all().map_err(|e| fail("flush", e))?;
-        std::fs::rename(&temporary, path).map_err(|e| fail("replace", e))?;
-        std::fs::File::open(dir)
-            .and_then(|d| d.sync_all())
-            .map_err(|e| fail("flush the directory of", e))
+        std::fs::rename(&temporary, path).map_err(|e| fail("replace", e))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&temporary);
+        return result;
     }
-    result
+    // Renamed, the new file is what the directory holds: an error now would leave the caller
+    // keeping the old record in memory against the new one on disk.
+    if let Err(e) = std::fs::File::open(dir).and_then(|d| d.sync_all()) {
+        tracing::warn!(
+            "{}: saved, but its directory could not be flushed: {e}",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -165,13 +231,84 @@ mod tests {
         assert_eq!(state.load("a").unwrap(), record);
         assert!(!crashed.exists(), "a crash's temporary file is left");
         let e = state.load("b").unwrap_err();
-        assert!(e.contains("device-b.json:2:"), "{e}");
+        assert!(
+            matches!(&e, LoadError::Damaged(m) if m.contains("device-b.json:2:")),
+            "{e}"
+        );
         let leftovers: Vec<_> = std::fs::read_dir(&dir)
             .unwrap()
             .filter_map(|e| e.ok())
             .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
             .collect();
         assert!(leftovers.is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn what_hapticd_could_not_have_written_is_neither_read_nor_replaced() {
+        let root = std::env::temp_dir().join(format!("hapticd-unusable-{}", std::process::id()));
+        let dir = root.join("state");
+        std::fs::create_dir_all(&dir).unwrap();
+        let state = StateDir::new(&dir);
+        let outside = root.join("elsewhere.json");
+        std::fs::write(&outside, "{}").unwrap();
+        let file = state.device_file("a");
+        let record = DeviceRecord {
+            mechanism: Some("spidar".into()),
+            ..DeviceRecord::default()
+        };
+        let cases: [(&str, &dyn Fn()); 4] = [
+            ("not a regular file", &|| {
+                let mode = nix::sys::stat::Mode::from_bits_truncate(0o600);
+                nix::unistd::mkfifo(&file, mode).unwrap()
+            }),
+            // Followed, the link would lead to a device too; it leads out first.
+            ("a link to /dev/zero, outside", &|| {
+                std::os::unix::fs::symlink("/dev/zero", &file).unwrap()
+            }),
+            ("outside", &|| {
+                std::os::unix::fs::symlink(&outside, &file).unwrap()
+            }),
+            ("more than the 16777216", &|| {
+                std::fs::File::create(&file)
+                    .unwrap()
+                    .set_len(20 << 30)
+                    .unwrap()
+            }),
+        ];
+        for (expected, make) in cases {
+            make();
+            let e = state.load("a").unwrap_err();
+            assert!(
+                matches!(&e, LoadError::Unusable(m) if m.contains(expected)),
+                "{expected}: {e}"
+            );
+            let e = state.save("a", &record).unwrap_err();
+            assert!(e.contains(expected) && e.contains("remove it"), "{e}");
+            let kept = std::fs::symlink_metadata(&file).unwrap();
+            assert!(!kept.file_type().is_file() || kept.len() == 20 << 30);
+            std::fs::remove_file(&file).unwrap();
+        }
+        assert_eq!(std::fs::read_to_string(&outside).unwrap(), "{}");
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn a_save_that_cannot_write_leaves_the_old_record() {
+        let dir = std::env::temp_dir().join(format!("hapticd-blocked-{}", std::process::id()));
+        let state = StateDir::new(&dir);
+        let old = DeviceRecord::default();
+        state.save("a", &old).unwrap();
+        // A directory where the temporary file goes: as root too, nothing can be written.
+        let temporary = dir.join(format!(".device-a.json.{}.tmp", std::process::id()));
+        std::fs::create_dir(&temporary).unwrap();
+        let new = DeviceRecord {
+            mechanism: Some("spidar".into()),
+            ..DeviceRecord::default()
+        };
+        let e = state.save("a", &new).unwrap_err();
+        assert!(e.contains("cannot create"), "{e}");
+        assert_eq!(state.load("a").unwrap(), old);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -60,6 +60,14 @@ impl<T: Send> Producer<T> {
         self.try_push(value).is_ok()
     }
 
+    /// Whether a push would succeed now; it still will later, since only this end fills
+    /// the ring.
+    pub fn has_room(&self) -> bool {
+        let ring = &*self.ring;
+        let next = (ring.tail.load(Ordering::Relaxed) + 1) % ring.slots.len();
+        next != ring.head.load(Ordering::Acquire)
+    }
+
     /// [rt] Append `value`, or hand it back when the ring is full.
     pub fn try_push(&mut self, value: T) -> Result<(), T> {
         let ring = &*self.ring;
@@ -119,9 +127,11 @@ mod tests {
     #[test]
     fn a_full_ring_refuses_instead_of_blocking() {
         let (mut tx, mut rx) = channel::<u8>(2);
-        assert!(tx.push(1) && tx.push(2));
-        assert!(!tx.push(3));
-        assert_eq!((rx.pop(), rx.pop(), rx.pop()), (Some(1), Some(2), None));
+        assert!(tx.push(1) && tx.has_room() && tx.push(2));
+        assert!(!tx.has_room() && !tx.push(3));
+        assert_eq!(rx.pop(), Some(1));
+        assert!(tx.has_room());
+        assert_eq!((rx.pop(), rx.pop()), (Some(2), None));
     }
 
     #[test]

@@ -219,8 +219,7 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
         }
     }
     let scene = match &args.scene {
-        Some(path) => std::fs::read_to_string(path)
-            .map_err(|e| Failure::failed(format!("cannot read {}: {e}", path.display())))?,
+        Some(path) => hapticd_core::diagnostics::read_text(path)?,
         None => push_phase::SCENE.to_string(),
     };
     let setup = push_phase::Setup {

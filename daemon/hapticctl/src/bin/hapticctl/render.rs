@@ -75,8 +75,7 @@ fn add_mechanism(
 /// What the scene file shows after `at` seconds, and a camera that frames it as it was at
 /// the start (so pictures at several times compare).
 fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Failure::failed(format!("cannot read {}: {e}", path.display())))?;
+    let text = hapticd_core::diagnostics::read_text(path)?;
     if !hapticd::scenes::is_physics(path) {
         if at != 0.0 {
             return Err(Failure::usage(

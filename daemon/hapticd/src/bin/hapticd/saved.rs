@@ -1,6 +1,7 @@
-//! A device's saved state as hapticd starts: what cannot be used is set aside, never lost.
+//! A device's saved state as hapticd starts: what cannot be used is set aside or left as it
+//! is, never lost.
 
-use hapticd::state::{DeviceRecord, StateDir};
+use hapticd::state::{DeviceRecord, LoadError, StateDir};
 
 /// Keep the state file of `identity` aside (as `….json.corrupt`) because of `why`, so the
 /// device starts afresh without losing what the file held.
@@ -14,7 +15,9 @@ pub fn set_aside(dir: &StateDir, identity: &str, why: &str) {
 }
 
 /// The saved state of `identity`; a file that cannot be parsed, or holds a value out of
-/// range, is set aside and the device starts afresh.
+/// range, is set aside and the device starts afresh. One that is not a file hapticd could
+/// have written (a FIFO, a link out of the state directory, a huge file) is left as it is:
+/// the device starts without it, and saves are refused until it is removed.
 pub fn load_record(state_dir: Option<&StateDir>, identity: &str) -> DeviceRecord {
     let Some(dir) = state_dir else {
         return DeviceRecord::default();
@@ -24,10 +27,18 @@ pub fn load_record(state_dir: Option<&StateDir>, identity: &str) -> DeviceRecord
             .parameters
             .check_ranges()
             .map(|()| record)
-            .map_err(|e| format!("{}: {e}", dir.device_file(identity).display()))
+            .map_err(|e| {
+                LoadError::Damaged(format!("{}: {e}", dir.device_file(identity).display()))
+            })
     });
-    checked.unwrap_or_else(|why| {
-        set_aside(dir, identity, &why);
+    checked.unwrap_or_else(|e| {
+        match e {
+            LoadError::Damaged(why) => set_aside(dir, identity, &why),
+            LoadError::Unusable(why) => tracing::error!(
+                "{why}; left as it is and starting without it: calibration and parameter \
+                 changes cannot be saved until it is removed"
+            ),
+        }
         DeviceRecord::default()
     })
 }
