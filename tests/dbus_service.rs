@@ -225,7 +225,11 @@ fn scene_plugins() -> PathBuf {
     static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     DIR.get_or_init(|| {
         let dir = scratch("scene-plugins");
-        for engine in ["hapticd-scene-penalty", "hapticd-scene-rapier"] {
+        for engine in [
+            "hapticd-scene-penalty",
+            "hapticd-scene-rapier",
+            "hapticd-scene-floor",
+        ] {
             let plugin = plugin_path(engine);
             std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
         }
@@ -700,18 +704,27 @@ fn bad_inputs_return_named_errors_and_change_nothing() {
         call(MANAGER, "SwitchScene", &["string:nowhere"]).0,
         ours("UnknownScene")
     );
+    // A file of the caller's goes by descriptor; its mistakes come back with their places.
     let broken = dir.join("broken.yaml");
     std::fs::write(&broken, "name: broken\nshapes:\n  - floor: { hieght: 0 }\n").unwrap();
-    let (name, message) = call(
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["scene", "switch", broken.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        message.contains("SceneFailed: broken.yaml:3:") && message.contains("hieght"),
+        "{message}"
+    );
+    // A path over the bus is no scene name.
+    let (name, _) = call(
         MANAGER,
         "SwitchScene",
         &[&format!("string:{}", broken.display())],
     );
-    assert_eq!(name, ours("SceneFailed"));
-    assert!(
-        message.contains("broken.yaml:3:") && message.contains("hieght"),
-        "{message}"
-    );
+    assert_eq!(name, ours("NameExpected"));
     assert_eq!(
         call(DEVICE, "BindMechanism", &["string:no-such"]).0,
         ours("UnknownMechanism")
@@ -790,6 +803,90 @@ fn an_unprivileged_client_may_read_but_not_change() {
     );
     denied(MANAGER, "org.hapticd.Hapticd1.Manager.ReloadPlugins", &[]);
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000");
+}
+
+#[test]
+fn a_caller_names_scenes_and_sends_its_files_but_no_path_it_gives_is_opened() {
+    let dir = scratch("hostile-scenes");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let pid = daemon.child.as_ref().unwrap().id();
+    let maps = || std::fs::read_to_string(format!("/proc/{pid}/maps")).unwrap();
+    // A valid scene plugin, a system library and files through `..`: each is a path, and
+    // none reaches dlopen or a read.
+    let plugin = plugin_path("hapticd-test-stalling-scene");
+    let secret = dir.join("secret.yaml");
+    std::fs::write(&secret, "root:*:19000:0:99999:7:::\n").unwrap();
+    let escape = format!(
+        "{}/../{}",
+        dir.display(),
+        secret.file_name().unwrap().to_str().unwrap()
+    );
+    for path in [
+        plugin.to_str().unwrap(),
+        "/usr/lib/x86_64-linux-gnu/libz.so.1",
+        &escape,
+        "../../../../etc/passwd",
+        "static.yaml",
+    ] {
+        let (name, message) = bus.error(
+            MANAGER[1],
+            "org.hapticd.Hapticd1.Manager.SwitchScene",
+            &[&format!("string:{path}")],
+        );
+        assert_eq!(name, "org.hapticd.Hapticd1.Error.NameExpected", "{path}");
+        assert!(!message.contains("root:*"), "{message}");
+    }
+    assert!(!maps().contains("stalling_scene") && !maps().contains("libz.so"));
+    assert!(!daemon.log().contains("root:*"), "{}", daemon.log());
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
+    // A scene plugin of the scene plugin directories is switched to by its name.
+    let out = bus.call(MANAGER, "SwitchScene", &["s", "floor"]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(maps().contains("libhapticd_scene_floor.so"));
+    // A file of the caller's comes open: a pipe or a directory is refused as such, and an
+    // unprivileged user cannot send what it cannot open.
+    let pipe = dir.join("pipe.yaml");
+    nix::unistd::mkfifo(&pipe, nix::sys::stat::Mode::from_bits_truncate(0o644)).unwrap();
+    let ctl = |args: &[&str]| {
+        hapticctl()
+            .arg(format!("--bus={}", bus.address))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = ctl(&["scene", "switch", pipe.to_str().unwrap()]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("pipe: what was sent is not a regular file"),
+        "{out:?}"
+    );
+    let sent = dir.join("mine.yaml");
+    std::fs::copy(repo_dir().join("config/scenes/static.yaml"), &sent).unwrap();
+    let out = ctl(&["scene", "switch", sent.to_str().unwrap()]);
+    assert!(out.status.success(), "{out:?}");
+    // Pictures come from the daemon's copy, which the renderer's user can read.
+    let active = bus.get(MANAGER, "ActiveSceneFile");
+    let copy = PathBuf::from(active.trim_start_matches("s ").trim_matches('"'));
+    assert_ne!(copy, sent);
+    assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(&sent).unwrap());
+    use std::os::unix::fs::PermissionsExt;
+    assert_eq!(copy.metadata().unwrap().permissions().mode() & 0o777, 0o644);
+    if is_root() {
+        std::fs::set_permissions(&secret, std::fs::Permissions::from_mode(0o600)).unwrap();
+        let out = Command::new("setpriv")
+            .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(artifact("hapticctl"))
+            .arg(format!("--bus={}", bus.address))
+            .args(["scene", "switch", secret.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            said.contains("Permission denied") && !said.contains("root:*"),
+            "{said}"
+        );
+    }
 }
 
 /// One client: its own connection to the bus, getting the statistics and setting the
@@ -1039,7 +1136,11 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
         ],
     );
     std::thread::sleep(Duration::from_millis(1500));
-    let out = bus.call(MANAGER, "SwitchScene", &["s", lower.to_str().unwrap()]);
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["scene", "switch", lower.to_str().unwrap()])
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{out:?}");
     assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"lower\"");
     std::thread::sleep(Duration::from_millis(1000));

@@ -497,3 +497,103 @@ fn an_amplifier_plugged_in_while_driving_another_joins_it() {
     );
     assert!(stops[0].contains("usb:1-2: "), "{stderr}");
 }
+
+/// What the emulated board of testbed.py's `amplifier=` step saw: per client, the D/A values
+/// of every OUT transfer, in order across clients.
+fn amplifier_log(dir: &Path) -> Vec<(u32, [i16; 8])> {
+    std::fs::read_to_string(dir.join("amp.log"))
+        .unwrap()
+        .lines()
+        .filter_map(|line| {
+            let words: Vec<&str> = line.split_whitespace().collect();
+            (words.len() == 11 && words[0] == "client" && words[2] == "dac").then(|| {
+                let client = words[1].parse().unwrap();
+                let dac: Vec<i16> = words[3..].iter().map(|w| w.parse().unwrap()).collect();
+                (client, dac.try_into().unwrap())
+            })
+        })
+        .collect()
+}
+
+/// hapticd driving the emulated SH4 board from `dir` on a private bus, with scene plugins
+/// from `dir/scene-plugins`; once it is ready and has driven the board a moment, `ending`
+/// ends it some way other than its own stop, and the steps wait for the guardian's zero.
+/// Returns how hapticd ended and what the board saw.
+fn ended_under_the_guardian(name: &str, ending: &[String]) -> (String, Vec<(u32, [i16; 8])>) {
+    let dir = scratch_dir(name);
+    std::fs::write(dir.join("amplifier.umockdev"), umockdev_description(SH4)).unwrap();
+    let plugins = dir.join("scene-plugins");
+    std::fs::create_dir_all(&plugins).unwrap();
+    std::fs::copy(
+        support::plugin_path("hapticd-test-exiting-scene"),
+        plugins.join("libhapticd_scene_exiting.so"),
+    )
+    .unwrap();
+    let config = dir.join("hapticd.yaml");
+    std::fs::write(
+        &config,
+        format!(
+            "scene_dirs: [{}]\nscene_plugin_dirs: [{}]\nscene: static\n",
+            support::repo_dir().join("config/scenes").display(),
+            plugins.display()
+        ),
+    )
+    .unwrap();
+    let bus = support::bus::PrivateBus::start(
+        &dir,
+        &support::repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
+    );
+    let mut args = hapticd_arguments(&dir);
+    args.extend([
+        "--config".into(),
+        config.display().to_string(),
+        format!("--bus={}", bus.address),
+    ]);
+    let mut steps: Vec<String> = [
+        "add=amplifier.umockdev",
+        "amplifier=/dev/bus/usb/001/002=amp.log",
+        "start",
+        "wait=ready: driving",
+        "sleep=0.3",
+    ]
+    .map(String::from)
+    .to_vec();
+    steps.extend(ending.iter().map(|s| s.replace("ADDRESS", &bus.address)));
+    steps.extend(["exited".into(), "wait-log=amp.log=client 2 dac".into()]);
+    let steps: Vec<&str> = steps.iter().map(String::as_str).collect();
+    testbed_run(&dir, &steps, &artifact("hapticd"), &args);
+    let status = std::fs::read_to_string(dir.join("program.status")).unwrap();
+    (status.trim().to_string(), amplifier_log(&dir))
+}
+
+/// The board was driven at the resting tensions by hapticd (client 1), and the last OUT
+/// transfer it saw is zero current, from the guardian (another client).
+fn assert_zeroed_by_the_guardian(seen: &[(u32, [i16; 8])]) {
+    let dac = resting_dac();
+    let driven = seen.iter().filter(|(c, d)| *c == 1 && *d == dac).count();
+    assert!(driven > 20, "{driven} resting updates: {seen:?}");
+    let (client, last) = *seen.last().unwrap();
+    assert_eq!(
+        last, [0; 8],
+        "the last command must be zero current: {seen:?}"
+    );
+    assert_ne!(client, 1, "the zero came from hapticd itself: {seen:?}");
+    // hapticd itself never got to send its zero.
+    assert_eq!(seen[seen.len() - 2].1, dac, "{seen:?}");
+}
+
+#[test]
+fn a_daemon_killed_while_driving_leaves_the_amplifier_at_zero_current() {
+    let (status, seen) = ended_under_the_guardian("kill-9", &["kill=9".into()]);
+    assert_eq!(status, "signal 9");
+    assert_zeroed_by_the_guardian(&seen);
+}
+
+#[test]
+fn a_plugin_whose_constructor_exits_leaves_the_amplifier_at_zero_current() {
+    let call = "run=busctl --address=ADDRESS call org.hapticd.Hapticd1 /org/hapticd/Hapticd1 \
+                org.hapticd.Hapticd1.Manager SwitchScene s exiting";
+    let (status, seen) = ended_under_the_guardian("exiting-plugin", &[call.into()]);
+    assert_eq!(status, "exit 1");
+    assert_zeroed_by_the_guardian(&seen);
+}

@@ -32,6 +32,9 @@ Steps, in order (files are in DIR):
     exited              wait until the program has exited; the testbed and its devices
                         stay, for whatever it left running
     unplug=SYSFS        a "remove" uevent, then the device is gone from sysfs and /dev
+    run=COMMAND         run COMMAND (split as a shell would, not through one) to its end,
+                        its output appended to DIR/run.log; its exit status is not judged
+                        (a call to a daemon that dies answering it fails, as it should)
     sleep=SECONDS       wait that long
 
 The program gets SIGTERM after the last step (or when one fails) unless it has exited. Its
@@ -46,6 +49,7 @@ import errno
 import json
 import os
 import queue
+import shlex
 import signal
 import socket
 import struct
@@ -465,12 +469,19 @@ def main():
             elif verb == "unplug":
                 testbed.uevent(argument, "remove")
                 testbed.remove_device(argument)
+            elif verb == "run":
+                with open(path("run.log"), "a") as log:
+                    subprocess.run(
+                        shlex.split(argument), stdout=log, stderr=log, timeout=TIMEOUT
+                    )
             elif verb == "sleep":
                 time.sleep(float(argument))
             else:
                 raise ValueError(f"unknown step {step!r}")
             moments.append({"step": step, "at": time.monotonic() - start})
-    except (OSError, ValueError, TimeoutError, GLib.Error) as error:
+    except (
+        OSError, ValueError, TimeoutError, subprocess.TimeoutExpired, GLib.Error
+    ) as error:
         failed = f"testbed.py: step {len(moments) + 1}: {error}"
     status = program.stop() if program is not None else 1
     if program is not None:

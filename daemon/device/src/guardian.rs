@@ -17,7 +17,6 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::Write;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -26,7 +25,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use crate::replay::{Direction, Transfer, write_transfer};
-use crate::usbfs::{UsbfsDevice, open_node};
+use crate::usbfs::{UsbfsDevice, claim_interface, open_node};
 use crate::{Protocol, sh4, simple};
 use hapticd_core::transport::CHANNELS;
 
@@ -318,7 +317,7 @@ pub fn run() -> ExitCode {
             return ExitCode::SUCCESS;
         }
     }
-    zero_everything(daemon, &slots);
+    zero_everything(daemon, slots);
     ExitCode::SUCCESS
 }
 
@@ -355,10 +354,10 @@ fn apply(message: &[u8], slots: &mut BTreeMap<u32, Slot>) -> bool {
 }
 
 /// The daemon died without stopping its motors: zero every amplifier and recording.
-fn zero_everything(daemon: libc::pid_t, slots: &BTreeMap<u32, Slot>) {
-    for slot in slots.values() {
-        if let Some((protocol, node, file)) = &slot.amplifier {
-            match zero_amplifier(*protocol, file) {
+fn zero_everything(daemon: libc::pid_t, slots: BTreeMap<u32, Slot>) {
+    for slot in slots.into_values() {
+        if let Some((protocol, node, file)) = slot.amplifier {
+            match zero_amplifier(protocol, file) {
                 Ok(()) => eprintln!(
                     "{PROGRAM}: hapticd (pid {daemon}) ended without stopping its motors: \
                      sent zero current to {}",
@@ -371,9 +370,9 @@ fn zero_everything(daemon: libc::pid_t, slots: &BTreeMap<u32, Slot>) {
                 ),
             }
         }
-        if let Some((protocol, path, file)) = &slot.recording {
-            let (_, zero) = zero_current(*protocol);
-            match write_transfer(&mut &*file, &Transfer::new(Direction::Out, &zero)) {
+        if let Some((protocol, path, mut file)) = slot.recording {
+            let (_, zero) = zero_current(protocol);
+            match write_transfer(&mut file, &Transfer::new(Direction::Out, &zero)) {
                 Ok(()) => eprintln!(
                     "{PROGRAM}: hapticd (pid {daemon}) ended without stopping its motors: \
                      zero current recorded to {}",
@@ -386,23 +385,23 @@ fn zero_everything(daemon: libc::pid_t, slots: &BTreeMap<u32, Slot>) {
 }
 
 /// Claim the amplifier's interface (free once the daemon's files are closed) and send it the
-/// zero-current command.
-fn zero_amplifier(protocol: Protocol, node: &File) -> std::io::Result<()> {
+/// zero-current command. The node opened at the start serves: a duplicate of it would do as
+/// well with the kernel, but not under umockdev, which follows no `dup`.
+fn zero_amplifier(protocol: Protocol, node: File) -> std::io::Result<()> {
     let (endpoint, zero) = zero_current(protocol);
     let deadline = Instant::now() + CLAIM_PATIENCE;
-    let mut device = loop {
-        match UsbfsDevice::claim(node.try_clone()?, 0, Duration::from_millis(100)) {
-            Ok(device) => break device,
+    loop {
+        match claim_interface(&node, 0) {
+            Ok(()) => break,
             Err(e) if e.raw_os_error() == Some(libc::EBUSY) && Instant::now() < deadline => {
                 std::thread::sleep(Duration::from_millis(10));
             }
             Err(e) => return Err(e),
         }
-    };
-    device
+    }
+    UsbfsDevice::claimed(node, 0, Duration::from_millis(100))
         .write(endpoint, &zero)
-        .map_err(|e| std::io::Error::other(format!("{e:?}")))?;
-    std::io::stderr().flush()
+        .map_err(|e| std::io::Error::other(format!("{e:?}")))
 }
 
 /// SIGTERM, SIGINT and SIGHUP reach every process of a stopping service at once: the
@@ -447,7 +446,7 @@ mod tests {
             (Protocol::Simple, recording.as_path())
         );
         assert!(apply(&[Verb::Disarm as u8], &mut slots));
-        zero_everything(0, &slots);
+        zero_everything(0, slots);
         let transfers: Vec<_> = crate::replay::Recording::read(&recording)
             .unwrap()
             .transfers()

@@ -84,6 +84,16 @@ pub fn open_node(node: &Path) -> std::io::Result<File> {
         .open(node)
 }
 
+/// Claim `interface` of the usbfs `node`: EBUSY while another open file holds it.
+pub fn claim_interface(node: &File, interface: u32) -> std::io::Result<()> {
+    let mut claimed = interface;
+    // SAFETY: CLAIMINTERFACE reads one unsigned int.
+    if unsafe { libc::ioctl(node.as_raw_fd(), CLAIMINTERFACE as _, &mut claimed) } != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
 /// One claimed interface of a device node, moving bulk transfers one at a time.
 pub struct UsbfsDevice {
     node: File,
@@ -124,16 +134,17 @@ impl UsbfsDevice {
         Self::claim(node, interface, timeout)
     }
 
-    /// Claim `interface` of a device `node` already opened (with [`open_node`]), as the
-    /// guardian does once the daemon that held it is gone. Transfers give up after
-    /// `timeout`.
+    /// Claim `interface` of a device `node` already opened (with [`open_node`]). Transfers
+    /// give up after `timeout`.
     pub fn claim(node: File, interface: u32, timeout: Duration) -> std::io::Result<Self> {
-        let mut claimed = interface;
-        // SAFETY: CLAIMINTERFACE reads one unsigned int.
-        if unsafe { libc::ioctl(node.as_raw_fd(), CLAIMINTERFACE as _, &mut claimed) } != 0 {
-            return Err(std::io::Error::last_os_error());
-        }
-        Ok(Self {
+        claim_interface(&node, interface)?;
+        Ok(Self::claimed(node, interface, timeout))
+    }
+
+    /// The device `node` whose `interface` is claimed (with [`claim_interface`]), as the
+    /// guardian takes it once the daemon that held it is gone.
+    pub fn claimed(node: File, interface: u32, timeout: Duration) -> Self {
+        Self {
             node,
             interface,
             urb: Urb {
@@ -151,7 +162,7 @@ impl UsbfsDevice {
                 user_context: std::ptr::null_mut(),
             },
             timeout,
-        })
+        }
     }
 
     /// [rt] Send `bytes` to the OUT `endpoint`; all of them must go.

@@ -7,7 +7,8 @@
 //!    `/etc` and `/var/lib`).
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
-//!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name.
+//!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
+//!    [`received`]: scene files callers send by descriptor.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
 //!    CPU of its own ([`cpus`]).
 //!    [`world_share`]: the memfd its picture of the world goes to the renderer in (on
@@ -29,6 +30,7 @@ pub mod logging;
 pub mod plugin;
 pub mod plugin_scene;
 pub mod realtime;
+pub mod received;
 pub mod scenes;
 pub mod sd_notify;
 pub mod shared_memory;

@@ -82,12 +82,20 @@ fn fits_tick(scene: &mut dyn Scene, pointers: &[Pointer], rate: f64) -> Result<(
     Ok(())
 }
 
+/// Whether `name` names a scene rather than giving a path: what a caller on the bus may
+/// send (a file of its own it sends by descriptor).
+pub fn is_name(name: &str) -> bool {
+    !name.is_empty()
+        && !name.starts_with('.')
+        && !name.contains(['/', '\0'])
+        && Path::new(name).extension().is_none()
+}
+
 /// The file of scene `name`: a path as given, or `NAME.yaml` in the first of `dirs` that
 /// has it.
 pub fn locate(name: &str, dirs: &[PathBuf]) -> Result<PathBuf, OpenError> {
     let path = Path::new(name);
-    let is_path = name.contains('/') || path.extension().is_some();
-    let path = if is_path {
+    let path = if !is_name(name) {
         path.to_path_buf()
     } else {
         dirs.iter()
@@ -134,13 +142,33 @@ pub fn is_physics(path: &Path) -> bool {
     keys.is_ok_and(|k| k.contains_key("bodies"))
 }
 
+/// The scene plugin called `name` (`libhapticd_scene_NAME.so`) in the first of
+/// `plugin_dirs` that has it.
+fn scene_plugin(name: &str, plugin_dirs: &[PathBuf]) -> Option<PathBuf> {
+    let file = format!("libhapticd_scene_{}.so", name.replace('-', "_"));
+    plugin_dirs
+        .iter()
+        .map(|d| d.join(&file))
+        .find(|p| p.exists())
+}
+
 fn find(
     name: &str,
     file: Option<&Path>,
     places: Places,
     pointers: &[Pointer],
 ) -> Result<Box<dyn Scene>, OpenError> {
-    let path = locate(name, places.dirs)?;
+    let path = match locate(name, places.dirs) {
+        // A name that is no scene file may be a scene plugin's.
+        Err(OpenError::NotFound(why)) if is_name(name) => scene_plugin(name, places.plugin_dirs)
+            .ok_or_else(|| {
+                OpenError::NotFound(format!(
+                    "{why}, nor a scene plugin libhapticd_scene_{name}.so in {:?}",
+                    places.plugin_dirs
+                ))
+            })?,
+        found => found?,
+    };
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }

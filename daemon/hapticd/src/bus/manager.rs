@@ -74,9 +74,10 @@ impl ManagerInterface {
         self.daemon.mechanisms()
     }
 
-    /// Render another scene: a name from Scenes, a scene file or a scene plugin. It is loaded
-    /// off the haptic thread, then swapped in between ticks while the forces ramp down and
-    /// back up. A scene that fails to load leaves the running one in place.
+    /// Render another scene: a name from Scenes, or the name of a scene plugin in the scene
+    /// plugin directories (never a path: a file of the caller's comes by SwitchSceneFile).
+    /// It is loaded off the haptic thread, then swapped in between ticks while the forces
+    /// ramp down and back up. A scene that fails to load leaves the running one in place.
     async fn switch_scene(
         &self,
         scene: String,
@@ -87,11 +88,31 @@ impl ManagerInterface {
         let daemon = self.daemon.clone();
         let what = format!("switch to scene {scene:?}");
         let result = self.workers.run(move || daemon.switch_scene(&scene)).await;
-        audit(&what, &caller(connection, Some(&header)).await, &result);
-        result?;
-        report(self.active_scene_changed(&emitter).await);
-        report(self.active_scene_file_changed(&emitter).await);
-        Ok(())
+        self.switched(what, result, &emitter, connection, &header)
+            .await
+    }
+
+    /// Render the scene file the caller opened and sends as `file`, calling it `name` (its
+    /// file name without the extension): the daemon reads only from the descriptor, so a
+    /// caller's files are read with the caller's rights. Loaded and swapped in as by
+    /// SwitchScene.
+    async fn switch_scene_file(
+        &self,
+        file: zbus::OwnedFd,
+        name: String,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(), Error> {
+        let daemon = self.daemon.clone();
+        let what = format!("switch to the scene file {name:?} it sent");
+        let fd = std::os::fd::OwnedFd::from(file);
+        let result = self
+            .workers
+            .run(move || daemon.switch_scene_file(fd, &name))
+            .await;
+        self.switched(what, result, &emitter, connection, &header)
+            .await
     }
 
     /// Re-read hapticd.yaml and look again for mechanism plugins, descriptors and scenes. A
@@ -112,6 +133,24 @@ impl ManagerInterface {
         result?;
         report(self.mechanisms_changed(&emitter).await);
         report(self.scenes_changed(&emitter).await);
+        Ok(())
+    }
+}
+
+impl ManagerInterface {
+    /// Audit a scene switch (`what`) and, once it is done, announce the new scene.
+    async fn switched(
+        &self,
+        what: String,
+        result: Result<(), Error>,
+        emitter: &SignalEmitter<'_>,
+        connection: &zbus::Connection,
+        header: &Header<'_>,
+    ) -> Result<(), Error> {
+        audit(&what, &caller(connection, Some(header)).await, &result);
+        result?;
+        report(self.active_scene_changed(emitter).await);
+        report(self.active_scene_file_changed(emitter).await);
         Ok(())
     }
 }

@@ -2,6 +2,7 @@
 //! daemon, over D-Bus, as `busctl` would reach it but in words.
 
 use std::collections::BTreeMap;
+use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
 use hapticd::bus::{BUS_NAME, Bus, MANAGER_PATH};
@@ -350,9 +351,35 @@ pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
     Ok(())
 }
 
-/// `hapticctl scene switch NAME`: swap the scene in, forces ramped down and back up.
-pub fn switch(client: &Client, name: &str) -> Result<(), Failure> {
-    client.call(MANAGER_PATH, MANAGER, "SwitchScene", &(name,))?;
+/// `hapticctl scene switch NAME|FILE`: swap the scene in, forces ramped down and back up. A
+/// name goes as it is; a file is opened here, with the user's rights, and its descriptor is
+/// sent (the daemon reads no path a caller names).
+pub fn switch(client: &Client, scene: &str) -> Result<(), Failure> {
+    if hapticd::scenes::is_name(scene) {
+        client.call(MANAGER_PATH, MANAGER, "SwitchScene", &(scene,))?;
+        return Ok(());
+    }
+    let path = std::path::Path::new(scene);
+    if path.extension().is_some_and(|e| e == "so") {
+        return Err(Failure::usage(format!(
+            "{scene}: hapticd loads scene plugins only from its scene plugin directories, by \
+             name (libhapticd_scene_NAME.so is switched to as NAME)"
+        )));
+    }
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .filter(|s| hapticd::scenes::is_name(s))
+        .ok_or_else(|| Failure::usage(format!("{scene}: not a scene file name")))?;
+    // Non-blocking, so that a FIFO given by mistake cannot hang the client; the daemon
+    // refuses anything but a regular file.
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| Failure::failed(format!("{scene}: {e}")))?;
+    let fd = zbus::Fd::from(&file);
+    client.call(MANAGER_PATH, MANAGER, "SwitchSceneFile", &(fd, name))?;
     Ok(())
 }
 

@@ -32,9 +32,10 @@ pub enum Command {
     Run(RunArgs),
     /// The scenes the running daemon can switch to, the active one marked.
     List(Output),
-    /// Switch the running daemon to a scene: a name from `list`, a scene file or a plugin.
+    /// Switch the running daemon to a scene: a name from `list` or of an installed scene
+    /// plugin, or a scene file of yours (sent to the daemon open, read with your rights).
     Switch {
-        /// Scene name or path.
+        /// Scene name or file.
         name: String,
     },
 }
