@@ -517,9 +517,14 @@ fn amplifier_log(dir: &Path) -> Vec<(u32, [i16; 8])> {
 
 /// hapticd driving the emulated SH4 board from `dir` on a private bus, with scene plugins
 /// from `dir/scene-plugins`; once it is ready and has driven the board a moment, `ending`
-/// ends it some way other than its own stop, and the steps wait for the guardian's zero.
-/// Returns how hapticd ended and what the board saw.
-fn ended_under_the_guardian(name: &str, ending: &[String]) -> (String, Vec<(u32, [i16; 8])>) {
+/// ends it some way other than its own stop (ADDRESS and CONFIG in a step are the bus's
+/// address and the configuration file), and the steps
+/// wait for the guardian's zero. Returns how hapticd ended, what the board saw, and the
+/// board's log.
+fn ended_under_the_guardian(
+    name: &str,
+    ending: &[String],
+) -> (String, Vec<(u32, [i16; 8])>, String) {
     let dir = scratch_dir(name);
     std::fs::write(dir.join("amplifier.umockdev"), umockdev_description(SH4)).unwrap();
     let plugins = dir.join("scene-plugins");
@@ -558,12 +563,17 @@ fn ended_under_the_guardian(name: &str, ending: &[String]) -> (String, Vec<(u32,
     ]
     .map(String::from)
     .to_vec();
-    steps.extend(ending.iter().map(|s| s.replace("ADDRESS", &bus.address)));
+    steps.extend(ending.iter().map(|s| {
+        s.replace("ADDRESS", &bus.address)
+            .replace("CONFIG", &config.display().to_string())
+    }));
     steps.extend(["exited".into(), "wait-log=amp.log=client 2 dac".into()]);
     let steps: Vec<&str> = steps.iter().map(String::as_str).collect();
     testbed_run(&dir, &steps, &artifact("hapticd"), &args);
     let status = std::fs::read_to_string(dir.join("program.status")).unwrap();
-    (status.trim().to_string(), amplifier_log(&dir))
+    let log = std::fs::read_to_string(dir.join("amp.log")).unwrap()
+        + &std::fs::read_to_string(dir.join("run.log")).unwrap_or_default();
+    (status.trim().to_string(), amplifier_log(&dir), log)
 }
 
 /// The board was driven at the resting tensions by hapticd (client 1), and the last OUT
@@ -584,16 +594,25 @@ fn assert_zeroed_by_the_guardian(seen: &[(u32, [i16; 8])]) {
 
 #[test]
 fn a_daemon_killed_while_driving_leaves_the_amplifier_at_zero_current() {
-    let (status, seen) = ended_under_the_guardian("kill-9", &["kill=9".into()]);
+    // A second hapticd on the same bus learns that the name is taken before it opens the
+    // amplifier the first one drives.
+    let second = format!(
+        "run={} --bus=ADDRESS --mechanism-dir {} --config CONFIG",
+        artifact("hapticd").display(),
+        support::repo_dir().join("config/mechanisms").display()
+    );
+    let (status, seen, log) = ended_under_the_guardian("kill-9", &[second, "kill=9".into()]);
     assert_eq!(status, "signal 9");
     assert_zeroed_by_the_guardian(&seen);
+    assert!(log.contains("is already owned"), "{log}");
+    assert_eq!(log.matches(" open (pid").count(), 2, "{log}");
 }
 
 #[test]
 fn a_plugin_whose_constructor_exits_leaves_the_amplifier_at_zero_current() {
     let call = "run=busctl --address=ADDRESS call org.hapticd.Hapticd1 /org/hapticd/Hapticd1 \
                 org.hapticd.Hapticd1.Manager SwitchScene s exiting";
-    let (status, seen) = ended_under_the_guardian("exiting-plugin", &[call.into()]);
+    let (status, seen, _) = ended_under_the_guardian("exiting-plugin", &[call.into()]);
     assert_eq!(status, "exit 1");
     assert_zeroed_by_the_guardian(&seen);
 }

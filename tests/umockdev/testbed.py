@@ -33,7 +33,8 @@ Steps, in order (files are in DIR):
                         stay, for whatever it left running
     unplug=SYSFS        a "remove" uevent, then the device is gone from sysfs and /dev
     run=COMMAND         run COMMAND (split as a shell would, not through one) to its end,
-                        its output appended to DIR/run.log; its exit status is not judged
+                        in the testbed as the program is, its output appended to
+                        DIR/run.log; its exit status is not judged
                         (a call to a daemon that dies answering it fails, as it should)
     sleep=SECONDS       wait that long
 
@@ -472,7 +473,11 @@ def main():
             elif verb == "run":
                 with open(path("run.log"), "a") as log:
                     subprocess.run(
-                        shlex.split(argument), stdout=log, stderr=log, timeout=TIMEOUT
+                        shlex.split(argument),
+                        env=env,
+                        stdout=log,
+                        stderr=log,
+                        timeout=TIMEOUT,
                     )
             elif verb == "sleep":
                 time.sleep(float(argument))
