@@ -159,9 +159,15 @@ impl Guardian {
     }
 
     /// [main] The motors are at zero and the daemon is stopping in order: nothing to do when
-    /// it ends.
+    /// it ends. Waits (briefly) for the guardian to end, so that a daemon that starts again
+    /// in the same process leaves no zombie behind.
     pub fn disarm(&self) {
         self.tell(vec![Verb::Disarm as u8]);
+        let deadline = Instant::now() + Duration::from_millis(500);
+        let mut inner = lock(&self.inner);
+        while matches!(inner.child.try_wait(), Ok(None)) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(2));
+        }
     }
 
     /// [main] Start the guardian again if it has died; returns what to tell the journal.
