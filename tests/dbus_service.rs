@@ -62,6 +62,15 @@ enum Turn {
 }
 
 impl Bus {
+    /// `hapticctl ARGS` on this bus, to its end.
+    fn ctl(&self, args: &[&str]) -> Output {
+        hapticctl()
+            .arg(format!("--bus={}", self.address))
+            .args(args)
+            .output()
+            .unwrap()
+    }
+
     /// A bus for a test that runs beside the others.
     fn start(dir: &Path) -> Bus {
         Bus::start_in_turn(
@@ -495,13 +504,7 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
-    let ctl = |args: &[&str]| {
-        hapticctl()
-            .arg(format!("--bus={}", bus.address))
-            .args(args)
-            .output()
-            .unwrap()
-    };
+    let ctl = |args: &[&str]| bus.ctl(args);
     let said = |out: &Output| String::from_utf8_lossy(&out.stdout).into_owned();
     let out = ctl(&["status"]);
     assert!(out.status.success(), "{out:?}");
@@ -707,11 +710,7 @@ fn bad_inputs_return_named_errors_and_change_nothing() {
     // A file of the caller's goes by descriptor; its mistakes come back with their places.
     let broken = dir.join("broken.yaml");
     std::fs::write(&broken, "name: broken\nshapes:\n  - floor: { hieght: 0 }\n").unwrap();
-    let out = hapticctl()
-        .arg(format!("--bus={}", bus.address))
-        .args(["scene", "switch", broken.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let out = bus.ctl(&["scene", "switch", broken.to_str().unwrap()]);
     let message = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
@@ -849,13 +848,7 @@ fn a_caller_names_scenes_and_sends_its_files_but_no_path_it_gives_is_opened() {
     // unprivileged user cannot send what it cannot open.
     let pipe = dir.join("pipe.yaml");
     nix::unistd::mkfifo(&pipe, nix::sys::stat::Mode::from_bits_truncate(0o644)).unwrap();
-    let ctl = |args: &[&str]| {
-        hapticctl()
-            .arg(format!("--bus={}", bus.address))
-            .args(args)
-            .output()
-            .unwrap()
-    };
+    let ctl = |args: &[&str]| bus.ctl(args);
     let out = ctl(&["scene", "switch", pipe.to_str().unwrap()]);
     assert!(
         String::from_utf8_lossy(&out.stderr).contains("pipe: what was sent is not a regular file"),
@@ -1136,11 +1129,7 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
         ],
     );
     std::thread::sleep(Duration::from_millis(1500));
-    let out = hapticctl()
-        .arg(format!("--bus={}", bus.address))
-        .args(["scene", "switch", lower.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let out = bus.ctl(&["scene", "switch", lower.to_str().unwrap()]);
     assert!(out.status.success(), "{out:?}");
     assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"lower\"");
     std::thread::sleep(Duration::from_millis(1000));

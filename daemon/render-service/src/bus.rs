@@ -223,16 +223,7 @@ impl RendererInterface {
 
 /// The Unix user of the connection `name`, as the bus daemon knows it.
 async fn unix_user(connection: &zbus::Connection, name: &str) -> Result<u32, Error> {
-    let reply = connection
-        .call_method(
-            Some("org.freedesktop.DBus"),
-            "/org/freedesktop/DBus",
-            Some("org.freedesktop.DBus"),
-            "GetConnectionUnixUser",
-            &(name,),
-        )
-        .await;
-    reply
-        .and_then(|m| m.body().deserialize::<u32>())
+    hapticd::bus::unix_user(connection, name)
+        .await
         .map_err(|e| Error::Failed(format!("cannot tell the user of {name}: {e}")))
 }

@@ -46,17 +46,25 @@ async fn caller(connection: &zbus::Connection, header: Option<&Header<'_>>) -> S
     let Some(sender) = header.and_then(|h| h.sender()) else {
         return "hapticd itself".to_string();
     };
-    let reply = connection
+    match unix_user(connection, sender.as_str()).await {
+        Ok(uid) => format!("uid {uid}"),
+        Err(_) => format!("bus name {sender}"),
+    }
+}
+
+/// The Unix user of the connection `name`, as the bus daemon knows it.
+pub async fn unix_user(connection: &zbus::Connection, name: &str) -> zbus::Result<u32> {
+    connection
         .call_method(
             Some("org.freedesktop.DBus"),
             "/org/freedesktop/DBus",
             Some("org.freedesktop.DBus"),
             "GetConnectionUnixUser",
-            &(sender.as_str(),),
+            &(name,),
         )
-        .await;
-    let uid = reply.ok().and_then(|m| m.body().deserialize::<u32>().ok());
-    uid.map_or_else(|| format!("bus name {sender}"), |uid| format!("uid {uid}"))
+        .await?
+        .body()
+        .deserialize::<u32>()
 }
 
 /// Log what a request that changes something did, and for whom: the journal keeps a trace
