@@ -142,14 +142,23 @@ impl Drop for Service {
 
 /// [main] Connect to `bus` and own [`BUS_NAME`] there. The name is ours only while no other
 /// hapticd has it, and nobody may take it from us: a second daemon would leave the first
-/// driving its amplifier unreachable.
+/// driving its amplifier unreachable. The object server answers before the name is asked
+/// for, so that a call arriving before the objects are put on it gets an error at once
+/// (UnknownObject), not silence until its time-out.
 async fn connect(bus: &Bus) -> zbus::Result<zbus::Connection> {
-    bus.builder()
-        .name(BUS_NAME)
-        .allow_name_replacements(false)
-        .replace_existing_names(false)
-        .build()
-        .await
+    let connection = bus.builder().build().await?;
+    connection.object_server();
+    match connection
+        .request_name_with_flags(BUS_NAME, zbus::fdo::RequestNameFlags::DO_NOT_QUEUE)
+        .await?
+    {
+        zbus::fdo::RequestNameReply::PrimaryOwner | zbus::fdo::RequestNameReply::AlreadyOwner => {
+            Ok(connection)
+        }
+        zbus::fdo::RequestNameReply::Exists | zbus::fdo::RequestNameReply::InQueue => {
+            Err(zbus::Error::NameTaken)
+        }
+    }
 }
 
 /// Put the manager and every device of `daemon` on `connection`.
