@@ -558,17 +558,16 @@ fn programs_refuse_what_one_board_or_one_tick_cannot_do_without_panicking() {
     let dir_arg = dir.to_str().unwrap();
     let scene = repo_dir().join("config/scenes/static.yaml");
     let scene_arg = scene.to_str().unwrap();
-    // hapticd on the simulated `mechanism` of `dir`, for a moment.
+    // hapticd on the simulated `mechanism` of `dir`, for a moment, on a bus of its own.
+    let isolated = support::daemon::Isolated::on_private_bus(&scratch("ten-daemon"), &dir);
     let simulate = |mechanism: &str, args: &[&str]| {
-        let common = [
-            "--mechanism-dir",
-            dir_arg,
-            "--sim",
-            mechanism,
-            "--duration",
-            "0.3",
-        ];
-        run("hapticd", &[&common[..], args].concat())
+        let common = ["--sim", mechanism, "--duration", "0.3"];
+        isolated
+            .hapticd(&[&common[..], args].concat())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .output()
+            .unwrap()
     };
     let out = simulate("spidar-10s", &["--scene", scene_arg]);
     assert_exit_1(&out, "one amplifier board drives at most 8");

@@ -15,6 +15,7 @@ use support::amplifier::{
     umockdev_description, umockdev_run, unplugged_update, update_script,
 };
 use support::artifact;
+use support::bus::PrivateBus;
 
 const UPDATES: usize = 120;
 const DAC: [i16; 8] = [1, -1, 300, -300, 1000, 0, i16::MAX, i16::MIN];
@@ -187,16 +188,41 @@ fn different_dac_bytes_are_refused_by_the_emulated_board() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("update 0"));
 }
 
-/// The arguments that run hapticd from `dir` (which gets the SPIDAR-G plugin) on the static
+/// A private bus for the hapticd of a test in `dir`.
+fn private_bus(dir: &Path) -> PrivateBus {
+    let at = dir.join("bus");
+    std::fs::create_dir_all(&at).unwrap();
+    PrivateBus::start(
+        &at,
+        &support::repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
+    )
+}
+
+/// The arguments that run hapticd from `dir` (which gets the SPIDAR-G plugin and a
+/// configuration of its own, scene plugins from `dir/scene-plugins`) on `bus`, on the static
 /// scene, recording its USB traffic to `dir/session.traffic`.
-fn hapticd_arguments(dir: &Path) -> Vec<String> {
+fn hapticd_arguments(dir: &Path, bus: &PrivateBus) -> Vec<String> {
     std::fs::copy(
         support::plugin_path("hapticd-spidar-g"),
         dir.join("libhapticd_spidar_g.so"),
     )
     .unwrap();
+    let config = dir.join("hapticd.yaml");
+    std::fs::write(
+        &config,
+        format!(
+            "scene_dirs: [{}]\nscene_plugin_dirs: [{}]\nscene: static\n",
+            support::repo_dir().join("config/scenes").display(),
+            dir.join("scene-plugins").display()
+        ),
+    )
+    .unwrap();
     let scene = support::repo_dir().join("config/scenes/static.yaml");
     [
+        "--config".as_ref(),
+        config.as_os_str(),
+        "--bus".as_ref(),
+        bus.address.as_ref(),
         "--mechanism-dir".as_ref(),
         dir.as_os_str(),
         "--scene".as_ref(),
@@ -239,7 +265,8 @@ fn hapticd_drives_the_usb_amplifier_and_leaves_it_at_zero() {
     let script = resting_session(600);
     let (device, ioctl) = emulated_amplifier_with("hapticd", SH4, &script);
     let dir = ioctl.parent().unwrap().to_path_buf();
-    let mut args = hapticd_arguments(&dir);
+    let bus = private_bus(&dir);
+    let mut args = hapticd_arguments(&dir, &bus);
     args.extend(["--duration".into(), "0.5".into()]);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let out = run_under_umockdev(&device, &ioctl, &artifact("hapticd"), &args);
@@ -275,7 +302,8 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     std::fs::write(dir.join("second.umockdev"), amplifier_record(SH4, 3)).unwrap();
     std::fs::write(dir.join("second.ioctl"), second).unwrap();
     let frames = dir.join("frames.csv");
-    let mut args = hapticd_arguments(&dir);
+    let bus = private_bus(&dir);
+    let mut args = hapticd_arguments(&dir, &bus);
     args.extend(["--record".into(), frames.to_str().unwrap().into()]);
     let unplug = format!("unplug={AMPLIFIER_SYSFS}");
     let run = testbed_run(
@@ -375,7 +403,7 @@ fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
             "sleep=0.5",
         ],
         &artifact("hapticd"),
-        &hapticd_arguments(&dir),
+        &hapticd_arguments(&dir, &private_bus(&dir)),
     );
     assert!(
         run.at("add=amplifier.umockdev") < run.at("wait=plugged in: starting again on it"),
@@ -418,7 +446,7 @@ fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_ot
             "sleep=0.8",
         ],
         &artifact("hapticd"),
-        &hapticd_arguments(&dir),
+        &hapticd_arguments(&dir, &private_bus(&dir)),
     );
     let stderr = &run.stderr;
     let mut ticks = Vec::new();
@@ -482,7 +510,7 @@ fn an_amplifier_plugged_in_while_driving_another_joins_it() {
             "sleep=0.3",
         ],
         &artifact("hapticd"),
-        &hapticd_arguments(&dir),
+        &hapticd_arguments(&dir, &private_bus(&dir)),
     );
     // The first amplifier was stopped at zero current before hapticd started again with both.
     let stderr = &run.stderr;
@@ -534,26 +562,9 @@ fn ended_under_the_guardian(
         plugins.join("libhapticd_scene_exiting.so"),
     )
     .unwrap();
+    let bus = private_bus(&dir);
+    let args = hapticd_arguments(&dir, &bus);
     let config = dir.join("hapticd.yaml");
-    std::fs::write(
-        &config,
-        format!(
-            "scene_dirs: [{}]\nscene_plugin_dirs: [{}]\nscene: static\n",
-            support::repo_dir().join("config/scenes").display(),
-            plugins.display()
-        ),
-    )
-    .unwrap();
-    let bus = support::bus::PrivateBus::start(
-        &dir,
-        &support::repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
-    );
-    let mut args = hapticd_arguments(&dir);
-    args.extend([
-        "--config".into(),
-        config.display().to_string(),
-        format!("--bus={}", bus.address),
-    ]);
     let mut steps: Vec<String> = [
         "add=amplifier.umockdev",
         "amplifier=/dev/bus/usb/001/002=amp.log",
