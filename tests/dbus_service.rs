@@ -927,7 +927,13 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
     while entry(&bus.get(DEVICE, "Statistics"), "ticks") < 1000.0 {
         std::thread::sleep(Duration::from_millis(50));
     }
+    // What the machine alone costs the loop (a virtual machine's host steals ticks now and
+    // then, more on some days than others), measured over as long as the clients take.
+    let quiet_from = overruns();
+    std::thread::sleep(Duration::from_millis(2500));
+    let quiet = overruns() - quiet_from;
     let before = overruns();
+    let started = Instant::now();
     // A hundred clients with connections of their own, all at once.
     let all_set: Vec<f64> = std::thread::scope(|s| {
         let clients: Vec<_> = (0..100)
@@ -963,13 +969,15 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
     );
     std::thread::sleep(Duration::from_millis(300));
     if realtime {
-        // On a shared two-core machine the hypervisor alone costs a tick now and then (up to
-        // three in a run like this one, with or without clients); a request path that
-        // disturbs the loop costs dozens.
+        // The clients' time beside as long a time without them: on a shared two-core
+        // machine the hypervisor alone costs ticks in bursts (from none to dozens in 2.5 s
+        // on the same machine and code), so twice that and ten more may pass; a request
+        // path that disturbs the loop costs one tick or more for each of the 500 requests.
         let during = overruns() - before;
+        let alone = quiet * started.elapsed().as_secs_f64() / 2.5;
         assert!(
-            during <= 5.0,
-            "the clients made the haptic loop overrun {during} times"
+            during <= 2.0 * alone + 10.0,
+            "the clients made the haptic loop overrun {during} times ({alone:.0} without them)"
         );
     }
 }

@@ -410,6 +410,13 @@ fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<String>) {
     (names, problems)
 }
 
+impl Drop for Daemon {
+    /// The copies of scene files callers sent are of this run only.
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.received);
+    }
+}
+
 impl Daemon {
     /// The daemon running `devices` with `config` (read from `config_path`, when given),
     /// rendering `active_scene` (from `active_file`, if it has one).
