@@ -606,6 +606,9 @@ fn hapticctl_monitor_prints_each_change_as_it_happens() {
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // Changes are announced ten times a second, after a Get already shows them: the start's
+    // own (calibrating → running) is out before the monitor watches.
+    std::thread::sleep(Duration::from_millis(300));
     let mut monitor = hapticctl()
         .arg(format!("--bus={}", bus.address))
         .args(["monitor", "--duration", "3"])
@@ -993,6 +996,7 @@ fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
         assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
         let offsets = bus.get(DEVICE, "CalibrationOffsets");
         let sent = std::sync::Mutex::new(Vec::new());
+        let answered = std::sync::atomic::AtomicUsize::new(0);
         std::thread::scope(|s| {
             s.spawn(|| {
                 for i in 0..400 {
@@ -1005,8 +1009,19 @@ fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
                     {
                         return;
                     }
+                    answered.fetch_add(1, std::sync::atomic::Ordering::Release);
                 }
             });
+            // Killed while saves go on, after the first (a loaded machine may take longer
+            // than the whole wait below to answer one).
+            let started = Instant::now();
+            while answered.load(std::sync::atomic::Ordering::Acquire) == 0 {
+                assert!(
+                    started.elapsed() < Duration::from_secs(30),
+                    "no Set answered"
+                );
+                std::thread::sleep(Duration::from_millis(5));
+            }
             std::thread::sleep(Duration::from_millis(300 + 170 * round));
             daemon.signal(nix::sys::signal::Signal::SIGKILL);
         });
