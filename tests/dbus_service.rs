@@ -930,14 +930,34 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
     while entry(&bus.get(DEVICE, "Statistics"), "ticks") < 1000.0 {
         std::thread::sleep(Duration::from_millis(50));
     }
-    // What the machine alone costs the loop (a virtual machine's host steals ticks now and
-    // then, more on some days than others), measured over as long as the clients take.
-    let quiet_from = overruns();
-    std::thread::sleep(Duration::from_millis(2500));
-    let quiet = overruns() - quiet_from;
-    let before = overruns();
-    let started = Instant::now();
-    // A hundred clients with connections of their own, all at once.
+    // The best of three rounds, each a quiet time beside a burst of clients: on a shared
+    // two-core virtual machine the host steals ticks in bursts (from none to dozens in 2.5 s
+    // on the same machine and code, more while the clients keep both cores busy), while a
+    // request path that disturbs the loop costs ticks in every round, one or more for each
+    // of the 500 requests.
+    let mut rounds = Vec::new();
+    for _ in 0..3 {
+        let quiet_from = overruns();
+        std::thread::sleep(Duration::from_millis(2500));
+        let quiet = overruns() - quiet_from;
+        let before = overruns();
+        let started = Instant::now();
+        clients_set_the_damping(&bus, &setup);
+        std::thread::sleep(Duration::from_millis(300));
+        let during = overruns() - before;
+        let alone = quiet * started.elapsed().as_secs_f64() / 2.5;
+        if !realtime || during <= 2.0 * alone + 10.0 {
+            return;
+        }
+        rounds.push(format!("{during} ({alone:.0} without them)"));
+    }
+    panic!("the clients made the haptic loop overrun in every round: {rounds:?}");
+}
+
+/// A hundred clients with connections of their own, all at once, each setting the damping
+/// five times: all are answered, and the value in force is one that was set and the one
+/// persisted.
+fn clients_set_the_damping(bus: &Bus, setup: &Setup) {
     let all_set: Vec<f64> = std::thread::scope(|s| {
         let clients: Vec<_> = (0..100)
             .map(|id| {
@@ -956,8 +976,7 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
             .collect()
     });
     assert_eq!(all_set.len(), 500);
-    // The value in force is one that was set, and it is the one persisted (busctl prints
-    // six significant digits, these values need three).
+    // busctl prints six significant digits, these values need three.
     let damping = number(&bus.get(DEVICE, "Damping"));
     let same = |a: f64, b: f64| (a - b).abs() < 1e-12;
     assert!(all_set.iter().any(|v| same(*v, damping)), "{damping}");
@@ -970,19 +989,6 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
         same(persisted, damping),
         "{persisted} persisted, {damping} in force"
     );
-    std::thread::sleep(Duration::from_millis(300));
-    if realtime {
-        // The clients' time beside as long a time without them: on a shared two-core
-        // machine the hypervisor alone costs ticks in bursts (from none to dozens in 2.5 s
-        // on the same machine and code), so twice that and ten more may pass; a request
-        // path that disturbs the loop costs one tick or more for each of the 500 requests.
-        let during = overruns() - before;
-        let alone = quiet * started.elapsed().as_secs_f64() / 2.5;
-        assert!(
-            during <= 2.0 * alone + 10.0,
-            "the clients made the haptic loop overrun {during} times ({alone:.0} without them)"
-        );
-    }
 }
 
 #[test]
