@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use hapticd_render::picture::Picture;
 use support::bus::{NAME, PrivateBus, RENDERER};
-use support::{artifact, hapticctl, plugin_path, repo_dir};
+use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
 
 const MANAGER: [&str; 3] = [
     NAME,
@@ -30,18 +30,8 @@ const PICTURES: [&str; 3] = [RENDERER, "/org/hapticd/Renderer1", "org.hapticd.Re
 /// timing.
 static EXCLUSIVE: std::sync::RwLock<()> = std::sync::RwLock::new(());
 
-fn is_root() -> bool {
-    nix::unistd::geteuid().is_root()
-}
-
-/// A scratch directory others may enter (an unprivileged client must reach the socket).
 fn scratch(name: &str) -> PathBuf {
-    use std::os::unix::fs::PermissionsExt;
-    let dir = std::env::temp_dir().join(format!("hapticd-dbus-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
-    dir
+    support::shared_scratch("dbus", name)
 }
 
 /// A private bus with the system bus's default policy plus the shipped hapticd policy.
@@ -854,7 +844,8 @@ fn a_caller_names_scenes_and_sends_its_files_but_no_path_it_gives_is_opened() {
     let ctl = |args: &[&str]| bus.ctl(args);
     let out = ctl(&["scene", "switch", pipe.to_str().unwrap()]);
     assert!(
-        String::from_utf8_lossy(&out.stderr).contains("pipe: what was sent is not a regular file"),
+        String::from_utf8_lossy(&out.stderr)
+            .contains("SceneFailed: pipe.yaml: error: not a regular file"),
         "{out:?}"
     );
     let sent = dir.join("mine.yaml");

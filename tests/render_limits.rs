@@ -18,25 +18,15 @@ use std::time::{Duration, Instant};
 
 use hapticd::frame_ring::FrameRingReader;
 use support::bus::{NAME, PrivateBus, RENDERER};
-use support::{Killed, artifact, plugin_path, repo_dir};
+use support::{Killed, artifact, is_root, plugin_path, repo_dir};
 use zbus::Variant;
 
 const PATH: &str = "/org/hapticd/Renderer1";
 /// The unprivileged user the limits are tried as.
 const NOBODY: u32 = 65534;
 
-fn is_root() -> bool {
-    nix::unistd::geteuid().is_root()
-}
-
-/// A scratch directory others may enter (an unprivileged client must reach the socket).
 fn scratch(name: &str) -> PathBuf {
-    use std::os::unix::fs::PermissionsExt;
-    let dir = std::env::temp_dir().join(format!("hapticd-limits-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
-    dir
+    support::shared_scratch("limits", name)
 }
 
 /// A private bus with hapticd, and hapticd-render started with `limits` (its command line's

@@ -148,6 +148,22 @@ pub fn succeeded(out: std::process::Output) -> std::process::Output {
     out
 }
 
+/// Whether the tests run as root (needed to act as an unprivileged user).
+pub fn is_root() -> bool {
+    nix::unistd::geteuid().is_root()
+}
+
+/// A fresh scratch directory `hapticd-KIND-PID-NAME` under the system's temporary directory
+/// that others may enter (an unprivileged client must reach a bus socket in it).
+pub fn shared_scratch(kind: &str, name: &str) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = std::env::temp_dir().join(format!("hapticd-{kind}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    dir
+}
+
 /// Where tests may create files: cargo's per-target scratch directory, inside target/.
 pub fn scratch_root() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR"))

@@ -9,6 +9,7 @@
 
 use std::collections::HashMap;
 use std::fmt;
+use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use glam::DQuat;
@@ -291,7 +292,6 @@ pub fn check_file(file: &Path, rules: FileRules) -> Result<PathBuf, FileError> {
 /// but a regular file, more than `rules.max_bytes`, or a link out of `rules.within`. The
 /// one reader of every file hapticd and its tools are given.
 pub fn read_file(file: &Path, rules: FileRules) -> Result<Vec<u8>, FileError> {
-    use std::io::Read;
     use std::os::unix::fs::OpenOptionsExt;
     let refuse = |refusal| FileError {
         file: file.to_path_buf(),
@@ -304,6 +304,18 @@ pub fn read_file(file: &Path, rules: FileRules) -> Result<Vec<u8>, FileError> {
         .custom_flags(O_NONBLOCK)
         .open(&path)
         .map_err(|e| refuse(Refusal::Io(e)))?;
+    read_opened(opened, file, rules.max_bytes)
+}
+
+/// The bytes of the file `opened` (named `file` in errors): a regular file of at most
+/// `max_bytes`, whatever it grows to while it is read. For a file opened by someone else,
+/// as a descriptor a caller sends; [`read_file`] reads every file given by name through it.
+pub fn read_opened(opened: File, file: &Path, max_bytes: u64) -> Result<Vec<u8>, FileError> {
+    use std::io::Read;
+    let refuse = |refusal| FileError {
+        file: file.to_path_buf(),
+        refusal,
+    };
     let meta = opened.metadata().map_err(|e| refuse(Refusal::Io(e)))?;
     if !meta.is_file() {
         return Err(refuse(Refusal::NotRegular));
@@ -311,19 +323,19 @@ pub fn read_file(file: &Path, rules: FileRules) -> Result<Vec<u8>, FileError> {
     let too_large = |bytes| {
         refuse(Refusal::TooLarge {
             bytes,
-            max: rules.max_bytes,
+            max: max_bytes,
         })
     };
-    if meta.len() > rules.max_bytes {
+    if meta.len() > max_bytes {
         return Err(too_large(meta.len()));
     }
     let mut bytes = Vec::with_capacity(meta.len() as usize);
     opened
-        .take(rules.max_bytes + 1)
+        .take(max_bytes + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| refuse(Refusal::Io(e)))?;
     // It may have grown since it was measured.
-    if bytes.len() as u64 > rules.max_bytes {
+    if bytes.len() as u64 > max_bytes {
         return Err(too_large(bytes.len() as u64));
     }
     Ok(bytes)

@@ -8,12 +8,12 @@
 //! file; plugins get that copy's path as they get any scene file's.
 
 use std::fs::File;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::os::fd::OwnedFd;
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 
-use hapticd_core::diagnostics::MAX_FILE_BYTES;
+use hapticd_core::diagnostics::{FileError, MAX_FILE_BYTES, Refusal, read_opened};
 
 /// Why a sent scene file was refused.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -34,38 +34,19 @@ pub fn directory() -> PathBuf {
 
 /// [main] Read the scene file `name` sent as `fd`, and keep it as `NAME.yaml` in `dir`;
 /// returns the copy's path. Only a regular file of at most [`MAX_FILE_BYTES`] of text is
-/// taken: a pipe or device could block the reader or never end.
+/// taken (the guarded reader's rule): a pipe or device could block the reader or never end.
 pub fn keep(fd: OwnedFd, name: &str, dir: &Path) -> Result<PathBuf, Refused> {
-    let mut file = File::from(fd);
-    let meta = file
-        .metadata()
-        .map_err(|e| Refused(format!("{name}: cannot read the file sent: {e}")))?;
-    if !meta.file_type().is_file() {
-        return Err(Refused(format!(
-            "{name}: what was sent is not a regular file"
-        )));
-    }
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(Refused(format!(
-            "{name}: {} bytes is more than the {MAX_FILE_BYTES} a scene file may have",
-            meta.len()
-        )));
-    }
-    let mut bytes = Vec::new();
-    // The caller may still be writing to it: read no more than the limit, whatever fstat said.
-    (&mut file)
-        .take(MAX_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| Refused(format!("{name}: cannot read the file sent: {e}")))?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(Refused(format!(
-            "{name}: more than the {MAX_FILE_BYTES} bytes a scene file may have"
-        )));
-    }
+    let shown = PathBuf::from(format!("{name}.yaml"));
+    let bytes =
+        read_opened(File::from(fd), &shown, MAX_FILE_BYTES).map_err(|e| Refused(e.to_string()))?;
     if std::str::from_utf8(&bytes).is_err() {
-        return Err(Refused(format!("{name}: the file sent is not UTF-8 text")));
+        let not_text = FileError {
+            file: shown,
+            refusal: Refusal::NotText,
+        };
+        return Err(Refused(not_text.to_string()));
     }
-    let kept = dir.join(format!("{name}.yaml"));
+    let kept = dir.join(&shown);
     store(dir, &kept, &bytes)
         .map_err(|e| Refused(format!("{name}: cannot keep the file sent: {e}")))?;
     Ok(kept)
@@ -124,7 +105,7 @@ mod tests {
         let dir = scratch("refused");
         let (reader, _writer) = std::io::pipe().unwrap();
         let refused = keep(OwnedFd::from(reader), "pipe", &dir).unwrap_err();
-        assert!(refused.0.contains("not a regular file"), "{refused:?}");
+        assert_eq!(refused.0, "pipe.yaml: error: not a regular file");
         let directory = File::open(&dir).unwrap();
         assert!(keep(directory.into(), "dir", &dir).is_err());
         let huge = dir.join("huge.yaml");
