@@ -28,7 +28,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 2
+#define HAPTICD_ABI_MINOR 3
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -57,6 +57,16 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  Most planes published for one pointer per physics step.
  */
 #define HAPTICD_MAX_PLANES 8
+
+/*
+ Most bodies a physics step hands the haptic side to move itself (local dynamics).
+ */
+#define HAPTICD_MAX_LOCAL_BODIES 8
+
+/*
+ Most contacts with the rest of the world published for one such body.
+ */
+#define HAPTICD_MAX_BODY_CONTACTS 8
 
 /*
  Status: success.
@@ -320,6 +330,186 @@ typedef struct HapticdBodyPose {
 } HapticdBodyPose;
 
 /*
+ What the hand did to a locally moved body over one physics period: how far its motion
+ differs from the motion the haptic side computed for it without the hand. The physics
+ adds it to the body at its next step.
+ */
+typedef struct HapticdLocalState {
+  /*
+   The body's number.
+   */
+  uint32_t body;
+  /*
+   Increases with every change the haptic side hands back.
+   */
+  uint64_t sequence;
+  /*
+   Displacement of the centre of mass, metres.
+   */
+  double displacement[3];
+  /*
+   Rotation about the centre of mass, as a rotation vector (axis × angle), radians.
+   */
+  double rotation[3];
+  /*
+   Velocity change, m/s.
+   */
+  double velocity[3];
+  /*
+   Angular velocity change, rad/s.
+   */
+  double spin[3];
+} HapticdLocalState;
+
+/*
+ The input of a physics step since ABI 1.3.
+ */
+typedef struct HapticdPhysicsInput {
+  /*
+   Seconds to advance.
+   */
+  double dt;
+  /*
+   Number of pointers: `pointers`, `proxies` and the output's `planes` hold this many.
+   */
+  uint32_t pointer_count;
+  /*
+   The grips.
+   */
+  const struct HapticdPointer *pointers;
+  /*
+   Where each pointer's proxy rests (the god-object: never inside a solid the haptic
+   side renders). Planes are built around these, so a normal never turns over under a
+   finger that presses through a thin solid.
+   */
+  const struct HapticdPointer *proxies;
+  /*
+   Impulses on objects the haptic side did not move itself.
+   */
+  uint32_t impulse_count;
+  /*
+   The impulses (may be null when `impulse_count` is 0).
+   */
+  const struct HapticdImpulse *impulses;
+  /*
+   Changes of the hand on locally moved bodies.
+   */
+  uint32_t local_count;
+  /*
+   The changes (may be null when `local_count` is 0).
+   */
+  const struct HapticdLocalState *locals;
+} HapticdPhysicsInput;
+
+/*
+ A contact of a body with the rest of the world as a physics step left it: the other
+ solid is taken to stay where it is until the next step.
+ */
+typedef struct HapticdBodyContact {
+  /*
+   The contact point, metres.
+   */
+  double point[3];
+  /*
+   Unit normal along which the other solid pushes this body.
+   */
+  double normal[3];
+  /*
+   Gap between the two solids along `normal`, metres (negative: overlapping).
+   */
+  double gap;
+  /*
+   Coulomb friction coefficient of the contact.
+   */
+  double friction;
+} HapticdBodyContact;
+
+/*
+ A body near a pointer that the haptic side moves itself between physics steps (local
+ dynamics, thesis 6.5.4): its state after the step, how it answers a force (its mass and
+ inertia), what moves it without the hand (the free acceleration), and its contacts with
+ the rest of the world, which the haptic side keeps as constraints over the period.
+ */
+typedef struct HapticdLocalBody {
+  /*
+   The body's number (its place in the scene's list of bodies).
+   */
+  uint32_t body;
+  /*
+   Its objects (the `object` of its planes) are `first_object .. first_object + object_count`.
+   */
+  uint32_t first_object;
+  /*
+   How many objects the body has.
+   */
+  uint32_t object_count;
+  /*
+   The [`HapticdLocalState::sequence`] of the last change of the hand this step took in
+   for the body (0: none yet).
+   */
+  uint64_t applied;
+  /*
+   Centre of mass, metres.
+   */
+  double position[3];
+  /*
+   Orientation, unit quaternion (w, x, y, z).
+   */
+  double orientation[4];
+  /*
+   Velocity of the centre of mass, m/s.
+   */
+  double velocity[3];
+  /*
+   Angular velocity, rad/s.
+   */
+  double spin[3];
+  /*
+   1 / mass, 1/kg.
+   */
+  double inverse_mass;
+  /*
+   Inverse inertia about the centre of mass in world axes, row-major, 1/(kg·m²).
+   */
+  double inverse_inertia[9];
+  /*
+   Acceleration of the centre without the hand or contacts (gravity), m/s².
+   */
+  double acceleration[3];
+  /*
+   Contacts in use.
+   */
+  uint32_t contact_count;
+  /*
+   Its contacts with other solids.
+   */
+  struct HapticdBodyContact contacts[HAPTICD_MAX_BODY_CONTACTS];
+} HapticdLocalBody;
+
+/*
+ Where a physics step since ABI 1.3 writes what it publishes.
+ */
+typedef struct HapticdPhysicsOutput {
+  /*
+   One set of planes per pointer.
+   */
+  struct HapticdPlanes *planes;
+  /*
+   Room for `body_capacity` bodies to move locally.
+   */
+  struct HapticdLocalBody *bodies;
+  /*
+   At most [`HAPTICD_MAX_LOCAL_BODIES`].
+   */
+  uint32_t body_capacity;
+  /*
+   Written by the plugin: bodies in `bodies` (0: the haptic side moves none, and hands
+   back impulses only).
+   */
+  uint32_t body_count;
+} HapticdPhysicsOutput;
+
+/*
  Functions of a scene plugin. Fields appended by later minors are present only when
  `struct_size` covers them.
  */
@@ -369,6 +559,15 @@ typedef struct HapticdSceneVtable {
    allocate, lock, log or block.
    */
   uint32_t (*poses)(void *instance, struct HapticdBodyPose *poses, uint32_t capacity);
+  /*
+   [physics] Since ABI 1.3 (may be null; the host then calls `step_physics`): one
+   physics step with everything the haptic side knows: take the hand's changes and
+   impulses, advance, write each pointer's planes around its proxy and, for local
+   dynamics, the bodies near the pointers.
+   */
+  int32_t (*step_world)(void *instance,
+                        const struct HapticdPhysicsInput *input,
+                        struct HapticdPhysicsOutput *output);
 } HapticdSceneVtable;
 
 /*

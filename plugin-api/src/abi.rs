@@ -12,7 +12,7 @@ pub const HAPTICD_ABI_MAJOR: u32 = 1;
 /// plugin of any minor loads: the host reads no field newer than its own minor, and a
 /// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
 /// through [`HapticdHost::get_extension`].
-pub const HAPTICD_ABI_MINOR: u32 = 2;
+pub const HAPTICD_ABI_MINOR: u32 = 3;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;
@@ -29,6 +29,12 @@ pub const HAPTICD_SCENE_MULTIRATE: u32 = 2;
 
 /// Most planes published for one pointer per physics step.
 pub const HAPTICD_MAX_PLANES: usize = 8;
+
+/// Most bodies a physics step hands the haptic side to move itself (local dynamics).
+pub const HAPTICD_MAX_LOCAL_BODIES: usize = 8;
+
+/// Most contacts with the rest of the world published for one such body.
+pub const HAPTICD_MAX_BODY_CONTACTS: usize = 8;
 
 /// Status: success.
 pub const HAPTICD_OK: i32 = 0;
@@ -139,6 +145,116 @@ pub struct HapticdImpulse {
     pub impulse: [f64; 3],
 }
 
+/// A contact of a body with the rest of the world as a physics step left it: the other
+/// solid is taken to stay where it is until the next step.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdBodyContact {
+    /// The contact point, metres.
+    pub point: [f64; 3],
+    /// Unit normal along which the other solid pushes this body.
+    pub normal: [f64; 3],
+    /// Gap between the two solids along `normal`, metres (negative: overlapping).
+    pub gap: f64,
+    /// Coulomb friction coefficient of the contact.
+    pub friction: f64,
+}
+
+/// A body near a pointer that the haptic side moves itself between physics steps (local
+/// dynamics, thesis 6.5.4): its state after the step, how it answers a force (its mass and
+/// inertia), what moves it without the hand (the free acceleration), and its contacts with
+/// the rest of the world, which the haptic side keeps as constraints over the period.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdLocalBody {
+    /// The body's number (its place in the scene's list of bodies).
+    pub body: u32,
+    /// Its objects (the `object` of its planes) are `first_object .. first_object + object_count`.
+    pub first_object: u32,
+    /// How many objects the body has.
+    pub object_count: u32,
+    /// The [`HapticdLocalState::sequence`] of the last change of the hand this step took in
+    /// for the body (0: none yet).
+    pub applied: u64,
+    /// Centre of mass, metres.
+    pub position: [f64; 3],
+    /// Orientation, unit quaternion (w, x, y, z).
+    pub orientation: [f64; 4],
+    /// Velocity of the centre of mass, m/s.
+    pub velocity: [f64; 3],
+    /// Angular velocity, rad/s.
+    pub spin: [f64; 3],
+    /// 1 / mass, 1/kg.
+    pub inverse_mass: f64,
+    /// Inverse inertia about the centre of mass in world axes, row-major, 1/(kg·m²).
+    pub inverse_inertia: [f64; 9],
+    /// Acceleration of the centre without the hand or contacts (gravity), m/s².
+    pub acceleration: [f64; 3],
+    /// Contacts in use.
+    pub contact_count: u32,
+    /// Its contacts with other solids.
+    pub contacts: [HapticdBodyContact; HAPTICD_MAX_BODY_CONTACTS],
+}
+
+/// What the hand did to a locally moved body over one physics period: how far its motion
+/// differs from the motion the haptic side computed for it without the hand. The physics
+/// adds it to the body at its next step.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdLocalState {
+    /// The body's number.
+    pub body: u32,
+    /// Increases with every change the haptic side hands back.
+    pub sequence: u64,
+    /// Displacement of the centre of mass, metres.
+    pub displacement: [f64; 3],
+    /// Rotation about the centre of mass, as a rotation vector (axis × angle), radians.
+    pub rotation: [f64; 3],
+    /// Velocity change, m/s.
+    pub velocity: [f64; 3],
+    /// Angular velocity change, rad/s.
+    pub spin: [f64; 3],
+}
+
+/// The input of a physics step since ABI 1.3.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdPhysicsInput {
+    /// Seconds to advance.
+    pub dt: f64,
+    /// Number of pointers: `pointers`, `proxies` and the output's `planes` hold this many.
+    pub pointer_count: u32,
+    /// The grips.
+    pub pointers: *const HapticdPointer,
+    /// Where each pointer's proxy rests (the god-object: never inside a solid the haptic
+    /// side renders). Planes are built around these, so a normal never turns over under a
+    /// finger that presses through a thin solid.
+    pub proxies: *const HapticdPointer,
+    /// Impulses on objects the haptic side did not move itself.
+    pub impulse_count: u32,
+    /// The impulses (may be null when `impulse_count` is 0).
+    pub impulses: *const HapticdImpulse,
+    /// Changes of the hand on locally moved bodies.
+    pub local_count: u32,
+    /// The changes (may be null when `local_count` is 0).
+    pub locals: *const HapticdLocalState,
+}
+
+/// Where a physics step since ABI 1.3 writes what it publishes.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdPhysicsOutput {
+    /// One set of planes per pointer.
+    pub planes: *mut HapticdPlanes,
+    /// Room for `body_capacity` bodies to move locally.
+    pub bodies: *mut HapticdLocalBody,
+    /// At most [`HAPTICD_MAX_LOCAL_BODIES`].
+    pub body_capacity: u32,
+    /// Written by the plugin: bodies in `bodies` (0: the haptic side moves none, and hands
+    /// back impulses only).
+    pub body_count: u32,
+}
+
 /// Where a body of a scene is: for pictures of the world.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -214,6 +330,17 @@ pub struct HapticdSceneVtable {
             poses: *mut HapticdBodyPose,
             capacity: u32,
         ) -> u32,
+    >,
+    /// [physics] Since ABI 1.3 (may be null; the host then calls `step_physics`): one
+    /// physics step with everything the haptic side knows: take the hand's changes and
+    /// impulses, advance, write each pointer's planes around its proxy and, for local
+    /// dynamics, the bodies near the pointers.
+    pub step_world: Option<
+        unsafe extern "C" fn(
+            instance: *mut c_void,
+            input: *const HapticdPhysicsInput,
+            output: *mut HapticdPhysicsOutput,
+        ) -> i32,
     >,
 }
 

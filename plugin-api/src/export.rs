@@ -327,11 +327,59 @@ pub trait SceneInstance: Send {
         HAPTICD_ERROR_FAILED
     }
 
+    /// [physics] Since ABI 1.3: one step with what the haptic side knows (`input`'s
+    /// proxies and local changes), writing the planes and the locally moved bodies to
+    /// `output`. The default is [`step_physics`](Self::step_physics) around the grips,
+    /// with no local bodies.
+    fn step_world(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> i32 {
+        *output.body_count = 0;
+        self.step_physics(input.dt, input.pointers, input.impulses, output.planes)
+    }
+
     /// [the stepping thread] Write the poses of the first bodies to `poses` (as many as it
     /// holds) and return how many bodies the world has; the default has none to show.
     fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
         let _ = poses;
         0
+    }
+}
+
+/// [`HapticdPhysicsInput`] as slices.
+#[derive(Debug, Clone, Copy)]
+pub struct PhysicsInput<'a> {
+    /// Seconds to advance.
+    pub dt: f64,
+    /// The grips.
+    pub pointers: &'a [HapticdPointer],
+    /// Where each pointer's proxy rests.
+    pub proxies: &'a [HapticdPointer],
+    /// Impulses on objects the haptic side did not move itself.
+    pub impulses: &'a [HapticdImpulse],
+    /// Changes of the hand on locally moved bodies.
+    pub locals: &'a [HapticdLocalState],
+}
+
+/// [`HapticdPhysicsOutput`] as slices.
+#[derive(Debug)]
+pub struct PhysicsOutput<'a> {
+    /// One set of planes per pointer.
+    pub planes: &'a mut [HapticdPlanes],
+    /// Room for the locally moved bodies.
+    pub bodies: &'a mut [HapticdLocalBody],
+    /// How many of `bodies` the step wrote.
+    pub body_count: &'a mut u32,
+}
+
+/// A slice of `count` elements at `data`, which may be null when `count` is 0.
+///
+/// # Safety
+/// Unless `count` is 0, `data` points to `count` initialised elements valid for `'a`.
+unsafe fn slice<'a, T>(data: *const T, count: u32) -> Option<&'a [T]> {
+    match (count, data.is_null()) {
+        (0, _) => Some(&[]),
+        (_, true) => None,
+        // SAFETY: per this function's contract.
+        _ => Some(unsafe { std::slice::from_raw_parts(data, count as usize) }),
     }
 }
 
@@ -477,6 +525,73 @@ pub unsafe fn scene_step_physics(
     })
 }
 
+/// Body of the exported `step_world` function.
+///
+/// # Safety
+/// As [`instance_mut`]; `input` and `output` are valid, their arrays hold the counts they
+/// state (`pointer_count` pointers, proxies and planes; `body_capacity` bodies).
+#[doc(hidden)]
+pub unsafe fn scene_step_world(
+    instance: *mut std::ffi::c_void,
+    input: *const HapticdPhysicsInput,
+    output: *mut HapticdPhysicsOutput,
+) -> i32 {
+    if instance.is_null() || input.is_null() || output.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: both non-null and valid, per the contract.
+    let (input, output) = unsafe { (&*input, &mut *output) };
+    let n = input.pointer_count;
+    let capacity = output.body_capacity.min(HAPTICD_MAX_LOCAL_BODIES as u32);
+    // SAFETY: the arrays hold the counts stated, per the contract.
+    let arrays = unsafe {
+        (
+            slice(input.pointers, n),
+            slice(input.proxies, n),
+            slice(input.impulses, input.impulse_count),
+            slice(input.locals, input.local_count),
+        )
+    };
+    let (Some(pointers), Some(proxies), Some(impulses), Some(locals)) = arrays else {
+        return HAPTICD_ERROR_ARGUMENT;
+    };
+    if output.planes.is_null() || (output.bodies.is_null() && capacity > 0) {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    guard(|| {
+        // SAFETY: per this function's contract; both arrays are non-null (checked above)
+        // or empty.
+        let (scene, planes, bodies) = unsafe {
+            (
+                instance_mut(instance),
+                std::slice::from_raw_parts_mut(output.planes, n as usize),
+                if capacity == 0 {
+                    &mut [][..]
+                } else {
+                    std::slice::from_raw_parts_mut(output.bodies, capacity as usize)
+                },
+            )
+        };
+        let mut count = 0;
+        let status = scene.step_world(
+            &PhysicsInput {
+                dt: input.dt,
+                pointers,
+                proxies,
+                impulses,
+                locals,
+            },
+            &mut PhysicsOutput {
+                planes,
+                bodies,
+                body_count: &mut count,
+            },
+        );
+        output.body_count = count.min(capacity);
+        status
+    })
+}
+
 /// Body of the exported `poses` function.
 ///
 /// # Safety
@@ -515,7 +630,7 @@ macro_rules! export_scene {
             use $crate::abi::*;
             use $crate::export::StaticSceneVtable;
 
-            // SAFETY (all five): the host keeps the ABI's contracts on every pointer.
+            // SAFETY (all six): the host keeps the ABI's contracts on every pointer.
             unsafe extern "C" fn __hapticd_create(
                 path: *const ::core::ffi::c_char,
                 pointer_count: u32,
@@ -570,6 +685,14 @@ macro_rules! export_scene {
                 unsafe { $crate::export::scene_poses(instance, poses, capacity) }
             }
 
+            unsafe extern "C" fn __hapticd_step_world(
+                instance: *mut ::core::ffi::c_void,
+                input: *const HapticdPhysicsInput,
+                output: *mut HapticdPhysicsOutput,
+            ) -> i32 {
+                unsafe { $crate::export::scene_step_world(instance, input, output) }
+            }
+
             static VTABLE: StaticSceneVtable = StaticSceneVtable(HapticdSceneVtable {
                 struct_size: ::core::mem::size_of::<HapticdSceneVtable>() as u32,
                 create: Some(__hapticd_create),
@@ -577,6 +700,7 @@ macro_rules! export_scene {
                 step_direct: Some(__hapticd_step_direct),
                 step_physics: Some(__hapticd_step_physics),
                 poses: Some(__hapticd_poses),
+                step_world: Some(__hapticd_step_world),
             });
 
             $crate::__hapticd_plugin_entry!(

@@ -267,6 +267,7 @@ impl LoadedPlugin {
             step_direct: None,
             step_physics: None,
             poses: None,
+            step_world: None,
         };
         // SAFETY: the plugin's vtable holds `size` bytes; only as many as both have are
         // copied, and a null function pointer is the all-zero `None` the rest keep.

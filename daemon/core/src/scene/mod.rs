@@ -2,10 +2,13 @@
 //! effector) into the wrench each one should feel.
 //!
 //! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
+//! - [`local_dynamics`]: the bodies near a pointer, moved at the haptic rate between
+//!   physics steps (thesis 6.5.4);
 //! - [`multirate`]: the haptic side of a world stepped at a low rate elsewhere (thesis
 //!   Ch. 6): interpolated planes, the proxy and the impulses handed back;
 //! - scenes from plugins, direct or multi-rate, live in the daemon (they load code).
 
+pub mod local_dynamics;
 pub mod multirate;
 pub mod static_scene;
 
