@@ -16,6 +16,7 @@
 
 use glam::DVec3;
 
+use crate::fault_hold::{FaultHold, SCENE_RECOVERY};
 use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
 use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
@@ -69,7 +70,8 @@ pub enum DeviceState {
     /// Rendering forces.
     #[default]
     Running,
-    /// A fault drives the forces to zero (a failed scene, or a non-finite wrench).
+    /// A fault drives the forces to zero (a failed scene, until it has rendered well for
+    /// [`SCENE_RECOVERY`] seconds; or a non-finite wrench).
     Fault,
     /// The device does not answer.
     Disconnected,
@@ -190,6 +192,8 @@ pub struct HapticLoop {
     incoming: Option<Box<dyn Scene>>,
     check_fit: bool,
     misfit: bool,
+    /// A scene that failed is trusted again only once it has rendered well for a while.
+    scene_hold: FaultHold,
     retired_scene: Option<Box<dyn Scene>>,
     retired_link: Option<Box<dyn Link>>,
 }
@@ -278,6 +282,7 @@ impl HapticLoop {
             incoming: None,
             check_fit: false,
             misfit: false,
+            scene_hold: FaultHold::new(SCENE_RECOVERY),
             retired_scene: None,
             retired_link: None,
         })
@@ -337,6 +342,7 @@ impl HapticLoop {
             }
             LoopCommand::ResetFault => {
                 self.scene.reset(&self.pointers);
+                self.scene_hold.clear();
                 for e in &mut self.effectors {
                     e.passivity.reset();
                 }
@@ -389,6 +395,7 @@ impl HapticLoop {
             scene.set_proxy(&p.proxy);
         }
         let old = std::mem::replace(&mut self.scene, scene);
+        self.scene_hold.clear();
         self.keep_retired(Retired::Scene(old));
         self.frame.scene_switches += 1;
     }
@@ -468,7 +475,8 @@ impl HapticLoop {
                 self.scene.reset(&self.pointers);
             }
             self.swap_scene_when_quiet();
-            scene_ok = self.scene.render(&self.pointers, dt, &mut self.wrenches);
+            let rendered = self.scene.render(&self.pointers, dt, &mut self.wrenches);
+            scene_ok = self.scene_hold.update(rendered, dt);
         } else {
             self.wrenches.fill(Wrench::ZERO);
         }

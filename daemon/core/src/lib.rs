@@ -11,10 +11,12 @@
 //! 4. [`haptics`]: rendering (Ch. 4): proxy, obstacles, passivity, safety limits.
 //! 5. [`scene`]: the [`scene::Scene`] trait the loop renders and the static scene.
 //! 6. [`transport`], [`parameters`], [`haptic_loop`]: the loop itself, talking to devices
-//!    through the [`transport::Transport`] trait that `hapticd-device` implements.
+//!    through the [`transport::Transport`] trait that `hapticd-device` implements;
+//!    [`fault_hold`]: how long a failed scene must render well before it is trusted again.
 //! 7. [`world_state`]: the loop's world as pictures show it, shared with the renderer.
 
 pub mod diagnostics;
+pub mod fault_hold;
 pub mod haptic_loop;
 pub mod haptics;
 pub mod kinematics;
