@@ -1,15 +1,16 @@
 //! A multi-rate scene run in simulated time exactly as hapticd runs it: haptic ticks at the
 //! loop's rate render the planes through [`PlaneRenderer`], and a physics step runs whenever
 //! the physics clock comes due, `phase` seconds after the haptic clock's start, taking the
-//! pointers the last tick published and the impulses handed back so far (hapticd's physics
-//! thread does the same against the real clock).
+//! pointers and proxies the last tick published and what was handed back so far (hapticd's
+//! physics thread does the same against the real clock).
 
 use glam::DVec3;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use hapticd_core::scene::Pointer;
-use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
+use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
 use hapticd_physics::scene::MultiRateWorld;
-use hapticd_plugin_api::{HapticdImpulse, HapticdPlanes, HapticdPointer};
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
+use hapticd_plugin_api::{HapticdImpulse, HapticdLocalState, HapticdPointer};
 use hapticd_rapier::world::{BodyState, RapierWorld};
 
 /// A rapier world and the haptic side, stepped in lockstep.
@@ -26,7 +27,9 @@ pub struct Lockstep {
     next_physics: f64,
     set: PlaneSet,
     published: [HapticdPointer; MAX_EFFECTORS],
+    proxies: [HapticdPointer; MAX_EFFECTORS],
     impulses: Vec<HapticdImpulse>,
+    locals: Vec<HapticdLocalState>,
     count: usize,
 }
 
@@ -51,7 +54,9 @@ impl Lockstep {
             next_physics: phase.rem_euclid(physics_period),
             set: PlaneSet::default(),
             published,
+            proxies: published,
             impulses: Vec::with_capacity(64),
+            locals: Vec::with_capacity(64),
             count: pointers.len().min(MAX_EFFECTORS),
         }
     }
@@ -67,44 +72,82 @@ impl Lockstep {
     pub fn tick(&mut self, pointers: &[Pointer], wrenches: &mut [Wrench]) -> Result<(), String> {
         // Against rounding: a step due within a nanosecond of this tick is due now.
         while self.next_physics <= self.time + 1e-9 {
-            let mut planes = [HapticdPlanes::default(); MAX_EFFECTORS];
             let n = self.count;
-            if !self.world.step(
-                self.physics_period,
-                &self.published[..n],
-                &self.impulses,
-                &mut planes[..n],
-            ) {
+            let mut set = PlaneSet {
+                sequence: self.set.sequence + 1,
+                ..PlaneSet::default()
+            };
+            let mut body_count = 0;
+            let finite = self.world.step(
+                &PhysicsInput {
+                    dt: self.physics_period,
+                    pointers: &self.published[..n],
+                    proxies: &self.proxies[..n],
+                    impulses: &self.impulses,
+                    locals: &self.locals,
+                },
+                &mut PhysicsOutput {
+                    planes: &mut set.planes[..n],
+                    bodies: &mut set.bodies,
+                    body_count: &mut body_count,
+                },
+            );
+            if !finite {
                 return Err(format!(
                     "at t = {:.4} s the world is no longer finite",
                     self.time
                 ));
             }
+            set.body_count = body_count;
             self.impulses.clear();
+            self.locals.clear();
             std::mem::swap(&mut self.poses.0, &mut self.poses.1);
             for (i, pose) in self.poses.1.iter_mut().enumerate() {
                 *pose = self.world.body(i);
             }
-            self.set.sequence += 1;
-            self.set.planes = planes;
+            self.set = set;
             self.next_physics += self.physics_period;
         }
-        let impulses = &mut self.impulses;
-        self.renderer
-            .tick(&self.set, pointers, self.haptic_period, wrenches, |i| {
-                impulses.push(i)
-            });
-        for (out, p) in self.published.iter_mut().zip(pointers) {
+        let (impulses, locals) = (&mut self.impulses, &mut self.locals);
+        self.renderer.tick(
+            &self.set,
+            pointers,
+            self.haptic_period,
+            wrenches,
+            |back| match back {
+                HandBack::Impulse(i) => impulses.push(i),
+                HandBack::Local(l) => locals.push(l),
+            },
+        );
+        for ((out, proxy), (p, at)) in self
+            .published
+            .iter_mut()
+            .zip(self.proxies.iter_mut())
+            .zip(pointers.iter().zip(self.renderer.proxies()))
+        {
             *out = p.to_abi();
+            *proxy = HapticdPointer {
+                position: at.to_array(),
+                ..*out
+            };
         }
         self.time += self.haptic_period;
         Ok(())
     }
 
-    /// Body `i` where graphics and telemetry show it: between the last two physics steps by
-    /// the fraction the haptic side renders the planes at (thesis 6.5.2), so it moves
-    /// smoothly, a physics period behind, as the hand feels it.
+    /// Body `i` where graphics and telemetry show it: where the haptic side moves it, if it
+    /// does (local dynamics), else between the last two physics steps by the fraction the
+    /// haptic side renders the planes at (thesis 6.5.2), so it moves smoothly, a physics
+    /// period behind, as the hand feels it.
     pub fn body(&self, i: usize) -> BodyState {
+        if let Some(m) = self.renderer.local(i as u32) {
+            return BodyState {
+                position: m.position,
+                orientation: m.orientation,
+                velocity: m.velocity,
+                spin: m.spin,
+            };
+        }
         let (before, after) = (&self.poses.0[i], &self.poses.1[i]);
         let fraction = self.renderer.fraction();
         let between = pose_between(&before.pose(), &after.pose(), fraction);

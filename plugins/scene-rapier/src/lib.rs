@@ -1,11 +1,13 @@
 //! The rapier scene plugin (thesis Ch. 6): a scene file with `engine: rapier` stepped by
 //! rapier3d's constraint solver at the file's `rate:` in hapticd's physics thread (the
-//! multi-rate style of the scene ABI). Each step publishes the surfaces near each pointer
-//! as planes and applies the impulses the hand gave the bodies, or, with
-//! `feedback: position`, moves a kinematic body to each pointer instead.
+//! multi-rate style of the scene ABI). Each step takes in what the hand did to the bodies
+//! near it (local dynamics; the impulses it gave them under `feedback: impulse`; with
+//! `feedback: position` a kinematic body moved to each pointer), and publishes the surfaces
+//! near each pointer's proxy as planes and the bodies they belong to.
 
 use hapticd_core::world_state::body_pose;
-use hapticd_physics::scene::{Feedback, SceneFile};
+use hapticd_physics::scene::SceneFile;
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
@@ -13,6 +15,18 @@ use hapticd_rapier::world::RapierWorld;
 struct Rapier(RapierWorld);
 
 impl SceneInstance for Rapier {
+    fn step_world(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> i32 {
+        if !(input.dt > 0.0 && input.dt.is_finite()) {
+            return HAPTICD_ERROR_ARGUMENT;
+        }
+        if self.0.step(input, output) {
+            HAPTICD_OK
+        } else {
+            hapticd_plugin_api::log(HAPTICD_LOG_ERROR, "the world is no longer finite");
+            HAPTICD_ERROR_FAILED
+        }
+    }
+
     fn step_physics(
         &mut self,
         dt: f64,
@@ -20,15 +34,21 @@ impl SceneInstance for Rapier {
         impulses: &[HapticdImpulse],
         planes: &mut [HapticdPlanes],
     ) -> i32 {
-        if !(dt > 0.0 && dt.is_finite()) {
-            return HAPTICD_ERROR_ARGUMENT;
-        }
-        if self.0.step(dt, pointers, impulses, planes) {
-            HAPTICD_OK
-        } else {
-            hapticd_plugin_api::log(HAPTICD_LOG_ERROR, "the world is no longer finite");
-            HAPTICD_ERROR_FAILED
-        }
+        // A host before ABI 1.3: planes around the grips, no bodies moved there.
+        let input = PhysicsInput {
+            dt,
+            pointers,
+            proxies: pointers,
+            impulses,
+            locals: &[],
+        };
+        let mut count = 0;
+        let mut output = PhysicsOutput {
+            planes,
+            bodies: &mut [],
+            body_count: &mut count,
+        };
+        self.step_world(&input, &mut output)
     }
 
     fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
@@ -62,10 +82,7 @@ fn create(
             spec.bodies.len(),
             pointers,
             spec.rate,
-            match spec.feedback {
-                Feedback::Impulse => "impulse",
-                Feedback::Position => "position",
-            }
+            spec.feedback.name()
         ),
     );
     let info = HapticdSceneInfo {

@@ -6,12 +6,23 @@
 //! and sums the force it displays into an impulse on the touched object over each physics
 //! period (6.3.4), handed back when the next set arrives (6.3.5).
 //!
+//! With local dynamics (6.5.4) the set also carries the bodies near the pointers: those are
+//! moved here every tick under the force displayed ([`local_dynamics`](super::local_dynamics)),
+//! their planes move with them, and what the hand did to them goes back instead of an
+//! impulse. Planes are found around the proxies (the physics is told where they rest), a
+//! touched face is kept while the finger rests on it, and a grip that starts inside a solid
+//! feels nothing until it is out.
+//!
 //! The daemon runs this in the haptic thread against a physics thread; `hapticctl` runs it
 //! in step with the physics, at a chosen phase, for experiments. Neither allocates here.
 
 use glam::DVec3;
-use hapticd_plugin_api::{HAPTICD_MAX_PLANES, HapticdImpulse, HapticdPlane, HapticdPlanes};
+use hapticd_plugin_api::{
+    HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdImpulse, HapticdLocalBody,
+    HapticdLocalState, HapticdPlane, HapticdPlanes,
+};
 
+use super::local_dynamics::{Change, LocalBody};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench};
@@ -24,6 +35,31 @@ pub struct PlaneSet {
     pub sequence: u64,
     /// The planes near each pointer.
     pub planes: [HapticdPlanes; MAX_EFFECTORS],
+    /// Bodies in `bodies` (local dynamics; 0: impulses only).
+    pub body_count: u32,
+    /// The bodies near the pointers, to move here until the next set.
+    pub bodies: [HapticdLocalBody; HAPTICD_MAX_LOCAL_BODIES],
+}
+
+/// What the haptic side hands back to the physics when a period ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HandBack {
+    /// The momentum given to an object it did not move itself.
+    Impulse(HapticdImpulse),
+    /// What the hand did to a body it moved.
+    Local(HapticdLocalState),
+}
+
+/// Hand-backs remembered until the physics says it took them in: more than the one period
+/// it lags by, for a physics thread that ran late.
+const PENDING: usize = 4;
+
+/// The changes of one hand-back.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Pending {
+    sequence: u64,
+    count: usize,
+    changes: [(u32, Change); HAPTICD_MAX_LOCAL_BODIES],
 }
 
 /// Sets older than this many physics periods count as stale: the scene has failed.
@@ -60,6 +96,17 @@ pub struct PlaneRenderer {
     sums: [[Accumulator; HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
     /// The plane each proxy rested on last tick, if any.
     resting: [Option<usize>; MAX_EFFECTORS],
+    /// The object and the surface each proxy rested on last tick, kept across sets.
+    touched: [Option<(u32, Surface)>; MAX_EFFECTORS],
+    /// Pointers whose grip was inside a solid when rendering began: no force until out.
+    embedded: [bool; MAX_EFFECTORS],
+    /// The bodies of the current set as moved here, in the set's order.
+    locals: [Option<LocalBody>; HAPTICD_MAX_LOCAL_BODIES],
+    /// Force and torque the hands put on each of `locals` this tick.
+    loads: [(DVec3, DVec3); HAPTICD_MAX_LOCAL_BODIES],
+    /// The last hand-backs of local changes, newest at `hand_backs % PENDING`.
+    pending: [Pending; PENDING],
+    hand_backs: u64,
 }
 
 /// A body's pose `fraction` of the way from where the step before last left it to where the
@@ -107,6 +154,12 @@ impl PlaneRenderer {
             since_update: 0.0,
             sums: [[Accumulator::default(); HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
             resting: [None; MAX_EFFECTORS],
+            touched: [None; MAX_EFFECTORS],
+            embedded: [true; MAX_EFFECTORS],
+            locals: [None; HAPTICD_MAX_LOCAL_BODIES],
+            loads: [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES],
+            pending: [Pending::default(); PENDING],
+            hand_backs: 0,
         }
     }
 
@@ -131,6 +184,24 @@ impl PlaneRenderer {
             proxy.reset(pointer.pose.position);
         }
         self.resting = [None; MAX_EFFECTORS];
+        self.touched = [None; MAX_EFFECTORS];
+        self.embedded = [true; MAX_EFFECTORS];
+    }
+
+    /// The body of the scene numbered `body` where it is felt now, if it is moved here.
+    pub fn local(&self, body: u32) -> Option<super::local_dynamics::Motion> {
+        self.locals
+            .iter()
+            .flatten()
+            .find(|b| b.body == body)
+            .map(LocalBody::shown)
+    }
+
+    /// Which of the current set's local bodies owns `object`.
+    fn owner(&self, object: u32) -> Option<usize> {
+        self.locals
+            .iter()
+            .position(|b| b.as_ref().is_some_and(|b| b.owns(object)))
     }
 
     /// How far the world felt has moved from the set before last toward the last: the
@@ -142,9 +213,23 @@ impl PlaneRenderer {
     }
 
     /// Plane `k` of pointer `p` in the current set, moved `fraction` of a period from where
-    /// the set before had the same object's plane.
+    /// the set before had the same object's plane; a locally moved body's plane where that
+    /// body is now.
     pub fn interpolated(&self, p: usize, k: usize, fraction: f64) -> Surface {
         let plane = &self.current.planes[p].planes[k];
+        if let Some(b) = self
+            .owner(plane.object)
+            .and_then(|i| self.locals[i].as_ref())
+        {
+            // A body moved here is where it is now, not a period behind.
+            let (point, normal, velocity) =
+                b.carry(DVec3::from(plane.point), DVec3::from(plane.normal));
+            return Surface {
+                point,
+                normal,
+                velocity,
+            };
+        }
         let earlier = &self.previous.planes[p];
         let old = earlier.planes[..(earlier.count as usize).min(HAPTICD_MAX_PLANES)]
             .iter()
@@ -153,7 +238,7 @@ impl PlaneRenderer {
     }
 
     /// [rt] One haptic tick of `dt`: take `latest` if the physics published it since the
-    /// last tick (the impulses summed over the period that ended go to `emit`), then write
+    /// last tick (what the period that ended gave the world goes to `emit`), then write
     /// each pointer's wrench. False, with zero wrenches, while no set has come yet or the
     /// last one is [`STALE_PERIODS`] old.
     pub fn tick(
@@ -162,13 +247,15 @@ impl PlaneRenderer {
         pointers: &[Pointer],
         dt: f64,
         wrenches: &mut [Wrench],
-        mut emit: impl FnMut(HapticdImpulse),
+        mut emit: impl FnMut(HandBack),
     ) -> bool {
         wrenches.fill(Wrench::ZERO);
         if latest.sequence != self.current.sequence {
             self.hand_back(&mut emit);
             self.previous = self.current;
             self.current = *latest;
+            self.keep_touched_faces();
+            self.restart_locals();
             self.since_update = 0.0;
         } else {
             self.since_update += dt;
@@ -176,61 +263,98 @@ impl PlaneRenderer {
         if self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.period {
             return false;
         }
+        self.loads = [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES];
         let fraction = self.fraction();
         for (p, (pointer, wrench)) in pointers.iter().zip(wrenches.iter_mut()).enumerate() {
-            let Some(proxy) = self.proxies.get(p) else {
+            if p >= self.proxies.len() {
                 break;
+            }
+            *wrench = self.render_pointer(p, pointer, fraction, dt);
+        }
+        for (body, load) in self.locals.iter_mut().zip(&self.loads) {
+            if let Some(body) = body {
+                body.step(load.0, load.1, dt);
+            }
+        }
+        true
+    }
+
+    /// [rt] The wrench of pointer `p` this tick, the reaction summed on what it touches.
+    fn render_pointer(&mut self, p: usize, pointer: &Pointer, fraction: f64, dt: f64) -> Wrench {
+        let count = (self.current.planes[p].count as usize).min(HAPTICD_MAX_PLANES);
+        let mut surfaces = [Surface {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+            velocity: DVec3::ZERO,
+        }; HAPTICD_MAX_PLANES];
+        let mut shapes = [Shape::HalfSpace {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+        }; HAPTICD_MAX_PLANES];
+        for k in 0..count {
+            surfaces[k] = self.interpolated(p, k, fraction);
+            shapes[k] = Shape::HalfSpace {
+                point: surfaces[k].point,
+                normal: surfaces[k].normal,
             };
-            let count = (self.current.planes[p].count as usize).min(HAPTICD_MAX_PLANES);
-            let mut surfaces = [Surface {
-                point: DVec3::ZERO,
-                normal: DVec3::Y,
-                velocity: DVec3::ZERO,
-            }; HAPTICD_MAX_PLANES];
-            let mut shapes = [Shape::HalfSpace {
-                point: DVec3::ZERO,
-                normal: DVec3::Y,
-            }; HAPTICD_MAX_PLANES];
-            for k in 0..count {
-                surfaces[k] = self.interpolated(p, k, fraction);
-                shapes[k] = Shape::HalfSpace {
-                    point: surfaces[k].point,
-                    normal: surfaces[k].normal,
-                };
-            }
-            // A proxy resting on a moving surface moves with it, and out of any plane that
-            // moved onto it, before it walks toward the grip.
-            let mut at = proxy.position();
-            if let Some(k) = self.resting[p].filter(|&k| k < count) {
-                at += surfaces[k].velocity * dt;
-            }
-            for s in &surfaces[..count] {
-                let depth = (at - s.point).dot(s.normal);
-                if depth < 0.0 {
-                    at -= s.normal * depth;
-                }
-            }
-            let proxy = &mut self.proxies[p];
-            proxy.carry(at);
-            let out = proxy.update(
-                pointer.pose.position,
-                pointer.velocity,
-                &shapes[..count],
-                &self.parameters,
-                dt,
-            );
-            *wrench = Wrench::force(out.force);
+        }
+        let grip = pointer.pose.position;
+        if self.embedded[p] {
+            // Each plane is the nearest face of its solid to where the proxy was, so the
+            // grip is behind one exactly when it is inside that solid: no force until it
+            // has left them all, from where it is (never a push out through a face).
+            let inside = surfaces[..count]
+                .iter()
+                .any(|s| (grip - s.point).dot(s.normal) < 0.0);
+            self.proxies[p].reset(grip);
             self.resting[p] = None;
-            if !out.in_contact {
-                continue;
+            self.touched[p] = None;
+            if inside {
+                return Wrench::ZERO;
             }
-            // The surface the proxy rests on takes the reaction.
-            let touched = (0..count).min_by(|&a, &b| {
-                let d = |k: usize| shapes[k].signed_distance(out.proxy).abs();
-                d(a).total_cmp(&d(b))
-            });
-            if let Some(k) = touched {
-                self.resting[p] = Some(k);
+            self.embedded[p] = false;
+        }
+        // A proxy resting on a moving surface moves with it, and out of any plane that
+        // moved onto it, before it walks toward the grip.
+        let mut at = self.proxies[p].position();
+        if let Some(k) = self.resting[p].filter(|&k| k < count) {
+            at += surfaces[k].velocity * dt;
+        }
+        for s in &surfaces[..count] {
+            let depth = (at - s.point).dot(s.normal);
+            if depth < 0.0 {
+                at -= s.normal * depth;
+            }
+        }
+        let proxy = &mut self.proxies[p];
+        proxy.carry(at);
+        let out = proxy.update(
+            grip,
+            pointer.velocity,
+            &shapes[..count],
+            &self.parameters,
+            dt,
+        );
+        self.resting[p] = None;
+        self.touched[p] = None;
+        if !out.in_contact {
+            return Wrench::force(out.force);
+        }
+        // The surface the proxy rests on takes the reaction.
+        let touched = (0..count).min_by(|&a, &b| {
+            let d = |k: usize| shapes[k].signed_distance(out.proxy).abs();
+            d(a).total_cmp(&d(b))
+        });
+        if let Some(k) = touched {
+            self.resting[p] = Some(k);
+            let object = self.current.planes[p].planes[k].object;
+            self.touched[p] = Some((object, surfaces[k]));
+            if let Some(i) = self.owner(object) {
+                let centre = self.locals[i].map_or(DVec3::ZERO, |b| b.motion().position);
+                let load = &mut self.loads[i];
+                load.0 -= out.force;
+                load.1 += (out.proxy - centre).cross(-out.force);
+            } else {
                 let sum = &mut self.sums[p][k];
                 let magnitude = out.force.length() * dt;
                 sum.impulse -= out.force * dt;
@@ -238,23 +362,88 @@ impl PlaneRenderer {
                 sum.weight += magnitude;
             }
         }
-        true
+        Wrench::force(out.force)
     }
 
-    /// Emit the impulse summed on each plane of the current set, and start new sums.
-    fn hand_back(&mut self, emit: &mut impl FnMut(HapticdImpulse)) {
+    /// A face a proxy rests on stays the face it rests on: a new set whose plane of that
+    /// object has turned over (its nearest face is now another one) keeps the old plane.
+    fn keep_touched_faces(&mut self) {
+        for (planes, touched) in self.current.planes.iter_mut().zip(&self.touched) {
+            let Some((object, surface)) = touched else {
+                continue;
+            };
+            let count = (planes.count as usize).min(HAPTICD_MAX_PLANES);
+            for plane in planes.planes[..count]
+                .iter_mut()
+                .filter(|q| q.object == *object)
+            {
+                if DVec3::from(plane.normal).dot(surface.normal) < 0.0 {
+                    plane.point = surface.point.to_array();
+                    plane.normal = surface.normal.to_array();
+                }
+            }
+        }
+    }
+
+    /// Start the current set's bodies from their published states, plus the hand's changes
+    /// the physics has not taken in yet, where they were shown last tick.
+    fn restart_locals(&mut self) {
+        let old = self.locals;
+        let count = (self.current.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
+        self.locals = [None; HAPTICD_MAX_LOCAL_BODIES];
+        for (slot, published) in self.locals.iter_mut().zip(&self.current.bodies[..count]) {
+            let mut pending = Change::default();
+            for hand_back in self
+                .pending
+                .iter()
+                .filter(|h| h.sequence > published.applied)
+            {
+                for (body, change) in &hand_back.changes[..hand_back.count] {
+                    if *body == published.body {
+                        pending.add(change);
+                    }
+                }
+            }
+            let shown = old
+                .iter()
+                .flatten()
+                .find(|b| b.body == published.body)
+                .map(|b| b.shown().pose());
+            *slot = LocalBody::new(published, &pending, self.period, shown);
+        }
+    }
+
+    /// Emit the impulse summed on each plane of the current set and what the hand did to
+    /// each local body, and start new sums.
+    fn hand_back(&mut self, emit: &mut impl FnMut(HandBack)) {
         for (sums, planes) in self.sums.iter_mut().zip(&self.current.planes) {
             let count = (planes.count as usize).min(HAPTICD_MAX_PLANES);
             for (sum, plane) in sums.iter_mut().zip(&planes.planes[..count]) {
                 if sum.weight > 0.0 {
-                    emit(HapticdImpulse {
+                    emit(HandBack::Impulse(HapticdImpulse {
                         object: plane.object,
                         point: (sum.weighted_point / sum.weight).to_array(),
                         impulse: sum.impulse.to_array(),
-                    });
+                    }));
                 }
             }
             *sums = [Accumulator::default(); HAPTICD_MAX_PLANES];
+        }
+        let mut record = Pending {
+            sequence: self.hand_backs + 1,
+            ..Pending::default()
+        };
+        for body in self.locals.iter().flatten() {
+            let change = body.change();
+            if !change.is_zero() {
+                record.changes[record.count] = (body.body, change);
+                record.count += 1;
+                emit(HandBack::Local(change.to_abi(body.body, record.sequence)));
+            }
+        }
+        if record.count > 0 {
+            self.hand_backs = record.sequence;
+            self.pending[(record.sequence % PENDING as u64) as usize] = record;
         }
         // Resting indices refer to the set being replaced.
         self.resting = [None; MAX_EFFECTORS];
@@ -347,9 +536,16 @@ mod tests {
         let floor = |sequence| set(sequence, 3, DVec3::ZERO, DVec3::Y, DVec3::ZERO);
         let mut sent = Vec::new();
         let mut displayed = DVec3::ZERO;
+        // The finger comes from above (a grip that starts inside feels nothing).
+        let above = [pointer(DVec3::new(0.01, 0.01, 0.0), DVec3::ZERO)];
+        r.tick(&floor(1), &above, TICK, &mut w, |_| {});
         for sequence in 1..=3 {
             for _ in 0..50 {
-                r.tick(&floor(sequence), &pressed, TICK, &mut w, |i| sent.push(i));
+                r.tick(&floor(sequence), &pressed, TICK, &mut w, |i| {
+                    if let HandBack::Impulse(i) = i {
+                        sent.push(i)
+                    }
+                });
                 if sequence == 2 {
                     displayed += w[0].force * TICK;
                 }
@@ -376,6 +572,7 @@ mod tests {
         let mut w = [Wrench::ZERO];
         let belt = |sequence| set(sequence, 1, DVec3::ZERO, DVec3::Y, DVec3::X * 0.1);
         let mut sideways: f64 = 0.0;
+        r.tick(&belt(1), &[pointer(at, DVec3::ZERO)], TICK, &mut w, |_| {});
         for tick in 0..100 {
             r.tick(&belt(1 + tick / 50), &pressed, TICK, &mut w, |_| {});
             sideways = sideways.max(w[0].force.x);

@@ -6,9 +6,11 @@
 //!   springs;
 //! - `rapier`: rapier3d's constraint solver at `rate:` steps per second in hapticd's physics
 //!   thread (thesis Ch. 6); the hand feels the surfaces near each pointer as planes moved
-//!   between physics steps, and gives each body back the impulse of the force it felt
-//!   (`feedback: impulse`) or, for comparison, pushes it with a solid placed where the hand
-//!   was when the physics sampled it (`feedback: position`).
+//!   between physics steps. The bodies near a pointer move with the hand in the haptic
+//!   thread and the physics takes back what the hand did to them (`feedback: local`, the
+//!   default; thesis 6.5.4); for comparison, each body gets back the impulse of the force
+//!   felt (`feedback: impulse`), or is pushed by a solid placed where the hand was when the
+//!   physics sampled it (`feedback: position`).
 //!
 //! Bodies, gravity, `static_friction` and `friction` mean the same under both; a key only
 //! one engine reads is an error, at its place, under the other. A penalty scene:
@@ -97,7 +99,7 @@
 //! name: tray
 //! engine: rapier
 //! rate: 20                     # physics steps per second (10–1000)
-//! feedback: impulse            # or position
+//! feedback: local              # or impulse, or position
 //! gravity: [0, -9.81, 0]
 //! material:
 //!   static_friction: 0.3       # rapier's contacts stick and slide at μ; the proxy the
@@ -171,6 +173,7 @@ enum RawEngine {
 #[derive(Deserialize, Clone, Copy)]
 #[serde(rename_all = "lowercase")]
 enum RawFeedback {
+    Local,
     Impulse,
     Position,
 }
@@ -556,11 +559,25 @@ pub enum Engine {
 /// What a multi-rate world takes back from the haptic side (`feedback:`, thesis 6.2–6.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Feedback {
+    /// Local dynamics (thesis 6.5.4): the bodies near a pointer move in the haptic thread
+    /// under the hand between physics steps, and what the hand did to them goes back.
+    Local,
     /// The impulse the hand gave each body over a physics period, at its point.
     Impulse,
     /// The conventional method: each pointer is a kinematic body moved to the hand's
     /// position as the physics samples it.
     Position,
+}
+
+impl Feedback {
+    /// The name a scene file gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Feedback::Local => "local",
+            Feedback::Impulse => "impulse",
+            Feedback::Position => "position",
+        }
+    }
 }
 
 /// A world for a multi-rate engine, as its scene file describes it.
@@ -800,7 +817,8 @@ impl SceneFile {
         let Some((dt, penalty)) = penalty else {
             let feedback = match raw.feedback {
                 Some(RawFeedback::Position) => Feedback::Position,
-                Some(RawFeedback::Impulse) | None => Feedback::Impulse,
+                Some(RawFeedback::Impulse) => Feedback::Impulse,
+                Some(RawFeedback::Local) | None => Feedback::Local,
             };
             return Ok(SceneFile::Rapier(Box::new(MultiRateWorld {
                 name: raw.name,

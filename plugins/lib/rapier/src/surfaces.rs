@@ -58,24 +58,36 @@ pub fn near(
     let query = physics.query_pipeline_with_filter(QueryFilter::exclude_kinematic());
     let at = vector(point);
     for (_, collider) in query.intersect_aabb_conservative(box_) {
-        let projection = collider
+        let (projection, feature) = collider
             .shape()
-            .project_point(collider.position(), at, false);
+            .project_point_and_get_feature(collider.position(), at);
         let nearest = dvec(projection.point);
         let offset = point - nearest;
         let distance = offset.length();
         if distance > reach {
             continue;
         }
-        let normal = if distance > ON_SURFACE {
-            (if projection.is_inside {
-                -offset
-            } else {
-                offset
-            }) / distance
+        let face = || {
+            let local = collider
+                .position()
+                .inverse_transform_point(projection.point);
+            collider
+                .shape()
+                .feature_normal_at_point(0, feature, local)
+                .map(|n| dvec(collider.position().rotation * n))
+        };
+        let normal = if distance > ON_SURFACE && !projection.is_inside {
+            offset / distance
+        } else if let Some(n) = face() {
+            // On the surface or inside it (a proxy resting on a face, a grip through
+            // it): the normal of the face the point is nearest to, not of a direction
+            // that means nothing at that distance.
+            n
+        } else if distance > ON_SURFACE {
+            -offset / distance
         } else {
-            // On the surface: the direction from the solid's centre is outward enough for a
-            // convex piece, and the next step moves the point off the surface anyway.
+            // On the surface of a shape without faces: the direction from its centre is
+            // outward enough for a convex piece.
             (nearest - dvec(collider.position().translation)).normalize_or(DVec3::Y)
         };
         let velocity = collider

@@ -13,7 +13,12 @@ use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::mass::volume_and_centroid;
 use hapticd_physics::scene::{Feedback, MultiRateWorld, Primitive};
-use hapticd_plugin_api::{HapticdImpulse, HapticdPlanes, HapticdPointer};
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
+use hapticd_plugin_api::{
+    HAPTICD_MAX_BODY_CONTACTS, HapticdBodyContact, HapticdImpulse, HapticdLocalBody,
+    HapticdLocalState, HapticdPlanes,
+};
+use rapier3d::geometry::PairContacts;
 use rapier3d::prelude::{
     ColliderBuilder, ColliderHandle, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle,
 };
@@ -53,6 +58,12 @@ pub struct RapierWorld {
     pieces: Vec<(ColliderHandle, usize)>,
     /// Kinematic bodies following the pointers (position feedback only).
     pointers: Vec<RigidBodyHandle>,
+    /// Each body's inertia about its centre of mass in its own axes, and its mass.
+    inertia: Vec<(glam::DMat3, f64)>,
+    /// Each body's objects: the first and how many.
+    objects: Vec<(u32, u32)>,
+    /// The last change of the hand each body took in.
+    applied: Vec<u64>,
     feedback: Feedback,
     reach: f64,
     scratch: Vec<Candidate>,
@@ -112,6 +123,7 @@ impl RapierWorld {
         physics.integration_parameters.length_unit = length_unit(&spec.bodies) as f32;
         let mut bodies = Vec::with_capacity(spec.bodies.len());
         let mut pieces = Vec::new();
+        let mut objects = Vec::with_capacity(spec.bodies.len());
         for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
             let builder = if body.fixed {
                 RigidBodyBuilder::fixed()
@@ -128,6 +140,7 @@ impl RapierWorld {
                     .angvel(vector(body.spin)),
             );
             let volume: f64 = body.pieces.iter().map(|p| volume_and_centroid(p).0).sum();
+            objects.push((pieces.len() as u32, primitives.len() as u32));
             for (k, primitive) in primitives.iter().enumerate() {
                 let c = collider(body, k, *primitive)
                     .density((body.mass / volume) as f32)
@@ -145,6 +158,9 @@ impl RapierWorld {
             bodies,
             pieces,
             pointers: Vec::new(),
+            inertia: spec.bodies.iter().map(|b| (b.inertia, b.mass)).collect(),
+            objects,
+            applied: vec![0; spec.bodies.len()],
             feedback: spec.feedback,
             reach: surfaces::reach(spec.rate),
             scratch: Vec::new(),
@@ -175,11 +191,11 @@ impl RapierWorld {
         self.feedback
     }
 
-    /// Take `feedback` from the hand from now on. Under impulse feedback the pointers'
-    /// bodies are parked far away, where they touch nothing.
+    /// Take `feedback` from the hand from now on. Unless the feedback is by position, the
+    /// pointers' bodies are parked far away, where they touch nothing.
     pub fn set_feedback(&mut self, feedback: Feedback) {
         self.feedback = feedback;
-        if feedback == Feedback::Impulse {
+        if feedback != Feedback::Position {
             for (k, handle) in self.pointers.iter().enumerate() {
                 let away = DVec3::new(1e4 + 10.0 * k as f64, 1e4, 1e4);
                 self.physics.bodies[*handle].set_translation(vector(away), false);
@@ -230,31 +246,155 @@ impl RapierWorld {
         }
     }
 
+    /// Add what the hand did to a body over a period: its centre moved and turned, its
+    /// velocities changed. Fixed bodies, unknown bodies and changes that are not finite are
+    /// ignored.
+    pub fn take_in(&mut self, change: &HapticdLocalState) {
+        let i = change.body as usize;
+        let Some(&handle) = self.bodies.get(i) else {
+            return;
+        };
+        let [d, r, v, w] = [
+            change.displacement,
+            change.rotation,
+            change.velocity,
+            change.spin,
+        ]
+        .map(DVec3::from);
+        if !(d.is_finite() && r.is_finite() && v.is_finite() && w.is_finite()) {
+            return;
+        }
+        let b = &mut self.physics.bodies[handle];
+        if !b.is_dynamic() {
+            return;
+        }
+        let centre = dvec(b.center_of_mass());
+        let turn = DQuat::from_scaled_axis(r);
+        let origin = dvec(b.translation());
+        let orientation = (turn * dquat(*b.rotation())).normalize();
+        b.set_rotation(rotation(orientation), false);
+        b.set_translation(vector(centre + d + turn * (origin - centre)), false);
+        b.set_linvel(b.linvel() + vector(v), false);
+        b.set_angvel(b.angvel() + vector(w), true);
+        self.applied[i] = self.applied[i].max(change.sequence);
+    }
+
     /// [physics] The planes of the solids within reach of a pointer at `point`, as a step
     /// publishes them.
     pub fn surfaces_near(&mut self, point: DVec3, out: &mut HapticdPlanes) {
         surfaces::near(&self.physics, point, self.reach, &mut self.scratch, out);
     }
 
-    /// [physics] One physics step of `dt` seconds: take the hand's `impulses` (impulse
-    /// feedback) or move the pointers' bodies to `pointers` (position feedback), step, and
-    /// write each pointer's nearby planes to `planes`. False when the world is no longer
-    /// finite.
-    pub fn step(
-        &mut self,
-        dt: f64,
-        pointers: &[HapticdPointer],
-        impulses: &[HapticdImpulse],
-        planes: &mut [HapticdPlanes],
-    ) -> bool {
+    /// Body `i` as the haptic side moves it: its state, mass, inertia and contacts now.
+    pub fn local_body(&self, i: usize) -> HapticdLocalBody {
+        let handle = self.bodies[i];
+        let b = &self.physics.bodies[handle];
+        let state = self.body(i);
+        let (inertia, mass) = self.inertia[i];
+        let turn = glam::DMat3::from_quat(state.orientation);
+        let inverse = turn * inertia.inverse() * turn.transpose();
+        let (first_object, object_count) = self.objects[i];
+        let mut out = HapticdLocalBody {
+            body: i as u32,
+            first_object,
+            object_count,
+            applied: self.applied[i],
+            position: state.position.to_array(),
+            orientation: hapticd_core::kinematics::quat_to_wxyz(state.orientation),
+            velocity: state.velocity.to_array(),
+            spin: state.spin.to_array(),
+            inverse_mass: 1.0 / mass,
+            inverse_inertia: inverse.transpose().to_cols_array(),
+            acceleration: (dvec(self.physics.gravity) * f64::from(b.gravity_scale())).to_array(),
+            ..HapticdLocalBody::default()
+        };
+        let mut count = 0;
+        for &collider in b.colliders() {
+            for pair in self.physics.narrow_phase.contact_pairs_with(collider) {
+                let PairContacts::Rigid(contacts) = &pair.contacts else {
+                    continue;
+                };
+                let first = pair.collider1 == collider;
+                let other = if first {
+                    pair.collider2
+                } else {
+                    pair.collider1
+                };
+                // Another piece of the same body is no contact with the world; neither is
+                // a pointer's own body.
+                let Some(other) = self.physics.colliders.get(other) else {
+                    continue;
+                };
+                if other.parent() == Some(handle)
+                    || other
+                        .parent()
+                        .is_some_and(|p| self.physics.bodies[p].is_kinematic())
+                {
+                    continue;
+                }
+                let mine = &self.physics.colliders[collider];
+                let friction = f64::from(mine.friction().min(other.friction()));
+                for manifold in &contacts.manifolds {
+                    let normal = dvec(manifold.data.normal);
+                    for point in &manifold.points {
+                        if count == HAPTICD_MAX_BODY_CONTACTS {
+                            break;
+                        }
+                        let (at, push) = if first {
+                            (mine.position() * point.local_p1, -normal)
+                        } else {
+                            (mine.position() * point.local_p2, normal)
+                        };
+                        out.contacts[count] = HapticdBodyContact {
+                            point: dvec(at).to_array(),
+                            normal: push.to_array(),
+                            gap: f64::from(point.dist),
+                            friction,
+                        };
+                        count += 1;
+                    }
+                }
+            }
+        }
+        out.contact_count = count as u32;
+        out
+    }
+
+    /// One step of `dt` seconds with no hand in the world. False when the world is no
+    /// longer finite.
+    pub fn advance(&mut self, dt: f64) -> bool {
+        self.step(
+            &PhysicsInput {
+                dt,
+                pointers: &[],
+                proxies: &[],
+                impulses: &[],
+                locals: &[],
+            },
+            &mut PhysicsOutput {
+                planes: &mut [],
+                bodies: &mut [],
+                body_count: &mut 0,
+            },
+        )
+    }
+
+    /// [physics] One physics step: take in what the hand did (local changes and impulses,
+    /// or the pointers' positions under position feedback), step, and publish each
+    /// pointer's planes around its proxy and, under local feedback, the dynamic bodies they
+    /// belong to. False when the world is no longer finite.
+    pub fn step(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> bool {
         match self.feedback {
-            Feedback::Impulse => {
-                for impulse in impulses {
+            Feedback::Local | Feedback::Impulse => {
+                for change in input.locals {
+                    self.take_in(change);
+                }
+                for impulse in input.impulses {
                     self.apply(impulse);
                 }
             }
             Feedback::Position => {
-                for (handle, p) in self.pointers.iter().zip(pointers) {
+                for (handle, p) in self.pointers.iter().zip(input.pointers) {
                     let at = DVec3::from(p.position);
                     if at.is_finite() {
                         self.physics.bodies[*handle].set_next_kinematic_translation(vector(at));
@@ -262,10 +402,39 @@ impl RapierWorld {
                 }
             }
         }
-        self.physics.integration_parameters.dt = dt as f32;
+        self.physics.integration_parameters.dt = input.dt as f32;
         self.physics.step();
-        for (out, p) in planes.iter_mut().zip(pointers) {
+        // Around the proxy, where the finger rests, or the grip when there is none.
+        let around = if input.proxies.len() == input.pointers.len() {
+            input.proxies
+        } else {
+            input.pointers
+        };
+        for (out, p) in output.planes.iter_mut().zip(around) {
             self.surfaces_near(DVec3::from(p.position), out);
+        }
+        *output.body_count = 0;
+        if self.feedback == Feedback::Local {
+            let mut count = 0;
+            let planes = output
+                .planes
+                .iter()
+                .flat_map(|p| &p.planes[..p.count as usize]);
+            for plane in planes {
+                let Some(body) = self.body_of(plane.object) else {
+                    continue;
+                };
+                let listed = output.bodies[..count].iter().any(|b| b.body == body as u32);
+                if listed
+                    || count == output.bodies.len()
+                    || !self.physics.bodies[self.bodies[body]].is_dynamic()
+                {
+                    continue;
+                }
+                output.bodies[count] = self.local_body(body);
+                count += 1;
+            }
+            *output.body_count = count as u32;
         }
         (0..self.bodies.len()).all(|i| {
             let b = self.body(i);
@@ -278,6 +447,29 @@ impl RapierWorld {
 mod tests {
     use super::*;
     use hapticd_physics::scene::SceneFile;
+    use hapticd_plugin_api::HapticdPointer;
+
+    /// One 20 ms step with the planes around the pointers themselves.
+    fn step(
+        w: &mut RapierWorld,
+        pointers: &[HapticdPointer],
+        planes: &mut [HapticdPlanes],
+    ) -> bool {
+        w.step(
+            &PhysicsInput {
+                dt: 0.02,
+                pointers,
+                proxies: pointers,
+                impulses: &[],
+                locals: &[],
+            },
+            &mut PhysicsOutput {
+                planes,
+                bodies: &mut [],
+                body_count: &mut 0,
+            },
+        )
+    }
 
     fn world(text: &str, pointers: usize) -> (MultiRateWorld, RapierWorld) {
         match SceneFile::parse(text, std::path::Path::new("t.yaml"), pointers).unwrap() {
@@ -370,7 +562,7 @@ feedback: position
             position: [0.3 - 0.07, 0.01, 0.0],
             ..HapticdPointer::default()
         };
-        assert!(w.step(0.02, &[finger], &[], &mut planes));
+        assert!(step(&mut w, &[finger], &mut planes));
         let found = &planes[0].planes[..planes[0].count as usize];
         assert_eq!(found.len(), 2, "{found:?}");
         let floor = found[0];
@@ -389,7 +581,7 @@ feedback: position
             position: [-0.355 + 0.002, 0.03, 0.0],
             ..HapticdPointer::default()
         };
-        assert!(w.step(0.02, &[inside], &[], &mut planes));
+        assert!(step(&mut w, &[inside], &mut planes));
         let leg = planes[0].planes[0];
         assert_eq!(w.body_of(leg.object), Some(2));
         assert!(
@@ -412,12 +604,12 @@ feedback: position
                     position: [0.25 + 0.005 * k as f64, 0.02, 0.0],
                     ..HapticdPointer::default()
                 };
-                assert!(w.step(0.02, &[finger], &[], &mut planes));
+                assert!(step(&mut w, &[finger], &mut planes));
             }
             let moved = w.body(1).position.x - start.x;
             match feedback {
                 Feedback::Position => assert!(moved > 0.02, "{moved}"),
-                Feedback::Impulse => assert!(moved.abs() < 1e-4, "{moved}"),
+                Feedback::Impulse | Feedback::Local => assert!(moved.abs() < 1e-4, "{moved}"),
             }
         }
     }

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::scene::SceneFile;
-use hapticd_plugin_api::HapticdPlanes;
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::camera::Camera;
 use hapticd_render::scenery::Scenery;
@@ -105,9 +104,8 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
             let mut world = RapierWorld::new(&spec, 0);
             let camera = Scenery::of_rapier(&spec, |i| world.body(i).pose()).camera();
             let steps = (at * spec.rate).round() as usize;
-            let mut planes: [HapticdPlanes; 0] = [];
             for _ in 0..steps {
-                if !world.step(1.0 / spec.rate, &[], &[], &mut planes) {
+                if !world.advance(1.0 / spec.rate) {
                     return Err(Failure::failed(format!(
                         "{}: the world is no longer finite",
                         path.display()

@@ -88,6 +88,8 @@ pub struct RunArgs {
 /// What a rapier world takes back from the hand.
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
 pub enum FeedbackArg {
+    /// Local dynamics: the bodies near the hand move with it between physics steps (6.5.4).
+    Local,
     /// The impulse the displayed force gave each body (thesis 6.3).
     Impulse,
     /// The hand's position, sampled at the physics rate (the conventional method).
@@ -97,6 +99,7 @@ pub enum FeedbackArg {
 impl From<FeedbackArg> for Feedback {
     fn from(f: FeedbackArg) -> Self {
         match f {
+            FeedbackArg::Local => Feedback::Local,
             FeedbackArg::Impulse => Feedback::Impulse,
             FeedbackArg::Position => Feedback::Position,
         }
@@ -477,10 +480,7 @@ fn run_multirate(
         "{} (rapier, {} Hz, {} feedback, phase {} s): {ticks} haptic ticks at {HAPTIC_RATE} Hz\n",
         spec.name,
         spec.rate,
-        match run.world.feedback() {
-            Feedback::Impulse => "impulse",
-            Feedback::Position => "position",
-        },
+        run.world.feedback().name(),
         args.phase
     );
     let mut bodies = Vec::new();
