@@ -1,14 +1,15 @@
 //! The logging thread: it logs what the real-time thread reports through its event ring.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use hapticd::fault_lines::{FAULT_INTERVAL, FaultLines};
 use hapticd::realtime::LoopEvent;
 use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::sync::spsc;
 
 /// Log the events of the loop of device `identity` as they come (the real-time thread must
-/// not write itself).
+/// not write itself); faults one line per [`FAULT_INTERVAL`] at most, the rest counted.
 pub fn spawn_event_logger(
     identity: String,
     mut events: spsc::Consumer<LoopEvent>,
@@ -16,28 +17,43 @@ pub fn spawn_event_logger(
 ) -> std::thread::JoinHandle<()> {
     std::thread::spawn(move || {
         let mut overruns = 0u64;
+        let started = Instant::now();
+        let mut faults = FaultLines::new(FAULT_INTERVAL);
+        // The last fault was only counted, and so is its recovery.
+        let mut hushed = false;
+        let mut latest = DeviceState::Running;
         loop {
             let finished = done.load(Ordering::Acquire);
             while let Some(event) = events.pop() {
                 match event {
-                    LoopEvent::State { time, state, error } => match (state, error) {
-                        (_, Some(e)) => {
-                            tracing::error!("{identity}: {time:.3} s: device {state:?}: {e}")
+                    LoopEvent::State { time, state, error } => {
+                        latest = state;
+                        let counted = std::mem::take(&mut hushed);
+                        match (state, error) {
+                            (_, Some(e)) => {
+                                tracing::error!("{identity}: {time:.3} s: device {state:?}: {e}")
+                            }
+                            (DeviceState::Running, None) if counted => {}
+                            (DeviceState::Running, None) => {
+                                tracing::info!("{identity}: {time:.3} s: device {state:?}")
+                            }
+                            (DeviceState::Uncalibrated, None) => tracing::error!(
+                                "{identity}: {time:.3} s: the counts no longer fit the calibration \
+                                 (did the amplifier lose power?): forces held at zero until it is \
+                                 calibrated again (Calibrate())"
+                            ),
+                            (DeviceState::Fault, None)
+                                if !faults.fault(started.elapsed().as_secs_f64()) =>
+                            {
+                                hushed = true;
+                            }
+                            (_, None) => {
+                                tracing::error!(
+                                    "{identity}: {time:.3} s: device {state:?}: forces ramped to zero"
+                                )
+                            }
                         }
-                        (DeviceState::Running, None) => {
-                            tracing::info!("{identity}: {time:.3} s: device {state:?}")
-                        }
-                        (DeviceState::Uncalibrated, None) => tracing::error!(
-                            "{identity}: {time:.3} s: the counts no longer fit the calibration (did the \
-                             amplifier lose power?): forces held at zero until it is calibrated \
-                             again (Calibrate())"
-                        ),
-                        (_, None) => {
-                            tracing::error!(
-                                "{identity}: {time:.3} s: device {state:?}: forces ramped to zero"
-                            )
-                        }
-                    },
+                    }
                     LoopEvent::Overrun { time, late_ns } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.
@@ -49,6 +65,18 @@ pub fn spawn_event_logger(
                         }
                     }
                 }
+            }
+            // The count so far, at the latest when the daemon stops.
+            let now = match finished {
+                true => f64::INFINITY,
+                false => started.elapsed().as_secs_f64(),
+            };
+            if let Some(more) = faults.summary(now) {
+                tracing::error!(
+                    "{identity}: device faulted {more} more times in the last {FAULT_INTERVAL:.0} \
+                     s, forces ramped to zero each time; {} now",
+                    latest.name()
+                );
             }
             if finished {
                 return;
