@@ -143,3 +143,39 @@ fn impulse_feedback_makes_a_push_independent_of_the_sampling_phase() {
         "impulse {impulse:?} against {reference} m at 1 kHz"
     );
 }
+
+/// Thesis 6.5.4: one push on light blocks at low physics rates. Handing back impulses
+/// throws a light block (the finger meets it as a wall for a period); moving the bodies near
+/// the finger in the haptic thread (local dynamics) pushes it as far as the physics at the
+/// haptic rate does, whatever the sampling phase.
+#[test]
+fn local_dynamics_pushes_light_blocks_as_far_as_physics_at_the_haptic_rate() {
+    use hapticctl::experiments::push_mass;
+    use hapticd_physics::scene::Feedback;
+    for mass in [0.1, 0.3, 1.0] {
+        let reference = push_mass::reference(mass).unwrap();
+        assert!(reference > 0.04, "{mass} kg moved {reference} m at 1 kHz");
+        for rate in [20.0, 30.0] {
+            let local = push_mass::cell(mass, rate, Feedback::Local, 3).unwrap();
+            let travel = local.travel();
+            assert!(
+                (travel.mean / reference - 1.0).abs() <= 0.12,
+                "{mass} kg at {rate} Hz: local {travel:?} against {reference} m"
+            );
+            let position = push_mass::cell(mass, rate, Feedback::Position, 3).unwrap();
+            assert!(
+                travel.deviation <= position.travel().deviation,
+                "{mass} kg at {rate} Hz: local {travel:?}, position {:?}",
+                position.travel()
+            );
+            let impulse = push_mass::cell(mass, rate, Feedback::Impulse, 3).unwrap();
+            assert!(
+                impulse.travel().mean > 1.5 * reference,
+                "{mass} kg at {rate} Hz: impulse {:?} against {reference} m",
+                impulse.travel()
+            );
+            // The body moves no faster than about the finger pushing it.
+            assert!(local.speed_ratio() < 1.3, "{}", local.speed_ratio());
+        }
+    }
+}

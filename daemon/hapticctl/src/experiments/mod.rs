@@ -4,6 +4,8 @@
 //!
 //! - [`push_phase`]: a block pushed once at 20 Hz physics, for several sampling phases, with
 //!   impulse or position feedback (6.4.1–6.4.2, Fig. 6.6);
+//! - [`push_mass`]: one push on blocks of 0.1–10 kg at 10–30 Hz physics, with local
+//!   dynamics, impulse or position feedback, against physics at the haptic rate (6.5.4);
 //! - [`grasp`]: two fingers shake a held box, the grasp rendered by the resultant
 //!   distribution method or the conventional one (4.7, Tables 4.1–4.2);
 //! - [`wall_stiffness`]: the stiffest wall that stays stable at a given loop rate (Table 3.4);
@@ -14,6 +16,7 @@
 
 pub mod grasp;
 pub mod incline;
+pub mod push_mass;
 pub mod push_phase;
 pub mod shape_tracing;
 pub mod stack_timing;

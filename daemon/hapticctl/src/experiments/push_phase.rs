@@ -77,6 +77,10 @@ pub struct Run {
     pub block: Vec<(f64, f64)>,
     /// Largest force displayed, newtons.
     pub peak_force: f64,
+    /// Fastest the finger moved, m/s.
+    pub peak_finger_speed: f64,
+    /// Fastest the block moved where it is felt, m/s.
+    pub peak_block_speed: f64,
 }
 
 impl Run {
@@ -126,6 +130,8 @@ pub fn run(world: &MultiRateWorld, setup: &Setup, phase: f64) -> Result<Run, Str
         phase,
         block: Vec::with_capacity(ticks),
         peak_force: 0.0,
+        peak_finger_speed: 0.0,
+        peak_block_speed: 0.0,
     };
     for _ in 0..ticks {
         let t = lockstep.time();
@@ -135,6 +141,10 @@ pub fn run(world: &MultiRateWorld, setup: &Setup, phase: f64) -> Result<Run, Str
         finger.1 += force / mass * dt;
         finger.0 += finger.1 * dt;
         out.peak_force = out.peak_force.max(felt[0].force.length());
+        out.peak_finger_speed = out.peak_finger_speed.max(finger.1.abs());
+        out.peak_block_speed = out
+            .peak_block_speed
+            .max(lockstep.body(block).velocity.length());
         out.block.push((
             lockstep.time(),
             lockstep.world.body(block).position.x - origin,

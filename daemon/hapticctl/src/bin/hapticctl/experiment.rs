@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Subcommand};
 use hapticctl::experiments::stick_slip::Rig;
 use hapticctl::experiments::{
-    grasp, incline, push_phase, shape_tracing, stack_timing, wall_stiffness,
+    grasp, incline, push_mass, push_phase, shape_tracing, stack_timing, wall_stiffness,
 };
 use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
 use hapticd::catalog::Catalog;
@@ -36,6 +36,21 @@ pub enum Command {
     /// Push a block once at 20 Hz physics for several sampling phases, with impulse and with
     /// position feedback (thesis 6.4.1–6.4.2, Fig. 6.6).
     PushPhase(PushPhaseArgs),
+    /// Push blocks of 0.1–10 kg at 10, 20 and 30 Hz physics with local dynamics, impulse
+    /// and position feedback, against physics at the haptic rate (thesis 6.5.4).
+    PushMass(PushMassArgs),
+}
+
+#[derive(Args)]
+pub struct PushMassArgs {
+    /// Sampling phases per mass, rate and method, spread over one physics period (2–20).
+    #[arg(long, default_value_t = 4)]
+    phases: usize,
+    /// Draw travel against mass, one chart per physics rate, to this PNG file.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    output: Output,
 }
 
 #[derive(Args)]
@@ -198,7 +213,94 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::Incline(args) => incline(&args),
         Command::Grasp(args) => grasp(&args),
         Command::PushPhase(args) => push(&args),
+        Command::PushMass(args) => push_masses(&args),
     }
+}
+
+fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
+    if !(2..=20).contains(&args.phases) {
+        return Err(Failure::usage("--phases must be 2–20"));
+    }
+    let references = push_mass::MASSES
+        .iter()
+        .map(|&m| push_mass::reference(m))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(Failure::failed)?;
+    let mut text = format!(
+        "one push, {} phases; block travel [mm] (mean ± spread over phases), peak block speed over finger speed:\n",
+        args.phases
+    );
+    let mut rows = Vec::new();
+    let mut charts = Vec::new();
+    for rate in push_mass::RATES {
+        text += &format!("physics {rate} Hz\n  mass [kg]  reference");
+        for method in push_mass::METHODS {
+            text += &format!(" {:>22}", method.name());
+        }
+        text += "\n";
+        let mut series: Vec<Series> = Vec::new();
+        series.push(Series {
+            label: "physics at 1 kHz".into(),
+            points: push_mass::MASSES
+                .iter()
+                .zip(&references)
+                .map(|(m, r)| (m.log10(), r * 1e3))
+                .collect(),
+            color: PALETTE[0],
+        });
+        let mut lines = vec![String::new(); push_mass::MASSES.len()];
+        for (k, method) in push_mass::METHODS.into_iter().enumerate() {
+            let mut points = Vec::new();
+            for (i, (&mass, reference)) in push_mass::MASSES.iter().zip(&references).enumerate() {
+                let cell =
+                    push_mass::cell(mass, rate, method, args.phases).map_err(Failure::failed)?;
+                let travel = cell.travel();
+                lines[i] += &format!(
+                    " {:8.2} ± {:5.2} ({:4.2})",
+                    travel.mean * 1e3,
+                    travel.deviation * 1e3,
+                    cell.speed_ratio()
+                );
+                points.push((mass.log10(), travel.mean * 1e3));
+                rows.push(json!({
+                    "rate": rate,
+                    "mass": mass,
+                    "feedback": method.name(),
+                    "reference": reference,
+                    "mean": travel.mean,
+                    "deviation": travel.deviation,
+                    "speed_ratio": cell.speed_ratio(),
+                    "travels": cell.runs.iter().map(push_phase::Run::stop).collect::<Vec<_>>(),
+                }));
+            }
+            series.push(Series {
+                label: format!("{} feedback", method.name()),
+                points,
+                color: PALETTE[(k + 1) % PALETTE.len()],
+            });
+        }
+        for ((line, mass), reference) in lines.iter().zip(push_mass::MASSES).zip(&references) {
+            text += &format!("  {mass:9.1}  {:9.2}{line}\n", reference * 1e3);
+        }
+        charts.push(Chart {
+            title: format!("one push, physics {rate} Hz"),
+            x_label: "block mass [log10 kg]".into(),
+            y_label: "block travel [mm]".into(),
+            series,
+            ..Chart::default()
+        });
+    }
+    if let Some(path) = &args.plot {
+        let rendered: Vec<_> = charts.iter().map(Chart::render).collect();
+        save_canvas(&Canvas::stacked(&rendered), path)?;
+        text += &format!("wrote {}\n", path.display());
+    }
+    print(
+        &args.output,
+        json!({"plot": args.plot, "results": rows}),
+        text,
+    );
+    Ok(())
 }
 
 fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
