@@ -46,8 +46,7 @@ impl Motion {
     fn plus(&self, change: &Change) -> Motion {
         Motion {
             position: self.position + change.displacement,
-            orientation: (DQuat::from_scaled_axis(change.rotation) * self.orientation)
-                .normalize(),
+            orientation: (DQuat::from_scaled_axis(change.rotation) * self.orientation).normalize(),
             velocity: self.velocity + change.velocity,
             spin: self.spin + change.spin,
         }
@@ -200,8 +199,8 @@ impl LocalBody {
         let mut contacts = [Contact::default(); HAPTICD_MAX_BODY_CONTACTS];
         let mut count = 0;
         let turn = base.orientation.inverse();
-        for c in published.contacts[..(published.contact_count as usize)
-            .min(HAPTICD_MAX_BODY_CONTACTS)]
+        for c in published.contacts
+            [..(published.contact_count as usize).min(HAPTICD_MAX_BODY_CONTACTS)]
             .iter()
         {
             let (point, normal) = (DVec3::from(c.point), DVec3::from(c.normal));
@@ -274,7 +273,11 @@ impl LocalBody {
         let now = self.shown();
         let turn = now.orientation * self.base.orientation.inverse();
         let at = now.position + turn * (point - self.base.position);
-        (at, turn * normal, now.velocity + now.spin.cross(at - now.position))
+        (
+            at,
+            turn * normal,
+            now.velocity + now.spin.cross(at - now.position),
+        )
     }
 
     /// The state under the hand.
@@ -426,8 +429,16 @@ mod tests {
         let t = ticks as f64 * DT;
         let m = body.motion();
         // v = F t / m; about a principal axis, ω = τ t / I.
-        assert!((m.velocity - f / 0.5 * t).length() < 1e-12, "{}", m.velocity);
-        assert!((m.spin.z - tau.z / inertia.z * t).abs() < 1e-9, "{}", m.spin);
+        assert!(
+            (m.velocity - f / 0.5 * t).length() < 1e-12,
+            "{}",
+            m.velocity
+        );
+        assert!(
+            (m.spin.z - tau.z / inertia.z * t).abs() < 1e-9,
+            "{}",
+            m.spin
+        );
         // Symplectic Euler: x = F/m · dt² · n(n+1)/2, exactly.
         let x = f / 0.5 * DT * DT * (ticks * (ticks + 1)) as f64 / 2.0;
         assert!((m.position - x).length() < 1e-12);
@@ -448,13 +459,25 @@ mod tests {
         for _ in 0..100 {
             body.step(DVec3::ZERO, DVec3::ZERO, DT);
         }
-        assert!(body.motion().position.length() < 1e-7, "{:?}", body.motion());
-        assert!(body.motion().velocity.length() < 1e-12, "{:?}", body.motion());
+        assert!(
+            body.motion().position.length() < 1e-7,
+            "{:?}",
+            body.motion()
+        );
+        assert!(
+            body.motion().velocity.length() < 1e-12,
+            "{:?}",
+            body.motion()
+        );
         // Pushed along x through the centre by less than μ m g: held by friction.
         for _ in 0..100 {
             body.step(DVec3::X * 2.0, DVec3::ZERO, DT);
         }
-        assert!(body.motion().velocity.length() < 1e-9, "{:?}", body.motion());
+        assert!(
+            body.motion().velocity.length() < 1e-9,
+            "{:?}",
+            body.motion()
+        );
         // By more: a = (F − μ m g) / m, exactly, and it still does not sink.
         let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
         for _ in 0..100 {
@@ -463,7 +486,11 @@ mod tests {
         let v = body.motion().velocity;
         let expected = (5.0 - 0.3 * 9.81) * 100.0 * DT;
         assert!((v.x - expected).abs() < 1e-6, "{v} vs {expected}");
-        assert!(v.y.abs() < 1e-9 && body.motion().position.y.abs() < 1e-6, "{:?}", body.motion());
+        assert!(
+            v.y.abs() < 1e-9 && body.motion().position.y.abs() < 1e-6,
+            "{:?}",
+            body.motion()
+        );
         // Lifted harder than its weight, it leaves the floor at (F − m g)/m.
         let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
         for _ in 0..100 {
