@@ -178,3 +178,90 @@ impl Lockstep {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hapticd_physics::scene::SceneFile;
+
+    /// A 4 mm plate (top at y = 0.004) over a 2 cm floor (top at y = −0.05), at 20 Hz.
+    const PLATES: &str = "name: plates
+engine: rapier
+rate: 20
+material: { static_friction: 0.3, friction: 0.3 }
+bodies:
+  - { name: plate, box: [0.2, 0.004, 0.2], position: [0, 0.002, 0], fixed: true }
+  - { name: floor, box: [0.6, 0.02, 0.6], position: [0, -0.06, 0], fixed: true }
+pointer:
+  sphere: 0.005
+";
+
+    /// Press straight down at `x` onto the surface at height `top` with `force` newtons of
+    /// the 2 kN/m proxy spring, and back up: the force never points into the surface, the
+    /// proxy stays on the top face, and the force changes smoothly.
+    fn press(top: f64, x: f64, force: f64) {
+        let SceneFile::Rapier(spec) =
+            SceneFile::parse(PLATES, std::path::Path::new("plates.yaml"), 1).unwrap()
+        else {
+            panic!("a rapier scene");
+        };
+        let above = DVec3::new(x, top + 0.01, 0.0);
+        let mut lockstep = Lockstep::new(
+            &spec,
+            &Lockstep::pointers(&[(above, DVec3::ZERO)]),
+            1000.0,
+            0.0,
+        );
+        let depth = force / 2000.0;
+        let (speed, dt) = (0.05, 1e-3);
+        let down = ((0.01 + depth) / speed / dt).round() as usize;
+        let mut felt = [Wrench::ZERO];
+        let mut last = DVec3::ZERO;
+        let mut deepest: f64 = 0.0;
+        for tick in 0..(2 * down + 200) {
+            // Down at 5 cm/s to `depth` below the face, held, then back up.
+            let s = if tick < down {
+                tick as f64
+            } else if tick < down + 200 {
+                down as f64
+            } else {
+                (2 * down + 200 - tick) as f64
+            };
+            let v = if tick < down {
+                -speed
+            } else if tick < down + 200 {
+                0.0
+            } else {
+                speed
+            };
+            let grip = above - DVec3::Y * (s * speed * dt);
+            lockstep
+                .tick(&Lockstep::pointers(&[(grip, DVec3::Y * v)]), &mut felt)
+                .unwrap();
+            let f = felt[0].force;
+            let proxy = lockstep.proxies()[0];
+            assert!(f.y >= -1e-9, "tick {tick}: {f} points into the surface");
+            assert!(
+                proxy.y >= top - 1e-6,
+                "tick {tick}: the proxy is at {proxy}, in the solid"
+            );
+            // A spring of 2 kN/m and a 5 N·s/m damper on a grip moving 50 µm a tick.
+            assert!(
+                (f - last).length() < 2000.0 * speed * dt + 5.0 * speed + 1e-6,
+                "tick {tick}: {last} → {f}"
+            );
+            last = f;
+            deepest = deepest.max(top - grip.y);
+        }
+        assert!((deepest - depth).abs() < 1e-3, "{deepest}");
+        assert!(last.length() < 1e-9, "{last} once out");
+    }
+
+    #[test]
+    fn a_finger_pressed_through_a_thin_plate_or_a_floor_is_held_on_the_top_face() {
+        for force in [20.0, 40.0] {
+            press(0.004, 0.0, force);
+            press(-0.05, 0.2, force);
+        }
+    }
+}

@@ -345,24 +345,29 @@ impl PlaneRenderer {
             let d = |k: usize| shapes[k].signed_distance(out.proxy).abs();
             d(a).total_cmp(&d(b))
         });
+        let mut force = out.force;
         if let Some(k) = touched {
+            // A contact pushes, never pulls: the damper of a grip leaving the surface would
+            // draw it back in.
+            let normal = surfaces[k].normal;
+            force -= normal * force.dot(normal).min(0.0);
             self.resting[p] = Some(k);
             let object = self.current.planes[p].planes[k].object;
             self.touched[p] = Some((object, surfaces[k]));
             if let Some(i) = self.owner(object) {
                 let centre = self.locals[i].map_or(DVec3::ZERO, |b| b.motion().position);
                 let load = &mut self.loads[i];
-                load.0 -= out.force;
-                load.1 += (out.proxy - centre).cross(-out.force);
+                load.0 -= force;
+                load.1 += (out.proxy - centre).cross(-force);
             } else {
                 let sum = &mut self.sums[p][k];
-                let magnitude = out.force.length() * dt;
-                sum.impulse -= out.force * dt;
+                let magnitude = force.length() * dt;
+                sum.impulse -= force * dt;
                 sum.weighted_point += out.proxy * magnitude;
                 sum.weight += magnitude;
             }
         }
-        Wrench::force(out.force)
+        Wrench::force(force)
     }
 
     /// A face a proxy rests on stays the face it rests on: a new set whose plane of that
