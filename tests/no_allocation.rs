@@ -340,8 +340,8 @@ fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
 fn a_haptic_tick_of_a_rapier_scene_does_not_allocate() {
     // Handing back impulses, and moving the block here under the finger (local dynamics).
     for feedback in ["impulse", "local"] {
-        let shipped = std::fs::read_to_string(support::repo_dir().join("config/scenes/push.yaml"))
-            .unwrap();
+        let shipped =
+            std::fs::read_to_string(support::repo_dir().join("config/scenes/push.yaml")).unwrap();
         let path = support::scratch_root().join(format!(
             "no-allocation-{}-push-{feedback}.yaml",
             std::process::id()
@@ -412,7 +412,10 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
         }
     });
     assert_eq!(n, 0, "{feedback}: {n} allocations in 400 ticks");
-    assert!(pushed > 1.0, "{feedback}: the block did not push back: {pushed} N");
+    assert!(
+        pushed > 1.0,
+        "{feedback}: the block did not push back: {pushed} N"
+    );
     // Pushed along +x, the block is seen moving between physics steps (6.5.2), not in eight
     // jumps of an eighth of its travel: far more places than steps, and no jump as large.
     let mut places = block_x.clone();
@@ -424,7 +427,10 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
         .map(|w| (w[1] - w[0]).abs())
         .fold(0.0, f64::max);
     assert!(travel > 0.01, "{feedback}: the block moved {travel} m");
-    assert!(jump < travel / 16.0, "{feedback}: a jump of {jump} m in {travel} m");
+    assert!(
+        jump < travel / 16.0,
+        "{feedback}: a jump of {jump} m in {travel} m"
+    );
     // While the block pushed back, the proxy rested on its face, short of the finger.
     assert!(proxy_x < pointers[0].pose.position.x - 1e-3, "{proxy_x}");
 }
