@@ -10,8 +10,10 @@
 //! kernel sends SIGXCPU). A world that stops fitting is made an ordinary thread again, and
 //! said so once; it becomes real-time again only once it takes under a quarter of its period
 //! (hysteresis: a world on the edge does not flip). Whatever its scheduling, the thread rests
-//! after each step at least as long as the step kept it busy: a world too large for its rate
-//! runs slower, using at most about half a CPU, instead of leaving the CPU a sliver.
+//! after each step at least as long as the step computed: a world too large for its rate
+//! runs slower, using at most about half a CPU, instead of leaving the CPU a sliver. (CPU
+//! time, not time on the clock: a plugin that waits, or a thread that others held off its
+//! CPU, has left the CPU to others already.)
 
 use std::fmt;
 
@@ -175,13 +177,13 @@ impl PhysicsBudget {
         verdict
     }
 
-    /// When to wake for the next step, now at `now_ns` after `busy_ns` of work since the
-    /// thread last woke: the next deadline, or, where that leaves less rest than the work
-    /// took, as much rest as the work (a world behind its rate steps from then on, instead
-    /// of catching up). Also whether the world fell behind its rate.
-    pub fn wake(&mut self, now_ns: u64, busy_ns: u64) -> (u64, bool) {
+    /// When to wake for the next step, now at `now_ns` after `worked_ns` of CPU time since
+    /// the thread last woke: the next deadline, or, where that leaves less rest than the
+    /// work took, as much rest as the work (a world behind its rate steps from then on,
+    /// instead of catching up). Also whether the world fell behind its rate.
+    pub fn wake(&mut self, now_ns: u64, worked_ns: u64) -> (u64, bool) {
         self.next_ns += self.period_ns;
-        let rested = now_ns + busy_ns;
+        let rested = now_ns + worked_ns;
         let behind = self.next_ns < rested;
         if behind {
             self.next_ns = rested;
@@ -206,45 +208,37 @@ fn thread_cpu_ns() -> u64 {
 pub struct Pacer {
     scene: String,
     budget: PhysicsBudget,
-    /// The thread's CPU time when the last step's work began.
+    /// The thread's CPU time when it last woke.
     cpu_ns: u64,
-    /// When the thread last woke.
-    woke_ns: u64,
 }
 
 impl Pacer {
     /// The pacing of scene `scene`'s world, stepped every `period_ns` from now.
     pub fn new(scene: String, period_ns: u64) -> Self {
-        let now = monotonic_ns();
         Self {
             scene,
-            budget: PhysicsBudget::new(period_ns, realtime_budget_ns(), now),
+            budget: PhysicsBudget::new(period_ns, realtime_budget_ns(), monotonic_ns()),
             cpu_ns: thread_cpu_ns(),
-            woke_ns: now,
         }
     }
 
     /// After a step (and its publishing): switch the scheduling as the budget says, and
     /// sleep until the next step is due. Returns whether the world fell behind its rate.
     pub fn rest(&mut self) -> bool {
-        let cpu = thread_cpu_ns();
-        let verdict = self.budget.judge(cpu - self.cpu_ns);
+        let worked = thread_cpu_ns() - self.cpu_ns;
+        let verdict = self.budget.judge(worked);
         match verdict.switch {
-            Some(true) => {
-                if !matches!(become_realtime(PHYSICS_PRIORITY), Scheduling::Fifo(_)) {
-                    self.budget.refused();
-                }
+            Some(true) if !matches!(become_realtime(PHYSICS_PRIORITY), Scheduling::Fifo(_)) => {
+                self.budget.refused()
             }
             Some(false) => become_ordinary(),
-            None => {}
+            _ => {}
         }
         if let Some(news) = verdict.too_large {
             tracing::warn!("scene {}: {news}", self.scene);
         }
-        let now = monotonic_ns();
-        let (wake, behind) = self.budget.wake(now, now - self.woke_ns);
+        let (wake, behind) = self.budget.wake(monotonic_ns(), worked);
         sleep_until(wake);
-        self.woke_ns = monotonic_ns();
         self.cpu_ns = thread_cpu_ns();
         behind
     }
@@ -397,6 +391,15 @@ mod tests {
             assert_eq!(b.judge(MS / 10), Verdict::default());
         }
         assert!(!b.realtime());
+    }
+
+    #[test]
+    fn a_step_that_waited_instead_of_computing_steps_again_at_once() {
+        let mut b = PhysicsBudget::new(20 * MS, None, 0);
+        // The plugin slept a second in its step, computing 1 ms: it is behind, and goes on
+        // 1 ms later, not a second later.
+        assert_eq!(b.wake(1000 * MS, MS), (1001 * MS, true));
+        assert_eq!(b.wake(1002 * MS, MS), (1021 * MS, false));
     }
 
     #[test]

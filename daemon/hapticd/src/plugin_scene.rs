@@ -20,7 +20,7 @@ use std::thread::JoinHandle;
 
 use hapticd_plugin_api::*;
 
-use crate::clock::{monotonic_ns, sleep_until};
+use crate::physics_budget::Pacer;
 use crate::plugin;
 use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
@@ -201,27 +201,11 @@ struct MultiRateScene {
     planes_in: Reader<PlaneSet>,
     impulses_out: spsc::Producer<HapticdImpulse>,
     rate: f64,
-    /// Physics steps taken, and how many of them came late.
+    /// Physics steps taken, and how many of them fell behind the world's rate.
     steps: Arc<(AtomicU64, AtomicU64)>,
     failed: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
-}
-
-/// SCHED_FIFO priority of a physics thread: the lowest, above every ordinary task and below
-/// every haptic thread.
-const PHYSICS_PRIORITY: i32 = 1;
-
-/// Steps a physics thread runs as an ordinary thread before it may become real-time: long
-/// enough to see how long the world takes to step.
-const WARM_UP_STEPS: u64 = 5;
-
-/// Whether a step that took `took_ns` leaves room under the kernel's real-time budget
-/// (`budget_ns`, None: unlimited): a real-time thread that computes past RLIMIT_RTTIME
-/// without blocking gets SIGXCPU, which hapticd takes for its haptic thread overrunning, so
-/// only a world that steps in a quarter of it runs real-time.
-fn fits_realtime(took_ns: u64, budget_ns: Option<u64>) -> bool {
-    budget_ns.is_none_or(|budget| took_ns < budget / 4)
 }
 
 impl MultiRateScene {
@@ -249,15 +233,13 @@ impl MultiRateScene {
         let steps = Arc::new((AtomicU64::new(0), AtomicU64::new(0)));
         let counts = steps.clone();
         let period_ns = (1e9 / rate) as u64;
+        let scene = name.clone();
         let thread = std::thread::Builder::new()
             .name("hapticd-physics".into())
             .spawn(move || {
-                // Off the haptic CPUs like every helper, but, once it is seen to step well
-                // within the real-time budget, above every ordinary task there: a busy
-                // machine must not starve it into stale planes.
-                let budget = crate::realtime::realtime_budget_ns();
-                // Real-time now, and whether a step ever took too long for it.
-                let (mut realtime, mut too_slow) = (false, false);
+                // Off the haptic CPUs like every helper, and real-time only while its steps
+                // fit its budget.
+                let mut pacer = Pacer::new(scene, period_ns);
                 // Move the whole instance in (not just its fields): it is destroyed with it.
                 let instance = instance;
                 let step = instance.vtable.step_physics.expect("checked at load");
@@ -265,14 +247,12 @@ impl MultiRateScene {
                 let mut planes = [HapticdPlanes::default(); MAX_EFFECTORS];
                 let mut bodies = BodySet::new();
                 let mut sequence = 0;
-                let mut next = monotonic_ns();
                 while !stop_flag.load(Ordering::Acquire) {
                     impulses.clear();
                     while let Some(i) = impulses_in.pop() {
                         impulses.push(i);
                     }
                     let pointers = *pointers_in.latest();
-                    let started = monotonic_ns();
                     // SAFETY: buffers hold `n` pointers and planes and the impulses listed;
                     // the instance belongs to this thread.
                     let status = unsafe {
@@ -290,17 +270,6 @@ impl MultiRateScene {
                         failed_flag.store(true, Ordering::Release);
                         return;
                     }
-                    let fits = fits_realtime(monotonic_ns() - started, budget);
-                    too_slow |= !fits;
-                    if realtime && !fits {
-                        crate::realtime::become_ordinary();
-                        realtime = false;
-                    } else if !realtime && !too_slow && sequence >= WARM_UP_STEPS {
-                        realtime = matches!(
-                            crate::realtime::become_realtime(PHYSICS_PRIORITY),
-                            crate::realtime::Scheduling::Fifo(_)
-                        );
-                    }
                     sequence += 1;
                     planes_out.publish(|set| {
                         set.sequence = sequence;
@@ -316,16 +285,8 @@ impl MultiRateScene {
                         set.before[..count].copy_from_slice(&bodies.before[..count]);
                         set.after[..count].copy_from_slice(&bodies.after[..count]);
                     });
-                    next += period_ns;
-                    let now = monotonic_ns();
-                    if next > now {
-                        sleep_until(next);
-                    } else {
-                        // Late: a world too large for its rate. Still leave the CPU a tenth
-                        // of a period, to the helpers and to the kernel's RLIMIT_RTTIME.
+                    if pacer.rest() {
                         counts.1.fetch_add(1, Ordering::Relaxed);
-                        next = now + period_ns / 10;
-                        sleep_until(next);
                     }
                     counts.0.fetch_add(1, Ordering::Relaxed);
                 }
@@ -413,24 +374,12 @@ impl Drop for MultiRateScene {
         );
         if late > 0 {
             tracing::warn!(
-                "scene {}: {late} of {steps} physics steps came late: the world takes longer \
-                 than {:.1} ms to step; give it a lower rate or fewer bodies",
+                "scene {}: {late} of {steps} physics steps fell behind the world's {:.1} ms \
+                 period (a step that leaves less of it than it took is followed by as long a \
+                 rest, so the world ran slower); give it a lower rate or fewer bodies",
                 self.name,
                 1e3 / self.rate
             );
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn only_a_world_that_steps_in_a_quarter_of_the_budget_runs_real_time() {
-        let budget = Some(200_000_000); // LimitRTTIME=200ms
-        assert!(fits_realtime(49_000_000, budget));
-        assert!(!fits_realtime(50_000_000, budget));
-        assert!(fits_realtime(u64::MAX, None));
     }
 }
