@@ -9,7 +9,8 @@
 //! period (and, when `RLIMIT_RTTIME` is limited, each under a quarter of it: past that the
 //! kernel sends SIGXCPU). A world that stops fitting is made an ordinary thread again, and
 //! said so once; it becomes real-time again only once it takes under a quarter of its period
-//! (hysteresis: a world on the edge does not flip). Whatever its scheduling, the thread rests
+//! (hysteresis: a world on the edge does not flip); as an ordinary thread it then yields to
+//! the others on its CPU (nice 10). Whatever its scheduling, the thread rests
 //! after each step at least as long as the step computed: a world too large for its rate
 //! runs slower, using at most about half a CPU, instead of leaving the CPU a sliver. (CPU
 //! time, not time on the clock: a plugin that waits, or a thread that others held off its
@@ -23,6 +24,10 @@ use crate::realtime::{Scheduling, become_ordinary, become_realtime, realtime_bud
 /// SCHED_FIFO priority of a physics thread: the lowest, above every ordinary task and below
 /// every haptic thread.
 pub const PHYSICS_PRIORITY: i32 = 1;
+
+/// The nice value of a physics thread once its world was found too large: the ordinary
+/// threads on its CPU (the daemon's bus and supervisor among them) come first.
+pub const TOO_LARGE_NICE: i32 = 10;
 
 /// Steps not judged at the start: building a world's broad phase makes its first steps slow.
 const WARM_UP_STEPS: u32 = 3;
@@ -57,7 +62,7 @@ impl fmt::Display for TooLarge {
         write!(
             f,
             "the world is too large for its rate: steps take {:.1} ms of a {:.1} ms period; \
-             running it as an ordinary thread at about {:.0} Hz",
+             running it as an ordinary thread (nice {TOO_LARGE_NICE}) at about {:.0} Hz",
             self.step_ns as f64 * 1e-6,
             self.period_ns as f64 * 1e-6,
             self.rate()
@@ -192,6 +197,20 @@ impl PhysicsBudget {
     }
 }
 
+/// [physics] Give the calling thread the nice value [`TOO_LARGE_NICE`] (kept from then on:
+/// the nice value does not matter to it while it is real-time).
+fn yield_to_others() {
+    // SAFETY: plain system calls; a thread id names only the calling thread. A refusal
+    // leaves it at its nice value, which is safe.
+    unsafe {
+        libc::setpriority(
+            libc::PRIO_PROCESS,
+            libc::gettid() as libc::id_t,
+            TOO_LARGE_NICE,
+        )
+    };
+}
+
 /// [physics] CPU time the calling thread has used, nanoseconds.
 fn thread_cpu_ns() -> u64 {
     let mut ts = libc::timespec {
@@ -235,6 +254,7 @@ impl Pacer {
             _ => {}
         }
         if let Some(news) = verdict.too_large {
+            yield_to_others();
             tracing::warn!("scene {}: {news}", self.scene);
         }
         let (wake, behind) = self.budget.wake(monotonic_ns(), worked);
@@ -309,7 +329,7 @@ mod tests {
         assert_eq!(
             news.to_string(),
             "the world is too large for its rate: steps take 20.0 ms of a 1.0 ms period; \
-             running it as an ordinary thread at about 25 Hz"
+             running it as an ordinary thread (nice 10) at about 25 Hz"
         );
         for _ in 0..1000 {
             assert_eq!(b.judge(20 * MS), Verdict::default());
