@@ -176,8 +176,8 @@ fn a_world_too_large_for_its_rate_leaves_the_machine_usable_and_the_device_stead
     while !log.lock().unwrap().contains(TOO_LARGE) && started.elapsed().as_secs_f64() < 8.0 {
         std::thread::sleep(Duration::from_millis(50));
     }
-    std::thread::sleep(Duration::from_millis(500));
     let judged = started.elapsed().as_secs_f64();
+    std::thread::sleep(Duration::from_millis(500));
     // Rounds that ended with hapticd still running ran beside the world throughout.
     let running = |child: &mut std::process::Child| child.try_wait().unwrap().is_none();
     let mut loaded = Vec::new();
