@@ -158,17 +158,37 @@ fn rapier_world(text: &str) -> hapticd_rapier::world::RapierWorld {
 /// a third of a second into their fall into a pile, the pointer's planes included.
 #[divan::bench(args = WORLDS, sample_count = 20, sample_size = 1)]
 fn rapier_scene_step(bencher: Bencher, n: usize) {
-    use hapticd_plugin_api::{HapticdPlanes, HapticdPointer};
+    use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
+    use hapticd_plugin_api::{
+        HAPTICD_MAX_LOCAL_BODIES, HapticdLocalBody, HapticdPlanes, HapticdPointer,
+    };
     let mut world = rapier_world(&support::pile::scene(n, 60.0, 0));
     let pointer = [HapticdPointer {
         position: [0.0, 0.02, 0.0],
         ..HapticdPointer::default()
     }];
     let mut planes = [HapticdPlanes::default()];
+    let mut bodies = [HapticdLocalBody::default(); HAPTICD_MAX_LOCAL_BODIES];
+    let mut step = || {
+        world.step(
+            &PhysicsInput {
+                dt: 1.0 / 60.0,
+                pointers: &pointer,
+                proxies: &pointer,
+                impulses: &[],
+                locals: &[],
+            },
+            &mut PhysicsOutput {
+                planes: &mut planes,
+                bodies: &mut bodies,
+                body_count: &mut 0,
+            },
+        )
+    };
     for _ in 0..20 {
-        world.step(1.0 / 60.0, &pointer, &[], &mut planes);
+        step();
     }
-    bencher.bench_local(|| world.step(1.0 / 60.0, &pointer, &[], &mut planes));
+    bencher.bench_local(step);
 }
 
 /// The intermediate representation (6.3.1) of one pointer at a corner of one layer of
@@ -180,10 +200,64 @@ fn intermediate_representation(bencher: Bencher, n: usize) {
     let mut world = rapier_world(&support::pile::scene(n, 60.0, 1));
     let mut planes = HapticdPlanes::default();
     // One step builds the broad phase's tree; the bodies have not moved yet.
-    world.step(1.0 / 60.0, &[], &[], &mut []);
+    world.advance(1.0 / 60.0);
     let side = (n as f64).sqrt().ceil();
     let corner = DVec3::new(-side * 0.015, 0.0, -side * 0.015);
     world.surfaces_near(corner, &mut planes);
     assert!(planes.count > 0, "nothing near the corner");
     bencher.bench_local(|| world.surfaces_near(corner, &mut planes));
+}
+
+/// Touched bodies a haptic tick moves itself under local dynamics (thesis 6.5.4).
+const TOUCHED: [usize; 3] = [1, 10, 50];
+
+/// One haptic tick of `n` bodies moved here under the hand, each a block resting on four
+/// contacts and pushed: local dynamics' cost per tick.
+#[divan::bench(args = TOUCHED)]
+fn local_dynamics_tick(bencher: Bencher, n: usize) {
+    use hapticd_core::scene::local_dynamics::{Change, LocalBody};
+    use hapticd_plugin_api::{HapticdBodyContact, HapticdLocalBody};
+    let mut record = HapticdLocalBody {
+        orientation: [1.0, 0.0, 0.0, 0.0],
+        inverse_mass: 1.0,
+        inverse_inertia: glam::DMat3::from_diagonal(DVec3::splat(600.0)).to_cols_array(),
+        acceleration: [0.0, -9.81, 0.0],
+        contact_count: 4,
+        ..HapticdLocalBody::default()
+    };
+    for (k, (x, z)) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .into_iter()
+        .enumerate()
+    {
+        record.contacts[k] = HapticdBodyContact {
+            point: [0.05 * x, -0.05, 0.05 * z],
+            normal: [0.0, 1.0, 0.0],
+            gap: 0.0,
+            friction: 0.3,
+        };
+    }
+    let mut bodies: Vec<LocalBody> = (0..n)
+        .map(|_| LocalBody::new(&record, &Change::default(), 0.05, None).unwrap())
+        .collect();
+    bencher.bench_local(|| {
+        for body in &mut bodies {
+            body.step(DVec3::new(5.0, -2.0, 0.0), DVec3::new(0.0, 0.01, 0.0), 1e-3);
+        }
+    });
+}
+
+/// The impulse path's work for the same `n` touched objects per tick: the force summed into
+/// each one's impulse and weighted point (the physics moves them later).
+#[divan::bench(args = TOUCHED)]
+fn impulse_sum_tick(bencher: Bencher, n: usize) {
+    let mut sums = vec![(DVec3::ZERO, DVec3::ZERO, 0.0f64); n];
+    let (force, point) = (DVec3::new(5.0, -2.0, 0.0), DVec3::new(0.01, 0.05, 0.0));
+    bencher.bench_local(|| {
+        for sum in &mut sums {
+            let magnitude = divan::black_box(force).length() * 1e-3;
+            sum.0 -= force * 1e-3;
+            sum.1 += point * magnitude;
+            sum.2 += magnitude;
+        }
+    });
 }

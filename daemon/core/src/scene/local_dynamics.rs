@@ -268,16 +268,13 @@ impl LocalBody {
     }
 
     /// Where a point and a direction found at the published state are now, as shown, and
-    /// the velocity of the body there.
+    /// the velocity of the body there. The plane goes with the centre, not with the turn: it
+    /// is the nearest face to a finger, not a material one, and the nearest face of a ball
+    /// stays where it is however the ball spins (a box turns little in one period).
     pub fn carry(&self, point: DVec3, normal: DVec3) -> (DVec3, DVec3, DVec3) {
         let now = self.shown();
-        let turn = now.orientation * self.base.orientation.inverse();
-        let at = now.position + turn * (point - self.base.position);
-        (
-            at,
-            turn * normal,
-            now.velocity + now.spin.cross(at - now.position),
-        )
+        let at = point + (now.position - self.base.position);
+        (at, normal, now.velocity + now.spin.cross(at - now.position))
     }
 
     /// The state under the hand.

@@ -7,10 +7,10 @@
 //! - `rapier`: rapier3d's constraint solver at `rate:` steps per second in hapticd's physics
 //!   thread (thesis Ch. 6); the hand feels the surfaces near each pointer as planes moved
 //!   between physics steps. The bodies near a pointer move with the hand in the haptic
-//!   thread and the physics takes back what the hand did to them (`feedback: local`, the
-//!   default; thesis 6.5.4); for comparison, each body gets back the impulse of the force
-//!   felt (`feedback: impulse`), or is pushed by a solid placed where the hand was when the
-//!   physics sampled it (`feedback: position`).
+//!   thread and the physics takes back what the hand did to them (`feedback: local`,
+//!   thesis 6.5.4); each body gets back the impulse of the force felt (`feedback: impulse`,
+//!   the default), or is pushed by a solid placed where the hand was when the physics
+//!   sampled it (`feedback: position`, the conventional method).
 //!
 //! Bodies, gravity, `static_friction` and `friction` mean the same under both; a key only
 //! one engine reads is an error, at its place, under the other. A penalty scene:
@@ -817,8 +817,8 @@ impl SceneFile {
         let Some((dt, penalty)) = penalty else {
             let feedback = match raw.feedback {
                 Some(RawFeedback::Position) => Feedback::Position,
-                Some(RawFeedback::Impulse) => Feedback::Impulse,
-                Some(RawFeedback::Local) | None => Feedback::Local,
+                Some(RawFeedback::Local) => Feedback::Local,
+                Some(RawFeedback::Impulse) | None => Feedback::Impulse,
             };
             return Ok(SceneFile::Rapier(Box::new(MultiRateWorld {
                 name: raw.name,
