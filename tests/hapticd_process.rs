@@ -310,6 +310,76 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
     std::fs::remove_file(csv).ok();
 }
 
+/// Run the bad-output fixture in `mode` on the simulated SPIDAR-G pressing on its floor for
+/// 1.4 s; the rows as (time, state, force x, y, z) and hapticd's stderr.
+fn bad_output(mode: &str) -> (Vec<(f64, String, [f64; 3])>, String) {
+    let file = scratch(&format!("{mode}-output.scene"));
+    std::fs::write(&file, mode).unwrap();
+    let csv = scratch(&format!("{mode}-output.csv"));
+    let plugin = plugin_path("hapticd-test-bad-output-scene");
+    let out = pressed(
+        &plugin,
+        "1.4",
+        &csv,
+        &["--scene-file", file.to_str().unwrap()],
+    );
+    let names = ["time", "state", "grip_fx", "grip_fy", "grip_fz"];
+    let rows = columns(&csv, &names)
+        .iter()
+        .map(|r| {
+            let f = |i: usize| r[i].parse::<f64>().unwrap();
+            (f(0), r[1].clone(), [f(2), f(3), f(4)])
+        })
+        .collect();
+    std::fs::remove_file(csv).ok();
+    std::fs::remove_file(file).ok();
+    (rows, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// The fixture's floor pushes back while its output is good (the grip reaches it at 0.8 s;
+/// it turns bad 0.2 s later); from 1.1 s to the end the device is in fault with no force,
+/// and the log says why, once.
+fn faults_for_bad_output(mode: &str, why: &str) {
+    let (rows, stderr) = bad_output(mode);
+    let pushing = rows.iter().filter(|r| (0.85..0.95).contains(&r.0));
+    for (t, state, f) in pushing {
+        assert!(
+            state == "running" && f[1] > 1.0,
+            "{mode}: t = {t}: {state} {f:?}"
+        );
+    }
+    let after: Vec<_> = rows.iter().filter(|r| r.0 >= 1.1).collect();
+    assert!(
+        after.len() > 250,
+        "{mode}: ran on for {} ticks",
+        after.len()
+    );
+    for (t, state, f) in after {
+        assert_eq!((state.as_str(), *f), ("fault", [0.0; 3]), "{mode}: t = {t}");
+    }
+    let said = stderr.matches("scene plugin output refused").count();
+    assert!(
+        said == 1 && stderr.contains(why),
+        "{mode}: {said} times: {stderr}"
+    );
+}
+
+#[test]
+fn a_direct_scene_whose_wrenches_no_world_gives_is_a_fault_that_says_why() {
+    faults_for_bad_output("huge", "pointer 0: a force of 1.000e30 N, beyond 1000 N");
+    faults_for_bad_output("alternating", "pointer 0: its force x reversed by 9.0");
+    faults_for_bad_output("nan", "pointer 0: its wrench is not finite");
+}
+
+#[test]
+fn a_multi_rate_scene_whose_planes_no_world_publishes_is_a_fault_that_says_why() {
+    faults_for_bad_output("velocity", "plane 0: its surface moves at 1.000e300 m/s");
+    faults_for_bad_output("duplicate", "pointer 0: two planes of object 7");
+    faults_for_bad_output("normal", "plane 0: its normal is 2.000000 long");
+    faults_for_bad_output("point", "plane 0: its point is not finite");
+    faults_for_bad_output("count", "pointer 0: 9 planes, more than the 8 allowed");
+}
+
 /// The simulated SPIDAR-II's two fingers pick up the 1 kg box of the grasp scene (thesis
 /// 4.7.1, g = 2 m/s²), hold it 3 cm up, shake it 5 cm to the side eight times, hold it still,
 /// and put it down: held, the fingers carry its weight between them by friction; they keep it

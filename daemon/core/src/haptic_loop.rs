@@ -216,7 +216,7 @@ impl HapticLoop {
     pub fn new(
         mechanism: Mechanism,
         transport: Box<dyn Transport>,
-        scene: Box<dyn Scene>,
+        mut scene: Box<dyn Scene>,
         settings: LoopSettings,
     ) -> Result<Self, LoopError> {
         if mechanism.strings.len() > CHANNELS {
@@ -251,6 +251,7 @@ impl HapticLoop {
             })
             .collect();
         let pointers = Pointer::at_calibration(&mechanism);
+        scene.set_wrench_limits(settings.safety.max_force, settings.safety.max_torque);
         let frame = Frame {
             effectors: mechanism.effectors.len(),
             strings: mechanism.strings.len(),
@@ -324,6 +325,8 @@ impl HapticLoop {
                     });
                 }
                 self.scene.set_proxy(&parameters.proxy);
+                self.scene
+                    .set_wrench_limits(parameters.max_force, parameters.max_torque);
                 self.parameters = Some(parameters);
             }
             LoopCommand::MeasureOffsets => self.measure = true,
@@ -394,6 +397,11 @@ impl HapticLoop {
         if let Some(p) = &self.parameters {
             scene.set_proxy(&p.proxy);
         }
+        let limits = self
+            .effectors
+            .first()
+            .map_or(self.settings.safety, |e| *e.guard.limits());
+        scene.set_wrench_limits(limits.max_force, limits.max_torque);
         let old = std::mem::replace(&mut self.scene, scene);
         self.scene_hold.clear();
         self.keep_retired(Retired::Scene(old));

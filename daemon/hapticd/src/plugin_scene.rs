@@ -9,8 +9,10 @@
 //!   over each physics period (6.3.4) and hands those back (6.3.5).
 //!
 //! A plugin that fails or panics is disabled: its wrenches are zero and the loop reports the
-//! fault, so the forces ramp down. A multi-rate scene that stops publishing is treated the
-//! same way once its planes are three periods old.
+//! fault, so the forces ramp down. So is one whose wrenches or planes no world gives
+//! ([`output_check`](hapticd_core::scene::output_check): checked here, at the boundary), and
+//! the scene says why ([`Scene::fault`]) for the daemon to log. A multi-rate scene that stops
+//! publishing is treated the same way once its planes are three periods old.
 
 use std::ffi::{CString, c_void};
 use std::path::Path;
@@ -26,6 +28,7 @@ use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
+use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_planes};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
@@ -108,6 +111,8 @@ pub fn load(
             pointers: vec![HapticdPointer::default(); pointers.len()],
             wrenches: vec![HapticdWrench::default(); pointers.len()],
             failed: false,
+            check: WrenchChecker::default(),
+            fault: None,
         })),
         HAPTICD_SCENE_MULTIRATE
             if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
@@ -131,6 +136,9 @@ struct DirectScene {
     pointers: Vec<HapticdPointer>,
     wrenches: Vec<HapticdWrench>,
     failed: bool,
+    check: WrenchChecker,
+    /// Why the plugin was disabled, when it was for its wrenches.
+    fault: Option<OutputFault>,
 }
 
 impl Scene for DirectScene {
@@ -164,10 +172,25 @@ impl Scene for DirectScene {
         for (out, w) in wrenches.iter_mut().zip(&self.wrenches) {
             *out = Wrench::from(*w);
         }
+        // Wrenches no world gives disable the plugin, as a failure does, instead of being
+        // clamped and felt.
+        if let Err(fault) = self.check.check(wrenches) {
+            wrenches.fill(Wrench::ZERO);
+            (self.failed, self.fault) = (true, Some(fault));
+            return false;
+        }
         true
     }
 
     fn reset(&mut self, _pointers: &[Pointer]) {}
+
+    fn set_wrench_limits(&mut self, max_force: f64, max_torque: f64) {
+        self.check.set_limits(max_force, max_torque);
+    }
+
+    fn fault(&self) -> Option<OutputFault> {
+        self.fault
+    }
 
     fn write_bodies(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
         self.instance.poses(poses)
@@ -204,6 +227,10 @@ struct MultiRateScene {
     /// Physics steps taken, and how many of them fell behind the world's rate.
     steps: Arc<(AtomicU64, AtomicU64)>,
     failed: Arc<AtomicBool>,
+    /// Why the physics thread disabled the plugin, when it was for its planes: sent before
+    /// `failed` is set, kept in `fault` once taken.
+    faults_in: spsc::Consumer<OutputFault>,
+    fault: Option<OutputFault>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
@@ -225,6 +252,7 @@ impl MultiRateScene {
         let (mut planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
         let (mut bodies_out, bodies_in) = triple_buffer::triple_buffer(BodySet::new());
         let (impulses_out, mut impulses_in) = spsc::channel(1024);
+        let (mut faults_out, faults_in) = spsc::channel(1);
         let (stop, failed) = (
             Arc::new(AtomicBool::new(false)),
             Arc::new(AtomicBool::new(false)),
@@ -270,6 +298,12 @@ impl MultiRateScene {
                         failed_flag.store(true, Ordering::Release);
                         return;
                     }
+                    // Planes no world publishes disable the plugin, as a failure does.
+                    if let Err(fault) = check_planes(&planes[..n]) {
+                        faults_out.push(fault);
+                        failed_flag.store(true, Ordering::Release);
+                        return;
+                    }
                     sequence += 1;
                     planes_out.publish(|set| {
                         set.sequence = sequence;
@@ -301,6 +335,8 @@ impl MultiRateScene {
             rate,
             steps,
             failed,
+            faults_in,
+            fault: None,
             stop,
             thread: Some(thread),
         })
@@ -325,10 +361,17 @@ impl Scene for MultiRateScene {
             impulses.push(i);
         });
         if self.failed.load(Ordering::Acquire) || !fresh {
+            if let Some(fault) = self.faults_in.pop() {
+                self.fault = Some(fault);
+            }
             wrenches.fill(Wrench::ZERO);
             return false;
         }
         true
+    }
+
+    fn fault(&self) -> Option<OutputFault> {
+        self.fault
     }
 
     fn reset(&mut self, pointers: &[Pointer]) {

@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
 use hapticd_core::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, Retired};
+use hapticd_core::scene::output_check::OutputFault;
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader};
@@ -51,6 +52,13 @@ pub enum LoopEvent {
         state: DeviceState,
         /// The transport error, if any.
         error: Option<hapticd_core::transport::TransportError>,
+    },
+    /// The scene's plugin was disabled at `time` for what it output.
+    SceneFault {
+        /// Loop time, seconds.
+        time: f64,
+        /// What was wrong.
+        fault: OutputFault,
     },
     /// A tick ended after the next deadline.
     Overrun {
@@ -209,6 +217,8 @@ impl RealtimeLoop {
                 prefault_stack();
                 let mut stats = LoopStats::default();
                 let mut state = DeviceState::Running;
+                // The scene (by its switch count) whose fault was reported.
+                let mut reported = None;
                 let mut next = monotonic_ns();
                 let mut published = next;
                 let mut pictured = next;
@@ -234,6 +244,16 @@ impl RealtimeLoop {
                     {
                         w.write(|picture| picture.capture(&mut haptic, settings.rate));
                         pictured = woke;
+                    }
+                    // Once per scene: its fault never changes once it is found.
+                    if let Some(fault) = haptic.scene().fault()
+                        && reported != Some(frame.scene_switches)
+                    {
+                        reported = Some(frame.scene_switches);
+                        events.push(LoopEvent::SceneFault {
+                            time: frame.time,
+                            fault,
+                        });
                     }
                     if frame.state != state {
                         state = frame.state;

@@ -6,10 +6,12 @@
 //!   physics steps (thesis 6.5.4);
 //! - [`multirate`]: the haptic side of a world stepped at a low rate elsewhere (thesis
 //!   Ch. 6): interpolated planes, the proxy and the impulses handed back;
+//! - [`output_check`]: a plugin's planes and wrenches checked before they are used;
 //! - scenes from plugins, direct or multi-rate, live in the daemon (they load code).
 
 pub mod local_dynamics;
 pub mod multirate;
+pub mod output_check;
 pub mod static_scene;
 
 use glam::DVec3;
@@ -71,6 +73,17 @@ pub trait Scene: Send {
     /// [main] The proxy parameters the scene renders with, if it renders through a proxy
     /// (before the loop tunes it: those its file gives).
     fn proxy(&self) -> Option<ProxyParameters> {
+        None
+    }
+
+    /// [rt] Judge the wrenches asked for against the device's limits from now on (MaxForce,
+    /// newtons; MaxTorque, newton-metres): a scene from a plugin takes one far beyond them
+    /// for a broken plugin. Others ignore them.
+    fn set_wrench_limits(&mut self, _max_force: f64, _max_torque: f64) {}
+
+    /// [rt] Why the scene failed, when its plugin's output was refused at the boundary
+    /// (None while it renders, or when it failed for another reason). The daemon logs it.
+    fn fault(&self) -> Option<output_check::OutputFault> {
         None
     }
 

@@ -54,6 +54,11 @@ pub fn spawn_event_logger(
                             }
                         }
                     }
+                    LoopEvent::SceneFault { time, fault } => tracing::error!(
+                        "{identity}: {time:.3} s: scene plugin output refused: {fault}; the \
+                         plugin is disabled and the forces ramped to zero (switch scenes to load \
+                         it again)"
+                    ),
                     LoopEvent::Overrun { time, late_ns } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.

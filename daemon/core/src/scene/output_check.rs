@@ -1,0 +1,682 @@
+//! A scene plugin's output checked at the boundary, before the haptic side uses it (issue
+//! 24): what no world a hand can touch produces is a plugin fault, not something to clamp and
+//! display. The daemon disables the plugin (its scene renders no more, so the loop ramps the
+//! forces to zero) and logs the [`OutputFault`] once, off the real-time thread.
+//!
+//! - Multi-rate planes ([`check_planes`]): more than [`HAPTICD_MAX_PLANES`] for a pointer, a
+//!   non-finite point, a normal that is not of unit length, a surface faster than
+//!   [`MAX_SURFACE_SPEED`], or two planes of one object under one pointer (the haptic side
+//!   pairs a plane with its predecessor, hands impulses back and keeps touched faces by
+//!   object, so a repeated object makes it jump between surfaces).
+//! - Direct wrenches ([`WrenchChecker`]): non-finite, beyond [`WRENCH_MARGIN`] times the
+//!   device's limits, or zig-zagging by large steps for [`ZIGZAG_TICKS`] ticks in a row.
+//!
+//! Neither allocates: the wrench checker's history is a fixed array per pointer.
+
+use glam::DVec3;
+use hapticd_plugin_api::{HAPTICD_MAX_PLANES, HapticdPlanes};
+
+use crate::haptics::safety::SafetyLimits;
+use crate::kinematics::{MAX_EFFECTORS, Wrench};
+
+/// Fastest surface a plane may report, m/s. A hand moves at a few metres a second (a punch
+/// at about 10), a body thrown in a scene at tens; a surface passing a pointer faster than
+/// this would carry a proxy resting on it 10 cm in a 1 ms tick.
+pub const MAX_SURFACE_SPEED: f64 = 100.0;
+
+/// How far a normal's length may be from 1. Single-precision engines (rapier) normalise to
+/// about 1e-7; a normal off by this much changes a contact force by 0.1 %.
+pub const NORMAL_TOLERANCE: f64 = 1e-3;
+
+/// How many times the device's MaxForce (and MaxTorque) a direct scene may ask for before it
+/// counts as broken. Asking for more than the device gives is normal, and clamped: people push
+/// harder than MaxForce through a penalty surface, which answers stiffness × depth (the
+/// penalty scene's 1000 N/m point model across the whole 0.53 m frame asks 530 N, about half
+/// of this at the default 10 N); nothing a hand can reach asks for more.
+pub const WRENCH_MARGIN: f64 = 100.0;
+
+/// Smallest change of a force component, newtons, that counts toward a zig-zag: a few
+/// newtons, felt as a buzz. A contact's damper on the loop's filtered velocity changes by
+/// less from tick to tick (under 2.5 N for the penalty scene's 50 N·s/m point model, pressed,
+/// shaken and left, in the tests below).
+pub const ZIGZAG_FORCE_STEP: f64 = 4.0;
+
+/// Smallest change of a torque component, newton-metres, that counts toward a zig-zag: the
+/// [`ZIGZAG_FORCE_STEP`] across a grip's 2.25 cm knot radius.
+pub const ZIGZAG_TORQUE_STEP: f64 = 0.09;
+
+/// Ticks in a row whose change reverses the last one's, each by a large step, that make a
+/// wrench a buzz: the Nyquist frequency sustained (20 ms at 1 kHz). A contact moves the grip
+/// at the pace of its spring and the grip's mass, so its force turns back every few ticks; an
+/// encoder step under a heavy damper, or the ring of a hard impact, zig-zags for a few ticks
+/// (8 at most in the tests below: 100 N·s/m on a bare 50 g grip at 1 kHz), never this long.
+pub const ZIGZAG_TICKS: u32 = 20;
+
+/// What was wrong with a plugin's output. Small and `Copy`, so the real-time thread can hand
+/// it on without allocating; [`Display`](std::fmt::Display) says it for the log.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OutputFault {
+    /// More planes for one pointer than the ABI allows.
+    TooManyPlanes {
+        /// The pointer.
+        pointer: usize,
+        /// The count published.
+        count: u32,
+    },
+    /// A plane's point is not finite.
+    PointNotFinite {
+        /// The pointer.
+        pointer: usize,
+        /// The plane's place in the pointer's set.
+        plane: usize,
+    },
+    /// A plane's normal is not of unit length (or not finite).
+    NormalNotUnit {
+        /// The pointer.
+        pointer: usize,
+        /// The plane's place in the pointer's set.
+        plane: usize,
+        /// The normal's length.
+        length: f64,
+    },
+    /// A plane's surface moves faster than [`MAX_SURFACE_SPEED`] (or its velocity is not
+    /// finite).
+    SurfaceTooFast {
+        /// The pointer.
+        pointer: usize,
+        /// The plane's place in the pointer's set.
+        plane: usize,
+        /// The speed, m/s.
+        speed: f64,
+    },
+    /// Two planes of one object under one pointer.
+    DuplicateObject {
+        /// The pointer.
+        pointer: usize,
+        /// The object named twice.
+        object: u32,
+    },
+    /// A wrench is not finite.
+    WrenchNotFinite {
+        /// The pointer.
+        pointer: usize,
+    },
+    /// A force component beyond [`WRENCH_MARGIN`] × MaxForce.
+    ForceTooLarge {
+        /// The pointer.
+        pointer: usize,
+        /// The largest component, newtons (absolute).
+        force: f64,
+        /// The bound, newtons.
+        limit: f64,
+    },
+    /// A torque component beyond [`WRENCH_MARGIN`] × MaxTorque.
+    TorqueTooLarge {
+        /// The pointer.
+        pointer: usize,
+        /// The largest component, newton-metres (absolute).
+        torque: f64,
+        /// The bound, newton-metres.
+        limit: f64,
+    },
+    /// A wrench component zig-zagged for [`ZIGZAG_TICKS`] ticks.
+    ZigZag {
+        /// The pointer.
+        pointer: usize,
+        /// The component: 0–2 force x, y, z; 3–5 torque x, y, z.
+        axis: usize,
+        /// The smallest change of the run (newtons or newton-metres).
+        step: f64,
+    },
+}
+
+impl std::fmt::Display for OutputFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        const AXES: [&str; 6] = [
+            "force x", "force y", "force z", "torque x", "torque y", "torque z",
+        ];
+        match *self {
+            Self::TooManyPlanes { pointer, count } => write!(
+                f,
+                "pointer {pointer}: {count} planes, more than the {HAPTICD_MAX_PLANES} allowed"
+            ),
+            Self::PointNotFinite { pointer, plane } => {
+                write!(
+                    f,
+                    "pointer {pointer}, plane {plane}: its point is not finite"
+                )
+            }
+            Self::NormalNotUnit {
+                pointer,
+                plane,
+                length,
+            } => write!(
+                f,
+                "pointer {pointer}, plane {plane}: its normal is {length:.6} long, not a unit \
+                 vector"
+            ),
+            Self::SurfaceTooFast {
+                pointer,
+                plane,
+                speed,
+            } => write!(
+                f,
+                "pointer {pointer}, plane {plane}: its surface moves at {speed:.3e} m/s, beyond \
+                 {MAX_SURFACE_SPEED} m/s (no hand or body moves that fast)"
+            ),
+            Self::DuplicateObject { pointer, object } => write!(
+                f,
+                "pointer {pointer}: two planes of object {object} (one plane per object and \
+                 pointer)"
+            ),
+            Self::WrenchNotFinite { pointer } => {
+                write!(f, "pointer {pointer}: its wrench is not finite")
+            }
+            Self::ForceTooLarge {
+                pointer,
+                force,
+                limit,
+            } => write!(
+                f,
+                "pointer {pointer}: a force of {force:.3e} N, beyond {limit} N \
+                 ({WRENCH_MARGIN} × MaxForce)"
+            ),
+            Self::TorqueTooLarge {
+                pointer,
+                torque,
+                limit,
+            } => write!(
+                f,
+                "pointer {pointer}: a torque of {torque:.3e} N·m, beyond {limit} N·m \
+                 ({WRENCH_MARGIN} × MaxTorque)"
+            ),
+            Self::ZigZag {
+                pointer,
+                axis,
+                step,
+            } => write!(
+                f,
+                "pointer {pointer}: its {} reversed by {step:.1} or more every tick for \
+                 {ZIGZAG_TICKS} ticks (a buzz)",
+                AXES[axis]
+            ),
+        }
+    }
+}
+
+/// The length of `v`, without overflow for huge components (NaN or infinite when one is).
+fn magnitude(v: DVec3) -> f64 {
+    let largest = v.abs().max_element();
+    if v.is_finite() && largest > 0.0 {
+        largest * (v / largest).length()
+    } else {
+        v.length()
+    }
+}
+
+/// [physics] Check the planes published for each pointer (one [`HapticdPlanes`] per pointer,
+/// in order); the first fault found.
+pub fn check_planes(planes: &[HapticdPlanes]) -> Result<(), OutputFault> {
+    for (pointer, set) in planes.iter().enumerate() {
+        if set.count as usize > HAPTICD_MAX_PLANES {
+            return Err(OutputFault::TooManyPlanes {
+                pointer,
+                count: set.count,
+            });
+        }
+        let used = &set.planes[..set.count as usize];
+        for (plane, p) in used.iter().enumerate() {
+            if !DVec3::from(p.point).is_finite() {
+                return Err(OutputFault::PointNotFinite { pointer, plane });
+            }
+            let length = magnitude(DVec3::from(p.normal));
+            if length.is_nan() || (length - 1.0).abs() > NORMAL_TOLERANCE {
+                return Err(OutputFault::NormalNotUnit {
+                    pointer,
+                    plane,
+                    length,
+                });
+            }
+            let speed = magnitude(DVec3::from(p.velocity));
+            if speed.is_nan() || speed > MAX_SURFACE_SPEED {
+                return Err(OutputFault::SurfaceTooFast {
+                    pointer,
+                    plane,
+                    speed,
+                });
+            }
+            if used[..plane].iter().any(|q| q.object == p.object) {
+                return Err(OutputFault::DuplicateObject {
+                    pointer,
+                    object: p.object,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// One wrench component's recent history.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Component {
+    /// Its value last tick.
+    value: f64,
+    /// Its change last tick.
+    change: f64,
+    /// Ticks in a row whose change reversed the one before by at least the step.
+    run: u32,
+    /// The smallest change of the run.
+    smallest: f64,
+}
+
+/// [rt] Checks a direct scene's wrenches tick by tick against the device's limits and for a
+/// sustained zig-zag. One per scene instance; fixed-size state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WrenchChecker {
+    max_force: f64,
+    max_torque: f64,
+    history: [[Component; 6]; MAX_EFFECTORS],
+}
+
+impl Default for WrenchChecker {
+    /// A checker for the loop's default limits, until it is told the device's.
+    fn default() -> Self {
+        let limits = SafetyLimits::default();
+        Self {
+            max_force: limits.max_force,
+            max_torque: limits.max_torque,
+            history: [[Component::default(); 6]; MAX_EFFECTORS],
+        }
+    }
+}
+
+impl WrenchChecker {
+    /// [rt] Judge forces and torques against these limits of the device (MaxForce, MaxTorque)
+    /// from now on. A limit of zero (forces off) is judged as 1 N or 1 N·m: what a scene asks
+    /// for still has to make sense.
+    pub fn set_limits(&mut self, max_force: f64, max_torque: f64) {
+        self.max_force = max_force.max(1.0);
+        self.max_torque = max_torque.max(1.0);
+    }
+
+    /// [rt] Check this tick's wrenches, one per pointer; the first fault found.
+    pub fn check(&mut self, wrenches: &[Wrench]) -> Result<(), OutputFault> {
+        let (force_limit, torque_limit) = (
+            WRENCH_MARGIN * self.max_force,
+            WRENCH_MARGIN * self.max_torque,
+        );
+        for (pointer, w) in wrenches.iter().enumerate().take(MAX_EFFECTORS) {
+            if !w.is_finite() {
+                return Err(OutputFault::WrenchNotFinite { pointer });
+            }
+            let force = w.force.abs().max_element();
+            if force > force_limit {
+                return Err(OutputFault::ForceTooLarge {
+                    pointer,
+                    force,
+                    limit: force_limit,
+                });
+            }
+            let torque = w.torque.abs().max_element();
+            if torque > torque_limit {
+                return Err(OutputFault::TorqueTooLarge {
+                    pointer,
+                    torque,
+                    limit: torque_limit,
+                });
+            }
+        }
+        for (pointer, w) in wrenches.iter().enumerate().take(MAX_EFFECTORS) {
+            let values = w.force.to_array().into_iter().chain(w.torque.to_array());
+            for (axis, (c, value)) in self.history[pointer].iter_mut().zip(values).enumerate() {
+                let step = if axis < 3 {
+                    ZIGZAG_FORCE_STEP
+                } else {
+                    ZIGZAG_TORQUE_STEP
+                };
+                let change = value - c.value;
+                let reversed = change * c.change < 0.0;
+                let large = change.abs().min(c.change.abs()) >= step;
+                if reversed && large {
+                    c.smallest = if c.run == 0 {
+                        change.abs().min(c.change.abs())
+                    } else {
+                        c.smallest.min(change.abs())
+                    };
+                    c.run += 1;
+                } else {
+                    c.run = 0;
+                }
+                (c.value, c.change) = (value, change);
+                if c.run >= ZIGZAG_TICKS {
+                    return Err(OutputFault::ZigZag {
+                        pointer,
+                        axis,
+                        step: c.smallest,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hapticd_plugin_api::HapticdPlane;
+
+    /// A floor under pointer 0 and a wall beside it.
+    fn planes() -> [HapticdPlanes; 2] {
+        let mut set = [HapticdPlanes::default(); 2];
+        set[0].count = 2;
+        set[0].planes[0] = HapticdPlane {
+            object: 1,
+            point: [0.0, -0.03, 0.0],
+            normal: [0.0, 1.0, 0.0],
+            velocity: [0.0, 0.0, 0.0],
+        };
+        set[0].planes[1] = HapticdPlane {
+            object: 2,
+            point: [0.05, 0.0, 0.0],
+            normal: [-1.0, 0.0, 0.0],
+            velocity: [0.0, 0.5, 0.0],
+        };
+        set[1].count = 1;
+        set[1].planes[0] = set[0].planes[0];
+        set
+    }
+
+    #[test]
+    fn planes_a_world_publishes_pass() {
+        let mut set = planes();
+        assert_eq!(check_planes(&set), Ok(()));
+        // A full set, a normal rounded in single precision, a body flung at 99 m/s, a surface
+        // far away: all fine.
+        set[0].count = HAPTICD_MAX_PLANES as u32;
+        for k in 0..HAPTICD_MAX_PLANES {
+            set[0].planes[k] = HapticdPlane {
+                object: 10 + k as u32,
+                ..set[0].planes[0]
+            };
+        }
+        let n = DVec3::new(1.0, 2.0, 3.0).as_vec3().normalize().as_dvec3();
+        set[0].planes[3].normal = n.to_array();
+        set[0].planes[4].velocity = [-70.0, 70.0, 0.0];
+        set[0].planes[5].point = [1e6, 0.0, 0.0];
+        assert_eq!(check_planes(&set), Ok(()));
+        // The same object under two pointers is one object touched twice.
+        set[1].planes[0].object = 10;
+        assert_eq!(check_planes(&set), Ok(()));
+        // Slots past the count are not looked at.
+        set[1].planes[5].normal = [f64::NAN; 3];
+        assert_eq!(check_planes(&set), Ok(()));
+    }
+
+    #[test]
+    fn each_bad_plane_is_named() {
+        let with = |change: &dyn Fn(&mut [HapticdPlanes; 2])| {
+            let mut set = planes();
+            change(&mut set);
+            check_planes(&set)
+        };
+        assert_eq!(
+            with(&|s| s[1].count = 9),
+            Err(OutputFault::TooManyPlanes {
+                pointer: 1,
+                count: 9
+            })
+        );
+        assert_eq!(
+            with(&|s| s[0].planes[1].point[2] = f64::INFINITY),
+            Err(OutputFault::PointNotFinite {
+                pointer: 0,
+                plane: 1
+            })
+        );
+        assert_eq!(
+            with(&|s| s[0].planes[0].normal = [0.0, 2.0, 0.0]),
+            Err(OutputFault::NormalNotUnit {
+                pointer: 0,
+                plane: 0,
+                length: 2.0
+            })
+        );
+        assert_eq!(
+            with(&|s| s[0].planes[0].normal = [0.0, 1.0011, 0.0]).map_err(|_| ()),
+            Err(())
+        );
+        assert!(matches!(
+            with(&|s| s[0].planes[0].normal = [f64::NAN, 1.0, 0.0]),
+            Err(OutputFault::NormalNotUnit { length, .. }) if length.is_nan()
+        ));
+        assert!(matches!(
+            with(&|s| s[0].planes[0].normal = [0.0; 3]),
+            Err(OutputFault::NormalNotUnit { length: 0.0, .. })
+        ));
+        // The issue's 1e300 m/s, just over the bound, and NaN.
+        assert_eq!(
+            with(&|s| s[0].planes[1].velocity = [0.0, 1e300, 1e300]),
+            Err(OutputFault::SurfaceTooFast {
+                pointer: 0,
+                plane: 1,
+                speed: 1e300 * 2f64.sqrt()
+            })
+        );
+        assert_eq!(
+            with(&|s| s[1].planes[0].velocity = [60.0, 60.0, 60.0]).map_err(|_| ()),
+            Err(())
+        );
+        assert!(matches!(
+            with(&|s| s[0].planes[0].velocity = [0.0, f64::NAN, 0.0]),
+            Err(OutputFault::SurfaceTooFast { pointer: 0, plane: 0, speed }) if speed.is_nan()
+        ));
+        assert_eq!(
+            with(&|s| s[0].planes[1].object = 1),
+            Err(OutputFault::DuplicateObject {
+                pointer: 0,
+                object: 1
+            })
+        );
+    }
+
+    fn force(x: f64, y: f64) -> [Wrench; 1] {
+        [Wrench::force(DVec3::new(x, y, 0.0))]
+    }
+
+    /// Run `wrench(tick)` through a fresh checker for `ticks`; the tick of the first fault.
+    fn first_fault(
+        ticks: usize,
+        wrench: impl Fn(usize) -> [Wrench; 1],
+    ) -> Option<(usize, OutputFault)> {
+        let mut checker = WrenchChecker::default();
+        (0..ticks).find_map(|t| checker.check(&wrench(t)).err().map(|f| (t, f)))
+    }
+
+    #[test]
+    fn wrenches_beyond_a_hundred_times_the_limits_or_not_finite_are_faults() {
+        let mut checker = WrenchChecker::default();
+        // Twice MaxForce (a hand through a penalty floor) and 500 N are clamped, not faults.
+        assert_eq!(checker.check(&force(0.0, 20.0)), Ok(()));
+        assert_eq!(checker.check(&force(0.0, 500.0)), Ok(()));
+        assert_eq!(checker.check(&force(0.0, -1000.0)), Ok(()));
+        assert_eq!(
+            checker.check(&force(0.0, 1e30)),
+            Err(OutputFault::ForceTooLarge {
+                pointer: 0,
+                force: 1e30,
+                limit: 1000.0
+            })
+        );
+        let torque = [Wrench {
+            force: DVec3::ZERO,
+            torque: DVec3::new(0.0, 0.0, -31.0),
+        }];
+        assert!(matches!(
+            checker.check(&torque),
+            Err(OutputFault::TorqueTooLarge { pointer: 0, torque: 31.0, limit })
+                if (limit - 30.0).abs() < 1e-9
+        ));
+        let two = [Wrench::ZERO, Wrench::force(DVec3::new(f64::NAN, 0.0, 0.0))];
+        assert_eq!(
+            checker.check(&two),
+            Err(OutputFault::WrenchNotFinite { pointer: 1 })
+        );
+        // The bound follows MaxForce; MaxForce 0 still lets scenes ask for 100 N.
+        checker.set_limits(2.0, 0.3);
+        assert!(checker.check(&force(0.0, 201.0)).is_err());
+        checker.set_limits(0.0, 0.0);
+        assert_eq!(checker.check(&force(0.0, 100.0)), Ok(()));
+        assert!(checker.check(&force(0.0, 100.1)).is_err());
+    }
+
+    #[test]
+    fn a_wrench_that_zig_zags_by_newtons_for_twenty_ticks_is_a_buzz() {
+        // The issue's ±9 N each tick: from rest, changes of 9 N then 18 N, each reversing the
+        // last from the second tick on.
+        let alternating = |t: usize| force(if t.is_multiple_of(2) { 9.0 } else { -9.0 }, 3.0);
+        assert_eq!(
+            first_fault(100, alternating),
+            Some((
+                20,
+                OutputFault::ZigZag {
+                    pointer: 0,
+                    axis: 0,
+                    step: 9.0
+                }
+            ))
+        );
+        // Around an offset, without a change of sign: 12 N / 7 N.
+        let offset = |t: usize| force(0.0, if t.is_multiple_of(2) { 12.0 } else { 7.0 });
+        assert!(matches!(
+            first_fault(100, offset),
+            Some((20, OutputFault::ZigZag { axis: 1, .. }))
+        ));
+        // A torque buzz of ±0.1 N·m.
+        let twist = |t: usize| {
+            [Wrench {
+                force: DVec3::ZERO,
+                torque: DVec3::new(0.0, if t.is_multiple_of(2) { 0.1 } else { -0.1 }, 0.0),
+            }]
+        };
+        assert!(matches!(
+            first_fault(100, twist),
+            Some((20, OutputFault::ZigZag { axis: 4, .. }))
+        ));
+    }
+
+    #[test]
+    fn vibrations_short_buzzes_and_small_noise_are_no_zig_zag() {
+        let tick = 1e-3;
+        let sine = |hz: f64, amplitude: f64| {
+            move |t: usize| {
+                force(
+                    (std::f64::consts::TAU * hz * t as f64 * tick).sin() * amplitude,
+                    0.0,
+                )
+            }
+        };
+        // A 5 Hz shake and a 250 Hz vibration of ±9 N (a texture) at 1 kHz.
+        assert_eq!(first_fault(5000, sine(5.0, 9.0)), None);
+        assert_eq!(first_fault(5000, sine(250.0, 9.0)), None);
+        // ±1.9 N each tick for ever: changes of 3.8 N, under the step.
+        assert_eq!(
+            first_fault(5000, |t| force(
+                if t.is_multiple_of(2) { 1.9 } else { -1.9 },
+                5.0
+            )),
+            None
+        );
+        // ±9 N for 20 ticks (19 reversals), then steady, again and again.
+        let bursts = |t: usize| {
+            force(
+                if t % 40 < 19 && t.is_multiple_of(2) {
+                    9.0
+                } else {
+                    -9.0
+                },
+                0.0,
+            )
+        };
+        assert_eq!(first_fault(5000, bursts), None);
+    }
+
+    /// A grip of `mass` held by a hand spring pressed by the hand into a damped penalty wall
+    /// (`stiffness`, `damping`, solid below y = 0, pulling too when leaving fast: no one-sided
+    /// clamp), read through encoder steps of `quantum` and the loop's 200 Hz velocity filter,
+    /// the force clamped to 10 N as the guard does, at `rate`; the hand presses, holds, shakes
+    /// at 5 Hz and pulls out. The checker's objection, if any.
+    fn damped_contact(
+        rate: f64,
+        mass: f64,
+        (stiffness, damping): (f64, f64),
+        quantum: f64,
+    ) -> Option<OutputFault> {
+        let dt = 1.0 / rate;
+        let (hand_k, hand_b) = (300.0, 3.0);
+        let alpha = (-std::f64::consts::TAU * 200.0 * dt).exp();
+        let mut checker = WrenchChecker::default();
+        let (mut y, mut v, mut measured, mut filtered) = (0.01, 0.0, 0.01, 0.0);
+        for t in 0..(3.0 * rate) as usize {
+            let time = t as f64 * dt;
+            let hand = match time {
+                s if s < 1.0 => 0.01 - 0.03 * s,
+                s if s < 2.0 => -0.02 + 0.005 * (std::f64::consts::TAU * 5.0 * s).sin(),
+                s => -0.02 + 0.06 * (s - 2.0),
+            };
+            let read = (y / quantum).round() * quantum;
+            filtered = alpha * filtered + (1.0 - alpha) * (read - measured) / dt;
+            measured = read;
+            let wall = if read < 0.0 {
+                -stiffness * read - damping * filtered
+            } else {
+                0.0
+            };
+            if let Err(fault) = checker.check(&force(0.0, wall)) {
+                return Some(fault);
+            }
+            let shown = wall.clamp(-10.0, 10.0);
+            let a = (shown + hand_k * (hand - y) - hand_b * v) / mass;
+            v += a * dt;
+            y += v * dt;
+        }
+        None
+    }
+
+    #[test]
+    fn a_damped_contact_pressed_shaken_and_left_never_zig_zags() {
+        // The shipped point model (1000 N/m, 50 N·s/m), a proxy's 2000 N/m with light and
+        // heavy damping, and twice the point model's damper, on SPIDAR's and SPIDAR-G's
+        // encoder steps, on the bare 50 g grip and one a hand holds, at USB and simulator
+        // rates. (The longest zig-zag: 8 ticks, 100 N·s/m on the bare grip at 1 kHz.)
+        for rate in [1000.0, 4000.0, 10_000.0] {
+            for contact in [
+                (1000.0, 50.0),
+                (2000.0, 5.0),
+                (2000.0, 20.0),
+                (500.0, 100.0),
+            ] {
+                for mass in [0.05, 0.3] {
+                    for quantum in [2.924e-5, 1.66555e-5] {
+                        assert_eq!(
+                            damped_contact(rate, mass, contact, quantum),
+                            None,
+                            "{rate} Hz, {contact:?}, {mass} kg, {quantum} m"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_damper_the_loop_cannot_render_is_caught_buzzing() {
+        // 200 N·s/m on the bare grip at 1 kHz: b·T/m = 4, past the 2 at which a sampled
+        // damper turns every tick's motion back harder than it came, so the loop itself
+        // oscillates at the Nyquist frequency against the 10 N clamp.
+        assert!(matches!(
+            damped_contact(1000.0, 0.05, (500.0, 200.0), 2.924e-5),
+            Some(OutputFault::ZigZag { axis: 1, .. })
+        ));
+    }
+}
