@@ -27,7 +27,7 @@ use crate::plugin;
 use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
-use hapticd_core::scene::multirate::{PlaneRenderer, PlaneSet, pose_between};
+use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
 use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_planes};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
@@ -54,6 +54,65 @@ impl Instance {
         let capacity = poses.len().min(u32::MAX as usize) as u32;
         // SAFETY: `poses` holds `capacity` elements; the instance is this thread's.
         unsafe { write(self.pointer, poses.as_mut_ptr(), capacity) as usize }
+    }
+}
+
+/// The grips and where their proxies rest, as the haptic side last published them.
+#[derive(Debug, Clone, Copy)]
+struct Hands {
+    pointers: [HapticdPointer; MAX_EFFECTORS],
+    proxies: [HapticdPointer; MAX_EFFECTORS],
+}
+
+/// The physics thread's end of the hand-backs of one step.
+struct Taken {
+    impulses: Vec<HapticdImpulse>,
+    locals: Vec<HapticdLocalState>,
+}
+
+impl Instance {
+    /// [physics] One step of `dt` for the first `n` of `hands`, taking in `taken`, into
+    /// `set` (planes and local bodies; its sequence is left alone). The plugin's status.
+    fn step(&self, dt: f64, n: usize, hands: &Hands, taken: &Taken, set: &mut PlaneSet) -> i32 {
+        let Some(step_world) = self.vtable.step_world else {
+            // Before ABI 1.3: planes around the grips, impulses only.
+            let step = self.vtable.step_physics.expect("checked at load");
+            set.body_count = 0;
+            // SAFETY: buffers hold `n` pointers and planes and the impulses listed; the
+            // instance belongs to this thread.
+            return unsafe {
+                step(
+                    self.pointer,
+                    dt,
+                    hands.pointers.as_ptr(),
+                    n as u32,
+                    taken.impulses.as_ptr(),
+                    taken.impulses.len() as u32,
+                    set.planes.as_mut_ptr(),
+                )
+            };
+        };
+        let input = HapticdPhysicsInput {
+            dt,
+            pointer_count: n as u32,
+            pointers: hands.pointers.as_ptr(),
+            proxies: hands.proxies.as_ptr(),
+            impulse_count: taken.impulses.len() as u32,
+            impulses: taken.impulses.as_ptr(),
+            local_count: taken.locals.len() as u32,
+            locals: taken.locals.as_ptr(),
+        };
+        let mut output = HapticdPhysicsOutput {
+            planes: set.planes.as_mut_ptr(),
+            bodies: set.bodies.as_mut_ptr(),
+            body_capacity: HAPTICD_MAX_LOCAL_BODIES as u32,
+            body_count: 0,
+        };
+        // SAFETY: every array holds the count the input and output state; the instance
+        // belongs to this thread.
+        let status = unsafe { step_world(self.pointer, &input, &mut output) };
+        set.body_count = output.body_count.min(HAPTICD_MAX_LOCAL_BODIES as u32);
+        status
     }
 }
 
@@ -220,9 +279,9 @@ struct MultiRateScene {
     name: String,
     renderer: PlaneRenderer,
     bodies_in: Reader<BodySet>,
-    pointers_out: Writer<[HapticdPointer; MAX_EFFECTORS]>,
+    hands_out: Writer<Hands>,
     planes_in: Reader<PlaneSet>,
-    impulses_out: spsc::Producer<HapticdImpulse>,
+    hand_backs: spsc::Producer<HandBack>,
     rate: f64,
     /// Physics steps taken, and how many of them fell behind the world's rate.
     steps: Arc<(AtomicU64, AtomicU64)>,
@@ -248,10 +307,13 @@ impl MultiRateScene {
         for (out, p) in initial.iter_mut().zip(pointers) {
             *out = p.to_abi();
         }
-        let (pointers_out, mut pointers_in) = triple_buffer::triple_buffer(initial);
+        let (hands_out, mut hands_in) = triple_buffer::triple_buffer(Hands {
+            pointers: initial,
+            proxies: initial,
+        });
         let (mut planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
         let (mut bodies_out, bodies_in) = triple_buffer::triple_buffer(BodySet::new());
-        let (impulses_out, mut impulses_in) = spsc::channel(1024);
+        let (hand_backs, mut hand_backs_in) = spsc::channel(1024);
         let (mut faults_out, faults_in) = spsc::channel(1);
         let (stop, failed) = (
             Arc::new(AtomicBool::new(false)),
@@ -270,45 +332,38 @@ impl MultiRateScene {
                 let mut pacer = Pacer::new(scene, period_ns);
                 // Move the whole instance in (not just its fields): it is destroyed with it.
                 let instance = instance;
-                let step = instance.vtable.step_physics.expect("checked at load");
-                let mut impulses = Vec::with_capacity(1024);
-                let mut planes = [HapticdPlanes::default(); MAX_EFFECTORS];
+                let mut taken = Taken {
+                    impulses: Vec::with_capacity(1024),
+                    locals: Vec::with_capacity(1024),
+                };
+                let mut set = PlaneSet::default();
                 let mut bodies = BodySet::new();
                 let mut sequence = 0;
                 while !stop_flag.load(Ordering::Acquire) {
-                    impulses.clear();
-                    while let Some(i) = impulses_in.pop() {
-                        impulses.push(i);
+                    taken.impulses.clear();
+                    taken.locals.clear();
+                    while let Some(back) = hand_backs_in.pop() {
+                        match back {
+                            HandBack::Impulse(i) => taken.impulses.push(i),
+                            HandBack::Local(l) => taken.locals.push(l),
+                        }
                     }
-                    let pointers = *pointers_in.latest();
-                    // SAFETY: buffers hold `n` pointers and planes and the impulses listed;
-                    // the instance belongs to this thread.
-                    let status = unsafe {
-                        step(
-                            instance.pointer,
-                            period_ns as f64 * 1e-9,
-                            pointers.as_ptr(),
-                            n as u32,
-                            impulses.as_ptr(),
-                            impulses.len() as u32,
-                            planes.as_mut_ptr(),
-                        )
-                    };
+                    let hands = *hands_in.latest();
+                    let status =
+                        instance.step(period_ns as f64 * 1e-9, n, &hands, &taken, &mut set);
                     if status != HAPTICD_OK {
                         failed_flag.store(true, Ordering::Release);
                         return;
                     }
                     // Planes no world publishes disable the plugin, as a failure does.
-                    if let Err(fault) = check_planes(&planes[..n]) {
+                    if let Err(fault) = check_planes(&set.planes[..n]) {
                         faults_out.push(fault);
                         failed_flag.store(true, Ordering::Release);
                         return;
                     }
                     sequence += 1;
-                    planes_out.publish(|set| {
-                        set.sequence = sequence;
-                        set.planes = planes;
-                    });
+                    set.sequence = sequence;
+                    planes_out.publish(|out| *out = set);
                     std::mem::swap(&mut bodies.before, &mut bodies.after);
                     let count = instance.poses(&mut bodies.after).min(MAX_BODIES);
                     if sequence == 1 {
@@ -329,9 +384,9 @@ impl MultiRateScene {
             name,
             renderer: PlaneRenderer::new(rate, pointers),
             bodies_in,
-            pointers_out,
+            hands_out,
             planes_in,
-            impulses_out,
+            hand_backs,
             rate,
             steps,
             failed,
@@ -349,16 +404,22 @@ impl Scene for MultiRateScene {
     }
 
     fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
-        self.pointers_out.publish(|out| {
-            for (o, p) in out.iter_mut().zip(pointers) {
-                *o = p.to_abi();
-            }
-        });
         let latest = self.planes_in.latest();
-        let impulses = &mut self.impulses_out;
-        // A full channel (a stalled physics thread) drops an impulse rather than wait.
-        let fresh = self.renderer.tick(latest, pointers, dt, wrenches, |i| {
-            impulses.push(i);
+        let hand_backs = &mut self.hand_backs;
+        // A full channel (a stalled physics thread) drops a hand-back rather than wait.
+        let fresh = self.renderer.tick(latest, pointers, dt, wrenches, |back| {
+            hand_backs.push(back);
+        });
+        let renderer = &self.renderer;
+        self.hands_out.publish(|out| {
+            let both = out.pointers.iter_mut().zip(out.proxies.iter_mut());
+            for ((grip, proxy), (p, at)) in both.zip(pointers.iter().zip(renderer.proxies())) {
+                *grip = p.to_abi();
+                *proxy = HapticdPointer {
+                    position: at.to_array(),
+                    ..*grip
+                };
+            }
         });
         if self.failed.load(Ordering::Acquire) || !fresh {
             if let Some(fault) = self.faults_in.pop() {
@@ -393,13 +454,18 @@ impl Scene for MultiRateScene {
         true
     }
 
-    /// The bodies moved as far between the last two steps as the planes felt (6.5.2).
+    /// The bodies moved as far between the last two steps as the planes felt (6.5.2), and
+    /// those moved here where they are felt.
     fn write_bodies(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
         let fraction = self.renderer.fraction();
         let set = self.bodies_in.latest();
         let shown = set.before[..set.count].iter().zip(&set.after[..set.count]);
-        for (out, (before, after)) in poses.iter_mut().zip(shown) {
-            *out = body_pose(&pose_between(&pose_of(before), &pose_of(after), fraction));
+        for (i, (out, (before, after))) in poses.iter_mut().zip(shown).enumerate() {
+            let pose = self.renderer.local(i as u32).map_or_else(
+                || pose_between(&pose_of(before), &pose_of(after), fraction),
+                |m| m.pose(),
+            );
+            *out = body_pose(&pose);
         }
         set.count
     }

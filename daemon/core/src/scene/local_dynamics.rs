@@ -193,7 +193,7 @@ impl LocalBody {
             && base.spin.is_finite()
             && inverse_inertia.is_finite()
             && DVec3::from(published.acceleration).is_finite();
-        if !finite || !(published.inverse_mass > 0.0 && published.inverse_mass.is_finite()) {
+        if !(finite && published.inverse_mass > 0.0 && published.inverse_mass.is_finite()) {
             return None;
         }
         let mut contacts = [Contact::default(); HAPTICD_MAX_BODY_CONTACTS];
