@@ -1,7 +1,8 @@
 //! The per-tick computations never touch the heap: a counting allocator watches this
 //! thread while pose, tension, calibration and closure run for every shipped mechanism, while
-//! whole haptic-loop ticks run on the simulated board and on an emulated USB amplifier, and
-//! while commands reach the loop between ticks.
+//! whole haptic-loop ticks run on the simulated board and on an emulated USB amplifier,
+//! while commands reach the loop between ticks, and while a plugin's output is checked and
+//! refused.
 
 mod support;
 
@@ -15,6 +16,7 @@ use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use hapticd_core::parameters::Parameters;
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::Scene;
+use hapticd_core::scene::output_check::OutputFault;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_core::solver::calibration::lengths_from_counts;
 use hapticd_core::solver::closure::is_force_closed;
@@ -472,4 +474,60 @@ fn the_bodies_of_a_penalty_plugin_are_pictured_without_allocating() {
     let mut two = [HapticdBodyPose::default(); 2];
     assert_eq!(scene.write_bodies(&mut two), 8);
     assert_eq!(two[1], bodies[1]);
+}
+
+/// The bad-output fixture in `mode`, loaded for one pointer pressed 1 cm into its floor:
+/// ticks of 1 ms (slept, so a physics thread keeps its pace) until its output has been
+/// refused; the ticks that rendered, the fault and the allocations on this thread.
+fn refused_output(mode: &str) -> (usize, Option<OutputFault>, usize) {
+    let path =
+        support::scratch_root().join(format!("no-allocation-{}-{mode}.scene", std::process::id()));
+    std::fs::write(&path, mode).unwrap();
+    let pointers = [Pointer {
+        pose: Pose {
+            position: DVec3::new(0.0, -0.04, 0.0),
+            ..Pose::default()
+        },
+        velocity: DVec3::ZERO,
+    }];
+    let mut scene = hapticd::plugin_scene::load(
+        &support::plugin_path("hapticd-test-bad-output-scene"),
+        Some(&path),
+        &pointers,
+    )
+    .unwrap();
+    std::fs::remove_file(&path).unwrap();
+    let mut wrenches = [Wrench::ZERO];
+    let mut rendered = 0;
+    let n = allocations_in(|| {
+        // The bad output comes 0.2 s after the press: 2 s is ample.
+        for _ in 0..2000 {
+            if scene.fault().is_some() {
+                break;
+            }
+            rendered += usize::from(scene.render(&pointers, 1e-3, &mut wrenches));
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    });
+    (rendered, scene.fault(), n)
+}
+
+#[test]
+fn a_plugins_output_is_checked_and_refused_without_allocating() {
+    // Direct: the wrench checker every tick, then ±9 N each tick refused after 20.
+    let (rendered, fault, n) = refused_output("alternating");
+    assert!(
+        matches!(fault, Some(OutputFault::ZigZag { axis: 0, .. })),
+        "{fault:?}"
+    );
+    assert_eq!((rendered, n), (219, 0), "ticks rendered, allocations");
+    // Multi-rate: the planes are checked in the physics thread; the haptic side takes the
+    // reason with the failure.
+    let (rendered, fault, n) = refused_output("velocity");
+    assert!(
+        matches!(fault, Some(OutputFault::SurfaceTooFast { .. })),
+        "{fault:?}"
+    );
+    assert!(rendered > 100, "rendered {rendered} ticks");
+    assert_eq!(n, 0, "{n} allocations");
 }
