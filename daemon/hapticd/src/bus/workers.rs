@@ -12,8 +12,10 @@ use zruntime::Event;
 
 /// Threads that run the work.
 const THREADS: usize = 4;
-/// Stack of each: the work is shallow (checks, JSON, file system calls).
-const STACK: usize = 256 * 1024;
+/// Stack of each: the work is shallow (checks, JSON, file system calls), but building a
+/// multi-rate scene moves its renderer (tens of kilobytes of plane sets and local bodies)
+/// through several frames, more of them in a debug build.
+const STACK: usize = 2 * 1024 * 1024;
 
 type Job = Box<dyn FnOnce() + Send>;
 
