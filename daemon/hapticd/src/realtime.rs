@@ -3,7 +3,7 @@
 //! This thread is real-time: `SCHED_FIFO | SCHED_RESET_ON_FORK`, at the configured priority
 //! clamped to what the system allows (and if refused, it runs anyway and says so). (A
 //! multi-rate scene's physics thread is too, at priority 1, off this thread's CPU, while its
-//! steps fit its budget: [`crate::physics_budget`].)
+//! steps fit its budget: the physics budget (`physics_budget.rs`).)
 //! It sleeps with `clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)` on absolute deadlines,
 //! records WAIT/BUSY/overruns, and talks to the rest of the daemon only through lock-free
 //! triple buffers and rings. When asked to stop it writes zero currents before it exits.
