@@ -109,16 +109,6 @@ impl Change {
             spin: self.spin.to_array(),
         }
     }
-
-    /// A change as the ABI carries it.
-    pub fn from_abi(state: &HapticdLocalState) -> Change {
-        Change {
-            displacement: DVec3::from(state.displacement),
-            rotation: DVec3::from(state.rotation),
-            velocity: DVec3::from(state.velocity),
-            spin: DVec3::from(state.spin),
-        }
-    }
 }
 
 /// A contact with the rest of the world, kept over the period.
@@ -161,6 +151,19 @@ pub struct LocalBody {
     /// Seconds since the restart, and the period the offset fades over.
     since: f64,
     period: f64,
+}
+
+/// One contact as a tick solves it: its lever arm, its normal and tangents, what a unit
+/// impulse along each does to the spin, and the point's mass along each.
+#[derive(Debug, Clone, Copy, Default)]
+struct Row {
+    r: DVec3,
+    directions: [DVec3; 3],
+    turns: [DVec3; 3],
+    masses: [f64; 3],
+    /// Approach speed that just closes the gap in one tick, m/s.
+    closing: f64,
+    friction: f64,
 }
 
 /// The unit tangents of `n`.
@@ -322,43 +325,51 @@ impl LocalBody {
         let inverse_inertia = self.inverse_inertia_at(m.orientation);
         let mut v = m.velocity + (force * self.inverse_mass + self.acceleration) * dt;
         let mut w = m.spin + inverse_inertia * torque * dt;
-        let mut rows = [(DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
-            HAPTICD_MAX_BODY_CONTACTS];
+        let mut rows = [Row::default(); HAPTICD_MAX_BODY_CONTACTS];
         for (row, c) in rows.iter_mut().zip(&self.contacts[..self.contact_count]) {
             let r = m.orientation * c.offset;
             // How far the contact point has moved off the surface since it was published.
             let gap = c.gap + (m.position + r - c.point).dot(c.normal);
             let (t1, t2) = tangents(c.normal);
-            *row = (r, c.normal, t1, t2, gap.max(0.0) / dt, c.friction);
+            let directions = [c.normal, t1, t2];
+            // What a unit impulse along each direction does to the spin, and the mass the
+            // point shows along it: fixed over the sweeps.
+            let turns = directions.map(|d| inverse_inertia * r.cross(d));
+            let masses =
+                [0, 1, 2].map(|k| 1.0 / (self.inverse_mass + r.cross(directions[k]).dot(turns[k])));
+            *row = Row {
+                r,
+                directions,
+                turns,
+                masses,
+                closing: gap.max(0.0) / dt,
+                friction: c.friction,
+            };
         }
-        let push = |r: DVec3, d: DVec3, amount: f64, v: &mut DVec3, w: &mut DVec3| {
-            *v += d * (amount * self.inverse_mass);
-            *w += inverse_inertia * r.cross(d * amount);
+        let push = |row: &Row, k: usize, amount: f64, v: &mut DVec3, w: &mut DVec3| {
+            *v += row.directions[k] * (amount * self.inverse_mass);
+            *w += row.turns[k] * amount;
         };
         for (row, sum) in rows[..self.contact_count].iter().zip(sums.iter()) {
-            let (r, n, t1, t2, ..) = *row;
-            push(r, n * sum.x + t1 * sum.y + t2 * sum.z, 1.0, &mut v, &mut w);
+            for k in 0..3 {
+                push(row, k, sum[k], &mut v, &mut w);
+            }
         }
-        let mass = |r: DVec3, d: DVec3| {
-            let rd = r.cross(d);
-            1.0 / (self.inverse_mass + rd.dot(inverse_inertia * rd))
-        };
         for _ in 0..SWEEPS {
             for (row, sum) in rows[..self.contact_count].iter().zip(sums.iter_mut()) {
-                let (r, n, t1, t2, closing, mu) = *row;
+                let along =
+                    |k: usize, v: DVec3, w: DVec3| (v + w.cross(row.r)).dot(row.directions[k]);
                 // Normal: the point may close the gap, never move into the other solid.
-                let vn = (v + w.cross(r)).dot(n);
-                let normal = (sum.x + (-closing - vn) * mass(r, n)).max(0.0);
-                push(r, n, normal - sum.x, &mut v, &mut w);
+                let normal = (sum.x + (-row.closing - along(0, v, w)) * row.masses[0]).max(0.0);
+                push(row, 0, normal - sum.x, &mut v, &mut w);
                 sum.x = normal;
                 // Friction: stop sliding within the cone of the normal impulse.
-                let limit = mu * normal;
-                for (k, t) in [t1, t2].into_iter().enumerate() {
-                    let vt = (v + w.cross(r)).dot(t);
-                    let old = sum[k + 1];
-                    let new = (old - vt * mass(r, t)).clamp(-limit, limit);
-                    push(r, t, new - old, &mut v, &mut w);
-                    sum[k + 1] = new;
+                let limit = row.friction * normal;
+                for k in 1..3 {
+                    let old = sum[k];
+                    let new = (old - along(k, v, w) * row.masses[k]).clamp(-limit, limit);
+                    push(row, k, new - old, &mut v, &mut w);
+                    sum[k] = new;
                 }
             }
         }

@@ -355,7 +355,9 @@ impl PlaneRenderer {
             let object = self.current.planes[p].planes[k].object;
             self.touched[p] = Some((object, surfaces[k]));
             if let Some(i) = self.owner(object) {
-                let centre = self.locals[i].map_or(DVec3::ZERO, |b| b.motion().position);
+                let centre = self.locals[i]
+                    .as_ref()
+                    .map_or(DVec3::ZERO, |b| b.motion().position);
                 let load = &mut self.loads[i];
                 load.0 -= force;
                 load.1 += (out.proxy - centre).cross(-force);
