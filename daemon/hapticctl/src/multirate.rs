@@ -123,7 +123,7 @@ impl Lockstep {
             .published
             .iter_mut()
             .zip(self.proxies.iter_mut())
-            .zip(pointers.iter().zip(self.renderer.proxies()))
+            .zip(pointers.iter().zip(self.renderer.queries()))
         {
             *out = p.to_abi();
             *proxy = HapticdPointer {

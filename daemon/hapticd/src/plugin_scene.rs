@@ -413,7 +413,7 @@ impl Scene for MultiRateScene {
         let renderer = &self.renderer;
         self.hands_out.publish(|out| {
             let both = out.pointers.iter_mut().zip(out.proxies.iter_mut());
-            for ((grip, proxy), (p, at)) in both.zip(pointers.iter().zip(renderer.proxies())) {
+            for ((grip, proxy), (p, at)) in both.zip(pointers.iter().zip(renderer.queries())) {
                 *grip = p.to_abi();
                 *proxy = HapticdPointer {
                     position: at.to_array(),

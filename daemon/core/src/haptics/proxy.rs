@@ -61,6 +61,9 @@ impl Plane {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Proxy {
     position: DVec3,
+    /// Where the last update left the proxy: its velocity counts a carry too, so the
+    /// damper pulls against a surface that drags the finger, never along with it.
+    rendered: DVec3,
     velocity: DVec3,
     sliding: bool,
     in_contact: bool,
@@ -130,6 +133,7 @@ impl Proxy {
     pub fn new(position: DVec3) -> Self {
         Self {
             position,
+            rendered: position,
             velocity: DVec3::ZERO,
             sliding: false,
             in_contact: false,
@@ -203,8 +207,9 @@ impl Proxy {
         } else {
             self.sliding = false;
         }
-        self.velocity = (position - previous) / dt;
+        self.velocity = (position - self.rendered) / dt;
         self.position = position;
+        self.rendered = position;
         self.in_contact = in_contact;
         let force = if in_contact {
             parameters.stiffness * (position - grip)
@@ -359,6 +364,32 @@ mod tests {
             "{}",
             p.position()
         );
+    }
+
+    #[test]
+    fn a_proxy_carried_by_its_surface_is_damped_against_the_carry() {
+        // Pressed 2 mm into a floor that carries the proxy 0.1 mm a tick (0.1 m/s): the
+        // damper sees the carry, so the hand is pulled along with the surface and the
+        // surface held back by the hand. Counting only the proxy's own step would push the
+        // surface on and feed whatever drives it (a light body spun up by a finger).
+        let parameters = ProxyParameters {
+            stiffness: 1000.0,
+            damping: 5.0,
+            static_friction: 0.5,
+            dynamic_friction: 0.4,
+        };
+        let grip = DVec3::new(0.0, -0.002, 0.0);
+        let mut p = Proxy::new(DVec3::new(0.0, 0.01, 0.0));
+        p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
+        let rested = p.position();
+        p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
+        let carry = DVec3::new(1e-4, 0.0, 0.0);
+        p.carry(p.position() + carry);
+        let out = p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
+        // Static friction holds it where it was carried to.
+        assert!((out.proxy - (rested + carry)).length() < 1e-12, "{}", out.proxy);
+        let expected = parameters.stiffness * 1e-4 + parameters.damping * 0.1;
+        assert!((out.force.x - expected).abs() < 1e-9, "{} vs {expected}", out.force.x);
     }
 
     #[test]

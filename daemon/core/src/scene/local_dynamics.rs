@@ -111,20 +111,6 @@ impl Change {
     }
 }
 
-/// A contact with the rest of the world, kept over the period.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct Contact {
-    /// The contact point relative to the centre of mass, in the body's own axes.
-    offset: DVec3,
-    /// Where it was when published.
-    point: DVec3,
-    /// Unit normal along which the other solid pushes.
-    normal: DVec3,
-    /// Gap along the normal when published, metres.
-    gap: f64,
-    friction: f64,
-}
-
 /// A body the haptic side moves.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LocalBody {
@@ -135,10 +121,11 @@ pub struct LocalBody {
     /// The state the physics published, which the planes of this set were found at.
     base: Motion,
     inverse_mass: f64,
-    /// Inverse inertia in world axes at `base`'s orientation.
+    /// Inverse inertia in world axes at `base`'s orientation, kept over the period.
     inverse_inertia: DMat3,
     acceleration: DVec3,
-    contacts: [Contact; HAPTICD_MAX_BODY_CONTACTS],
+    /// The contacts with the rest of the world as the step left them.
+    rows: [Row; HAPTICD_MAX_BODY_CONTACTS],
     contact_count: usize,
     hand: Motion,
     free: Motion,
@@ -153,16 +140,27 @@ pub struct LocalBody {
     period: f64,
 }
 
-/// One contact as a tick solves it: its lever arm, its normal and tangents, what a unit
-/// impulse along each does to the spin, and the point's mass along each.
-#[derive(Debug, Clone, Copy, Default)]
+/// A contact with the rest of the world, as every tick of the period solves it.
+///
+/// Lever arm, directions and masses stay as published: over one period a body turns
+/// little, and a ball's contact stays at its bottom however it rolls (turning the published
+/// point with the body would lift it off the floor and let the ball sink). The gap follows
+/// the body to first order: its translation, and its turn about the centre (nothing for a
+/// ball, a tipping box's corner for a box).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct Row {
+    /// From the centre of mass at the published state to the contact point, world axes.
     r: DVec3,
+    /// Normal (along which the other solid pushes) and two tangents.
     directions: [DVec3; 3],
+    /// What a unit impulse along each direction does to the spin.
     turns: [DVec3; 3],
+    /// The point's mass along each direction.
     masses: [f64; 3],
-    /// Approach speed that just closes the gap in one tick, m/s.
-    closing: f64,
+    /// Gap along the normal when published, metres.
+    gap: f64,
+    /// `r × normal`: how a turn opens the gap.
+    lever: DVec3,
     friction: f64,
 }
 
@@ -199,9 +197,9 @@ impl LocalBody {
         if !(finite && published.inverse_mass > 0.0 && published.inverse_mass.is_finite()) {
             return None;
         }
-        let mut contacts = [Contact::default(); HAPTICD_MAX_BODY_CONTACTS];
+        let inverse_mass = published.inverse_mass;
+        let mut rows = [Row::default(); HAPTICD_MAX_BODY_CONTACTS];
         let mut count = 0;
-        let turn = base.orientation.inverse();
         for c in published.contacts
             [..(published.contact_count as usize).min(HAPTICD_MAX_BODY_CONTACTS)]
             .iter()
@@ -211,11 +209,19 @@ impl LocalBody {
             if !point.is_finite() || normal == DVec3::ZERO || !c.gap.is_finite() {
                 continue;
             }
-            contacts[count] = Contact {
-                offset: turn * (point - base.position),
-                point,
-                normal,
+            let r = point - base.position;
+            let (t1, t2) = tangents(normal);
+            let directions = [normal, t1, t2];
+            let turns = directions.map(|d| inverse_inertia * r.cross(d));
+            let masses =
+                [0, 1, 2].map(|k| 1.0 / (inverse_mass + r.cross(directions[k]).dot(turns[k])));
+            rows[count] = Row {
+                r,
+                directions,
+                turns,
+                masses,
                 gap: c.gap,
+                lever: r.cross(normal),
                 friction: if c.friction.is_finite() {
                     c.friction.max(0.0)
                 } else {
@@ -236,10 +242,10 @@ impl LocalBody {
             first_object: published.first_object,
             object_count: published.object_count,
             base,
-            inverse_mass: published.inverse_mass,
+            inverse_mass,
             inverse_inertia,
             acceleration: DVec3::from(published.acceleration),
-            contacts,
+            rows,
             contact_count: count,
             hand: start,
             free: start,
@@ -271,13 +277,20 @@ impl LocalBody {
     }
 
     /// Where a point and a direction found at the published state are now, as shown, and
-    /// the velocity of the body there. The plane goes with the centre, not with the turn: it
-    /// is the nearest face to a finger, not a material one, and the nearest face of a ball
-    /// stays where it is however the ball spins (a box turns little in one period).
+    /// the velocity of the surface there. The plane goes with the centre, not with the turn:
+    /// it is the nearest face to a finger, not a material one, and the nearest face of a
+    /// ball stays where it is however the ball spins (a box turns little in one period).
+    /// Along the normal the surface moves as the plane does; the spin only slides it, which
+    /// friction carries a finger along with.
     pub fn carry(&self, point: DVec3, normal: DVec3) -> (DVec3, DVec3, DVec3) {
         let now = self.shown();
         let at = point + (now.position - self.base.position);
-        (at, normal, now.velocity + now.spin.cross(at - now.position))
+        let slide = now.spin.cross(at - now.position);
+        (
+            at,
+            normal,
+            now.velocity + slide - normal * slide.dot(normal),
+        )
     }
 
     /// The state under the hand.
@@ -285,15 +298,16 @@ impl LocalBody {
         self.hand
     }
 
+    /// How far the body is shown from where the physics has it once it has taken every
+    /// change handed back so far: this period's change, and what is left of the restart's
+    /// jump.
+    pub fn unsent(&self) -> DVec3 {
+        self.shown().position - self.free.position
+    }
+
     /// What the hand did since the period began.
     pub fn change(&self) -> Change {
         Change::between(&self.hand, &self.free)
-    }
-
-    /// Inverse inertia in world axes at `orientation`.
-    fn inverse_inertia_at(&self, orientation: DQuat) -> DMat3 {
-        let turn = DMat3::from_quat(orientation * self.base.orientation.inverse());
-        turn * self.inverse_inertia * turn.transpose()
     }
 
     /// [rt] One tick of `dt`: the hand pushes with `force` and `torque` (about the centre
@@ -322,45 +336,34 @@ impl LocalBody {
         dt: f64,
         sums: &mut [DVec3; HAPTICD_MAX_BODY_CONTACTS],
     ) -> Motion {
-        let inverse_inertia = self.inverse_inertia_at(m.orientation);
         let mut v = m.velocity + (force * self.inverse_mass + self.acceleration) * dt;
-        let mut w = m.spin + inverse_inertia * torque * dt;
-        let mut rows = [Row::default(); HAPTICD_MAX_BODY_CONTACTS];
-        for (row, c) in rows.iter_mut().zip(&self.contacts[..self.contact_count]) {
-            let r = m.orientation * c.offset;
-            // How far the contact point has moved off the surface since it was published.
-            let gap = c.gap + (m.position + r - c.point).dot(c.normal);
-            let (t1, t2) = tangents(c.normal);
-            let directions = [c.normal, t1, t2];
-            // What a unit impulse along each direction does to the spin, and the mass the
-            // point shows along it: fixed over the sweeps.
-            let turns = directions.map(|d| inverse_inertia * r.cross(d));
-            let masses =
-                [0, 1, 2].map(|k| 1.0 / (self.inverse_mass + r.cross(directions[k]).dot(turns[k])));
-            *row = Row {
-                r,
-                directions,
-                turns,
-                masses,
-                closing: gap.max(0.0) / dt,
-                friction: c.friction,
-            };
+        let mut w = m.spin + self.inverse_inertia * torque * dt;
+        // How far the body has moved and turned since published (small: within a period).
+        let turn = m.orientation * self.base.orientation.inverse();
+        let turned = DVec3::new(turn.x, turn.y, turn.z) * (2.0 * turn.w.signum());
+        let moved = m.position - self.base.position;
+        let rows = &self.rows[..self.contact_count];
+        let mut closing = [0.0; HAPTICD_MAX_BODY_CONTACTS];
+        for (closing, row) in closing.iter_mut().zip(rows) {
+            // The approach speed that just closes the gap in one tick.
+            let gap = row.gap + moved.dot(row.directions[0]) + turned.dot(row.lever);
+            *closing = gap.max(0.0) / dt;
         }
         let push = |row: &Row, k: usize, amount: f64, v: &mut DVec3, w: &mut DVec3| {
             *v += row.directions[k] * (amount * self.inverse_mass);
             *w += row.turns[k] * amount;
         };
-        for (row, sum) in rows[..self.contact_count].iter().zip(sums.iter()) {
+        for (row, sum) in rows.iter().zip(sums.iter()) {
             for k in 0..3 {
                 push(row, k, sum[k], &mut v, &mut w);
             }
         }
         for _ in 0..SWEEPS {
-            for (row, sum) in rows[..self.contact_count].iter().zip(sums.iter_mut()) {
+            for ((row, closing), sum) in rows.iter().zip(&closing).zip(sums.iter_mut()) {
                 let along =
                     |k: usize, v: DVec3, w: DVec3| (v + w.cross(row.r)).dot(row.directions[k]);
                 // Normal: the point may close the gap, never move into the other solid.
-                let normal = (sum.x + (-row.closing - along(0, v, w)) * row.masses[0]).max(0.0);
+                let normal = (sum.x + (-closing - along(0, v, w)) * row.masses[0]).max(0.0);
                 push(row, 0, normal - sum.x, &mut v, &mut w);
                 sum.x = normal;
                 // Friction: stop sliding within the cone of the normal impulse.
@@ -506,6 +509,56 @@ mod tests {
         }
         let lift = (12.0 - 9.81) * 100.0 * DT;
         assert!((body.motion().velocity.y - lift).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_ball_pushed_over_its_top_rolls_on_the_floor_without_sinking_into_it() {
+        // A steel ball of 12 mm on a floor, pressed down at its top by 10 N and pushed along
+        // by 1 N there. Rolling without slipping (μ N = 3.2 N is far above the 3F/7 it
+        // needs): m a = F + f and (2/5) m R² a / R = (F − f) R, so a = 10 F / (7 m).
+        let (radius, mass) = (0.012, 0.0565);
+        let inertia = 0.4 * mass * radius * radius;
+        let mut record = HapticdLocalBody {
+            body: 1,
+            object_count: 1,
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            inverse_mass: 1.0 / mass,
+            inverse_inertia: DMat3::from_diagonal(DVec3::splat(1.0 / inertia)).to_cols_array(),
+            acceleration: [0.0, -9.81, 0.0],
+            contact_count: 1,
+            ..HapticdLocalBody::default()
+        };
+        record.contacts[0] = HapticdBodyContact {
+            point: [0.0, -radius, 0.0],
+            normal: [0.0, 1.0, 0.0],
+            gap: 0.0,
+            friction: 0.3,
+        };
+        let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+        let (push, down) = (1.0, 10.0);
+        let top = DVec3::new(0.0, radius, 0.0);
+        for _ in 0..100 {
+            let at = top + body.motion().position;
+            let force = DVec3::new(push, -down, 0.0);
+            body.step(force, (at - body.motion().position).cross(force), DT);
+        }
+        let m = body.motion();
+        let expected = 10.0 * push / (7.0 * mass) * 100.0 * DT;
+        assert!(
+            (m.velocity.x - expected).abs() < 1e-6 * expected,
+            "{m:?} vs {expected}"
+        );
+        // Rolling: the bottom point stands still, so the spin is v / R about −z.
+        assert!(
+            (m.spin.z + m.velocity.x / radius).abs() < 1e-4 * m.spin.z.abs(),
+            "{m:?}"
+        );
+        // It turned by more than half a radian and its bottom stays on the floor.
+        assert!(m.spin.z.abs() * 0.05 > 0.5);
+        assert!(
+            m.position.y.abs() < 1e-7 && m.velocity.y.abs() < 1e-9,
+            "{m:?}"
+        );
     }
 
     #[test]

@@ -19,8 +19,10 @@ use hapticd_plugin_api::{
     HapticdLocalState, HapticdPlanes,
 };
 use rapier3d::geometry::PairContacts;
+use rapier3d::parry::bounding_volume::BoundingVolume;
 use rapier3d::prelude::{
-    ColliderBuilder, ColliderHandle, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle,
+    Collider, ColliderBuilder, ColliderHandle, PhysicsWorld, Pose, QueryFilter, RigidBodyBuilder,
+    RigidBodyHandle,
 };
 
 use crate::convert::{dquat, dvec, rotation, vector};
@@ -309,7 +311,15 @@ impl RapierWorld {
             ..HapticdLocalBody::default()
         };
         let mut count = 0;
+        let margin = self.reach / 2.0;
+        // The other solids the narrow phase pairs it with. Its points were found before the
+        // step moved the body: each pair's contact is found again where the body is now (a
+        // ball rolled on has its contact at its bottom, not where the roll took the old
+        // one), and a pair of several points (a box standing on its face) keeps them,
+        // measured from that contact's plane.
+        let mut paired = [None; HAPTICD_MAX_BODY_CONTACTS];
         for &collider in b.colliders() {
+            let mine = &self.physics.colliders[collider];
             for pair in self.physics.narrow_phase.contact_pairs_with(collider) {
                 let PairContacts::Rigid(contacts) = &pair.contacts else {
                     continue;
@@ -320,44 +330,115 @@ impl RapierWorld {
                 } else {
                     pair.collider1
                 };
-                // Another piece of the same body is no contact with the world; neither is
-                // a pointer's own body.
-                let Some(other) = self.physics.colliders.get(other) else {
+                let Some(solid) = self.physics.colliders.get(other) else {
                     continue;
                 };
-                if other.parent() == Some(handle)
-                    || other
-                        .parent()
-                        .is_some_and(|p| self.physics.bodies[p].is_kinematic())
-                {
+                if !self.is_world(handle, solid) || count == HAPTICD_MAX_BODY_CONTACTS {
                     continue;
                 }
-                let mine = &self.physics.colliders[collider];
-                let friction = f64::from(mine.friction().min(other.friction()));
-                for manifold in &contacts.manifolds {
-                    let normal = dvec(manifold.data.normal);
-                    for point in &manifold.points {
-                        if count == HAPTICD_MAX_BODY_CONTACTS {
-                            break;
-                        }
-                        let (at, push) = if first {
-                            (mine.position() * point.local_p1, -normal)
-                        } else {
-                            (mine.position() * point.local_p2, normal)
-                        };
-                        out.contacts[count] = HapticdBodyContact {
-                            point: dvec(at).to_array(),
-                            normal: push.to_array(),
-                            gap: f64::from(point.dist),
-                            friction,
-                        };
-                        count += 1;
+                let Ok(Some(now)) = rapier3d::parry::query::contact(
+                    mine.position(),
+                    mine.shape(),
+                    solid.position(),
+                    solid.shape(),
+                    margin as f32,
+                ) else {
+                    continue;
+                };
+                let (at, push, gap) = (dvec(now.point1), -dvec(now.normal1), f64::from(now.dist));
+                let friction = f64::from(mine.friction().min(solid.friction()));
+                let contact = |point: DVec3, gap: f64| HapticdBodyContact {
+                    point: point.to_array(),
+                    normal: push.to_array(),
+                    gap,
+                    friction,
+                };
+                let points = contacts.manifolds.iter().flat_map(|m| &m.points);
+                if points.clone().count() < 2 {
+                    out.contacts[count] = contact(at, gap);
+                    paired[count] = Some(other);
+                    count += 1;
+                    continue;
+                }
+                for point in points {
+                    if count == HAPTICD_MAX_BODY_CONTACTS {
+                        break;
                     }
+                    let local = if first {
+                        point.local_p1
+                    } else {
+                        point.local_p2
+                    };
+                    let p = dvec(mine.position() * local);
+                    out.contacts[count] = contact(p, gap + (p - at).dot(push));
+                    paired[count] = Some(other);
+                    count += 1;
                 }
             }
         }
+        // Then the nearest of the fixed solids it could reach in a period that the narrow
+        // phase does not see yet (it predicts a fraction of a millimetre): a ball lifted off
+        // the floor by a hair, pushed down by the hand, lands on it instead of going through.
+        let mut near = [(f64::INFINITY, HapticdBodyContact::default()); HAPTICD_MAX_BODY_CONTACTS];
+        for &collider in b.colliders() {
+            let mine = &self.physics.colliders[collider];
+            let aabb = mine.compute_aabb().loosened(margin as f32);
+            let query = self
+                .physics
+                .query_pipeline_with_filter(QueryFilter::default().exclude_rigid_body(handle));
+            for (other, solid) in query.intersect_aabb_conservative(aabb) {
+                // Moving neighbours will have moved by the time the hand's change is
+                // taken in: only fixed solids are contacts to wait on for a period.
+                let fixed = solid
+                    .parent()
+                    .is_none_or(|p| self.physics.bodies.get(p).is_some_and(|b| b.is_fixed()));
+                if !fixed || paired[..count].contains(&Some(other)) {
+                    continue;
+                }
+                let Ok(Some(c)) = rapier3d::parry::query::contact(
+                    mine.position(),
+                    mine.shape(),
+                    solid.position(),
+                    solid.shape(),
+                    margin as f32,
+                ) else {
+                    continue;
+                };
+                let gap = f64::from(c.dist);
+                let Some(slot) = near.iter_mut().max_by(|a, b| a.0.total_cmp(&b.0)) else {
+                    continue;
+                };
+                if gap < slot.0 {
+                    *slot = (
+                        gap,
+                        HapticdBodyContact {
+                            point: dvec(c.point1).to_array(),
+                            normal: (-dvec(c.normal1)).to_array(),
+                            gap,
+                            friction: f64::from(mine.friction().min(solid.friction())),
+                        },
+                    );
+                }
+            }
+        }
+        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        for (gap, contact) in near {
+            if count == HAPTICD_MAX_BODY_CONTACTS || !gap.is_finite() {
+                break;
+            }
+            out.contacts[count] = contact;
+            count += 1;
+        }
         out.contact_count = count as u32;
         out
+    }
+
+    /// Whether `solid` is part of the world body `handle` meets: not a piece of the body
+    /// itself, nor a pointer's.
+    fn is_world(&self, handle: RigidBodyHandle, solid: &Collider) -> bool {
+        solid.parent().is_none_or(|p| {
+            p != handle && self.physics.bodies.get(p).is_none_or(|b| !b.is_kinematic())
+        })
     }
 
     /// One step of `dt` seconds with no hand in the world. False when the world is no
