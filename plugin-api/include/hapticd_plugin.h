@@ -64,9 +64,10 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
 #define HAPTICD_MAX_LOCAL_BODIES 8
 
 /*
- Most contacts with the rest of the world published for one such body.
+ Most contacts with the rest of the world published for one such body: a block in a corner
+ stands on a floor and against two walls with four corners each.
  */
-#define HAPTICD_MAX_BODY_CONTACTS 8
+#define HAPTICD_MAX_BODY_CONTACTS 16
 
 /*
  Status: success.

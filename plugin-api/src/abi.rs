@@ -33,8 +33,9 @@ pub const HAPTICD_MAX_PLANES: usize = 8;
 /// Most bodies a physics step hands the haptic side to move itself (local dynamics).
 pub const HAPTICD_MAX_LOCAL_BODIES: usize = 8;
 
-/// Most contacts with the rest of the world published for one such body.
-pub const HAPTICD_MAX_BODY_CONTACTS: usize = 8;
+/// Most contacts with the rest of the world published for one such body: a block in a corner
+/// stands on a floor and against two walls with four corners each.
+pub const HAPTICD_MAX_BODY_CONTACTS: usize = 16;
 
 /// Status: success.
 pub const HAPTICD_OK: i32 = 0;

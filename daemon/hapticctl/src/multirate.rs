@@ -182,7 +182,7 @@ impl Lockstep {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hapticd_physics::scene::SceneFile;
+    use hapticd_physics::scene::{Feedback, SceneFile};
 
     /// A 4 mm plate (top at y = 0.004) over a 2 cm floor (top at y = −0.05), at 20 Hz.
     const PLATES: &str = "name: plates
@@ -262,6 +262,98 @@ pointer:
         for force in [20.0, 40.0] {
             press(0.004, 0.0, force);
             press(-0.05, 0.2, force);
+        }
+    }
+
+    /// A 4 cm, 0.1 kg block in the corner of a floor and two walls, at `rate` Hz.
+    fn corner(rate: f64, feedback: Feedback) -> MultiRateWorld {
+        let text = format!(
+            "name: corner
+engine: rapier
+rate: {rate}
+gravity: [0, -9.81, 0]
+material: {{ static_friction: 0.3, friction: 0.3 }}
+bodies:
+  - {{ name: floor, box: [0.4, 0.02, 0.4], position: [0, -0.01, 0], fixed: true }}
+  - {{ name: wall, box: [0.02, 0.1, 0.4], position: [-0.03, 0.05, 0], fixed: true }}
+  - {{ name: back, box: [0.4, 0.1, 0.02], position: [0, 0.05, -0.03], fixed: true }}
+  - {{ name: block, box: [0.04, 0.04, 0.04], position: [0, 0.02, 0], density: 1562.5 }}
+pointer:
+  sphere: 0.005
+"
+        );
+        let SceneFile::Rapier(mut spec) =
+            SceneFile::parse(&text, std::path::Path::new("corner.yaml"), 1).unwrap()
+        else {
+            panic!("a rapier scene");
+        };
+        spec.feedback = feedback;
+        *spec
+    }
+
+    /// What a hand beating at 5 Hz on the block's free edge, toward the corner, does: the
+    /// block's largest kinetic energy, the energy the device gave the hand (negative: the
+    /// hand put it in), how far the block ended from where it stood, and the hand's top speed.
+    fn beat(rate: f64, phase: f64, feedback: Feedback) -> (f64, f64, f64, f64) {
+        let spec = corner(rate, feedback);
+        let (mass, side) = (0.1, 0.04);
+        let inertia = mass * side * side / 6.0;
+        let edge = DVec3::new(0.02, 0.02, 0.02);
+        let toward = DVec3::new(1.0, 0.0, 1.0).normalize();
+        let start = edge + toward * 0.02;
+        let mut lockstep = Lockstep::new(
+            &spec,
+            &Lockstep::pointers(&[(start, DVec3::ZERO)]),
+            1000.0,
+            phase,
+        );
+        let block = 3;
+        let rest = lockstep.body(block).position;
+        let (dt, w, amplitude) = (1e-3, 2.0 * std::f64::consts::PI * 5.0, 0.004);
+        let mut felt = [Wrench::ZERO];
+        let (mut peak, mut given): (f64, f64) = (0.0, 0.0);
+        for tick in 0..3000 {
+            let t = tick as f64 * dt;
+            // In to the edge over 0.2 s, then about 2 mm in, 4 mm either way, five times a
+            // second.
+            let (s, v) = if t < 0.2 {
+                (0.02 - 0.022 * t / 0.2, -0.022 / 0.2)
+            } else {
+                let a = w * (t - 0.2);
+                (-0.002 + amplitude * a.sin(), amplitude * w * a.cos())
+            };
+            let velocity = toward * v;
+            lockstep
+                .tick(
+                    &Lockstep::pointers(&[(edge + toward * s, velocity)]),
+                    &mut felt,
+                )
+                .unwrap();
+            given += felt[0].force.dot(velocity) * dt;
+            let b = lockstep.body(block);
+            let energy =
+                0.5 * mass * b.velocity.length_squared() + 0.5 * inertia * b.spin.length_squared();
+            peak = peak.max(energy);
+        }
+        let moved = (lockstep.body(block).position - rest).length();
+        (peak, given, moved, amplitude * w)
+    }
+
+    #[test]
+    fn a_light_block_beaten_into_a_corner_stays_there_and_gives_back_no_energy() {
+        for (rate, phase) in [(10.0, 0.0), (10.0, 0.05), (20.0, 0.02)] {
+            let (peak, given, moved, hand) = beat(rate, phase, Feedback::Local);
+            // Its energy stays that of a block moving about as fast as the hand (it can
+            // only rattle: the walls hold it), and the hand gets nothing back overall.
+            let bound = 8.0 * 0.5 * 0.1 * hand * hand;
+            assert!(peak < bound, "{rate} Hz: {peak} J against {bound} J");
+            assert!(given < 0.005, "{rate} Hz: the hand got {given} J");
+            assert!(moved < 0.003, "{rate} Hz: the block went {moved} m");
+            // Impulses summed over a period on a block the physics has not moved throw
+            // it: the gain local dynamics does not have.
+            let (thrown, _, gone, _) = beat(rate, phase, Feedback::Impulse);
+            assert!(thrown > 100.0 * peak, "{rate} Hz: {thrown} J vs {peak} J");
+            assert!(gone > 0.1, "{rate} Hz: {gone} m");
         }
     }
 }

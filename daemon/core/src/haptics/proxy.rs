@@ -387,9 +387,17 @@ mod tests {
         p.carry(p.position() + carry);
         let out = p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
         // Static friction holds it where it was carried to.
-        assert!((out.proxy - (rested + carry)).length() < 1e-12, "{}", out.proxy);
+        assert!(
+            (out.proxy - (rested + carry)).length() < 1e-12,
+            "{}",
+            out.proxy
+        );
         let expected = parameters.stiffness * 1e-4 + parameters.damping * 0.1;
-        assert!((out.force.x - expected).abs() < 1e-9, "{} vs {expected}", out.force.x);
+        assert!(
+            (out.force.x - expected).abs() < 1e-9,
+            "{} vs {expected}",
+            out.force.x
+        );
     }
 
     #[test]

@@ -116,6 +116,51 @@ fn collider(body: &Body, piece: usize, primitive: Primitive) -> ColliderBuilder 
     }
 }
 
+/// Contact points gathered for one body, before [`spread`] chooses among them.
+const FOUND: usize = 4 * HAPTICD_MAX_BODY_CONTACTS;
+
+/// Choose up to `out.len()` of the contacts `found` (each tagged with its pair, `pairs` of
+/// them) into `out` and say how many: every pair in turn, and within a pair the point
+/// farthest from those already chosen. A block in a corner touches a floor and two walls
+/// with four corners each; the first pairs alone would fill the record and drop the floor,
+/// and a face's first two points may lie on one edge.
+fn spread(
+    found: &[(usize, HapticdBodyContact)],
+    pairs: usize,
+    out: &mut [HapticdBodyContact],
+) -> usize {
+    let mut taken = [false; FOUND];
+    let mut count = 0;
+    let point = |k: usize| DVec3::from(found[k].1.point);
+    loop {
+        let before = count;
+        for pair in 0..pairs {
+            if count == out.len() {
+                return count;
+            }
+            let chosen = |k: usize| taken[k] && found[k].0 == pair;
+            // The farthest from this pair's chosen points (any of them at first).
+            let far = |k: usize| {
+                (0..found.len())
+                    .filter(|&j| chosen(j))
+                    .map(|j| point(j).distance_squared(point(k)))
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let best = (0..found.len())
+                .filter(|&k| found[k].0 == pair && !taken[k])
+                .max_by(|&a, &b| far(a).total_cmp(&far(b)));
+            if let Some(k) = best {
+                taken[k] = true;
+                out[count] = found[k].1;
+                count += 1;
+            }
+        }
+        if count == before {
+            return count;
+        }
+    }
+}
+
 impl RapierWorld {
     /// The world of `spec` for `pointers` pointers.
     pub fn new(spec: &MultiRateWorld, pointers: usize) -> Self {
@@ -317,7 +362,9 @@ impl RapierWorld {
         // ball rolled on has its contact at its bottom, not where the roll took the old
         // one), and a pair of several points (a box standing on its face) keeps them,
         // measured from that contact's plane.
-        let mut paired = [None; HAPTICD_MAX_BODY_CONTACTS];
+        let mut found = [(0, HapticdBodyContact::default()); FOUND];
+        let (mut pairs, mut kept) = (0, 0);
+        let mut paired = [None; FOUND];
         for &collider in b.colliders() {
             let mine = &self.physics.colliders[collider];
             for pair in self.physics.narrow_phase.contact_pairs_with(collider) {
@@ -333,7 +380,7 @@ impl RapierWorld {
                 let Some(solid) = self.physics.colliders.get(other) else {
                     continue;
                 };
-                if !self.is_world(handle, solid) || count == HAPTICD_MAX_BODY_CONTACTS {
+                if !self.is_world(handle, solid) || pairs == FOUND {
                     continue;
                 }
                 let Ok(Some(now)) = rapier3d::parry::query::contact(
@@ -353,29 +400,29 @@ impl RapierWorld {
                     gap,
                     friction,
                 };
+                paired[pairs] = Some(other);
                 let points = contacts.manifolds.iter().flat_map(|m| &m.points);
                 if points.clone().count() < 2 {
-                    out.contacts[count] = contact(at, gap);
-                    paired[count] = Some(other);
-                    count += 1;
-                    continue;
-                }
-                for point in points {
-                    if count == HAPTICD_MAX_BODY_CONTACTS {
-                        break;
+                    if kept < FOUND {
+                        found[kept] = (pairs, contact(at, gap));
+                        kept += 1;
                     }
-                    let local = if first {
-                        point.local_p1
-                    } else {
-                        point.local_p2
-                    };
-                    let p = dvec(mine.position() * local);
-                    out.contacts[count] = contact(p, gap + (p - at).dot(push));
-                    paired[count] = Some(other);
-                    count += 1;
+                } else {
+                    for point in points.take(FOUND - kept) {
+                        let local = if first {
+                            point.local_p1
+                        } else {
+                            point.local_p2
+                        };
+                        let p = dvec(mine.position() * local);
+                        found[kept] = (pairs, contact(p, gap + (p - at).dot(push)));
+                        kept += 1;
+                    }
                 }
+                pairs += 1;
             }
         }
+        count += spread(&found[..kept], pairs, &mut out.contacts);
         // Then the nearest of the fixed solids it could reach in a period that the narrow
         // phase does not see yet (it predicts a fraction of a millimetre): a ball lifted off
         // the floor by a hair, pushed down by the hand, lands on it instead of going through.
@@ -392,7 +439,7 @@ impl RapierWorld {
                 let fixed = solid
                     .parent()
                     .is_none_or(|p| self.physics.bodies.get(p).is_some_and(|b| b.is_fixed()));
-                if !fixed || paired[..count].contains(&Some(other)) {
+                if !fixed || paired[..pairs].contains(&Some(other)) {
                     continue;
                 }
                 let Ok(Some(c)) = rapier3d::parry::query::contact(
@@ -529,6 +576,48 @@ mod tests {
     use super::*;
     use hapticd_physics::scene::SceneFile;
     use hapticd_plugin_api::HapticdPointer;
+
+    #[test]
+    fn contacts_beyond_the_record_are_shared_among_the_solids_touched_and_spread_out() {
+        // Three faces of four corners each (a block in a corner), six slots: each face
+        // keeps two, and the two are opposite corners (a diagonal), not one edge.
+        let square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+        let mut found = Vec::new();
+        for pair in 0..3 {
+            for (a, b) in square {
+                let mut point = [0.0; 3];
+                point[pair] = 0.02;
+                point[(pair + 1) % 3] = 0.02 * a;
+                point[(pair + 2) % 3] = 0.02 * b;
+                found.push((
+                    pair,
+                    // The gap tells the faces apart: corners are shared.
+                    HapticdBodyContact {
+                        point,
+                        gap: pair as f64,
+                        ..HapticdBodyContact::default()
+                    },
+                ));
+            }
+        }
+        let mut out = [HapticdBodyContact::default(); 6];
+        assert_eq!(spread(&found, 3, &mut out), 6);
+        for pair in 0..3 {
+            let kept: Vec<DVec3> = out
+                .iter()
+                .filter(|c| c.gap == pair as f64)
+                .map(|c| DVec3::from(c.point))
+                .collect();
+            assert_eq!(kept.len(), 2, "{out:?}");
+            assert!((kept[0].distance(kept[1]) - 0.04 * 2f64.sqrt()).abs() < 1e-12);
+        }
+        // Room for all: all of them, each once.
+        let mut room = [HapticdBodyContact::default(); 16];
+        assert_eq!(spread(&found, 3, &mut room), 12);
+        for c in &found {
+            assert_eq!(room.iter().filter(|r| **r == c.1).count(), 1);
+        }
+    }
 
     /// One 20 ms step with the planes around the pointers themselves.
     fn step(
