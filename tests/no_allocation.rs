@@ -361,18 +361,18 @@ fn a_haptic_tick_of_a_rapier_scene_does_not_allocate() {
 /// Four hundred ticks of a finger pushing the `push` block at `path` without allocating.
 fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     use hapticd::plugin_scene;
-    // The finger comes to the block's near face (x = −0.02) and is pressed 5 mm into it,
+    // The finger comes to the block's near face (x = 0.03) and is pressed 5 mm into it,
     // pushing it (a grip that starts inside a solid feels nothing until it is out).
     let outside = [Pointer {
         pose: Pose {
-            position: DVec3::new(-0.03, 0.02, 0.0),
+            position: DVec3::new(0.02, 0.02, 0.0),
             ..Pose::default()
         },
         velocity: DVec3::ZERO,
     }];
     let pointers = [Pointer {
         pose: Pose {
-            position: DVec3::new(-0.015, 0.02, 0.0),
+            position: DVec3::new(0.035, 0.02, 0.0),
             ..Pose::default()
         },
         velocity: DVec3::new(0.05, 0.0, 0.0),

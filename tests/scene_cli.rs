@@ -295,7 +295,7 @@ fn a_rapier_scene_runs_with_the_feedback_and_phase_asked_for() {
         args.extend(["--hand", hand, "--duration", "1.5", "--json"].map(String::from));
         args.extend(extra.iter().map(|s| s.to_string()));
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        vector(&bodies(&run(&args))[0]["position"])[0] - 0.03
+        vector(&bodies(&run(&args))[0]["position"])[0] - 0.08
     };
     // The scripted finger is not thrown back as a hand would be: it pushes the block on.
     let impulse = moved(&[]);

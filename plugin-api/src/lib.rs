@@ -14,4 +14,4 @@ pub mod abi;
 pub mod export;
 
 pub use abi::*;
-pub use export::{MechanismSpec, SceneFactory, SceneInstance, log};
+pub use export::{MechanismSpec, PhysicsInput, PhysicsOutput, SceneFactory, SceneInstance, log};

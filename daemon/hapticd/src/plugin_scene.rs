@@ -28,7 +28,7 @@ use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
-use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_planes};
+use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_bodies, check_planes};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
@@ -355,8 +355,11 @@ impl MultiRateScene {
                         failed_flag.store(true, Ordering::Release);
                         return;
                     }
-                    // Planes no world publishes disable the plugin, as a failure does.
-                    if let Err(fault) = check_planes(&set.planes[..n]) {
+                    // Planes or bodies no world publishes disable the plugin, as a failure
+                    // does.
+                    let checked = check_planes(&set.planes[..n])
+                        .and_then(|()| check_bodies(&set.bodies, set.body_count));
+                    if let Err(fault) = checked {
                         faults_out.push(fault);
                         failed_flag.store(true, Ordering::Release);
                         return;

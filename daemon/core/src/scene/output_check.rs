@@ -8,13 +8,20 @@
 //!   [`MAX_SURFACE_SPEED`], or two planes of one object under one pointer (the haptic side
 //!   pairs a plane with its predecessor, hands impulses back and keeps touched faces by
 //!   object, so a repeated object makes it jump between surfaces).
+//! - Locally moved bodies ([`check_bodies`]): more than [`HAPTICD_MAX_LOCAL_BODIES`] or a
+//!   body with more than [`HAPTICD_MAX_BODY_CONTACTS`] contacts, a state, inertia or contact
+//!   that is not finite, no positive mass or inertia, a body faster than
+//!   [`MAX_SURFACE_SPEED`] or spinning faster than [`MAX_SPIN`], or one body twice.
 //! - Direct wrenches ([`WrenchChecker`]): non-finite, beyond [`WRENCH_MARGIN`] times the
 //!   device's limits, or zig-zagging by large steps for [`ZIGZAG_TICKS`] ticks in a row.
 //!
 //! Neither allocates: the wrench checker's history is a fixed array per pointer.
 
 use glam::DVec3;
-use hapticd_plugin_api::{HAPTICD_MAX_PLANES, HapticdPlanes};
+use hapticd_plugin_api::{
+    HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdLocalBody,
+    HapticdPlanes,
+};
 
 use crate::haptics::safety::SafetyLimits;
 use crate::kinematics::{MAX_EFFECTORS, Wrench};
@@ -23,6 +30,10 @@ use crate::kinematics::{MAX_EFFECTORS, Wrench};
 /// at about 10), a body thrown in a scene at tens; a surface passing a pointer faster than
 /// this would carry a proxy resting on it 10 cm in a 1 ms tick.
 pub const MAX_SURFACE_SPEED: f64 = 100.0;
+
+/// Fastest spin a locally moved body may report, rad/s: a 1 cm ball rolling at
+/// [`MAX_SURFACE_SPEED`] turns at ten thousand.
+pub const MAX_SPIN: f64 = 1.0e4;
 
 /// How far a normal's length may be from 1. Single-precision engines (rapier) normalise to
 /// about 1e-7; a normal off by this much changes a contact force by 0.1 %.
@@ -95,6 +106,42 @@ pub enum OutputFault {
         pointer: usize,
         /// The object named twice.
         object: u32,
+    },
+    /// More locally moved bodies than the ABI allows.
+    TooManyBodies {
+        /// The count published.
+        count: u32,
+    },
+    /// A locally moved body with more contacts than the ABI allows.
+    TooManyContacts {
+        /// The body's place in the set.
+        index: usize,
+        /// The count published.
+        count: u32,
+    },
+    /// A locally moved body's state, inertia or a contact is not finite.
+    BodyNotFinite {
+        /// The body's place in the set.
+        index: usize,
+    },
+    /// A locally moved body without positive mass or inertia.
+    BodyWithoutMass {
+        /// The body's place in the set.
+        index: usize,
+    },
+    /// A locally moved body faster than [`MAX_SURFACE_SPEED`] or [`MAX_SPIN`].
+    BodyTooFast {
+        /// The body's place in the set.
+        index: usize,
+        /// Its speed, m/s.
+        speed: f64,
+        /// Its spin, rad/s.
+        spin: f64,
+    },
+    /// One body twice in the set.
+    DuplicateBody {
+        /// The body's number.
+        body: u32,
     },
     /// A wrench is not finite.
     WrenchNotFinite {
@@ -169,6 +216,30 @@ impl std::fmt::Display for OutputFault {
                 "pointer {pointer}: two planes of object {object} (one plane per object and \
                  pointer)"
             ),
+            Self::TooManyBodies { count } => write!(
+                f,
+                "{count} locally moved bodies, more than the {HAPTICD_MAX_LOCAL_BODIES} allowed"
+            ),
+            Self::TooManyContacts { index, count } => write!(
+                f,
+                "local body {index}: {count} contacts, more than the \
+                 {HAPTICD_MAX_BODY_CONTACTS} allowed"
+            ),
+            Self::BodyNotFinite { index } => write!(
+                f,
+                "local body {index}: its state, inertia or a contact is not finite"
+            ),
+            Self::BodyWithoutMass { index } => {
+                write!(f, "local body {index}: no positive mass and inertia")
+            }
+            Self::BodyTooFast { index, speed, spin } => write!(
+                f,
+                "local body {index}: it moves at {speed:.3e} m/s and turns at {spin:.3e} rad/s, \
+                 beyond {MAX_SURFACE_SPEED} m/s or {MAX_SPIN} rad/s"
+            ),
+            Self::DuplicateBody { body } => {
+                write!(f, "body {body} is twice among the locally moved bodies")
+            }
             Self::WrenchNotFinite { pointer } => {
                 write!(f, "pointer {pointer}: its wrench is not finite")
             }
@@ -251,6 +322,56 @@ pub fn check_planes(planes: &[HapticdPlanes]) -> Result<(), OutputFault> {
                     object: p.object,
                 });
             }
+        }
+    }
+    Ok(())
+}
+
+/// [physics] Check the `count` bodies a step publishes for the haptic side to move; the
+/// first fault found.
+pub fn check_bodies(bodies: &[HapticdLocalBody], count: u32) -> Result<(), OutputFault> {
+    if count as usize > HAPTICD_MAX_LOCAL_BODIES.min(bodies.len()) {
+        return Err(OutputFault::TooManyBodies { count });
+    }
+    let used = &bodies[..count as usize];
+    for (index, b) in used.iter().enumerate() {
+        if b.contact_count as usize > HAPTICD_MAX_BODY_CONTACTS {
+            return Err(OutputFault::TooManyContacts {
+                index,
+                count: b.contact_count,
+            });
+        }
+        let contacts = &b.contacts[..b.contact_count as usize];
+        let finite = [b.position, b.velocity, b.spin, b.acceleration]
+            .iter()
+            .flatten()
+            .chain(&b.orientation)
+            .chain(&b.inverse_inertia)
+            .chain([&b.inverse_mass])
+            .chain(
+                contacts
+                    .iter()
+                    .flat_map(|c| c.point.iter().chain(&c.normal)),
+            )
+            .chain(contacts.iter().flat_map(|c| [&c.gap, &c.friction]))
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(OutputFault::BodyNotFinite { index });
+        }
+        let inertia = glam::DMat3::from_cols_array(&b.inverse_inertia);
+        let diagonal = DVec3::new(inertia.x_axis.x, inertia.y_axis.y, inertia.z_axis.z);
+        if b.inverse_mass <= 0.0 || diagonal.min_element() <= 0.0 {
+            return Err(OutputFault::BodyWithoutMass { index });
+        }
+        let (speed, spin) = (
+            magnitude(DVec3::from(b.velocity)),
+            magnitude(DVec3::from(b.spin)),
+        );
+        if speed > MAX_SURFACE_SPEED || spin > MAX_SPIN {
+            return Err(OutputFault::BodyTooFast { index, speed, spin });
+        }
+        if used[..index].iter().any(|o| o.body == b.body) {
+            return Err(OutputFault::DuplicateBody { body: b.body });
         }
     }
     Ok(())
@@ -411,6 +532,93 @@ mod tests {
         // Slots past the count are not looked at.
         set[1].planes[5].normal = [f64::NAN; 3];
         assert_eq!(check_planes(&set), Ok(()));
+    }
+
+    /// Two bodies a world publishes: a 1 kg brick resting on a floor and a ball rolling.
+    fn bodies() -> [HapticdLocalBody; 2] {
+        let mut brick = HapticdLocalBody {
+            body: 3,
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            inverse_mass: 1.0,
+            inverse_inertia: glam::DMat3::from_diagonal(DVec3::splat(600.0)).to_cols_array(),
+            acceleration: [0.0, -9.81, 0.0],
+            contact_count: 1,
+            ..HapticdLocalBody::default()
+        };
+        brick.contacts[0].normal = [0.0, 1.0, 0.0];
+        let ball = HapticdLocalBody {
+            body: 4,
+            velocity: [0.5, 0.0, 0.0],
+            spin: [0.0, 0.0, -40.0],
+            ..brick
+        };
+        [brick, ball]
+    }
+
+    #[test]
+    fn each_bad_local_body_is_named() {
+        let with = |count: u32, change: &dyn Fn(&mut [HapticdLocalBody; 2])| {
+            let mut set = bodies();
+            change(&mut set);
+            check_bodies(&set, count)
+        };
+        assert_eq!(with(2, &|_| {}), Ok(()));
+        assert_eq!(
+            with(9, &|_| {}),
+            Err(OutputFault::TooManyBodies { count: 9 })
+        );
+        assert_eq!(
+            with(2, &|s| s[1].contact_count = 17),
+            Err(OutputFault::TooManyContacts {
+                index: 1,
+                count: 17
+            })
+        );
+        type Change = dyn Fn(&mut [HapticdLocalBody; 2]);
+        let not_finite: [(usize, &Change); 4] = [
+            (0, &|s| s[0].position[1] = f64::NAN),
+            (0, &|s| s[0].inverse_inertia[4] = f64::INFINITY),
+            (0, &|s| s[0].contacts[0].gap = f64::NAN),
+            (1, &|s| s[1].orientation[0] = f64::NAN),
+        ];
+        for (index, change) in not_finite {
+            assert_eq!(with(2, change), Err(OutputFault::BodyNotFinite { index }));
+        }
+        assert_eq!(
+            with(2, &|s| s[1].inverse_mass = 0.0),
+            Err(OutputFault::BodyWithoutMass { index: 1 })
+        );
+        assert_eq!(
+            with(2, &|s| s[0].inverse_inertia[8] = -1.0),
+            Err(OutputFault::BodyWithoutMass { index: 0 })
+        );
+        assert_eq!(
+            with(2, &|s| s[1].velocity = [0.0, 1e300, 0.0]),
+            Err(OutputFault::BodyTooFast {
+                index: 1,
+                speed: 1e300,
+                spin: 40.0
+            })
+        );
+        assert!(matches!(
+            with(2, &|s| s[0].spin = [2e4, 0.0, 0.0]),
+            Err(OutputFault::BodyTooFast { index: 0, .. })
+        ));
+        assert_eq!(
+            with(2, &|s| s[1].body = 3),
+            Err(OutputFault::DuplicateBody { body: 3 })
+        );
+        // Contacts past the count are not looked at.
+        assert_eq!(with(2, &|s| s[0].contacts[5].gap = f64::NAN), Ok(()));
+        assert!(
+            OutputFault::BodyTooFast {
+                index: 1,
+                speed: 1e300,
+                spin: 40.0
+            }
+            .to_string()
+            .contains("local body 1: it moves at 1.000e300 m/s")
+        );
     }
 
     #[test]

@@ -27,8 +27,8 @@ pub fn setup(rate: f64) -> Setup {
     Setup {
         rate,
         haptic_rate: 1000.0,
-        start: -0.025,
-        reach: 0.03,
+        start: 0.025,
+        reach: 0.08,
         speed: 0.25,
         seconds: 2.0,
     }

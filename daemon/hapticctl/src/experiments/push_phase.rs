@@ -38,7 +38,7 @@ pub struct Setup {
 
 impl Setup {
     /// The thesis' rates (20 Hz physics, 1 kHz haptics); the hand strikes the shipped
-    /// scene's block: it meets its face at x = −0.02 m at 0.8 m/s, reaches 2 cm past it and
+    /// scene's block: it meets its face at x = 0.03 m at 0.8 m/s, reaches 2 cm past it and
     /// withdraws. (The thesis gives neither mass nor speed. The hand, 0.3 kg, rebounds from
     /// a block the physics has not moved yet as from a wall, so the block gets the momentum
     /// of a collision with an infinitely heavy one: (m + m_hand)/m times too much. A block
@@ -46,8 +46,8 @@ impl Setup {
     pub const THESIS: Setup = Setup {
         rate: 20.0,
         haptic_rate: 1000.0,
-        start: -0.06,
-        reach: 0.0,
+        start: -0.01,
+        reach: 0.05,
         speed: 0.8,
         seconds: 2.0,
     };
