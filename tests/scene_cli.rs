@@ -391,3 +391,50 @@ fn a_run_is_drawn_thirty_frames_a_second() {
     assert_eq!(both.status.code(), Some(2));
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// Issue: a grip that starts inside a solid (a scene switched to, a calibration pose inside a
+/// body) could only be pushed out through a face. Every shipped scene leaves every shipped
+/// device's calibration pose free.
+#[test]
+fn no_shipped_scene_has_a_solid_at_a_calibration_pose() {
+    use hapticd_physics::scene::SceneFile;
+    let dir = repo_dir().join("config/scenes");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 9, "{files:?}");
+    let mut inside = Vec::new();
+    for mechanism in support::shipped_mechanisms() {
+        let poses: Vec<_> = mechanism
+            .effectors
+            .iter()
+            .map(|e| e.calibration.position)
+            .collect();
+        for file in &files {
+            let text = std::fs::read_to_string(file).unwrap();
+            let bodies = match SceneFile::parse(&text, file, poses.len()) {
+                Ok(SceneFile::Rapier(world)) => world.bodies,
+                Ok(SceneFile::Penalty(scene)) => scene.world.bodies[..scene.first_pointer].to_vec(),
+                // A scene made for another number of fingers is not this device's.
+                Err(_) => continue,
+            };
+            for body in &bodies {
+                for at in &poses {
+                    let local = body.orientation.inverse() * (*at - body.position);
+                    // On a surface is touching it, not inside.
+                    if body.pieces.iter().any(|p| p.contains(local, -1e-6)) {
+                        inside.push(format!(
+                            "{}: {} calibrates at {at}, inside a body",
+                            file.display(),
+                            mechanism.name
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(inside.is_empty(), "{inside:#?}");
+}
