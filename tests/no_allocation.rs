@@ -350,7 +350,7 @@ fn a_haptic_tick_of_a_rapier_scene_does_not_allocate() {
         ));
         std::fs::write(
             &path,
-            shipped.replace("feedback: impulse", &format!("feedback: {feedback}")),
+            shipped.replace("feedback: local", &format!("feedback: {feedback}")),
         )
         .unwrap();
         rapier_ticks(&path, feedback);

@@ -298,9 +298,11 @@ fn a_rapier_scene_runs_with_the_feedback_and_phase_asked_for() {
         vector(&bodies(&run(&args))[0]["position"])[0] - 0.08
     };
     // The scripted finger is not thrown back as a hand would be: it pushes the block on.
-    let impulse = moved(&[]);
+    let impulse = moved(&["--feedback", "impulse"]);
     assert!(impulse > 0.005, "{impulse}");
     assert_eq!(moved(&["--feedback", "impulse", "--phase", "0"]), impulse);
+    // The file's own (local dynamics) is not the impulse's.
+    assert_ne!(moved(&[]), impulse);
     let by_position = [
         moved(&["--feedback", "position", "--phase", "0.01"]),
         moved(&["--feedback", "position", "--phase", "0.04"]),

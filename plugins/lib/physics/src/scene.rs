@@ -7,10 +7,12 @@
 //! - `rapier`: rapier3d's constraint solver at `rate:` steps per second in hapticd's physics
 //!   thread (thesis Ch. 6); the hand feels the surfaces near each pointer as planes moved
 //!   between physics steps. The bodies near a pointer move with the hand in the haptic
-//!   thread and the physics takes back what the hand did to them (`feedback: local`,
-//!   thesis 6.5.4); each body gets back the impulse of the force felt (`feedback: impulse`,
-//!   the default), or is pushed by a solid placed where the hand was when the physics
-//!   sampled it (`feedback: position`, the conventional method).
+//!   thread and the physics takes back what the hand did to them (`feedback: local`, thesis
+//!   6.5.4, the default: of the three it alone pushes light bodies as far as physics at the
+//!   haptic rate and throws none, `hapticctl experiment push-mass`); each body gets back the
+//!   impulse of the force felt (`feedback: impulse`), or is pushed by a solid placed where
+//!   the hand was when the physics sampled it (`feedback: position`, the conventional
+//!   method).
 //!
 //! Bodies, gravity, `static_friction` and `friction` mean the same under both; a key only
 //! one engine reads is an error, at its place, under the other. A penalty scene:
@@ -817,8 +819,8 @@ impl SceneFile {
         let Some((dt, penalty)) = penalty else {
             let feedback = match raw.feedback {
                 Some(RawFeedback::Position) => Feedback::Position,
-                Some(RawFeedback::Local) => Feedback::Local,
-                Some(RawFeedback::Impulse) | None => Feedback::Impulse,
+                Some(RawFeedback::Local) | None => Feedback::Local,
+                Some(RawFeedback::Impulse) => Feedback::Impulse,
             };
             return Ok(SceneFile::Rapier(Box::new(MultiRateWorld {
                 name: raw.name,
@@ -1155,7 +1157,7 @@ mod tests {
         else {
             panic!("push.yaml is a rapier scene");
         };
-        assert_eq!((world.rate, world.feedback), (20.0, Feedback::Impulse));
+        assert_eq!((world.rate, world.feedback), (20.0, Feedback::Local));
         assert_eq!(world.names, ["floor", "block"]);
         assert!((world.bodies[1].mass - 8.0).abs() < 1e-9);
         assert!(matches!(world.pointer, Some((_, Primitive::Ball { radius })) if radius == 0.005));
@@ -1189,7 +1191,7 @@ mod tests {
                 "rate: must be a number from 10 to 1000 Hz",
             ),
             (
-                "feedback: impulse",
+                "feedback: local",
                 "feedback: telepathy",
                 "unknown variant `telepathy`",
             ),
