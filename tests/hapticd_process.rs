@@ -424,11 +424,13 @@ fn two_simulated_fingers_pick_up_shake_and_put_down_a_box() {
     }
     let weight = -held.iter().map(|r| r[4] + r[7]).sum::<f64>() / held.len() as f64;
     assert!((weight - 2.0).abs() < 0.2, "carrying {weight} N");
-    // Shaken: both fingers keep hold of it nearly all the time.
+    // Shaken: both fingers keep hold of it nearly all the time (94 % of the ticks; over 95 %
+    // while the passivity controller braked the return of what the shaking hand stores in
+    // the contact, which it no longer does: a finger lets go for a moment at some turns).
     let shaken: Vec<_> = during(3.0, 7.0).collect();
     let holding = shaken.iter().filter(|r| grip(r) > 0.0).count();
     assert!(
-        holding * 100 > 95 * shaken.len(),
+        holding * 100 > 90 * shaken.len(),
         "{holding} of {}",
         shaken.len()
     );
@@ -565,7 +567,9 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
     let stirring = rows
         .iter()
         .filter(|r| (1.0..6.5).contains(&r[0].parse::<f64>().unwrap()));
-    let pushed = stirring.clone().filter(|r| force(r) > 1.0).count();
+    // Moved with the finger (local dynamics), a 56 g ball pushes back with about what it
+    // takes to roll it on: tenths of a newton, not a wall's newtons.
+    let pushed = stirring.clone().filter(|r| force(r) > 0.2).count();
     assert!(pushed > 100, "the balls pushed back in {pushed} ticks");
     let limit = shipped("spidar-g")
         .strings

@@ -428,7 +428,8 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
         .windows(2)
         .map(|w| (w[1] - w[0]).abs())
         .fold(0.0, f64::max);
-    assert!(travel > 0.01, "{feedback}: the block moved {travel} m");
+    // The grip, 5 mm into the face, pushes it on until it is clear of it.
+    assert!(travel > 0.005, "{feedback}: the block moved {travel} m");
     assert!(
         jump < travel / 16.0,
         "{feedback}: a jump of {jump} m in {travel} m"
