@@ -14,8 +14,8 @@ use glam::DVec3;
 pub struct PassivityLimits {
     /// Most damping added in one tick, N·s/m (0: the controller only observes).
     pub max_damping: f64,
-    /// Most energy kept in credit between contacts, joules (within a contact, what the hand
-    /// put into it).
+    /// Most dissipated energy that may be returned later, joules; a contact holds more, see
+    /// [`STORE`].
     pub max_credit: f64,
 }
 
@@ -35,6 +35,12 @@ impl Default for PassivityLimits {
         }
     }
 }
+
+/// How deep a contact may store what the hand pressed into it, metres: the credit grows by
+/// this times the force displayed. A proxy pressed 2 cm past a floor at MaxForce holds a fifth
+/// of a joule, all of which may come back as the hand draws out; capped at the bare credit,
+/// the controller braked the way out by fits and starts.
+pub const STORE: f64 = 0.02;
 
 /// Passivity observer and controller of one effector.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,13 +78,9 @@ impl PassivityController {
     /// The force to display instead of `force`, for grip velocity `velocity` over `dt`.
     pub fn filter(&mut self, force: DVec3, velocity: DVec3, dt: f64) -> DVec3 {
         self.energy -= force.dot(velocity) * dt;
-        if force == DVec3::ZERO {
-            // Out of contact the credit is capped. Within one, what the hand pressed into it
-            // is stored there (a proxy spring pressed 2 cm into a floor at MaxForce holds a
-            // fifth of a joule) and may all come back as the hand draws out; capped, the
-            // controller would brake the way out by fits and starts.
-            self.energy = self.energy.min(self.limits.max_credit);
-        }
+        self.energy = self
+            .energy
+            .min(self.limits.max_credit + STORE * force.length());
         let speed2 = velocity.length_squared();
         if self.energy >= 0.0 || speed2 < 1e-12 {
             return force;
@@ -127,7 +129,7 @@ mod tests {
     }
 
     #[test]
-    fn a_deep_press_gives_back_all_it_was_given_and_the_credit_goes_when_contact_ends() {
+    fn a_deep_press_gives_back_all_it_was_given_and_the_credit_shrinks_with_the_force() {
         // A stiff floor the hand presses 20 mm into at 2 kN/m and draws back out of: all
         // of the ½ k d² = 0.4 J comes back unchanged, far over the credit between contacts.
         let mut pc = PassivityController::new(PassivityLimits::default());

@@ -62,8 +62,14 @@ struct Pending {
     changes: [(u32, Change); HAPTICD_MAX_LOCAL_BODIES],
 }
 
-/// Sets older than this many physics periods count as stale: the scene has failed.
+/// Sets older than this many physics periods (as the world keeps them, see [`MAX_PACE`])
+/// count as stale: the scene has failed.
 pub const STALE_PERIODS: f64 = 3.0;
+
+/// Longest time between sets the haptic side renders at, seconds. A world that steps later
+/// than its rate (too large for it: the physics thread backs off) is rendered at its own pace,
+/// each set interpolated over the time the last one took, up to this.
+pub const MAX_PACE: f64 = 0.5;
 
 /// Impulse summed over one physics period on one plane.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -88,6 +94,8 @@ pub struct Surface {
 #[derive(Debug, Clone)]
 pub struct PlaneRenderer {
     period: f64,
+    /// The time the last set took to come, from the nominal period up to [`MAX_PACE`].
+    pace: f64,
     proxies: Vec<Proxy>,
     parameters: ProxyParameters,
     previous: PlaneSet,
@@ -146,6 +154,7 @@ impl PlaneRenderer {
     pub fn new(rate: f64, pointers: &[Pointer]) -> Self {
         Self {
             period: 1.0 / rate,
+            pace: 1.0 / rate,
             proxies: pointers
                 .iter()
                 .take(MAX_EFFECTORS)
@@ -228,11 +237,12 @@ impl PlaneRenderer {
     }
 
     /// How far the world felt has moved from the set before last toward the last: the
-    /// fraction of a physics period since the last set came, at most 1. Graphics and
+    /// fraction of a physics period (or of the time the last set took, if longer) since the
+    /// last set came, at most 1. Graphics and
     /// telemetry move bodies by the same fraction (thesis 6.5.2), so what is seen is what
     /// is felt.
     pub fn fraction(&self) -> f64 {
-        (self.since_update / self.period).min(1.0)
+        (self.since_update / self.pace).min(1.0)
     }
 
     /// Plane `k` of pointer `p` in the current set, moved `fraction` of a period from where
@@ -263,7 +273,7 @@ impl PlaneRenderer {
     /// [rt] One haptic tick of `dt`: take `latest` if the physics published it since the
     /// last tick (what the period that ended gave the world goes to `emit`), then write
     /// each pointer's wrench. False, with zero wrenches, while no set has come yet or the
-    /// last one is [`STALE_PERIODS`] old.
+    /// last one is [`STALE_PERIODS`] old (in the world's own pace).
     pub fn tick(
         &mut self,
         latest: &PlaneSet,
@@ -274,6 +284,12 @@ impl PlaneRenderer {
     ) -> bool {
         wrenches.fill(Wrench::ZERO);
         if latest.sequence != self.current.sequence {
+            if self.current.sequence != 0 {
+                // At most doubling a set: a world that stalled and resumes is not taken for
+                // one that slowed down.
+                let interval = self.since_update + dt;
+                self.pace = interval.min(2.0 * self.pace).clamp(self.period, MAX_PACE);
+            }
             self.hand_back(&mut emit);
             self.previous = self.current;
             self.current = *latest;
@@ -283,7 +299,7 @@ impl PlaneRenderer {
         } else {
             self.since_update += dt;
         }
-        if self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.period {
+        if self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.pace {
             return false;
         }
         self.loads = [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES];
@@ -457,7 +473,7 @@ impl PlaneRenderer {
                 .flatten()
                 .find(|b| b.body == published.body)
                 .map(|b| b.shown().pose());
-            *slot = LocalBody::new(published, &pending, self.period, shown);
+            *slot = LocalBody::new(published, &pending, self.pace, shown);
         }
     }
 
@@ -635,6 +651,54 @@ mod tests {
         );
         let damper = parameters.damping * 0.1;
         assert!(sideways <= parameters.static_friction * normal + damper + 1e-9);
+    }
+
+    #[test]
+    fn a_world_that_steps_late_is_rendered_at_its_own_pace_and_a_stall_still_found() {
+        // Sets every 160 ms from a world of 20 Hz (50 ms): stale (3 × 50 ms) at first, then
+        // rendered as its pace doubles to the 160 ms it keeps.
+        let p = [pointer(DVec3::new(0.0, 0.01, 0.0), DVec3::ZERO)];
+        let mut r = PlaneRenderer::new(RATE, &p);
+        let mut w = [Wrench::ZERO];
+        let floor = |sequence| set(sequence, 1, DVec3::ZERO, DVec3::Y, DVec3::ZERO);
+        let mut fresh = Vec::new();
+        for k in 1..=8 {
+            for _ in 0..160 {
+                fresh.push(r.tick(&floor(k), &p, TICK, &mut w, |_| {}));
+            }
+        }
+        let stale_at = |from: usize| fresh[from..].iter().filter(|f| !**f).count();
+        // 50 → 100 → 160 ms: stale for the rest of the first two sets only.
+        assert!(stale_at(0) > 0 && stale_at(2 * 160) == 0, "{}", stale_at(0));
+        assert!((r.pace - 0.16).abs() < 1e-9, "{}", r.pace);
+        // Halfway to the next set, the world felt is halfway there.
+        let mut r2 = r.clone();
+        for _ in 0..80 {
+            r2.tick(&floor(9), &p, TICK, &mut w, |_| {});
+        }
+        assert!(
+            (r2.fraction() - 80.0 / 160.0).abs() < 0.01,
+            "{}",
+            r2.fraction()
+        );
+        // It stops: stale after three of its own periods, not later.
+        let mut ticks = 0;
+        while r.tick(&floor(8), &p, TICK, &mut w, |_| {}) {
+            ticks += 1;
+        }
+        assert!(ticks + 160 <= (3.0 * 0.16 / TICK) as usize + 1, "{ticks}");
+        // Back after a 2 s stall, then at its rate again: the stall is not its pace.
+        for _ in 0..2000 {
+            r.tick(&floor(8), &p, TICK, &mut w, |_| {});
+        }
+        r.tick(&floor(9), &p, TICK, &mut w, |_| {});
+        assert!((r.pace - 0.32).abs() < 1e-9, "{}", r.pace);
+        for k in 10..=12 {
+            for _ in 0..50 {
+                r.tick(&floor(k), &p, TICK, &mut w, |_| {});
+            }
+        }
+        assert!((r.pace - 0.05).abs() < 1e-9, "{}", r.pace);
     }
 
     #[test]
