@@ -22,6 +22,7 @@ use std::thread::JoinHandle;
 
 use hapticd_plugin_api::*;
 
+use crate::clock::monotonic_ns;
 use crate::physics_budget::Pacer;
 use crate::plugin;
 use glam::DVec3;
@@ -349,8 +350,10 @@ impl MultiRateScene {
                         }
                     }
                     let hands = *hands_in.latest();
+                    let started = monotonic_ns();
                     let status =
                         instance.step(period_ns as f64 * 1e-9, n, &hands, &taken, &mut set);
+                    set.step = (monotonic_ns() - started) as f64 * 1e-9;
                     if status != HAPTICD_OK {
                         failed_flag.store(true, Ordering::Release);
                         return;

@@ -39,6 +39,10 @@ pub struct PlaneSet {
     pub body_count: u32,
     /// The bodies near the pointers, to move here until the next set.
     pub bodies: [HapticdLocalBody; HAPTICD_MAX_LOCAL_BODIES],
+    /// Seconds the step that made this set took (0: not measured). A world whose steps
+    /// outlast its period rests as long as it works, so the next set comes no sooner than
+    /// twice this.
+    pub step: f64,
 }
 
 /// What the haptic side hands back to the physics when a period ends.
@@ -70,6 +74,9 @@ pub const STALE_PERIODS: f64 = 3.0;
 /// than its rate (too large for it: the physics thread backs off) is rendered at its own pace,
 /// each set interpolated over the time the last one took, up to this.
 pub const MAX_PACE: f64 = 0.5;
+
+/// How much of the pace a set that came sooner keeps.
+const PACE_DECAY: f64 = 0.9;
 
 /// Impulse summed over one physics period on one plane.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -285,10 +292,13 @@ impl PlaneRenderer {
         wrenches.fill(Wrench::ZERO);
         if latest.sequence != self.current.sequence {
             if self.current.sequence != 0 {
-                // At most doubling a set: a world that stalled and resumes is not taken for
-                // one that slowed down.
+                // Up at most twice a set (a world that stalled and resumes is not taken for one
+                // that slowed down), down a tenth a set (a world late by fits is kept at the
+                // pace of its late sets, not flapping between stale and fresh).
                 let interval = self.since_update + dt;
-                self.pace = interval.min(2.0 * self.pace).clamp(self.period, MAX_PACE);
+                let pace = interval.max(PACE_DECAY * self.pace).min(2.0 * self.pace);
+                let announced = 2.0 * latest.step;
+                self.pace = pace.max(announced).clamp(self.period, MAX_PACE);
             }
             self.hand_back(&mut emit);
             self.previous = self.current;
@@ -693,12 +703,25 @@ mod tests {
         }
         r.tick(&floor(9), &p, TICK, &mut w, |_| {});
         assert!((r.pace - 0.32).abs() < 1e-9, "{}", r.pace);
-        for k in 10..=12 {
+        // Then it takes a tenth off a set, down to the nominal period.
+        for k in 10..=40 {
             for _ in 0..50 {
                 r.tick(&floor(k), &p, TICK, &mut w, |_| {});
             }
+            let expected = (0.32 * PACE_DECAY.powi((k - 9) as i32)).max(0.05);
+            assert!((r.pace - expected).abs() < 1e-9, "set {k}: {}", r.pace);
         }
         assert!((r.pace - 0.05).abs() < 1e-9, "{}", r.pace);
+        // A set whose step took 120 ms says the next comes no sooner than 240 ms.
+        let slow = PlaneSet {
+            step: 0.12,
+            ..floor(41)
+        };
+        r.tick(&slow, &p, TICK, &mut w, |_| {});
+        assert!((r.pace - 0.24).abs() < 1e-9, "{}", r.pace);
+        for _ in 0..239 {
+            assert!(r.tick(&slow, &p, TICK, &mut w, |_| {}));
+        }
     }
 
     #[test]
