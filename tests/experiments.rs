@@ -147,7 +147,8 @@ fn impulse_feedback_makes_a_push_independent_of_the_sampling_phase() {
 /// Thesis 6.5.4: one push on light blocks at low physics rates. Handing back impulses
 /// throws a light block (the finger meets it as a wall for a period); moving the bodies near
 /// the finger in the haptic thread (local dynamics) pushes it as far as the physics at the
-/// haptic rate does, whatever the sampling phase.
+/// haptic rate does (within 10 %, at 20 and 30 Hz), whatever the sampling phase (a fifth of
+/// position feedback's spread), and no faster than the finger.
 #[test]
 fn local_dynamics_pushes_light_blocks_as_far_as_physics_at_the_haptic_rate() {
     use hapticctl::experiments::push_mass;
@@ -159,12 +160,13 @@ fn local_dynamics_pushes_light_blocks_as_far_as_physics_at_the_haptic_rate() {
             let local = push_mass::cell(mass, rate, Feedback::Local, 3).unwrap();
             let travel = local.travel();
             assert!(
-                (travel.mean / reference - 1.0).abs() <= 0.12,
+                (travel.mean / reference - 1.0).abs() <= 0.10,
                 "{mass} kg at {rate} Hz: local {travel:?} against {reference} m"
             );
             let position = push_mass::cell(mass, rate, Feedback::Position, 3).unwrap();
+            // The goal: at most a fifth of position feedback's spread over phases.
             assert!(
-                travel.deviation <= position.travel().deviation,
+                travel.deviation <= 0.2 * position.travel().deviation,
                 "{mass} kg at {rate} Hz: local {travel:?}, position {:?}",
                 position.travel()
             );
@@ -175,7 +177,7 @@ fn local_dynamics_pushes_light_blocks_as_far_as_physics_at_the_haptic_rate() {
                 impulse.travel()
             );
             // The body moves no faster than about the finger pushing it.
-            assert!(local.speed_ratio() < 1.3, "{}", local.speed_ratio());
+            assert!(local.speed_ratio() < 1.1, "{}", local.speed_ratio());
         }
     }
 }
