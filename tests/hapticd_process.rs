@@ -529,6 +529,30 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
     std::fs::remove_file(csv).ok();
 }
 
+/// Run hapticd to the end on the simulated SPIDAR-G on a bus of test `name`'s own, the rapier
+/// plugin stepping `scene_file` while the hand script `hand` moves the grip for `seconds`,
+/// recording to `csv`.
+fn run_rapier(name: &str, scene_file: &Path, hand: &Path, seconds: &str, csv: &Path) {
+    let args = [
+        "--sim",
+        "spidar-g",
+        "--hand",
+        hand.to_str().unwrap(),
+        "--duration",
+        seconds,
+        "--record",
+        csv.to_str().unwrap(),
+        "--scene-file",
+        scene_file.to_str().unwrap(),
+    ];
+    let scene = plugin_path("hapticd-scene-rapier");
+    finish(
+        hapticd_with_scene(&on_bus(name), &scene, &args)
+            .spawn()
+            .unwrap(),
+    );
+}
+
 /// Thesis 6.4.3 through the daemon: the simulated hand stirs the twelve balls of the rapier
 /// scene, the world at 10 Hz in the physics thread and the haptics at 1 kHz. The loop runs
 /// throughout (never stale, never failed), the balls push back, and no string pulls harder
@@ -536,23 +560,9 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
 #[test]
 fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
     let csv = scratch("balls.csv");
-    let scene = plugin_path("hapticd-scene-rapier");
     let balls = repo_dir().join("config/scenes/balls.yaml");
     let stir = repo_dir().join("config/hands/stir-balls.yaml");
-    let args = [
-        "--sim",
-        "spidar-g",
-        "--hand",
-        stir.to_str().unwrap(),
-        "--duration",
-        "7.5",
-        "--record",
-        csv.to_str().unwrap(),
-        "--scene-file",
-        balls.to_str().unwrap(),
-    ];
-    let at = on_bus("balls");
-    finish(hapticd_with_scene(&at, &scene, &args).spawn().unwrap());
+    run_rapier("balls", &balls, &stir, "7.5", &csv);
     let rows = columns(&csv, &["time", "state", "grip_fx", "grip_fy", "grip_fz"]);
     assert!(rows.len() > 7000, "{} rows", rows.len());
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
@@ -627,21 +637,7 @@ fn press_plates(name: &str, aim: f64) -> Vec<(f64, f64, f64, f64)> {
         ),
     )
     .unwrap();
-    let args = [
-        "--sim",
-        "spidar-g",
-        "--hand",
-        hand.to_str().unwrap(),
-        "--duration",
-        "6.7",
-        "--record",
-        csv.to_str().unwrap(),
-        "--scene-file",
-        scene_file.to_str().unwrap(),
-    ];
-    let at = on_bus(name);
-    let scene = plugin_path("hapticd-scene-rapier");
-    finish(hapticd_with_scene(&at, &scene, &args).spawn().unwrap());
+    run_rapier(name, &scene_file, &hand, "6.7", &csv);
     let rows = columns(&csv, &["time", "state", "grip_x", "grip_y", "grip_fy"]);
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
     for path in [scene_file, hand, csv] {

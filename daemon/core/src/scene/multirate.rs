@@ -245,9 +245,8 @@ impl PlaneRenderer {
 
     /// How far the world felt has moved from the set before last toward the last: the
     /// fraction of a physics period (or of the time the last set took, if longer) since the
-    /// last set came, at most 1. Graphics and
-    /// telemetry move bodies by the same fraction (thesis 6.5.2), so what is seen is what
-    /// is felt.
+    /// last set came, at most 1. Graphics and telemetry move bodies by the same fraction
+    /// (thesis 6.5.2), so what is seen is what is felt.
     pub fn fraction(&self) -> f64 {
         (self.since_update / self.pace).min(1.0)
     }
@@ -404,19 +403,17 @@ impl PlaneRenderer {
             self.resting[p] = Some(k);
             let object = self.current.planes[p].planes[k].object;
             self.touched[p] = Some((object, surfaces[k]));
-            if let Some(i) = self.owner(object) {
-                let body = self.locals[i].as_ref().map(LocalBody::motion);
-                let (centre, velocity, spin) = body
-                    .map_or((DVec3::ZERO, DVec3::ZERO, DVec3::ZERO), |m| {
-                        (m.position, m.velocity, m.spin)
-                    });
-                let arm = out.proxy - centre;
+            let moved = self
+                .owner(object)
+                .and_then(|i| Some((i, self.locals[i].as_ref()?.motion())));
+            if let Some((i, body)) = moved {
+                let arm = out.proxy - body.position;
                 // Passivity on the body port: the body takes no more work than the hand
                 // has put into the contact (what the finger presses on is the body's
                 // nearest face as the last step saw it, and a ball rolling from under it
                 // would otherwise be driven by a face it no longer has).
                 let on_body = -force;
-                let given = on_body.dot(velocity + spin.cross(arm)) * dt;
+                let given = on_body.dot(body.velocity + body.spin.cross(arm)) * dt;
                 let available = self.ports[p] + on_body.dot(pointer.velocity) * dt;
                 let share = if given > available.max(0.0) {
                     (available / given).max(0.0)

@@ -116,6 +116,25 @@ fn collider(body: &Body, piece: usize, primitive: Primitive) -> ColliderBuilder 
     }
 }
 
+/// The nearest points of collider `mine` and `solid` where they are now, within `margin`:
+/// the contact of `mine` with it, the normal along which `solid` pushes.
+fn contact_now(mine: &Collider, solid: &Collider, margin: f64) -> Option<HapticdBodyContact> {
+    let c = rapier3d::parry::query::contact(
+        mine.position(),
+        mine.shape(),
+        solid.position(),
+        solid.shape(),
+        margin as f32,
+    )
+    .ok()??;
+    Some(HapticdBodyContact {
+        point: dvec(c.point1).to_array(),
+        normal: (-dvec(c.normal1)).to_array(),
+        gap: f64::from(c.dist),
+        friction: f64::from(mine.friction().min(solid.friction())),
+    })
+}
+
 /// Contact points gathered for one body, before [`spread`] chooses among them.
 const FOUND: usize = 4 * HAPTICD_MAX_BODY_CONTACTS;
 
@@ -383,28 +402,15 @@ impl RapierWorld {
                 if !self.is_world(handle, solid) || pairs == FOUND {
                     continue;
                 }
-                let Ok(Some(now)) = rapier3d::parry::query::contact(
-                    mine.position(),
-                    mine.shape(),
-                    solid.position(),
-                    solid.shape(),
-                    margin as f32,
-                ) else {
+                let Some(now) = contact_now(mine, solid, margin) else {
                     continue;
                 };
-                let (at, push, gap) = (dvec(now.point1), -dvec(now.normal1), f64::from(now.dist));
-                let friction = f64::from(mine.friction().min(solid.friction()));
-                let contact = |point: DVec3, gap: f64| HapticdBodyContact {
-                    point: point.to_array(),
-                    normal: push.to_array(),
-                    gap,
-                    friction,
-                };
+                let (at, push) = (DVec3::from(now.point), DVec3::from(now.normal));
                 paired[pairs] = Some(other);
                 let points = contacts.manifolds.iter().flat_map(|m| &m.points);
                 if points.clone().count() < 2 {
                     if kept < FOUND {
-                        found[kept] = (pairs, contact(at, gap));
+                        found[kept] = (pairs, now);
                         kept += 1;
                     }
                 } else {
@@ -415,7 +421,12 @@ impl RapierWorld {
                             point.local_p2
                         };
                         let p = dvec(mine.position() * local);
-                        found[kept] = (pairs, contact(p, gap + (p - at).dot(push)));
+                        let contact = HapticdBodyContact {
+                            point: p.to_array(),
+                            gap: now.gap + (p - at).dot(push),
+                            ..now
+                        };
+                        found[kept] = (pairs, contact);
                         kept += 1;
                     }
                 }
@@ -426,7 +437,11 @@ impl RapierWorld {
         // Then the nearest of the fixed solids it could reach in a period that the narrow
         // phase does not see yet (it predicts a fraction of a millimetre): a ball lifted off
         // the floor by a hair, pushed down by the hand, lands on it instead of going through.
-        let mut near = [(f64::INFINITY, HapticdBodyContact::default()); HAPTICD_MAX_BODY_CONTACTS];
+        let unused = HapticdBodyContact {
+            gap: f64::INFINITY,
+            ..HapticdBodyContact::default()
+        };
+        let mut near = [unused; HAPTICD_MAX_BODY_CONTACTS];
         for &collider in b.colliders() {
             let mine = &self.physics.colliders[collider];
             let aabb = mine.compute_aabb().loosened(margin as f32);
@@ -442,35 +457,18 @@ impl RapierWorld {
                 if !fixed || paired[..pairs].contains(&Some(other)) {
                     continue;
                 }
-                let Ok(Some(c)) = rapier3d::parry::query::contact(
-                    mine.position(),
-                    mine.shape(),
-                    solid.position(),
-                    solid.shape(),
-                    margin as f32,
-                ) else {
+                let Some(c) = contact_now(mine, solid, margin) else {
                     continue;
                 };
-                let gap = f64::from(c.dist);
-                let Some(slot) = near.iter_mut().max_by(|a, b| a.0.total_cmp(&b.0)) else {
-                    continue;
-                };
-                if gap < slot.0 {
-                    *slot = (
-                        gap,
-                        HapticdBodyContact {
-                            point: dvec(c.point1).to_array(),
-                            normal: (-dvec(c.normal1)).to_array(),
-                            gap,
-                            friction: f64::from(mine.friction().min(solid.friction())),
-                        },
-                    );
+                let farthest = near.iter_mut().max_by(|a, b| a.gap.total_cmp(&b.gap));
+                if let Some(slot) = farthest.filter(|slot| c.gap < slot.gap) {
+                    *slot = c;
                 }
             }
         }
-        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        for (gap, contact) in near {
-            if count == HAPTICD_MAX_BODY_CONTACTS || !gap.is_finite() {
+        near.sort_unstable_by(|a, b| a.gap.total_cmp(&b.gap));
+        for contact in near {
+            if count == HAPTICD_MAX_BODY_CONTACTS || !contact.gap.is_finite() {
                 break;
             }
             out.contacts[count] = contact;
