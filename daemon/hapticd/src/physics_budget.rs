@@ -241,11 +241,11 @@ impl Pacer {
         }
     }
 
-    /// After a step (and its publishing): switch the scheduling as the budget says, and
-    /// sleep until the next step is due. Returns whether the world fell behind its rate.
-    pub fn rest(&mut self) -> bool {
-        let worked = thread_cpu_ns() - self.cpu_ns;
-        let verdict = self.budget.judge(worked);
+    /// After a step, before its publishing: switch the scheduling as the budget says (and say
+    /// once that the world is too large). Returns whether the world, found too large once, is
+    /// stepped by an ordinary thread that yields to others, which the set published tells the haptic side.
+    pub fn judge(&mut self) -> bool {
+        let verdict = self.budget.judge(thread_cpu_ns() - self.cpu_ns);
         match verdict.switch {
             Some(true) if !matches!(become_realtime(PHYSICS_PRIORITY), Scheduling::Fifo(_)) => {
                 self.budget.refused()
@@ -257,6 +257,13 @@ impl Pacer {
             yield_to_others();
             tracing::warn!("scene {}: {news}", self.scene);
         }
+        self.budget.too_large_once && !self.budget.realtime()
+    }
+
+    /// After the publishing: sleep until the next step is due. Returns whether the world fell
+    /// behind its rate.
+    pub fn rest(&mut self) -> bool {
+        let worked = thread_cpu_ns() - self.cpu_ns;
         let (wake, behind) = self.budget.wake(monotonic_ns(), worked);
         sleep_until(wake);
         self.cpu_ns = thread_cpu_ns();

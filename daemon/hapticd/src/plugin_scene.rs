@@ -354,6 +354,7 @@ impl MultiRateScene {
                     let status =
                         instance.step(period_ns as f64 * 1e-9, n, &hands, &taken, &mut set);
                     set.step = (monotonic_ns() - started) as f64 * 1e-9;
+                    set.yielding = pacer.judge();
                     if status != HAPTICD_OK {
                         failed_flag.store(true, Ordering::Release);
                         return;

@@ -43,6 +43,10 @@ pub struct PlaneSet {
     /// outlast its period rests as long as it works, so the next set comes no sooner than
     /// twice this.
     pub step: f64,
+    /// The world was found too large for its rate and its thread yields to the others on its
+    /// CPU: when the next set comes is up to them, so the world counts as failed only once
+    /// [`STALE_PERIODS`] times [`MAX_PACE`] passed.
+    pub yielding: bool,
 }
 
 /// What the haptic side hands back to the physics when a period ends.
@@ -251,6 +255,15 @@ impl PlaneRenderer {
         (self.since_update / self.pace).min(1.0)
     }
 
+    /// How long after the current set the world counts as failed, seconds.
+    fn patience(&self) -> f64 {
+        let pace = match self.current.yielding {
+            true => MAX_PACE,
+            false => self.pace,
+        };
+        STALE_PERIODS * pace
+    }
+
     /// Plane `k` of pointer `p` in the current set, moved `fraction` of a period from where
     /// the set before had the same object's plane; a locally moved body's plane where that
     /// body is now.
@@ -308,7 +321,7 @@ impl PlaneRenderer {
         } else {
             self.since_update += dt;
         }
-        if self.current.sequence == 0 || self.since_update > STALE_PERIODS * self.pace {
+        if self.current.sequence == 0 || self.since_update > self.patience() {
             return false;
         }
         self.loads = [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES];
@@ -719,6 +732,37 @@ mod tests {
         for _ in 0..239 {
             assert!(r.tick(&slow, &p, TICK, &mut w, |_| {}));
         }
+    }
+
+    #[test]
+    fn a_world_too_large_for_its_rate_is_waited_for_as_long_as_the_slowest_pace() {
+        // A 20 Hz world whose thread yields to others: its next set, held off for a second by the
+        // CPU's other threads, finds the planes still rendered; it stops for good: stale
+        // after three of the longest paces.
+        let p = [pointer(DVec3::new(0.0, 0.01, 0.0), DVec3::ZERO)];
+        let mut r = PlaneRenderer::new(RATE, &p);
+        let mut w = [Wrench::ZERO];
+        let floor = |sequence| PlaneSet {
+            yielding: true,
+            ..set(sequence, 1, DVec3::ZERO, DVec3::Y, DVec3::ZERO)
+        };
+        for k in 1..=3 {
+            for _ in 0..50 {
+                assert!(r.tick(&floor(k), &p, TICK, &mut w, |_| {}));
+            }
+        }
+        for _ in 0..1000 {
+            assert!(r.tick(&floor(3), &p, TICK, &mut w, |_| {}));
+        }
+        let mut ticks = 0;
+        while r.tick(&floor(4), &p, TICK, &mut w, |_| {}) {
+            ticks += 1;
+        }
+        let patience = STALE_PERIODS * MAX_PACE;
+        assert!(
+            (ticks as f64 * TICK - patience).abs() <= 1.5 * TICK,
+            "{ticks}"
+        );
     }
 
     #[test]
