@@ -144,21 +144,28 @@ fn impulse_feedback_makes_a_push_independent_of_the_sampling_phase() {
     );
 }
 
-/// Thesis 6.5.4: one push on light blocks at low physics rates. Handing back impulses
-/// throws a light block (the finger meets it as a wall for a period); moving the bodies near
-/// the finger in the haptic thread (local dynamics) pushes it as far as the physics at the
-/// haptic rate does (within 10 %, at 20 and 30 Hz), whatever the sampling phase (a fifth of
+/// Thesis 6.5.4: one push on blocks of 0.1 to 10 kg at low physics rates. Handing back
+/// impulses throws a light block (the finger meets it as a wall for a period); moving the
+/// bodies near the finger in the haptic thread (local dynamics) pushes every block as far
+/// as the physics at the haptic rate does (within 10 %, at 10, 20 and 30 Hz; the 10 kg block
+/// the finger cannot move stays within a millimetre), whatever the sampling phase (a fifth of
 /// position feedback's spread), and no faster than the finger.
 #[test]
-fn local_dynamics_pushes_light_blocks_as_far_as_physics_at_the_haptic_rate() {
+fn local_dynamics_pushes_every_block_as_far_as_physics_at_the_haptic_rate() {
     use hapticctl::experiments::push_mass;
     use hapticd_physics::scene::Feedback;
-    for mass in [0.1, 0.3, 1.0] {
+    for mass in push_mass::MASSES {
         let reference = push_mass::reference(mass).unwrap();
-        assert!(reference > 0.04, "{mass} kg moved {reference} m at 1 kHz");
-        for rate in [20.0, 30.0] {
+        for rate in push_mass::RATES {
             let local = push_mass::cell(mass, rate, Feedback::Local, 3).unwrap();
             let travel = local.travel();
+            if reference.abs() < 1e-3 {
+                assert!(
+                    travel.mean.abs() < 1e-3 && mass >= 10.0,
+                    "{mass} kg at {rate} Hz: local {travel:?} against {reference} m"
+                );
+                continue;
+            }
             assert!(
                 (travel.mean / reference - 1.0).abs() <= 0.10,
                 "{mass} kg at {rate} Hz: local {travel:?} against {reference} m"
@@ -170,12 +177,14 @@ fn local_dynamics_pushes_light_blocks_as_far_as_physics_at_the_haptic_rate() {
                 "{mass} kg at {rate} Hz: local {travel:?}, position {:?}",
                 position.travel()
             );
-            let impulse = push_mass::cell(mass, rate, Feedback::Impulse, 3).unwrap();
-            assert!(
-                impulse.travel().mean > 1.5 * reference,
-                "{mass} kg at {rate} Hz: impulse {:?} against {reference} m",
-                impulse.travel()
-            );
+            if mass <= 1.0 {
+                let impulse = push_mass::cell(mass, rate, Feedback::Impulse, 3).unwrap();
+                assert!(
+                    impulse.travel().mean > 1.5 * reference,
+                    "{mass} kg at {rate} Hz: impulse {:?} against {reference} m",
+                    impulse.travel()
+                );
+            }
             // The body moves no faster than about the finger pushing it.
             assert!(local.speed_ratio() < 1.1, "{}", local.speed_ratio());
         }

@@ -5,16 +5,18 @@
 //! contacts with the rest of the world as the step left them. Each haptic tick integrates
 //! the body twice from that state over the period: once under the hand's force ("hand")
 //! and once without it ("free"), both against the same contacts, which stay where they were
-//! (the other solid waits for the next step). Their difference is what the hand did, and is
-//! all the physics needs back: it adds it to the body at its next step, so the world
-//! follows the hand without waiting a period to learn of it, and no body meets the hand as
-//! a wall for a whole period.
+//! (the other solid waits for the next step). Their difference is what the hand did.
 //!
 //! When the next state arrives, it does not yet hold what the hand did over the period that
-//! just ended (the physics takes that in one step later): the body restarts from the new
-//! state plus the changes still pending. Whatever the physics did differently (a collision
-//! the frozen contacts did not foresee) is a jump in position, spread over the next period
-//! so that the surfaces felt never step.
+//! just ended (the physics takes that in one step later). What goes back is how the body
+//! under the hand differs from that next state (plus the changes still pending): the hand's
+//! part, and whatever the step's coarser integration did differently (one step of friction
+//! stops a block that slides here for most of a period). The physics adds it at its next
+//! step, so the world follows the hand, and the body restarts from the next state plus
+//! everything pending: where it was under the hand. A body the next step no longer
+//! publishes gets the hand's part alone. Only what differs beyond what goes back (a
+//! collision the step saw on a body the next set leaves out) is a jump, spread over the
+//! next period so that the surfaces felt never step.
 //!
 //! Contacts are solved as unilateral velocity constraints with Coulomb friction by a few
 //! sweeps of projected Gauss–Seidel, speculative over their gap: a body resting on a floor
@@ -164,6 +166,16 @@ struct Row {
     friction: f64,
 }
 
+/// The state a physics step published for a body.
+fn published_motion(published: &HapticdLocalBody) -> Motion {
+    Motion {
+        position: DVec3::from(published.position),
+        orientation: quat_from_wxyz(published.orientation).normalize(),
+        velocity: DVec3::from(published.velocity),
+        spin: DVec3::from(published.spin),
+    }
+}
+
 /// The unit tangents of `n`.
 fn tangents(n: DVec3) -> (DVec3, DVec3) {
     let t = n.any_orthonormal_vector();
@@ -181,12 +193,7 @@ impl LocalBody {
         period: f64,
         shown: Option<Pose>,
     ) -> Option<LocalBody> {
-        let base = Motion {
-            position: DVec3::from(published.position),
-            orientation: quat_from_wxyz(published.orientation).normalize(),
-            velocity: DVec3::from(published.velocity),
-            spin: DVec3::from(published.spin),
-        };
+        let base = published_motion(published);
         let inverse_inertia = DMat3::from_cols_array(&published.inverse_inertia).transpose();
         let finite = base.position.is_finite()
             && base.orientation.is_finite()
@@ -308,6 +315,21 @@ impl LocalBody {
     /// What the hand did since the period began.
     pub fn change(&self) -> Change {
         Change::between(&self.hand, &self.free)
+    }
+
+    /// How the body under the hand differs from the state the next step published for it,
+    /// moved on by the changes still `pending` for it: all the physics must add for the two
+    /// to agree. Besides the hand's part ([`LocalBody::change`]), it holds what the
+    /// step's coarser integration of the same contacts did differently (a block coasting
+    /// on a floor for less than a period is stopped by one step of friction), and what the
+    /// step saw and the contacts here did not. None when the state published is not finite.
+    pub fn change_to(&self, next: &HapticdLocalBody, pending: &Change) -> Option<Change> {
+        let next = published_motion(next).plus(pending);
+        let finite = next.position.is_finite()
+            && next.orientation.is_finite()
+            && next.velocity.is_finite()
+            && next.spin.is_finite();
+        finite.then(|| Change::between(&self.hand, &next))
     }
 
     /// [rt] One tick of `dt`: the hand pushes with `force` and `torque` (about the centre
@@ -509,6 +531,47 @@ mod tests {
         }
         let lift = (12.0 - 9.81) * 100.0 * DT;
         assert!((body.motion().velocity.y - lift).abs() < 1e-9);
+    }
+
+    #[test]
+    fn what_goes_back_is_the_difference_from_the_next_step_not_only_the_hands_part() {
+        // A brick slides at 0.25 m/s on a floor of μ = 0.3, untouched, for a 10 Hz period:
+        // here it stops after v/(μg) = 85 ms, having slid v²/(2μg) = 10.6 mm. The step
+        // stopped it with one period's friction impulse where it was.
+        let (g, mu, v) = (9.81, 0.3, 0.25);
+        let (mut record, _) = brick(1.0, DVec3::new(0.0, -g, 0.0));
+        on_floor(&mut record, mu);
+        record.velocity = [v, 0.0, 0.0];
+        let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+        for _ in 0..100 {
+            body.step(DVec3::ZERO, DVec3::ZERO, DT);
+        }
+        let slid = v * v / (2.0 * mu * g);
+        assert!(
+            (body.motion().position.x - slid).abs() < 2e-4,
+            "{:?}",
+            body.motion()
+        );
+        assert!(body.change().is_zero());
+        let next = HapticdLocalBody {
+            velocity: [0.0; 3],
+            ..record
+        };
+        let back = body.change_to(&next, &Change::default()).unwrap();
+        assert!((back.displacement.x - body.motion().position.x).abs() < 1e-12);
+        assert!(back.velocity.length() < 1e-6, "{back:?}");
+        // With a change still pending, only the rest goes back.
+        let pending = Change {
+            displacement: DVec3::X * 0.004,
+            ..Change::default()
+        };
+        let rest = body.change_to(&next, &pending).unwrap();
+        assert!((rest.displacement.x - (back.displacement.x - 0.004)).abs() < 1e-12);
+        let broken = HapticdLocalBody {
+            position: [f64::NAN, 0.0, 0.0],
+            ..record
+        };
+        assert_eq!(body.change_to(&broken, &Change::default()), None);
     }
 
     #[test]

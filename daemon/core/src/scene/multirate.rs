@@ -70,6 +70,19 @@ struct Pending {
     changes: [(u32, Change); HAPTICD_MAX_LOCAL_BODIES],
 }
 
+/// The changes in `records` for `published`'s body that its step had not taken in.
+fn pending_for(records: &[Pending], published: &HapticdLocalBody) -> Change {
+    let mut pending = Change::default();
+    for record in records.iter().filter(|h| h.sequence > published.applied) {
+        for (body, change) in &record.changes[..record.count] {
+            if *body == published.body {
+                pending.add(change);
+            }
+        }
+    }
+    pending
+}
+
 /// Sets older than this many physics periods (as the world keeps them, see [`MAX_PACE`])
 /// count as stale: the scene has failed.
 pub const STALE_PERIODS: f64 = 3.0;
@@ -312,7 +325,7 @@ impl PlaneRenderer {
                 let announced = 2.0 * latest.step;
                 self.pace = pace.max(announced).clamp(self.period, MAX_PACE);
             }
-            self.hand_back(&mut emit);
+            self.hand_back(latest, &mut emit);
             self.previous = self.current;
             self.current = *latest;
             self.keep_touched_faces();
@@ -476,18 +489,7 @@ impl PlaneRenderer {
         let count = (self.current.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
         self.locals = [None; HAPTICD_MAX_LOCAL_BODIES];
         for (slot, published) in self.locals.iter_mut().zip(&self.current.bodies[..count]) {
-            let mut pending = Change::default();
-            for hand_back in self
-                .pending
-                .iter()
-                .filter(|h| h.sequence > published.applied)
-            {
-                for (body, change) in &hand_back.changes[..hand_back.count] {
-                    if *body == published.body {
-                        pending.add(change);
-                    }
-                }
-            }
+            let pending = pending_for(&self.pending, published);
             let shown = old
                 .iter()
                 .flatten()
@@ -497,9 +499,10 @@ impl PlaneRenderer {
         }
     }
 
-    /// Emit the impulse summed on each plane of the current set and what the hand did to
-    /// each local body, and start new sums.
-    fn hand_back(&mut self, emit: &mut impl FnMut(HandBack)) {
+    /// Emit the impulse summed on each plane of the current set and, for each local body,
+    /// how it differs from the state the `next` set has for it (what the hand did, where
+    /// the next set has lost it), and start new sums.
+    fn hand_back(&mut self, next: &PlaneSet, emit: &mut impl FnMut(HandBack)) {
         for (sums, planes) in self.sums.iter_mut().zip(&self.current.planes) {
             let count = (planes.count as usize).min(HAPTICD_MAX_PLANES);
             for (sum, plane) in sums.iter_mut().zip(&planes.planes[..count]) {
@@ -517,8 +520,13 @@ impl PlaneRenderer {
             sequence: self.hand_backs + 1,
             ..Pending::default()
         };
+        let count = (next.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
         for body in self.locals.iter().flatten() {
-            let change = body.change();
+            let change = next.bodies[..count]
+                .iter()
+                .find(|b| b.body == body.body)
+                .and_then(|b| body.change_to(b, &pending_for(&self.pending, b)))
+                .unwrap_or_else(|| body.change());
             if !change.is_zero() {
                 record.changes[record.count] = (body.body, change);
                 record.count += 1;

@@ -217,6 +217,12 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
     }
 }
 
+/// A travel of `metres` on the push-mass charts' axis: thrown blocks go metres, blocks held
+/// by friction hardly move, and both must be seen beside the reference.
+fn log_travel(metres: f64) -> f64 {
+    (metres * 1e3).max(0.1).log10()
+}
+
 fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
     if !(2..=20).contains(&args.phases) {
         return Err(Failure::usage("--phases must be 2–20"));
@@ -244,7 +250,7 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
             points: push_mass::MASSES
                 .iter()
                 .zip(&references)
-                .map(|(m, r)| (m.log10(), r * 1e3))
+                .map(|(m, r)| (m.log10(), log_travel(*r)))
                 .collect(),
             color: PALETTE[0],
         });
@@ -261,7 +267,7 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
                     travel.deviation * 1e3,
                     cell.speed_ratio()
                 );
-                points.push((mass.log10(), travel.mean * 1e3));
+                points.push((mass.log10(), log_travel(travel.mean)));
                 rows.push(json!({
                     "rate": rate,
                     "mass": mass,
@@ -285,7 +291,7 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
         charts.push(Chart {
             title: format!("one push, physics {rate} Hz"),
             x_label: "block mass [log10 kg]".into(),
-            y_label: "block travel [mm]".into(),
+            y_label: "block travel [log10 mm], 0.1 mm or less at -1".into(),
             series,
             ..Chart::default()
         });
