@@ -155,7 +155,8 @@ fn local_dynamics_pushes_every_block_as_far_as_physics_at_the_haptic_rate() {
     use hapticctl::experiments::push_mass;
     use hapticd_physics::scene::Feedback;
     for mass in push_mass::MASSES {
-        let reference = push_mass::reference(mass).unwrap();
+        let fast = push_mass::reference(mass).unwrap();
+        let reference = fast.stop();
         for rate in push_mass::RATES {
             let local = push_mass::cell(mass, rate, Feedback::Local, 3).unwrap();
             let travel = local.travel();
@@ -185,8 +186,14 @@ fn local_dynamics_pushes_every_block_as_far_as_physics_at_the_haptic_rate() {
                     impulse.travel()
                 );
             }
-            // The body moves no faster than about the finger pushing it.
-            assert!(local.speed_ratio() < 1.1, "{}", local.speed_ratio());
+            // The body moves no faster than about the finger pushing it: it overshoots as
+            // the proxy's spring unloads, as it does with the physics at the haptic rate.
+            assert!(
+                local.speed_ratio() < fast.speed_ratio().max(1.0) + 0.05,
+                "{mass} kg at {rate} Hz: {} against {} at 1 kHz",
+                local.speed_ratio(),
+                fast.speed_ratio()
+            );
         }
     }
 }

@@ -65,10 +65,7 @@ impl Cell {
 
     /// The fastest the block moved over the fastest the finger moved, over all phases.
     pub fn speed_ratio(&self) -> f64 {
-        self.runs
-            .iter()
-            .map(|r| r.peak_block_speed / r.peak_finger_speed.max(1e-9))
-            .fold(0.0, f64::max)
+        self.runs.iter().map(Run::speed_ratio).fold(0.0, f64::max)
     }
 }
 
@@ -84,9 +81,9 @@ pub fn cell(mass: f64, rate: f64, feedback: Feedback, phases: usize) -> Result<C
     })
 }
 
-/// How far the block of `mass` goes with the physics at the haptic rate.
-pub fn reference(mass: f64) -> Result<f64, String> {
+/// The push on the block of `mass` with the physics at the haptic rate.
+pub fn reference(mass: f64) -> Result<Run, String> {
     let fast = setup(1000.0);
     let world = push_phase::world(&scene(mass), &fast, Feedback::Impulse)?;
-    Ok(push_phase::run(&world, &fast, 0.0)?.stop())
+    push_phase::run(&world, &fast, 0.0)
 }

@@ -88,6 +88,11 @@ impl Run {
     pub fn stop(&self) -> f64 {
         self.block.last().map_or(0.0, |s| s.1)
     }
+
+    /// The fastest the block moved over the fastest the finger moved.
+    pub fn speed_ratio(&self) -> f64 {
+        self.peak_block_speed / self.peak_finger_speed.max(1e-9)
+    }
 }
 
 /// The experiment's world from `scene` (a scene file's text) with `feedback` at `setup`'s

@@ -229,7 +229,7 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
     }
     let references = push_mass::MASSES
         .iter()
-        .map(|&m| push_mass::reference(m))
+        .map(|&m| push_mass::reference(m).map(|run| (run.stop(), run.speed_ratio())))
         .collect::<Result<Vec<_>, _>>()
         .map_err(Failure::failed)?;
     let mut text = format!(
@@ -239,7 +239,7 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
     let mut rows = Vec::new();
     let mut charts = Vec::new();
     for rate in push_mass::RATES {
-        text += &format!("physics {rate} Hz\n  mass [kg]  reference");
+        text += &format!("physics {rate} Hz\n  mass [kg] {:>17}", "reference");
         for method in push_mass::METHODS {
             text += &format!(" {:>22}", method.name());
         }
@@ -250,14 +250,16 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
             points: push_mass::MASSES
                 .iter()
                 .zip(&references)
-                .map(|(m, r)| (m.log10(), log_travel(*r)))
+                .map(|(m, r)| (m.log10(), log_travel(r.0)))
                 .collect(),
             color: PALETTE[0],
         });
         let mut lines = vec![String::new(); push_mass::MASSES.len()];
         for (k, method) in push_mass::METHODS.into_iter().enumerate() {
             let mut points = Vec::new();
-            for (i, (&mass, reference)) in push_mass::MASSES.iter().zip(&references).enumerate() {
+            for (i, (&mass, &(reference, reference_ratio))) in
+                push_mass::MASSES.iter().zip(&references).enumerate()
+            {
                 let cell =
                     push_mass::cell(mass, rate, method, args.phases).map_err(Failure::failed)?;
                 let travel = cell.travel();
@@ -273,6 +275,7 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
                     "mass": mass,
                     "feedback": method.name(),
                     "reference": reference,
+                    "reference_speed_ratio": reference_ratio,
                     "mean": travel.mean,
                     "deviation": travel.deviation,
                     "speed_ratio": cell.speed_ratio(),
@@ -285,8 +288,13 @@ fn push_masses(args: &PushMassArgs) -> Result<(), Failure> {
                 color: PALETTE[(k + 1) % PALETTE.len()],
             });
         }
-        for ((line, mass), reference) in lines.iter().zip(push_mass::MASSES).zip(&references) {
-            text += &format!("  {mass:9.1}  {:9.2}{line}\n", reference * 1e3);
+        for ((line, mass), (reference, ratio)) in
+            lines.iter().zip(push_mass::MASSES).zip(&references)
+        {
+            text += &format!(
+                "  {mass:9.1} {:10.2} ({ratio:4.2}){line}\n",
+                reference * 1e3
+            );
         }
         charts.push(Chart {
             title: format!("one push, physics {rate} Hz"),
