@@ -457,6 +457,112 @@ fn every_property_and_method_answers_as_the_readme_shows() {
     daemon.stop();
 }
 
+/// hapticd-ipc's typed clients, as an outside program uses them, against the real daemon
+/// and renderer: what they read is what busctl reads, what they change busctl sees changed,
+/// and the descriptors they are handed map as the world and a frame ring.
+#[test]
+fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
+    use hapticd_ipc::frame_ring::FrameRingReader;
+    use hapticd_ipc::proxies::{DeviceProxy, ManagerProxy, RendererProxy};
+    use hapticd_ipc::world_share::MappedWorld;
+    use std::collections::HashMap;
+    use zbus::proxy::CacheProperties;
+
+    let dir = scratch("proxies");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    let scene = dir.join("sent.yaml");
+    std::fs::copy(repo_dir().join("config/scenes/static.yaml"), &scene).unwrap();
+    let address = hapticd_ipc::bus::Bus::Address(bus.address.clone());
+    zbus::block_on(async {
+        let connection = address.connection().await.unwrap();
+        let manager = ManagerProxy::builder(&connection)
+            .cache_properties(CacheProperties::No)
+            .build()
+            .await
+            .unwrap();
+        assert_eq!(
+            manager.api_version().await.unwrap(),
+            hapticd_ipc::API_VERSION
+        );
+        let devices = manager.devices().await.unwrap();
+        assert_eq!(devices.len(), 1);
+        assert_eq!(devices[0].as_str(), hapticd_ipc::device_path(0));
+        assert_eq!(manager.mechanisms().await.unwrap(), ["spidar-g"]);
+        assert!(
+            manager
+                .scenes()
+                .await
+                .unwrap()
+                .contains(&"static".to_string())
+        );
+        assert_eq!(manager.active_scene().await.unwrap(), "static");
+        let device = DeviceProxy::builder(&connection)
+            .path(devices[0].clone())
+            .cache_properties(CacheProperties::No)
+            .build()
+            .await
+            .unwrap();
+        assert_eq!(device.identity().await.unwrap(), "sim");
+        assert_eq!(device.effectors().await.unwrap(), ["grip"]);
+        assert_eq!(device.state().await.unwrap(), "running");
+        assert_eq!(device.tensions().await.unwrap().len(), 8);
+        assert_eq!(device.loop_rate().await.unwrap(), 1000.0);
+        assert!(device.statistics().await.unwrap()["ticks"] > 0.0);
+        device.set_stiffness(2500.0).await.unwrap();
+        assert_eq!(number(&bus.get(DEVICE, "Stiffness")), 2500.0);
+        // A refusal comes back as the daemon's named error.
+        match device.set_damping(f64::NAN).await {
+            Err(zbus::Error::MethodError(name, _, _)) => assert_eq!(
+                hapticd_ipc::names::error_name(name.as_str()),
+                Some("NotFinite")
+            ),
+            other => panic!("NaN damping: {other:?}"),
+        }
+        device.calibrate().await.unwrap();
+        device.reset_fault().await.unwrap();
+        device.bind_mechanism("spidar-g").await.unwrap();
+        assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
+        let world = MappedWorld::open(&device.open_world().await.unwrap().into()).unwrap();
+        drop(world);
+        let file = std::fs::File::open(&scene).unwrap();
+        manager
+            .switch_scene_file(zbus::Fd::from(&file), "sent")
+            .await
+            .unwrap();
+        // The daemon runs its own copy of what it was sent.
+        let copy = manager.active_scene_file().await.unwrap();
+        assert_ne!(Path::new(&copy), scene);
+        assert_eq!(
+            std::fs::read(&copy).unwrap(),
+            std::fs::read(&scene).unwrap()
+        );
+        manager.switch_scene("static").await.unwrap();
+        manager.reload_plugins().await.unwrap();
+
+        let renderer = RendererProxy::builder(&connection)
+            .cache_properties(CacheProperties::No)
+            .build()
+            .await
+            .unwrap();
+        assert!(renderer.available().await.unwrap());
+        assert!(renderer.limits().await.unwrap().contains_key("max-streams"));
+        let size = HashMap::from([
+            ("width", zbus::Variant::U32(64)),
+            ("height", zbus::Variant::U32(48)),
+        ]);
+        let png = renderer.snapshot(size.clone()).await.unwrap();
+        let picture = Picture::from_png(&png).unwrap();
+        assert_eq!((picture.width, picture.height), (64, 48));
+        let ring =
+            FrameRingReader::open(&renderer.open_frame_stream(size).await.unwrap().into()).unwrap();
+        assert_eq!(ring.size(), (64, 48));
+    });
+    daemon.stop();
+}
+
 #[test]
 fn a_second_hapticd_refuses_to_take_the_name_of_a_running_one() {
     let dir = scratch("second");
@@ -1531,7 +1637,7 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
         &(options,),
     ));
     let ring: zbus::OwnedFd = stream.unwrap().body().deserialize().unwrap();
-    let ring = hapticd::frame_ring::FrameRingReader::open(&ring.into()).unwrap();
+    let ring = hapticd_ipc::frame_ring::FrameRingReader::open(&ring.into()).unwrap();
     let started = Instant::now();
     while ring.latest() < 10 {
         assert!(

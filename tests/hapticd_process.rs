@@ -782,7 +782,7 @@ fn thread_cpus(pid: u32, tid: &str) -> (String, Vec<usize>, u32) {
 
 #[test]
 fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
-    let allowed = hapticd::cpus::allowed().unwrap();
+    let allowed = hapticd_service::cpus::allowed().unwrap();
     // A multi-rate scene: its physics thread keeps off the haptic CPU too.
     let balls = repo_dir().join("config/scenes/balls.yaml");
     let at = on_bus("cpus");

@@ -60,7 +60,7 @@ impl Busy {
         );
         let (count, stopped) = (rounds.clone(), stop.clone());
         let thread = std::thread::spawn(move || {
-            hapticd::cpus::pin(0, &[cpu]).unwrap();
+            hapticd_service::cpus::pin(0, &[cpu]).unwrap();
             let mut x = 1u64;
             while !stopped.load(Ordering::Relaxed) {
                 for _ in 0..1000 {
@@ -117,7 +117,7 @@ const TOO_LARGE: &str = "the world is too large for its rate";
 
 #[test]
 fn a_world_too_large_for_its_rate_leaves_the_machine_usable_and_the_device_steady() {
-    let allowed = hapticd::cpus::allowed().unwrap();
+    let allowed = hapticd_service::cpus::allowed().unwrap();
     if allowed.len() < 2 {
         eprintln!("one CPU: the physics thread has no CPU apart from the haptic one");
         return;

@@ -58,6 +58,31 @@ fn the_core_links_no_io_library() {
     assert!(linked.is_empty(), "hapticd-physics links {linked:?}");
 }
 
+/// The wire contract is all a client needs: the renderer links it, not the daemon, and it
+/// links nothing of the daemon (no plugin loader, no physics) itself.
+#[test]
+fn the_renderer_and_clients_talk_to_hapticd_through_the_wire_contract_alone() {
+    let renderer = normal_dependencies("hapticd-render-service");
+    assert!(renderer.contains("hapticd-ipc"), "{renderer:?}");
+    assert!(
+        !renderer.contains("hapticd"),
+        "the renderer links the daemon"
+    );
+    let ipc = normal_dependencies("hapticd-ipc");
+    for daemon_only in [
+        "hapticd",
+        "hapticd-device",
+        "hapticd-physics",
+        "libloading",
+        "clap",
+    ] {
+        assert!(
+            !ipc.contains(daemon_only),
+            "hapticd-ipc links {daemon_only}"
+        );
+    }
+}
+
 /// rapier3d lives in its scene plugin (and hapticctl), loaded into the daemon only when a
 /// rapier scene runs: neither the daemon nor the core the haptic thread runs links it.
 #[test]
@@ -249,28 +274,57 @@ fn find_cycle(edges: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>>
         .find_map(|n| visit(n, edges, &mut Vec::new(), &mut done))
 }
 
+/// The source roots of every crate of the workspace: each member's `src`, and each of its
+/// binaries' own directory under `src/bin`.
+fn crate_roots() -> Vec<PathBuf> {
+    let manifest = std::fs::read_to_string(repo_dir().join("Cargo.toml")).expect("Cargo.toml");
+    let members = manifest
+        .split("members = [")
+        .nth(1)
+        .and_then(|m| m.split(']').next())
+        .expect("a members list");
+    let mut roots = Vec::new();
+    for member in members.split(',').map(|m| m.trim().trim_matches('"')) {
+        let src = repo_dir().join(member).join("src");
+        if member.is_empty() || !src.is_dir() {
+            continue;
+        }
+        if let Ok(bins) = std::fs::read_dir(src.join("bin")) {
+            roots.extend(bins.flatten().map(|b| b.path()).filter(|p| p.is_dir()));
+        }
+        roots.push(src);
+    }
+    roots
+}
+
 #[test]
 fn no_modules_import_each_other_in_a_circle() {
-    let crates = [
+    let roots = crate_roots();
+    for dir in [
         "daemon/core/src",
-        "daemon/device/src",
-        "daemon/hapticd/src",
-        "daemon/hapticd/src/bin/hapticd",
-        "daemon/hapticctl/src",
-        "daemon/hapticctl/src/bin/hapticctl",
-        "plugins/lib/physics/src",
-    ];
-    for dir in crates {
-        let src = repo_dir().join(dir);
+        "daemon/render-service/src",
+        "plugins/lib/rapier/src",
+    ] {
+        assert!(
+            roots.contains(&repo_dir().join(dir)),
+            "{dir} is not looked at"
+        );
+    }
+    for src in roots {
         for depth in [1, 2] {
             let edges = module_graph(&src, depth);
             // The core's layers import one another: a finder that sees nothing is broken.
             assert!(
-                !edges.is_empty() || dir != "daemon/core/src",
-                "{dir}: no imports found"
+                !edges.is_empty() || !src.ends_with("daemon/core/src"),
+                "{}: no imports found",
+                src.display()
             );
             if let Some(cycle) = find_cycle(&edges) {
-                panic!("{dir}: modules import each other: {}", cycle.join(" → "));
+                panic!(
+                    "{}: modules import each other: {}",
+                    src.display(),
+                    cycle.join(" → ")
+                );
             }
         }
     }

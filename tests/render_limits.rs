@@ -16,7 +16,7 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use hapticd::frame_ring::FrameRingReader;
+use hapticd_ipc::frame_ring::FrameRingReader;
 use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{Killed, artifact, is_root, plugin_path, repo_dir};
 use zbus::Variant;

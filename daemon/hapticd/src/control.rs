@@ -13,13 +13,13 @@ use std::time::{Duration, Instant};
 use crate::catalog::Catalog;
 use crate::config::Config;
 use crate::state::{Calibration, DeviceRecord, StateDir};
-use crate::world_share::SharedWorldFile;
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
+use hapticd_ipc::world_share::SharedWorldFile;
 
 /// Errors of the control plane; on D-Bus each is `org.hapticd.Hapticd1.Error.<Variant>` with
 /// the message as its text.

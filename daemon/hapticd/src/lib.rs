@@ -1,41 +1,32 @@
 //! hapticd, the daemon: what turns the core's haptic loop into a system service.
 //!
-//! Layers, each using only those above it (and `hapticd-core`, `hapticd-device`):
+//! Layers, each using only those above it (and `hapticd-core`, `hapticd-device`, the wire
+//! contract `hapticd-ipc`, the service helpers `hapticd-service`):
 //!
-//! 1. [`clock`], [`logging`], [`sd_notify`], [`layout`], [`config`], [`state`]: the
-//!    process's surroundings (monotonic time, the journal, systemd, the installed tree,
-//!    `/etc` and `/var/lib`); [`fault_lines`]: how often the log may say a device faulted.
+//! 1. [`clock`], [`layout`], [`config`], [`state`]: the process's surroundings (monotonic
+//!    time, the installed tree, `/etc` and `/var/lib`); [`fault_lines`]: how often the log
+//!    may say a device faulted.
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
 //!    [`received`]: scene files callers send by descriptor.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
-//!    CPU of its own ([`cpus`]); [`physics_budget`]: when a multi-rate scene's physics thread
-//!    may be real-time too, and how long it rests between steps.
-//!    [`world_share`]: the memfd its picture of the world goes to the renderer in (on
-//!    [`shared_memory`], which [`frame_ring`] shares frames with viewers through too).
+//!    CPU of its own; [`physics_budget`]: when a multi-rate scene's physics thread may be
+//!    real-time too, and how long it rests between steps.
 //! 4. [`control`]: the daemon's devices, their parameters and calibration, as the bus and
-//!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it; [`cli`]: the
-//!    daemon's command line.
+//!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it.
 
 pub mod bus;
 pub mod catalog;
-pub mod cli;
 pub mod clock;
 pub mod config;
 pub mod control;
-pub mod cpus;
 pub mod fault_lines;
-pub mod frame_ring;
 pub mod layout;
-pub mod logging;
 pub mod physics_budget;
 pub mod plugin;
 pub mod plugin_scene;
 pub mod realtime;
 pub mod received;
 pub mod scenes;
-pub mod sd_notify;
-pub mod shared_memory;
 pub mod state;
-pub mod world_share;

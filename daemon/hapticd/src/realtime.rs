@@ -209,7 +209,7 @@ impl RealtimeLoop {
             .spawn(move || {
                 let scheduling = become_realtime(settings.priority);
                 let pinned = settings.cpu.map(|cpu| {
-                    crate::cpus::pin(0, &[cpu])
+                    hapticd_service::cpus::pin(0, &[cpu])
                         .map(|()| cpu)
                         .map_err(|e| e.to_string())
                 });

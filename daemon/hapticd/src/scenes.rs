@@ -1,16 +1,13 @@
 //! Finding a scene by name: a scene plugin (`.so`), a scene file, or the name of a scene in
 //! the configured directories; physics scene files run on the scene plugin of their engine.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use hapticd_core::diagnostics;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_physics::scene::{Engine, SceneFile};
-use serde::de::IgnoredAny;
 
 /// Why a scene could not be opened.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -132,16 +129,6 @@ fn engine_plugin(engine: Engine) -> &'static str {
     }
 }
 
-/// Whether the scene file at `path` describes a physics world (bodies) rather than static
-/// solids (shapes).
-pub fn is_physics(path: &Path) -> bool {
-    let Ok(text) = diagnostics::read_text(path) else {
-        return false;
-    };
-    let keys: Result<BTreeMap<String, IgnoredAny>, _> = serde_saphyr::from_str(&text);
-    keys.is_ok_and(|k| k.contains_key("bodies"))
-}
-
 /// The scene plugin called `name` (`libhapticd_scene_NAME.so`) in the first of
 /// `plugin_dirs` that has it.
 fn scene_plugin(name: &str, plugin_dirs: &[PathBuf]) -> Option<PathBuf> {
@@ -172,7 +159,7 @@ fn find(
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }
-    if is_physics(&path) {
+    if SceneFile::is_physics(&path) {
         // Checked here first, so that mistakes come back with their places.
         let plugin = engine_plugin(
             SceneFile::load(&path, pointers.len())
@@ -211,7 +198,7 @@ pub fn available(dirs: &[PathBuf]) -> Vec<String> {
             .filter_map(|e| {
                 let path = e.path();
                 let stem = path.file_stem()?.to_str()?.to_string();
-                let usable = if is_physics(&path) {
+                let usable = if SceneFile::is_physics(&path) {
                     SceneFile::load(&path, 0).is_ok()
                 } else {
                     StaticSceneSpec::load(&path).is_ok()

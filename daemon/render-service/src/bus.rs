@@ -8,53 +8,19 @@ use std::collections::HashMap;
 use std::sync::mpsc::{self, Sender};
 use std::sync::{Arc, Mutex, PoisonError};
 
-use hapticd::bus::Workers;
+use hapticd_service::Workers;
 use zbus::OwnedVariant;
 use zbus::interface;
 use zbus::message::Header;
 
 use crate::drawing::{Availability, Job};
+use crate::error::Error;
 use crate::limits::Limits;
 use crate::options;
 use crate::statistics::Statistics;
 
-/// The service's well-known name.
-pub const BUS_NAME: &str = "org.hapticd.Renderer1";
-/// The renderer's object.
-pub const OBJECT_PATH: &str = "/org/hapticd/Renderer1";
-/// The interface's name.
-pub const INTERFACE: &str = "org.hapticd.Renderer1";
 /// Size of a snapshot or stream that gives none, pixels.
 const DEFAULT_SIZE: (u32, u32) = (640, 480);
-
-/// Errors of the renderer; on D-Bus each is `org.hapticd.Renderer1.Error.<Variant>`.
-#[derive(Debug, Clone, PartialEq, zbus::DBusError)]
-#[zbus(prefix = "org.hapticd.Renderer1.Error")]
-pub enum Error {
-    /// An option that is not known, or of the wrong type.
-    InvalidOption(String),
-    /// A number outside its range.
-    OutOfRange(String),
-    /// A number that is NaN or infinite.
-    NotFinite(String),
-    /// No Vulkan driver or device on this machine: the service runs without pictures.
-    Unavailable(String),
-    /// hapticd is not running, or its world cannot be read.
-    NoWorld(String),
-    /// Drawing failed.
-    Failed(String),
-    /// A frame of more pixels than `max-frame-pixels`.
-    FrameTooLarge(String),
-    /// The caller's connection, its user, or everyone together hold as many streams as
-    /// they may (`max-streams-per-caller`, `max-streams-per-user`, `max-streams`).
-    TooManyStreams(String),
-    /// The stream would take its user, or the renderer, past the pixels a second they may
-    /// draw (`max-pixel-rate-per-user`, `max-pixel-rate`).
-    PixelRateTooHigh(String),
-    /// The stream's ring would take the streams past the memory they may hold
-    /// (`max-stream-memory`).
-    TooMuchMemory(String),
-}
 
 /// The renderer on the bus.
 pub struct RendererInterface {
@@ -184,7 +150,7 @@ impl RendererInterface {
     }
 
     /// A stream of frames for a viewer: a sealed, read-only memfd holding a ring of RGBA
-    /// frames (`hapticd::frame_ring` describes its layout), drawn `rate` times a second
+    /// frames (`hapticd_ipc::frame_ring` describes its layout), drawn `rate` times a second
     /// (1–120, default 30) with the options of Snapshot, each announced to the caller
     /// alone by a Frame signal. The frames stop when the caller leaves the bus. Streams
     /// asking for the same picture share one ring, drawn once. Refused beyond the
@@ -223,7 +189,7 @@ impl RendererInterface {
 
 /// The Unix user of the connection `name`, as the bus daemon knows it.
 async fn unix_user(connection: &zbus::Connection, name: &str) -> Result<u32, Error> {
-    hapticd::bus::unix_user(connection, name)
+    hapticd_ipc::bus::unix_user(connection, name)
         .await
         .map_err(|e| Error::Failed(format!("cannot tell the user of {name}: {e}")))
 }

@@ -15,12 +15,13 @@ use std::sync::Arc;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::time::{Duration, Instant};
 
-use hapticd::bus::Bus;
-use hapticd::frame_ring::FrameRingWriter;
+use hapticd_ipc::bus::Bus;
+use hapticd_ipc::frame_ring::FrameRingWriter;
+use hapticd_ipc::names::{RENDERER_INTERFACE, RENDERER_PATH};
 use hapticd_render::picture::Picture;
 use hapticd_render::vulkan::Renderer;
 
-use crate::bus::{Error, OBJECT_PATH};
+use crate::error::Error;
 use crate::limits::{self, Asked, Held, Limits};
 use crate::options::Request;
 use crate::statistics::Statistics;
@@ -292,8 +293,8 @@ impl Drawing {
         for viewer in &drawing.viewers {
             let _ = zbus::block_on(connection.emit_signal(
                 Some(viewer.owner.as_str()),
-                OBJECT_PATH,
-                crate::bus::INTERFACE,
+                RENDERER_PATH,
+                RENDERER_INTERFACE,
                 "Frame",
                 &(number,),
             ));

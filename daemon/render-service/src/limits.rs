@@ -9,9 +9,9 @@
 //! floor many tiny streams would fill the drawing thread within any pixel budget.
 
 use clap::Args;
-use hapticd::frame_ring::SLOTS;
+use hapticd_ipc::frame_ring::SLOTS;
 
-use crate::bus::Error;
+use crate::error::Error;
 use crate::options::Request;
 
 /// Pixels a frame is charged at least: what its fixed cost is worth on lavapipe. Its frame

@@ -12,10 +12,11 @@
 //! - [`options`]: the options of requests, checked;
 //! - [`limits`]: what the renderer will take on (streams, pixels a second, memory);
 //! - [`statistics`]: what it has open and has done, for the bus;
-//! - [`bus`]: the D-Bus interface.
+//! - [`bus`]: the D-Bus interface; [`error`]: its errors.
 
 mod bus;
 mod drawing;
+mod error;
 mod limits;
 mod options;
 mod statistics;
@@ -26,8 +27,9 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use clap::{Args, FromArgMatches};
-use hapticd::bus::Workers;
-use hapticd::cli::RenderCli;
+use hapticd_ipc::names::{RENDERER_BUS_NAME, RENDERER_PATH};
+use hapticd_service::Workers;
+use hapticd_service::cli::RenderCli;
 
 use crate::limits::Limits;
 use crate::statistics::Statistics;
@@ -45,12 +47,12 @@ fn main() -> ExitCode {
         (Ok(cli), Ok(limits)) => (cli, limits),
         (Err(e), _) | (_, Err(e)) => e.exit(),
     };
-    hapticd::logging::init("hapticd-render", false);
+    hapticd_service::logging::init("hapticd-render", false);
     // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
     // threads (they inherit the affinity).
-    if let Some(plan) = hapticd::cpus::allowed()
+    if let Some(plan) = hapticd_service::cpus::allowed()
         .ok()
-        .and_then(|allowed| hapticd::cpus::Plan::new(&allowed, 1))
+        .and_then(|allowed| hapticd_service::cpus::Plan::new(&allowed, 1))
         && let Err(e) = plan.keep_daemon_off()
     {
         tracing::warn!("cannot keep off the haptic CPU: {e}");
@@ -83,8 +85,8 @@ fn main() -> ExitCode {
     let connection = zbus::block_on(async {
         cli.bus
             .builder()
-            .serve_at(bus::OBJECT_PATH, interface)
-            .name(bus::BUS_NAME)
+            .serve_at(RENDERER_PATH, interface)
+            .name(RENDERER_BUS_NAME)
             .allow_name_replacements(false)
             .replace_existing_names(false)
             .build()
@@ -93,12 +95,12 @@ fn main() -> ExitCode {
     let connection = match connection {
         Ok(c) => c,
         Err(e) => {
-            tracing::error!("cannot serve {} on {:?}: {e}", bus::BUS_NAME, cli.bus);
+            tracing::error!("cannot serve {} on {:?}: {e}", RENDERER_BUS_NAME, cli.bus);
             return ExitCode::FAILURE;
         }
     };
     let _ = jobs.send(drawing::Job::Connected(connection.clone()));
-    let _ = hapticd::sd_notify::notify("READY=1");
+    let _ = hapticd_service::sd_notify::notify("READY=1");
     // zbus's own thread serves the bus; SIGTERM ends the process (nothing to save).
     loop {
         std::thread::park();

@@ -8,7 +8,7 @@ use hapticd_render::camera::Camera;
 use hapticd_render::vulkan::MAX_EDGE;
 use zbus::{OwnedVariant, Variant};
 
-use crate::bus::Error;
+use crate::error::Error;
 
 /// Highest frame rate a stream may ask for.
 pub const MAX_RATE: f64 = 120.0;

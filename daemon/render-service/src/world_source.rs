@@ -7,11 +7,12 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use hapticd::bus::{BUS_NAME, Bus, MANAGER_PATH, device_path};
-use hapticd::world_share::MappedWorld;
 use hapticd_core::kinematics::Dof;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_core::world_state::{WorldFrame, pose_of};
+use hapticd_ipc::bus::Bus;
+use hapticd_ipc::world_share::MappedWorld;
+use hapticd_ipc::{BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, device_path};
 use hapticd_physics::body::Body;
 use hapticd_physics::scene::{MultiRateWorld, SceneFile};
 use hapticd_render::camera::Camera;
@@ -143,7 +144,7 @@ impl WorldSource {
             MANAGER_PATH,
             "org.freedesktop.DBus.Properties",
             "Get",
-            &("org.hapticd.Hapticd1.Manager", "ActiveSceneFile"),
+            &(MANAGER_INTERFACE, "ActiveSceneFile"),
         ))
         .map_err(|e| NoWorld(format!("cannot ask hapticd for its scene: {e}")))?;
         self.file = String::try_from(file).unwrap_or_default();
@@ -152,7 +153,7 @@ impl WorldSource {
                 connection,
                 BUS_NAME,
                 &device_path(self.device),
-                "org.hapticd.Hapticd1.Device",
+                DEVICE_INTERFACE,
                 "OpenWorld",
                 &(),
             ))
@@ -210,7 +211,7 @@ fn solids(file: &str, pointers: usize) -> Result<Solids, NoWorld> {
     }
     let path = PathBuf::from(file);
     let failed = |e: &dyn std::fmt::Display| NoWorld(format!("cannot draw {file}: {e}"));
-    if !hapticd::scenes::is_physics(&path) {
+    if !SceneFile::is_physics(&path) {
         return StaticSceneSpec::load(&path)
             .map(Solids::Static)
             .map_err(|e| failed(&e));

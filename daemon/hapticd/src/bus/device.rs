@@ -3,20 +3,18 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use zbus::Variant;
-use zbus::interface;
-use zbus::object_server::SignalEmitter;
-
-use zbus::message::Header;
-
-use super::{Workers, audit, caller, report};
-use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
 use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_core::parameters::Name;
+use hapticd_ipc::DEVICE_INTERFACE;
+use hapticd_service::Workers;
+use zbus::Variant;
+use zbus::interface;
+use zbus::message::Header;
+use zbus::object_server::SignalEmitter;
 
-/// The interface's D-Bus name.
-const INTERFACE: &str = "org.hapticd.Hapticd1.Device";
+use super::{audit, caller, report};
+use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
 
 /// One haptic device.
 pub struct DeviceInterface {
@@ -143,7 +141,7 @@ pub(super) async fn announce(
             ("Tensions", Variant::from(device.tensions())),
             ("Statistics", Variant::from(statistics(&now))),
         ]);
-        let interface = zbus::names::InterfaceName::from_static_str_unchecked(INTERFACE);
+        let interface = zbus::names::InterfaceName::from_static_str_unchecked(DEVICE_INTERFACE);
         report(
             zbus::fdo::Properties::properties_changed(
                 emitter,

@@ -2,12 +2,13 @@
 
 use std::sync::Arc;
 
+use hapticd_ipc::{API_VERSION, device_path};
+use hapticd_service::Workers;
 use zbus::interface;
+use zbus::message::Header;
 use zbus::object_server::SignalEmitter;
 
-use zbus::message::Header;
-
-use super::{API_VERSION, Workers, audit, caller, device_path, report};
+use super::{audit, caller, report};
 use crate::control::{Daemon, Error};
 
 /// The daemon as a whole: its devices, scenes and mechanisms.

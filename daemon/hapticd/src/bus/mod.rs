@@ -9,7 +9,6 @@
 
 mod device;
 mod manager;
-mod workers;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -18,18 +17,14 @@ use std::time::Duration;
 
 pub use device::DeviceInterface;
 pub use manager::ManagerInterface;
-pub use workers::Workers;
 
+use hapticd_ipc::bus::{Bus, unix_user};
+use hapticd_ipc::{BUS_NAME, MANAGER_PATH, device_path};
+use hapticd_service::Workers;
 use zbus::message::Header;
 
 use crate::control::Daemon;
 
-/// The service's well-known name.
-pub const BUS_NAME: &str = "org.hapticd.Hapticd1";
-/// The manager's object path.
-pub const MANAGER_PATH: &str = "/org/hapticd/Hapticd1";
-/// Version of the D-Bus API, raised only on incompatible changes.
-pub const API_VERSION: u32 = 1;
 /// How often telemetry is announced.
 const TELEMETRY_PERIOD: Duration = Duration::from_millis(100);
 
@@ -52,76 +47,12 @@ async fn caller(connection: &zbus::Connection, header: Option<&Header<'_>>) -> S
     }
 }
 
-/// The Unix user of the connection `name`, as the bus daemon knows it.
-pub async fn unix_user(connection: &zbus::Connection, name: &str) -> zbus::Result<u32> {
-    connection
-        .call_method(
-            Some("org.freedesktop.DBus"),
-            "/org/freedesktop/DBus",
-            Some("org.freedesktop.DBus"),
-            "GetConnectionUnixUser",
-            &(name,),
-        )
-        .await?
-        .body()
-        .deserialize::<u32>()
-}
-
 /// Log what a request that changes something did, and for whom: the journal keeps a trace
 /// of every change made over the bus.
 fn audit(what: &str, who: &str, result: &Result<(), crate::control::Error>) {
     match result {
         Ok(()) => tracing::info!("{what}, for {who}"),
         Err(e) => tracing::info!("refused to {what}, for {who}: {e}"),
-    }
-}
-
-/// The object path of device `index`.
-pub fn device_path(index: usize) -> String {
-    format!("{MANAGER_PATH}/device/{index}")
-}
-
-/// Which bus to serve on.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Bus {
-    /// The system bus.
-    System,
-    /// The user's session bus.
-    Session,
-    /// A bus at this D-Bus address (`unix:path=…`).
-    Address(String),
-}
-
-impl std::str::FromStr for Bus {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, String> {
-        Ok(match s {
-            "system" => Bus::System,
-            "session" => Bus::Session,
-            a if a.contains(':') => Bus::Address(a.to_string()),
-            other => {
-                return Err(format!(
-                    "{other:?} is not a bus: give system, session or a D-Bus address"
-                ));
-            }
-        })
-    }
-}
-
-impl Bus {
-    /// A connection builder for this bus, to serve on it.
-    pub fn builder(&self) -> zbus::connection::Builder<'_> {
-        match self {
-            Bus::System => zbus::connection::Builder::system(),
-            Bus::Session => zbus::connection::Builder::session(),
-            Bus::Address(a) => zbus::connection::Builder::address(a.as_str()),
-        }
-    }
-
-    /// A client's connection to this bus.
-    pub async fn connection(&self) -> zbus::Result<zbus::Connection> {
-        self.builder().build().await
     }
 }
 

@@ -647,6 +647,18 @@ fn penalty_keys(raw: &RawScene) -> [(&'static str, bool); 12] {
 }
 
 impl SceneFile {
+    /// Whether the file at `path` describes a physics world (`bodies:`) rather than static
+    /// solids (`shapes:`, which `hapticd_core::scene::static_scene` reads); false when it
+    /// cannot be read as YAML at all.
+    pub fn is_physics(path: &Path) -> bool {
+        let Ok(text) = diagnostics::read_text(path) else {
+            return false;
+        };
+        let keys: Result<std::collections::BTreeMap<String, IgnoredAny>, _> =
+            serde_saphyr::from_str(&text);
+        keys.is_ok_and(|k| k.contains_key("bodies"))
+    }
+
     /// Load the scene file at `path` for `pointers` pointers.
     pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
         Self::parse(&diagnostics::read_text(path)?, path, pointers)

@@ -5,15 +5,17 @@ use std::collections::BTreeMap;
 use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
-use hapticd::bus::{BUS_NAME, Bus, MANAGER_PATH};
+use hapticd_ipc::bus::Bus;
+use hapticd_ipc::names::error_name;
+use hapticd_ipc::{
+    BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
+};
 use serde_json::{Value, json};
 use zbus::{Connection, OwnedVariant, Variant};
 
 use crate::Failure;
 use crate::mechanism::{Output, print};
 
-const MANAGER: &str = "org.hapticd.Hapticd1.Manager";
-const DEVICE: &str = "org.hapticd.Hapticd1.Device";
 const PROPERTIES: &str = "org.freedesktop.DBus.Properties";
 
 /// The parameters a client may set, with their ranges (as the daemon enforces them).
@@ -86,8 +88,7 @@ fn failure(bus: &Bus, e: zbus::Error) -> Failure {
         },
         zbus::Error::MethodError(name, message, _) => Failure::failed(format!(
             "{}: {}",
-            name.as_str()
-                .trim_start_matches("org.hapticd.Hapticd1.Error."),
+            error_name(name.as_str()).unwrap_or(name.as_str()),
             message.unwrap_or_default()
         )),
         other => Failure::failed(format!("the {} bus: {other}", bus_name(bus))),

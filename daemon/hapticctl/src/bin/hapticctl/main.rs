@@ -13,9 +13,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use hapticd::bus::Bus;
 use hapticd::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
+use hapticd_ipc::bus::Bus;
 use mechanism::Output;
 
 /// Control hapticd and work with SPIDAR mechanisms.
@@ -128,7 +128,7 @@ impl From<Diagnostics> for Failure {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    hapticd::logging::init("hapticctl", false);
+    hapticd_service::logging::init("hapticctl", false);
     let catalog = if cli.mechanism_dirs.is_empty() {
         Catalog::from_env()
     } else {

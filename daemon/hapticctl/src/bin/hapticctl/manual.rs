@@ -137,11 +137,15 @@ pub fn write(dir: &Path) -> Result<(), Failure> {
     let mut pages = vec![
         (
             "hapticd.8".to_string(),
-            program(hapticd::cli::Cli::command(), "8", DAEMON_SECTIONS),
+            program(hapticd_service::cli::Cli::command(), "8", DAEMON_SECTIONS),
         ),
         (
             "hapticd-render.8".to_string(),
-            program(hapticd::cli::RenderCli::command(), "8", RENDERER_SECTIONS),
+            program(
+                hapticd_service::cli::RenderCli::command(),
+                "8",
+                RENDERER_SECTIONS,
+            ),
         ),
         (
             "hapticctl.1".to_string(),

@@ -10,8 +10,9 @@ use std::rc::Rc;
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use hapticd::bus::Bus;
-use hapticd::frame_ring::FrameRingReader;
+use hapticd_ipc::bus::Bus;
+use hapticd_ipc::frame_ring::FrameRingReader;
+use hapticd_ipc::names::{RENDERER_BUS_NAME, RENDERER_INTERFACE, RENDERER_PATH, error_name};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::WindowEvent;
@@ -21,10 +22,6 @@ use winit::window::{Fullscreen, Window, WindowId};
 use zbus::Variant;
 
 use crate::Failure;
-
-/// The renderer's bus name, object and interface.
-pub const RENDERER: &str = "org.hapticd.Renderer1";
-const RENDERER_PATH: &str = "/org/hapticd/Renderer1";
 
 /// Size and camera of a picture, as the renderer takes them.
 #[derive(Args, Clone, Copy)]
@@ -82,9 +79,9 @@ where
     let connection = zbus::block_on(bus.connection())
         .map_err(|e| Failure::failed(format!("cannot reach the bus {bus:?}: {e}")))?;
     zbus::block_on(connection.call_method(
-        Some(RENDERER),
+        Some(RENDERER_BUS_NAME),
         RENDERER_PATH,
-        Some(RENDERER),
+        Some(RENDERER_INTERFACE),
         method,
         body,
     ))
@@ -106,9 +103,7 @@ fn renderer_failure(e: zbus::Error) -> Failure {
             )
         }
         zbus::Error::MethodError(name, message, _) => {
-            let kind = name
-                .as_str()
-                .trim_start_matches("org.hapticd.Renderer1.Error.");
+            let kind = error_name(name.as_str()).unwrap_or(name.as_str());
             let text = format!("{kind}: {}", message.unwrap_or_default());
             if matches!(kind, "InvalidOption" | "OutOfRange" | "NotFinite") {
                 Failure::usage(text)
@@ -155,9 +150,9 @@ fn open_stream(
     let mut options = args.view.options();
     options.insert("rate", Variant::from(args.rate));
     let reply = zbus::block_on(connection.call_method(
-        Some(RENDERER),
+        Some(RENDERER_BUS_NAME),
         RENDERER_PATH,
-        Some(RENDERER),
+        Some(RENDERER_INTERFACE),
         "OpenFrameStream",
         &(options,),
     ))

@@ -75,7 +75,7 @@ fn add_mechanism(
 /// the start (so pictures at several times compare).
 fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
     let text = hapticd_core::diagnostics::read_text(path)?;
-    if !hapticd::scenes::is_physics(path) {
+    if !SceneFile::is_physics(path) {
         if at != 0.0 {
             return Err(Failure::usage(
                 "--at is for physics scenes; a static scene stays put",

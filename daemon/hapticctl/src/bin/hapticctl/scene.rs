@@ -23,7 +23,7 @@ use crate::Failure;
 use crate::client::{self, Client};
 use crate::mechanism::{Output, print, save};
 use crate::render::Frames;
-use hapticd::bus::Bus;
+use hapticd_ipc::bus::Bus;
 use hapticd_render::scenery::Scenery;
 
 #[derive(Subcommand)]

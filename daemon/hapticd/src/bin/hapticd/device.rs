@@ -13,7 +13,6 @@ use hapticd::control::{DeviceHandle, DeviceSetup, Telemetry};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::scenes;
 use hapticd::state::StateDir;
-use hapticd::world_share::SharedWorldFile;
 use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::safety::SafetyLimits;
 use hapticd_core::parameters::Parameters;
@@ -25,6 +24,7 @@ use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::Reconnector;
 use hapticd_device::replay;
 use hapticd_device::sim::hand::Script;
+use hapticd_ipc::world_share::SharedWorldFile;
 
 use crate::saved::{load_record, set_aside};
 use crate::transport::{self, Kind};

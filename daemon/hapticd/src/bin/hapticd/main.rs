@@ -15,18 +15,19 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
-use hapticd::bus::{self, Bus};
-use hapticd::cli::Cli;
+use hapticd::bus;
 use hapticd::config::Config;
 use hapticd::control::{self, Daemon};
 use hapticd::layout::Layout;
 use hapticd::scenes;
-use hapticd::sd_notify;
 use hapticd::state::StateDir;
 use hapticd_device::guardian::{self, Guardian};
 use hapticd_device::hotplug::Arrivals;
 use hapticd_device::sim::hand::Script;
 use hapticd_device::usb::find_devices;
+use hapticd_ipc::bus::Bus;
+use hapticd_service::cli::Cli;
+use hapticd_service::sd_notify;
 
 use device::{Common, Device, Recording};
 use supervisor::{Ending, Supervisor};
@@ -131,9 +132,9 @@ fn run(cli: Cli) -> Result<Ending, String> {
         done: &DONE,
         guardian: &guardian,
     };
-    let plan = hapticd::cpus::allowed()
+    let plan = hapticd_service::cpus::allowed()
         .ok()
-        .and_then(|allowed| hapticd::cpus::Plan::new(&allowed, kinds.len()));
+        .and_then(|allowed| hapticd_service::cpus::Plan::new(&allowed, kinds.len()));
     if let Some(plan) = &plan
         && let Err(e) = plan.keep_daemon_off()
     {
@@ -228,7 +229,7 @@ fn main() -> ExitCode {
         return guardian::run();
     }
     let cli = Cli::parse();
-    hapticd::logging::init("hapticd", false);
+    hapticd_service::logging::init("hapticd", false);
     match run(cli) {
         Ok(Ending::Done) => ExitCode::SUCCESS,
         Ok(Ending::Restart) => {

@@ -9,11 +9,11 @@ use std::time::{Duration, Instant};
 
 use hapticd::control::{Daemon, Telemetry};
 use hapticd::realtime::RealtimeLoop;
-use hapticd::sd_notify;
 use hapticd_core::haptic_loop::Frame;
 use hapticd_core::transport::TransportError;
 use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::{Arrivals, Lookup};
+use hapticd_service::sd_notify;
 
 use crate::device::Device;
 use crate::signals::{RELOAD, STOP};
@@ -47,7 +47,7 @@ impl Supervisor<'_> {
         let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
         let (mut last_ping, mut last_beats) = (Instant::now(), vec![0; self.devices.len()]);
         let (mut last_status, mut last_publish) = (Instant::now(), Instant::now());
-        let quiet = hapticd::logging::under_journal();
+        let quiet = hapticd_service::logging::under_journal();
         while !STOP.load(Ordering::Acquire) {
             if self
                 .duration

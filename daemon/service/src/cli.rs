@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Parser;
 
-use crate::bus::Bus;
+use hapticd_ipc::bus::Bus;
 
 /// Real-time haptics daemon for SPIDAR string-driven haptic interfaces.
 ///

@@ -1,0 +1,61 @@
+//! Which bus to find hapticd on, and what the bus daemon says of a connection.
+
+/// A message bus: the system's, the user's session bus, or one at an address (tests,
+/// development).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Bus {
+    /// The system bus.
+    System,
+    /// The user's session bus.
+    Session,
+    /// A bus at this D-Bus address (`unix:path=…`).
+    Address(String),
+}
+
+impl std::str::FromStr for Bus {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "system" => Bus::System,
+            "session" => Bus::Session,
+            a if a.contains(':') => Bus::Address(a.to_string()),
+            other => {
+                return Err(format!(
+                    "{other:?} is not a bus: give system, session or a D-Bus address"
+                ));
+            }
+        })
+    }
+}
+
+impl Bus {
+    /// A connection builder for this bus (to serve on it, or to set up a client's).
+    pub fn builder(&self) -> zbus::connection::Builder<'_> {
+        match self {
+            Bus::System => zbus::connection::Builder::system(),
+            Bus::Session => zbus::connection::Builder::session(),
+            Bus::Address(a) => zbus::connection::Builder::address(a.as_str()),
+        }
+    }
+
+    /// A client's connection to this bus.
+    pub async fn connection(&self) -> zbus::Result<zbus::Connection> {
+        self.builder().build().await
+    }
+}
+
+/// The Unix user of the connection `name`, as the bus daemon knows it.
+pub async fn unix_user(connection: &zbus::Connection, name: &str) -> zbus::Result<u32> {
+    connection
+        .call_method(
+            Some("org.freedesktop.DBus"),
+            "/org/freedesktop/DBus",
+            Some("org.freedesktop.DBus"),
+            "GetConnectionUnixUser",
+            &(name,),
+        )
+        .await?
+        .body()
+        .deserialize::<u32>()
+}

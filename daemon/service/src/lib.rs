@@ -1,0 +1,17 @@
+//! What hapticd's system services (the daemon and its renderer) share as processes, apart
+//! from the wire contract of `hapticd-ipc`:
+//!
+//! - [`logging`]: log lines to the journal when systemd runs the service, to standard error
+//!   otherwise;
+//! - [`sd_notify`]: readiness and status for systemd;
+//! - [`cpus`]: the CPUs kept for haptic threads, and every other thread kept off them;
+//! - [`workers`]: a few threads of their own for a bus service's blocking requests;
+//! - [`cli`]: both programs' command lines, which `hapticctl manual` writes their pages from.
+
+pub mod cli;
+pub mod cpus;
+pub mod logging;
+pub mod sd_notify;
+pub mod workers;
+
+pub use workers::Workers;
