@@ -8,7 +8,7 @@ use glam::DVec3;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
-use hapticd_physics::scene::MultiRateWorld;
+use hapticd_physics::scene::RapierScene;
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{HapticdImpulse, HapticdLocalState, HapticdPointer};
 use hapticd_rapier::world::{BodyState, RapierWorld};
@@ -36,7 +36,7 @@ pub struct Lockstep {
 impl Lockstep {
     /// The world of `spec` for `pointers`, haptics at `haptic_rate` Hz and the physics clock
     /// `phase` seconds behind the haptic one (taken modulo the physics period).
-    pub fn new(spec: &MultiRateWorld, pointers: &[Pointer], haptic_rate: f64, phase: f64) -> Self {
+    pub fn new(spec: &RapierScene, pointers: &[Pointer], haptic_rate: f64, phase: f64) -> Self {
         let physics_period = 1.0 / spec.rate;
         let mut published = [HapticdPointer::default(); MAX_EFFECTORS];
         for (out, p) in published.iter_mut().zip(pointers) {
@@ -266,7 +266,7 @@ pointer:
     }
 
     /// A 4 cm, 0.1 kg block in the corner of a floor and two walls, at `rate` Hz.
-    fn corner(rate: f64, feedback: Feedback) -> MultiRateWorld {
+    fn corner(rate: f64, feedback: Feedback) -> RapierScene {
         let text = format!(
             "name: corner
 engine: rapier

@@ -14,7 +14,7 @@ use hapticd_ipc::bus::Bus;
 use hapticd_ipc::world_share::MappedWorld;
 use hapticd_ipc::{BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, device_path};
 use hapticd_physics::body::Body;
-use hapticd_physics::scene::{MultiRateWorld, SceneFile};
+use hapticd_physics::scene::{RapierScene, SceneFile};
 use hapticd_render::camera::Camera;
 use hapticd_render::scenery::{DrawnGrip, DrawnString, Scenery};
 
@@ -33,7 +33,7 @@ enum Solids {
         first_pointer: usize,
     },
     /// A rapier world.
-    Rapier(Box<MultiRateWorld>),
+    Rapier(Box<RapierScene>),
 }
 
 /// The scene being drawn.

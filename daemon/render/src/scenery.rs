@@ -8,7 +8,7 @@ use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::body::Body;
 use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::scene::{MultiRateWorld, Primitive};
+use hapticd_physics::scene::{Primitive, RapierScene};
 
 use crate::camera::Camera;
 use crate::mesh::Mesh;
@@ -159,7 +159,7 @@ impl Scenery {
 
     /// The bodies of a rapier world where `state` puts them (`spec` gives their shapes):
     /// the world's bodies now, or the poses between physics steps graphics show (6.5.2).
-    pub fn of_rapier(spec: &MultiRateWorld, state: impl Fn(usize) -> Pose) -> Self {
+    pub fn of_rapier(spec: &RapierScene, state: impl Fn(usize) -> Pose) -> Self {
         let mut s = Self::default();
         let mut mesh = Mesh::default();
         for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {

@@ -11,7 +11,7 @@
 use glam::DVec3;
 use hapticd_core::kinematics::Wrench;
 use hapticd_device::sim::SimParameters;
-use hapticd_physics::scene::{Feedback, MultiRateWorld, SceneFile};
+use hapticd_physics::scene::{Feedback, RapierScene, SceneFile};
 
 use super::Spread;
 use crate::multirate::Lockstep;
@@ -97,7 +97,7 @@ impl Run {
 
 /// The experiment's world from `scene` (a scene file's text) with `feedback` at `setup`'s
 /// physics rate.
-pub fn world(scene: &str, setup: &Setup, feedback: Feedback) -> Result<MultiRateWorld, String> {
+pub fn world(scene: &str, setup: &Setup, feedback: Feedback) -> Result<RapierScene, String> {
     match SceneFile::parse(scene, std::path::Path::new("push.yaml"), 1)
         .map_err(|e| e.to_string())?
     {
@@ -112,7 +112,7 @@ pub fn world(scene: &str, setup: &Setup, feedback: Feedback) -> Result<MultiRate
 
 /// Push once with the physics clock `phase` seconds behind the haptic one; `world` must
 /// have a body called `block`.
-pub fn run(world: &MultiRateWorld, setup: &Setup, phase: f64) -> Result<Run, String> {
+pub fn run(world: &RapierScene, setup: &Setup, phase: f64) -> Result<Run, String> {
     let block = world
         .names
         .iter()
@@ -159,7 +159,7 @@ pub fn run(world: &MultiRateWorld, setup: &Setup, phase: f64) -> Result<Run, Str
 }
 
 /// `phases` runs with the physics clock behind by 0, 1/phases, 2/phases … of a period.
-pub fn sweep(world: &MultiRateWorld, setup: &Setup, phases: usize) -> Result<Vec<Run>, String> {
+pub fn sweep(world: &RapierScene, setup: &Setup, phases: usize) -> Result<Vec<Run>, String> {
     (0..phases)
         .map(|i| run(world, setup, i as f64 / phases as f64 / setup.rate))
         .collect()

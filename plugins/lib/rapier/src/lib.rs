@@ -2,7 +2,7 @@
 //! low rate, the surfaces near each pointer published as planes (the intermediate
 //! representation, 6.3.1) and the impulses the hand gave each body applied back (6.3.5).
 //!
-//! - [`world`]: a [`MultiRateWorld`](hapticd_physics::scene::MultiRateWorld) as a rapier
+//! - [`world`]: a [`RapierScene`](hapticd_physics::scene::RapierScene) as a rapier
 //!   world; its physics step with impulse or position feedback;
 //! - [`surfaces`]: the nearest point, outward normal and surface velocity of every body
 //!   within reach of a pointer, found through rapier's query pipeline;

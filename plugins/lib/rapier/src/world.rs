@@ -12,7 +12,7 @@
 use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::mass::volume_and_centroid;
-use hapticd_physics::scene::{Feedback, MultiRateWorld, Primitive};
+use hapticd_physics::scene::{Feedback, Primitive, RapierScene};
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HapticdBodyContact, HapticdImpulse, HapticdLocalBody,
@@ -182,7 +182,7 @@ fn spread(
 
 impl RapierWorld {
     /// The world of `spec` for `pointers` pointers.
-    pub fn new(spec: &MultiRateWorld, pointers: usize) -> Self {
+    pub fn new(spec: &RapierScene, pointers: usize) -> Self {
         let mut physics = PhysicsWorld::new();
         physics.gravity = vector(spec.gravity);
         physics.integration_parameters.dt = (1.0 / spec.rate) as f32;
@@ -639,7 +639,7 @@ mod tests {
         )
     }
 
-    fn world(text: &str, pointers: usize) -> (MultiRateWorld, RapierWorld) {
+    fn world(text: &str, pointers: usize) -> (RapierScene, RapierWorld) {
         match SceneFile::parse(text, std::path::Path::new("t.yaml"), pointers).unwrap() {
             SceneFile::Rapier(spec) => {
                 let world = RapierWorld::new(&spec, pointers);

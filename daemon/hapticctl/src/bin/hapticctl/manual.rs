@@ -47,7 +47,7 @@ const FORMATS: [Format; 4] = [
             ),
             (
                 "PHYSICS SCENES",
-                include_str!("../../../../../plugins/lib/physics/src/scene.rs"),
+                include_str!("../../../../../plugins/lib/physics/src/scene/mod.rs"),
             ),
         ],
     },

@@ -15,7 +15,7 @@ use hapticd_device::sim::hand::{HandTrack, Script};
 use hapticd_physics::body::Body;
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::scene::{Feedback, MultiRateWorld, PenaltyScene, SceneFile};
+use hapticd_physics::scene::{Feedback, PenaltyScene, RapierScene, SceneFile};
 use hapticd_physics::world::ContactModel;
 use serde_json::json;
 
@@ -389,7 +389,7 @@ fn hand_pointers(hands: &[HandTrack], t: f64) -> Vec<Pointer> {
 /// where the physics left them.
 fn run_multirate(
     args: &RunArgs,
-    mut spec: MultiRateWorld,
+    mut spec: RapierScene,
     hands: &[HandTrack],
 ) -> Result<(), Failure> {
     if !args.models.is_empty() || args.dt.is_some() {

@@ -1,0 +1,164 @@
+//! A scene for the penalty engine (thesis Ch. 5): its world with a body per pointer at the
+//! end, the material for each contact model, couplings and grasping, built from a checked
+//! file.
+
+use std::path::Path;
+
+use glam::DVec3;
+use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings, YamlMap};
+use hapticd_core::haptics::grasp::{GraspSettings, Method};
+use serde::de::IgnoredAny;
+
+use super::SceneFile;
+use super::checks::{Bodies, INERTIA_DAMPING_FACTOR, Penalty, Primitive};
+use super::schema::{RawGraspMethod, RawScene};
+use crate::body::Body;
+use crate::coupling::Coupling;
+use crate::friction::FrictionParameters;
+use crate::grasping::Grasping;
+use crate::polyhedron::Polyhedron;
+use crate::world::{ContactModel, Material, World};
+
+/// A loaded scene: the world with one fixed body per pointer at its end.
+pub struct PenaltyScene {
+    /// The scene's name.
+    pub name: String,
+    /// The world.
+    pub world: World,
+    /// Longest physics step, seconds.
+    pub dt: f64,
+    /// Index of the first pointer body in the world.
+    pub first_pointer: usize,
+    /// Names of the bodies in world order; pointers are `pointer 1`, `pointer 2`, …
+    pub names: Vec<String>,
+    /// The material as the file gives it for each contact model.
+    pub(super) materials: [Material; 2],
+    /// The coupling of each pointer; none for one placed at its grip.
+    pub(super) couplings: Vec<Option<Coupling>>,
+    /// Whether the pointers have been put at their grips once.
+    pub(super) pointers_placed: bool,
+    /// Bodies held between pointers, when the file asks for grasping.
+    pub grasping: Option<Grasping>,
+    /// What the file asks for that works, but worth knowing (a step near its stability
+    /// limit).
+    pub warnings: Vec<Diagnostic>,
+}
+
+impl PenaltyScene {
+    /// Load the penalty scene file at `path` for `pointers` pointers.
+    pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        Self::parse(&diagnostics::read_text(path)?, path, pointers)
+    }
+
+    /// Parse penalty scene `text` for `pointers` pointers (see [`SceneFile::parse`]); a
+    /// file for another engine is an error at its `engine:`.
+    pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        match SceneFile::parse(text, path, pointers)? {
+            SceneFile::Penalty(scene) => Ok(*scene),
+            SceneFile::Rapier(_) => {
+                let (_, map): (IgnoredAny, YamlMap) = diagnostics::parse_yaml(text, path)?;
+                let locate = |field: &str| map.find(field);
+                let mut f = Findings::new(path, &locate);
+                f.error("engine", "a rapier scene; this runs penalty scenes only");
+                Err(f.into_error())
+            }
+        }
+    }
+
+    /// The scene of checked `raw`, its material `penalty`, `bodies` and `pointer` solid,
+    /// for `pointers` pointers.
+    pub(super) fn build(
+        raw: RawScene,
+        penalty: Penalty,
+        bodies: Bodies,
+        pointer: Option<(Polyhedron, Primitive)>,
+        pointers: usize,
+        warnings: Vec<Diagnostic>,
+    ) -> Self {
+        let Bodies {
+            mut bodies, boxes, ..
+        } = bodies;
+        let first_pointer = bodies.len();
+        let dt = penalty.dt;
+        let mut couplings = Vec::with_capacity(pointers);
+        if let (Some(pointer), Some((shape, _))) = (&raw.pointer, &pointer) {
+            for _ in 0..pointers {
+                let coupling = pointer.coupling.as_ref().map(|c| Coupling {
+                    stiffness: c.stiffness,
+                    damping: c.damping,
+                    rotational_stiffness: c.rotational_stiffness,
+                    rotational_damping: c.rotational_damping,
+                });
+                bodies.push(Body::new(shape, pointer.density, coupling.is_none()));
+                couplings.push(coupling);
+            }
+        }
+        let grasping = raw.grasp.as_ref().filter(|_| pointers >= 2).map(|g| {
+            // The pointer's half size: where its solid meets a face its centre is that far out.
+            let pointer = bodies[first_pointer].pieces[0]
+                .vertices
+                .iter()
+                .fold(DVec3::ZERO, |m, v| m.max(v.abs()))
+                .min_element();
+            Grasping::new(&bodies[..first_pointer], &boxes, pointer, |mass| {
+                GraspSettings {
+                    method: match g.method {
+                        RawGraspMethod::Distributed => Method::Distributed,
+                        RawGraspMethod::Conventional => Method::Conventional,
+                    },
+                    grip_stiffness: g.grip_stiffness,
+                    inertia_stiffness: g.inertia_stiffness,
+                    // Unless the file says, a damping ratio of about 0.18 for the body on the
+                    // inertia spring: through the shares the damper acts on the fingers' own
+                    // motion, and with the device's tick of delay a heavier one shakes them.
+                    inertia_damping: g
+                        .inertia_damping
+                        .unwrap_or(INERTIA_DAMPING_FACTOR * (g.inertia_stiffness * mass).sqrt()),
+                    // Holding is sticking: the static coefficient.
+                    friction: raw.material.static_friction,
+                }
+            })
+        });
+        let material = Material {
+            stiffness: penalty.stiffness,
+            damping: penalty.damping,
+            friction: FrictionParameters {
+                static_coefficient: raw.material.static_friction,
+                dynamic_coefficient: raw.material.friction,
+                stiffness: penalty.friction_stiffness,
+                damping: penalty.friction_damping,
+                slip_speed: penalty.slip_speed,
+            },
+            model: ContactModel::Volume,
+            scaling: penalty.scaling,
+        };
+        let materials = [
+            material,
+            Material {
+                stiffness: penalty.point[0],
+                damping: penalty.point[1],
+                model: ContactModel::Point,
+                ..material
+            },
+        ];
+        let mut scene = PenaltyScene {
+            name: raw.name,
+            world: World::new(bodies, DVec3::from(raw.gravity), material),
+            dt,
+            first_pointer,
+            names: raw
+                .bodies
+                .into_iter()
+                .map(|b| b.name)
+                .chain((1..=pointers).map(|k| format!("pointer {k}")))
+                .collect(),
+            materials,
+            couplings,
+            pointers_placed: false,
+            grasping,
+            warnings,
+        };
+        scene.set_model(penalty.model);
+        scene
+    }
+}

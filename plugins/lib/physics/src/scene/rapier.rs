@@ -1,0 +1,99 @@
+//! A scene for rapier's constraint solver (thesis Ch. 6), as its file describes it: the
+//! bodies and what each piece is, the physics rate and what the haptic side hands back. The
+//! rapier scene plugin (`plugins/lib/rapier`) builds the world from it; nothing here links
+//! rapier.
+
+use glam::DVec3;
+use hapticd_core::diagnostics::Diagnostic;
+
+use super::checks::{Bodies, Primitive, RATE_RANGE};
+use super::schema::{RawFeedback, RawScene};
+use crate::body::Body;
+use crate::polyhedron::Polyhedron;
+
+/// What a multi-rate world takes back from the haptic side (`feedback:`, thesis 6.2–6.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Feedback {
+    /// Local dynamics (thesis 6.5.4): the bodies near a pointer move in the haptic thread
+    /// under the hand between physics steps, and what the hand did to them goes back.
+    Local,
+    /// The impulse the hand gave each body over a physics period, at its point.
+    Impulse,
+    /// The conventional method: each pointer is a kinematic body moved to the hand's
+    /// position as the physics samples it.
+    Position,
+}
+
+impl Feedback {
+    /// The name a scene file gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Feedback::Local => "local",
+            Feedback::Impulse => "impulse",
+            Feedback::Position => "position",
+        }
+    }
+}
+
+/// A scene for rapier's constraint solver, as its file describes it: the world the rapier
+/// scene plugin builds and steps at `rate`.
+#[derive(Debug, Clone)]
+pub struct RapierScene {
+    /// The scene's name.
+    pub name: String,
+    /// Gravity, m/s².
+    pub gravity: DVec3,
+    /// Physics steps per second.
+    pub rate: f64,
+    /// What the haptic side gives back.
+    pub feedback: Feedback,
+    /// μ0 of every contact.
+    pub static_friction: f64,
+    /// μ of every contact.
+    pub friction: f64,
+    /// The bodies (centroid, mass and inertia as the penalty engine has them).
+    pub bodies: Vec<Body>,
+    /// What each piece of each body is, in the order of [`Body::pieces`].
+    pub primitives: Vec<Vec<Primitive>>,
+    /// Names of the bodies.
+    pub names: Vec<String>,
+    /// The pointers' solid, centred at the origin, if the file gives one.
+    pub pointer: Option<(Body, Primitive)>,
+    /// What works but is worth knowing.
+    pub warnings: Vec<Diagnostic>,
+}
+
+impl RapierScene {
+    /// The scene of checked `raw`, its `bodies` and `pointer` solid.
+    pub(super) fn build(
+        raw: RawScene,
+        bodies: Bodies,
+        pointer: Option<(Polyhedron, Primitive)>,
+        warnings: Vec<Diagnostic>,
+    ) -> Self {
+        let Bodies {
+            bodies, primitives, ..
+        } = bodies;
+        let feedback = match raw.feedback {
+            Some(RawFeedback::Position) => Feedback::Position,
+            Some(RawFeedback::Local) | None => Feedback::Local,
+            Some(RawFeedback::Impulse) => Feedback::Impulse,
+        };
+        RapierScene {
+            name: raw.name,
+            gravity: DVec3::from(raw.gravity),
+            rate: raw.rate.unwrap_or(RATE_RANGE.0),
+            feedback,
+            static_friction: raw.material.static_friction,
+            friction: raw.material.friction,
+            bodies,
+            primitives,
+            names: raw.bodies.into_iter().map(|b| b.name).collect(),
+            pointer: pointer.map(|(shape, primitive)| {
+                let density = raw.pointer.as_ref().map_or(1000.0, |p| p.density);
+                (Body::new(&shape, density, false), primitive)
+            }),
+            warnings,
+        }
+    }
+}

@@ -1,0 +1,172 @@
+//! The scene file's schema: every key of both engines as YAML gives it, unknown keys
+//! refused, nothing checked yet.
+
+use serde::Deserialize;
+
+/// A scene file as YAML gives it, before any check.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawScene {
+    pub(super) name: String,
+    #[serde(default)]
+    pub(super) engine: RawEngine,
+    #[serde(default = "earth")]
+    pub(super) gravity: [f64; 3],
+    pub(super) dt: Option<f64>,
+    pub(super) rate: Option<f64>,
+    pub(super) feedback: Option<RawFeedback>,
+    pub(super) material: RawMaterial,
+    pub(super) bodies: Vec<RawBody>,
+    pub(super) pointer: Option<RawPointer>,
+    pub(super) grasp: Option<RawGrasp>,
+}
+
+/// `grasp:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawGrasp {
+    #[serde(default)]
+    pub(super) method: RawGraspMethod,
+    pub(super) grip_stiffness: f64,
+    pub(super) inertia_stiffness: f64,
+    pub(super) inertia_damping: Option<f64>,
+}
+
+/// `grasp.method:`.
+#[derive(Deserialize, Default, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawGraspMethod {
+    #[default]
+    Distributed,
+    Conventional,
+}
+
+/// `engine:`.
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawEngine {
+    #[default]
+    Penalty,
+    Rapier,
+}
+
+/// `feedback:`.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawFeedback {
+    Local,
+    Impulse,
+    Position,
+}
+
+/// A `gravity:` not given: the earth's.
+fn earth() -> [f64; 3] {
+    [0.0, -9.81, 0.0]
+}
+
+/// `material:`, both engines' keys.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMaterial {
+    pub(super) stiffness: Option<f64>,
+    pub(super) damping: Option<f64>,
+    pub(super) static_friction: f64,
+    pub(super) friction: f64,
+    pub(super) friction_stiffness: Option<f64>,
+    pub(super) friction_damping: Option<f64>,
+    pub(super) slip_speed: Option<f64>,
+    pub(super) model: Option<RawModel>,
+    pub(super) point_stiffness: Option<f64>,
+    pub(super) point_damping: Option<f64>,
+    pub(super) scaling: Option<RawScaling>,
+}
+
+/// `material.scaling:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawScaling {
+    pub(super) spring: f64,
+    pub(super) damper: f64,
+}
+
+/// `material.model:`.
+#[derive(Deserialize, Default, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawModel {
+    #[default]
+    Volume,
+    Point,
+}
+
+/// One of `bodies:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawBody {
+    #[serde(default)]
+    pub(super) name: String,
+    #[serde(rename = "box")]
+    pub(super) size: Option<[f64; 3]>,
+    pub(super) hull: Option<Vec<[f64; 3]>>,
+    pub(super) sphere: Option<f64>,
+    pub(super) pieces: Option<Vec<RawPiece>>,
+    pub(super) position: [f64; 3],
+    #[serde(default = "identity")]
+    pub(super) orientation: [f64; 4],
+    #[serde(default)]
+    pub(super) fixed: bool,
+    #[serde(default = "water")]
+    pub(super) density: f64,
+    #[serde(default)]
+    pub(super) velocity: [f64; 3],
+    #[serde(default)]
+    pub(super) spin: [f64; 3],
+}
+
+/// One of a body's `pieces:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPiece {
+    #[serde(rename = "box")]
+    pub(super) size: Option<[f64; 3]>,
+    pub(super) hull: Option<Vec<[f64; 3]>>,
+    pub(super) sphere: Option<f64>,
+    #[serde(default)]
+    pub(super) position: [f64; 3],
+    #[serde(default = "identity")]
+    pub(super) orientation: [f64; 4],
+}
+
+/// A `orientation:` not given: no turn.
+pub(super) fn identity() -> [f64; 4] {
+    [1.0, 0.0, 0.0, 0.0]
+}
+
+/// A `density:` not given: water's.
+fn water() -> f64 {
+    1000.0
+}
+
+/// `pointer:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPointer {
+    #[serde(rename = "box")]
+    pub(super) size: Option<[f64; 3]>,
+    pub(super) hull: Option<Vec<[f64; 3]>>,
+    pub(super) sphere: Option<f64>,
+    pub(super) coupling: Option<RawCoupling>,
+    #[serde(default = "water")]
+    pub(super) density: f64,
+}
+
+/// `pointer.coupling:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawCoupling {
+    pub(super) stiffness: f64,
+    pub(super) damping: f64,
+    #[serde(default)]
+    pub(super) rotational_stiffness: f64,
+    #[serde(default)]
+    pub(super) rotational_damping: f64,
+}
