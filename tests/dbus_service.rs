@@ -526,7 +526,12 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
         device.bind_mechanism("spidar-g").await.unwrap();
         assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
         let world = MappedWorld::open(&device.open_world().await.unwrap().into()).unwrap();
-        drop(world);
+        let mut frame = Box::new(hapticd_core::world_state::WorldFrame::empty());
+        assert!(
+            world.read(&mut frame).is_some(),
+            "no whole frame in the world"
+        );
+        assert_eq!((frame.effectors, frame.strings), (1, 8));
         let file = std::fs::File::open(&scene).unwrap();
         manager
             .switch_scene_file(zbus::Fd::from(&file), "sent")

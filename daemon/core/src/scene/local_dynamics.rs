@@ -54,6 +54,14 @@ impl Motion {
         }
     }
 
+    /// Whether every number of it is finite.
+    fn is_finite(&self) -> bool {
+        self.position.is_finite()
+            && self.orientation.is_finite()
+            && self.velocity.is_finite()
+            && self.spin.is_finite()
+    }
+
     /// The pose part.
     pub fn pose(&self) -> Pose {
         Pose {
@@ -195,10 +203,7 @@ impl LocalBody {
     ) -> Option<LocalBody> {
         let base = published_motion(published);
         let inverse_inertia = DMat3::from_cols_array(&published.inverse_inertia).transpose();
-        let finite = base.position.is_finite()
-            && base.orientation.is_finite()
-            && base.velocity.is_finite()
-            && base.spin.is_finite()
+        let finite = base.is_finite()
             && inverse_inertia.is_finite()
             && DVec3::from(published.acceleration).is_finite();
         if !(finite && published.inverse_mass > 0.0 && published.inverse_mass.is_finite()) {
@@ -325,11 +330,7 @@ impl LocalBody {
     /// step saw and the contacts here did not. None when the state published is not finite.
     pub fn change_to(&self, next: &HapticdLocalBody, pending: &Change) -> Option<Change> {
         let next = published_motion(next).plus(pending);
-        let finite = next.position.is_finite()
-            && next.orientation.is_finite()
-            && next.velocity.is_finite()
-            && next.spin.is_finite();
-        finite.then(|| Change::between(&self.hand, &next))
+        next.is_finite().then(|| Change::between(&self.hand, &next))
     }
 
     /// [rt] One tick of `dt`: the hand pushes with `force` and `torque` (about the centre
