@@ -83,6 +83,25 @@ fn the_renderer_and_clients_talk_to_hapticd_through_the_wire_contract_alone() {
     }
 }
 
+/// Scene files belong to their plugins: the daemon reads a file's engine and nothing else,
+/// and pictures come from the solids plugins publish, so neither the daemon nor the renderer
+/// links the physics of any engine.
+#[test]
+fn the_daemon_and_the_renderer_know_no_engine() {
+    for package in [
+        "hapticd",
+        "hapticd-render",
+        "hapticd-render-service",
+        "hapticd-ipc",
+    ] {
+        let linked = normal_dependencies(package);
+        assert!(
+            !linked.contains("hapticd-physics"),
+            "{package} links hapticd-physics"
+        );
+    }
+}
+
 /// rapier3d lives in its scene plugin (and hapticctl), loaded into the daemon only when a
 /// rapier scene runs: neither the daemon nor the core the haptic thread runs links it.
 #[test]

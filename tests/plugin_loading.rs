@@ -292,3 +292,195 @@ fn a_panicking_plugin_is_disabled_and_the_host_lives_on() {
     let m = catalog::load(&plugin_path("hapticd-spidar")).unwrap();
     assert_eq!(m.name, "spidar");
 }
+
+/// One pointer at the frame centre.
+fn one_pointer() -> [hapticd_core::scene::Pointer; 1] {
+    [hapticd_core::scene::Pointer {
+        pose: Default::default(),
+        velocity: Default::default(),
+    }]
+}
+
+/// The physics plugins hand the host, through their geometry extension, the solids the
+/// physics crate finds in their files (computed here, in this process), and pose every body.
+#[test]
+fn the_physics_plugins_describe_their_worlds_as_their_files_do() {
+    use hapticd_physics::scene::SceneFile;
+    let pointers = one_pointer();
+    for (krate, file) in [
+        ("hapticd-scene-penalty", "blocks"),
+        ("hapticd-scene-rapier", "balls"),
+    ] {
+        let file = repo_dir().join(format!("config/scenes/{file}.yaml"));
+        let mut scene =
+            hapticd::plugin_scene::load(&plugin_path(krate), Some(&file), &pointers).unwrap();
+        let expected = SceneFile::load(&file, 1).unwrap().geometry();
+        assert!(!expected.solids.is_empty());
+        assert_eq!(
+            *scene.geometry(),
+            expected,
+            "{krate} with {}",
+            file.display()
+        );
+        let mut poses = vec![hapticd_plugin_api::HapticdBodyPose::default(); 64];
+        assert_eq!(scene.write_bodies(&mut poses), expected.body_count as usize);
+    }
+}
+
+/// The C example answers the geometry extension by hand: its floor, one plane of no body.
+#[test]
+fn the_c_example_describes_its_floor() {
+    use hapticd_plugin_api::*;
+    let dir = scratch("c-geometry");
+    let source =
+        std::fs::read_to_string(repo_dir().join("plugins/c-example/floor_scene.c")).unwrap();
+    let path = compile_c(&dir, "floor_scene", &source);
+    let scene = hapticd::plugin_scene::load(&path, None, &one_pointer()).unwrap();
+    let geometry = scene.geometry();
+    assert_eq!((geometry.body_count, geometry.solids.len()), (0, 1));
+    let floor = geometry.solids[0];
+    assert_eq!(
+        (floor.body, floor.shape, floor.flags),
+        (HAPTICD_NO_BODY, HAPTICD_SHAPE_PLANE, HAPTICD_SOLID_FIXED)
+    );
+    assert_eq!(floor.offset.position, [0.0, -0.03, 0.0]);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A C scene whose one solid is `solid` (a C initialiser of HapticdSolid).
+fn c_scene_with_solid(solid: &str) -> String {
+    format!(
+        r#"#include <stddef.h>
+#include <string.h>
+#include "hapticd_plugin.h"
+static int made;
+static int32_t create(const char *path, uint32_t n, void **instance, HapticdSceneInfo *info) {{
+    (void)path; (void)n; *instance = &made; info->style = HAPTICD_SCENE_DIRECT; return 0;
+}}
+static void destroy(void *instance) {{ (void)instance; }}
+static int32_t step(void *instance, double dt, const HapticdPointer *p, uint32_t n,
+                    HapticdWrench *w) {{
+    (void)instance; (void)dt; (void)p; memset(w, 0, n * sizeof *w); return 0;
+}}
+static int32_t counts(void *instance, HapticdGeometryCounts *out) {{
+    (void)instance; out->bodies = 1; out->solids = 1; out->triangles = 0; return 0;
+}}
+static int32_t solid(void *instance, uint32_t index, HapticdSolid *out) {{
+    (void)instance; (void)index; *out = (HapticdSolid){solid}; return 0;
+}}
+static int32_t triangles(void *instance, uint32_t first, uint32_t count, HapticdTriangle *out) {{
+    (void)instance; (void)first; (void)count; (void)out; return 0;
+}}
+static const HapticdSceneGeometry geometry = {{ sizeof geometry, counts, solid, triangles }};
+static const void *get_extension(const char *id) {{
+    return strcmp(id, HAPTICD_EXT_SCENE_GEOMETRY) == 0 ? &geometry : NULL;
+}}
+static const HapticdSceneVtable vtable = {{ .struct_size = sizeof vtable, .create = create,
+    .destroy = destroy, .step_direct = step, .get_extension = get_extension }};
+static const HapticdPluginDescriptor d = {{ HAPTICD_ABI_MAJOR, HAPTICD_ABI_MINOR,
+    HAPTICD_KIND_SCENE, "drawn", "0", "one solid", NULL, &vtable }};
+const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) {{ (void)h; return &d; }}
+"#
+    )
+}
+
+/// Solids no picture can show are refused when the scene is opened, each with its fault;
+/// a sound one opens.
+#[test]
+fn a_scene_whose_solids_cannot_be_drawn_is_refused() {
+    let dir = scratch("bad-geometry");
+    let frame = ".offset = { { 0, 0, 0 }, { 1, 0, 0, 0 } }";
+    for (name, solid, fault) in [
+        (
+            "nan",
+            format!(".shape = HAPTICD_SHAPE_SPHERE, .size = {{ 0.0 / 0.0 }}, {frame}"),
+            Some("solid 0: size"),
+        ),
+        (
+            "body",
+            format!(".body = 3, .shape = HAPTICD_SHAPE_BOX, .size = {{ 1, 1, 1 }}, {frame}"),
+            Some("body 3 of a world of 1"),
+        ),
+        (
+            "shape",
+            format!(".shape = 77, {frame}"),
+            Some("unknown shape 77"),
+        ),
+        (
+            "triangles",
+            format!(".shape = HAPTICD_SHAPE_TRIANGLES, .triangle_count = 5, {frame}"),
+            Some("triangles 0 .. 5 of 0"),
+        ),
+        (
+            "good",
+            format!(".shape = HAPTICD_SHAPE_SPHERE, .size = {{ 0.01 }}, {frame}"),
+            None,
+        ),
+    ] {
+        let path = compile_c(&dir, name, &c_scene_with_solid(&solid));
+        let opened = hapticd::plugin_scene::load(&path, None, &one_pointer());
+        match (opened, fault) {
+            (Ok(scene), None) => assert_eq!(scene.geometry().solids.len(), 1),
+            (Err(error), Some(fault)) => {
+                assert!(error.contains("cannot draw its world"), "{error}");
+                assert!(error.contains(fault), "{name}: {error} lacks {fault:?}");
+            }
+            (Ok(_), Some(fault)) => panic!("{name}: opened, despite {fault}"),
+            (Err(error), None) => panic!("{name}: refused: {error}"),
+        }
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A scene file's `engine:` picks the plugin that declares it; a plugin that declares no
+/// such engine, a missing one, or an engine that is no name are refused with the reason,
+/// and the plugin's own check reports the file's mistakes at their places.
+#[test]
+fn a_scene_file_runs_on_the_plugin_that_declares_its_engine() {
+    use hapticd::scenes::{OpenError, Places, open};
+    let dir = scratch("engines");
+    for (krate, file) in [
+        ("hapticd-scene-penalty", "libhapticd_scene_penalty.so"),
+        ("hapticd-scene-floor", "libhapticd_scene_floor.so"),
+    ] {
+        std::fs::copy(plugin_path(krate), dir.join(file)).unwrap();
+    }
+    let scene = |name: &str, text: &str| {
+        let path = dir.join(format!("{name}.yaml"));
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let blocks = std::fs::read_to_string(repo_dir().join("config/scenes/blocks.yaml")).unwrap();
+    let plugin_dirs = [dir.clone()];
+    let places = Places {
+        dirs: &[],
+        plugin_dirs: &plugin_dirs,
+    };
+    let pointers = one_pointer();
+    let opened = |path: &Path| {
+        open(path.to_str().unwrap(), None, places, &pointers, 1000.0).map(|s| s.name().to_string())
+    };
+    assert_eq!(opened(&scene("blocks", &blocks)).unwrap(), "blocks");
+    let invalid = |path: PathBuf| match opened(&path) {
+        Err(OpenError::Invalid(why)) => why,
+        other => panic!("{}: {other:?}", path.display()),
+    };
+    let floor = invalid(scene("floor", &format!("engine: floor\n{blocks}")));
+    assert!(floor.contains("declares no engine floor"), "{floor}");
+    let missing = invalid(scene("missing", &format!("engine: rapier\n{blocks}")));
+    assert!(
+        missing.contains("no scene plugin libhapticd_scene_rapier.so"),
+        "{missing}"
+    );
+    let climbing = invalid(scene("climbing", &format!("engine: ../floor\n{blocks}")));
+    assert!(climbing.contains("is not a name"), "{climbing}");
+    let typo = invalid(scene(
+        "typo",
+        &blocks.replace("density: 500", "densty: 500"),
+    ));
+    assert!(
+        typo.contains("typo.yaml:") && typo.contains("densty"),
+        "{typo}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}

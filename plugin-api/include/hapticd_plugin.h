@@ -16,6 +16,11 @@ struct HapticdPluginDescriptor;
  * of the process (hapticd never unloads a plugin). */
 const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdHost *host);
 
+/* Extension ids (HapticdSceneVtable.get_extension), each with the struct of its section
+ * below: HapticdSceneGeometry and HapticdSceneFiles. */
+#define HAPTICD_EXT_SCENE_GEOMETRY "hapticd.scene.geometry/1"
+#define HAPTICD_EXT_SCENE_FILES "hapticd.scene.files/1"
+
 
 /*
  Major ABI version: a plugin whose major differs from the host's is refused.
@@ -28,7 +33,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 3
+#define HAPTICD_ABI_MINOR 4
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -113,6 +118,47 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  Longest effector name in bytes, including the terminating NUL.
  */
 #define HAPTICD_NAME_CAPACITY 32
+
+/*
+ Shape: a box of half edges `size`, centred on its frame.
+ */
+#define HAPTICD_SHAPE_BOX 1
+
+/*
+ Shape: a ball of radius `size[0]` about its frame's origin.
+ */
+#define HAPTICD_SHAPE_SPHERE 2
+
+/*
+ Shape: a round bar of radius `size[0]` and length `size[1]` along its frame's y axis.
+ */
+#define HAPTICD_SHAPE_CYLINDER 3
+
+/*
+ Shape: the half-space below its frame's x–z plane (outward normal +y), drawn `size[0]`
+ metres across.
+ */
+#define HAPTICD_SHAPE_PLANE 4
+
+/*
+ Shape: the solid's triangles (`first_triangle`, `triangle_count`), in its frame.
+ */
+#define HAPTICD_SHAPE_TRIANGLES 5
+
+/*
+ Solid flag: it does not move (a floor, a wall).
+ */
+#define HAPTICD_SOLID_FIXED 1
+
+/*
+ Solid flag: it follows a pointer (a finger's solid in the world).
+ */
+#define HAPTICD_SOLID_POINTER 2
+
+/*
+ The `body` of a solid that belongs to no body: it stays where its `offset` puts it.
+ */
+#define HAPTICD_NO_BODY UINT32_MAX
 
 /*
  Summary of a mechanism.
@@ -555,7 +601,8 @@ typedef struct HapticdSceneVtable {
   /*
    [the thread that steps the instance: rt for direct scenes, physics for multi-rate
    ones] Since ABI 1.2 (absent from older plugins, and may be null): write the poses of
-   the world's first `capacity` bodies, in the scene file's order, to `poses` and return
+   the world's first `capacity` bodies, in the order of their ids (those the geometry
+   extension gives its solids; else the scene file's order), to `poses` and return
    how many bodies the world has. The host draws them; like a step it must not
    allocate, lock, log or block.
    */
@@ -569,6 +616,13 @@ typedef struct HapticdSceneVtable {
   int32_t (*step_world)(void *instance,
                         const struct HapticdPhysicsInput *input,
                         struct HapticdPhysicsOutput *output);
+  /*
+   [any] Since ABI 1.4 (may be null): the plugin's extension called `id`, a
+   NUL-terminated name with its version such as [`HAPTICD_EXT_SCENE_GEOMETRY`], or null
+   when it has none of that name. What scenes offer after 1.4 comes as extensions, each
+   a struct of its own below, so the vtable itself stops growing.
+   */
+  const void *(*get_extension)(const char *id);
 } HapticdSceneVtable;
 
 /*
@@ -654,5 +708,121 @@ typedef struct HapticdHost {
  stay valid for the life of the process.
  */
 typedef const struct HapticdPluginDescriptor *(*HapticdPluginEntry)(const struct HapticdHost *host);
+
+/*
+ How many bodies, solids and triangles a scene's world has.
+ */
+typedef struct HapticdGeometryCounts {
+  /*
+   Bodies, with ids `0 .. bodies`: `poses` writes them in that order.
+   */
+  uint32_t bodies;
+  /*
+   Solids.
+   */
+  uint32_t solids;
+  /*
+   Triangles, all solids together.
+   */
+  uint32_t triangles;
+} HapticdGeometryCounts;
+
+/*
+ One drawable solid of a scene's world.
+ */
+typedef struct HapticdSolid {
+  /*
+   The id of the body it moves with (its place in `poses`), or [`HAPTICD_NO_BODY`].
+   */
+  uint32_t body;
+  /*
+   One of the `HAPTICD_SHAPE_` constants.
+   */
+  uint32_t shape;
+  /*
+   `HAPTICD_SOLID_` flags.
+   */
+  uint32_t flags;
+  /*
+   [`HAPTICD_SHAPE_TRIANGLES`]: its first triangle.
+   */
+  uint32_t first_triangle;
+  /*
+   [`HAPTICD_SHAPE_TRIANGLES`]: how many triangles it has.
+   */
+  uint32_t triangle_count;
+  /*
+   Sizes, metres, as its shape reads them.
+   */
+  double size[3];
+  /*
+   Its frame in its body's frame (in the world's when it has no body).
+   */
+  struct HapticdBodyPose offset;
+  /*
+   Linear RGBA, 0 to 1; all zero: the renderer's colour for its body and flags.
+   */
+  float colour[4];
+} HapticdSolid;
+
+/*
+ A triangle of a solid, counter-clockwise seen from outside, in the solid's frame.
+ */
+typedef struct HapticdTriangle {
+  /*
+   Its corners, metres.
+   */
+  double corners[3][3];
+} HapticdTriangle;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_GEOMETRY`] of a scene plugin: the solids of an instance's
+ world, so that pictures need nothing but the plugin (the host copies them once per scene
+ and the renderer places them by the poses of their bodies).
+
+ [main] Every function, after `create` and before the instance is first stepped.
+ */
+typedef struct HapticdSceneGeometry {
+  /*
+   `sizeof(HapticdSceneGeometry)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   Write the instance's counts to `out`.
+   */
+  int32_t (*counts)(void *instance, struct HapticdGeometryCounts *out);
+  /*
+   Write solid `index` (below `counts.solids`) to `out`.
+   */
+  int32_t (*solid)(void *instance, uint32_t index, struct HapticdSolid *out);
+  /*
+   Write `count` triangles from `first` on (within `counts.triangles`) to `out`.
+   */
+  int32_t (*triangles)(void *instance, uint32_t first, uint32_t count, struct HapticdTriangle *out);
+} HapticdSceneGeometry;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_FILES`] of a scene plugin: the `engine:` values of the scene
+ files it runs, and a check of such a file. The host reads a file's `engine:` key alone
+ and hands the file to the plugin that declares it.
+ */
+typedef struct HapticdSceneFiles {
+  /*
+   `sizeof(HapticdSceneFiles)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [any] The `index`-th `engine:` value it runs (from 0), NUL-terminated and valid for
+   the life of the process; null past the last.
+   */
+  const char *(*engine)(uint32_t index);
+  /*
+   [main] Check the NUL-terminated scene file `path` for `pointer_count` pointers without
+   creating anything: [`HAPTICD_OK`], or [`HAPTICD_ERROR_FAILED`] with what is wrong
+   (one finding a line, `file:line:column: error: field: message`) written to `message`,
+   at most `capacity` bytes with its NUL.
+   */
+  int32_t (*check)(const char *path, uint32_t pointer_count, char *message, size_t capacity);
+} HapticdSceneFiles;
 
 #endif  /* HAPTICD_PLUGIN_H */

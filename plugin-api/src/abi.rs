@@ -12,7 +12,7 @@ pub const HAPTICD_ABI_MAJOR: u32 = 1;
 /// plugin of any minor loads: the host reads no field newer than its own minor, and a
 /// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
 /// through [`HapticdHost::get_extension`].
-pub const HAPTICD_ABI_MINOR: u32 = 3;
+pub const HAPTICD_ABI_MINOR: u32 = 4;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;
@@ -322,7 +322,8 @@ pub struct HapticdSceneVtable {
     >,
     /// [the thread that steps the instance: rt for direct scenes, physics for multi-rate
     /// ones] Since ABI 1.2 (absent from older plugins, and may be null): write the poses of
-    /// the world's first `capacity` bodies, in the scene file's order, to `poses` and return
+    /// the world's first `capacity` bodies, in the order of their ids (those the geometry
+    /// extension gives its solids; else the scene file's order), to `poses` and return
     /// how many bodies the world has. The host draws them; like a step it must not
     /// allocate, lock, log or block.
     pub poses: Option<
@@ -341,6 +342,140 @@ pub struct HapticdSceneVtable {
             instance: *mut c_void,
             input: *const HapticdPhysicsInput,
             output: *mut HapticdPhysicsOutput,
+        ) -> i32,
+    >,
+    /// [any] Since ABI 1.4 (may be null): the plugin's extension called `id`, a
+    /// NUL-terminated name with its version such as [`HAPTICD_EXT_SCENE_GEOMETRY`], or null
+    /// when it has none of that name. What scenes offer after 1.4 comes as extensions, each
+    /// a struct of its own below, so the vtable itself stops growing.
+    pub get_extension: Option<unsafe extern "C" fn(id: *const c_char) -> *const c_void>,
+}
+
+// ---------------------------------------------------------------------------------------
+// Scene extension "hapticd.scene.geometry/1": what a scene's world looks like.
+// ---------------------------------------------------------------------------------------
+
+/// The id of [`HapticdSceneGeometry`].
+pub const HAPTICD_EXT_SCENE_GEOMETRY: &std::ffi::CStr = c"hapticd.scene.geometry/1";
+
+/// Shape: a box of half edges `size`, centred on its frame.
+pub const HAPTICD_SHAPE_BOX: u32 = 1;
+/// Shape: a ball of radius `size[0]` about its frame's origin.
+pub const HAPTICD_SHAPE_SPHERE: u32 = 2;
+/// Shape: a round bar of radius `size[0]` and length `size[1]` along its frame's y axis.
+pub const HAPTICD_SHAPE_CYLINDER: u32 = 3;
+/// Shape: the half-space below its frame's x–z plane (outward normal +y), drawn `size[0]`
+/// metres across.
+pub const HAPTICD_SHAPE_PLANE: u32 = 4;
+/// Shape: the solid's triangles (`first_triangle`, `triangle_count`), in its frame.
+pub const HAPTICD_SHAPE_TRIANGLES: u32 = 5;
+
+/// Solid flag: it does not move (a floor, a wall).
+pub const HAPTICD_SOLID_FIXED: u32 = 1;
+/// Solid flag: it follows a pointer (a finger's solid in the world).
+pub const HAPTICD_SOLID_POINTER: u32 = 2;
+
+/// The `body` of a solid that belongs to no body: it stays where its `offset` puts it.
+pub const HAPTICD_NO_BODY: u32 = u32::MAX;
+
+/// How many bodies, solids and triangles a scene's world has.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct HapticdGeometryCounts {
+    /// Bodies, with ids `0 .. bodies`: `poses` writes them in that order.
+    pub bodies: u32,
+    /// Solids.
+    pub solids: u32,
+    /// Triangles, all solids together.
+    pub triangles: u32,
+}
+
+/// One drawable solid of a scene's world.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdSolid {
+    /// The id of the body it moves with (its place in `poses`), or [`HAPTICD_NO_BODY`].
+    pub body: u32,
+    /// One of the `HAPTICD_SHAPE_` constants.
+    pub shape: u32,
+    /// `HAPTICD_SOLID_` flags.
+    pub flags: u32,
+    /// [`HAPTICD_SHAPE_TRIANGLES`]: its first triangle.
+    pub first_triangle: u32,
+    /// [`HAPTICD_SHAPE_TRIANGLES`]: how many triangles it has.
+    pub triangle_count: u32,
+    /// Sizes, metres, as its shape reads them.
+    pub size: [f64; 3],
+    /// Its frame in its body's frame (in the world's when it has no body).
+    pub offset: HapticdBodyPose,
+    /// Linear RGBA, 0 to 1; all zero: the renderer's colour for its body and flags.
+    pub colour: [f32; 4],
+}
+
+/// A triangle of a solid, counter-clockwise seen from outside, in the solid's frame.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HapticdTriangle {
+    /// Its corners, metres.
+    pub corners: [[f64; 3]; 3],
+}
+
+/// Extension [`HAPTICD_EXT_SCENE_GEOMETRY`] of a scene plugin: the solids of an instance's
+/// world, so that pictures need nothing but the plugin (the host copies them once per scene
+/// and the renderer places them by the poses of their bodies).
+///
+/// [main] Every function, after `create` and before the instance is first stepped.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdSceneGeometry {
+    /// `sizeof(HapticdSceneGeometry)` as the plugin was compiled.
+    pub struct_size: u32,
+    /// Write the instance's counts to `out`.
+    pub counts:
+        Option<unsafe extern "C" fn(instance: *mut c_void, out: *mut HapticdGeometryCounts) -> i32>,
+    /// Write solid `index` (below `counts.solids`) to `out`.
+    pub solid: Option<
+        unsafe extern "C" fn(instance: *mut c_void, index: u32, out: *mut HapticdSolid) -> i32,
+    >,
+    /// Write `count` triangles from `first` on (within `counts.triangles`) to `out`.
+    pub triangles: Option<
+        unsafe extern "C" fn(
+            instance: *mut c_void,
+            first: u32,
+            count: u32,
+            out: *mut HapticdTriangle,
+        ) -> i32,
+    >,
+}
+
+// ---------------------------------------------------------------------------------------
+// Scene extension "hapticd.scene.files/1": the scene files a plugin runs.
+// ---------------------------------------------------------------------------------------
+
+/// The id of [`HapticdSceneFiles`].
+pub const HAPTICD_EXT_SCENE_FILES: &std::ffi::CStr = c"hapticd.scene.files/1";
+
+/// Extension [`HAPTICD_EXT_SCENE_FILES`] of a scene plugin: the `engine:` values of the scene
+/// files it runs, and a check of such a file. The host reads a file's `engine:` key alone
+/// and hands the file to the plugin that declares it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HapticdSceneFiles {
+    /// `sizeof(HapticdSceneFiles)` as the plugin was compiled.
+    pub struct_size: u32,
+    /// [any] The `index`-th `engine:` value it runs (from 0), NUL-terminated and valid for
+    /// the life of the process; null past the last.
+    pub engine: Option<unsafe extern "C" fn(index: u32) -> *const c_char>,
+    /// [main] Check the NUL-terminated scene file `path` for `pointer_count` pointers without
+    /// creating anything: [`HAPTICD_OK`], or [`HAPTICD_ERROR_FAILED`] with what is wrong
+    /// (one finding a line, `file:line:column: error: field: message`) written to `message`,
+    /// at most `capacity` bytes with its NUL.
+    pub check: Option<
+        unsafe extern "C" fn(
+            path: *const c_char,
+            pointer_count: u32,
+            message: *mut c_char,
+            capacity: usize,
         ) -> i32,
     >,
 }

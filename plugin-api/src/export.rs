@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicPtr, Ordering};
 use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
+use crate::geometry::Geometry;
 
 /// A mechanism as a Rust plugin author describes it.
 #[derive(Debug, Clone, PartialEq)]
@@ -342,6 +343,173 @@ pub trait SceneInstance: Send {
         let _ = poses;
         0
     }
+
+    /// [main] Since ABI 1.4: the world's solids, for pictures (served through
+    /// [`HAPTICD_EXT_SCENE_GEOMETRY`]); the default has none to show.
+    fn geometry(&self) -> Option<&Geometry> {
+        None
+    }
+}
+
+/// How a Rust scene plugin checks one of its scene files for a number of pointers: nothing,
+/// or its findings, one a line.
+pub type SceneCheck = fn(&str, usize) -> Result<(), String>;
+
+/// The instance's geometry, if it has one.
+///
+/// # Safety
+/// As [`instance_mut`].
+unsafe fn geometry_of<'a>(instance: *mut std::ffi::c_void) -> Option<&'a Geometry> {
+    if instance.is_null() {
+        return None;
+    }
+    // SAFETY: per this function's contract.
+    let scene = unsafe { instance_mut(instance) };
+    let mut found = None;
+    guard(|| {
+        found = scene.geometry().map(|g| g as *const Geometry);
+        HAPTICD_OK
+    });
+    // SAFETY: the geometry lives in the instance, which outlives the caller's use of it.
+    found.map(|g| unsafe { &*g })
+}
+
+unsafe extern "C" fn geometry_counts(
+    instance: *mut std::ffi::c_void,
+    out: *mut HapticdGeometryCounts,
+) -> i32 {
+    // SAFETY: the host keeps the extension's contract: a live instance, a valid `out`.
+    unsafe {
+        let counts =
+            geometry_of(instance).map_or_else(HapticdGeometryCounts::default, Geometry::counts);
+        write_out(out, Some(counts))
+    }
+}
+
+unsafe extern "C" fn geometry_solid(
+    instance: *mut std::ffi::c_void,
+    index: u32,
+    out: *mut HapticdSolid,
+) -> i32 {
+    // SAFETY: as in geometry_counts.
+    unsafe {
+        let solid = geometry_of(instance).and_then(|g| g.solids.get(index as usize).copied());
+        write_out(out, solid)
+    }
+}
+
+unsafe extern "C" fn geometry_triangles(
+    instance: *mut std::ffi::c_void,
+    first: u32,
+    count: u32,
+    out: *mut HapticdTriangle,
+) -> i32 {
+    // SAFETY: as in geometry_counts.
+    let Some(geometry) = (unsafe { geometry_of(instance) }) else {
+        return HAPTICD_ERROR_ARGUMENT;
+    };
+    let (first, count) = (first as usize, count as usize);
+    let Some(triangles) = geometry.triangles.get(first..first.saturating_add(count)) else {
+        return HAPTICD_ERROR_ARGUMENT;
+    };
+    if out.is_null() && count > 0 {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: `out` holds `count` triangles, per the extension's contract.
+    unsafe { std::ptr::copy_nonoverlapping(triangles.as_ptr(), out, count) };
+    HAPTICD_OK
+}
+
+/// The geometry extension every Rust scene plugin serves, around
+/// [`SceneInstance::geometry`].
+static SCENE_GEOMETRY: HapticdSceneGeometry = HapticdSceneGeometry {
+    struct_size: std::mem::size_of::<HapticdSceneGeometry>() as u32,
+    counts: Some(geometry_counts),
+    solid: Some(geometry_solid),
+    triangles: Some(geometry_triangles),
+};
+
+/// A files extension that may live in a `static`.
+#[repr(transparent)]
+#[doc(hidden)]
+pub struct StaticSceneFiles(pub HapticdSceneFiles);
+
+// SAFETY: it holds only function pointers and a size.
+unsafe impl Sync for StaticSceneFiles {}
+
+/// Body of the exported `get_extension` function: the geometry extension, and the files
+/// extension when the plugin runs scene files.
+///
+/// # Safety
+/// `id` is null or NUL-terminated.
+#[doc(hidden)]
+pub unsafe fn scene_extension(
+    id: *const c_char,
+    files: Option<&'static StaticSceneFiles>,
+) -> *const std::ffi::c_void {
+    if id.is_null() {
+        return std::ptr::null();
+    }
+    // SAFETY: non-null and NUL-terminated, per the contract.
+    let id = unsafe { CStr::from_ptr(id) };
+    if id == HAPTICD_EXT_SCENE_GEOMETRY {
+        return (&SCENE_GEOMETRY as *const HapticdSceneGeometry).cast();
+    }
+    match files {
+        Some(files) if id == HAPTICD_EXT_SCENE_FILES => {
+            (&files.0 as *const HapticdSceneFiles).cast()
+        }
+        _ => std::ptr::null(),
+    }
+}
+
+/// Body of the exported files extension's `engine` function.
+#[doc(hidden)]
+pub fn scene_engine(engines: &'static [&'static CStr], index: u32) -> *const c_char {
+    engines
+        .get(index as usize)
+        .map_or(std::ptr::null(), |e| e.as_ptr())
+}
+
+/// Body of the exported files extension's `check` function.
+///
+/// # Safety
+/// `path` is null or NUL-terminated; `message` is null or holds `capacity` bytes.
+#[doc(hidden)]
+pub unsafe fn scene_check(
+    check: SceneCheck,
+    path: *const c_char,
+    pointer_count: u32,
+    message: *mut c_char,
+    capacity: usize,
+) -> i32 {
+    if path.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: non-null and NUL-terminated, per the contract.
+    let path = unsafe { CStr::from_ptr(path) }
+        .to_string_lossy()
+        .into_owned();
+    let mut findings = None;
+    let status = guard(|| match check(&path, pointer_count as usize) {
+        Ok(()) => HAPTICD_OK,
+        Err(text) => {
+            findings = Some(text);
+            HAPTICD_ERROR_FAILED
+        }
+    });
+    if let (Some(text), false, 1..) = (findings, message.is_null(), capacity) {
+        let mut end = text.len().min(capacity - 1);
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        // SAFETY: `message` holds `capacity` > `end` bytes, per the contract.
+        unsafe {
+            std::ptr::copy_nonoverlapping(text.as_ptr().cast::<c_char>(), message, end);
+            message.add(end).write(0);
+        }
+    }
+    status
 }
 
 /// [`HapticdPhysicsInput`] as slices.
@@ -626,11 +794,53 @@ pub unsafe fn scene_poses(
 #[macro_export]
 macro_rules! export_scene {
     (name: $name:literal, description: $description:literal, create: $create:path $(,)?) => {
+        $crate::export_scene!(@vtable $name, $description, $create, None);
+    };
+    (
+        name: $name:literal,
+        description: $description:literal,
+        create: $create:path,
+        engines: [$($engine:literal),+ $(,)?],
+        check: $check:path $(,)?
+    ) => {
+        const _: () = {
+            use $crate::abi::*;
+
+            unsafe extern "C" fn __hapticd_engine(index: u32) -> *const ::core::ffi::c_char {
+                const ENGINES: &[&::core::ffi::CStr] = &[$(
+                    match ::core::ffi::CStr::from_bytes_with_nul(concat!($engine, "\0").as_bytes()) {
+                        Ok(name) => name,
+                        Err(_) => panic!("an engine name holds no NUL"),
+                    }
+                ),+];
+                $crate::export::scene_engine(ENGINES, index)
+            }
+            // SAFETY: the host keeps the extension's contract on every pointer.
+            unsafe extern "C" fn __hapticd_check(
+                path: *const ::core::ffi::c_char,
+                pointer_count: u32,
+                message: *mut ::core::ffi::c_char,
+                capacity: usize,
+            ) -> i32 {
+                unsafe {
+                    $crate::export::scene_check($check, path, pointer_count, message, capacity)
+                }
+            }
+            static FILES: $crate::export::StaticSceneFiles =
+                $crate::export::StaticSceneFiles(HapticdSceneFiles {
+                    struct_size: ::core::mem::size_of::<HapticdSceneFiles>() as u32,
+                    engine: Some(__hapticd_engine),
+                    check: Some(__hapticd_check),
+                });
+            $crate::export_scene!(@vtable $name, $description, $create, Some(&FILES));
+        };
+    };
+    (@vtable $name:literal, $description:literal, $create:path, $files:expr) => {
         const _: () = {
             use $crate::abi::*;
             use $crate::export::StaticSceneVtable;
 
-            // SAFETY (all six): the host keeps the ABI's contracts on every pointer.
+            // SAFETY (all seven): the host keeps the ABI's contracts on every pointer.
             unsafe extern "C" fn __hapticd_create(
                 path: *const ::core::ffi::c_char,
                 pointer_count: u32,
@@ -693,6 +903,12 @@ macro_rules! export_scene {
                 unsafe { $crate::export::scene_step_world(instance, input, output) }
             }
 
+            unsafe extern "C" fn __hapticd_get_extension(
+                id: *const ::core::ffi::c_char,
+            ) -> *const ::core::ffi::c_void {
+                unsafe { $crate::export::scene_extension(id, $files) }
+            }
+
             static VTABLE: StaticSceneVtable = StaticSceneVtable(HapticdSceneVtable {
                 struct_size: ::core::mem::size_of::<HapticdSceneVtable>() as u32,
                 create: Some(__hapticd_create),
@@ -701,6 +917,7 @@ macro_rules! export_scene {
                 step_physics: Some(__hapticd_step_physics),
                 poses: Some(__hapticd_poses),
                 step_world: Some(__hapticd_step_world),
+                get_extension: Some(__hapticd_get_extension),
             });
 
             $crate::__hapticd_plugin_entry!(

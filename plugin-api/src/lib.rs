@@ -8,10 +8,14 @@
 //!
 //! [`abi`] holds the `#[repr(C)]` types (the C header `include/hapticd_plugin.h` is generated
 //! from it); [`export`], [`export_mechanism!`] and [`export_scene!`] are the safe side for
-//! Rust authors.
+//! Rust authors; [`geometry`] is a scene's drawable world as one value.
 
 pub mod abi;
 pub mod export;
+pub mod geometry;
 
 pub use abi::*;
-pub use export::{MechanismSpec, PhysicsInput, PhysicsOutput, SceneFactory, SceneInstance, log};
+pub use export::{
+    MechanismSpec, PhysicsInput, PhysicsOutput, SceneCheck, SceneFactory, SceneInstance, log,
+};
+pub use geometry::Geometry;

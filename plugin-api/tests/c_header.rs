@@ -25,3 +25,22 @@ fn c_header_matches_the_rust_abi() {
         path.display()
     );
 }
+
+#[test]
+fn the_header_names_each_extension_as_the_rust_abi_does() {
+    // cbindgen writes no string constants: the header's come from cbindgen.toml.
+    let header = include_str!("../include/hapticd_plugin.h");
+    for (name, id) in [
+        (
+            "HAPTICD_EXT_SCENE_GEOMETRY",
+            hapticd_plugin_api::HAPTICD_EXT_SCENE_GEOMETRY,
+        ),
+        (
+            "HAPTICD_EXT_SCENE_FILES",
+            hapticd_plugin_api::HAPTICD_EXT_SCENE_FILES,
+        ),
+    ] {
+        let line = format!("#define {name} \"{}\"", id.to_str().unwrap());
+        assert!(header.contains(&line), "the header lacks `{line}`");
+    }
+}

@@ -66,12 +66,65 @@ static int32_t step_direct(void *instance, double dt, const HapticdPointer *poin
     return HAPTICD_OK;
 }
 
+/* [main] The extension HAPTICD_EXT_SCENE_GEOMETRY: what the floor looks like, for
+ * pictures. One plane of no body (it never moves), drawn 60 cm across. */
+static int32_t geometry_counts(void *instance, HapticdGeometryCounts *out) {
+    (void)instance;
+    if (!out) {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    out->bodies = 0;
+    out->solids = 1;
+    out->triangles = 0;
+    return HAPTICD_OK;
+}
+
+static int32_t geometry_solid(void *instance, uint32_t index, HapticdSolid *out) {
+    (void)instance;
+    if (!out || index != 0) {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    memset(out, 0, sizeof *out);
+    out->body = HAPTICD_NO_BODY;
+    out->shape = HAPTICD_SHAPE_PLANE;
+    out->flags = HAPTICD_SOLID_FIXED;
+    out->size[0] = 0.6;
+    out->offset.position[1] = FLOOR_Y;
+    out->offset.orientation[0] = 1.0;
+    return HAPTICD_OK;
+}
+
+static int32_t geometry_triangles(void *instance, uint32_t first, uint32_t count,
+                                  HapticdTriangle *out) {
+    (void)instance;
+    (void)first;
+    (void)out;
+    return count == 0 ? HAPTICD_OK : HAPTICD_ERROR_ARGUMENT;
+}
+
+static const HapticdSceneGeometry geometry = {
+    .struct_size = sizeof(HapticdSceneGeometry),
+    .counts = geometry_counts,
+    .solid = geometry_solid,
+    .triangles = geometry_triangles,
+};
+
+/* [any] Extensions are found by name: an older host never asks, a newer one gets null for
+ * names this plugin does not know. */
+static const void *get_extension(const char *id) {
+    if (id && strcmp(id, HAPTICD_EXT_SCENE_GEOMETRY) == 0) {
+        return &geometry;
+    }
+    return NULL;
+}
+
 static const HapticdSceneVtable vtable = {
     .struct_size = sizeof(HapticdSceneVtable),
     .create = create,
     .destroy = destroy,
     .step_direct = step_direct,
     .step_physics = NULL,
+    .get_extension = get_extension,
 };
 
 static const HapticdPluginDescriptor descriptor = {

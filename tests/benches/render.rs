@@ -23,7 +23,7 @@ fn main() {
 fn blocks() -> Scenery {
     let path = support::repo_dir().join("config/scenes/blocks.yaml");
     let scene = PenaltyScene::load(&path, 0).unwrap();
-    Scenery::of_penalty(&scene.world.bodies, scene.first_pointer)
+    Scenery::of_geometry(&scene.geometry(), &scene.poses())
 }
 
 fn bench_frame(bencher: Bencher, scenery: &Scenery) {

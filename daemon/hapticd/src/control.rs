@@ -459,7 +459,11 @@ impl Daemon {
 
     /// Names of the scenes in the scene directories.
     pub fn scenes(&self) -> Vec<String> {
-        crate::scenes::available(&lock(&self.inner).config.scene_dirs)
+        let config = lock(&self.inner).config.clone();
+        crate::scenes::available(crate::scenes::Places {
+            dirs: &config.scene_dirs,
+            plugin_dirs: &config.scene_plugin_dirs,
+        })
     }
 
     /// The scene rendered.

@@ -268,6 +268,7 @@ impl LoadedPlugin {
             step_physics: None,
             poses: None,
             step_world: None,
+            get_extension: None,
         };
         // SAFETY: the plugin's vtable holds `size` bytes; only as many as both have are
         // copied, and a null function pointer is the all-zero `None` the rest keep.
@@ -285,6 +286,24 @@ impl LoadedPlugin {
             ));
         }
         Ok(vtable)
+    }
+
+    /// [main] The scene extension `id` this plugin offers whole, copied (None when it
+    /// offers none of that name, predates ABI 1.4, or is no scene).
+    ///
+    /// # Safety
+    /// `T` is the ABI's struct of extension `id`, whose first field is its `struct_size`.
+    pub unsafe fn scene_extension<T: Copy>(&self, id: &CStr) -> Option<T> {
+        let get = self.scene_vtable().ok()?.get_extension?;
+        // SAFETY: a NUL-terminated id; the plugin returns null or its extension struct.
+        let raw = unsafe { get(id.as_ptr()) }.cast::<T>();
+        if raw.is_null() {
+            return None;
+        }
+        // SAFETY: an extension begins with its size (this function's contract).
+        let size = unsafe { raw.cast::<u32>().read() } as usize;
+        // SAFETY: the plugin's struct holds `size` bytes, checked to cover a whole `T`.
+        (size >= std::mem::size_of::<T>()).then(|| unsafe { raw.read() })
     }
 
     /// [main] Read the mechanism's geometry through its vtable.

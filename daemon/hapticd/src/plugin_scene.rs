@@ -33,7 +33,7 @@ use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_bodies
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
-use hapticd_core::world_state::{MAX_BODIES, body_pose, pose_of};
+use hapticd_core::world_state::{MAX_BODIES, MAX_SOLIDS, MAX_TRIANGLES, body_pose, pose_of};
 
 /// A created scene instance; destroyed when dropped.
 struct Instance {
@@ -160,6 +160,8 @@ pub fn load(
         ));
     }
     let instance = Instance { vtable, pointer };
+    let geometry = read_geometry(&loaded, &instance)
+        .map_err(|e| format!("{}: cannot draw its world: {e}", path.display()))?;
     // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())
@@ -168,6 +170,7 @@ pub fn load(
         HAPTICD_SCENE_DIRECT if vtable.step_direct.is_some() => Ok(Box::new(DirectScene {
             name,
             instance,
+            geometry,
             pointers: vec![HapticdPointer::default(); pointers.len()],
             wrenches: vec![HapticdWrench::default(); pointers.len()],
             failed: false,
@@ -177,8 +180,11 @@ pub fn load(
         HAPTICD_SCENE_MULTIRATE
             if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
         {
-            let scene = MultiRateScene::start(name, instance, info.physics_rate, pointers)
-                .map_err(|e| format!("{}: cannot start its physics thread: {e}", path.display()))?;
+            let scene =
+                MultiRateScene::start(name, instance, geometry, info.physics_rate, pointers)
+                    .map_err(|e| {
+                        format!("{}: cannot start its physics thread: {e}", path.display())
+                    })?;
             Ok(Box::new(scene))
         }
         style => Err(format!(
@@ -189,10 +195,65 @@ pub fn load(
     }
 }
 
+/// [main] The solids of `instance`'s world as its plugin's geometry extension gives them
+/// (none without one), checked: as many as the shared world shows.
+fn read_geometry(loaded: &plugin::LoadedPlugin, instance: &Instance) -> Result<Geometry, String> {
+    // SAFETY: HapticdSceneGeometry is the struct of the geometry extension.
+    let extension: Option<HapticdSceneGeometry> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_GEOMETRY) };
+    let Some(extension) = extension else {
+        return Ok(Geometry::default());
+    };
+    let (Some(counts_of), Some(solid_of), Some(triangles_of)) =
+        (extension.counts, extension.solid, extension.triangles)
+    else {
+        return Err("its geometry extension lacks a function".into());
+    };
+    let failed = |what: &str, status: i32| format!("reading its {what} failed (status {status})");
+    let mut counts = HapticdGeometryCounts::default();
+    // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
+    let status = unsafe { counts_of(instance.pointer, &mut counts) };
+    if status != HAPTICD_OK {
+        return Err(failed("counts", status));
+    }
+    let mut geometry = Geometry {
+        body_count: counts.bodies,
+        solids: Vec::new(),
+        triangles: vec![HapticdTriangle::default(); (counts.triangles as usize).min(MAX_TRIANGLES)],
+    };
+    if !geometry.triangles.is_empty() {
+        let n = geometry.triangles.len() as u32;
+        // SAFETY: as above; `triangles` holds `n` triangles.
+        let status =
+            unsafe { triangles_of(instance.pointer, 0, n, geometry.triangles.as_mut_ptr()) };
+        if status != HAPTICD_OK {
+            return Err(failed("triangles", status));
+        }
+    }
+    for index in 0..counts.solids.min(MAX_SOLIDS as u32) {
+        let mut solid = HapticdSolid::default();
+        // SAFETY: as above.
+        let status = unsafe { solid_of(instance.pointer, index, &mut solid) };
+        if status != HAPTICD_OK {
+            return Err(failed(&format!("solid {index}"), status));
+        }
+        let end = solid.first_triangle as u64 + solid.triangle_count as u64;
+        // A solid whose triangles lie past what pictures hold is left out with them.
+        if solid.shape != HAPTICD_SHAPE_TRIANGLES
+            || end <= counts.triangles.min(MAX_TRIANGLES as u32) as u64
+        {
+            geometry.solids.push(solid);
+        }
+    }
+    geometry.check().map_err(|e| e.to_string())?;
+    Ok(geometry)
+}
+
 /// A direct scene: the plugin runs inside the haptic tick.
 struct DirectScene {
     name: String,
     instance: Instance,
+    geometry: Geometry,
     pointers: Vec<HapticdPointer>,
     wrenches: Vec<HapticdWrench>,
     failed: bool,
@@ -255,6 +316,10 @@ impl Scene for DirectScene {
     fn write_bodies(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
         self.instance.poses(poses)
     }
+
+    fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
 }
 
 /// The bodies as the last two physics steps left them, for pictures between steps.
@@ -278,6 +343,7 @@ impl BodySet {
 /// A multi-rate scene: the plugin runs in a physics thread, the haptic side in the tick.
 struct MultiRateScene {
     name: String,
+    geometry: Geometry,
     renderer: PlaneRenderer,
     bodies_in: Reader<BodySet>,
     hands_out: Writer<Hands>,
@@ -300,6 +366,7 @@ impl MultiRateScene {
     fn start(
         name: String,
         instance: Instance,
+        geometry: Geometry,
         rate: f64,
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
@@ -389,6 +456,7 @@ impl MultiRateScene {
             })?;
         Ok(Self {
             name,
+            geometry,
             renderer: PlaneRenderer::new(rate, pointers),
             bodies_in,
             hands_out,
@@ -475,6 +543,10 @@ impl Scene for MultiRateScene {
             *out = body_pose(&pose);
         }
         set.count
+    }
+
+    fn geometry(&self) -> &Geometry {
+        &self.geometry
     }
 }
 

@@ -242,7 +242,7 @@ impl RealtimeLoop {
                     if let Some(w) = world.as_mut()
                         && woke - pictured >= world_ns
                     {
-                        w.write(|picture| picture.capture(&mut haptic, settings.rate));
+                        w.capture(&mut haptic, settings.rate);
                         pictured = woke;
                     }
                     // Once per scene: its fault never changes once it is found.

@@ -1,13 +1,20 @@
 //! Finding a scene by name: a scene plugin (`.so`), a scene file, or the name of a scene in
-//! the configured directories; physics scene files run on the scene plugin of their engine.
+//! the configured directories. Of a scene file the daemon reads only its engine
+//! ([`engine_of`]): static solids it renders itself; any other engine's files run on the scene
+//! plugin `libhapticd_scene_ENGINE.so` that declares that engine (the plugin's
+//! [`HAPTICD_EXT_SCENE_FILES`] extension), which checks them, too.
 
+use std::ffi::{CStr, CString, c_char};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use hapticd_core::kinematics::Wrench;
+use hapticd_core::scene::engine::{Engine, engine_of};
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_core::scene::{Pointer, Scene};
-use hapticd_physics::scene::{Engine, SceneFile};
+use hapticd_plugin_api::{HAPTICD_EXT_SCENE_FILES, HAPTICD_OK, HapticdSceneFiles};
+
+use crate::plugin;
 
 /// Why a scene could not be opened.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -121,11 +128,94 @@ pub fn file_of(name: &str, file: Option<&Path>, dirs: &[PathBuf]) -> Option<Path
     std::fs::canonicalize(path).ok()
 }
 
-/// The plugin that runs physics scene files of `engine`, found in `plugin_dirs`.
-fn engine_plugin(engine: Engine) -> &'static str {
-    match engine {
-        Engine::Penalty => "libhapticd_scene_penalty.so",
-        Engine::Rapier => "libhapticd_scene_rapier.so",
+/// Longest findings a plugin's check hands back, bytes.
+const FINDINGS_CAPACITY: usize = 64 << 10;
+
+/// A scene plugin that runs the scene files of an engine.
+struct EnginePlugin {
+    path: PathBuf,
+    files: HapticdSceneFiles,
+}
+
+impl EnginePlugin {
+    /// [main] The plugin of `engine` in the first of `plugin_dirs` that has one, refused
+    /// unless it declares the engine.
+    fn find(engine: &str, plugin_dirs: &[PathBuf]) -> Result<Self, String> {
+        if !is_name(engine) {
+            return Err(format!("engine {engine:?} is not a name"));
+        }
+        let path = scene_plugin(engine, plugin_dirs).ok_or_else(|| {
+            format!("no scene plugin libhapticd_scene_{engine}.so in {plugin_dirs:?} runs engine {engine}")
+        })?;
+        let loaded = plugin::load(&path).map_err(|e| e.to_string())?;
+        // SAFETY: HapticdSceneFiles is the struct of the files extension.
+        let files: Option<HapticdSceneFiles> =
+            unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_FILES) };
+        let plugin = files
+            .map(|files| Self { path, files })
+            .filter(|p| p.engines().iter().any(|e| e == engine));
+        plugin.ok_or_else(|| {
+            format!(
+                "{}: declares no engine {engine} (its scene-files extension lists none)",
+                loaded.path.display()
+            )
+        })
+    }
+
+    /// The `engine:` values the plugin declares.
+    fn engines(&self) -> Vec<String> {
+        let Some(engine) = self.files.engine else {
+            return Vec::new();
+        };
+        // A plugin's list is short; the bound keeps a broken one from looping forever.
+        (0..64)
+            // SAFETY: any index may be asked; the plugin answers null or a name it keeps.
+            .map(|k| unsafe { engine(k) })
+            .take_while(|name| !name.is_null())
+            // SAFETY: non-null, NUL-terminated and valid for the process' life (the ABI).
+            .map(|name| {
+                unsafe { CStr::from_ptr(name) }
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect()
+    }
+
+    /// [main] The plugin's findings about the scene file `file` for `pointers` pointers.
+    fn check(&self, file: &Path, pointers: usize) -> Result<(), String> {
+        let Some(check) = self.files.check else {
+            return Ok(());
+        };
+        let path = CString::new(file.as_os_str().as_encoded_bytes())
+            .map_err(|_| "scene file path contains NUL".to_string())?;
+        let mut findings = vec![0 as c_char; FINDINGS_CAPACITY];
+        // SAFETY: a NUL-terminated path and a buffer of the capacity given.
+        let status = unsafe {
+            check(
+                path.as_ptr(),
+                pointers as u32,
+                findings.as_mut_ptr(),
+                findings.len(),
+            )
+        };
+        if status == HAPTICD_OK {
+            return Ok(());
+        }
+        // SAFETY: c_char and u8 have one layout; the plugin NUL-terminates within the buffer.
+        let bytes: &[u8] =
+            unsafe { std::slice::from_raw_parts(findings.as_ptr().cast(), findings.len()) };
+        let text = CStr::from_bytes_until_nul(bytes)
+            .map(|t| t.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Err(if text.is_empty() {
+            format!(
+                "{}: refused by {} (status {status})",
+                file.display(),
+                self.path.display()
+            )
+        } else {
+            text
+        })
     }
 }
 
@@ -159,35 +249,30 @@ fn find(
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
     }
-    if SceneFile::is_physics(&path) {
-        // Checked here first, so that mistakes come back with their places.
-        let plugin = engine_plugin(
-            SceneFile::load(&path, pointers.len())
-                .map_err(|e| OpenError::Invalid(e.to_string()))?
-                .engine(),
-        );
-        let engine = places
-            .plugin_dirs
-            .iter()
-            .map(|d| d.join(plugin))
-            .find(|p| p.exists())
-            .ok_or_else(|| {
-                OpenError::Invalid(format!(
-                    "{}: a physics scene, but no {plugin} in {:?} to run it",
-                    path.display(),
-                    places.plugin_dirs
-                ))
-            })?;
-        return crate::plugin_scene::load(&engine, Some(&path), pointers)
-            .map_err(OpenError::Invalid);
-    }
-    let spec = StaticSceneSpec::load(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
-    Ok(Box::new(StaticScene::new(spec, pointers)))
+    let engine = engine_of(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
+    let Engine::Plugin(engine) = engine else {
+        let spec = StaticSceneSpec::load(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
+        return Ok(Box::new(StaticScene::new(spec, pointers)));
+    };
+    let runner = EnginePlugin::find(&engine, places.plugin_dirs)
+        .map_err(|e| OpenError::Invalid(format!("{}: {e}", path.display())))?;
+    // Checked first, so that mistakes come back with their places.
+    runner
+        .check(&path, pointers.len())
+        .map_err(OpenError::Invalid)?;
+    crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Invalid)
 }
 
-/// Names of the usable scene files in `dirs`, static and physics, first directory first,
-/// without repeats.
-pub fn available(dirs: &[PathBuf]) -> Vec<String> {
+/// Names of the usable scene files in `dirs`, first directory first, without repeats: static
+/// ones that load, and those a plugin in `plugin_dirs` runs and finds sound.
+pub fn available(places: Places) -> Vec<String> {
+    let usable = |path: &Path| match engine_of(path) {
+        Ok(Engine::Static) => StaticSceneSpec::load(path).is_ok(),
+        Ok(Engine::Plugin(engine)) => EnginePlugin::find(&engine, places.plugin_dirs)
+            .is_ok_and(|runner| runner.check(path, 0).is_ok()),
+        Err(_) => false,
+    };
+    let dirs = places.dirs;
     let mut names: Vec<String> = Vec::new();
     for dir in dirs {
         let Ok(listing) = std::fs::read_dir(dir) else {
@@ -198,12 +283,7 @@ pub fn available(dirs: &[PathBuf]) -> Vec<String> {
             .filter_map(|e| {
                 let path = e.path();
                 let stem = path.file_stem()?.to_str()?.to_string();
-                let usable = if SceneFile::is_physics(&path) {
-                    SceneFile::load(&path, 0).is_ok()
-                } else {
-                    StaticSceneSpec::load(&path).is_ok()
-                };
-                (path.extension()? == "yaml" && usable).then_some(stem)
+                (path.extension()? == "yaml" && usable(&path)).then_some(stem)
             })
             .collect();
         here.sort();

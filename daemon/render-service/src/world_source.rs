@@ -1,47 +1,30 @@
-//! Where the pictures come from: hapticd on the bus. The shapes come from the active scene's
-//! file (`ActiveSceneFile`), read again whenever hapticd swaps scenes; where everything is,
-//! from the world hapticd's haptic loop writes into shared memory (`OpenWorld`), read at
-//! every frame. A hapticd that restarts is found again by its new bus name.
+//! Where the pictures come from: hapticd on the bus, and the world its haptic loop writes
+//! into shared memory (`OpenWorld`): the scene's solids, read again whenever hapticd swaps
+//! scenes, and where everything is, read at every frame. The active scene's file
+//! (`ActiveSceneFile`) only names the scene on the status line. A hapticd that restarts is
+//! found again by its new bus name.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use hapticd_core::kinematics::Dof;
-use hapticd_core::scene::static_scene::StaticSceneSpec;
+use hapticd_core::kinematics::{Dof, Pose};
 use hapticd_core::world_state::{WorldFrame, pose_of};
 use hapticd_ipc::bus::Bus;
 use hapticd_ipc::world_share::MappedWorld;
 use hapticd_ipc::{BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, device_path};
-use hapticd_physics::body::Body;
-use hapticd_physics::scene::{RapierScene, SceneFile};
+use hapticd_plugin_api::{Geometry, HAPTICD_SOLID_POINTER};
 use hapticd_render::camera::Camera;
 use hapticd_render::scenery::{DrawnGrip, DrawnString, Scenery};
 
 /// How often the bus is asked again whether hapticd and its scene are the same.
 const RECHECK: Duration = Duration::from_secs(1);
 
-/// The solids of a scene file.
-enum Solids {
-    /// No file (a scene plugin run without one): only the device is drawn.
-    None,
-    /// Fixed shapes.
-    Static(StaticSceneSpec),
-    /// A penalty world: its bodies, the pointers' solids from `first_pointer` on.
-    Penalty {
-        bodies: Vec<Body>,
-        first_pointer: usize,
-    },
-    /// A rapier world.
-    Rapier(Box<RapierScene>),
-}
-
 /// The scene being drawn.
 struct Scene {
-    file: String,
     switches: u32,
     effectors: u32,
-    solids: Solids,
+    geometry: Geometry,
     /// Framed when the scene was first drawn, then kept, so that pictures follow one
     /// another.
     camera: Camera,
@@ -102,19 +85,36 @@ impl WorldSource {
             return Err(NoWorld("hapticd's world could not be read whole".into()));
         }
         let frame = &*self.frame;
-        let stale = self.scene.as_ref().is_none_or(|s| {
-            s.file != self.file
-                || s.switches != frame.scene_switches
-                || s.effectors != frame.effectors
-        });
+        let stale = self
+            .scene
+            .as_ref()
+            .is_none_or(|s| s.switches != frame.scene_switches || s.effectors != frame.effectors);
         if stale {
-            self.scene = Some(load(&self.file, frame)?);
+            let mut geometry = Geometry::default();
+            // Until the new scene's solids are there, the last scene's are drawn.
+            if world.read_geometry(&mut geometry) == Some(frame.scene_switches) {
+                let mut scene = Scene {
+                    switches: frame.scene_switches,
+                    effectors: frame.effectors,
+                    geometry,
+                    camera: Camera::orbit(DVec3::ZERO, 1.0, 0.45, 0.75),
+                };
+                scene.camera = scenery(&scene.geometry, frame).camera();
+                self.scene = Some(scene);
+            }
         }
-        let scene = self.scene.as_mut().expect("loaded above");
+        let (scenery, camera) = match &self.scene {
+            Some(scene) => (scenery(&scene.geometry, frame), scene.camera),
+            None => {
+                let scenery = scenery(&Geometry::default(), frame);
+                let camera = scenery.camera();
+                (scenery, camera)
+            }
+        };
         Ok(View {
-            scenery: scenery(&mut scene.solids, frame),
-            camera: scene.camera,
-            status: status(&scene.file, frame),
+            scenery,
+            camera,
+            status: status(&self.file, frame),
         })
     }
 
@@ -191,69 +191,10 @@ where
     reply.body().deserialize()
 }
 
-/// The solids of scene file `file` as hapticd runs it with `frame`'s pointers.
-fn load(file: &str, frame: &WorldFrame) -> Result<Scene, NoWorld> {
-    let solids = solids(file, frame.effectors as usize)?;
-    let mut scene = Scene {
-        file: file.to_string(),
-        switches: frame.scene_switches,
-        effectors: frame.effectors,
-        solids,
-        camera: Camera::orbit(DVec3::ZERO, 1.0, 0.45, 0.75),
-    };
-    scene.camera = scenery(&mut scene.solids, frame).camera();
-    Ok(scene)
-}
-
-fn solids(file: &str, pointers: usize) -> Result<Solids, NoWorld> {
-    if file.is_empty() {
-        return Ok(Solids::None);
-    }
-    let path = PathBuf::from(file);
-    let failed = |e: &dyn std::fmt::Display| NoWorld(format!("cannot draw {file}: {e}"));
-    if !SceneFile::is_physics(&path) {
-        return StaticSceneSpec::load(&path)
-            .map(Solids::Static)
-            .map_err(|e| failed(&e));
-    }
-    Ok(
-        match SceneFile::load(Path::new(file), pointers).map_err(|e| failed(&e))? {
-            SceneFile::Penalty(scene) => Solids::Penalty {
-                bodies: scene.world.bodies,
-                first_pointer: scene.first_pointer,
-            },
-            SceneFile::Rapier(spec) => Solids::Rapier(spec),
-        },
-    )
-}
-
-/// `solids` where `frame` has them, and the device.
-fn scenery(solids: &mut Solids, frame: &WorldFrame) -> Scenery {
-    let poses: Vec<_> = frame.body_poses().collect();
-    let mut scenery = match solids {
-        Solids::None => Scenery::default(),
-        Solids::Static(spec) => Scenery::of_static(spec),
-        Solids::Penalty {
-            bodies,
-            first_pointer,
-        } => {
-            for (body, pose) in bodies.iter_mut().zip(&poses) {
-                body.position = pose.position;
-                body.orientation = pose.orientation;
-                body.update_world_shape();
-            }
-            Scenery::of_penalty(bodies, *first_pointer)
-        }
-        Solids::Rapier(spec) => Scenery::of_rapier(spec, |i| {
-            poses
-                .get(i)
-                .copied()
-                .unwrap_or_else(|| hapticd_core::kinematics::Pose {
-                    position: spec.bodies[i].position,
-                    orientation: spec.bodies[i].orientation,
-                })
-        }),
-    };
+/// `geometry` where `frame` has its bodies, and the device.
+fn scenery(geometry: &Geometry, frame: &WorldFrame) -> Scenery {
+    let poses: Vec<Pose> = frame.body_poses().collect();
+    let mut scenery = Scenery::of_geometry(geometry, &poses);
     let effectors = (frame.effectors as usize).min(frame.grips.len());
     let strings: Vec<DrawnString> = (0..(frame.strings as usize).min(frame.motors.len()))
         .map(|k| DrawnString {
@@ -275,8 +216,12 @@ fn scenery(solids: &mut Solids, frame: &WorldFrame) -> Scenery {
             torque: DVec3::from(frame.wrenches[k].torque),
         })
         .collect();
-    // The proxies, or a penalty world's pointer solids, show where the fingers rest.
-    let rests_shown = frame.has_proxies != 0 || matches!(solids, Solids::Penalty { .. });
+    // The proxies, or the pointers' solids in the world, show where the fingers rest.
+    let rests_shown = frame.has_proxies != 0
+        || geometry
+            .solids
+            .iter()
+            .any(|s| s.flags & HAPTICD_SOLID_POINTER != 0);
     scenery.add_device(&strings, &grips, !rests_shown);
     if frame.has_proxies != 0 {
         let proxies: Vec<DVec3> = frame.proxies[..effectors]

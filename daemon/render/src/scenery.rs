@@ -1,14 +1,11 @@
 //! What a scene looks like: its solids as meshes, where they are now, and a camera that
-//! frames them.
+//! frames them. The solids are whatever the scene's plugin (or the daemon, for static scenes)
+//! published ([`Geometry`]); nothing here knows a scene file.
 
 use glam::{DQuat, DVec3};
-use hapticd_core::haptics::obstacle::Shape;
-use hapticd_core::kinematics::{Dof, Pose};
+use hapticd_core::kinematics::{Dof, Pose, quat_from_wxyz};
 use hapticd_core::mechanism::Mechanism;
-use hapticd_core::scene::static_scene::StaticSceneSpec;
-use hapticd_physics::body::Body;
-use hapticd_physics::polyhedron::Polyhedron;
-use hapticd_physics::scene::{Primitive, RapierScene};
+use hapticd_plugin_api::*;
 
 use crate::camera::Camera;
 use crate::mesh::Mesh;
@@ -58,11 +55,8 @@ pub const BODIES: [[f32; 4]; 6] = [
 pub const POINTER: [f32; 4] = [0.95, 0.85, 0.2, 1.0];
 /// A grip where a proxy shows where the finger rests: the hand, inside what it presses.
 const FAINT_POINTER: [f32; 4] = [0.95, 0.85, 0.2, 0.35];
-/// A translucent wall where a static scene's plane bounds the workspace.
+/// A translucent wall where a plane bounds the workspace.
 const WALL: [f32; 4] = [0.55, 0.6, 0.7, 0.35];
-/// How far a static scene's floor, walls and bars are drawn, metres.
-const REACH: f64 = 0.3;
-
 /// The solids of a picture and the box that holds the ones worth framing.
 #[derive(Debug, Clone, Default)]
 pub struct Scenery {
@@ -89,112 +83,47 @@ impl Scenery {
         Camera::orbit(centre, 1.15 * radius / (fov / 2.0).sin(), 0.45, 0.75)
     }
 
-    /// A static scene's solids.
-    pub fn of_static(spec: &StaticSceneSpec) -> Self {
+    /// The solids of `geometry`, each where its body's pose in `poses` (by body id) puts
+    /// it; a solid whose body has no pose is not drawn. Moving solids are framed (the
+    /// pointers' not); when none moves, the bounded fixed ones are.
+    pub fn of_geometry(geometry: &Geometry, poses: &[Pose]) -> Self {
         let mut s = Self::default();
-        let mut mesh = Mesh::default();
-        for (k, shape) in spec.shapes.iter().enumerate() {
-            let colour = BODIES[k % BODIES.len()];
-            match *shape {
-                Shape::HalfSpace { point, normal } if normal.y > 0.999 => {
-                    mesh.floor(DVec3::ZERO, point.y, 2.0 * REACH, STRIPE, FLOOR);
-                }
-                Shape::HalfSpace { point, normal } => {
-                    mesh.panel(point, normal, REACH, WALL);
-                }
-                Shape::Sphere { centre, radius } => {
-                    mesh.ball(centre, radius, 16, colour);
-                    s.frame(centre - radius, centre + radius);
-                }
-                Shape::Cylinder {
-                    point,
-                    axis,
-                    radius,
-                } => mesh.cylinder(point, axis, radius, 2.0 * REACH, colour),
-                Shape::Cuboid {
-                    centre,
-                    half,
-                    rotation,
-                } => {
-                    mesh.cuboid(centre, half, rotation, colour);
-                    s.frame(centre - half.length(), centre + half.length());
-                }
-            }
-        }
-        // Translucent walls last, over what lies behind them.
-        let (walls, solid): (Vec<_>, Vec<_>) =
-            mesh.vertices.chunks(3).partition(|t| t[0].colour[3] < 1.0);
-        s.meshes.push(Mesh {
-            vertices: solid.concat(),
-        });
-        s.meshes.push(Mesh {
-            vertices: walls.concat(),
-        });
-        s
-    }
-
-    /// The bodies of a penalty world as they are now; bodies from `first_pointer` on are
-    /// pointers, drawn but not framed.
-    pub fn of_penalty(bodies: &[Body], first_pointer: usize) -> Self {
-        let mut s = Self::default();
-        let mut mesh = Mesh::default();
-        for (i, body) in bodies.iter().enumerate() {
-            let colour = if i >= first_pointer {
-                POINTER
-            } else {
-                colour_of(i, body.fixed)
+        let (mut mesh, mut translucent) = (Mesh::default(), Mesh::default());
+        let mut fixed: Option<(DVec3, DVec3)> = None;
+        for (k, solid) in geometry.solids.iter().enumerate() {
+            let body = match solid.body {
+                HAPTICD_NO_BODY => Pose::IDENTITY,
+                id => match poses.get(id as usize) {
+                    Some(pose) => *pose,
+                    None => continue,
+                },
             };
-            for piece in body.world_pieces() {
-                polyhedron(&mut mesh, piece, colour);
-                if !body.fixed && i < first_pointer {
-                    let (low, high) = bounds(piece.vertices.iter().copied());
-                    s.frame(low, high);
-                }
+            let offset = &solid.offset;
+            let frame = Pose {
+                position: body.transform_point(DVec3::from(offset.position)),
+                orientation: body.orientation * quat_from_wxyz(offset.orientation).normalize(),
+            };
+            let colour = colour_of(solid, k);
+            let target = if colour[3] < 1.0 {
+                &mut translucent
+            } else {
+                &mut mesh
+            };
+            let Some((low, high)) = draw(target, geometry, solid, &frame, colour) else {
+                continue;
+            };
+            if solid.flags & HAPTICD_SOLID_FIXED != 0 {
+                fixed = Some(fixed.map_or((low, high), |(l, h)| (l.min(low), h.max(high))));
+            } else if solid.flags & HAPTICD_SOLID_POINTER == 0 {
+                s.frame(low, high);
             }
         }
-        s.frame_fixed_if_empty(bodies.iter().flat_map(|b| b.world_pieces()));
-        s.meshes.push(mesh);
-        s
-    }
-
-    /// The bodies of a rapier world where `state` puts them (`spec` gives their shapes):
-    /// the world's bodies now, or the poses between physics steps graphics show (6.5.2).
-    pub fn of_rapier(spec: &RapierScene, state: impl Fn(usize) -> Pose) -> Self {
-        let mut s = Self::default();
-        let mut mesh = Mesh::default();
-        for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
-            let state = state(i);
-            let place = |p: DVec3| state.position + state.orientation * p;
-            let colour = colour_of(i, body.fixed);
-            for (piece, primitive) in body.pieces.iter().zip(primitives) {
-                let centre = piece.vertex_centre();
-                match *primitive {
-                    Primitive::Cuboid { half, rotation } => {
-                        mesh.cuboid(place(centre), half, state.orientation * rotation, colour);
-                    }
-                    Primitive::Ball { radius } => mesh.ball(place(centre), radius, 16, colour),
-                    Primitive::Hull => {
-                        let placed = piece.transformed(state.orientation, state.position);
-                        polyhedron(&mut mesh, &placed, colour);
-                    }
-                }
-                if !body.fixed {
-                    let (low, high) = bounds(piece.vertices.iter().map(|v| place(*v)));
-                    s.frame(low, high);
-                }
-            }
+        if let (None, Some((low, high))) = (s.low, fixed) {
+            s.frame(low, high);
         }
-        let fixed: Vec<Polyhedron> = spec
-            .bodies
-            .iter()
-            .flat_map(|b| {
-                b.pieces
-                    .iter()
-                    .map(|p| p.transformed(DQuat::IDENTITY, b.position))
-            })
-            .collect();
-        s.frame_fixed_if_empty(fixed.iter());
         s.meshes.push(mesh);
+        // Translucent walls last, over what lies behind them.
+        s.meshes.push(translucent);
         s
     }
 
@@ -306,16 +235,6 @@ impl Scenery {
         // Translucent things last, over what lies behind them.
         self.meshes.push(faint);
     }
-
-    /// Frame every solid when nothing moves.
-    fn frame_fixed_if_empty<'a>(&mut self, pieces: impl Iterator<Item = &'a Polyhedron>) {
-        if self.low.is_none() {
-            for piece in pieces {
-                let (low, high) = bounds(piece.vertices.iter().copied());
-                self.frame(low, high);
-            }
-        }
-    }
 }
 
 /// Radius strings are drawn with, metres (thicker than real ones, to be seen).
@@ -344,20 +263,75 @@ pub fn tension_colour(tension: f64, min: f64, max: f64) -> [f32; 4] {
     [0.15 + 0.75 * t, 0.3 - 0.15 * t, 0.9 - 0.75 * t, 1.0]
 }
 
-/// The colour of body `i`.
-fn colour_of(i: usize, fixed: bool) -> [f32; 4] {
-    if fixed {
-        FIXED
-    } else {
-        BODIES[i % BODIES.len()]
+/// The colour of solid `k`: its own, or else a translucent wall for a plane, the pointers'
+/// yellow for a pointer's solid, grey for a fixed body, or one of [`BODIES`] by its body (by
+/// its place when it has none).
+fn colour_of(solid: &HapticdSolid, k: usize) -> [f32; 4] {
+    if solid.colour != [0.0; 4] {
+        return solid.colour;
     }
+    if solid.shape == HAPTICD_SHAPE_PLANE {
+        return WALL;
+    }
+    if solid.flags & HAPTICD_SOLID_POINTER != 0 {
+        return POINTER;
+    }
+    if solid.flags & HAPTICD_SOLID_FIXED != 0 && solid.body != HAPTICD_NO_BODY {
+        return FIXED;
+    }
+    let index = match solid.body {
+        HAPTICD_NO_BODY => k,
+        id => id as usize,
+    };
+    BODIES[index % BODIES.len()]
 }
 
-/// The faces of `p` (counter-clockwise from outside) into `mesh`.
-fn polyhedron(mesh: &mut Mesh, p: &Polyhedron, colour: [f32; 4]) {
-    for face in &p.faces {
-        let corners: Vec<DVec3> = face.iter().map(|&k| p.vertices[k]).collect();
-        mesh.polygon(&corners, colour);
+/// Draw `solid` at `frame` in `colour` into `mesh`; the box worth framing, None for a solid
+/// without bounds (planes and bars drawn across the workspace).
+fn draw(
+    mesh: &mut Mesh,
+    geometry: &Geometry,
+    solid: &HapticdSolid,
+    frame: &Pose,
+    colour: [f32; 4],
+) -> Option<(DVec3, DVec3)> {
+    let centre = frame.position;
+    let [a, b, _] = solid.size;
+    match solid.shape {
+        HAPTICD_SHAPE_BOX => {
+            let half = DVec3::from(solid.size);
+            mesh.cuboid(centre, half, frame.orientation, colour);
+            Some((centre - half.length(), centre + half.length()))
+        }
+        HAPTICD_SHAPE_SPHERE => {
+            mesh.ball(centre, a, 16, colour);
+            Some((centre - a, centre + a))
+        }
+        HAPTICD_SHAPE_CYLINDER => {
+            mesh.cylinder(centre, frame.orientation * DVec3::Y, a, b, colour);
+            None
+        }
+        HAPTICD_SHAPE_PLANE => {
+            let normal = frame.orientation * DVec3::Y;
+            if normal.y > 0.999 {
+                mesh.floor(DVec3::ZERO, centre.y, a, STRIPE, FLOOR);
+            } else {
+                mesh.panel(centre, normal, a, colour);
+            }
+            None
+        }
+        _ => {
+            let corners: Vec<DVec3> = geometry
+                .triangles_of(solid)
+                .iter()
+                .flat_map(|t| t.corners)
+                .map(|c| frame.transform_point(DVec3::from(c)))
+                .collect();
+            for t in corners.chunks_exact(3) {
+                mesh.triangle([t[0], t[1], t[2]], colour);
+            }
+            (!corners.is_empty()).then(|| bounds(corners.iter().copied()))
+        }
     }
 }
 

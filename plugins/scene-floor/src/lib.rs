@@ -22,6 +22,8 @@ const FLOOR: u32 = 1;
 
 struct Floor {
     y: f64,
+    /// The floor, drawn 60 cm across.
+    geometry: Geometry,
 }
 
 impl SceneInstance for Floor {
@@ -42,6 +44,10 @@ impl SceneInstance for Floor {
             };
         }
         HAPTICD_OK
+    }
+
+    fn geometry(&self) -> Option<&Geometry> {
+        Some(&self.geometry)
     }
 }
 
@@ -86,7 +92,14 @@ fn create(
         style: HAPTICD_SCENE_MULTIRATE,
         physics_rate: 50.0,
     };
-    Ok((Box::new(Floor { y }), info))
+    let mut geometry = Geometry::default();
+    geometry.add_solid(HapticdSolid {
+        shape: HAPTICD_SHAPE_PLANE,
+        flags: HAPTICD_SOLID_FIXED,
+        size: [0.6, 0.0, 0.0],
+        ..HapticdSolid::placed([0.0, y, 0.0], [1.0, 0.0, 0.0, 0.0])
+    });
+    Ok((Box::new(Floor { y, geometry }), info))
 }
 
 hapticd_plugin_api::export_scene!(

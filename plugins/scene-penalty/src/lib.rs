@@ -10,8 +10,8 @@ use hapticd_physics::coupling::Grip;
 use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene};
 use hapticd_plugin_api::*;
 
-/// The plugin's instance: a loaded scene.
-struct Penalty(PenaltyScene);
+/// The plugin's instance: a loaded scene and what it looks like.
+struct Penalty(PenaltyScene, Geometry);
 
 impl SceneInstance for Penalty {
     fn step_direct(
@@ -59,6 +59,17 @@ impl SceneInstance for Penalty {
         }
         bodies.len()
     }
+
+    fn geometry(&self) -> Option<&Geometry> {
+        Some(&self.1)
+    }
+}
+
+/// Check a penalty scene file without building its world.
+fn check(path: &str, pointers: usize) -> Result<(), String> {
+    PenaltyScene::load(std::path::Path::new(path), pointers)
+        .map(drop)
+        .map_err(|e| e.to_string())
 }
 
 fn create(
@@ -84,11 +95,14 @@ fn create(
         style: HAPTICD_SCENE_DIRECT,
         physics_rate: 0.0,
     };
-    Ok((Box::new(Penalty(scene)), info))
+    let geometry = scene.geometry();
+    Ok((Box::new(Penalty(scene, geometry)), info))
 }
 
 hapticd_plugin_api::export_scene!(
     name: "penalty",
     description: "Rigid boxes in the haptic tick, contact-volume penalty method (thesis Ch. 5)",
     create: create,
+    engines: ["penalty"],
+    check: check,
 );

@@ -6,13 +6,13 @@
 //! near each pointer's proxy as planes and the bodies they belong to.
 
 use hapticd_core::world_state::body_pose;
-use hapticd_physics::scene::SceneFile;
+use hapticd_physics::scene::{RapierScene, SceneFile};
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
 /// The plugin's instance: a world.
-struct Rapier(RapierWorld);
+struct Rapier(RapierWorld, Geometry);
 
 impl SceneInstance for Rapier {
     fn step_world(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> i32 {
@@ -57,6 +57,23 @@ impl SceneInstance for Rapier {
         }
         self.0.body_count()
     }
+
+    fn geometry(&self) -> Option<&Geometry> {
+        Some(&self.1)
+    }
+}
+
+/// The rapier scene in the file at `path` for `pointers` pointers.
+fn load(path: &str, pointers: usize) -> Result<Box<RapierScene>, String> {
+    match SceneFile::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
+        SceneFile::Rapier(spec) => Ok(spec),
+        SceneFile::Penalty(_) => Err(format!("{path}: a penalty scene (give engine: rapier)")),
+    }
+}
+
+/// Check a rapier scene file without building its world.
+fn check(path: &str, pointers: usize) -> Result<(), String> {
+    load(path, pointers).map(drop)
 }
 
 fn create(
@@ -64,13 +81,7 @@ fn create(
     pointers: usize,
 ) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
     let path = path.ok_or("the rapier scene needs a scene file")?;
-    let spec =
-        match SceneFile::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
-            SceneFile::Rapier(spec) => spec,
-            SceneFile::Penalty(_) => {
-                return Err(format!("{path}: a penalty scene (give engine: rapier)"));
-            }
-        };
+    let spec = load(path, pointers)?;
     for warning in &spec.warnings {
         hapticd_plugin_api::log(HAPTICD_LOG_WARN, &warning.to_string());
     }
@@ -89,11 +100,14 @@ fn create(
         style: HAPTICD_SCENE_MULTIRATE,
         physics_rate: spec.rate,
     };
-    Ok((Box::new(Rapier(RapierWorld::new(&spec, pointers))), info))
+    let world = RapierWorld::new(&spec, pointers);
+    Ok((Box::new(Rapier(world, spec.geometry())), info))
 }
 
 hapticd_plugin_api::export_scene!(
     name: "rapier",
     description: "Rigid bodies on rapier3d at a low rate, felt through interpolated planes (thesis Ch. 6)",
     create: create,
+    engines: ["rapier"],
+    check: check,
 );

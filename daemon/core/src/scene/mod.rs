@@ -1,6 +1,7 @@
 //! Scenes: what the user touches. A scene turns the pointers' motion (one pointer per end
 //! effector) into the wrench each one should feel.
 //!
+//! - [`engine`]: which engine runs a scene file;
 //! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
 //! - [`local_dynamics`]: the bodies near a pointer, moved at the haptic rate between
 //!   physics steps (thesis 6.5.4);
@@ -9,6 +10,7 @@
 //! - [`output_check`]: a plugin's planes and wrenches checked before they are used;
 //! - scenes from plugins, direct or multi-rate, live in the daemon (they load code).
 
+pub mod engine;
 pub mod local_dynamics;
 pub mod multirate;
 pub mod output_check;
@@ -19,7 +21,7 @@ use glam::DVec3;
 use crate::haptics::proxy::ProxyParameters;
 use crate::kinematics::{Pose, Wrench, quat_to_wxyz};
 use crate::mechanism::Mechanism;
-use hapticd_plugin_api::{HapticdBodyPose, HapticdPointer};
+use hapticd_plugin_api::{Geometry, HapticdBodyPose, HapticdPointer};
 
 /// One pointer as the scene sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,9 +95,21 @@ pub trait Scene: Send {
         false
     }
 
-    /// [rt] For pictures: the poses of the world's first bodies, in the scene file's order,
+    /// [rt] For pictures: the poses of the world's first bodies, in the order of their ids,
     /// written to `poses` (as many as it holds); returns how many bodies the world has.
     fn write_bodies(&mut self, _poses: &mut [HapticdBodyPose]) -> usize {
         0
+    }
+
+    /// [rt] For pictures: the world's solids, placed by the poses of their bodies (body
+    /// *i* is the *i*-th pose [`write_bodies`](Self::write_bodies) writes). Read once per
+    /// scene; the default has none.
+    fn geometry(&self) -> &Geometry {
+        static NONE: Geometry = Geometry {
+            body_count: 0,
+            solids: Vec::new(),
+            triangles: Vec::new(),
+        };
+        &NONE
     }
 }

@@ -13,14 +13,18 @@
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
+use hapticd_plugin_api::{
+    Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_CYLINDER, HAPTICD_SHAPE_PLANE, HAPTICD_SHAPE_SPHERE,
+    HAPTICD_SOLID_FIXED, HapticdSolid,
+};
 use serde::Deserialize;
 
 use super::{Pointer, Scene};
 use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
-use crate::kinematics::{SOLID_SIZES, WORLD_EXTENT, Wrench};
+use crate::kinematics::{SOLID_SIZES, WORLD_EXTENT, Wrench, quat_to_wxyz};
 use crate::parameters::Name;
 
 #[derive(Deserialize)]
@@ -219,6 +223,58 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
 pub struct StaticScene {
     spec: StaticSceneSpec,
     proxies: Vec<Proxy>,
+    geometry: Geometry,
+}
+
+/// How far a static scene's walls are drawn, metres; floors and bars twice as far.
+const REACH: f64 = 0.3;
+
+impl StaticSceneSpec {
+    /// The scene's solids as pictures show them: fixed, of no body, each plane and bar
+    /// drawn across the workspace.
+    pub fn geometry(&self) -> Geometry {
+        let mut geometry = Geometry::default();
+        let placed =
+            |at: DVec3, turn: DQuat| HapticdSolid::placed(at.to_array(), quat_to_wxyz(turn));
+        for shape in &self.shapes {
+            let (shape, size, frame) = match *shape {
+                Shape::HalfSpace { point, normal } => {
+                    let reach = if normal.y > 0.999 { 2.0 * REACH } else { REACH };
+                    let turn = DQuat::from_rotation_arc(DVec3::Y, normal);
+                    (HAPTICD_SHAPE_PLANE, [reach, 0.0, 0.0], placed(point, turn))
+                }
+                Shape::Sphere { centre, radius } => (
+                    HAPTICD_SHAPE_SPHERE,
+                    [radius, 0.0, 0.0],
+                    placed(centre, DQuat::IDENTITY),
+                ),
+                Shape::Cylinder {
+                    point,
+                    axis,
+                    radius,
+                } => {
+                    let turn = DQuat::from_rotation_arc(DVec3::Y, axis);
+                    (
+                        HAPTICD_SHAPE_CYLINDER,
+                        [radius, 2.0 * REACH, 0.0],
+                        placed(point, turn),
+                    )
+                }
+                Shape::Cuboid {
+                    centre,
+                    half,
+                    rotation,
+                } => (HAPTICD_SHAPE_BOX, half.to_array(), placed(centre, rotation)),
+            };
+            geometry.add_solid(HapticdSolid {
+                shape,
+                flags: HAPTICD_SOLID_FIXED,
+                size,
+                ..frame
+            });
+        }
+        geometry
+    }
 }
 
 impl StaticScene {
@@ -229,6 +285,7 @@ impl StaticScene {
                 .iter()
                 .map(|p| Proxy::new(p.pose.position))
                 .collect(),
+            geometry: spec.geometry(),
             spec,
         }
     }
@@ -290,6 +347,10 @@ impl Scene for StaticScene {
             *out = p;
         }
         true
+    }
+
+    fn geometry(&self) -> &Geometry {
+        &self.geometry
     }
 }
 

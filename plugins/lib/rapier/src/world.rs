@@ -279,6 +279,13 @@ impl RapierWorld {
         self.bodies.len()
     }
 
+    /// Where each body of the file is now, in the file's order.
+    pub fn poses(&self) -> Vec<hapticd_core::kinematics::Pose> {
+        (0..self.body_count())
+            .map(|i| self.body(i).pose())
+            .collect()
+    }
+
     /// Body `i` of the file, as it is now.
     pub fn body(&self, i: usize) -> BodyState {
         let b = &self.physics.bodies[self.bodies[i]];

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use hapticd_core::scene::engine::{Engine, engine_of_text};
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_physics::scene::SceneFile;
 use hapticd_rapier::world::RapierWorld;
@@ -75,19 +76,22 @@ fn add_mechanism(
 /// the start (so pictures at several times compare).
 fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
     let text = hapticd_core::diagnostics::read_text(path)?;
-    if !SceneFile::is_physics(path) {
+    if engine_of_text(&text, path)? == Engine::Static {
         if at != 0.0 {
             return Err(Failure::usage(
                 "--at is for physics scenes; a static scene stays put",
             ));
         }
-        let scenery = Scenery::of_static(&StaticSceneSpec::parse(&text, path)?);
+        let geometry = StaticSceneSpec::parse(&text, path)?.geometry();
+        let scenery = Scenery::of_geometry(&geometry, &[]);
         let camera = scenery.camera();
         return Ok((scenery, camera));
     }
-    match SceneFile::parse(&text, path, 0)? {
+    let file = SceneFile::parse(&text, path, 0)?;
+    let geometry = file.geometry();
+    match file {
         SceneFile::Penalty(mut scene) => {
-            let camera = Scenery::of_penalty(&scene.world.bodies, scene.first_pointer).camera();
+            let camera = Scenery::of_geometry(&geometry, &scene.poses()).camera();
             let steps = (at / scene.dt).round() as usize;
             for _ in 0..steps {
                 if !scene.step_pointers(scene.dt, &[], &mut []) {
@@ -97,12 +101,11 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
                     )));
                 }
             }
-            let scenery = Scenery::of_penalty(&scene.world.bodies, scene.first_pointer);
-            Ok((scenery, camera))
+            Ok((Scenery::of_geometry(&geometry, &scene.poses()), camera))
         }
         SceneFile::Rapier(spec) => {
             let mut world = RapierWorld::new(&spec, 0);
-            let camera = Scenery::of_rapier(&spec, |i| world.body(i).pose()).camera();
+            let camera = Scenery::of_geometry(&geometry, &world.poses()).camera();
             let steps = (at * spec.rate).round() as usize;
             for _ in 0..steps {
                 if !world.advance(1.0 / spec.rate) {
@@ -112,7 +115,7 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
                     )));
                 }
             }
-            Ok((Scenery::of_rapier(&spec, |i| world.body(i).pose()), camera))
+            Ok((Scenery::of_geometry(&geometry, &world.poses()), camera))
         }
     }
 }

@@ -225,6 +225,7 @@ fn trace(
     mut frames: Option<&mut Frames>,
 ) -> Result<Trace, Failure> {
     let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
+    let geometry = scene.geometry();
     let moving: Vec<usize> = (0..scene.world.bodies.len())
         .filter(|&i| !scene.world.bodies[i].fixed)
         .collect();
@@ -257,9 +258,7 @@ fn trace(
             )));
         }
         if let Some(frames) = frames.as_deref_mut() {
-            frames.offer(t, || {
-                Scenery::of_penalty(&scene.world.bodies, scene.first_pointer)
-            })?;
+            frames.offer(t, || Scenery::of_geometry(&geometry, &scene.poses()))?;
         }
         energy.end = mechanical_energy(&scene, &moving);
         energy.peak = energy.peak.max(energy.end);
@@ -408,6 +407,7 @@ fn run_multirate(
     }
     let pointers = hand_pointers(hands, 0.0);
     let mut run = Lockstep::new(&spec, &pointers, HAPTIC_RATE, args.phase);
+    let geometry = spec.geometry();
     let ticks = (args.duration * HAPTIC_RATE).round() as usize;
     let moving: Vec<usize> = (0..spec.bodies.len())
         .filter(|&i| !spec.bodies[i].fixed)
@@ -433,7 +433,8 @@ fn run_multirate(
         let t = run.time();
         if let Some(frames) = frames.as_mut() {
             frames.offer(t, || {
-                let mut scenery = Scenery::of_rapier(&spec, |i| run.body(i).pose());
+                let poses: Vec<_> = (0..spec.bodies.len()).map(|i| run.body(i).pose()).collect();
+                let mut scenery = Scenery::of_geometry(&geometry, &poses);
                 let grips: Vec<DVec3> = grips.iter().map(|p| p.pose.position).collect();
                 scenery.add_pointers(&run.proxies(), &grips);
                 scenery

@@ -119,6 +119,7 @@
 //! [`stepping`] (a penalty scene stepped in the haptic thread).
 
 mod checks;
+mod geometry;
 mod penalty;
 mod rapier;
 mod schema;
@@ -127,7 +128,7 @@ mod stepping;
 use std::path::Path;
 
 use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
-use serde::de::IgnoredAny;
+use hapticd_plugin_api::Geometry;
 
 pub use checks::{
     DENSITY_RANGE, GRASP_STIFFNESS, INERTIA_DAMPING_FACTOR, MAX_DT, MAX_GRASP_DAMPING, MAX_GRAVITY,
@@ -156,18 +157,6 @@ pub enum SceneFile {
 }
 
 impl SceneFile {
-    /// Whether the file at `path` describes a physics world (`bodies:`) rather than static
-    /// solids (`shapes:`, which `hapticd_core::scene::static_scene` reads); false when it
-    /// cannot be read as YAML at all.
-    pub fn is_physics(path: &Path) -> bool {
-        let Ok(text) = diagnostics::read_text(path) else {
-            return false;
-        };
-        let keys: Result<std::collections::BTreeMap<String, IgnoredAny>, _> =
-            serde_saphyr::from_str(&text);
-        keys.is_ok_and(|k| k.contains_key("bodies"))
-    }
-
     /// Load the scene file at `path` for `pointers` pointers.
     pub fn load(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
         Self::parse(&diagnostics::read_text(path)?, path, pointers)
@@ -197,6 +186,14 @@ impl SceneFile {
                 raw, penalty, bodies, pointer, pointers, warnings,
             ))),
         })
+    }
+
+    /// The world's solids, for pictures.
+    pub fn geometry(&self) -> Geometry {
+        match self {
+            SceneFile::Penalty(scene) => scene.geometry(),
+            SceneFile::Rapier(scene) => scene.geometry(),
+        }
     }
 
     /// The engine that runs the scene.

@@ -1,0 +1,176 @@
+//! What a physics scene looks like, as its plugin hands it out for pictures
+//! ([`hapticd_plugin_api::geometry`]): one body id per body of the world, in the order its
+//! poses are written, each piece a solid placed in its body's frame.
+
+use hapticd_core::kinematics::{Pose, quat_to_wxyz};
+use hapticd_plugin_api::{
+    Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_SPHERE, HAPTICD_SOLID_FIXED, HAPTICD_SOLID_POINTER,
+    HapticdBodyPose, HapticdSolid, HapticdTriangle,
+};
+
+use super::{PenaltyScene, Primitive, RapierScene};
+use crate::body::Body;
+use crate::polyhedron::Polyhedron;
+
+impl PenaltyScene {
+    /// The world's solids: every piece of every body as its faces, the pointers' bodies
+    /// (from [`first_pointer`](Self::first_pointer) on) marked as such.
+    pub fn geometry(&self) -> Geometry {
+        let mut geometry = Geometry::default();
+        for (i, body) in self.world.bodies.iter().enumerate() {
+            let id = geometry.add_body();
+            let pointer = if i >= self.first_pointer {
+                HAPTICD_SOLID_POINTER
+            } else {
+                0
+            };
+            for piece in &body.pieces {
+                geometry.add_triangles(solid_of(id, body, pointer), faces(piece));
+            }
+        }
+        geometry
+    }
+
+    /// Where each body of [`geometry`](Self::geometry) is now, by id.
+    pub fn poses(&self) -> Vec<Pose> {
+        let pose = |b: &Body| Pose {
+            position: b.position,
+            orientation: b.orientation,
+        };
+        self.world.bodies.iter().map(pose).collect()
+    }
+}
+
+impl RapierScene {
+    /// The world's solids: boxes and balls as such, hulls as their faces (the pointers'
+    /// solids are not drawn: their proxies show where the fingers rest).
+    pub fn geometry(&self) -> Geometry {
+        let mut geometry = Geometry::default();
+        for (body, primitives) in self.bodies.iter().zip(&self.primitives) {
+            let id = geometry.add_body();
+            for (piece, primitive) in body.pieces.iter().zip(primitives) {
+                let at = |shape, size, orientation| HapticdSolid {
+                    shape,
+                    size,
+                    offset: HapticdBodyPose {
+                        position: piece.vertex_centre().to_array(),
+                        orientation,
+                    },
+                    ..solid_of(id, body, 0)
+                };
+                match *primitive {
+                    Primitive::Cuboid { half, rotation } => geometry.add_solid(at(
+                        HAPTICD_SHAPE_BOX,
+                        half.to_array(),
+                        quat_to_wxyz(rotation),
+                    )),
+                    Primitive::Ball { radius } => geometry.add_solid(at(
+                        HAPTICD_SHAPE_SPHERE,
+                        [radius, 0.0, 0.0],
+                        [1.0, 0.0, 0.0, 0.0],
+                    )),
+                    Primitive::Hull => geometry.add_triangles(solid_of(id, body, 0), faces(piece)),
+                }
+            }
+        }
+        geometry
+    }
+}
+
+/// A solid of body `id` at the body's own frame, flagged as `body` is and with `flags`.
+fn solid_of(id: u32, body: &Body, flags: u32) -> HapticdSolid {
+    let fixed = if body.fixed { HAPTICD_SOLID_FIXED } else { 0 };
+    HapticdSolid {
+        body: id,
+        flags: fixed | flags,
+        ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
+    }
+}
+
+/// The faces of `piece` as triangles (fans, counter-clockwise from outside).
+fn faces(piece: &Polyhedron) -> Vec<HapticdTriangle> {
+    let corner = |k: usize| -> [f64; 3] { piece.vertices[k].to_array() };
+    piece
+        .faces
+        .iter()
+        .flat_map(|face| {
+            (1..face.len().saturating_sub(1)).map(move |k| HapticdTriangle {
+                corners: [corner(face[0]), corner(face[k]), corner(face[k + 1])],
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::SceneFile;
+    use glam::DVec3;
+    use std::path::Path;
+
+    fn scene(name: &str, pointers: usize) -> SceneFile {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../config/scenes")
+            .join(format!("{name}.yaml"));
+        SceneFile::load(&path, pointers).unwrap()
+    }
+
+    /// The area of a solid's triangles.
+    fn area(geometry: &Geometry, solid: &HapticdSolid) -> f64 {
+        geometry
+            .triangles_of(solid)
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.corners.map(DVec3::from);
+                (b - a).cross(c - a).length() / 2.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn a_penalty_world_gives_each_body_its_faces_and_marks_the_pointers() {
+        let SceneFile::Penalty(scene) = scene("grasp", 2) else {
+            panic!("grasp is a penalty scene");
+        };
+        let geometry = scene.geometry();
+        assert_eq!(geometry.check(), Ok(()));
+        assert_eq!(geometry.body_count as usize, scene.world.bodies.len());
+        let table = &geometry.solids[0];
+        assert_eq!(table.flags, HAPTICD_SOLID_FIXED);
+        // The table's box 0.3 × 0.04 × 0.3: its faces cover the box's surface.
+        let surface = 2.0 * (0.3 * 0.04 + 0.3 * 0.3 + 0.04 * 0.3);
+        assert!((area(&geometry, table) - surface).abs() < 1e-12);
+        let pointers: Vec<u32> = geometry
+            .solids
+            .iter()
+            .filter(|s| s.flags & HAPTICD_SOLID_POINTER != 0)
+            .map(|s| s.body)
+            .collect();
+        let first = scene.first_pointer as u32;
+        assert_eq!(pointers, [first, first + 1]);
+    }
+
+    #[test]
+    fn a_rapier_world_keeps_boxes_and_balls_whole() {
+        let SceneFile::Rapier(scene) = scene("balls", 1) else {
+            panic!("balls is a rapier scene");
+        };
+        let geometry = scene.geometry();
+        assert_eq!(geometry.check(), Ok(()));
+        assert_eq!(geometry.body_count, 17);
+        let (walls, balls) = geometry.solids.split_at(5);
+        assert!(
+            walls
+                .iter()
+                .all(|s| s.shape == HAPTICD_SHAPE_BOX && s.flags == HAPTICD_SOLID_FIXED)
+        );
+        assert_eq!(walls[0].size, [0.12, 0.01, 0.12], "half the floor's edges");
+        assert!(
+            balls
+                .iter()
+                .all(|s| s.shape == HAPTICD_SHAPE_SPHERE && s.size[0] == 0.012 && s.flags == 0)
+        );
+        let ids: Vec<u32> = geometry.solids.iter().map(|s| s.body).collect();
+        assert_eq!(ids, (0..17).collect::<Vec<_>>());
+    }
+}
