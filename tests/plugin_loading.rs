@@ -366,7 +366,7 @@ static int32_t counts(void *instance, HapticdGeometryCounts *out) {{
     (void)instance; out->bodies = 1; out->solids = 1; out->triangles = 0; return 0;
 }}
 static int32_t solid(void *instance, uint32_t index, HapticdSolid *out) {{
-    (void)instance; (void)index; *out = (HapticdSolid){solid}; return 0;
+    (void)instance; (void)index; *out = (HapticdSolid){{ {solid} }}; return 0;
 }}
 static int32_t triangles(void *instance, uint32_t first, uint32_t count, HapticdTriangle *out) {{
     (void)instance; (void)first; (void)count; (void)out; return 0;
@@ -393,7 +393,7 @@ fn a_scene_whose_solids_cannot_be_drawn_is_refused() {
     for (name, solid, fault) in [
         (
             "nan",
-            format!(".shape = HAPTICD_SHAPE_SPHERE, .size = {{ 0.0 / 0.0 }}, {frame}"),
+            format!(".shape = HAPTICD_SHAPE_SPHERE, .size = {{ __builtin_nan(\"\") }}, {frame}"),
             Some("solid 0: size"),
         ),
         (

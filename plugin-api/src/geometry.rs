@@ -154,7 +154,8 @@ fn check_solid(solid: &HapticdSolid, bodies: u32, triangles: usize) -> Result<()
         orientation,
     } = solid.offset;
     let norm = orientation.iter().map(|q| q * q).sum::<f64>().sqrt();
-    if !position.iter().all(|p| p.is_finite()) || !((norm - 1.0).abs() < 1e-6) {
+    let unit = (norm - 1.0).abs() < 1e-6;
+    if !position.iter().all(|p| p.is_finite()) || !unit {
         return Err(format!(
             "frame {position:?} {orientation:?} is not a finite position and unit orientation"
         ));

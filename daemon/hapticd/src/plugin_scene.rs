@@ -238,10 +238,12 @@ fn read_geometry(loaded: &plugin::LoadedPlugin, instance: &Instance) -> Result<G
             return Err(failed(&format!("solid {index}"), status));
         }
         let end = solid.first_triangle as u64 + solid.triangle_count as u64;
-        // A solid whose triangles lie past what pictures hold is left out with them.
-        if solid.shape != HAPTICD_SHAPE_TRIANGLES
-            || end <= counts.triangles.min(MAX_TRIANGLES as u32) as u64
-        {
+        // A solid whose triangles lie past what pictures hold is left out with them; one
+        // past the plugin's own list stays, for the check to refuse.
+        let held = geometry.triangles.len() as u64;
+        let cut =
+            solid.shape == HAPTICD_SHAPE_TRIANGLES && end > held && end <= counts.triangles as u64;
+        if !cut {
             geometry.solids.push(solid);
         }
     }

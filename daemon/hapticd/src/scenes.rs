@@ -153,7 +153,7 @@ impl EnginePlugin {
             unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_FILES) };
         let plugin = files
             .map(|files| Self { path, files })
-            .filter(|p| p.engines().iter().any(|e| e == engine));
+            .filter(|p| p.declares(engine));
         plugin.ok_or_else(|| {
             format!(
                 "{}: declares no engine {engine} (its scene-files extension lists none)",
@@ -162,23 +162,20 @@ impl EnginePlugin {
         })
     }
 
-    /// The `engine:` values the plugin declares.
-    fn engines(&self) -> Vec<String> {
-        let Some(engine) = self.files.engine else {
-            return Vec::new();
+    /// Whether the plugin declares `engine` among its `engine:` values.
+    fn declares(&self, engine: &str) -> bool {
+        let Some(name_of) = self.files.engine else {
+            return false;
         };
         // A plugin's list is short; the bound keeps a broken one from looping forever.
         (0..64)
             // SAFETY: any index may be asked; the plugin answers null or a name it keeps.
-            .map(|k| unsafe { engine(k) })
+            .map(|k| unsafe { name_of(k) })
             .take_while(|name| !name.is_null())
-            // SAFETY: non-null, NUL-terminated and valid for the process' life (the ABI).
-            .map(|name| {
-                unsafe { CStr::from_ptr(name) }
-                    .to_string_lossy()
-                    .into_owned()
+            .any(|name| {
+                // SAFETY: non-null, NUL-terminated and valid for the process' life (the ABI).
+                unsafe { CStr::from_ptr(name) }.to_bytes() == engine.as_bytes()
             })
-            .collect()
     }
 
     /// [main] The plugin's findings about the scene file `file` for `pointers` pointers.
