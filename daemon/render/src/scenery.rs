@@ -301,7 +301,11 @@ fn draw(
         HAPTICD_SHAPE_BOX => {
             let half = DVec3::from(solid.size);
             mesh.cuboid(centre, half, frame.orientation, colour);
-            Some((centre - half.length(), centre + half.length()))
+            let corners = (0..8).map(|k| {
+                let sign = |bit: i32| if k & (1 << bit) == 0 { -1.0 } else { 1.0 };
+                frame.transform_point(half * DVec3::new(sign(0), sign(1), sign(2)))
+            });
+            Some(bounds(corners))
         }
         HAPTICD_SHAPE_SPHERE => {
             mesh.ball(centre, a, 16, colour);
