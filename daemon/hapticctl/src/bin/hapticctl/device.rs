@@ -2,10 +2,8 @@
 //! diagnosis (hapticd must not be running: it owns the devices it drives).
 
 use clap::{Args, Subcommand};
-use hapticd_core::transport::Transport;
 use hapticd_core::transport::{CHANNELS, Reading};
-use hapticd_device::Protocol;
-use hapticd_device::transport::{Sh4Transport, SimpleTransport};
+use hapticd_device::transport;
 use hapticd_device::usb::find_devices;
 use serde_json::json;
 
@@ -96,10 +94,8 @@ fn exchange(args: &ExchangeArgs) -> Result<(), Failure> {
             "no usable SPIDAR amplifier: {why}"
         )));
     };
-    let mut transport: Box<dyn Transport> = match device.model.protocol {
-        Protocol::Sh4 => Box::new(Sh4Transport::new(device.link, device.identity.clone())),
-        Protocol::Simple => Box::new(SimpleTransport::new(device.link, device.identity.clone())),
-    };
+    let mut transport =
+        transport::for_protocol(device.model.protocol, device.link, device.identity.clone());
     let mut reading = Reading::default();
     let mut updates = Vec::with_capacity(args.count);
     let mut text = format!("{} ({})\n", device.identity, device.model.name);

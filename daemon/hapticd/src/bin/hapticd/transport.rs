@@ -10,7 +10,7 @@ use hapticd_device::Protocol;
 use hapticd_device::replay::{Recording, RecordingLink, ReplayLink, Transfer};
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
-use hapticd_device::transport::{Sh4Transport, SimpleTransport};
+use hapticd_device::transport;
 use hapticd_device::usb::FoundDevice;
 
 /// What a device is.
@@ -49,35 +49,29 @@ pub fn open(
         Kind::Usb(device) => {
             // Boxed, so that a link opened after an unplug can take its place.
             let link: Box<dyn Link> = Box::new(device.link);
-            match (device.model.protocol, traffic) {
-                (Protocol::Sh4, traffic) => sh4_transport(link, identity, traffic),
-                (Protocol::Simple, None) => Box::new(SimpleTransport::new(link, identity)),
-                (Protocol::Simple, Some(ring)) => Box::new(SimpleTransport::new(
-                    RecordingLink::new(link, ring),
-                    identity,
-                )),
-            }
+            recorded(device.model.protocol, link, identity, traffic)
         }
         Kind::Replay(path) => {
             let recording = Recording::read(&path).map_err(|e| e.to_string())?;
-            sh4_transport(ReplayLink::new(recording), identity, traffic)
+            recorded(Protocol::Sh4, ReplayLink::new(recording), identity, traffic)
         }
         Kind::Simulator => {
             let board =
                 SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default())?;
-            sh4_transport(board, identity, traffic)
+            recorded(Protocol::Sh4, board, identity, traffic)
         }
     })
 }
 
-/// The SH4 protocol over `link`, its traffic recorded when `recorder` is given.
-fn sh4_transport<L: Link + 'static>(
+/// `protocol` over `link`, its traffic recorded when `recorder` is given.
+fn recorded<L: Link + 'static>(
+    protocol: Protocol,
     link: L,
     identity: &str,
     recorder: Option<spsc::Producer<Transfer>>,
 ) -> Box<dyn Transport> {
     match recorder {
-        Some(ring) => Box::new(Sh4Transport::new(RecordingLink::new(link, ring), identity)),
-        None => Box::new(Sh4Transport::new(link, identity)),
+        Some(ring) => transport::for_protocol(protocol, RecordingLink::new(link, ring), identity),
+        None => transport::for_protocol(protocol, link, identity),
     }
 }
