@@ -462,7 +462,7 @@ fn a_scene_file_runs_on_the_plugin_that_declares_its_engine() {
     };
     assert_eq!(opened(&scene("blocks", &blocks)).unwrap(), "blocks");
     let invalid = |path: PathBuf| match opened(&path) {
-        Err(OpenError::Invalid(why)) => why,
+        Err(OpenError::Refused(why)) => why,
         other => panic!("{}: {other:?}", path.display()),
     };
     let floor = invalid(scene("floor", &format!("engine: floor\n{blocks}")));

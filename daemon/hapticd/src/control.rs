@@ -12,7 +12,9 @@ use std::time::{Duration, Instant};
 
 use crate::catalog::Catalog;
 use crate::config::Config;
+use crate::scenes::OpenError;
 use crate::state::{Calibration, DeviceRecord, StateDir};
+use hapticd_core::diagnostics::{Diagnostic, Diagnostics};
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
 use hapticd_core::scene::{Pointer, Scene};
@@ -21,23 +23,22 @@ use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
 use hapticd_ipc::world_share::SharedWorldFile;
 
-/// Errors of the control plane; on D-Bus each is `org.hapticd.Hapticd1.Error.<Variant>` with
-/// the message as its text.
-#[derive(Debug, Clone, PartialEq, zbus::DBusError)]
-#[zbus(prefix = "org.hapticd.Hapticd1.Error")]
+/// Errors of the control plane, typed as the layers below gave them; the bus names each
+/// (`org.hapticd.Hapticd1.Error.*`) at its edge, in `bus::error`.
+#[derive(Debug, Clone, PartialEq)]
 pub enum Error {
     /// A value that is NaN or infinite.
     NotFinite(String),
     /// A value outside its range, or inconsistent with another one.
     OutOfRange(String),
-    /// No scene of that name or path.
-    UnknownScene(String),
-    /// The scene exists but cannot be loaded.
-    SceneFailed(String),
+    /// The scene could not be opened; the running one stays.
+    Scene(OpenError),
+    /// A scene file sent by descriptor could not be read or kept.
+    SceneNotKept(Diagnostics),
     /// No installed mechanism of that name.
     UnknownMechanism(String),
     /// A configuration file or descriptor is malformed; nothing was changed.
-    InvalidConfiguration(String),
+    InvalidConfiguration(Diagnostics),
     /// The state could not be written; nothing was changed.
     NotSaved(String),
     /// The device is not answering.
@@ -51,6 +52,28 @@ pub enum Error {
     /// A path where only a name is taken (files come by descriptor).
     NameExpected(String),
 }
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Error::Scene(e) => e.fmt(f),
+            Error::SceneNotKept(findings) | Error::InvalidConfiguration(findings) => {
+                findings.fmt(f)
+            }
+            Error::NotFinite(m)
+            | Error::OutOfRange(m)
+            | Error::UnknownMechanism(m)
+            | Error::NotSaved(m)
+            | Error::Disconnected(m)
+            | Error::Timeout(m)
+            | Error::StillFaulted(m)
+            | Error::Unavailable(m)
+            | Error::NameExpected(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
 
 impl From<ParameterError> for Error {
     fn from(e: ParameterError) -> Self {
@@ -397,14 +420,14 @@ pub fn catalog(config: &Config, mechanism_dirs: Option<&[PathBuf]>) -> Catalog {
 }
 
 /// Names of the mechanisms `catalog` finds, and why each file that failed did.
-fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<String>) {
+fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<Diagnostic>) {
     let mut names = Vec::new();
     let mut problems = Vec::new();
     for entry in catalog.entries() {
         match entry.mechanism {
             Ok(m) if !entry.shadowed => names.push(m.name),
             Ok(_) => {}
-            Err(e) => problems.push(e.to_string()),
+            Err(e) => problems.extend(e.diagnostics),
         }
     }
     (names, problems)
@@ -501,13 +524,21 @@ impl Daemon {
                 "{name:?} cannot name a scene: a file name without its directory and extension"
             )));
         }
-        let kept =
-            crate::received::keep(fd, name, &self.received).map_err(|e| Error::SceneFailed(e.0))?;
+        let kept = crate::received::keep(fd, name, &self.received).map_err(Error::SceneNotKept)?;
+        let shown = PathBuf::from(format!("{name}.yaml"));
+        // The copy's place means nothing to the caller: the findings name the scene.
         let sent = |e: Error| match e {
-            // The copy's place means nothing to the caller: its messages name the scene.
-            Error::SceneFailed(m) => {
-                Error::SceneFailed(m.replace(&kept.display().to_string(), &format!("{name}.yaml")))
+            Error::Scene(OpenError::Invalid(mut findings)) => {
+                for finding in &mut findings.diagnostics {
+                    if finding.file == kept {
+                        finding.file.clone_from(&shown);
+                    }
+                }
+                Error::Scene(OpenError::Invalid(findings))
             }
+            Error::Scene(OpenError::Refused(m)) => Error::Scene(OpenError::Refused(
+                m.replace(&kept.display().to_string(), &shown.display().to_string()),
+            )),
             other => other,
         };
         self.swap_in(&kept.display().to_string(), Some(kept.clone()))
@@ -527,10 +558,7 @@ impl Daemon {
         for device in &self.devices {
             scenes.push(
                 crate::scenes::open(scene, None, places, device.pointers(), device.rate())
-                    .map_err(|e| match e {
-                        crate::scenes::OpenError::NotFound(m) => Error::UnknownScene(m),
-                        crate::scenes::OpenError::Invalid(m) => Error::SceneFailed(m),
-                    })?,
+                    .map_err(Error::Scene)?,
             );
         }
         let loaded = scenes.first().map(|s| s.name().to_string());
@@ -547,9 +575,7 @@ impl Daemon {
     /// file is reported with its place and nothing changes.
     pub fn reload(&self) -> Result<(), Error> {
         let config = match &self.config_path {
-            Some(path) => {
-                Config::load(path).map_err(|e| Error::InvalidConfiguration(e.to_string()))?
-            }
+            Some(path) => Config::load(path).map_err(Error::InvalidConfiguration)?,
             None => lock(&self.inner).config.clone(),
         };
         let (mechanisms, mut problems) =
@@ -560,10 +586,12 @@ impl Daemon {
                 .config_path
                 .as_deref()
                 .unwrap_or(Path::new("configuration"));
-            problems.push(format!("{}: error: scene: {e}", file.display()));
+            problems.extend(Diagnostics::at(file, None, "scene", e.to_string()).diagnostics);
         }
         if !problems.is_empty() {
-            return Err(Error::InvalidConfiguration(problems.join("\n")));
+            return Err(Error::InvalidConfiguration(Diagnostics {
+                diagnostics: problems,
+            }));
         }
         let mut inner = lock(&self.inner);
         inner.config = config;

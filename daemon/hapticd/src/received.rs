@@ -13,11 +13,7 @@ use std::os::fd::OwnedFd;
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 
-use hapticd_core::diagnostics::{FileError, MAX_FILE_BYTES, Refusal, read_opened};
-
-/// Why a sent scene file was refused.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Refused(pub String);
+use hapticd_core::diagnostics::{Diagnostics, FileError, MAX_FILE_BYTES, Refusal, read_opened};
 
 /// The directory received scene files are kept in: `$RUNTIME_DIRECTORY/scenes` under
 /// systemd, else one of this process's own under the temporary directory.
@@ -35,20 +31,19 @@ pub fn directory() -> PathBuf {
 /// [main] Read the scene file `name` sent as `fd`, and keep it as `NAME.yaml` in `dir`;
 /// returns the copy's path. Only a regular file of at most [`MAX_FILE_BYTES`] of text is
 /// taken (the guarded reader's rule): a pipe or device could block the reader or never end.
-pub fn keep(fd: OwnedFd, name: &str, dir: &Path) -> Result<PathBuf, Refused> {
+pub fn keep(fd: OwnedFd, name: &str, dir: &Path) -> Result<PathBuf, Diagnostics> {
     let shown = PathBuf::from(format!("{name}.yaml"));
-    let bytes =
-        read_opened(File::from(fd), &shown, MAX_FILE_BYTES).map_err(|e| Refused(e.to_string()))?;
+    let bytes = read_opened(File::from(fd), &shown, MAX_FILE_BYTES)?;
     if std::str::from_utf8(&bytes).is_err() {
-        let not_text = FileError {
+        return Err(FileError {
             file: shown,
             refusal: Refusal::NotText,
-        };
-        return Err(Refused(not_text.to_string()));
+        }
+        .into());
     }
     let kept = dir.join(&shown);
     store(dir, &kept, &bytes)
-        .map_err(|e| Refused(format!("{name}: cannot keep the file sent: {e}")))?;
+        .map_err(|e| Diagnostics::file(&shown, format!("cannot keep the file sent: {e}")))?;
     Ok(kept)
 }
 
@@ -105,13 +100,13 @@ mod tests {
         let dir = scratch("refused");
         let (reader, _writer) = std::io::pipe().unwrap();
         let refused = keep(OwnedFd::from(reader), "pipe", &dir).unwrap_err();
-        assert_eq!(refused.0, "pipe.yaml: error: not a regular file");
+        assert_eq!(refused.to_string(), "pipe.yaml: error: not a regular file");
         let directory = File::open(&dir).unwrap();
         assert!(keep(directory.into(), "dir", &dir).is_err());
         let huge = dir.join("huge.yaml");
         File::create(&huge).unwrap().set_len(20 << 30).unwrap();
         let refused = keep(File::open(&huge).unwrap().into(), "huge", &dir).unwrap_err();
-        assert!(refused.0.contains("more than"), "{refused:?}");
+        assert!(refused.to_string().contains("more than"), "{refused:?}");
         assert!(!dir.join("huge.yaml.new").exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }

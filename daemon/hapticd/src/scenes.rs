@@ -8,6 +8,7 @@ use std::ffi::{CStr, CString, c_char};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::engine::{Engine, engine_of};
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
@@ -17,21 +18,42 @@ use hapticd_plugin_api::{HAPTICD_EXT_SCENE_FILES, HAPTICD_OK, HapticdSceneFiles}
 use crate::plugin;
 
 /// Why a scene could not be opened.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum OpenError {
     /// No scene of that name or path.
     NotFound(String),
-    /// The scene file or plugin is there but cannot be loaded.
-    Invalid(String),
+    /// The scene file is malformed: every finding, located in it.
+    Invalid(Diagnostics),
+    /// A scene plugin could not be loaded or refused the file, in its own words.
+    Refused(String),
+    /// The scene loads, but its fastest trial tick took more than half the loop's period.
+    TooSlow {
+        /// The scene's name.
+        scene: String,
+        /// Its fastest trial tick.
+        tick: Duration,
+        /// The loop's rate, Hz.
+        rate: f64,
+    },
 }
 
 impl std::fmt::Display for OpenError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            OpenError::NotFound(m) | OpenError::Invalid(m) => f.write_str(m),
+            OpenError::NotFound(m) | OpenError::Refused(m) => f.write_str(m),
+            OpenError::Invalid(findings) => findings.fmt(f),
+            OpenError::TooSlow { scene, tick, rate } => write!(
+                f,
+                "scene {scene} takes {:.0} µs to compute a tick, more than half of the {:.0} µs \
+                 tick at {rate} Hz: give it a longer physics step or run the loop slower",
+                tick.as_secs_f64() * 1e6,
+                1e6 / rate
+            ),
         }
     }
 }
+
+impl std::error::Error for OpenError {}
 
 /// Where scenes are found.
 #[derive(Debug, Clone, Copy)]
@@ -75,13 +97,11 @@ fn fits_tick(scene: &mut dyn Scene, pointers: &[Pointer], rate: f64) -> Result<(
     }
     scene.reset(pointers);
     if fastest.as_secs_f64() > 0.5 * period {
-        return Err(OpenError::Invalid(format!(
-            "scene {} takes {:.0} µs to compute a tick, more than half of the {:.0} µs tick at \
-             {rate} Hz: give it a longer physics step or run the loop slower",
-            scene.name(),
-            fastest.as_secs_f64() * 1e6,
-            period * 1e6
-        )));
+        return Err(OpenError::TooSlow {
+            scene: scene.name().to_string(),
+            tick: fastest,
+            rate,
+        });
     }
     Ok(())
 }
@@ -244,20 +264,20 @@ fn find(
         found => found?,
     };
     if path.extension().is_some_and(|e| e == "so") {
-        return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Invalid);
+        return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Refused);
     }
-    let engine = engine_of(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
+    let engine = engine_of(&path).map_err(OpenError::Invalid)?;
     let Engine::Plugin(engine) = engine else {
-        let spec = StaticSceneSpec::load(&path).map_err(|e| OpenError::Invalid(e.to_string()))?;
+        let spec = StaticSceneSpec::load(&path).map_err(OpenError::Invalid)?;
         return Ok(Box::new(StaticScene::new(spec, pointers)));
     };
     let runner = EnginePlugin::find(&engine, places.plugin_dirs)
-        .map_err(|e| OpenError::Invalid(format!("{}: {e}", path.display())))?;
+        .map_err(|e| OpenError::Refused(format!("{}: {e}", path.display())))?;
     // Checked first, so that mistakes come back with their places.
     runner
         .check(&path, pointers.len())
-        .map_err(OpenError::Invalid)?;
-    crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Invalid)
+        .map_err(OpenError::Refused)?;
+    crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Refused)
 }
 
 /// Names of the usable scene files in `dirs`, first directory first, without repeats: static

@@ -13,8 +13,9 @@ use zbus::interface;
 use zbus::message::Header;
 use zbus::object_server::SignalEmitter;
 
+use super::BusError;
 use super::{audit, caller, report};
-use crate::control::{Daemon, DeviceHandle, Error, Telemetry};
+use crate::control::{Daemon, DeviceHandle, Telemetry};
 
 /// One haptic device.
 pub struct DeviceInterface {
@@ -40,7 +41,7 @@ impl DeviceInterface {
         value: f64,
         connection: &zbus::Connection,
         header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let device = self.device.clone();
         let result = self
             .workers
@@ -53,7 +54,7 @@ impl DeviceInterface {
             self.device.identity()
         );
         audit(&what, &who, &result);
-        result
+        Ok(result?)
     }
 }
 
@@ -155,10 +156,63 @@ pub(super) async fn announce(
     Some(now)
 }
 
-/// A haptic device: its state and telemetry (updated ten times a second), its calibration,
-/// and the rendering parameters, which are checked, saved and applied on write.
-#[interface(name = "org.hapticd.Hapticd1.Device")]
-impl DeviceInterface {
+/// The Device interface: the methods and read-only properties as written, and a getter and
+/// a checked, audited setter for each tunable parameter, generated from one table (name of
+/// the getter, of the setter, the [`Name`], and the property's documentation).
+macro_rules! device_interface {
+    (
+        parameters { $( $(#[doc = $doc:tt])* $get:ident, $set:ident => $name:ident; )* }
+        $($members:tt)*
+    ) => {
+        /// A haptic device: its state and telemetry (updated ten times a second), its
+        /// calibration, and the rendering parameters, which are checked, saved and applied
+        /// on write.
+        #[interface(name = "org.hapticd.Hapticd1.Device")]
+        impl DeviceInterface {
+            $(
+                $(#[doc = $doc])*
+                #[zbus(property)]
+                fn $get(&self) -> f64 {
+                    self.device.parameter(Name::$name)
+                }
+
+                #[zbus(property)]
+                async fn $set(
+                    &self,
+                    value: f64,
+                    #[zbus(connection)] connection: &zbus::Connection,
+                    #[zbus(header)] header: Option<Header<'_>>,
+                ) -> Result<(), BusError> {
+                    self.set(Name::$name, value, connection, header).await
+                }
+            )*
+
+            $($members)*
+        }
+    };
+}
+
+device_interface! {
+    parameters {
+        /// Tick rate for the next start, Hz (100 to 10000; USB amplifiers reach about 4000).
+        rate, set_rate => Rate;
+        /// Proxy spring, N/m (0 < k ≤ 100000), for scenes rendered through the proxy.
+        stiffness, set_stiffness => Stiffness;
+        /// Proxy damper, N·s/m (0 to 500).
+        damping, set_damping => Damping;
+        /// Static friction coefficient μ0 of the proxy (0 to 2).
+        static_friction, set_static_friction => StaticFriction;
+        /// Dynamic friction coefficient μ of the proxy (0 to StaticFriction).
+        dynamic_friction, set_dynamic_friction => DynamicFriction;
+        /// Regularisation λ of the string tension computation (0 to 10): larger values trade
+        /// force accuracy for smoother tensions.
+        lambda, set_lambda => Lambda;
+        /// Largest force displayed on an end effector, N (0 < f ≤ 50).
+        max_force, set_max_force => MaxForce;
+        /// Largest torque displayed on an end effector, N·m (0 < τ ≤ 5).
+        max_torque, set_max_torque => MaxTorque;
+    }
+
     /// The device's identity: `usb:BUS-PORT` for an amplifier, `sim` for the simulated
     /// SPIDAR, `replay:FILE` for a recording. Calibration and parameters are remembered
     /// under it.
@@ -246,141 +300,10 @@ impl DeviceInterface {
         self.device.rate()
     }
 
-    /// Tick rate for the next start, Hz (100 to 10000; USB amplifiers reach about 4000).
-    #[zbus(property)]
-    fn rate(&self) -> f64 {
-        self.device.parameter(Name::Rate)
-    }
-
-    #[zbus(property)]
-    async fn set_rate(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::Rate, value, connection, header).await
-    }
-
-    /// Proxy spring, N/m (0 < k ≤ 100000), for scenes rendered through the proxy.
-    #[zbus(property)]
-    fn stiffness(&self) -> f64 {
-        self.device.parameter(Name::Stiffness)
-    }
-
-    #[zbus(property)]
-    async fn set_stiffness(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::Stiffness, value, connection, header).await
-    }
-
-    /// Proxy damper, N·s/m (0 to 500).
-    #[zbus(property)]
-    fn damping(&self) -> f64 {
-        self.device.parameter(Name::Damping)
-    }
-
-    #[zbus(property)]
-    async fn set_damping(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::Damping, value, connection, header).await
-    }
-
-    /// Static friction coefficient μ0 of the proxy (0 to 2).
-    #[zbus(property)]
-    fn static_friction(&self) -> f64 {
-        self.device.parameter(Name::StaticFriction)
-    }
-
-    #[zbus(property)]
-    async fn set_static_friction(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::StaticFriction, value, connection, header)
-            .await
-    }
-
-    /// Dynamic friction coefficient μ of the proxy (0 to StaticFriction).
-    #[zbus(property)]
-    fn dynamic_friction(&self) -> f64 {
-        self.device.parameter(Name::DynamicFriction)
-    }
-
-    #[zbus(property)]
-    async fn set_dynamic_friction(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::DynamicFriction, value, connection, header)
-            .await
-    }
-
-    /// Regularisation λ of the string tension computation (0 to 10): larger values trade
-    /// force accuracy for smoother tensions.
-    #[zbus(property)]
-    fn lambda(&self) -> f64 {
-        self.device.parameter(Name::Lambda)
-    }
-
-    #[zbus(property)]
-    async fn set_lambda(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::Lambda, value, connection, header).await
-    }
-
-    /// Largest force displayed on an end effector, N (0 < f ≤ 50).
-    #[zbus(property)]
-    fn max_force(&self) -> f64 {
-        self.device.parameter(Name::MaxForce)
-    }
-
-    #[zbus(property)]
-    async fn set_max_force(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::MaxForce, value, connection, header).await
-    }
-
-    /// Largest torque displayed on an end effector, N·m (0 < τ ≤ 5).
-    #[zbus(property)]
-    fn max_torque(&self) -> f64 {
-        self.device.parameter(Name::MaxTorque)
-    }
-
-    #[zbus(property)]
-    async fn set_max_torque(
-        &self,
-        value: f64,
-        #[zbus(connection)] connection: &zbus::Connection,
-        #[zbus(header)] header: Option<Header<'_>>,
-    ) -> Result<(), Error> {
-        self.set(Name::MaxTorque, value, connection, header).await
-    }
-
     /// The world as pictures show it: a sealed memfd, read-only to the caller, that the
     /// haptic loop writes 60 times a second under a sequence lock (the layout is
     /// `hapticd_core::world_state::SharedWorld`). The renderer draws from it.
-    fn open_world(&self) -> Result<zbus::OwnedFd, Error> {
+    fn open_world(&self) -> Result<zbus::OwnedFd, BusError> {
         Ok(self.device.open_world()?.into())
     }
 
@@ -391,7 +314,7 @@ impl DeviceInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let device = self.device.clone();
         let result = self.workers.run(move || device.calibrate()).await;
         let who = caller(connection, Some(&header)).await;
@@ -411,7 +334,7 @@ impl DeviceInterface {
         &self,
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let device = self.device.clone();
         let result = self.workers.run(move || device.reset_fault()).await;
         let who = caller(connection, Some(&header)).await;
@@ -420,7 +343,7 @@ impl DeviceInterface {
             &who,
             &result,
         );
-        result
+        Ok(result?)
     }
 
     /// Drive this device with another installed mechanism from the next start (see
@@ -431,7 +354,7 @@ impl DeviceInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let (daemon, device) = (self.daemon.clone(), self.device.clone());
         let what = format!("bind {} to mechanism {mechanism:?}", self.device.identity());
         let result = self

@@ -8,8 +8,9 @@ use zbus::interface;
 use zbus::message::Header;
 use zbus::object_server::SignalEmitter;
 
+use super::BusError;
 use super::{audit, caller, report};
-use crate::control::{Daemon, Error};
+use crate::control::{self, Daemon};
 
 /// The daemon as a whole: its devices, scenes and mechanisms.
 pub struct ManagerInterface {
@@ -85,7 +86,7 @@ impl ManagerInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let daemon = self.daemon.clone();
         let what = format!("switch to scene {scene:?}");
         let result = self.workers.run(move || daemon.switch_scene(&scene)).await;
@@ -104,7 +105,7 @@ impl ManagerInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let daemon = self.daemon.clone();
         let what = format!("switch to the scene file {name:?} it sent");
         let fd = std::os::fd::OwnedFd::from(file);
@@ -123,7 +124,7 @@ impl ManagerInterface {
         #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         let daemon = self.daemon.clone();
         let result = self.workers.run(move || daemon.reload()).await;
         audit(
@@ -143,11 +144,11 @@ impl ManagerInterface {
     async fn switched(
         &self,
         what: String,
-        result: Result<(), Error>,
+        result: Result<(), control::Error>,
         emitter: &SignalEmitter<'_>,
         connection: &zbus::Connection,
         header: &Header<'_>,
-    ) -> Result<(), Error> {
+    ) -> Result<(), BusError> {
         audit(&what, &caller(connection, Some(header)).await, &result);
         result?;
         report(self.active_scene_changed(emitter).await);

@@ -8,6 +8,7 @@
 //! PropertiesChanged for whatever changed.
 
 mod device;
+mod error;
 mod manager;
 
 use std::sync::Arc;
@@ -16,6 +17,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 pub use device::DeviceInterface;
+pub use error::BusError;
 pub use manager::ManagerInterface;
 
 use hapticd_ipc::bus::{Bus, unix_user};
@@ -49,7 +51,7 @@ async fn caller(connection: &zbus::Connection, header: Option<&Header<'_>>) -> S
 
 /// Log what a request that changes something did, and for whom: the journal keeps a trace
 /// of every change made over the bus.
-fn audit(what: &str, who: &str, result: &Result<(), crate::control::Error>) {
+fn audit<E: std::fmt::Display>(what: &str, who: &str, result: &Result<(), E>) {
     match result {
         Ok(()) => tracing::info!("{what}, for {who}"),
         Err(e) => tracing::info!("refused to {what}, for {who}: {e}"),
