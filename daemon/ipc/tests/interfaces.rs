@@ -1,5 +1,5 @@
 //! The proxies and names of hapticd-ipc against the interface files hapticd ships (which
-//! `tests/dbus_service.rs` checks against what the running services introspect): every
+//! `tests/daemon/dbus_service.rs` checks against what the running services introspect): every
 //! method, property (and its setter, where writable) and signal has its proxy function,
 //! and the names are the files' names.
 

@@ -4,7 +4,7 @@
 //! while commands reach the loop between ticks, and while a plugin's output is checked and
 //! refused.
 
-mod support;
+use crate::support;
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -2,7 +2,7 @@
 //! wall against loop rate), 3.5.10 (tracing a bar across the edge of the complete region),
 //! and 4.7 (shaking a held box, Tables 4.1–4.2), the last through `hapticctl experiment`.
 
-mod support;
+use crate::support;
 
 use hapticctl::experiments::{grasp, shape_tracing, wall_stiffness};
 use hapticd_core::haptics::grasp::Method;

@@ -3,7 +3,7 @@
 //! refuses a bad configuration with its place, and its haptic thread makes no system call
 //! but its sleep.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};

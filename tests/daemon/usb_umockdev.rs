@@ -5,7 +5,7 @@
 //! unplug under the running daemon faults it to zero force until the amplifier is back. The
 //! Simple amplifier (0x0CEC:0x0203) is driven the same way across its 24-bit wrap.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 

@@ -6,7 +6,7 @@
 //! actual picture and the difference in `target/tmp/`. `HAPTICD_BLESS=1` rewrites the
 //! goldens from the current drawing.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 

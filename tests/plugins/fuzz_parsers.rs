@@ -6,7 +6,7 @@
 //! invariants the motors rely on. Each parser gets a fixed number of inputs or a few
 //! seconds, whichever ends first; the counts are printed (`--nocapture`).
 
-mod support;
+use crate::support;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! The haptic loop closed on the simulated SPIDAR-G: the scripted hand pushes into the floor
 //! of the static scene and is held on its surface; faults drive the motors to zero.
 
-mod support;
+use crate::support;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};

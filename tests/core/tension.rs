@@ -1,7 +1,7 @@
 //! Tension QP (thesis 3.5, eq. 3.16) against Clarabel, a general-purpose conic solver, and
 //! the complete-presentation region against exact references.
 
-mod support;
+use crate::support;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{

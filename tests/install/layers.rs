@@ -1,7 +1,7 @@
 //! The workspace's layering, checked: the core links no I/O library, rapier3d stays in its
 //! plugin, and no crate's modules import each other in a circle.
 
-mod support;
+use crate::support;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

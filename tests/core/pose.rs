@@ -1,7 +1,7 @@
 //! Pose solver (thesis 3.4) on every shipped mechanism: exact recovery, accuracy under
 //! encoder quantisation, and the two-iteration claim of 3.4.7.
 
-mod support;
+use crate::support;
 
 use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose};

@@ -2,7 +2,7 @@
 //! with the system bus's default policy and the shipped policy file, the real `hapticd` on the
 //! simulated SPIDAR-G, and real `busctl` as the client.
 
-mod support;
+use crate::support;
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -1325,7 +1325,7 @@ fn the_interface_files_are_what_the_daemon_introspects() {
         assert!(
             shipped == live,
             "{} is out of date: run HAPTICD_UPDATE_INTERFACES=1 cargo test -p hapticd-e2e \
-             --test dbus_service",
+             --test daemon",
             file.display()
         );
         assert!(live.contains("<!--\n     Version of this D-Bus API") || interface != MANAGER[2]);

@@ -2,7 +2,7 @@
 //! system prefix and under another, and the installed daemon started from the installed
 //! files alone; plugin authors building against the installed header and pkg-config file.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,7 +1,7 @@
 //! `hapticctl mechanism` as a user runs it: real binary, real plugins, JSON checked against
 //! independent computations.
 
-mod support;
+use crate::support;
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::PathBuf;

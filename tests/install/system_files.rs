@@ -1,7 +1,7 @@
 //! The files that make hapticd a system service: the systemd unit, the sysusers entry and the
 //! udev rules, checked with systemd's own tools and against the daemon's device table.
 
-mod support;
+use crate::support;
 
 use std::process::Command;
 

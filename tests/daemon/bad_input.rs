@@ -3,7 +3,7 @@
 //! mechanism, whatever the scene asks and the counts say, gets a D/A command past its
 //! string's `tension_max × volts_per_newton`.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

@@ -7,7 +7,7 @@
 //!
 //! The tests run as root and need it to be someone else: without root they say so and pass.
 
-mod support;
+use crate::support;
 
 use std::collections::HashMap;
 use std::os::fd::OwnedFd;

@@ -1,7 +1,7 @@
 //! `hapticctl scene run` on the shipped scene files: the real binary stepping the penalty
 //! physics headless, checked against the thesis' experiments (5.4.2, 5.4.3).
 
-mod support;
+use crate::support;
 
 use std::process::Output;
 

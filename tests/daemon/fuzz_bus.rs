@@ -6,7 +6,7 @@
 //! every call with success or a named error (never `Failed` nor silence), and no D/A command
 //! it sends may pass its string's `tension_max × volts_per_newton`.
 
-mod support;
+use crate::support;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

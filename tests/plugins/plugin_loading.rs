@@ -1,7 +1,7 @@
 //! Loading real plugins through the C ABI: the Rust plugins, the C example compiled here,
 //! and every refusal the loader owes the user, each with its message.
 
-mod support;
+use crate::support;
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
