@@ -5,6 +5,6 @@
 mod support;
 
 mod mechanism_cli;
-mod scene_cli;
 mod render_cli;
 mod render_limits;
+mod scene_cli;

@@ -4,8 +4,8 @@
 #[path = "../support/mod.rs"]
 mod support;
 
-mod pose;
-mod tension;
+mod experiments;
 mod haptic_loop;
 mod no_allocation;
-mod experiments;
+mod pose;
+mod tension;

@@ -293,7 +293,8 @@ const UNDER_UMOCKDEV: &str = "HAPTICD_TEST_UNDER_UMOCKDEV";
 
 #[test]
 fn a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate() {
-    const NAME: &str = "a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate";
+    // As the test harness names it: by its path below the crate.
+    const NAME: &str = "no_allocation::a_haptic_loop_tick_on_a_usb_amplifier_does_not_allocate";
     let dac = resting_dac();
     if std::env::var_os(UNDER_UMOCKDEV).is_none() {
         // Only a process started under umockdev sees the emulated amplifier: this test runs

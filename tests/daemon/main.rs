@@ -5,8 +5,8 @@
 #[path = "../support/mod.rs"]
 mod support;
 
-mod dbus_service;
-mod hapticd_process;
 mod bad_input;
+mod dbus_service;
 mod fuzz_bus;
+mod hapticd_process;
 mod usb_umockdev;

@@ -5,5 +5,5 @@
 mod support;
 
 mod install;
-mod system_files;
 mod layers;
+mod system_files;

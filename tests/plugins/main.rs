@@ -3,5 +3,5 @@
 #[path = "../support/mod.rs"]
 mod support;
 
-mod plugin_loading;
 mod fuzz_parsers;
+mod plugin_loading;

@@ -35,6 +35,19 @@ impl Dof {
 }
 
 /// Position and orientation of an end effector, frame-centred metres.
+///
+/// ```
+/// use glam::{DQuat, DVec3};
+/// use hapticd_core::kinematics::Pose;
+///
+/// let grip = Pose {
+///     position: DVec3::new(0.1, 0.0, 0.0),
+///     orientation: DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2),
+/// };
+/// // A knot 1 cm along the grip's x axis sits 1 cm along the world's y axis.
+/// let knot = grip.transform_point(DVec3::new(0.01, 0.0, 0.0));
+/// assert!((knot - DVec3::new(0.1, 0.01, 0.0)).length() < 1e-15);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
     /// Grip centre.
@@ -79,6 +92,17 @@ pub fn quat_to_wxyz(q: DQuat) -> [f64; 4] {
 
 /// A force and a torque: what a scene asks a pointer to feel, what the strings apply to a
 /// grip, what a body gets from a contact. For a grip the torque is about its centre.
+///
+/// ```
+/// use glam::DVec3;
+/// use hapticd_core::kinematics::Wrench;
+///
+/// let push = Wrench::force(DVec3::new(0.0, 0.0, 2.0));
+/// let both = push + push * 0.5;
+/// assert_eq!(both.to_array(), [0.0, 0.0, 3.0, 0.0, 0.0, 0.0]);
+/// assert_eq!(Wrench::from_array(both.to_array()), both);
+/// assert!(!(push * f64::NAN).is_finite());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Wrench {
     /// Force, newtons.

@@ -27,6 +27,15 @@ pub struct Parameters {
 }
 
 /// One parameter the user may set.
+///
+/// ```
+/// use hapticd_core::parameters::{Name, ParameterError};
+///
+/// assert!(Name::Stiffness.check(2000.0).is_ok());
+/// assert!(matches!(Name::Stiffness.check(f64::NAN), Err(ParameterError::NotFinite(_))));
+/// assert!(matches!(Name::MaxForce.check(500.0), Err(ParameterError::OutOfRange(_))));
+/// assert_eq!(Name::MaxForce.as_str(), "MaxForce");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Name {
     /// Proxy spring, N/m.

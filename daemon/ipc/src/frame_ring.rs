@@ -8,7 +8,7 @@ use std::io;
 use std::os::fd::OwnedFd;
 use std::sync::atomic::{AtomicU64, Ordering, fence};
 
-use crate::shared_memory::{Mapping, sealed};
+use crate::shared_memory::{MapError, Mapping, sealed};
 
 /// First bytes of a frame ring.
 pub const MAGIC: [u8; 8] = *b"hapticdF";
@@ -125,6 +125,20 @@ impl FrameRingWriter {
 }
 
 /// A viewer's side of a ring it was handed.
+///
+/// ```
+/// use hapticd_ipc::frame_ring::{FrameRingReader, FrameRingWriter};
+///
+/// // The renderer's side: a ring of 2 × 1 pixel frames, RGBA.
+/// let mut ring = FrameRingWriter::create(2, 1)?;
+/// let viewer = FrameRingReader::open(&ring.share()?)?;
+/// let mut rgba = Vec::new();
+/// assert_eq!(viewer.read(&mut rgba), None); // nothing drawn yet
+/// let frame = ring.write(&[255, 0, 0, 255, 0, 0, 255, 255]);
+/// assert_eq!(viewer.read(&mut rgba), Some(frame));
+/// assert_eq!(rgba[..4], [255, 0, 0, 255]);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct FrameRingReader {
     mapping: Mapping,
     width: u32,
@@ -135,10 +149,14 @@ pub struct FrameRingReader {
 
 impl FrameRingReader {
     /// Map `fd` read-only and check it is a frame ring of this layout.
-    pub fn open(fd: &OwnedFd) -> Result<Self, String> {
-        let mapping = Mapping::read_only(fd).map_err(|e| format!("cannot map the frames: {e}"))?;
+    pub fn open(fd: &OwnedFd) -> Result<Self, MapError> {
+        let mapping = Mapping::read_only(fd).map_err(|error| MapError::Map {
+            what: "the frames",
+            error,
+        })?;
         if mapping.len() < HEADER {
-            return Err(format!("{} bytes: not a frame ring", mapping.len()));
+            let why = format!("{} bytes: not a frame ring", mapping.len());
+            return Err(MapError::Layout(why));
         }
         // SAFETY: the header lies within the mapping (checked above); its fields other
         // than `frames` are written once, before the descriptor was handed out.
@@ -155,12 +173,12 @@ impl FrameRingReader {
             || slots == 0
             || !fits
         {
-            return Err(format!(
+            return Err(MapError::Layout(format!(
                 "not a frame ring of layout {VERSION} (magic {:?}, layout {}, {} bytes)",
                 header.magic,
                 header.version,
                 mapping.len()
-            ));
+            )));
         }
         Ok(Self {
             mapping,
@@ -236,6 +254,6 @@ mod tests {
     fn a_world_is_not_a_frame_ring() {
         let (file, _writer) = crate::world_share::SharedWorldFile::create().unwrap();
         let error = FrameRingReader::open(&file.share().unwrap()).err().unwrap();
-        assert!(error.contains("not a frame ring"), "{error}");
+        assert!(matches!(&error, MapError::Layout(why) if why.contains("not a frame ring")));
     }
 }

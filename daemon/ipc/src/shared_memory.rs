@@ -6,6 +6,32 @@ use std::ffi::c_void;
 use std::io;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 
+/// Why a descriptor that was handed out cannot be read as what it should hold.
+#[derive(Debug)]
+pub enum MapError {
+    /// It could not be mapped (`what` it should hold, and why not).
+    Map {
+        /// What the descriptor should hold.
+        what: &'static str,
+        /// Why it could not be mapped.
+        error: io::Error,
+    },
+    /// It is mapped but does not hold the layout this crate reads: another version, or
+    /// another kind of file.
+    Layout(String),
+}
+
+impl std::fmt::Display for MapError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MapError::Map { what, error } => write!(f, "cannot map {what}: {error}"),
+            MapError::Layout(why) => f.write_str(why),
+        }
+    }
+}
+
+impl std::error::Error for MapError {}
+
 /// A shared mapping of a file, unmapped when dropped.
 pub struct Mapping {
     address: *mut c_void,

@@ -9,7 +9,7 @@ use std::os::fd::{AsFd, OwnedFd};
 use hapticd_core::world_state::{SHARED_SIZE, SharedWorld, WorldFrame, WorldReader, WorldWriter};
 use hapticd_plugin_api::Geometry;
 
-use crate::shared_memory::{Mapping, sealed};
+use crate::shared_memory::{MapError, Mapping, sealed};
 
 /// The daemon's side of one device's shared world.
 pub struct SharedWorldFile {
@@ -36,6 +36,21 @@ impl SharedWorldFile {
 }
 
 /// A reader's view of a shared world it was handed.
+///
+/// ```
+/// use hapticd_core::world_state::WorldFrame;
+/// use hapticd_ipc::world_share::{MappedWorld, SharedWorldFile};
+///
+/// // The daemon's side: the file, and the haptic thread's writer.
+/// let (file, mut writer) = SharedWorldFile::create()?;
+/// writer.write(|frame| frame.body_count = 3);
+/// // A reader's side: the descriptor the bus hands out, mapped read-only.
+/// let world = MappedWorld::open(&file.share()?)?;
+/// let mut frame = Box::new(WorldFrame::empty());
+/// assert!(world.read(&mut frame).is_some());
+/// assert_eq!(frame.body_count, 3);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct MappedWorld {
     reader: WorldReader,
     _mapping: Mapping,
@@ -43,14 +58,16 @@ pub struct MappedWorld {
 
 impl MappedWorld {
     /// Map `fd` read-only and check it holds a shared world of this layout.
-    pub fn open(fd: &OwnedFd) -> Result<Self, String> {
-        let mapping =
-            Mapping::read_only(fd).map_err(|e| format!("cannot map the shared world: {e}"))?;
+    pub fn open(fd: &OwnedFd) -> Result<Self, MapError> {
+        let mapping = Mapping::read_only(fd).map_err(|error| MapError::Map {
+            what: "the shared world",
+            error,
+        })?;
         // SAFETY: the mapping holds `len` bytes, page-aligned, for the reader's life (both
         // live in this struct and the reader is dropped first).
         let reader =
             unsafe { WorldReader::new(mapping.address().cast::<SharedWorld>(), mapping.len()) }
-                .map_err(|e| e.to_string())?;
+                .map_err(|e| MapError::Layout(e.to_string()))?;
         Ok(Self {
             reader,
             _mapping: mapping,
@@ -96,6 +113,9 @@ mod tests {
         // SAFETY: resizing a descriptor the test owns.
         assert_eq!(unsafe { libc::ftruncate(fd.as_raw_fd(), 4096) }, 0);
         let error = MappedWorld::open(&fd).err().unwrap();
-        assert!(error.contains("bytes"), "{error}");
+        assert!(
+            matches!(&error, MapError::Layout(why) if why.contains("bytes")),
+            "{error}"
+        );
     }
 }

@@ -163,7 +163,7 @@ impl WorldSource {
                     self.device
                 ))
             })?;
-            let world = MappedWorld::open(&fd.into()).map_err(NoWorld)?;
+            let world = MappedWorld::open(&fd.into()).map_err(|e| NoWorld(e.to_string()))?;
             self.world = Some(world);
             self.owner = Some(owner);
             self.scene = None;

@@ -42,6 +42,19 @@ pub struct Consumer<T> {
 }
 
 /// A ring holding up to `capacity` values (allocated here, never again).
+///
+/// ```
+/// use hapticd_core::sync::spsc;
+///
+/// let (mut commands, mut taken) = spsc::channel(2);
+/// assert!(commands.push(1));
+/// assert!(commands.push(2));
+/// // Full: the value is handed back, nothing waits.
+/// assert_eq!(commands.try_push(3), Err(3));
+/// assert_eq!(taken.pop(), Some(1));
+/// assert_eq!(taken.pop(), Some(2));
+/// assert_eq!(taken.pop(), None);
+/// ```
 pub fn channel<T: Send>(capacity: usize) -> (Producer<T>, Consumer<T>) {
     let slots = (0..capacity + 1)
         .map(|_| UnsafeCell::new(MaybeUninit::uninit()))

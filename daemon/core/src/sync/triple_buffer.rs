@@ -31,6 +31,16 @@ pub struct Reader<T> {
 }
 
 /// A triple buffer whose three slots start as `initial`.
+///
+/// ```
+/// use hapticd_core::sync::triple_buffer::triple_buffer;
+///
+/// let (mut frames, mut latest) = triple_buffer([0.0; 3]);
+/// frames.publish(|f| f[0] = 1.0);
+/// frames.publish(|f| f[0] = 2.0);
+/// // A reader sees the last whole frame, never one half written.
+/// assert_eq!(latest.latest()[0], 2.0);
+/// ```
 pub fn triple_buffer<T: Clone + Send>(initial: T) -> (Writer<T>, Reader<T>) {
     let shared = Arc::new(Shared {
         buffers: [

@@ -161,7 +161,7 @@ fn open_stream(
         .body()
         .deserialize()
         .map_err(|e| Failure::failed(format!("the renderer's answer: {e}")))?;
-    let ring = FrameRingReader::open(&fd.into()).map_err(Failure::failed)?;
+    let ring = FrameRingReader::open(&fd.into()).map_err(|e| Failure::failed(e.to_string()))?;
     Ok((connection, ring))
 }
 

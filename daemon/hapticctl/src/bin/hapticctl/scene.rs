@@ -6,15 +6,15 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand, ValueEnum};
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DQuat, DVec3};
 use hapticctl::multirate::Lockstep;
 use hapticctl::plot::{Chart, PALETTE, Series};
+use hapticctl::scene_run::{
+    MultirateTrace, PenaltyStep, Quantity, RunError, angular_momentum, hand_pointers,
+    trace_multirate, trace_penalty,
+};
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
-use hapticd_core::scene::Pointer;
 use hapticd_device::sim::hand::{HandTrack, Script};
-use hapticd_physics::body::Body;
-use hapticd_physics::coupling::Grip;
-use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::scene::{Feedback, PenaltyScene, RapierScene, SceneFile};
 use hapticd_physics::world::ContactModel;
 use serde_json::json;
@@ -118,19 +118,6 @@ enum Model {
     Point,
 }
 
-/// Plotted quantities.
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
-enum Quantity {
-    /// Height of the centroid against gravity, m.
-    Height,
-    /// Angular momentum about the world z axis, kg·m²/s (thesis Fig. 5.12).
-    AngularMomentumZ,
-    /// Rate of turn |ω|, rad/s (the spinning top of thesis Fig. 5.16).
-    Spin,
-    /// Force felt at each pointer, N (with `--hand`).
-    PointerForce,
-}
-
 /// Run one `scene` subcommand; `list` and `switch` ask the daemon on `bus`.
 pub fn run(command: Command, bus: &Bus) -> Result<(), Failure> {
     match command {
@@ -138,12 +125,6 @@ pub fn run(command: Command, bus: &Bus) -> Result<(), Failure> {
         Command::List(output) => client::scenes(&Client::connect(bus)?, &output),
         Command::Switch { name } => client::switch(&Client::connect(bus)?, &name),
     }
-}
-
-/// Angular momentum of `body` about its centroid, world frame.
-fn angular_momentum(body: &Body) -> DVec3 {
-    let rotation = DMat3::from_quat(body.orientation);
-    rotation * body.inertia * rotation.transpose() * body.spin
 }
 
 fn load(path: &Path, model: Option<Model>, pointers: usize) -> Result<PenaltyScene, Failure> {
@@ -154,149 +135,6 @@ fn load(path: &Path, model: Option<Model>, pointers: usize) -> Result<PenaltySce
         None => {}
     }
     Ok(scene)
-}
-
-/// One run of a scene: the plotted quantity of each moving body (or pointer) over time, the
-/// last forces felt at the pointers, and the CSV rows.
-struct Trace {
-    scene: PenaltyScene,
-    /// The contact model's name.
-    model: &'static str,
-    moving: Vec<usize>,
-    /// Bodies whose curves are plotted.
-    plotted: Vec<usize>,
-    curves: Vec<Vec<(f64, f64)>>,
-    felt: Vec<Wrench>,
-    /// Largest force felt at each pointer, N.
-    peaks: Vec<f64>,
-    /// Mechanical energy of the moving bodies at the start, at the end and at its highest.
-    energy: Energy,
-    /// Farthest a moving body went in one step, metres.
-    longest_stride: f64,
-}
-
-/// Kinetic and gravitational energy of a world's moving bodies over a run, joules (contact
-/// springs and the pointers' couplings hold the rest).
-#[derive(Debug, Clone, Copy)]
-struct Energy {
-    start: f64,
-    end: f64,
-    peak: f64,
-}
-
-/// ½mv² + ½ωᵀIω − m·g·x summed over the bodies that move.
-fn mechanical_energy(scene: &PenaltyScene, moving: &[usize]) -> f64 {
-    let g = scene.world.gravity;
-    moving
-        .iter()
-        .map(|&i| {
-            let b = &scene.world.bodies[i];
-            let rotation = DMat3::from_quat(b.orientation);
-            let inertia = rotation * b.inertia * rotation.transpose();
-            0.5 * b.mass * b.velocity.length_squared() + 0.5 * b.spin.dot(inertia * b.spin)
-                - b.mass * g.dot(b.position)
-        })
-        .sum()
-}
-
-/// The pointers' grips at `t`.
-fn grips(hands: &[HandTrack], t: f64) -> Vec<Grip> {
-    hands
-        .iter()
-        .map(|h| {
-            let c = h.at(t);
-            Grip {
-                position: c.target,
-                orientation: DQuat::IDENTITY,
-                velocity: c.velocity,
-                spin: DVec3::ZERO,
-            }
-        })
-        .collect()
-}
-
-/// Step `scene` and trace it; its body states go to `record` as they are computed.
-fn trace(
-    mut scene: PenaltyScene,
-    args: &RunArgs,
-    hands: &[HandTrack],
-    (dt, steps): (f64, usize),
-    mut record: Option<&mut Recording>,
-    mut frames: Option<&mut Frames>,
-) -> Result<Trace, Failure> {
-    let up = -scene.world.gravity.normalize_or(DVec3::NEG_Y);
-    let geometry = scene.geometry();
-    let moving: Vec<usize> = (0..scene.world.bodies.len())
-        .filter(|&i| !scene.world.bodies[i].fixed)
-        .collect();
-    let plotted: Vec<usize> = match args.quantity {
-        Quantity::PointerForce => (scene.first_pointer..scene.world.bodies.len()).collect(),
-        _ => moving.clone(),
-    };
-    let mut curves = vec![Vec::new(); plotted.len()];
-    let mut felt = vec![Wrench::default(); hands.len()];
-    let mut peaks = vec![0.0f64; hands.len()];
-    let model = match scene.world.material.model {
-        ContactModel::Volume => "volume",
-        ContactModel::Point => "point",
-    };
-    scene.dt = dt;
-    let start = mechanical_energy(&scene, &moving);
-    let mut longest_stride: f64 = 0.0;
-    let mut energy = Energy {
-        start,
-        end: start,
-        peak: start,
-    };
-    for step in 1..=steps {
-        let t = step as f64 * dt;
-        if !scene.step_pointers(dt, &grips(hands, t - dt), &mut felt) {
-            return Err(Failure::failed(format!(
-                "{}: at t = {t:.4} s the world is no longer finite (bodies too fast, too \
-                 light or too stiffly sprung for a step of {dt} s)",
-                args.file.display()
-            )));
-        }
-        if let Some(frames) = frames.as_deref_mut() {
-            frames.offer(t, || Scenery::of_geometry(&geometry, &scene.poses()))?;
-        }
-        energy.end = mechanical_energy(&scene, &moving);
-        energy.peak = energy.peak.max(energy.end);
-        for &i in &moving {
-            longest_stride = longest_stride.max(scene.world.bodies[i].velocity.length() * dt);
-        }
-        for (peak, w) in peaks.iter_mut().zip(&felt) {
-            *peak = peak.max(w.force.length());
-        }
-        for (curve, &i) in curves.iter_mut().zip(&plotted) {
-            let b = &scene.world.bodies[i];
-            let value = match args.quantity {
-                Quantity::Height => b.position.dot(up),
-                Quantity::AngularMomentumZ => angular_momentum(b).z,
-                Quantity::Spin => b.spin.length(),
-                Quantity::PointerForce => felt[i - scene.first_pointer].force.length(),
-            };
-            curve.push((t, value));
-        }
-        if let Some(record) = record.as_deref_mut() {
-            for &i in &moving {
-                let b = &scene.world.bodies[i];
-                let state = (b.position, b.orientation, b.velocity, b.spin);
-                record.body(t, model, &scene.names[i], state)?;
-            }
-        }
-    }
-    Ok(Trace {
-        scene,
-        model,
-        moving,
-        plotted,
-        curves,
-        felt,
-        peaks,
-        energy,
-        longest_stride,
-    })
 }
 
 /// A CSV file written row by row as the run goes, so a failing disk is reported at once
@@ -371,18 +209,6 @@ fn run_scene(args: &RunArgs) -> Result<(), Failure> {
     }
 }
 
-/// The pointers' grips at `t` as the haptic loop hands them over.
-fn hand_pointers(hands: &[HandTrack], t: f64) -> Vec<Pointer> {
-    let at: Vec<(DVec3, DVec3)> = hands
-        .iter()
-        .map(|h| {
-            let c = h.at(t);
-            (c.target, c.velocity)
-        })
-        .collect();
-    Lockstep::pointers(&at)
-}
-
 /// Step a rapier scene with its haptic side as hapticd does, and report like a penalty run:
 /// curves and records follow the bodies between physics steps (6.5.2), the report gives
 /// where the physics left them.
@@ -409,56 +235,44 @@ fn run_multirate(
     let mut run = Lockstep::new(&spec, &pointers, HAPTIC_RATE, args.phase);
     let geometry = spec.geometry();
     let ticks = (args.duration * HAPTIC_RATE).round() as usize;
-    let moving: Vec<usize> = (0..spec.bodies.len())
-        .filter(|&i| !spec.bodies[i].fixed)
-        .collect();
-    let up = -spec.gravity.normalize_or(DVec3::NEG_Y);
-    let plotted = match args.quantity {
-        Quantity::PointerForce => hands.len(),
-        _ => moving.len(),
-    };
-    let mut curves = vec![Vec::new(); plotted];
-    let mut felt = vec![Wrench::default(); hands.len()];
-    let mut peaks = vec![0.0f64; hands.len()];
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
     let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
-    for tick in 0..ticks {
-        let t = tick as f64 / HAPTIC_RATE;
-        let grips = hand_pointers(hands, t);
-        run.tick(&grips, &mut felt)
-            .map_err(|e| Failure::failed(format!("{}: {e}", args.file.display())))?;
-        for (peak, w) in peaks.iter_mut().zip(&felt) {
-            *peak = peak.max(w.force.length());
-        }
-        let t = run.time();
-        if let Some(frames) = frames.as_mut() {
-            frames.offer(t, || {
-                let poses: Vec<_> = (0..spec.bodies.len()).map(|i| run.body(i).pose()).collect();
-                let mut scenery = Scenery::of_geometry(&geometry, &poses);
-                let grips: Vec<DVec3> = grips.iter().map(|p| p.pose.position).collect();
-                scenery.add_pointers(&run.proxies(), &grips);
-                scenery
-            })?;
-        }
-        for (k, curve) in curves.iter_mut().enumerate() {
-            let value = match args.quantity {
-                Quantity::PointerForce => felt[k].force.length(),
-                Quantity::Height => run.body(moving[k]).position.dot(up),
-                Quantity::AngularMomentumZ => Err(Failure::usage(
-                    "--quantity angular-momentum-z is for penalty scenes",
-                ))?,
-                Quantity::Spin => run.body(moving[k]).spin.length(),
-            };
-            curve.push((t, value));
-        }
-        if let Some(record) = record.as_mut() {
-            for &i in &moving {
-                let b = run.body(i);
-                let state = (b.position, b.orientation, b.velocity, b.spin);
-                record.body(t, "rapier", &spec.names[i], state)?;
+    let traced = trace_multirate(
+        &spec,
+        &mut run,
+        (args.quantity, hands),
+        (HAPTIC_RATE, ticks),
+        |tick| {
+            let (t, run) = (tick.t, tick.run);
+            if let Some(frames) = frames.as_mut() {
+                frames.offer(t, || {
+                    let poses: Vec<_> =
+                        (0..spec.bodies.len()).map(|i| run.body(i).pose()).collect();
+                    let mut scenery = Scenery::of_geometry(&geometry, &poses);
+                    let grips: Vec<DVec3> = tick.pointers.iter().map(|p| p.pose.position).collect();
+                    scenery.add_pointers(&run.proxies(), &grips);
+                    scenery
+                })?;
             }
-        }
-    }
+            if let Some(record) = record.as_mut() {
+                for (i, name) in spec.names.iter().enumerate() {
+                    if !spec.bodies[i].fixed {
+                        let b = run.body(i);
+                        let state = (b.position, b.orientation, b.velocity, b.spin);
+                        record.body(t, "rapier", name, state)?;
+                    }
+                }
+            }
+            Ok(())
+        },
+    )
+    .map_err(|e| run_failure(e, &args.file))?;
+    let MultirateTrace {
+        moving,
+        curves,
+        felt,
+        peaks,
+    } = traced;
     if let Some(record) = record {
         record.finish()?;
     }
@@ -509,6 +323,22 @@ fn run_multirate(
         text,
     );
     Ok(())
+}
+
+/// A run that stopped early, as hapticctl says it.
+fn run_failure(error: RunError<Failure>, file: &Path) -> Failure {
+    match error {
+        RunError::NotFinite { t } => Failure::failed(format!(
+            "{}: at t = {t:.4} s the world is no longer finite (bodies too fast, too light or \
+             too stiffly sprung for its step)",
+            file.display()
+        )),
+        RunError::Physics(why) => Failure::failed(format!("{}: {why}", file.display())),
+        RunError::Unsupported(_) => {
+            Failure::usage("--quantity angular-momentum-z is for penalty scenes")
+        }
+        RunError::Step(failure) => failure,
+    }
 }
 
 /// The chart of `quantity` for scene `name`.
@@ -609,24 +439,31 @@ fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
     }
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
     let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
-    let mut traces = vec![trace(
-        first,
-        args,
-        hands,
-        (dt, steps),
-        record.as_mut(),
-        frames.as_mut(),
-    )?];
+    let geometry = first.geometry();
+    let mut offered = |step: &PenaltyStep, drawn: bool| -> Result<(), Failure> {
+        if drawn && let Some(frames) = frames.as_mut() {
+            frames.offer(step.t, || {
+                Scenery::of_geometry(&geometry, &step.scene.poses())
+            })?;
+        }
+        if let Some(record) = record.as_mut() {
+            for &i in step.moving {
+                let b = &step.scene.world.bodies[i];
+                let state = (b.position, b.orientation, b.velocity, b.spin);
+                record.body(step.t, step.model, &step.scene.names[i], state)?;
+            }
+        }
+        Ok(())
+    };
+    let run = |scene, offered: &mut dyn FnMut(&PenaltyStep) -> Result<(), Failure>| {
+        trace_penalty(scene, args.quantity, hands, (dt, steps), offered)
+            .map_err(|e| run_failure(e, &args.file))
+    };
+    // Only the first run is drawn: one picture per frame.
+    let mut traces = vec![run(first, &mut |step| offered(step, true))?];
     for &model in &models[1..] {
         let scene = load(&args.file, model, hands.len())?;
-        traces.push(trace(
-            scene,
-            args,
-            hands,
-            (dt, steps),
-            record.as_mut(),
-            None,
-        )?);
+        traces.push(run(scene, &mut |step| offered(step, false))?);
     }
     if let Some(record) = record {
         record.finish()?;
@@ -655,13 +492,7 @@ fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
             "  energy {:.6} J at the start, {:.6} J at the end, {:.6} J at most",
             energy.start, energy.end, energy.peak
         );
-        // A body that moves further in a step than half a solid is thick can pass through it.
-        let thinnest = world
-            .bodies
-            .iter()
-            .flat_map(|b| &b.pieces)
-            .map(Polyhedron::thickness)
-            .fold(f64::INFINITY, f64::min);
+        let thinnest = t.thinnest_solid();
         if t.longest_stride > 0.5 * thinnest {
             eprintln!(
                 "hapticctl: warning: {name} ({model} contact): a body moved {:.4} m in one step, \
@@ -671,7 +502,7 @@ fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
             );
         }
         // Nothing drives a world without hands: energy it gains comes from the integration.
-        let gained = energy.peak - energy.start;
+        let gained = t.gained();
         if hands.is_empty() && gained > 1e-3 * energy.start.abs().max(1e-6) {
             eprintln!(
                 "hapticctl: warning: {name} ({model} contact) gained {gained:.6} J with nothing \

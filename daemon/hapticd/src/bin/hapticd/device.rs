@@ -12,17 +12,19 @@ use hapticd::config::Config;
 use hapticd::control::{DeviceHandle, DeviceSetup, Telemetry};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::scenes;
-use hapticd::state::StateDir;
+use hapticd::state::{DeviceRecord, StateDir};
 use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::safety::SafetyLimits;
+use hapticd_core::mechanism::Mechanism;
 use hapticd_core::parameters::Parameters;
 use hapticd_core::scene::Pointer;
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
+use hapticd_core::world_state::WorldWriter;
 use hapticd_device::Protocol;
 use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::Reconnector;
-use hapticd_device::replay;
+use hapticd_device::replay::{self, Transfer};
 use hapticd_device::sim::hand::Script;
 use hapticd_ipc::world_share::SharedWorldFile;
 
@@ -96,74 +98,10 @@ pub fn start(
 ) -> Result<Device, String> {
     let identity = kind.identity();
     let mut record = load_record(common.state_dir, &identity);
-    let configured = match &kind {
-        Kind::Usb(_) => &common.config.hardware.mechanism,
-        _ => &common.config.simulator.mechanism,
-    };
-    // The command line first, then what the user bound over D-Bus, then the configuration.
-    let mut mechanism_name = match (common.sim, &record.mechanism) {
-        (Some(sim), _) => sim.to_string(),
-        (None, Some(bound)) => bound.clone(),
-        (None, None) => configured.clone(),
-    };
-    let mechanism = match common.catalog.resolve(&mechanism_name) {
-        Ok(m) => m,
-        // A binding to a mechanism since removed must not keep the device from starting: the
-        // binding stays saved (the plugin may come back) and the configured one drives.
-        Err(e) if common.sim.is_none() && record.mechanism.is_some() => {
-            let file = common.state_dir.map(|d| d.device_file(&identity));
-            tracing::warn!(
-                "{identity}: the mechanism {mechanism_name:?} bound in {} cannot be used, so \
-                 {configured:?} drives it until it can: {e}",
-                file.map_or("memory".into(), |f| f.display().to_string())
-            );
-            mechanism_name = configured.clone();
-            common
-                .catalog
-                .resolve(configured)
-                .map_err(|e| e.to_string())?
-        }
-        Err(e) => return Err(e.to_string()),
-    };
-    let rate = match common.rate.or(record.parameters.rate()) {
-        Some(rate) => {
-            let mut config = common.config.clone();
-            config.realtime.rate = rate;
-            // The rate comes from the command line or the saved parameters, not the file.
-            config
-                .check(std::path::Path::new("rate"))
-                .map_err(|e| e.to_string())?;
-            rate
-        }
-        None => common.config.realtime.rate,
-    };
+    let (mechanism_name, mechanism) = mechanism(&kind, &identity, &record, common)?;
+    let rate = rate(common, &record)?;
     let mut writers = Vec::new();
-    // Simulated and replayed devices speak the SH4 protocol.
-    let protocol = match &kind {
-        Kind::Usb(device) => device.model.protocol,
-        _ => Protocol::Sh4,
-    };
-    let traffic = match recording.traffic {
-        Some(path) => {
-            let (tx, rx) = spsc::channel(1 << 14);
-            writers.push(
-                replay::spawn_traffic_writer(path, rx, common.done)
-                    .map_err(|e| format!("{}: cannot create: {e}", path.display()))?,
-            );
-            common.guardian.watch_recording(slot, protocol, path);
-            Some(tx)
-        }
-        None => None,
-    };
-    let reconnector = match &kind {
-        Kind::Usb(device) => {
-            common
-                .guardian
-                .watch_amplifier(slot, protocol, device.link.node());
-            Some((Reconnector::new(&identity, device.model), protocol))
-        }
-        _ => None,
-    };
+    let (traffic, reconnector) = watch(&kind, slot, common, recording.traffic, &mut writers)?;
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
     let pointers = Pointer::at_calibration(&mechanism);
     let places = scenes::Places {
@@ -179,17 +117,10 @@ pub fn start(
         max_force: common.config.safety.max_force,
         max_torque: common.config.safety.max_torque,
     };
-    if let Err(e) = record.parameters.check(&defaults)
-        && let Some(dir) = common.state_dir
-    {
-        // Each value is in range, but together with this scene's they are not (μ > μ0).
-        set_aside(
-            dir,
-            &identity,
-            &format!("saved parameters of {identity}: {e}"),
-        );
-        record.parameters = Default::default();
-    }
+    keep_consistent_parameters(&mut record, &defaults, common.state_dir, &identity);
+    let header = recording::csv_header(&mechanism);
+    let effectors = mechanism.effectors.iter().map(|e| e.name.clone()).collect();
+    let strings = mechanism.strings.len();
     let settings = LoopSettings {
         safety: SafetyLimits {
             max_force: common.config.safety.max_force,
@@ -198,50 +129,24 @@ pub fn start(
         },
         ..LoopSettings::default()
     };
-    let header = recording::csv_header(&mechanism);
-    let strings = mechanism.strings.len();
-    let effectors = mechanism.effectors.iter().map(|e| e.name.clone()).collect();
     let mut haptic =
         HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
     haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
-    match &record.calibration {
-        Some(c) if c.mechanism == mechanism_name && c.offsets.len() == strings => {
-            haptic
-                .restore_calibration(&c.offsets)
-                .map_err(|e| format!("saved calibration of {identity}: {e}"))?;
-            tracing::info!("restored the calibration of {identity}");
-        }
-        Some(c) => tracing::warn!(
-            "the saved calibration of {identity} is for {}, not {mechanism_name}: calibrate again",
-            c.mechanism
-        ),
-        None => {}
-    }
+    restore_calibration(&mut haptic, &record, (&mechanism_name, strings), &identity)?;
     let (event_tx, event_rx) = spsc::channel(1024);
     let logger = events::spawn_event_logger(identity.clone(), event_rx, common.done);
     let frames = match recording.frames {
         Some(path) => {
             let (tx, rx) = spsc::channel(1 << 16);
-            writers.push(recording::spawn_recorder(
-                path.to_path_buf(),
-                header,
-                rx,
-                common.done,
-            )?);
+            let writer = recording::spawn_recorder(path.to_path_buf(), header, rx, common.done);
+            writers.push(writer?);
             Some(tx)
         }
         None => None,
     };
     let (command_tx, command_rx) = spsc::channel(64);
     let (retired_tx, retired) = spsc::channel(4);
-    // Without it the loop runs as well; only pictures are missing.
-    let (world, world_writer) = match SharedWorldFile::create() {
-        Ok((file, writer)) => (Some(file), Some(writer)),
-        Err(e) => {
-            tracing::warn!("{identity}: no shared world for the renderer: {e}");
-            (None, None)
-        }
-    };
+    let (world, world_writer) = shared_world(&identity);
     let mut rt = RealtimeLoop::start(
         haptic,
         RealtimeSettings {
@@ -258,26 +163,8 @@ pub fn start(
         },
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
-    match rt.pinned() {
-        Some(Ok(cpu)) => tracing::info!("the haptic thread of {identity} runs on CPU {cpu} alone"),
-        Some(Err(e)) => {
-            tracing::warn!("cannot keep the haptic thread of {identity} on its CPU: {e}")
-        }
-        None => {}
-    }
-    let scheduling = match rt.scheduling() {
-        Scheduling::Fifo(priority) => {
-            tracing::info!(
-                "{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz, SCHED_FIFO {priority}"
-            );
-            format!("SCHED_FIFO {priority}")
-        }
-        Scheduling::Refused(why) => {
-            tracing::error!("running WITHOUT real-time scheduling: {why}");
-            tracing::info!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
-            format!("SCHED_OTHER: {why}")
-        }
-    };
+    let started = format!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
+    let scheduling = report_scheduling(&rt, &identity, &started);
     let handle = Arc::new(DeviceHandle::new(
         DeviceSetup {
             identity,
@@ -308,6 +195,177 @@ pub fn start(
         writers,
         recording_failed: None,
     })
+}
+
+/// The mechanism device `kind` drives, and its name: the command line's first, then the one
+/// the user bound over D-Bus (saved in `record`), then the configured one.
+fn mechanism(
+    kind: &Kind,
+    identity: &str,
+    record: &DeviceRecord,
+    common: &Common,
+) -> Result<(String, Mechanism), String> {
+    let configured = match kind {
+        Kind::Usb(_) => &common.config.hardware.mechanism,
+        _ => &common.config.simulator.mechanism,
+    };
+    let name = match (common.sim, &record.mechanism) {
+        (Some(sim), _) => sim.to_string(),
+        (None, Some(bound)) => bound.clone(),
+        (None, None) => configured.clone(),
+    };
+    match common.catalog.resolve(&name) {
+        Ok(m) => Ok((name, m)),
+        // A binding to a mechanism since removed must not keep the device from starting: the
+        // binding stays saved (the plugin may come back) and the configured one drives.
+        Err(e) if common.sim.is_none() && record.mechanism.is_some() => {
+            let file = common.state_dir.map(|d| d.device_file(identity));
+            tracing::warn!(
+                "{identity}: the mechanism {name:?} bound in {} cannot be used, so \
+                 {configured:?} drives it until it can: {e}",
+                file.map_or("memory".into(), |f| f.display().to_string())
+            );
+            let m = common.catalog.resolve(configured)?;
+            Ok((configured.clone(), m))
+        }
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// The tick rate: the command line's, else the saved one, else the configured one; a rate
+/// from outside the configuration file is checked as the file's would be.
+fn rate(common: &Common, record: &DeviceRecord) -> Result<f64, String> {
+    let Some(rate) = common.rate.or(record.parameters.rate()) else {
+        return Ok(common.config.realtime.rate);
+    };
+    let mut config = common.config.clone();
+    config.realtime.rate = rate;
+    config.check(Path::new("rate"))?;
+    Ok(rate)
+}
+
+/// The guardian told about device `kind` (the amplifier to zero, or the recording to
+/// replay), its traffic recorded to `traffic` when given (the writer joins `writers`), and
+/// for a USB amplifier what opens it again after an unplug.
+fn watch(
+    kind: &Kind,
+    slot: u32,
+    common: &Common,
+    traffic: Option<&Path>,
+    writers: &mut Vec<JoinHandle<std::io::Result<()>>>,
+) -> Result<Watched, String> {
+    // Simulated and replayed devices speak the SH4 protocol.
+    let protocol = match kind {
+        Kind::Usb(device) => device.model.protocol,
+        _ => Protocol::Sh4,
+    };
+    let recorder = match traffic {
+        Some(path) => {
+            let (tx, rx) = spsc::channel(1 << 14);
+            writers.push(
+                replay::spawn_traffic_writer(path, rx, common.done)
+                    .map_err(|e| format!("{}: cannot create: {e}", path.display()))?,
+            );
+            common.guardian.watch_recording(slot, protocol, path);
+            Some(tx)
+        }
+        None => None,
+    };
+    let reconnector = match kind {
+        Kind::Usb(device) => {
+            common
+                .guardian
+                .watch_amplifier(slot, protocol, device.link.node());
+            Some((Reconnector::new(kind.identity(), device.model), protocol))
+        }
+        _ => None,
+    };
+    Ok((recorder, reconnector))
+}
+
+/// What [`watch`] sets up: the traffic recorder's end, and a USB amplifier's reconnector.
+type Watched = (
+    Option<spsc::Producer<Transfer>>,
+    Option<(Reconnector, Protocol)>,
+);
+
+/// Saved parameters that are each in range but do not fit this scene's defaults together
+/// (μ > μ0) are set aside, and the device starts from the defaults.
+fn keep_consistent_parameters(
+    record: &mut DeviceRecord,
+    defaults: &Parameters,
+    state_dir: Option<&StateDir>,
+    identity: &str,
+) {
+    if let Err(e) = record.parameters.check(defaults)
+        && let Some(dir) = state_dir
+    {
+        set_aside(
+            dir,
+            identity,
+            &format!("saved parameters of {identity}: {e}"),
+        );
+        record.parameters = Default::default();
+    }
+}
+
+/// Give `haptic` the saved calibration when it was taken for this mechanism (its name and
+/// string count).
+fn restore_calibration(
+    haptic: &mut HapticLoop,
+    record: &DeviceRecord,
+    (mechanism, strings): (&str, usize),
+    identity: &str,
+) -> Result<(), String> {
+    match &record.calibration {
+        Some(c) if c.mechanism == mechanism && c.offsets.len() == strings => {
+            haptic
+                .restore_calibration(&c.offsets)
+                .map_err(|e| format!("saved calibration of {identity}: {e}"))?;
+            tracing::info!("restored the calibration of {identity}");
+        }
+        Some(c) => tracing::warn!(
+            "the saved calibration of {identity} is for {}, not {mechanism}: calibrate again",
+            c.mechanism
+        ),
+        None => {}
+    }
+    Ok(())
+}
+
+/// The memory the loop draws its world into, and its writer; without it the loop runs as
+/// well, only pictures are missing.
+fn shared_world(identity: &str) -> (Option<SharedWorldFile>, Option<WorldWriter>) {
+    match SharedWorldFile::create() {
+        Ok((file, writer)) => (Some(file), Some(writer)),
+        Err(e) => {
+            tracing::warn!("{identity}: no shared world for the renderer: {e}");
+            (None, None)
+        }
+    }
+}
+
+/// Log where the haptic thread of `identity` runs and how it is scheduled (with `started`,
+/// what runs), and return the scheduling as the Device interface shows it.
+fn report_scheduling(rt: &RealtimeLoop, identity: &str, started: &str) -> String {
+    match rt.pinned() {
+        Some(Ok(cpu)) => tracing::info!("the haptic thread of {identity} runs on CPU {cpu} alone"),
+        Some(Err(e)) => {
+            tracing::warn!("cannot keep the haptic thread of {identity} on its CPU: {e}")
+        }
+        None => {}
+    }
+    match rt.scheduling() {
+        Scheduling::Fifo(priority) => {
+            tracing::info!("{started}, SCHED_FIFO {priority}");
+            format!("SCHED_FIFO {priority}")
+        }
+        Scheduling::Refused(why) => {
+            tracing::error!("running WITHOUT real-time scheduling: {why}");
+            tracing::info!("{started}");
+            format!("SCHED_OTHER: {why}")
+        }
+    }
 }
 
 impl Device {
