@@ -138,7 +138,7 @@ install: $(C_MECHANISM)
 		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples \
 		$(DESTDIR)$(SYSTEMLIBDIR)/systemd/system $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d \
 		$(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d $(DESTDIR)$(DBUSPOLICYDIR) \
-		$(DESTDIR)$(PREFIX)/share/dbus-1/system-services $(DESTDIR)$(PREFIX)/share/dbus-1/interfaces \
+		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces \
 		$(DESTDIR)$(SYSCONFDIR)/hapticd/mechanisms $(DESTDIR)$(SYSCONFDIR)/hapticd/scenes \
 		$(DESTDIR)$(PREFIX)/share/bash-completion/completions $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions \
 		$(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d \
@@ -181,7 +181,8 @@ install: $(C_MECHANISM)
 	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.conf config/dbus/org.hapticd.Renderer1.conf \
 		$(DESTDIR)$(DBUSPOLICYDIR)/
-	install -m 644 systemd/org.hapticd.Hapticd1.service $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/
+	@# No bus activation (README, "Who starts hapticd"): drop the file earlier installs left.
+	rm -f $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/org.hapticd.Hapticd1.service
 	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
 		config/dbus/org.hapticd.Renderer1.xml \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces/

@@ -3,7 +3,8 @@
  * language-neutral. A desktop SPIDAR: one finger cap (point grip, 3 DOF) held by four
  * strings from alternate corners of a 0.30 m cube.
  *
- * Build: cc -shared -fPIC -O2 -I plugin-api/include spidar_desk.c -o libspidar_desk.so
+ * Build: cc -shared -fPIC -O2 $(pkg-config --cflags hapticd-plugin) spidar_desk.c -o libspidar_desk.so
+ *   (from the repository without hapticd installed: -I plugin-api/include)
  */
 #include <string.h>
 

@@ -634,10 +634,29 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
         stderr.contains("OutOfRange: MaxForce must be in (0, 50], not 500"),
         "{stderr}"
     );
-    assert_eq!(
-        ctl(&["get", "Stiffness", "--device", "7"]).status.code(),
-        Some(2)
+    let out = ctl(&["get", "Stiffness", "--device", "7"]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("no device \"7\": hapticd drives 0 (sim)"),
+        "{stderr}"
     );
+    // A name that is no parameter: the parameters are listed, a property is read-only.
+    for (args, said) in [
+        (
+            ["set", "Bogus", "1"],
+            "no parameter \"Bogus\": the parameters are Stiffness",
+        ),
+        (
+            ["set", "State", "running"],
+            "State is read-only: the parameters are Stiffness",
+        ),
+    ] {
+        let out = ctl(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(said), "{stderr}");
+    }
     // Calibration, scenes, reload and binding.
     assert!(ctl(&["calibrate"]).status.success());
     assert!(said(&ctl(&["scene", "list"])).contains("* static"));
@@ -647,7 +666,13 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
     // top, refreshed twice into a pipe: two frames, each with the device's line.
     let frames = said(&ctl(&["top", "--count", "2", "--interval", "0.2"]));
-    assert_eq!(frames.matches("OVERRUNS").count(), 2, "{frames}");
+    assert_eq!(frames.matches("WAIT p99/max").count(), 2, "{frames}");
+    assert!(frames.lines().all(|l| l.chars().count() <= 80), "{frames}");
+    assert_eq!(
+        frames.matches(" force ").count(),
+        2,
+        "one effector: {frames}"
+    );
     assert_eq!(
         frames.lines().filter(|l| l.starts_with("sim ")).count(),
         2,
@@ -659,6 +684,171 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("hapticd is not running on the"), "{stderr}");
+}
+
+/// What waits for the next start is shown, and `hapticctl restart` applies it: a bound
+/// mechanism and a changed rate are pending in `status` (text and JSON) until the restart
+/// starts the loops again with them; a `--sim` on the command line fixes the mechanism, so a
+/// binding is not pending then.
+#[test]
+fn pending_changes_are_shown_until_a_restart_applies_them() {
+    let dir = scratch("pending");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let spidar_ii = plugin_path("hapticd-spidar-ii");
+    std::fs::copy(
+        &spidar_ii,
+        setup.mechanisms.join(spidar_ii.file_name().unwrap()),
+    )
+    .unwrap();
+    let said = |args: &[&str]| {
+        let out = bus.ctl(args);
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let daemon = Hapticd::start(&bus, &setup, &[]);
+    let status = said(&["status"]);
+    assert!(!status.contains("pending"), "{status}");
+    assert!(status.contains("renderer: not running"), "{status}");
+    said(&["bind", "spidar-ii"]);
+    said(&["set", "Rate", "2000"]);
+    let status = said(&["status"]);
+    assert!(
+        status.contains(
+            "pending until the next start: mechanism spidar-g -> spidar-ii, rate 1000 -> 2000"
+        ),
+        "{status}"
+    );
+    let json: serde_json::Value = serde_json::from_str(&said(&["status", "--json"])).unwrap();
+    // The flag may come first, as the global ones do.
+    let first: serde_json::Value = serde_json::from_str(&said(&["--json", "status"])).unwrap();
+    assert_eq!(
+        first["devices"][0]["Pending"],
+        json["devices"][0]["Pending"]
+    );
+    let pending = &json["devices"][0]["Pending"];
+    assert_eq!(pending["mechanism"]["next"], "spidar-ii", "{json}");
+    assert_eq!(pending["rate"]["now"], "1000", "{json}");
+    let restarted = said(&["restart"]);
+    assert!(
+        restarted.contains("sim: spidar-ii at 2000 Hz"),
+        "{restarted}"
+    );
+    assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-ii\"");
+    assert!(!said(&["status"]).contains("pending"));
+    daemon.stop();
+    // The command line's mechanism wins over the binding: nothing waits for a restart.
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-g\"");
+    assert!(!said(&["status"]).contains("pending"));
+    daemon.stop();
+}
+
+/// hapticctl never has the bus start hapticd or its renderer: on a bus that could activate
+/// both (activation files such as an older install left, whose program leaves a mark), every
+/// command, reading or writing, says the daemon is not running, in the same words as on a
+/// bus that could not, and nothing was started.
+#[test]
+fn hapticctl_never_starts_a_stopped_daemon_even_where_the_bus_could() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("no-activation");
+    let services = dir.join("services");
+    std::fs::create_dir_all(&services).unwrap();
+    let mark = dir.join("started");
+    let program = dir.join("activate");
+    std::fs::write(
+        &program,
+        format!("#!/bin/sh\necho \"$0\" >> {}\n", mark.display()),
+    )
+    .unwrap();
+    std::fs::set_permissions(&program, std::fs::Permissions::from_mode(0o755)).unwrap();
+    for name in [NAME, RENDERER] {
+        let file = format!("[D-BUS Service]\nName={name}\nExec={}\n", program.display());
+        std::fs::write(services.join(format!("{name}.service")), file).unwrap();
+    }
+    let activation = dir.join("activation.conf");
+    std::fs::write(
+        &activation,
+        format!(
+            "<!DOCTYPE busconfig PUBLIC \"-//freedesktop//DTD D-BUS Bus Configuration 1.0//EN\" \
+             \"http://www.freedesktop.org/standards/dbus/1.0/busconfig.dtd\">\n\
+             <busconfig><servicedir>{}</servicedir></busconfig>\n",
+            services.display()
+        ),
+    )
+    .unwrap();
+    let private = PrivateBus::with_policies(
+        &dir,
+        &[
+            &repo_dir().join("config/dbus/org.hapticd.Hapticd1.conf"),
+            &repo_dir().join("config/dbus/org.hapticd.Renderer1.conf"),
+            &activation,
+        ],
+    );
+    let address = format!("--address={}", private.address);
+    // The bus can activate: a plain call starts the program (which never takes the name).
+    let called = Command::new("busctl")
+        .args([
+            &address,
+            "call",
+            NAME,
+            "/",
+            "org.freedesktop.DBus.Peer",
+            "Ping",
+        ])
+        .output()
+        .unwrap();
+    assert!(!called.status.success());
+    assert!(mark.exists(), "the bus did not activate: {called:?}");
+    std::fs::remove_file(&mark).unwrap();
+    let picture = dir.join("picture.png");
+    let csv = dir.join("record.csv");
+    let commands: [&[&str]; 10] = [
+        &["status"],
+        &["get", "State"],
+        &["top", "--count", "1"],
+        &["monitor", "--count", "1"],
+        &["record", "--duration", "1", csv.to_str().unwrap()],
+        &["scene", "list"],
+        &["set", "Stiffness", "2000"],
+        &["calibrate"],
+        &["reload"],
+        &["snapshot", picture.to_str().unwrap()],
+    ];
+    for args in commands {
+        let out = hapticctl()
+            .arg(format!("--bus={}", private.address))
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        let said = if args[0] == "snapshot" {
+            "hapticd-render is not running"
+        } else {
+            "hapticd is not running on the unix:path="
+        };
+        assert!(stderr.contains(said), "{args:?}: {stderr}");
+        assert!(
+            !mark.exists(),
+            "{args:?} started {}",
+            std::fs::read_to_string(&mark).unwrap()
+        );
+    }
+}
+
+/// Every scene `Scenes` lists can be switched to, in turn, and runs (a scene that names no
+/// pointer solid gives each pointer a fingertip).
+fn assert_every_listed_scene_switches(bus: &Bus, daemon: &Hapticd) {
+    let listed = bus.get(MANAGER, "Scenes");
+    let names: Vec<&str> = listed.split('"').skip(1).step_by(2).collect();
+    assert!(names.len() >= 10, "{listed}");
+    for name in names {
+        let switched = bus.call(MANAGER, "SwitchScene", &["s", name]);
+        assert!(switched.status.success(), "{name}: {switched:?}");
+        assert_eq!(bus.get(MANAGER, "ActiveScene"), format!("s \"{name}\""));
+        daemon.wait_for_state(bus, "running");
+    }
 }
 
 #[test]
@@ -681,16 +871,22 @@ fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
         assert_eq!(bus.get(MANAGER, "ActiveScene"), format!("s \"{name}\""));
         daemon.wait_for_state(&bus, "running");
     }
-    // A world without a pointer shape cannot take the grip: refused with the reason.
+    assert_every_listed_scene_switches(&bus, &daemon);
+    // An engine's plugin by name, without a file: what is missing is said.
     let (name, message) = bus.error(
         MANAGER[1],
         "org.hapticd.Hapticd1.Manager.SwitchScene",
-        &["string:cube-drop"],
+        &["string:penalty"],
     );
     assert_eq!(name, "org.hapticd.Hapticd1.Error.SceneFailed");
-    assert!(message.contains("no pointer: shape"), "{message}");
-    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"blocks\"");
+    assert!(
+        message.contains("runs scene files and was given none"),
+        "{message}"
+    );
     daemon.stop();
+    // Two effectors (a thumb and a finger): every listed scene takes two pointers as well.
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-ii"]);
+    assert_every_listed_scene_switches(&bus, &daemon);
     // A physics scene as the configured default, as an installed daemon starts.
     let config = default_config().replace("scene: static", "scene: blocks");
     std::fs::write(&setup.config, config).unwrap();
@@ -722,8 +918,20 @@ fn hapticctl_monitor_prints_each_change_as_it_happens() {
     // A parameter changed, then a calibration: its offsets, and the state it passes through.
     assert!(bus.set("Stiffness", "d", "2500").status.success());
     assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
-    let events: Vec<String> = lines.map(Result::unwrap).collect();
+    let stamped: Vec<String> = lines.map(Result::unwrap).collect();
     assert!(monitor.wait().unwrap().success());
+    // Each line is stamped with the time of day, HH:MM:SS.mmm.
+    let events: Vec<String> = stamped
+        .iter()
+        .map(|line| {
+            let (time, event) = line.split_once(' ').unwrap();
+            assert!(
+                time.len() == 12 && time.as_bytes()[2] == b':' && time.as_bytes()[8] == b'.',
+                "{line}"
+            );
+            event.to_string()
+        })
+        .collect();
     let device = "/org/hapticd/Hapticd1/device/0";
     assert_eq!(
         events[0],
@@ -732,14 +940,17 @@ fn hapticctl_monitor_prints_each_change_as_it_happens() {
     );
     // Telemetry (Pose, Force, Tensions, Statistics) is not an event.
     assert!(!events.iter().any(|e| e.contains(": Pose =")), "{events:?}");
-    assert!(
-        events.contains(&format!("{device}: Calibrated = true")),
+    // Each change once, though the request and the periodic announcement both signal it.
+    let calibrated = format!("{device}: Calibrated = true");
+    assert_eq!(
+        events.iter().filter(|e| **e == calibrated).count(),
+        1,
         "{events:?}"
     );
-    assert!(
-        events
-            .iter()
-            .any(|e| e.starts_with(&format!("{device}: CalibrationOffsets = "))),
+    let offsets = format!("{device}: CalibrationOffsets = ");
+    assert_eq!(
+        events.iter().filter(|e| e.starts_with(&offsets)).count(),
+        1,
         "{events:?}"
     );
     daemon.stop();
@@ -761,14 +972,19 @@ fn hapticctl_records_telemetry_from_the_bus() {
     assert!(out.status.success(), "{out:?}");
     let text = std::fs::read_to_string(&csv).unwrap();
     let rows: Vec<&str> = text.lines().collect();
-    assert_eq!(rows[0], "time,pose,force");
-    // Ten bursts a second, each with the pose (x, y, z, w, x, y, z) and the wrench.
+    assert_eq!(
+        rows[0],
+        "time,pose_x,pose_y,pose_z,pose_qw,pose_qx,pose_qy,pose_qz,force_x,force_y,force_z,\
+         torque_x,torque_y,torque_z"
+    );
+    // Ten bursts a second, each with the pose (x, y, z, w, x, y, z) and the wrench, one
+    // number per column, the orientation a unit quaternion.
     assert!(rows.len() > 10, "{} rows", rows.len());
     for row in &rows[1..] {
-        let fields: Vec<&str> = row.split(',').collect();
-        assert_eq!(fields.len(), 3, "{row}");
-        assert_eq!(fields[1].split(' ').count(), 7, "{row}");
-        assert_eq!(fields[2].split(' ').count(), 6, "{row}");
+        let fields: Vec<f64> = row.split(',').map(|f| f.parse().unwrap()).collect();
+        assert_eq!(fields.len(), 14, "{row}");
+        let q: f64 = fields[4..8].iter().map(|x| x * x).sum();
+        assert!((q - 1.0).abs() < 1e-6, "{row}");
     }
     daemon.stop();
 }
@@ -1175,21 +1391,21 @@ fn reload_finds_new_descriptors_and_refuses_malformed_files_with_their_place() {
             .status
             .success()
     );
-    // A malformed descriptor: its place is reported and the list stays as it was.
+    // A malformed descriptor, as at start: it hides only itself, its place in the log.
     let bad = setup.mechanisms.join("zz-bad.yaml");
     std::fs::write(&bad, "name: bad\nstrings: [\n").unwrap();
-    let (name, message) = bus.error(
-        MANAGER[1],
-        "org.hapticd.Hapticd1.Manager.ReloadPlugins",
-        &[],
-    );
-    assert_eq!(name, "org.hapticd.Hapticd1.Error.InvalidConfiguration");
-    assert!(message.contains("zz-bad.yaml:"), "{message}");
+    assert!(bus.call(MANAGER, "ReloadPlugins", &[]).status.success());
     assert_eq!(
         bus.get(MANAGER, "Mechanisms"),
         "as 2 \"lab-rig\" \"spidar-g\""
     );
+    assert!(daemon.log().contains("zz-bad.yaml:"), "{}", daemon.log());
     std::fs::remove_file(&bad).unwrap();
+    // A changed default scene is switched to.
+    let blocks = default_config().replace("scene: static", "scene: blocks");
+    std::fs::write(&setup.config, blocks).unwrap();
+    assert!(bus.call(MANAGER, "ReloadPlugins", &[]).status.success());
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"blocks\"");
     // A malformed configuration: file:line:column, and the running one stays.
     std::fs::write(&setup.config, default_config() + "realtime:\n  rat: 5\n").unwrap();
     let (name, message) = bus.error(
@@ -1605,14 +1821,20 @@ fn a_snapshot_is_a_picture_of_the_running_scene_and_bad_options_are_refused() {
         );
         assert!(message.contains(key), "{message}");
     }
-    let refused = hapticctl()
-        .arg(format!("--bus={}", bus.address))
-        .args(["snapshot", "--width", "0"])
-        .arg(dir.join("none.png"))
-        .output()
-        .unwrap();
-    assert_eq!(refused.status.code(), Some(2), "{refused:?}");
-    assert!(!dir.join("none.png").exists());
+    for args in [&["--width", "0"][..], &["--distance", "-1"]] {
+        let refused = hapticctl()
+            .arg(format!("--bus={}", bus.address))
+            .arg("snapshot")
+            .args(args)
+            .arg(dir.join("none.png"))
+            .output()
+            .unwrap();
+        assert_eq!(refused.status.code(), Some(2), "{refused:?}");
+        // The renderer's reason, not the argument parser's.
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(stderr.contains("OutOfRange"), "{args:?}: {stderr}");
+        assert!(!dir.join("none.png").exists());
+    }
 }
 
 #[test]

@@ -4,6 +4,7 @@
 
 use crate::support;
 
+use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -148,7 +149,6 @@ fn make_install_lays_out_a_working_system() {
         "usr/lib/udev/rules.d/70-hapticd.rules",
         "usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf",
         "usr/share/dbus-1/system.d/org.hapticd.Renderer1.conf",
-        "usr/share/dbus-1/system-services/org.hapticd.Hapticd1.service",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Manager.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Device.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Renderer1.xml",
@@ -272,6 +272,27 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
     assert!(unit.contains("file:///opt/hapticd/share/doc/hapticd/README.md"));
     let pc = read(dest.join("opt/hapticd/share/pkgconfig/hapticd-plugin.pc"));
     assert!(pc.starts_with("prefix=/opt/hapticd\n"), "{pc}");
+    // The installed hapticctl takes installed scenes by name, as the daemon does.
+    let ctl = dest.join("opt/hapticd/bin/hapticctl");
+    let picture = dest.join("static.png");
+    let picture_arg = picture.display().to_string();
+    for args in [
+        &["scene", "run", "cube-drop", "--duration", "0.05"][..],
+        &[
+            "render",
+            "static",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            &picture_arg,
+        ],
+    ] {
+        let out = Command::new(&ctl).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {out:?}");
+    }
+    assert!(picture.is_file());
     // A physics scene by name needs the scene directories and the engine's plugin.
     let bus = PrivateBus::start(
         &scratch("opt-bus"),
@@ -469,6 +490,44 @@ fn the_debian_package_is_lintian_clean_and_runs_unpacked() {
             .unwrap();
         assert!(check.success(), "{script} is not valid sh");
     }
+    // A first installation enables the unit whether or not systemd runs (a chroot, an image
+    // being built): the system tools it calls are recorded, not run.
+    let tools = dir.join("tools");
+    std::fs::create_dir_all(&tools).unwrap();
+    let calls = dir.join("calls");
+    for tool in [
+        "deb-systemd-helper",
+        "deb-systemd-invoke",
+        "systemctl",
+        "systemd-sysusers",
+        "udevadm",
+    ] {
+        let stub = tools.join(tool);
+        std::fs::write(
+            &stub,
+            format!("#!/bin/sh\necho \"{tool} $*\" >> {}\n", calls.display()),
+        )
+        .unwrap();
+        std::fs::set_permissions(&stub, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let path = format!(
+        "{}:{}",
+        tools.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let configured = Command::new("sh")
+        .arg(control.join("postinst"))
+        .arg("configure")
+        .env("PATH", path)
+        .status()
+        .unwrap();
+    assert!(configured.success());
+    let calls = read(calls);
+    assert!(
+        calls.contains("deb-systemd-helper enable hapticd.service"),
+        "{calls}"
+    );
+    assert!(calls.contains("systemd-sysusers hapticd.conf"), "{calls}");
     // Stripped, and the debug information is where gdb looks for it.
     for file in [
         "usr/bin/hapticd",

@@ -101,6 +101,24 @@ fn the_renderer_unit_is_wanted_by_hapticd_and_restarts_with_back_off() {
     assert!(sysusers.lines().any(|l| l.starts_with("u hapticd-render ")));
     let dir = support::scratch_root().join(format!("render-unit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
+    // On a host without them, systemd-sysusers makes every supplementary group of the unit
+    // and puts the renderer's user in it.
+    let root = dir.join("root");
+    std::fs::create_dir_all(root.join("etc")).unwrap();
+    let made = Command::new("systemd-sysusers")
+        .arg(format!("--root={}", root.display()))
+        .arg(repo_dir().join("systemd/hapticd.sysusers"))
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{made:?}");
+    let groups = std::fs::read_to_string(root.join("etc/group")).unwrap();
+    for group in values(&unit, "SupplementaryGroups")[0].split_whitespace() {
+        let line = groups
+            .lines()
+            .find(|l| l.starts_with(&format!("{group}:")))
+            .unwrap_or_else(|| panic!("no group {group}: {groups}"));
+        assert!(line.ends_with(":hapticd-render"), "{line}");
+    }
     let file = dir.join("hapticd-render.service");
     let built = format!("ExecStart={}", artifact("hapticd-render").display());
     std::fs::write(

@@ -128,6 +128,22 @@ fn the_c_example_plugin_compiles_loads_and_solves() {
         "{:?}",
         solution.wrench
     );
+    // What the plugin says as it loads is for the daemon's log: hapticctl's commands print
+    // their answer alone.
+    for args in [
+        &["mechanism", "list"][..],
+        &["mechanism", "inspect", "spidar-desk"],
+    ] {
+        let out = support::hapticctl()
+            .arg("--mechanism-dir")
+            .arg(&dir)
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("spidar-desk"));
+        assert_eq!(String::from_utf8_lossy(&out.stderr), "", "{args:?}");
+    }
     std::fs::remove_dir_all(dir).ok();
 }
 

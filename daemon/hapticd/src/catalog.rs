@@ -87,13 +87,24 @@ impl Catalog {
     /// The mechanism `spec` names: a path to a `.yaml`/`.yml`/`.so` file, or the name of an
     /// installed mechanism.
     pub fn resolve(&self, spec: &str) -> Result<Mechanism, Diagnostics> {
+        if !Self::is_name(spec) {
+            return load(Path::new(spec));
+        }
+        self.resolve_among(&self.entries(), spec)
+    }
+
+    /// The mechanism `spec` names, an installed one looked up among `entries` (what
+    /// [`Catalog::entries`] found): each plugin is loaded once per look through the search
+    /// path, however many devices ask.
+    pub fn resolve_among(&self, entries: &[Entry], spec: &str) -> Result<Mechanism, Diagnostics> {
         let as_path = Path::new(spec);
         if !Self::is_name(spec) {
             return load(as_path);
         }
-        self.entries()
-            .into_iter()
-            .find_map(|e| e.mechanism.ok().filter(|m| m.name == spec))
+        entries
+            .iter()
+            .find_map(|e| e.mechanism.as_ref().ok().filter(|m| m.name == spec))
+            .cloned()
             .ok_or_else(|| {
                 let dirs: Vec<_> = self.dirs.iter().map(|d| d.display().to_string()).collect();
                 Diagnostics::file(

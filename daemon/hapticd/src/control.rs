@@ -7,10 +7,11 @@
 //! snapshot to show it.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use crate::catalog::Catalog;
+use crate::catalog::{Catalog, Entry};
 use crate::config::Config;
 use crate::scenes::OpenError;
 use crate::state::{Calibration, DeviceRecord, StateDir};
@@ -110,6 +111,7 @@ pub struct DeviceHandle {
     scheduling: String,
     state_dir: Option<StateDir>,
     world: Option<SharedWorldFile>,
+    fixed: Fixed,
     commands: Mutex<spsc::Producer<LoopCommand>>,
     telemetry: Mutex<Telemetry>,
     /// What is remembered, under one lock so that concurrent requests persist in the order
@@ -151,6 +153,18 @@ pub struct DeviceSetup {
     pub defaults: Parameters,
     /// The memory the loop draws its world into, if it could be made.
     pub world: Option<SharedWorldFile>,
+    /// What the command line fixes for every start, whatever is bound or saved.
+    pub fixed: Fixed,
+}
+
+/// What hapticd's command line fixes for every start (`--sim MECH`, `--rate`): a binding or
+/// a saved rate waits behind it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Fixed {
+    /// The mechanism.
+    pub mechanism: bool,
+    /// The tick rate.
+    pub rate: bool,
 }
 
 impl DeviceHandle {
@@ -166,6 +180,7 @@ impl DeviceHandle {
             scheduling: setup.scheduling,
             state_dir: setup.state_dir,
             world: setup.world,
+            fixed: setup.fixed,
             commands: Mutex::new(commands),
             telemetry: Mutex::new(Telemetry::default()),
             remembered: Mutex::new(Remembered {
@@ -188,6 +203,23 @@ impl DeviceHandle {
     /// The mechanism driven.
     pub fn mechanism(&self) -> &str {
         &self.mechanism
+    }
+
+    /// What the next start changes: `mechanism` and `rate` with the values they will have,
+    /// when they differ from the running ones (and the command line does not fix them).
+    pub fn pending(&self) -> Vec<(String, String)> {
+        let mut pending = Vec::new();
+        if let Some(bound) = self.bound_mechanism()
+            && !self.fixed.mechanism
+            && bound != self.mechanism
+        {
+            pending.push(("mechanism".to_string(), bound));
+        }
+        let rate = self.parameter(Name::Rate);
+        if !self.fixed.rate && rate != self.rate {
+            pending.push(("rate".to_string(), rate.to_string()));
+        }
+        pending
     }
 
     /// The mechanism the user bound for the next start, if any.
@@ -401,6 +433,8 @@ pub struct Daemon {
     switching: Mutex<()>,
     /// Where scene files callers send are kept.
     received: PathBuf,
+    /// Set by [`Daemon::request_restart`]; the supervisor starts hapticd again.
+    restart: AtomicBool,
 }
 
 struct Installed {
@@ -419,15 +453,16 @@ pub fn catalog(config: &Config, mechanism_dirs: Option<&[PathBuf]>) -> Catalog {
     }
 }
 
-/// Names of the mechanisms `catalog` finds, and why each file that failed did.
-fn scan_mechanisms(catalog: &Catalog) -> (Vec<String>, Vec<Diagnostic>) {
+/// Names of the mechanisms among `entries` (what a catalog found), and why each file that
+/// failed did.
+fn scan_mechanisms(entries: &[Entry]) -> (Vec<String>, Vec<Diagnostic>) {
     let mut names = Vec::new();
     let mut problems = Vec::new();
-    for entry in catalog.entries() {
-        match entry.mechanism {
-            Ok(m) if !entry.shadowed => names.push(m.name),
+    for entry in entries {
+        match &entry.mechanism {
+            Ok(m) if !entry.shadowed => names.push(m.name.clone()),
             Ok(_) => {}
-            Err(e) => problems.extend(e.diagnostics),
+            Err(e) => problems.extend(e.diagnostics.iter().cloned()),
         }
     }
     (names, problems)
@@ -442,16 +477,17 @@ impl Drop for Daemon {
 
 impl Daemon {
     /// The daemon running `devices` with `config` (read from `config_path`, when given),
-    /// rendering `active_scene` (from `active_file`, if it has one).
+    /// rendering `active_scene` (from `active_file`, if it has one); `entries` are what the
+    /// catalog found at start.
     pub fn new(
         config: Config,
-        config_path: Option<PathBuf>,
-        mechanism_dirs: Option<Vec<PathBuf>>,
+        (config_path, mechanism_dirs): (Option<PathBuf>, Option<Vec<PathBuf>>),
+        entries: &[Entry],
         (active_scene, active_file): (String, Option<PathBuf>),
         devices: Vec<Arc<DeviceHandle>>,
     ) -> Self {
         // At start a broken file only hides its own mechanism (the daemon runs regardless).
-        let (mechanisms, problems) = scan_mechanisms(&catalog(&config, mechanism_dirs.as_deref()));
+        let (mechanisms, problems) = scan_mechanisms(entries);
         for problem in problems {
             tracing::warn!("{problem}");
         }
@@ -467,6 +503,7 @@ impl Daemon {
             devices,
             switching: Mutex::new(()),
             received: crate::received::directory(),
+            restart: AtomicBool::new(false),
         }
     }
 
@@ -571,32 +608,58 @@ impl Daemon {
         Ok(())
     }
 
-    /// Re-read the configuration file and rescan the mechanism directories. A malformed
-    /// file is reported with its place and nothing changes.
+    /// Re-read the configuration file and rescan the mechanism directories, as a start
+    /// would: a malformed configuration (or a default scene that is nowhere) is reported with
+    /// its place and nothing changes; a broken mechanism file only hides its own mechanism,
+    /// with a warning. A changed `scene:` is switched to.
     pub fn reload(&self) -> Result<(), Error> {
         let config = match &self.config_path {
             Some(path) => Config::load(path).map_err(Error::InvalidConfiguration)?,
             None => lock(&self.inner).config.clone(),
         };
-        let (mechanisms, mut problems) =
-            scan_mechanisms(&catalog(&config, self.mechanism_dirs.as_deref()));
         // The default scene must be there: the next start would fail on it.
         if let Err(e) = crate::scenes::locate(&config.scene, &config.scene_dirs) {
             let file = self
                 .config_path
                 .as_deref()
                 .unwrap_or(Path::new("configuration"));
-            problems.extend(Diagnostics::at(file, None, "scene", e.to_string()).diagnostics);
+            return Err(Error::InvalidConfiguration(Diagnostics::at(
+                file,
+                None,
+                "scene",
+                e.to_string(),
+            )));
         }
-        if !problems.is_empty() {
-            return Err(Error::InvalidConfiguration(Diagnostics {
-                diagnostics: problems,
-            }));
+        let (mechanisms, problems) =
+            scan_mechanisms(&catalog(&config, self.mechanism_dirs.as_deref()).entries());
+        for problem in problems {
+            tracing::warn!("{problem}");
         }
+        let scene = (config.scene != lock(&self.inner).config.scene).then(|| config.scene.clone());
         let mut inner = lock(&self.inner);
         inner.config = config;
         inner.mechanisms = mechanisms;
-        Ok(())
+        drop(inner);
+        match scene {
+            Some(scene) => {
+                let dirs = lock(&self.inner).config.scene_dirs.clone();
+                let file = crate::scenes::file_of(&scene, None, &dirs);
+                self.swap_in(&scene, file)
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Ask for every device's loop to start again (motors ramped to zero, the program run
+    /// anew under the same name), which applies what waits for the next start: a bound
+    /// mechanism, a changed Rate.
+    pub fn request_restart(&self) {
+        self.restart.store(true, Ordering::Release);
+    }
+
+    /// Whether a restart was asked for.
+    pub fn restart_requested(&self) -> bool {
+        self.restart.load(Ordering::Acquire)
     }
 
     /// Bind installed mechanism `name` to `device` from its next start.

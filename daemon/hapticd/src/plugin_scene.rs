@@ -154,10 +154,19 @@ pub fn load(
         )
     };
     if status != HAPTICD_OK || pointer.is_null() {
-        return Err(format!(
-            "{}: creating the scene failed (status {status})",
-            path.display()
-        ));
+        // A plugin of scene files asked for none is the usual mistake: say so.
+        // SAFETY: HapticdSceneFiles is the struct of the files extension.
+        let files: Option<HapticdSceneFiles> =
+            unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_FILES) };
+        let said = status_name(status);
+        let why = match (scene_file, files) {
+            (None, Some(_)) => format!(
+                "it runs scene files and was given none ({said}): switch to a scene file of \
+                 its engine (one of Scenes, or `hapticctl scene switch FILE.yaml`)"
+            ),
+            _ => format!("creating the scene failed ({said})"),
+        };
+        return Err(format!("{}: {why}", path.display()));
     }
     let instance = Instance { vtable, pointer };
     let geometry = read_geometry(&loaded, &instance)
@@ -192,6 +201,17 @@ pub fn load(
             path.display(),
             info.physics_rate
         )),
+    }
+}
+
+/// A plugin's status code in words.
+fn status_name(status: i32) -> String {
+    match status {
+        HAPTICD_ERROR_ARGUMENT => "a bad argument".into(),
+        HAPTICD_ERROR_PANIC => "the plugin panicked".into(),
+        HAPTICD_ERROR_FAILED => "the plugin failed".into(),
+        HAPTICD_OK => "no scene returned".into(),
+        other => format!("status {other}"),
     }
 }
 

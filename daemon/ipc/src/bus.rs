@@ -45,6 +45,23 @@ impl Bus {
     }
 }
 
+/// Whether someone owns `name` on the bus now. Asking never starts a service that the bus
+/// could activate for the name, as a call to it would: a client that only reads must not
+/// start the motors' daemon an administrator stopped.
+pub async fn has_owner(connection: &zbus::Connection, name: &str) -> zbus::Result<bool> {
+    connection
+        .call_method(
+            Some("org.freedesktop.DBus"),
+            "/org/freedesktop/DBus",
+            Some("org.freedesktop.DBus"),
+            "NameHasOwner",
+            &(name,),
+        )
+        .await?
+        .body()
+        .deserialize::<bool>()
+}
+
 /// The Unix user of the connection `name`, as the bus daemon knows it.
 pub async fn unix_user(connection: &zbus::Connection, name: &str) -> zbus::Result<u32> {
     connection

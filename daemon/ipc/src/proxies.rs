@@ -59,6 +59,8 @@ pub trait Manager {
     fn switch_scene_file(&self, file: Fd<'_>, name: &str) -> zbus::Result<()>;
     /// Read the configuration and look for plugins, descriptors and scenes again.
     fn reload_plugins(&self) -> zbus::Result<()>;
+    /// Start every device's loop again, applying a bound mechanism or a changed rate.
+    fn restart(&self) -> zbus::Result<()>;
 }
 
 /// `org.hapticd.Hapticd1.Device`: one haptic device, at [`crate::device_path`].
@@ -79,6 +81,9 @@ pub trait Device {
     /// The mechanism it will be driven by from the next start.
     #[zbus(property)]
     fn bound_mechanism(&self) -> zbus::Result<String>;
+    /// What the next start changes (`mechanism`, `rate`) and the values they will have.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn pending(&self) -> zbus::Result<HashMap<String, String>>;
     /// `running`, `fault`, … in lower case.
     #[zbus(property)]
     fn state(&self) -> zbus::Result<String>;

@@ -47,7 +47,7 @@ fn main() -> ExitCode {
         (Ok(cli), Ok(limits)) => (cli, limits),
         (Err(e), _) | (_, Err(e)) => e.exit(),
     };
-    hapticd_service::logging::init("hapticd-render", false);
+    hapticd_service::logging::init("hapticd-render", hapticd_service::logging::Level::INFO);
     // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
     // threads (they inherit the affinity).
     if let Some(plan) = hapticd_service::cpus::allowed()

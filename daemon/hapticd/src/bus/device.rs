@@ -240,6 +240,14 @@ device_interface! {
         self.device.bound_mechanism().unwrap_or_default()
     }
 
+    /// What the next start of the loop changes (Manager.Restart starts it): `mechanism` (a
+    /// mechanism bound with BindMechanism) and `rate` (a changed Rate), with the values they
+    /// will have; empty when nothing waits. Read it when needed: no signal announces it.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn pending(&self) -> HashMap<String, String> {
+        self.device.pending().into_iter().collect()
+    }
+
     /// running, calibrating, fault (forces ramped to zero), disconnected, or uncalibrated (the
     /// counts no longer fit the calibration: forces stay at zero until `Calibrate()`).
     #[zbus(property)]

@@ -137,6 +137,20 @@ impl ManagerInterface {
         report(self.scenes_changed(&emitter).await);
         Ok(())
     }
+
+    /// Start every device's loop again, to apply what waits for the next start (a mechanism
+    /// bound with BindMechanism, a changed Rate): the forces ramp to zero, hapticd runs
+    /// anew under the same name within a few seconds, and its calibration and parameters
+    /// are restored.
+    async fn restart(
+        &self,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) {
+        let who = caller(connection, Some(&header)).await;
+        tracing::info!("restart the haptic loops, for {who}");
+        self.daemon.request_restart();
+    }
 }
 
 impl ManagerInterface {

@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
-use hapticd_ipc::bus::Bus;
-use hapticd_ipc::names::error_name;
+use hapticd_core::parameters::Name;
+use hapticd_ipc::bus::{Bus, has_owner};
+use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
@@ -47,9 +48,9 @@ pub struct SetArgs {
     /// Parameter name.
     #[arg(long_help = format!("Parameter name: {PARAMETERS}."))]
     name: String,
-    /// New value.
-    #[arg(allow_negative_numbers = true)]
-    value: f64,
+    /// New value (a number; taken as text so that a wrong name is said first).
+    #[arg(allow_hyphen_values = true)]
+    value: String,
     #[command(flatten)]
     device: DeviceArg,
 }
@@ -76,10 +77,7 @@ fn failure(bus: &Bus, e: zbus::Error) -> Failure {
     match e {
         zbus::Error::FDO(fdo) => match *fdo {
             zbus::fdo::Error::ServiceUnknown(_) | zbus::fdo::Error::NameHasNoOwner(_) => {
-                Failure::failed(format!(
-                    "hapticd is not running on the {} bus",
-                    bus_name(bus)
-                ))
+                not_running(bus)
             }
             zbus::fdo::Error::AccessDenied(m) => Failure::failed(format!(
                 "not allowed ({m}): root and members of the hapticd group may change things"
@@ -93,6 +91,18 @@ fn failure(bus: &Bus, e: zbus::Error) -> Failure {
         )),
         other => Failure::failed(format!("the {} bus: {other}", bus_name(bus))),
     }
+}
+
+/// hapticd is not on `bus`: said the same way whichever bus it is.
+fn not_running(bus: &Bus) -> Failure {
+    let start = match bus {
+        Bus::System => " (`systemctl start hapticd` starts it)",
+        _ => "",
+    };
+    Failure::failed(format!(
+        "hapticd is not running on the {} bus{start}",
+        bus_name(bus)
+    ))
 }
 
 fn bus_name(bus: &Bus) -> String {
@@ -149,9 +159,16 @@ fn words(v: &Value) -> String {
 }
 
 impl Client {
-    /// Connect to `bus`.
+    /// Connect to `bus`, where hapticd must be running: hapticctl never has the bus start it
+    /// (an activation file of an older install would otherwise start a daemon that was
+    /// stopped, or fail with the bus's words).
     pub fn connect(bus: &Bus) -> Result<Client, Failure> {
         let connection = zbus::block_on(bus.connection()).map_err(|e| failure(bus, e))?;
+        let running =
+            zbus::block_on(has_owner(&connection, BUS_NAME)).map_err(|e| failure(bus, e))?;
+        if !running {
+            return Err(not_running(bus));
+        }
         Ok(Client {
             connection,
             bus: bus.clone(),
@@ -243,17 +260,24 @@ impl Client {
                     .collect()
             })
             .unwrap_or_default();
-        if let Ok(index) = arg.device.parse::<usize>() {
-            return paths.get(index).cloned().ok_or_else(|| {
-                Failure::usage(format!("no device {index}: hapticd drives {}", paths.len()))
-            });
+        if let Ok(index) = arg.device.parse::<usize>()
+            && let Some(path) = paths.get(index)
+        {
+            return Ok(path.clone());
         }
-        for path in &paths {
-            if self.properties(path, DEVICE)?["Identity"] == json!(arg.device) {
+        let mut known = Vec::new();
+        for (index, path) in paths.iter().enumerate() {
+            let identity = words(&self.properties(path, DEVICE)?["Identity"]);
+            if identity == arg.device {
                 return Ok(path.clone());
             }
+            known.push(format!("{index} ({identity})"));
         }
-        Err(Failure::usage(format!("no device {:?}", arg.device)))
+        Err(Failure::usage(format!(
+            "no device {:?}: hapticd drives {}",
+            arg.device,
+            known.join(", ")
+        )))
     }
 }
 
@@ -280,10 +304,28 @@ pub fn status(client: &Client, output: &Output) -> Result<(), Failure> {
             words(&stats["overruns"]),
             words(&stats["wait_p99_us"]),
         );
-        devices.push(Value::Object(d.into_iter().collect()));
+        text += &pending_line(&d);
+        let changes: serde_json::Map<String, Value> = pending(&d)
+            .into_iter()
+            .map(|(what, now, then)| (what, json!({"now": now, "next": then})))
+            .collect();
+        let mut device: serde_json::Map<String, Value> = d.into_iter().collect();
+        device.insert("Pending".into(), Value::Object(changes));
+        devices.push(Value::Object(device));
     }
-    let value =
-        json!({"manager": Value::Object(manager.into_iter().collect()), "devices": devices});
+    // The renderer is asked without being started, as the daemon is.
+    let renderer = zbus::block_on(has_owner(&client.connection, RENDERER_BUS_NAME))
+        .map_err(|e| failure(&client.bus, e))?;
+    text += if renderer {
+        "renderer: running\n"
+    } else {
+        "renderer: not running (pictures: `systemctl start hapticd-render`)\n"
+    };
+    let value = json!({
+        "manager": Value::Object(manager.into_iter().collect()),
+        "devices": devices,
+        "renderer": renderer,
+    });
     print(output, value, text);
     Ok(())
 }
@@ -304,13 +346,32 @@ pub fn get(client: &Client, args: &GetArgs) -> Result<(), Failure> {
 }
 
 /// `hapticctl set NAME VALUE`: change a parameter; the daemon checks, saves and applies it.
+/// A name that is no parameter is refused here, with the parameters (and, for a property of
+/// the device, that it is read-only).
 pub fn set(client: &Client, args: &SetArgs) -> Result<(), Failure> {
     let path = client.device(&args.device)?;
+    if !Name::ALL.iter().any(|n| n.as_str() == args.name) {
+        let properties = client.properties(&path, DEVICE)?;
+        let what = if properties.contains_key(&args.name) {
+            format!("{} is read-only", args.name)
+        } else {
+            format!("no parameter {:?}", args.name)
+        };
+        return Err(Failure::usage(format!(
+            "{what}: the parameters are {PARAMETERS}"
+        )));
+    }
+    let value: f64 = args.value.trim().parse().map_err(|_| {
+        Failure::usage(format!(
+            "{} takes a number, not {:?}",
+            args.name, args.value
+        ))
+    })?;
     client.call(
         &path,
         PROPERTIES,
         "Set",
-        &(DEVICE, args.name.as_str(), Variant::F64(args.value)),
+        &(DEVICE, args.name.as_str(), Variant::F64(value)),
     )?;
     Ok(())
 }
@@ -333,6 +394,78 @@ pub fn bind(client: &Client, args: &BindArgs) -> Result<(), Failure> {
 pub fn reload(client: &Client) -> Result<(), Failure> {
     client.call(MANAGER_PATH, MANAGER, "ReloadPlugins", &())?;
     Ok(())
+}
+
+/// How long `restart` waits for hapticd to be back.
+const RESTART_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(20);
+
+/// `hapticctl restart`: ask hapticd to start its loops again, and wait until it is back on
+/// the bus under a new connection with every device's loop running again.
+pub fn restart(client: &Client) -> Result<(), Failure> {
+    let owner = |client: &Client| {
+        let reply = client.call(
+            "/org/freedesktop/DBus",
+            "org.freedesktop.DBus",
+            "GetNameOwner",
+            &(BUS_NAME,),
+        );
+        reply
+            .ok()
+            .and_then(|m| m.body().deserialize::<String>().ok())
+    };
+    let before = owner(client);
+    client.call(MANAGER_PATH, MANAGER, "Restart", &())?;
+    let started = std::time::Instant::now();
+    while started.elapsed() < RESTART_TIMEOUT {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        if owner(client).is_some_and(|now| Some(&now) != before.as_ref()) {
+            let manager = client.properties(MANAGER_PATH, MANAGER)?;
+            for d in client.devices(&manager)? {
+                println!(
+                    "{}: {} at {} Hz",
+                    words(&d["Identity"]),
+                    words(&d["Mechanism"]),
+                    words(&d["LoopRate"])
+                );
+            }
+            return Ok(());
+        }
+    }
+    Err(Failure::failed(format!(
+        "hapticd did not come back within {} s (see `journalctl -u hapticd`)",
+        RESTART_TIMEOUT.as_secs()
+    )))
+}
+
+/// What device `d` will change at its next start, as the daemon says (`Pending`): what, its
+/// value now and then.
+fn pending(d: &BTreeMap<String, Value>) -> Vec<(String, String, String)> {
+    let now = |what: &str| match what {
+        "mechanism" => words(&d["Mechanism"]),
+        "rate" => words(&d["LoopRate"]),
+        _ => String::new(),
+    };
+    d.get("Pending")
+        .and_then(Value::as_object)
+        .into_iter()
+        .flatten()
+        .map(|(what, then)| (what.clone(), now(what), words(then)))
+        .collect()
+}
+
+/// The line of the changes device `d` has pending, or nothing.
+fn pending_line(d: &BTreeMap<String, Value>) -> String {
+    let changes: Vec<String> = pending(d)
+        .into_iter()
+        .map(|(what, now, then)| format!("{what} {now} -> {then}"))
+        .collect();
+    if changes.is_empty() {
+        return String::new();
+    }
+    format!(
+        "  pending until the next start: {} (`hapticctl restart` applies it)\n",
+        changes.join(", ")
+    )
 }
 
 /// `hapticctl scene list`: the scenes the daemon can switch to, the active one marked.
@@ -419,6 +552,9 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
         let mut stream = client.changes(None).await?;
         println!("watching hapticd on the {} bus", bus_name(&client.bus));
         let mut seen = 0;
+        // A change announced twice (by the request that made it, then by the periodic
+        // announcement) is one change.
+        let mut last: std::collections::HashMap<(String, String), String> = Default::default();
         while args.count.is_none_or(|n| seen < n) {
             let Some((path, changed)) = client.next_change(&mut stream).await? else {
                 continue;
@@ -426,10 +562,18 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
             let mut events: Vec<_> = changed
                 .iter()
                 .filter(|(name, _)| !TELEMETRY.contains(&name.as_str()))
+                .map(|(name, value)| (name.clone(), words(&to_json(value))))
                 .collect();
-            events.sort_by(|a, b| a.0.cmp(b.0));
+            events.sort();
             for (name, value) in events {
-                println!("{path}: {name} = {}", words(&to_json(value)));
+                if last
+                    .insert((path.clone(), name.clone()), value.clone())
+                    .as_ref()
+                    == Some(&value)
+                {
+                    continue;
+                }
+                println!("{} {path}: {name} = {value}", clock_time());
                 seen += 1;
             }
             use std::io::Write;
@@ -437,6 +581,47 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
         }
         Ok(())
     })
+}
+
+/// The CSV header of `record`: the time, then each effector's pose (position, orientation
+/// quaternion) and wrench, one column per component, named for the effector when there are
+/// several (`thumb_pose_x`).
+fn record_header(effectors: &[String]) -> String {
+    const COMPONENTS: [&str; 13] = [
+        "pose_x", "pose_y", "pose_z", "pose_qw", "pose_qx", "pose_qy", "pose_qz", "force_x",
+        "force_y", "force_z", "torque_x", "torque_y", "torque_z",
+    ];
+    let mut header = "time".to_string();
+    for name in effectors {
+        for component in COMPONENTS {
+            match effectors.len() {
+                1 => header += &format!(",{component}"),
+                _ => header += &format!(",{name}_{component}"),
+            }
+        }
+    }
+    header
+}
+
+/// The local time of day now, to the millisecond (`14:03:27.512`).
+fn clock_time() -> String {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    let seconds = now.as_secs() as libc::time_t;
+    // SAFETY: tm is plain data; localtime_r fills it from a valid time_t.
+    let mut tm: libc::tm = unsafe { std::mem::zeroed() };
+    // SAFETY: both pointers are valid for the call.
+    if unsafe { libc::localtime_r(&seconds, &mut tm) }.is_null() {
+        return format!("{}.{:03}", now.as_secs(), now.subsec_millis());
+    }
+    format!(
+        "{:02}:{:02}:{:02}.{:03}",
+        tm.tm_hour,
+        tm.tm_min,
+        tm.tm_sec,
+        now.subsec_millis()
+    )
 }
 
 #[derive(Args)]
@@ -451,7 +636,8 @@ pub struct RecordArgs {
 }
 
 /// `hapticctl record`: the device's telemetry as the bus carries it (ten rows a second):
-/// seconds since the start, pose (x, y, z, qw, qx, qy, qz per effector), force and torque.
+/// seconds since the start, then per effector its pose (x, y, z, qw, qx, qy, qz), force and
+/// torque, a column each.
 pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     use std::io::Write;
     if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= 86_400.0) {
@@ -462,8 +648,14 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     let path = client.device(&args.device)?;
     let cannot =
         |e: std::io::Error| Failure::failed(format!("cannot write {}: {e}", args.file.display()));
+    let effectors: Vec<String> = client.properties(&path, DEVICE)?["Effectors"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(words)
+        .collect();
     let mut out = std::io::BufWriter::new(std::fs::File::create(&args.file).map_err(cannot)?);
-    writeln!(out, "time,pose,force").map_err(cannot)?;
+    writeln!(out, "{}", record_header(&effectors)).map_err(cannot)?;
     let started = std::time::Instant::now();
     let rows = zbus::block_on(async {
         let mut stream = client.changes(Some(&path)).await?;
@@ -476,14 +668,17 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
             let (Some(pose), Some(force)) = (changed.get("Pose"), changed.get("Force")) else {
                 continue;
             };
-            writeln!(
-                out,
-                "{:.3},{},{}",
-                started.elapsed().as_secs_f64(),
-                words(&to_json(pose)),
-                words(&to_json(force))
-            )
-            .map_err(cannot)?;
+            let mut row = format!("{:.3}", started.elapsed().as_secs_f64());
+            let (pose, force) = (to_json(pose), to_json(force));
+            for k in 0..effectors.len() {
+                let numbers = numbers(&pose, 7 * k, 7)
+                    .into_iter()
+                    .chain(numbers(&force, 6 * k, 6));
+                for x in numbers {
+                    row += &format!(",{x}");
+                }
+            }
+            writeln!(out, "{row}").map_err(cannot)?;
             rows += 1;
         }
         Ok::<usize, Failure>(rows)
@@ -503,70 +698,152 @@ pub struct TopArgs {
     interval: f64,
 }
 
-/// The first three numbers of an array property (a position, a force).
-fn vector(v: &Value) -> [f64; 3] {
-    let n = |i: usize| v.get(i).and_then(Value::as_f64).unwrap_or(f64::NAN);
-    [n(0), n(1), n(2)]
+/// Numbers `from..from + n` of an array property (one effector's share of Pose or Force).
+fn numbers(v: &Value, from: usize, n: usize) -> Vec<f64> {
+    (from..from + n)
+        .map(|i| v.get(i).and_then(Value::as_f64).unwrap_or(f64::NAN))
+        .collect()
 }
 
-/// `hapticctl top`: each device's loop, refreshed (like pw-top): state, ticks, overruns,
-/// wake-up latency and compute time, the force felt and where the grip is.
+/// A whole number of microseconds from a statistics entry, for a narrow column.
+fn micros(s: &Value, key: &str) -> String {
+    s[key]
+        .as_f64()
+        .map_or("-".into(), |us| format!("{:.0}", us))
+}
+
+/// One refresh of `top`: the daemon, then a line per device and one per effector, each
+/// within 80 columns.
+fn top_screen(client: &Client) -> Result<String, Failure> {
+    let manager = client.properties(MANAGER_PATH, MANAGER)?;
+    let mut screen = format!(
+        "hapticd {}: scene {}   (q quits)\n{:<10} {:<12} {:>10} {:>5} {:>13} {:>12}\n",
+        words(&manager["Version"]),
+        words(&manager["ActiveScene"]),
+        "DEVICE",
+        "STATE",
+        "TICKS",
+        "OVER",
+        "WAIT p99/max",
+        "BUSY avg/max"
+    );
+    for d in client.devices(&manager)? {
+        let s = &d["Statistics"];
+        screen += &format!(
+            "{:<10} {:<12} {:>10} {:>5} {:>13} {:>12}\n",
+            words(&d["Identity"]),
+            words(&d["State"]),
+            words(&s["ticks"]),
+            words(&s["overruns"]),
+            format!(
+                "{}/{} µs",
+                micros(s, "wait_p99_us"),
+                micros(s, "wait_max_us")
+            ),
+            format!(
+                "{:.1}/{:.1}",
+                s["busy_mean_us"].as_f64().unwrap_or(f64::NAN),
+                s["busy_max_us"].as_f64().unwrap_or(f64::NAN)
+            ),
+        );
+        let effectors = d["Effectors"].as_array().cloned().unwrap_or_default();
+        for (k, name) in effectors.iter().enumerate() {
+            let f = numbers(&d["Force"], 6 * k, 3);
+            let p = numbers(&d["Pose"], 7 * k, 3);
+            screen += &format!(
+                "  {:<10} force {:>6.2} N   at {:+.4} {:+.4} {:+.4} m\n",
+                words(name),
+                (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt(),
+                p[0],
+                p[1],
+                p[2]
+            );
+        }
+        screen += &pending_line(&d);
+    }
+    Ok(screen)
+}
+
+/// The terminal in a mode where a key reaches hapticctl as it is pressed (not at Enter),
+/// restored when dropped; None when standard input is no terminal.
+struct KeyReader {
+    saved: libc::termios,
+}
+
+impl KeyReader {
+    fn new() -> Option<Self> {
+        // SAFETY: termios is plain data; tcgetattr fills it or fails.
+        let mut saved: libc::termios = unsafe { std::mem::zeroed() };
+        // SAFETY: a valid descriptor and a termios to fill.
+        if unsafe { libc::tcgetattr(libc::STDIN_FILENO, &mut saved) } != 0 {
+            return None;
+        }
+        let mut keys = saved;
+        keys.c_lflag &= !(libc::ICANON | libc::ECHO);
+        // SAFETY: a valid descriptor and settings derived from its own.
+        if unsafe { libc::tcsetattr(libc::STDIN_FILENO, libc::TCSANOW, &keys) } != 0 {
+            return None;
+        }
+        Some(Self { saved })
+    }
+
+    /// Wait up to `timeout` for a key; the key, if one was pressed.
+    fn key(&self, timeout: std::time::Duration) -> Option<u8> {
+        let mut poll = libc::pollfd {
+            fd: libc::STDIN_FILENO,
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        let ms = timeout.as_millis().min(i32::MAX as u128) as i32;
+        // SAFETY: one pollfd, and its count.
+        if unsafe { libc::poll(&mut poll, 1, ms) } <= 0 {
+            return None;
+        }
+        let mut key = 0u8;
+        // SAFETY: one byte read into one byte.
+        let n = unsafe { libc::read(libc::STDIN_FILENO, (&raw mut key).cast(), 1) };
+        (n == 1).then_some(key)
+    }
+}
+
+impl Drop for KeyReader {
+    fn drop(&mut self) {
+        // SAFETY: restoring the settings read at the start.
+        unsafe { libc::tcsetattr(libc::STDIN_FILENO, libc::TCSANOW, &self.saved) };
+    }
+}
+
+/// `hapticctl top`: the devices refreshed in place, like pw-top; `q` quits. Into a pipe or
+/// a file the refreshes follow one another.
 pub fn top(client: &Client, args: &TopArgs) -> Result<(), Failure> {
     use std::io::{IsTerminal, Write};
     if !(0.05..=60.0).contains(&args.interval) {
         return Err(Failure::usage("--interval must be from 0.05 to 60 seconds"));
     }
     let terminal = std::io::stdout().is_terminal();
+    let keys = (terminal && std::io::stdin().is_terminal())
+        .then(KeyReader::new)
+        .flatten();
+    let interval = std::time::Duration::from_secs_f64(args.interval);
     let mut frame = 0;
     while args.count.is_none_or(|n| frame < n) {
         if frame > 0 {
-            std::thread::sleep(std::time::Duration::from_secs_f64(args.interval));
+            match &keys {
+                Some(keys) => {
+                    if matches!(keys.key(interval), Some(b'q' | b'Q')) {
+                        break;
+                    }
+                }
+                None => std::thread::sleep(interval),
+            }
         }
-        let manager = client.properties(MANAGER_PATH, MANAGER)?;
         // On a terminal each refresh replaces the last; in a file they follow one another.
-        let mut screen = match (terminal, frame) {
-            (true, _) => "\x1b[H\x1b[2J".to_string(),
-            (false, 0) => String::new(),
-            (false, _) => "\n".to_string(),
+        let clear = match (terminal, frame) {
+            (true, _) => "\x1b[H\x1b[2J",
+            (false, 0) => "",
+            (false, _) => "\n",
         };
-        screen += &format!(
-            "hapticd {}: scene {}\n{:<12} {:<13} {:>9} {:>8} {:>20} {:>14} {:>8}  {}\n",
-            words(&manager["Version"]),
-            words(&manager["ActiveScene"]),
-            "DEVICE",
-            "STATE",
-            "TICKS",
-            "OVERRUNS",
-            "WAIT p50/p99/max µs",
-            "BUSY mean/max",
-            "FORCE N",
-            "GRIP m",
-        );
-        for d in client.devices(&manager)? {
-            let s = &d["Statistics"];
-            let [fx, fy, fz] = vector(&d["Force"]);
-            let [x, y, z] = vector(&d["Pose"]);
-            screen += &format!(
-                "{:<12} {:<13} {:>9} {:>8} {:>20} {:>14} {:>8.2}  {x:+.4} {y:+.4} {z:+.4}\n",
-                words(&d["Identity"]),
-                words(&d["State"]),
-                words(&s["ticks"]),
-                words(&s["overruns"]),
-                format!(
-                    "{}/{}/{}",
-                    words(&s["wait_p50_us"]),
-                    words(&s["wait_p99_us"]),
-                    words(&s["wait_max_us"])
-                ),
-                format!(
-                    "{:.1}/{:.1}",
-                    s["busy_mean_us"].as_f64().unwrap_or(f64::NAN),
-                    s["busy_max_us"].as_f64().unwrap_or(f64::NAN)
-                ),
-                (fx * fx + fy * fy + fz * fz).sqrt(),
-            );
-        }
-        print!("{screen}");
+        print!("{clear}{}", top_screen(client)?);
         let _ = std::io::stdout().flush();
         frame += 1;
     }

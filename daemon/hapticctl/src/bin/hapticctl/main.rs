@@ -9,6 +9,7 @@ mod pictures;
 mod render;
 mod scene;
 
+use std::ffi::OsString;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -45,7 +46,7 @@ enum Command {
     /// Run the thesis' closed-loop experiments on the simulated SPIDAR.
     #[command(subcommand)]
     Experiment(experiment::Command),
-    /// Step penalty scene files headless, or list and switch the daemon's scenes.
+    /// Step physics scene files (either engine) headless, or list and switch the daemon's scenes.
     #[command(subcommand)]
     Scene(scene::Command),
     /// Draw one frame of a scene file to a PNG file with Vulkan (no daemon needed).
@@ -66,6 +67,9 @@ enum Command {
     Bind(client::BindArgs),
     /// Re-read hapticd.yaml and rescan the mechanism plugins and descriptors.
     Reload,
+    /// Start the haptic loops again (forces ramped to zero first), applying what waits for
+    /// the next start (a bound mechanism, a changed Rate: `status` shows them as pending).
+    Restart,
     /// Print every change of the daemon's state as it happens (anyone may watch).
     Monitor(client::MonitorArgs),
     /// Record a device's telemetry from the bus to a CSV file (ten rows a second).
@@ -126,9 +130,35 @@ impl From<Diagnostics> for Failure {
     }
 }
 
+/// The command line with a `--json` given among the leading options (`hapticctl --json
+/// status`) moved behind the command, where the commands that print take it: like `--bus`,
+/// it may be written anywhere.
+fn json_anywhere(args: impl Iterator<Item = OsString>) -> Vec<OsString> {
+    let mut args: Vec<OsString> = args.collect();
+    let mut i = 1;
+    let mut json = false;
+    while let Some(arg) = args.get(i).and_then(|a| a.to_str()) {
+        match arg {
+            "--json" => {
+                args.remove(i);
+                json = true;
+            }
+            // Global options whose value is the next argument.
+            "--bus" | "--mechanism-dir" => i += 2,
+            _ if arg.starts_with('-') => i += 1,
+            _ => break,
+        }
+    }
+    if json {
+        args.push("--json".into());
+    }
+    args
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    hapticd_service::logging::init("hapticctl", false);
+    let cli = Cli::parse_from(json_anywhere(std::env::args_os()));
+    // What plugins say as they load is the daemon log's business, not a command's output.
+    hapticd_service::logging::init("hapticctl", hapticd_service::logging::Level::WARN);
     let catalog = if cli.mechanism_dirs.is_empty() {
         Catalog::from_env()
     } else {
@@ -150,6 +180,7 @@ fn main() -> ExitCode {
         Command::Calibrate(device) => connect().and_then(|c| client::calibrate(&c, &device)),
         Command::Bind(args) => connect().and_then(|c| client::bind(&c, &args)),
         Command::Reload => connect().and_then(|c| client::reload(&c)),
+        Command::Restart => connect().and_then(|c| client::restart(&c)),
         Command::Monitor(args) => connect().and_then(|c| client::monitor(&c, &args)),
         Command::Record(args) => connect().and_then(|c| client::record(&c, &args)),
         Command::Top(args) => connect().and_then(|c| client::top(&c, &args)),

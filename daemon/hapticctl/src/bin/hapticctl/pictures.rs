@@ -10,7 +10,7 @@ use std::rc::Rc;
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use hapticd_ipc::bus::Bus;
+use hapticd_ipc::bus::{Bus, has_owner};
 use hapticd_ipc::frame_ring::FrameRingReader;
 use hapticd_ipc::names::{RENDERER_BUS_NAME, RENDERER_INTERFACE, RENDERER_PATH, error_name};
 use winit::application::ApplicationHandler;
@@ -38,8 +38,9 @@ pub struct ViewArgs {
     /// Look down onto the scene at this angle, radians.
     #[arg(long, allow_negative_numbers = true)]
     elevation: Option<f64>,
-    /// Stand this far from what the camera looks at, metres.
-    #[arg(long)]
+    /// Stand this far from what the camera looks at, metres (a negative one reaches the
+    /// renderer, which says why it refuses it).
+    #[arg(long, allow_negative_numbers = true)]
     distance: Option<f64>,
 }
 
@@ -76,8 +77,7 @@ pub fn call_renderer<B>(bus: &Bus, method: &str, body: &B) -> Result<zbus::Messa
 where
     B: serde::Serialize + zbus::Type,
 {
-    let connection = zbus::block_on(bus.connection())
-        .map_err(|e| Failure::failed(format!("cannot reach the bus {bus:?}: {e}")))?;
+    let connection = renderer_connection(bus)?;
     zbus::block_on(connection.call_method(
         Some(RENDERER_BUS_NAME),
         RENDERER_PATH,
@@ -86,6 +86,25 @@ where
         body,
     ))
     .map_err(renderer_failure)
+}
+
+/// A connection to `bus`, where the renderer must be running (asked without starting it).
+fn renderer_connection(bus: &Bus) -> Result<zbus::Connection, Failure> {
+    let connection = zbus::block_on(bus.connection())
+        .map_err(|e| Failure::failed(format!("cannot reach the bus {bus:?}: {e}")))?;
+    match zbus::block_on(has_owner(&connection, RENDERER_BUS_NAME)) {
+        Ok(true) => Ok(connection),
+        Ok(false) => Err(renderer_not_running()),
+        Err(e) => Err(renderer_failure(e)),
+    }
+}
+
+/// The renderer is not on the bus.
+fn renderer_not_running() -> Failure {
+    Failure::failed(
+        "hapticd-render is not running (it comes with hapticd.service; see \
+         `systemctl status hapticd-render`)",
+    )
 }
 
 /// What a failed call to the renderer tells the user; refused options are usage errors.
@@ -97,10 +116,7 @@ fn renderer_failure(e: zbus::Error) -> Failure {
                 zbus::fdo::Error::ServiceUnknown(_) | zbus::fdo::Error::NameHasNoOwner(_)
             ) =>
         {
-            Failure::failed(
-                "hapticd-render is not running (it comes with hapticd.service; see \
-                 `systemctl status hapticd-render`)",
-            )
+            renderer_not_running()
         }
         zbus::Error::MethodError(name, message, _) => {
             let kind = error_name(name.as_str()).unwrap_or(name.as_str());
@@ -145,8 +161,7 @@ fn open_stream(
     bus: &Bus,
     args: &ViewerArgs,
 ) -> Result<(zbus::Connection, FrameRingReader), Failure> {
-    let connection = zbus::block_on(bus.connection())
-        .map_err(|e| Failure::failed(format!("cannot reach the bus {bus:?}: {e}")))?;
+    let connection = renderer_connection(bus)?;
     let mut options = args.view.options();
     options.insert("rate", Variant::from(args.rate));
     let reply = zbus::block_on(connection.call_method(

@@ -23,7 +23,8 @@ const SKY: [f32; 4] = [0.93, 0.95, 0.98, 1.0];
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Scene file: static (`shapes:`) or physics (`bodies:`, either engine).
+    /// Scene file: static (`shapes:`) or physics (`bodies:`, either engine), or the name of
+    /// an installed scene.
     scene: PathBuf,
     /// Where to write the picture (PNG).
     #[arg(long)]
@@ -188,7 +189,7 @@ pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
             args.at
         )));
     }
-    let (mut scenery, mut camera) = scenery(&args.scene, args.at)?;
+    let (mut scenery, mut camera) = scenery(&crate::scene::scene_file(&args.scene)?, args.at)?;
     match (&args.mechanism, &args.force) {
         (Some(name), force) => {
             let force = force

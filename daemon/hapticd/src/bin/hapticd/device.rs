@@ -7,9 +7,9 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread::JoinHandle;
 
-use hapticd::catalog::Catalog;
+use hapticd::catalog::{Catalog, Entry};
 use hapticd::config::Config;
-use hapticd::control::{DeviceHandle, DeviceSetup, Telemetry};
+use hapticd::control::{DeviceHandle, DeviceSetup, Fixed, Telemetry};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::scenes;
 use hapticd::state::{DeviceRecord, StateDir};
@@ -38,6 +38,8 @@ pub struct Common<'a> {
     pub config: &'a Config,
     /// The installed mechanisms.
     pub catalog: &'a Catalog,
+    /// What the catalog found at start.
+    pub entries: &'a [Entry],
     /// `--sim MECH`: the mechanism to simulate, whatever is saved or configured.
     pub sim: Option<&'a str>,
     /// `--rate`: ticks per second, whatever is saved or configured.
@@ -177,6 +179,10 @@ pub fn start(
             record,
             defaults,
             world,
+            fixed: Fixed {
+                mechanism: common.sim.is_some(),
+                rate: common.rate.is_some(),
+            },
         },
         command_tx,
     ));
@@ -214,7 +220,7 @@ fn mechanism(
         (None, Some(bound)) => bound.clone(),
         (None, None) => configured.clone(),
     };
-    match common.catalog.resolve(&name) {
+    match common.catalog.resolve_among(common.entries, &name) {
         Ok(m) => Ok((name, m)),
         // A binding to a mechanism since removed must not keep the device from starting: the
         // binding stays saved (the plugin may come back) and the configured one drives.
@@ -225,7 +231,7 @@ fn mechanism(
                  {configured:?} drives it until it can: {e}",
                 file.map_or("memory".into(), |f| f.display().to_string())
             );
-            let m = common.catalog.resolve(configured)?;
+            let m = common.catalog.resolve_among(common.entries, configured)?;
             Ok((configured.clone(), m))
         }
         Err(e) => Err(e.to_string()),

@@ -44,6 +44,8 @@ fn run(cli: Cli) -> Result<Ending, String> {
     let (config, config_path) = configuration(&cli)?;
     let mechanism_dirs = (!cli.mechanism_dirs.is_empty()).then(|| cli.mechanism_dirs.clone());
     let catalog = control::catalog(&config, mechanism_dirs.as_deref());
+    // One look through the mechanism directories serves every device and the bus.
+    let entries = catalog.entries();
     let claim = claim_bus(&cli)?;
     // Before any amplifier is opened too: whatever ends this process from here on, the
     // guardian zeroes what it drove.
@@ -60,6 +62,7 @@ fn run(cli: Cli) -> Result<Ending, String> {
     let common = Common {
         config: &config,
         catalog: &catalog,
+        entries: &entries,
         sim: cli.sim.as_deref(),
         rate: cli.rate,
         scene: cli.scene.as_deref().unwrap_or(&config.scene),
@@ -81,8 +84,8 @@ fn run(cli: Cli) -> Result<Ending, String> {
     );
     let daemon = Arc::new(Daemon::new(
         config,
-        config_path,
-        mechanism_dirs,
+        (config_path, mechanism_dirs),
+        &entries,
         (devices[0].scene.clone(), scene_file),
         devices.iter().map(|d| d.handle.clone()).collect(),
     ));
@@ -265,7 +268,7 @@ fn main() -> ExitCode {
         return guardian::run();
     }
     let cli = Cli::parse();
-    hapticd_service::logging::init("hapticd", false);
+    hapticd_service::logging::init("hapticd", hapticd_service::logging::Level::INFO);
     match run(cli) {
         Ok(Ending::Done) => ExitCode::SUCCESS,
         Ok(Ending::Restart) => {

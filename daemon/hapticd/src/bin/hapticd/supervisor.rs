@@ -22,7 +22,8 @@ use crate::signals::{RELOAD, STOP};
 pub enum Ending {
     /// Asked to stop, or its time was up.
     Done,
-    /// An amplifier hapticd does not drive was plugged in: start again, with it.
+    /// Start again: an amplifier hapticd does not drive was plugged in, or a client asked
+    /// (Manager.Restart) to apply what waits for the next start.
     Restart,
 }
 
@@ -41,7 +42,7 @@ pub struct Supervisor<'a> {
 }
 
 impl Supervisor<'_> {
-    /// Watch until asked to stop, the time is up, or an amplifier arrives.
+    /// Watch until asked to stop or to restart, the time is up, or an amplifier arrives.
     pub fn run(mut self) -> Ending {
         let started = Instant::now();
         let watchdog = sd_notify::watchdog_interval().map(|w| w / 2);
@@ -68,6 +69,10 @@ impl Supervisor<'_> {
             {
                 let _ = sd_notify::notify("WATCHDOG=1");
                 last_ping = Instant::now();
+            }
+            if self.daemon.restart_requested() {
+                tracing::info!("starting again, as asked: pending changes apply");
+                return Ending::Restart;
             }
             if RELOAD.swap(false, Ordering::AcqRel) {
                 match self.daemon.reload() {

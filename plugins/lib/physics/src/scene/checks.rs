@@ -421,19 +421,12 @@ pub(super) fn bodies(
 }
 
 /// The `pointer:` solid, centred at the origin, of a scene for `pointers` pointers, with
-/// its primitive; None when the file gives none (an error if it takes pointers) or it is
-/// wrong.
+/// its primitive; None when there is none or it is wrong.
 pub(super) fn pointer(
     f: &mut Findings,
     raw: &RawScene,
     pointers: usize,
 ) -> Option<(Polyhedron, Primitive)> {
-    if pointers > 0 && raw.pointer.is_none() {
-        f.error(
-            "",
-            format!("{pointers} pointers, but the scene has no pointer: shape"),
-        );
-    }
     if pointers > MAX_POINTERS {
         f.error("pointer", format!("at most {MAX_POINTERS} pointers"));
     }

@@ -59,7 +59,7 @@
 //!       - { box: [0.01, 0.03, 0.03], position: [0.02, 0, 0] }
 //!       - { box: [0.05, 0.01, 0.03], position: [0, 0.02, 0] }
 //!     position: [0.1, 0.015, 0]
-//! pointer:                     # optional: scenes without one take no pointers
+//! pointer:                     # optional: without one each pointer is a ball of 1 cm radius
 //!   box: [0.01, 0.01, 0.01]    # each pointer: this solid (or a hull), centred at the grip
 //!   coupling:                  # optional (thesis 4.1.2): the solid is a body of the world,
 //!     stiffness: 400           #   tied to the grip by a spring (N/m) and damper (N·s/m),
@@ -137,7 +137,7 @@ pub use checks::{
 };
 pub use penalty::PenaltyScene;
 pub use rapier::{Feedback, RapierScene};
-use schema::RawScene;
+use schema::{RawPointer, RawScene};
 
 /// Which simulator steps a scene file's world (`engine:`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -165,7 +165,12 @@ impl SceneFile {
     /// Parse scene `text` for `pointers` pointers; `path` names it in diagnostics, which
     /// come all at once, each at its line and column.
     pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
-        let (raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let (mut raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        // A scene that names no pointer solid gets a fingertip, so that every scene runs on
+        // every device.
+        if pointers > 0 {
+            raw.pointer.get_or_insert_with(RawPointer::fingertip);
+        }
         let locate = |field: &str| map.find(field);
         let mut f = Findings::new(path, &locate);
         let (engine, penalty) = checks::scene_keys(&mut f, &raw);
@@ -267,9 +272,15 @@ mod tests {
         for (name, bodies) in [("cube-drop.yaml", 2), ("stack.yaml", 14), ("top.yaml", 2)] {
             let scene = PenaltyScene::load(&shipped(name), 0).unwrap();
             assert_eq!(scene.world.bodies.len(), bodies, "{name}");
+            // Without a pointer of its own, each pointer is a fingertip: a ball of 1 cm.
+            let touched = PenaltyScene::load(&shipped(name), 1).unwrap();
+            assert_eq!(touched.world.bodies.len(), bodies + 1, "{name}");
+            let tip = &touched.world.bodies[bodies];
+            let ball = 4.0 / 3.0 * std::f64::consts::PI * 0.01f64.powi(3) * 1000.0;
             assert!(
-                PenaltyScene::load(&shipped(name), 1).is_err(),
-                "{name} has no pointer"
+                (tip.mass - ball).abs() < 0.05 * ball,
+                "{name}: {}",
+                tip.mass
             );
         }
     }

@@ -159,6 +159,20 @@ pub(super) struct RawPointer {
     pub(super) density: f64,
 }
 
+impl RawPointer {
+    /// The pointer of a scene that names none: a ball of 1 cm radius, water's density,
+    /// rendered through its proxy.
+    pub(super) fn fingertip() -> Self {
+        Self {
+            size: None,
+            hull: None,
+            sphere: Some(0.01),
+            coupling: None,
+            density: water(),
+        }
+    }
+}
+
 /// `pointer.coupling:`.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
