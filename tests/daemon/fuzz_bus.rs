@@ -337,7 +337,12 @@ fn random_calls_of_every_method_and_property_leave_the_daemon_answering_within_l
             found.iter().any(|m| matches!(m, Member::Method { .. })),
             "{interface} has no methods"
         );
-        targets.extend(found.into_iter().map(|m| (path, interface, m)));
+        // Restart ends this daemon by design (the new image answers after a while): its
+        // own test covers it.
+        let fuzzed = found
+            .into_iter()
+            .filter(|m| !matches!(m, Member::Method { name, .. } if name == "Restart"));
+        targets.extend(fuzzed.map(|m| (path, interface, m)));
     }
     // Another seed draws other cases: HAPTICD_FUZZ_SEED=N.
     let seed = std::env::var("HAPTICD_FUZZ_SEED")

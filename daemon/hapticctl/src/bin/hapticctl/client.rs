@@ -402,13 +402,15 @@ const RESTART_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(20);
 /// `hapticctl restart`: ask hapticd to start its loops again, and wait until it is back on
 /// the bus under a new connection with every device's loop running again.
 pub fn restart(client: &Client) -> Result<(), Failure> {
+    // The connection that owns the name: a new one once hapticd runs again.
     let owner = |client: &Client| {
-        let reply = client.call(
+        let reply = zbus::block_on(client.connection.call_method(
+            Some("org.freedesktop.DBus"),
             "/org/freedesktop/DBus",
-            "org.freedesktop.DBus",
+            Some("org.freedesktop.DBus"),
             "GetNameOwner",
             &(BUS_NAME,),
-        );
+        ));
         reply
             .ok()
             .and_then(|m| m.body().deserialize::<String>().ok())
