@@ -237,3 +237,22 @@ fn without_a_vulkan_driver_render_says_why_and_writes_nothing() {
     );
     assert!(!out.exists());
 }
+
+/// Without a display `view` says what to set (and how to get a picture instead), before it
+/// asks a renderer for anything, and names no place in a library's source.
+#[test]
+fn without_a_display_view_says_what_to_set() {
+    let out = hapticctl()
+        .args(["--bus", "unix:path=/nonexistent/bus", "view"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("no display to open a window on: set WAYLAND_DISPLAY or DISPLAY"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains(".rs:"), "{stderr}");
+}

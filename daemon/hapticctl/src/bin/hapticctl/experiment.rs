@@ -335,7 +335,7 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
         }
     }
     let scene = match &args.scene {
-        Some(path) => hapticd_core::diagnostics::read_text(&crate::scene::scene_file(path)?)?,
+        Some(path) => hapticd_core::diagnostics::read_text(&crate::scene_file::resolve(path)?)?,
         None => push_phase::SCENE.to_string(),
     };
     let setup = push_phase::Setup {

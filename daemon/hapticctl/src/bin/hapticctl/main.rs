@@ -8,6 +8,7 @@ mod mechanism;
 mod pictures;
 mod render;
 mod scene;
+mod scene_file;
 
 use std::ffi::OsString;
 use std::path::PathBuf;

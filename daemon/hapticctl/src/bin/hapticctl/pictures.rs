@@ -319,11 +319,20 @@ impl ApplicationHandler for Viewer<'_> {
 
 /// `hapticctl view`: a window showing the daemon's world live.
 pub fn view(args: &ViewerArgs, bus: &Bus) -> Result<(), Failure> {
+    let no_display = "no display to open a window on: set WAYLAND_DISPLAY or DISPLAY, or write \
+                      a picture with `hapticctl snapshot FILE.png`";
+    if ["WAYLAND_DISPLAY", "DISPLAY"]
+        .iter()
+        .all(|v| std::env::var_os(v).is_none_or(|d| d.is_empty()))
+    {
+        return Err(Failure::failed(no_display));
+    }
     let stream = open_stream(bus, args)?;
     let event_loop = EventLoop::new().map_err(|e| {
-        Failure::failed(format!(
-            "no display to open a window on (Wayland or X11): {e}"
-        ))
+        // winit names the place in its own source where it failed: only the reason is ours.
+        let why = e.to_string();
+        let reason = why.rsplit_once(": ").map_or(why.as_str(), |(_, r)| r);
+        Failure::failed(format!("{no_display} ({reason})"))
     })?;
     let mut viewer = Viewer {
         bus,

@@ -189,7 +189,7 @@ pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
             args.at
         )));
     }
-    let (mut scenery, mut camera) = scenery(&crate::scene::scene_file(&args.scene)?, args.at)?;
+    let (mut scenery, mut camera) = scenery(&crate::scene_file::resolve(&args.scene)?, args.at)?;
     match (&args.mechanism, &args.force) {
         (Some(name), force) => {
             let force = force

@@ -23,8 +23,7 @@ use crate::Failure;
 use crate::client::{self, Client};
 use crate::mechanism::{Output, print, save};
 use crate::render::Frames;
-use hapticd::config::Config;
-use hapticd::layout::Layout;
+use crate::scene_file;
 use hapticd_ipc::bus::Bus;
 use hapticd_render::scenery::Scenery;
 
@@ -120,28 +119,11 @@ enum Model {
     Point,
 }
 
-/// The scene file `arg` names: a path as given, or the name of an installed scene (`blocks`),
-/// looked up in the scene directories of the installation's configuration as the daemon
-/// looks names up.
-pub fn scene_file(arg: &Path) -> Result<PathBuf, Failure> {
-    let name = match arg.to_str() {
-        Some(name) if hapticd::scenes::is_name(name) && !arg.exists() => name,
-        _ => return Ok(arg.to_path_buf()),
-    };
-    let layout = Layout::of_this_program();
-    let config = layout.config_file();
-    // A configuration that does not load is the daemon's to report; its defaults serve here.
-    let dirs = Config::load(&config)
-        .map(|c| c.scene_dirs)
-        .unwrap_or_else(|_| layout.scene_dirs());
-    hapticd::scenes::locate(name, &dirs).map_err(|e| Failure::usage(e.to_string()))
-}
-
 /// Run one `scene` subcommand; `list` and `switch` ask the daemon on `bus`.
 pub fn run(command: Command, bus: &Bus) -> Result<(), Failure> {
     match command {
         Command::Run(mut args) => {
-            args.file = scene_file(&args.file)?;
+            args.file = scene_file::resolve(&args.file)?;
             run_scene(&args)
         }
         Command::List(output) => client::scenes(&Client::connect(bus)?, &output),
