@@ -1831,6 +1831,33 @@ fn a_snapshot_is_a_picture_of_the_running_scene_and_bad_options_are_refused() {
         );
         assert!(message.contains(key), "{message}");
     }
+    // A camera aimed far off sees sky; a target of two numbers is refused by the renderer.
+    let aimed = dir.join("aimed.png");
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args([
+            "snapshot", "--width", "200", "--height", "100", "--target", "0,60,-60",
+        ])
+        .arg(&aimed)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let (here, away) = (
+        drawn_share(&written),
+        drawn_share(&Picture::read_png(&aimed).unwrap()),
+    );
+    assert!(
+        away < 0.5 * here,
+        "drawn {here} at the scene, {away} aimed away"
+    );
+    let two = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["snapshot", "--target", "1,2"])
+        .arg(dir.join("none.png"))
+        .output()
+        .unwrap();
+    assert_eq!(two.status.code(), Some(2), "{two:?}");
+    assert!(String::from_utf8_lossy(&two.stderr).contains("target is three numbers"));
     for args in [&["--width", "0"][..], &["--distance", "-1"]] {
         let refused = hapticctl()
             .arg(format!("--bus={}", bus.address))

@@ -24,7 +24,7 @@ use zbus::Variant;
 use crate::Failure;
 
 /// Size and camera of a picture, as the renderer takes them.
-#[derive(Args, Clone, Copy)]
+#[derive(Args, Clone)]
 pub struct ViewArgs {
     /// Width, pixels (1–8192).
     #[arg(long, default_value_t = 640)]
@@ -42,6 +42,14 @@ pub struct ViewArgs {
     /// renderer, which says why it refuses it).
     #[arg(long, allow_negative_numbers = true)]
     distance: Option<f64>,
+    /// Look at this point, metres: x,y,z.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    target: Option<Vec<f64>>,
 }
 
 impl ViewArgs {
@@ -59,6 +67,10 @@ impl ViewArgs {
             if let Some(x) = value {
                 options.insert(key, Variant::from(x));
             }
+        }
+        // The renderer checks that it is three numbers and says so.
+        if let Some(target) = &self.target {
+            options.insert("target", Variant::from(target.clone()));
         }
         options
     }
