@@ -1131,6 +1131,7 @@ fn an_unprivileged_client_may_read_but_not_change() {
         &["string:static"],
     );
     denied(MANAGER, "org.hapticd.Hapticd1.Manager.ReloadPlugins", &[]);
+    denied(MANAGER, "org.hapticd.Hapticd1.Manager.Restart", &[]);
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000");
 }
 
@@ -1913,30 +1914,32 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
     bus.snapshot(&[]).unwrap();
     // Statistics reach the bus at 10 Hz: count from a snapshot no older than this moment.
     std::thread::sleep(Duration::from_millis(300));
-    // What the machine alone costs the loop over as long as the kill takes (a virtual
-    // machine's host steals a tick now and then, in bursts).
-    let quiet_from = overruns();
-    let quiet_started = Instant::now();
-    std::thread::sleep(Duration::from_millis(600));
-    let quiet = overruns() - quiet_from;
-    let quiet_for = quiet_started.elapsed();
+    // What the machine alone costs the loop in a window as long as the kill's (a virtual
+    // machine's host steals ticks now and then, in bursts): the worst of several windows,
+    // before the kill and after it.
+    const WINDOW: Duration = Duration::from_millis(350);
+    let window = || {
+        let from = overruns();
+        std::thread::sleep(WINDOW);
+        overruns() - from
+    };
+    let mut worst = (0..4).map(|_| window()).fold(0.0, f64::max);
     let (before, ticked) = (overruns(), ticks());
     let force = bus.get(DEVICE, "Force");
-    let killed_at = Instant::now();
     renderer.kill_9();
     let error = bus.snapshot(&[]).unwrap_err();
     assert!(error.contains("org.hapticd.Renderer1"), "{error}");
-    std::thread::sleep(Duration::from_millis(300));
+    std::thread::sleep(WINDOW);
     assert!(ticks() > ticked, "the loop stopped");
     let during = overruns() - before;
-    let alone = quiet * killed_at.elapsed().as_secs_f64() / quiet_for.as_secs_f64();
-    assert!(
-        during <= 2.0 * alone + 1.0,
-        "{during} overruns while the renderer died, {alone:.0} without: {}",
-        daemon.log()
-    );
     assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
     assert_eq!(bus.get(DEVICE, "Force"), force, "the force changed");
+    worst = (0..3).map(|_| window()).fold(worst, f64::max);
+    assert!(
+        during <= 2.0 * worst + 2.0,
+        "{during} overruns while the renderer died, at most {worst} in a window without: {}",
+        daemon.log()
+    );
     // Started again as systemd's Restart= does: it finds hapticd's world by itself.
     let _again = Renderer::start(&bus, &dir, &[]);
     let picture = bus
