@@ -1990,8 +1990,11 @@ impl Xvfb {
     fn start(dir: &Path, width: u32, height: u32) -> Xvfb {
         let fbdir = dir.join("xvfb");
         std::fs::create_dir_all(&fbdir).unwrap();
-        // A display number of this process's own, clear of a desktop's :0 and :1.
-        let display = format!(":{}", 100 + std::process::id() % 20_000);
+        // A display number of this process's own (a few, for its tests at once), clear of a
+        // desktop's :0 and :1.
+        static STARTED: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let nth = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 8;
+        let display = format!(":{}", 100 + (std::process::id() % 5_000) * 8 + nth);
         let child = Command::new("Xvfb")
             .arg(&display)
             .args([
@@ -2062,6 +2065,55 @@ impl Drop for Xvfb {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// `view --fullscreen` fills the screen even where no window manager runs (a kiosk's bare X
+/// server): the frames, scaled, reach its far corner.
+#[test]
+fn hapticctl_view_fills_a_screen_without_a_window_manager() {
+    let dir = scratch("view-fullscreen");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    let screen = Xvfb::start(&dir, 640, 480);
+    let mut viewer = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["view", "--fullscreen", "--width", "160", "--height", "120"])
+        .env("DISPLAY", &screen.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Share of the bottom-right quarter of the screen (outside a window of the frames' own
+    // size) that is still the bare screen's black.
+    let black_corner = |shot: &Picture| {
+        let (w, h) = (shot.width as usize, shot.height as usize);
+        let corner: Vec<&[u8]> = shot
+            .rgba
+            .chunks(4)
+            .enumerate()
+            .filter(|(i, _)| i % w >= w / 2 && i / w >= h / 2)
+            .map(|(_, p)| p)
+            .collect();
+        let black = corner.iter().filter(|p| p[..3] == [0, 0, 0]).count();
+        black as f64 / corner.len() as f64
+    };
+    let started = Instant::now();
+    while black_corner(&screen.screenshot()) > 0.5 {
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the window never reached the screen's far corner"
+        );
+        assert!(
+            viewer.try_wait().unwrap().is_none(),
+            "hapticctl view exited"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let _ = viewer.kill();
+    let _ = viewer.wait();
 }
 
 #[test]

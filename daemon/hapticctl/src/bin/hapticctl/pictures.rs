@@ -261,7 +261,19 @@ impl ApplicationHandler for Viewer<'_> {
             .with_title("hapticd")
             .with_inner_size(PhysicalSize::new(width, height));
         if self.args.fullscreen {
-            attributes = attributes.with_fullscreen(Some(Fullscreen::Borderless(None)));
+            // The window manager's full screen, and the monitor's size and place as well: a
+            // kiosk's X server may run no window manager to honour the first.
+            attributes = attributes
+                .with_decorations(false)
+                .with_fullscreen(Some(Fullscreen::Borderless(None)));
+            if let Some(monitor) = event_loop
+                .primary_monitor()
+                .or_else(|| event_loop.available_monitors().next())
+            {
+                attributes = attributes
+                    .with_inner_size(monitor.size())
+                    .with_position(monitor.position());
+            }
         }
         let window = match event_loop.create_window(attributes) {
             Ok(w) => Rc::new(w),
