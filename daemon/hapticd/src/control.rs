@@ -635,17 +635,18 @@ impl Daemon {
         for problem in problems {
             tracing::warn!("{problem}");
         }
-        let scene = (config.scene != lock(&self.inner).config.scene).then(|| config.scene.clone());
-        let mut inner = lock(&self.inner);
-        inner.config = config;
-        inner.mechanisms = mechanisms;
-        drop(inner);
-        match scene {
-            Some(scene) => {
-                let dirs = lock(&self.inner).config.scene_dirs.clone();
-                let file = crate::scenes::file_of(&scene, None, &dirs);
-                self.swap_in(&scene, file)
-            }
+        let changed = config.scene != lock(&self.inner).config.scene;
+        let switch_to = changed.then(|| {
+            let file = crate::scenes::file_of(&config.scene, None, &config.scene_dirs);
+            (config.scene.clone(), file)
+        });
+        {
+            let mut inner = lock(&self.inner);
+            inner.config = config;
+            inner.mechanisms = mechanisms;
+        }
+        match switch_to {
+            Some((scene, file)) => self.swap_in(&scene, file),
             None => Ok(()),
         }
     }
