@@ -114,7 +114,7 @@ fn inspect_reports_validity_and_warnings() {
     assert_eq!(code, 1);
     assert!(
         stderr.contains(&format!(
-            "{}:4:1: error: unknown field `speed`",
+            "{}:4:1: error: speed: unknown key",
             broken.display()
         )),
         "{stderr}"

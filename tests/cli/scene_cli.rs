@@ -169,7 +169,7 @@ fn a_scene_file_with_an_unknown_key_is_refused_with_its_line_and_column() {
     let message = String::from_utf8_lossy(&output.stderr);
     assert!(
         message.starts_with(&format!(
-            "{}:8:1: error: unknown field `speed`",
+            "{}:8:1: error: speed: unknown key",
             file.display()
         )),
         "{message}"

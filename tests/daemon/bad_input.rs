@@ -284,7 +284,7 @@ fn static_scenes_hand_scripts_and_configurations_are_checked_to_their_place() {
         (
             "- hold: { seconds: 0.5 }",
             "- hold: { seconds: 0.5, colour: red }",
-            "unknown field `colour`",
+            "colour: unknown key",
         ),
         (
             "- hold: { seconds: 0.5 }",

@@ -241,7 +241,7 @@ fn a_bad_configuration_is_refused_with_its_place() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains(&format!(
-            "{}:3:3: error: unknown field `speed`",
+            "{}:3:3: error: realtime.speed: unknown key",
             config.display()
         )),
         "{stderr}"

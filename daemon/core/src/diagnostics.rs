@@ -353,18 +353,53 @@ pub fn read_text(file: &Path) -> Result<String, Diagnostics> {
     })
 }
 
+/// A YAML text read into its type, with what its checks need to locate and sort their
+/// findings.
+pub struct Parsed<T> {
+    /// The value. When `schema` is not empty, some fields hold stand-ins (zero, empty text)
+    /// for what was mistaken: good for checking the rest, never for use.
+    pub value: T,
+    /// Where each field path begins.
+    pub map: YamlMap,
+    /// The schema mistakes read past: unknown and missing keys, wrong lengths and types.
+    pub schema: Vec<Diagnostic>,
+}
+
+impl<T> Parsed<T> {
+    /// The value, if no schema mistake was found; otherwise every one of them. For
+    /// formats that check nothing more.
+    pub fn strict(self) -> Result<(T, YamlMap), Diagnostics> {
+        if self.schema.is_empty() {
+            Ok((self.value, self.map))
+        } else {
+            Err(Diagnostics {
+                diagnostics: self.schema,
+            })
+        }
+    }
+}
+
 /// Parse YAML `text` (named `file` in findings) into `T`, with the map of its field paths
-/// for locating the findings of later checks.
-pub fn parse_yaml<T: DeserializeOwned>(
-    text: &str,
-    file: &Path,
-) -> Result<(T, YamlMap), Diagnostics> {
-    let value = serde_saphyr::from_str(text).map_err(|e| Diagnostics::yaml(file, &e))?;
-    Ok((value, YamlMap::new(text)))
+/// for locating the findings of later checks. A text the YAML library rejects is read
+/// again by the schema pass, so that every unknown key, wrong length and wrong type is
+/// reported, not the first; only a text that is not YAML at all fails here.
+pub fn parse_yaml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<Parsed<T>, Diagnostics> {
+    let (value, schema) = match serde_saphyr::from_str(text) {
+        Ok(value) => (value, Vec::new()),
+        Err(e) => match crate::yaml_schema::parse(text, file) {
+            Some((value, schema)) if !schema.is_empty() => (value, schema),
+            _ => return Err(Diagnostics::yaml(file, &e)),
+        },
+    };
+    Ok(Parsed {
+        value,
+        map: YamlMap::new(text),
+        schema,
+    })
 }
 
 /// [`read_text`] then [`parse_yaml`].
-pub fn load_yaml<T: DeserializeOwned>(file: &Path) -> Result<(T, YamlMap), Diagnostics> {
+pub fn load_yaml<T: DeserializeOwned>(file: &Path) -> Result<Parsed<T>, Diagnostics> {
     parse_yaml(&read_text(file)?, file)
 }
 
@@ -479,6 +514,8 @@ pub struct Findings<'a> {
     file: &'a Path,
     locate: &'a dyn Fn(&str) -> Option<Position>,
     list: Vec<Diagnostic>,
+    /// Fields whose values are stand-ins for a schema mistake: checks of them say nothing.
+    stand_ins: Vec<String>,
 }
 
 impl<'a> Findings<'a> {
@@ -488,10 +525,40 @@ impl<'a> Findings<'a> {
             file,
             locate,
             list: Vec::new(),
+            stand_ins: Vec::new(),
+        }
+    }
+
+    /// Findings about `file` that begin with the schema mistakes of [`Parsed::schema`];
+    /// the checks of a field one of them is about, or of anything inside it, are dropped
+    /// (they would be about its stand-in).
+    pub fn after_schema(
+        file: &'a Path,
+        locate: &'a dyn Fn(&str) -> Option<Position>,
+        schema: Vec<Diagnostic>,
+    ) -> Self {
+        let stand_ins = schema
+            .iter()
+            .filter(|d| !d.field.is_empty())
+            .map(|d| d.field.clone())
+            .collect();
+        Self {
+            file,
+            locate,
+            list: schema,
+            stand_ins,
         }
     }
 
     fn push(&mut self, severity: Severity, field: String, message: String) {
+        let within = |s: &String| {
+            field.strip_prefix(s.as_str()).is_some_and(|rest| {
+                rest.is_empty() || rest.starts_with('.') || rest.starts_with('[')
+            })
+        };
+        if self.stand_ins.iter().any(within) {
+            return;
+        }
         let position = (self.locate)(&field);
         self.list.push(Diagnostic {
             severity,

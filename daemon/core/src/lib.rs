@@ -28,3 +28,4 @@ pub mod stats;
 pub mod sync;
 pub mod transport;
 pub mod world_state;
+mod yaml_schema;

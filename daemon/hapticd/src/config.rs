@@ -149,13 +149,18 @@ impl Config {
 
     /// Parse and check configuration `text`; `path` names it in diagnostics.
     pub fn parse(text: &str, path: &Path) -> Result<Config, Diagnostics> {
-        let (config, map) = if text.trim().is_empty() {
-            (Config::default(), YamlMap::default())
+        let parsed = if text.trim().is_empty() {
+            diagnostics::Parsed {
+                value: Config::default(),
+                map: YamlMap::default(),
+                schema: Vec::new(),
+            }
         } else {
             diagnostics::parse_yaml(text, path)?
         };
+        let (config, map) = (parsed.value, parsed.map);
         let locate = |field: &str| map.find(field);
-        let mut f = Findings::new(path, &locate);
+        let mut f = Findings::after_schema(path, &locate, parsed.schema);
         config.check_into(&mut f);
         f.finish()?;
         Ok(config)
@@ -211,7 +216,7 @@ mod tests {
         };
         let e = parse("realtime:\n  rate: 1000\n  prio: 3\n");
         assert!(
-            e.starts_with("h.yaml:3:3: error: unknown field `prio`"),
+            e.starts_with("h.yaml:3:3: error: realtime.prio: unknown key"),
             "{e}"
         );
         let e = parse("realtime:\n  priority: 0\n  rate: 50000\nsafety:\n  max_force: .nan\n");

@@ -40,7 +40,7 @@ use hapticd_plugin_api::{HAPTICD_NAME_CAPACITY, HapticdEffector, HapticdString, 
 use serde::Deserialize;
 
 use super::Mechanism;
-use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use crate::diagnostics::{self, Diagnostics, Findings};
 
 /// λ when the descriptor gives none: small enough to keep forces accurate, large enough to
 /// keep tensions continuous across the edge of the complete region.
@@ -105,9 +105,10 @@ pub fn load(path: &Path) -> Result<Mechanism, Diagnostics> {
 
 /// Parse and validate descriptor `text`; `path` names it in diagnostics.
 pub fn parse(text: &str, path: &Path) -> Result<Mechanism, Diagnostics> {
-    let (raw, map): (RawDescriptor, YamlMap) = diagnostics::parse_yaml(text, path)?;
+    let parsed = diagnostics::parse_yaml::<RawDescriptor>(text, path)?;
+    let (raw, map) = (parsed.value, parsed.map);
     let locate = |field: &str| map.find(field);
-    let mut f = Findings::new(path, &locate);
+    let mut f = Findings::after_schema(path, &locate, parsed.schema);
 
     let mut effectors = Vec::with_capacity(raw.end_effectors.len());
     for (i, e) in raw.end_effectors.iter().enumerate() {
@@ -143,8 +144,11 @@ pub fn parse(text: &str, path: &Path) -> Result<Mechanism, Diagnostics> {
     }
 
     let mut strings = Vec::with_capacity(raw.strings.len());
+    // A string left out renumbers the rest: the mechanism's checks would name them wrong.
+    let mut left_out = false;
     for (i, s) in raw.strings.iter().enumerate() {
         let Some(effector) = index_of(&s.effector) else {
+            left_out = true;
             let known: Vec<_> = raw.end_effectors.iter().map(|e| &e.name).collect();
             f.error(
                 format!("strings[{i}].effector"),
@@ -170,8 +174,10 @@ pub fn parse(text: &str, path: &Path) -> Result<Mechanism, Diagnostics> {
         effectors,
         strings,
     };
-    f.finish()?;
-    Mechanism::from_spec(&raw.name, &raw.description, path, &spec, &locate)
+    if left_out {
+        return Err(f.into_error());
+    }
+    Mechanism::checked(f, &raw.name, &raw.description, path, &spec)
 }
 
 #[cfg(test)]
@@ -235,7 +241,7 @@ tension:
         let text = GOOD.replace("    dof: 3\n", "    dof: 3\n    colour: red\n");
         let e = error_of(&text);
         assert!(
-            e.starts_with("m.yaml:5:5: error: unknown field `colour`"),
+            e.starts_with("m.yaml:5:5: error: end_effectors[0].colour: unknown key"),
             "{e}"
         );
     }
@@ -245,7 +251,7 @@ tension:
         let text = GOOD.replace("  lambda: 0.02\n", "  lambda: 0.02\n  lambda: 0.03\n");
         let e = error_of(&text);
         assert!(
-            e.starts_with("m.yaml:32:3: error: duplicate mapping key: lambda"),
+            e.starts_with("m.yaml:32:3: error: `lambda` is given twice"),
             "{e}"
         );
     }
@@ -254,10 +260,24 @@ tension:
     fn vectors_of_the_wrong_length_are_refused() {
         let text = GOOD.replacen("[-0.2, 0.2, 0.2]", "[-0.2, 0.2]", 1);
         let e = error_of(&text);
-        assert!(
-            e.starts_with("m.yaml:7:5: error: invalid length 2, expected an array of length 3"),
-            "{e}"
+        assert_eq!(
+            e,
+            "m.yaml:7:12: error: strings[0].motor: expected a list of 3 items, found 2"
         );
+    }
+
+    #[test]
+    fn schema_and_value_mistakes_are_all_reported_at_once() {
+        let text = GOOD
+            .replacen("[-0.2, 0.2, 0.2]", "[-0.2, 0.2]", 1)
+            .replace("    dof: 3\n", "    dof: 3\n    colour: red\n")
+            .replace("  lambda: 0.02\n", "  lambda: -1\n");
+        let e = parse(&text, Path::new("m.yaml")).unwrap_err().to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(lines.len(), 3, "{e}");
+        assert!(lines[0].contains("end_effectors[0].colour: unknown key"), "{e}");
+        assert!(lines[1].contains("strings[0].motor: expected a list of 3"), "{e}");
+        assert!(lines[2].contains("tension.lambda:"), "{e}");
     }
 
     #[test]

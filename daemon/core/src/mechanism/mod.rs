@@ -87,7 +87,17 @@ impl Mechanism {
         spec: &MechanismSpec,
         locate: &dyn Fn(&str) -> Option<Position>,
     ) -> Result<Mechanism, Diagnostics> {
-        let mut f = Findings::new(source, locate);
+        Self::checked(Findings::new(source, locate), name, description, source, spec)
+    }
+
+    /// [`Mechanism::from_spec`] adding to the findings `f` of what was read before.
+    pub(crate) fn checked(
+        mut f: Findings,
+        name: &str,
+        description: &str,
+        source: &Path,
+        spec: &MechanismSpec,
+    ) -> Result<Mechanism, Diagnostics> {
         f.name("name", name);
         f.text("description", description);
         f.non_negative("tension.lambda", spec.lambda);

@@ -44,7 +44,7 @@ pub fn engine_of(path: &Path) -> Result<Engine, Diagnostics> {
 
 /// The engine of scene `text`; `path` names it in diagnostics (a file that is not YAML).
 pub fn engine_of_text(text: &str, path: &Path) -> Result<Engine, Diagnostics> {
-    let (head, _): (Head, _) = diagnostics::parse_yaml(text, path)?;
+    let (head, _) = diagnostics::parse_yaml::<Head>(text, path)?.strict()?;
     Ok(match (head.engine, head.bodies) {
         (Some(engine), _) => Engine::Plugin(engine),
         (None, Some(_)) => Engine::Plugin(DEFAULT_ENGINE.into()),

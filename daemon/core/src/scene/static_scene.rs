@@ -21,7 +21,7 @@ use hapticd_plugin_api::{
 use serde::Deserialize;
 
 use super::{Pointer, Scene};
-use crate::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::kinematics::{SOLID_SIZES, WORLD_EXTENT, Wrench, quat_to_wxyz};
@@ -96,9 +96,10 @@ impl StaticSceneSpec {
     /// Parse and check scene `text`; `path` names it in diagnostics, which come all at
     /// once, each at its line and column.
     pub fn parse(text: &str, path: &Path) -> Result<Self, Diagnostics> {
-        let (raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let parsed = diagnostics::parse_yaml::<RawScene>(text, path)?;
+        let (raw, map) = (parsed.value, parsed.map);
         let locate = |field: &str| map.find(field);
-        let mut f = Findings::new(path, &locate);
+        let mut f = Findings::after_schema(path, &locate, parsed.schema);
         f.name("name", &raw.name);
         let proxy = match raw.proxy {
             None => ProxyParameters::default(),
@@ -371,11 +372,21 @@ mod tests {
         let parse = |text: &str| StaticSceneSpec::parse(text, Path::new("s.yaml"));
         assert!(parse("name: x\nshapes:\n  - cone: { height: 1 }\n").is_err());
         let e = parse("name: x\nshapes:\n  - floor: { hieght: 0 }\n").unwrap_err();
-        assert!(
-            e.to_string()
-                .starts_with("s.yaml:3:14: error: unknown field `hieght`"),
-            "{e}"
+        assert_eq!(
+            e.to_string(),
+            "s.yaml:3:12: error: shapes[0].floor.height: required, but not given\n\
+             s.yaml:3:14: error: shapes[0].floor.hieght: unknown key; the keys here are `height`"
         );
+        // Schema and value mistakes together, each once.
+        let e = parse("name: x\ncolour: red\nshapes:\n  - sphere: { centre: [0, 0], radius: -1 }\n  - floor: { height: .nan }\n")
+            .unwrap_err()
+            .to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(lines.len(), 4, "{e}");
+        assert!(lines[0].contains("colour: unknown key"), "{e}");
+        assert!(lines[1].contains("shapes[0].sphere.centre: expected a list of 3"), "{e}");
+        assert!(lines[2].contains("shapes[0].sphere.radius: must be"), "{e}");
+        assert!(lines[3].contains("shapes[1].floor.height: must be finite"), "{e}");
         let e = parse(
             "name: x\nshapes:\n  - sphere: { centre: [0, 0, 0], radius: -1 }\n  - floor: { height: .nan }\n  - plane: { point: [0, 0, 0], normal: [0, 0, 0] }\n",
         )

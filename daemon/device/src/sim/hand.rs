@@ -297,9 +297,10 @@ impl Script {
     /// Parse script `text` as if read from `path`: recorded paths are taken relative to its
     /// directory, and findings name it.
     pub fn parse(text: &str, path: &Path) -> Result<Script, Diagnostics> {
-        let (mut raw, map): (RawScript, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let parsed = diagnostics::parse_yaml::<RawScript>(text, path)?;
+        let (mut raw, map) = (parsed.value, parsed.map);
         let locate = |field: &str| map.find(field);
-        let mut f = Findings::new(path, &locate);
+        let mut f = Findings::after_schema(path, &locate, parsed.schema);
         let base = path.parent().unwrap_or(Path::new("."));
         for (name, steps) in &mut raw.hands {
             for (i, step) in steps.iter_mut().enumerate() {

@@ -165,14 +165,15 @@ impl SceneFile {
     /// Parse scene `text` for `pointers` pointers; `path` names it in diagnostics, which
     /// come all at once, each at its line and column.
     pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
-        let (mut raw, map): (RawScene, YamlMap) = diagnostics::parse_yaml(text, path)?;
+        let parsed = diagnostics::parse_yaml::<RawScene>(text, path)?;
+        let (mut raw, map) = (parsed.value, parsed.map);
         // A scene that names no pointer solid gets a fingertip, so that every scene runs on
         // every device.
         if pointers > 0 {
             raw.pointer.get_or_insert_with(RawPointer::fingertip);
         }
         let locate = |field: &str| map.find(field);
-        let mut f = Findings::new(path, &locate);
+        let mut f = Findings::after_schema(path, &locate, parsed.schema);
         let (engine, penalty) = checks::scene_keys(&mut f, &raw);
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers) else {
             return Err(f.into_error());
@@ -245,12 +246,12 @@ mod tests {
             (
                 "method: distributed",
                 "method: telepathic",
-                "unknown variant `telepathic`",
+                "`telepathic` is not one of",
             ),
             (
                 "grip_stiffness: 800",
                 "grip_stiffnes: 800",
-                "unknown field `grip_stiffnes`",
+                "grasp.grip_stiffnes: unknown key",
             ),
             (
                 "box: [0.01, 0.01, 0.01]      # each finger",
@@ -340,12 +341,12 @@ mod tests {
             (
                 "feedback: local",
                 "feedback: telepathy",
-                "unknown variant `telepathy`",
+                "`telepathy` is not one of",
             ),
             (
                 "engine: rapier",
                 "engine: bullet",
-                "unknown variant `bullet`",
+                "`bullet` is not one of",
             ),
             (
                 "sphere: 0.005",
@@ -428,5 +429,29 @@ bodies:
                 "s.yaml:9:17: error: bodies[1].box[1]: must be a number from 0.0001 to 1000 m, not 0",
             ]
         );
+    }
+
+    #[test]
+    fn schema_mistakes_come_with_the_checks_of_values() {
+        let text = "\
+name: five-mistakes
+colour: red
+dt: 0.001
+material: { stiffness: 1.0e7, damping: 5, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: .nan }
+bodies:
+  - { name: floor, box: [1, 0.1], position: [0, -0.05, 0], fixed: maybe }
+  - name: ball
+    sphere: -0.02
+    position: [0, 0.1, 0]
+";
+        let e = parse(text, 0).err().expect("five mistakes").to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(lines.len(), 5, "{e}");
+        assert!(lines[0].starts_with("s.yaml:2:1: error: colour: unknown key"), "{e}");
+        assert!(lines[1].starts_with("s.yaml:7:25: error: bodies[0].box: expected a list of 3 items"), "{e}");
+        assert!(lines[2].starts_with("s.yaml:7:67: error: bodies[0].fixed: expected true or false"), "{e}");
+        assert!(lines[3].starts_with("s.yaml:5:77: error: material.slip_speed: must be"), "{e}");
+        assert!(lines[4].starts_with("s.yaml:9:13: error: bodies[1].sphere: must be"), "{e}");
     }
 }

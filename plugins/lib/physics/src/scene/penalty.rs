@@ -56,7 +56,7 @@ impl PenaltyScene {
         match SceneFile::parse(text, path, pointers)? {
             SceneFile::Penalty(scene) => Ok(*scene),
             SceneFile::Rapier(_) => {
-                let (_, map): (IgnoredAny, YamlMap) = diagnostics::parse_yaml(text, path)?;
+                let map = diagnostics::parse_yaml::<IgnoredAny>(text, path)?.map;
                 let locate = |field: &str| map.find(field);
                 let mut f = Findings::new(path, &locate);
                 f.error("engine", "a rapier scene; this runs penalty scenes only");
