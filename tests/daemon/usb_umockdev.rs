@@ -65,6 +65,41 @@ fn the_emulated_amplifier_is_found() {
     assert_eq!(list[0]["identity"], "usb:1-2");
 }
 
+/// A user the udev rules give no access to the amplifier's node is told so, with the
+/// node and what to do, instead of an empty list.
+#[test]
+fn a_user_without_access_to_the_amplifier_is_told_so() {
+    let (device, ioctl) = emulated_amplifier();
+    let hapticctl = artifact("hapticctl");
+    // The emulation opened to everyone but its node, left as the udev rules leave it
+    // (its owner's alone: root here, the hapticd user on a real system); hapticctl run by
+    // nobody.
+    let script = format!(
+        "chmod -R a+rwX \"$UMOCKDEV_DIR\" && chmod 600 \"$UMOCKDEV_DIR/dev/bus/usb/001/002\" && \
+         exec setpriv --reuid=65534 --regid=65534 --clear-groups {} device list --json",
+        hapticctl.display()
+    );
+    let out = umockdev_run(&device, &ioctl, Path::new("/bin/sh"))
+        .args(["-c", &script])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let list: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(list[0]["identity"], "usb:1-2");
+    assert_eq!(list[0]["usable"], false);
+    let problem = list[0]["problem"].as_str().unwrap();
+    assert!(
+        problem.starts_with(
+            "no access to /dev/bus/usb/001/002: the udev rules give it to the hapticd user"
+        ),
+        "{problem}"
+    );
+}
+
 #[test]
 fn a_hundred_and_twenty_updates_carry_the_right_bytes_both_ways() {
     let (device, ioctl) = emulated_amplifier();

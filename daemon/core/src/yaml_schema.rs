@@ -38,7 +38,10 @@ struct Node {
 #[derive(Debug, Clone)]
 enum Kind {
     /// A scalar as written, and whether it was written without quotes.
-    Scalar { text: String, plain: bool },
+    Scalar {
+        text: String,
+        plain: bool,
+    },
     Sequence(Vec<Node>),
     /// Each key, where it is written, and its value.
     Mapping(Vec<(String, Position, Node)>),
@@ -66,7 +69,12 @@ impl Kind {
 /// A collection being read.
 enum Open {
     Sequence(Vec<Node>, Position, usize),
-    Mapping(Vec<(String, Position, Node)>, Position, usize, Option<(String, Position)>),
+    Mapping(
+        Vec<(String, Position, Node)>,
+        Position,
+        usize,
+        Option<(String, Position)>,
+    ),
 }
 
 /// Read `text` into its tree, with the mistakes of the tree itself (duplicate keys,
@@ -92,7 +100,13 @@ fn tree(text: &str) -> Option<(Node, Vec<(String, Position, String)>)> {
                 }
                 let text = value.into_owned();
                 nodes += 1;
-                (Node { kind: Kind::Scalar { text, plain }, at }, anchor)
+                (
+                    Node {
+                        kind: Kind::Scalar { text, plain },
+                        at,
+                    },
+                    anchor,
+                )
             }
             Event::Alias(id) => {
                 let node = anchors.get(&id)?;
@@ -216,7 +230,9 @@ struct Pass<'a> {
 
 impl Pass<'_> {
     fn mistake(&self, path: &str, at: Position, message: String) {
-        self.mistakes.borrow_mut().push((path.to_string(), at, message));
+        self.mistakes
+            .borrow_mut()
+            .push((path.to_string(), at, message));
     }
 }
 
@@ -574,10 +590,20 @@ impl<'de, 'a> de::Deserializer<'de> for De<'a> {
                 let (name, at, payload) = &entries[0];
                 (name.clone(), payload, *at, child(&self.path, name))
             }
-            Kind::Absent => (variants[0].to_string(), &ABSENT, self.node.at, self.path.clone()),
+            Kind::Absent => (
+                variants[0].to_string(),
+                &ABSENT,
+                self.node.at,
+                self.path.clone(),
+            ),
             _ => {
                 self.wrong::<()>(&format!("one of {}", list(variants)));
-                (variants[0].to_string(), &ABSENT, self.node.at, self.path.clone())
+                (
+                    variants[0].to_string(),
+                    &ABSENT,
+                    self.node.at,
+                    self.path.clone(),
+                )
             }
         };
         let variant = if variants.contains(&name.as_str()) {
@@ -658,7 +684,10 @@ struct Entries<'a, 'b> {
 impl<'de> de::MapAccess<'de> for Entries<'_, '_> {
     type Error = Error;
 
-    fn next_key_seed<K: DeserializeSeed<'de>>(&mut self, seed: K) -> Result<Option<K::Value>, Error> {
+    fn next_key_seed<K: DeserializeSeed<'de>>(
+        &mut self,
+        seed: K,
+    ) -> Result<Option<K::Value>, Error> {
         while let Some((key, key_at, node)) = self.entries.get(self.next) {
             self.next += 1;
             if let Some(fields) = self.fields
@@ -835,8 +864,14 @@ bodies:
         );
         let mut bomb = String::from("a: &a [x, x, x, x, x, x, x, x, x, x]\n");
         for i in 0..8 {
-            bomb.push_str(&format!("b{i}: &b{i} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n",
-                p = if i == 0 { "a".to_string() } else { format!("b{}", i - 1) }));
+            bomb.push_str(&format!(
+                "b{i}: &b{i} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n",
+                p = if i == 0 {
+                    "a".to_string()
+                } else {
+                    format!("b{}", i - 1)
+                }
+            ));
         }
         assert!(parse::<File>(&bomb, Path::new("f.yaml")).is_none());
     }

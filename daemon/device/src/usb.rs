@@ -31,16 +31,26 @@ pub struct FoundDevice {
     pub link: UsbLink,
 }
 
-/// Every supported controller found on the bus, opened and claimed, and what went wrong
-/// with those that could not be opened. `Err` when libusb cannot start at all (no USB).
-pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<String>), String> {
-    let context = rusb::Context::new().map_err(|e| format!("cannot start libusb: {e}"))?;
+/// A supported controller on the bus that could not be opened and claimed.
+pub struct UnusableDevice {
+    /// Which controller it is.
+    pub model: SupportedDevice,
+    /// `usb:BUS-PORT.PORT…`.
+    pub identity: String,
+    /// Why, and what to do about it.
+    pub reason: String,
+}
+
+/// Every supported controller found on the bus, opened and claimed, and those that could
+/// not be. `Err` when libusb cannot start or list the bus at all.
+pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<UnusableDevice>), String> {
+    let context = rusb::Context::new()
+        .map_err(|e| format!("cannot start libusb: {e} (is usbfs at /dev/bus/usb?)"))?;
+    let devices = context
+        .devices()
+        .map_err(|e| format!("cannot list USB devices: {e}"))?;
     let mut found = Vec::new();
-    let mut problems = Vec::new();
-    let devices = match context.devices() {
-        Ok(d) => d,
-        Err(e) => return Ok((found, vec![format!("cannot list USB devices: {e}")])),
-    };
+    let mut unusable = Vec::new();
     for device in devices.iter() {
         let Ok(descriptor) = device.device_descriptor() else {
             continue;
@@ -60,19 +70,44 @@ pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<String>), String> {
                 identity,
                 link,
             }),
-            Err(e) => problems.push(format!("{identity} ({}): {e}", model.name)),
+            Err(e) => unusable.push(UnusableDevice {
+                model: *model,
+                identity,
+                reason: why_unusable(&e, &node_of(&device)),
+            }),
         }
     }
-    Ok((found, problems))
+    Ok((found, unusable))
 }
 
-fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> std::io::Result<UsbLink> {
-    let node = PathBuf::from(format!(
+/// What a person can do about `error`, met opening the amplifier at `node`.
+fn why_unusable(error: &std::io::Error, node: &Path) -> String {
+    match error.raw_os_error() {
+        Some(libc::EACCES) | Some(libc::EPERM) => format!(
+            "no access to {}: the udev rules give it to the hapticd user alone; run this \
+             as root or as hapticd, or ask the running daemon (hapticctl status)",
+            node.display()
+        ),
+        Some(libc::EBUSY) => format!(
+            "{} is claimed by another program (hapticd drives it while it runs: \
+             hapticctl status)",
+            node.display()
+        ),
+        _ => format!("{}: {error}", node.display()),
+    }
+}
+
+/// The usbfs node of `device`.
+fn node_of(device: &rusb::Device<rusb::Context>) -> PathBuf {
+    PathBuf::from(format!(
         "/dev/bus/usb/{:03}/{:03}",
         device.bus_number(),
         device.address()
-    ));
-    open_node(&node, model)
+    ))
+}
+
+fn open(device: &rusb::Device<rusb::Context>, model: &SupportedDevice) -> std::io::Result<UsbLink> {
+    open_node(&node_of(device), model)
 }
 
 /// Open and claim the amplifier `model` at its usbfs `node` (`/dev/bus/usb/BBB/DDD`).

@@ -275,8 +275,14 @@ tension:
         let e = parse(&text, Path::new("m.yaml")).unwrap_err().to_string();
         let lines: Vec<_> = e.lines().collect();
         assert_eq!(lines.len(), 3, "{e}");
-        assert!(lines[0].contains("end_effectors[0].colour: unknown key"), "{e}");
-        assert!(lines[1].contains("strings[0].motor: expected a list of 3"), "{e}");
+        assert!(
+            lines[0].contains("end_effectors[0].colour: unknown key"),
+            "{e}"
+        );
+        assert!(
+            lines[1].contains("strings[0].motor: expected a list of 3"),
+            "{e}"
+        );
         assert!(lines[2].contains("tension.lambda:"), "{e}");
     }
 

@@ -87,7 +87,13 @@ impl Mechanism {
         spec: &MechanismSpec,
         locate: &dyn Fn(&str) -> Option<Position>,
     ) -> Result<Mechanism, Diagnostics> {
-        Self::checked(Findings::new(source, locate), name, description, source, spec)
+        Self::checked(
+            Findings::new(source, locate),
+            name,
+            description,
+            source,
+            spec,
+        )
     }
 
     /// [`Mechanism::from_spec`] adding to the findings `f` of what was read before.

@@ -384,9 +384,15 @@ mod tests {
         let lines: Vec<_> = e.lines().collect();
         assert_eq!(lines.len(), 4, "{e}");
         assert!(lines[0].contains("colour: unknown key"), "{e}");
-        assert!(lines[1].contains("shapes[0].sphere.centre: expected a list of 3"), "{e}");
+        assert!(
+            lines[1].contains("shapes[0].sphere.centre: expected a list of 3"),
+            "{e}"
+        );
         assert!(lines[2].contains("shapes[0].sphere.radius: must be"), "{e}");
-        assert!(lines[3].contains("shapes[1].floor.height: must be finite"), "{e}");
+        assert!(
+            lines[3].contains("shapes[1].floor.height: must be finite"),
+            "{e}"
+        );
         let e = parse(
             "name: x\nshapes:\n  - sphere: { centre: [0, 0, 0], radius: -1 }\n  - floor: { height: .nan }\n  - plane: { point: [0, 0, 0], normal: [0, 0, 0] }\n",
         )

@@ -22,7 +22,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use hapticd_core::diagnostics::{self, Diagnostics, Findings};
 use serde::Deserialize;
 
 /// One step of a hand's script.

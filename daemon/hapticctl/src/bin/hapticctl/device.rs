@@ -41,21 +41,35 @@ pub fn run(command: Command) -> Result<(), Failure> {
             Ok(())
         }
         Command::List(output) => {
-            let (found, problems) = find_devices().map_err(Failure::failed)?;
-            for p in &problems {
-                eprintln!("hapticctl: {p}");
-            }
-            let rows: Vec<_> = found
+            let (found, unusable) = find_devices().map_err(Failure::failed)?;
+            let usb =
+                |m: &hapticd_device::SupportedDevice| format!("{:04x}:{:04x}", m.vendor, m.product);
+            let usable = found
                 .iter()
-                .map(|d| json!({"identity": d.identity, "model": d.model.name, "usb": format!("{:04x}:{:04x}", d.model.vendor, d.model.product)}))
+                .map(|d| (&d.identity, &d.model, None::<&String>));
+            let listed: Vec<_> = usable
+                .chain(
+                    unusable
+                        .iter()
+                        .map(|d| (&d.identity, &d.model, Some(&d.reason))),
+                )
                 .collect();
-            let text: String = found
+            let rows: Vec<_> = listed
                 .iter()
-                .map(|d| {
-                    format!(
-                        "{}  {:04x}:{:04x}  {}\n",
-                        d.identity, d.model.vendor, d.model.product, d.model.name
-                    )
+                .map(|(identity, model, reason)| {
+                    json!({"identity": identity, "model": model.name, "usb": usb(model),
+                           "usable": reason.is_none(), "problem": reason})
+                })
+                .collect();
+            let text: String = listed
+                .iter()
+                .map(|(identity, model, reason)| match reason {
+                    None => format!("{identity}  {}  {}\n", usb(model), model.name),
+                    Some(why) => format!(
+                        "{identity}  {}  {}  unusable: {why}\n",
+                        usb(model),
+                        model.name
+                    ),
                 })
                 .collect();
             print(&output, serde_json::Value::Array(rows), text);
@@ -83,12 +97,16 @@ fn exchange(args: &ExchangeArgs) -> Result<(), Failure> {
     for (d, v) in dac.iter_mut().zip(args.dac.iter()) {
         *d = *v as i16;
     }
-    let (found, problems) = find_devices().map_err(Failure::failed)?;
+    let (found, unusable) = find_devices().map_err(Failure::failed)?;
     let Some(device) = found.into_iter().next() else {
-        let why = if problems.is_empty() {
+        let why = if unusable.is_empty() {
             "none is connected".to_string()
         } else {
-            problems.join("; ")
+            let each: Vec<_> = unusable
+                .iter()
+                .map(|d| format!("{} ({}): {}", d.identity, d.model.name, d.reason))
+                .collect();
+            each.join("; ")
         };
         return Err(Failure::failed(format!(
             "no usable SPIDAR amplifier: {why}"

@@ -127,7 +127,7 @@ mod stepping;
 
 use std::path::Path;
 
-use hapticd_core::diagnostics::{self, Diagnostics, Findings, YamlMap};
+use hapticd_core::diagnostics::{self, Diagnostics, Findings};
 use hapticd_plugin_api::Geometry;
 
 pub use checks::{
@@ -343,11 +343,7 @@ mod tests {
                 "feedback: telepathy",
                 "`telepathy` is not one of",
             ),
-            (
-                "engine: rapier",
-                "engine: bullet",
-                "`bullet` is not one of",
-            ),
+            ("engine: rapier", "engine: bullet", "`bullet` is not one of"),
             (
                 "sphere: 0.005",
                 "sphere: .nan",
@@ -448,10 +444,25 @@ bodies:
         let e = parse(text, 0).err().expect("five mistakes").to_string();
         let lines: Vec<_> = e.lines().collect();
         assert_eq!(lines.len(), 5, "{e}");
-        assert!(lines[0].starts_with("s.yaml:2:1: error: colour: unknown key"), "{e}");
-        assert!(lines[1].starts_with("s.yaml:7:25: error: bodies[0].box: expected a list of 3 items"), "{e}");
-        assert!(lines[2].starts_with("s.yaml:7:67: error: bodies[0].fixed: expected true or false"), "{e}");
-        assert!(lines[3].starts_with("s.yaml:5:77: error: material.slip_speed: must be"), "{e}");
-        assert!(lines[4].starts_with("s.yaml:9:13: error: bodies[1].sphere: must be"), "{e}");
+        assert!(
+            lines[0].starts_with("s.yaml:2:1: error: colour: unknown key"),
+            "{e}"
+        );
+        assert!(
+            lines[1].starts_with("s.yaml:7:25: error: bodies[0].box: expected a list of 3 items"),
+            "{e}"
+        );
+        assert!(
+            lines[2].starts_with("s.yaml:7:67: error: bodies[0].fixed: expected true or false"),
+            "{e}"
+        );
+        assert!(
+            lines[3].starts_with("s.yaml:5:77: error: material.slip_speed: must be"),
+            "{e}"
+        );
+        assert!(
+            lines[4].starts_with("s.yaml:9:13: error: bodies[1].sphere: must be"),
+            "{e}"
+        );
     }
 }

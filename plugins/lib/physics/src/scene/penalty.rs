@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use glam::DVec3;
-use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings, YamlMap};
+use hapticd_core::diagnostics::{self, Diagnostic, Diagnostics, Findings};
 use hapticd_core::haptics::grasp::{GraspSettings, Method};
 use serde::de::IgnoredAny;
 
