@@ -678,7 +678,31 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
         2,
         "{frames}"
     );
+    // Tab completion asks the daemon on the bus the line names for its names.
+    let bus_option = format!("--bus={}", bus.address);
+    let complete = |words: &[&str]| -> Vec<String> {
+        let out = hapticctl()
+            .env("COMPLETE", "fish")
+            .args(["--", "hapticctl", &bus_option])
+            .args(words)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        said(&out)
+            .lines()
+            .map(|l| l.split('\t').next().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(complete(&["set", "Stat"]), ["StaticFriction"]);
+    let scenes = complete(&["scene", "switch", ""]);
+    for name in ["static", "blocks", "top", "push"] {
+        assert!(scenes.iter().any(|s| s == name), "{scenes:?}");
+    }
+    assert_eq!(complete(&["bind", "spidar-"]), ["spidar-g"]);
+    assert_eq!(complete(&["calibrate", "--device", ""]), ["0", "sim"]);
     daemon.stop();
+    // Without a daemon there is nothing to offer, and no error either.
+    assert!(complete(&["bind", "spidar-"]).is_empty());
     // No daemon on the bus: said plainly.
     let out = ctl(&["status"]);
     assert_eq!(out.status.code(), Some(1));

@@ -171,11 +171,27 @@ fn make_install_lays_out_a_working_system() {
     ] {
         assert!(dest.join(file).is_file(), "{file} is not installed");
     }
-    // The completions know the client's commands, the manual its options.
-    let bash = read(dest.join("usr/share/bash-completion/completions/hapticctl"));
-    for command in ["status", "calibrate", "monitor", "scene"] {
-        assert!(bash.contains(command), "bash completion lacks {command}");
-    }
+    // The installed bash completion completes with the installed hapticctl, the manual
+    // knows the options.
+    let script = dest.join("usr/share/bash-completion/completions/hapticctl");
+    let completed = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            "source {}; COMP_WORDS=(hapticctl sc); COMP_CWORD=1; \
+             _clap_complete_hapticctl hapticctl sc; printf '%s\\n' \"${{COMPREPLY[@]}}\"",
+            script.display()
+        ))
+        .env(
+            "PATH",
+            format!("{}:/usr/bin:/bin", dest.join("usr/bin").display()),
+        )
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&completed.stdout),
+        "scene\n",
+        "{completed:?}"
+    );
     let page = read(dest.join("usr/share/man/man8/hapticd.8"));
     for option in ["\\-\\-config", "\\-\\-scene", ".SH FILES", ".SH SIGNALS"] {
         assert!(page.contains(option), "hapticd(8) lacks {option}");

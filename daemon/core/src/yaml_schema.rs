@@ -28,6 +28,9 @@ const MAX_NODES: usize = 1 << 20;
 /// format hapticd reads has.
 const MAX_PASSES: usize = 256;
 
+/// A mistake found: the field it is about, where, and what.
+type Mistake = (String, Position, String);
+
 /// A node of the text, where it begins.
 #[derive(Debug, Clone)]
 struct Node {
@@ -79,7 +82,7 @@ enum Open {
 
 /// Read `text` into its tree, with the mistakes of the tree itself (duplicate keys,
 /// collections as keys); `None` if the text is not YAML or expands past [`MAX_NODES`].
-fn tree(text: &str) -> Option<(Node, Vec<(String, Position, String)>)> {
+fn tree(text: &str) -> Option<(Node, Vec<Mistake>)> {
     let mut anchors: HashMap<usize, Node> = HashMap::new();
     let mut stack: Vec<Open> = Vec::new();
     let mut mistakes = Vec::new();
@@ -224,7 +227,7 @@ impl de::Error for Error {
 
 /// What one pass shares: the mistakes so far and the keys to supply.
 struct Pass<'a> {
-    mistakes: RefCell<Vec<(String, Position, String)>>,
+    mistakes: RefCell<Vec<Mistake>>,
     supplied: &'a HashSet<(String, &'static str)>,
 }
 

@@ -32,6 +32,7 @@ pub struct FoundDevice {
 }
 
 /// A supported controller on the bus that could not be opened and claimed.
+#[derive(Debug)]
 pub struct UnusableDevice {
     /// Which controller it is.
     pub model: SupportedDevice,
@@ -39,6 +40,16 @@ pub struct UnusableDevice {
     pub identity: String,
     /// Why, and what to do about it.
     pub reason: String,
+}
+
+impl std::fmt::Display for UnusableDevice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} ({}): {}",
+            self.identity, self.model.name, self.reason
+        )
+    }
 }
 
 /// Every supported controller found on the bus, opened and claimed, and those that could

@@ -14,8 +14,8 @@ use hapticd_ipc::{
 use serde_json::{Value, json};
 use zbus::{Connection, OwnedVariant, Variant};
 
-use crate::Failure;
 use crate::mechanism::{Output, print};
+use crate::{Failure, completion};
 
 const PROPERTIES: &str = "org.freedesktop.DBus.Properties";
 
@@ -28,14 +28,14 @@ const PARAMETERS: &str = "Stiffness (N/m, 0–100000), Damping (N·s/m, 0–500)
 #[derive(Args)]
 pub struct DeviceArg {
     /// Device index or identity (default: the first).
-    #[arg(long, default_value = "0")]
+    #[arg(long, default_value = "0", add = completion::devices())]
     device: String,
 }
 
 #[derive(Args)]
 pub struct GetArgs {
     /// Parameter or property name.
-    #[arg(long_help = format!("Parameter or property name: {PARAMETERS}; or any property of the device (State, Pose, Force, Statistics, …)."))]
+    #[arg(long_help = format!("Parameter or property name: {PARAMETERS}; or any property of the device (State, Pose, Force, Statistics, …)."), add = completion::parameters())]
     name: String,
     #[command(flatten)]
     device: DeviceArg,
@@ -46,7 +46,7 @@ pub struct GetArgs {
 #[derive(Args)]
 pub struct SetArgs {
     /// Parameter name.
-    #[arg(long_help = format!("Parameter name: {PARAMETERS}."))]
+    #[arg(long_help = format!("Parameter name: {PARAMETERS}."), add = completion::parameters())]
     name: String,
     /// New value (a number; taken as text so that a wrong name is said first).
     #[arg(allow_hyphen_values = true)]
@@ -58,6 +58,7 @@ pub struct SetArgs {
 #[derive(Args)]
 pub struct BindArgs {
     /// Installed mechanism to drive the device with from its next start.
+    #[arg(add = completion::mechanisms())]
     mechanism: String,
     #[command(flatten)]
     device: DeviceArg,
@@ -247,6 +248,26 @@ impl Client {
             .unwrap_or_default();
         let body: zbus::Result<(String, Changes, Vec<String>)> = message.body().deserialize();
         Ok(body.ok().map(|(_, changed, _)| (path, changed)))
+    }
+
+    /// The list of text the manager's property `name` holds (its scenes, its mechanisms).
+    pub fn manager_list(&self, name: &str) -> Result<Vec<String>, Failure> {
+        let manager = self.properties(MANAGER_PATH, MANAGER)?;
+        Ok(manager[name]
+            .as_array()
+            .map(|a| a.iter().map(words).collect())
+            .unwrap_or_default())
+    }
+
+    /// What names each device on the command line: its index and its identity.
+    pub fn device_names(&self) -> Result<Vec<String>, Failure> {
+        let manager = self.properties(MANAGER_PATH, MANAGER)?;
+        let mut names = Vec::new();
+        for (index, device) in self.devices(&manager)?.iter().enumerate() {
+            names.push(index.to_string());
+            names.push(words(&device["Identity"]));
+        }
+        Ok(names)
     }
 
     /// The object path of the device `arg` names.
@@ -474,10 +495,7 @@ fn pending_line(d: &BTreeMap<String, Value>) -> String {
 pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
     let manager = client.properties(MANAGER_PATH, MANAGER)?;
     let active = words(&manager["ActiveScene"]);
-    let names: Vec<String> = manager["Scenes"]
-        .as_array()
-        .map(|a| a.iter().map(words).collect())
-        .unwrap_or_default();
+    let names = client.manager_list("Scenes")?;
     let mut lines = format!("active: {active}\n");
     for name in &names {
         let mark = if *name == active { "*" } else { " " };

@@ -102,10 +102,7 @@ fn exchange(args: &ExchangeArgs) -> Result<(), Failure> {
         let why = if unusable.is_empty() {
             "none is connected".to_string()
         } else {
-            let each: Vec<_> = unusable
-                .iter()
-                .map(|d| format!("{} ({}): {}", d.identity, d.model.name, d.reason))
-                .collect();
+            let each: Vec<_> = unusable.iter().map(ToString::to_string).collect();
             each.join("; ")
         };
         return Err(Failure::failed(format!(

@@ -1,6 +1,7 @@
 //! `hapticctl`: the command-line companion of hapticd.
 
 mod client;
+mod completion;
 mod device;
 mod experiment;
 mod manual;
@@ -77,10 +78,12 @@ enum Command {
     Record(client::RecordArgs),
     /// Each device's loop, refreshed like pw-top: state, timing, force and grip.
     Top(client::TopArgs),
-    /// Print the completion script of a shell for hapticctl (installed by `make install`).
+    /// Print the completion script of a shell for hapticctl (installed by `make install`):
+    /// it asks hapticctl at each Tab, which offers the running daemon's scenes, mechanisms
+    /// and devices.
     Completions {
         /// bash, zsh, fish, elvish or powershell.
-        shell: clap_complete::Shell,
+        shell: String,
     },
     /// Write the manual pages (hapticd(8), hapticctl(1) and the file formats' pages) into
     /// DIR (installed by `make install`).
@@ -157,6 +160,7 @@ fn json_anywhere(args: impl Iterator<Item = OsString>) -> Vec<OsString> {
 }
 
 fn main() -> ExitCode {
+    completion::answer_the_shell();
     let cli = Cli::parse_from(json_anywhere(std::env::args_os()));
     // What plugins say as they load is the daemon log's business, not a command's output.
     hapticd_service::logging::init("hapticctl", hapticd_service::logging::Level::WARN);
@@ -167,35 +171,34 @@ fn main() -> ExitCode {
     };
     // Only the commands that talk to hapticd connect to the bus.
     let connect = || client::Client::connect(&cli.bus);
-    let result = match cli.command {
-        Command::Mechanism(command) => mechanism::run(command, &catalog),
-        Command::Experiment(command) => experiment::run(command, &catalog),
-        Command::Device(command) => device::run(command),
-        Command::Scene(command) => scene::run(command, &cli.bus),
-        Command::Render(args) => render::run(&args, &catalog),
-        Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
-        Command::View(args) => pictures::view(&args, &cli.bus),
-        Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
-        Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
-        Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),
-        Command::Calibrate(device) => connect().and_then(|c| client::calibrate(&c, &device)),
-        Command::Bind(args) => connect().and_then(|c| client::bind(&c, &args)),
-        Command::Reload => connect().and_then(|c| client::reload(&c)),
-        Command::Restart => connect().and_then(|c| client::restart(&c)),
-        Command::Monitor(args) => connect().and_then(|c| client::monitor(&c, &args)),
-        Command::Record(args) => connect().and_then(|c| client::record(&c, &args)),
-        Command::Top(args) => connect().and_then(|c| client::top(&c, &args)),
-        Command::Completions { shell } => {
-            use std::io::Write;
-            // Written whole, then sent: a reader that stops early is no failure.
-            let mut script = Vec::new();
-            let mut command = <Cli as clap::CommandFactory>::command();
-            clap_complete::generate(shell, &mut command, "hapticctl", &mut script);
-            let _ = std::io::stdout().write_all(&script);
-            Ok(())
-        }
-        Command::Manual { dir } => manual::write(&dir),
-    };
+    let result =
+        match cli.command {
+            Command::Mechanism(command) => mechanism::run(command, &catalog),
+            Command::Experiment(command) => experiment::run(command, &catalog),
+            Command::Device(command) => device::run(command),
+            Command::Scene(command) => scene::run(command, &cli.bus),
+            Command::Render(args) => render::run(&args, &catalog),
+            Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
+            Command::View(args) => pictures::view(&args, &cli.bus),
+            Command::Status(output) => connect().and_then(|c| client::status(&c, &output)),
+            Command::Get(args) => connect().and_then(|c| client::get(&c, &args)),
+            Command::Set(args) => connect().and_then(|c| client::set(&c, &args)),
+            Command::Calibrate(device) => connect().and_then(|c| client::calibrate(&c, &device)),
+            Command::Bind(args) => connect().and_then(|c| client::bind(&c, &args)),
+            Command::Reload => connect().and_then(|c| client::reload(&c)),
+            Command::Restart => connect().and_then(|c| client::restart(&c)),
+            Command::Monitor(args) => connect().and_then(|c| client::monitor(&c, &args)),
+            Command::Record(args) => connect().and_then(|c| client::record(&c, &args)),
+            Command::Top(args) => connect().and_then(|c| client::top(&c, &args)),
+            Command::Completions { shell } => completion::script(&shell)
+                .map_err(Failure::usage)
+                .map(|script| {
+                    use std::io::Write;
+                    // Written whole, then sent: a reader that stops early is no failure.
+                    let _ = std::io::stdout().write_all(&script);
+                }),
+            Command::Manual { dir } => manual::write(&dir),
+        };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {

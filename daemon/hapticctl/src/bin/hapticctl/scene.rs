@@ -37,6 +37,7 @@ pub enum Command {
     /// plugin, or a scene file of yours (sent to the daemon open, read with your rights).
     Switch {
         /// Scene name or file.
+        #[arg(add = crate::completion::scenes())]
         name: String,
     },
 }
