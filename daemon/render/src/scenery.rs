@@ -80,12 +80,12 @@ impl Scenery {
         let centre = (low + high) / 2.0;
         let radius = ((high - low).length() / 2.0).max(0.03);
         let fov = 40f64.to_radians();
-        Camera::orbit(centre, 1.15 * radius / (fov / 2.0).sin(), 0.45, 0.75)
+        Camera::orbit(centre, 1.3 * radius / (fov / 2.0).sin(), 0.45, 0.55)
     }
 
     /// The solids of `geometry`, each where its body's pose in `poses` (by body id) puts
-    /// it; a solid whose body has no pose is not drawn. Moving solids are framed (the
-    /// pointers' not); when none moves, the bounded fixed ones are.
+    /// it; a solid whose body has no pose is not drawn. What moves (bodies and pointers) is
+    /// framed; when nothing does, the bounded fixed solids are.
     pub fn of_geometry(geometry: &Geometry, poses: &[Pose]) -> Self {
         let mut s = Self::default();
         let (mut mesh, mut translucent) = (Mesh::default(), Mesh::default());
@@ -112,9 +112,10 @@ impl Scenery {
             let Some((low, high)) = draw(target, geometry, solid, &frame, colour) else {
                 continue;
             };
-            if solid.flags & HAPTICD_SOLID_FIXED != 0 {
+            // A pointer's solid is fixed to the hand, which moves.
+            if solid.flags & (HAPTICD_SOLID_FIXED | HAPTICD_SOLID_POINTER) == HAPTICD_SOLID_FIXED {
                 fixed = Some(fixed.map_or((low, high), |(l, h)| (l.min(low), h.max(high))));
-            } else if solid.flags & HAPTICD_SOLID_POINTER == 0 {
+            } else {
                 s.frame(low, high);
             }
         }

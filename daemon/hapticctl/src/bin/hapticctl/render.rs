@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use hapticd_core::scene::engine::{Engine, engine_of_text};
 use hapticd_core::scene::static_scene::StaticSceneSpec;
-use hapticd_physics::scene::SceneFile;
+use hapticd_physics::coupling::Grip;
+use hapticd_physics::scene::{PenaltyScene, SceneFile};
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::camera::Camera;
 use hapticd_render::scenery::Scenery;
@@ -73,10 +74,12 @@ fn add_mechanism(
     Ok(())
 }
 
-/// What the scene file shows after `at` seconds, and a camera that frames it as it was at
-/// the start (so pictures at several times compare).
-fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
+/// What the scene file shows after `at` seconds with a hand resting at each of `rests`
+/// (the scene's pointers there), and a camera that frames it as it was at the start (so
+/// pictures at several times compare).
+fn scenery(path: &Path, at: f64, rests: &[Pose]) -> Result<(Scenery, Camera), Failure> {
     let text = hapticd_core::diagnostics::read_text(path)?;
+    let resting: Vec<DVec3> = rests.iter().map(|r| r.position).collect();
     if engine_of_text(&text, path)? == Engine::Static {
         if at != 0.0 {
             return Err(Failure::usage(
@@ -84,39 +87,58 @@ fn scenery(path: &Path, at: f64) -> Result<(Scenery, Camera), Failure> {
             ));
         }
         let geometry = StaticSceneSpec::parse(&text, path)?.geometry();
-        let scenery = Scenery::of_geometry(&geometry, &[]);
+        let mut scenery = Scenery::of_geometry(&geometry, &[]);
+        scenery.add_proxies(&resting);
         let camera = scenery.camera();
         return Ok((scenery, camera));
     }
-    let file = SceneFile::parse(&text, path, 0)?;
+    let file = SceneFile::parse(&text, path, rests.len())?;
     let geometry = file.geometry();
+    let no_longer_finite =
+        || Failure::failed(format!("{}: the world is no longer finite", path.display()));
     match file {
         SceneFile::Penalty(mut scene) => {
+            // The pointers' solids are placed at the grips by the first step.
+            let grips: Vec<Grip> = rests
+                .iter()
+                .map(|r| Grip {
+                    position: r.position,
+                    orientation: r.orientation,
+                    velocity: DVec3::ZERO,
+                    spin: DVec3::ZERO,
+                })
+                .collect();
+            let mut felt = vec![Wrench::default(); grips.len()];
+            let mut step = |scene: &mut PenaltyScene| {
+                let dt = scene.dt;
+                scene
+                    .step_pointers(dt, &grips, &mut felt)
+                    .then_some(())
+                    .ok_or_else(no_longer_finite)
+            };
+            step(&mut scene)?;
             let camera = Scenery::of_geometry(&geometry, &scene.poses()).camera();
-            let steps = (at / scene.dt).round() as usize;
-            for _ in 0..steps {
-                if !scene.step_pointers(scene.dt, &[], &mut []) {
-                    return Err(Failure::failed(format!(
-                        "{}: the world is no longer finite",
-                        path.display()
-                    )));
-                }
+            for _ in 1..(at / scene.dt).round() as usize {
+                step(&mut scene)?;
             }
             Ok((Scenery::of_geometry(&geometry, &scene.poses()), camera))
         }
         SceneFile::Rapier(spec) => {
+            // The rapier scenes' pointers are drawn where the fingers rest, as the daemon
+            // draws them.
             let mut world = RapierWorld::new(&spec, 0);
-            let camera = Scenery::of_geometry(&geometry, &world.poses()).camera();
-            let steps = (at * spec.rate).round() as usize;
-            for _ in 0..steps {
+            let at_start = |world: &RapierWorld| {
+                let mut scenery = Scenery::of_geometry(&geometry, &world.poses());
+                scenery.add_proxies(&resting);
+                scenery
+            };
+            let camera = at_start(&world).camera();
+            for _ in 0..(at * spec.rate).round() as usize {
                 if !world.advance(1.0 / spec.rate) {
-                    return Err(Failure::failed(format!(
-                        "{}: the world is no longer finite",
-                        path.display()
-                    )));
+                    return Err(no_longer_finite());
                 }
             }
-            Ok((Scenery::of_geometry(&geometry, &world.poses()), camera))
+            Ok((at_start(&world), camera))
         }
     }
 }
@@ -189,7 +211,18 @@ pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
             args.at
         )));
     }
-    let (mut scenery, mut camera) = scenery(&crate::scene_file::resolve(&args.scene)?, args.at)?;
+    // The hands rest at the mechanism's calibration poses, or one at the origin, where
+    // the shipped mechanisms calibrate theirs.
+    let rests: Vec<Pose> = match &args.mechanism {
+        Some(name) => resolve(catalog, name)?
+            .effectors
+            .iter()
+            .map(|e| e.calibration)
+            .collect(),
+        None => vec![Pose::IDENTITY],
+    };
+    let scene = crate::scene_file::resolve(&args.scene)?;
+    let (mut scenery, mut camera) = scenery(&scene, args.at, &rests)?;
     match (&args.mechanism, &args.force) {
         (Some(name), force) => {
             let force = force
