@@ -1,11 +1,13 @@
-//! One Vulkan device and the pipeline that draws meshes; a frame is drawn into an offscreen
-//! image and read back. Dynamic rendering (Vulkan 1.3) keeps it to one pipeline object;
-//! Vulkan is loaded at run time, so a machine without it gets an error, not a crash.
+//! One Vulkan device and the two pipelines that draw meshes: the light's view into a shadow
+//! map, then the camera's, 4× multisampled and resolved into an offscreen image that is read
+//! back. Dynamic rendering (Vulkan 1.3) needs no render pass objects; Vulkan is loaded at
+//! run time, so a machine without it gets an error, not a crash.
 
 use ash::vk;
 use glam::DVec3;
 
 use crate::camera::Camera;
+use crate::light;
 use crate::mesh::Mesh;
 use crate::picture::Picture;
 
@@ -15,13 +17,24 @@ pub const MAX_EDGE: u32 = 8192;
 const COLOUR: vk::Format = vk::Format::R8G8B8A8_UNORM;
 const DEPTH: vk::Format = vk::Format::D32_SFLOAT;
 
-/// The vertex as the shader reads it: clip position, normal, colour.
+/// Samples per pixel of the camera's view: every Vulkan device offers 4 for colour and depth.
+const SAMPLES: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_4;
+
+/// Edge of the shadow map, texels: about a millimetre each over a desk-sized view.
+const SHADOW_EDGE: u32 = 1024;
+
+/// Where a vertex that casts no shadow is put in the light's view: past its far plane.
+const NO_SHADOW: [f32; 4] = [0.0, 0.0, 2.0, 1.0];
+
+/// The vertex as the shaders read it: clip position, normal, colour, and its clip position
+/// in the light's view.
 #[repr(C)]
 #[derive(Clone, Copy)]
 struct GpuVertex {
     clip: [f32; 4],
     normal: [f32; 3],
     colour: [f32; 4],
+    light: [f32; 4],
 }
 
 /// Why nothing can be drawn.
@@ -48,8 +61,16 @@ pub struct Renderer {
     memory_types: vk::PhysicalDeviceMemoryProperties,
     queue: vk::Queue,
     pool: vk::CommandPool,
+    /// The shadow map's binding, as both pipelines see it.
+    set_layout: vk::DescriptorSetLayout,
+    descriptors: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    sampler: vk::Sampler,
     layout: vk::PipelineLayout,
+    /// The camera's view.
     pipeline: vk::Pipeline,
+    /// The light's view, depth only.
+    shadow_pipeline: vk::Pipeline,
     /// The images and buffers of the last frame, kept for the next one of the same size.
     frame: Option<Frame>,
     /// The device's name, as its driver gives it.
@@ -59,6 +80,15 @@ pub struct Renderer {
 /// An image or buffer with its memory.
 struct Allocation {
     memory: vk::DeviceMemory,
+}
+
+/// Whose view a pipeline draws.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum View {
+    /// The camera's: the picture.
+    Camera,
+    /// The light's: the shadow map.
+    Light,
 }
 
 impl Renderer {
@@ -130,7 +160,18 @@ impl Renderer {
         // SAFETY: valid create info; destroyed in Drop.
         let pool = unsafe { device.create_command_pool(&pool_info, None) }
             .map_err(failed("creating a command pool"))?;
-        let (layout, pipeline) = Self::pipeline(&device)?;
+        let (set_layout, descriptors, set, sampler) = Self::shadow_binding(&device)?;
+        let set_layouts = [set_layout];
+        // SAFETY: a layout of the one set; destroyed in Drop.
+        let layout = unsafe {
+            device.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts),
+                None,
+            )
+        }
+        .map_err(failed("creating the pipeline layout"))?;
+        let pipeline = Self::pipeline(&device, layout, View::Camera)?;
+        let shadow_pipeline = Self::pipeline(&device, layout, View::Light)?;
         Ok(Self {
             _entry: entry,
             instance,
@@ -138,11 +179,89 @@ impl Renderer {
             memory_types,
             queue,
             pool,
+            set_layout,
+            descriptors,
+            set,
+            sampler,
             layout,
             pipeline,
+            shadow_pipeline,
             frame: None,
             device_name,
         })
+    }
+
+    /// The shadow map's binding: a depth image and a comparing sampler, in one set that
+    /// each frame points at its own map.
+    fn shadow_binding(
+        device: &ash::Device,
+    ) -> Result<
+        (
+            vk::DescriptorSetLayout,
+            vk::DescriptorPool,
+            vk::DescriptorSet,
+            vk::Sampler,
+        ),
+        Unavailable,
+    > {
+        let bindings = [
+            (0, vk::DescriptorType::SAMPLED_IMAGE),
+            (1, vk::DescriptorType::SAMPLER),
+        ]
+        .map(|(binding, kind)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(kind)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+        });
+        let sizes = [
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::SAMPLED_IMAGE)
+                .descriptor_count(1),
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::SAMPLER)
+                .descriptor_count(1),
+        ];
+        // Outside the map everything is lit: a border of the farthest depth.
+        let sampler_info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+            .border_color(vk::BorderColor::FLOAT_OPAQUE_WHITE)
+            .compare_enable(true)
+            .compare_op(vk::CompareOp::LESS_OR_EQUAL);
+        // SAFETY: valid create infos; everything is destroyed in Drop (the set with its pool).
+        unsafe {
+            let set_layout = device
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .map_err(failed("creating the shadow map's binding"))?;
+            let pool = device
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .map_err(failed("creating the descriptor pool"))?;
+            let layouts = [set_layout];
+            let set = device
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(pool)
+                        .set_layouts(&layouts),
+                )
+                .map_err(failed("allocating the shadow map's set"))?[0];
+            let sampler = device
+                .create_sampler(&sampler_info, None)
+                .map_err(failed("creating the shadow sampler"))?;
+            Ok((set_layout, pool, set, sampler))
+        }
     }
 
     /// The device drawn on, as its driver names it (`llvmpipe (LLVM 15.0.6, 256 bits)`).
@@ -150,7 +269,13 @@ impl Renderer {
         &self.device_name
     }
 
-    fn pipeline(device: &ash::Device) -> Result<(vk::PipelineLayout, vk::Pipeline), Unavailable> {
+    /// The pipeline drawing `view`: the camera's, shaded, multisampled and blended into a
+    /// colour image; or the light's, depth only, into the shadow map.
+    fn pipeline(
+        device: &ash::Device,
+        layout: vk::PipelineLayout,
+        view: View,
+    ) -> Result<vk::Pipeline, Unavailable> {
         let bytes = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.spv"));
         let words: Vec<u32> = bytes
             .chunks_exact(4)
@@ -160,16 +285,18 @@ impl Renderer {
         // SAFETY: valid SPIR-V from naga; destroyed below once the pipeline holds it.
         let module = unsafe { device.create_shader_module(&info, None) }
             .map_err(failed("loading the shaders"))?;
-        let stages = [
+        let camera = view == View::Camera;
+        let all_stages = [
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::VERTEX)
                 .module(module)
-                .name(c"vertex_main"),
+                .name(if camera { c"vertex_main" } else { c"shadow_main" }),
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::FRAGMENT)
                 .module(module)
                 .name(c"fragment_main"),
         ];
+        let stages = &all_stages[..if camera { 2 } else { 1 }];
         let bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
             .stride(std::mem::size_of::<GpuVertex>() as u32)
@@ -178,6 +305,7 @@ impl Renderer {
             (0, vk::Format::R32G32B32A32_SFLOAT, 0),
             (1, vk::Format::R32G32B32_SFLOAT, 16),
             (2, vk::Format::R32G32B32A32_SFLOAT, 28),
+            (3, vk::Format::R32G32B32A32_SFLOAT, 44),
         ]
         .map(|(location, format, offset)| {
             vk::VertexInputAttributeDescription::default()
@@ -194,13 +322,23 @@ impl Renderer {
         let viewport = vk::PipelineViewportStateCreateInfo::default()
             .viewport_count(1)
             .scissor_count(1);
-        // Both sides drawn: meshes need no consistent winding, and depth hides the back.
+        // Both sides drawn: meshes need no consistent winding, and depth hides the back. The
+        // light's depths are pushed back by a slope-scaled bias, so that a surface does not
+        // shadow itself.
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
             .cull_mode(vk::CullModeFlags::NONE)
+            .depth_bias_enable(!camera)
+            .depth_bias_constant_factor(1.5)
+            .depth_bias_slope_factor(2.0)
             .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(
+            if camera {
+                SAMPLES
+            } else {
+                vk::SampleCountFlags::TYPE_1
+            },
+        );
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true)
@@ -215,20 +353,15 @@ impl Renderer {
             .alpha_blend_op(vk::BlendOp::ADD)
             .color_write_mask(vk::ColorComponentFlags::RGBA)];
         let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments[..usize::from(camera)]);
         let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
         let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        // SAFETY: an empty layout; destroyed in Drop.
-        let layout = unsafe {
-            device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default(), None)
-        }
-        .map_err(failed("creating the pipeline layout"))?;
         let formats = [COLOUR];
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&formats)
+            .color_attachment_formats(&formats[..usize::from(camera)])
             .depth_attachment_format(DEPTH);
         let info = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
+            .stages(stages)
             .vertex_input_state(&vertex_input)
             .input_assembly_state(&assembly)
             .viewport_state(&viewport)
@@ -246,7 +379,7 @@ impl Renderer {
         unsafe { device.destroy_shader_module(module, None) };
         let pipeline =
             pipelines.map_err(|(_, e)| Unavailable(format!("creating the pipeline: {e}")))?[0];
-        Ok((layout, pipeline))
+        Ok(pipeline)
     }
 
     fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Result<u32, Unavailable> {
@@ -294,16 +427,27 @@ impl Renderer {
             ));
         }
         let transform = camera.view_projection(f64::from(width) / f64::from(height));
+        let to_light = light::view_projection(camera);
         let vertices: Vec<GpuVertex> = meshes
             .iter()
             .flat_map(|m| &m.vertices)
             .map(|v| {
                 let clip = transform * v.position.extend(1.0);
                 let n: DVec3 = v.normal;
+                // Solid, shaded things cast shadows; translucent walls, lines and overlays
+                // do not.
+                let casts = v.colour[3] >= 1.0 && n != DVec3::ZERO;
                 GpuVertex {
                     clip: clip.to_array().map(|c| c as f32),
                     normal: n.to_array().map(|c| c as f32),
                     colour: v.colour,
+                    light: if casts {
+                        (to_light * v.position.extend(1.0))
+                            .to_array()
+                            .map(|c| c as f32)
+                    } else {
+                        NO_SHADOW
+                    },
                 }
             })
             .collect();
@@ -328,8 +472,13 @@ impl Renderer {
 
 /// The images and buffers of one frame.
 struct Frame {
+    /// The picture, resolved from `samples`.
     colour: (vk::Image, Allocation, vk::ImageView),
+    /// The picture, multisampled.
+    samples: (vk::Image, Allocation, vk::ImageView),
     depth: (vk::Image, Allocation, vk::ImageView),
+    /// What the light sees first.
+    shadow: (vk::Image, Allocation, vk::ImageView),
     vertices: (vk::Buffer, Allocation),
     readback: (vk::Buffer, Allocation),
     width: u32,
@@ -345,6 +494,7 @@ impl Frame {
         usage: vk::ImageUsageFlags,
         aspect: vk::ImageAspectFlags,
         (width, height): (u32, u32),
+        samples: vk::SampleCountFlags,
     ) -> Result<(vk::Image, Allocation, vk::ImageView), Unavailable> {
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
@@ -356,7 +506,7 @@ impl Frame {
             })
             .mip_levels(1)
             .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(samples)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
             .initial_layout(vk::ImageLayout::UNDEFINED);
@@ -407,20 +557,40 @@ impl Frame {
     }
 
     fn new(r: &Renderer, width: u32, height: u32, vertices: usize) -> Result<Self, Unavailable> {
-        Ok(Self {
+        let single = vk::SampleCountFlags::TYPE_1;
+        let frame = Self {
             colour: Self::image(
                 r,
                 COLOUR,
                 vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
                 vk::ImageAspectFlags::COLOR,
                 (width, height),
+                single,
+            )?,
+            samples: Self::image(
+                r,
+                COLOUR,
+                vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                vk::ImageAspectFlags::COLOR,
+                (width, height),
+                SAMPLES,
             )?,
             depth: Self::image(
                 r,
                 DEPTH,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
                 vk::ImageAspectFlags::DEPTH,
                 (width, height),
+                SAMPLES,
+            )?,
+            shadow: Self::image(
+                r,
+                DEPTH,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+                vk::ImageAspectFlags::DEPTH,
+                (SHADOW_EDGE, SHADOW_EDGE),
+                single,
             )?,
             vertices: Self::buffer(
                 r,
@@ -435,7 +605,27 @@ impl Frame {
             width,
             height,
             capacity: vertices,
-        })
+        };
+        // The one set points at this frame's shadow map (the last frame's is gone).
+        let image = [vk::DescriptorImageInfo::default()
+            .image_view(frame.shadow.2)
+            .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
+        let sampler = [vk::DescriptorImageInfo::default().sampler(r.sampler)];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(r.set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image),
+            vk::WriteDescriptorSet::default()
+                .dst_set(r.set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&sampler),
+        ];
+        // SAFETY: no frame is in flight; the view and sampler outlive the set's use.
+        unsafe { r.device.update_descriptor_sets(&writes, &[]) };
+        Ok(frame)
     }
 
     fn draw(
@@ -488,17 +678,92 @@ impl Frame {
                     .src_access_mask(src_access)
                     .dst_access_mask(dst_access)
             };
+            let clear_depth = vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 1.0,
+                    stencil: 0,
+                },
+            };
+            let whole = |width, height| vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: vk::Extent2D { width, height },
+            };
+            let viewport = |width: u32, height: u32| vk::Viewport {
+                x: 0.0,
+                y: 0.0,
+                width: width as f32,
+                height: height as f32,
+                min_depth: 0.0,
+                max_depth: 1.0,
+            };
+            // The light's view first, into the shadow map.
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(
+                    self.shadow.0,
+                    vk::ImageAspectFlags::DEPTH,
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    vk::AccessFlags::empty(),
+                    vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                )],
+            );
+            let shadow_depth = vk::RenderingAttachmentInfo::default()
+                .image_view(self.shadow.2)
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(clear_depth);
+            let shadow_area = whole(SHADOW_EDGE, SHADOW_EDGE);
+            d.cmd_begin_rendering(
+                cmd,
+                &vk::RenderingInfo::default()
+                    .render_area(shadow_area)
+                    .layer_count(1)
+                    .depth_attachment(&shadow_depth),
+            );
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, r.shadow_pipeline);
+            d.cmd_set_viewport(cmd, 0, &[viewport(SHADOW_EDGE, SHADOW_EDGE)]);
+            d.cmd_set_scissor(cmd, 0, &[shadow_area]);
+            if !vertices.is_empty() {
+                d.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.0], &[0]);
+                d.cmd_draw(cmd, vertices.len() as u32, 1, 0, 0);
+            }
+            d.cmd_end_rendering(cmd);
+            // Then the camera's, reading the map.
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
                 vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
-                    | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+                    | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags::FRAGMENT_SHADER,
                 vk::DependencyFlags::empty(),
                 &[],
                 &[],
                 &[
                     barrier(
+                        self.shadow.0,
+                        vk::ImageAspectFlags::DEPTH,
+                        vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                        vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                        vk::AccessFlags::SHADER_READ,
+                    ),
+                    barrier(
                         self.colour.0,
+                        vk::ImageAspectFlags::COLOR,
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                        vk::AccessFlags::empty(),
+                        vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                    ),
+                    barrier(
+                        self.samples.0,
                         vk::ImageAspectFlags::COLOR,
                         vk::ImageLayout::UNDEFINED,
                         vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
@@ -515,11 +780,15 @@ impl Frame {
                     ),
                 ],
             );
+            // The samples are averaged into the picture as the pass ends.
             let colour = [vk::RenderingAttachmentInfo::default()
-                .image_view(self.colour.2)
+                .image_view(self.samples.2)
                 .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                .resolve_image_view(self.colour.2)
+                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
                 .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
                 .clear_value(vk::ClearValue {
                     color: vk::ClearColorValue {
                         float32: background,
@@ -530,16 +799,8 @@ impl Frame {
                 .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
                 .load_op(vk::AttachmentLoadOp::CLEAR)
                 .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .clear_value(vk::ClearValue {
-                    depth_stencil: vk::ClearDepthStencilValue {
-                        depth: 1.0,
-                        stencil: 0,
-                    },
-                });
-            let area = vk::Rect2D {
-                offset: vk::Offset2D { x: 0, y: 0 },
-                extent: vk::Extent2D { width, height },
-            };
+                .clear_value(clear_depth);
+            let area = whole(width, height);
             d.cmd_begin_rendering(
                 cmd,
                 &vk::RenderingInfo::default()
@@ -549,18 +810,15 @@ impl Frame {
                     .depth_attachment(&depth),
             );
             d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, r.pipeline);
-            d.cmd_set_viewport(
+            d.cmd_bind_descriptor_sets(
                 cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                r.layout,
                 0,
-                &[vk::Viewport {
-                    x: 0.0,
-                    y: 0.0,
-                    width: width as f32,
-                    height: height as f32,
-                    min_depth: 0.0,
-                    max_depth: 1.0,
-                }],
+                &[r.set],
+                &[],
             );
+            d.cmd_set_viewport(cmd, 0, &[viewport(width, height)]);
             d.cmd_set_scissor(cmd, 0, &[area]);
             if !vertices.is_empty() {
                 d.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.0], &[0]);
@@ -634,7 +892,7 @@ impl Frame {
         let d = &r.device;
         // SAFETY: the frame's work has completed (or was never submitted).
         unsafe {
-            for (image, memory, view) in [self.colour, self.depth] {
+            for (image, memory, view) in [self.colour, self.samples, self.depth, self.shadow] {
                 d.destroy_image_view(view, None);
                 d.destroy_image(image, None);
                 d.free_memory(memory.memory, None);
@@ -663,7 +921,11 @@ impl Drop for Renderer {
                 frame.destroy(self);
             }
             self.device.destroy_pipeline(self.pipeline, None);
+            self.device.destroy_pipeline(self.shadow_pipeline, None);
             self.device.destroy_pipeline_layout(self.layout, None);
+            self.device.destroy_sampler(self.sampler, None);
+            self.device.destroy_descriptor_pool(self.descriptors, None);
+            self.device.destroy_descriptor_set_layout(self.set_layout, None);
             self.device.destroy_command_pool(self.pool, None);
             self.device.destroy_device(None);
             self.instance.destroy_instance(None);
