@@ -1,6 +1,6 @@
 //! One frame drawn offscreen with Vulkan and read back, at 1280 × 720: the shipped `blocks`
-//! scene alone, and with SPIDAR-G's grip, strings and a force arrow over it (on this
-//! machine, Mesa's lavapipe on the CPU).
+//! scene alone, flat and with its depth cues (shadows, smoothed edges), and with SPIDAR-G's
+//! grip, strings and a force arrow over it (on this machine, Mesa's lavapipe on the CPU).
 //!
 //! Run: `make bench`.
 
@@ -27,7 +27,12 @@ fn blocks() -> Scenery {
 }
 
 fn bench_frame(bencher: Bencher, scenery: &Scenery) {
+    bench_frame_with(bencher, scenery, true);
+}
+
+fn bench_frame_with(bencher: Bencher, scenery: &Scenery, depth_cues: bool) {
     let mut renderer = Renderer::new().expect("a Vulkan device");
+    renderer.set_depth_cues(depth_cues);
     let camera = scenery.camera();
     let meshes: Vec<_> = scenery.meshes.iter().collect();
     // The first frame compiles the shaders' variants.
@@ -38,6 +43,11 @@ fn bench_frame(bencher: Bencher, scenery: &Scenery) {
 #[divan::bench(sample_count = 30)]
 fn blocks_1280x720(bencher: Bencher) {
     bench_frame(bencher, &blocks());
+}
+
+#[divan::bench(sample_count = 30)]
+fn blocks_flat_1280x720(bencher: Bencher) {
+    bench_frame_with(bencher, &blocks(), false);
 }
 
 #[divan::bench(sample_count = 30)]

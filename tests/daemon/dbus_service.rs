@@ -2147,7 +2147,7 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
     let setup = Setup::new(&dir);
     // The static scene with the grip at rest: every frame is the same but for the clock.
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
-    let _renderer = Renderer::start(&bus, &dir, &[]);
+    let mut renderer = Renderer::start(&bus, &dir, &[]);
     let (width, height) = (320, 240);
     let screen = Xvfb::start(&dir, width, height);
     let mut viewer = hapticctl()
@@ -2177,21 +2177,36 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
     let snapshot = bus
         .snapshot(&["width", "u", "320", "height", "u", "240"])
         .unwrap();
-    let _ = viewer.kill();
-    let _ = viewer.wait();
     // Above the status line (whose clock moves on) the window shows what Snapshot draws.
     let band = 15 * width as usize * 4;
     let above = shot.rgba.len() - band;
-    let worst = shot.rgba[..above]
-        .iter()
-        .zip(&snapshot.rgba[..above])
-        .map(|(a, b)| a.abs_diff(*b))
-        .max()
-        .unwrap();
+    let worst = |shot: &Picture, expected: &dyn Fn(u8) -> u8, rows: std::ops::Range<usize>| {
+        shot.rgba[rows.clone()]
+            .iter()
+            .zip(&snapshot.rgba[rows])
+            .map(|(a, b)| a.abs_diff(expected(*b)))
+            .max()
+            .unwrap()
+    };
+    let same = worst(&shot, &|c| c, 0..above);
+    assert!(same <= 2, "the window differs from Snapshot by {same} LSB");
+    // With the renderer gone, the last frame stays, dimmed, its age written over it.
+    let _ = renderer.child.kill();
+    let _ = renderer.child.wait();
+    std::thread::sleep(Duration::from_millis(1500));
+    let stale = screen.screenshot();
+    let _ = viewer.kill();
+    let _ = viewer.wait();
+    let dimmed = worst(&stale, &|c| c / 2 + 64, band..above);
     assert!(
-        worst <= 2,
-        "the window differs from Snapshot by {worst} LSB"
+        dimmed <= 2,
+        "the stale frame is not dimmed ({dimmed} LSB off)"
     );
+    let letters = stale.rgba[..band]
+        .chunks(4)
+        .filter(|p| p[..3] == [255, 255, 255])
+        .count();
+    assert!(letters > 50, "no note over the stale frame");
     let line = |p: &Picture| {
         drawn_share(&Picture {
             width,

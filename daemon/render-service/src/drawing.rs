@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use hapticd_ipc::bus::Bus;
 use hapticd_ipc::frame_ring::FrameRingWriter;
 use hapticd_ipc::names::{RENDERER_INTERFACE, RENDERER_PATH};
+use hapticd_render::caption::{self, Edge};
 use hapticd_render::picture::Picture;
 use hapticd_render::vulkan::Renderer;
 
@@ -25,7 +26,6 @@ use crate::error::Error;
 use crate::limits::{self, Asked, Held, Limits};
 use crate::options::Request;
 use crate::statistics::Statistics;
-use crate::status_line;
 use crate::world_source::WorldSource;
 
 /// The background: a pale sky.
@@ -269,7 +269,7 @@ impl Drawing {
             .renderer
             .draw(&meshes, &camera, request.size, SKY)
             .map_err(|e| Error::Failed(e.to_string()))?;
-        status_line::write(&mut picture, &view.status);
+        caption::write(&mut picture, &view.status, Edge::Bottom);
         Ok(picture)
     }
 

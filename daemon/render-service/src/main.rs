@@ -8,7 +8,6 @@
 //!
 //! - [`world_source`]: hapticd's world and the scene's solids, as meshes;
 //! - [`drawing`]: the thread that owns the Vulkan device and draws;
-//! - [`status_line`]: the line of text under each picture;
 //! - [`options`]: the options of requests, checked;
 //! - [`limits`]: what the renderer will take on (streams, pixels a second, memory);
 //! - [`statistics`]: what it has open and has done, for the bus;
@@ -20,7 +19,6 @@ mod error;
 mod limits;
 mod options;
 mod statistics;
-mod status_line;
 mod world_source;
 
 use std::process::ExitCode;

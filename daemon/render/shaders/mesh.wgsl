@@ -38,7 +38,7 @@ fn shadow_main(v: Vertex) -> @builtin(position) vec4<f32> {
 }
 
 // How much of the light reaches a point seen at `light` (its light-space clip position):
-// four comparisons a texel apart, each filtered, for a soft edge.
+// one comparison, filtered over the four nearest texels for a soft edge.
 fn lit(light: vec4<f32>) -> f32 {
     let p = light.xyz / light.w;
     // Vertex positions are turned y down for Vulkan, the light's view too.
@@ -46,17 +46,10 @@ fn lit(light: vec4<f32>) -> f32 {
     if (any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || p.z > 1.0) {
         return 1.0;
     }
-    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_map));
-    let depth = p.z - 0.0015;
-    var sum = 0.0;
-    sum += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + vec2<f32>(-0.5, -0.5) * texel, depth);
-    sum += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + vec2<f32>(0.5, -0.5) * texel, depth);
-    sum += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + vec2<f32>(-0.5, 0.5) * texel, depth);
-    sum += textureSampleCompareLevel(shadow_map, shadow_sampler, uv + vec2<f32>(0.5, 0.5) * texel, depth);
-    return sum * 0.25;
+    return textureSampleCompareLevel(shadow_map, shadow_sampler, uv, p.z - 0.0015);
 }
 
-// Light from above, in front and to the left (the host's `LIGHT`); a quarter of ambient so
+// Light from above, in front and to the left (the host's `light::direction`); a quarter of ambient so
 // faces turned away still show their colour, and shadows keep a third of the direct light
 // so what lies in them stays readable. A zero normal marks lines and overlays: unshaded.
 @fragment

@@ -6,19 +6,23 @@
 //! - [`camera`]: where the picture is taken from;
 //! - [`light`]: the light, and its view of the scene for shadows;
 //! - [`font`]: a small bitmap font, for text written into pictures;
+//! - [`caption`]: a line of that text on a picture;
 //! - [`vulkan`]: the device, the pipeline, and one frame drawn and read back;
 //! - [`picture`]: the frame's pixels and its PNG file;
-//! - [`scenery`]: what a scene, a mechanism and the pointers look like, as meshes.
+//! - [`scenery`]: what a scene, a mechanism and the pointers look like, as meshes;
+//! - [`smoothing`]: edges smoothed as a picture is read back.
 //!
 //! Positions are projected on the host, for the camera and for the light (a frame holds a
 //! few thousand vertices), so the pipelines need no uniforms: their one resource is the
-//! shadow map. Edges are smoothed by 4× multisampling. The shaders are WGSL compiled to
+//! shadow map. The shaders are WGSL compiled to
 //! SPIR-V by naga at build time.
 
 pub mod camera;
+pub mod caption;
 pub mod font;
 pub mod light;
 pub mod mesh;
 pub mod picture;
 pub mod scenery;
+pub mod smoothing;
 pub mod vulkan;

@@ -1,7 +1,8 @@
-//! One Vulkan device and the two pipelines that draw meshes: the light's view into a shadow
-//! map, then the camera's, 4× multisampled and resolved into an offscreen image that is read
-//! back. Dynamic rendering (Vulkan 1.3) needs no render pass objects; Vulkan is loaded at
-//! run time, so a machine without it gets an error, not a crash.
+//! One Vulkan device and the two pipelines of a frame: the light's view into a shadow map,
+//! then the camera's, shaded and shadowed, into an offscreen image that is read back (its
+//! edges smoothed on the way: [`crate::smoothing`]). Dynamic rendering (Vulkan 1.3) needs no
+//! render pass objects; Vulkan is loaded at run time, so a machine without it gets an error,
+//! not a crash.
 
 use ash::vk;
 use glam::DVec3;
@@ -10,6 +11,7 @@ use crate::camera::Camera;
 use crate::light;
 use crate::mesh::Mesh;
 use crate::picture::Picture;
+use crate::smoothing;
 
 /// Largest picture edge, pixels.
 pub const MAX_EDGE: u32 = 8192;
@@ -17,11 +19,9 @@ pub const MAX_EDGE: u32 = 8192;
 const COLOUR: vk::Format = vk::Format::R8G8B8A8_UNORM;
 const DEPTH: vk::Format = vk::Format::D32_SFLOAT;
 
-/// Samples per pixel of the camera's view: every Vulkan device offers 4 for colour and depth.
-const SAMPLES: vk::SampleCountFlags = vk::SampleCountFlags::TYPE_4;
-
-/// Edge of the shadow map, texels: about a millimetre each over a desk-sized view.
-const SHADOW_EDGE: u32 = 1024;
+/// Edge of the shadow map, texels: about two millimetres each over a desk-sized view, and
+/// cheap to draw and read on a CPU rasteriser.
+const SHADOW_EDGE: u32 = 512;
 
 /// Where a vertex that casts no shadow is put in the light's view: past its far plane.
 const NO_SHADOW: [f32; 4] = [0.0, 0.0, 2.0, 1.0];
@@ -71,6 +71,8 @@ pub struct Renderer {
     pipeline: vk::Pipeline,
     /// The light's view, depth only.
     shadow_pipeline: vk::Pipeline,
+    /// Whether pictures get shadows and smoothed edges (see [`Renderer::set_depth_cues`]).
+    depth_cues: bool,
     /// The images and buffers of the last frame, kept for the next one of the same size.
     frame: Option<Frame>,
     /// The device's name, as its driver gives it.
@@ -186,6 +188,7 @@ impl Renderer {
             layout,
             pipeline,
             shadow_pipeline,
+            depth_cues: true,
             frame: None,
             device_name,
         })
@@ -264,13 +267,19 @@ impl Renderer {
         }
     }
 
+    /// Draw shadows and smooth edges (the default), or neither: pictures a slow device
+    /// draws sooner, flat as they were before.
+    pub fn set_depth_cues(&mut self, on: bool) {
+        self.depth_cues = on;
+    }
+
     /// The device drawn on, as its driver names it (`llvmpipe (LLVM 15.0.6, 256 bits)`).
     pub fn device_name(&self) -> &str {
         &self.device_name
     }
 
-    /// The pipeline drawing `view`: the camera's, shaded, multisampled and blended into a
-    /// colour image; or the light's, depth only, into the shadow map.
+    /// The pipeline drawing `view`: the camera's, shaded and blended into a colour image;
+    /// or the light's, depth only, into the shadow map.
     fn pipeline(
         device: &ash::Device,
         layout: vk::PipelineLayout,
@@ -285,18 +294,23 @@ impl Renderer {
         // SAFETY: valid SPIR-V from naga; destroyed below once the pipeline holds it.
         let module = unsafe { device.create_shader_module(&info, None) }
             .map_err(failed("loading the shaders"))?;
-        let camera = view == View::Camera;
-        let all_stages = [
+        let (vertex, fragment) = match view {
+            View::Camera => (c"vertex_main", Some(c"fragment_main")),
+            View::Light => (c"shadow_main", None),
+        };
+        let mut stages = vec![
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::VERTEX)
                 .module(module)
-                .name(if camera { c"vertex_main" } else { c"shadow_main" }),
+                .name(vertex),
+        ];
+        stages.extend(fragment.map(|name| {
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::FRAGMENT)
                 .module(module)
-                .name(c"fragment_main"),
-        ];
-        let stages = &all_stages[..if camera { 2 } else { 1 }];
+                .name(name)
+        }));
+        let colour = view == View::Camera;
         let bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
             .stride(std::mem::size_of::<GpuVertex>() as u32)
@@ -328,17 +342,12 @@ impl Renderer {
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
             .cull_mode(vk::CullModeFlags::NONE)
-            .depth_bias_enable(!camera)
+            .depth_bias_enable(view == View::Light)
             .depth_bias_constant_factor(1.5)
             .depth_bias_slope_factor(2.0)
             .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(
-            if camera {
-                SAMPLES
-            } else {
-                vk::SampleCountFlags::TYPE_1
-            },
-        );
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true)
@@ -352,16 +361,16 @@ impl Renderer {
             .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
             .alpha_blend_op(vk::BlendOp::ADD)
             .color_write_mask(vk::ColorComponentFlags::RGBA)];
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments[..usize::from(camera)]);
+        let blend = vk::PipelineColorBlendStateCreateInfo::default()
+            .attachments(&blend_attachments[..usize::from(colour)]);
         let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
         let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         let formats = [COLOUR];
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&formats[..usize::from(camera)])
+            .color_attachment_formats(&formats[..usize::from(colour)])
             .depth_attachment_format(DEPTH);
         let info = vk::GraphicsPipelineCreateInfo::default()
-            .stages(stages)
+            .stages(&stages)
             .vertex_input_state(&vertex_input)
             .input_assembly_state(&assembly)
             .viewport_state(&viewport)
@@ -436,7 +445,7 @@ impl Renderer {
                 let n: DVec3 = v.normal;
                 // Solid, shaded things cast shadows; translucent walls, lines and overlays
                 // do not.
-                let casts = v.colour[3] >= 1.0 && n != DVec3::ZERO;
+                let casts = self.depth_cues && v.colour[3] >= 1.0 && n != DVec3::ZERO;
                 GpuVertex {
                     clip: clip.to_array().map(|c| c as f32),
                     normal: n.to_array().map(|c| c as f32),
@@ -464,7 +473,7 @@ impl Renderer {
                 Frame::new(self, width, height, (vertices.len() * 2).max(1024))?
             }
         };
-        let result = frame.draw(self, &vertices, background);
+        let result = frame.draw(self, &vertices, background, self.depth_cues);
         self.frame = Some(frame);
         result
     }
@@ -472,10 +481,8 @@ impl Renderer {
 
 /// The images and buffers of one frame.
 struct Frame {
-    /// The picture, resolved from `samples`.
+    /// The picture.
     colour: (vk::Image, Allocation, vk::ImageView),
-    /// The picture, multisampled.
-    samples: (vk::Image, Allocation, vk::ImageView),
     depth: (vk::Image, Allocation, vk::ImageView),
     /// What the light sees first.
     shadow: (vk::Image, Allocation, vk::ImageView),
@@ -494,7 +501,6 @@ impl Frame {
         usage: vk::ImageUsageFlags,
         aspect: vk::ImageAspectFlags,
         (width, height): (u32, u32),
-        samples: vk::SampleCountFlags,
     ) -> Result<(vk::Image, Allocation, vk::ImageView), Unavailable> {
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
@@ -506,7 +512,7 @@ impl Frame {
             })
             .mip_levels(1)
             .array_layers(1)
-            .samples(samples)
+            .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
             .initial_layout(vk::ImageLayout::UNDEFINED);
@@ -557,7 +563,6 @@ impl Frame {
     }
 
     fn new(r: &Renderer, width: u32, height: u32, vertices: usize) -> Result<Self, Unavailable> {
-        let single = vk::SampleCountFlags::TYPE_1;
         let frame = Self {
             colour: Self::image(
                 r,
@@ -565,24 +570,13 @@ impl Frame {
                 vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
                 vk::ImageAspectFlags::COLOR,
                 (width, height),
-                single,
-            )?,
-            samples: Self::image(
-                r,
-                COLOUR,
-                vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
-                vk::ImageAspectFlags::COLOR,
-                (width, height),
-                SAMPLES,
             )?,
             depth: Self::image(
                 r,
                 DEPTH,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
-                    | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
                 vk::ImageAspectFlags::DEPTH,
                 (width, height),
-                SAMPLES,
             )?,
             shadow: Self::image(
                 r,
@@ -590,7 +584,6 @@ impl Frame {
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
                 vk::ImageAspectFlags::DEPTH,
                 (SHADOW_EDGE, SHADOW_EDGE),
-                single,
             )?,
             vertices: Self::buffer(
                 r,
@@ -633,6 +626,7 @@ impl Frame {
         r: &Renderer,
         vertices: &[GpuVertex],
         background: [f32; 4],
+        smoothed: bool,
     ) -> Result<Picture, Unavailable> {
         let d = &r.device;
         let (width, height) = (self.width, self.height);
@@ -763,14 +757,6 @@ impl Frame {
                         vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
                     ),
                     barrier(
-                        self.samples.0,
-                        vk::ImageAspectFlags::COLOR,
-                        vk::ImageLayout::UNDEFINED,
-                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                        vk::AccessFlags::empty(),
-                        vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
-                    ),
-                    barrier(
                         self.depth.0,
                         vk::ImageAspectFlags::DEPTH,
                         vk::ImageLayout::UNDEFINED,
@@ -780,15 +766,11 @@ impl Frame {
                     ),
                 ],
             );
-            // The samples are averaged into the picture as the pass ends.
             let colour = [vk::RenderingAttachmentInfo::default()
-                .image_view(self.samples.2)
+                .image_view(self.colour.2)
                 .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
-                .resolve_image_view(self.colour.2)
-                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
                 .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .store_op(vk::AttachmentStoreOp::STORE)
                 .clear_value(vk::ClearValue {
                     color: vk::ClearColorValue {
                         float32: background,
@@ -878,7 +860,12 @@ impl Frame {
             let from = d
                 .map_memory(self.readback.1.memory, 0, size, vk::MemoryMapFlags::empty())
                 .map_err(failed("mapping the picture"))?;
-            let rgba = std::slice::from_raw_parts(from.cast::<u8>(), size as usize).to_vec();
+            let pixels = std::slice::from_raw_parts(from.cast::<u8>(), size as usize);
+            let rgba = if smoothed {
+                smoothing::smooth_edges(pixels, width as usize, height as usize)
+            } else {
+                pixels.to_vec()
+            };
             d.unmap_memory(self.readback.1.memory);
             Ok(Picture {
                 width,
@@ -892,7 +879,7 @@ impl Frame {
         let d = &r.device;
         // SAFETY: the frame's work has completed (or was never submitted).
         unsafe {
-            for (image, memory, view) in [self.colour, self.samples, self.depth, self.shadow] {
+            for (image, memory, view) in [self.colour, self.depth, self.shadow] {
                 d.destroy_image_view(view, None);
                 d.destroy_image(image, None);
                 d.free_memory(memory.memory, None);
@@ -925,7 +912,8 @@ impl Drop for Renderer {
             self.device.destroy_pipeline_layout(self.layout, None);
             self.device.destroy_sampler(self.sampler, None);
             self.device.destroy_descriptor_pool(self.descriptors, None);
-            self.device.destroy_descriptor_set_layout(self.set_layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
             self.device.destroy_command_pool(self.pool, None);
             self.device.destroy_device(None);
             self.instance.destroy_instance(None);

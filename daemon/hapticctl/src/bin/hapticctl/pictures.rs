@@ -13,6 +13,8 @@ use clap::Args;
 use hapticd_ipc::bus::{Bus, has_owner};
 use hapticd_ipc::frame_ring::FrameRingReader;
 use hapticd_ipc::names::{RENDERER_BUS_NAME, RENDERER_INTERFACE, RENDERER_PATH, error_name};
+use hapticd_render::caption::{self, Edge};
+use hapticd_render::picture::Picture;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::WindowEvent;
@@ -195,6 +197,10 @@ fn open_stream(
 /// After this long without a frame the stream is asked for again (a renderer restarted).
 const STALL: Duration = Duration::from_secs(2);
 
+/// After this long without a frame (or four of the stream's periods, if longer) the one
+/// shown is marked as old: dimmed, with its age written over it.
+const STALE: Duration = Duration::from_millis(500);
+
 /// The window and what it shows.
 struct Viewer<'a> {
     bus: &'a Bus,
@@ -207,6 +213,10 @@ struct Viewer<'a> {
     shown: u64,
     /// When a frame last came, or the stream was last asked for.
     fresh: Instant,
+    /// When the frame shown came.
+    arrived: Instant,
+    /// The age last written over a stale frame, whole seconds (`None`: shown as fresh).
+    marked: Option<u64>,
     failure: Option<Failure>,
 }
 
@@ -216,8 +226,21 @@ impl Viewer<'_> {
         event_loop.exit();
     }
 
-    /// Show the latest frame, scaled to the window.
+    /// How long the frame shown has been shown, if that makes it stale.
+    fn staleness(&self) -> Option<Duration> {
+        let period = Duration::from_secs_f64(4.0 / self.args.rate.clamp(1.0, 120.0));
+        let age = self.arrived.elapsed();
+        (age > STALE.max(period)).then_some(age)
+    }
+
+    /// Show the latest frame, scaled to the window; a stale one dimmed, with its age.
     fn present(&mut self) -> Result<(), String> {
+        if let Some(number) = self.stream.1.read(&mut self.rgba) {
+            self.shown = number;
+            self.fresh = Instant::now();
+            self.arrived = self.fresh;
+        }
+        self.marked = self.staleness().map(|age| age.as_secs());
         let (Some(window), Some(surface)) = (&self.window, &mut self.surface) else {
             return Ok(());
         };
@@ -229,19 +252,32 @@ impl Viewer<'_> {
         };
         surface.resize(width, height).map_err(|e| e.to_string())?;
         let mut buffer = surface.buffer_mut().map_err(|e| e.to_string())?;
-        let ring = &self.stream.1;
-        if let Some(number) = ring.read(&mut self.rgba) {
-            self.shown = number;
-            self.fresh = Instant::now();
-        }
-        let (fw, fh) = ring.size();
+        let (fw, fh) = self.stream.1.size();
+        let stale;
+        let rgba = match self.marked {
+            Some(seconds) if self.rgba.len() == fw as usize * fh as usize * 4 => {
+                let mut picture = Picture {
+                    width: fw,
+                    height: fh,
+                    rgba: self.rgba.iter().map(|&c| c / 2 + 64).collect(),
+                };
+                caption::write(
+                    &mut picture,
+                    &format!("no new frame for {seconds} s: is hapticd-render running?"),
+                    Edge::Top,
+                );
+                stale = picture.rgba;
+                &stale
+            }
+            _ => &self.rgba,
+        };
         let (w, h) = (size.width as usize, size.height as usize);
         for y in 0..h {
             let sy = y * fh as usize / h;
             for x in 0..w {
                 let sx = x * fw as usize / w;
                 let at = (sy * fw as usize + sx) * 4;
-                buffer[y * w + x] = match self.rgba.get(at..at + 3) {
+                buffer[y * w + x] = match rgba.get(at..at + 3) {
                     Some(&[r, g, b]) => u32::from(r) << 16 | u32::from(g) << 8 | u32::from(b),
                     _ => 0x20_22_28,
                 };
@@ -323,7 +359,9 @@ impl ApplicationHandler for Viewer<'_> {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        if self.stream.1.latest() != self.shown
+        // A new frame, or the one shown turning stale or a second older.
+        let mark = self.staleness().map(|age| age.as_secs());
+        if (self.stream.1.latest() != self.shown || mark != self.marked)
             && let Some(window) = &self.window
         {
             window.request_redraw();
@@ -367,6 +405,8 @@ pub fn view(args: &ViewerArgs, bus: &Bus) -> Result<(), Failure> {
         rgba: Vec::new(),
         shown: 0,
         fresh: Instant::now(),
+        arrived: Instant::now(),
+        marked: None,
         failure: None,
     };
     event_loop

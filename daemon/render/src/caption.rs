@@ -1,9 +1,9 @@
-//! The status line under a picture (scene, rate, state, time): white letters of the 5 × 7
-//! bitmap font on a dark band, written into the pixels after they are read back, so no
-//! font file, texture or second pipeline is needed.
+//! A line of text on a picture (the renderer's status line under each frame, a viewer's
+//! note over a stale one): white letters of the 5 × 7 bitmap font on a dark band, written
+//! into the pixels after they are read back, so no font file, texture or pipeline is needed.
 
-use hapticd_render::font::{self, GLYPH_WIDTH};
-use hapticd_render::picture::Picture;
+use crate::font::{self, GLYPH_WIDTH};
+use crate::picture::Picture;
 
 /// Pixels a glyph takes across, its gap included.
 const ADVANCE: usize = GLYPH_WIDTH + 1;
@@ -12,9 +12,18 @@ const MARGIN: usize = 3;
 /// Rows of a line: the glyphs' seven and two for descenders.
 const LINE: usize = 9;
 
-/// Write `text` along the bottom left of `picture`, as much of it as fits; letters twice
-/// as large on pictures at least 480 pixels high.
-pub fn write(picture: &mut Picture, text: &str) {
+/// The edge of a picture a line is written along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Edge {
+    /// The top left.
+    Top,
+    /// The bottom left.
+    Bottom,
+}
+
+/// Write `text` along `edge` of `picture`, from the left, as much of it as fits; letters
+/// twice as large on pictures at least 480 pixels high.
+pub fn write(picture: &mut Picture, text: &str, edge: Edge) {
     let scale = if picture.height >= 480 { 2 } else { 1 };
     let (width, height) = (picture.width as usize, picture.height as usize);
     let band = (LINE + 2 * MARGIN) * scale;
@@ -30,8 +39,11 @@ pub fn write(picture: &mut Picture, text: &str) {
             *c = ((u16::from(*c) * (255 - alpha) + u16::from(value) * alpha) / 255) as u8;
         }
     };
-    let top = height - band;
-    for y in top..height {
+    let top = match edge {
+        Edge::Top => 0,
+        Edge::Bottom => height - band,
+    };
+    for y in top..top + band {
         for x in 0..band_width.min(width) {
             blend(x, y, [20, 22, 28], 170);
         }
@@ -81,7 +93,7 @@ mod tests {
     #[test]
     fn the_line_is_written_at_the_bottom_left_and_only_there() {
         let mut p = grey(200, 100);
-        write(&mut p, "1 |");
+        write(&mut p, "1 |", Edge::Bottom);
         // Each letter's lit columns, in its cell.
         let lit = |c: char, cell: usize| -> Vec<usize> {
             (0..GLYPH_WIDTH)
@@ -110,11 +122,20 @@ mod tests {
     #[test]
     fn a_long_line_is_cut_to_the_picture_and_large_pictures_get_large_letters() {
         let mut narrow = grey(40, 20);
-        write(&mut narrow, "llllllllllllllllllll");
+        write(&mut narrow, "llllllllllllllllllll", Edge::Bottom);
         assert!(white_columns(&narrow).iter().all(|&x| x < 40));
         let (mut small, mut large) = (grey(640, 479), grey(640, 480));
-        write(&mut small, "m");
-        write(&mut large, "m");
+        write(&mut small, "m", Edge::Bottom);
+        write(&mut large, "m", Edge::Bottom);
         assert_eq!(white_columns(&large).len(), 2 * white_columns(&small).len());
+    }
+
+    #[test]
+    fn a_line_at_the_top_leaves_the_rest_as_it_was() {
+        let mut p = grey(200, 100);
+        write(&mut p, "away", Edge::Top);
+        let band = (LINE + 2 * MARGIN) * 200 * 4;
+        assert_ne!(&p.rgba[..band], &grey(200, 100).rgba[..band]);
+        assert_eq!(&p.rgba[band..], &grey(200, 100).rgba[band..]);
     }
 }
