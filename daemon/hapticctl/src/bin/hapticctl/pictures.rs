@@ -235,7 +235,9 @@ impl Viewer<'_> {
 
     /// Show the latest frame, scaled to the window; a stale one dimmed, with its age.
     fn present(&mut self) -> Result<(), String> {
-        if let Some(number) = self.stream.1.read(&mut self.rgba) {
+        if let Some(number) = self.stream.1.read(&mut self.rgba)
+            && number != self.shown
+        {
             self.shown = number;
             self.fresh = Instant::now();
             self.arrived = self.fresh;
