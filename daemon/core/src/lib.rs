@@ -28,4 +28,3 @@ pub mod stats;
 pub mod sync;
 pub mod transport;
 pub mod world_state;
-mod yaml_schema;

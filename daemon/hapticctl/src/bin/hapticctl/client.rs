@@ -259,17 +259,6 @@ impl Client {
             .unwrap_or_default())
     }
 
-    /// What names each device on the command line: its index and its identity.
-    pub fn device_names(&self) -> Result<Vec<String>, Failure> {
-        let manager = self.properties(MANAGER_PATH, MANAGER)?;
-        let mut names = Vec::new();
-        for (index, device) in self.devices(&manager)?.iter().enumerate() {
-            names.push(index.to_string());
-            names.push(words(&device["Identity"]));
-        }
-        Ok(names)
-    }
-
     /// The object path of the device `arg` names.
     fn device(&self, arg: &DeviceArg) -> Result<String, Failure> {
         let manager = self.properties(MANAGER_PATH, MANAGER)?;

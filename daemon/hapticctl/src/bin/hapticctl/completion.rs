@@ -9,9 +9,9 @@ use clap_complete::engine::{
     ArgValueCompleter, CompletionCandidate, PathCompleter, ValueCompleter,
 };
 use hapticd_core::parameters::Name;
-use hapticd_ipc::bus::Bus;
-
-use crate::client::Client;
+use hapticd_ipc::bus::{Bus, has_owner};
+use hapticd_ipc::names::BUS_NAME;
+use hapticd_ipc::proxies::{DeviceProxy, ManagerProxy};
 
 /// The environment variable the shell sets to ask for completions.
 pub const VARIABLE: &str = "COMPLETE";
@@ -53,7 +53,7 @@ pub fn parameters() -> ArgValueCompleter {
 /// The scenes the running daemon lists, then the files of the directory being typed.
 pub fn scenes() -> ArgValueCompleter {
     ArgValueCompleter::new(|current: &OsStr| {
-        let mut found = matching(current, ask(|c| c.manager_list("Scenes")));
+        let mut found = matching(current, ask(|m| async move { m.scenes().await }));
         found.extend(PathCompleter::any().complete(current));
         found
     })
@@ -62,13 +62,13 @@ pub fn scenes() -> ArgValueCompleter {
 /// The mechanisms the running daemon can bind.
 pub fn mechanisms() -> ArgValueCompleter {
     ArgValueCompleter::new(|current: &OsStr| {
-        matching(current, ask(|c| c.manager_list("Mechanisms")))
+        matching(current, ask(|m| async move { m.mechanisms().await }))
     })
 }
 
 /// The devices the running daemon drives: their indices and identities.
 pub fn devices() -> ArgValueCompleter {
-    ArgValueCompleter::new(|current: &OsStr| matching(current, ask(Client::device_names)))
+    ArgValueCompleter::new(|current: &OsStr| matching(current, ask(device_names)))
 }
 
 fn matching(current: &OsStr, names: impl IntoIterator<Item = String>) -> Vec<CompletionCandidate> {
@@ -80,13 +80,36 @@ fn matching(current: &OsStr, names: impl IntoIterator<Item = String>) -> Vec<Com
         .collect()
 }
 
-/// What `query` answers on the bus the line being completed names, or nothing: a daemon
-/// that is not running has nothing to offer, and completion never starts one.
-fn ask(query: impl FnOnce(&Client) -> Result<Vec<String>, crate::Failure>) -> Vec<String> {
+/// What names each device on the command line: its index and its identity.
+async fn device_names(manager: ManagerProxy<'static>) -> zbus::Result<Vec<String>> {
+    let mut names = Vec::new();
+    for (index, path) in manager.devices().await?.into_iter().enumerate() {
+        let device = DeviceProxy::builder(manager.inner().connection())
+            .path(path)
+            .build()
+            .await?;
+        names.push(index.to_string());
+        names.push(device.identity().await?);
+    }
+    Ok(names)
+}
+
+/// What `query` answers from the daemon's manager on the bus the line being completed
+/// names, or nothing: a daemon that is not running has nothing to offer, and completion
+/// never starts one.
+fn ask<F>(query: impl FnOnce(ManagerProxy<'static>) -> F) -> Vec<String>
+where
+    F: std::future::Future<Output = zbus::Result<Vec<String>>>,
+{
     let bus = bus_on_the_line(std::env::args_os()).unwrap_or(Bus::System);
-    Client::connect(&bus)
-        .and_then(|c| query(&c))
-        .unwrap_or_default()
+    zbus::block_on(async {
+        let connection = bus.connection().await?;
+        if !has_owner(&connection, BUS_NAME).await? {
+            return Ok(Vec::new());
+        }
+        query(ManagerProxy::new(&connection).await?).await
+    })
+    .unwrap_or_default()
 }
 
 /// The `--bus` of the command line being completed (it follows `--` among hapticctl's own

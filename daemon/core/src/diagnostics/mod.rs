@@ -18,6 +18,8 @@ use serde_saphyr::granit_parser::{Event, Parser};
 
 use crate::kinematics::quat_from_wxyz;
 
+mod schema;
+
 /// Largest file any loader reads: far above any real descriptor or scene, and small
 /// enough that a mistaken path (a disk image, a device node) fails at once.
 pub const MAX_FILE_BYTES: u64 = 16 << 20;
@@ -386,7 +388,7 @@ impl<T> Parsed<T> {
 pub fn parse_yaml<T: DeserializeOwned>(text: &str, file: &Path) -> Result<Parsed<T>, Diagnostics> {
     let (value, schema) = match serde_saphyr::from_str(text) {
         Ok(value) => (value, Vec::new()),
-        Err(e) => match crate::yaml_schema::parse(text, file) {
+        Err(e) => match schema::parse(text, file) {
             Some((value, schema)) if !schema.is_empty() => (value, schema),
             _ => return Err(Diagnostics::yaml(file, &e)),
         },

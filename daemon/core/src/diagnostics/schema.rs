@@ -19,7 +19,7 @@ use std::path::Path;
 use serde::de::{self, DeserializeOwned, DeserializeSeed, IntoDeserializer, Visitor};
 use serde_saphyr::granit_parser::{Event, Parser, ScalarStyle};
 
-use crate::diagnostics::{Diagnostic, Position, Severity};
+use super::{Diagnostic, Position, Severity};
 
 /// Most nodes a text may expand to, aliases included: a guard against an alias bomb.
 const MAX_NODES: usize = 1 << 20;
