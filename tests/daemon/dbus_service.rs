@@ -2191,6 +2191,16 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
     };
     let same = worst(&shot, &|c| c, 0..above);
     assert!(same <= 2, "the window differs from Snapshot by {same} LSB");
+    // SPIDAR-G's eight strings, at their least tension, are drawn in the tension palette's
+    // blue, which nothing else in the static scene is.
+    let blue = snapshot
+        .rgba
+        .chunks(4)
+        .filter(|p| {
+            i32::from(p[2]) > i32::from(p[0]) + 80 && i32::from(p[2]) > i32::from(p[1]) + 60
+        })
+        .count();
+    assert!(blue > 50, "the strings are not drawn ({blue} blue pixels)");
     // With the renderer gone, the last frame stays, dimmed, its age written over it.
     let _ = renderer.child.kill();
     let _ = renderer.child.wait();
