@@ -6,6 +6,7 @@ mod device;
 mod experiment;
 mod manual;
 mod mechanism;
+mod mesh;
 mod pictures;
 mod render;
 mod scene;
@@ -42,6 +43,9 @@ enum Command {
     /// Inspect mechanisms and run their pose and tension computations.
     #[command(subcommand)]
     Mechanism(mechanism::Command),
+    /// Look at triangle meshes (OBJ, STL, glTF) as hapticd reads them.
+    #[command(subcommand)]
+    Mesh(mesh::Command),
     /// Find SPIDAR amplifiers on USB and exercise them.
     #[command(subcommand)]
     Device(device::Command),
@@ -176,6 +180,7 @@ fn main() -> ExitCode {
             Command::Mechanism(command) => mechanism::run(command, &catalog),
             Command::Experiment(command) => experiment::run(command, &catalog),
             Command::Device(command) => device::run(command),
+            Command::Mesh(command) => mesh::run(command),
             Command::Scene(command) => scene::run(command, &cli.bus),
             Command::Render(args) => render::run(&args, &catalog),
             Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),

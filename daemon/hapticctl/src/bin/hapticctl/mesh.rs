@@ -1,0 +1,107 @@
+//! `hapticctl mesh …`: look at a triangle mesh (OBJ, STL, glTF) as hapticd reads it.
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+use hapticd_mesh::properties::{closure, mass_properties};
+use hapticd_mesh::{Limits, load};
+use serde_json::json;
+
+use crate::Failure;
+use crate::mechanism::{Output, print};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Triangles, vertices, bounds, whether the surface is closed, and the volume, centre
+    /// and inertia it encloses.
+    Inspect(InspectArgs),
+}
+
+#[derive(Args)]
+pub struct InspectArgs {
+    /// The mesh file: .obj, .stl, .gltf or .glb.
+    file: PathBuf,
+    /// Scale the file's coordinates by S to make metres (as a scene's `scale:`).
+    #[arg(long, default_value_t = 1.0)]
+    scale: f64,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// Run one `mesh` subcommand.
+pub fn run(command: Command) -> Result<(), Failure> {
+    match command {
+        Command::Inspect(args) => inspect(&args),
+    }
+}
+
+fn inspect(args: &InspectArgs) -> Result<(), Failure> {
+    let mesh = load(&args.file, args.scale, Limits::DEFAULT, None)?;
+    let (low, high) = mesh.bounds();
+    let edges = closure(&mesh);
+    let solid = mass_properties(&mesh);
+    let size = high - low;
+    let mut text = format!(
+        "{}: {} triangles, {} vertices{}\nbounds: {:.6} {:.6} {:.6} to {:.6} {:.6} {:.6} m \
+         ({:.6} × {:.6} × {:.6})\n",
+        args.file.display(),
+        mesh.triangles.len(),
+        mesh.vertices.len(),
+        if mesh.normals.is_some() {
+            ", with normals"
+        } else {
+            ""
+        },
+        low.x,
+        low.y,
+        low.z,
+        high.x,
+        high.y,
+        high.z,
+        size.x,
+        size.y,
+        size.z,
+    );
+    let closed = edges.is_closed();
+    if closed {
+        let i = solid.inertia;
+        text += &format!(
+            "closed: yes\nvolume: {:.9e} m³, centre {:.6} {:.6} {:.6} m\ninertia per kg/m³ \
+             about the centre: {:.6e} {:.6e} {:.6e} (products {:.3e} {:.3e} {:.3e}) kg·m²\n",
+            solid.volume,
+            solid.centre.x,
+            solid.centre.y,
+            solid.centre.z,
+            i.x_axis.x,
+            i.y_axis.y,
+            i.z_axis.z,
+            i.y_axis.x,
+            i.z_axis.x,
+            i.z_axis.y,
+        );
+        if solid.volume < 0.0 {
+            text += "the triangles face inwards: a negative volume\n";
+        }
+    } else {
+        text += &format!(
+            "closed: no ({} open edges, {} edges shared by more than two triangles or flipped \
+             faces): it can be a fixed surface, not a movable body\n",
+            edges.open_edges, edges.bad_edges
+        );
+    }
+    let value = json!({
+        "file": args.file,
+        "triangles": mesh.triangles.len(),
+        "vertices": mesh.vertices.len(),
+        "normals": mesh.normals.is_some(),
+        "bounds": [low.to_array(), high.to_array()],
+        "closed": closed,
+        "open_edges": edges.open_edges,
+        "bad_edges": edges.bad_edges,
+        "volume": closed.then_some(solid.volume),
+        "centre": closed.then_some(solid.centre.to_array()),
+        "inertia": closed.then_some(solid.inertia.to_cols_array_2d()),
+    });
+    print(&args.output, value, text);
+    Ok(())
+}

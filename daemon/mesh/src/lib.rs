@@ -1,0 +1,174 @@
+//! Triangle meshes for hapticd: a user's part, a scanned object or a model from a 3D tool,
+//! read from Wavefront OBJ, STL (binary or ASCII) or glTF 2.0 (`.gltf` with its buffers, or
+//! `.glb`), checked as every other input is, and measured.
+//!
+//! - [`TriangleMesh`]: welded vertices, triangles, and the normals the file gave;
+//! - [`load`] and [`Limits`]: reading a file by its extension, refusing what could hurt;
+//! - [`properties`]: whether the surface is closed, its volume, centre and inertia;
+//! - `obj`, `stl`, `gltf`: the three formats.
+//!
+//! Coordinates are metres once the scene's `scale:` is applied; every finding names the file.
+
+mod gltf;
+mod obj;
+pub mod properties;
+mod stl;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::DVec3;
+use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
+
+/// What a mesh file may hold: enough for a detailed CAD part, and few enough that a file
+/// cannot make hapticd spend seconds or gigabytes.
+#[derive(Debug, Clone, Copy)]
+pub struct Limits {
+    /// Most vertices, after identical ones are merged.
+    pub vertices: usize,
+    /// Most triangles.
+    pub triangles: usize,
+    /// Largest file (and, for glTF, each buffer it names), bytes.
+    pub bytes: u64,
+}
+
+impl Limits {
+    /// hapticd's: 500 000 vertices and triangles, 64 MiB a file.
+    pub const DEFAULT: Limits = Limits {
+        vertices: 500_000,
+        triangles: 500_000,
+        bytes: 64 << 20,
+    };
+}
+
+/// A surface of triangles, its vertices shared (merged where the file repeats a position).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriangleMesh {
+    /// Vertex positions, metres.
+    pub vertices: Vec<DVec3>,
+    /// Each triangle's three vertices, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Each triangle's corner normals, when the file gives them (for smooth shading).
+    pub normals: Option<Vec<[DVec3; 3]>>,
+}
+
+/// A mesh as a format reader hands it over, before checks and merging: corner positions
+/// by index, and corner normals where the file has them.
+struct Read {
+    positions: Vec<DVec3>,
+    triangles: Vec<[usize; 3]>,
+    normals: Option<Vec<[DVec3; 3]>>,
+}
+
+/// Read the mesh in `file` (its format by its extension), scaled by `scale`, within
+/// `limits`. With `within`, the file and any buffer it names must lie in that directory
+/// once links are followed (a file a bus caller named).
+pub fn load(
+    file: &Path,
+    scale: f64,
+    limits: Limits,
+    within: Option<&Path>,
+) -> Result<TriangleMesh, Diagnostics> {
+    let refuse = |message: String| Diagnostics::file(file, message);
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(refuse(format!(
+            "scale must be a finite number > 0, not {scale}"
+        )));
+    }
+    let rules = FileRules {
+        max_bytes: limits.bytes,
+        within,
+    };
+    let bytes = read_file(file, rules)?;
+    let extension = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let read = match extension.as_deref() {
+        Some("obj") => obj::read(&bytes),
+        Some("stl") => stl::read(&bytes),
+        Some("gltf") | Some("glb") => gltf::read(&bytes, file, rules),
+        _ => Err("not a mesh file hapticd reads: .obj, .stl, .gltf or .glb".into()),
+    }
+    .map_err(refuse)?;
+    TriangleMesh::checked(read, scale, limits).map_err(refuse)
+}
+
+impl TriangleMesh {
+    /// `read` scaled, checked and with its identical positions merged.
+    fn checked(read: Read, scale: f64, limits: Limits) -> Result<TriangleMesh, String> {
+        if read.triangles.len() > limits.triangles {
+            return Err(format!(
+                "{} triangles; a mesh has at most {}",
+                read.triangles.len(),
+                limits.triangles
+            ));
+        }
+        if read.triangles.is_empty() {
+            return Err("no triangles".into());
+        }
+        if let Some(k) = read.positions.iter().position(|p| !p.is_finite()) {
+            return Err(format!("vertex {} is not finite", k + 1));
+        }
+        // One vertex per position, so that triangles sharing an edge share its vertices.
+        let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut vertices = Vec::new();
+        let mut merged = Vec::with_capacity(read.positions.len());
+        for p in &read.positions {
+            let p = *p * scale;
+            let key = p.to_array().map(|c| (c + 0.0).to_bits());
+            let next = vertices.len() as u32;
+            let k = *index.entry(key).or_insert(next);
+            if k == next {
+                vertices.push(p);
+            }
+            merged.push(k);
+        }
+        if vertices.len() > limits.vertices {
+            return Err(format!(
+                "{} vertices; a mesh has at most {}",
+                vertices.len(),
+                limits.vertices
+            ));
+        }
+        let mut triangles = Vec::with_capacity(read.triangles.len());
+        for (t, corners) in read.triangles.iter().enumerate() {
+            let mut triangle = [0u32; 3];
+            for (out, &corner) in triangle.iter_mut().zip(corners) {
+                *out = *merged.get(corner).ok_or_else(|| {
+                    format!(
+                        "triangle {} names vertex {}, but there are {}",
+                        t + 1,
+                        corner + 1,
+                        read.positions.len()
+                    )
+                })?;
+            }
+            triangles.push(triangle);
+        }
+        let normals = read
+            .normals
+            .filter(|n| n.len() == triangles.len() && n.iter().flatten().all(|v| v.is_finite()));
+        Ok(TriangleMesh {
+            vertices,
+            triangles,
+            normals,
+        })
+    }
+
+    /// The triangles as corner positions.
+    pub fn corners(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.triangles
+            .iter()
+            .map(|t| t.map(|k| self.vertices[k as usize]))
+    }
+
+    /// The smallest axis-aligned box holding the mesh: lowest and highest corner.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.vertices
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &p| {
+                (l.min(p), h.max(p))
+            })
+    }
+}

@@ -1,0 +1,327 @@
+//! The three formats read to the same triangles, and bad files are refused with their name
+//! and why. Each file is written here, from its format's specification, not by the readers'
+//! crates.
+
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DVec3};
+use hapticd_mesh::properties::{closure, mass_properties};
+use hapticd_mesh::{Limits, TriangleMesh, load};
+
+/// A scratch directory of this test process.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hapticd-mesh-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The unit cube's corners and its twelve triangles, counter-clockwise from outside.
+fn cube() -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let corners = (0..8)
+        .map(|k| [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64])
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    (corners, triangles)
+}
+
+fn obj_text(corners: &[[f64; 3]], triangles: &[[usize; 3]]) -> String {
+    let mut text = String::from("# the unit cube\no cube\n");
+    for c in corners {
+        text += &format!("v {} {} {}\n", c[0], c[1], c[2]);
+    }
+    for t in triangles {
+        text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    text
+}
+
+fn stl_ascii(corners: &[[f64; 3]], triangles: &[[usize; 3]]) -> String {
+    let mut text = String::from("solid cube\n");
+    for t in triangles {
+        text += "  facet normal 0 0 0\n    outer loop\n";
+        for &k in t {
+            text += &format!(
+                "      vertex {} {} {}\n",
+                corners[k][0], corners[k][1], corners[k][2]
+            );
+        }
+        text += "    endloop\n  endfacet\n";
+    }
+    text + "endsolid cube\n"
+}
+
+fn stl_binary(corners: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<u8> {
+    let mut bytes = vec![0u8; 80];
+    bytes.extend((triangles.len() as u32).to_le_bytes());
+    for t in triangles {
+        bytes.extend([0f32; 3].iter().flat_map(|v| v.to_le_bytes()));
+        for &k in t {
+            bytes.extend(corners[k].iter().flat_map(|&v| (v as f32).to_le_bytes()));
+        }
+        bytes.extend([0u8; 2]);
+    }
+    bytes
+}
+
+/// The binary buffer of a glTF mesh: f32 positions, then u32 indices.
+fn gltf_buffer(corners: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<u8> {
+    let mut bytes: Vec<u8> = corners
+        .iter()
+        .flatten()
+        .flat_map(|&v| (v as f32).to_le_bytes())
+        .collect();
+    bytes.extend(
+        triangles
+            .iter()
+            .flatten()
+            .flat_map(|&k| (k as u32).to_le_bytes()),
+    );
+    bytes
+}
+
+/// A glTF document of one node (moved by `translation`) with one mesh whose buffer is at
+/// `uri` (None: a GLB's binary chunk).
+fn gltf_json(corners: usize, triangles: usize, uri: Option<&str>, translation: [f64; 3]) -> String {
+    let positions = corners * 12;
+    let indices = triangles * 12;
+    let uri = uri.map_or(String::new(), |u| format!(r#""uri": "{u}", "#));
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+ "nodes": [{{"mesh": 0, "translation": [{}, {}, {}]}}],
+ "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+ "buffers": [{{{uri}"byteLength": {}}}],
+ "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {positions}}},
+                 {{"buffer": 0, "byteOffset": {positions}, "byteLength": {indices}}}],
+ "accessors": [{{"bufferView": 0, "componentType": 5126, "count": {corners}, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 1]}},
+               {{"bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR"}}]}}"#,
+        translation[0],
+        translation[1],
+        translation[2],
+        positions + indices,
+        triangles * 3
+    )
+}
+
+fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let pad = |mut v: Vec<u8>, with: u8| {
+        while v.len() % 4 != 0 {
+            v.push(with);
+        }
+        v
+    };
+    let json = pad(json.as_bytes().to_vec(), b' ');
+    let bin = pad(bin.to_vec(), 0);
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut bytes = b"glTF".to_vec();
+    bytes.extend(2u32.to_le_bytes());
+    bytes.extend((total as u32).to_le_bytes());
+    bytes.extend((json.len() as u32).to_le_bytes());
+    bytes.extend(b"JSON");
+    bytes.extend(json);
+    bytes.extend((bin.len() as u32).to_le_bytes());
+    bytes.extend(b"BIN\0");
+    bytes.extend(bin);
+    bytes
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const DIGITS: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut text = String::new();
+    for chunk in bytes.chunks(3) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+        for i in 0..=chunk.len() {
+            text.push(DIGITS[(n >> (18 - 6 * i) & 63) as usize] as char);
+        }
+        text.push_str(&"=".repeat(3 - chunk.len()));
+    }
+    text
+}
+
+/// The triangles as sorted corner triples, each starting at its least corner (winding kept).
+fn canonical(mesh: &TriangleMesh) -> Vec<[[i64; 3]; 3]> {
+    let mut all: Vec<[[i64; 3]; 3]> = mesh
+        .corners()
+        .map(|t| {
+            let t = t.map(|p| p.to_array().map(|c| (c * 1e6).round() as i64));
+            let first = (0..3).min_by_key(|&i| t[i]).unwrap();
+            [t[first], t[(first + 1) % 3], t[(first + 2) % 3]]
+        })
+        .collect();
+    all.sort();
+    all
+}
+
+fn loaded(file: &Path) -> TriangleMesh {
+    load(file, 1.0, Limits::DEFAULT, None).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn the_same_cube_in_every_format_loads_to_the_same_triangles_and_solid() {
+    let dir = scratch("formats");
+    let (corners, triangles) = cube();
+    std::fs::write(dir.join("cube.obj"), obj_text(&corners, &triangles)).unwrap();
+    std::fs::write(dir.join("ascii.stl"), stl_ascii(&corners, &triangles)).unwrap();
+    std::fs::write(dir.join("binary.stl"), stl_binary(&corners, &triangles)).unwrap();
+    let buffer = gltf_buffer(&corners, &triangles);
+    std::fs::write(dir.join("cube.bin"), &buffer).unwrap();
+    std::fs::write(
+        dir.join("external.gltf"),
+        gltf_json(8, 12, Some("cube.bin"), [0.0; 3]),
+    )
+    .unwrap();
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&buffer));
+    std::fs::write(
+        dir.join("embedded.gltf"),
+        gltf_json(8, 12, Some(&uri), [0.0; 3]),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("cube.glb"),
+        glb(&gltf_json(8, 12, None, [0.0; 3]), &buffer),
+    )
+    .unwrap();
+    let reference = loaded(&dir.join("cube.obj"));
+    assert_eq!(
+        (reference.vertices.len(), reference.triangles.len()),
+        (8, 12)
+    );
+    for name in [
+        "ascii.stl",
+        "binary.stl",
+        "external.gltf",
+        "embedded.gltf",
+        "cube.glb",
+    ] {
+        let mesh = loaded(&dir.join(name));
+        assert_eq!(canonical(&mesh), canonical(&reference), "{name}");
+        assert_eq!(mesh.vertices.len(), 8, "{name}: shared corners are merged");
+    }
+    // The unit cube as a solid: the box's volume and inertia, to 1e-12.
+    assert!(closure(&reference).is_closed());
+    let p = mass_properties(&reference);
+    assert!((p.volume - 1.0).abs() < 1e-12);
+    assert!((p.centre - DVec3::splat(0.5)).length() < 1e-12);
+    let box_inertia = DMat3::from_diagonal(DVec3::splat(2.0 / 12.0));
+    let worst = (p.inertia - box_inertia)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(worst < 1e-12, "{:?}", p.inertia);
+    // A node's transform places its mesh, and `scale` scales it.
+    std::fs::write(
+        dir.join("moved.gltf"),
+        gltf_json(8, 12, Some("cube.bin"), [1.0, 2.0, 3.0]),
+    )
+    .unwrap();
+    let (low, high) = loaded(&dir.join("moved.gltf")).bounds();
+    assert_eq!(
+        (low, high),
+        (DVec3::new(1.0, 2.0, 3.0), DVec3::new(2.0, 3.0, 4.0))
+    );
+    let scaled = load(&dir.join("cube.obj"), 0.001, Limits::DEFAULT, None).unwrap();
+    assert!((mass_properties(&scaled).volume - 1e-9).abs() < 1e-21);
+}
+
+/// The error `load` gives for `file`, rendered.
+fn refused(file: &Path, limits: Limits, within: Option<&Path>) -> String {
+    load(file, 1.0, limits, within)
+        .err()
+        .unwrap_or_else(|| panic!("{} was read", file.display()))
+        .to_string()
+}
+
+#[test]
+fn bad_files_are_refused_with_their_name_and_why() {
+    let dir = scratch("bad");
+    let (corners, triangles) = cube();
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    };
+    let text = obj_text(&corners, &triangles);
+    for (name, bytes, says) in [
+        (
+            "missing.obj",
+            text.replacen("\nf ", "\nf 99 ", 1).into_bytes(),
+            "index out of bounds",
+        ),
+        (
+            "nan.obj",
+            text.replacen("v 0 0 0", "v nan 0 0", 1).into_bytes(),
+            "not finite",
+        ),
+        ("empty.obj", b"# nothing\n".to_vec(), "no triangles"),
+        (
+            "truncated.stl",
+            stl_binary(&corners, &triangles)[..200].to_vec(),
+            "STL",
+        ),
+        ("garbage.glb", b"glTF\x02\0\0\0garbage".to_vec(), "glTF"),
+        ("cube.ply", b"ply\n".to_vec(), ".obj, .stl, .gltf or .glb"),
+    ] {
+        let path = write(name, &bytes);
+        let e = refused(&path, Limits::DEFAULT, None);
+        assert!(
+            e.starts_with(&format!("{}: error: ", path.display())),
+            "{e}"
+        );
+        assert!(e.contains(says), "{name}: {e}");
+    }
+    // A bomb: more than the limits allow, refused before it is used.
+    let cube_file = write("cube.obj", text.as_bytes());
+    let small = Limits {
+        triangles: 11,
+        ..Limits::DEFAULT
+    };
+    assert!(refused(&cube_file, small, None).contains("12 triangles; a mesh has at most 11"));
+    let tiny = Limits {
+        bytes: 16,
+        ..Limits::DEFAULT
+    };
+    assert!(refused(&cube_file, tiny, None).contains("more than the 16"));
+    // A buffer that lies, or lies outside the file's directory.
+    let buffer = gltf_buffer(&corners, &triangles);
+    std::fs::write(dir.join("short.bin"), &buffer[..40]).unwrap();
+    let short = write(
+        "short.gltf",
+        gltf_json(8, 12, Some("short.bin"), [0.0; 3]).as_bytes(),
+    );
+    assert!(refused(&short, Limits::DEFAULT, None).contains("holds 40 bytes"));
+    let outside = scratch("outside");
+    std::fs::write(outside.join("cube.bin"), &buffer).unwrap();
+    let escape = write(
+        "escape.gltf",
+        gltf_json(8, 12, Some("../hapticd-mesh-outside/cube.bin"), [0.0; 3])
+            .replace(
+                "hapticd-mesh-outside",
+                &outside.file_name().unwrap().to_string_lossy(),
+            )
+            .as_bytes(),
+    );
+    assert!(refused(&escape, Limits::DEFAULT, None).contains("outside"));
+    // A mesh named by a bus caller must lie in the scene's directory.
+    std::os::unix::fs::symlink(outside.join("cube.bin"), dir.join("link.obj")).unwrap();
+    let e = refused(&dir.join("link.obj"), Limits::DEFAULT, Some(&dir));
+    assert!(e.contains("outside"), "{e}");
+    let e = load(&cube_file, f64::NAN, Limits::DEFAULT, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("scale must be"), "{e}");
+}
