@@ -102,7 +102,7 @@ fn add_mesh(
             Some(i) => i.into_u32().map(|k| k as usize).collect(),
             None => (0..count).collect(),
         };
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(format!(
                 "{} indices do not make whole triangles",
                 indices.len()

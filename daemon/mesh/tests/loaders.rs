@@ -117,7 +117,7 @@ fn gltf_json(corners: usize, triangles: usize, uri: Option<&str>, translation: [
 
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let pad = |mut v: Vec<u8>, with: u8| {
-        while v.len() % 4 != 0 {
+        while !v.len().is_multiple_of(4) {
             v.push(with);
         }
         v
