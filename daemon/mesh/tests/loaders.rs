@@ -325,3 +325,36 @@ fn bad_files_are_refused_with_their_name_and_why() {
         .to_string();
     assert!(e.contains("scale must be"), "{e}");
 }
+
+/// The shipped example meshes (written by config/meshes/make-meshes.py): each as OBJ and as
+/// glTF the same closed solid, of the volume of the polygons the script draws.
+#[test]
+fn the_example_meshes_are_closed_solids_of_their_drawn_volumes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/meshes");
+    let segments = 32.0;
+    // The area of the regular polygon of `segments` sides the script puts on a circle.
+    let polygon = |r: f64| segments / 2.0 * r * r * (2.0 * std::f64::consts::PI / segments).sin();
+    for (name, volume, tolerance) in [
+        // The 50 mm square plate, 6 mm thick, less its hole.
+        ("bracket", (0.05 * 0.05 - polygon(0.008)) * 0.006, 1e-12),
+        // The cup less its inside, and the handle: a 5 mm tube along half of a 25 mm circle
+        // (its polygon's length, less what the bends pinch).
+        (
+            "mug",
+            polygon(0.040) * 0.090 - polygon(0.036) * 0.084
+                + polygon(0.005) * 16.0 * 2.0 * 0.025 * (std::f64::consts::PI / 32.0).sin(),
+            2e-7,
+        ),
+    ] {
+        let obj = loaded(&dir.join(format!("{name}.obj")));
+        let gltf = loaded(&dir.join(format!("{name}.gltf")));
+        assert_eq!(canonical(&obj), canonical(&gltf), "{name}");
+        assert!(closure(&obj).is_closed(), "{name}: {:?}", closure(&obj));
+        let p = mass_properties(&obj);
+        assert!(
+            (p.volume - volume).abs() < tolerance,
+            "{name}: {} m³, drawn {volume} m³",
+            p.volume
+        );
+    }
+}
