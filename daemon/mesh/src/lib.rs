@@ -5,10 +5,12 @@
 //! - [`TriangleMesh`]: welded vertices, triangles, and the normals the file gave;
 //! - [`load`] and [`Limits`]: reading a file by its extension, refusing what could hurt;
 //! - [`properties`]: whether the surface is closed, its volume, centre and inertia;
+//! - [`decomposition`]: a movable mesh as convex pieces;
 //! - `obj`, `stl`, `gltf`: the three formats.
 //!
 //! Coordinates are metres once the scene's `scale:` is applied; every finding names the file.
 
+pub mod decomposition;
 mod gltf;
 mod obj;
 pub mod properties;

@@ -98,7 +98,7 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The box `low..high` as twelve triangles facing out.

@@ -15,6 +15,23 @@ pub enum Command {
     /// Triangles, vertices, bounds, whether the surface is closed, and the volume, centre
     /// and inertia it encloses.
     Inspect(InspectArgs),
+    /// Cut a mesh into the convex pieces a movable body is simulated with: their number,
+    /// their volume against the mesh's, and the time it took.
+    Decompose(DecomposeArgs),
+}
+
+#[derive(Args)]
+pub struct DecomposeArgs {
+    /// The mesh file: .obj, .stl, .gltf or .glb.
+    file: PathBuf,
+    /// Scale the file's coordinates by S to make metres (as a scene's `scale:`).
+    #[arg(long, default_value_t = 1.0)]
+    scale: f64,
+    /// Voxels along the mesh's longest side (finer: more, tighter pieces; slower).
+    #[arg(long, default_value_t = hapticd_mesh::decomposition::RESOLUTION)]
+    resolution: u32,
+    #[command(flatten)]
+    output: Output,
 }
 
 #[derive(Args)]
@@ -32,6 +49,7 @@ pub struct InspectArgs {
 pub fn run(command: Command) -> Result<(), Failure> {
     match command {
         Command::Inspect(args) => inspect(&args),
+        Command::Decompose(args) => decompose(&args),
     }
 }
 
@@ -101,6 +119,49 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         "volume": closed.then_some(solid.volume),
         "centre": closed.then_some(solid.centre.to_array()),
         "inertia": closed.then_some(solid.inertia.to_cols_array_2d()),
+    });
+    print(&args.output, value, text);
+    Ok(())
+}
+
+fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
+    if !(8..=512).contains(&args.resolution) {
+        return Err(Failure::usage(format!(
+            "--resolution must be 8 to 512 voxels, not {}",
+            args.resolution
+        )));
+    }
+    let mesh = load(&args.file, args.scale, Limits::DEFAULT, None)?;
+    if !closure(&mesh).is_closed() {
+        return Err(Failure::failed(format!(
+            "{}: the surface is not closed, so it bounds no solid to cut (hapticctl mesh \
+             inspect says where)",
+            args.file.display()
+        )));
+    }
+    let started = std::time::Instant::now();
+    let pieces = hapticd_mesh::decomposition::decompose(&mesh, args.resolution);
+    let seconds = started.elapsed().as_secs_f64();
+    let volume = mass_properties(&mesh).volume;
+    let hulls = pieces.volume();
+    let error = (hulls - volume) / volume;
+    let text = format!(
+        "{}: {} convex pieces in {:.3} s; their volume {:.6e} m³ against the mesh's {:.6e} m³ \
+         ({:+.2} %)\n",
+        args.file.display(),
+        pieces.pieces.len(),
+        seconds,
+        hulls,
+        volume,
+        100.0 * error
+    );
+    let value = json!({
+        "file": args.file,
+        "pieces": pieces.pieces.len(),
+        "seconds": seconds,
+        "volume": volume,
+        "pieces_volume": hulls,
+        "volume_error": error,
     });
     print(&args.output, value, text);
     Ok(())
