@@ -1,5 +1,5 @@
 //! Solid shapes the proxy cannot enter: half-spaces (floors, walls, the planes a physics
-//! thread publishes), spheres and oriented boxes.
+//! thread publishes), spheres, oriented boxes, and the triangles of a mesh's surface.
 
 use glam::{DQuat, DVec3};
 
@@ -38,6 +38,14 @@ pub enum Shape {
         /// Orientation of the box's axes.
         rotation: DQuat,
     },
+    /// One face of a solid's surface: entered from the side its normal points to, through
+    /// the triangle itself (edges included, so that a seam between two faces holds).
+    Triangle {
+        /// The corners, counter-clockwise seen from outside.
+        corners: [DVec3; 3],
+        /// Outward unit normal.
+        normal: DVec3,
+    },
 }
 
 /// How far inside a point may be and still count as on the surface, metres: covers the
@@ -56,6 +64,16 @@ pub struct Entry {
 }
 
 impl Shape {
+    /// The face `a`, `b`, `c` (counter-clockwise seen from outside), or None for one with no
+    /// area or a corner that is not finite.
+    pub fn triangle(a: DVec3, b: DVec3, c: DVec3) -> Option<Shape> {
+        let normal = (b - a).cross(c - a).try_normalize()?;
+        (a.is_finite() && b.is_finite() && c.is_finite()).then_some(Shape::Triangle {
+            corners: [a, b, c],
+            normal,
+        })
+    }
+
     /// Whether `p` is strictly inside (deeper than `tolerance`).
     pub fn contains(&self, p: DVec3, tolerance: f64) -> bool {
         self.signed_distance(p) < -tolerance
@@ -79,6 +97,15 @@ impl Shape {
                 let local = rotation.inverse() * (p - centre);
                 let q = local.abs() - half;
                 q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
+            }
+            // Behind the face, within its edges, is inside; anywhere else the distance to it.
+            Shape::Triangle { corners, normal } => {
+                let height = (p - corners[0]).dot(normal);
+                if within_edges(&corners, normal, p) {
+                    height
+                } else {
+                    (p - closest_on_edges(&corners, p)).length()
+                }
             }
         }
     }
@@ -165,21 +192,80 @@ impl Shape {
                 if enter > exit || enter > 1.0 {
                     return None;
                 }
+                if enter < 0.0 {
+                    if self.signed_distance(a) < -SURFACE {
+                        return None;
+                    }
+                    // Starting on the surface: entering through the face it lies on that
+                    // the motion heads into most (none, when it slides along its face).
+                    let mut face = None;
+                    let mut most = 0.0;
+                    for k in 0..3 {
+                        if (la[k].abs() - half[k]).abs() <= SURFACE {
+                            let mut local = DVec3::ZERO;
+                            local[k] = la[k].signum();
+                            let normal = rotation * local;
+                            if -d.dot(normal) > most {
+                                (face, most) = (Some(normal), -d.dot(normal));
+                            }
+                        }
+                    }
+                    return face.and_then(at_start);
+                }
                 let mut local_normal = DVec3::ZERO;
                 local_normal[axis] = -ld[axis].signum();
                 let normal = rotation * local_normal;
-                if enter < 0.0 {
-                    let on_surface = self.signed_distance(a) >= -SURFACE;
-                    return if on_surface { at_start(normal) } else { None };
-                }
                 Some(Entry {
                     t: enter,
                     point: a + d * enter,
                     normal,
                 })
             }
+            Shape::Triangle { corners, normal } => {
+                let (da, db) = ((a - corners[0]).dot(normal), (b - corners[0]).dot(normal));
+                if da < 0.0 {
+                    return if da >= -SURFACE && within_edges(&corners, normal, a) {
+                        at_start(normal)
+                    } else {
+                        None
+                    };
+                }
+                if db >= 0.0 || !inward(normal) {
+                    return None;
+                }
+                let t = da / (da - db);
+                let point = a + d * t;
+                within_edges(&corners, normal, point).then_some(Entry { t, point, normal })
+            }
         }
     }
+}
+
+/// Whether `p`, seen along `normal`, lies on the triangle `corners`, its edges included
+/// (to [`SURFACE`]: a point on the seam of two faces is on both).
+fn within_edges(corners: &[DVec3; 3], normal: DVec3, p: DVec3) -> bool {
+    (0..3).all(|i| {
+        let (from, to) = (corners[i], corners[(i + 1) % 3]);
+        let edge = to - from;
+        edge.cross(p - from).dot(normal) >= -SURFACE * edge.length()
+    })
+}
+
+/// The point of the triangle's edges nearest `p`.
+fn closest_on_edges(corners: &[DVec3; 3], p: DVec3) -> DVec3 {
+    (0..3)
+        .map(|i| {
+            let (from, to) = (corners[i], corners[(i + 1) % 3]);
+            let edge = to - from;
+            let t = ((p - from).dot(edge) / edge.length_squared()).clamp(0.0, 1.0);
+            from + edge * t
+        })
+        .min_by(|x, y| {
+            (*x - p)
+                .length_squared()
+                .total_cmp(&(*y - p).length_squared())
+        })
+        .unwrap_or(corners[0])
 }
 
 /// Entry of a segment into a round surface (a sphere, or a cylinder seen across its axis):
@@ -265,5 +351,40 @@ mod tests {
                 < 1e-12
         );
         assert!(tilted.contains(DVec3::ZERO, 0.0));
+        // On a box's top, sliding along it enters nothing; heading down enters the top.
+        let block = Shape::Cuboid {
+            centre: DVec3::ZERO,
+            half: DVec3::new(0.04, 0.05, 0.03),
+            rotation: DQuat::IDENTITY,
+        };
+        let top = DVec3::new(-0.01, 0.05, 0.01);
+        assert!(
+            block
+                .entry(top, top + DVec3::new(0.001, 0.0, 0.001))
+                .is_none()
+        );
+        let down = block
+            .entry(top, top + DVec3::new(0.001, -0.001, 0.0))
+            .unwrap();
+        assert_eq!((down.t, down.normal), (0.0, DVec3::Y));
+        // The same face as two triangles: the seam between them holds, from either side.
+        let corners = [
+            DVec3::new(-0.04, 0.05, -0.03),
+            DVec3::new(-0.04, 0.05, 0.03),
+            DVec3::new(0.04, 0.05, 0.03),
+            DVec3::new(0.04, 0.05, -0.03),
+        ];
+        let halves = [
+            Shape::triangle(corners[0], corners[1], corners[2]).unwrap(),
+            Shape::triangle(corners[0], corners[2], corners[3]).unwrap(),
+        ];
+        let on_seam = DVec3::new(0.0, 0.06, 0.0);
+        for half in halves {
+            let e = half
+                .entry(on_seam, on_seam - DVec3::new(0.0, 0.02, 0.0))
+                .unwrap();
+            assert!((e.t - 0.5).abs() < 1e-12 && e.normal == DVec3::Y, "{e:?}");
+        }
+        assert!(Shape::triangle(corners[0], corners[0], corners[1]).is_none());
     }
 }

@@ -11,7 +11,7 @@
 
 use glam::DVec3;
 
-use super::obstacle::Shape;
+use super::obstacle::{Entry, SURFACE, Shape};
 use crate::solver::linalg::{ldlt_factor, ldlt_solve};
 
 /// Most constraint planes at once (a corner).
@@ -128,6 +128,43 @@ fn closest_feasible(goal: DVec3, planes: &[Plane]) -> DVec3 {
     best.map_or(goal, |(_, x)| x)
 }
 
+/// Where the segment from `a` to `b` first enters one of `shapes`. Where it meets several
+/// faces at once at one point (a mesh's edge or corner, reached exactly), the surface there
+/// is their bisector: the mean of their distinct normals, so that an edge pushes back
+/// along its bisector instead of along whichever face came first in the list.
+fn first_entry(shapes: &[Shape], a: DVec3, b: DVec3) -> Option<Entry> {
+    let mut first: Option<Entry> = None;
+    let mut normals = [DVec3::ZERO; 3];
+    let mut distinct = 0;
+    for e in shapes.iter().filter_map(|s| s.entry(a, b)) {
+        match first {
+            Some(f) if (e.point - f.point).length() <= SURFACE => {
+                if distinct < normals.len()
+                    && !normals[..distinct]
+                        .iter()
+                        .any(|n| n.dot(e.normal) > 1.0 - 1e-12)
+                {
+                    normals[distinct] = e.normal;
+                    distinct += 1;
+                }
+            }
+            Some(f) if e.t >= f.t => {}
+            _ => {
+                first = Some(e);
+                normals[0] = e.normal;
+                distinct = 1;
+            }
+        }
+    }
+    let first = first?;
+    let normal = normals[..distinct]
+        .iter()
+        .sum::<DVec3>()
+        .try_normalize()
+        .unwrap_or(first.normal);
+    Some(Entry { normal, ..first })
+}
+
 impl Proxy {
     /// A proxy at `position`, free.
     pub fn new(position: DVec3) -> Self {
@@ -176,11 +213,7 @@ impl Proxy {
         let mut met = None;
         for _ in 0..MAX_WALKS {
             let target = closest_feasible(grip, &planes[..count]);
-            let hit = shapes
-                .iter()
-                .filter_map(|s| s.entry(position, target))
-                .min_by(|a, b| a.t.total_cmp(&b.t));
-            let Some(e) = hit else {
+            let Some(e) = first_entry(shapes, position, target) else {
                 position = target;
                 break;
             };
@@ -446,5 +479,118 @@ mod tests {
             DT,
         );
         assert!(!out.sliding && (out.proxy.x - 0.005).abs() < 1e-9);
+    }
+
+    /// The box `centre` ± `half` as the twelve triangles of its faces, as a mesh file would
+    /// give it.
+    fn box_faces(centre: DVec3, half: DVec3) -> Vec<Shape> {
+        let corner = |k: usize| {
+            centre
+                + half
+                    * DVec3::new(
+                        if k & 1 == 0 { -1.0 } else { 1.0 },
+                        if k & 2 == 0 { -1.0 } else { 1.0 },
+                        if k & 4 == 0 { -1.0 } else { 1.0 },
+                    )
+        };
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .map(|t| Shape::triangle(corner(t[0]), corner(t[1]), corner(t[2])).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn a_meshs_faces_press_and_rub_exactly_as_the_equal_box_does() {
+        // Down onto the top of a box, pressing, then sliding diagonally across the seam of
+        // its two top triangles and on: each tick the same force as the analytic box, with
+        // friction, to 1e-9 N.
+        let (centre, half) = (DVec3::new(0.0, -0.05, 0.0), DVec3::new(0.04, 0.05, 0.03));
+        let mesh = box_faces(centre, half);
+        let cuboid = [Shape::Cuboid {
+            centre,
+            half,
+            rotation: glam::DQuat::IDENTITY,
+        }];
+        let parameters = ProxyParameters {
+            stiffness: 800.0,
+            damping: 2.0,
+            static_friction: 0.4,
+            dynamic_friction: 0.3,
+        };
+        let start = DVec3::new(-0.02, 0.01, -0.015);
+        let (mut on_mesh, mut on_box) = (Proxy::new(start), Proxy::new(start));
+        let mut worst = 0.0f64;
+        let mut pressed = 0;
+        for k in 0..600 {
+            let s = k as f64 / 600.0;
+            let grip = start + DVec3::new(0.05 * s, -0.02 * (4.0 * s).min(1.0), 0.03 * s);
+            let velocity =
+                DVec3::new(0.05, if s < 0.25 { -0.08 } else { 0.0 }, 0.03) / (600.0 * DT);
+            let a = on_mesh.update(grip, velocity, &mesh, &parameters, DT);
+            let b = on_box.update(grip, velocity, &cuboid, &parameters, DT);
+            worst = worst.max((a.force - b.force).length());
+            pressed += usize::from(a.in_contact);
+        }
+        assert!(pressed > 400, "{pressed} ticks pressed");
+        assert!(worst < 1e-9, "the mesh differs from the box by {worst} N");
+    }
+
+    #[test]
+    fn a_finger_pressed_20_n_into_a_2_mm_shell_never_gets_through() {
+        // The grip jumps 5 mm a tick, more than the shell is thick, down to 5 cm below it.
+        let mesh = box_faces(DVec3::ZERO, DVec3::new(0.05, 0.001, 0.05));
+        let mut p = Proxy::new(DVec3::new(0.01, 0.02, 0.0));
+        let mut force = DVec3::ZERO;
+        for k in 0..15 {
+            let grip = DVec3::new(0.01, 0.02 - 0.005 * f64::from(k), 0.0);
+            let out = p.update(grip, DVec3::ZERO, &mesh, &frictionless(), DT);
+            assert!(
+                out.proxy.y >= 0.001 - 1e-9,
+                "through the shell at tick {k}: {}",
+                out.proxy
+            );
+            force = out.force;
+        }
+        // 5 cm below the top at 1000 N/m: 51 N, pushing up.
+        assert!(
+            (force - DVec3::new(0.0, 1000.0 * (0.001 + 0.05), 0.0)).length() < 1e-9,
+            "{force}"
+        );
+    }
+
+    #[test]
+    fn a_meshs_edge_and_corner_push_along_their_bisectors() {
+        let mesh = box_faces(DVec3::ZERO, DVec3::splat(0.02));
+        let edge = DVec3::new(0.0, 0.02, 0.02);
+        let corner = DVec3::splat(0.02);
+        for (point, bisector) in [
+            (edge, DVec3::new(0.0, 1.0, 1.0).normalize()),
+            (corner, DVec3::ONE.normalize()),
+        ] {
+            // From outside along the bisector, pressed 5 mm past the edge or corner.
+            let mut p = Proxy::new(point + bisector * 0.01);
+            let out = p.update(
+                point - bisector * 0.005,
+                DVec3::ZERO,
+                &mesh,
+                &frictionless(),
+                DT,
+            );
+            assert!((out.proxy - point).length() < 1e-9, "{}", out.proxy);
+            assert!(
+                (out.force - bisector * 5.0).length() < 1e-9,
+                "{}",
+                out.force
+            );
+        }
     }
 }

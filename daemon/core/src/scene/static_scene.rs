@@ -16,7 +16,7 @@ use std::path::Path;
 use glam::{DQuat, DVec3};
 use hapticd_plugin_api::{
     Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_CYLINDER, HAPTICD_SHAPE_PLANE, HAPTICD_SHAPE_SPHERE,
-    HAPTICD_SOLID_FIXED, HapticdSolid,
+    HAPTICD_SOLID_FIXED, HapticdSolid, HapticdTriangle,
 };
 use serde::Deserialize;
 
@@ -266,6 +266,16 @@ impl StaticSceneSpec {
                     half,
                     rotation,
                 } => (HAPTICD_SHAPE_BOX, half.to_array(), placed(centre, rotation)),
+                // A mesh's faces, drawn as they are.
+                Shape::Triangle { corners, .. } => {
+                    let solid = HapticdSolid {
+                        flags: HAPTICD_SOLID_FIXED,
+                        ..placed(DVec3::ZERO, DQuat::IDENTITY)
+                    };
+                    let corners = corners.map(|c| c.to_array());
+                    geometry.add_triangles(solid, [HapticdTriangle { corners }]);
+                    continue;
+                }
             };
             geometry.add_solid(HapticdSolid {
                 shape,
