@@ -1,11 +1,13 @@
 //! The core's computations with the shipped mechanisms and scenes: the pose solver, the tension
-//! QP, the haptic loop, the real-time thread's allocations, and the thesis' experiments.
+//! QP, the haptic loop, the real-time thread's allocations, the proxy on meshes, and the
+//! thesis' experiments.
 
 #[path = "../support/mod.rs"]
 mod support;
 
 mod experiments;
 mod haptic_loop;
+mod meshes;
 mod no_allocation;
 mod pose;
 mod tension;

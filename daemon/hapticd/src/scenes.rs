@@ -268,7 +268,8 @@ fn find(
     }
     let engine = engine_of(&path).map_err(OpenError::Invalid)?;
     let Engine::Plugin(engine) = engine else {
-        let spec = StaticSceneSpec::load(&path).map_err(OpenError::Invalid)?;
+        let spec = StaticSceneSpec::load_with_meshes(&path, &hapticd_mesh::scene_triangles)
+            .map_err(OpenError::Invalid)?;
         return Ok(Box::new(StaticScene::new(spec, pointers)));
     };
     let runner = EnginePlugin::find(&engine, places.plugin_dirs)
@@ -284,7 +285,9 @@ fn find(
 /// ones that load, and those a plugin in `plugin_dirs` runs and finds sound.
 pub fn available(places: Places) -> Vec<String> {
     let usable = |path: &Path| match engine_of(path) {
-        Ok(Engine::Static) => StaticSceneSpec::load(path).is_ok(),
+        Ok(Engine::Static) => {
+            StaticSceneSpec::load_with_meshes(path, &hapticd_mesh::scene_triangles).is_ok()
+        }
         Ok(Engine::Plugin(engine)) => EnginePlugin::find(&engine, places.plugin_dirs)
             .is_ok_and(|runner| runner.check(path, 0).is_ok()),
         Err(_) => false,

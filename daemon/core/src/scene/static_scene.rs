@@ -10,6 +10,13 @@
 //!   - cylinder: { point: [0, 0, 0], axis: [0, 1, 0], radius: 0.2 }      # endless round bar
 //!   - box: { centre: [0.03, -0.02, 0], size: [0.02, 0.02, 0.02], orientation: [1, 0, 0, 0] }
 //! ```
+//!
+//! A shape may also be a triangle mesh, `mesh: { file: bracket.obj, centre: [0, -0.02, 0],
+//! orientation: [1, 0, 0, 0], scale: 0.001 }` (orientation and scale optional): an OBJ, STL,
+//! glTF or GLB file in the scene file's own directory (never outside it), its coordinates
+//! times `scale` in metres. Its triangles are kept as they are, holes included, and the proxy
+//! walks on them: faces hold it, a seam between two faces holds it, an edge or corner pushes
+//! along its bisector. A scene's meshes may have 4096 triangles together.
 
 use std::path::Path;
 
@@ -70,11 +77,33 @@ enum RawShape {
         #[serde(default = "identity")]
         orientation: [f64; 4],
     },
+    Mesh {
+        file: String,
+        #[serde(default)]
+        centre: [f64; 3],
+        #[serde(default = "identity")]
+        orientation: [f64; 4],
+        #[serde(default = "unscaled")]
+        scale: f64,
+    },
 }
 
 fn identity() -> [f64; 4] {
     [1.0, 0.0, 0.0, 0.0]
 }
+
+fn unscaled() -> f64 {
+    1.0
+}
+
+/// Reads a mesh file a scene names (`file`, in the scene's directory `dir`, which it must not
+/// leave): its triangles, in the file's coordinates times `scale`. hapticd and hapticctl read
+/// them with hapticd-mesh; the core itself reads no mesh format.
+pub type MeshReader<'a> = &'a dyn Fn(&Path, &Path, f64) -> Result<Vec<[DVec3; 3]>, String>;
+
+/// Most triangles the meshes of one static scene may have together: the proxy looks at
+/// each of them in every tick.
+pub const MAX_MESH_TRIANGLES: usize = 4096;
 
 /// The description of a static scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -88,14 +117,29 @@ pub struct StaticSceneSpec {
 }
 
 impl StaticSceneSpec {
-    /// Load a scene file.
+    /// Load a scene file that names no mesh.
     pub fn load(path: &Path) -> Result<Self, Diagnostics> {
-        Self::parse(&diagnostics::read_text(path)?, path)
+        Self::load_with_meshes(path, &no_meshes)
     }
 
-    /// Parse and check scene `text`; `path` names it in diagnostics, which come all at
-    /// once, each at its line and column.
+    /// Load a scene file, its meshes read by `meshes`.
+    pub fn load_with_meshes(path: &Path, meshes: MeshReader) -> Result<Self, Diagnostics> {
+        Self::parse_with_meshes(&diagnostics::read_text(path)?, path, meshes)
+    }
+
+    /// Parse and check scene `text`, which names no mesh; `path` names it in diagnostics,
+    /// which come all at once, each at its line and column.
     pub fn parse(text: &str, path: &Path) -> Result<Self, Diagnostics> {
+        Self::parse_with_meshes(text, path, &no_meshes)
+    }
+
+    /// [`StaticSceneSpec::parse`], the meshes the scene names read by `meshes` from the
+    /// directory of `path`.
+    pub fn parse_with_meshes(
+        text: &str,
+        path: &Path,
+        meshes: MeshReader,
+    ) -> Result<Self, Diagnostics> {
         let parsed = diagnostics::parse_yaml::<RawScene>(text, path)?;
         let (raw, map) = (parsed.value, parsed.map);
         let locate = |field: &str| map.find(field);
@@ -130,12 +174,24 @@ impl StaticSceneSpec {
                 }
             }
         };
-        let shapes = raw
-            .shapes
-            .into_iter()
-            .enumerate()
-            .map(|(i, s)| check_shape(&mut f, &format!("shapes[{i}]"), s))
-            .collect();
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut shapes = Vec::new();
+        for (i, s) in raw.shapes.into_iter().enumerate() {
+            shapes.extend(check_shape(&mut f, &format!("shapes[{i}]"), s, dir, meshes));
+        }
+        let triangles = shapes
+            .iter()
+            .filter(|s| matches!(s, Shape::Triangle { .. }))
+            .count();
+        if triangles > MAX_MESH_TRIANGLES {
+            f.error(
+                "shapes",
+                format!(
+                    "its meshes have {triangles} triangles; a static scene touches at most \
+                     {MAX_MESH_TRIANGLES}"
+                ),
+            );
+        }
         f.finish()?;
         Ok(Self {
             name: raw.name,
@@ -165,8 +221,55 @@ fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
     v.normalize_or(DVec3::Y)
 }
 
-fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
-    match shape {
+/// The reader of programs that read no mesh files.
+fn no_meshes(_: &Path, _: &Path, _: f64) -> Result<Vec<[DVec3; 3]>, String> {
+    Err("this program reads no mesh files (hapticd and hapticctl do)".into())
+}
+
+/// The faces of the mesh `file` (in `dir`) a scene places at `centre`, turned by
+/// `orientation` and scaled by `scale`, as the proxy's triangles.
+fn mesh_faces(
+    f: &mut Findings,
+    at: &str,
+    dir: &Path,
+    meshes: MeshReader,
+    (file, centre, orientation, scale): (&str, [f64; 3], [f64; 4], f64),
+) -> Vec<Shape> {
+    check_place(f, format!("{at}.mesh.centre"), &centre);
+    let rotation = f.unit_quaternion(format!("{at}.mesh.orientation"), orientation);
+    if !f.within(format!("{at}.mesh.scale"), scale, 1e-6, 1e3, "") {
+        return Vec::new();
+    }
+    let triangles = match meshes(&dir.join(file), dir, scale) {
+        Ok(t) => t,
+        Err(e) => {
+            f.error(format!("{at}.mesh.file"), e);
+            return Vec::new();
+        }
+    };
+    let centre = DVec3::from(centre);
+    let place = |p: DVec3| rotation * p + centre;
+    let placed: Vec<[DVec3; 3]> = triangles.iter().map(|t| t.map(place)).collect();
+    let corners: Vec<f64> = placed.iter().flatten().flat_map(|c| c.to_array()).collect();
+    if !f.coordinates(format!("{at}.mesh"), &corners, WORLD_EXTENT, "m") {
+        return Vec::new();
+    }
+    placed
+        .iter()
+        .filter_map(|t| Shape::triangle(t[0], t[1], t[2]))
+        .collect()
+}
+
+/// The obstacles of `shape`: one for a primitive, a mesh's faces for a mesh (read from `dir`
+/// by `meshes`).
+fn check_shape(
+    f: &mut Findings,
+    at: &str,
+    shape: RawShape,
+    dir: &Path,
+    meshes: MeshReader,
+) -> Vec<Shape> {
+    let primitive = match shape {
         RawShape::Floor { height } => {
             check_place(f, format!("{at}.floor.height"), &[height]);
             Shape::HalfSpace {
@@ -217,7 +320,16 @@ fn check_shape(f: &mut Findings, at: &str, shape: RawShape) -> Shape {
                 rotation: f.unit_quaternion(format!("{at}.box.orientation"), orientation),
             }
         }
-    }
+        RawShape::Mesh {
+            file,
+            centre,
+            orientation,
+            scale,
+        } => {
+            return mesh_faces(f, at, dir, meshes, (&file, centre, orientation, scale));
+        }
+    };
+    vec![primitive]
 }
 
 /// A static scene with one proxy per pointer.
@@ -237,6 +349,16 @@ impl StaticSceneSpec {
         let mut geometry = Geometry::default();
         let placed =
             |at: DVec3, turn: DQuat| HapticdSolid::placed(at.to_array(), quat_to_wxyz(turn));
+        let mut faces = Vec::new();
+        let flush = |geometry: &mut Geometry, faces: &mut Vec<HapticdTriangle>| {
+            if !faces.is_empty() {
+                let solid = HapticdSolid {
+                    flags: HAPTICD_SOLID_FIXED,
+                    ..placed(DVec3::ZERO, DQuat::IDENTITY)
+                };
+                geometry.add_triangles(solid, faces.drain(..));
+            }
+        };
         for shape in &self.shapes {
             let (shape, size, frame) = match *shape {
                 Shape::HalfSpace { point, normal } => {
@@ -266,17 +388,16 @@ impl StaticSceneSpec {
                     half,
                     rotation,
                 } => (HAPTICD_SHAPE_BOX, half.to_array(), placed(centre, rotation)),
-                // A mesh's faces, drawn as they are.
+                // A mesh's faces, drawn as they are: each run of them one solid, as its
+                // mesh was one shape in the file.
                 Shape::Triangle { corners, .. } => {
-                    let solid = HapticdSolid {
-                        flags: HAPTICD_SOLID_FIXED,
-                        ..placed(DVec3::ZERO, DQuat::IDENTITY)
-                    };
-                    let corners = corners.map(|c| c.to_array());
-                    geometry.add_triangles(solid, [HapticdTriangle { corners }]);
+                    faces.push(HapticdTriangle {
+                        corners: corners.map(|c| c.to_array()),
+                    });
                     continue;
                 }
             };
+            flush(&mut geometry, &mut faces);
             geometry.add_solid(HapticdSolid {
                 shape,
                 flags: HAPTICD_SOLID_FIXED,
@@ -284,6 +405,7 @@ impl StaticSceneSpec {
                 ..frame
             });
         }
+        flush(&mut geometry, &mut faces);
         geometry
     }
 }

@@ -86,7 +86,9 @@ fn scenery(path: &Path, at: f64, rests: &[Pose]) -> Result<(Scenery, Camera), Fa
                 "--at is for physics scenes; a static scene stays put",
             ));
         }
-        let geometry = StaticSceneSpec::parse(&text, path)?.geometry();
+        let geometry =
+            StaticSceneSpec::parse_with_meshes(&text, path, &hapticd_mesh::scene_triangles)?
+                .geometry();
         let mut scenery = Scenery::of_geometry(&geometry, &[]);
         scenery.add_proxies(&resting);
         let camera = scenery.camera();
