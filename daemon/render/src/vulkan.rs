@@ -473,7 +473,7 @@ impl Renderer {
                 Frame::new(self, width, height, (vertices.len() * 2).max(1024))?
             }
         };
-        let result = frame.draw(self, &vertices, background, self.depth_cues);
+        let result = frame.draw(self, &vertices, background);
         self.frame = Some(frame);
         result
     }
@@ -626,7 +626,6 @@ impl Frame {
         r: &Renderer,
         vertices: &[GpuVertex],
         background: [f32; 4],
-        smoothed: bool,
     ) -> Result<Picture, Unavailable> {
         let d = &r.device;
         let (width, height) = (self.width, self.height);
@@ -861,7 +860,7 @@ impl Frame {
                 .map_memory(self.readback.1.memory, 0, size, vk::MemoryMapFlags::empty())
                 .map_err(failed("mapping the picture"))?;
             let pixels = std::slice::from_raw_parts(from.cast::<u8>(), size as usize);
-            let rgba = if smoothed {
+            let rgba = if r.depth_cues {
                 smoothing::smooth_edges(pixels, width as usize, height as usize)
             } else {
                 pixels.to_vec()

@@ -378,6 +378,31 @@ impl<'a> De<'a> {
         T::default()
     }
 
+    /// The node's items if it is a list; none (a mistake naming `what`) if it is anything
+    /// else written.
+    fn items(&self, what: &str) -> &'a [Node] {
+        match &self.node.kind {
+            Kind::Sequence(items) => items,
+            Kind::Absent => &[],
+            _ => {
+                self.wrong::<()>(what);
+                &[]
+            }
+        }
+    }
+
+    /// The node's entries if it is a mapping; none (a mistake) if it is anything else written.
+    fn entries(&self) -> &'a [(String, Position, Node)] {
+        match &self.node.kind {
+            Kind::Mapping(entries) => entries,
+            Kind::Absent => &[],
+            _ => {
+                self.wrong::<()>("a mapping");
+                &[]
+            }
+        }
+    }
+
     fn text(&self) -> String {
         match &self.node.kind {
             Kind::Scalar { text, .. } => text.clone(),
@@ -484,14 +509,7 @@ impl<'de, 'a> de::Deserializer<'de> for De<'a> {
     }
 
     fn deserialize_seq<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
-        let items: &[Node] = match &self.node.kind {
-            Kind::Sequence(items) => items,
-            Kind::Absent => &[],
-            _ => {
-                self.wrong::<()>("a list");
-                &[]
-            }
-        };
+        let items = self.items("a list");
         visitor.visit_seq(Items {
             de: &self,
             items,
@@ -501,23 +519,14 @@ impl<'de, 'a> de::Deserializer<'de> for De<'a> {
     }
 
     fn deserialize_tuple<V: Visitor<'de>>(self, len: usize, visitor: V) -> Result<V::Value, Error> {
-        let items: &[Node] = match &self.node.kind {
-            Kind::Sequence(items) => {
-                if items.len() != len {
-                    self.pass.mistake(
-                        &self.path,
-                        self.node.at,
-                        format!("expected a list of {len} items, found {}", items.len()),
-                    );
-                }
-                items
-            }
-            Kind::Absent => &[],
-            _ => {
-                self.wrong::<()>(&format!("a list of {len} items"));
-                &[]
-            }
-        };
+        let items = self.items(&format!("a list of {len} items"));
+        if matches!(self.node.kind, Kind::Sequence(_)) && items.len() != len {
+            self.pass.mistake(
+                &self.path,
+                self.node.at,
+                format!("expected a list of {len} items, found {}", items.len()),
+            );
+        }
         visitor.visit_seq(Items {
             de: &self,
             items,
@@ -536,14 +545,7 @@ impl<'de, 'a> de::Deserializer<'de> for De<'a> {
     }
 
     fn deserialize_map<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
-        let entries: &[(String, Position, Node)] = match &self.node.kind {
-            Kind::Mapping(entries) => entries,
-            Kind::Absent => &[],
-            _ => {
-                self.wrong::<()>("a mapping");
-                &[]
-            }
-        };
+        let entries = self.entries();
         visitor.visit_map(Entries {
             de: &self,
             entries,
@@ -560,14 +562,7 @@ impl<'de, 'a> de::Deserializer<'de> for De<'a> {
         fields: &'static [&'static str],
         visitor: V,
     ) -> Result<V::Value, Error> {
-        let entries: &[(String, Position, Node)] = match &self.node.kind {
-            Kind::Mapping(entries) => entries,
-            Kind::Absent => &[],
-            _ => {
-                self.wrong::<()>("a mapping");
-                &[]
-            }
-        };
+        let entries = self.entries();
         // Keys a previous pass found missing, and every key of a mapping not written at
         // all (its absence is the mistake already reported).
         let absent = !matches!(self.node.kind, Kind::Mapping(_));

@@ -221,22 +221,13 @@ impl Shape {
                     normal,
                 })
             }
-            Shape::Triangle { corners, normal } => {
-                let (da, db) = ((a - corners[0]).dot(normal), (b - corners[0]).dot(normal));
-                if da < 0.0 {
-                    return if da >= -SURFACE && within_edges(&corners, normal, a) {
-                        at_start(normal)
-                    } else {
-                        None
-                    };
-                }
-                if db >= 0.0 || !inward(normal) {
-                    return None;
-                }
-                let t = da / (da - db);
-                let point = a + d * t;
-                within_edges(&corners, normal, point).then_some(Entry { t, point, normal })
+            // The face's plane, entered within its edges.
+            Shape::Triangle { corners, normal } => Shape::HalfSpace {
+                point: corners[0],
+                normal,
             }
+            .entry(a, b)
+            .filter(|e| within_edges(&corners, normal, e.point)),
         }
     }
 }

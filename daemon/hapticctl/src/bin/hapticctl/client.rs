@@ -250,15 +250,6 @@ impl Client {
         Ok(body.ok().map(|(_, changed, _)| (path, changed)))
     }
 
-    /// The list of text the manager's property `name` holds (its scenes, its mechanisms).
-    pub fn manager_list(&self, name: &str) -> Result<Vec<String>, Failure> {
-        let manager = self.properties(MANAGER_PATH, MANAGER)?;
-        Ok(manager[name]
-            .as_array()
-            .map(|a| a.iter().map(words).collect())
-            .unwrap_or_default())
-    }
-
     /// The object path of the device `arg` names.
     fn device(&self, arg: &DeviceArg) -> Result<String, Failure> {
         let manager = self.properties(MANAGER_PATH, MANAGER)?;
@@ -484,7 +475,10 @@ fn pending_line(d: &BTreeMap<String, Value>) -> String {
 pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
     let manager = client.properties(MANAGER_PATH, MANAGER)?;
     let active = words(&manager["ActiveScene"]);
-    let names = client.manager_list("Scenes")?;
+    let names: Vec<String> = manager["Scenes"]
+        .as_array()
+        .map(|a| a.iter().map(words).collect())
+        .unwrap_or_default();
     let mut lines = format!("active: {active}\n");
     for name in &names {
         let mark = if *name == active { "*" } else { " " };
