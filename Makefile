@@ -134,7 +134,7 @@ install: $(C_MECHANISM)
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/hapticd/plugins \
 		$(DESTDIR)$(PREFIX)/lib/hapticd/scenes $(DESTDIR)$(PREFIX)/include/hapticd \
 		$(DESTDIR)$(PREFIX)/share/pkgconfig \
-		$(DESTDIR)$(PREFIX)/share/hapticd/mechanisms $(DESTDIR)$(PREFIX)/share/hapticd/scenes \
+		$(DESTDIR)$(PREFIX)/share/hapticd/mechanisms $(DESTDIR)$(PREFIX)/share/hapticd/scenes/meshes \
 		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples \
 		$(DESTDIR)$(SYSTEMLIBDIR)/systemd/system $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d \
 		$(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d $(DESTDIR)$(DBUSPOLICYDIR) \
@@ -158,6 +158,7 @@ install: $(C_MECHANISM)
 	chmod 644 $(DESTDIR)$(PREFIX)/share/pkgconfig/hapticd-plugin.pc
 	install -m 644 config/mechanisms/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/mechanisms/
 	install -m 644 config/scenes/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/scenes/
+	install -m 644 config/scenes/meshes/*.obj config/scenes/meshes/*.gltf $(DESTDIR)$(PREFIX)/share/hapticd/scenes/meshes/
 	install -m 644 config/hands/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/hands/
 	install -m 644 README.md LICENSE-MIT LICENSE-APACHE $(DESTDIR)$(PREFIX)/share/doc/hapticd/
 	install -m 644 plugins/c-example/*.c $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/

@@ -25,7 +25,7 @@ fn scene_dir(name: &str) -> PathBuf {
     let dir = scratch_root().join(format!("meshes-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::copy(
-        repo_dir().join("config/meshes/bracket.obj"),
+        repo_dir().join("config/scenes/meshes/bracket.obj"),
         dir.join("bracket.obj"),
     )
     .unwrap();

@@ -8,7 +8,6 @@
 //! read_file`): only a regular file of at most 16 MiB inside the state directory; anything
 //! else in a record's place is left as it is, neither read nor replaced.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -152,7 +151,7 @@ impl StateDir {
         }
         let mut text = serde_json::to_vec_pretty(record).map_err(|e| e.to_string())?;
         text.push(b'\n');
-        write_atomically(&path, &text)
+        diagnostics::write_atomically(&path, &text)
     }
 }
 
@@ -162,42 +161,6 @@ fn unusable(refusal: &Refusal) -> bool {
         refusal,
         Refusal::NotRegular | Refusal::TooLarge { .. } | Refusal::Outside { .. }
     )
-}
-
-/// Replace `path` with `contents` so that a crash leaves either the old file or the new one.
-pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
-    let fail = |what: &str, e: std::io::Error| format!("{}: cannot {what}: {e}", path.display());
-    let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| fail("create its directory", e))?;
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into());
-    let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        // A new file of its own: never written through a link left under the temporary name.
-        let _ = std::fs::remove_file(&temporary);
-        let mut file = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temporary)
-            .map_err(|e| fail("create", e))?;
-        file.write_all(contents).map_err(|e| fail("write", e))?;
-        file.sync_all().map_err(|e| fail("flush", e))?;
-        std::fs::rename(&temporary, path).map_err(|e| fail("replace", e))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temporary);
-        return result;
-    }
-    // Renamed, the new file is what the directory holds: an error now would leave the caller
-    // keeping the old record in memory against the new one on disk.
-    if let Err(e) = std::fs::File::open(dir).and_then(|d| d.sync_all()) {
-        tracing::warn!(
-            "{}: saved, but its directory could not be flushed: {e}",
-            path.display()
-        );
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -5,15 +5,18 @@
 //! - [`TriangleMesh`]: welded vertices, triangles, and the normals the file gave;
 //! - [`load`] and [`Limits`]: reading a file by its extension, refusing what could hurt;
 //! - [`properties`]: whether the surface is closed, its volume, centre and inertia;
-//! - [`decomposition`]: a movable mesh as convex pieces;
+//! - [`decomposition`]: a movable mesh as convex pieces, kept between runs by [`cache`];
+//! - [`solid`]: a mesh as a physics body takes it;
 //! - `obj`, `stl`, `gltf`: the three formats.
 //!
 //! Coordinates are metres once the scene's `scale:` is applied; every finding names the file.
 
+pub mod cache;
 pub mod decomposition;
 mod gltf;
 mod obj;
 pub mod properties;
+mod solid;
 mod stl;
 
 use std::collections::HashMap;
@@ -21,6 +24,8 @@ use std::path::Path;
 
 use glam::DVec3;
 use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
+
+pub use solid::{MeshSolid, solid};
 
 /// What a mesh file may hold: enough for a detailed CAD part, and few enough that a file
 /// cannot make hapticd spend seconds or gigabytes.
@@ -163,6 +168,13 @@ impl TriangleMesh {
         self.triangles
             .iter()
             .map(|t| t.map(|k| self.vertices[k as usize]))
+    }
+
+    /// Scale the mesh by `factor` about the origin.
+    pub fn scale(&mut self, factor: f64) {
+        for v in &mut self.vertices {
+            *v *= factor;
+        }
     }
 
     /// The smallest axis-aligned box holding the mesh: lowest and highest corner.

@@ -326,11 +326,11 @@ fn bad_files_are_refused_with_their_name_and_why() {
     assert!(e.contains("scale must be"), "{e}");
 }
 
-/// The shipped example meshes (written by config/meshes/make-meshes.py): each as OBJ and as
+/// The shipped example meshes (written by config/scenes/meshes/make-meshes.py): each as OBJ and as
 /// glTF the same closed solid, of the volume of the polygons the script draws.
 #[test]
 fn the_example_meshes_are_closed_solids_of_their_drawn_volumes() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/meshes");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes/meshes");
     let segments = 32.0;
     // The area of the regular polygon of `segments` sides the script puts on a circle.
     let polygon = |r: f64| segments / 2.0 * r * r * (2.0 * std::f64::consts::PI / segments).sin();

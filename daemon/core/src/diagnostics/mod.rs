@@ -290,6 +290,40 @@ pub fn check_file(file: &Path, rules: FileRules) -> Result<PathBuf, FileError> {
     Ok(path)
 }
 
+/// Replace `path` with `contents` so that a crash leaves either the old file or the new one:
+/// the one writer of every file hapticd keeps (records, caches).
+pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
+    use std::io::Write;
+    let fail = |what: &str, e: std::io::Error| format!("{}: cannot {what}: {e}", path.display());
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| fail("create its directory", e))?;
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into());
+    let temporary = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        // A new file of its own: never written through a link left under the temporary name.
+        let _ = std::fs::remove_file(&temporary);
+        let mut file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&temporary)
+            .map_err(|e| fail("create", e))?;
+        file.write_all(contents).map_err(|e| fail("write", e))?;
+        file.sync_all().map_err(|e| fail("flush", e))?;
+        std::fs::rename(&temporary, path).map_err(|e| fail("replace", e))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+        return result;
+    }
+    // Renamed, the new file is what the directory holds; should the directory's flush fail,
+    // a power loss keeps the old file whole, and an error now would have the caller keep its
+    // old record in memory against the new one on disk.
+    let _ = File::open(dir).and_then(|d| d.sync_all());
+    Ok(())
+}
+
 /// The bytes of `file`, refusing what cannot be a file a person or hapticd wrote: anything
 /// but a regular file, more than `rules.max_bytes`, or a link out of `rules.within`. The
 /// one reader of every file hapticd and its tools are given.

@@ -56,7 +56,19 @@ impl Body {
                     * v
             })
             .fold(DMat3::ZERO, |sum, i| sum + i);
-        let inertia = inertia * density;
+        Self::from_parts(pieces, volume * density, centroid, inertia * density, fixed)
+    }
+
+    /// A body touching through the convex `pieces` (given where they are in the world) whose
+    /// `mass`, `centroid` and `inertia` about it (world frame) are given: a mesh's, whose
+    /// pieces stand for it in contact only.
+    pub fn from_parts(
+        pieces: &[Polyhedron],
+        mass: f64,
+        centroid: DVec3,
+        inertia: DMat3,
+        fixed: bool,
+    ) -> Self {
         Self {
             world: pieces.to_vec(),
             world_inverse_inertia: inertia.inverse(),
@@ -64,7 +76,7 @@ impl Body {
                 .iter()
                 .map(|p| p.transformed(DQuat::IDENTITY, -centroid))
                 .collect(),
-            mass: volume * density,
+            mass,
             inertia,
             position: centroid,
             orientation: DQuat::IDENTITY,

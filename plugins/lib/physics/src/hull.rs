@@ -58,16 +58,51 @@ impl Polyhedron {
                     } else {
                         continue;
                     };
-                    let known = planes.iter().any(|q| {
-                        q.normal.dot(plane.normal) > 1.0 - 1e-12
-                            && (q.offset - plane.offset).abs() <= tolerance
-                    });
-                    if !known {
-                        planes.push(plane);
-                    }
+                    push_new(&mut planes, plane, tolerance);
                 }
             }
         }
+        Self::bounded_by(&planes, centre, radius)
+    }
+
+    /// The convex solid whose surface is `triangles` over `vertices` (a convex piece of a
+    /// mesh): bounded by the triangles' planes, those of one face merged. Linear in the
+    /// triangles, for pieces of hundreds of points. An error when they span no volume.
+    pub fn of_convex_surface(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Result<Self, String> {
+        if vertices.iter().any(|p| !p.is_finite()) {
+            return Err("vertices must be finite".into());
+        }
+        let centre = vertices.iter().copied().sum::<DVec3>() / vertices.len().max(1) as f64;
+        let radius = vertices
+            .iter()
+            .map(|p| (*p - centre).length())
+            .fold(0.0, f64::max);
+        let mut planes: Vec<Plane> = Vec::new();
+        for t in triangles {
+            let [a, b, c] = t.map(|k| vertices.get(k as usize).copied());
+            let (Some(a), Some(b), Some(c)) = (a, b, c) else {
+                return Err("a triangle names a vertex the piece lacks".into());
+            };
+            let normal = (b - a).cross(c - a);
+            if normal.length() <= 1e-18 * radius * radius {
+                continue;
+            }
+            // Outwards, whichever way the triangle winds: away from the piece's centre.
+            let normal = normal.normalize() * normal.dot(a - centre).signum();
+            push_new(
+                &mut planes,
+                Plane {
+                    normal,
+                    offset: normal.dot(a),
+                },
+                1e-9 * radius,
+            );
+        }
+        Self::bounded_by(&planes, centre, radius)
+    }
+
+    /// The solid of `planes` around `centre`, within `radius` of it.
+    fn bounded_by(planes: &[Plane], centre: DVec3, radius: f64) -> Result<Self, String> {
         if planes.len() < 4 {
             return Err("hull vertices must not all lie in one plane".into());
         }
@@ -108,5 +143,15 @@ impl Polyhedron {
         let scale = radius * (4.0 / 3.0 * std::f64::consts::PI / volume).cbrt();
         let points: Vec<DVec3> = unit.iter().map(|p| *p * scale).collect();
         Self::hull(&points).expect("a geodesic sphere spans a volume")
+    }
+}
+
+/// Add `plane` to `planes` unless one of them is the same within `tolerance`.
+fn push_new(planes: &mut Vec<Plane>, plane: Plane, tolerance: f64) {
+    let known = planes.iter().any(|q| {
+        q.normal.dot(plane.normal) > 1.0 - 1e-12 && (q.offset - plane.offset).abs() <= tolerance
+    });
+    if !known {
+        planes.push(plane);
     }
 }

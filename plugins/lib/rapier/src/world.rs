@@ -21,8 +21,8 @@ use hapticd_plugin_api::{
 use rapier3d::geometry::PairContacts;
 use rapier3d::parry::bounding_volume::BoundingVolume;
 use rapier3d::prelude::{
-    Collider, ColliderBuilder, ColliderHandle, PhysicsWorld, Pose, QueryFilter, RigidBodyBuilder,
-    RigidBodyHandle,
+    Collider, ColliderBuilder, ColliderHandle, MassProperties, Matrix, PhysicsWorld, Pose,
+    QueryFilter, RigidBodyBuilder, RigidBodyHandle, TriMeshFlags, Vector,
 };
 
 use crate::convert::{dquat, dvec, rotation, vector};
@@ -116,6 +116,21 @@ fn collider(body: &Body, piece: usize, primitive: Primitive) -> ColliderBuilder 
     }
 }
 
+/// The collider of a fixed mesh: its own triangles, holes and all (in its body's frame).
+fn trimesh(surface: &[[DVec3; 3]]) -> ColliderBuilder {
+    let vertices: Vec<Vector> = surface.iter().flatten().map(|c| vector(*c)).collect();
+    let indices = (0..surface.len() as u32)
+        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+        .collect();
+    // Corners shared between triangles merged, so that contacts on an edge see both faces.
+    ColliderBuilder::trimesh_with_flags(
+        vertices,
+        indices,
+        TriMeshFlags::MERGE_DUPLICATE_VERTICES | TriMeshFlags::DELETE_DEGENERATE_TRIANGLES,
+    )
+    .expect("a body's mesh closes a volume, so some triangles have an area (checked when read)")
+}
+
 /// The nearest points of collider `mine` and `solid` where they are now, within `margin`:
 /// the contact of `mine` with it, the normal along which `solid` pushes.
 fn contact_now(mine: &Collider, solid: &Collider, margin: f64) -> Option<HapticdBodyContact> {
@@ -205,11 +220,31 @@ impl RapierWorld {
                     .linvel(vector(body.velocity))
                     .angvel(vector(body.spin)),
             );
-            let volume: f64 = body.pieces.iter().map(|p| volume_and_centroid(p).0).sum();
-            objects.push((pieces.len() as u32, primitives.len() as u32));
-            for (k, primitive) in primitives.iter().enumerate() {
-                let c = collider(body, k, *primitive)
-                    .density((body.mass / volume) as f32)
+            let surface = spec.surfaces.get(i).and_then(Option::as_ref);
+            let colliders: Vec<ColliderBuilder> = match surface {
+                Some(surface) if body.fixed => vec![trimesh(surface)],
+                _ => (0..primitives.len())
+                    .map(|k| collider(body, k, primitives[k]))
+                    .collect(),
+            };
+            // A mesh's mass and inertia are its closed volume's, not its pieces'.
+            let density = match surface {
+                Some(_) => {
+                    let m = Matrix::from_cols_array(&body.inertia.as_mat3().to_cols_array());
+                    let mass =
+                        MassProperties::with_inertia_matrix(Vector::ZERO, body.mass as f32, m);
+                    physics.bodies[handle].set_additional_mass_properties(mass, false);
+                    0.0
+                }
+                None => {
+                    let volume: f64 = body.pieces.iter().map(|p| volume_and_centroid(p).0).sum();
+                    (body.mass / volume) as f32
+                }
+            };
+            objects.push((pieces.len() as u32, colliders.len() as u32));
+            for c in colliders {
+                let c = c
+                    .density(density)
                     .friction(spec.friction as f32)
                     .user_data(pieces.len() as u128);
                 let c = physics

@@ -8,6 +8,7 @@ use hapticd_core::diagnostics::Findings;
 use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
 
 use super::Engine;
+use super::meshes::{MeshFiles, mesh_body};
 use super::schema::{RawBody, RawEngine, RawMaterial, RawModel, RawScene, identity};
 use crate::body::Body;
 use crate::polyhedron::Polyhedron;
@@ -184,7 +185,10 @@ fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<(Polyhedro
         return Some(vec![solid(f, at, given!(b), b.position, b.orientation)?]);
     };
     if given!(b).any() || pieces.is_empty() {
-        f.error(at, "give either box:, hull:, sphere: or a list of pieces:");
+        f.error(
+            at,
+            "give either box:, hull:, sphere:, mesh: or a list of pieces:",
+        );
         return None;
     }
     let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
@@ -360,6 +364,8 @@ pub(super) struct Bodies {
     pub(super) bodies: Vec<Body>,
     /// What each piece of each body is.
     pub(super) primitives: Vec<Vec<Primitive>>,
+    /// The triangles of each body that is a mesh, in its frame.
+    pub(super) surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
     /// Each body that is one box: its half edges and orientation, for grasping.
     pub(super) boxes: Vec<Option<(DVec3, DQuat)>>,
 }
@@ -371,6 +377,7 @@ pub(super) fn bodies(
     raw: &RawScene,
     engine: Engine,
     pointers: usize,
+    files: &MeshFiles<'_>,
 ) -> Option<Bodies> {
     let pieces: usize = raw
         .bodies
@@ -390,10 +397,31 @@ pub(super) fn bodies(
     // Each body that is one box: its half edges and orientation (the body's frame starts
     // as the world's), for grasping.
     let mut boxes = Vec::with_capacity(raw.bodies.len());
+    let mut surfaces = Vec::with_capacity(raw.bodies.len());
     for (i, b) in raw.bodies.iter().enumerate() {
         let at = format!("bodies[{i}]");
         f.text(format!("{at}.name"), &b.name);
-        let pieces = body_pieces(f, &at, b);
+        // A fixed mesh under rapier is its triangles; every other body touches through
+        // convex pieces.
+        let mesh = b.mesh.as_ref().and_then(|file| {
+            let pieces = engine == Engine::Penalty || !b.fixed;
+            mesh_body(f, &at, b, file, files, pieces)
+        });
+        let pieces = match (&b.mesh, &mesh) {
+            (Some(_), Some(mesh)) => Some(
+                mesh.pieces
+                    .iter()
+                    .map(|p| (p.clone(), Primitive::Hull))
+                    .collect(),
+            ),
+            (Some(_), None) => None,
+            (None, _) => {
+                if b.scale.is_some() {
+                    f.error(format!("{at}.scale"), "only with mesh:");
+                }
+                body_pieces(f, &at, b)
+            }
+        };
         let (light, dense) = DENSITY_RANGE;
         f.within(format!("{at}.density"), b.density, light, dense, " kg/m³");
         let (speed, spin) = MAX_SPEED;
@@ -403,8 +431,21 @@ pub(super) fn bodies(
             && !f.has_errors()
         {
             let (solids, kinds): (Vec<Polyhedron>, Vec<Primitive>) = pieces.into_iter().unzip();
-            let mut body = Body::compound(&solids, b.density, b.fixed);
+            let mut body = match &mesh {
+                Some(m) => Body::from_parts(
+                    &solids,
+                    m.volume * b.density,
+                    m.centre,
+                    m.inertia * b.density,
+                    b.fixed,
+                ),
+                None => Body::compound(&solids, b.density, b.fixed),
+            };
             (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
+            surfaces.push(mesh.map(|m| {
+                let centre = body.position;
+                m.surface.iter().map(|t| t.map(|c| c - centre)).collect()
+            }));
             bodies.push(body);
             boxes.push(match (kinds.as_slice(), &b.pieces) {
                 ([Primitive::Cuboid { half, rotation }], None) => Some((*half, *rotation)),
@@ -413,9 +454,19 @@ pub(super) fn bodies(
             primitives.push(kinds);
         }
     }
+    let pieces: usize = bodies.iter().map(|b| b.pieces.len()).sum::<usize>() + pointers;
+    if engine == Engine::Penalty && pieces > MAX_PIECES {
+        f.error(
+            "bodies",
+            format!(
+                "{pieces} convex pieces with the meshes' own; a world holds at most {MAX_PIECES}"
+            ),
+        );
+    }
     Some(Bodies {
         bodies,
         primitives,
+        surfaces,
         boxes,
     })
 }

@@ -2,6 +2,7 @@
 //! ([`hapticd_plugin_api::geometry`]): one body id per body of the world, in the order its
 //! poses are written, each piece a solid placed in its body's frame.
 
+use glam::DVec3;
 use hapticd_core::kinematics::{Pose, quat_to_wxyz};
 use hapticd_plugin_api::{
     Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_SPHERE, HAPTICD_SOLID_FIXED, HAPTICD_SOLID_POINTER,
@@ -13,7 +14,8 @@ use crate::body::Body;
 use crate::polyhedron::Polyhedron;
 
 impl PenaltyScene {
-    /// The world's solids: every piece of every body as its faces, the pointers' bodies
+    /// The world's solids: every piece of every body as its faces (a mesh as its own
+    /// triangles), the pointers' bodies
     /// (from [`first_pointer`](Self::first_pointer) on) marked as such.
     pub fn geometry(&self) -> Geometry {
         let mut geometry = Geometry::default();
@@ -24,6 +26,10 @@ impl PenaltyScene {
             } else {
                 0
             };
+            if let Some(Some(surface)) = self.surfaces.get(i) {
+                geometry.add_triangles(solid_of(id, body, 0), triangles(surface));
+                continue;
+            }
             for piece in &body.pieces {
                 geometry.add_triangles(solid_of(id, body, pointer), faces(piece));
             }
@@ -42,12 +48,19 @@ impl PenaltyScene {
 }
 
 impl RapierScene {
-    /// The world's solids: boxes and balls as such, hulls as their faces (the pointers'
+    /// The world's solids: boxes and balls as such, hulls as their faces, meshes as their
+    /// triangles (the pointers'
     /// solids are not drawn: their proxies show where the fingers rest).
     pub fn geometry(&self) -> Geometry {
         let mut geometry = Geometry::default();
-        for (body, primitives) in self.bodies.iter().zip(&self.primitives) {
+        for ((body, primitives), surface) in
+            self.bodies.iter().zip(&self.primitives).zip(&self.surfaces)
+        {
             let id = geometry.add_body();
+            if let Some(surface) = surface {
+                geometry.add_triangles(solid_of(id, body, 0), triangles(surface));
+                continue;
+            }
             for (piece, primitive) in body.pieces.iter().zip(primitives) {
                 let at = |shape, size, orientation| HapticdSolid {
                     shape,
@@ -87,6 +100,16 @@ fn solid_of(id: u32, body: &Body, flags: u32) -> HapticdSolid {
     }
 }
 
+/// A mesh's `surface` as the ABI's triangles.
+fn triangles(surface: &[[DVec3; 3]]) -> Vec<HapticdTriangle> {
+    surface
+        .iter()
+        .map(|t| HapticdTriangle {
+            corners: t.map(|c| c.to_array()),
+        })
+        .collect()
+}
+
 /// The faces of `piece` as triangles (fans, counter-clockwise from outside).
 fn faces(piece: &Polyhedron) -> Vec<HapticdTriangle> {
     let corner = |k: usize| -> [f64; 3] { piece.vertices[k].to_array() };
@@ -105,7 +128,6 @@ fn faces(piece: &Polyhedron) -> Vec<HapticdTriangle> {
 mod tests {
     use super::*;
     use crate::scene::SceneFile;
-    use glam::DVec3;
     use std::path::Path;
 
     fn scene(name: &str, pointers: usize) -> SceneFile {

@@ -120,6 +120,7 @@
 
 mod checks;
 mod geometry;
+mod meshes;
 mod penalty;
 mod rapier;
 mod schema;
@@ -128,6 +129,7 @@ mod stepping;
 use std::path::Path;
 
 use hapticd_core::diagnostics::{self, Diagnostics, Findings};
+use hapticd_mesh::cache::Cache;
 use hapticd_plugin_api::Geometry;
 
 pub use checks::{
@@ -135,6 +137,7 @@ pub use checks::{
     MAX_HULL_POINTS, MAX_PIECES, MAX_POINTERS, MAX_SPEED, MAX_STEPS_PER_CALL, MIN_DT, Primitive,
     RATE_RANGE,
 };
+pub use meshes::SCALE_RANGE;
 pub use penalty::PenaltyScene;
 pub use rapier::{Feedback, RapierScene};
 use schema::{RawPointer, RawScene};
@@ -163,8 +166,20 @@ impl SceneFile {
     }
 
     /// Parse scene `text` for `pointers` pointers; `path` names it in diagnostics, which
-    /// come all at once, each at its line and column.
+    /// come all at once, each at its line and column, and its directory holds the meshes it
+    /// names, whose convex pieces come from this process's cache
+    /// ([`Cache::from_environment`]).
     pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        Self::parse_cached(text, path, pointers, &Cache::from_environment())
+    }
+
+    /// [`SceneFile::parse`] with the meshes' pieces from `cache`.
+    pub fn parse_cached(
+        text: &str,
+        path: &Path,
+        pointers: usize,
+        cache: &Cache,
+    ) -> Result<Self, Diagnostics> {
         let parsed = diagnostics::parse_yaml::<RawScene>(text, path)?;
         let (mut raw, map) = (parsed.value, parsed.map);
         // A scene that names no pointer solid gets a fingertip, so that every scene runs on
@@ -175,7 +190,8 @@ impl SceneFile {
         let locate = |field: &str| map.find(field);
         let mut f = Findings::after_schema(path, &locate, parsed.schema);
         let (engine, penalty) = checks::scene_keys(&mut f, &raw);
-        let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers) else {
+        let files = meshes::MeshFiles::of_scene(path, cache);
+        let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
         let pointer = checks::pointer(&mut f, &raw, pointers);

@@ -31,6 +31,9 @@ pub struct PenaltyScene {
     pub first_pointer: usize,
     /// Names of the bodies in world order; pointers are `pointer 1`, `pointer 2`, …
     pub names: Vec<String>,
+    /// The triangles of each body (before the pointers) that is a mesh, in its frame: drawn
+    /// instead of its convex pieces.
+    pub surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
     /// The material as the file gives it for each contact model.
     pub(super) materials: [Material; 2],
     /// The coupling of each pointer; none for one placed at its grip.
@@ -76,7 +79,10 @@ impl PenaltyScene {
         warnings: Vec<Diagnostic>,
     ) -> Self {
         let Bodies {
-            mut bodies, boxes, ..
+            mut bodies,
+            boxes,
+            surfaces,
+            ..
         } = bodies;
         let first_pointer = bodies.len();
         let dt = penalty.dt;
@@ -152,6 +158,7 @@ impl PenaltyScene {
                 .map(|b| b.name)
                 .chain((1..=pointers).map(|k| format!("pointer {k}")))
                 .collect(),
+            surfaces,
             materials,
             couplings,
             pointers_placed: false,

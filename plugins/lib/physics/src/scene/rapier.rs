@@ -55,6 +55,9 @@ pub struct RapierScene {
     pub bodies: Vec<Body>,
     /// What each piece of each body is, in the order of [`Body::pieces`].
     pub primitives: Vec<Vec<Primitive>>,
+    /// The triangles of each body that is a mesh, in its frame: a fixed one's collider, and
+    /// what is drawn instead of a body's convex pieces.
+    pub surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
     /// Names of the bodies.
     pub names: Vec<String>,
     /// The pointers' solid, centred at the origin, if the file gives one.
@@ -72,7 +75,10 @@ impl RapierScene {
         warnings: Vec<Diagnostic>,
     ) -> Self {
         let Bodies {
-            bodies, primitives, ..
+            bodies,
+            primitives,
+            surfaces,
+            ..
         } = bodies;
         let feedback = match raw.feedback {
             Some(RawFeedback::Position) => Feedback::Position,
@@ -88,6 +94,7 @@ impl RapierScene {
             friction: raw.material.friction,
             bodies,
             primitives,
+            surfaces,
             names: raw.bodies.into_iter().map(|b| b.name).collect(),
             pointer: pointer.map(|(shape, primitive)| {
                 let density = raw.pointer.as_ref().map_or(1000.0, |p| p.density);

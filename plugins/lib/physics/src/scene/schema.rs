@@ -109,6 +109,8 @@ pub(super) struct RawBody {
     pub(super) hull: Option<Vec<[f64; 3]>>,
     pub(super) sphere: Option<f64>,
     pub(super) pieces: Option<Vec<RawPiece>>,
+    pub(super) mesh: Option<String>,
+    pub(super) scale: Option<f64>,
     pub(super) position: [f64; 3],
     #[serde(default = "identity")]
     pub(super) orientation: [f64; 4],

@@ -8,7 +8,7 @@ file, its buffer embedded as base64), into this directory:
   handle (half a torus) standing off its side, as two closed shells.
 
 Units are metres, y up, triangles counter-clockwise seen from outside. Run it again after a
-change (python3 config/meshes/make-meshes.py); the test of the meshes checks the files
+change (python3 config/scenes/meshes/make-meshes.py); the test of the meshes checks the files
 against the formulas written here (volumes of the polygons drawn).
 """
 

@@ -1,0 +1,76 @@
+//! A mesh as a physics scene's body takes it: its surface where the file puts it, the mass
+//! properties of the volume it closes, and the convex pieces both engines touch it through.
+
+use std::path::Path;
+
+use crate::cache::Cache;
+use crate::properties::{MassProperties, closure, mass_properties};
+use crate::{Limits, TriangleMesh, load};
+
+/// A closed mesh ready to be a body, in the mesh file's frame times its scale.
+#[derive(Debug, Clone)]
+pub struct MeshSolid {
+    /// The surface.
+    pub mesh: TriangleMesh,
+    /// Volume, centre and inertia (at density 1) of what the surface closes.
+    pub properties: MassProperties,
+    /// The convex pieces, each a closed convex surface (none when not asked for).
+    pub pieces: Vec<TriangleMesh>,
+    /// Whether the pieces came from the cache.
+    pub cached: bool,
+}
+
+/// The mesh `file` (relative to `scene_dir`) of a scene in `scene_dir` (read from within that directory alone, under
+/// [`Limits::DEFAULT`]) scaled by `scale`, which must close a volume; with its convex pieces
+/// from `cache` (decomposed now if it holds none) when `pieces` is set.
+pub fn solid(
+    file: &Path,
+    scene_dir: &Path,
+    scale: f64,
+    cache: &Cache,
+    pieces: bool,
+) -> Result<MeshSolid, String> {
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(format!("scale must be a finite number > 0, not {scale}"));
+    }
+    let file = &scene_dir.join(file);
+    // Read at scale 1: the cache keys the mesh as the file has it.
+    let mut mesh = load(file, 1.0, Limits::DEFAULT, Some(scene_dir)).map_err(|e| {
+        let reasons: Vec<_> = e.diagnostics.iter().map(|d| d.message.clone()).collect();
+        format!("{}: {}", file.display(), reasons.join("; "))
+    })?;
+    let c = closure(&mesh);
+    if !c.is_closed() {
+        return Err(format!(
+            "{}: not a closed surface ({} open edges, {} edges not shared by two faces in \
+             turn): a body's mesh must enclose its volume",
+            file.display(),
+            c.open_edges,
+            c.bad_edges
+        ));
+    }
+    let (pieces, cached) = if pieces {
+        cache.pieces(&mesh)
+    } else {
+        (Vec::new(), false)
+    };
+    if mass_properties(&mesh).volume <= 0.0 {
+        return Err(format!(
+            "{}: its faces point inwards (the volume they close is negative)",
+            file.display()
+        ));
+    }
+    mesh.scale(scale);
+    Ok(MeshSolid {
+        properties: mass_properties(&mesh),
+        mesh,
+        pieces: pieces
+            .into_iter()
+            .map(|mut p| {
+                p.scale(scale);
+                p
+            })
+            .collect(),
+        cached,
+    })
+}

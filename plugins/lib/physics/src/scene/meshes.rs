@@ -1,0 +1,117 @@
+//! Bodies of mesh files (`mesh: FILE`, with `scale:`): the file read from the scene's own
+//! directory, its mass and inertia those of the volume it closes, and its convex pieces
+//! (decomposed once and cached, [`hapticd_mesh::cache`]) what the engines touch it through.
+//! A fixed mesh under rapier keeps its triangles instead, holes and all.
+
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DVec3};
+use hapticd_core::diagnostics::Findings;
+use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
+use hapticd_mesh::cache::Cache;
+
+use super::schema::RawBody;
+use crate::polyhedron::Polyhedron;
+
+/// Smallest and largest `scale:`.
+pub const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
+
+/// Where a scene's meshes come from: the scene file's directory, and the cache of their
+/// convex pieces.
+pub(super) struct MeshFiles<'a> {
+    dir: PathBuf,
+    cache: &'a Cache,
+}
+
+impl<'a> MeshFiles<'a> {
+    /// The meshes of the scene file at `path`, their pieces in `cache`.
+    pub(super) fn of_scene(path: &Path, cache: &'a Cache) -> Self {
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Self { dir, cache }
+    }
+}
+
+/// A mesh body where the file puts it.
+pub(super) struct MeshBody {
+    /// Its convex pieces (none for a fixed mesh under rapier).
+    pub(super) pieces: Vec<Polyhedron>,
+    /// Its triangles.
+    pub(super) surface: Vec<[DVec3; 3]>,
+    /// Volume, m³.
+    pub(super) volume: f64,
+    /// Centre of volume.
+    pub(super) centre: DVec3,
+    /// Inertia about the centre at density 1, world frame.
+    pub(super) inertia: DMat3,
+}
+
+/// The mesh `file` of body `b` (at field path `at`), with its convex pieces when `pieces`;
+/// `None` after reporting what is wrong.
+pub(super) fn mesh_body(
+    f: &mut Findings,
+    at: &str,
+    b: &RawBody,
+    file: &str,
+    files: &MeshFiles<'_>,
+    pieces: bool,
+) -> Option<MeshBody> {
+    if b.size.is_some() || b.hull.is_some() || b.sphere.is_some() || b.pieces.is_some() {
+        f.error(
+            at,
+            "give exactly one of box:, hull:, sphere:, pieces: or mesh:",
+        );
+        return None;
+    }
+    let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
+    let placed = f.coordinates(format!("{at}.position"), &b.position, WORLD_EXTENT, "m");
+    let scale = b.scale.unwrap_or(1.0);
+    let (small, large) = SCALE_RANGE;
+    let scaled = f.within(format!("{at}.scale"), scale, small, large, "");
+    if !(placed && scaled) {
+        return None;
+    }
+    let solid = match hapticd_mesh::solid(Path::new(file), &files.dir, scale, files.cache, pieces) {
+        Ok(solid) => solid,
+        Err(e) => {
+            f.error(format!("{at}.mesh"), e);
+            return None;
+        }
+    };
+    let (low, high) = solid.mesh.bounds();
+    let (smallest, largest) = SOLID_SIZES;
+    let size = (high - low).max_element();
+    if !(smallest..=largest).contains(&size) {
+        f.error(
+            format!("{at}.mesh"),
+            format!("{size:.3e} m across once scaled; a solid is {smallest} to {largest} m"),
+        );
+        return None;
+    }
+    let position = DVec3::from(b.position);
+    let place = |v: DVec3| turn * v + position;
+    let mut convex = Vec::with_capacity(solid.pieces.len());
+    for piece in &solid.pieces {
+        // A sliver V-HACD leaves flat holds no volume to touch through; its neighbours do.
+        if let Ok(p) = Polyhedron::of_convex_surface(&piece.vertices, &piece.triangles)
+            && p.thickness() >= smallest
+        {
+            convex.push(p.transformed(turn, position));
+        }
+    }
+    if pieces && convex.is_empty() {
+        f.error(format!("{at}.mesh"), "no convex piece of it holds a volume");
+        return None;
+    }
+    let rotation = DMat3::from_quat(turn);
+    let p = solid.properties;
+    Some(MeshBody {
+        pieces: convex,
+        surface: solid.mesh.corners().map(|t| t.map(place)).collect(),
+        volume: p.volume,
+        centre: place(p.centre),
+        inertia: rotation * p.inertia * rotation.transpose(),
+    })
+}
