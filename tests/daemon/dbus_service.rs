@@ -198,6 +198,7 @@ fn dbus_send_error(
 struct Setup {
     mechanisms: PathBuf,
     state: PathBuf,
+    cache: PathBuf,
     config: PathBuf,
     log: PathBuf,
 }
@@ -213,6 +214,7 @@ impl Setup {
         Setup {
             mechanisms,
             state: dir.join("state"),
+            cache: dir.join("cache"),
             config,
             log: dir.join("hapticd.log"),
         }
@@ -264,6 +266,7 @@ impl Hapticd {
             .arg(format!("--bus={}", bus.address))
             .args(extra)
             .env_remove("NOTIFY_SOCKET")
+            .env("CACHE_DIRECTORY", &setup.cache)
             .stdout(Stdio::null())
             .stderr(log)
             .spawn()
@@ -871,11 +874,80 @@ fn assert_every_listed_scene_switches(bus: &Bus, daemon: &Hapticd) {
         "{listed}"
     );
     for name in names {
-        let switched = bus.call(MANAGER, "SwitchScene", &["s", name]);
-        assert!(switched.status.success(), "{name}: {switched:?}");
+        switch_when_prepared(bus, name);
         assert_eq!(bus.get(MANAGER, "ActiveScene"), format!("s \"{name}\""));
         daemon.wait_for_state(bus, "running");
     }
+}
+
+/// Switch to scene `name`, again while the daemon says its meshes are being cut (as
+/// `hapticctl scene switch` does); whether it said so first.
+fn switch_when_prepared(bus: &Bus, name: &str) -> bool {
+    let started = Instant::now();
+    let mut prepared = false;
+    loop {
+        let switched = bus.call(MANAGER, "SwitchScene", &["s", name]);
+        if switched.status.success() {
+            return prepared;
+        }
+        let said = String::from_utf8_lossy(&switched.stderr).into_owned();
+        assert!(
+            said.contains("being cut into convex pieces"),
+            "{name}: {said}"
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "{name}: {said}"
+        );
+        prepared = true;
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+#[test]
+fn a_switch_to_a_mesh_scene_not_yet_cut_says_so_at_once_and_succeeds_once_cut() {
+    let dir = scratch("preparing");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // The mug takes seconds to cut in a debug build, more than a switch waits.
+    let (name, message) = bus.error(
+        MANAGER[1],
+        "org.hapticd.Hapticd1.Manager.SwitchScene",
+        &["string:mug"],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.Preparing", "{message}");
+    assert!(
+        message.contains("meshes/mug.obj are now being cut"),
+        "{message}"
+    );
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
+    daemon.wait_for_state(&bus, "running");
+    // Asked again while cutting: still being cut, not cut twice.
+    let (name, message) = bus.error(
+        MANAGER[1],
+        "org.hapticd.Hapticd1.Manager.SwitchScene",
+        &["string:mug"],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.Preparing", "{message}");
+    assert!(message.contains("are still being cut"), "{message}");
+    switch_when_prepared(&bus, "mug");
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"mug\"");
+    daemon.wait_for_state(&bus, "running");
+    let kept: Vec<_> = std::fs::read_dir(setup.cache.join("meshes"))
+        .unwrap()
+        .collect();
+    assert_eq!(kept.len(), 1, "{kept:?}");
+    // Cached, it switches at once: the rapier scene's movable mug is the same mesh, and its
+    // fixed bracket is its own triangles, cut never.
+    assert!(!switch_when_prepared(&bus, "bracket"));
+    assert_eq!(
+        std::fs::read_dir(setup.cache.join("meshes"))
+            .unwrap()
+            .count(),
+        1
+    );
+    daemon.stop();
 }
 
 #[test]

@@ -83,7 +83,7 @@ impl Isolated {
     }
 
     /// `hapticd --config … --bus …` of this test, followed by `args`. Its environment names
-    /// no bus, journal, notification socket, state directory or mechanism path of the host:
+    /// no bus, journal, notification socket, state directory, cache or mechanism path of the host:
     /// the buses a library could fall back on are this test's address too.
     pub fn hapticd(&self, args: &[&str]) -> Command {
         let mut command = Command::new(artifact("hapticd"));
@@ -97,7 +97,8 @@ impl Isolated {
             .env_remove("NOTIFY_SOCKET")
             .env_remove("JOURNAL_STREAM")
             .env_remove("STATE_DIRECTORY")
-            .env_remove("HAPTICD_MECHANISM_PATH");
+            .env_remove("HAPTICD_MECHANISM_PATH")
+            .env("CACHE_DIRECTORY", super::mesh_cache());
         command
     }
 }

@@ -96,11 +96,19 @@ pub fn shipped(name: &str) -> Mechanism {
         .unwrap_or_else(|| panic!("no shipped mechanism {name}"))
 }
 
-/// `hapticctl` as built.
+/// `hapticctl` as built, its meshes' convex pieces kept in [`mesh_cache`].
 pub fn hapticctl() -> Command {
     let mut command = Command::new(artifact("hapticctl"));
-    command.env_remove("HAPTICD_MECHANISM_PATH");
     command
+        .env_remove("HAPTICD_MECHANISM_PATH")
+        .env("CACHE_DIRECTORY", mesh_cache());
+    command
+}
+
+/// Where tests keep meshes' convex pieces (`$CACHE_DIRECTORY` of what they start): in the
+/// build tree, never the user's own cache, and shared so that each mesh is cut once.
+pub fn mesh_cache() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("mesh-cache")
 }
 
 /// Half the extent of the frame: the largest motor coordinate of effector `index`.

@@ -52,6 +52,8 @@ pub enum Error {
     Unavailable(String),
     /// A path where only a name is taken (files come by descriptor).
     NameExpected(String),
+    /// The scene's meshes are being cut into convex pieces; the running scene stays.
+    Preparing(String),
 }
 
 impl std::fmt::Display for Error {
@@ -69,7 +71,8 @@ impl std::fmt::Display for Error {
             | Error::Timeout(m)
             | Error::StillFaulted(m)
             | Error::Unavailable(m)
-            | Error::NameExpected(m) => f.write_str(m),
+            | Error::NameExpected(m)
+            | Error::Preparing(m) => f.write_str(m),
         }
     }
 }
@@ -433,6 +436,8 @@ pub struct Daemon {
     switching: Mutex<()>,
     /// Where scene files callers send are kept.
     received: PathBuf,
+    /// Meshes' convex pieces cut off the switch.
+    preparation: crate::preparation::Preparation,
     /// Set by [`Daemon::request_restart`]; the supervisor starts hapticd again.
     restart: AtomicBool,
 }
@@ -503,6 +508,7 @@ impl Daemon {
             devices,
             switching: Mutex::new(()),
             received: crate::received::directory(),
+            preparation: crate::preparation::Preparation::new(),
             restart: AtomicBool::new(false),
         }
     }
@@ -586,6 +592,9 @@ impl Daemon {
     /// pictures come from `file` from then on.
     fn swap_in(&self, scene: &str, file: Option<PathBuf>) -> Result<(), Error> {
         let _one_at_a_time = lock(&self.switching);
+        if let Some(file) = &file {
+            self.preparation.ready(file).map_err(Error::Preparing)?;
+        }
         let config = lock(&self.inner).config.clone();
         let places = crate::scenes::Places {
             dirs: &config.scene_dirs,

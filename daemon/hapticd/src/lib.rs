@@ -9,7 +9,8 @@
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
-//!    [`received`]: scene files callers send by descriptor.
+//!    [`received`]: scene files callers send by descriptor; [`preparation`]: the convex
+//!    pieces of a scene's meshes, cut before it switches in.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
 //!    CPU of its own; [`physics_budget`]: when a multi-rate scene's physics thread may be
 //!    real-time too, and how long it rests between steps.
@@ -26,6 +27,7 @@ pub mod layout;
 pub mod physics_budget;
 pub mod plugin;
 pub mod plugin_scene;
+pub mod preparation;
 pub mod realtime;
 pub mod received;
 pub mod scenes;

@@ -77,11 +77,15 @@ impl Cache {
             return (pieces, true);
         }
         let pieces = decompose(mesh, RESOLUTION).pieces;
-        if let Some(entry) = self.entry(mesh) {
-            let _ =
-                hapticd_core::diagnostics::write_atomically(&entry, &encode(key(mesh), &pieces));
-        }
+        self.store(mesh, &pieces);
         (pieces, false)
+    }
+
+    /// Keep `pieces` as `mesh`'s; where, if the cache could be written.
+    pub fn store(&self, mesh: &TriangleMesh, pieces: &[TriangleMesh]) -> Option<PathBuf> {
+        let entry = self.entry(mesh)?;
+        hapticd_core::diagnostics::write_atomically(&entry, &encode(key(mesh), pieces)).ok()?;
+        Some(entry)
     }
 }
 

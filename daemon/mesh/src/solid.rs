@@ -22,13 +22,12 @@ pub struct MeshSolid {
 
 /// The mesh `file` (relative to `scene_dir`) of a scene in `scene_dir` (read from within that directory alone, under
 /// [`Limits::DEFAULT`]) scaled by `scale`, which must close a volume; with its convex pieces
-/// from `cache` (decomposed now if it holds none) when `pieces` is set.
+/// from `cache` (decomposed now if it holds none) when one is given.
 pub fn solid(
     file: &Path,
     scene_dir: &Path,
     scale: f64,
-    cache: &Cache,
-    pieces: bool,
+    cache: Option<&Cache>,
 ) -> Result<MeshSolid, String> {
     if !(scale.is_finite() && scale > 0.0) {
         return Err(format!("scale must be a finite number > 0, not {scale}"));
@@ -49,10 +48,9 @@ pub fn solid(
             c.bad_edges
         ));
     }
-    let (pieces, cached) = if pieces {
-        cache.pieces(&mesh)
-    } else {
-        (Vec::new(), false)
+    let (pieces, cached) = match cache {
+        Some(cache) => cache.pieces(&mesh),
+        None => (Vec::new(), false),
     };
     if mass_properties(&mesh).volume <= 0.0 {
         return Err(format!(

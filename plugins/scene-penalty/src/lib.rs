@@ -7,7 +7,7 @@
 use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{Wrench, quat_from_wxyz, quat_to_wxyz};
 use hapticd_physics::coupling::Grip;
-use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene};
+use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene, SceneFile};
 use hapticd_plugin_api::*;
 
 /// The plugin's instance: a loaded scene and what it looks like.
@@ -65,11 +65,12 @@ impl SceneInstance for Penalty {
     }
 }
 
-/// Check a penalty scene file without building its world.
+/// Check a penalty scene file without building its world (or cutting its meshes).
 fn check(path: &str, pointers: usize) -> Result<(), String> {
-    PenaltyScene::load(std::path::Path::new(path), pointers)
-        .map(drop)
-        .map_err(|e| e.to_string())
+    match SceneFile::check(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
+        SceneFile::Penalty(_) => Ok(()),
+        SceneFile::Rapier(_) => Err(format!("{path}: a rapier scene (give engine: penalty)")),
+    }
 }
 
 fn create(

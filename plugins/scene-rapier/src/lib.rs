@@ -71,9 +71,12 @@ fn load(path: &str, pointers: usize) -> Result<Box<RapierScene>, String> {
     }
 }
 
-/// Check a rapier scene file without building its world.
+/// Check a rapier scene file without building its world (or cutting its meshes).
 fn check(path: &str, pointers: usize) -> Result<(), String> {
-    load(path, pointers).map(drop)
+    match SceneFile::check(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
+        SceneFile::Rapier(_) => Ok(()),
+        SceneFile::Penalty(_) => Err(format!("{path}: a penalty scene (give engine: rapier)")),
+    }
 }
 
 fn create(

@@ -32,6 +32,7 @@ fn name_of(error: &control::Error) -> &'static str {
         StillFaulted(_) => "StillFaulted",
         Unavailable(_) => "Unavailable",
         NameExpected(_) => "NameExpected",
+        Preparing(_) => "Preparing",
     }
 }
 

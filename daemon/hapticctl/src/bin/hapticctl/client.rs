@@ -7,7 +7,7 @@ use std::os::unix::fs::OpenOptionsExt;
 use clap::Args;
 use hapticd_core::parameters::Name;
 use hapticd_ipc::bus::{Bus, has_owner};
-use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
+use hapticd_ipc::names::{ERROR_PREFIX, RENDERER_BUS_NAME, error_name};
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
@@ -493,8 +493,7 @@ pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
 /// sent (the daemon reads no path a caller names).
 pub fn switch(client: &Client, scene: &str) -> Result<(), Failure> {
     if hapticd::scenes::is_name(scene) {
-        client.call(MANAGER_PATH, MANAGER, "SwitchScene", &(scene,))?;
-        return Ok(());
+        return switch_when_prepared(client, scene);
     }
     let path = std::path::Path::new(scene);
     if path.extension().is_some_and(|e| e == "so") {
@@ -518,6 +517,35 @@ pub fn switch(client: &Client, scene: &str) -> Result<(), Failure> {
     let fd = zbus::Fd::from(&file);
     client.call(MANAGER_PATH, MANAGER, "SwitchSceneFile", &(fd, name))?;
     Ok(())
+}
+
+/// Switch to the scene called `scene`, asking again while the daemon says its meshes are
+/// being cut into convex pieces (it says so rather than hold the call for minutes).
+fn switch_when_prepared(client: &Client, scene: &str) -> Result<(), Failure> {
+    let preparing = format!("{ERROR_PREFIX}.Preparing");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(600);
+    let mut said = false;
+    loop {
+        let reply = zbus::block_on(client.connection.call_method(
+            Some(BUS_NAME),
+            MANAGER_PATH,
+            Some(MANAGER),
+            "SwitchScene",
+            &(scene,),
+        ));
+        match reply {
+            Err(zbus::Error::MethodError(name, message, _))
+                if name.as_str() == preparing && std::time::Instant::now() < deadline =>
+            {
+                if !said {
+                    eprintln!("{scene}: {}; waiting", message.unwrap_or_default());
+                    said = true;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(500));
+            }
+            other => return other.map(drop).map_err(|e| failure(&client.bus, e)),
+        }
+    }
 }
 
 #[derive(Args)]

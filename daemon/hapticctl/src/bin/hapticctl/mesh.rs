@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
+use hapticd_mesh::cache::Cache;
 use hapticd_mesh::properties::{closure, mass_properties};
 use hapticd_mesh::{Limits, load};
 use serde_json::json;
@@ -27,9 +28,15 @@ pub struct DecomposeArgs {
     /// Scale the file's coordinates by S to make metres (as a scene's `scale:`).
     #[arg(long, default_value_t = 1.0)]
     scale: f64,
-    /// Voxels along the mesh's longest side (finer: more, tighter pieces; slower).
+    /// Voxels along the mesh's longest side (finer: more, tighter pieces; slower). Pieces
+    /// are kept for scenes at the default alone.
     #[arg(long, default_value_t = hapticd_mesh::decomposition::RESOLUTION)]
     resolution: u32,
+    /// Keep the pieces in DIR, where hapticd finds them (default: $CACHE_DIRECTORY, else
+    /// ~/.cache/hapticd; the installed daemon's is /var/cache/hapticd, written as its user:
+    /// `sudo -u hapticd hapticctl mesh decompose --cache /var/cache/hapticd FILE`).
+    #[arg(long, value_name = "DIR")]
+    cache: Option<PathBuf>,
     #[command(flatten)]
     output: Output,
 }
@@ -142,6 +149,16 @@ fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
     let started = std::time::Instant::now();
     let pieces = hapticd_mesh::decomposition::decompose(&mesh, args.resolution);
     let seconds = started.elapsed().as_secs_f64();
+    // Scenes read the pieces of the mesh as its file has it, at the default resolution.
+    let kept = if args.resolution == hapticd_mesh::decomposition::RESOLUTION && args.scale == 1.0 {
+        let cache = args
+            .cache
+            .clone()
+            .map_or_else(Cache::from_environment, Cache::at);
+        cache.store(&mesh, &pieces.pieces)
+    } else {
+        None
+    };
     let volume = mass_properties(&mesh).volume;
     let hulls = pieces.volume();
     let error = (hulls - volume) / volume;
@@ -154,8 +171,12 @@ fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
         hulls,
         volume,
         100.0 * error
-    );
+    ) + &kept
+        .as_ref()
+        .map(|entry| format!("kept in {}\n", entry.display()))
+        .unwrap_or_default();
     let value = json!({
+        "kept": kept,
         "file": args.file,
         "pieces": pieces.pieces.len(),
         "seconds": seconds,

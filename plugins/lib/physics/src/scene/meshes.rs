@@ -20,12 +20,13 @@ pub const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
 /// convex pieces.
 pub(super) struct MeshFiles<'a> {
     dir: PathBuf,
-    cache: &'a Cache,
+    /// None: meshes are checked, not cut.
+    cache: Option<&'a Cache>,
 }
 
 impl<'a> MeshFiles<'a> {
-    /// The meshes of the scene file at `path`, their pieces in `cache`.
-    pub(super) fn of_scene(path: &Path, cache: &'a Cache) -> Self {
+    /// The meshes of the scene file at `path`, their pieces in `cache` (none: not cut).
+    pub(super) fn of_scene(path: &Path, cache: Option<&'a Cache>) -> Self {
         let dir = match path.parent() {
             Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
             _ => PathBuf::from("."),
@@ -48,8 +49,8 @@ pub(super) struct MeshBody {
     pub(super) inertia: DMat3,
 }
 
-/// The mesh `file` of body `b` (at field path `at`), with its convex pieces when `pieces`;
-/// `None` after reporting what is wrong.
+/// The mesh `file` of body `b` (at field path `at`), with its convex pieces when `pieces`
+/// and `files` cuts meshes; `None` after reporting what is wrong.
 pub(super) fn mesh_body(
     f: &mut Findings,
     at: &str,
@@ -73,7 +74,8 @@ pub(super) fn mesh_body(
     if !(placed && scaled) {
         return None;
     }
-    let solid = match hapticd_mesh::solid(Path::new(file), &files.dir, scale, files.cache, pieces) {
+    let cut = files.cache.filter(|_| pieces);
+    let solid = match hapticd_mesh::solid(Path::new(file), &files.dir, scale, cut) {
         Ok(solid) => solid,
         Err(e) => {
             f.error(format!("{at}.mesh"), e);
@@ -101,7 +103,7 @@ pub(super) fn mesh_body(
             convex.push(p.transformed(turn, position));
         }
     }
-    if pieces && convex.is_empty() {
+    if cut.is_some() && convex.is_empty() {
         f.error(format!("{at}.mesh"), "no convex piece of it holds a volume");
         return None;
     }

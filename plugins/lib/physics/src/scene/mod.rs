@@ -180,6 +180,34 @@ impl SceneFile {
         pointers: usize,
         cache: &Cache,
     ) -> Result<Self, Diagnostics> {
+        Self::parse_with(
+            text,
+            path,
+            pointers,
+            meshes::MeshFiles::of_scene(path, Some(cache)),
+        )
+    }
+
+    /// Check the scene file at `path` for `pointers` pointers as [`SceneFile::load`] would,
+    /// its meshes read and measured but not cut into pieces (which can take minutes): the
+    /// scene that comes back touches its meshes through nothing, and only says the file is
+    /// sound.
+    pub fn check(path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
+        let text = diagnostics::read_text(path)?;
+        Self::parse_with(
+            &text,
+            path,
+            pointers,
+            meshes::MeshFiles::of_scene(path, None),
+        )
+    }
+
+    fn parse_with(
+        text: &str,
+        path: &Path,
+        pointers: usize,
+        files: meshes::MeshFiles<'_>,
+    ) -> Result<Self, Diagnostics> {
         let parsed = diagnostics::parse_yaml::<RawScene>(text, path)?;
         let (mut raw, map) = (parsed.value, parsed.map);
         // A scene that names no pointer solid gets a fingertip, so that every scene runs on
@@ -190,7 +218,6 @@ impl SceneFile {
         let locate = |field: &str| map.find(field);
         let mut f = Findings::after_schema(path, &locate, parsed.schema);
         let (engine, penalty) = checks::scene_keys(&mut f, &raw);
-        let files = meshes::MeshFiles::of_scene(path, cache);
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };

@@ -1,0 +1,144 @@
+//! Meshes' convex pieces made ready before a scene switch: cutting a mesh takes from a
+//! fraction of a second to minutes, and a switch must not wait that long. The daemon reads
+//! which meshes a scene file's bodies name (the engines' rule: every `mesh:` of a penalty
+//! scene, a movable body's under rapier) and, for those the cache lacks, cuts them in a
+//! thread of their own; a switch waits for that only briefly, then says the scene is being
+//! prepared, and the next switch finds the pieces cached. The plugin itself reads them from
+//! the same cache ([`Cache::from_environment`]).
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
+
+use hapticd_mesh::cache::Cache;
+use hapticd_mesh::{Limits, TriangleMesh, properties};
+use serde_json::Value;
+
+/// How long a switch waits for pieces being cut before saying so: about as long as a
+/// switch's own force ramp, so that small meshes switch at once.
+const WAIT: Duration = Duration::from_millis(500);
+
+/// The meshes being cut, shared with their threads.
+pub struct Preparation {
+    cache: Cache,
+    running: Arc<Mutex<HashSet<PathBuf>>>,
+}
+
+impl Preparation {
+    /// Preparation into this process's cache.
+    pub fn new() -> Self {
+        Self {
+            cache: Cache::from_environment(),
+            running: Arc::default(),
+        }
+    }
+
+    /// Make sure the convex pieces of every mesh the scene file `file` needs cut are cached:
+    /// Ok at once when they are (or the file names none, or cannot be read: the plugin says
+    /// what is wrong with it), Ok after cutting them when that takes less than [`WAIT`], and
+    /// otherwise the message to give while they are cut in the background.
+    pub fn ready(&self, file: &Path) -> Result<(), String> {
+        let dir = file.parent().unwrap_or(Path::new("."));
+        let needed: Vec<(PathBuf, TriangleMesh)> = std::fs::read_to_string(file)
+            .ok()
+            .and_then(|text| serde_saphyr::from_str::<Value>(&text).ok())
+            .map(|scene| cut_meshes(&scene))
+            .unwrap_or_default()
+            .into_iter()
+            .filter_map(|name| {
+                let path = dir.join(name);
+                let mesh = hapticd_mesh::load(&path, 1.0, Limits::DEFAULT, Some(dir)).ok()?;
+                let closed = properties::closure(&mesh).is_closed();
+                (closed && self.cache.lookup(&mesh).is_none()).then_some((path, mesh))
+            })
+            .collect();
+        if needed.is_empty() {
+            return Ok(());
+        }
+        let names: Vec<String> = needed
+            .iter()
+            .map(|(p, _)| p.display().to_string())
+            .collect();
+        let busy = |started: &str| {
+            format!(
+                "{} {started} being cut into convex pieces for the cache; switch again in a \
+                 moment (hapticctl mesh decompose prepares a mesh ahead)",
+                names.join(", ")
+            )
+        };
+        let fresh: Vec<(PathBuf, TriangleMesh)> = {
+            let mut running = self.running.lock().unwrap_or_else(|e| e.into_inner());
+            needed
+                .into_iter()
+                .filter(|(path, _)| running.insert(path.clone()))
+                .collect()
+        };
+        if fresh.is_empty() {
+            return Err(busy("are still"));
+        }
+        let (done, finished) = mpsc::channel();
+        let (cache, running) = (self.cache.clone(), Arc::clone(&self.running));
+        let start = Instant::now();
+        let spawned = std::thread::Builder::new()
+            .name("mesh-pieces".into())
+            .spawn(move || {
+                for (path, mesh) in fresh {
+                    cache.pieces(&mesh);
+                    tracing::info!(
+                        "{}: convex pieces cut and cached ({:.1} s)",
+                        path.display(),
+                        start.elapsed().as_secs_f64()
+                    );
+                    running
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .remove(&path);
+                }
+                let _ = done.send(());
+            });
+        if spawned.is_err() {
+            // No thread to spare: the plugin cuts them as it loads, as it would uncached.
+            return Ok(());
+        }
+        match finished.recv_timeout(WAIT) {
+            Ok(()) => Ok(()),
+            Err(_) => Err(busy("are now")),
+        }
+    }
+}
+
+/// The meshes a scene's bodies name whose pieces the engine touches: every body's of a
+/// penalty scene, the movable ones' of a rapier scene (a fixed mesh is its triangles there).
+fn cut_meshes(scene: &Value) -> Vec<String> {
+    let rapier = scene.get("engine").and_then(Value::as_str) == Some("rapier");
+    scene
+        .get("bodies")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter(|b| !(rapier && b.get("fixed").and_then(Value::as_bool) == Some(true)))
+        .filter_map(|b| b.get("mesh").and_then(Value::as_str).map(String::from))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_meshes_to_cut_are_those_the_engine_touches_through_pieces() {
+        let scene = |engine: &str| {
+            serde_saphyr::from_str::<Value>(&format!(
+                "name: s\nengine: {engine}\nbodies:\n  - {{ mesh: a.obj, fixed: true }}\n  \
+                 - {{ mesh: b.obj }}\n  - {{ box: [1, 1, 1] }}\n"
+            ))
+            .unwrap()
+        };
+        assert_eq!(cut_meshes(&scene("penalty")), ["a.obj", "b.obj"]);
+        assert_eq!(cut_meshes(&scene("rapier")), ["b.obj"]);
+        // A static scene's mesh shapes are maps, touched triangle by triangle: none to cut.
+        let fixed = "name: s\nshapes:\n  - mesh: { file: a.obj }\n";
+        assert!(cut_meshes(&serde_saphyr::from_str::<Value>(fixed).unwrap()).is_empty());
+    }
+}
