@@ -80,6 +80,7 @@ figures: stage
 	$(HAPTICCTL) render config/scenes/blocks.yaml --mechanism spidar-g --force 4,12,0 \
 		--out docs/figures/render-blocks.png --width 640 --height 400
 	$(HAPTICCTL) render config/scenes/balls.yaml --out docs/figures/render-balls.png --width 640 --height 400
+	$(HAPTICCTL) render config/scenes/bracket.yaml --out docs/figures/render-bracket.png --width 640 --height 400
 	@# The running daemon as hapticctl view shows it: hapticd on the simulated SPIDAR-II, two
 	@# fingers in the blocks scene, and hapticd-render beside it, on a bus of their own.
 	$(CARGO) build --release -p hapticd-render-service -p hapticd-scene-penalty

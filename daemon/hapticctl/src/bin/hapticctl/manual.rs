@@ -327,7 +327,9 @@ mod tests {
     fn the_examples_in_the_format_pages_are_accepted_by_the_parsers() {
         use hapticd_core::diagnostics::Diagnostics;
         use std::path::Path;
-        let path = Path::new("example.yaml");
+        // Beside the shipped scenes, whose meshes the examples name.
+        let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes");
+        let path = &scenes.join("example.yaml");
         type Parse = fn(&str, &Path) -> Result<(), Diagnostics>;
         let parsers: [(&str, Parse); 5] = [
             ("hapticd.yaml", |t, p| {
@@ -337,10 +339,22 @@ mod tests {
                 hapticd_core::mechanism::descriptor::parse(t, p).map(drop)
             }),
             ("hapticd-scene", |t, p| {
-                hapticd_core::scene::static_scene::StaticSceneSpec::parse(t, p).map(drop)
+                let meshes = &hapticd_mesh::scene_triangles;
+                hapticd_core::scene::static_scene::StaticSceneSpec::parse_with_meshes(t, p, meshes)
+                    .map(drop)
             }),
             ("hapticd-scene", |t, p| {
-                hapticd_physics::scene::SceneFile::parse(t, p, 1).map(drop)
+                // Pieces cut into a cache of this test's own, never the user's.
+                let cache =
+                    std::env::temp_dir().join(format!("hapticctl-manual-{}", std::process::id()));
+                let parsed = hapticd_physics::scene::SceneFile::parse_cached(
+                    t,
+                    p,
+                    1,
+                    &hapticd_mesh::cache::Cache::at(&cache),
+                );
+                let _ = std::fs::remove_dir_all(&cache);
+                parsed.map(drop)
             }),
             ("hapticd-hand", |t, p| {
                 // Less the step that follows a recording, which the example cannot ship.

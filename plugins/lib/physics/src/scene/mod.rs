@@ -1,4 +1,4 @@
-//! Physics scene files: bodies of boxes, spheres or convex hulls, one material, gravity, the
+//! Physics scene files: bodies of boxes, spheres, convex hulls or meshes, one material, gravity, the
 //! shape of each pointer, and the engine that steps them (`engine:`):
 //!
 //! - `penalty` (the default): the contact-volume penalty method inside every haptic tick
@@ -59,6 +59,11 @@
 //!       - { box: [0.01, 0.03, 0.03], position: [0.02, 0, 0] }
 //!       - { box: [0.05, 0.01, 0.03], position: [0, 0.02, 0] }
 //!     position: [0.1, 0.015, 0]
+//!   - name: mug                # a body of a mesh file: OBJ, STL, glTF or GLB
+//!     mesh: meshes/mug.obj     #   relative to the scene file, in its directory or below
+//!     scale: 1                 #   the file's units to metres (optional)
+//!     position: [-0.1, 0, 0]   #   where the file's origin goes, turned by orientation:
+//!     density: 800             #   as the file has it
 //! pointer:                     # optional: without one each pointer is a ball of 1 cm radius
 //!   box: [0.01, 0.01, 0.01]    # each pointer: this solid (or a hull), centred at the grip
 //!   coupling:                  # optional (thesis 4.1.2): the solid is a body of the world,
@@ -68,6 +73,17 @@
 //!     rotational_damping: 0.01   # (N·m/rad, N·m·s/rad; both optional, default 0)
 //!   density: 1000              # kg/m³ of a coupled pointer (its weight is felt too)
 //! ```
+//!
+//! A mesh must close a volume (every edge shared by two faces): its mass, centre and
+//! inertia are those of that volume. Both engines touch a movable mesh through convex pieces
+//! (V-HACD at 64 voxels along its longest side), cut once and kept by the mesh's content in
+//! hapticd's cache directory (`/var/cache/hapticd`; `hapticctl mesh decompose` cuts one ahead
+//! and says how many pieces, how far their volume strays from the mesh's, and how long it
+//! took). A fixed mesh keeps its own triangles under rapier, so a hole in it is a hole; the
+//! penalty engine, which integrates over intersections of convex solids, cuts fixed meshes
+//! too. A world of the penalty engine holds at most 256 pieces, pointers and meshes' pieces
+//! included. A mesh file is read from the scene file's directory or below alone, with at most
+//! 500 000 vertices and triangles in 64 MiB; a scene sent by descriptor names none.
 //!
 //! Scenes for two or more pointers may let them hold bodies (thesis 4.2–4.7): a body that is
 //! one `box:` is held while two pointers press it from opposite sides, and let go when they
