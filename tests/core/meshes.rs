@@ -6,11 +6,13 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use hapticd_core::haptics::obstacle::Shape;
+use hapticd_core::haptics::obstacle::{Obstacles, Shape};
 use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
+use hapticd_core::haptics::scenery::Scenery;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_mesh::scene_triangles;
 
+use crate::support::ball_mesh::ball_faces;
 use crate::support::{repo_dir, scratch_root};
 
 const SCENE: &str = "\
@@ -41,6 +43,7 @@ fn parse(dir: &Path, text: &str) -> Result<StaticSceneSpec, String> {
 /// the plate's top, a millimetre a tick.
 fn pressed(spec: &StaticSceneSpec, x: f64, z: f64, depth: f64) -> (DVec3, DVec3) {
     let top = -0.02 + 0.006;
+    let scenery = Scenery::new(&spec.shapes);
     let mut proxy = Proxy::new(DVec3::new(x, 0.02, z));
     let parameters = ProxyParameters {
         stiffness: 1000.0,
@@ -55,7 +58,7 @@ fn pressed(spec: &StaticSceneSpec, x: f64, z: f64, depth: f64) -> (DVec3, DVec3)
         out = Some(proxy.update(
             DVec3::new(x, y, z),
             DVec3::ZERO,
-            &spec.shapes,
+            &scenery,
             &parameters,
             1e-3,
         ));
@@ -115,4 +118,65 @@ fn a_mesh_the_scene_may_not_read_is_an_error_at_its_place() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("reads no mesh files"), "{e}");
+}
+
+/// The proxy's walk over `path` (grip positions, a tick each) among `obstacles`: the forces.
+fn walk<O: Obstacles + ?Sized>(
+    obstacles: &O,
+    path: &[DVec3],
+    parameters: &ProxyParameters,
+) -> Vec<DVec3> {
+    let mut proxy = Proxy::new(path[0]);
+    path.windows(2)
+        .map(|w| {
+            proxy
+                .update(w[1], (w[1] - w[0]) / 1e-3, obstacles, parameters, 1e-3)
+                .force
+        })
+        .collect()
+}
+
+#[test]
+fn a_large_meshs_triangles_found_through_the_hierarchy_are_those_a_scan_finds() {
+    // A ball of 19 800 triangles; the finger comes down on its top, presses 5 mm in, and
+    // slides round its side with friction.
+    let centre = DVec3::new(0.0, -0.05, 0.0);
+    let faces = ball_faces(centre, 0.05, 100, 100);
+    let mut path: Vec<DVec3> = (0..=30)
+        .map(|k| DVec3::new(0.001, 0.01 - 0.0005 * k as f64, 0.0))
+        .collect();
+    path.extend((0..400).map(|k| {
+        let angle = 0.02 + k as f64 * 0.003;
+        centre + 0.045 * DVec3::new(angle.sin(), angle.cos(), 0.3 * angle.sin())
+    }));
+    let with_friction = ProxyParameters::default();
+    let through_tree = walk(&Scenery::new(&faces), &path, &with_friction);
+    let scanned = walk(&faces[..], &path, &with_friction);
+    let pressed = through_tree.iter().filter(|f| f.length() > 1.0).count();
+    assert!(
+        pressed > 350,
+        "the finger pressed the ball: {pressed} ticks"
+    );
+    for (k, (a, b)) in through_tree.iter().zip(&scanned).enumerate() {
+        assert!(a.distance(*b) < 1e-9, "tick {k}: {a} vs {b}");
+    }
+    // Without friction or damping the faceted ball pushes out by the grip's depth under the
+    // round ball's surface times the stiffness, within its facets' depth (0.025 mm).
+    let frictionless = ProxyParameters {
+        static_friction: 0.0,
+        dynamic_friction: 0.0,
+        damping: 0.0,
+        ..with_friction
+    };
+    let faceted = walk(&Scenery::new(&faces), &path, &frictionless);
+    for (k, (f, grip)) in faceted.iter().zip(&path[1..]).enumerate() {
+        let depth = (0.05 - grip.distance(centre)).max(0.0);
+        let exact = frictionless.stiffness * depth;
+        let error = (f.length() - exact).abs();
+        assert!(
+            error < 0.03e-3 * frictionless.stiffness,
+            "tick {k}: {} N vs {exact} N",
+            f.length()
+        );
+    }
 }

@@ -153,17 +153,25 @@ fn a_grasp_step_does_not_allocate() {
 fn every_shipped_penalty_scene_steps_without_allocating_from_its_first_tick() {
     use glam::{DQuat, DVec3};
     use hapticd_core::kinematics::Wrench;
+    use hapticd_mesh::cache::Cache;
     use hapticd_physics::coupling::Grip;
-    use hapticd_physics::scene::PenaltyScene;
+    use hapticd_physics::scene::SceneFile;
     for (name, pointers) in [
         ("blocks", 2),
         ("cube-drop", 0),
         ("stack", 0),
         ("top", 0),
         ("stick-slip", 1),
+        ("mug", 1),
     ] {
         let path = support::repo_dir().join(format!("config/scenes/{name}.yaml"));
-        let mut scene = PenaltyScene::load(&path, pointers).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let cache = Cache::at(support::mesh_cache());
+        let Ok(SceneFile::Penalty(mut scene)) =
+            SceneFile::parse_cached(&text, &path, pointers, &cache)
+        else {
+            panic!("{name} is a penalty scene");
+        };
         let mut felt = [Wrench::default(); 2];
         // Pointers pressing down into whatever is below them.
         let grips: Vec<Grip> = (0..pointers)
@@ -213,6 +221,56 @@ fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
         }
     });
     assert_eq!(n, 0, "{n} allocations in 1500 ticks");
+}
+
+#[test]
+fn a_static_scene_touching_a_large_mesh_does_not_allocate() {
+    let mut spec = StaticSceneSpec::parse(
+        "name: ball\nshapes:\n  - floor: { height: -0.2 }\n",
+        std::path::Path::new("ball.yaml"),
+    )
+    .unwrap();
+    // A ball of 99 600 triangles, its top at y = 0.
+    let centre = DVec3::new(0.0, -0.05, 0.0);
+    spec.shapes
+        .extend(support::ball_mesh::ball_faces(centre, 0.05, 250, 200));
+    let start = [Pointer {
+        pose: Pose {
+            position: DVec3::new(0.0, 0.02, 0.0),
+            ..Pose::IDENTITY
+        },
+        velocity: DVec3::ZERO,
+    }];
+    let mut scene = StaticScene::new(spec, &start);
+    let mut wrenches = [Wrench::default()];
+    let mut pressed = 0.0;
+    let n = allocations_in(|| {
+        // Down onto the top, then round the side, pressed 5 mm in.
+        for k in 0..1000 {
+            let angle = (k as f64 / 1000.0) * 1.2;
+            let reach = if k < 100 {
+                0.02 - 0.0007 * k as f64
+            } else {
+                -0.05
+            };
+            let grip = if k < 100 {
+                DVec3::new(0.0, reach, 0.0)
+            } else {
+                centre + 0.045 * DVec3::new(angle.sin(), angle.cos(), 0.0)
+            };
+            let pointers = [Pointer {
+                pose: Pose {
+                    position: grip,
+                    ..Pose::IDENTITY
+                },
+                velocity: DVec3::ZERO,
+            }];
+            assert!(scene.render(&pointers, 1e-3, &mut wrenches));
+            pressed += wrenches[0].force.length();
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 1000 ticks");
+    assert!(pressed > 1000.0, "the ball was pressed: {pressed}");
 }
 
 #[test]

@@ -4,6 +4,7 @@
 #![allow(dead_code)] // each test binary uses its own subset
 
 pub mod amplifier;
+pub mod ball_mesh;
 pub mod bus;
 pub mod daemon;
 pub mod pile;

@@ -508,7 +508,7 @@ impl Daemon {
             devices,
             switching: Mutex::new(()),
             received: crate::received::directory(),
-            preparation: crate::preparation::Preparation::new(),
+            preparation: crate::preparation::Preparation::from_environment(),
             restart: AtomicBool::new(false),
         }
     }

@@ -26,8 +26,8 @@ pub struct Preparation {
 }
 
 impl Preparation {
-    /// Preparation into this process's cache.
-    pub fn new() -> Self {
+    /// Preparation into this process's cache ([`Cache::from_environment`]).
+    pub fn from_environment() -> Self {
         Self {
             cache: Cache::from_environment(),
             running: Arc::default(),

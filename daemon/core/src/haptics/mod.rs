@@ -3,13 +3,16 @@
 //!
 //! - [`grasp`]: fingers holding an object, with the shape shell and the resultant shared
 //!   among them (4.2–4.7);
-//! - [`obstacle`]: solid shapes the proxy cannot enter;
+//! - [`obstacle`]: solid shapes the proxy cannot enter; [`scenery`]: a static scene's
+//!   shapes as the proxy walks among them, a mesh's triangles in a [`bvh`];
 //! - [`proxy`]: the god-object with Coulomb friction;
 //! - [`passivity`]: the time-domain passivity observer and controller on each port;
 //! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault.
 
+pub mod bvh;
 pub mod grasp;
 pub mod obstacle;
 pub mod passivity;
 pub mod proxy;
 pub mod safety;
+pub mod scenery;

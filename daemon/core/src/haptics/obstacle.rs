@@ -63,6 +63,22 @@ pub struct Entry {
     pub normal: DVec3,
 }
 
+/// What a proxy walks among: the solids a segment may enter.
+pub trait Obstacles {
+    /// [rt] Call `visit` with where the segment from `a` to `b` enters each solid it enters,
+    /// in any order; no allocation.
+    fn entries(&self, a: DVec3, b: DVec3, visit: &mut dyn FnMut(Entry));
+}
+
+/// Shapes scanned one by one: what a few primitives need.
+impl Obstacles for [Shape] {
+    fn entries(&self, a: DVec3, b: DVec3, visit: &mut dyn FnMut(Entry)) {
+        for e in self.iter().filter_map(|s| s.entry(a, b)) {
+            visit(e);
+        }
+    }
+}
+
 impl Shape {
     /// The face `a`, `b`, `c` (counter-clockwise seen from outside), or None for one with no
     /// area or a corner that is not finite.

@@ -11,7 +11,7 @@
 
 use glam::DVec3;
 
-use super::obstacle::{Entry, SURFACE, Shape};
+use super::obstacle::{Entry, Obstacles, SURFACE};
 use crate::solver::linalg::{ldlt_factor, ldlt_solve};
 
 /// Most constraint planes at once (a corner).
@@ -132,30 +132,28 @@ fn closest_feasible(goal: DVec3, planes: &[Plane]) -> DVec3 {
 /// faces at once at one point (a mesh's edge or corner, reached exactly), the surface there
 /// is their bisector: the mean of their distinct normals, so that an edge pushes back
 /// along its bisector instead of along whichever face came first in the list.
-fn first_entry(shapes: &[Shape], a: DVec3, b: DVec3) -> Option<Entry> {
+fn first_entry<O: Obstacles + ?Sized>(obstacles: &O, a: DVec3, b: DVec3) -> Option<Entry> {
     let mut first: Option<Entry> = None;
     let mut normals = [DVec3::ZERO; 3];
     let mut distinct = 0;
-    for e in shapes.iter().filter_map(|s| s.entry(a, b)) {
-        match first {
-            Some(f) if (e.point - f.point).length() <= SURFACE => {
-                if distinct < normals.len()
-                    && !normals[..distinct]
-                        .iter()
-                        .any(|n| n.dot(e.normal) > 1.0 - 1e-12)
-                {
-                    normals[distinct] = e.normal;
-                    distinct += 1;
-                }
-            }
-            Some(f) if e.t >= f.t => {}
-            _ => {
-                first = Some(e);
-                normals[0] = e.normal;
-                distinct = 1;
+    obstacles.entries(a, b, &mut |e| match first {
+        Some(f) if (e.point - f.point).length() <= SURFACE => {
+            if distinct < normals.len()
+                && !normals[..distinct]
+                    .iter()
+                    .any(|n| n.dot(e.normal) > 1.0 - 1e-12)
+            {
+                normals[distinct] = e.normal;
+                distinct += 1;
             }
         }
-    }
+        Some(f) if e.t >= f.t => {}
+        _ => {
+            first = Some(e);
+            normals[0] = e.normal;
+            distinct = 1;
+        }
+    });
     let first = first?;
     let normal = normals[..distinct]
         .iter()
@@ -195,11 +193,11 @@ impl Proxy {
 
     /// Move toward the grip at `grip` (velocity `grip_velocity`) among `shapes`, and return
     /// the force to render. `dt` is the tick period.
-    pub fn update(
+    pub fn update<O: Obstacles + ?Sized>(
         &mut self,
         grip: DVec3,
         grip_velocity: DVec3,
-        shapes: &[Shape],
+        shapes: &O,
         parameters: &ProxyParameters,
         dt: f64,
     ) -> ProxyOutput {
@@ -294,6 +292,7 @@ impl Proxy {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::haptics::obstacle::Shape;
 
     const DT: f64 = 1e-3;
 
@@ -319,7 +318,7 @@ mod tests {
         let out = p.update(
             DVec3::new(0.01, 0.05, 0.0),
             DVec3::ZERO,
-            &[floor()],
+            &[floor()][..],
             &frictionless(),
             DT,
         );
@@ -333,7 +332,7 @@ mod tests {
         let out = p.update(
             DVec3::new(0.02, -0.003, 0.0),
             DVec3::ZERO,
-            &[floor()],
+            &[floor()][..],
             &frictionless(),
             DT,
         );
@@ -367,7 +366,7 @@ mod tests {
         for i in 0..400 {
             let x = -0.05 + 0.2 * i as f64 / 400.0;
             let grip = DVec3::new(x, 0.0, 0.005);
-            let out = p.update(grip, DVec3::ZERO, &shapes, &frictionless(), DT);
+            let out = p.update(grip, DVec3::ZERO, &shapes[..], &frictionless(), DT);
             for s in &shapes {
                 assert!(
                     s.signed_distance(out.proxy) > -1e-9,
@@ -389,7 +388,7 @@ mod tests {
         // Approach the corner along the diagonal, then push in.
         for i in 0..100 {
             let grip = DVec3::splat(0.08 - 0.05 * i as f64 / 100.0);
-            let out = p.update(grip, DVec3::ZERO, &[cube], &frictionless(), DT);
+            let out = p.update(grip, DVec3::ZERO, &[cube][..], &frictionless(), DT);
             assert!(cube.signed_distance(out.proxy) > -1e-9);
         }
         assert!(
@@ -413,12 +412,12 @@ mod tests {
         };
         let grip = DVec3::new(0.0, -0.002, 0.0);
         let mut p = Proxy::new(DVec3::new(0.0, 0.01, 0.0));
-        p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
+        p.update(grip, DVec3::ZERO, &[floor()][..], &parameters, DT);
         let rested = p.position();
-        p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
+        p.update(grip, DVec3::ZERO, &[floor()][..], &parameters, DT);
         let carry = DVec3::new(1e-4, 0.0, 0.0);
         p.carry(p.position() + carry);
-        let out = p.update(grip, DVec3::ZERO, &[floor()], &parameters, DT);
+        let out = p.update(grip, DVec3::ZERO, &[floor()][..], &parameters, DT);
         // Static friction holds it where it was carried to.
         assert!(
             (out.proxy - (rested + carry)).length() < 1e-12,
@@ -445,7 +444,7 @@ mod tests {
         p.update(
             DVec3::new(0.0, -0.01, 0.0),
             DVec3::ZERO,
-            &[floor()],
+            &[floor()][..],
             &parameters,
             DT,
         );
@@ -453,7 +452,7 @@ mod tests {
         let out = p.update(
             DVec3::new(0.004, -0.01, 0.0),
             DVec3::ZERO,
-            &[floor()],
+            &[floor()][..],
             &parameters,
             DT,
         );
@@ -463,7 +462,7 @@ mod tests {
         let out = p.update(
             DVec3::new(0.008, -0.01, 0.0),
             DVec3::ZERO,
-            &[floor()],
+            &[floor()][..],
             &parameters,
             DT,
         );
@@ -474,7 +473,7 @@ mod tests {
         let out = p.update(
             DVec3::new(0.008, -0.01, 0.0),
             DVec3::ZERO,
-            &[floor()],
+            &[floor()][..],
             &parameters,
             DT,
         );
@@ -535,8 +534,8 @@ mod tests {
             let grip = start + DVec3::new(0.05 * s, -0.02 * (4.0 * s).min(1.0), 0.03 * s);
             let velocity =
                 DVec3::new(0.05, if s < 0.25 { -0.08 } else { 0.0 }, 0.03) / (600.0 * DT);
-            let a = on_mesh.update(grip, velocity, &mesh, &parameters, DT);
-            let b = on_box.update(grip, velocity, &cuboid, &parameters, DT);
+            let a = on_mesh.update(grip, velocity, &mesh[..], &parameters, DT);
+            let b = on_box.update(grip, velocity, &cuboid[..], &parameters, DT);
             worst = worst.max((a.force - b.force).length());
             pressed += usize::from(a.in_contact);
         }
@@ -552,7 +551,7 @@ mod tests {
         let mut force = DVec3::ZERO;
         for k in 0..15 {
             let grip = DVec3::new(0.01, 0.02 - 0.005 * f64::from(k), 0.0);
-            let out = p.update(grip, DVec3::ZERO, &mesh, &frictionless(), DT);
+            let out = p.update(grip, DVec3::ZERO, &mesh[..], &frictionless(), DT);
             assert!(
                 out.proxy.y >= 0.001 - 1e-9,
                 "through the shell at tick {k}: {}",
@@ -581,7 +580,7 @@ mod tests {
             let out = p.update(
                 point - bisector * 0.005,
                 DVec3::ZERO,
-                &mesh,
+                &mesh[..],
                 &frictionless(),
                 DT,
             );

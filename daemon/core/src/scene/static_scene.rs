@@ -16,7 +16,8 @@
 //! glTF or GLB file in the scene file's own directory (never outside it), its coordinates
 //! times `scale` in metres. Its triangles are kept as they are, holes included, and the proxy
 //! walks on them: faces hold it, a seam between two faces holds it, an edge or corner pushes
-//! along its bisector. A scene's meshes may have 4096 triangles together.
+//! along its bisector. A scene's meshes may have 500 000 triangles together; the proxy finds
+//! the few near it through a hierarchy of boxes.
 
 use std::path::Path;
 
@@ -31,6 +32,7 @@ use super::{Pointer, Scene};
 use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
+use crate::haptics::scenery::Scenery;
 use crate::kinematics::{SOLID_SIZES, WORLD_EXTENT, Wrench, quat_to_wxyz};
 use crate::parameters::Name;
 
@@ -101,9 +103,9 @@ fn unscaled() -> f64 {
 /// them with hapticd-mesh; the core itself reads no mesh format.
 pub type MeshReader<'a> = &'a dyn Fn(&Path, &Path, f64) -> Result<Vec<[DVec3; 3]>, String>;
 
-/// Most triangles the meshes of one static scene may have together: the proxy looks at
-/// each of them in every tick.
-pub const MAX_MESH_TRIANGLES: usize = 4096;
+/// Most triangles the meshes of one static scene may have together, as many as one mesh
+/// file may hold: the proxy finds those near it through a hierarchy of boxes.
+pub const MAX_MESH_TRIANGLES: usize = 500_000;
 
 /// The description of a static scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -335,6 +337,7 @@ fn check_shape(
 /// A static scene with one proxy per pointer.
 pub struct StaticScene {
     spec: StaticSceneSpec,
+    scenery: Scenery,
     proxies: Vec<Proxy>,
     geometry: Geometry,
 }
@@ -419,6 +422,7 @@ impl StaticScene {
                 .map(|p| Proxy::new(p.pose.position))
                 .collect(),
             geometry: spec.geometry(),
+            scenery: Scenery::new(&spec.shapes),
             spec,
         }
     }
@@ -444,7 +448,7 @@ impl Scene for StaticScene {
             let out = proxy.update(
                 pointer.pose.position,
                 pointer.velocity,
-                &self.spec.shapes,
+                &self.scenery,
                 &self.spec.proxy,
                 dt,
             );

@@ -1,0 +1,207 @@
+//! A bounding-volume hierarchy of axis-aligned boxes, for finding the few triangles of a
+//! large mesh that a proxy's step can reach: built once off the haptic thread (each node's
+//! items split at the median of their centres along the box's longest side), walked in the
+//! haptic thread with a stack of fixed size, so a query neither allocates nor recurses.
+
+use glam::DVec3;
+
+/// Most items in a leaf: a few triangle tests cost less than another level of boxes.
+const LEAF: usize = 4;
+/// Nodes a walk holds at once: one more than the tree is deep, and median splits halve the
+/// items at each level, so 2^47 items would be needed to overflow it.
+const DEPTH: usize = 48;
+
+/// One node: its box, and either its items (a leaf) or its second child (the first follows
+/// it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Node {
+    low: DVec3,
+    high: DVec3,
+    /// A leaf's first item in [`Bvh::order`], or an inner node's second child.
+    start: u32,
+    /// A leaf's item count; 0 for an inner node.
+    count: u32,
+}
+
+/// A hierarchy over items given by their boxes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    /// Item indices, each leaf's together.
+    order: Vec<u32>,
+}
+
+impl Bvh {
+    /// The hierarchy of items whose boxes are `boxes` (lowest and highest corner each).
+    pub fn build(boxes: &[(DVec3, DVec3)]) -> Self {
+        let mut bvh = Bvh {
+            nodes: Vec::with_capacity(2 * boxes.len() / LEAF + 1),
+            order: (0..boxes.len() as u32).collect(),
+        };
+        if !boxes.is_empty() {
+            bvh.split(boxes, 0, boxes.len());
+        }
+        bvh
+    }
+
+    /// Add the node of items `order[start..end]` and its children; its index.
+    fn split(&mut self, boxes: &[(DVec3, DVec3)], start: usize, end: usize) -> usize {
+        let items = &mut self.order[start..end];
+        let (low, high) =
+            items
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &i| {
+                    let (a, b) = boxes[i as usize];
+                    (l.min(a), h.max(b))
+                });
+        let index = self.nodes.len();
+        self.nodes.push(Node {
+            low,
+            high,
+            start: start as u32,
+            count: items.len() as u32,
+        });
+        if items.len() <= LEAF {
+            return index;
+        }
+        let extent = high - low;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let centre = |i: &u32| {
+            let (a, b) = boxes[*i as usize];
+            (a + b)[axis]
+        };
+        let middle = items.len() / 2;
+        items.select_nth_unstable_by(middle, |x, y| centre(x).total_cmp(&centre(y)));
+        self.split(boxes, start, start + middle);
+        let second = self.split(boxes, start + middle, end);
+        self.nodes[index].start = second as u32;
+        self.nodes[index].count = 0;
+        index
+    }
+
+    /// [rt] Call `visit` with every item whose box, grown by `margin`, the segment from `a`
+    /// to `b` meets (and perhaps a few more); no allocation.
+    pub fn visit_segment(&self, a: DVec3, b: DVec3, margin: f64, mut visit: impl FnMut(usize)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let d = b - a;
+        let inverse = d.recip();
+        let mut stack = [0u32; DEPTH];
+        let mut depth = 1;
+        while depth > 0 {
+            depth -= 1;
+            let at = stack[depth];
+            let node = self.nodes[at as usize];
+            if !meets(a, d, inverse, node.low - margin, node.high + margin) {
+                continue;
+            }
+            if node.count > 0 {
+                let items = &self.order[node.start as usize..(node.start + node.count) as usize];
+                for &i in items {
+                    visit(i as usize);
+                }
+            } else {
+                // Median splits keep the tree far shallower than the stack is deep.
+                stack[depth] = at + 1;
+                stack[depth + 1] = node.start;
+                depth += 2;
+            }
+        }
+    }
+}
+
+/// Whether the segment `a + s·d`, s in [0, 1], meets the box from `low` to `high` (slabs; a
+/// direction component of 0 leaves that slab to the start point alone).
+fn meets(a: DVec3, d: DVec3, inverse: DVec3, low: DVec3, high: DVec3) -> bool {
+    let (mut enter, mut leave) = (0.0f64, 1.0f64);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if a[k] < low[k] || a[k] > high[k] {
+                return false;
+            }
+            continue;
+        }
+        let (t0, t1) = ((low[k] - a[k]) * inverse[k], (high[k] - a[k]) * inverse[k]);
+        enter = enter.max(t0.min(t1));
+        leave = leave.min(t0.max(t1));
+        if enter > leave {
+            return false;
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reproducible point in the unit cube.
+    fn point(k: u64) -> DVec3 {
+        let hash = |s: u64| {
+            let x = (k.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ s).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        DVec3::new(hash(1), hash(2), hash(3))
+    }
+
+    #[test]
+    fn a_segment_visits_every_box_it_meets_as_a_scan_of_all_of_them_finds() {
+        let boxes: Vec<(DVec3, DVec3)> = (0..5000)
+            .map(|k| {
+                let c = point(k);
+                (c - 0.004, c + 0.004 + point(k + 99_999) * 0.01)
+            })
+            .collect();
+        let bvh = Bvh::build(&boxes);
+        for k in 0..300 {
+            let (a, b) = (
+                point(10_000 + k),
+                point(20_000 + k) * 0.05 + point(10_000 + k),
+            );
+            let margin = 1e-3;
+            let mut visited = Vec::new();
+            bvh.visit_segment(a, b, margin, |i| visited.push(i));
+            visited.sort_unstable();
+            let d = b - a;
+            let expected: Vec<usize> = (0..boxes.len())
+                .filter(|&i| meets(a, d, d.recip(), boxes[i].0 - margin, boxes[i].1 + margin))
+                .collect();
+            // Every box the segment meets, each once, and few others: those sharing a leaf.
+            assert!(visited.windows(2).all(|w| w[0] < w[1]), "segment {k}");
+            assert!(
+                expected.iter().all(|i| visited.binary_search(i).is_ok()),
+                "segment {k}"
+            );
+            assert!(
+                visited.len() <= 4 * expected.len() + 16,
+                "segment {k}: {}",
+                visited.len()
+            );
+        }
+        // A segment along an axis, and one that is a point.
+        let mut seen = 0;
+        let (a, b) = (DVec3::new(0.5, 0.5, -1.0), DVec3::new(0.5, 0.5, 2.0));
+        bvh.visit_segment(a, b, 0.0, |i| {
+            let (l, h) = boxes[i];
+            seen += usize::from(l.x <= 0.5 && h.x >= 0.5 && l.y <= 0.5 && h.y >= 0.5);
+        });
+        assert_eq!(
+            seen,
+            boxes
+                .iter()
+                .filter(|(l, h)| l.x <= 0.5 && h.x >= 0.5 && l.y <= 0.5 && h.y >= 0.5)
+                .count()
+        );
+        let p = boxes[7].0 + 1e-6;
+        let mut found = false;
+        bvh.visit_segment(p, p, 0.0, |i| found |= i == 7);
+        assert!(found);
+    }
+}

@@ -1,0 +1,55 @@
+//! The solids of a static scene as its proxies walk among them: the few primitives scanned
+//! each step, a mesh's triangles (up to hundreds of thousands) found through a
+//! bounding-volume hierarchy, so that a step costs about as much on a scanned part as on a
+//! box.
+
+use glam::DVec3;
+
+use super::bvh::Bvh;
+use super::obstacle::{Entry, Obstacles, SURFACE, Shape};
+
+/// How far beyond its triangle's box a segment is still looked at: well past the rounding
+/// [`Shape::entry`] allows for.
+const MARGIN: f64 = 1e3 * SURFACE;
+
+/// Shapes sorted for the walk: primitives, and triangles in a hierarchy.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Scenery {
+    primitives: Vec<Shape>,
+    triangles: Vec<Shape>,
+    tree: Bvh,
+}
+
+impl Scenery {
+    /// The scenery of `shapes` (built here, off the haptic thread).
+    pub fn new(shapes: &[Shape]) -> Self {
+        let (triangles, primitives): (Vec<Shape>, Vec<Shape>) = shapes
+            .iter()
+            .partition(|s| matches!(s, Shape::Triangle { .. }));
+        let boxes: Vec<(DVec3, DVec3)> = triangles
+            .iter()
+            .map(|t| match t {
+                Shape::Triangle {
+                    corners: [a, b, c], ..
+                } => (a.min(*b).min(*c), a.max(*b).max(*c)),
+                _ => unreachable!("partitioned"),
+            })
+            .collect();
+        Self {
+            tree: Bvh::build(&boxes),
+            primitives,
+            triangles,
+        }
+    }
+}
+
+impl Obstacles for Scenery {
+    fn entries(&self, a: DVec3, b: DVec3, visit: &mut dyn FnMut(Entry)) {
+        self.primitives.entries(a, b, visit);
+        self.tree.visit_segment(a, b, MARGIN, |i| {
+            if let Some(e) = self.triangles[i].entry(a, b) {
+                visit(e);
+            }
+        });
+    }
+}
