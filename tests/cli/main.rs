@@ -5,6 +5,7 @@
 mod support;
 
 mod mechanism_cli;
+mod mesh_cli;
 mod render_cli;
 mod render_limits;
 mod scene_cli;

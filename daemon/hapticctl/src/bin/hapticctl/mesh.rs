@@ -48,6 +48,9 @@ pub struct InspectArgs {
     /// Scale the file's coordinates by S to make metres (as a scene's `scale:`).
     #[arg(long, default_value_t = 1.0)]
     scale: f64,
+    /// Look for its convex pieces in DIR (default: $CACHE_DIRECTORY, else ~/.cache/hapticd).
+    #[arg(long, value_name = "DIR")]
+    cache: Option<PathBuf>,
     #[command(flatten)]
     output: Output,
 }
@@ -110,9 +113,26 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
     } else {
         text += &format!(
             "closed: no ({} open edges, {} edges shared by more than two triangles or flipped \
-             faces): it can be a fixed surface, not a movable body\n",
+             faces): it can be a static scene's shape, not a physics scene's body\n",
             edges.open_edges, edges.bad_edges
         );
+    }
+    // The pieces a scene would touch it through, if they are cut (scenes key the file as it
+    // is, unscaled).
+    let cache = cache_of(&args.cache);
+    let pieces = (closed && args.scale == 1.0)
+        .then(|| cache.lookup(&mesh))
+        .flatten();
+    match (&pieces, cache.entry(&mesh)) {
+        (Some(pieces), Some(entry)) => {
+            text += &format!(
+                "convex pieces: {}, kept in {}\n",
+                pieces.len(),
+                entry.display()
+            );
+        }
+        _ if closed => text += "convex pieces: not cut yet (hapticctl mesh decompose cuts them)\n",
+        _ => {}
     }
     let value = json!({
         "file": args.file,
@@ -126,6 +146,7 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         "volume": closed.then_some(solid.volume),
         "centre": closed.then_some(solid.centre.to_array()),
         "inertia": closed.then_some(solid.inertia.to_cols_array_2d()),
+        "pieces": pieces.as_ref().map(Vec::len),
     });
     print(&args.output, value, text);
     Ok(())
@@ -146,16 +167,18 @@ fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
             args.file.display()
         )));
     }
+    if mass_properties(&mesh).volume <= 0.0 {
+        return Err(Failure::failed(format!(
+            "{}: its faces point inwards (the volume they close is negative)",
+            args.file.display()
+        )));
+    }
     let started = std::time::Instant::now();
     let pieces = hapticd_mesh::decomposition::decompose(&mesh, args.resolution);
     let seconds = started.elapsed().as_secs_f64();
     // Scenes read the pieces of the mesh as its file has it, at the default resolution.
     let kept = if args.resolution == hapticd_mesh::decomposition::RESOLUTION && args.scale == 1.0 {
-        let cache = args
-            .cache
-            .clone()
-            .map_or_else(Cache::from_environment, Cache::at);
-        cache.store(&mesh, &pieces.pieces)
+        cache_of(&args.cache).store(&mesh, &pieces.pieces)
     } else {
         None
     };
@@ -186,4 +209,9 @@ fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
     });
     print(&args.output, value, text);
     Ok(())
+}
+
+/// The cache at `dir`, or this user's.
+fn cache_of(dir: &Option<PathBuf>) -> Cache {
+    dir.clone().map_or_else(Cache::from_environment, Cache::at)
 }
