@@ -11,6 +11,7 @@ use divan::Bencher;
 use glam::DVec3;
 use hapticd_physics::scene::PenaltyScene;
 use hapticd_render::scenery::Scenery;
+use hapticd_render::shading::Shaded;
 use hapticd_render::vulkan::Renderer;
 
 const SIZE: (u32, u32) = (1280, 720);
@@ -23,7 +24,7 @@ fn main() {
 fn blocks() -> Scenery {
     let path = support::repo_dir().join("config/scenes/blocks.yaml");
     let scene = PenaltyScene::load(&path, 0).unwrap();
-    Scenery::of_geometry(&scene.geometry(), &scene.poses())
+    Scenery::of_geometry(&Shaded::new(scene.geometry()), &scene.poses())
 }
 
 fn bench_frame(bencher: Bencher, scenery: &Scenery) {

@@ -16,6 +16,7 @@ use hapticd_ipc::{BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, d
 use hapticd_plugin_api::{Geometry, HAPTICD_SOLID_POINTER};
 use hapticd_render::camera::Camera;
 use hapticd_render::scenery::{DrawnGrip, DrawnString, Scenery};
+use hapticd_render::shading::Shaded;
 
 /// How often the bus is asked again whether hapticd and its scene are the same.
 const RECHECK: Duration = Duration::from_secs(1);
@@ -24,7 +25,7 @@ const RECHECK: Duration = Duration::from_secs(1);
 struct Scene {
     switches: u32,
     effectors: u32,
-    geometry: Geometry,
+    geometry: Shaded,
     /// Framed when the scene was first drawn, then kept, so that pictures follow one
     /// another.
     camera: Camera,
@@ -96,7 +97,7 @@ impl WorldSource {
                 let mut scene = Scene {
                     switches: frame.scene_switches,
                     effectors: frame.effectors,
-                    geometry,
+                    geometry: Shaded::new(geometry),
                     camera: Camera::orbit(DVec3::ZERO, 1.0, 0.45, 0.75),
                 };
                 scene.camera = scenery(&scene.geometry, frame).camera();
@@ -106,7 +107,7 @@ impl WorldSource {
         let (scenery, camera) = match &self.scene {
             Some(scene) => (scenery(&scene.geometry, frame), scene.camera),
             None => {
-                let scenery = scenery(&Geometry::default(), frame);
+                let scenery = scenery(&Shaded::default(), frame);
                 let camera = scenery.camera();
                 (scenery, camera)
             }
@@ -191,10 +192,11 @@ where
     reply.body().deserialize()
 }
 
-/// `geometry` where `frame` has its bodies, and the device.
-fn scenery(geometry: &Geometry, frame: &WorldFrame) -> Scenery {
+/// `shaded` where `frame` has its bodies, and the device.
+fn scenery(shaded: &Shaded, frame: &WorldFrame) -> Scenery {
+    let geometry = &shaded.geometry;
     let poses: Vec<Pose> = frame.body_poses().collect();
-    let mut scenery = Scenery::of_geometry(geometry, &poses);
+    let mut scenery = Scenery::of_geometry(shaded, &poses);
     let effectors = (frame.effectors as usize).min(frame.grips.len());
     let strings: Vec<DrawnString> = (0..(frame.strings as usize).min(frame.motors.len()))
         .map(|k| DrawnString {

@@ -10,6 +10,7 @@
 //! - [`vulkan`]: the device, the pipeline, and one frame drawn and read back;
 //! - [`picture`]: the frame's pixels and its PNG file;
 //! - [`scenery`]: what a scene, a mechanism and the pointers look like, as meshes;
+//! - [`shading`]: a mesh's curved surfaces drawn smooth, its edges sharp;
 //! - [`smoothing`]: edges smoothed as a picture is read back.
 //!
 //! Positions are projected on the host, for the camera and for the light (a frame holds a
@@ -24,5 +25,6 @@ pub mod light;
 pub mod mesh;
 pub mod picture;
 pub mod scenery;
+pub mod shading;
 pub mod smoothing;
 pub mod vulkan;

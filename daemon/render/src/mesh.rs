@@ -33,6 +33,18 @@ impl Mesh {
         }
     }
 
+    /// Add the triangle `corners` (counter-clockwise from outside) in `colour`, shaded by
+    /// the outward `normals` at its corners.
+    pub fn shaded_triangle(&mut self, corners: [DVec3; 3], normals: [DVec3; 3], colour: [f32; 4]) {
+        for (position, normal) in corners.into_iter().zip(normals) {
+            self.vertices.push(Vertex {
+                position,
+                normal,
+                colour,
+            });
+        }
+    }
+
     /// Add the convex polygon `loop_` (counter-clockwise from outside) as a fan.
     pub fn polygon(&mut self, loop_: &[DVec3], colour: [f32; 4]) {
         for k in 1..loop_.len().saturating_sub(1) {

@@ -9,6 +9,7 @@ use hapticd_plugin_api::*;
 
 use crate::camera::Camera;
 use crate::mesh::Mesh;
+use crate::shading::Shaded;
 
 /// A string as drawn: from its motor's exit to its knot, and how hard it pulls.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,7 +87,8 @@ impl Scenery {
     /// The solids of `geometry`, each where its body's pose in `poses` (by body id) puts
     /// it; a solid whose body has no pose is not drawn. What moves (bodies and pointers) is
     /// framed; when nothing does, the bounded fixed solids are.
-    pub fn of_geometry(geometry: &Geometry, poses: &[Pose]) -> Self {
+    pub fn of_geometry(shaded: &Shaded, poses: &[Pose]) -> Self {
+        let geometry = &shaded.geometry;
         let mut s = Self::default();
         let (mut mesh, mut translucent) = (Mesh::default(), Mesh::default());
         let mut fixed: Option<(DVec3, DVec3)> = None;
@@ -109,7 +111,7 @@ impl Scenery {
             } else {
                 &mut mesh
             };
-            let Some((low, high)) = draw(target, geometry, solid, &frame, colour) else {
+            let Some((low, high)) = draw(target, shaded, solid, &frame, colour) else {
                 continue;
             };
             // A pointer's solid is fixed to the hand, which moves.
@@ -291,7 +293,7 @@ fn colour_of(solid: &HapticdSolid, k: usize) -> [f32; 4] {
 /// without bounds (planes and bars drawn across the workspace).
 fn draw(
     mesh: &mut Mesh,
-    geometry: &Geometry,
+    shaded: &Shaded,
     solid: &HapticdSolid,
     frame: &Pose,
     colour: [f32; 4],
@@ -326,16 +328,16 @@ fn draw(
             None
         }
         _ => {
-            let corners: Vec<DVec3> = geometry
-                .triangles_of(solid)
-                .iter()
-                .flat_map(|t| t.corners)
-                .map(|c| frame.transform_point(DVec3::from(c)))
-                .collect();
-            for t in corners.chunks_exact(3) {
-                mesh.triangle([t[0], t[1], t[2]], colour);
+            let first = solid.first_triangle as usize;
+            let triangles = shaded.geometry.triangles_of(solid);
+            for (k, t) in triangles.iter().enumerate() {
+                let corners = t.corners.map(|c| frame.transform_point(DVec3::from(c)));
+                let normals = shaded.normals(first + k).map(|n| frame.orientation * n);
+                mesh.shaded_triangle(corners, normals, colour);
             }
-            (!corners.is_empty()).then(|| bounds(corners.iter().copied()))
+            let corners = triangles.iter().flat_map(|t| t.corners);
+            (!triangles.is_empty())
+                .then(|| bounds(corners.map(|c| frame.transform_point(DVec3::from(c)))))
         }
     }
 }

@@ -10,6 +10,7 @@ use hapticd_physics::scene::{PenaltyScene, SceneFile};
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::camera::Camera;
 use hapticd_render::scenery::Scenery;
+use hapticd_render::shading::Shaded;
 use hapticd_render::vulkan::{MAX_EDGE, Renderer};
 
 use crate::Failure;
@@ -86,16 +87,17 @@ fn scenery(path: &Path, at: f64, rests: &[Pose]) -> Result<(Scenery, Camera), Fa
                 "--at is for physics scenes; a static scene stays put",
             ));
         }
-        let geometry =
+        let geometry = Shaded::new(
             StaticSceneSpec::parse_with_meshes(&text, path, &hapticd_mesh::scene_triangles)?
-                .geometry();
+                .geometry(),
+        );
         let mut scenery = Scenery::of_geometry(&geometry, &[]);
         scenery.add_proxies(&resting);
         let camera = scenery.camera();
         return Ok((scenery, camera));
     }
     let file = SceneFile::parse(&text, path, rests.len())?;
-    let geometry = file.geometry();
+    let geometry = Shaded::new(file.geometry());
     let no_longer_finite =
         || Failure::failed(format!("{}: the world is no longer finite", path.display()));
     match file {

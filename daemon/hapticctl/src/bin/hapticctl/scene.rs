@@ -26,6 +26,7 @@ use crate::render::Frames;
 use crate::scene_file;
 use hapticd_ipc::bus::Bus;
 use hapticd_render::scenery::Scenery;
+use hapticd_render::shading::Shaded;
 
 #[derive(Subcommand)]
 pub enum Command {
@@ -238,7 +239,7 @@ fn run_multirate(
     }
     let pointers = hand_pointers(hands, 0.0);
     let mut run = Lockstep::new(&spec, &pointers, HAPTIC_RATE, args.phase);
-    let geometry = spec.geometry();
+    let geometry = Shaded::new(spec.geometry());
     let ticks = (args.duration * HAPTIC_RATE).round() as usize;
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
     let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
@@ -444,7 +445,7 @@ fn run_penalty(args: &RunArgs, hands: &[HandTrack]) -> Result<(), Failure> {
     }
     let mut record = args.record.as_deref().map(Recording::create).transpose()?;
     let mut frames = args.frames.as_deref().map(Frames::create).transpose()?;
-    let geometry = first.geometry();
+    let geometry = Shaded::new(first.geometry());
     let mut offered = |step: &PenaltyStep, drawn: bool| -> Result<(), Failure> {
         if drawn && let Some(frames) = frames.as_mut() {
             frames.offer(step.t, || {
