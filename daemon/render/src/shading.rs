@@ -47,9 +47,10 @@ impl Shaded {
                         .push(k);
                 }
             }
-            for k in first..first + count {
-                let own = normals[k][0];
-                for (corner, normal) in geometry.triangles[k].corners.iter().zip(&mut normals[k]) {
+            let triangles = &geometry.triangles[first..first + count];
+            for (triangle, corners) in triangles.iter().zip(&mut normals[first..first + count]) {
+                let own = corners[0];
+                for (corner, normal) in triangle.corners.iter().zip(corners) {
                     let sum: DVec3 = at[&corner.map(|x| (x + 0.0).to_bits())]
                         .iter()
                         .map(|&f| face(f))
