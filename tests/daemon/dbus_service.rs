@@ -951,6 +951,27 @@ fn a_switch_to_a_mesh_scene_not_yet_cut_says_so_at_once_and_succeeds_once_cut() 
 }
 
 #[test]
+fn a_mesh_scene_switches_when_its_pieces_cannot_be_kept() {
+    let dir = scratch("unkept");
+    let bus = Bus::start(&dir);
+    let mut setup = Setup::new(&dir);
+    // A cache under a regular file: nothing can be kept there.
+    std::fs::write(dir.join("not-a-directory"), "").unwrap();
+    setup.cache = dir.join("not-a-directory/cache");
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // Said to be cut at first; once cut and not kept, the plugin cuts them as it loads, and
+    // the switch is done rather than promised again.
+    assert!(switch_when_prepared(&bus, "mug"));
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"mug\"");
+    assert!(
+        daemon.log().contains("the cache cannot keep them"),
+        "{}",
+        daemon.log()
+    );
+    daemon.stop();
+}
+
+#[test]
 fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
     let dir = scratch("physics");
     let bus = Bus::start(&dir);

@@ -12,6 +12,7 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use hapticd_mesh::cache::Cache;
+use hapticd_mesh::decomposition::{RESOLUTION, decompose};
 use hapticd_mesh::{Limits, TriangleMesh, properties};
 use serde_json::Value;
 
@@ -19,10 +20,20 @@ use serde_json::Value;
 /// switch's own force ramp, so that small meshes switch at once.
 const WAIT: Duration = Duration::from_millis(500);
 
-/// The meshes being cut, shared with their threads.
+/// Where cutting stands, shared with the threads that cut.
+#[derive(Default)]
+struct Cutting {
+    /// Meshes being cut now.
+    running: HashSet<PathBuf>,
+    /// Meshes whose pieces the cache could not keep: the plugin cuts those itself as it
+    /// loads them, rather than the switch saying "being cut" forever.
+    unkept: HashSet<PathBuf>,
+}
+
+/// Meshes' pieces cut ahead of the switches that need them.
 pub struct Preparation {
     cache: Cache,
-    running: Arc<Mutex<HashSet<PathBuf>>>,
+    cutting: Arc<Mutex<Cutting>>,
 }
 
 impl Preparation {
@@ -30,8 +41,12 @@ impl Preparation {
     pub fn from_environment() -> Self {
         Self {
             cache: Cache::from_environment(),
-            running: Arc::default(),
+            cutting: Arc::default(),
         }
+    }
+
+    fn cutting(&self) -> std::sync::MutexGuard<'_, Cutting> {
+        self.cutting.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Make sure the convex pieces of every mesh the scene file `file` needs cut are cached:
@@ -39,6 +54,9 @@ impl Preparation {
     /// what is wrong with it), Ok after cutting them when that takes less than [`WAIT`], and
     /// otherwise the message to give while they are cut in the background.
     pub fn ready(&self, file: &Path) -> Result<(), String> {
+        if self.cache.dir().is_none() {
+            return Ok(());
+        }
         let dir = file.parent().unwrap_or(Path::new("."));
         let needed: Vec<(PathBuf, TriangleMesh)> = std::fs::read_to_string(file)
             .ok()
@@ -50,7 +68,8 @@ impl Preparation {
                 let path = dir.join(name);
                 let mesh = hapticd_mesh::load(&path, 1.0, Limits::DEFAULT, Some(dir)).ok()?;
                 let closed = properties::closure(&mesh).is_closed();
-                (closed && self.cache.lookup(&mesh).is_none()).then_some((path, mesh))
+                let unkept = self.cutting().unkept.contains(&path);
+                (closed && !unkept && self.cache.lookup(&mesh).is_none()).then_some((path, mesh))
             })
             .collect();
         if needed.is_empty() {
@@ -68,37 +87,53 @@ impl Preparation {
             )
         };
         let fresh: Vec<(PathBuf, TriangleMesh)> = {
-            let mut running = self.running.lock().unwrap_or_else(|e| e.into_inner());
+            let mut cutting = self.cutting();
             needed
                 .into_iter()
-                .filter(|(path, _)| running.insert(path.clone()))
+                .filter(|(path, _)| cutting.running.insert(path.clone()))
                 .collect()
         };
         if fresh.is_empty() {
             return Err(busy("are still"));
         }
+        let started: Vec<PathBuf> = fresh.iter().map(|(path, _)| path.clone()).collect();
         let (done, finished) = mpsc::channel();
-        let (cache, running) = (self.cache.clone(), Arc::clone(&self.running));
+        let (cache, cutting) = (self.cache.clone(), Arc::clone(&self.cutting));
         let start = Instant::now();
         let spawned = std::thread::Builder::new()
             .name("mesh-pieces".into())
             .spawn(move || {
                 for (path, mesh) in fresh {
-                    cache.pieces(&mesh);
-                    tracing::info!(
-                        "{}: convex pieces cut and cached ({:.1} s)",
-                        path.display(),
-                        start.elapsed().as_secs_f64()
-                    );
-                    running
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .remove(&path);
+                    let pieces = decompose(&mesh, RESOLUTION).pieces;
+                    let kept = cache.store(&mesh, &pieces);
+                    let seconds = start.elapsed().as_secs_f64();
+                    match &kept {
+                        Some(entry) => tracing::info!(
+                            "{}: cut into {} convex pieces in {seconds:.1} s, kept in {}",
+                            path.display(),
+                            pieces.len(),
+                            entry.display()
+                        ),
+                        None => tracing::warn!(
+                            "{}: cut into convex pieces, but the cache cannot keep them: each \
+                             switch to its scenes cuts it again",
+                            path.display()
+                        ),
+                    }
+                    let mut cutting = cutting.lock().unwrap_or_else(|e| e.into_inner());
+                    cutting.running.remove(&path);
+                    if kept.is_none() {
+                        cutting.unkept.insert(path);
+                    }
                 }
                 let _ = done.send(());
             });
         if spawned.is_err() {
             // No thread to spare: the plugin cuts them as it loads, as it would uncached.
+            let mut cutting = self.cutting();
+            for path in &started {
+                cutting.running.remove(path);
+            }
             return Ok(());
         }
         match finished.recv_timeout(WAIT) {
