@@ -13,7 +13,8 @@
 //! 6. [`transport`], [`parameters`], [`haptic_loop`]: the loop itself, talking to devices
 //!    through the [`transport::Transport`] trait that `hapticd-device` implements;
 //!    [`fault_hold`]: how long a failed scene must render well before it is trusted again.
-//! 7. [`world_state`]: the loop's world as pictures show it, shared with the renderer.
+//! 7. [`world_state`]: the loop's world as pictures show it, shared with the renderer;
+//!    [`telemetry`]: every tick, in a ring other programs read.
 
 pub mod diagnostics;
 pub mod fault_hold;
@@ -26,5 +27,6 @@ pub mod scene;
 pub mod solver;
 pub mod stats;
 pub mod sync;
+pub mod telemetry;
 pub mod transport;
 pub mod world_state;

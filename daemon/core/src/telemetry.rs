@@ -1,0 +1,380 @@
+//! Every haptic tick, for programs outside the daemon: a ring of fixed-size `#[repr(C)]`
+//! slots in shared memory (a sealed memfd the daemon hands out, `OpenTelemetry` on the bus)
+//! that the haptic thread fills one slot a tick. Each slot has a sequence lock of its own, so
+//! the writer never waits: a reader copies a slot, checks its sequence did not move and that
+//! it still holds the tick it wanted, and otherwise knows that tick was overwritten (it read
+//! too slowly) and how many it missed. Readers never slow the writer; they only miss slots.
+//!
+//! Nothing here allocates or calls the system: the daemon maps the memory and passes it in.
+
+use std::sync::atomic::{AtomicU64, Ordering, fence};
+
+use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
+
+use crate::haptic_loop::Frame;
+use crate::kinematics::MAX_EFFECTORS;
+use crate::transport::CHANNELS;
+use crate::world_state::{body_pose, state_code};
+
+/// First bytes of a telemetry ring, so that a reader knows what it mapped.
+pub const MAGIC: [u8; 8] = *b"hapticdT";
+
+/// Layout version: raised with any change to [`Sample`] or [`SharedTelemetry`].
+pub const VERSION: u32 = 1;
+
+/// Slots in the ring: 0.8 s of ticks at 10 kHz, 8 s at 1 kHz, for a reader to fall behind by
+/// before it misses any.
+pub const SLOTS: usize = 8192;
+
+/// One tick as the haptic loop left it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Ticks since the loop started, from 0.
+    pub tick: u64,
+    /// Loop time, seconds.
+    pub time: f64,
+    /// The device's state, numbered as [`state_code`] numbers it.
+    pub state: u32,
+    /// Effectors in use.
+    pub effectors: u32,
+    /// Strings in use.
+    pub strings: u32,
+    /// Bit k set while effector k displays a force: it touches something.
+    pub contacts: u32,
+    /// Each effector's grip pose.
+    pub poses: [HapticdBodyPose; MAX_EFFECTORS],
+    /// Each effector's grip velocity, m/s.
+    pub velocities: [[f64; 3]; MAX_EFFECTORS],
+    /// The wrench each effector displays.
+    pub wrenches: [HapticdWrench; MAX_EFFECTORS],
+    /// Each string's tension, newtons.
+    pub tensions: [f64; CHANNELS],
+    /// Each motor's D/A value as sent.
+    pub dac: [i16; CHANNELS],
+}
+
+impl Sample {
+    /// No tick at all.
+    pub const EMPTY: Sample = Sample {
+        tick: 0,
+        time: 0.0,
+        state: 0,
+        effectors: 0,
+        strings: 0,
+        contacts: 0,
+        poses: [HapticdBodyPose {
+            position: [0.0; 3],
+            orientation: [1.0, 0.0, 0.0, 0.0],
+        }; MAX_EFFECTORS],
+        velocities: [[0.0; 3]; MAX_EFFECTORS],
+        wrenches: [HapticdWrench {
+            force: [0.0; 3],
+            torque: [0.0; 3],
+        }; MAX_EFFECTORS],
+        tensions: [0.0; CHANNELS],
+        dac: [0; CHANNELS],
+    };
+
+    /// [rt] Tick number `tick` of a loop that left `frame`.
+    fn fill(&mut self, tick: u64, frame: &Frame) {
+        self.tick = tick;
+        self.time = frame.time;
+        self.state = state_code(frame.state);
+        self.effectors = frame.effectors as u32;
+        self.strings = frame.strings as u32;
+        self.contacts = 0;
+        for k in 0..MAX_EFFECTORS {
+            let wrench = &frame.wrenches[k];
+            self.poses[k] = body_pose(&frame.poses[k]);
+            self.velocities[k] = frame.velocities[k].to_array();
+            self.wrenches[k] = HapticdWrench {
+                force: wrench.force.to_array(),
+                torque: wrench.torque.to_array(),
+            };
+            if k < frame.effectors && (wrench.force.length() > 0.0 || wrench.torque.length() > 0.0)
+            {
+                self.contacts |= 1 << k;
+            }
+        }
+        self.tensions = frame.tensions;
+        self.dac = frame.dac;
+    }
+}
+
+/// One slot: its sample under its sequence.
+#[repr(C)]
+pub struct Slot {
+    /// Even when the sample is whole, odd while it is written.
+    pub sequence: AtomicU64,
+    /// The sample.
+    pub sample: Sample,
+}
+
+/// The shared block: a header and the ring.
+#[repr(C)]
+pub struct SharedTelemetry {
+    /// [`MAGIC`].
+    pub magic: [u8; 8],
+    /// [`VERSION`].
+    pub version: u32,
+    /// `size_of::<SharedTelemetry>()` as the writer has it.
+    pub size: u32,
+    /// Haptic ticks per second.
+    pub rate: f64,
+    /// Ticks written so far: the next tick's number.
+    pub written: AtomicU64,
+    /// Tick t lives in slot t mod [`SLOTS`].
+    pub slots: [Slot; SLOTS],
+}
+
+/// Bytes of a telemetry ring.
+pub const SHARED_SIZE: usize = std::mem::size_of::<SharedTelemetry>();
+
+/// The writing side, over a block the caller mapped.
+pub struct TelemetryWriter {
+    shared: *mut SharedTelemetry,
+}
+
+// SAFETY: the writer is the block's one writer; it moves to the haptic thread once.
+unsafe impl Send for TelemetryWriter {}
+
+impl TelemetryWriter {
+    /// A writer over `shared` for a loop of `rate` ticks a second, which it initialises: no
+    /// tick written.
+    ///
+    /// # Safety
+    /// `shared` is valid for writes of [`SHARED_SIZE`] bytes, aligned for
+    /// `SharedTelemetry`, for as long as the writer lives, and no one else writes it.
+    pub unsafe fn new(shared: *mut SharedTelemetry, rate: f64) -> Self {
+        // SAFETY: per this function's contract; each part written in place (the block is
+        // megabytes, never passed through the stack).
+        unsafe {
+            use std::ptr::addr_of_mut;
+            addr_of_mut!((*shared).magic).write(MAGIC);
+            addr_of_mut!((*shared).version).write(VERSION);
+            addr_of_mut!((*shared).size).write(SHARED_SIZE as u32);
+            addr_of_mut!((*shared).rate).write(rate);
+            addr_of_mut!((*shared).written).write(AtomicU64::new(0));
+            let slots = addr_of_mut!((*shared).slots).cast::<Slot>();
+            for k in 0..SLOTS {
+                slots.add(k).write(Slot {
+                    sequence: AtomicU64::new(0),
+                    sample: Sample::EMPTY,
+                });
+            }
+        }
+        Self { shared }
+    }
+
+    /// [rt] Write the tick that left `frame` as the next one. Copies, never allocates.
+    pub fn write(&mut self, frame: &Frame) {
+        // SAFETY: valid for the writer's life (see `new`); readers only read.
+        let shared = unsafe { &mut *self.shared };
+        let tick = shared.written.load(Ordering::Relaxed);
+        let slot = &mut shared.slots[(tick % SLOTS as u64) as usize];
+        let sequence = slot.sequence.load(Ordering::Relaxed);
+        slot.sequence.store(sequence + 1, Ordering::Relaxed);
+        // The odd sequence is seen before any byte of the sample changes.
+        fence(Ordering::Release);
+        slot.sample.fill(tick, frame);
+        slot.sequence.store(sequence + 2, Ordering::Release);
+        shared.written.store(tick + 1, Ordering::Release);
+    }
+}
+
+/// Why a mapped block is not a telemetry ring this reader understands.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NotTelemetry(pub String);
+
+impl std::fmt::Display for NotTelemetry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for NotTelemetry {}
+
+/// What reading one tick found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Read {
+    /// The tick, whole.
+    Sample(Sample),
+    /// Not written yet.
+    Ahead,
+    /// Overwritten before it was read: the oldest tick the ring still holds.
+    Missed {
+        /// The oldest tick still in the ring.
+        oldest: u64,
+    },
+}
+
+/// The reading side, over a block mapped read-only.
+pub struct TelemetryReader {
+    shared: *const SharedTelemetry,
+}
+
+// SAFETY: the reader only reads the block, through volatile copies checked by the sequence.
+unsafe impl Send for TelemetryReader {}
+
+impl TelemetryReader {
+    /// A reader over `shared`, checked to be a telemetry ring of this layout.
+    ///
+    /// # Safety
+    /// `shared` is valid for reads of `len` bytes, aligned for `SharedTelemetry`, for as
+    /// long as the reader lives.
+    pub unsafe fn new(shared: *const SharedTelemetry, len: usize) -> Result<Self, NotTelemetry> {
+        if len < SHARED_SIZE {
+            return Err(NotTelemetry(format!(
+                "{len} bytes, a telemetry ring has {SHARED_SIZE}"
+            )));
+        }
+        // SAFETY: the header lies within the `len` bytes checked above.
+        let (magic, version, size) = unsafe {
+            (
+                std::ptr::addr_of!((*shared).magic).read_volatile(),
+                std::ptr::addr_of!((*shared).version).read_volatile(),
+                std::ptr::addr_of!((*shared).size).read_volatile(),
+            )
+        };
+        if magic != MAGIC || version != VERSION || size as usize != SHARED_SIZE {
+            return Err(NotTelemetry(format!(
+                "not a telemetry ring of layout {VERSION} ({SHARED_SIZE} bytes): magic \
+                 {magic:?}, layout {version}, {size} bytes"
+            )));
+        }
+        Ok(Self { shared })
+    }
+
+    /// Haptic ticks per second.
+    pub fn rate(&self) -> f64 {
+        // SAFETY: in the block (see `new`), written once before the block was shared.
+        unsafe { std::ptr::addr_of!((*self.shared).rate).read_volatile() }
+    }
+
+    /// Ticks written so far: the next tick's number.
+    pub fn written(&self) -> u64 {
+        // SAFETY: in the block (see `new`), only used atomically.
+        unsafe { &(*self.shared).written }.load(Ordering::Acquire)
+    }
+
+    /// Tick `tick`, if the ring still holds it whole.
+    pub fn read(&self, tick: u64) -> Read {
+        let written = self.written();
+        if tick >= written {
+            return Read::Ahead;
+        }
+        let oldest = written.saturating_sub(SLOTS as u64 - 1);
+        if tick < oldest {
+            return Read::Missed { oldest };
+        }
+        // SAFETY: the slot lies in the block (see `new`); its sequence is only used
+        // atomically and its sample only copied, the copy checked below.
+        let slot = unsafe {
+            std::ptr::addr_of!((*self.shared).slots)
+                .cast::<Slot>()
+                .add((tick % SLOTS as u64) as usize)
+        };
+        // SAFETY: as above.
+        let sequence = unsafe { &(*slot).sequence };
+        let before = sequence.load(Ordering::Acquire);
+        // SAFETY: as above.
+        let sample = unsafe { std::ptr::addr_of!((*slot).sample).read_volatile() };
+        fence(Ordering::Acquire);
+        if before % 2 == 0 && sequence.load(Ordering::Relaxed) == before && sample.tick == tick {
+            Read::Sample(sample)
+        } else {
+            // Written over while read: the writer is a lap ahead.
+            Read::Missed {
+                oldest: self.written().saturating_sub(SLOTS as u64 - 1),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::haptic_loop::DeviceState;
+    use crate::kinematics::{Pose, Wrench};
+    use glam::DVec3;
+
+    /// A block on the heap, for tests (the daemon's is a memfd).
+    fn block() -> Vec<SharedTelemetryBytes> {
+        (0..SHARED_SIZE.div_ceil(64))
+            .map(|_| SharedTelemetryBytes([0; 64]))
+            .collect()
+    }
+
+    #[repr(C, align(64))]
+    struct SharedTelemetryBytes([u8; 64]);
+
+    fn frame(k: usize) -> Frame {
+        let mut frame = Frame::default();
+        frame.time = k as f64 * 1e-3;
+        frame.state = DeviceState::Running;
+        frame.effectors = 1;
+        frame.strings = 4;
+        frame.poses[0] = Pose {
+            position: DVec3::new(k as f64, 0.0, 0.0),
+            ..Pose::IDENTITY
+        };
+        frame.wrenches[0] = Wrench::force(DVec3::new(0.0, (k % 2) as f64, 0.0));
+        frame.dac[3] = k as i16;
+        frame
+    }
+
+    #[test]
+    fn every_tick_is_read_back_until_the_writer_laps_the_reader() {
+        let mut memory = block();
+        let shared = memory.as_mut_ptr().cast::<SharedTelemetry>();
+        // SAFETY: the block is SHARED_SIZE bytes or more, 64-byte aligned, and ours.
+        let mut writer = unsafe { TelemetryWriter::new(shared, 1000.0) };
+        // SAFETY: as above, read through the same block.
+        let reader = unsafe { TelemetryReader::new(shared, SHARED_SIZE) }.unwrap();
+        assert_eq!(reader.rate(), 1000.0);
+        assert_eq!(reader.read(0), Read::Ahead);
+        for k in 0..100 {
+            writer.write(&frame(k));
+        }
+        for k in 0..100u64 {
+            let Read::Sample(s) = reader.read(k) else {
+                panic!("tick {k}");
+            };
+            assert_eq!(
+                (s.tick, s.poses[0].position[0], s.dac[3]),
+                (k, k as f64, k as i16)
+            );
+            assert_eq!(s.contacts, (k % 2) as u32, "tick {k}");
+            assert_eq!(s.state, state_code(DeviceState::Running));
+        }
+        assert_eq!(reader.read(100), Read::Ahead);
+        // A lap and more later, the first ticks are gone and the reader is told from where
+        // the ring holds them.
+        for k in 100..SLOTS + 200 {
+            writer.write(&frame(k));
+        }
+        let written = (SLOTS + 200) as u64;
+        assert_eq!(reader.written(), written);
+        let oldest = written - SLOTS as u64 + 1;
+        assert_eq!(reader.read(5), Read::Missed { oldest });
+        assert!(matches!(reader.read(oldest), Read::Sample(s) if s.tick == oldest));
+        assert!(matches!(reader.read(written - 1), Read::Sample(s) if s.tick == written - 1));
+    }
+
+    #[test]
+    fn a_block_of_another_layout_is_refused() {
+        let mut memory = block();
+        let shared = memory.as_mut_ptr().cast::<SharedTelemetry>();
+        // SAFETY: as in the test above.
+        unsafe { TelemetryWriter::new(shared, 1000.0) };
+        // SAFETY: as above.
+        assert!(unsafe { TelemetryReader::new(shared, SHARED_SIZE - 1) }.is_err());
+        memory[0].0[0] = b'x';
+        // SAFETY: as above.
+        let e = unsafe { TelemetryReader::new(shared, SHARED_SIZE) }
+            .err()
+            .unwrap();
+        assert!(e.0.contains("not a telemetry ring"), "{e}");
+    }
+}
