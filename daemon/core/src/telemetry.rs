@@ -196,10 +196,10 @@ impl std::fmt::Display for NotTelemetry {
 impl std::error::Error for NotTelemetry {}
 
 /// What reading one tick found.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Read {
-    /// The tick, whole.
-    Sample(Sample),
+    /// The tick, whole, copied out.
+    Whole,
     /// Not written yet.
     Ahead,
     /// Overwritten before it was read: the oldest tick the ring still holds.
@@ -258,8 +258,9 @@ impl TelemetryReader {
         unsafe { &(*self.shared).written }.load(Ordering::Acquire)
     }
 
-    /// Tick `tick`, if the ring still holds it whole.
-    pub fn read(&self, tick: u64) -> Read {
+    /// Copy tick `tick` into `out`, if the ring still holds it whole (`out` is left as it
+    /// was, or torn, otherwise).
+    pub fn read(&self, tick: u64, out: &mut Sample) -> Read {
         let written = self.written();
         if tick >= written {
             return Read::Ahead;
@@ -279,10 +280,10 @@ impl TelemetryReader {
         let sequence = unsafe { &(*slot).sequence };
         let before = sequence.load(Ordering::Acquire);
         // SAFETY: as above.
-        let sample = unsafe { std::ptr::addr_of!((*slot).sample).read_volatile() };
+        *out = unsafe { std::ptr::addr_of!((*slot).sample).read_volatile() };
         fence(Ordering::Acquire);
-        if before % 2 == 0 && sequence.load(Ordering::Relaxed) == before && sample.tick == tick {
-            Read::Sample(sample)
+        if before % 2 == 0 && sequence.load(Ordering::Relaxed) == before && out.tick == tick {
+            Read::Whole
         } else {
             // Written over while read: the writer is a lap ahead.
             Read::Missed {
@@ -310,11 +311,13 @@ mod tests {
     struct SharedTelemetryBytes([u8; 64]);
 
     fn frame(k: usize) -> Frame {
-        let mut frame = Frame::default();
-        frame.time = k as f64 * 1e-3;
-        frame.state = DeviceState::Running;
-        frame.effectors = 1;
-        frame.strings = 4;
+        let mut frame = Frame {
+            time: k as f64 * 1e-3,
+            state: DeviceState::Running,
+            effectors: 1,
+            strings: 4,
+            ..Frame::default()
+        };
         frame.poses[0] = Pose {
             position: DVec3::new(k as f64, 0.0, 0.0),
             ..Pose::IDENTITY
@@ -333,14 +336,13 @@ mod tests {
         // SAFETY: as above, read through the same block.
         let reader = unsafe { TelemetryReader::new(shared, SHARED_SIZE) }.unwrap();
         assert_eq!(reader.rate(), 1000.0);
-        assert_eq!(reader.read(0), Read::Ahead);
+        let mut s = Sample::EMPTY;
+        assert_eq!(reader.read(0, &mut s), Read::Ahead);
         for k in 0..100 {
             writer.write(&frame(k));
         }
         for k in 0..100u64 {
-            let Read::Sample(s) = reader.read(k) else {
-                panic!("tick {k}");
-            };
+            assert_eq!(reader.read(k, &mut s), Read::Whole, "tick {k}");
             assert_eq!(
                 (s.tick, s.poses[0].position[0], s.dac[3]),
                 (k, k as f64, k as i16)
@@ -348,7 +350,7 @@ mod tests {
             assert_eq!(s.contacts, (k % 2) as u32, "tick {k}");
             assert_eq!(s.state, state_code(DeviceState::Running));
         }
-        assert_eq!(reader.read(100), Read::Ahead);
+        assert_eq!(reader.read(100, &mut s), Read::Ahead);
         // A lap and more later, the first ticks are gone and the reader is told from where
         // the ring holds them.
         for k in 100..SLOTS + 200 {
@@ -357,9 +359,11 @@ mod tests {
         let written = (SLOTS + 200) as u64;
         assert_eq!(reader.written(), written);
         let oldest = written - SLOTS as u64 + 1;
-        assert_eq!(reader.read(5), Read::Missed { oldest });
-        assert!(matches!(reader.read(oldest), Read::Sample(s) if s.tick == oldest));
-        assert!(matches!(reader.read(written - 1), Read::Sample(s) if s.tick == written - 1));
+        assert_eq!(reader.read(5, &mut s), Read::Missed { oldest });
+        assert_eq!(reader.read(oldest, &mut s), Read::Whole);
+        assert_eq!(s.tick, oldest);
+        assert_eq!(reader.read(written - 1, &mut s), Read::Whole);
+        assert_eq!(s.tick, written - 1);
     }
 
     #[test]
