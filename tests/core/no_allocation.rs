@@ -274,6 +274,23 @@ fn a_static_scene_touching_a_large_mesh_does_not_allocate() {
 }
 
 #[test]
+fn writing_every_tick_to_the_telemetry_ring_does_not_allocate() {
+    let m = shipped_mechanisms().remove(0);
+    let script = "hands:\n  grip:\n    - move: { to: [0.01, -0.05, 0.01], seconds: 0.3 }\n";
+    let mut haptic = simulated_loop(&m, script, 1e-3);
+    let (_file, mut ring) =
+        hapticd_ipc::telemetry_share::SharedTelemetryFile::create(1000.0).unwrap();
+    // More ticks than the ring has slots: it wraps in here.
+    let n = allocations_in(|| {
+        for _ in 0..10_000 {
+            let frame = *haptic.tick(1e-3);
+            ring.write(std::hint::black_box(&frame));
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 10 000 ticks");
+}
+
+#[test]
 fn a_haptic_loop_tick_does_not_allocate() {
     for m in shipped_mechanisms() {
         let script = "hands:\n  grip:\n    - move: { to: [0.01, -0.05, 0.01], seconds: 0.3 }\n    - shake: { amplitude: [0.01, 0, 0], frequency: 3, seconds: 0.9 }\n    - unplug: { seconds: 0.1 }\n";

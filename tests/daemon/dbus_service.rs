@@ -1083,37 +1083,84 @@ fn hapticctl_monitor_prints_each_change_as_it_happens() {
     daemon.stop();
 }
 
-#[test]
-fn hapticctl_records_telemetry_from_the_bus() {
-    let dir = scratch("record");
+/// `hapticctl record` for `seconds` from a daemon running at `rate`: the CSV's rows.
+fn recorded(rate: &str, seconds: &str) -> Vec<String> {
+    let dir = scratch(&format!("record-{rate}"));
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
-    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--rate", rate]);
     let csv = dir.join("telemetry.csv");
     let out = hapticctl()
         .arg(format!("--bus={}", bus.address))
-        .args(["record", "--duration", "1.5"])
+        .args(["record", "--duration", seconds])
         .arg(&csv)
         .output()
         .unwrap();
     assert!(out.status.success(), "{out:?}");
-    let text = std::fs::read_to_string(&csv).unwrap();
-    let rows: Vec<&str> = text.lines().collect();
-    assert_eq!(
-        rows[0],
-        "time,pose_x,pose_y,pose_z,pose_qw,pose_qx,pose_qy,pose_qz,force_x,force_y,force_z,\
-         torque_x,torque_y,torque_z"
-    );
-    // Ten bursts a second, each with the pose (x, y, z, w, x, y, z) and the wrench, one
-    // number per column, the orientation a unit quaternion.
-    assert!(rows.len() > 10, "{} rows", rows.len());
-    for row in &rows[1..] {
-        let fields: Vec<f64> = row.split(',').map(|f| f.parse().unwrap()).collect();
-        assert_eq!(fields.len(), 14, "{row}");
-        let q: f64 = fields[4..8].iter().map(|x| x * x).sum();
-        assert!((q - 1.0).abs() < 1e-6, "{row}");
-    }
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(!said.contains("overwritten"), "{said}");
     daemon.stop();
+    std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect()
+}
+
+#[test]
+fn hapticctl_records_every_tick_at_the_device_rate() {
+    for (rate, seconds, ticks) in [("1000", "2", 2000), ("10000", "1", 10_000)] {
+        let rows = recorded(rate, seconds);
+        let header: Vec<&str> = rows[0].split(',').collect();
+        assert_eq!(
+            header[..21],
+            [
+                "tick",
+                "time",
+                "state",
+                "pose_x",
+                "pose_y",
+                "pose_z",
+                "pose_qw",
+                "pose_qx",
+                "pose_qy",
+                "pose_qz",
+                "velocity_x",
+                "velocity_y",
+                "velocity_z",
+                "force_x",
+                "force_y",
+                "force_z",
+                "torque_x",
+                "torque_y",
+                "torque_z",
+                "contact",
+                "tension_1"
+            ]
+        );
+        // SPIDAR-G: eight strings, a tension and a D/A value each.
+        assert_eq!(header.len(), 20 + 16, "{}", rows[0]);
+        assert_eq!(rows.len() - 1, ticks, "{rate} Hz");
+        let mut previous: Option<(u64, f64)> = None;
+        for row in &rows[1..] {
+            let fields: Vec<&str> = row.split(',').collect();
+            assert_eq!(fields.len(), header.len(), "{row}");
+            let (tick, time): (u64, f64) = (fields[0].parse().unwrap(), fields[1].parse().unwrap());
+            // Every tick, in order, none lost, a period apart.
+            if let Some((t, s)) = previous {
+                assert_eq!(tick, t + 1, "{rate} Hz: {row}");
+                let period = 1.0 / rate.parse::<f64>().unwrap();
+                assert!((time - s - period).abs() < 1e-6, "{rate} Hz: {row}");
+            }
+            previous = Some((tick, time));
+            assert_eq!(fields[2], "running", "{row}");
+            let q: f64 = fields[6..10]
+                .iter()
+                .map(|x| x.parse::<f64>().unwrap().powi(2))
+                .sum();
+            assert!((q - 1.0).abs() < 1e-6, "{row}");
+        }
+    }
 }
 
 #[test]

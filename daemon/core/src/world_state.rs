@@ -144,12 +144,17 @@ impl WorldFrame {
 
     /// The device state written.
     pub fn device_state(&self) -> DeviceState {
-        match self.state {
-            1 => DeviceState::Fault,
-            2 => DeviceState::Disconnected,
-            3 => DeviceState::Uncalibrated,
-            _ => DeviceState::Running,
-        }
+        state_of(self.state)
+    }
+}
+
+/// The [`DeviceState`] written as `code` (see [`state_code`]).
+pub fn state_of(code: u32) -> DeviceState {
+    match code {
+        1 => DeviceState::Fault,
+        2 => DeviceState::Disconnected,
+        3 => DeviceState::Uncalibrated,
+        _ => DeviceState::Running,
     }
 }
 

@@ -22,6 +22,7 @@ use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
+use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_share::SharedWorldFile;
 
 /// Errors of the control plane, typed as the layers below gave them; the bus names each
@@ -114,6 +115,7 @@ pub struct DeviceHandle {
     scheduling: String,
     state_dir: Option<StateDir>,
     world: Option<SharedWorldFile>,
+    ring: Option<SharedTelemetryFile>,
     fixed: Fixed,
     commands: Mutex<spsc::Producer<LoopCommand>>,
     telemetry: Mutex<Telemetry>,
@@ -156,6 +158,8 @@ pub struct DeviceSetup {
     pub defaults: Parameters,
     /// The memory the loop draws its world into, if it could be made.
     pub world: Option<SharedWorldFile>,
+    /// The ring the loop writes every tick into, if it could be made.
+    pub telemetry: Option<SharedTelemetryFile>,
     /// What the command line fixes for every start, whatever is bound or saved.
     pub fixed: Fixed,
 }
@@ -183,6 +187,7 @@ impl DeviceHandle {
             scheduling: setup.scheduling,
             state_dir: setup.state_dir,
             world: setup.world,
+            ring: setup.telemetry,
             fixed: setup.fixed,
             commands: Mutex::new(commands),
             telemetry: Mutex::new(Telemetry::default()),
@@ -237,6 +242,18 @@ impl DeviceHandle {
         })?;
         world
             .share()
+            .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
+    }
+
+    /// A descriptor of the ring the loop writes every tick into (read-only for others).
+    pub fn open_telemetry(&self) -> Result<std::os::fd::OwnedFd, Error> {
+        let ring = self.ring.as_ref().ok_or_else(|| {
+            Error::Unavailable(format!(
+                "{}: no telemetry ring (see the log)",
+                self.identity
+            ))
+        })?;
+        ring.share()
             .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
     }
 

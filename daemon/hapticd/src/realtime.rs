@@ -17,6 +17,7 @@ use hapticd_core::scene::output_check::OutputFault;
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader};
+use hapticd_core::telemetry::TelemetryWriter;
 use hapticd_core::world_state::WorldWriter;
 
 use crate::clock::{monotonic_ns, sleep_until};
@@ -81,6 +82,8 @@ pub struct Channels {
     pub retired: spsc::Producer<Retired>,
     /// The world's picture for the renderer, written [`WORLD_RATE`] times a second.
     pub world: Option<WorldWriter>,
+    /// Every tick, for readers outside the daemon.
+    pub telemetry: Option<TelemetryWriter>,
 }
 
 /// Pictures of the world per second: the renderer's frame rate.
@@ -191,6 +194,7 @@ impl RealtimeLoop {
             mut commands,
             mut retired,
             mut world,
+            mut telemetry,
         } = channels;
         let stop = Arc::new(AtomicBool::new(false));
         let heartbeat = Arc::new(AtomicU64::new(0));
@@ -236,6 +240,9 @@ impl RealtimeLoop {
                         haptic.keep_retired(old);
                     }
                     frame_writer.publish(|f| *f = frame);
+                    if let Some(t) = telemetry.as_mut() {
+                        t.write(&frame);
+                    }
                     if let Some(r) = recorder.as_mut() {
                         r.push(frame);
                     }

@@ -7,6 +7,8 @@
 //!   `org.hapticd.Renderer1`;
 //! - [`world_share`]: the shared world a device's `OpenWorld` hands out (its layout is
 //!   `hapticd_core::world_state`), and the reader that maps it;
+//! - [`telemetry_share`]: every tick of a device, in the ring its `OpenTelemetry` hands out
+//!   (its layout is `hapticd_core::telemetry`), and a reader that follows it;
 //! - [`frame_ring`]: the ring of frames the renderer's `OpenFrameStream` hands out;
 //! - [`shared_memory`]: the sealed memfds both are made of.
 //!
@@ -35,6 +37,7 @@ pub mod frame_ring;
 pub mod names;
 pub mod proxies;
 pub mod shared_memory;
+pub mod telemetry_share;
 pub mod world_share;
 
 pub use names::{

@@ -161,6 +161,11 @@ pub trait Device {
     fn set_max_torque(&self, value: f64) -> zbus::Result<()>;
     /// The shared world, read-only: map it with [`crate::world_share::MappedWorld`].
     fn open_world(&self) -> zbus::Result<OwnedFd>;
+    /// Every tick, read-only: map it with [`crate::telemetry_share::MappedTelemetry`].
+    fn open_telemetry(
+        &self,
+        options: std::collections::HashMap<&str, zbus::Variant<'_>>,
+    ) -> zbus::Result<OwnedFd>;
     /// Take the counter offsets now, every grip at its calibration pose.
     fn calibrate(&self) -> zbus::Result<()>;
     /// Let the forces come back after a fault.

@@ -315,6 +315,24 @@ device_interface! {
         Ok(self.device.open_world()?.into())
     }
 
+    /// Every tick of the haptic loop: a sealed memfd, read-only to the caller, holding a ring
+    /// of the last 8192 ticks (tick number, time, state, each effector's pose, velocity and
+    /// wrench, contacts, tensions, D/A values), each slot under a sequence lock of its own
+    /// (the layout is `hapticd_core::telemetry::SharedTelemetry`). A reader that falls behind
+    /// only misses ticks, and sees which. `options` takes no key yet; any is refused.
+    fn open_telemetry(
+        &self,
+        options: HashMap<String, zbus::OwnedVariant>,
+    ) -> Result<zbus::OwnedFd, BusError> {
+        if let Some(key) = options.keys().next() {
+            return Err(crate::control::Error::OutOfRange(format!(
+                "OpenTelemetry takes no option {key:?}"
+            ))
+            .into());
+        }
+        Ok(self.device.open_telemetry()?.into())
+    }
+
     /// Take the counter offsets now, with every grip held at its calibration pose; they are
     /// saved and restored when the device returns or the daemon restarts.
     async fn calibrate(

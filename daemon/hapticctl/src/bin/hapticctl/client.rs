@@ -1,13 +1,18 @@
 //! `hapticctl status|get|set|calibrate|reload|bind` and `scene list|switch`: the running
 //! daemon, over D-Bus, as `busctl` would reach it but in words.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
+use hapticd_core::kinematics::MAX_EFFECTORS;
 use hapticd_core::parameters::Name;
+use hapticd_core::telemetry::Sample;
+use hapticd_core::transport::CHANNELS;
+use hapticd_core::world_state::state_of;
 use hapticd_ipc::bus::{Bus, has_owner};
 use hapticd_ipc::names::{ERROR_PREFIX, RENDERER_BUS_NAME, error_name};
+use hapticd_ipc::telemetry_share::MappedTelemetry;
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
@@ -614,15 +619,31 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
     })
 }
 
-/// The CSV header of `record`: the time, then each effector's pose (position, orientation
-/// quaternion) and wrench, one column per component, named for the effector when there are
-/// several (`thumb_pose_x`).
-fn record_header(effectors: &[String]) -> String {
-    const COMPONENTS: [&str; 13] = [
-        "pose_x", "pose_y", "pose_z", "pose_qw", "pose_qx", "pose_qy", "pose_qz", "force_x",
-        "force_y", "force_z", "torque_x", "torque_y", "torque_z",
+/// The CSV header of `record`: the tick and the loop time, the state, then each effector's
+/// pose (position, orientation quaternion), velocity, force, torque and whether it touches
+/// something, one column per component, named for the effector when there are several
+/// (`thumb_pose_x`); then each string's tension and D/A value.
+fn record_header(effectors: &[String], strings: usize) -> String {
+    const COMPONENTS: [&str; 17] = [
+        "pose_x",
+        "pose_y",
+        "pose_z",
+        "pose_qw",
+        "pose_qx",
+        "pose_qy",
+        "pose_qz",
+        "velocity_x",
+        "velocity_y",
+        "velocity_z",
+        "force_x",
+        "force_y",
+        "force_z",
+        "torque_x",
+        "torque_y",
+        "torque_z",
+        "contact",
     ];
-    let mut header = "time".to_string();
+    let mut header = "tick,time,state".to_string();
     for name in effectors {
         for component in COMPONENTS {
             match effectors.len() {
@@ -631,7 +652,46 @@ fn record_header(effectors: &[String]) -> String {
             }
         }
     }
+    for k in 1..=strings {
+        header += &format!(",tension_{k}");
+    }
+    for k in 1..=strings {
+        header += &format!(",dac_{k}");
+    }
     header
+}
+
+/// One row of `record` for `sample`, of `effectors` effectors and `strings` strings.
+fn record_row(sample: &Sample, effectors: usize, strings: usize) -> String {
+    use std::fmt::Write;
+    let mut row = format!(
+        "{},{:.6},{}",
+        sample.tick,
+        sample.time,
+        state_of(sample.state).name()
+    );
+    for k in 0..effectors.min(MAX_EFFECTORS) {
+        let (pose, wrench) = (&sample.poses[k], &sample.wrenches[k]);
+        let numbers = pose
+            .position
+            .iter()
+            .chain(&pose.orientation)
+            .chain(&sample.velocities[k])
+            .chain(&wrench.force)
+            .chain(&wrench.torque);
+        for x in numbers {
+            let _ = write!(row, ",{x}");
+        }
+        let _ = write!(row, ",{}", (sample.contacts >> k) & 1);
+    }
+    let strings = strings.min(CHANNELS);
+    for t in &sample.tensions[..strings] {
+        let _ = write!(row, ",{t}");
+    }
+    for d in &sample.dac[..strings] {
+        let _ = write!(row, ",{d}");
+    }
+    row
 }
 
 /// The local time of day now, to the millisecond (`14:03:27.512`).
@@ -657,7 +717,7 @@ fn clock_time() -> String {
 
 #[derive(Args)]
 pub struct RecordArgs {
-    /// Record for this many seconds.
+    /// Record for this many seconds of the device's ticks.
     #[arg(long)]
     duration: f64,
     /// The CSV file to write.
@@ -666,9 +726,9 @@ pub struct RecordArgs {
     device: DeviceArg,
 }
 
-/// `hapticctl record`: the device's telemetry as the bus carries it (ten rows a second):
-/// seconds since the start, then per effector its pose (x, y, z, qw, qx, qy, qz), force and
-/// torque, a column each.
+/// `hapticctl record`: every tick of the device's haptic loop for `--duration` seconds, read
+/// from its telemetry ring (`OpenTelemetry`) at the device's rate, a row per tick (see
+/// [`record_header`]). Ticks the ring overwrote before they were read are counted and said.
 pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     use std::io::Write;
     if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= 86_400.0) {
@@ -685,37 +745,50 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
         .flatten()
         .map(words)
         .collect();
+    let options: HashMap<&str, Variant<'_>> = HashMap::new();
+    let fd: zbus::OwnedFd = client
+        .call(&path, DEVICE, "OpenTelemetry", &(options,))?
+        .body()
+        .deserialize()
+        .map_err(|e| Failure::failed(format!("OpenTelemetry: {e}")))?;
+    let ring = MappedTelemetry::open(&fd.into())
+        .map_err(|e| Failure::failed(format!("the telemetry ring: {e}")))?;
+    let mut cursor = ring.from_now();
+    let end = cursor.next + (args.duration * ring.rate()).round().max(1.0) as u64;
     let mut out = std::io::BufWriter::new(std::fs::File::create(&args.file).map_err(cannot)?);
-    writeln!(out, "{}", record_header(&effectors)).map_err(cannot)?;
-    let started = std::time::Instant::now();
-    let rows = zbus::block_on(async {
-        let mut stream = client.changes(Some(&path)).await?;
-        let mut rows = 0usize;
-        while started.elapsed().as_secs_f64() < args.duration {
-            let Some((_, changed)) = client.next_change(&mut stream).await? else {
-                continue;
-            };
-            // A telemetry burst carries the pose and the force together.
-            let (Some(pose), Some(force)) = (changed.get("Pose"), changed.get("Force")) else {
-                continue;
-            };
-            let mut row = format!("{:.3}", started.elapsed().as_secs_f64());
-            let (pose, force) = (to_json(pose), to_json(force));
-            for k in 0..effectors.len() {
-                let numbers = numbers(&pose, 7 * k, 7)
-                    .into_iter()
-                    .chain(numbers(&force, 6 * k, 6));
-                for x in numbers {
-                    row += &format!(",{x}");
-                }
+    let mut sample = Sample::EMPTY;
+    let (mut rows, mut strings) = (0usize, None);
+    let mut last_progress = std::time::Instant::now();
+    while cursor.next < end {
+        if !ring.next(&mut cursor, &mut sample) {
+            // A loop that stops writing (a daemon gone) ends the recording, not hangs it.
+            if last_progress.elapsed() > std::time::Duration::from_secs(2) {
+                return Err(Failure::failed(format!(
+                    "the haptic loop stopped writing ticks after {rows} rows"
+                )));
             }
-            writeln!(out, "{row}").map_err(cannot)?;
-            rows += 1;
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            continue;
         }
-        Ok::<usize, Failure>(rows)
-    })?;
+        last_progress = std::time::Instant::now();
+        let strings = *strings.get_or_insert_with(|| {
+            let n = sample.strings as usize;
+            let _ = writeln!(out, "{}", record_header(&effectors, n));
+            n
+        });
+        writeln!(out, "{}", record_row(&sample, effectors.len(), strings)).map_err(cannot)?;
+        rows += 1;
+    }
     out.flush().map_err(cannot)?;
-    eprintln!("{rows} rows in {}", args.file.display());
+    let missed = match cursor.missed {
+        0 => String::new(),
+        n => format!(" ({n} ticks overwritten before they were read)"),
+    };
+    eprintln!(
+        "{rows} ticks at {} Hz in {}{missed}",
+        ring.rate(),
+        args.file.display()
+    );
     Ok(())
 }
 

@@ -78,7 +78,7 @@ enum Command {
     Restart,
     /// Print every change of the daemon's state as it happens (anyone may watch).
     Monitor(client::MonitorArgs),
-    /// Record a device's telemetry from the bus to a CSV file (ten rows a second).
+    /// Record every tick of a device's haptic loop to a CSV file, at the device's rate.
     Record(client::RecordArgs),
     /// Each device's loop, refreshed like pw-top: state, timing, force and grip.
     Top(client::TopArgs),

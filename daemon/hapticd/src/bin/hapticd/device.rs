@@ -20,12 +20,14 @@ use hapticd_core::parameters::Parameters;
 use hapticd_core::scene::Pointer;
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
+use hapticd_core::telemetry::TelemetryWriter;
 use hapticd_core::world_state::WorldWriter;
 use hapticd_device::Protocol;
 use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::Reconnector;
 use hapticd_device::replay::{self, Transfer};
 use hapticd_device::sim::hand::Script;
+use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_share::SharedWorldFile;
 
 use crate::saved::{load_record, set_aside};
@@ -149,6 +151,7 @@ pub fn start(
     let (command_tx, command_rx) = spsc::channel(64);
     let (retired_tx, retired) = spsc::channel(4);
     let (world, world_writer) = shared_world(&identity);
+    let (telemetry, telemetry_writer) = telemetry_ring(&identity, rate);
     let mut rt = RealtimeLoop::start(
         haptic,
         RealtimeSettings {
@@ -162,6 +165,7 @@ pub fn start(
             commands: command_rx,
             retired: retired_tx,
             world: world_writer,
+            telemetry: telemetry_writer,
         },
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
@@ -179,6 +183,7 @@ pub fn start(
             record,
             defaults,
             world,
+            telemetry,
             fixed: Fixed {
                 mechanism: common.sim.is_some(),
                 rate: common.rate.is_some(),
@@ -346,6 +351,21 @@ fn shared_world(identity: &str) -> (Option<SharedWorldFile>, Option<WorldWriter>
         Ok((file, writer)) => (Some(file), Some(writer)),
         Err(e) => {
             tracing::warn!("{identity}: no shared world for the renderer: {e}");
+            (None, None)
+        }
+    }
+}
+
+/// The ring the loop writes every tick into for readers outside, and its writer; without
+/// it the loop runs as well, only the ticks stay inside.
+fn telemetry_ring(
+    identity: &str,
+    rate: f64,
+) -> (Option<SharedTelemetryFile>, Option<TelemetryWriter>) {
+    match SharedTelemetryFile::create(rate) {
+        Ok((file, writer)) => (Some(file), Some(writer)),
+        Err(e) => {
+            tracing::warn!("{identity}: no telemetry ring: {e}");
             (None, None)
         }
     }
