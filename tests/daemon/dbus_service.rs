@@ -2367,3 +2367,30 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
     };
     assert!(line(&shot) > 0.3, "no status line in the window");
 }
+
+/// The Python package (`daemon/python`) against a running daemon: its pytest suite, run by
+/// Debian's python3 with jeepney and pytest (`make deps`), on this test's private bus.
+#[test]
+fn the_python_client_reads_sets_switches_and_follows_every_tick() {
+    let dir = scratch("python");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let package = repo_dir().join("daemon/python");
+    let out = Command::new("/usr/bin/python3")
+        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
+        .arg(package.join("tests"))
+        .env("PYTHONPATH", &package)
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env("HAPTICD_TEST_BUS", &bus.address)
+        .output()
+        .unwrap();
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("5 passed"), "{said}");
+    daemon.stop();
+}

@@ -1,0 +1,161 @@
+"""Every tick of a device's haptic loop, read from the telemetry ring the daemon hands out
+(``Device.OpenTelemetry``): a sealed memfd, mapped read-only here, holding the last ticks in
+slots each under a sequence lock of its own. The layout is ``hapticd_core::telemetry``'s
+(version 1); a ring of another layout is refused.
+"""
+
+from __future__ import annotations
+
+import mmap
+import struct
+import time
+from dataclasses import dataclass
+from typing import Iterator, List, Tuple
+
+MAGIC = b"hapticdT"
+VERSION = 1
+SLOTS = 8192
+MAX_EFFECTORS = 4
+CHANNELS = 8
+STATES = ("running", "fault", "disconnected", "uncalibrated")
+
+# A slot: its sequence (u64), then the sample: tick, time, state, effectors, strings,
+# contacts, each effector's pose (x, y, z, qw, qx, qy, qz), velocity and wrench, each
+# string's tension and D/A value.
+_HEADER = struct.Struct("<8sIIdQ")
+_SAMPLE = struct.Struct(
+    "<Qd4I"
+    + "7d" * MAX_EFFECTORS
+    + "3d" * MAX_EFFECTORS
+    + "6d" * MAX_EFFECTORS
+    + f"{CHANNELS}d{CHANNELS}h"
+)
+_SEQUENCE = struct.Struct("<Q")
+_SLOT = _SEQUENCE.size + _SAMPLE.size
+_SLOTS_AT = _HEADER.size
+SIZE = _SLOTS_AT + SLOTS * _SLOT
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One tick as the haptic loop left it."""
+
+    tick: int
+    """Ticks since the loop started, from 0."""
+    time: float
+    """Loop time, seconds."""
+    state: str
+    """running, fault, disconnected or uncalibrated."""
+    poses: List[Tuple[float, ...]]
+    """Each effector's pose: x, y, z (metres), then the orientation qw, qx, qy, qz."""
+    velocities: List[Tuple[float, float, float]]
+    """Each effector's velocity, m/s."""
+    wrenches: List[Tuple[float, ...]]
+    """Each effector's displayed force (N) and torque (N·m): fx, fy, fz, tx, ty, tz."""
+    contacts: List[bool]
+    """Whether each effector displays a force: it touches something."""
+    tensions: List[float]
+    """Each string's tension, newtons."""
+    dac: List[int]
+    """Each motor's D/A value as sent."""
+
+    @property
+    def position(self) -> Tuple[float, float, float]:
+        """The first effector's position, metres."""
+        return self.poses[0][:3]
+
+    @property
+    def force(self) -> Tuple[float, float, float]:
+        """The force displayed on the first effector, newtons."""
+        return self.wrenches[0][:3]
+
+
+def _sample(values: Tuple) -> Sample:
+    tick, time_, state, effectors, strings, contacts = values[:6]
+    effectors = min(effectors, MAX_EFFECTORS)
+    strings = min(strings, CHANNELS)
+    at = 6
+    poses = [tuple(values[at + 7 * k : at + 7 * k + 7]) for k in range(effectors)]
+    at += 7 * MAX_EFFECTORS
+    velocities = [tuple(values[at + 3 * k : at + 3 * k + 3]) for k in range(effectors)]
+    at += 3 * MAX_EFFECTORS
+    wrenches = [tuple(values[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
+    at += 6 * MAX_EFFECTORS
+    tensions = list(values[at : at + strings])
+    at += CHANNELS
+    dac = list(values[at : at + strings])
+    return Sample(
+        tick=tick,
+        time=time_,
+        state=STATES[state] if state < len(STATES) else "running",
+        poses=poses,
+        velocities=velocities,
+        wrenches=wrenches,
+        contacts=[bool(contacts >> k & 1) for k in range(effectors)],
+        tensions=tensions,
+        dac=dac,
+    )
+
+
+class Ring:
+    """A device's telemetry ring, mapped read-only from the descriptor ``fd``."""
+
+    def __init__(self, fd: int) -> None:
+        self._map = mmap.mmap(fd, SIZE, mmap.MAP_SHARED, mmap.PROT_READ)
+        magic, version, size, rate, _ = _HEADER.unpack_from(self._map, 0)
+        if magic != MAGIC or version != VERSION or size != SIZE:
+            self._map.close()
+            raise ValueError(
+                f"not a telemetry ring of layout {VERSION} ({SIZE} bytes): magic {magic!r}, "
+                f"layout {version}, {size} bytes"
+            )
+        self.rate: float = rate
+        """Haptic ticks per second."""
+        self.next: int = self.written()
+        """The next tick to read."""
+        self.missed: int = 0
+        """Ticks overwritten before they were read."""
+
+    def written(self) -> int:
+        """Ticks written so far: the next tick's number."""
+        return _HEADER.unpack_from(self._map, 0)[4]
+
+    def read(self) -> "Sample | None":
+        """The next tick, or None if it is not written yet; ticks overwritten before they
+        were read are skipped and counted in ``missed``."""
+        while True:
+            written = self.written()
+            if self.next >= written:
+                return None
+            oldest = max(0, written - (SLOTS - 1))
+            if self.next < oldest:
+                self.missed += oldest - self.next
+                self.next = oldest
+            at = _SLOTS_AT + (self.next % SLOTS) * _SLOT
+            (before,) = _SEQUENCE.unpack_from(self._map, at)
+            values = _SAMPLE.unpack_from(self._map, at + _SEQUENCE.size)
+            (after,) = _SEQUENCE.unpack_from(self._map, at)
+            if before % 2 == 0 and before == after and values[0] == self.next:
+                self.next += 1
+                return _sample(values)
+            # Written over while read: the writer is a lap ahead.
+            self.missed += 1
+            self.next += 1
+
+    def follow(self, seconds: float) -> Iterator[Sample]:
+        """Every tick from now for ``seconds`` of the loop's ticks, as they are written."""
+        end = self.next + max(1, round(seconds * self.rate))
+        waited = time.monotonic()
+        while self.next < end:
+            sample = self.read()
+            if sample is None:
+                if time.monotonic() - waited > 2.0:
+                    raise TimeoutError("the haptic loop stopped writing ticks")
+                time.sleep(0.001)
+                continue
+            waited = time.monotonic()
+            yield sample
+
+    def close(self) -> None:
+        """Unmap the ring."""
+        self._map.close()

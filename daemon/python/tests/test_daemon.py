@@ -1,0 +1,69 @@
+"""The Python client against a real hapticd on a private bus: the Rust test that runs these
+(tests/daemon/python_client.rs) starts both and names the bus in HAPTICD_TEST_BUS."""
+
+import math
+import os
+
+import pytest
+
+import hapticd
+
+
+@pytest.fixture
+def daemon():
+    d = hapticd.connect(os.environ["HAPTICD_TEST_BUS"])
+    yield d
+    d.close()
+
+
+def test_devices_and_their_properties(daemon):
+    (device,) = daemon.devices
+    assert device.state == "running"
+    assert device.mechanism == "spidar-g"
+    assert device.identity == "sim"
+    assert "static" in daemon.scenes and daemon.active_scene == "static"
+
+
+def test_parameters_are_set_and_bad_values_refused_by_name(daemon):
+    device = daemon.devices[0]
+    device.set("Stiffness", 1500)
+    assert device.get("Stiffness") == 1500.0
+    for bad, reason in [(math.nan, "NotFinite"), (1e12, "OutOfRange")]:
+        with pytest.raises(hapticd.Error) as refused:
+            device.set("Stiffness", bad)
+        assert refused.value.name == f"org.hapticd.Hapticd1.Error.{reason}"
+    assert device.get("Stiffness") == 1500.0
+    device.set("Stiffness", 2000)
+
+
+def test_every_tick_arrives_in_order(daemon):
+    device = daemon.devices[0]
+    samples = list(device.telemetry(seconds=1.0))
+    ring_rate = device.get("LoopRate")
+    assert len(samples) == round(ring_rate)
+    for a, b in zip(samples, samples[1:]):
+        assert b.tick == a.tick + 1
+        assert abs(b.time - a.time - 1 / ring_rate) < 1e-6
+    for s in samples:
+        assert s.state == "running"
+        assert len(s.position) == 3 and len(s.force) == 3
+        qw, qx, qy, qz = s.poses[0][3:]
+        assert abs(qw * qw + qx * qx + qy * qy + qz * qz - 1) < 1e-9
+        assert len(s.tensions) == 8 and all(t >= 0 for t in s.tensions)
+
+
+def test_scenes_switch_and_unknown_ones_are_named(daemon):
+    daemon.switch_scene("blocks")
+    assert daemon.active_scene == "blocks"
+    with pytest.raises(hapticd.Error) as refused:
+        daemon.switch_scene("no-such-scene")
+    assert refused.value.name == "org.hapticd.Hapticd1.Error.UnknownScene"
+    daemon.switch_scene("static")
+
+
+def test_calibrate_takes_the_offsets(daemon):
+    device = daemon.devices[0]
+    before = device.get("CalibrationOffsets")
+    device.calibrate()
+    assert device.state in ("running", "calibrating")
+    assert len(device.get("CalibrationOffsets")) == len(before)
