@@ -2394,3 +2394,65 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
     assert!(said.contains("5 passed"), "{said}");
     daemon.stop();
 }
+
+/// The README's staircase example (`daemon/python/examples/staircase.py`) on the simulated
+/// device, a hand pressing the static scene's floor throughout: it converges on the
+/// reference wall and records every tick of every trial.
+#[test]
+fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
+    let dir = scratch("staircase");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let hand = dir.join("press.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - move: { to: [0, -0.05, 0], seconds: 0.5 }\n    - hold: { seconds: 600 }\n",
+    )
+    .unwrap();
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &["--sim", "spidar-g", "--hand", hand.to_str().unwrap()],
+    );
+    std::thread::sleep(Duration::from_millis(800));
+    let csv = dir.join("ticks.csv");
+    let out = Command::new("/usr/bin/python3")
+        .arg(repo_dir().join("daemon/python/examples/staircase.py"))
+        .args(["--bus", &bus.address, "--trials", "10", "--out"])
+        .arg(&csv)
+        .env("PYTHONPATH", repo_dir().join("daemon/python"))
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let estimate: f64 = said
+        .split("threshold estimate: ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    println!("{said}");
+    assert!((estimate - 2000.0).abs() <= 300.0, "{said}");
+    // Every trial: 400 ticks of 1 ms, none lost.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 10 * 400);
+    for trial in rows.chunks(400) {
+        let ticks: Vec<u64> = trial.iter().map(|r| r[2].parse().unwrap()).collect();
+        assert!(
+            ticks.windows(2).all(|w| w[1] == w[0] + 1),
+            "{:?}",
+            &ticks[..3]
+        );
+    }
+    daemon.stop();
+}
