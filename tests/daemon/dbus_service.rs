@@ -2456,3 +2456,50 @@ fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
     }
     daemon.stop();
 }
+
+/// The Rust client library (`hapticd_ipc::client`) against a running daemon.
+#[test]
+fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
+    use hapticd_ipc::bus::Bus as Address;
+    use hapticd_ipc::client::{ClientError, Hapticd as Client};
+    let dir = scratch("rust-client");
+    let bus = Bus::start(&dir);
+    let at = Address::Address(bus.address.clone());
+    assert!(matches!(Client::connect(&at), Err(ClientError::NotRunning)));
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let hapticd = Client::connect(&at).unwrap();
+    let devices = hapticd.devices().unwrap();
+    let device = &devices[0];
+    assert_eq!(device.identity().unwrap(), "sim");
+    assert_eq!(device.mechanism().unwrap(), "spidar-g");
+    assert_eq!(device.state().unwrap(), "running");
+    device.set("Stiffness", 1500.0).unwrap();
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 1500");
+    for (value, reason) in [(f64::NAN, "NotFinite"), (1e12, "OutOfRange")] {
+        match device.set("Stiffness", value) {
+            Err(ClientError::Refused { name, .. }) => {
+                assert_eq!(name, format!("org.hapticd.Hapticd1.Error.{reason}"))
+            }
+            other => panic!("{value}: {other:?}"),
+        }
+    }
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 1500");
+    let ticks: Vec<u64> = device.telemetry(0.5).unwrap().map(|s| s.tick).collect();
+    assert_eq!(ticks.len(), 500);
+    assert!(ticks.windows(2).all(|w| w[1] == w[0] + 1));
+    let mut waited = 0;
+    hapticd
+        .switch_scene("blocks", Duration::from_secs(60), &mut |_| waited += 1)
+        .unwrap();
+    assert_eq!(hapticd.active_scene().unwrap(), "blocks");
+    assert_eq!(waited, 0, "no mesh to cut, nothing to wait for");
+    match hapticd.switch_scene("no-such-scene", Duration::ZERO, &mut |_| {}) {
+        Err(ClientError::Refused { name, .. }) => {
+            assert_eq!(name, "org.hapticd.Hapticd1.Error.UnknownScene")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(hapticd.scenes().unwrap().contains(&"static".to_string()));
+    daemon.stop();
+}

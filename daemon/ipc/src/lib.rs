@@ -3,6 +3,8 @@
 //!
 //! - [`names`]: the bus names, object paths, interfaces and error names;
 //! - [`bus`]: which bus (system, session, an address) and who a caller is;
+//! - [`client`]: a blocking client for programs built on hapticd: devices, parameters,
+//!   calibration, every tick, scenes;
 //! - [`proxies`]: typed clients of `org.hapticd.Hapticd1.Manager`, `…Device` and
 //!   `org.hapticd.Renderer1`;
 //! - [`world_share`]: the shared world a device's `OpenWorld` hands out (its layout is
@@ -33,6 +35,7 @@
 //! ```
 
 pub mod bus;
+pub mod client;
 pub mod frame_ring;
 pub mod names;
 pub mod proxies;

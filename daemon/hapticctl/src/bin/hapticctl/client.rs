@@ -1,7 +1,7 @@
 //! `hapticctl status|get|set|calibrate|reload|bind` and `scene list|switch`: the running
 //! daemon, over D-Bus, as `busctl` would reach it but in words.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
@@ -11,8 +11,7 @@ use hapticd_core::telemetry::Sample;
 use hapticd_core::transport::CHANNELS;
 use hapticd_core::world_state::state_of;
 use hapticd_ipc::bus::{Bus, has_owner};
-use hapticd_ipc::names::{ERROR_PREFIX, RENDERER_BUS_NAME, error_name};
-use hapticd_ipc::telemetry_share::MappedTelemetry;
+use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
@@ -179,6 +178,19 @@ impl Client {
             connection,
             bus: bus.clone(),
         })
+    }
+
+    /// What `e`, from the client library, means to the person who asked.
+    fn refused(&self, e: hapticd_ipc::client::ClientError) -> Failure {
+        use hapticd_ipc::client::ClientError;
+        match e {
+            ClientError::NotRunning => not_running(&self.bus),
+            ClientError::Refused { name, message } => {
+                Failure::failed(format!("{}: {message}", error_name(&name).unwrap_or(&name)))
+            }
+            ClientError::Bus(e) => failure(&self.bus, e),
+            other => Failure::failed(other.to_string()),
+        }
     }
 
     fn call<B>(
@@ -527,30 +539,15 @@ pub fn switch(client: &Client, scene: &str) -> Result<(), Failure> {
 /// Switch to the scene called `scene`, asking again while the daemon says its meshes are
 /// being cut into convex pieces (it says so rather than hold the call for minutes).
 fn switch_when_prepared(client: &Client, scene: &str) -> Result<(), Failure> {
-    let preparing = format!("{ERROR_PREFIX}.Preparing");
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(600);
     let mut said = false;
-    loop {
-        let reply = zbus::block_on(client.connection.call_method(
-            Some(BUS_NAME),
-            MANAGER_PATH,
-            Some(MANAGER),
-            "SwitchScene",
-            &(scene,),
-        ));
-        match reply {
-            Err(zbus::Error::MethodError(name, message, _))
-                if name.as_str() == preparing && std::time::Instant::now() < deadline =>
-            {
-                if !said {
-                    eprintln!("{scene}: {}; waiting", message.unwrap_or_default());
-                    said = true;
-                }
-                std::thread::sleep(std::time::Duration::from_millis(500));
-            }
-            other => return other.map(drop).map_err(|e| failure(&client.bus, e)),
+    let mut waiting = |message: &str| {
+        if !std::mem::replace(&mut said, true) {
+            eprintln!("{scene}: {message}; waiting");
         }
-    }
+    };
+    hapticd_ipc::client::Hapticd::on(client.connection.clone())
+        .and_then(|h| h.switch_scene(scene, std::time::Duration::from_secs(600), &mut waiting))
+        .map_err(|e| client.refused(e))
 }
 
 #[derive(Args)]
@@ -745,32 +742,14 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
         .flatten()
         .map(words)
         .collect();
-    let options: HashMap<&str, Variant<'_>> = HashMap::new();
-    let fd: zbus::OwnedFd = client
-        .call(&path, DEVICE, "OpenTelemetry", &(options,))?
-        .body()
-        .deserialize()
-        .map_err(|e| Failure::failed(format!("OpenTelemetry: {e}")))?;
-    let ring = MappedTelemetry::open(&fd.into())
-        .map_err(|e| Failure::failed(format!("the telemetry ring: {e}")))?;
-    let mut cursor = ring.from_now();
-    let end = cursor.next + (args.duration * ring.rate()).round().max(1.0) as u64;
+    let device = hapticd_ipc::client::Device::on(&client.connection, &path)
+        .map_err(|e| client.refused(e))?;
+    let mut ticks = device
+        .telemetry(args.duration)
+        .map_err(|e| client.refused(e))?;
     let mut out = std::io::BufWriter::new(std::fs::File::create(&args.file).map_err(cannot)?);
-    let mut sample = Sample::EMPTY;
     let (mut rows, mut strings) = (0usize, None);
-    let mut last_progress = std::time::Instant::now();
-    while cursor.next < end {
-        if !ring.next(&mut cursor, &mut sample) {
-            // A loop that stops writing (a daemon gone) ends the recording, not hangs it.
-            if last_progress.elapsed() > std::time::Duration::from_secs(2) {
-                return Err(Failure::failed(format!(
-                    "the haptic loop stopped writing ticks after {rows} rows"
-                )));
-            }
-            std::thread::sleep(std::time::Duration::from_millis(1));
-            continue;
-        }
-        last_progress = std::time::Instant::now();
+    for sample in ticks.by_ref() {
         let strings = *strings.get_or_insert_with(|| {
             let n = sample.strings as usize;
             let _ = writeln!(out, "{}", record_header(&effectors, n));
@@ -779,14 +758,19 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
         writeln!(out, "{}", record_row(&sample, effectors.len(), strings)).map_err(cannot)?;
         rows += 1;
     }
+    if ticks.stopped() {
+        return Err(Failure::failed(format!(
+            "the haptic loop stopped writing ticks after {rows} rows"
+        )));
+    }
     out.flush().map_err(cannot)?;
-    let missed = match cursor.missed {
+    let missed = match ticks.missed() {
         0 => String::new(),
         n => format!(" ({n} ticks overwritten before they were read)"),
     };
     eprintln!(
         "{rows} ticks at {} Hz in {}{missed}",
-        ring.rate(),
+        ticks.rate(),
         args.file.display()
     );
     Ok(())
