@@ -2393,6 +2393,48 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
     assert!(out.status.success(), "{said}");
     assert!(said.contains("5 passed"), "{said}");
     daemon.stop();
+    // `pip install PATH` makes a package that imports from where it went, typed (from a
+    // copy: pip leaves its build files beside the source).
+    let source = dir.join("source");
+    let copied = Command::new("cp")
+        .arg("-r")
+        .arg(&package)
+        .arg(&source)
+        .status()
+        .unwrap();
+    assert!(copied.success());
+    let target = dir.join("site");
+    let installed = Command::new("/usr/bin/python3")
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "-q",
+            "--no-build-isolation",
+            "--no-deps",
+            "--no-index",
+        ])
+        .arg("--target")
+        .arg(&target)
+        .arg(&source)
+        .output()
+        .unwrap();
+    assert!(installed.status.success(), "{installed:?}");
+    assert!(target.join("hapticd/py.typed").is_file());
+    let imported = Command::new("/usr/bin/python3")
+        .args([
+            "-c",
+            "import hapticd, hapticd.telemetry; print(hapticd.__file__)",
+        ])
+        .env("PYTHONPATH", &target)
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let from = String::from_utf8_lossy(&imported.stdout);
+    assert!(
+        from.trim().starts_with(target.to_str().unwrap()),
+        "{imported:?}"
+    );
 }
 
 /// The README's staircase example (`daemon/python/examples/staircase.py`) on the simulated
