@@ -1410,7 +1410,7 @@ async fn client(address: &str, id: usize, rounds: usize) -> zbus::Result<Vec<f64
 }
 
 #[test]
-fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
+fn a_hundred_clients_at_once_and_a_telemetry_reader_are_served_without_overruns() {
     // Alone: other tests' daemons and process launches would compete for the same 2 cores.
     let dir = scratch("hundred");
     let bus = Bus::start_alone(&dir);
@@ -1435,8 +1435,20 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
         let quiet = overruns() - quiet_from;
         let before = overruns();
         let started = Instant::now();
+        // A reader follows every tick all the while, from the telemetry ring.
+        let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let reader = {
+            let (address, done) = (bus.address.clone(), done.clone());
+            std::thread::spawn(move || follow_until(&address, &done))
+        };
         clients_set_the_damping(&bus, &setup);
         std::thread::sleep(Duration::from_millis(300));
+        done.store(true, std::sync::atomic::Ordering::Release);
+        let (read, missed) = reader.join().unwrap();
+        assert!(
+            read > 300 && missed == 0,
+            "{read} ticks read, {missed} missed"
+        );
         let during = overruns() - before;
         let alone = quiet * started.elapsed().as_secs_f64() / 2.5;
         if !realtime || during <= 2.0 * alone + 10.0 {
@@ -1445,6 +1457,30 @@ fn a_hundred_clients_at_once_are_all_answered_without_overruns() {
         rounds.push(format!("{during} ({alone:.0} without them)"));
     }
     panic!("the clients made the haptic loop overrun in every round: {rounds:?}");
+}
+
+/// Follow the first device's telemetry on the bus at `address` until `done`: the ticks read
+/// (each the one after the last) and those missed.
+fn follow_until(address: &str, done: &std::sync::atomic::AtomicBool) -> (u64, u64) {
+    use hapticd_core::telemetry::Sample;
+    let client =
+        hapticd_ipc::client::Hapticd::connect(&hapticd_ipc::bus::Bus::Address(address.into()))
+            .unwrap();
+    let ring = client.devices().unwrap()[0].open_telemetry().unwrap();
+    let mut cursor = ring.from_now();
+    let (mut sample, mut read, mut last) = (Sample::EMPTY, 0, None);
+    while !done.load(std::sync::atomic::Ordering::Acquire) {
+        while ring.next(&mut cursor, &mut sample) {
+            assert!(
+                last.is_none_or(|t| sample.tick == t + 1),
+                "a gap after {last:?}"
+            );
+            last = Some(sample.tick);
+            read += 1;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    (read, cursor.missed)
 }
 
 /// A hundred clients with connections of their own, all at once, each setting the damping
