@@ -2581,3 +2581,49 @@ fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
     assert!(hapticd.scenes().unwrap().contains(&"static".to_string()));
     daemon.stop();
 }
+
+/// `Touch` signals as a hand lowers the grip onto the static scene's floor, presses, slides
+/// and lifts off (`config/hands/press-floor.yaml`): one begin where the floor is, one end.
+#[test]
+fn a_touch_begins_on_the_floor_and_ends_when_the_hand_lifts() {
+    use zbus::export::futures_core::Stream;
+    let dir = scratch("touch");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let hand = repo_dir().join("config/hands/press-floor.yaml");
+    let connection =
+        zbus::block_on(zbus::connection::Builder::address(bus.address.as_str()).build()).unwrap();
+    let rule = "type='signal',interface='org.hapticd.Hapticd1.Device',member='Touch'";
+    let mut stream =
+        zbus::block_on(zbus::MessageStream::for_match_rule(rule, &connection, None)).unwrap();
+    let (sender, touches) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        while let Some(Ok(message)) = zbus::block_on(std::future::poll_fn(|cx| {
+            std::pin::Pin::new(&mut stream).poll_next(cx)
+        })) {
+            let touch: (u32, bool, u64, f64, Vec<f64>, Vec<f64>) =
+                message.body().deserialize().unwrap();
+            if sender.send(touch).is_err() {
+                return;
+            }
+        }
+    });
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &["--sim", "spidar-g", "--hand", hand.to_str().unwrap()],
+    );
+    let begun = touches.recv_timeout(Duration::from_secs(10)).unwrap();
+    let ended = touches.recv_timeout(Duration::from_secs(10)).unwrap();
+    let (effector, touching, tick, _, position, _) = &begun;
+    assert_eq!((*effector, *touching), (0, true), "{begun:?}");
+    // The floor of the static scene is at y = -0.03: the grip meets it there.
+    assert!((position[1] + 0.03).abs() < 2e-3, "{begun:?}");
+    assert_eq!((ended.0, ended.1), (0, false), "{ended:?}");
+    assert!(
+        ended.2 > *tick + 1000,
+        "pressed over a second: {begun:?} {ended:?}"
+    );
+    assert!(ended.4[1] > -0.03 - 2e-3, "lifted off: {ended:?}");
+    daemon.stop();
+}

@@ -156,6 +156,32 @@ pub(super) async fn announce(
     Some(now)
 }
 
+/// Announce `touches` of device `index`, a `Touch` signal each.
+pub(super) async fn announce_touches(
+    connection: &zbus::Connection,
+    index: usize,
+    touches: &[super::touches::Touch],
+) {
+    let Some(iface) = device_interface(connection, index).await else {
+        return;
+    };
+    let emitter = iface.signal_emitter();
+    for t in touches {
+        report(
+            DeviceInterface::touch(
+                emitter,
+                t.effector,
+                t.touching,
+                t.tick,
+                t.time,
+                t.position.to_vec(),
+                t.force.to_vec(),
+            )
+            .await,
+        );
+    }
+}
+
 /// The Device interface: the methods and read-only properties as written, and a getter and
 /// a checked, audited setter for each tunable parameter, generated from one table (name of
 /// the getter, of the setter, the [`Name`], and the property's documentation).
@@ -307,6 +333,21 @@ device_interface! {
     fn loop_rate(&self) -> f64 {
         self.device.rate()
     }
+
+    /// An effector began (`touching`) or stopped touching something: at `tick` (loop time
+    /// `time`, seconds), the grip at `position` (metres) displaying `force` (newtons). Read
+    /// from the telemetry ring, so no tick's touch is missed; at most ten a device each tenth
+    /// of a second.
+    #[zbus(signal)]
+    async fn touch(
+        emitter: &SignalEmitter<'_>,
+        effector: u32,
+        touching: bool,
+        tick: u64,
+        time: f64,
+        position: Vec<f64>,
+        force: Vec<f64>,
+    ) -> zbus::Result<()>;
 
     /// The world as pictures show it: a sealed memfd, read-only to the caller, that the
     /// haptic loop writes 60 times a second under a sequence lock (the layout is

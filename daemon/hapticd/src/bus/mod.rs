@@ -5,11 +5,13 @@
 //! writing state files) run on a few worker threads, so a slow one never holds up the
 //! others; the haptic loop only ever sees the commands they push into its ring. Ten times a
 //! second the thread compares each device's snapshot with what it last announced and emits
-//! PropertiesChanged for whatever changed.
+//! PropertiesChanged for whatever changed, and a `Touch` signal for each effector that began or
+//! stopped touching something since (read from the device's telemetry ring).
 
 mod device;
 mod error;
 mod manager;
+mod touches;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -172,6 +174,11 @@ impl Claim {
                 let mut announced: Vec<_> = (0..daemon.devices().len())
                     .map(|index| zbus::block_on(device::baseline(&connection, index)))
                     .collect();
+                let mut touches: Vec<_> = daemon
+                    .devices()
+                    .iter()
+                    .map(|d| touches::Touches::of(d))
+                    .collect();
                 while !stop_flag.load(Ordering::Acquire) {
                     // Between these calls zbus's helper thread serves the requests.
                     std::thread::sleep(TELEMETRY_PERIOD);
@@ -179,6 +186,11 @@ impl Claim {
                         let sent =
                             zbus::block_on(device::announce(&connection, index, last.take()));
                         *last = sent;
+                    }
+                    for (index, t) in touches.iter_mut().enumerate() {
+                        if let Some(t) = t {
+                            zbus::block_on(device::announce_touches(&connection, index, &t.scan()));
+                        }
                     }
                 }
             })
