@@ -14,7 +14,8 @@
 //!    through the [`transport::Transport`] trait that `hapticd-device` implements;
 //!    [`fault_hold`]: how long a failed scene must render well before it is trusted again.
 //! 7. [`world_state`]: the loop's world as pictures show it, shared with the renderer;
-//!    [`telemetry`]: every tick, in a ring other programs read.
+//!    [`telemetry`]: every tick, in a ring other programs read; [`shared_header`]: what
+//!    both blocks start with.
 
 pub mod diagnostics;
 pub mod fault_hold;
@@ -24,6 +25,7 @@ pub mod kinematics;
 pub mod mechanism;
 pub mod parameters;
 pub mod scene;
+pub mod shared_header;
 pub mod solver;
 pub mod stats;
 pub mod sync;

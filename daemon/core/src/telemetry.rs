@@ -13,6 +13,7 @@ use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
 
 use crate::haptic_loop::Frame;
 use crate::kinematics::MAX_EFFECTORS;
+use crate::shared_header::{Header, WrongLayout};
 use crate::transport::CHANNELS;
 use crate::world_state::{body_pose, state_code};
 
@@ -114,12 +115,8 @@ pub struct Slot {
 /// The shared block: a header and the ring.
 #[repr(C)]
 pub struct SharedTelemetry {
-    /// [`MAGIC`].
-    pub magic: [u8; 8],
-    /// [`VERSION`].
-    pub version: u32,
-    /// `size_of::<SharedTelemetry>()` as the writer has it.
-    pub size: u32,
+    /// [`MAGIC`], [`VERSION`] and [`SHARED_SIZE`].
+    pub header: Header,
     /// Haptic ticks per second.
     pub rate: f64,
     /// Ticks written so far: the next tick's number.
@@ -130,6 +127,9 @@ pub struct SharedTelemetry {
 
 /// Bytes of a telemetry ring.
 pub const SHARED_SIZE: usize = std::mem::size_of::<SharedTelemetry>();
+
+/// What a telemetry ring starts with.
+const HEADER: Header = Header::new(MAGIC, VERSION, SHARED_SIZE);
 
 /// The writing side, over a block the caller mapped.
 pub struct TelemetryWriter {
@@ -151,9 +151,7 @@ impl TelemetryWriter {
         // megabytes, never passed through the stack).
         unsafe {
             use std::ptr::addr_of_mut;
-            addr_of_mut!((*shared).magic).write(MAGIC);
-            addr_of_mut!((*shared).version).write(VERSION);
-            addr_of_mut!((*shared).size).write(SHARED_SIZE as u32);
+            addr_of_mut!((*shared).header).write(HEADER);
             addr_of_mut!((*shared).rate).write(rate);
             addr_of_mut!((*shared).written).write(AtomicU64::new(0));
             let slots = addr_of_mut!((*shared).slots).cast::<Slot>();
@@ -183,18 +181,6 @@ impl TelemetryWriter {
     }
 }
 
-/// Why a mapped block is not a telemetry ring this reader understands.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct NotTelemetry(pub String);
-
-impl std::fmt::Display for NotTelemetry {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for NotTelemetry {}
-
 /// What reading one tick found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Read {
@@ -223,26 +209,9 @@ impl TelemetryReader {
     /// # Safety
     /// `shared` is valid for reads of `len` bytes, aligned for `SharedTelemetry`, for as
     /// long as the reader lives.
-    pub unsafe fn new(shared: *const SharedTelemetry, len: usize) -> Result<Self, NotTelemetry> {
-        if len < SHARED_SIZE {
-            return Err(NotTelemetry(format!(
-                "{len} bytes, a telemetry ring has {SHARED_SIZE}"
-            )));
-        }
-        // SAFETY: the header lies within the `len` bytes checked above.
-        let (magic, version, size) = unsafe {
-            (
-                std::ptr::addr_of!((*shared).magic).read_volatile(),
-                std::ptr::addr_of!((*shared).version).read_volatile(),
-                std::ptr::addr_of!((*shared).size).read_volatile(),
-            )
-        };
-        if magic != MAGIC || version != VERSION || size as usize != SHARED_SIZE {
-            return Err(NotTelemetry(format!(
-                "not a telemetry ring of layout {VERSION} ({SHARED_SIZE} bytes): magic \
-                 {magic:?}, layout {version}, {size} bytes"
-            )));
-        }
+    pub unsafe fn new(shared: *const SharedTelemetry, len: usize) -> Result<Self, WrongLayout> {
+        // SAFETY: per this function's contract; the header is the block's first field.
+        unsafe { HEADER.check(shared.cast::<Header>(), len, "a telemetry ring") }?;
         Ok(Self { shared })
     }
 

@@ -16,6 +16,7 @@ use hapticd_plugin_api::{Geometry, HapticdBodyPose, HapticdSolid, HapticdTriangl
 
 use crate::haptic_loop::{DeviceState, HapticLoop};
 use crate::kinematics::{Dof, MAX_EFFECTORS, Pose, quat_from_wxyz, quat_to_wxyz};
+use crate::shared_header::{Header, WrongLayout};
 use crate::transport::CHANNELS;
 
 /// Most bodies a picture shows; a larger world shows its first ones.
@@ -205,12 +206,8 @@ pub struct WorldGeometry {
 /// The shared block: a header, the frame and the geometry, each under its sequence.
 #[repr(C)]
 pub struct SharedWorld {
-    /// [`MAGIC`].
-    pub magic: [u8; 8],
-    /// [`VERSION`].
-    pub version: u32,
-    /// `size_of::<SharedWorld>()` as the writer has it.
-    pub size: u32,
+    /// [`MAGIC`], [`VERSION`] and [`SHARED_SIZE`].
+    pub header: Header,
     /// Even when the frame is whole, odd while it is written; +2 per frame.
     pub sequence: AtomicU64,
     /// The latest frame.
@@ -223,6 +220,9 @@ pub struct SharedWorld {
 
 /// Bytes of a shared world.
 pub const SHARED_SIZE: usize = std::mem::size_of::<SharedWorld>();
+
+/// What a shared world starts with.
+const HEADER: Header = Header::new(MAGIC, VERSION, SHARED_SIZE);
 
 /// The writing side, over a block the caller mapped.
 pub struct WorldWriter {
@@ -245,9 +245,7 @@ impl WorldWriter {
         // the block (over a megabyte) never passes through the stack.
         unsafe {
             use std::ptr::addr_of_mut;
-            addr_of_mut!((*shared).magic).write(MAGIC);
-            addr_of_mut!((*shared).version).write(VERSION);
-            addr_of_mut!((*shared).size).write(SHARED_SIZE as u32);
+            addr_of_mut!((*shared).header).write(HEADER);
             addr_of_mut!((*shared).sequence).write(AtomicU64::new(0));
             addr_of_mut!((*shared).frame).write(WorldFrame::empty());
             addr_of_mut!((*shared).geometry_sequence).write(AtomicU64::new(0));
@@ -311,18 +309,6 @@ impl WorldWriter {
     }
 }
 
-/// Why a mapped block is not a shared world this reader understands.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct NotAWorld(pub String);
-
-impl std::fmt::Display for NotAWorld {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for NotAWorld {}
-
 /// The reading side, over a block mapped read-only.
 pub struct WorldReader {
     shared: *const SharedWorld,
@@ -337,26 +323,9 @@ impl WorldReader {
     /// # Safety
     /// `shared` is valid for reads of `len` bytes, aligned for `SharedWorld`, for as long
     /// as the reader lives.
-    pub unsafe fn new(shared: *const SharedWorld, len: usize) -> Result<Self, NotAWorld> {
-        if len < SHARED_SIZE {
-            return Err(NotAWorld(format!(
-                "{len} bytes, a shared world has {SHARED_SIZE}"
-            )));
-        }
-        // SAFETY: the header lies within the `len` bytes checked above.
-        let (magic, version, size) = unsafe {
-            (
-                std::ptr::addr_of!((*shared).magic).read_volatile(),
-                std::ptr::addr_of!((*shared).version).read_volatile(),
-                std::ptr::addr_of!((*shared).size).read_volatile(),
-            )
-        };
-        if magic != MAGIC || version != VERSION || size as usize != SHARED_SIZE {
-            return Err(NotAWorld(format!(
-                "not a shared world of layout {VERSION} ({SHARED_SIZE} bytes): magic \
-                 {magic:?}, layout {version}, {size} bytes"
-            )));
-        }
+    pub unsafe fn new(shared: *const SharedWorld, len: usize) -> Result<Self, WrongLayout> {
+        // SAFETY: per this function's contract; the header is the block's first field.
+        unsafe { HEADER.check(shared.cast::<Header>(), len, "a shared world") }?;
         Ok(Self { shared })
     }
 
@@ -546,7 +515,7 @@ mod tests {
         let short = unsafe { WorldReader::new(shared, SHARED_SIZE - 1) };
         assert!(short.is_err_and(|e| e.0.contains("bytes")));
         // SAFETY: as above; the header is rewritten in place.
-        unsafe { (*shared).version = VERSION + 1 };
+        unsafe { (*shared).header.version = VERSION + 1 };
         // SAFETY: as above.
         let newer = unsafe { WorldReader::new(shared, SHARED_SIZE) };
         assert!(newer.is_err_and(|e| e.0.contains("layout")));
