@@ -26,14 +26,7 @@ impl Polyhedron {
     /// which suits the tens of vertices a scene file gives. An error when the points span no
     /// volume.
     pub fn hull(points: &[DVec3]) -> Result<Self, String> {
-        if points.iter().any(|p| !p.is_finite()) {
-            return Err("hull vertices must be finite".into());
-        }
-        let centre = points.iter().copied().sum::<DVec3>() / points.len().max(1) as f64;
-        let radius = points
-            .iter()
-            .map(|p| (*p - centre).length())
-            .fold(0.0, f64::max);
+        let (centre, radius) = spread(points)?;
         let tolerance = 1e-9 * radius;
         let mut planes: Vec<Plane> = Vec::new();
         for (i, &a) in points.iter().enumerate() {
@@ -69,14 +62,7 @@ impl Polyhedron {
     /// mesh): bounded by the triangles' planes, those of one face merged. Linear in the
     /// triangles, for pieces of hundreds of points. An error when they span no volume.
     pub fn of_convex_surface(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Result<Self, String> {
-        if vertices.iter().any(|p| !p.is_finite()) {
-            return Err("vertices must be finite".into());
-        }
-        let centre = vertices.iter().copied().sum::<DVec3>() / vertices.len().max(1) as f64;
-        let radius = vertices
-            .iter()
-            .map(|p| (*p - centre).length())
-            .fold(0.0, f64::max);
+        let (centre, radius) = spread(vertices)?;
         let mut planes: Vec<Plane> = Vec::new();
         for t in triangles {
             let [a, b, c] = t.map(|k| vertices.get(k as usize).copied());
@@ -144,6 +130,20 @@ impl Polyhedron {
         let points: Vec<DVec3> = unit.iter().map(|p| *p * scale).collect();
         Self::hull(&points).expect("a geodesic sphere spans a volume")
     }
+}
+
+/// The mean of `points` and their greatest distance from it; an error when one is not
+/// finite.
+fn spread(points: &[DVec3]) -> Result<(DVec3, f64), String> {
+    if points.iter().any(|p| !p.is_finite()) {
+        return Err("hull vertices must be finite".into());
+    }
+    let centre = points.iter().copied().sum::<DVec3>() / points.len().max(1) as f64;
+    let radius = points
+        .iter()
+        .map(|p| (*p - centre).length())
+        .fold(0.0, f64::max);
+    Ok((centre, radius))
 }
 
 /// Add `plane` to `planes` unless one of them is the same within `tolerance`.
