@@ -9,15 +9,14 @@ use hapticd_core::haptics::obstacle::Shape;
 /// 2·segments triangles.
 pub fn ball_faces(centre: DVec3, radius: f64, rings: usize, segments: usize) -> Vec<Shape> {
     let at = |ring: usize, segment: usize| {
-        let polar = std::f64::consts::PI * ring as f64 / rings as f64;
+        // The bottom pole exactly at the pole, as the top one is (sin π rounds to 1e-16):
+        // its faces then have no area and are left out, instead of slivers of rounding.
+        let (sin, cos) = match ring {
+            r if r == rings => (0.0, -1.0),
+            r => (std::f64::consts::PI * r as f64 / rings as f64).sin_cos(),
+        };
         let around = std::f64::consts::TAU * segment as f64 / segments as f64;
-        centre
-            + radius
-                * DVec3::new(
-                    polar.sin() * around.cos(),
-                    polar.cos(),
-                    polar.sin() * around.sin(),
-                )
+        centre + radius * DVec3::new(sin * around.cos(), cos, sin * around.sin())
     };
     // Each wound to face away from the centre; those at a pole have no area and are left out.
     let face = |p: DVec3, q: DVec3, r: DVec3| {
