@@ -17,9 +17,10 @@ struct HapticdPluginDescriptor;
 const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdHost *host);
 
 /* Extension ids (HapticdSceneVtable.get_extension), each with the struct of its section
- * below: HapticdSceneGeometry and HapticdSceneFiles. */
+ * below: HapticdSceneGeometry, HapticdSceneFiles and HapticdSceneControl. */
 #define HAPTICD_EXT_SCENE_GEOMETRY "hapticd.scene.geometry/1"
 #define HAPTICD_EXT_SCENE_FILES "hapticd.scene.files/1"
+#define HAPTICD_EXT_SCENE_CONTROL "hapticd.scene.control/1"
 
 
 /*
@@ -33,7 +34,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 4
+#define HAPTICD_ABI_MINOR 5
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -159,6 +160,51 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  The `body` of a solid that belongs to no body: it stays where its `offset` puts it.
  */
 #define HAPTICD_NO_BODY UINT32_MAX
+
+/*
+ Command: change nothing; only report the body's state.
+ */
+#define HAPTICD_COMMAND_QUERY 0
+
+/*
+ Command: put the body's centre of mass at `position` with `orientation`, keeping its
+ velocities.
+ */
+#define HAPTICD_COMMAND_SET_POSE 1
+
+/*
+ Command: give the body the velocity `vector` and angular velocity `spin`.
+ */
+#define HAPTICD_COMMAND_SET_VELOCITY 2
+
+/*
+ Command: give the body the momentum `vector` (N·s) at the point `position`: Δv = J/m,
+ Δω = I⁻¹((p − c) × J).
+ */
+#define HAPTICD_COMMAND_IMPULSE 3
+
+/*
+ Command: push the body with the force `vector` (N) at its centre of mass at every step
+ from now on, besides gravity (zero ends it).
+ */
+#define HAPTICD_COMMAND_SET_FORCE 4
+
+/*
+ Command: make the body's mass `value` kg, its inertia scaled with it (same shape, other
+ density).
+ */
+#define HAPTICD_COMMAND_SET_MASS 5
+
+/*
+ Command: make the friction coefficient of the body's contacts `value` (a contact takes
+ the lower of its two bodies'; a static coefficient keeps its ratio to the dynamic one).
+ */
+#define HAPTICD_COMMAND_SET_FRICTION 6
+
+/*
+ Longest body name in bytes, including the terminating NUL.
+ */
+#define HAPTICD_BODY_NAME_CAPACITY 64
 
 /*
  Summary of a mechanism.
@@ -824,5 +870,113 @@ typedef struct HapticdSceneFiles {
    */
   int32_t (*check)(const char *path, uint32_t pointer_count, char *message, size_t capacity);
 } HapticdSceneFiles;
+
+/*
+ A body of a running world, as the control extension lists it.
+ */
+typedef struct HapticdBodyInfo {
+  /*
+   NUL-terminated UTF-8 name, the scene file's (unique within the world, or empty).
+   */
+  char name[HAPTICD_BODY_NAME_CAPACITY];
+  /*
+   [`HAPTICD_SOLID_FIXED`] for a body forces do not move.
+   */
+  uint32_t flags;
+} HapticdBodyInfo;
+
+/*
+ A change to one body of a running world.
+ */
+typedef struct HapticdSceneCommand {
+  /*
+   One of the `HAPTICD_COMMAND_` constants.
+   */
+  uint32_t kind;
+  /*
+   The body's id (its place in `poses`).
+   */
+  uint32_t body;
+  /*
+   [`HAPTICD_COMMAND_SET_POSE`]: where its centre of mass goes; [`HAPTICD_COMMAND_IMPULSE`]:
+   where the impulse acts. Metres.
+   */
+  double position[3];
+  /*
+   [`HAPTICD_COMMAND_SET_POSE`]: its orientation, unit quaternion (w, x, y, z).
+   */
+  double orientation[4];
+  /*
+   The velocity (m/s), impulse (N·s) or force (N) the kind names.
+   */
+  double vector[3];
+  /*
+   [`HAPTICD_COMMAND_SET_VELOCITY`]: the angular velocity, rad/s.
+   */
+  double spin[3];
+  /*
+   [`HAPTICD_COMMAND_SET_MASS`]: kg; [`HAPTICD_COMMAND_SET_FRICTION`]: the coefficient.
+   */
+  double value;
+} HapticdSceneCommand;
+
+/*
+ A body's state, as a command left it.
+ */
+typedef struct HapticdBodyState {
+  /*
+   Centre of mass, metres.
+   */
+  double position[3];
+  /*
+   Orientation, unit quaternion (w, x, y, z).
+   */
+  double orientation[4];
+  /*
+   Velocity of the centre of mass, m/s.
+   */
+  double velocity[3];
+  /*
+   Angular velocity, rad/s.
+   */
+  double spin[3];
+  /*
+   Mass, kg (infinite for a fixed body).
+   */
+  double mass;
+  /*
+   The friction coefficient of its contacts.
+   */
+  double friction;
+  /*
+   The force pushing it besides gravity ([`HAPTICD_COMMAND_SET_FORCE`]), N.
+   */
+  double force[3];
+} HapticdBodyState;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_CONTROL`] of a scene plugin: a running world's bodies
+ listed, and changed one command at a time between steps. The host checks each command
+ (a body it lists, finite values in range, no force on a fixed body) before it is sent;
+ the plugin refuses what it still cannot do with [`HAPTICD_ERROR_ARGUMENT`].
+ */
+typedef struct HapticdSceneControl {
+  /*
+   `sizeof(HapticdSceneControl)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [main] After `create`, before the first step: write body `index` to `out`;
+   [`HAPTICD_ERROR_ARGUMENT`] past the last body.
+   */
+  int32_t (*body)(void *instance, uint32_t index, struct HapticdBodyInfo *out);
+  /*
+   [the thread that steps the instance, between steps] Carry out `command` and write the
+   body's state after it to `state`. Like a step it must not allocate, lock, log or block.
+   */
+  int32_t (*apply)(void *instance,
+                   const struct HapticdSceneCommand *command,
+                   struct HapticdBodyState *state);
+} HapticdSceneControl;
 
 #endif  /* HAPTICD_PLUGIN_H */

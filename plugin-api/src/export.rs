@@ -349,6 +349,60 @@ pub trait SceneInstance: Send {
     fn geometry(&self) -> Option<&Geometry> {
         None
     }
+
+    /// [main] Since ABI 1.5: body `index` of those the world lets be changed from outside
+    /// (served through [`HAPTICD_EXT_SCENE_CONTROL`]), None past the last; the default
+    /// has none.
+    fn body(&self, index: usize) -> Option<HapticdBodyInfo> {
+        let _ = index;
+        None
+    }
+
+    /// [the stepping thread, between steps] Since ABI 1.5: carry out `command` and write
+    /// the body's state after it to `state`. Must not allocate, lock, log or block.
+    fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
+        let _ = (command, state);
+        HAPTICD_ERROR_FAILED
+    }
+}
+
+impl HapticdSceneCommand {
+    /// Whether every number the command carries is finite (a plugin takes no other).
+    pub fn is_finite(&self) -> bool {
+        self.position
+            .iter()
+            .chain(&self.orientation)
+            .chain(&self.vector)
+            .chain(&self.spin)
+            .chain(std::iter::once(&self.value))
+            .all(|v| v.is_finite())
+    }
+}
+
+impl HapticdBodyInfo {
+    /// A body called `name` (cut at a character to fit [`HAPTICD_BODY_NAME_CAPACITY`] − 1
+    /// bytes; a NUL ends it early), fixed or free.
+    pub fn new(name: &str, fixed: bool) -> Self {
+        let mut end = name.len().min(HAPTICD_BODY_NAME_CAPACITY - 1);
+        while !name.is_char_boundary(end) {
+            end -= 1;
+        }
+        let mut buf = [0 as c_char; HAPTICD_BODY_NAME_CAPACITY];
+        for (slot, byte) in buf.iter_mut().zip(name[..end].bytes()) {
+            *slot = byte as c_char;
+        }
+        Self {
+            name: buf,
+            flags: if fixed { HAPTICD_SOLID_FIXED } else { 0 },
+        }
+    }
+
+    /// The name up to its NUL, or `None` if it is unterminated or not UTF-8.
+    pub fn name_str(&self) -> Option<&str> {
+        // SAFETY: c_char and u8 have the same size and alignment.
+        let bytes: &[u8; HAPTICD_BODY_NAME_CAPACITY] = unsafe { &*self.name.as_ptr().cast() };
+        CStr::from_bytes_until_nul(bytes).ok()?.to_str().ok()
+    }
 }
 
 /// How a Rust scene plugin checks one of its scene files for a number of pointers: nothing,
@@ -420,6 +474,49 @@ unsafe extern "C" fn geometry_triangles(
     HAPTICD_OK
 }
 
+unsafe extern "C" fn control_body(
+    instance: *mut std::ffi::c_void,
+    index: u32,
+    out: *mut HapticdBodyInfo,
+) -> i32 {
+    if instance.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: the host keeps the extension's contract: a live instance on the main thread.
+    let scene = unsafe { instance_mut(instance) };
+    let mut info = None;
+    let status = guard(|| {
+        info = scene.body(index as usize);
+        HAPTICD_OK
+    });
+    if status != HAPTICD_OK {
+        return status;
+    }
+    // SAFETY: `out` is null or valid for one write, per the contract.
+    unsafe { write_out(out, info) }
+}
+
+unsafe extern "C" fn control_apply(
+    instance: *mut std::ffi::c_void,
+    command: *const HapticdSceneCommand,
+    state: *mut HapticdBodyState,
+) -> i32 {
+    if instance.is_null() || command.is_null() || state.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: non-null and valid, on the thread that steps the instance, per the contract.
+    let (scene, command, state) = unsafe { (instance_mut(instance), &*command, &mut *state) };
+    guard(|| scene.apply(command, state))
+}
+
+/// The control extension every Rust scene plugin serves, around [`SceneInstance::body`]
+/// and [`SceneInstance::apply`].
+static SCENE_CONTROL: HapticdSceneControl = HapticdSceneControl {
+    struct_size: std::mem::size_of::<HapticdSceneControl>() as u32,
+    body: Some(control_body),
+    apply: Some(control_apply),
+};
+
 /// The geometry extension every Rust scene plugin serves, around
 /// [`SceneInstance::geometry`].
 static SCENE_GEOMETRY: HapticdSceneGeometry = HapticdSceneGeometry {
@@ -437,8 +534,8 @@ pub struct StaticSceneFiles(pub HapticdSceneFiles);
 // SAFETY: it holds only function pointers and a size.
 unsafe impl Sync for StaticSceneFiles {}
 
-/// Body of the exported `get_extension` function: the geometry extension, and the files
-/// extension when the plugin runs scene files.
+/// Body of the exported `get_extension` function: the geometry and control extensions, and
+/// the files extension when the plugin runs scene files.
 ///
 /// # Safety
 /// `id` is null or NUL-terminated.
@@ -454,6 +551,9 @@ pub unsafe fn scene_extension(
     let id = unsafe { CStr::from_ptr(id) };
     if id == HAPTICD_EXT_SCENE_GEOMETRY {
         return (&SCENE_GEOMETRY as *const HapticdSceneGeometry).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_CONTROL {
+        return (&SCENE_CONTROL as *const HapticdSceneControl).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

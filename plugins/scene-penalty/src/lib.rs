@@ -63,6 +63,20 @@ impl SceneInstance for Penalty {
     fn geometry(&self) -> Option<&Geometry> {
         Some(&self.1)
     }
+
+    fn body(&self, index: usize) -> Option<HapticdBodyInfo> {
+        self.0.body_info(index)
+    }
+
+    fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
+        match self.0.apply(command) {
+            Some(after) => {
+                *state = after;
+                HAPTICD_OK
+            }
+            None => HAPTICD_ERROR_ARGUMENT,
+        }
+    }
 }
 
 /// Check a penalty scene file without building its world (or cutting its meshes).

@@ -61,6 +61,20 @@ impl SceneInstance for Rapier {
     fn geometry(&self) -> Option<&Geometry> {
         Some(&self.1)
     }
+
+    fn body(&self, index: usize) -> Option<HapticdBodyInfo> {
+        self.0.body_info(index)
+    }
+
+    fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
+        match self.0.control(command) {
+            Some(after) => {
+                *state = after;
+                HAPTICD_OK
+            }
+            None => HAPTICD_ERROR_ARGUMENT,
+        }
+    }
 }
 
 /// The rapier scene in the file at `path` for `pointers` pointers.

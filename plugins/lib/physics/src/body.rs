@@ -107,6 +107,18 @@ impl Body {
         }
     }
 
+    /// The inverse inertia tensor in the world frame, at the body's pose.
+    pub fn world_inverse_inertia(&self) -> DMat3 {
+        self.world_inverse_inertia
+    }
+
+    /// Make the mass `mass`, the inertia scaled with it (the same shape of another density).
+    pub fn set_mass(&mut self, mass: f64) {
+        let scale = mass / self.mass;
+        (self.mass, self.inertia) = (mass, self.inertia * scale);
+        self.world_inverse_inertia *= 1.0 / scale;
+    }
+
     /// Put a fixed body at a pose, moving with the given velocities (a pointer that follows
     /// the user's grip).
     pub fn place(&mut self, position: DVec3, orientation: DQuat, velocity: DVec3, spin: DVec3) {

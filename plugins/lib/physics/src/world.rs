@@ -190,6 +190,10 @@ pub struct World {
     /// A load on each body besides gravity (a pulling spring, a virtual coupling), its
     /// torque about the body's centroid; it stays until changed.
     pub loads: Vec<Wrench>,
+    /// Each body's own friction coefficient, set from outside: a contact takes the lower of
+    /// its two bodies' (the material's for a body with none), its static coefficient
+    /// scaled with it.
+    pub friction: Vec<Option<f64>>,
     /// Pairs of bodies (i < j) whose contacts the steps leave out, such as a held body and
     /// the pointers holding it, whose forces come from the grasp instead. Room for
     /// [`IGNORED_PAIRS`] without allocating.
@@ -357,6 +361,7 @@ impl World {
             last_loads: vec![Wrench::ZERO; n],
             wrenches: vec![Wrench::default(); n],
             loads: vec![Wrench::ZERO; n],
+            friction: vec![None; n],
             ignored_pairs: Vec::with_capacity(IGNORED_PAIRS),
             bodies,
             gravity,
@@ -607,6 +612,42 @@ impl World {
         }
     }
 
+    /// Put body `i` at a pose from outside: its contacts start afresh (friction springs
+    /// stretched to where it was would yank it back) and it wakes.
+    pub fn teleport(&mut self, i: usize, position: DVec3, orientation: DQuat) {
+        let b = &mut self.bodies[i];
+        (b.position, b.orientation) = (position, orientation.normalize());
+        b.update_world_shape();
+        let pieces = self.first_piece[self.bodies.len()];
+        for p in self.first_piece[i]..self.first_piece[i + 1] {
+            for q in 0..pieces {
+                self.pairs[p * pieces + q].touched = 0;
+                self.pairs[q * pieces + p].touched = 0;
+            }
+        }
+        self.wake(i);
+    }
+
+    /// The friction coefficient of body `i`'s contacts.
+    pub fn friction_of(&self, i: usize) -> f64 {
+        self.friction[i].unwrap_or(self.material.friction.dynamic_coefficient)
+    }
+
+    /// `material` with the friction of a contact between bodies `i` and `j`.
+    fn pair_friction(&self, material: &mut Material, i: usize, j: usize) {
+        if self.friction[i].is_none() && self.friction[j].is_none() {
+            return;
+        }
+        let f = &mut material.friction;
+        let mu = self.friction_of(i).min(self.friction_of(j));
+        let ratio = if f.dynamic_coefficient > 0.0 {
+            f.static_coefficient / f.dynamic_coefficient
+        } else {
+            1.0
+        };
+        (f.dynamic_coefficient, f.static_coefficient) = (mu, mu * ratio);
+    }
+
     /// Wake body `i`.
     fn wake(&mut self, i: usize) {
         if self.asleep[i].take().is_some() {
@@ -757,6 +798,7 @@ impl World {
         // stop that motion in one step. m is the pair's effective mass at the
         // contact, along the damped direction, turning included.
         let (mut m, at) = (self.material, self.overlap_centre());
+        self.pair_friction(&mut m, i, j);
         let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
         // A body between several contacts (a block in a stack) takes every one's damper
         // in the same step: each may stop only its share of the motion, or together they

@@ -4,10 +4,12 @@
 //!
 //! - [`world`]: a [`RapierScene`](hapticd_physics::scene::RapierScene) as a rapier
 //!   world; its physics step with impulse or position feedback;
+//! - [`control`]: its bodies moved, pushed or changed from outside between steps;
 //! - [`surfaces`]: the nearest point, outward normal and surface velocity of every body
 //!   within reach of a pointer, found through rapier's query pipeline;
 //! - [`convert`]: between the project's `f64` glam types and rapier's `f32` ones.
 
+pub mod control;
 pub mod convert;
 pub mod surfaces;
 pub mod world;

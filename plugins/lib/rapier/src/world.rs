@@ -53,15 +53,17 @@ impl BodyState {
 
 /// A multi-rate world on rapier.
 pub struct RapierWorld {
-    physics: PhysicsWorld,
+    pub(crate) physics: PhysicsWorld,
     /// The rigid body of each body of the file.
-    bodies: Vec<RigidBodyHandle>,
+    pub(crate) bodies: Vec<RigidBodyHandle>,
+    /// The name of each body of the file.
+    pub(crate) names: Vec<String>,
     /// Each collider (object number) and the body it belongs to.
     pieces: Vec<(ColliderHandle, usize)>,
     /// Kinematic bodies following the pointers (position feedback only).
     pointers: Vec<RigidBodyHandle>,
     /// Each body's inertia about its centre of mass in its own axes, and its mass.
-    inertia: Vec<(glam::DMat3, f64)>,
+    pub(crate) inertia: Vec<(glam::DMat3, f64)>,
     /// Each body's objects: the first and how many.
     objects: Vec<(u32, u32)>,
     /// The last change of the hand each body took in.
@@ -257,6 +259,7 @@ impl RapierWorld {
         let mut world = Self {
             physics,
             bodies,
+            names: spec.names.clone(),
             pieces,
             pointers: Vec::new(),
             inertia: spec.bodies.iter().map(|b| (b.inertia, b.mass)).collect(),

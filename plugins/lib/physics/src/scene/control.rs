@@ -1,0 +1,236 @@
+//! A running penalty world changed from outside (the scene-control extension of the plugin
+//! ABI): the scene file's bodies, by id, moved, pushed, made heavier or more slippery
+//! between two steps. The pointers' bodies are the hand's, not the caller's.
+
+use glam::DVec3;
+use hapticd_core::kinematics::{Wrench, quat_from_wxyz, quat_to_wxyz};
+use hapticd_plugin_api::*;
+
+use super::PenaltyScene;
+
+impl PenaltyScene {
+    /// Body `i` of the scene file as the control extension lists it (None past the last).
+    pub fn body_info(&self, i: usize) -> Option<HapticdBodyInfo> {
+        (i < self.first_pointer)
+            .then(|| HapticdBodyInfo::new(&self.names[i], self.world.bodies[i].fixed))
+    }
+
+    /// Body `i`'s state now (`i` a body of the file).
+    pub fn body_state(&self, i: usize) -> HapticdBodyState {
+        let b = &self.world.bodies[i];
+        HapticdBodyState {
+            position: b.position.to_array(),
+            orientation: quat_to_wxyz(b.orientation),
+            velocity: b.velocity.to_array(),
+            spin: b.spin.to_array(),
+            mass: if b.fixed { f64::INFINITY } else { b.mass },
+            friction: self.world.friction_of(i),
+            force: self.world.loads[i].force.to_array(),
+        }
+    }
+
+    /// Carry out `command` on a body of the file; its state after, or None for a command
+    /// it cannot take (no such body, a value not finite, a push on a fixed body, an unknown
+    /// kind). Allocates nothing: it runs in the haptic tick.
+    pub fn apply(&mut self, command: &HapticdSceneCommand) -> Option<HapticdBodyState> {
+        let i = command.body as usize;
+        if i >= self.first_pointer || !command.is_finite() {
+            return None;
+        }
+        let fixed = self.world.bodies[i].fixed;
+        let vector = DVec3::from(command.vector);
+        match command.kind {
+            HAPTICD_COMMAND_QUERY => {}
+            HAPTICD_COMMAND_SET_POSE => {
+                let orientation = quat_from_wxyz(command.orientation);
+                if orientation.length() < 0.5 {
+                    return None;
+                }
+                self.world
+                    .teleport(i, DVec3::from(command.position), orientation);
+            }
+            HAPTICD_COMMAND_SET_VELOCITY if !fixed => {
+                let b = &mut self.world.bodies[i];
+                (b.velocity, b.spin) = (vector, DVec3::from(command.spin));
+            }
+            HAPTICD_COMMAND_IMPULSE if !fixed => {
+                let b = &mut self.world.bodies[i];
+                let arm = DVec3::from(command.position) - b.position;
+                let (dv, dw) = (
+                    vector / b.mass,
+                    b.world_inverse_inertia() * arm.cross(vector),
+                );
+                b.velocity += dv;
+                b.spin += dw;
+            }
+            HAPTICD_COMMAND_SET_FORCE if !fixed => {
+                self.world.loads[i] = Wrench {
+                    force: vector,
+                    torque: DVec3::ZERO,
+                };
+            }
+            HAPTICD_COMMAND_SET_MASS if !fixed && command.value > 0.0 => {
+                self.world.bodies[i].set_mass(command.value);
+            }
+            HAPTICD_COMMAND_SET_FRICTION if command.value >= 0.0 => {
+                self.world.friction[i] = Some(command.value);
+            }
+            _ => return None,
+        }
+        Some(self.body_state(i))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+    use std::path::Path;
+
+    const SCENE: &str = "name: control
+dt: 0.001
+material: { stiffness: 1.0e5, damping: 50, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e5, friction_damping: 50, slip_speed: 0.001 }
+bodies:
+  - { name: floor, box: [0.4, 0.1, 0.4], position: [0, -0.05, 0], fixed: true }
+  - { name: block, box: [0.04, 0.02, 0.06], position: [0, 0.01, 0], density: 1000 }
+pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
+";
+
+    fn scene() -> PenaltyScene {
+        PenaltyScene::parse(SCENE, Path::new("control.yaml"), 1).expect("the scene parses")
+    }
+
+    fn command(kind: u32, body: u32) -> HapticdSceneCommand {
+        HapticdSceneCommand {
+            kind,
+            body,
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            ..HapticdSceneCommand::default()
+        }
+    }
+
+    #[test]
+    fn the_files_bodies_are_listed_by_name_and_the_pointers_are_not() {
+        let mut scene = scene();
+        let names: Vec<_> = (0..4)
+            .map_while(|i| scene.body_info(i))
+            .map(|b| (b.name_str().unwrap().to_string(), b.flags))
+            .collect();
+        assert_eq!(
+            names,
+            [
+                ("floor".to_string(), HAPTICD_SOLID_FIXED),
+                ("block".to_string(), 0)
+            ]
+        );
+        assert!(
+            scene.apply(&command(HAPTICD_COMMAND_QUERY, 2)).is_none(),
+            "the pointer"
+        );
+    }
+
+    #[test]
+    fn an_impulse_changes_momentum_by_itself_and_angular_momentum_by_its_moment() {
+        let mut scene = scene();
+        let before = scene.body_state(1);
+        let mass = before.mass;
+        assert!((mass - 0.04 * 0.02 * 0.06 * 1000.0).abs() < 1e-12);
+        let j = DVec3::new(0.003, 0.001, -0.002);
+        let at = DVec3::new(0.01, 0.02, 0.005);
+        let after = scene
+            .apply(&HapticdSceneCommand {
+                vector: j.to_array(),
+                position: at.to_array(),
+                ..command(HAPTICD_COMMAND_IMPULSE, 1)
+            })
+            .expect("a free body takes an impulse");
+        let dp = (DVec3::from(after.velocity) - DVec3::from(before.velocity)) * mass;
+        assert!((dp - j).length() < 1e-15, "{dp} vs {j}");
+        // The box's own inertia, from its edges: I = m/12 · (b² + c², …).
+        let (a, b, c) = (0.04_f64, 0.02_f64, 0.06_f64);
+        let inertia = DVec3::new(b * b + c * c, a * a + c * c, a * a + b * b) * mass / 12.0;
+        let moment = (at - DVec3::from(before.position)).cross(j);
+        let dl = (DVec3::from(after.spin) - DVec3::from(before.spin)) * inertia;
+        assert!((dl - moment).length() < 1e-15, "{dl} vs {moment}");
+    }
+
+    #[test]
+    fn a_body_set_to_a_pose_is_there_at_the_next_step_and_starts_its_contacts_afresh() {
+        let mut scene = scene();
+        for _ in 0..200 {
+            scene.world.step(0.001);
+        }
+        let turn = DQuat::from_rotation_y(0.5);
+        let to = DVec3::new(0.1, 0.05, -0.02);
+        scene
+            .apply(&HapticdSceneCommand {
+                position: to.to_array(),
+                orientation: quat_to_wxyz(turn),
+                ..command(HAPTICD_COMMAND_SET_POSE, 1)
+            })
+            .expect("a body takes a pose");
+        let (v, w) = (scene.world.bodies[1].velocity, scene.world.bodies[1].spin);
+        scene.world.step(0.001);
+        let b = &scene.world.bodies[1];
+        // It kept its velocity and fell for one step, touching nothing: x = (v + g·dt)·dt.
+        let expected = to + (v + DVec3::new(0.0, -9.81, 0.0) * 0.001) * 0.001;
+        assert!(
+            (b.position - expected).length() < 1e-12,
+            "{} vs {expected}",
+            b.position
+        );
+        let turned = DQuat::from_scaled_axis(b.spin * 0.001) * turn;
+        assert!(b.orientation.angle_between(turned) < 1e-7, "{w}");
+    }
+
+    #[test]
+    fn a_held_force_mass_and_friction_change_the_body_and_refusals_change_nothing() {
+        let mut scene = scene();
+        let pushed = scene
+            .apply(&HapticdSceneCommand {
+                vector: [0.0, 1.0, 0.0],
+                ..command(HAPTICD_COMMAND_SET_FORCE, 1)
+            })
+            .unwrap();
+        assert_eq!(pushed.force, [0.0, 1.0, 0.0]);
+        let heavier = scene
+            .apply(&HapticdSceneCommand {
+                value: 2.0,
+                ..command(HAPTICD_COMMAND_SET_MASS, 1)
+            })
+            .unwrap();
+        assert_eq!(heavier.mass, 2.0);
+        let slippery = scene
+            .apply(&HapticdSceneCommand {
+                value: 0.05,
+                ..command(HAPTICD_COMMAND_SET_FRICTION, 1)
+            })
+            .unwrap();
+        assert_eq!(slippery.friction, 0.05);
+        let before = scene.body_state(1);
+        for refused in [
+            HapticdSceneCommand {
+                vector: [f64::NAN, 0.0, 0.0],
+                ..command(HAPTICD_COMMAND_SET_VELOCITY, 1)
+            },
+            HapticdSceneCommand {
+                value: -1.0,
+                ..command(HAPTICD_COMMAND_SET_MASS, 1)
+            },
+            HapticdSceneCommand {
+                vector: [1.0, 0.0, 0.0],
+                ..command(HAPTICD_COMMAND_IMPULSE, 0)
+            },
+            HapticdSceneCommand {
+                orientation: [0.0; 4],
+                ..command(HAPTICD_COMMAND_SET_POSE, 1)
+            },
+            command(99, 1),
+            command(HAPTICD_COMMAND_QUERY, 7),
+        ] {
+            assert!(scene.apply(&refused).is_none(), "{refused:?}");
+        }
+        assert_eq!(scene.body_state(1), before);
+    }
+}
