@@ -187,7 +187,7 @@ install: $(C_MECHANISM)
 	@# No bus activation (README, "Who starts hapticd"): drop the file earlier installs left.
 	rm -f $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/org.hapticd.Hapticd1.service
 	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
-		config/dbus/org.hapticd.Renderer1.xml \
+		config/dbus/org.hapticd.Hapticd1.Scene.xml config/dbus/org.hapticd.Renderer1.xml \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces/
 
 # The Debian packages, from a tree installed under /usr (config/debian/build-deb strips it,

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use glam::DVec3;
 use hapticd_render::picture::Picture;
 use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
@@ -24,6 +25,11 @@ const DEVICE: [&str; 3] = [
     "org.hapticd.Hapticd1.Device",
 ];
 
+const SCENE: [&str; 3] = [
+    NAME,
+    "/org/hapticd/Hapticd1/scene",
+    "org.hapticd.Hapticd1.Scene",
+];
 const PICTURES: [&str; 3] = [RENDERER, "/org/hapticd/Renderer1", "org.hapticd.Renderer1"];
 
 /// Taken shared by every test's bus, and exclusively by the one that measures the loop's
@@ -1296,6 +1302,36 @@ fn an_unprivileged_client_may_read_but_not_change() {
     );
     denied(MANAGER, "org.hapticd.Hapticd1.Manager.ReloadPlugins", &[]);
     denied(MANAGER, "org.hapticd.Hapticd1.Manager.Restart", &[]);
+    for method in ["SetMass", "SetFriction"] {
+        denied(
+            SCENE,
+            &format!("org.hapticd.Hapticd1.Scene.{method}"),
+            &["string:block", "double:1"],
+        );
+    }
+    denied(
+        SCENE,
+        "org.hapticd.Hapticd1.Scene.SetForce",
+        &["string:block", "array:double:0,1,0"],
+    );
+    // Where a body is may be read by anyone: the daemon itself answers (no bodies here).
+    let mut setpriv = Command::new("setpriv");
+    setpriv.args([
+        "--reuid=65534",
+        "--regid=65534",
+        "--clear-groups",
+        "dbus-send",
+    ]);
+    let method = "org.hapticd.Hapticd1.Scene.Body";
+    let (name, _) = dbus_send_error(
+        setpriv,
+        &bus.address,
+        NAME,
+        SCENE[1],
+        method,
+        &["string:block"],
+    );
+    assert_eq!(name, "org.hapticd.Hapticd1.Error.Unavailable");
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000");
 }
 
@@ -1733,7 +1769,7 @@ fn the_interface_files_are_what_the_daemon_introspects() {
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
     let _renderer = Renderer::start(&bus, &dir, &[]);
-    for [name, path, interface] in [MANAGER, DEVICE, PICTURES] {
+    for [name, path, interface] in [MANAGER, DEVICE, SCENE, PICTURES] {
         let xml = bus.ok(&["introspect", "--xml-interface", name, path]);
         let start = xml
             .find(&format!("<interface name=\"{interface}\">"))
@@ -1758,6 +1794,7 @@ fn the_interface_files_are_what_the_daemon_introspects() {
         assert!(live.contains("<!--\n     Version of this D-Bus API") || interface != MANAGER[2]);
         assert!(live.contains("Take the counter offsets now") || interface != DEVICE[2]);
         assert!(live.contains("One picture of the world now") || interface != PICTURES[2]);
+        assert!(live.contains("Give `body` the momentum") || interface != SCENE[2]);
     }
 }
 
@@ -2626,4 +2663,209 @@ fn a_touch_begins_on_the_floor_and_ends_when_the_hand_lifts() {
     );
     assert!(ended.4[1] > -0.03 - 2e-3, "lifted off: {ended:?}");
     daemon.stop();
+}
+
+impl Bus {
+    /// Scene method `method` with busctl's `signature` and words `args`; the body's state it
+    /// answers with, as `(key, numbers)` (one number for `mass` and `friction`).
+    fn drive(&self, method: &str, signature: &str, args: &[&str]) -> Result<BodyState, String> {
+        let mut all = vec![
+            "--json=short",
+            "--",
+            "call",
+            SCENE[0],
+            SCENE[1],
+            SCENE[2],
+            method,
+        ];
+        all.push(signature);
+        all.extend(args);
+        let out = self.busctl(&all);
+        if !out.status.success() {
+            return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
+        }
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let map = &json["data"][0];
+        let numbers = |key: &str| -> Vec<f64> {
+            match &map[key]["data"] {
+                serde_json::Value::Array(v) => v.iter().map(|x| x.as_f64().unwrap()).collect(),
+                other => vec![other.as_f64().unwrap_or(f64::INFINITY)],
+            }
+        };
+        Ok(BodyState {
+            position: DVec3::from_slice(&numbers("position")),
+            velocity: DVec3::from_slice(&numbers("velocity")),
+            mass: numbers("mass")[0],
+            friction: numbers("friction")[0],
+            force: DVec3::from_slice(&numbers("force")),
+        })
+    }
+
+    /// The D-Bus error name of Scene method `method` with dbus-send's `args`.
+    fn drive_error(&self, method: &str, args: &[&str]) -> String {
+        let method = format!("{}.{method}", SCENE[2]);
+        self.error(SCENE[1], &method, args).0
+    }
+}
+
+/// A body's state as the Scene interface answers it.
+#[derive(Debug, Clone, Copy)]
+struct BodyState {
+    position: DVec3,
+    velocity: DVec3,
+    mass: f64,
+    friction: f64,
+    force: DVec3,
+}
+
+#[test]
+fn the_running_world_is_driven_from_outside_under_both_engines_and_hostile_values_are_named() {
+    let dir = scratch("drive");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // The static scene has no bodies to drive.
+    assert_eq!(bus.get(SCENE, "Bodies"), "a(sb) 0");
+    assert_eq!(
+        bus.drive_error("Body", &["string:block"]),
+        "org.hapticd.Hapticd1.Error.Unavailable"
+    );
+    // Penalty (f64, in the haptic tick) and rapier (f32, in the physics thread).
+    for (scene, tolerance) in [("blocks", 1e-9), ("push", 1e-5)] {
+        switch_when_prepared(&bus, scene);
+        let bodies = bus.get(SCENE, "Bodies");
+        assert!(
+            bodies.contains("\"block\" false") && bodies.contains("true"),
+            "{bodies}"
+        );
+        // Once the world has settled from its start, an impulse through the centre changes
+        // momentum by J: the state answered is the body's right after it, before the world
+        // steps on.
+        std::thread::sleep(Duration::from_millis(500));
+        let before = bus.drive("Body", "s", &["block"]).unwrap();
+        let j = DVec3::new(0.4, 0.0, 0.15) * before.mass;
+        let pushed = bus
+            .drive(
+                "ApplyImpulse",
+                "sadad",
+                &["block", "3", &j.x.to_string(), "0", &j.z.to_string(), "0"],
+            )
+            .unwrap();
+        let momentum = (pushed.velocity - before.velocity) * before.mass;
+        assert!(
+            (momentum - j).length() < 0.01 * j.length(),
+            "{scene}: {momentum} vs {j}"
+        );
+        // A pose is there when answered (the forces ramped to zero and back around it).
+        let to = DVec3::new(0.05, 0.08, -0.02);
+        let placed = bus
+            .drive(
+                "SetPose",
+                "sadad",
+                &[
+                    "block", "3", "0.05", "0.08", "-0.02", "4", "1", "0", "0", "0",
+                ],
+            )
+            .unwrap();
+        assert!(
+            (placed.position - to).length() < tolerance,
+            "{scene}: {placed:?}"
+        );
+        // By id as by name; mass, friction and a held force are answered as set.
+        let id = bodies
+            .split('"')
+            .skip(1)
+            .step_by(2)
+            .position(|n| n == "block")
+            .unwrap()
+            .to_string();
+        let lighter = bus.drive("SetMass", "sd", &[&id, "0.5"]).unwrap();
+        assert!(
+            (lighter.mass - 0.5).abs() < tolerance,
+            "{scene}: {lighter:?}"
+        );
+        let slippery = bus.drive("SetFriction", "sd", &["block", "0.1"]).unwrap();
+        assert!((slippery.friction - 0.1).abs() < tolerance);
+        let held = bus
+            .drive("SetForce", "sad", &["block", "3", "0", "4.905", "0"])
+            .unwrap();
+        assert!((held.force - DVec3::new(0.0, 4.905, 0.0)).length() < tolerance);
+        // Hostile callers get a named error and change nothing.
+        let error = |method: &str, args: &[&str]| bus.drive_error(method, args);
+        let named = |short: &str| format!("org.hapticd.Hapticd1.Error.{short}");
+        assert_eq!(
+            error("Body", &["string:no-such-body"]),
+            named("UnknownBody")
+        );
+        assert_eq!(
+            error("SetMass", &["string:99", "double:1"]),
+            named("UnknownBody")
+        );
+        assert_eq!(
+            error("SetMass", &["string:block", "double:nan"]),
+            named("NotFinite")
+        );
+        assert_eq!(
+            error("SetMass", &["string:block", "double:-1"]),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error("SetMass", &["string:block", "double:1e300"]),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "SetVelocity",
+                &["string:block", "array:double:1e9,0,0", "array:double:0,0,0"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "SetPose",
+                &[
+                    "string:block",
+                    "array:double:0,inf,0",
+                    "array:double:1,0,0,0"
+                ]
+            ),
+            named("NotFinite")
+        );
+        assert_eq!(
+            error(
+                "SetPose",
+                &["string:block", "array:double:0,0", "array:double:1,0,0,0"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "SetPose",
+                &["string:block", "array:double:0,0,0", "array:double:0,0,0,0"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "ApplyImpulse",
+                &["string:block", "array:double:1e6,0,0", "array:double:"]
+            ),
+            named("OutOfRange")
+        );
+        let fixed = if scene == "blocks" { "table" } else { "floor" };
+        assert_eq!(
+            error(
+                "SetForce",
+                &[&format!("string:{fixed}"), "array:double:0,1,0"]
+            ),
+            named("FixedBody")
+        );
+        let after = bus.drive("Body", "s", &["block"]).unwrap();
+        assert!((after.mass - 0.5).abs() < tolerance && (after.friction - 0.1).abs() < tolerance);
+    }
+    assert!(
+        !bus.get(DEVICE, "State").contains("fault"),
+        "{}",
+        bus.get(DEVICE, "State")
+    );
 }

@@ -151,6 +151,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/share/dbus-1/system.d/org.hapticd.Renderer1.conf",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Manager.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Device.xml",
+        "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Scene.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Renderer1.xml",
         "usr/share/doc/hapticd/README.md",
         "usr/share/doc/hapticd/LICENSE-MIT",

@@ -385,10 +385,14 @@ impl HapticLoop {
         }
     }
 
-    /// Swap in the incoming scene once every effector's force is down to zero.
+    /// Swap in the incoming scene once every effector's force is down to zero, and let the
+    /// scene carry out what waited for that.
     fn swap_scene_when_quiet(&mut self) {
         if self.effectors.iter().any(|e| e.guard.gain() > 0.0) {
             return;
+        }
+        if self.scene.needs_quiet() {
+            self.scene.quiet();
         }
         let Some(mut scene) = self.incoming.take() else {
             return;
@@ -489,7 +493,7 @@ impl HapticLoop {
             self.wrenches.fill(Wrench::ZERO);
         }
         let mut all_finite = true;
-        let switching = self.incoming.is_some();
+        let switching = self.incoming.is_some() || self.scene.needs_quiet();
         for (index, e) in self.effectors.iter_mut().enumerate() {
             let mut wrench = self.wrenches[index];
             wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);

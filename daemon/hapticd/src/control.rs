@@ -18,12 +18,14 @@ use crate::state::{Calibration, DeviceRecord, StateDir};
 use hapticd_core::diagnostics::{Diagnostic, Diagnostics};
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
+use hapticd_core::scene::control::{Body, CommandError, SceneControl};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
 use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_share::SharedWorldFile;
+use hapticd_plugin_api::{HapticdBodyState, HapticdSceneCommand};
 
 /// Errors of the control plane, typed as the layers below gave them; the bus names each
 /// (`org.hapticd.Hapticd1.Error.*`) at its edge, in `bus::error`.
@@ -55,12 +57,15 @@ pub enum Error {
     NameExpected(String),
     /// The scene's meshes are being cut into convex pieces; the running scene stays.
     Preparing(String),
+    /// A change to the running world was not carried out.
+    Command(CommandError),
 }
 
 impl std::fmt::Display for Error {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Error::Scene(e) => e.fmt(f),
+            Error::Command(e) => e.fmt(f),
             Error::SceneNotKept(findings) | Error::InvalidConfiguration(findings) => {
                 findings.fmt(f)
             }
@@ -119,6 +124,8 @@ pub struct DeviceHandle {
     fixed: Fixed,
     commands: Mutex<spsc::Producer<LoopCommand>>,
     telemetry: Mutex<Telemetry>,
+    /// The control of the running scene's world (None: it cannot be changed from outside).
+    control: Mutex<Option<SceneControl>>,
     /// What is remembered, under one lock so that concurrent requests persist in the order
     /// they take effect.
     remembered: Mutex<Remembered>,
@@ -162,6 +169,8 @@ pub struct DeviceSetup {
     pub telemetry: Option<SharedTelemetryFile>,
     /// What the command line fixes for every start, whatever is bound or saved.
     pub fixed: Fixed,
+    /// The control of the first scene's world, if it can be changed from outside.
+    pub control: Option<SceneControl>,
 }
 
 /// What hapticd's command line fixes for every start (`--sim MECH`, `--rate`): a binding or
@@ -191,6 +200,7 @@ impl DeviceHandle {
             fixed: setup.fixed,
             commands: Mutex::new(commands),
             telemetry: Mutex::new(Telemetry::default()),
+            control: Mutex::new(setup.control),
             remembered: Mutex::new(Remembered {
                 record: setup.record,
                 defaults: setup.defaults,
@@ -414,8 +424,9 @@ impl DeviceHandle {
 
     /// Swap in `scene` with a force ramp; its proxy parameters become the defaults that the
     /// user's overrides apply to.
-    pub fn switch_scene(&self, scene: Box<dyn Scene>) -> Result<(), Error> {
+    pub fn switch_scene(&self, mut scene: Box<dyn Scene>) -> Result<(), Error> {
         let before = self.telemetry().frame.scene_switches;
+        let control = scene.take_control();
         let mut guard = lock(&self.remembered);
         let mut defaults = guard.defaults;
         if let Some(proxy) = scene.proxy() {
@@ -427,7 +438,34 @@ impl DeviceHandle {
         guard.defaults = defaults;
         drop(guard);
         self.wait_for("swap the scene", |f| f.scene_switches > before)?;
+        *lock(&self.control) = control;
         Ok(())
+    }
+
+    /// The bodies of the running world (none when it cannot be changed from outside).
+    pub fn bodies(&self) -> Vec<Body> {
+        lock(&self.control)
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.bodies().to_vec())
+    }
+
+    /// Carry out `command` on `body` (a name, or an id) of the running world between two of
+    /// its steps; the body's state after it.
+    pub fn drive(
+        &self,
+        body: &str,
+        mut command: HapticdSceneCommand,
+    ) -> Result<HapticdBodyState, Error> {
+        let mut control = lock(&self.control);
+        let control = control.as_mut().ok_or_else(|| {
+            Error::Unavailable(
+                "the running scene cannot be changed from outside (its plugin offers no \
+                 hapticd.scene.control/1)"
+                    .into(),
+            )
+        })?;
+        command.body = control.find(body).map_err(Error::Command)?;
+        control.send(command).map_err(Error::Command)
     }
 
     /// Bind `mechanism` to this device from its next start.
@@ -632,6 +670,26 @@ impl Daemon {
         inner.active_scene = loaded.unwrap_or_else(|| scene.to_string());
         inner.active_file = file;
         Ok(())
+    }
+
+    /// The bodies of the running world, as every device runs it.
+    pub fn bodies(&self) -> Vec<Body> {
+        self.devices.first().map_or_else(Vec::new, |d| d.bodies())
+    }
+
+    /// Carry out `command` on `body` (a name, or an id) in every device's world (each runs
+    /// the scene); the body's state after it in the first.
+    pub fn drive(
+        &self,
+        body: &str,
+        command: HapticdSceneCommand,
+    ) -> Result<HapticdBodyState, Error> {
+        let mut first = None;
+        for device in &self.devices {
+            let state = device.drive(body, command)?;
+            first.get_or_insert(state);
+        }
+        first.ok_or_else(|| Error::Unavailable("no device runs a world".into()))
     }
 
     /// Re-read the configuration file and rescan the mechanism directories, as a start

@@ -28,6 +28,7 @@ use crate::plugin;
 use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
+use hapticd_core::scene::control::{self, Incoming, Reply, Request, SceneControl};
 use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
 use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_bodies, check_planes};
 use hapticd_core::scene::{Pointer, Scene};
@@ -39,6 +40,10 @@ use hapticd_core::world_state::{MAX_BODIES, MAX_SOLIDS, MAX_TRIANGLES, body_pose
 struct Instance {
     vtable: HapticdSceneVtable,
     pointer: *mut c_void,
+    /// The control extension's `apply`, when the plugin has one.
+    apply: Option<
+        unsafe extern "C" fn(*mut c_void, *const HapticdSceneCommand, *mut HapticdBodyState) -> i32,
+    >,
 }
 
 // SAFETY: an instance is used by one thread at a time (the haptic thread for direct scenes,
@@ -46,6 +51,18 @@ struct Instance {
 unsafe impl Send for Instance {}
 
 impl Instance {
+    /// [the stepping thread, between steps] Carry out `request` and answer it through
+    /// `replies` (a full ring drops the answer: its caller has given up waiting).
+    fn carry_out(&self, request: &Request, replies: &mut spsc::Producer<Reply>) {
+        let mut state = HapticdBodyState::default();
+        let status = match self.apply {
+            // SAFETY: a live instance on its stepping thread, valid command and state.
+            Some(apply) => unsafe { apply(self.pointer, request.command(), &mut state) },
+            None => HAPTICD_ERROR_FAILED,
+        };
+        replies.push(Reply::to(request, status, state));
+    }
+
     /// [the stepping thread] The plugin's bodies into `poses`; how many it has (none when
     /// it cannot tell, before ABI 1.2).
     fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
@@ -168,9 +185,16 @@ pub fn load(
         };
         return Err(format!("{}: {why}", path.display()));
     }
-    let instance = Instance { vtable, pointer };
+    let mut instance = Instance {
+        vtable,
+        pointer,
+        apply: None,
+    };
     let geometry = read_geometry(&loaded, &instance)
         .map_err(|e| format!("{}: cannot draw its world: {e}", path.display()))?;
+    let (control, commands) = read_control(&loaded, &mut instance)
+        .map_err(|e| format!("{}: cannot list its bodies: {e}", path.display()))?
+        .unzip();
     // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())
@@ -180,6 +204,8 @@ pub fn load(
             name,
             instance,
             geometry,
+            control,
+            commands,
             pointers: vec![HapticdPointer::default(); pointers.len()],
             wrenches: vec![HapticdWrench::default(); pointers.len()],
             failed: false,
@@ -189,11 +215,14 @@ pub fn load(
         HAPTICD_SCENE_MULTIRATE
             if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
         {
-            let scene =
-                MultiRateScene::start(name, instance, geometry, info.physics_rate, pointers)
-                    .map_err(|e| {
-                        format!("{}: cannot start its physics thread: {e}", path.display())
-                    })?;
+            let scene = MultiRateScene::start(
+                name,
+                instance,
+                (geometry, control, commands),
+                info.physics_rate,
+                pointers,
+            )
+            .map_err(|e| format!("{}: cannot start its physics thread: {e}", path.display()))?;
             Ok(Box::new(scene))
         }
         style => Err(format!(
@@ -271,11 +300,54 @@ fn read_geometry(loaded: &plugin::LoadedPlugin, instance: &Instance) -> Result<G
     Ok(geometry)
 }
 
+/// The stepping side's end of a world's control: the requests, and where answers go.
+type Commands = (Incoming, spsc::Producer<Reply>);
+
+/// [main] The bodies of `instance`'s world as its plugin's control extension lists them,
+/// with the channel that changes them: the control plane's end and the stepping side's (None
+/// without the extension). The extension's `apply` is kept in the instance.
+fn read_control(
+    loaded: &plugin::LoadedPlugin,
+    instance: &mut Instance,
+) -> Result<Option<(SceneControl, Commands)>, String> {
+    // SAFETY: HapticdSceneControl is the struct of the control extension.
+    let extension: Option<HapticdSceneControl> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_CONTROL) };
+    let Some(extension) = extension else {
+        return Ok(None);
+    };
+    let (Some(body_of), Some(apply)) = (extension.body, extension.apply) else {
+        return Err("its control extension lacks a function".into());
+    };
+    let mut bodies = Vec::new();
+    for index in 0..MAX_BODIES as u32 {
+        let mut info = HapticdBodyInfo::new("", false);
+        // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
+        if unsafe { body_of(instance.pointer, index, &mut info) } != HAPTICD_OK {
+            break;
+        }
+        let name = info
+            .name_str()
+            .ok_or_else(|| format!("body {index} has no UTF-8 name ending in NUL"))?;
+        bodies.push(control::Body {
+            name: name.to_string(),
+            fixed: info.flags & HAPTICD_SOLID_FIXED != 0,
+        });
+    }
+    instance.apply = Some(apply);
+    let (control, incoming, replies) = control::channel(bodies);
+    Ok(Some((control, (incoming, replies))))
+}
+
 /// A direct scene: the plugin runs inside the haptic tick.
 struct DirectScene {
     name: String,
     instance: Instance,
     geometry: Geometry,
+    /// The control plane's end of its world's control, until taken.
+    control: Option<SceneControl>,
+    /// The stepping side's.
+    commands: Option<Commands>,
     pointers: Vec<HapticdPointer>,
     wrenches: Vec<HapticdWrench>,
     failed: bool,
@@ -293,6 +365,11 @@ impl Scene for DirectScene {
         wrenches.fill(Wrench::ZERO);
         if self.failed {
             return false;
+        }
+        if let Some((incoming, replies)) = &mut self.commands {
+            while let Some(request) = incoming.due() {
+                self.instance.carry_out(&request, replies);
+            }
         }
         for (out, p) in self.pointers.iter_mut().zip(pointers) {
             *out = p.to_abi();
@@ -339,6 +416,22 @@ impl Scene for DirectScene {
         self.instance.poses(poses)
     }
 
+    fn take_control(&mut self) -> Option<SceneControl> {
+        self.control.take()
+    }
+
+    fn needs_quiet(&self) -> bool {
+        self.commands.as_ref().is_some_and(|(i, _)| i.holding())
+    }
+
+    fn quiet(&mut self) {
+        if let Some((incoming, replies)) = &mut self.commands
+            && let Some(request) = incoming.release()
+        {
+            self.instance.carry_out(&request, replies);
+        }
+    }
+
     fn geometry(&self) -> &Geometry {
         &self.geometry
     }
@@ -366,6 +459,15 @@ impl BodySet {
 struct MultiRateScene {
     name: String,
     geometry: Geometry,
+    /// The control plane's end of its world's control, until taken.
+    control: Option<SceneControl>,
+    /// Requests from the control plane, handed on to the physics thread.
+    incoming: Option<Incoming>,
+    to_physics: spsc::Producer<Request>,
+    /// The sequence of the latest planes, and the one a change that waited for quiet is
+    /// felt from (the physics has carried it out and published planes after it).
+    seen: u64,
+    settling: Option<u64>,
     renderer: PlaneRenderer,
     bodies_in: Reader<BodySet>,
     hands_out: Writer<Hands>,
@@ -388,10 +490,12 @@ impl MultiRateScene {
     fn start(
         name: String,
         instance: Instance,
-        geometry: Geometry,
+        (geometry, control, commands): (Geometry, Option<SceneControl>, Option<Commands>),
         rate: f64,
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
+        let (incoming, mut replies) = commands.unzip();
+        let (to_physics, mut requests) = spsc::channel(16);
         let n = pointers.len();
         let mut initial = [HapticdPointer::default(); MAX_EFFECTORS];
         for (out, p) in initial.iter_mut().zip(pointers) {
@@ -430,6 +534,11 @@ impl MultiRateScene {
                 let mut bodies = BodySet::new();
                 let mut sequence = 0;
                 while !stop_flag.load(Ordering::Acquire) {
+                    if let Some(replies) = &mut replies {
+                        while let Some(request) = requests.pop() {
+                            instance.carry_out(&request, replies);
+                        }
+                    }
                     taken.impulses.clear();
                     taken.locals.clear();
                     while let Some(back) = hand_backs_in.pop() {
@@ -479,6 +588,11 @@ impl MultiRateScene {
         Ok(Self {
             name,
             geometry,
+            control,
+            incoming,
+            to_physics,
+            seen: 0,
+            settling: None,
             renderer: PlaneRenderer::new(rate, pointers),
             bodies_in,
             hands_out,
@@ -501,7 +615,16 @@ impl Scene for MultiRateScene {
     }
 
     fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
+        if let Some(incoming) = &mut self.incoming {
+            while let Some(request) = incoming.due() {
+                self.to_physics.push(request);
+            }
+        }
         let latest = self.planes_in.latest();
+        self.seen = latest.sequence;
+        if self.settling.is_some_and(|from| self.seen >= from) {
+            self.settling = None;
+        }
         let hand_backs = &mut self.hand_backs;
         // A full channel (a stalled physics thread) drops a hand-back rather than wait.
         let fresh = self.renderer.tick(latest, pointers, dt, wrenches, |back| {
@@ -534,6 +657,23 @@ impl Scene for MultiRateScene {
 
     fn reset(&mut self, pointers: &[Pointer]) {
         self.renderer.reset(pointers);
+    }
+
+    fn take_control(&mut self) -> Option<SceneControl> {
+        self.control.take()
+    }
+
+    fn needs_quiet(&self) -> bool {
+        self.incoming.as_ref().is_some_and(Incoming::holding) || self.settling.is_some()
+    }
+
+    /// The change goes to the physics; the forces come back once planes after it arrive
+    /// (two steps on: the next may have begun before the change reached it).
+    fn quiet(&mut self) {
+        if let Some(request) = self.incoming.as_mut().and_then(Incoming::release) {
+            self.to_physics.push(request);
+            self.settling = Some(self.seen + 2);
+        }
     }
 
     fn set_proxy(&mut self, parameters: &ProxyParameters) {

@@ -44,5 +44,6 @@ pub mod telemetry_share;
 pub mod world_share;
 
 pub use names::{
-    API_VERSION, BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, device_path,
+    API_VERSION, BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, SCENE_INTERFACE,
+    SCENE_PATH, device_path,
 };

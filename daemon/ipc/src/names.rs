@@ -8,6 +8,10 @@ pub const BUS_NAME: &str = "org.hapticd.Hapticd1";
 pub const MANAGER_PATH: &str = "/org/hapticd/Hapticd1";
 /// The manager's interface: scenes, mechanisms, the devices.
 pub const MANAGER_INTERFACE: &str = "org.hapticd.Hapticd1.Manager";
+/// The scene object's path: the running world's bodies.
+pub const SCENE_PATH: &str = "/org/hapticd/Hapticd1/scene";
+/// The scene object's interface: bodies read and changed from outside.
+pub const SCENE_INTERFACE: &str = "org.hapticd.Hapticd1.Scene";
 /// Each device's interface: state, calibration, parameters, telemetry.
 pub const DEVICE_INTERFACE: &str = "org.hapticd.Hapticd1.Device";
 /// The daemon's errors are `ERROR_PREFIX.<Name>`.

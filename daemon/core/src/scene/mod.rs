@@ -1,6 +1,7 @@
 //! Scenes: what the user touches. A scene turns the pointers' motion (one pointer per end
 //! effector) into the wrench each one should feel.
 //!
+//! - [`control`]: a running world changed from outside, between steps;
 //! - [`engine`]: which engine runs a scene file;
 //! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
 //! - [`local_dynamics`]: the bodies near a pointer, moved at the haptic rate between
@@ -10,6 +11,7 @@
 //! - [`output_check`]: a plugin's planes and wrenches checked before they are used;
 //! - scenes from plugins, direct or multi-rate, live in the daemon (they load code).
 
+pub mod control;
 pub mod engine;
 pub mod local_dynamics;
 pub mod multirate;
@@ -100,6 +102,22 @@ pub trait Scene: Send {
     fn write_bodies(&mut self, _poses: &mut [HapticdBodyPose]) -> usize {
         0
     }
+
+    /// [main] The control of the world's bodies from outside, taken once before the loop
+    /// gets the scene (None: it cannot be changed from outside, or was taken).
+    fn take_control(&mut self) -> Option<control::SceneControl> {
+        None
+    }
+
+    /// [rt] Whether a change from outside waits for the forces to be at zero (one that would
+    /// jump them): the loop ramps them down while it does, and then calls
+    /// [`quiet`](Self::quiet).
+    fn needs_quiet(&self) -> bool {
+        false
+    }
+
+    /// [rt] The forces are at zero: carry out what waited for it.
+    fn quiet(&mut self) {}
 
     /// [rt] For pictures: the world's solids, placed by the poses of their bodies (body
     /// *i* is the *i*-th pose [`write_bodies`](Self::write_bodies) writes). Read once per

@@ -8,6 +8,7 @@ use zbus::names::ErrorName;
 
 use crate::control;
 use crate::scenes::OpenError;
+use hapticd_core::scene::control::CommandError;
 
 /// A control-plane error as the bus sends it: its name and its text.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -33,6 +34,12 @@ fn name_of(error: &control::Error) -> &'static str {
         Unavailable(_) => "Unavailable",
         NameExpected(_) => "NameExpected",
         Preparing(_) => "Preparing",
+        Command(CommandError::UnknownBody(_)) => "UnknownBody",
+        Command(CommandError::FixedBody(_)) => "FixedBody",
+        Command(CommandError::NotFinite(_)) => "NotFinite",
+        Command(CommandError::OutOfRange(_)) => "OutOfRange",
+        Command(CommandError::Refused(_)) => "CommandRefused",
+        Command(CommandError::Timeout(_)) => "Timeout",
     }
 }
 

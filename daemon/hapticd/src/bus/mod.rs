@@ -1,4 +1,5 @@
-//! The D-Bus service `org.hapticd.Hapticd1`: a manager object and one object per device, on
+//! The D-Bus service `org.hapticd.Hapticd1`: a manager object, the running world's bodies
+//! (the scene object) and one object per device, on
 //! the system bus (or the session bus, or any address, for development and tests).
 //!
 //! The service runs on its own thread. Requests that block (waiting for the haptic loop,
@@ -11,6 +12,7 @@
 mod device;
 mod error;
 mod manager;
+mod scene;
 mod touches;
 
 use std::sync::Arc;
@@ -21,9 +23,10 @@ use std::time::Duration;
 pub use device::DeviceInterface;
 pub use error::BusError;
 pub use manager::ManagerInterface;
+pub use scene::SceneInterface;
 
 use hapticd_ipc::bus::{Bus, unix_user};
-use hapticd_ipc::{BUS_NAME, MANAGER_PATH, device_path};
+use hapticd_ipc::{BUS_NAME, MANAGER_PATH, SCENE_PATH, device_path};
 use hapticd_service::Workers;
 use zbus::message::Header;
 
@@ -104,6 +107,12 @@ async fn publish(connection: &zbus::Connection, daemon: &Arc<Daemon>) -> zbus::R
         .at(
             MANAGER_PATH,
             ManagerInterface::new(daemon.clone(), workers.clone()),
+        )
+        .await?;
+    objects
+        .at(
+            SCENE_PATH,
+            SceneInterface::new(daemon.clone(), workers.clone()),
         )
         .await?;
     for (index, device) in daemon.devices().iter().enumerate() {

@@ -112,8 +112,9 @@ pub fn start(
         dirs: &common.config.scene_dirs,
         plugin_dirs: &common.config.scene_plugin_dirs,
     };
-    let scene = scenes::open(common.scene, common.scene_file, places, &pointers, rate)
+    let mut scene = scenes::open(common.scene, common.scene_file, places, &pointers, rate)
         .map_err(|e| e.to_string())?;
+    let control = scene.take_control();
     let scene_name = scene.name().to_string();
     let defaults = Parameters {
         proxy: scene.proxy().unwrap_or_default(),
@@ -188,6 +189,7 @@ pub fn start(
                 mechanism: common.sim.is_some(),
                 rate: common.rate.is_some(),
             },
+            control,
         },
         command_tx,
     ));

@@ -1,0 +1,539 @@
+//! A running world changed from outside: the host's half of the scene-control extension.
+//!
+//! The control plane holds a [`SceneControl`]: the world's bodies by name, a check of each
+//! command against them and against what a hand may safely meet, and a ring of requests to
+//! the thread that steps the world. That thread ([`Incoming`]) carries a command out
+//! between two steps and answers with the body's state; a command that would jump a force
+//! (a body put somewhere else) is held until the loop has ramped the forces to zero, as a
+//! scene switch is.
+
+use std::time::{Duration, Instant};
+
+use hapticd_plugin_api::*;
+
+use crate::sync::spsc;
+
+/// Farthest a body may be put from the frame's centre, metres: a desk's world.
+pub const MAX_DISTANCE: f64 = 10.0;
+/// Fastest a body may be set moving, m/s.
+pub const MAX_SPEED: f64 = 10.0;
+/// Fastest a body may be set turning, rad/s.
+pub const MAX_SPIN: f64 = 100.0;
+/// Largest impulse given at once, N·s.
+pub const MAX_IMPULSE: f64 = 10.0;
+/// Largest force held on a body, N.
+pub const MAX_FORCE: f64 = 100.0;
+/// Heaviest a body may be made, kg.
+pub const MAX_MASS: f64 = 1000.0;
+/// Largest friction coefficient.
+pub const MAX_FRICTION: f64 = 10.0;
+
+/// A body of the running world.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Body {
+    /// Its name in the scene file.
+    pub name: String,
+    /// Forces do not move it.
+    pub fixed: bool,
+}
+
+/// A command for the stepping thread, numbered to match its answer.
+#[derive(Debug, Clone, Copy)]
+pub struct Request {
+    id: u64,
+    command: HapticdSceneCommand,
+}
+
+impl Request {
+    /// The command.
+    pub fn command(&self) -> &HapticdSceneCommand {
+        &self.command
+    }
+
+    /// Whether carrying it out could jump the force a hand feels (a body put elsewhere).
+    fn jumps(&self) -> bool {
+        self.command.kind == HAPTICD_COMMAND_SET_POSE
+    }
+}
+
+/// What the stepping thread did with a request.
+#[derive(Debug, Clone, Copy)]
+pub struct Reply {
+    id: u64,
+    status: i32,
+    state: HapticdBodyState,
+}
+
+impl Reply {
+    /// The answer to `request`: the plugin's status and the body's state after it.
+    pub fn to(request: &Request, status: i32, state: HapticdBodyState) -> Self {
+        Self {
+            id: request.id,
+            status,
+            state,
+        }
+    }
+}
+
+/// Why a command was not carried out.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CommandError {
+    /// No body of that name or id.
+    UnknownBody(String),
+    /// Forces do not move that body.
+    FixedBody(String),
+    /// A value that is NaN or infinite.
+    NotFinite(String),
+    /// A value outside what a hand may meet.
+    OutOfRange(String),
+    /// The scene refused it (its plugin's status).
+    Refused(String),
+    /// The stepping thread did not answer in time (the scene stopped, or was replaced).
+    Timeout(String),
+}
+
+impl std::fmt::Display for CommandError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CommandError::UnknownBody(m)
+            | CommandError::FixedBody(m)
+            | CommandError::NotFinite(m)
+            | CommandError::OutOfRange(m)
+            | CommandError::Refused(m)
+            | CommandError::Timeout(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for CommandError {}
+
+/// [main] The control plane's end: the world's bodies and the requests to its stepping thread.
+pub struct SceneControl {
+    bodies: Vec<Body>,
+    requests: spsc::Producer<Request>,
+    replies: spsc::Consumer<Reply>,
+    next: u64,
+}
+
+/// Requests in flight at most; a caller beyond them is told the scene is not answering.
+const REQUESTS: usize = 16;
+
+/// How long a command waits for the stepping thread: a ramp down and a physics step or two.
+const ANSWER_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// The control of a world of `bodies`, its requests' end for the stepping thread, and the
+/// end that thread answers through (the same one, or the physics thread of a multi-rate
+/// scene).
+pub fn channel(bodies: Vec<Body>) -> (SceneControl, Incoming, spsc::Producer<Reply>) {
+    let (requests, incoming) = spsc::channel(REQUESTS);
+    let (answers, replies) = spsc::channel(REQUESTS);
+    let control = SceneControl {
+        bodies,
+        requests,
+        replies,
+        next: 0,
+    };
+    (
+        control,
+        Incoming {
+            requests: incoming,
+            held: None,
+        },
+        answers,
+    )
+}
+
+impl SceneControl {
+    /// The world's bodies, in the order of their ids.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// The id of the body called `body`, or numbered so (a name wins over a number).
+    pub fn find(&self, body: &str) -> Result<u32, CommandError> {
+        let by_name = self.bodies.iter().position(|b| b.name == body);
+        let by_id = || {
+            body.parse::<usize>()
+                .ok()
+                .filter(|&i| i < self.bodies.len())
+        };
+        by_name.or_else(by_id).map(|i| i as u32).ok_or_else(|| {
+            let names: Vec<&str> = self.bodies.iter().map(|b| b.name.as_str()).collect();
+            CommandError::UnknownBody(format!(
+                "no body {body:?} in this world: its bodies are {} (by name, or by id 0 to {})",
+                names.join(", "),
+                self.bodies.len().saturating_sub(1)
+            ))
+        })
+    }
+
+    /// Check `command` for the body it names: finite, within what a hand may meet, no push
+    /// on a fixed body. The orientation of a pose comes back normalised.
+    pub fn check(
+        &self,
+        mut command: HapticdSceneCommand,
+    ) -> Result<HapticdSceneCommand, CommandError> {
+        let body = self.bodies.get(command.body as usize).ok_or_else(|| {
+            CommandError::UnknownBody(format!("no body with id {}", command.body))
+        })?;
+        if !command.is_finite() {
+            return Err(CommandError::NotFinite(format!(
+                "a value for {} is not a finite number",
+                body.name
+            )));
+        }
+        let length = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let within = |what: &str, value: f64, limit: f64, unit: &str| {
+            if value <= limit {
+                Ok(())
+            } else {
+                Err(CommandError::OutOfRange(format!(
+                    "{what} {value} {unit} for {} is beyond {limit} {unit}",
+                    body.name
+                )))
+            }
+        };
+        let pushes = matches!(
+            command.kind,
+            HAPTICD_COMMAND_SET_VELOCITY
+                | HAPTICD_COMMAND_IMPULSE
+                | HAPTICD_COMMAND_SET_FORCE
+                | HAPTICD_COMMAND_SET_MASS
+        );
+        if pushes && body.fixed {
+            return Err(CommandError::FixedBody(format!(
+                "{} is fixed: forces do not move it, and it has no mass to set (its pose may be set)",
+                body.name
+            )));
+        }
+        match command.kind {
+            HAPTICD_COMMAND_QUERY => {}
+            HAPTICD_COMMAND_SET_POSE => {
+                within("a position", length(&command.position), MAX_DISTANCE, "m")?;
+                let norm = length(&command.orientation);
+                if !(0.9..=1.1).contains(&norm) {
+                    return Err(CommandError::OutOfRange(format!(
+                        "the orientation for {} is no unit quaternion (w, x, y, z): its length is {norm}",
+                        body.name
+                    )));
+                }
+                command.orientation = command.orientation.map(|q| q / norm);
+            }
+            HAPTICD_COMMAND_SET_VELOCITY => {
+                within("a speed", length(&command.vector), MAX_SPEED, "m/s")?;
+                within("a spin", length(&command.spin), MAX_SPIN, "rad/s")?;
+            }
+            HAPTICD_COMMAND_IMPULSE => {
+                within("an impulse", length(&command.vector), MAX_IMPULSE, "N·s")?;
+                within("a point", length(&command.position), MAX_DISTANCE, "m")?;
+            }
+            HAPTICD_COMMAND_SET_FORCE => {
+                within("a force", length(&command.vector), MAX_FORCE, "N")?
+            }
+            HAPTICD_COMMAND_SET_MASS => {
+                if command.value <= 0.0 {
+                    return Err(CommandError::OutOfRange(format!(
+                        "a mass of {} kg for {}: a mass is positive",
+                        command.value, body.name
+                    )));
+                }
+                within("a mass", command.value, MAX_MASS, "kg")?;
+            }
+            HAPTICD_COMMAND_SET_FRICTION => {
+                if command.value < 0.0 {
+                    return Err(CommandError::OutOfRange(format!(
+                        "a friction coefficient of {} for {}: it is 0 or more",
+                        command.value, body.name
+                    )));
+                }
+                within("a friction coefficient", command.value, MAX_FRICTION, "")?;
+            }
+            kind => {
+                return Err(CommandError::Refused(format!("no command of kind {kind}")));
+            }
+        }
+        Ok(command)
+    }
+
+    /// Check `command`, hand it to the stepping thread and wait for its answer: the body's
+    /// state after it.
+    pub fn send(&mut self, command: HapticdSceneCommand) -> Result<HapticdBodyState, CommandError> {
+        let command = self.check(command)?;
+        let name = self.bodies[command.body as usize].name.clone();
+        let timeout = || {
+            CommandError::Timeout(format!(
+                "the world did not carry out the change to {name} within {} s",
+                ANSWER_TIMEOUT.as_secs()
+            ))
+        };
+        // Answers to requests that timed out before are dropped on the way.
+        while self.replies.pop().is_some() {}
+        self.next += 1;
+        let id = self.next;
+        self.requests
+            .try_push(Request { id, command })
+            .map_err(|_| timeout())?;
+        let started = Instant::now();
+        loop {
+            while let Some(reply) = self.replies.pop() {
+                if reply.id != id {
+                    continue;
+                }
+                return match reply.status {
+                    HAPTICD_OK => Ok(reply.state),
+                    status => Err(CommandError::Refused(format!(
+                        "the scene refused the change to {name} (status {status})"
+                    ))),
+                };
+            }
+            if started.elapsed() > ANSWER_TIMEOUT {
+                return Err(timeout());
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+}
+
+/// [rt] The stepping side's end of the requests.
+pub struct Incoming {
+    requests: spsc::Consumer<Request>,
+    held: Option<Request>,
+}
+
+impl Incoming {
+    /// The next request to carry out now, in the order sent; one that would jump a force is
+    /// held (and those behind it wait) until [`Incoming::release`].
+    pub fn due(&mut self) -> Option<Request> {
+        if self.held.is_some() {
+            return None;
+        }
+        let request = self.requests.pop()?;
+        if request.jumps() {
+            self.held = Some(request);
+            return None;
+        }
+        Some(request)
+    }
+
+    /// Whether a request waits for the forces to be at zero.
+    pub fn holding(&self) -> bool {
+        self.held.is_some()
+    }
+
+    /// The request that waited for the forces to be at zero.
+    pub fn release(&mut self) -> Option<Request> {
+        self.held.take()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn control() -> (SceneControl, Incoming, spsc::Producer<Reply>) {
+        channel(vec![
+            Body {
+                name: "floor".into(),
+                fixed: true,
+            },
+            Body {
+                name: "block".into(),
+                fixed: false,
+            },
+        ])
+    }
+
+    fn command(kind: u32, body: u32) -> HapticdSceneCommand {
+        HapticdSceneCommand {
+            kind,
+            body,
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            ..HapticdSceneCommand::default()
+        }
+    }
+
+    #[test]
+    fn bodies_are_found_by_name_or_id_and_nothing_else() {
+        let (control, ..) = control();
+        assert_eq!(control.find("block"), Ok(1));
+        assert_eq!(control.find("0"), Ok(0));
+        for missing in ["2", "-1", "Block", ""] {
+            let error = control.find(missing).unwrap_err();
+            assert!(
+                matches!(&error, CommandError::UnknownBody(m) if m.contains("floor, block")),
+                "{error}"
+            );
+        }
+    }
+
+    #[test]
+    fn hostile_values_are_refused_by_name_before_they_reach_the_world() {
+        let (control, ..) = control();
+        let cases = [
+            (
+                HapticdSceneCommand {
+                    vector: [f64::NAN, 0.0, 0.0],
+                    ..command(HAPTICD_COMMAND_IMPULSE, 1)
+                },
+                "NotFinite",
+            ),
+            (
+                HapticdSceneCommand {
+                    position: [0.0, f64::INFINITY, 0.0],
+                    ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                },
+                "NotFinite",
+            ),
+            (
+                HapticdSceneCommand {
+                    vector: [11.0, 0.0, 0.0],
+                    ..command(HAPTICD_COMMAND_IMPULSE, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    position: [1e9, 0.0, 0.0],
+                    ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    orientation: [0.0; 4],
+                    ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    vector: [0.0, 1e6, 0.0],
+                    ..command(HAPTICD_COMMAND_SET_FORCE, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    value: -2.0,
+                    ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    value: 1e300,
+                    ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    value: -0.1,
+                    ..command(HAPTICD_COMMAND_SET_FRICTION, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    spin: [0.0, 0.0, 1e4],
+                    ..command(HAPTICD_COMMAND_SET_VELOCITY, 1)
+                },
+                "OutOfRange",
+            ),
+            (
+                HapticdSceneCommand {
+                    vector: [1.0, 0.0, 0.0],
+                    ..command(HAPTICD_COMMAND_SET_VELOCITY, 0)
+                },
+                "FixedBody",
+            ),
+            (
+                HapticdSceneCommand {
+                    value: 1.0,
+                    ..command(HAPTICD_COMMAND_SET_MASS, 0)
+                },
+                "FixedBody",
+            ),
+            (command(HAPTICD_COMMAND_QUERY, 2), "UnknownBody"),
+            (command(77, 1), "Refused"),
+        ];
+        for (command, expected) in cases {
+            let error = control.check(command).unwrap_err();
+            let name = format!("{error:?}");
+            assert!(name.starts_with(expected), "{command:?}: {name}");
+        }
+        // A fixed body may be put elsewhere, and a nearly unit quaternion is made one.
+        let moved = control
+            .check(HapticdSceneCommand {
+                orientation: [0.0, 0.0, 1.05, 0.0],
+                ..command(HAPTICD_COMMAND_SET_POSE, 0)
+            })
+            .unwrap();
+        assert_eq!(moved.orientation, [0.0, 0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn a_pose_waits_for_quiet_and_the_requests_behind_it_keep_their_order() {
+        let (mut control, mut incoming, mut answers) = control();
+        let worker = std::thread::spawn(move || {
+            let mut order = Vec::new();
+            let mut held_seen = false;
+            while order.len() < 3 {
+                while let Some(r) = incoming.due() {
+                    order.push(r.command().kind);
+                    answers.push(Reply::to(&r, HAPTICD_OK, HapticdBodyState::default()));
+                }
+                if incoming.holding() {
+                    held_seen = true;
+                    let r = incoming.release().unwrap();
+                    order.push(r.command().kind);
+                    answers.push(Reply::to(&r, HAPTICD_OK, HapticdBodyState::default()));
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            (order, held_seen)
+        });
+        for kind in [
+            HAPTICD_COMMAND_QUERY,
+            HAPTICD_COMMAND_SET_POSE,
+            HAPTICD_COMMAND_SET_FRICTION,
+        ] {
+            let mut c = command(kind, 1);
+            c.value = 0.3;
+            control.send(c).unwrap();
+        }
+        let (order, held_seen) = worker.join().unwrap();
+        assert!(held_seen);
+        assert_eq!(
+            order,
+            [
+                HAPTICD_COMMAND_QUERY,
+                HAPTICD_COMMAND_SET_POSE,
+                HAPTICD_COMMAND_SET_FRICTION
+            ]
+        );
+    }
+
+    #[test]
+    fn a_refusal_is_named_and_a_world_that_never_answers_times_out() {
+        let (mut control, mut incoming, mut answers) = control();
+        let worker = std::thread::spawn(move || {
+            loop {
+                if let Some(r) = incoming.due() {
+                    answers.push(Reply::to(
+                        &r,
+                        HAPTICD_ERROR_ARGUMENT,
+                        HapticdBodyState::default(),
+                    ));
+                    return incoming;
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        });
+        let refused = control.send(command(HAPTICD_COMMAND_QUERY, 1)).unwrap_err();
+        assert!(matches!(refused, CommandError::Refused(_)), "{refused:?}");
+        let _silent = worker.join().unwrap();
+        let late = control.send(command(HAPTICD_COMMAND_QUERY, 1)).unwrap_err();
+        assert!(matches!(late, CommandError::Timeout(_)), "{late:?}");
+    }
+}

@@ -1,0 +1,249 @@
+//! `org.hapticd.Hapticd1.Scene` at `/org/hapticd/Hapticd1/scene`: the running world's
+//! bodies, read by anyone and changed by those who may change the daemon.
+//!
+//! A body is named by its scene file's name, or by its id (its place in the world's list)
+//! written as a number. Every change is carried out between two steps of the world in every
+//! device's copy of it, and answers with the body's state after it; one that would jump a
+//! force (a body put elsewhere) waits for the forces to ramp to zero, as a scene switch
+//! does.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use hapticd_plugin_api::*;
+use hapticd_service::Workers;
+use zbus::interface;
+use zbus::message::Header;
+use zbus::{OwnedVariant, Variant};
+
+use super::BusError;
+use super::{audit, caller};
+use crate::control::{self, Daemon};
+
+/// The running world's bodies.
+pub struct SceneInterface {
+    daemon: Arc<Daemon>,
+    workers: Arc<Workers>,
+}
+
+/// A body's state as the bus returns it.
+type State = HashMap<String, OwnedVariant>;
+
+/// `values` as `N` numbers, or an error naming `what`.
+fn numbers<const N: usize>(what: &str, values: &[f64]) -> Result<[f64; N], control::Error> {
+    values.try_into().map_err(|_| {
+        control::Error::OutOfRange(format!("{what} takes {N} numbers, not {}", values.len()))
+    })
+}
+
+/// The bus form of `state`, for body `body`.
+fn state_of(body: &str, state: &HapticdBodyState) -> State {
+    let owned =
+        |v: Variant<'_>| OwnedVariant::try_from(v).expect("numbers and text hold no descriptor");
+    let array = |v: &[f64]| owned(Variant::from(v.to_vec()));
+    HashMap::from([
+        ("body".into(), owned(Variant::from(body))),
+        ("position".into(), array(&state.position)),
+        ("orientation".into(), array(&state.orientation)),
+        ("velocity".into(), array(&state.velocity)),
+        ("spin".into(), array(&state.spin)),
+        ("mass".into(), owned(Variant::from(state.mass))),
+        ("friction".into(), owned(Variant::from(state.friction))),
+        ("force".into(), array(&state.force)),
+    ])
+}
+
+impl SceneInterface {
+    /// The scene interface of `daemon`, running blocking requests on `workers`.
+    pub fn new(daemon: Arc<Daemon>, workers: Arc<Workers>) -> Self {
+        Self { daemon, workers }
+    }
+
+    /// Carry out `command` on `body` for the sender of `header` (a change, unless it is a
+    /// query, is logged as `what`).
+    async fn drive(
+        &self,
+        body: String,
+        command: Result<HapticdSceneCommand, control::Error>,
+        what: Option<String>,
+        connection: &zbus::Connection,
+        header: &Header<'_>,
+    ) -> Result<State, BusError> {
+        let daemon = self.daemon.clone();
+        let named = body.clone();
+        let result = match command {
+            Ok(command) => {
+                self.workers
+                    .run(move || daemon.drive(&named, command))
+                    .await
+            }
+            Err(e) => Err(e),
+        };
+        if let Some(what) = what {
+            let outcome = result.as_ref().map(|_| ()).map_err(|e| e.to_string());
+            audit(
+                &format!("{what} of body {body:?}"),
+                &caller(connection, Some(header)).await,
+                &outcome,
+            );
+        }
+        Ok(state_of(&body, &result?))
+    }
+}
+
+/// A command of `kind` with `fill` applied.
+fn command(kind: u32, fill: impl FnOnce(&mut HapticdSceneCommand)) -> HapticdSceneCommand {
+    let mut command = HapticdSceneCommand {
+        kind,
+        orientation: [1.0, 0.0, 0.0, 0.0],
+        ..HapticdSceneCommand::default()
+    };
+    fill(&mut command);
+    command
+}
+
+/// The running world's bodies, by name or id: where each is, how it moves, and changes to
+/// them (pose, velocity, impulse, a held force, mass, friction). Every change answers with
+/// the body's state after it: `position`, `orientation` (w, x, y, z), `velocity`, `spin`,
+/// `force` (arrays of doubles), `mass` and `friction`, under those keys with `body`.
+#[interface(name = "org.hapticd.Hapticd1.Scene")]
+impl SceneInterface {
+    /// The bodies of the running world, in the order of their ids: each one's name and
+    /// whether it is fixed. Empty when the scene cannot be changed from outside. Read again
+    /// once the manager's ActiveScene changes.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn bodies(&self) -> Vec<(String, bool)> {
+        self.daemon
+            .bodies()
+            .into_iter()
+            .map(|b| (b.name, b.fixed))
+            .collect()
+    }
+
+    /// Where `body` is and how it moves, now.
+    async fn body(
+        &self,
+        body: String,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let query = command(HAPTICD_COMMAND_QUERY, |_| {});
+        self.drive(body, Ok(query), None, connection, &header).await
+    }
+
+    /// Put `body`'s centre of mass at `position` (metres) with `orientation` (a unit
+    /// quaternion w, x, y, z), keeping its velocities; fixed bodies too. The forces ramp to
+    /// zero first and back after, as for a scene switch.
+    async fn set_pose(
+        &self,
+        body: String,
+        position: Vec<f64>,
+        orientation: Vec<f64>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let set = numbers("position", &position).and_then(|p| {
+            let q = numbers("orientation", &orientation)?;
+            Ok(command(HAPTICD_COMMAND_SET_POSE, |c| {
+                (c.position, c.orientation) = (p, q)
+            }))
+        });
+        let what = format!("set the pose {position:?} {orientation:?}");
+        self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Set `body` moving at `velocity` (m/s) and turning at `spin` (rad/s).
+    async fn set_velocity(
+        &self,
+        body: String,
+        velocity: Vec<f64>,
+        spin: Vec<f64>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let set = numbers("velocity", &velocity).and_then(|v| {
+            let w = numbers("spin", &spin)?;
+            Ok(command(HAPTICD_COMMAND_SET_VELOCITY, |c| {
+                (c.vector, c.spin) = (v, w)
+            }))
+        });
+        let what = format!("set the velocity {velocity:?} {spin:?}");
+        self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Give `body` the momentum `impulse` (N·s) at `point` (metres; empty: its centre of
+    /// mass, so that it does not turn).
+    async fn apply_impulse(
+        &self,
+        body: String,
+        impulse: Vec<f64>,
+        point: Vec<f64>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let at = if point.is_empty() {
+            let daemon = self.daemon.clone();
+            let named = body.clone();
+            let query = command(HAPTICD_COMMAND_QUERY, |_| {});
+            self.workers
+                .run(move || daemon.drive(&named, query))
+                .await
+                .map(|s| s.position)
+        } else {
+            numbers("point", &point)
+        };
+        let push = at.and_then(|p| {
+            let j = numbers("impulse", &impulse)?;
+            Ok(command(HAPTICD_COMMAND_IMPULSE, |c| {
+                (c.vector, c.position) = (j, p)
+            }))
+        });
+        let what = format!("give the impulse {impulse:?} at {point:?}");
+        self.drive(body, push, Some(what), connection, &header)
+            .await
+    }
+
+    /// Push `body` with `force` (newtons) at its centre of mass at every step from now on,
+    /// besides gravity; a zero force ends it.
+    async fn set_force(
+        &self,
+        body: String,
+        force: Vec<f64>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let set =
+            numbers("force", &force).map(|f| command(HAPTICD_COMMAND_SET_FORCE, |c| c.vector = f));
+        let what = format!("hold the force {force:?}");
+        self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Make `body`'s mass `mass` kg, its inertia scaled with it.
+    async fn set_mass(
+        &self,
+        body: String,
+        mass: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let set = Ok(command(HAPTICD_COMMAND_SET_MASS, |c| c.value = mass));
+        let what = format!("set the mass {mass} kg");
+        self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Make the friction coefficient of `body`'s contacts `friction` (a contact takes the
+    /// lower of its two bodies').
+    async fn set_friction(
+        &self,
+        body: String,
+        friction: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let set = Ok(command(HAPTICD_COMMAND_SET_FRICTION, |c| {
+            c.value = friction
+        }));
+        let what = format!("set the friction {friction}");
+        self.drive(body, set, Some(what), connection, &header).await
+    }
+}
