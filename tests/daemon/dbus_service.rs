@@ -1728,24 +1728,33 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
     assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"lower\"");
     std::thread::sleep(Duration::from_millis(1000));
     daemon.stop();
-    let text = std::fs::read_to_string(&csv).unwrap();
+    ramps_through_zero(&grip_force(&csv), 1.2);
+}
+
+/// (time, upward grip force) of every tick a daemon's `--record` wrote to `csv`.
+fn grip_force(csv: &Path) -> Vec<(f64, f64)> {
+    let text = std::fs::read_to_string(csv).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let (t, fy) = (column("time"), column("grip_fy"));
-    let rows: Vec<(f64, f64)> = lines
+    lines
         .map(|l| {
             let v: Vec<&str> = l.split(',').collect();
             (v[t].parse().unwrap(), v[fy].parse().unwrap())
         })
-        .collect();
+        .collect()
+}
+
+/// Check that the force of `rows`, pressing at 1 s, reached zero after `from` seconds
+/// without a jump and came back slowly to more than it was (the surface is now higher).
+fn ramps_through_zero(rows: &[(f64, f64)], from: f64) {
     let pressing = rows.iter().find(|r| r.0 > 1.0).unwrap().1;
-    assert!(pressing > 2.0, "the floor pushes back: {pressing} N");
-    // The swap: forces reach zero (never a jump), then come back slowly.
+    assert!(pressing > 2.0, "the surface pushes back: {pressing} N");
     let zero = rows
         .iter()
-        .position(|r| r.0 > 1.2 && r.1.abs() < 1e-9)
-        .expect("forces ramped to zero for the swap");
+        .position(|r| r.0 > from && r.1.abs() < 1e-9)
+        .expect("forces ramped to zero for the change");
     let step = rows[zero - 10..zero]
         .windows(2)
         .map(|w| (w[1].1 - w[0].1).abs())
@@ -1755,9 +1764,54 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
     let settled = after(0.8);
     assert!(
         settled > 1.1 * pressing,
-        "the higher floor pushes more: {settled} N"
+        "the higher surface pushes more: {settled} N against {pressing} N"
     );
     assert!(after(0.02) < 0.3 * settled, "forces came back at once");
+}
+
+#[test]
+fn a_body_put_under_a_pressing_finger_is_felt_through_a_ramp_not_a_jump() {
+    let dir = scratch("pose-ramp");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    std::fs::write(
+        &setup.config,
+        default_config().replace("scene: static", "scene: blocks"),
+    )
+    .unwrap();
+    // The grip's 1 cm cube pressed into the table, clear of every block.
+    let hand = dir.join("press.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - hold: { seconds: 0.3 }\n    - move: { to: [-0.03, -0.036, 0.07], seconds: 0.3 }\n    - hold: { seconds: 60 }\n",
+    )
+    .unwrap();
+    let csv = dir.join("run.csv");
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &[
+            "--sim",
+            "spidar-g",
+            "--hand",
+            hand.to_str().unwrap(),
+            "--record",
+            csv.to_str().unwrap(),
+        ],
+    );
+    std::thread::sleep(Duration::from_millis(1500));
+    // The table raised 3 mm, into the cube.
+    let raised = bus
+        .drive(
+            "SetPose",
+            "sadad",
+            &["table", "3", "0", "-0.047", "0", "4", "1", "0", "0", "0"],
+        )
+        .unwrap();
+    assert!((raised.position.y + 0.047).abs() < 1e-12);
+    std::thread::sleep(Duration::from_millis(1000));
+    daemon.stop();
+    ramps_through_zero(&grip_force(&csv), 1.2);
 }
 
 /// The interface XML installed for D-Bus tools: what the daemon introspects, interface by
