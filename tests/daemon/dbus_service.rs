@@ -2670,6 +2670,37 @@ fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
         other => panic!("{other:?}"),
     }
     assert!(hapticd.scenes().unwrap().contains(&"static".to_string()));
+    // The running world through the client: its bodies, a push and a refusal.
+    let scene = hapticd.scene().unwrap();
+    let bodies = scene.bodies().unwrap();
+    assert_eq!((bodies[0].name.as_str(), bodies[0].fixed), ("table", true));
+    let block = scene.body("block").unwrap();
+    let pushed = scene
+        .apply_impulse("block", [0.0, 0.0, 0.1 * block.mass], None)
+        .unwrap();
+    assert!((pushed.velocity[2] - block.velocity[2] - 0.1).abs() < 1e-9);
+    let turned = (0..3)
+        .map(|k| (pushed.spin[k] - block.spin[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        turned < 1e-6,
+        "through its centre: no turn ({turned} rad/s)"
+    );
+    match scene.set_velocity("table", [0.1, 0.0, 0.0], [0.0; 3]) {
+        Err(ClientError::Refused { name, .. }) => {
+            assert_eq!(name, "org.hapticd.Hapticd1.Error.FixedBody")
+        }
+        other => panic!("{other:?}"),
+    }
+    // Its picture of the world shows the scene's bodies.
+    let world = device.open_world().unwrap();
+    let mut frame = hapticd_core::world_state::WorldFrame::empty();
+    assert!(world.read(&mut frame).is_some());
+    assert_eq!(
+        frame.body_count as usize,
+        bodies.len() + 1,
+        "the pointer's too"
+    );
     daemon.stop();
 }
 
@@ -2677,28 +2708,30 @@ fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
 /// and lifts off (`config/hands/press-floor.yaml`): one begin where the floor is, one end.
 #[test]
 fn a_touch_begins_on_the_floor_and_ends_when_the_hand_lifts() {
-    use zbus::export::futures_core::Stream;
+    use hapticd_ipc::bus::Bus as Address;
+    use hapticd_ipc::client::Hapticd as Client;
     let dir = scratch("touch");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let hand = repo_dir().join("config/hands/press-floor.yaml");
-    let connection =
-        zbus::block_on(zbus::connection::Builder::address(bus.address.as_str()).build()).unwrap();
-    let rule = "type='signal',interface='org.hapticd.Hapticd1.Device',member='Touch'";
-    let mut stream =
-        zbus::block_on(zbus::MessageStream::for_match_rule(rule, &connection, None)).unwrap();
+    // The daemon starts lowering the hand at once: its touches are followed from a start
+    // with no hand, then the hand is given by a restart of the loop (same bus name).
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let device = Client::connect(&Address::Address(bus.address.clone()))
+        .unwrap()
+        .devices()
+        .unwrap()
+        .remove(0);
     let (sender, touches) = std::sync::mpsc::channel();
+    let mut following = device.touches().unwrap();
     std::thread::spawn(move || {
-        while let Some(Ok(message)) = zbus::block_on(std::future::poll_fn(|cx| {
-            std::pin::Pin::new(&mut stream).poll_next(cx)
-        })) {
-            let touch: (u32, bool, u64, f64, Vec<f64>, Vec<f64>) =
-                message.body().deserialize().unwrap();
+        while let Some(Ok(touch)) = following.next() {
             if sender.send(touch).is_err() {
                 return;
             }
         }
     });
+    daemon.stop();
     let daemon = Hapticd::start(
         &bus,
         &setup,
@@ -2706,16 +2739,15 @@ fn a_touch_begins_on_the_floor_and_ends_when_the_hand_lifts() {
     );
     let begun = touches.recv_timeout(Duration::from_secs(10)).unwrap();
     let ended = touches.recv_timeout(Duration::from_secs(10)).unwrap();
-    let (effector, touching, tick, _, position, _) = &begun;
-    assert_eq!((*effector, *touching), (0, true), "{begun:?}");
+    assert_eq!((begun.effector, begun.touching), (0, true), "{begun:?}");
     // The floor of the static scene is at y = -0.03: the grip meets it there.
-    assert!((position[1] + 0.03).abs() < 2e-3, "{begun:?}");
-    assert_eq!((ended.0, ended.1), (0, false), "{ended:?}");
+    assert!((begun.position[1] + 0.03).abs() < 2e-3, "{begun:?}");
+    assert_eq!((ended.effector, ended.touching), (0, false), "{ended:?}");
     assert!(
-        ended.2 > *tick + 1000,
+        ended.tick > begun.tick + 1000,
         "pressed over a second: {begun:?} {ended:?}"
     );
-    assert!(ended.4[1] > -0.03 - 2e-3, "lifted off: {ended:?}");
+    assert!(ended.position[1] > -0.03 - 2e-3, "lifted off: {ended:?}");
     daemon.stop();
 }
 

@@ -1,5 +1,6 @@
 //! A blocking client of hapticd, for programs and scripts built on it: the daemon's devices,
-//! their parameters, calibration and every tick of their haptic loop, and the scenes. Each
+//! their parameters, calibration, every tick of their haptic loop, their touches and their
+//! picture of the world, the scenes, and the running world's bodies. Each
 //! call runs the typed proxies of [`crate::proxies`] to completion; the proxies themselves
 //! serve what this does not wrap.
 //!
@@ -23,13 +24,14 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use hapticd_core::telemetry::Sample;
-use zbus::Variant;
+use zbus::{OwnedVariant, Variant};
 
 use crate::bus::{Bus, has_owner};
 use crate::names::{BUS_NAME, DEVICE_INTERFACE, ERROR_PREFIX};
-use crate::proxies::{DeviceProxy, ManagerProxy};
+use crate::proxies::{DeviceProxy, ManagerProxy, SceneProxy};
 use crate::shared_memory::MapError;
 use crate::telemetry_share::{Cursor, MappedTelemetry};
+use crate::world_share::MappedWorld;
 
 /// What went wrong talking to hapticd.
 #[derive(Debug)]
@@ -137,6 +139,13 @@ impl Hapticd {
         Ok(zbus::block_on(self.manager.active_scene())?)
     }
 
+    /// The running world's bodies, to read and to change.
+    pub fn scene(&self) -> Result<Scene, ClientError> {
+        Ok(Scene {
+            proxy: zbus::block_on(SceneProxy::new(&self.connection))?,
+        })
+    }
+
     /// Switch every device to the scene called `name`, the forces ramped down and up again;
     /// while hapticd says its meshes are being cut into convex pieces (`Error.Preparing`),
     /// ask again for up to `wait`, telling `waiting` what hapticd said each time.
@@ -225,6 +234,28 @@ impl Device {
         MappedTelemetry::open(&fd.into()).map_err(ClientError::Memory)
     }
 
+    /// The device's picture of the world (its grips, strings and the scene's bodies, as
+    /// the renderer draws them), mapped read-only.
+    pub fn open_world(&self) -> Result<MappedWorld, ClientError> {
+        let fd = zbus::block_on(self.proxy.open_world())?;
+        MappedWorld::open(&fd.into()).map_err(ClientError::Memory)
+    }
+
+    /// The device's touches as they are announced, from now on: each waits for the next.
+    pub fn touches(&self) -> Result<Touches, ClientError> {
+        let rule = format!(
+            "type='signal',interface='{DEVICE_INTERFACE}',member='Touch',path='{}'",
+            self.proxy.inner().path()
+        );
+        let connection = self.proxy.inner().connection();
+        let stream = zbus::block_on(zbus::MessageStream::for_match_rule(
+            rule.as_str(),
+            connection,
+            None,
+        ))?;
+        Ok(Touches { stream })
+    }
+
     /// Every tick of the haptic loop from now for `seconds` of its ticks, as they are
     /// written.
     pub fn telemetry(&self, seconds: f64) -> Result<Ticks, ClientError> {
@@ -283,5 +314,209 @@ impl Iterator for Ticks {
             std::thread::sleep(Duration::from_millis(1));
         }
         None
+    }
+}
+
+/// An effector beginning or ending a touch, as the daemon announces it (at most ten a device
+/// each tenth of a second).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Touch {
+    /// The effector, by index.
+    pub effector: u32,
+    /// Whether it began touching (else it let go).
+    pub touching: bool,
+    /// The tick it happened at.
+    pub tick: u64,
+    /// The loop's time then, seconds.
+    pub time: f64,
+    /// Where the grip was, metres.
+    pub position: [f64; 3],
+    /// The force displayed, newtons.
+    pub force: [f64; 3],
+}
+
+/// A device's touches as they are announced (see [`Device::touches`]).
+pub struct Touches {
+    stream: zbus::MessageStream,
+}
+
+impl Iterator for Touches {
+    type Item = Result<Touch, ClientError>;
+
+    /// The next touch, waiting for it; None once the connection is gone.
+    fn next(&mut self) -> Option<Self::Item> {
+        use zbus::export::futures_core::Stream;
+        let stream = &mut self.stream;
+        let message = zbus::block_on(std::future::poll_fn(|cx| {
+            std::pin::Pin::new(&mut *stream).poll_next(cx)
+        }))?;
+        let touch = message.map_err(ClientError::from).and_then(|m| {
+            let (effector, touching, tick, time, position, force): (
+                u32,
+                bool,
+                u64,
+                f64,
+                Vec<f64>,
+                Vec<f64>,
+            ) = m.body().deserialize().map_err(zbus::Error::from)?;
+            let three = |v: Vec<f64>| {
+                <[f64; 3]>::try_from(v).map_err(|_| ClientError::Bus(zbus::Error::InvalidReply))
+            };
+            Ok(Touch {
+                effector,
+                touching,
+                tick,
+                time,
+                position: three(position)?,
+                force: three(force)?,
+            })
+        });
+        Some(touch)
+    }
+}
+
+/// A body of the running world.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Body {
+    /// Its name in the scene file.
+    pub name: String,
+    /// Forces do not move it.
+    pub fixed: bool,
+}
+
+/// A body's state, as a change left it (or now, for [`Scene::body`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyState {
+    /// Centre of mass, metres.
+    pub position: [f64; 3],
+    /// Orientation, unit quaternion (w, x, y, z).
+    pub orientation: [f64; 4],
+    /// Velocity of the centre of mass, m/s.
+    pub velocity: [f64; 3],
+    /// Angular velocity, rad/s.
+    pub spin: [f64; 3],
+    /// The force held on it besides gravity, newtons.
+    pub force: [f64; 3],
+    /// Mass, kg (infinite for a fixed body).
+    pub mass: f64,
+    /// Friction coefficient of its contacts.
+    pub friction: f64,
+}
+
+impl BodyState {
+    /// The state in a Scene method's answer.
+    fn from_bus(map: HashMap<String, OwnedVariant>) -> Result<Self, ClientError> {
+        let bad = || ClientError::Bus(zbus::Error::InvalidReply);
+        let number = |key: &str| -> Result<f64, ClientError> {
+            map.get(key)
+                .and_then(|v| f64::try_from(&**v).ok())
+                .ok_or_else(bad)
+        };
+        fn numbers<const N: usize>(
+            map: &HashMap<String, OwnedVariant>,
+            key: &str,
+        ) -> Option<[f64; N]> {
+            let values: Vec<f64> = map.get(key)?.try_clone().ok()?.try_into().ok()?;
+            values.try_into().ok()
+        }
+        Ok(Self {
+            position: numbers(&map, "position").ok_or_else(bad)?,
+            orientation: numbers(&map, "orientation").ok_or_else(bad)?,
+            velocity: numbers(&map, "velocity").ok_or_else(bad)?,
+            spin: numbers(&map, "spin").ok_or_else(bad)?,
+            force: numbers(&map, "force").ok_or_else(bad)?,
+            mass: number("mass")?,
+            friction: number("friction")?,
+        })
+    }
+}
+
+/// The running world's bodies: each change is carried out between two steps of the world
+/// (a pose once the forces have ramped to zero) and answers with the body's state after it.
+/// A body is its name, or its id as a number; hapticd refuses unknown bodies, values that
+/// are not finite or beyond what a hand may meet, and pushes on fixed bodies, by name
+/// ([`ClientError::Refused`]).
+///
+/// ```no_run
+/// use hapticd_ipc::bus::Bus;
+/// use hapticd_ipc::client::Hapticd;
+///
+/// let scene = Hapticd::connect(&Bus::System)?.scene()?;
+/// let block = scene.body("block")?;
+/// let j = 0.2 * block.mass;
+/// let after = scene.apply_impulse("block", [j, 0.0, 0.0], None)?;
+/// println!("{:?} → {:?}", block.velocity, after.velocity);
+/// # Ok::<(), hapticd_ipc::client::ClientError>(())
+/// ```
+pub struct Scene {
+    proxy: SceneProxy<'static>,
+}
+
+impl Scene {
+    /// The bodies, in id order.
+    pub fn bodies(&self) -> Result<Vec<Body>, ClientError> {
+        Ok(zbus::block_on(self.proxy.bodies())?
+            .into_iter()
+            .map(|(name, fixed)| Body { name, fixed })
+            .collect())
+    }
+
+    /// Where `body` is and how it moves, now.
+    pub fn body(&self, body: &str) -> Result<BodyState, ClientError> {
+        BodyState::from_bus(zbus::block_on(self.proxy.body(body))?)
+    }
+
+    /// Put `body`'s centre of mass at `position` with `orientation` (w, x, y, z).
+    pub fn set_pose(
+        &self,
+        body: &str,
+        position: [f64; 3],
+        orientation: [f64; 4],
+    ) -> Result<BodyState, ClientError> {
+        BodyState::from_bus(zbus::block_on(self.proxy.set_pose(
+            body,
+            &position,
+            &orientation,
+        ))?)
+    }
+
+    /// Set `body` moving at `velocity` (m/s) and turning at `spin` (rad/s).
+    pub fn set_velocity(
+        &self,
+        body: &str,
+        velocity: [f64; 3],
+        spin: [f64; 3],
+    ) -> Result<BodyState, ClientError> {
+        BodyState::from_bus(zbus::block_on(
+            self.proxy.set_velocity(body, &velocity, &spin),
+        )?)
+    }
+
+    /// Give `body` the momentum `impulse` (N·s) at `point` (None: its centre of mass).
+    pub fn apply_impulse(
+        &self,
+        body: &str,
+        impulse: [f64; 3],
+        point: Option<[f64; 3]>,
+    ) -> Result<BodyState, ClientError> {
+        let point = point.map_or_else(Vec::new, |p| p.to_vec());
+        BodyState::from_bus(zbus::block_on(
+            self.proxy.apply_impulse(body, &impulse, &point),
+        )?)
+    }
+
+    /// Push `body` with `force` (N) at every step from now on; a zero force ends it.
+    pub fn set_force(&self, body: &str, force: [f64; 3]) -> Result<BodyState, ClientError> {
+        BodyState::from_bus(zbus::block_on(self.proxy.set_force(body, &force))?)
+    }
+
+    /// Make `body`'s mass `mass` kg, its inertia scaled with it.
+    pub fn set_mass(&self, body: &str, mass: f64) -> Result<BodyState, ClientError> {
+        BodyState::from_bus(zbus::block_on(self.proxy.set_mass(body, mass))?)
+    }
+
+    /// Make the friction coefficient of `body`'s contacts `friction`.
+    pub fn set_friction(&self, body: &str, friction: f64) -> Result<BodyState, ClientError> {
+        BodyState::from_bus(zbus::block_on(self.proxy.set_friction(body, friction))?)
     }
 }

@@ -23,7 +23,7 @@
 use std::collections::HashMap;
 
 use zbus::proxy;
-use zbus::{Fd, OwnedFd, OwnedObjectPath, Variant};
+use zbus::{Fd, OwnedFd, OwnedObjectPath, OwnedVariant, Variant};
 
 /// `org.hapticd.Hapticd1.Manager`: the scenes, the mechanisms, the devices.
 #[proxy(
@@ -183,6 +183,53 @@ pub trait Device {
     fn reset_fault(&self) -> zbus::Result<()>;
     /// Drive the device with another installed mechanism from the next start.
     fn bind_mechanism(&self, mechanism: &str) -> zbus::Result<()>;
+}
+
+/// `org.hapticd.Hapticd1.Scene`: the running world's bodies, at [`crate::SCENE_PATH`]. A body
+/// is its name or its id as a number; every change answers with the body's state after it
+/// (`position`, `orientation`, `velocity`, `spin`, `force`, `mass`, `friction`).
+#[proxy(
+    interface = "org.hapticd.Hapticd1.Scene",
+    default_service = "org.hapticd.Hapticd1",
+    default_path = "/org/hapticd/Hapticd1/scene"
+)]
+pub trait Scene {
+    /// The bodies in id order: each one's name and whether it is fixed.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn bodies(&self) -> zbus::Result<Vec<(String, bool)>>;
+    /// Where `body` is and how it moves, now.
+    fn body(&self, body: &str) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Put `body`'s centre of mass at `position` with `orientation` (w, x, y, z).
+    fn set_pose(
+        &self,
+        body: &str,
+        position: &[f64],
+        orientation: &[f64],
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Set `body` moving at `velocity` and turning at `spin`.
+    fn set_velocity(
+        &self,
+        body: &str,
+        velocity: &[f64],
+        spin: &[f64],
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Give `body` the momentum `impulse` at `point` (empty: its centre of mass).
+    fn apply_impulse(
+        &self,
+        body: &str,
+        impulse: &[f64],
+        point: &[f64],
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Push `body` with `force` at every step from now on (zero ends it).
+    fn set_force(&self, body: &str, force: &[f64]) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Make `body`'s mass `mass` kg.
+    fn set_mass(&self, body: &str, mass: f64) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Make the friction coefficient of `body`'s contacts `friction`.
+    fn set_friction(
+        &self,
+        body: &str,
+        friction: f64,
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
 }
 
 /// `org.hapticd.Renderer1`: pictures of the world.
