@@ -358,7 +358,7 @@ impl Iterator for Touches {
                 f64,
                 Vec<f64>,
                 Vec<f64>,
-            ) = m.body().deserialize().map_err(zbus::Error::from)?;
+            ) = m.body().deserialize()?;
             let three = |v: Vec<f64>| {
                 <[f64; 3]>::try_from(v).map_err(|_| ClientError::Bus(zbus::Error::InvalidReply))
             };
