@@ -2,27 +2,45 @@
 
 ``hapticd.connect()`` reaches the daemon on the system bus (or at a bus address); its
 ``devices`` read and change their parameters, calibrate, and hand out every tick of their
-haptic loop (``Device.telemetry``); ``scenes`` and ``switch_scene`` choose the world. Every
-error the daemon returns is raised as :class:`Error` carrying its D-Bus error name.
+haptic loop (``Device.telemetry``) and their picture of the world (``Device.open_world``);
+``scenes`` and ``switch_scene`` choose the world, and ``bodies``, ``body``, ``set_pose``,
+``set_velocity``, ``apply_impulse``, ``set_force``, ``set_mass`` and ``set_friction`` drive
+the running one. Every error the daemon returns is raised as :class:`Error` carrying its
+D-Bus error name.
 """
 
 from __future__ import annotations
 
 import os
 import time
-from typing import Any, Iterator, List, Optional
+from dataclasses import dataclass
+from typing import Any, Iterator, List, Optional, Sequence, Tuple
 
 from jeepney import DBusAddress, HeaderFields, MessageType, Properties, new_method_call
 from jeepney.io.blocking import DBusConnection, open_dbus_connection
 
 from .telemetry import Ring, Sample
+from .world import Frame, Solid, World
 
-__all__ = ["connect", "Hapticd", "Device", "Error", "Sample"]
+__all__ = [
+    "connect",
+    "Hapticd",
+    "Device",
+    "Body",
+    "BodyState",
+    "Error",
+    "Sample",
+    "World",
+    "Frame",
+    "Solid",
+]
 
 BUS_NAME = "org.hapticd.Hapticd1"
 MANAGER_PATH = "/org/hapticd/Hapticd1"
 MANAGER = "org.hapticd.Hapticd1.Manager"
 DEVICE = "org.hapticd.Hapticd1.Device"
+SCENE_PATH = "/org/hapticd/Hapticd1/scene"
+SCENE = "org.hapticd.Hapticd1.Scene"
 
 
 class Error(Exception):
@@ -111,6 +129,16 @@ class Device:
         finally:
             os.close(raw)
 
+    def open_world(self) -> World:
+        """The device's picture of the world (grips, wrenches shown, every body's pose and the
+        scene's solids), mapped read-only."""
+        (fd,) = self._bus.call(self.path, DEVICE, "OpenWorld")
+        raw = fd.to_raw_fd()
+        try:
+            return World(raw)
+        finally:
+            os.close(raw)
+
     def telemetry(self, seconds: float) -> Iterator[Sample]:
         """Every tick of the haptic loop from now for ``seconds`` (of the loop's time), as
         it is written: samples with ``tick``, ``time``, ``position``, ``force`` and the rest
@@ -120,6 +148,58 @@ class Device:
             yield from ring.follow(seconds)
         finally:
             ring.close()
+
+
+@dataclass(frozen=True)
+class Body:
+    """A body of the running world."""
+
+    id: int
+    """Its place in the world's list (and in a frame's ``bodies``)."""
+    name: str
+    """Its name in the scene file."""
+    fixed: bool
+    """Forces do not move it."""
+
+
+@dataclass(frozen=True)
+class BodyState:
+    """A body's state, as a change left it (or now, for :meth:`Hapticd.body`)."""
+
+    position: Tuple[float, float, float]
+    """Centre of mass, metres."""
+    orientation: Tuple[float, float, float, float]
+    """Unit quaternion qw, qx, qy, qz."""
+    velocity: Tuple[float, float, float]
+    """Velocity of the centre of mass, m/s."""
+    spin: Tuple[float, float, float]
+    """Angular velocity, rad/s."""
+    force: Tuple[float, float, float]
+    """The force held on it besides gravity, newtons."""
+    mass: float
+    """kg (infinite for a fixed body)."""
+    friction: float
+    """The friction coefficient of its contacts."""
+
+
+def _state(reply: tuple) -> BodyState:
+    values = {key: value for key, (_, value) in reply[0].items()}
+    return BodyState(
+        position=tuple(values["position"]),
+        orientation=tuple(values["orientation"]),
+        velocity=tuple(values["velocity"]),
+        spin=tuple(values["spin"]),
+        force=tuple(values["force"]),
+        mass=values["mass"],
+        friction=values["friction"],
+    )
+
+
+def _floats(what: str, values: Sequence[float], n: int) -> List[float]:
+    values = [float(v) for v in values]
+    if len(values) != n:
+        raise ValueError(f"{what} takes {n} numbers, not {len(values)}")
+    return values
 
 
 class Hapticd:
@@ -163,6 +243,61 @@ class Hapticd:
                 if not e.name.endswith(".Preparing") or time.monotonic() > deadline:
                     raise
                 time.sleep(0.5)
+
+    @property
+    def bodies(self) -> List[Body]:
+        """The running world's bodies, in the order of their ids (none when its scene cannot
+        be changed from outside)."""
+        listed = self._bus.get(SCENE_PATH, SCENE, "Bodies")[1]
+        return [Body(k, name, fixed) for k, (name, fixed) in enumerate(listed)]
+
+    def _drive(self, method: str, signature: str, *args) -> BodyState:
+        return _state(self._bus.call(SCENE_PATH, SCENE, method, signature, args))
+
+    def body(self, body: str) -> BodyState:
+        """Where ``body`` (its name, or its id as a string) is and how it moves, now."""
+        return self._drive("Body", "s", str(body))
+
+    def set_pose(
+        self,
+        body: str,
+        position: Sequence[float],
+        orientation: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
+    ) -> BodyState:
+        """Put ``body``'s centre of mass at ``position`` (metres) with ``orientation`` (qw, qx,
+        qy, qz), keeping its velocities; the forces ramp to zero first and back after."""
+        p, q = _floats("position", position, 3), _floats("orientation", orientation, 4)
+        return self._drive("SetPose", "sadad", str(body), p, q)
+
+    def set_velocity(
+        self, body: str, velocity: Sequence[float], spin: Sequence[float] = (0.0, 0.0, 0.0)
+    ) -> BodyState:
+        """Set ``body`` moving at ``velocity`` (m/s) and turning at ``spin`` (rad/s)."""
+        v, w = _floats("velocity", velocity, 3), _floats("spin", spin, 3)
+        return self._drive("SetVelocity", "sadad", str(body), v, w)
+
+    def apply_impulse(
+        self, body: str, impulse: Sequence[float], point: Optional[Sequence[float]] = None
+    ) -> BodyState:
+        """Give ``body`` the momentum ``impulse`` (N·s) at ``point`` (metres; None: its centre
+        of mass, so it does not turn)."""
+        j = _floats("impulse", impulse, 3)
+        at = [] if point is None else _floats("point", point, 3)
+        return self._drive("ApplyImpulse", "sadad", str(body), j, at)
+
+    def set_force(self, body: str, force: Sequence[float]) -> BodyState:
+        """Push ``body`` with ``force`` (N) at its centre at every step from now on, besides
+        gravity; a zero force ends it."""
+        return self._drive("SetForce", "sad", str(body), _floats("force", force, 3))
+
+    def set_mass(self, body: str, mass: float) -> BodyState:
+        """Make ``body``'s mass ``mass`` kg, its inertia scaled with it."""
+        return self._drive("SetMass", "sd", str(body), float(mass))
+
+    def set_friction(self, body: str, friction: float) -> BodyState:
+        """Make the friction coefficient of ``body``'s contacts ``friction`` (a contact takes
+        the lower of its two bodies')."""
+        return self._drive("SetFriction", "sd", str(body), float(friction))
 
     def close(self) -> None:
         """Close the connection."""

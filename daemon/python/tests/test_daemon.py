@@ -67,3 +67,42 @@ def test_calibrate_takes_the_offsets(daemon):
     device.calibrate()
     assert device.state in ("running", "calibrating")
     assert len(device.get("CalibrationOffsets")) == len(before)
+
+
+def test_the_world_is_read_and_driven_and_hostile_values_refused_by_name(daemon):
+    daemon.switch_scene("blocks")
+    names = [b.name for b in daemon.bodies]
+    assert names[:2] == ["table", "block"] and daemon.bodies[0].fixed
+    world = daemon.devices[0].open_world()
+    try:
+        before = daemon.body("block")
+        impulse = (0.0, 0.0, 0.1 * before.mass)
+        after = daemon.apply_impulse("block", impulse)
+        assert abs((after.velocity[2] - before.velocity[2]) * before.mass - impulse[2]) < 1e-9
+        # The picture shows the body where the scene interface says it is.
+        _, frame = world.frame()
+        shown = frame.bodies[names.index("block")]
+        now = daemon.body("block")
+        assert math.dist(shown[:3], now.position) < 0.01
+        _, solids = world.solids()
+        # The table is fixed; the penalty engine shows its convex pieces as their faces.
+        assert solids[0].fixed and solids[0].body == 0
+        assert all(s.shape == "triangles" and s.triangles for s in solids)
+        assert {s.body for s in solids} >= set(range(len(names)))
+    finally:
+        world.close()
+    placed = daemon.set_pose("block", (0.03, 0.0, 0.0))
+    assert math.dist(placed.position, (0.03, 0.0, 0.0)) < 1e-9
+    for call, reason in [
+        (lambda: daemon.body("no-such-body"), "UnknownBody"),
+        (lambda: daemon.set_mass("block", math.nan), "NotFinite"),
+        (lambda: daemon.set_mass("block", -1), "OutOfRange"),
+        (lambda: daemon.apply_impulse("block", (1e6, 0, 0)), "OutOfRange"),
+        (lambda: daemon.set_force("table", (0, 1, 0)), "FixedBody"),
+    ]:
+        with pytest.raises(hapticd.Error) as refused:
+            call()
+        assert refused.value.name == f"org.hapticd.Hapticd1.Error.{reason}"
+    with pytest.raises(ValueError):
+        daemon.set_pose("block", (0, 0))
+    daemon.switch_scene("static")

@@ -1,0 +1,171 @@
+"""A device's picture of the world, read from the memory the daemon hands out
+(``Device.OpenWorld``): a sealed memfd, mapped read-only here, holding the latest frame (the
+grips, the wrenches shown and every body's pose) under a sequence lock, and the scene's solids
+under another. The layout is ``hapticd_core::world_state``'s (version 2); memory of another
+layout is refused.
+"""
+
+from __future__ import annotations
+
+import mmap
+import struct
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+from .telemetry import CHANNELS, MAX_EFFECTORS
+
+MAGIC = b"hapticdW"
+VERSION = 2
+MAX_BODIES = 4096
+MAX_SOLIDS = 4096
+MAX_TRIANGLES = 16384
+
+SHAPES = {1: "box", 2: "sphere", 3: "cylinder", 4: "plane", 5: "triangles"}
+"""The shape of a solid by its number (``HAPTICD_SHAPE_*``)."""
+FIXED = 1
+"""The flag of a solid that does not move."""
+NO_BODY = 0xFFFFFFFF
+"""The body of a solid that belongs to none."""
+
+_HEADER = struct.Struct("<8sII")
+_SEQUENCE = struct.Struct("<Q")
+# The frame: time, rate, state, scene switches, effectors, strings, bodies, whether it has
+# proxies; each effector's grip pose, degrees of freedom, proxy and wrench; each string's
+# effector, motor, knot, tension and tension range; then the bodies' poses.
+_FRAME_HEAD = struct.Struct(
+    "<dd6I"
+    + "7d" * MAX_EFFECTORS
+    + f"{MAX_EFFECTORS}I"
+    + "3d" * MAX_EFFECTORS
+    + "6d" * MAX_EFFECTORS
+    + f"{CHANNELS}I"
+    + "3d" * CHANNELS
+    + "3d" * CHANNELS
+    + f"{CHANNELS}d"
+    + "2d" * CHANNELS
+)
+_POSE = struct.Struct("<7d")
+_FRAME = _FRAME_HEAD.size + MAX_BODIES * _POSE.size
+# A solid: body, shape, flags, first triangle, triangle count, sizes, frame, colour.
+_SOLID = struct.Struct("<5I4x3d7d4f")
+_TRIANGLE = struct.Struct("<9d")
+_GEOMETRY_HEAD = struct.Struct("<4I")
+_GEOMETRY = _GEOMETRY_HEAD.size + MAX_SOLIDS * _SOLID.size + MAX_TRIANGLES * _TRIANGLE.size
+
+_SEQUENCE_AT = _HEADER.size
+_FRAME_AT = _SEQUENCE_AT + _SEQUENCE.size
+_GEOMETRY_SEQUENCE_AT = _FRAME_AT + _FRAME
+_GEOMETRY_AT = _GEOMETRY_SEQUENCE_AT + _SEQUENCE.size
+SIZE = _GEOMETRY_AT + _GEOMETRY
+
+Pose = Tuple[float, float, float, float, float, float, float]
+"""x, y, z (metres), then the orientation qw, qx, qy, qz."""
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One picture of the world."""
+
+    time: float
+    """Loop time, seconds."""
+    scene_switches: int
+    """Scenes swapped in since the start: a change means other bodies and solids."""
+    grips: List[Pose]
+    """Each effector's grip pose."""
+    wrenches: List[Tuple[float, ...]]
+    """Each effector's displayed force (N) and torque (N·m)."""
+    bodies: List[Pose]
+    """Each body's pose, in the order of its id (the scene interface's ``Bodies``)."""
+
+
+@dataclass(frozen=True)
+class Solid:
+    """One drawable solid of the scene, placed by its body's pose."""
+
+    body: Optional[int]
+    """The id of the body it moves with, or None (it stays where ``offset`` puts it)."""
+    shape: str
+    """box, sphere, cylinder, plane or triangles."""
+    fixed: bool
+    """Whether it never moves."""
+    size: Tuple[float, float, float]
+    """A box's half edges; a sphere's or cylinder's radius (and a cylinder's length); a plane's
+    width drawn."""
+    offset: Pose
+    """Its frame in its body's frame (in the world's when it has no body)."""
+    triangles: List[Tuple[float, ...]]
+    """A triangles solid's corners, nine numbers each, in its frame."""
+
+
+class World:
+    """A device's picture of the world, mapped read-only from the descriptor ``fd``."""
+
+    def __init__(self, fd: int) -> None:
+        self._map = mmap.mmap(fd, SIZE, mmap.MAP_SHARED, mmap.PROT_READ)
+        magic, version, size = _HEADER.unpack_from(self._map, 0)
+        if magic != MAGIC or version != VERSION or size != SIZE:
+            self._map.close()
+            raise ValueError(
+                f"not a shared world of layout {VERSION} ({SIZE} bytes): magic {magic!r}, "
+                f"layout {version}, {size} bytes"
+            )
+
+    def _read(self, sequence_at: int, read):
+        """``read()`` of a block under the sequence at ``sequence_at``, retried while written."""
+        while True:
+            (before,) = _SEQUENCE.unpack_from(self._map, sequence_at)
+            value = read()
+            (after,) = _SEQUENCE.unpack_from(self._map, sequence_at)
+            if before % 2 == 0 and before == after:
+                return before, value
+
+    def frame(self) -> Tuple[int, Frame]:
+        """The latest frame and its sequence (it grows with every frame written)."""
+
+        def read() -> Frame:
+            head = _FRAME_HEAD.unpack_from(self._map, _FRAME_AT)
+            time_, _rate, _state, switches, effectors, _strings, count, _ = head[:8]
+            at = 8
+            grips = [tuple(head[at + 7 * k : at + 7 * k + 7]) for k in range(effectors)]
+            at += 7 * MAX_EFFECTORS + MAX_EFFECTORS + 3 * MAX_EFFECTORS
+            wrenches = [tuple(head[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
+            shown = min(count, MAX_BODIES)
+            first = _FRAME_AT + _FRAME_HEAD.size
+            bodies = [_POSE.unpack_from(self._map, first + k * _POSE.size) for k in range(shown)]
+            return Frame(time_, switches, grips, wrenches, bodies)
+
+        return self._read(_SEQUENCE_AT, read)
+
+    def solids(self) -> Tuple[int, List[Solid]]:
+        """The frames' ``scene_switches`` of the scene pictured last, and its solids."""
+
+        def read() -> Tuple[int, List[Solid]]:
+            switches, _bodies, count, triangles = _GEOMETRY_HEAD.unpack_from(self._map, _GEOMETRY_AT)
+            solids_at = _GEOMETRY_AT + _GEOMETRY_HEAD.size
+            triangles_at = solids_at + MAX_SOLIDS * _SOLID.size
+            out = []
+            for k in range(min(count, MAX_SOLIDS)):
+                v = _SOLID.unpack_from(self._map, solids_at + k * _SOLID.size)
+                body, shape, flags, first, n = v[:5]
+                first, n = min(first, triangles), min(n, max(0, triangles - first))
+                corners = [
+                    _TRIANGLE.unpack_from(self._map, triangles_at + t * _TRIANGLE.size)
+                    for t in range(first, first + n)
+                ]
+                out.append(
+                    Solid(
+                        body=None if body == NO_BODY else body,
+                        shape=SHAPES.get(shape, "unknown"),
+                        fixed=bool(flags & FIXED),
+                        size=tuple(v[5:8]),
+                        offset=tuple(v[8:15]),
+                        triangles=corners,
+                    )
+                )
+            return switches, out
+
+        return self._read(_GEOMETRY_SEQUENCE_AT, read)[1]
+
+    def close(self) -> None:
+        """Unmap the world."""
+        self._map.close()
