@@ -2626,6 +2626,49 @@ fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
     daemon.stop();
 }
 
+/// The README's second example (`daemon/python/examples/push.py`): the world drawn from the
+/// device's picture of it, and a block pushed from outside sliding as Coulomb friction has it.
+#[test]
+fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
+    let dir = scratch("push-example");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let picture = dir.join("push.svg");
+    let out = Command::new("/usr/bin/python3")
+        .arg(repo_dir().join("daemon/python/examples/push.py"))
+        .args(["--bus", &bus.address, "--speed", "0.3", "--out"])
+        .arg(&picture)
+        .env("PYTHONPATH", repo_dir().join("daemon/python"))
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{said}");
+    let went: f64 = said
+        .split("went ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    // A block sliding at v on the table stops after v²/(2μg) (μ = 0.4 in blocks.yaml).
+    let coulomb = 0.3_f64.powi(2) / (2.0 * 0.4 * 9.81) * 1000.0;
+    assert!(
+        (went - coulomb).abs() < 0.3 * coulomb,
+        "{went} mm vs {coulomb:.1} mm"
+    );
+    let svg = std::fs::read_to_string(&picture).unwrap();
+    // Seven bodies of boxes, each drawn face by face, and the block's path.
+    assert!(svg.matches("<polygon").count() >= 7 * 12, "{}", &svg[..200]);
+    assert_eq!(svg.matches("<polyline").count(), 1);
+    daemon.stop();
+}
+
 /// The Rust client library (`hapticd_ipc::client`) against a running daemon.
 #[test]
 fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
