@@ -2997,4 +2997,35 @@ fn the_running_world_is_driven_from_outside_under_both_engines_and_hostile_value
         "{}",
         bus.get(DEVICE, "State")
     );
+    // hapticctl body, on the client library: the rapier world's bodies, a push, refusals.
+    let said = |args: &[&str]| {
+        let out = bus.ctl(args);
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        (out.status.code(), text)
+    };
+    let (code, listed) = said(&["body", "list"]);
+    assert_eq!(code, Some(0), "{listed}");
+    assert!(
+        listed.contains("0  floor") && listed.contains("fixed"),
+        "{listed}"
+    );
+    let (code, pushed) = said(&["body", "push", "block", "--json", "0", "0", "-0.5"]);
+    assert_eq!(code, Some(0), "{pushed}");
+    let state: serde_json::Value = serde_json::from_str(&pushed).unwrap();
+    assert!(
+        (state["mass"].as_f64().unwrap() - 0.5).abs() < 1e-5,
+        "{pushed}"
+    );
+    let (code, refused) = said(&["body", "show", "no-such-body"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        refused.contains("UnknownBody: no body \"no-such-body\""),
+        "{refused}"
+    );
+    let (code, refused) = said(&["body", "mass", "floor", "3"]);
+    assert_eq!(code, Some(1));
+    assert!(refused.contains("FixedBody"), "{refused}");
+    let (code, _) = said(&["body", "pose", "block", "0", "0"]);
+    assert_eq!(code, Some(2), "two numbers for three");
 }

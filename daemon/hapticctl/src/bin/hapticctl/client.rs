@@ -180,11 +180,21 @@ impl Client {
         })
     }
 
+    /// The client library's view of the daemon, on this connection.
+    pub fn hapticd(&self) -> Result<hapticd_ipc::client::Hapticd, Failure> {
+        hapticd_ipc::client::Hapticd::on(self.connection.clone()).map_err(|e| self.refused(e))
+    }
+
     /// What `e`, from the client library, means to the person who asked.
-    fn refused(&self, e: hapticd_ipc::client::ClientError) -> Failure {
+    pub fn refused(&self, e: hapticd_ipc::client::ClientError) -> Failure {
         use hapticd_ipc::client::ClientError;
         match e {
             ClientError::NotRunning => not_running(&self.bus),
+            ClientError::Refused { name, message } if name.ends_with(".AccessDenied") => {
+                Failure::failed(format!(
+                    "not allowed ({message}): root and members of the hapticd group may change things"
+                ))
+            }
             ClientError::Refused { name, message } => {
                 Failure::failed(format!("{}: {message}", error_name(&name).unwrap_or(&name)))
             }
@@ -545,8 +555,9 @@ fn switch_when_prepared(client: &Client, scene: &str) -> Result<(), Failure> {
             eprintln!("{scene}: {message}; waiting");
         }
     };
-    hapticd_ipc::client::Hapticd::on(client.connection.clone())
-        .and_then(|h| h.switch_scene(scene, std::time::Duration::from_secs(600), &mut waiting))
+    client
+        .hapticd()?
+        .switch_scene(scene, std::time::Duration::from_secs(600), &mut waiting)
         .map_err(|e| client.refused(e))
 }
 

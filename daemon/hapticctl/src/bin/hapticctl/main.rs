@@ -1,5 +1,6 @@
 //! `hapticctl`: the command-line companion of hapticd.
 
+mod body;
 mod client;
 mod completion;
 mod device;
@@ -55,6 +56,9 @@ enum Command {
     /// Step physics scene files (either engine) headless, or list and switch the daemon's scenes.
     #[command(subcommand)]
     Scene(scene::Command),
+    /// The running world's bodies: list them, see where one is, or move, push, weigh one.
+    #[command(subcommand)]
+    Body(body::Command),
     /// Draw one frame of a scene file to a PNG file with Vulkan (no daemon needed).
     Render(render::RenderArgs),
     /// Write a picture of the running daemon's world to a PNG file (from hapticd-render).
@@ -182,6 +186,7 @@ fn main() -> ExitCode {
             Command::Device(command) => device::run(command),
             Command::Mesh(command) => mesh::run(command),
             Command::Scene(command) => scene::run(command, &cli.bus),
+            Command::Body(command) => connect().and_then(|c| body::run(command, &c)),
             Command::Render(args) => render::run(&args, &catalog),
             Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
             Command::View(args) => pictures::view(&args, &cli.bus),

@@ -1,0 +1,173 @@
+//! `hapticctl body …`: the running world's bodies, read and changed from outside through the
+//! daemon's Scene interface (by name, or by id as a number).
+
+use clap::{Args, Subcommand};
+use hapticd_ipc::client::{BodyState, Scene};
+use serde_json::json;
+
+use crate::Failure;
+use crate::client::Client;
+use crate::mechanism::{Output, print};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// The bodies of the running world: id, name, fixed or free.
+    List(Output),
+    /// Where a body is and how it moves, now.
+    Show(Target),
+    /// Put a body's centre of mass at X Y Z metres (the forces ramp to zero and back).
+    Pose {
+        #[command(flatten)]
+        target: Target,
+        /// X Y Z, metres.
+        #[arg(num_args = 3, allow_negative_numbers = true, required = true)]
+        position: Vec<f64>,
+        /// Its orientation, a unit quaternion W X Y Z (default: none turned).
+        #[arg(long, num_args = 4, allow_negative_numbers = true, value_names = ["W", "X", "Y", "Z"])]
+        orientation: Option<Vec<f64>>,
+    },
+    /// Set a body moving at VX VY VZ m/s.
+    Velocity {
+        #[command(flatten)]
+        target: Target,
+        /// VX VY VZ, m/s.
+        #[arg(num_args = 3, allow_negative_numbers = true, required = true)]
+        velocity: Vec<f64>,
+        /// Turning at WX WY WZ rad/s (default: not turning).
+        #[arg(long, num_args = 3, allow_negative_numbers = true, value_names = ["WX", "WY", "WZ"])]
+        spin: Option<Vec<f64>>,
+    },
+    /// Give a body the momentum JX JY JZ N·s.
+    Push {
+        #[command(flatten)]
+        target: Target,
+        /// JX JY JZ, N·s.
+        #[arg(num_args = 3, allow_negative_numbers = true, required = true)]
+        impulse: Vec<f64>,
+        /// Where it acts, X Y Z metres (default: the centre of mass, so the body does not turn).
+        #[arg(long, num_args = 3, allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+        at: Option<Vec<f64>>,
+    },
+    /// Hold the force FX FY FZ N on a body from now on, besides gravity (0 0 0 ends it).
+    Force {
+        #[command(flatten)]
+        target: Target,
+        /// FX FY FZ, newtons.
+        #[arg(num_args = 3, allow_negative_numbers = true, required = true)]
+        force: Vec<f64>,
+    },
+    /// Make a body's mass KG kilograms, its inertia scaled with it.
+    Mass {
+        #[command(flatten)]
+        target: Target,
+        /// Kilograms.
+        kg: f64,
+    },
+    /// Make the friction coefficient of a body's contacts MU.
+    Friction {
+        #[command(flatten)]
+        target: Target,
+        /// The coefficient (a contact takes the lower of its two bodies').
+        mu: f64,
+    },
+}
+
+/// The body a command is about, and how to print its state after it.
+#[derive(Args)]
+pub struct Target {
+    /// The body: its name in the scene file, or its id (`hapticctl body list`).
+    body: String,
+    #[command(flatten)]
+    output: Output,
+}
+
+/// `values` as `N` numbers (clap has counted them).
+fn three(values: &[f64]) -> [f64; 3] {
+    [values[0], values[1], values[2]]
+}
+
+/// Print `body`'s `state`.
+fn show(target: &Target, state: &BodyState) {
+    let [w, x, y, z] = state.orientation;
+    let text = format!(
+        "{}: position {:?} m, orientation {:?}, velocity {:?} m/s, spin {:?} rad/s, mass {} kg, \
+         friction {}, held force {:?} N\n",
+        target.body,
+        state.position,
+        [w, x, y, z],
+        state.velocity,
+        state.spin,
+        state.mass,
+        state.friction,
+        state.force
+    );
+    let value = json!({
+        "body": target.body,
+        "position": state.position,
+        "orientation": state.orientation,
+        "velocity": state.velocity,
+        "spin": state.spin,
+        // A fixed body's mass is infinite, which JSON cannot say.
+        "mass": state.mass.is_finite().then_some(state.mass),
+        "friction": state.friction,
+        "force": state.force,
+    });
+    print(&target.output, value, text);
+}
+
+/// Run one `body` subcommand against the daemon on `client`.
+pub fn run(command: Command, client: &Client) -> Result<(), Failure> {
+    let scene = client.hapticd()?.scene().map_err(|e| client.refused(e))?;
+    let act = |target: &Target, change: &dyn Fn(&Scene, &str) -> Result<BodyState, _>| {
+        let state = change(&scene, &target.body).map_err(|e| client.refused(e))?;
+        show(target, &state);
+        Ok(())
+    };
+    match command {
+        Command::List(output) => {
+            let bodies = scene.bodies().map_err(|e| client.refused(e))?;
+            let mut text = String::new();
+            for (id, b) in bodies.iter().enumerate() {
+                let kind = if b.fixed { "fixed" } else { "free" };
+                text += &format!("{id:>3}  {:<20} {kind}\n", b.name);
+            }
+            if bodies.is_empty() {
+                text = "the running scene has no bodies to change from outside\n".into();
+            }
+            let value: Vec<_> = bodies
+                .iter()
+                .enumerate()
+                .map(|(id, b)| json!({"id": id, "name": b.name, "fixed": b.fixed}))
+                .collect();
+            print(&output, json!(value), text);
+            Ok(())
+        }
+        Command::Show(target) => act(&target, &|s, b| s.body(b)),
+        Command::Pose {
+            target,
+            position,
+            orientation,
+        } => {
+            let q = orientation.map_or([1.0, 0.0, 0.0, 0.0], |q| [q[0], q[1], q[2], q[3]]);
+            act(&target, &|s, b| s.set_pose(b, three(&position), q))
+        }
+        Command::Velocity {
+            target,
+            velocity,
+            spin,
+        } => {
+            let w = spin.map_or([0.0; 3], |w| three(&w));
+            act(&target, &|s, b| s.set_velocity(b, three(&velocity), w))
+        }
+        Command::Push {
+            target,
+            impulse,
+            at,
+        } => act(&target, &|s, b| {
+            s.apply_impulse(b, three(&impulse), at.as_deref().map(three))
+        }),
+        Command::Force { target, force } => act(&target, &|s, b| s.set_force(b, three(&force))),
+        Command::Mass { target, kg } => act(&target, &|s, b| s.set_mass(b, kg)),
+        Command::Friction { target, mu } => act(&target, &|s, b| s.set_friction(b, mu)),
+    }
+}
