@@ -17,10 +17,11 @@ struct HapticdPluginDescriptor;
 const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdHost *host);
 
 /* Extension ids (HapticdSceneVtable.get_extension), each with the struct of its section
- * below: HapticdSceneGeometry, HapticdSceneFiles and HapticdSceneControl. */
+ * below: HapticdSceneGeometry, HapticdSceneFiles, HapticdSceneControl and HapticdSceneContacts. */
 #define HAPTICD_EXT_SCENE_GEOMETRY "hapticd.scene.geometry/1"
 #define HAPTICD_EXT_SCENE_FILES "hapticd.scene.files/1"
 #define HAPTICD_EXT_SCENE_CONTROL "hapticd.scene.control/1"
+#define HAPTICD_EXT_SCENE_CONTACTS "hapticd.scene.contacts/1"
 
 
 /*
@@ -205,6 +206,11 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  Longest body name in bytes, including the terminating NUL.
  */
 #define HAPTICD_BODY_NAME_CAPACITY 64
+
+/*
+ Touch flag: the pointer slides along the surface (dynamic friction) instead of sticking.
+ */
+#define HAPTICD_TOUCH_SLIPPING 1
 
 /*
  Summary of a mechanism.
@@ -978,5 +984,50 @@ typedef struct HapticdSceneControl {
                    const struct HapticdSceneCommand *command,
                    struct HapticdBodyState *state);
 } HapticdSceneControl;
+
+/*
+ What a pointer touches after a step.
+ */
+typedef struct HapticdTouch {
+  /*
+   The body touched (its id), or [`HAPTICD_NO_BODY`] for a solid that is no body.
+   */
+  uint32_t body;
+  /*
+   `HAPTICD_TOUCH_` flags.
+   */
+  uint32_t flags;
+  /*
+   Where they touch, metres.
+   */
+  double point[3];
+  /*
+   Unit normal of the touched surface, pointing out of it (toward the pointer).
+   */
+  double normal[3];
+} HapticdTouch;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_CONTACTS`] of a scene plugin: which body each pointer
+ touches, for contact events. A multi-rate scene names the body of each object of its
+ planes; a direct scene says after each step what each pointer touches.
+ */
+typedef struct HapticdSceneContacts {
+  /*
+   `sizeof(HapticdSceneContacts)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [main] After `create`: the body that object `object` (of planes and impulses, numbered
+   from 0 without gaps) belongs to; [`HAPTICD_NO_BODY`] past the last object.
+   */
+  uint32_t (*object_body)(void *instance, uint32_t object);
+  /*
+   [rt, after `step_direct`] Direct scenes: write what pointer `pointer` touches to `out`
+   and return [`HAPTICD_OK`], or [`HAPTICD_ERROR_ARGUMENT`] when it touches nothing. Must
+   not allocate, lock, log or block.
+   */
+  int32_t (*touch)(void *instance, uint32_t pointer, struct HapticdTouch *out);
+} HapticdSceneContacts;
 
 #endif  /* HAPTICD_PLUGIN_H */

@@ -364,6 +364,20 @@ pub trait SceneInstance: Send {
         let _ = (command, state);
         HAPTICD_ERROR_FAILED
     }
+
+    /// [main] Since ABI 1.5: the body object `object` of the planes belongs to (served
+    /// through [`HAPTICD_EXT_SCENE_CONTACTS`]), None past the last object.
+    fn object_body(&self, object: u32) -> Option<u32> {
+        let _ = object;
+        None
+    }
+
+    /// [rt, after a direct step] Since ABI 1.5: what pointer `pointer` touches, if anything.
+    /// Must not allocate, lock, log or block.
+    fn touch(&self, pointer: usize) -> Option<HapticdTouch> {
+        let _ = pointer;
+        None
+    }
 }
 
 impl HapticdSceneCommand {
@@ -509,6 +523,50 @@ unsafe extern "C" fn control_apply(
     guard(|| scene.apply(command, state))
 }
 
+unsafe extern "C" fn contacts_object_body(instance: *mut std::ffi::c_void, object: u32) -> u32 {
+    if instance.is_null() {
+        return HAPTICD_NO_BODY;
+    }
+    // SAFETY: the host keeps the extension's contract: a live instance on the main thread.
+    let scene = unsafe { instance_mut(instance) };
+    let mut body = HAPTICD_NO_BODY;
+    guard(|| {
+        body = scene.object_body(object).unwrap_or(HAPTICD_NO_BODY);
+        HAPTICD_OK
+    });
+    body
+}
+
+unsafe extern "C" fn contacts_touch(
+    instance: *mut std::ffi::c_void,
+    pointer: u32,
+    out: *mut HapticdTouch,
+) -> i32 {
+    if instance.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: the host keeps the extension's contract: a live instance on its stepping thread.
+    let scene = unsafe { instance_mut(instance) };
+    let mut touch = None;
+    let status = guard(|| {
+        touch = scene.touch(pointer as usize);
+        HAPTICD_OK
+    });
+    if status != HAPTICD_OK {
+        return status;
+    }
+    // SAFETY: `out` is null or valid for one write, per the contract.
+    unsafe { write_out(out, touch) }
+}
+
+/// The contacts extension every Rust scene plugin serves, around
+/// [`SceneInstance::object_body`] and [`SceneInstance::touch`].
+static SCENE_CONTACTS: HapticdSceneContacts = HapticdSceneContacts {
+    struct_size: std::mem::size_of::<HapticdSceneContacts>() as u32,
+    object_body: Some(contacts_object_body),
+    touch: Some(contacts_touch),
+};
+
 /// The control extension every Rust scene plugin serves, around [`SceneInstance::body`]
 /// and [`SceneInstance::apply`].
 static SCENE_CONTROL: HapticdSceneControl = HapticdSceneControl {
@@ -534,8 +592,8 @@ pub struct StaticSceneFiles(pub HapticdSceneFiles);
 // SAFETY: it holds only function pointers and a size.
 unsafe impl Sync for StaticSceneFiles {}
 
-/// Body of the exported `get_extension` function: the geometry and control extensions, and
-/// the files extension when the plugin runs scene files.
+/// Body of the exported `get_extension` function: the geometry, control and contacts
+/// extensions, and the files extension when the plugin runs scene files.
 ///
 /// # Safety
 /// `id` is null or NUL-terminated.
@@ -554,6 +612,9 @@ pub unsafe fn scene_extension(
     }
     if id == HAPTICD_EXT_SCENE_CONTROL {
         return (&SCENE_CONTROL as *const HapticdSceneControl).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_CONTACTS {
+        return (&SCENE_CONTACTS as *const HapticdSceneContacts).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

@@ -43,6 +43,10 @@ fn the_header_names_each_extension_as_the_rust_abi_does() {
             "HAPTICD_EXT_SCENE_CONTROL",
             hapticd_plugin_api::HAPTICD_EXT_SCENE_CONTROL,
         ),
+        (
+            "HAPTICD_EXT_SCENE_CONTACTS",
+            hapticd_plugin_api::HAPTICD_EXT_SCENE_CONTACTS,
+        ),
     ] {
         let line = format!("#define {name} \"{}\"", id.to_str().unwrap());
         assert!(header.contains(&line), "the header lacks `{line}`");

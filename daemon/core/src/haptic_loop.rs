@@ -22,7 +22,7 @@ use crate::haptics::safety::{SafetyGuard, SafetyLimits};
 use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
-use crate::scene::{Pointer, Scene};
+use crate::scene::{Pointer, Scene, Touch};
 use crate::solver::calibration::{lengths_from_counts, offsets_into};
 use crate::solver::pose::PoseSolver;
 use crate::solver::tension::{TensionSettings, TensionSolver};
@@ -110,6 +110,8 @@ pub struct Frame {
     pub velocities: [DVec3; MAX_EFFECTORS],
     /// Wrench displayed on each effector (after passivity and safety).
     pub wrenches: [Wrench; MAX_EFFECTORS],
+    /// What each effector's pointer touches, as the scene says.
+    pub touches: [Touch; MAX_EFFECTORS],
     /// Strings in use.
     pub strings: usize,
     /// Tension commanded on each string, newtons.
@@ -489,6 +491,11 @@ impl HapticLoop {
             self.swap_scene_when_quiet();
             let rendered = self.scene.render(&self.pointers, dt, &mut self.wrenches);
             scene_ok = self.scene_hold.update(rendered, dt);
+            self.frame.touches = [Touch::NONE; MAX_EFFECTORS];
+            if rendered {
+                let n = self.pointers.len();
+                self.scene.write_touches(&mut self.frame.touches[..n]);
+            }
         } else {
             self.wrenches.fill(Wrench::ZERO);
         }

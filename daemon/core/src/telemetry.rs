@@ -9,7 +9,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering, fence};
 
-use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
+use hapticd_plugin_api::{HAPTICD_NO_BODY, HapticdBodyPose, HapticdWrench};
 
 use crate::haptic_loop::Frame;
 use crate::kinematics::MAX_EFFECTORS;
@@ -21,7 +21,7 @@ use crate::world_state::{body_pose, state_code};
 pub const MAGIC: [u8; 8] = *b"hapticdT";
 
 /// Layout version: raised with any change to [`Sample`] or [`SharedTelemetry`].
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// Slots in the ring: 0.8 s of ticks at 10 kHz, 8 s at 1 kHz, for a reader to fall behind by
 /// before it misses any.
@@ -43,12 +43,21 @@ pub struct Sample {
     pub strings: u32,
     /// Bit k set while effector k displays a force: it touches something.
     pub contacts: u32,
+    /// Bit k set while effector k slides along what it touches (dynamic friction).
+    pub slipping: u32,
+    /// The body each effector touches (its id), or `HAPTICD_NO_BODY`: touching nothing, a
+    /// solid that is no body, or a scene that cannot say.
+    pub touched: [u32; MAX_EFFECTORS],
     /// Each effector's grip pose.
     pub poses: [HapticdBodyPose; MAX_EFFECTORS],
     /// Each effector's grip velocity, m/s.
     pub velocities: [[f64; 3]; MAX_EFFECTORS],
     /// The wrench each effector displays.
     pub wrenches: [HapticdWrench; MAX_EFFECTORS],
+    /// Where each effector touches, metres.
+    pub touch_points: [[f64; 3]; MAX_EFFECTORS],
+    /// The outward normal of what each effector touches (zero when the scene cannot say).
+    pub touch_normals: [[f64; 3]; MAX_EFFECTORS],
     /// Each string's tension, newtons.
     pub tensions: [f64; CHANNELS],
     /// Each motor's D/A value as sent.
@@ -64,6 +73,8 @@ impl Sample {
         effectors: 0,
         strings: 0,
         contacts: 0,
+        slipping: 0,
+        touched: [HAPTICD_NO_BODY; MAX_EFFECTORS],
         poses: [HapticdBodyPose {
             position: [0.0; 3],
             orientation: [1.0, 0.0, 0.0, 0.0],
@@ -73,6 +84,8 @@ impl Sample {
             force: [0.0; 3],
             torque: [0.0; 3],
         }; MAX_EFFECTORS],
+        touch_points: [[0.0; 3]; MAX_EFFECTORS],
+        touch_normals: [[0.0; 3]; MAX_EFFECTORS],
         tensions: [0.0; CHANNELS],
         dac: [0; CHANNELS],
     };
@@ -85,7 +98,19 @@ impl Sample {
         self.effectors = frame.effectors as u32;
         self.strings = frame.strings as u32;
         self.contacts = 0;
+        self.slipping = 0;
         for k in 0..MAX_EFFECTORS {
+            let touch = &frame.touches[k];
+            self.touched[k] = if touch.touching {
+                touch.body
+            } else {
+                HAPTICD_NO_BODY
+            };
+            self.touch_points[k] = touch.point.to_array();
+            self.touch_normals[k] = touch.normal.to_array();
+            if touch.touching && touch.slipping {
+                self.slipping |= 1 << k;
+            }
             let wrench = &frame.wrenches[k];
             self.poses[k] = body_pose(&frame.poses[k]);
             self.velocities[k] = frame.velocities[k].to_array();

@@ -31,7 +31,7 @@ use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::control::{self, Incoming, Reply, Request, SceneControl};
 use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
 use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_bodies, check_planes};
-use hapticd_core::scene::{Pointer, Scene};
+use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
 use hapticd_core::world_state::{MAX_BODIES, MAX_SOLIDS, MAX_TRIANGLES, body_pose, pose_of};
@@ -44,6 +44,8 @@ struct Instance {
     apply: Option<
         unsafe extern "C" fn(*mut c_void, *const HapticdSceneCommand, *mut HapticdBodyState) -> i32,
     >,
+    /// The contacts extension's `touch`, when the plugin has one.
+    touch: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdTouch) -> i32>,
 }
 
 // SAFETY: an instance is used by one thread at a time (the haptic thread for direct scenes,
@@ -61,6 +63,33 @@ impl Instance {
             None => HAPTICD_ERROR_FAILED,
         };
         replies.push(Reply::to(request, status, state));
+    }
+
+    /// [rt, after a direct step] What each pointer touches, into `touches`.
+    fn touches(&self, touches: &mut [Touch]) {
+        let Some(touch) = self.touch else {
+            return;
+        };
+        for (pointer, out) in touches.iter_mut().enumerate() {
+            let mut found = HapticdTouch::default();
+            // SAFETY: a live instance on its stepping thread, a valid out pointer.
+            if unsafe { touch(self.pointer, pointer as u32, &mut found) } == HAPTICD_OK {
+                let normal = DVec3::from(found.normal);
+                let point = DVec3::from(found.point);
+                *out = Touch {
+                    touching: true,
+                    body: found.body,
+                    point: if point.is_finite() {
+                        point
+                    } else {
+                        DVec3::ZERO
+                    },
+                    // What no unit normal is, is said as none.
+                    normal: normal.try_normalize().unwrap_or(DVec3::ZERO),
+                    slipping: found.flags & HAPTICD_TOUCH_SLIPPING != 0,
+                };
+            }
+        }
     }
 
     /// [the stepping thread] The plugin's bodies into `poses`; how many it has (none when
@@ -189,12 +218,14 @@ pub fn load(
         vtable,
         pointer,
         apply: None,
+        touch: None,
     };
     let geometry = read_geometry(&loaded, &instance)
         .map_err(|e| format!("{}: cannot draw its world: {e}", path.display()))?;
     let (control, commands) = read_control(&loaded, &mut instance)
         .map_err(|e| format!("{}: cannot list its bodies: {e}", path.display()))?
         .unzip();
+    let object_bodies = read_contacts(&loaded, &mut instance);
     // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())
@@ -218,7 +249,7 @@ pub fn load(
             let scene = MultiRateScene::start(
                 name,
                 instance,
-                (geometry, control, commands),
+                (geometry, control, commands, object_bodies),
                 info.physics_rate,
                 pointers,
             )
@@ -339,6 +370,29 @@ fn read_control(
     Ok(Some((control, (incoming, replies))))
 }
 
+/// Most objects a multi-rate scene's planes may name, for contact events.
+const MAX_OBJECTS: u32 = 1 << 16;
+
+/// [main] The body of each object of `instance`'s planes, as its plugin's contacts extension
+/// names them (none without one); the extension's `touch` is kept in the instance.
+fn read_contacts(loaded: &plugin::LoadedPlugin, instance: &mut Instance) -> Vec<u32> {
+    // SAFETY: HapticdSceneContacts is the struct of the contacts extension.
+    let extension: Option<HapticdSceneContacts> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_CONTACTS) };
+    let Some(extension) = extension else {
+        return Vec::new();
+    };
+    instance.touch = extension.touch;
+    let Some(object_body) = extension.object_body else {
+        return Vec::new();
+    };
+    (0..MAX_OBJECTS)
+        // SAFETY: a live instance of this plugin on the main thread.
+        .map(|object| unsafe { object_body(instance.pointer, object) })
+        .take_while(|&body| body != HAPTICD_NO_BODY)
+        .collect()
+}
+
 /// A direct scene: the plugin runs inside the haptic tick.
 struct DirectScene {
     name: String,
@@ -420,6 +474,12 @@ impl Scene for DirectScene {
         self.control.take()
     }
 
+    fn write_touches(&self, touches: &mut [Touch]) {
+        if !self.failed {
+            self.instance.touches(touches);
+        }
+    }
+
     fn needs_quiet(&self) -> bool {
         self.commands.as_ref().is_some_and(|(i, _)| i.holding())
     }
@@ -463,6 +523,8 @@ struct MultiRateScene {
     control: Option<SceneControl>,
     /// Requests from the control plane, handed on to the physics thread.
     incoming: Option<Incoming>,
+    /// The body of each object of its planes.
+    object_bodies: Vec<u32>,
     to_physics: spsc::Producer<Request>,
     /// The sequence of the latest planes, and the one a change that waited for quiet is
     /// felt from (the physics has carried it out and published planes after it).
@@ -490,7 +552,12 @@ impl MultiRateScene {
     fn start(
         name: String,
         instance: Instance,
-        (geometry, control, commands): (Geometry, Option<SceneControl>, Option<Commands>),
+        (geometry, control, commands, object_bodies): (
+            Geometry,
+            Option<SceneControl>,
+            Option<Commands>,
+            Vec<u32>,
+        ),
         rate: f64,
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
@@ -590,6 +657,7 @@ impl MultiRateScene {
             geometry,
             control,
             incoming,
+            object_bodies,
             to_physics,
             seen: 0,
             settling: None,
@@ -661,6 +729,10 @@ impl Scene for MultiRateScene {
 
     fn take_control(&mut self) -> Option<SceneControl> {
         self.control.take()
+    }
+
+    fn write_touches(&self, touches: &mut [Touch]) {
+        self.renderer.write_touches(&self.object_bodies, touches);
     }
 
     fn needs_quiet(&self) -> bool {

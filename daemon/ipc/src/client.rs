@@ -317,20 +317,35 @@ impl Iterator for Ticks {
     }
 }
 
-/// An effector beginning or ending a touch, as the daemon announces it (at most ten a device
-/// each tenth of a second).
+/// What happened to an effector's touch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TouchEvent {
+    /// It began touching a body (or another body than before).
+    Begin,
+    /// It stopped touching it.
+    End,
+    /// It began to slide along it after sticking.
+    Slip,
+}
+
+/// A change of an effector's touch, as the daemon announces it (at most ten a device each
+/// tenth of a second).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Touch {
     /// The effector, by index.
     pub effector: u32,
-    /// Whether it began touching (else it let go).
-    pub touching: bool,
+    /// What happened.
+    pub event: TouchEvent,
     /// The tick it happened at.
     pub tick: u64,
     /// The loop's time then, seconds.
     pub time: f64,
-    /// Where the grip was, metres.
-    pub position: [f64; 3],
+    /// The body touched, by id and name; None for a solid that is no body.
+    pub body: Option<(u32, String)>,
+    /// Where they touch, metres.
+    pub point: [f64; 3],
+    /// The touched surface's outward normal.
+    pub normal: [f64; 3],
     /// The force displayed, newtons.
     pub force: [f64; 3],
 }
@@ -339,6 +354,19 @@ pub struct Touch {
 pub struct Touches {
     stream: zbus::MessageStream,
 }
+
+/// The body of a `Touch` signal.
+type TouchSignal = (
+    u32,
+    String,
+    u64,
+    f64,
+    i32,
+    String,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
 
 impl Iterator for Touches {
     type Item = Result<Touch, ClientError>;
@@ -351,23 +379,24 @@ impl Iterator for Touches {
             std::pin::Pin::new(&mut *stream).poll_next(cx)
         }))?;
         let touch = message.map_err(ClientError::from).and_then(|m| {
-            let (effector, touching, tick, time, position, force): (
-                u32,
-                bool,
-                u64,
-                f64,
-                Vec<f64>,
-                Vec<f64>,
-            ) = m.body().deserialize()?;
-            let three = |v: Vec<f64>| {
-                <[f64; 3]>::try_from(v).map_err(|_| ClientError::Bus(zbus::Error::InvalidReply))
+            let bad = || ClientError::Bus(zbus::Error::InvalidReply);
+            let (effector, event, tick, time, body, name, point, normal, force): TouchSignal =
+                m.body().deserialize()?;
+            let three = |v: Vec<f64>| <[f64; 3]>::try_from(v).map_err(|_| bad());
+            let event = match event.as_str() {
+                "begin" => TouchEvent::Begin,
+                "end" => TouchEvent::End,
+                "slip" => TouchEvent::Slip,
+                _ => return Err(bad()),
             };
             Ok(Touch {
                 effector,
-                touching,
+                event,
                 tick,
                 time,
-                position: three(position)?,
+                body: u32::try_from(body).ok().map(|id| (id, name)),
+                point: three(point)?,
+                normal: three(normal)?,
                 force: three(force)?,
             })
         });

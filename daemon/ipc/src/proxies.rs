@@ -161,15 +161,20 @@ pub trait Device {
     fn set_max_torque(&self, value: f64) -> zbus::Result<()>;
     /// The shared world, read-only: map it with [`crate::world_share::MappedWorld`].
     fn open_world(&self) -> zbus::Result<OwnedFd>;
-    /// An effector began or stopped touching something (see the interface's documentation).
+    /// An effector began or stopped touching a body, or began to slip along it (see the
+    /// interface's documentation).
     #[zbus(signal)]
+    #[allow(clippy::too_many_arguments)]
     fn touch(
         &self,
         effector: u32,
-        touching: bool,
+        event: &str,
         tick: u64,
         time: f64,
-        position: Vec<f64>,
+        body: i32,
+        name: &str,
+        point: Vec<f64>,
+        normal: Vec<f64>,
         force: Vec<f64>,
     ) -> zbus::Result<()>;
     /// Every tick, read-only: map it with [`crate::telemetry_share::MappedTelemetry`].

@@ -1,7 +1,7 @@
 """Every tick of a device's haptic loop, read from the telemetry ring the daemon hands out
 (``Device.OpenTelemetry``): a sealed memfd, mapped read-only here, holding the last ticks in
 slots each under a sequence lock of its own. The layout is ``hapticd_core::telemetry``'s
-(version 1); a ring of another layout is refused.
+(version 2); a ring of another layout is refused.
 """
 
 from __future__ import annotations
@@ -10,28 +10,36 @@ import mmap
 import struct
 import time
 from dataclasses import dataclass
-from typing import Iterator, List, Tuple
+from typing import Iterator, List, Optional, Tuple
 
 MAGIC = b"hapticdT"
-VERSION = 1
+VERSION = 2
 SLOTS = 8192
 MAX_EFFECTORS = 4
 CHANNELS = 8
 STATES = ("running", "fault", "disconnected", "uncalibrated")
 
+NO_BODY = 0xFFFFFFFF
+
 # A slot: its sequence (u64), then the sample: tick, time, state, effectors, strings,
-# contacts, each effector's pose (x, y, z, qw, qx, qy, qz), velocity and wrench, each
-# string's tension and D/A value.
+# contacts, slipping, the body each effector touches, each effector's pose (x, y, z, qw,
+# qx, qy, qz), velocity and wrench, where it touches and the normal there, each string's
+# tension and D/A value.
 _HEADER = struct.Struct("<8sIIdQ")
 _SAMPLE = struct.Struct(
-    "<Qd4I"
+    "<Qd5I"
+    + f"{MAX_EFFECTORS}I"
+    + "4x"  # the poses' doubles start on an 8-byte boundary
     + "7d" * MAX_EFFECTORS
     + "3d" * MAX_EFFECTORS
     + "6d" * MAX_EFFECTORS
+    + "3d" * MAX_EFFECTORS
+    + "3d" * MAX_EFFECTORS
     + f"{CHANNELS}d{CHANNELS}h"
 )
 _SEQUENCE = struct.Struct("<Q")
-_SLOT = _SEQUENCE.size + _SAMPLE.size
+# The sample is padded to its alignment (its doubles') in the slot.
+_SLOT = _SEQUENCE.size + (_SAMPLE.size + 7) // 8 * 8
 _SLOTS_AT = _HEADER.size
 SIZE = _SLOTS_AT + SLOTS * _SLOT
 
@@ -54,6 +62,14 @@ class Sample:
     """Each effector's displayed force (N) and torque (N·m): fx, fy, fz, tx, ty, tz."""
     contacts: List[bool]
     """Whether each effector displays a force: it touches something."""
+    slipping: List[bool]
+    """Whether each effector slides along what it touches (dynamic friction)."""
+    touched: List[Optional[int]]
+    """The id of the body each effector touches (the scene's ``bodies``), or None."""
+    touch_points: List[Tuple[float, float, float]]
+    """Where each effector touches, metres."""
+    touch_normals: List[Tuple[float, float, float]]
+    """The outward normal of what each effector touches (zeros when the scene cannot say)."""
     tensions: List[float]
     """Each string's tension, newtons."""
     dac: List[int]
@@ -71,16 +87,26 @@ class Sample:
 
 
 def _sample(values: Tuple) -> Sample:
-    tick, time_, state, effectors, strings, contacts = values[:6]
+    tick, time_, state, effectors, strings, contacts, slipping = values[:7]
     effectors = min(effectors, MAX_EFFECTORS)
     strings = min(strings, CHANNELS)
-    at = 6
-    poses = [tuple(values[at + 7 * k : at + 7 * k + 7]) for k in range(effectors)]
+    at = 7
+    touched = [None if b == NO_BODY else b for b in values[at : at + effectors]]
+    at += MAX_EFFECTORS
+
+    def per_effector(width: int) -> List[Tuple[float, ...]]:
+        return [tuple(values[at + width * k : at + width * k + width]) for k in range(effectors)]
+
+    poses = per_effector(7)
     at += 7 * MAX_EFFECTORS
-    velocities = [tuple(values[at + 3 * k : at + 3 * k + 3]) for k in range(effectors)]
+    velocities = per_effector(3)
     at += 3 * MAX_EFFECTORS
-    wrenches = [tuple(values[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
+    wrenches = per_effector(6)
     at += 6 * MAX_EFFECTORS
+    points = per_effector(3)
+    at += 3 * MAX_EFFECTORS
+    normals = per_effector(3)
+    at += 3 * MAX_EFFECTORS
     tensions = list(values[at : at + strings])
     at += CHANNELS
     dac = list(values[at : at + strings])
@@ -92,6 +118,10 @@ def _sample(values: Tuple) -> Sample:
         velocities=velocities,
         wrenches=wrenches,
         contacts=[bool(contacts >> k & 1) for k in range(effectors)],
+        slipping=[bool(slipping >> k & 1) for k in range(effectors)],
+        touched=touched,
+        touch_points=points,
+        touch_normals=normals,
         tensions=tensions,
         dac=dac,
     )

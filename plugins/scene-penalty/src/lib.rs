@@ -68,6 +68,10 @@ impl SceneInstance for Penalty {
         self.0.body_info(index)
     }
 
+    fn touch(&self, pointer: usize) -> Option<HapticdTouch> {
+        self.0.touch(pointer)
+    }
+
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
         match self.0.apply(command) {
             Some(after) => {

@@ -66,6 +66,10 @@ impl SceneInstance for Rapier {
         self.0.body_info(index)
     }
 
+    fn object_body(&self, object: u32) -> Option<u32> {
+        self.0.body_of(object).map(|b| b as u32)
+    }
+
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
         match self.0.control(command) {
             Some(after) => {

@@ -12,6 +12,7 @@
 use glam::DVec3;
 
 use super::obstacle::{Entry, Obstacles, SURFACE};
+use crate::scene::Touch;
 use crate::solver::linalg::{ldlt_factor, ldlt_solve};
 
 /// Most constraint planes at once (a corner).
@@ -178,6 +179,17 @@ impl Proxy {
     /// Where the proxy is.
     pub fn position(&self) -> DVec3 {
         self.position
+    }
+
+    /// What the proxy touches as of the last update: a point of no body, its outward
+    /// normal unknown here, and whether it slides.
+    pub fn touch(&self) -> Touch {
+        Touch {
+            touching: self.in_contact,
+            point: self.position,
+            slipping: self.in_contact && self.sliding,
+            ..Touch::NONE
+        }
     }
 
     /// Move the proxy to `position` without rendering, keeping its contact and friction

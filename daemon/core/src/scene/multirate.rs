@@ -26,7 +26,7 @@ use super::local_dynamics::{Change, LocalBody};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench};
-use crate::scene::Pointer;
+use crate::scene::{Pointer, Touch};
 
 /// One set of planes as the physics published it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -197,6 +197,25 @@ impl PlaneRenderer {
             loads: [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES],
             pending: [Pending::default(); PENDING],
             hand_backs: 0,
+        }
+    }
+
+    /// [rt] What each pointer's proxy rests on, into `touches`: the body of the object
+    /// touched (`bodies[object]`, none past its end), the plane's normal, whether it slides.
+    pub fn write_touches(&self, bodies: &[u32], touches: &mut [Touch]) {
+        for ((out, proxy), touched) in touches.iter_mut().zip(&self.proxies).zip(&self.touched) {
+            let touch = proxy.touch();
+            *out = match touched {
+                Some((object, surface)) => Touch {
+                    body: bodies
+                        .get(*object as usize)
+                        .copied()
+                        .unwrap_or(Touch::NONE.body),
+                    normal: surface.normal,
+                    ..touch
+                },
+                None => touch,
+            };
         }
     }
 
@@ -600,6 +619,31 @@ mod tests {
         let other = set(3, 8, DVec3::new(0.0, 0.3, 0.0), DVec3::Y, DVec3::ZERO);
         r.tick(&other, &above, TICK, &mut w, |_| {});
         assert_eq!(r.interpolated(0, 0, 0.5).point, DVec3::new(0.0, 0.3, 0.0));
+    }
+
+    #[test]
+    fn a_finger_on_a_plane_touches_the_body_of_its_object_along_its_normal() {
+        let above = [pointer(DVec3::new(0.01, 0.01, 0.0), DVec3::ZERO)];
+        let pressed = [pointer(DVec3::new(0.01, -0.002, 0.0), DVec3::ZERO)];
+        let mut r = PlaneRenderer::new(RATE, &above);
+        let mut w = [Wrench::ZERO];
+        let tilted = DVec3::new(0.0, 1.0, 0.2).normalize();
+        let floor = set(1, 3, DVec3::ZERO, tilted, DVec3::ZERO);
+        // Objects 0 to 3 belong to bodies 0, 0, 1 and 5.
+        let bodies = [0, 0, 1, 5];
+        let mut touches = [Touch::NONE];
+        r.tick(&floor, &above, TICK, &mut w, |_| {});
+        r.write_touches(&bodies, &mut touches);
+        assert!(!touches[0].touching, "{touches:?}");
+        r.tick(&floor, &pressed, TICK, &mut w, |_| {});
+        r.write_touches(&bodies, &mut touches);
+        let t = touches[0];
+        assert!(t.touching && t.body == 5, "{t:?}");
+        assert!((t.normal - tilted).length() < 1e-12, "{t:?}");
+        assert!(t.point.dot(tilted).abs() < 1e-12, "on the plane: {t:?}");
+        // An object past the table is of no body it knows.
+        r.write_touches(&bodies[..2], &mut touches);
+        assert_eq!(touches[0].body, Touch::NONE.body);
     }
 
     #[test]

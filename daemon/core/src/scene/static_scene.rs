@@ -28,7 +28,7 @@ use hapticd_plugin_api::{
 };
 use serde::Deserialize;
 
-use super::{Pointer, Scene};
+use super::{Pointer, Scene, Touch};
 use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
@@ -477,6 +477,12 @@ impl Scene for StaticScene {
 
     fn proxy(&self) -> Option<ProxyParameters> {
         Some(self.spec.proxy)
+    }
+
+    fn write_touches(&self, touches: &mut [Touch]) {
+        for (out, proxy) in touches.iter_mut().zip(&self.proxies) {
+            *out = proxy.touch();
+        }
     }
 
     fn write_proxies(&self, proxies: &mut [DVec3]) -> bool {

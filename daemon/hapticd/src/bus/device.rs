@@ -1,5 +1,9 @@
 //! `org.hapticd.Hapticd1.Device` at `/org/hapticd/Hapticd1/device/N`.
 
+// The Touch signal carries nine values, and zbus makes each an argument of the function it
+// generates (which no attribute of ours reaches).
+#![allow(clippy::too_many_arguments)]
+
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -156,25 +160,32 @@ pub(super) async fn announce(
     Some(now)
 }
 
-/// Announce `touches` of device `index`, a `Touch` signal each.
+/// Announce `touches` of device `index`, a `Touch` signal each, the bodies named as
+/// `bodies` names them.
 pub(super) async fn announce_touches(
     connection: &zbus::Connection,
     index: usize,
     touches: &[super::touches::Touch],
+    bodies: &[crate::control::Body],
 ) {
     let Some(iface) = device_interface(connection, index).await else {
         return;
     };
     let emitter = iface.signal_emitter();
     for t in touches {
+        let name = bodies.get(t.body as usize).map_or("", |b| b.name.as_str());
+        let body = i32::try_from(t.body).unwrap_or(-1);
         report(
             DeviceInterface::touch(
                 emitter,
                 t.effector,
-                t.touching,
+                t.event.name(),
                 t.tick,
                 t.time,
-                t.position.to_vec(),
+                body,
+                name,
+                t.point.to_vec(),
+                t.normal.to_vec(),
                 t.force.to_vec(),
             )
             .await,
@@ -334,18 +345,24 @@ device_interface! {
         self.device.rate()
     }
 
-    /// An effector began (`touching`) or stopped touching something: at `tick` (loop time
-    /// `time`, seconds), the grip at `position` (metres) displaying `force` (newtons). Read
-    /// from the telemetry ring, so no tick's touch is missed; at most ten a device each tenth
-    /// of a second.
+    /// An effector's touch changed (`event`): it began touching a body (`begin`, also when
+    /// it goes from one body to another), stopped (`end`), or began to slide along it after
+    /// sticking (`slip`); at `tick` (loop time `time`, seconds), touching `body` (its id in
+    /// the scene's Bodies, -1 for a solid that is no body) called `name`, at `point`
+    /// (metres) along the surface's outward `normal` (the force's direction where the scene
+    /// cannot say), displaying `force` (newtons). Read from the telemetry ring, so no tick's
+    /// touch is missed; at most ten a device each tenth of a second.
     #[zbus(signal)]
     async fn touch(
         emitter: &SignalEmitter<'_>,
         effector: u32,
-        touching: bool,
+        event: &str,
         tick: u64,
         time: f64,
-        position: Vec<f64>,
+        body: i32,
+        name: &str,
+        point: Vec<f64>,
+        normal: Vec<f64>,
         force: Vec<f64>,
     ) -> zbus::Result<()>;
 

@@ -7,7 +7,8 @@
 //! others; the haptic loop only ever sees the commands they push into its ring. Ten times a
 //! second the thread compares each device's snapshot with what it last announced and emits
 //! PropertiesChanged for whatever changed, and a `Touch` signal for each effector that began or
-//! stopped touching something since (read from the device's telemetry ring).
+//! stopped touching a body, or began to slip along it, since (read from the device's
+//! telemetry ring).
 
 mod device;
 mod error;
@@ -196,9 +197,16 @@ impl Claim {
                             zbus::block_on(device::announce(&connection, index, last.take()));
                         *last = sent;
                     }
+                    let bodies = daemon.bodies();
                     for (index, t) in touches.iter_mut().enumerate() {
                         if let Some(t) = t {
-                            zbus::block_on(device::announce_touches(&connection, index, &t.scan()));
+                            let found = t.scan();
+                            zbus::block_on(device::announce_touches(
+                                &connection,
+                                index,
+                                &found,
+                                &bodies,
+                            ));
                         }
                     }
                 }

@@ -64,6 +64,13 @@ pub struct FrictionState {
     twist_held: f64,
 }
 
+impl FrictionState {
+    /// Where the contact's centroid was at the last step.
+    pub fn centre(&self) -> DVec3 {
+        self.centre
+    }
+}
+
 /// How far past the largest static friction a stuck contact's springs and dampers may pull
 /// for a moment while they catch the bodies' inertia under a load the contact holds. Beyond
 /// it the bodies are moving faster than a load could make them (set moving from outside, or

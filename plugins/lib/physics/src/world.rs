@@ -252,6 +252,19 @@ struct Pair {
     friction: FrictionState,
 }
 
+/// A contact of one body with another at the last step, as seen from the first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Touching {
+    /// The other body.
+    pub other: usize,
+    /// Where they touch (the contact's centroid), metres.
+    pub point: DVec3,
+    /// Unit normal along which the other pushes this body.
+    pub normal: DVec3,
+    /// Whether the contact slides (dynamic friction) rather than sticks.
+    pub sliding: bool,
+}
+
 /// A body whose every point moves slower than this (m/s) is still.
 pub const SLEEP_SPEED: f64 = 1e-3;
 /// How long (s) a group of touching bodies must all be still before it sleeps.
@@ -610,6 +623,43 @@ impl World {
                 }
             }
         }
+    }
+
+    /// Body `i`'s strongest contact at the last step (of all its pieces' with any other
+    /// body's), if it touched anything. Allocates nothing.
+    pub fn strongest_contact(&self, i: usize) -> Option<Touching> {
+        let pieces = self.first_piece[self.bodies.len()];
+        let mut best: Option<(f64, Touching)> = None;
+        for p in self.first_piece[i]..self.first_piece[i + 1] {
+            for (other, q) in (0..self.bodies.len())
+                .flat_map(|j| (self.first_piece[j]..self.first_piece[j + 1]).map(move |q| (j, q)))
+            {
+                if other == i {
+                    continue;
+                }
+                // Stored under the lower piece number, its normal pushing the higher one.
+                let (pair, sign) = if p < q {
+                    (p * pieces + q, -1.0)
+                } else {
+                    (q * pieces + p, 1.0)
+                };
+                let pair = &self.pairs[pair];
+                if pair.touched != self.steps || self.steps == 0 {
+                    continue;
+                }
+                let strength = pair.force.length();
+                if best.is_none_or(|(s, _)| strength > s) {
+                    let touching = Touching {
+                        other,
+                        point: pair.friction.centre(),
+                        normal: sign * pair.normal,
+                        sliding: pair.friction.sliding,
+                    };
+                    best = Some((strength, touching));
+                }
+            }
+        }
+        best.map(|(_, t)| t)
     }
 
     /// Put body `i` at a pose from outside: its contacts start afresh (friction springs

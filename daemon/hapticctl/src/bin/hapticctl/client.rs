@@ -15,6 +15,7 @@ use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
+use hapticd_plugin_api::HAPTICD_NO_BODY;
 use serde_json::{Value, json};
 use zbus::{Connection, OwnedVariant, Variant};
 
@@ -628,11 +629,12 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
 }
 
 /// The CSV header of `record`: the tick and the loop time, the state, then each effector's
-/// pose (position, orientation quaternion), velocity, force, torque and whether it touches
-/// something, one column per component, named for the effector when there are several
-/// (`thumb_pose_x`); then each string's tension and D/A value.
+/// pose (position, orientation quaternion), velocity, force, torque, whether it touches
+/// something, the body it touches (its id, empty for none), whether it slips, where it
+/// touches and the normal there, one column per component, named for the effector when there
+/// are several (`thumb_pose_x`); then each string's tension and D/A value.
 fn record_header(effectors: &[String], strings: usize) -> String {
-    const COMPONENTS: [&str; 17] = [
+    const COMPONENTS: [&str; 25] = [
         "pose_x",
         "pose_y",
         "pose_z",
@@ -650,6 +652,14 @@ fn record_header(effectors: &[String], strings: usize) -> String {
         "torque_y",
         "torque_z",
         "contact",
+        "contact_body",
+        "slip",
+        "contact_x",
+        "contact_y",
+        "contact_z",
+        "normal_x",
+        "normal_y",
+        "normal_z",
     ];
     let mut header = "tick,time,state".to_string();
     for name in effectors {
@@ -691,6 +701,20 @@ fn record_row(sample: &Sample, effectors: usize, strings: usize) -> String {
             let _ = write!(row, ",{x}");
         }
         let _ = write!(row, ",{}", (sample.contacts >> k) & 1);
+        let body = sample.touched[k];
+        match body {
+            HAPTICD_NO_BODY => row.push(','),
+            body => {
+                let _ = write!(row, ",{body}");
+            }
+        }
+        let _ = write!(row, ",{}", (sample.slipping >> k) & 1);
+        for x in sample.touch_points[k]
+            .iter()
+            .chain(&sample.touch_normals[k])
+        {
+            let _ = write!(row, ",{x}");
+        }
     }
     let strings = strings.min(CHANNELS);
     for t in &sample.tensions[..strings] {

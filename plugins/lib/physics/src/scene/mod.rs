@@ -135,6 +135,7 @@
 //! [`stepping`] (a penalty scene stepped in the haptic thread).
 
 mod checks;
+mod contacts;
 mod control;
 mod geometry;
 mod meshes;
