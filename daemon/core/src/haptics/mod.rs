@@ -7,7 +7,8 @@
 //!   shapes as the proxy walks among them, a mesh's triangles in a [`bvh`];
 //! - [`proxy`]: the god-object with Coulomb friction;
 //! - [`passivity`]: the time-domain passivity observer and controller on each port;
-//! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault.
+//! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault;
+//! - [`touch`]: what a pointer touches, for contact events.
 
 pub mod bvh;
 pub mod grasp;
@@ -16,3 +17,4 @@ pub mod passivity;
 pub mod proxy;
 pub mod safety;
 pub mod scenery;
+pub mod touch;

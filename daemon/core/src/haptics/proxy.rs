@@ -12,7 +12,7 @@
 use glam::DVec3;
 
 use super::obstacle::{Entry, Obstacles, SURFACE};
-use crate::scene::Touch;
+use super::touch::Touch;
 use crate::solver::linalg::{ldlt_factor, ldlt_solve};
 
 /// Most constraint planes at once (a corner).
