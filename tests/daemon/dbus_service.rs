@@ -2746,6 +2746,119 @@ fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
     daemon.stop();
 }
 
+#[test]
+fn bodies_are_added_and_removed_under_both_engines_the_others_kept_as_they_are() {
+    let dir = scratch("add-remove");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let call = |method: &str, signature: &str, args: &[&str]| {
+        let mut all = vec![
+            "--", "call", SCENE[0], SCENE[1], SCENE[2], method, signature,
+        ];
+        all.extend(args);
+        bus.busctl(&all)
+    };
+    for (scene, tolerance) in [("blocks", 1e-6), ("push", 1e-3)] {
+        switch_when_prepared(&bus, scene);
+        // A body of the world changed from outside: lighter, and put somewhere to rest.
+        bus.drive("SetMass", "sd", &["block", "0.3"]).unwrap();
+        bus.drive(
+            "SetPose",
+            "sadad",
+            &[
+                "block", "3", "0.04", "0.02", "0.03", "4", "1", "0", "0", "0",
+            ],
+        )
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(1500));
+        let resting = bus.drive("Body", "s", &["block"]).unwrap();
+        let cube =
+            "{ name: cube, box: [0.02, 0.02, 0.02], position: [-0.1, 0.2, -0.1], density: 500 }";
+        let added = call("AddBody", "s", &[cube]);
+        assert!(added.status.success(), "{scene}: {added:?}");
+        let bodies = bus.get(SCENE, "Bodies");
+        let count = bodies.matches('"').count() / 2;
+        assert_eq!(
+            String::from_utf8_lossy(&added.stdout).trim(),
+            format!("u {}", count - 1),
+            "{bodies}"
+        );
+        assert!(bodies.ends_with("\"cube\" false"), "{bodies}");
+        // The block is where it rested, as heavy as it was made.
+        let kept = bus.drive("Body", "s", &["block"]).unwrap();
+        assert!(
+            (kept.position - resting.position).length() < 1e-3,
+            "{scene}: {:?} then {:?}",
+            resting.position,
+            kept.position
+        );
+        assert!((kept.mass - 0.3).abs() < tolerance, "{scene}: {kept:?}");
+        let cube_now = bus.drive("Body", "s", &["cube"]).unwrap();
+        assert!(
+            (cube_now.mass - 0.02_f64.powi(3) * 500.0).abs() < 1e-6 * 4.0,
+            "{cube_now:?}"
+        );
+        // Names taken, unnamed bodies and what is not YAML are refused, by name.
+        let error = |method: &str, args: &[&str]| bus.drive_error(method, args);
+        let named = |short: &str| format!("org.hapticd.Hapticd1.Error.{short}");
+        assert_eq!(
+            error("AddBody", &[&format!("string:{cube}")]),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "AddBody",
+                &["string:{ box: [1, 1, 1], position: [0, 0, 0] }"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(error("AddBody", &["string:[unclosed"]), named("OutOfRange"));
+        assert_eq!(
+            error(
+                "AddBody",
+                &["string:{ name: bad, box: [0.02, 0.02], position: [0, 0, 0] }"]
+            ),
+            named("SceneFailed")
+        );
+        assert_eq!(
+            error("RemoveBody", &["string:no-such-body"]),
+            named("UnknownBody")
+        );
+        let removed = call("RemoveBody", "s", &["cube"]);
+        assert!(removed.status.success(), "{removed:?}");
+        let left = bus.get(SCENE, "Bodies");
+        assert!(!left.contains("\"cube\""), "{left}");
+        let after = bus.drive("Body", "s", &["block"]).unwrap();
+        assert!(
+            (after.position - resting.position).length() < 2e-3,
+            "{scene}: {after:?}"
+        );
+    }
+    // hapticctl adds and removes too.
+    let out = bus.ctl(&[
+        "body",
+        "add",
+        "{ name: ball, sphere: 0.01, position: [0, 0.1, 0] }",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(
+        String::from_utf8_lossy(&out.stdout).starts_with("added as body "),
+        "{out:?}"
+    );
+    let out = bus.ctl(&["body", "remove", "ball"]);
+    assert!(out.status.success(), "{out:?}");
+    // A scene of no file has nothing to build again from.
+    switch_when_prepared(&bus, "static");
+    assert_eq!(
+        bus.drive_error(
+            "AddBody",
+            &["string:{ name: x, sphere: 0.01, position: [0, 0, 0] }"]
+        ),
+        "org.hapticd.Hapticd1.Error.Unavailable"
+    );
+}
+
 /// The README's second example (`daemon/python/examples/push.py`): the world drawn from the
 /// device's picture of it, and a block pushed from outside sliding as Coulomb friction has it.
 #[test]

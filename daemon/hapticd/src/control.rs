@@ -26,7 +26,11 @@ use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
 use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_share::SharedWorldFile;
-use hapticd_plugin_api::{HapticdBodyState, HapticdSceneCommand};
+use hapticd_plugin_api::{
+    HAPTICD_COMMAND_QUERY, HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION,
+    HAPTICD_COMMAND_SET_MASS, HAPTICD_COMMAND_SET_POSE, HAPTICD_COMMAND_SET_VELOCITY,
+    HapticdBodyState, HapticdSceneCommand,
+};
 
 /// Errors of the control plane, typed as the layers below gave them; the bus names each
 /// (`org.hapticd.Hapticd1.Error.*`) at its edge, in `bus::error`.
@@ -425,9 +429,28 @@ impl DeviceHandle {
 
     /// Swap in `scene` with a force ramp; its proxy parameters become the defaults that the
     /// user's overrides apply to.
-    pub fn switch_scene(&self, mut scene: Box<dyn Scene>) -> Result<(), Error> {
+    pub fn switch_scene(&self, scene: Box<dyn Scene>) -> Result<(), Error> {
+        self.switch_scene_carrying(scene, &[])
+    }
+
+    /// Swap in `scene` as [`DeviceHandle::switch_scene`] does, `carried` (changes to bodies
+    /// by name) waiting for its world's first steps.
+    fn switch_scene_carrying(
+        &self,
+        mut scene: Box<dyn Scene>,
+        carried: &[(String, HapticdSceneCommand)],
+    ) -> Result<(), Error> {
         let before = self.telemetry().frame.scene_switches;
-        let control = scene.take_control();
+        let mut control = scene.take_control();
+        if let Some(control) = &mut control {
+            for (name, command) in carried {
+                if let Ok(body) = control.find(name) {
+                    control
+                        .enqueue(HapticdSceneCommand { body, ..*command })
+                        .map_err(Error::Command)?;
+                }
+            }
+        }
         let mut guard = lock(&self.remembered);
         let mut defaults = guard.defaults;
         if let Some(proxy) = scene.proxy() {
@@ -441,6 +464,40 @@ impl DeviceHandle {
         self.wait_for("swap the scene", |f| f.scene_switches > before)?;
         *lock(&self.control) = control;
         Ok(())
+    }
+
+    /// The running world's bodies as changes, by name, that put a world built anew from the
+    /// same file where they are: pose, and for those that move their velocities, mass and
+    /// held force; friction.
+    fn carried(&self) -> Result<Vec<(String, HapticdSceneCommand)>, Error> {
+        let mut carried = Vec::new();
+        for body in self.bodies() {
+            let query = HapticdSceneCommand {
+                kind: HAPTICD_COMMAND_QUERY,
+                ..HapticdSceneCommand::default()
+            };
+            let state = self.drive(&body.name, query)?;
+            let mut carry = |kind: u32, fill: &dyn Fn(&mut HapticdSceneCommand)| {
+                let mut command = HapticdSceneCommand {
+                    kind,
+                    ..HapticdSceneCommand::default()
+                };
+                fill(&mut command);
+                carried.push((body.name.clone(), command));
+            };
+            carry(HAPTICD_COMMAND_SET_POSE, &|c| {
+                (c.position, c.orientation) = (state.position, state.orientation)
+            });
+            carry(HAPTICD_COMMAND_SET_FRICTION, &|c| c.value = state.friction);
+            if !body.fixed {
+                carry(HAPTICD_COMMAND_SET_MASS, &|c| c.value = state.mass);
+                carry(HAPTICD_COMMAND_SET_FORCE, &|c| c.vector = state.force);
+                carry(HAPTICD_COMMAND_SET_VELOCITY, &|c| {
+                    (c.vector, c.spin) = (state.velocity, state.spin)
+                });
+            }
+        }
+        Ok(carried)
     }
 
     /// The bodies of the running world (none when it cannot be changed from outside).
@@ -648,6 +705,12 @@ impl Daemon {
     /// pictures come from `file` from then on.
     fn swap_in(&self, scene: &str, file: Option<PathBuf>) -> Result<(), Error> {
         let _one_at_a_time = lock(&self.switching);
+        self.swap_in_now(scene, file, false)
+    }
+
+    /// [`Daemon::swap_in`], the switch already ours; with `carry`, each device's new world
+    /// takes its bodies' states from the running one, by name.
+    fn swap_in_now(&self, scene: &str, file: Option<PathBuf>, carry: bool) -> Result<(), Error> {
         if let Some(file) = &file {
             self.preparation.ready(file).map_err(Error::Preparing)?;
         }
@@ -665,12 +728,115 @@ impl Daemon {
         }
         let loaded = scenes.first().map(|s| s.name().to_string());
         for (device, scene) in self.devices.iter().zip(scenes) {
-            device.switch_scene(scene)?;
+            let carried = if carry { device.carried()? } else { Vec::new() };
+            device.switch_scene_carrying(scene, &carried)?;
         }
         let mut inner = lock(&self.inner);
         inner.active_scene = loaded.unwrap_or_else(|| scene.to_string());
         inner.active_file = file;
         Ok(())
+    }
+
+    /// Add `body` (one entry of a scene file's `bodies:`, as YAML, with a name no body of the
+    /// world has) to the running world; its id. See [`Daemon::rebuild`].
+    pub fn add_body(&self, body: &str) -> Result<u32, Error> {
+        let value: serde_json::Value = serde_saphyr::from_str(body).map_err(|e| {
+            Error::OutOfRange(format!(
+                "the body is no YAML of the scene format's bodies: {e}"
+            ))
+        })?;
+        let name = value
+            .get("name")
+            .and_then(serde_json::Value::as_str)
+            .filter(|n| !n.is_empty())
+            .ok_or_else(|| Error::OutOfRange("a body added needs a name".into()))?
+            .to_string();
+        self.rebuild(|bodies| {
+            if bodies
+                .iter()
+                .any(|b| b.get("name").and_then(|n| n.as_str()) == Some(&name))
+            {
+                return Err(Error::OutOfRange(format!(
+                    "a body named {name:?} is in the world already"
+                )));
+            }
+            bodies.push(value);
+            Ok(())
+        })?;
+        let id = self.bodies().iter().position(|b| b.name == name);
+        Ok(id.unwrap_or_default() as u32)
+    }
+
+    /// Remove `body` (a name, or an id) from the running world; the ids after it move down
+    /// by one. See [`Daemon::rebuild`].
+    pub fn remove_body(&self, body: &str) -> Result<(), Error> {
+        let bodies = self.bodies();
+        let found = bodies
+            .iter()
+            .position(|b| b.name == body)
+            .or_else(|| body.parse::<usize>().ok().filter(|&i| i < bodies.len()))
+            .ok_or_else(|| {
+                Error::Command(CommandError::UnknownBody(format!(
+                    "no body {body:?} in this world"
+                )))
+            })?;
+        let name = bodies[found].name.clone();
+        self.rebuild(|bodies| {
+            bodies.retain(|b| b.get("name").and_then(|n| n.as_str()) != Some(&name));
+            Ok(())
+        })
+    }
+
+    /// Build the running world again from its scene file with `change` made to its
+    /// `bodies:`, every body kept where it is and as it moves (by name), and swap it in with
+    /// the forces ramped down and up as for a scene switch. The changed file is kept beside
+    /// those callers send. Only a scene of a file whose bodies name no mesh can be rebuilt
+    /// (a mesh is read beside its file).
+    fn rebuild(
+        &self,
+        change: impl FnOnce(&mut Vec<serde_json::Value>) -> Result<(), Error>,
+    ) -> Result<(), Error> {
+        let _one_at_a_time = lock(&self.switching);
+        let file = lock(&self.inner).active_file.clone().ok_or_else(|| {
+            Error::Unavailable("the running scene comes from no scene file to add bodies to".into())
+        })?;
+        let unreadable = |e: String| {
+            Error::Unavailable(format!(
+                "cannot read the running scene {}: {e}",
+                file.display()
+            ))
+        };
+        let text = std::fs::read_to_string(&file).map_err(|e| unreadable(e.to_string()))?;
+        let mut scene: serde_json::Value =
+            serde_saphyr::from_str(&text).map_err(|e| unreadable(e.to_string()))?;
+        let bodies = scene
+            .get_mut("bodies")
+            .and_then(serde_json::Value::as_array_mut)
+            .ok_or_else(|| Error::Unavailable("the running scene has no bodies: list".into()))?;
+        change(bodies)?;
+        if bodies.iter().any(|b| b.get("mesh").is_some()) {
+            return Err(Error::Unavailable(
+                "a world with a body of a mesh is not built again (its file is read beside the \
+                 scene's)"
+                    .into(),
+            ));
+        }
+        let name = file
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("scene")
+            .to_string();
+        // JSON is YAML: the scene format reads it as it is.
+        let changed = serde_json::to_string_pretty(&scene).expect("a JSON value serialises");
+        let kept = crate::received::keep_text(&changed, &name, &self.received)
+            .map_err(Error::SceneNotKept)?;
+        let swapped = self.swap_in_now(&kept.display().to_string(), Some(kept.clone()), true);
+        // A change the scene refused leaves the file the running world came from as it was.
+        if swapped.is_err() && kept == file {
+            crate::received::keep_text(&text, &name, &self.received)
+                .map_err(Error::SceneNotKept)?;
+        }
+        swapped
     }
 
     /// The bodies of the running world, as every device runs it.

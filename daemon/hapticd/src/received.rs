@@ -47,6 +47,16 @@ pub fn keep(fd: OwnedFd, name: &str, dir: &Path) -> Result<PathBuf, Diagnostics>
     Ok(kept)
 }
 
+/// [main] Keep `text`, a scene file hapticd made (a running scene with a body added or
+/// removed), as `NAME.yaml` in `dir`; returns its path.
+pub fn keep_text(text: &str, name: &str, dir: &Path) -> Result<PathBuf, Diagnostics> {
+    let shown = PathBuf::from(format!("{name}.yaml"));
+    let kept = dir.join(&shown);
+    store(dir, &kept, text.as_bytes())
+        .map_err(|e| Diagnostics::file(&shown, format!("cannot keep the scene: {e}")))?;
+    Ok(kept)
+}
+
 /// Write `bytes` to `path` in `dir` (made if needed) through a temporary file and a rename,
 /// readable by all (the renderer runs as another user; the daemon's umask is 077).
 fn store(dir: &Path, path: &Path, bytes: &[u8]) -> std::io::Result<()> {

@@ -544,6 +544,17 @@ impl Scene {
         BodyState::from_bus(zbus::block_on(self.proxy.set_mass(body, mass))?)
     }
 
+    /// Add `body`, one entry of a scene file's `bodies:` in YAML with a name of its own, to
+    /// the world (built again with it, the other bodies' states kept); its id.
+    pub fn add_body(&self, body: &str) -> Result<u32, ClientError> {
+        Ok(zbus::block_on(self.proxy.add_body(body))?)
+    }
+
+    /// Remove `body` from the world (built again without it); the ids after it move down.
+    pub fn remove_body(&self, body: &str) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.proxy.remove_body(body))?)
+    }
+
     /// Make the friction coefficient of `body`'s contacts `friction`.
     pub fn set_friction(&self, body: &str, friction: f64) -> Result<BodyState, ClientError> {
         BodyState::from_bus(zbus::block_on(self.proxy.set_friction(body, friction))?)

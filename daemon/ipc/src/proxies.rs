@@ -229,6 +229,10 @@ pub trait Scene {
     fn set_force(&self, body: &str, force: &[f64]) -> zbus::Result<HashMap<String, OwnedVariant>>;
     /// Make `body`'s mass `mass` kg.
     fn set_mass(&self, body: &str, mass: f64) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Add `body` (a scene file's body in YAML, named) to the world; its id.
+    fn add_body(&self, body: &str) -> zbus::Result<u32>;
+    /// Remove `body` from the world.
+    fn remove_body(&self, body: &str) -> zbus::Result<()>;
     /// Make the friction coefficient of `body`'s contacts `friction`.
     fn set_friction(
         &self,

@@ -4,8 +4,8 @@
 ``devices`` read and change their parameters, calibrate, and hand out every tick of their
 haptic loop (``Device.telemetry``) and their picture of the world (``Device.open_world``);
 ``scenes`` and ``switch_scene`` choose the world, and ``bodies``, ``body``, ``set_pose``,
-``set_velocity``, ``apply_impulse``, ``set_force``, ``set_mass`` and ``set_friction`` drive
-the running one. Every error the daemon returns is raised as :class:`Error` carrying its
+``set_velocity``, ``apply_impulse``, ``set_force``, ``set_mass``, ``set_friction``,
+``add_body`` and ``remove_body`` drive the running one. Every error the daemon returns is raised as :class:`Error` carrying its
 D-Bus error name.
 """
 
@@ -298,6 +298,17 @@ class Hapticd:
         """Make the friction coefficient of ``body``'s contacts ``friction`` (a contact takes
         the lower of its two bodies')."""
         return self._drive("SetFriction", "sd", str(body), float(friction))
+
+    def add_body(self, body: str) -> int:
+        """Add ``body``, one entry of a scene file's ``bodies:`` in YAML with a ``name:`` of its
+        own, to the running world (built again with it, the other bodies kept where they are
+        and as they move); its id."""
+        return self._bus.call(SCENE_PATH, SCENE, "AddBody", "s", (body,))[0]
+
+    def remove_body(self, body: str) -> None:
+        """Remove ``body`` (its name, or its id) from the running world; the ids after it move
+        down by one."""
+        self._bus.call(SCENE_PATH, SCENE, "RemoveBody", "s", (str(body),))
 
     def close(self) -> None:
         """Close the connection."""

@@ -3,6 +3,7 @@
 
 import math
 import os
+import time
 
 import pytest
 
@@ -105,4 +106,12 @@ def test_the_world_is_read_and_driven_and_hostile_values_refused_by_name(daemon)
         assert refused.value.name == f"org.hapticd.Hapticd1.Error.{reason}"
     with pytest.raises(ValueError):
         daemon.set_pose("block", (0, 0))
+    # A body added joins the world with the next id; the others stay where they rest.
+    time.sleep(1.5)
+    kept = daemon.body("block")
+    cube = daemon.add_body("{ name: cube, box: [0.02, 0.02, 0.02], position: [-0.1, 0.2, -0.1] }")
+    assert cube == len(names) and daemon.bodies[cube].name == "cube"
+    assert math.dist(daemon.body("block").position, kept.position) < 1e-3
+    daemon.remove_body("cube")
+    assert "cube" not in [b.name for b in daemon.bodies]
     daemon.switch_scene("static")

@@ -115,8 +115,9 @@ pub struct SceneControl {
     next: u64,
 }
 
-/// Requests in flight at most; a caller beyond them is told the scene is not answering.
-const REQUESTS: usize = 16;
+/// Requests in flight at most (a world rebuilt with a body more carries four for each of
+/// its bodies); a caller beyond them is told the scene is not answering.
+const REQUESTS: usize = 4096;
 
 /// How long a command waits for the stepping thread: a ramp down and a physics step or two.
 const ANSWER_TIMEOUT: Duration = Duration::from_secs(3);
@@ -253,6 +254,19 @@ impl SceneControl {
             }
         }
         Ok(command)
+    }
+
+    /// Check `command` and hand it to the stepping thread without waiting for its answer:
+    /// for a world not yet stepped, whose first steps carry it out.
+    pub fn enqueue(&mut self, command: HapticdSceneCommand) -> Result<(), CommandError> {
+        let command = self.check(command)?;
+        self.next += 1;
+        let id = self.next;
+        self.requests
+            .try_push(Request { id, command })
+            .map_err(|_| {
+                CommandError::Timeout("the world has more changes waiting than it takes".into())
+            })
     }
 
     /// Check `command`, hand it to the stepping thread and wait for its answer: the body's

@@ -5,7 +5,8 @@
 //! written as a number. Every change is carried out between two steps of the world in every
 //! device's copy of it, and answers with the body's state after it; one that would jump a
 //! force (a body put elsewhere) waits for the forces to ramp to zero, as a scene switch
-//! does.
+//! does. Bodies are added and removed by building the world again from its file, the
+//! others' states carried over.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -229,6 +230,46 @@ impl SceneInterface {
         let set = Ok(command(HAPTICD_COMMAND_SET_MASS, |c| c.value = mass));
         let what = format!("set the mass {mass} kg");
         self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Add `body`, one entry of a scene file's `bodies:` in YAML (with a `name:` no body of
+    /// the world has), to the running world; its id. The world is built again from its
+    /// scene file with the body added, every other body kept where it is and as it moves,
+    /// and swapped in with the forces ramped down and up as for a scene switch. A scene of
+    /// no file, or with a body of a mesh, is not built again (Unavailable).
+    async fn add_body(
+        &self,
+        body: String,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<u32, BusError> {
+        let daemon = self.daemon.clone();
+        let text = body.clone();
+        let result = self.workers.run(move || daemon.add_body(&text)).await;
+        let outcome = result.as_ref().map(|_| ()).map_err(|e| e.to_string());
+        let what = format!("add the body {:?}", body.lines().next().unwrap_or(""));
+        audit(&what, &caller(connection, Some(&header)).await, &outcome);
+        Ok(result?)
+    }
+
+    /// Remove `body` from the running world, built again as for AddBody; the ids after it
+    /// move down by one.
+    async fn remove_body(
+        &self,
+        body: String,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(), BusError> {
+        let daemon = self.daemon.clone();
+        let named = body.clone();
+        let result = self.workers.run(move || daemon.remove_body(&named)).await;
+        let outcome = result.as_ref().map(|_| ()).map_err(|e| e.to_string());
+        audit(
+            &format!("remove the body {body:?}"),
+            &caller(connection, Some(&header)).await,
+            &outcome,
+        );
+        Ok(result?)
     }
 
     /// Make the friction coefficient of `body`'s contacts `friction` (a contact takes the

@@ -63,6 +63,18 @@ pub enum Command {
         /// Kilograms.
         kg: f64,
     },
+    /// Add a body to the running world: one entry of a scene file's `bodies:` in YAML, such as
+    /// '{ name: cube, box: [0.02, 0.02, 0.02], position: [0, 0.05, 0] }' (the world is built
+    /// again, the other bodies kept where they are; the forces ramp down and up).
+    Add {
+        /// The body, in the scene format, with a name no body of the world has.
+        body: String,
+    },
+    /// Remove a body from the running world (the ids after it move down by one).
+    Remove {
+        /// The body: its name, or its id.
+        body: String,
+    },
     /// Make the friction coefficient of a body's contacts MU.
     Friction {
         #[command(flatten)]
@@ -169,5 +181,11 @@ pub fn run(command: Command, client: &Client) -> Result<(), Failure> {
         Command::Force { target, force } => act(&target, &|s, b| s.set_force(b, three(&force))),
         Command::Mass { target, kg } => act(&target, &|s, b| s.set_mass(b, kg)),
         Command::Friction { target, mu } => act(&target, &|s, b| s.set_friction(b, mu)),
+        Command::Add { body } => {
+            let id = scene.add_body(&body).map_err(|e| client.refused(e))?;
+            println!("added as body {id}");
+            Ok(())
+        }
+        Command::Remove { body } => scene.remove_body(&body).map_err(|e| client.refused(e)),
     }
 }
