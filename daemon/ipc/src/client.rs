@@ -139,6 +139,12 @@ impl Hapticd {
         Ok(zbus::block_on(self.manager.active_scene())?)
     }
 
+    /// Read the configuration and look for plugins, descriptors and scenes again; a malformed
+    /// configuration is refused with its places, and nothing changes.
+    pub fn reload_plugins(&self) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.manager.reload_plugins())?)
+    }
+
     /// The running world's bodies, to read and to change.
     pub fn scene(&self) -> Result<Scene, ClientError> {
         Ok(Scene {
@@ -226,6 +232,16 @@ impl Device {
     /// Take the counter offsets now, every grip held at its calibration pose.
     pub fn calibrate(&self) -> Result<(), ClientError> {
         Ok(zbus::block_on(self.proxy.calibrate())?)
+    }
+
+    /// Let the forces come back after a fault.
+    pub fn reset_fault(&self) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.proxy.reset_fault())?)
+    }
+
+    /// Drive the device with the installed mechanism `mechanism` from its next start.
+    pub fn bind_mechanism(&self, mechanism: &str) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.proxy.bind_mechanism(mechanism))?)
     }
 
     /// The device's telemetry ring, mapped read-only.

@@ -181,6 +181,11 @@ impl Client {
         })
     }
 
+    /// The client library's view of the device at `path`, on this connection.
+    pub fn library_device(&self, path: &str) -> Result<hapticd_ipc::client::Device, Failure> {
+        hapticd_ipc::client::Device::on(&self.connection, path).map_err(|e| self.refused(e))
+    }
+
     /// The client library's view of the daemon, on this connection.
     pub fn hapticd(&self) -> Result<hapticd_ipc::client::Hapticd, Failure> {
         hapticd_ipc::client::Hapticd::on(self.connection.clone()).map_err(|e| self.refused(e))
@@ -396,33 +401,36 @@ pub fn set(client: &Client, args: &SetArgs) -> Result<(), Failure> {
             args.name, args.value
         ))
     })?;
-    client.call(
-        &path,
-        PROPERTIES,
-        "Set",
-        &(DEVICE, args.name.as_str(), Variant::F64(value)),
-    )?;
-    Ok(())
+    client
+        .library_device(&path)?
+        .set(&args.name, value)
+        .map_err(|e| client.refused(e))
 }
 
 /// `hapticctl calibrate`: take the counter offsets with every grip at its calibration pose.
 pub fn calibrate(client: &Client, device: &DeviceArg) -> Result<(), Failure> {
     let path = client.device(device)?;
-    client.call(&path, DEVICE, "Calibrate", &())?;
-    Ok(())
+    client
+        .library_device(&path)?
+        .calibrate()
+        .map_err(|e| client.refused(e))
 }
 
 /// `hapticctl bind MECHANISM`: drive the device with another mechanism from its next start.
 pub fn bind(client: &Client, args: &BindArgs) -> Result<(), Failure> {
     let path = client.device(&args.device)?;
-    client.call(&path, DEVICE, "BindMechanism", &(args.mechanism.as_str(),))?;
-    Ok(())
+    client
+        .library_device(&path)?
+        .bind_mechanism(&args.mechanism)
+        .map_err(|e| client.refused(e))
 }
 
 /// `hapticctl reload`: re-read the configuration and rescan the plugins.
 pub fn reload(client: &Client) -> Result<(), Failure> {
-    client.call(MANAGER_PATH, MANAGER, "ReloadPlugins", &())?;
-    Ok(())
+    client
+        .hapticd()?
+        .reload_plugins()
+        .map_err(|e| client.refused(e))
 }
 
 /// How long `restart` waits for hapticd to be back.
@@ -777,8 +785,7 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
         .flatten()
         .map(words)
         .collect();
-    let device = hapticd_ipc::client::Device::on(&client.connection, &path)
-        .map_err(|e| client.refused(e))?;
+    let device = client.library_device(&path)?;
     let mut ticks = device
         .telemetry(args.duration)
         .map_err(|e| client.refused(e))?;
