@@ -381,6 +381,16 @@ pub trait SceneInstance: Send {
 }
 
 impl HapticdSceneCommand {
+    /// A command of `kind` for body `body`, its numbers zero and its orientation none turned.
+    pub fn new(kind: u32, body: u32) -> Self {
+        Self {
+            kind,
+            body,
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            ..Self::default()
+        }
+    }
+
     /// Whether every number the command carries is finite (a plugin takes no other).
     pub fn is_finite(&self) -> bool {
         self.position

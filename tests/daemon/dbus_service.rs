@@ -1814,13 +1814,6 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
     let dir = scratch("switch");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
-    // The hand pushes the grip 15 mm into the floor (y = -0.03) and holds it there.
-    let hand = dir.join("press.yaml");
-    std::fs::write(
-        &hand,
-        "hands:\n  grip:\n    - hold: { seconds: 0.3 }\n    - move: { to: [0, -0.045, 0], seconds: 0.3 }\n    - hold: { seconds: 60 }\n",
-    )
-    .unwrap();
     // The same scene with a floor 5 mm higher.
     let lower = dir.join("lower.yaml");
     let scene = std::fs::read_to_string(repo_dir().join("config/scenes/static.yaml"))
@@ -1829,10 +1822,33 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
         .replace("floor: { height: -0.03 }", "floor: { height: -0.025 }");
     assert!(scene.contains("-0.025"));
     std::fs::write(&lower, scene).unwrap();
+    // The hand pushes the grip 15 mm into the floor (y = -0.03) and holds it there.
+    let (daemon, csv) = pressing(&bus, &setup, &dir, [0.0, -0.045, 0.0]);
+    let out = bus.ctl(&["scene", "switch", lower.to_str().unwrap()]);
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"lower\"");
+    std::thread::sleep(Duration::from_millis(1000));
+    daemon.stop();
+    ramps_through_zero(&grip_force(&csv), 1.2);
+}
+
+/// A daemon whose simulated hand moves the grip to `to` and holds it there, recording every
+/// tick; it has pressed for a second. The daemon and its recording's path.
+fn pressing(bus: &Bus, setup: &Setup, dir: &Path, to: [f64; 3]) -> (Hapticd, PathBuf) {
+    let hand = dir.join("press.yaml");
+    let [x, y, z] = to;
+    std::fs::write(
+        &hand,
+        format!(
+            "hands:\n  grip:\n    - hold: {{ seconds: 0.3 }}\n    - move: {{ to: [{x}, {y}, {z}], \
+             seconds: 0.3 }}\n    - hold: {{ seconds: 60 }}\n"
+        ),
+    )
+    .unwrap();
     let csv = dir.join("run.csv");
     let daemon = Hapticd::start(
-        &bus,
-        &setup,
+        bus,
+        setup,
         &[
             "--sim",
             "spidar-g",
@@ -1843,12 +1859,7 @@ fn switching_scenes_ramps_the_force_down_and_back_up() {
         ],
     );
     std::thread::sleep(Duration::from_millis(1500));
-    let out = bus.ctl(&["scene", "switch", lower.to_str().unwrap()]);
-    assert!(out.status.success(), "{out:?}");
-    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"lower\"");
-    std::thread::sleep(Duration::from_millis(1000));
-    daemon.stop();
-    ramps_through_zero(&grip_force(&csv), 1.2);
+    (daemon, csv)
 }
 
 /// (time, upward grip force) of every tick a daemon's `--record` wrote to `csv`.
@@ -1900,26 +1911,7 @@ fn a_body_put_under_a_pressing_finger_is_felt_through_a_ramp_not_a_jump() {
     )
     .unwrap();
     // The grip's 1 cm cube pressed into the table, clear of every block.
-    let hand = dir.join("press.yaml");
-    std::fs::write(
-        &hand,
-        "hands:\n  grip:\n    - hold: { seconds: 0.3 }\n    - move: { to: [-0.03, -0.036, 0.07], seconds: 0.3 }\n    - hold: { seconds: 60 }\n",
-    )
-    .unwrap();
-    let csv = dir.join("run.csv");
-    let daemon = Hapticd::start(
-        &bus,
-        &setup,
-        &[
-            "--sim",
-            "spidar-g",
-            "--hand",
-            hand.to_str().unwrap(),
-            "--record",
-            csv.to_str().unwrap(),
-        ],
-    );
-    std::thread::sleep(Duration::from_millis(1500));
+    let (daemon, csv) = pressing(&bus, &setup, &dir, [-0.03, -0.036, 0.07]);
     // The table raised 3 mm, into the cube.
     let raised = bus
         .drive(

@@ -472,16 +472,10 @@ impl DeviceHandle {
     fn carried(&self) -> Result<Vec<(String, HapticdSceneCommand)>, Error> {
         let mut carried = Vec::new();
         for body in self.bodies() {
-            let query = HapticdSceneCommand {
-                kind: HAPTICD_COMMAND_QUERY,
-                ..HapticdSceneCommand::default()
-            };
+            let query = HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 0);
             let state = self.drive(&body.name, query)?;
             let mut carry = |kind: u32, fill: &dyn Fn(&mut HapticdSceneCommand)| {
-                let mut command = HapticdSceneCommand {
-                    kind,
-                    ..HapticdSceneCommand::default()
-                };
+                let mut command = HapticdSceneCommand::new(kind, 0);
                 fill(&mut command);
                 carried.push((body.name.clone(), command));
             };

@@ -357,15 +357,6 @@ mod tests {
         ])
     }
 
-    fn command(kind: u32, body: u32) -> HapticdSceneCommand {
-        HapticdSceneCommand {
-            kind,
-            body,
-            orientation: [1.0, 0.0, 0.0, 0.0],
-            ..HapticdSceneCommand::default()
-        }
-    }
-
     #[test]
     fn bodies_are_found_by_name_or_id_and_nothing_else() {
         let (control, ..) = control();
@@ -387,89 +378,92 @@ mod tests {
             (
                 HapticdSceneCommand {
                     vector: [f64::NAN, 0.0, 0.0],
-                    ..command(HAPTICD_COMMAND_IMPULSE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, 1)
                 },
                 "NotFinite",
             ),
             (
                 HapticdSceneCommand {
                     position: [0.0, f64::INFINITY, 0.0],
-                    ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 1)
                 },
                 "NotFinite",
             ),
             (
                 HapticdSceneCommand {
                     vector: [11.0, 0.0, 0.0],
-                    ..command(HAPTICD_COMMAND_IMPULSE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     position: [1e9, 0.0, 0.0],
-                    ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     orientation: [0.0; 4],
-                    ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     vector: [0.0, 1e6, 0.0],
-                    ..command(HAPTICD_COMMAND_SET_FORCE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     value: -2.0,
-                    ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     value: 1e300,
-                    ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     value: -0.1,
-                    ..command(HAPTICD_COMMAND_SET_FRICTION, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FRICTION, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     spin: [0.0, 0.0, 1e4],
-                    ..command(HAPTICD_COMMAND_SET_VELOCITY, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 1)
                 },
                 "OutOfRange",
             ),
             (
                 HapticdSceneCommand {
                     vector: [1.0, 0.0, 0.0],
-                    ..command(HAPTICD_COMMAND_SET_VELOCITY, 0)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 0)
                 },
                 "FixedBody",
             ),
             (
                 HapticdSceneCommand {
                     value: 1.0,
-                    ..command(HAPTICD_COMMAND_SET_MASS, 0)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 0)
                 },
                 "FixedBody",
             ),
-            (command(HAPTICD_COMMAND_QUERY, 2), "UnknownBody"),
-            (command(77, 1), "Refused"),
+            (
+                HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 2),
+                "UnknownBody",
+            ),
+            (HapticdSceneCommand::new(77, 1), "Refused"),
         ];
         for (command, expected) in cases {
             let error = control.check(command).unwrap_err();
@@ -480,7 +474,7 @@ mod tests {
         let moved = control
             .check(HapticdSceneCommand {
                 orientation: [0.0, 0.0, 1.05, 0.0],
-                ..command(HAPTICD_COMMAND_SET_POSE, 0)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 0)
             })
             .unwrap();
         assert_eq!(moved.orientation, [0.0, 0.0, 1.0, 0.0]);
@@ -512,7 +506,7 @@ mod tests {
             HAPTICD_COMMAND_SET_POSE,
             HAPTICD_COMMAND_SET_FRICTION,
         ] {
-            let mut c = command(kind, 1);
+            let mut c = HapticdSceneCommand::new(kind, 1);
             c.value = 0.3;
             control.send(c).unwrap();
         }
@@ -544,10 +538,14 @@ mod tests {
                 std::thread::sleep(Duration::from_millis(1));
             }
         });
-        let refused = control.send(command(HAPTICD_COMMAND_QUERY, 1)).unwrap_err();
+        let refused = control
+            .send(HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 1))
+            .unwrap_err();
         assert!(matches!(refused, CommandError::Refused(_)), "{refused:?}");
         let _silent = worker.join().unwrap();
-        let late = control.send(command(HAPTICD_COMMAND_QUERY, 1)).unwrap_err();
+        let late = control
+            .send(HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 1))
+            .unwrap_err();
         assert!(matches!(late, CommandError::Timeout(_)), "{late:?}");
     }
 }

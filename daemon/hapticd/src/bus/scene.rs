@@ -94,11 +94,7 @@ impl SceneInterface {
 
 /// A command of `kind` with `fill` applied.
 fn command(kind: u32, fill: impl FnOnce(&mut HapticdSceneCommand)) -> HapticdSceneCommand {
-    let mut command = HapticdSceneCommand {
-        kind,
-        orientation: [1.0, 0.0, 0.0, 0.0],
-        ..HapticdSceneCommand::default()
-    };
+    let mut command = HapticdSceneCommand::new(kind, 0);
     fill(&mut command);
     command
 }

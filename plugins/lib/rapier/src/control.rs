@@ -132,15 +132,6 @@ bodies:
         }
     }
 
-    fn command(kind: u32, body: u32) -> HapticdSceneCommand {
-        HapticdSceneCommand {
-            kind,
-            body,
-            orientation: [1.0, 0.0, 0.0, 0.0],
-            ..HapticdSceneCommand::default()
-        }
-    }
-
     #[test]
     fn a_body_set_to_a_pose_is_there_at_the_next_physics_step() {
         let mut w = world();
@@ -150,7 +141,7 @@ bodies:
             .control(&HapticdSceneCommand {
                 position: to.to_array(),
                 orientation: quat_to_wxyz(turn),
-                ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 1)
             })
             .unwrap();
         assert!((DVec3::from(set.position) - to).length() < 1e-6);
@@ -176,7 +167,7 @@ bodies:
                 let heavier = w
                     .control(&HapticdSceneCommand {
                         value: m,
-                        ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                        ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
                     })
                     .unwrap();
                 assert!((heavier.mass - m).abs() < 1e-6 * m, "{}", heavier.mass);
@@ -187,7 +178,7 @@ bodies:
                 .control(&HapticdSceneCommand {
                     vector: j.to_array(),
                     position: before.position,
-                    ..command(HAPTICD_COMMAND_IMPULSE, 1)
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, 1)
                 })
                 .unwrap();
             let dp = (DVec3::from(after.velocity) - DVec3::from(before.velocity)) * m;
@@ -204,7 +195,7 @@ bodies:
         let force = DVec3::new(1.0, 9.81 * mass, 0.0);
         w.control(&HapticdSceneCommand {
             vector: force.to_array(),
-            ..command(HAPTICD_COMMAND_SET_FORCE, 1)
+            ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 1)
         })
         .unwrap();
         for _ in 0..5 {
@@ -216,7 +207,7 @@ bodies:
         let off = w
             .control(&HapticdSceneCommand {
                 vector: [0.0; 3],
-                ..command(HAPTICD_COMMAND_SET_FORCE, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 1)
             })
             .unwrap();
         assert_eq!(off.force, [0.0; 3]);
@@ -228,7 +219,7 @@ bodies:
         let slippery = w
             .control(&HapticdSceneCommand {
                 value: 0.1,
-                ..command(HAPTICD_COMMAND_SET_FRICTION, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FRICTION, 1)
             })
             .unwrap();
         assert!((slippery.friction - 0.1).abs() < 1e-7);
@@ -239,18 +230,18 @@ bodies:
         for refused in [
             HapticdSceneCommand {
                 vector: [f64::INFINITY, 0.0, 0.0],
-                ..command(HAPTICD_COMMAND_SET_VELOCITY, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 1)
             },
             HapticdSceneCommand {
                 value: 0.0,
-                ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
             },
             HapticdSceneCommand {
                 vector: [1.0, 0.0, 0.0],
-                ..command(HAPTICD_COMMAND_SET_FORCE, 0)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 0)
             },
-            command(HAPTICD_COMMAND_QUERY, 2),
-            command(42, 1),
+            HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 2),
+            HapticdSceneCommand::new(42, 1),
         ] {
             assert!(w.control(&refused).is_none(), "{refused:?}");
         }

@@ -101,15 +101,6 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
         PenaltyScene::parse(SCENE, Path::new("control.yaml"), 1).expect("the scene parses")
     }
 
-    fn command(kind: u32, body: u32) -> HapticdSceneCommand {
-        HapticdSceneCommand {
-            kind,
-            body,
-            orientation: [1.0, 0.0, 0.0, 0.0],
-            ..HapticdSceneCommand::default()
-        }
-    }
-
     #[test]
     fn the_files_bodies_are_listed_by_name_and_the_pointers_are_not() {
         let mut scene = scene();
@@ -125,7 +116,9 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
             ]
         );
         assert!(
-            scene.apply(&command(HAPTICD_COMMAND_QUERY, 2)).is_none(),
+            scene
+                .apply(&HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 2))
+                .is_none(),
             "the pointer"
         );
     }
@@ -142,7 +135,7 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
             .apply(&HapticdSceneCommand {
                 vector: j.to_array(),
                 position: at.to_array(),
-                ..command(HAPTICD_COMMAND_IMPULSE, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, 1)
             })
             .expect("a free body takes an impulse");
         let dp = (DVec3::from(after.velocity) - DVec3::from(before.velocity)) * mass;
@@ -167,7 +160,7 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
             .apply(&HapticdSceneCommand {
                 position: to.to_array(),
                 orientation: quat_to_wxyz(turn),
-                ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 1)
             })
             .expect("a body takes a pose");
         let (v, w) = (scene.world.bodies[1].velocity, scene.world.bodies[1].spin);
@@ -190,21 +183,21 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
         let pushed = scene
             .apply(&HapticdSceneCommand {
                 vector: [0.0, 1.0, 0.0],
-                ..command(HAPTICD_COMMAND_SET_FORCE, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 1)
             })
             .unwrap();
         assert_eq!(pushed.force, [0.0, 1.0, 0.0]);
         let heavier = scene
             .apply(&HapticdSceneCommand {
                 value: 2.0,
-                ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
             })
             .unwrap();
         assert_eq!(heavier.mass, 2.0);
         let slippery = scene
             .apply(&HapticdSceneCommand {
                 value: 0.05,
-                ..command(HAPTICD_COMMAND_SET_FRICTION, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FRICTION, 1)
             })
             .unwrap();
         assert_eq!(slippery.friction, 0.05);
@@ -212,22 +205,22 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
         for refused in [
             HapticdSceneCommand {
                 vector: [f64::NAN, 0.0, 0.0],
-                ..command(HAPTICD_COMMAND_SET_VELOCITY, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 1)
             },
             HapticdSceneCommand {
                 value: -1.0,
-                ..command(HAPTICD_COMMAND_SET_MASS, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
             },
             HapticdSceneCommand {
                 vector: [1.0, 0.0, 0.0],
-                ..command(HAPTICD_COMMAND_IMPULSE, 0)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, 0)
             },
             HapticdSceneCommand {
                 orientation: [0.0; 4],
-                ..command(HAPTICD_COMMAND_SET_POSE, 1)
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_POSE, 1)
             },
-            command(99, 1),
-            command(HAPTICD_COMMAND_QUERY, 7),
+            HapticdSceneCommand::new(99, 1),
+            HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 7),
         ] {
             assert!(scene.apply(&refused).is_none(), "{refused:?}");
         }
