@@ -553,6 +553,65 @@ fn the_bodies_of_a_penalty_plugin_are_pictured_without_allocating() {
     assert_eq!(two[1], bodies[1]);
 }
 
+/// Changes from outside and contact events through the real loader: the haptic thread
+/// carries out every kind of scene command (a pose only once "quiet") and says what the
+/// pointer touches, allocating nothing, while another thread sends the commands.
+#[test]
+fn scene_commands_and_touches_of_a_penalty_plugin_do_not_allocate() {
+    use hapticd::plugin_scene;
+    use hapticd_plugin_api::*;
+    let path = support::repo_dir().join("config/scenes/blocks.yaml");
+    // The pointer's cube pressed 2 mm into the table, clear of the blocks.
+    let pointers = [Pointer {
+        pose: Pose {
+            position: DVec3::new(0.0, -0.027, -0.1),
+            ..Pose::default()
+        },
+        velocity: DVec3::ZERO,
+    }];
+    let mut scene = plugin_scene::load(
+        &support::plugin_path("hapticd-scene-penalty"),
+        Some(&path),
+        &pointers,
+    )
+    .unwrap();
+    let mut control = scene.take_control().expect("the penalty plugin is driven");
+    let sender = std::thread::spawn(move || {
+        let mut command = |kind, fill: &dyn Fn(&mut HapticdSceneCommand)| {
+            let mut c = HapticdSceneCommand::new(kind, 1);
+            fill(&mut c);
+            control.send(c).unwrap()
+        };
+        command(HAPTICD_COMMAND_QUERY, &|_| {});
+        command(HAPTICD_COMMAND_SET_VELOCITY, &|c| c.vector = [0.01, 0.0, 0.0]);
+        command(HAPTICD_COMMAND_IMPULSE, &|c| c.vector = [0.0, 0.001, 0.0]);
+        command(HAPTICD_COMMAND_SET_FORCE, &|c| c.vector = [0.0, 0.1, 0.0]);
+        command(HAPTICD_COMMAND_SET_MASS, &|c| c.value = 0.02);
+        command(HAPTICD_COMMAND_SET_FRICTION, &|c| c.value = 0.2);
+        command(HAPTICD_COMMAND_SET_POSE, &|c| c.position = [0.035, 0.0, 0.0])
+    });
+    let mut wrenches = [Wrench::ZERO];
+    let mut touches = [hapticd_core::scene::Touch::NONE];
+    let mut quiets = 0;
+    let n = allocations_in(|| {
+        for _ in 0..2000 {
+            if scene.needs_quiet() {
+                scene.quiet();
+                quiets += 1;
+            }
+            scene.render(&pointers, 1e-3, &mut wrenches);
+            scene.write_touches(&mut touches);
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        }
+    });
+    let placed = sender.join().unwrap();
+    assert_eq!(n, 0, "{n} allocations in 2000 ticks");
+    assert_eq!(quiets, 1, "the pose, and it alone, waited for quiet");
+    assert_eq!(placed.position, [0.035, 0.0, 0.0]);
+    assert_eq!(placed.mass, 0.02);
+    assert!(touches[0].touching && touches[0].body == 0, "{touches:?}");
+}
+
 /// The bad-output fixture in `mode`, loaded for one pointer pressed 1 cm into its floor:
 /// ticks of 1 ms (slept, so a physics thread keeps its pace) until its output has been
 /// refused; the ticks that rendered, the fault and the allocations on this thread.
