@@ -583,12 +583,16 @@ fn scene_commands_and_touches_of_a_penalty_plugin_do_not_allocate() {
             control.send(c).unwrap()
         };
         command(HAPTICD_COMMAND_QUERY, &|_| {});
-        command(HAPTICD_COMMAND_SET_VELOCITY, &|c| c.vector = [0.01, 0.0, 0.0]);
+        command(HAPTICD_COMMAND_SET_VELOCITY, &|c| {
+            c.vector = [0.01, 0.0, 0.0]
+        });
         command(HAPTICD_COMMAND_IMPULSE, &|c| c.vector = [0.0, 0.001, 0.0]);
         command(HAPTICD_COMMAND_SET_FORCE, &|c| c.vector = [0.0, 0.1, 0.0]);
         command(HAPTICD_COMMAND_SET_MASS, &|c| c.value = 0.02);
         command(HAPTICD_COMMAND_SET_FRICTION, &|c| c.value = 0.2);
-        command(HAPTICD_COMMAND_SET_POSE, &|c| c.position = [0.035, 0.0, 0.0])
+        command(HAPTICD_COMMAND_SET_POSE, &|c| {
+            c.position = [0.035, 0.0, 0.0]
+        })
     });
     let mut wrenches = [Wrench::ZERO];
     let mut touches = [hapticd_core::scene::Touch::NONE];
