@@ -1,6 +1,6 @@
 //! The core's computations with the shipped mechanisms and scenes: the pose solver, the tension
-//! QP, the haptic loop, the real-time thread's allocations, the proxy on meshes, and the
-//! thesis' experiments.
+//! QP, the haptic loop, the real-time thread's allocations, the proxy on meshes, the thesis'
+//! experiments, and the ROS 2 messages against an independent encoder.
 
 #[path = "../support/mod.rs"]
 mod support;
@@ -10,4 +10,5 @@ mod haptic_loop;
 mod meshes;
 mod no_allocation;
 mod pose;
+mod ros2_cdr;
 mod tension;

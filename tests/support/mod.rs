@@ -112,6 +112,34 @@ pub fn mesh_cache() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("mesh-cache")
 }
 
+/// A directory holding `package` from PyPI and what it needs, for `/usr/bin/python3`'s
+/// `PYTHONPATH`: installed once (by pip, into the test's own target directory) and kept.
+pub fn python_package(package: &str) -> PathBuf {
+    static INSTALLING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = INSTALLING.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("python-{package}"));
+    if dir.join(".installed").exists() {
+        return dir;
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = Command::new("/usr/bin/python3")
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "--target",
+        ])
+        .arg(&dir)
+        .arg(package)
+        .output()
+        .expect("python3-pip is installed by `make deps`");
+    assert!(out.status.success(), "pip install {package}: {out:?}");
+    std::fs::write(dir.join(".installed"), "").unwrap();
+    dir
+}
+
 /// Half the extent of the frame: the largest motor coordinate of effector `index`.
 pub fn frame_half(m: &Mechanism, index: usize) -> f64 {
     m.kinematics(index)
