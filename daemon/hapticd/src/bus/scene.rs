@@ -18,7 +18,7 @@ use zbus::message::Header;
 use zbus::{OwnedVariant, Variant};
 
 use super::BusError;
-use super::{audit, caller};
+use super::{audit, caller, report};
 use crate::control::{self, Daemon};
 
 /// The running world's bodies.
@@ -89,6 +89,24 @@ impl SceneInterface {
             );
         }
         Ok(state_of(&body, &result?))
+    }
+}
+
+/// Announce that the manager's ActiveSceneFile changed: a world built again comes from a new
+/// file (its name stays).
+async fn announce_rebuilt(connection: &zbus::Connection) {
+    let manager = connection
+        .object_server()
+        .interface::<_, super::ManagerInterface>(hapticd_ipc::MANAGER_PATH)
+        .await;
+    if let Ok(manager) = manager {
+        report(
+            manager
+                .get()
+                .await
+                .active_scene_file_changed(manager.signal_emitter())
+                .await,
+        );
     }
 }
 
@@ -245,7 +263,9 @@ impl SceneInterface {
         let outcome = result.as_ref().map(|_| ()).map_err(|e| e.to_string());
         let what = format!("add the body {:?}", body.lines().next().unwrap_or(""));
         audit(&what, &caller(connection, Some(&header)).await, &outcome);
-        Ok(result?)
+        let id = result?;
+        announce_rebuilt(connection).await;
+        Ok(id)
     }
 
     /// Remove `body` from the running world, built again as for AddBody; the ids after it
@@ -265,7 +285,9 @@ impl SceneInterface {
             &caller(connection, Some(&header)).await,
             &outcome,
         );
-        Ok(result?)
+        result?;
+        announce_rebuilt(connection).await;
+        Ok(())
     }
 
     /// Make the friction coefficient of `body`'s contacts `friction` (a contact takes the
