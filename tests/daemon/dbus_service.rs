@@ -2894,6 +2894,92 @@ fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
     daemon.stop();
 }
 
+/// The network bridge, `hapticd-zenoh`, read by the real Zenoh client for Python
+/// (eclipse-zenoh from PyPI): every tick's pose at the device's rate under rmw_zenoh's key,
+/// the tick as each sample's sequence number, the CDR a ROS 2 node decodes, and the status
+/// answered as a query.
+#[test]
+fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_status() {
+    let dir = scratch("zenoh");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let mut bridge = Command::new(artifact("hapticd-zenoh"))
+        .args([
+            "--bus",
+            &bus.address,
+            "--listen",
+            &endpoint,
+            "--rate",
+            "1000",
+            "--duration",
+            "60",
+        ])
+        .spawn()
+        .unwrap();
+    let follow = "import json, struct, sys, time, zenoh\n\
+        conf = zenoh.Config()\n\
+        conf.insert_json5('mode', '\"client\"')\n\
+        conf.insert_json5('connect/endpoints', json.dumps([sys.argv[1]]))\n\
+        session = zenoh.open(conf)\n\
+        samples = []\n\
+        def taken(sample):\n\
+        \x20   tick = int.from_bytes(sample.attachment.to_bytes()[:8], 'little')\n\
+        \x20   samples.append((str(sample.key_expr), tick, sample.payload.to_bytes()))\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim/*/pose/**', taken)\n\
+        time.sleep(3)\n\
+        subscriber.undeclare()\n\
+        status = [r.ok.payload.to_string() for r in session.get('hapticd/sim/status') if r.ok]\n\
+        ticks = [t for _, t, _ in samples]\n\
+        gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
+        key, _, payload = samples[-1]\n\
+        print(json.dumps({'count': len(ticks), 'gaps': gaps, 'key': key, \
+        'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
+        'status': json.loads(status[0])}))\n";
+    // The bridge needs a moment to listen.
+    std::thread::sleep(Duration::from_millis(1500));
+    let out = Command::new("/usr/bin/python3")
+        .args(["-c", follow, &endpoint])
+        .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .output()
+        .unwrap();
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    daemon.stop();
+    assert!(out.status.success(), "{out:?}");
+    let said: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    println!("{said}");
+    // Three seconds at 1 kHz, every tick in order.
+    let count = said["count"].as_u64().unwrap();
+    assert!(count > 2500, "{said}");
+    assert_eq!(said["gaps"], 0, "{said}");
+    let key = said["key"].as_str().unwrap();
+    assert!(
+        key.starts_with("0/hapticd/sim/grip/pose/geometry_msgs::msg::dds_::PoseStamped_/RIHS01_"),
+        "{key}"
+    );
+    assert_eq!(said["header"], "00010000", "little-endian CDR");
+    // The simulated grip rests at its calibration pose, the frame's centre.
+    let position: Vec<f64> = said["position"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(position.iter().all(|x| x.abs() < 1e-3), "{position:?}");
+    let status = &said["status"];
+    assert_eq!(status["identity"], "sim");
+    assert_eq!(status["state"], "running");
+    assert_eq!(status["rate"], 1000.0);
+}
+
 /// The Rust client library (`hapticd_ipc::client`) against a running daemon.
 #[test]
 fn the_rust_client_reads_sets_switches_and_follows_every_tick() {

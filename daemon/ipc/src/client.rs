@@ -212,6 +212,11 @@ impl Device {
         Ok(zbus::block_on(self.proxy.state())?)
     }
 
+    /// Its effectors' names, in order.
+    pub fn effectors(&self) -> Result<Vec<String>, ClientError> {
+        Ok(zbus::block_on(self.proxy.effectors())?)
+    }
+
     /// The mechanism that drives it.
     pub fn mechanism(&self) -> Result<String, ClientError> {
         Ok(zbus::block_on(self.proxy.mechanism())?)
