@@ -2697,19 +2697,10 @@ fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
     );
     std::thread::sleep(Duration::from_millis(800));
     let csv = dir.join("ticks.csv");
-    let out = Command::new("/usr/bin/python3")
-        .arg(repo_dir().join("daemon/python/examples/staircase.py"))
-        .args(["--bus", &bus.address, "--trials", "10", "--out"])
-        .arg(&csv)
-        .env("PYTHONPATH", repo_dir().join("daemon/python"))
-        .env("PYTHONDONTWRITEBYTECODE", "1")
-        .output()
-        .unwrap();
-    let said = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{said}{}",
-        String::from_utf8_lossy(&out.stderr)
+    let csv_arg = csv.to_str().unwrap();
+    let said = python_example(
+        "staircase.py",
+        &["--bus", &bus.address, "--trials", "10", "--out", csv_arg],
     );
     let estimate: f64 = said
         .split("threshold estimate: ")
@@ -2851,6 +2842,25 @@ fn bodies_are_added_and_removed_under_both_engines_the_others_kept_as_they_are()
     );
 }
 
+/// Run the Python package's example `name` with `args`, the package from the tree; what it
+/// printed, once it has succeeded.
+fn python_example(name: &str, args: &[&str]) -> String {
+    let out = Command::new("/usr/bin/python3")
+        .arg(repo_dir().join("daemon/python/examples").join(name))
+        .args(args)
+        .env("PYTHONPATH", repo_dir().join("daemon/python"))
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{name}: {said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    said
+}
+
 /// The README's second example (`daemon/python/examples/push.py`): the world drawn from the
 /// device's picture of it, and a block pushed from outside sliding as Coulomb friction has it.
 #[test]
@@ -2860,19 +2870,16 @@ fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
     let picture = dir.join("push.svg");
-    let out = Command::new("/usr/bin/python3")
-        .arg(repo_dir().join("daemon/python/examples/push.py"))
-        .args(["--bus", &bus.address, "--speed", "0.3", "--out"])
-        .arg(&picture)
-        .env("PYTHONPATH", repo_dir().join("daemon/python"))
-        .env("PYTHONDONTWRITEBYTECODE", "1")
-        .output()
-        .unwrap();
-    let said = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{said}{}",
-        String::from_utf8_lossy(&out.stderr)
+    let said = python_example(
+        "push.py",
+        &[
+            "--bus",
+            &bus.address,
+            "--speed",
+            "0.3",
+            "--out",
+            picture.to_str().unwrap(),
+        ],
     );
     println!("{said}");
     let went: f64 = said
