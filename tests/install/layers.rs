@@ -83,7 +83,39 @@ fn the_renderer_and_clients_talk_to_hapticd_through_the_wire_contract_alone() {
     }
 }
 
-/// Scene files belong to their plugins: the daemon reads a file's engine and nothing else,
+/// The network stays out of the process that pulls the strings: only the bridge links Zenoh,
+/// and it reaches hapticd through the wire contract, like any client.
+#[test]
+fn only_the_bridge_links_zenoh_and_it_links_no_part_of_the_daemon() {
+    for package in [
+        "hapticd",
+        "hapticd-core",
+        "hapticd-ipc",
+        "hapticd-ros2",
+        "hapticctl",
+    ] {
+        let linked = normal_dependencies(package);
+        assert!(!linked.contains("zenoh"), "{package} links zenoh");
+    }
+    let bridge = normal_dependencies("hapticd-zenoh");
+    assert!(
+        bridge.contains("zenoh") && bridge.contains("hapticd-ipc"),
+        "{bridge:?}"
+    );
+    for daemon_only in [
+        "hapticd",
+        "hapticd-device",
+        "hapticd-physics",
+        "hapticd-mesh",
+    ] {
+        assert!(
+            !bridge.contains(daemon_only),
+            "hapticd-zenoh links {daemon_only}"
+        );
+    }
+}
+
+/// Scene files belong to their plugins:/// Scene files belong to their plugins: the daemon reads a file's engine and nothing else,
 /// and pictures come from the solids plugins publish, so neither the daemon nor the renderer
 /// links the physics of any engine.
 #[test]
