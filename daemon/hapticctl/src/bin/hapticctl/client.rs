@@ -458,7 +458,10 @@ pub fn restart(client: &Client) -> Result<(), Failure> {
     while started.elapsed() < RESTART_TIMEOUT {
         std::thread::sleep(std::time::Duration::from_millis(100));
         if owner(client).is_some_and(|now| Some(&now) != before.as_ref()) {
-            let manager = client.properties(MANAGER_PATH, MANAGER)?;
+            // The new hapticd owns its name a moment before its objects are on the bus.
+            let Ok(manager) = client.properties(MANAGER_PATH, MANAGER) else {
+                continue;
+            };
             for d in client.devices(&manager)? {
                 println!(
                     "{}: {} at {} Hz",
