@@ -1089,7 +1089,8 @@ fn hapticctl_monitor_prints_each_change_as_it_happens() {
     daemon.stop();
 }
 
-/// A renderer drawing a stream for a viewer of the bus at `address`, until dropped.
+/// A stream of 30 frames a second opened with the renderer on `bus`: the viewer's connection
+/// (the stream lasts while it is open) and the stream's ring.
 fn stream_frames(bus: &Bus) -> (zbus::Connection, hapticd_ipc::frame_ring::FrameRingReader) {
     let viewer = bus.connect();
     let options = std::collections::HashMap::from([("rate", zbus::Variant::from(30.0))]);
@@ -2299,17 +2300,7 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
     let ticks = || entry(&bus.get(DEVICE, "Statistics"), "ticks");
     let mut renderer = Renderer::start(&bus, &dir, &[]);
     // A viewer's stream keeps the renderer drawing when it is killed.
-    let viewer = bus.connect();
-    let options = std::collections::HashMap::from([("rate", zbus::Variant::from(30.0))]);
-    let stream = zbus::block_on(viewer.call_method(
-        Some(RENDERER),
-        PICTURES[1],
-        Some(PICTURES[2]),
-        "OpenFrameStream",
-        &(options,),
-    ));
-    let ring: zbus::OwnedFd = stream.unwrap().body().deserialize().unwrap();
-    let ring = hapticd_ipc::frame_ring::FrameRingReader::open(&ring.into()).unwrap();
+    let (_viewer, ring) = stream_frames(&bus);
     let started = Instant::now();
     while ring.latest() < 10 {
         assert!(
