@@ -30,6 +30,12 @@ fn make(target: &str, vars: &[String]) -> Output {
         .arg(format!("BUILT={}", built.display()))
         .args(vars)
         .env("CARGO", "/nonexistent/cargo")
+        // The Makefile's defaults are under test: none may come from the caller's environment.
+        .env_remove("PREFIX")
+        .env_remove("SYSCONFDIR")
+        .env_remove("SYSTEMLIBDIR")
+        .env_remove("DBUSPOLICYDIR")
+        .env_remove("DESTDIR")
         .output()
         .unwrap();
     support::succeeded(out)
