@@ -120,11 +120,14 @@ VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml)
 so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
 # The C example mechanism, built as a plugin author would build it.
 C_MECHANISM := $(BUILT)/libspidar_desk.so
-INSTALLED_FILES := $(BUILT)/hapticd $(BUILT)/hapticd-render $(BUILT)/hapticctl $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+PROGRAMS := hapticd hapticd-render hapticd-zenoh hapticctl
+INSTALLED_FILES := $(addprefix $(BUILT)/,$(PROGRAMS)) $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 CONFIG_ARG := $(if $(filter $(DEFAULT_SYSCONFDIR),$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/hapticd.yaml)
+# hapticd-zenoh looks in /etc alone (it has no tree of its own to find a prefix from).
+BRIDGE_CONFIG_ARG := $(if $(filter /etc,$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/network.yaml)
 
 release: $(RELEASE)/libspidar_desk.so
-	$(CARGO) build --release -p hapticd -p hapticd-render-service -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+	$(CARGO) build --release -p hapticd -p hapticd-render-service -p hapticd-zenoh -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 
 %/libspidar_desk.so: plugins/c-example/spidar_desk.c plugin-api/include/hapticd_plugin.h
 	@mkdir -p $(@D)
@@ -145,7 +148,7 @@ install: $(C_MECHANISM)
 		$(DESTDIR)$(PREFIX)/share/bash-completion/completions $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions \
 		$(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d \
 		$(DESTDIR)$(PREFIX)/share/man/man1 $(DESTDIR)$(PREFIX)/share/man/man5 $(DESTDIR)$(PREFIX)/share/man/man8
-	install -m 755 $(BUILT)/hapticd $(BUILT)/hapticd-render $(BUILT)/hapticctl $(DESTDIR)$(PREFIX)/bin/
+	install -m 755 $(addprefix $(BUILT)/,$(PROGRAMS)) $(DESTDIR)$(PREFIX)/bin/
 	$(BUILT)/hapticctl completions bash > $(DESTDIR)$(PREFIX)/share/bash-completion/completions/hapticctl
 	$(BUILT)/hapticctl completions zsh > $(DESTDIR)$(PREFIX)/share/zsh/vendor-completions/_hapticctl
 	$(BUILT)/hapticctl completions fish > $(DESTDIR)$(PREFIX)/share/fish/vendor_completions.d/hapticctl.fish
@@ -165,21 +168,23 @@ install: $(C_MECHANISM)
 	install -m 644 README.md LICENSE-MIT LICENSE-APACHE $(DESTDIR)$(PREFIX)/share/doc/hapticd/
 	install -m 644 plugins/c-example/*.c $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/
 	install -m 644 plugins/scene-floor/src/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/floor_scene.rs
-	sed -e 's|/etc/hapticd|$(SYSCONFDIR)/hapticd|g' -e 's|/usr/|$(PREFIX)/|g' \
-		config/hapticd.yaml > $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml
-	chmod 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml
 	@# An edited configuration survives a reinstall; the shipped one stays in the documentation.
-	if [ -e $(DESTDIR)$(SYSCONFDIR)/hapticd/hapticd.yaml ]; then \
-		echo "keeping $(DESTDIR)$(SYSCONFDIR)/hapticd/hapticd.yaml (shipped: $(PREFIX)/share/doc/hapticd/hapticd.yaml)"; \
-	else install -m 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/hapticd.yaml $(DESTDIR)$(SYSCONFDIR)/hapticd/; fi
-	sed -e 's|^ExecStart=/usr/bin/hapticd|ExecStart=$(PREFIX)/bin/hapticd$(CONFIG_ARG)|' \
-		-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' systemd/hapticd.service \
-		> $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
-	chmod 644 $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd.service
-	sed -e 's|^ExecStart=/usr/bin/hapticd-render|ExecStart=$(PREFIX)/bin/hapticd-render|' \
-		-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' systemd/hapticd-render.service \
-		> $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd-render.service
-	chmod 644 $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/hapticd-render.service
+	for conf in hapticd.yaml network.yaml; do \
+		sed -e 's|/etc/hapticd|$(SYSCONFDIR)/hapticd|g' -e 's|/usr/|$(PREFIX)/|g' \
+			config/$$conf > $(DESTDIR)$(PREFIX)/share/doc/hapticd/$$conf && \
+		chmod 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/$$conf && \
+		if [ -e $(DESTDIR)$(SYSCONFDIR)/hapticd/$$conf ]; then \
+			echo "keeping $(DESTDIR)$(SYSCONFDIR)/hapticd/$$conf (shipped: $(PREFIX)/share/doc/hapticd/$$conf)"; \
+		else install -m 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/$$conf $(DESTDIR)$(SYSCONFDIR)/hapticd/; fi || exit 1; \
+	done
+	for unit in hapticd.service hapticd-render.service hapticd-zenoh.service; do \
+		sed -e 's|^ExecStart=/usr/bin/hapticd |ExecStart=$(PREFIX)/bin/hapticd$(CONFIG_ARG) |' \
+			-e 's|^ExecStart=/usr/bin/hapticd-zenoh |ExecStart=$(PREFIX)/bin/hapticd-zenoh$(BRIDGE_CONFIG_ARG) |' \
+			-e 's|^ExecStart=/usr/bin/hapticd-render |ExecStart=$(PREFIX)/bin/hapticd-render |' \
+			-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' \
+			systemd/$$unit > $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/$$unit && \
+		chmod 644 $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/$$unit || exit 1; \
+	done
 	install -m 644 systemd/hapticd.sysusers $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d/hapticd.conf
 	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.conf config/dbus/org.hapticd.Renderer1.conf \

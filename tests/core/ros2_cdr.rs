@@ -1,12 +1,14 @@
 //! hapticd's ROS 2 messages against an independent encoder: the bytes `hapticd_ros2` writes
-//! for PoseStamped, WrenchStamped and TwistStamped are those rosbags (a pure-Python ROS 2
+//! for PoseStamped, WrenchStamped, TwistStamped, JointState and String are those rosbags (a pure-Python ROS 2
 //! serialiser from PyPI, with the message definitions of ROS 2 Jazzy) writes for the same
-//! values, it reads them back, and the type hashes in the topic keys are those rosbags computes
+//! values, and the type hashes in the topic keys are those rosbags computes
 //! from the definitions.
 
 use std::process::Command;
 
-use hapticd_ros2::messages::{Header, Message, PoseStamped, Time, TwistStamped, WrenchStamped};
+use hapticd_ros2::messages::{
+    Header, JointState, Message, PoseStamped, StringMessage, Time, TwistStamped, WrenchStamped,
+};
 
 use crate::support;
 
@@ -27,6 +29,7 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 const PRELUDE: &str = "
+import numpy
 from rosbags.typesys import Stores, get_typestore
 ts = get_typestore(Stores.ROS2_JAZZY)
 T = ts.types
@@ -39,7 +42,7 @@ def show(message, name):
 ";
 
 #[test]
-fn pose_wrench_and_twist_bytes_are_those_of_an_independent_encoder() {
+fn every_message_s_bytes_are_those_of_an_independent_encoder() {
     let frames = ["", "spidar", "hapticd/sim/grip-with-a-longer-name"];
     let mut script = PRELUDE.to_string();
     let mut ours = Vec::new();
@@ -61,7 +64,7 @@ fn pose_wrench_and_twist_bytes_are_those_of_an_independent_encoder() {
             torque: [-0.0, 1e-3, -7.0 * s],
         };
         let twist = TwistStamped {
-            header,
+            header: header.clone(),
             linear: [0.1, s, -0.3],
             angular: [3.0, 2.0, -s],
         };
@@ -93,13 +96,29 @@ fn pose_wrench_and_twist_bytes_are_those_of_an_independent_encoder() {
             twist.angular[1],
             twist.angular[2],
         );
+        // From no string to eight (SPIDAR-G), names of every length modulo the alignment.
+        let strings = JointState {
+            header,
+            name: (0..k * 4).map(|i| "s".repeat(i + 1)).collect(),
+            position: vec![],
+            velocity: vec![],
+            effort: (0..k * 4).map(|i| 0.25 * i as f64 + s).collect(),
+        };
+        let text = StringMessage {
+            data: frame.repeat(k),
+        };
+        script += &format!(
+            "show(T['sensor_msgs/msg/JointState'](header=h, name={:?}, \
+             position=numpy.zeros(0), velocity=numpy.zeros(0), \
+             effort=numpy.array({:?}, dtype=numpy.float64)), 'sensor_msgs/msg/JointState')\n\
+             show(T['std_msgs/msg/String'](data={:?}), 'std_msgs/msg/String')\n",
+            strings.name, strings.effort, text.data
+        );
         ours.push(pose.encode());
         ours.push(wrench.encode());
         ours.push(twist.encode());
-        // What the other encoder wrote, we read back to the same values.
-        assert_eq!(PoseStamped::decode(&pose.encode()).unwrap(), pose);
-        assert_eq!(WrenchStamped::decode(&wrench.encode()).unwrap(), wrench);
-        assert_eq!(TwistStamped::decode(&twist.encode()).unwrap(), twist);
+        ours.push(strings.encode());
+        ours.push(text.encode());
     }
     let theirs: Vec<String> = rosbags(&script).lines().map(String::from).collect();
     assert_eq!(theirs.len(), ours.len());
@@ -112,11 +131,18 @@ fn pose_wrench_and_twist_bytes_are_those_of_an_independent_encoder() {
 fn the_type_hashes_in_the_topic_keys_are_those_of_the_definitions() {
     let said = rosbags(&format!(
         "{PRELUDE}\nfor name in ['geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/WrenchStamped', \
-         'geometry_msgs/msg/TwistStamped']:\n    print(ts.hash_rihs01(name))\n"
+         'geometry_msgs/msg/TwistStamped', 'sensor_msgs/msg/JointState', 'std_msgs/msg/String']:\n    \
+         print(ts.hash_rihs01(name))\n"
     ));
     let theirs: Vec<&str> = said.lines().collect();
     assert_eq!(
         theirs,
-        [PoseStamped::HASH, WrenchStamped::HASH, TwistStamped::HASH]
+        [
+            PoseStamped::HASH,
+            WrenchStamped::HASH,
+            TwistStamped::HASH,
+            JointState::HASH,
+            StringMessage::HASH
+        ]
     );
 }

@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use hapticd_render::picture::Picture;
+use hapticd_ros2::messages::{JointState, Message, StringMessage};
 use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
 
@@ -2896,76 +2897,116 @@ fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
     daemon.stop();
 }
 
-/// The network bridge, `hapticd-zenoh`, read by the real Zenoh client for Python
-/// (eclipse-zenoh from PyPI): every tick's pose at the device's rate under rmw_zenoh's key,
-/// the tick as each sample's sequence number, the CDR a ROS 2 node decodes, and the status
-/// answered as a query.
-#[test]
-fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_status() {
-    let dir = scratch("zenoh");
-    let bus = Bus::start(&dir);
-    let setup = Setup::new(&dir);
-    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+/// A running `hapticd-zenoh` on its own port with a configuration file of the test's
+/// (never the host's), as user `uid` (None: the test's own).
+fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child, String) {
     let port = std::net::TcpListener::bind("127.0.0.1:0")
         .unwrap()
         .local_addr()
         .unwrap()
         .port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
-    let mut bridge = Command::new(artifact("hapticd-zenoh"))
-        .args([
-            "--bus",
-            &bus.address,
-            "--listen",
-            &endpoint,
-            "--rate",
-            "1000",
-            "--duration",
-            "60",
-        ])
+    let file = dir.join(format!("network-{port}.yaml"));
+    std::fs::write(&file, format!("listen: [{endpoint}]\n{config}")).unwrap();
+    let mut command = match uid {
+        Some(uid) => {
+            let mut c = Command::new("setpriv");
+            c.arg(format!("--reuid={uid}"))
+                .arg(format!("--regid={uid}"))
+                .arg("--clear-groups")
+                .arg(artifact("hapticd-zenoh"));
+            c
+        }
+        None => Command::new(artifact("hapticd-zenoh")),
+    };
+    let bridge = command
+        .arg("--config")
+        .arg(&file)
+        .args(["--bus", &bus.address, "--duration", "60"])
         .spawn()
         .unwrap();
-    let follow = "import json, struct, sys, time, zenoh\n\
+    // The bridge needs a moment to listen.
+    std::thread::sleep(Duration::from_millis(1500));
+    (bridge, endpoint)
+}
+
+/// The real Zenoh Python client running `script` against `endpoint`: what it printed, as JSON.
+fn zenoh_client(script: &str, endpoint: &str) -> serde_json::Value {
+    let prelude = "import json, struct, sys, time, zenoh\n\
         conf = zenoh.Config()\n\
         conf.insert_json5('mode', '\"client\"')\n\
         conf.insert_json5('connect/endpoints', json.dumps([sys.argv[1]]))\n\
         session = zenoh.open(conf)\n\
-        samples = []\n\
-        def taken(sample):\n\
-        \x20   tick = int.from_bytes(sample.attachment.to_bytes()[:8], 'little')\n\
-        \x20   samples.append((str(sample.key_expr), tick, sample.payload.to_bytes()))\n\
-        subscriber = session.declare_subscriber('0/hapticd/sim/*/pose/**', taken)\n\
-        time.sleep(3)\n\
-        subscriber.undeclare()\n\
-        status = [r.ok.payload.to_string() for r in session.get('hapticd/sim/status') if r.ok]\n\
-        ticks = [t for _, t, _ in samples]\n\
-        gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
-        key, _, payload = samples[-1]\n\
-        print(json.dumps({'count': len(ticks), 'gaps': gaps, 'key': key, \
-        'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
-        'status': json.loads(status[0])}))\n";
-    // The bridge needs a moment to listen.
-    std::thread::sleep(Duration::from_millis(1500));
+        def ask(key, payload):\n\
+        \x20   replies = list(session.get(key, payload=payload))\n\
+        \x20   return [r.ok.payload.to_string() if r.ok else 'error: ' + r.err.payload.to_string() for r in replies]\n";
     let out = Command::new("/usr/bin/python3")
-        .args(["-c", follow, &endpoint])
+        .args(["-c", &format!("{prelude}{script}"), endpoint])
         .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
         .env("PYTHONDONTWRITEBYTECODE", "1")
         .output()
         .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The ROS 2 side of the bridge, as the real Zenoh client sees it: every tick of the pose
+/// topic for 10 s at 1 kHz, in rmw_zenoh's keys and CDR; the twist and string topics; the
+/// node and its publishers announced by liveliness tokens; the status answered; a command
+/// refused by a bridge that takes none, refused by the bus for a bridge whose user has no
+/// rights, and carried out by one that has them.
+#[test]
+fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_status() {
+    let dir = scratch("zenoh");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 1000\n", None);
+    let follow = "samples = {}\n\
+        def taken(sample):\n\
+        \x20   tick = int.from_bytes(sample.attachment.to_bytes()[:8], 'little')\n\
+        \x20   kind = str(sample.key_expr).split('/')[4 if '/grip/' in str(sample.key_expr) else 3]\n\
+        \x20   samples.setdefault(kind, []).append((str(sample.key_expr), tick, sample.payload.to_bytes()))\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim/**', taken)\n\
+        time.sleep(10)\n\
+        subscriber.undeclare()\n\
+        status = ask('hapticd/sim/status', None)\n\
+        tokens = sorted(str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**') if r.ok)\n\
+        refused = ask('hapticd/sim/set/Stiffness', '1500')\n\
+        ticks = [t for _, t, _ in samples['pose']]\n\
+        gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
+        key, _, payload = samples['pose'][-1]\n\
+        print(json.dumps({'count': len(ticks), 'gaps': gaps, 'key': key, \
+        'kinds': {k: len(v) for k, v in samples.items()}, 'twist': samples['twist'][-1][0], \
+        'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
+        'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
+        'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
+    let said = zenoh_client(follow, &endpoint);
     let _ = bridge.kill();
     let _ = bridge.wait();
-    daemon.stop();
-    assert!(out.status.success(), "{out:?}");
-    let said: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     println!("{said}");
-    // Three seconds at 1 kHz, every tick in order.
+    // Ten seconds at 1 kHz, every tick in order.
     let count = said["count"].as_u64().unwrap();
-    assert!(count > 2500, "{said}");
+    assert!(count > 9500, "{said}");
     assert_eq!(said["gaps"], 0, "{said}");
     let key = said["key"].as_str().unwrap();
     assert!(
         key.starts_with("0/hapticd/sim/grip/pose/geometry_msgs::msg::dds_::PoseStamped_/RIHS01_"),
         "{key}"
+    );
+    assert!(
+        said["twist"]
+            .as_str()
+            .unwrap()
+            .starts_with("0/hapticd/sim/grip/twist/geometry_msgs::msg::dds_::TwistStamped_/")
+    );
+    for kind in ["pose", "twist", "wrench", "strings"] {
+        assert!(said["kinds"][kind].as_u64().unwrap() > 9500, "{said}");
+    }
+    // The state once a second and when it changes.
+    assert!(
+        (9..=12).contains(&said["kinds"]["state"].as_u64().unwrap()),
+        "{said}"
     );
     assert_eq!(said["header"], "00010000", "little-endian CDR");
     // The simulated grip rests at its calibration pose, the frame's centre.
@@ -2976,10 +3017,92 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         .map(|x| x.as_f64().unwrap())
         .collect();
     assert!(position.iter().all(|x| x.abs() < 1e-3), "{position:?}");
+    // SPIDAR-G's eight strings by name, in a JointState; "running" in a String.
+    let strings = hex_bytes(said["strings"].as_str().unwrap());
+    let decoded = JointState::decode(&strings).unwrap();
+    assert_eq!(decoded.name.len(), 8);
+    assert_eq!(decoded.name[7], "string7");
+    assert_eq!(decoded.effort.len(), 8);
+    assert!(decoded.effort.iter().all(|t| t.is_finite() && *t >= 0.0));
+    let state = StringMessage::decode(&hex_bytes(said["state"].as_str().unwrap())).unwrap();
+    assert_eq!(state.data, "running");
     let status = &said["status"];
     assert_eq!(status["identity"], "sim");
     assert_eq!(status["state"], "running");
     assert_eq!(status["rate"], 1000.0);
+    assert_eq!(status["commands"], false);
+    // `ros2 node list` and `ros2 topic list` find the node and its six publishers.
+    let tokens: Vec<&str> = said["tokens"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    assert_eq!(tokens.len(), 7, "{tokens:?}");
+    assert!(
+        tokens
+            .iter()
+            .any(|t| t.contains("/NN/%/%/hapticd_sim") && t.ends_with("hapticd_sim")),
+        "{tokens:?}"
+    );
+    assert!(
+        tokens.iter().any(|t| t.contains(
+            "/MP/%/%/hapticd_sim/%hapticd%sim%grip%pose/geometry_msgs::msg::dds_::PoseStamped_/"
+        ) && t.ends_with("/::,:,:,:,,")),
+        "{tokens:?}"
+    );
+    let refused = said["refused"][0].as_str().unwrap();
+    assert!(refused.starts_with("error: refused"), "{refused}");
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
+
+    // Commands on: the bus decides, as for any caller.
+    let command = "print(json.dumps({'set': ask('hapticd/sim/set/Stiffness', '1500'), \
+        'bad': ask('hapticd/sim/set/Stiffness', 'nan'), \
+        'malformed': ask('hapticd/scene/body/x/pose', '[1]')}))\n";
+    if is_root() {
+        let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", Some(65534));
+        let said = zenoh_client(command, &endpoint);
+        let _ = bridge.kill();
+        let _ = bridge.wait();
+        let denied = said["set"][0].as_str().unwrap();
+        assert!(
+            denied.contains("org.freedesktop.DBus.Error.AccessDenied"),
+            "{said}"
+        );
+        assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
+    }
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", None);
+    let said = zenoh_client(command, &endpoint);
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    assert_eq!(
+        said["set"][0].as_str().unwrap(),
+        r#"{"set":"Stiffness","value":1500.0}"#,
+        "{said}"
+    );
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 1500");
+    assert!(
+        said["bad"][0]
+            .as_str()
+            .unwrap()
+            .contains("org.hapticd.Hapticd1.Error.NotFinite"),
+        "{said}"
+    );
+    assert!(
+        said["malformed"][0]
+            .as_str()
+            .unwrap()
+            .starts_with("error: ")
+    );
+    daemon.stop();
+}
+
+/// The bytes a hex string spells.
+fn hex_bytes(hex: &str) -> Vec<u8> {
+    (0..hex.len())
+        .step_by(2)
+        .map(|k| u8::from_str_radix(&hex[k..k + 2], 16).unwrap())
+        .collect()
 }
 
 /// The Rust client library (`hapticd_ipc::client`) against a running daemon.
@@ -3038,8 +3161,10 @@ fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
     let turned = (0..3)
         .map(|k| (pushed.spin[k] - block.spin[k]).abs())
         .fold(0.0, f64::max);
+    // The block rests on the table between the two readings, and its contacts may turn it
+    // by a hair; the same push 0.1 m off its centre would turn it at about 1 rad/s.
     assert!(
-        turned < 1e-6,
+        turned < 1e-4,
         "through its centre: no turn ({turned} rad/s)"
     );
     match scene.set_velocity("table", [0.1, 0.0, 0.0], [0.0; 3]) {

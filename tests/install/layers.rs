@@ -115,7 +115,7 @@ fn only_the_bridge_links_zenoh_and_it_links_no_part_of_the_daemon() {
     }
 }
 
-/// Scene files belong to their plugins:/// Scene files belong to their plugins: the daemon reads a file's engine and nothing else,
+/// Scene files belong to their plugins: the daemon reads a file's engine and nothing else,
 /// and pictures come from the solids plugins publish, so neither the daemon nor the renderer
 /// links the physics of any engine.
 #[test]

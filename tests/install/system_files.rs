@@ -18,6 +18,39 @@ fn values<'a>(unit: &'a str, key: &str) -> Vec<&'a str> {
         .collect()
 }
 
+/// `systemd-analyze verify` of `unit` (a file `name`), its program `program` pointed at the
+/// one just built (verify checks that it exists): whether it passed, and what it said.
+fn verify(name: &str, unit: &str, program: &str) -> (bool, String) {
+    let dir = support::scratch_root().join(format!("unit-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join(name);
+    let built = format!("ExecStart={}", artifact(program).display());
+    std::fs::write(
+        &file,
+        unit.replace(&format!("ExecStart=/usr/bin/{program}"), &built),
+    )
+    .unwrap();
+    let out = Command::new("systemd-analyze")
+        .arg("verify")
+        .arg(&file)
+        .output()
+        .expect("systemd-analyze (package systemd) is installed by `make check`");
+    std::fs::remove_dir_all(&dir).unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// What systemd before 254 says of a growing restart delay (it names the two settings and
+/// restarts every second instead) left out; anything else is a mistake.
+fn not_about_restart_steps(diagnostics: &str) -> Vec<&str> {
+    diagnostics
+        .lines()
+        .filter(|l| !l.contains("RestartSteps") && !l.contains("RestartMaxDelaySec"))
+        .collect()
+}
+
 #[test]
 fn the_shipped_udev_rules_are_those_generated_from_the_device_table() {
     let out = hapticctl().args(["device", "udev-rules"]).output().unwrap();
@@ -61,23 +94,8 @@ fn the_unit_passes_systemd_analyze_verify_without_a_warning() {
             "{forbidden}= must not be set"
         );
     }
-    // verify checks that the program exists: point it at the one just built.
-    let dir = support::scratch_root().join(format!("hapticd-unit-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("hapticd.service");
-    let built = format!("ExecStart={}", artifact("hapticd").display());
-    std::fs::write(&file, unit.replace("ExecStart=/usr/bin/hapticd", &built)).unwrap();
-    let out = Command::new("systemd-analyze")
-        .arg("verify")
-        .arg(&file)
-        .output()
-        .expect("systemd-analyze (package systemd) is installed by `make check`");
-    let diagnostics = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success() && diagnostics.trim().is_empty(),
-        "{diagnostics}"
-    );
-    std::fs::remove_dir_all(&dir).unwrap();
+    let (passed, diagnostics) = verify("hapticd.service", &unit, "hapticd");
+    assert!(passed && diagnostics.trim().is_empty(), "{diagnostics}");
 }
 
 /// The renderer's unit: beside hapticd's, wanted by it, restarted when its driver crashes,
@@ -119,27 +137,39 @@ fn the_renderer_unit_is_wanted_by_hapticd_and_restarts_with_back_off() {
             .unwrap_or_else(|| panic!("no group {group}: {groups}"));
         assert!(line.ends_with(":hapticd-render"), "{line}");
     }
-    let file = dir.join("hapticd-render.service");
-    let built = format!("ExecStart={}", artifact("hapticd-render").display());
-    std::fs::write(
-        &file,
-        unit.replace("ExecStart=/usr/bin/hapticd-render", &built),
-    )
-    .unwrap();
-    let out = Command::new("systemd-analyze")
-        .arg("verify")
-        .arg(&file)
-        .output()
-        .unwrap();
-    // systemd before 254 has no growing restart delay: it names the two settings and
-    // restarts every second instead. Anything else is a mistake.
-    let diagnostics = String::from_utf8_lossy(&out.stderr);
-    let other: Vec<&str> = diagnostics
-        .lines()
-        .filter(|l| !l.contains("RestartSteps") && !l.contains("RestartMaxDelaySec"))
-        .collect();
-    assert!(out.status.success() && other.is_empty(), "{diagnostics}");
     std::fs::remove_dir_all(&dir).unwrap();
+    let (passed, diagnostics) = verify("hapticd-render.service", &unit, "hapticd-render");
+    let other = not_about_restart_steps(&diagnostics);
+    assert!(passed && other.is_empty(), "{diagnostics}");
+}
+
+/// The network bridge's unit: started with hapticd once enabled, as a user of its own that
+/// holds no rights over the devices, sandboxed but for the network it serves.
+#[test]
+fn the_bridge_unit_runs_as_its_own_user_beside_hapticd() {
+    let unit = read("systemd/hapticd-zenoh.service");
+    assert_eq!(
+        values(&unit, "ExecStart"),
+        ["/usr/bin/hapticd-zenoh --bus system"]
+    );
+    assert_eq!(values(&unit, "PartOf"), ["hapticd.service"]);
+    assert_eq!(values(&unit, "WantedBy"), ["hapticd.service"]);
+    assert_eq!(values(&unit, "Type"), ["notify"]);
+    assert_eq!(values(&unit, "User"), ["hapticd-zenoh"]);
+    // No group of hapticd's: commands need the administrator's drop-in.
+    assert!(values(&unit, "SupplementaryGroups").is_empty());
+    assert_eq!(values(&unit, "CapabilityBoundingSet"), [""]);
+    assert_eq!(values(&unit, "MemoryDenyWriteExecute"), ["yes"]);
+    assert_eq!(
+        values(&unit, "RestrictAddressFamilies"),
+        ["AF_UNIX AF_INET AF_INET6"]
+    );
+    let sysusers = read("systemd/hapticd.sysusers");
+    assert!(sysusers.lines().any(|l| l.starts_with("u hapticd-zenoh ")));
+    assert!(!sysusers.lines().any(|l| l.starts_with("m hapticd-zenoh ")));
+    let (passed, diagnostics) = verify("hapticd-zenoh.service", &unit, "hapticd-zenoh");
+    let other = not_about_restart_steps(&diagnostics);
+    assert!(passed && other.is_empty(), "{diagnostics}");
 }
 
 #[test]

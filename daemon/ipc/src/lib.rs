@@ -11,6 +11,7 @@
 //!   `hapticd_core::world_state`), and the reader that maps it;
 //! - [`telemetry_share`]: every tick of a device, in the ring its `OpenTelemetry` hands out
 //!   (its layout is `hapticd_core::telemetry`), and a reader that follows it;
+//! - [`touch_events`]: touches begun, ended and slipping, found in those ticks;
 //! - [`frame_ring`]: the ring of frames the renderer's `OpenFrameStream` hands out;
 //! - [`shared_memory`]: the sealed memfds both are made of.
 //!
@@ -41,6 +42,7 @@ pub mod names;
 pub mod proxies;
 pub mod shared_memory;
 pub mod telemetry_share;
+pub mod touch_events;
 pub mod world_share;
 
 pub use names::{

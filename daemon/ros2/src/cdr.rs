@@ -54,6 +54,11 @@ impl Writer {
         self.bytes.push(0);
     }
 
+    /// The length of a sequence, written before its elements.
+    pub fn sequence(&mut self, length: usize) {
+        self.u32(length as u32);
+    }
+
     /// The message's bytes.
     pub fn finish(self) -> Vec<u8> {
         self.bytes
@@ -132,6 +137,17 @@ impl<'a> Reader<'a> {
         Ok(f64::from_le_bytes(
             self.take(8, 8)?.try_into().expect("8 bytes"),
         ))
+    }
+
+    /// The length of a sequence of elements of at least `element` bytes each, refused when
+    /// the message cannot hold that many (a hostile length allocates nothing).
+    pub fn sequence(&mut self, element: usize) -> Result<usize, DecodeError> {
+        let length = self.u32()? as usize;
+        let left = self.bytes.len() - self.at;
+        if length.saturating_mul(element.max(1)) > left {
+            return Err(DecodeError::Truncated);
+        }
+        Ok(length)
     }
 
     /// A string.

@@ -31,6 +31,68 @@ pub fn mangled(name: &str) -> String {
     }
 }
 
+/// The QoS of a liveliness token with every policy at rmw_zenoh's default (reliable,
+/// volatile, keep last, its own depth, no deadline, lifespan or lease): fields
+/// `reliability:durability:history,depth:deadline s,ns:lifespan s,ns:liveliness,lease s,ns`,
+/// each left empty at its default. hapticd's publishers are Zenoh's defaults over TCP, which
+/// is what these say.
+pub const DEFAULT_QOS: &str = "::,:,:,:,,";
+
+/// A ROS 2 node as rmw_zenoh announces it: the liveliness tokens through which `ros2 node
+/// list` and `ros2 topic list` find the node and its publishers and subscriptions.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Node {
+    /// Its ROS domain.
+    pub domain: u32,
+    /// Its Zenoh session's id, as Zenoh writes it.
+    pub zid: String,
+    /// Its number within the session.
+    pub id: u32,
+    /// Its namespace (`/` for none).
+    pub namespace: String,
+    /// Its name.
+    pub name: String,
+}
+
+impl Node {
+    /// The part every token of the node starts with, up to the entity's kind.
+    fn prefix(&self, entity: u32, kind: &str) -> String {
+        format!(
+            "@ros2_lv/{}/{}/{}/{entity}/{kind}/%/{}/{}",
+            self.domain,
+            self.zid,
+            self.id,
+            mangled(&self.namespace),
+            mangled(&self.name)
+        )
+    }
+
+    /// The node's own token.
+    pub fn token(&self) -> String {
+        self.prefix(self.id, "NN")
+    }
+
+    /// The token of its publisher number `entity` of `topic`, messages `M`.
+    pub fn publisher<M: Message>(&self, entity: u32, topic: &str) -> String {
+        self.endpoint::<M>(entity, "MP", topic)
+    }
+
+    /// The token of its subscription number `entity` to `topic`, messages `M`.
+    pub fn subscription<M: Message>(&self, entity: u32, topic: &str) -> String {
+        self.endpoint::<M>(entity, "MS", topic)
+    }
+
+    fn endpoint<M: Message>(&self, entity: u32, kind: &str, topic: &str) -> String {
+        format!(
+            "{}/{}/{}/{}/{DEFAULT_QOS}",
+            self.prefix(entity, kind),
+            mangled(topic),
+            dds_type_name(M::TYPE),
+            M::HASH
+        )
+    }
+}
+
 /// The attachment of a published sample: its sequence number, its source time (nanoseconds
 /// since the Unix epoch) and the publisher's 16-byte id, as rmw_zenoh reads them (each
 /// number little-endian, the id after its length).
@@ -62,6 +124,33 @@ mod tests {
     fn names_are_mangled_for_liveliness_tokens() {
         assert_eq!(mangled("/hapticd/sim/pose"), "%hapticd%sim%pose");
         assert_eq!(mangled(""), "%");
+    }
+
+    #[test]
+    fn a_node_and_its_endpoints_are_announced_as_rmw_zenoh_announces_them() {
+        let node = Node {
+            domain: 0,
+            zid: "a1b2".into(),
+            id: 3,
+            namespace: "/".into(),
+            name: "hapticd_sim".into(),
+        };
+        assert_eq!(node.token(), "@ros2_lv/0/a1b2/3/3/NN/%/%/hapticd_sim");
+        assert_eq!(
+            node.publisher::<PoseStamped>(4, "/hapticd/sim/grip/pose"),
+            "@ros2_lv/0/a1b2/3/4/MP/%/%/hapticd_sim/%hapticd%sim%grip%pose/\
+             geometry_msgs::msg::dds_::PoseStamped_/\
+             RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8/::,:,:,:,,"
+        );
+        let spaced = Node {
+            namespace: "/lab".into(),
+            ..node
+        };
+        assert!(
+            spaced
+                .subscription::<WrenchStamped>(5, "/x")
+                .starts_with("@ros2_lv/0/a1b2/3/5/MS/%/%lab/hapticd_sim/%x/")
+        );
     }
 
     #[test]

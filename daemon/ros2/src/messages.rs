@@ -1,6 +1,7 @@
 //! The messages hapticd publishes and takes, as ROS 2 defines them, each encoded in CDR and
 //! decoded from it: `builtin_interfaces/msg/Time`, `std_msgs/msg/Header`, and from
-//! `geometry_msgs/msg` `PoseStamped`, `WrenchStamped` and `TwistStamped`.
+//! `geometry_msgs/msg` `PoseStamped`, `WrenchStamped` and `TwistStamped`,
+//! `sensor_msgs/msg/JointState` (a device's strings) and `std_msgs/msg/String`.
 
 use crate::cdr::{DecodeError, Reader, Writer};
 
@@ -183,6 +184,89 @@ impl Message for TwistStamped {
     }
 }
 
+/// `sensor_msgs/msg/JointState`: named joints' positions, velocities and efforts (each list
+/// empty or one entry a name). hapticd's strings are its joints, their tensions the efforts.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct JointState {
+    /// When and in which frame.
+    pub header: Header,
+    /// The joints' names.
+    pub name: Vec<String>,
+    /// Their positions.
+    pub position: Vec<f64>,
+    /// Their velocities.
+    pub velocity: Vec<f64>,
+    /// Their efforts (newtons, for a string).
+    pub effort: Vec<f64>,
+}
+
+fn write_doubles(out: &mut Writer, values: &[f64]) {
+    out.sequence(values.len());
+    for v in values {
+        out.f64(*v);
+    }
+}
+
+fn read_doubles(from: &mut Reader<'_>) -> Result<Vec<f64>, DecodeError> {
+    let n = from.sequence(8)?;
+    (0..n).map(|_| from.f64()).collect()
+}
+
+impl Message for JointState {
+    const TYPE: &'static str = "sensor_msgs/msg/JointState";
+    const HASH: &'static str =
+        "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e";
+
+    fn write(&self, out: &mut Writer) {
+        self.header.write(out);
+        out.sequence(self.name.len());
+        for n in &self.name {
+            out.string(n);
+        }
+        write_doubles(out, &self.position);
+        write_doubles(out, &self.velocity);
+        write_doubles(out, &self.effort);
+    }
+
+    fn read(from: &mut Reader<'_>) -> Result<Self, DecodeError> {
+        let header = Header::read(from)?;
+        // A string is at least its length and its NUL.
+        let names = from.sequence(5)?;
+        Ok(Self {
+            header,
+            name: (0..names)
+                .map(|_| from.string())
+                .collect::<Result<_, _>>()?,
+            position: read_doubles(from)?,
+            velocity: read_doubles(from)?,
+            effort: read_doubles(from)?,
+        })
+    }
+}
+
+/// `std_msgs/msg/String`: a device's state, or a contact event as JSON.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct StringMessage {
+    /// The text.
+    pub data: String,
+}
+
+impl Message for StringMessage {
+    const TYPE: &'static str = "std_msgs/msg/String";
+    const HASH: &'static str =
+        "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18";
+
+    fn write(&self, out: &mut Writer) {
+        out.string(&self.data);
+    }
+
+    fn read(from: &mut Reader<'_>) -> Result<Self, DecodeError> {
+        Ok(Self {
+            data: from.string()?,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,6 +314,26 @@ mod tests {
             angular: [3.0, 2.0, 1.0],
         };
         assert_eq!(TwistStamped::decode(&twist.encode()), Ok(twist));
+        let strings = JointState {
+            header: header("spidar"),
+            name: vec!["string0".into(), "s1".into()],
+            position: vec![],
+            velocity: vec![],
+            effort: vec![0.5, 2.0],
+        };
+        assert_eq!(JointState::decode(&strings.encode()), Ok(strings));
+        let text = StringMessage {
+            data: "running".into(),
+        };
+        assert_eq!(StringMessage::decode(&text.encode()), Ok(text));
+    }
+
+    #[test]
+    fn a_sequence_longer_than_its_message_is_refused() {
+        let mut bytes = JointState::default().encode();
+        // The names' count follows the stamp and the empty frame id (4 + 8 + 5, padded).
+        bytes[20..24].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert_eq!(JointState::decode(&bytes), Err(DecodeError::Truncated));
     }
 
     #[test]

@@ -1,5 +1,5 @@
-//! The command lines of hapticd and hapticd-render, here rather than in the binaries so
-//! that `hapticctl manual` can write their pages from the same definitions.
+//! The command lines of hapticd, hapticd-render and hapticd-zenoh, here rather than in the
+//! binaries so that `hapticctl manual` can write their pages from the same definitions.
 
 use std::path::PathBuf;
 
@@ -79,4 +79,37 @@ pub struct RenderCli {
     /// hapticd's device to draw (0: the first).
     #[arg(long, default_value_t = 0)]
     pub device: usize,
+}
+
+/// hapticd's devices on the network, as ROS 2 topics over Zenoh.
+///
+/// hapticd-zenoh follows each device's every tick (the telemetry ring) and publishes its
+/// effectors' poses, velocities and displayed wrenches, its strings' tensions, its state and
+/// its touches as ROS 2 topics in rmw_zenoh's key expressions and CDR, so that ROS 2 nodes
+/// using rmw_zenoh_cpp see them as their own; it answers status queries, and takes commands
+/// (parameters, scene switches, scene control) only where its configuration says so. A
+/// process of its own (hapticd never touches a socket), started by hapticd-zenoh.service.
+/// It listens on the loopback only unless configured otherwise.
+#[derive(Parser)]
+#[command(name = "hapticd-zenoh", version)]
+pub struct ZenohCli {
+    /// Configuration file (default: /etc/hapticd/network.yaml when it exists).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// The bus hapticd serves: `system`, `session` or a D-Bus address.
+    #[arg(long, value_name = "BUS", default_value = "system")]
+    pub bus: Bus,
+    /// Where to listen for Zenoh peers and clients, in Zenoh's endpoint form (repeatable;
+    /// overrides the configuration's `listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Samples a second per topic, at most the device's rate (overrides the configuration).
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// The ROS 2 domain, as ROS_DOMAIN_ID (overrides the configuration).
+    #[arg(long)]
+    pub domain: Option<u32>,
+    /// Run this many seconds, then exit cleanly.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
 }

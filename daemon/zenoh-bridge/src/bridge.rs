@@ -1,19 +1,25 @@
 //! One device on the network: every `every`-th tick of its telemetry ring published as its
-//! effectors' `PoseStamped` and `WrenchStamped` (the tick number as the sample's sequence
-//! number in its attachment, as rmw_zenoh attaches it), and its status answered as JSON.
+//! effectors' poses, twists and wrenches and its strings' tensions (the tick number as each
+//! sample's sequence number in its attachment, as rmw_zenoh attaches it), its state when it
+//! changes and once a second, each touch as it happens, the node and its publishers announced
+//! by liveliness tokens as rmw_zenoh announces its own, and its status answered as JSON.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use hapticd_core::telemetry::Sample;
+use hapticd_core::transport::CHANNELS;
 use hapticd_core::world_state::state_of;
 use hapticd_ipc::client::{ClientError, Device};
-use hapticd_ros2::keys::attachment;
-use hapticd_ros2::messages::{Header, Message, PoseStamped, Time, WrenchStamped};
+use hapticd_ipc::touch_events::{Touch, TouchTracker};
+use hapticd_ros2::keys::{Node, attachment};
+use hapticd_ros2::messages::{
+    Header, JointState, Message, PoseStamped, StringMessage, Time, TwistStamped, WrenchStamped,
+};
 use zenoh::Wait;
 
-use crate::topics::{EffectorTopics, status_key};
+use crate::topics::{DeviceTopics, Topic};
 
 /// Nanoseconds since the Unix epoch now: the stamp of what is published.
 fn now_ns() -> u64 {
@@ -21,6 +27,9 @@ fn now_ns() -> u64 {
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_nanos() as u64)
 }
+
+/// How often the state is published when it does not change.
+const STATE_EVERY: Duration = Duration::from_secs(1);
 
 /// What went wrong bridging a device.
 #[derive(Debug)]
@@ -47,45 +56,123 @@ impl From<ClientError> for BridgeError {
 }
 
 /// A zenoh error as the bridge says it.
-fn zenoh_error(e: impl std::fmt::Display) -> BridgeError {
+pub fn zenoh_error(e: impl std::fmt::Display) -> BridgeError {
     BridgeError::Zenoh(e.to_string())
 }
 
-/// Publish `device`'s ticks on `session` in ROS domain `domain`, one in `every`, until `until`
-/// (for ever without one); answer its status all the while.
+/// How a device is bridged.
+#[derive(Debug, Clone, Copy)]
+pub struct Settings {
+    /// The ROS domain.
+    pub domain: u32,
+    /// The ROS node's number within the session (one node a device).
+    pub node: u32,
+    /// Publish one tick in so many.
+    pub every: u64,
+    /// Whether the bridge takes commands (said in the status).
+    pub commands: bool,
+}
+
+/// The publishers of one device, with the liveliness tokens that announce them.
+struct Publishers<'a> {
+    session: &'a zenoh::Session,
+    node: Node,
+    tokens: Vec<zenoh::liveliness::LivelinessToken>,
+}
+
+impl<'a> Publishers<'a> {
+    /// The publisher of `topic`, messages `M`, announced.
+    fn declare<M: Message>(
+        &mut self,
+        topic: &Topic,
+    ) -> Result<zenoh::pubsub::Publisher<'a>, BridgeError> {
+        let entity = self.tokens.len() as u32 + 1;
+        let token = self.node.publisher::<M>(self.node.id + entity, &topic.name);
+        self.tokens.push(
+            self.session
+                .liveliness()
+                .declare_token(token)
+                .wait()
+                .map_err(zenoh_error)?,
+        );
+        self.session
+            .declare_publisher(topic.key.clone())
+            .wait()
+            .map_err(zenoh_error)
+    }
+}
+
+/// A touch as the touches topic says it (JSON).
+fn touch_json(touch: &Touch, effectors: &[String]) -> String {
+    serde_json::json!({
+        "effector": effectors.get(touch.effector as usize),
+        "event": touch.event.name(),
+        "tick": touch.tick,
+        "time": touch.time,
+        "body": touch.body,
+        "point": touch.point,
+        "normal": touch.normal,
+        "force": touch.force,
+    })
+    .to_string()
+}
+
+/// Publish `device`'s ticks on `session` as `settings` say until `until` (for ever without
+/// one); answer its status all the while.
 pub fn run(
     session: &zenoh::Session,
     device: &Device,
-    domain: u32,
-    every: u64,
+    settings: Settings,
     until: Option<Instant>,
 ) -> Result<(), BridgeError> {
     let identity = device.identity()?;
     let effectors = device.effectors()?;
-    let topics: Vec<EffectorTopics> = effectors
-        .iter()
-        .map(|e| EffectorTopics::new(domain, &identity, e))
-        .collect();
-    let mut publishers = Vec::new();
-    for t in &topics {
-        let pose = session
-            .declare_publisher(t.pose.clone())
-            .wait()
-            .map_err(zenoh_error)?;
-        let wrench = session
-            .declare_publisher(t.wrench.clone())
-            .wait()
-            .map_err(zenoh_error)?;
-        publishers.push((pose, wrench));
+    let topics = DeviceTopics::new(settings.domain, &identity, &effectors);
+    let node = Node {
+        domain: settings.domain,
+        zid: session.zid().to_string(),
+        id: settings.node * 1000,
+        namespace: "/".into(),
+        name: topics.frame.clone(),
+    };
+    let node_token = session
+        .liveliness()
+        .declare_token(node.token())
+        .wait()
+        .map_err(zenoh_error)?;
+    let mut declared = Publishers {
+        session,
+        node,
+        tokens: Vec::new(),
+    };
+    let mut effector_publishers = Vec::new();
+    for t in &topics.effectors {
+        effector_publishers.push((
+            declared.declare::<PoseStamped>(&t.pose)?,
+            declared.declare::<TwistStamped>(&t.twist)?,
+            declared.declare::<WrenchStamped>(&t.wrench)?,
+        ));
     }
+    let strings_publisher = declared.declare::<JointState>(&topics.strings)?;
+    let state_publisher = declared.declare::<StringMessage>(&topics.state)?;
+    let touches_publisher = declared.declare::<StringMessage>(&topics.touches)?;
     // The publisher's id in attachments: the session's, as rmw_zenoh derives its own.
     let id: [u8; 16] = session.zid().to_le_bytes();
     let last = Arc::new((AtomicU64::new(0), AtomicU32::new(0)));
+    let ring = device.open_telemetry()?;
     let status = {
         let (identity, last, effectors) = (identity.clone(), last.clone(), effectors.clone());
-        let rate = device.open_telemetry()?.rate();
+        let rate = ring.rate();
+        let mut names: Vec<String> = topics
+            .effectors
+            .iter()
+            .flat_map(|t| [&t.pose, &t.twist, &t.wrench])
+            .chain([&topics.strings, &topics.state, &topics.touches])
+            .map(|t| t.name.clone())
+            .collect();
+        names.sort();
         session
-            .declare_queryable(status_key(&identity))
+            .declare_queryable(topics.status())
             .callback(move |query| {
                 let body = serde_json::json!({
                     "identity": identity,
@@ -93,7 +180,9 @@ pub fn run(
                     "rate": rate,
                     "tick": last.0.load(Ordering::Relaxed),
                     "state": state_of(last.1.load(Ordering::Relaxed)).name(),
-                    "publishing_every": every,
+                    "publishing_every": settings.every,
+                    "topics": names,
+                    "commands": settings.commands,
                 });
                 let _ = query
                     .reply(query.key_expr().clone(), body.to_string())
@@ -102,10 +191,19 @@ pub fn run(
             .wait()
             .map_err(zenoh_error)?
     };
-    let ring = device.open_telemetry()?;
+    let string_names: Vec<String> = (0..CHANNELS).map(|k| format!("string{k}")).collect();
     let mut cursor = ring.from_now();
     let mut sample = Sample::EMPTY;
+    let mut touches = TouchTracker::new();
     let mut waited = Instant::now();
+    let mut state_said: Option<(u32, Instant)> = None;
+    let put = |publisher: &zenoh::pubsub::Publisher<'_>, bytes: Vec<u8>, attached: &[u8; 33]| {
+        publisher
+            .put(bytes)
+            .attachment(attached.to_vec())
+            .wait()
+            .map_err(zenoh_error)
+    };
     while until.is_none_or(|t| Instant::now() < t) {
         if !ring.next(&mut cursor, &mut sample) {
             if waited.elapsed() > Duration::from_secs(2) {
@@ -117,16 +215,33 @@ pub fn run(
         waited = Instant::now();
         last.0.store(sample.tick, Ordering::Relaxed);
         last.1.store(sample.state, Ordering::Relaxed);
-        if !sample.tick.is_multiple_of(every) {
-            continue;
-        }
         let stamp = now_ns();
         let attached = attachment(sample.tick as i64, stamp as i64, &id);
-        for (k, ((pose, wrench), t)) in publishers.iter().zip(&topics).enumerate() {
-            let header = Header {
-                stamp: Time::from_nanos(stamp),
-                frame_id: t.frame.clone(),
+        let header = Header {
+            stamp: Time::from_nanos(stamp),
+            frame_id: topics.frame.clone(),
+        };
+        let mut touched = Ok(());
+        touches.follow(&sample, |touch| {
+            if touched.is_ok() {
+                let text = StringMessage {
+                    data: touch_json(&touch, &effectors),
+                };
+                touched = put(&touches_publisher, text.encode(), &attached);
+            }
+        });
+        touched?;
+        if state_said.is_none_or(|(s, at)| s != sample.state || at.elapsed() >= STATE_EVERY) {
+            let text = StringMessage {
+                data: state_of(sample.state).name().into(),
             };
+            put(&state_publisher, text.encode(), &attached)?;
+            state_said = Some((sample.state, Instant::now()));
+        }
+        if !sample.tick.is_multiple_of(settings.every) {
+            continue;
+        }
+        for (k, (pose, twist, wrench)) in effector_publishers.iter().enumerate() {
             let p = &sample.poses[k];
             let [w, x, y, z] = p.orientation;
             let pose_message = PoseStamped {
@@ -134,22 +249,30 @@ pub fn run(
                 position: p.position,
                 orientation: [x, y, z, w],
             };
+            let twist_message = TwistStamped {
+                header: header.clone(),
+                linear: sample.velocities[k],
+                angular: [0.0; 3],
+            };
             let wrench_message = WrenchStamped {
-                header,
+                header: header.clone(),
                 force: sample.wrenches[k].force,
                 torque: sample.wrenches[k].torque,
             };
-            pose.put(pose_message.encode())
-                .attachment(attached.to_vec())
-                .wait()
-                .map_err(zenoh_error)?;
-            wrench
-                .put(wrench_message.encode())
-                .attachment(attached.to_vec())
-                .wait()
-                .map_err(zenoh_error)?;
+            put(pose, pose_message.encode(), &attached)?;
+            put(twist, twist_message.encode(), &attached)?;
+            put(wrench, wrench_message.encode(), &attached)?;
         }
+        let strings = (sample.strings as usize).min(string_names.len());
+        let tensions = JointState {
+            header,
+            name: string_names[..strings].to_vec(),
+            position: Vec::new(),
+            velocity: Vec::new(),
+            effort: sample.tensions[..strings].to_vec(),
+        };
+        put(&strings_publisher, tensions.encode(), &attached)?;
     }
-    drop(status);
+    drop((status, node_token, declared));
     Ok(())
 }

@@ -1,103 +1,194 @@
 //! `hapticd-zenoh`: hapticd's devices on the network, in a process of its own (the haptic
 //! process never touches a socket). It follows each device's telemetry ring and publishes
-//! its effectors' poses and displayed wrenches as ROS 2 topics in rmw_zenoh's keys and CDR
-//! (`/hapticd/<device>/<effector>/pose`, `…/wrench`), at a rate of the administrator's
-//! choosing up to the device's, and answers `hapticd/<device>/status` queries. It listens on
-//! the loopback only unless told otherwise, and takes no commands.
+//! ROS 2 topics in rmw_zenoh's keys and CDR (the table in `topics`), at a rate of the
+//! administrator's choosing up to the device's, announces them as rmw_zenoh announces its
+//! own, answers `hapticd/<device>/status` queries, and answers commands (`commands`) by
+//! carrying them out only where its configuration says so. It listens on the loopback only
+//! unless configured otherwise.
 
 mod bridge;
+mod commands;
+mod config;
 mod topics;
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
-use hapticd_ipc::bus::Bus;
 use hapticd_ipc::client::Hapticd;
+use hapticd_service::cli::ZenohCli;
+use hapticd_service::logging::{self, Level};
 use zenoh::Wait;
 
-/// hapticd's devices as ROS 2 topics over Zenoh.
-#[derive(Parser)]
-#[command(version)]
-struct Cli {
-    /// The bus hapticd serves: `system`, `session` or a D-Bus address.
-    #[arg(long, default_value = "system")]
-    bus: Bus,
-    /// Where to listen for Zenoh peers and clients (Zenoh's endpoint form).
-    #[arg(long, default_value = "tcp/127.0.0.1:7447")]
-    listen: String,
-    /// Samples a second per topic; one in every so many ticks of the device is published
-    /// (at most the device's rate).
-    #[arg(long, default_value_t = 100.0)]
-    rate: f64,
-    /// The ROS 2 domain (`ROS_DOMAIN_ID`).
-    #[arg(long, default_value_t = 0)]
-    domain: u32,
-    /// Stop after this many seconds (for tests).
-    #[arg(long)]
-    duration: Option<f64>,
+use crate::bridge::{BridgeError, Settings, zenoh_error};
+use crate::config::NetworkConfig;
+
+/// The configuration file with the command line's overrides.
+fn configuration(cli: &ZenohCli) -> Result<NetworkConfig, String> {
+    let mut config = NetworkConfig::load(cli.config.as_deref())?;
+    if !cli.listen.is_empty() {
+        config.listen = cli.listen.clone();
+    }
+    if let Some(rate) = cli.rate {
+        config.rate = rate;
+    }
+    if let Some(domain) = cli.domain {
+        config.domain = domain;
+    }
+    config
+        .check()
+        .map_err(|e| format!("the command line: {e}"))?;
+    Ok(config)
 }
 
-/// The Zenoh session: a peer on `listen`, not looking for others by multicast (nothing
-/// leaves the machine unless the endpoint says so).
-fn session(listen: &str) -> Result<zenoh::Session, String> {
-    let mut config = zenoh::Config::default();
-    let set = |config: &mut zenoh::Config, key: &str, value: String| {
-        config
+/// The Zenoh session: a peer on the configured endpoints, not looking for others by
+/// multicast (nothing leaves the machine unless an endpoint says so), built on the
+/// administrator's own Zenoh configuration when one is named.
+fn session(config: &NetworkConfig) -> Result<zenoh::Session, String> {
+    let mut zenoh_config = match &config.zenoh {
+        Some(path) => {
+            zenoh::Config::from_file(path).map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        None => zenoh::Config::default(),
+    };
+    let mut set = |key: &str, value: String| {
+        zenoh_config
             .insert_json5(key, &value)
             .map_err(|e| format!("{key}: {e}"))
     };
-    set(&mut config, "mode", "\"peer\"".into())?;
+    set("mode", "\"peer\"".into())?;
     set(
-        &mut config,
         "listen/endpoints",
-        serde_json::json!([listen]).to_string(),
+        serde_json::json!(config.listen).to_string(),
     )?;
-    set(&mut config, "scouting/multicast/enabled", "false".into())?;
-    zenoh::open(config)
+    set(
+        "connect/endpoints",
+        serde_json::json!(config.connect).to_string(),
+    )?;
+    set("scouting/multicast/enabled", "false".into())?;
+    zenoh::open(zenoh_config)
         .wait()
-        .map_err(|e| format!("cannot open a zenoh session on {listen}: {e}"))
+        .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
 }
 
-fn run(cli: &Cli) -> Result<(), String> {
-    if !(cli.rate.is_finite() && cli.rate > 0.0) {
-        return Err("--rate must be a number of samples a second > 0".into());
+/// Answer commands until `until` (for ever without one): carried out when `config` allows
+/// them, refused otherwise.
+fn serve_commands(
+    session: &zenoh::Session,
+    hapticd: &Hapticd,
+    devices: &[(String, hapticd_ipc::client::Device)],
+    allowed: bool,
+    until: Option<Instant>,
+) -> Result<(), BridgeError> {
+    let queryables = [
+        session.declare_queryable(topics::SET_COMMANDS).wait(),
+        session.declare_queryable(topics::SCENE_COMMANDS).wait(),
+    ]
+    .into_iter()
+    .collect::<Result<Vec<_>, _>>()
+    .map_err(zenoh_error)?;
+    while until.is_none_or(|t| Instant::now() < t) {
+        let mut idle = true;
+        for queryable in &queryables {
+            let Ok(Some(query)) = queryable.try_recv() else {
+                continue;
+            };
+            idle = false;
+            let key = query.key_expr().to_string();
+            let payload = query
+                .payload()
+                .map(|p| {
+                    p.try_to_string()
+                        .map(|s| s.into_owned())
+                        .unwrap_or_default()
+                })
+                .unwrap_or_default();
+            let answer = if allowed {
+                commands::parse(&key, &payload).and_then(|c| {
+                    commands::carry_out(hapticd, devices, &c).map_err(|e| e.to_string())
+                })
+            } else {
+                Err("refused: this bridge takes no commands from the network \
+                     (commands: false in its configuration)"
+                    .to_string())
+            };
+            let sent = match &answer {
+                Ok(text) => query.reply(query.key_expr().clone(), text.clone()).wait(),
+                Err(why) => query.reply_err(why.clone()).wait(),
+            };
+            match (&answer, sent) {
+                (_, Err(e)) => tracing::warn!("answering {key}: {e}"),
+                (Ok(_), Ok(())) => tracing::info!("carried out {key} {payload}"),
+                (Err(why), Ok(())) => tracing::info!("refused {key}: {why}"),
+            }
+        }
+        if idle {
+            std::thread::sleep(Duration::from_millis(5));
+        }
     }
+    Ok(())
+}
+
+fn run(cli: &ZenohCli) -> Result<(), String> {
+    let config = configuration(cli)?;
     let until = match cli.duration {
         Some(s) if s.is_finite() && s > 0.0 => Some(Instant::now() + Duration::from_secs_f64(s)),
         Some(_) => return Err("--duration must be a number of seconds > 0".into()),
         None => None,
     };
     let hapticd = Hapticd::connect(&cli.bus).map_err(|e| e.to_string())?;
-    let devices = hapticd.devices().map_err(|e| e.to_string())?;
-    let session = session(&cli.listen)?;
+    let devices = commands::device_words(hapticd.devices().map_err(|e| e.to_string())?)
+        .map_err(|e| e.to_string())?;
+    let session = session(&config)?;
+    tracing::info!(
+        "publishing {} device(s) on {:?}, ROS domain {}, {} samples/s; commands {}",
+        devices.len(),
+        config.listen,
+        config.domain,
+        config.rate,
+        if config.commands { "taken" } else { "refused" }
+    );
+    let _ = hapticd_service::sd_notify::notify("READY=1");
     std::thread::scope(|scope| {
-        let bridges: Vec<_> = devices
+        let (session, hapticd, devices, config) = (&session, &hapticd, &devices, &config);
+        let mut threads: Vec<_> = devices
             .iter()
-            .map(|device| {
-                let session = &session;
+            .enumerate()
+            .map(|(k, (_, device))| {
                 scope.spawn(move || {
-                    let device_rate = device.open_telemetry().map_err(|e| e.to_string())?.rate();
-                    let every = (device_rate / cli.rate).round().max(1.0) as u64;
-                    bridge::run(session, device, cli.domain, every, until)
-                        .map_err(|e| e.to_string())
+                    let device_rate = device.open_telemetry()?.rate();
+                    let settings = Settings {
+                        domain: config.domain,
+                        node: k as u32 + 1,
+                        every: (device_rate / config.rate).round().max(1.0) as u64,
+                        commands: config.commands,
+                    };
+                    bridge::run(session, device, settings, until)
                 })
             })
             .collect();
-        bridges
+        threads.push(
+            scope.spawn(move || serve_commands(session, hapticd, devices, config.commands, until)),
+        );
+        threads
             .into_iter()
-            .map(|b| b.join().unwrap_or_else(|_| Err("a bridge panicked".into())))
-            .collect::<Result<Vec<()>, String>>()
-    })?;
+            .map(|t| {
+                t.join()
+                    .unwrap_or_else(|_| Err(BridgeError::Zenoh("a thread panicked".into())))
+            })
+            .collect::<Result<Vec<()>, BridgeError>>()
+    })
+    .map_err(|e| e.to_string())?;
     session.close().wait().map_err(|e| e.to_string())
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = ZenohCli::parse();
+    logging::init("hapticd-zenoh", Level::INFO);
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("hapticd-zenoh: {e}");
+            tracing::error!("{e}");
             ExitCode::FAILURE
         }
     }

@@ -1,8 +1,20 @@
 //! The topics of one device: ROS 2 names built from the device's identity and its effectors'
-//! names, and the key expressions rmw_zenoh puts them under.
+//! names, the key expressions rmw_zenoh puts them under, and the keys of its queries and
+//! commands.
+//!
+//! | topic | type | what |
+//! |---|---|---|
+//! | `/hapticd/<device>/<effector>/pose` | `geometry_msgs/msg/PoseStamped` | the grip's pose |
+//! | `/hapticd/<device>/<effector>/twist` | `geometry_msgs/msg/TwistStamped` | its velocity (angular: zero, not measured) |
+//! | `/hapticd/<device>/<effector>/wrench` | `geometry_msgs/msg/WrenchStamped` | the wrench displayed |
+//! | `/hapticd/<device>/strings` | `sensor_msgs/msg/JointState` | each string's tension (effort) |
+//! | `/hapticd/<device>/state` | `std_msgs/msg/String` | running, fault, … |
+//! | `/hapticd/<device>/touches` | `std_msgs/msg/String` | each touch begun, ended, slipping (JSON) |
 
 use hapticd_ros2::keys::topic_key;
-use hapticd_ros2::messages::{PoseStamped, WrenchStamped};
+use hapticd_ros2::messages::{
+    JointState, Message, PoseStamped, StringMessage, TwistStamped, WrenchStamped,
+};
 
 /// A word of a ROS 2 name: letters, digits and underscores, not starting with a digit.
 pub fn name_word(word: &str) -> String {
@@ -16,34 +28,90 @@ pub fn name_word(word: &str) -> String {
     out
 }
 
-/// Where one effector of a device is published.
+/// One topic: its ROS 2 name and the key its samples travel under.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EffectorTopics {
-    /// The frame its messages are in (`hapticd_<device>`).
-    pub frame: String,
-    /// The key of its pose (`geometry_msgs/msg/PoseStamped`).
-    pub pose: String,
-    /// The key of the wrench it displays (`geometry_msgs/msg/WrenchStamped`).
-    pub wrench: String,
+pub struct Topic {
+    /// The fully qualified ROS 2 name.
+    pub name: String,
+    /// The Zenoh key expression.
+    pub key: String,
 }
 
-impl EffectorTopics {
-    /// The topics of effector `effector` of device `device` in ROS domain `domain`:
-    /// `/hapticd/<device>/<effector>/pose` and `…/wrench`.
-    pub fn new(domain: u32, device: &str, effector: &str) -> Self {
-        let base = format!("/hapticd/{}/{}", name_word(device), name_word(effector));
+impl Topic {
+    /// Topic `name` of messages `M` in ROS domain `domain`.
+    fn new<M: Message>(domain: u32, name: String) -> Self {
         Self {
-            frame: format!("hapticd_{}", name_word(device)),
-            pose: topic_key::<PoseStamped>(domain, &format!("{base}/pose")),
-            wrench: topic_key::<WrenchStamped>(domain, &format!("{base}/wrench")),
+            key: topic_key::<M>(domain, &name),
+            name,
         }
     }
 }
 
-/// The key a device's status is asked at: `hapticd/<device>/status`.
-pub fn status_key(device: &str) -> String {
-    format!("hapticd/{}/status", name_word(device))
+/// Where one effector of a device is published.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EffectorTopics {
+    /// Its pose.
+    pub pose: Topic,
+    /// Its velocity.
+    pub twist: Topic,
+    /// The wrench it displays.
+    pub wrench: Topic,
 }
+
+/// Where one device is published and asked.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceTopics {
+    /// The device's word in names and keys.
+    pub device: String,
+    /// The frame its messages are in (`hapticd_<device>`), and the name of its ROS node.
+    pub frame: String,
+    /// Each effector's topics.
+    pub effectors: Vec<EffectorTopics>,
+    /// Its strings' tensions.
+    pub strings: Topic,
+    /// Its state.
+    pub state: Topic,
+    /// Its touches.
+    pub touches: Topic,
+}
+
+impl DeviceTopics {
+    /// The topics of device `device` with effectors `effectors` in ROS domain `domain`.
+    pub fn new(domain: u32, device: &str, effectors: &[String]) -> Self {
+        let word = name_word(device);
+        let base = format!("/hapticd/{word}");
+        Self {
+            frame: format!("hapticd_{word}"),
+            effectors: effectors
+                .iter()
+                .map(|e| {
+                    let at = format!("{base}/{}", name_word(e));
+                    EffectorTopics {
+                        pose: Topic::new::<PoseStamped>(domain, format!("{at}/pose")),
+                        twist: Topic::new::<TwistStamped>(domain, format!("{at}/twist")),
+                        wrench: Topic::new::<WrenchStamped>(domain, format!("{at}/wrench")),
+                    }
+                })
+                .collect(),
+            strings: Topic::new::<JointState>(domain, format!("{base}/strings")),
+            state: Topic::new::<StringMessage>(domain, format!("{base}/state")),
+            touches: Topic::new::<StringMessage>(domain, format!("{base}/touches")),
+            device: word,
+        }
+    }
+
+    /// The key its status is asked at: `hapticd/<device>/status`.
+    pub fn status(&self) -> String {
+        format!("hapticd/{}/status", self.device)
+    }
+}
+
+/// The keys devices' parameters are set at: `hapticd/<device>/set/<Parameter>`.
+pub const SET_COMMANDS: &str = "hapticd/*/set/*";
+
+/// The keys of the scene's commands: `hapticd/scene/switch` and
+/// `hapticd/scene/body/<body>/<pose|velocity|impulse|force|mass|friction>`.
+pub const SCENE_COMMANDS: &str = "hapticd/scene/**";
 
 #[cfg(test)]
 mod tests {
@@ -53,17 +121,35 @@ mod tests {
     fn identities_become_ros_names_and_keys() {
         assert_eq!(name_word("usb-1-2.3"), "usb_1_2_3");
         assert_eq!(name_word("3d"), "_3d");
-        let topics = EffectorTopics::new(0, "sim", "grip");
+        let topics = DeviceTopics::new(0, "sim", &["grip".into()]);
+        let grip = &topics.effectors[0];
+        assert_eq!(grip.pose.name, "/hapticd/sim/grip/pose");
         assert!(
-            topics.pose.starts_with(
+            grip.pose.key.starts_with(
                 "0/hapticd/sim/grip/pose/geometry_msgs::msg::dds_::PoseStamped_/RIHS01_"
             )
         );
         assert!(
-            topics
-                .wrench
-                .starts_with("0/hapticd/sim/grip/wrench/geometry_msgs::msg::dds_::WrenchStamped_/")
+            grip.twist
+                .key
+                .starts_with("0/hapticd/sim/grip/twist/geometry_msgs::msg::dds_::TwistStamped_/")
         );
-        assert_eq!(status_key("usb-1"), "hapticd/usb_1/status");
+        assert!(
+            topics
+                .strings
+                .key
+                .starts_with("0/hapticd/sim/strings/sensor_msgs::msg::dds_::JointState_/")
+        );
+        assert!(
+            topics
+                .state
+                .key
+                .starts_with("0/hapticd/sim/state/std_msgs::msg::dds_::String_/")
+        );
+        assert_eq!(topics.frame, "hapticd_sim");
+        assert_eq!(
+            DeviceTopics::new(0, "usb-1", &[]).status(),
+            "hapticd/usb_1/status"
+        );
     }
 }

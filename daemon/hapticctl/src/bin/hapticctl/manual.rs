@@ -62,7 +62,7 @@ const FORMATS: [Format; 4] = [
 ];
 
 /// What every page ends with.
-const SEE_ALSO: &str = "hapticd(8), hapticd-render(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
+const SEE_ALSO: &str = "hapticd(8), hapticd-render(8), hapticd-zenoh(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
                         hapticd-scene(5), hapticd-hand(5), systemd.service(5), busctl(1)";
 
 /// The rest of hapticd(8), after what clap writes from its options.
@@ -102,6 +102,17 @@ The Vulkan drivers to load (the loader's own variable); Mesa's lavapipe draws on
 where there is no GPU.
 .SH EXIT STATUS
 1 when it cannot serve its name on the bus (the reason is logged); 2 for bad arguments.
+"#;
+
+/// The rest of hapticd-zenoh(8).
+const BRIDGE_SECTIONS: &str = r#".SH FILES
+.TP
+.I /etc/hapticd/network.yaml
+Where to listen and connect, the ROS 2 domain, the rate, whether commands are taken, the
+administrator's Zenoh configuration (access control).
+.SH EXIT STATUS
+0 after \-\-duration; 1 when it cannot start or loses hapticd (the reason is logged);
+2 for bad arguments.
 "#;
 
 /// The rest of hapticctl(1).
@@ -145,6 +156,14 @@ pub fn write(dir: &Path) -> Result<(), Failure> {
                 hapticd_service::cli::RenderCli::command(),
                 "8",
                 RENDERER_SECTIONS,
+            ),
+        ),
+        (
+            "hapticd-zenoh.8".to_string(),
+            program(
+                hapticd_service::cli::ZenohCli::command(),
+                "8",
+                BRIDGE_SECTIONS,
             ),
         ),
         (
