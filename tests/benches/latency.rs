@@ -2,7 +2,8 @@
 //! the same rate and priority, on the same machine, one after the other in one run; and with
 //! a world of 2000 bodies stepped by rapier at 60 Hz in the physics thread against the static
 //! scene (thesis Ch. 6 at scale); and with hapticd-render drawing the blocks scene at 60
-//! frames a second (1280 × 720, for a viewer's stream) against no renderer.
+//! frames a second (1280 × 720, for a viewer's stream) against no renderer; and with
+//! hapticd-zenoh publishing every tick to a Zenoh subscriber against no bridge.
 //!
 //! Run: `make latency` (needs the right to use SCHED_FIFO, e.g. root).
 
@@ -129,10 +130,20 @@ fn large_world() -> Latency {
     ])
 }
 
-/// hapticd with the blocks scene on a private bus, and hapticd-render drawing it for a
-/// viewer at 60 frames a second when `drawn`.
-fn blocks(drawn: bool) -> Latency {
-    let dir = support::scratch_root().join(format!("latency-bus-{drawn}"));
+/// What runs beside hapticd in the blocks rows.
+#[derive(Clone, Copy, PartialEq)]
+enum Beside {
+    /// Nothing.
+    Nothing,
+    /// hapticd-render drawing for a viewer at 60 frames a second.
+    Drawn,
+    /// hapticd-zenoh publishing every tick, and a Zenoh subscriber taking them.
+    Bridged,
+}
+
+/// hapticd with the blocks scene on a private bus, with `beside` beside it.
+fn blocks(beside: Beside) -> Latency {
+    let dir = support::scratch_root().join(format!("latency-bus-{}", beside as u8));
     std::fs::create_dir_all(&dir).unwrap();
     let repo = support::repo_dir();
     let bus = support::bus::PrivateBus::with_policies(
@@ -161,8 +172,63 @@ fn blocks(drawn: bool) -> Latency {
             config.as_os_str(),
             address.as_ref(),
         ],
-        || drawn.then(|| draw(&bus.address)),
+        || -> Option<Box<dyn std::any::Any>> {
+            match beside {
+                Beside::Nothing => None,
+                Beside::Drawn => Some(Box::new(draw(&bus.address))),
+                Beside::Bridged => Some(Box::new(bridge(&bus.address, &dir))),
+            }
+        },
     )
+}
+
+/// hapticd-zenoh on `address` publishing every tick, once hapticd is there, and the Zenoh
+/// client for Python subscribed to every topic: the two, to stop when done.
+fn bridge(address: &str, dir: &std::path::Path) -> (support::Killed, support::Killed) {
+    let connection = zbus::block_on(zbus::connection::Builder::address(address).build()).unwrap();
+    let dbus = zbus::block_on(zbus::fdo::DBusProxy::new(&connection)).unwrap();
+    let started = std::time::Instant::now();
+    while !zbus::block_on(dbus.name_has_owner("org.hapticd.Hapticd1".try_into().unwrap()))
+        .unwrap_or(false)
+    {
+        assert!(started.elapsed().as_secs() < 20, "hapticd did not come up");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let (endpoint, _) = support::loopback_endpoint();
+    let file = dir.join("network.yaml");
+    std::fs::write(&file, format!("listen: [{endpoint}]\nrate: {RATE}\n")).unwrap();
+    let bridge = support::Killed(
+        Command::new(support::artifact("hapticd-zenoh"))
+            .arg("--config")
+            .arg(&file)
+            .arg(format!("--bus={address}"))
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let subscribe = "import json, sys, time, zenoh\n\
+        conf = zenoh.Config()\n\
+        conf.insert_json5('mode', '\"client\"')\n\
+        conf.insert_json5('connect/endpoints', json.dumps([sys.argv[1]]))\n\
+        for attempt in range(50):\n\
+        \x20   try:\n\
+        \x20       session = zenoh.open(conf)\n\
+        \x20       break\n\
+        \x20   except Exception:\n\
+        \x20       time.sleep(0.1)\n\
+        taken = []\n\
+        subscriber = session.declare_subscriber('0/hapticd/**', lambda s: taken.append(1))\n\
+        time.sleep(3600)\n";
+    let subscriber = support::Killed(
+        Command::new("/usr/bin/python3")
+            .args(["-c", subscribe, &endpoint])
+            .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
+            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    (bridge, subscriber)
 }
 
 /// hapticd-render on `address`, drawing 60 frames a second for a stream kept open: the
@@ -212,7 +278,11 @@ fn main() {
     let ours = static_scene();
     let reference = cyclictest();
     let world = large_world();
-    let (plain, drawn) = (blocks(false), blocks(true));
+    let (plain, drawn, bridged) = (
+        blocks(Beside::Nothing),
+        blocks(Beside::Drawn),
+        blocks(Beside::Bridged),
+    );
     let (n, rate) = WORLD;
     println!("wake latency at {RATE} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs):");
     println!("{:<26}    p50      p99      max", "");
@@ -224,4 +294,6 @@ fn main() {
     row("hapticd, blocks", plain, 1);
     row("blocks, drawn at 60 fps", drawn, 1);
     row("ratio drawn / not drawn", ratio(drawn, plain), 2);
+    row(&format!("blocks, bridged at {RATE} Hz"), bridged, 1);
+    row("ratio bridged / not", ratio(bridged, plain), 2);
 }

@@ -2900,12 +2900,7 @@ fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
 /// A running `hapticd-zenoh` on its own port with a configuration file of the test's
 /// (never the host's), as user `uid` (None: the test's own).
 fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child, String) {
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let (endpoint, port) = support::loopback_endpoint();
     let file = dir.join(format!("network-{port}.yaml"));
     std::fs::write(&file, format!("listen: [{endpoint}]\n{config}")).unwrap();
     let mut command = match uid {

@@ -63,6 +63,16 @@ impl Drop for Killed {
     }
 }
 
+/// A Zenoh endpoint on the loopback at a port free a moment ago, and the port.
+pub fn loopback_endpoint() -> (String, u16) {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    (format!("tcp/127.0.0.1:{port}"), port)
+}
+
 /// The repository root.
 pub fn repo_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
