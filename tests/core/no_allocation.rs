@@ -12,6 +12,7 @@ use std::cell::Cell;
 use glam::DVec3;
 use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::proxy::ProxyParameters;
+use hapticd_core::haptics::wrench_command::CommandState;
 use hapticd_core::kinematics::{MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use hapticd_core::parameters::Parameters;
 use hapticd_core::scene::Pointer;
@@ -24,6 +25,7 @@ use hapticd_core::solver::pose::PoseSolver;
 use hapticd_device::sim::hand::Script;
 use hapticd_device::sim::{SimParameters, SimulatedBoard};
 use hapticd_device::transport::Sh4Transport;
+use hapticd_ipc::wrench_share::{MappedWrenchInput, WrenchInputFile};
 use hapticd_plugin_api::HapticdBodyPose;
 use support::amplifier::{
     SH4, emulated_amplifier_with, resting_dac, resting_session, umockdev_run,
@@ -327,7 +329,15 @@ fn commands_between_ticks_do_not_allocate() {
         max_force: 5.0,
         max_torque: 0.2,
     });
+    // Two blocks of commanded wrenches, the second replacing the first, both written
+    // every tick.
+    let (first, first_fd) = WrenchInputFile::create().unwrap();
+    let (second, second_fd) = WrenchInputFile::create().unwrap();
+    let writers = [first_fd, second_fd].map(|fd| MappedWrenchInput::open(&fd).unwrap());
+    let push = [Wrench::force(DVec3::new(0.0, 0.5, 0.0))];
     let mut commands = vec![
+        LoopCommand::CommandWrenches(Box::new(second)),
+        LoopCommand::CommandWrenches(Box::new(first)),
         tune,
         LoopCommand::MeasureOffsets,
         LoopCommand::ResetFault,
@@ -348,6 +358,9 @@ fn commands_between_ticks_do_not_allocate() {
             if tick == 750 {
                 haptic.command(LoopCommand::UseOffsets(haptic.frame().measured));
             }
+            for w in &writers {
+                w.write(&push);
+            }
             std::hint::black_box(haptic.tick(1e-3));
             while let Some(old) = haptic.take_retired() {
                 retired.push(old);
@@ -360,7 +373,15 @@ fn commands_between_ticks_do_not_allocate() {
     assert_eq!(frame.measurements, 1);
     assert_eq!(frame.calibrations, 2, "the first reading, then the command");
     // The simulated board's transport cannot take another link: the one sent comes back.
-    assert!(matches!(retired[..], [Retired::Link(_), Retired::Scene(_)]));
+    assert!(matches!(
+        retired[..],
+        [
+            Retired::Link(_),
+            Retired::Scene(_),
+            Retired::WrenchSource(_)
+        ]
+    ));
+    assert_eq!(frame.command, CommandState::Active);
 }
 
 /// Set in the copy of this test binary that runs under umockdev.

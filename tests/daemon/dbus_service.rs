@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use hapticd_render::picture::Picture;
-use hapticd_ros2::messages::{JointState, Message, StringMessage};
+use hapticd_ros2::messages::{Header, JointState, Message, StringMessage, Time, WrenchStamped};
 use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
 
@@ -1421,6 +1421,21 @@ fn an_unprivileged_client_may_read_but_not_change() {
     denied(DEVICE, "org.freedesktop.DBus.Properties.Set", &set);
     denied(DEVICE, "org.hapticd.Hapticd1.Device.Calibrate", &[]);
     denied(DEVICE, "org.hapticd.Hapticd1.Device.ResetFault", &[]);
+    // Nor may it push on the hand.
+    let opened = as_nobody(&[
+        "call",
+        DEVICE[0],
+        DEVICE[1],
+        DEVICE[2],
+        "OpenWrenchInput",
+        "a{sv}",
+        "0",
+    ]);
+    assert!(
+        !opened.status.success()
+            && String::from_utf8_lossy(&opened.stderr).contains("Access denied"),
+        "{opened:?}"
+    );
     denied(
         MANAGER,
         "org.hapticd.Hapticd1.Manager.SwitchScene",
@@ -2925,8 +2940,9 @@ fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child
     (bridge, endpoint)
 }
 
-/// The real Zenoh Python client running `script` against `endpoint`: what it printed, as JSON.
-fn zenoh_client(script: &str, endpoint: &str) -> serde_json::Value {
+/// The real Zenoh Python client running `script` against `endpoint` (`sys.argv[1]`, `args`
+/// after it): what it printed, as JSON.
+fn zenoh_client(script: &str, endpoint: &str, args: &[String]) -> serde_json::Value {
     let prelude = "import json, struct, sys, time, zenoh\n\
         conf = zenoh.Config()\n\
         conf.insert_json5('mode', '\"client\"')\n\
@@ -2937,6 +2953,7 @@ fn zenoh_client(script: &str, endpoint: &str) -> serde_json::Value {
         \x20   return [r.ok.payload.to_string() if r.ok else 'error: ' + r.err.payload.to_string() for r in replies]\n";
     let out = Command::new("/usr/bin/python3")
         .args(["-c", &format!("{prelude}{script}"), endpoint])
+        .args(args)
         .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
         .env("PYTHONDONTWRITEBYTECODE", "1")
         .output()
@@ -2976,7 +2993,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
         'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
         'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
-    let said = zenoh_client(follow, &endpoint);
+    let said = zenoh_client(follow, &endpoint, &[]);
     let _ = bridge.kill();
     let _ = bridge.wait();
     println!("{said}");
@@ -3051,12 +3068,57 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
 
     // Commands on: the bus decides, as for any caller.
+    // Each command also pushes on the grip through its wrench_command topic: 2 N up for a
+    // second, then a million newtons for half a second, then nothing; the displayed wrench
+    // topic says what the hand felt, tick by tick.
     let command = "print(json.dumps({'set': ask('hapticd/sim/set/Stiffness', '1500'), \
         'bad': ask('hapticd/sim/set/Stiffness', 'nan'), \
-        'malformed': ask('hapticd/scene/body/x/pose', '[1]')}))\n";
+        'malformed': ask('hapticd/scene/body/x/pose', '[1]'), 'felt': push()}))\n";
+    let push = "def push():\n\
+        \x20   shown = []\n\
+        \x20   def displayed(sample):\n\
+        \x20       b = sample.payload.to_bytes()\n\
+        \x20       n = int.from_bytes(b[12:16], 'little')\n\
+        \x20       at = 4 + -(-(12 + n) // 8) * 8\n\
+        \x20       shown.append((time.monotonic(), struct.unpack_from('<d', b, at + 8)[0]))\n\
+        \x20   sub = session.declare_subscriber('0/hapticd/sim/grip/wrench/**', displayed)\n\
+        \x20   pub = session.declare_publisher(sys.argv[2])\n\
+        \x20   phases = {}\n\
+        \x20   for name, payload, seconds in [('push', sys.argv[3], 1.0), ('huge', sys.argv[4], 0.5), ('quiet', None, 0.6)]:\n\
+        \x20       start = phases[name] = time.monotonic()\n\
+        \x20       while time.monotonic() - start < seconds:\n\
+        \x20           if payload:\n\
+        \x20               pub.put(bytes.fromhex(payload))\n\
+        \x20           time.sleep(0.005)\n\
+        \x20   sub.undeclare()\n\
+        \x20   ends = {'push': phases['huge'], 'huge': phases['quiet'], 'quiet': phases['quiet'] + 0.6}\n\
+        \x20   def during(name, after=0.0, until=None):\n\
+        \x20       end = ends[name] if until is None else phases[name] + until\n\
+        \x20       return [f for t, f in shown if phases[name] + after <= t < end]\n\
+        \x20   rising = [f for f in during('push') if f > 1e-9]\n\
+        \x20   return {'first': rising[:3], 'push_end': during('push', 0.5), 'huge_max': max(during('huge') or [0]), \
+        'held': during('quiet', 0.0, 0.05), 'gone': during('quiet', 0.3)}\n";
+    let key = hapticd_ros2::keys::topic_key::<WrenchStamped>(0, "/hapticd/sim/grip/wrench_command");
+    let wrench = |newtons: f64| {
+        let message = WrenchStamped {
+            header: Header {
+                stamp: Time::from_nanos(1),
+                frame_id: "remote".into(),
+            },
+            force: [0.0, newtons, 0.0],
+            torque: [0.0; 3],
+        };
+        message
+            .encode()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    };
+    let args = [key, wrench(2.0), wrench(1e6)];
+    let script = format!("{push}{command}");
     if is_root() {
         let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", Some(65534));
-        let said = zenoh_client(command, &endpoint);
+        let said = zenoh_client(&script, &endpoint, &args);
         let _ = bridge.kill();
         let _ = bridge.wait();
         let denied = said["set"][0].as_str().unwrap();
@@ -3065,11 +3127,15 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
             "{said}"
         );
         assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
+        // Without the rights, the wrench input is not opened: nothing pushes on the hand.
+        assert_eq!(said["felt"]["first"], serde_json::json!([]), "{said}");
+        assert_eq!(bus.get(DEVICE, "WrenchCommand"), "s \"none\"");
     }
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", None);
-    let said = zenoh_client(command, &endpoint);
+    let said = zenoh_client(&script, &endpoint, &args);
     let _ = bridge.kill();
     let _ = bridge.wait();
+    println!("{said}");
     assert_eq!(
         said["set"][0].as_str().unwrap(),
         r#"{"set":"Stiffness","value":1500.0}"#,
@@ -3089,6 +3155,33 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
             .unwrap()
             .starts_with("error: ")
     );
+    // The push ramps in (the first samples felt are a fraction of it), then is felt whole;
+    // the million newtons are MaxForce; once nothing comes, it is held for 0.1 s (a late
+    // packet is no fault) and then ramped out.
+    let felt = &said["felt"];
+    let numbers = |v: &serde_json::Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let first = numbers(&felt["first"]);
+    assert!(!first.is_empty() && first[0] < 1.0, "{felt}");
+    let whole = numbers(&felt["push_end"]);
+    assert!(
+        !whole.is_empty() && whole.iter().all(|f| (f - 2.0).abs() < 1e-6),
+        "{felt}"
+    );
+    let huge = felt["huge_max"].as_f64().unwrap();
+    assert!((huge - 10.0).abs() < 1e-6, "MaxForce, not {huge}");
+    let gone = numbers(&felt["gone"]);
+    assert!(
+        !gone.is_empty() && gone.iter().all(|f| f.abs() < 1e-9),
+        "{felt}"
+    );
+    assert!(numbers(&felt["held"]).iter().any(|f| *f > 1.0), "{felt}");
+    assert_eq!(bus.get(DEVICE, "WrenchCommand"), "s \"stale\"");
     daemon.stop();
 }
 

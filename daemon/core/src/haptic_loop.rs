@@ -3,12 +3,13 @@
 //! 1. one transport update: write the D/A values of the previous tick, read the counters;
 //! 2. counts → lengths → pose of each effector (two warm-started Gauss–Newton iterations);
 //! 3. the scene renders a wrench for each pointer;
-//! 4. passivity controller, then limits, NaN guard and fault ramp;
+//! 4. passivity controller, plus a wrench commanded from outside (teleoperation), then
+//!    limits, NaN guard and fault ramp;
 //! 5. wrench → tensions (the box QP) → D/A values, never above a motor's limit.
 //!
 //! Between ticks the loop takes [`LoopCommand`]s: new parameters, a calibration, a fault
 //! reset, a new scene (swapped in once the forces have ramped to zero, then ramped back up),
-//! the device opened again after it came back.
+//! the device opened again after it came back, a new source of commanded wrenches.
 //!
 //! Everything is allocated in [`HapticLoop::new`]; a tick allocates nothing, takes no lock
 //! and makes no system call but the device I/O. A replaced scene or link is handed back
@@ -19,6 +20,7 @@ use glam::DVec3;
 use crate::fault_hold::{FaultHold, SCENE_RECOVERY};
 use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
+use crate::haptics::wrench_command::{CommandState, WrenchCommand, WrenchSource};
 use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
@@ -130,6 +132,8 @@ pub struct Frame {
     pub measurements: u32,
     /// Scenes swapped in since start.
     pub scene_switches: u32,
+    /// What became of the wrench commanded from outside.
+    pub command: CommandState,
 }
 
 /// A request to the haptic loop, applied between ticks.
@@ -149,6 +153,9 @@ pub enum LoopCommand {
     SwitchScene(Box<dyn Scene>),
     /// Talk to the device through this link from now on: it was unplugged and is back.
     Reconnect(Box<dyn Link>),
+    /// Add the wrenches commanded in this block to the displayed ones from now on (the
+    /// block read before is handed back).
+    CommandWrenches(Box<dyn WrenchSource>),
 }
 
 /// Something the loop no longer uses, handed back to be freed off the real-time thread.
@@ -157,6 +164,8 @@ pub enum Retired {
     Scene(Box<dyn Scene>),
     /// A link replaced (or one that could not be used), still open.
     Link(Box<dyn Link>),
+    /// A block of commanded wrenches no longer read.
+    WrenchSource(Box<dyn WrenchSource>),
 }
 
 struct EffectorLoop {
@@ -189,6 +198,9 @@ pub struct HapticLoop {
     lengths: Vec<f64>,
     pointers: Vec<Pointer>,
     wrenches: Vec<Wrench>,
+    /// The wrench commanded from outside, and each effector's share of it this tick.
+    command: WrenchCommand,
+    commanded: [Wrench; MAX_EFFECTORS],
     frame: Frame,
     parameters: Option<Parameters>,
     incoming: Option<Box<dyn Scene>>,
@@ -198,6 +210,7 @@ pub struct HapticLoop {
     scene_hold: FaultHold,
     retired_scene: Option<Box<dyn Scene>>,
     retired_link: Option<Box<dyn Link>>,
+    retired_source: Option<Box<dyn WrenchSource>>,
 }
 
 /// Why a loop cannot be built.
@@ -274,6 +287,8 @@ impl HapticLoop {
             reading: Reading::default(),
             lengths: vec![0.0; mechanism.strings.len()],
             wrenches: vec![Wrench::ZERO; pointers.len()],
+            command: WrenchCommand::new(),
+            commanded: [Wrench::ZERO; MAX_EFFECTORS],
             pointers,
             effectors,
             settings,
@@ -288,6 +303,7 @@ impl HapticLoop {
             scene_hold: FaultHold::new(SCENE_RECOVERY),
             retired_scene: None,
             retired_link: None,
+            retired_source: None,
         })
     }
 
@@ -366,6 +382,11 @@ impl HapticLoop {
                     .unwrap_or_else(|sent| sent);
                 self.keep_retired(Retired::Link(old));
             }
+            LoopCommand::CommandWrenches(source) => {
+                if let Some(old) = self.command.replace(source) {
+                    self.keep_retired(Retired::WrenchSource(old));
+                }
+            }
         }
     }
 
@@ -375,6 +396,7 @@ impl HapticLoop {
             .take()
             .map(Retired::Link)
             .or_else(|| self.retired_scene.take().map(Retired::Scene))
+            .or_else(|| self.retired_source.take().map(Retired::WrenchSource))
     }
 
     /// [rt] Hold `retired` until [`HapticLoop::take_retired`] hands it on (again, when it could
@@ -384,6 +406,7 @@ impl HapticLoop {
         match retired {
             Retired::Scene(scene) => drop(self.retired_scene.replace(scene)),
             Retired::Link(link) => drop(self.retired_link.replace(link)),
+            Retired::WrenchSource(source) => drop(self.retired_source.replace(source)),
         }
     }
 
@@ -403,15 +426,19 @@ impl HapticLoop {
         if let Some(p) = &self.parameters {
             scene.set_proxy(&p.proxy);
         }
-        let limits = self
-            .effectors
-            .first()
-            .map_or(self.settings.safety, |e| *e.guard.limits());
+        let limits = self.limits();
         scene.set_wrench_limits(limits.max_force, limits.max_torque);
         let old = std::mem::replace(&mut self.scene, scene);
         self.scene_hold.clear();
         self.keep_retired(Retired::Scene(old));
         self.frame.scene_switches += 1;
+    }
+
+    /// The force and torque limits in force (every effector has the same).
+    fn limits(&self) -> SafetyLimits {
+        self.effectors
+            .first()
+            .map_or(self.settings.safety, |e| *e.guard.limits())
     }
 
     /// The mechanism driven.
@@ -501,9 +528,16 @@ impl HapticLoop {
         }
         let mut all_finite = true;
         let switching = self.incoming.is_some() || self.scene.needs_quiet();
+        let limits = self.limits();
+        let n = self.effectors.len();
+        self.command.update(dt, &limits, &mut self.commanded[..n]);
+        self.frame.command = self.command.state();
         for (index, e) in self.effectors.iter_mut().enumerate() {
             let mut wrench = self.wrenches[index];
             wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);
+            // What the far side commands is no energy of the scene's: past the passivity
+            // controller, but within the limits and the guard like the rest.
+            wrench = wrench + self.commanded[index];
             let healthy = connected && scene_ok && !switching && !self.misfit;
             all_finite &= e.guard.apply(&mut wrench, healthy, dt);
             self.frame.wrenches[index] = wrench;

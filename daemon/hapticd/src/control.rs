@@ -272,6 +272,15 @@ impl DeviceHandle {
             .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
     }
 
+    /// A new block of wrenches for the loop to add to the displayed ones, and the descriptor
+    /// its writer maps (read and write); the block read before is no longer read.
+    pub fn open_wrench_input(&self) -> Result<std::os::fd::OwnedFd, Error> {
+        let (file, fd) = hapticd_ipc::wrench_share::WrenchInputFile::create()
+            .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))?;
+        self.send(LoopCommand::CommandWrenches(Box::new(file)))?;
+        Ok(fd)
+    }
+
     /// Running tick rate, Hz.
     pub fn rate(&self) -> f64 {
         self.rate

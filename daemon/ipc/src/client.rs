@@ -32,6 +32,7 @@ use crate::proxies::{DeviceProxy, ManagerProxy, SceneProxy};
 use crate::shared_memory::MapError;
 use crate::telemetry_share::{Cursor, MappedTelemetry};
 use crate::world_share::MappedWorld;
+use crate::wrench_share::MappedWrenchInput;
 
 /// What went wrong talking to hapticd.
 #[derive(Debug)]
@@ -253,6 +254,13 @@ impl Device {
     pub fn open_telemetry(&self) -> Result<MappedTelemetry, ClientError> {
         let fd = zbus::block_on(self.proxy.open_telemetry(HashMap::new()))?;
         MappedTelemetry::open(&fd.into()).map_err(ClientError::Memory)
+    }
+
+    /// A wrench of the caller's to add to what the device displays (root and the hapticd
+    /// group only), replacing any opened before; see [`MappedWrenchInput`].
+    pub fn open_wrench_input(&self) -> Result<MappedWrenchInput, ClientError> {
+        let fd = zbus::block_on(self.proxy.open_wrench_input(HashMap::new()))?;
+        MappedWrenchInput::open(&fd.into()).map_err(ClientError::Memory)
     }
 
     /// The device's picture of the world (its grips, strings and the scene's bodies, as

@@ -12,6 +12,8 @@
 //! - [`telemetry_share`]: every tick of a device, in the ring its `OpenTelemetry` hands out
 //!   (its layout is `hapticd_core::telemetry`), and a reader that follows it;
 //! - [`touch_events`]: touches begun, ended and slipping, found in those ticks;
+//! - [`wrench_share`]: the wrench commanded from outside, which `OpenWrenchInput` hands out
+//!   to be written;
 //! - [`frame_ring`]: the ring of frames the renderer's `OpenFrameStream` hands out;
 //! - [`shared_memory`]: the sealed memfds both are made of.
 //!
@@ -44,6 +46,7 @@ pub mod shared_memory;
 pub mod telemetry_share;
 pub mod touch_events;
 pub mod world_share;
+pub mod wrench_share;
 
 pub use names::{
     API_VERSION, BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, SCENE_INTERFACE,

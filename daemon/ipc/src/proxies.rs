@@ -182,6 +182,15 @@ pub trait Device {
         &self,
         options: std::collections::HashMap<&str, zbus::Variant<'_>>,
     ) -> zbus::Result<OwnedFd>;
+    /// A wrench to add to the displayed one, written by the caller: map it with
+    /// [`crate::wrench_share::MappedWrenchInput`].
+    fn open_wrench_input(
+        &self,
+        options: std::collections::HashMap<&str, zbus::Variant<'_>>,
+    ) -> zbus::Result<OwnedFd>;
+    /// What became of the commanded wrench: none, waiting, active or stale.
+    #[zbus(property)]
+    fn wrench_command(&self) -> zbus::Result<String>;
     /// Take the counter offsets now, every grip at its calibration pose.
     fn calibrate(&self) -> zbus::Result<()>;
     /// Let the forces come back after a fault.

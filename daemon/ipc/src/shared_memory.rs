@@ -65,13 +65,12 @@ impl Mapping {
 
     /// All of `fd`, mapped read-only.
     pub fn read_only(fd: &OwnedFd) -> io::Result<Self> {
-        // SAFETY: fstat writes one stat to a valid pointer.
-        let mut stat: libc::stat = unsafe { std::mem::zeroed() };
-        // SAFETY: as above, on a descriptor the caller owns.
-        if unsafe { libc::fstat(fd.as_raw_fd(), &mut stat) } != 0 {
-            return Err(io::Error::last_os_error());
-        }
-        Self::new(fd, stat.st_size as usize, libc::PROT_READ)
+        Self::new(fd, file_size(fd)?, libc::PROT_READ)
+    }
+
+    /// All of `fd`, mapped to read and write.
+    pub fn read_write(fd: &OwnedFd) -> io::Result<Self> {
+        Self::new(fd, file_size(fd)?, libc::PROT_READ | libc::PROT_WRITE)
     }
 
     /// The first byte, page-aligned.
@@ -85,6 +84,17 @@ impl Mapping {
     }
 }
 
+/// The size of the file `fd` is open on.
+fn file_size(fd: &OwnedFd) -> io::Result<usize> {
+    // SAFETY: fstat writes one stat to a valid pointer.
+    let mut stat: libc::stat = unsafe { std::mem::zeroed() };
+    // SAFETY: as above, on a descriptor the caller owns.
+    if unsafe { libc::fstat(fd.as_raw_fd(), &mut stat) } != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(stat.st_size as usize)
+}
+
 impl Drop for Mapping {
     fn drop(&mut self) {
         // SAFETY: mapped in `new` and not used past the owner's life.
@@ -96,6 +106,18 @@ impl Drop for Mapping {
 /// file is sealed: the mapping returned stays writable, but no one can map or write it
 /// writable again, nor change its size.
 pub fn sealed(name: &str, len: usize) -> io::Result<(OwnedFd, Mapping)> {
+    memfd(name, len, libc::F_SEAL_FUTURE_WRITE)
+}
+
+/// A new memfd of `len` zero bytes called `name` that others may write as well, and its
+/// owner's mapping: sealed against growing and shrinking, so that no writer can take the
+/// memory from under its owner (a shrunk file would fault its reader).
+pub fn shared_writable(name: &str, len: usize) -> io::Result<(OwnedFd, Mapping)> {
+    memfd(name, len, 0)
+}
+
+/// A memfd of `len` bytes mapped writable, its size sealed, with `seals` besides.
+fn memfd(name: &str, len: usize, seals: libc::c_int) -> io::Result<(OwnedFd, Mapping)> {
     let name = std::ffi::CString::new(name)
         .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "a name with NUL"))?;
     // SAFETY: a NUL-terminated name and known flags.
@@ -113,8 +135,7 @@ pub fn sealed(name: &str, len: usize) -> io::Result<(OwnedFd, Mapping)> {
         return Err(io::Error::last_os_error());
     }
     let mapping = Mapping::new(&fd, len, libc::PROT_READ | libc::PROT_WRITE)?;
-    let seals =
-        libc::F_SEAL_SHRINK | libc::F_SEAL_GROW | libc::F_SEAL_FUTURE_WRITE | libc::F_SEAL_SEAL;
+    let seals = libc::F_SEAL_SHRINK | libc::F_SEAL_GROW | libc::F_SEAL_SEAL | seals;
     // SAFETY: fcntl on a descriptor this process owns.
     if unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_ADD_SEALS, seals) } != 0 {
         return Err(io::Error::last_os_error());
@@ -151,5 +172,19 @@ pub(crate) mod tests {
         // SAFETY: within the 8192 bytes mapped.
         assert_eq!(unsafe { reader.address().cast::<u8>().add(100).read() }, 42);
         assert_sealed(&fd);
+    }
+
+    #[test]
+    fn a_shared_writable_file_is_written_by_both_and_keeps_its_size() {
+        let (fd, owner) = shared_writable("test", 4096).unwrap();
+        let other = Mapping::read_write(&fd).unwrap();
+        // SAFETY: both map the same 4096 writable bytes.
+        unsafe { other.address().cast::<u8>().add(7).write(9) };
+        // SAFETY: as above.
+        assert_eq!(unsafe { owner.address().cast::<u8>().add(7).read() }, 9);
+        for size in [0, 8192] {
+            // SAFETY: resizing a descriptor the test owns (the seals refuse it).
+            assert_ne!(unsafe { libc::ftruncate(fd.as_raw_fd(), size) }, 0);
+        }
     }
 }

@@ -48,11 +48,7 @@ fn main() -> ExitCode {
     hapticd_service::logging::init("hapticd-render", hapticd_service::logging::Level::INFO);
     // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
     // threads (they inherit the affinity).
-    if let Some(plan) = hapticd_service::cpus::allowed()
-        .ok()
-        .and_then(|allowed| hapticd_service::cpus::Plan::new(&allowed, 1))
-        && let Err(e) = plan.keep_daemon_off()
-    {
+    if let Err(e) = hapticd_service::cpus::keep_off_the_haptic_cpu() {
         tracing::warn!("cannot keep off the haptic CPU: {e}");
     }
     let statistics = Arc::new(Statistics::default());

@@ -78,6 +78,16 @@ impl Plan {
     }
 }
 
+/// Move this whole process (its threads so far and, through the calling thread, those it
+/// starts later) off the CPU hapticd's first haptic thread takes: for the programs that run
+/// beside hapticd (the renderer, the network bridge). Nothing to do with a single CPU.
+pub fn keep_off_the_haptic_cpu() -> io::Result<()> {
+    match Plan::new(&allowed()?, 1) {
+        Some(plan) => plan.keep_daemon_off(),
+        None => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,12 +2,14 @@
 //! effectors' poses, twists and wrenches and its strings' tensions (the tick number as each
 //! sample's sequence number in its attachment, as rmw_zenoh attaches it), its state when it
 //! changes and once a second, each touch as it happens, the node and its publishers announced
-//! by liveliness tokens as rmw_zenoh announces its own, and its status answered as JSON.
+//! by liveliness tokens as rmw_zenoh announces its own, and its status answered as JSON; with
+//! commands on, each effector's `wrench_command` topic taken into the device's wrench input.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use hapticd_core::kinematics::Wrench;
 use hapticd_core::telemetry::Sample;
 use hapticd_core::transport::CHANNELS;
 use hapticd_core::world_state::state_of;
@@ -73,21 +75,17 @@ pub struct Settings {
     pub commands: bool,
 }
 
-/// The publishers of one device, with the liveliness tokens that announce them.
-struct Publishers<'a> {
+/// The publishers and subscriptions of one device, with the liveliness tokens that
+/// announce them.
+struct Entities<'a> {
     session: &'a zenoh::Session,
     node: Node,
     tokens: Vec<zenoh::liveliness::LivelinessToken>,
 }
 
-impl<'a> Publishers<'a> {
-    /// The publisher of `topic`, messages `M`, announced.
-    fn declare<M: Message>(
-        &mut self,
-        topic: &Topic,
-    ) -> Result<zenoh::pubsub::Publisher<'a>, BridgeError> {
-        let entity = self.tokens.len() as u32 + 1;
-        let token = self.node.publisher::<M>(self.node.id + entity, &topic.name);
+impl<'a> Entities<'a> {
+    /// Announce `token`.
+    fn announce(&mut self, token: String) -> Result<(), BridgeError> {
         self.tokens.push(
             self.session
                 .liveliness()
@@ -95,11 +93,82 @@ impl<'a> Publishers<'a> {
                 .wait()
                 .map_err(zenoh_error)?,
         );
+        Ok(())
+    }
+
+    /// The next entity's number.
+    fn next(&self) -> u32 {
+        self.node.id + self.tokens.len() as u32 + 1
+    }
+
+    /// The publisher of `topic`, messages `M`, announced.
+    fn publisher<M: Message>(
+        &mut self,
+        topic: &Topic,
+    ) -> Result<zenoh::pubsub::Publisher<'a>, BridgeError> {
+        self.announce(self.node.publisher::<M>(self.next(), &topic.name))?;
         self.session
             .declare_publisher(topic.key.clone())
             .wait()
             .map_err(zenoh_error)
     }
+
+    /// A subscription to `topic`, messages `M`, announced, handing each sample to `take`.
+    fn subscription<M: Message>(
+        &mut self,
+        topic: &Topic,
+        take: impl Fn(zenoh::sample::Sample) + Send + Sync + 'static,
+    ) -> Result<zenoh::pubsub::Subscriber<()>, BridgeError> {
+        self.announce(self.node.subscription::<M>(self.next(), &topic.name))?;
+        self.session
+            .declare_subscriber(topic.key.clone())
+            .callback(take)
+            .wait()
+            .map_err(zenoh_error)
+    }
+}
+
+/// Take each effector's `wrench_command` topic into `device`'s wrench input: every message
+/// (a `WrenchStamped` in the device's frame, whatever its frame id says) replaces that
+/// effector's wrench and refreshes all of them. Nothing when hapticd refuses the bridge's
+/// user the input (said in the log): the topics are then not taken.
+fn take_wrench_commands(
+    device: &Device,
+    topics: &DeviceTopics,
+    entities: &mut Entities<'_>,
+) -> Result<Vec<zenoh::pubsub::Subscriber<()>>, BridgeError> {
+    let input = match device.open_wrench_input() {
+        Ok(input) => input,
+        Err(e) => {
+            tracing::warn!(
+                "{}: the wrench command topics are not taken: {e}",
+                topics.device
+            );
+            return Ok(Vec::new());
+        }
+    };
+    let shared = Arc::new(Mutex::new((
+        input,
+        vec![Wrench::ZERO; topics.effectors.len()],
+    )));
+    let mut subscriptions = Vec::new();
+    for (k, t) in topics.effectors.iter().enumerate() {
+        let shared = shared.clone();
+        subscriptions.push(
+            entities.subscription::<WrenchStamped>(&t.command, move |sample| {
+                let Ok(message) = WrenchStamped::decode(&sample.payload().to_bytes()) else {
+                    return;
+                };
+                let [fx, fy, fz] = message.force;
+                let [tx, ty, tz] = message.torque;
+                let mut held = shared.lock().unwrap_or_else(|p| p.into_inner());
+                let (input, wrenches) = &mut *held;
+                wrenches[k] = Wrench::from_array([fx, fy, fz, tx, ty, tz]);
+                input.write(wrenches);
+            })?,
+        );
+    }
+    Ok(subscriptions)
 }
 
 /// A touch as the touches topic says it (JSON).
@@ -140,7 +209,7 @@ pub fn run(
         .declare_token(node.token())
         .wait()
         .map_err(zenoh_error)?;
-    let mut declared = Publishers {
+    let mut entities = Entities {
         session,
         node,
         tokens: Vec::new(),
@@ -148,14 +217,19 @@ pub fn run(
     let mut effector_publishers = Vec::new();
     for t in &topics.effectors {
         effector_publishers.push((
-            declared.declare::<PoseStamped>(&t.pose)?,
-            declared.declare::<TwistStamped>(&t.twist)?,
-            declared.declare::<WrenchStamped>(&t.wrench)?,
+            entities.publisher::<PoseStamped>(&t.pose)?,
+            entities.publisher::<TwistStamped>(&t.twist)?,
+            entities.publisher::<WrenchStamped>(&t.wrench)?,
         ));
     }
-    let strings_publisher = declared.declare::<JointState>(&topics.strings)?;
-    let state_publisher = declared.declare::<StringMessage>(&topics.state)?;
-    let touches_publisher = declared.declare::<StringMessage>(&topics.touches)?;
+    let strings_publisher = entities.publisher::<JointState>(&topics.strings)?;
+    let state_publisher = entities.publisher::<StringMessage>(&topics.state)?;
+    let touches_publisher = entities.publisher::<StringMessage>(&topics.touches)?;
+    let commands = if settings.commands {
+        take_wrench_commands(device, &topics, &mut entities)?
+    } else {
+        Vec::new()
+    };
     // The publisher's id in attachments: the session's, as rmw_zenoh derives its own.
     let id: [u8; 16] = session.zid().to_le_bytes();
     let last = Arc::new((AtomicU64::new(0), AtomicU32::new(0)));
@@ -273,6 +347,6 @@ pub fn run(
         };
         put(&strings_publisher, tensions.encode(), &attached)?;
     }
-    drop((status, node_token, declared));
+    drop((status, commands, node_token, entities));
     Ok(())
 }

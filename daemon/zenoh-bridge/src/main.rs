@@ -185,6 +185,11 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
 fn main() -> ExitCode {
     let cli = ZenohCli::parse();
     logging::init("hapticd-zenoh", Level::INFO);
+    // Off the haptic CPU before Zenoh starts its threads (they inherit the affinity): a
+    // publisher there would delay the haptic thread's wake-ups.
+    if let Err(e) = hapticd_service::cpus::keep_off_the_haptic_cpu() {
+        tracing::warn!("cannot keep off the haptic CPU: {e}");
+    }
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

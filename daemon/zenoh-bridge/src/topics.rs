@@ -10,6 +10,7 @@
 //! | `/hapticd/<device>/strings` | `sensor_msgs/msg/JointState` | each string's tension (effort) |
 //! | `/hapticd/<device>/state` | `std_msgs/msg/String` | running, fault, … |
 //! | `/hapticd/<device>/touches` | `std_msgs/msg/String` | each touch begun, ended, slipping (JSON) |
+//! | `/hapticd/<device>/<effector>/wrench_command` | `geometry_msgs/msg/WrenchStamped` | taken: added to the displayed wrench (commands on) |
 
 use hapticd_ros2::keys::topic_key;
 use hapticd_ros2::messages::{
@@ -56,6 +57,8 @@ pub struct EffectorTopics {
     pub twist: Topic,
     /// The wrench it displays.
     pub wrench: Topic,
+    /// The wrench commanded to it, taken.
+    pub command: Topic,
 }
 
 /// Where one device is published and asked.
@@ -90,6 +93,10 @@ impl DeviceTopics {
                         pose: Topic::new::<PoseStamped>(domain, format!("{at}/pose")),
                         twist: Topic::new::<TwistStamped>(domain, format!("{at}/twist")),
                         wrench: Topic::new::<WrenchStamped>(domain, format!("{at}/wrench")),
+                        command: Topic::new::<WrenchStamped>(
+                            domain,
+                            format!("{at}/wrench_command"),
+                        ),
                     }
                 })
                 .collect(),

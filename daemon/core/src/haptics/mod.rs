@@ -8,7 +8,9 @@
 //! - [`proxy`]: the god-object with Coulomb friction;
 //! - [`passivity`]: the time-domain passivity observer and controller on each port;
 //! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault;
-//! - [`touch`]: what a pointer touches, for contact events.
+//! - [`touch`]: what a pointer touches, for contact events;
+//! - [`wrench_command`]: a wrench commanded from outside (teleoperation), bounded, ramped,
+//!   and dropped when it goes stale.
 
 pub mod bvh;
 pub mod grasp;
@@ -18,3 +20,4 @@ pub mod proxy;
 pub mod safety;
 pub mod scenery;
 pub mod touch;
+pub mod wrench_command;

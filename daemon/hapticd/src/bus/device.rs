@@ -133,6 +133,9 @@ pub(super) async fn announce(
     if last.is_none_or(|l| state_name(&l) != state_name(&now)) {
         report(device.state_changed(emitter).await);
     }
+    if last.is_none_or(|l| l.frame.command != now.frame.command) {
+        report(device.wrench_command_changed(emitter).await);
+    }
     let calibration = |t: &Telemetry| (t.frame.calibrated, t.frame.calibrations);
     if last.is_none_or(|l| calibration(&l) != calibration(&now)) {
         report(device.calibrated_changed(emitter).await);
@@ -292,6 +295,13 @@ device_interface! {
         state_name(&self.device.telemetry()).to_string()
     }
 
+    /// The wrench commanded from outside (OpenWrenchInput): none (never opened), waiting
+    /// (nothing written yet), active, or stale (ramped out).
+    #[zbus(property)]
+    fn wrench_command(&self) -> String {
+        self.device.telemetry().frame.command.name().to_string()
+    }
+
     /// Whether the counter offsets are set (by Calibrate, a saved calibration, or the first
     /// reading with the grips at their calibration poses).
     #[zbus(property)]
@@ -389,6 +399,34 @@ device_interface! {
             .into());
         }
         Ok(self.device.open_telemetry()?.into())
+    }
+
+    /// A wrench to add to what the scene displays, commanded from outside (teleoperation: what
+    /// a remote robot feels): a memfd, readable and writable by the caller, holding a wrench
+    /// per effector under a sequence lock (the layout is
+    /// `hapticd_core::haptics::wrench_command::SharedWrenchCommand`). The haptic thread reads
+    /// it every tick: each wrench is bounded by MaxForce and MaxTorque, ramped in, and ramped
+    /// out when none newer has come for 0.1 s or one holds a NaN (WrenchCommand says
+    /// `stale`). Each call replaces the block before. `options` takes no key yet.
+    async fn open_wrench_input(
+        &self,
+        options: HashMap<String, zbus::OwnedVariant>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<zbus::OwnedFd, BusError> {
+        let result = match options.keys().next() {
+            Some(key) => Err(crate::control::Error::OutOfRange(format!(
+                "OpenWrenchInput takes no option {key:?}"
+            ))),
+            None => self.device.open_wrench_input(),
+        };
+        let who = caller(connection, Some(&header)).await;
+        audit(
+            &format!("open the wrench input of {}", self.device.identity()),
+            &who,
+            &result.as_ref().map(|_| ()),
+        );
+        Ok(result?.into())
     }
 
     /// Take the counter offsets now, with every grip held at its calibration pose; they are
