@@ -2994,6 +2994,39 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
         'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
     let said = zenoh_client(follow, &endpoint, &[]);
+    // hapticctl reaches the same daemon through the bridge alone: its status, and 2 s of
+    // its ticks in the CSV a local `record` writes.
+    let remote = |args: &[&str]| {
+        let out = hapticctl()
+            .args(["--bus", "unix:path=/nonexistent", "--remote", &endpoint])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let status = remote(&["status"]);
+    assert!(status.contains("sim: running, 1000 Hz, tick "), "{status}");
+    let statuses: serde_json::Value = serde_json::from_str(&remote(&["status", "--json"])).unwrap();
+    assert_eq!(statuses[0]["identity"], "sim");
+    let csv = dir.join("remote.csv");
+    remote(&["record", "--duration", "2", csv.to_str().unwrap()]);
+    let recorded = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = recorded.lines();
+    assert!(lines.next().unwrap().starts_with("tick,time,state,pose_x,"));
+    let ticks: Vec<u64> = lines
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(ticks.len() > 1900, "{} rows", ticks.len());
+    assert!(
+        ticks.windows(2).all(|w| w[1] == w[0] + 1),
+        "every tick, in order"
+    );
+    let refused = hapticctl()
+        .args(["--remote", &endpoint, "set", "Stiffness", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2), "{refused:?}");
     let _ = bridge.kill();
     let _ = bridge.wait();
     println!("{said}");

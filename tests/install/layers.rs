@@ -83,17 +83,12 @@ fn the_renderer_and_clients_talk_to_hapticd_through_the_wire_contract_alone() {
     }
 }
 
-/// The network stays out of the process that pulls the strings: only the bridge links Zenoh,
-/// and it reaches hapticd through the wire contract, like any client.
+/// The network stays out of the process that pulls the strings: only the bridge (and
+/// hapticctl, for --remote) links Zenoh, and the bridge reaches hapticd through the wire
+/// contract, like any client.
 #[test]
 fn only_the_bridge_links_zenoh_and_it_links_no_part_of_the_daemon() {
-    for package in [
-        "hapticd",
-        "hapticd-core",
-        "hapticd-ipc",
-        "hapticd-ros2",
-        "hapticctl",
-    ] {
+    for package in ["hapticd", "hapticd-core", "hapticd-ipc", "hapticd-ros2"] {
         let linked = normal_dependencies(package);
         assert!(!linked.contains("zenoh"), "{package} links zenoh");
     }

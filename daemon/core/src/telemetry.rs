@@ -287,6 +287,106 @@ impl TelemetryReader {
     }
 }
 
+/// Bytes of a sample as [`Sample::encode`] writes it.
+pub const ENCODED_SIZE: usize =
+    8 + 8 + 5 * 4 + MAX_EFFECTORS * (4 + 7 * 8 + 3 * 8 + 6 * 8 + 6 * 8) + CHANNELS * (8 + 2);
+
+impl Sample {
+    /// The sample as bytes for another machine: every field in order, little-endian, with no
+    /// padding ([`ENCODED_SIZE`] bytes). The network bridge publishes ticks so.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(ENCODED_SIZE);
+        out.extend_from_slice(&self.tick.to_le_bytes());
+        out.extend_from_slice(&self.time.to_le_bytes());
+        for v in [
+            self.state,
+            self.effectors,
+            self.strings,
+            self.contacts,
+            self.slipping,
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        let doubles = |out: &mut Vec<u8>, values: &[f64]| {
+            for v in values {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        };
+        for k in 0..MAX_EFFECTORS {
+            out.extend_from_slice(&self.touched[k].to_le_bytes());
+            doubles(&mut out, &self.poses[k].position);
+            doubles(&mut out, &self.poses[k].orientation);
+            doubles(&mut out, &self.velocities[k]);
+            doubles(&mut out, &self.wrenches[k].force);
+            doubles(&mut out, &self.wrenches[k].torque);
+            doubles(&mut out, &self.touch_points[k]);
+            doubles(&mut out, &self.touch_normals[k]);
+        }
+        doubles(&mut out, &self.tensions);
+        for d in &self.dac {
+            out.extend_from_slice(&d.to_le_bytes());
+        }
+        out
+    }
+
+    /// A sample from the bytes [`Sample::encode`] wrote; None for any other length.
+    pub fn decode(bytes: &[u8]) -> Option<Sample> {
+        if bytes.len() != ENCODED_SIZE {
+            return None;
+        }
+        let mut from = Bytes { bytes, at: 0 };
+        let mut s = Sample::EMPTY;
+        s.tick = u64::from_le_bytes(from.take());
+        s.time = f64::from_le_bytes(from.take());
+        for v in [
+            &mut s.state,
+            &mut s.effectors,
+            &mut s.strings,
+            &mut s.contacts,
+            &mut s.slipping,
+        ] {
+            *v = u32::from_le_bytes(from.take());
+        }
+        for k in 0..MAX_EFFECTORS {
+            s.touched[k] = u32::from_le_bytes(from.take());
+            from.doubles(&mut s.poses[k].position);
+            from.doubles(&mut s.poses[k].orientation);
+            from.doubles(&mut s.velocities[k]);
+            from.doubles(&mut s.wrenches[k].force);
+            from.doubles(&mut s.wrenches[k].torque);
+            from.doubles(&mut s.touch_points[k]);
+            from.doubles(&mut s.touch_normals[k]);
+        }
+        from.doubles(&mut s.tensions);
+        for d in &mut s.dac {
+            *d = i16::from_le_bytes(from.take());
+        }
+        Some(s)
+    }
+}
+
+/// Encoded bytes being read, their length checked beforehand.
+struct Bytes<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Bytes<'_> {
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let taken = self.bytes[self.at..self.at + N]
+            .try_into()
+            .expect("N bytes");
+        self.at += N;
+        taken
+    }
+
+    fn doubles(&mut self, out: &mut [f64]) {
+        for v in out {
+            *v = f64::from_le_bytes(self.take());
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -374,5 +474,33 @@ mod tests {
             .err()
             .unwrap();
         assert!(e.0.contains("not a telemetry ring"), "{e}");
+    }
+
+    #[test]
+    fn a_sample_comes_back_whole_from_its_bytes() {
+        let mut s = Sample::EMPTY;
+        s.tick = 123_456_789_012;
+        s.time = -1.5e-300;
+        (s.state, s.effectors, s.strings, s.contacts, s.slipping) = (1, 2, 8, 3, 2);
+        s.touched[1] = 7;
+        s.poses[1].position = [0.1, f64::MAX, -0.0];
+        s.poses[0].orientation = [0.5, -0.5, 0.5, -0.5];
+        s.velocities[1] = [1.0, 2.0, 3.0];
+        s.wrenches[0].force = [4.0, 5.0, 6.0];
+        s.wrenches[1].torque = [-7.0, 8.0, f64::MIN_POSITIVE];
+        s.touch_points[0] = [9.0; 3];
+        s.touch_normals[1] = [0.0, 1.0, 0.0];
+        s.tensions[7] = 12.5;
+        s.dac[7] = i16::MIN;
+        let bytes = s.encode();
+        assert_eq!(bytes.len(), ENCODED_SIZE);
+        assert_eq!(Sample::decode(&bytes), Some(s));
+        assert_eq!(
+            bytes[..8],
+            123_456_789_012u64.to_le_bytes(),
+            "little-endian, tick first"
+        );
+        assert_eq!(Sample::decode(&bytes[1..]), None);
+        assert_eq!(Sample::decode(&[bytes.clone(), vec![0]].concat()), None);
     }
 }

@@ -4,6 +4,7 @@
 //! changes and once a second, each touch as it happens, the node and its publishers announced
 //! by liveliness tokens as rmw_zenoh announces its own, and its status answered as JSON; with
 //! commands on, each effector's `wrench_command` topic taken into the device's wrench input.
+//! Beside the ROS 2 topics, the same ticks go whole under hapticd's own telemetry key.
 
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -225,6 +226,10 @@ pub fn run(
     let strings_publisher = entities.publisher::<JointState>(&topics.strings)?;
     let state_publisher = entities.publisher::<StringMessage>(&topics.state)?;
     let touches_publisher = entities.publisher::<StringMessage>(&topics.touches)?;
+    let telemetry_publisher = session
+        .declare_publisher(topics.telemetry())
+        .wait()
+        .map_err(zenoh_error)?;
     let commands = if settings.commands {
         take_wrench_commands(device, &topics, &mut entities)?
     } else {
@@ -236,6 +241,7 @@ pub fn run(
     let ring = device.open_telemetry()?;
     let status = {
         let (identity, last, effectors) = (identity.clone(), last.clone(), effectors.clone());
+        let telemetry_key = topics.telemetry();
         let rate = ring.rate();
         let mut names: Vec<String> = topics
             .effectors
@@ -256,6 +262,8 @@ pub fn run(
                     "state": state_of(last.1.load(Ordering::Relaxed)).name(),
                     "publishing_every": settings.every,
                     "topics": names,
+                    "telemetry": telemetry_key,
+                    "domain": settings.domain,
                     "commands": settings.commands,
                 });
                 let _ = query
@@ -346,6 +354,7 @@ pub fn run(
             effort: sample.tensions[..strings].to_vec(),
         };
         put(&strings_publisher, tensions.encode(), &attached)?;
+        put(&telemetry_publisher, sample.encode(), &attached)?;
     }
     drop((status, commands, node_token, entities));
     Ok(())

@@ -107,6 +107,17 @@ impl DeviceTopics {
         }
     }
 
+    /// The key its ticks are published under whole, for hapticd's own clients
+    /// (`hapticctl --remote record`): `hapticd/<device>/telemetry/v<layout>`, each sample as
+    /// `hapticd_core::telemetry::Sample::encode` writes it.
+    pub fn telemetry(&self) -> String {
+        format!(
+            "hapticd/{}/telemetry/v{}",
+            self.device,
+            hapticd_core::telemetry::VERSION
+        )
+    }
+
     /// The key its status is asked at: `hapticd/<device>/status`.
     pub fn status(&self) -> String {
         format!("hapticd/{}/status", self.device)

@@ -644,7 +644,7 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
 /// something, the body it touches (its id, empty for none), whether it slips, where it
 /// touches and the normal there, one column per component, named for the effector when there
 /// are several (`thumb_pose_x`); then each string's tension and D/A value.
-fn record_header(effectors: &[String], strings: usize) -> String {
+pub(crate) fn record_header(effectors: &[String], strings: usize) -> String {
     const COMPONENTS: [&str; 25] = [
         "pose_x",
         "pose_y",
@@ -691,7 +691,7 @@ fn record_header(effectors: &[String], strings: usize) -> String {
 }
 
 /// One row of `record` for `sample`, of `effectors` effectors and `strings` strings.
-fn record_row(sample: &Sample, effectors: usize, strings: usize) -> String {
+pub(crate) fn record_row(sample: &Sample, effectors: usize, strings: usize) -> String {
     use std::fmt::Write;
     let mut row = format!(
         "{},{:.6},{}",
@@ -764,9 +764,31 @@ pub struct RecordArgs {
     #[arg(long)]
     duration: f64,
     /// The CSV file to write.
-    file: std::path::PathBuf,
+    pub file: std::path::PathBuf,
     #[command(flatten)]
     device: DeviceArg,
+}
+
+impl RecordArgs {
+    /// Refuse a duration that is no number of seconds from 0 to a day.
+    pub fn check(&self) -> Result<(), Failure> {
+        if !(self.duration.is_finite() && self.duration > 0.0 && self.duration <= 86_400.0) {
+            return Err(Failure::usage(
+                "--duration must be a number of seconds from 0 to a day",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Seconds to record.
+    pub fn duration(&self) -> f64 {
+        self.duration
+    }
+
+    /// The device asked for: an index or an identity.
+    pub fn device_name(&self) -> &str {
+        &self.device.device
+    }
 }
 
 /// `hapticctl record`: every tick of the device's haptic loop for `--duration` seconds, read
@@ -774,11 +796,7 @@ pub struct RecordArgs {
 /// [`record_header`]). Ticks the ring overwrote before they were read are counted and said.
 pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     use std::io::Write;
-    if !(args.duration.is_finite() && args.duration > 0.0 && args.duration <= 86_400.0) {
-        return Err(Failure::usage(
-            "--duration must be a number of seconds from 0 to a day",
-        ));
-    }
+    args.check()?;
     let path = client.device(&args.device)?;
     let cannot =
         |e: std::io::Error| Failure::failed(format!("cannot write {}: {e}", args.file.display()));

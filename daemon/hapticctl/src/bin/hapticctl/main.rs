@@ -9,6 +9,7 @@ mod manual;
 mod mechanism;
 mod mesh;
 mod pictures;
+mod remote;
 mod render;
 mod scene;
 mod scene_file;
@@ -35,6 +36,10 @@ struct Cli {
     /// The bus the running daemon serves: `system`, `session` or a D-Bus address.
     #[arg(long, value_name = "BUS", global = true, default_value = "system")]
     bus: Bus,
+    /// Reach a hapticd on another machine through its network bridge (hapticd-zenoh) at
+    /// this Zenoh endpoint (`tcp/HOST:7447`), instead of the bus: for `status` and `record`.
+    #[arg(long, value_name = "ENDPOINT", global = true)]
+    remote: Option<String>,
     #[command(subcommand)]
     command: Command,
 }
@@ -156,7 +161,7 @@ fn json_anywhere(args: impl Iterator<Item = OsString>) -> Vec<OsString> {
                 json = true;
             }
             // Global options whose value is the next argument.
-            "--bus" | "--mechanism-dir" => i += 2,
+            "--bus" | "--mechanism-dir" | "--remote" => i += 2,
             _ if arg.starts_with('-') => i += 1,
             _ => break,
         }
@@ -179,8 +184,13 @@ fn main() -> ExitCode {
     };
     // Only the commands that talk to hapticd connect to the bus.
     let connect = || client::Client::connect(&cli.bus);
-    let result =
-        match cli.command {
+    let result = match (&cli.remote, cli.command) {
+        (Some(endpoint), Command::Status(output)) => remote::status(endpoint, &output),
+        (Some(endpoint), Command::Record(args)) => remote::record(endpoint, &args),
+        (Some(_), _) => Err(Failure::usage(
+            "--remote reaches a hapticd's status and its ticks (status, record), nothing else",
+        )),
+        (None, command) => match command {
             Command::Mechanism(command) => mechanism::run(command, &catalog),
             Command::Experiment(command) => experiment::run(command, &catalog),
             Command::Device(command) => device::run(command),
@@ -208,7 +218,8 @@ fn main() -> ExitCode {
                     let _ = std::io::stdout().write_all(&script);
                 }),
             Command::Manual { dir } => manual::write(&dir),
-        };
+        },
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
