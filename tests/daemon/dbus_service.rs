@@ -2949,7 +2949,7 @@ fn zenoh_client(script: &str, endpoint: &str, args: &[String]) -> serde_json::Va
         conf.insert_json5('connect/endpoints', json.dumps([sys.argv[1]]))\n\
         session = zenoh.open(conf)\n\
         def ask(key, payload):\n\
-        \x20   replies = list(session.get(key, payload=payload))\n\
+        \x20   replies = list(session.get(key, payload=payload, timeout=3.0))\n\
         \x20   return [r.ok.payload.to_string() if r.ok else 'error: ' + r.err.payload.to_string() for r in replies]\n";
     let out = Command::new("/usr/bin/python3")
         .args(["-c", &format!("{prelude}{script}"), endpoint])
@@ -3164,6 +3164,31 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         assert_eq!(said["felt"]["first"], serde_json::json!([]), "{said}");
         assert_eq!(bus.get(DEVICE, "WrenchCommand"), "s \"none\"");
     }
+    // Commands on, and Zenoh's access control denying every command query: the status is
+    // answered, the command never reaches the bridge.
+    let acl = dir.join("acl.json5");
+    std::fs::write(
+        &acl,
+        r#"{ access_control: { enabled: true, default_permission: "allow",
+             rules: [{ id: "no-commands", permission: "deny", flows: ["ingress"],
+                       messages: ["query"], key_exprs: ["hapticd/*/set/**", "hapticd/scene/**"] }],
+             subjects: [{ id: "everyone" }],
+             policies: [{ rules: ["no-commands"], subjects: ["everyone"] }] } }"#,
+    )
+    .unwrap();
+    let guarded = format!("commands: true\nzenoh: {}\n", acl.display());
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, &guarded, None);
+    let said = zenoh_client(
+        "print(json.dumps({'status': ask('hapticd/sim/status', None), \
+         'set': ask('hapticd/sim/set/Stiffness', '1500')}))\n",
+        &endpoint,
+        &[],
+    );
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    assert!(said["status"][0].as_str().unwrap().contains("\"commands\":true"), "{said}");
+    assert_eq!(said["set"], serde_json::json!([]), "{said}");
+    assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", None);
     let said = zenoh_client(&script, &endpoint, &args);
     let _ = bridge.kill();
