@@ -3164,30 +3164,42 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         assert_eq!(said["felt"]["first"], serde_json::json!([]), "{said}");
         assert_eq!(bus.get(DEVICE, "WrenchCommand"), "s \"none\"");
     }
-    // Commands on, and Zenoh's access control denying every command query: the status is
-    // answered, the command never reaches the bridge.
+    // Commands on, and Zenoh's access control as the README shows it: the status is
+    // answered; no command, parameter or push reaches the bridge.
+    let readme = std::fs::read_to_string(repo_dir().join("README.md")).unwrap();
+    let acl_text = readme
+        .split("```json5\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .unwrap();
     let acl = dir.join("acl.json5");
-    std::fs::write(
-        &acl,
-        r#"{ access_control: { enabled: true, default_permission: "allow",
-             rules: [{ id: "no-commands", permission: "deny", flows: ["ingress"],
-                       messages: ["query"], key_exprs: ["hapticd/*/set/**", "hapticd/scene/**"] }],
-             subjects: [{ id: "everyone" }],
-             policies: [{ rules: ["no-commands"], subjects: ["everyone"] }] } }"#,
-    )
-    .unwrap();
+    std::fs::write(&acl, acl_text).unwrap();
     let guarded = format!("commands: true\nzenoh: {}\n", acl.display());
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, &guarded, None);
     let said = zenoh_client(
-        "print(json.dumps({'status': ask('hapticd/sim/status', None), \
-         'set': ask('hapticd/sim/set/Stiffness', '1500')}))\n",
+        &format!(
+            "{push}print(json.dumps({{'status': ask('hapticd/sim/status', None), \
+         'set': ask('hapticd/sim/set/Stiffness', '1500'), 'felt': push()}}))\n"
+        ),
         &endpoint,
-        &[],
+        &args,
     );
     let _ = bridge.kill();
     let _ = bridge.wait();
-    assert!(said["status"][0].as_str().unwrap().contains("\"commands\":true"), "{said}");
+    assert!(
+        said["status"][0]
+            .as_str()
+            .unwrap()
+            .contains("\"commands\":true"),
+        "{said}"
+    );
     assert_eq!(said["set"], serde_json::json!([]), "{said}");
+    // The displayed wrench came through all along, and stayed zero.
+    let shown = said["felt"]["push_end"].as_array().unwrap();
+    assert!(
+        !shown.is_empty() && shown.iter().all(|f| f.as_f64() == Some(0.0)),
+        "{said}"
+    );
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", None);
     let said = zenoh_client(&script, &endpoint, &args);
