@@ -95,6 +95,11 @@ fn serve_commands(
             };
             idle = false;
             let key = query.key_expr().to_string();
+            // A wildcard query that only meets the command keys (`hapticd/*/status` meets
+            // `hapticd/scene/**`) is no command: it gets no answer from here.
+            if key.contains('*') {
+                continue;
+            }
             let payload = query
                 .payload()
                 .map(|p| {
