@@ -71,8 +71,8 @@ fn session(config: &NetworkConfig) -> Result<zenoh::Session, String> {
         .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
 }
 
-/// Answer commands until `until` (for ever without one): carried out when `config` allows
-/// them, refused otherwise.
+/// Answer commands until `until` (for ever without one): carried out on `devices` when
+/// `allowed`, refused otherwise.
 fn serve_commands(
     session: &zenoh::Session,
     hapticd: &Hapticd,
