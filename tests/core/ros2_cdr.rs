@@ -1,5 +1,5 @@
 //! hapticd's ROS 2 messages against an independent encoder: the bytes `hapticd_ros2` writes
-//! for PoseStamped, WrenchStamped, TwistStamped, JointState and String are those rosbags (a pure-Python ROS 2
+//! for PoseStamped, WrenchStamped, TwistStamped, PoseArray, JointState and String are those rosbags (a pure-Python ROS 2
 //! serialiser from PyPI, with the message definitions of ROS 2 Jazzy) writes for the same
 //! values, and the type hashes in the topic keys are those rosbags computes
 //! from the definitions.
@@ -7,7 +7,8 @@
 use std::process::Command;
 
 use hapticd_ros2::messages::{
-    Header, JointState, Message, PoseStamped, StringMessage, Time, TwistStamped, WrenchStamped,
+    Header, JointState, Message, PoseArray, PoseStamped, StringMessage, Time, TwistStamped,
+    WrenchStamped,
 };
 
 use crate::support;
@@ -107,6 +108,28 @@ fn every_message_s_bytes_are_those_of_an_independent_encoder() {
         let text = StringMessage {
             data: frame.repeat(k),
         };
+        // No body to four, in frames of every string length.
+        let bodies = PoseArray {
+            header: strings.header.clone(),
+            poses: (0..k * 2)
+                .map(|i| ([i as f64, -s, 1e-9], [0.5, -0.5, 0.5, 0.5 * i as f64]))
+                .collect(),
+        };
+        let poses: Vec<String> = bodies
+            .poses
+            .iter()
+            .map(|(p, q)| {
+                format!(
+                    "T['geometry_msgs/msg/Pose'](position=T['geometry_msgs/msg/Point'](x={:?}, y={:?}, z={:?}), \
+                     orientation=T['geometry_msgs/msg/Quaternion'](x={:?}, y={:?}, z={:?}, w={:?}))",
+                    p[0], p[1], p[2], q[0], q[1], q[2], q[3]
+                )
+            })
+            .collect();
+        script += &format!(
+            "show(T['geometry_msgs/msg/PoseArray'](header=h, poses=[{}]), 'geometry_msgs/msg/PoseArray')\n",
+            poses.join(", ")
+        );
         script += &format!(
             "show(T['sensor_msgs/msg/JointState'](header=h, name={:?}, \
              position=numpy.zeros(0), velocity=numpy.zeros(0), \
@@ -117,6 +140,8 @@ fn every_message_s_bytes_are_those_of_an_independent_encoder() {
         ours.push(pose.encode());
         ours.push(wrench.encode());
         ours.push(twist.encode());
+        // In the order the script shows them.
+        ours.push(bodies.encode());
         ours.push(strings.encode());
         ours.push(text.encode());
     }
@@ -131,7 +156,8 @@ fn every_message_s_bytes_are_those_of_an_independent_encoder() {
 fn the_type_hashes_in_the_topic_keys_are_those_of_the_definitions() {
     let said = rosbags(&format!(
         "{PRELUDE}\nfor name in ['geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/WrenchStamped', \
-         'geometry_msgs/msg/TwistStamped', 'sensor_msgs/msg/JointState', 'std_msgs/msg/String']:\n    \
+         'geometry_msgs/msg/TwistStamped', 'sensor_msgs/msg/JointState', 'std_msgs/msg/String', \
+         'geometry_msgs/msg/PoseArray']:\n    \
          print(ts.hash_rihs01(name))\n"
     ));
     let theirs: Vec<&str> = said.lines().collect();
@@ -142,7 +168,8 @@ fn the_type_hashes_in_the_topic_keys_are_those_of_the_definitions() {
             WrenchStamped::HASH,
             TwistStamped::HASH,
             JointState::HASH,
-            StringMessage::HASH
+            StringMessage::HASH,
+            PoseArray::HASH
         ]
     );
 }

@@ -228,11 +228,14 @@ impl Setup {
     }
 }
 
-/// The physics engines' scene plugins, staged once as an install would have them.
+/// The physics engines' scene plugins, staged once as an install would have them (inside
+/// target/, not the system's temporary directory: each run's copy weighs tens of megabytes).
 fn scene_plugins() -> PathBuf {
     static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = scratch("scene-plugins");
+        let dir = support::scratch_root().join(format!("scene-plugins-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
         for engine in [
             "hapticd-scene-penalty",
             "hapticd-scene-rapier",
@@ -3048,6 +3051,9 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     for kind in ["pose", "twist", "wrench", "strings"] {
         assert!(said["kinds"][kind].as_u64().unwrap() > 9500, "{said}");
     }
+    // The world's bodies (none in the static scene) as often as its picture: 60 a second.
+    let bodies = said["kinds"]["bodies"].as_u64().unwrap();
+    assert!((500..=650).contains(&bodies), "{said}");
     // The state once a second and when it changes.
     assert!(
         (9..=12).contains(&said["kinds"]["state"].as_u64().unwrap()),
@@ -3076,14 +3082,14 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     assert_eq!(status["state"], "running");
     assert_eq!(status["rate"], 1000.0);
     assert_eq!(status["commands"], false);
-    // `ros2 node list` and `ros2 topic list` find the node and its six publishers.
+    // `ros2 node list` and `ros2 topic list` find the node and its seven publishers.
     let tokens: Vec<&str> = said["tokens"]
         .as_array()
         .unwrap()
         .iter()
         .map(|t| t.as_str().unwrap())
         .collect();
-    assert_eq!(tokens.len(), 7, "{tokens:?}");
+    assert_eq!(tokens.len(), 8, "{tokens:?}");
     assert!(
         tokens
             .iter()

@@ -1,7 +1,8 @@
 //! The messages hapticd publishes and takes, as ROS 2 defines them, each encoded in CDR and
 //! decoded from it: `builtin_interfaces/msg/Time`, `std_msgs/msg/Header`, and from
-//! `geometry_msgs/msg` `PoseStamped`, `WrenchStamped` and `TwistStamped`,
-//! `sensor_msgs/msg/JointState` (a device's strings) and `std_msgs/msg/String`.
+//! `geometry_msgs/msg` `PoseStamped`, `WrenchStamped`, `TwistStamped` and
+//! `PoseArray` (the world's bodies), `sensor_msgs/msg/JointState` (a device's strings) and
+//! `std_msgs/msg/String`.
 
 use crate::cdr::{DecodeError, Reader, Writer};
 
@@ -119,6 +120,47 @@ impl Message for PoseStamped {
             position: read_vector(from)?,
             orientation: [from.f64()?, from.f64()?, from.f64()?, from.f64()?],
         })
+    }
+}
+
+/// `geometry_msgs/msg/PoseArray`: the poses of several things in one frame (the world's
+/// bodies, in the order of their ids).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PoseArray {
+    /// When and in which frame.
+    pub header: Header,
+    /// Each pose: position, metres, and orientation (x, y, z, w).
+    pub poses: Vec<([f64; 3], [f64; 4])>,
+}
+
+impl Message for PoseArray {
+    const TYPE: &'static str = "geometry_msgs/msg/PoseArray";
+    const HASH: &'static str =
+        "RIHS01_af0cc36d190e104d546d168d6b39df04fa4b4ccecf59cb4c9ed328d3d5004aa0";
+
+    fn write(&self, out: &mut Writer) {
+        self.header.write(out);
+        out.sequence(self.poses.len());
+        for (position, orientation) in &self.poses {
+            write_vector(out, position);
+            for q in orientation {
+                out.f64(*q);
+            }
+        }
+    }
+
+    fn read(from: &mut Reader<'_>) -> Result<Self, DecodeError> {
+        let header = Header::read(from)?;
+        let n = from.sequence(7 * 8)?;
+        let poses = (0..n)
+            .map(|_| {
+                Ok((
+                    read_vector(from)?,
+                    [from.f64()?, from.f64()?, from.f64()?, from.f64()?],
+                ))
+            })
+            .collect::<Result<_, DecodeError>>()?;
+        Ok(Self { header, poses })
     }
 }
 
@@ -326,6 +368,11 @@ mod tests {
             data: "running".into(),
         };
         assert_eq!(StringMessage::decode(&text.encode()), Ok(text));
+        let bodies = PoseArray {
+            header: header("world"),
+            poses: vec![([0.0, 0.1, 0.2], [0.0, 0.0, 0.0, 1.0]); 3],
+        };
+        assert_eq!(PoseArray::decode(&bodies.encode()), Ok(bodies));
     }
 
     #[test]

@@ -1,10 +1,11 @@
 //! One device on the network: every `every`-th tick of its telemetry ring published as its
 //! effectors' poses, twists and wrenches and its strings' tensions (the tick number as each
-//! sample's sequence number in its attachment, as rmw_zenoh attaches it), its state when it
-//! changes and once a second, each touch as it happens, the node and its publishers announced
-//! by liveliness tokens as rmw_zenoh announces its own, and its status answered as JSON; with
-//! commands on, each effector's `wrench_command` topic taken into the device's wrench input.
-//! Beside the ROS 2 topics, the same ticks go whole under hapticd's own telemetry key.
+//! sample's sequence number in its attachment, as rmw_zenoh attaches it), and whole under
+//! hapticd's own telemetry key; its world's bodies whenever its picture of the world changes
+//! (60 times a second); its state when it changes and once a second; each touch as it
+//! happens. The node and its publishers are announced by liveliness tokens as rmw_zenoh
+//! announces its own, and its status is answered as JSON. With commands on, each effector's
+//! `wrench_command` topic goes into the device's wrench input.
 
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -13,12 +14,13 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::telemetry::Sample;
 use hapticd_core::transport::CHANNELS;
-use hapticd_core::world_state::state_of;
+use hapticd_core::world_state::{MAX_BODIES, WorldFrame, state_of};
 use hapticd_ipc::client::{ClientError, Device};
 use hapticd_ipc::touch_events::{Touch, TouchTracker};
 use hapticd_ros2::keys::{Node, attachment};
 use hapticd_ros2::messages::{
-    Header, JointState, Message, PoseStamped, StringMessage, Time, TwistStamped, WrenchStamped,
+    Header, JointState, Message, PoseArray, PoseStamped, StringMessage, Time, TwistStamped,
+    WrenchStamped,
 };
 use zenoh::Wait;
 
@@ -33,6 +35,9 @@ fn now_ns() -> u64 {
 
 /// How often the state is published when it does not change.
 const STATE_EVERY: Duration = Duration::from_secs(1);
+
+/// How often the world's picture is looked at for new body poses: twice its rate.
+const WORLD_EVERY: Duration = Duration::from_micros(8333);
 
 /// What went wrong bridging a device.
 #[derive(Debug)]
@@ -224,6 +229,7 @@ pub fn run(
         ));
     }
     let strings_publisher = entities.publisher::<JointState>(&topics.strings)?;
+    let bodies_publisher = entities.publisher::<PoseArray>(&topics.bodies)?;
     let state_publisher = entities.publisher::<StringMessage>(&topics.state)?;
     let touches_publisher = entities.publisher::<StringMessage>(&topics.touches)?;
     let telemetry_publisher = session
@@ -247,7 +253,12 @@ pub fn run(
             .effectors
             .iter()
             .flat_map(|t| [&t.pose, &t.twist, &t.wrench])
-            .chain([&topics.strings, &topics.state, &topics.touches])
+            .chain([
+                &topics.strings,
+                &topics.bodies,
+                &topics.state,
+                &topics.touches,
+            ])
             .map(|t| t.name.clone())
             .collect();
         names.sort();
@@ -279,6 +290,9 @@ pub fn run(
     let mut touches = TouchTracker::new();
     let mut waited = Instant::now();
     let mut state_said: Option<(u32, Instant)> = None;
+    let world = device.open_world()?;
+    let mut frame = Box::new(WorldFrame::empty());
+    let (mut world_seen, mut world_looked) = (None, Instant::now());
     let put = |publisher: &zenoh::pubsub::Publisher<'_>, bytes: Vec<u8>, attached: &[u8; 33]| {
         publisher
             .put(bytes)
@@ -287,6 +301,31 @@ pub fn run(
             .map_err(zenoh_error)
     };
     while until.is_none_or(|t| Instant::now() < t) {
+        if world_looked.elapsed() >= WORLD_EVERY {
+            world_looked = Instant::now();
+            if let Some(sequence) = world.read(&mut frame)
+                && world_seen != Some(sequence)
+            {
+                world_seen = Some(sequence);
+                let stamp = now_ns();
+                let n = (frame.body_count as usize).min(MAX_BODIES);
+                let bodies = PoseArray {
+                    header: Header {
+                        stamp: Time::from_nanos(stamp),
+                        frame_id: topics.frame.clone(),
+                    },
+                    poses: frame.bodies[..n]
+                        .iter()
+                        .map(|b| {
+                            let [w, x, y, z] = b.orientation;
+                            (b.position, [x, y, z, w])
+                        })
+                        .collect(),
+                };
+                let attached = attachment(sequence as i64 / 2, stamp as i64, &id);
+                put(&bodies_publisher, bodies.encode(), &attached)?;
+            }
+        }
         if !ring.next(&mut cursor, &mut sample) {
             if waited.elapsed() > Duration::from_secs(2) {
                 return Err(BridgeError::Client(ClientError::Stopped));

@@ -8,13 +8,14 @@
 //! | `/hapticd/<device>/<effector>/twist` | `geometry_msgs/msg/TwistStamped` | its velocity (angular: zero, not measured) |
 //! | `/hapticd/<device>/<effector>/wrench` | `geometry_msgs/msg/WrenchStamped` | the wrench displayed |
 //! | `/hapticd/<device>/strings` | `sensor_msgs/msg/JointState` | each string's tension (effort) |
+//! | `/hapticd/<device>/bodies` | `geometry_msgs/msg/PoseArray` | the world's bodies, by id, at the world's rate |
 //! | `/hapticd/<device>/state` | `std_msgs/msg/String` | running, fault, … |
 //! | `/hapticd/<device>/touches` | `std_msgs/msg/String` | each touch begun, ended, slipping (JSON) |
 //! | `/hapticd/<device>/<effector>/wrench_command` | `geometry_msgs/msg/WrenchStamped` | taken: added to the displayed wrench (commands on) |
 
 use hapticd_ros2::keys::topic_key;
 use hapticd_ros2::messages::{
-    JointState, Message, PoseStamped, StringMessage, TwistStamped, WrenchStamped,
+    JointState, Message, PoseArray, PoseStamped, StringMessage, TwistStamped, WrenchStamped,
 };
 
 /// A word of a ROS 2 name: letters, digits and underscores, not starting with a digit.
@@ -72,6 +73,8 @@ pub struct DeviceTopics {
     pub effectors: Vec<EffectorTopics>,
     /// Its strings' tensions.
     pub strings: Topic,
+    /// The poses of its world's bodies.
+    pub bodies: Topic,
     /// Its state.
     pub state: Topic,
     /// Its touches.
@@ -101,6 +104,7 @@ impl DeviceTopics {
                 })
                 .collect(),
             strings: Topic::new::<JointState>(domain, format!("{base}/strings")),
+            bodies: Topic::new::<PoseArray>(domain, format!("{base}/bodies")),
             state: Topic::new::<StringMessage>(domain, format!("{base}/state")),
             touches: Topic::new::<StringMessage>(domain, format!("{base}/touches")),
             device: word,
