@@ -460,13 +460,7 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     use hapticd::plugin_scene;
     // The finger comes to the block's near face (x = 0.03) and is pressed 5 mm into it,
     // pushing it (a grip that starts inside a solid feels nothing until it is out).
-    let outside = [Pointer {
-        pose: Pose {
-            position: DVec3::new(0.02, 0.02, 0.0),
-            ..Pose::default()
-        },
-        velocity: DVec3::ZERO,
-    }];
+    let outside = resting_at(DVec3::new(0.02, 0.02, 0.0));
     let pointers = [Pointer {
         pose: Pose {
             position: DVec3::new(0.035, 0.02, 0.0),
@@ -535,25 +529,33 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     assert!(proxy_x < pointers[0].pose.position.x - 1e-3, "{proxy_x}");
 }
 
+/// One pointer resting at `position`.
+fn resting_at(position: DVec3) -> [Pointer; 1] {
+    [Pointer {
+        pose: Pose {
+            position,
+            ..Pose::default()
+        },
+        velocity: DVec3::ZERO,
+    }]
+}
+
+/// The shipped blocks scene on the penalty plugin, through the real loader, for `pointers`.
+fn penalty_blocks(pointers: &[Pointer]) -> Box<dyn Scene> {
+    hapticd::plugin_scene::load(
+        &support::plugin_path("hapticd-scene-penalty"),
+        Some(&support::repo_dir().join("config/scenes/blocks.yaml")),
+        pointers,
+    )
+    .unwrap()
+}
+
 /// A direct scene's picture through the real loader: the penalty plugin writes its bodies'
 /// poses, the pointer's solid last, without allocating.
 #[test]
 fn the_bodies_of_a_penalty_plugin_are_pictured_without_allocating() {
-    use hapticd::plugin_scene;
-    let path = support::repo_dir().join("config/scenes/blocks.yaml");
-    let pointers = [Pointer {
-        pose: Pose {
-            position: DVec3::new(0.0, 0.05, 0.0),
-            ..Pose::default()
-        },
-        velocity: DVec3::ZERO,
-    }];
-    let mut scene = plugin_scene::load(
-        &support::plugin_path("hapticd-scene-penalty"),
-        Some(&path),
-        &pointers,
-    )
-    .unwrap();
+    let pointers = resting_at(DVec3::new(0.0, 0.05, 0.0));
+    let mut scene = penalty_blocks(&pointers);
     let mut wrenches = [Wrench::ZERO];
     let mut bodies = [HapticdBodyPose::default(); 16];
     let mut count = 0;
@@ -579,23 +581,10 @@ fn the_bodies_of_a_penalty_plugin_are_pictured_without_allocating() {
 /// pointer touches, allocating nothing, while another thread sends the commands.
 #[test]
 fn scene_commands_and_touches_of_a_penalty_plugin_do_not_allocate() {
-    use hapticd::plugin_scene;
     use hapticd_plugin_api::*;
-    let path = support::repo_dir().join("config/scenes/blocks.yaml");
     // The pointer's cube pressed 2 mm into the table, clear of the blocks.
-    let pointers = [Pointer {
-        pose: Pose {
-            position: DVec3::new(0.0, -0.027, -0.1),
-            ..Pose::default()
-        },
-        velocity: DVec3::ZERO,
-    }];
-    let mut scene = plugin_scene::load(
-        &support::plugin_path("hapticd-scene-penalty"),
-        Some(&path),
-        &pointers,
-    )
-    .unwrap();
+    let pointers = resting_at(DVec3::new(0.0, -0.027, -0.1));
+    let mut scene = penalty_blocks(&pointers);
     let mut control = scene.take_control().expect("the penalty plugin is driven");
     let sender = std::thread::spawn(move || {
         let mut command = |kind, fill: &dyn Fn(&mut HapticdSceneCommand)| {
@@ -644,13 +633,7 @@ fn refused_output(mode: &str) -> (usize, Option<OutputFault>, usize) {
     let path =
         support::scratch_root().join(format!("no-allocation-{}-{mode}.scene", std::process::id()));
     std::fs::write(&path, mode).unwrap();
-    let pointers = [Pointer {
-        pose: Pose {
-            position: DVec3::new(0.0, -0.04, 0.0),
-            ..Pose::default()
-        },
-        velocity: DVec3::ZERO,
-    }];
+    let pointers = resting_at(DVec3::new(0.0, -0.04, 0.0));
     let mut scene = hapticd::plugin_scene::load(
         &support::plugin_path("hapticd-test-bad-output-scene"),
         Some(&path),

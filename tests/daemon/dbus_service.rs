@@ -2932,14 +2932,26 @@ fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child
         }
         None => Command::new(artifact("hapticd-zenoh")),
     };
+    // Started as its unit starts it, Type=notify: used once it says it is ready, that is
+    // once every device's topics, commands and status are declared.
+    let socket = dir.join(format!("notify-{port}"));
+    let notified = std::os::unix::net::UnixDatagram::bind(&socket).unwrap();
+    std::fs::set_permissions(&socket, std::os::unix::fs::PermissionsExt::from_mode(0o777)).unwrap();
+    notified
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
     let bridge = command
         .arg("--config")
         .arg(&file)
         .args(["--bus", &bus.address, "--duration", "60"])
+        .env("NOTIFY_SOCKET", &socket)
         .spawn()
         .unwrap();
-    // The bridge needs a moment to listen.
-    std::thread::sleep(Duration::from_millis(1500));
+    let mut said = [0u8; 64];
+    let n = notified
+        .recv(&mut said)
+        .expect("hapticd-zenoh says READY=1");
+    assert_eq!(&said[..n], b"READY=1");
     (bridge, endpoint)
 }
 

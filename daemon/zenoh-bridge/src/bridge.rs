@@ -193,12 +193,14 @@ fn touch_json(touch: &Touch, effectors: &[String]) -> String {
 }
 
 /// Publish `device`'s ticks on `session` as `settings` say until `until` (for ever without
-/// one); answer its status all the while.
+/// one); answer its status all the while. `declared` is dropped once everything is declared
+/// (or the bridge failed first).
 pub fn run(
     session: &zenoh::Session,
     device: &Device,
     settings: Settings,
     until: Option<Instant>,
+    declared: std::sync::mpsc::Sender<()>,
 ) -> Result<(), BridgeError> {
     let identity = device.identity()?;
     let effectors = device.effectors()?;
@@ -300,6 +302,7 @@ pub fn run(
             .wait()
             .map_err(zenoh_error)
     };
+    drop(declared);
     while until.is_none_or(|t| Instant::now() < t) {
         if world_looked.elapsed() >= WORLD_EVERY {
             world_looked = Instant::now();

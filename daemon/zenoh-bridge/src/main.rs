@@ -20,7 +20,7 @@ use hapticd_service::cli::ZenohCli;
 use hapticd_service::logging::{self, Level};
 use zenoh::Wait;
 
-use crate::bridge::{BridgeError, Settings, zenoh_error};
+use crate::bridge::{BridgeError, Settings};
 use crate::config::NetworkConfig;
 
 /// The configuration file with the command line's overrides.
@@ -71,25 +71,22 @@ fn session(config: &NetworkConfig) -> Result<zenoh::Session, String> {
         .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
 }
 
+/// A queryable of command keys, its queries waiting in a channel.
+type CommandQueryable =
+    zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>;
+
 /// Answer commands until `until` (for ever without one): carried out on `devices` when
 /// `allowed`, refused otherwise.
 fn serve_commands(
-    session: &zenoh::Session,
+    queryables: &[CommandQueryable],
     hapticd: &Hapticd,
     devices: &[(String, hapticd_ipc::client::Device)],
     allowed: bool,
     until: Option<Instant>,
-) -> Result<(), BridgeError> {
-    let queryables = [
-        session.declare_queryable(topics::SET_COMMANDS).wait(),
-        session.declare_queryable(topics::SCENE_COMMANDS).wait(),
-    ]
-    .into_iter()
-    .collect::<Result<Vec<_>, _>>()
-    .map_err(zenoh_error)?;
+) {
     while until.is_none_or(|t| Instant::now() < t) {
         let mut idle = true;
-        for queryable in &queryables {
+        for queryable in queryables {
             let Ok(Some(query)) = queryable.try_recv() else {
                 continue;
             };
@@ -131,7 +128,6 @@ fn serve_commands(
             std::thread::sleep(Duration::from_millis(5));
         }
     }
-    Ok(())
 }
 
 fn run(cli: &ZenohCli) -> Result<(), String> {
@@ -153,13 +149,21 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
         config.rate,
         if config.commands { "taken" } else { "refused" }
     );
-    let _ = hapticd_service::sd_notify::notify("READY=1");
+    let queryables = [
+        session.declare_queryable(topics::SET_COMMANDS).wait(),
+        session.declare_queryable(topics::SCENE_COMMANDS).wait(),
+    ]
+    .into_iter()
+    .collect::<Result<Vec<_>, _>>()
+    .map_err(|e| format!("zenoh: {e}"))?;
     std::thread::scope(|scope| {
         let (session, hapticd, devices, config) = (&session, &hapticd, &devices, &config);
-        let mut threads: Vec<_> = devices
+        let (declared, ready) = std::sync::mpsc::channel();
+        let threads: Vec<_> = devices
             .iter()
             .enumerate()
             .map(|(k, (_, device))| {
+                let declared = declared.clone();
                 scope.spawn(move || {
                     let device_rate = device.open_telemetry()?.rate();
                     let settings = Settings {
@@ -168,13 +172,16 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
                         every: (device_rate / config.rate).round().max(1.0) as u64,
                         commands: config.commands,
                     };
-                    bridge::run(session, device, settings, until)
+                    bridge::run(session, device, settings, until, declared)
                 })
             })
             .collect();
-        threads.push(
-            scope.spawn(move || serve_commands(session, hapticd, devices, config.commands, until)),
-        );
+        drop(declared);
+        // Ready (for systemd and its tests) once every device answers its status, or one
+        // failed before it could.
+        while ready.recv().is_ok() {}
+        let _ = hapticd_service::sd_notify::notify("READY=1");
+        serve_commands(&queryables, hapticd, devices, config.commands, until);
         threads
             .into_iter()
             .map(|t| {

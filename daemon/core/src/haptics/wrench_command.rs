@@ -235,6 +235,7 @@ impl WrenchCommand {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use std::sync::Arc;
 
     struct Held(Arc<SharedWrenchCommand>);
@@ -252,6 +253,14 @@ mod tests {
             SharedWrenchCommand::init(b.as_mut_ptr());
             Arc::from(b.assume_init())
         }
+    }
+
+    /// A block, and a command reading it.
+    fn reading_a_block() -> (Arc<SharedWrenchCommand>, WrenchCommand) {
+        let shared = block();
+        let mut command = WrenchCommand::new();
+        assert!(command.replace(Box::new(Held(shared.clone()))).is_none());
+        (shared, command)
     }
 
     const DT: f64 = 1e-3;
@@ -277,13 +286,9 @@ mod tests {
         Wrench::force(DVec3::new(0.0, newtons, 0.0))
     }
 
-    use glam::DVec3;
-
     #[test]
     fn a_command_ramps_in_and_stays_while_it_keeps_coming() {
-        let shared = block();
-        let mut command = WrenchCommand::new();
-        assert!(command.replace(Box::new(Held(shared.clone()))).is_none());
+        let (shared, mut command) = reading_a_block();
         let seen = run(&mut command, 400, |_| shared.write(&[push(3.0)]));
         let resume = SafetyLimits::default().resume_ramp;
         // A ramp over the resume time: a third of the way after a third of it.
@@ -301,9 +306,7 @@ mod tests {
 
     #[test]
     fn a_command_that_stops_coming_goes_stale_and_ramps_out() {
-        let shared = block();
-        let mut command = WrenchCommand::new();
-        command.replace(Box::new(Held(shared.clone())));
+        let (shared, mut command) = reading_a_block();
         run(&mut command, 300, |_| shared.write(&[push(3.0)]));
         let seen = run(&mut command, 200, |_| {});
         let stale_at = seen
@@ -325,9 +328,7 @@ mod tests {
 
     #[test]
     fn hostile_commands_are_bounded_or_dropped() {
-        let shared = block();
-        let mut command = WrenchCommand::new();
-        command.replace(Box::new(Held(shared.clone())));
+        let (shared, mut command) = reading_a_block();
         let limits = SafetyLimits::default();
         let huge = Wrench::from_array([0.0, 1e300, 0.0, 0.0, 0.0, -1e300]);
         let seen = run(&mut command, 400, |_| shared.write(&[huge]));
@@ -350,9 +351,7 @@ mod tests {
 
     #[test]
     fn a_writer_that_holds_the_lock_sends_nothing() {
-        let shared = block();
-        let mut command = WrenchCommand::new();
-        command.replace(Box::new(Held(shared.clone())));
+        let (shared, mut command) = reading_a_block();
         run(&mut command, 300, |_| shared.write(&[push(2.0)]));
         // Odd for ever: as a writer that died mid-write leaves it.
         shared.sequence.fetch_or(1, Ordering::Release);
