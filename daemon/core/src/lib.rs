@@ -15,7 +15,7 @@
 //!    [`fault_hold`]: how long a failed scene must render well before it is trusted again.
 //! 7. [`world_state`]: the loop's world as pictures show it, shared with the renderer;
 //!    [`telemetry`]: every tick, in a ring other programs read; [`shared_header`]: what
-//!    both blocks start with.
+//!    both blocks start with; [`wire`]: bytes for other processes and machines.
 
 pub mod diagnostics;
 pub mod fault_hold;
@@ -31,4 +31,5 @@ pub mod stats;
 pub mod sync;
 pub mod telemetry;
 pub mod transport;
+pub mod wire;
 pub mod world_state;

@@ -15,6 +15,7 @@ use crate::haptic_loop::Frame;
 use crate::kinematics::MAX_EFFECTORS;
 use crate::shared_header::{Header, WrongLayout};
 use crate::transport::CHANNELS;
+use crate::wire::{Decoder, Encoder};
 use crate::world_state::{body_pose, state_code};
 
 /// First bytes of a telemetry ring, so that a reader knows what it mapped.
@@ -295,9 +296,9 @@ impl Sample {
     /// The sample as bytes for another machine: every field in order, little-endian, with no
     /// padding ([`ENCODED_SIZE`] bytes). The network bridge publishes ticks so.
     pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(ENCODED_SIZE);
-        out.extend_from_slice(&self.tick.to_le_bytes());
-        out.extend_from_slice(&self.time.to_le_bytes());
+        let mut out = Encoder::with_capacity(ENCODED_SIZE);
+        out.u64(self.tick);
+        out.f64s(&[self.time]);
         for v in [
             self.state,
             self.effectors,
@@ -305,28 +306,23 @@ impl Sample {
             self.contacts,
             self.slipping,
         ] {
-            out.extend_from_slice(&v.to_le_bytes());
+            out.u32(v);
         }
-        let doubles = |out: &mut Vec<u8>, values: &[f64]| {
-            for v in values {
-                out.extend_from_slice(&v.to_le_bytes());
-            }
-        };
         for k in 0..MAX_EFFECTORS {
-            out.extend_from_slice(&self.touched[k].to_le_bytes());
-            doubles(&mut out, &self.poses[k].position);
-            doubles(&mut out, &self.poses[k].orientation);
-            doubles(&mut out, &self.velocities[k]);
-            doubles(&mut out, &self.wrenches[k].force);
-            doubles(&mut out, &self.wrenches[k].torque);
-            doubles(&mut out, &self.touch_points[k]);
-            doubles(&mut out, &self.touch_normals[k]);
+            out.u32(self.touched[k]);
+            out.f64s(&self.poses[k].position);
+            out.f64s(&self.poses[k].orientation);
+            out.f64s(&self.velocities[k]);
+            out.f64s(&self.wrenches[k].force);
+            out.f64s(&self.wrenches[k].torque);
+            out.f64s(&self.touch_points[k]);
+            out.f64s(&self.touch_normals[k]);
         }
-        doubles(&mut out, &self.tensions);
+        out.f64s(&self.tensions);
         for d in &self.dac {
-            out.extend_from_slice(&d.to_le_bytes());
+            out.i16(*d);
         }
-        out
+        out.into_bytes()
     }
 
     /// A sample from the bytes [`Sample::encode`] wrote; None for any other length.
@@ -334,10 +330,10 @@ impl Sample {
         if bytes.len() != ENCODED_SIZE {
             return None;
         }
-        let mut from = Bytes { bytes, at: 0 };
+        let mut from = Decoder::new(bytes);
         let mut s = Sample::EMPTY;
-        s.tick = u64::from_le_bytes(from.take());
-        s.time = f64::from_le_bytes(from.take());
+        s.tick = from.u64()?;
+        [s.time] = from.array()?;
         for v in [
             &mut s.state,
             &mut s.effectors,
@@ -345,45 +341,23 @@ impl Sample {
             &mut s.contacts,
             &mut s.slipping,
         ] {
-            *v = u32::from_le_bytes(from.take());
+            *v = from.u32()?;
         }
         for k in 0..MAX_EFFECTORS {
-            s.touched[k] = u32::from_le_bytes(from.take());
-            from.doubles(&mut s.poses[k].position);
-            from.doubles(&mut s.poses[k].orientation);
-            from.doubles(&mut s.velocities[k]);
-            from.doubles(&mut s.wrenches[k].force);
-            from.doubles(&mut s.wrenches[k].torque);
-            from.doubles(&mut s.touch_points[k]);
-            from.doubles(&mut s.touch_normals[k]);
+            s.touched[k] = from.u32()?;
+            from.f64s(&mut s.poses[k].position)?;
+            from.f64s(&mut s.poses[k].orientation)?;
+            from.f64s(&mut s.velocities[k])?;
+            from.f64s(&mut s.wrenches[k].force)?;
+            from.f64s(&mut s.wrenches[k].torque)?;
+            from.f64s(&mut s.touch_points[k])?;
+            from.f64s(&mut s.touch_normals[k])?;
         }
-        from.doubles(&mut s.tensions);
+        from.f64s(&mut s.tensions)?;
         for d in &mut s.dac {
-            *d = i16::from_le_bytes(from.take());
+            *d = from.i16()?;
         }
         Some(s)
-    }
-}
-
-/// Encoded bytes being read, their length checked beforehand.
-struct Bytes<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Bytes<'_> {
-    fn take<const N: usize>(&mut self) -> [u8; N] {
-        let taken = self.bytes[self.at..self.at + N]
-            .try_into()
-            .expect("N bytes");
-        self.at += N;
-        taken
-    }
-
-    fn doubles(&mut self, out: &mut [f64]) {
-        for v in out {
-            *v = f64::from_le_bytes(self.take());
-        }
     }
 }
 

@@ -9,6 +9,8 @@
 //! - [`multirate`]: the haptic side of a world stepped at a low rate elsewhere (thesis
 //!   Ch. 6): interpolated planes, the proxy and the impulses handed back;
 //! - [`output_check`]: a plugin's planes and wrenches checked before they are used;
+//! - [`remote`]: a world stepped on another machine, and the messages that carry it;
+//!   [`world_link`]: the memory those messages pass through between daemon and bridge;
 //! - scenes from plugins, direct or multi-rate, live in the daemon (they load code).
 
 pub mod control;
@@ -16,7 +18,9 @@ pub mod engine;
 pub mod local_dynamics;
 pub mod multirate;
 pub mod output_check;
+pub mod remote;
 pub mod static_scene;
+pub mod world_link;
 
 use glam::DVec3;
 

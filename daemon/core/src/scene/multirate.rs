@@ -59,8 +59,9 @@ pub enum HandBack {
 }
 
 /// Hand-backs remembered until the physics says it took them in: more than the one period
-/// it lags by, for a physics thread that ran late.
-const PENDING: usize = 4;
+/// it lags by, for a physics thread that ran late or a world on another machine (at 60
+/// steps a second, half a second of round trip).
+const PENDING: usize = 32;
 
 /// The changes of one hand-back.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
