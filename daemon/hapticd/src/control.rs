@@ -25,6 +25,7 @@ use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
 use hapticd_ipc::telemetry_share::SharedTelemetryFile;
+use hapticd_ipc::world_link_share::{WorldLink, WorldLinkFile};
 use hapticd_ipc::world_share::SharedWorldFile;
 use hapticd_plugin_api::{
     HAPTICD_COMMAND_QUERY, HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION,
@@ -126,6 +127,7 @@ pub struct DeviceHandle {
     state_dir: Option<StateDir>,
     world: Option<SharedWorldFile>,
     ring: Option<SharedTelemetryFile>,
+    world_link: Option<WorldLinkFile>,
     fixed: Fixed,
     commands: Mutex<spsc::Producer<LoopCommand>>,
     telemetry: Mutex<Telemetry>,
@@ -172,6 +174,8 @@ pub struct DeviceSetup {
     pub world: Option<SharedWorldFile>,
     /// The ring the loop writes every tick into, if it could be made.
     pub telemetry: Option<SharedTelemetryFile>,
+    /// The link its remote scenes reach their world through, if it could be made.
+    pub world_link: Option<WorldLinkFile>,
     /// What the command line fixes for every start, whatever is bound or saved.
     pub fixed: Fixed,
     /// The control of the first scene's world, if it can be changed from outside.
@@ -202,6 +206,7 @@ impl DeviceHandle {
             state_dir: setup.state_dir,
             world: setup.world,
             ring: setup.telemetry,
+            world_link: setup.world_link,
             fixed: setup.fixed,
             commands: Mutex::new(commands),
             telemetry: Mutex::new(Telemetry::default()),
@@ -270,6 +275,21 @@ impl DeviceHandle {
         })?;
         ring.share()
             .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
+    }
+
+    /// A descriptor of the link through which the device's remote scenes reach their world
+    /// (read and write, for the network bridge).
+    pub fn open_world_link(&self) -> Result<std::os::fd::OwnedFd, Error> {
+        let link = self.world_link.as_ref().ok_or_else(|| {
+            Error::Unavailable(format!("{}: no world link (see the log)", self.identity))
+        })?;
+        link.share()
+            .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
+    }
+
+    /// The link its remote scenes use, if it has one.
+    pub fn world_link(&self) -> Option<&Arc<WorldLink>> {
+        self.world_link.as_ref().map(WorldLinkFile::link)
     }
 
     /// A new block of wrenches for the loop to add to the displayed ones, and the descriptor
@@ -645,6 +665,7 @@ impl Daemon {
         crate::scenes::available(crate::scenes::Places {
             dirs: &config.scene_dirs,
             plugin_dirs: &config.scene_plugin_dirs,
+            world_link: None,
         })
     }
 
@@ -718,12 +739,13 @@ impl Daemon {
             self.preparation.ready(file).map_err(Error::Preparing)?;
         }
         let config = lock(&self.inner).config.clone();
-        let places = crate::scenes::Places {
-            dirs: &config.scene_dirs,
-            plugin_dirs: &config.scene_plugin_dirs,
-        };
         let mut scenes = Vec::new();
         for device in &self.devices {
+            let places = crate::scenes::Places {
+                dirs: &config.scene_dirs,
+                plugin_dirs: &config.scene_plugin_dirs,
+                world_link: device.world_link(),
+            };
             scenes.push(
                 crate::scenes::open(scene, None, places, device.pointers(), device.rate())
                     .map_err(Error::Scene)?,

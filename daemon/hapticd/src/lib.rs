@@ -9,6 +9,7 @@
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
+//!    [`remote_scene`]: a world stepped on another machine, reached through the bridge;
 //!    [`received`]: scene files callers send by descriptor; [`preparation`]: the convex
 //!    pieces of a scene's meshes, cut before it switches in.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
@@ -30,5 +31,6 @@ pub mod plugin_scene;
 pub mod preparation;
 pub mod realtime;
 pub mod received;
+pub mod remote_scene;
 pub mod scenes;
 pub mod state;

@@ -106,15 +106,15 @@ impl Instance {
 
 /// The grips and where their proxies rest, as the haptic side last published them.
 #[derive(Debug, Clone, Copy)]
-struct Hands {
-    pointers: [HapticdPointer; MAX_EFFECTORS],
-    proxies: [HapticdPointer; MAX_EFFECTORS],
+pub(crate) struct Hands {
+    pub(crate) pointers: [HapticdPointer; MAX_EFFECTORS],
+    pub(crate) proxies: [HapticdPointer; MAX_EFFECTORS],
 }
 
 /// The physics thread's end of the hand-backs of one step.
-struct Taken {
-    impulses: Vec<HapticdImpulse>,
-    locals: Vec<HapticdLocalState>,
+pub(crate) struct Taken {
+    pub(crate) impulses: Vec<HapticdImpulse>,
+    pub(crate) locals: Vec<HapticdLocalState>,
 }
 
 impl Instance {
@@ -332,7 +332,7 @@ fn read_geometry(loaded: &plugin::LoadedPlugin, instance: &Instance) -> Result<G
 }
 
 /// The stepping side's end of a world's control: the requests, and where answers go.
-type Commands = (Incoming, spsc::Producer<Reply>);
+pub(crate) type Commands = (Incoming, spsc::Producer<Reply>);
 
 /// [main] The bodies of `instance`'s world as its plugin's control extension lists them,
 /// with the channel that changes them: the control plane's end and the stepping side's (None
@@ -499,10 +499,11 @@ impl Scene for DirectScene {
 
 /// The bodies as the last two physics steps left them, for pictures between steps.
 #[derive(Clone)]
-struct BodySet {
+pub(crate) struct BodySet {
     count: usize,
     before: Box<[HapticdBodyPose]>,
-    after: Box<[HapticdBodyPose]>,
+    /// Where the last step left them.
+    pub(crate) after: Box<[HapticdBodyPose]>,
 }
 
 impl BodySet {
@@ -516,7 +517,7 @@ impl BodySet {
 }
 
 /// A multi-rate scene: the plugin runs in a physics thread, the haptic side in the tick.
-struct MultiRateScene {
+pub(crate) struct MultiRateScene {
     name: String,
     geometry: Geometry,
     /// The control plane's end of its world's control, until taken.
@@ -544,14 +545,94 @@ struct MultiRateScene {
     faults_in: spsc::Consumer<OutputFault>,
     fault: Option<OutputFault>,
     stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
+    /// The thread that steps or receives the world.
+    pub(crate) thread: Option<JoinHandle<()>>,
+}
+
+/// The physics thread's ends of a multi-rate scene's channels, and what it publishes.
+pub(crate) struct PhysicsSide {
+    requests: spsc::Consumer<Request>,
+    /// The grips and proxies as the haptic side last published them.
+    pub(crate) hands_in: Reader<Hands>,
+    planes_out: Writer<PlaneSet>,
+    bodies_out: Writer<BodySet>,
+    hand_backs_in: spsc::Consumer<HandBack>,
+    faults_out: spsc::Producer<OutputFault>,
+    stop: Arc<AtomicBool>,
+    failed: Arc<AtomicBool>,
+    /// Steps taken, and how many fell behind the world's rate.
+    pub(crate) steps: Arc<(AtomicU64, AtomicU64)>,
+    /// Pointers of the scene.
+    pub(crate) pointers: usize,
+    /// The sequence of the last set published.
+    sequence: u64,
+    /// Where the bodies were after the last two steps; a step writes `after`.
+    pub(crate) bodies: BodySet,
+}
+
+impl PhysicsSide {
+    /// Whether the scene is being dropped.
+    pub(crate) fn stopping(&self) -> bool {
+        self.stop.load(Ordering::Acquire)
+    }
+
+    /// What the haptic side handed back since the last call, into `taken` (emptied first).
+    fn take_hand_backs(&mut self, taken: &mut Taken) {
+        taken.impulses.clear();
+        taken.locals.clear();
+        self.add_hand_backs(taken);
+    }
+
+    /// What the haptic side handed back since the last call, added to `taken`.
+    pub(crate) fn add_hand_backs(&mut self, taken: &mut Taken) {
+        while let Some(back) = self.hand_backs_in.pop() {
+            match back {
+                HandBack::Impulse(i) => taken.impulses.push(i),
+                HandBack::Local(l) => taken.locals.push(l),
+            }
+        }
+    }
+
+    /// Disable the scene, for `fault` when it is the world's output.
+    pub(crate) fn fail(&mut self, fault: Option<OutputFault>) {
+        if let Some(fault) = fault {
+            self.faults_out.push(fault);
+        }
+        self.failed.store(true, Ordering::Release);
+    }
+
+    /// Publish `set` as the next one, with the first `count` poses of `bodies.after`; planes
+    /// or bodies no world publishes disable the scene instead, as a failure does (false).
+    pub(crate) fn publish(&mut self, set: &mut PlaneSet, count: usize) -> bool {
+        let checked = check_planes(&set.planes[..self.pointers])
+            .and_then(|()| check_bodies(&set.bodies, set.body_count));
+        if let Err(fault) = checked {
+            self.fail(Some(fault));
+            return false;
+        }
+        self.sequence += 1;
+        set.sequence = self.sequence;
+        self.planes_out.publish(|out| *out = *set);
+        let bodies = &mut self.bodies;
+        if self.sequence == 1 {
+            bodies.before[..count].copy_from_slice(&bodies.after[..count]);
+        }
+        self.bodies_out.publish(|out| {
+            out.count = count;
+            out.before[..count].copy_from_slice(&bodies.before[..count]);
+            out.after[..count].copy_from_slice(&bodies.after[..count]);
+        });
+        std::mem::swap(&mut bodies.before, &mut bodies.after);
+        bodies.after[..count].copy_from_slice(&bodies.before[..count]);
+        true
+    }
 }
 
 impl MultiRateScene {
-    /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
-    fn start(
+    /// The haptic side of a world at `rate` Hz for `pointers`, and the physics side's ends;
+    /// no thread yet.
+    pub(crate) fn new(
         name: String,
-        instance: Instance,
         (geometry, control, commands, object_bodies): (
             Geometry,
             Option<SceneControl>,
@@ -560,99 +641,41 @@ impl MultiRateScene {
         ),
         rate: f64,
         pointers: &[Pointer],
-    ) -> std::io::Result<Self> {
-        let (incoming, mut replies) = commands.unzip();
-        let (to_physics, mut requests) = spsc::channel(16);
-        let n = pointers.len();
+    ) -> (Self, PhysicsSide, Option<spsc::Producer<Reply>>) {
+        let (incoming, replies) = commands.unzip();
+        let (to_physics, requests) = spsc::channel(16);
         let mut initial = [HapticdPointer::default(); MAX_EFFECTORS];
         for (out, p) in initial.iter_mut().zip(pointers) {
             *out = p.to_abi();
         }
-        let (hands_out, mut hands_in) = triple_buffer::triple_buffer(Hands {
+        let (hands_out, hands_in) = triple_buffer::triple_buffer(Hands {
             pointers: initial,
             proxies: initial,
         });
-        let (mut planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
-        let (mut bodies_out, bodies_in) = triple_buffer::triple_buffer(BodySet::new());
-        let (hand_backs, mut hand_backs_in) = spsc::channel(1024);
-        let (mut faults_out, faults_in) = spsc::channel(1);
+        let (planes_out, planes_in) = triple_buffer::triple_buffer(PlaneSet::default());
+        let (bodies_out, bodies_in) = triple_buffer::triple_buffer(BodySet::new());
+        let (hand_backs, hand_backs_in) = spsc::channel(1024);
+        let (faults_out, faults_in) = spsc::channel(1);
         let (stop, failed) = (
             Arc::new(AtomicBool::new(false)),
             Arc::new(AtomicBool::new(false)),
         );
-        let (stop_flag, failed_flag) = (stop.clone(), failed.clone());
         let steps = Arc::new((AtomicU64::new(0), AtomicU64::new(0)));
-        let counts = steps.clone();
-        let period_ns = (1e9 / rate) as u64;
-        let scene = name.clone();
-        let thread = std::thread::Builder::new()
-            .name("hapticd-physics".into())
-            .spawn(move || {
-                // Off the haptic CPUs like every helper, and real-time only while its steps
-                // fit its budget.
-                let mut pacer = Pacer::new(scene, period_ns);
-                // Move the whole instance in (not just its fields): it is destroyed with it.
-                let instance = instance;
-                let mut taken = Taken {
-                    impulses: Vec::with_capacity(1024),
-                    locals: Vec::with_capacity(1024),
-                };
-                let mut set = PlaneSet::default();
-                let mut bodies = BodySet::new();
-                let mut sequence = 0;
-                while !stop_flag.load(Ordering::Acquire) {
-                    if let Some(replies) = &mut replies {
-                        while let Some(request) = requests.pop() {
-                            instance.carry_out(&request, replies);
-                        }
-                    }
-                    taken.impulses.clear();
-                    taken.locals.clear();
-                    while let Some(back) = hand_backs_in.pop() {
-                        match back {
-                            HandBack::Impulse(i) => taken.impulses.push(i),
-                            HandBack::Local(l) => taken.locals.push(l),
-                        }
-                    }
-                    let hands = *hands_in.latest();
-                    let started = monotonic_ns();
-                    let status =
-                        instance.step(period_ns as f64 * 1e-9, n, &hands, &taken, &mut set);
-                    set.step = (monotonic_ns() - started) as f64 * 1e-9;
-                    set.yielding = pacer.judge();
-                    if status != HAPTICD_OK {
-                        failed_flag.store(true, Ordering::Release);
-                        return;
-                    }
-                    // Planes or bodies no world publishes disable the plugin, as a failure
-                    // does.
-                    let checked = check_planes(&set.planes[..n])
-                        .and_then(|()| check_bodies(&set.bodies, set.body_count));
-                    if let Err(fault) = checked {
-                        faults_out.push(fault);
-                        failed_flag.store(true, Ordering::Release);
-                        return;
-                    }
-                    sequence += 1;
-                    set.sequence = sequence;
-                    planes_out.publish(|out| *out = set);
-                    std::mem::swap(&mut bodies.before, &mut bodies.after);
-                    let count = instance.poses(&mut bodies.after).min(MAX_BODIES);
-                    if sequence == 1 {
-                        bodies.before[..count].copy_from_slice(&bodies.after[..count]);
-                    }
-                    bodies_out.publish(|set| {
-                        set.count = count;
-                        set.before[..count].copy_from_slice(&bodies.before[..count]);
-                        set.after[..count].copy_from_slice(&bodies.after[..count]);
-                    });
-                    if pacer.rest() {
-                        counts.1.fetch_add(1, Ordering::Relaxed);
-                    }
-                    counts.0.fetch_add(1, Ordering::Relaxed);
-                }
-            })?;
-        Ok(Self {
+        let physics = PhysicsSide {
+            requests,
+            hands_in,
+            planes_out,
+            bodies_out,
+            hand_backs_in,
+            faults_out,
+            stop: stop.clone(),
+            failed: failed.clone(),
+            steps: steps.clone(),
+            pointers: pointers.len(),
+            sequence: 0,
+            bodies: BodySet::new(),
+        };
+        let scene = Self {
             name,
             geometry,
             control,
@@ -672,8 +695,67 @@ impl MultiRateScene {
             faults_in,
             fault: None,
             stop,
-            thread: Some(thread),
-        })
+            thread: None,
+        };
+        (scene, physics, replies)
+    }
+
+    /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
+    fn start(
+        name: String,
+        instance: Instance,
+        parts: (Geometry, Option<SceneControl>, Option<Commands>, Vec<u32>),
+        rate: f64,
+        pointers: &[Pointer],
+    ) -> std::io::Result<Self> {
+        let (mut scene, mut physics, mut replies) = Self::new(name, parts, rate, pointers);
+        let n = pointers.len();
+        let period_ns = (1e9 / rate) as u64;
+        let name = scene.name.clone();
+        scene.thread = Some(
+            std::thread::Builder::new()
+                .name("hapticd-physics".into())
+                .spawn(move || {
+                    // Off the haptic CPUs like every helper, and real-time only while its
+                    // steps fit its budget.
+                    let mut pacer = Pacer::new(name, period_ns);
+                    // Move the whole instance in (not just its fields): it is destroyed with
+                    // it.
+                    let instance = instance;
+                    let mut taken = Taken {
+                        impulses: Vec::with_capacity(1024),
+                        locals: Vec::with_capacity(1024),
+                    };
+                    let mut set = PlaneSet::default();
+                    while !physics.stopping() {
+                        if let Some(replies) = &mut replies {
+                            while let Some(request) = physics.requests.pop() {
+                                instance.carry_out(&request, replies);
+                            }
+                        }
+                        physics.take_hand_backs(&mut taken);
+                        let hands = *physics.hands_in.latest();
+                        let started = monotonic_ns();
+                        let status =
+                            instance.step(period_ns as f64 * 1e-9, n, &hands, &taken, &mut set);
+                        set.step = (monotonic_ns() - started) as f64 * 1e-9;
+                        set.yielding = pacer.judge();
+                        if status != HAPTICD_OK {
+                            physics.fail(None);
+                            return;
+                        }
+                        let count = instance.poses(&mut physics.bodies.after).min(MAX_BODIES);
+                        if !physics.publish(&mut set, count) {
+                            return;
+                        }
+                        if pacer.rest() {
+                            physics.steps.1.fetch_add(1, Ordering::Relaxed);
+                        }
+                        physics.steps.0.fetch_add(1, Ordering::Relaxed);
+                    }
+                })?,
+        );
+        Ok(scene)
     }
 }
 

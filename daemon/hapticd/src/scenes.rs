@@ -2,17 +2,21 @@
 //! the configured directories. Of a scene file the daemon reads only its engine
 //! ([`engine_of`]): static solids it renders itself; any other engine's files run on the scene
 //! plugin `libhapticd_scene_ENGINE.so` that declares that engine (the plugin's
-//! [`HAPTICD_EXT_SCENE_FILES`] extension), which checks them, too.
+//! [`HAPTICD_EXT_SCENE_FILES`] extension), which checks them, too. A file of
+//! `engine: remote` is a world on another machine ([`crate::remote_scene`]).
 
 use std::ffi::{CStr, CString, c_char};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::engine::{Engine, engine_of};
+use hapticd_core::scene::remote::{self, RemoteSceneSpec};
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_core::scene::{Pointer, Scene};
+use hapticd_ipc::world_link_share::WorldLink;
 use hapticd_plugin_api::{HAPTICD_EXT_SCENE_FILES, HAPTICD_OK, HapticdSceneFiles};
 
 use crate::plugin;
@@ -62,6 +66,9 @@ pub struct Places<'a> {
     pub dirs: &'a [PathBuf],
     /// Directories of scene plugins, for the engines of physics scene files.
     pub plugin_dirs: &'a [PathBuf],
+    /// The device's link to the network bridge, for scenes whose world is on another
+    /// machine (none: such scenes are refused).
+    pub world_link: Option<&'a Arc<WorldLink>>,
 }
 
 /// [main] The scene `name` for `pointers`, to render at `rate` Hz: a scene plugin (`.so`,
@@ -267,6 +274,9 @@ fn find(
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Refused);
     }
     let engine = engine_of(&path).map_err(OpenError::Invalid)?;
+    if engine == Engine::Plugin(remote::ENGINE.into()) {
+        return open_remote(&path, places, pointers);
+    }
     let Engine::Plugin(engine) = engine else {
         let spec = StaticSceneSpec::load_with_meshes(&path, &hapticd_mesh::scene_triangles)
             .map_err(OpenError::Invalid)?;
@@ -281,10 +291,38 @@ fn find(
     crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Refused)
 }
 
+/// The scene of remote scene file `path`: a world on another machine, through the device's
+/// link to the bridge.
+fn open_remote(
+    path: &Path,
+    places: Places,
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, OpenError> {
+    let text = hapticd_core::diagnostics::read_text(path).map_err(OpenError::Invalid)?;
+    let spec = RemoteSceneSpec::parse(&text, path).map_err(OpenError::Invalid)?;
+    let link = places.world_link.ok_or_else(|| {
+        OpenError::Refused(format!(
+            "{}: its world is on another machine, and this device has no link to the network \
+             bridge (see the log)",
+            path.display()
+        ))
+    })?;
+    let name = path
+        .file_stem()
+        .map_or("remote".into(), |s| s.to_string_lossy().into_owned());
+    crate::remote_scene::open(name, &spec, link.clone(), pointers).map_err(|e| {
+        OpenError::Refused(format!("{}: cannot start its thread: {e}", path.display()))
+    })
+}
+
 /// Names of the usable scene files in `dirs`, first directory first, without repeats: static
 /// ones that load, and those a plugin in `plugin_dirs` runs and finds sound.
 pub fn available(places: Places) -> Vec<String> {
     let usable = |path: &Path| match engine_of(path) {
+        Ok(Engine::Plugin(engine)) if engine == remote::ENGINE => {
+            hapticd_core::diagnostics::read_text(path)
+                .is_ok_and(|text| RemoteSceneSpec::parse(&text, path).is_ok())
+        }
         Ok(Engine::Static) => {
             StaticSceneSpec::load_with_meshes(path, &hapticd_mesh::scene_triangles).is_ok()
         }

@@ -31,6 +31,7 @@ use crate::names::{BUS_NAME, DEVICE_INTERFACE, ERROR_PREFIX};
 use crate::proxies::{DeviceProxy, ManagerProxy, SceneProxy};
 use crate::shared_memory::MapError;
 use crate::telemetry_share::{Cursor, MappedTelemetry};
+use crate::world_link_share::WorldLink;
 use crate::world_share::MappedWorld;
 use crate::wrench_share::MappedWrenchInput;
 
@@ -261,6 +262,13 @@ impl Device {
     pub fn open_wrench_input(&self) -> Result<MappedWrenchInput, ClientError> {
         let fd = zbus::block_on(self.proxy.open_wrench_input(HashMap::new()))?;
         MappedWrenchInput::open(&fd.into()).map_err(ClientError::Memory)
+    }
+
+    /// The link of the device's remote scenes to a world on another machine (root and the
+    /// hapticd group only); see [`WorldLink`].
+    pub fn open_world_link(&self) -> Result<WorldLink, ClientError> {
+        let fd = zbus::block_on(self.proxy.open_world_link(HashMap::new()))?;
+        WorldLink::open(&fd.into()).map_err(ClientError::Memory)
     }
 
     /// The device's picture of the world (its grips, strings and the scene's bodies, as

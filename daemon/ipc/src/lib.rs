@@ -14,6 +14,8 @@
 //! - [`touch_events`]: touches begun, ended and slipping, found in those ticks;
 //! - [`wrench_share`]: the wrench commanded from outside, which `OpenWrenchInput` hands out
 //!   to be written;
+//! - [`world_link_share`]: the link through which a device's remote scene and the network
+//!   bridge exchange a world stepped on another machine (`OpenWorldLink`);
 //! - [`frame_ring`]: the ring of frames the renderer's `OpenFrameStream` hands out;
 //! - [`shared_memory`]: the sealed memfds both are made of.
 //!
@@ -45,6 +47,7 @@ pub mod proxies;
 pub mod shared_memory;
 pub mod telemetry_share;
 pub mod touch_events;
+pub mod world_link_share;
 pub mod world_share;
 pub mod wrench_share;
 

@@ -188,6 +188,12 @@ pub trait Device {
         &self,
         options: std::collections::HashMap<&str, zbus::Variant<'_>>,
     ) -> zbus::Result<OwnedFd>;
+    /// The link of the device's remote scenes to their world, read and written by the
+    /// network bridge: map it with [`crate::world_link_share::WorldLink`].
+    fn open_world_link(
+        &self,
+        options: std::collections::HashMap<&str, zbus::Variant<'_>>,
+    ) -> zbus::Result<OwnedFd>;
     /// What became of the commanded wrench: none, waiting, active or stale.
     #[zbus(property)]
     fn wrench_command(&self) -> zbus::Result<String>;

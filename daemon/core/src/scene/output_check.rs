@@ -143,6 +143,11 @@ pub enum OutputFault {
         /// The body's number.
         body: u32,
     },
+    /// A world host's update that is no whole update (a remote scene's).
+    Undecodable {
+        /// Its length, bytes.
+        bytes: usize,
+    },
     /// A wrench is not finite.
     WrenchNotFinite {
         /// The pointer.
@@ -236,6 +241,10 @@ impl std::fmt::Display for OutputFault {
                 f,
                 "local body {index}: it moves at {speed:.3e} m/s and turns at {spin:.3e} rad/s, \
                  beyond {MAX_SURFACE_SPEED} m/s or {MAX_SPIN} rad/s"
+            ),
+            Self::Undecodable { bytes } => write!(
+                f,
+                "a world update of {bytes} bytes that is no whole update of a world host"
             ),
             Self::DuplicateBody { body } => {
                 write!(f, "body {body} is twice among the locally moved bodies")

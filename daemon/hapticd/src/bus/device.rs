@@ -429,6 +429,34 @@ device_interface! {
         Ok(result?.into())
     }
 
+    /// The link through which the device's remote scenes (`engine: remote`) reach a world
+    /// stepped on another machine: a memfd, readable and writable by the caller (the network
+    /// bridge), holding the latest world update and a ring of the device's messages to the
+    /// world, each under a sequence lock (the layout is
+    /// `hapticd_core::scene::world_link::SharedWorldLink`). What the caller delivers is
+    /// checked as a plugin's planes are; a world that stops coming fades. Every call hands out
+    /// the same link. `options` takes no key yet.
+    async fn open_world_link(
+        &self,
+        options: HashMap<String, zbus::OwnedVariant>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<zbus::OwnedFd, BusError> {
+        let result = match options.keys().next() {
+            Some(key) => Err(crate::control::Error::OutOfRange(format!(
+                "OpenWorldLink takes no option {key:?}"
+            ))),
+            None => self.device.open_world_link(),
+        };
+        let who = caller(connection, Some(&header)).await;
+        audit(
+            &format!("open the world link of {}", self.device.identity()),
+            &who,
+            &result.as_ref().map(|_| ()),
+        );
+        Ok(result?.into())
+    }
+
     /// Take the counter offsets now, with every grip held at its calibration pose; they are
     /// saved and restored when the device returns or the daemon restarts.
     async fn calibrate(

@@ -28,6 +28,7 @@ use hapticd_device::hotplug::Reconnector;
 use hapticd_device::replay::{self, Transfer};
 use hapticd_device::sim::hand::Script;
 use hapticd_ipc::telemetry_share::SharedTelemetryFile;
+use hapticd_ipc::world_link_share::WorldLinkFile;
 use hapticd_ipc::world_share::SharedWorldFile;
 
 use crate::saved::{load_record, set_aside};
@@ -108,9 +109,13 @@ pub fn start(
     let (traffic, reconnector) = watch(&kind, slot, common, recording.traffic, &mut writers)?;
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
     let pointers = Pointer::at_calibration(&mechanism);
+    let world_link = WorldLinkFile::create()
+        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
+        .ok();
     let places = scenes::Places {
         dirs: &common.config.scene_dirs,
         plugin_dirs: &common.config.scene_plugin_dirs,
+        world_link: world_link.as_ref().map(WorldLinkFile::link),
     };
     let mut scene = scenes::open(common.scene, common.scene_file, places, &pointers, rate)
         .map_err(|e| e.to_string())?;
@@ -185,6 +190,7 @@ pub fn start(
             defaults,
             world,
             telemetry,
+            world_link,
             fixed: Fixed {
                 mechanism: common.sim.is_some(),
                 rate: common.rate.is_some(),
