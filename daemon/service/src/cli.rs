@@ -113,3 +113,39 @@ pub struct ZenohCli {
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
 }
+
+/// A world stepped here and touched from other machines.
+///
+/// hapticd-world runs a rapier scene file's world for the devices of every hapticd whose
+/// network bridge names this world (`world:` in its network.yaml) and whose scene is a
+/// remote one (`engine: remote`): each step it sends every such device the planes near its
+/// grips and the bodies it moves itself (thesis 6.5.4), and takes back the impulses and
+/// local changes their hands gave the world. Its state (bodies, hosts, energy) answers the
+/// query hapticd/world/NAME/status. It listens on the loopback only unless configured
+/// otherwise.
+#[derive(Parser)]
+#[command(name = "hapticd-world", version)]
+pub struct WorldCli {
+    /// The scene file of the world (a rapier scene: `engine: rapier`).
+    pub scene: PathBuf,
+    /// Configuration file for the Zenoh side (network.yaml's listen, connect and zenoh;
+    /// default: /etc/hapticd/network.yaml when it exists).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Where to listen for bridges, in Zenoh's endpoint form (repeatable; overrides the
+    /// configuration's `listen`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Endpoints to reach (repeatable; overrides the configuration's `connect`).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// The world's name on the network (default: the scene file's name).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Grips the world has room for, over all hosts.
+    #[arg(long, default_value_t = 8)]
+    pub pointers: usize,
+    /// Run this many seconds, then exit cleanly.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+}

@@ -1,6 +1,6 @@
 //! The bridge's configuration (`/etc/hapticd/network.yaml`): where to listen and connect, the
-//! ROS domain, the publishing rate, whether commands are taken, and the administrator's own
-//! Zenoh configuration. Unknown keys and values out of range are refused with the file's name.
+//! ROS domain, the publishing rate, whether commands are taken, the shared world its devices'
+//! remote scenes reach, and the administrator's own Zenoh configuration. Unknown keys and values out of range are refused with the file's name.
 
 use std::path::{Path, PathBuf};
 
@@ -29,6 +29,9 @@ pub struct NetworkConfig {
     pub commands: bool,
     /// The administrator's Zenoh configuration file (JSON5).
     pub zenoh: Option<PathBuf>,
+    /// The world (of `hapticd-world --name`) whose updates the bridge carries to its devices'
+    /// remote scenes (`engine: remote`), and their grips back; none: no world is carried.
+    pub world: Option<String>,
 }
 
 impl Default for NetworkConfig {
@@ -40,6 +43,7 @@ impl Default for NetworkConfig {
             rate: 100.0,
             commands: false,
             zenoh: None,
+            world: None,
         }
     }
 }
@@ -85,6 +89,13 @@ impl NetworkConfig {
         {
             return Err("listen, connect: an endpoint is empty".into());
         }
+        if let Some(world) = &self.world
+            && !crate::world_keys::is_name(world)
+        {
+            return Err(format!(
+                "world: {world:?} is no world's name (letters, digits, - and _)"
+            ));
+        }
         Ok(())
     }
 }
@@ -123,6 +134,8 @@ mod tests {
             "commands: yes please\n",
             "comands: true\n",
             "rate: [1, 2]\n",
+            "world: 'a/b'\n",
+            "world: '*'\n",
         ]
         .iter()
         .enumerate()

@@ -8,8 +8,8 @@
 
 mod bridge;
 mod commands;
-mod config;
 mod topics;
+mod world_relay;
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -21,7 +21,8 @@ use hapticd_service::logging::{self, Level};
 use zenoh::Wait;
 
 use crate::bridge::{BridgeError, Settings};
-use crate::config::NetworkConfig;
+use hapticd_zenoh::config::NetworkConfig;
+use hapticd_zenoh::session;
 
 /// The configuration file with the command line's overrides.
 fn configuration(cli: &ZenohCli) -> Result<NetworkConfig, String> {
@@ -39,36 +40,6 @@ fn configuration(cli: &ZenohCli) -> Result<NetworkConfig, String> {
         .check()
         .map_err(|e| format!("the command line: {e}"))?;
     Ok(config)
-}
-
-/// The Zenoh session: a peer on the configured endpoints, not looking for others by
-/// multicast (nothing leaves the machine unless an endpoint says so), built on the
-/// administrator's own Zenoh configuration when one is named.
-fn session(config: &NetworkConfig) -> Result<zenoh::Session, String> {
-    let mut zenoh_config = match &config.zenoh {
-        Some(path) => {
-            zenoh::Config::from_file(path).map_err(|e| format!("{}: {e}", path.display()))?
-        }
-        None => zenoh::Config::default(),
-    };
-    let mut set = |key: &str, value: String| {
-        zenoh_config
-            .insert_json5(key, &value)
-            .map_err(|e| format!("{key}: {e}"))
-    };
-    set("mode", "\"peer\"".into())?;
-    set(
-        "listen/endpoints",
-        serde_json::json!(config.listen).to_string(),
-    )?;
-    set(
-        "connect/endpoints",
-        serde_json::json!(config.connect).to_string(),
-    )?;
-    set("scouting/multicast/enabled", "false".into())?;
-    zenoh::open(zenoh_config)
-        .wait()
-        .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
 }
 
 /// A queryable of command keys, its queries waiting in a channel.
@@ -140,7 +111,7 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
     let hapticd = Hapticd::connect(&cli.bus).map_err(|e| e.to_string())?;
     let devices = commands::device_words(hapticd.devices().map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;
-    let session = session(&config)?;
+    let session = session::open(&config)?;
     tracing::info!(
         "publishing {} device(s) on {:?}, ROS domain {}, {} samples/s; commands {}",
         devices.len(),
@@ -176,6 +147,16 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
                 })
             })
             .collect();
+        let relays: Vec<_> = match &config.world {
+            Some(world) => devices
+                .iter()
+                .map(|(word, device)| {
+                    let host = format!("{}-{word}", session.zid());
+                    scope.spawn(move || world_relay::run(session, device, world, &host, until))
+                })
+                .collect(),
+            None => Vec::new(),
+        };
         drop(declared);
         // Ready (for systemd and its tests) once every device answers its status, or one
         // failed before it could.
@@ -184,6 +165,7 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
         serve_commands(&queryables, hapticd, devices, config.commands, until);
         threads
             .into_iter()
+            .chain(relays)
             .map(|t| {
                 t.join()
                     .unwrap_or_else(|_| Err(BridgeError::Zenoh("a thread panicked".into())))
