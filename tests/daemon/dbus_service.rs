@@ -2934,25 +2934,29 @@ fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child
     };
     // Started as its unit starts it, Type=notify: used once it says it is ready, that is
     // once every device's topics, commands and status are declared.
-    let socket = dir.join(format!("notify-{port}"));
-    let notified = std::os::unix::net::UnixDatagram::bind(&socket).unwrap();
-    std::fs::set_permissions(&socket, std::os::unix::fs::PermissionsExt::from_mode(0o777)).unwrap();
+    command
+        .arg("--config")
+        .arg(&file)
+        .args(["--bus", &bus.address, "--duration", "60"]);
+    let bridge = spawn_ready(command, &dir.join(format!("notify-{port}")));
+    (bridge, endpoint)
+}
+
+/// `command` spawned as a unit of Type=notify starts it, with a notification socket at
+/// `socket`; returned once it says READY=1 (within 30 s).
+fn spawn_ready(mut command: Command, socket: &Path) -> Child {
+    let notified = std::os::unix::net::UnixDatagram::bind(socket).unwrap();
+    std::fs::set_permissions(socket, std::os::unix::fs::PermissionsExt::from_mode(0o777)).unwrap();
     notified
         .set_read_timeout(Some(Duration::from_secs(30)))
         .unwrap();
-    let bridge = command
-        .arg("--config")
-        .arg(&file)
-        .args(["--bus", &bus.address, "--duration", "60"])
-        .env("NOTIFY_SOCKET", &socket)
-        .spawn()
-        .unwrap();
+    let child = command.env("NOTIFY_SOCKET", socket).spawn().unwrap();
     let mut said = [0u8; 64];
     let n = notified
         .recv(&mut said)
-        .expect("hapticd-zenoh says READY=1");
+        .unwrap_or_else(|e| panic!("{command:?} says READY=1: {e}"));
     assert_eq!(&said[..n], b"READY=1");
-    (bridge, endpoint)
+    child
 }
 
 /// The real Zenoh Python client running `script` against `endpoint` (`sys.argv[1]`, `args`
@@ -3695,4 +3699,210 @@ fn the_running_world_is_driven_from_outside_under_both_engines_and_hostile_value
     assert!(refused.contains("FixedBody"), "{refused}");
     let (code, _) = said(&["body", "pose", "block", "0", "0"]);
     assert_eq!(code, Some(2), "two numbers for three");
+}
+
+/// The shared world of the two-host test: a light block (0.1 kg: what a constraint engine
+/// used to fling) on a floor, stepped by rapier at 60 Hz with local dynamics.
+const SHARED_WORLD: &str = "name: shared
+engine: rapier
+rate: 60
+feedback: local
+material: { static_friction: 0.3, friction: 0.3 }
+bodies:
+  - { name: floor, box: [0.4, 0.02, 0.4], position: [0, -0.05, 0], fixed: true }
+  - { name: block, box: [0.04, 0.04, 0.04], position: [0, -0.02, 0], density: 1562.5 }
+pointer:
+  sphere: 0.005
+";
+
+/// A finger at height -0.02 and depth `z`, held clear of the block (its near face at
+/// x = -0.02) while the hosts find the world, then in to the face and pushing it 3 cm along
+/// +x at 1.5 cm/s, then holding against it.
+fn pushing_hand(z: f64) -> String {
+    format!(
+        "hands:
+  grip:
+    - hold: {{ at: [-0.06, -0.02, {z}], seconds: 4 }}
+    - move: {{ to: [-0.027, -0.02, {z}], seconds: 1 }}
+    - move: {{ to: [0.003, -0.02, {z}], seconds: 2 }}
+    - hold: {{ seconds: 30 }}
+"
+    )
+}
+
+/// What one host of the shared world saw of it: the energy its device gave the hand
+/// (∫ F·v dt; negative: the hand put it in), the ticks it pushed with more than 0.1 N, and at
+/// the end its picture of the block and where its proxy rests.
+struct HostView {
+    given: f64,
+    pushing: usize,
+    block: DVec3,
+    proxy: DVec3,
+}
+
+/// Follow host `address`'s first device for `seconds`: its ticks, then its picture.
+fn follow_host(address: &str, seconds: f64) -> HostView {
+    use hapticd_core::telemetry::Sample;
+    use hapticd_core::world_state::WorldFrame;
+    let client =
+        hapticd_ipc::client::Hapticd::connect(&hapticd_ipc::bus::Bus::Address(address.into()))
+            .unwrap();
+    let device = &client.devices().unwrap()[0];
+    let ring = device.open_telemetry().unwrap();
+    let dt = 1.0 / ring.rate();
+    let mut cursor = ring.from_now();
+    let (mut sample, mut given, mut pushing) = (Sample::EMPTY, 0.0, 0);
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    while Instant::now() < end {
+        while ring.next(&mut cursor, &mut sample) {
+            let force = DVec3::from(sample.wrenches[0].force);
+            given += force.dot(DVec3::from(sample.velocities[0])) * dt;
+            pushing += usize::from(force.x < -0.1);
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let world = device.open_world().unwrap();
+    let mut frame = WorldFrame::empty();
+    while world.read(&mut frame).is_none() {}
+    assert_eq!(frame.has_proxies, 1, "a remote scene shows its proxies");
+    HostView {
+        given,
+        pushing,
+        block: DVec3::from(frame.bodies[1].position),
+        proxy: DVec3::from(frame.proxies[0]),
+    }
+}
+
+/// Thesis Fig. 6.13 over a network: one rapier world on a world host (`hapticd-world`),
+/// touched by the simulated devices of two hapticd, each rendering it locally through a
+/// remote scene, their bridges reaching the world host through relays that delay every byte
+/// (this machine has no `tc netem`) for a round trip of 20 ms, then of 100 ms. Both fingers
+/// push the same light block along the floor: each feels it, the block moves as one for
+/// both (its picture on each host within 1 mm of the world's, both proxies on its face within
+/// 1 mm of each other), no device gives the hand energy, and the block is never flung.
+#[test]
+fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
+    for round_trip in [0.02, 0.1] {
+        let dir = scratch(&format!("shared-world-{}", (round_trip * 1e3) as u32));
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = dir.join("shared.yaml");
+        std::fs::write(&scene, SHARED_WORLD).unwrap();
+        let remote = dir.join("far.yaml");
+        std::fs::write(&remote, "engine: remote\nrate: 60\n").unwrap();
+        let (world_endpoint, world_port) = support::loopback_endpoint();
+        let mut world_command = Command::new(artifact("hapticd-world"));
+        world_command
+            .args(["--config", "/dev/null", "--listen", &world_endpoint])
+            .args(["--name", "shared", "--duration", "40"])
+            .arg(&scene)
+            .stderr(std::fs::File::create(dir.join("world.log")).unwrap());
+        let mut world = spawn_ready(world_command, &dir.join("world.notify"));
+        // Both daemons at once, so that their hands' scripts run together.
+        let places: Vec<(Bus, PathBuf)> = (0..2)
+            .map(|k| {
+                let at = dir.join(format!("host{k}"));
+                std::fs::create_dir_all(&at).unwrap();
+                (Bus::start(&at), at)
+            })
+            .collect();
+        let started = Instant::now();
+        let daemons: Vec<(&Bus, Hapticd, &PathBuf)> = std::thread::scope(|scope| {
+            let starting: Vec<_> = places
+                .iter()
+                .zip([-0.01, 0.01])
+                .map(|((bus, at), z)| {
+                    let remote = &remote;
+                    scope.spawn(move || {
+                        let hand = at.join("hand.yaml");
+                        std::fs::write(&hand, pushing_hand(z)).unwrap();
+                        let args = [
+                            "--sim",
+                            "spidar-g",
+                            "--hand",
+                            hand.to_str().unwrap(),
+                            "--scene",
+                            remote.to_str().unwrap(),
+                        ];
+                        (bus, Hapticd::start(bus, &Setup::new(at), &args), at)
+                    })
+                })
+                .collect();
+            starting.into_iter().map(|s| s.join().unwrap()).collect()
+        });
+        let bridges: Vec<Child> = daemons
+            .iter()
+            .map(|(bus, _, at)| {
+                let relay = support::relay::delaying(
+                    &format!("127.0.0.1:{world_port}"),
+                    Duration::from_secs_f64(round_trip / 2.0),
+                );
+                zenoh_bridge(bus, at, &format!("connect: [{relay}]\nworld: shared\n"), None).0
+            })
+            .collect();
+        // Until a second and a half after the pushes end (the scripts' 7 s).
+        let seconds = 8.5 - started.elapsed().as_secs_f64();
+        assert!(seconds > 4.0, "the hosts took {:?} to start", started.elapsed());
+        let views: Vec<HostView> = std::thread::scope(|scope| {
+            let followers: Vec<_> = daemons
+                .iter()
+                .map(|(bus, _, _)| scope.spawn(|| follow_host(&bus.address, seconds)))
+                .collect();
+            followers.into_iter().map(|f| f.join().unwrap()).collect()
+        });
+        let status = zenoh_client(
+            "print(ask('hapticd/world/shared/status', None)[0])",
+            &world_endpoint,
+            &[],
+        );
+        world.kill().ok();
+        let block = &status["bodies"][1];
+        let at = |v: &serde_json::Value| {
+            DVec3::from_array(std::array::from_fn(|i| v[i].as_f64().unwrap()))
+        };
+        let (position, mass) = (at(&block["position"]), block["mass"].as_f64().unwrap());
+        let peak = status["peak_kinetic_energy"].as_f64().unwrap();
+        eprintln!(
+            "round trip {:.0} ms: block at {position:.4} ({mass} kg), peak {peak:.2e} J; hosts \
+             gave {:.2e} and {:.2e} J, pushed {} and {} ticks, saw the block at {:.4} and {:.4}, \
+             proxies at {:.4} and {:.4}",
+            round_trip * 1e3,
+            views[0].given,
+            views[1].given,
+            views[0].pushing,
+            views[1].pushing,
+            views[0].block,
+            views[1].block,
+            views[0].proxy,
+            views[1].proxy,
+        );
+        assert_eq!(status["hosts"].as_array().unwrap().len(), 2, "{status}");
+        assert!((mass - 0.1).abs() < 1e-6, "{mass}");
+        // Pushed by both some 3 cm along the floor, and nowhere else.
+        assert!((0.015..0.06).contains(&position.x), "{position}");
+        assert!(position.y.abs() < 0.025 && position.z.abs() < 0.005, "{position}");
+        // Never flung: the most kinetic energy the block had is that of a block moving at a few
+        // times the hands' 1.5 cm/s, not metres a second.
+        let bound = 0.5 * mass * 0.1f64.powi(2);
+        assert!(peak < bound, "peak {peak} J against {bound} J");
+        for view in &views {
+            assert!(view.pushing > 300, "each feels the block: {} ticks", view.pushing);
+            assert!(view.given < 0.005, "the hand got {} J", view.given);
+            assert!(
+                (view.block - position).length() < 1e-3,
+                "a host sees the block at {} where the world has it at {position}",
+                view.block
+            );
+        }
+        assert!(
+            (views[0].proxy.x - views[1].proxy.x).abs() < 1e-3,
+            "both rest on the same face: {} and {}",
+            views[0].proxy,
+            views[1].proxy
+        );
+        for mut bridge in bridges {
+            bridge.kill().ok();
+        }
+        drop(daemons);
+        drop(places);
+    }
 }

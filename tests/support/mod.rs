@@ -9,6 +9,7 @@ pub mod bus;
 pub mod daemon;
 pub mod pile;
 pub mod qp;
+pub mod relay;
 pub mod rng;
 
 pub use rng::Rng;
