@@ -3717,7 +3717,8 @@ pointer:
 
 /// A finger at height -0.02 and depth `z`, held clear of the block (its near face at
 /// x = -0.02) while the hosts find the world, then in to the face and pushing it 3 cm along
-/// +x at 1.5 cm/s, then holding against it.
+/// +x at 1.5 cm/s, then pressing on it with 0.1 N (two such presses do not overcome the
+/// block's friction on the floor, 0.29 N).
 fn pushing_hand(z: f64) -> String {
     format!(
         "hands:
@@ -3725,7 +3726,7 @@ fn pushing_hand(z: f64) -> String {
     - hold: {{ at: [-0.06, -0.02, {z}], seconds: 4 }}
     - move: {{ to: [-0.027, -0.02, {z}], seconds: 1 }}
     - move: {{ to: [0.003, -0.02, {z}], seconds: 2 }}
-    - hold: {{ seconds: 30 }}
+    - push: {{ force: [0.1, 0, 0], seconds: 30 }}
 "
     )
 }
@@ -3836,12 +3837,22 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
                     &format!("127.0.0.1:{world_port}"),
                     Duration::from_secs_f64(round_trip / 2.0),
                 );
-                zenoh_bridge(bus, at, &format!("connect: [{relay}]\nworld: shared\n"), None).0
+                zenoh_bridge(
+                    bus,
+                    at,
+                    &format!("connect: [{relay}]\nworld: shared\n"),
+                    None,
+                )
+                .0
             })
             .collect();
         // Until a second and a half after the pushes end (the scripts' 7 s).
         let seconds = 8.5 - started.elapsed().as_secs_f64();
-        assert!(seconds > 4.0, "the hosts took {:?} to start", started.elapsed());
+        assert!(
+            seconds > 4.0,
+            "the hosts took {:?} to start",
+            started.elapsed()
+        );
         let views: Vec<HostView> = std::thread::scope(|scope| {
             let followers: Vec<_> = daemons
                 .iter()
@@ -3854,7 +3865,13 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
             &world_endpoint,
             &[],
         );
+        let pressing: Vec<f64> = daemons
+            .iter()
+            .map(|(bus, _, _)| -numbers(&bus.get(DEVICE, "Force"))[0])
+            .collect();
         world.kill().ok();
+        world.wait().ok();
+        let killed = Instant::now();
         let block = &status["bodies"][1];
         let at = |v: &serde_json::Value| {
             DVec3::from_array(std::array::from_fn(|i| v[i].as_f64().unwrap()))
@@ -3879,13 +3896,20 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
         assert!((mass - 0.1).abs() < 1e-6, "{mass}");
         // Pushed by both some 3 cm along the floor, and nowhere else.
         assert!((0.015..0.06).contains(&position.x), "{position}");
-        assert!(position.y.abs() < 0.025 && position.z.abs() < 0.005, "{position}");
+        assert!(
+            position.y.abs() < 0.025 && position.z.abs() < 0.005,
+            "{position}"
+        );
         // Never flung: the most kinetic energy the block had is that of a block moving at a few
         // times the hands' 1.5 cm/s, not metres a second.
         let bound = 0.5 * mass * 0.1f64.powi(2);
         assert!(peak < bound, "peak {peak} J against {bound} J");
         for view in &views {
-            assert!(view.pushing > 300, "each feels the block: {} ticks", view.pushing);
+            assert!(
+                view.pushing > 300,
+                "each feels the block: {} ticks",
+                view.pushing
+            );
             assert!(view.given < 0.005, "the hand got {} J", view.given);
             assert!(
                 (view.block - position).length() < 1e-3,
@@ -3899,8 +3923,36 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
             views[0].proxy,
             views[1].proxy
         );
+        // The world gone, each host's world goes stale and its force fades out.
+        assert!(
+            pressing.iter().all(|f| *f > 0.05),
+            "both fingers press the block: {pressing:?} N"
+        );
+        for (bus, _, _) in &daemons {
+            let client = hapticd_ipc::client::Hapticd::connect(&hapticd_ipc::bus::Bus::Address(
+                bus.address.clone(),
+            ))
+            .unwrap();
+            let world = client.devices().unwrap()[0].open_world().unwrap();
+            let mut frame = hapticd_core::world_state::WorldFrame::empty();
+            while world.read(&mut frame).is_none()
+                || DVec3::from(frame.wrenches[0].force).length() > 0.0
+            {
+                assert!(
+                    killed.elapsed() < Duration::from_secs(2),
+                    "still {:?} N after the world went",
+                    frame.wrenches[0].force
+                );
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            eprintln!(
+                "the force faded {:?} after the world went",
+                killed.elapsed()
+            );
+        }
         for mut bridge in bridges {
             bridge.kill().ok();
+            bridge.wait().ok();
         }
         drop(daemons);
         drop(places);

@@ -471,6 +471,7 @@ fn a_scene_file_runs_on_the_plugin_that_declares_its_engine() {
     let places = Places {
         dirs: &[],
         plugin_dirs: &plugin_dirs,
+        world_link: None,
     };
     let pointers = one_pointer();
     let opened = |path: &Path| {
@@ -499,4 +500,82 @@ fn a_scene_file_runs_on_the_plugin_that_declares_its_engine() {
         "{typo}"
     );
     std::fs::remove_dir_all(dir).ok();
+}
+
+/// A remote scene (`engine: remote`) through the daemon's loader and a real world link, the
+/// bridge's side played here: nothing is felt before the world speaks; a world update with
+/// a floor under the pointer is felt as the floor's push, and the scene tells the world where
+/// its grip is; an update that is no update disables it, with the reason. Without a link the
+/// file is refused, saying why.
+#[test]
+fn a_remote_scene_renders_the_world_its_link_delivers() {
+    use hapticd::scenes::{OpenError, Places, open};
+    use hapticd_core::scene::multirate::PlaneSet;
+    use hapticd_core::scene::remote::{decode_host, encode_world};
+    use hapticd_core::wire::Encoder;
+    use hapticd_ipc::world_link_share::WorldLinkFile;
+    use hapticd_plugin_api::HapticdPlane;
+    let dir = scratch("remote");
+    let file = dir.join("far.yaml");
+    std::fs::write(&file, "engine: remote\nrate: 50\n").unwrap();
+    let pointers = one_pointer();
+    let opened = |link| {
+        let places = Places {
+            dirs: &[],
+            plugin_dirs: &[],
+            world_link: link,
+        };
+        open(file.to_str().unwrap(), None, places, &pointers, 1000.0)
+    };
+    match opened(None) {
+        Err(OpenError::Refused(why)) => assert!(why.contains("no link"), "{why}"),
+        other => panic!("{:?}", other.map(|s| s.name().to_string())),
+    }
+    let link = WorldLinkFile::create().unwrap();
+    let mut scene = opened(Some(link.link())).unwrap();
+    assert_eq!(scene.name(), "far");
+    // A floor rising from 1 mm under the grip (a grip that starts inside a solid feels
+    // nothing until out) to 1 mm over it.
+    let mut wrenches = [Wrench::ZERO];
+    let tick = |scene: &mut Box<dyn hapticd_core::scene::Scene>, w: &mut [Wrench; 1]| {
+        let felt = scene.render(&pointers, 1e-3, w);
+        std::thread::sleep(std::time::Duration::from_millis(1));
+        felt
+    };
+    assert!(!tick(&mut scene, &mut wrenches), "nothing before the world");
+    let mut set = PlaneSet::default();
+    set.planes[0].count = 1;
+    set.planes[0].planes[0] = HapticdPlane {
+        object: 0,
+        point: [0.0; 3],
+        normal: [0.0, 1.0, 0.0],
+        velocity: [0.0; 3],
+    };
+    let mut update = Encoder::default();
+    let mut felt = None;
+    for step in 1..200u64 {
+        set.planes[0].planes[0].point[1] = -0.001 + 1e-4 * step.min(20) as f64;
+        update.clear();
+        encode_world(&mut update, step, &set, 1, &[]);
+        link.link().deliver(step, update.bytes());
+        if tick(&mut scene, &mut wrenches) && wrenches[0].force.y > 0.0 {
+            felt = Some(wrenches[0].force);
+            break;
+        }
+    }
+    let felt = felt.expect("the floor is felt");
+    assert!(felt.x.abs() < 1e-9 && felt.z.abs() < 1e-9, "{felt}");
+    let mut message = Vec::new();
+    let sent = link.link().sent();
+    assert!(sent > 0 && link.link().message(sent, &mut message));
+    let told = decode_host(&message).expect("a host message");
+    assert_eq!(told.pointers.len(), 1);
+    assert!(told.seen > 0, "it says which step it rendered");
+    link.link().deliver(1000, b"no update");
+    let started = std::time::Instant::now();
+    while tick(&mut scene, &mut wrenches) || scene.fault().is_none() {
+        assert!(started.elapsed().as_secs() < 5, "still rendering");
+    }
+    assert!(scene.fault().unwrap().to_string().contains("no whole update"));
+    assert_eq!(wrenches[0], Wrench::ZERO);
 }

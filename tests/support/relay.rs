@@ -39,7 +39,11 @@ fn pump(mut from: TcpStream, mut to: TcpStream, delay: Duration) {
     std::thread::spawn(move || {
         let mut buffer = vec![0; 1 << 16];
         while let Ok(n) = from.read(&mut buffer) {
-            if n == 0 || send.send((Instant::now() + delay, buffer[..n].to_vec())).is_err() {
+            if n == 0
+                || send
+                    .send((Instant::now() + delay, buffer[..n].to_vec()))
+                    .is_err()
+            {
                 break;
             }
         }

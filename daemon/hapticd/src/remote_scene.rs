@@ -52,7 +52,7 @@ pub fn open(
                     locals: Vec::with_capacity(1024),
                 };
                 let mut set = PlaneSet::default();
-                let (mut delivered, mut sent) = (0, Instant::now());
+                let (mut delivered, mut sent, mut seen) = (0, Instant::now(), 0);
                 let n = physics.pointers;
                 while !physics.stopping() {
                     physics.add_hand_backs(&mut pending);
@@ -68,6 +68,7 @@ pub fn open(
                         if !physics.publish(&mut set, update.poses) {
                             return;
                         }
+                        seen = update.step;
                         physics.steps.0.fetch_add(1, Ordering::Relaxed);
                     }
                     let due = sent.elapsed() >= keep_alive;
@@ -78,6 +79,7 @@ pub fn open(
                         message.clear();
                         remote::encode_host(
                             &mut message,
+                            seen,
                             &hands.pointers[..n],
                             &hands.proxies[..n],
                             &pending.impulses[..i],

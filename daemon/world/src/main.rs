@@ -4,6 +4,7 @@
 //! `hapticd_core::scene::remote` under the keys of `hapticd_zenoh::world_keys`. Like the
 //! bridge, it listens on the loopback only unless configured otherwise.
 
+mod ledger;
 mod shared_world;
 
 use std::process::ExitCode;

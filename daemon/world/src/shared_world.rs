@@ -17,10 +17,12 @@ use hapticd_core::wire::Encoder;
 use hapticd_physics::scene::RapierScene;
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
-    HAPTICD_MAX_LOCAL_BODIES, HapticdBodyPose, HapticdImpulse, HapticdLocalBody,
-    HapticdLocalState, HapticdPlanes, HapticdPointer,
+    HAPTICD_MAX_LOCAL_BODIES, HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState,
+    HapticdPlanes, HapticdPointer,
 };
 use hapticd_rapier::world::RapierWorld;
+
+use crate::ledger::Ledger;
 
 /// A host silent this long is forgotten.
 pub const FORGET_AFTER: Duration = Duration::from_secs(1);
@@ -29,6 +31,8 @@ pub const FORGET_AFTER: Duration = Duration::from_secs(1);
 #[derive(Debug)]
 struct Host {
     name: String,
+    /// Its number in the ledger.
+    id: u64,
     /// Its pointers are the world's `first .. first + count`.
     first: usize,
     count: usize,
@@ -48,6 +52,8 @@ pub struct SharedWorld {
     bodies: [HapticdLocalBody; HAPTICD_MAX_LOCAL_BODIES],
     body_count: u32,
     hosts: Vec<Host>,
+    admitted: u64,
+    ledger: Ledger,
     impulses: Vec<HapticdImpulse>,
     locals: Vec<HapticdLocalState>,
     step: u64,
@@ -78,6 +84,8 @@ impl SharedWorld {
             bodies: [HapticdLocalBody::default(); HAPTICD_MAX_LOCAL_BODIES],
             body_count: 0,
             hosts: Vec::new(),
+            admitted: 0,
+            ledger: Ledger::default(),
             impulses: Vec::new(),
             locals: Vec::new(),
             step: 0,
@@ -104,12 +112,16 @@ impl SharedWorld {
         let slots = host.first..host.first + n;
         self.pointers[slots.clone()].copy_from_slice(&update.pointers[..n]);
         self.proxies[slots].copy_from_slice(&update.proxies[..n]);
+        // A hand-back covers the period before the last update the host had when it sent
+        // it, or the one before that: taken as made on the older view.
+        let base = update.seen.saturating_sub(2);
         for change in &update.locals {
             let seen = host.applied.entry(change.body).or_insert(0);
             *seen = (*seen).max(change.sequence);
+            let taken = self.ledger.reconcile(host.id, base, self.step + 1, change);
+            self.locals.push(taken);
         }
         self.impulses.extend_from_slice(&update.impulses);
-        self.locals.extend_from_slice(&update.locals);
         Ok(())
     }
 
@@ -128,9 +140,14 @@ impl SharedWorld {
                     self.pointers.len()
                 )
             })?;
-        tracing::info!("host {name}: {count} grip(s), pointers {first}..{}", first + count);
+        tracing::info!(
+            "host {name}: {count} grip(s), pointers {first}..{}",
+            first + count
+        );
+        self.admitted += 1;
         self.hosts.push(Host {
             name: name.to_string(),
+            id: self.admitted,
             first,
             count,
             heard: now,

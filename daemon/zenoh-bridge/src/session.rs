@@ -34,4 +34,3 @@ pub fn open(config: &NetworkConfig) -> Result<zenoh::Session, String> {
         .wait()
         .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
 }
-

@@ -62,6 +62,7 @@ pub const MAX_WORLD_BYTES: usize = 4
 
 /// Largest encoded host message, bytes.
 pub const MAX_HOST_BYTES: usize = 4
+    + 8
     + 4
     + 2 * MAX_EFFECTORS * POINTER_BYTES
     + 2 * 4
@@ -271,6 +272,9 @@ pub fn decode_world(
 /// What a haptic host tells the world host.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct HostUpdate {
+    /// The world step of the last update the host rendered from (0: none yet): what it has
+    /// seen of the other hosts' changes.
+    pub seen: u64,
     /// The grips, one per pointer.
     pub pointers: Vec<HapticdPointer>,
     /// Where each pointer's proxy rests.
@@ -281,16 +285,19 @@ pub struct HostUpdate {
     pub locals: Vec<HapticdLocalState>,
 }
 
-/// Write a host's message: its grips and proxies (as many), and what it hands back (at most
-/// [`MAX_HAND_BACKS`] of each; the caller sends the rest in the next).
+/// Write a host's message: the world step it last rendered from, its grips and proxies (as
+/// many), and what it hands back (at most [`MAX_HAND_BACKS`] of each; the caller sends the
+/// rest in the next).
 pub fn encode_host(
     out: &mut Encoder,
+    seen: u64,
     pointers: &[HapticdPointer],
     proxies: &[HapticdPointer],
     impulses: &[HapticdImpulse],
     locals: &[HapticdLocalState],
 ) {
     out.u32(HOST_MAGIC);
+    out.u64(seen);
     let n = pointers.len().min(proxies.len()).min(MAX_EFFECTORS);
     out.u32(n as u32);
     for p in pointers[..n].iter().chain(&proxies[..n]) {
@@ -321,8 +328,12 @@ pub fn decode_host(bytes: &[u8]) -> Option<HostUpdate> {
     if from.u32()? != HOST_MAGIC {
         return None;
     }
+    let seen = from.u64()?;
     let n = from.count(MAX_EFFECTORS, 2 * POINTER_BYTES)?;
-    let mut update = HostUpdate::default();
+    let mut update = HostUpdate {
+        seen,
+        ..HostUpdate::default()
+    };
     for _ in 0..n {
         update.pointers.push(get_pointer(&mut from)?);
     }
@@ -421,6 +432,7 @@ mod tests {
             velocity: [0.2, 0.0, 0.0],
         };
         let sent = HostUpdate {
+            seen: 12,
             pointers: vec![grip; 2],
             proxies: vec![grip; 2],
             impulses: vec![HapticdImpulse {
@@ -438,6 +450,7 @@ mod tests {
         let mut out = Encoder::default();
         encode_host(
             &mut out,
+            sent.seen,
             &sent.pointers,
             &sent.proxies,
             &sent.impulses,
