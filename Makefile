@@ -120,14 +120,15 @@ VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml)
 so = $(foreach p,$(1),$(BUILT)/lib$(subst -,_,$(p)).so)
 # The C example mechanism, built as a plugin author would build it.
 C_MECHANISM := $(BUILT)/libspidar_desk.so
-PROGRAMS := hapticd hapticd-render hapticd-zenoh hapticctl
+PROGRAMS := hapticd hapticd-render hapticd-zenoh hapticd-world hapticctl
 INSTALLED_FILES := $(addprefix $(BUILT)/,$(PROGRAMS)) $(call so,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 CONFIG_ARG := $(if $(filter $(DEFAULT_SYSCONFDIR),$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/hapticd.yaml)
-# hapticd-zenoh looks in /etc alone (it has no tree of its own to find a prefix from).
+# hapticd-zenoh and hapticd-world look in /etc alone (they have no tree of their own to find a
+# prefix from).
 BRIDGE_CONFIG_ARG := $(if $(filter /etc,$(SYSCONFDIR)),, --config $(SYSCONFDIR)/hapticd/network.yaml)
 
 release: $(RELEASE)/libspidar_desk.so
-	$(CARGO) build --release -p hapticd -p hapticd-render-service -p hapticd-zenoh -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
+	$(CARGO) build --release -p hapticd -p hapticd-render-service -p hapticd-zenoh -p hapticd-world -p hapticctl $(addprefix -p ,$(MECHANISM_PLUGINS) $(SCENE_PLUGINS))
 
 %/libspidar_desk.so: plugins/c-example/spidar_desk.c plugin-api/include/hapticd_plugin.h
 	@mkdir -p $(@D)
@@ -177,9 +178,11 @@ install: $(C_MECHANISM)
 			echo "keeping $(DESTDIR)$(SYSCONFDIR)/hapticd/$$conf (shipped: $(PREFIX)/share/doc/hapticd/$$conf)"; \
 		else install -m 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/$$conf $(DESTDIR)$(SYSCONFDIR)/hapticd/; fi || exit 1; \
 	done
-	for unit in hapticd.service hapticd-render.service hapticd-zenoh.service; do \
+	for unit in hapticd.service hapticd-render.service hapticd-zenoh.service hapticd-world.service; do \
 		sed -e 's|^ExecStart=/usr/bin/hapticd |ExecStart=$(PREFIX)/bin/hapticd$(CONFIG_ARG) |' \
 			-e 's|^ExecStart=/usr/bin/hapticd-zenoh |ExecStart=$(PREFIX)/bin/hapticd-zenoh$(BRIDGE_CONFIG_ARG) |' \
+			-e 's|^ExecStart=/usr/bin/hapticd-world |ExecStart=$(PREFIX)/bin/hapticd-world$(BRIDGE_CONFIG_ARG) |' \
+			-e 's|/etc/hapticd/world.yaml|$(SYSCONFDIR)/hapticd/world.yaml|g' \
 			-e 's|^ExecStart=/usr/bin/hapticd-render |ExecStart=$(PREFIX)/bin/hapticd-render |' \
 			-e 's|/usr/share/doc/hapticd|$(PREFIX)/share/doc/hapticd|' \
 			systemd/$$unit > $(DESTDIR)$(SYSTEMLIBDIR)/systemd/system/$$unit && \

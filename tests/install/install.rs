@@ -140,6 +140,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/bin/hapticd",
         "usr/bin/hapticd-render",
         "usr/bin/hapticd-zenoh",
+        "usr/bin/hapticd-world",
         "usr/bin/hapticctl",
         "usr/lib/hapticd/plugins/libhapticd_spidar_g.so",
         "usr/lib/hapticd/plugins/libspidar_desk.so",
@@ -154,6 +155,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/lib/systemd/system/hapticd.service",
         "usr/lib/systemd/system/hapticd-render.service",
         "usr/lib/systemd/system/hapticd-zenoh.service",
+        "usr/lib/systemd/system/hapticd-world.service",
         "usr/lib/sysusers.d/hapticd.conf",
         "usr/lib/udev/rules.d/70-hapticd.rules",
         "usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf",
@@ -173,6 +175,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/share/man/man8/hapticd.8",
         "usr/share/man/man8/hapticd-render.8",
         "usr/share/man/man8/hapticd-zenoh.8",
+        "usr/share/man/man8/hapticd-world.8",
         "usr/share/man/man1/hapticctl.1",
         "usr/share/man/man1/hapticctl-scene-run.1",
         "usr/share/man/man5/hapticd.yaml.5",
@@ -304,6 +307,14 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
              /opt/hapticd/etc/hapticd/network.yaml --bus system\n"
         ),
         "{bridge}"
+    );
+    let world = read(dest.join("etc/systemd/system/hapticd-world.service"));
+    assert!(
+        world.contains(
+            "\nExecStart=/opt/hapticd/bin/hapticd-world --config \
+             /opt/hapticd/etc/hapticd/network.yaml /opt/hapticd/etc/hapticd/world.yaml\n"
+        ) && world.contains("\nConditionPathExists=/opt/hapticd/etc/hapticd/world.yaml\n"),
+        "{world}"
     );
     assert!(dest.join("opt/hapticd/etc/hapticd/network.yaml").is_file());
     let pc = read(dest.join("opt/hapticd/share/pkgconfig/hapticd-plugin.pc"));

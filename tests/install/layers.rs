@@ -83,9 +83,9 @@ fn the_renderer_and_clients_talk_to_hapticd_through_the_wire_contract_alone() {
     }
 }
 
-/// The network stays out of the process that pulls the strings: only the bridge (and
-/// hapticctl, for --remote) links Zenoh, and the bridge reaches hapticd through the wire
-/// contract, like any client.
+/// The network stays out of the process that pulls the strings: only the bridge, the world
+/// host (and hapticctl, for --remote) link Zenoh, and the bridge reaches hapticd through the
+/// wire contract, like any client. The world host runs physics and no part of the daemon.
 #[test]
 fn only_the_bridge_links_zenoh_and_it_links_no_part_of_the_daemon() {
     for package in ["hapticd", "hapticd-core", "hapticd-ipc", "hapticd-ros2"] {
@@ -106,6 +106,17 @@ fn only_the_bridge_links_zenoh_and_it_links_no_part_of_the_daemon() {
         assert!(
             !bridge.contains(daemon_only),
             "hapticd-zenoh links {daemon_only}"
+        );
+    }
+    let world = normal_dependencies("hapticd-world");
+    assert!(
+        world.contains("zenoh") && world.contains("hapticd-rapier"),
+        "{world:?}"
+    );
+    for daemon_only in ["hapticd", "hapticd-device"] {
+        assert!(
+            !world.contains(daemon_only),
+            "hapticd-world links {daemon_only}"
         );
     }
 }
@@ -129,10 +140,11 @@ fn the_daemon_and_the_renderer_know_no_engine() {
     }
 }
 
-/// rapier3d lives in its scene plugin (and hapticctl), loaded into the daemon only when a
-/// rapier scene runs: neither the daemon nor the core the haptic thread runs links it.
+/// rapier3d lives in its scene plugin (and hapticctl, and the world host that steps a world
+/// for other machines), loaded into the daemon only when a rapier scene runs: neither the
+/// daemon nor the core the haptic thread runs links it.
 #[test]
-fn only_the_rapier_plugin_and_hapticctl_link_rapier() {
+fn only_the_rapier_plugin_hapticctl_and_the_world_host_link_rapier() {
     for package in [
         "hapticd",
         "hapticd-core",
@@ -144,7 +156,7 @@ fn only_the_rapier_plugin_and_hapticctl_link_rapier() {
             "{package} links rapier3d"
         );
     }
-    for package in ["hapticd-scene-rapier", "hapticctl"] {
+    for package in ["hapticd-scene-rapier", "hapticctl", "hapticd-world"] {
         assert!(
             normal_dependencies(package).contains("rapier3d"),
             "{package}"

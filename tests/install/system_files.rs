@@ -172,6 +172,33 @@ fn the_bridge_unit_runs_as_its_own_user_beside_hapticd() {
     assert!(passed && other.is_empty(), "{diagnostics}");
 }
 
+/// The world host's unit: started only where enabled and given a world, as a user made for
+/// it, touching no device and no bus.
+#[test]
+fn the_world_unit_runs_sandboxed_only_where_a_world_is_given() {
+    let unit = read("systemd/hapticd-world.service");
+    assert_eq!(
+        values(&unit, "ExecStart"),
+        ["/usr/bin/hapticd-world /etc/hapticd/world.yaml"]
+    );
+    assert_eq!(
+        values(&unit, "ConditionPathExists"),
+        ["/etc/hapticd/world.yaml"]
+    );
+    assert_eq!(values(&unit, "Type"), ["notify"]);
+    assert_eq!(values(&unit, "DynamicUser"), ["yes"]);
+    assert_eq!(values(&unit, "PrivateDevices"), ["yes"]);
+    assert_eq!(values(&unit, "CapabilityBoundingSet"), [""]);
+    assert_eq!(values(&unit, "WantedBy"), ["multi-user.target"]);
+    assert!(
+        values(&unit, "PartOf").is_empty(),
+        "it serves others' hapticd"
+    );
+    let (passed, diagnostics) = verify("hapticd-world.service", &unit, "hapticd-world");
+    let other = not_about_restart_steps(&diagnostics);
+    assert!(passed && other.is_empty(), "{diagnostics}");
+}
+
 #[test]
 fn the_unit_runs_as_the_user_that_alone_owns_the_devices() {
     let unit = read("systemd/hapticd.service");

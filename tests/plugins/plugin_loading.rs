@@ -576,6 +576,12 @@ fn a_remote_scene_renders_the_world_its_link_delivers() {
     while tick(&mut scene, &mut wrenches) || scene.fault().is_none() {
         assert!(started.elapsed().as_secs() < 5, "still rendering");
     }
-    assert!(scene.fault().unwrap().to_string().contains("no whole update"));
+    assert!(
+        scene
+            .fault()
+            .unwrap()
+            .to_string()
+            .contains("no whole update")
+    );
     assert_eq!(wrenches[0], Wrench::ZERO);
 }

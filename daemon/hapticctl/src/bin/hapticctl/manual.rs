@@ -62,7 +62,7 @@ const FORMATS: [Format; 4] = [
 ];
 
 /// What every page ends with.
-const SEE_ALSO: &str = "hapticd(8), hapticd-render(8), hapticd-zenoh(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
+const SEE_ALSO: &str = "hapticd(8), hapticd-render(8), hapticd-zenoh(8), hapticd-world(8), hapticctl(1), hapticd.yaml(5), hapticd-mechanism(5), \
                         hapticd-scene(5), hapticd-hand(5), systemd.service(5), busctl(1)";
 
 /// The rest of hapticd(8), after what clap writes from its options.
@@ -115,6 +115,19 @@ administrator's Zenoh configuration (access control).
 2 for bad arguments.
 "#;
 
+/// The rest of hapticd-world(8).
+const WORLD_SECTIONS: &str = r#".SH FILES
+.TP
+.I /etc/hapticd/world.yaml
+The world's scene file (a rapier scene), where hapticd-world.service looks for it.
+.TP
+.I /etc/hapticd/network.yaml
+Where to listen and connect, and the administrator's Zenoh configuration.
+.SH EXIT STATUS
+0 after \-\-duration; 1 when it cannot start or the world stops being finite (the reason is
+logged); 2 for bad arguments.
+"#;
+
 /// The rest of hapticctl(1).
 const CLIENT_SECTIONS: &str = r#".SH EXIT STATUS
 0 on success; 1 when the operation failed (a refused request gives the daemon's reason,
@@ -164,6 +177,14 @@ pub fn write(dir: &Path) -> Result<(), Failure> {
                 hapticd_service::cli::ZenohCli::command(),
                 "8",
                 BRIDGE_SECTIONS,
+            ),
+        ),
+        (
+            "hapticd-world.8".to_string(),
+            program(
+                hapticd_service::cli::WorldCli::command(),
+                "8",
+                WORLD_SECTIONS,
             ),
         ),
         (
