@@ -1424,21 +1424,17 @@ fn an_unprivileged_client_may_read_but_not_change() {
     denied(DEVICE, "org.freedesktop.DBus.Properties.Set", &set);
     denied(DEVICE, "org.hapticd.Hapticd1.Device.Calibrate", &[]);
     denied(DEVICE, "org.hapticd.Hapticd1.Device.ResetFault", &[]);
-    // Nor may it push on the hand.
-    let opened = as_nobody(&[
-        "call",
-        DEVICE[0],
-        DEVICE[1],
-        DEVICE[2],
-        "OpenWrenchInput",
-        "a{sv}",
-        "0",
-    ]);
-    assert!(
-        !opened.status.success()
-            && String::from_utf8_lossy(&opened.stderr).contains("Access denied"),
-        "{opened:?}"
-    );
+    // Nor may it push on the hand, by a commanded wrench or by a world of its own.
+    for method in ["OpenWrenchInput", "OpenWorldLink"] {
+        let opened = as_nobody(&[
+            "call", DEVICE[0], DEVICE[1], DEVICE[2], method, "a{sv}", "0",
+        ]);
+        assert!(
+            !opened.status.success()
+                && String::from_utf8_lossy(&opened.stderr).contains("Access denied"),
+            "{method}: {opened:?}"
+        );
+    }
     denied(
         MANAGER,
         "org.hapticd.Hapticd1.Manager.SwitchScene",
