@@ -40,11 +40,7 @@ fn configuration(cli: &WorldCli) -> Result<NetworkConfig, String> {
 
 fn run(cli: &WorldCli) -> Result<(), String> {
     let config = configuration(cli)?;
-    let until = match cli.duration {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Instant::now() + Duration::from_secs_f64(s)),
-        Some(_) => return Err("--duration must be a number of seconds > 0".into()),
-        None => None,
-    };
+    let until = session::deadline(cli.duration)?;
     if !(1..=64).contains(&cli.pointers) {
         return Err(format!("--pointers {}: from 1 to 64", cli.pointers));
     }

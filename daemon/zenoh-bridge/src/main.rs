@@ -103,11 +103,7 @@ fn serve_commands(
 
 fn run(cli: &ZenohCli) -> Result<(), String> {
     let config = configuration(cli)?;
-    let until = match cli.duration {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Instant::now() + Duration::from_secs_f64(s)),
-        Some(_) => return Err("--duration must be a number of seconds > 0".into()),
-        None => None,
-    };
+    let until = session::deadline(cli.duration)?;
     let hapticd = Hapticd::connect(&cli.bus).map_err(|e| e.to_string())?;
     let devices = commands::device_words(hapticd.devices().map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;

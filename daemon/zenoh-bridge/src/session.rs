@@ -1,5 +1,8 @@
-//! The Zenoh session of hapticd's network programs (the bridge, the world host): a peer on
-//! the configured endpoints, on the administrator's own Zenoh configuration when one is named.
+//! The Zenoh session of hapticd's network programs (the bridge, the world host), a peer on the
+//! configured endpoints on the administrator's own Zenoh configuration when one is named, and
+//! how long they run.
+
+use std::time::{Duration, Instant};
 
 use zenoh::Wait;
 
@@ -33,4 +36,16 @@ pub fn open(config: &NetworkConfig) -> Result<zenoh::Session, String> {
     zenoh::open(zenoh_config)
         .wait()
         .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
+}
+
+/// When a run of `duration` seconds from now ends (None: never); an error for a duration that
+/// is no number of seconds above zero.
+pub fn deadline(duration: Option<f64>) -> Result<Option<Instant>, String> {
+    match duration {
+        Some(s) if s.is_finite() && s > 0.0 => {
+            Ok(Some(Instant::now() + Duration::from_secs_f64(s)))
+        }
+        Some(_) => Err("--duration must be a number of seconds > 0".into()),
+        None => Ok(None),
+    }
 }

@@ -62,6 +62,32 @@ impl DeviceInterface {
     }
 }
 
+/// Refuse `options` of `method`, which takes none yet.
+fn no_options(
+    method: &str,
+    options: &HashMap<String, zbus::OwnedVariant>,
+) -> Result<(), crate::control::Error> {
+    match options.keys().next() {
+        Some(key) => Err(crate::control::Error::OutOfRange(format!(
+            "{method} takes no option {key:?}"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// A descriptor that moves the motors, `opened` for the caller of `header` to `what`:
+/// audited, whatever became of it.
+async fn audited(
+    what: &str,
+    connection: &zbus::Connection,
+    header: &Header<'_>,
+    opened: Result<std::os::fd::OwnedFd, crate::control::Error>,
+) -> Result<zbus::OwnedFd, BusError> {
+    let who = caller(connection, Some(header)).await;
+    audit(what, &who, &opened.as_ref().map(|_| ()));
+    Ok(opened?.into())
+}
+
 fn state_name(t: &Telemetry) -> &'static str {
     match (t.frame.state, t.frame.calibrated) {
         (DeviceState::Running, false) => "calibrating",
@@ -414,19 +440,10 @@ device_interface! {
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
     ) -> Result<zbus::OwnedFd, BusError> {
-        let result = match options.keys().next() {
-            Some(key) => Err(crate::control::Error::OutOfRange(format!(
-                "OpenWrenchInput takes no option {key:?}"
-            ))),
-            None => self.device.open_wrench_input(),
-        };
-        let who = caller(connection, Some(&header)).await;
-        audit(
-            &format!("open the wrench input of {}", self.device.identity()),
-            &who,
-            &result.as_ref().map(|_| ()),
-        );
-        Ok(result?.into())
+        let opened = no_options("OpenWrenchInput", &options)
+            .and_then(|()| self.device.open_wrench_input());
+        let what = format!("open the wrench input of {}", self.device.identity());
+        audited(&what, connection, &header, opened).await
     }
 
     /// The link through which the device's remote scenes (`engine: remote`) reach a world
@@ -442,19 +459,10 @@ device_interface! {
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
     ) -> Result<zbus::OwnedFd, BusError> {
-        let result = match options.keys().next() {
-            Some(key) => Err(crate::control::Error::OutOfRange(format!(
-                "OpenWorldLink takes no option {key:?}"
-            ))),
-            None => self.device.open_world_link(),
-        };
-        let who = caller(connection, Some(&header)).await;
-        audit(
-            &format!("open the world link of {}", self.device.identity()),
-            &who,
-            &result.as_ref().map(|_| ()),
-        );
-        Ok(result?.into())
+        let opened =
+            no_options("OpenWorldLink", &options).and_then(|()| self.device.open_world_link());
+        let what = format!("open the world link of {}", self.device.identity());
+        audited(&what, connection, &header, opened).await
     }
 
     /// Take the counter offsets now, with every grip held at its calibration pose; they are
