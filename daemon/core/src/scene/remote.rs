@@ -47,8 +47,9 @@ pub const HOST_MAGIC: u32 = u32::from_le_bytes(*b"hdH1");
 /// Most bodies whose poses one update carries (pictures of larger worlds show these).
 pub const MAX_POSES: usize = 512;
 
-/// Most impulses or local changes one host message carries.
-pub const MAX_HAND_BACKS: usize = 256;
+/// Most impulses or local changes one host message carries (a period gives at most one per
+/// plane, 32, and one per local body, 8).
+pub const MAX_HAND_BACKS: usize = 64;
 
 /// Largest encoded [`WorldUpdate`], bytes.
 pub const MAX_WORLD_BYTES: usize = 4
