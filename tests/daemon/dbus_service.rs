@@ -2912,8 +2912,15 @@ fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
 }
 
 /// A running `hapticd-zenoh` on its own port with a configuration file of the test's
-/// (never the host's), as user `uid` (None: the test's own).
-fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child, String) {
+/// (never the host's), as user `uid` (None: the test's own), in network namespace `inside`
+/// (None: the test's own).
+fn zenoh_bridge(
+    bus: &Bus,
+    dir: &Path,
+    config: &str,
+    uid: Option<u32>,
+    inside: Option<&support::netns::Namespace>,
+) -> (Child, String) {
     let (endpoint, port) = support::loopback_endpoint();
     let file = dir.join(format!("network-{port}.yaml"));
     std::fs::write(&file, format!("listen: [{endpoint}]\n{config}")).unwrap();
@@ -2934,6 +2941,9 @@ fn zenoh_bridge(bus: &Bus, dir: &Path, config: &str, uid: Option<u32>) -> (Child
         .arg("--config")
         .arg(&file)
         .args(["--bus", &bus.address, "--duration", "60"]);
+    if let Some(namespace) = inside {
+        namespace.enter(&mut command);
+    }
     let bridge = spawn_ready(command, &dir.join(format!("notify-{port}")));
     (bridge, endpoint)
 }
@@ -2957,7 +2967,12 @@ fn spawn_ready(mut command: Command, socket: &Path) -> Child {
 
 /// The real Zenoh Python client running `script` against `endpoint` (`sys.argv[1]`, `args`
 /// after it): what it printed, as JSON.
-fn zenoh_client(script: &str, endpoint: &str, args: &[String]) -> serde_json::Value {
+fn zenoh_client(
+    script: &str,
+    endpoint: &str,
+    args: &[String],
+    inside: Option<&support::netns::Namespace>,
+) -> serde_json::Value {
     let prelude = "import json, struct, sys, time, zenoh\n\
         conf = zenoh.Config()\n\
         conf.insert_json5('mode', '\"client\"')\n\
@@ -2966,13 +2981,16 @@ fn zenoh_client(script: &str, endpoint: &str, args: &[String]) -> serde_json::Va
         def ask(key, payload):\n\
         \x20   replies = list(session.get(key, payload=payload, timeout=3.0))\n\
         \x20   return [r.ok.payload.to_string() if r.ok else 'error: ' + r.err.payload.to_string() for r in replies]\n";
-    let out = Command::new("/usr/bin/python3")
+    let mut command = Command::new("/usr/bin/python3");
+    command
         .args(["-c", &format!("{prelude}{script}"), endpoint])
         .args(args)
         .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
-        .env("PYTHONDONTWRITEBYTECODE", "1")
-        .output()
-        .unwrap();
+        .env("PYTHONDONTWRITEBYTECODE", "1");
+    if let Some(namespace) = inside {
+        namespace.enter(&mut command);
+    }
+    let out = command.output().unwrap();
     assert!(out.status.success(), "{out:?}");
     serde_json::from_slice(&out.stdout).unwrap()
 }
@@ -2988,7 +3006,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
-    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 1000\n", None);
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 1000\n", None, None);
     let follow = "samples = {}\n\
         def taken(sample):\n\
         \x20   tick = int.from_bytes(sample.attachment.to_bytes()[:8], 'little')\n\
@@ -3008,7 +3026,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
         'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
         'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
-    let said = zenoh_client(follow, &endpoint, &[]);
+    let said = zenoh_client(follow, &endpoint, &[], None);
     // hapticctl reaches the same daemon through the bridge alone: its status, and 2 s of
     // its ticks in the CSV a local `record` writes.
     let remote = |args: &[&str]| {
@@ -3179,8 +3197,9 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
     let args = [key, wrench(2.0), wrench(1e6)];
     let script = format!("{push}{command}");
     if is_root() {
-        let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", Some(65534));
-        let said = zenoh_client(&script, &endpoint, &args);
+        let (mut bridge, endpoint) =
+            zenoh_bridge(&bus, &dir, "commands: true\n", Some(65534), None);
+        let said = zenoh_client(&script, &endpoint, &args, None);
         let _ = bridge.kill();
         let _ = bridge.wait();
         let denied = said["set"][0].as_str().unwrap();
@@ -3204,7 +3223,7 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
     let acl = dir.join("acl.json5");
     std::fs::write(&acl, acl_text).unwrap();
     let guarded = format!("commands: true\nzenoh: {}\n", acl.display());
-    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, &guarded, None);
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, &guarded, None, None);
     let said = zenoh_client(
         &format!(
             "{push}print(json.dumps({{'status': ask('hapticd/sim/status', None), \
@@ -3212,6 +3231,7 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
         ),
         &endpoint,
         &args,
+        None,
     );
     let _ = bridge.kill();
     let _ = bridge.wait();
@@ -3230,8 +3250,8 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
         "{said}"
     );
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
-    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", None);
-    let said = zenoh_client(&script, &endpoint, &args);
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "commands: true\n", None, None);
+    let said = zenoh_client(&script, &endpoint, &args, None);
     let _ = bridge.kill();
     let _ = bridge.wait();
     println!("{said}");
@@ -3771,8 +3791,9 @@ fn follow_host(address: &str, seconds: f64) -> HostView {
 
 /// Thesis Fig. 6.13 over a network: one rapier world on a world host (`hapticd-world`),
 /// touched by the simulated devices of two hapticd, each rendering it locally through a
-/// remote scene, their bridges reaching the world host through relays that delay every byte
-/// (this machine has no `tc netem`) for a round trip of 20 ms, then of 100 ms. Both fingers
+/// remote scene. The world host is in a network namespace of its own, the two bridges in
+/// another, joined by a veth pair; relays on the bridges' side delay every byte (this machine
+/// has no `tc netem`) for a round trip of 20 ms, then of 100 ms. Both fingers
 /// push the same light block along the floor: each feels it, the block moves as one for
 /// both (its picture on each host within 1 mm of the world's, both proxies on its face within
 /// 1 mm of each other), no device gives the hand energy, and the block is never flung.
@@ -3785,13 +3806,29 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
         std::fs::write(&scene, SHARED_WORLD).unwrap();
         let remote = dir.join("far.yaml");
         std::fs::write(&remote, "engine: remote\nrate: 60\n").unwrap();
-        let (world_endpoint, world_port) = support::loopback_endpoint();
+        // The world host on one side of a veth pair, the haptic hosts' bridges on the other
+        // (where this process may not make namespaces: all on the loopback).
+        let network = support::netns::Pair::create();
+        let hosts_side = network.as_ref().map(|pair| &pair.far);
+        let (world_endpoint, upstream) = match &network {
+            Some(pair) => (
+                format!("tcp/{}:7447", pair.near.address),
+                format!("{}:7447", pair.near.address),
+            ),
+            None => {
+                let (endpoint, port) = support::loopback_endpoint();
+                (endpoint, format!("127.0.0.1:{port}"))
+            }
+        };
         let mut world_command = Command::new(artifact("hapticd-world"));
         world_command
             .args(["--config", "/dev/null", "--listen", &world_endpoint])
             .args(["--name", "shared", "--duration", "40"])
             .arg(&scene)
             .stderr(std::fs::File::create(dir.join("world.log")).unwrap());
+        if let Some(pair) = &network {
+            pair.near.enter(&mut world_command);
+        }
         let mut world = spawn_ready(world_command, &dir.join("world.notify"));
         // Both daemons at once, so that their hands' scripts run together.
         let places: Vec<(Bus, PathBuf)> = (0..2)
@@ -3829,14 +3866,16 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
             .iter()
             .map(|(bus, _, at)| {
                 let relay = support::relay::delaying(
-                    &format!("127.0.0.1:{world_port}"),
+                    &upstream,
                     Duration::from_secs_f64(round_trip / 2.0),
+                    hosts_side,
                 );
                 zenoh_bridge(
                     bus,
                     at,
                     &format!("connect: [{relay}]\nworld: shared\n"),
                     None,
+                    hosts_side,
                 )
                 .0
             })
@@ -3859,6 +3898,7 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
             "print(ask('hapticd/world/shared/status', None)[0])",
             &world_endpoint,
             &[],
+            hosts_side,
         );
         let pressing: Vec<f64> = daemons
             .iter()
@@ -3874,10 +3914,15 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
         let (position, mass) = (at(&block["position"]), block["mass"].as_f64().unwrap());
         let peak = status["peak_kinetic_energy"].as_f64().unwrap();
         eprintln!(
-            "round trip {:.0} ms: block at {position:.4} ({mass} kg), peak {peak:.2e} J; hosts \
-             gave {:.2e} and {:.2e} J, pushed {} and {} ticks, saw the block at {:.4} and {:.4}, \
-             proxies at {:.4} and {:.4}",
+            "round trip {:.0} ms over {}: block at {position:.4} ({mass} kg), peak {peak:.2e} J; \
+             hosts gave {:.2e} and {:.2e} J, pushed {} and {} ticks, saw the block at {:.4} and \
+             {:.4}, proxies at {:.4} and {:.4}",
             round_trip * 1e3,
+            if network.is_some() {
+                "a veth pair between two network namespaces"
+            } else {
+                "the loopback"
+            },
             views[0].given,
             views[1].given,
             views[0].pushing,

@@ -1,20 +1,28 @@
 //! A TCP relay that delays every byte by a fixed time each way: a long network between two
-//! programs on one machine, where the machine forbids network namespaces for `tc netem`.
-//! Order is kept; what is delayed is the delivery, never the reading (the sender is not
-//! slowed, as on a long link with room in its buffers).
+//! programs on one machine, which has no `tc netem` to delay a link. Order is kept; what is
+//! delayed is the delivery, never the reading (the sender is not slowed, as on a long link
+//! with room in its buffers).
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use super::netns::Namespace;
+
 /// Relay connections on a loopback port of its own to `upstream` (`host:port`), each way
-/// `delay` late; its Zenoh endpoint. The relay lives as long as the test process.
-pub fn delaying(upstream: &str, delay: Duration) -> String {
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let port = listener.local_addr().unwrap().port();
+/// `delay` late; its Zenoh endpoint. With `inside`, the relay's port and its connections
+/// upstream are that network namespace's. The relay lives as long as the test process.
+pub fn delaying(upstream: &str, delay: Duration, inside: Option<&Namespace>) -> String {
     let upstream = upstream.to_string();
+    let inside = inside.cloned();
+    let (bound, port) = mpsc::channel();
     std::thread::spawn(move || {
+        if let Some(namespace) = inside {
+            namespace.enter_this_thread();
+        }
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        bound.send(listener.local_addr().unwrap().port()).unwrap();
         for client in listener.incoming() {
             let Ok(client) = client else { continue };
             let Ok(server) = TcpStream::connect(&upstream) else {
@@ -28,7 +36,7 @@ pub fn delaying(upstream: &str, delay: Duration) -> String {
             }
         }
     });
-    format!("tcp/127.0.0.1:{port}")
+    format!("tcp/127.0.0.1:{}", port.recv().unwrap())
 }
 
 /// Carry `from`'s bytes to `to`, each chunk `delay` after it was read.
