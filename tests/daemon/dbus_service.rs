@@ -2922,8 +2922,24 @@ fn zenoh_bridge(
     inside: Option<&support::netns::Namespace>,
 ) -> (Child, String) {
     let (endpoint, port) = support::loopback_endpoint();
+    let config = format!("listen: [{endpoint}]\n{config}");
+    (
+        zenoh_bridge_on(bus, dir, &config, port, uid, inside),
+        endpoint,
+    )
+}
+
+/// A running `hapticd-zenoh` with `config` for its network.yaml, which listens on `port`.
+fn zenoh_bridge_on(
+    bus: &Bus,
+    dir: &Path,
+    config: &str,
+    port: u16,
+    uid: Option<u32>,
+    inside: Option<&support::netns::Namespace>,
+) -> Child {
     let file = dir.join(format!("network-{port}.yaml"));
-    std::fs::write(&file, format!("listen: [{endpoint}]\n{config}")).unwrap();
+    std::fs::write(&file, config).unwrap();
     let mut command = match uid {
         Some(uid) => {
             let mut c = Command::new("setpriv");
@@ -2944,8 +2960,7 @@ fn zenoh_bridge(
     if let Some(namespace) = inside {
         namespace.enter(&mut command);
     }
-    let bridge = spawn_ready(command, &dir.join(format!("notify-{port}")));
-    (bridge, endpoint)
+    spawn_ready(command, &dir.join(format!("notify-{port}")))
 }
 
 /// `command` spawned as a unit of Type=notify starts it, with a notification socket at
@@ -2966,18 +2981,36 @@ fn spawn_ready(mut command: Command, socket: &Path) -> Child {
 }
 
 /// The real Zenoh Python client running `script` against `endpoint` (`sys.argv[1]`, `args`
-/// after it): what it printed, as JSON.
+/// after it) from network namespace `inside`: what it printed, as JSON.
 fn zenoh_client(
     script: &str,
     endpoint: &str,
     args: &[String],
     inside: Option<&support::netns::Namespace>,
 ) -> serde_json::Value {
-    let prelude = "import json, struct, sys, time, zenoh\n\
+    zenoh_client_with(script, endpoint, args, inside, &serde_json::json!({}))
+}
+
+/// [`zenoh_client`] with more of its Zenoh configuration (`settings`: key path → value); a
+/// client that cannot open its session prints `{"unreachable": why}`.
+fn zenoh_client_with(
+    script: &str,
+    endpoint: &str,
+    args: &[String],
+    inside: Option<&support::netns::Namespace>,
+    settings: &serde_json::Value,
+) -> serde_json::Value {
+    let prelude = "import json, os, struct, sys, time, zenoh\n\
         conf = zenoh.Config()\n\
         conf.insert_json5('mode', '\"client\"')\n\
         conf.insert_json5('connect/endpoints', json.dumps([sys.argv[1]]))\n\
-        session = zenoh.open(conf)\n\
+        for key, value in json.loads(os.environ['ZENOH_SETTINGS']).items():\n\
+        \x20   conf.insert_json5(key, json.dumps(value))\n\
+        try:\n\
+        \x20   session = zenoh.open(conf)\n\
+        except Exception as e:\n\
+        \x20   print(json.dumps({'unreachable': str(e)}))\n\
+        \x20   sys.exit(0)\n\
         def ask(key, payload):\n\
         \x20   replies = list(session.get(key, payload=payload, timeout=3.0))\n\
         \x20   return [r.ok.payload.to_string() if r.ok else 'error: ' + r.err.payload.to_string() for r in replies]\n";
@@ -2986,7 +3019,8 @@ fn zenoh_client(
         .args(["-c", &format!("{prelude}{script}"), endpoint])
         .args(args)
         .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
-        .env("PYTHONDONTWRITEBYTECODE", "1");
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env("ZENOH_SETTINGS", settings.to_string());
     if let Some(namespace) = inside {
         namespace.enter(&mut command);
     }
@@ -3135,6 +3169,175 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     let refused = said["refused"][0].as_str().unwrap();
     assert!(refused.starts_with("error: refused"), "{refused}");
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000", "nothing changed");
+    daemon.stop();
+}
+
+/// `openssl ARGS` in `dir`, which must succeed.
+fn openssl(dir: &Path, args: &[&str]) {
+    let out = Command::new("openssl")
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("openssl is installed by `make check`");
+    assert!(out.status.success(), "openssl {args:?}: {out:?}");
+}
+
+/// A certificate authority `ca` (ca.pem, ca.key) in `dir`, and a certificate of it for each of
+/// `holders` (NAME.pem, NAME.key) naming 127.0.0.1: P-256 keys, valid for a day.
+fn certificates(dir: &Path, ca: &str, holders: &[&str]) {
+    let key = [
+        "-newkey",
+        "ec",
+        "-pkeyopt",
+        "ec_paramgen_curve:P-256",
+        "-nodes",
+    ];
+    let (ca_pem, ca_key) = (format!("{ca}.pem"), format!("{ca}.key"));
+    let subject = format!("/CN={ca}");
+    openssl(
+        dir,
+        &[
+            &["req", "-x509"][..],
+            &key,
+            &[
+                "-keyout", &ca_key, "-out", &ca_pem, "-days", "1", "-subj", &subject,
+            ],
+        ]
+        .concat(),
+    );
+    std::fs::write(dir.join("holder.ext"), "subjectAltName=IP:127.0.0.1\n").unwrap();
+    for holder in holders {
+        let (pem, private, request) = (
+            format!("{holder}.pem"),
+            format!("{holder}.key"),
+            format!("{holder}.csr"),
+        );
+        let subject = format!("/CN={holder}");
+        openssl(
+            dir,
+            &[
+                &["req"][..],
+                &key,
+                &["-keyout", &private, "-out", &request, "-subj", &subject],
+            ]
+            .concat(),
+        );
+        openssl(
+            dir,
+            &[
+                "x509",
+                "-req",
+                "-in",
+                &request,
+                "-CA",
+                &ca_pem,
+                "-CAkey",
+                &ca_key,
+                "-CAcreateserial",
+                "-out",
+                &pem,
+                "-days",
+                "1",
+                "-extfile",
+                "holder.ext",
+            ],
+        );
+    }
+}
+
+/// The bridge over mutual TLS, configured by the README's own `zenoh` file: a client holding
+/// a certificate of the administrator's CA reads the status, and so does `hapticctl --remote`
+/// given the same certificate in its `--remote-config`; one holding another CA's certificate,
+/// one speaking plain TCP to the same port, and hapticctl without the file get no session.
+#[test]
+fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
+    let dir = scratch("zenoh-tls");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let tls = dir.join("tls");
+    std::fs::create_dir_all(&tls).unwrap();
+    certificates(&tls, "ca", &["bridge", "operator"]);
+    certificates(&tls, "stranger-ca", &["stranger"]);
+    let readme = std::fs::read_to_string(repo_dir().join("README.md")).unwrap();
+    let tls_text = readme
+        .split("```json5\n")
+        .filter_map(|block| block.split("```").next())
+        .find(|block| block.contains("tls:"))
+        .expect("README shows a zenoh file for TLS");
+    let credentials = "/run/credentials/hapticd-zenoh.service/";
+    assert!(tls_text.contains(credentials), "{tls_text}");
+    let zenoh_file = dir.join("tls.json5");
+    std::fs::write(
+        &zenoh_file,
+        tls_text.replace(credentials, &format!("{}/", tls.display())),
+    )
+    .unwrap();
+    let (_, port) = support::loopback_endpoint();
+    let endpoint = format!("tls/127.0.0.1:{port}");
+    let config = format!("listen: [{endpoint}]\nzenoh: {}\n", zenoh_file.display());
+    let mut bridge = zenoh_bridge_on(&bus, &dir, &config, port, None, None);
+    let client = |endpoint: &str, holder: Option<(&str, &str)>| {
+        let mut settings = serde_json::json!({ "transport/unicast/open_timeout": 3000 });
+        if let Some((ca, holder)) = holder {
+            let at = |file: String| tls.join(file).display().to_string();
+            settings["transport/link/tls/root_ca_certificate"] = at(format!("{ca}.pem")).into();
+            settings["transport/link/tls/connect_certificate"] = at(format!("{holder}.pem")).into();
+            settings["transport/link/tls/connect_private_key"] = at(format!("{holder}.key")).into();
+            settings["transport/link/tls/enable_mtls"] = true.into();
+        }
+        zenoh_client_with(
+            "print(json.dumps({'status': ask('hapticd/sim/status', None)}))\n",
+            endpoint,
+            &[],
+            None,
+            &settings,
+        )
+    };
+    let operator = client(&endpoint, Some(("ca", "operator")));
+    // Another CA's holder trusts the bridge's certificate (it has the CA), but the bridge
+    // does not trust the holder's.
+    let stranger = client(&endpoint, Some(("ca", "stranger")));
+    let plain = client(&format!("tcp/127.0.0.1:{port}"), None);
+    // hapticctl --remote, with the operator's certificates in a Zenoh file of its own.
+    let operator_file = dir.join("operator.json5");
+    let at = |file: &str| tls.join(file).display().to_string();
+    std::fs::write(
+        &operator_file,
+        serde_json::json!({ "transport": { "link": { "tls": {
+            "root_ca_certificate": at("ca.pem"),
+            "connect_certificate": at("operator.pem"),
+            "connect_private_key": at("operator.key"),
+            "enable_mtls": true,
+        } } } })
+        .to_string(),
+    )
+    .unwrap();
+    let remote_status = |file: Option<&Path>| {
+        let mut command = support::hapticctl();
+        command.args(["--remote", &endpoint]);
+        if let Some(file) = file {
+            command.arg("--remote-config").arg(file);
+        }
+        command.arg("status").output().unwrap()
+    };
+    let (ctl, ctl_without) = (remote_status(Some(&operator_file)), remote_status(None));
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    eprintln!("operator: {operator}\nstranger: {stranger}\nplain TCP: {plain}");
+    let status: serde_json::Value =
+        serde_json::from_str(operator["status"][0].as_str().unwrap()).unwrap();
+    assert_eq!(status["identity"], "sim", "{operator}");
+    assert_eq!(status["state"], "running", "{operator}");
+    for refused in [&stranger, &plain] {
+        assert!(refused["unreachable"].is_string(), "{refused}");
+    }
+    let said = String::from_utf8_lossy(&ctl.stdout);
+    assert!(ctl.status.success(), "{ctl:?}");
+    assert!(said.contains("sim: running, 1000 Hz"), "{said}");
+    let refused = String::from_utf8_lossy(&ctl_without.stderr);
+    assert_eq!(ctl_without.status.code(), Some(1), "{ctl_without:?}");
+    assert!(refused.contains("cannot reach"), "{refused}");
     daemon.stop();
 }
 

@@ -40,6 +40,10 @@ struct Cli {
     /// this Zenoh endpoint (`tcp/HOST:7447`), instead of the bus: for `status` and `record`.
     #[arg(long, value_name = "ENDPOINT", global = true)]
     remote: Option<String>,
+    /// With --remote: a Zenoh configuration file (JSON5) to reach the bridge with, such as the
+    /// certificates of a `tls/` endpoint.
+    #[arg(long, value_name = "FILE", global = true, requires = "remote")]
+    remote_config: Option<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -161,7 +165,7 @@ fn json_anywhere(args: impl Iterator<Item = OsString>) -> Vec<OsString> {
                 json = true;
             }
             // Global options whose value is the next argument.
-            "--bus" | "--mechanism-dir" | "--remote" => i += 2,
+            "--bus" | "--mechanism-dir" | "--remote" | "--remote-config" => i += 2,
             _ if arg.starts_with('-') => i += 1,
             _ => break,
         }
@@ -184,9 +188,13 @@ fn main() -> ExitCode {
     };
     // Only the commands that talk to hapticd connect to the bus.
     let connect = || client::Client::connect(&cli.bus);
-    let result = match (&cli.remote, cli.command) {
-        (Some(endpoint), Command::Status(output)) => remote::status(endpoint, &output),
-        (Some(endpoint), Command::Record(args)) => remote::record(endpoint, &args),
+    let remote = cli.remote.map(|endpoint| remote::Remote {
+        endpoint,
+        config: cli.remote_config,
+    });
+    let result = match (&remote, cli.command) {
+        (Some(remote), Command::Status(output)) => remote::status(remote, &output),
+        (Some(remote), Command::Record(args)) => remote::record(remote, &args),
         (Some(_), _) => Err(Failure::usage(
             "--remote reaches a hapticd's status and its ticks (status, record), nothing else",
         )),

@@ -3,6 +3,7 @@
 //! `record` from the device's telemetry key, in the same CSV as a local `record` (one row in
 //! every so many ticks: the bridge's rate).
 
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use hapticd_core::telemetry::Sample;
@@ -13,24 +14,40 @@ use crate::Failure;
 use crate::client::{RecordArgs, record_header, record_row};
 use crate::mechanism::Output;
 
-/// A Zenoh client session to the bridge at `endpoint` (nothing looked for by multicast).
-fn session(endpoint: &str) -> Result<zenoh::Session, Failure> {
-    let mut config = zenoh::Config::default();
-    for (key, value) in [
-        ("mode", "\"client\"".to_string()),
-        (
-            "connect/endpoints",
-            serde_json::json!([endpoint]).to_string(),
-        ),
-        ("scouting/multicast/enabled", "false".to_string()),
-    ] {
-        config
-            .insert_json5(key, &value)
-            .map_err(|e| Failure::usage(format!("--remote {endpoint}: {e}")))?;
+/// Where a remote hapticd is: its bridge's Zenoh endpoint, and the Zenoh configuration file
+/// (JSON5: TLS certificates, authentication) to reach it with.
+pub struct Remote {
+    /// The bridge's endpoint (`tcp/HOST:7447`, `tls/HOST:7447`).
+    pub endpoint: String,
+    /// A Zenoh configuration file read first.
+    pub config: Option<PathBuf>,
+}
+
+impl Remote {
+    /// A Zenoh client session to the bridge (nothing looked for by multicast).
+    fn session(&self) -> Result<zenoh::Session, Failure> {
+        let endpoint = &self.endpoint;
+        let mut config = match &self.config {
+            Some(path) => zenoh::Config::from_file(path)
+                .map_err(|e| Failure::usage(format!("--remote-config {}: {e}", path.display())))?,
+            None => zenoh::Config::default(),
+        };
+        for (key, value) in [
+            ("mode", "\"client\"".to_string()),
+            (
+                "connect/endpoints",
+                serde_json::json!([endpoint]).to_string(),
+            ),
+            ("scouting/multicast/enabled", "false".to_string()),
+        ] {
+            config
+                .insert_json5(key, &value)
+                .map_err(|e| Failure::usage(format!("--remote {endpoint}: {e}")))?;
+        }
+        zenoh::open(config)
+            .wait()
+            .map_err(|e| Failure::failed(format!("cannot reach {endpoint}: {e}")))
     }
-    zenoh::open(config)
-        .wait()
-        .map_err(|e| Failure::failed(format!("cannot reach {endpoint}: {e}")))
 }
 
 /// Each device's status as the bridge at `endpoint` answers it, in key order.
@@ -59,8 +76,9 @@ fn statuses(session: &zenoh::Session, endpoint: &str) -> Result<Vec<Value>, Fail
 }
 
 /// `hapticctl --remote ENDPOINT status`.
-pub fn status(endpoint: &str, output: &Output) -> Result<(), Failure> {
-    let session = session(endpoint)?;
+pub fn status(remote: &Remote, output: &Output) -> Result<(), Failure> {
+    let endpoint = &remote.endpoint;
+    let session = remote.session()?;
     let found = statuses(&session, endpoint)?;
     if output.json {
         println!("{}", Value::Array(found));
@@ -95,10 +113,11 @@ pub fn status(endpoint: &str, output: &Output) -> Result<(), Failure> {
 }
 
 /// `hapticctl --remote ENDPOINT record`: the device's ticks as the bridge publishes them.
-pub fn record(endpoint: &str, args: &RecordArgs) -> Result<(), Failure> {
+pub fn record(remote: &Remote, args: &RecordArgs) -> Result<(), Failure> {
     use std::io::Write;
     args.check()?;
-    let session = session(endpoint)?;
+    let endpoint = &remote.endpoint;
+    let session = remote.session()?;
     let found = statuses(&session, endpoint)?;
     let wanted = args.device_name();
     let device = match wanted.parse::<usize>() {
