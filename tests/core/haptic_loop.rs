@@ -6,6 +6,7 @@ use crate::support;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
+use glam::{DQuat, DVec3};
 use hapticd_core::transport::{Link, TransportError};
 
 use hapticd_core::haptic_loop::{
@@ -59,6 +60,58 @@ fn the_floor_holds_the_pushing_hand_on_its_surface() {
     assert!(
         force.force.x.abs() < 0.5 && force.force.z.abs() < 0.5,
         "{force:?}"
+    );
+}
+
+/// Mean of `values`.
+fn mean(values: &[DVec3]) -> DVec3 {
+    values.iter().sum::<DVec3>() / values.len() as f64
+}
+
+#[test]
+fn a_turned_grip_reads_the_angular_velocity_the_simulator_gives_it() {
+    // A third of a turn about a tilted axis, in free air, then still again.
+    let rate = DVec3::new(0.6, 1.2, -0.6);
+    let script = format!(
+        "hands:\n  grip:\n    - hold: {{ seconds: 0.3 }}\n    - turn: {{ rate: [{}, {}, {}], seconds: 1.5 }}\n    - hold: {{ seconds: 1 }}\n",
+        rate.x, rate.y, rate.z
+    );
+    let (mut haptic, board, _) = on_cable(&script);
+    let (mut read, mut true_spin, mut still) = (Vec::new(), Vec::new(), Vec::new());
+    for tick in 0..3000 {
+        let frame = *haptic.tick(DT);
+        assert_eq!(frame.state, DeviceState::Running, "tick {tick}");
+        for (i, s) in haptic.mechanism().strings.iter().enumerate() {
+            assert!(frame.tensions[i] <= s.tension_max + 1e-12);
+        }
+        let spin = board.lock().unwrap().grip_spin(0);
+        // The wrist has caught up with the turn after a few tenths of a second.
+        if (800..1800).contains(&tick) {
+            read.push(frame.angular_velocities[0]);
+            true_spin.push(spin);
+        }
+        if tick >= 2600 {
+            still.push(frame.angular_velocities[0]);
+        }
+    }
+    let (read, truth) = (mean(&read), mean(&true_spin));
+    assert!(
+        (truth - rate).length() < 0.02 * rate.length(),
+        "the wrist turned at {truth}, asked {rate}"
+    );
+    // The estimate lags the grip by the filter's time constant (0.8 ms) and carries the
+    // encoders' steps: over a second its mean is the grip's.
+    assert!(
+        (read - truth).length() < 0.01 * truth.length(),
+        "read {read}, the grip turned at {truth}"
+    );
+    assert!(mean(&still).length() < 0.01, "at rest: {}", mean(&still));
+    let turned = haptic.frame().poses[0].orientation;
+    let rest = haptic.mechanism().effectors[0].calibration.orientation;
+    let expected = DQuat::from_scaled_axis(rate * 1.5) * rest;
+    assert!(
+        turned.angle_between(expected) < 0.02,
+        "ended at {turned}, the turn asked {expected}"
     );
 }
 
@@ -124,36 +177,43 @@ impl Link for Cable {
     }
 }
 
-/// A SPIDAR-G loop on a simulated amplifier pressing on the floor, its USB cable pulled
-/// after 1.5 s and left out for 0.3 s; returns the loop, the board, and the last frame
-/// before the unplug.
-fn pressed_then_unplugged() -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Frame) {
+/// A SPIDAR-G loop over a cable to a simulated amplifier whose hand follows `script`;
+/// returns the loop, the board, and the switch that pulls the cable.
+fn on_cable(script: &str) -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Arc<AtomicBool>) {
     let m = shipped("spidar-g");
     let board = Arc::new(Mutex::new(
         SimulatedBoard::new(
             &m,
             DT,
-            &Script::parse(PUSH_INTO_FLOOR, std::path::Path::new("hand.yaml")).unwrap(),
+            &Script::parse(script, std::path::Path::new("hand.yaml")).unwrap(),
             SimParameters::default(),
         )
         .unwrap(),
     ));
-    let first_cable = Arc::new(AtomicBool::new(false));
+    let pulled = Arc::new(AtomicBool::new(false));
     let link: Box<dyn Link> = Box::new(Cable {
         board: board.clone(),
-        pulled: first_cable.clone(),
+        pulled: pulled.clone(),
         shift: [0; 8],
     });
     let spec =
         StaticSceneSpec::load(&support::repo_dir().join("config/scenes/static.yaml")).unwrap();
     let scene = Box::new(StaticScene::new(spec, &Pointer::at_calibration(&m)));
-    let mut haptic = HapticLoop::new(
-        m.clone(),
+    let haptic = HapticLoop::new(
+        m,
         Box::new(Sh4Transport::new(link, "usb:1-2")),
         scene,
         LoopSettings::default(),
     )
     .unwrap();
+    (haptic, board, pulled)
+}
+
+/// A SPIDAR-G loop on a simulated amplifier pressing on the floor, its USB cable pulled
+/// after 1.5 s and left out for 0.3 s; returns the loop, the board, and the last frame
+/// before the unplug.
+fn pressed_then_unplugged() -> (HapticLoop, Arc<Mutex<SimulatedBoard>>, Frame) {
+    let (mut haptic, board, first_cable) = on_cable(PUSH_INTO_FLOOR);
     for _ in 0..1500 {
         haptic.tick(DT);
     }

@@ -1240,7 +1240,7 @@ fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_1
         };
         let header: Vec<&str> = rows[0].split(',').collect();
         assert_eq!(
-            header[..29],
+            header[..32],
             [
                 "tick",
                 "time",
@@ -1255,6 +1255,9 @@ fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_1
                 "velocity_x",
                 "velocity_y",
                 "velocity_z",
+                "angular_velocity_x",
+                "angular_velocity_y",
+                "angular_velocity_z",
                 "force_x",
                 "force_y",
                 "force_z",
@@ -1274,7 +1277,7 @@ fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_1
             ]
         );
         // SPIDAR-G: eight strings, a tension and a D/A value each.
-        assert_eq!(header.len(), 28 + 16, "{}", rows[0]);
+        assert_eq!(header.len(), 31 + 16, "{}", rows[0]);
         assert_eq!(rows.len() - 1, ticks, "{rate} Hz");
         let mut previous: Option<(u64, f64)> = None;
         for row in &rows[1..] {
@@ -3030,8 +3033,9 @@ fn zenoh_client_with(
 }
 
 /// The ROS 2 side of the bridge, as the real Zenoh client sees it: every tick of the pose
-/// topic for 10 s at 1 kHz, in rmw_zenoh's keys and CDR; the twist and string topics; the
-/// node and its publishers announced by liveliness tokens; the status answered, also to
+/// topic for 10 s at 1 kHz, in rmw_zenoh's keys and CDR; the twist (the angular velocity
+/// of the hand's slow turn) and string topics; the node and its publishers announced by
+/// liveliness tokens; the status answered, also to
 /// `hapticctl --remote`, which records every tick through the bridge; a command refused by a
 /// bridge that takes none.
 #[test]
@@ -3039,7 +3043,18 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     let dir = scratch("zenoh");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
-    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // The wrist turns the grip slowly about the vertical (at most 2 rad in all).
+    let hand = dir.join("turn.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - hold: { seconds: 0.5 }\n    - turn: { rate: [0, 0.1, 0], seconds: 20 }\n",
+    )
+    .unwrap();
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &["--sim", "spidar-g", "--hand", hand.to_str().unwrap()],
+    );
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 1000\n", None, None);
     let follow = "samples = {}\n\
         def taken(sample):\n\
@@ -3055,8 +3070,11 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         ticks = [t for _, t, _ in samples['pose']]\n\
         gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
         key, _, payload = samples['pose'][-1]\n\
+        twists = [struct.unpack_from('<3d', p, len(p) - 24) for _, _, p in samples['twist'][:3000]]\n\
+        angular = [sum(w[i] for w in twists) / len(twists) for i in range(3)]\n\
         print(json.dumps({'count': len(ticks), 'gaps': gaps, 'key': key, \
         'kinds': {k: len(v) for k, v in samples.items()}, 'twist': samples['twist'][-1][0], \
+        'angular': angular, \
         'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
         'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
         'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
@@ -3115,6 +3133,17 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     for kind in ["pose", "twist", "wrench", "strings"] {
         assert!(said["kinds"][kind].as_u64().unwrap() > 9500, "{said}");
     }
+    // The twist's angular part, the last 24 bytes, over its first three seconds: the turn.
+    let angular: Vec<f64> = said["angular"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        angular[0].abs() < 0.01 && (angular[1] - 0.1).abs() < 0.01 && angular[2].abs() < 0.01,
+        "{angular:?}"
+    );
     // The world's bodies (none in the static scene) as often as its picture: 60 a second.
     let bodies = said["kinds"]["bodies"].as_u64().unwrap();
     assert!((500..=650).contains(&bodies), "{said}");
@@ -3124,7 +3153,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         "{said}"
     );
     assert_eq!(said["header"], "00010000", "little-endian CDR");
-    // The simulated grip rests at its calibration pose, the frame's centre.
+    // The simulated grip turns where it was calibrated, at the frame's centre.
     let position: Vec<f64> = said["position"]
         .as_array()
         .unwrap()

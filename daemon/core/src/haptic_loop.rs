@@ -21,7 +21,7 @@ use crate::fault_hold::{FaultHold, SCENE_RECOVERY};
 use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
 use crate::haptics::wrench_command::{CommandState, WrenchCommand, WrenchSource};
-use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench};
+use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench, rotation_vector};
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
 use crate::scene::{Pointer, Scene, Touch};
@@ -110,6 +110,8 @@ pub struct Frame {
     pub poses: [Pose; MAX_EFFECTORS],
     /// Filtered velocity of each effector.
     pub velocities: [DVec3; MAX_EFFECTORS],
+    /// Filtered angular velocity of each effector, rad/s (zero for three degrees of freedom).
+    pub angular_velocities: [DVec3; MAX_EFFECTORS],
     /// Wrench displayed on each effector (after passivity and safety).
     pub wrenches: [Wrench; MAX_EFFECTORS],
     /// What each effector's pointer touches, as the scene says.
@@ -175,8 +177,9 @@ struct EffectorLoop {
     tension: TensionSolver,
     passivity: PassivityController,
     guard: SafetyGuard,
-    previous: DVec3,
+    previous: Pose,
     velocity: DVec3,
+    spin: DVec3,
 }
 
 /// The haptic loop of one device.
@@ -260,8 +263,9 @@ impl HapticLoop {
                     tension: mechanism.tension_solver(index),
                     passivity: PassivityController::new(settings.passivity),
                     guard: SafetyGuard::new(settings.safety),
-                    previous: e.calibration.position,
+                    previous: e.calibration,
                     velocity: DVec3::ZERO,
+                    spin: DVec3::ZERO,
                 }
             })
             .collect();
@@ -543,6 +547,7 @@ impl HapticLoop {
             self.frame.wrenches[index] = wrench;
             self.frame.poses[index] = *e.pose.pose();
             self.frame.velocities[index] = e.velocity;
+            self.frame.angular_velocities[index] = e.spin;
             let solved =
                 (e.guard.gain() > 0.0).then(|| e.tension.solve(e.pose.geometry(), &wrench));
             for k in 0..e.count {
@@ -587,15 +592,21 @@ impl HapticLoop {
             }
             let estimate = e.pose.solve(&own[..e.count], iterations);
             misfit = misfit.max(estimate.residual);
-            let position = estimate.pose.position;
-            e.velocity = if search {
-                DVec3::ZERO
+            let pose = estimate.pose;
+            (e.velocity, e.spin) = if search {
+                (DVec3::ZERO, DVec3::ZERO)
             } else {
-                alpha * e.velocity + (1.0 - alpha) * (position - e.previous) / dt
+                let moved = (pose.position - e.previous.position) / dt;
+                let turned =
+                    rotation_vector(pose.orientation * e.previous.orientation.inverse()) / dt;
+                (
+                    alpha * e.velocity + (1.0 - alpha) * moved,
+                    alpha * e.spin + (1.0 - alpha) * turned,
+                )
             };
-            e.previous = position;
+            e.previous = pose;
             *pointer = Pointer {
-                pose: estimate.pose,
+                pose,
                 velocity: e.velocity,
             };
         }

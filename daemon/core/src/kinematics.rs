@@ -90,6 +90,30 @@ pub fn quat_to_wxyz(q: DQuat) -> [f64; 4] {
     [q.w, q.x, q.y, q.z]
 }
 
+/// The rotation `q` makes as its axis scaled by its angle, the short way round (angle at most
+/// π): `q` and `-q` are one rotation, and a relative turn read from two nearby orientations
+/// must not come out as nearly a whole turn the other way. Exact down to the smallest turns,
+/// where the angle over the sine's length tends to 2/w.
+///
+/// ```
+/// use glam::{DQuat, DVec3};
+/// use hapticd_core::kinematics::rotation_vector;
+///
+/// let turn = DVec3::new(0.0, 0.0, 0.3);
+/// let q = DQuat::from_scaled_axis(turn);
+/// assert!((rotation_vector(q) - turn).length() < 1e-15);
+/// assert!((rotation_vector(-q) - turn).length() < 1e-15);
+/// ```
+pub fn rotation_vector(q: DQuat) -> DVec3 {
+    let q = if q.w < 0.0 { -q } else { q };
+    let v = q.xyz();
+    let sine = v.length();
+    if sine == 0.0 {
+        return DVec3::ZERO;
+    }
+    v * (2.0 * sine.atan2(q.w) / sine)
+}
+
 /// A force and a torque: what a scene asks a pointer to feel, what the strings apply to a
 /// grip, what a body gets from a contact. For a grip the torque is about its centre.
 ///

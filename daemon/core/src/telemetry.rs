@@ -22,7 +22,7 @@ use crate::world_state::{body_pose, state_code};
 pub const MAGIC: [u8; 8] = *b"hapticdT";
 
 /// Layout version: raised with any change to [`Sample`] or [`SharedTelemetry`].
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 
 /// Slots in the ring: 0.8 s of ticks at 10 kHz, 8 s at 1 kHz, for a reader to fall behind by
 /// before it misses any.
@@ -53,6 +53,8 @@ pub struct Sample {
     pub poses: [HapticdBodyPose; MAX_EFFECTORS],
     /// Each effector's grip velocity, m/s.
     pub velocities: [[f64; 3]; MAX_EFFECTORS],
+    /// Each effector's grip angular velocity, rad/s (zero for three degrees of freedom).
+    pub angular_velocities: [[f64; 3]; MAX_EFFECTORS],
     /// The wrench each effector displays.
     pub wrenches: [HapticdWrench; MAX_EFFECTORS],
     /// Where each effector touches, metres.
@@ -81,6 +83,7 @@ impl Sample {
             orientation: [1.0, 0.0, 0.0, 0.0],
         }; MAX_EFFECTORS],
         velocities: [[0.0; 3]; MAX_EFFECTORS],
+        angular_velocities: [[0.0; 3]; MAX_EFFECTORS],
         wrenches: [HapticdWrench {
             force: [0.0; 3],
             torque: [0.0; 3],
@@ -115,6 +118,7 @@ impl Sample {
             let wrench = &frame.wrenches[k];
             self.poses[k] = body_pose(&frame.poses[k]);
             self.velocities[k] = frame.velocities[k].to_array();
+            self.angular_velocities[k] = frame.angular_velocities[k].to_array();
             self.wrenches[k] = HapticdWrench {
                 force: wrench.force.to_array(),
                 torque: wrench.torque.to_array(),
@@ -290,7 +294,7 @@ impl TelemetryReader {
 
 /// Bytes of a sample as [`Sample::encode`] writes it.
 pub const ENCODED_SIZE: usize =
-    8 + 8 + 5 * 4 + MAX_EFFECTORS * (4 + 7 * 8 + 3 * 8 + 6 * 8 + 6 * 8) + CHANNELS * (8 + 2);
+    8 + 8 + 5 * 4 + MAX_EFFECTORS * (4 + 7 * 8 + 6 * 8 + 6 * 8 + 6 * 8) + CHANNELS * (8 + 2);
 
 impl Sample {
     /// The sample as bytes for another machine: every field in order, little-endian, with no
@@ -313,6 +317,7 @@ impl Sample {
             out.f64s(&self.poses[k].position);
             out.f64s(&self.poses[k].orientation);
             out.f64s(&self.velocities[k]);
+            out.f64s(&self.angular_velocities[k]);
             out.f64s(&self.wrenches[k].force);
             out.f64s(&self.wrenches[k].torque);
             out.f64s(&self.touch_points[k]);
@@ -348,6 +353,7 @@ impl Sample {
             from.f64s(&mut s.poses[k].position)?;
             from.f64s(&mut s.poses[k].orientation)?;
             from.f64s(&mut s.velocities[k])?;
+            from.f64s(&mut s.angular_velocities[k])?;
             from.f64s(&mut s.wrenches[k].force)?;
             from.f64s(&mut s.wrenches[k].torque)?;
             from.f64s(&mut s.touch_points[k])?;
@@ -460,6 +466,7 @@ mod tests {
         s.poses[1].position = [0.1, f64::MAX, -0.0];
         s.poses[0].orientation = [0.5, -0.5, 0.5, -0.5];
         s.velocities[1] = [1.0, 2.0, 3.0];
+        s.angular_velocities[0] = [-3.0, 0.25, f64::MAX];
         s.wrenches[0].force = [4.0, 5.0, 6.0];
         s.wrenches[1].torque = [-7.0, 8.0, f64::MIN_POSITIVE];
         s.touch_points[0] = [9.0; 3];

@@ -1,7 +1,7 @@
 """Every tick of a device's haptic loop, read from the telemetry ring the daemon hands out
 (``Device.OpenTelemetry``): a sealed memfd, mapped read-only here, holding the last ticks in
 slots each under a sequence lock of its own. The layout is ``hapticd_core::telemetry``'s
-(version 2); a ring of another layout is refused.
+(version 3); a ring of another layout is refused.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Iterator, List, Optional, Tuple
 
 MAGIC = b"hapticdT"
-VERSION = 2
+VERSION = 3
 SLOTS = 8192
 MAX_EFFECTORS = 4
 CHANNELS = 8
@@ -23,14 +23,15 @@ NO_BODY = 0xFFFFFFFF
 
 # A slot: its sequence (u64), then the sample: tick, time, state, effectors, strings,
 # contacts, slipping, the body each effector touches, each effector's pose (x, y, z, qw,
-# qx, qy, qz), velocity and wrench, where it touches and the normal there, each string's
-# tension and D/A value.
+# qx, qy, qz), velocity, angular velocity and wrench, where it touches and the normal
+# there, each string's tension and D/A value.
 _HEADER = struct.Struct("<8sIIdQ")
 _SAMPLE = struct.Struct(
     "<Qd5I"
     + f"{MAX_EFFECTORS}I"
     + "4x"  # the poses' doubles start on an 8-byte boundary
     + "7d" * MAX_EFFECTORS
+    + "3d" * MAX_EFFECTORS
     + "3d" * MAX_EFFECTORS
     + "6d" * MAX_EFFECTORS
     + "3d" * MAX_EFFECTORS
@@ -58,6 +59,8 @@ class Sample:
     """Each effector's pose: x, y, z (metres), then the orientation qw, qx, qy, qz."""
     velocities: List[Tuple[float, float, float]]
     """Each effector's velocity, m/s."""
+    angular_velocities: List[Tuple[float, float, float]]
+    """Each effector's angular velocity, rad/s (zeros for three degrees of freedom)."""
     wrenches: List[Tuple[float, ...]]
     """Each effector's displayed force (N) and torque (N·m): fx, fy, fz, tx, ty, tz."""
     contacts: List[bool]
@@ -101,6 +104,8 @@ def _sample(values: Tuple) -> Sample:
     at += 7 * MAX_EFFECTORS
     velocities = per_effector(3)
     at += 3 * MAX_EFFECTORS
+    angular_velocities = per_effector(3)
+    at += 3 * MAX_EFFECTORS
     wrenches = per_effector(6)
     at += 6 * MAX_EFFECTORS
     points = per_effector(3)
@@ -116,6 +121,7 @@ def _sample(values: Tuple) -> Sample:
         state=STATES[state] if state < len(STATES) else "running",
         poses=poses,
         velocities=velocities,
+        angular_velocities=angular_velocities,
         wrenches=wrenches,
         contacts=[bool(contacts >> k & 1) for k in range(effectors)],
         slipping=[bool(slipping >> k & 1) for k in range(effectors)],

@@ -376,7 +376,7 @@ pub fn run(
             let twist_message = TwistStamped {
                 header: header.clone(),
                 linear: sample.velocities[k],
-                angular: [0.0; 3],
+                angular: sample.angular_velocities[k],
             };
             let wrench_message = WrenchStamped {
                 header: header.clone(),

@@ -5,7 +5,7 @@
 //! | topic | type | what |
 //! |---|---|---|
 //! | `/hapticd/<device>/<effector>/pose` | `geometry_msgs/msg/PoseStamped` | the grip's pose |
-//! | `/hapticd/<device>/<effector>/twist` | `geometry_msgs/msg/TwistStamped` | its velocity (angular: zero, not measured) |
+//! | `/hapticd/<device>/<effector>/twist` | `geometry_msgs/msg/TwistStamped` | its velocity and angular velocity, in the device's frame |
 //! | `/hapticd/<device>/<effector>/wrench` | `geometry_msgs/msg/WrenchStamped` | the wrench displayed |
 //! | `/hapticd/<device>/strings` | `sensor_msgs/msg/JointState` | each string's tension (effort) |
 //! | `/hapticd/<device>/bodies` | `geometry_msgs/msg/PoseArray` | the world's bodies, by id, at the world's rate |

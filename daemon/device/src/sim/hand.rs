@@ -8,12 +8,14 @@
 //!     - push: { force: [0, -4, 0], seconds: 1 }
 //!     - shake: { amplitude: [0.01, 0, 0], frequency: 5, seconds: 2 }
 //!     - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 1, 0], period: 4, seconds: 4 }
+//!     - turn: { rate: [0, 0, 1.5], seconds: 2 } # a six-DoF grip turned at 1.5 rad/s about z
 //!     - unplug: { seconds: 0.3 }            # the device disappears, then returns
 //!     - path: { file: session.csv }         # follow a recorded path (hapticd --record)
 //! ```
 //!
 //! Steps run one after another; after the last one the hand holds still. `move`, `shake`
-//! and `trace` start from where the previous step left the target. During `hold`, `move` and
+//! and `trace` start from where the previous step left the target; the wrist keeps the
+//! orientation the last `turn` left (a grip of three degrees of freedom ignores turns). During `hold`, `move` and
 //! `shake` a finger may `squeeze` what it holds with a grip effort, which the arm never pulls
 //! it back against (`- shake: { amplitude: [0.025, 0, 0], frequency: 2, seconds: 4,
 //! squeeze: [-2, 0, 0] }`): two fingers so scripted hold an object and shake it.
@@ -21,7 +23,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::{self, Diagnostics, Findings};
 use serde::Deserialize;
 
@@ -82,6 +84,13 @@ pub enum Step {
         /// Duration.
         seconds: f64,
     },
+    /// Hold the target and turn the wrist at a constant angular velocity.
+    Turn {
+        /// Angular velocity, rad/s: the axis scaled by the speed, in the device's frame.
+        rate: [f64; 3],
+        /// Duration.
+        seconds: f64,
+    },
     /// The device disappears for a while (unplugged), then returns.
     Unplug {
         /// Duration.
@@ -109,6 +118,8 @@ const MIN_TRACE_PERIOD: f64 = 0.01;
 const MAX_REACH: f64 = 10.0;
 /// Strongest push, newtons.
 const MAX_PUSH: f64 = 1000.0;
+/// Fastest turn, rad/s (sixteen turns a second).
+const MAX_TURN_RATE: f64 = 100.0;
 /// Longest step, seconds (eleven days).
 const MAX_STEP_SECONDS: f64 = 1e6;
 
@@ -121,6 +132,7 @@ impl Step {
             Step::Push { .. } => "push",
             Step::Shake { .. } => "shake",
             Step::Trace { .. } => "trace",
+            Step::Turn { .. } => "turn",
             Step::Unplug { .. } => "unplug",
             Step::Path { .. } => "path",
         }
@@ -148,6 +160,16 @@ impl Step {
             }
             Step::Push { force, .. } => {
                 f.coordinates(format!("{at}.force"), force, MAX_PUSH, "N");
+            }
+            Step::Turn { rate, .. } => {
+                if f.coordinates(format!("{at}.rate"), rate, MAX_TURN_RATE, "rad/s")
+                    && DVec3::from(*rate).length() > MAX_TURN_RATE
+                {
+                    f.error(
+                        format!("{at}.rate"),
+                        format!("turns faster than {MAX_TURN_RATE} rad/s"),
+                    );
+                }
             }
             Step::Shake {
                 amplitude,
@@ -207,6 +229,7 @@ impl Step {
             | Step::Push { seconds, .. }
             | Step::Shake { seconds, .. }
             | Step::Trace { seconds, .. }
+            | Step::Turn { seconds, .. }
             | Step::Unplug { seconds } => seconds,
             Step::Path { ref samples, .. } => samples.last().map_or(0.0, |s| s.0),
         }
@@ -332,6 +355,10 @@ pub struct HandCommand {
     /// finger back against it (it may push harder). People hold things so (thesis 4.3): they
     /// keep their grip and move what they hold by pressing harder with the finger behind it.
     pub squeeze: DVec3,
+    /// How far the wrist wants the grip turned from its resting orientation.
+    pub turn: DQuat,
+    /// The angular velocity of that turn, rad/s.
+    pub spin: DVec3,
     /// Whether the device is unplugged now.
     pub unplugged: bool,
 }
@@ -340,15 +367,15 @@ pub struct HandCommand {
 #[derive(Debug, Clone, PartialEq)]
 pub struct HandTrack {
     steps: Vec<Step>,
-    /// Target at the start of each step (the end of the previous one).
-    starts: Vec<DVec3>,
+    /// Target and wrist turn at the start of each step (the end of the previous one).
+    starts: Vec<(DVec3, DQuat)>,
 }
 
 impl HandTrack {
-    /// A track starting at `start`.
+    /// A track starting at `start`, the wrist at rest.
     pub fn new(start: DVec3, steps: Vec<Step>) -> Self {
         let mut starts = Vec::with_capacity(steps.len() + 1);
-        let mut at = start;
+        let mut at = (start, DQuat::IDENTITY);
         for step in &steps {
             starts.push(at);
             at = Self::end_of(step, at);
@@ -357,14 +384,20 @@ impl HandTrack {
         Self { steps, starts }
     }
 
-    fn end_of(step: &Step, start: DVec3) -> DVec3 {
+    fn end_of(step: &Step, (start, turn): (DVec3, DQuat)) -> (DVec3, DQuat) {
         match *step {
-            Step::Hold { at, .. } => at.map_or(start, DVec3::from),
-            Step::Move { to, .. } => DVec3::from(to),
-            Step::Trace { .. } => Self::trace_at(step, start, step.seconds()).0,
-            Step::Path { ref samples, .. } => samples.last().map_or(start, |s| s.1),
-            _ => start,
+            Step::Hold { at, .. } => (at.map_or(start, DVec3::from), turn),
+            Step::Move { to, .. } => (DVec3::from(to), turn),
+            Step::Trace { .. } => (Self::trace_at(step, start, step.seconds()).0, turn),
+            Step::Turn { rate, seconds } => (start, Self::turned(rate, seconds, turn)),
+            Step::Path { ref samples, .. } => (samples.last().map_or(start, |s| s.1), turn),
+            _ => (start, turn),
         }
+    }
+
+    /// `turn` turned further at `rate` for `t` seconds.
+    fn turned(rate: [f64; 3], t: f64, turn: DQuat) -> DQuat {
+        (DQuat::from_scaled_axis(DVec3::from(rate) * t) * turn).normalize()
     }
 
     fn trace_at(step: &Step, start: DVec3, t: f64) -> (DVec3, DVec3) {
@@ -403,21 +436,26 @@ impl HandTrack {
             }
             begin = end;
         }
+        let (target, turn) = *self.starts.last().expect("starts has steps + 1 entries");
         HandCommand {
-            target: *self.starts.last().expect("starts has steps + 1 entries"),
+            target,
             velocity: DVec3::ZERO,
             push: DVec3::ZERO,
             squeeze: DVec3::ZERO,
+            turn,
+            spin: DVec3::ZERO,
             unplugged: false,
         }
     }
 
-    fn during(step: &Step, start: DVec3, t: f64) -> HandCommand {
+    fn during(step: &Step, (start, turn): (DVec3, DQuat), t: f64) -> HandCommand {
         let mut c = HandCommand {
             target: start,
             velocity: DVec3::ZERO,
             push: DVec3::ZERO,
             squeeze: DVec3::ZERO,
+            turn,
+            spin: DVec3::ZERO,
             unplugged: false,
         };
         c.squeeze = step.squeeze().map_or(DVec3::ZERO, DVec3::from);
@@ -439,6 +477,10 @@ impl HandTrack {
                 c.velocity = DVec3::from(amplitude) * w * (w * t).cos();
             }
             Step::Trace { .. } => (c.target, c.velocity) = Self::trace_at(step, start, t),
+            Step::Turn { rate, .. } => {
+                c.turn = Self::turned(rate, t, turn);
+                c.spin = DVec3::from(rate);
+            }
             Step::Unplug { .. } => c.unplugged = true,
             Step::Path { ref samples, .. } => {
                 // The segment holding t, linearly.
@@ -457,6 +499,7 @@ impl HandTrack {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hapticd_core::kinematics::rotation_vector;
 
     #[test]
     fn steps_follow_one_another() {
@@ -496,6 +539,42 @@ mod tests {
         .to_string();
         assert!(
             e.contains("hands.index[0].hold.squeeze: must be finite"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn turns_add_up_and_the_wrist_keeps_the_last() {
+        let script = Script::parse(
+            "hands:\n  grip:\n    - turn: { rate: [0, 0, 2], seconds: 1 }\n    - move: { to: [0.01, 0, 0], seconds: 1 }\n    - turn: { rate: [0, 0, 2], seconds: 1.5 }\n",
+            Path::new("h.yaml"),
+        )
+        .unwrap();
+        let hand = HandTrack::new(DVec3::ZERO, script.hands["grip"].clone());
+        let angle_about_z = |t: f64| {
+            let c = hand.at(t);
+            (rotation_vector(c.turn).z, c.spin.z)
+        };
+        let close = |(a, s): (f64, f64), (angle, spin): (f64, f64)| {
+            (a - angle).abs() < 1e-12 && (s - spin).abs() < 1e-12
+        };
+        assert!(close(angle_about_z(0.5), (1.0, 2.0)));
+        assert!(close(angle_about_z(1.5), (2.0, 0.0)));
+        assert!(close(angle_about_z(2.25), (2.5, 2.0)));
+        // 2 + 3 rad is past half a turn: the same orientation as 5 − 2π.
+        assert!(close(
+            angle_about_z(9.0),
+            (5.0 - std::f64::consts::TAU, 0.0)
+        ));
+        assert_eq!(hand.at(9.0).target, DVec3::new(0.01, 0.0, 0.0));
+        let e = Script::parse(
+            "hands:\n  grip:\n    - turn: { rate: [80, 80, 0], seconds: 1 }\n",
+            Path::new("h.yaml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("hands.grip[0].turn.rate: turns faster than 100 rad/s"),
             "{e}"
         );
     }

@@ -19,7 +19,7 @@ use glam::{DQuat, DVec3};
 
 use crate::sh4::{self, Command, Report};
 use hand::{HandTrack, Script};
-use hapticd_core::kinematics::{Dof, Pose};
+use hapticd_core::kinematics::{Dof, Pose, rotation_vector};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::transport::{CHANNELS, DAC_DIGITS_PER_VOLT};
 use hapticd_core::transport::{Link, TransportError};
@@ -196,6 +196,11 @@ impl SimulatedBoard {
         self.effectors[index].grip_velocity
     }
 
+    /// The true angular velocity of effector `index`'s grip, rad/s.
+    pub fn grip_spin(&self, index: usize) -> DVec3 {
+        self.effectors[index].grip_spin
+    }
+
     /// Tension in each string now, newtons.
     pub fn tensions(&self) -> &[f64; CHANNELS] {
         &self.tensions
@@ -284,8 +289,9 @@ impl SimulatedBoard {
             e.grip.position += e.grip_velocity * h;
             e.hand += e.hand_velocity * h;
             if e.dof == Dof::Six {
-                let error = (e.rest_orientation * e.grip.orientation.inverse()).to_scaled_axis();
-                let wrist = p.wrist.0 * error - p.wrist.1 * e.grip_spin;
+                let wanted = command.turn * e.rest_orientation;
+                let error = rotation_vector(wanted * e.grip.orientation.inverse());
+                let wrist = p.wrist.0 * error + p.wrist.1 * (command.spin - e.grip_spin);
                 e.grip_spin += (torque + wrist) / p.grip_inertia * h;
                 e.grip.orientation =
                     (DQuat::from_scaled_axis(e.grip_spin * h) * e.grip.orientation).normalize();

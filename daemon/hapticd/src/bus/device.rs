@@ -410,8 +410,8 @@ device_interface! {
     }
 
     /// Every tick of the haptic loop: a sealed memfd, read-only to the caller, holding a ring
-    /// of the last 8192 ticks (tick number, time, state, each effector's pose, velocity and
-    /// wrench, contacts, tensions, D/A values), each slot under a sequence lock of its own
+    /// of the last 8192 ticks (tick number, time, state, each effector's pose, velocity,
+    /// angular velocity and wrench, contacts, tensions, D/A values), each slot under a sequence lock of its own
     /// (the layout is `hapticd_core::telemetry::SharedTelemetry`). A reader that falls behind
     /// only misses ticks, and sees which. `options` takes no key yet; any is refused.
     fn open_telemetry(

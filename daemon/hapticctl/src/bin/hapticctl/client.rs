@@ -645,7 +645,7 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
 /// touches and the normal there, one column per component, named for the effector when there
 /// are several (`thumb_pose_x`); then each string's tension and D/A value.
 pub(crate) fn record_header(effectors: &[String], strings: usize) -> String {
-    const COMPONENTS: [&str; 25] = [
+    const COMPONENTS: [&str; 28] = [
         "pose_x",
         "pose_y",
         "pose_z",
@@ -656,6 +656,9 @@ pub(crate) fn record_header(effectors: &[String], strings: usize) -> String {
         "velocity_x",
         "velocity_y",
         "velocity_z",
+        "angular_velocity_x",
+        "angular_velocity_y",
+        "angular_velocity_z",
         "force_x",
         "force_y",
         "force_z",
@@ -706,6 +709,7 @@ pub(crate) fn record_row(sample: &Sample, effectors: usize, strings: usize) -> S
             .iter()
             .chain(&pose.orientation)
             .chain(&sample.velocities[k])
+            .chain(&sample.angular_velocities[k])
             .chain(&wrench.force)
             .chain(&wrench.torque);
         for x in numbers {
