@@ -92,8 +92,8 @@ pub fn quat_to_wxyz(q: DQuat) -> [f64; 4] {
 
 /// The rotation `q` makes as its axis scaled by its angle, the short way round (angle at most
 /// π): `q` and `-q` are one rotation, and a relative turn read from two nearby orientations
-/// must not come out as nearly a whole turn the other way. Exact down to the smallest turns,
-/// where the angle over the sine's length tends to 2/w.
+/// must not come out as nearly a whole turn the other way. Turns under 2e-8 rad, rounding's
+/// noise in a relative turn of two equal orientations, read as none.
 ///
 /// ```
 /// use glam::{DQuat, DVec3};
@@ -105,13 +105,7 @@ pub fn quat_to_wxyz(q: DQuat) -> [f64; 4] {
 /// assert!((rotation_vector(-q) - turn).length() < 1e-15);
 /// ```
 pub fn rotation_vector(q: DQuat) -> DVec3 {
-    let q = if q.w < 0.0 { -q } else { q };
-    let v = q.xyz();
-    let sine = v.length();
-    if sine == 0.0 {
-        return DVec3::ZERO;
-    }
-    v * (2.0 * sine.atan2(q.w) / sine)
+    if q.w < 0.0 { -q } else { q }.to_scaled_axis()
 }
 
 /// A force and a torque: what a scene asks a pointer to feel, what the strings apply to a

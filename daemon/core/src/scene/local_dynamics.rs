@@ -25,7 +25,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use hapticd_plugin_api::{HAPTICD_MAX_BODY_CONTACTS, HapticdLocalBody, HapticdLocalState};
 
-use crate::kinematics::{Pose, quat_from_wxyz};
+use crate::kinematics::{Pose, quat_from_wxyz, rotation_vector};
 
 /// Gauss–Seidel sweeps over a body's contacts per tick.
 const SWEEPS: usize = 4;
@@ -89,7 +89,7 @@ impl Change {
     fn between(a: &Motion, b: &Motion) -> Change {
         Change {
             displacement: a.position - b.position,
-            rotation: (a.orientation * b.orientation.inverse()).to_scaled_axis(),
+            rotation: rotation_vector(a.orientation * b.orientation.inverse()),
             velocity: a.velocity - b.velocity,
             spin: a.spin - b.spin,
         }
@@ -246,7 +246,7 @@ impl LocalBody {
         let offset = shown.map_or((DVec3::ZERO, DVec3::ZERO), |s| {
             (
                 s.position - start.position,
-                (s.orientation * start.orientation.inverse()).to_scaled_axis(),
+                rotation_vector(s.orientation * start.orientation.inverse()),
             )
         });
         Some(LocalBody {
@@ -674,6 +674,38 @@ mod tests {
         assert_eq!(normal, DVec3::X);
         assert!((velocity.x - 0.1).abs() < 1e-12);
         assert!(body.owns(5) && body.owns(6) && !body.owns(7) && !body.owns(4));
+    }
+
+    #[test]
+    fn an_orientation_written_with_the_other_sign_is_the_same_orientation() {
+        // q and −q are one rotation; a plugin may write either. Shown at 0.3 rad about y,
+        // published at 0.31 rad written as −q: the jump to fade is −0.01 rad, not nearly a
+        // whole turn the other way (which would spin the surface under a finger at 125 rad/s).
+        let (mut record, _) = brick(1.0, DVec3::ZERO);
+        let published = -DQuat::from_rotation_y(0.31);
+        record.orientation = [published.w, published.x, published.y, published.z];
+        let shown = Pose {
+            orientation: DQuat::from_rotation_y(0.3),
+            ..Pose::default()
+        };
+        let body = LocalBody::new(&record, &Change::default(), 0.05, Some(shown)).unwrap();
+        assert!(
+            (body.shown().spin - DVec3::Y * 0.2).length() < 1e-9,
+            "{:?}",
+            body.shown()
+        );
+        assert!(body.shown().orientation.angle_between(shown.orientation) < 1e-9);
+        // The next step writes its 0.32 rad with the usual sign: the hand is 0.01 rad short.
+        let turned = DQuat::from_rotation_y(0.32);
+        let next = HapticdLocalBody {
+            orientation: [turned.w, turned.x, turned.y, turned.z],
+            ..record
+        };
+        let back = body.change_to(&next, &Change::default()).unwrap();
+        assert!(
+            (back.rotation + DVec3::Y * 0.01).length() < 1e-12,
+            "{back:?}"
+        );
     }
 
     #[test]

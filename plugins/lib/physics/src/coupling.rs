@@ -7,7 +7,7 @@
 use glam::{DQuat, DVec3};
 
 use crate::body::Body;
-use hapticd_core::kinematics::Wrench;
+use hapticd_core::kinematics::{Wrench, rotation_vector};
 
 /// Where the user's grip is and how it moves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,17 +42,14 @@ impl Coupling {
     /// set it can at most stop the body's motion relative to the grip, never reverse it.
     pub fn load(&self, grip: &Grip, body: &Body, dt: f64) -> Wrench {
         // The smallest rotation taking the body's orientation to the grip's.
-        let mut error = grip.orientation * body.orientation.inverse();
-        if error.w < 0.0 {
-            error = -error;
-        }
+        let error = rotation_vector(grip.orientation * body.orientation.inverse());
         let stable = |c: f64, mobility: f64| c / (1.0 + c * dt * mobility);
         let turning = grip.spin - body.spin;
         let turning_mobility = body.inverse_inertia_about(turning.normalize_or_zero());
         Wrench {
             force: self.stiffness * (grip.position - body.position)
                 + stable(self.damping, 1.0 / body.mass) * (grip.velocity - body.velocity),
-            torque: self.rotational_stiffness * error.to_scaled_axis()
+            torque: self.rotational_stiffness * error
                 + stable(self.rotational_damping, turning_mobility) * turning,
         }
     }

@@ -25,6 +25,8 @@ pub mod shell;
 
 use glam::{DQuat, DVec3};
 
+use crate::kinematics::rotation_vector;
+
 use distribution::{Distribution, Press};
 use shell::Load;
 
@@ -296,7 +298,7 @@ impl Grasp {
         };
         let twist = |turned: DQuat, turn: DVec3| {
             size * size
-                * (kr * (turned * object.orientation.inverse()).to_scaled_axis()
+                * (kr * rotation_vector(turned * object.orientation.inverse())
                     + br * (turn / dt - spin))
         };
         let load = Load {
