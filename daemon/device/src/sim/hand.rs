@@ -15,10 +15,11 @@
 //!
 //! Steps run one after another; after the last one the hand holds still. `move`, `shake`
 //! and `trace` start from where the previous step left the target; the wrist keeps the
-//! orientation the last `turn` left (a grip of three degrees of freedom ignores turns). During `hold`, `move` and
-//! `shake` a finger may `squeeze` what it holds with a grip effort, which the arm never pulls
-//! it back against (`- shake: { amplitude: [0.025, 0, 0], frequency: 2, seconds: 4,
-//! squeeze: [-2, 0, 0] }`): two fingers so scripted hold an object and shake it.
+//! orientation the last `turn` left (a grip of three degrees of freedom ignores turns).
+//! During `hold`, `move` and `shake` a finger may `squeeze` what it holds with a grip
+//! effort, which the arm never pulls it back against; two fingers so scripted hold an
+//! object and shake it:
+//! `- shake: { amplitude: [0.025, 0, 0], frequency: 2, seconds: 4, squeeze: [-2, 0, 0] }`.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
