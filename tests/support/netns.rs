@@ -54,24 +54,22 @@ pub struct Pair {
 
 impl Pair {
     /// Two namespaces of this process's own, joined by a veth pair; `None` where the machine
-    /// does not let this process make them (not root, or no `ip`).
+    /// does not let this process make them (not root, or no `ip`). Namespaces left by test
+    /// processes that were killed before they could delete theirs go first.
     pub fn create() -> Option<Pair> {
         static MADE: AtomicU32 = AtomicU32::new(0);
-        let id = format!(
-            "{:x}{:x}",
-            std::process::id(),
-            MADE.fetch_add(1, Ordering::Relaxed)
-        );
+        delete_orphans();
+        let (pid, made) = (std::process::id(), MADE.fetch_add(1, Ordering::Relaxed));
         let [near, far] = [0u8, 1].map(|k| Namespace {
-            name: format!("hapticd-test-{id}-{k}"),
+            name: format!("{PREFIX}{pid}-{made}-{k}"),
             address: Ipv4Addr::new(10, 213, 0, k + 1),
         });
         if !ip(&["netns", "add", &near.name]) {
             return None;
         }
         let pair = Pair { near, far };
-        // Link names have at most 15 bytes.
-        let [near_link, far_link] = [0, 1].map(|k| format!("hv{id}{k}"));
+        // Link names have at most 15 bytes; they go with their namespace.
+        let [near_link, far_link] = [0, 1].map(|k| format!("hv{pid:x}{made:x}{k}"));
         let made = ip(&["netns", "add", &pair.far.name])
             && ip(&[
                 "link",
@@ -110,6 +108,30 @@ impl Drop for Pair {
     fn drop(&mut self) {
         for side in [&self.near, &self.far] {
             ip(&["netns", "delete", &side.name]);
+        }
+    }
+}
+
+/// How the names of the tests' namespaces begin; the test process's id follows.
+const PREFIX: &str = "hapticd-test-";
+
+/// Delete the namespaces of test processes that no longer run (killed, they never dropped
+/// their pairs); another test run's live namespaces stay.
+fn delete_orphans() {
+    let Ok(entries) = std::fs::read_dir("/run/netns") else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix(PREFIX)
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if !std::path::Path::new(&format!("/proc/{pid}")).exists() {
+            ip(&["netns", "delete", &name]);
         }
     }
 }
