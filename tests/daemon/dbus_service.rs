@@ -2427,8 +2427,14 @@ impl Xvfb {
             .spawn()
             .expect("Xvfb (package xvfb) is installed by `make check`");
         let framebuffer = fbdir.join("Xvfb_screen0");
+        // Xvfb makes the file before it writes the XWD header into it: wait for the header's
+        // bits per pixel (its twelfth word), not for the file alone.
+        let written = |file: &Path| {
+            std::fs::read(file)
+                .is_ok_and(|bytes| bytes.len() >= 48 && bytes[44..48] != [0, 0, 0, 0])
+        };
         let started = Instant::now();
-        while !framebuffer.exists() {
+        while !written(&framebuffer) {
             assert!(
                 started.elapsed() < Duration::from_secs(10),
                 "Xvfb did not start"
