@@ -35,16 +35,19 @@ pub struct Limits {
     pub vertices: usize,
     /// Most triangles.
     pub triangles: usize,
-    /// Largest file (and, for glTF, each buffer it names), bytes.
+    /// Largest file, bytes; for glTF also the most its buffers hold together.
     pub bytes: u64,
+    /// Most nodes of a glTF file.
+    pub nodes: usize,
 }
 
 impl Limits {
-    /// hapticd's: 500 000 vertices and triangles, 64 MiB a file.
+    /// hapticd's: 500 000 vertices and triangles, 64 MiB a file, 100 000 glTF nodes.
     pub const DEFAULT: Limits = Limits {
         vertices: 500_000,
         triangles: 500_000,
         bytes: 64 << 20,
+        nodes: 100_000,
     };
 }
 
@@ -91,12 +94,15 @@ pub fn load(
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let read = match extension.as_deref() {
-        Some("obj") => obj::read(&bytes),
-        Some("stl") => stl::read(&bytes),
-        Some("gltf") | Some("glb") => gltf::read(&bytes, file, rules),
+    // The readers check what they are given before they trust it; should a format crate
+    // still panic on a file, the file is refused, not the process ended.
+    let read = std::panic::catch_unwind(|| match extension.as_deref() {
+        Some("obj") => obj::read(&bytes, limits),
+        Some("stl") => stl::read(&bytes, limits),
+        Some("gltf") | Some("glb") => gltf::read(&bytes, file, rules, limits),
         _ => Err("not a mesh file hapticd reads: .obj, .stl, .gltf or .glb".into()),
-    }
+    })
+    .unwrap_or_else(|_| Err("its reader failed on it (a fault of the reader's)".into()))
     .map_err(refuse)?;
     TriangleMesh::checked(read, scale, limits).map_err(refuse)
 }

@@ -3,10 +3,11 @@
 
 use glam::DVec3;
 
-use crate::Read;
+use crate::{Limits, Read};
 
-/// The triangles of OBJ `bytes`.
-pub(crate) fn read(bytes: &[u8]) -> Result<Read, String> {
+/// The triangles of OBJ `bytes`, at most `limits.triangles` of them.
+pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, String> {
+    within_budget(bytes, limits)?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -46,4 +47,36 @@ pub(crate) fn read(bytes: &[u8]) -> Result<Read, String> {
         }
     }
     Ok(read)
+}
+
+/// Refuse a file that would make more triangles, or more positions, than `limits` allow,
+/// counted from its lines before the reader builds anything: a polygon of n corners is
+/// n − 2 triangles.
+fn within_budget(bytes: &[u8], limits: Limits) -> Result<(), String> {
+    let (mut positions, mut triangles) = (0usize, 0usize);
+    for line in bytes.split(|&b| b == b'\n') {
+        let mut words = line
+            .split(u8::is_ascii_whitespace)
+            .filter(|w| !w.is_empty());
+        match words.next() {
+            Some(b"v") => positions += 1,
+            Some(b"f") => triangles += words.count().saturating_sub(2),
+            _ => {}
+        }
+    }
+    if triangles > limits.triangles {
+        return Err(format!(
+            "{triangles} triangles; a mesh has at most {}",
+            limits.triangles
+        ));
+    }
+    if positions > 3 * limits.triangles {
+        return Err(format!(
+            "{positions} vertices; a mesh file has at most {} (three for each of the {} \
+             triangles a mesh may have)",
+            3 * limits.triangles,
+            limits.triangles
+        ));
+    }
+    Ok(())
 }

@@ -358,3 +358,263 @@ fn the_example_meshes_are_closed_solids_of_their_drawn_volumes() {
         );
     }
 }
+
+/// A glTF document whose scene has `roots` (a JSON list) among `nodes` (a JSON list), each
+/// node that names mesh 0 placing the unit cube, its buffer embedded; `stride` is the
+/// positions' byteStride, if any.
+fn cube_scene(roots: &str, nodes: &str, stride: Option<usize>) -> String {
+    let (corners, triangles) = cube();
+    let buffer = gltf_buffer(&corners, &triangles);
+    let stride = stride.map_or(String::new(), |s| format!(r#", "byteStride": {s}"#));
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": {roots}}}],
+ "nodes": {nodes},
+ "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+ "buffers": [{{"uri": "data:application/octet-stream;base64,{}", "byteLength": {}}}],
+ "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 96{stride}}},
+                 {{"buffer": 0, "byteOffset": 96, "byteLength": 144}}],
+ "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 1]}},
+               {{"bufferView": 1, "componentType": 5125, "count": 36, "type": "SCALAR"}}]}}"#,
+        base64(&buffer),
+        buffer.len()
+    )
+}
+
+/// Nodes as a JSON list: node k has `children(k)` and, when `mesh(k)`, places mesh 0.
+fn nodes_json(
+    count: usize,
+    children: impl Fn(usize) -> Vec<usize>,
+    mesh: impl Fn(usize) -> bool,
+) -> String {
+    let nodes: Vec<String> = (0..count)
+        .map(|k| {
+            let children: Vec<String> = children(k).iter().map(usize::to_string).collect();
+            let mesh = if mesh(k) { r#""mesh": 0, "# } else { "" };
+            format!(
+                r#"{{{mesh}"name": "n{k}", "children": [{}]}}"#,
+                children.join(",")
+            )
+        })
+        .collect();
+    format!("[{}]", nodes.join(",\n"))
+}
+
+/// A 40 KB glTF of a node graph that reuses its nodes, or loops, describes billions of
+/// triangles: refused at once and by name, as the format's trees are, before anything is
+/// expanded; a legal tree that places one mesh many times is held to the triangle budget as
+/// it is walked.
+#[test]
+fn node_graphs_that_reuse_or_loop_are_refused_by_name_before_they_are_expanded() {
+    let dir = scratch("graphs");
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    // Six levels of ten nodes, each node of a level a child of every node of the level
+    // above: 10⁶ paths to the cube at the bottom.
+    let dag = nodes_json(
+        60,
+        |k| {
+            if k < 50 {
+                (10 * (k / 10 + 1)..10 * (k / 10 + 2)).collect()
+            } else {
+                Vec::new()
+            }
+        },
+        |k| k >= 50,
+    );
+    let roots = format!(
+        "[{}]",
+        (0..10).map(|k| k.to_string()).collect::<Vec<_>>().join(",")
+    );
+    let started = std::time::Instant::now();
+    let e = refused(
+        &write("dag.gltf", cube_scene(&roots, &dag, None)),
+        Limits::DEFAULT,
+        None,
+    );
+    assert!(
+        e.contains(r#"node 10 ("n10") is a child of both node 0 ("n0") and node 1 ("n1")"#),
+        "{e}"
+    );
+    // Refused from the graph, not after expanding it (which took minutes and gigabytes).
+    assert!(started.elapsed() < std::time::Duration::from_secs(5));
+    let own_child = nodes_json(2, |k| vec![k], |_| true);
+    let e = refused(
+        &write("self.gltf", cube_scene("[0]", &own_child, None)),
+        Limits::DEFAULT,
+        None,
+    );
+    assert!(e.contains(r#"node 0 ("n0") is its own child"#), "{e}");
+    // Node 1 → 2 → 3 → 1, hanging under no root: still no file hapticd reads.
+    let ring = nodes_json(
+        4,
+        |k| match k {
+            1 => vec![2],
+            2 => vec![3],
+            3 => vec![1],
+            _ => Vec::new(),
+        },
+        |_| true,
+    );
+    let e = refused(
+        &write("ring.gltf", cube_scene("[0]", &ring, None)),
+        Limits::DEFAULT,
+        None,
+    );
+    assert!(e.contains("is its own ancestor"), "{e}");
+    // A legal tree: a root with 200 children, each placing the cube (12 triangles).
+    let wide = nodes_json(
+        201,
+        |k| {
+            if k == 0 {
+                (1..201).collect()
+            } else {
+                Vec::new()
+            }
+        },
+        |k| k > 0,
+    );
+    let path = write("wide.gltf", cube_scene("[0]", &wide, None));
+    assert_eq!(loaded(&path).triangles.len(), 2400);
+    let budget = Limits {
+        triangles: 2000,
+        ..Limits::DEFAULT
+    };
+    let e = refused(&path, budget, None);
+    assert!(
+        e.contains("more than 2000 triangles once primitive 0 of mesh 0, placed by node"),
+        "{e}"
+    );
+    let few_nodes = Limits {
+        nodes: 100,
+        ..Limits::DEFAULT
+    };
+    assert!(refused(&path, few_nodes, None).contains("201 nodes; a mesh file has at most 100"));
+}
+
+/// Accessors that lie about their layout are refused with what is wrong, where the glTF
+/// crate's reader would panic (a stride shorter than an element) or read past its data.
+#[test]
+fn accessors_that_lie_about_their_layout_are_refused_not_read() {
+    let dir = scratch("accessors");
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let one = nodes_json(1, |_| Vec::new(), |_| true);
+    let path = write("stride.gltf", cube_scene("[0]", &one, Some(4)));
+    let e = refused(&path, Limits::DEFAULT, None);
+    assert!(
+        e.contains("accessor 0 has elements of 12 bytes 4 bytes apart"),
+        "{e}"
+    );
+    for (name, from, to, says) in [
+        (
+            "count.gltf",
+            r#""count": 8,"#,
+            r#""count": 9,"#,
+            "of 9 elements does not fit in buffer view 0's 96 bytes",
+        ),
+        (
+            "huge.gltf",
+            r#""count": 8,"#,
+            r#""count": 4294967295,"#,
+            "does not fit",
+        ),
+        (
+            "empty.gltf",
+            r#""count": 8,"#,
+            r#""count": 0,"#,
+            "holds no element",
+        ),
+        (
+            "type.gltf",
+            r#""count": 8, "type": "VEC3""#,
+            r#""count": 8, "type": "VEC2""#,
+            "holds Vec2 of F32, not three 32-bit floats",
+        ),
+        (
+            "view.gltf",
+            r#""byteOffset": 96, "byteLength": 144"#,
+            r#""byteOffset": 200, "byteLength": 144"#,
+            "ends past buffer 0's 240 bytes",
+        ),
+    ] {
+        let text = cube_scene("[0]", &one, None);
+        assert!(text.contains(from), "{name}");
+        let e = refused(
+            &write(name, text.replacen(from, to, 1)),
+            Limits::DEFAULT,
+            None,
+        );
+        assert!(e.contains(says), "{name}: {e}");
+    }
+}
+
+/// STL as exporters write it: a tab after `solid`, several solids, a binary header that
+/// starts with `solid`, a loop of four corners; and counts that lie.
+#[test]
+fn stl_files_as_exporters_write_them_are_read_and_lying_counts_refused() {
+    let dir = scratch("stl");
+    let (corners, triangles) = cube();
+    let reference = canonical(&TriangleMesh {
+        vertices: corners.iter().map(|&c| DVec3::from(c)).collect(),
+        triangles: triangles.iter().map(|t| t.map(|k| k as u32)).collect(),
+        normals: None,
+    });
+    let text = stl_ascii(&corners, &triangles);
+    let tabbed = text.replacen("solid cube", "solid\tcube", 1);
+    let halves: Vec<&str> = text.splitn(8, "  facet").collect();
+    let two_solids = format!(
+        "{}endsolid a\nsolid b\n  facet{}",
+        halves[..7].join("  facet"),
+        halves[7]
+    );
+    let mut labelled = stl_binary(&corners, &triangles);
+    labelled[..11].copy_from_slice(b"solid cube ");
+    for (name, bytes) in [
+        ("tab.stl", tabbed.into_bytes()),
+        ("two.stl", two_solids.into_bytes()),
+        ("labelled.stl", labelled.clone()),
+    ] {
+        std::fs::write(dir.join(name), &bytes).unwrap();
+        assert_eq!(canonical(&loaded(&dir.join(name))), reference, "{name}");
+    }
+    // One quadrilateral facet: two triangles.
+    let quad = "solid q\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid q\n";
+    std::fs::write(dir.join("quad.stl"), quad).unwrap();
+    assert_eq!(loaded(&dir.join("quad.stl")).triangles.len(), 2);
+    let mut lying = labelled;
+    lying[80..84].copy_from_slice(&1_000_000u32.to_le_bytes());
+    for (name, bytes, says) in [
+        (
+            "lying.stl",
+            lying,
+            "a binary STL of 1000000 triangles is 50000084 bytes long, not 684",
+        ),
+        (
+            "cut.stl",
+            text[..text.len() - 40].as_bytes().to_vec(),
+            "ends within facet 12",
+        ),
+        (
+            "word.stl",
+            text.replacen("outer loop", "outer lop", 1).into_bytes(),
+            "facet 1 has \"lop\" where loop belongs",
+        ),
+    ] {
+        std::fs::write(dir.join(name), &bytes).unwrap();
+        let e = refused(&dir.join(name), Limits::DEFAULT, None);
+        assert!(e.contains(says), "{name}: {e}");
+    }
+    let few = Limits {
+        triangles: 11,
+        ..Limits::DEFAULT
+    };
+    std::fs::write(dir.join("ascii.stl"), &text).unwrap();
+    assert!(refused(&dir.join("ascii.stl"), few, None).contains("more than 11 triangles"));
+}
