@@ -17,8 +17,9 @@ use glam::DVec3;
 use crate::TriangleMesh;
 use crate::decomposition::{RESOLUTION, decompose};
 
-/// What an entry starts with: the format and its version.
-const MAGIC: &[u8; 16] = b"hapticd-pieces1\n";
+/// What an entry starts with: the format and its version (2: a convex mesh is its own one
+/// piece, where entries of 1 hold V-HACD's cut of it).
+const MAGIC: &[u8; 16] = b"hapticd-pieces2\n";
 /// Most pieces, and points of a piece, an entry may hold (V-HACD makes far fewer).
 const MAX_PIECES: usize = 1024;
 const MAX_POINTS: usize = 1 << 16;

@@ -1,13 +1,14 @@
 //! A movable mesh as convex pieces (V-HACD, parry3d's): what both engines can simulate,
 //! each piece a hull of the mesh's own vertices. The pieces stand for the mesh in contact
-//! only; its mass and inertia stay the mesh's own ([`crate::properties`]).
+//! only; its mass and inertia stay the mesh's own ([`crate::properties`]). A convex mesh is
+//! its own one piece: voxels could only add error to it.
 
 use glam::DVec3;
 use parry3d::math::Vector;
 use parry3d::transformation::vhacd::{VHACD, VHACDParameters};
 
 use crate::TriangleMesh;
-use crate::properties::mass_properties;
+use crate::properties::{is_convex, mass_properties};
 
 /// Voxels along the mesh's longest side: V-HACD's default, fine enough for a mug's handle.
 pub const RESOLUTION: u32 = 64;
@@ -28,6 +29,14 @@ impl Decomposition {
 
 /// `mesh` cut into convex pieces at `resolution` voxels along its longest side (at least 8).
 pub fn decompose(mesh: &TriangleMesh, resolution: u32) -> Decomposition {
+    if is_convex(mesh) {
+        return Decomposition {
+            pieces: vec![TriangleMesh {
+                normals: None,
+                ..mesh.clone()
+            }],
+        };
+    }
     // The decomposition works in single precision: about the mesh's centre, so that a part
     // far from the origin keeps its detail.
     let (low, high) = mesh.bounds();
@@ -69,25 +78,25 @@ mod tests {
     use crate::properties::closure;
 
     #[test]
-    fn a_convex_box_is_cut_into_closed_pieces_of_its_own_volume() {
+    fn a_convex_mesh_is_its_own_one_piece_and_two_apart_are_cut() {
         let (low, high) = (DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.1, 2.05, 3.2));
         let mesh = crate::properties::tests::cuboid(low, high);
         let d = decompose(&mesh, RESOLUTION);
-        assert!(!d.pieces.is_empty());
+        // Exactly the box: no voxel error added (V-HACD cut a cube into 9 pieces of +26 %).
+        assert_eq!(d.pieces, vec![mesh.clone()]);
+        // Two unit cubes a unit apart: convex along every edge, yet not one convex solid.
+        let mut pair = crate::properties::tests::cuboid(DVec3::ZERO, DVec3::ONE);
+        let other = crate::properties::tests::cuboid(DVec3::X * 2.0, DVec3::new(3.0, 1.0, 1.0));
+        let first = pair.vertices.len() as u32;
+        pair.vertices.extend(&other.vertices);
+        pair.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|k| k + first)));
+        assert!(!crate::properties::is_convex(&pair));
+        let d = decompose(&pair, RESOLUTION);
+        assert!(d.pieces.len() >= 2, "{}", d.pieces.len());
         for piece in &d.pieces {
             assert!(closure(piece).is_closed());
-            let (l, h) = piece.bounds();
-            assert!(
-                l.cmpge(low - 1e-6).all() && h.cmple(high + 1e-6).all(),
-                "{l} {h}"
-            );
         }
-        // Hulls of the box's own corners within it: together no more than the box, and
-        // V-HACD leaves none of it out.
-        assert!(
-            (d.volume() - 0.1 * 0.05 * 0.2).abs() < 1e-9,
-            "{}",
-            d.volume()
-        );
+        assert!((d.volume() - 2.0).abs() < 1e-6, "{}", d.volume());
     }
 }

@@ -53,6 +53,70 @@ pub fn closure(mesh: &TriangleMesh) -> Closure {
     closure
 }
 
+/// Whether the closed surface `mesh` bounds a convex solid: convex along every edge (each
+/// neighbour's far corner on or behind a triangle's plane) and filling its convex hull
+/// (which a surface of several convex parts, or one that winds round twice, does not).
+/// Lengths are compared at a billionth of the mesh's size.
+pub fn is_convex(mesh: &TriangleMesh) -> bool {
+    if !closure(mesh).is_closed() {
+        return false;
+    }
+    let (low, high) = mesh.bounds();
+    let tolerance = 1e-9 * (high - low).max_element();
+    // Each directed edge's triangle; the edge run the other way belongs to its neighbour.
+    let mut across: HashMap<(u32, u32), usize> = HashMap::new();
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        for i in 0..3 {
+            across.insert((t[i], t[(i + 1) % 3]), k);
+        }
+    }
+    let v = |k: u32| mesh.vertices[k as usize];
+    for t in &mesh.triangles {
+        let normal = (v(t[1]) - v(t[0])).cross(v(t[2]) - v(t[0]));
+        if normal.length() <= 0.0 {
+            continue;
+        }
+        let normal = normal.normalize();
+        for i in 0..3 {
+            let Some(&other) = across.get(&(t[(i + 1) % 3], t[i])) else {
+                return false;
+            };
+            let far = mesh.triangles[other]
+                .iter()
+                .find(|&&c| c != t[i] && c != t[(i + 1) % 3]);
+            if far.is_some_and(|&c| normal.dot(v(c) - v(t[0])) > tolerance) {
+                return false;
+            }
+        }
+    }
+    let hull = convex_hull(mesh);
+    let volume = mass_properties(mesh).volume;
+    volume > 0.0 && mass_properties(&hull).volume <= volume * (1.0 + 1e-6)
+}
+
+/// The convex hull of `mesh`'s vertices, computed in single precision about their centre.
+fn convex_hull(mesh: &TriangleMesh) -> TriangleMesh {
+    let (low, high) = mesh.bounds();
+    let centre = (low + high) / 2.0;
+    let points: Vec<parry3d::math::Vector> = mesh
+        .vertices
+        .iter()
+        .map(|v| {
+            let p = (*v - centre).as_vec3();
+            parry3d::math::Vector::new(p.x, p.y, p.z)
+        })
+        .collect();
+    let (vertices, triangles) = parry3d::transformation::convex_hull(&points);
+    TriangleMesh {
+        vertices: vertices
+            .iter()
+            .map(|p| DVec3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)) + centre)
+            .collect(),
+        triangles,
+        normals: None,
+    }
+}
+
 /// A solid's mass properties at unit density: volume, centre, and inertia about the centre
 /// (kg·m² per kg/m³).
 #[derive(Debug, Clone, Copy, PartialEq)]
