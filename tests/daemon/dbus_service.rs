@@ -1478,6 +1478,178 @@ fn an_unprivileged_client_may_read_but_not_change() {
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 2000");
 }
 
+/// Ten read loops of `Scenes` as `nobody` for `seconds`, each over a connection of its own
+/// (Python and jeepney, as a script would): the reads they made.
+fn unprivileged_scene_readers(bus: &Bus, seconds: f64) -> Child {
+    const LOOPS: &str = r#"
+import sys, threading, time
+from jeepney import DBusAddress, Properties
+from jeepney.io.blocking import open_dbus_connection
+address, seconds = sys.argv[1], float(sys.argv[2])
+manager = DBusAddress("/org/hapticd/Hapticd1", bus_name="org.hapticd.Hapticd1",
+                      interface="org.hapticd.Hapticd1.Manager")
+reads = [0] * 10
+def loop(k):
+    connection = open_dbus_connection(address)
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        reply = connection.send_and_get_reply(Properties(manager).get("Scenes"))
+        assert "big" in reply.body[0][1], reply.body
+        reads[k] += 1
+threads = [threading.Thread(target=loop, args=(k,)) for k in range(10)]
+for t in threads: t.start()
+for t in threads: t.join()
+print(sum(reads))
+"#;
+    Command::new("setpriv")
+        .args([
+            "--reuid=65534",
+            "--regid=65534",
+            "--clear-groups",
+            "/usr/bin/python3",
+            "-c",
+            LOOPS,
+        ])
+        .arg(&bus.address)
+        .arg(seconds.to_string())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Listing scenes reads no meshes: with a scene of a 490 000-triangle mesh installed (each
+/// read took 0.45 s, and ten unprivileged read loops delayed root's requests by seconds),
+/// `Scenes` answers in milliseconds, lists the scene, and the loops delay nothing.
+#[test]
+fn scenes_are_listed_without_reading_their_meshes_whoever_asks_how_often() {
+    if !is_root() {
+        eprintln!("skipped: switching to an unprivileged uid needs root");
+        return;
+    }
+    let dir = scratch("listing");
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::copy(
+        repo_dir().join("config/scenes/static.yaml"),
+        scenes.join("static.yaml"),
+    )
+    .unwrap();
+    // A binary STL of 490 000 small triangles in a 5 cm cube.
+    let triangles = 490_000u32;
+    let mut stl = vec![0u8; 80];
+    stl.extend(triangles.to_le_bytes());
+    for t in 0..triangles {
+        let corner = |k: u32| {
+            let n = t.wrapping_mul(2_654_435_761).wrapping_add(k * 97);
+            [n % 50, (n / 50) % 50, (n / 2500) % 50].map(|c| c as f32)
+        };
+        stl.extend([0f32; 3].iter().flat_map(|v| v.to_le_bytes()));
+        for k in 0..3 {
+            stl.extend(corner(k).iter().flat_map(|v| v.to_le_bytes()));
+        }
+        stl.extend([0u8; 2]);
+    }
+    std::fs::write(scenes.join("big.stl"), &stl).unwrap();
+    std::fs::write(
+        scenes.join("big.yaml"),
+        "name: big\nshapes:\n  - floor: { height: -0.05 }\n  - mesh: { file: big.stl, scale: 0.001 }\n",
+    )
+    .unwrap();
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    std::fs::write(
+        &setup.config,
+        default_config().replace(
+            &repo_dir().join("config/scenes").display().to_string(),
+            &scenes.display().to_string(),
+        ),
+    )
+    .unwrap();
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let connection = bus.connect();
+    let get = |interface: &str, property: &str| {
+        let started = Instant::now();
+        let reply = zbus::block_on(connection.call_method(
+            Some(NAME),
+            MANAGER[1],
+            Some("org.freedesktop.DBus.Properties"),
+            "Get",
+            &(interface, property),
+        ))
+        .unwrap();
+        let value: zbus::OwnedVariant = reply.body().deserialize().unwrap();
+        (started.elapsed(), value)
+    };
+    let mut times: Vec<Duration> = (0..20)
+        .map(|_| {
+            let (took, value) = get(MANAGER[2], "Scenes");
+            let names: Vec<String> = value.try_into().unwrap();
+            assert_eq!(names, ["big", "static"]);
+            took
+        })
+        .collect();
+    times.sort();
+    assert!(times[10] < Duration::from_millis(5), "{times:?}");
+    // Root's Set and `hapticctl status`, alone and beside the loops.
+    let set = |value: f64| {
+        let started = Instant::now();
+        let reply = zbus::block_on(connection.call_method(
+            Some(NAME),
+            DEVICE[1],
+            Some("org.freedesktop.DBus.Properties"),
+            "Set",
+            &(DEVICE[2], "Stiffness", zbus::Variant::from(value)),
+        ));
+        assert!(reply.is_ok(), "{reply:?}");
+        started.elapsed()
+    };
+    let status = || {
+        let started = Instant::now();
+        assert!(bus.ctl(&["status"]).status.success());
+        started.elapsed()
+    };
+    let median = |mut t: Vec<Duration>| {
+        t.sort();
+        t[t.len() / 2]
+    };
+    let alone = (
+        median((0..10).map(|k| set(1000.0 + f64::from(k))).collect()),
+        median((0..5).map(|_| status()).collect()),
+    );
+    let loops = unprivileged_scene_readers(&bus, 4.0);
+    std::thread::sleep(Duration::from_millis(500));
+    let mut beside = (Duration::ZERO, Duration::ZERO);
+    for k in 0..10 {
+        beside.0 = beside.0.max(set(1500.0 + f64::from(k)));
+        if k % 2 == 0 {
+            beside.1 = beside.1.max(status());
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let reads = loops.wait_with_output().unwrap();
+    assert!(reads.status.success(), "{reads:?}");
+    let reads: u64 = String::from_utf8_lossy(&reads.stdout)
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(reads > 1000, "the loops read {reads} times");
+    eprintln!(
+        "Scenes: median {:?}; Set alone {:?}, beside the loops at most {:?}; status alone \
+         {:?}, beside at most {:?}; the loops read {reads} times",
+        times[10], alone.0, beside.0, alone.1, beside.1
+    );
+    let late = Duration::from_millis(50);
+    assert!(
+        beside.0 < alone.0 + late,
+        "Set: {alone:?} alone, {beside:?} beside"
+    );
+    assert!(
+        beside.1 < alone.1 + late,
+        "status: {alone:?} alone, {beside:?} beside"
+    );
+    daemon.stop();
+}
+
 #[test]
 fn a_caller_names_scenes_and_sends_its_files_but_no_path_it_gives_is_opened() {
     let dir = scratch("hostile-scenes");

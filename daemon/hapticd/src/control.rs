@@ -571,7 +571,9 @@ pub struct Daemon {
     /// One scene switch at a time: the haptic loop holds a single scene in waiting.
     switching: Mutex<()>,
     /// Where scene files callers send are kept.
-    received: PathBuf,
+    received: crate::received::Received,
+    /// The scenes of the scene directories, each file read once until it changes.
+    scene_list: crate::scene_list::SceneList,
     /// Meshes' convex pieces cut off the switch.
     preparation: crate::preparation::Preparation,
     /// Set by [`Daemon::request_restart`]; the supervisor starts hapticd again.
@@ -609,13 +611,6 @@ fn scan_mechanisms(entries: &[Entry]) -> (Vec<String>, Vec<Diagnostic>) {
     (names, problems)
 }
 
-impl Drop for Daemon {
-    /// The copies of scene files callers sent are of this run only.
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.received);
-    }
-}
-
 impl Daemon {
     /// The daemon running `devices` with `config` (read from `config_path`, when given),
     /// rendering `active_scene` (from `active_file`, if it has one); `entries` are what the
@@ -643,7 +638,8 @@ impl Daemon {
             }),
             devices,
             switching: Mutex::new(()),
-            received: crate::received::directory(),
+            received: crate::received::Received::from_environment(),
+            scene_list: crate::scene_list::SceneList::new(),
             preparation: crate::preparation::Preparation::from_environment(),
             restart: AtomicBool::new(false),
         }
@@ -659,14 +655,28 @@ impl Daemon {
         lock(&self.inner).mechanisms.clone()
     }
 
-    /// Names of the scenes in the scene directories.
+    /// Names of the scenes in the scene directories, each file's head read again if it
+    /// changed.
     pub fn scenes(&self) -> Vec<String> {
         let config = lock(&self.inner).config.clone();
-        crate::scenes::available(crate::scenes::Places {
+        self.scene_list.names(Self::scene_places(&config))
+    }
+
+    /// The scenes as last listed, if nothing may have changed since ([`SceneList::unchanged`]):
+    /// a few `stat` calls, for the bus thread.
+    ///
+    /// [`SceneList::unchanged`]: crate::scene_list::SceneList::unchanged
+    pub fn scenes_unchanged(&self) -> Option<Vec<String>> {
+        let config = lock(&self.inner).config.clone();
+        self.scene_list.unchanged(Self::scene_places(&config))
+    }
+
+    fn scene_places(config: &Config) -> crate::scenes::Places<'_> {
+        crate::scenes::Places {
             dirs: &config.scene_dirs,
             plugin_dirs: &config.scene_plugin_dirs,
             world_link: None,
-        })
+        }
     }
 
     /// The scene rendered.
@@ -704,7 +714,7 @@ impl Daemon {
                 "{name:?} cannot name a scene: a file name without its directory and extension"
             )));
         }
-        let kept = crate::received::keep(fd, name, &self.received).map_err(Error::SceneNotKept)?;
+        let kept = self.received.keep(fd, name).map_err(Error::SceneNotKept)?;
         let shown = PathBuf::from(format!("{name}.yaml"));
         // The copy's place means nothing to the caller: the findings name the scene.
         let sent = |e: Error| match e {
@@ -853,12 +863,15 @@ impl Daemon {
             .to_string();
         // JSON is YAML: the scene format reads it as it is.
         let changed = serde_json::to_string_pretty(&scene).expect("a JSON value serialises");
-        let kept = crate::received::keep_text(&changed, &name, &self.received)
+        let kept = self
+            .received
+            .keep_text(&changed, &name)
             .map_err(Error::SceneNotKept)?;
         let swapped = self.swap_in_now(&kept.display().to_string(), Some(kept.clone()), true);
         // A change the scene refused leaves the file the running world came from as it was.
         if swapped.is_err() && kept == file {
-            crate::received::keep_text(&text, &name, &self.received)
+            self.received
+                .keep_text(&text, &name)
                 .map_err(Error::SceneNotKept)?;
         }
         swapped

@@ -9,6 +9,7 @@
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
+//!    [`scene_list`]: the scenes listed, without reading their meshes;
 //!    [`remote_scene`]: a world stepped on another machine, reached through the bridge;
 //!    [`received`]: scene files callers send by descriptor; [`preparation`]: the convex
 //!    pieces of a scene's meshes, cut before it switches in.
@@ -32,5 +33,6 @@ pub mod preparation;
 pub mod realtime;
 pub mod received;
 pub mod remote_scene;
+pub mod scene_list;
 pub mod scenes;
 pub mod state;

@@ -245,7 +245,7 @@ impl EnginePlugin {
 
 /// The scene plugin called `name` (`libhapticd_scene_NAME.so`) in the first of
 /// `plugin_dirs` that has it.
-fn scene_plugin(name: &str, plugin_dirs: &[PathBuf]) -> Option<PathBuf> {
+pub(crate) fn scene_plugin(name: &str, plugin_dirs: &[PathBuf]) -> Option<PathBuf> {
     let file = format!("libhapticd_scene_{}.so", name.replace('-', "_"));
     plugin_dirs
         .iter()
@@ -313,43 +313,4 @@ fn open_remote(
     crate::remote_scene::open(name, &spec, link.clone(), pointers).map_err(|e| {
         OpenError::Refused(format!("{}: cannot start its thread: {e}", path.display()))
     })
-}
-
-/// Names of the usable scene files in `dirs`, first directory first, without repeats: static
-/// ones that load, and those a plugin in `plugin_dirs` runs and finds sound.
-pub fn available(places: Places) -> Vec<String> {
-    let usable = |path: &Path| match engine_of(path) {
-        Ok(Engine::Plugin(engine)) if engine == remote::ENGINE => {
-            hapticd_core::diagnostics::read_text(path)
-                .is_ok_and(|text| RemoteSceneSpec::parse(&text, path).is_ok())
-        }
-        Ok(Engine::Static) => {
-            StaticSceneSpec::load_with_meshes(path, &hapticd_mesh::scene_triangles).is_ok()
-        }
-        Ok(Engine::Plugin(engine)) => EnginePlugin::find(&engine, places.plugin_dirs)
-            .is_ok_and(|runner| runner.check(path, 0).is_ok()),
-        Err(_) => false,
-    };
-    let dirs = places.dirs;
-    let mut names: Vec<String> = Vec::new();
-    for dir in dirs {
-        let Ok(listing) = std::fs::read_dir(dir) else {
-            continue;
-        };
-        let mut here: Vec<String> = listing
-            .filter_map(|e| e.ok())
-            .filter_map(|e| {
-                let path = e.path();
-                let stem = path.file_stem()?.to_str()?.to_string();
-                (path.extension()? == "yaml" && usable(&path)).then_some(stem)
-            })
-            .collect();
-        here.sort();
-        for name in here {
-            if !names.contains(&name) {
-                names.push(name);
-            }
-        }
-    }
-    names
 }

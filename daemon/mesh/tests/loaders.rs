@@ -598,7 +598,7 @@ fn stl_files_as_exporters_write_them_are_read_and_lying_counts_refused() {
         ),
         (
             "cut.stl",
-            text[..text.len() - 40].as_bytes().to_vec(),
+            text.as_bytes()[..text.len() - 40].to_vec(),
             "ends within facet 12",
         ),
         (

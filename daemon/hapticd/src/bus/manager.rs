@@ -48,10 +48,15 @@ impl ManagerInterface {
             .collect()
     }
 
-    /// Names of the scenes found in the scene directories, for SwitchScene.
+    /// Names of the scenes found in the scene directories, for SwitchScene: each file's
+    /// head read once until it changes (off the bus thread), its meshes never.
     #[zbus(property)]
-    fn scenes(&self) -> Vec<String> {
-        self.daemon.scenes()
+    async fn scenes(&self) -> Vec<String> {
+        if let Some(names) = self.daemon.scenes_unchanged() {
+            return names;
+        }
+        let daemon = self.daemon.clone();
+        self.workers.run(move || daemon.scenes()).await
     }
 
     /// Name of the scene being rendered.
