@@ -583,7 +583,7 @@ fn amplifier_log(dir: &Path) -> Vec<(u32, [i16; 8])> {
 /// ends it some way other than its own stop (ADDRESS and CONFIG in a step are the bus's
 /// address and the configuration file), and the steps
 /// wait for the guardian's zero. Returns how hapticd ended, what the board saw, and the
-/// board's log.
+/// board's log followed by the commands' and hapticd's own.
 fn ended_under_the_guardian(
     name: &str,
     ending: &[String],
@@ -618,7 +618,8 @@ fn ended_under_the_guardian(
     testbed_run(&dir, &steps, &artifact("hapticd"), &args);
     let status = std::fs::read_to_string(dir.join("program.status")).unwrap();
     let log = std::fs::read_to_string(dir.join("amp.log")).unwrap()
-        + &std::fs::read_to_string(dir.join("run.log")).unwrap_or_default();
+        + &std::fs::read_to_string(dir.join("run.log")).unwrap_or_default()
+        + &std::fs::read_to_string(dir.join("program.stderr")).unwrap_or_default();
     (status.trim().to_string(), amplifier_log(&dir), log)
 }
 
@@ -652,6 +653,29 @@ fn a_daemon_killed_while_driving_leaves_the_amplifier_at_zero_current() {
     assert_zeroed_by_the_guardian(&seen);
     assert!(log.contains("is already owned"), "{log}");
     assert_eq!(log.matches(" open (pid").count(), 2, "{log}");
+}
+
+/// Stopped, not dead (SIGSTOP, as a debugger or a hang would leave it), hapticd still holds
+/// the board with its last command applied: its loop's beat stops, and the guardian ends it
+/// and zeroes the board within a tenth of a second, where before it stayed driven for good.
+#[test]
+fn a_daemon_stopped_while_driving_is_ended_and_the_amplifier_zeroed() {
+    let (status, seen, log) = ended_under_the_guardian("sigstop", &["kill=STOP".into()]);
+    assert_eq!(status, "signal 9", "{log}");
+    assert_zeroed_by_the_guardian(&seen);
+    let said = log
+        .lines()
+        .find(|l| l.contains("made no haptic tick"))
+        .unwrap_or_else(|| panic!("{log}"));
+    assert!(said.contains("its process is stopped"), "{said}");
+    // Quiet for the stall's length and one look more (10 ms), not longer.
+    let quiet: u64 = said
+        .split(" for ")
+        .nth(1)
+        .and_then(|rest| rest.split(" ms").next())
+        .and_then(|ms| ms.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!((100..150).contains(&quiet), "{said}");
 }
 
 #[test]

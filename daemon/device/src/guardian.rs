@@ -12,6 +12,15 @@
 //! sends one zero-current command, appends the same command to the traffic recording (the
 //! simulator's amplifier is that recording), and exits.
 //!
+//! A daemon can also stop without dying (SIGSTOP, a debugger, a hang): then its files stay
+//! open and its last command stays applied. So each device's real-time loop beats in memory
+//! shared with the guardian (a sealed memfd handed over as the guardian's standard output,
+//! which it never prints to): the ticks made so far, and whether the loop drives its motors.
+//! A loop that drives and makes no tick for [`STALL`] has stalled; the motors cannot be
+//! reached while the daemon holds their interface, so the guardian ends the daemon
+//! (SIGKILL, which a stopped process obeys too) and zeroes them as after any death. A daemon
+//! that could resume would write its stale command again: ended, it cannot.
+//!
 //! The guardian ignores SIGTERM, SIGINT and SIGHUP, so a stop that signals the whole service
 //! (systemd's `KillMode=control-group`) cannot end it before the daemon.
 
@@ -21,8 +30,11 @@ use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitCode, Stdio};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+
+use hapticd_ipc::shared_memory::{Mapping, sealed};
 
 use crate::replay::{Direction, Transfer, write_transfer};
 use crate::usbfs::{UsbfsDevice, claim_interface, open_node};
@@ -39,6 +51,63 @@ const CLAIM_PATIENCE: Duration = Duration::from_secs(1);
 
 /// Largest message on the socket: a verb, a slot, a protocol and a path.
 const MAX_MESSAGE: usize = 8 + 4096;
+
+/// How long a loop that drives its motors may go without a tick before the guardian ends
+/// the daemon: a hundred periods at 1 kHz, and more than a hundred times the worst wake-up
+/// late the README's latency table shows (0.64 ms beside a stress load).
+pub const STALL: Duration = Duration::from_millis(100);
+/// How often the guardian looks at the beats while a loop drives.
+const LOOK_MS: libc::c_int = 10;
+/// Slots the shared beats have room for (a slot of another number beats nowhere).
+const BEAT_SLOTS: usize = 256;
+
+/// One slot's beat, as laid out in the shared memory.
+#[repr(C)]
+struct Beat {
+    /// Ticks the loop has made.
+    ticks: AtomicU64,
+    /// 1 while the loop drives its motors, 0 once it has zeroed them and stopped.
+    driving: AtomicU64,
+}
+
+/// The shared beats' mapping.
+struct Beats(Mapping);
+
+// SAFETY: the mapping is only ever read and written through the atomics of `Beat`.
+unsafe impl Sync for Beats {}
+
+impl Beats {
+    fn slot(&self, slot: usize) -> &Beat {
+        assert!(slot < BEAT_SLOTS && size_of::<Beat>() * BEAT_SLOTS <= self.0.len());
+        // SAFETY: within the mapping (checked above), page-aligned and so aligned for Beat;
+        // AtomicU64 may be shared, and zeroed memory is a valid Beat.
+        unsafe { &*self.0.address().cast::<Beat>().add(slot) }
+    }
+}
+
+/// A device loop's beat, which the guardian watches.
+#[derive(Clone)]
+pub struct Heartbeat {
+    beats: Arc<Beats>,
+    slot: usize,
+}
+
+impl Heartbeat {
+    /// [rt] The loop has made `ticks` ticks and drives its motors.
+    pub fn beat(&self, ticks: u64) {
+        let beat = self.beats.slot(self.slot);
+        beat.ticks.store(ticks, Ordering::Release);
+        beat.driving.store(1, Ordering::Release);
+    }
+
+    /// [rt] The loop has zeroed its motors and stops: no more beats to wait for.
+    pub fn rest(&self) {
+        self.beats
+            .slot(self.slot)
+            .driving
+            .store(0, Ordering::Release);
+    }
+}
 
 /// What one message tells the guardian.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -125,11 +194,14 @@ fn socket_pair() -> std::io::Result<(OwnedFd, OwnedFd)> {
 /// is started again and told everything anew.
 pub struct Guardian {
     inner: Mutex<Inner>,
+    beats: Arc<Beats>,
 }
 
 struct Inner {
     child: Child,
     socket: OwnedFd,
+    /// The shared beats' descriptor, handed to each guardian started.
+    beats_fd: OwnedFd,
     /// Every message that still holds, to tell a guardian started again.
     watched: BTreeMap<(u8, u32), Vec<u8>>,
 }
@@ -137,13 +209,25 @@ struct Inner {
 impl Guardian {
     /// [main] Start the guardian of this process.
     pub fn spawn() -> std::io::Result<Self> {
-        let (child, socket) = start()?;
+        let (beats_fd, mapping) = sealed("hapticd-heartbeats", size_of::<Beat>() * BEAT_SLOTS)?;
+        let (child, socket) = start(&beats_fd)?;
         Ok(Self {
             inner: Mutex::new(Inner {
                 child,
                 socket,
+                beats_fd,
                 watched: BTreeMap::new(),
             }),
+            beats: Arc::new(Beats(mapping)),
+        })
+    }
+
+    /// The beat of slot `slot`'s loop, if the shared memory has room for it.
+    pub fn heartbeat(&self, slot: u32) -> Option<Heartbeat> {
+        let slot = usize::try_from(slot).ok().filter(|&s| s < BEAT_SLOTS)?;
+        Some(Heartbeat {
+            beats: self.beats.clone(),
+            slot,
         })
     }
 
@@ -178,7 +262,7 @@ impl Guardian {
             Ok(Some(status)) => status.to_string(),
             Err(e) => e.to_string(),
         };
-        match start() {
+        match start(&inner.beats_fd) {
             Ok((child, socket)) => {
                 inner.child = child;
                 inner.socket = socket;
@@ -238,14 +322,15 @@ fn send(socket: &OwnedFd, message: &[u8]) -> std::io::Result<()> {
 }
 
 /// Start the guardian of this process: this executable again, as [`PROGRAM`], its standard
-/// input one end of a socket pair and its argument this process's pid.
-fn start() -> std::io::Result<(Child, OwnedFd)> {
+/// input one end of a socket pair, its standard output the shared beats (`beats`), and its
+/// argument this process's pid.
+fn start(beats: &OwnedFd) -> std::io::Result<(Child, OwnedFd)> {
     let (ours, theirs) = socket_pair()?;
     let child = Command::new("/proc/self/exe")
         .arg0(PROGRAM)
         .arg(std::process::id().to_string())
         .stdin(Stdio::from(theirs))
-        .stdout(Stdio::null())
+        .stdout(Stdio::from(beats.try_clone()?))
         .spawn()?;
     Ok((child, ours))
 }
@@ -289,6 +374,7 @@ pub fn run() -> ExitCode {
     unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
     let mut slots: BTreeMap<u32, Slot> = BTreeMap::new();
     let mut buffer = vec![0u8; MAX_MESSAGE];
+    let mut watch = Watch::of_standard_output();
     loop {
         let mut fds = [
             libc::pollfd {
@@ -302,11 +388,24 @@ pub fn run() -> ExitCode {
                 revents: 0,
             },
         ];
+        // Beats are looked at while there is something to zero (a loop starts driving after
+        // the guardian has been told what it drives).
+        let timeout = if watch.beats.is_some() && !slots.is_empty() {
+            LOOK_MS
+        } else {
+            -1
+        };
         // SAFETY: poll reads and writes the two pollfds that live across the call.
-        if unsafe { libc::poll(fds.as_mut_ptr(), 2, -1) } < 0 {
+        if unsafe { libc::poll(fds.as_mut_ptr(), 2, timeout) } < 0 {
             continue;
         }
         if fds[1].revents != 0 {
+            break;
+        }
+        if let Some((slot, quiet)) = watch.stalled(Instant::now())
+            && !slots.is_empty()
+        {
+            end_stalled(daemon, &pidfd, slot, quiet);
             break;
         }
         if fds[0].revents == 0 {
@@ -325,6 +424,88 @@ pub fn run() -> ExitCode {
     }
     zero_everything(daemon, slots);
     ExitCode::SUCCESS
+}
+
+/// The guardian's view of the shared beats: each slot's last tick count and when it
+/// changed.
+struct Watch {
+    beats: Option<Beats>,
+    seen: Vec<Option<(u64, Instant)>>,
+}
+
+impl Watch {
+    /// The beats handed over as standard output (none when started otherwise).
+    fn of_standard_output() -> Self {
+        // SAFETY: descriptor 1 is open for the guardian's whole life; borrowed only to map.
+        let fd = std::mem::ManuallyDrop::new(unsafe { OwnedFd::from_raw_fd(1) });
+        let beats = Mapping::read_only(&fd)
+            .ok()
+            .filter(|m| m.len() >= size_of::<Beat>() * BEAT_SLOTS)
+            .map(Beats);
+        Self {
+            beats,
+            seen: vec![None; BEAT_SLOTS],
+        }
+    }
+
+    /// A slot whose loop drives and has made no tick for [`STALL`] by `now`, and how long it
+    /// has been quiet.
+    fn stalled(&mut self, now: Instant) -> Option<(usize, Duration)> {
+        let beats = self.beats.as_ref()?;
+        for (slot, seen) in self.seen.iter_mut().enumerate() {
+            let beat = beats.slot(slot);
+            if beat.driving.load(Ordering::Acquire) != 1 {
+                *seen = None;
+                continue;
+            }
+            let ticks = beat.ticks.load(Ordering::Acquire);
+            match seen {
+                Some((last, since)) if *last == ticks => {
+                    let quiet = now.duration_since(*since);
+                    if quiet >= STALL {
+                        return Some((slot, quiet));
+                    }
+                }
+                _ => *seen = Some((ticks, now)),
+            }
+        }
+        None
+    }
+}
+
+/// The daemon's loop on `slot` has stalled for `quiet` while driving: end the daemon (its
+/// files close, its claims on the amplifiers go) and wait, briefly, until it has ended.
+fn end_stalled(daemon: libc::pid_t, pidfd: &OwnedFd, slot: usize, quiet: Duration) {
+    let state = std::fs::read_to_string(format!("/proc/{daemon}/stat"))
+        .ok()
+        .and_then(|s| s.rsplit_once(") ").map(|(_, rest)| rest.chars().next()))
+        .flatten()
+        .map_or("gone", |c| match c {
+            'T' | 't' => "stopped",
+            'D' => "waiting on the kernel",
+            _ => "running",
+        });
+    eprintln!(
+        "{PROGRAM}: hapticd (pid {daemon}) made no haptic tick on device slot {slot} for {} ms          while driving its motors (its process is {state}): ended, to zero them",
+        quiet.as_millis()
+    );
+    // SAFETY: a signal to the pid the pidfd holds (our parent: still that process).
+    unsafe {
+        libc::syscall(
+            libc::SYS_pidfd_send_signal,
+            pidfd.as_raw_fd(),
+            libc::SIGKILL,
+            0,
+            0,
+        )
+    };
+    let mut fds = [libc::pollfd {
+        fd: pidfd.as_raw_fd(),
+        events: libc::POLLIN,
+        revents: 0,
+    }];
+    // SAFETY: poll reads and writes the one pollfd that lives across the call.
+    unsafe { libc::poll(fds.as_mut_ptr(), 1, 2000) };
 }
 
 /// Take in one message; true when it is the orderly stop.

@@ -20,6 +20,8 @@ use hapticd_core::sync::triple_buffer::{self, Reader};
 use hapticd_core::telemetry::TelemetryWriter;
 use hapticd_core::world_state::WorldWriter;
 
+use hapticd_device::guardian::Heartbeat;
+
 use crate::clock::{monotonic_ns, sleep_until};
 
 /// How the loop should run.
@@ -84,6 +86,8 @@ pub struct Channels {
     pub world: Option<WorldWriter>,
     /// Every tick, for readers outside the daemon.
     pub telemetry: Option<TelemetryWriter>,
+    /// The beat the guardian watches: a loop that drives and stops ticking is ended.
+    pub heartbeat: Option<Heartbeat>,
 }
 
 /// Pictures of the world per second: the renderer's frame rate.
@@ -195,6 +199,7 @@ impl RealtimeLoop {
             mut retired,
             mut world,
             mut telemetry,
+            heartbeat: guardian_beat,
         } = channels;
         let stop = Arc::new(AtomicBool::new(false));
         let heartbeat = Arc::new(AtomicU64::new(0));
@@ -286,8 +291,14 @@ impl RealtimeLoop {
                         published = done;
                     }
                     beat.store(stats.ticks, Ordering::Release);
+                    if let Some(b) = &guardian_beat {
+                        b.beat(stats.ticks);
+                    }
                 }
                 let _ = haptic.zero_motors();
+                if let Some(b) = &guardian_beat {
+                    b.rest();
+                }
                 stats_writer.publish(|s| *s = stats);
                 frame_writer.publish(|f| *f = *haptic.frame());
                 haptic

@@ -79,7 +79,7 @@ impl Mapping {
     }
 
     /// Bytes mapped.
-    pub(crate) fn len(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.len
     }
 }

@@ -172,6 +172,7 @@ pub fn start(
             retired: retired_tx,
             world: world_writer,
             telemetry: telemetry_writer,
+            heartbeat: common.guardian.heartbeat(slot),
         },
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
