@@ -53,8 +53,8 @@ const CLAIM_PATIENCE: Duration = Duration::from_secs(1);
 const MAX_MESSAGE: usize = 8 + 4096;
 
 /// How long a loop that drives its motors may go without a tick before the guardian ends
-/// the daemon: a hundred periods at 1 kHz, and more than a hundred times the worst wake-up
-/// late the README's latency table shows (0.64 ms beside a stress load).
+/// the daemon: a hundred periods at 1 kHz, and a hundred and fifty times the worst wake-up
+/// latency of the README's `make run` (0.65 ms).
 pub const STALL: Duration = Duration::from_millis(100);
 /// How often the guardian looks at the beats while a loop drives.
 const LOOK_MS: libc::c_int = 10;
