@@ -4040,6 +4040,15 @@ fn the_running_world_is_driven_from_outside_under_both_engines_and_hostile_value
             error("SetMass", &["string:block", "double:1e300"]),
             named("OutOfRange")
         );
+        // Light enough to be flung kilometres by a pressing finger (1 µg), or to fault the
+        // device (1e-300 kg): refused as a scene file's body would be, in either engine.
+        for light in ["double:1e-6", "double:1e-300"] {
+            assert_eq!(
+                error("SetMass", &["string:block", light]),
+                named("OutOfRange"),
+                "{scene}: {light}"
+            );
+        }
         assert_eq!(
             error(
                 "SetVelocity",

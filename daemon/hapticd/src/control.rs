@@ -537,6 +537,12 @@ impl DeviceHandle {
         body: &str,
         mut command: HapticdSceneCommand,
     ) -> Result<HapticdBodyState, Error> {
+        if command.kind == HAPTICD_COMMAND_SET_MASS
+            && command.value > 0.0
+            && command.value.is_finite()
+        {
+            self.pushable(body, command.value)?;
+        }
         let mut control = lock(&self.control);
         let control = control.as_mut().ok_or_else(|| {
             Error::Unavailable(
@@ -547,6 +553,23 @@ impl DeviceHandle {
         })?;
         command.body = control.find(body).map_err(Error::Command)?;
         control.send(command).map_err(Error::Command)
+    }
+
+    /// Refuse a mass the hand would fling: the proxy's spring of stiffness k pushes a body
+    /// the haptic tick (and local dynamics) integrates explicitly, stable only while
+    /// √(k/m)·dt < 2, as a scene file's contact springs.
+    fn pushable(&self, body: &str, mass: f64) -> Result<(), Error> {
+        let stiffness = self.parameter(Name::Stiffness);
+        let dt = 1.0 / self.rate;
+        let lightest = stiffness * dt * dt / 4.0;
+        if mass > lightest {
+            return Ok(());
+        }
+        Err(Error::Command(CommandError::OutOfRange(format!(
+            "a mass of {mass} kg for {body} is too light for the hand to push stably: at a \
+             stiffness of {stiffness} N/m and {} Hz a body must weigh more than {lightest:.3e} kg",
+            self.rate
+        ))))
     }
 
     /// Bind `mechanism` to this device from its next start.

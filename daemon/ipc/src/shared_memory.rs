@@ -82,6 +82,11 @@ impl Mapping {
     pub fn len(&self) -> usize {
         self.len
     }
+
+    /// Whether nothing is mapped (never so: an empty file is refused).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
 }
 
 /// The size of the file `fd` is open on.

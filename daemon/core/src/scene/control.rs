@@ -295,6 +295,14 @@ impl SceneControl {
                 }
                 return match reply.status {
                     HAPTICD_OK => Ok(reply.state),
+                    _ if command.kind == HAPTICD_COMMAND_SET_MASS => {
+                        Err(CommandError::OutOfRange(format!(
+                            "a mass of {} kg for {name} is not one its scene takes: as in a \
+                             scene file, its density must stay in the engine's range and its \
+                             contact springs stable at the scene's step",
+                            command.value
+                        )))
+                    }
                     status => Err(CommandError::Refused(format!(
                         "the scene refused the change to {name} (status {status})"
                     ))),

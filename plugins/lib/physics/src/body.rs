@@ -14,6 +14,8 @@ pub struct Body {
     pub pieces: Vec<Polyhedron>,
     /// Mass, kg.
     pub mass: f64,
+    /// Volume of the solid, m³ (a mesh's own, however its pieces overfill it).
+    pub volume: f64,
     /// Inertia tensor about the centroid, body frame, kg·m².
     pub inertia: DMat3,
     /// Position of the centroid, metres.
@@ -56,15 +58,16 @@ impl Body {
                     * v
             })
             .fold(DMat3::ZERO, |sum, i| sum + i);
-        Self::from_parts(pieces, volume * density, centroid, inertia * density, fixed)
+        let solid = (volume, volume * density);
+        Self::from_parts(pieces, solid, centroid, inertia * density, fixed)
     }
 
     /// A body touching through the convex `pieces` (given where they are in the world) whose
-    /// `mass`, `centroid` and `inertia` about it (world frame) are given: a mesh's, whose
-    /// pieces stand for it in contact only.
+    /// volume and mass (`solid`), `centroid` and `inertia` about it (world frame) are given: a
+    /// mesh's, whose pieces stand for it in contact only.
     pub fn from_parts(
         pieces: &[Polyhedron],
-        mass: f64,
+        (volume, mass): (f64, f64),
         centroid: DVec3,
         inertia: DMat3,
         fixed: bool,
@@ -77,6 +80,7 @@ impl Body {
                 .map(|p| p.transformed(DQuat::IDENTITY, -centroid))
                 .collect(),
             mass,
+            volume,
             inertia,
             position: centroid,
             orientation: DQuat::IDENTITY,

@@ -7,6 +7,8 @@ use hapticd_core::kinematics::{quat_from_wxyz, quat_to_wxyz};
 use hapticd_plugin_api::*;
 use rapier3d::prelude::{CoefficientCombineRule, MassProperties};
 
+use hapticd_physics::scene::DENSITY_RANGE;
+
 use crate::convert::{dvec, rotation, vector};
 use crate::world::RapierWorld;
 
@@ -53,6 +55,7 @@ impl RapierWorld {
         }
         let b = &mut self.physics.bodies[handle];
         let free = b.is_dynamic();
+        let (light, dense) = DENSITY_RANGE;
         let v = vector(DVec3::from(command.vector));
         match command.kind {
             HAPTICD_COMMAND_QUERY => {}
@@ -78,7 +81,10 @@ impl RapierWorld {
                 b.reset_forces(false);
                 b.add_force(v, true);
             }
-            HAPTICD_COMMAND_SET_MASS if free && command.value > 0.0 => {
+            // A scene file's rule for its bodies: a density within its range.
+            HAPTICD_COMMAND_SET_MASS
+                if free && (light..=dense).contains(&(command.value / self.volumes[i])) =>
+            {
                 let own = b.mass_properties().local_mprops;
                 let scale = command.value / f64::from(own.mass());
                 let inertia = own.reconstruct_inertia_matrix() * scale as f32;

@@ -64,6 +64,8 @@ pub struct RapierWorld {
     pointers: Vec<RigidBodyHandle>,
     /// Each body's inertia about its centre of mass in its own axes, and its mass.
     pub(crate) inertia: Vec<(glam::DMat3, f64)>,
+    /// Each body's volume, m³ (a mass set from outside keeps its density in range).
+    pub(crate) volumes: Vec<f64>,
     /// Each body's objects: the first and how many.
     objects: Vec<(u32, u32)>,
     /// The last change of the hand each body took in.
@@ -263,6 +265,7 @@ impl RapierWorld {
             pieces,
             pointers: Vec::new(),
             inertia: spec.bodies.iter().map(|b| (b.inertia, b.mass)).collect(),
+            volumes: spec.bodies.iter().map(|b| b.volume).collect(),
             objects,
             applied: vec![0; spec.bodies.len()],
             feedback: spec.feedback,

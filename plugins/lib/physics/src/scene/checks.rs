@@ -219,38 +219,58 @@ fn body_pieces(f: &mut Findings, at: &str, b: &RawBody) -> Option<Vec<(Polyhedro
 }
 
 /// ω·dt of the stiffest contact spring a body can meet above which an explicit step gains
-/// energy (and, past 2, diverges).
+/// energy (and, past [`DIVERGENT_OMEGA_DT`], diverges).
 const STABLE_OMEGA_DT: f64 = 1.0;
+/// ω·dt past which the step diverges: what a scene file, or a mass set on a running body,
+/// may not reach.
+pub(crate) const DIVERGENT_OMEGA_DT: f64 = 2.0;
 
-/// Refuse a material too stiff for the step and the scene's movable bodies: the volume
-/// spring on a body's largest face (the largest patch it can rest on) is a spring of
-/// k = stiffness × area, and the step integrates m·ẍ = −k·x stably only while √(k/m)·dt < 2.
-/// Between 1 and 2 it still gains energy on every bounce: a warning.
+/// The contact springs `body` can meet, by the material key that sets each: the volume
+/// spring on its largest face (the largest patch it can rest on), k = `stiffness` × area,
+/// and the point model's `point_stiffness`; N/m.
+pub(crate) fn contact_springs(
+    stiffness: f64,
+    point_stiffness: f64,
+    body: &Body,
+) -> [(&'static str, f64); 2] {
+    let area = body
+        .pieces
+        .iter()
+        .map(Polyhedron::largest_face_area)
+        .fold(0.0, f64::max);
+    [
+        ("stiffness", stiffness * area),
+        ("point_stiffness", point_stiffness),
+    ]
+}
+
+/// ω·dt of the spring `k` (N/m) on a body of `mass` kg at step `dt`: the step integrates
+/// m·ẍ = −k·x stably only while it is below [`DIVERGENT_OMEGA_DT`].
+pub(crate) fn omega_dt(k: f64, mass: f64, dt: f64) -> f64 {
+    (k / mass).sqrt() * dt
+}
+
+/// Refuse a material too stiff for the step and the scene's movable bodies; between
+/// [`STABLE_OMEGA_DT`] and [`DIVERGENT_OMEGA_DT`] the step still gains energy on every
+/// bounce: a warning.
 pub(super) fn stability(f: &mut Findings, m: &RawMaterial, dt: f64, bodies: &[Body]) {
     if m.scaling.is_some() {
         return; // Per-contact springs scaled by mass and step: stable by construction.
     }
+    let (stiffness, point) = (m.stiffness.unwrap_or(0.0), m.point_stiffness.unwrap_or(0.0));
     for (i, body) in bodies.iter().enumerate().filter(|(_, b)| !b.fixed) {
-        let area = body
-            .pieces
-            .iter()
-            .map(Polyhedron::largest_face_area)
-            .fold(0.0, f64::max);
-        for (key, k) in [
-            ("stiffness", m.stiffness.unwrap_or(0.0) * area),
-            ("point_stiffness", m.point_stiffness.unwrap_or(0.0)),
-        ] {
-            let omega_dt = (k / body.mass).sqrt() * dt;
+        for (key, k) in contact_springs(stiffness, point, body) {
+            let omega_dt = omega_dt(k, body.mass, dt);
             if omega_dt <= STABLE_OMEGA_DT {
                 continue;
             }
             let message = format!(
-                "with bodies[{i}] ({:.3} kg on a {area:.2e} m² face) the contact spring has \
-                 ω·dt = {omega_dt:.2} at dt = {dt} s; a step of at most {:.2e} s keeps it at 1",
+                "with bodies[{i}] ({:.3} kg) the contact spring of {k:.3e} N/m has ω·dt = \
+                 {omega_dt:.2} at dt = {dt} s; a step of at most {:.2e} s keeps it at 1",
                 body.mass,
                 dt / omega_dt
             );
-            if omega_dt >= 2.0 {
+            if omega_dt >= DIVERGENT_OMEGA_DT {
                 f.error(format!("material.{key}"), format!("too stiff: {message}"));
             } else {
                 f.warning(
@@ -434,7 +454,7 @@ pub(super) fn bodies(
             let mut body = match &mesh {
                 Some(m) => Body::from_parts(
                     &solids,
-                    m.volume * b.density,
+                    (m.volume, m.volume * b.density),
                     m.centre,
                     m.inertia * b.density,
                     b.fixed,

@@ -7,6 +7,8 @@ use hapticd_core::kinematics::{Wrench, quat_from_wxyz, quat_to_wxyz};
 use hapticd_plugin_api::*;
 
 use super::PenaltyScene;
+use super::checks::{DENSITY_RANGE, DIVERGENT_OMEGA_DT, contact_springs, omega_dt};
+use crate::world::ContactModel;
 
 impl PenaltyScene {
     /// Body `i` of the scene file as the control extension lists it (None past the last).
@@ -69,7 +71,7 @@ impl PenaltyScene {
                     torque: DVec3::ZERO,
                 };
             }
-            HAPTICD_COMMAND_SET_MASS if !fixed && command.value > 0.0 => {
+            HAPTICD_COMMAND_SET_MASS if !fixed && self.mass_fits(i, command.value) => {
                 self.world.bodies[i].set_mass(command.value);
             }
             HAPTICD_COMMAND_SET_FRICTION if command.value >= 0.0 => {
@@ -78,6 +80,29 @@ impl PenaltyScene {
             _ => return None,
         }
         Some(self.body_state(i))
+    }
+
+    /// Whether body `i` may weigh `mass` kg, by the scene file's rules for its bodies: a
+    /// density within [`DENSITY_RANGE`], and contact springs the step integrates without
+    /// diverging (a 1 µg block under a pressing finger was flung kilometres).
+    fn mass_fits(&self, i: usize, mass: f64) -> bool {
+        let body = &self.world.bodies[i];
+        let (light, dense) = DENSITY_RANGE;
+        if !(light..=dense).contains(&(mass / body.volume)) {
+            return false;
+        }
+        let material = &self.world.material;
+        if material.scaling.is_some() {
+            return true; // Springs scaled by mass and step: stable by construction.
+        }
+        // The spring of the contact model in use.
+        let [(_, volume), (_, point)] =
+            contact_springs(material.stiffness, material.stiffness, body);
+        let k = match material.model {
+            ContactModel::Volume => volume,
+            ContactModel::Point => point,
+        };
+        omega_dt(k, mass, self.dt) < DIVERGENT_OMEGA_DT
     }
 }
 
@@ -211,6 +236,21 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
                 value: -1.0,
                 ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
             },
+            // The block's volume spring on its 4 × 6 cm face, 1e5 N/m³ × 2.4e-3 m² = 240 N/m,
+            // diverges at dt = 1 ms below 240 · 1e-6 / 4 = 6e-5 kg.
+            HapticdSceneCommand {
+                value: 5.9e-5,
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
+            },
+            HapticdSceneCommand {
+                value: 1e-300,
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
+            },
+            // Densities past 1e5 kg/m³ (the block holds 4.8e-5 m³).
+            HapticdSceneCommand {
+                value: 4.9,
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
+            },
             HapticdSceneCommand {
                 vector: [1.0, 0.0, 0.0],
                 ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, 0)
@@ -225,5 +265,10 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
             assert!(scene.apply(&refused).is_none(), "{refused:?}");
         }
         assert_eq!(scene.body_state(1), before);
+        let light = HapticdSceneCommand {
+            value: 6.1e-5,
+            ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
+        };
+        assert_eq!(scene.apply(&light).unwrap().mass, 6.1e-5);
     }
 }
