@@ -241,7 +241,12 @@ fn local_dynamics_tick(bencher: Bencher, n: usize) {
         .collect();
     bencher.bench_local(|| {
         for body in &mut bodies {
-            body.step(DVec3::new(5.0, -2.0, 0.0), DVec3::new(0.0, 0.01, 0.0), 1e-3);
+            body.step(
+                DVec3::new(5.0, -2.0, 0.0),
+                DVec3::new(0.0, 0.01, 0.0),
+                &[],
+                1e-3,
+            );
         }
     });
 }

@@ -7,7 +7,9 @@
 use glam::DVec3;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use hapticd_core::scene::Pointer;
-use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
+use hapticd_core::scene::multirate::{
+    HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
+};
 use hapticd_physics::scene::RapierScene;
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{HapticdImpulse, HapticdLocalState, HapticdPointer};
@@ -126,10 +128,7 @@ impl Lockstep {
             .zip(pointers.iter().zip(self.renderer.queries()))
         {
             *out = p.to_abi();
-            *proxy = HapticdPointer {
-                position: at.to_array(),
-                ..*out
-            };
+            *proxy = proxy_record(out, at);
         }
         self.time += self.haptic_period;
         Ok(())

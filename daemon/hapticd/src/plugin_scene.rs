@@ -29,7 +29,9 @@ use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::control::{self, Incoming, Reply, Request, SceneControl};
-use hapticd_core::scene::multirate::{HandBack, PlaneRenderer, PlaneSet, pose_between};
+use hapticd_core::scene::multirate::{
+    HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
+};
 use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_bodies, check_planes};
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
@@ -785,10 +787,7 @@ impl Scene for MultiRateScene {
             let both = out.pointers.iter_mut().zip(out.proxies.iter_mut());
             for ((grip, proxy), (p, at)) in both.zip(pointers.iter().zip(renderer.queries())) {
                 *grip = p.to_abi();
-                *proxy = HapticdPointer {
-                    position: at.to_array(),
-                    ..*grip
-                };
+                *proxy = proxy_record(grip, at);
             }
         });
         if self.failed.load(Ordering::Acquire) || !fresh {

@@ -25,7 +25,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use hapticd_plugin_api::{HAPTICD_MAX_BODY_CONTACTS, HapticdLocalBody, HapticdLocalState};
 
-use crate::kinematics::{Pose, quat_from_wxyz, rotation_vector};
+use crate::kinematics::{MAX_EFFECTORS, Pose, quat_from_wxyz, rotation_vector};
 
 /// Gauss–Seidel sweeps over a body's contacts per tick.
 const SWEEPS: usize = 4;
@@ -172,6 +172,61 @@ struct Row {
     /// `r × normal`: how a turn opens the gap.
     lever: DVec3,
     friction: f64,
+}
+
+/// A hand's push on a body for one tick, as the proxy's spring gives it: a finger pushes
+/// with at most its spring's force, and no faster than it moves itself.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Push {
+    /// Where it pushes (the proxy), metres.
+    pub point: DVec3,
+    /// How hard, N (zero: no push).
+    pub force: DVec3,
+    /// How fast the finger has pushed at most over the physics period, m/s (its grip's
+    /// speed, with the speed at which its proxy catches up with a grip gone deeper).
+    pub speed: f64,
+}
+
+/// A push as the sweeps bound it: an impulse along its force of at most the force's over
+/// the tick, and only so much of it as keeps the point, along that line, no faster than
+/// the hand (a light body under a deep finger was thrown at metres a second by the spring's
+/// whole force, and spun at hundreds of radians a second).
+#[derive(Debug, Clone, Copy, Default)]
+struct HandRow {
+    r: DVec3,
+    direction: DVec3,
+    turn: DVec3,
+    /// The point's mass along the direction.
+    mass: f64,
+    /// The finger's speed.
+    speed: f64,
+    /// The impulse of the whole force over the tick, and the impulse given so far.
+    most: f64,
+    amount: f64,
+}
+
+impl HandRow {
+    fn new(
+        push: &Push,
+        centre: DVec3,
+        inverse_mass: f64,
+        inverse_inertia: &DMat3,
+        dt: f64,
+    ) -> Self {
+        let direction = push.force.normalize_or_zero();
+        let r = push.point - centre;
+        let turn = *inverse_inertia * r.cross(direction);
+        let most = push.force.length() * dt;
+        HandRow {
+            r,
+            direction,
+            turn,
+            mass: 1.0 / (inverse_mass + r.cross(direction).dot(turn)),
+            speed: push.speed,
+            most,
+            amount: most,
+        }
+    }
 }
 
 /// The state a physics step published for a body.
@@ -333,34 +388,60 @@ impl LocalBody {
         next.is_finite().then(|| Change::between(&self.hand, &next))
     }
 
-    /// [rt] One tick of `dt`: the hand pushes with `force` and `torque` (about the centre
-    /// of mass, as it is now under the hand).
-    pub fn step(&mut self, force: DVec3, torque: DVec3, dt: f64) {
+    /// [rt] One tick of `dt`: `force` and `torque` (about the centre of mass, as it is now
+    /// under the hand) act on the body, and the hands push it ([`Push`]).
+    pub fn step(&mut self, force: DVec3, torque: DVec3, pushes: &[Push], dt: f64) {
+        let pushed = pushes.iter().any(|p| p.force != DVec3::ZERO);
         // Untouched and not yet apart, the twin is the same body: spare its sums.
-        let same = self.hand == self.free && force == DVec3::ZERO && torque == DVec3::ZERO;
+        let same =
+            self.hand == self.free && force == DVec3::ZERO && torque == DVec3::ZERO && !pushed;
         let mut warm = self.warm;
-        self.hand = self.advance(&self.hand, force, torque, dt, &mut warm[0]);
+        let load = (force, torque, pushes);
+        self.hand = self.advance(&self.hand, load, dt, &mut warm[0]);
         if same {
             self.free = self.hand;
             warm[1] = warm[0];
         } else {
-            self.free = self.advance(&self.free, DVec3::ZERO, DVec3::ZERO, dt, &mut warm[1]);
+            let none = (DVec3::ZERO, DVec3::ZERO, &[][..]);
+            self.free = self.advance(&self.free, none, dt, &mut warm[1]);
         }
         self.warm = warm;
         self.since += dt;
     }
 
-    /// `m` moved on by `dt` under `force` and `torque` and the contacts.
+    /// `m` moved on by `dt` under a force and a torque, the hands' pushes (`load`) and the
+    /// contacts.
     fn advance(
         &self,
         m: &Motion,
-        force: DVec3,
-        torque: DVec3,
+        (force, torque, pushes): (DVec3, DVec3, &[Push]),
         dt: f64,
         sums: &mut [DVec3; HAPTICD_MAX_BODY_CONTACTS],
     ) -> Motion {
         let mut v = m.velocity + (force * self.inverse_mass + self.acceleration) * dt;
         let mut w = m.spin + self.inverse_inertia * torque * dt;
+        // Each push starts whole; the sweeps take back what would carry its point faster
+        // than its hand.
+        let mut hands = [HandRow::default(); MAX_EFFECTORS];
+        let mut hand_count = 0;
+        for push in pushes
+            .iter()
+            .filter(|p| p.force != DVec3::ZERO)
+            .take(MAX_EFFECTORS)
+        {
+            let row = HandRow::new(
+                push,
+                m.position,
+                self.inverse_mass,
+                &self.inverse_inertia,
+                dt,
+            );
+            v += row.direction * (row.most * self.inverse_mass);
+            w += row.turn * row.most;
+            hands[hand_count] = row;
+            hand_count += 1;
+        }
+        let hands = &mut hands[..hand_count];
         // How far the body has moved and turned since published (small: within a period).
         let turn = m.orientation * self.base.orientation.inverse();
         let turned = DVec3::new(turn.x, turn.y, turn.z) * (2.0 * turn.w.signum());
@@ -397,6 +478,13 @@ impl LocalBody {
                     push(row, k, new - old, &mut v, &mut w);
                     sum[k] = new;
                 }
+            }
+            for hand in hands.iter_mut() {
+                let along = (v + w.cross(hand.r)).dot(hand.direction);
+                let amount = (hand.amount + (hand.speed - along) * hand.mass).clamp(0.0, hand.most);
+                v += hand.direction * ((amount - hand.amount) * self.inverse_mass);
+                w += hand.turn * (amount - hand.amount);
+                hand.amount = amount;
             }
         }
         Motion {
@@ -451,6 +539,57 @@ mod tests {
         }
     }
 
+    /// A deep finger's spring on a light body: the push gives the point it acts at, along
+    /// the push, at most the hand's speed, however large the force; on a heavy body the
+    /// force acts whole (F·t/m), as no speed bound is reached.
+    #[test]
+    fn a_hand_pushes_a_body_no_faster_than_it_moves_itself() {
+        let push = |at: DVec3, force: DVec3| Push {
+            point: at,
+            force,
+            speed: 0.16,
+        };
+        // 28 N (2 kN/m at 14 mm) off-centre on 39 g: unbounded, 0.7 m/s in one tick.
+        let (record, _) = brick(0.039, DVec3::ZERO);
+        let mut body = LocalBody::new(&record, &Change::default(), 0.05, None).unwrap();
+        let at = DVec3::new(0.008, 0.02, 0.01);
+        let mut fastest: f64 = 0.0;
+        for _ in 0..50 {
+            let m = body.motion();
+            let point = at + (m.position - DVec3::ZERO);
+            body.step(
+                DVec3::ZERO,
+                DVec3::ZERO,
+                &[push(point, DVec3::Y * -28.0)],
+                DT,
+            );
+            let m = body.motion();
+            let along = (m.velocity + m.spin.cross(point - m.position)).dot(-DVec3::Y);
+            fastest = fastest.max(along);
+        }
+        assert!(fastest <= 0.16 + 1e-12, "{fastest} m/s");
+        assert!(
+            fastest > 0.16 - 1e-9,
+            "the hand's speed is reached: {fastest} m/s"
+        );
+        // 0.5 N on 5 kg: 1 mm/s a tick's worth, far below the hand.
+        let (record, _) = brick(5.0, DVec3::ZERO);
+        let mut body = LocalBody::new(&record, &Change::default(), 0.05, None).unwrap();
+        for _ in 0..10 {
+            body.step(
+                DVec3::ZERO,
+                DVec3::ZERO,
+                &[push(DVec3::ZERO, DVec3::Y * -0.5)],
+                DT,
+            );
+        }
+        let v = body.motion().velocity;
+        assert!(
+            (v - DVec3::Y * (-0.5 * 10.0 * DT / 5.0)).length() < 1e-15,
+            "{v}"
+        );
+    }
+
     #[test]
     fn a_free_body_answers_a_force_with_its_mass_and_a_torque_with_its_inertia() {
         let (record, inertia) = brick(0.5, DVec3::ZERO);
@@ -458,7 +597,7 @@ mod tests {
         let (f, tau) = (DVec3::new(0.3, -0.2, 0.1), DVec3::new(0.0, 0.0, 2e-4));
         let ticks = 50;
         for _ in 0..ticks {
-            body.step(f, tau, DT);
+            body.step(f, tau, &[], DT);
         }
         let t = ticks as f64 * DT;
         let m = body.motion();
@@ -491,7 +630,7 @@ mod tests {
         // Gravity alone: it stays where it is (to a tenth of a micrometre while the
         // contacts' impulses settle in the first ticks).
         for _ in 0..100 {
-            body.step(DVec3::ZERO, DVec3::ZERO, DT);
+            body.step(DVec3::ZERO, DVec3::ZERO, &[], DT);
         }
         assert!(
             body.motion().position.length() < 1e-7,
@@ -505,7 +644,7 @@ mod tests {
         );
         // Pushed along x through the centre by less than μ m g: held by friction.
         for _ in 0..100 {
-            body.step(DVec3::X * 2.0, DVec3::ZERO, DT);
+            body.step(DVec3::X * 2.0, DVec3::ZERO, &[], DT);
         }
         assert!(
             body.motion().velocity.length() < 1e-9,
@@ -515,7 +654,7 @@ mod tests {
         // By more: a = (F − μ m g) / m, exactly, and it still does not sink.
         let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
         for _ in 0..100 {
-            body.step(DVec3::X * 5.0, DVec3::ZERO, DT);
+            body.step(DVec3::X * 5.0, DVec3::ZERO, &[], DT);
         }
         let v = body.motion().velocity;
         let expected = (5.0 - 0.3 * 9.81) * 100.0 * DT;
@@ -528,7 +667,7 @@ mod tests {
         // Lifted harder than its weight, it leaves the floor at (F − m g)/m.
         let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
         for _ in 0..100 {
-            body.step(DVec3::Y * 12.0, DVec3::ZERO, DT);
+            body.step(DVec3::Y * 12.0, DVec3::ZERO, &[], DT);
         }
         let lift = (12.0 - 9.81) * 100.0 * DT;
         assert!((body.motion().velocity.y - lift).abs() < 1e-9);
@@ -545,7 +684,7 @@ mod tests {
         record.velocity = [v, 0.0, 0.0];
         let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
         for _ in 0..100 {
-            body.step(DVec3::ZERO, DVec3::ZERO, DT);
+            body.step(DVec3::ZERO, DVec3::ZERO, &[], DT);
         }
         let slid = v * v / (2.0 * mu * g);
         assert!(
@@ -604,7 +743,7 @@ mod tests {
         for _ in 0..100 {
             let at = top + body.motion().position;
             let force = DVec3::new(push, -down, 0.0);
-            body.step(force, (at - body.motion().position).cross(force), DT);
+            body.step(force, (at - body.motion().position).cross(force), &[], DT);
         }
         let m = body.motion();
         let expected = 10.0 * push / (7.0 * mass) * 100.0 * DT;
@@ -637,7 +776,7 @@ mod tests {
         }
         let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
         for _ in 0..200 {
-            body.step(DVec3::ZERO, DVec3::ZERO, DT);
+            body.step(DVec3::ZERO, DVec3::ZERO, &[], DT);
         }
         let y = body.motion().position.y;
         assert!((y + 0.01).abs() < 1e-6, "{y}");
@@ -663,7 +802,7 @@ mod tests {
         assert_eq!(body.motion().position, pending.displacement);
         assert_eq!(body.motion().velocity, pending.velocity);
         for _ in 0..50 {
-            body.step(DVec3::ZERO, DVec3::ZERO, DT);
+            body.step(DVec3::ZERO, DVec3::ZERO, &[], DT);
         }
         // A period later the 1 mm of difference is gone.
         let end = 0.002 + 0.1 * 0.05;

@@ -19,10 +19,10 @@
 use glam::DVec3;
 use hapticd_plugin_api::{
     HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdImpulse, HapticdLocalBody,
-    HapticdLocalState, HapticdPlane, HapticdPlanes,
+    HapticdLocalState, HapticdPlane, HapticdPlanes, HapticdPointer,
 };
 
-use super::local_dynamics::{Change, LocalBody};
+use super::local_dynamics::{Change, LocalBody, Push};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench};
@@ -138,11 +138,26 @@ pub struct PlaneRenderer {
     ports: [f64; MAX_EFFECTORS],
     /// The bodies of the current set as moved here, in the set's order.
     locals: [Option<LocalBody>; HAPTICD_MAX_LOCAL_BODIES],
-    /// Force and torque the hands put on each of `locals` this tick.
-    loads: [(DVec3, DVec3); HAPTICD_MAX_LOCAL_BODIES],
+    /// What each pointer's hand pushes each of `locals` with this tick.
+    loads: [[Push; MAX_EFFECTORS]; HAPTICD_MAX_LOCAL_BODIES],
+    /// The fastest each finger has pushed lately (its grip's speed with the speed its proxy
+    /// catches up at, remembered over about a physics period), m/s: the most a push or an
+    /// impulse handed back may give a body.
+    reach: [f64; MAX_EFFECTORS],
     /// The last hand-backs of local changes, newest at `hand_backs % PENDING`.
     pending: [Pending; PENDING],
     hand_backs: u64,
+}
+
+/// The record of a proxy the physics is given: where it is (a [`PlaneRenderer::queries`]
+/// answer), and as its velocity the fastest its finger pushed over the period, along the
+/// grip's motion (`grip`'s, whose record it otherwise copies).
+pub fn proxy_record(grip: &HapticdPointer, (at, reach): (DVec3, f64)) -> HapticdPointer {
+    HapticdPointer {
+        position: at.to_array(),
+        velocity: (DVec3::from(grip.velocity).normalize_or(DVec3::X) * reach).to_array(),
+        ..*grip
+    }
 }
 
 /// A body's pose `fraction` of the way from where the step before last left it to where the
@@ -195,7 +210,8 @@ impl PlaneRenderer {
             embedded: [true; MAX_EFFECTORS],
             ports: [0.0; MAX_EFFECTORS],
             locals: [None; HAPTICD_MAX_LOCAL_BODIES],
-            loads: [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES],
+            loads: [[Push::default(); MAX_EFFECTORS]; HAPTICD_MAX_LOCAL_BODIES],
+            reach: [0.0; MAX_EFFECTORS],
             pending: [Pending::default(); PENDING],
             hand_backs: 0,
         }
@@ -231,15 +247,20 @@ impl PlaneRenderer {
     /// back found on that body and are carried to where it is shown; found around the proxy
     /// itself, a ball rolled on under the finger would come back with the face turned
     /// toward where it was.
-    pub fn queries(&self) -> impl Iterator<Item = DVec3> + '_ {
+    ///
+    /// With each, the fastest its finger pushed since the last set ([`PlaneRenderer`]'s
+    /// reach), m/s: the physics bounds the impulses it takes in by it.
+    pub fn queries(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
         self.proxies
             .iter()
             .zip(&self.touched)
-            .map(|(proxy, touched)| {
+            .zip(&self.reach)
+            .map(|((proxy, touched), reach)| {
                 let body = touched
                     .and_then(|(object, _)| self.owner(object))
                     .and_then(|i| self.locals[i].as_ref());
-                proxy.position() - body.map_or(DVec3::ZERO, LocalBody::unsent)
+                let at = proxy.position() - body.map_or(DVec3::ZERO, LocalBody::unsent);
+                (at, *reach)
             })
     }
 
@@ -357,7 +378,7 @@ impl PlaneRenderer {
         if self.current.sequence == 0 || self.since_update > self.patience() {
             return false;
         }
-        self.loads = [(DVec3::ZERO, DVec3::ZERO); HAPTICD_MAX_LOCAL_BODIES];
+        self.loads = [[Push::default(); MAX_EFFECTORS]; HAPTICD_MAX_LOCAL_BODIES];
         let fraction = self.fraction();
         for (p, (pointer, wrench)) in pointers.iter().zip(wrenches.iter_mut()).enumerate() {
             if p >= self.proxies.len() {
@@ -367,7 +388,7 @@ impl PlaneRenderer {
         }
         for (body, load) in self.locals.iter_mut().zip(&self.loads) {
             if let Some(body) = body {
-                body.step(load.0, load.1, dt);
+                body.step(DVec3::ZERO, DVec3::ZERO, load, dt);
             }
         }
         true
@@ -429,6 +450,15 @@ impl PlaneRenderer {
             &self.parameters,
             dt,
         );
+        // The finger is the proxy, which catches up over a physics period with a grip that
+        // went deeper while the body was held (pinned against another, or met as a wall
+        // until the physics moves it): without that, a body riding the finger would keep
+        // the depth, and its force, for as long as it is pushed.
+        // Remembered over about a period, fading (not reset when a set comes: what a body
+        // is given must not depend on when the physics samples).
+        let catch_up = grip.distance(out.proxy) / self.period;
+        let fading = self.reach[p] * (-dt / self.period).exp();
+        self.reach[p] = fading.max(pointer.velocity.length() + catch_up);
         self.resting[p] = None;
         self.touched[p] = None;
         if !out.in_contact {
@@ -467,9 +497,11 @@ impl PlaneRenderer {
                     1.0
                 };
                 self.ports[p] = available - share * given;
-                let load = &mut self.loads[i];
-                load.0 += on_body * share;
-                load.1 += arm.cross(on_body * share);
+                self.loads[i][p] = Push {
+                    point: out.proxy,
+                    force: on_body * share,
+                    speed: self.reach[p],
+                };
             } else {
                 self.ports[p] = 0.0;
                 let sum = &mut self.sums[p][k];

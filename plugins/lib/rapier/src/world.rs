@@ -51,6 +51,10 @@ impl BodyState {
     }
 }
 
+/// How much deeper in a fixed solid a hand-back may take a body before its pose is left
+/// out, metres: rapier's own contacts let a resting body sink a fraction of this.
+const SINK: f64 = 1e-3;
+
 /// A multi-rate world on rapier.
 pub struct RapierWorld {
     pub(crate) physics: PhysicsWorld,
@@ -344,19 +348,29 @@ impl RapierWorld {
     }
 
     /// Give the body of `impulse.object` the momentum `impulse.impulse` at `impulse.point`:
-    /// Δv = J/m, Δω = I⁻¹((p − r) × J). Fixed bodies, unknown objects and non-finite
-    /// impulses are ignored.
-    pub fn apply(&mut self, impulse: &HapticdImpulse) {
+    /// Δv = J/m, Δω = I⁻¹((p − r) × J), but no more of it than brings the point, along J,
+    /// to `hand_speed`: a hand cannot push a body faster than it moves itself (a whole
+    /// period's ∫F dt of a finger pressed deep into a light body threw it at tens of metres a
+    /// second). Fixed bodies, unknown objects and non-finite impulses are ignored.
+    pub fn apply(&mut self, impulse: &HapticdImpulse, hand_speed: f64) {
         let (j, p) = (DVec3::from(impulse.impulse), DVec3::from(impulse.point));
         let Some(body) = self.body_of(impulse.object) else {
             return;
         };
-        if j.is_finite() && p.is_finite() {
-            self.physics.bodies[self.bodies[body]].apply_impulse_at_point(
-                vector(j),
-                vector(p),
-                true,
-            );
+        if !(j.is_finite() && p.is_finite() && hand_speed.is_finite()) {
+            return;
+        }
+        let b = &mut self.physics.bodies[self.bodies[body]];
+        let n = j.normalize_or_zero();
+        let props = b.mass_properties();
+        let arm = p - dvec(props.world_com);
+        let turn = dvec(props.effective_world_inv_inertia * vector(arm.cross(n)));
+        let inverse_mass = f64::from(props.effective_inv_mass.max_element());
+        let mass = 1.0 / (inverse_mass + arm.cross(n).dot(turn));
+        let along = dvec(b.velocity_at_point(vector(p))).dot(n);
+        let most = ((hand_speed - along).max(0.0) * mass).min(j.length());
+        if most.is_finite() && most > 0.0 {
+            b.apply_impulse_at_point(vector(n * most), vector(p), true);
         }
     }
 
@@ -378,7 +392,7 @@ impl RapierWorld {
         if !(d.is_finite() && r.is_finite() && v.is_finite() && w.is_finite()) {
             return;
         }
-        let b = &mut self.physics.bodies[handle];
+        let b = &self.physics.bodies[handle];
         if !b.is_dynamic() {
             return;
         }
@@ -386,11 +400,58 @@ impl RapierWorld {
         let turn = DQuat::from_scaled_axis(r);
         let origin = dvec(b.translation());
         let orientation = (turn * dquat(*b.rotation())).normalize();
-        b.set_rotation(rotation(orientation), false);
-        b.set_translation(vector(centre + d + turn * (origin - centre)), false);
+        let moved = Pose::from_parts(
+            vector(centre + d + turn * (origin - centre)),
+            rotation(orientation),
+        );
+        // The haptic side moves a body against its contacts as the last step left them: a
+        // body turned far within a period can be taken into a fixed solid no contact of its
+        // stood for, where a pose set directly stays (a tipped figure was left 5 cm deep in
+        // a 2 cm floor). Such a change is taken in as its velocities alone.
+        let deeper =
+            self.depth_in_fixed(handle, &moved) > self.depth_in_fixed(handle, b.position()) + SINK;
+        let b = &mut self.physics.bodies[handle];
+        if !deeper {
+            b.set_position(moved, false);
+        }
         b.set_linvel(b.linvel() + vector(v), false);
         b.set_angvel(b.angvel() + vector(w), true);
         self.applied[i] = self.applied[i].max(change.sequence);
+    }
+
+    /// How deep body `handle`'s colliders, with the body at `pose`, are in the fixed solids
+    /// they overlap, metres (0 when in none; fixed meshes, which the query cannot measure,
+    /// are left out).
+    fn depth_in_fixed(&self, handle: RigidBodyHandle, pose: &Pose) -> f64 {
+        let physics = &self.physics;
+        let fixed = physics.colliders.iter().filter(|(_, c)| {
+            c.parent()
+                .is_none_or(|p| physics.bodies.get(p).is_some_and(|b| b.is_fixed()))
+        });
+        let mut deepest: f64 = 0.0;
+        for (_, solid) in fixed {
+            let solid_box = solid.compute_aabb();
+            for &mine in physics.bodies[handle].colliders() {
+                let mine = &physics.colliders[mine];
+                let at = mine
+                    .position_wrt_parent()
+                    .map_or(*pose, |local| *pose * *local);
+                if !mine.shape().compute_aabb(&at).intersects(&solid_box) {
+                    continue;
+                }
+                let contact = rapier3d::parry::query::contact(
+                    &at,
+                    mine.shape(),
+                    solid.position(),
+                    solid.shape(),
+                    0.0,
+                );
+                if let Ok(Some(c)) = contact {
+                    deepest = deepest.max(-f64::from(c.dist));
+                }
+            }
+        }
+        deepest
     }
 
     /// [physics] The planes of the solids within reach of a pointer at `point`, as a step
@@ -563,8 +624,15 @@ impl RapierWorld {
                 for change in input.locals {
                     self.take_in(change);
                 }
+                // The fastest finger bounds every push (an impulse does not say whose it is),
+                // as fast as it pushed over the period (its proxy's velocity).
+                let hand_speed = input
+                    .proxies
+                    .iter()
+                    .map(|p| DVec3::from(p.velocity).length())
+                    .fold(0.0, f64::max);
                 for impulse in input.impulses {
-                    self.apply(impulse);
+                    self.apply(impulse, hand_speed);
                 }
             }
             Feedback::Position => {
@@ -706,16 +774,42 @@ bodies:
   - { name: brick, box: [0.1, 0.2, 0.3], position: [0.1, 0.2, 0.3], density: 1000 }
 ";
 
+    /// However large the impulse, the point it acts at ends no faster along it than the
+    /// hand: the whole impulse when the hand is fast, the point's own mass times the hand's
+    /// speed when it is slow, nothing when the point already moves faster.
+    #[test]
+    fn an_impulse_brings_its_point_no_faster_than_the_hand() {
+        let (j, p) = (DVec3::new(0.0, -40.0, 0.0), DVec3::new(0.14, 0.3, 0.21));
+        let impulse = HapticdImpulse {
+            object: 0,
+            point: p.to_array(),
+            impulse: j.to_array(),
+        };
+        let point_speed = |w: &RapierWorld| {
+            let b = w.body(0);
+            (b.velocity + b.spin.cross(p - b.position)).dot(j.normalize())
+        };
+        let (_, mut w) = world(FREE, 0);
+        w.apply(&impulse, 0.1);
+        assert!((point_speed(&w) - 0.1).abs() < 1e-5, "{}", point_speed(&w));
+        w.apply(&impulse, 0.05);
+        assert!((point_speed(&w) - 0.1).abs() < 1e-5, "{}", point_speed(&w));
+    }
+
     #[test]
     fn an_impulse_changes_momentum_by_itself_and_angular_momentum_by_its_moment() {
         let (_, mut w) = world(FREE, 0);
         let before = w.body(0);
         let (j, p) = (DVec3::new(0.3, -0.2, 0.5), DVec3::new(0.14, 0.25, 0.21));
-        w.apply(&HapticdImpulse {
-            object: 0,
-            point: p.to_array(),
-            impulse: j.to_array(),
-        });
+        // A hand fast enough not to bound it.
+        w.apply(
+            &HapticdImpulse {
+                object: 0,
+                point: p.to_array(),
+                impulse: j.to_array(),
+            },
+            1e3,
+        );
         let after = w.body(0);
         // The brick's exact mass and principal moments: m(b² + c²)/12 and so on.
         let (a, b, c) = (0.1, 0.2, 0.3);
@@ -745,7 +839,7 @@ bodies:
                 impulse: [f64::NAN, 0.0, 0.0],
             },
         ] {
-            w.apply(&bad);
+            w.apply(&bad, 1e3);
             assert_eq!(w.body(0), after);
         }
     }
