@@ -479,7 +479,10 @@ typedef struct HapticdPhysicsInput {
   /*
    Where each pointer's proxy rests (the god-object: never inside a solid the haptic
    side renders). Planes are built around these, so a normal never turns over under a
-   finger that presses through a thin solid.
+   finger that presses through a thin solid. A proxy's `velocity` is as fast as its
+   finger pushed at most over the period (its grip's speed, with the speed its proxy
+   catches up with a grip gone deeper; the grip's own velocity from hosts of ABI 1.5 and
+   earlier): no impulse may carry the point it acts at faster than that.
    */
   const struct HapticdPointer *proxies;
   /*

@@ -5,7 +5,7 @@ use crate::support;
 
 use std::process::Output;
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use serde_json::Value;
 use support::{hapticctl, repo_dir};
 
@@ -249,8 +249,10 @@ fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
 /// haptics at 1 kHz as hapticd runs them. The balls the finger's path reaches move, none
 /// leaves the tray or sinks into the floor (continuous collision detection at 10 Hz), none
 /// is thrown faster than the finger moves (one was thrown at 4.6 m/s by the spring of a
-/// finger pinned deep against it), and the force felt stays that of the 2 kN/m proxy
-/// spring no deeper than a ball is wide.
+/// finger pinned deep against it), and the force felt stays that of the 2 kN/m proxy spring
+/// within the width of a ball and the finger together (the scripted finger, unlike a hand,
+/// goes where its script says, even into a ball held against another for a period: 58.5 N
+/// at most in this run, 29 mm deep, since a ball is no longer thrown out of the way).
 #[test]
 fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes_or_is_thrown() {
     let hand = repo_dir().join("config/hands/stir-balls.yaml");
@@ -271,7 +273,10 @@ fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes_or_is_thrown() {
     let peak = report["runs"][0]["pointers"][0]["peak_force"]
         .as_f64()
         .unwrap();
-    assert!((1.0..2000.0 * 0.025).contains(&peak), "peak force {peak} N");
+    assert!(
+        (1.0..2000.0 * (0.024 + 0.010)).contains(&peak),
+        "peak force {peak} N"
+    );
     for (k, ball) in balls.iter().enumerate() {
         let [x, y, z] = vector(&ball["position"]);
         // Inner faces of the walls at ±0.1 m, the floor's top at −0.03 m; radius 12 mm
@@ -298,22 +303,27 @@ fn a_finger_stirs_twelve_balls_at_10_hz_and_none_escapes_or_is_thrown() {
     }
     // The finger's fastest is 2π · 6.5 cm / 3 s = 0.136 m/s; what it pushes may also take up
     // the depth the finger reached while the ball was held. The same stir with the physics
-    // at 1 kHz, where no ball is held long, peaked at 0.20 m/s.
+    // at 1 kHz, where no ball is held long, peaked at 0.20 m/s. Speeds are a ball's travel
+    // over a physics period (100 ticks): what is recorded each tick is the body as shown,
+    // which a new step's state may move by a jump, and rapier's contacts at a 100 ms step
+    // leave a resting ball a period's fall of velocity now and then, going nowhere.
     let csv = std::fs::read_to_string(&record).unwrap();
-    let fastest = csv
-        .lines()
-        .skip(1)
-        .map(|line| {
-            let v: Vec<f64> = line
-                .split(',')
-                .skip(10)
-                .take(3)
-                .map(|c| c.parse().unwrap())
-                .collect();
-            (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-        })
-        .fold(0.0, f64::max);
-    assert!(fastest < 0.20, "a ball was thrown at {fastest} m/s");
+    let mut tracks: std::collections::BTreeMap<&str, Vec<DVec3>> = Default::default();
+    for line in csv.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let at: Vec<f64> = cells[3..6].iter().map(|c| c.parse().unwrap()).collect();
+        tracks
+            .entry(cells[2])
+            .or_default()
+            .push(DVec3::new(at[0], at[1], at[2]));
+    }
+    for (ball, track) in &tracks {
+        let fastest = track
+            .windows(101)
+            .map(|w| w[0].distance(w[100]) / 0.1)
+            .fold(0.0, f64::max);
+        assert!(fastest < 0.20, "{ball} was thrown at {fastest} m/s");
+    }
     std::fs::remove_file(&record).unwrap();
 }
 
@@ -471,4 +481,120 @@ fn no_shipped_scene_has_a_solid_at_a_calibration_pose() {
         }
     }
     assert!(inside.is_empty(), "{inside:#?}");
+}
+
+/// A public model nobody here made (the Stanford bunny, closed, 7 cm and 39 g) on a rapier
+/// floor at 20 Hz, pressed 14 mm or more from above at six places by a finger coming down at
+/// 0.16 m/s, under impulse feedback: handed back whole, a period's impulse threw it at 28 m/s
+/// through the floor. Bounded by how fast the finger pushed, the bunny travels no faster than
+/// the finger and what its proxy catches up over a period (0.16 + 0.014/0.05 = 0.44 m/s), and
+/// stays on the floor.
+#[test]
+fn a_public_mesh_pressed_from_above_is_pushed_no_faster_than_the_finger() {
+    let dir = support::scratch_root().join(format!("bunny-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo_dir().join("tests/corpus/bunny.obj"),
+        dir.join("bunny.obj"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("bunny.yaml"),
+        "name: bunny\nengine: rapier\nrate: 20\nfeedback: impulse\ngravity: [0, -9.81, 0]\n\
+         material: { static_friction: 0.5, friction: 0.4 }\nbodies:\n\
+         \x20 - { name: floor, box: [0.4, 0.02, 0.4], position: [0, -0.04, 0], fixed: true }\n\
+         \x20 - { name: bunny, mesh: bunny.obj, scale: 0.00707, position: [0, -0.03, 0], density: 800 }\n\
+         pointer: { sphere: 0.005 }\n",
+    )
+    .unwrap();
+    // The bunny's points about its centre of volume, as the recorded poses place them.
+    let mesh = hapticd_mesh::load(
+        &dir.join("bunny.obj"),
+        0.00707,
+        hapticd_mesh::Limits::DEFAULT,
+        None,
+    )
+    .unwrap();
+    let centre = hapticd_mesh::properties::mass_properties(&mesh).centre;
+    for (x, z) in [
+        (0.0, 0.005),
+        (-0.015, 0.005),
+        (0.015, 0.005),
+        (0.0, -0.01),
+        (-0.02, 0.01),
+        (0.02, 0.0),
+    ] {
+        std::fs::write(
+            dir.join("press.yaml"),
+            format!(
+                "hands:\n  grip:\n    - hold: {{ at: [{x}, 0.08, {z}], seconds: 0.2 }}\n\
+                 \x20   - move: {{ to: [{x}, 0.0, {z}], seconds: 0.5 }}\n\
+                 \x20   - hold: {{ seconds: 1.0 }}\n\
+                 \x20   - move: {{ to: [{x}, 0.08, {z}], seconds: 0.3 }}\n"
+            ),
+        )
+        .unwrap();
+        let record = dir.join("run.csv");
+        let out = run(&[
+            dir.join("bunny.yaml").to_str().unwrap(),
+            "--hand",
+            dir.join("press.yaml").to_str().unwrap(),
+            "--duration",
+            "2",
+            "--record",
+            record.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let poses: Vec<(DVec3, glam::DQuat)> = std::fs::read_to_string(&record)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|line| {
+                let c: Vec<f64> = line
+                    .split(',')
+                    .skip(3)
+                    .take(7)
+                    .map(|c| c.parse().unwrap())
+                    .collect();
+                (
+                    DVec3::new(c[0], c[1], c[2]),
+                    glam::DQuat::from_xyzw(c[4], c[5], c[6], c[3]),
+                )
+            })
+            .collect();
+        // A physics period's travel (50 ticks), as the balls' test measures it.
+        let fastest = poses
+            .windows(51)
+            .map(|w| w[0].0.distance(w[50].0) / 0.05)
+            .fold(0.0, f64::max);
+        assert!(fastest < 0.44, "pressed at ({x}, {z}): {fastest} m/s");
+        // The floor is 2 cm thick, its top at y = -0.03. Rapier's contacts, soft at a 50 ms
+        // step, let the pressed bunny sink into it for a moment (6.7 mm at most over these
+        // presses), never through; once the finger has gone it rests on the top.
+        let lowest_at = |(at, turn): &(DVec3, glam::DQuat)| {
+            mesh.vertices
+                .iter()
+                .map(|v| (*at + *turn * (*v - centre)).y)
+                .fold(f64::INFINITY, f64::min)
+        };
+        let lowest = poses
+            .iter()
+            .step_by(10)
+            .map(lowest_at)
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            lowest > -0.03 - 0.01,
+            "pressed at ({x}, {z}): down to y = {lowest}"
+        );
+        let resting = lowest_at(poses.last().unwrap());
+        assert!(
+            (resting + 0.03).abs() < 1e-3,
+            "pressed at ({x}, {z}): rests at y = {resting}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -348,11 +348,14 @@ pointer:
             assert!(peak < bound, "{rate} Hz: {peak} J against {bound} J");
             assert!(given < 0.005, "{rate} Hz: the hand got {given} J");
             assert!(moved < 0.003, "{rate} Hz: the block went {moved} m");
-            // Impulses summed over a period on a block the physics has not moved throw
-            // it: the gain local dynamics does not have.
+            // Impulses summed over a period on a block the physics has not moved threw it
+            // metres; bounded by how fast the finger pushed, they leave it in its corner.
             let (thrown, _, gone, _) = beat(rate, phase, Feedback::Impulse);
-            assert!(thrown > 100.0 * peak, "{rate} Hz: {thrown} J vs {peak} J");
-            assert!(gone > 0.1, "{rate} Hz: {gone} m");
+            assert!(
+                thrown < bound,
+                "{rate} Hz: impulses, {thrown} J against {bound} J"
+            );
+            assert!(gone < 0.003, "{rate} Hz: impulses, the block went {gone} m");
         }
     }
 }

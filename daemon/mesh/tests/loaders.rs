@@ -359,6 +359,13 @@ fn the_example_meshes_are_closed_solids_of_their_drawn_volumes() {
     }
 }
 
+/// `text` written to `name` in `dir`: its path.
+fn written(dir: &Path, name: &str, text: String) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
 /// A glTF document whose scene has `roots` (a JSON list) among `nodes` (a JSON list), each
 /// node that names mesh 0 placing the unit cube, its buffer embedded; `stride` is the
 /// positions' byteStride, if any.
@@ -407,11 +414,7 @@ fn nodes_json(
 #[test]
 fn node_graphs_that_reuse_or_loop_are_refused_by_name_before_they_are_expanded() {
     let dir = scratch("graphs");
-    let write = |name: &str, text: String| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).unwrap();
-        path
-    };
+    let write = |name: &str, text: String| written(&dir, name, text);
     // Six levels of ten nodes, each node of a level a child of every node of the level
     // above: 10⁶ paths to the cube at the bottom.
     let dag = nodes_json(
@@ -500,11 +503,7 @@ fn node_graphs_that_reuse_or_loop_are_refused_by_name_before_they_are_expanded()
 #[test]
 fn accessors_that_lie_about_their_layout_are_refused_not_read() {
     let dir = scratch("accessors");
-    let write = |name: &str, text: String| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).unwrap();
-        path
-    };
+    let write = |name: &str, text: String| written(&dir, name, text);
     let one = nodes_json(1, |_| Vec::new(), |_| true);
     let path = write("stride.gltf", cube_scene("[0]", &one, Some(4)));
     let e = refused(&path, Limits::DEFAULT, None);

@@ -407,16 +407,18 @@ impl RapierWorld {
         // The haptic side moves a body against its contacts as the last step left them: a
         // body turned far within a period can be taken into a fixed solid no contact of its
         // stood for, where a pose set directly stays (a tipped figure was left 5 cm deep in
-        // a 2 cm floor). Such a change is taken in as its velocities alone.
+        // a 2 cm floor). Such a change is left out: the next period starts from the body as
+        // the physics has it.
         let deeper =
             self.depth_in_fixed(handle, &moved) > self.depth_in_fixed(handle, b.position()) + SINK;
-        let b = &mut self.physics.bodies[handle];
-        if !deeper {
-            b.set_position(moved, false);
+        self.applied[i] = self.applied[i].max(change.sequence);
+        if deeper {
+            return;
         }
+        let b = &mut self.physics.bodies[handle];
+        b.set_position(moved, false);
         b.set_linvel(b.linvel() + vector(v), false);
         b.set_angvel(b.angvel() + vector(w), true);
-        self.applied[i] = self.applied[i].max(change.sequence);
     }
 
     /// How deep body `handle`'s colliders, with the body at `pose`, are in the fixed solids
