@@ -256,3 +256,33 @@ fn without_a_display_view_says_what_to_set() {
     );
     assert!(!stderr.contains(".rs:"), "{stderr}");
 }
+
+/// A scene file given by its bare name, from its own directory, as a user there types it:
+/// its mesh (the bracket, drawn in the scenery's blue) is found beside it and drawn.
+#[test]
+fn a_scene_given_by_its_bare_name_draws_its_meshes() {
+    let dir = scratch_root().join(format!("render-bare-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo_dir().join("config/scenes/meshes/bracket.obj"),
+        dir.join("bracket.obj"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("my.yaml"),
+        "name: my\nshapes:\n  - floor: { height: -0.05 }\n  - mesh: { file: bracket.obj, centre: [0, -0.02, 0] }\n",
+    )
+    .unwrap();
+    let output = hapticctl()
+        .current_dir(&dir)
+        .args(["render", "my.yaml", "--out", "my.png"])
+        .output()
+        .unwrap();
+    support::succeeded(output);
+    let picture = read_png(&dir.join("my.png"));
+    assert!(
+        mean_blue_row(&picture).is_some(),
+        "the bracket is not in the picture"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

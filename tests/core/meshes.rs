@@ -180,3 +180,42 @@ fn a_large_meshs_triangles_found_through_the_hierarchy_are_those_a_scan_finds() 
         );
     }
 }
+
+/// A file written z up (`up: z`) is turned a quarter about x so that its z is hapticd's y:
+/// the bracket, a plate 6 mm thick along its file's y, stands 50 mm tall once its z is up,
+/// 6 mm thick along z.
+#[test]
+fn a_mesh_written_z_up_is_turned_so_that_its_z_is_up() {
+    let dir = scene_dir("up");
+    let extent = |up: &str| {
+        let text = format!("name: up\nshapes:\n  - mesh: {{ file: bracket.obj{up} }}\n");
+        let spec = parse(&dir, &text).unwrap();
+        let (mut low, mut high) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for shape in &spec.shapes {
+            if let Shape::Triangle { corners, .. } = shape {
+                for p in corners {
+                    (low, high) = (low.min(*p), high.max(*p));
+                }
+            }
+        }
+        high - low
+    };
+    let as_is = extent("");
+    assert!(
+        (as_is - DVec3::new(0.05, 0.006, 0.05)).length() < 1e-9,
+        "{as_is}"
+    );
+    assert_eq!(extent(", up: y"), as_is);
+    let turned = extent(", up: z");
+    assert!(
+        (turned - DVec3::new(0.05, 0.05, 0.006)).length() < 1e-9,
+        "{turned}"
+    );
+    assert!(
+        parse(
+            &dir,
+            "name: up\nshapes:\n  - mesh: { file: bracket.obj, up: x }\n"
+        )
+        .is_err()
+    );
+}

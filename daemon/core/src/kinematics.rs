@@ -15,6 +15,29 @@ pub const WORLD_EXTENT: f64 = 1e3;
 /// smaller one there is no inertia to integrate nor a surface to feel.
 pub const SOLID_SIZES: (f64, f64) = (1e-4, 1e3);
 
+/// The axis a mesh file calls up (a scene's `up:` of a mesh): hapticd's up is y, as glTF's
+/// and most modelling tools'; CAD programs and scanners often write z up, and such a file
+/// would lie on its side.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Up {
+    /// y up: the file as it is.
+    #[default]
+    Y,
+    /// z up: the file turned a quarter about x, its z becoming hapticd's y.
+    Z,
+}
+
+impl Up {
+    /// The turn that brings the file's up to hapticd's y.
+    pub fn turn(self) -> DQuat {
+        match self {
+            Up::Y => DQuat::IDENTITY,
+            Up::Z => DQuat::from_rotation_x(-std::f64::consts::FRAC_PI_2),
+        }
+    }
+}
+
 /// Degrees of freedom of an end effector.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Dof {

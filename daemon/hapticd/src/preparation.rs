@@ -57,8 +57,8 @@ impl Preparation {
         if self.cache.dir().is_none() {
             return Ok(());
         }
-        let dir = file.parent().unwrap_or(Path::new("."));
-        let needed: Vec<(PathBuf, TriangleMesh)> = std::fs::read_to_string(file)
+        let dir = hapticd_core::diagnostics::directory_of(file);
+        let needed: Vec<(PathBuf, TriangleMesh)> = hapticd_core::diagnostics::read_text(file)
             .ok()
             .and_then(|text| serde_saphyr::from_str::<Value>(&text).ok())
             .map(|scene| cut_meshes(&scene))

@@ -14,8 +14,10 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
-use crate::TriangleMesh;
+use hapticd_core::diagnostics::{FileRules, read_file};
+
 use crate::decomposition::{RESOLUTION, decompose};
+use crate::{Limits, TriangleMesh};
 
 /// What an entry starts with: the format and its version (2: a convex mesh is its own one
 /// piece, where entries of 1 hold V-HACD's cut of it).
@@ -67,7 +69,13 @@ impl Cache {
     /// `mesh`'s pieces (each a closed convex surface, in the mesh's frame) if the cache holds
     /// a sound entry for them.
     pub fn lookup(&self, mesh: &TriangleMesh) -> Option<Vec<TriangleMesh>> {
-        let bytes = std::fs::read(self.entry(mesh)?).ok()?;
+        // Through the guarded reader: an entry that is a FIFO, or a link to /dev/zero, is
+        // no entry (one hung the reader, the other read gigabytes).
+        let rules = FileRules {
+            max_bytes: Limits::DEFAULT.bytes,
+            within: None,
+        };
+        let bytes = read_file(&self.entry(mesh)?, rules).ok()?;
         decode(&bytes, key(mesh), mesh.bounds())
     }
 
@@ -226,7 +234,15 @@ mod tests {
         assert!(decode(&encode(key, &dangling), key, mesh.bounds()).is_none());
         std::fs::write(&entry, &bytes[..20]).unwrap();
         assert_eq!(cache.pieces(&mesh), (pieces.clone(), false));
-        assert_eq!(cache.pieces(&mesh), (pieces, true));
+        assert_eq!(cache.pieces(&mesh), (pieces.clone(), true));
+        // A FIFO in the entry's place (which hung the reader) or a link to /dev/zero (which
+        // read gigabytes) is no entry, at once.
+        std::fs::remove_file(&entry).unwrap();
+        nix::unistd::mkfifo(&entry, nix::sys::stat::Mode::S_IRWXU).unwrap();
+        assert_eq!(cache.lookup(&mesh), None);
+        std::fs::remove_file(&entry).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", &entry).unwrap();
+        assert_eq!(cache.lookup(&mesh), None);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

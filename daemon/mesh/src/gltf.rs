@@ -134,10 +134,7 @@ fn buffers(
     rules: FileRules,
     limits: Limits,
 ) -> Result<Vec<Vec<u8>>, String> {
-    let dir = match file.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir,
-        _ => Path::new("."),
-    };
+    let dir = hapticd_core::diagnostics::directory_of(file);
     let mut left = limits.bytes;
     let mut buffers = Vec::new();
     for buffer in gltf.document.buffers() {

@@ -324,6 +324,15 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// The directory `file` lies in: its parent, or `.` for a bare name (whose parent is empty,
+/// which names no directory: a scene given as `my.yaml` lost its meshes).
+pub fn directory_of(file: &Path) -> &Path {
+    match file.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    }
+}
+
 /// The bytes of `file`, refusing what cannot be a file a person or hapticd wrote: anything
 /// but a regular file, more than `rules.max_bytes`, or a link out of `rules.within`. The
 /// one reader of every file hapticd and its tools are given.

@@ -12,9 +12,10 @@
 //! ```
 //!
 //! A shape may also be a triangle mesh, `mesh: { file: bracket.obj, centre: [0, -0.02, 0],
-//! orientation: [1, 0, 0, 0], scale: 0.001 }` (orientation and scale optional): an OBJ, STL,
-//! glTF or GLB file in the scene file's own directory (never outside it), its coordinates
-//! times `scale` in metres. Its triangles are kept as they are, holes included, and the proxy
+//! orientation: [1, 0, 0, 0], scale: 0.001, up: z }` (orientation, scale and up optional):
+//! an OBJ, STL, glTF or GLB file in the scene file's own directory (never outside it), its
+//! coordinates times `scale` in metres, turned so that its `up` axis (y, or z for a file
+//! written z up) is hapticd's y. Its triangles are kept as they are, holes included, and the proxy
 //! walks on them: faces hold it, a seam between two faces holds it, an edge or corner pushes
 //! along its bisector. A scene's meshes may have 500 000 triangles together; the proxy finds
 //! the few near it through a hierarchy of boxes.
@@ -33,7 +34,7 @@ use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::haptics::scenery::Scenery;
-use crate::kinematics::{SOLID_SIZES, WORLD_EXTENT, Wrench, quat_to_wxyz};
+use crate::kinematics::{SOLID_SIZES, Up, WORLD_EXTENT, Wrench, quat_to_wxyz};
 use crate::parameters::Name;
 
 #[derive(Deserialize)]
@@ -87,6 +88,8 @@ enum RawShape {
         orientation: [f64; 4],
         #[serde(default = "unscaled")]
         scale: f64,
+        #[serde(default)]
+        up: Up,
     },
 }
 
@@ -176,7 +179,7 @@ impl StaticSceneSpec {
                 }
             }
         };
-        let dir = path.parent().unwrap_or(Path::new("."));
+        let dir = crate::diagnostics::directory_of(path);
         let mut shapes = Vec::new();
         for (i, s) in raw.shapes.into_iter().enumerate() {
             shapes.extend(check_shape(&mut f, &format!("shapes[{i}]"), s, dir, meshes));
@@ -235,10 +238,10 @@ fn mesh_faces(
     at: &str,
     dir: &Path,
     meshes: MeshReader,
-    (file, centre, orientation, scale): (&str, [f64; 3], [f64; 4], f64),
+    (file, centre, orientation, scale, up): (&str, [f64; 3], [f64; 4], f64, Up),
 ) -> Vec<Shape> {
     check_place(f, format!("{at}.mesh.centre"), &centre);
-    let rotation = f.unit_quaternion(format!("{at}.mesh.orientation"), orientation);
+    let rotation = f.unit_quaternion(format!("{at}.mesh.orientation"), orientation) * up.turn();
     if !f.within(format!("{at}.mesh.scale"), scale, 1e-6, 1e3, "") {
         return Vec::new();
     }
@@ -327,8 +330,9 @@ fn check_shape(
             centre,
             orientation,
             scale,
+            up,
         } => {
-            return mesh_faces(f, at, dir, meshes, (&file, centre, orientation, scale));
+            return mesh_faces(f, at, dir, meshes, (&file, centre, orientation, scale, up));
         }
     };
     vec![primitive]

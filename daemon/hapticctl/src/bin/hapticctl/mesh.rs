@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 use hapticd_mesh::cache::Cache;
-use hapticd_mesh::properties::{closure, mass_properties};
+use hapticd_mesh::properties::{closure, is_convex, mass_properties};
 use hapticd_mesh::{Limits, load};
 use serde_json::json;
 
@@ -51,6 +51,10 @@ pub struct InspectArgs {
     /// Look for its convex pieces in DIR (default: $CACHE_DIRECTORY, else ~/.cache/hapticd).
     #[arg(long, value_name = "DIR")]
     cache: Option<PathBuf>,
+    /// Also give the mass and inertia a body of this density (kg/m³) would have, as a
+    /// scene's `density:`.
+    #[arg(long, value_name = "KG_PER_M3")]
+    density: Option<f64>,
     #[command(flatten)]
     output: Output,
 }
@@ -64,6 +68,13 @@ pub fn run(command: Command) -> Result<(), Failure> {
 }
 
 fn inspect(args: &InspectArgs) -> Result<(), Failure> {
+    if let Some(d) = args.density
+        && !(d.is_finite() && d > 0.0)
+    {
+        return Err(Failure::usage(format!(
+            "--density must be a finite number > 0, not {d}"
+        )));
+    }
     let mesh = load(&args.file, args.scale, Limits::DEFAULT, None)?;
     let (low, high) = mesh.bounds();
     let edges = closure(&mesh);
@@ -91,6 +102,7 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         size.z,
     );
     let closed = edges.is_closed();
+    let convex = closed && is_convex(&mesh);
     if closed {
         let i = solid.inertia;
         text += &format!(
@@ -109,6 +121,25 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         );
         if solid.volume < 0.0 {
             text += "the triangles face inwards: a negative volume\n";
+        }
+        text += if convex {
+            "convex: yes (a body of it is its own one piece)\n"
+        } else {
+            "convex: no\n"
+        };
+        if let Some(d) = args.density {
+            let i = solid.inertia * d;
+            text += &format!(
+                "at {d} kg/m³: mass {:.6e} kg, inertia about the centre {:.6e} {:.6e} {:.6e} \
+                 (products {:.3e} {:.3e} {:.3e}) kg·m²\n",
+                solid.volume * d,
+                i.x_axis.x,
+                i.y_axis.y,
+                i.z_axis.z,
+                i.y_axis.x,
+                i.z_axis.x,
+                i.z_axis.y,
+            );
         }
     } else {
         text += &format!(
@@ -146,6 +177,13 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         "volume": closed.then_some(solid.volume),
         "centre": closed.then_some(solid.centre.to_array()),
         "inertia": closed.then_some(solid.inertia.to_cols_array_2d()),
+        "convex": closed.then_some(convex),
+        "density": args.density,
+        "mass": args.density.filter(|_| closed).map(|d| solid.volume * d),
+        "body_inertia": args
+            .density
+            .filter(|_| closed)
+            .map(|d| (solid.inertia * d).to_cols_array_2d()),
         "pieces": pieces.as_ref().map(Vec::len),
     });
     print(&args.output, value, text);

@@ -439,6 +439,9 @@ pub(super) fn bodies(
                 if b.scale.is_some() {
                     f.error(format!("{at}.scale"), "only with mesh:");
                 }
+                if b.up.is_some() {
+                    f.error(format!("{at}.up"), "only with mesh:");
+                }
                 body_pieces(f, &at, b)
             }
         };

@@ -1,4 +1,4 @@
-//! Bodies of mesh files (`mesh: FILE`, with `scale:`): the file read from the scene's own
+//! Bodies of mesh files (`mesh: FILE`, with `scale:` and `up:`): the file read from the scene's own
 //! directory, its mass and inertia those of the volume it closes, and its convex pieces
 //! (decomposed once and cached, [`hapticd_mesh::cache`]) what the engines touch it through.
 //! A fixed mesh under rapier keeps its triangles instead, holes and all.
@@ -27,11 +27,10 @@ pub(super) struct MeshFiles<'a> {
 impl<'a> MeshFiles<'a> {
     /// The meshes of the scene file at `path`, their pieces in `cache` (none: not cut).
     pub(super) fn of_scene(path: &Path, cache: Option<&'a Cache>) -> Self {
-        let dir = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        Self { dir, cache }
+        Self {
+            dir: hapticd_core::diagnostics::directory_of(path).to_path_buf(),
+            cache,
+        }
     }
 }
 
@@ -66,7 +65,8 @@ pub(super) fn mesh_body(
         );
         return None;
     }
-    let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
+    let turn = f.unit_quaternion(format!("{at}.orientation"), b.orientation)
+        * b.up.unwrap_or_default().turn();
     let placed = f.coordinates(format!("{at}.position"), &b.position, WORLD_EXTENT, "m");
     let scale = b.scale.unwrap_or(1.0);
     let (small, large) = SCALE_RANGE;

@@ -1,6 +1,7 @@
 //! The scene file's schema: every key of both engines as YAML gives it, unknown keys
 //! refused, nothing checked yet.
 
+use hapticd_core::kinematics::Up;
 use serde::Deserialize;
 
 /// A scene file as YAML gives it, before any check.
@@ -111,6 +112,8 @@ pub(super) struct RawBody {
     pub(super) pieces: Option<Vec<RawPiece>>,
     pub(super) mesh: Option<String>,
     pub(super) scale: Option<f64>,
+    /// The mesh file's up axis.
+    pub(super) up: Option<Up>,
     pub(super) position: [f64; 3],
     #[serde(default = "identity")]
     pub(super) orientation: [f64; 4],
