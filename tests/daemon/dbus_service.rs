@@ -538,6 +538,16 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
         device.reset_fault().await.unwrap();
         device.bind_mechanism("spidar-g").await.unwrap();
         assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
+        // What anyone is handed to read is open for reading alone, as the README says.
+        for handed in [
+            device.open_world().await.unwrap(),
+            device.open_telemetry(HashMap::new()).await.unwrap(),
+        ] {
+            let handed: std::os::fd::OwnedFd = handed.into();
+            let flags = nix::fcntl::fcntl(&handed, nix::fcntl::FcntlArg::F_GETFL).unwrap();
+            let mode = nix::fcntl::OFlag::from_bits_truncate(flags) & nix::fcntl::OFlag::O_ACCMODE;
+            assert_eq!(mode, nix::fcntl::OFlag::O_RDONLY);
+        }
         let world = MappedWorld::open(&device.open_world().await.unwrap().into()).unwrap();
         let mut frame = Box::new(hapticd_core::world_state::WorldFrame::empty());
         assert!(
@@ -2994,6 +3004,17 @@ fn bodies_are_added_and_removed_under_both_engines_the_others_kept_as_they_are()
                 &["string:{ name: bad, box: [0.02, 0.02], position: [0, 0, 0] }"]
             ),
             named("SceneFailed")
+        );
+        // Said of the scene the caller knows, not of the daemon's copy of it.
+        let failed = call(
+            "AddBody",
+            "s",
+            &["{ name: bad, box: [0.02, 0.02], position: [0, 0, 0] }"],
+        );
+        let said = String::from_utf8_lossy(&failed.stderr);
+        assert!(
+            said.contains(&format!("{scene}.yaml")) && !said.contains("hapticd-scenes-"),
+            "{said}"
         );
         assert_eq!(
             error("RemoveBody", &["string:no-such-body"]),

@@ -91,6 +91,32 @@ impl std::fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+impl Error {
+    /// The error with the daemon's copy of a scene (`kept`, in a directory of its own)
+    /// named as its caller knows it (`shown`): where the daemon keeps files means nothing
+    /// to a caller, and is not theirs to know.
+    fn naming(self, kept: &Path, shown: &Path) -> Error {
+        let (kept_text, shown_text) = (kept.display().to_string(), shown.display().to_string());
+        let rename = |m: String| m.replace(&kept_text, &shown_text);
+        match self {
+            Error::Scene(OpenError::Invalid(mut findings)) => {
+                for finding in &mut findings.diagnostics {
+                    if finding.file == kept {
+                        finding.file = shown.to_path_buf();
+                    }
+                    finding.message = rename(std::mem::take(&mut finding.message));
+                }
+                Error::Scene(OpenError::Invalid(findings))
+            }
+            Error::Scene(OpenError::Refused(m)) => Error::Scene(OpenError::Refused(rename(m))),
+            Error::Scene(OpenError::NotFound(m)) => Error::Scene(OpenError::NotFound(rename(m))),
+            Error::Preparing(m) => Error::Preparing(rename(m)),
+            Error::Unavailable(m) => Error::Unavailable(rename(m)),
+            other => other,
+        }
+    }
+}
+
 impl From<ParameterError> for Error {
     fn from(e: ParameterError) -> Self {
         match e {
@@ -739,23 +765,8 @@ impl Daemon {
         }
         let kept = self.received.keep(fd, name).map_err(Error::SceneNotKept)?;
         let shown = PathBuf::from(format!("{name}.yaml"));
-        // The copy's place means nothing to the caller: the findings name the scene.
-        let sent = |e: Error| match e {
-            Error::Scene(OpenError::Invalid(mut findings)) => {
-                for finding in &mut findings.diagnostics {
-                    if finding.file == kept {
-                        finding.file.clone_from(&shown);
-                    }
-                }
-                Error::Scene(OpenError::Invalid(findings))
-            }
-            Error::Scene(OpenError::Refused(m)) => Error::Scene(OpenError::Refused(
-                m.replace(&kept.display().to_string(), &shown.display().to_string()),
-            )),
-            other => other,
-        };
         self.swap_in(&kept.display().to_string(), Some(kept.clone()))
-            .map_err(sent)
+            .map_err(|e| e.naming(&kept, &shown))
     }
 
     /// Load `scene` (a name, or a path the daemon chose) for every device and swap it in;
@@ -890,7 +901,10 @@ impl Daemon {
             .received
             .keep_text(&changed, &name)
             .map_err(Error::SceneNotKept)?;
-        let swapped = self.swap_in_now(&kept.display().to_string(), Some(kept.clone()), true);
+        let shown = PathBuf::from(format!("{name}.yaml"));
+        let swapped = self
+            .swap_in_now(&kept.display().to_string(), Some(kept.clone()), true)
+            .map_err(|e| e.naming(&kept, &shown));
         // A change the scene refused leaves the file the running world came from as it was.
         if swapped.is_err() && kept == file {
             self.received

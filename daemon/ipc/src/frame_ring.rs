@@ -84,9 +84,9 @@ impl FrameRingWriter {
         })
     }
 
-    /// A new descriptor of the ring, to hand to a viewer.
+    /// A new descriptor of the ring, open for reading alone, to hand to a viewer.
     pub fn share(&self) -> io::Result<OwnedFd> {
-        self.fd.try_clone()
+        crate::shared_memory::read_only_descriptor(&self.fd)
     }
 
     /// The frames' size, pixels.

@@ -114,6 +114,18 @@ pub fn sealed(name: &str, len: usize) -> io::Result<(OwnedFd, Mapping)> {
     memfd(name, len, libc::F_SEAL_FUTURE_WRITE)
 }
 
+/// A descriptor of `fd`'s memory open for reading alone, for whoever may only read it: the
+/// seals already refuse writes, and the descriptor says so too (a duplicate would be open to
+/// read and write, as the owner's is).
+pub fn read_only_descriptor(fd: &OwnedFd) -> io::Result<OwnedFd> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_CLOEXEC)
+        .open(format!("/proc/self/fd/{}", fd.as_raw_fd()))?;
+    Ok(file.into())
+}
+
 /// A new memfd of `len` zero bytes called `name` that others may write as well, and its
 /// owner's mapping: sealed against growing and shrinking, so that no writer can take the
 /// memory from under its owner (a shrunk file would fault its reader).
@@ -151,6 +163,21 @@ fn memfd(name: &str, len: usize, seals: libc::c_int) -> io::Result<(OwnedFd, Map
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn a_read_only_descriptor_is_open_for_reading_alone_on_the_same_memory() {
+        let (fd, mapping) = sealed("read-only", 4096).unwrap();
+        // SAFETY: the mapping is 4096 writable bytes of the owner's.
+        unsafe { mapping.address().cast::<u8>().write(42) };
+        let reader = read_only_descriptor(&fd).unwrap();
+        // SAFETY: fcntl on a descriptor the test owns.
+        let flags = unsafe { libc::fcntl(reader.as_raw_fd(), libc::F_GETFL) };
+        assert_eq!(flags & libc::O_ACCMODE, libc::O_RDONLY);
+        let seen = Mapping::read_only(&reader).unwrap();
+        // SAFETY: as above, mapped for reading.
+        assert_eq!(unsafe { seen.address().cast::<u8>().read() }, 42);
+        assert_sealed(&reader);
+    }
 
     /// `fd` can be neither mapped writable, resized, written nor sealed otherwise.
     pub(crate) fn assert_sealed(fd: &OwnedFd) {

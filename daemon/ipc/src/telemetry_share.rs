@@ -5,7 +5,7 @@
 //! late, and is told how many.
 
 use std::io;
-use std::os::fd::{AsFd, OwnedFd};
+use std::os::fd::OwnedFd;
 
 use hapticd_core::telemetry::{
     Read, SHARED_SIZE, Sample, SharedTelemetry, TelemetryReader, TelemetryWriter,
@@ -32,9 +32,9 @@ impl SharedTelemetryFile {
         Ok((Self { fd }, writer))
     }
 
-    /// A new descriptor of the file, to hand to a reader.
+    /// A new descriptor of the file, open for reading alone, to hand to a reader.
     pub fn share(&self) -> io::Result<OwnedFd> {
-        self.fd.as_fd().try_clone_to_owned()
+        crate::shared_memory::read_only_descriptor(&self.fd)
     }
 }
 

@@ -4,7 +4,7 @@
 //! it, so a reader can neither disturb the haptic thread nor fault on a vanished page.
 
 use std::io;
-use std::os::fd::{AsFd, OwnedFd};
+use std::os::fd::OwnedFd;
 
 use hapticd_core::world_state::{SHARED_SIZE, SharedWorld, WorldFrame, WorldReader, WorldWriter};
 use hapticd_plugin_api::Geometry;
@@ -29,9 +29,9 @@ impl SharedWorldFile {
         Ok((Self { fd }, writer))
     }
 
-    /// A new descriptor of the file, to hand to a reader.
+    /// A new descriptor of the file, open for reading alone, to hand to a reader.
     pub fn share(&self) -> io::Result<OwnedFd> {
-        self.fd.as_fd().try_clone_to_owned()
+        crate::shared_memory::read_only_descriptor(&self.fd)
     }
 }
 

@@ -6,7 +6,8 @@ haptic loop (``Device.telemetry``) and their picture of the world (``Device.open
 ``scenes`` and ``switch_scene`` choose the world, and ``bodies``, ``body``, ``set_pose``,
 ``set_velocity``, ``apply_impulse``, ``set_force``, ``set_mass``, ``set_friction``,
 ``add_body`` and ``remove_body`` drive the running one. Every error the daemon returns is raised as :class:`Error` carrying its
-D-Bus error name.
+D-Bus error name; shared memory holding what no daemon of its layout writes is refused as an
+:class:`Error` named :data:`BAD_SHARED_MEMORY`.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from typing import Any, Iterator, List, Optional, Sequence, Tuple
 from jeepney import DBusAddress, HeaderFields, MessageType, Properties, new_method_call
 from jeepney.io.blocking import DBusConnection, open_dbus_connection
 
+from ._errors import BAD_SHARED_MEMORY, Error
 from .telemetry import Ring, Sample
 from .world import Frame, Solid, World
 
@@ -29,6 +31,7 @@ __all__ = [
     "Body",
     "BodyState",
     "Error",
+    "BAD_SHARED_MEMORY",
     "Sample",
     "World",
     "Frame",
@@ -41,16 +44,6 @@ MANAGER = "org.hapticd.Hapticd1.Manager"
 DEVICE = "org.hapticd.Hapticd1.Device"
 SCENE_PATH = "/org/hapticd/Hapticd1/scene"
 SCENE = "org.hapticd.Hapticd1.Scene"
-
-
-class Error(Exception):
-    """An error the daemon (or the bus) returned: ``name`` is its D-Bus error name, such as
-    ``org.hapticd.Hapticd1.Error.OutOfRange``, and the message says why."""
-
-    def __init__(self, name: str, message: str) -> None:
-        super().__init__(f"{name}: {message}")
-        self.name = name
-        self.message = message
 
 
 class _Bus:

@@ -12,12 +12,15 @@ import time
 from dataclasses import dataclass
 from typing import Iterator, List, Optional, Tuple
 
+from ._errors import Error, check_count, check_rate, refuse
+
 MAGIC = b"hapticdT"
 VERSION = 3
 SLOTS = 8192
 MAX_EFFECTORS = 4
 CHANNELS = 8
 STATES = ("running", "fault", "disconnected", "uncalibrated")
+"""The device states by their number (``state_code``); any other reads as ``unknown(N)``."""
 
 NO_BODY = 0xFFFFFFFF
 
@@ -54,7 +57,8 @@ class Sample:
     time: float
     """Loop time, seconds."""
     state: str
-    """running, fault, disconnected or uncalibrated."""
+    """running, fault, disconnected or uncalibrated; ``unknown(N)`` for a state number ``N``
+    this client does not know (a newer daemon's), which is never running."""
     poses: List[Tuple[float, ...]]
     """Each effector's pose: x, y, z (metres), then the orientation qw, qx, qy, qz."""
     velocities: List[Tuple[float, float, float]]
@@ -89,10 +93,19 @@ class Sample:
         return self.wrenches[0][:3]
 
 
+def _state_name(state: int) -> str:
+    """The name of device state number ``state``."""
+    # A number this client does not know is a newer daemon's state, likely a fault of a new
+    # kind: named so that no caller testing for "running" takes it for running, yet not
+    # raised, so that a recording keeps every tick around the fault (its poses and forces are
+    # still sound).
+    return STATES[state] if state < len(STATES) else f"unknown({state})"
+
+
 def _sample(values: Tuple) -> Sample:
     tick, time_, state, effectors, strings, contacts, slipping = values[:7]
-    effectors = min(effectors, MAX_EFFECTORS)
-    strings = min(strings, CHANNELS)
+    effectors = check_count(effectors, f"effectors in the sample of tick {tick}", MAX_EFFECTORS)
+    strings = check_count(strings, f"strings in the sample of tick {tick}", CHANNELS)
     at = 7
     touched = [None if b == NO_BODY else b for b in values[at : at + effectors]]
     at += MAX_EFFECTORS
@@ -118,7 +131,7 @@ def _sample(values: Tuple) -> Sample:
     return Sample(
         tick=tick,
         time=time_,
-        state=STATES[state] if state < len(STATES) else "running",
+        state=_state_name(state),
         poses=poses,
         velocities=velocities,
         angular_velocities=angular_velocities,
@@ -137,14 +150,23 @@ class Ring:
     """A device's telemetry ring, mapped read-only from the descriptor ``fd``."""
 
     def __init__(self, fd: int) -> None:
-        self._map = mmap.mmap(fd, SIZE, mmap.MAP_SHARED, mmap.PROT_READ)
-        magic, version, size, rate, _ = _HEADER.unpack_from(self._map, 0)
-        if magic != MAGIC or version != VERSION or size != SIZE:
+        try:
+            self._map = mmap.mmap(fd, SIZE, mmap.MAP_SHARED, mmap.PROT_READ)
+        except ValueError as e:  # shorter than the layout
+            refuse(f"not a telemetry ring of layout {VERSION} ({SIZE} bytes): {e}")
+        try:
+            magic, version, size, rate, _ = _HEADER.unpack_from(self._map, 0)
+            if magic != MAGIC or version != VERSION or size != SIZE:
+                refuse(
+                    f"not a telemetry ring of layout {VERSION} ({SIZE} bytes): magic {magic!r}, "
+                    f"layout {version}, {size} bytes"
+                )
+            # Written once before the ring was shared, so checked once; the loop ticks, so
+            # no rate is 0.
+            check_rate(rate, "the telemetry ring's rate")
+        except Error:
             self._map.close()
-            raise ValueError(
-                f"not a telemetry ring of layout {VERSION} ({SIZE} bytes): magic {magic!r}, "
-                f"layout {version}, {size} bytes"
-            )
+            raise
         self.rate: float = rate
         """Haptic ticks per second."""
         self.next: int = self.written()

@@ -12,6 +12,7 @@ import struct
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
+from ._errors import check_count, check_rate, refuse
 from .telemetry import CHANNELS, MAX_EFFECTORS
 
 MAGIC = b"hapticdW"
@@ -101,11 +102,14 @@ class World:
     """A device's picture of the world, mapped read-only from the descriptor ``fd``."""
 
     def __init__(self, fd: int) -> None:
-        self._map = mmap.mmap(fd, SIZE, mmap.MAP_SHARED, mmap.PROT_READ)
+        try:
+            self._map = mmap.mmap(fd, SIZE, mmap.MAP_SHARED, mmap.PROT_READ)
+        except ValueError as e:  # shorter than the layout
+            refuse(f"not a shared world of layout {VERSION} ({SIZE} bytes): {e}")
         magic, version, size = _HEADER.unpack_from(self._map, 0)
         if magic != MAGIC or version != VERSION or size != SIZE:
             self._map.close()
-            raise ValueError(
+            refuse(
                 f"not a shared world of layout {VERSION} ({SIZE} bytes): magic {magic!r}, "
                 f"layout {version}, {size} bytes"
             )
@@ -122,31 +126,44 @@ class World:
     def frame(self) -> Tuple[int, Frame]:
         """The latest frame and its sequence (it grows with every frame written)."""
 
-        def read() -> Frame:
+        def read() -> Tuple[tuple, List[Pose]]:
             head = _FRAME_HEAD.unpack_from(self._map, _FRAME_AT)
-            time_, _rate, _state, switches, effectors, _strings, count, _ = head[:8]
-            at = 8
-            grips = [tuple(head[at + 7 * k : at + 7 * k + 7]) for k in range(effectors)]
-            at += 7 * MAX_EFFECTORS + MAX_EFFECTORS + 3 * MAX_EFFECTORS
-            wrenches = [tuple(head[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
-            shown = min(count, MAX_BODIES)
+            # A world of more bodies than the layout holds shows its first ones.
+            shown = min(head[6], MAX_BODIES)
             first = _FRAME_AT + _FRAME_HEAD.size
             bodies = [_POSE.unpack_from(self._map, first + k * _POSE.size) for k in range(shown)]
-            return Frame(time_, switches, grips, wrenches, bodies)
+            return head, bodies
 
-        return self._read(_SEQUENCE_AT, read)
+        sequence, (head, bodies) = self._read(_SEQUENCE_AT, read)
+        # Checked once the sequence says the frame is whole, not half written. Its state and
+        # proxy flag are neither used nor shown here, so they are left unchecked.
+        time_, rate, _state, switches, effectors, strings, _count, _ = head[:8]
+        check_rate(rate, "the world frame's rate", zero=True)  # 0: no frame written yet
+        check_count(effectors, "effectors in the world frame", MAX_EFFECTORS)
+        check_count(strings, "strings in the world frame", CHANNELS)
+        at = 8
+        grips = [tuple(head[at + 7 * k : at + 7 * k + 7]) for k in range(effectors)]
+        at += 7 * MAX_EFFECTORS + MAX_EFFECTORS + 3 * MAX_EFFECTORS
+        wrenches = [tuple(head[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
+        return sequence, Frame(time_, switches, grips, wrenches, bodies)
 
     def solids(self) -> Tuple[int, List[Solid]]:
         """The frames' ``scene_switches`` of the scene pictured last, and its solids."""
 
-        def read() -> Tuple[int, List[Solid]]:
-            switches, _bodies, count, triangles = _GEOMETRY_HEAD.unpack_from(self._map, _GEOMETRY_AT)
+        def read() -> Tuple[Tuple[int, ...], List[Solid]]:
+            head = _GEOMETRY_HEAD.unpack_from(self._map, _GEOMETRY_AT)
+            _switches, _bodies, count, triangles = head
+            # Within the layout even when half written (the counts are checked once whole),
+            # so that a read that is retried never reads past the memory.
+            triangles = min(triangles, MAX_TRIANGLES)
             solids_at = _GEOMETRY_AT + _GEOMETRY_HEAD.size
             triangles_at = solids_at + MAX_SOLIDS * _SOLID.size
             out = []
             for k in range(min(count, MAX_SOLIDS)):
                 v = _SOLID.unpack_from(self._map, solids_at + k * _SOLID.size)
                 body, shape, flags, first, n = v[:5]
+                # A solid's triangles past the layout's are not shown (the daemon keeps the
+                # first MAX_TRIANGLES of the scene's).
                 first, n = min(first, triangles), min(n, max(0, triangles - first))
                 corners = [
                     _TRIANGLE.unpack_from(self._map, triangles_at + t * _TRIANGLE.size)
@@ -162,9 +179,14 @@ class World:
                         triangles=corners,
                     )
                 )
-            return switches, out
+            return head, out
 
-        return self._read(_GEOMETRY_SEQUENCE_AT, read)[1]
+        (switches, _bodies, count, triangles), solids = self._read(_GEOMETRY_SEQUENCE_AT, read)[1]
+        # Checked once whole; the daemon writes no more than the layout holds (the scene's
+        # body count may exceed it: only the frame's first bodies are shown).
+        check_count(count, "solids in the world's geometry", MAX_SOLIDS)
+        check_count(triangles, "triangles in the world's geometry", MAX_TRIANGLES)
+        return switches, solids
 
     def close(self) -> None:
         """Unmap the world."""
