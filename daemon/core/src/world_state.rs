@@ -152,10 +152,12 @@ impl WorldFrame {
 /// The [`DeviceState`] written as `code` (see [`state_code`]).
 pub fn state_of(code: u32) -> DeviceState {
     match code {
-        1 => DeviceState::Fault,
+        0 => DeviceState::Running,
         2 => DeviceState::Disconnected,
         3 => DeviceState::Uncalibrated,
-        _ => DeviceState::Running,
+        // A number this reader does not know (a newer writer's, or a damaged one) is no
+        // sign that all is well: read closed, as a fault.
+        _ => DeviceState::Fault,
     }
 }
 
@@ -522,7 +524,7 @@ mod tests {
     }
 
     #[test]
-    fn state_codes_round_trip() {
+    fn state_codes_round_trip_and_unknown_ones_read_as_a_fault() {
         let mut frame = WorldFrame::empty();
         for state in [
             DeviceState::Running,
@@ -532,6 +534,10 @@ mod tests {
         ] {
             frame.state = state_code(state);
             assert_eq!(frame.device_state(), state);
+        }
+        // A state this reader does not know is read closed: never as running.
+        for unknown in [4, 7, u32::MAX] {
+            assert_eq!(state_of(unknown), DeviceState::Fault);
         }
     }
 }

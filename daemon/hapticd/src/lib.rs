@@ -4,8 +4,7 @@
 //! contract `hapticd-ipc`, the service helpers `hapticd-service`):
 //!
 //! 1. [`clock`], [`layout`], [`config`], [`state`]: the process's surroundings (monotonic
-//!    time, the installed tree, `/etc` and `/var/lib`); [`fault_lines`]: how often the log
-//!    may say a device faulted.
+//!    time, the installed tree, `/etc` and `/var/lib`).
 //! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
 //!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
 //!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
@@ -24,7 +23,6 @@ pub mod catalog;
 pub mod clock;
 pub mod config;
 pub mod control;
-pub mod fault_lines;
 pub mod layout;
 pub mod physics_budget;
 pub mod plugin;

@@ -6,10 +6,12 @@
 //! - [`sd_notify`]: readiness and status for systemd;
 //! - [`cpus`]: the CPUs kept for haptic threads, and every other thread kept off them;
 //! - [`workers`]: a few threads of their own for a bus service's blocking requests;
+//! - [`log_lines`]: how often the log may say what keeps happening;
 //! - [`cli`]: both programs' command lines, which `hapticctl manual` writes their pages from.
 
 pub mod cli;
 pub mod cpus;
+pub mod log_lines;
 pub mod logging;
 pub mod sd_notify;
 pub mod workers;

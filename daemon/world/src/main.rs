@@ -15,6 +15,7 @@ use hapticd_core::scene::remote::{MAX_WORLD_BYTES, decode_host};
 use hapticd_core::wire::Encoder;
 use hapticd_physics::scene::SceneFile;
 use hapticd_service::cli::WorldCli;
+use hapticd_service::log_lines::{self, LogLines};
 use hapticd_service::logging::{self, Level};
 use hapticd_zenoh::config::NetworkConfig;
 use hapticd_zenoh::{session, world_keys};
@@ -87,7 +88,10 @@ fn run(cli: &WorldCli) -> Result<(), String> {
     let _ = hapticd_service::sd_notify::notify("READY=1");
     let period = Duration::from_secs_f64(world.period());
     let mut out = Encoder::with_capacity(MAX_WORLD_BYTES);
-    let mut refused = std::collections::BTreeSet::new();
+    // What cannot be taken in is said once an interval, the rest counted: any peer could
+    // otherwise fill the journal (with a new host name a message, or the same one).
+    let mut refused = LogLines::new(log_lines::INTERVAL);
+    let started = Instant::now();
     let mut next = Instant::now();
     while until.is_none_or(|t| Instant::now() < t) {
         let now = Instant::now();
@@ -99,13 +103,17 @@ fn run(cli: &WorldCli) -> Result<(), String> {
             let taken = decode_host(&sample.payload().to_bytes())
                 .ok_or_else(|| "a message that is no host message".to_string())
                 .and_then(|update| world.take(host, update, now));
-            // Said once a host: a host that keeps sending what cannot be taken would fill
-            // the log.
             if let Err(why) = taken
-                && refused.insert(host.to_string())
+                && refused.event(now.duration_since(started).as_secs_f64())
             {
                 tracing::warn!("host {host}: {why}");
             }
+        }
+        if let Some(more) = refused.summary(now.duration_since(started).as_secs_f64()) {
+            tracing::warn!(
+                "{more} more messages from hosts could not be taken in the last {:.0} s",
+                log_lines::INTERVAL
+            );
         }
         world.forget_silent(now);
         if !world.step() {

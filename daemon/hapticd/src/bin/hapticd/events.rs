@@ -3,10 +3,10 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use hapticd::fault_lines::{FAULT_INTERVAL, FaultLines};
 use hapticd::realtime::LoopEvent;
 use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::sync::spsc;
+use hapticd_service::log_lines::{INTERVAL as FAULT_INTERVAL, LogLines};
 
 /// Log the events of the loop of device `identity` as they come (the real-time thread must
 /// not write itself); faults one line per [`FAULT_INTERVAL`] at most, the rest counted.
@@ -18,7 +18,7 @@ pub fn spawn_event_logger(
     std::thread::spawn(move || {
         let mut overruns = 0u64;
         let started = Instant::now();
-        let mut faults = FaultLines::new(FAULT_INTERVAL);
+        let mut faults = LogLines::new(FAULT_INTERVAL);
         // The last fault was only counted, and so is its recovery.
         let mut hushed = false;
         let mut latest = DeviceState::Running;
@@ -43,7 +43,7 @@ pub fn spawn_event_logger(
                                  calibrated again (Calibrate())"
                             ),
                             (DeviceState::Fault, None)
-                                if !faults.fault(started.elapsed().as_secs_f64()) =>
+                                if !faults.event(started.elapsed().as_secs_f64()) =>
                             {
                                 hushed = true;
                             }
