@@ -202,7 +202,7 @@ fn decode(bytes: &[u8], key: u64, bounds: (DVec3, DVec3)) -> Option<Vec<Triangle
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::properties::tests::cuboid;
+    use crate::properties::cuboid;
 
     #[test]
     fn pieces_are_kept_once_and_bad_entries_are_decomposed_again() {

@@ -80,13 +80,13 @@ mod tests {
     #[test]
     fn a_convex_mesh_is_its_own_one_piece_and_two_apart_are_cut() {
         let (low, high) = (DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.1, 2.05, 3.2));
-        let mesh = crate::properties::tests::cuboid(low, high);
+        let mesh = crate::properties::cuboid(low, high);
         let d = decompose(&mesh, RESOLUTION);
         // Exactly the box: no voxel error added (V-HACD cut a cube into 9 pieces of +26 %).
         assert_eq!(d.pieces, vec![mesh.clone()]);
         // Two unit cubes a unit apart: convex along every edge, yet not one convex solid.
-        let mut pair = crate::properties::tests::cuboid(DVec3::ZERO, DVec3::ONE);
-        let other = crate::properties::tests::cuboid(DVec3::X * 2.0, DVec3::new(3.0, 1.0, 1.0));
+        let mut pair = crate::properties::cuboid(DVec3::ZERO, DVec3::ONE);
+        let other = crate::properties::cuboid(DVec3::X * 2.0, DVec3::new(3.0, 1.0, 1.0));
         let first = pair.vertices.len() as u32;
         pair.vertices.extend(&other.vertices);
         pair.triangles

@@ -25,7 +25,7 @@ use std::path::Path;
 use glam::DVec3;
 use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
 
-pub use solid::{MeshSolid, solid};
+pub use solid::{MeshSolid, solid, surface};
 
 /// What a mesh file may hold: enough for a detailed CAD part, and few enough that a file
 /// cannot make hapticd spend seconds or gigabytes.

@@ -161,36 +161,36 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
     DMat3::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
+/// The box `low..high` as twelve triangles facing out.
+pub(crate) fn cuboid(low: DVec3, high: DVec3) -> TriangleMesh {
+    let corner = |k: u32| {
+        DVec3::new(
+            if k & 1 == 0 { low.x } else { high.x },
+            if k & 2 == 0 { low.y } else { high.y },
+            if k & 4 == 0 { low.z } else { high.z },
+        )
+    };
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    TriangleMesh {
+        vertices: (0..8).map(corner).collect(),
+        triangles: quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect(),
+        normals: None,
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-
-    /// The box `low..high` as twelve triangles facing out.
-    pub(crate) fn cuboid(low: DVec3, high: DVec3) -> TriangleMesh {
-        let corner = |k: u32| {
-            DVec3::new(
-                if k & 1 == 0 { low.x } else { high.x },
-                if k & 2 == 0 { low.y } else { high.y },
-                if k & 4 == 0 { low.z } else { high.z },
-            )
-        };
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        TriangleMesh {
-            vertices: (0..8).map(corner).collect(),
-            triangles: quads
-                .iter()
-                .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-                .collect(),
-            normals: None,
-        }
-    }
 
     #[test]
     fn a_box_has_the_volume_centre_and_inertia_of_the_formulas() {

@@ -1,10 +1,10 @@
 //! A mesh as a physics scene's body takes it: its surface where the file puts it, the mass
 //! properties of the volume it closes, and the convex pieces both engines touch it through.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::cache::Cache;
-use crate::properties::{MassProperties, closure, mass_properties};
+use crate::properties::{MassProperties, closure, cuboid, mass_properties};
 use crate::{Limits, TriangleMesh, load};
 
 /// A closed mesh ready to be a body, in the mesh file's frame times its scale.
@@ -29,20 +29,16 @@ pub fn solid(
     scale: f64,
     cache: Option<&Cache>,
 ) -> Result<MeshSolid, String> {
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(format!("scale must be a finite number > 0, not {scale}"));
-    }
-    let file = &scene_dir.join(file);
     // Read at scale 1: the cache keys the mesh as the file has it.
-    let mut mesh = load(file, 1.0, Limits::DEFAULT, Some(scene_dir)).map_err(|e| {
-        let reasons: Vec<_> = e.diagnostics.iter().map(|d| d.message.clone()).collect();
-        format!("{}: {}", file.display(), reasons.join("; "))
-    })?;
+    let (file, mut mesh) = read(file, scene_dir, scale)?;
+    let file = &file;
     let c = closure(&mesh);
     if !c.is_closed() {
         return Err(format!(
             "{}: not a closed surface ({} open edges, {} edges not shared by two faces in \
-             turn): a body's mesh must enclose its volume",
+             turn): a movable body's mesh must enclose its volume (fill its holes in a \
+             modelling tool, such as MeshLab's \"Close Holes\"), or make the body fixed \
+             (fixed: true) under engine: rapier, which takes any surface",
             file.display(),
             c.open_edges,
             c.bad_edges
@@ -71,4 +67,34 @@ pub fn solid(
             .collect(),
         cached,
     })
+}
+
+/// The mesh `file` of a scene in `scene_dir` as a fixed body's surface: its triangles as they
+/// are, holes and all (a scan is seldom closed, and a fixed body needs no volume). Its mass
+/// properties are those of its bounding box, which nothing moves.
+pub fn surface(file: &Path, scene_dir: &Path, scale: f64) -> Result<MeshSolid, String> {
+    let (_, mut mesh) = read(file, scene_dir, scale)?;
+    mesh.scale(scale);
+    let (low, high) = mesh.bounds();
+    let properties = mass_properties(&cuboid(low, high));
+    Ok(MeshSolid {
+        mesh,
+        properties,
+        pieces: Vec::new(),
+        cached: false,
+    })
+}
+
+/// The mesh `file` (relative to `scene_dir`, read from within it, under [`Limits::DEFAULT`])
+/// at scale 1, once `scale` is known to be usable; with the file's path.
+fn read(file: &Path, scene_dir: &Path, scale: f64) -> Result<(PathBuf, TriangleMesh), String> {
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(format!("scale must be a finite number > 0, not {scale}"));
+    }
+    let file = scene_dir.join(file);
+    let mesh = load(&file, 1.0, Limits::DEFAULT, Some(scene_dir)).map_err(|e| {
+        let reasons: Vec<_> = e.diagnostics.iter().map(|d| d.message.clone()).collect();
+        format!("{}: {}", file.display(), reasons.join("; "))
+    })?;
+    Ok((file, mesh))
 }

@@ -75,7 +75,13 @@ pub(super) fn mesh_body(
         return None;
     }
     let cut = files.cache.filter(|_| pieces);
-    let solid = match hapticd_mesh::solid(Path::new(file), &files.dir, scale, cut) {
+    // A fixed mesh under rapier is its triangles alone, so it need not be closed.
+    let read = if pieces {
+        hapticd_mesh::solid(Path::new(file), &files.dir, scale, cut)
+    } else {
+        hapticd_mesh::surface(Path::new(file), &files.dir, scale)
+    };
+    let solid = match read {
         Ok(solid) => solid,
         Err(e) => {
             f.error(format!("{at}.mesh"), e);
