@@ -372,3 +372,177 @@ fn traffic_recordings() {
     });
     std::fs::remove_file(file).ok();
 }
+
+/// The mesh readers on what users bring: OBJ, ASCII STL and glTF (its JSON, its buffer
+/// beside it) as shipped and as public models have them, mutated. No input may make a
+/// reader panic (one the loader catches counts here too), and an accepted mesh keeps the
+/// limits with finite vertices.
+#[test]
+fn mesh_files() {
+    let dir = scratch_root().join(format!("fuzz-meshes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let corpus = repo_dir().join("tests/corpus");
+    std::fs::copy(
+        corpus.join("BoxTextured0.bin"),
+        dir.join("BoxTextured0.bin"),
+    )
+    .unwrap();
+    let read = |path: &Path| std::fs::read_to_string(path).unwrap();
+    for (kind, seeds) in [
+        (
+            "obj",
+            vec![
+                shipped("config/scenes/meshes/bracket.obj"),
+                read(&corpus.join("teapot.obj")),
+            ],
+        ),
+        ("stl", vec![read(&corpus.join("sphereWithHole.stl"))]),
+        (
+            "gltf",
+            vec![
+                shipped("config/scenes/meshes/bracket.gltf"),
+                read(&corpus.join("BoxTextured.gltf")),
+            ],
+        ),
+    ] {
+        let file = dir.join(format!("fuzzed.{kind}"));
+        fuzz(&format!("{kind} mesh"), &seeds, |text| {
+            std::fs::write(&file, text.as_bytes()).unwrap();
+            let limits = hapticd_mesh::Limits::DEFAULT;
+            match hapticd_mesh::load(&file, 1.0, limits, None) {
+                Err(e) if e.to_string().contains("its reader failed") => {
+                    Some(format!("the reader panicked: {e}"))
+                }
+                result => verdict(
+                    result,
+                    |m| {
+                        m.triangles.len() <= limits.triangles
+                            && m.vertices.len() <= limits.vertices
+                            && m.vertices.iter().all(|v| v.is_finite())
+                    },
+                    "an accepted mesh breaks the limits or is not finite",
+                ),
+            }
+        });
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// glTF node graphs drawn at random over Khronos' cube (each node placing its mesh, or
+/// not): a graph is read exactly when its nodes form trees under the scene's roots (each
+/// node at most one parent, none its own ancestor, no root a child), as the format says,
+/// and then holds the cube once for every node that places it; any other is refused by
+/// name, at once, however many paths it has to the mesh.
+#[test]
+fn gltf_node_graphs_are_read_exactly_when_they_are_trees() {
+    let dir = scratch_root().join(format!("fuzz-graphs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let corpus = repo_dir().join("tests/corpus");
+    std::fs::copy(
+        corpus.join("BoxTextured0.bin"),
+        dir.join("BoxTextured0.bin"),
+    )
+    .unwrap();
+    let base: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(corpus.join("BoxTextured.gltf")).unwrap())
+            .unwrap();
+    let mut rng = Rng::new(43);
+    let (mut trees, mut refused) = (0, 0);
+    for case in 0..400 {
+        // A forest first (each node under an earlier one, or a root), then in half the
+        // cases one edge that breaks it: a second parent, a loop, a root made a child.
+        let n = 1 + (rng.next_u64() % 40) as usize;
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+        let mut roots = vec![0];
+        for k in 1..n {
+            if rng.next_u64() % 5 == 0 {
+                roots.push(k);
+            } else {
+                children[(rng.next_u64() % k as u64) as usize].push(k);
+            }
+        }
+        if rng.next_u64() % 2 == 0 {
+            let (a, b) = (
+                (rng.next_u64() % n as u64) as usize,
+                (rng.next_u64() % n as u64) as usize,
+            );
+            children[a].push(b);
+        }
+        let places: Vec<bool> = (0..n).map(|_| rng.next_u64() % 2 == 0).collect();
+        let mut doc = base.clone();
+        doc["nodes"] = (0..n)
+            .map(|k| {
+                let mut node = serde_json::json!({ "children": children[k] });
+                if places[k] {
+                    node["mesh"] = 0.into();
+                }
+                node
+            })
+            .collect();
+        doc["scenes"][0]["nodes"] = roots.clone().into();
+        let file = dir.join(format!("graph-{case}.gltf"));
+        std::fs::write(&file, doc.to_string()).unwrap();
+        // The oracle: parents counted, cycles walked, roots parentless, then a walk.
+        let mut parents = vec![0usize; n];
+        for list in &children {
+            for &c in list {
+                parents[c] += 1;
+            }
+        }
+        let one_parent = parents.iter().all(|&p| p <= 1)
+            && children
+                .iter()
+                .enumerate()
+                .all(|(k, list)| !list.contains(&k));
+        let acyclic = one_parent && {
+            let parent_of = |c: usize| children.iter().position(|list| list.contains(&c));
+            (0..n).all(|start| {
+                let mut at = parent_of(start);
+                let mut steps = 0;
+                while let Some(p) = at {
+                    if p == start || steps > n {
+                        return false;
+                    }
+                    at = parent_of(p);
+                    steps += 1;
+                }
+                true
+            })
+        };
+        let forest = acyclic && roots.iter().all(|&r| parents[r] == 0);
+        let loaded = hapticd_mesh::load(&file, 1.0, hapticd_mesh::Limits::DEFAULT, None);
+        match (forest, loaded) {
+            (true, Ok(mesh)) => {
+                let mut placed = 0;
+                let mut stack = roots.clone();
+                while let Some(k) = stack.pop() {
+                    placed += usize::from(places[k]);
+                    stack.extend(&children[k]);
+                }
+                if placed > 0 {
+                    assert_eq!(mesh.triangles.len(), 12 * placed, "case {case}: {doc}");
+                }
+                trees += 1;
+            }
+            // Only the empty case: trees that place nothing have no triangles to read.
+            (true, Err(e)) => assert!(e.to_string().contains("no triangles"), "case {case}: {e}"),
+            (false, Err(e)) => {
+                let said = e.to_string();
+                assert!(
+                    said.contains("its own")
+                        || said.contains("a child of both")
+                        || said.contains("is a root of"),
+                    "case {case}: {said}"
+                );
+                refused += 1;
+            }
+            (false, Ok(_)) => panic!("case {case}: a graph that is no forest was read: {doc}"),
+        }
+    }
+    eprintln!("glTF node graphs: {trees} forests read, {refused} other graphs refused");
+    assert!(
+        trees > 40 && refused > 40,
+        "{trees} forests, {refused} refused"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

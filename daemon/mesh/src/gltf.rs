@@ -26,9 +26,13 @@ pub(crate) fn read(
     rules: FileRules,
     limits: Limits,
 ) -> Result<Read, String> {
-    let gltf =
-        ::gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF file: {e}"))?;
-    let document = &gltf.document;
+    let unreadable = |e: ::gltf::Error| format!("not a readable glTF file: {e}");
+    let raw = ::gltf::Gltf::from_slice_without_validation(bytes).map_err(unreadable)?;
+    // The crate's validation indexes a primitive's POSITION accessor before it checks that
+    // the index is in range (a fuzzed file panicked it): checked here first.
+    positions_in_range(raw.document.as_json())?;
+    let blob = raw.blob;
+    let document = &::gltf::Document::from_json(raw.document.into_json()).map_err(unreadable)?;
     if document.nodes().len() > limits.nodes {
         return Err(format!(
             "{} nodes; a mesh file has at most {}",
@@ -37,7 +41,7 @@ pub(crate) fn read(
         ));
     }
     check_trees(document)?;
-    let buffers = buffers(&gltf, file, rules, limits)?;
+    let buffers = buffers((document, blob.as_ref()), file, rules, limits)?;
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -61,6 +65,26 @@ pub(crate) fn read(
         stack.extend(node.children().map(|c| (c, world)));
     }
     Ok(walk.read)
+}
+
+/// Refuse a primitive whose POSITION names an accessor the file does not have.
+fn positions_in_range(root: &::gltf::json::Root) -> Result<(), String> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let positions = ::gltf::json::validation::Checked::Valid(::gltf::Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&positions)
+                && index.value() >= root.accessors.len()
+            {
+                return Err(format!(
+                    "primitive {p} of {} names accessor {} for its positions, of {}",
+                    named("mesh", m, mesh.name.as_deref()),
+                    index.value(),
+                    root.accessors.len()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// How a node, mesh or accessor is named in an error: its index, and its name if it has one.
@@ -129,7 +153,7 @@ fn check_trees(document: &Document) -> Result<(), String> {
 
 /// The data of every buffer, together at most `limits.bytes` beyond the file itself.
 fn buffers(
-    gltf: &::gltf::Gltf,
+    (document, blob): (&Document, Option<&Vec<u8>>),
     file: &Path,
     rules: FileRules,
     limits: Limits,
@@ -137,7 +161,7 @@ fn buffers(
     let dir = hapticd_core::diagnostics::directory_of(file);
     let mut left = limits.bytes;
     let mut buffers = Vec::new();
-    for buffer in gltf.document.buffers() {
+    for buffer in document.buffers() {
         let too_large = || {
             format!(
                 "buffer {}: its data would pass the {} bytes a mesh's buffers may hold",
@@ -149,9 +173,8 @@ fn buffers(
             return Err(too_large());
         }
         let data = match buffer.source() {
-            ::gltf::buffer::Source::Bin => gltf
-                .blob
-                .clone()
+            ::gltf::buffer::Source::Bin => blob
+                .cloned()
                 .ok_or("a buffer names the binary chunk, and there is none")?,
             ::gltf::buffer::Source::Uri(uri) => match uri.strip_prefix("data:") {
                 Some(data) => {
