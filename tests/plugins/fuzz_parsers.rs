@@ -455,20 +455,20 @@ fn gltf_node_graphs_are_read_exactly_when_they_are_trees() {
         let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
         let mut roots = vec![0];
         for k in 1..n {
-            if rng.next_u64() % 5 == 0 {
+            if rng.next_u64().is_multiple_of(5) {
                 roots.push(k);
             } else {
                 children[(rng.next_u64() % k as u64) as usize].push(k);
             }
         }
-        if rng.next_u64() % 2 == 0 {
+        if rng.next_u64().is_multiple_of(2) {
             let (a, b) = (
                 (rng.next_u64() % n as u64) as usize,
                 (rng.next_u64() % n as u64) as usize,
             );
             children[a].push(b);
         }
-        let places: Vec<bool> = (0..n).map(|_| rng.next_u64() % 2 == 0).collect();
+        let places: Vec<bool> = (0..n).map(|_| rng.next_u64().is_multiple_of(2)).collect();
         let mut doc = base.clone();
         doc["nodes"] = (0..n)
             .map(|k| {
