@@ -286,3 +286,64 @@ fn a_scene_given_by_its_bare_name_draws_its_meshes() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A scene of fixed solids alone (a public model, the open Utah teapot, on a table) is
+/// framed on the model: the fingertip, which used to be the only thing framed (a close-up
+/// of a yellow ball), is a speck, and the model fills the middle of the picture.
+#[test]
+fn a_scene_of_fixed_solids_frames_the_model_not_the_fingertip() {
+    let dir = scratch_root().join(format!("render-fixed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo_dir().join("tests/corpus/teapot.obj"),
+        dir.join("teapot.obj"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("pot.yaml"),
+        "name: pot\nengine: rapier\nrate: 100\nmaterial: { static_friction: 0.5, friction: 0.4 }\n\
+         bodies:\n\
+         \x20 - { name: table, box: [0.4, 0.02, 0.4], position: [0, -0.04, 0], fixed: true }\n\
+         \x20 - { name: pot, mesh: teapot.obj, scale: 0.003, position: [0, -0.00637, 0], fixed: true }\n\
+         pointer: { sphere: 0.005 }\n",
+    )
+    .unwrap();
+    let out = dir.join("pot.png");
+    let output = hapticctl()
+        .arg("render")
+        .arg(dir.join("pot.yaml"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    support::succeeded(output);
+    let picture = read_png(&out);
+    let pixels = picture.rgba.len() / 4;
+    let yellow = picture
+        .rgba
+        .chunks(4)
+        .filter(|p| p[0] > 180 && p[1] > 150 && p[2] < 110)
+        .count();
+    assert!(
+        yellow * 100 < pixels,
+        "the fingertip fills {yellow} of {pixels} pixels"
+    );
+    // The teapot's shaded body is darker than the table's lit top: its darkest pixels sit
+    // in the middle third of the picture, where a framed model is.
+    let (w, h) = (picture.width as usize, picture.height as usize);
+    let dark: Vec<(usize, usize)> = picture
+        .rgba
+        .chunks(4)
+        .enumerate()
+        .filter(|(_, p)| p[0] < 90 && p[1] < 90 && p[2] < 100)
+        .map(|(k, _)| (k % w, k / w))
+        .collect();
+    assert!(dark.len() * 50 > pixels, "{} dark pixels", dark.len());
+    let (mx, my) = dark.iter().fold((0, 0), |(x, y), p| (x + p.0, y + p.1));
+    let (mx, my) = (mx / dark.len(), my / dark.len());
+    assert!(
+        (w / 3..2 * w / 3).contains(&mx) && (h / 3..2 * h / 3).contains(&my),
+        "{mx}, {my}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -58,6 +58,10 @@ pub const POINTER: [f32; 4] = [0.95, 0.85, 0.2, 1.0];
 const FAINT_POINTER: [f32; 4] = [0.95, 0.85, 0.2, 0.35];
 /// A translucent wall where a plane bounds the workspace.
 const WALL: [f32; 4] = [0.55, 0.6, 0.7, 0.35];
+/// Largest box (its diagonal, metres) of the pointers that make fingertips, not bodies worth
+/// a picture of their own: a 5 mm ball's is 17 mm.
+const FINGERTIP: f64 = 0.03;
+
 /// The solids of a picture and the box that holds the ones worth framing.
 #[derive(Debug, Clone, Default)]
 pub struct Scenery {
@@ -85,13 +89,14 @@ impl Scenery {
     }
 
     /// The solids of `geometry`, each where its body's pose in `poses` (by body id) puts
-    /// it; a solid whose body has no pose is not drawn. What moves (bodies and pointers) is
-    /// framed; when nothing does, the bounded fixed solids are.
+    /// it; a solid whose body has no pose is not drawn. The movable bodies are framed, or
+    /// when there are none the bounded fixed solids, and the pointers with them.
     pub fn of_geometry(shaded: &Shaded, poses: &[Pose]) -> Self {
         let geometry = &shaded.geometry;
         let mut s = Self::default();
         let (mut mesh, mut translucent) = (Mesh::default(), Mesh::default());
-        let mut fixed: Option<(DVec3, DVec3)> = None;
+        let mut fixed: Vec<(DVec3, DVec3)> = Vec::new();
+        let mut pointers: Option<(DVec3, DVec3)> = None;
         for (k, solid) in geometry.solids.iter().enumerate() {
             let body = match solid.body {
                 HAPTICD_NO_BODY => Pose::IDENTITY,
@@ -114,14 +119,38 @@ impl Scenery {
             let Some((low, high)) = draw(target, shaded, solid, &frame, colour) else {
                 continue;
             };
-            // A pointer's solid is fixed to the hand, which moves.
-            if solid.flags & (HAPTICD_SOLID_FIXED | HAPTICD_SOLID_POINTER) == HAPTICD_SOLID_FIXED {
-                fixed = Some(fixed.map_or((low, high), |(l, h)| (l.min(low), h.max(high))));
+            if solid.flags & HAPTICD_SOLID_POINTER != 0 {
+                pointers = Some(pointers.map_or((low, high), |(l, h)| (l.min(low), h.max(high))));
+            } else if solid.flags & HAPTICD_SOLID_FIXED != 0 {
+                fixed.push((low, high));
             } else {
                 s.frame(low, high);
             }
         }
-        if let (None, Some((low, high))) = (s.low, fixed) {
+        // The pointers are framed with what the scene holds: its movable bodies, or when it
+        // has none (a user's model on a floor), its bounded fixed solids, but for the one
+        // the others stand on (the largest, its top no higher than their bottoms), unless a
+        // pointer is itself a body to look at (a held block). A fingertip alone made a
+        // close-up of a ball of a scene of fixed solids.
+        let fingertips = pointers.is_none_or(|(l, h)| (h - l).length() < FINGERTIP);
+        if s.low.is_none() && fingertips {
+            let size = |(l, h): &(DVec3, DVec3)| (*h - *l).length();
+            let largest =
+                (0..fixed.len()).max_by(|&a, &b| size(&fixed[a]).total_cmp(&size(&fixed[b])));
+            if let Some(k) = largest
+                && fixed.len() > 1
+                && fixed
+                    .iter()
+                    .enumerate()
+                    .all(|(j, (low, _))| j == k || fixed[k].1.y <= low.y + 1e-3)
+            {
+                fixed.swap_remove(k);
+            }
+            for (low, high) in fixed {
+                s.frame(low, high);
+            }
+        }
+        if let Some((low, high)) = pointers {
             s.frame(low, high);
         }
         s.meshes.push(mesh);
