@@ -1,5 +1,6 @@
 //! Property-based calls of hapticd's bus: every method and property of
-//! `org.hapticd.Hapticd1.Manager` and `org.hapticd.Hapticd1.Device`, as the running daemon
+//! `org.hapticd.Hapticd1.Manager`, `org.hapticd.Hapticd1.Device` and the running world's
+//! `org.hapticd.Hapticd1.Scene` (masses, poses, forces on its bodies), as the running daemon
 //! introspects them (so that new ones are covered without a change here), called through
 //! real `dbus-send` with random values of random types, between random scene switches, while
 //! the simulated hand presses on the floor again and again. The daemon must live, answer
@@ -23,6 +24,8 @@ use support::{Rng, plugin_path, repo_dir, scratch_root, shipped};
 const MANAGER_PATH: &str = "/org/hapticd/Hapticd1";
 const MANAGER: &str = "org.hapticd.Hapticd1.Manager";
 const DEVICE: &str = "org.hapticd.Hapticd1.Device";
+const SCENE_PATH: &str = "/org/hapticd/Hapticd1/scene";
+const SCENE: &str = "org.hapticd.Hapticd1.Scene";
 const PROPERTIES: &str = "org.freedesktop.DBus.Properties";
 
 /// At most this many calls...
@@ -314,10 +317,10 @@ fn random_calls_of_every_method_and_property_leave_the_daemon_answering_within_l
     }
     let device_path = format!("{MANAGER_PATH}/device/0");
     let get = |daemon: &Daemon, interface: &str, property: &str| {
-        let path = if interface == MANAGER {
-            MANAGER_PATH
-        } else {
-            &device_path
+        let path = match interface {
+            MANAGER => MANAGER_PATH,
+            SCENE => SCENE_PATH,
+            _ => &device_path,
         };
         daemon
             .call(
@@ -331,7 +334,11 @@ fn random_calls_of_every_method_and_property_leave_the_daemon_answering_within_l
     assert!(scenes.contains(&"static".to_string()), "{scenes:?}");
     // Every member the daemon says it has, on its object.
     let mut targets: Vec<(&str, &str, Member)> = Vec::new();
-    for (path, interface) in [(MANAGER_PATH, MANAGER), (device_path.as_str(), DEVICE)] {
+    for (path, interface) in [
+        (MANAGER_PATH, MANAGER),
+        (device_path.as_str(), DEVICE),
+        (SCENE_PATH, SCENE),
+    ] {
         let found = members(&daemon.introspect(path), interface);
         assert!(
             found.iter().any(|m| matches!(m, Member::Method { .. })),
@@ -350,6 +357,10 @@ fn random_calls_of_every_method_and_property_leave_the_daemon_answering_within_l
         .and_then(|s| s.parse().ok())
         .unwrap_or(0x6275_735f_6675_7a7a);
     let mut rng = Rng::new(seed);
+    // Strings drawn for members: the scenes' names, and the bodies of the shipped worlds (by
+    // name and by id), so that scene control reaches real bodies under a pressing hand.
+    let mut names = scenes.clone();
+    names.extend(["block", "ball 1", "floor", "mug", "0", "1", "3"].map(String::from));
     // Per member: (successes, refusals), reported.
     let mut outcomes: BTreeMap<String, (usize, usize)> = BTreeMap::new();
     let mut errors: BTreeMap<String, usize> = BTreeMap::new();
@@ -371,13 +382,24 @@ fn random_calls_of_every_method_and_property_leave_the_daemon_answering_within_l
                 Member::Method { name, inputs } => {
                     // Mostly the declared arguments with random values; else any arguments.
                     let declared: Option<Vec<String>> =
-                        inputs.iter().map(|s| typed(&mut rng, s, &scenes)).collect();
-                    let args = match declared {
+                        inputs.iter().map(|s| typed(&mut rng, s, &names)).collect();
+                    let mut args = match declared {
                         Some(args) if below(&mut rng, 4) != 0 => args,
                         _ => (0..below(&mut rng, 3))
-                            .map(|_| any(&mut rng, &scenes))
+                            .map(|_| any(&mut rng, &names))
                             .collect(),
                     };
+                    // Half the time, a body the running world has, by name.
+                    if *interface == SCENE
+                        && inputs.first().is_some_and(|s| s == "s")
+                        && !args.is_empty()
+                        && below(&mut rng, 2) == 0
+                    {
+                        let bodies = strings_of(&get(&daemon, SCENE, "Bodies"));
+                        if !bodies.is_empty() {
+                            args[0] = format!("string:{}", bodies[below(&mut rng, bodies.len())]);
+                        }
+                    }
                     (
                         format!("{interface}.{name}"),
                         *path,
@@ -390,7 +412,7 @@ fn random_calls_of_every_method_and_property_leave_the_daemon_answering_within_l
                     signature,
                     writable,
                 } => {
-                    let mut value = variant(&mut rng, signature, &scenes);
+                    let mut value = variant(&mut rng, signature, &names);
                     // A writable number near its value now, as often as not: in range.
                     if *writable && signature == "d" && below(&mut rng, 2) == 0 {
                         let now = get(&daemon, interface, name);
