@@ -411,6 +411,7 @@ fn every_property_and_method_answers_as_the_readme_shows() {
     assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-g\"");
     assert_eq!(bus.get(DEVICE, "Effectors"), "as 1 \"grip\"");
     assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    assert_eq!(bus.get(DEVICE, "StateReason"), "s \"\"");
     assert_eq!(bus.get(DEVICE, "Calibrated"), "b true");
     assert_eq!(numbers(&bus.get(DEVICE, "CalibrationOffsets")).len(), 8);
     assert_eq!(numbers(&bus.get(DEVICE, "Pose")).len(), 7);

@@ -363,6 +363,64 @@ fn faults_for_bad_output(mode: &str, why: &str) {
         said == 1 && stderr.contains(why),
         "{mode}: {said} times: {stderr}"
     );
+    // The device's fault says why too, as the bus's StateReason does.
+    assert!(
+        stderr.contains(&format!(
+            "device Fault: the scene plugin's output was refused ({why}"
+        )),
+        "{mode}: {stderr}"
+    );
+}
+
+/// Over the bus too: once the fixture's output turns bad, `Device.State` is fault and
+/// `StateReason` says what was refused, in the log's words.
+#[test]
+fn state_reason_says_why_a_device_is_in_fault() {
+    let file = scratch("reason-output.scene");
+    std::fs::write(&file, "nan").unwrap();
+    let hand = press();
+    let at = on_bus("reason");
+    let plugin = plugin_path("hapticd-test-bad-output-scene");
+    let args = [
+        "--sim",
+        "spidar-g",
+        "--hand",
+        &hand,
+        "--duration",
+        "4",
+        "--scene-file",
+        file.to_str().unwrap(),
+    ];
+    let child = hapticd_with_scene(&at, &plugin, &args).spawn().unwrap();
+    let get = |property: &str| {
+        let out = Command::new("busctl")
+            .arg(format!("--address={}", at.address()))
+            .args([
+                "get-property",
+                "org.hapticd.Hapticd1",
+                "/org/hapticd/Hapticd1/device/0",
+                "org.hapticd.Hapticd1.Device",
+                property,
+            ])
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout).trim().to_string()
+    };
+    let started = std::time::Instant::now();
+    let mut reason = String::new();
+    while started.elapsed() < std::time::Duration::from_secs(3) {
+        if get("State") == "s \"fault\"" {
+            reason = get("StateReason");
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    finish(child);
+    assert!(
+        reason.contains("output was refused (pointer 0: its wrench is not finite)"),
+        "{reason:?}"
+    );
+    std::fs::remove_file(file).ok();
 }
 
 #[test]

@@ -24,6 +24,7 @@ use crate::haptics::wrench_command::{CommandState, WrenchCommand, WrenchSource};
 use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench, rotation_vector};
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
+use crate::scene::output_check::OutputFault;
 use crate::scene::{Pointer, Scene, Touch};
 use crate::solver::calibration::{lengths_from_counts, offsets_into};
 use crate::solver::pose::PoseSolver;
@@ -136,6 +137,41 @@ pub struct Frame {
     pub scene_switches: u32,
     /// What became of the wrench commanded from outside.
     pub command: CommandState,
+    /// Why the device is in fault, when it is.
+    pub fault: FaultCause,
+}
+
+/// Why a tick left the device in fault: what the bus and the log say of it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum FaultCause {
+    /// No fault.
+    #[default]
+    None,
+    /// A wrench that is not a finite number.
+    NotFinite,
+    /// The scene's plugin output was refused at the boundary, and the plugin disabled.
+    SceneOutput(OutputFault),
+    /// The scene did not render (its plugin failed, or has not rendered well for long enough
+    /// since).
+    SceneFailed,
+}
+
+impl std::fmt::Display for FaultCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FaultCause::None => Ok(()),
+            FaultCause::NotFinite => f.write_str("a wrench that is not a finite number"),
+            FaultCause::SceneOutput(fault) => write!(
+                f,
+                "the scene plugin's output was refused ({fault}): the plugin is disabled until \
+                 a scene is switched to"
+            ),
+            FaultCause::SceneFailed => f.write_str(
+                "the scene did not render (its plugin failed, or has not yet rendered well for \
+                 long enough since)",
+            ),
+        }
+    }
 }
 
 /// A request to the haptic loop, applied between ticks.
@@ -565,6 +601,12 @@ impl HapticLoop {
             Ok(()) if self.misfit => (DeviceState::Uncalibrated, None),
             Ok(()) if !all_finite || !scene_ok => (DeviceState::Fault, None),
             Ok(()) => (DeviceState::Running, None),
+        };
+        self.frame.fault = match (self.frame.state, self.scene.fault()) {
+            (DeviceState::Fault, _) if !all_finite => FaultCause::NotFinite,
+            (DeviceState::Fault, Some(fault)) => FaultCause::SceneOutput(fault),
+            (DeviceState::Fault, None) => FaultCause::SceneFailed,
+            _ => FaultCause::None,
         };
         &self.frame
     }

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
-use hapticd_core::haptic_loop::{DeviceState, Frame, HapticLoop, LoopCommand, Retired};
+use hapticd_core::haptic_loop::{DeviceState, FaultCause, Frame, HapticLoop, LoopCommand, Retired};
 use hapticd_core::scene::output_check::OutputFault;
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
@@ -55,6 +55,8 @@ pub enum LoopEvent {
         state: DeviceState,
         /// The transport error, if any.
         error: Option<hapticd_core::transport::TransportError>,
+        /// Why, when the new state is a fault.
+        fault: FaultCause,
     },
     /// The scene's plugin was disabled at `time` for what it output.
     SceneFault {
@@ -273,6 +275,7 @@ impl RealtimeLoop {
                             time: frame.time,
                             state,
                             error: frame.error,
+                            fault: frame.fault,
                         });
                     }
                     let done = monotonic_ns();

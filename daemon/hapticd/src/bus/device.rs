@@ -321,6 +321,27 @@ device_interface! {
         state_name(&self.device.telemetry()).to_string()
     }
 
+    /// Why the device is in its State, in a sentence: empty while running; for a fault,
+    /// what faulted (a scene's output refused and why, a scene that did not render, a wrench
+    /// that is not finite); for disconnected, the device's error; for uncalibrated, what to do.
+    #[zbus(property)]
+    fn state_reason(&self) -> String {
+        let t = self.device.telemetry();
+        match (t.frame.state, t.frame.calibrated) {
+            (DeviceState::Running, false) => "waiting for the device's first reading".into(),
+            (DeviceState::Running, true) => String::new(),
+            (DeviceState::Fault, _) => t.frame.fault.to_string(),
+            (DeviceState::Disconnected, _) => t
+                .frame
+                .error
+                .map_or_else(|| "the device does not answer".into(), |e| e.to_string()),
+            (DeviceState::Uncalibrated, _) => {
+                "the counts no longer fit the calibration: forces stay at zero until Calibrate()"
+                    .into()
+            }
+        }
+    }
+
     /// The wrench commanded from outside (OpenWrenchInput): none (never opened), waiting
     /// (nothing written yet), active, or stale (ramped out).
     #[zbus(property)]

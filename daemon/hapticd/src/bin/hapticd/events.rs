@@ -26,7 +26,12 @@ pub fn spawn_event_logger(
             let finished = done.load(Ordering::Acquire);
             while let Some(event) = events.pop() {
                 match event {
-                    LoopEvent::State { time, state, error } => {
+                    LoopEvent::State {
+                        time,
+                        state,
+                        error,
+                        fault,
+                    } => {
                         latest = state;
                         let counted = std::mem::take(&mut hushed);
                         match (state, error) {
@@ -47,6 +52,10 @@ pub fn spawn_event_logger(
                             {
                                 hushed = true;
                             }
+                            (DeviceState::Fault, None) => tracing::error!(
+                                "{identity}: {time:.3} s: device Fault: {fault}; forces ramped to \
+                                 zero"
+                            ),
                             (_, None) => {
                                 tracing::error!(
                                     "{identity}: {time:.3} s: device {state:?}: forces ramped to zero"
