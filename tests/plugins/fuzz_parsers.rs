@@ -373,13 +373,10 @@ fn traffic_recordings() {
     std::fs::remove_file(file).ok();
 }
 
-/// The mesh readers on what users bring: OBJ, ASCII STL and glTF (its JSON, its buffer
-/// beside it) as shipped and as public models have them, mutated. No input may make a
-/// reader panic (one the loader catches counts here too), and an accepted mesh keeps the
-/// limits with finite vertices.
-#[test]
-fn mesh_files() {
-    let dir = scratch_root().join(format!("fuzz-meshes-{}", std::process::id()));
+/// A scratch directory holding the buffer of the corpus' Khronos cube (what a `.gltf` of it
+/// written there reads), and the corpus.
+fn beside_the_cube(name: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = scratch_root().join(format!("fuzz-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let corpus = repo_dir().join("tests/corpus");
     std::fs::copy(
@@ -387,6 +384,16 @@ fn mesh_files() {
         dir.join("BoxTextured0.bin"),
     )
     .unwrap();
+    (dir, corpus)
+}
+
+/// The mesh readers on what users bring: OBJ, ASCII STL and glTF (its JSON, its buffer
+/// beside it) as shipped and as public models have them, mutated. No input may make a
+/// reader panic (one the loader catches counts here too), and an accepted mesh keeps the
+/// limits with finite vertices.
+#[test]
+fn mesh_files() {
+    let (dir, corpus) = beside_the_cube("meshes");
     let read = |path: &Path| std::fs::read_to_string(path).unwrap();
     for (kind, seeds) in [
         (
@@ -435,14 +442,7 @@ fn mesh_files() {
 /// name, at once, however many paths it has to the mesh.
 #[test]
 fn gltf_node_graphs_are_read_exactly_when_they_are_trees() {
-    let dir = scratch_root().join(format!("fuzz-graphs-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let corpus = repo_dir().join("tests/corpus");
-    std::fs::copy(
-        corpus.join("BoxTextured0.bin"),
-        dir.join("BoxTextured0.bin"),
-    )
-    .unwrap();
+    let (dir, corpus) = beside_the_cube("graphs");
     let base: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(corpus.join("BoxTextured.gltf")).unwrap())
             .unwrap();

@@ -87,6 +87,9 @@ pub trait Device {
     /// `running`, `fault`, … in lower case.
     #[zbus(property)]
     fn state(&self) -> zbus::Result<String>;
+    /// Why the device is in its state, in a sentence (empty while running).
+    #[zbus(property)]
+    fn state_reason(&self) -> zbus::Result<String>;
     /// Whether its counter offsets were taken.
     #[zbus(property)]
     fn calibrated(&self) -> zbus::Result<bool>;

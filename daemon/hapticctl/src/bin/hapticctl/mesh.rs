@@ -107,17 +107,12 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         let i = solid.inertia;
         text += &format!(
             "closed: yes\nvolume: {:.9e} m³, centre {:.6} {:.6} {:.6} m\ninertia per kg/m³ \
-             about the centre: {:.6e} {:.6e} {:.6e} (products {:.3e} {:.3e} {:.3e}) kg·m²\n",
+             about the centre: {}\n",
             solid.volume,
             solid.centre.x,
             solid.centre.y,
             solid.centre.z,
-            i.x_axis.x,
-            i.y_axis.y,
-            i.z_axis.z,
-            i.y_axis.x,
-            i.z_axis.x,
-            i.z_axis.y,
+            inertia_text(&i),
         );
         if solid.volume < 0.0 {
             text += "the triangles face inwards: a negative volume\n";
@@ -128,17 +123,10 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
             "convex: no\n"
         };
         if let Some(d) = args.density {
-            let i = solid.inertia * d;
             text += &format!(
-                "at {d} kg/m³: mass {:.6e} kg, inertia about the centre {:.6e} {:.6e} {:.6e} \
-                 (products {:.3e} {:.3e} {:.3e}) kg·m²\n",
+                "at {d} kg/m³: mass {:.6e} kg, inertia about the centre {}\n",
                 solid.volume * d,
-                i.x_axis.x,
-                i.y_axis.y,
-                i.z_axis.z,
-                i.y_axis.x,
-                i.z_axis.x,
-                i.z_axis.y,
+                inertia_text(&(solid.inertia * d)),
             );
         }
     } else {
@@ -188,6 +176,14 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
     });
     print(&args.output, value, text);
     Ok(())
+}
+
+/// An inertia tensor as `inspect` prints it: the moments, then the products, kg·m².
+fn inertia_text(i: &glam::DMat3) -> String {
+    format!(
+        "{:.6e} {:.6e} {:.6e} (products {:.3e} {:.3e} {:.3e}) kg·m²",
+        i.x_axis.x, i.y_axis.y, i.z_axis.z, i.y_axis.x, i.z_axis.x, i.z_axis.y
+    )
 }
 
 fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
