@@ -248,8 +248,8 @@ impl PlaneRenderer {
     /// itself, a ball rolled on under the finger would come back with the face turned
     /// toward where it was.
     ///
-    /// With each, the fastest its finger pushed since the last set ([`PlaneRenderer`]'s
-    /// reach), m/s: the physics bounds the impulses it takes in by it.
+    /// With each, the fastest its finger has pushed lately (over about a physics period),
+    /// m/s: the physics bounds the impulses it takes in by it.
     pub fn queries(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
         self.proxies
             .iter()
