@@ -77,10 +77,15 @@ struct Beats(Mapping);
 unsafe impl Sync for Beats {}
 
 impl Beats {
+    /// The beats in `mapping`, if it holds them all.
+    fn new(mapping: Mapping) -> Option<Self> {
+        (mapping.len() >= size_of::<Beat>() * BEAT_SLOTS).then_some(Self(mapping))
+    }
+
     fn slot(&self, slot: usize) -> &Beat {
-        assert!(slot < BEAT_SLOTS && size_of::<Beat>() * BEAT_SLOTS <= self.0.len());
-        // SAFETY: within the mapping (checked above), page-aligned and so aligned for Beat;
-        // AtomicU64 may be shared, and zeroed memory is a valid Beat.
+        assert!(slot < BEAT_SLOTS);
+        // SAFETY: within the mapping (its length checked when made), page-aligned and so
+        // aligned for Beat; AtomicU64 may be shared, and zeroed memory is a valid Beat.
         unsafe { &*self.0.address().cast::<Beat>().add(slot) }
     }
 }
@@ -218,7 +223,7 @@ impl Guardian {
                 beats_fd,
                 watched: BTreeMap::new(),
             }),
-            beats: Arc::new(Beats(mapping)),
+            beats: Arc::new(Beats::new(mapping).expect("mapped at the beats' size")),
         })
     }
 
@@ -438,10 +443,7 @@ impl Watch {
     fn of_standard_output() -> Self {
         // SAFETY: descriptor 1 is open for the guardian's whole life; borrowed only to map.
         let fd = std::mem::ManuallyDrop::new(unsafe { OwnedFd::from_raw_fd(1) });
-        let beats = Mapping::read_only(&fd)
-            .ok()
-            .filter(|m| m.len() >= size_of::<Beat>() * BEAT_SLOTS)
-            .map(Beats);
+        let beats = Mapping::read_only(&fd).ok().and_then(Beats::new);
         Self {
             beats,
             seen: vec![None; BEAT_SLOTS],

@@ -12,7 +12,7 @@
 //! answered from the list as it stands, without looking at any file: a flood of readers
 //! costs a few `stat` calls each.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, PoisonError};
@@ -110,7 +110,7 @@ impl SceneList {
         let dirs = stamped(places);
         let seen = &mut state.seen;
         let mut names: Vec<String> = Vec::new();
-        let mut present: Vec<PathBuf> = Vec::new();
+        let mut present: HashSet<PathBuf> = HashSet::new();
         for dir in places.dirs {
             let Ok(listing) = std::fs::read_dir(dir) else {
                 continue;
@@ -144,7 +144,7 @@ impl SceneList {
                         s
                     }
                 };
-                present.push(path);
+                present.insert(path);
                 if runs_here(summary.engine.as_ref(), places) && !names.contains(&name) {
                     names.push(name);
                 }
