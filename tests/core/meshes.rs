@@ -219,3 +219,92 @@ fn a_mesh_written_z_up_is_turned_so_that_its_z_is_up() {
         .is_err()
     );
 }
+
+/// Where the ray from `from` along unit `direction` first meets one of `faces`, either side
+/// (Möller and Trumbore's test).
+fn first_hit(faces: &[Shape], from: DVec3, direction: DVec3) -> f64 {
+    let mut nearest = f64::INFINITY;
+    for face in faces {
+        let Shape::Triangle {
+            corners: [a, b, c], ..
+        } = *face
+        else {
+            continue;
+        };
+        let (e1, e2) = (b - a, c - a);
+        let p = direction.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-15 {
+            continue;
+        }
+        let s = from - a;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = direction.dot(q) / det;
+        let t = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 {
+            nearest = nearest.min(t);
+        }
+    }
+    nearest
+}
+
+#[test]
+fn an_open_scan_is_felt_from_inside_as_from_outside_and_a_closed_one_only_outside() {
+    // assimp's sphere with a hole (open, its hole facing −z), 3 cm in radius, centred at
+    // the origin; the finger starts at its centre and pushes up through its wall, then
+    // comes down onto its top from above. Both ways the wall holds it, 5 mm deep.
+    let dir = scratch_root().join(format!("meshes-{}-open", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo_dir().join("tests/corpus/sphereWithHole.stl"),
+        dir.join("sphere.stl"),
+    )
+    .unwrap();
+    let text = "name: open\nshapes:\n  - mesh: { file: sphere.stl, centre: [-0.03, -0.03, -0.03], scale: 0.02 }\n";
+    let spec = parse(&dir, text).unwrap();
+    let scenery = Scenery::new(&spec.shapes);
+    let parameters = ProxyParameters {
+        stiffness: 1000.0,
+        damping: 0.0,
+        static_friction: 0.0,
+        dynamic_friction: 0.0,
+    };
+    let inner = first_hit(&spec.shapes, DVec3::ZERO, DVec3::Y);
+    let top = 0.1 - first_hit(&spec.shapes, DVec3::new(0.0, 0.1, 0.0), DVec3::NEG_Y);
+    assert!(
+        (inner - 0.03).abs() < 1e-3 && (top - inner).abs() < 1e-9,
+        "{inner} {top}"
+    );
+    let line = |from: f64, to: f64| -> Vec<DVec3> {
+        let steps = ((to - from).abs() / 1e-3).ceil() as usize;
+        (0..=steps)
+            .map(|k| DVec3::new(0.0, from + (to - from) * k as f64 / steps as f64, 0.0))
+            .collect()
+    };
+    let up = walk(&scenery, &line(0.0, inner + 0.005), &parameters);
+    let held = up.last().unwrap();
+    assert!(
+        (*held - DVec3::new(0.0, -5.0, 0.0)).length() < 1e-6,
+        "from inside: {held}"
+    );
+    let down = walk(&scenery, &line(0.06, top - 0.005), &parameters);
+    let held = down.last().unwrap();
+    assert!(
+        (*held - DVec3::new(0.0, 5.0, 0.0)).length() < 1e-6,
+        "from outside: {held}"
+    );
+    // The bracket is closed: it bounds a solid, and a finger inside it feels nothing until
+    // it leaves.
+    let dir = scene_dir("closed");
+    let spec = parse(&dir, SCENE).unwrap();
+    let inside = walk(
+        &Scenery::new(&spec.shapes),
+        &[
+            DVec3::new(0.015, -0.017, 0.0),
+            DVec3::new(0.015, -0.012, 0.0),
+        ],
+        &parameters,
+    );
+    assert_eq!(inside, [DVec3::ZERO], "a finger leaving the closed plate");
+}

@@ -264,9 +264,9 @@ fn finite_shape(shape: &Shape) -> bool {
             half,
             rotation,
         } => centre.is_finite() && half.is_finite() && rotation.is_normalized(),
-        Shape::Triangle { corners, normal } => {
-            corners.iter().all(|c| c.is_finite()) && normal.is_normalized()
-        }
+        Shape::Triangle {
+            corners, normal, ..
+        } => corners.iter().all(|c| c.is_finite()) && normal.is_normalized(),
     }
 }
 

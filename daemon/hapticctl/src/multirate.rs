@@ -264,6 +264,78 @@ pointer:
         }
     }
 
+    /// The force felt with position feedback when a 5 mm finger presses `solid` (a 4 cm
+    /// cube's body keys) from above onto a floor and holds 1.5 mm into it, and what the
+    /// 2 kN/m proxy spring gives for the overlap of finger and cube where they end.
+    fn pressed_by_position(solid: &str) -> (f64, f64) {
+        let text = format!(
+            "name: press
+engine: rapier
+rate: 60
+feedback: position
+gravity: [0, -9.81, 0]
+material: {{ static_friction: 0.4, friction: 0.3 }}
+bodies:
+  - {{ name: floor, box: [0.4, 0.02, 0.3], position: [0, -0.04, 0], fixed: true }}
+  - {{ name: cube, {solid}, position: [0, -0.01, 0], density: 1000 }}
+pointer:
+  sphere: 0.005
+"
+        );
+        // Beside the public corpus, where its meshes are.
+        let at =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus/press.yaml");
+        let SceneFile::Rapier(spec) = SceneFile::parse(&text, &at, 1).unwrap() else {
+            panic!("a rapier scene");
+        };
+        let above = DVec3::new(0.0, 0.03, 0.0);
+        let mut lockstep = Lockstep::new(
+            &spec,
+            &Lockstep::pointers(&[(above, DVec3::ZERO)]),
+            1000.0,
+            0.0,
+        );
+        let (radius, half, low) = (0.005, 0.02, 0.013);
+        let mut felt = [Wrench::ZERO];
+        for tick in 0..1200 {
+            // Down at 3.4 cm/s for 0.5 s, then held.
+            let s = (tick as f64 / 500.0).min(1.0);
+            let v = if tick < 500 {
+                (low - above.y) / 0.5
+            } else {
+                0.0
+            };
+            let grip = above.lerp(DVec3::new(0.0, low, 0.0), s);
+            lockstep
+                .tick(&Lockstep::pointers(&[(grip, DVec3::Y * v)]), &mut felt)
+                .unwrap();
+        }
+        let top = lockstep.body(1).position.y + half;
+        (felt[0].force.y, 2000.0 * (top + radius - low))
+    }
+
+    #[test]
+    fn position_feedback_is_felt_where_the_finger_solid_meets_a_body_box_or_mesh() {
+        // The physics pushes bodies with the `pointer:` solid; the haptic side renders the
+        // grip, a point, so the planes stand off by the solid. Without that a body stays a
+        // finger's radius ahead of the grip and nothing is felt.
+        let (boxed, expected) = pressed_by_position("box: [0.04, 0.04, 0.04]");
+        assert!(expected > 2.0, "the finger overlaps the cube: {expected} N");
+        assert!(
+            (boxed - expected).abs() < 0.05 * expected,
+            "box: {boxed} N, {expected} N expected"
+        );
+        let (mesh, expected) = pressed_by_position("mesh: BoxTextured.glb, scale: 0.04");
+        assert!(
+            (mesh - expected).abs() < 0.05 * expected,
+            "mesh: {mesh} N, {expected} N expected"
+        );
+        assert!(
+            (mesh - boxed).abs() < 0.01 * boxed,
+            "{mesh} N against {boxed} N"
+        );
+    }
+
     /// A 4 cm, 0.1 kg block in the corner of a floor and two walls, at `rate` Hz.
     fn corner(rate: f64, feedback: Feedback) -> RapierScene {
         let text = format!(

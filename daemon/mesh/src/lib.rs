@@ -24,6 +24,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
+use hapticd_core::scene::static_scene::MeshFaces;
 
 pub use solid::{MeshSolid, solid, surface};
 
@@ -193,17 +194,17 @@ impl TriangleMesh {
     }
 }
 
-/// The triangles of the mesh `file` a scene in `scene_dir` names, scaled by `scale`: read
-/// under [`Limits::DEFAULT`], and only from within the scene's directory. The reader hapticd
-/// and hapticctl give static scenes (`hapticd_core::scene::static_scene::MeshReader`).
-pub fn scene_triangles(
-    file: &Path,
-    scene_dir: &Path,
-    scale: f64,
-) -> Result<Vec<[DVec3; 3]>, String> {
+/// The triangles of the mesh `file` a scene in `scene_dir` names, scaled by `scale`, and
+/// whether they bound a solid: read under [`Limits::DEFAULT`], and only from within the
+/// scene's directory. The reader hapticd and hapticctl give static scenes
+/// (`hapticd_core::scene::static_scene::MeshReader`).
+pub fn scene_triangles(file: &Path, scene_dir: &Path, scale: f64) -> Result<MeshFaces, String> {
     let mesh = load(file, scale, Limits::DEFAULT, Some(scene_dir)).map_err(|e| {
         let reasons: Vec<_> = e.diagnostics.iter().map(|d| d.message.clone()).collect();
         format!("{}: {}", file.display(), reasons.join("; "))
     })?;
-    Ok(mesh.corners().collect())
+    Ok(MeshFaces {
+        closed: properties::closure(&mesh).is_closed(),
+        triangles: mesh.corners().collect(),
+    })
 }

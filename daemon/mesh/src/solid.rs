@@ -36,9 +36,10 @@ pub fn solid(
     if !c.is_closed() {
         return Err(format!(
             "{}: not a closed surface ({} open edges, {} edges not shared by two faces in \
-             turn): a movable body's mesh must enclose its volume (fill its holes in a \
-             modelling tool, such as MeshLab's \"Close Holes\"), or make the body fixed \
-             (fixed: true) under engine: rapier, which takes any surface",
+             turn): a movable body's mesh, and any under engine: penalty (its contacts are \
+             volumes), must enclose its volume (fill its holes in a modelling tool, such \
+             as MeshLab's \"Close Holes\"), or make the body fixed (fixed: true) under \
+             engine: rapier, or a static scene's shape: both take any surface",
             file.display(),
             c.open_edges,
             c.bad_edges

@@ -39,12 +39,16 @@ pub enum Shape {
         rotation: DQuat,
     },
     /// One face of a solid's surface: entered from the side its normal points to, through
-    /// the triangle itself (edges included, so that a seam between two faces holds).
+    /// the triangle itself (edges included, so that a seam between two faces holds). A face
+    /// of an open surface (a scan, a sheet) bounds no solid: it is `two_sided`, entered
+    /// from whichever side a segment comes from, and nothing is inside it.
     Triangle {
         /// The corners, counter-clockwise seen from outside.
         corners: [DVec3; 3],
         /// Outward unit normal.
         normal: DVec3,
+        /// Whether the back is a surface too.
+        two_sided: bool,
     },
 }
 
@@ -80,13 +84,24 @@ impl Obstacles for [Shape] {
 }
 
 impl Shape {
-    /// The face `a`, `b`, `c` (counter-clockwise seen from outside), or None for one with no
-    /// area or a corner that is not finite.
+    /// The face `a`, `b`, `c` of a solid (counter-clockwise seen from outside), or None for
+    /// one with no area or a corner that is not finite.
     pub fn triangle(a: DVec3, b: DVec3, c: DVec3) -> Option<Shape> {
+        Self::face(a, b, c, false)
+    }
+
+    /// The face `a`, `b`, `c` of an open surface, felt from both sides (its winding only
+    /// names a normal), or None as for [`Shape::triangle`].
+    pub fn sheet(a: DVec3, b: DVec3, c: DVec3) -> Option<Shape> {
+        Self::face(a, b, c, true)
+    }
+
+    fn face(a: DVec3, b: DVec3, c: DVec3, two_sided: bool) -> Option<Shape> {
         let normal = (b - a).cross(c - a).try_normalize()?;
         (a.is_finite() && b.is_finite() && c.is_finite()).then_some(Shape::Triangle {
             corners: [a, b, c],
             normal,
+            two_sided,
         })
     }
 
@@ -114,11 +129,16 @@ impl Shape {
                 let q = local.abs() - half;
                 q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
             }
-            // Behind the face, within its edges, is inside; anywhere else the distance to it.
-            Shape::Triangle { corners, normal } => {
+            // Behind the face, within its edges, is inside (a sheet has no inside); anywhere
+            // else the distance to it.
+            Shape::Triangle {
+                corners,
+                normal,
+                two_sided,
+            } => {
                 let height = (p - corners[0]).dot(normal);
                 if within_edges(&corners, normal, p) {
-                    height
+                    if two_sided { height.abs() } else { height }
                 } else {
                     (p - closest_on_edges(&corners, p)).length()
                 }
@@ -237,13 +257,27 @@ impl Shape {
                     normal,
                 })
             }
-            // The face's plane, entered within its edges.
-            Shape::Triangle { corners, normal } => Shape::HalfSpace {
-                point: corners[0],
+            // The face's plane, entered within its edges; a sheet's from the side the
+            // segment starts on (on the plane, within rounding: the side it leaves).
+            Shape::Triangle {
+                corners,
                 normal,
+                two_sided,
+            } => {
+                let height = (a - corners[0]).dot(normal);
+                let from_behind = height < -SURFACE || (height <= SURFACE && d.dot(normal) > 0.0);
+                let facing = if two_sided && from_behind {
+                    -normal
+                } else {
+                    normal
+                };
+                Shape::HalfSpace {
+                    point: corners[0],
+                    normal: facing,
+                }
+                .entry(a, b)
+                .filter(|e| within_edges(&corners, normal, e.point))
             }
-            .entry(a, b)
-            .filter(|e| within_edges(&corners, normal, e.point)),
         }
     }
 }
@@ -297,6 +331,38 @@ fn round_entry(m: DVec3, d: DVec3, radius: f64) -> Option<(f64, DVec3)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sheet_is_entered_from_either_side_and_has_no_inside() {
+        let (a, b, c) = (
+            DVec3::new(-1.0, 0.0, 1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(0.0, 0.0, -1.0),
+        );
+        let sheet = Shape::sheet(a, b, c).unwrap();
+        let face = Shape::triangle(a, b, c).unwrap();
+        let (above, below) = (DVec3::new(0.0, 0.01, 0.0), DVec3::new(0.0, -0.01, 0.0));
+        for shape in [sheet, face] {
+            let e = shape.entry(above, below).unwrap();
+            assert!((e.t - 0.5).abs() < 1e-12 && e.normal == DVec3::Y);
+        }
+        let e = sheet.entry(below, above).unwrap();
+        assert!((e.t - 0.5).abs() < 1e-12 && e.normal == DVec3::NEG_Y);
+        assert!(
+            face.entry(below, above).is_none(),
+            "a solid's face from inside"
+        );
+        // Resting on it within rounding, on the wrong side of the plane: pressing either
+        // way enters, at once, from the side the motion leaves.
+        for (rest, into, normal) in [(-1e-12, -0.01, DVec3::Y), (1e-12, 0.01, DVec3::NEG_Y)] {
+            let e = sheet
+                .entry(DVec3::new(0.0, rest, 0.0), DVec3::new(0.0, into, 0.0))
+                .unwrap();
+            assert!(e.t == 0.0 && e.normal == normal, "{rest}: {e:?}");
+        }
+        assert!((sheet.signed_distance(below) - 0.01).abs() < 1e-15);
+        assert!(!sheet.contains(below, 0.0) && face.contains(below, 0.0));
+    }
 
     #[test]
     fn segments_enter_each_shape_at_its_surface() {

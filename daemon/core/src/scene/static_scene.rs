@@ -17,7 +17,8 @@
 //! coordinates times `scale` in metres, turned so that its `up` axis (y, or z for a file
 //! written z up) is hapticd's y. Its triangles are kept as they are, holes included, and the proxy
 //! walks on them: faces hold it, a seam between two faces holds it, an edge or corner pushes
-//! along its bisector. A scene's meshes may have 500 000 triangles together; the proxy finds
+//! along its bisector. A closed mesh bounds a solid, entered only from outside; an open one
+//! (most scans) is a sheet, felt from either side. A scene's meshes may have 500 000 triangles together; the proxy finds
 //! the few near it through a hierarchy of boxes.
 
 use std::path::Path;
@@ -104,7 +105,17 @@ fn unscaled() -> f64 {
 /// Reads a mesh file a scene names (`file`, in the scene's directory `dir`, which it must not
 /// leave): its triangles, in the file's coordinates times `scale`. hapticd and hapticctl read
 /// them with hapticd-mesh; the core itself reads no mesh format.
-pub type MeshReader<'a> = &'a dyn Fn(&Path, &Path, f64) -> Result<Vec<[DVec3; 3]>, String>;
+pub type MeshReader<'a> = &'a dyn Fn(&Path, &Path, f64) -> Result<MeshFaces, String>;
+
+/// The triangles of a mesh file, as a [`MeshReader`] gives them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MeshFaces {
+    /// The triangles, counter-clockwise seen from outside where there is an outside.
+    pub triangles: Vec<[DVec3; 3]>,
+    /// Whether they bound a solid (every edge shared by two faces running opposite ways);
+    /// an open surface is felt from both sides.
+    pub closed: bool,
+}
 
 /// Most triangles the meshes of one static scene may have together, as many as one mesh
 /// file may hold: the proxy finds those near it through a hierarchy of boxes.
@@ -227,7 +238,7 @@ fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
 }
 
 /// The reader of programs that read no mesh files.
-fn no_meshes(_: &Path, _: &Path, _: f64) -> Result<Vec<[DVec3; 3]>, String> {
+fn no_meshes(_: &Path, _: &Path, _: f64) -> Result<MeshFaces, String> {
     Err("this program reads no mesh files (hapticd and hapticctl do)".into())
 }
 
@@ -245,8 +256,8 @@ fn mesh_faces(
     if !f.within(format!("{at}.mesh.scale"), scale, 1e-6, 1e3, "") {
         return Vec::new();
     }
-    let triangles = match meshes(&dir.join(file), dir, scale) {
-        Ok(t) => t,
+    let MeshFaces { triangles, closed } = match meshes(&dir.join(file), dir, scale) {
+        Ok(faces) => faces,
         Err(e) => {
             f.error(format!("{at}.mesh.file"), e);
             return Vec::new();
@@ -259,9 +270,14 @@ fn mesh_faces(
     if !f.coordinates(format!("{at}.mesh"), &corners, WORLD_EXTENT, "m") {
         return Vec::new();
     }
+    let face = if closed {
+        Shape::triangle
+    } else {
+        Shape::sheet
+    };
     placed
         .iter()
-        .filter_map(|t| Shape::triangle(t[0], t[1], t[2]))
+        .filter_map(|t| face(t[0], t[1], t[2]))
         .collect()
 }
 

@@ -66,6 +66,8 @@ pub struct RapierWorld {
     pieces: Vec<(ColliderHandle, usize)>,
     /// Kinematic bodies following the pointers (position feedback only).
     pointers: Vec<RigidBodyHandle>,
+    /// The pointers' solid, as far as the planes must keep a grip from what it touches.
+    pointer_solid: Option<PointerSolid>,
     /// Each body's inertia about its centre of mass in its own axes, and its mass.
     pub(crate) inertia: Vec<(glam::DMat3, f64)>,
     /// Each body's volume, m³ (a mass set from outside keeps its density in range).
@@ -77,6 +79,35 @@ pub struct RapierWorld {
     feedback: Feedback,
     reach: f64,
     scratch: Vec<Candidate>,
+}
+
+/// The solid a pointer is in the physics under position feedback. The haptic side renders
+/// a point (the grip) against the planes, so each plane is moved out by the solid's extent
+/// along its normal: the grip meets a plane exactly when the solid meets the surface, and a
+/// body the solid pushes ahead is felt instead of staying out of the point's reach.
+enum PointerSolid {
+    Ball(f64),
+    /// A box or hull: its corners about its centre (the one piece a pointer's collider is).
+    Corners(Vec<DVec3>),
+}
+
+impl PointerSolid {
+    fn of(body: &Body, primitive: Primitive) -> Self {
+        match primitive {
+            Primitive::Ball { radius } => Self::Ball(radius),
+            Primitive::Cuboid { .. } | Primitive::Hull => {
+                Self::Corners(body.pieces[0].vertices.clone())
+            }
+        }
+    }
+
+    /// How far the solid reaches from its centre along unit `direction`, metres.
+    fn extent(&self, direction: DVec3) -> f64 {
+        match self {
+            Self::Ball(radius) => *radius,
+            Self::Corners(corners) => corners.iter().map(|c| c.dot(direction)).fold(0.0, f64::max),
+        }
+    }
 }
 
 /// The size of the world's typical moving body, metres: rapier scales its tolerances by it
@@ -268,6 +299,7 @@ impl RapierWorld {
             names: spec.names.clone(),
             pieces,
             pointers: Vec::new(),
+            pointer_solid: None,
             inertia: spec.bodies.iter().map(|b| (b.inertia, b.mass)).collect(),
             volumes: spec.bodies.iter().map(|b| b.volume).collect(),
             objects,
@@ -292,6 +324,7 @@ impl RapierWorld {
                     .insert_with_parent(c, handle, &mut world.physics.bodies);
                 world.pointers.push(handle);
             }
+            world.pointer_solid = Some(PointerSolid::of(shape, *primitive));
         }
         world.set_feedback(spec.feedback);
         world
@@ -457,9 +490,16 @@ impl RapierWorld {
     }
 
     /// [physics] The planes of the solids within reach of a pointer at `point`, as a step
-    /// publishes them.
+    /// publishes them: under position feedback, moved out by the pointers' solid.
     pub fn surfaces_near(&mut self, point: DVec3, out: &mut HapticdPlanes) {
         surfaces::near(&self.physics, point, self.reach, &mut self.scratch, out);
+        if let (Feedback::Position, Some(solid)) = (self.feedback, &self.pointer_solid) {
+            for plane in &mut out.planes[..out.count as usize] {
+                let normal = DVec3::from(plane.normal);
+                let point = DVec3::from(plane.point) + normal * solid.extent(-normal);
+                plane.point = point.to_array();
+            }
+        }
     }
 
     /// Body `i` as the haptic side moves it: its state, mass, inertia and contacts now.
@@ -869,7 +909,9 @@ feedback: position
         assert!((w.reach() - (2.0 / 50.0 + surfaces::MARGIN)).abs() < 1e-12);
         let mut planes = [HapticdPlanes::default()];
         // 1 cm above the floor, 5 cm from the ball's side: the floor and the ball, not the
-        // arch 50 cm away. The pointer's own body (position feedback) is not a surface.
+        // arch 50 cm away. The pointer's own body (position feedback) is not a surface, and
+        // its 5 mm sphere moves each plane out: the grip meets a plane where the sphere
+        // meets the solid.
         let finger = HapticdPointer {
             position: [0.3 - 0.07, 0.01, 0.0],
             ..HapticdPointer::default()
@@ -879,14 +921,14 @@ feedback: position
         assert_eq!(found.len(), 2, "{found:?}");
         let floor = found[0];
         assert_eq!(w.body_of(floor.object), Some(0));
-        assert!((DVec3::from(floor.point) - DVec3::new(0.23, 0.0, 0.0)).length() < 1e-6);
+        assert!((DVec3::from(floor.point) - DVec3::new(0.23, 0.005, 0.0)).length() < 1e-6);
         assert!((DVec3::from(floor.normal) - DVec3::Y).length() < 1e-6);
         let ball = found[1];
         assert_eq!(w.body_of(ball.object), Some(1));
         let centre = w.body(1).position;
         let outward = (DVec3::from(finger.position) - centre).normalize();
         assert!((DVec3::from(ball.normal) - outward).length() < 1e-5);
-        assert!((DVec3::from(ball.point) - (centre + outward * 0.02)).length() < 1e-5);
+        assert!((DVec3::from(ball.point) - (centre + outward * 0.025)).length() < 1e-5);
         // Inside the arch's left leg (settling on the floor), the nearest face's plane still
         // points out of it.
         let inside = HapticdPointer {
@@ -900,7 +942,14 @@ feedback: position
             (DVec3::from(leg.normal) - DVec3::NEG_X).length() < 1e-3,
             "{leg:?}"
         );
-        assert!((leg.point[0] + 0.36).abs() < 1e-4, "{leg:?}");
+        assert!((leg.point[0] + 0.365).abs() < 1e-4, "{leg:?}");
+        // Under impulse feedback the pointers' bodies are away and the planes are the
+        // solids' own.
+        w.set_feedback(Feedback::Impulse);
+        assert!(step(&mut w, &[finger], &mut planes));
+        assert!(
+            (DVec3::from(planes[0].planes[0].point) - DVec3::new(0.23, 0.0, 0.0)).length() < 1e-6
+        );
     }
 
     #[test]
