@@ -4,9 +4,10 @@
 //! A dying process cannot be trusted to run code: SIGKILL, the OOM killer, an `exit()` or
 //! `abort()` inside a plugin's constructor end it wherever it is, with the last D/A command
 //! still applied by the amplifier (which holds its outputs until told otherwise). So hapticd
-//! starts the guardian first of all (its own executable again, named [`PROGRAM`]), tells it
-//! over a socket which amplifier nodes and traffic recordings it drives, and tells it when it
-//! has stopped the motors itself. The guardian holds a pidfd of hapticd: once it becomes
+//! starts the guardian first of all (its own executable again, named [`PROGRAM`]), hands it
+//! a pidfd of itself, tells it over a socket which amplifier nodes and traffic recordings it
+//! drives, and tells it when it has stopped the motors itself. The guardian holds that
+//! pidfd: once it becomes
 //! readable (the kernel has then closed every file of the dead process, so the amplifier's
 //! interface is free) and no orderly stop was announced, it opens the amplifier's interface,
 //! sends one zero-current command, appends the same command to the traffic recording (the
@@ -22,11 +23,18 @@
 //! that could resume would write its stale command again: ended, it cannot.
 //!
 //! The guardian ignores SIGTERM, SIGINT and SIGHUP, so a stop that signals the whole service
-//! (systemd's `KillMode=control-group`) cannot end it before the daemon.
+//! (systemd's `KillMode=control-group`) cannot end it before the daemon. SIGKILL cannot be
+//! ignored, and a kill of a whole control group (systemd's stop timeout, `systemctl kill -s
+//! KILL hapticd`) would end a child guardian at the same instant as hapticd. So under systemd
+//! the guardian is a service of its own: hapticd connects to the socket named by
+//! [`SOCKET_VARIABLE`] (`hapticd-guardian.socket`), and systemd starts one guardian per
+//! connection (`hapticd-guardian@.service`) in a control group of its own, which such a kill
+//! does not reach. Started as a child or as a service, a guardian reads the same messages
+//! on its standard input.
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd, RawFd};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitCode, Stdio};
@@ -36,6 +44,8 @@ use std::time::{Duration, Instant};
 
 use hapticd_ipc::shared_memory::{Mapping, sealed};
 
+mod socket;
+
 use crate::replay::{Direction, Transfer, write_transfer};
 use crate::usbfs::{UsbfsDevice, claim_interface, open_node};
 use crate::{Protocol, sh4, simple};
@@ -44,6 +54,13 @@ use hapticd_core::transport::CHANNELS;
 /// The name the guardian runs under (its `argv[0]`): hapticd's `main` becomes the guardian
 /// when it is started so.
 pub const PROGRAM: &str = "hapticd-guardian";
+
+/// The environment variable that names the guardian service's socket; unset, hapticd starts
+/// its guardian as a child.
+pub const SOCKET_VARIABLE: &str = "HAPTICD_GUARDIAN_SOCKET";
+
+/// How long a new guardian waits for the daemon's first message.
+const GREETING_MS: libc::c_int = 5000;
 
 /// How long the guardian tries to claim an amplifier whose interface is still held (the
 /// dead daemon's file can outlive it for a moment in a child it forked).
@@ -124,11 +141,13 @@ enum Verb {
     Recording = 2,
     /// The daemon has zeroed every motor itself and is stopping.
     Disarm = 3,
+    /// The first message: the daemon's pid, with a pidfd of it and the beats' memfd.
+    Hello = 4,
 }
 
 impl Verb {
     fn from_byte(byte: u8) -> Option<Self> {
-        [Verb::Amplifier, Verb::Recording, Verb::Disarm]
+        [Verb::Amplifier, Verb::Recording, Verb::Disarm, Verb::Hello]
             .into_iter()
             .find(|v| *v as u8 == byte)
     }
@@ -175,26 +194,6 @@ fn message(verb: Verb, slot: u32, protocol: Protocol, path: &Path) -> Vec<u8> {
     m
 }
 
-/// A connected pair of `SOCK_SEQPACKET` sockets: each message arrives whole, and the peer's
-/// end closing reads as end of file.
-fn socket_pair() -> std::io::Result<(OwnedFd, OwnedFd)> {
-    let mut fds = [0; 2];
-    // SAFETY: socketpair writes two descriptors into the array it is given.
-    let status = unsafe {
-        libc::socketpair(
-            libc::AF_UNIX,
-            libc::SOCK_SEQPACKET | libc::SOCK_CLOEXEC,
-            0,
-            fds.as_mut_ptr(),
-        )
-    };
-    if status != 0 {
-        return Err(std::io::Error::last_os_error());
-    }
-    // SAFETY: socketpair succeeded: both descriptors are new and ours.
-    Ok(unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) })
-}
-
 /// The daemon's side of its guardian. Every call is on the main thread; a guardian that died
 /// is started again and told everything anew.
 pub struct Guardian {
@@ -203,7 +202,7 @@ pub struct Guardian {
 }
 
 struct Inner {
-    child: Child,
+    process: Process,
     socket: OwnedFd,
     /// The shared beats' descriptor, handed to each guardian started.
     beats_fd: OwnedFd,
@@ -215,10 +214,10 @@ impl Guardian {
     /// [main] Start the guardian of this process.
     pub fn spawn() -> std::io::Result<Self> {
         let (beats_fd, mapping) = sealed("hapticd-heartbeats", size_of::<Beat>() * BEAT_SLOTS)?;
-        let (child, socket) = start(&beats_fd)?;
+        let (process, socket) = start(&beats_fd)?;
         Ok(Self {
             inner: Mutex::new(Inner {
-                child,
+                process,
                 socket,
                 beats_fd,
                 watched: BTreeMap::new(),
@@ -254,7 +253,8 @@ impl Guardian {
         self.tell(vec![Verb::Disarm as u8]);
         let deadline = Instant::now() + Duration::from_millis(500);
         let mut inner = lock(&self.inner);
-        while matches!(inner.child.try_wait(), Ok(None)) && Instant::now() < deadline {
+        let inner = &mut *inner;
+        while inner.process.ended(&inner.socket).is_none() && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(2));
         }
     }
@@ -262,17 +262,16 @@ impl Guardian {
     /// [main] Start the guardian again if it has died; returns what to tell the journal.
     pub fn revive(&self) -> Option<String> {
         let mut inner = lock(&self.inner);
-        let status = match inner.child.try_wait() {
-            Ok(None) => return None,
-            Ok(Some(status)) => status.to_string(),
-            Err(e) => e.to_string(),
-        };
+        let inner = &mut *inner;
+        let status = inner.process.ended(&inner.socket)?;
         match start(&inner.beats_fd) {
-            Ok((child, socket)) => {
-                inner.child = child;
+            Ok((process, socket)) => {
+                inner.process = process;
                 inner.socket = socket;
-                let messages: Vec<Vec<u8>> = inner.watched.values().cloned().collect();
-                let failed = messages.iter().any(|m| send(&inner.socket, m).is_err());
+                let failed = inner
+                    .watched
+                    .values()
+                    .any(|m| socket::send(&inner.socket, m, &[]).is_err());
                 Some(format!(
                     "the guardian that zeroes the motors should hapticd die ended ({status}); \
                      started again{}",
@@ -293,7 +292,7 @@ impl Guardian {
     fn tell(&self, message: Vec<u8>) {
         let mut inner = lock(&self.inner);
         // A dead guardian is revived with the whole list; the send itself may then fail.
-        let _ = send(&inner.socket, &message);
+        let _ = socket::send(&inner.socket, &message, &[]);
         let key = (message[0], message.get(1..5).map_or(0, slot_of));
         inner.watched.insert(key, message);
     }
@@ -309,35 +308,120 @@ fn slot_of(bytes: &[u8]) -> u32 {
     u32::from_le_bytes(bytes.try_into().unwrap_or_default())
 }
 
-fn send(socket: &OwnedFd, message: &[u8]) -> std::io::Result<()> {
-    // SAFETY: send reads `message.len()` bytes of a live slice; MSG_NOSIGNAL turns a dead
-    // peer into EPIPE instead of a signal.
-    let sent = unsafe {
-        libc::send(
-            socket.as_raw_fd(),
-            message.as_ptr().cast(),
-            message.len(),
-            libc::MSG_NOSIGNAL,
-        )
-    };
-    if sent < 0 {
-        return Err(std::io::Error::last_os_error());
-    }
-    Ok(())
+/// A running guardian, as the daemon knows it.
+enum Process {
+    /// This executable again, started by the daemon.
+    Child(Child),
+    /// An instance of the guardian service, at the other end of the connection.
+    Service,
 }
 
-/// Start the guardian of this process: this executable again, as [`PROGRAM`], its standard
-/// input one end of a socket pair, its standard output the shared beats (`beats`), and its
-/// argument this process's pid.
-fn start(beats: &OwnedFd) -> std::io::Result<(Child, OwnedFd)> {
-    let (ours, theirs) = socket_pair()?;
-    let child = Command::new("/proc/self/exe")
-        .arg0(PROGRAM)
-        .arg(std::process::id().to_string())
-        .stdin(Stdio::from(theirs))
-        .stdout(Stdio::from(beats.try_clone()?))
-        .spawn()?;
-    Ok((child, ours))
+impl Process {
+    /// How it ended, if it has; `socket` is the daemon's end of its connection.
+    fn ended(&mut self, socket: &OwnedFd) -> Option<String> {
+        match self {
+            Process::Child(child) => match child.try_wait() {
+                Ok(None) => None,
+                Ok(Some(status)) => Some(status.to_string()),
+                Err(e) => Some(e.to_string()),
+            },
+            Process::Service => socket::hung_up(socket, 0).then(|| "its connection closed".into()),
+        }
+    }
+}
+
+/// Start a guardian of this process and greet it: a connection to the guardian service
+/// when [`SOCKET_VARIABLE`] names its socket, else this executable again, as [`PROGRAM`],
+/// its standard input one end of a socket pair. The greeting hands it a pidfd of this
+/// process and the shared `beats`.
+fn start(beats: &OwnedFd) -> std::io::Result<(Process, OwnedFd)> {
+    let (process, ours) = match std::env::var_os(SOCKET_VARIABLE) {
+        Some(path) => {
+            let path = PathBuf::from(path);
+            let socket = socket::connect(&path).map_err(|e| {
+                std::io::Error::new(
+                    e.kind(),
+                    format!("the guardian service at {}: {e}", path.display()),
+                )
+            })?;
+            (Process::Service, socket)
+        }
+        None => {
+            let (ours, theirs) = socket::pair()?;
+            let child = Command::new("/proc/self/exe")
+                .arg0(PROGRAM)
+                .stdin(Stdio::from(theirs))
+                .stdout(Stdio::null())
+                .spawn()?;
+            (Process::Child(child), ours)
+        }
+    };
+    let pidfd = pidfd_open(std::process::id() as libc::pid_t)?;
+    let mut hello = vec![Verb::Hello as u8];
+    hello.extend(std::process::id().to_le_bytes());
+    socket::send(&ours, &hello, &[pidfd.as_raw_fd(), beats.as_raw_fd()])?;
+    Ok((process, ours))
+}
+
+fn pidfd_open(pid: libc::pid_t) -> std::io::Result<OwnedFd> {
+    // SAFETY: pidfd_open takes a pid and flags and returns a new descriptor or -1.
+    let fd = unsafe { libc::syscall(libc::SYS_pidfd_open, pid, 0) };
+    if fd < 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    // SAFETY: pidfd_open succeeded: the descriptor is new and ours.
+    Ok(unsafe { OwnedFd::from_raw_fd(fd as i32) })
+}
+
+/// The pid a pidfd refers to (its `fdinfo`), or None once that process is gone.
+fn pid_of(pidfd: &OwnedFd) -> Option<libc::pid_t> {
+    let info = std::fs::read_to_string(format!("/proc/self/fdinfo/{}", pidfd.as_raw_fd())).ok()?;
+    info.lines()
+        .find_map(|l| l.strip_prefix("Pid:"))
+        .and_then(|p| p.trim().parse().ok())
+        .filter(|&p: &libc::pid_t| p > 0)
+}
+
+/// The daemon this guardian guards, as its greeting on standard input names it.
+struct Daemon {
+    pid: libc::pid_t,
+    pidfd: OwnedFd,
+    beats: OwnedFd,
+}
+
+impl Daemon {
+    /// Wait for the greeting on `socket`; an error says why there is no daemon to guard.
+    /// The pidfd must be of the process at the other end of the socket, so a greeting
+    /// cannot name another process.
+    fn greeted(socket: RawFd) -> Result<Self, String> {
+        let mut fds = [libc::pollfd {
+            fd: socket,
+            events: libc::POLLIN,
+            revents: 0,
+        }];
+        // SAFETY: poll reads and writes the one pollfd that lives across the call.
+        if unsafe { libc::poll(fds.as_mut_ptr(), 1, GREETING_MS) } <= 0 {
+            return Err("no greeting on its standard input".into());
+        }
+        let mut buffer = [0u8; 16];
+        let (n, descriptors) = socket::receive(socket, &mut buffer).map_err(|e| e.to_string())?;
+        let pid = match &buffer[..n] {
+            [verb, pid @ ..] if *verb == Verb::Hello as u8 && pid.len() == 4 => {
+                slot_of(pid) as libc::pid_t
+            }
+            _ => return Err("its first message is no greeting".into()),
+        };
+        let [pidfd, beats]: [OwnedFd; 2] = descriptors
+            .try_into()
+            .map_err(|_| "the greeting carries no pidfd and beats")?;
+        let peer = socket::peer_pid(socket).map_err(|e| e.to_string())?;
+        if pid_of(&pidfd) != Some(pid) || peer != pid {
+            return Err(format!(
+                "the greeting names pid {pid}, from pid {peer}: not the process that sent it"
+            ));
+        }
+        Ok(Self { pid, pidfd, beats })
+    }
 }
 
 /// Whether this process was started as the guardian.
@@ -354,32 +438,29 @@ struct Slot {
     recording: Option<(Protocol, PathBuf, File)>,
 }
 
-/// The guardian's whole life: guard the daemon whose pid is its argument, from the messages
-/// on its standard input, until it ends.
+/// The guardian's whole life: guard the daemon that greets it on its standard input, from
+/// the messages that follow, until it ends.
 pub fn run() -> ExitCode {
     ignore_stop_signals();
-    let Some(daemon) = std::env::args()
-        .nth(1)
-        .and_then(|pid| pid.parse::<libc::pid_t>().ok())
-    else {
-        eprintln!("{PROGRAM}: started by hand? It takes the pid of the hapticd it guards");
-        return ExitCode::FAILURE;
+    let Daemon {
+        pid: daemon,
+        pidfd,
+        beats,
+    } = match Daemon::greeted(0) {
+        Ok(daemon) => daemon,
+        Err(e) => {
+            eprintln!(
+                "{PROGRAM}: {e}. It guards the hapticd that starts it, or that connects to \
+                 its service's socket"
+            );
+            return ExitCode::FAILURE;
+        }
     };
-    // SAFETY: pidfd_open takes a pid and flags and returns a new descriptor or -1.
-    let pidfd = unsafe { libc::syscall(libc::SYS_pidfd_open, daemon, 0) };
-    // The daemon may have died before the pidfd was opened (then the pid may even be
-    // another process's): its child is ours only while it is our parent.
-    // SAFETY: getppid takes nothing.
-    if pidfd < 0 || unsafe { libc::getppid() } != daemon {
-        return ExitCode::SUCCESS;
-    }
-    // SAFETY: pidfd_open succeeded: the descriptor is new and ours.
-    let pidfd = unsafe { OwnedFd::from_raw_fd(pidfd as i32) };
     // SAFETY: mlockall takes no pointers; failing only means the guardian may page-fault.
     unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
     let mut slots: BTreeMap<u32, Slot> = BTreeMap::new();
     let mut buffer = vec![0u8; MAX_MESSAGE];
-    let mut watch = Watch::of_standard_output();
+    let mut watch = Watch::of(&beats);
     loop {
         let mut fds = [
             libc::pollfd {
@@ -416,14 +497,15 @@ pub fn run() -> ExitCode {
         if fds[0].revents == 0 {
             continue;
         }
-        // SAFETY: recv writes at most `buffer.len()` bytes into the buffer.
-        let n = unsafe { libc::recv(0, buffer.as_mut_ptr().cast(), buffer.len(), 0) };
-        if n <= 0 {
+        let Ok((n, _)) = socket::receive(0, &mut buffer) else {
+            break;
+        };
+        if n == 0 {
             // The daemon's end closed: it died, or replaced its image (it announces that
             // with Disarm first, having zeroed its motors).
             break;
         }
-        if apply(&buffer[..n as usize], &mut slots) {
+        if apply(&buffer[..n], &mut slots) {
             return ExitCode::SUCCESS;
         }
     }
@@ -439,11 +521,9 @@ struct Watch {
 }
 
 impl Watch {
-    /// The beats handed over as standard output (none when started otherwise).
-    fn of_standard_output() -> Self {
-        // SAFETY: descriptor 1 is open for the guardian's whole life; borrowed only to map.
-        let fd = std::mem::ManuallyDrop::new(unsafe { OwnedFd::from_raw_fd(1) });
-        let beats = Mapping::read_only(&fd).ok().and_then(Beats::new);
+    /// The beats in the memfd `fd` (none when it cannot be mapped whole).
+    fn of(fd: &OwnedFd) -> Self {
+        let beats = Mapping::read_only(fd).ok().and_then(Beats::new);
         Self {
             beats,
             seen: vec![None; BEAT_SLOTS],
@@ -488,10 +568,10 @@ fn end_stalled(daemon: libc::pid_t, pidfd: &OwnedFd, slot: usize, quiet: Duratio
             _ => "running",
         });
     eprintln!(
-        "{PROGRAM}: hapticd (pid {daemon}) made no haptic tick on device slot {slot} for {} ms          while driving its motors (its process is {state}): ended, to zero them",
+        "{PROGRAM}: hapticd (pid {daemon}) made no haptic tick on device slot {slot} for {} ms while driving its motors (its process is {state}): ended, to zero them",
         quiet.as_millis()
     );
-    // SAFETY: a signal to the pid the pidfd holds (our parent: still that process).
+    // SAFETY: a signal to the process the pidfd holds, whatever its pid is by now.
     unsafe {
         libc::syscall(
             libc::SYS_pidfd_send_signal,
@@ -538,6 +618,7 @@ fn apply(message: &[u8], slots: &mut BTreeMap<u32, Slot>) -> bool {
             Err(e) => eprintln!("{PROGRAM}: cannot open {}: {e}", path.display()),
         },
         Verb::Disarm => unreachable!("handled above"),
+        Verb::Hello => eprintln!("{PROGRAM}: a second greeting, ignored"),
     }
     false
 }
@@ -618,6 +699,35 @@ mod tests {
             simple::Command::decode(packet),
             Some(simple::Command::SetDac([0; CHANNELS]))
         );
+    }
+
+    #[test]
+    fn a_greeting_must_come_from_the_process_it_names() {
+        let (beats, _) = sealed("test-beats", size_of::<Beat>() * BEAT_SLOTS).unwrap();
+        let me = std::process::id() as libc::pid_t;
+        let mut other = Command::new("sleep").arg("5").spawn().unwrap();
+        let greet = |pid: libc::pid_t, of: libc::pid_t| {
+            let (ours, theirs) = socket::pair().unwrap();
+            let mut hello = vec![Verb::Hello as u8];
+            hello.extend((pid as u32).to_le_bytes());
+            let pidfd = pidfd_open(of).unwrap();
+            socket::send(&ours, &hello, &[pidfd.as_raw_fd(), beats.as_raw_fd()]).unwrap();
+            Daemon::greeted(theirs.as_raw_fd()).map(|d| d.pid)
+        };
+        assert_eq!(greet(me, me), Ok(me));
+        let other_pid = other.id() as libc::pid_t;
+        for (pid, of) in [(other_pid, other_pid), (me, other_pid), (other_pid, me)] {
+            let refused = greet(pid, of).unwrap_err();
+            assert!(
+                refused.contains("not the process that sent it"),
+                "{refused}"
+            );
+        }
+        other.kill().unwrap();
+        other.wait().unwrap();
+        let (ours, theirs) = socket::pair().unwrap();
+        socket::send(&ours, &[Verb::Disarm as u8], &[]).unwrap();
+        assert!(Daemon::greeted(theirs.as_raw_fd()).is_err_and(|e| e.contains("no greeting")));
     }
 
     #[test]
