@@ -178,8 +178,10 @@ install: $(C_MECHANISM)
 			echo "keeping $(DESTDIR)$(SYSCONFDIR)/hapticd/$$conf (shipped: $(PREFIX)/share/doc/hapticd/$$conf)"; \
 		else install -m 644 $(DESTDIR)$(PREFIX)/share/doc/hapticd/$$conf $(DESTDIR)$(SYSCONFDIR)/hapticd/; fi || exit 1; \
 	done
-	for unit in hapticd.service hapticd-render.service hapticd-zenoh.service hapticd-world.service; do \
+	for unit in hapticd.service hapticd-guardian.socket hapticd-guardian@.service \
+			hapticd-render.service hapticd-zenoh.service hapticd-world.service; do \
 		sed -e 's|^ExecStart=/usr/bin/hapticd |ExecStart=$(PREFIX)/bin/hapticd$(CONFIG_ARG) |' \
+			-e 's|^ExecStart=@/usr/bin/hapticd |ExecStart=@$(PREFIX)/bin/hapticd |' \
 			-e 's|^ExecStart=/usr/bin/hapticd-zenoh |ExecStart=$(PREFIX)/bin/hapticd-zenoh$(BRIDGE_CONFIG_ARG) |' \
 			-e 's|^ExecStart=/usr/bin/hapticd-world |ExecStart=$(PREFIX)/bin/hapticd-world$(BRIDGE_CONFIG_ARG) |' \
 			-e 's|/etc/hapticd/world.yaml|$(SYSCONFDIR)/hapticd/world.yaml|g' \

@@ -153,6 +153,8 @@ fn make_install_lays_out_a_working_system() {
         "etc/hapticd/hapticd.yaml",
         "etc/hapticd/network.yaml",
         "usr/lib/systemd/system/hapticd.service",
+        "usr/lib/systemd/system/hapticd-guardian.socket",
+        "usr/lib/systemd/system/hapticd-guardian@.service",
         "usr/lib/systemd/system/hapticd-render.service",
         "usr/lib/systemd/system/hapticd-zenoh.service",
         "usr/lib/systemd/system/hapticd-world.service",
@@ -300,6 +302,11 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
         "{unit}"
     );
     assert!(unit.contains("file:///opt/hapticd/share/doc/hapticd/README.md"));
+    let guardian = read(dest.join("etc/systemd/system/hapticd-guardian@.service"));
+    assert!(
+        guardian.contains("\nExecStart=@/opt/hapticd/bin/hapticd hapticd-guardian\n"),
+        "{guardian}"
+    );
     let bridge = read(dest.join("etc/systemd/system/hapticd-zenoh.service"));
     assert!(
         bridge.contains(

@@ -19,20 +19,41 @@ fn values<'a>(unit: &'a str, key: &str) -> Vec<&'a str> {
 }
 
 /// `systemd-analyze verify` of `unit` (a file `name`), its program `program` pointed at the
-/// one just built (verify checks that it exists): whether it passed, and what it said.
+/// one just built (verify checks that it exists), beside the guardian's socket and service
+/// that hapticd.service requires: whether it passed, and what it said.
 fn verify(name: &str, unit: &str, program: &str) -> (bool, String) {
-    let dir = support::scratch_root().join(format!("unit-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join(name);
     let built = format!("ExecStart={}", artifact(program).display());
+    verify_units(
+        &[(
+            name,
+            unit.replace(&format!("ExecStart=/usr/bin/{program}"), &built),
+        )],
+        &[name],
+    )
+}
+
+/// `systemd-analyze verify` of `checked` among the shipped guardian units and `files`
+/// (name, text), every program pointed at the one just built.
+fn verify_units(files: &[(&str, String)], checked: &[&str]) -> (bool, String) {
+    let dir = support::scratch_root().join(format!("unit-{}-{}", std::process::id(), checked[0]));
+    std::fs::create_dir_all(&dir).unwrap();
+    let guardian = read("systemd/hapticd-guardian@.service").replace(
+        "ExecStart=@/usr/bin/hapticd",
+        &format!("ExecStart=@{}", artifact("hapticd").display()),
+    );
+    std::fs::write(dir.join("hapticd-guardian@.service"), guardian).unwrap();
     std::fs::write(
-        &file,
-        unit.replace(&format!("ExecStart=/usr/bin/{program}"), &built),
+        dir.join("hapticd-guardian.socket"),
+        read("systemd/hapticd-guardian.socket"),
     )
     .unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
     let out = Command::new("systemd-analyze")
         .arg("verify")
-        .arg(&file)
+        .args(checked)
+        .current_dir(&dir)
         .output()
         .expect("systemd-analyze (package systemd) is installed by `make check`");
     std::fs::remove_dir_all(&dir).unwrap();
@@ -273,4 +294,52 @@ fn every_device_node_the_daemon_opens_is_allowed_by_the_unit() {
             "{path} is opened but the unit allows only {allowed:?}"
         );
     }
+}
+
+/// The guardian runs where a kill of hapticd's control group cannot reach: its own unit, one
+/// instance per connection to a socket hapticd.service pulls in and names to hapticd.
+#[test]
+fn the_guardian_is_a_unit_of_its_own_started_by_a_socket_hapticd_requires() {
+    let haptic = read("systemd/hapticd.service");
+    let socket = read("systemd/hapticd-guardian.socket");
+    let guardian = read("systemd/hapticd-guardian@.service");
+    let user = hapticd_device::udev::USER;
+    assert_eq!(values(&haptic, "Requires"), ["hapticd-guardian.socket"]);
+    assert_eq!(values(&haptic, "After"), ["hapticd-guardian.socket"]);
+    let [path] = values(&socket, "ListenSequentialPacket")[..] else {
+        panic!("{socket}");
+    };
+    assert_eq!(
+        values(&haptic, "Environment"),
+        [format!(
+            "{}={path}",
+            hapticd_device::guardian::SOCKET_VARIABLE
+        )]
+    );
+    assert_eq!(values(&socket, "Accept"), ["yes"]);
+    assert_eq!(values(&socket, "SocketUser"), [user]);
+    assert_eq!(values(&socket, "SocketMode"), ["0600"]);
+    assert_eq!(
+        values(&guardian, "ExecStart"),
+        [format!(
+            "@/usr/bin/hapticd {}",
+            hapticd_device::guardian::PROGRAM
+        )]
+    );
+    assert_eq!(values(&guardian, "StandardInput"), ["socket"]);
+    assert_eq!(values(&guardian, "User"), [user]);
+    assert_eq!(values(&guardian, "DeviceAllow"), ["char-usb_device rw"]);
+    // Nothing ties it to hapticd.service: a stop or kill of that unit must not reach it.
+    for key in ["PartOf", "BindsTo", "Requires", "Wants"] {
+        assert!(
+            values(&guardian, key).is_empty(),
+            "{key}= ties it to hapticd"
+        );
+    }
+    // An instance, so that the template itself is read and checked.
+    let (passed, said) = verify_units(
+        &[],
+        &["hapticd-guardian.socket", "hapticd-guardian@1.service"],
+    );
+    assert!(passed && said.trim().is_empty(), "{said}");
 }

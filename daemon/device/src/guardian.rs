@@ -207,7 +207,7 @@ struct Inner {
     /// The shared beats' descriptor, handed to each guardian started.
     beats_fd: OwnedFd,
     /// Every message that still holds, to tell a guardian started again.
-    watched: BTreeMap<(u8, u32), Vec<u8>>,
+    watched: BTreeMap<(u8, u32), (Vec<u8>, Option<OwnedFd>)>,
 }
 
 impl Guardian {
@@ -238,19 +238,24 @@ impl Guardian {
     /// [main] Slot `slot` is the `protocol` amplifier at usbfs `node` (replacing what the
     /// slot was: an amplifier plugged back in may have a new node).
     pub fn watch_amplifier(&self, slot: u32, protocol: Protocol, node: &Path) {
-        self.tell(message(Verb::Amplifier, slot, protocol, node));
+        self.tell(message(Verb::Amplifier, slot, protocol, node), None);
     }
 
     /// [main] Slot `slot`'s traffic, in `protocol`, is recorded to `path`.
     pub fn watch_recording(&self, slot: u32, protocol: Protocol, path: &Path) {
-        self.tell(message(Verb::Recording, slot, protocol, path));
+        // Handed over open: a guardian service has a /tmp of its own and may write nowhere.
+        let file = std::fs::OpenOptions::new().append(true).open(path).ok();
+        self.tell(
+            message(Verb::Recording, slot, protocol, path),
+            file.map(OwnedFd::from),
+        );
     }
 
     /// [main] The motors are at zero and the daemon is stopping in order: nothing to do when
     /// it ends. Waits (briefly) for the guardian to end, so that a daemon that starts again
     /// in the same process leaves no zombie behind.
     pub fn disarm(&self) {
-        self.tell(vec![Verb::Disarm as u8]);
+        self.tell(vec![Verb::Disarm as u8], None);
         let deadline = Instant::now() + Duration::from_millis(500);
         let mut inner = lock(&self.inner);
         let inner = &mut *inner;
@@ -271,7 +276,7 @@ impl Guardian {
                 let failed = inner
                     .watched
                     .values()
-                    .any(|m| socket::send(&inner.socket, m, &[]).is_err());
+                    .any(|(m, fd)| socket::send(&inner.socket, m, &raw(fd)).is_err());
                 Some(format!(
                     "the guardian that zeroes the motors should hapticd die ended ({status}); \
                      started again{}",
@@ -289,13 +294,17 @@ impl Guardian {
         }
     }
 
-    fn tell(&self, message: Vec<u8>) {
+    fn tell(&self, message: Vec<u8>, fd: Option<OwnedFd>) {
         let mut inner = lock(&self.inner);
         // A dead guardian is revived with the whole list; the send itself may then fail.
-        let _ = socket::send(&inner.socket, &message, &[]);
+        let _ = socket::send(&inner.socket, &message, &raw(&fd));
         let key = (message[0], message.get(1..5).map_or(0, slot_of));
-        inner.watched.insert(key, message);
+        inner.watched.insert(key, (message, fd));
     }
+}
+
+fn raw(fd: &Option<OwnedFd>) -> Vec<RawFd> {
+    fd.iter().map(AsRawFd::as_raw_fd).collect()
 }
 
 fn lock(inner: &Mutex<Inner>) -> std::sync::MutexGuard<'_, Inner> {
@@ -497,7 +506,7 @@ pub fn run() -> ExitCode {
         if fds[0].revents == 0 {
             continue;
         }
-        let Ok((n, _)) = socket::receive(0, &mut buffer) else {
+        let Ok((n, descriptors)) = socket::receive(0, &mut buffer) else {
             break;
         };
         if n == 0 {
@@ -505,7 +514,7 @@ pub fn run() -> ExitCode {
             // with Disarm first, having zeroed its motors).
             break;
         }
-        if apply(&buffer[..n], &mut slots) {
+        if apply(&buffer[..n], descriptors, &mut slots) {
             return ExitCode::SUCCESS;
         }
     }
@@ -590,8 +599,8 @@ fn end_stalled(daemon: libc::pid_t, pidfd: &OwnedFd, slot: usize, quiet: Duratio
     unsafe { libc::poll(fds.as_mut_ptr(), 1, 2000) };
 }
 
-/// Take in one message; true when it is the orderly stop.
-fn apply(message: &[u8], slots: &mut BTreeMap<u32, Slot>) -> bool {
+/// Take in one message and the descriptors it carried; true when it is the orderly stop.
+fn apply(message: &[u8], descriptors: Vec<OwnedFd>, slots: &mut BTreeMap<u32, Slot>) -> bool {
     let verb = message.first().copied().and_then(Verb::from_byte);
     if verb == Some(Verb::Disarm) {
         return true;
@@ -613,7 +622,10 @@ fn apply(message: &[u8], slots: &mut BTreeMap<u32, Slot>) -> bool {
             Ok(file) => entry.amplifier = Some((protocol, path, file)),
             Err(e) => eprintln!("{PROGRAM}: cannot open {}: {e}", path.display()),
         },
-        Verb::Recording => match std::fs::OpenOptions::new().append(true).open(&path) {
+        Verb::Recording => match descriptors.into_iter().next().map_or_else(
+            || std::fs::OpenOptions::new().append(true).open(&path),
+            |fd| Ok(File::from(fd)),
+        ) {
             Ok(file) => entry.recording = Some((protocol, path, file)),
             Err(e) => eprintln!("{PROGRAM}: cannot open {}: {e}", path.display()),
         },
@@ -737,14 +749,19 @@ mod tests {
         let recording = dir.join("session.traffic");
         std::fs::write(&recording, crate::replay::MAGIC).unwrap();
         let mut slots = BTreeMap::new();
-        let told = message(Verb::Recording, 7, Protocol::Simple, &recording);
-        assert!(!apply(&told, &mut slots));
+        // The recording comes open: the guardian never needs to reach its path.
+        let open = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&recording)
+            .unwrap();
+        let told = message(Verb::Recording, 7, Protocol::Simple, Path::new("/nowhere"));
+        assert!(!apply(&told, vec![open.into()], &mut slots));
         let (protocol, path, _) = slots[&7].recording.as_ref().unwrap();
         assert_eq!(
             (*protocol, path.as_path()),
-            (Protocol::Simple, recording.as_path())
+            (Protocol::Simple, Path::new("/nowhere"))
         );
-        assert!(apply(&[Verb::Disarm as u8], &mut slots));
+        assert!(apply(&[Verb::Disarm as u8], Vec::new(), &mut slots));
         zero_everything(0, slots);
         let transfers: Vec<_> = crate::replay::Recording::read(&recording)
             .unwrap()
