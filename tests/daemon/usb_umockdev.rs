@@ -579,13 +579,15 @@ fn amplifier_log(dir: &Path) -> Vec<(u32, [i16; 8])> {
 }
 
 /// hapticd driving the emulated SH4 board from `dir` on a private bus, with scene plugins
-/// from `dir/scene-plugins`; once it is ready and has driven the board a moment, `ending`
+/// from `dir/scene-plugins`, after the testbed's `setup` steps (where its guardian runs,
+/// its control group); once it is ready and has driven the board a moment, `ending`
 /// ends it some way other than its own stop (ADDRESS and CONFIG in a step are the bus's
 /// address and the configuration file), and the steps
 /// wait for the guardian's zero. Returns how hapticd ended, what the board saw, and the
 /// board's log followed by the commands' and hapticd's own.
 fn ended_under_the_guardian(
     name: &str,
+    setup: &[String],
     ending: &[String],
 ) -> (String, Vec<(u32, [i16; 8])>, String) {
     let dir = scratch_dir(name);
@@ -600,15 +602,17 @@ fn ended_under_the_guardian(
     let bus = private_bus(&dir);
     let args = hapticd_arguments(&dir, &bus);
     let config = dir.join("hapticd.yaml");
-    let mut steps: Vec<String> = [
-        "add=amplifier.umockdev",
-        "amplifier=/dev/bus/usb/001/002=amp.log",
-        "start",
-        "wait=ready: driving",
-        "sleep=0.3",
-    ]
-    .map(String::from)
-    .to_vec();
+    let mut steps: Vec<String> = setup.to_vec();
+    steps.extend(
+        [
+            "add=amplifier.umockdev",
+            "amplifier=/dev/bus/usb/001/002=amp.log",
+            "start",
+            "wait=ready: driving",
+            "sleep=0.3",
+        ]
+        .map(String::from),
+    );
     steps.extend(ending.iter().map(|s| {
         s.replace("ADDRESS", &bus.address)
             .replace("CONFIG", &config.display().to_string())
@@ -617,9 +621,10 @@ fn ended_under_the_guardian(
     let steps: Vec<&str> = steps.iter().map(String::as_str).collect();
     testbed_run(&dir, &steps, &artifact("hapticd"), &args);
     let status = std::fs::read_to_string(dir.join("program.status")).unwrap();
-    let log = std::fs::read_to_string(dir.join("amp.log")).unwrap()
-        + &std::fs::read_to_string(dir.join("run.log")).unwrap_or_default()
-        + &std::fs::read_to_string(dir.join("program.stderr")).unwrap_or_default();
+    let log = ["amp.log", "run.log", "program.stderr", "guardian.log"]
+        .iter()
+        .map(|f| std::fs::read_to_string(dir.join(f)).unwrap_or_default())
+        .collect::<String>();
     (status.trim().to_string(), amplifier_log(&dir), log)
 }
 
@@ -648,7 +653,7 @@ fn a_daemon_killed_while_driving_leaves_the_amplifier_at_zero_current() {
         artifact("hapticd").display(),
         support::repo_dir().join("config/mechanisms").display()
     );
-    let (status, seen, log) = ended_under_the_guardian("kill-9", &[second, "kill=9".into()]);
+    let (status, seen, log) = ended_under_the_guardian("kill-9", &[], &[second, "kill=9".into()]);
     assert_eq!(status, "signal 9");
     assert_zeroed_by_the_guardian(&seen);
     assert!(log.contains("is already owned"), "{log}");
@@ -660,7 +665,7 @@ fn a_daemon_killed_while_driving_leaves_the_amplifier_at_zero_current() {
 /// and zeroes the board within a tenth of a second, where before it stayed driven for good.
 #[test]
 fn a_daemon_stopped_while_driving_is_ended_and_the_amplifier_zeroed() {
-    let (status, seen, log) = ended_under_the_guardian("sigstop", &["kill=STOP".into()]);
+    let (status, seen, log) = ended_under_the_guardian("sigstop", &[], &["kill=STOP".into()]);
     assert_eq!(status, "signal 9", "{log}");
     assert_zeroed_by_the_guardian(&seen);
     let said = log
@@ -682,7 +687,26 @@ fn a_daemon_stopped_while_driving_is_ended_and_the_amplifier_zeroed() {
 fn a_plugin_whose_constructor_exits_leaves_the_amplifier_at_zero_current() {
     let call = "run=busctl --address=ADDRESS call org.hapticd.Hapticd1 /org/hapticd/Hapticd1 \
                 org.hapticd.Hapticd1.Manager SwitchScene s exiting";
-    let (status, seen, _) = ended_under_the_guardian("exiting-plugin", &[call.into()]);
+    let (status, seen, _) = ended_under_the_guardian("exiting-plugin", &[], &[call.into()]);
     assert_eq!(status, "exit 1");
     assert_zeroed_by_the_guardian(&seen);
+}
+
+/// A kill of hapticd's whole control group (systemd's stop timeout, `systemctl kill -s KILL
+/// hapticd`) ends every process in it at the same instant. The guardian is not among them:
+/// it runs as systemd runs it, started on its socket for hapticd's connection, so it zeroes
+/// the board. A guardian that is hapticd's child (as when HAPTICD_GUARDIAN_SOCKET is unset)
+/// dies with it and the board stays driven.
+#[test]
+fn a_kill_of_the_daemons_whole_control_group_leaves_the_amplifier_at_zero_current() {
+    let cgroup = format!("cgroup=hapticd-test-{}", std::process::id());
+    let setup = ["guardian=guardian.socket".to_string(), cgroup];
+    let (status, seen, log) =
+        ended_under_the_guardian("cgroup-kill", &setup, &["kill-cgroup".into()]);
+    assert_eq!(status, "signal 9", "{log}");
+    assert_zeroed_by_the_guardian(&seen);
+    assert!(
+        log.contains("hapticd-guardian: hapticd (pid ") && log.contains("sent zero current"),
+        "{log}"
+    );
 }

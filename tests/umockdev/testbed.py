@@ -25,10 +25,20 @@ Steps, in order (files are in DIR):
                                 went with transfers done but not collected)
                         IN transfers on EP 0x86 echo the last D/A values the board got
                         (from any client), counters at 0, rotary switch 3
+    guardian=SOCKET     serve the program's guardian as systemd does (hapticd-guardian.socket):
+                        systemd-socket-activate listens on SOCKET and starts the program
+                        as hapticd-guardian for each connection, in the testbed, outside
+                        the program's process tree; the program is told the socket by
+                        HAPTICD_GUARDIAN_SOCKET. The guardians' standard error goes to
+                        DIR/guardian.log
+    cgroup=NAME         start the program in a new control group NAME (cgroup v2), as
+                        systemd starts a service in its own
     start               start the program, its standard error read line by line
     wait=TEXT           wait until the program writes a line containing TEXT
     wait-log=LOG=TEXT   wait until LOG has a line containing TEXT
     kill=SIGNAL         send the program SIGNAL (a number or a name: 9, KILL, SIGKILL)
+    kill-cgroup         kill every process of the program's control group at once
+                        (cgroup.kill: SIGKILL, as systemd's stop timeout does)
     exited              wait until the program has exited; the testbed and its devices
                         stay, for whatever it left running
     unplug=SYSFS        a "remove" uevent, then the device is gone from sysfs and /dev
@@ -348,12 +358,56 @@ class Amplifier:
         return 0, 0
 
 
+def outside_testbed(script, *args):
+    """Run the shell `script` with `args` without umockdev's preload, which would redirect
+    its /sys into the testbed's."""
+    env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+    subprocess.run(["sh", "-ec", script, "sh", *args], env=env, check=True, timeout=TIMEOUT)
+
+
+class ControlGroup:
+    """A new control group (cgroup v2), removed once empty."""
+
+    def __init__(self, name):
+        with open("/proc/self/mounts") as f:
+            roots = [line.split()[1] for line in f if line.split()[2] == "cgroup2"]
+        if not roots:
+            raise OSError("no cgroup v2 hierarchy is mounted")
+        self.path = os.path.join(roots[0], name)
+        outside_testbed('mkdir "$1"', self.path)
+
+    def command(self, command, env):
+        """`command` started in the group: a shell outside the testbed moves itself in,
+        then becomes the command with the testbed's environment."""
+        preload = env.get("LD_PRELOAD", "")
+        return [
+            "env", "-u", "LD_PRELOAD", "sh", "-ec",
+            'echo $$ > "$1/cgroup.procs"; shift; LD_PRELOAD="$1"; export LD_PRELOAD; '
+            'shift; exec "$@"',
+            "sh", self.path, preload, *command,
+        ]
+
+    def kill(self):
+        outside_testbed('echo 1 > "$1/cgroup.kill"', self.path)
+
+    def remove(self):
+        outside_testbed(
+            'for _ in $(seq 500); do rmdir "$1" 2>/dev/null && exit 0; sleep 0.02; done; '
+            'rmdir "$1"',
+            self.path,
+        )
+
+
 class Program:
     """The program under test, its standard error collected as it comes."""
 
-    def __init__(self, command, env):
+    def __init__(self, command, env, cgroup=None):
         self.process = subprocess.Popen(
-            command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+            cgroup.command(command, env) if cgroup else command,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
         )
         self.lines = queue.Queue()
         self.log = []
@@ -429,15 +483,19 @@ def main():
         env.pop(name, None)
     start = time.monotonic()
     program = None
+    cgroup = None
+    guardian = None
     moments = []
     handlers = []
     failed = None
     # Once the program is killed or waited for, how it ends is the test's to check.
-    ending_expected = any(s.partition("=")[0] in ("kill", "exited") for s in steps)
+    ending_expected = any(
+        s.partition("=")[0] in ("kill", "kill-cgroup", "exited") for s in steps
+    )
     try:
         for step in steps:
             verb, _, argument = step.partition("=")
-            if verb in ("wait", "kill", "exited") and program is None:
+            if verb in ("wait", "kill", "kill-cgroup", "exited") and program is None:
                 raise ValueError(f"{step!r} before start")
             if verb == "add":
                 with open(path(argument)) as f:
@@ -456,8 +514,29 @@ def main():
                 amplifier = Amplifier(open(path(log), "w"), sockets)
                 testbed.attach_ioctl(node, amplifier.handler)
                 handlers.append(amplifier)
+            elif verb == "guardian":
+                socket_path = path(argument)
+                # The program again, under the guardian's name (systemd's unit sets argv[0]).
+                as_guardian = path("hapticd-guardian")
+                os.symlink(os.path.abspath(command[0]), as_guardian)
+                guardian = subprocess.Popen(
+                    ["systemd-socket-activate", "--seqpacket", "--accept", "--inetd",
+                     "-l", socket_path, "-E", "LD_PRELOAD", "-E", "UMOCKDEV_DIR",
+                     as_guardian],
+                    env=env,
+                    stdout=subprocess.DEVNULL,
+                    stderr=open(path("guardian.log"), "w"),
+                )
+                deadline = time.monotonic() + TIMEOUT
+                while not os.path.exists(socket_path):
+                    if time.monotonic() > deadline or guardian.poll() is not None:
+                        raise OSError("systemd-socket-activate never listened")
+                    time.sleep(0.02)
+                env["HAPTICD_GUARDIAN_SOCKET"] = socket_path
+            elif verb == "cgroup":
+                cgroup = ControlGroup(argument)
             elif verb == "start":
-                program = Program(command, env)
+                program = Program(command, env, cgroup)
             elif verb == "wait":
                 program.wait_for(argument)
             elif verb == "wait-log":
@@ -465,6 +544,10 @@ def main():
                 wait_for_line(path(log), text)
             elif verb == "kill":
                 program.process.send_signal(signal_number(argument))
+            elif verb == "kill-cgroup":
+                if cgroup is None:
+                    raise ValueError("kill-cgroup without a cgroup= step")
+                cgroup.kill()
             elif verb == "exited":
                 program.wait_exited()
             elif verb == "unplug":
@@ -489,6 +572,11 @@ def main():
     ) as error:
         failed = f"testbed.py: step {len(moments) + 1}: {error}"
     status = program.stop() if program is not None else 1
+    if cgroup is not None:
+        cgroup.remove()
+    if guardian is not None:
+        guardian.terminate()
+        guardian.wait(timeout=TIMEOUT)
     if program is not None:
         with open(path("program.stderr"), "w") as f:
             f.writelines(list(program.log))
