@@ -52,11 +52,14 @@ fn read(path: PathBuf) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// The command line of the installed unit's `ExecStart`, run from the scratch root: the
-/// program moved under `dest`, the system bus (absent here) replaced by `bus`.
-fn exec_start(dest: &Path, unit: &str, bus: &str) -> Command {
-    let unit = read(dest.join(unit));
-    let line = unit
+/// The command line of the installed unit's `ExecStart` with its `Environment=`, run from
+/// the scratch root: the program moved under `dest`, the system bus (absent here) replaced by
+/// `bus`. A unit that names the guardian's socket gets the installed guardian service on a
+/// scratch socket, served as systemd serves it; the service lives as long as the second value.
+fn exec_start(dest: &Path, unit: &str, bus: &str) -> (Command, Option<support::Killed>) {
+    let path = dest.join(unit);
+    let text = read(path.clone());
+    let line = text
         .lines()
         .find_map(|l| l.strip_prefix("ExecStart="))
         .expect("the unit has ExecStart");
@@ -67,7 +70,54 @@ fn exec_start(dest: &Path, unit: &str, bus: &str) -> Command {
         command.arg(if word == "system" { bus } else { word });
     }
     command.env_remove("NOTIFY_SOCKET");
-    command
+    let mut guardian = None;
+    for setting in text.lines().filter_map(|l| l.strip_prefix("Environment=")) {
+        let (name, value) = setting.split_once('=').unwrap();
+        if name == hapticd_device::guardian::SOCKET_VARIABLE {
+            let (socket, service) = serve_guardian(dest, path.parent().unwrap());
+            command.env(name, socket);
+            guardian = Some(service);
+        } else {
+            command.env(name, value);
+        }
+    }
+    (command, guardian)
+}
+
+/// The installed guardian service (`units`' `hapticd-guardian@.service`, its program under
+/// `dest`) on a new scratch socket, one instance per connection as its socket unit starts it:
+/// the socket, and systemd-socket-activate serving it.
+fn serve_guardian(dest: &Path, units: &Path) -> (PathBuf, support::Killed) {
+    let unit = read(units.join("hapticd-guardian@.service"));
+    let line = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("ExecStart=@"))
+        .expect("the guardian's ExecStart names its argv[0]");
+    let (program, name) = line.split_once(' ').unwrap();
+    static SERVED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = SERVED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = scratch(&format!("guardian-{n}"));
+    // systemd sets argv[0] from the `@` form; a link of that name does it here.
+    let as_named = dir.join(name);
+    std::os::unix::fs::symlink(dest.join(program.trim_start_matches('/')), &as_named).unwrap();
+    let socket = dir.join("guardian.socket");
+    let service = Command::new("systemd-socket-activate")
+        .args(["--seqpacket", "--accept", "--inetd", "-l"])
+        .arg(&socket)
+        .arg(&as_named)
+        .stderr(std::fs::File::create(dir.join("guardian.log")).unwrap())
+        .spawn()
+        .expect("systemd-socket-activate (package systemd) is installed by `make check`");
+    let service = support::Killed(service);
+    let started = std::time::Instant::now();
+    while !socket.exists() {
+        assert!(
+            started.elapsed().as_secs() < 10,
+            "the guardian's socket never appeared"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    (socket, service)
 }
 
 /// A manager property of the daemon on `bus`, as `busctl` prints it; None until it answers.
@@ -122,7 +172,8 @@ fn scenes_of_installed(root: &Path, bus: &str) -> (String, String) {
         &scratch(bus),
         &root.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
     );
-    let mut daemon = exec_start(root, "usr/lib/systemd/system/hapticd.service", &bus.address);
+    let (mut daemon, _guardian) =
+        exec_start(root, "usr/lib/systemd/system/hapticd.service", &bus.address);
     daemon
         .arg("--config")
         .arg(root.join("etc/hapticd/hapticd.yaml"));
@@ -233,12 +284,13 @@ fn snapshot_of_installed(root: &Path) -> hapticd_render::picture::Picture {
             &policies.join("org.hapticd.Renderer1.conf"),
         ],
     );
-    let mut daemon = exec_start(root, "usr/lib/systemd/system/hapticd.service", &bus.address);
+    let (mut daemon, _guardian) =
+        exec_start(root, "usr/lib/systemd/system/hapticd.service", &bus.address);
     daemon
         .arg("--config")
         .arg(root.join("etc/hapticd/hapticd.yaml"));
     let _daemon = support::Killed(daemon.stderr(std::process::Stdio::null()).spawn().unwrap());
-    let mut renderer = exec_start(
+    let (mut renderer, _) = exec_start(
         root,
         "usr/lib/systemd/system/hapticd-render.service",
         &bus.address,
@@ -352,7 +404,8 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
         &scratch("opt-bus"),
         &dest.join("etc/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
     );
-    let mut daemon = exec_start(&dest, "etc/systemd/system/hapticd.service", &bus.address);
+    let (mut daemon, _guardian) =
+        exec_start(&dest, "etc/systemd/system/hapticd.service", &bus.address);
     daemon.args(["--scene", "blocks"]);
     let (scenes, active) = scenes_of_running(daemon, &bus, &dest.join("hapticd.log"));
     assert_eq!(active, "s \"blocks\"");
