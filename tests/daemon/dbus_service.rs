@@ -542,6 +542,7 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
         // What anyone is handed to read is open for reading alone, as the README says.
         for handed in [
             device.open_world().await.unwrap(),
+            device.open_geometry().await.unwrap().0,
             device.open_telemetry(HashMap::new()).await.unwrap(),
         ] {
             let handed: std::os::fd::OwnedFd = handed.into();
@@ -1531,6 +1532,99 @@ print(sum(reads))
 /// Listing scenes reads no meshes: with a scene of a 490 000-triangle mesh installed (each
 /// read took 0.45 s, and ten unprivileged read loops delayed root's requests by seconds),
 /// `Scenes` answers in milliseconds, lists the scene, and the loops delay nothing.
+/// A scene's solids are shared whole, however many triangles its meshes have (the world's
+/// block once kept the first 16 384), labelled with the frames' count of the scene they are,
+/// and shared anew when a scene is switched to.
+#[test]
+fn the_running_scene_s_solids_are_shared_whole_and_anew_at_each_switch() {
+    let dir = scratch("geometry");
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::copy(
+        repo_dir().join("config/scenes/static.yaml"),
+        scenes.join("static.yaml"),
+    )
+    .unwrap();
+    // A binary STL of 40 000 triangles, a strip of thin slivers 1 mm apart.
+    let triangles = 40_000u32;
+    let mut stl = vec![0u8; 80];
+    stl.extend(triangles.to_le_bytes());
+    for t in 0..triangles {
+        let x = t as f32 * 0.001;
+        for v in [
+            [0.0, 0.0, 1.0],
+            [x, 0.0, 0.0],
+            [x + 0.001, 0.0, 0.0],
+            [x, 0.001, 0.0],
+        ] {
+            stl.extend(v.iter().flat_map(|c: &f32| c.to_le_bytes()));
+        }
+        stl.extend([0u8; 2]);
+    }
+    std::fs::write(scenes.join("strip.stl"), &stl).unwrap();
+    std::fs::write(
+        scenes.join("strip.yaml"),
+        "name: strip\nshapes:\n  - floor: { height: -0.05 }\n  - mesh: { file: strip.stl, scale: 0.005 }\n",
+    )
+    .unwrap();
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    std::fs::write(
+        &setup.config,
+        default_config().replace(
+            &repo_dir().join("config/scenes").display().to_string(),
+            &scenes.display().to_string(),
+        ),
+    )
+    .unwrap();
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "strip"]);
+    let connection = bus.connect();
+    zbus::block_on(async {
+        use hapticd_ipc::proxies::{DeviceProxy, ManagerProxy};
+        use hapticd_ipc::world_share::MappedWorld;
+        let device = DeviceProxy::builder(&connection)
+            .path(hapticd_ipc::device_path(0))
+            .build()
+            .await
+            .unwrap();
+        let world = MappedWorld::open(&device.open_world().await.unwrap().into()).unwrap();
+        let mut frame = Box::new(hapticd_core::world_state::WorldFrame::empty());
+        let (fd, switches) = device.open_geometry().await.unwrap();
+        let (written, geometry) = hapticd_ipc::geometry_share::read(&fd.into()).unwrap();
+        world.read(&mut frame).unwrap();
+        assert_eq!(
+            (written, switches),
+            (frame.scene_switches, frame.scene_switches)
+        );
+        assert_eq!(geometry.triangles.len(), triangles as usize);
+        let mesh = geometry
+            .solids
+            .iter()
+            .find(|s| s.triangle_count > 0)
+            .unwrap();
+        assert_eq!(mesh.triangle_count, triangles);
+        // The strip reaches as far as the file's last sliver, times the scale.
+        let reach = geometry
+            .triangles
+            .iter()
+            .flat_map(|t| t.corners)
+            .map(|c| c[0])
+            .fold(f64::MIN, f64::max);
+        assert!(
+            (reach - 0.005 * 0.001 * f64::from(triangles)).abs() < 1e-6,
+            "{reach}"
+        );
+        let manager = ManagerProxy::new(&connection).await.unwrap();
+        manager.switch_scene("static").await.unwrap();
+        let (fd, after) = device.open_geometry().await.unwrap();
+        let (_, geometry) = hapticd_ipc::geometry_share::read(&fd.into()).unwrap();
+        world.read(&mut frame).unwrap();
+        assert_eq!(after, switches + 1);
+        assert_eq!(after, frame.scene_switches);
+        assert!(geometry.triangles.is_empty() && !geometry.solids.is_empty());
+    });
+}
+
 #[test]
 fn scenes_are_listed_without_reading_their_meshes_whoever_asks_how_often() {
     if !is_root() {
@@ -2834,7 +2928,7 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("31 passed"), "{said}");
+    assert!(said.contains("35 passed"), "{said}");
     daemon.stop();
     // `pip install PATH` makes a package that imports from where it went, typed (from a
     // copy: pip leaves its build files beside the source).

@@ -32,4 +32,5 @@ pub mod sync;
 pub mod telemetry;
 pub mod transport;
 pub mod wire;
+pub mod world_geometry;
 pub mod world_state;

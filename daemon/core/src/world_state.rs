@@ -3,16 +3,16 @@
 //! hands to the renderer process) at the renderer's frame rate, under a sequence lock: the
 //! writer never waits, and a reader copies the block and copies again if a write overlapped.
 //!
-//! The world's solids ([`WorldGeometry`]) sit beside the frame under a sequence of their own:
-//! written once per scene, when the haptic thread first pictures it, and read by a renderer
-//! when `scene_switches` says the scene changed.
+//! The world's solids are not here: each scene's are a block of their own, sized by the
+//! scene ([`crate::world_geometry`]), which a reader asks for when `scene_switches` says
+//! the scene changed.
 //!
 //! Nothing here allocates or calls the system: the daemon maps the memory and passes it in.
 
 use std::sync::atomic::{AtomicU64, Ordering, fence};
 
 use glam::DVec3;
-use hapticd_plugin_api::{Geometry, HapticdBodyPose, HapticdSolid, HapticdTriangle, HapticdWrench};
+use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
 
 use crate::haptic_loop::{DeviceState, HapticLoop};
 use crate::kinematics::{Dof, MAX_EFFECTORS, Pose, quat_from_wxyz, quat_to_wxyz};
@@ -25,14 +25,8 @@ pub const MAX_BODIES: usize = 4096;
 /// First bytes of a shared world, so that a reader knows what it mapped.
 pub const MAGIC: [u8; 8] = *b"hapticdW";
 
-/// Most solids a picture shows; a larger world shows its first ones.
-pub const MAX_SOLIDS: usize = 4096;
-
-/// Most triangles of the solids a picture shows.
-pub const MAX_TRIANGLES: usize = 16384;
-
-/// Layout version: raised with any change to [`WorldFrame`] or [`WorldGeometry`].
-pub const VERSION: u32 = 2;
+/// Layout version: raised with any change to [`WorldFrame`] or [`SharedWorld`].
+pub const VERSION: u32 = 3;
 
 /// One picture of the world.
 #[repr(C)]
@@ -187,25 +181,7 @@ pub fn pose_of(pose: &HapticdBodyPose) -> Pose {
     }
 }
 
-/// The solids of the scene a frame pictures.
-#[repr(C)]
-#[derive(Debug, Clone, Copy)]
-pub struct WorldGeometry {
-    /// The frame's `scene_switches` these solids belong to.
-    pub scene_switches: u32,
-    /// Bodies of the scene's world.
-    pub body_count: u32,
-    /// Solids in `solids`.
-    pub solid_count: u32,
-    /// Triangles in `triangles`.
-    pub triangle_count: u32,
-    /// The first solids.
-    pub solids: [HapticdSolid; MAX_SOLIDS],
-    /// The first triangles.
-    pub triangles: [HapticdTriangle; MAX_TRIANGLES],
-}
-
-/// The shared block: a header, the frame and the geometry, each under its sequence.
+/// The shared block: a header and the frame under its sequence.
 #[repr(C)]
 pub struct SharedWorld {
     /// [`MAGIC`], [`VERSION`] and [`SHARED_SIZE`].
@@ -214,10 +190,6 @@ pub struct SharedWorld {
     pub sequence: AtomicU64,
     /// The latest frame.
     pub frame: WorldFrame,
-    /// As `sequence`, for `geometry`.
-    pub geometry_sequence: AtomicU64,
-    /// The solids of the latest scene pictured.
-    pub geometry: WorldGeometry,
 }
 
 /// Bytes of a shared world.
@@ -229,8 +201,6 @@ const HEADER: Header = Header::new(MAGIC, VERSION, SHARED_SIZE);
 /// The writing side, over a block the caller mapped.
 pub struct WorldWriter {
     shared: *mut SharedWorld,
-    /// The `scene_switches` of the scene whose solids were last written.
-    pictured_scene: Option<u32>,
 }
 
 // SAFETY: the writer is the block's one writer; it moves to the haptic thread once.
@@ -250,52 +220,13 @@ impl WorldWriter {
             addr_of_mut!((*shared).header).write(HEADER);
             addr_of_mut!((*shared).sequence).write(AtomicU64::new(0));
             addr_of_mut!((*shared).frame).write(WorldFrame::empty());
-            addr_of_mut!((*shared).geometry_sequence).write(AtomicU64::new(0));
-            let geometry = addr_of_mut!((*shared).geometry);
-            addr_of_mut!((*geometry).scene_switches).write(u32::MAX);
-            addr_of_mut!((*geometry).body_count).write(0);
-            addr_of_mut!((*geometry).solid_count).write(0);
-            addr_of_mut!((*geometry).triangle_count).write(0);
         }
-        Self {
-            shared,
-            pictured_scene: None,
-        }
+        Self { shared }
     }
 
-    /// [rt] Picture `haptic` as its last tick left it: its scene's solids first when that
-    /// scene was not pictured yet, then the frame (see [`WorldFrame::capture`]).
+    /// [rt] Picture `haptic` as its last tick left it (see [`WorldFrame::capture`]).
     pub fn capture(&mut self, haptic: &mut HapticLoop, rate: f64) {
-        let switches = haptic.frame().scene_switches;
-        if self.pictured_scene != Some(switches) {
-            self.write_geometry(switches, haptic.scene().geometry());
-            self.pictured_scene = Some(switches);
-        }
         self.write(|picture| picture.capture(haptic, rate));
-    }
-
-    /// [rt] Publish `geometry` as the solids of the scene counted `scene_switches`: as many
-    /// solids and triangles as the block holds. Copies, never allocates.
-    pub fn write_geometry(&mut self, scene_switches: u32, geometry: &Geometry) {
-        // SAFETY: valid for the writer's life (see `new`); readers only read.
-        let shared = unsafe { &mut *self.shared };
-        let sequence = shared.geometry_sequence.load(Ordering::Relaxed);
-        shared
-            .geometry_sequence
-            .store(sequence + 1, Ordering::Relaxed);
-        fence(Ordering::Release);
-        let out = &mut shared.geometry;
-        let solids = geometry.solids.len().min(MAX_SOLIDS);
-        let triangles = geometry.triangles.len().min(MAX_TRIANGLES);
-        out.solids[..solids].copy_from_slice(&geometry.solids[..solids]);
-        out.triangles[..triangles].copy_from_slice(&geometry.triangles[..triangles]);
-        out.scene_switches = scene_switches;
-        out.body_count = geometry.body_count;
-        out.solid_count = solids as u32;
-        out.triangle_count = triangles as u32;
-        shared
-            .geometry_sequence
-            .store(sequence + 2, Ordering::Release);
     }
 
     /// [rt] Write a frame with `fill`, which finds the last one in place.
@@ -352,53 +283,6 @@ impl WorldReader {
         }
         None
     }
-
-    /// Copy the latest whole geometry into `out` and return the `scene_switches` it belongs
-    /// to; None when none has been written yet or every try overlapped a write.
-    pub fn read_geometry(&self, out: &mut Geometry) -> Option<u32> {
-        const TRIES: usize = 100;
-        // SAFETY: in the block (see `new`), only used atomically.
-        let sequence = unsafe { &(*self.shared).geometry_sequence };
-        // SAFETY: in the block; only read through volatile copies, checked below.
-        let geometry = unsafe { std::ptr::addr_of!((*self.shared).geometry) };
-        for _ in 0..TRIES {
-            let before = sequence.load(Ordering::Acquire);
-            if before % 2 == 1 {
-                std::hint::spin_loop();
-                continue;
-            }
-            // SAFETY: every place read lies in the block; counts are clamped to the arrays,
-            // and a torn copy is detected below and thrown away.
-            let switches = unsafe {
-                use std::ptr::addr_of;
-                let solids =
-                    (addr_of!((*geometry).solid_count).read_volatile() as usize).min(MAX_SOLIDS);
-                let triangles = (addr_of!((*geometry).triangle_count).read_volatile() as usize)
-                    .min(MAX_TRIANGLES);
-                out.body_count = addr_of!((*geometry).body_count).read_volatile();
-                out.solids.clear();
-                out.solids.extend((0..solids).map(|k| {
-                    addr_of!((*geometry).solids)
-                        .cast::<HapticdSolid>()
-                        .add(k)
-                        .read_volatile()
-                }));
-                out.triangles.clear();
-                out.triangles.extend((0..triangles).map(|k| {
-                    addr_of!((*geometry).triangles)
-                        .cast::<HapticdTriangle>()
-                        .add(k)
-                        .read_volatile()
-                }));
-                addr_of!((*geometry).scene_switches).read_volatile()
-            };
-            fence(Ordering::Acquire);
-            if sequence.load(Ordering::Relaxed) == before {
-                return (before > 0).then_some(switches);
-            }
-        }
-        None
-    }
 }
 
 #[cfg(test)]
@@ -427,68 +311,6 @@ mod tests {
         assert_eq!(reader.read(&mut out), Some(2));
         assert_eq!((out.body_count, out.time), (2, 0.5));
         assert_eq!(out.bodies[1].position, [1.0, 2.0, 3.0]);
-    }
-
-    #[test]
-    fn a_reader_sees_the_geometry_of_the_scene_written() {
-        use hapticd_plugin_api::{HAPTICD_SHAPE_SPHERE, HAPTICD_SHAPE_TRIANGLES};
-        let mut memory = block();
-        let shared = memory.as_mut_ptr();
-        // SAFETY: the box holds one SharedWorld for the test's life.
-        let mut writer = unsafe { WorldWriter::new(shared) };
-        // SAFETY: as above.
-        let reader = unsafe { WorldReader::new(shared, SHARED_SIZE) }.unwrap();
-        let mut out = Geometry::default();
-        assert_eq!(reader.read_geometry(&mut out), None, "nothing written yet");
-        let mut geometry = Geometry::default();
-        let body = geometry.add_body();
-        geometry.add_solid(HapticdSolid {
-            body,
-            shape: HAPTICD_SHAPE_SPHERE,
-            size: [0.02, 0.0, 0.0],
-            ..HapticdSolid::placed([0.0, 0.1, 0.0], [1.0, 0.0, 0.0, 0.0])
-        });
-        let corners = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]];
-        geometry.add_triangles(
-            HapticdSolid {
-                shape: HAPTICD_SHAPE_TRIANGLES,
-                ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
-            },
-            [HapticdTriangle { corners }; 3],
-        );
-        writer.write_geometry(4, &geometry);
-        assert_eq!(reader.read_geometry(&mut out), Some(4));
-        assert_eq!(out, geometry);
-        // A second scene replaces the first whole.
-        writer.write_geometry(5, &Geometry::default());
-        assert_eq!(reader.read_geometry(&mut out), Some(5));
-        assert_eq!(out, Geometry::default());
-    }
-
-    #[test]
-    fn a_world_beyond_the_block_shows_its_first_solids() {
-        use hapticd_plugin_api::HAPTICD_SHAPE_BOX;
-        let mut memory = block();
-        let shared = memory.as_mut_ptr();
-        // SAFETY: the box holds one SharedWorld for the test's life.
-        let mut writer = unsafe { WorldWriter::new(shared) };
-        // SAFETY: as above.
-        let reader = unsafe { WorldReader::new(shared, SHARED_SIZE) }.unwrap();
-        let solid = |k: usize| HapticdSolid {
-            shape: HAPTICD_SHAPE_BOX,
-            size: [0.01 * (k + 1) as f64; 3],
-            ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
-        };
-        let geometry = Geometry {
-            body_count: 0,
-            solids: (0..MAX_SOLIDS + 10).map(solid).collect(),
-            triangles: vec![HapticdTriangle::default(); MAX_TRIANGLES + 1],
-        };
-        writer.write_geometry(1, &geometry);
-        let mut out = Geometry::default();
-        assert_eq!(reader.read_geometry(&mut out), Some(1));
-        assert_eq!(out.solids[..], geometry.solids[..MAX_SOLIDS]);
-        assert_eq!(out.triangles.len(), MAX_TRIANGLES);
     }
 
     #[test]

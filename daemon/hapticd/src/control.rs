@@ -24,6 +24,7 @@ use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::transport::Link;
+use hapticd_ipc::geometry_share::SceneGeometryFile;
 use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_link_share::{WorldLink, WorldLinkFile};
 use hapticd_ipc::world_share::SharedWorldFile;
@@ -152,6 +153,8 @@ pub struct DeviceHandle {
     scheduling: String,
     state_dir: Option<StateDir>,
     world: Option<SharedWorldFile>,
+    /// The running scene's solids, as pictures show them.
+    geometry: Mutex<Option<SceneGeometryFile>>,
     ring: Option<SharedTelemetryFile>,
     world_link: Option<WorldLinkFile>,
     fixed: Fixed,
@@ -198,6 +201,8 @@ pub struct DeviceSetup {
     pub defaults: Parameters,
     /// The memory the loop draws its world into, if it could be made.
     pub world: Option<SharedWorldFile>,
+    /// The first scene's solids, if they could be shared (see [`scene_geometry`]).
+    pub geometry: Option<SceneGeometryFile>,
     /// The ring the loop writes every tick into, if it could be made.
     pub telemetry: Option<SharedTelemetryFile>,
     /// The link its remote scenes reach their world through, if it could be made.
@@ -206,6 +211,19 @@ pub struct DeviceSetup {
     pub fixed: Fixed,
     /// The control of the first scene's world, if it can be changed from outside.
     pub control: Option<SceneControl>,
+}
+
+/// The solids of `geometry`, the scene of a device `identity` that its frames count as
+/// `scene_switches`, shared for pictures; without them the loop runs as well, only pictures
+/// miss the scene (said in the log).
+pub fn scene_geometry(
+    identity: &str,
+    scene_switches: u32,
+    geometry: &hapticd_plugin_api::Geometry,
+) -> Option<SceneGeometryFile> {
+    SceneGeometryFile::create(scene_switches, geometry)
+        .inspect_err(|e| tracing::warn!("{identity}: the scene's solids are not shared: {e}"))
+        .ok()
 }
 
 /// What hapticd's command line fixes for every start (`--sim MECH`, `--rate`): a binding or
@@ -231,6 +249,7 @@ impl DeviceHandle {
             scheduling: setup.scheduling,
             state_dir: setup.state_dir,
             world: setup.world,
+            geometry: Mutex::new(setup.geometry),
             ring: setup.telemetry,
             world_link: setup.world_link,
             fixed: setup.fixed,
@@ -289,6 +308,22 @@ impl DeviceHandle {
         world
             .share()
             .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))
+    }
+
+    /// A descriptor of the running scene's solids (read-only for others), and the frames'
+    /// `scene_switches` of that scene.
+    pub fn open_geometry(&self) -> Result<(std::os::fd::OwnedFd, u32), Error> {
+        let geometry = lock(&self.geometry);
+        let geometry = geometry.as_ref().ok_or_else(|| {
+            Error::Unavailable(format!(
+                "{}: the scene's solids are not shared (see the log)",
+                self.identity
+            ))
+        })?;
+        let fd = geometry
+            .share()
+            .map_err(|e| Error::Unavailable(format!("{}: {e}", self.identity)))?;
+        Ok((fd, geometry.scene_switches()))
     }
 
     /// A descriptor of the ring the loop writes every tick into (read-only for others).
@@ -496,6 +531,8 @@ impl DeviceHandle {
         carried: &[(String, HapticdSceneCommand)],
     ) -> Result<(), Error> {
         let before = self.telemetry().frame.scene_switches;
+        // Switches are one at a time (the daemon's lock), so this scene is the next counted.
+        let geometry = scene_geometry(&self.identity, before.wrapping_add(1), scene.geometry());
         let mut control = scene.take_control();
         if let Some(control) = &mut control {
             for (name, command) in carried {
@@ -512,7 +549,13 @@ impl DeviceHandle {
             defaults.proxy = proxy;
         }
         let parameters = guard.record.parameters.resolve(&defaults);
-        self.send(LoopCommand::SwitchScene(scene))?;
+        // Its solids are shared before the loop counts it, so that a reader who sees the
+        // count finds them; the last scene's come back if the swap fails.
+        let previous = std::mem::replace(&mut *lock(&self.geometry), geometry);
+        if let Err(e) = self.send(LoopCommand::SwitchScene(scene)) {
+            *lock(&self.geometry) = previous;
+            return Err(e);
+        }
         self.send(LoopCommand::Tune(parameters))?;
         guard.defaults = defaults;
         drop(guard);

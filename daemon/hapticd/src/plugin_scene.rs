@@ -36,7 +36,8 @@ use hapticd_core::scene::output_check::{OutputFault, WrenchChecker, check_bodies
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
-use hapticd_core::world_state::{MAX_BODIES, MAX_SOLIDS, MAX_TRIANGLES, body_pose, pose_of};
+use hapticd_core::world_geometry::{MAX_SOLIDS, MAX_TRIANGLES};
+use hapticd_core::world_state::{MAX_BODIES, body_pose, pose_of};
 
 /// A created scene instance; destroyed when dropped.
 struct Instance {

@@ -9,6 +9,8 @@
 //!   `org.hapticd.Renderer1`;
 //! - [`world_share`]: the shared world a device's `OpenWorld` hands out (its layout is
 //!   `hapticd_core::world_state`), and the reader that maps it;
+//! - [`geometry_share`]: the scene's solids a device's `OpenGeometry` hands out (its layout
+//!   is `hapticd_core::world_geometry`), and their reader;
 //! - [`telemetry_share`]: every tick of a device, in the ring its `OpenTelemetry` hands out
 //!   (its layout is `hapticd_core::telemetry`), and a reader that follows it;
 //! - [`touch_events`]: touches begun, ended and slipping, found in those ticks;
@@ -42,6 +44,7 @@
 pub mod bus;
 pub mod client;
 pub mod frame_ring;
+pub mod geometry_share;
 pub mod names;
 pub mod proxies;
 pub mod shared_memory;

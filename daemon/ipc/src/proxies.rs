@@ -164,6 +164,9 @@ pub trait Device {
     fn set_max_torque(&self, value: f64) -> zbus::Result<()>;
     /// The shared world, read-only: map it with [`crate::world_share::MappedWorld`].
     fn open_world(&self) -> zbus::Result<OwnedFd>;
+    /// The running scene's solids, read-only, and the frames' `scene_switches` of that
+    /// scene: read them with [`crate::geometry_share::read`].
+    fn open_geometry(&self) -> zbus::Result<(OwnedFd, u32)>;
     /// An effector began or stopped touching a body, or began to slip along it (see the
     /// interface's documentation).
     #[zbus(signal)]

@@ -7,7 +7,6 @@ use std::io;
 use std::os::fd::OwnedFd;
 
 use hapticd_core::world_state::{SHARED_SIZE, SharedWorld, WorldFrame, WorldReader, WorldWriter};
-use hapticd_plugin_api::Geometry;
 
 use crate::shared_memory::{MapError, Mapping, sealed};
 
@@ -78,12 +77,6 @@ impl MappedWorld {
     /// whole.
     pub fn read(&self, out: &mut WorldFrame) -> Option<u64> {
         self.reader.read(out)
-    }
-
-    /// Copy the solids of the latest scene pictured into `out`; the frames' `scene_switches`
-    /// they belong to, or None if none could be read whole (or none was written yet).
-    pub fn read_geometry(&self, out: &mut Geometry) -> Option<u32> {
-        self.reader.read_geometry(out)
     }
 }
 

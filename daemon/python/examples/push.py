@@ -138,11 +138,12 @@ def main() -> None:
     daemon.switch_scene(args.scene)
     ids = {b.name: b.id for b in daemon.bodies}
     body = ids[args.body]
-    world = daemon.devices[0].open_world()
-    # The solids of the scene switched to are pictured with its first frame.
+    device = daemon.devices[0]
+    world = device.open_world()
+    # The solids of the scene switched to, once the frames count it.
     while True:
         _, frame = world.frame()
-        switches, solids = world.solids()
+        switches, solids = device.solids()
         if switches == frame.scene_switches:
             break
         time.sleep(0.01)

@@ -20,9 +20,9 @@ from typing import Any, Iterator, List, Optional, Sequence, Tuple
 from jeepney import DBusAddress, HeaderFields, MessageType, Properties, new_method_call
 from jeepney.io.blocking import DBusConnection, open_dbus_connection
 
-from ._errors import BAD_SHARED_MEMORY, Error
+from ._errors import BAD_SHARED_MEMORY, Error, refuse
 from .telemetry import Ring, Sample
-from .world import Frame, Solid, World
+from .world import Frame, Solid, World, read_geometry
 
 __all__ = [
     "connect",
@@ -123,14 +123,27 @@ class Device:
             os.close(raw)
 
     def open_world(self) -> World:
-        """The device's picture of the world (grips, wrenches shown, every body's pose and the
-        scene's solids), mapped read-only."""
+        """The device's picture of the world (grips, wrenches shown, every body's pose),
+        mapped read-only."""
         (fd,) = self._bus.call(self.path, DEVICE, "OpenWorld")
         raw = fd.to_raw_fd()
         try:
             return World(raw)
         finally:
             os.close(raw)
+
+    def solids(self) -> Tuple[int, List[Solid]]:
+        """The running scene's solids as pictures show them, and the world frames'
+        ``scene_switches`` of that scene (ask again when the frames count another)."""
+        fd, switches = self._bus.call(self.path, DEVICE, "OpenGeometry")
+        raw = fd.to_raw_fd()
+        try:
+            read, solids = read_geometry(raw)
+        finally:
+            os.close(raw)
+        if read != switches:
+            refuse(f"the scene's geometry is of switch {read}, the daemon said {switches}")
+        return switches, solids
 
     def telemetry(self, seconds: float) -> Iterator[Sample]:
         """Every tick of the haptic loop from now for ``seconds`` (of the loop's time), as

@@ -1,13 +1,15 @@
-"""A device's picture of the world, read from the memory the daemon hands out
-(``Device.OpenWorld``): a sealed memfd, mapped read-only here, holding the latest frame (the
-grips, the wrenches shown and every body's pose) under a sequence lock, and the scene's solids
-under another. The layout is ``hapticd_core::world_state``'s (version 2); memory of another
-layout is refused.
+"""A device's picture of the world, read from the memory the daemon hands out: the latest
+frame (the grips, the wrenches shown and every body's pose) under a sequence lock in a sealed
+memfd (``Device.OpenWorld``; the layout is ``hapticd_core::world_state``'s, version 3), and the
+running scene's solids in a sealed memfd of their own, written once and sized by the scene
+(``Device.OpenGeometry``; the layout is ``hapticd_core::world_geometry``'s, version 1). Memory
+of another layout is refused.
 """
 
 from __future__ import annotations
 
 import mmap
+import os
 import struct
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
@@ -16,10 +18,12 @@ from ._errors import check_count, check_rate, refuse
 from .telemetry import CHANNELS, MAX_EFFECTORS
 
 MAGIC = b"hapticdW"
-VERSION = 2
+VERSION = 3
 MAX_BODIES = 4096
-MAX_SOLIDS = 4096
-MAX_TRIANGLES = 16384
+GEOMETRY_MAGIC = b"hapticdG"
+GEOMETRY_VERSION = 1
+MAX_SOLIDS = 65536
+MAX_TRIANGLES = 2_000_000
 
 SHAPES = {1: "box", 2: "sphere", 3: "cylinder", 4: "plane", 5: "triangles"}
 """The shape of a solid by its number (``HAPTICD_SHAPE_*``)."""
@@ -50,14 +54,12 @@ _FRAME = _FRAME_HEAD.size + MAX_BODIES * _POSE.size
 # A solid: body, shape, flags, first triangle, triangle count, sizes, frame, colour.
 _SOLID = struct.Struct("<5I4x3d7d4f")
 _TRIANGLE = struct.Struct("<9d")
+# After the geometry's header: the scene's switches, bodies, solids and triangles.
 _GEOMETRY_HEAD = struct.Struct("<4I")
-_GEOMETRY = _GEOMETRY_HEAD.size + MAX_SOLIDS * _SOLID.size + MAX_TRIANGLES * _TRIANGLE.size
 
 _SEQUENCE_AT = _HEADER.size
 _FRAME_AT = _SEQUENCE_AT + _SEQUENCE.size
-_GEOMETRY_SEQUENCE_AT = _FRAME_AT + _FRAME
-_GEOMETRY_AT = _GEOMETRY_SEQUENCE_AT + _SEQUENCE.size
-SIZE = _GEOMETRY_AT + _GEOMETRY
+SIZE = _FRAME_AT + _FRAME
 
 Pose = Tuple[float, float, float, float, float, float, float]
 """x, y, z (metres), then the orientation qw, qx, qy, qz."""
@@ -147,47 +149,50 @@ class World:
         wrenches = [tuple(head[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
         return sequence, Frame(time_, switches, grips, wrenches, bodies)
 
-    def solids(self) -> Tuple[int, List[Solid]]:
-        """The frames' ``scene_switches`` of the scene pictured last, and its solids."""
-
-        def read() -> Tuple[Tuple[int, ...], List[Solid]]:
-            head = _GEOMETRY_HEAD.unpack_from(self._map, _GEOMETRY_AT)
-            _switches, _bodies, count, triangles = head
-            # Within the layout even when half written (the counts are checked once whole),
-            # so that a read that is retried never reads past the memory.
-            triangles = min(triangles, MAX_TRIANGLES)
-            solids_at = _GEOMETRY_AT + _GEOMETRY_HEAD.size
-            triangles_at = solids_at + MAX_SOLIDS * _SOLID.size
-            out = []
-            for k in range(min(count, MAX_SOLIDS)):
-                v = _SOLID.unpack_from(self._map, solids_at + k * _SOLID.size)
-                body, shape, flags, first, n = v[:5]
-                # A solid's triangles past the layout's are not shown (the daemon keeps the
-                # first MAX_TRIANGLES of the scene's).
-                first, n = min(first, triangles), min(n, max(0, triangles - first))
-                corners = [
-                    _TRIANGLE.unpack_from(self._map, triangles_at + t * _TRIANGLE.size)
-                    for t in range(first, first + n)
-                ]
-                out.append(
-                    Solid(
-                        body=None if body == NO_BODY else body,
-                        shape=SHAPES.get(shape, "unknown"),
-                        fixed=bool(flags & FIXED),
-                        size=tuple(v[5:8]),
-                        offset=tuple(v[8:15]),
-                        triangles=corners,
-                    )
-                )
-            return head, out
-
-        (switches, _bodies, count, triangles), solids = self._read(_GEOMETRY_SEQUENCE_AT, read)[1]
-        # Checked once whole; the daemon writes no more than the layout holds (the scene's
-        # body count may exceed it: only the frame's first bodies are shown).
-        check_count(count, "solids in the world's geometry", MAX_SOLIDS)
-        check_count(triangles, "triangles in the world's geometry", MAX_TRIANGLES)
-        return switches, solids
-
     def close(self) -> None:
         """Unmap the world."""
         self._map.close()
+
+
+def read_geometry(fd: int) -> Tuple[int, List[Solid]]:
+    """The solids in the memory ``fd`` (from ``Device.OpenGeometry``), and the frames'
+    ``scene_switches`` of the scene they are."""
+    length = os.fstat(fd).st_size
+    what = f"not a scene's geometry of layout {GEOMETRY_VERSION}"
+    if length < _HEADER.size + _GEOMETRY_HEAD.size:
+        refuse(f"{what}: {length} bytes")
+    with mmap.mmap(fd, length, mmap.MAP_SHARED, mmap.PROT_READ) as block:
+        magic, version, size = _HEADER.unpack_from(block, 0)
+        switches, _bodies, count, triangles = _GEOMETRY_HEAD.unpack_from(block, _HEADER.size)
+        check_count(count, "solids in the scene's geometry", MAX_SOLIDS)
+        check_count(triangles, "triangles in the scene's geometry", MAX_TRIANGLES)
+        solids_at = _HEADER.size + _GEOMETRY_HEAD.size
+        triangles_at = solids_at + count * _SOLID.size
+        expected = triangles_at + triangles * _TRIANGLE.size
+        if (magic, version, size) != (GEOMETRY_MAGIC, GEOMETRY_VERSION, expected) or length < size:
+            refuse(
+                f"{what} ({expected} bytes for {count} solids and {triangles} triangles): "
+                f"magic {magic!r}, layout {version}, {size} bytes, {length} mapped"
+            )
+        out = []
+        for k in range(count):
+            v = _SOLID.unpack_from(block, solids_at + k * _SOLID.size)
+            body, shape, flags, first, n = v[:5]
+            if first + n > triangles:
+                refuse(f"solid {k} of the scene's geometry: triangles {first}..{first + n} "
+                       f"of {triangles}")
+            corners = [
+                _TRIANGLE.unpack_from(block, triangles_at + t * _TRIANGLE.size)
+                for t in range(first, first + n)
+            ]
+            out.append(
+                Solid(
+                    body=None if body == NO_BODY else body,
+                    shape=SHAPES.get(shape, "unknown"),
+                    fixed=bool(flags & FIXED),
+                    size=tuple(v[5:8]),
+                    offset=tuple(v[8:15]),
+                    triangles=corners,
+                )
+            )
+    return switches, out

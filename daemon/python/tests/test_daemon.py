@@ -85,7 +85,8 @@ def test_the_world_is_read_and_driven_and_hostile_values_refused_by_name(daemon)
         shown = frame.bodies[names.index("block")]
         now = daemon.body("block")
         assert math.dist(shown[:3], now.position) < 0.01
-        _, solids = world.solids()
+        switches, solids = daemon.devices[0].solids()
+        assert switches == frame.scene_switches
         # The table is fixed; the penalty engine shows its convex pieces as their faces.
         assert solids[0].fixed and solids[0].body == 0
         assert all(s.shape == "triangles" and s.triangles for s in solids)

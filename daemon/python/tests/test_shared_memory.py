@@ -82,28 +82,38 @@ def solid(first=0, triangles=0):
 def shared_world(
     memfd,
     head=None,
-    solids=(),
-    solid_count=None,
-    triangle_count=0,
     magic=world.MAGIC,
     version=world.VERSION,
     size=world.SIZE,
     length=world.SIZE,
 ):
-    """A shared world's descriptor: ``head`` as its frame, ``solids`` as its geometry."""
-    solid_count = len(solids) if solid_count is None else solid_count
-    geometry = world._GEOMETRY_HEAD.pack(1, 2, solid_count, triangle_count)
-    solids_at = world._GEOMETRY_AT + world._GEOMETRY_HEAD.size
+    """A shared world's descriptor: ``head`` as its frame."""
     writes = {
         0: world._HEADER.pack(magic, version, size),
         world._SEQUENCE_AT: world._SEQUENCE.pack(2),
         world._FRAME_AT: frame() if head is None else head,
-        world._GEOMETRY_SEQUENCE_AT: world._SEQUENCE.pack(2),
-        world._GEOMETRY_AT: geometry,
+    }
+    return memfd(length, writes)
+
+
+def geometry(memfd, solids=(), triangles=0, solid_count=None, triangle_count=None, size=None):
+    """A scene's geometry's descriptor: ``solids`` and ``triangles`` (each its index), the
+    counts and the size it says as given, else as written."""
+    head = world._HEADER.size + world._GEOMETRY_HEAD.size
+    written = head + len(solids) * world._SOLID.size + triangles * world._TRIANGLE.size
+    solid_count = len(solids) if solid_count is None else solid_count
+    triangle_count = triangles if triangle_count is None else triangle_count
+    writes = {
+        0: world._HEADER.pack(world.GEOMETRY_MAGIC, world.GEOMETRY_VERSION,
+                              written if size is None else size),
+        world._HEADER.size: world._GEOMETRY_HEAD.pack(3, 2, solid_count, triangle_count),
     }
     for k, data in enumerate(solids):
-        writes[solids_at + k * world._SOLID.size] = data
-    return memfd(length, writes)
+        writes[head + k * world._SOLID.size] = data
+    at = head + len(solids) * world._SOLID.size
+    for t in range(triangles):
+        writes[at + t * world._TRIANGLE.size] = world._TRIANGLE.pack(t, *[0.0] * 8)
+    return memfd(written, writes)
 
 
 def refused(call):
@@ -193,30 +203,27 @@ def test_a_world_frame_whose_rate_or_counts_are_not_its_layouts_is_refused(memfd
         w.close()
 
 
+def test_a_scene_of_more_triangles_than_the_world_once_held_reads_whole(memfd):
+    # 20 000 triangles: the world's block once kept the first 16 384 of a scene's.
+    fd = geometry(memfd, [solid(0, 20_000), solid(20_000, 0)], triangles=20_000)
+    switches, (mesh, empty) = world.read_geometry(fd)
+    assert switches == 3 and mesh.shape == "triangles" and empty.triangles == []
+    assert len(mesh.triangles) == 20_000 and mesh.triangles[-1][0] == 19_999
+
+
 @pytest.mark.parametrize(
     "bad, said",
     [
-        ({"solid_count": world.MAX_SOLIDS + 1}, "solids in the world's geometry: 4097"),
-        # One solid's triangles past the layout's: read as it was, it read past the memory
-        # (struct.error).
-        (
-            {"solids": [solid(first=world.MAX_TRIANGLES, triangles=1)],
-             "triangle_count": world.MAX_TRIANGLES + 1},
-            "triangles in the world's geometry: 16385",
-        ),
+        ({"solid_count": world.MAX_SOLIDS + 1}, "solids in the scene's geometry: 65537"),
+        ({"triangle_count": world.MAX_TRIANGLES + 1},
+         "triangles in the scene's geometry: 2000001"),
+        # More solids than its size holds: read as it says, it would read past the memory.
+        ({"solid_count": 3}, "bytes for 3 solids"),
+        ({"size": 12345}, "12345 bytes"),
+        ({"solids": [solid(first=1, triangles=5)]}, "triangles 1..6 of 3"),
     ],
-    ids=["solids-4097", "triangles-16385"],
+    ids=["solids", "triangles", "counts-past-size", "size", "solid-past-triangles"],
 )
-def test_world_geometry_counting_more_than_its_layout_holds_is_refused(memfd, bad, said):
-    # A solid of more triangles than the layout kept shows those it kept.
-    w = World(shared_world(memfd, solids=[solid(first=1, triangles=5)], triangle_count=3))
-    try:
-        _, (good,) = w.solids()
-    finally:
-        w.close()
-    assert good.shape == "triangles" and len(good.triangles) == 2
-    w = World(shared_world(memfd, **bad))
-    try:
-        assert said in refused(w.solids)
-    finally:
-        w.close()
+def test_a_scene_geometry_that_does_not_fit_its_layout_is_refused(memfd, bad, said):
+    given = {"solids": [solid(first=1, triangles=2)], "triangles": 3, **bad}
+    assert said in refused(lambda: world.read_geometry(geometry(memfd, **given)))

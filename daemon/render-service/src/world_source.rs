@@ -1,6 +1,6 @@
-//! Where the pictures come from: hapticd on the bus, and the world its haptic loop writes
-//! into shared memory (`OpenWorld`): the scene's solids, read again whenever hapticd swaps
-//! scenes, and where everything is, read at every frame. The active scene's file
+//! Where the pictures come from: hapticd on the bus, the world its haptic loop writes into
+//! shared memory (`OpenWorld`), where everything is, read at every frame, and the scene's
+//! solids (`OpenGeometry`), asked for again whenever the frames count another scene. The active scene's file
 //! (`ActiveSceneFile`) only names the scene on the status line. A hapticd that restarts is
 //! found again by its new bus name.
 
@@ -11,6 +11,7 @@ use glam::DVec3;
 use hapticd_core::kinematics::{Dof, Pose};
 use hapticd_core::world_state::{WorldFrame, pose_of};
 use hapticd_ipc::bus::Bus;
+use hapticd_ipc::geometry_share;
 use hapticd_ipc::world_share::MappedWorld;
 use hapticd_ipc::{BUS_NAME, DEVICE_INTERFACE, MANAGER_INTERFACE, MANAGER_PATH, device_path};
 use hapticd_plugin_api::{Geometry, HAPTICD_SOLID_POINTER};
@@ -20,6 +21,9 @@ use hapticd_render::shading::Shaded;
 
 /// How often the bus is asked again whether hapticd and its scene are the same.
 const RECHECK: Duration = Duration::from_secs(1);
+
+/// How often a scene's solids are asked for while hapticd shares another scene's.
+const ASK_AGAIN: Duration = Duration::from_millis(100);
 
 /// The scene being drawn.
 struct Scene {
@@ -58,6 +62,8 @@ pub struct WorldSource {
     /// The active scene's file as last asked.
     file: String,
     checked: Option<Instant>,
+    /// When the scene's solids were last asked for.
+    asked: Option<Instant>,
 }
 
 impl WorldSource {
@@ -73,6 +79,7 @@ impl WorldSource {
             scene: None,
             file: String::new(),
             checked: None,
+            asked: None,
         }
     }
 
@@ -90,10 +97,10 @@ impl WorldSource {
             .scene
             .as_ref()
             .is_none_or(|s| s.switches != frame.scene_switches || s.effectors != frame.effectors);
-        if stale {
-            let mut geometry = Geometry::default();
+        if stale && self.asked.is_none_or(|t| t.elapsed() >= ASK_AGAIN) {
+            self.asked = Some(Instant::now());
             // Until the new scene's solids are there, the last scene's are drawn.
-            if world.read_geometry(&mut geometry) == Some(frame.scene_switches) {
+            if let Some(geometry) = self.geometry(frame.scene_switches) {
                 let mut scene = Scene {
                     switches: frame.scene_switches,
                     effectors: frame.effectors,
@@ -117,6 +124,27 @@ impl WorldSource {
             camera,
             status: status(&self.file, frame),
         })
+    }
+
+    /// The solids of the scene the frames count as `switches`, if hapticd shares that
+    /// scene's.
+    fn geometry(&self, switches: u32) -> Option<Geometry> {
+        let connection = self.connection.as_ref()?;
+        let (fd, shared): (zbus::OwnedFd, u32) = zbus::block_on(call(
+            connection,
+            BUS_NAME,
+            &device_path(self.device),
+            DEVICE_INTERFACE,
+            "OpenGeometry",
+            &(),
+        ))
+        .ok()?;
+        if shared != switches {
+            return None;
+        }
+        geometry_share::read(&fd.into())
+            .ok()
+            .map(|(_, geometry)| geometry)
     }
 
     /// Ask the bus who hapticd is and what it renders; open its world again if it is new.

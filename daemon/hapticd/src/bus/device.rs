@@ -430,6 +430,15 @@ device_interface! {
         Ok(self.device.open_world()?.into())
     }
 
+    /// The running scene's solids as pictures show them: a sealed memfd, read-only to the
+    /// caller, written once and sized by the scene (the layout is
+    /// `hapticd_core::world_geometry`), and the `scene_switches` of the world's frames that
+    /// count that scene. Ask again when the frames count another.
+    fn open_geometry(&self) -> Result<(zbus::OwnedFd, u32), BusError> {
+        let (fd, switches) = self.device.open_geometry()?;
+        Ok((fd.into(), switches))
+    }
+
     /// Every tick of the haptic loop: a sealed memfd, read-only to the caller, holding a ring
     /// of the last 8192 ticks (tick number, time, state, each effector's pose, velocity,
     /// angular velocity and wrench, contacts, tensions, D/A values), each slot under a sequence lock of its own

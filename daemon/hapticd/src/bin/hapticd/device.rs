@@ -9,7 +9,7 @@ use std::thread::JoinHandle;
 
 use hapticd::catalog::{Catalog, Entry};
 use hapticd::config::Config;
-use hapticd::control::{DeviceHandle, DeviceSetup, Fixed, Telemetry};
+use hapticd::control::{DeviceHandle, DeviceSetup, Fixed, Telemetry, scene_geometry};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::scenes;
 use hapticd::state::{DeviceRecord, StateDir};
@@ -139,6 +139,8 @@ pub fn start(
         },
         ..LoopSettings::default()
     };
+    // The first scene is the one the frames count as no switch.
+    let geometry = scene_geometry(&identity, 0, scene.geometry());
     let mut haptic =
         HapticLoop::new(mechanism, transport, scene, settings).map_err(|e| e.to_string())?;
     haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
@@ -190,6 +192,7 @@ pub fn start(
             record,
             defaults,
             world,
+            geometry,
             telemetry,
             world_link,
             fixed: Fixed {
