@@ -35,7 +35,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 5
+#define HAPTICD_ABI_MINOR 6
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -546,8 +546,14 @@ typedef struct HapticdLocalBody {
    */
   uint32_t object_count;
   /*
+   Since ABI 1.6: 1 when the step left the change numbered `applied` out (taking it in
+   would have put the body deeper into a fixed solid), 0 when it took it in. The host
+   reads it from plugins of 1.6 and later only (it fills what was padding before).
+   */
+  uint32_t left_out;
+  /*
    The [`HapticdLocalState::sequence`] of the last change of the hand this step took in
-   for the body (0: none yet).
+   (or left out) for the body (0: none yet).
    */
   uint64_t applied;
   /*

@@ -12,7 +12,7 @@ pub const HAPTICD_ABI_MAJOR: u32 = 1;
 /// plugin of any minor loads: the host reads no field newer than its own minor, and a
 /// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
 /// through [`HapticdHost::get_extension`].
-pub const HAPTICD_ABI_MINOR: u32 = 5;
+pub const HAPTICD_ABI_MINOR: u32 = 6;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;
@@ -174,8 +174,12 @@ pub struct HapticdLocalBody {
     pub first_object: u32,
     /// How many objects the body has.
     pub object_count: u32,
+    /// Since ABI 1.6: 1 when the step left the change numbered `applied` out (taking it in
+    /// would have put the body deeper into a fixed solid), 0 when it took it in. The host
+    /// reads it from plugins of 1.6 and later only (it fills what was padding before).
+    pub left_out: u32,
     /// The [`HapticdLocalState::sequence`] of the last change of the hand this step took in
-    /// for the body (0: none yet).
+    /// (or left out) for the body (0: none yet).
     pub applied: u64,
     /// Centre of mass, metres.
     pub position: [f64; 3],

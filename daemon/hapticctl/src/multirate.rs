@@ -336,6 +336,99 @@ pointer:
         );
     }
 
+    /// A public model nobody here made (the Stanford bunny, 7 cm, 39 g) on a floor at 20 Hz
+    /// under local dynamics, pressed 14 mm or more from above at six places by a finger
+    /// coming down at 0.16 m/s, held a second and lifted: the world moves it no faster than
+    /// the finger and what its proxy catches up over a period (0.16 + 0.014/0.05 = 0.44 m/s;
+    /// 0.57 m/s before the bound on every point of a pushed body), what is shown stays within
+    /// a period's reach of the world (6 cm apart before the physics said which changes it
+    /// left out), and it comes to rest on the floor.
+    #[test]
+    fn a_public_mesh_pressed_under_local_dynamics_moves_no_faster_than_the_finger() {
+        let corpus = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus");
+        let text = "name: bunny
+engine: rapier
+rate: 20
+feedback: local
+gravity: [0, -9.81, 0]
+material: { static_friction: 0.5, friction: 0.4 }
+bodies:
+  - { name: floor, box: [0.4, 0.02, 0.4], position: [0, -0.04, 0], fixed: true }
+  - { name: bunny, mesh: bunny.obj, scale: 0.00707, position: [0, -0.03, 0], density: 800 }
+pointer: { sphere: 0.005 }
+";
+        let SceneFile::Rapier(spec) =
+            SceneFile::parse(text, &corpus.join("bunny.yaml"), 1).unwrap()
+        else {
+            panic!("a rapier scene");
+        };
+        let mesh = hapticd_mesh::load(
+            &corpus.join("bunny.obj"),
+            0.00707,
+            hapticd_mesh::Limits::DEFAULT,
+            None,
+        )
+        .unwrap();
+        let centre = hapticd_mesh::properties::mass_properties(&mesh).centre;
+        let presses = [
+            (0.0, 0.005),
+            (-0.015, 0.005),
+            (0.015, 0.005),
+            (0.0, -0.01),
+            (-0.02, 0.01),
+            (0.02, 0.0),
+        ];
+        for (x, z) in presses {
+            let above = DVec3::new(x, 0.08, z);
+            let mut lockstep = Lockstep::new(
+                &spec,
+                &Lockstep::pointers(&[(above, DVec3::ZERO)]),
+                1000.0,
+                0.0,
+            );
+            let mut felt = [Wrench::ZERO];
+            let (mut apart, mut fastest): (f64, f64) = (0.0, 0.0);
+            let mut last = lockstep.world.body(1).position;
+            for tick in 1..=3000 {
+                let t = tick as f64 * 1e-3;
+                // Held above, down at 0.16 m/s to y = 0, held a second, lifted in 0.3 s.
+                let (y, v) = match t {
+                    t if t < 0.2 => (0.08, 0.0),
+                    t if t < 0.7 => (0.08 - 0.16 * (t - 0.2), -0.16),
+                    t if t < 1.7 => (0.0, 0.0),
+                    t if t < 2.0 => (0.08 * (t - 1.7) / 0.3, 0.08 / 0.3),
+                    _ => (0.08, 0.0),
+                };
+                let grip = DVec3::new(x, y, z);
+                lockstep
+                    .tick(&Lockstep::pointers(&[(grip, DVec3::Y * v)]), &mut felt)
+                    .unwrap();
+                let world = lockstep.world.body(1);
+                apart = apart.max(lockstep.body(1).position.distance(world.position));
+                if tick % 50 == 0 {
+                    fastest = fastest.max(world.position.distance(last) / 0.05);
+                    last = world.position;
+                }
+            }
+            assert!(fastest < 0.44, "pressed at ({x}, {z}): {fastest} m/s");
+            // A period at the finger's bound and a period's fall: 0.44 × 0.05 + g × 0.05² / 2.
+            assert!(
+                apart < 0.034,
+                "pressed at ({x}, {z}): shown {apart} m from the world"
+            );
+            let rest = lockstep.world.body(1);
+            let lowest = mesh
+                .vertices
+                .iter()
+                .map(|v| (rest.position + rest.orientation * (*v - centre)).y)
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                (lowest + 0.03).abs() < 1e-3,
+                "pressed at ({x}, {z}): rests at y = {lowest}"
+            );
+        }
+    }
+
     /// A 4 cm, 0.1 kg block in the corner of a floor and two walls, at `rate` Hz.
     fn corner(rate: f64, feedback: Feedback) -> RapierScene {
         let text = format!(

@@ -49,6 +49,8 @@ struct Instance {
     >,
     /// The contacts extension's `touch`, when the plugin has one.
     touch: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdTouch) -> i32>,
+    /// The ABI minor the plugin was built for: fields newer than it are not read.
+    minor: u32,
 }
 
 // SAFETY: an instance is used by one thread at a time (the haptic thread for direct scenes,
@@ -162,6 +164,12 @@ impl Instance {
         // belongs to this thread.
         let status = unsafe { step_world(self.pointer, &input, &mut output) };
         set.body_count = output.body_count.min(HAPTICD_MAX_LOCAL_BODIES as u32);
+        if self.minor < 6 {
+            // What was padding before ABI 1.6: whatever the plugin left there.
+            for body in &mut set.bodies[..set.body_count as usize] {
+                body.left_out = 0;
+            }
+        }
         status
     }
 }
@@ -222,6 +230,7 @@ pub fn load(
         pointer,
         apply: None,
         touch: None,
+        minor: loaded.abi.1,
     };
     let geometry = read_geometry(&loaded, &instance)
         .map_err(|e| format!("{}: cannot draw its world: {e}", path.display()))?;

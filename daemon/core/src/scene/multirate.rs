@@ -574,9 +574,13 @@ impl PlaneRenderer {
         };
         let count = (next.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
         for body in self.locals.iter().flatten() {
+            // A body whose last change the physics left out (it would have gone into a fixed
+            // solid) gets this period's hand alone, and so restarts where the physics has it:
+            // handed the whole difference again, it was refused again, period after period,
+            // while it drifted on here (a pressed bunny went 10 cm from where the world had it).
             let change = next.bodies[..count]
                 .iter()
-                .find(|b| b.body == body.body)
+                .find(|b| b.body == body.body && b.left_out == 0)
                 .and_then(|b| body.change_to(b, &pending_for(&self.pending, b)))
                 .unwrap_or_else(|| body.change());
             if !change.is_zero() {
