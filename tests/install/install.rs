@@ -263,6 +263,22 @@ fn make_install_lays_out_a_working_system() {
     for option in ["\\-\\-config", "\\-\\-scene", ".SH FILES", ".SH SIGNALS"] {
         assert!(page.contains(option), "hapticd(8) lacks {option}");
     }
+    // The renderer's limits are its own options: its page has every one, with its help.
+    let page = read(dest.join("usr/share/man/man8/hapticd-render.8"));
+    let help = Command::new(dest.join("usr/bin/hapticd-render"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    let limits: Vec<&str> = help
+        .split_whitespace()
+        .filter(|w| w.starts_with("--max-"))
+        .collect();
+    assert_eq!(limits.len(), 7, "{help}");
+    for option in limits {
+        let escaped = option.replace('-', "\\-");
+        assert!(page.contains(&escaped), "hapticd-render(8) lacks {option}");
+    }
     let (scenes, active) = scenes_of_installed(&dest, "usr-bus");
     assert_eq!(active, "s \"static\"");
     for scene in ["static", "blocks", "top"] {

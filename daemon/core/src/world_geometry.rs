@@ -1,6 +1,6 @@
 //! A scene's solids as pictures show them, in a block of their own sized by the scene: made
 //! when the scene is swapped in, off the haptic thread, and never written again. A device's
-//! `OpenGeometry` hands it out beside the world's frames ([`crate::world_state`]), whose
+//! `OpenGeometry` hands it out beside the world's frames (the world state's block), whose
 //! `scene_switches` says which scene a reader should hold the solids of. Unlike the frames,
 //! the block needs no sequence lock: it is sealed whole before anyone can map it.
 //!

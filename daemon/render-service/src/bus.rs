@@ -15,7 +15,7 @@ use zbus::message::Header;
 
 use crate::drawing::{Availability, Job};
 use crate::error::Error;
-use crate::limits::Limits;
+use crate::limits::{Admission, Limits};
 use crate::options;
 use crate::statistics::Statistics;
 

@@ -23,7 +23,7 @@ use hapticd_render::picture::Picture;
 use hapticd_render::vulkan::Renderer;
 
 use crate::error::Error;
-use crate::limits::{self, Asked, Held, Limits};
+use crate::limits::{self, Admission, Asked, Held, Limits};
 use crate::options::Request;
 use crate::statistics::Statistics;
 use crate::world_source::WorldSource;

@@ -1,6 +1,7 @@
 //! What the renderer will take on: the size of one frame, how many streams a connection, a
 //! user and everyone together may hold open, the pixels a second they may ask for, and the
-//! memory their rings may hold. Set on the command line (`--max-…`); the defaults fit a
+//! memory their rings may hold. Set on the command line (`--max-…`, declared with the rest
+//! of it in `hapticd_service::cli`, so that its manual page has them); the defaults fit a
 //! 2-core machine drawing on lavapipe, where hapticd's haptic thread takes one core and the
 //! drawing thread shares the other.
 //!
@@ -8,8 +9,8 @@
 //! the world, recording, submitting and waiting, the status line, the signal), and without a
 //! floor many tiny streams would fill the drawing thread within any pixel budget.
 
-use clap::Args;
 use hapticd_ipc::frame_ring::SLOTS;
+pub use hapticd_service::cli::RenderLimits as Limits;
 
 use crate::error::Error;
 use crate::options::Request;
@@ -18,50 +19,6 @@ use crate::options::Request;
 /// times (0.9 ms at 640 × 360, 2.9 ms at 1280 × 720, `RENDERING.md`) fit 0.23 ms a frame
 /// and 2.9 ns a pixel, and 0.23 ms draw about 320 × 240 pixels.
 pub const FRAME_FLOOR: u64 = 320 * 240;
-
-/// The renderer's limits, each named on the command line as in its errors.
-#[derive(Args, Debug, Clone, Copy, PartialEq, Eq)]
-#[command(next_help_heading = "Limits")]
-pub struct Limits {
-    /// Most pixels in one frame, of a Snapshot or a stream (width × height; default
-    /// 3840 × 2160, a 4K screen: a frame's images, read-back copy and ring then take
-    /// about 200 MB at most).
-    #[arg(long, value_name = "PIXELS", default_value_t = 3840 * 2160,
-          value_parser = clap::value_parser!(u64).range(1..))]
-    pub max_frame_pixels: u64,
-    /// Most frame streams one bus connection may hold open (a viewer needs one; a few
-    /// windows of one program, or a program reconnecting, fit).
-    #[arg(long, value_name = "N", default_value_t = 4,
-          value_parser = clap::value_parser!(u32).range(1..))]
-    pub max_streams_per_caller: u32,
-    /// Most frame streams the connections of one user (Unix uid) may hold open together,
-    /// so that opening more connections gets no more.
-    #[arg(long, value_name = "N", default_value_t = 8,
-          value_parser = clap::value_parser!(u32).range(1..))]
-    pub max_streams_per_user: u32,
-    /// Most frame streams open at once, everyone's together.
-    #[arg(long, value_name = "N", default_value_t = 32,
-          value_parser = clap::value_parser!(u32).range(1..))]
-    pub max_streams: u32,
-    /// Most pixels a second (width × height × rate, summed over its streams) one user may
-    /// ask for (default 1920 × 1080 at 60 frames a second: a full-HD screen, about a third
-    /// of a core on lavapipe).
-    #[arg(long, value_name = "PIXELS", default_value_t = 1920 * 1080 * 60,
-          value_parser = clap::value_parser!(u64).range(1..))]
-    pub max_pixel_rate_per_user: u64,
-    /// Most pixels a second drawn for all streams together; identical streams are drawn
-    /// once and counted once (default twice a user's: two full-HD screens, about two thirds
-    /// of the core the drawing thread shares).
-    #[arg(long, value_name = "PIXELS", default_value_t = 2 * 1920 * 1080 * 60,
-          value_parser = clap::value_parser!(u64).range(1..))]
-    pub max_pixel_rate: u64,
-    /// Most memory the rings of all streams may hold together, MiB (each ring holds three
-    /// frames; identical streams share one). With a frame's working set and the driver,
-    /// this stays below the unit's `MemoryHigh=`.
-    #[arg(long, value_name = "MIB", default_value_t = 256,
-          value_parser = clap::value_parser!(u64).range(1..))]
-    pub max_stream_memory: u64,
-}
 
 /// Pixels of a frame of `size`.
 fn pixels((width, height): (u32, u32)) -> u64 {
@@ -102,9 +59,19 @@ pub struct Asked<'a> {
     pub shared: bool,
 }
 
-impl Limits {
+/// What the limits let in. A trait, as the limits are declared with the rest of the
+/// command line in `hapticd_service::cli`.
+pub trait Admission {
     /// Whether one frame of `request` may be drawn.
-    pub fn check_frame(&self, request: &Request) -> Result<(), Error> {
+    fn check_frame(&self, request: &Request) -> Result<(), Error>;
+
+    /// Whether stream `asked` may open beside the streams `held` (the distinct drawings'
+    /// requests among them in `drawn`), or which limit it would pass.
+    fn check_stream(&self, asked: &Asked, held: &[Held], drawn: &[&Request]) -> Result<(), Error>;
+}
+
+impl Admission for Limits {
+    fn check_frame(&self, request: &Request) -> Result<(), Error> {
         let (width, height) = request.size;
         let asked = pixels(request.size);
         if asked > self.max_frame_pixels {
@@ -117,14 +84,7 @@ impl Limits {
         Ok(())
     }
 
-    /// Whether stream `asked` may open beside the streams `held` (the distinct drawings'
-    /// requests among them in `drawn`), or which limit it would pass.
-    pub fn check_stream(
-        &self,
-        asked: &Asked,
-        held: &[Held],
-        drawn: &[&Request],
-    ) -> Result<(), Error> {
+    fn check_stream(&self, asked: &Asked, held: &[Held], drawn: &[&Request]) -> Result<(), Error> {
         self.check_frame(asked.request)?;
         let (owner, uid) = (asked.owner, asked.uid);
         let by_caller = held.iter().filter(|h| h.owner == owner).count();

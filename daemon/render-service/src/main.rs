@@ -24,27 +24,15 @@ mod world_source;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use clap::{Args, FromArgMatches};
+use clap::Parser;
 use hapticd_ipc::names::{RENDERER_BUS_NAME, RENDERER_PATH};
 use hapticd_service::Workers;
 use hapticd_service::cli::RenderCli;
 
-use crate::limits::Limits;
 use crate::statistics::Statistics;
 
 fn main() -> ExitCode {
-    // hapticd's shared command line (name, version, description and all), and the
-    // limits, which are this program's alone.
-    let command =
-        Limits::augment_args(clap::Command::new("hapticd-render")).next_help_heading(None::<&str>);
-    let matches = RenderCli::augment_args(command).get_matches();
-    let (cli, limits) = match (
-        RenderCli::from_arg_matches(&matches),
-        Limits::from_arg_matches(&matches),
-    ) {
-        (Ok(cli), Ok(limits)) => (cli, limits),
-        (Err(e), _) | (_, Err(e)) => e.exit(),
-    };
+    let cli = RenderCli::parse();
     hapticd_service::logging::init("hapticd-render", hapticd_service::logging::Level::INFO);
     // Off the CPU hapticd's first haptic thread takes, before the driver starts its own
     // threads (they inherit the affinity).
@@ -52,6 +40,7 @@ fn main() -> ExitCode {
         tracing::warn!("cannot keep off the haptic CPU: {e}");
     }
     let statistics = Arc::new(Statistics::default());
+    let limits = cli.limits;
     let started = drawing::start(cli.bus.clone(), cli.device, limits, statistics.clone());
     let (jobs, availability) = match started {
         Ok(started) => started,

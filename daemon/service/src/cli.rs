@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use clap::Parser;
+use clap::{Args, Parser};
 
 use hapticd_ipc::bus::Bus;
 
@@ -79,6 +79,53 @@ pub struct RenderCli {
     /// hapticd's device to draw (0: the first).
     #[arg(long, default_value_t = 0)]
     pub device: usize,
+    /// What it takes on.
+    #[command(flatten)]
+    pub limits: RenderLimits,
+}
+
+/// What hapticd-render will take on, each limit named on the command line as in its errors.
+#[derive(Args, Debug, Clone, Copy, PartialEq, Eq)]
+#[command(next_help_heading = "Limits")]
+pub struct RenderLimits {
+    /// Most pixels in one frame, of a Snapshot or a stream (width × height; default
+    /// 3840 × 2160, a 4K screen: a frame's images, read-back copy and ring then take
+    /// about 200 MB at most).
+    #[arg(long, value_name = "PIXELS", default_value_t = 3840 * 2160,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_frame_pixels: u64,
+    /// Most frame streams one bus connection may hold open (a viewer needs one; a few
+    /// windows of one program, or a program reconnecting, fit).
+    #[arg(long, value_name = "N", default_value_t = 4,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_streams_per_caller: u32,
+    /// Most frame streams the connections of one user (Unix uid) may hold open together,
+    /// so that opening more connections gets no more.
+    #[arg(long, value_name = "N", default_value_t = 8,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_streams_per_user: u32,
+    /// Most frame streams open at once, everyone's together.
+    #[arg(long, value_name = "N", default_value_t = 32,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_streams: u32,
+    /// Most pixels a second (width × height × rate, summed over its streams) one user may
+    /// ask for (default 1920 × 1080 at 60 frames a second: a full-HD screen, about a third
+    /// of a core on lavapipe).
+    #[arg(long, value_name = "PIXELS", default_value_t = 1920 * 1080 * 60,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_pixel_rate_per_user: u64,
+    /// Most pixels a second drawn for all streams together; identical streams are drawn
+    /// once and counted once (default twice a user's: two full-HD screens, about two thirds
+    /// of the core the drawing thread shares).
+    #[arg(long, value_name = "PIXELS", default_value_t = 2 * 1920 * 1080 * 60,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_pixel_rate: u64,
+    /// Most memory the rings of all streams may hold together, MiB (each ring holds three
+    /// frames; identical streams share one). With a frame's working set and the driver,
+    /// this stays below the unit's `MemoryHigh=`.
+    #[arg(long, value_name = "MIB", default_value_t = 256,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_stream_memory: u64,
 }
 
 /// hapticd's devices on the network, as ROS 2 topics over Zenoh.
