@@ -4536,5 +4536,6 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
         }
         drop(daemons);
         drop(places);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

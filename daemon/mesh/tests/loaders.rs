@@ -8,9 +8,10 @@ use glam::{DMat3, DVec3};
 use hapticd_mesh::properties::{closure, mass_properties};
 use hapticd_mesh::{Limits, TriangleMesh, load};
 
-/// A scratch directory of this test process.
+/// A scratch directory of this test process, in cargo's scratch directory under target/.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hapticd-mesh-{}-{name}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("hapticd-mesh-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir

@@ -106,12 +106,13 @@ mod tests {
 
     /// `text` loaded from a file of its own, `name`.yaml.
     fn parsed(name: usize, text: &str) -> Result<NetworkConfig, String> {
-        let dir = std::env::temp_dir().join(format!("hapticd-network-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("hapticd-network-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let file = dir.join(format!("{name}.yaml"));
         std::fs::write(&file, text).unwrap();
         let out = NetworkConfig::load(Some(&file));
-        std::fs::remove_file(&file).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
         out
     }
 
