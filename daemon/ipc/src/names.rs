@@ -16,6 +16,9 @@ pub const SCENE_INTERFACE: &str = "org.hapticd.Hapticd1.Scene";
 pub const DEVICE_INTERFACE: &str = "org.hapticd.Hapticd1.Device";
 /// The daemon's errors are `ERROR_PREFIX.<Name>`.
 pub const ERROR_PREFIX: &str = "org.hapticd.Hapticd1.Error";
+/// The error of a request for a device the daemon does not have, as the network bridge
+/// answers it (a name beside the daemon's own, under its prefix).
+pub const UNKNOWN_DEVICE_ERROR: &str = "org.hapticd.Hapticd1.Error.UnknownDevice";
 /// Version of the daemon's D-Bus API, raised only on incompatible changes.
 pub const API_VERSION: u32 = 1;
 

@@ -149,7 +149,7 @@ pub fn carry_out(
         } => {
             let Some((_, found)) = devices.iter().find(|(word, _)| word == device) else {
                 return Err(ClientError::Refused {
-                    name: "org.hapticd.Hapticd1.Error.UnknownDevice".into(),
+                    name: hapticd_ipc::names::UNKNOWN_DEVICE_ERROR.into(),
                     message: format!("no device {device}"),
                 });
             };
