@@ -17,7 +17,7 @@ use ::gltf::{Accessor, Document, Node};
 use glam::{DMat3, DMat4, DVec3};
 use hapticd_core::diagnostics::{FileRules, read_file};
 
-use crate::{Limits, Read};
+use crate::{Budget, Format, Limits, MeshError, Read};
 
 /// The triangles of glTF `bytes`, read from `file` under `rules` and `limits`.
 pub(crate) fn read(
@@ -25,8 +25,8 @@ pub(crate) fn read(
     file: &Path,
     rules: FileRules,
     limits: Limits,
-) -> Result<Read, String> {
-    let unreadable = |e: ::gltf::Error| format!("not a readable glTF file: {e}");
+) -> Result<Read, MeshError> {
+    let unreadable = |e: ::gltf::Error| malformed(format!("not a readable glTF file: {e}"));
     let raw = ::gltf::Gltf::from_slice_without_validation(bytes).map_err(unreadable)?;
     // The crate's validation indexes a primitive's POSITION accessor before it checks that
     // the index is in range (a fuzzed file panicked it): checked here first.
@@ -34,10 +34,13 @@ pub(crate) fn read(
     let blob = raw.blob;
     let document = &::gltf::Document::from_json(raw.document.into_json()).map_err(unreadable)?;
     if document.nodes().len() > limits.nodes {
-        return Err(format!(
-            "{} nodes; a mesh file has at most {}",
-            document.nodes().len(),
-            limits.nodes
+        return Err(MeshError::too_large(
+            Budget::Nodes,
+            format!(
+                "{} nodes; a mesh file has at most {}",
+                document.nodes().len(),
+                limits.nodes
+            ),
         ));
     }
     check_trees(document)?;
@@ -45,7 +48,7 @@ pub(crate) fn read(
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
-        .ok_or("no scene")?;
+        .ok_or_else(|| malformed("no scene"))?;
     let mut walk = Walk {
         read: Read {
             positions: Vec::new(),
@@ -68,19 +71,19 @@ pub(crate) fn read(
 }
 
 /// Refuse a primitive whose POSITION names an accessor the file does not have.
-fn positions_in_range(root: &::gltf::json::Root) -> Result<(), String> {
+fn positions_in_range(root: &::gltf::json::Root) -> Result<(), MeshError> {
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             let positions = ::gltf::json::validation::Checked::Valid(::gltf::Semantic::Positions);
             if let Some(index) = primitive.attributes.get(&positions)
                 && index.value() >= root.accessors.len()
             {
-                return Err(format!(
+                return Err(malformed(format!(
                     "primitive {p} of {} names accessor {} for its positions, of {}",
                     named("mesh", m, mesh.name.as_deref()),
                     index.value(),
                     root.accessors.len()
-                ));
+                )));
             }
         }
     }
@@ -101,21 +104,21 @@ fn node_name(node: &Node) -> String {
 
 /// Refuse a node graph that is not a set of trees: a node that is a child twice over, or
 /// its own ancestor, or a scene's root that is another node's child.
-fn check_trees(document: &Document) -> Result<(), String> {
+fn check_trees(document: &Document) -> Result<(), MeshError> {
     let nodes: Vec<Node> = document.nodes().collect();
     let mut parent: Vec<Option<usize>> = vec![None; nodes.len()];
     for node in &nodes {
         for child in node.children() {
             if child.index() == node.index() {
-                return Err(format!("{} is its own child", node_name(node)));
+                return Err(malformed(format!("{} is its own child", node_name(node))));
             }
             if let Some(other) = parent[child.index()] {
-                return Err(format!(
+                return Err(malformed(format!(
                     "{} is a child of both {} and {}: glTF's nodes form trees",
                     node_name(&child),
                     node_name(&nodes[other]),
                     node_name(node)
-                ));
+                )));
             }
             parent[child.index()] = Some(node.index());
         }
@@ -128,7 +131,10 @@ fn check_trees(document: &Document) -> Result<(), String> {
         while let Some(k) = at {
             match reached_by[k] {
                 Some(walk) if walk == start => {
-                    return Err(format!("{} is its own ancestor", node_name(&nodes[k])));
+                    return Err(malformed(format!(
+                        "{} is its own ancestor",
+                        node_name(&nodes[k])
+                    )));
                 }
                 Some(_) => break,
                 None => reached_by[k] = Some(start),
@@ -139,12 +145,12 @@ fn check_trees(document: &Document) -> Result<(), String> {
     for scene in document.scenes() {
         for root in scene.nodes() {
             if let Some(p) = parent[root.index()] {
-                return Err(format!(
+                return Err(malformed(format!(
                     "{} is a root of {} and a child of {}",
                     node_name(&root),
                     named("scene", scene.index(), scene.name()),
                     node_name(&nodes[p])
-                ));
+                )));
             }
         }
     }
@@ -157,16 +163,19 @@ fn buffers(
     file: &Path,
     rules: FileRules,
     limits: Limits,
-) -> Result<Vec<Vec<u8>>, String> {
+) -> Result<Vec<Vec<u8>>, MeshError> {
     let dir = hapticd_core::diagnostics::directory_of(file);
     let mut left = limits.bytes;
     let mut buffers = Vec::new();
     for buffer in document.buffers() {
         let too_large = || {
-            format!(
-                "buffer {}: its data would pass the {} bytes a mesh's buffers may hold",
-                buffer.index(),
-                limits.bytes
+            MeshError::too_large(
+                Budget::Bytes,
+                format!(
+                    "buffer {}: its data would pass the {} bytes a mesh's buffers may hold",
+                    buffer.index(),
+                    limits.bytes
+                ),
             )
         };
         if buffer.length() as u64 > left {
@@ -175,13 +184,13 @@ fn buffers(
         let data = match buffer.source() {
             ::gltf::buffer::Source::Bin => blob
                 .cloned()
-                .ok_or("a buffer names the binary chunk, and there is none")?,
+                .ok_or_else(|| malformed("a buffer names the binary chunk, and there is none"))?,
             ::gltf::buffer::Source::Uri(uri) => match uri.strip_prefix("data:") {
                 Some(data) => {
                     let (_, encoded) = data
                         .split_once(";base64,")
-                        .ok_or("a data: URI that is not base64")?;
-                    base64(encoded).ok_or("a data: URI with bad base64")?
+                        .ok_or_else(|| malformed("a data: URI that is not base64"))?;
+                    base64(encoded).ok_or_else(|| malformed("a data: URI with bad base64"))?
                 }
                 None => {
                     // Beside the file: its own directory bounds where a buffer may be.
@@ -190,18 +199,19 @@ fn buffers(
                         within: Some(rules.within.unwrap_or(dir)),
                         max_bytes: left,
                     };
-                    read_file(&path, confined)
-                        .map_err(|e| format!("buffer {uri:?}: {}", e.message()))?
+                    read_file(&path, confined).map_err(|e| {
+                        MeshError::Unreadable(format!("buffer {uri:?}: {}", e.message()))
+                    })?
                 }
             },
         };
         if data.len() < buffer.length() {
-            return Err(format!(
+            return Err(malformed(format!(
                 "buffer {} holds {} bytes of the {} it declares",
                 buffer.index(),
                 data.len(),
                 buffer.length()
-            ));
+            )));
         }
         left = left.checked_sub(data.len() as u64).ok_or_else(too_large)?;
         buffers.push(data);
@@ -228,7 +238,12 @@ enum Holds {
 impl Walk<'_> {
     /// Add the triangle primitives of `mesh`, placed by `world` for `node`, within the
     /// budgets left.
-    fn add_mesh(&mut self, node: &Node, mesh: &::gltf::Mesh, world: DMat4) -> Result<(), String> {
+    fn add_mesh(
+        &mut self,
+        node: &Node,
+        mesh: &::gltf::Mesh,
+        world: DMat4,
+    ) -> Result<(), MeshError> {
         let turn = DMat3::from_mat4(world).inverse().transpose();
         for primitive in mesh.primitives() {
             if primitive.mode() != ::gltf::mesh::Mode::Triangles {
@@ -242,10 +257,10 @@ impl Walk<'_> {
                     node_name(node)
                 )
             };
-            let in_primitive = |e: String| format!("{}: {e}", at());
+            let in_primitive = |e: MeshError| e.within(&at());
             let positions = primitive
                 .get(&::gltf::Semantic::Positions)
-                .ok_or_else(|| in_primitive("no positions".into()))?;
+                .ok_or_else(|| in_primitive(malformed("no positions")))?;
             let count = self
                 .checked(&positions, Holds::Vec3)
                 .map_err(in_primitive)?;
@@ -259,28 +274,34 @@ impl Walk<'_> {
                 None => None,
             };
             if !corners.is_multiple_of(3) {
-                return Err(in_primitive(format!(
+                return Err(in_primitive(malformed(format!(
                     "{corners} corners do not make whole triangles"
-                )));
+                ))));
             }
             // The budgets, before anything is read: a file cannot make the walk allocate
             // more than the limits allow, however often its meshes are placed.
             let triangles = self.read.triangles.len() + corners / 3;
             if triangles > self.limits.triangles {
-                return Err(format!(
-                    "more than {} triangles once {} is placed; a mesh has at most {}",
-                    self.limits.triangles,
-                    at(),
-                    self.limits.triangles
+                return Err(MeshError::too_large(
+                    Budget::Triangles,
+                    format!(
+                        "more than {} triangles once {} is placed; a mesh has at most {}",
+                        self.limits.triangles,
+                        at(),
+                        self.limits.triangles
+                    ),
                 ));
             }
             let most_corners = 3 * self.limits.triangles;
             if self.read.positions.len() + count > most_corners {
-                return Err(format!(
-                    "more than {most_corners} positions once {} is placed (three for each of \
-                     the {} triangles a mesh may have)",
-                    at(),
-                    self.limits.triangles
+                return Err(MeshError::too_large(
+                    Budget::Positions,
+                    format!(
+                        "more than {most_corners} positions once {} is placed (three for each \
+                         of the {} triangles a mesh may have)",
+                        at(),
+                        self.limits.triangles
+                    ),
                 ));
             }
             self.add_primitive(&primitive, world, turn, count, normals.is_some())
@@ -298,7 +319,7 @@ impl Walk<'_> {
         turn: DMat3,
         count: usize,
         with_normals: bool,
-    ) -> Result<(), String> {
+    ) -> Result<(), MeshError> {
         let buffers = self.buffers;
         let reader = primitive.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
         let read = &mut self.read;
@@ -306,11 +327,11 @@ impl Walk<'_> {
         read.positions.extend(
             reader
                 .read_positions()
-                .ok_or("its positions cannot be read")?
+                .ok_or_else(|| malformed("its positions cannot be read"))?
                 .map(|p| world.transform_point3(DVec3::from(p.map(f64::from)))),
         );
         if read.positions.len() != first + count {
-            return Err("its positions end early".into());
+            return Err(malformed("its positions end early"));
         }
         let indices: Vec<usize> = match reader.read_indices() {
             Some(i) => i.into_u32().map(|k| k as usize).collect(),
@@ -322,10 +343,10 @@ impl Walk<'_> {
         });
         for corners in indices.chunks_exact(3) {
             if let Some(&k) = corners.iter().find(|&&k| k >= count) {
-                return Err(format!(
+                return Err(malformed(format!(
                     "a triangle names vertex {} of the primitive's {count}",
                     k + 1
-                ));
+                )));
             }
             read.triangles.push([0, 1, 2].map(|i| first + corners[i]));
             let normal = |i: usize| normals.as_ref().and_then(|n| n.get(corners[i]).copied());
@@ -340,9 +361,9 @@ impl Walk<'_> {
     /// The element count of `accessor`, once it is known to hold what `holds` needs and to
     /// lie within its buffer view and buffer (the reader would otherwise panic or read
     /// past them).
-    fn checked(&self, accessor: &Accessor, holds: Holds) -> Result<usize, String> {
+    fn checked(&self, accessor: &Accessor, holds: Holds) -> Result<usize, MeshError> {
         let name = named("accessor", accessor.index(), accessor.name());
-        let fail = |why: String| Err(format!("{name} {why}"));
+        let fail = |why: String| Err(malformed(format!("{name} {why}")));
         if accessor.sparse().is_some() {
             return fail("is sparse, which hapticd does not read".into());
         }
@@ -435,6 +456,11 @@ fn base64(text: &str) -> Option<Vec<u8>> {
         }
     }
     Some(out)
+}
+
+/// The file breaks glTF as `reason` says.
+fn malformed(reason: impl Into<String>) -> MeshError {
+    MeshError::malformed(Format::Gltf, reason)
 }
 
 #[cfg(test)]

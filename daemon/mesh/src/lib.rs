@@ -13,6 +13,7 @@
 
 pub mod cache;
 pub mod decomposition;
+mod error;
 mod gltf;
 mod obj;
 pub mod properties;
@@ -25,6 +26,8 @@ use std::path::Path;
 use glam::DVec3;
 use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
 use hapticd_core::scene::static_scene::MeshFaces;
+
+pub use crate::error::{Budget, Format, MeshError, MeshFileError};
 
 pub use solid::{MeshSolid, solid, surface};
 
@@ -73,24 +76,56 @@ struct Read {
 
 /// Read the mesh in `file` (its format by its extension), scaled by `scale`, within
 /// `limits`. With `within`, the file and any buffer it names must lie in that directory
-/// once links are followed (a file a bus caller named).
+/// once links are followed (a file a bus caller named). Refused with the file's diagnostics
+/// (see [`read`] for the typed refusal).
 pub fn load(
     file: &Path,
     scale: f64,
     limits: Limits,
     within: Option<&Path>,
 ) -> Result<TriangleMesh, Diagnostics> {
-    let refuse = |message: String| Diagnostics::file(file, message);
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(refuse(format!(
-            "scale must be a finite number > 0, not {scale}"
-        )));
-    }
+    let refuse = |e: MeshError| Diagnostics::file(file, e.to_string());
+    check_scale(scale).map_err(refuse)?;
     let rules = FileRules {
         max_bytes: limits.bytes,
         within,
     };
     let bytes = read_file(file, rules)?;
+    parse(&bytes, file, rules, scale, limits).map_err(refuse)
+}
+
+/// [`load`], refused with why.
+pub fn read(
+    file: &Path,
+    scale: f64,
+    limits: Limits,
+    within: Option<&Path>,
+) -> Result<TriangleMesh, MeshError> {
+    check_scale(scale)?;
+    let rules = FileRules {
+        max_bytes: limits.bytes,
+        within,
+    };
+    let bytes = read_file(file, rules).map_err(|e| MeshError::Unreadable(e.message()))?;
+    parse(&bytes, file, rules, scale, limits)
+}
+
+fn check_scale(scale: f64) -> Result<(), MeshError> {
+    if scale.is_finite() && scale > 0.0 {
+        Ok(())
+    } else {
+        Err(MeshError::Scale(scale))
+    }
+}
+
+/// The mesh in `bytes`, the contents of `file` (its format by its extension).
+fn parse(
+    bytes: &[u8],
+    file: &Path,
+    rules: FileRules,
+    scale: f64,
+    limits: Limits,
+) -> Result<TriangleMesh, MeshError> {
     let extension = file
         .extension()
         .and_then(|e| e.to_str())
@@ -98,31 +133,33 @@ pub fn load(
     // The readers check what they are given before they trust it; should a format crate
     // still panic on a file, the file is refused, not the process ended.
     let read = std::panic::catch_unwind(|| match extension.as_deref() {
-        Some("obj") => obj::read(&bytes, limits),
-        Some("stl") => stl::read(&bytes, limits),
-        Some("gltf") | Some("glb") => gltf::read(&bytes, file, rules, limits),
-        _ => Err("not a mesh file hapticd reads: .obj, .stl, .gltf or .glb".into()),
+        Some("obj") => obj::read(bytes, limits),
+        Some("stl") => stl::read(bytes, limits),
+        Some("gltf") | Some("glb") => gltf::read(bytes, file, rules, limits),
+        _ => Err(MeshError::UnknownFormat),
     })
-    .unwrap_or_else(|_| Err("its reader failed on it (a fault of the reader's)".into()))
-    .map_err(refuse)?;
-    TriangleMesh::checked(read, scale, limits).map_err(refuse)
+    .unwrap_or(Err(MeshError::ReaderFault))?;
+    TriangleMesh::checked(read, scale, limits)
 }
 
 impl TriangleMesh {
     /// `read` scaled, checked and with its identical positions merged.
-    fn checked(read: Read, scale: f64, limits: Limits) -> Result<TriangleMesh, String> {
+    fn checked(read: Read, scale: f64, limits: Limits) -> Result<TriangleMesh, MeshError> {
         if read.triangles.len() > limits.triangles {
-            return Err(format!(
-                "{} triangles; a mesh has at most {}",
-                read.triangles.len(),
-                limits.triangles
+            return Err(MeshError::too_large(
+                Budget::Triangles,
+                format!(
+                    "{} triangles; a mesh has at most {}",
+                    read.triangles.len(),
+                    limits.triangles
+                ),
             ));
         }
         if read.triangles.is_empty() {
-            return Err("no triangles".into());
+            return Err(MeshError::Empty);
         }
         if let Some(k) = read.positions.iter().position(|p| !p.is_finite()) {
-            return Err(format!("vertex {} is not finite", k + 1));
+            return Err(MeshError::NotFinite(k + 1));
         }
         // One vertex per position, so that triangles sharing an edge share its vertices.
         let mut index: HashMap<[u64; 3], u32> = HashMap::new();
@@ -139,23 +176,23 @@ impl TriangleMesh {
             merged.push(k);
         }
         if vertices.len() > limits.vertices {
-            return Err(format!(
-                "{} vertices; a mesh has at most {}",
-                vertices.len(),
-                limits.vertices
+            return Err(MeshError::too_large(
+                Budget::Vertices,
+                format!(
+                    "{} vertices; a mesh has at most {}",
+                    vertices.len(),
+                    limits.vertices
+                ),
             ));
         }
         let mut triangles = Vec::with_capacity(read.triangles.len());
         for (t, corners) in read.triangles.iter().enumerate() {
             let mut triangle = [0u32; 3];
             for (out, &corner) in triangle.iter_mut().zip(corners) {
-                *out = *merged.get(corner).ok_or_else(|| {
-                    format!(
-                        "triangle {} names vertex {}, but there are {}",
-                        t + 1,
-                        corner + 1,
-                        read.positions.len()
-                    )
+                *out = *merged.get(corner).ok_or(MeshError::NoSuchVertex {
+                    triangle: t + 1,
+                    vertex: corner + 1,
+                    vertices: read.positions.len(),
                 })?;
             }
             triangles.push(triangle);
@@ -198,11 +235,16 @@ impl TriangleMesh {
 /// whether they bound a solid: read under [`Limits::DEFAULT`], and only from within the
 /// scene's directory. The reader hapticd and hapticctl give static scenes
 /// (`hapticd_core::scene::static_scene::MeshReader`).
-pub fn scene_triangles(file: &Path, scene_dir: &Path, scale: f64) -> Result<MeshFaces, String> {
-    let mesh = load(file, scale, Limits::DEFAULT, Some(scene_dir)).map_err(|e| {
-        let reasons: Vec<_> = e.diagnostics.iter().map(|d| d.message.clone()).collect();
-        format!("{}: {}", file.display(), reasons.join("; "))
-    })?;
+pub fn scene_triangles(
+    file: &Path,
+    scene_dir: &Path,
+    scale: f64,
+) -> Result<MeshFaces, Box<dyn std::error::Error + Send + Sync>> {
+    let mesh =
+        read(file, scale, Limits::DEFAULT, Some(scene_dir)).map_err(|error| MeshFileError {
+            file: file.to_path_buf(),
+            error,
+        })?;
     Ok(MeshFaces {
         closed: properties::closure(&mesh).is_closed(),
         triangles: mesh.corners().collect(),

@@ -3,10 +3,10 @@
 
 use glam::DVec3;
 
-use crate::{Limits, Read};
+use crate::{Budget, Format, Limits, MeshError, Read};
 
 /// The triangles of OBJ `bytes`, at most `limits.triangles` of them.
-pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, String> {
+pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, MeshError> {
     within_budget(bytes, limits)?;
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -16,7 +16,7 @@ pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, String> {
     // A material library is another file: not read (a mesh's colour comes from its scene).
     let no_materials = |_: &std::path::Path| Err(tobj::LoadError::OpenFileFailed);
     let (models, _) = tobj::load_obj_buf(&mut &bytes[..], &options, no_materials)
-        .map_err(|e| format!("not a readable OBJ file: {e}"))?;
+        .map_err(|e| MeshError::malformed(Format::Obj, format!("not a readable OBJ file: {e}")))?;
     let mut read = Read {
         positions: Vec::new(),
         triangles: Vec::new(),
@@ -52,7 +52,7 @@ pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, String> {
 /// Refuse a file that would make more triangles, or more positions, than `limits` allow,
 /// counted from its lines before the reader builds anything: a polygon of n corners is
 /// n − 2 triangles.
-fn within_budget(bytes: &[u8], limits: Limits) -> Result<(), String> {
+fn within_budget(bytes: &[u8], limits: Limits) -> Result<(), MeshError> {
     let (mut positions, mut triangles) = (0usize, 0usize);
     for line in bytes.split(|&b| b == b'\n') {
         let mut words = line
@@ -65,17 +65,23 @@ fn within_budget(bytes: &[u8], limits: Limits) -> Result<(), String> {
         }
     }
     if triangles > limits.triangles {
-        return Err(format!(
-            "{triangles} triangles; a mesh has at most {}",
-            limits.triangles
+        return Err(MeshError::too_large(
+            Budget::Triangles,
+            format!(
+                "{triangles} triangles; a mesh has at most {}",
+                limits.triangles
+            ),
         ));
     }
     if positions > 3 * limits.triangles {
-        return Err(format!(
-            "{positions} vertices; a mesh file has at most {} (three for each of the {} \
+        return Err(MeshError::too_large(
+            Budget::Positions,
+            format!(
+                "{positions} vertices; a mesh file has at most {} (three for each of the {} \
              triangles a mesh may have)",
-            3 * limits.triangles,
-            limits.triangles
+                3 * limits.triangles,
+                limits.triangles
+            ),
         ));
     }
     Ok(())

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use crate::cache::Cache;
 use crate::properties::{MassProperties, closure, cuboid, mass_properties};
-use crate::{Limits, TriangleMesh, load};
+use crate::{Limits, MeshError, MeshFileError, TriangleMesh};
 
 /// A closed mesh ready to be a body, in the mesh file's frame times its scale.
 #[derive(Debug, Clone)]
@@ -28,32 +28,27 @@ pub fn solid(
     scene_dir: &Path,
     scale: f64,
     cache: Option<&Cache>,
-) -> Result<MeshSolid, String> {
+) -> Result<MeshSolid, MeshFileError> {
     // Read at scale 1: the cache keys the mesh as the file has it.
     let (file, mut mesh) = read(file, scene_dir, scale)?;
     let file = &file;
+    let refuse = |error| MeshFileError {
+        file: file.clone(),
+        error,
+    };
     let c = closure(&mesh);
     if !c.is_closed() {
-        return Err(format!(
-            "{}: not a closed surface ({} open edges, {} edges not shared by two faces in \
-             turn): a movable body's mesh, and any under engine: penalty (its contacts are \
-             volumes), must enclose its volume (fill its holes in a modelling tool, such \
-             as MeshLab's \"Close Holes\"), or make the body fixed (fixed: true) under \
-             engine: rapier, or a static scene's shape: both take any surface",
-            file.display(),
-            c.open_edges,
-            c.bad_edges
-        ));
+        return Err(refuse(MeshError::Open {
+            open_edges: c.open_edges,
+            bad_edges: c.bad_edges,
+        }));
     }
     let (pieces, cached) = match cache {
         Some(cache) => cache.pieces(&mesh),
         None => (Vec::new(), false),
     };
     if mass_properties(&mesh).volume <= 0.0 {
-        return Err(format!(
-            "{}: its faces point inwards (the volume they close is negative)",
-            file.display()
-        ));
+        return Err(refuse(MeshError::InsideOut));
     }
     mesh.scale(scale);
     Ok(MeshSolid {
@@ -73,7 +68,7 @@ pub fn solid(
 /// The mesh `file` of a scene in `scene_dir` as a fixed body's surface: its triangles as they
 /// are, holes and all (a scan is seldom closed, and a fixed body needs no volume). Its mass
 /// properties are those of its bounding box, which nothing moves.
-pub fn surface(file: &Path, scene_dir: &Path, scale: f64) -> Result<MeshSolid, String> {
+pub fn surface(file: &Path, scene_dir: &Path, scale: f64) -> Result<MeshSolid, MeshFileError> {
     let (_, mut mesh) = read(file, scene_dir, scale)?;
     mesh.scale(scale);
     let (low, high) = mesh.bounds();
@@ -88,14 +83,19 @@ pub fn surface(file: &Path, scene_dir: &Path, scale: f64) -> Result<MeshSolid, S
 
 /// The mesh `file` (relative to `scene_dir`, read from within it, under [`Limits::DEFAULT`])
 /// at scale 1, once `scale` is known to be usable; with the file's path.
-fn read(file: &Path, scene_dir: &Path, scale: f64) -> Result<(PathBuf, TriangleMesh), String> {
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(format!("scale must be a finite number > 0, not {scale}"));
-    }
+fn read(
+    file: &Path,
+    scene_dir: &Path,
+    scale: f64,
+) -> Result<(PathBuf, TriangleMesh), MeshFileError> {
     let file = scene_dir.join(file);
-    let mesh = load(&file, 1.0, Limits::DEFAULT, Some(scene_dir)).map_err(|e| {
-        let reasons: Vec<_> = e.diagnostics.iter().map(|d| d.message.clone()).collect();
-        format!("{}: {}", file.display(), reasons.join("; "))
-    })?;
+    let refuse = |error| MeshFileError {
+        file: file.clone(),
+        error,
+    };
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(refuse(MeshError::Scale(scale)));
+    }
+    let mesh = crate::read(&file, 1.0, Limits::DEFAULT, Some(scene_dir)).map_err(refuse)?;
     Ok((file, mesh))
 }

@@ -7,7 +7,7 @@
 
 use glam::DVec3;
 
-use crate::{Limits, Read};
+use crate::{Budget, Format, Limits, MeshError, Read};
 
 /// Bytes before a binary file's triangles: the header and the count.
 const HEADER: usize = 84;
@@ -15,7 +15,7 @@ const HEADER: usize = 84;
 const TRIANGLE: usize = 50;
 
 /// The triangles of STL `bytes`, at most `limits.triangles` of them.
-pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, String> {
+pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, MeshError> {
     let declared = bytes
         .get(80..HEADER)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as usize);
@@ -29,17 +29,19 @@ pub(crate) fn read(bytes: &[u8], limits: Limits) -> Result<Read, String> {
         _ if bytes.trim_ascii_start().starts_with(b"solid") && !bytes.contains(&0) => {
             ascii(bytes, limits)
         }
-        Some(n) => Err(format!(
+        Some(n) => Err(malformed(format!(
             "not a readable STL file: a binary STL of {n} triangles is {} bytes long, not {}",
             HEADER as u128 + n as u128 * TRIANGLE as u128,
             bytes.len()
+        ))),
+        None => Err(malformed(
+            "not a readable STL file: too short for a binary STL, and not ASCII",
         )),
-        None => Err("not a readable STL file: too short for a binary STL, and not ASCII".into()),
     }
 }
 
 /// A binary file of `count` triangles (its length already checked).
-fn binary(bytes: &[u8], count: usize, limits: Limits) -> Result<Read, String> {
+fn binary(bytes: &[u8], count: usize, limits: Limits) -> Result<Read, MeshError> {
     if count > limits.triangles {
         return Err(too_many(count, limits));
     }
@@ -68,7 +70,7 @@ fn binary(bytes: &[u8], count: usize, limits: Limits) -> Result<Read, String> {
 /// An ASCII file: `solid`, facets of `facet normal x y z`, `outer loop`, three or more
 /// `vertex x y z`, `endloop`, `endfacet`, and `endsolid`, perhaps several solids. A loop of
 /// more than three corners is cut into a fan.
-fn ascii(bytes: &[u8], limits: Limits) -> Result<Read, String> {
+fn ascii(bytes: &[u8], limits: Limits) -> Result<Read, MeshError> {
     let mut tokens = Tokens {
         words: bytes
             .split(u8::is_ascii_whitespace)
@@ -97,11 +99,11 @@ fn ascii(bytes: &[u8], limits: Limits) -> Result<Read, String> {
         }
         tokens.expect(b"endfacet")?;
         if corners.len() < 3 {
-            return Err(format!(
+            return Err(malformed(format!(
                 "not a readable STL file: facet {} has {} corners",
                 tokens.facet,
                 corners.len()
-            ));
+            )));
         }
         triangles += corners.len() - 2;
         if triangles > limits.triangles {
@@ -125,11 +127,18 @@ fn soup(positions: Vec<DVec3>) -> Read {
     }
 }
 
-fn too_many(triangles: usize, limits: Limits) -> String {
-    format!(
-        "more than {} triangles ({triangles} so far); a mesh has at most {}",
-        limits.triangles, limits.triangles
+fn too_many(triangles: usize, limits: Limits) -> MeshError {
+    MeshError::too_large(
+        Budget::Triangles,
+        format!(
+            "more than {} triangles ({triangles} so far); a mesh has at most {}",
+            limits.triangles, limits.triangles
+        ),
     )
+}
+
+fn malformed(reason: impl Into<String>) -> MeshError {
+    MeshError::malformed(Format::Stl, reason)
 }
 
 /// An ASCII file's words, and the facet being read (counted from 1) for errors.
@@ -139,24 +148,24 @@ struct Tokens<'a, I: Iterator<Item = &'a [u8]>> {
 }
 
 impl<'a, I: Iterator<Item = &'a [u8]>> Tokens<'a, I> {
-    fn word(&mut self) -> Result<&'a [u8], String> {
+    fn word(&mut self) -> Result<&'a [u8], MeshError> {
         self.words.next().ok_or_else(|| {
-            format!(
+            malformed(format!(
                 "not a readable STL file: it ends within facet {}",
                 self.facet
-            )
+            ))
         })
     }
 
-    fn unexpected(&self, word: &[u8], wanted: &str) -> String {
-        format!(
+    fn unexpected(&self, word: &[u8], wanted: &str) -> MeshError {
+        malformed(format!(
             "not a readable STL file: facet {} has {:?} where {wanted} belongs",
             self.facet,
             String::from_utf8_lossy(&word[..word.len().min(32)])
-        )
+        ))
     }
 
-    fn expect(&mut self, wanted: &[u8]) -> Result<(), String> {
+    fn expect(&mut self, wanted: &[u8]) -> Result<(), MeshError> {
         let word = self.word()?;
         if word == wanted {
             Ok(())
@@ -165,7 +174,7 @@ impl<'a, I: Iterator<Item = &'a [u8]>> Tokens<'a, I> {
         }
     }
 
-    fn point(&mut self) -> Result<DVec3, String> {
+    fn point(&mut self) -> Result<DVec3, MeshError> {
         let mut c = [0.0; 3];
         for v in &mut c {
             let word = self.word()?;

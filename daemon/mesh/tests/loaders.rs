@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DVec3};
 use hapticd_mesh::properties::{closure, mass_properties};
-use hapticd_mesh::{Limits, TriangleMesh, load};
+use hapticd_mesh::{Budget, Format, Limits, MeshError, TriangleMesh, load, read};
 
 /// A scratch directory of this test process, in cargo's scratch directory under target/.
 fn scratch(name: &str) -> PathBuf {
@@ -285,6 +285,33 @@ fn bad_files_are_refused_with_their_name_and_why() {
         );
         assert!(e.contains(says), "{name}: {e}");
     }
+    // The same refusals, typed: a caller tells their kinds apart without reading words.
+    let kind = |name: &str| read(&dir.join(name), 1.0, Limits::DEFAULT, None).unwrap_err();
+    assert!(matches!(
+        kind("missing.obj"),
+        MeshError::Malformed {
+            format: Format::Obj,
+            ..
+        }
+    ));
+    assert_eq!(kind("nan.obj"), MeshError::NotFinite(1));
+    assert_eq!(kind("empty.obj"), MeshError::Empty);
+    assert!(matches!(
+        kind("truncated.stl"),
+        MeshError::Malformed {
+            format: Format::Stl,
+            ..
+        }
+    ));
+    assert!(matches!(
+        kind("garbage.glb"),
+        MeshError::Malformed {
+            format: Format::Gltf,
+            ..
+        }
+    ));
+    assert_eq!(kind("cube.ply"), MeshError::UnknownFormat);
+    assert!(matches!(kind("nowhere.obj"), MeshError::Unreadable(_)));
     // A bomb: more than the limits allow, refused before it is used.
     let cube_file = write("cube.obj", text.as_bytes());
     let small = Limits {
@@ -292,6 +319,13 @@ fn bad_files_are_refused_with_their_name_and_why() {
         ..Limits::DEFAULT
     };
     assert!(refused(&cube_file, small, None).contains("12 triangles; a mesh has at most 11"));
+    assert!(matches!(
+        read(&cube_file, 1.0, small, None),
+        Err(MeshError::TooLarge {
+            budget: Budget::Triangles,
+            ..
+        })
+    ));
     let tiny = Limits {
         bytes: 16,
         ..Limits::DEFAULT
@@ -325,6 +359,10 @@ fn bad_files_are_refused_with_their_name_and_why() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("scale must be"), "{e}");
+    assert!(matches!(
+        read(&cube_file, -1.0, Limits::DEFAULT, None),
+        Err(MeshError::Scale(s)) if s == -1.0
+    ));
 }
 
 /// The shipped example meshes (written by config/scenes/meshes/make-meshes.py): each as OBJ and as

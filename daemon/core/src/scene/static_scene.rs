@@ -105,7 +105,8 @@ fn unscaled() -> f64 {
 /// Reads a mesh file a scene names (`file`, in the scene's directory `dir`, which it must not
 /// leave): its triangles, in the file's coordinates times `scale`. hapticd and hapticctl read
 /// them with hapticd-mesh; the core itself reads no mesh format.
-pub type MeshReader<'a> = &'a dyn Fn(&Path, &Path, f64) -> Result<MeshFaces, String>;
+pub type MeshReader<'a> =
+    &'a dyn Fn(&Path, &Path, f64) -> Result<MeshFaces, Box<dyn std::error::Error + Send + Sync>>;
 
 /// The triangles of a mesh file, as a [`MeshReader`] gives them.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -238,7 +239,11 @@ fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
 }
 
 /// The reader of programs that read no mesh files.
-fn no_meshes(_: &Path, _: &Path, _: f64) -> Result<MeshFaces, String> {
+fn no_meshes(
+    _: &Path,
+    _: &Path,
+    _: f64,
+) -> Result<MeshFaces, Box<dyn std::error::Error + Send + Sync>> {
     Err("this program reads no mesh files (hapticd and hapticctl do)".into())
 }
 
@@ -259,7 +264,7 @@ fn mesh_faces(
     let MeshFaces { triangles, closed } = match meshes(&dir.join(file), dir, scale) {
         Ok(faces) => faces,
         Err(e) => {
-            f.error(format!("{at}.mesh.file"), e);
+            f.error(format!("{at}.mesh.file"), e.to_string());
             return Vec::new();
         }
     };

@@ -84,7 +84,7 @@ pub(super) fn mesh_body(
     let solid = match read {
         Ok(solid) => solid,
         Err(e) => {
-            f.error(format!("{at}.mesh"), e);
+            f.error(format!("{at}.mesh"), e.to_string());
             return None;
         }
     };
