@@ -1532,12 +1532,17 @@ print(sum(reads))
 /// Listing scenes reads no meshes: with a scene of a 490 000-triangle mesh installed (each
 /// read took 0.45 s, and ten unprivileged read loops delayed root's requests by seconds),
 /// `Scenes` answers in milliseconds, lists the scene, and the loops delay nothing.
-/// A scene's solids are shared whole, however many triangles its meshes have (the world's
-/// block once kept the first 16 384), labelled with the frames' count of the scene they are,
-/// and shared anew when a scene is switched to.
-#[test]
-fn the_running_scene_s_solids_are_shared_whole_and_anew_at_each_switch() {
-    let dir = scratch("geometry");
+/// A private bus (made by `bus`, shared or alone) and a daemon's set-up in `dir` whose one
+/// scene directory holds the shipped `static` scene and `name`: a floor and a binary STL of
+/// `triangles` triangles (`corners` of each by its number), in millimetres times `scale`.
+fn mesh_scene(
+    bus: fn(&Path) -> Bus,
+    dir: &Path,
+    name: &str,
+    triangles: u32,
+    scale: f64,
+    corners: impl Fn(u32) -> [[f32; 3]; 3],
+) -> (Bus, Setup) {
     let scenes = dir.join("scenes");
     std::fs::create_dir_all(&scenes).unwrap();
     std::fs::copy(
@@ -1545,30 +1550,26 @@ fn the_running_scene_s_solids_are_shared_whole_and_anew_at_each_switch() {
         scenes.join("static.yaml"),
     )
     .unwrap();
-    // A binary STL of 40 000 triangles, a strip of thin slivers 1 mm apart.
-    let triangles = 40_000u32;
     let mut stl = vec![0u8; 80];
     stl.extend(triangles.to_le_bytes());
     for t in 0..triangles {
-        let x = t as f32 * 0.001;
-        for v in [
-            [0.0, 0.0, 1.0],
-            [x, 0.0, 0.0],
-            [x + 0.001, 0.0, 0.0],
-            [x, 0.001, 0.0],
-        ] {
-            stl.extend(v.iter().flat_map(|c: &f32| c.to_le_bytes()));
+        // The face normal is not read: the corners' order gives the face.
+        stl.extend([0f32; 3].iter().flat_map(|v| v.to_le_bytes()));
+        for corner in corners(t) {
+            stl.extend(corner.iter().flat_map(|v| v.to_le_bytes()));
         }
         stl.extend([0u8; 2]);
     }
-    std::fs::write(scenes.join("strip.stl"), &stl).unwrap();
+    std::fs::write(scenes.join(format!("{name}.stl")), &stl).unwrap();
     std::fs::write(
-        scenes.join("strip.yaml"),
-        "name: strip\nshapes:\n  - floor: { height: -0.05 }\n  - mesh: { file: strip.stl, scale: 0.005 }\n",
+        scenes.join(format!("{name}.yaml")),
+        format!(
+            "name: {name}\nshapes:\n  - floor: {{ height: -0.05 }}\n  - mesh: {{ file: {name}.stl, scale: {scale} }}\n"
+        ),
     )
     .unwrap();
-    let bus = Bus::start(&dir);
-    let setup = Setup::new(&dir);
+    let bus = bus(dir);
+    let setup = Setup::new(dir);
     std::fs::write(
         &setup.config,
         default_config().replace(
@@ -1577,6 +1578,21 @@ fn the_running_scene_s_solids_are_shared_whole_and_anew_at_each_switch() {
         ),
     )
     .unwrap();
+    (bus, setup)
+}
+
+/// A scene's solids are shared whole, however many triangles its meshes have (the world's
+/// block once kept the first 16 384), labelled with the frames' count of the scene they are,
+/// and shared anew when a scene is switched to.
+#[test]
+fn the_running_scene_s_solids_are_shared_whole_and_anew_at_each_switch() {
+    let dir = scratch("geometry");
+    // A strip of 40 000 thin slivers 1 mm apart.
+    let triangles = 40_000u32;
+    let (bus, setup) = mesh_scene(Bus::start, &dir, "strip", triangles, 0.005, |t| {
+        let x = t as f32 * 0.001;
+        [[x, 0.0, 0.0], [x + 0.001, 0.0, 0.0], [x, 0.001, 0.0]]
+    });
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "strip"]);
     let connection = bus.connect();
     zbus::block_on(async {
@@ -1632,44 +1648,15 @@ fn scenes_are_listed_without_reading_their_meshes_whoever_asks_how_often() {
         return;
     }
     let dir = scratch("listing");
-    let scenes = dir.join("scenes");
-    std::fs::create_dir_all(&scenes).unwrap();
-    std::fs::copy(
-        repo_dir().join("config/scenes/static.yaml"),
-        scenes.join("static.yaml"),
-    )
-    .unwrap();
-    // A binary STL of 490 000 small triangles in a 5 cm cube.
-    let triangles = 490_000u32;
-    let mut stl = vec![0u8; 80];
-    stl.extend(triangles.to_le_bytes());
-    for t in 0..triangles {
+    // 490 000 small triangles in a 5 cm cube; the delays measured with no other test's
+    // daemon beside.
+    let (bus, setup) = mesh_scene(Bus::start_alone, &dir, "big", 490_000, 0.001, |t| {
         let corner = |k: u32| {
             let n = t.wrapping_mul(2_654_435_761).wrapping_add(k * 97);
             [n % 50, (n / 50) % 50, (n / 2500) % 50].map(|c| c as f32)
         };
-        stl.extend([0f32; 3].iter().flat_map(|v| v.to_le_bytes()));
-        for k in 0..3 {
-            stl.extend(corner(k).iter().flat_map(|v| v.to_le_bytes()));
-        }
-        stl.extend([0u8; 2]);
-    }
-    std::fs::write(scenes.join("big.stl"), &stl).unwrap();
-    std::fs::write(
-        scenes.join("big.yaml"),
-        "name: big\nshapes:\n  - floor: { height: -0.05 }\n  - mesh: { file: big.stl, scale: 0.001 }\n",
-    )
-    .unwrap();
-    let bus = Bus::start(&dir);
-    let setup = Setup::new(&dir);
-    std::fs::write(
-        &setup.config,
-        default_config().replace(
-            &repo_dir().join("config/scenes").display().to_string(),
-            &scenes.display().to_string(),
-        ),
-    )
-    .unwrap();
+        [corner(0), corner(1), corner(2)]
+    });
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
     let connection = bus.connect();
     let get = |interface: &str, property: &str| {
@@ -1754,7 +1741,7 @@ fn scenes_are_listed_without_reading_their_meshes_whoever_asks_how_often() {
     );
     daemon.stop();
     // The mesh weighs 24.5 MB: not left in the temporary directory.
-    std::fs::remove_file(scenes.join("big.stl")).unwrap();
+    std::fs::remove_file(dir.join("scenes/big.stl")).unwrap();
 }
 
 #[test]
