@@ -86,11 +86,7 @@ pub fn load(
 ) -> Result<TriangleMesh, Diagnostics> {
     let refuse = |e: MeshError| Diagnostics::file(file, e.to_string());
     check_scale(scale).map_err(refuse)?;
-    let rules = FileRules {
-        max_bytes: limits.bytes,
-        within,
-    };
-    let bytes = read_file(file, rules)?;
+    let (bytes, rules) = contents(file, limits, within)?;
     parse(&bytes, file, rules, scale, limits).map_err(refuse)
 }
 
@@ -102,12 +98,23 @@ pub fn read(
     within: Option<&Path>,
 ) -> Result<TriangleMesh, MeshError> {
     check_scale(scale)?;
+    let (bytes, rules) =
+        contents(file, limits, within).map_err(|e| MeshError::Unreadable(e.message()))?;
+    parse(&bytes, file, rules, scale, limits)
+}
+
+/// The bytes of `file`, read as `limits` and `within` allow, and the rules they were read
+/// under (the buffers a glTF file names are read under the same).
+fn contents<'a>(
+    file: &Path,
+    limits: Limits,
+    within: Option<&'a Path>,
+) -> Result<(Vec<u8>, FileRules<'a>), hapticd_core::diagnostics::FileError> {
     let rules = FileRules {
         max_bytes: limits.bytes,
         within,
     };
-    let bytes = read_file(file, rules).map_err(|e| MeshError::Unreadable(e.message()))?;
-    parse(&bytes, file, rules, scale, limits)
+    Ok((read_file(file, rules)?, rules))
 }
 
 fn check_scale(scale: f64) -> Result<(), MeshError> {
