@@ -105,5 +105,5 @@ pub fn snapshot_of_busctl_json(stdout: &[u8]) -> Result<hapticd_render::picture:
         .iter()
         .map(|b| b.as_u64().unwrap_or_default() as u8)
         .collect();
-    hapticd_render::picture::Picture::from_png(&bytes)
+    hapticd_render::picture::Picture::from_png(&bytes).map_err(|e| e.to_string())
 }

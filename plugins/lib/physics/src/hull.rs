@@ -7,6 +7,29 @@ use glam::{DQuat, DVec3};
 use crate::clip::Clipper;
 use crate::polyhedron::{Plane, Polyhedron};
 
+/// Why points make no convex solid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HullError {
+    /// A point is not finite.
+    NotFinite,
+    /// They all lie in one plane (or on a line, or at one point).
+    Flat,
+    /// A triangle names a vertex the piece does not have.
+    NoSuchVertex,
+}
+
+impl std::fmt::Display for HullError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            HullError::NotFinite => "hull vertices must be finite",
+            HullError::Flat => "hull vertices must not all lie in one plane",
+            HullError::NoSuchVertex => "a triangle names a vertex the piece lacks",
+        })
+    }
+}
+
+impl std::error::Error for HullError {}
+
 impl Polyhedron {
     /// The polyhedron bounded by `planes` (each n·x ≤ d), built by clipping a box of half edge
     /// `extent` that must contain it. Planes that cut nothing leave no face.
@@ -25,7 +48,7 @@ impl Polyhedron {
     /// the others on one side (coplanar faces merge into one). Cubic in the number of points,
     /// which suits the tens of vertices a scene file gives. An error when the points span no
     /// volume.
-    pub fn hull(points: &[DVec3]) -> Result<Self, String> {
+    pub fn hull(points: &[DVec3]) -> Result<Self, HullError> {
         let (centre, radius) = spread(points)?;
         let tolerance = 1e-9 * radius;
         let mut planes: Vec<Plane> = Vec::new();
@@ -61,13 +84,16 @@ impl Polyhedron {
     /// The convex solid whose surface is `triangles` over `vertices` (a convex piece of a
     /// mesh): bounded by the triangles' planes, those of one face merged. Linear in the
     /// triangles, for pieces of hundreds of points. An error when they span no volume.
-    pub fn of_convex_surface(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Result<Self, String> {
+    pub fn of_convex_surface(
+        vertices: &[DVec3],
+        triangles: &[[u32; 3]],
+    ) -> Result<Self, HullError> {
         let (centre, radius) = spread(vertices)?;
         let mut planes: Vec<Plane> = Vec::new();
         for t in triangles {
             let [a, b, c] = t.map(|k| vertices.get(k as usize).copied());
             let (Some(a), Some(b), Some(c)) = (a, b, c) else {
-                return Err("a triangle names a vertex the piece lacks".into());
+                return Err(HullError::NoSuchVertex);
             };
             let normal = (b - a).cross(c - a);
             if normal.length() <= 1e-18 * radius * radius {
@@ -88,9 +114,9 @@ impl Polyhedron {
     }
 
     /// The solid of `planes` around `centre`, within `radius` of it.
-    fn bounded_by(planes: &[Plane], centre: DVec3, radius: f64) -> Result<Self, String> {
+    fn bounded_by(planes: &[Plane], centre: DVec3, radius: f64) -> Result<Self, HullError> {
         if planes.len() < 4 {
-            return Err("hull vertices must not all lie in one plane".into());
+            return Err(HullError::Flat);
         }
         let shifted: Vec<Plane> = planes
             .iter()
@@ -134,9 +160,9 @@ impl Polyhedron {
 
 /// The mean of `points` and their greatest distance from it; an error when one is not
 /// finite.
-fn spread(points: &[DVec3]) -> Result<(DVec3, f64), String> {
+fn spread(points: &[DVec3]) -> Result<(DVec3, f64), HullError> {
     if points.iter().any(|p| !p.is_finite()) {
-        return Err("hull vertices must be finite".into());
+        return Err(HullError::NotFinite);
     }
     let centre = points.iter().copied().sum::<DVec3>() / points.len().max(1) as f64;
     let radius = points

@@ -206,6 +206,7 @@ pub fn newell(vertices: &[DVec3], face: &[usize]) -> (DVec3, DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hull::HullError;
     use crate::mass::volume_and_centroid;
 
     #[test]
@@ -264,7 +265,10 @@ mod tests {
     #[test]
     fn flat_point_sets_are_refused() {
         let square = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::X + DVec3::Y];
-        assert!(Polyhedron::hull(&square).is_err());
-        assert!(Polyhedron::hull(&[DVec3::ZERO, DVec3::NAN, DVec3::X, DVec3::Z]).is_err());
+        assert_eq!(Polyhedron::hull(&square).err(), Some(HullError::Flat));
+        assert_eq!(
+            Polyhedron::hull(&[DVec3::ZERO, DVec3::NAN, DVec3::X, DVec3::Z]).err(),
+            Some(HullError::NotFinite)
+        );
     }
 }

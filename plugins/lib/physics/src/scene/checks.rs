@@ -152,7 +152,7 @@ fn solid(
             let points: Vec<DVec3> = points.iter().map(|p| DVec3::from(*p)).collect();
             match Polyhedron::hull(&points) {
                 Err(e) => {
-                    f.error(format!("{at}.hull"), e);
+                    f.error(format!("{at}.hull"), e.to_string());
                     None
                 }
                 Ok(hull) if hull.thickness() < smallest => {
