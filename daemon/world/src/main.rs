@@ -26,7 +26,7 @@ use crate::shared_world::SharedWorld;
 
 /// The network configuration with the command line's overrides.
 fn configuration(cli: &WorldCli) -> Result<NetworkConfig, String> {
-    let mut config = NetworkConfig::load(cli.config.as_deref())?;
+    let mut config = NetworkConfig::load(cli.config.as_deref()).map_err(|e| e.to_string())?;
     if !cli.listen.is_empty() {
         config.listen = cli.listen.clone();
     }

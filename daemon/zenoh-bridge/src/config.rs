@@ -48,38 +48,102 @@ impl Default for NetworkConfig {
     }
 }
 
+/// What a network configuration holds that cannot be meant.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ConfigError {
+    /// `rate` is no number of samples a second in (0, [`MAX_RATE`]].
+    Rate(f64),
+    /// An endpoint of `listen` or `connect` is empty.
+    EmptyEndpoint,
+    /// `world` is no world's name.
+    World(String),
+}
+
+impl std::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ConfigError::Rate(rate) => write!(
+                f,
+                "rate: {rate} is not a number of samples a second in (0, {MAX_RATE}]"
+            ),
+            ConfigError::EmptyEndpoint => f.write_str("listen, connect: an endpoint is empty"),
+            ConfigError::World(world) => write!(
+                f,
+                "world: {world:?} is no world's name (letters, digits, - and _)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// Why a network configuration file is refused, and which file.
+#[derive(Debug)]
+pub struct LoadError {
+    /// The file.
+    pub path: std::path::PathBuf,
+    /// Why.
+    pub kind: LoadErrorKind,
+}
+
+/// Why a network configuration file is refused.
+#[derive(Debug)]
+pub enum LoadErrorKind {
+    /// It could not be read.
+    Io(std::io::Error),
+    /// It is no configuration of this format (the parser's error, boxed: it is large).
+    Format(Box<serde_saphyr::Error>),
+    /// It holds what cannot be meant.
+    Config(ConfigError),
+}
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: ", self.path.display())?;
+        match &self.kind {
+            LoadErrorKind::Io(e) => write!(f, "{e}"),
+            LoadErrorKind::Format(e) => write!(f, "{e}"),
+            LoadErrorKind::Config(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for LoadError {}
+
 impl NetworkConfig {
     /// The configuration in `path`; the defaults if `path` is the default one and absent.
-    pub fn load(path: Option<&Path>) -> Result<Self, String> {
+    pub fn load(path: Option<&Path>) -> Result<Self, LoadError> {
         let (path, required) = match path {
             Some(p) => (p, true),
             None => (Path::new(DEFAULT_PATH), false),
+        };
+        let refused = |kind| LoadError {
+            path: path.to_path_buf(),
+            kind,
         };
         let text = match std::fs::read_to_string(path) {
             Ok(text) => text,
             Err(e) if !required && e.kind() == std::io::ErrorKind::NotFound => {
                 return Ok(Self::default());
             }
-            Err(e) => return Err(format!("{}: {e}", path.display())),
+            Err(e) => return Err(refused(LoadErrorKind::Io(e))),
         };
         let config: Self = if text.trim().is_empty() {
             Self::default()
         } else {
-            serde_saphyr::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?
+            serde_saphyr::from_str(&text)
+                .map_err(|e| refused(LoadErrorKind::Format(Box::new(e))))?
         };
         config
             .check()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .map_err(|e| refused(LoadErrorKind::Config(e)))?;
         Ok(config)
     }
 
     /// Refuse what cannot be meant.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), ConfigError> {
         if !(self.rate.is_finite() && self.rate > 0.0 && self.rate <= MAX_RATE) {
-            return Err(format!(
-                "rate: {} is not a number of samples a second in (0, {MAX_RATE}]",
-                self.rate
-            ));
+            return Err(ConfigError::Rate(self.rate));
         }
         if self
             .listen
@@ -87,14 +151,12 @@ impl NetworkConfig {
             .chain(&self.connect)
             .any(|e| e.is_empty())
         {
-            return Err("listen, connect: an endpoint is empty".into());
+            return Err(ConfigError::EmptyEndpoint);
         }
         if let Some(world) = &self.world
             && !crate::world_keys::is_name(world)
         {
-            return Err(format!(
-                "world: {world:?} is no world's name (letters, digits, - and _)"
-            ));
+            return Err(ConfigError::World(world.clone()));
         }
         Ok(())
     }
@@ -105,7 +167,7 @@ mod tests {
     use super::*;
 
     /// `text` loaded from a file of its own, `name`.yaml.
-    fn parsed(name: usize, text: &str) -> Result<NetworkConfig, String> {
+    fn parsed(name: usize, text: &str) -> Result<NetworkConfig, LoadError> {
         let dir =
             std::env::temp_dir().join(format!("hapticd-network-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -120,8 +182,8 @@ mod tests {
     fn the_shipped_file_says_the_defaults() {
         let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/network.yaml");
         assert_eq!(
-            NetworkConfig::load(Some(Path::new(shipped))),
-            Ok(NetworkConfig::default())
+            NetworkConfig::load(Some(Path::new(shipped))).unwrap(),
+            NetworkConfig::default()
         );
     }
 
@@ -142,8 +204,21 @@ mod tests {
         .enumerate()
         {
             let e = parsed(bad.0, bad.1).unwrap_err();
-            assert!(e.contains(".yaml"), "{}: {e}", bad.1);
+            assert!(e.to_string().contains(".yaml"), "{}: {e}", bad.1);
         }
+        // Said by kind: what cannot be meant, and what is no configuration at all.
+        assert!(matches!(
+            parsed(200, "rate: 0\n").unwrap_err().kind,
+            LoadErrorKind::Config(ConfigError::Rate(r)) if r == 0.0
+        ));
+        assert!(matches!(
+            parsed(201, "world: 'a/b'\n").unwrap_err().kind,
+            LoadErrorKind::Config(ConfigError::World(w)) if w == "a/b"
+        ));
+        assert!(matches!(
+            parsed(202, "comands: true\n").unwrap_err().kind,
+            LoadErrorKind::Format(_)
+        ));
         assert!(NetworkConfig::load(Some(Path::new("/nonexistent/network.yaml"))).is_err());
         let set = parsed(100, "rate: 1000\ncommands: true\n").unwrap();
         assert_eq!((set.rate, set.commands), (1000.0, true));
