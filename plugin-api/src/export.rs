@@ -429,9 +429,13 @@ impl HapticdBodyInfo {
     }
 }
 
+/// Why a Rust scene plugin refuses a scene file: any error, its text what the host logs or
+/// hands on (a `String` or `&str` turns into one with `into()` or `?`).
+pub type SceneError = Box<dyn std::error::Error + Send + Sync>;
+
 /// How a Rust scene plugin checks one of its scene files for a number of pointers: nothing,
 /// or its findings, one a line.
-pub type SceneCheck = fn(&str, usize) -> Result<(), String>;
+pub type SceneCheck = fn(&str, usize) -> Result<(), SceneError>;
 
 /// The instance's geometry, if it has one.
 ///
@@ -664,8 +668,8 @@ pub unsafe fn scene_check(
     let mut findings = None;
     let status = guard(|| match check(&path, pointer_count as usize) {
         Ok(()) => HAPTICD_OK,
-        Err(text) => {
-            findings = Some(text);
+        Err(e) => {
+            findings = Some(e.to_string());
             HAPTICD_ERROR_FAILED
         }
     });
@@ -725,7 +729,7 @@ unsafe fn slice<'a, T>(data: *const T, count: u32) -> Option<&'a [T]> {
 /// How a Rust scene plugin creates instances: from the scene file (if any) and the number of
 /// pointers, an instance and its description, or a message for the host log.
 pub type SceneFactory =
-    fn(Option<&str>, usize) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String>;
+    fn(Option<&str>, usize) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), SceneError>;
 
 /// A vtable that may live in a `static`.
 #[repr(transparent)]
@@ -763,8 +767,8 @@ pub unsafe fn scene_create(
                 }
                 HAPTICD_OK
             }
-            Err(message) => {
-                log(HAPTICD_LOG_ERROR, &message);
+            Err(e) => {
+                log(HAPTICD_LOG_ERROR, &e.to_string());
                 HAPTICD_ERROR_FAILED
             }
         }

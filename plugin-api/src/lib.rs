@@ -16,6 +16,7 @@ pub mod geometry;
 
 pub use abi::*;
 pub use export::{
-    MechanismSpec, PhysicsInput, PhysicsOutput, SceneCheck, SceneFactory, SceneInstance, log,
+    MechanismSpec, PhysicsInput, PhysicsOutput, SceneCheck, SceneError, SceneFactory,
+    SceneInstance, log,
 };
 pub use geometry::Geometry;

@@ -80,7 +80,7 @@ fn floor_height(text: &str) -> Result<f64, String> {
 fn create(
     path: Option<&str>,
     _pointers: usize,
-) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
+) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), SceneError> {
     let y = match path {
         Some(path) => {
             let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;

@@ -84,17 +84,19 @@ impl SceneInstance for Penalty {
 }
 
 /// Check a penalty scene file without building its world (or cutting its meshes).
-fn check(path: &str, pointers: usize) -> Result<(), String> {
+fn check(path: &str, pointers: usize) -> Result<(), SceneError> {
     match SceneFile::check(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
         SceneFile::Penalty(_) => Ok(()),
-        SceneFile::Rapier(_) => Err(format!("{path}: a rapier scene (give engine: penalty)")),
+        SceneFile::Rapier(_) => {
+            Err(format!("{path}: a rapier scene (give engine: penalty)").into())
+        }
     }
 }
 
 fn create(
     path: Option<&str>,
     pointers: usize,
-) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
+) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), SceneError> {
     let path = path.ok_or("the penalty scene needs a scene file")?;
     let scene =
         PenaltyScene::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())?;

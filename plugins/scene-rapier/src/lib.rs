@@ -82,25 +82,29 @@ impl SceneInstance for Rapier {
 }
 
 /// The rapier scene in the file at `path` for `pointers` pointers.
-fn load(path: &str, pointers: usize) -> Result<Box<RapierScene>, String> {
+fn load(path: &str, pointers: usize) -> Result<Box<RapierScene>, SceneError> {
     match SceneFile::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
         SceneFile::Rapier(spec) => Ok(spec),
-        SceneFile::Penalty(_) => Err(format!("{path}: a penalty scene (give engine: rapier)")),
+        SceneFile::Penalty(_) => {
+            Err(format!("{path}: a penalty scene (give engine: rapier)").into())
+        }
     }
 }
 
 /// Check a rapier scene file without building its world (or cutting its meshes).
-fn check(path: &str, pointers: usize) -> Result<(), String> {
+fn check(path: &str, pointers: usize) -> Result<(), SceneError> {
     match SceneFile::check(std::path::Path::new(path), pointers).map_err(|e| e.to_string())? {
         SceneFile::Rapier(_) => Ok(()),
-        SceneFile::Penalty(_) => Err(format!("{path}: a penalty scene (give engine: rapier)")),
+        SceneFile::Penalty(_) => {
+            Err(format!("{path}: a penalty scene (give engine: rapier)").into())
+        }
     }
 }
 
 fn create(
     path: Option<&str>,
     pointers: usize,
-) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), String> {
+) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), SceneError> {
     let path = path.ok_or("the rapier scene needs a scene file")?;
     let spec = load(path, pointers)?;
     for warning in &spec.warnings {
