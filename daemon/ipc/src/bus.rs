@@ -12,19 +12,38 @@ pub enum Bus {
     Address(String),
 }
 
-impl std::str::FromStr for Bus {
-    type Err = String;
+/// A word that names no bus.
+///
+/// ```
+/// use hapticd_ipc::bus::{Bus, NotABus};
+/// assert_eq!("session".parse(), Ok(Bus::Session));
+/// assert_eq!("unix:path=/run/bus".parse(), Ok(Bus::Address("unix:path=/run/bus".into())));
+/// assert_eq!("sytem".parse::<Bus>(), Err(NotABus("sytem".into())));
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NotABus(pub String);
 
-    fn from_str(s: &str) -> Result<Self, String> {
+impl std::fmt::Display for NotABus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:?} is not a bus: give system, session or a D-Bus address",
+            self.0
+        )
+    }
+}
+
+impl std::error::Error for NotABus {}
+
+impl std::str::FromStr for Bus {
+    type Err = NotABus;
+
+    fn from_str(s: &str) -> Result<Self, NotABus> {
         Ok(match s {
             "system" => Bus::System,
             "session" => Bus::Session,
             a if a.contains(':') => Bus::Address(a.to_string()),
-            other => {
-                return Err(format!(
-                    "{other:?} is not a bus: give system, session or a D-Bus address"
-                ));
-            }
+            other => return Err(NotABus(other.to_string())),
         })
     }
 }
