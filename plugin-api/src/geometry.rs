@@ -32,12 +32,76 @@ pub struct Geometry {
 }
 
 /// Why a plugin's geometry cannot be drawn.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct GeometryError {
     /// The solid at fault.
     pub solid: usize,
     /// What is wrong with it.
-    pub reason: String,
+    pub reason: SolidFault,
+}
+
+/// What is wrong with a solid.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SolidFault {
+    /// It moves with a body the world does not have.
+    NoSuchBody {
+        /// Its body.
+        body: u32,
+        /// The world's bodies.
+        bodies: u32,
+    },
+    /// Its shape is none of `HAPTICD_SHAPE_*`.
+    UnknownShape(u32),
+    /// A size its shape reads (the first `read`) is not above zero.
+    Size {
+        /// Its sizes.
+        size: [f64; 3],
+        /// How many its shape reads.
+        read: usize,
+    },
+    /// Its frame is no finite position and unit orientation.
+    Frame(HapticdBodyPose),
+    /// Its colour is not within 0 to 1.
+    Colour([f32; 4]),
+    /// Its triangles `first .. end` do not lie within the `triangles` of the list.
+    Triangles {
+        /// Its first triangle.
+        first: u32,
+        /// One past its last.
+        end: usize,
+        /// The triangles in the list.
+        triangles: usize,
+    },
+    /// A corner of one of its triangles is not finite.
+    NotFinite,
+}
+
+impl std::fmt::Display for SolidFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SolidFault::NoSuchBody { body, bodies } => {
+                write!(f, "body {body} of a world of {bodies} bodies")
+            }
+            SolidFault::UnknownShape(shape) => write!(f, "unknown shape {shape}"),
+            SolidFault::Size { size, read } => {
+                write!(f, "size {:?} is not above zero", &size[..*read])
+            }
+            SolidFault::Frame(HapticdBodyPose {
+                position,
+                orientation,
+            }) => write!(
+                f,
+                "frame {position:?} {orientation:?} is not a finite position and unit orientation"
+            ),
+            SolidFault::Colour(colour) => write!(f, "colour {colour:?} is not within 0 to 1"),
+            SolidFault::Triangles {
+                first,
+                end,
+                triangles,
+            } => write!(f, "triangles {first} .. {end} of {triangles}"),
+            SolidFault::NotFinite => f.write_str("a triangle's corner is not finite"),
+        }
+    }
 }
 
 impl std::fmt::Display for GeometryError {
@@ -126,7 +190,7 @@ impl Geometry {
             if !finite {
                 return Err(GeometryError {
                     solid: k,
-                    reason: "a triangle's corner is not finite".into(),
+                    reason: SolidFault::NotFinite,
                 });
             }
         }
@@ -135,19 +199,25 @@ impl Geometry {
 }
 
 /// The one solid's part of [`Geometry::check`].
-fn check_solid(solid: &HapticdSolid, bodies: u32, triangles: usize) -> Result<(), String> {
+fn check_solid(solid: &HapticdSolid, bodies: u32, triangles: usize) -> Result<(), SolidFault> {
     if solid.body != HAPTICD_NO_BODY && solid.body >= bodies {
-        return Err(format!("body {} of a world of {bodies} bodies", solid.body));
+        return Err(SolidFault::NoSuchBody {
+            body: solid.body,
+            bodies,
+        });
     }
     let read = match solid.shape {
         HAPTICD_SHAPE_BOX => 3,
         HAPTICD_SHAPE_SPHERE | HAPTICD_SHAPE_PLANE => 1,
         HAPTICD_SHAPE_CYLINDER => 2,
         HAPTICD_SHAPE_TRIANGLES => 0,
-        other => return Err(format!("unknown shape {other}")),
+        other => return Err(SolidFault::UnknownShape(other)),
     };
     if !solid.size[..read].iter().all(|s| s.is_finite() && *s > 0.0) {
-        return Err(format!("size {:?} is not above zero", &solid.size[..read]));
+        return Err(SolidFault::Size {
+            size: solid.size,
+            read,
+        });
     }
     let HapticdBodyPose {
         position,
@@ -156,19 +226,18 @@ fn check_solid(solid: &HapticdSolid, bodies: u32, triangles: usize) -> Result<()
     let norm = orientation.iter().map(|q| q * q).sum::<f64>().sqrt();
     let unit = (norm - 1.0).abs() < 1e-6;
     if !position.iter().all(|p| p.is_finite()) || !unit {
-        return Err(format!(
-            "frame {position:?} {orientation:?} is not a finite position and unit orientation"
-        ));
+        return Err(SolidFault::Frame(solid.offset));
     }
     if !solid.colour.iter().all(|c| (0.0..=1.0).contains(c)) {
-        return Err(format!("colour {:?} is not within 0 to 1", solid.colour));
+        return Err(SolidFault::Colour(solid.colour));
     }
     let end = solid.first_triangle as usize + solid.triangle_count as usize;
     if solid.shape == HAPTICD_SHAPE_TRIANGLES && (solid.triangle_count == 0 || end > triangles) {
-        return Err(format!(
-            "triangles {} .. {end} of {triangles}",
-            solid.first_triangle
-        ));
+        return Err(SolidFault::Triangles {
+            first: solid.first_triangle,
+            end,
+            triangles,
+        });
     }
     Ok(())
 }
@@ -251,7 +320,10 @@ mod tests {
             };
             let error = world.check().unwrap_err();
             assert_eq!(error.solid, 1);
-            assert!(error.reason.contains(fault), "{error} lacks {fault:?}");
+            assert!(
+                error.reason.to_string().contains(fault),
+                "{error} lacks {fault:?}"
+            );
         }
         let outside = Geometry {
             body_count: 0,
@@ -263,12 +335,13 @@ mod tests {
             }],
             triangles: vec![HapticdTriangle::default()],
         };
-        assert!(
-            outside
-                .check()
-                .unwrap_err()
-                .reason
-                .contains("triangles 0 .. 2")
+        assert_eq!(
+            outside.check().unwrap_err().reason,
+            SolidFault::Triangles {
+                first: 0,
+                end: 2,
+                triangles: 1
+            }
         );
         let nan = Geometry {
             body_count: 0,
@@ -284,6 +357,6 @@ mod tests {
                 corners: [[f64::NAN; 3]; 3],
             }],
         };
-        assert!(nan.check().unwrap_err().reason.contains("not finite"));
+        assert_eq!(nan.check().unwrap_err().reason, SolidFault::NotFinite);
     }
 }
