@@ -399,7 +399,9 @@ impl DeviceHandle {
     /// Save `record` (when there is a state directory).
     fn save(&self, record: &DeviceRecord) -> Result<(), Error> {
         match &self.state_dir {
-            Some(dir) => dir.save(&self.identity, record).map_err(Error::NotSaved),
+            Some(dir) => dir
+                .save(&self.identity, record)
+                .map_err(|e| Error::NotSaved(e.to_string())),
             None => Ok(()),
         }
     }

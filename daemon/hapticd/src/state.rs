@@ -140,20 +140,44 @@ impl StateDir {
 
     /// Replace the record of device `identity` atomically; refused, touching nothing, when
     /// what is in its place is not a record hapticd could have written.
-    pub fn save(&self, identity: &str, record: &DeviceRecord) -> Result<(), String> {
+    pub fn save(&self, identity: &str, record: &DeviceRecord) -> Result<(), SaveError> {
         let path = self.device_file(identity);
         if let Err(e) = diagnostics::check_file(&path, self.rules())
             && unusable(&e.refusal)
         {
-            return Err(format!(
-                "{e}; hapticd neither reads nor replaces it: remove it to save"
-            ));
+            return Err(SaveError::Unusable(e));
         }
-        let mut text = serde_json::to_vec_pretty(record).map_err(|e| e.to_string())?;
+        let mut text = serde_json::to_vec_pretty(record).map_err(SaveError::Encode)?;
         text.push(b'\n');
-        diagnostics::write_atomically(&path, &text)
+        diagnostics::write_atomically(&path, &text).map_err(SaveError::Write)
     }
 }
+
+/// Why a device's record was not saved (and the old one is left as it was).
+#[derive(Debug)]
+pub enum SaveError {
+    /// What is in its place is not a record hapticd could have written.
+    Unusable(diagnostics::FileError),
+    /// The record could not be put in JSON.
+    Encode(serde_json::Error),
+    /// It could not be written.
+    Write(diagnostics::WriteError),
+}
+
+impl std::fmt::Display for SaveError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SaveError::Unusable(e) => write!(
+                f,
+                "{e}; hapticd neither reads nor replaces it: remove it to save"
+            ),
+            SaveError::Encode(e) => write!(f, "{e}"),
+            SaveError::Write(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for SaveError {}
 
 /// Whether `refusal` says the file is not one hapticd could have written.
 fn unusable(refusal: &Refusal) -> bool {
@@ -247,6 +271,8 @@ mod tests {
                 "{expected}: {e}"
             );
             let e = state.save("a", &record).unwrap_err();
+            assert!(matches!(e, SaveError::Unusable(_)), "{e}");
+            let e = e.to_string();
             assert!(e.contains(expected) && e.contains("remove it"), "{e}");
             let kept = std::fs::symlink_metadata(&file).unwrap();
             assert!(!kept.file_type().is_file() || kept.len() == 20 << 30);
@@ -270,7 +296,11 @@ mod tests {
             ..DeviceRecord::default()
         };
         let e = state.save("a", &new).unwrap_err();
-        assert!(e.contains("cannot create"), "{e}");
+        assert!(
+            matches!(&e, SaveError::Write(w) if w.step == "create"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("cannot create"), "{e}");
         assert_eq!(state.load("a").unwrap(), old);
         std::fs::remove_dir_all(&dir).unwrap();
     }

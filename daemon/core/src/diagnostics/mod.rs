@@ -290,13 +290,49 @@ pub fn check_file(file: &Path, rules: FileRules) -> Result<PathBuf, FileError> {
     Ok(path)
 }
 
+/// Why a file could not be replaced, and at which step.
+#[derive(Debug)]
+pub struct WriteError {
+    /// The file.
+    pub path: PathBuf,
+    /// What could not be done: "create its directory", "create", "write", "flush" or
+    /// "replace".
+    pub step: &'static str,
+    /// Why.
+    pub error: std::io::Error,
+}
+
+impl std::fmt::Display for WriteError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: cannot {}: {}",
+            self.path.display(),
+            self.step,
+            self.error
+        )
+    }
+}
+
+impl std::error::Error for WriteError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}
+
 /// Replace `path` with `contents` so that a crash leaves either the old file or the new one:
 /// the one writer of every file hapticd keeps (records, caches).
-pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
+pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), WriteError> {
     use std::io::Write;
-    let fail = |what: &str, e: std::io::Error| format!("{}: cannot {what}: {e}", path.display());
+    let fail = |step: &'static str| {
+        move |error: std::io::Error| WriteError {
+            path: path.to_path_buf(),
+            step,
+            error,
+        }
+    };
     let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| fail("create its directory", e))?;
+    std::fs::create_dir_all(dir).map_err(fail("create its directory"))?;
     let name = path
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into());
@@ -308,10 +344,10 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), String> {
             .write(true)
             .create_new(true)
             .open(&temporary)
-            .map_err(|e| fail("create", e))?;
-        file.write_all(contents).map_err(|e| fail("write", e))?;
-        file.sync_all().map_err(|e| fail("flush", e))?;
-        std::fs::rename(&temporary, path).map_err(|e| fail("replace", e))
+            .map_err(fail("create"))?;
+        file.write_all(contents).map_err(fail("write"))?;
+        file.sync_all().map_err(fail("flush"))?;
+        std::fs::rename(&temporary, path).map_err(fail("replace"))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&temporary);
