@@ -118,6 +118,27 @@ pub struct SimulatedBoard {
     input_bits: u16,
 }
 
+/// A mechanism the simulated board cannot drive: more strings than it has channels.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TooManyStrings {
+    /// The mechanism.
+    pub mechanism: String,
+    /// Its strings.
+    pub strings: usize,
+}
+
+impl std::fmt::Display for TooManyStrings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} has {} strings; one amplifier board drives at most {CHANNELS}",
+            self.mechanism, self.strings
+        )
+    }
+}
+
+impl std::error::Error for TooManyStrings {}
+
 impl SimulatedBoard {
     /// A board driving `mechanism`, updated every `period` seconds, its hands following
     /// `script` (effectors the script does not name hold their calibration pose). At power-on
@@ -128,13 +149,12 @@ impl SimulatedBoard {
         period: f64,
         script: &Script,
         parameters: SimParameters,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, TooManyStrings> {
         if mechanism.strings.len() > CHANNELS {
-            return Err(format!(
-                "{} has {} strings; one amplifier board drives at most {CHANNELS}",
-                mechanism.name,
-                mechanism.strings.len()
-            ));
+            return Err(TooManyStrings {
+                mechanism: mechanism.name.clone(),
+                strings: mechanism.strings.len(),
+            });
         }
         let effectors: Vec<SimEffector> = mechanism
             .effectors
@@ -379,6 +399,23 @@ mod tests {
 
     fn spidar() -> Mechanism {
         descriptor::parse(SPIDAR, Path::new("s.yaml")).unwrap()
+    }
+
+    #[test]
+    fn a_mechanism_of_more_strings_than_channels_is_refused_by_name() {
+        let mut m = spidar();
+        let string = m.strings[0];
+        m.strings.resize(CHANNELS + 1, string);
+        let refused = SimulatedBoard::new(&m, 1e-3, &Script::default(), SimParameters::default())
+            .err()
+            .unwrap();
+        assert_eq!(
+            refused,
+            TooManyStrings {
+                mechanism: m.name.clone(),
+                strings: CHANNELS + 1
+            }
+        );
     }
 
     #[test]

@@ -56,7 +56,8 @@ impl Session {
             period,
             &self.script,
             SimParameters::default(),
-        )?;
+        )
+        .map_err(|e| e.to_string())?;
         let transport = Box::new(Sh4Transport::new(
             board,
             format!("sim:{}", self.mechanism.name),

@@ -57,7 +57,8 @@ pub fn open(
         }
         Kind::Simulator => {
             let board =
-                SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default())?;
+                SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default())
+                    .map_err(|e| e.to_string())?;
             recorded(Protocol::Sh4, board, identity, traffic)
         }
     })
