@@ -41,7 +41,7 @@ fn configuration(cli: &WorldCli) -> Result<NetworkConfig, String> {
 
 fn run(cli: &WorldCli) -> Result<(), String> {
     let config = configuration(cli)?;
-    let until = session::deadline(cli.duration)?;
+    let until = session::deadline(cli.duration).map_err(|e| e.to_string())?;
     if !(1..=64).contains(&cli.pointers) {
         return Err(format!("--pointers {}: from 1 to 64", cli.pointers));
     }
@@ -68,7 +68,7 @@ fn run(cli: &WorldCli) -> Result<(), String> {
         }
     };
     let mut world = SharedWorld::new(&spec, cli.pointers);
-    let session = session::open(&config)?;
+    let session = session::open(&config).map_err(|e| e.to_string())?;
     let zenoh = |e: zenoh::Error| format!("zenoh: {e}");
     let incoming = session
         .declare_subscriber(world_keys::from_hosts(&name))

@@ -103,11 +103,11 @@ fn serve_commands(
 
 fn run(cli: &ZenohCli) -> Result<(), String> {
     let config = configuration(cli)?;
-    let until = session::deadline(cli.duration)?;
+    let until = session::deadline(cli.duration).map_err(|e| e.to_string())?;
     let hapticd = Hapticd::connect(&cli.bus).map_err(|e| e.to_string())?;
     let devices = commands::device_words(hapticd.devices().map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;
-    let session = session::open(&config)?;
+    let session = session::open(&config).map_err(|e| e.to_string())?;
     tracing::info!(
         "publishing {} device(s) on {:?}, ROS domain {}, {} samples/s; commands {}",
         devices.len(),

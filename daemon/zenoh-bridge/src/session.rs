@@ -8,20 +8,73 @@ use zenoh::Wait;
 
 use crate::config::NetworkConfig;
 
+/// Why the session could not be opened.
+#[derive(Debug)]
+pub enum SessionError {
+    /// The administrator's Zenoh configuration file is refused.
+    Config {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Zenoh's reason.
+        error: zenoh::Error,
+    },
+    /// A setting of the network configuration is refused by Zenoh.
+    Setting {
+        /// Its key.
+        key: &'static str,
+        /// Zenoh's reason.
+        error: zenoh::Error,
+    },
+    /// Zenoh could not open the session on these endpoints.
+    Open {
+        /// The endpoints listened on.
+        listen: Vec<String>,
+        /// Zenoh's reason.
+        error: zenoh::Error,
+    },
+}
+
+impl std::fmt::Display for SessionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SessionError::Config { path, error } => write!(f, "{}: {error}", path.display()),
+            SessionError::Setting { key, error } => write!(f, "{key}: {error}"),
+            SessionError::Open { listen, error } => {
+                write!(f, "cannot open a zenoh session on {listen:?}: {error}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for SessionError {}
+
+/// A run's length that is no number of seconds above zero.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BadDuration(pub f64);
+
+impl std::fmt::Display for BadDuration {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("--duration must be a number of seconds > 0")
+    }
+}
+
+impl std::error::Error for BadDuration {}
+
 /// The Zenoh session: a peer on the configured endpoints, not looking for others by
 /// multicast (nothing leaves the machine unless an endpoint says so), built on the
 /// administrator's own Zenoh configuration when one is named.
-pub fn open(config: &NetworkConfig) -> Result<zenoh::Session, String> {
+pub fn open(config: &NetworkConfig) -> Result<zenoh::Session, SessionError> {
     let mut zenoh_config = match &config.zenoh {
-        Some(path) => {
-            zenoh::Config::from_file(path).map_err(|e| format!("{}: {e}", path.display()))?
-        }
+        Some(path) => zenoh::Config::from_file(path).map_err(|error| SessionError::Config {
+            path: path.clone(),
+            error,
+        })?,
         None => zenoh::Config::default(),
     };
-    let mut set = |key: &str, value: String| {
+    let mut set = |key: &'static str, value: String| {
         zenoh_config
             .insert_json5(key, &value)
-            .map_err(|e| format!("{key}: {e}"))
+            .map_err(|error| SessionError::Setting { key, error })
     };
     set("mode", "\"peer\"".into())?;
     set(
@@ -35,17 +88,53 @@ pub fn open(config: &NetworkConfig) -> Result<zenoh::Session, String> {
     set("scouting/multicast/enabled", "false".into())?;
     zenoh::open(zenoh_config)
         .wait()
-        .map_err(|e| format!("cannot open a zenoh session on {:?}: {e}", config.listen))
+        .map_err(|error| SessionError::Open {
+            listen: config.listen.clone(),
+            error,
+        })
 }
 
 /// When a run of `duration` seconds from now ends (None: never); an error for a duration that
 /// is no number of seconds above zero.
-pub fn deadline(duration: Option<f64>) -> Result<Option<Instant>, String> {
+pub fn deadline(duration: Option<f64>) -> Result<Option<Instant>, BadDuration> {
     match duration {
         Some(s) if s.is_finite() && s > 0.0 => {
             Ok(Some(Instant::now() + Duration::from_secs_f64(s)))
         }
-        Some(_) => Err("--duration must be a number of seconds > 0".into()),
+        Some(s) => Err(BadDuration(s)),
         None => Ok(None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_lasts_a_number_of_seconds_above_zero_or_for_ever() {
+        assert_eq!(deadline(None), Ok(None));
+        assert!(deadline(Some(1.0)).is_ok_and(|d| d.is_some()));
+        for bad in [0.0, -1.0, f64::INFINITY] {
+            assert_eq!(deadline(Some(bad)), Err(BadDuration(bad)));
+        }
+        assert!(deadline(Some(f64::NAN)).is_err());
+    }
+
+    #[test]
+    fn an_administrators_file_that_is_not_there_is_refused_by_name() {
+        let config = NetworkConfig {
+            zenoh: Some("/nonexistent/zenoh.json5".into()),
+            ..NetworkConfig::default()
+        };
+        let refused = open(&config).err().unwrap();
+        assert!(
+            matches!(&refused, SessionError::Config { path, .. } if path.ends_with("zenoh.json5")),
+            "{refused}"
+        );
+        assert!(
+            refused
+                .to_string()
+                .starts_with("/nonexistent/zenoh.json5: ")
+        );
     }
 }
