@@ -261,13 +261,11 @@ fn without_a_display_view_says_what_to_set() {
 /// its mesh (the bracket, drawn in the scenery's blue) is found beside it and drawn.
 #[test]
 fn a_scene_given_by_its_bare_name_draws_its_meshes() {
-    let dir = scratch_root().join(format!("render-bare-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(
-        repo_dir().join("config/scenes/meshes/bracket.obj"),
-        dir.join("bracket.obj"),
-    )
-    .unwrap();
+    let dir = support::dir_with_mesh(
+        "render-bare",
+        "config/scenes/meshes/bracket.obj",
+        "bracket.obj",
+    );
     std::fs::write(
         dir.join("my.yaml"),
         "name: my\nshapes:\n  - floor: { height: -0.05 }\n  - mesh: { file: bracket.obj, centre: [0, -0.02, 0] }\n",
@@ -292,13 +290,7 @@ fn a_scene_given_by_its_bare_name_draws_its_meshes() {
 /// of a yellow ball), is a speck, and the model fills the middle of the picture.
 #[test]
 fn a_scene_of_fixed_solids_frames_the_model_not_the_fingertip() {
-    let dir = scratch_root().join(format!("render-fixed-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(
-        repo_dir().join("tests/corpus/teapot.obj"),
-        dir.join("teapot.obj"),
-    )
-    .unwrap();
+    let dir = support::dir_with_mesh("render-fixed", "tests/corpus/teapot.obj", "teapot.obj");
     std::fs::write(
         dir.join("pot.yaml"),
         "name: pot\nengine: rapier\nrate: 100\nmaterial: { static_friction: 0.5, friction: 0.4 }\n\

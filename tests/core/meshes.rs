@@ -13,7 +13,7 @@ use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_mesh::scene_triangles;
 
 use crate::support::ball_mesh::ball_faces;
-use crate::support::{repo_dir, scratch_root};
+use crate::support::{dir_with_mesh, scratch_root};
 
 const SCENE: &str = "\
 name: bracket
@@ -24,15 +24,11 @@ shapes:
 
 /// A scene directory with the bracket's mesh beside its scene file.
 fn scene_dir(name: &str) -> PathBuf {
-    scene_dir_with(name, "config/scenes/meshes/bracket.obj", "bracket.obj")
-}
-
-/// A scene directory with the repository's `mesh` beside its scene file, as `file`.
-fn scene_dir_with(name: &str, mesh: &str, file: &str) -> PathBuf {
-    let dir = scratch_root().join(format!("meshes-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(repo_dir().join(mesh), dir.join(file)).unwrap();
-    dir
+    dir_with_mesh(
+        &format!("meshes-{name}"),
+        "config/scenes/meshes/bracket.obj",
+        "bracket.obj",
+    )
 }
 
 fn parse(dir: &Path, text: &str) -> Result<StaticSceneSpec, String> {
@@ -255,7 +251,11 @@ fn an_open_scan_is_felt_from_inside_as_from_outside_and_a_closed_one_only_outsid
     // assimp's sphere with a hole (open, its hole facing −z), 3 cm in radius, centred at
     // the origin; the finger starts at its centre and pushes up through its wall, then
     // comes down onto its top from above. Both ways the wall holds it, 5 mm deep.
-    let dir = scene_dir_with("open", "tests/corpus/sphereWithHole.stl", "sphere.stl");
+    let dir = dir_with_mesh(
+        "meshes-open",
+        "tests/corpus/sphereWithHole.stl",
+        "sphere.stl",
+    );
     let text = "name: open\nshapes:\n  - mesh: { file: sphere.stl, centre: [-0.03, -0.03, -0.03], scale: 0.02 }\n";
     let spec = parse(&dir, text).unwrap();
     let scenery = Scenery::new(&spec.shapes);

@@ -218,6 +218,15 @@ pub fn scratch_root() -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
 }
 
+/// A scratch directory `name` of this process holding the repository's mesh file `mesh` as
+/// `file`, as a user keeps a model beside the scene file that names it.
+pub fn dir_with_mesh(name: &str, mesh: &str, file: &str) -> PathBuf {
+    let dir = scratch_root().join(format!("{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(repo_dir().join(mesh), dir.join(file)).unwrap();
+    dir
+}
+
 /// The haptic loop of `m` on a simulated board whose hands follow `script`, rendering the
 /// shipped static scene, ticking every `dt` seconds.
 pub fn simulated_loop(m: &Mechanism, script: &str, dt: f64) -> HapticLoop {

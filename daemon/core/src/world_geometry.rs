@@ -96,13 +96,8 @@ pub unsafe fn read(block: *const u8, len: usize) -> Result<(u32, Geometry), Wron
             "{len} bytes: too short for a scene's geometry"
         )));
     }
-    // SAFETY: the head lies within the `len` bytes checked above.
-    let (header, counts) = unsafe {
-        (
-            block.cast::<Header>().read(),
-            block.add(size_of::<Header>()).cast::<Counts>().read(),
-        )
-    };
+    // SAFETY: the counts lie within the `len` bytes checked above.
+    let counts = unsafe { block.add(size_of::<Header>()).cast::<Counts>().read() };
     let (solids, triangles) = (counts.solid_count as usize, counts.triangle_count as usize);
     if solids > MAX_SOLIDS || triangles > MAX_TRIANGLES {
         return Err(WrongLayout(format!(
@@ -111,9 +106,8 @@ pub unsafe fn read(block: *const u8, len: usize) -> Result<(u32, Geometry), Wron
         )));
     }
     let expected = Header::new(MAGIC, VERSION, size(solids, triangles));
-    // SAFETY: as above; `check` reads the header again, within `len`.
+    // SAFETY: as above; the header lies within `len` too.
     unsafe { expected.check(block.cast::<Header>(), len, "a scene's geometry") }?;
-    debug_assert_eq!(header, expected);
     // SAFETY: the solids and triangles lie within the size just checked, aligned as
     // written; every bit pattern of them is a value (numbers only).
     let geometry = unsafe {
