@@ -320,6 +320,7 @@ pointer:
         // grip, a point, so the planes stand off by the solid. Without that a body stays a
         // finger's radius ahead of the grip and nothing is felt.
         let (boxed, expected) = pressed_by_position("box: [0.04, 0.04, 0.04]");
+        eprintln!("box: {boxed:.3} N felt, {expected:.3} N from the overlap");
         assert!(expected > 2.0, "the finger overlaps the cube: {expected} N");
         assert!(
             (boxed - expected).abs() < 0.05 * expected,
