@@ -392,6 +392,41 @@ fn pid_of(pidfd: &OwnedFd) -> Option<libc::pid_t> {
 }
 
 /// The daemon this guardian guards, as its greeting on standard input names it.
+/// Why the guardian has no daemon to guard.
+#[derive(Debug)]
+enum GreetingError {
+    /// Nothing came on the socket in time.
+    Silent,
+    /// The first message is something else.
+    NotAGreeting,
+    /// The greeting lacks the pidfd and the beats.
+    NoDescriptors,
+    /// The socket failed.
+    Socket(std::io::Error),
+    /// The greeting names another process than the one that sent it.
+    Impostor {
+        /// The pid the greeting names.
+        named: libc::pid_t,
+        /// The pid at the other end of the socket.
+        peer: libc::pid_t,
+    },
+}
+
+impl std::fmt::Display for GreetingError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GreetingError::Silent => f.write_str("no greeting on its standard input"),
+            GreetingError::NotAGreeting => f.write_str("its first message is no greeting"),
+            GreetingError::NoDescriptors => f.write_str("the greeting carries no pidfd and beats"),
+            GreetingError::Socket(e) => e.fmt(f),
+            GreetingError::Impostor { named, peer } => write!(
+                f,
+                "the greeting names pid {named}, from pid {peer}: not the process that sent it"
+            ),
+        }
+    }
+}
+
 struct Daemon {
     pid: libc::pid_t,
     pidfd: OwnedFd,
@@ -402,7 +437,7 @@ impl Daemon {
     /// Wait for the greeting on `socket`; an error says why there is no daemon to guard.
     /// The pidfd must be of the process at the other end of the socket, so a greeting
     /// cannot name another process.
-    fn greeted(socket: RawFd) -> Result<Self, String> {
+    fn greeted(socket: RawFd) -> Result<Self, GreetingError> {
         let mut fds = [libc::pollfd {
             fd: socket,
             events: libc::POLLIN,
@@ -410,24 +445,23 @@ impl Daemon {
         }];
         // SAFETY: poll reads and writes the one pollfd that lives across the call.
         if unsafe { libc::poll(fds.as_mut_ptr(), 1, GREETING_MS) } <= 0 {
-            return Err("no greeting on its standard input".into());
+            return Err(GreetingError::Silent);
         }
         let mut buffer = [0u8; 16];
-        let (n, descriptors) = socket::receive(socket, &mut buffer).map_err(|e| e.to_string())?;
+        let (n, descriptors) =
+            socket::receive(socket, &mut buffer).map_err(GreetingError::Socket)?;
         let pid = match &buffer[..n] {
             [verb, pid @ ..] if *verb == Verb::Hello as u8 && pid.len() == 4 => {
                 slot_of(pid) as libc::pid_t
             }
-            _ => return Err("its first message is no greeting".into()),
+            _ => return Err(GreetingError::NotAGreeting),
         };
         let [pidfd, beats]: [OwnedFd; 2] = descriptors
             .try_into()
-            .map_err(|_| "the greeting carries no pidfd and beats")?;
-        let peer = socket::peer_pid(socket).map_err(|e| e.to_string())?;
+            .map_err(|_| GreetingError::NoDescriptors)?;
+        let peer = socket::peer_pid(socket).map_err(GreetingError::Socket)?;
         if pid_of(&pidfd) != Some(pid) || peer != pid {
-            return Err(format!(
-                "the greeting names pid {pid}, from pid {peer}: not the process that sent it"
-            ));
+            return Err(GreetingError::Impostor { named: pid, peer });
         }
         Ok(Self { pid, pidfd, beats })
     }
@@ -726,12 +760,12 @@ mod tests {
             socket::send(&ours, &hello, &[pidfd.as_raw_fd(), beats.as_raw_fd()]).unwrap();
             Daemon::greeted(theirs.as_raw_fd()).map(|d| d.pid)
         };
-        assert_eq!(greet(me, me), Ok(me));
+        assert_eq!(greet(me, me).unwrap(), me);
         let other_pid = other.id() as libc::pid_t;
         for (pid, of) in [(other_pid, other_pid), (me, other_pid), (other_pid, me)] {
             let refused = greet(pid, of).unwrap_err();
             assert!(
-                refused.contains("not the process that sent it"),
+                matches!(refused, GreetingError::Impostor { named, peer: _ } if named == pid),
                 "{refused}"
             );
         }
@@ -739,7 +773,10 @@ mod tests {
         other.wait().unwrap();
         let (ours, theirs) = socket::pair().unwrap();
         socket::send(&ours, &[Verb::Disarm as u8], &[]).unwrap();
-        assert!(Daemon::greeted(theirs.as_raw_fd()).is_err_and(|e| e.contains("no greeting")));
+        assert!(matches!(
+            Daemon::greeted(theirs.as_raw_fd()),
+            Err(GreetingError::NotAGreeting)
+        ));
     }
 
     #[test]

@@ -52,14 +52,31 @@ impl std::fmt::Display for UnusableDevice {
     }
 }
 
+/// libusb cannot look at the bus at all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoBus {
+    /// libusb does not start.
+    Start(rusb::Error),
+    /// It cannot list the devices.
+    List(rusb::Error),
+}
+
+impl std::fmt::Display for NoBus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NoBus::Start(e) => write!(f, "cannot start libusb: {e} (is usbfs at /dev/bus/usb?)"),
+            NoBus::List(e) => write!(f, "cannot list USB devices: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for NoBus {}
+
 /// Every supported controller found on the bus, opened and claimed, and those that could
 /// not be. `Err` when libusb cannot start or list the bus at all.
-pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<UnusableDevice>), String> {
-    let context = rusb::Context::new()
-        .map_err(|e| format!("cannot start libusb: {e} (is usbfs at /dev/bus/usb?)"))?;
-    let devices = context
-        .devices()
-        .map_err(|e| format!("cannot list USB devices: {e}"))?;
+pub fn find_devices() -> Result<(Vec<FoundDevice>, Vec<UnusableDevice>), NoBus> {
+    let context = rusb::Context::new().map_err(NoBus::Start)?;
+    let devices = context.devices().map_err(NoBus::List)?;
     let mut found = Vec::new();
     let mut unusable = Vec::new();
     for device in devices.iter() {

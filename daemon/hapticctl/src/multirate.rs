@@ -15,6 +15,21 @@ use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{HapticdImpulse, HapticdLocalState, HapticdPointer};
 use hapticd_rapier::world::{BodyState, RapierWorld};
 
+/// The world stopped being finite at haptic time `time`, seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NotFinite {
+    /// Haptic time, seconds.
+    pub time: f64,
+}
+
+impl std::fmt::Display for NotFinite {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "at t = {:.4} s the world is no longer finite", self.time)
+    }
+}
+
+impl std::error::Error for NotFinite {}
+
 /// A rapier world and the haptic side, stepped in lockstep.
 pub struct Lockstep {
     /// The world.
@@ -71,7 +86,7 @@ impl Lockstep {
     /// One haptic tick with the pointers at `pointers`: the physics steps first when its
     /// clock is due; `wrenches` get what the hand feels. An error when the world stops being
     /// finite.
-    pub fn tick(&mut self, pointers: &[Pointer], wrenches: &mut [Wrench]) -> Result<(), String> {
+    pub fn tick(&mut self, pointers: &[Pointer], wrenches: &mut [Wrench]) -> Result<(), NotFinite> {
         // Against rounding: a step due within a nanosecond of this tick is due now.
         while self.next_physics <= self.time + 1e-9 {
             let n = self.count;
@@ -95,10 +110,7 @@ impl Lockstep {
                 },
             );
             if !finite {
-                return Err(format!(
-                    "at t = {:.4} s the world is no longer finite",
-                    self.time
-                ));
+                return Err(NotFinite { time: self.time });
             }
             set.body_count = body_count;
             self.impulses.clear();

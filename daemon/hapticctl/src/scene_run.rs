@@ -31,14 +31,12 @@ pub enum Quantity {
 /// Why a run stopped before its end.
 #[derive(Debug)]
 pub enum RunError<E> {
-    /// The penalty world stopped being finite at time `t` (bodies too fast, too light or too
-    /// stiffly sprung for the step).
+    /// The world stopped being finite at time `t` (bodies too fast, too light or too stiffly
+    /// sprung for the step).
     NotFinite {
         /// Simulated time, s.
         t: f64,
     },
-    /// The rapier side refused a tick, in its words.
-    Physics(String),
     /// The quantity cannot be traced on this engine.
     Unsupported(Quantity),
     /// The caller's closure failed on a step.
@@ -279,7 +277,8 @@ pub fn trace_multirate<E>(
     let mut peaks = vec![0.0f64; hands.len()];
     for tick in 0..ticks {
         let pointers = hand_pointers(hands, tick as f64 / haptic_rate);
-        run.tick(&pointers, &mut felt).map_err(RunError::Physics)?;
+        run.tick(&pointers, &mut felt)
+            .map_err(|e| RunError::NotFinite { t: e.time })?;
         for (peak, w) in peaks.iter_mut().zip(&felt) {
             *peak = peak.max(w.force.length());
         }

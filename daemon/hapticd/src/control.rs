@@ -825,7 +825,9 @@ impl Daemon {
     /// takes its bodies' states from the running one, by name.
     fn swap_in_now(&self, scene: &str, file: Option<PathBuf>, carry: bool) -> Result<(), Error> {
         if let Some(file) = &file {
-            self.preparation.ready(file).map_err(Error::Preparing)?;
+            self.preparation
+                .ready(file)
+                .map_err(|e| Error::Preparing(e.to_string()))?;
         }
         let config = lock(&self.inner).config.clone();
         let mut scenes = Vec::new();

@@ -36,6 +36,34 @@ pub struct Preparation {
     cutting: Arc<Mutex<Cutting>>,
 }
 
+/// A scene's meshes are being cut into convex pieces, in the background.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StillCutting {
+    /// The meshes.
+    pub meshes: Vec<PathBuf>,
+    /// Whether this request started the cutting (else an earlier one did).
+    pub now: bool,
+}
+
+impl std::fmt::Display for StillCutting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<String> = self
+            .meshes
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        write!(
+            f,
+            "{} are {} being cut into convex pieces for the cache; switch again in a moment \
+             (hapticctl mesh decompose prepares a mesh ahead)",
+            names.join(", "),
+            if self.now { "now" } else { "still" }
+        )
+    }
+}
+
+impl std::error::Error for StillCutting {}
+
 impl Preparation {
     /// Preparation into this process's cache ([`Cache::from_environment`]).
     pub fn from_environment() -> Self {
@@ -53,7 +81,7 @@ impl Preparation {
     /// Ok at once when they are (or the file names none, or cannot be read: the plugin says
     /// what is wrong with it), Ok after cutting them when that takes less than [`WAIT`], and
     /// otherwise the message to give while they are cut in the background.
-    pub fn ready(&self, file: &Path) -> Result<(), String> {
+    pub fn ready(&self, file: &Path) -> Result<(), StillCutting> {
         if self.cache.dir().is_none() {
             return Ok(());
         }
@@ -75,16 +103,10 @@ impl Preparation {
         if needed.is_empty() {
             return Ok(());
         }
-        let names: Vec<String> = needed
-            .iter()
-            .map(|(p, _)| p.display().to_string())
-            .collect();
-        let busy = |started: &str| {
-            format!(
-                "{} {started} being cut into convex pieces for the cache; switch again in a \
-                 moment (hapticctl mesh decompose prepares a mesh ahead)",
-                names.join(", ")
-            )
+        let meshes: Vec<PathBuf> = needed.iter().map(|(p, _)| p.clone()).collect();
+        let busy = |now: bool| StillCutting {
+            meshes: meshes.clone(),
+            now,
         };
         let fresh: Vec<(PathBuf, TriangleMesh)> = {
             let mut cutting = self.cutting();
@@ -94,7 +116,7 @@ impl Preparation {
                 .collect()
         };
         if fresh.is_empty() {
-            return Err(busy("are still"));
+            return Err(busy(false));
         }
         let started: Vec<PathBuf> = fresh.iter().map(|(path, _)| path.clone()).collect();
         let (done, finished) = mpsc::channel();
@@ -138,7 +160,7 @@ impl Preparation {
         }
         match finished.recv_timeout(WAIT) {
             Ok(()) => Ok(()),
-            Err(_) => Err(busy("are now")),
+            Err(_) => Err(busy(true)),
         }
     }
 }

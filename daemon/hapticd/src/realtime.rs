@@ -103,7 +103,7 @@ pub struct RealtimeLoop {
     frames: Reader<Frame>,
     thread: Option<JoinHandle<HapticLoop>>,
     scheduling: Scheduling,
-    pinned: Option<Result<usize, String>>,
+    pinned: Option<std::io::Result<usize>>,
 }
 
 /// Make the calling thread SCHED_FIFO at `priority`, or as close as the system allows.
@@ -219,11 +219,9 @@ impl RealtimeLoop {
             .stack_size(2 * 1024 * 1024)
             .spawn(move || {
                 let scheduling = become_realtime(settings.priority);
-                let pinned = settings.cpu.map(|cpu| {
-                    hapticd_service::cpus::pin(0, &[cpu])
-                        .map(|()| cpu)
-                        .map_err(|e| e.to_string())
-                });
+                let pinned = settings
+                    .cpu
+                    .map(|cpu| hapticd_service::cpus::pin(0, &[cpu]).map(|()| cpu));
                 let _ = granted.send((scheduling, pinned));
                 prefault_stack();
                 let mut stats = LoopStats::default();
@@ -324,7 +322,7 @@ impl RealtimeLoop {
     }
 
     /// The CPU the thread keeps to, or why it could not (None: it was not asked to).
-    pub fn pinned(&self) -> Option<&Result<usize, String>> {
+    pub fn pinned(&self) -> Option<&std::io::Result<usize>> {
         self.pinned.as_ref()
     }
 

@@ -20,6 +20,7 @@ use hapticd_ipc::world_link_share::WorldLink;
 use hapticd_plugin_api::{HAPTICD_EXT_SCENE_FILES, HAPTICD_OK, HapticdSceneFiles};
 
 use crate::plugin;
+use crate::plugin_scene::LoadError;
 
 /// Why a scene could not be opened.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,8 +29,10 @@ pub enum OpenError {
     NotFound(String),
     /// The scene file is malformed: every finding, located in it.
     Invalid(Diagnostics),
-    /// A scene plugin could not be loaded or refused the file, in its own words.
+    /// A scene plugin refused the file, in its own words, or none runs its engine.
     Refused(String),
+    /// A scene plugin could not be loaded or could not start its scene.
+    Plugin(LoadError),
     /// The scene loads, but its fastest trial tick took more than half the loop's period.
     TooSlow {
         /// The scene's name.
@@ -46,6 +49,7 @@ impl std::fmt::Display for OpenError {
         match self {
             OpenError::NotFound(m) | OpenError::Refused(m) => f.write_str(m),
             OpenError::Invalid(findings) => findings.fmt(f),
+            OpenError::Plugin(e) => e.fmt(f),
             OpenError::TooSlow { scene, tick, rate } => write!(
                 f,
                 "scene {scene} takes {:.0} µs to compute a tick, more than half of the {:.0} µs \
@@ -165,16 +169,20 @@ struct EnginePlugin {
 }
 
 impl EnginePlugin {
-    /// [main] The plugin of `engine` in the first of `plugin_dirs` that has one, refused
-    /// unless it declares the engine.
-    fn find(engine: &str, plugin_dirs: &[PathBuf]) -> Result<Self, String> {
+    /// [main] The plugin of `engine` (named in scene file `file`) in the first of
+    /// `plugin_dirs` that has one, refused unless it declares the engine.
+    fn find(engine: &str, file: &Path, plugin_dirs: &[PathBuf]) -> Result<Self, OpenError> {
+        let refused = |why: String| OpenError::Refused(format!("{}: {why}", file.display()));
         if !is_name(engine) {
-            return Err(format!("engine {engine:?} is not a name"));
+            return Err(refused(format!("engine {engine:?} is not a name")));
         }
         let path = scene_plugin(engine, plugin_dirs).ok_or_else(|| {
-            format!("no scene plugin libhapticd_scene_{engine}.so in {plugin_dirs:?} runs engine {engine}")
+            refused(format!(
+                "no scene plugin libhapticd_scene_{engine}.so in {plugin_dirs:?} runs engine \
+                 {engine}"
+            ))
         })?;
-        let loaded = plugin::load(&path).map_err(|e| e.to_string())?;
+        let loaded = plugin::load(&path).map_err(|e| refused(e.to_string()))?;
         // SAFETY: HapticdSceneFiles is the struct of the files extension.
         let files: Option<HapticdSceneFiles> =
             unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_FILES) };
@@ -182,10 +190,10 @@ impl EnginePlugin {
             .map(|files| Self { path, files })
             .filter(|p| p.declares(engine));
         plugin.ok_or_else(|| {
-            format!(
+            refused(format!(
                 "{}: declares no engine {engine} (its scene-files extension lists none)",
                 loaded.path.display()
-            )
+            ))
         })
     }
 
@@ -206,12 +214,12 @@ impl EnginePlugin {
     }
 
     /// [main] The plugin's findings about the scene file `file` for `pointers` pointers.
-    fn check(&self, file: &Path, pointers: usize) -> Result<(), String> {
+    fn check(&self, file: &Path, pointers: usize) -> Result<(), OpenError> {
         let Some(check) = self.files.check else {
             return Ok(());
         };
         let path = CString::new(file.as_os_str().as_encoded_bytes())
-            .map_err(|_| "scene file path contains NUL".to_string())?;
+            .map_err(|_| OpenError::Plugin(LoadError::NulInPath))?;
         let mut findings = vec![0 as c_char; FINDINGS_CAPACITY];
         // SAFETY: a NUL-terminated path and a buffer of the capacity given.
         let status = unsafe {
@@ -231,7 +239,7 @@ impl EnginePlugin {
         let text = CStr::from_bytes_until_nul(bytes)
             .map(|t| t.to_string_lossy().into_owned())
             .unwrap_or_default();
-        Err(if text.is_empty() {
+        Err(OpenError::Refused(if text.is_empty() {
             format!(
                 "{}: refused by {} (status {status})",
                 file.display(),
@@ -239,7 +247,7 @@ impl EnginePlugin {
             )
         } else {
             text
-        })
+        }))
     }
 }
 
@@ -271,7 +279,7 @@ fn find(
         found => found?,
     };
     if path.extension().is_some_and(|e| e == "so") {
-        return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Refused);
+        return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Plugin);
     }
     let engine = engine_of(&path).map_err(OpenError::Invalid)?;
     if engine == Engine::Plugin(remote::ENGINE.into()) {
@@ -282,13 +290,10 @@ fn find(
             .map_err(OpenError::Invalid)?;
         return Ok(Box::new(StaticScene::new(spec, pointers)));
     };
-    let runner = EnginePlugin::find(&engine, places.plugin_dirs)
-        .map_err(|e| OpenError::Refused(format!("{}: {e}", path.display())))?;
+    let runner = EnginePlugin::find(&engine, &path, places.plugin_dirs)?;
     // Checked first, so that mistakes come back with their places.
-    runner
-        .check(&path, pointers.len())
-        .map_err(OpenError::Refused)?;
-    crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Refused)
+    runner.check(&path, pointers.len())?;
+    crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Plugin)
 }
 
 /// The scene of remote scene file `path`: a world on another machine, through the device's

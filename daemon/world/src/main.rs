@@ -100,9 +100,10 @@ fn run(cli: &WorldCli) -> Result<(), String> {
             let Some(host) = world_keys::host_of(&name, key) else {
                 continue;
             };
-            let taken = decode_host(&sample.payload().to_bytes())
-                .ok_or_else(|| "a message that is no host message".to_string())
-                .and_then(|update| world.take(host, update, now));
+            let taken = match decode_host(&sample.payload().to_bytes()) {
+                Some(update) => world.take(host, update, now).map_err(|e| e.to_string()),
+                None => Err("a message that is no host message".to_string()),
+            };
             if let Err(why) = taken
                 && refused.event(now.duration_since(started).as_secs_f64())
             {

@@ -24,6 +24,29 @@ use hapticd_rapier::world::RapierWorld;
 
 use crate::ledger::Ledger;
 
+/// A new host's grips outnumber the world's free pointers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoRoom {
+    /// The host's name.
+    pub host: String,
+    /// The grips it brought.
+    pub count: usize,
+    /// The pointers the world has in all (`--pointers`).
+    pub pointers: usize,
+}
+
+impl std::fmt::Display for NoRoom {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "no room for host {}'s {} grips: the world has {} (--pointers)",
+            self.host, self.count, self.pointers
+        )
+    }
+}
+
+impl std::error::Error for NoRoom {}
+
 /// A host silent this long is forgotten.
 pub const FORGET_AFTER: Duration = Duration::from_secs(1);
 
@@ -101,7 +124,7 @@ impl SharedWorld {
     /// Take host `name`'s message `update`, heard `now`: its grips from now on, its
     /// hand-backs into the next step. A new host gets pointers of its own if the world has
     /// room (an error otherwise).
-    pub fn take(&mut self, name: &str, update: HostUpdate, now: Instant) -> Result<(), String> {
+    pub fn take(&mut self, name: &str, update: HostUpdate, now: Instant) -> Result<(), NoRoom> {
         let index = match self.hosts.iter().position(|h| h.name == name) {
             Some(i) => i,
             None => self.admit(name, update.pointers.len(), now)?,
@@ -126,7 +149,7 @@ impl SharedWorld {
     }
 
     /// Room for host `name`'s `count` pointers: the first run of free ones.
-    fn admit(&mut self, name: &str, count: usize, now: Instant) -> Result<usize, String> {
+    fn admit(&mut self, name: &str, count: usize, now: Instant) -> Result<usize, NoRoom> {
         let used = |k: usize| {
             self.hosts
                 .iter()
@@ -134,11 +157,10 @@ impl SharedWorld {
         };
         let first = (0..=self.pointers.len().saturating_sub(count))
             .find(|&f| (f..f + count).all(|k| !used(k)))
-            .ok_or_else(|| {
-                format!(
-                    "no room for host {name}'s {count} grips: the world has {} (--pointers)",
-                    self.pointers.len()
-                )
+            .ok_or_else(|| NoRoom {
+                host: name.to_string(),
+                count,
+                pointers: self.pointers.len(),
             })?;
         tracing::info!(
             "host {name}: {count} grip(s), pointers {first}..{}",

@@ -55,33 +55,73 @@ pub enum BodyAction {
     Friction(f64),
 }
 
+/// Why a key and payload are no command.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParseError {
+    /// The key names no command.
+    NoCommand(String),
+    /// The key names no action on a body.
+    NoAction(String),
+    /// The payload should be a number.
+    NotANumber(String),
+    /// The payload should be JSON; the parser's reason.
+    NotJson(String),
+    /// A field should be a list of `count` numbers.
+    Numbers {
+        /// The field.
+        field: &'static str,
+        /// How many numbers.
+        count: usize,
+    },
+}
+
+impl std::fmt::Display for ParseError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ParseError::NoCommand(key) => write!(f, "no command at {key}"),
+            ParseError::NoAction(action) => write!(f, "no body action {action:?}"),
+            ParseError::NotANumber(payload) => {
+                write!(f, "the payload must be a number, not {payload:?}")
+            }
+            ParseError::NotJson(why) => write!(f, "the payload is not JSON: {why}"),
+            ParseError::Numbers { field, count } => {
+                write!(f, "`{field}` must be a list of {count} numbers")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ParseError {}
+
 /// A field of a JSON object as `N` numbers.
-fn numbers<const N: usize>(value: &serde_json::Value, field: &str) -> Result<[f64; N], String> {
+fn numbers<const N: usize>(
+    value: &serde_json::Value,
+    field: &'static str,
+) -> Result<[f64; N], ParseError> {
+    let wrong = ParseError::Numbers { field, count: N };
     let list = value
         .get(field)
         .and_then(|v| v.as_array())
-        .ok_or_else(|| format!("`{field}` must be a list of {N} numbers"))?;
+        .ok_or(wrong.clone())?;
     let parsed: Vec<f64> = list.iter().filter_map(|v| v.as_f64()).collect();
-    parsed
-        .try_into()
-        .map_err(|_| format!("`{field}` must be a list of {N} numbers"))
+    parsed.try_into().map_err(|_| wrong)
 }
 
 /// The command at `key` with `payload`.
-pub fn parse(key: &str, payload: &str) -> Result<Command, String> {
+pub fn parse(key: &str, payload: &str) -> Result<Command, ParseError> {
     let parts: Vec<&str> = key.split('/').collect();
     let number = || {
         payload
             .trim()
             .parse::<f64>()
-            .map_err(|_| format!("the payload must be a number, not {payload:?}"))
+            .map_err(|_| ParseError::NotANumber(payload.to_string()))
     };
     match parts.as_slice() {
         ["hapticd", "scene", "switch"] => Ok(Command::SwitchScene(payload.trim().to_string())),
         ["hapticd", "scene", "body", body, action] => {
             let json = || {
                 serde_json::from_str::<serde_json::Value>(payload)
-                    .map_err(|e| format!("the payload is not JSON: {e}"))
+                    .map_err(|e| ParseError::NotJson(e.to_string()))
             };
             let action = match *action {
                 "pose" => {
@@ -106,7 +146,7 @@ pub fn parse(key: &str, payload: &str) -> Result<Command, String> {
                 }
                 "mass" => BodyAction::Mass(number()?),
                 "friction" => BodyAction::Friction(number()?),
-                other => return Err(format!("no body action {other:?}")),
+                other => return Err(ParseError::NoAction(other.to_string())),
             };
             Ok(Command::Body {
                 body: body.to_string(),
@@ -118,7 +158,7 @@ pub fn parse(key: &str, payload: &str) -> Result<Command, String> {
             name: name.to_string(),
             value: number()?,
         }),
-        _ => Err(format!("no command at {key}")),
+        _ => Err(ParseError::NoCommand(key.to_string())),
     }
 }
 

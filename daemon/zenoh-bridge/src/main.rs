@@ -77,9 +77,11 @@ fn serve_commands(
                 })
                 .unwrap_or_default();
             let answer = if allowed {
-                commands::parse(&key, &payload).and_then(|c| {
-                    commands::carry_out(hapticd, devices, &c).map_err(|e| e.to_string())
-                })
+                commands::parse(&key, &payload)
+                    .map_err(|e| e.to_string())
+                    .and_then(|c| {
+                        commands::carry_out(hapticd, devices, &c).map_err(|e| e.to_string())
+                    })
             } else {
                 Err("refused: this bridge takes no commands from the network \
                      (commands: false in its configuration)"

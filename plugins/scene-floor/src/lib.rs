@@ -51,8 +51,28 @@ impl SceneInstance for Floor {
     }
 }
 
+/// What is wrong with a floor's scene file.
+#[derive(Debug, Clone, PartialEq)]
+enum FloorError {
+    /// A line that is no `floor_y:` setting.
+    UnknownKey(String),
+    /// A height that is no number within ±1 m.
+    Height(String),
+}
+
+impl std::fmt::Display for FloorError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FloorError::UnknownKey(line) => write!(f, "unknown key in `{line}` (only floor_y)"),
+            FloorError::Height(value) => {
+                write!(f, "floor_y must be a height within ±1 m, not `{value}`")
+            }
+        }
+    }
+}
+
 /// The floor's height from a scene file holding `floor_y: METRES` (and nothing else).
-fn floor_height(text: &str) -> Result<f64, String> {
+fn floor_height(text: &str) -> Result<f64, FloorError> {
     let mut y = FLOOR_Y;
     for line in text.lines() {
         let line = line.split('#').next().unwrap_or("").trim();
@@ -61,18 +81,13 @@ fn floor_height(text: &str) -> Result<f64, String> {
         }
         let value = line
             .strip_prefix("floor_y:")
-            .ok_or_else(|| format!("unknown key in `{line}` (only floor_y)"))?;
+            .ok_or_else(|| FloorError::UnknownKey(line.to_string()))?;
         y = value
             .trim()
             .parse::<f64>()
             .ok()
             .filter(|y| y.is_finite() && y.abs() <= 1.0)
-            .ok_or_else(|| {
-                format!(
-                    "floor_y must be a height within ±1 m, not `{}`",
-                    value.trim()
-                )
-            })?;
+            .ok_or_else(|| FloorError::Height(value.trim().to_string()))?;
     }
     Ok(y)
 }
@@ -119,19 +134,16 @@ mod tests {
             floor_height("# a floor\nfloor_y: -0.1  # lower\n").unwrap(),
             -0.1
         );
-        assert!(
-            floor_height("height: 1")
-                .unwrap_err()
-                .contains("only floor_y")
+        assert_eq!(
+            floor_height("height: 1"),
+            Err(FloorError::UnknownKey("height: 1".into()))
         );
+        for (text, value) in [("floor_y: .nan", ".nan"), ("floor_y: 5", "5")] {
+            assert_eq!(floor_height(text), Err(FloorError::Height(value.into())));
+        }
         assert!(
-            floor_height("floor_y: .nan")
-                .unwrap_err()
-                .contains("within ±1 m")
-        );
-        assert!(
-            floor_height("floor_y: 5")
-                .unwrap_err()
+            FloorError::Height("5".into())
+                .to_string()
                 .contains("within ±1 m")
         );
     }

@@ -237,9 +237,53 @@ impl Step {
     }
 }
 
+/// What is wrong with a recorded path.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PathError {
+    /// The file cannot be read.
+    Unreadable(Diagnostics),
+    /// The columns of time and position are missing.
+    Columns {
+        /// The effector whose columns were looked for.
+        effector: String,
+    },
+    /// A cell that is no finite number.
+    NotANumber {
+        /// Its line in the file, from 1.
+        line: usize,
+        /// Its column, from 1.
+        column: usize,
+    },
+    /// A position out of any device's reach.
+    Beyond {
+        /// Its line in the file, from 1.
+        line: usize,
+    },
+    /// Fewer than two rows, or time that does not increase.
+    Order,
+}
+
+impl std::fmt::Display for PathError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PathError::Unreadable(e) => e.fmt(f),
+            PathError::Columns { effector } => {
+                write!(f, "needs columns time and x, y, z (or {effector}_x, …)")
+            }
+            PathError::NotANumber { line, column } => {
+                write!(f, "row {line}: not a number in column {column}")
+            }
+            PathError::Beyond { line } => write!(f, "row {line}: a position beyond {MAX_REACH} m"),
+            PathError::Order => f.write_str("needs two or more rows in increasing time"),
+        }
+    }
+}
+
+impl std::error::Error for PathError {}
+
 /// Read the path of effector `name` from a CSV recording.
-fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, String> {
-    let text = diagnostics::read_text(file).map_err(|e| e.to_string())?;
+fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, PathError> {
+    let text = diagnostics::read_text(file).map_err(PathError::Unreadable)?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines
         .next()
@@ -252,26 +296,21 @@ fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, String> {
     let (Some(t), Some(x), Some(y), Some(z)) =
         (column(&["time".into()]), axis("x"), axis("y"), axis("z"))
     else {
-        return Err(format!(
-            "{}: needs columns time and x, y, z (or {name}_x, …)",
-            file.display()
-        ));
+        return Err(PathError::Columns {
+            effector: name.to_string(),
+        });
     };
     let mut samples = Vec::new();
     for (row, line) in lines.enumerate() {
         let fields: Vec<&str> = line.split(',').collect();
-        let value = |c: usize| -> Result<f64, String> {
+        let value = |c: usize| {
             fields
                 .get(c)
                 .and_then(|v| v.trim().parse::<f64>().ok())
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    format!(
-                        "{}: row {}: not a number in column {}",
-                        file.display(),
-                        row + 2,
-                        c + 1
-                    )
+                .ok_or(PathError::NotANumber {
+                    line: row + 2,
+                    column: c + 1,
                 })
         };
         samples.push((value(t)?, DVec3::new(value(x)?, value(y)?, value(z)?)));
@@ -280,21 +319,14 @@ fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, String> {
         .iter()
         .position(|s| s.1.abs().max_element() > MAX_REACH)
     {
-        return Err(format!(
-            "{}: row {}: a position beyond {MAX_REACH} m",
-            file.display(),
-            far + 2
-        ));
+        return Err(PathError::Beyond { line: far + 2 });
     }
     let start = samples.first().map_or(0.0, |s| s.0);
     for s in &mut samples {
         s.0 -= start;
     }
     if samples.len() < 2 || samples.windows(2).any(|w| w[1].0 <= w[0].0) {
-        return Err(format!(
-            "{}: needs two or more rows in increasing time",
-            file.display()
-        ));
+        return Err(PathError::Order);
     }
     Ok(samples)
 }
@@ -330,9 +362,13 @@ impl Script {
             for (i, step) in steps.iter_mut().enumerate() {
                 let at = format!("hands.{name}[{i}].{}", step.keyword());
                 if let Step::Path { file, samples } = step {
-                    match read_path(&base.join(&*file), name) {
+                    let path = base.join(&*file);
+                    match read_path(&path, name) {
                         Ok(read) => *samples = read,
-                        Err(e) => f.error(format!("{at}.file"), e),
+                        Err(e @ PathError::Unreadable(_)) => {
+                            f.error(format!("{at}.file"), e.to_string())
+                        }
+                        Err(e) => f.error(format!("{at}.file"), format!("{}: {e}", path.display())),
                     }
                 }
                 step.check(&mut f, &at);

@@ -23,13 +23,16 @@ pub mod stack_timing;
 pub mod stick_slip;
 pub mod wall_stiffness;
 
-use hapticd_core::haptic_loop::{Frame, HapticLoop, LoopSettings};
+use hapticd_core::diagnostics::Diagnostics;
+use hapticd_core::haptic_loop::{Frame, HapticLoop, LoopError, LoopSettings};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::Pointer;
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
 use hapticd_device::sim::hand::Script;
-use hapticd_device::sim::{SimParameters, SimulatedBoard};
+use hapticd_device::sim::{SimParameters, SimulatedBoard, TooManyStrings};
 use hapticd_device::transport::Sh4Transport;
+
+use crate::multirate::NotFinite;
 
 /// A closed-loop session on the simulated device.
 #[derive(Debug, Clone)]
@@ -46,30 +49,93 @@ pub struct Session {
     pub settings: LoopSettings,
 }
 
+/// Why an experiment could not run.
+#[derive(Debug)]
+pub enum ExperimentError {
+    /// The simulated board cannot drive the mechanism.
+    Board(TooManyStrings),
+    /// The haptic loop refuses the mechanism.
+    Loop(LoopError),
+    /// The experiment's own scene or hand script does not parse.
+    Input(Diagnostics),
+    /// The push experiments need a rapier scene.
+    NotRapier,
+    /// The push experiments push a body called `block`.
+    NoBlock,
+    /// The world stopped being finite.
+    NotFinite(NotFinite),
+}
+
+impl std::fmt::Display for ExperimentError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ExperimentError::Board(e) => e.fmt(f),
+            ExperimentError::Loop(e) => e.fmt(f),
+            ExperimentError::Input(e) => e.fmt(f),
+            ExperimentError::NotRapier => f.write_str("the push experiment needs a rapier scene"),
+            ExperimentError::NoBlock => f.write_str("the scene has no body called block"),
+            ExperimentError::NotFinite(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for ExperimentError {}
+
+impl From<TooManyStrings> for ExperimentError {
+    fn from(e: TooManyStrings) -> Self {
+        ExperimentError::Board(e)
+    }
+}
+
+impl From<LoopError> for ExperimentError {
+    fn from(e: LoopError) -> Self {
+        ExperimentError::Loop(e)
+    }
+}
+
+impl From<Diagnostics> for ExperimentError {
+    fn from(e: Diagnostics) -> Self {
+        ExperimentError::Input(e)
+    }
+}
+
+impl From<NotFinite> for ExperimentError {
+    fn from(e: NotFinite) -> Self {
+        ExperimentError::NotFinite(e)
+    }
+}
+
 impl Session {
     /// The haptic loop of this session, on a freshly powered simulated board; an error for
     /// a mechanism one board cannot drive.
-    pub fn haptic_loop(&self) -> Result<HapticLoop, String> {
+    pub fn haptic_loop(&self) -> Result<HapticLoop, ExperimentError> {
         let period = 1.0 / self.rate;
         let board = SimulatedBoard::new(
             &self.mechanism,
             period,
             &self.script,
             SimParameters::default(),
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
         let transport = Box::new(Sh4Transport::new(
             board,
             format!("sim:{}", self.mechanism.name),
         ));
         let pointers = Pointer::at_calibration(&self.mechanism);
         let scene = Box::new(StaticScene::new(self.scene.clone(), &pointers));
-        HapticLoop::new(self.mechanism.clone(), transport, scene, self.settings)
-            .map_err(|e| e.to_string())
+        Ok(HapticLoop::new(
+            self.mechanism.clone(),
+            transport,
+            scene,
+            self.settings,
+        )?)
     }
 
     /// Run for `seconds` of simulated time, handing every frame to `observe`.
-    pub fn run(&self, seconds: f64, mut observe: impl FnMut(&Frame)) -> Result<(), String> {
+    pub fn run(
+        &self,
+        seconds: f64,
+        mut observe: impl FnMut(&Frame),
+    ) -> Result<(), ExperimentError> {
         let mut haptic = self.haptic_loop()?;
         let ticks = (seconds * self.rate).round() as usize;
         for _ in 0..ticks {

@@ -10,8 +10,8 @@
 
 use hapticd_physics::scene::Feedback;
 
-use super::Spread;
 use super::push_phase::{self, Run, Setup};
+use super::{ExperimentError, Spread};
 
 /// The masses pushed, kilograms.
 pub const MASSES: [f64; 5] = [0.1, 0.3, 1.0, 3.0, 10.0];
@@ -70,7 +70,12 @@ impl Cell {
 }
 
 /// The push on a block of `mass` with `feedback` at `rate` Hz, at `phases` sampling phases.
-pub fn cell(mass: f64, rate: f64, feedback: Feedback, phases: usize) -> Result<Cell, String> {
+pub fn cell(
+    mass: f64,
+    rate: f64,
+    feedback: Feedback,
+    phases: usize,
+) -> Result<Cell, ExperimentError> {
     let setup = setup(rate);
     let world = push_phase::world(&scene(mass), &setup, feedback)?;
     Ok(Cell {
@@ -82,7 +87,7 @@ pub fn cell(mass: f64, rate: f64, feedback: Feedback, phases: usize) -> Result<C
 }
 
 /// The push on the block of `mass` with the physics at the haptic rate.
-pub fn reference(mass: f64) -> Result<Run, String> {
+pub fn reference(mass: f64) -> Result<Run, ExperimentError> {
     let fast = setup(1000.0);
     let world = push_phase::world(&scene(mass), &fast, Feedback::Impulse)?;
     push_phase::run(&world, &fast, 0.0)

@@ -13,7 +13,7 @@ use hapticd_core::kinematics::Wrench;
 use hapticd_device::sim::SimParameters;
 use hapticd_physics::scene::{Feedback, RapierScene, SceneFile};
 
-use super::Spread;
+use super::{ExperimentError, Spread};
 use crate::multirate::Lockstep;
 
 /// The shipped scene of the experiment: an 8 kg block on a floor, μ = 0.03, at 20 Hz.
@@ -97,27 +97,29 @@ impl Run {
 
 /// The experiment's world from `scene` (a scene file's text) with `feedback` at `setup`'s
 /// physics rate.
-pub fn world(scene: &str, setup: &Setup, feedback: Feedback) -> Result<RapierScene, String> {
-    match SceneFile::parse(scene, std::path::Path::new("push.yaml"), 1)
-        .map_err(|e| e.to_string())?
-    {
+pub fn world(
+    scene: &str,
+    setup: &Setup,
+    feedback: Feedback,
+) -> Result<RapierScene, ExperimentError> {
+    match SceneFile::parse(scene, std::path::Path::new("push.yaml"), 1)? {
         SceneFile::Rapier(mut world) => {
             world.rate = setup.rate;
             world.feedback = feedback;
             Ok(*world)
         }
-        SceneFile::Penalty(_) => Err("the push experiment needs a rapier scene".into()),
+        SceneFile::Penalty(_) => Err(ExperimentError::NotRapier),
     }
 }
 
 /// Push once with the physics clock `phase` seconds behind the haptic one; `world` must
 /// have a body called `block`.
-pub fn run(world: &RapierScene, setup: &Setup, phase: f64) -> Result<Run, String> {
+pub fn run(world: &RapierScene, setup: &Setup, phase: f64) -> Result<Run, ExperimentError> {
     let block = world
         .names
         .iter()
         .position(|n| n == "block")
-        .ok_or("the scene has no body called block")?;
+        .ok_or(ExperimentError::NoBlock)?;
     let hand = SimParameters::default();
     let (k, c) = hand.arm;
     let mass = hand.hand_mass;
@@ -159,7 +161,11 @@ pub fn run(world: &RapierScene, setup: &Setup, phase: f64) -> Result<Run, String
 }
 
 /// `phases` runs with the physics clock behind by 0, 1/phases, 2/phases … of a period.
-pub fn sweep(world: &RapierScene, setup: &Setup, phases: usize) -> Result<Vec<Run>, String> {
+pub fn sweep(
+    world: &RapierScene,
+    setup: &Setup,
+    phases: usize,
+) -> Result<Vec<Run>, ExperimentError> {
     (0..phases)
         .map(|i| run(world, setup, i as f64 / phases as f64 / setup.rate))
         .collect()

@@ -4,6 +4,7 @@
 //! fraction of a millimetre. The passivity controller is switched off: this measures the
 //! rendering itself, not its safety net.
 
+use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::haptic_loop::{DeviceState, LoopSettings};
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::haptics::passivity::PassivityLimits;
@@ -12,7 +13,7 @@ use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_device::sim::hand::Script;
 
-use super::Session;
+use super::{ExperimentError, Session};
 
 /// Height of the floor, metres.
 const FLOOR: f64 = -0.05;
@@ -49,7 +50,7 @@ impl Range {
 
 /// The hand on the first effector (`grip`): hold, lower to 2 cm below the floor, press and
 /// hold; the other effectors rest.
-fn press_script(grip: &str) -> Result<Script, String> {
+fn press_script(grip: &str) -> Result<Script, Diagnostics> {
     Script::parse(
         &format!(
             "hands:\n  {grip:?}:\n    - hold: {{ seconds: 0.1 }}\n    - move: {{ to: [0, {}, 0], seconds: 0.2 }}\n    - hold: {{ seconds: 2 }}\n",
@@ -57,7 +58,6 @@ fn press_script(grip: &str) -> Result<Script, String> {
         ),
         std::path::Path::new("wall-stiffness hand"),
     )
-    .map_err(|e| e.to_string())
 }
 
 /// Whether a floor of `stiffness` N/m and `damping` N·s/m holds the pressing hand still at
@@ -68,7 +68,7 @@ pub fn is_stable(
     rate: f64,
     stiffness: f64,
     damping: f64,
-) -> Result<bool, String> {
+) -> Result<bool, ExperimentError> {
     let session = Session {
         mechanism: mechanism.clone(),
         scene: StaticSceneSpec {
@@ -109,7 +109,10 @@ pub fn is_stable(
 
 /// The largest stable stiffness at `rate`, N/m, searched by bisection (in log scale) between
 /// 100 N/m and 1 MN/m, for the best of a few damping values. Returns it with its damping.
-pub fn max_stable_stiffness(mechanism: &Mechanism, rate: f64) -> Result<(f64, f64), String> {
+pub fn max_stable_stiffness(
+    mechanism: &Mechanism,
+    rate: f64,
+) -> Result<(f64, f64), ExperimentError> {
     let mut best = (0.0, 0.0);
     for damping in [2.0, 10.0, 40.0] {
         let (mut low, mut high) = (100f64.ln(), 1e6f64.ln());

@@ -344,10 +344,9 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
         reach: args.reach,
         ..push_phase::Setup::THESIS
     };
-    let failed = |e: String| Failure::failed(e);
     let sweep = |feedback| -> Result<Vec<push_phase::Run>, Failure> {
-        let world = push_phase::world(&scene, &setup, feedback).map_err(failed)?;
-        push_phase::sweep(&world, &setup, args.phases).map_err(failed)
+        let world = push_phase::world(&scene, &setup, feedback).map_err(Failure::failed)?;
+        push_phase::sweep(&world, &setup, args.phases).map_err(Failure::failed)
     };
     let (impulse, position) = (sweep(Feedback::Impulse)?, sweep(Feedback::Position)?);
     // The same push with the physics as fast as the haptics: what both methods approximate.
@@ -357,7 +356,7 @@ fn push(args: &PushPhaseArgs) -> Result<(), Failure> {
     };
     let reference = push_phase::world(&scene, &fast, Feedback::Impulse)
         .and_then(|w| push_phase::run(&w, &fast, 0.0))
-        .map_err(failed)?
+        .map_err(Failure::failed)?
         .stop();
     let mut text = format!(
         "block struck once, physics {} Hz, haptics {} Hz, {} phases; how far it went [mm]:\n",

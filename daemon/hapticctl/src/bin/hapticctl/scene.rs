@@ -339,7 +339,6 @@ fn run_failure(error: RunError<Failure>, file: &Path) -> Failure {
              too stiffly sprung for its step)",
             file.display()
         )),
-        RunError::Physics(why) => Failure::failed(format!("{}: {why}", file.display())),
         RunError::Unsupported(_) => {
             Failure::usage("--quantity angular-momentum-z is for penalty scenes")
         }

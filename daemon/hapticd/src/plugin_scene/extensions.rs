@@ -1,0 +1,172 @@
+//! Reading what a scene plugin's extensions declare: its world's solids, its bodies and
+//! their control, and the bodies its contacts name.
+
+use hapticd_plugin_api::geometry::GeometryError;
+use hapticd_plugin_api::*;
+
+use crate::plugin;
+use hapticd_core::scene::control::{self, Incoming, Reply, SceneControl};
+use hapticd_core::sync::spsc;
+use hapticd_core::world_geometry::{MAX_SOLIDS, MAX_TRIANGLES};
+use hapticd_core::world_state::MAX_BODIES;
+
+use super::Instance;
+
+/// What is wrong with an extension a scene plugin declares.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExtensionFault {
+    /// The extension's struct leaves a function out.
+    LacksFunction(&'static str),
+    /// A function of it answered with a failing status.
+    Failed {
+        /// What was being read.
+        what: String,
+        /// The status it returned.
+        status: i32,
+    },
+    /// The solids it gives break the geometry's rules.
+    Solids(GeometryError),
+    /// A body's name is no UTF-8 text ending in NUL.
+    BodyName(u32),
+}
+
+impl std::fmt::Display for ExtensionFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ExtensionFault::LacksFunction(which) => {
+                write!(f, "its {which} extension lacks a function")
+            }
+            ExtensionFault::Failed { what, status } => {
+                write!(f, "reading its {what} failed (status {status})")
+            }
+            ExtensionFault::Solids(e) => e.fmt(f),
+            ExtensionFault::BodyName(index) => {
+                write!(f, "body {index} has no UTF-8 name ending in NUL")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ExtensionFault {}
+
+/// [main] The solids of `instance`'s world as its plugin's geometry extension gives them
+/// (none without one), checked: as many as the shared world shows.
+pub(super) fn read_geometry(
+    loaded: &plugin::LoadedPlugin,
+    instance: &Instance,
+) -> Result<Geometry, ExtensionFault> {
+    // SAFETY: HapticdSceneGeometry is the struct of the geometry extension.
+    let extension: Option<HapticdSceneGeometry> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_GEOMETRY) };
+    let Some(extension) = extension else {
+        return Ok(Geometry::default());
+    };
+    let (Some(counts_of), Some(solid_of), Some(triangles_of)) =
+        (extension.counts, extension.solid, extension.triangles)
+    else {
+        return Err(ExtensionFault::LacksFunction("geometry"));
+    };
+    let failed = |what: &str, status: i32| ExtensionFault::Failed {
+        what: what.to_string(),
+        status,
+    };
+    let mut counts = HapticdGeometryCounts::default();
+    // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
+    let status = unsafe { counts_of(instance.pointer, &mut counts) };
+    if status != HAPTICD_OK {
+        return Err(failed("counts", status));
+    }
+    let mut geometry = Geometry {
+        body_count: counts.bodies,
+        solids: Vec::new(),
+        triangles: vec![HapticdTriangle::default(); (counts.triangles as usize).min(MAX_TRIANGLES)],
+    };
+    if !geometry.triangles.is_empty() {
+        let n = geometry.triangles.len() as u32;
+        // SAFETY: as above; `triangles` holds `n` triangles.
+        let status =
+            unsafe { triangles_of(instance.pointer, 0, n, geometry.triangles.as_mut_ptr()) };
+        if status != HAPTICD_OK {
+            return Err(failed("triangles", status));
+        }
+    }
+    for index in 0..counts.solids.min(MAX_SOLIDS as u32) {
+        let mut solid = HapticdSolid::default();
+        // SAFETY: as above.
+        let status = unsafe { solid_of(instance.pointer, index, &mut solid) };
+        if status != HAPTICD_OK {
+            return Err(failed(&format!("solid {index}"), status));
+        }
+        let end = solid.first_triangle as u64 + solid.triangle_count as u64;
+        // A solid whose triangles lie past what pictures hold is left out with them; one
+        // past the plugin's own list stays, for the check to refuse.
+        let held = geometry.triangles.len() as u64;
+        let cut =
+            solid.shape == HAPTICD_SHAPE_TRIANGLES && end > held && end <= counts.triangles as u64;
+        if !cut {
+            geometry.solids.push(solid);
+        }
+    }
+    geometry.check().map_err(ExtensionFault::Solids)?;
+    Ok(geometry)
+}
+
+/// The stepping side's end of a world's control: the requests, and where answers go.
+pub(crate) type Commands = (Incoming, spsc::Producer<Reply>);
+
+/// [main] The bodies of `instance`'s world as its plugin's control extension lists them,
+/// with the channel that changes them: the control plane's end and the stepping side's (None
+/// without the extension). The extension's `apply` is kept in the instance.
+pub(super) fn read_control(
+    loaded: &plugin::LoadedPlugin,
+    instance: &mut Instance,
+) -> Result<Option<(SceneControl, Commands)>, ExtensionFault> {
+    // SAFETY: HapticdSceneControl is the struct of the control extension.
+    let extension: Option<HapticdSceneControl> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_CONTROL) };
+    let Some(extension) = extension else {
+        return Ok(None);
+    };
+    let (Some(body_of), Some(apply)) = (extension.body, extension.apply) else {
+        return Err(ExtensionFault::LacksFunction("control"));
+    };
+    let mut bodies = Vec::new();
+    for index in 0..MAX_BODIES as u32 {
+        let mut info = HapticdBodyInfo::new("", false);
+        // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
+        if unsafe { body_of(instance.pointer, index, &mut info) } != HAPTICD_OK {
+            break;
+        }
+        let name = info.name_str().ok_or(ExtensionFault::BodyName(index))?;
+        bodies.push(control::Body {
+            name: name.to_string(),
+            fixed: info.flags & HAPTICD_SOLID_FIXED != 0,
+        });
+    }
+    instance.apply = Some(apply);
+    let (control, incoming, replies) = control::channel(bodies);
+    Ok(Some((control, (incoming, replies))))
+}
+
+/// Most objects a multi-rate scene's planes may name, for contact events.
+const MAX_OBJECTS: u32 = 1 << 16;
+
+/// [main] The body of each object of `instance`'s planes, as its plugin's contacts extension
+/// names them (none without one); the extension's `touch` is kept in the instance.
+pub(super) fn read_contacts(loaded: &plugin::LoadedPlugin, instance: &mut Instance) -> Vec<u32> {
+    // SAFETY: HapticdSceneContacts is the struct of the contacts extension.
+    let extension: Option<HapticdSceneContacts> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_CONTACTS) };
+    let Some(extension) = extension else {
+        return Vec::new();
+    };
+    instance.touch = extension.touch;
+    let Some(object_body) = extension.object_body else {
+        return Vec::new();
+    };
+    (0..MAX_OBJECTS)
+        // SAFETY: a live instance of this plugin on the main thread.
+        .map(|object| unsafe { object_body(instance.pointer, object) })
+        .take_while(|&body| body != HAPTICD_NO_BODY)
+        .collect()
+}

@@ -1,0 +1,366 @@
+//! Scenes from plugins, in both styles of the scene ABI.
+//!
+//! - Direct ([`HAPTICD_SCENE_DIRECT`]): the plugin steps its world inside every haptic tick
+//!   and returns the wrench on each pointer.
+//! - Multi-rate ([`HAPTICD_SCENE_MULTIRATE`], thesis Ch. 6): the plugin steps in a physics
+//!   thread at its own rate and publishes, for each pointer, the nearby surfaces as planes.
+//!   The haptic thread interpolates each plane between the last two sets (6.3.2), renders
+//!   them through the proxy (6.3.3), sums the force it displays into an impulse per object
+//!   over each physics period (6.3.4) and hands those back (6.3.5).
+//!
+//! A plugin that fails or panics is disabled: its wrenches are zero and the loop reports the
+//! fault, so the forces ramp down. So is one whose wrenches or planes no world gives
+//! ([`output_check`](hapticd_core::scene::output_check): checked here, at the boundary), and
+//! the scene says why ([`Scene::fault`]) for the daemon to log. A multi-rate scene that stops
+//! publishing is treated the same way once its planes are three periods old.
+
+mod direct;
+mod extensions;
+mod multirate;
+
+use std::ffi::{CString, c_void};
+use std::path::{Path, PathBuf};
+
+use hapticd_plugin_api::*;
+
+use crate::plugin;
+use glam::DVec3;
+use hapticd_core::kinematics::MAX_EFFECTORS;
+use hapticd_core::scene::control::{Reply, Request};
+use hapticd_core::scene::multirate::PlaneSet;
+use hapticd_core::scene::output_check::WrenchChecker;
+use hapticd_core::scene::{Pointer, Scene, Touch};
+use hapticd_core::sync::spsc;
+
+use direct::DirectScene;
+pub(crate) use extensions::Commands;
+pub use extensions::ExtensionFault;
+use extensions::{read_contacts, read_control, read_geometry};
+pub(crate) use multirate::MultiRateScene;
+/// A created scene instance; destroyed when dropped.
+struct Instance {
+    vtable: HapticdSceneVtable,
+    pointer: *mut c_void,
+    /// The control extension's `apply`, when the plugin has one.
+    apply: Option<
+        unsafe extern "C" fn(*mut c_void, *const HapticdSceneCommand, *mut HapticdBodyState) -> i32,
+    >,
+    /// The contacts extension's `touch`, when the plugin has one.
+    touch: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdTouch) -> i32>,
+    /// The ABI minor the plugin was built for: fields newer than it are not read.
+    minor: u32,
+}
+
+// SAFETY: an instance is used by one thread at a time (the haptic thread for direct scenes,
+// the physics thread for multi-rate ones), as the ABI's thread annotations require.
+unsafe impl Send for Instance {}
+
+impl Instance {
+    /// [the stepping thread, between steps] Carry out `request` and answer it through
+    /// `replies` (a full ring drops the answer: its caller has given up waiting).
+    fn carry_out(&self, request: &Request, replies: &mut spsc::Producer<Reply>) {
+        let mut state = HapticdBodyState::default();
+        let status = match self.apply {
+            // SAFETY: a live instance on its stepping thread, valid command and state.
+            Some(apply) => unsafe { apply(self.pointer, request.command(), &mut state) },
+            None => HAPTICD_ERROR_FAILED,
+        };
+        replies.push(Reply::to(request, status, state));
+    }
+
+    /// [rt, after a direct step] What each pointer touches, into `touches`.
+    fn touches(&self, touches: &mut [Touch]) {
+        let Some(touch) = self.touch else {
+            return;
+        };
+        for (pointer, out) in touches.iter_mut().enumerate() {
+            let mut found = HapticdTouch::default();
+            // SAFETY: a live instance on its stepping thread, a valid out pointer.
+            if unsafe { touch(self.pointer, pointer as u32, &mut found) } == HAPTICD_OK {
+                let normal = DVec3::from(found.normal);
+                let point = DVec3::from(found.point);
+                *out = Touch {
+                    touching: true,
+                    body: found.body,
+                    point: if point.is_finite() {
+                        point
+                    } else {
+                        DVec3::ZERO
+                    },
+                    // What no unit normal is, is said as none.
+                    normal: normal.try_normalize().unwrap_or(DVec3::ZERO),
+                    slipping: found.flags & HAPTICD_TOUCH_SLIPPING != 0,
+                };
+            }
+        }
+    }
+
+    /// [the stepping thread] The plugin's bodies into `poses`; how many it has (none when
+    /// it cannot tell, before ABI 1.2).
+    fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
+        let Some(write) = self.vtable.poses else {
+            return 0;
+        };
+        let capacity = poses.len().min(u32::MAX as usize) as u32;
+        // SAFETY: `poses` holds `capacity` elements; the instance is this thread's.
+        unsafe { write(self.pointer, poses.as_mut_ptr(), capacity) as usize }
+    }
+}
+
+/// The grips and where their proxies rest, as the haptic side last published them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Hands {
+    pub(crate) pointers: [HapticdPointer; MAX_EFFECTORS],
+    pub(crate) proxies: [HapticdPointer; MAX_EFFECTORS],
+}
+
+/// The physics thread's end of the hand-backs of one step.
+pub(crate) struct Taken {
+    pub(crate) impulses: Vec<HapticdImpulse>,
+    pub(crate) locals: Vec<HapticdLocalState>,
+}
+
+impl Instance {
+    /// [physics] One step of `dt` for the first `n` of `hands`, taking in `taken`, into
+    /// `set` (planes and local bodies; its sequence is left alone). The plugin's status.
+    fn step(&self, dt: f64, n: usize, hands: &Hands, taken: &Taken, set: &mut PlaneSet) -> i32 {
+        let Some(step_world) = self.vtable.step_world else {
+            // Before ABI 1.3: planes around the grips, impulses only.
+            let step = self.vtable.step_physics.expect("checked at load");
+            set.body_count = 0;
+            // SAFETY: buffers hold `n` pointers and planes and the impulses listed; the
+            // instance belongs to this thread.
+            return unsafe {
+                step(
+                    self.pointer,
+                    dt,
+                    hands.pointers.as_ptr(),
+                    n as u32,
+                    taken.impulses.as_ptr(),
+                    taken.impulses.len() as u32,
+                    set.planes.as_mut_ptr(),
+                )
+            };
+        };
+        let input = HapticdPhysicsInput {
+            dt,
+            pointer_count: n as u32,
+            pointers: hands.pointers.as_ptr(),
+            proxies: hands.proxies.as_ptr(),
+            impulse_count: taken.impulses.len() as u32,
+            impulses: taken.impulses.as_ptr(),
+            local_count: taken.locals.len() as u32,
+            locals: taken.locals.as_ptr(),
+        };
+        let mut output = HapticdPhysicsOutput {
+            planes: set.planes.as_mut_ptr(),
+            bodies: set.bodies.as_mut_ptr(),
+            body_capacity: HAPTICD_MAX_LOCAL_BODIES as u32,
+            body_count: 0,
+        };
+        // SAFETY: every array holds the count the input and output state; the instance
+        // belongs to this thread.
+        let status = unsafe { step_world(self.pointer, &input, &mut output) };
+        set.body_count = output.body_count.min(HAPTICD_MAX_LOCAL_BODIES as u32);
+        if self.minor < 6 {
+            // What was padding before ABI 1.6: whatever the plugin left there.
+            for body in &mut set.bodies[..set.body_count as usize] {
+                body.left_out = 0;
+            }
+        }
+        status
+    }
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        if let Some(destroy) = self.vtable.destroy {
+            // SAFETY: created by this vtable's create and no longer used.
+            unsafe { destroy(self.pointer) };
+        }
+    }
+}
+
+/// Why a scene plugin could not be started.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LoadError {
+    /// More pointers than any scene takes.
+    TooManyPointers,
+    /// The plugin is refused (permissions, ABI, symbols).
+    Plugin(plugin::PluginError),
+    /// The scene file's path holds a NUL byte.
+    NulInPath,
+    /// The plugin is loaded, but starting the scene failed.
+    Scene {
+        /// The plugin.
+        plugin: PathBuf,
+        /// What failed.
+        fault: SceneFault,
+    },
+}
+
+/// What failed in starting a loaded plugin's scene.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SceneFault {
+    /// Its `create` failed with this status.
+    Create {
+        /// The status returned.
+        status: i32,
+        /// The plugin runs scene files and was given none.
+        wants_file: bool,
+    },
+    /// Its world's solids cannot be read.
+    Geometry(ExtensionFault),
+    /// Its bodies cannot be listed.
+    Control(ExtensionFault),
+    /// Its physics thread could not be started, for this reason.
+    Thread(std::io::ErrorKind),
+    /// A scene style, or a physics rate, the host does not run.
+    Style {
+        /// The style it declares.
+        style: u32,
+        /// Its physics rate, Hz.
+        rate: f64,
+    },
+}
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LoadError::TooManyPointers => write!(f, "at most {MAX_EFFECTORS} pointers"),
+            LoadError::Plugin(e) => e.fmt(f),
+            LoadError::NulInPath => f.write_str("scene file path contains NUL"),
+            LoadError::Scene { plugin, fault } => write!(f, "{}: {fault}", plugin.display()),
+        }
+    }
+}
+
+impl std::fmt::Display for SceneFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SceneFault::Create { status, wants_file } => {
+                let said = status_name(*status);
+                if *wants_file {
+                    // A plugin of scene files asked for none is the usual mistake: say so.
+                    write!(
+                        f,
+                        "it runs scene files and was given none ({said}): switch to a scene \
+                         file of its engine (one of Scenes, or `hapticctl scene switch \
+                         FILE.yaml`)"
+                    )
+                } else {
+                    write!(f, "creating the scene failed ({said})")
+                }
+            }
+            SceneFault::Geometry(e) => write!(f, "cannot draw its world: {e}"),
+            SceneFault::Control(e) => write!(f, "cannot list its bodies: {e}"),
+            SceneFault::Thread(e) => write!(f, "cannot start its physics thread: {e}"),
+            SceneFault::Style { style, rate } => {
+                write!(f, "unsupported scene style {style} (physics rate {rate})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+/// Load the scene plugin at `path` for `pointers`, with an optional scene file.
+pub fn load(
+    path: &Path,
+    scene_file: Option<&Path>,
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, LoadError> {
+    if pointers.len() > MAX_EFFECTORS {
+        return Err(LoadError::TooManyPointers);
+    }
+    let loaded = plugin::load(path).map_err(LoadError::Plugin)?;
+    let vtable = loaded.scene_vtable().map_err(LoadError::Plugin)?;
+    let file = scene_file
+        .map(|f| CString::new(f.as_os_str().as_encoded_bytes()))
+        .transpose()
+        .map_err(|_| LoadError::NulInPath)?;
+    let failed = |fault| LoadError::Scene {
+        plugin: path.to_path_buf(),
+        fault,
+    };
+    let mut pointer = std::ptr::null_mut();
+    let mut info = HapticdSceneInfo::default();
+    let create = vtable.create.expect("checked by scene_vtable");
+    // SAFETY: arguments follow the ABI: a NUL-terminated path or null, valid out pointers.
+    let status = unsafe {
+        create(
+            file.as_ref().map_or(std::ptr::null(), |f| f.as_ptr()),
+            pointers.len() as u32,
+            &mut pointer,
+            &mut info,
+        )
+    };
+    if status != HAPTICD_OK || pointer.is_null() {
+        // SAFETY: HapticdSceneFiles is the struct of the files extension.
+        let files: Option<HapticdSceneFiles> =
+            unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_FILES) };
+        return Err(failed(SceneFault::Create {
+            status,
+            wants_file: scene_file.is_none() && files.is_some(),
+        }));
+    }
+    let mut instance = Instance {
+        vtable,
+        pointer,
+        apply: None,
+        touch: None,
+        minor: loaded.abi.1,
+    };
+    let geometry =
+        read_geometry(&loaded, &instance).map_err(|e| failed(SceneFault::Geometry(e)))?;
+    let (control, commands) = read_control(&loaded, &mut instance)
+        .map_err(|e| failed(SceneFault::Control(e)))?
+        .unzip();
+    let object_bodies = read_contacts(&loaded, &mut instance);
+    // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
+    let name = scene_file
+        .and_then(|f| f.file_stem()?.to_str())
+        .map_or(loaded.name, str::to_string);
+    match info.style {
+        HAPTICD_SCENE_DIRECT if vtable.step_direct.is_some() => Ok(Box::new(DirectScene {
+            name,
+            instance,
+            geometry,
+            control,
+            commands,
+            pointers: vec![HapticdPointer::default(); pointers.len()],
+            wrenches: vec![HapticdWrench::default(); pointers.len()],
+            failed: false,
+            check: WrenchChecker::default(),
+            fault: None,
+        })),
+        HAPTICD_SCENE_MULTIRATE
+            if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
+        {
+            let scene = MultiRateScene::start(
+                name,
+                instance,
+                (geometry, control, commands, object_bodies),
+                info.physics_rate,
+                pointers,
+            )
+            .map_err(|e| failed(SceneFault::Thread(e.kind())))?;
+            Ok(Box::new(scene))
+        }
+        style => Err(failed(SceneFault::Style {
+            style,
+            rate: info.physics_rate,
+        })),
+    }
+}
+
+/// A plugin's status code in words.
+fn status_name(status: i32) -> String {
+    match status {
+        HAPTICD_ERROR_ARGUMENT => "a bad argument".into(),
+        HAPTICD_ERROR_PANIC => "the plugin panicked".into(),
+        HAPTICD_ERROR_FAILED => "the plugin failed".into(),
+        HAPTICD_OK => "no scene returned".into(),
+        other => format!("status {other}"),
+    }
+}
