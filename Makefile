@@ -103,7 +103,7 @@ header:
 # a C compiler); `make install` only copies, so `sudo make install` needs no cargo on root's
 # path. BUILT names another build directory (the tests install a debug build). Any PREFIX
 # works without rebuilding: hapticd finds its files from where its binary lies
-# (daemon/hapticd/src/layout.rs), and its configuration in SYSCONFDIR below.
+# (daemon/config/src/layout.rs), and its configuration in SYSCONFDIR below.
 PREFIX ?= /usr
 DEFAULT_SYSCONFDIR := $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
 SYSCONFDIR ?= $(DEFAULT_SYSCONFDIR)

@@ -25,10 +25,6 @@ const PATH: &str = "/org/hapticd/Renderer1";
 /// The unprivileged user the limits are tried as.
 const NOBODY: u32 = 65534;
 
-fn scratch(name: &str) -> PathBuf {
-    support::shared_scratch("limits", name)
-}
-
 /// A private bus with hapticd, and hapticd-render started with `limits` (its command line's
 /// `--max-…` options); all stopped when dropped.
 struct Setup {
@@ -41,7 +37,7 @@ struct Setup {
 
 impl Setup {
     fn start(name: &str, limits: &[&str]) -> Setup {
-        let dir = scratch(name);
+        let dir = support::shared_scratch("limits", name);
         let bus = PrivateBus::with_policies(
             &dir,
             &[

@@ -1,14 +1,17 @@
 //! The core's computations with the shipped mechanisms and scenes: the pose solver, the tension
-//! QP, the haptic loop, the real-time thread's allocations, the proxy on meshes, the thesis'
-//! experiments, and the ROS 2 messages against an independent encoder.
+//! QP, the haptic loop, the real-time thread's allocations, the mesh readers, mesh bodies in
+//! rapier, the proxy on meshes, the thesis' experiments, and the ROS 2 messages against an
+//! independent encoder.
 
 #[path = "../support/mod.rs"]
 mod support;
 
 mod experiments;
 mod haptic_loop;
+mod mesh_readers;
 mod meshes;
 mod no_allocation;
 mod pose;
+mod rapier_meshes;
 mod ros2_cdr;
 mod tension;

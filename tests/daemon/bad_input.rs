@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use hapticd::config::Config;
+use hapticd_config::Config;
 use hapticd_core::diagnostics::{Diagnostics, Position};
 use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings};
 use hapticd_core::kinematics::Wrench;
@@ -25,7 +25,7 @@ use hapticd_device::sim::hand::Script;
 use hapticd_physics::scene::PenaltyScene;
 use hapticd_plugin_api::{HapticdEffector, HapticdString, MechanismSpec};
 use support::bus::{NAME, PrivateBus};
-use support::{Killed, Rng, artifact, plugin_path, repo_dir, scratch_root};
+use support::{Killed, Rng, artifact, plugin_path, repo_dir};
 
 fn shipped_text(relative: &str) -> String {
     std::fs::read_to_string(repo_dir().join(relative)).unwrap()
@@ -124,13 +124,15 @@ fn descriptors_absurd_for_the_amplifier_or_the_bus_are_refused_at_their_place() 
 #[test]
 fn descriptors_others_could_have_written_are_refused_like_plugins() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = scratch("writable");
+    let dir = support::scratch("bad-input", "writable");
     let file = dir.join("spidar-6s.yaml");
     std::fs::write(&file, shipped_text("config/mechanisms/spidar-6s.yaml")).unwrap();
     std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o644)).unwrap();
-    assert!(hapticd::catalog::load(&file).is_ok());
+    assert!(hapticd_config::catalog::load(&file).is_ok());
     std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o666)).unwrap();
-    let e = hapticd::catalog::load(&file).unwrap_err().to_string();
+    let e = hapticd_config::catalog::load(&file)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("writable by group or others (mode 0666)"), "{e}");
     std::fs::remove_dir_all(dir).ok();
 }
@@ -488,16 +490,9 @@ fn counts_that_stop_fitting_any_pose_mid_run_fault_to_zero_force() {
     assert!((haptic.frame().poses[0].position - calibration).length() < 1e-6);
 }
 
-/// A scratch directory of this test process.
-fn scratch(name: &str) -> PathBuf {
-    let dir = scratch_root().join(format!("bad-input-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// The SPIDAR-G plugin and `extra` descriptors staged as an install would have them.
 fn mechanisms(name: &str, extra: &[(&str, &str)]) -> PathBuf {
-    let dir = scratch(name);
+    let dir = support::scratch("bad-input", name);
     let from = plugin_path("hapticd-spidar-g");
     std::fs::copy(&from, dir.join(from.file_name().unwrap())).unwrap();
     for (file, text) in extra {
@@ -559,7 +554,10 @@ fn programs_refuse_what_one_board_or_one_tick_cannot_do_without_panicking() {
     let scene = repo_dir().join("config/scenes/static.yaml");
     let scene_arg = scene.to_str().unwrap();
     // hapticd on the simulated `mechanism` of `dir`, for a moment, on a bus of its own.
-    let isolated = support::daemon::Isolated::on_private_bus(&scratch("ten-daemon"), &dir);
+    let isolated = support::daemon::Isolated::on_private_bus(
+        &support::scratch("bad-input", "ten-daemon"),
+        &dir,
+    );
     let simulate = |mechanism: &str, args: &[&str]| {
         let common = ["--sim", mechanism, "--duration", "0.3"];
         isolated
@@ -834,7 +832,7 @@ impl Served {
 #[test]
 fn a_state_file_that_is_no_record_is_left_as_it_is_and_the_device_runs_without_it() {
     let _one = ONE_DAEMON.lock().unwrap_or_else(|p| p.into_inner());
-    let dir = scratch("unusable-state");
+    let dir = support::scratch("bad-input", "unusable-state");
     let state = dir.join("state");
     let outside = dir.join("elsewhere.json");
     // A record that would change the stiffness, were it read through the link.
@@ -926,7 +924,7 @@ fn wait_until_up(daemon: &Served) -> DVec3 {
 #[test]
 fn a_calibration_or_parameter_that_cannot_be_saved_is_refused_and_not_used() {
     let _one = ONE_DAEMON.lock().unwrap_or_else(|p| p.into_inner());
-    let dir = scratch("unsaved");
+    let dir = support::scratch("bad-input", "unsaved");
     let hand = dir.join("up.yaml");
     std::fs::write(&hand, HAND_UP_3CM).unwrap();
     let state = dir.join("state");
@@ -984,7 +982,7 @@ fn a_calibration_or_parameter_that_cannot_be_saved_is_refused_and_not_used() {
 
 #[test]
 fn files_named_on_the_command_line_are_read_only_if_regular_and_named_when_refused() {
-    let dir = scratch("named-files");
+    let dir = support::scratch("bad-input", "named-files");
     let pipe = fifo(&dir.join("pipe.yaml"));
     let pipe_csv = fifo(&dir.join("pipe.csv"));
     let zero = PathBuf::from("/dev/zero");

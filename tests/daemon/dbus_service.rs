@@ -37,10 +37,6 @@ const PICTURES: [&str; 3] = [RENDERER, "/org/hapticd/Renderer1", "org.hapticd.Re
 /// timing.
 static EXCLUSIVE: std::sync::RwLock<()> = std::sync::RwLock::new(());
 
-fn scratch(name: &str) -> PathBuf {
-    support::shared_scratch("dbus", name)
-}
-
 /// A private bus with the system bus's default policy plus the shipped hapticd policy.
 struct Bus {
     address: String,
@@ -395,7 +391,7 @@ const PARAMETERS: [(&str, f64); 8] = [
 
 #[test]
 fn every_property_and_method_answers_as_the_readme_shows() {
-    let dir = scratch("all");
+    let dir = support::shared_scratch("dbus", "all");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -482,7 +478,7 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
     use std::collections::HashMap;
     use zbus::proxy::CacheProperties;
 
-    let dir = scratch("proxies");
+    let dir = support::shared_scratch("dbus", "proxies");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -595,7 +591,7 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
 
 #[test]
 fn a_second_hapticd_refuses_to_take_the_name_of_a_running_one() {
-    let dir = scratch("second");
+    let dir = support::shared_scratch("dbus", "second");
     let bus = Bus::start(&dir);
     let first = Hapticd::start(&bus, &Setup::new(&dir), &["--sim", "spidar-g"]);
     let other = dir.join("other");
@@ -626,7 +622,7 @@ fn a_second_hapticd_refuses_to_take_the_name_of_a_running_one() {
 
 #[test]
 fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_scenes() {
-    let dir = scratch("client");
+    let dir = support::shared_scratch("dbus", "client");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -741,7 +737,7 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
 /// binding is not pending then.
 #[test]
 fn pending_changes_are_shown_until_a_restart_applies_them() {
-    let dir = scratch("pending");
+    let dir = support::shared_scratch("dbus", "pending");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let spidar_ii = plugin_path("hapticd-spidar-ii");
@@ -800,7 +796,7 @@ fn pending_changes_are_shown_until_a_restart_applies_them() {
 #[test]
 fn hapticctl_never_starts_a_stopped_daemon_even_where_the_bus_could() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = scratch("no-activation");
+    let dir = support::shared_scratch("dbus", "no-activation");
     let services = dir.join("services");
     std::fs::create_dir_all(&services).unwrap();
     let mark = dir.join("started");
@@ -928,7 +924,7 @@ fn switch_when_prepared(bus: &Bus, name: &str) -> bool {
 
 #[test]
 fn a_switch_to_a_mesh_scene_not_yet_cut_says_so_at_once_and_succeeds_once_cut() {
-    let dir = scratch("preparing");
+    let dir = support::shared_scratch("dbus", "preparing");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -974,7 +970,7 @@ fn a_switch_to_a_mesh_scene_not_yet_cut_says_so_at_once_and_succeeds_once_cut() 
 
 #[test]
 fn a_mesh_scene_switches_when_its_pieces_cannot_be_kept() {
-    let dir = scratch("unkept");
+    let dir = support::shared_scratch("dbus", "unkept");
     let bus = Bus::start(&dir);
     let mut setup = Setup::new(&dir);
     // A cache under a regular file: nothing can be kept there.
@@ -995,7 +991,7 @@ fn a_mesh_scene_switches_when_its_pieces_cannot_be_kept() {
 
 #[test]
 fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
-    let dir = scratch("physics");
+    let dir = support::shared_scratch("dbus", "physics");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -1048,7 +1044,7 @@ fn physics_scenes_are_listed_switched_to_by_name_and_run_on_their_engine() {
 #[test]
 fn hapticctl_monitor_prints_each_change_as_it_happens() {
     use std::io::BufRead;
-    let dir = scratch("monitor");
+    let dir = support::shared_scratch("dbus", "monitor");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -1137,7 +1133,7 @@ struct EveryTick {
 }
 
 fn every_tick(rate: &str) -> EveryTick {
-    let dir = scratch(&format!("record-{rate}"));
+    let dir = support::shared_scratch("dbus", &format!("record-{rate}"));
     // Alone: its overruns are compared across 20 s.
     let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
@@ -1315,7 +1311,7 @@ fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_1
 
 #[test]
 fn bad_inputs_return_named_errors_and_change_nothing() {
-    let dir = scratch("bad");
+    let dir = support::shared_scratch("dbus", "bad");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -1405,7 +1401,7 @@ fn an_unprivileged_client_may_read_but_not_change() {
         eprintln!("skipped: switching to an unprivileged uid needs root");
         return;
     }
-    let dir = scratch("unprivileged");
+    let dir = support::shared_scratch("dbus", "unprivileged");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -1586,7 +1582,7 @@ fn mesh_scene(
 /// and shared anew when a scene is switched to.
 #[test]
 fn the_running_scene_s_solids_are_shared_whole_and_anew_at_each_switch() {
-    let dir = scratch("geometry");
+    let dir = support::shared_scratch("dbus", "geometry");
     // A strip of 40 000 thin slivers 1 mm apart.
     let triangles = 40_000u32;
     let (bus, setup) = mesh_scene(Bus::start, &dir, "strip", triangles, 0.005, |t| {
@@ -1647,7 +1643,7 @@ fn scenes_are_listed_without_reading_their_meshes_whoever_asks_how_often() {
         eprintln!("skipped: switching to an unprivileged uid needs root");
         return;
     }
-    let dir = scratch("listing");
+    let dir = support::shared_scratch("dbus", "listing");
     // 490 000 small triangles in a 5 cm cube; the delays measured with no other test's
     // daemon beside.
     let (bus, setup) = mesh_scene(Bus::start_alone, &dir, "big", 490_000, 0.001, |t| {
@@ -1746,7 +1742,7 @@ fn scenes_are_listed_without_reading_their_meshes_whoever_asks_how_often() {
 
 #[test]
 fn a_caller_names_scenes_and_sends_its_files_but_no_path_it_gives_is_opened() {
-    let dir = scratch("hostile-scenes");
+    let dir = support::shared_scratch("dbus", "hostile-scenes");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -1857,7 +1853,7 @@ async fn client(address: &str, id: usize, rounds: usize) -> zbus::Result<Vec<f64
 #[test]
 fn a_hundred_clients_at_once_and_a_telemetry_reader_are_served_without_overruns() {
     // Alone: other tests' daemons and process launches would compete for the same 2 cores.
-    let dir = scratch("hundred");
+    let dir = support::shared_scratch("dbus", "hundred");
     let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -1967,7 +1963,7 @@ fn clients_set_the_damping(bus: &Bus, setup: &Setup) {
 
 #[test]
 fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
-    let dir = scratch("kill");
+    let dir = support::shared_scratch("dbus", "kill");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let file = setup.state.join("device-sim.json");
@@ -2026,7 +2022,7 @@ fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
 
 #[test]
 fn reload_finds_new_descriptors_and_refuses_malformed_files_with_their_place() {
-    let dir = scratch("reload");
+    let dir = support::shared_scratch("dbus", "reload");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -2100,7 +2096,7 @@ fn reload_finds_new_descriptors_and_refuses_malformed_files_with_their_place() {
 
 #[test]
 fn switching_scenes_ramps_the_force_down_and_back_up() {
-    let dir = scratch("switch");
+    let dir = support::shared_scratch("dbus", "switch");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     // The same scene with a floor 5 mm higher.
@@ -2191,7 +2187,7 @@ fn ramps_through_zero(rows: &[(f64, f64)], from: f64) {
 
 #[test]
 fn a_body_put_under_a_pressing_finger_is_felt_through_a_ramp_not_a_jump() {
-    let dir = scratch("pose-ramp");
+    let dir = support::shared_scratch("dbus", "pose-ramp");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     std::fs::write(
@@ -2219,7 +2215,7 @@ fn a_body_put_under_a_pressing_finger_is_felt_through_a_ramp_not_a_jump() {
 /// interface. `HAPTICD_UPDATE_INTERFACES=1` rewrites the files.
 #[test]
 fn the_interface_files_are_what_the_daemon_introspects() {
-    let dir = scratch("xml");
+    let dir = support::shared_scratch("dbus", "xml");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -2255,7 +2251,7 @@ fn the_interface_files_are_what_the_daemon_introspects() {
 
 #[test]
 fn a_damaged_state_file_is_kept_aside_and_the_device_starts_afresh() {
-    let dir = scratch("damaged");
+    let dir = support::shared_scratch("dbus", "damaged");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     std::fs::create_dir_all(&setup.state).unwrap();
@@ -2277,7 +2273,7 @@ fn a_damaged_state_file_is_kept_aside_and_the_device_starts_afresh() {
 
 #[test]
 fn a_bound_mechanism_since_removed_falls_back_to_the_configured_one() {
-    let dir = scratch("unbound");
+    let dir = support::shared_scratch("dbus", "unbound");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     std::fs::create_dir_all(&setup.state).unwrap();
@@ -2300,7 +2296,7 @@ fn a_bound_mechanism_since_removed_falls_back_to_the_configured_one() {
 
 #[test]
 fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated() {
-    let dir = scratch("misfit");
+    let dir = support::shared_scratch("dbus", "misfit");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let file = setup.state.join("device-sim.json");
@@ -2468,7 +2464,7 @@ fn drawn_share(picture: &Picture) -> f64 {
 
 #[test]
 fn a_snapshot_is_a_picture_of_the_running_scene_and_bad_options_are_refused() {
-    let dir = scratch("snapshot");
+    let dir = support::shared_scratch("dbus", "snapshot");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "blocks"]);
@@ -2574,7 +2570,7 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
         unit.contains("\nRestart=always\n"),
         "systemd brings it back"
     );
-    let dir = scratch("kill-renderer");
+    let dir = support::shared_scratch("dbus", "kill-renderer");
     // It counts overruns: no other test's daemons run meanwhile.
     let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
@@ -2633,7 +2629,7 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
 
 #[test]
 fn without_a_vulkan_driver_the_renderer_says_why_once_and_hapticd_runs_on() {
-    let dir = scratch("no-driver");
+    let dir = support::shared_scratch("dbus", "no-driver");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -2759,7 +2755,7 @@ impl Drop for Xvfb {
 /// server): the frames, scaled, reach its far corner.
 #[test]
 fn hapticctl_view_fills_a_screen_without_a_window_manager() {
-    let dir = scratch("view-fullscreen");
+    let dir = support::shared_scratch("dbus", "view-fullscreen");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -2806,7 +2802,7 @@ fn hapticctl_view_fills_a_screen_without_a_window_manager() {
 
 #[test]
 fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
-    let dir = scratch("view");
+    let dir = support::shared_scratch("dbus", "view");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     // The static scene with the grip at rest: every frame is the same but for the clock.
@@ -2896,7 +2892,7 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
 /// Debian's python3 with jeepney and pytest (`make deps`), on this test's private bus.
 #[test]
 fn the_python_client_reads_sets_switches_and_follows_every_tick() {
-    let dir = scratch("python");
+    let dir = support::shared_scratch("dbus", "python");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -2966,7 +2962,7 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
 /// reference wall and records every tick of every trial.
 #[test]
 fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
-    let dir = scratch("staircase");
+    let dir = support::shared_scratch("dbus", "staircase");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let hand = dir.join("press.yaml");
@@ -3016,7 +3012,7 @@ fn the_staircase_example_finds_the_reference_wall_and_records_every_tick() {
 
 #[test]
 fn bodies_are_added_and_removed_under_both_engines_the_others_kept_as_they_are() {
-    let dir = scratch("add-remove");
+    let dir = support::shared_scratch("dbus", "add-remove");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -3161,7 +3157,7 @@ fn python_example(name: &str, args: &[&str]) -> String {
 /// device's picture of it, and a block pushed from outside sliding as Coulomb friction has it.
 #[test]
 fn the_push_example_draws_the_world_and_the_block_slides_as_friction_says() {
-    let dir = scratch("push-example");
+    let dir = support::shared_scratch("dbus", "push-example");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -3323,7 +3319,7 @@ fn zenoh_client_with(
 /// bridge that takes none.
 #[test]
 fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_status() {
-    let dir = scratch("zenoh");
+    let dir = support::shared_scratch("dbus", "zenoh");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     // The wrist turns the grip slowly about the vertical (at most 2 rad in all).
@@ -3564,7 +3560,7 @@ fn certificates(dir: &Path, ca: &str, holders: &[&str]) {
 /// one speaking plain TCP to the same port, and hapticctl without the file get no session.
 #[test]
 fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
-    let dir = scratch("zenoh-tls");
+    let dir = support::shared_scratch("dbus", "zenoh-tls");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -3660,7 +3656,7 @@ fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
 /// and let go when no command comes) by a bridge with the rights.
 #[test]
 fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
-    let dir = scratch("zenoh-commands");
+    let dir = support::shared_scratch("dbus", "zenoh-commands");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -3833,7 +3829,7 @@ fn hex_bytes(hex: &str) -> Vec<u8> {
 fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
     use hapticd_ipc::bus::Bus as Address;
     use hapticd_ipc::client::{ClientError, Hapticd as Client};
-    let dir = scratch("rust-client");
+    let dir = support::shared_scratch("dbus", "rust-client");
     let bus = Bus::start(&dir);
     let at = Address::Address(bus.address.clone());
     assert!(matches!(Client::connect(&at), Err(ClientError::NotRunning)));
@@ -3914,7 +3910,7 @@ fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
 fn touches_of_the_press(scene: &str) -> Vec<hapticd_ipc::client::Touch> {
     use hapticd_ipc::bus::Bus as Address;
     use hapticd_ipc::client::Hapticd as Client;
-    let dir = scratch(&format!("touch-{scene}"));
+    let dir = support::shared_scratch("dbus", &format!("touch-{scene}"));
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     std::fs::write(
@@ -4052,7 +4048,7 @@ struct BodyState {
 
 #[test]
 fn the_running_world_is_driven_from_outside_under_both_engines_and_hostile_values_are_named() {
-    let dir = scratch("drive");
+    let dir = support::shared_scratch("dbus", "drive");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
@@ -4325,7 +4321,10 @@ fn follow_host(address: &str, seconds: f64) -> HostView {
 #[test]
 fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
     for round_trip in [0.02, 0.1] {
-        let dir = scratch(&format!("shared-world-{}", (round_trip * 1e3) as u32));
+        let dir = support::shared_scratch(
+            "dbus",
+            &format!("shared-world-{}", (round_trip * 1e3) as u32),
+        );
         std::fs::create_dir_all(&dir).unwrap();
         let scene = dir.join("shared.yaml");
         std::fs::write(&scene, SHARED_WORLD).unwrap();

@@ -35,7 +35,7 @@ fn static_scene() -> PathBuf {
 
 /// A private bus and a configuration of test `name`'s own for its hapticd.
 fn on_bus(name: &str) -> Isolated {
-    Isolated::on_private_bus(&scratch(&format!("{name}.daemon")), &mechanisms())
+    Isolated::on_private_bus(&scratch_file(&format!("{name}.daemon")), &mechanisms())
 }
 
 fn hapticd(at: &Isolated, args: &[&str]) -> Command {
@@ -48,7 +48,8 @@ fn hapticd_with_scene(at: &Isolated, scene: &Path, args: &[&str]) -> Command {
     c
 }
 
-fn scratch(name: &str) -> PathBuf {
+/// A file of this process's called `name`, in cargo's scratch directory.
+fn scratch_file(name: &str) -> PathBuf {
     scratch_root().join(format!("{}-{name}", std::process::id()))
 }
 
@@ -114,7 +115,7 @@ fn recorded(path: &Path) -> Vec<(f64, f64, f64)> {
 
 #[test]
 fn runs_for_its_duration_and_records_the_grip_held_on_the_floor() {
-    let csv = scratch("run.csv");
+    let csv = scratch_file("run.csv");
     let out = pressed(&static_scene(), "1.6", &csv, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("motors at zero"), "{stderr}");
@@ -130,7 +131,7 @@ fn runs_for_its_duration_and_records_the_grip_held_on_the_floor() {
 
 #[test]
 fn sigterm_while_pushing_leaves_zero_currents_as_the_last_command() {
-    let traffic = scratch("sigterm.traffic");
+    let traffic = scratch_file("sigterm.traffic");
     let at = on_bus("sigterm");
     let child = hapticd(
         &at,
@@ -173,9 +174,9 @@ fn sigterm_while_pushing_leaves_zero_currents_as_the_last_command() {
 #[test]
 fn a_replayed_recording_reproduces_the_session() {
     let (traffic, first, second) = (
-        scratch("replay.traffic"),
-        scratch("first.csv"),
-        scratch("second.csv"),
+        scratch_file("replay.traffic"),
+        scratch_file("first.csv"),
+        scratch_file("second.csv"),
     );
     pressed(
         &static_scene(),
@@ -233,7 +234,7 @@ fn under_systemd_the_journal_gets_no_status_lines() {
 #[test]
 fn a_bad_configuration_is_refused_with_its_place() {
     // Refused before it serves: an address where no bus listens is all it needs.
-    let at = Isolated::without_bus(&scratch("bad.daemon"), &mechanisms());
+    let at = Isolated::without_bus(&scratch_file("bad.daemon"), &mechanisms());
     let config = at.config();
     std::fs::write(config, "realtime:\n  rate: 1000\n  speed: 3\n").unwrap();
     let out = hapticd(&at, &["--duration", "0.1"]).output().unwrap();
@@ -258,7 +259,7 @@ fn states(path: &Path) -> Vec<(f64, String, f64)> {
 
 #[test]
 fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
-    let csv = scratch("panic.csv");
+    let csv = scratch_file("panic.csv");
     let scene = plugin_path("hapticd-test-panicking-scene");
     let out = pressed(&scene, "1.4", &csv, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -283,7 +284,7 @@ fn a_panicking_scene_plugin_is_disabled_and_the_daemon_lives_on() {
 
 #[test]
 fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
-    let csv = scratch("stall.csv");
+    let csv = scratch_file("stall.csv");
     let scene = plugin_path("hapticd-test-stalling-scene");
     pressed(&scene, "3", &csv, &[]);
     let rows = states(&csv);
@@ -314,9 +315,9 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
 /// 1.7 s (a loop started late on a loaded machine still runs 0.3 s past the fault); the rows
 /// as (time, state, force x, y, z) and hapticd's stderr.
 fn bad_output(mode: &str) -> (Vec<(f64, String, [f64; 3])>, String) {
-    let file = scratch(&format!("{mode}-output.scene"));
+    let file = scratch_file(&format!("{mode}-output.scene"));
     std::fs::write(&file, mode).unwrap();
-    let csv = scratch(&format!("{mode}-output.csv"));
+    let csv = scratch_file(&format!("{mode}-output.csv"));
     let plugin = plugin_path("hapticd-test-bad-output-scene");
     let out = pressed(
         &plugin,
@@ -375,7 +376,7 @@ fn faults_for_bad_output(mode: &str, why: &str) {
 /// `StateReason` says what was refused, in the log's words.
 #[test]
 fn state_reason_says_why_a_device_is_in_fault() {
-    let file = scratch("reason-output.scene");
+    let file = scratch_file("reason-output.scene");
     std::fs::write(&file, "nan").unwrap();
     let hand = press();
     let at = on_bus("reason");
@@ -446,7 +447,7 @@ fn a_multi_rate_scene_whose_planes_no_world_publishes_is_a_fault_that_says_why()
 /// (4.10).
 #[test]
 fn two_simulated_fingers_pick_up_shake_and_put_down_a_box() {
-    let csv = scratch("grasp.csv");
+    let csv = scratch_file("grasp.csv");
     let scene = plugin_path("hapticd-scene-penalty");
     let file = repo_dir().join("config/scenes/grasp.yaml");
     let hand = repo_dir().join("config/hands/grasp-shake.yaml");
@@ -513,8 +514,8 @@ fn two_simulated_fingers_pick_up_shake_and_put_down_a_box() {
 /// floor: the pressing hand rests on the floor where the file puts it.
 #[test]
 fn the_minimal_rust_scene_plugin_holds_the_hand_on_the_floor_its_file_sets() {
-    let csv = scratch("floor.csv");
-    let file = scratch("floor.yaml");
+    let csv = scratch_file("floor.csv");
+    let file = scratch_file("floor.yaml");
     std::fs::write(&file, "floor_y: -0.035   # half a centimetre lower\n").unwrap();
     let scene = plugin_path("hapticd-scene-floor");
     pressed(
@@ -540,7 +541,7 @@ fn the_minimal_rust_scene_plugin_holds_the_hand_on_the_floor_its_file_sets() {
 
 #[test]
 fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
-    let csv = scratch("penalty.csv");
+    let csv = scratch_file("penalty.csv");
     let scene = plugin_path("hapticd-scene-penalty");
     let blocks = repo_dir().join("config/scenes/blocks.yaml");
     pressed(
@@ -617,7 +618,7 @@ fn run_rapier(name: &str, scene_file: &Path, hand: &Path, seconds: &str, csv: &P
 /// than its limit.
 #[test]
 fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
-    let csv = scratch("balls.csv");
+    let csv = scratch_file("balls.csv");
     let balls = repo_dir().join("config/scenes/balls.yaml");
     let stir = repo_dir().join("config/hands/stir-balls.yaml");
     run_rapier("balls", &balls, &stir, "7.5", &csv);
@@ -670,9 +671,9 @@ pointer:
 /// held and drawn back out; the recording as (time, grip x, grip y, force y).
 fn press_plates(name: &str, aim: f64) -> Vec<(f64, f64, f64, f64)> {
     let (scene_file, hand, csv) = (
-        scratch(&format!("{name}.yaml")),
-        scratch(&format!("{name}-hand.yaml")),
-        scratch(&format!("{name}.csv")),
+        scratch_file(&format!("{name}.yaml")),
+        scratch_file(&format!("{name}-hand.yaml")),
+        scratch_file(&format!("{name}.csv")),
     );
     std::fs::write(&scene_file, PLATES).unwrap();
     let low = 0.02 - aim;
@@ -753,7 +754,11 @@ fn a_finger_pressed_through_a_plate_or_into_a_floor_in_hapticd_is_held_on_top() 
 #[test]
 fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
     // strace sees every system call of every thread; the haptic thread names itself first.
-    let (trace, csv, hand) = (scratch("rt.strace"), scratch("strace.csv"), press());
+    let (trace, csv, hand) = (
+        scratch_file("rt.strace"),
+        scratch_file("strace.csv"),
+        press(),
+    );
     let at = on_bus("strace");
     let daemon = hapticd(
         &at,

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use support::amplifier::{
     AMPLIFIER_SYSFS, SH4, SIMPLE, amplifier_in_port, amplifier_record, emulated_amplifier_with,
-    hex, raw_count, resting_dac, resting_session, root_hub_record, scratch_dir, testbed_run,
+    hex, raw_count, resting_dac, resting_session, root_hub_record, testbed_run,
     umockdev_description, umockdev_run, unplugged_update, update_script,
 };
 use support::artifact;
@@ -331,7 +331,7 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     // Plugged back, the board answers again: zeros first (what a disconnected loop sends),
     // then the resting tensions.
     let second = resting_session(3000);
-    let dir = scratch_dir("replug");
+    let dir = support::scratch("usb", "replug");
     std::fs::write(dir.join("first.umockdev"), umockdev_description(SH4)).unwrap();
     std::fs::write(dir.join("first.ioctl"), first).unwrap();
     std::fs::write(dir.join("second.umockdev"), amplifier_record(SH4, 3)).unwrap();
@@ -421,7 +421,7 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
 fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
     let dac = resting_dac();
     let script = resting_session(3000);
-    let dir = scratch_dir("arrival");
+    let dir = support::scratch("usb", "arrival");
     std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
     std::fs::write(dir.join("amplifier.umockdev"), amplifier_record(SH4, 2)).unwrap();
     std::fs::write(dir.join("amplifier.ioctl"), script).unwrap();
@@ -462,7 +462,7 @@ fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
 fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_other() {
     let dac = resting_dac();
     let good = resting_session(3000);
-    let dir = scratch_dir("two");
+    let dir = support::scratch("usb", "two");
     std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
     std::fs::write(dir.join("a.umockdev"), amplifier_in_port(SH4, 2, 2)).unwrap();
     std::fs::write(dir.join("b.umockdev"), amplifier_in_port(SH4, 3, 3)).unwrap();
@@ -525,7 +525,7 @@ fn each_amplifier_gets_a_haptic_loop_of_its_own_and_a_failing_one_disturbs_no_ot
 
 #[test]
 fn an_amplifier_plugged_in_while_driving_another_joins_it() {
-    let dir = scratch_dir("joining");
+    let dir = support::scratch("usb", "joining");
     std::fs::write(dir.join("hub.umockdev"), root_hub_record()).unwrap();
     std::fs::write(dir.join("a.umockdev"), amplifier_in_port(SH4, 2, 2)).unwrap();
     std::fs::write(dir.join("b.umockdev"), amplifier_in_port(SH4, 3, 3)).unwrap();
@@ -590,7 +590,7 @@ fn ended_under_the_guardian(
     setup: &[String],
     ending: &[String],
 ) -> (String, Vec<(u32, [i16; 8])>, String) {
-    let dir = scratch_dir(name);
+    let dir = support::scratch("usb", name);
     std::fs::write(dir.join("amplifier.umockdev"), umockdev_description(SH4)).unwrap();
     let plugins = dir.join("scene-plugins");
     std::fs::create_dir_all(&plugins).unwrap();

@@ -11,15 +11,6 @@ use std::process::{Command, Output};
 use support::bus::{NAME, PrivateBus, RENDERER};
 use support::{artifact, repo_dir};
 
-/// A fresh scratch root for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        support::scratch_root().join(format!("hapticd-install-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// `make -s TARGET` of the build under test with `vars`, without cargo (installing only
 /// copies); fails the test with make's errors.
 fn make(target: &str, vars: &[String]) -> Output {
@@ -96,7 +87,7 @@ fn serve_guardian(dest: &Path, units: &Path) -> (PathBuf, support::Killed) {
     let (program, name) = line.split_once(' ').unwrap();
     static SERVED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let n = SERVED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = scratch(&format!("guardian-{n}"));
+    let dir = support::scratch("install", &format!("guardian-{n}"));
     // systemd sets argv[0] from the `@` form; a link of that name does it here.
     let as_named = dir.join(name);
     std::os::unix::fs::symlink(dest.join(program.trim_start_matches('/')), &as_named).unwrap();
@@ -169,7 +160,7 @@ fn scenes_of_running(mut daemon: Command, bus: &PrivateBus, log: &Path) -> (Stri
 /// ROOT/usr/etc, and /etc is the system's.
 fn scenes_of_installed(root: &Path, bus: &str) -> (String, String) {
     let bus = PrivateBus::start(
-        &scratch(bus),
+        &support::scratch("install", bus),
         &root.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
     );
     let (mut daemon, _guardian) =
@@ -185,7 +176,7 @@ fn scenes_of_installed(root: &Path, bus: &str) -> (String, String) {
 /// configuration alone.
 #[test]
 fn make_install_lays_out_a_working_system() {
-    let dest = scratch("usr");
+    let dest = support::scratch("install", "usr");
     make_install(&dest, &[]);
     for file in [
         "usr/bin/hapticd",
@@ -294,7 +285,7 @@ fn make_install_lays_out_a_working_system() {
 fn snapshot_of_installed(root: &Path) -> hapticd_render::picture::Picture {
     let policies = root.join("usr/share/dbus-1/system.d");
     let bus = PrivateBus::with_policies(
-        &scratch("render-bus"),
+        &support::scratch("install", "render-bus"),
         &[
             &policies.join("org.hapticd.Hapticd1.conf"),
             &policies.join("org.hapticd.Renderer1.conf"),
@@ -350,7 +341,7 @@ fn snapshot_of_installed(root: &Path) -> hapticd_render::picture::Picture {
 /// configuration, mechanisms, scenes and scene plugins under the prefix, with no flag.
 #[test]
 fn an_install_under_another_prefix_runs_from_its_own_tree() {
-    let dest = scratch("opt");
+    let dest = support::scratch("install", "opt");
     make_install(&dest, &["PREFIX=/opt/hapticd"]);
     for file in [
         "etc/systemd/system/hapticd.service",
@@ -417,7 +408,7 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
     assert!(picture.is_file());
     // A physics scene by name needs the scene directories and the engine's plugin.
     let bus = PrivateBus::start(
-        &scratch("opt-bus"),
+        &support::scratch("install", "opt-bus"),
         &dest.join("etc/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
     );
     let (mut daemon, _guardian) =
@@ -432,7 +423,7 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
 /// A reinstall keeps an edited configuration; the shipped one stays in the documentation.
 #[test]
 fn reinstalling_keeps_an_edited_configuration() {
-    let dest = scratch("reinstall");
+    let dest = support::scratch("install", "reinstall");
     make_install(&dest, &[]);
     let config = dest.join("etc/hapticd/hapticd.yaml");
     let edited = read(config.clone()).replace("rate: 1000 ", "rate: 2000 ");
@@ -451,7 +442,7 @@ fn reinstalling_keeps_an_edited_configuration() {
 /// and the installed hapticd runs the scene example: its floor holds the simulated hand.
 #[test]
 fn the_c_examples_build_against_the_installed_header_and_run() {
-    let dest = scratch("c");
+    let dest = support::scratch("install", "c");
     make_install(&dest, &[]);
     let cflags = Command::new("pkg-config")
         .args(["--cflags", "hapticd-plugin"])
@@ -481,7 +472,7 @@ fn the_c_examples_build_against_the_installed_header_and_run() {
     }
     let csv = dest.join("floor.csv");
     let bus = PrivateBus::start(
-        &scratch("c-bus"),
+        &support::scratch("install", "c-bus"),
         &dest.join("usr/share/dbus-1/system.d/org.hapticd.Hapticd1.conf"),
     );
     let run = Command::new(dest.join("usr/bin/hapticd"))
@@ -540,7 +531,7 @@ fn build_id(file: &Path) -> String {
 /// conffile, and the daemon unpacked into a scratch root runs as the unit starts it.
 #[test]
 fn the_debian_package_is_lintian_clean_and_runs_unpacked() {
-    let dir = scratch("deb");
+    let dir = support::scratch("install", "deb");
     make(
         "deb-from-built",
         &[format!("DEB={}", dir.join("deb").display())],

@@ -121,6 +121,24 @@ fn only_the_bridge_links_zenoh_and_it_links_no_part_of_the_daemon() {
     }
 }
 
+/// The command-line client links the wire contract and the installation's description
+/// (`hapticd-config`), never the daemon: not its bus service, scene loader or real-time
+/// thread.
+#[test]
+fn hapticctl_does_not_link_the_daemon() {
+    let linked = normal_dependencies("hapticctl");
+    assert!(
+        linked.contains("hapticd-ipc") && linked.contains("hapticd-config"),
+        "{linked:?}"
+    );
+    assert!(!linked.contains("hapticd"), "hapticctl links the daemon");
+    let config = normal_dependencies("hapticd-config");
+    assert!(
+        !config.contains("hapticd"),
+        "hapticd-config links the daemon"
+    );
+}
+
 /// Scene files belong to their plugins: the daemon reads a file's engine and nothing else,
 /// and pictures come from the solids plugins publish, so neither the daemon nor the renderer
 /// links the physics of any engine.

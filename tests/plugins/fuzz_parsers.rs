@@ -13,7 +13,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use hapticd::config::Config;
+use hapticd_config::Config;
 use hapticd_core::haptics::obstacle::Shape;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::mechanism::descriptor;

@@ -8,23 +8,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::DVec3;
-use hapticd::catalog;
-use hapticd::plugin;
 use hapticd::plugin_scene::{ExtensionFault, LoadError, SceneFault};
+use hapticd_config::catalog;
+use hapticd_config::plugin;
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::solver::geometry::StringGeometry;
 use hapticd_plugin_api::{HAPTICD_ABI_MAJOR, HAPTICD_ABI_MINOR};
 use support::{plugin_path, repo_dir};
-
-/// A fresh private directory (mode 0755) under the system temporary directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        support::scratch_root().join(format!("hapticd-plugin-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
-    dir
-}
 
 /// Compile C `source` into `dir/name.so` against the generated header.
 fn compile_c(dir: &Path, name: &str, source: &str) -> PathBuf {
@@ -102,7 +92,7 @@ fn the_rust_plugins_load_with_their_descriptors() {
 
 #[test]
 fn the_c_example_plugin_compiles_loads_and_solves() {
-    let dir = scratch("c-example");
+    let dir = support::scratch("plugin-test", "c-example");
     let source =
         std::fs::read_to_string(repo_dir().join("plugins/c-example/spidar_desk.c")).unwrap();
     let path = compile_c(&dir, "libspidar_desk", &source);
@@ -150,7 +140,7 @@ fn the_c_example_plugin_compiles_loads_and_solves() {
 
 #[test]
 fn a_plugin_for_another_abi_major_is_refused() {
-    let dir = scratch("abi-major");
+    let dir = support::scratch("plugin-test", "abi-major");
     let path = compile_c(&dir, "old", &c_plugin_with_abi(2, 0));
     let e = refusal(&path);
     assert!(e.starts_with(&path.display().to_string()), "{e}");
@@ -164,7 +154,7 @@ fn a_plugin_for_another_abi_major_is_refused() {
 
 #[test]
 fn a_plugin_for_a_newer_abi_minor_loads_and_finds_no_unknown_extension() {
-    let dir = scratch("abi-minor");
+    let dir = support::scratch("plugin-test", "abi-minor");
     // A plugin from a later 1.x asks for a service this host does not have, and is told so.
     let source = c_plugin_with_abi(1, 7).replace(
         "hapticd_plugin_entry(const HapticdHost *h) {",
@@ -184,7 +174,7 @@ fn a_plugin_for_a_newer_abi_minor_loads_and_finds_no_unknown_extension() {
 /// with no bodies to show.
 #[test]
 fn a_scene_plugin_of_an_older_minor_runs_without_what_came_later() {
-    let dir = scratch("older-scene");
+    let dir = support::scratch("plugin-test", "older-scene");
     let source = r#"#include <stddef.h>
 #include <stdint.h>
 #include "hapticd_plugin.h"
@@ -226,7 +216,7 @@ const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) { (voi
 
 #[test]
 fn a_library_without_the_entry_symbol_is_refused() {
-    let dir = scratch("no-entry");
+    let dir = support::scratch("plugin-test", "no-entry");
     let path = compile_c(&dir, "plain", "int answer(void) { return 42; }\n");
     let e = refusal(&path);
     assert!(
@@ -238,7 +228,7 @@ fn a_library_without_the_entry_symbol_is_refused() {
 
 #[test]
 fn an_entry_that_returns_nothing_is_refused() {
-    let dir = scratch("null-entry");
+    let dir = support::scratch("plugin-test", "null-entry");
     let source = "#include \"hapticd_plugin.h\"\n#include <stddef.h>\n\
         const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) { (void)h; return NULL; }\n";
     let path = compile_c(&dir, "null", source);
@@ -248,7 +238,7 @@ fn an_entry_that_returns_nothing_is_refused() {
 
 #[test]
 fn a_file_that_is_not_a_library_is_refused() {
-    let dir = scratch("not-elf");
+    let dir = support::scratch("plugin-test", "not-elf");
     let path = dir.join("text.so");
     std::fs::write(&path, "not a shared object").unwrap();
     assert!(refusal(&path).contains("cannot load"));
@@ -257,7 +247,7 @@ fn a_file_that_is_not_a_library_is_refused() {
 
 #[test]
 fn files_and_directories_others_could_modify_are_refused() {
-    let dir = scratch("permissions");
+    let dir = support::scratch("plugin-test", "permissions");
     let path = dir.join("libhapticd_spidar.so");
     std::fs::copy(plugin_path("hapticd-spidar"), &path).unwrap();
     std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
@@ -348,7 +338,7 @@ fn the_physics_plugins_describe_their_worlds_as_their_files_do() {
 #[test]
 fn the_c_example_describes_its_floor() {
     use hapticd_plugin_api::*;
-    let dir = scratch("c-geometry");
+    let dir = support::scratch("plugin-test", "c-geometry");
     let source =
         std::fs::read_to_string(repo_dir().join("plugins/c-example/floor_scene.c")).unwrap();
     let path = compile_c(&dir, "floor_scene", &source);
@@ -405,7 +395,7 @@ const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) {{ (vo
 /// a sound one opens.
 #[test]
 fn a_scene_whose_solids_cannot_be_drawn_is_refused() {
-    let dir = scratch("bad-geometry");
+    let dir = support::scratch("plugin-test", "bad-geometry");
     let frame = ".offset = { { 0, 0, 0 }, { 1, 0, 0, 0 } }";
     for (name, solid, fault) in [
         (
@@ -466,7 +456,7 @@ fn a_scene_whose_solids_cannot_be_drawn_is_refused() {
 #[test]
 fn a_scene_file_runs_on_the_plugin_that_declares_its_engine() {
     use hapticd::scenes::{OpenError, Places, open};
-    let dir = scratch("engines");
+    let dir = support::scratch("plugin-test", "engines");
     for (krate, file) in [
         ("hapticd-scene-penalty", "libhapticd_scene_penalty.so"),
         ("hapticd-scene-floor", "libhapticd_scene_floor.so"),
@@ -527,7 +517,7 @@ fn a_remote_scene_renders_the_world_its_link_delivers() {
     use hapticd_core::wire::Encoder;
     use hapticd_ipc::world_link_share::WorldLinkFile;
     use hapticd_plugin_api::HapticdPlane;
-    let dir = scratch("remote");
+    let dir = support::scratch("plugin-test", "remote");
     let file = dir.join("far.yaml");
     std::fs::write(&file, "engine: remote\nrate: 50\n").unwrap();
     let pointers = one_pointer();

@@ -5,8 +5,6 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use super::scratch_root;
-
 /// Bytes as the hexadecimal text of umockdev records.
 pub fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02X}")).collect()
@@ -115,13 +113,6 @@ pub fn resting_session(updates: usize) -> String {
     script
 }
 
-/// A scratch directory of its own for the test files called `name`.
-pub fn scratch_dir(name: &str) -> PathBuf {
-    let dir = scratch_root().join(format!("usb-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// The OUT transfer that sets these D/A values.
 fn out_packet(dac: &[i16; 8]) -> [u8; 512] {
     let mut out = [0u8; 512];
@@ -145,7 +136,7 @@ pub fn unplugged_update(dac: &[i16; 8]) -> String {
 /// Files of an amplifier `product` answering `script`, in a scratch directory of its own
 /// (`name`): its umockdev record and its ioctl script.
 pub fn emulated_amplifier_with(name: &str, product: u16, script: &str) -> (PathBuf, PathBuf) {
-    let dir = scratch_dir(name);
+    let dir = super::scratch("usb", name);
     let (device, ioctl) = (dir.join("amplifier.umockdev"), dir.join("amplifier.ioctl"));
     std::fs::write(&device, umockdev_description(product)).unwrap();
     std::fs::write(&ioctl, script).unwrap();

@@ -2,7 +2,7 @@
 //! test's own and on a bus of the test's own (or on an address where none listens), so that a
 //! test neither meets nor disturbs a hapticd, a bus, a journal or an `/etc/hapticd` of the
 //! machine it runs on. A hapticd built in the workspace reads `/etc/hapticd/hapticd.yaml` by
-//! default (see `hapticd::layout`), and without `--bus` it serves on the system bus, where an
+//! default (see `hapticd_config::layout`), and without `--bus` it serves on the system bus, where an
 //! installed hapticd makes it refuse to start.
 
 use std::path::{Path, PathBuf};

@@ -20,7 +20,7 @@ use std::process::Command;
 
 use glam::DQuat;
 use hapticctl::experiments::Session;
-use hapticd::catalog;
+use hapticd_config::catalog;
 use hapticd_core::haptic_loop::{HapticLoop, LoopSettings};
 use hapticd_core::kinematics::Pose;
 use hapticd_core::mechanism::Mechanism;
@@ -208,6 +208,17 @@ pub fn shared_scratch(kind: &str, name: &str) -> PathBuf {
     use std::os::unix::fs::PermissionsExt;
     let dir = std::env::temp_dir().join(format!("hapticd-{kind}-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    dir
+}
+
+/// This process's scratch directory `hapticd-KIND-PID-NAME` for a test's files, in cargo's
+/// scratch directory; created when missing (tests running side by side may share one), mode
+/// 0755 as the plugin loader requires of any directory a plugin lies in.
+pub fn scratch(kind: &str, name: &str) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch_root().join(format!("hapticd-{kind}-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
     dir

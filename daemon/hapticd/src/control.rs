@@ -11,10 +11,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use crate::catalog::{Catalog, Entry};
-use crate::config::Config;
 use crate::scenes::OpenError;
 use crate::state::{Calibration, DeviceRecord, StateDir};
+use hapticd_config::Config;
+use hapticd_config::catalog::{Catalog, Entry};
 use hapticd_core::diagnostics::{Diagnostic, Diagnostics};
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::parameters::{self, Name, ParameterError, Parameters};
@@ -788,7 +788,7 @@ impl Daemon {
     /// and swap it in; on any failure the running scene stays. A path is refused: a caller's
     /// own file comes by descriptor ([`Daemon::switch_scene_file`]).
     pub fn switch_scene(&self, name: &str) -> Result<(), Error> {
-        if !crate::scenes::is_name(name) {
+        if !hapticd_config::scene_name::is_name(name) {
             return Err(Error::NameExpected(format!(
                 "{name:?} is not a scene name: switch to a name from Scenes or a scene plugin \
                  of the scene plugin directories, or send your file (hapticctl scene switch \
@@ -803,7 +803,7 @@ impl Daemon {
     /// Load the scene file a caller sent as `fd`, calling it `name`, and swap it in as
     /// [`Daemon::switch_scene`] does. Only the descriptor is read, never a path.
     pub fn switch_scene_file(&self, fd: std::os::fd::OwnedFd, name: &str) -> Result<(), Error> {
-        if !crate::scenes::is_name(name) {
+        if !hapticd_config::scene_name::is_name(name) {
             return Err(Error::NameExpected(format!(
                 "{name:?} cannot name a scene: a file name without its directory and extension"
             )));
@@ -991,7 +991,7 @@ impl Daemon {
             None => lock(&self.inner).config.clone(),
         };
         // The default scene must be there: the next start would fail on it.
-        if let Err(e) = crate::scenes::locate(&config.scene, &config.scene_dirs) {
+        if let Err(e) = hapticd_config::scene_name::locate(&config.scene, &config.scene_dirs) {
             let file = self
                 .config_path
                 .as_deref()

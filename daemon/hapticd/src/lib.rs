@@ -1,13 +1,12 @@
 //! hapticd, the daemon: what turns the core's haptic loop into a system service.
 //!
 //! Layers, each using only those above it (and `hapticd-core`, `hapticd-device`, the wire
-//! contract `hapticd-ipc`, the service helpers `hapticd-service`):
+//! contract `hapticd-ipc`, the service helpers `hapticd-service`, and the installation as
+//! every program sees it, `hapticd-config`: its layout, configuration file, mechanisms and
+//! plugin loader):
 //!
-//! 1. [`clock`], [`layout`], [`config`], [`state`]: the process's surroundings (monotonic
-//!    time, the installed tree, `/etc` and `/var/lib`).
-//! 2. [`plugin`]: loading plugins safely through the C ABI of `hapticd-plugin-api`;
-//!    [`catalog`]: the mechanisms (descriptors and plugins) in the configured directories;
-//!    [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
+//! 1. [`state`]: what the daemon keeps in `/var/lib`.
+//! 2. [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
 //!    [`scene_list`]: the scenes listed, without reading their meshes;
 //!    [`remote_scene`]: a world stepped on another machine, reached through the bridge;
 //!    [`received`]: scene files callers send by descriptor; [`preparation`]: the convex
@@ -19,13 +18,8 @@
 //!    the supervisor see them; [`bus`]: the D-Bus interfaces on top of it.
 
 pub mod bus;
-pub mod catalog;
-pub mod clock;
-pub mod config;
 pub mod control;
-pub mod layout;
 pub mod physics_budget;
-pub mod plugin;
 pub mod plugin_scene;
 pub mod preparation;
 pub mod realtime;

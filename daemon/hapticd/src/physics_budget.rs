@@ -18,8 +18,8 @@
 
 use std::fmt;
 
-use crate::clock::{monotonic_ns, sleep_until};
 use crate::realtime::{Scheduling, become_ordinary, become_realtime, realtime_budget_ns};
+use hapticd_service::clock::{monotonic_ns, sleep_until};
 
 /// SCHED_FIFO priority of a physics thread: the lowest, above every ordinary task and below
 /// every haptic thread.

@@ -22,7 +22,7 @@ use hapticd_core::world_state::WorldWriter;
 
 use hapticd_device::guardian::Heartbeat;
 
-use crate::clock::{monotonic_ns, sleep_until};
+use hapticd_service::clock::{monotonic_ns, sleep_until};
 
 /// How the loop should run.
 #[derive(Debug, Clone, Copy, PartialEq)]

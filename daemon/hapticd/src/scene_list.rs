@@ -21,7 +21,8 @@ use std::time::{Duration, Instant};
 use hapticd_core::scene::engine::{Engine, engine_of_text};
 use hapticd_core::scene::remote::{self, RemoteSceneSpec};
 
-use crate::scenes::{Places, is_name, scene_plugin};
+use crate::scenes::{Places, scene_plugin};
+use hapticd_config::scene_name::is_name;
 
 /// What identifies a file's contents without reading them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -19,8 +19,9 @@ use hapticd_core::scene::{Pointer, Scene};
 use hapticd_ipc::world_link_share::WorldLink;
 use hapticd_plugin_api::{HAPTICD_EXT_SCENE_FILES, HAPTICD_OK, HapticdSceneFiles};
 
-use crate::plugin;
 use crate::plugin_scene::LoadError;
+use hapticd_config::plugin;
+use hapticd_config::scene_name::{is_name, locate};
 
 /// Why a scene could not be opened.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,36 +116,6 @@ fn fits_tick(scene: &mut dyn Scene, pointers: &[Pointer], rate: f64) -> Result<(
         });
     }
     Ok(())
-}
-
-/// Whether `name` names a scene rather than giving a path: what a caller on the bus may
-/// send (a file of its own it sends by descriptor).
-pub fn is_name(name: &str) -> bool {
-    !name.is_empty()
-        && !name.starts_with('.')
-        && !name.contains(['/', '\0'])
-        && Path::new(name).extension().is_none()
-}
-
-/// The file of scene `name`: a path as given, or `NAME.yaml` in the first of `dirs` that
-/// has it.
-pub fn locate(name: &str, dirs: &[PathBuf]) -> Result<PathBuf, OpenError> {
-    let path = Path::new(name);
-    let path = if !is_name(name) {
-        path.to_path_buf()
-    } else {
-        dirs.iter()
-            .map(|d| d.join(format!("{name}.yaml")))
-            .find(|p| p.exists())
-            .ok_or_else(|| OpenError::NotFound(format!("no scene named {name:?} in {dirs:?}")))?
-    };
-    if !path.exists() {
-        return Err(OpenError::NotFound(format!(
-            "{}: no such scene file",
-            path.display()
-        )));
-    }
-    Ok(path)
 }
 
 /// The file pictures of scene `name` are drawn from, absolute: the scene file, or for a
@@ -268,15 +239,15 @@ fn find(
     pointers: &[Pointer],
 ) -> Result<Box<dyn Scene>, OpenError> {
     let path = match locate(name, places.dirs) {
+        Ok(path) => path,
         // A name that is no scene file may be a scene plugin's.
-        Err(OpenError::NotFound(why)) if is_name(name) => scene_plugin(name, places.plugin_dirs)
-            .ok_or_else(|| {
-                OpenError::NotFound(format!(
-                    "{why}, nor a scene plugin libhapticd_scene_{name}.so in {:?}",
-                    places.plugin_dirs
-                ))
-            })?,
-        found => found?,
+        Err(why) if is_name(name) => scene_plugin(name, places.plugin_dirs).ok_or_else(|| {
+            OpenError::NotFound(format!(
+                "{why}, nor a scene plugin libhapticd_scene_{name}.so in {:?}",
+                places.plugin_dirs
+            ))
+        })?,
+        Err(why) => return Err(OpenError::NotFound(why.to_string())),
     };
     if path.extension().is_some_and(|e| e == "so") {
         return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Plugin);

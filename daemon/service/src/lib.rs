@@ -1,6 +1,7 @@
 //! What hapticd's system services (the daemon and its renderer) share as processes, apart
 //! from the wire contract of `hapticd-ipc`:
 //!
+//! - [`clock`]: the one monotonic clock the haptic, physics and plugin threads share;
 //! - [`logging`]: log lines to the journal when systemd runs the service, to standard error
 //!   otherwise;
 //! - [`sd_notify`]: readiness and status for systemd;
@@ -10,6 +11,7 @@
 //! - [`cli`]: both programs' command lines, which `hapticctl manual` writes their pages from.
 
 pub mod cli;
+pub mod clock;
 pub mod cpus;
 pub mod log_lines;
 pub mod logging;

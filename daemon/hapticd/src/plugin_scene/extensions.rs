@@ -4,7 +4,7 @@
 use hapticd_plugin_api::geometry::GeometryError;
 use hapticd_plugin_api::*;
 
-use crate::plugin;
+use hapticd_config::plugin;
 use hapticd_core::scene::control::{self, Incoming, Reply, SceneControl};
 use hapticd_core::sync::spsc;
 use hapticd_core::world_geometry::{MAX_SOLIDS, MAX_TRIANGLES};

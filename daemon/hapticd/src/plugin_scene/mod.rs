@@ -23,8 +23,8 @@ use std::path::{Path, PathBuf};
 
 use hapticd_plugin_api::*;
 
-use crate::plugin;
 use glam::DVec3;
+use hapticd_config::plugin;
 use hapticd_core::kinematics::MAX_EFFECTORS;
 use hapticd_core::scene::control::{Reply, Request};
 use hapticd_core::scene::multirate::PlaneSet;

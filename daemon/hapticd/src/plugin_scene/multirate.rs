@@ -7,7 +7,6 @@ use std::thread::JoinHandle;
 
 use hapticd_plugin_api::*;
 
-use crate::clock::monotonic_ns;
 use crate::physics_budget::Pacer;
 use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
@@ -21,6 +20,7 @@ use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
 use hapticd_core::world_state::{MAX_BODIES, body_pose, pose_of};
+use hapticd_service::clock::monotonic_ns;
 
 use super::{Commands, Hands, Instance, Taken};
 

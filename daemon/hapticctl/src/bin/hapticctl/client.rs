@@ -531,7 +531,7 @@ pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
 /// name goes as it is; a file is opened here, with the user's rights, and its descriptor is
 /// sent (the daemon reads no path a caller names).
 pub fn switch(client: &Client, scene: &str) -> Result<(), Failure> {
-    if hapticd::scenes::is_name(scene) {
+    if hapticd_config::scene_name::is_name(scene) {
         return switch_when_prepared(client, scene);
     }
     let path = std::path::Path::new(scene);
@@ -544,7 +544,7 @@ pub fn switch(client: &Client, scene: &str) -> Result<(), Failure> {
     let name = path
         .file_stem()
         .and_then(|s| s.to_str())
-        .filter(|s| hapticd::scenes::is_name(s))
+        .filter(|s| hapticd_config::scene_name::is_name(s))
         .ok_or_else(|| Failure::usage(format!("{scene}: not a scene file name")))?;
     // Non-blocking, so that a FIFO given by mistake cannot hang the client; the daemon
     // refuses anything but a regular file.

@@ -9,7 +9,7 @@ use hapticctl::experiments::{
     grasp, incline, push_mass, push_phase, shape_tracing, stack_timing, wall_stiffness,
 };
 use hapticctl::plot::{Canvas, Chart, PALETTE, Series};
-use hapticd::catalog::Catalog;
+use hapticd_config::catalog::Catalog;
 use hapticd_core::haptics::grasp::Method;
 use hapticd_physics::scene::Feedback;
 use serde_json::{Value, json};

@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use hapticd::catalog::Catalog;
+use hapticd_config::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_ipc::bus::Bus;
 use mechanism::Output;

@@ -26,7 +26,7 @@ const FORMATS: [Format; 4] = [
         summary: "configuration of the hapticd haptics daemon",
         parts: &[(
             "DESCRIPTION",
-            include_str!("../../../../hapticd/src/config.rs"),
+            include_str!("../../../../config/src/file.rs"),
         )],
     },
     Format {
@@ -373,7 +373,7 @@ mod tests {
         type Parse = fn(&str, &Path) -> Result<(), Diagnostics>;
         let parsers: [(&str, Parse); 5] = [
             ("hapticd.yaml", |t, p| {
-                hapticd::config::Config::parse(t, p).map(drop)
+                hapticd_config::Config::parse(t, p).map(drop)
             }),
             ("hapticd-mechanism", |t, p| {
                 hapticd_core::mechanism::descriptor::parse(t, p).map(drop)

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Subcommand, ValueEnum};
 use glam::{DQuat, DVec3};
 use hapticctl::plot::{Canvas, Cells, Chart, PALETTE, Series};
-use hapticd::catalog::Catalog;
+use hapticd_config::catalog::Catalog;
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::diagnostics::Number;
 use hapticd_core::kinematics::{Dof, Pose, Wrench, quat_from_wxyz, quat_to_wxyz};

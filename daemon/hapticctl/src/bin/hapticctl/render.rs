@@ -16,7 +16,7 @@ use hapticd_render::vulkan::{MAX_EDGE, Renderer};
 use crate::Failure;
 use crate::mechanism::{Numbers, parse_numbers, resolve, vec3};
 use glam::DVec3;
-use hapticd::catalog::Catalog;
+use hapticd_config::catalog::Catalog;
 use hapticd_core::kinematics::{Pose, Wrench};
 use hapticd_core::solver::geometry::StringGeometry;
 

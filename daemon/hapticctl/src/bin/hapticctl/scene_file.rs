@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use hapticd::config::Config;
-use hapticd::layout::Layout;
+use hapticd_config::Config;
+use hapticd_config::layout::Layout;
 
 use crate::Failure;
 
@@ -13,7 +13,7 @@ use crate::Failure;
 /// looks names up.
 pub fn resolve(arg: &Path) -> Result<PathBuf, Failure> {
     let name = match arg.to_str() {
-        Some(name) if hapticd::scenes::is_name(name) && !arg.exists() => name,
+        Some(name) if hapticd_config::scene_name::is_name(name) && !arg.exists() => name,
         _ => return Ok(arg.to_path_buf()),
     };
     let layout = Layout::of_this_program();
@@ -22,5 +22,5 @@ pub fn resolve(arg: &Path) -> Result<PathBuf, Failure> {
     let dirs = Config::load(&config)
         .map(|c| c.scene_dirs)
         .unwrap_or_else(|_| layout.scene_dirs());
-    hapticd::scenes::locate(name, &dirs).map_err(|e| Failure::usage(e.to_string()))
+    hapticd_config::scene_name::locate(name, &dirs).map_err(|e| Failure::usage(e.to_string()))
 }

@@ -7,12 +7,12 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread::JoinHandle;
 
-use hapticd::catalog::{Catalog, Entry};
-use hapticd::config::Config;
 use hapticd::control::{DeviceHandle, DeviceSetup, Fixed, Telemetry, scene_geometry};
 use hapticd::realtime::{Channels, RealtimeLoop, RealtimeSettings, Scheduling};
 use hapticd::scenes;
 use hapticd::state::{DeviceRecord, StateDir};
+use hapticd_config::Config;
+use hapticd_config::catalog::{Catalog, Entry};
 use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::safety::SafetyLimits;
 use hapticd_core::mechanism::Mechanism;

@@ -17,11 +17,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 use hapticd::bus;
-use hapticd::config::Config;
 use hapticd::control::{self, Daemon};
-use hapticd::layout::Layout;
 use hapticd::scenes;
 use hapticd::state::StateDir;
+use hapticd_config::Config;
+use hapticd_config::layout::Layout;
 use hapticd_device::guardian::{self, Guardian};
 use hapticd_device::hotplug::Arrivals;
 use hapticd_device::sim::hand::Script;

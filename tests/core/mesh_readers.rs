@@ -4,18 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::support;
+
 use glam::{DMat3, DVec3};
 use hapticd_mesh::properties::{closure, mass_properties};
 use hapticd_mesh::{Budget, Format, Limits, MeshError, TriangleMesh, load, read};
-
-/// A scratch directory of this test process, in cargo's scratch directory under target/.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("hapticd-mesh-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// The unit cube's corners and its twelve triangles, counter-clockwise from outside.
 fn cube() -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
@@ -174,7 +167,7 @@ fn loaded(file: &Path) -> TriangleMesh {
 
 #[test]
 fn the_same_cube_in_every_format_loads_to_the_same_triangles_and_solid() {
-    let dir = scratch("formats");
+    let dir = support::scratch("mesh", "formats");
     let (corners, triangles) = cube();
     std::fs::write(dir.join("cube.obj"), obj_text(&corners, &triangles)).unwrap();
     std::fs::write(dir.join("ascii.stl"), stl_ascii(&corners, &triangles)).unwrap();
@@ -249,7 +242,7 @@ fn refused(file: &Path, limits: Limits, within: Option<&Path>) -> String {
 
 #[test]
 fn bad_files_are_refused_with_their_name_and_why() {
-    let dir = scratch("bad");
+    let dir = support::scratch("mesh", "bad");
     let (corners, triangles) = cube();
     let write = |name: &str, bytes: &[u8]| {
         let path = dir.join(name);
@@ -339,7 +332,7 @@ fn bad_files_are_refused_with_their_name_and_why() {
         gltf_json(8, 12, Some("short.bin"), [0.0; 3]).as_bytes(),
     );
     assert!(refused(&short, Limits::DEFAULT, None).contains("holds 40 bytes"));
-    let outside = scratch("outside");
+    let outside = support::scratch("mesh", "outside");
     std::fs::write(outside.join("cube.bin"), &buffer).unwrap();
     let escape = write(
         "escape.gltf",
@@ -369,7 +362,7 @@ fn bad_files_are_refused_with_their_name_and_why() {
 /// glTF the same closed solid, of the volume of the polygons the script draws.
 #[test]
 fn the_example_meshes_are_closed_solids_of_their_drawn_volumes() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes/meshes");
+    let dir = support::repo_dir().join("config/scenes/meshes");
     let segments = 32.0;
     // The area of the regular polygon of `segments` sides the script puts on a circle.
     let polygon = |r: f64| segments / 2.0 * r * r * (2.0 * std::f64::consts::PI / segments).sin();
@@ -452,7 +445,7 @@ fn nodes_json(
 /// it is walked.
 #[test]
 fn node_graphs_that_reuse_or_loop_are_refused_by_name_before_they_are_expanded() {
-    let dir = scratch("graphs");
+    let dir = support::scratch("mesh", "graphs");
     let write = |name: &str, text: String| written(&dir, name, text);
     // Six levels of ten nodes, each node of a level a child of every node of the level
     // above: 10⁶ paths to the cube at the bottom.
@@ -541,7 +534,7 @@ fn node_graphs_that_reuse_or_loop_are_refused_by_name_before_they_are_expanded()
 /// crate's reader would panic (a stride shorter than an element) or read past its data.
 #[test]
 fn accessors_that_lie_about_their_layout_are_refused_not_read() {
-    let dir = scratch("accessors");
+    let dir = support::scratch("mesh", "accessors");
     let write = |name: &str, text: String| written(&dir, name, text);
     let one = nodes_json(1, |_| Vec::new(), |_| true);
     let path = write("stride.gltf", cube_scene("[0]", &one, Some(4)));
@@ -597,7 +590,7 @@ fn accessors_that_lie_about_their_layout_are_refused_not_read() {
 /// starts with `solid`, a loop of four corners; and counts that lie.
 #[test]
 fn stl_files_as_exporters_write_them_are_read_and_lying_counts_refused() {
-    let dir = scratch("stl");
+    let dir = support::scratch("mesh", "stl");
     let (corners, triangles) = cube();
     let reference = canonical(&TriangleMesh {
         vertices: corners.iter().map(|&c| DVec3::from(c)).collect(),

@@ -3,20 +3,14 @@
 
 use std::f64::consts::TAU;
 use std::fmt::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{DQuat, DVec3};
+
+use crate::support;
 use hapticd_mesh::cache::Cache;
 use hapticd_physics::scene::{RapierScene, SceneFile};
 use hapticd_rapier::world::RapierWorld;
-
-/// A directory of this test's own for its meshes, scene and cache.
-fn workspace(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Write `triangles` as an OBJ file, each wound so that its normal points along `outward`
 /// of its centre.
@@ -133,7 +127,7 @@ fn settle(spec: &RapierScene, i: usize, seconds: f64) -> DVec3 {
 
 #[test]
 fn a_ball_falls_through_a_rings_hole_and_rests_on_the_ring_when_larger() {
-    let dir = workspace("rapier-ring");
+    let dir = support::scratch("rapier", "rapier-ring");
     ring(&dir.join("ring.obj"), 0.05, 0.01);
     let ring = "  - { name: ring, mesh: ring.obj, position: [0, 0.1, 0], fixed: true }\n";
     let ball = |radius: f64| {
@@ -152,7 +146,7 @@ fn a_ball_falls_through_a_rings_hole_and_rests_on_the_ring_when_larger() {
 
 #[test]
 fn a_peg_fits_a_hole_with_a_millimetre_to_spare_and_sticks_in_one_too_small() {
-    let dir = workspace("rapier-peg");
+    let dir = support::scratch("rapier", "rapier-peg");
     holed_block(&dir.join("block.obj"), 0.04, 0.01, 0.04);
     let block = "  - { name: block, mesh: block.obj, position: [0, 0, 0], fixed: true }\n";
     let peg = |side: f64| {
@@ -171,9 +165,8 @@ fn a_peg_fits_a_hole_with_a_millimetre_to_spare_and_sticks_in_one_too_small() {
 
 #[test]
 fn a_decomposed_mug_dropped_tilted_settles_upright_on_its_base() {
-    let dir = workspace("rapier-mug");
-    let shipped =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/scenes/meshes/mug.obj");
+    let dir = support::scratch("rapier", "rapier-mug");
+    let shipped = support::repo_dir().join("config/scenes/meshes/mug.obj");
     std::fs::copy(shipped, dir.join("mug.obj")).unwrap();
     let tilt = DQuat::from_rotation_z(0.3);
     let (w, x, y, z) = (tilt.w, tilt.x, tilt.y, tilt.z);

@@ -1,12 +1,12 @@
 //! Shared by the physics tests: reproducible random solids and an independent reference for
 //! the volume and centroid of a convex polyhedron given by its planes.
 
-#![allow(dead_code)] // each test binary uses its own subset
-
 use glam::DVec3;
 use hapticd_physics::polyhedron::{Plane, Polyhedron};
 
-#[path = "../../../../../tests/support/rng.rs"]
+// Shared with the end-to-end tests, which use the rest of it.
+#[allow(dead_code)]
+#[path = "../../../../../../tests/support/rng.rs"]
 mod rng;
 pub use rng::Rng;
 

@@ -2,9 +2,7 @@
 //! spring is k_N·V·n through the intersection's centroid (V and centroid from an independent
 //! vertex enumeration), and a uniform approach velocity is damped over the projected area.
 
-mod common;
-
-use common::{Rng, close, random_polyhedron, reference};
+use crate::common::{Rng, close, random_polyhedron, reference};
 use glam::{DQuat, DVec3};
 use hapticd_physics::clip::Clipper;
 use hapticd_physics::contact::{damper, spring};

@@ -2,15 +2,13 @@
 //! vertex enumeration (every triple of face planes), faces rebuilt by angle, volume and
 //! centroid summed over tetrahedra from an interior point.
 
-mod common;
-
-use common::{Rng, random_polyhedron, reference};
+use crate::common::{Rng, random_polyhedron, reference};
 use glam::{DQuat, DVec3};
 use hapticd_physics::clip::Clipper;
 use hapticd_physics::mass::volume_and_centroid;
 use hapticd_physics::polyhedron::{Plane, Polyhedron};
 
-use common::close;
+use crate::common::close;
 
 #[test]
 fn boxes_have_their_exact_volume_and_centre() {

@@ -131,7 +131,7 @@ unsafe extern "C" fn host_log(
 
 /// [any] Host clock service: CLOCK_MONOTONIC in nanoseconds.
 unsafe extern "C" fn host_now_ns(_context: *mut c_void) -> u64 {
-    crate::clock::monotonic_ns()
+    hapticd_service::clock::monotonic_ns()
 }
 
 /// [any] Host extension lookup. ABI 1.1 defines no extension yet: every name is answered
