@@ -25,19 +25,50 @@ const WORLD: (usize, f64) = (2000, 60.0);
 
 /// hapticd's latency with `scene` (and more arguments).
 fn hapticd(scene: &[&std::ffi::OsStr]) -> Latency {
-    hapticd_beside(scene, || ())
+    hapticd_beside("alone", scene, |_, _| ())
 }
 
-/// hapticd's latency with `scene` (and more arguments), with whatever `beside` starts once
-/// hapticd is running kept running until it ends.
-fn hapticd_beside<T>(scene: &[&std::ffi::OsStr], beside: impl FnOnce() -> T) -> Latency {
-    let dir = support::scratch_root().join("latency-mechanisms");
-    std::fs::create_dir_all(&dir).unwrap();
-    let plugin = support::plugin_path("hapticd-spidar-g");
-    std::fs::copy(&plugin, dir.join(plugin.file_name().unwrap())).unwrap();
+/// hapticd's latency with `scene` (and more arguments), in scratch directory `name` on a
+/// private bus of its own (never the host's, nor the host's configuration), with whatever
+/// `beside` starts on that bus once hapticd is running kept running until it ends.
+fn hapticd_beside<T>(
+    name: &str,
+    scene: &[&std::ffi::OsStr],
+    beside: impl FnOnce(&str, &std::path::Path) -> T,
+) -> Latency {
+    let dir = support::scratch("latency", name);
+    let repo = support::repo_dir();
+    let bus = support::bus::PrivateBus::with_policies(
+        &dir,
+        &[
+            &repo.join("config/dbus/org.hapticd.Hapticd1.conf"),
+            &repo.join("config/dbus/org.hapticd.Renderer1.conf"),
+        ],
+    );
+    let (mechanisms, plugins) = (dir.join("mechanisms"), dir.join("scene-plugins"));
+    for (into, krate) in [
+        (&mechanisms, "hapticd-spidar-g"),
+        (&plugins, "hapticd-scene-penalty"),
+    ] {
+        std::fs::create_dir_all(into).unwrap();
+        let plugin = support::plugin_path(krate);
+        std::fs::copy(&plugin, into.join(plugin.file_name().unwrap())).unwrap();
+    }
+    let config = dir.join("hapticd.yaml");
+    std::fs::write(
+        &config,
+        format!(
+            "mechanism_dirs: [{}]\nscene_plugin_dirs: [{}]\n",
+            mechanisms.display(),
+            plugins.display()
+        ),
+    )
+    .unwrap();
     let child = Command::new(support::artifact("hapticd"))
-        .arg("--mechanism-dir")
-        .arg(&dir)
+        .arg("--config")
+        .arg(&config)
+        .arg(format!("--bus={}", bus.address))
+        .env("DBUS_SYSTEM_BUS_ADDRESS", &bus.address)
         .arg("--scene")
         .args(scene)
         .args([
@@ -49,10 +80,11 @@ fn hapticd_beside<T>(scene: &[&std::ffi::OsStr], beside: impl FnOnce() -> T) -> 
             &SECONDS.to_string(),
         ])
         .env_remove("NOTIFY_SOCKET")
+        .env("CACHE_DIRECTORY", dir.join("cache"))
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("hapticd runs");
-    let kept = beside();
+    let kept = beside(&bus.address, &dir);
     let out = child.wait_with_output().unwrap();
     drop(kept);
     let log = String::from_utf8_lossy(&out.stderr);
@@ -142,42 +174,17 @@ enum Beside {
     Bridged,
 }
 
-/// hapticd with the blocks scene on a private bus, with `beside` beside it.
+/// hapticd with the blocks scene, with `beside` beside it.
 fn blocks(beside: Beside) -> Latency {
-    let dir = support::scratch_root().join(format!("latency-bus-{}", beside as u8));
-    std::fs::create_dir_all(&dir).unwrap();
-    let repo = support::repo_dir();
-    let bus = support::bus::PrivateBus::with_policies(
-        &dir,
-        &[
-            &repo.join("config/dbus/org.hapticd.Hapticd1.conf"),
-            &repo.join("config/dbus/org.hapticd.Renderer1.conf"),
-        ],
-    );
-    let config = dir.join("hapticd.yaml");
-    let plugins = dir.join("scene-plugins");
-    std::fs::create_dir_all(&plugins).unwrap();
-    let penalty = support::plugin_path("hapticd-scene-penalty");
-    std::fs::copy(&penalty, plugins.join(penalty.file_name().unwrap())).unwrap();
-    std::fs::write(
-        &config,
-        format!("scene_plugin_dirs: [{}]\n", plugins.display()),
-    )
-    .unwrap();
-    let blocks = repo.join("config/scenes/blocks.yaml");
-    let address = format!("--bus={}", bus.address);
+    let blocks = support::repo_dir().join("config/scenes/blocks.yaml");
     hapticd_beside(
-        &[
-            blocks.as_os_str(),
-            "--config".as_ref(),
-            config.as_os_str(),
-            address.as_ref(),
-        ],
-        || -> Option<Box<dyn std::any::Any>> {
+        &format!("blocks-{}", beside as u8),
+        &[blocks.as_os_str()],
+        |address, dir| -> Option<Box<dyn std::any::Any>> {
             match beside {
                 Beside::Nothing => None,
-                Beside::Drawn => Some(Box::new(draw(&bus.address))),
-                Beside::Bridged => Some(Box::new(bridge(&bus.address, &dir))),
+                Beside::Drawn => Some(Box::new(draw(address))),
+                Beside::Bridged => Some(Box::new(bridge(address, dir))),
             }
         },
     )

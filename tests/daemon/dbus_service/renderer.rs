@@ -1,0 +1,446 @@
+//! The renderer on the bus: snapshots, a renderer killed and back, no Vulkan driver, and
+//! hapticctl view on X11.
+
+use super::*;
+
+/// Share of `picture`'s pixels that are not the sky it is drawn over.
+fn drawn_share(picture: &Picture) -> f64 {
+    let sky = [237, 242, 250];
+    let drawn = picture
+        .rgba
+        .chunks(4)
+        .filter(|p| {
+            p[..3]
+                .iter()
+                .zip(sky)
+                .any(|(&c, s): (&u8, i32)| (i32::from(c) - s).abs() > 8)
+        })
+        .count();
+    drawn as f64 / (picture.rgba.len() / 4) as f64
+}
+
+#[test]
+fn a_snapshot_is_a_picture_of_the_running_scene_and_bad_options_are_refused() {
+    let dir = support::shared_scratch("dbus", "snapshot");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "blocks"]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    assert_eq!(bus.get(PICTURES, "Available"), "b true");
+    assert!(bus.get(PICTURES, "Driver").len() > 4);
+    assert_eq!(bus.get(PICTURES, "UnavailableReason"), "s \"\"");
+    assert!(
+        bus.get(MANAGER, "ActiveSceneFile")
+            .ends_with("config/scenes/blocks.yaml\""),
+        "{}",
+        bus.get(MANAGER, "ActiveSceneFile")
+    );
+    let picture = bus
+        .snapshot(&["width", "u", "320", "height", "u", "240"])
+        .unwrap();
+    assert_eq!((picture.width, picture.height), (320, 240));
+    let drawn = drawn_share(&picture);
+    assert!((0.2..0.95).contains(&drawn), "{drawn} of the picture drawn");
+    // Seen from the other side the scene is another picture; the defaults are 640 × 480.
+    let behind = bus.snapshot(&["azimuth", "d", "3.6"]).unwrap();
+    assert_eq!((behind.width, behind.height), (640, 480));
+    // hapticctl asks the same renderer.
+    let file = dir.join("snapshot.png");
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["snapshot", "--width", "200", "--height", "100"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let written = Picture::read_png(&file).unwrap();
+    assert_eq!((written.width, written.height), (200, 100));
+    use zbus::Variant;
+    for (key, value, error) in [
+        ("width", Variant::from(0u32), "OutOfRange"),
+        ("height", Variant::from(100_000u32), "OutOfRange"),
+        ("distance", Variant::from(f64::NAN), "NotFinite"),
+        ("azimuth", Variant::from(f64::INFINITY), "NotFinite"),
+        (
+            "target",
+            Variant::from(vec![0.0, f64::NAN, 0.0]),
+            "NotFinite",
+        ),
+        ("zoom", Variant::from(2.0), "InvalidOption"),
+        ("width", Variant::from("wide"), "InvalidOption"),
+    ] {
+        let (name, message) = bus.snapshot_error(&[(key, value)]);
+        assert_eq!(
+            name,
+            format!("org.hapticd.Renderer1.Error.{error}"),
+            "{key}: {message}"
+        );
+        assert!(message.contains(key), "{message}");
+    }
+    // A camera aimed far off sees sky; a target of two numbers is refused by the renderer.
+    let aimed = dir.join("aimed.png");
+    let out = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args([
+            "snapshot", "--width", "200", "--height", "100", "--target", "0,60,-60",
+        ])
+        .arg(&aimed)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let (here, away) = (
+        drawn_share(&written),
+        drawn_share(&Picture::read_png(&aimed).unwrap()),
+    );
+    assert!(
+        away < 0.5 * here,
+        "drawn {here} at the scene, {away} aimed away"
+    );
+    let two = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["snapshot", "--target", "1,2"])
+        .arg(dir.join("none.png"))
+        .output()
+        .unwrap();
+    assert_eq!(two.status.code(), Some(2), "{two:?}");
+    assert!(String::from_utf8_lossy(&two.stderr).contains("target is three numbers"));
+    for args in [&["--width", "0"][..], &["--distance", "-1"]] {
+        let refused = hapticctl()
+            .arg(format!("--bus={}", bus.address))
+            .arg("snapshot")
+            .args(args)
+            .arg(dir.join("none.png"))
+            .output()
+            .unwrap();
+        assert_eq!(refused.status.code(), Some(2), "{refused:?}");
+        // The renderer's reason, not the argument parser's.
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(stderr.contains("OutOfRange"), "{args:?}: {stderr}");
+        assert!(!dir.join("none.png").exists());
+    }
+}
+
+#[test]
+fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
+    let unit = std::fs::read_to_string(repo_dir().join("systemd/hapticd-render.service")).unwrap();
+    assert!(
+        unit.contains("\nRestart=always\n"),
+        "systemd brings it back"
+    );
+    let dir = support::shared_scratch("dbus", "kill-renderer");
+    // It counts overruns: no other test's daemons run meanwhile.
+    let bus = Bus::start_alone(&dir);
+    let setup = Setup::new(&dir);
+    // The static scene: a debug build's tick leaves room for the machine's own hiccups.
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let overruns = || entry(&bus.get(DEVICE, "Statistics"), "overruns");
+    let ticks = || entry(&bus.get(DEVICE, "Statistics"), "ticks");
+    let mut renderer = Renderer::start(&bus, &dir, &[]);
+    // A viewer's stream keeps the renderer drawing when it is killed.
+    let (_viewer, ring) = stream_frames(&bus);
+    let started = Instant::now();
+    while ring.latest() < 10 {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "no frames drawn"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    bus.snapshot(&[]).unwrap();
+    // Statistics reach the bus at 10 Hz: count from a snapshot no older than this moment.
+    std::thread::sleep(Duration::from_millis(300));
+    // What the machine alone costs the loop in a window as long as the kill's (a virtual
+    // machine's host steals ticks now and then, in bursts): the worst of several windows,
+    // before the kill and after it.
+    const WINDOW: Duration = Duration::from_millis(350);
+    let window = || {
+        let from = overruns();
+        std::thread::sleep(WINDOW);
+        overruns() - from
+    };
+    let mut worst = (0..4).map(|_| window()).fold(0.0, f64::max);
+    let (before, ticked) = (overruns(), ticks());
+    let force = bus.get(DEVICE, "Force");
+    renderer.kill_9();
+    let error = bus.snapshot(&[]).unwrap_err();
+    assert!(error.contains("org.hapticd.Renderer1"), "{error}");
+    std::thread::sleep(WINDOW);
+    assert!(ticks() > ticked, "the loop stopped");
+    let during = overruns() - before;
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+    assert_eq!(bus.get(DEVICE, "Force"), force, "the force changed");
+    worst = (0..3).map(|_| window()).fold(worst, f64::max);
+    assert!(
+        during <= 2.0 * worst + 2.0,
+        "{during} overruns while the renderer died, at most {worst} in a window without: {}",
+        daemon.log()
+    );
+    // Started again as systemd's Restart= does: it finds hapticd's world by itself.
+    let _again = Renderer::start(&bus, &dir, &[]);
+    let picture = bus
+        .snapshot(&["width", "u", "64", "height", "u", "48"])
+        .unwrap();
+    assert_eq!((picture.width, picture.height), (64, 48));
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+}
+
+#[test]
+fn without_a_vulkan_driver_the_renderer_says_why_once_and_hapticd_runs_on() {
+    let dir = support::shared_scratch("dbus", "no-driver");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let none = "/nonexistent/icd.json";
+    let renderer = Renderer::start(
+        &bus,
+        &dir,
+        &[("VK_DRIVER_FILES", none), ("VK_ICD_FILENAMES", none)],
+    );
+    assert_eq!(bus.get(PICTURES, "Available"), "b false");
+    assert_eq!(bus.get(PICTURES, "Driver"), "s \"\"");
+    assert!(bus.get(PICTURES, "UnavailableReason").len() > 10);
+    for _ in 0..3 {
+        let (name, _) = bus.snapshot_error(&[]);
+        assert_eq!(name, "org.hapticd.Renderer1.Error.Unavailable");
+    }
+    let log = renderer.log();
+    assert_eq!(
+        log.matches("no pictures on this machine").count(),
+        1,
+        "{log}"
+    );
+    assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
+}
+
+/// An X server without a screen (Xvfb) whose framebuffer is a file to read screenshots
+/// from; stopped when dropped.
+struct Xvfb {
+    child: Child,
+    display: String,
+    framebuffer: PathBuf,
+}
+
+impl Xvfb {
+    /// A `width × height` screen.
+    fn start(dir: &Path, width: u32, height: u32) -> Xvfb {
+        let fbdir = dir.join("xvfb");
+        std::fs::create_dir_all(&fbdir).unwrap();
+        // A display number of this process's own (a few, for its tests at once), clear of a
+        // desktop's :0 and :1.
+        static STARTED: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let nth = STARTED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 8;
+        let display = format!(":{}", 100 + (std::process::id() % 5_000) * 8 + nth);
+        let child = Command::new("Xvfb")
+            .arg(&display)
+            .args([
+                "-screen",
+                "0",
+                &format!("{width}x{height}x24"),
+                "-nolisten",
+                "tcp",
+            ])
+            .arg("-fbdir")
+            .arg(&fbdir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb (package xvfb) is installed by `make check`");
+        let framebuffer = fbdir.join("Xvfb_screen0");
+        // Xvfb makes the file before it writes the XWD header into it: wait for the header's
+        // bits per pixel (its twelfth word), not for the file alone.
+        let written = |file: &Path| {
+            std::fs::read(file)
+                .is_ok_and(|bytes| bytes.len() >= 48 && bytes[44..48] != [0, 0, 0, 0])
+        };
+        let started = Instant::now();
+        while !written(&framebuffer) {
+            assert!(
+                started.elapsed() < Duration::from_secs(10),
+                "Xvfb did not start"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Xvfb {
+            child,
+            display,
+            framebuffer,
+        }
+    }
+
+    /// The screen now, from the XWD file Xvfb keeps it in (32-bit pixels, masks in the
+    /// header).
+    fn screenshot(&self) -> Picture {
+        let file = std::fs::read(&self.framebuffer).unwrap();
+        let word = |k: usize| u32::from_be_bytes(file[4 * k..4 * k + 4].try_into().unwrap());
+        let (header, width, height) = (word(0) as usize, word(4), word(5));
+        let (little_endian, bits, stride) = (word(7) == 0, word(11), word(12) as usize);
+        let masks = [word(14), word(15), word(16)];
+        let colours = word(19) as usize;
+        assert_eq!(bits, 32, "a 24-bit screen keeps 32-bit pixels");
+        let pixels = &file[header + 12 * colours..];
+        let mut rgba = Vec::with_capacity((width * height * 4) as usize);
+        for y in 0..height as usize {
+            for x in 0..width as usize {
+                let bytes: [u8; 4] = pixels[y * stride + 4 * x..][..4].try_into().unwrap();
+                let value = if little_endian {
+                    u32::from_le_bytes(bytes)
+                } else {
+                    u32::from_be_bytes(bytes)
+                };
+                for mask in masks {
+                    rgba.push(((value & mask) >> mask.trailing_zeros()) as u8);
+                }
+                rgba.push(255);
+            }
+        }
+        Picture {
+            width,
+            height,
+            rgba,
+        }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// `view --fullscreen` fills the screen even where no window manager runs (a kiosk's bare X
+/// server): the frames, scaled, reach its far corner.
+#[test]
+fn hapticctl_view_fills_a_screen_without_a_window_manager() {
+    let dir = support::shared_scratch("dbus", "view-fullscreen");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    let screen = Xvfb::start(&dir, 640, 480);
+    let mut viewer = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["view", "--fullscreen", "--width", "160", "--height", "120"])
+        .env("DISPLAY", &screen.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Share of the bottom-right quarter of the screen (outside a window of the frames' own
+    // size) that is still the bare screen's black.
+    let black_corner = |shot: &Picture| {
+        let (w, h) = (shot.width as usize, shot.height as usize);
+        let corner: Vec<&[u8]> = shot
+            .rgba
+            .chunks(4)
+            .enumerate()
+            .filter(|(i, _)| i % w >= w / 2 && i / w >= h / 2)
+            .map(|(_, p)| p)
+            .collect();
+        let black = corner.iter().filter(|p| p[..3] == [0, 0, 0]).count();
+        black as f64 / corner.len() as f64
+    };
+    let started = Instant::now();
+    while black_corner(&screen.screenshot()) > 0.5 {
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the window never reached the screen's far corner"
+        );
+        assert!(
+            viewer.try_wait().unwrap().is_none(),
+            "hapticctl view exited"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let _ = viewer.kill();
+    let _ = viewer.wait();
+}
+
+#[test]
+fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
+    let dir = support::shared_scratch("dbus", "view");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    // The static scene with the grip at rest: every frame is the same but for the clock.
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let mut renderer = Renderer::start(&bus, &dir, &[]);
+    let (width, height) = (320, 240);
+    let screen = Xvfb::start(&dir, width, height);
+    let mut viewer = hapticctl()
+        .arg(format!("--bus={}", bus.address))
+        .args(["view", "--width", "320", "--height", "240"])
+        .env("DISPLAY", &screen.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let mut shot = screen.screenshot();
+    while !(0.2..0.95).contains(&drawn_share(&shot)) {
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the window never showed the scene ({} drawn)",
+            drawn_share(&shot)
+        );
+        assert!(
+            viewer.try_wait().unwrap().is_none(),
+            "hapticctl view exited"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+        shot = screen.screenshot();
+    }
+    let snapshot = bus
+        .snapshot(&["width", "u", "320", "height", "u", "240"])
+        .unwrap();
+    // Above the status line (whose clock moves on) the window shows what Snapshot draws.
+    let band = 15 * width as usize * 4;
+    let above = shot.rgba.len() - band;
+    let worst = |shot: &Picture, expected: &dyn Fn(u8) -> u8, rows: std::ops::Range<usize>| {
+        // Colours only: the window has no alpha to show.
+        shot.rgba[rows.clone()]
+            .chunks(4)
+            .zip(snapshot.rgba[rows].chunks(4))
+            .flat_map(|(a, b)| (0..3).map(move |k| a[k].abs_diff(expected(b[k]))))
+            .max()
+            .unwrap()
+    };
+    let same = worst(&shot, &|c| c, 0..above);
+    assert!(same <= 2, "the window differs from Snapshot by {same} LSB");
+    // SPIDAR-G's eight strings, at their least tension, are drawn in the tension palette's
+    // blue, which nothing else in the static scene is.
+    let blue = snapshot
+        .rgba
+        .chunks(4)
+        .filter(|p| {
+            i32::from(p[2]) > i32::from(p[0]) + 80 && i32::from(p[2]) > i32::from(p[1]) + 60
+        })
+        .count();
+    assert!(blue > 50, "the strings are not drawn ({blue} blue pixels)");
+    // With the renderer gone, the last frame stays, dimmed, its age written over it.
+    let _ = renderer.child.kill();
+    let _ = renderer.child.wait();
+    std::thread::sleep(Duration::from_millis(1500));
+    let stale = screen.screenshot();
+    let _ = viewer.kill();
+    let _ = viewer.wait();
+    let dimmed = worst(&stale, &|c| c / 2 + 64, band..above);
+    assert!(
+        dimmed <= 2,
+        "the stale frame is not dimmed ({dimmed} LSB off)"
+    );
+    let letters = stale.rgba[..band]
+        .chunks(4)
+        .filter(|p| p[..3] == [255, 255, 255])
+        .count();
+    assert!(letters > 50, "no note over the stale frame");
+    let line = |p: &Picture| {
+        drawn_share(&Picture {
+            width,
+            height: 13,
+            rgba: p.rgba[above..].to_vec(),
+        })
+    };
+    assert!(line(&shot) > 0.3, "no status line in the window");
+}

@@ -1,0 +1,490 @@
+//! The running world driven from outside under both engines, and one world shared by hosts
+//! over a slow network.
+
+use super::*;
+
+#[test]
+fn the_running_world_is_driven_from_outside_under_both_engines_and_hostile_values_are_named() {
+    let dir = support::shared_scratch("dbus", "drive");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // The static scene has no bodies to drive.
+    assert_eq!(bus.get(SCENE, "Bodies"), "a(sb) 0");
+    assert_eq!(
+        bus.drive_error("Body", &["string:block"]),
+        "org.hapticd.Hapticd1.Error.Unavailable"
+    );
+    // Penalty (f64, in the haptic tick) and rapier (f32, in the physics thread).
+    for (scene, tolerance) in [("blocks", 1e-9), ("push", 1e-5)] {
+        switch_when_prepared(&bus, scene);
+        let bodies = bus.get(SCENE, "Bodies");
+        assert!(
+            bodies.contains("\"block\" false") && bodies.contains("true"),
+            "{bodies}"
+        );
+        // Once the world has settled from its start, an impulse through the centre changes
+        // momentum by J: the state answered is the body's right after it, before the world
+        // steps on.
+        std::thread::sleep(Duration::from_millis(500));
+        let before = bus.drive("Body", "s", &["block"]).unwrap();
+        let j = DVec3::new(0.4, 0.0, 0.15) * before.mass;
+        let pushed = bus
+            .drive(
+                "ApplyImpulse",
+                "sadad",
+                &["block", "3", &j.x.to_string(), "0", &j.z.to_string(), "0"],
+            )
+            .unwrap();
+        let momentum = (pushed.velocity - before.velocity) * before.mass;
+        assert!(
+            (momentum - j).length() < 0.01 * j.length(),
+            "{scene}: {momentum} vs {j}"
+        );
+        // A pose is there when answered (the forces ramped to zero and back around it).
+        let to = DVec3::new(0.05, 0.08, -0.02);
+        let placed = bus
+            .drive(
+                "SetPose",
+                "sadad",
+                &[
+                    "block", "3", "0.05", "0.08", "-0.02", "4", "1", "0", "0", "0",
+                ],
+            )
+            .unwrap();
+        assert!(
+            (placed.position - to).length() < tolerance,
+            "{scene}: {placed:?}"
+        );
+        // By id as by name; mass, friction and a held force are answered as set.
+        let id = bodies
+            .split('"')
+            .skip(1)
+            .step_by(2)
+            .position(|n| n == "block")
+            .unwrap()
+            .to_string();
+        let lighter = bus.drive("SetMass", "sd", &[&id, "0.5"]).unwrap();
+        assert!(
+            (lighter.mass - 0.5).abs() < tolerance,
+            "{scene}: {lighter:?}"
+        );
+        let slippery = bus.drive("SetFriction", "sd", &["block", "0.1"]).unwrap();
+        assert!((slippery.friction - 0.1).abs() < tolerance);
+        let held = bus
+            .drive("SetForce", "sad", &["block", "3", "0", "4.905", "0"])
+            .unwrap();
+        assert!((held.force - DVec3::new(0.0, 4.905, 0.0)).length() < tolerance);
+        // Hostile callers get a named error and change nothing.
+        let error = |method: &str, args: &[&str]| bus.drive_error(method, args);
+        let named = |short: &str| format!("org.hapticd.Hapticd1.Error.{short}");
+        assert_eq!(
+            error("Body", &["string:no-such-body"]),
+            named("UnknownBody")
+        );
+        assert_eq!(
+            error("SetMass", &["string:99", "double:1"]),
+            named("UnknownBody")
+        );
+        assert_eq!(
+            error("SetMass", &["string:block", "double:nan"]),
+            named("NotFinite")
+        );
+        assert_eq!(
+            error("SetMass", &["string:block", "double:-1"]),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error("SetMass", &["string:block", "double:1e300"]),
+            named("OutOfRange")
+        );
+        // Light enough to be flung kilometres by a pressing finger (1 µg), or to fault the
+        // device (1e-300 kg): refused as a scene file's body would be, in either engine.
+        for light in ["double:1e-6", "double:1e-300"] {
+            assert_eq!(
+                error("SetMass", &["string:block", light]),
+                named("OutOfRange"),
+                "{scene}: {light}"
+            );
+        }
+        assert_eq!(
+            error(
+                "SetVelocity",
+                &["string:block", "array:double:1e9,0,0", "array:double:0,0,0"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "SetPose",
+                &[
+                    "string:block",
+                    "array:double:0,inf,0",
+                    "array:double:1,0,0,0"
+                ]
+            ),
+            named("NotFinite")
+        );
+        assert_eq!(
+            error(
+                "SetPose",
+                &["string:block", "array:double:0,0", "array:double:1,0,0,0"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "SetPose",
+                &["string:block", "array:double:0,0,0", "array:double:0,0,0,0"]
+            ),
+            named("OutOfRange")
+        );
+        assert_eq!(
+            error(
+                "ApplyImpulse",
+                &["string:block", "array:double:1e6,0,0", "array:double:"]
+            ),
+            named("OutOfRange")
+        );
+        let fixed = if scene == "blocks" { "table" } else { "floor" };
+        assert_eq!(
+            error(
+                "SetForce",
+                &[&format!("string:{fixed}"), "array:double:0,1,0"]
+            ),
+            named("FixedBody")
+        );
+        let after = bus.drive("Body", "s", &["block"]).unwrap();
+        assert!((after.mass - 0.5).abs() < tolerance && (after.friction - 0.1).abs() < tolerance);
+    }
+    assert!(
+        !bus.get(DEVICE, "State").contains("fault"),
+        "{}",
+        bus.get(DEVICE, "State")
+    );
+    // hapticctl body, on the client library: the rapier world's bodies, a push, refusals.
+    let said = |args: &[&str]| {
+        let out = bus.ctl(args);
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        (out.status.code(), text)
+    };
+    let (code, listed) = said(&["body", "list"]);
+    assert_eq!(code, Some(0), "{listed}");
+    assert!(
+        listed.contains("0  floor") && listed.contains("fixed"),
+        "{listed}"
+    );
+    let (code, pushed) = said(&["body", "push", "block", "--json", "0", "0", "-0.5"]);
+    assert_eq!(code, Some(0), "{pushed}");
+    let state: serde_json::Value = serde_json::from_str(&pushed).unwrap();
+    assert!(
+        (state["mass"].as_f64().unwrap() - 0.5).abs() < 1e-5,
+        "{pushed}"
+    );
+    let (code, refused) = said(&["body", "show", "no-such-body"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        refused.contains("UnknownBody: no body \"no-such-body\""),
+        "{refused}"
+    );
+    let (code, refused) = said(&["body", "mass", "floor", "3"]);
+    assert_eq!(code, Some(1));
+    assert!(refused.contains("FixedBody"), "{refused}");
+    let (code, _) = said(&["body", "pose", "block", "0", "0"]);
+    assert_eq!(code, Some(2), "two numbers for three");
+}
+
+/// The shared world of the two-host test: a light block (0.1 kg: what a constraint engine
+/// used to fling) on a floor, stepped by rapier at 60 Hz with local dynamics.
+const SHARED_WORLD: &str = "name: shared
+
+engine: rapier
+
+rate: 60
+
+feedback: local
+
+material: { static_friction: 0.3, friction: 0.3 }
+
+bodies:
+  - { name: floor, box: [0.4, 0.02, 0.4], position: [0, -0.05, 0], fixed: true }
+  - { name: block, box: [0.04, 0.04, 0.04], position: [0, -0.02, 0], density: 1562.5 }
+
+pointer:
+  sphere: 0.005
+";
+
+/// A finger at height -0.02 and depth `z`, held clear of the block (its near face at
+/// x = -0.02) while the hosts find the world, then in to the face and pushing it 3 cm along
+/// +x at 1.5 cm/s, then pressing on with 0.1 N more.
+fn pushing_hand(z: f64) -> String {
+    format!(
+        "hands:
+  grip:
+    - hold: {{ at: [-0.06, -0.02, {z}], seconds: 4 }}
+    - move: {{ to: [-0.027, -0.02, {z}], seconds: 1 }}
+    - move: {{ to: [0.003, -0.02, {z}], seconds: 2 }}
+    - push: {{ force: [0.1, 0, 0], seconds: 30 }}
+"
+    )
+}
+
+/// What one host of the shared world saw of it: the energy its device gave the hand
+/// (∫ F·v dt; negative: the hand put it in), the ticks it pushed with more than 0.1 N, and at
+/// the end its picture of the block and where its proxy rests.
+struct HostView {
+    given: f64,
+    pushing: usize,
+    block: DVec3,
+    proxy: DVec3,
+}
+
+/// Follow host `address`'s first device for `seconds`: its ticks, then its picture.
+fn follow_host(address: &str, seconds: f64) -> HostView {
+    use hapticd_core::telemetry::Sample;
+    use hapticd_core::world_state::WorldFrame;
+    let client =
+        hapticd_ipc::client::Hapticd::connect(&hapticd_ipc::bus::Bus::Address(address.into()))
+            .unwrap();
+    let device = &client.devices().unwrap()[0];
+    let ring = device.open_telemetry().unwrap();
+    let dt = 1.0 / ring.rate();
+    let mut cursor = ring.from_now();
+    let (mut sample, mut given, mut pushing) = (Sample::EMPTY, 0.0, 0);
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    while Instant::now() < end {
+        while ring.next(&mut cursor, &mut sample) {
+            let force = DVec3::from(sample.wrenches[0].force);
+            given += force.dot(DVec3::from(sample.velocities[0])) * dt;
+            pushing += usize::from(force.x < -0.1);
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let world = device.open_world().unwrap();
+    let mut frame = WorldFrame::empty();
+    while world.read(&mut frame).is_none() {}
+    assert_eq!(frame.has_proxies, 1, "a remote scene shows its proxies");
+    HostView {
+        given,
+        pushing,
+        block: DVec3::from(frame.bodies[1].position),
+        proxy: DVec3::from(frame.proxies[0]),
+    }
+}
+
+/// Thesis Fig. 6.13 over a network: one rapier world on a world host (`hapticd-world`),
+/// touched by the simulated devices of two hapticd, each rendering it locally through a
+/// remote scene. The world host is in a network namespace of its own, the two bridges in
+/// another, joined by a veth pair; relays on the bridges' side delay every byte (this machine
+/// has no `tc netem`) for a round trip of 20 ms, then of 100 ms. Both fingers
+/// push the same light block along the floor: each feels it, the block moves as one for
+/// both (its picture on each host within 1 mm of the world's, both proxies on its face within
+/// 1 mm of each other), no device gives the hand energy, and the block is never flung.
+#[test]
+fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
+    for round_trip in [0.02, 0.1] {
+        let dir = support::shared_scratch(
+            "dbus",
+            &format!("shared-world-{}", (round_trip * 1e3) as u32),
+        );
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = dir.join("shared.yaml");
+        std::fs::write(&scene, SHARED_WORLD).unwrap();
+        let remote = dir.join("far.yaml");
+        std::fs::write(&remote, "engine: remote\nrate: 60\n").unwrap();
+        // The world host on one side of a veth pair, the haptic hosts' bridges on the other
+        // (where this process may not make namespaces: all on the loopback).
+        let network = support::netns::Pair::create();
+        let hosts_side = network.as_ref().map(|pair| &pair.far);
+        let (world_endpoint, upstream) = match &network {
+            Some(pair) => (
+                format!("tcp/{}:7447", pair.near.address),
+                format!("{}:7447", pair.near.address),
+            ),
+            None => {
+                let (endpoint, port) = support::loopback_endpoint();
+                (endpoint, format!("127.0.0.1:{port}"))
+            }
+        };
+        let mut world_command = Command::new(artifact("hapticd-world"));
+        world_command
+            .args(["--config", "/dev/null", "--listen", &world_endpoint])
+            .args(["--name", "shared", "--duration", "40"])
+            .arg(&scene)
+            .stderr(std::fs::File::create(dir.join("world.log")).unwrap());
+        if let Some(pair) = &network {
+            pair.near.enter(&mut world_command);
+        }
+        let mut world = spawn_ready(world_command, &dir.join("world.notify"));
+        // Both daemons at once, so that their hands' scripts run together.
+        let places: Vec<(Bus, PathBuf)> = (0..2)
+            .map(|k| {
+                let at = dir.join(format!("host{k}"));
+                std::fs::create_dir_all(&at).unwrap();
+                (Bus::start(&at), at)
+            })
+            .collect();
+        let started = Instant::now();
+        let daemons: Vec<(&Bus, Hapticd, &PathBuf)> = std::thread::scope(|scope| {
+            let starting: Vec<_> = places
+                .iter()
+                .zip([-0.01, 0.01])
+                .map(|((bus, at), z)| {
+                    let remote = &remote;
+                    scope.spawn(move || {
+                        let hand = at.join("hand.yaml");
+                        std::fs::write(&hand, pushing_hand(z)).unwrap();
+                        let args = [
+                            "--sim",
+                            "spidar-g",
+                            "--hand",
+                            hand.to_str().unwrap(),
+                            "--scene",
+                            remote.to_str().unwrap(),
+                        ];
+                        (bus, Hapticd::start(bus, &Setup::new(at), &args), at)
+                    })
+                })
+                .collect();
+            starting.into_iter().map(|s| s.join().unwrap()).collect()
+        });
+        let bridges: Vec<Child> = daemons
+            .iter()
+            .map(|(bus, _, at)| {
+                let relay = support::relay::delaying(
+                    &upstream,
+                    Duration::from_secs_f64(round_trip / 2.0),
+                    hosts_side,
+                );
+                zenoh_bridge(
+                    bus,
+                    at,
+                    &format!("connect: [{relay}]\nworld: shared\n"),
+                    None,
+                    hosts_side,
+                )
+                .0
+            })
+            .collect();
+        // Until a second and a half after the pushes end (the scripts' 7 s).
+        let seconds = 8.5 - started.elapsed().as_secs_f64();
+        assert!(
+            seconds > 4.0,
+            "the hosts took {:?} to start",
+            started.elapsed()
+        );
+        let views: Vec<HostView> = std::thread::scope(|scope| {
+            let followers: Vec<_> = daemons
+                .iter()
+                .map(|(bus, _, _)| scope.spawn(|| follow_host(&bus.address, seconds)))
+                .collect();
+            followers.into_iter().map(|f| f.join().unwrap()).collect()
+        });
+        let status = zenoh_client(
+            "print(ask('hapticd/world/shared/status', None)[0])",
+            &world_endpoint,
+            &[],
+            hosts_side,
+        );
+        let pressing: Vec<f64> = daemons
+            .iter()
+            .map(|(bus, _, _)| -numbers(&bus.get(DEVICE, "Force"))[0])
+            .collect();
+        world.kill().ok();
+        world.wait().ok();
+        let killed = Instant::now();
+        let block = &status["bodies"][1];
+        let at = |v: &serde_json::Value| {
+            DVec3::from_array(std::array::from_fn(|i| v[i].as_f64().unwrap()))
+        };
+        let (position, mass) = (at(&block["position"]), block["mass"].as_f64().unwrap());
+        let peak = status["peak_kinetic_energy"].as_f64().unwrap();
+        eprintln!(
+            "round trip {:.0} ms over {}: block at {position:.4} ({mass} kg), peak {peak:.2e} J; \
+             hosts gave {:.2e} and {:.2e} J, pushed {} and {} ticks, saw the block at {:.4} and \
+             {:.4}, proxies at {:.4} and {:.4}",
+            round_trip * 1e3,
+            if network.is_some() {
+                "a veth pair between two network namespaces"
+            } else {
+                "the loopback"
+            },
+            views[0].given,
+            views[1].given,
+            views[0].pushing,
+            views[1].pushing,
+            views[0].block,
+            views[1].block,
+            views[0].proxy,
+            views[1].proxy,
+        );
+        assert_eq!(status["hosts"].as_array().unwrap().len(), 2, "{status}");
+        assert!((mass - 0.1).abs() < 1e-6, "{mass}");
+        // Pushed by both some 3 cm along the floor, and nowhere else.
+        assert!((0.015..0.06).contains(&position.x), "{position}");
+        assert!(
+            position.y.abs() < 0.025 && position.z.abs() < 0.005,
+            "{position}"
+        );
+        // Never flung: the most kinetic energy the block had is that of a block moving at a few
+        // times the hands' 1.5 cm/s, not metres a second.
+        let bound = 0.5 * mass * 0.1f64.powi(2);
+        assert!(peak < bound, "peak {peak} J against {bound} J");
+        for view in &views {
+            assert!(
+                view.pushing > 300,
+                "each feels the block: {} ticks",
+                view.pushing
+            );
+            assert!(view.given < 0.005, "the hand got {} J", view.given);
+            assert!(
+                (view.block - position).length() < 1e-3,
+                "a host sees the block at {} where the world has it at {position}",
+                view.block
+            );
+        }
+        assert!(
+            (views[0].proxy.x - views[1].proxy.x).abs() < 1e-3,
+            "both rest on the same face: {} and {}",
+            views[0].proxy,
+            views[1].proxy
+        );
+        // The world gone, each host's world goes stale and its force fades out.
+        // (Which of the two still presses at the end depends on how far apart the hosts
+        // started: the one a little ahead carries the block off the other's finger.)
+        assert!(
+            pressing.iter().any(|f| *f > 0.05),
+            "a finger presses the block: {pressing:?} N"
+        );
+        for (bus, _, _) in &daemons {
+            let client = hapticd_ipc::client::Hapticd::connect(&hapticd_ipc::bus::Bus::Address(
+                bus.address.clone(),
+            ))
+            .unwrap();
+            let world = client.devices().unwrap()[0].open_world().unwrap();
+            let mut frame = hapticd_core::world_state::WorldFrame::empty();
+            while world.read(&mut frame).is_none()
+                || DVec3::from(frame.wrenches[0].force).length() > 0.0
+            {
+                assert!(
+                    killed.elapsed() < Duration::from_secs(2),
+                    "still {:?} N after the world went",
+                    frame.wrenches[0].force
+                );
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            eprintln!(
+                "the force faded {:?} after the world went",
+                killed.elapsed()
+            );
+        }
+        for mut bridge in bridges {
+            bridge.kill().ok();
+            bridge.wait().ok();
+        }
+        drop(daemons);
+        drop(places);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
