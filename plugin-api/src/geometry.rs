@@ -19,6 +19,7 @@
 //! ```
 
 use crate::abi::*;
+use crate::ext::scene_geometry::*;
 
 /// Bodies, solids and triangles of one scene's world.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -6,12 +6,14 @@
 //! of older and newer minors load alike, and newer host services are found by name through
 //! [`HapticdHost::get_extension`] (see [`export::extension`]).
 //!
-//! [`abi`] holds the `#[repr(C)]` types (the C header `include/hapticd_plugin.h` is generated
-//! from it); [`export`], [`export_mechanism!`] and [`export_scene!`] are the safe side for
-//! Rust authors; [`geometry`] is a scene's drawable world as one value.
+//! [`abi`] holds the `#[repr(C)]` types and [`ext`] the scene extensions', one file each (the
+//! C header `include/hapticd_plugin.h` is generated from them, a section each); [`export`],
+//! [`export_mechanism!`] and [`export_scene!`] are the safe side for Rust authors;
+//! [`geometry`] is a scene's drawable world as one value.
 
 pub mod abi;
 pub mod export;
+pub mod ext;
 pub mod geometry;
 
 pub use abi::*;
@@ -19,4 +21,5 @@ pub use export::{
     MechanismSpec, PhysicsInput, PhysicsOutput, SceneCheck, SceneError, SceneFactory,
     SceneInstance, log,
 };
+pub use ext::{scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*};
 pub use geometry::Geometry;

@@ -1,0 +1,14 @@
+//! The scene extensions of the ABI, one file each (the C header gives each a section of its
+//! own): a scene offers what came after ABI 1.4 as extensions, found by id through
+//! [`HapticdSceneVtable::get_extension`](crate::HapticdSceneVtable::get_extension), so the
+//! vtable stops growing. An id carries its version (`/1`): a changed extension is a new id.
+//!
+//! - [`scene_geometry`]: `"hapticd.scene.geometry/1"`, what a scene's world looks like.
+//! - [`scene_files`]: `"hapticd.scene.files/1"`, the scene files a plugin runs.
+//! - [`scene_control`]: `"hapticd.scene.control/1"`, a running world changed from outside.
+//! - [`scene_contacts`]: `"hapticd.scene.contacts/1"`, what each pointer touches.
+
+pub mod scene_contacts;
+pub mod scene_control;
+pub mod scene_files;
+pub mod scene_geometry;
