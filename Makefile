@@ -4,7 +4,7 @@
 #   make check    install what the tests need (Debian/Ubuntu packages), then run every test
 #   make bench    benchmarks of the per-tick computations (release build)
 #   make latency  wake-up latency of the haptic thread against cyclictest (needs SCHED_FIFO)
-#   make figures  regenerate the figures shown in the README
+#   make figures  regenerate the figures shown in docs/
 #   make header   regenerate plugin-api/include/hapticd_plugin.h from the Rust ABI
 #   make release  build everything make install copies (cargo and a C compiler)
 #   make install  install as a distribution would (DESTDIR, PREFIX=/usr, SYSCONFDIR=/etc); no cargo
@@ -142,6 +142,7 @@ install: $(C_MECHANISM)
 		$(DESTDIR)$(PREFIX)/share/pkgconfig \
 		$(DESTDIR)$(PREFIX)/share/hapticd/mechanisms $(DESTDIR)$(PREFIX)/share/hapticd/scenes/meshes \
 		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples \
+		$(DESTDIR)$(PREFIX)/share/doc/hapticd/docs/figures \
 		$(DESTDIR)$(SYSTEMLIBDIR)/systemd/system $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d \
 		$(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d $(DESTDIR)$(DBUSPOLICYDIR) \
 		$(DESTDIR)$(PREFIX)/share/dbus-1/interfaces \
@@ -167,6 +168,8 @@ install: $(C_MECHANISM)
 	install -m 644 config/scenes/meshes/*.obj config/scenes/meshes/*.gltf $(DESTDIR)$(PREFIX)/share/hapticd/scenes/meshes/
 	install -m 644 config/hands/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/hands/
 	install -m 644 README.md LICENSE-MIT LICENSE-APACHE $(DESTDIR)$(PREFIX)/share/doc/hapticd/
+	install -m 644 docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hapticd/docs/
+	install -m 644 docs/figures/* $(DESTDIR)$(PREFIX)/share/doc/hapticd/docs/figures/
 	install -m 644 plugins/c-example/*.c $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/
 	install -m 644 plugins/scene-floor/src/lib.rs $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples/floor_scene.rs
 	@# An edited configuration survives a reinstall; the shipped one stays in the documentation.
@@ -194,7 +197,7 @@ install: $(C_MECHANISM)
 	install -m 644 udev/70-hapticd.rules $(DESTDIR)$(SYSTEMLIBDIR)/udev/rules.d/
 	install -m 644 config/dbus/org.hapticd.Hapticd1.conf config/dbus/org.hapticd.Renderer1.conf \
 		$(DESTDIR)$(DBUSPOLICYDIR)/
-	@# No bus activation (README, "Who starts hapticd"): drop the file earlier installs left.
+	@# No bus activation (docs/operators-guide.md, "Who starts hapticd"): drop the file earlier installs left.
 	rm -f $(DESTDIR)$(PREFIX)/share/dbus-1/system-services/org.hapticd.Hapticd1.service
 	install -m 644 config/dbus/org.hapticd.Hapticd1.Manager.xml config/dbus/org.hapticd.Hapticd1.Device.xml \
 		config/dbus/org.hapticd.Hapticd1.Scene.xml config/dbus/org.hapticd.Renderer1.xml \

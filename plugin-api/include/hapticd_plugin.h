@@ -29,7 +29,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 6
+#define HAPTICD_ABI_MINOR 7
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -773,6 +773,14 @@ typedef struct HapticdSceneContacts {
  the lower of its two bodies'; a static coefficient keeps its ratio to the dynamic one).
  */
 #define HAPTICD_COMMAND_SET_FRICTION 6
+
+/*
+ Command (since ABI 1.7): give the body the momentum `vector` (N·s) through its centre of
+ mass, where it is when the command is carried out: Δv = J/m, no turn. (A centre read
+ by an earlier query has moved by then; the host asks plugins of older minors for the
+ centre and gives the impulse there between the same two steps.)
+ */
+#define HAPTICD_COMMAND_IMPULSE_AT_CENTRE 7
 
 /*
  Longest body name in bytes, including the terminating NUL.

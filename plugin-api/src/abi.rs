@@ -1,4 +1,4 @@
-//! The `#[repr(C)]` types of ABI v1 but for the scene extensions ([`crate::ext`]).
+//! The `#[repr(C)]` types of ABI v1 but for the scene extensions (`ext`, which build on them).
 //! `include/hapticd_plugin.h` is generated from this file and theirs.
 //!
 //! Rules of the boundary: memory is never freed across it (the host copies what a plugin
@@ -13,7 +13,7 @@ pub const HAPTICD_ABI_MAJOR: u32 = 1;
 /// plugin of any minor loads: the host reads no field newer than its own minor, and a
 /// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
 /// through [`HapticdHost::get_extension`].
-pub const HAPTICD_ABI_MINOR: u32 = 6;
+pub const HAPTICD_ABI_MINOR: u32 = 7;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;

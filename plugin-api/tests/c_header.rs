@@ -95,7 +95,9 @@ fn header(dir: &Path) -> String {
             &dir.join("src/ext").join(&extension.file),
         ));
     }
-    let end = text.rfind("#endif").expect("the include guard closes the header");
+    let end = text
+        .rfind("#endif")
+        .expect("the include guard closes the header");
     text.insert_str(end, &sections);
     text
 }
@@ -143,7 +145,9 @@ fn each_extension_has_a_section_that_names_it_as_the_rust_abi_does() {
         let line = format!("#define {name} \"{id}\"");
         assert!(header.contains(&line), "the header lacks `{line}`");
         let banner = format!("Scene extension \"{id}\":");
-        let at = header.find(&banner).unwrap_or_else(|| panic!("no section {banner}"));
+        let at = header
+            .find(&banner)
+            .unwrap_or_else(|| panic!("no section {banner}"));
         assert!(
             header[at..].find(&line) < header[at..].find("typedef struct"),
             "{id}: its id opens its section"

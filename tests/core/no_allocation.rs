@@ -488,9 +488,14 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     let mut block_x = Vec::with_capacity(400);
     let mut proxy_x = f64::INFINITY;
     // 400 ms at 20 Hz: eight sets of planes taken and eight impulses handed back; the world's
-    // picture taken every tick, as the haptic thread takes it for the renderer.
+    // picture taken every tick, as the haptic thread takes it for the renderer. Ticks keep
+    // to absolute deadlines, as the real-time thread's do: a sleep that overshoots on a busy
+    // machine is made up by the ticks after it, so haptic time keeps up with the physics
+    // thread's clock (each tick counting 1 ms however long it slept, the picture fell behind
+    // the physics and jumped when the next step came).
+    let first = std::time::Instant::now();
     let n = allocations_in(|| {
-        for _ in 0..400 {
+        for k in 1..=400u32 {
             assert!(scene.render(&pointers, 1e-3, &mut wrenches));
             pushed = pushed.max(-wrenches[0].force.x);
             assert_eq!(
@@ -501,7 +506,10 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
             assert!(scene.write_proxies(&mut proxies));
             block_x.push(bodies[1].position[0]);
             proxy_x = proxy_x.min(proxies[0].x);
-            std::thread::sleep(tick);
+            let deadline = first + tick * k;
+            if let Some(rest) = deadline.checked_duration_since(std::time::Instant::now()) {
+                std::thread::sleep(rest);
+            }
         }
     });
     assert_eq!(n, 0, "{feedback}: {n} allocations in 400 ticks");

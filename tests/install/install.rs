@@ -1,4 +1,4 @@
-//! Installing hapticd as the README says: `make install` into a scratch root, under the
+//! Installing hapticd as the operator's guide says: `make install` into a scratch root, under the
 //! system prefix and under another, and the installed daemon started from the installed
 //! files alone; plugin authors building against the installed header and pkg-config file.
 
@@ -209,6 +209,8 @@ fn make_install_lays_out_a_working_system() {
         "usr/share/dbus-1/interfaces/org.hapticd.Hapticd1.Scene.xml",
         "usr/share/dbus-1/interfaces/org.hapticd.Renderer1.xml",
         "usr/share/doc/hapticd/README.md",
+        "usr/share/doc/hapticd/docs/operators-guide.md",
+        "usr/share/doc/hapticd/docs/figures/push-phase.png",
         "usr/share/doc/hapticd/LICENSE-MIT",
         "usr/share/doc/hapticd/LICENSE-APACHE",
         "usr/share/doc/hapticd/examples/floor_scene.c",
@@ -360,7 +362,7 @@ fn an_install_under_another_prefix_runs_from_its_own_tree() {
         unit.contains("\nExecStart=/opt/hapticd/bin/hapticd --bus system\n"),
         "{unit}"
     );
-    assert!(unit.contains("file:///opt/hapticd/share/doc/hapticd/README.md"));
+    assert!(unit.contains("file:///opt/hapticd/share/doc/hapticd/docs/operators-guide.md"));
     let guardian = read(dest.join("etc/systemd/system/hapticd-guardian@.service"));
     assert!(
         guardian.contains("\nExecStart=@/opt/hapticd/bin/hapticd hapticd-guardian\n"),
@@ -496,8 +498,8 @@ fn the_c_examples_build_against_the_installed_header_and_run() {
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let (t, y, fy) = (
         header.iter().position(|c| *c == "time").unwrap(),
-        header.iter().position(|c| *c == "grip_y").unwrap(),
-        header.iter().position(|c| *c == "grip_fy").unwrap(),
+        header.iter().position(|c| *c == "pose_y").unwrap(),
+        header.iter().position(|c| *c == "force_y").unwrap(),
     );
     let row: Vec<&str> = text.lines().last().unwrap().split(',').collect();
     let last = |column: usize| -> f64 { row[column].parse().unwrap() };

@@ -257,7 +257,8 @@ fn device_paths(dir: &std::path::Path, found: &mut Vec<String>) {
         let path = entry.unwrap().path();
         if path.is_dir() {
             device_paths(&path, found);
-        } else if path.extension().is_some_and(|e| e == "rs") {
+        } else if path.extension().is_some_and(|e| e == "rs") && !path.ends_with("tests.rs") {
+            // A `tests.rs` holds a module's unit tests (`#[cfg(test)] mod tests;`).
             let text = std::fs::read_to_string(&path).unwrap();
             let code = text.split("#[cfg(test)]").next().unwrap_or_default();
             for literal in code.split('"').skip(1).step_by(2) {

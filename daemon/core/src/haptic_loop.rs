@@ -513,72 +513,93 @@ impl HapticLoop {
         let connected = update.is_ok();
         let mut scene_ok = true;
         if connected {
-            if !self.calibrated {
-                // Grips are held at their calibration poses when the device starts.
-                let counts = &self.reading.counts[..self.mechanism.strings.len()];
-                offsets_into(
-                    &self.calibration_lengths,
-                    &self.metres_per_pulse,
-                    counts,
-                    &mut self.offsets,
-                );
-                self.calibrated = true;
-                (self.check_fit, self.misfit) = (false, false);
-                self.frame.calibrated = true;
-                self.frame.calibrations += 1;
-                self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
-            }
-            if std::mem::take(&mut self.measure) {
-                let strings = self.offsets.len();
-                offsets_into(
-                    &self.calibration_lengths,
-                    &self.metres_per_pulse,
-                    &self.reading.counts[..strings],
-                    &mut self.frame.measured[..strings],
-                );
-                self.frame.measurements += 1;
-            }
-            let returning = self.frame.state == DeviceState::Disconnected;
-            // After a restore or a return the grip may be anywhere: search for it.
-            let search = std::mem::take(&mut self.check_fit) || returning;
-            let fits = |misfit: f64| misfit <= FITTING_MISFIT;
-            let mut misfit = self.solve_poses(dt, search);
-            if !search && !fits(misfit) {
-                // The warm start lost the grip (or the counts went wrong): search first.
-                misfit = self.solve_poses(dt, true);
-            }
-            // Counts that fit no pose (NaN included) are not trusted until calibrated again.
-            if !fits(misfit) {
-                self.misfit = true;
-                self.frame.calibrated = false;
-            }
-            if returning {
-                self.scene.reset(&self.pointers);
-            }
-            self.swap_scene_when_quiet();
-            let rendered = self.scene.render(&self.pointers, dt, &mut self.wrenches);
-            scene_ok = self.scene_hold.update(rendered, dt);
-            self.frame.touches = [Touch::NONE; MAX_EFFECTORS];
-            if rendered {
-                let n = self.pointers.len();
-                self.scene.write_touches(&mut self.frame.touches[..n]);
-            }
+            scene_ok = self.sense_and_render(dt);
         } else {
             self.wrenches.fill(Wrench::ZERO);
         }
-        let mut all_finite = true;
         let switching = self.incoming.is_some() || self.scene.needs_quiet();
         let limits = self.limits();
         let n = self.effectors.len();
         self.command.update(dt, &limits, &mut self.commanded[..n]);
         self.frame.command = self.command.state();
+        let healthy = connected && scene_ok && !switching && !self.misfit;
+        let all_finite = self.drive_strings(dt, healthy);
+        self.set_state(update, all_finite, scene_ok);
+        &self.frame
+    }
+
+    /// [rt] Take offsets when due, solve the poses and render the scene; whether it is healthy.
+    #[inline]
+    fn sense_and_render(&mut self, dt: f64) -> bool {
+        self.take_offsets();
+        let returning = self.frame.state == DeviceState::Disconnected;
+        // After a restore or a return the grip may be anywhere: search for it.
+        let search = std::mem::take(&mut self.check_fit) || returning;
+        let fits = |misfit: f64| misfit <= FITTING_MISFIT;
+        let mut misfit = self.solve_poses(dt, search);
+        if !search && !fits(misfit) {
+            // The warm start lost the grip (or the counts went wrong): search first.
+            misfit = self.solve_poses(dt, true);
+        }
+        // Counts that fit no pose (NaN included) are not trusted until calibrated again.
+        if !fits(misfit) {
+            self.misfit = true;
+            self.frame.calibrated = false;
+        }
+        if returning {
+            self.scene.reset(&self.pointers);
+        }
+        self.swap_scene_when_quiet();
+        let rendered = self.scene.render(&self.pointers, dt, &mut self.wrenches);
+        let scene_ok = self.scene_hold.update(rendered, dt);
+        self.frame.touches = [Touch::NONE; MAX_EFFECTORS];
+        if rendered {
+            let n = self.pointers.len();
+            self.scene.write_touches(&mut self.frame.touches[..n]);
+        }
+        scene_ok
+    }
+
+    /// [rt] Take the offsets from the counts: at start if uncalibrated, and when asked to measure.
+    #[inline]
+    fn take_offsets(&mut self) {
+        if !self.calibrated {
+            // Grips are held at their calibration poses when the device starts.
+            let counts = &self.reading.counts[..self.mechanism.strings.len()];
+            offsets_into(
+                &self.calibration_lengths,
+                &self.metres_per_pulse,
+                counts,
+                &mut self.offsets,
+            );
+            self.calibrated = true;
+            (self.check_fit, self.misfit) = (false, false);
+            self.frame.calibrated = true;
+            self.frame.calibrations += 1;
+            self.frame.offsets[..self.offsets.len()].copy_from_slice(&self.offsets);
+        }
+        if std::mem::take(&mut self.measure) {
+            let strings = self.offsets.len();
+            offsets_into(
+                &self.calibration_lengths,
+                &self.metres_per_pulse,
+                &self.reading.counts[..strings],
+                &mut self.frame.measured[..strings],
+            );
+            self.frame.measurements += 1;
+        }
+    }
+
+    /// [rt] Guard each effector's wrench and set its strings' currents; whether all were finite.
+    #[inline]
+    fn drive_strings(&mut self, dt: f64, healthy: bool) -> bool {
+        let mut all_finite = true;
         for (index, e) in self.effectors.iter_mut().enumerate() {
             let mut wrench = self.wrenches[index];
             wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);
             // What the far side commands is no energy of the scene's: past the passivity
             // controller, but within the limits and the guard like the rest.
             wrench = wrench + self.commanded[index];
-            let healthy = connected && scene_ok && !switching && !self.misfit;
             all_finite &= e.guard.apply(&mut wrench, healthy, dt);
             self.frame.wrenches[index] = wrench;
             self.frame.poses[index] = *e.pose.pose();
@@ -596,6 +617,12 @@ impl HapticLoop {
                     dac_for_tension(tension, s.volts_per_newton).clamp(-limit, limit);
             }
         }
+        all_finite
+    }
+
+    /// [rt] Set the frame's state, transport error and fault cause from how the tick went.
+    #[inline]
+    fn set_state(&mut self, update: Result<(), TransportError>, all_finite: bool, scene_ok: bool) {
         (self.frame.state, self.frame.error) = match update {
             Err(e) => (DeviceState::Disconnected, Some(e)),
             Ok(()) if self.misfit => (DeviceState::Uncalibrated, None),
@@ -608,7 +635,6 @@ impl HapticLoop {
             (DeviceState::Fault, None) => FaultCause::SceneFailed,
             _ => FaultCause::None,
         };
-        &self.frame
     }
 
     /// Solve every effector's pose, warm-started, or with a long `search` from the last pose

@@ -94,6 +94,13 @@ impl Sample {
         dac: [0; CHANNELS],
     };
 
+    /// Tick number `tick` of a loop that left `frame`, as the ring would hold it.
+    pub fn of(tick: u64, frame: &Frame) -> Sample {
+        let mut sample = Sample::EMPTY;
+        sample.fill(tick, frame);
+        sample
+    }
+
     /// [rt] Tick number `tick` of a loop that left `frame`.
     fn fill(&mut self, tick: u64, frame: &Frame) {
         self.tick = tick;

@@ -285,86 +285,29 @@ impl Chart {
         let width = (LEFT + RIGHT + beside) as usize + pw as usize;
         let height = (TOP + BOTTOM) as usize + ph as usize;
         let mut canvas = Canvas::new(width, height);
-        let sx = |x: f64| LEFT as f64 + (x - x0) / (x1 - x0) * pw;
-        let sy = |y: f64| TOP as f64 + (y1 - y) / (y1 - y0) * ph;
+        let area = PlotArea {
+            x: (x0, x1),
+            y: (y0, y1),
+            width: pw,
+            height: ph,
+        };
 
         if let Some(c) = &self.cells {
-            for (k, &color) in c.colors.iter().enumerate() {
-                let (col, row) = (k % c.columns, k / c.columns);
-                let left = c.x.0 + c.x.1 * col as f64;
-                let bottom = c.y.0 + c.y.1 * row as f64;
-                canvas.fill_rect(
-                    sx(left).floor() as i64,
-                    sy(bottom + c.y.1).floor() as i64,
-                    sx(left + c.x.1).ceil() as i64,
-                    sy(bottom).ceil() as i64,
-                    color,
-                );
-            }
+            area.draw_cells(&mut canvas, c);
         }
-        let (xt, yt) = (ticks(x0, x1, 8), ticks(y0, y1, 6));
-        let xstep = xt.get(1).map_or(1.0, |b| b - xt[0]);
-        let ystep = yt.get(1).map_or(1.0, |b| b - yt[0]);
-        let (plot_left, plot_right) = (LEFT as f64, LEFT as f64 + pw);
-        let (plot_top, plot_bottom) = (TOP as f64, TOP as f64 + ph);
-        for &x in &xt {
-            if self.cells.is_none() {
-                canvas.line((sx(x), plot_top), (sx(x), plot_bottom), 1, GRID);
-            }
-            let label = tick_label(x, xstep);
-            let w = Canvas::text_width(&label, 2);
-            canvas.text(
-                sx(x) as i64 - w / 2,
-                plot_bottom as i64 + 10,
-                &label,
-                2,
-                INK,
-            );
-        }
-        for &y in &yt {
-            if self.cells.is_none() {
-                canvas.line((plot_left, sy(y)), (plot_right, sy(y)), 1, GRID);
-            }
-            let label = tick_label(y, ystep);
-            let w = Canvas::text_width(&label, 2);
-            canvas.text(LEFT - 8 - w, sy(y) as i64 - 7, &label, 2, INK);
-        }
+        self.draw_ticks(&mut canvas, &area);
         // The first series is drawn last, on top: it is usually the reference.
         for s in self.series.iter().rev() {
             let mut previous: Option<(f64, f64)> = None;
             for &(x, y) in &s.points {
-                let here = (x.is_finite() && y.is_finite()).then(|| (sx(x), sy(y)));
+                let here = (x.is_finite() && y.is_finite()).then(|| (area.sx(x), area.sy(y)));
                 if let (Some(a), Some(b)) = (previous, here) {
                     canvas.line(a, b, 3, s.color);
                 }
                 previous = here;
             }
         }
-        // Mask anything drawn outside the plot area, then frame it.
-        canvas.fill_rect(0, 0, width as i64, TOP - 1, WHITE);
-        canvas.fill_rect(
-            0,
-            plot_bottom as i64 + 2,
-            width as i64,
-            plot_bottom as i64 + 9,
-            WHITE,
-        );
-        canvas.fill_rect(
-            plot_right as i64 + 2,
-            TOP,
-            width as i64,
-            plot_bottom as i64 + 2,
-            WHITE,
-        );
-        canvas.fill_rect(LEFT - 7, TOP, LEFT - 1, plot_bottom as i64 + 2, WHITE);
-        for (a, b) in [
-            ((plot_left, plot_top), (plot_right, plot_top)),
-            ((plot_left, plot_bottom), (plot_right, plot_bottom)),
-            ((plot_left, plot_top), (plot_left, plot_bottom)),
-            ((plot_right, plot_top), (plot_right, plot_bottom)),
-        ] {
-            canvas.line(a, b, 2, INK);
-        }
+        area.mask_and_frame(&mut canvas, width);
         let title_width = Canvas::text_width(&self.title, 3);
         canvas.text((width as i64 - title_width) / 2, 16, &self.title, 3, INK);
         let xw = Canvas::text_width(&self.x_label, 2);
@@ -376,9 +319,41 @@ impl Chart {
             INK,
         );
         canvas.text(8, TOP - 28, &self.y_label, 2, INK);
-        let legend_right = plot_right as i64 + beside;
+        let legend_right = (LEFT as f64 + pw) as i64 + beside;
         self.draw_legend(&mut canvas, legend_right, TOP);
         canvas
+    }
+
+    /// Draw the ticks of both axes with their labels, and the grid unless cells fill the plot.
+    fn draw_ticks(&self, canvas: &mut Canvas, area: &PlotArea) {
+        let ((x0, x1), (y0, y1)) = (area.x, area.y);
+        let (xt, yt) = (ticks(x0, x1, 8), ticks(y0, y1, 6));
+        let xstep = xt.get(1).map_or(1.0, |b| b - xt[0]);
+        let ystep = yt.get(1).map_or(1.0, |b| b - yt[0]);
+        let (plot_left, plot_right) = (LEFT as f64, LEFT as f64 + area.width);
+        let (plot_top, plot_bottom) = (TOP as f64, TOP as f64 + area.height);
+        for &x in &xt {
+            if self.cells.is_none() {
+                canvas.line((area.sx(x), plot_top), (area.sx(x), plot_bottom), 1, GRID);
+            }
+            let label = tick_label(x, xstep);
+            let w = Canvas::text_width(&label, 2);
+            canvas.text(
+                area.sx(x) as i64 - w / 2,
+                plot_bottom as i64 + 10,
+                &label,
+                2,
+                INK,
+            );
+        }
+        for &y in &yt {
+            if self.cells.is_none() {
+                canvas.line((plot_left, area.sy(y)), (plot_right, area.sy(y)), 1, GRID);
+            }
+            let label = tick_label(y, ystep);
+            let w = Canvas::text_width(&label, 2);
+            canvas.text(LEFT - 8 - w, area.sy(y) as i64 - 7, &label, 2, INK);
+        }
     }
 
     fn legend_entries(&self) -> Vec<(&str, Rgb)> {
@@ -435,6 +410,72 @@ impl Chart {
             let row = y + 8 + i as i64 * 22;
             canvas.fill_rect(x + 8, row + 3, x + 34, row + 11, *color);
             canvas.text(x + 42, row, label, 2, INK);
+        }
+    }
+}
+
+/// The plot's area on the canvas, `width` by `height` pixels, and the data ranges it shows.
+struct PlotArea {
+    x: (f64, f64),
+    y: (f64, f64),
+    width: f64,
+    height: f64,
+}
+
+impl PlotArea {
+    /// The canvas column of `x`.
+    fn sx(&self, x: f64) -> f64 {
+        LEFT as f64 + (x - self.x.0) / (self.x.1 - self.x.0) * self.width
+    }
+
+    /// The canvas row of `y`.
+    fn sy(&self, y: f64) -> f64 {
+        TOP as f64 + (self.y.1 - y) / (self.y.1 - self.y.0) * self.height
+    }
+
+    /// Fill each cell of `c` with its colour.
+    fn draw_cells(&self, canvas: &mut Canvas, c: &Cells) {
+        for (k, &color) in c.colors.iter().enumerate() {
+            let (col, row) = (k % c.columns, k / c.columns);
+            let left = c.x.0 + c.x.1 * col as f64;
+            let bottom = c.y.0 + c.y.1 * row as f64;
+            canvas.fill_rect(
+                self.sx(left).floor() as i64,
+                self.sy(bottom + c.y.1).floor() as i64,
+                self.sx(left + c.x.1).ceil() as i64,
+                self.sy(bottom).ceil() as i64,
+                color,
+            );
+        }
+    }
+
+    /// Mask anything drawn outside the plot area of a canvas `width` wide, then frame it.
+    fn mask_and_frame(&self, canvas: &mut Canvas, width: usize) {
+        let (plot_left, plot_right) = (LEFT as f64, LEFT as f64 + self.width);
+        let (plot_top, plot_bottom) = (TOP as f64, TOP as f64 + self.height);
+        canvas.fill_rect(0, 0, width as i64, TOP - 1, WHITE);
+        canvas.fill_rect(
+            0,
+            plot_bottom as i64 + 2,
+            width as i64,
+            plot_bottom as i64 + 9,
+            WHITE,
+        );
+        canvas.fill_rect(
+            plot_right as i64 + 2,
+            TOP,
+            width as i64,
+            plot_bottom as i64 + 2,
+            WHITE,
+        );
+        canvas.fill_rect(LEFT - 7, TOP, LEFT - 1, plot_bottom as i64 + 2, WHITE);
+        for (a, b) in [
+            ((plot_left, plot_top), (plot_right, plot_top)),
+            ((plot_left, plot_bottom), (plot_right, plot_bottom)),
+            ((plot_left, plot_top), (plot_left, plot_bottom)),
+            ((plot_right, plot_top), (plot_right, plot_bottom)),
+        ] {
+            canvas.line(a, b, 2, INK);
         }
     }
 }

@@ -187,32 +187,137 @@ fn prefault_stack() {
     std::hint::black_box(&mut block);
 }
 
+/// [rt] Tick `haptic` on time until `stop` is set, sharing every frame; then zero the motors.
+fn run_loop(
+    mut haptic: HapticLoop,
+    rate: f64,
+    channels: Channels,
+    (mut stats_writer, mut frame_writer): (
+        triple_buffer::Writer<LoopStats>,
+        triple_buffer::Writer<Frame>,
+    ),
+    stop: &AtomicBool,
+    beat: &AtomicU64,
+) -> HapticLoop {
+    let Channels {
+        mut events,
+        mut recorder,
+        mut commands,
+        mut retired,
+        mut world,
+        mut telemetry,
+        heartbeat: guardian_beat,
+    } = channels;
+    let period_ns = (1e9 / rate).round() as u64;
+    let period = period_ns as f64 * 1e-9;
+    // Stats reach the daemon at 10 Hz, however long the ticks take.
+    const PUBLISH_NS: u64 = 100_000_000;
+    let world_ns = (1e9 / WORLD_RATE) as u64;
+    let mut stats = LoopStats::default();
+    let mut state = DeviceState::Running;
+    // The scene (by its switch count) whose fault was reported.
+    let mut reported = None;
+    let mut next = monotonic_ns();
+    let mut published = next;
+    let mut pictured = next;
+    while !stop.load(Ordering::Acquire) {
+        next += period_ns;
+        sleep_until(next);
+        let woke = monotonic_ns();
+        while let Some(command) = commands.pop() {
+            haptic.command(command);
+        }
+        let frame = *haptic.tick(period);
+        if let Some(old) = haptic.take_retired()
+            && let Err(old) = retired.try_push(old)
+        {
+            haptic.keep_retired(old);
+        }
+        frame_writer.publish(|f| *f = frame);
+        if let Some(t) = telemetry.as_mut() {
+            t.write(&frame);
+        }
+        if let Some(r) = recorder.as_mut() {
+            r.push(frame);
+        }
+        if let Some(w) = world.as_mut()
+            && woke - pictured >= world_ns
+        {
+            w.capture(&mut haptic, rate);
+            pictured = woke;
+        }
+        report(&mut events, &haptic, &frame, &mut reported, &mut state);
+        let done = monotonic_ns();
+        let overrun = done > next + period_ns;
+        if overrun {
+            events.push(LoopEvent::Overrun {
+                time: frame.time,
+                late_ns: done - next - period_ns,
+            });
+            // Skip the missed deadlines instead of racing to catch up.
+            next += (done - next) / period_ns * period_ns;
+        }
+        stats.record(woke.saturating_sub(next), done - woke, overrun);
+        if done - published >= PUBLISH_NS {
+            stats_writer.publish(|s| *s = stats);
+            published = done;
+        }
+        beat.store(stats.ticks, Ordering::Release);
+        if let Some(b) = &guardian_beat {
+            b.beat(stats.ticks);
+        }
+    }
+    let _ = haptic.zero_motors();
+    if let Some(b) = &guardian_beat {
+        b.rest();
+    }
+    stats_writer.publish(|s| *s = stats);
+    frame_writer.publish(|f| *f = *haptic.frame());
+    haptic
+}
+
+/// [rt] Send the scene's fault (once a scene) and the device's state when they change.
+#[inline]
+fn report(
+    events: &mut spsc::Producer<LoopEvent>,
+    haptic: &HapticLoop,
+    frame: &Frame,
+    reported: &mut Option<u32>,
+    state: &mut DeviceState,
+) {
+    // Once per scene: its fault never changes once it is found.
+    if let Some(fault) = haptic.scene().fault()
+        && *reported != Some(frame.scene_switches)
+    {
+        *reported = Some(frame.scene_switches);
+        events.push(LoopEvent::SceneFault {
+            time: frame.time,
+            fault,
+        });
+    }
+    if frame.state != *state {
+        *state = frame.state;
+        events.push(LoopEvent::State {
+            time: frame.time,
+            state: *state,
+            error: frame.error,
+            fault: frame.fault,
+        });
+    }
+}
+
 impl RealtimeLoop {
     /// Start `haptic` on its own thread, talking through `channels`.
     pub fn start(
-        mut haptic: HapticLoop,
+        haptic: HapticLoop,
         settings: RealtimeSettings,
         channels: Channels,
     ) -> std::io::Result<Self> {
-        let Channels {
-            mut events,
-            mut recorder,
-            mut commands,
-            mut retired,
-            mut world,
-            mut telemetry,
-            heartbeat: guardian_beat,
-        } = channels;
         let stop = Arc::new(AtomicBool::new(false));
         let heartbeat = Arc::new(AtomicU64::new(0));
-        let (mut stats_writer, stats) = triple_buffer::triple_buffer(LoopStats::default());
-        let (mut frame_writer, frames) = triple_buffer::triple_buffer(*haptic.frame());
+        let (stats_writer, stats) = triple_buffer::triple_buffer(LoopStats::default());
+        let (frame_writer, frames) = triple_buffer::triple_buffer(*haptic.frame());
         let (granted, scheduling) = std::sync::mpsc::channel();
-        let period_ns = (1e9 / settings.rate).round() as u64;
-        let period = period_ns as f64 * 1e-9;
-        // Stats reach the daemon at 10 Hz, however long the ticks take.
-        const PUBLISH_NS: u64 = 100_000_000;
-        let world_ns = (1e9 / WORLD_RATE) as u64;
         let (stop_flag, beat) = (stop.clone(), heartbeat.clone());
         let thread = std::thread::Builder::new()
             .name("hapticd-rt".into())
@@ -224,85 +329,8 @@ impl RealtimeLoop {
                     .map(|cpu| hapticd_service::cpus::pin(0, &[cpu]).map(|()| cpu));
                 let _ = granted.send((scheduling, pinned));
                 prefault_stack();
-                let mut stats = LoopStats::default();
-                let mut state = DeviceState::Running;
-                // The scene (by its switch count) whose fault was reported.
-                let mut reported = None;
-                let mut next = monotonic_ns();
-                let mut published = next;
-                let mut pictured = next;
-                while !stop_flag.load(Ordering::Acquire) {
-                    next += period_ns;
-                    sleep_until(next);
-                    let woke = monotonic_ns();
-                    while let Some(command) = commands.pop() {
-                        haptic.command(command);
-                    }
-                    let frame = *haptic.tick(period);
-                    if let Some(old) = haptic.take_retired()
-                        && let Err(old) = retired.try_push(old)
-                    {
-                        haptic.keep_retired(old);
-                    }
-                    frame_writer.publish(|f| *f = frame);
-                    if let Some(t) = telemetry.as_mut() {
-                        t.write(&frame);
-                    }
-                    if let Some(r) = recorder.as_mut() {
-                        r.push(frame);
-                    }
-                    if let Some(w) = world.as_mut()
-                        && woke - pictured >= world_ns
-                    {
-                        w.capture(&mut haptic, settings.rate);
-                        pictured = woke;
-                    }
-                    // Once per scene: its fault never changes once it is found.
-                    if let Some(fault) = haptic.scene().fault()
-                        && reported != Some(frame.scene_switches)
-                    {
-                        reported = Some(frame.scene_switches);
-                        events.push(LoopEvent::SceneFault {
-                            time: frame.time,
-                            fault,
-                        });
-                    }
-                    if frame.state != state {
-                        state = frame.state;
-                        events.push(LoopEvent::State {
-                            time: frame.time,
-                            state,
-                            error: frame.error,
-                            fault: frame.fault,
-                        });
-                    }
-                    let done = monotonic_ns();
-                    let overrun = done > next + period_ns;
-                    if overrun {
-                        events.push(LoopEvent::Overrun {
-                            time: frame.time,
-                            late_ns: done - next - period_ns,
-                        });
-                        // Skip the missed deadlines instead of racing to catch up.
-                        next += (done - next) / period_ns * period_ns;
-                    }
-                    stats.record(woke.saturating_sub(next), done - woke, overrun);
-                    if done - published >= PUBLISH_NS {
-                        stats_writer.publish(|s| *s = stats);
-                        published = done;
-                    }
-                    beat.store(stats.ticks, Ordering::Release);
-                    if let Some(b) = &guardian_beat {
-                        b.beat(stats.ticks);
-                    }
-                }
-                let _ = haptic.zero_motors();
-                if let Some(b) = &guardian_beat {
-                    b.rest();
-                }
-                stats_writer.publish(|s| *s = stats);
-                frame_writer.publish(|f| *f = *haptic.frame());
-                haptic
+                let writers = (stats_writer, frame_writer);
+                run_loop(haptic, settings.rate, channels, writers, &stop_flag, &beat)
             })?;
         let (scheduling, pinned) = scheduling.recv().unwrap_or_else(|_| {
             (

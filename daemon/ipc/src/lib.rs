@@ -13,6 +13,7 @@
 //!   is `hapticd_core::world_geometry`), and their reader;
 //! - [`telemetry_share`]: every tick of a device, in the ring its `OpenTelemetry` hands out
 //!   (its layout is `hapticd_core::telemetry`), and a reader that follows it;
+//! - [`telemetry_csv`]: ticks as CSV, the columns every recording writes;
 //! - [`touch_events`]: touches begun, ended and slipping, found in those ticks;
 //! - [`wrench_share`]: the wrench commanded from outside, which `OpenWrenchInput` hands out
 //!   to be written;
@@ -48,6 +49,7 @@ pub mod geometry_share;
 pub mod names;
 pub mod proxies;
 pub mod shared_memory;
+pub mod telemetry_csv;
 pub mod telemetry_share;
 pub mod touch_events;
 pub mod world_link_share;

@@ -26,6 +26,14 @@ const SHADOW_EDGE: u32 = 512;
 /// Where a vertex that casts no shadow is put in the light's view: past its far plane.
 const NO_SHADOW: [f32; 4] = [0.0, 0.0, 2.0, 1.0];
 
+/// What a depth image is cleared to: the farthest depth.
+const CLEAR_DEPTH: vk::ClearValue = vk::ClearValue {
+    depth_stencil: vk::ClearDepthStencilValue {
+        depth: 1.0,
+        stencil: 0,
+    },
+};
+
 /// The vertex as the shaders read it: clip position, normal, colour, and its clip position
 /// in the light's view.
 #[repr(C)]
@@ -285,31 +293,9 @@ impl Renderer {
         layout: vk::PipelineLayout,
         view: View,
     ) -> Result<vk::Pipeline, Unavailable> {
-        let bytes = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.spv"));
-        let words: Vec<u32> = bytes
-            .chunks_exact(4)
-            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-            .collect();
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        // SAFETY: valid SPIR-V from naga; destroyed below once the pipeline holds it.
-        let module = unsafe { device.create_shader_module(&info, None) }
-            .map_err(failed("loading the shaders"))?;
-        let (vertex, fragment) = match view {
-            View::Camera => (c"vertex_main", Some(c"fragment_main")),
-            View::Light => (c"shadow_main", None),
-        };
-        let mut stages = vec![
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::VERTEX)
-                .module(module)
-                .name(vertex),
-        ];
-        stages.extend(fragment.map(|name| {
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(module)
-                .name(name)
-        }));
+        // Destroyed below once the pipeline holds it.
+        let module = Self::shader_module(device)?;
+        let stages = Self::shader_stages(module, view);
         let colour = view == View::Camera;
         let bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
@@ -389,6 +375,43 @@ impl Renderer {
         let pipeline =
             pipelines.map_err(|(_, e)| Unavailable(format!("creating the pipeline: {e}")))?[0];
         Ok(pipeline)
+    }
+
+    /// Load the shaders (naga's SPIR-V, built with the crate) into a module.
+    fn shader_module(device: &ash::Device) -> Result<vk::ShaderModule, Unavailable> {
+        let bytes = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.spv"));
+        let words: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+            .collect();
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        // SAFETY: valid SPIR-V from naga; the caller destroys it once the pipeline holds it.
+        let module = unsafe { device.create_shader_module(&info, None) };
+        module.map_err(failed("loading the shaders"))
+    }
+
+    /// The stages drawing `view` from `module` (the light's writes depth alone: no fragment).
+    fn shader_stages(
+        module: vk::ShaderModule,
+        view: View,
+    ) -> Vec<vk::PipelineShaderStageCreateInfo<'static>> {
+        let (vertex, fragment) = match view {
+            View::Camera => (c"vertex_main", Some(c"fragment_main")),
+            View::Light => (c"shadow_main", None),
+        };
+        let mut stages = vec![
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(module)
+                .name(vertex),
+        ];
+        stages.extend(fragment.map(|name| {
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(module)
+                .name(name)
+        }));
+        stages
     }
 
     fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Result<u32, Unavailable> {
@@ -627,13 +650,29 @@ impl Frame {
         vertices: &[GpuVertex],
         background: [f32; 4],
     ) -> Result<Picture, Unavailable> {
-        let d = &r.device;
-        let (width, height) = (self.width, self.height);
         // SAFETY: the buffers and images belong to this frame and the device; the command
         // buffer is recorded, submitted and waited for before anything is read or freed.
         unsafe {
-            if !vertices.is_empty() {
-                let size = std::mem::size_of_val(vertices);
+            self.upload(&r.device, vertices)?;
+            let cmd = Self::begin_commands(r)?;
+            // The light's view first, into the shadow map; then the camera's, reading it.
+            self.record_shadow(r, cmd, vertices);
+            self.record_camera(r, cmd, vertices, background);
+            self.record_readback(&r.device, cmd);
+            Self::submit_and_wait(r, cmd)?;
+            self.read_back(r)
+        }
+    }
+
+    /// Copy `vertices` into the vertex buffer.
+    ///
+    /// # Safety
+    /// No work of this frame is in flight, and the buffer holds `vertices`.
+    unsafe fn upload(&self, d: &ash::Device, vertices: &[GpuVertex]) -> Result<(), Unavailable> {
+        if !vertices.is_empty() {
+            let size = std::mem::size_of_val(vertices);
+            // SAFETY: as the caller promises; the mapping is `size` bytes long.
+            unsafe {
                 let to = d
                     .map_memory(
                         self.vertices.1.memory,
@@ -649,10 +688,19 @@ impl Frame {
                 );
                 d.unmap_memory(self.vertices.1.memory);
             }
-            let alloc = vk::CommandBufferAllocateInfo::default()
-                .command_pool(r.pool)
-                .level(vk::CommandBufferLevel::PRIMARY)
-                .command_buffer_count(1);
+        }
+        Ok(())
+    }
+
+    /// A command buffer from the renderer's pool, recording once.
+    fn begin_commands(r: &Renderer) -> Result<vk::CommandBuffer, Unavailable> {
+        let d = &r.device;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(r.pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: valid infos for the renderer's own pool; the buffer is freed once submitted.
+        unsafe {
             let cmd = d
                 .allocate_command_buffers(&alloc)
                 .map_err(failed("allocating commands"))?[0];
@@ -662,34 +710,18 @@ impl Frame {
                     .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )
             .map_err(failed("recording"))?;
-            let barrier = |image, aspect, old, new, src_access, dst_access| {
-                vk::ImageMemoryBarrier::default()
-                    .image(image)
-                    .subresource_range(range(aspect))
-                    .old_layout(old)
-                    .new_layout(new)
-                    .src_access_mask(src_access)
-                    .dst_access_mask(dst_access)
-            };
-            let clear_depth = vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: 1.0,
-                    stencil: 0,
-                },
-            };
-            let whole = |width, height| vk::Rect2D {
-                offset: vk::Offset2D { x: 0, y: 0 },
-                extent: vk::Extent2D { width, height },
-            };
-            let viewport = |width: u32, height: u32| vk::Viewport {
-                x: 0.0,
-                y: 0.0,
-                width: width as f32,
-                height: height as f32,
-                min_depth: 0.0,
-                max_depth: 1.0,
-            };
-            // The light's view first, into the shadow map.
+            Ok(cmd)
+        }
+    }
+
+    /// Record the light's view of `vertices` into the shadow map.
+    ///
+    /// # Safety
+    /// `cmd` is recording, from `r`'s pool, and the vertex buffer holds `vertices`.
+    unsafe fn record_shadow(&self, r: &Renderer, cmd: vk::CommandBuffer, vertices: &[GpuVertex]) {
+        let d = &r.device;
+        // SAFETY: as the caller promises; the shadow map belongs to this frame.
+        unsafe {
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TOP_OF_PIPE,
@@ -711,7 +743,7 @@ impl Frame {
                 .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
                 .load_op(vk::AttachmentLoadOp::CLEAR)
                 .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(clear_depth);
+                .clear_value(CLEAR_DEPTH);
             let shadow_area = whole(SHADOW_EDGE, SHADOW_EDGE);
             d.cmd_begin_rendering(
                 cmd,
@@ -728,7 +760,75 @@ impl Frame {
                 d.cmd_draw(cmd, vertices.len() as u32, 1, 0, 0);
             }
             d.cmd_end_rendering(cmd);
-            // Then the camera's, reading the map.
+        }
+    }
+
+    /// Record the camera's view of `vertices` over `background`, reading the shadow map.
+    ///
+    /// # Safety
+    /// As [`Frame::record_shadow`], which has been recorded first.
+    unsafe fn record_camera(
+        &self,
+        r: &Renderer,
+        cmd: vk::CommandBuffer,
+        vertices: &[GpuVertex],
+        background: [f32; 4],
+    ) {
+        let d = &r.device;
+        // SAFETY: as the caller promises; the images belong to this frame.
+        unsafe {
+            self.camera_barrier(d, cmd);
+            let colour = [vk::RenderingAttachmentInfo::default()
+                .image_view(self.colour.2)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        float32: background,
+                    },
+                })];
+            let depth = vk::RenderingAttachmentInfo::default()
+                .image_view(self.depth.2)
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .clear_value(CLEAR_DEPTH);
+            let area = whole(self.width, self.height);
+            d.cmd_begin_rendering(
+                cmd,
+                &vk::RenderingInfo::default()
+                    .render_area(area)
+                    .layer_count(1)
+                    .color_attachments(&colour)
+                    .depth_attachment(&depth),
+            );
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, r.pipeline);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                r.layout,
+                0,
+                &[r.set],
+                &[],
+            );
+            d.cmd_set_viewport(cmd, 0, &[viewport(self.width, self.height)]);
+            d.cmd_set_scissor(cmd, 0, &[area]);
+            if !vertices.is_empty() {
+                d.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.0], &[0]);
+                d.cmd_draw(cmd, vertices.len() as u32, 1, 0, 0);
+            }
+            d.cmd_end_rendering(cmd);
+        }
+    }
+
+    /// Record the barrier before the camera's view: shadow map readable, picture writable.
+    ///
+    /// # Safety
+    /// `cmd` is recording, on device `d`.
+    unsafe fn camera_barrier(&self, d: &ash::Device, cmd: vk::CommandBuffer) {
+        // SAFETY: as the caller promises; the images belong to this frame.
+        unsafe {
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TOP_OF_PIPE | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS,
@@ -765,47 +865,16 @@ impl Frame {
                     ),
                 ],
             );
-            let colour = [vk::RenderingAttachmentInfo::default()
-                .image_view(self.colour.2)
-                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(vk::ClearValue {
-                    color: vk::ClearColorValue {
-                        float32: background,
-                    },
-                })];
-            let depth = vk::RenderingAttachmentInfo::default()
-                .image_view(self.depth.2)
-                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .clear_value(clear_depth);
-            let area = whole(width, height);
-            d.cmd_begin_rendering(
-                cmd,
-                &vk::RenderingInfo::default()
-                    .render_area(area)
-                    .layer_count(1)
-                    .color_attachments(&colour)
-                    .depth_attachment(&depth),
-            );
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, r.pipeline);
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                r.layout,
-                0,
-                &[r.set],
-                &[],
-            );
-            d.cmd_set_viewport(cmd, 0, &[viewport(width, height)]);
-            d.cmd_set_scissor(cmd, 0, &[area]);
-            if !vertices.is_empty() {
-                d.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.0], &[0]);
-                d.cmd_draw(cmd, vertices.len() as u32, 1, 0, 0);
-            }
-            d.cmd_end_rendering(cmd);
+        }
+    }
+
+    /// Record the copy of the picture into the readback buffer.
+    ///
+    /// # Safety
+    /// `cmd` is recording, on device `d`, after the camera's view.
+    unsafe fn record_readback(&self, d: &ash::Device, cmd: vk::CommandBuffer) {
+        // SAFETY: as the caller promises; the picture and buffer belong to this frame.
+        unsafe {
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
@@ -829,8 +898,8 @@ impl Frame {
                         .layer_count(1),
                 )
                 .image_extent(vk::Extent3D {
-                    width,
-                    height,
+                    width: self.width,
+                    height: self.height,
                     depth: 1,
                 });
             d.cmd_copy_image_to_buffer(
@@ -840,6 +909,17 @@ impl Frame {
                 self.readback.0,
                 &[copy],
             );
+        }
+    }
+
+    /// End `cmd`, run it and wait until it is done, then free it.
+    ///
+    /// # Safety
+    /// `cmd` is recording, from `r`'s pool, and everything it uses lives until it is done.
+    unsafe fn submit_and_wait(r: &Renderer, cmd: vk::CommandBuffer) -> Result<(), Unavailable> {
+        let d = &r.device;
+        // SAFETY: as the caller promises; the fence is waited for before it is destroyed.
+        unsafe {
             d.end_command_buffer(cmd).map_err(failed("recording"))?;
             let fence = d
                 .create_fence(&vk::FenceCreateInfo::default(), None)
@@ -854,8 +934,20 @@ impl Frame {
                 .and_then(|()| d.wait_for_fences(&[fence], true, u64::MAX));
             d.destroy_fence(fence, None);
             d.free_command_buffers(r.pool, &commands);
-            submitted.map_err(failed("drawing"))?;
-            let size = u64::from(width) * u64::from(height) * 4;
+            submitted.map_err(failed("drawing"))
+        }
+    }
+
+    /// The picture in the readback buffer, its edges smoothed if `r` draws depth cues.
+    ///
+    /// # Safety
+    /// The copy into the readback buffer has completed.
+    unsafe fn read_back(&self, r: &Renderer) -> Result<Picture, Unavailable> {
+        let d = &r.device;
+        let (width, height) = (self.width, self.height);
+        let size = u64::from(width) * u64::from(height) * 4;
+        // SAFETY: as the caller promises; the buffer holds `size` bytes.
+        unsafe {
             let from = d
                 .map_memory(self.readback.1.memory, 0, size, vk::MemoryMapFlags::empty())
                 .map_err(failed("mapping the picture"))?;
@@ -896,6 +988,44 @@ fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
         .aspect_mask(aspect)
         .level_count(1)
         .layer_count(1)
+}
+
+/// A barrier moving all of `image` from layout `old` to `new`.
+fn barrier(
+    image: vk::Image,
+    aspect: vk::ImageAspectFlags,
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+    src_access: vk::AccessFlags,
+    dst_access: vk::AccessFlags,
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .image(image)
+        .subresource_range(range(aspect))
+        .old_layout(old)
+        .new_layout(new)
+        .src_access_mask(src_access)
+        .dst_access_mask(dst_access)
+}
+
+/// The whole of a `width × height` image.
+fn whole(width: u32, height: u32) -> vk::Rect2D {
+    vk::Rect2D {
+        offset: vk::Offset2D { x: 0, y: 0 },
+        extent: vk::Extent2D { width, height },
+    }
+}
+
+/// The viewport covering a `width × height` image, over the full depth range.
+fn viewport(width: u32, height: u32) -> vk::Viewport {
+    vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: width as f32,
+        height: height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }
 }
 
 impl Drop for Renderer {

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use hapticd_core::scene::remote::{MAX_WORLD_BYTES, decode_host};
 use hapticd_core::wire::Encoder;
-use hapticd_physics::scene::SceneFile;
+use hapticd_physics::scene::{RapierScene, SceneFile};
 use hapticd_service::cli::WorldCli;
 use hapticd_service::log_lines::{self, LogLines};
 use hapticd_service::logging::{self, Level};
@@ -39,12 +39,8 @@ fn configuration(cli: &WorldCli) -> Result<NetworkConfig, String> {
     Ok(config)
 }
 
-fn run(cli: &WorldCli) -> Result<(), String> {
-    let config = configuration(cli)?;
-    let until = session::deadline(cli.duration).map_err(|e| e.to_string())?;
-    if !(1..=64).contains(&cli.pointers) {
-        return Err(format!("--pointers {}: from 1 to 64", cli.pointers));
-    }
+/// The world's name: `--name`, or the scene file's.
+fn world_name(cli: &WorldCli) -> Result<String, String> {
     let name = match &cli.name {
         Some(name) => name.clone(),
         None => cli
@@ -58,15 +54,28 @@ fn run(cli: &WorldCli) -> Result<(), String> {
             "{name:?} is no world's name (letters, digits, - and _): give one with --name"
         ));
     }
-    let spec = match SceneFile::load(&cli.scene, cli.pointers).map_err(|e| e.to_string())? {
-        SceneFile::Rapier(spec) => spec,
-        SceneFile::Penalty(_) => {
-            return Err(format!(
-                "{}: a shared world is a rapier one (engine: rapier)",
-                cli.scene.display()
-            ));
-        }
-    };
+    Ok(name)
+}
+
+/// The scene file of the command line, which must be a rapier one.
+fn rapier_scene(cli: &WorldCli) -> Result<Box<RapierScene>, String> {
+    match SceneFile::load(&cli.scene, cli.pointers).map_err(|e| e.to_string())? {
+        SceneFile::Rapier(spec) => Ok(spec),
+        SceneFile::Penalty(_) => Err(format!(
+            "{}: a shared world is a rapier one (engine: rapier)",
+            cli.scene.display()
+        )),
+    }
+}
+
+fn run(cli: &WorldCli) -> Result<(), String> {
+    let config = configuration(cli)?;
+    let until = session::deadline(cli.duration).map_err(|e| e.to_string())?;
+    if !(1..=64).contains(&cli.pointers) {
+        return Err(format!("--pointers {}: from 1 to 64", cli.pointers));
+    }
+    let name = world_name(cli)?;
+    let spec = rapier_scene(cli)?;
     let mut world = SharedWorld::new(&spec, cli.pointers);
     let session = session::open(&config).map_err(|e| e.to_string())?;
     let zenoh = |e: zenoh::Error| format!("zenoh: {e}");

@@ -17,6 +17,7 @@ use hapticd_core::transport::CHANNELS;
 use hapticd_core::world_state::{MAX_BODIES, WorldFrame, state_of};
 use hapticd_ipc::client::{ClientError, Device};
 use hapticd_ipc::touch_events::{Touch, TouchTracker};
+use hapticd_ipc::world_share::MappedWorld;
 use hapticd_ros2::keys::{Node, attachment};
 use hapticd_ros2::messages::{
     Header, JointState, Message, PoseArray, PoseStamped, StringMessage, Time, TwistStamped,
@@ -205,39 +206,8 @@ pub fn run(
     let identity = device.identity()?;
     let effectors = device.effectors()?;
     let topics = DeviceTopics::new(settings.domain, &identity, &effectors);
-    let node = Node {
-        domain: settings.domain,
-        zid: session.zid().to_string(),
-        id: settings.node * 1000,
-        namespace: "/".into(),
-        name: topics.frame.clone(),
-    };
-    let node_token = session
-        .liveliness()
-        .declare_token(node.token())
-        .wait()
-        .map_err(zenoh_error)?;
-    let mut entities = Entities {
-        session,
-        node,
-        tokens: Vec::new(),
-    };
-    let mut effector_publishers = Vec::new();
-    for t in &topics.effectors {
-        effector_publishers.push((
-            entities.publisher::<PoseStamped>(&t.pose)?,
-            entities.publisher::<TwistStamped>(&t.twist)?,
-            entities.publisher::<WrenchStamped>(&t.wrench)?,
-        ));
-    }
-    let strings_publisher = entities.publisher::<JointState>(&topics.strings)?;
-    let bodies_publisher = entities.publisher::<PoseArray>(&topics.bodies)?;
-    let state_publisher = entities.publisher::<StringMessage>(&topics.state)?;
-    let touches_publisher = entities.publisher::<StringMessage>(&topics.touches)?;
-    let telemetry_publisher = session
-        .declare_publisher(topics.telemetry())
-        .wait()
-        .map_err(zenoh_error)?;
+    let (node_token, mut entities) = announce_node(session, settings, &topics)?;
+    let publishers = Publishers::declare(session, &topics, &mut entities)?;
     let commands = if settings.commands {
         take_wrench_commands(device, &topics, &mut entities)?
     } else {
@@ -247,45 +217,13 @@ pub fn run(
     let id: [u8; 16] = session.zid().to_le_bytes();
     let last = Arc::new((AtomicU64::new(0), AtomicU32::new(0)));
     let ring = device.open_telemetry()?;
-    let status = {
-        let (identity, last, effectors) = (identity.clone(), last.clone(), effectors.clone());
-        let telemetry_key = topics.telemetry();
-        let rate = ring.rate();
-        let mut names: Vec<String> = topics
-            .effectors
-            .iter()
-            .flat_map(|t| [&t.pose, &t.twist, &t.wrench])
-            .chain([
-                &topics.strings,
-                &topics.bodies,
-                &topics.state,
-                &topics.touches,
-            ])
-            .map(|t| t.name.clone())
-            .collect();
-        names.sort();
-        session
-            .declare_queryable(topics.status())
-            .callback(move |query| {
-                let body = serde_json::json!({
-                    "identity": identity,
-                    "effectors": effectors,
-                    "rate": rate,
-                    "tick": last.0.load(Ordering::Relaxed),
-                    "state": state_of(last.1.load(Ordering::Relaxed)).name(),
-                    "publishing_every": settings.every,
-                    "topics": names,
-                    "telemetry": telemetry_key,
-                    "domain": settings.domain,
-                    "commands": settings.commands,
-                });
-                let _ = query
-                    .reply(query.key_expr().clone(), body.to_string())
-                    .wait();
-            })
-            .wait()
-            .map_err(zenoh_error)?
-    };
+    let status = declare_status(
+        session,
+        &topics,
+        (identity.clone(), last.clone(), effectors.clone()),
+        ring.rate(),
+        settings,
+    )?;
     let string_names: Vec<String> = (0..CHANNELS).map(|k| format!("string{k}")).collect();
     let mut cursor = ring.from_now();
     let mut sample = Sample::EMPTY;
@@ -295,39 +233,18 @@ pub fn run(
     let world = device.open_world()?;
     let mut frame = Box::new(WorldFrame::empty());
     let (mut world_seen, mut world_looked) = (None, Instant::now());
-    let put = |publisher: &zenoh::pubsub::Publisher<'_>, bytes: Vec<u8>, attached: &[u8; 33]| {
-        publisher
-            .put(bytes)
-            .attachment(attached.to_vec())
-            .wait()
-            .map_err(zenoh_error)
-    };
     drop(declared);
     while until.is_none_or(|t| Instant::now() < t) {
         if world_looked.elapsed() >= WORLD_EVERY {
             world_looked = Instant::now();
-            if let Some(sequence) = world.read(&mut frame)
-                && world_seen != Some(sequence)
-            {
-                world_seen = Some(sequence);
-                let stamp = now_ns();
-                let n = (frame.body_count as usize).min(MAX_BODIES);
-                let bodies = PoseArray {
-                    header: Header {
-                        stamp: Time::from_nanos(stamp),
-                        frame_id: topics.frame.clone(),
-                    },
-                    poses: frame.bodies[..n]
-                        .iter()
-                        .map(|b| {
-                            let [w, x, y, z] = b.orientation;
-                            (b.position, [x, y, z, w])
-                        })
-                        .collect(),
-                };
-                let attached = attachment(sequence as i64 / 2, stamp as i64, &id);
-                put(&bodies_publisher, bodies.encode(), &attached)?;
-            }
+            publish_bodies(
+                &world,
+                &mut frame,
+                &mut world_seen,
+                &topics.frame,
+                &id,
+                &publishers.bodies,
+            )?;
         }
         if !ring.next(&mut cursor, &mut sample) {
             if waited.elapsed() > Duration::from_secs(2) {
@@ -345,59 +262,250 @@ pub fn run(
             stamp: Time::from_nanos(stamp),
             frame_id: topics.frame.clone(),
         };
-        let mut touched = Ok(());
-        touches.follow(&sample, |touch| {
-            if touched.is_ok() {
-                let text = StringMessage {
-                    data: touch_json(&touch, &effectors),
-                };
-                touched = put(&touches_publisher, text.encode(), &attached);
-            }
-        });
-        touched?;
+        publish_touches(
+            &mut touches,
+            &sample,
+            &effectors,
+            &publishers.touches,
+            &attached,
+        )?;
         if state_said.is_none_or(|(s, at)| s != sample.state || at.elapsed() >= STATE_EVERY) {
             let text = StringMessage {
                 data: state_of(sample.state).name().into(),
             };
-            put(&state_publisher, text.encode(), &attached)?;
+            put(&publishers.state, text.encode(), &attached)?;
             state_said = Some((sample.state, Instant::now()));
         }
         if !sample.tick.is_multiple_of(settings.every) {
             continue;
         }
-        for (k, (pose, twist, wrench)) in effector_publishers.iter().enumerate() {
-            let p = &sample.poses[k];
-            let [w, x, y, z] = p.orientation;
-            let pose_message = PoseStamped {
-                header: header.clone(),
-                position: p.position,
-                orientation: [x, y, z, w],
-            };
-            let twist_message = TwistStamped {
-                header: header.clone(),
-                linear: sample.velocities[k],
-                angular: sample.angular_velocities[k],
-            };
-            let wrench_message = WrenchStamped {
-                header: header.clone(),
-                force: sample.wrenches[k].force,
-                torque: sample.wrenches[k].torque,
-            };
-            put(pose, pose_message.encode(), &attached)?;
-            put(twist, twist_message.encode(), &attached)?;
-            put(wrench, wrench_message.encode(), &attached)?;
-        }
-        let strings = (sample.strings as usize).min(string_names.len());
-        let tensions = JointState {
-            header,
-            name: string_names[..strings].to_vec(),
-            position: Vec::new(),
-            velocity: Vec::new(),
-            effort: sample.tensions[..strings].to_vec(),
-        };
-        put(&strings_publisher, tensions.encode(), &attached)?;
-        put(&telemetry_publisher, sample.encode(), &attached)?;
+        publish_tick(&publishers, &sample, header, &string_names, &attached)?;
     }
     drop((status, commands, node_token, entities));
     Ok(())
+}
+
+/// The device's ROS node on `session`, announced, with none of its entities yet.
+fn announce_node<'a>(
+    session: &'a zenoh::Session,
+    settings: Settings,
+    topics: &DeviceTopics,
+) -> Result<(zenoh::liveliness::LivelinessToken, Entities<'a>), BridgeError> {
+    let node = Node {
+        domain: settings.domain,
+        zid: session.zid().to_string(),
+        id: settings.node * 1000,
+        namespace: "/".into(),
+        name: topics.frame.clone(),
+    };
+    let node_token = session
+        .liveliness()
+        .declare_token(node.token())
+        .wait()
+        .map_err(zenoh_error)?;
+    let entities = Entities {
+        session,
+        node,
+        tokens: Vec::new(),
+    };
+    Ok((node_token, entities))
+}
+
+/// The publishers of one device's topics, and of hapticd's own telemetry.
+struct Publishers<'a> {
+    /// Each effector's pose, twist and wrench.
+    effectors: Vec<(
+        zenoh::pubsub::Publisher<'a>,
+        zenoh::pubsub::Publisher<'a>,
+        zenoh::pubsub::Publisher<'a>,
+    )>,
+    strings: zenoh::pubsub::Publisher<'a>,
+    bodies: zenoh::pubsub::Publisher<'a>,
+    state: zenoh::pubsub::Publisher<'a>,
+    touches: zenoh::pubsub::Publisher<'a>,
+    /// Whole samples, under hapticd's own key: no ROS topic, so not announced.
+    telemetry: zenoh::pubsub::Publisher<'a>,
+}
+
+impl<'a> Publishers<'a> {
+    /// Declare the publishers of `topics` on `session`, the ROS ones announced by `entities`.
+    fn declare(
+        session: &'a zenoh::Session,
+        topics: &DeviceTopics,
+        entities: &mut Entities<'a>,
+    ) -> Result<Self, BridgeError> {
+        let mut effectors = Vec::new();
+        for t in &topics.effectors {
+            effectors.push((
+                entities.publisher::<PoseStamped>(&t.pose)?,
+                entities.publisher::<TwistStamped>(&t.twist)?,
+                entities.publisher::<WrenchStamped>(&t.wrench)?,
+            ));
+        }
+        Ok(Self {
+            effectors,
+            strings: entities.publisher::<JointState>(&topics.strings)?,
+            bodies: entities.publisher::<PoseArray>(&topics.bodies)?,
+            state: entities.publisher::<StringMessage>(&topics.state)?,
+            touches: entities.publisher::<StringMessage>(&topics.touches)?,
+            telemetry: session
+                .declare_publisher(topics.telemetry())
+                .wait()
+                .map_err(zenoh_error)?,
+        })
+    }
+}
+
+/// Answer the device's status as JSON: who it is, its last tick and state, how it is bridged.
+fn declare_status(
+    session: &zenoh::Session,
+    topics: &DeviceTopics,
+    (identity, last, effectors): (String, Arc<(AtomicU64, AtomicU32)>, Vec<String>),
+    rate: f64,
+    settings: Settings,
+) -> Result<zenoh::query::Queryable<()>, BridgeError> {
+    let telemetry_key = topics.telemetry();
+    let mut names: Vec<String> = topics
+        .effectors
+        .iter()
+        .flat_map(|t| [&t.pose, &t.twist, &t.wrench])
+        .chain([
+            &topics.strings,
+            &topics.bodies,
+            &topics.state,
+            &topics.touches,
+        ])
+        .map(|t| t.name.clone())
+        .collect();
+    names.sort();
+    session
+        .declare_queryable(topics.status())
+        .callback(move |query| {
+            let body = serde_json::json!({
+                "identity": identity,
+                "effectors": effectors,
+                "rate": rate,
+                "tick": last.0.load(Ordering::Relaxed),
+                "state": state_of(last.1.load(Ordering::Relaxed)).name(),
+                "publishing_every": settings.every,
+                "topics": names,
+                "telemetry": telemetry_key,
+                "domain": settings.domain,
+                "commands": settings.commands,
+            });
+            let _ = query
+                .reply(query.key_expr().clone(), body.to_string())
+                .wait();
+        })
+        .wait()
+        .map_err(zenoh_error)
+}
+
+/// Put `bytes` on `publisher`, with the attachment `attached`.
+fn put(
+    publisher: &zenoh::pubsub::Publisher<'_>,
+    bytes: Vec<u8>,
+    attached: &[u8; 33],
+) -> Result<(), BridgeError> {
+    publisher
+        .put(bytes)
+        .attachment(attached.to_vec())
+        .wait()
+        .map_err(zenoh_error)
+}
+
+/// Publish the world's bodies if its picture (read into `frame`) is not the one `seen`.
+fn publish_bodies(
+    world: &MappedWorld,
+    frame: &mut WorldFrame,
+    seen: &mut Option<u64>,
+    frame_id: &str,
+    id: &[u8; 16],
+    publisher: &zenoh::pubsub::Publisher<'_>,
+) -> Result<(), BridgeError> {
+    if let Some(sequence) = world.read(frame)
+        && *seen != Some(sequence)
+    {
+        *seen = Some(sequence);
+        let stamp = now_ns();
+        let n = (frame.body_count as usize).min(MAX_BODIES);
+        let bodies = PoseArray {
+            header: Header {
+                stamp: Time::from_nanos(stamp),
+                frame_id: frame_id.to_owned(),
+            },
+            poses: frame.bodies[..n]
+                .iter()
+                .map(|b| {
+                    let [w, x, y, z] = b.orientation;
+                    (b.position, [x, y, z, w])
+                })
+                .collect(),
+        };
+        let attached = attachment(sequence as i64 / 2, stamp as i64, id);
+        put(publisher, bodies.encode(), &attached)?;
+    }
+    Ok(())
+}
+
+/// Publish each touch `touches` finds in `sample`, as JSON; stop at the first that fails.
+fn publish_touches(
+    touches: &mut TouchTracker,
+    sample: &Sample,
+    effectors: &[String],
+    publisher: &zenoh::pubsub::Publisher<'_>,
+    attached: &[u8; 33],
+) -> Result<(), BridgeError> {
+    let mut touched = Ok(());
+    touches.follow(sample, |touch| {
+        if touched.is_ok() {
+            let text = StringMessage {
+                data: touch_json(&touch, effectors),
+            };
+            touched = put(publisher, text.encode(), attached);
+        }
+    });
+    touched
+}
+
+/// Publish each effector's pose, twist and wrench, the strings' tensions and the sample.
+fn publish_tick(
+    publishers: &Publishers<'_>,
+    sample: &Sample,
+    header: Header,
+    string_names: &[String],
+    attached: &[u8; 33],
+) -> Result<(), BridgeError> {
+    for (k, (pose, twist, wrench)) in publishers.effectors.iter().enumerate() {
+        let p = &sample.poses[k];
+        let [w, x, y, z] = p.orientation;
+        let pose_message = PoseStamped {
+            header: header.clone(),
+            position: p.position,
+            orientation: [x, y, z, w],
+        };
+        let twist_message = TwistStamped {
+            header: header.clone(),
+            linear: sample.velocities[k],
+            angular: sample.angular_velocities[k],
+        };
+        let wrench_message = WrenchStamped {
+            header: header.clone(),
+            force: sample.wrenches[k].force,
+            torque: sample.wrenches[k].torque,
+        };
+        put(pose, pose_message.encode(), attached)?;
+        put(twist, twist_message.encode(), attached)?;
+        put(wrench, wrench_message.encode(), attached)?;
+    }
+    let strings = (sample.strings as usize).min(string_names.len());
+    let tensions = JointState {
+        header,
+        name: string_names[..strings].to_vec(),
+        position: Vec::new(),
+        velocity: Vec::new(),
+        effort: sample.tensions[..strings].to_vec(),
+    };
+    put(&publishers.strings, tensions.encode(), attached)?;
+    put(&publishers.telemetry, sample.encode(), attached)
 }

@@ -28,6 +28,12 @@ pub const HAPTICD_COMMAND_SET_MASS: u32 = 5;
 /// the lower of its two bodies'; a static coefficient keeps its ratio to the dynamic one).
 pub const HAPTICD_COMMAND_SET_FRICTION: u32 = 6;
 
+/// Command (since ABI 1.7): give the body the momentum `vector` (N·s) through its centre of
+/// mass, where it is when the command is carried out: Δv = J/m, no turn. (A centre read
+/// by an earlier query has moved by then; the host asks plugins of older minors for the
+/// centre and gives the impulse there between the same two steps.)
+pub const HAPTICD_COMMAND_IMPULSE_AT_CENTRE: u32 = 7;
+
 /// Longest body name in bytes, including the terminating NUL.
 pub const HAPTICD_BODY_NAME_CAPACITY: usize = 64;
 

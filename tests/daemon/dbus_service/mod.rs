@@ -1,4 +1,4 @@
-//! hapticd's D-Bus service, used the way the README tells users to: a private `dbus-daemon`
+//! hapticd's D-Bus service, used the way docs/bus-api.md tells users to: a private `dbus-daemon`
 //! with the system bus's default policy and the shipped policy file, the real `hapticd` on the
 //! simulated SPIDAR-G, and real `busctl` as the client.
 

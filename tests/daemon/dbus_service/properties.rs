@@ -4,7 +4,7 @@
 use super::*;
 
 #[test]
-fn every_property_and_method_answers_as_the_readme_shows() {
+fn every_property_and_method_answers_as_the_bus_chapter_shows() {
     let dir = support::shared_scratch("dbus", "all");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
@@ -149,7 +149,7 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
         device.reset_fault().await.unwrap();
         device.bind_mechanism("spidar-g").await.unwrap();
         assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
-        // What anyone is handed to read is open for reading alone, as the README says.
+        // What anyone is handed to read is open for reading alone, as docs/bus-api.md says.
         for handed in [
             device.open_world().await.unwrap(),
             device.open_geometry().await.unwrap().0,

@@ -61,7 +61,7 @@ fn grip_force(csv: &Path) -> Vec<(f64, f64)> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (t, fy) = (column("time"), column("grip_fy"));
+    let (t, fy) = (column("time"), column("force_y"));
     lines
         .map(|l| {
             let v: Vec<&str> = l.split(',').collect();

@@ -245,7 +245,7 @@ fn certificates(dir: &Path, ca: &str, holders: &[&str]) {
     }
 }
 
-/// The bridge over mutual TLS, configured by the README's own `zenoh` file: a client holding
+/// The bridge over mutual TLS, configured by the network chapter's own `zenoh` file: a client holding
 /// a certificate of the administrator's CA reads the status, and so does `hapticctl --remote`
 /// given the same certificate in its `--remote-config`; one holding another CA's certificate,
 /// one speaking plain TCP to the same port, and hapticctl without the file get no session.
@@ -259,12 +259,12 @@ fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
     std::fs::create_dir_all(&tls).unwrap();
     certificates(&tls, "ca", &["bridge", "operator"]);
     certificates(&tls, "stranger-ca", &["stranger"]);
-    let readme = std::fs::read_to_string(repo_dir().join("README.md")).unwrap();
-    let tls_text = readme
+    let chapter = std::fs::read_to_string(repo_dir().join("docs/network.md")).unwrap();
+    let tls_text = chapter
         .split("```json5\n")
         .filter_map(|block| block.split("```").next())
         .find(|block| block.contains("tls:"))
-        .expect("README shows a zenoh file for TLS");
+        .expect("docs/network.md shows a zenoh file for TLS");
     let credentials = "/run/credentials/hapticd-zenoh.service/";
     assert!(tls_text.contains(credentials), "{tls_text}");
     let zenoh_file = dir.join("tls.json5");
@@ -342,7 +342,7 @@ fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
 }
 
 /// Commands through a bridge that takes them: refused by the bus for a bridge whose user has
-/// no rights, kept from the bridge by Zenoh's access control as the README configures it,
+/// no rights, kept from the bridge by Zenoh's access control as docs/network.md configures it,
 /// and carried out (parameters checked as the bus checks them, a push felt, bounded, ramped
 /// and let go when no command comes) by a bridge with the rights.
 #[test]
@@ -415,10 +415,10 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
         assert_eq!(said["felt"]["first"], serde_json::json!([]), "{said}");
         assert_eq!(bus.get(DEVICE, "WrenchCommand"), "s \"none\"");
     }
-    // Commands on, and Zenoh's access control as the README shows it: the status is
+    // Commands on, and Zenoh's access control as docs/network.md shows it: the status is
     // answered; no command, parameter or push reaches the bridge.
-    let readme = std::fs::read_to_string(repo_dir().join("README.md")).unwrap();
-    let acl_text = readme
+    let chapter = std::fs::read_to_string(repo_dir().join("docs/network.md")).unwrap();
+    let acl_text = chapter
         .split("```json5\n")
         .nth(1)
         .and_then(|rest| rest.split("```").next())

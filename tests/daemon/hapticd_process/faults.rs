@@ -5,7 +5,7 @@ use super::*;
 
 /// CSV rows as (time, state, force y).
 fn states(path: &Path) -> Vec<(f64, String, f64)> {
-    columns(path, &["time", "state", "grip_fy"])
+    columns(path, &["time", "state", "force_y"])
         .iter()
         .map(|r| (r[0].parse().unwrap(), r[1].clone(), r[2].parse().unwrap()))
         .collect()
@@ -79,7 +79,7 @@ fn bad_output(mode: &str) -> (Vec<(f64, String, [f64; 3])>, String) {
         &csv,
         &["--scene-file", file.to_str().unwrap()],
     );
-    let names = ["time", "state", "grip_fx", "grip_fy", "grip_fz"];
+    let names = ["time", "state", "force_x", "force_y", "force_z"];
     let rows = columns(&csv, &names)
         .iter()
         .map(|r| {

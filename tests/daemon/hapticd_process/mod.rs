@@ -106,7 +106,7 @@ fn columns(path: &Path, names: &[&str]) -> Vec<Vec<String>> {
 
 /// CSV rows as (time, grip y, force y).
 fn recorded(path: &Path) -> Vec<(f64, f64, f64)> {
-    columns(path, &["time", "grip_y", "grip_fy"])
+    columns(path, &["time", "pose_y", "force_y"])
         .iter()
         .map(|r| {
             (

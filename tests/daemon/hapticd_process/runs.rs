@@ -19,6 +19,70 @@ fn runs_for_its_duration_and_records_the_grip_held_on_the_floor() {
     std::fs::remove_file(csv).ok();
 }
 
+/// A recording is written in the columns of every recording, its ticks numbered without a
+/// gap from 0, and a simulated hand can follow it: a second run's grip retraces the first's.
+#[test]
+fn a_recording_numbers_every_tick_and_a_simulated_hand_retraces_it() {
+    let first = scratch_file("retraced.csv");
+    pressed(&static_scene(), "1.6", &first, &[]);
+    let ticks = columns(&first, &["tick"]);
+    assert!(ticks.len() > 1500, "{} rows", ticks.len());
+    for (k, tick) in ticks.iter().enumerate() {
+        assert_eq!(tick[0], k.to_string(), "row {k}");
+    }
+    let hand = scratch_file("retrace.yaml");
+    std::fs::write(
+        &hand,
+        format!(
+            "hands:\n  grip:\n    - path: {{ file: {} }}\n",
+            first.display()
+        ),
+    )
+    .unwrap();
+    let second = scratch_file("retracing.csv");
+    let at = on_bus("retracing");
+    let args = [
+        "--sim",
+        "spidar-g",
+        "--hand",
+        hand.to_str().unwrap(),
+        "--duration",
+        "1.6",
+        "--record",
+        second.to_str().unwrap(),
+    ];
+    finish(
+        hapticd_with_scene(&at, &static_scene(), &args)
+            .spawn()
+            .unwrap(),
+    );
+    let pose = |path: &Path| -> Vec<(f64, glam::DVec3)> {
+        columns(path, &["time", "pose_x", "pose_y", "pose_z"])
+            .iter()
+            .map(|r| {
+                let v: Vec<f64> = r.iter().map(|x| x.parse().unwrap()).collect();
+                (v[0], glam::DVec3::new(v[1], v[2], v[3]))
+            })
+            .collect()
+    };
+    let (was, now) = (pose(&first), pose(&second));
+    // The hand reaches the path's first point within its first 0.3 s, then follows it: a
+    // mass on springs lags its target by a little, and the floor holds both grips alike.
+    let worst = was
+        .iter()
+        .zip(&now)
+        .filter(|(w, _)| (0.3..1.5).contains(&w.0))
+        .map(|(w, n)| (w.1 - n.1).length())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 0.003,
+        "the second grip strays {worst} m from the first"
+    );
+    for file in [first, second, hand] {
+        std::fs::remove_file(file).ok();
+    }
+}
+
 #[test]
 fn sigterm_while_pushing_leaves_zero_currents_as_the_last_command() {
     let traffic = scratch_file("sigterm.traffic");

@@ -30,7 +30,14 @@ fn two_simulated_fingers_pick_up_shake_and_put_down_a_box() {
         .unwrap(),
     );
     let names = [
-        "time", "index_x", "index_y", "index_fx", "index_fy", "thumb_x", "thumb_fx", "thumb_fy",
+        "time",
+        "index_pose_x",
+        "index_pose_y",
+        "index_force_x",
+        "index_force_y",
+        "thumb_pose_x",
+        "thumb_force_x",
+        "thumb_force_y",
     ];
     let rows: Vec<Vec<f64>> = columns(&csv, &names)
         .iter()
@@ -113,7 +120,7 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
         &csv,
         &["--scene-file", blocks.to_str().unwrap()],
     );
-    let rows: Vec<(f64, f64, f64, f64)> = columns(&csv, &["time", "grip_y", "grip_fx", "grip_fy"])
+    let rows: Vec<(f64, f64, f64, f64)> = columns(&csv, &["time", "pose_y", "force_x", "force_y"])
         .iter()
         .map(|r| {
             (
@@ -185,7 +192,7 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
     let balls = repo_dir().join("config/scenes/balls.yaml");
     let stir = repo_dir().join("config/hands/stir-balls.yaml");
     run_rapier("balls", &balls, &stir, "7.5", &csv);
-    let rows = columns(&csv, &["time", "state", "grip_fx", "grip_fy", "grip_fz"]);
+    let rows = columns(&csv, &["time", "state", "force_x", "force_y", "force_z"]);
     assert!(rows.len() > 7000, "{} rows", rows.len());
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
     let force = |r: &Vec<String>| {
@@ -206,7 +213,7 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
         .iter()
         .map(|s| s.tension_max)
         .fold(0.0, f64::max);
-    let tensions: Vec<String> = (0..8).map(|k| format!("tension_{k}")).collect();
+    let tensions: Vec<String> = (1..=8).map(|k| format!("tension_{k}")).collect();
     let names: Vec<&str> = tensions.iter().map(String::as_str).collect();
     for row in columns(&csv, &names) {
         for t in row {
@@ -265,7 +272,7 @@ fn press_plates(name: &str, aim: f64) -> Vec<(f64, f64, f64, f64)> {
     )
     .unwrap();
     run_rapier(name, &scene_file, &hand, "6.7", &csv);
-    let rows = columns(&csv, &["time", "state", "grip_x", "grip_y", "grip_fy"]);
+    let rows = columns(&csv, &["time", "state", "pose_x", "pose_y", "force_y"]);
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
     for path in [scene_file, hand, csv] {
         std::fs::remove_file(path).ok();

@@ -151,34 +151,8 @@ impl Shape {
     /// starts deeper inside, or heads outward, does not enter.
     pub fn entry(&self, a: DVec3, b: DVec3) -> Option<Entry> {
         let d = b - a;
-        let inward = |normal: DVec3| d.dot(normal) < -1e-12 * d.length();
-        let at_start = |normal: DVec3| {
-            inward(normal).then_some(Entry {
-                t: 0.0,
-                point: a,
-                normal,
-            })
-        };
         match *self {
-            Shape::HalfSpace { point, normal } => {
-                let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
-                if da < 0.0 {
-                    return if da >= -SURFACE {
-                        at_start(normal)
-                    } else {
-                        None
-                    };
-                }
-                if db >= 0.0 || !inward(normal) {
-                    return None;
-                }
-                let t = da / (da - db);
-                Some(Entry {
-                    t,
-                    point: a + d * t,
-                    normal,
-                })
-            }
+            Shape::HalfSpace { point, normal } => half_space_entry(a, b, d, point, normal),
             Shape::Sphere { centre, radius } => {
                 round_entry(a - centre, d, radius).map(|(t, radial)| Entry {
                     t,
@@ -206,57 +180,7 @@ impl Shape {
                 centre,
                 half,
                 rotation,
-            } => {
-                let inverse = rotation.inverse();
-                let (la, ld) = (inverse * (a - centre), inverse * d);
-                // Slab method: the entry is the latest of the per-axis entry times.
-                let (mut enter, mut exit, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
-                for k in 0..3 {
-                    if ld[k].abs() < 1e-300 {
-                        if la[k].abs() > half[k] {
-                            return None;
-                        }
-                        continue;
-                    }
-                    let (t0, t1) = ((-half[k] - la[k]) / ld[k], (half[k] - la[k]) / ld[k]);
-                    let (near, far) = (t0.min(t1), t0.max(t1));
-                    if near > enter {
-                        (enter, axis) = (near, k);
-                    }
-                    exit = exit.min(far);
-                }
-                if enter > exit || enter > 1.0 {
-                    return None;
-                }
-                if enter < 0.0 {
-                    if self.signed_distance(a) < -SURFACE {
-                        return None;
-                    }
-                    // Starting on the surface: entering through the face it lies on that
-                    // the motion heads into most (none, when it slides along its face).
-                    let mut face = None;
-                    let mut most = 0.0;
-                    for k in 0..3 {
-                        if (la[k].abs() - half[k]).abs() <= SURFACE {
-                            let mut local = DVec3::ZERO;
-                            local[k] = la[k].signum();
-                            let normal = rotation * local;
-                            if -d.dot(normal) > most {
-                                (face, most) = (Some(normal), -d.dot(normal));
-                            }
-                        }
-                    }
-                    return face.and_then(at_start);
-                }
-                let mut local_normal = DVec3::ZERO;
-                local_normal[axis] = -ld[axis].signum();
-                let normal = rotation * local_normal;
-                Some(Entry {
-                    t: enter,
-                    point: a + d * enter,
-                    normal,
-                })
-            }
+            } => self.cuboid_entry(a, d, (centre, half, rotation)),
             // The face's plane, entered within its edges; a sheet's from the side the
             // segment starts on (on the plane, within rounding: the side it leaves).
             Shape::Triangle {
@@ -280,6 +204,103 @@ impl Shape {
             }
         }
     }
+
+    /// [rt] Where the segment from `a` along `d` first enters the box `centre`, `half`, `rotation`.
+    #[inline]
+    fn cuboid_entry(
+        &self,
+        a: DVec3,
+        d: DVec3,
+        (centre, half, rotation): (DVec3, DVec3, DQuat),
+    ) -> Option<Entry> {
+        let inverse = rotation.inverse();
+        let (la, ld) = (inverse * (a - centre), inverse * d);
+        // Slab method: the entry is the latest of the per-axis entry times.
+        let (mut enter, mut exit, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
+        for k in 0..3 {
+            if ld[k].abs() < 1e-300 {
+                if la[k].abs() > half[k] {
+                    return None;
+                }
+                continue;
+            }
+            let (t0, t1) = ((-half[k] - la[k]) / ld[k], (half[k] - la[k]) / ld[k]);
+            let (near, far) = (t0.min(t1), t0.max(t1));
+            if near > enter {
+                (enter, axis) = (near, k);
+            }
+            exit = exit.min(far);
+        }
+        if enter > exit || enter > 1.0 {
+            return None;
+        }
+        if enter < 0.0 {
+            if self.signed_distance(a) < -SURFACE {
+                return None;
+            }
+            // Starting on the surface: entering through the face it lies on that
+            // the motion heads into most (none, when it slides along its face).
+            let mut face = None;
+            let mut most = 0.0;
+            for k in 0..3 {
+                if (la[k].abs() - half[k]).abs() <= SURFACE {
+                    let mut local = DVec3::ZERO;
+                    local[k] = la[k].signum();
+                    let normal = rotation * local;
+                    if -d.dot(normal) > most {
+                        (face, most) = (Some(normal), -d.dot(normal));
+                    }
+                }
+            }
+            return face.and_then(|normal| at_start(a, d, normal));
+        }
+        let mut local_normal = DVec3::ZERO;
+        local_normal[axis] = -ld[axis].signum();
+        let normal = rotation * local_normal;
+        Some(Entry {
+            t: enter,
+            point: a + d * enter,
+            normal,
+        })
+    }
+}
+
+/// [rt] Whether a segment along `d` heads into a surface of outward `normal`.
+#[inline]
+fn inward(d: DVec3, normal: DVec3) -> bool {
+    d.dot(normal) < -1e-12 * d.length()
+}
+
+/// [rt] The entry at the start `a` through a surface of outward `normal`, if `d` heads into it.
+#[inline]
+fn at_start(a: DVec3, d: DVec3, normal: DVec3) -> Option<Entry> {
+    inward(d, normal).then_some(Entry {
+        t: 0.0,
+        point: a,
+        normal,
+    })
+}
+
+/// [rt] Where the segment `a` to `b` (along `d`) enters the half-space under `point`, `normal`.
+#[inline]
+fn half_space_entry(a: DVec3, b: DVec3, d: DVec3, point: DVec3, normal: DVec3) -> Option<Entry> {
+    let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
+    if da < 0.0 {
+        return if da >= -SURFACE {
+            at_start(a, d, normal)
+        } else {
+            None
+        };
+    }
+    if db >= 0.0 || !inward(d, normal) {
+        return None;
+    }
+    let t = da / (da - db);
+    Some(Entry {
+        t,
+        point: a + d * t,
+        normal,
+    })
 }
 
 /// Whether `p`, seen along `normal`, lies on the triangle `corners`, its edges included

@@ -11,7 +11,7 @@ pub mod descriptor;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use hapticd_plugin_api::MechanismSpec;
+use hapticd_plugin_api::{HapticdString, MechanismSpec};
 
 use crate::diagnostics::{Diagnostic, Diagnostics, Findings, Number, Position};
 use crate::kinematics::{Dof, MAX_STRINGS_PER_EFFECTOR, Pose};
@@ -274,74 +274,16 @@ fn validate_strings(
                 "a point grip (dof 3) has no knot offset: use [0, 0, 0]",
             );
         }
-        // Wider than any SPIDAR's encoders and motors, narrow enough that lengths and
-        // commands stay far from overflow.
-        let mut constants_ok = true;
-        for (key, value, lo, hi) in [
-            ("metres_per_pulse", raw.metres_per_pulse, 1e-9, 1e-2),
-            ("volts_per_newton", raw.volts_per_newton, 1e-6, 1e3),
-        ] {
-            if !(lo..=hi).contains(&value.abs()) {
-                constants_ok = false;
-                f.error(
-                    format!("{field}.{key}"),
-                    format!(
-                        "must be a finite number of size {} to {} (either sign), not {}",
-                        Number(lo),
-                        Number(hi),
-                        Number(value)
-                    ),
-                );
-            }
-        }
-        let (lo, hi) = (raw.tension_min, raw.tension_max);
-        if !(lo.is_finite() && lo >= 0.0) {
-            f.error(
-                format!("{field}.tension_min"),
-                "must be a finite number ≥ 0 N",
-            );
-        }
-        if !(hi.is_finite() && hi > 0.0) {
-            f.error(
-                format!("{field}.tension_max"),
-                "must be a finite number > 0 N",
-            );
-        } else if lo > hi {
-            f.error(
-                format!("{field}.tension_min"),
-                format!("tension_min {lo} N exceeds tension_max {hi} N"),
-            );
-        } else if !constants_ok {
-            // The motor constant is wrong already: what it would command means nothing.
-        } else if dac_limit(hi, raw.volts_per_newton) == 0 {
-            f.error(
-                format!("{field}.tension_max"),
-                format!(
-                    "{hi} N at {} V/N is less than one step of the amplifier's D/A converter \
-                     ({:.3} N): the string could never pull",
-                    raw.volts_per_newton,
-                    1.0 / (DAC_DIGITS_PER_VOLT * raw.volts_per_newton.abs())
-                ),
-            );
-        } else if hi * raw.volts_per_newton.abs() > AMPLIFIER_MAX_VOLTS {
-            f.error(
-                format!("{field}.tension_max"),
-                format!(
-                    "{hi} N at {} V/N asks the amplifier for {:.1} V; its current drive cannot \
-                     be commanded above {AMPLIFIER_MAX_VOLTS} V",
-                    raw.volts_per_newton,
-                    hi * raw.volts_per_newton.abs()
-                ),
-            );
-        }
+        let constants_ok = validate_constants(f, &field, raw);
+        validate_tensions(f, &field, raw, constants_ok);
         let spec = StringSpec {
             effector,
             motor: DVec3::from(raw.motor),
             knot: DVec3::from(raw.knot),
             metres_per_pulse: raw.metres_per_pulse,
             volts_per_newton: raw.volts_per_newton,
-            tension_min: lo,
-            tension_max: hi,
+            tension_min: raw.tension_min,
+            tension_max: raw.tension_max,
         };
         if motor_ok && knot_ok {
             let length = (spec.motor - owner.calibration.transform_point(spec.knot)).length();
@@ -355,6 +297,75 @@ fn validate_strings(
         strings.push(spec);
     }
     strings
+}
+
+/// Check the encoder and motor constants of string `field`; whether both are in range.
+fn validate_constants(f: &mut Findings, field: &str, raw: &HapticdString) -> bool {
+    // Wider than any SPIDAR's encoders and motors, narrow enough that lengths and
+    // commands stay far from overflow.
+    let mut constants_ok = true;
+    for (key, value, lo, hi) in [
+        ("metres_per_pulse", raw.metres_per_pulse, 1e-9, 1e-2),
+        ("volts_per_newton", raw.volts_per_newton, 1e-6, 1e3),
+    ] {
+        if !(lo..=hi).contains(&value.abs()) {
+            constants_ok = false;
+            f.error(
+                format!("{field}.{key}"),
+                format!(
+                    "must be a finite number of size {} to {} (either sign), not {}",
+                    Number(lo),
+                    Number(hi),
+                    Number(value)
+                ),
+            );
+        }
+    }
+    constants_ok
+}
+
+/// Check string `field`'s tensions, and (if `constants_ok`) that the amplifier can drive them.
+fn validate_tensions(f: &mut Findings, field: &str, raw: &HapticdString, constants_ok: bool) {
+    let (lo, hi) = (raw.tension_min, raw.tension_max);
+    if !(lo.is_finite() && lo >= 0.0) {
+        f.error(
+            format!("{field}.tension_min"),
+            "must be a finite number ≥ 0 N",
+        );
+    }
+    if !(hi.is_finite() && hi > 0.0) {
+        f.error(
+            format!("{field}.tension_max"),
+            "must be a finite number > 0 N",
+        );
+    } else if lo > hi {
+        f.error(
+            format!("{field}.tension_min"),
+            format!("tension_min {lo} N exceeds tension_max {hi} N"),
+        );
+    } else if !constants_ok {
+        // The motor constant is wrong already: what it would command means nothing.
+    } else if dac_limit(hi, raw.volts_per_newton) == 0 {
+        f.error(
+            format!("{field}.tension_max"),
+            format!(
+                "{hi} N at {} V/N is less than one step of the amplifier's D/A converter \
+                 ({:.3} N): the string could never pull",
+                raw.volts_per_newton,
+                1.0 / (DAC_DIGITS_PER_VOLT * raw.volts_per_newton.abs())
+            ),
+        );
+    } else if hi * raw.volts_per_newton.abs() > AMPLIFIER_MAX_VOLTS {
+        f.error(
+            format!("{field}.tension_max"),
+            format!(
+                "{hi} N at {} V/N asks the amplifier for {:.1} V; its current drive cannot \
+                 be commanded above {AMPLIFIER_MAX_VOLTS} V",
+                raw.volts_per_newton,
+                hi * raw.volts_per_newton.abs()
+            ),
+        );
+    }
 }
 
 /// Per-effector checks that need the whole geometry: string counts and solvability.

@@ -198,6 +198,7 @@ impl SceneControl {
             command.kind,
             HAPTICD_COMMAND_SET_VELOCITY
                 | HAPTICD_COMMAND_IMPULSE
+                | HAPTICD_COMMAND_IMPULSE_AT_CENTRE
                 | HAPTICD_COMMAND_SET_FORCE
                 | HAPTICD_COMMAND_SET_MASS
         );
@@ -227,6 +228,9 @@ impl SceneControl {
             HAPTICD_COMMAND_IMPULSE => {
                 within("an impulse", length(&command.vector), MAX_IMPULSE, "N·s")?;
                 within("a point", length(&command.position), MAX_DISTANCE, "m")?;
+            }
+            HAPTICD_COMMAND_IMPULSE_AT_CENTRE => {
+                within("an impulse", length(&command.vector), MAX_IMPULSE, "N·s")?;
             }
             HAPTICD_COMMAND_SET_FORCE => {
                 within("a force", length(&command.vector), MAX_FORCE, "N")?

@@ -397,37 +397,10 @@ impl PlaneRenderer {
     /// [rt] The wrench of pointer `p` this tick, the reaction summed on what it touches.
     fn render_pointer(&mut self, p: usize, pointer: &Pointer, fraction: f64, dt: f64) -> Wrench {
         let count = (self.current.planes[p].count as usize).min(HAPTICD_MAX_PLANES);
-        let mut surfaces = [Surface {
-            point: DVec3::ZERO,
-            normal: DVec3::Y,
-            velocity: DVec3::ZERO,
-        }; HAPTICD_MAX_PLANES];
-        let mut shapes = [Shape::HalfSpace {
-            point: DVec3::ZERO,
-            normal: DVec3::Y,
-        }; HAPTICD_MAX_PLANES];
-        for k in 0..count {
-            surfaces[k] = self.interpolated(p, k, fraction);
-            shapes[k] = Shape::HalfSpace {
-                point: surfaces[k].point,
-                normal: surfaces[k].normal,
-            };
-        }
+        let (surfaces, shapes) = self.surfaces(p, count, fraction);
         let grip = pointer.pose.position;
-        if self.embedded[p] {
-            // Each plane is the nearest face of its solid to where the proxy was, so the
-            // grip is behind one exactly when it is inside that solid: no force until it
-            // has left them all, from where it is (never a push out through a face).
-            let inside = surfaces[..count]
-                .iter()
-                .any(|s| (grip - s.point).dot(s.normal) < 0.0);
-            self.proxies[p].reset(grip);
-            self.resting[p] = None;
-            self.touched[p] = None;
-            if inside {
-                return Wrench::ZERO;
-            }
-            self.embedded[p] = false;
+        if self.embedded[p] && self.still_embedded(p, grip, &surfaces[..count]) {
+            return Wrench::ZERO;
         }
         // A proxy resting on a moving surface moves with it, and out of any plane that
         // moved onto it, before it walks toward the grip.
@@ -472,46 +445,106 @@ impl PlaneRenderer {
         });
         let mut force = out.force;
         if let Some(k) = touched {
-            // A contact pushes, never pulls: the damper of a grip leaving the surface would
-            // draw it back in.
-            let normal = surfaces[k].normal;
-            force -= normal * force.dot(normal).min(0.0);
-            self.resting[p] = Some(k);
-            let object = self.current.planes[p].planes[k].object;
-            self.touched[p] = Some((object, surfaces[k]));
-            let moved = self
-                .owner(object)
-                .and_then(|i| Some((i, self.locals[i].as_ref()?.motion())));
-            if let Some((i, body)) = moved {
-                let arm = out.proxy - body.position;
-                // Passivity on the body port: the body takes no more work than the hand
-                // has put into the contact (what the finger presses on is the body's
-                // nearest face as the last step saw it, and a ball rolling from under it
-                // would otherwise be driven by a face it no longer has).
-                let on_body = -force;
-                let given = on_body.dot(body.velocity + body.spin.cross(arm)) * dt;
-                let available = self.ports[p] + on_body.dot(pointer.velocity) * dt;
-                let share = if given > available.max(0.0) {
-                    (available / given).max(0.0)
-                } else {
-                    1.0
-                };
-                self.ports[p] = available - share * given;
-                self.loads[i][p] = Push {
-                    point: out.proxy,
-                    force: on_body * share,
-                    speed: self.reach[p],
-                };
-            } else {
-                self.ports[p] = 0.0;
-                let sum = &mut self.sums[p][k];
-                let magnitude = force.length() * dt;
-                sum.impulse -= force * dt;
-                sum.weighted_point += out.proxy * magnitude;
-                sum.weight += magnitude;
-            }
+            force = self.react((p, k), surfaces[k], pointer, out.proxy, force, dt);
         }
         Wrench::force(force)
+    }
+
+    /// [rt] Pointer `p`'s first `count` planes, `fraction` moved, as surfaces and half-spaces.
+    #[inline]
+    fn surfaces(
+        &self,
+        p: usize,
+        count: usize,
+        fraction: f64,
+    ) -> ([Surface; HAPTICD_MAX_PLANES], [Shape; HAPTICD_MAX_PLANES]) {
+        let mut surfaces = [Surface {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+            velocity: DVec3::ZERO,
+        }; HAPTICD_MAX_PLANES];
+        let mut shapes = [Shape::HalfSpace {
+            point: DVec3::ZERO,
+            normal: DVec3::Y,
+        }; HAPTICD_MAX_PLANES];
+        for k in 0..count {
+            surfaces[k] = self.interpolated(p, k, fraction);
+            shapes[k] = Shape::HalfSpace {
+                point: surfaces[k].point,
+                normal: surfaces[k].normal,
+            };
+        }
+        (surfaces, shapes)
+    }
+
+    /// [rt] Restart pointer `p`'s proxy at `grip`; whether the grip is still inside a solid.
+    #[inline]
+    fn still_embedded(&mut self, p: usize, grip: DVec3, surfaces: &[Surface]) -> bool {
+        // Each plane is the nearest face of its solid to where the proxy was, so the
+        // grip is behind one exactly when it is inside that solid: no force until it
+        // has left them all, from where it is (never a push out through a face).
+        let inside = surfaces
+            .iter()
+            .any(|s| (grip - s.point).dot(s.normal) < 0.0);
+        self.proxies[p].reset(grip);
+        self.resting[p] = None;
+        self.touched[p] = None;
+        if !inside {
+            self.embedded[p] = false;
+        }
+        inside
+    }
+
+    /// [rt] Pointer `p`'s force on plane `k`, pushing only; its reaction goes to what it touches.
+    #[inline]
+    fn react(
+        &mut self,
+        (p, k): (usize, usize),
+        surface: Surface,
+        pointer: &Pointer,
+        proxy: DVec3,
+        mut force: DVec3,
+        dt: f64,
+    ) -> DVec3 {
+        // A contact pushes, never pulls: the damper of a grip leaving the surface would
+        // draw it back in.
+        let normal = surface.normal;
+        force -= normal * force.dot(normal).min(0.0);
+        self.resting[p] = Some(k);
+        let object = self.current.planes[p].planes[k].object;
+        self.touched[p] = Some((object, surface));
+        let moved = self
+            .owner(object)
+            .and_then(|i| Some((i, self.locals[i].as_ref()?.motion())));
+        if let Some((i, body)) = moved {
+            let arm = proxy - body.position;
+            // Passivity on the body port: the body takes no more work than the hand
+            // has put into the contact (what the finger presses on is the body's
+            // nearest face as the last step saw it, and a ball rolling from under it
+            // would otherwise be driven by a face it no longer has).
+            let on_body = -force;
+            let given = on_body.dot(body.velocity + body.spin.cross(arm)) * dt;
+            let available = self.ports[p] + on_body.dot(pointer.velocity) * dt;
+            let share = if given > available.max(0.0) {
+                (available / given).max(0.0)
+            } else {
+                1.0
+            };
+            self.ports[p] = available - share * given;
+            self.loads[i][p] = Push {
+                point: proxy,
+                force: on_body * share,
+                speed: self.reach[p],
+            };
+        } else {
+            self.ports[p] = 0.0;
+            let sum = &mut self.sums[p][k];
+            let magnitude = force.length() * dt;
+            sum.impulse -= force * dt;
+            sum.weighted_point += proxy * magnitude;
+            sum.weight += magnitude;
+        }
+        force
     }
 
     /// A face a proxy rests on stays the face it rests on: a new set whose plane of that

@@ -87,51 +87,17 @@ pub struct QpOutcome {
 /// Solve `problem`, starting from and updating `state`.
 pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
     let BoxQp {
-        q,
-        c,
-        lower,
-        upper,
-        n,
+        lower, upper, n, ..
     } = *problem;
     let x = &mut state.x;
     let bounds = &mut state.bounds;
-    let mut scale = 1.0f64;
-    for i in 0..n {
-        x[i] = match bounds[i] {
-            Bound::Lower => lower[i],
-            Bound::Upper => upper[i],
-            Bound::Free => x[i].clamp(lower[i], upper[i]),
-        };
-        scale = scale
-            .max(c[i].abs())
-            .max(q[i][i] * lower[i].abs().max(upper[i].abs()));
-    }
+    let scale = start_iterate(problem, x, bounds);
     let tolerance = 1e-11 * scale;
     let max_iterations = 4 * n + 8;
     let mut free = [0usize; MAX_VARS];
     for iteration in 1..=max_iterations {
-        let mut nf = 0;
-        for i in 0..n {
-            if bounds[i] == Bound::Free {
-                free[nf] = i;
-                nf += 1;
-            }
-        }
-        let mut a: Matrix = [[0.0; MAX_VARS]; MAX_VARS];
-        let mut y: Vector = [0.0; MAX_VARS];
-        for r in 0..nf {
-            let i = free[r];
-            for s in 0..=r {
-                a[r][s] = q[i][free[s]];
-            }
-            let mut rhs = -c[i];
-            for j in 0..n {
-                if bounds[j] != Bound::Free {
-                    rhs -= q[i][j] * x[j];
-                }
-            }
-            y[r] = rhs;
-        }
+        let nf = free_variables(bounds, n, &mut free);
+        let (mut a, mut y) = free_system(problem, x, bounds, &free[..nf]);
         if nf > 0 {
             if !ldlt_factor(&mut a, nf, 0.0) {
                 return QpOutcome {
@@ -141,25 +107,7 @@ pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
             }
             ldlt_solve(&a, nf, &mut y);
         }
-        let mut alpha = 1.0;
-        let mut blocking = None;
-        for r in 0..nf {
-            let i = free[r];
-            let d = y[r] - x[i];
-            if y[r] < lower[i] {
-                let t = (lower[i] - x[i]) / d;
-                if t < alpha {
-                    alpha = t;
-                    blocking = Some((i, Bound::Lower));
-                }
-            } else if y[r] > upper[i] {
-                let t = (upper[i] - x[i]) / d;
-                if t < alpha {
-                    alpha = t;
-                    blocking = Some((i, Bound::Upper));
-                }
-            }
-        }
+        let (alpha, blocking) = first_blocking(problem, x, &y, &free[..nf]);
         for r in 0..nf {
             let i = free[r];
             x[i] = (x[i] + alpha * (y[r] - x[i])).clamp(lower[i], upper[i]);
@@ -173,22 +121,7 @@ pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
             };
             continue;
         }
-        let mut worst = (-tolerance, None);
-        for i in 0..n {
-            if bounds[i] == Bound::Free {
-                continue;
-            }
-            let gradient: f64 = c[i] + (0..n).map(|j| q[i][j] * x[j]).sum::<f64>();
-            let multiplier = if bounds[i] == Bound::Lower {
-                gradient
-            } else {
-                -gradient
-            };
-            if multiplier < worst.0 {
-                worst = (multiplier, Some(i));
-            }
-        }
-        match worst.1 {
+        match most_negative_multiplier(problem, x, bounds, tolerance) {
             Some(i) => bounds[i] = Bound::Free,
             None => {
                 return QpOutcome {
@@ -202,4 +135,126 @@ pub fn solve(problem: &BoxQp, state: &mut ActiveSet) -> QpOutcome {
         iterations: max_iterations,
         converged: false,
     }
+}
+
+/// [rt] Put each variable where `bounds` holds it; the problem's scale, for the tolerance.
+#[inline]
+fn start_iterate(problem: &BoxQp, x: &mut Vector, bounds: &[Bound; MAX_VARS]) -> f64 {
+    let BoxQp {
+        q,
+        c,
+        lower,
+        upper,
+        n,
+    } = *problem;
+    let mut scale = 1.0f64;
+    for i in 0..n {
+        x[i] = match bounds[i] {
+            Bound::Lower => lower[i],
+            Bound::Upper => upper[i],
+            Bound::Free => x[i].clamp(lower[i], upper[i]),
+        };
+        scale = scale
+            .max(c[i].abs())
+            .max(q[i][i] * lower[i].abs().max(upper[i].abs()));
+    }
+    scale
+}
+
+/// [rt] The free variables of the first `n` of `bounds`, in order, into `free`; how many.
+#[inline]
+fn free_variables(bounds: &[Bound; MAX_VARS], n: usize, free: &mut [usize; MAX_VARS]) -> usize {
+    let mut nf = 0;
+    for i in 0..n {
+        if bounds[i] == Bound::Free {
+            free[nf] = i;
+            nf += 1;
+        }
+    }
+    nf
+}
+
+/// [rt] The equality problem on the `free` variables, the others held at `x`: matrix and rhs.
+#[inline]
+fn free_system(
+    problem: &BoxQp,
+    x: &Vector,
+    bounds: &[Bound; MAX_VARS],
+    free: &[usize],
+) -> (Matrix, Vector) {
+    let BoxQp { q, c, n, .. } = *problem;
+    let mut a: Matrix = [[0.0; MAX_VARS]; MAX_VARS];
+    let mut y: Vector = [0.0; MAX_VARS];
+    for r in 0..free.len() {
+        let i = free[r];
+        for s in 0..=r {
+            a[r][s] = q[i][free[s]];
+        }
+        let mut rhs = -c[i];
+        for j in 0..n {
+            if bounds[j] != Bound::Free {
+                rhs -= q[i][j] * x[j];
+            }
+        }
+        y[r] = rhs;
+    }
+    (a, y)
+}
+
+/// [rt] How far the `free` variables may walk from `x` toward `y`, and the bound stopping them.
+#[inline]
+fn first_blocking(
+    problem: &BoxQp,
+    x: &Vector,
+    y: &Vector,
+    free: &[usize],
+) -> (f64, Option<(usize, Bound)>) {
+    let BoxQp { lower, upper, .. } = *problem;
+    let mut alpha = 1.0;
+    let mut blocking = None;
+    for r in 0..free.len() {
+        let i = free[r];
+        let d = y[r] - x[i];
+        if y[r] < lower[i] {
+            let t = (lower[i] - x[i]) / d;
+            if t < alpha {
+                alpha = t;
+                blocking = Some((i, Bound::Lower));
+            }
+        } else if y[r] > upper[i] {
+            let t = (upper[i] - x[i]) / d;
+            if t < alpha {
+                alpha = t;
+                blocking = Some((i, Bound::Upper));
+            }
+        }
+    }
+    (alpha, blocking)
+}
+
+/// [rt] The bound variable to release: the most negative multiplier, below `-tolerance`.
+#[inline]
+fn most_negative_multiplier(
+    problem: &BoxQp,
+    x: &Vector,
+    bounds: &[Bound; MAX_VARS],
+    tolerance: f64,
+) -> Option<usize> {
+    let BoxQp { q, c, n, .. } = *problem;
+    let mut worst = (-tolerance, None);
+    for i in 0..n {
+        if bounds[i] == Bound::Free {
+            continue;
+        }
+        let gradient: f64 = c[i] + (0..n).map(|j| q[i][j] * x[j]).sum::<f64>();
+        let multiplier = if bounds[i] == Bound::Lower {
+            gradient
+        } else {
+            -gradient
+        };
+        if multiplier < worst.0 {
+            worst = (multiplier, Some(i));
+        }
+    }
+    worst.1
 }

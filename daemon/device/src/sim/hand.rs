@@ -10,7 +10,7 @@
 //!     - trace: { centre: [0, 0, 0], radius: 0.1, normal: [0, 1, 0], period: 4, seconds: 4 }
 //!     - turn: { rate: [0, 0, 1.5], seconds: 2 } # a six-DoF grip turned at 1.5 rad/s about z
 //!     - unplug: { seconds: 0.3 }            # the device disappears, then returns
-//!     - path: { file: session.csv }         # follow a recorded path (hapticd --record)
+//!     - path: { file: session.csv }         # follow a recorded path (hapticd --record, hapticctl record)
 //! ```
 //!
 //! Steps run one after another; after the last one the hand holds still. `move`, `shake`
@@ -268,7 +268,11 @@ impl std::fmt::Display for PathError {
         match self {
             PathError::Unreadable(e) => e.fmt(f),
             PathError::Columns { effector } => {
-                write!(f, "needs columns time and x, y, z (or {effector}_x, …)")
+                write!(
+                    f,
+                    "needs columns time and pose_x, pose_y, pose_z (or {effector}_pose_x, …, or \
+                     x, y, z)"
+                )
             }
             PathError::NotANumber { line, column } => {
                 write!(f, "row {line}: not a number in column {column}")
@@ -292,7 +296,16 @@ fn read_path(file: &Path, name: &str) -> Result<Vec<(f64, DVec3)>, PathError> {
         .map(str::trim)
         .collect();
     let column = |wanted: &[String]| header.iter().position(|h| wanted.iter().any(|w| w == h));
-    let axis = |a: &str| column(&[format!("{name}_{a}"), a.to_string()]);
+    // A recording's columns (`telemetry_csv`: `pose_x`, or `grip_pose_x` beside other
+    // effectors), or a hand-made file's plain `x`.
+    let axis = |a: &str| {
+        column(&[
+            format!("{name}_pose_{a}"),
+            format!("pose_{a}"),
+            format!("{name}_{a}"),
+            a.to_string(),
+        ])
+    };
     let (Some(t), Some(x), Some(y), Some(z)) =
         (column(&["time".into()]), axis("x"), axis("y"), axis("z"))
     else {
@@ -640,7 +653,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(
             dir.join("path.csv"),
-            "time,state,grip_x,grip_y,grip_z\n10.0,running,0,0,0\n10.5,running,0.01,0,0\n11.0,running,0.01,-0.02,0\n",
+            "tick,time,state,pose_x,pose_y,pose_z\n9999,10.0,running,0,0,0\n10499,10.5,running,0.01,0,0\n10999,11.0,running,0.01,-0.02,0\n",
         )
         .unwrap();
         let script = Script::parse(

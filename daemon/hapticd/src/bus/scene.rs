@@ -196,22 +196,16 @@ impl SceneInterface {
         #[zbus(connection)] connection: &zbus::Connection,
         #[zbus(header)] header: Header<'_>,
     ) -> Result<State, BusError> {
-        let at = if point.is_empty() {
-            let daemon = self.daemon.clone();
-            let named = body.clone();
-            let query = command(HAPTICD_COMMAND_QUERY, |_| {});
-            self.workers
-                .run(move || daemon.drive(&named, query))
-                .await
-                .map(|s| s.position)
-        } else {
-            numbers("point", &point)
-        };
-        let push = at.and_then(|p| {
-            let j = numbers("impulse", &impulse)?;
-            Ok(command(HAPTICD_COMMAND_IMPULSE, |c| {
-                (c.vector, c.position) = (j, p)
-            }))
+        // Through the centre: where the stepping thread finds it, not where a query a
+        // step earlier did (the body moves meanwhile, and the arm would turn it).
+        let push = numbers("impulse", &impulse).and_then(|j| match point.is_empty() {
+            true => Ok(command(HAPTICD_COMMAND_IMPULSE_AT_CENTRE, |c| c.vector = j)),
+            false => {
+                let p = numbers("point", &point)?;
+                Ok(command(HAPTICD_COMMAND_IMPULSE, |c| {
+                    (c.vector, c.position) = (j, p)
+                }))
+            }
         });
         let what = format!("give the impulse {impulse:?} at {point:?}");
         self.drive(body, push, Some(what), connection, &header)

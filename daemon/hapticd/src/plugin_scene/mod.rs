@@ -61,8 +61,30 @@ impl Instance {
     fn carry_out(&self, request: &Request, replies: &mut spsc::Producer<Reply>) {
         let mut state = HapticdBodyState::default();
         let status = match self.apply {
-            // SAFETY: a live instance on its stepping thread, valid command and state.
-            Some(apply) => unsafe { apply(self.pointer, request.command(), &mut state) },
+            Some(apply) => {
+                let command = request.command();
+                if command.kind == HAPTICD_COMMAND_IMPULSE_AT_CENTRE && self.minor < 7 {
+                    // A plugin before ABI 1.7: the centre read now and the impulse given
+                    // there between the same two steps, so it is where the body is.
+                    let query = HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, command.body);
+                    // SAFETY: a live instance on its stepping thread, valid command and state.
+                    match unsafe { apply(self.pointer, &query, &mut state) } {
+                        HAPTICD_OK => {
+                            let through = HapticdSceneCommand {
+                                position: state.position,
+                                vector: command.vector,
+                                ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, command.body)
+                            };
+                            // SAFETY: as above.
+                            unsafe { apply(self.pointer, &through, &mut state) }
+                        }
+                        failed => failed,
+                    }
+                } else {
+                    // SAFETY: as above.
+                    unsafe { apply(self.pointer, command, &mut state) }
+                }
+            }
             None => HAPTICD_ERROR_FAILED,
         };
         replies.push(Reply::to(request, status, state));

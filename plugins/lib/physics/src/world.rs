@@ -162,6 +162,16 @@ fn rocking_damper(
     torque
 }
 
+/// The damping `c` over `area` that implicit Euler applies in `dt` to a pair of `inverse_mass`.
+fn stable(c: f64, area: f64, inverse_mass: f64, dt: f64) -> f64 {
+    // An explicit damper of c over a step overshoots once c·dt/m nears 2 (a fast impact
+    // bounces off harder than it came). Damping c/(1 + c·dt/m) is what implicit Euler
+    // applies to the pair's relative motion: it can at most stop that motion in one step. m
+    // is the pair's effective mass at the contact, along the damped direction, turning
+    // included.
+    c / (1.0 + c * area * dt * inverse_mass)
+}
+
 /// The largest share of a body's spin the rocking damper may take away in one step.
 const ROCKING_ROOM: f64 = 0.25;
 
@@ -817,6 +827,36 @@ impl World {
             // A new contact: no previous normal or force, friction springs not yet attached.
             self.pairs[pair] = Pair::default();
         }
+        self.clip_pieces((i, ka), (j, kb));
+        if self.overlap.faces.is_empty() {
+            return false;
+        }
+        self.pairs[pair].touched = self.steps;
+        self.counting[i] += 1;
+        self.counting[j] += 1;
+        let normal = self.normal((i, ka), (j, kb), pair);
+        let (a, b) = (&self.bodies[i], &self.bodies[j]);
+        // Forces on j, pushing it away from i along the normal.
+        let (mut m, at) = (self.material, self.overlap_centre());
+        self.pair_friction(&mut m, i, j);
+        let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
+        let normal_mobility = inverse_mass(normal);
+        let (t1, t2) = normal.any_orthonormal_pair();
+        let tangent_mobility = inverse_mass(t1).max(inverse_mass(t2));
+        let mobility = (normal_mobility, tangent_mobility);
+        if m.model == ContactModel::Point {
+            let on_j = self.point_wrench((i, j), normal, m, mobility, dt);
+            self.apply(i, j, on_j);
+            return true;
+        }
+        let on_j = self.patch_wrench((i, j, pair), (normal, [t1, t2]), m, at, mobility, dt);
+        self.pairs[pair].force = on_j.force;
+        self.apply(i, j, on_j);
+        true
+    }
+
+    /// Clip piece `ka` of body `i` and piece `kb` of body `j` into the overlap.
+    fn clip_pieces(&mut self, (i, ka): (usize, usize), (j, kb): (usize, usize)) {
         let (piece_a, piece_b) = (
             &self.bodies[i].world_pieces()[ka],
             &self.bodies[j].world_pieces()[kb],
@@ -833,53 +873,53 @@ impl World {
         } else {
             self.clipper.intersect(piece_b, piece_a, &mut self.overlap);
         }
-        if self.overlap.faces.is_empty() {
-            return false;
-        }
-        self.pairs[pair].touched = self.steps;
-        self.counting[i] += 1;
-        self.counting[j] += 1;
-        let normal = self.normal((i, ka), (j, kb), pair);
+    }
+
+    /// The point model's wrench on body `j` from body `i`, with material `m` and `mobility`.
+    fn point_wrench(
+        &self,
+        (i, j): (usize, usize),
+        normal: DVec3,
+        mut m: Material,
+        mobility: (f64, f64),
+        dt: f64,
+    ) -> Wrench {
+        let (normal_mobility, tangent_mobility) = mobility;
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
-        // Forces on j, pushing it away from i along the normal.
-        // An explicit damper of c over a step overshoots once c·dt/m nears 2 (a
-        // fast impact bounces off harder than it came). Damping c/(1 + c·dt/m) is
-        // what implicit Euler applies to the pair's relative motion: it can at most
-        // stop that motion in one step. m is the pair's effective mass at the
-        // contact, along the damped direction, turning included.
-        let (mut m, at) = (self.material, self.overlap_centre());
-        self.pair_friction(&mut m, i, j);
-        let inverse_mass = |d: DVec3| a.inverse_mass_at(at, d) + b.inverse_mass_at(at, d);
+        if let Some(scaling) = m.scaling {
+            scaling.apply(&mut m, 1.0, mobility, dt);
+        }
+        m.damping = stable(m.damping, 1.0, normal_mobility, dt);
+        let slip_per_newton = dt * tangent_mobility;
+        point_contact(&self.overlap, normal, &m, slip_per_newton, |x| {
+            b.velocity_at(x) - a.velocity_at(x)
+        })
+    }
+
+    /// The patch model's wrench on body `j` from body `i`: spring, dampers and friction.
+    fn patch_wrench(
+        &mut self,
+        (i, j, pair): (usize, usize, usize),
+        (normal, [t1, t2]): (DVec3, [DVec3; 2]),
+        mut m: Material,
+        at: DVec3,
+        mobility: (f64, f64),
+        dt: f64,
+    ) -> Wrench {
+        let (normal_mobility, tangent_mobility) = mobility;
+        let (a, b) = (&self.bodies[i], &self.bodies[j]);
         // A body between several contacts (a block in a stack) takes every one's damper
         // in the same step: each may stop only its share of the motion, or together they
         // overshoot and the stack rings from step to step.
         let shares = |k: usize| f64::from(self.contacts[k].max(1));
         let damped_mobility =
             |d: DVec3| a.inverse_mass_at(at, d) * shares(i) + b.inverse_mass_at(at, d) * shares(j);
-        let stable =
-            |c: f64, area: f64, inverse_mass: f64| c / (1.0 + c * area * dt * inverse_mass);
-        let normal_mobility = inverse_mass(normal);
-        let (t1, t2) = normal.any_orthonormal_pair();
-        let tangent_mobility = inverse_mass(t1).max(inverse_mass(t2));
-        let mobility = (normal_mobility, tangent_mobility);
-        if m.model == ContactModel::Point {
-            if let Some(scaling) = m.scaling {
-                scaling.apply(&mut m, 1.0, mobility, dt);
-            }
-            m.damping = stable(m.damping, 1.0, normal_mobility);
-            let slip_per_newton = dt * tangent_mobility;
-            let on_j = point_contact(&self.overlap, normal, &m, slip_per_newton, |x| {
-                b.velocity_at(x) - a.velocity_at(x)
-            });
-            self.apply(i, j, on_j);
-            return true;
-        }
         let patch = ContactPatch::of(&self.overlap, normal);
         if let Some(scaling) = m.scaling {
             scaling.apply(&mut m, patch.area, mobility, dt);
         }
         let raw_damping = m.damping;
-        m.damping = stable(m.damping, patch.area, damped_mobility(normal));
+        m.damping = stable(m.damping, patch.area, damped_mobility(normal), dt);
         let rocking = rocking_damper(
             (a, b),
             (shares(i), shares(j)),
@@ -890,7 +930,7 @@ impl World {
             dt,
         );
         let tangent_shared = damped_mobility(t1).max(damped_mobility(t2));
-        m.friction.damping = stable(m.friction.damping, patch.area, tangent_shared);
+        m.friction.damping = stable(m.friction.damping, patch.area, tangent_shared, dt);
         // A friction spring stiffer than the step allows (explicitly integrated, with the
         // bodies' turning at the contact and their other contacts) rings between sticking
         // and slipping for ever: hold its one-step phase ω·dt to what the integrator takes
@@ -917,8 +957,7 @@ impl World {
             };
         }
         let loading = self.loading(i, j, pair, normal);
-        let on_j = push
-            + resist
+        push + resist
             + Wrench {
                 force: DVec3::ZERO,
                 torque: rocking,
@@ -935,10 +974,7 @@ impl World {
                 b.spin - a.spin,
                 loading.as_ref(),
                 dt,
-            );
-        self.pairs[pair].force = on_j.force;
-        self.apply(i, j, on_j);
-        true
+            )
     }
 
     /// The contact normal between piece `ka` of body `i` and piece `kb` of body `j`, whose

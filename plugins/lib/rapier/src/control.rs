@@ -77,6 +77,7 @@ impl RapierWorld {
             HAPTICD_COMMAND_IMPULSE if free => {
                 b.apply_impulse_at_point(v, vector(DVec3::from(command.position)), true);
             }
+            HAPTICD_COMMAND_IMPULSE_AT_CENTRE if free => b.apply_impulse(v, true),
             HAPTICD_COMMAND_SET_FORCE if free => {
                 b.reset_forces(false);
                 b.add_force(v, true);
@@ -190,6 +191,15 @@ bodies:
             let dp = (DVec3::from(after.velocity) - DVec3::from(before.velocity)) * m;
             assert!((dp - j).length() < 1e-6 * j.length(), "{dp} vs {j}");
             assert_eq!(after.spin, before.spin, "at the centre: no turn");
+            let through = w
+                .control(&HapticdSceneCommand {
+                    vector: j.to_array(),
+                    ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE_AT_CENTRE, 1)
+                })
+                .unwrap();
+            let dp = (DVec3::from(through.velocity) - DVec3::from(after.velocity)) * m;
+            assert!((dp - j).length() < 1e-6 * j.length(), "{dp} vs {j}");
+            assert_eq!(through.spin, after.spin, "through the centre: no turn");
         }
     }
 

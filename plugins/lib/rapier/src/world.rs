@@ -512,13 +512,40 @@ impl RapierWorld {
     /// Body `i` as the haptic side moves it: its state, mass, inertia and contacts now.
     pub fn local_body(&self, i: usize) -> HapticdLocalBody {
         let handle = self.bodies[i];
-        let b = &self.physics.bodies[handle];
+        let mut out = self.local_state(i);
+        let margin = self.reach / 2.0;
+        // The other solids the narrow phase pairs it with. Its points were found before the
+        // step moved the body: each pair's contact is found again where the body is now (a
+        // ball rolled on has its contact at its bottom, not where the roll took the old
+        // one), and a pair of several points (a box standing on its face) keeps them,
+        // measured from that contact's plane.
+        let mut found = [(0, HapticdBodyContact::default()); FOUND];
+        let mut paired = [None; FOUND];
+        let (pairs, kept) = self.paired_contacts(handle, margin, &mut found, &mut paired);
+        let mut count = spread(&found[..kept], pairs, &mut out.contacts);
+        // Then the nearest of the fixed solids it could reach in a period that the narrow
+        // phase does not see yet (it predicts a fraction of a millimetre): a ball lifted off
+        // the floor by a hair, pushed down by the hand, lands on it instead of going through.
+        for contact in self.fixed_near(handle, margin, &paired[..pairs]) {
+            if count == HAPTICD_MAX_BODY_CONTACTS || !contact.gap.is_finite() {
+                break;
+            }
+            out.contacts[count] = contact;
+            count += 1;
+        }
+        out.contact_count = count as u32;
+        out
+    }
+
+    /// Body `i` as the haptic side moves it, without its contacts: state, mass and inertia.
+    fn local_state(&self, i: usize) -> HapticdLocalBody {
+        let b = &self.physics.bodies[self.bodies[i]];
         let state = self.body(i);
         let (inertia, mass) = self.inertia[i];
         let turn = glam::DMat3::from_quat(state.orientation);
         let inverse = turn * inertia.inverse() * turn.transpose();
         let (first_object, object_count) = self.objects[i];
-        let mut out = HapticdLocalBody {
+        HapticdLocalBody {
             body: i as u32,
             first_object,
             object_count,
@@ -532,18 +559,19 @@ impl RapierWorld {
             inverse_inertia: inverse.transpose().to_cols_array(),
             acceleration: (dvec(self.physics.gravity) * f64::from(b.gravity_scale())).to_array(),
             ..HapticdLocalBody::default()
-        };
-        let mut count = 0;
-        let margin = self.reach / 2.0;
-        // The other solids the narrow phase pairs it with. Its points were found before the
-        // step moved the body: each pair's contact is found again where the body is now (a
-        // ball rolled on has its contact at its bottom, not where the roll took the old
-        // one), and a pair of several points (a box standing on its face) keeps them,
-        // measured from that contact's plane.
-        let mut found = [(0, HapticdBodyContact::default()); FOUND];
+        }
+    }
+
+    /// Body `handle`'s contacts with the solids paired with it, found again: (pairs, contacts).
+    fn paired_contacts(
+        &self,
+        handle: RigidBodyHandle,
+        margin: f64,
+        found: &mut [(usize, HapticdBodyContact); FOUND],
+        paired: &mut [Option<ColliderHandle>; FOUND],
+    ) -> (usize, usize) {
         let (mut pairs, mut kept) = (0, 0);
-        let mut paired = [None; FOUND];
-        for &collider in b.colliders() {
+        for &collider in self.physics.bodies[handle].colliders() {
             let mine = &self.physics.colliders[collider];
             for pair in self.physics.narrow_phase.contact_pairs_with(collider) {
                 let PairContacts::Rigid(contacts) = &pair.contacts else {
@@ -592,16 +620,22 @@ impl RapierWorld {
                 pairs += 1;
             }
         }
-        count += spread(&found[..kept], pairs, &mut out.contacts);
-        // Then the nearest of the fixed solids it could reach in a period that the narrow
-        // phase does not see yet (it predicts a fraction of a millimetre): a ball lifted off
-        // the floor by a hair, pushed down by the hand, lands on it instead of going through.
+        (pairs, kept)
+    }
+
+    /// Body `handle`'s contacts with the nearest fixed solids not `paired`, nearest first.
+    fn fixed_near(
+        &self,
+        handle: RigidBodyHandle,
+        margin: f64,
+        paired: &[Option<ColliderHandle>],
+    ) -> [HapticdBodyContact; HAPTICD_MAX_BODY_CONTACTS] {
         let unused = HapticdBodyContact {
             gap: f64::INFINITY,
             ..HapticdBodyContact::default()
         };
         let mut near = [unused; HAPTICD_MAX_BODY_CONTACTS];
-        for &collider in b.colliders() {
+        for &collider in self.physics.bodies[handle].colliders() {
             let mine = &self.physics.colliders[collider];
             let aabb = mine.compute_aabb().loosened(margin as f32);
             let query = self
@@ -613,7 +647,7 @@ impl RapierWorld {
                 let fixed = solid
                     .parent()
                     .is_none_or(|p| self.physics.bodies.get(p).is_some_and(|b| b.is_fixed()));
-                if !fixed || paired[..pairs].contains(&Some(other)) {
+                if !fixed || paired.contains(&Some(other)) {
                     continue;
                 }
                 let Some(c) = contact_now(mine, solid, margin) else {
@@ -626,15 +660,7 @@ impl RapierWorld {
             }
         }
         near.sort_unstable_by(|a, b| a.gap.total_cmp(&b.gap));
-        for contact in near {
-            if count == HAPTICD_MAX_BODY_CONTACTS || !contact.gap.is_finite() {
-                break;
-            }
-            out.contacts[count] = contact;
-            count += 1;
-        }
-        out.contact_count = count as u32;
-        out
+        near
     }
 
     /// Whether `solid` is part of the world body `handle` meets: not a piece of the body

@@ -12,6 +12,7 @@ use hapticd_core::transport::CHANNELS;
 use hapticd_core::world_state::state_of;
 use hapticd_ipc::bus::{Bus, has_owner};
 use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
+use hapticd_ipc::telemetry_csv;
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
@@ -639,108 +640,6 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
     })
 }
 
-/// The CSV header of `record`: the tick and the loop time, the state, then each effector's
-/// pose (position, orientation quaternion), velocity, force, torque, whether it touches
-/// something, the body it touches (its id, empty for none), whether it slips, where it
-/// touches and the normal there, one column per component, named for the effector when there
-/// are several (`thumb_pose_x`); then each string's tension and D/A value.
-pub(crate) fn record_header(effectors: &[String], strings: usize) -> String {
-    const COMPONENTS: [&str; 28] = [
-        "pose_x",
-        "pose_y",
-        "pose_z",
-        "pose_qw",
-        "pose_qx",
-        "pose_qy",
-        "pose_qz",
-        "velocity_x",
-        "velocity_y",
-        "velocity_z",
-        "angular_velocity_x",
-        "angular_velocity_y",
-        "angular_velocity_z",
-        "force_x",
-        "force_y",
-        "force_z",
-        "torque_x",
-        "torque_y",
-        "torque_z",
-        "contact",
-        "contact_body",
-        "slip",
-        "contact_x",
-        "contact_y",
-        "contact_z",
-        "normal_x",
-        "normal_y",
-        "normal_z",
-    ];
-    let mut header = "tick,time,state".to_string();
-    for name in effectors {
-        for component in COMPONENTS {
-            match effectors.len() {
-                1 => header += &format!(",{component}"),
-                _ => header += &format!(",{name}_{component}"),
-            }
-        }
-    }
-    for k in 1..=strings {
-        header += &format!(",tension_{k}");
-    }
-    for k in 1..=strings {
-        header += &format!(",dac_{k}");
-    }
-    header
-}
-
-/// One row of `record` for `sample`, of `effectors` effectors and `strings` strings.
-pub(crate) fn record_row(sample: &Sample, effectors: usize, strings: usize) -> String {
-    use std::fmt::Write;
-    let mut row = format!(
-        "{},{:.6},{}",
-        sample.tick,
-        sample.time,
-        state_of(sample.state).name()
-    );
-    for k in 0..effectors.min(MAX_EFFECTORS) {
-        let (pose, wrench) = (&sample.poses[k], &sample.wrenches[k]);
-        let numbers = pose
-            .position
-            .iter()
-            .chain(&pose.orientation)
-            .chain(&sample.velocities[k])
-            .chain(&sample.angular_velocities[k])
-            .chain(&wrench.force)
-            .chain(&wrench.torque);
-        for x in numbers {
-            let _ = write!(row, ",{x}");
-        }
-        let _ = write!(row, ",{}", (sample.contacts >> k) & 1);
-        let body = sample.touched[k];
-        match body {
-            HAPTICD_NO_BODY => row.push(','),
-            body => {
-                let _ = write!(row, ",{body}");
-            }
-        }
-        let _ = write!(row, ",{}", (sample.slipping >> k) & 1);
-        for x in sample.touch_points[k]
-            .iter()
-            .chain(&sample.touch_normals[k])
-        {
-            let _ = write!(row, ",{x}");
-        }
-    }
-    let strings = strings.min(CHANNELS);
-    for t in &sample.tensions[..strings] {
-        let _ = write!(row, ",{t}");
-    }
-    for d in &sample.dac[..strings] {
-        let _ = write!(row, ",{d}");
-    }
-    row
-}
-
 /// The local time of day now, to the millisecond (`14:03:27.512`).
 fn clock_time() -> String {
     let now = std::time::SystemTime::now()
@@ -797,7 +696,7 @@ impl RecordArgs {
 
 /// `hapticctl record`: every tick of the device's haptic loop for `--duration` seconds, read
 /// from its telemetry ring (`OpenTelemetry`) at the device's rate, a row per tick (see
-/// [`record_header`]). Ticks the ring overwrote before they were read are counted and said.
+/// [`telemetry_csv`]). Ticks the ring overwrote before they were read are counted and said.
 pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     use std::io::Write;
     args.check()?;
@@ -819,10 +718,15 @@ pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     for sample in ticks.by_ref() {
         let strings = *strings.get_or_insert_with(|| {
             let n = sample.strings as usize;
-            let _ = writeln!(out, "{}", record_header(&effectors, n));
+            let _ = writeln!(out, "{}", telemetry_csv::header(&effectors, n));
             n
         });
-        writeln!(out, "{}", record_row(&sample, effectors.len(), strings)).map_err(cannot)?;
+        writeln!(
+            out,
+            "{}",
+            telemetry_csv::row(&sample, effectors.len(), strings)
+        )
+        .map_err(cannot)?;
         rows += 1;
     }
     if ticks.stopped() {

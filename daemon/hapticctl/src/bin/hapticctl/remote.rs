@@ -11,8 +11,9 @@ use serde_json::Value;
 use zenoh::Wait;
 
 use crate::Failure;
-use crate::client::{RecordArgs, record_header, record_row};
+use crate::client::RecordArgs;
 use crate::mechanism::Output;
+use hapticd_ipc::telemetry_csv;
 
 /// Where a remote hapticd is: its bridge's Zenoh endpoint, and the Zenoh configuration file
 /// (JSON5: TLS certificates, authentication) to reach it with.
@@ -167,14 +168,14 @@ pub fn record(remote: &Remote, args: &RecordArgs) -> Result<(), Failure> {
         until.get_or_insert_with(|| Instant::now() + Duration::from_secs_f64(args.duration()));
         let n = *strings.get_or_insert_with(|| {
             let n = tick.strings as usize;
-            let _ = writeln!(out, "{}", record_header(&effectors, n));
+            let _ = writeln!(out, "{}", telemetry_csv::header(&effectors, n));
             n
         });
         if let Some(previous) = last {
             missed += (tick.tick.saturating_sub(previous) / every).saturating_sub(1);
         }
         last = Some(tick.tick);
-        writeln!(out, "{}", record_row(&tick, effectors.len(), n)).map_err(cannot)?;
+        writeln!(out, "{}", telemetry_csv::row(&tick, effectors.len(), n)).map_err(cannot)?;
         rows += 1;
     }
     out.flush().map_err(cannot)?;

@@ -13,11 +13,11 @@ use hapticd::scenes;
 use hapticd::state::{DeviceRecord, StateDir};
 use hapticd_config::Config;
 use hapticd_config::catalog::{Catalog, Entry};
-use hapticd_core::haptic_loop::{HapticLoop, LoopCommand, LoopSettings, Retired};
+use hapticd_core::haptic_loop::{Frame, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::safety::SafetyLimits;
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::parameters::Parameters;
-use hapticd_core::scene::Pointer;
+use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::stats::LoopStats;
 use hapticd_core::sync::spsc;
 use hapticd_core::telemetry::TelemetryWriter;
@@ -109,36 +109,15 @@ pub fn start(
     let (traffic, reconnector) = watch(&kind, slot, common, recording.traffic, &mut writers)?;
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
     let pointers = Pointer::at_calibration(&mechanism);
-    let world_link = WorldLinkFile::create()
-        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
-        .ok();
-    let places = scenes::Places {
-        dirs: &common.config.scene_dirs,
-        plugin_dirs: &common.config.scene_plugin_dirs,
-        world_link: world_link.as_ref().map(WorldLinkFile::link),
-    };
-    let mut scene = scenes::open(common.scene, common.scene_file, places, &pointers, rate)
-        .map_err(|e| e.to_string())?;
+    let (mut scene, world_link) = open_scene(common, &identity, &pointers, rate)?;
     let control = scene.take_control();
     let scene_name = scene.name().to_string();
-    let defaults = Parameters {
-        proxy: scene.proxy().unwrap_or_default(),
-        lambda: mechanism.tension.lambda,
-        max_force: common.config.safety.max_force,
-        max_torque: common.config.safety.max_torque,
-    };
+    let defaults = default_parameters(&*scene, &mechanism, common);
     keep_consistent_parameters(&mut record, &defaults, common.state_dir, &identity);
     let header = recording::csv_header(&mechanism);
     let effectors = mechanism.effectors.iter().map(|e| e.name.clone()).collect();
     let strings = mechanism.strings.len();
-    let settings = LoopSettings {
-        safety: SafetyLimits {
-            max_force: common.config.safety.max_force,
-            max_torque: common.config.safety.max_torque,
-            ..SafetyLimits::default()
-        },
-        ..LoopSettings::default()
-    };
+    let settings = loop_settings(common);
     // The first scene is the one the frames count as no switch.
     let geometry = scene_geometry(&identity, 0, scene.geometry());
     let mut haptic =
@@ -147,15 +126,7 @@ pub fn start(
     restore_calibration(&mut haptic, &record, (&mechanism_name, strings), &identity)?;
     let (event_tx, event_rx) = spsc::channel(1024);
     let logger = events::spawn_event_logger(identity.clone(), event_rx, common.done);
-    let frames = match recording.frames {
-        Some(path) => {
-            let (tx, rx) = spsc::channel(1 << 16);
-            let writer = recording::spawn_recorder(path.to_path_buf(), header, rx, common.done);
-            writers.push(writer?);
-            Some(tx)
-        }
-        None => None,
-    };
+    let frames = frame_recorder(recording.frames, header, rate, common.done, &mut writers)?;
     let (command_tx, command_rx) = spsc::channel(64);
     let (retired_tx, retired) = spsc::channel(4);
     let (world, world_writer) = shared_world(&identity);
@@ -218,6 +189,68 @@ pub fn start(
         writers,
         recording_failed: None,
     })
+}
+
+/// The scene `common` names, and the world link through which a remote world reaches it.
+fn open_scene(
+    common: &Common,
+    identity: &str,
+    pointers: &[Pointer],
+    rate: f64,
+) -> Result<(Box<dyn Scene>, Option<WorldLinkFile>), String> {
+    let world_link = WorldLinkFile::create()
+        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
+        .ok();
+    let places = scenes::Places {
+        dirs: &common.config.scene_dirs,
+        plugin_dirs: &common.config.scene_plugin_dirs,
+        world_link: world_link.as_ref().map(WorldLinkFile::link),
+    };
+    let scene = scenes::open(common.scene, common.scene_file, places, pointers, rate)
+        .map_err(|e| e.to_string())?;
+    Ok((scene, world_link))
+}
+
+/// The parameters a device starts from: the scene's proxy, the mechanism's λ, the limits.
+fn default_parameters(scene: &dyn Scene, mechanism: &Mechanism, common: &Common) -> Parameters {
+    Parameters {
+        proxy: scene.proxy().unwrap_or_default(),
+        lambda: mechanism.tension.lambda,
+        max_force: common.config.safety.max_force,
+        max_torque: common.config.safety.max_torque,
+    }
+}
+
+/// The loop's settings: the defaults, with the configured force and torque limits.
+fn loop_settings(common: &Common) -> LoopSettings {
+    LoopSettings {
+        safety: SafetyLimits {
+            max_force: common.config.safety.max_force,
+            max_torque: common.config.safety.max_torque,
+            ..SafetyLimits::default()
+        },
+        ..LoopSettings::default()
+    }
+}
+
+/// The ring to a thread writing every frame of a loop at `rate` hertz to `path` as CSV, if
+/// asked; it joins `writers`.
+fn frame_recorder(
+    path: Option<&Path>,
+    header: String,
+    rate: f64,
+    done: &'static AtomicBool,
+    writers: &mut Vec<JoinHandle<std::io::Result<()>>>,
+) -> Result<Option<spsc::Producer<Frame>>, String> {
+    match path {
+        Some(path) => {
+            let (tx, rx) = spsc::channel(1 << 16);
+            let writer = recording::spawn_recorder(path.to_path_buf(), header, rate, rx, done);
+            writers.push(writer?);
+            Ok(Some(tx))
+        }
+        None => Ok(None),
+    }
 }
 
 /// The mechanism device `kind` drives, and its name: the command line's first, then the one

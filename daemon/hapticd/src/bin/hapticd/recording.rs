@@ -1,4 +1,5 @@
-//! `--record`: every tick's frame (time, state, poses, wrenches, tensions) as a CSV row,
+//! `--record`: every tick's frame as a CSV row in the columns of every recording
+//! ([`telemetry_csv`]),
 //! written by a thread of its own from the ring the real-time thread fills.
 
 use std::io::Write;
@@ -6,59 +7,33 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use hapticd_core::haptic_loop::{DeviceState, Frame};
-use hapticd_core::kinematics::quat_to_wxyz;
+use hapticd_core::haptic_loop::Frame;
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::sync::spsc;
+use hapticd_core::telemetry::Sample;
+use hapticd_ipc::telemetry_csv;
 
-/// The CSV header for `mechanism`'s effectors and strings.
+/// The CSV header for `mechanism`'s effectors and strings ([`telemetry_csv`]).
 pub fn csv_header(mechanism: &Mechanism) -> String {
-    let mut header = String::from("time,state");
-    for e in &mechanism.effectors {
-        for field in [
-            "x", "y", "z", "qw", "qx", "qy", "qz", "fx", "fy", "fz", "tx", "ty", "tz",
-        ] {
-            header += &format!(",{}_{field}", e.name);
-        }
-    }
-    for i in 0..mechanism.strings.len() {
-        header += &format!(",tension_{i}");
-    }
-    header
+    let names: Vec<String> = mechanism.effectors.iter().map(|e| e.name.clone()).collect();
+    telemetry_csv::header(&names, mechanism.strings.len())
 }
 
-/// One frame as a CSV row under [`csv_header`].
-fn csv_row(frame: &Frame) -> String {
-    let state = match frame.state {
-        DeviceState::Running => "running",
-        DeviceState::Fault => "fault",
-        DeviceState::Disconnected => "disconnected",
-        DeviceState::Uncalibrated => "uncalibrated",
-    };
-    let mut row = format!("{:.6},{state}", frame.time);
-    for e in 0..frame.effectors {
-        let p = frame.poses[e].position;
-        for v in p
-            .to_array()
-            .into_iter()
-            .chain(quat_to_wxyz(frame.poses[e].orientation))
-        {
-            row += &format!(",{v:.7}");
-        }
-        for v in frame.wrenches[e].to_array() {
-            row += &format!(",{v:.5}");
-        }
-    }
-    for t in &frame.tensions[..frame.strings] {
-        row += &format!(",{t:.5}");
-    }
-    row
+/// One frame, ticking at `rate` hertz, as a CSV row under [`csv_header`]: as the telemetry
+/// ring would hold it.
+fn csv_row(frame: &Frame, rate: f64) -> String {
+    // The loop's time counts its ticks (the first ends at one period): a frame the ring
+    // dropped leaves a gap in the numbers, not a shift.
+    let tick = ((frame.time * rate).round() as u64).saturating_sub(1);
+    telemetry_csv::row(&Sample::of(tick, frame), frame.effectors, frame.strings)
 }
 
-/// Drain `frames` into a CSV file until `done` is set and the ring is empty.
+/// Drain `frames` of a loop at `rate` hertz into a CSV file until `done` is set and the
+/// ring is empty.
 pub fn spawn_recorder(
     path: PathBuf,
     header: String,
+    rate: f64,
     mut frames: spsc::Consumer<Frame>,
     done: &'static AtomicBool,
 ) -> Result<std::thread::JoinHandle<std::io::Result<()>>, String> {
@@ -70,7 +45,7 @@ pub fn spawn_recorder(
         loop {
             let finished = done.load(Ordering::Acquire);
             while let Some(frame) = frames.pop() {
-                writeln!(out, "{}", csv_row(&frame))?;
+                writeln!(out, "{}", csv_row(&frame, rate))?;
             }
             if finished {
                 return out.flush();

@@ -8,7 +8,7 @@ use hapticd_core::diagnostics::Findings;
 use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
 
 use super::Engine;
-use super::meshes::{MeshFiles, mesh_body};
+use super::meshes::{MeshBody, MeshFiles, mesh_body};
 use super::schema::{RawBody, RawEngine, RawMaterial, RawModel, RawScene, identity};
 use crate::body::Body;
 use crate::polyhedron::Polyhedron;
@@ -427,24 +427,7 @@ pub(super) fn bodies(
             let pieces = engine == Engine::Penalty || !b.fixed;
             mesh_body(f, &at, b, file, files, pieces)
         });
-        let pieces = match (&b.mesh, &mesh) {
-            (Some(_), Some(mesh)) => Some(
-                mesh.pieces
-                    .iter()
-                    .map(|p| (p.clone(), Primitive::Hull))
-                    .collect(),
-            ),
-            (Some(_), None) => None,
-            (None, _) => {
-                if b.scale.is_some() {
-                    f.error(format!("{at}.scale"), "only with mesh:");
-                }
-                if b.up.is_some() {
-                    f.error(format!("{at}.up"), "only with mesh:");
-                }
-                body_pieces(f, &at, b)
-            }
-        };
+        let pieces = pieces_of(f, &at, b, mesh.as_ref());
         let (light, dense) = DENSITY_RANGE;
         f.within(format!("{at}.density"), b.density, light, dense, " kg/m³");
         let (speed, spin) = MAX_SPEED;
@@ -492,6 +475,33 @@ pub(super) fn bodies(
         surfaces,
         boxes,
     })
+}
+
+/// The convex pieces of body `b` with their primitives: its `mesh`'s hulls, or its solids.
+fn pieces_of(
+    f: &mut Findings,
+    at: &str,
+    b: &RawBody,
+    mesh: Option<&MeshBody>,
+) -> Option<Vec<(Polyhedron, Primitive)>> {
+    match (&b.mesh, mesh) {
+        (Some(_), Some(mesh)) => Some(
+            mesh.pieces
+                .iter()
+                .map(|p| (p.clone(), Primitive::Hull))
+                .collect(),
+        ),
+        (Some(_), None) => None,
+        (None, _) => {
+            if b.scale.is_some() {
+                f.error(format!("{at}.scale"), "only with mesh:");
+            }
+            if b.up.is_some() {
+                f.error(format!("{at}.up"), "only with mesh:");
+            }
+            body_pieces(f, at, b)
+        }
+    }
 }
 
 /// The `pointer:` solid, centred at the origin, of a scene for `pointers` pointers, with

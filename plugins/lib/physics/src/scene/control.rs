@@ -65,6 +65,10 @@ impl PenaltyScene {
                 b.velocity += dv;
                 b.spin += dw;
             }
+            HAPTICD_COMMAND_IMPULSE_AT_CENTRE if !fixed => {
+                let b = &mut self.world.bodies[i];
+                b.velocity += vector / b.mass;
+            }
             HAPTICD_COMMAND_SET_FORCE if !fixed => {
                 self.world.loads[i] = Wrench {
                     force: vector,
@@ -171,6 +175,16 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
         let moment = (at - DVec3::from(before.position)).cross(j);
         let dl = (DVec3::from(after.spin) - DVec3::from(before.spin)) * inertia;
         assert!((dl - moment).length() < 1e-15, "{dl} vs {moment}");
+        // Through the centre, wherever it is now: the momentum alone.
+        let through = scene
+            .apply(&HapticdSceneCommand {
+                vector: j.to_array(),
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE_AT_CENTRE, 1)
+            })
+            .expect("a free body takes an impulse through its centre");
+        let dp = (DVec3::from(through.velocity) - DVec3::from(after.velocity)) * mass;
+        assert!((dp - j).length() < 1e-15, "{dp} vs {j}");
+        assert_eq!(through.spin, after.spin, "through the centre: no turn");
     }
 
     #[test]
