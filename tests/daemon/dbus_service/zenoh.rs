@@ -32,7 +32,10 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         \x20   kind = str(sample.key_expr).split('/')[4 if '/grip/' in str(sample.key_expr) else 3]\n\
         \x20   samples.setdefault(kind, []).append((str(sample.key_expr), tick, sample.payload.to_bytes()))\n\
         subscriber = session.declare_subscriber('0/hapticd/sim/**', taken)\n\
+        start = json.loads(ask('hapticd/sim/status', None)[0])['tick']\n\
         time.sleep(10)\n\
+        end = json.loads(ask('hapticd/sim/status', None)[0])['tick']\n\
+        time.sleep(0.2)\n\
         subscriber.undeclare()\n\
         status = ask('hapticd/sim/status', None)\n\
         tokens = sorted(str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**') if r.ok)\n\
@@ -43,6 +46,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         twists = [struct.unpack_from('<3d', p, len(p) - 24) for _, _, p in samples['twist'][-3000:]]\n\
         angular = [sum(w[i] for w in twists) / len(twists) for i in range(3)]\n\
         print(json.dumps({'count': len(ticks), 'gaps': gaps, 'key': key, \
+        'first': ticks[0], 'last': ticks[-1], 'start': start, 'end': end, \
         'kinds': {k: len(v) for k, v in samples.items()}, 'twist': samples['twist'][-1][0], \
         'angular': angular, \
         'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
@@ -85,10 +89,13 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     let _ = bridge.kill();
     let _ = bridge.wait();
     println!("{said}");
-    // Ten seconds at 1 kHz, every tick in order (a loop that a loaded machine slows makes
-    // fewer ticks; the bridge must still publish each one).
-    let count = said["count"].as_u64().unwrap();
-    assert!(count > 5000, "{said}");
+    // Every tick of the ten seconds, in order: from the one after the tick the bridge had
+    // when the subscription was in place (its status, asked after subscribing) to the one
+    // it had at the end, however many a loaded machine let the loop make.
+    let tick = |key: &str| said[key].as_u64().unwrap();
+    assert!(tick("first") <= tick("start") + 1, "{said}");
+    assert!(tick("last") >= tick("end"), "{said}");
+    assert!(tick("end") - tick("start") > 1000, "{said}");
     assert_eq!(said["gaps"], 0, "{said}");
     let key = said["key"].as_str().unwrap();
     assert!(
@@ -101,6 +108,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
             .unwrap()
             .starts_with("0/hapticd/sim/grip/twist/geometry_msgs::msg::dds_::TwistStamped_/")
     );
+    let count = said["count"].as_u64().unwrap();
     for kind in ["pose", "twist", "wrench", "strings"] {
         assert!(said["kinds"][kind].as_u64().unwrap() + 2 >= count, "{said}");
     }

@@ -66,8 +66,10 @@ fn a_multi_rate_scene_that_stops_publishing_fades_out_and_back() {
 }
 
 /// Run the bad-output fixture in `mode` on the simulated SPIDAR-G pressing on its floor for
-/// 1.7 s (a loop started late on a loaded machine still runs 0.3 s past the fault); the rows
-/// as (time, state, force x, y, z) and hapticd's stderr.
+/// 1.7 s; the rows as (time, state, force x, y, z) and hapticd's stderr. `--duration` is wall
+/// time from the daemon's start, and loop time falls behind it by every deadline a loaded
+/// machine makes the loop skip: a 1.4 s run once recorded only 216 ticks past 1.1 s (84 ms
+/// skipped), where 250 are asked, so the run is 0.3 s longer than the ticks it needs.
 fn bad_output(mode: &str) -> (Vec<(f64, String, [f64; 3])>, String) {
     let file = scratch_file(&format!("{mode}-output.scene"));
     std::fs::write(&file, mode).unwrap();
@@ -79,17 +81,25 @@ fn bad_output(mode: &str) -> (Vec<(f64, String, [f64; 3])>, String) {
         &csv,
         &["--scene-file", file.to_str().unwrap()],
     );
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     let names = ["time", "state", "force_x", "force_y", "force_z"];
-    let rows = columns(&csv, &names)
+    let rows: Vec<(f64, String, [f64; 3])> = columns(&csv, &names)
         .iter()
         .map(|r| {
             let f = |i: usize| r[i].parse::<f64>().unwrap();
             (f(0), r[1].clone(), [f(2), f(3), f(4)])
         })
         .collect();
+    // Every tick the loop made is recorded, whatever the machine let it make.
+    let ticks = stderr
+        .split("stopped after ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next()?.parse::<usize>().ok())
+        .unwrap_or_else(|| panic!("{mode}: no final statistics: {stderr}"));
+    assert_eq!(rows.len(), ticks, "{mode}: rows for the loop's ticks");
     std::fs::remove_file(csv).ok();
     std::fs::remove_file(file).ok();
-    (rows, String::from_utf8_lossy(&out.stderr).into_owned())
+    (rows, stderr)
 }
 
 /// The fixture's floor pushes back while its output is good (the grip reaches it at 0.8 s;

@@ -11,8 +11,11 @@
 
 use glam::DVec3;
 use hapticd_core::haptics::grasp::{Grasp, GraspSettings, Handheld, Method, Object};
+use serde_json::json;
 
 pub use super::Spread;
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// The set-up of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -196,6 +199,108 @@ impl Summary {
             still_distance: Spread::of(samples.iter().filter(settled).map(|s| s.distance)),
         }
     }
+}
+
+/// The name of `method` in the tables.
+fn method_name(method: Method) -> &'static str {
+    match method {
+        Method::Distributed => "distributed",
+        Method::Conventional => "conventional",
+    }
+}
+
+/// `setup` run with each of `methods` (its own method ignored): Tables 4.1–4.2 side by side,
+/// a result row per method with what (4.10) predicts, and Fig. 4.12's charts.
+pub fn report(setup: &Setup, methods: &[Method]) -> Report {
+    let runs: Vec<(&str, Setup, Vec<Sample>)> = methods
+        .iter()
+        .map(|&method| {
+            let setup = Setup { method, ..*setup };
+            (method_name(method), setup, run(&setup))
+        })
+        .collect();
+    let mut text = String::from(
+        "method         grip force [N]     finger distance [mm]   still: grip [N]   distance [mm]\n",
+    );
+    let mut rows = Vec::new();
+    for (name, setup, samples) in &runs {
+        let s = Summary::of(setup, samples);
+        let mm = 1e3;
+        text += &format!(
+            "{name:<14} {:5.2} ± {:5.3}      {:6.2} ± {:6.3}        {:5.2} ± {:5.3}    {:6.2} ± {:6.3}\n",
+            s.grip.mean,
+            s.grip.deviation,
+            s.distance.mean * mm,
+            s.distance.deviation * mm,
+            s.still_grip.mean,
+            s.still_grip.deviation,
+            s.still_distance.mean * mm,
+            s.still_distance.deviation * mm,
+        );
+        let spread = |x: Spread| json!({"mean": x.mean, "deviation": x.deviation});
+        rows.push(json!({
+            "method": name,
+            "grip": spread(s.grip),
+            "distance": spread(s.distance),
+            "still_grip": spread(s.still_grip),
+            "still_distance": spread(s.still_distance),
+            // What (4.10) predicts for the still grasp: l − 2 f_g / k.
+            "predicted_still_distance": setup.width - 2.0 * s.still_grip.mean / setup.grip_stiffness,
+        }));
+    }
+    Report {
+        text,
+        json: json!({ "results": rows }),
+        charts: charts(&runs, setup),
+    }
+}
+
+/// Fig. 4.12 for `runs` of `setup`: forces and finger distance over one series of shakes and
+/// its still phase, after the first.
+fn charts(runs: &[(&str, Setup, Vec<Sample>)], setup: &Setup) -> Vec<Chart> {
+    let cycle = setup.cycle();
+    let window = (cycle, (2.0 * cycle).min(setup.seconds));
+    let series = |pick: fn(&Sample) -> f64, label: &str| -> Vec<Series> {
+        runs.iter()
+            .enumerate()
+            .map(|(k, (name, _, samples))| Series {
+                label: format!("{label}, {name}"),
+                points: samples
+                    .iter()
+                    .filter(|s| (window.0..=window.1).contains(&s.time))
+                    .step_by(5)
+                    .map(|s| (s.time, pick(s)))
+                    .collect(),
+                color: PALETTE[k],
+            })
+            .collect()
+    };
+    let mut forces = series(|s| s.grip, "grip");
+    forces.extend(
+        series(|s| s.resultant.abs(), "|resultant|")
+            .into_iter()
+            .enumerate()
+            .map(|(k, s)| Series {
+                color: PALETTE[k + 2],
+                ..s
+            }),
+    );
+    vec![
+        Chart {
+            title: "shaking a held box: forces".into(),
+            x_label: "time [s]".into(),
+            y_label: "force [N]".into(),
+            series: forces,
+            ..Chart::default()
+        },
+        Chart {
+            title: "finger distance".into(),
+            x_label: "time [s]".into(),
+            y_label: "distance [mm]".into(),
+            series: series(|s| s.distance * 1e3, "distance"),
+            ..Chart::default()
+        },
+    ]
 }
 
 #[cfg(test)]

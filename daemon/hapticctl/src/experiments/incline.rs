@@ -7,6 +7,10 @@ use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::world::{ContactModel, Material, World};
+use serde_json::{Value, json};
+
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// Gravity, m/s².
 const G: f64 = 9.81;
@@ -140,6 +144,56 @@ fn slope(angle: f64) -> DVec3 {
 pub fn base(world: &World, height: f64) -> DVec3 {
     let b = &world.bodies[1];
     b.position + b.orientation * DVec3::new(0.0, -height / 2.0, 0.0)
+}
+
+/// The cube of [`SHAPES`] tilted at once to each of `fractions` of the friction angle and
+/// kept there for `seconds`: its way down the slope in one chart, and where it ended.
+pub fn report(fractions: &[f64], seconds: f64) -> Report {
+    let (_, cube) = SHAPES[0];
+    let runs: Vec<_> = fractions
+        .iter()
+        .map(|&fraction| {
+            let block = Incline {
+                size: cube,
+                damping: 1.0,
+                fraction,
+                ramp: 0.0,
+            };
+            (fraction, block.run(seconds).0)
+        })
+        .collect();
+    let chart = Chart {
+        title: format!("a 0.2 m cube on a slope, μ0 = {STATIC_FRICTION}, μ = {FRICTION}"),
+        x_label: "time after the tilt [s]".into(),
+        y_label: "way down the slope [mm]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(k, (fraction, samples))| Series {
+                label: format!("{fraction} of the friction angle"),
+                points: samples.iter().map(|s| (s.time, s.moved * 1e3)).collect(),
+                color: PALETTE[k % PALETTE.len()],
+            })
+            .collect(),
+        // Creep at the scale of the 1 mm the tests allow; a sliding block leaves the chart.
+        y_range: Some((-0.5, 2.0)),
+        ..Chart::default()
+    };
+    let mut text = String::new();
+    let mut rows: Vec<Value> = Vec::new();
+    for (fraction, samples) in &runs {
+        let moved = samples.last().map_or(0.0, |s| s.moved);
+        text += &format!(
+            "  {fraction} of the friction angle: {:.4} mm\n",
+            moved * 1e3
+        );
+        rows.push(json!({"fraction": fraction, "moved": moved}));
+    }
+    Report {
+        text,
+        json: json!({ "results": rows }),
+        charts: vec![chart],
+    }
 }
 
 #[cfg(test)]

@@ -13,6 +13,9 @@
 //! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
 //! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14);
 //! - [`incline`]: a block on a slope just below and just past the friction angle (5.3.6).
+//!
+//! Each module's `report` gives what `hapticctl experiment` prints and draws, as a
+//! [`Report`](crate::report::Report).
 
 pub mod grasp;
 pub mod incline;

@@ -9,9 +9,12 @@
 //! period and then thrown; local dynamics moves it with the finger at the haptic rate.
 
 use hapticd_physics::scene::Feedback;
+use serde_json::{Value, json};
 
 use super::push_phase::{self, Run, Setup};
 use super::{ExperimentError, Spread};
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// The masses pushed, kilograms.
 pub const MASSES: [f64; 5] = [0.1, 0.3, 1.0, 3.0, 10.0];
@@ -91,4 +94,104 @@ pub fn reference(mass: f64) -> Result<Run, ExperimentError> {
     let fast = setup(1000.0);
     let world = push_phase::world(&scene(mass), &fast, Feedback::Impulse)?;
     push_phase::run(&world, &fast, 0.0)
+}
+
+/// The experiment at every rate, `phases` sampling phases per mass, rate and method: a table
+/// of block travel per rate, a result row per cell and a chart of travel against mass per
+/// rate, each against the reference.
+pub fn report(phases: usize) -> Result<Report, ExperimentError> {
+    let references = MASSES
+        .iter()
+        .map(|&m| reference(m).map(|run| (run.stop(), run.speed_ratio())))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut text = format!(
+        "one push, {} phases; block travel [mm] (mean ± spread over phases), peak block speed over finger speed:\n",
+        phases
+    );
+    let mut rows = Vec::new();
+    let mut charts = Vec::new();
+    for rate in RATES {
+        charts.push(at_rate(rate, phases, &references, &mut text, &mut rows)?);
+    }
+    Ok(Report {
+        text,
+        json: json!({ "results": rows }),
+        charts,
+    })
+}
+
+/// A travel of `metres` on the charts' axis: thrown blocks go metres, blocks held by
+/// friction hardly move, and both must be seen beside the reference.
+fn log_travel(metres: f64) -> f64 {
+    (metres * 1e3).max(0.1).log10()
+}
+
+/// The pushes at physics `rate`: adds its table to `text` and its cells to `rows`, and
+/// returns its chart. `references` holds each mass's (travel, speed ratio) at the haptic rate.
+fn at_rate(
+    rate: f64,
+    phases: usize,
+    references: &[(f64, f64)],
+    text: &mut String,
+    rows: &mut Vec<Value>,
+) -> Result<Chart, ExperimentError> {
+    *text += &format!("physics {rate} Hz\n  mass [kg] {:>17}", "reference");
+    for method in METHODS {
+        *text += &format!(" {:>22}", method.name());
+    }
+    *text += "\n";
+    let mut series = vec![Series {
+        label: "physics at 1 kHz".into(),
+        points: MASSES
+            .iter()
+            .zip(references)
+            .map(|(m, r)| (m.log10(), log_travel(r.0)))
+            .collect(),
+        color: PALETTE[0],
+    }];
+    let mut lines = vec![String::new(); MASSES.len()];
+    for (k, method) in METHODS.into_iter().enumerate() {
+        let mut points = Vec::new();
+        for (i, (&mass, &(reference, reference_ratio))) in MASSES.iter().zip(references).enumerate()
+        {
+            let cell = cell(mass, rate, method, phases)?;
+            let travel = cell.travel();
+            lines[i] += &format!(
+                " {:8.2} ± {:5.2} ({:4.2})",
+                travel.mean * 1e3,
+                travel.deviation * 1e3,
+                cell.speed_ratio()
+            );
+            points.push((mass.log10(), log_travel(travel.mean)));
+            rows.push(json!({
+                "rate": rate,
+                "mass": mass,
+                "feedback": method.name(),
+                "reference": reference,
+                "reference_speed_ratio": reference_ratio,
+                "mean": travel.mean,
+                "deviation": travel.deviation,
+                "speed_ratio": cell.speed_ratio(),
+                "travels": cell.runs.iter().map(Run::stop).collect::<Vec<_>>(),
+            }));
+        }
+        series.push(Series {
+            label: format!("{} feedback", method.name()),
+            points,
+            color: PALETTE[(k + 1) % PALETTE.len()],
+        });
+    }
+    for ((line, mass), (reference, ratio)) in lines.iter().zip(MASSES).zip(references) {
+        *text += &format!(
+            "  {mass:9.1} {:10.2} ({ratio:4.2}){line}\n",
+            reference * 1e3
+        );
+    }
+    Ok(Chart {
+        title: format!("one push, physics {rate} Hz"),
+        x_label: "block mass [log10 kg]".into(),
+        y_label: "block travel [log10 mm], 0.1 mm or less at -1".into(),
+        series,
+        ..Chart::default()
+    })
 }

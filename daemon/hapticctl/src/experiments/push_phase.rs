@@ -12,9 +12,12 @@ use glam::DVec3;
 use hapticd_core::kinematics::Wrench;
 use hapticd_device::sim::SimParameters;
 use hapticd_physics::scene::{Feedback, RapierScene, SceneFile};
+use serde_json::json;
 
 use super::{ExperimentError, Spread};
 use crate::multirate::Lockstep;
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// The shipped scene of the experiment: an 8 kg block on a floor, μ = 0.03, at 20 Hz.
 pub const SCENE: &str = include_str!("../../../../config/scenes/push.yaml");
@@ -174,4 +177,90 @@ pub fn sweep(
 /// How far the block went over a sweep.
 pub fn stops(runs: &[Run]) -> Spread {
     Spread::of(runs.iter().map(Run::stop))
+}
+
+/// The block of `scene` struck once per sampling phase (`phases` of them) with impulse and
+/// with position feedback, against the same push with the physics at the haptic rate: how far
+/// it went, and a chart of its way per feedback (position first).
+pub fn report(scene: &str, setup: &Setup, phases: usize) -> Result<Report, ExperimentError> {
+    let sweep_with = |feedback: Feedback| -> Result<Vec<Run>, ExperimentError> {
+        let world = world(scene, setup, feedback)?;
+        sweep(&world, setup, phases)
+    };
+    let (impulse, position) = (
+        sweep_with(Feedback::Impulse)?,
+        sweep_with(Feedback::Position)?,
+    );
+    // The same push with the physics as fast as the haptics: what both methods approximate.
+    let fast = Setup {
+        rate: setup.haptic_rate,
+        ..*setup
+    };
+    let reference = run(&world(scene, &fast, Feedback::Impulse)?, &fast, 0.0)?.stop();
+    let mut text = format!(
+        "block struck once, physics {} Hz, haptics {} Hz, {} phases; how far it went [mm]:\n",
+        setup.rate, setup.haptic_rate, phases
+    );
+    let mut rows = Vec::new();
+    for (name, runs) in [("impulse", &impulse), ("position", &position)] {
+        let s = stops(runs);
+        let (low, high) = runs
+            .iter()
+            .map(Run::stop)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+                (l.min(x), h.max(x))
+            });
+        text += &format!(
+            "{name:<9} {:7.2} ± {:6.3} (from {:.2} to {:.2}), peak force {:.2} N\n",
+            s.mean * 1e3,
+            s.deviation * 1e3,
+            low * 1e3,
+            high * 1e3,
+            runs.iter().map(|r| r.peak_force).fold(0.0, f64::max)
+        );
+        rows.push(json!({
+            "feedback": name,
+            "mean": s.mean,
+            "deviation": s.deviation,
+            "stops": runs.iter().map(Run::stop).collect::<Vec<_>>(),
+        }));
+    }
+    text += &format!(
+        "physics at {} Hz: {:7.2}\n",
+        setup.haptic_rate,
+        reference * 1e3
+    );
+    let title = |method: &str| format!("{method}, physics {} Hz", setup.rate);
+    Ok(Report {
+        text,
+        json: json!({ "reference": reference, "results": rows }),
+        charts: vec![
+            way_chart(title("position feedback"), &position),
+            way_chart(title("impulse feedback"), &impulse),
+        ],
+    })
+}
+
+/// The block's way over time in each of `runs`, one curve per sampling phase.
+fn way_chart(title: String, runs: &[Run]) -> Chart {
+    Chart {
+        title,
+        x_label: "time [s]".into(),
+        y_label: "block moved [mm]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(k, r)| Series {
+                label: format!("phase {:.0} ms", r.phase * 1e3),
+                points: r
+                    .block
+                    .iter()
+                    .step_by(5)
+                    .map(|&(t, x)| (t, x * 1e3))
+                    .collect(),
+                color: PALETTE[k % PALETTE.len()],
+            })
+            .collect(),
+        ..Chart::default()
+    }
 }

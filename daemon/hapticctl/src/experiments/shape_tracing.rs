@@ -15,8 +15,11 @@ use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::mechanism::{Mechanism, descriptor};
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_device::sim::hand::Script;
+use serde_json::{Value, json};
 
 use super::Session;
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// Radius of the bar, metres.
 pub const RADIUS: f64 = 0.2;
@@ -126,5 +129,73 @@ pub fn deviation(path: &[(f64, f64)], rate: f64) -> Deviation {
         mean_radius,
         roundness,
         roughness,
+    }
+}
+
+/// Fig. 3.19: the bar traced at `rate` Hz with λ = 0 and λ = 0.2, charted over the bar's
+/// surface and the complete region's edge, with how each path departs from a circle.
+pub fn report(rate: f64) -> Report {
+    let lambdas = [0.0, 0.2];
+    let paths: Vec<Vec<(f64, f64)>> = lambdas.iter().map(|&l| trace(l, rate)).collect();
+    let deviations: Vec<_> = paths.iter().map(|p| deviation(p, rate)).collect();
+    let circle: Vec<(f64, f64)> = (0..=360)
+        .map(|d| {
+            let a = (d as f64).to_radians();
+            (RADIUS * a.cos(), RADIUS * a.sin())
+        })
+        .collect();
+    // At y = 0 the complete region is the square with corners (±h, 0), (0, ±h).
+    let h = HALF;
+    let region = vec![(h, 0.0), (0.0, h), (-h, 0.0), (0.0, -h), (h, 0.0)];
+    let series = vec![
+        Series {
+            label: "λ = 0".into(),
+            points: paths[0].clone(),
+            color: PALETTE[1],
+        },
+        Series {
+            label: "λ = 0.2".into(),
+            points: paths[1].clone(),
+            color: PALETTE[0],
+        },
+        Series {
+            label: "bar surface".into(),
+            points: circle,
+            color: PALETTE[6],
+        },
+        Series {
+            label: "complete-region edge".into(),
+            points: region,
+            color: PALETTE[2],
+        },
+    ];
+    let chart = Chart {
+        title: "tracing a 0.2 m bar on a 0.5 m SPIDAR, 2 kN/m".into(),
+        x_label: "x [m]".into(),
+        y_label: "z [m]".into(),
+        series,
+        x_range: Some((-0.26, 0.26)),
+        y_range: Some((-0.26, 0.26)),
+        equal_aspect: true,
+        ..Chart::default()
+    };
+    let mut text = String::new();
+    for (lambda, d) in lambdas.iter().zip(&deviations) {
+        text += &format!(
+            "  λ = {lambda}: mean radius {:.4} m, roundness {:.2} mm, roughness {:.3} mm\n",
+            d.mean_radius,
+            d.roundness * 1e3,
+            d.roughness * 1e3
+        );
+    }
+    let rows: Vec<Value> = lambdas
+        .iter()
+        .zip(&deviations)
+        .map(|(l, d)| json!({"lambda": l, "mean_radius": d.mean_radius, "roundness": d.roundness, "roughness": d.roughness}))
+        .collect();
+    Report {
+        text,
+        json: json!({ "results": rows }),
+        charts: vec![chart],
     }
 }

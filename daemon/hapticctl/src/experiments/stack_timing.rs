@@ -8,6 +8,10 @@ use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::world::{ContactModel, Material, World};
+use serde_json::{Value, json};
+
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// Edge of a block, metres.
 pub const SIDE: f64 = 0.1;
@@ -95,6 +99,57 @@ pub fn step_times(n: usize, samples: usize) -> (f64, f64) {
         times.push(start.elapsed().as_secs_f64());
     }
     (volume_time, median(&mut times))
+}
+
+/// Fig. 5.10: the median step time of both models on stacks of each of `heights`, timed
+/// over `samples` steps each, in microseconds.
+pub fn report(heights: &[usize], samples: usize) -> Report {
+    let results: Vec<(usize, f64, f64)> = heights
+        .iter()
+        .map(|&n| {
+            let (volume, point) = step_times(n, samples);
+            (n, volume * 1e6, point * 1e6)
+        })
+        .collect();
+    let curve = |pick: fn(&(usize, f64, f64)) -> f64| -> Vec<(f64, f64)> {
+        results.iter().map(|r| (r.0 as f64, pick(r))).collect()
+    };
+    let chart = Chart {
+        title: "time of one physics step against stacked blocks".into(),
+        x_label: "blocks".into(),
+        y_label: "time per step [us]".into(),
+        series: vec![
+            Series {
+                label: "contact-volume penalty".into(),
+                points: curve(|r| r.1),
+                color: PALETTE[0],
+            },
+            Series {
+                label: "deepest-point penalty".into(),
+                points: curve(|r| r.2),
+                color: PALETTE[1],
+            },
+        ],
+        // Head room above the curves for the legend.
+        y_range: Some((
+            0.0,
+            1.4 * results.iter().fold(0.0_f64, |m, r| m.max(r.1).max(r.2)),
+        )),
+        ..Chart::default()
+    };
+    let mut text = String::new();
+    for (n, volume, point) in &results {
+        text += &format!("  {n:>4} blocks: volume {volume:8.1} us, point {point:8.1} us\n");
+    }
+    let rows: Vec<Value> = results
+        .iter()
+        .map(|(n, v, p)| json!({"blocks": n, "volume_us": v, "point_us": p}))
+        .collect();
+    Report {
+        text,
+        json: json!({ "results": rows }),
+        charts: vec![chart],
+    }
 }
 
 fn median(values: &mut [f64]) -> f64 {

@@ -6,6 +6,10 @@ use hapticd_physics::body::Body;
 use hapticd_physics::friction::FrictionParameters;
 use hapticd_physics::polyhedron::Polyhedron;
 use hapticd_physics::world::{ContactModel, Material, World};
+use serde_json::{Value, json};
+
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// Gravity, m/s².
 const G: f64 = 9.81;
@@ -98,6 +102,62 @@ impl Rig {
             }
         }
         samples
+    }
+}
+
+/// [`Rig::THESIS`] pulled for `seconds` with static and dynamic friction and with kinetic
+/// friction alone: the spring force of both in one chart, and each peak against its
+/// rigid-stick value.
+pub fn report(seconds: f64) -> Report {
+    let models = [
+        ("static and dynamic friction", Rig::THESIS),
+        (
+            "kinetic friction only",
+            Rig {
+                static_friction: 0.0,
+                ..Rig::THESIS
+            },
+        ),
+    ];
+    let runs: Vec<_> = models
+        .iter()
+        .map(|(label, rig)| {
+            let samples = rig.run(seconds);
+            let peak = samples.iter().fold(0.0_f64, |m, s| m.max(s.1));
+            (*label, rig.peak_pull(), samples, peak)
+        })
+        .collect();
+    let chart = Chart {
+        title: "stick-slip: 2 kg pulled through 400 N/m at 64 mm/s".into(),
+        x_label: "time [s]".into(),
+        y_label: "spring force [N]".into(),
+        series: runs
+            .iter()
+            .enumerate()
+            .map(|(k, (label, _, samples, _))| Series {
+                label: (*label).into(),
+                points: samples.iter().map(|s| (s.0, s.1)).collect(),
+                color: PALETTE[k],
+            })
+            .collect(),
+        // Head room above the curves for the legend.
+        y_range: Some((0.0, 1.5 * runs[0].1)),
+        ..Chart::default()
+    };
+    let mut text = String::new();
+    for (label, expected, _, peak) in &runs {
+        text += &format!("  {label}: peak {peak:.2} N (rigid-stick value {expected:.2} N)\n");
+    }
+    let rows: Vec<Value> = runs
+        .iter()
+        .map(|(label, expected, _, peak)| {
+            json!({"model": label, "peak": peak, "expected_peak": expected})
+        })
+        .collect();
+    Report {
+        text,
+        json: json!({ "results": rows }),
+        charts: vec![chart],
     }
 }
 

@@ -12,8 +12,11 @@ use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::mechanism::Mechanism;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
 use hapticd_device::sim::hand::Script;
+use serde_json::{Value, json};
 
 use super::{ExperimentError, Session};
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
 
 /// Height of the floor, metres.
 const FLOOR: f64 = -0.05;
@@ -132,4 +135,63 @@ pub fn max_stable_stiffness(
         }
     }
     Ok(best)
+}
+
+/// Table 3.4 on `mechanism` at each of `rates`: the stiffest stable wall and its damping per
+/// rate, charted beside the thesis' hardware.
+pub fn report(mechanism: &Mechanism, rates: &[f64]) -> Result<Report, ExperimentError> {
+    let results: Vec<(f64, f64, f64)> = rates
+        .iter()
+        .map(|&rate| {
+            let (k, b) = max_stable_stiffness(mechanism, rate)?;
+            Ok((rate, k, b))
+        })
+        .collect::<Result<_, ExperimentError>>()?;
+    let thesis = [(1000.0, 7.0), (5000.0, 25.5), (10_000.0, 28.5)];
+    let chart = Chart {
+        title: format!("{}: stiffest stable wall against loop rate", mechanism.name),
+        x_label: "loop rate [kHz]".into(),
+        y_label: "stiffness [kN/m]".into(),
+        series: vec![
+            Series {
+                label: "simulated SPIDAR (hapticd)".into(),
+                points: results
+                    .iter()
+                    .map(|(r, k, _)| (r / 1000.0, k / 1000.0))
+                    .collect(),
+                color: PALETTE[0],
+            },
+            Series {
+                label: "thesis hardware (Table 3.4)".into(),
+                points: thesis.iter().map(|(r, k)| (r / 1000.0, *k)).collect(),
+                color: PALETTE[1],
+            },
+        ],
+        x_range: Some((0.0, 11.0)),
+        // Head room above the curves for the legend.
+        y_range: Some((
+            0.0,
+            1.4 * results
+                .iter()
+                .map(|(_, k, _)| k / 1000.0)
+                .fold(28.5, f64::max),
+        )),
+        ..Chart::default()
+    };
+    let mut text = String::new();
+    for (rate, k, b) in &results {
+        text += &format!(
+            "  {rate:>6.0} Hz: {:6.1} kN/m (damping {b} N·s/m)\n",
+            k / 1000.0
+        );
+    }
+    let rows: Vec<Value> = results
+        .iter()
+        .map(|(rate, k, b)| json!({"rate": rate, "stiffness": k, "damping": b}))
+        .collect();
+    Ok(Report {
+        text,
+        json: json!({ "results": rows }),
+        charts: vec![chart],
+    })
 }

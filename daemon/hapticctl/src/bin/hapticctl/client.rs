@@ -1,24 +1,20 @@
 //! `hapticctl status|get|set|calibrate|reload|bind` and `scene list|switch`: the running
 //! daemon, over D-Bus, as `busctl` would reach it but in words.
 
-use std::collections::BTreeMap;
 use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
-use hapticd_core::kinematics::MAX_EFFECTORS;
+use hapticctl::daemon_view::{self, Properties, clock_time, to_json, words};
+use hapticctl::terminal::KeyReader;
 use hapticd_core::parameters::Name;
-use hapticd_core::telemetry::Sample;
-use hapticd_core::transport::CHANNELS;
-use hapticd_core::world_state::state_of;
 use hapticd_ipc::bus::{Bus, has_owner};
 use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
 use hapticd_ipc::telemetry_csv;
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
-use hapticd_plugin_api::HAPTICD_NO_BODY;
-use serde_json::{Value, json};
-use zbus::{Connection, OwnedVariant, Variant};
+use serde_json::json;
+use zbus::{Connection, OwnedVariant};
 
 use crate::mechanism::{Output, print};
 use crate::{Failure, completion};
@@ -120,51 +116,6 @@ fn bus_name(bus: &Bus) -> String {
     }
 }
 
-/// A D-Bus value as JSON: numbers, strings, paths, arrays and string-keyed dictionaries.
-fn to_json(v: &Variant) -> Value {
-    match v {
-        Variant::Bool(b) => json!(b),
-        Variant::U8(n) => json!(n),
-        Variant::I16(n) => json!(n),
-        Variant::U16(n) => json!(n),
-        Variant::I32(n) => json!(n),
-        Variant::U32(n) => json!(n),
-        Variant::I64(n) => json!(n),
-        Variant::U64(n) => json!(n),
-        Variant::F64(x) => json!(x),
-        Variant::Str(s) => json!(s.as_str()),
-        Variant::ObjectPath(p) => json!(p.as_str()),
-        Variant::Variant(inner) => to_json(inner),
-        Variant::Array(a) => Value::Array(a.inner().iter().map(to_json).collect()),
-        Variant::Dict(d) => Value::Object(
-            d.iter()
-                .map(|(k, v)| {
-                    let key = match to_json(k) {
-                        Value::String(s) => s,
-                        other => other.to_string(),
-                    };
-                    (key, to_json(v))
-                })
-                .collect(),
-        ),
-        _ => Value::Null,
-    }
-}
-
-/// A JSON value in one line of text, strings without their quotes.
-fn words(v: &Value) -> String {
-    match v {
-        Value::String(s) => s.clone(),
-        // Counters travel as doubles: a whole number is shown as one.
-        Value::Number(n) => match n.as_f64() {
-            Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => format!("{}", x as i64),
-            _ => n.to_string(),
-        },
-        Value::Array(a) => a.iter().map(words).collect::<Vec<_>>().join(" "),
-        other => other.to_string(),
-    }
-}
-
 impl Client {
     /// Connect to `bus`, where hapticd must be running: hapticctl never has the bus start it
     /// (an activation file of an older install would otherwise start a daemon that was
@@ -231,7 +182,7 @@ impl Client {
     }
 
     /// Every property of `interface` at `path`, as JSON.
-    fn properties(&self, path: &str, interface: &str) -> Result<BTreeMap<String, Value>, Failure> {
+    fn properties(&self, path: &str, interface: &str) -> Result<Properties, Failure> {
         let reply = self.call(path, PROPERTIES, "GetAll", &(interface,))?;
         let all: std::collections::HashMap<String, OwnedVariant> = reply
             .body()
@@ -241,10 +192,7 @@ impl Client {
     }
 
     /// Every property of every device the manager lists, in its order.
-    fn devices(
-        &self,
-        manager: &BTreeMap<String, Value>,
-    ) -> Result<Vec<BTreeMap<String, Value>>, Failure> {
+    fn devices(&self, manager: &Properties) -> Result<Vec<Properties>, Failure> {
         manager["Devices"]
             .as_array()
             .into_iter()
@@ -319,48 +267,11 @@ impl Client {
 /// `hapticctl status`: the daemon and each device in a few lines.
 pub fn status(client: &Client, output: &Output) -> Result<(), Failure> {
     let manager = client.properties(MANAGER_PATH, MANAGER)?;
-    let mut text = format!(
-        "hapticd {}: scene {}, mechanisms {}\n",
-        words(&manager["Version"]),
-        words(&manager["ActiveScene"]),
-        words(&manager["Mechanisms"])
-    );
-    let mut devices = Vec::new();
-    for d in client.devices(&manager)? {
-        let stats = &d["Statistics"];
-        text += &format!(
-            "{}: {}, {} at {} Hz ({}), {} ticks, {} overruns, wake p99 {} µs\n",
-            words(&d["Identity"]),
-            words(&d["State"]),
-            words(&d["Mechanism"]),
-            words(&d["LoopRate"]),
-            words(&d["Scheduling"]),
-            words(&stats["ticks"]),
-            words(&stats["overruns"]),
-            words(&stats["wait_p99_us"]),
-        );
-        text += &pending_line(&d);
-        let changes: serde_json::Map<String, Value> = pending(&d)
-            .into_iter()
-            .map(|(what, now, then)| (what, json!({"now": now, "next": then})))
-            .collect();
-        let mut device: serde_json::Map<String, Value> = d.into_iter().collect();
-        device.insert("Pending".into(), Value::Object(changes));
-        devices.push(Value::Object(device));
-    }
+    let devices = client.devices(&manager)?;
     // The renderer is asked without being started, as the daemon is.
     let renderer = zbus::block_on(has_owner(&client.connection, RENDERER_BUS_NAME))
         .map_err(|e| failure(&client.bus, e))?;
-    text += if renderer {
-        "renderer: running\n"
-    } else {
-        "renderer: not running (pictures: `systemctl start hapticd-render`)\n"
-    };
-    let value = json!({
-        "manager": Value::Object(manager.into_iter().collect()),
-        "devices": devices,
-        "renderer": renderer,
-    });
+    let (text, value) = daemon_view::status(manager, devices, renderer);
     print(output, value, text);
     Ok(())
 }
@@ -478,37 +389,6 @@ pub fn restart(client: &Client) -> Result<(), Failure> {
         "hapticd did not come back within {} s (see `journalctl -u hapticd`)",
         RESTART_TIMEOUT.as_secs()
     )))
-}
-
-/// What device `d` will change at its next start, as the daemon says (`Pending`): what, its
-/// value now and then.
-fn pending(d: &BTreeMap<String, Value>) -> Vec<(String, String, String)> {
-    let now = |what: &str| match what {
-        "mechanism" => words(&d["Mechanism"]),
-        "rate" => words(&d["LoopRate"]),
-        _ => String::new(),
-    };
-    d.get("Pending")
-        .and_then(Value::as_object)
-        .into_iter()
-        .flatten()
-        .map(|(what, then)| (what.clone(), now(what), words(then)))
-        .collect()
-}
-
-/// The line of the changes device `d` has pending, or nothing.
-fn pending_line(d: &BTreeMap<String, Value>) -> String {
-    let changes: Vec<String> = pending(d)
-        .into_iter()
-        .map(|(what, now, then)| format!("{what} {now} -> {then}"))
-        .collect();
-    if changes.is_empty() {
-        return String::new();
-    }
-    format!(
-        "  pending until the next start: {} (`hapticctl restart` applies it)\n",
-        changes.join(", ")
-    )
 }
 
 /// `hapticctl scene list`: the scenes the daemon can switch to, the active one marked.
@@ -640,27 +520,6 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
     })
 }
 
-/// The local time of day now, to the millisecond (`14:03:27.512`).
-fn clock_time() -> String {
-    let now = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap_or_default();
-    let seconds = now.as_secs() as libc::time_t;
-    // SAFETY: tm is plain data; localtime_r fills it from a valid time_t.
-    let mut tm: libc::tm = unsafe { std::mem::zeroed() };
-    // SAFETY: both pointers are valid for the call.
-    if unsafe { libc::localtime_r(&seconds, &mut tm) }.is_null() {
-        return format!("{}.{:03}", now.as_secs(), now.subsec_millis());
-    }
-    format!(
-        "{:02}:{:02}:{:02}.{:03}",
-        tm.tm_hour,
-        tm.tm_min,
-        tm.tm_sec,
-        now.subsec_millis()
-    )
-}
-
 #[derive(Args)]
 pub struct RecordArgs {
     /// Record for this many seconds of the device's ticks.
@@ -757,121 +616,6 @@ pub struct TopArgs {
     interval: f64,
 }
 
-/// Numbers `from..from + n` of an array property (one effector's share of Pose or Force).
-fn numbers(v: &Value, from: usize, n: usize) -> Vec<f64> {
-    (from..from + n)
-        .map(|i| v.get(i).and_then(Value::as_f64).unwrap_or(f64::NAN))
-        .collect()
-}
-
-/// A whole number of microseconds from a statistics entry, for a narrow column.
-fn micros(s: &Value, key: &str) -> String {
-    s[key]
-        .as_f64()
-        .map_or("-".into(), |us| format!("{:.0}", us))
-}
-
-/// One refresh of `top`: the daemon, then a line per device and one per effector, each
-/// within 80 columns.
-fn top_screen(client: &Client) -> Result<String, Failure> {
-    let manager = client.properties(MANAGER_PATH, MANAGER)?;
-    let mut screen = format!(
-        "hapticd {}: scene {}   (q quits)\n{:<10} {:<12} {:>10} {:>5} {:>13} {:>12}\n",
-        words(&manager["Version"]),
-        words(&manager["ActiveScene"]),
-        "DEVICE",
-        "STATE",
-        "TICKS",
-        "OVER",
-        "WAIT p99/max",
-        "BUSY avg/max"
-    );
-    for d in client.devices(&manager)? {
-        let s = &d["Statistics"];
-        screen += &format!(
-            "{:<10} {:<12} {:>10} {:>5} {:>13} {:>12}\n",
-            words(&d["Identity"]),
-            words(&d["State"]),
-            words(&s["ticks"]),
-            words(&s["overruns"]),
-            format!(
-                "{}/{} µs",
-                micros(s, "wait_p99_us"),
-                micros(s, "wait_max_us")
-            ),
-            format!(
-                "{:.1}/{:.1}",
-                s["busy_mean_us"].as_f64().unwrap_or(f64::NAN),
-                s["busy_max_us"].as_f64().unwrap_or(f64::NAN)
-            ),
-        );
-        let effectors = d["Effectors"].as_array().cloned().unwrap_or_default();
-        for (k, name) in effectors.iter().enumerate() {
-            let f = numbers(&d["Force"], 6 * k, 3);
-            let p = numbers(&d["Pose"], 7 * k, 3);
-            screen += &format!(
-                "  {:<10} force {:>6.2} N   at {:+.4} {:+.4} {:+.4} m\n",
-                words(name),
-                (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt(),
-                p[0],
-                p[1],
-                p[2]
-            );
-        }
-        screen += &pending_line(&d);
-    }
-    Ok(screen)
-}
-
-/// The terminal in a mode where a key reaches hapticctl as it is pressed (not at Enter),
-/// restored when dropped; None when standard input is no terminal.
-struct KeyReader {
-    saved: libc::termios,
-}
-
-impl KeyReader {
-    fn new() -> Option<Self> {
-        // SAFETY: termios is plain data; tcgetattr fills it or fails.
-        let mut saved: libc::termios = unsafe { std::mem::zeroed() };
-        // SAFETY: a valid descriptor and a termios to fill.
-        if unsafe { libc::tcgetattr(libc::STDIN_FILENO, &mut saved) } != 0 {
-            return None;
-        }
-        let mut keys = saved;
-        keys.c_lflag &= !(libc::ICANON | libc::ECHO);
-        // SAFETY: a valid descriptor and settings derived from its own.
-        if unsafe { libc::tcsetattr(libc::STDIN_FILENO, libc::TCSANOW, &keys) } != 0 {
-            return None;
-        }
-        Some(Self { saved })
-    }
-
-    /// Wait up to `timeout` for a key; the key, if one was pressed.
-    fn key(&self, timeout: std::time::Duration) -> Option<u8> {
-        let mut poll = libc::pollfd {
-            fd: libc::STDIN_FILENO,
-            events: libc::POLLIN,
-            revents: 0,
-        };
-        let ms = timeout.as_millis().min(i32::MAX as u128) as i32;
-        // SAFETY: one pollfd, and its count.
-        if unsafe { libc::poll(&mut poll, 1, ms) } <= 0 {
-            return None;
-        }
-        let mut key = 0u8;
-        // SAFETY: one byte read into one byte.
-        let n = unsafe { libc::read(libc::STDIN_FILENO, (&raw mut key).cast(), 1) };
-        (n == 1).then_some(key)
-    }
-}
-
-impl Drop for KeyReader {
-    fn drop(&mut self) {
-        // SAFETY: restoring the settings read at the start.
-        unsafe { libc::tcsetattr(libc::STDIN_FILENO, libc::TCSANOW, &self.saved) };
-    }
-}
-
 /// `hapticctl top`: the devices refreshed in place, like pw-top; `q` quits. Into a pipe or
 /// a file the refreshes follow one another.
 pub fn top(client: &Client, args: &TopArgs) -> Result<(), Failure> {
@@ -902,7 +646,9 @@ pub fn top(client: &Client, args: &TopArgs) -> Result<(), Failure> {
             (false, 0) => "",
             (false, _) => "\n",
         };
-        print!("{clear}{}", top_screen(client)?);
+        let manager = client.properties(MANAGER_PATH, MANAGER)?;
+        let screen = daemon_view::top_screen(&manager, &client.devices(&manager)?);
+        print!("{clear}{screen}");
         let _ = std::io::stdout().flush();
         frame += 1;
     }
