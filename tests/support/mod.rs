@@ -7,6 +7,7 @@ pub mod amplifier;
 pub mod ball_mesh;
 pub mod bus;
 pub mod daemon;
+pub mod haptic_cpu;
 pub mod netns;
 pub mod pile;
 pub mod qp;

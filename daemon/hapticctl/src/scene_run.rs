@@ -43,6 +43,24 @@ pub enum RunError<E> {
     Step(E),
 }
 
+impl<E: std::fmt::Display> std::fmt::Display for RunError<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RunError::NotFinite { t } => write!(
+                f,
+                "at t = {t:.4} s the world is no longer finite (bodies too fast, too light or \
+                 too stiffly sprung for its step)"
+            ),
+            RunError::Unsupported(quantity) => {
+                write!(f, "{quantity:?} is traced on penalty scenes only")
+            }
+            RunError::Step(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl<E: std::fmt::Debug + std::fmt::Display> std::error::Error for RunError<E> {}
+
 /// Kinetic and gravitational energy of a world's moving bodies over a run, joules (contact
 /// springs and the pointers' couplings hold the rest).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -340,6 +340,11 @@ impl Hapticd {
         }
     }
 
+    /// The daemon's process id.
+    fn pid(&self) -> u32 {
+        self.child.as_ref().expect("running").id()
+    }
+
     fn log(&self) -> String {
         let mut text = String::new();
         if let Ok(mut f) = std::fs::File::open(&self.log) {

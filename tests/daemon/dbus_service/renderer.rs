@@ -133,6 +133,7 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
     let setup = Setup::new(&dir);
     // The static scene: a debug build's tick leaves room for the machine's own hiccups.
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let _off = support::haptic_cpu::KeptOff::new();
     let overruns = || entry(&bus.get(DEVICE, "Statistics"), "overruns");
     let ticks = || entry(&bus.get(DEVICE, "Statistics"), "ticks");
     let mut renderer = Renderer::start(&bus, &dir, &[]);
@@ -150,29 +151,37 @@ fn a_renderer_killed_comes_back_and_the_haptic_loop_never_notices() {
     // Statistics reach the bus at 10 Hz: count from a snapshot no older than this moment.
     std::thread::sleep(Duration::from_millis(300));
     // What the machine alone costs the loop in a window as long as the kill's (a virtual
-    // machine's host steals ticks now and then, in bursts): the worst of several windows,
-    // before the kill and after it.
+    // machine's host steals ticks now and then, in bursts): the worst of six windows before
+    // the kill. Statistics reach the bus up to 0.2 s late, so each window is read that much
+    // after its end: overruns the kill caused late in its window are its own, not the
+    // next window's.
     const WINDOW: Duration = Duration::from_millis(350);
+    const LATE: Duration = Duration::from_millis(250);
     let window = || {
         let from = overruns();
-        std::thread::sleep(WINDOW);
+        std::thread::sleep(WINDOW + LATE);
         overruns() - from
     };
-    let mut worst = (0..4).map(|_| window()).fold(0.0, f64::max);
+    let quiet: Vec<f64> = (0..6).map(|_| window()).collect();
+    let worst = quiet.iter().copied().fold(0.0, f64::max);
     let (before, ticked) = (overruns(), ticks());
     let force = bus.get(DEVICE, "Force");
     renderer.kill_9();
     let error = bus.snapshot(&[]).unwrap_err();
     assert!(error.contains("org.hapticd.Renderer1"), "{error}");
-    std::thread::sleep(WINDOW);
+    std::thread::sleep(WINDOW + LATE);
     assert!(ticks() > ticked, "the loop stopped");
     let during = overruns() - before;
     assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
     assert_eq!(bus.get(DEVICE, "Force"), force, "the force changed");
-    worst = (0..3).map(|_| window()).fold(worst, f64::max);
+    println!("overruns: {during} while the renderer died, {quiet:?} in windows before");
+    // A kill that disturbed the loop would cost ticks beyond the machine's own worst. The
+    // bound is not zero because windows in which nothing happens lose ticks too: measured
+    // with the test's load off the haptic CPU, 0 to 2 overruns in each of 18 quiet windows
+    // of three runs (and 0, 1, 0 in their kills' windows).
     assert!(
         during <= 2.0 * worst + 2.0,
-        "{during} overruns while the renderer died, at most {worst} in a window without: {}",
+        "{during} overruns while the renderer died, {quiet:?} in windows without: {}",
         daemon.log()
     );
     // Started again as systemd's Restart= does: it finds hapticd's world by itself.

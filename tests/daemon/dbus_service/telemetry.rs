@@ -83,12 +83,19 @@ fn every_tick(rate: &str) -> EveryTick {
     let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--rate", rate]);
+    // Everything this test starts from here on keeps off the haptic CPU.
+    let _off = support::haptic_cpu::KeptOff::new();
     let _renderer = Renderer::start(&bus, &dir, &[]);
     let overruns = || entry(&bus.get(DEVICE, "Statistics"), "overruns");
     let realtime = bus.get(DEVICE, "Scheduling").contains("SCHED_FIFO");
     while entry(&bus.get(DEVICE, "Statistics"), "ticks") < 1000.0 {
         std::thread::sleep(Duration::from_millis(50));
     }
+    // 10 s of the loop alone (the renderer idle), then 10 s beside the stream, the clients
+    // and the readers of every tick.
+    let before = overruns();
+    std::thread::sleep(Duration::from_secs(10));
+    let alone = overruns() - before;
     let (_viewer, ring) = stream_frames(&bus);
     let first_frame = ring.latest();
     let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -113,10 +120,6 @@ fn every_tick(rate: &str) -> EveryTick {
             })
         })
         .collect();
-    // 10 s with the stream and the clients and no reader of the ring, then 10 s with them.
-    let before = overruns();
-    std::thread::sleep(Duration::from_secs(10));
-    let alone = overruns() - before;
     let before = overruns();
     let csv = dir.join("telemetry.csv");
     let record = hapticctl()
@@ -160,8 +163,7 @@ fn every_tick(rate: &str) -> EveryTick {
 
 /// The issue's check: at 1 and 10 kHz, `hapticctl record` and the Python iterator each get
 /// every tick of 10 s while the renderer streams and 100 clients read properties, and the
-/// loop overruns no more than in the 10 s before without the readers (the stream and the
-/// clients already there).
+/// loop overruns no more beside all of them than in the 10 s before, alone.
 #[test]
 fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_100_readers() {
     for (rate, ticks) in [("1000", 10_000), ("10000", 100_000)] {
@@ -178,12 +180,15 @@ fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_1
                 realtime,
             } = every_tick(rate);
             let said = format!(
-                "{rate} Hz: overruns {alone} without the readers, {during} beside them (the \
-                 renderer streaming and 100 clients reading all the while); {frames} frames \
-                 streamed; python: {python}; SCHED_FIFO: {realtime}"
+                "{rate} Hz: overruns {alone} alone, {during} beside the readers, the renderer \
+                 streaming and 100 clients reading; {frames} frames streamed; python: \
+                 {python}; SCHED_FIFO: {realtime}"
             );
             println!("{said}");
             assert_eq!(python, format!("{ticks} ticks, 0 gaps"), "{said}");
+            // The renderer shares the one CPU left to the test's load with the clients and
+            // readers: 45 frames at 1 kHz and 38 at 10 kHz measured; a stream that stopped
+            // would have none.
             assert!(frames >= 30, "{said}");
             rounds.push(said);
             if !realtime || during <= 2.0 * alone + 10.0 {
@@ -260,7 +265,10 @@ fn a_hundred_clients_at_once_and_a_telemetry_reader_are_served_without_overruns(
     let dir = support::shared_scratch("dbus", "hundred");
     let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
-    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // The clients, their bus and the reader keep off the haptic CPU, as programs beside
+    // hapticd should.
+    let _off = support::haptic_cpu::KeptOff::new();
     let overruns = || entry(&bus.get(DEVICE, "Statistics"), "overruns");
     let realtime = bus.get(DEVICE, "Scheduling").contains("SCHED_FIFO");
     // Statistics lag the loop by up to 0.2 s: count from well after start-up (locking and
@@ -270,11 +278,16 @@ fn a_hundred_clients_at_once_and_a_telemetry_reader_are_served_without_overruns(
     }
     // The best of three rounds, each a quiet time beside a burst of clients: on a shared
     // two-core virtual machine the host steals ticks in bursts (from none to dozens in 2.5 s
-    // on the same machine and code, more while the clients keep both cores busy), while a
-    // request path that disturbs the loop costs ticks in every round, one or more for each
-    // of the 500 requests.
+    // on the same machine and code), while a request path that disturbs the loop costs
+    // ticks in every round, one or more for each of the 500 requests.
+    let daemon_threads = || {
+        std::fs::read_dir(format!("/proc/{}/task", daemon.pid()))
+            .unwrap()
+            .count()
+    };
     let mut rounds = Vec::new();
     for _ in 0..3 {
+        let threads = daemon_threads();
         let quiet_from = overruns();
         std::thread::sleep(Duration::from_millis(2500));
         let quiet = overruns() - quiet_from;
@@ -287,6 +300,10 @@ fn a_hundred_clients_at_once_and_a_telemetry_reader_are_served_without_overruns(
             std::thread::spawn(move || follow_until(&address, &done))
         };
         clients_set_the_damping(&bus, &setup);
+        // Served by the daemon's own few workers: a thread started for a request would have
+        // its stack locked in memory (mlockall's MCL_FUTURE) while the loop runs, and the
+        // page faults that takes stall the loop.
+        assert_eq!(daemon_threads(), threads, "threads started for the clients");
         std::thread::sleep(Duration::from_millis(300));
         done.store(true, std::sync::atomic::Ordering::Release);
         let (read, missed) = reader.join().unwrap();
@@ -296,7 +313,10 @@ fn a_hundred_clients_at_once_and_a_telemetry_reader_are_served_without_overruns(
         );
         let during = overruns() - before;
         let alone = quiet * started.elapsed().as_secs_f64() / 2.5;
-        if !realtime || during <= 2.0 * alone + 10.0 {
+        println!("{during} overruns beside the clients, {alone:.1} in as long alone");
+        // Measured with the test's load off the haptic CPU: 1 and 2 beside the clients, 0 to
+        // 0.9 alone (three runs).
+        if !realtime || during <= 5.0 {
             return;
         }
         rounds.push(format!("{during} ({alone:.0} without them)"));

@@ -1,9 +1,10 @@
 //! `hapticctl body …`: the running world's bodies, read and changed from outside through the
-//! daemon's Scene interface (by name, or by id as a number).
+//! daemon's Scene interface (by name, or by id as a number); shown by
+//! [`hapticctl::body_report`].
 
 use clap::{Args, Subcommand};
+use hapticctl::body_report;
 use hapticd_ipc::client::{BodyState, Scene};
-use serde_json::json;
 
 use crate::Failure;
 use crate::client::Client;
@@ -98,33 +99,10 @@ fn three(values: &[f64]) -> [f64; 3] {
     [values[0], values[1], values[2]]
 }
 
-/// Print `body`'s `state`.
+/// Print `target`'s `state`.
 fn show(target: &Target, state: &BodyState) {
-    let [w, x, y, z] = state.orientation;
-    let text = format!(
-        "{}: position {:?} m, orientation {:?}, velocity {:?} m/s, spin {:?} rad/s, mass {} kg, \
-         friction {}, held force {:?} N\n",
-        target.body,
-        state.position,
-        [w, x, y, z],
-        state.velocity,
-        state.spin,
-        state.mass,
-        state.friction,
-        state.force
-    );
-    let value = json!({
-        "body": target.body,
-        "position": state.position,
-        "orientation": state.orientation,
-        "velocity": state.velocity,
-        "spin": state.spin,
-        // A fixed body's mass is infinite, which JSON cannot say.
-        "mass": state.mass.is_finite().then_some(state.mass),
-        "friction": state.friction,
-        "force": state.force,
-    });
-    print(&target.output, value, text);
+    let report = body_report::state(&target.body, state);
+    print(&target.output, report.json, report.text);
 }
 
 /// Run one `body` subcommand against the daemon on `client`.
@@ -138,20 +116,8 @@ pub fn run(command: Command, client: &Client) -> Result<(), Failure> {
     match command {
         Command::List(output) => {
             let bodies = scene.bodies().map_err(|e| client.refused(e))?;
-            let mut text = String::new();
-            for (id, b) in bodies.iter().enumerate() {
-                let kind = if b.fixed { "fixed" } else { "free" };
-                text += &format!("{id:>3}  {:<20} {kind}\n", b.name);
-            }
-            if bodies.is_empty() {
-                text = "the running scene has no bodies to change from outside\n".into();
-            }
-            let value: Vec<_> = bodies
-                .iter()
-                .enumerate()
-                .map(|(id, b)| json!({"id": id, "name": b.name, "fixed": b.fixed}))
-                .collect();
-            print(&output, json!(value), text);
+            let report = body_report::list(&bodies);
+            print(&output, report.json, report.text);
             Ok(())
         }
         Command::Show(target) => act(&target, &|s, b| s.body(b)),

@@ -1,11 +1,11 @@
 //! `hapticctl device …`: find SPIDAR amplifiers on USB and exercise them, for bring-up and
-//! diagnosis (hapticd must not be running: it owns the devices it drives).
+//! diagnosis (hapticd must not be running: it owns the devices it drives); shown by
+//! [`hapticctl::device_report`].
 
 use clap::{Args, Subcommand};
-use hapticd_core::transport::{CHANNELS, Reading};
-use hapticd_device::transport;
+use hapticctl::device_report;
+use hapticd_core::transport::CHANNELS;
 use hapticd_device::usb::find_devices;
-use serde_json::json;
 
 use crate::Failure;
 use crate::mechanism::{Numbers, Output, parse_numbers, print};
@@ -42,92 +42,21 @@ pub fn run(command: Command) -> Result<(), Failure> {
         }
         Command::List(output) => {
             let (found, unusable) = find_devices().map_err(Failure::failed)?;
-            let usb =
-                |m: &hapticd_device::SupportedDevice| format!("{:04x}:{:04x}", m.vendor, m.product);
-            let usable = found
-                .iter()
-                .map(|d| (&d.identity, &d.model, None::<&String>));
-            let listed: Vec<_> = usable
-                .chain(
-                    unusable
-                        .iter()
-                        .map(|d| (&d.identity, &d.model, Some(&d.reason))),
-                )
-                .collect();
-            let rows: Vec<_> = listed
-                .iter()
-                .map(|(identity, model, reason)| {
-                    json!({"identity": identity, "model": model.name, "usb": usb(model),
-                           "usable": reason.is_none(), "problem": reason})
-                })
-                .collect();
-            let text: String = listed
-                .iter()
-                .map(|(identity, model, reason)| match reason {
-                    None => format!("{identity}  {}  {}\n", usb(model), model.name),
-                    Some(why) => format!(
-                        "{identity}  {}  {}  unusable: {why}\n",
-                        usb(model),
-                        model.name
-                    ),
-                })
-                .collect();
-            print(&output, serde_json::Value::Array(rows), text);
+            let report = device_report::list(&found, &unusable);
+            print(&output, report.json, report.text);
             Ok(())
         }
-        Command::Exchange(args) => exchange(&args),
+        Command::Exchange(args) => {
+            let dac = device_report::dac_values(&args.dac).ok_or_else(|| {
+                Failure::usage(format!(
+                    "--dac needs {CHANNELS} whole numbers from {} to {}",
+                    i16::MIN,
+                    i16::MAX
+                ))
+            })?;
+            let report = device_report::exchange(&dac, args.count).map_err(Failure::failed)?;
+            print(&args.output, report.json, report.text);
+            Ok(())
+        }
     }
-}
-
-fn exchange(args: &ExchangeArgs) -> Result<(), Failure> {
-    let mut dac = [0i16; CHANNELS];
-    let range = f64::from(i16::MIN)..=f64::from(i16::MAX);
-    if args.dac.len() != CHANNELS
-        || args
-            .dac
-            .iter()
-            .any(|v| v.fract() != 0.0 || !range.contains(v))
-    {
-        return Err(Failure::usage(format!(
-            "--dac needs {CHANNELS} whole numbers from {} to {}",
-            i16::MIN,
-            i16::MAX
-        )));
-    }
-    for (d, v) in dac.iter_mut().zip(args.dac.iter()) {
-        *d = *v as i16;
-    }
-    let (found, unusable) = find_devices().map_err(Failure::failed)?;
-    let Some(device) = found.into_iter().next() else {
-        let why = if unusable.is_empty() {
-            "none is connected".to_string()
-        } else {
-            let each: Vec<_> = unusable.iter().map(ToString::to_string).collect();
-            each.join("; ")
-        };
-        return Err(Failure::failed(format!(
-            "no usable SPIDAR amplifier: {why}"
-        )));
-    };
-    let mut transport =
-        transport::for_protocol(device.model.protocol, device.link, device.identity.clone());
-    let mut reading = Reading::default();
-    let mut updates = Vec::with_capacity(args.count);
-    let mut text = format!("{} ({})\n", device.identity, device.model.name);
-    for i in 0..args.count {
-        transport
-            .update(&dac, &mut reading)
-            .map_err(|e| Failure::failed(format!("update {i}: {e}")))?;
-        text += &format!(
-            "{i:5}: counts {:?} switch {}\n",
-            reading.counts, reading.board_channel
-        );
-        updates.push(json!({"counts": reading.counts, "board_channel": reading.board_channel}));
-    }
-    print(
-        &args.output,
-        json!({"identity": device.identity, "model": device.model.name, "updates": updates}),
-        text,
-    );
-    Ok(())
 }

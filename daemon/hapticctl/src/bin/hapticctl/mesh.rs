@@ -1,12 +1,12 @@
-//! `hapticctl mesh …`: look at a triangle mesh (OBJ, STL, glTF) as hapticd reads it.
+//! `hapticctl mesh …`: look at a triangle mesh (OBJ, STL, glTF) as hapticd reads it
+//! ([`hapticctl::mesh_report`]).
 
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
+use hapticctl::mesh_report;
 use hapticd_mesh::cache::Cache;
-use hapticd_mesh::properties::{closure, is_convex, mass_properties};
 use hapticd_mesh::{Limits, load};
-use serde_json::json;
 
 use crate::Failure;
 use crate::mechanism::{Output, print};
@@ -76,114 +76,10 @@ fn inspect(args: &InspectArgs) -> Result<(), Failure> {
         )));
     }
     let mesh = load(&args.file, args.scale, Limits::DEFAULT, None)?;
-    let (low, high) = mesh.bounds();
-    let edges = closure(&mesh);
-    let solid = mass_properties(&mesh);
-    let size = high - low;
-    let mut text = format!(
-        "{}: {} triangles, {} vertices{}\nbounds: {:.6} {:.6} {:.6} to {:.6} {:.6} {:.6} m \
-         ({:.6} × {:.6} × {:.6})\n",
-        args.file.display(),
-        mesh.triangles.len(),
-        mesh.vertices.len(),
-        if mesh.normals.is_some() {
-            ", with normals"
-        } else {
-            ""
-        },
-        low.x,
-        low.y,
-        low.z,
-        high.x,
-        high.y,
-        high.z,
-        size.x,
-        size.y,
-        size.z,
-    );
-    let closed = edges.is_closed();
-    let convex = closed && is_convex(&mesh);
-    if closed {
-        let i = solid.inertia;
-        text += &format!(
-            "closed: yes\nvolume: {:.9e} m³, centre {:.6} {:.6} {:.6} m\ninertia per kg/m³ \
-             about the centre: {}\n",
-            solid.volume,
-            solid.centre.x,
-            solid.centre.y,
-            solid.centre.z,
-            inertia_text(&i),
-        );
-        if solid.volume < 0.0 {
-            text += "the triangles face inwards: a negative volume\n";
-        }
-        text += if convex {
-            "convex: yes (a body of it is its own one piece)\n"
-        } else {
-            "convex: no\n"
-        };
-        if let Some(d) = args.density {
-            text += &format!(
-                "at {d} kg/m³: mass {:.6e} kg, inertia about the centre {}\n",
-                solid.volume * d,
-                inertia_text(&(solid.inertia * d)),
-            );
-        }
-    } else {
-        text += &format!(
-            "closed: no ({} open edges, {} edges shared by more than two triangles or flipped \
-             faces): it can be a static scene's shape, not a physics scene's body\n",
-            edges.open_edges, edges.bad_edges
-        );
-    }
-    // The pieces a scene would touch it through, if they are cut (scenes key the file as it
-    // is, unscaled).
     let cache = cache_of(&args.cache);
-    let pieces = (closed && args.scale == 1.0)
-        .then(|| cache.lookup(&mesh))
-        .flatten();
-    match (&pieces, cache.entry(&mesh)) {
-        (Some(pieces), Some(entry)) => {
-            text += &format!(
-                "convex pieces: {}, kept in {}\n",
-                pieces.len(),
-                entry.display()
-            );
-        }
-        _ if closed => text += "convex pieces: not cut yet (hapticctl mesh decompose cuts them)\n",
-        _ => {}
-    }
-    let value = json!({
-        "file": args.file,
-        "triangles": mesh.triangles.len(),
-        "vertices": mesh.vertices.len(),
-        "normals": mesh.normals.is_some(),
-        "bounds": [low.to_array(), high.to_array()],
-        "closed": closed,
-        "open_edges": edges.open_edges,
-        "bad_edges": edges.bad_edges,
-        "volume": closed.then_some(solid.volume),
-        "centre": closed.then_some(solid.centre.to_array()),
-        "inertia": closed.then_some(solid.inertia.to_cols_array_2d()),
-        "convex": closed.then_some(convex),
-        "density": args.density,
-        "mass": args.density.filter(|_| closed).map(|d| solid.volume * d),
-        "body_inertia": args
-            .density
-            .filter(|_| closed)
-            .map(|d| (solid.inertia * d).to_cols_array_2d()),
-        "pieces": pieces.as_ref().map(Vec::len),
-    });
-    print(&args.output, value, text);
+    let report = mesh_report::inspect(&args.file, &mesh, args.scale, args.density, &cache);
+    print(&args.output, report.json, report.text);
     Ok(())
-}
-
-/// An inertia tensor as `inspect` prints it: the moments, then the products, kg·m².
-fn inertia_text(i: &glam::DMat3) -> String {
-    format!(
-        "{:.6e} {:.6e} {:.6e} (products {:.3e} {:.3e} {:.3e}) kg·m²",
-        i.x_axis.x, i.y_axis.y, i.z_axis.z, i.y_axis.x, i.z_axis.x, i.z_axis.y
-    )
 }
 
 fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
@@ -194,54 +90,10 @@ fn decompose(args: &DecomposeArgs) -> Result<(), Failure> {
         )));
     }
     let mesh = load(&args.file, args.scale, Limits::DEFAULT, None)?;
-    if !closure(&mesh).is_closed() {
-        return Err(Failure::failed(format!(
-            "{}: the surface is not closed, so it bounds no solid to cut (hapticctl mesh \
-             inspect says where)",
-            args.file.display()
-        )));
-    }
-    if mass_properties(&mesh).volume <= 0.0 {
-        return Err(Failure::failed(format!(
-            "{}: its faces point inwards (the volume they close is negative)",
-            args.file.display()
-        )));
-    }
-    let started = std::time::Instant::now();
-    let pieces = hapticd_mesh::decomposition::decompose(&mesh, args.resolution);
-    let seconds = started.elapsed().as_secs_f64();
-    // Scenes read the pieces of the mesh as its file has it, at the default resolution.
-    let kept = if args.resolution == hapticd_mesh::decomposition::RESOLUTION && args.scale == 1.0 {
-        cache_of(&args.cache).store(&mesh, &pieces.pieces)
-    } else {
-        None
-    };
-    let volume = mass_properties(&mesh).volume;
-    let hulls = pieces.volume();
-    let error = (hulls - volume) / volume;
-    let text = format!(
-        "{}: {} convex pieces in {:.3} s; their volume {:.6e} m³ against the mesh's {:.6e} m³ \
-         ({:+.2} %)\n",
-        args.file.display(),
-        pieces.pieces.len(),
-        seconds,
-        hulls,
-        volume,
-        100.0 * error
-    ) + &kept
-        .as_ref()
-        .map(|entry| format!("kept in {}\n", entry.display()))
-        .unwrap_or_default();
-    let value = json!({
-        "kept": kept,
-        "file": args.file,
-        "pieces": pieces.pieces.len(),
-        "seconds": seconds,
-        "volume": volume,
-        "pieces_volume": hulls,
-        "volume_error": error,
-    });
-    print(&args.output, value, text);
+    let cache = cache_of(&args.cache);
+    let report = mesh_report::decompose(&args.file, &mesh, (args.resolution, args.scale), &cache)
+        .map_err(Failure::failed)?;
+    print(&args.output, report.json, report.text);
     Ok(())
 }
 
