@@ -1,0 +1,239 @@
+use super::*;
+use hapticd_physics::scene::SceneFile;
+use hapticd_plugin_api::HapticdPointer;
+
+#[test]
+fn contacts_beyond_the_record_are_shared_among_the_solids_touched_and_spread_out() {
+    // Three faces of four corners each (a block in a corner), six slots: each face
+    // keeps two, and the two are opposite corners (a diagonal), not one edge.
+    let square = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    let mut found = Vec::new();
+    for pair in 0..3 {
+        for (a, b) in square {
+            let mut point = [0.0; 3];
+            point[pair] = 0.02;
+            point[(pair + 1) % 3] = 0.02 * a;
+            point[(pair + 2) % 3] = 0.02 * b;
+            found.push((
+                pair,
+                // The gap tells the faces apart: corners are shared.
+                HapticdBodyContact {
+                    point,
+                    gap: pair as f64,
+                    ..HapticdBodyContact::default()
+                },
+            ));
+        }
+    }
+    let mut out = [HapticdBodyContact::default(); 6];
+    assert_eq!(spread(&found, 3, &mut out), 6);
+    for pair in 0..3 {
+        let kept: Vec<DVec3> = out
+            .iter()
+            .filter(|c| c.gap == pair as f64)
+            .map(|c| DVec3::from(c.point))
+            .collect();
+        assert_eq!(kept.len(), 2, "{out:?}");
+        assert!((kept[0].distance(kept[1]) - 0.04 * 2f64.sqrt()).abs() < 1e-12);
+    }
+    // Room for all: all of them, each once.
+    let mut room = [HapticdBodyContact::default(); 16];
+    assert_eq!(spread(&found, 3, &mut room), 12);
+    for c in &found {
+        assert_eq!(room.iter().filter(|r| **r == c.1).count(), 1);
+    }
+}
+
+/// One 20 ms step with the planes around the pointers themselves.
+fn step(w: &mut RapierWorld, pointers: &[HapticdPointer], planes: &mut [HapticdPlanes]) -> bool {
+    w.step(
+        &PhysicsInput {
+            dt: 0.02,
+            pointers,
+            proxies: pointers,
+            impulses: &[],
+            locals: &[],
+        },
+        &mut PhysicsOutput {
+            planes,
+            bodies: &mut [],
+            body_count: &mut 0,
+        },
+    )
+}
+
+fn world(text: &str, pointers: usize) -> (RapierScene, RapierWorld) {
+    match SceneFile::parse(text, std::path::Path::new("t.yaml"), pointers).unwrap() {
+        SceneFile::Rapier(spec) => {
+            let world = RapierWorld::new(&spec, pointers);
+            (*spec, world)
+        }
+        SceneFile::Penalty(_) => panic!("not a rapier scene"),
+    }
+}
+
+const FREE: &str = "name: free
+engine: rapier
+rate: 20
+gravity: [0, 0, 0]
+material: { static_friction: 0.5, friction: 0.4 }
+bodies:
+  - { name: brick, box: [0.1, 0.2, 0.3], position: [0.1, 0.2, 0.3], density: 1000 }
+";
+
+/// However large the impulse, the point it acts at ends no faster along it than the
+/// hand: the whole impulse when the hand is fast, the point's own mass times the hand's
+/// speed when it is slow, nothing when the point already moves faster.
+#[test]
+fn an_impulse_brings_its_point_no_faster_than_the_hand() {
+    let (j, p) = (DVec3::new(0.0, -40.0, 0.0), DVec3::new(0.14, 0.3, 0.21));
+    let impulse = HapticdImpulse {
+        object: 0,
+        point: p.to_array(),
+        impulse: j.to_array(),
+    };
+    let point_speed = |w: &RapierWorld| {
+        let b = w.body(0);
+        (b.velocity + b.spin.cross(p - b.position)).dot(j.normalize())
+    };
+    let (_, mut w) = world(FREE, 0);
+    w.apply(&impulse, 0.1);
+    assert!((point_speed(&w) - 0.1).abs() < 1e-5, "{}", point_speed(&w));
+    w.apply(&impulse, 0.05);
+    assert!((point_speed(&w) - 0.1).abs() < 1e-5, "{}", point_speed(&w));
+}
+
+#[test]
+fn an_impulse_changes_momentum_by_itself_and_angular_momentum_by_its_moment() {
+    let (_, mut w) = world(FREE, 0);
+    let before = w.body(0);
+    let (j, p) = (DVec3::new(0.3, -0.2, 0.5), DVec3::new(0.14, 0.25, 0.21));
+    // A hand fast enough not to bound it.
+    w.apply(
+        &HapticdImpulse {
+            object: 0,
+            point: p.to_array(),
+            impulse: j.to_array(),
+        },
+        1e3,
+    );
+    let after = w.body(0);
+    // The brick's exact mass and principal moments: m(b² + c²)/12 and so on.
+    let (a, b, c) = (0.1, 0.2, 0.3);
+    let m = 1000.0 * a * b * c;
+    let inertia = DVec3::new(b * b + c * c, a * a + c * c, a * a + b * b) * (m / 12.0);
+    let momentum = (after.velocity - before.velocity) * m;
+    assert!(
+        (momentum - j).length() < 1e-6 * j.length(),
+        "{momentum} vs {j}"
+    );
+    let moment = (p - before.position).cross(j);
+    let angular = (after.spin - before.spin) * inertia;
+    assert!(
+        (angular - moment).length() < 1e-5 * moment.length(),
+        "{angular} vs {moment}"
+    );
+    // Nothing happens to an object that is not there, or to an impulse that is not finite.
+    for bad in [
+        HapticdImpulse {
+            object: 9,
+            point: p.to_array(),
+            impulse: j.to_array(),
+        },
+        HapticdImpulse {
+            object: 0,
+            point: p.to_array(),
+            impulse: [f64::NAN, 0.0, 0.0],
+        },
+    ] {
+        w.apply(&bad, 1e3);
+        assert_eq!(w.body(0), after);
+    }
+}
+
+const TABLE: &str = "name: table
+engine: rapier
+rate: 50
+material: { static_friction: 0.5, friction: 0.4 }
+bodies:
+  - { name: floor, box: [1, 0.1, 1], position: [0, -0.05, 0], fixed: true }
+  - { name: ball, sphere: 0.02, position: [0.3, 0.02, 0], density: 1000 }
+  - name: arch
+    pieces:
+      - { box: [0.02, 0.06, 0.02], position: [-0.05, 0, 0] }
+      - { box: [0.02, 0.06, 0.02], position: [0.05, 0, 0] }
+    position: [-0.3, 0.03, 0]
+pointer:
+  sphere: 0.005
+feedback: position
+";
+
+#[test]
+fn each_pointer_gets_the_nearest_point_and_outward_normal_of_every_solid_within_reach() {
+    let (_, mut w) = world(TABLE, 1);
+    assert!((w.reach() - (2.0 / 50.0 + surfaces::MARGIN)).abs() < 1e-12);
+    let mut planes = [HapticdPlanes::default()];
+    // 1 cm above the floor, 5 cm from the ball's side: the floor and the ball, not the
+    // arch 50 cm away. The pointer's own body (position feedback) is not a surface, and
+    // its 5 mm sphere moves each plane out: the grip meets a plane where the sphere
+    // meets the solid.
+    let finger = HapticdPointer {
+        position: [0.3 - 0.07, 0.01, 0.0],
+        ..HapticdPointer::default()
+    };
+    assert!(step(&mut w, &[finger], &mut planes));
+    let found = &planes[0].planes[..planes[0].count as usize];
+    assert_eq!(found.len(), 2, "{found:?}");
+    let floor = found[0];
+    assert_eq!(w.body_of(floor.object), Some(0));
+    assert!((DVec3::from(floor.point) - DVec3::new(0.23, 0.005, 0.0)).length() < 1e-6);
+    assert!((DVec3::from(floor.normal) - DVec3::Y).length() < 1e-6);
+    let ball = found[1];
+    assert_eq!(w.body_of(ball.object), Some(1));
+    let centre = w.body(1).position;
+    let outward = (DVec3::from(finger.position) - centre).normalize();
+    assert!((DVec3::from(ball.normal) - outward).length() < 1e-5);
+    assert!((DVec3::from(ball.point) - (centre + outward * 0.025)).length() < 1e-5);
+    // Inside the arch's left leg (settling on the floor), the nearest face's plane still
+    // points out of it.
+    let inside = HapticdPointer {
+        position: [-0.355 + 0.002, 0.03, 0.0],
+        ..HapticdPointer::default()
+    };
+    assert!(step(&mut w, &[inside], &mut planes));
+    let leg = planes[0].planes[0];
+    assert_eq!(w.body_of(leg.object), Some(2));
+    assert!(
+        (DVec3::from(leg.normal) - DVec3::NEG_X).length() < 1e-3,
+        "{leg:?}"
+    );
+    assert!((leg.point[0] + 0.365).abs() < 1e-4, "{leg:?}");
+    // Under impulse feedback the pointers' bodies are away and the planes are the
+    // solids' own.
+    w.set_feedback(Feedback::Impulse);
+    assert!(step(&mut w, &[finger], &mut planes));
+    assert!((DVec3::from(planes[0].planes[0].point) - DVec3::new(0.23, 0.0, 0.0)).length() < 1e-6);
+}
+
+#[test]
+fn position_feedback_pushes_bodies_with_the_pointer_and_impulse_feedback_does_not() {
+    for feedback in [Feedback::Position, Feedback::Impulse] {
+        let (_, mut w) = world(TABLE, 1);
+        w.set_feedback(feedback);
+        let start = w.body(1).position;
+        let mut planes = [HapticdPlanes::default()];
+        // The finger sweeps through where the ball is, along x.
+        for k in 0..20 {
+            let finger = HapticdPointer {
+                position: [0.25 + 0.005 * k as f64, 0.02, 0.0],
+                ..HapticdPointer::default()
+            };
+            assert!(step(&mut w, &[finger], &mut planes));
+        }
+        let moved = w.body(1).position.x - start.x;
+        match feedback {
+            Feedback::Position => assert!(moved > 0.02, "{moved}"),
+            Feedback::Impulse | Feedback::Local => assert!(moved.abs() < 1e-4, "{moved}"),
+        }
+    }
+}
