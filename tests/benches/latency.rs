@@ -64,11 +64,7 @@ fn hapticd_beside<T>(
         ),
     )
     .unwrap();
-    let child = Command::new(support::artifact("hapticd"))
-        .arg("--config")
-        .arg(&config)
-        .arg(format!("--bus={}", bus.address))
-        .env("DBUS_SYSTEM_BUS_ADDRESS", &bus.address)
+    let child = support::daemon::command(&config, &bus.address)
         .arg("--scene")
         .args(scene)
         .args([
@@ -79,8 +75,6 @@ fn hapticd_beside<T>(
             "--duration",
             &SECONDS.to_string(),
         ])
-        .env_remove("NOTIFY_SOCKET")
-        .env("CACHE_DIRECTORY", dir.join("cache"))
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("hapticd runs");

@@ -56,16 +56,12 @@ impl Setup {
             format!("scene_dirs: [{}]\nscene: static\n", scenes.display()),
         )
         .unwrap();
-        let hapticd = Command::new(artifact("hapticd"))
-            .arg("--config")
-            .arg(&config)
+        let hapticd = support::daemon::command(&config, &bus.address)
             .arg("--mechanism-dir")
             .arg(&mechanisms)
             .arg("--state-dir")
             .arg(dir.join("state"))
-            .arg(format!("--bus={}", bus.address))
             .args(["--sim", "spidar-g"])
-            .env_remove("NOTIFY_SOCKET")
             .stdout(Stdio::null())
             .stderr(std::fs::File::create(dir.join("hapticd.log")).unwrap())
             .spawn()

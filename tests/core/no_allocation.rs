@@ -523,15 +523,24 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     places.dedup();
     assert!(places.len() > 50, "{} places in 400 ticks", places.len());
     let travel = block_x[399] - block_x[0];
-    let jump = block_x
+    let jumps: Vec<f64> = block_x
         .windows(2)
         .map(|w| (w[1] - w[0]).abs())
-        .fold(0.0, f64::max);
+        .filter(|&step| step >= travel / 16.0)
+        .collect();
     // The grip, 5 mm into the face, pushes it on until it is clear of it.
     assert!(travel > 0.005, "{feedback}: the block moved {travel} m");
+    // Unsmoothed, each of the eight steps is a jump of about an eighth of the travel. The
+    // physics thread keeps to the wall clock, and on a busy machine a step can come early
+    // after one that came late: the picture then leaves the older interpolation part-way.
+    // Measured: none in three runs of this binary alone; one (0.6 and 0.75 of a step) in
+    // each of two runs while a compiler took the other core. So a jump or two, never the
+    // steps themselves.
+    println!("{feedback}: jumps of a sixteenth of the travel or more: {jumps:?} in {travel} m");
     assert!(
-        jump < travel / 16.0,
-        "{feedback}: a jump of {jump} m in {travel} m"
+        jumps.len() <= 2,
+        "{feedback}: {} jumps of a sixteenth of the travel or more ({jumps:?} in {travel} m)",
+        jumps.len()
     );
     // While the block pushed back, the proxy rested on its face, short of the finger.
     assert!(proxy_x < pointers[0].pose.position.x - 1e-3, "{proxy_x}");

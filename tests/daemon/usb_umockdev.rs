@@ -374,26 +374,36 @@ fn an_amplifier_unplugged_mid_run_is_driven_to_zero_and_resumes_when_plugged_bac
     // Frame by frame: running, then disconnected with the tensions down to zero within the
     // 5 ms fault ramp, then running again on the same calibration until SIGTERM.
     let csv = std::fs::read_to_string(&frames).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (state, first_tension) = (column("state"), column("tension_1"));
     let rows: Vec<Vec<&str>> = csv
         .lines()
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
     let tensions = |row: &Vec<&str>| -> Vec<f64> {
-        row[row.len() - 8..]
+        row[first_tension..first_tension + 8]
             .iter()
             .map(|t| t.parse().unwrap())
             .collect()
     };
-    let lost = rows.iter().position(|r| r[1] == "disconnected").unwrap();
-    let back = lost + rows[lost..].iter().position(|r| r[1] == "running").unwrap();
-    assert!(rows[..lost].iter().all(|r| r[1] == "running"));
+    let lost = rows
+        .iter()
+        .position(|r| r[state] == "disconnected")
+        .unwrap();
+    let back = lost
+        + rows[lost..]
+            .iter()
+            .position(|r| r[state] == "running")
+            .unwrap();
+    assert!(rows[..lost].iter().all(|r| r[state] == "running"));
     assert!(back - lost > 500, "away for {} ticks", back - lost);
     for row in &rows[lost + 10..back] {
-        assert_eq!(row[1], "disconnected");
+        assert_eq!(row[state], "disconnected");
         assert!(tensions(row).iter().all(|t| *t == 0.0), "{row:?}");
     }
-    assert!(rows[back..].iter().all(|r| r[1] == "running"));
+    assert!(rows[back..].iter().all(|r| r[state] == "running"));
     assert!(
         rows.len() - back > 100,
         "{} ticks after the re-plug",

@@ -82,25 +82,32 @@ impl Isolated {
         self.bus.is_some()
     }
 
-    /// `hapticd --config … --bus …` of this test, followed by `args`. Its environment names
-    /// no bus, journal, notification socket, state directory, cache or mechanism path of the host:
-    /// the buses a library could fall back on are this test's address too.
+    /// `hapticd --config … --bus …` of this test, followed by `args` ([`command`]).
     pub fn hapticd(&self, args: &[&str]) -> Command {
-        let mut command = Command::new(artifact("hapticd"));
-        command
-            .arg("--config")
-            .arg(&self.config)
-            .arg(format!("--bus={}", self.address))
-            .args(args)
-            .env("DBUS_SYSTEM_BUS_ADDRESS", &self.address)
-            .env("DBUS_SESSION_BUS_ADDRESS", &self.address)
-            .env_remove("NOTIFY_SOCKET")
-            .env_remove("JOURNAL_STREAM")
-            .env_remove("STATE_DIRECTORY")
-            .env_remove("HAPTICD_MECHANISM_PATH")
-            .env("CACHE_DIRECTORY", super::mesh_cache());
+        let mut command = command(&self.config, &self.address);
+        command.args(args);
         command
     }
+}
+
+/// `hapticd --config CONFIG --bus=ADDRESS`, the one way tests start hapticd (more arguments
+/// follow). Its environment names no bus, journal, notification socket, state directory,
+/// cache or mechanism path of the host: the buses a library could fall back on are
+/// `address` too, and meshes are cut into the tests' own cache.
+pub fn command(config: &Path, address: &str) -> Command {
+    let mut command = Command::new(artifact("hapticd"));
+    command
+        .arg("--config")
+        .arg(config)
+        .arg(format!("--bus={address}"))
+        .env("DBUS_SYSTEM_BUS_ADDRESS", address)
+        .env("DBUS_SESSION_BUS_ADDRESS", address)
+        .env_remove("NOTIFY_SOCKET")
+        .env_remove("JOURNAL_STREAM")
+        .env_remove("STATE_DIRECTORY")
+        .env_remove("HAPTICD_MECHANISM_PATH")
+        .env("CACHE_DIRECTORY", super::mesh_cache());
+    command
 }
 
 impl Drop for Isolated {

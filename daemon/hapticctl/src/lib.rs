@@ -1,7 +1,8 @@
 //! hapticctl's library: the thesis' experiments, reproduced on the simulated SPIDAR and the
-//! physics, studies of mechanisms, offline scene runs, and the PNG charts they draw; the
-//! running daemon's properties in words ([`daemon_view`]) and the terminal's keys
-//! ([`terminal`]) for the commands that talk to it. The
+//! physics, studies of mechanisms, offline scene runs, and the PNG charts they draw; for the
+//! commands that talk to the running daemon, its connection ([`daemon_client`]) or its
+//! network bridge's ([`remote_daemon`]), its properties in words ([`daemon_view`]) and the
+//! terminal's keys ([`terminal`]). The
 //! experiments and the mechanism studies return a [`report::Report`]: the binary parses
 //! arguments, writes its figure and prints it.
 //!
@@ -12,6 +13,7 @@
 //! and the manual pages ([`manual`]).
 
 pub mod body_report;
+pub mod daemon_client;
 pub mod daemon_view;
 pub mod device_report;
 pub mod experiments;
@@ -21,6 +23,7 @@ pub mod mesh_report;
 pub mod multirate;
 pub mod pictures;
 pub mod plot;
+pub mod remote_daemon;
 pub mod report;
 pub mod scene_report;
 pub mod scene_run;

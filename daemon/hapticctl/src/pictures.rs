@@ -1,6 +1,6 @@
 //! Pictures of the running daemon's world, asked of hapticd-render (`org.hapticd.Renderer1`)
 //! on the bus: one as PNG bytes, or a stream of frames in a shared ring (which
-//! [`crate::viewer`] shows in a window).
+//! `viewer` shows in a window).
 
 use std::collections::HashMap;
 

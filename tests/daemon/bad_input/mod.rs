@@ -135,18 +135,8 @@ fn hapticd_command(dir: &Path, mechanisms: &Path, address: &str, args: &[&str]) 
         ),
     )
     .unwrap();
-    let mut command = Command::new(artifact("hapticd"));
-    command
-        .arg("--config")
-        .arg(&config)
-        .args(["--sim", "spidar-g", &format!("--bus={address}")])
-        .args(args)
-        .env("DBUS_SYSTEM_BUS_ADDRESS", address)
-        .env("DBUS_SESSION_BUS_ADDRESS", address)
-        .env_remove("NOTIFY_SOCKET")
-        .env_remove("JOURNAL_STREAM")
-        .env_remove("STATE_DIRECTORY")
-        .env_remove("HAPTICD_MECHANISM_PATH");
+    let mut command = support::daemon::command(&config, address);
+    command.args(["--sim", "spidar-g"]).args(args);
     command
 }
 

@@ -275,16 +275,12 @@ struct Hapticd {
 impl Hapticd {
     fn start(bus: &Bus, setup: &Setup, extra: &[&str]) -> Hapticd {
         let log = std::fs::File::create(&setup.log).unwrap();
-        let child = Command::new(artifact("hapticd"))
-            .arg("--config")
-            .arg(&setup.config)
+        let child = support::daemon::command(&setup.config, &bus.address)
             .arg("--mechanism-dir")
             .arg(&setup.mechanisms)
             .arg("--state-dir")
             .arg(&setup.state)
-            .arg(format!("--bus={}", bus.address))
             .args(extra)
-            .env_remove("NOTIFY_SOCKET")
             .env("CACHE_DIRECTORY", &setup.cache)
             .stdout(Stdio::null())
             .stderr(log)

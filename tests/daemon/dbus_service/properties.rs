@@ -211,14 +211,10 @@ fn a_second_hapticd_refuses_to_take_the_name_of_a_running_one() {
     let other = dir.join("other");
     std::fs::create_dir_all(&other).unwrap();
     let setup = Setup::new(&other);
-    let second = Command::new(artifact("hapticd"))
-        .arg("--config")
-        .arg(&setup.config)
+    let second = support::daemon::command(&setup.config, &bus.address)
         .arg("--mechanism-dir")
         .arg(&setup.mechanisms)
         .args(["--sim", "spidar-g", "--duration", "2"])
-        .arg(format!("--bus={}", bus.address))
-        .env_remove("NOTIFY_SOCKET")
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&second.stderr);

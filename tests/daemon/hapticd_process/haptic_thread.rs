@@ -160,16 +160,24 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
 /// Every place a test starts hapticd names the bus it serves on: one started without `--bus`
 /// serves on the system bus, where the machine's own hapticd makes it refuse to start (and
 /// with none there, it takes the name the machine's would). The block around each start
-/// must say `--bus`; `support::daemon::Isolated` does, with a configuration of the test's own.
+/// must say `--bus`; and a command line of hapticd is built in one place alone,
+/// `support::daemon::command` (the program handed to umockdev aside), with a configuration
+/// of the test's own and none of the host's environment.
 #[test]
 fn every_test_starts_hapticd_on_a_bus_of_its_own() {
     let binary = "\"hapticd\"";
     let starts = [format!("artifact({binary})"), format!("run({binary}")];
+    let built = format!("Command::new(artifact({binary}))");
     let mut unbound = Vec::new();
+    let mut elsewhere = Vec::new();
     let sources = rust_files(&repo_dir().join("tests"));
     assert!(sources.len() > 40, "{sources:?}");
     for path in sources {
         let text = std::fs::read_to_string(&path).unwrap();
+        let qualified = text.replace("support::artifact(", "artifact(");
+        if qualified.contains(&built) && !path.ends_with("support/daemon.rs") {
+            elsewhere.push(path.display().to_string());
+        }
         for start in &starts {
             for (at, _) in text.match_indices(start.as_str()) {
                 let rest = &text[at + start.len()..];
@@ -191,6 +199,10 @@ fn every_test_starts_hapticd_on_a_bus_of_its_own() {
     assert!(
         unbound.is_empty(),
         "hapticd started without --bus (start it through support::daemon::Isolated): {unbound:?}"
+    );
+    assert!(
+        elsewhere.is_empty(),
+        "hapticd's command line built outside support::daemon::command: {elsewhere:?}"
     );
 }
 

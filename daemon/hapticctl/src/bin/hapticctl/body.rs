@@ -152,6 +152,6 @@ pub fn run(command: Command, client: &Client) -> Result<(), Failure> {
             println!("added as body {id}");
             Ok(())
         }
-        Command::Remove { body } => scene.remove_body(&body).map_err(|e| client.refused(e)),
+        Command::Remove { body } => Ok(scene.remove_body(&body).map_err(|e| client.refused(e))?),
     }
 }

@@ -4,22 +4,20 @@
 use std::os::unix::fs::OpenOptionsExt;
 
 use clap::Args;
-use hapticctl::daemon_view::{self, Properties, clock_time, to_json, words};
+pub use hapticctl::daemon_client::Client;
+use hapticctl::daemon_client::bus_name;
+use hapticctl::daemon_view::{self, clock_time, to_json, words};
 use hapticctl::terminal::KeyReader;
 use hapticd_core::parameters::Name;
-use hapticd_ipc::bus::{Bus, has_owner};
-use hapticd_ipc::names::{RENDERER_BUS_NAME, error_name};
-use hapticd_ipc::telemetry_csv;
+use hapticd_ipc::bus::has_owner;
+use hapticd_ipc::names::RENDERER_BUS_NAME;
 use hapticd_ipc::{
     BUS_NAME, DEVICE_INTERFACE as DEVICE, MANAGER_INTERFACE as MANAGER, MANAGER_PATH,
 };
 use serde_json::json;
-use zbus::{Connection, OwnedVariant};
 
 use crate::mechanism::{Output, print};
 use crate::{Failure, completion};
-
-const PROPERTIES: &str = "org.freedesktop.DBus.Properties";
 
 /// The parameters a client may set, with their ranges (as the daemon enforces them).
 const PARAMETERS: &str = "Stiffness (N/m, 0–100000), Damping (N·s/m, 0–500), StaticFriction \
@@ -66,211 +64,13 @@ pub struct BindArgs {
     device: DeviceArg,
 }
 
-/// Properties changed, with their new values.
-type Changes = std::collections::HashMap<String, OwnedVariant>;
-
-/// A connection to the daemon on one bus.
-pub struct Client {
-    connection: Connection,
-    bus: Bus,
-}
-
-/// What a failed request means to the person who made it.
-fn failure(bus: &Bus, e: zbus::Error) -> Failure {
-    match e {
-        zbus::Error::FDO(fdo) => match *fdo {
-            zbus::fdo::Error::ServiceUnknown(_) | zbus::fdo::Error::NameHasNoOwner(_) => {
-                not_running(bus)
-            }
-            zbus::fdo::Error::AccessDenied(m) => Failure::failed(format!(
-                "not allowed ({m}): root and members of the hapticd group may change things"
-            )),
-            other => Failure::failed(other.to_string()),
-        },
-        zbus::Error::MethodError(name, message, _) => Failure::failed(format!(
-            "{}: {}",
-            error_name(name.as_str()).unwrap_or(name.as_str()),
-            message.unwrap_or_default()
-        )),
-        other => Failure::failed(format!("the {} bus: {other}", bus_name(bus))),
-    }
-}
-
-/// hapticd is not on `bus`: said the same way whichever bus it is.
-fn not_running(bus: &Bus) -> Failure {
-    let start = match bus {
-        Bus::System => " (`systemctl start hapticd` starts it)",
-        _ => "",
-    };
-    Failure::failed(format!(
-        "hapticd is not running on the {} bus{start}",
-        bus_name(bus)
-    ))
-}
-
-fn bus_name(bus: &Bus) -> String {
-    match bus {
-        Bus::System => "system".into(),
-        Bus::Session => "session".into(),
-        Bus::Address(a) => a.clone(),
-    }
-}
-
-impl Client {
-    /// Connect to `bus`, where hapticd must be running: hapticctl never has the bus start it
-    /// (an activation file of an older install would otherwise start a daemon that was
-    /// stopped, or fail with the bus's words).
-    pub fn connect(bus: &Bus) -> Result<Client, Failure> {
-        let connection = zbus::block_on(bus.connection()).map_err(|e| failure(bus, e))?;
-        let running =
-            zbus::block_on(has_owner(&connection, BUS_NAME)).map_err(|e| failure(bus, e))?;
-        if !running {
-            return Err(not_running(bus));
-        }
-        Ok(Client {
-            connection,
-            bus: bus.clone(),
-        })
-    }
-
-    /// The client library's view of the device at `path`, on this connection.
-    pub fn library_device(&self, path: &str) -> Result<hapticd_ipc::client::Device, Failure> {
-        hapticd_ipc::client::Device::on(&self.connection, path).map_err(|e| self.refused(e))
-    }
-
-    /// The client library's view of the daemon, on this connection.
-    pub fn hapticd(&self) -> Result<hapticd_ipc::client::Hapticd, Failure> {
-        hapticd_ipc::client::Hapticd::on(self.connection.clone()).map_err(|e| self.refused(e))
-    }
-
-    /// What `e`, from the client library, means to the person who asked.
-    pub fn refused(&self, e: hapticd_ipc::client::ClientError) -> Failure {
-        use hapticd_ipc::client::ClientError;
-        match e {
-            ClientError::NotRunning => not_running(&self.bus),
-            ClientError::Refused { name, message } if name.ends_with(".AccessDenied") => {
-                Failure::failed(format!(
-                    "not allowed ({message}): root and members of the hapticd group may change things"
-                ))
-            }
-            ClientError::Refused { name, message } => {
-                Failure::failed(format!("{}: {message}", error_name(&name).unwrap_or(&name)))
-            }
-            ClientError::Bus(e) => failure(&self.bus, e),
-            other => Failure::failed(other.to_string()),
-        }
-    }
-
-    fn call<B>(
-        &self,
-        path: &str,
-        interface: &str,
-        method: &str,
-        body: &B,
-    ) -> Result<zbus::Message, Failure>
-    where
-        B: serde::Serialize + zbus::Type,
-    {
-        zbus::block_on(self.connection.call_method(
-            Some(BUS_NAME),
-            path,
-            Some(interface),
-            method,
-            body,
-        ))
-        .map_err(|e| failure(&self.bus, e))
-    }
-
-    /// Every property of `interface` at `path`, as JSON.
-    fn properties(&self, path: &str, interface: &str) -> Result<Properties, Failure> {
-        let reply = self.call(path, PROPERTIES, "GetAll", &(interface,))?;
-        let all: std::collections::HashMap<String, OwnedVariant> = reply
-            .body()
-            .deserialize()
-            .map_err(|e| failure(&self.bus, e))?;
-        Ok(all.iter().map(|(k, v)| (k.clone(), to_json(v))).collect())
-    }
-
-    /// Every property of every device the manager lists, in its order.
-    fn devices(&self, manager: &Properties) -> Result<Vec<Properties>, Failure> {
-        manager["Devices"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .map(|path| self.properties(path.as_str().unwrap_or_default(), DEVICE))
-            .collect()
-    }
-
-    /// The daemon's PropertiesChanged signals, of the object at `path` or of every object.
-    async fn changes(&self, path: Option<&str>) -> Result<zbus::MessageStream, Failure> {
-        let only = path.map_or(String::new(), |p| format!(",path='{p}'"));
-        let rule = format!(
-            "type='signal',sender='{BUS_NAME}'{only},interface='{PROPERTIES}',\
-             member='PropertiesChanged'"
-        );
-        zbus::MessageStream::for_match_rule(rule.as_str(), &self.connection, None)
-            .await
-            .map_err(|e| failure(&self.bus, e))
-    }
-
-    /// The next change of `stream`: the object's path and the properties changed with their
-    /// values (`None` for a signal that does not have that shape).
-    async fn next_change(
-        &self,
-        stream: &mut zbus::MessageStream,
-    ) -> Result<Option<(String, Changes)>, Failure> {
-        let Some(message) = next(stream).await else {
-            return Err(Failure::failed("the bus closed the connection"));
-        };
-        let message = message.map_err(|e| failure(&self.bus, e))?;
-        let path = message
-            .header()
-            .path()
-            .map(|p| p.to_string())
-            .unwrap_or_default();
-        let body: zbus::Result<(String, Changes, Vec<String>)> = message.body().deserialize();
-        Ok(body.ok().map(|(_, changed, _)| (path, changed)))
-    }
-
-    /// The object path of the device `arg` names.
-    fn device(&self, arg: &DeviceArg) -> Result<String, Failure> {
-        let manager = self.properties(MANAGER_PATH, MANAGER)?;
-        let paths: Vec<String> = manager["Devices"]
-            .as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|p| p.as_str().map(str::to_string))
-                    .collect()
-            })
-            .unwrap_or_default();
-        if let Ok(index) = arg.device.parse::<usize>()
-            && let Some(path) = paths.get(index)
-        {
-            return Ok(path.clone());
-        }
-        let mut known = Vec::new();
-        for (index, path) in paths.iter().enumerate() {
-            let identity = words(&self.properties(path, DEVICE)?["Identity"]);
-            if identity == arg.device {
-                return Ok(path.clone());
-            }
-            known.push(format!("{index} ({identity})"));
-        }
-        Err(Failure::usage(format!(
-            "no device {:?}: hapticd drives {}",
-            arg.device,
-            known.join(", ")
-        )))
-    }
-}
-
 /// `hapticctl status`: the daemon and each device in a few lines.
 pub fn status(client: &Client, output: &Output) -> Result<(), Failure> {
-    let manager = client.properties(MANAGER_PATH, MANAGER)?;
+    let manager = client.manager()?;
     let devices = client.devices(&manager)?;
     // The renderer is asked without being started, as the daemon is.
-    let renderer = zbus::block_on(has_owner(&client.connection, RENDERER_BUS_NAME))
-        .map_err(|e| failure(&client.bus, e))?;
+    let renderer = zbus::block_on(has_owner(client.connection(), RENDERER_BUS_NAME))
+        .map_err(|e| client.failed(e))?;
     let (text, value) = daemon_view::status(manager, devices, renderer);
     print(output, value, text);
     Ok(())
@@ -278,7 +78,7 @@ pub fn status(client: &Client, output: &Output) -> Result<(), Failure> {
 
 /// `hapticctl get NAME`: one property of a device.
 pub fn get(client: &Client, args: &GetArgs) -> Result<(), Failure> {
-    let path = client.device(&args.device)?;
+    let path = client.device(&args.device.device)?;
     let all = client.properties(&path, DEVICE)?;
     let value = all.get(&args.name).ok_or_else(|| {
         Failure::usage(format!(
@@ -295,7 +95,7 @@ pub fn get(client: &Client, args: &GetArgs) -> Result<(), Failure> {
 /// A name that is no parameter is refused here, with the parameters (and, for a property of
 /// the device, that it is read-only).
 pub fn set(client: &Client, args: &SetArgs) -> Result<(), Failure> {
-    let path = client.device(&args.device)?;
+    let path = client.device(&args.device.device)?;
     if !Name::ALL.iter().any(|n| n.as_str() == args.name) {
         let properties = client.properties(&path, DEVICE)?;
         let what = if properties.contains_key(&args.name) {
@@ -316,25 +116,25 @@ pub fn set(client: &Client, args: &SetArgs) -> Result<(), Failure> {
     client
         .library_device(&path)?
         .set(&args.name, value)
-        .map_err(|e| client.refused(e))
+        .map_err(|e| client.refused(e).into())
 }
 
 /// `hapticctl calibrate`: take the counter offsets with every grip at its calibration pose.
 pub fn calibrate(client: &Client, device: &DeviceArg) -> Result<(), Failure> {
-    let path = client.device(device)?;
+    let path = client.device(&device.device)?;
     client
         .library_device(&path)?
         .calibrate()
-        .map_err(|e| client.refused(e))
+        .map_err(|e| client.refused(e).into())
 }
 
 /// `hapticctl bind MECHANISM`: drive the device with another mechanism from its next start.
 pub fn bind(client: &Client, args: &BindArgs) -> Result<(), Failure> {
-    let path = client.device(&args.device)?;
+    let path = client.device(&args.device.device)?;
     client
         .library_device(&path)?
         .bind_mechanism(&args.mechanism)
-        .map_err(|e| client.refused(e))
+        .map_err(|e| client.refused(e).into())
 }
 
 /// `hapticctl reload`: re-read the configuration and rescan the plugins.
@@ -342,7 +142,7 @@ pub fn reload(client: &Client) -> Result<(), Failure> {
     client
         .hapticd()?
         .reload_plugins()
-        .map_err(|e| client.refused(e))
+        .map_err(|e| client.refused(e).into())
 }
 
 /// How long `restart` waits for hapticd to be back.
@@ -353,7 +153,7 @@ const RESTART_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(20);
 pub fn restart(client: &Client) -> Result<(), Failure> {
     // The connection that owns the name: a new one once hapticd runs again.
     let owner = |client: &Client| {
-        let reply = zbus::block_on(client.connection.call_method(
+        let reply = zbus::block_on(client.connection().call_method(
             Some("org.freedesktop.DBus"),
             "/org/freedesktop/DBus",
             Some("org.freedesktop.DBus"),
@@ -371,7 +171,7 @@ pub fn restart(client: &Client) -> Result<(), Failure> {
         std::thread::sleep(std::time::Duration::from_millis(100));
         if owner(client).is_some_and(|now| Some(&now) != before.as_ref()) {
             // The new hapticd owns its name a moment before its objects are on the bus.
-            let Ok(manager) = client.properties(MANAGER_PATH, MANAGER) else {
+            let Ok(manager) = client.manager() else {
                 continue;
             };
             for d in client.devices(&manager)? {
@@ -393,7 +193,7 @@ pub fn restart(client: &Client) -> Result<(), Failure> {
 
 /// `hapticctl scene list`: the scenes the daemon can switch to, the active one marked.
 pub fn scenes(client: &Client, output: &Output) -> Result<(), Failure> {
-    let manager = client.properties(MANAGER_PATH, MANAGER)?;
+    let manager = client.manager()?;
     let active = words(&manager["ActiveScene"]);
     let names: Vec<String> = manager["Scenes"]
         .as_array()
@@ -451,7 +251,7 @@ fn switch_when_prepared(client: &Client, scene: &str) -> Result<(), Failure> {
     client
         .hapticd()?
         .switch_scene(scene, std::time::Duration::from_secs(600), &mut waiting)
-        .map_err(|e| client.refused(e))
+        .map_err(|e| client.refused(e).into())
 }
 
 #[derive(Args)]
@@ -467,12 +267,6 @@ pub struct MonitorArgs {
 /// Properties that change ten times a second: telemetry, not events.
 const TELEMETRY: [&str; 4] = ["Pose", "Force", "Tensions", "Statistics"];
 
-/// The next message of `stream`, waiting for it.
-async fn next(stream: &mut zbus::MessageStream) -> Option<zbus::Result<zbus::Message>> {
-    use zbus::export::futures_core::Stream;
-    std::future::poll_fn(|cx| std::pin::Pin::new(&mut *stream).poll_next(cx)).await
-}
-
 /// `hapticctl monitor`: every change of the daemon's state as it happens (a device's state,
 /// calibration, binding, parameters, the scene), one line each; readable by anyone.
 pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
@@ -487,7 +281,7 @@ pub fn monitor(client: &Client, args: &MonitorArgs) -> Result<(), Failure> {
     }
     zbus::block_on(async {
         let mut stream = client.changes(None).await?;
-        println!("watching hapticd on the {} bus", bus_name(&client.bus));
+        println!("watching hapticd on the {} bus", bus_name(client.bus()));
         let mut seen = 0;
         // A change announced twice (by the request that made it, then by the periodic
         // announcement) is one change.
@@ -555,52 +349,20 @@ impl RecordArgs {
 
 /// `hapticctl record`: every tick of the device's haptic loop for `--duration` seconds, read
 /// from its telemetry ring (`OpenTelemetry`) at the device's rate, a row per tick (see
-/// [`telemetry_csv`]). Ticks the ring overwrote before they were read are counted and said.
+/// `hapticd_ipc::telemetry_csv`). Ticks the ring overwrote before they were read are counted
+/// and said.
 pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
-    use std::io::Write;
     args.check()?;
-    let path = client.device(&args.device)?;
-    let cannot =
-        |e: std::io::Error| Failure::failed(format!("cannot write {}: {e}", args.file.display()));
-    let effectors: Vec<String> = client.properties(&path, DEVICE)?["Effectors"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(words)
-        .collect();
-    let device = client.library_device(&path)?;
-    let mut ticks = device
-        .telemetry(args.duration)
-        .map_err(|e| client.refused(e))?;
-    let mut out = std::io::BufWriter::new(std::fs::File::create(&args.file).map_err(cannot)?);
-    let (mut rows, mut strings) = (0usize, None);
-    for sample in ticks.by_ref() {
-        let strings = *strings.get_or_insert_with(|| {
-            let n = sample.strings as usize;
-            let _ = writeln!(out, "{}", telemetry_csv::header(&effectors, n));
-            n
-        });
-        writeln!(
-            out,
-            "{}",
-            telemetry_csv::row(&sample, effectors.len(), strings)
-        )
-        .map_err(cannot)?;
-        rows += 1;
-    }
-    if ticks.stopped() {
-        return Err(Failure::failed(format!(
-            "the haptic loop stopped writing ticks after {rows} rows"
-        )));
-    }
-    out.flush().map_err(cannot)?;
-    let missed = match ticks.missed() {
+    let path = client.device(&args.device.device)?;
+    let recorded = client.record(&path, args.duration, &args.file)?;
+    let missed = match recorded.missed {
         0 => String::new(),
         n => format!(" ({n} ticks overwritten before they were read)"),
     };
     eprintln!(
-        "{rows} ticks at {} Hz in {}{missed}",
-        ticks.rate(),
+        "{} ticks at {} Hz in {}{missed}",
+        recorded.rows,
+        recorded.rate,
         args.file.display()
     );
     Ok(())
@@ -646,7 +408,7 @@ pub fn top(client: &Client, args: &TopArgs) -> Result<(), Failure> {
             (false, 0) => "",
             (false, _) => "\n",
         };
-        let manager = client.properties(MANAGER_PATH, MANAGER)?;
+        let manager = client.manager()?;
         let screen = daemon_view::top_screen(&manager, &client.devices(&manager)?);
         print!("{clear}{screen}");
         let _ = std::io::stdout().flush();

@@ -110,6 +110,16 @@ enum Command {
     },
 }
 
+/// A refusal of the daemon's: a device that is not there is the caller's mistake.
+impl From<hapticctl::daemon_client::DaemonError> for Failure {
+    fn from(error: hapticctl::daemon_client::DaemonError) -> Self {
+        match error {
+            hapticctl::daemon_client::DaemonError::NoDevice { .. } => Failure::usage(error),
+            error => Failure::failed(error),
+        }
+    }
+}
+
 /// Why a command failed, with its exit status.
 pub struct Failure {
     /// 1: the operation failed; 2: the arguments were wrong.
@@ -187,8 +197,8 @@ fn main() -> ExitCode {
         Catalog::new(cli.mechanism_dirs)
     };
     // Only the commands that talk to hapticd connect to the bus.
-    let connect = || client::Client::connect(&cli.bus);
-    let remote = cli.remote.map(|endpoint| remote::Remote {
+    let connect = || client::Client::connect(&cli.bus).map_err(Failure::from);
+    let remote = cli.remote.map(|endpoint| hapticctl::remote_daemon::Remote {
         endpoint,
         config: cli.remote_config,
     });
