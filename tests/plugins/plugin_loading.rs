@@ -587,3 +587,92 @@ fn a_remote_scene_renders_the_world_its_link_delivers() {
     );
     assert_eq!(wrenches[0], Wrench::ZERO);
 }
+
+/// A direct C scene of ABI minor `minor` with one body under the control extension: a query
+/// finds its centre at (0.1, 0.2, 0.3); an impulse answers with the point it was given, an
+/// impulse through the centre (1.7) with a velocity of 1 along x and its own mark.
+fn c_scene_with_control(minor: u32) -> String {
+    format!(
+        r#"#include <stddef.h>
+#include <string.h>
+#include "hapticd_plugin.h"
+static int made;
+static int32_t create(const char *path, uint32_t n, void **instance, HapticdSceneInfo *info) {{
+    (void)path; (void)n; *instance = &made; info->style = HAPTICD_SCENE_DIRECT; return 0;
+}}
+static void destroy(void *instance) {{ (void)instance; }}
+static int32_t step(void *instance, double dt, const HapticdPointer *p, uint32_t n,
+                    HapticdWrench *w) {{
+    (void)instance; (void)dt; (void)p; memset(w, 0, n * sizeof *w); return 0;
+}}
+static int32_t body(void *instance, uint32_t index, HapticdBodyInfo *out) {{
+    (void)instance;
+    if (index > 0) return HAPTICD_ERROR_ARGUMENT;
+    memset(out, 0, sizeof *out); strcpy(out->name, "block"); return 0;
+}}
+static int32_t apply(void *instance, const HapticdSceneCommand *c, HapticdBodyState *s) {{
+    (void)instance;
+    memset(s, 0, sizeof *s); s->orientation[0] = 1; s->mass = 1;
+    double centre[3] = {{ 0.1, 0.2, 0.3 }};
+    switch (c->kind) {{
+    case HAPTICD_COMMAND_QUERY: memcpy(s->position, centre, sizeof centre); return 0;
+    case HAPTICD_COMMAND_IMPULSE: memcpy(s->position, c->position, sizeof centre); return 0;
+    case HAPTICD_COMMAND_IMPULSE_AT_CENTRE: s->velocity[0] = 1; s->position[0] = 9; return 0;
+    default: return HAPTICD_ERROR_ARGUMENT;
+    }}
+}}
+static const HapticdSceneControl control = {{ sizeof control, body, apply }};
+static const void *get_extension(const char *id) {{
+    return strcmp(id, HAPTICD_EXT_SCENE_CONTROL) == 0 ? &control : NULL;
+}}
+static const HapticdSceneVtable vtable = {{ .struct_size = sizeof vtable, .create = create,
+    .destroy = destroy, .step_direct = step, .get_extension = get_extension }};
+static const HapticdPluginDescriptor d = {{ HAPTICD_ABI_MAJOR, {minor},
+    HAPTICD_KIND_SCENE, "driven", "0", "one body", NULL, &vtable }};
+const HapticdPluginDescriptor *hapticd_plugin_entry(const HapticdHost *h) {{ (void)h; return &d; }}
+"#
+    )
+}
+
+/// An impulse through a body's centre reaches a plugin of ABI 1.7 as that command; a plugin
+/// of 1.6 gets an impulse at the centre it reports between the same two steps.
+#[test]
+fn an_impulse_through_the_centre_reaches_older_plugins_at_the_centre_they_report() {
+    use hapticd_plugin_api::{HAPTICD_COMMAND_IMPULSE_AT_CENTRE, HapticdSceneCommand};
+    let dir = support::scratch("plugin-test", "impulse-at-centre");
+    for minor in [6, 7] {
+        let path = compile_c(
+            &dir,
+            &format!("driven{minor}"),
+            &c_scene_with_control(minor),
+        );
+        let pointers = one_pointer();
+        let mut scene = hapticd::plugin_scene::load(&path, None, &pointers).unwrap();
+        let mut control = scene.take_control().expect("the control extension");
+        let sender = std::thread::spawn(move || {
+            control.send(HapticdSceneCommand {
+                vector: [0.0, 0.0, 1.0],
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE_AT_CENTRE, 0)
+            })
+        });
+        let mut wrenches = [Wrench::ZERO];
+        while !sender.is_finished() {
+            scene.render(&pointers, 1e-3, &mut wrenches);
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let state = sender.join().unwrap().unwrap();
+        match minor {
+            6 => assert_eq!(
+                (state.position, state.velocity),
+                ([0.1, 0.2, 0.3], [0.0; 3]),
+                "1.6: an impulse at the centre the query found"
+            ),
+            _ => assert_eq!(
+                (state.position, state.velocity),
+                ([9.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+                "1.7: the command itself"
+            ),
+        }
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
