@@ -354,21 +354,25 @@ fn the_c_example_describes_its_floor() {
     std::fs::remove_dir_all(dir).ok();
 }
 
-/// A C scene whose one solid is `solid` (a C initialiser of HapticdSolid).
-fn c_scene_with_solid(solid: &str) -> String {
-    format!(
-        r#"#include <stddef.h>
+/// The start of a direct C scene that pushes nothing: its includes, `create`, `destroy` and
+/// `step`.
+const DIRECT_SCENE: &str = r#"#include <stddef.h>
 #include <string.h>
 #include "hapticd_plugin.h"
 static int made;
-static int32_t create(const char *path, uint32_t n, void **instance, HapticdSceneInfo *info) {{
+static int32_t create(const char *path, uint32_t n, void **instance, HapticdSceneInfo *info) {
     (void)path; (void)n; *instance = &made; info->style = HAPTICD_SCENE_DIRECT; return 0;
-}}
-static void destroy(void *instance) {{ (void)instance; }}
+}
+static void destroy(void *instance) { (void)instance; }
 static int32_t step(void *instance, double dt, const HapticdPointer *p, uint32_t n,
-                    HapticdWrench *w) {{
+                    HapticdWrench *w) {
     (void)instance; (void)dt; (void)p; memset(w, 0, n * sizeof *w); return 0;
-}}
+}"#;
+
+/// A C scene whose one solid is `solid` (a C initialiser of HapticdSolid).
+fn c_scene_with_solid(solid: &str) -> String {
+    format!(
+        r#"{DIRECT_SCENE}
 static int32_t counts(void *instance, HapticdGeometryCounts *out) {{
     (void)instance; out->bodies = 1; out->solids = 1; out->triangles = 0; return 0;
 }}
@@ -593,18 +597,7 @@ fn a_remote_scene_renders_the_world_its_link_delivers() {
 /// impulse through the centre (1.7) with a velocity of 1 along x and its own mark.
 fn c_scene_with_control(minor: u32) -> String {
     format!(
-        r#"#include <stddef.h>
-#include <string.h>
-#include "hapticd_plugin.h"
-static int made;
-static int32_t create(const char *path, uint32_t n, void **instance, HapticdSceneInfo *info) {{
-    (void)path; (void)n; *instance = &made; info->style = HAPTICD_SCENE_DIRECT; return 0;
-}}
-static void destroy(void *instance) {{ (void)instance; }}
-static int32_t step(void *instance, double dt, const HapticdPointer *p, uint32_t n,
-                    HapticdWrench *w) {{
-    (void)instance; (void)dt; (void)p; memset(w, 0, n * sizeof *w); return 0;
-}}
+        r#"{DIRECT_SCENE}
 static int32_t body(void *instance, uint32_t index, HapticdBodyInfo *out) {{
     (void)instance;
     if (index > 0) return HAPTICD_ERROR_ARGUMENT;

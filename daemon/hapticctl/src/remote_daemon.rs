@@ -12,6 +12,8 @@ use hapticd_ipc::telemetry_csv;
 use serde_json::Value;
 use zenoh::Wait;
 
+use crate::daemon_view::words;
+
 /// Why a remote hapticd could not be asked.
 #[derive(Debug)]
 pub enum RemoteError {
@@ -295,11 +297,6 @@ fn statuses(session: &zenoh::Session, endpoint: &str) -> Result<Vec<Value>, Remo
 
 /// The devices of `statuses` in lines, as `hapticctl --remote ENDPOINT status` says them.
 pub fn status_text(endpoint: &str, statuses: &[Value]) -> String {
-    let words = |v: &Value| match v {
-        Value::String(s) => s.clone(),
-        Value::Number(n) => n.as_f64().map_or(n.to_string(), |x| x.to_string()),
-        other => other.to_string(),
-    };
     let mut text = format!("hapticd at {endpoint}, through its network bridge:\n");
     for s in statuses {
         text += &format!(
@@ -308,10 +305,7 @@ pub fn status_text(endpoint: &str, statuses: &[Value]) -> String {
             words(&s["state"]),
             words(&s["rate"]),
             words(&s["tick"]),
-            s["effectors"]
-                .as_array()
-                .map(|e| e.iter().map(words).collect::<Vec<_>>().join(" "))
-                .unwrap_or_default(),
+            words(&s["effectors"]),
             words(&s["publishing_every"]),
             if s["commands"] == Value::Bool(true) {
                 "taken"

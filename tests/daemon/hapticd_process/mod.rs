@@ -69,8 +69,15 @@ fn press() -> String {
 /// with the hand pressing on the floor for `seconds`, recording to `csv`, plus `extra`
 /// arguments.
 fn pressed(scene: &Path, seconds: &str, csv: &Path, extra: &[&str]) -> Output {
-    let hand = press();
-    let mut args = vec!["--sim", "spidar-g", "--hand", &hand, "--duration", seconds];
+    handled(scene, Path::new(&press()), seconds, csv, extra)
+}
+
+/// Run hapticd to the end on the simulated SPIDAR-G on a bus of its own, touching `scene`,
+/// with the hand script `hand` moving the grip for `seconds`, recording to `csv`, plus
+/// `extra` arguments.
+fn handled(scene: &Path, hand: &Path, seconds: &str, csv: &Path, extra: &[&str]) -> Output {
+    let hand = hand.to_str().unwrap();
+    let mut args = vec!["--sim", "spidar-g", "--hand", hand, "--duration", seconds];
     args.extend(["--record", csv.to_str().unwrap()]);
     args.extend(extra);
     let at = on_bus(csv.file_name().unwrap().to_str().unwrap());

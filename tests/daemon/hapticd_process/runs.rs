@@ -40,22 +40,7 @@ fn a_recording_numbers_every_tick_and_a_simulated_hand_retraces_it() {
     )
     .unwrap();
     let second = scratch_file("retracing.csv");
-    let at = on_bus("retracing");
-    let args = [
-        "--sim",
-        "spidar-g",
-        "--hand",
-        hand.to_str().unwrap(),
-        "--duration",
-        "1.6",
-        "--record",
-        second.to_str().unwrap(),
-    ];
-    finish(
-        hapticd_with_scene(&at, &static_scene(), &args)
-            .spawn()
-            .unwrap(),
-    );
+    handled(&static_scene(), &hand, "1.6", &second, &[]);
     let pose = |path: &Path| -> Vec<(f64, glam::DVec3)> {
         columns(path, &["time", "pose_x", "pose_y", "pose_z"])
             .iter()

@@ -158,28 +158,13 @@ fn the_penalty_scene_holds_the_hand_on_its_table_with_friction() {
     std::fs::remove_file(csv).ok();
 }
 
-/// Run hapticd to the end on the simulated SPIDAR-G on a bus of test `name`'s own, the rapier
-/// plugin stepping `scene_file` while the hand script `hand` moves the grip for `seconds`,
+/// Run hapticd to the end on the simulated SPIDAR-G on a bus of its own, the rapier plugin
+/// stepping `scene_file` while the hand script `hand` moves the grip for `seconds`,
 /// recording to `csv`.
-fn run_rapier(name: &str, scene_file: &Path, hand: &Path, seconds: &str, csv: &Path) {
-    let args = [
-        "--sim",
-        "spidar-g",
-        "--hand",
-        hand.to_str().unwrap(),
-        "--duration",
-        seconds,
-        "--record",
-        csv.to_str().unwrap(),
-        "--scene-file",
-        scene_file.to_str().unwrap(),
-    ];
+fn run_rapier(scene_file: &Path, hand: &Path, seconds: &str, csv: &Path) {
     let scene = plugin_path("hapticd-scene-rapier");
-    finish(
-        hapticd_with_scene(&on_bus(name), &scene, &args)
-            .spawn()
-            .unwrap(),
-    );
+    let file = ["--scene-file", scene_file.to_str().unwrap()];
+    handled(&scene, hand, seconds, csv, &file);
 }
 
 /// Thesis 6.4.3 through the daemon: the simulated hand stirs the twelve balls of the rapier
@@ -191,7 +176,7 @@ fn the_simulated_hand_stirs_the_balls_of_a_rapier_scene() {
     let csv = scratch_file("balls.csv");
     let balls = repo_dir().join("config/scenes/balls.yaml");
     let stir = repo_dir().join("config/hands/stir-balls.yaml");
-    run_rapier("balls", &balls, &stir, "7.5", &csv);
+    run_rapier(&balls, &stir, "7.5", &csv);
     let rows = columns(&csv, &["time", "state", "force_x", "force_y", "force_z"]);
     assert!(rows.len() > 7000, "{} rows", rows.len());
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
@@ -271,7 +256,7 @@ fn press_plates(name: &str, aim: f64) -> Vec<(f64, f64, f64, f64)> {
         ),
     )
     .unwrap();
-    run_rapier(name, &scene_file, &hand, "6.7", &csv);
+    run_rapier(&scene_file, &hand, "6.7", &csv);
     let rows = columns(&csv, &["time", "state", "pose_x", "pose_y", "force_y"]);
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
     for path in [scene_file, hand, csv] {
