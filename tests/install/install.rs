@@ -559,6 +559,8 @@ fn the_debian_package_is_lintian_clean_and_runs_unpacked() {
         ])
         .arg(&package)
         .arg(&dbgsym)
+        // Its ELF caches (`mldbm-elf-…`) stay behind: in the test's directory, not /tmp.
+        .env("TMPDIR", &dir)
         .output()
         .expect("lintian is installed (make check installs it)");
     let said = String::from_utf8_lossy(&lintian.stdout);
