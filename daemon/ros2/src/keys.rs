@@ -93,6 +93,14 @@ impl Node {
     }
 }
 
+/// The id (GID) of the entity whose liveliness token is `token`: the XXH3 128-bit hash of
+/// the token's key expression, low 64 bits first, each little-endian, as rmw_zenoh makes its
+/// entities' GIDs, so that the GID in a sample's attachment is the one the graph shows.
+pub fn gid(token: &str) -> [u8; 16] {
+    let hash = twox_hash::XxHash3_128::oneshot(token.as_bytes());
+    hash.to_le_bytes()
+}
+
 /// The attachment of a published sample: its sequence number, its source time (nanoseconds
 /// since the Unix epoch) and the publisher's 16-byte id, as rmw_zenoh reads them (each
 /// number little-endian, the id after its length).
@@ -118,6 +126,17 @@ mod tests {
              RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8"
         );
         assert!(topic_key::<WrenchStamped>(7, "wrench").starts_with("7/wrench/geometry_msgs"));
+    }
+
+    #[test]
+    fn a_gid_is_the_xxh3_128_of_the_token_low_half_first() {
+        // XXH3-128 of no bytes, from xxHash's own test vectors: 99aa06d3014798d8 (high)
+        // 6001c324468d497f (low).
+        let mut empty = [0u8; 16];
+        empty[..8].copy_from_slice(&0x6001_c324_468d_497f_u64.to_le_bytes());
+        empty[8..].copy_from_slice(&0x99aa_06d3_0147_98d8_u64.to_le_bytes());
+        assert_eq!(gid(""), empty);
+        assert_ne!(gid("@ros2_lv/0/a"), gid("@ros2_lv/0/b"));
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! One device on the network: every `every`-th tick of its telemetry ring published as its
-//! effectors' poses, twists and wrenches and its strings' tensions (the tick number as each
-//! sample's sequence number in its attachment, as rmw_zenoh attaches it), and whole under
-//! hapticd's own telemetry key; its world's bodies whenever its picture of the world changes
+//! effectors' poses, twists and wrenches and its strings' tensions (stamped with the tick's
+//! time; each publisher numbering its own messages and naming its own id in their
+//! attachments, as rmw_zenoh's do: [`RosPublisher`]), and whole under hapticd's own telemetry
+//! key; its world's bodies whenever its picture of the world changes
 //! (60 times a second); its state when it changes and once a second; each touch as it
 //! happens. The node and its publishers are announced by liveliness tokens as rmw_zenoh
 //! announces its own, and its status is answered as JSON. With commands on, each effector's
@@ -18,13 +19,14 @@ use hapticd_core::world_state::{MAX_BODIES, WorldFrame, state_of};
 use hapticd_ipc::client::{ClientError, Device};
 use hapticd_ipc::touch_events::{Touch, TouchTracker};
 use hapticd_ipc::world_share::MappedWorld;
-use hapticd_ros2::keys::{Node, attachment};
+use hapticd_ros2::keys::Node;
 use hapticd_ros2::messages::{
     Header, JointState, Message, PoseArray, PoseStamped, StringMessage, Time, TwistStamped,
     WrenchStamped,
 };
 use zenoh::Wait;
 
+use crate::ros_publisher::RosPublisher;
 use crate::topics::{DeviceTopics, Topic};
 
 /// Nanoseconds since the Unix epoch now: the stamp of what is published.
@@ -109,15 +111,15 @@ impl<'a> Entities<'a> {
     }
 
     /// The publisher of `topic`, messages `M`, announced.
-    fn publisher<M: Message>(
-        &mut self,
-        topic: &Topic,
-    ) -> Result<zenoh::pubsub::Publisher<'a>, BridgeError> {
-        self.announce(self.node.publisher::<M>(self.next(), &topic.name))?;
-        self.session
+    fn publisher<M: Message>(&mut self, topic: &Topic) -> Result<RosPublisher<'a>, BridgeError> {
+        let token = self.node.publisher::<M>(self.next(), &topic.name);
+        self.announce(token.clone())?;
+        let publisher = self
+            .session
             .declare_publisher(topic.key.clone())
             .wait()
-            .map_err(zenoh_error)
+            .map_err(zenoh_error)?;
+        Ok(RosPublisher::new(publisher, &token))
     }
 
     /// A subscription to `topic`, messages `M`, announced, handing each sample to `take`.
@@ -213,8 +215,6 @@ pub fn run(
     } else {
         Vec::new()
     };
-    // The publisher's id in attachments: the session's, as rmw_zenoh derives its own.
-    let id: [u8; 16] = session.zid().to_le_bytes();
     let last = Arc::new((AtomicU64::new(0), AtomicU32::new(0)));
     let ring = device.open_telemetry()?;
     let status = declare_status(
@@ -242,7 +242,6 @@ pub fn run(
                 &mut frame,
                 &mut world_seen,
                 &topics.frame,
-                &id,
                 &publishers.bodies,
             )?;
         }
@@ -257,7 +256,6 @@ pub fn run(
         last.0.store(sample.tick, Ordering::Relaxed);
         last.1.store(sample.state, Ordering::Relaxed);
         let stamp = now_ns();
-        let attached = attachment(sample.tick as i64, stamp as i64, &id);
         let header = Header {
             stamp: Time::from_nanos(stamp),
             frame_id: topics.frame.clone(),
@@ -267,19 +265,19 @@ pub fn run(
             &sample,
             &effectors,
             &publishers.touches,
-            &attached,
+            stamp as i64,
         )?;
         if state_said.is_none_or(|(s, at)| s != sample.state || at.elapsed() >= STATE_EVERY) {
             let text = StringMessage {
                 data: state_of(sample.state).name().into(),
             };
-            put(&publishers.state, text.encode(), &attached)?;
+            publishers.state.put(text.encode(), stamp as i64)?;
             state_said = Some((sample.state, Instant::now()));
         }
         if !sample.tick.is_multiple_of(settings.every) {
             continue;
         }
-        publish_tick(&publishers, &sample, header, &string_names, &attached)?;
+        publish_tick(&publishers, &sample, header, &string_names, stamp as i64)?;
     }
     drop((status, commands, node_token, entities));
     Ok(())
@@ -314,17 +312,14 @@ fn announce_node<'a>(
 /// The publishers of one device's topics, and of hapticd's own telemetry.
 struct Publishers<'a> {
     /// Each effector's pose, twist and wrench.
-    effectors: Vec<(
-        zenoh::pubsub::Publisher<'a>,
-        zenoh::pubsub::Publisher<'a>,
-        zenoh::pubsub::Publisher<'a>,
-    )>,
-    strings: zenoh::pubsub::Publisher<'a>,
-    bodies: zenoh::pubsub::Publisher<'a>,
-    state: zenoh::pubsub::Publisher<'a>,
-    touches: zenoh::pubsub::Publisher<'a>,
-    /// Whole samples, under hapticd's own key: no ROS topic, so not announced.
-    telemetry: zenoh::pubsub::Publisher<'a>,
+    effectors: Vec<(RosPublisher<'a>, RosPublisher<'a>, RosPublisher<'a>)>,
+    strings: RosPublisher<'a>,
+    bodies: RosPublisher<'a>,
+    state: RosPublisher<'a>,
+    touches: RosPublisher<'a>,
+    /// Whole samples, under hapticd's own key: no ROS topic, so not announced (its id is
+    /// derived from its key).
+    telemetry: RosPublisher<'a>,
 }
 
 impl<'a> Publishers<'a> {
@@ -348,10 +343,13 @@ impl<'a> Publishers<'a> {
             bodies: entities.publisher::<PoseArray>(&topics.bodies)?,
             state: entities.publisher::<StringMessage>(&topics.state)?,
             touches: entities.publisher::<StringMessage>(&topics.touches)?,
-            telemetry: session
-                .declare_publisher(topics.telemetry())
-                .wait()
-                .map_err(zenoh_error)?,
+            telemetry: RosPublisher::new(
+                session
+                    .declare_publisher(topics.telemetry())
+                    .wait()
+                    .map_err(zenoh_error)?,
+                &topics.telemetry(),
+            ),
         })
     }
 }
@@ -401,27 +399,13 @@ fn declare_status(
         .map_err(zenoh_error)
 }
 
-/// Put `bytes` on `publisher`, with the attachment `attached`.
-fn put(
-    publisher: &zenoh::pubsub::Publisher<'_>,
-    bytes: Vec<u8>,
-    attached: &[u8; 33],
-) -> Result<(), BridgeError> {
-    publisher
-        .put(bytes)
-        .attachment(attached.to_vec())
-        .wait()
-        .map_err(zenoh_error)
-}
-
 /// Publish the world's bodies if its picture (read into `frame`) is not the one `seen`.
 fn publish_bodies(
     world: &MappedWorld,
     frame: &mut WorldFrame,
     seen: &mut Option<u64>,
     frame_id: &str,
-    id: &[u8; 16],
-    publisher: &zenoh::pubsub::Publisher<'_>,
+    publisher: &RosPublisher<'_>,
 ) -> Result<(), BridgeError> {
     if let Some(sequence) = world.read(frame)
         && *seen != Some(sequence)
@@ -442,8 +426,7 @@ fn publish_bodies(
                 })
                 .collect(),
         };
-        let attached = attachment(sequence as i64 / 2, stamp as i64, id);
-        put(publisher, bodies.encode(), &attached)?;
+        publisher.put(bodies.encode(), stamp as i64)?;
     }
     Ok(())
 }
@@ -453,8 +436,8 @@ fn publish_touches(
     touches: &mut TouchTracker,
     sample: &Sample,
     effectors: &[String],
-    publisher: &zenoh::pubsub::Publisher<'_>,
-    attached: &[u8; 33],
+    publisher: &RosPublisher<'_>,
+    stamp_ns: i64,
 ) -> Result<(), BridgeError> {
     let mut touched = Ok(());
     touches.follow(sample, |touch| {
@@ -462,7 +445,7 @@ fn publish_touches(
             let text = StringMessage {
                 data: touch_json(&touch, effectors),
             };
-            touched = put(publisher, text.encode(), attached);
+            touched = publisher.put(text.encode(), stamp_ns);
         }
     });
     touched
@@ -474,7 +457,7 @@ fn publish_tick(
     sample: &Sample,
     header: Header,
     string_names: &[String],
-    attached: &[u8; 33],
+    stamp_ns: i64,
 ) -> Result<(), BridgeError> {
     for (k, (pose, twist, wrench)) in publishers.effectors.iter().enumerate() {
         let p = &sample.poses[k];
@@ -494,9 +477,9 @@ fn publish_tick(
             force: sample.wrenches[k].force,
             torque: sample.wrenches[k].torque,
         };
-        put(pose, pose_message.encode(), attached)?;
-        put(twist, twist_message.encode(), attached)?;
-        put(wrench, wrench_message.encode(), attached)?;
+        pose.put(pose_message.encode(), stamp_ns)?;
+        twist.put(twist_message.encode(), stamp_ns)?;
+        wrench.put(wrench_message.encode(), stamp_ns)?;
     }
     let strings = (sample.strings as usize).min(string_names.len());
     let tensions = JointState {
@@ -506,6 +489,6 @@ fn publish_tick(
         velocity: Vec::new(),
         effort: sample.tensions[..strings].to_vec(),
     };
-    put(&publishers.strings, tensions.encode(), attached)?;
-    put(&publishers.telemetry, sample.encode(), attached)
+    publishers.strings.put(tensions.encode(), stamp_ns)?;
+    publishers.telemetry.put(sample.encode(), stamp_ns)
 }

@@ -8,6 +8,7 @@
 
 mod bridge;
 mod commands;
+mod ros_publisher;
 mod topics;
 mod world_relay;
 

@@ -633,7 +633,15 @@ fn zenoh_client_with(
     command
         .args(["-c", &format!("{prelude}{script}"), endpoint])
         .args(args)
-        .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
+        .env(
+            "PYTHONPATH",
+            std::env::join_paths([
+                support::python_package("eclipse-zenoh"),
+                // xxHash's own Python binding: what rmw_zenoh's GIDs are checked against.
+                support::python_package("xxhash"),
+            ])
+            .unwrap(),
+        )
         .env("PYTHONDONTWRITEBYTECODE", "1")
         .env("ZENOH_SETTINGS", settings.to_string());
     if let Some(namespace) = inside {

@@ -26,24 +26,36 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         &["--sim", "spidar-g", "--hand", hand.to_str().unwrap()],
     );
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 1000\n", None, None);
-    let follow = "samples = {}\n\
+    // A conformance check written from rmw_zenoh's rules, not from the bridge's code: each
+    // publisher numbers its own messages 1, 2, 3… and attaches its GID, the XXH3-128 of its
+    // liveliness token (low half first); the tick is in hapticd's own telemetry.
+    let follow = "import xxhash\n\
+        samples = {}\n\
         def taken(sample):\n\
-        \x20   tick = int.from_bytes(sample.attachment.to_bytes()[:8], 'little')\n\
+        \x20   attached = sample.attachment.to_bytes()\n\
+        \x20   sequence = int.from_bytes(attached[:8], 'little')\n\
         \x20   kind = str(sample.key_expr).split('/')[4 if '/grip/' in str(sample.key_expr) else 3]\n\
-        \x20   samples.setdefault(kind, []).append((str(sample.key_expr), tick, sample.payload.to_bytes()))\n\
+        \x20   samples.setdefault(kind, []).append((str(sample.key_expr), sequence, sample.payload.to_bytes(), attached[16:].hex()))\n\
+        ticks = []\n\
+        telemetry = session.declare_subscriber('hapticd/sim/telemetry/**', lambda s: ticks.append(int.from_bytes(s.payload.to_bytes()[:8], 'little')))\n\
         subscriber = session.declare_subscriber('0/hapticd/sim/**', taken)\n\
         start = json.loads(ask('hapticd/sim/status', None)[0])['tick']\n\
         time.sleep(10)\n\
         end = json.loads(ask('hapticd/sim/status', None)[0])['tick']\n\
         time.sleep(0.2)\n\
         subscriber.undeclare()\n\
+        telemetry.undeclare()\n\
         status = ask('hapticd/sim/status', None)\n\
         tokens = sorted(str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**') if r.ok)\n\
         refused = ask('hapticd/sim/set/Stiffness', '1500')\n\
-        ticks = [t for _, t, _ in samples['pose']]\n\
         gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
-        key, _, payload = samples['pose'][-1]\n\
-        twists = [struct.unpack_from('<3d', p, len(p) - 24) for _, _, p in samples['twist'][-3000:]]\n\
+        numbered = {k: sum(1 for a, b in zip(v, v[1:]) if b[1] != a[1] + 1) for k, v in samples.items()}\n\
+        gid = lambda token: '10' + xxhash.xxh3_128_intdigest(token.encode()).to_bytes(16, 'little').hex()\n\
+        announced = {t.split('/')[9]: gid(t) for t in tokens if t.split('/')[5] == 'MP'}\n\
+        topic = lambda key: '%' + '%'.join(key.split('/')[1:-2])\n\
+        named = {k: sorted({a for _, _, _, a in v} - {announced.get(topic(v[0][0]))}) for k, v in samples.items()}\n\
+        key, _, payload, _ = samples['pose'][-1]\n\
+        twists = [struct.unpack_from('<3d', p, len(p) - 24) for _, _, p, _ in samples['twist'][-3000:]]\n\
         angular = [sum(w[i] for w in twists) / len(twists) for i in range(3)]\n\
         print(json.dumps({'count': len(ticks), 'gaps': gaps, 'key': key, \
         'first': ticks[0], 'last': ticks[-1], 'start': start, 'end': end, \
@@ -51,6 +63,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         'angular': angular, \
         'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
         'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
+        'numbered': numbered, 'named': named, 'gids': len({a for v in samples.values() for _, _, _, a in v}), \
         'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
     let said = zenoh_client(follow, &endpoint, &[], None);
     // hapticctl reaches the same daemon through the bridge alone: its status, and 2 s of
@@ -97,6 +110,18 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     assert!(tick("last") >= tick("end"), "{said}");
     assert!(tick("end") - tick("start") > 1000, "{said}");
     assert_eq!(said["gaps"], 0, "{said}");
+    // Each publisher's own numbers, 1 up without a gap, and its own GID, the one its token
+    // gives: as many GIDs as topics heard.
+    let kinds = said["kinds"].as_object().unwrap();
+    for kind in kinds.keys() {
+        assert_eq!(said["numbered"][kind], 0, "{kind}: {said}");
+        assert_eq!(said["named"][kind], serde_json::json!([]), "{kind}: {said}");
+    }
+    assert_eq!(
+        said["gids"].as_u64().unwrap() as usize,
+        kinds.len(),
+        "{said}"
+    );
     let key = said["key"].as_str().unwrap();
     assert!(
         key.starts_with("0/hapticd/sim/grip/pose/geometry_msgs::msg::dds_::PoseStamped_/RIHS01_"),
