@@ -11,15 +11,59 @@ pub fn dds_type_name(ros: &str) -> String {
     format!("{}::dds_::{name}_", parts.join("::"))
 }
 
+/// A ROS 2 distribution, as far as what rmw_zenoh puts on the wire differs between them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Distro {
+    /// Humble Hawksbill (2022 LTS): no type hashes.
+    Humble,
+    /// Jazzy Jalisco (2024 LTS).
+    #[default]
+    Jazzy,
+    /// Kilted Kaiju (2025).
+    Kilted,
+    /// Rolling Ridley.
+    Rolling,
+}
+
+impl Distro {
+    /// Every distribution, by the name `ros_distro:` takes.
+    pub const ALL: [(&str, Distro); 4] = [
+        ("humble", Distro::Humble),
+        ("jazzy", Distro::Jazzy),
+        ("kilted", Distro::Kilted),
+        ("rolling", Distro::Rolling),
+    ];
+
+    /// What stands for the type hash of `M` in keys and tokens: Humble's rmw_zenoh writes a
+    /// constant where later ones write `RIHS01_` and the hash.
+    pub fn type_hash<M: Message>(self) -> &'static str {
+        match self {
+            Distro::Humble => "TypeHashNotSupported",
+            _ => M::HASH,
+        }
+    }
+}
+
+/// The ROS 2 graph a node joins: its domain, and the distribution of the nodes it meets.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Graph {
+    /// The ROS domain.
+    pub domain: u32,
+    /// The distribution.
+    pub distro: Distro,
+}
+
 /// The key expression of topic `topic` (a fully qualified name, `/hapticd/sim/pose`) carrying
-/// messages `M` in ROS domain `domain`: `<domain>/<name>/<type>/<hash>`, the name without its
-/// leading slash.
-pub fn topic_key<M: Message>(domain: u32, topic: &str) -> String {
+/// messages `M` in `graph`: `<domain>/<name>/<type>/<hash>`, the name without its leading
+/// slash.
+pub fn topic_key<M: Message>(graph: Graph, topic: &str) -> String {
     format!(
-        "{domain}/{}/{}/{}",
+        "{}/{}/{}/{}",
+        graph.domain,
         topic.trim_start_matches('/'),
         dds_type_name(M::TYPE),
-        M::HASH
+        graph.distro.type_hash::<M>()
     )
 }
 
@@ -42,8 +86,8 @@ pub const DEFAULT_QOS: &str = "::,:,:,:,,";
 /// list` and `ros2 topic list` find the node and its publishers and subscriptions.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Node {
-    /// Its ROS domain.
-    pub domain: u32,
+    /// Its ROS graph.
+    pub graph: Graph,
     /// Its Zenoh session's id, as Zenoh writes it.
     pub zid: String,
     /// Its number within the session.
@@ -59,7 +103,7 @@ impl Node {
     fn prefix(&self, entity: u32, kind: &str) -> String {
         format!(
             "@ros2_lv/{}/{}/{}/{entity}/{kind}/%/{}/{}",
-            self.domain,
+            self.graph.domain,
             self.zid,
             self.id,
             mangled(&self.namespace),
@@ -88,7 +132,7 @@ impl Node {
             self.prefix(entity, kind),
             mangled(topic),
             dds_type_name(M::TYPE),
-            M::HASH
+            self.graph.distro.type_hash::<M>()
         )
     }
 }
@@ -121,11 +165,46 @@ mod tests {
     #[test]
     fn a_topic_key_is_domain_name_type_and_hash() {
         assert_eq!(
-            topic_key::<PoseStamped>(0, "/hapticd/sim/pose"),
+            topic_key::<PoseStamped>(Graph::default(), "/hapticd/sim/pose"),
             "0/hapticd/sim/pose/geometry_msgs::msg::dds_::PoseStamped_/\
              RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8"
         );
-        assert!(topic_key::<WrenchStamped>(7, "wrench").starts_with("7/wrench/geometry_msgs"));
+        let seven = Graph {
+            domain: 7,
+            ..Graph::default()
+        };
+        assert!(topic_key::<WrenchStamped>(seven, "wrench").starts_with("7/wrench/geometry_msgs"));
+    }
+
+    #[test]
+    fn humble_writes_no_type_hash_and_the_others_their_rihs01() {
+        for (name, distro) in Distro::ALL {
+            let graph = Graph { domain: 0, distro };
+            let node = Node {
+                graph,
+                zid: "a1b2".into(),
+                id: 3,
+                namespace: "/".into(),
+                name: "hapticd_sim".into(),
+            };
+            let (key, token) = (
+                topic_key::<PoseStamped>(graph, "/p"),
+                node.publisher::<PoseStamped>(4, "/p"),
+            );
+            let hash = match name {
+                "humble" => "TypeHashNotSupported",
+                _ => "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8",
+            };
+            assert_eq!(
+                key,
+                format!("0/p/geometry_msgs::msg::dds_::PoseStamped_/{hash}"),
+                "{name}"
+            );
+            assert!(
+                token.ends_with(&format!("PoseStamped_/{hash}/{DEFAULT_QOS}")),
+                "{token}"
+            );
+        }
     }
 
     #[test]
@@ -148,7 +227,7 @@ mod tests {
     #[test]
     fn a_node_and_its_endpoints_are_announced_as_rmw_zenoh_announces_them() {
         let node = Node {
-            domain: 0,
+            graph: Graph::default(),
             zid: "a1b2".into(),
             id: 3,
             namespace: "/".into(),

@@ -19,7 +19,7 @@ use hapticd_core::world_state::{MAX_BODIES, WorldFrame, state_of};
 use hapticd_ipc::client::{ClientError, Device};
 use hapticd_ipc::touch_events::{Touch, TouchTracker};
 use hapticd_ipc::world_share::MappedWorld;
-use hapticd_ros2::keys::Node;
+use hapticd_ros2::keys::{Graph, Node};
 use hapticd_ros2::messages::{
     Header, JointState, Message, PoseArray, PoseStamped, StringMessage, Time, TwistStamped,
     WrenchStamped,
@@ -74,8 +74,8 @@ pub fn zenoh_error(e: impl std::fmt::Display) -> BridgeError {
 /// How a device is bridged.
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
-    /// The ROS domain.
-    pub domain: u32,
+    /// The ROS graph: domain and distribution.
+    pub graph: Graph,
     /// The ROS node's number within the session (one node a device).
     pub node: u32,
     /// Publish one tick in so many.
@@ -207,7 +207,7 @@ pub fn run(
 ) -> Result<(), BridgeError> {
     let identity = device.identity()?;
     let effectors = device.effectors()?;
-    let topics = DeviceTopics::new(settings.domain, &identity, &effectors);
+    let topics = DeviceTopics::new(settings.graph, &identity, &effectors);
     let (node_token, mut entities) = announce_node(session, settings, &topics)?;
     let publishers = Publishers::declare(session, &topics, &mut entities)?;
     let commands = if settings.commands {
@@ -290,7 +290,7 @@ fn announce_node<'a>(
     topics: &DeviceTopics,
 ) -> Result<(zenoh::liveliness::LivelinessToken, Entities<'a>), BridgeError> {
     let node = Node {
-        domain: settings.domain,
+        graph: settings.graph,
         zid: session.zid().to_string(),
         id: settings.node * 1000,
         namespace: "/".into(),
@@ -388,7 +388,7 @@ fn declare_status(
                 "publishing_every": settings.every,
                 "topics": names,
                 "telemetry": telemetry_key,
-                "domain": settings.domain,
+                "domain": settings.graph.domain,
                 "commands": settings.commands,
             });
             let _ = query

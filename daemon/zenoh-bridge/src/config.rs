@@ -1,9 +1,10 @@
 //! The bridge's configuration (`/etc/hapticd/network.yaml`): where to listen and connect, the
-//! ROS domain, the publishing rate, whether commands are taken, the shared world its devices'
+//! ROS domain and distribution, the publishing rate, whether commands are taken, the shared world its devices'
 //! remote scenes reach, and the administrator's own Zenoh configuration. Unknown keys and values out of range are refused with the file's name.
 
 use std::path::{Path, PathBuf};
 
+use hapticd_ros2::keys::{Distro, Graph};
 use serde::Deserialize;
 
 /// Where the configuration is looked for when none is named.
@@ -23,6 +24,9 @@ pub struct NetworkConfig {
     pub connect: Vec<String>,
     /// The ROS 2 domain.
     pub domain: u32,
+    /// The ROS 2 distribution of the nodes the topics are for (Humble's rmw_zenoh names no
+    /// type hashes).
+    pub ros_distro: Distro,
     /// Samples a second per topic.
     pub rate: f64,
     /// Whether commands from the network are carried out.
@@ -40,6 +44,7 @@ impl Default for NetworkConfig {
             listen: vec!["tcp/127.0.0.1:7447".into()],
             connect: Vec::new(),
             domain: 0,
+            ros_distro: Distro::default(),
             rate: 100.0,
             commands: false,
             zenoh: None,
@@ -111,6 +116,14 @@ impl std::fmt::Display for LoadError {
 impl std::error::Error for LoadError {}
 
 impl NetworkConfig {
+    /// The ROS graph the topics are in.
+    pub fn graph(&self) -> Graph {
+        Graph {
+            domain: self.domain,
+            distro: self.ros_distro,
+        }
+    }
+
     /// The configuration in `path`; the defaults if `path` is the default one and absent.
     pub fn load(path: Option<&Path>) -> Result<Self, LoadError> {
         let (path, required) = match path {
@@ -199,6 +212,8 @@ mod tests {
             "rate: [1, 2]\n",
             "world: 'a/b'\n",
             "world: '*'\n",
+            "ros_distro: iron\n",
+            "ros_distro: Humble\n",
         ]
         .iter()
         .enumerate()
@@ -222,5 +237,14 @@ mod tests {
         assert!(NetworkConfig::load(Some(Path::new("/nonexistent/network.yaml"))).is_err());
         let set = parsed(100, "rate: 1000\ncommands: true\n").unwrap();
         assert_eq!((set.rate, set.commands), (1000.0, true));
+    }
+
+    #[test]
+    fn each_distribution_is_taken_by_its_name() {
+        for (k, (name, distro)) in Distro::ALL.into_iter().enumerate() {
+            let set = parsed(300 + k, &format!("ros_distro: {name}\n")).unwrap();
+            assert_eq!(set.graph().distro, distro, "{name}");
+        }
+        assert_eq!(NetworkConfig::default().ros_distro, Distro::Jazzy);
     }
 }

@@ -137,7 +137,7 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
                 scope.spawn(move || {
                     let device_rate = device.open_telemetry()?.rate();
                     let settings = Settings {
-                        domain: config.domain,
+                        graph: config.graph(),
                         node: k as u32 + 1,
                         every: (device_rate / config.rate).round().max(1.0) as u64,
                         commands: config.commands,

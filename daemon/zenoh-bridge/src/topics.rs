@@ -13,7 +13,7 @@
 //! | `/hapticd/<device>/touches` | `std_msgs/msg/String` | each touch begun, ended, slipping (JSON) |
 //! | `/hapticd/<device>/<effector>/wrench_command` | `geometry_msgs/msg/WrenchStamped` | taken: added to the displayed wrench (commands on) |
 
-use hapticd_ros2::keys::topic_key;
+use hapticd_ros2::keys::{Graph, topic_key};
 use hapticd_ros2::messages::{
     JointState, Message, PoseArray, PoseStamped, StringMessage, TwistStamped, WrenchStamped,
 };
@@ -40,10 +40,10 @@ pub struct Topic {
 }
 
 impl Topic {
-    /// Topic `name` of messages `M` in ROS domain `domain`.
-    fn new<M: Message>(domain: u32, name: String) -> Self {
+    /// Topic `name` of messages `M` in `graph`.
+    fn new<M: Message>(graph: Graph, name: String) -> Self {
         Self {
-            key: topic_key::<M>(domain, &name),
+            key: topic_key::<M>(graph, &name),
             name,
         }
     }
@@ -82,8 +82,8 @@ pub struct DeviceTopics {
 }
 
 impl DeviceTopics {
-    /// The topics of device `device` with effectors `effectors` in ROS domain `domain`.
-    pub fn new(domain: u32, device: &str, effectors: &[String]) -> Self {
+    /// The topics of device `device` with effectors `effectors` in `graph`.
+    pub fn new(graph: Graph, device: &str, effectors: &[String]) -> Self {
         let word = name_word(device);
         let base = format!("/hapticd/{word}");
         Self {
@@ -93,20 +93,17 @@ impl DeviceTopics {
                 .map(|e| {
                     let at = format!("{base}/{}", name_word(e));
                     EffectorTopics {
-                        pose: Topic::new::<PoseStamped>(domain, format!("{at}/pose")),
-                        twist: Topic::new::<TwistStamped>(domain, format!("{at}/twist")),
-                        wrench: Topic::new::<WrenchStamped>(domain, format!("{at}/wrench")),
-                        command: Topic::new::<WrenchStamped>(
-                            domain,
-                            format!("{at}/wrench_command"),
-                        ),
+                        pose: Topic::new::<PoseStamped>(graph, format!("{at}/pose")),
+                        twist: Topic::new::<TwistStamped>(graph, format!("{at}/twist")),
+                        wrench: Topic::new::<WrenchStamped>(graph, format!("{at}/wrench")),
+                        command: Topic::new::<WrenchStamped>(graph, format!("{at}/wrench_command")),
                     }
                 })
                 .collect(),
-            strings: Topic::new::<JointState>(domain, format!("{base}/strings")),
-            bodies: Topic::new::<PoseArray>(domain, format!("{base}/bodies")),
-            state: Topic::new::<StringMessage>(domain, format!("{base}/state")),
-            touches: Topic::new::<StringMessage>(domain, format!("{base}/touches")),
+            strings: Topic::new::<JointState>(graph, format!("{base}/strings")),
+            bodies: Topic::new::<PoseArray>(graph, format!("{base}/bodies")),
+            state: Topic::new::<StringMessage>(graph, format!("{base}/state")),
+            touches: Topic::new::<StringMessage>(graph, format!("{base}/touches")),
             device: word,
         }
     }
@@ -143,7 +140,7 @@ mod tests {
     fn identities_become_ros_names_and_keys() {
         assert_eq!(name_word("usb-1-2.3"), "usb_1_2_3");
         assert_eq!(name_word("3d"), "_3d");
-        let topics = DeviceTopics::new(0, "sim", &["grip".into()]);
+        let topics = DeviceTopics::new(Graph::default(), "sim", &["grip".into()]);
         let grip = &topics.effectors[0];
         assert_eq!(grip.pose.name, "/hapticd/sim/grip/pose");
         assert!(
@@ -170,7 +167,7 @@ mod tests {
         );
         assert_eq!(topics.frame, "hapticd_sim");
         assert_eq!(
-            DeviceTopics::new(0, "usb-1", &[]).status(),
+            DeviceTopics::new(Graph::default(), "usb-1", &[]).status(),
             "hapticd/usb_1/status"
         );
     }

@@ -414,7 +414,10 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
         \x20   rising = [f for f in during('push') if f > 1e-9]\n\
         \x20   return {'first': rising[:3], 'push_end': during('push', 0.5), 'huge_max': max(during('huge') or [0]), \
         'held': during('quiet', 0.0, 0.05), 'gone': during('quiet', 0.3)}\n";
-    let key = hapticd_ros2::keys::topic_key::<WrenchStamped>(0, "/hapticd/sim/grip/wrench_command");
+    let key = hapticd_ros2::keys::topic_key::<WrenchStamped>(
+        Default::default(),
+        "/hapticd/sim/grip/wrench_command",
+    );
     let wrench = |newtons: f64| {
         let message = WrenchStamped {
             header: Header {
