@@ -78,6 +78,7 @@ fn run(cli: &WorldCli) -> Result<(), String> {
     let spec = rapier_scene(cli)?;
     let mut world = SharedWorld::new(&spec, cli.pointers);
     let session = session::open(&config).map_err(|e| e.to_string())?;
+    session::say_when_unmet(&session, &config);
     let zenoh = |e: zenoh::Error| format!("zenoh: {e}");
     let incoming = session
         .declare_subscriber(world_keys::from_hosts(&name))

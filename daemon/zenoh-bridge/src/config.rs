@@ -41,8 +41,10 @@ pub struct NetworkConfig {
 impl Default for NetworkConfig {
     fn default() -> Self {
         Self {
-            listen: vec!["tcp/127.0.0.1:7447".into()],
-            connect: Vec::new(),
+            // As rmw_zenoh's nodes: the local router (rmw_zenohd's port) for discovery, and a
+            // port of its own on the loopback for peers to reach it directly.
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            connect: vec!["tcp/localhost:7447".into()],
             domain: 0,
             ros_distro: Distro::default(),
             rate: 100.0,

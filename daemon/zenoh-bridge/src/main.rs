@@ -111,10 +111,13 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
     let devices = commands::device_words(hapticd.devices().map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;
     let session = session::open(&config).map_err(|e| e.to_string())?;
+    session::say_when_unmet(&session, &config);
     tracing::info!(
-        "publishing {} device(s) on {:?}, ROS domain {}, {} samples/s; commands {}",
+        "publishing {} device(s), listening on {:?}, connecting to {:?}, ROS domain {}, {} \
+         samples/s; commands {}",
         devices.len(),
         config.listen,
+        config.connect,
         config.domain,
         config.rate,
         if config.commands { "taken" } else { "refused" }

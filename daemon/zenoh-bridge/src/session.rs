@@ -94,6 +94,37 @@ pub fn open(config: &NetworkConfig) -> Result<zenoh::Session, SessionError> {
         })
 }
 
+/// How long a session has to meet the routers or peers it connects to before the log says
+/// none answers (it goes on trying: one that starts later is met then).
+pub const MEETING: Duration = Duration::from_secs(2);
+
+/// Say once in the log, [`MEETING`] after `session` opened, when none of the endpoints
+/// `config` connects to answers; nothing waits for it.
+pub fn say_when_unmet(session: &zenoh::Session, config: &NetworkConfig) {
+    if config.connect.is_empty() {
+        return;
+    }
+    let (session, connect) = (session.clone(), config.connect.clone());
+    let spawned = std::thread::Builder::new()
+        .name("zenoh-meeting".into())
+        .spawn(move || {
+            std::thread::sleep(MEETING);
+            let info = session.info();
+            let met = info.routers_zid().wait().next().is_some()
+                || info.peers_zid().wait().next().is_some();
+            if !met {
+                tracing::warn!(
+                    "no Zenoh router or peer answers at {connect:?} (ROS 2 nodes of rmw_zenoh \
+                     meet through a router: `ros2 run rmw_zenoh_cpp rmw_zenohd`); publishing \
+                     anyway, and meeting one as soon as it answers"
+                );
+            }
+        });
+    if let Err(e) = spawned {
+        tracing::warn!("cannot watch for the Zenoh router: {e}");
+    }
+}
+
 /// When a run of `duration` seconds from now ends (None: never); an error for a duration that
 /// is no number of seconds above zero.
 pub fn deadline(duration: Option<f64>) -> Result<Option<Instant>, BadDuration> {

@@ -542,3 +542,86 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
     assert_eq!(bus.get(DEVICE, "WrenchCommand"), "s \"stale\"");
     daemon.stop();
 }
+
+/// Deployed as rmw_zenoh's nodes are: the bridge connects to the machine's Zenoh router, a
+/// client of that router (as `ros2 topic echo` reaches one) hears its topics and tokens at
+/// the default rate; and a bridge whose router is not there says so once, and publishes on.
+#[test]
+fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
+    let dir = support::shared_scratch("dbus", "zenoh-router");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    // A Zenoh router, as rmw_zenohd runs one (router mode, listening, no scouting).
+    let (router, port) = support::loopback_endpoint();
+    let _router = support::Killed(
+        Command::new("/usr/bin/python3")
+            .args([
+                "-c",
+                "import json, sys, time, zenoh\n\
+                 c = zenoh.Config()\n\
+                 c.insert_json5('mode', '\"router\"')\n\
+                 c.insert_json5('listen/endpoints', json.dumps([sys.argv[1]]))\n\
+                 c.insert_json5('scouting/multicast/enabled', 'false')\n\
+                 session = zenoh.open(c)\n\
+                 time.sleep(120)\n",
+                &router,
+            ])
+            .env("PYTHONPATH", support::python_package("eclipse-zenoh"))
+            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .spawn()
+            .unwrap(),
+    );
+    let mut bridge = zenoh_bridge_on(
+        &bus,
+        &dir,
+        &format!("connect: [{router}]\nlisten: [tcp/127.0.0.1:0]\n"),
+        port,
+        None,
+        None,
+    );
+    let follow = "heard = []\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim/grip/pose/**', lambda s: heard.append(time.monotonic()))\n\
+        time.sleep(1)\n\
+        heard.clear()\n\
+        time.sleep(4)\n\
+        subscriber.undeclare()\n\
+        tokens = [str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**', timeout=3.0) if r.ok]\n\
+        print(json.dumps({'rate': len(heard) / 4, 'tokens': len(tokens), 'status': ask('hapticd/sim/status', None)}), flush=True)\n\
+        session.close()\n";
+    let said = zenoh_client(follow, &router, &[], None);
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    println!("through the router: {said}");
+    // The default rate, 100 a second, as a subscriber at the router receives it.
+    let rate = said["rate"].as_f64().unwrap();
+    assert!((90.0..=110.0).contains(&rate), "{said}");
+    assert!(said["tokens"].as_u64().unwrap() > 5, "{said}");
+    assert_eq!(said["status"].as_array().unwrap().len(), 1, "{said}");
+
+    // No router where it connects: said once, and the bridge is up and publishing.
+    let (nowhere, port) = support::loopback_endpoint();
+    let log = dir.join("unmet.log");
+    let file = dir.join("unmet.yaml");
+    std::fs::write(
+        &file,
+        format!("connect: [{nowhere}]\nlisten: [tcp/127.0.0.1:0]\n"),
+    )
+    .unwrap();
+    let mut command = Command::new(artifact("hapticd-zenoh"));
+    command
+        .arg("--config")
+        .arg(&file)
+        .args(["--bus", &bus.address, "--duration", "4"])
+        .stderr(std::fs::File::create(&log).unwrap());
+    let unmet = spawn_ready(command, &dir.join(format!("notify-{port}")))
+        .wait_with_output()
+        .unwrap();
+    assert!(unmet.status.success(), "{unmet:?}");
+    let said = std::fs::read_to_string(&log).unwrap();
+    assert_eq!(
+        said.matches("no Zenoh router or peer answers").count(),
+        1,
+        "{said}"
+    );
+}
