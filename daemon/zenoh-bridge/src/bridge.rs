@@ -66,6 +66,12 @@ impl From<ClientError> for BridgeError {
     }
 }
 
+impl From<zenoh::Error> for BridgeError {
+    fn from(e: zenoh::Error) -> Self {
+        zenoh_error(e)
+    }
+}
+
 /// A zenoh error as the bridge says it.
 pub fn zenoh_error(e: impl std::fmt::Display) -> BridgeError {
     BridgeError::Zenoh(e.to_string())
@@ -445,7 +451,9 @@ fn publish_touches(
             let text = StringMessage {
                 data: touch_json(&touch, effectors),
             };
-            touched = publisher.put(text.encode(), stamp_ns);
+            touched = publisher
+                .put(text.encode(), stamp_ns)
+                .map_err(BridgeError::from);
         }
     });
     touched
@@ -490,5 +498,5 @@ fn publish_tick(
         effort: sample.tensions[..strings].to_vec(),
     };
     publishers.strings.put(tensions.encode(), stamp_ns)?;
-    publishers.telemetry.put(sample.encode(), stamp_ns)
+    Ok(publishers.telemetry.put(sample.encode(), stamp_ns)?)
 }

@@ -8,8 +8,6 @@ use std::cell::Cell;
 use hapticd_ros2::keys::{attachment, gid};
 use zenoh::Wait;
 
-use crate::bridge::{BridgeError, zenoh_error};
-
 /// A declared publisher with its GID and the number of its next message.
 pub(crate) struct RosPublisher<'a> {
     publisher: zenoh::pubsub::Publisher<'a>,
@@ -29,12 +27,11 @@ impl<'a> RosPublisher<'a> {
 
     /// Put `bytes`, made at `stamp_ns` (nanoseconds since the Unix epoch), as this
     /// publisher's next message.
-    pub(crate) fn put(&self, bytes: Vec<u8>, stamp_ns: i64) -> Result<(), BridgeError> {
+    pub(crate) fn put(&self, bytes: Vec<u8>, stamp_ns: i64) -> zenoh::Result<()> {
         let sequence = self.next.replace(self.next.get() + 1);
         self.publisher
             .put(bytes)
             .attachment(attachment(sequence, stamp_ns, &self.gid).to_vec())
             .wait()
-            .map_err(zenoh_error)
     }
 }
