@@ -18,9 +18,10 @@ from dataclasses import dataclass
 from typing import Any, Iterator, List, Optional, Sequence, Tuple
 
 from jeepney import DBusAddress, HeaderFields, MessageType, Properties, new_method_call
+from jeepney.bus_messages import message_bus
 from jeepney.io.blocking import DBusConnection, open_dbus_connection
 
-from ._errors import BAD_SHARED_MEMORY, Error, refuse
+from ._errors import BAD_SHARED_MEMORY, NOT_RUNNING, Error, NotRunning, refuse
 from .telemetry import Ring, Sample
 from .world import Frame, Solid, World, read_geometry
 
@@ -31,7 +32,9 @@ __all__ = [
     "Body",
     "BodyState",
     "Error",
+    "NotRunning",
     "BAD_SHARED_MEMORY",
+    "NOT_RUNNING",
     "Sample",
     "World",
     "Frame",
@@ -320,8 +323,20 @@ class Hapticd:
         """Close the connection."""
         self._bus.connection.close()
 
+    def __enter__(self) -> "Hapticd":
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.close()
+
 
 def connect(bus: Optional[str] = None) -> Hapticd:
-    """The daemon on the system bus, or on the bus at address ``bus`` (``unix:path=…``)."""
+    """The daemon on the system bus, or on the bus at address ``bus`` (``unix:path=…``);
+    :class:`NotRunning` when no hapticd is there. Also a context manager, closing the
+    connection at its end: ``with hapticd.connect() as daemon: …``."""
     connection = open_dbus_connection(bus or "SYSTEM", enable_fds=True)
+    reply = connection.send_and_get_reply(message_bus.NameHasOwner(BUS_NAME))
+    if not reply.body[0]:
+        connection.close()
+        raise NotRunning("system" if bus is None else bus)
     return Hapticd(connection)

@@ -24,8 +24,22 @@ class Error(Exception):
         self.message = message
 
 
-# Shown as hapticd.Error, where callers find it.
+class NotRunning(Error):
+    """No hapticd on the bus asked for: raised by :func:`hapticd.connect`, not at the first
+    call. Its ``name`` is :data:`NOT_RUNNING`."""
+
+    def __init__(self, bus: str) -> None:
+        super().__init__(NOT_RUNNING, f"hapticd is not running on the {bus} bus")
+        self.bus = bus
+
+
+NOT_RUNNING = "org.hapticd.Hapticd1.Python.NotRunning"
+"""The name of :class:`NotRunning`: said by this client, not sent by the daemon."""
+
+
+# Shown as hapticd.Error and hapticd.NotRunning, where callers find them.
 Error.__module__ = "hapticd"
+NotRunning.__module__ = "hapticd"
 
 
 MAX_RATE = 1e9

@@ -27,6 +27,31 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
     assert!(out.status.success(), "{said}");
     assert!(said.contains("35 passed"), "{said}");
     daemon.stop();
+    // With hapticd gone, `connect` says so itself, by type, rather than leaving the first
+    // call to fail with the bus's words.
+    let gone = "import sys, time, hapticd\n\
+                for attempt in range(200):\n\
+                \x20   try:\n\
+                \x20       with hapticd.connect(sys.argv[1]) as daemon:\n\
+                \x20           daemon.version\n\
+                \x20   except hapticd.NotRunning as e:\n\
+                \x20       print(type(e).__name__, e.name, e.message)\n\
+                \x20       break\n\
+                \x20   time.sleep(0.05)\n";
+    let out = Command::new("/usr/bin/python3")
+        .args(["-c", gone, &bus.address])
+        .env("PYTHONPATH", &package)
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        format!(
+            "NotRunning org.hapticd.Hapticd1.Python.NotRunning hapticd is not running on the {} bus",
+            bus.address
+        ),
+        "{out:?}"
+    );
     // `pip install PATH` makes a package that imports from where it went, typed (from a
     // copy: pip leaves its build files beside the source).
     let source = dir.join("source");
