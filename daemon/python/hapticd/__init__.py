@@ -243,15 +243,40 @@ class Hapticd:
     def switch_scene(self, name: str, wait: float = 600.0) -> None:
         """Switch every device to the scene called ``name`` (forces ramp down and up); while
         the daemon says its meshes are being prepared, ask again for up to ``wait`` seconds."""
+        self._switch("SwitchScene", "s", lambda: (name,), wait)
+
+    def switch_scene_file(self, path: str, wait: float = 600.0) -> None:
+        """Switch every device to the scene file at ``path``, one of the caller's own: it is
+        opened here, with the caller's rights, and sent by descriptor (the daemon opens no
+        path a caller names); the scene is called by the file's name without ``.yaml``.
+        While the daemon says its meshes are being prepared, ask again for up to ``wait``
+        seconds."""
+        name = os.path.splitext(os.path.basename(path))[0]
+        if not name or name.startswith(".") or "." in name:
+            raise ValueError(f"{path}: not a scene file name (NAME.yaml)")
+
+        def sent() -> tuple:
+            # Non-blocking, so that a FIFO given by mistake cannot hang the caller; the
+            # daemon refuses anything but a regular file.
+            return (os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC), name)
+
+        self._switch("SwitchSceneFile", "hs", sent, wait)
+
+    def _switch(self, method: str, signature: str, body, wait: float) -> None:
+        """Call ``method`` with ``body()``, again while the daemon says it is preparing."""
         deadline = time.monotonic() + wait
         while True:
+            args = body()
             try:
-                self._bus.call(MANAGER_PATH, MANAGER, "SwitchScene", "s", (name,))
+                self._bus.call(MANAGER_PATH, MANAGER, method, signature, args)
                 return
             except Error as e:
                 if not e.name.endswith(".Preparing") or time.monotonic() > deadline:
                     raise
                 time.sleep(0.5)
+            finally:
+                if signature.startswith("h"):
+                    os.close(args[0])
 
     @property
     def bodies(self) -> List[Body]:

@@ -62,6 +62,23 @@ def test_scenes_switch_and_unknown_ones_are_named(daemon):
     daemon.switch_scene("static")
 
 
+def test_a_scene_file_of_ones_own_is_sent_by_descriptor(daemon, tmp_path):
+    shipped = os.path.join(os.path.dirname(__file__), "../../../config/scenes/static.yaml")
+    mine = tmp_path / "my-floor.yaml"
+    with open(shipped) as source:
+        mine.write_text(source.read().replace("name: static", "name: my-floor"))
+    daemon.switch_scene_file(str(mine))
+    assert daemon.active_scene == "my-floor"
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("shapes: [")
+    with pytest.raises(hapticd.Error) as refused:
+        daemon.switch_scene_file(str(broken))
+    assert refused.value.name == "org.hapticd.Hapticd1.Error.SceneFailed"
+    assert "broken.yaml" in refused.value.message
+    assert daemon.active_scene == "my-floor"
+    daemon.switch_scene("static")
+
+
 def test_calibrate_takes_the_offsets(daemon):
     device = daemon.devices[0]
     before = device.get("CalibrationOffsets")
