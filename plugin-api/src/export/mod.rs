@@ -10,7 +10,6 @@ use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
 use crate::ext::{scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*};
-use crate::geometry::Geometry;
 
 mod macros;
 mod scene;

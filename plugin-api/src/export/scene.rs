@@ -1,8 +1,13 @@
 //! A scene plugin's side: the [`SceneInstance`] an author implements and the vtable
 //! functions `export_scene!` points at, each run inside `catch_unwind`.
 
-use super::*;
+use std::ffi::{CStr, c_char};
 
+use crate::abi::*;
+use crate::ext::{scene_contacts::*, scene_control::*};
+use crate::geometry::Geometry;
+
+use super::{SceneError, guard, log};
 /// A scene instance, as a Rust plugin author implements it. Each method runs on the thread
 /// its style names; the default answers [`HAPTICD_ERROR_FAILED`] (wrong style).
 pub trait SceneInstance: Send {

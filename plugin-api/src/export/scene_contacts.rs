@@ -1,7 +1,9 @@
 //! Extension `"hapticd.scene.contacts/1"` served from a [`SceneInstance`]'s touches.
 
-use super::*;
+use crate::abi::*;
+use crate::ext::{scene_contacts::*, scene_geometry::*};
 
+use super::{guard, instance_mut, write_out};
 unsafe extern "C" fn contacts_object_body(instance: *mut std::ffi::c_void, object: u32) -> u32 {
     if instance.is_null() {
         return HAPTICD_NO_BODY;

@@ -1,8 +1,12 @@
 //! Extension `"hapticd.scene.control/1"` served from a [`SceneInstance`]'s bodies and
 //! commands.
 
-use super::*;
+use std::ffi::{CStr, c_char};
 
+use crate::abi::*;
+use crate::ext::{scene_control::*, scene_geometry::*};
+
+use super::{guard, instance_mut, write_out};
 impl HapticdSceneCommand {
     /// A command of `kind` for body `body`, its numbers zero and its orientation none turned.
     pub fn new(kind: u32, body: u32) -> Self {

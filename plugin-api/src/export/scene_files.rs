@@ -1,7 +1,11 @@
 //! Extension `"hapticd.scene.files/1"`: the engines a plugin runs and its check of a file.
 
-use super::*;
+use std::ffi::{CStr, c_char};
 
+use crate::abi::*;
+use crate::ext::scene_files::*;
+
+use super::{SceneCheck, guard};
 /// A files extension that may live in a `static`.
 #[repr(transparent)]
 #[doc(hidden)]

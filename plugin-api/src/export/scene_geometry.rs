@@ -1,7 +1,10 @@
 //! Extension `"hapticd.scene.geometry/1"` served from a [`SceneInstance`]'s geometry.
 
-use super::*;
+use crate::abi::*;
+use crate::ext::scene_geometry::*;
+use crate::geometry::Geometry;
 
+use super::{guard, instance_mut, write_out};
 /// The instance's geometry, if it has one.
 ///
 /// # Safety

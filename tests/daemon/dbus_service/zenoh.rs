@@ -580,21 +580,29 @@ fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
         None,
         None,
     );
-    let follow = "heard = []\n\
-        subscriber = session.declare_subscriber('0/hapticd/sim/grip/pose/**', lambda s: heard.append(time.monotonic()))\n\
+    // Every topic's samples over 4 s, by the topic's last word (pose, twist, … state).
+    let follow = "heard = {}\n\
+        listening = False\n\
+        def taken(sample):\n\
+        \x20   if listening:\n\
+        \x20       topic = str(sample.key_expr).split('/')[-3]\n\
+        \x20       heard[topic] = heard.get(topic, 0) + 1\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim/**', taken)\n\
         time.sleep(1)\n\
-        heard.clear()\n\
+        listening = True\n\
         time.sleep(4)\n\
+        listening = False\n\
         subscriber.undeclare()\n\
         tokens = [str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**', timeout=3.0) if r.ok]\n\
-        print(json.dumps({'rate': len(heard) / 4, 'tokens': len(tokens), 'status': ask('hapticd/sim/status', None)}), flush=True)\n\
+        rates = {topic: n / 4 for topic, n in heard.items()}\n\
+        print(json.dumps({'rates': rates, 'tokens': len(tokens), 'status': ask('hapticd/sim/status', None)}), flush=True)\n\
         session.close()\n";
     let said = zenoh_client(follow, &router, &[], None);
     let _ = bridge.kill();
     let _ = bridge.wait();
     println!("through the router: {said}");
     // The default rate, 100 a second, as a subscriber at the router receives it.
-    let rate = said["rate"].as_f64().unwrap();
+    let rate = said["rates"]["pose"].as_f64().unwrap();
     assert!((90.0..=110.0).contains(&rate), "{said}");
     assert!(said["tokens"].as_u64().unwrap() > 5, "{said}");
     assert_eq!(said["status"].as_array().unwrap().len(), 1, "{said}");

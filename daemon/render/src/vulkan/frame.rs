@@ -1,7 +1,13 @@
 //! One frame's images and buffers, and the commands that draw into them: the light's view
 //! into the shadow map, the camera's, and the read-back.
 
-use super::*;
+use ash::vk;
+
+use super::{
+    Allocation, CLEAR_DEPTH, COLOUR, DEPTH, GpuVertex, Renderer, SHADOW_EDGE, Unavailable, failed,
+};
+use crate::picture::Picture;
+use crate::smoothing;
 
 /// The images and buffers of one frame.
 pub(super) struct Frame {

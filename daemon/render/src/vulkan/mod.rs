@@ -11,7 +11,6 @@ use crate::camera::Camera;
 use crate::light;
 use crate::mesh::Mesh;
 use crate::picture::Picture;
-use crate::smoothing;
 
 mod frame;
 

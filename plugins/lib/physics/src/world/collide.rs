@@ -4,7 +4,11 @@
 use glam::DVec3;
 use hapticd_core::kinematics::Wrench;
 
-use super::*;
+use super::{Aabb, ContactModel, Material, Pair, World};
+use crate::body::Body;
+use crate::contact::{damper, spring};
+use crate::friction::{ContactPatch, Loading, friction};
+use crate::polyhedron::Polyhedron;
 
 /// The deepest-point contact: the overlap's lowest vertex along the normal carries a
 /// spring-damper on the overlap's thickness, and Coulomb friction, fading below the slip

@@ -7,8 +7,7 @@ use super::body::Body;
 use super::clip::Clipper;
 use hapticd_core::kinematics::Wrench;
 
-use super::contact::{damper, spring};
-use super::friction::{ContactPatch, FrictionParameters, FrictionState, Loading, friction};
+use super::friction::{FrictionParameters, FrictionState};
 use super::gjk;
 use super::polyhedron::Polyhedron;
 
