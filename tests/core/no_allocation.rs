@@ -546,6 +546,93 @@ fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     assert!(proxy_x < pointers[0].pose.position.x - 1e-3, "{proxy_x}");
 }
 
+/// Two devices' haptic threads in one world (the shipped `two-hands` scene, stepped by the
+/// daemon's world thread), each pressing the block from its side: their ticks take the
+/// world's updates, render the block under their finger and hand back what their hand did
+/// without allocating, both at once.
+#[test]
+fn two_haptic_threads_ticking_one_shared_world_do_not_allocate() {
+    use hapticd::shared_scene::{self, Host};
+    let path = support::repo_dir().join("config/scenes/two-hands.yaml");
+    let world = hapticd::plugin_scene::load_world(
+        &support::plugin_path("hapticd-scene-rapier"),
+        Some(&path),
+        2,
+    )
+    .unwrap()
+    .expect("a multi-rate world");
+    // Each finger starts outside the block (faces at x = ±0.03) and is pressed 5 mm in,
+    // moving in (the world looks for surfaces as far around a finger as it moves).
+    let sides = [-1.0, 1.0];
+    let outside = sides.map(|side| resting_at(DVec3::new(side * 0.04, 0.0, 0.1)));
+    let hosts = [
+        Host {
+            name: "left",
+            pointers: &outside[0],
+            rate: 1000.0,
+        },
+        Host {
+            name: "right",
+            pointers: &outside[1],
+            rate: 1000.0,
+        },
+    ];
+    let (scenes, world) = shared_scene::start(world, &hosts).unwrap();
+    let results: Vec<(usize, f64)> = std::thread::scope(|scope| {
+        let threads: Vec<_> = scenes
+            .into_iter()
+            .zip(sides)
+            .zip(&outside)
+            .map(|((mut scene, side), outside)| {
+                scope.spawn(move || {
+                    let pressing = [Pointer {
+                        pose: Pose {
+                            position: DVec3::new(side * 0.025, 0.0, 0.1),
+                            ..Pose::default()
+                        },
+                        velocity: DVec3::new(-side * 0.05, 0.0, 0.0),
+                    }];
+                    let mut wrenches = [Wrench::ZERO];
+                    let tick = std::time::Duration::from_millis(1);
+                    // The world's first update reaches the scene through its link.
+                    let started = std::time::Instant::now();
+                    while !scene.render(outside, 1e-3, &mut wrenches) {
+                        assert!(started.elapsed().as_secs() < 10, "no world");
+                        std::thread::sleep(tick);
+                    }
+                    let mut bodies = [HapticdBodyPose::default(); 4];
+                    let mut felt = 0.0f64;
+                    let first = std::time::Instant::now();
+                    let n = allocations_in(|| {
+                        for k in 1..=400u32 {
+                            assert!(scene.render(&pressing, 1e-3, &mut wrenches));
+                            scene.write_bodies(&mut bodies);
+                            felt = felt.max(side * wrenches[0].force.x);
+                            let deadline = first + tick * k;
+                            if let Some(rest) =
+                                deadline.checked_duration_since(std::time::Instant::now())
+                            {
+                                std::thread::sleep(rest);
+                            }
+                        }
+                    });
+                    (n, felt)
+                })
+            })
+            .collect();
+        threads.into_iter().map(|t| t.join().unwrap()).collect()
+    });
+    drop(world);
+    for (side, (n, felt)) in ["left", "right"].iter().zip(&results) {
+        assert_eq!(*n, 0, "{side}: {n} allocations in 400 ticks");
+        // Pressed 5 mm into the block, each finger is pushed back out of it.
+        assert!(
+            *felt > 1.0,
+            "{side}: the block pushed back {felt} N at most"
+        );
+    }
+}
+
 /// One pointer resting at `position`.
 fn resting_at(position: DVec3) -> [Pointer; 1] {
     [Pointer {

@@ -441,7 +441,7 @@ fn an_amplifier_plugged_in_while_simulating_is_taken_over() {
             "add=hub.umockdev",
             "ioctl=/dev/bus/usb/001/002=amplifier.ioctl",
             "start",
-            "wait=spidar-g on sim,",
+            "wait=spidar-g on sim-spidar-g-1,",
             "add=amplifier.umockdev",
             "wait=plugged in: starting again on it",
             "wait=spidar-g on usb:1-2",

@@ -16,6 +16,11 @@
 //! simulator:                # the simulated device, used when no hardware is present
 //!   mechanism: spidar-g
 //!   hand: /usr/share/hapticd/hands/press-floor.yaml   # optional script of the simulated hand
+//! devices:                  # optional: exactly these devices, each on a haptic thread of its own
+//!   - usb: all              # every amplifier plugged in, and those plugged in later
+//!   - sim: spidar-g         # a simulated SPIDAR of this mechanism
+//!     hand: /usr/share/hapticd/hands/press-floor.yaml
+//!     name: left            # its name on the bus and the network (default sim-spidar-g-1)
 //! safety:
 //!   max_force: 10           # N per effector
 //!   max_torque: 0.3         # N·m per effector
@@ -50,6 +55,22 @@ pub struct Config {
     pub simulator: SimulatorConfig,
     /// Force limits.
     pub safety: SafetyConfig,
+    /// The devices to drive; empty: every amplifier plugged in, else the simulator.
+    pub devices: Vec<DeviceConfig>,
+}
+
+/// One entry of `devices:`: a simulated SPIDAR, or the amplifiers plugged in.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DeviceConfig {
+    /// `sim: MECH`: a simulated SPIDAR of this mechanism.
+    pub sim: Option<String>,
+    /// `usb: all`: every amplifier plugged in now or later.
+    pub usb: Option<String>,
+    /// The simulated hand's script.
+    pub hand: Option<PathBuf>,
+    /// The simulated device's name (default `sim-<mechanism>-<n>`).
+    pub name: Option<String>,
 }
 
 /// `realtime:`.
@@ -110,6 +131,7 @@ impl Default for Config {
             hardware: HardwareConfig::default(),
             simulator: SimulatorConfig::default(),
             safety: SafetyConfig::default(),
+            devices: Vec::new(),
         }
     }
 }
@@ -192,6 +214,61 @@ impl Config {
                 f.error(key, e.to_string());
             }
         }
+        self.check_devices(f);
+    }
+
+    fn check_devices(&self, f: &mut Findings) {
+        let mut names = Vec::new();
+        for (i, device) in self.devices.iter().enumerate() {
+            let key = |field: &str| format!("devices[{i}].{field}");
+            match (&device.sim, &device.usb) {
+                (Some(_), Some(_)) | (None, None) => f.error(
+                    &format!("devices[{i}]"),
+                    "give either `sim: MECHANISM` or `usb: all`".to_string(),
+                ),
+                (None, Some(usb)) => {
+                    if usb != "all" {
+                        f.error(&key("usb"), format!("must be `all`, not {usb:?}"));
+                    }
+                    if device.hand.is_some() || device.name.is_some() {
+                        f.error(
+                            &format!("devices[{i}]"),
+                            "`hand` and `name` are for simulated devices (`sim:`)".to_string(),
+                        );
+                    }
+                }
+                (Some(_), None) => {}
+            }
+            if let Some(name) = &device.name {
+                if let Err(e) = check_device_name(name) {
+                    f.error(&key("name"), e);
+                } else if names.contains(&name) {
+                    f.error(&key("name"), format!("{name:?} names another device too"));
+                }
+                names.push(name);
+            }
+        }
+    }
+}
+
+/// Longest name a device may be given.
+pub const MAX_DEVICE_NAME: usize = 64;
+
+/// Whether `name` can name a device: it becomes part of file names, D-Bus values and ROS 2
+/// names, so letters, digits, `-` and `_`, starting with a letter.
+pub fn check_device_name(name: &str) -> Result<(), String> {
+    let fits = name.len() <= MAX_DEVICE_NAME
+        && name.starts_with(|c: char| c.is_ascii_alphabetic())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if fits {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name:?} is no device name: up to {MAX_DEVICE_NAME} letters, digits, - and _, \
+             starting with a letter"
+        ))
     }
 }
 

@@ -9,6 +9,7 @@
 //! 2. [`plugin_scene`] and [`scenes`]: scenes from plugins and finding scenes by name;
 //!    [`scene_list`]: the scenes listed, without reading their meshes;
 //!    [`remote_scene`]: a world stepped on another machine, reached through the bridge;
+//!    [`shared_scene`]: one world for several devices of this daemon;
 //!    [`received`]: scene files callers send by descriptor; [`preparation`]: the convex
 //!    pieces of a scene's meshes, cut before it switches in.
 //! 3. [`realtime`]: the `SCHED_FIFO` thread that runs a device's haptic loop on time, on a
@@ -27,4 +28,5 @@ pub mod received;
 pub mod remote_scene;
 pub mod scene_list;
 pub mod scenes;
+pub mod shared_scene;
 pub mod state;

@@ -1,5 +1,6 @@
 //! A scene whose world is stepped on another machine (`engine: remote`,
-//! [`hapticd_core::scene::remote`]): rendered here exactly as a multi-rate plugin's world is
+//! [`hapticd_core::scene::remote`]) or by a world thread of this daemon shared by its devices
+//! ([`crate::shared_scene`]): rendered here exactly as a multi-rate plugin's world is
 //! (the same haptic side, the same checks of what is published), but its "physics thread"
 //! steps nothing: it takes each world update the network bridge delivers into the device's
 //! world link, and sends back where the grips and proxies are with what the haptic side
@@ -36,11 +37,31 @@ pub fn open(
     link: Arc<WorldLink>,
     pointers: &[Pointer],
 ) -> std::io::Result<Box<dyn Scene>> {
-    let parts = (Geometry::default(), None, None, Vec::new());
-    let (mut scene, mut physics, _) = MultiRateScene::new(name, parts, spec.rate, pointers);
+    linked(
+        name,
+        spec.rate,
+        (Geometry::default(), Vec::new()),
+        link,
+        pointers,
+    )
+}
+
+/// The scene `name` of a world stepped `rate` times a second for `pointers` (drawn as
+/// `geometry`, the body of each of its objects in `object_bodies`), reached through `link`:
+/// from another machine through the bridge, or from a world of this daemon
+/// ([`crate::shared_scene`]).
+pub fn linked(
+    name: String,
+    rate: f64,
+    (geometry, object_bodies): (Geometry, Vec<u32>),
+    link: Arc<WorldLink>,
+    pointers: &[Pointer],
+) -> std::io::Result<Box<dyn Scene>> {
+    let parts = (geometry, None, None, object_bodies);
+    let (mut scene, mut physics, _) = MultiRateScene::new(name, parts, rate, pointers);
     // The world hears from the host at least twice a period, touching or not: it learns
     // where the grips are and that the host is there.
-    let keep_alive = Duration::from_secs_f64(0.5 / spec.rate);
+    let keep_alive = Duration::from_secs_f64(0.5 / rate);
     scene.thread = Some(
         std::thread::Builder::new()
             .name("hapticd-remote".into())

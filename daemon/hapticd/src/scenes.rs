@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hapticd_core::diagnostics::Diagnostics;
-use hapticd_core::kinematics::Wrench;
+use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::engine::{Engine, engine_of};
 use hapticd_core::scene::remote::{self, RemoteSceneSpec};
 use hapticd_core::scene::static_scene::{StaticScene, StaticSceneSpec};
@@ -20,6 +20,7 @@ use hapticd_ipc::world_link_share::WorldLink;
 use hapticd_plugin_api::{HAPTICD_EXT_SCENE_FILES, HAPTICD_OK, HapticdSceneFiles};
 
 use crate::plugin_scene::LoadError;
+use crate::shared_scene::{self, Host, WorldThread};
 use hapticd_config::plugin;
 use hapticd_config::scene_name::{is_name, locate};
 
@@ -232,12 +233,23 @@ pub(crate) fn scene_plugin(name: &str, plugin_dirs: &[PathBuf]) -> Option<PathBu
         .find(|p| p.exists())
 }
 
-fn find(
+/// What a scene name comes to.
+enum Resolved {
+    /// A scene plugin, with the scene file it runs if any (checked by it).
+    Plugin(PathBuf, Option<PathBuf>),
+    /// A static scene file, rendered by the daemon.
+    Static(PathBuf),
+    /// A world on another machine.
+    Remote(PathBuf),
+}
+
+/// [main] What scene `name` (a plugin given `file`) is, for `pointers` pointers.
+fn resolve(
     name: &str,
     file: Option<&Path>,
     places: Places,
-    pointers: &[Pointer],
-) -> Result<Box<dyn Scene>, OpenError> {
+    pointers: usize,
+) -> Result<Resolved, OpenError> {
     let path = match locate(name, places.dirs) {
         Ok(path) => path,
         // A name that is no scene file may be a scene plugin's.
@@ -250,21 +262,89 @@ fn find(
         Err(why) => return Err(OpenError::NotFound(why.to_string())),
     };
     if path.extension().is_some_and(|e| e == "so") {
-        return crate::plugin_scene::load(&path, file, pointers).map_err(OpenError::Plugin);
+        return Ok(Resolved::Plugin(path, file.map(Path::to_path_buf)));
     }
     let engine = engine_of(&path).map_err(OpenError::Invalid)?;
     if engine == Engine::Plugin(remote::ENGINE.into()) {
-        return open_remote(&path, places, pointers);
+        return Ok(Resolved::Remote(path));
     }
     let Engine::Plugin(engine) = engine else {
-        let spec = StaticSceneSpec::load_with_meshes(&path, &hapticd_mesh::scene_triangles)
-            .map_err(OpenError::Invalid)?;
-        return Ok(Box::new(StaticScene::new(spec, pointers)));
+        return Ok(Resolved::Static(path));
     };
     let runner = EnginePlugin::find(&engine, &path, places.plugin_dirs)?;
     // Checked first, so that mistakes come back with their places.
-    runner.check(&path, pointers.len())?;
-    crate::plugin_scene::load(&runner.path, Some(&path), pointers).map_err(OpenError::Plugin)
+    runner.check(&path, pointers)?;
+    Ok(Resolved::Plugin(runner.path, Some(path)))
+}
+
+fn find(
+    name: &str,
+    file: Option<&Path>,
+    places: Places,
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, OpenError> {
+    match resolve(name, file, places, pointers.len())? {
+        Resolved::Plugin(plugin, file) => {
+            crate::plugin_scene::load(&plugin, file.as_deref(), pointers).map_err(OpenError::Plugin)
+        }
+        Resolved::Remote(path) => open_remote(&path, places, pointers),
+        Resolved::Static(path) => {
+            let spec = StaticSceneSpec::load_with_meshes(&path, &hapticd_mesh::scene_triangles)
+                .map_err(OpenError::Invalid)?;
+            Ok(Box::new(StaticScene::new(spec, pointers)))
+        }
+    }
+}
+
+/// Whether several devices share one world.
+pub enum Sharing {
+    /// They do: each device's scene, in order, and the thread stepping their world.
+    Shared {
+        /// Each device's scene.
+        scenes: Vec<Box<dyn Scene>>,
+        /// The world's thread.
+        world: WorldThread,
+    },
+    /// Each renders a scene of its own, for this reason.
+    Apart(String),
+}
+
+/// [main] Scene `name` (a plugin given `file`) as one world for every device of `hosts`,
+/// when it is a multi-rate world with room for all their grips: a world stepped in each
+/// device's haptic tick cannot be shared between haptic threads.
+pub fn open_shared(
+    name: &str,
+    file: Option<&Path>,
+    places: Places,
+    hosts: &[Host],
+) -> Result<Sharing, OpenError> {
+    let pointers: usize = hosts.iter().map(|h| h.pointers.len()).sum();
+    if pointers > MAX_EFFECTORS {
+        return Ok(Sharing::Apart(format!(
+            "the devices' {pointers} grips are more than a scene's {MAX_EFFECTORS}"
+        )));
+    }
+    let Resolved::Plugin(plugin, file) = resolve(name, file, places, pointers)? else {
+        return Ok(Sharing::Apart(
+            "it is no physics scene (a static or remote one)".into(),
+        ));
+    };
+    let world = crate::plugin_scene::load_world(&plugin, file.as_deref(), pointers)
+        .map_err(OpenError::Plugin)?;
+    let Some(world) = world else {
+        return Ok(Sharing::Apart(
+            "its world is stepped in the haptic tick (a penalty one, or a direct plugin), which \
+             one device's haptic thread cannot share with another's; a multi-rate scene \
+             (engine: rapier) can be shared"
+                .into(),
+        ));
+    };
+    let (mut scenes, world) = shared_scene::start(world, hosts)
+        .map_err(|e| OpenError::Refused(format!("{name}: cannot start its world's thread: {e}")))?;
+    for (scene, host) in scenes.iter_mut().zip(hosts) {
+        fits_tick(scene.as_mut(), host.pointers, host.rate)?;
+    }
+    Ok(Sharing::Shared { scenes, world })
 }
 
 /// The scene of remote scene file `path`: a world on another machine, through the device's

@@ -1,11 +1,13 @@
 """A client of hapticd, the SPIDAR haptics daemon, over D-Bus.
 
 ``hapticd.connect()`` reaches the daemon on the system bus (or at a bus address); its
-``devices`` read and change their parameters, calibrate, and hand out every tick of their
-haptic loop (``Device.telemetry``) and their picture of the world (``Device.open_world``);
-``scenes`` and ``switch_scene`` choose the world, and ``bodies``, ``body``, ``set_pose``,
-``set_velocity``, ``apply_impulse``, ``set_force``, ``set_mass``, ``set_friction``,
-``add_body`` and ``remove_body`` drive the running one. Every error the daemon returns is raised as :class:`Error` carrying its
+``devices`` read and change their parameters, calibrate, hand out every tick of their haptic
+loop as it comes (``Device.telemetry``, ``Device.telemetry_async`` for ``async for``, and
+``Device.telemetry_block``, a numpy array), announce their touches (``Device.touches``) and
+show their picture of the world (``Device.open_world``); ``scenes`` and ``switch_scene``
+choose the world, and ``bodies``, ``body``, ``set_pose``, ``set_velocity``, ``apply_impulse``,
+``set_force``, ``set_mass``, ``set_friction``, ``add_body`` and ``remove_body`` drive the
+running one. Every error the daemon returns is raised as :class:`Error` carrying its
 D-Bus error name; shared memory holding what no daemon of its layout writes is refused as an
 :class:`Error` named :data:`BAD_SHARED_MEMORY`.
 """
@@ -14,21 +16,46 @@ from __future__ import annotations
 
 import os
 import time
+from collections import deque
 from dataclasses import dataclass
-from typing import Any, Iterator, List, Optional, Sequence, Tuple
+from typing import (
+    TYPE_CHECKING,
+    Any,
+    AsyncIterator,
+    Callable,
+    Iterator,
+    List,
+    Optional,
+    Sequence,
+    Tuple,
+)
 
-from jeepney import DBusAddress, HeaderFields, MessageType, Properties, new_method_call
+from jeepney import (
+    DBusAddress,
+    HeaderFields,
+    MatchRule,
+    Message,
+    MessageType,
+    Properties,
+    new_method_call,
+)
 from jeepney.bus_messages import message_bus
 from jeepney.io.blocking import DBusConnection, open_dbus_connection
 
 from ._errors import BAD_SHARED_MEMORY, NOT_RUNNING, Error, NotRunning, refuse
-from .telemetry import Ring, Sample
+from .telemetry import Ring, Sample, to_numpy
 from .world import Frame, Solid, World, read_geometry
+
+if TYPE_CHECKING:
+    import numpy
+    from jeepney.io.common import FilterHandle
 
 __all__ = [
     "connect",
     "Hapticd",
     "Device",
+    "Touch",
+    "Touches",
     "Body",
     "BodyState",
     "Error",
@@ -55,7 +82,7 @@ class _Bus:
     def __init__(self, connection: DBusConnection) -> None:
         self.connection = connection
 
-    def send(self, message) -> tuple:
+    def send(self, message: Message) -> Tuple[Any, ...]:
         """Send ``message`` and return its reply's body, raising :class:`Error` for an error."""
         reply = self.connection.send_and_get_reply(message)
         if reply.header.message_type == MessageType.error:
@@ -63,26 +90,35 @@ class _Bus:
             raise Error(name, str(reply.body[0]) if reply.body else "")
         return reply.body
 
-    def call(self, path: str, interface: str, method: str, signature: str = "", body: tuple = ()):
+    def call(
+        self,
+        path: str,
+        interface: str,
+        method: str,
+        signature: str = "",
+        body: Tuple[Any, ...] = (),
+    ) -> Tuple[Any, ...]:
+        """Call ``method`` of ``interface`` on the daemon's object ``path``; the reply's body."""
         address = DBusAddress(path, bus_name=BUS_NAME, interface=interface)
         return self.send(new_method_call(address, method, signature, body))
 
-    def get(self, path: str, interface: str, name: str) -> Any:
+    def get(self, path: str, interface: str, name: str) -> Tuple[str, Any]:
         """Property ``name`` as (signature, value)."""
         address = DBusAddress(path, bus_name=BUS_NAME, interface=interface)
         return self.send(Properties(address).get(name))[0]
 
     def set(self, path: str, interface: str, name: str, signature: str, value: Any) -> None:
+        """Set property ``name`` to ``value`` of D-Bus type ``signature``."""
         address = DBusAddress(path, bus_name=BUS_NAME, interface=interface)
         self.send(Properties(address).set(name, signature, value))
 
 
 class Device:
-    """One haptic device of the daemon."""
+    """One haptic device of the daemon (as :attr:`Hapticd.devices` lists them)."""
 
     def __init__(self, bus: _Bus, path: str) -> None:
         self._bus = bus
-        self.path = path
+        self.path: str = path
         """Its D-Bus object path."""
 
     def get(self, name: str) -> Any:
@@ -148,15 +184,132 @@ class Device:
             refuse(f"the scene's geometry is of switch {read}, the daemon said {switches}")
         return switches, solids
 
-    def telemetry(self, seconds: float) -> Iterator[Sample]:
-        """Every tick of the haptic loop from now for ``seconds`` (of the loop's time), as
-        it is written: samples with ``tick``, ``time``, ``position``, ``force`` and the rest
-        (see :class:`Sample`). Ticks read too late are skipped; ``Ring.missed`` counts them."""
-        ring = self.open_telemetry()
+    def telemetry(self, seconds: Optional[float] = None) -> Iterator[Sample]:
+        """Every tick of the haptic loop from now (this call) for ``seconds`` of the loop's
+        time, or until the caller stops when None, each yielded as soon as it is written:
+        samples with ``tick``, ``time``, ``position``, ``force`` and the rest (see
+        :class:`Sample`). Ticks read too late are skipped (:meth:`open_telemetry` gives a ring
+        whose ``missed`` counts them); :class:`TimeoutError` should the loop write none for
+        two seconds."""
+        return _followed(self.open_telemetry(), seconds)
+
+    def telemetry_async(self, seconds: Optional[float] = None) -> AsyncIterator[Sample]:
+        """:meth:`telemetry` for ``async for``: while the next tick is not written it sleeps
+        in the event loop, which runs other tasks meanwhile."""
+        return _followed_async(self.open_telemetry(), seconds)
+
+    def telemetry_block(self, seconds: float) -> numpy.ndarray:
+        """Every tick from now for ``seconds``, as one numpy structured array (a row a tick;
+        the columns those of ``hapticctl record``, named for the device's effectors: see
+        :func:`hapticd.telemetry.to_numpy`). Needs numpy: ``pip install hapticd[numpy]``."""
+        return to_numpy(self.telemetry(seconds), self.get("Effectors"))
+
+    def touches(self, timeout: Optional[float] = None) -> Touches:
+        """The device's touches as the daemon announces them, from now on: iterating waits
+        for each (up to ``timeout`` seconds, else :class:`TimeoutError`; None: for ever)."""
+        return Touches(self._bus, self.path, timeout)
+
+
+def _followed(ring: Ring, seconds: Optional[float]) -> Iterator[Sample]:
+    """``ring.follow(seconds)``, the ring closed at its end."""
+    try:
+        yield from ring.follow(seconds)
+    finally:
+        ring.close()
+
+
+async def _followed_async(ring: Ring, seconds: Optional[float]) -> AsyncIterator[Sample]:
+    """``ring.follow_async(seconds)``, the ring closed at its end."""
+    try:
+        async for sample in ring.follow_async(seconds):
+            yield sample
+    finally:
+        ring.close()
+
+
+@dataclass(frozen=True)
+class Touch:
+    """A change of an effector's touch, as the daemon announces it (its ``Touch`` signal,
+    found in the telemetry ring: at most ten a device each tenth of a second)."""
+
+    effector: int
+    """The effector, by index (the device's ``Effectors``)."""
+    event: str
+    """What happened: ``begin`` (it began touching a body, or another body than before),
+    ``end`` (it stopped) or ``slip`` (it began to slide along it after sticking)."""
+    tick: int
+    """The tick it happened at."""
+    time: float
+    """The loop's time then, seconds."""
+    body: Optional[Tuple[int, str]]
+    """The body touched, by id and name (:attr:`Hapticd.bodies`); None for a solid that is no
+    body."""
+    point: Tuple[float, float, float]
+    """Where they touch, metres (for an end: where they last touched)."""
+    normal: Tuple[float, float, float]
+    """The touched surface's outward normal (the force's direction where the scene cannot
+    say)."""
+    force: Tuple[float, float, float]
+    """The force displayed, newtons."""
+
+
+class Touches:
+    """A device's touches as the daemon announces them (see :meth:`Device.touches`): an
+    iterator of :class:`Touch`, each waited for. Calls on the same connection meanwhile keep
+    the touches announced during them. A context manager, or :meth:`close` it."""
+
+    def __init__(self, bus: _Bus, path: str, timeout: Optional[float]) -> None:
+        self._bus = bus
+        self.timeout: Optional[float] = timeout
+        """How long iterating waits for the next touch, seconds (None: for ever)."""
+        self._rule = MatchRule(type="signal", interface=DEVICE, member="Touch", path=path)
+        # Unbounded: a touch is kept until it is read, however long the caller takes
+        # (at most a hundred a second come).
+        handle = bus.connection.filter(self._rule, queue=deque())
         try:
-            yield from ring.follow(seconds)
-        finally:
-            ring.close()
+            # Filtered here before the bus is asked, so that none sent after its answer is lost.
+            bus.send(message_bus.AddMatch(self._rule))
+        except BaseException:
+            handle.close()
+            raise
+        self._filter: Optional[FilterHandle] = handle
+
+    def __iter__(self) -> "Touches":
+        return self
+
+    def __next__(self) -> Touch:
+        """The next touch, waited for up to ``timeout`` seconds (:class:`TimeoutError` past
+        them, after which the next may still come); none once closed."""
+        if self._filter is None:
+            raise StopIteration
+        message = self._bus.connection.recv_until_filtered(
+            self._filter.queue, timeout=self.timeout
+        )
+        effector, event, tick, time_, body, name, point, normal, force = message.body
+        return Touch(
+            effector=effector,
+            event=event,
+            tick=tick,
+            time=time_,
+            body=None if body < 0 else (body, name),
+            point=tuple(point),
+            normal=tuple(normal),
+            force=tuple(force),
+        )
+
+    def close(self) -> None:
+        """Stop following the touches (iterating ends)."""
+        if self._filter is None:
+            return
+        self._filter.close()
+        self._filter = None
+        self._bus.send(message_bus.RemoveMatch(self._rule))
+
+    def __enter__(self) -> "Touches":
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self.close()
 
 
 @dataclass(frozen=True)
@@ -191,7 +344,7 @@ class BodyState:
     """The friction coefficient of its contacts."""
 
 
-def _state(reply: tuple) -> BodyState:
+def _state(reply: Tuple[Any, ...]) -> BodyState:
     values = {key: value for key, (_, value) in reply[0].items()}
     return BodyState(
         position=tuple(values["position"]),
@@ -212,7 +365,8 @@ def _floats(what: str, values: Sequence[float], n: int) -> List[float]:
 
 
 class Hapticd:
-    """The daemon, reached through one bus connection."""
+    """The daemon, reached through one bus connection (:func:`connect` makes it); a context
+    manager, closing the connection at its end."""
 
     def __init__(self, connection: DBusConnection) -> None:
         self._bus = _Bus(connection)
@@ -255,14 +409,16 @@ class Hapticd:
         if not name or name.startswith(".") or "." in name:
             raise ValueError(f"{path}: not a scene file name (NAME.yaml)")
 
-        def sent() -> tuple:
+        def sent() -> Tuple[Any, ...]:
             # Non-blocking, so that a FIFO given by mistake cannot hang the caller; the
             # daemon refuses anything but a regular file.
             return (os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC), name)
 
         self._switch("SwitchSceneFile", "hs", sent, wait)
 
-    def _switch(self, method: str, signature: str, body, wait: float) -> None:
+    def _switch(
+        self, method: str, signature: str, body: Callable[[], Tuple[Any, ...]], wait: float
+    ) -> None:
         """Call ``method`` with ``body()``, again while the daemon says it is preparing."""
         deadline = time.monotonic() + wait
         while True:
@@ -285,7 +441,7 @@ class Hapticd:
         listed = self._bus.get(SCENE_PATH, SCENE, "Bodies")[1]
         return [Body(k, name, fixed) for k, (name, fixed) in enumerate(listed)]
 
-    def _drive(self, method: str, signature: str, *args) -> BodyState:
+    def _drive(self, method: str, signature: str, *args: Any) -> BodyState:
         return _state(self._bus.call(SCENE_PATH, SCENE, method, signature, args))
 
     def body(self, body: str) -> BodyState:

@@ -20,8 +20,10 @@ class Error(Exception):
 
     def __init__(self, name: str, message: str) -> None:
         super().__init__(f"{name}: {message}")
-        self.name = name
-        self.message = message
+        self.name: str = name
+        """The D-Bus error name."""
+        self.message: str = message
+        """Why, in the daemon's words."""
 
 
 class NotRunning(Error):
@@ -30,7 +32,8 @@ class NotRunning(Error):
 
     def __init__(self, bus: str) -> None:
         super().__init__(NOT_RUNNING, f"hapticd is not running on the {bus} bus")
-        self.bus = bus
+        self.bus: str = bus
+        """The bus asked: ``system``, or its address."""
 
 
 NOT_RUNNING = "org.hapticd.Hapticd1.Python.NotRunning"

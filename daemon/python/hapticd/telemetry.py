@@ -1,28 +1,52 @@
 """Every tick of a device's haptic loop, read from the telemetry ring the daemon hands out
 (``Device.OpenTelemetry``): a sealed memfd, mapped read-only here, holding the last ticks in
 slots each under a sequence lock of its own. The layout is ``hapticd_core::telemetry``'s
-(version 3); a ring of another layout is refused.
+(version 3); a ring of another layout is refused. :func:`to_numpy` lays ticks out as a numpy
+array (the ``numpy`` extra: ``pip install hapticd[numpy]``).
 """
 
 from __future__ import annotations
 
+import asyncio
 import mmap
 import struct
 import time
 from dataclasses import dataclass
-from typing import Iterator, List, Optional, Tuple
+from typing import (
+    TYPE_CHECKING,
+    Any,
+    AsyncIterator,
+    Iterable,
+    Iterator,
+    List,
+    Optional,
+    Sequence,
+    Tuple,
+)
 
 from ._errors import Error, check_count, check_rate, refuse
 
+if TYPE_CHECKING:
+    import numpy
+
+__all__ = ["Ring", "Sample", "to_numpy", "STATES", "SLOTS", "MAX_EFFECTORS", "CHANNELS", "VERSION"]
+
 MAGIC = b"hapticdT"
 VERSION = 3
+"""The layout of ring this client reads."""
 SLOTS = 8192
+"""The ticks a ring holds: a reader more than this many ticks behind misses some."""
 MAX_EFFECTORS = 4
+"""The most effectors a tick holds."""
 CHANNELS = 8
+"""The most strings (motors) a tick holds."""
 STATES = ("running", "fault", "disconnected", "uncalibrated")
 """The device states by their number (``state_code``); any other reads as ``unknown(N)``."""
 
 NO_BODY = 0xFFFFFFFF
+# Seconds a follower sleeps while the next tick is not written: a tick of a 1 kHz loop, so
+# that it is a tick late at most without spinning.
+_POLL = 0.001
 
 # A slot: its sequence (u64), then the sample: tick, time, state, effectors, strings,
 # contacts, slipping, the body each effector touches, each effector's pose (x, y, z, qw,
@@ -85,12 +109,14 @@ class Sample:
     @property
     def position(self) -> Tuple[float, float, float]:
         """The first effector's position, metres."""
-        return self.poses[0][:3]
+        x, y, z = self.poses[0][:3]
+        return x, y, z
 
     @property
     def force(self) -> Tuple[float, float, float]:
         """The force displayed on the first effector, newtons."""
-        return self.wrenches[0][:3]
+        x, y, z = self.wrenches[0][:3]
+        return x, y, z
 
 
 def _state_name(state: int) -> str:
@@ -102,7 +128,7 @@ def _state_name(state: int) -> str:
     return STATES[state] if state < len(STATES) else f"unknown({state})"
 
 
-def _sample(values: Tuple) -> Sample:
+def _sample(values: Tuple[Any, ...]) -> Sample:
     tick, time_, state, effectors, strings, contacts, slipping = values[:7]
     effectors = check_count(effectors, f"effectors in the sample of tick {tick}", MAX_EFFECTORS)
     strings = check_count(strings, f"strings in the sample of tick {tick}", CHANNELS)
@@ -110,7 +136,7 @@ def _sample(values: Tuple) -> Sample:
     touched = [None if b == NO_BODY else b for b in values[at : at + effectors]]
     at += MAX_EFFECTORS
 
-    def per_effector(width: int) -> List[Tuple[float, ...]]:
+    def per_effector(width: int) -> List[Tuple[Any, ...]]:
         return [tuple(values[at + width * k : at + width * k + width]) for k in range(effectors)]
 
     poses = per_effector(7)
@@ -178,7 +204,7 @@ class Ring:
         """Ticks written so far: the next tick's number."""
         return _HEADER.unpack_from(self._map, 0)[4]
 
-    def read(self) -> "Sample | None":
+    def read(self) -> Optional[Sample]:
         """The next tick, or None if it is not written yet; ticks overwritten before they
         were read are skipped and counted in ``missed``."""
         while True:
@@ -200,20 +226,115 @@ class Ring:
             self.missed += 1
             self.next += 1
 
-    def follow(self, seconds: float) -> Iterator[Sample]:
-        """Every tick from now for ``seconds`` of the loop's ticks, as they are written."""
-        end = self.next + max(1, round(seconds * self.rate))
-        waited = time.monotonic()
-        while self.next < end:
-            sample = self.read()
+    def follow(self, seconds: Optional[float] = None) -> Iterator[Sample]:
+        """Every tick from ``next`` on, each as soon as it is written, for ``seconds`` of the
+        loop's ticks (None: until the caller stops); :class:`TimeoutError` should the loop
+        write none for two seconds."""
+        for sample in self._polled(seconds):
             if sample is None:
-                if time.monotonic() - waited > 2.0:
-                    raise TimeoutError("the haptic loop stopped writing ticks")
-                time.sleep(0.001)
-                continue
-            waited = time.monotonic()
+                time.sleep(_POLL)
+            else:
+                yield sample
+
+    async def follow_async(self, seconds: Optional[float] = None) -> AsyncIterator[Sample]:
+        """:meth:`follow` for ``async for``: between ticks it sleeps in the event loop, which
+        runs other tasks meanwhile."""
+        for sample in self._polled(seconds):
+            if sample is None:
+                await asyncio.sleep(_POLL)
+            else:
+                yield sample
+
+    def _polled(self, seconds: Optional[float]) -> Iterator[Optional[Sample]]:
+        """:meth:`follow`'s ticks, and None each time the next one is not written yet."""
+        end = None if seconds is None else self.next + max(1, round(seconds * self.rate))
+        waited = time.monotonic()
+        while end is None or self.next < end:
+            sample = self.read()
+            if sample is not None:
+                waited = time.monotonic()
+            elif time.monotonic() - waited > 2.0:
+                raise TimeoutError("the haptic loop stopped writing ticks")
             yield sample
 
     def close(self) -> None:
         """Unmap the ring."""
         self._map.close()
+
+
+# Each effector's columns, named as ``hapticctl record`` names them
+# (``hapticd_ipc::telemetry_csv``): the numbers first, then the contact's flags and body,
+# then where it touches.
+_NUMBERS = [
+    f"{what}_{axis}"
+    for what, axes in [
+        ("pose", ["x", "y", "z", "qw", "qx", "qy", "qz"]),
+        ("velocity", "xyz"),
+        ("angular_velocity", "xyz"),
+        ("force", "xyz"),
+        ("torque", "xyz"),
+    ]
+    for axis in axes
+]
+_WHERE = [f"{what}_{axis}" for what in ("contact", "normal") for axis in "xyz"]
+
+
+def _numpy() -> Any:
+    """The numpy module, or an ImportError saying how to install it."""
+    try:
+        import numpy
+    except ImportError as e:
+        raise ImportError(
+            "hapticd's numpy blocks need numpy: pip install hapticd[numpy] "
+            "(or Debian's python3-numpy)"
+        ) from e
+    return numpy
+
+
+def to_numpy(
+    samples: Iterable[Sample], effectors: Optional[Sequence[str]] = None
+) -> numpy.ndarray:
+    """``samples`` as a numpy structured array, a row each, its columns those of ``hapticctl
+    record``: ``tick``, ``time``, ``state``; each effector's ``pose_x`` … ``pose_qz``,
+    ``velocity_*``, ``angular_velocity_*``, ``force_*``, ``torque_*``, ``contact`` and ``slip``
+    (booleans), ``contact_body`` (the body's id, -1 for none), ``contact_*`` (where it touches)
+    and ``normal_*``; each string's ``tension_1`` … and ``dac_1`` …. With several effectors
+    their columns are named for them (``thumb_pose_x``) by ``effectors``, the device's
+    ``Effectors`` (by default ``e0``, ``e1``, …). Every sample must have the first one's
+    effectors and strings (ValueError). Needs numpy: ImportError, before ``samples`` is read,
+    without it (``pip install hapticd[numpy]``)."""
+    numpy = _numpy()
+    samples = list(samples)
+    effectors_n = len(samples[0].poses) if samples else 0
+    strings = len(samples[0].tensions) if samples else 0
+    names = [f"e{k}" for k in range(effectors_n)] if effectors is None else list(effectors)
+    if len(names) != effectors_n:
+        raise ValueError(f"{len(names)} effector names for samples of {effectors_n} effectors")
+
+    def named(k: int, column: str) -> str:
+        return column if effectors_n == 1 else f"{names[k]}_{column}"
+
+    state_width = max((len(s.state) for s in samples), default=1)
+    columns: List[Tuple[str, str]] = [("tick", "u8"), ("time", "f8"), ("state", f"U{state_width}")]
+    for k in range(effectors_n):
+        columns += [(named(k, c), "f8") for c in _NUMBERS]
+        columns += [(named(k, "contact"), "?"), (named(k, "contact_body"), "i8")]
+        columns += [(named(k, "slip"), "?")]
+        columns += [(named(k, c), "f8") for c in _WHERE]
+    columns += [(f"tension_{j + 1}", "f8") for j in range(strings)]
+    columns += [(f"dac_{j + 1}", "i2") for j in range(strings)]
+    rows = []
+    for s in samples:
+        if (len(s.poses), len(s.tensions)) != (effectors_n, strings):
+            raise ValueError(
+                f"tick {s.tick} has {len(s.poses)} effectors and {len(s.tensions)} strings "
+                f"where tick {samples[0].tick} has {effectors_n} and {strings}"
+            )
+        row: List[Any] = [s.tick, s.time, s.state]
+        for k in range(effectors_n):
+            row += [*s.poses[k], *s.velocities[k], *s.angular_velocities[k], *s.wrenches[k]]
+            body = s.touched[k]
+            row += [s.contacts[k], -1 if body is None else body, s.slipping[k]]
+            row += [*s.touch_points[k], *s.touch_normals[k]]
+        rows.append(tuple(row + s.tensions + s.dac))
+    return numpy.array(rows, dtype=columns)

@@ -12,14 +12,17 @@ import mmap
 import os
 import struct
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import Any, Callable, List, Optional, Tuple, TypeVar
 
 from ._errors import check_count, check_rate, refuse
 from .telemetry import CHANNELS, MAX_EFFECTORS
 
+__all__ = ["World", "Frame", "Solid", "Pose", "read_geometry", "SHAPES", "MAX_BODIES"]
+
 MAGIC = b"hapticdW"
 VERSION = 3
 MAX_BODIES = 4096
+"""The most bodies a frame shows: a world of more shows its first ones."""
 GEOMETRY_MAGIC = b"hapticdG"
 GEOMETRY_VERSION = 1
 MAX_SOLIDS = 65536
@@ -63,6 +66,8 @@ SIZE = _FRAME_AT + _FRAME
 
 Pose = Tuple[float, float, float, float, float, float, float]
 """x, y, z (metres), then the orientation qw, qx, qy, qz."""
+
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -116,7 +121,7 @@ class World:
                 f"layout {version}, {size} bytes"
             )
 
-    def _read(self, sequence_at: int, read):
+    def _read(self, sequence_at: int, read: Callable[[], _T]) -> Tuple[int, _T]:
         """``read()`` of a block under the sequence at ``sequence_at``, retried while written."""
         while True:
             (before,) = _SEQUENCE.unpack_from(self._map, sequence_at)
@@ -128,7 +133,7 @@ class World:
     def frame(self) -> Tuple[int, Frame]:
         """The latest frame and its sequence (it grows with every frame written)."""
 
-        def read() -> Tuple[tuple, List[Pose]]:
+        def read() -> Tuple[Tuple[Any, ...], List[Pose]]:
             head = _FRAME_HEAD.unpack_from(self._map, _FRAME_AT)
             # A world of more bodies than the layout holds shows its first ones.
             shown = min(head[6], MAX_BODIES)

@@ -1,6 +1,8 @@
 """The Python client against a real hapticd on a private bus: the Rust test that runs these
 (tests/daemon/python_client.rs) starts both and names the bus in HAPTICD_TEST_BUS."""
 
+import asyncio
+import itertools
 import math
 import os
 import time
@@ -21,7 +23,7 @@ def test_devices_and_their_properties(daemon):
     (device,) = daemon.devices
     assert device.state == "running"
     assert device.mechanism == "spidar-g"
-    assert device.identity == "sim"
+    assert device.identity == "sim-spidar-g-1"
     assert "static" in daemon.scenes and daemon.active_scene == "static"
 
 
@@ -51,6 +53,58 @@ def test_every_tick_arrives_in_order(daemon):
         qw, qx, qy, qz = s.poses[0][3:]
         assert abs(qw * qw + qx * qx + qy * qy + qz * qz - 1) < 1e-9
         assert len(s.tensions) == 8 and all(t >= 0 for t in s.tensions)
+
+
+def test_ticks_are_yielded_as_they_come_and_followed_without_end(daemon):
+    device = daemon.devices[0]
+    rate = device.get("LoopRate")
+    started = time.monotonic()
+    ticks = device.telemetry(seconds=2.0)
+    first = next(ticks)
+    # In hand long before the two seconds asked for are over.
+    assert time.monotonic() - started < 1.0
+    ticks.close()
+    # Without a duration, ticks come until the caller stops taking them.
+    taken = [s.tick for s in itertools.islice(device.telemetry(), round(rate / 2))]
+    assert taken == list(range(taken[0], taken[0] + round(rate / 2)))
+    assert taken[0] > first.tick
+
+
+def test_ticks_are_followed_in_an_event_loop_that_runs_other_tasks_meanwhile(daemon):
+    device = daemon.devices[0]
+    rate = device.get("LoopRate")
+
+    async def follow():
+        beats = 0
+
+        async def beat():
+            nonlocal beats
+            while True:
+                await asyncio.sleep(0.01)
+                beats += 1
+
+        beating = asyncio.create_task(beat())
+        ticks = [s.tick async for s in device.telemetry_async(seconds=0.5)]
+        beating.cancel()
+        return ticks, beats
+
+    ticks, beats = asyncio.run(follow())
+    assert ticks == list(range(ticks[0], ticks[0] + round(rate / 2)))
+    # Fifty 10 ms beats at best: the follower seldom held the loop up.
+    assert beats > 10
+
+
+def test_a_block_of_ticks_is_a_numpy_array_a_row_a_tick(daemon):
+    numpy = pytest.importorskip("numpy")
+    device = daemon.devices[0]
+    rate = device.get("LoopRate")
+    block = device.telemetry_block(seconds=0.5)
+    assert block.shape == (round(rate / 2),)
+    assert (numpy.diff(block["tick"]) == 1).all()
+    assert numpy.allclose(numpy.diff(block["time"]), 1 / rate, rtol=0, atol=1e-6)
+    assert (block["state"] == "running").all()
+    # One effector: its columns unprefixed, as hapticctl record names them.
+    assert {"pose_qw", "force_y", "contact_body", "tension_8", "dac_8"} <= set(block.dtype.names)
 
 
 def test_scenes_switch_and_unknown_ones_are_named(daemon):
@@ -132,4 +186,24 @@ def test_the_world_is_read_and_driven_and_hostile_values_refused_by_name(daemon)
     assert math.dist(daemon.body("block").position, kept.position) < 1e-3
     daemon.remove_body("cube")
     assert "cube" not in [b.name for b in daemon.bodies]
+    daemon.switch_scene("static")
+
+
+def test_a_body_dropped_on_the_grip_is_announced_as_touched(daemon):
+    daemon.switch_scene("blocks")
+    device = daemon.devices[0]
+    block = [b.name for b in daemon.bodies].index("block")
+    with device.touches(timeout=0.3) as touches:
+        # The grip rests at the origin, its 1 cm pointer clear of every body.
+        with pytest.raises(TimeoutError):
+            next(touches)
+        touches.timeout = 5.0
+        # The block (3 cm) let go 1 cm above the pointer falls onto it.
+        daemon.set_pose("block", (0.0, 0.03, 0.0))
+        touch = next(touches)
+    assert touch.event == "begin" and touch.effector == 0, touch
+    assert touch.body == (block, "block"), touch
+    # Between where it was let go and the table.
+    assert -0.03 < touch.point[1] < 0.015, touch
+    assert len(touch.normal) == 3 and len(touch.force) == 3
     daemon.switch_scene("static")

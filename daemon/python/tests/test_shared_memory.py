@@ -5,6 +5,7 @@ daemon: each test lays the memory out in a memfd as ``hapticd.telemetry`` and
 import math
 import os
 import struct
+import sys
 
 import pytest
 
@@ -227,3 +228,34 @@ def test_a_scene_of_more_triangles_than_the_world_once_held_reads_whole(memfd):
 def test_a_scene_geometry_that_does_not_fit_its_layout_is_refused(memfd, bad, said):
     given = {"solids": [solid(first=1, triangles=2)], "triangles": 3, **bad}
     assert said in refused(lambda: world.read_geometry(geometry(memfd, **given)))
+
+
+def test_ticks_lay_out_as_numpy_columns_named_for_their_effectors(memfd):
+    numpy = pytest.importorskip("numpy")
+    two = {"effectors": 2}
+    r = Ring(ring(memfd, [sample(0, **two), sample(1, state=4, **two), sample(2)]))
+    try:
+        r.next = 0
+        both, unknown, one = r.read(), r.read(), r.read()
+    finally:
+        r.close()
+    block = telemetry.to_numpy([both, unknown], ["thumb", "index"])
+    assert block.shape == (2,) and list(block["state"]) == ["running", "unknown(4)"]
+    assert list(block["index_pose_qw"]) == [1.0, 1.0]
+    assert list(block["thumb_contact_body"]) == [-1, -1]
+    assert block.dtype.names[-1] == "dac_4" and "pose_x" not in block.dtype.names
+    assert telemetry.to_numpy([one]).dtype.names[3] == "pose_x"
+    with pytest.raises(ValueError, match="tick 0 has 2 effectors and 4 strings where tick 2"):
+        telemetry.to_numpy([one, both])
+    assert numpy.array_equal(telemetry.to_numpy([])["tick"], [])
+
+
+def test_without_numpy_a_block_says_how_to_install_it_before_reading_a_tick(monkeypatch):
+    monkeypatch.setitem(sys.modules, "numpy", None)  # import numpy: ImportError
+
+    def unread():
+        raise AssertionError("a tick was read")
+        yield
+
+    with pytest.raises(ImportError, match=r"pip install hapticd\[numpy\]"):
+        telemetry.to_numpy(unread())

@@ -20,19 +20,21 @@ pub struct Cli {
     /// installation under another prefix, PREFIX/etc/hapticd/hapticd.yaml).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Run the simulated SPIDAR with this mechanism (a name or a descriptor/plugin path),
-    /// even when hardware is plugged in.
+    /// Run a simulated SPIDAR with this mechanism (a name or a descriptor/plugin path),
+    /// even when hardware is plugged in; repeat it for several, each on a haptic thread of
+    /// its own (named sim-MECH-1, sim-MECH-2, …). Replaces the configuration's `devices`.
     #[arg(long, value_name = "MECH")]
-    pub sim: Option<String>,
+    pub sim: Vec<String>,
     /// Scene to render: a name in the scene directories, a scene file, or a scene plugin (.so).
     #[arg(long)]
     pub scene: Option<String>,
     /// Scene file handed to a scene plugin given with --scene.
     #[arg(long, value_name = "FILE")]
     pub scene_file: Option<PathBuf>,
-    /// Script of the simulated hand.
+    /// Script of the simulated hand; repeated, the first is the first simulated device's,
+    /// and so on (one given: every simulated device's).
     #[arg(long, value_name = "FILE")]
-    pub hand: Option<PathBuf>,
+    pub hand: Vec<PathBuf>,
     /// Ticks per second (overrides the configuration).
     #[arg(long)]
     pub rate: Option<f64>,

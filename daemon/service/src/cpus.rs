@@ -6,8 +6,9 @@
 //! and would do that a few times a second. So each haptic thread gets the last free CPU the
 //! daemon may use, and every other thread of the daemon keeps off those CPUs, a multi-rate
 //! scene's physics thread too (stepping a large world it would otherwise take the haptic
-//! CPU for milliseconds at a time). With a single CPU, or more devices than spare CPUs,
-//! threads stay where the scheduler puts them.
+//! CPU for milliseconds at a time). With one CPU for each of several devices and none to
+//! spare, each loop keeps a CPU of its own and the helpers share them; with a single CPU,
+//! or more devices than CPUs, threads stay where the scheduler puts them.
 
 use std::io;
 
@@ -51,14 +52,27 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// A CPU for each of `devices` haptic threads from the end of `allowed`, when at least
-    /// one CPU is left for the rest; None otherwise.
+    /// A CPU for each of `devices` haptic threads from the end of `allowed`: with at least
+    /// one CPU left, the rest keep to those; with exactly one CPU for each of several
+    /// devices, the rest share them (two loops on one CPU would delay each other by a
+    /// whole tick, a helper only by a system call). None otherwise.
     pub fn new(allowed: &[usize], devices: usize) -> Option<Plan> {
         let split = allowed.len().checked_sub(devices)?;
-        (devices > 0 && split > 0).then(|| Plan {
+        if devices == 0 || (split == 0 && devices == 1) {
+            return None;
+        }
+        Some(Plan {
             haptic: allowed[split..].iter().rev().copied().collect(),
-            others: allowed[..split].to_vec(),
+            others: match split {
+                0 => allowed.to_vec(),
+                _ => allowed[..split].to_vec(),
+            },
         })
+    }
+
+    /// Whether the daemon's other threads run on the haptic threads' CPUs too.
+    pub fn shared_with_others(&self) -> bool {
+        self.haptic.iter().any(|cpu| self.others.contains(cpu))
     }
 
     /// Move every thread of this process (those started so far, and through the calling
@@ -109,8 +123,13 @@ mod tests {
             })
         );
         assert_eq!(Plan::new(&[0], 1), None);
-        assert_eq!(Plan::new(&[0, 1], 2), None);
         assert_eq!(Plan::new(&[0, 1], 0), None);
+        assert_eq!(Plan::new(&[0, 1], 3), None);
+        // Two loops on two CPUs: one each, the helpers beside them.
+        let two = Plan::new(&[0, 1], 2).unwrap();
+        assert_eq!(two.haptic, [1, 0]);
+        assert!(two.shared_with_others());
+        assert!(!Plan::new(&[0, 1, 2], 2).unwrap().shared_with_others());
     }
 
     #[test]

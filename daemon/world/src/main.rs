@@ -4,8 +4,7 @@
 //! `hapticd_core::scene::remote` under the keys of `hapticd_zenoh::world_keys`. Like the
 //! bridge, it listens on the loopback only unless configured otherwise.
 
-mod ledger;
-mod shared_world;
+mod status;
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -22,7 +21,8 @@ use hapticd_zenoh::{session, world_keys};
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 
-use crate::shared_world::SharedWorld;
+use hapticd_core::scene::shared_world::SharedWorld;
+use hapticd_rapier::world::RapierWorld;
 
 /// The network configuration with the command line's overrides.
 fn configuration(cli: &WorldCli) -> Result<NetworkConfig, String> {
@@ -76,7 +76,12 @@ fn run(cli: &WorldCli) -> Result<(), String> {
     }
     let name = world_name(cli)?;
     let spec = rapier_scene(cli)?;
-    let mut world = SharedWorld::new(&spec, cli.pointers);
+    let mut world = SharedWorld::new(
+        RapierWorld::new(&spec, cli.pointers),
+        spec.rate,
+        cli.pointers,
+    );
+    let mut peak_energy: f64 = 0.0;
     let session = session::open(&config).map_err(|e| e.to_string())?;
     session::say_when_unmet(&session, &config);
     let zenoh = |e: zenoh::Error| format!("zenoh: {e}");
@@ -114,6 +119,14 @@ fn run(cli: &WorldCli) -> Result<(), String> {
                 Some(update) => world.take(host, update, now).map_err(|e| e.to_string()),
                 None => Err("a message that is no host message".to_string()),
             };
+            if let Ok(Some(admitted)) = &taken {
+                tracing::info!(
+                    "host {host}: {} grip(s), pointers {}..{}",
+                    admitted.count,
+                    admitted.first,
+                    admitted.first + admitted.count
+                );
+            }
             if let Err(why) = taken
                 && refused.event(now.duration_since(started).as_secs_f64())
             {
@@ -126,10 +139,11 @@ fn run(cli: &WorldCli) -> Result<(), String> {
                 log_lines::INTERVAL
             );
         }
-        world.forget_silent(now);
+        world.forget_silent(now, |host| tracing::info!("host {host}: silent, forgotten"));
         if !world.step() {
             return Err(format!("world {name}: no longer finite, stopped"));
         }
+        peak_energy = peak_energy.max(status::kinetic_energy(world.world()));
         world.updates(&mut out, |host, bytes| {
             let sent = session
                 .put(world_keys::to_host(&name, host), bytes.to_vec())
@@ -140,7 +154,7 @@ fn run(cli: &WorldCli) -> Result<(), String> {
             }
         });
         while let Ok(Some(query)) = status.try_recv() {
-            let answer = world.status(&name).to_string();
+            let answer = status::status(&world, &name, &spec.names, peak_energy).to_string();
             if let Err(e) = query.reply(query.key_expr().clone(), answer).wait() {
                 tracing::warn!("answering a status query: {e}");
             }

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use hapticd_core::scene::world_link::OUTBOX_SLOTS;
+use hapticd_core::scene::world_link::Outbox;
 use hapticd_ipc::client::Device;
 use hapticd_zenoh::world_keys;
 use zenoh::Wait;
@@ -52,22 +52,18 @@ pub fn run(
         .wait()
         .map_err(zenoh_error)?;
     tracing::info!("{host}: carrying world {world}");
-    let (mut next, mut missed, mut message) = (link.sent() + 1, 0, Vec::new());
+    let (mut outbox, mut message) = (Outbox::after(&link), Vec::new());
     while until.is_none_or(|t| Instant::now() < t) {
-        let sent = link.sent();
-        // A bridge a whole ring behind starts again from the oldest message the ring holds.
-        let oldest = sent.saturating_sub(OUTBOX_SLOTS as u64 - 1).max(1);
-        if next < oldest {
-            missed += oldest - next;
-            tracing::warn!("{host}: {missed} messages to world {world} were lost so far");
-            next = oldest;
-        }
-        while next <= sent {
-            if link.message(next, &mut message) {
-                publisher.put(message.clone()).wait().map_err(zenoh_error)?;
+        let mut put = Ok(());
+        let lost = outbox.read(&link, &mut message, |bytes| {
+            if put.is_ok() {
+                put = publisher.put(bytes.to_vec()).wait();
             }
-            next += 1;
+        });
+        if let Some(missed) = lost {
+            tracing::warn!("{host}: {missed} messages to world {world} were lost so far");
         }
+        put.map_err(zenoh_error)?;
         std::thread::sleep(POLL);
     }
     Ok(())

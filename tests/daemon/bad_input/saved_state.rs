@@ -11,7 +11,7 @@ fn a_state_file_that_is_no_record_is_left_as_it_is_and_the_device_runs_without_i
     let outside = dir.join("elsewhere.json");
     // A record that would change the stiffness, were it read through the link.
     std::fs::write(&outside, r#"{"parameters": {"stiffness": 3000}}"#).unwrap();
-    let file = state.join("device-sim.json");
+    let file = state.join("device-sim-spidar-g-1.json");
     type Make<'a> = &'a dyn Fn();
     let cases: [(&str, Make, &str); 4] = [
         ("a FIFO", &|| drop(fifo(&file)), "not a regular file"),
@@ -136,7 +136,7 @@ fn a_calibration_or_parameter_that_cannot_be_saved_is_refused_and_not_used() {
     // Within the few millimetres the hand still settles by between measure and use.
     assert!(grip(&daemon).length() < 3e-3, "{}", grip(&daemon));
     assert_ne!(daemon.get("CalibrationOffsets"), offsets);
-    let saved = std::fs::read_to_string(state.join("device-sim.json")).unwrap();
+    let saved = std::fs::read_to_string(state.join("device-sim-spidar-g-1.json")).unwrap();
     assert!(saved.contains("\"offsets\""), "{saved}");
     daemon.stop();
 

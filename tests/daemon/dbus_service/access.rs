@@ -72,12 +72,12 @@ fn bad_inputs_return_named_errors_and_change_nothing() {
     assert_eq!(bus.get(DEVICE, "DynamicFriction"), "d 0.2");
     assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
     assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"\"");
-    assert!(!setup.state.join("device-sim.json").exists());
+    assert!(!setup.state.join("device-sim-spidar-g-1.json").exists());
     // The refusals are in the log too, with who asked.
     let log = daemon.log();
     let uid = nix::unistd::getuid();
     for refused in [
-        "refused to set MaxForce of sim to -1".to_string(),
+        "refused to set MaxForce of sim-spidar-g-1 to -1".to_string(),
         "refused to switch to scene \"nowhere\"".to_string(),
         "refused to bind sim to mechanism \"no-such\"".to_string(),
     ] {

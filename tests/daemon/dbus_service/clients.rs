@@ -346,7 +346,7 @@ fn the_rust_client_reads_sets_switches_and_follows_every_tick() {
     let hapticd = Client::connect(&at).unwrap();
     let devices = hapticd.devices().unwrap();
     let device = &devices[0];
-    assert_eq!(device.identity().unwrap(), "sim");
+    assert_eq!(device.identity().unwrap(), "sim-spidar-g-1");
     assert_eq!(device.mechanism().unwrap(), "spidar-g");
     assert_eq!(device.state().unwrap(), "running");
     device.set("Stiffness", 1500.0).unwrap();

@@ -23,6 +23,7 @@ mod ramps;
 mod renderer;
 mod scene_switching;
 mod telemetry;
+mod two_devices;
 mod world_control;
 mod zenoh;
 

@@ -8,7 +8,7 @@ fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
     let dir = support::shared_scratch("dbus", "kill");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
-    let file = setup.state.join("device-sim.json");
+    let file = setup.state.join("device-sim-spidar-g-1.json");
     for round in 0..3u64 {
         let mut daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
         assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
@@ -51,7 +51,11 @@ fn kill_9_during_saves_leaves_a_whole_file_and_a_restart_restores_it() {
         let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
         assert_eq!(number(&bus.get(DEVICE, "Stiffness")), stiffness);
         assert_eq!(bus.get(DEVICE, "CalibrationOffsets"), offsets);
-        assert!(daemon.log().contains("restored the calibration of sim"));
+        assert!(
+            daemon
+                .log()
+                .contains("restored the calibration of sim-spidar-g-1")
+        );
         let leftovers: Vec<_> = std::fs::read_dir(&setup.state)
             .unwrap()
             .filter_map(|e| e.ok())
@@ -180,8 +184,8 @@ fn a_damaged_state_file_is_kept_aside_and_the_device_starts_afresh() {
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     std::fs::create_dir_all(&setup.state).unwrap();
-    let file = setup.state.join("device-sim.json");
-    let aside = setup.state.join("device-sim.json.corrupt");
+    let file = setup.state.join("device-sim-spidar-g-1.json");
+    let aside = setup.state.join("device-sim-spidar-g-1.json.corrupt");
     for damaged in [
         "{\"parameters\": {\"stiffness\": 3000",
         "{\"parameters\": {\"stiffness\": 1e12}}",
@@ -202,7 +206,7 @@ fn a_bound_mechanism_since_removed_falls_back_to_the_configured_one() {
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
     std::fs::create_dir_all(&setup.state).unwrap();
-    let file = setup.state.join("device-sim.json");
+    let file = setup.state.join("device-sim-spidar-g-1.json");
     std::fs::write(&file, r#"{"mechanism": "spidar-gone"}"#).unwrap();
     // As the unit starts it: no --sim; with no amplifier plugged in, the simulated SPIDAR.
     let daemon = Hapticd::start(&bus, &setup, &[]);
@@ -224,7 +228,7 @@ fn saved_offsets_that_fit_no_pose_leave_the_device_uncalibrated_until_calibrated
     let dir = support::shared_scratch("dbus", "misfit");
     let bus = Bus::start(&dir);
     let setup = Setup::new(&dir);
-    let file = setup.state.join("device-sim.json");
+    let file = setup.state.join("device-sim-spidar-g-1.json");
     let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
     assert!(bus.call(DEVICE, "Calibrate", &[]).status.success());
     daemon.stop();

@@ -55,7 +55,7 @@ fn every_property_and_method_answers_as_the_bus_chapter_shows() {
     assert_eq!(bus.get(DEVICE, "BoundMechanism"), "s \"spidar-g\"");
     // Everything changed is on disk, and nothing else.
     let saved: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(setup.state.join("device-sim.json")).unwrap(),
+        &std::fs::read_to_string(setup.state.join("device-sim-spidar-g-1.json")).unwrap(),
     )
     .unwrap();
     assert_eq!(saved["parameters"]["stiffness"], 3000.0);
@@ -65,10 +65,10 @@ fn every_property_and_method_answers_as_the_bus_chapter_shows() {
     let uid = nix::unistd::getuid();
     let log = daemon.log();
     for done in [
-        "set Stiffness of sim to 3000".to_string(),
-        "set Rate of sim to 2000".to_string(),
+        "set Stiffness of sim-spidar-g-1 to 3000".to_string(),
+        "set Rate of sim-spidar-g-1 to 2000".to_string(),
         "calibrate sim".to_string(),
-        "reset the fault of sim".to_string(),
+        "reset the fault of sim-spidar-g-1".to_string(),
         "switch to scene \"static\"".to_string(),
         "reload the configuration and plugins".to_string(),
         "bind sim to mechanism \"spidar-g\"".to_string(),
@@ -129,7 +129,7 @@ fn the_ipc_proxies_read_change_and_map_what_busctl_sees() {
             .build()
             .await
             .unwrap();
-        assert_eq!(device.identity().await.unwrap(), "sim");
+        assert_eq!(device.identity().await.unwrap(), "sim-spidar-g-1");
         assert_eq!(device.effectors().await.unwrap(), ["grip"]);
         assert_eq!(device.state().await.unwrap(), "running");
         assert_eq!(device.tensions().await.unwrap().len(), 8);
@@ -241,7 +241,7 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     let out = ctl(&["status"]);
     assert!(out.status.success(), "{out:?}");
     assert!(
-        said(&out).contains("sim: running, spidar-g at 1000 Hz"),
+        said(&out).contains("sim-spidar-g-1: running, spidar-g at 1000 Hz"),
         "{}",
         said(&out)
     );
@@ -254,7 +254,7 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     assert!(ctl(&["set", "Stiffness", "3000"]).status.success());
     assert_eq!(bus.get(DEVICE, "Stiffness"), "d 3000");
     assert_eq!(
-        said(&ctl(&["get", "Stiffness", "--device", "sim"])),
+        said(&ctl(&["get", "Stiffness", "--device", "sim-spidar-g-1"])),
         "3000\n"
     );
     // Refusals carry the daemon's reason and exit 1; a wrong device is a usage error.
@@ -330,7 +330,10 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
         assert!(scenes.iter().any(|s| s == name), "{scenes:?}");
     }
     assert_eq!(complete(&["bind", "spidar-"]), ["spidar-g"]);
-    assert_eq!(complete(&["calibrate", "--device", ""]), ["0", "sim"]);
+    assert_eq!(
+        complete(&["calibrate", "--device", ""]),
+        ["0", "sim-spidar-g-1"]
+    );
     daemon.stop();
     // Without a daemon there is nothing to offer, and no error either.
     assert!(complete(&["bind", "spidar-"]).is_empty());
@@ -386,7 +389,7 @@ fn pending_changes_are_shown_until_a_restart_applies_them() {
     assert_eq!(pending["rate"]["now"], "1000", "{json}");
     let restarted = said(&["restart"]);
     assert!(
-        restarted.contains("sim: spidar-ii at 2000 Hz"),
+        restarted.contains("sim-spidar-g-1: spidar-ii at 2000 Hz"),
         "{restarted}"
     );
     assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-ii\"");

@@ -375,7 +375,7 @@ fn clients_set_the_damping(bus: &Bus, setup: &Setup) {
     let same = |a: f64, b: f64| (a - b).abs() < 1e-12;
     assert!(all_set.iter().any(|v| same(*v, damping)), "{damping}");
     let saved: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(setup.state.join("device-sim.json")).unwrap(),
+        &std::fs::read_to_string(setup.state.join("device-sim-spidar-g-1.json")).unwrap(),
     )
     .unwrap();
     let persisted = saved["parameters"]["damping"].as_f64().unwrap();

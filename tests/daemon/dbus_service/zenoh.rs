@@ -37,17 +37,17 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         \x20   kind = str(sample.key_expr).split('/')[4 if '/grip/' in str(sample.key_expr) else 3]\n\
         \x20   samples.setdefault(kind, []).append((str(sample.key_expr), sequence, sample.payload.to_bytes(), attached[16:].hex()))\n\
         ticks = []\n\
-        telemetry = session.declare_subscriber('hapticd/sim/telemetry/**', lambda s: ticks.append(int.from_bytes(s.payload.to_bytes()[:8], 'little')))\n\
-        subscriber = session.declare_subscriber('0/hapticd/sim/**', taken)\n\
-        start = json.loads(ask('hapticd/sim/status', None)[0])['tick']\n\
+        telemetry = session.declare_subscriber('hapticd/sim_spidar_g_1/telemetry/**', lambda s: ticks.append(int.from_bytes(s.payload.to_bytes()[:8], 'little')))\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim_spidar_g_1/**', taken)\n\
+        start = json.loads(ask('hapticd/sim_spidar_g_1/status', None)[0])['tick']\n\
         time.sleep(10)\n\
-        end = json.loads(ask('hapticd/sim/status', None)[0])['tick']\n\
+        end = json.loads(ask('hapticd/sim_spidar_g_1/status', None)[0])['tick']\n\
         time.sleep(0.2)\n\
         subscriber.undeclare()\n\
         telemetry.undeclare()\n\
-        status = ask('hapticd/sim/status', None)\n\
+        status = ask('hapticd/sim_spidar_g_1/status', None)\n\
         tokens = sorted(str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**') if r.ok)\n\
-        refused = ask('hapticd/sim/set/Stiffness', '1500')\n\
+        refused = ask('hapticd/sim_spidar_g_1/set/Stiffness', '1500')\n\
         gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
         numbered = {k: sum(1 for a, b in zip(v, v[1:]) if b[1] != a[1] + 1) for k, v in samples.items()}\n\
         gid = lambda token: '10' + xxhash.xxh3_128_intdigest(token.encode()).to_bytes(16, 'little').hex()\n\
@@ -78,9 +78,12 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         String::from_utf8(out.stdout).unwrap()
     };
     let status = remote(&["status"]);
-    assert!(status.contains("sim: running, 1000 Hz, tick "), "{status}");
+    assert!(
+        status.contains("sim-spidar-g-1: running, 1000 Hz, tick "),
+        "{status}"
+    );
     let statuses: serde_json::Value = serde_json::from_str(&remote(&["status", "--json"])).unwrap();
-    assert_eq!(statuses[0]["identity"], "sim");
+    assert_eq!(statuses[0]["identity"], "sim-spidar-g-1");
     let csv = dir.join("remote.csv");
     remote(&["record", "--duration", "2", csv.to_str().unwrap()]);
     let recorded = std::fs::read_to_string(&csv).unwrap();
@@ -124,15 +127,14 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     );
     let key = said["key"].as_str().unwrap();
     assert!(
-        key.starts_with("0/hapticd/sim/grip/pose/geometry_msgs::msg::dds_::PoseStamped_/RIHS01_"),
+        key.starts_with(
+            "0/hapticd/sim_spidar_g_1/grip/pose/geometry_msgs::msg::dds_::PoseStamped_/RIHS01_"
+        ),
         "{key}"
     );
-    assert!(
-        said["twist"]
-            .as_str()
-            .unwrap()
-            .starts_with("0/hapticd/sim/grip/twist/geometry_msgs::msg::dds_::TwistStamped_/")
-    );
+    assert!(said["twist"].as_str().unwrap().starts_with(
+        "0/hapticd/sim_spidar_g_1/grip/twist/geometry_msgs::msg::dds_::TwistStamped_/"
+    ));
     let count = said["count"].as_u64().unwrap();
     for kind in ["pose", "twist", "wrench", "strings"] {
         assert!(said["kinds"][kind].as_u64().unwrap() + 2 >= count, "{said}");
@@ -175,7 +177,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     let state = StringMessage::decode(&hex_bytes(said["state"].as_str().unwrap())).unwrap();
     assert_eq!(state.data, "running");
     let status = &said["status"];
-    assert_eq!(status["identity"], "sim");
+    assert_eq!(status["identity"], "sim-spidar-g-1");
     assert_eq!(status["state"], "running");
     assert_eq!(status["rate"], 1000.0);
     assert_eq!(status["commands"], false);
@@ -190,12 +192,13 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     assert!(
         tokens
             .iter()
-            .any(|t| t.contains("/NN/%/%/hapticd_sim") && t.ends_with("hapticd_sim")),
+            .any(|t| t.contains("/NN/%/%/hapticd_sim_spidar_g_1")
+                && t.ends_with("hapticd_sim_spidar_g_1")),
         "{tokens:?}"
     );
     assert!(
         tokens.iter().any(|t| t.contains(
-            "/MP/%/%/hapticd_sim/%hapticd%sim%grip%pose/geometry_msgs::msg::dds_::PoseStamped_/"
+            "/MP/%/%/hapticd_sim_spidar_g_1/%hapticd%sim_spidar_g_1%grip%pose/geometry_msgs::msg::dds_::PoseStamped_/"
         ) && t.ends_with("/::,:,:,:,,")),
         "{tokens:?}"
     );
@@ -320,7 +323,7 @@ fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
             settings["transport/link/tls/enable_mtls"] = true.into();
         }
         zenoh_client_with(
-            "print(json.dumps({'status': ask('hapticd/sim/status', None)}))\n",
+            "print(json.dumps({'status': ask('hapticd/sim_spidar_g_1/status', None)}))\n",
             endpoint,
             &[],
             None,
@@ -360,7 +363,7 @@ fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
     eprintln!("operator: {operator}\nstranger: {stranger}\nplain TCP: {plain}");
     let status: serde_json::Value =
         serde_json::from_str(operator["status"][0].as_str().unwrap()).unwrap();
-    assert_eq!(status["identity"], "sim", "{operator}");
+    assert_eq!(status["identity"], "sim-spidar-g-1", "{operator}");
     assert_eq!(status["state"], "running", "{operator}");
     for refused in [&stranger, &plain] {
         assert!(refused["unreachable"].is_string(), "{refused}");
@@ -387,8 +390,8 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
     // Each command also pushes on the grip through its wrench_command topic: 2 N up for a
     // second, then a million newtons for half a second, then nothing; the displayed wrench
     // topic says what the hand felt, tick by tick.
-    let command = "print(json.dumps({'set': ask('hapticd/sim/set/Stiffness', '1500'), \
-        'bad': ask('hapticd/sim/set/Stiffness', 'nan'), \
+    let command = "print(json.dumps({'set': ask('hapticd/sim_spidar_g_1/set/Stiffness', '1500'), \
+        'bad': ask('hapticd/sim_spidar_g_1/set/Stiffness', 'nan'), \
         'malformed': ask('hapticd/scene/body/x/pose', '[1]'), 'felt': push()}))\n";
     let push = "def push():\n\
         \x20   shown = []\n\
@@ -397,7 +400,7 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
         \x20       n = int.from_bytes(b[12:16], 'little')\n\
         \x20       at = 4 + -(-(12 + n) // 8) * 8\n\
         \x20       shown.append((time.monotonic(), struct.unpack_from('<d', b, at + 8)[0]))\n\
-        \x20   sub = session.declare_subscriber('0/hapticd/sim/grip/wrench/**', displayed)\n\
+        \x20   sub = session.declare_subscriber('0/hapticd/sim_spidar_g_1/grip/wrench/**', displayed)\n\
         \x20   pub = session.declare_publisher(sys.argv[2])\n\
         \x20   phases = {}\n\
         \x20   for name, payload, seconds in [('push', sys.argv[3], 1.0), ('huge', sys.argv[4], 0.5), ('quiet', None, 0.6)]:\n\
@@ -416,7 +419,7 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
         'held': during('quiet', 0.0, 0.05), 'gone': during('quiet', 0.3)}\n";
     let key = hapticd_ros2::keys::topic_key::<WrenchStamped>(
         Default::default(),
-        "/hapticd/sim/grip/wrench_command",
+        "/hapticd/sim_spidar_g_1/grip/wrench_command",
     );
     let wrench = |newtons: f64| {
         let message = WrenchStamped {
@@ -465,8 +468,8 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, &guarded, None, None);
     let said = zenoh_client(
         &format!(
-            "{push}print(json.dumps({{'status': ask('hapticd/sim/status', None), \
-         'set': ask('hapticd/sim/set/Stiffness', '1500'), 'felt': push()}}))\n"
+            "{push}print(json.dumps({{'status': ask('hapticd/sim_spidar_g_1/status', None), \
+         'set': ask('hapticd/sim_spidar_g_1/set/Stiffness', '1500'), 'felt': push()}}))\n"
         ),
         &endpoint,
         &args,
@@ -587,7 +590,7 @@ fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
         \x20   if listening:\n\
         \x20       topic = str(sample.key_expr).split('/')[-3]\n\
         \x20       heard[topic] = heard.get(topic, 0) + 1\n\
-        subscriber = session.declare_subscriber('0/hapticd/sim/**', taken)\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim_spidar_g_1/**', taken)\n\
         time.sleep(1)\n\
         listening = True\n\
         time.sleep(4)\n\
@@ -595,7 +598,7 @@ fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
         subscriber.undeclare()\n\
         tokens = [str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**', timeout=3.0) if r.ok]\n\
         rates = {topic: n / 4 for topic, n in heard.items()}\n\
-        print(json.dumps({'rates': rates, 'tokens': len(tokens), 'status': ask('hapticd/sim/status', None)}), flush=True)\n\
+        print(json.dumps({'rates': rates, 'tokens': len(tokens), 'status': ask('hapticd/sim_spidar_g_1/status', None)}), flush=True)\n\
         session.close()\n";
     let said = zenoh_client(follow, &router, &[], None);
     let _ = bridge.kill();

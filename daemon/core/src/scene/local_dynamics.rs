@@ -372,6 +372,11 @@ impl LocalBody {
         self.shown().position - self.free.position
     }
 
+    /// Whether a hand moved the body since the period began.
+    pub fn touched(&self) -> bool {
+        self.hand != self.free
+    }
+
     /// What the hand did since the period began.
     pub fn change(&self) -> Change {
         Change::between(&self.hand, &self.free)

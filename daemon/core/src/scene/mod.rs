@@ -15,10 +15,12 @@
 
 pub mod control;
 pub mod engine;
+pub mod ledger;
 pub mod local_dynamics;
 pub mod multirate;
 pub mod output_check;
 pub mod remote;
+pub mod shared_world;
 pub mod static_scene;
 pub mod world_link;
 

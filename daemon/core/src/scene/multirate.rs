@@ -606,7 +606,10 @@ impl PlaneRenderer {
             ..Pending::default()
         };
         let count = (next.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
-        for body in self.locals.iter().flatten() {
+        // A body no hand here moved this period is the world's to move: what it did here
+        // alone (its contacts, integrated finer) would pull it back from where another
+        // host's hand took it, in a world several hosts share.
+        for body in self.locals.iter().flatten().filter(|b| b.touched()) {
             // A body whose last change the physics left out (it would have gone into a fixed
             // solid) gets this period's hand alone, and so restarts where the physics has it:
             // handed the whole difference again, it was refused again, period after period,

@@ -156,6 +156,48 @@ impl SharedWorldLink {
     }
 }
 
+/// [bridge] A reader of a link's outbox that takes every host message once, in order.
+#[derive(Debug)]
+pub struct Outbox {
+    next: u64,
+    missed: u64,
+}
+
+impl Outbox {
+    /// A reader of `link` from its next message on.
+    pub fn after(link: &SharedWorldLink) -> Self {
+        Self {
+            next: link.sent() + 1,
+            missed: 0,
+        }
+    }
+
+    /// Hand `each` every message sent since the last call (through `scratch`), in order.
+    /// A reader a whole ring behind starts again from the oldest message the ring holds;
+    /// returns how many were lost so far when that happened.
+    pub fn read(
+        &mut self,
+        link: &SharedWorldLink,
+        scratch: &mut Vec<u8>,
+        mut each: impl FnMut(&[u8]),
+    ) -> Option<u64> {
+        let sent = link.sent();
+        let oldest = sent.saturating_sub(OUTBOX_SLOTS as u64 - 1).max(1);
+        let lost = (self.next < oldest).then(|| {
+            self.missed += oldest - self.next;
+            self.next = oldest;
+            self.missed
+        });
+        while self.next <= sent {
+            if link.message(self.next, scratch) {
+                each(scratch);
+            }
+            self.next += 1;
+        }
+        lost
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,13 +21,13 @@ mod multirate;
 use std::ffi::{CString, c_void};
 use std::path::{Path, PathBuf};
 
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::*;
 
 use glam::DVec3;
 use hapticd_config::plugin;
 use hapticd_core::kinematics::MAX_EFFECTORS;
-use hapticd_core::scene::control::{Reply, Request};
-use hapticd_core::scene::multirate::PlaneSet;
+use hapticd_core::scene::control::{Reply, Request, SceneControl};
 use hapticd_core::scene::output_check::WrenchChecker;
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
@@ -143,50 +143,55 @@ pub(crate) struct Taken {
 }
 
 impl Instance {
-    /// [physics] One step of `dt` for the first `n` of `hands`, taking in `taken`, into
-    /// `set` (planes and local bodies; its sequence is left alone). The plugin's status.
-    fn step(&self, dt: f64, n: usize, hands: &Hands, taken: &Taken, set: &mut PlaneSet) -> i32 {
+    /// [physics] One step of `input` into `output`: the plugin's status.
+    fn step(&self, input: &PhysicsInput, output: &mut PhysicsOutput) -> i32 {
+        let n = input.pointers.len();
+        if output.planes.len() < n || input.proxies.len() < n {
+            return HAPTICD_ERROR_ARGUMENT;
+        }
         let Some(step_world) = self.vtable.step_world else {
             // Before ABI 1.3: planes around the grips, impulses only.
             let step = self.vtable.step_physics.expect("checked at load");
-            set.body_count = 0;
-            // SAFETY: buffers hold `n` pointers and planes and the impulses listed; the
+            *output.body_count = 0;
+            // SAFETY: the buffers hold `n` pointers and planes and the impulses listed; the
             // instance belongs to this thread.
             return unsafe {
                 step(
                     self.pointer,
-                    dt,
-                    hands.pointers.as_ptr(),
+                    input.dt,
+                    input.pointers.as_ptr(),
                     n as u32,
-                    taken.impulses.as_ptr(),
-                    taken.impulses.len() as u32,
-                    set.planes.as_mut_ptr(),
+                    input.impulses.as_ptr(),
+                    input.impulses.len() as u32,
+                    output.planes.as_mut_ptr(),
                 )
             };
         };
-        let input = HapticdPhysicsInput {
-            dt,
+        let raw_input = HapticdPhysicsInput {
+            dt: input.dt,
             pointer_count: n as u32,
-            pointers: hands.pointers.as_ptr(),
-            proxies: hands.proxies.as_ptr(),
-            impulse_count: taken.impulses.len() as u32,
-            impulses: taken.impulses.as_ptr(),
-            local_count: taken.locals.len() as u32,
-            locals: taken.locals.as_ptr(),
+            pointers: input.pointers.as_ptr(),
+            proxies: input.proxies.as_ptr(),
+            impulse_count: input.impulses.len() as u32,
+            impulses: input.impulses.as_ptr(),
+            local_count: input.locals.len() as u32,
+            locals: input.locals.as_ptr(),
         };
-        let mut output = HapticdPhysicsOutput {
-            planes: set.planes.as_mut_ptr(),
-            bodies: set.bodies.as_mut_ptr(),
-            body_capacity: HAPTICD_MAX_LOCAL_BODIES as u32,
+        let capacity = output.bodies.len().min(u32::MAX as usize) as u32;
+        let mut raw_output = HapticdPhysicsOutput {
+            planes: output.planes.as_mut_ptr(),
+            bodies: output.bodies.as_mut_ptr(),
+            body_capacity: capacity,
             body_count: 0,
         };
         // SAFETY: every array holds the count the input and output state; the instance
         // belongs to this thread.
-        let status = unsafe { step_world(self.pointer, &input, &mut output) };
-        set.body_count = output.body_count.min(HAPTICD_MAX_LOCAL_BODIES as u32);
+        let status = unsafe { step_world(self.pointer, &raw_input, &mut raw_output) };
+        let count = raw_output.body_count.min(capacity);
+        *output.body_count = count;
         if self.minor < 6 {
             // What was padding before ABI 1.6: whatever the plugin left there.
-            for body in &mut set.bodies[..set.body_count as usize] {
+            for body in &mut output.bodies[..count as usize] {
                 body.left_out = 0;
             }
         }
@@ -286,13 +291,21 @@ impl std::fmt::Display for SceneFault {
 
 impl std::error::Error for LoadError {}
 
-/// Load the scene plugin at `path` for `pointers`, with an optional scene file.
-pub fn load(
-    path: &Path,
-    scene_file: Option<&Path>,
-    pointers: &[Pointer],
-) -> Result<Box<dyn Scene>, LoadError> {
-    if pointers.len() > MAX_EFFECTORS {
+/// A scene plugin's instance, created, with what its extensions tell.
+struct Created {
+    instance: Instance,
+    info: HapticdSceneInfo,
+    name: String,
+    geometry: Geometry,
+    control: Option<SceneControl>,
+    commands: Option<Commands>,
+    object_bodies: Vec<u32>,
+}
+
+/// Create the scene of the plugin at `path` for `pointers` pointers, with an optional scene
+/// file.
+fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Created, LoadError> {
+    if pointers > MAX_EFFECTORS {
         return Err(LoadError::TooManyPointers);
     }
     let loaded = plugin::load(path).map_err(LoadError::Plugin)?;
@@ -312,7 +325,7 @@ pub fn load(
     let status = unsafe {
         create(
             file.as_ref().map_or(std::ptr::null(), |f| f.as_ptr()),
-            pointers.len() as u32,
+            pointers as u32,
             &mut pointer,
             &mut info,
         )
@@ -343,26 +356,52 @@ pub fn load(
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())
         .map_or(loaded.name, str::to_string);
+    Ok(Created {
+        instance,
+        info,
+        name,
+        geometry,
+        control,
+        commands,
+        object_bodies,
+    })
+}
+
+/// Load the scene plugin at `path` for `pointers`, with an optional scene file.
+pub fn load(
+    path: &Path,
+    scene_file: Option<&Path>,
+    pointers: &[Pointer],
+) -> Result<Box<dyn Scene>, LoadError> {
+    let created = create(path, scene_file, pointers.len())?;
+    let (info, vtable) = (created.info, created.instance.vtable);
+    let failed = |fault| LoadError::Scene {
+        plugin: path.to_path_buf(),
+        fault,
+    };
     match info.style {
         HAPTICD_SCENE_DIRECT if vtable.step_direct.is_some() => Ok(Box::new(DirectScene {
-            name,
-            instance,
-            geometry,
-            control,
-            commands,
+            name: created.name,
+            instance: created.instance,
+            geometry: created.geometry,
+            control: created.control,
+            commands: created.commands,
             pointers: vec![HapticdPointer::default(); pointers.len()],
             wrenches: vec![HapticdWrench::default(); pointers.len()],
             failed: false,
             check: WrenchChecker::default(),
             fault: None,
         })),
-        HAPTICD_SCENE_MULTIRATE
-            if vtable.step_physics.is_some() && (10.0..=1000.0).contains(&info.physics_rate) =>
-        {
+        HAPTICD_SCENE_MULTIRATE if is_multirate(&info, &vtable) => {
             let scene = MultiRateScene::start(
-                name,
-                instance,
-                (geometry, control, commands, object_bodies),
+                created.name,
+                created.instance,
+                (
+                    created.geometry,
+                    created.control,
+                    created.commands,
+                    created.object_bodies,
+                ),
                 info.physics_rate,
                 pointers,
             )
@@ -374,6 +413,59 @@ pub fn load(
             rate: info.physics_rate,
         })),
     }
+}
+
+/// Whether a plugin that says it is multi-rate is one this daemon can step.
+fn is_multirate(info: &HapticdSceneInfo, vtable: &HapticdSceneVtable) -> bool {
+    info.style == HAPTICD_SCENE_MULTIRATE
+        && vtable.step_physics.is_some()
+        && (10.0..=1000.0).contains(&info.physics_rate)
+}
+
+/// A multi-rate scene plugin's world, stepped by whoever holds it
+/// ([`crate::shared_scene`]).
+pub struct PluginWorld {
+    instance: Instance,
+    /// The scene's name.
+    pub name: String,
+    /// Its physics rate, steps a second.
+    pub rate: f64,
+    /// What is drawn of it.
+    pub geometry: Geometry,
+    /// The body of each object of its planes.
+    pub object_bodies: Vec<u32>,
+}
+
+impl hapticd_core::scene::shared_world::Stepped for PluginWorld {
+    fn step(&mut self, input: &PhysicsInput, output: &mut PhysicsOutput) -> bool {
+        self.instance.step(input, output) == HAPTICD_OK
+    }
+
+    fn poses(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
+        self.instance.poses(poses)
+    }
+}
+
+/// The world of the scene plugin at `path` (with an optional scene file) for `pointers`
+/// pointers, when it is a multi-rate one that takes back local bodies (ABI 1.3); None for
+/// any other.
+pub fn load_world(
+    path: &Path,
+    scene_file: Option<&Path>,
+    pointers: usize,
+) -> Result<Option<PluginWorld>, LoadError> {
+    let created = create(path, scene_file, pointers)?;
+    let vtable = &created.instance.vtable;
+    if !is_multirate(&created.info, vtable) || vtable.step_world.is_none() {
+        return Ok(None);
+    }
+    Ok(Some(PluginWorld {
+        rate: created.info.physics_rate,
+        instance: created.instance,
+        name: created.name,
+        geometry: created.geometry,
+        object_bodies: created.object_bodies,
+    }))
 }
 
 /// A plugin's status code in words.

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::*;
 
 use crate::physics_budget::Pacer;
@@ -263,8 +264,21 @@ impl MultiRateScene {
                         physics.take_hand_backs(&mut taken);
                         let hands = *physics.hands_in.latest();
                         let started = monotonic_ns();
-                        let status =
-                            instance.step(period_ns as f64 * 1e-9, n, &hands, &taken, &mut set);
+                        let input = PhysicsInput {
+                            dt: period_ns as f64 * 1e-9,
+                            pointers: &hands.pointers[..n],
+                            proxies: &hands.proxies[..n],
+                            impulses: &taken.impulses,
+                            locals: &taken.locals,
+                        };
+                        let status = instance.step(
+                            &input,
+                            &mut PhysicsOutput {
+                                planes: &mut set.planes,
+                                bodies: &mut set.bodies,
+                                body_count: &mut set.body_count,
+                            },
+                        );
                         set.step = (monotonic_ns() - started) as f64 * 1e-9;
                         set.yielding = pacer.judge();
                         if status != HAPTICD_OK {

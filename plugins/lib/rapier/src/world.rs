@@ -15,8 +15,8 @@ use hapticd_physics::mass::volume_and_centroid;
 use hapticd_physics::scene::{Feedback, Primitive, RapierScene};
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
-    HAPTICD_MAX_BODY_CONTACTS, HapticdBodyContact, HapticdImpulse, HapticdLocalBody,
-    HapticdLocalState, HapticdPlanes,
+    HAPTICD_MAX_BODY_CONTACTS, HapticdBodyContact, HapticdBodyPose, HapticdImpulse,
+    HapticdLocalBody, HapticdLocalState, HapticdPlanes,
 };
 use rapier3d::geometry::PairContacts;
 use rapier3d::parry::bounding_volume::BoundingVolume;
@@ -758,6 +758,20 @@ impl RapierWorld {
             let b = self.body(i);
             b.position.is_finite() && b.velocity.is_finite() && b.spin.is_finite()
         })
+    }
+}
+
+/// A world shared by hosts (`hapticd-world`) is this world.
+impl hapticd_core::scene::shared_world::Stepped for RapierWorld {
+    fn step(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> bool {
+        RapierWorld::step(self, input, output)
+    }
+
+    fn poses(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
+        for (i, out) in poses.iter_mut().take(self.body_count()).enumerate() {
+            *out = hapticd_core::world_state::body_pose(&self.body(i).pose());
+        }
+        self.body_count()
     }
 }
 

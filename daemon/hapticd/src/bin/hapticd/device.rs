@@ -2,6 +2,8 @@
 //! drives, at which rate, its scene, its parameters and calibration, its loop and the threads
 //! that log and record it.
 
+use std::os::linux::net::SocketAddrExt;
+use std::os::unix::net::{SocketAddr, UnixDatagram};
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -26,7 +28,6 @@ use hapticd_device::Protocol;
 use hapticd_device::guardian::Guardian;
 use hapticd_device::hotplug::Reconnector;
 use hapticd_device::replay::{self, Transfer};
-use hapticd_device::sim::hand::Script;
 use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_link_share::WorldLinkFile;
 use hapticd_ipc::world_share::SharedWorldFile;
@@ -43,16 +44,12 @@ pub struct Common<'a> {
     pub catalog: &'a Catalog,
     /// What the catalog found at start.
     pub entries: &'a [Entry],
-    /// `--sim MECH`: the mechanism to simulate, whatever is saved or configured.
-    pub sim: Option<&'a str>,
     /// `--rate`: ticks per second, whatever is saved or configured.
     pub rate: Option<f64>,
     /// `--scene`, or the configured scene.
     pub scene: &'a str,
     /// `--scene-file`, handed to a scene plugin.
     pub scene_file: Option<&'a Path>,
-    /// The simulated hand's script.
-    pub script: &'a Script,
     /// Where calibration and parameters are kept.
     pub state_dir: Option<&'a StateDir>,
     /// Set when the daemon stops: the logging and recording threads finish then.
@@ -90,26 +87,80 @@ pub struct Device {
     pub writers: Vec<JoinHandle<std::io::Result<()>>>,
     /// Why a recording stopped early, once one has.
     pub recording_failed: Option<String>,
+    /// Its name, held on this host while it runs.
+    _name: Option<UnixDatagram>,
 }
 
-/// Start the device of `kind` with what `common` says, recording what `recording` asks, its
-/// haptic thread on `cpu` when given; the guardian knows it as `slot`.
-pub fn start(
+/// A device about to start: what it is, what it drives, at which rate.
+pub struct Prepared {
     kind: Kind,
+    identity: String,
+    record: DeviceRecord,
+    mechanism_name: String,
+    mechanism: Mechanism,
+    /// Its ticks a second.
+    pub rate: f64,
+    /// Its grips at calibration, as its scene sees them.
+    pub pointers: Vec<Pointer>,
+}
+
+impl Prepared {
+    /// Its identity.
+    pub fn identity(&self) -> &str {
+        &self.identity
+    }
+}
+
+/// The device of `kind` as `common` and its saved state say: its mechanism, rate and grips.
+pub fn prepare(kind: Kind, common: &Common) -> Result<Prepared, String> {
+    let identity = kind.identity();
+    let record = load_record(common.state_dir, &identity);
+    let (mechanism_name, mechanism) = mechanism(&kind, &identity, &record, common)?;
+    let rate = rate(common, &record)?;
+    Ok(Prepared {
+        pointers: Pointer::at_calibration(&mechanism),
+        kind,
+        identity,
+        record,
+        mechanism_name,
+        mechanism,
+        rate,
+    })
+}
+
+/// Start `device` with what `common` says, recording what `recording` asks, its haptic
+/// thread on `cpu` when given (with whether the daemon's other threads keep off it),
+/// rendering `scene` if given (a world it shares with other
+/// devices) or else the scene `common` names; the guardian knows it as `slot`.
+pub fn start(
+    device: Prepared,
     slot: u32,
     common: &Common,
     recording: Recording,
-    cpu: Option<usize>,
+    cpu: Option<(usize, bool)>,
+    scene: Option<Box<dyn Scene>>,
 ) -> Result<Device, String> {
-    let identity = kind.identity();
-    let mut record = load_record(common.state_dir, &identity);
-    let (mechanism_name, mechanism) = mechanism(&kind, &identity, &record, common)?;
-    let rate = rate(common, &record)?;
+    let Prepared {
+        kind,
+        identity,
+        mut record,
+        mechanism_name,
+        mechanism,
+        rate,
+        pointers,
+    } = device;
+    let fixed_mechanism = kind.fixed_mechanism().is_some();
+    let name = claim_name(&identity);
     let mut writers = Vec::new();
     let (traffic, reconnector) = watch(&kind, slot, common, recording.traffic, &mut writers)?;
-    let transport = transport::open(kind, &identity, traffic, &mechanism, rate, common.script)?;
-    let pointers = Pointer::at_calibration(&mechanism);
-    let (mut scene, world_link) = open_scene(common, &identity, &pointers, rate)?;
+    let transport = transport::open(kind, &identity, traffic, &mechanism, rate)?;
+    let world_link = WorldLinkFile::create()
+        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
+        .ok();
+    let mut scene = match scene {
+        Some(scene) => scene,
+        None => open_scene(common, world_link.as_ref(), &pointers, rate)?,
+    };
     let control = scene.take_control();
     let scene_name = scene.name().to_string();
     let defaults = default_parameters(&*scene, &mechanism, common);
@@ -136,7 +187,7 @@ pub fn start(
         RealtimeSettings {
             priority: common.config.realtime.priority,
             rate,
-            cpu,
+            cpu: cpu.map(|(cpu, _)| cpu),
         },
         Channels {
             events: event_tx,
@@ -150,7 +201,8 @@ pub fn start(
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
     let started = format!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
-    let scheduling = report_scheduling(&rt, &identity, &started);
+    let alone = cpu.is_some_and(|(_, alone)| alone);
+    let scheduling = report_scheduling(&rt, &identity, &started, alone);
     let handle = Arc::new(DeviceHandle::new(
         DeviceSetup {
             identity,
@@ -167,7 +219,7 @@ pub fn start(
             telemetry,
             world_link,
             fixed: Fixed {
-                mechanism: common.sim.is_some(),
+                mechanism: fixed_mechanism,
                 rate: common.rate.is_some(),
             },
             control,
@@ -188,27 +240,44 @@ pub fn start(
         logger,
         writers,
         recording_failed: None,
+        _name: name,
     })
 }
 
-/// The scene `common` names, and the world link through which a remote world reaches it.
+/// Hold device name `identity` on this host while the returned socket lives (an abstract
+/// Unix socket: the kernel frees it with the process, whatever ends it). Another hapticd
+/// driving a device of the same name is told: their topics on the network would mix.
+fn claim_name(identity: &str) -> Option<UnixDatagram> {
+    let address = SocketAddr::from_abstract_name(format!("hapticd/device/{identity}")).ok()?;
+    match UnixDatagram::bind_addr(&address) {
+        Ok(socket) => Some(socket),
+        Err(e) if e.kind() == std::io::ErrorKind::AddrInUse => {
+            tracing::warn!(
+                "another hapticd on this host drives a device named {identity}: their topics \
+                 on the network mix (name this one in the configuration's `devices`)"
+            );
+            None
+        }
+        Err(e) => {
+            tracing::warn!("{identity}: cannot hold its name on this host: {e}");
+            None
+        }
+    }
+}
+
+/// The scene `common` names, a remote world reaching it through `world_link`.
 fn open_scene(
     common: &Common,
-    identity: &str,
+    world_link: Option<&WorldLinkFile>,
     pointers: &[Pointer],
     rate: f64,
-) -> Result<(Box<dyn Scene>, Option<WorldLinkFile>), String> {
-    let world_link = WorldLinkFile::create()
-        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
-        .ok();
+) -> Result<Box<dyn Scene>, String> {
     let places = scenes::Places {
         dirs: &common.config.scene_dirs,
         plugin_dirs: &common.config.scene_plugin_dirs,
-        world_link: world_link.as_ref().map(WorldLinkFile::link),
+        world_link: world_link.map(WorldLinkFile::link),
     };
-    let scene = scenes::open(common.scene, common.scene_file, places, pointers, rate)
-        .map_err(|e| e.to_string())?;
-    Ok((scene, world_link))
+    scenes::open(common.scene, common.scene_file, places, pointers, rate).map_err(|e| e.to_string())
 }
 
 /// The parameters a device starts from: the scene's proxy, the mechanism's λ, the limits.
@@ -265,7 +334,8 @@ fn mechanism(
         Kind::Usb(_) => &common.config.hardware.mechanism,
         _ => &common.config.simulator.mechanism,
     };
-    let name = match (common.sim, &record.mechanism) {
+    let fixed = kind.fixed_mechanism();
+    let name = match (fixed, &record.mechanism) {
         (Some(sim), _) => sim.to_string(),
         (None, Some(bound)) => bound.clone(),
         (None, None) => configured.clone(),
@@ -274,7 +344,7 @@ fn mechanism(
         Ok(m) => Ok((name, m)),
         // A binding to a mechanism since removed must not keep the device from starting: the
         // binding stays saved (the plugin may come back) and the configured one drives.
-        Err(e) if common.sim.is_none() && record.mechanism.is_some() => {
+        Err(e) if fixed.is_none() && record.mechanism.is_some() => {
             let file = common.state_dir.map(|d| d.device_file(identity));
             tracing::warn!(
                 "{identity}: the mechanism {name:?} bound in {} cannot be used, so \
@@ -416,11 +486,15 @@ fn telemetry_ring(
     }
 }
 
-/// Log where the haptic thread of `identity` runs and how it is scheduled (with `started`,
-/// what runs), and return the scheduling as the Device interface shows it.
-fn report_scheduling(rt: &RealtimeLoop, identity: &str, started: &str) -> String {
+/// Log where the haptic thread of `identity` runs (`alone`: the daemon's other threads keep
+/// off its CPU) and how it is scheduled (with `started`, what runs), and return the
+/// scheduling as the Device interface shows it.
+fn report_scheduling(rt: &RealtimeLoop, identity: &str, started: &str, alone: bool) -> String {
     match rt.pinned() {
-        Some(Ok(cpu)) => tracing::info!("the haptic thread of {identity} runs on CPU {cpu} alone"),
+        Some(Ok(cpu)) if alone => {
+            tracing::info!("the haptic thread of {identity} runs on CPU {cpu} alone")
+        }
+        Some(Ok(cpu)) => tracing::info!("the haptic thread of {identity} runs on CPU {cpu}"),
         Some(Err(e)) => {
             tracing::warn!("cannot keep the haptic thread of {identity} on its CPU: {e}")
         }

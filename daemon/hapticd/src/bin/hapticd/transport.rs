@@ -19,31 +19,49 @@ pub enum Kind {
     Usb(FoundDevice),
     /// A traffic recording played back.
     Replay(PathBuf),
-    /// The simulated SPIDAR.
-    Simulator,
+    /// A simulated SPIDAR.
+    Simulator(Simulated),
+}
+
+/// A simulated SPIDAR.
+pub struct Simulated {
+    /// Its name, unique among this daemon's devices.
+    pub name: String,
+    /// The mechanism it simulates whatever is saved (`--sim`, `devices:`); None: the
+    /// configured one, or the one bound over the bus.
+    pub mechanism: Option<String>,
+    /// The script of its hand.
+    pub hand: Script,
 }
 
 impl Kind {
-    /// The identity its calibration and parameters are kept under.
+    /// The identity its calibration and parameters are kept under, and its name on the bus
+    /// and the network.
     pub fn identity(&self) -> String {
         match self {
             Kind::Usb(device) => device.identity.clone(),
             Kind::Replay(path) => format!("replay:{}", path.display()),
-            Kind::Simulator => "sim".into(),
+            Kind::Simulator(sim) => sim.name.clone(),
+        }
+    }
+
+    /// The mechanism it drives whatever is saved or configured, if one is given.
+    pub fn fixed_mechanism(&self) -> Option<&str> {
+        match self {
+            Kind::Simulator(sim) => sim.mechanism.as_deref(),
+            _ => None,
         }
     }
 }
 
 /// The transport of device `kind`, known as `identity`, its traffic sent to `traffic` if
-/// given; the simulator simulates `mechanism`, stepped `rate` times a second, its hand
-/// following `script`.
+/// given; the simulator simulates `mechanism`, stepped `rate` times a second.
 pub fn open(
     kind: Kind,
     identity: &str,
     traffic: Option<spsc::Producer<Transfer>>,
     mechanism: &Mechanism,
     rate: f64,
-    script: &Script,
 ) -> Result<Box<dyn Transport>, String> {
     Ok(match kind {
         Kind::Usb(device) => {
@@ -55,9 +73,9 @@ pub fn open(
             let recording = Recording::read(&path).map_err(|e| e.to_string())?;
             recorded(Protocol::Sh4, ReplayLink::new(recording), identity, traffic)
         }
-        Kind::Simulator => {
+        Kind::Simulator(sim) => {
             let board =
-                SimulatedBoard::new(mechanism, 1.0 / rate, script, SimParameters::default())
+                SimulatedBoard::new(mechanism, 1.0 / rate, &sim.hand, SimParameters::default())
                     .map_err(|e| e.to_string())?;
             recorded(Protocol::Sh4, board, identity, traffic)
         }

@@ -1,7 +1,8 @@
-//! One rapier world for the grips of several haptic hosts (thesis Fig. 6.13 over a network):
-//! each host gets pointers of its own among the world's, each step takes in what every host
-//! handed back and writes, for each host, the planes near its grips' proxies and the bodies
-//! it moves itself, with the last of its own changes the step took in.
+//! One world for the grips of several haptic hosts (thesis Fig. 6.13): each host gets
+//! pointers of its own among the world's, each step takes in what every host handed back
+//! and writes, for each host, the planes near its grips' proxies and the bodies it moves
+//! itself, with the last of its own changes the step took in. `hapticd-world` runs one for
+//! hosts on other machines; hapticd runs one for its own devices when they share a scene.
 //!
 //! The world never waits for a host: a step uses the latest grips each host sent, and a
 //! host silent for [`FORGET_AFTER`] loses its pointers (parked far away, where they touch
@@ -10,19 +11,27 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use glam::{DMat3, DVec3};
-use hapticd_core::scene::multirate::PlaneSet;
-use hapticd_core::scene::remote::{HostUpdate, encode_world};
-use hapticd_core::wire::Encoder;
-use hapticd_physics::scene::RapierScene;
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
     HAPTICD_MAX_LOCAL_BODIES, HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState,
     HapticdPlanes, HapticdPointer,
 };
-use hapticd_rapier::world::RapierWorld;
 
-use crate::ledger::Ledger;
+use super::ledger::Ledger;
+use super::multirate::PlaneSet;
+use super::remote::{HostUpdate, encode_world};
+use crate::wire::Encoder;
+use crate::world_state::MAX_BODIES;
+
+/// A world a [`SharedWorld`] steps: a rapier world in `hapticd-world`, a scene plugin's in
+/// hapticd.
+pub trait Stepped {
+    /// One step of `input`'s length with its grips and hand-backs, its planes and local
+    /// bodies into `output`; false when the world failed (or is no longer finite).
+    fn step(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> bool;
+    /// The poses of its bodies into `poses`, and how many it has.
+    fn poses(&mut self, poses: &mut [HapticdBodyPose]) -> usize;
+}
 
 /// A new host's grips outnumber the world's free pointers.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,10 +73,9 @@ struct Host {
     applied: BTreeMap<u32, u64>,
 }
 
-/// A rapier world shared by hosts.
-pub struct SharedWorld {
-    world: RapierWorld,
-    names: Vec<String>,
+/// A world shared by hosts.
+pub struct SharedWorld<W> {
+    world: W,
     period: f64,
     pointers: Vec<HapticdPointer>,
     proxies: Vec<HapticdPointer>,
@@ -80,8 +88,18 @@ pub struct SharedWorld {
     impulses: Vec<HapticdImpulse>,
     locals: Vec<HapticdLocalState>,
     step: u64,
-    /// The largest kinetic energy of the world's bodies so far, joules.
-    peak_energy: f64,
+    /// Where the bodies are after the last step.
+    poses: Box<[HapticdBodyPose]>,
+    pose_count: usize,
+}
+
+/// Where a new host's grips went.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Admitted {
+    /// Its first pointer among the world's.
+    pub first: usize,
+    /// Its pointers.
+    pub count: usize,
 }
 
 /// Where an unused pointer waits: far from every solid, each apart.
@@ -93,14 +111,13 @@ fn parked(k: usize) -> HapticdPointer {
     }
 }
 
-impl SharedWorld {
-    /// The world of `spec` with room for `capacity` pointers.
-    pub fn new(spec: &RapierScene, capacity: usize) -> Self {
+impl<W: Stepped> SharedWorld<W> {
+    /// `world`, stepped `rate` times a second, with room for `capacity` pointers.
+    pub fn new(world: W, rate: f64, capacity: usize) -> Self {
         let pointers: Vec<_> = (0..capacity).map(parked).collect();
         Self {
-            world: RapierWorld::new(spec, capacity),
-            names: spec.names.clone(),
-            period: 1.0 / spec.rate,
+            world,
+            period: 1.0 / rate,
             proxies: pointers.clone(),
             pointers,
             planes: vec![HapticdPlanes::default(); capacity],
@@ -112,8 +129,24 @@ impl SharedWorld {
             impulses: Vec::new(),
             locals: Vec::new(),
             step: 0,
-            peak_energy: 0.0,
+            poses: vec![HapticdBodyPose::default(); MAX_BODIES].into(),
+            pose_count: 0,
         }
+    }
+
+    /// The world stepped.
+    pub fn world(&self) -> &W {
+        &self.world
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> u64 {
+        self.step
+    }
+
+    /// The hosts it hears from, by name.
+    pub fn hosts(&self) -> impl Iterator<Item = &str> {
+        self.hosts.iter().map(|h| h.name.as_str())
     }
 
     /// Seconds a step advances.
@@ -123,11 +156,19 @@ impl SharedWorld {
 
     /// Take host `name`'s message `update`, heard `now`: its grips from now on, its
     /// hand-backs into the next step. A new host gets pointers of its own if the world has
-    /// room (an error otherwise).
-    pub fn take(&mut self, name: &str, update: HostUpdate, now: Instant) -> Result<(), NoRoom> {
-        let index = match self.hosts.iter().position(|h| h.name == name) {
-            Some(i) => i,
-            None => self.admit(name, update.pointers.len(), now)?,
+    /// room (an error otherwise), and is told where.
+    pub fn take(
+        &mut self,
+        name: &str,
+        update: HostUpdate,
+        now: Instant,
+    ) -> Result<Option<Admitted>, NoRoom> {
+        let (index, admitted) = match self.hosts.iter().position(|h| h.name == name) {
+            Some(i) => (i, None),
+            None => {
+                let admitted = self.admit(name, update.pointers.len(), now)?;
+                (self.hosts.len() - 1, Some(admitted))
+            }
         };
         let host = &mut self.hosts[index];
         host.heard = now;
@@ -145,11 +186,11 @@ impl SharedWorld {
             self.locals.push(taken);
         }
         self.impulses.extend_from_slice(&update.impulses);
-        Ok(())
+        Ok(admitted)
     }
 
     /// Room for host `name`'s `count` pointers: the first run of free ones.
-    fn admit(&mut self, name: &str, count: usize, now: Instant) -> Result<usize, NoRoom> {
+    fn admit(&mut self, name: &str, count: usize, now: Instant) -> Result<Admitted, NoRoom> {
         let used = |k: usize| {
             self.hosts
                 .iter()
@@ -162,10 +203,6 @@ impl SharedWorld {
                 count,
                 pointers: self.pointers.len(),
             })?;
-        tracing::info!(
-            "host {name}: {count} grip(s), pointers {first}..{}",
-            first + count
-        );
         self.admitted += 1;
         self.hosts.push(Host {
             name: name.to_string(),
@@ -175,16 +212,17 @@ impl SharedWorld {
             heard: now,
             applied: BTreeMap::new(),
         });
-        Ok(self.hosts.len() - 1)
+        Ok(Admitted { first, count })
     }
 
-    /// Forget the hosts silent since before `now - FORGET_AFTER`; their pointers are parked.
-    pub fn forget_silent(&mut self, now: Instant) {
+    /// Forget the hosts silent since before `now - FORGET_AFTER`, each told to `forgotten`;
+    /// their pointers are parked.
+    pub fn forget_silent(&mut self, now: Instant, mut forgotten: impl FnMut(&str)) {
         let (pointers, proxies) = (&mut self.pointers, &mut self.proxies);
         self.hosts.retain(|h| {
             let alive = now.duration_since(h.heard) < FORGET_AFTER;
             if !alive {
-                tracing::info!("host {}: silent, forgotten", h.name);
+                forgotten(&h.name);
                 for k in h.first..h.first + h.count {
                     (pointers[k], proxies[k]) = (parked(k), parked(k));
                 }
@@ -213,15 +251,13 @@ impl SharedWorld {
         self.impulses.clear();
         self.locals.clear();
         self.step += 1;
-        self.peak_energy = self.peak_energy.max(self.kinetic_energy());
+        self.pose_count = self.world.poses(&mut self.poses).min(MAX_BODIES);
         finite
     }
 
     /// Each host's update of the last step, by name, written into `out` in turn.
     pub fn updates(&self, out: &mut Encoder, mut send: impl FnMut(&str, &[u8])) {
-        let poses: Vec<HapticdBodyPose> = (0..self.world.body_count())
-            .map(|i| hapticd_core::world_state::body_pose(&self.world.body(i).pose()))
-            .collect();
+        let poses = &self.poses[..self.pose_count];
         for host in &self.hosts {
             let mut set = PlaneSet {
                 body_count: self.body_count,
@@ -234,59 +270,8 @@ impl SharedWorld {
                 b.applied = host.applied.get(&b.body).copied().unwrap_or(0);
             }
             out.clear();
-            encode_world(out, self.step, &set, host.count, &poses);
+            encode_world(out, self.step, &set, host.count, poses);
             send(&host.name, out.bytes());
         }
-    }
-
-    /// Kinetic energy of the world's moving bodies, joules.
-    fn kinetic_energy(&self) -> f64 {
-        (0..self.world.body_count())
-            .map(|i| {
-                let body = self.world.local_body(i);
-                if body.inverse_mass <= 0.0 {
-                    return 0.0;
-                }
-                let (v, w) = (DVec3::from(body.velocity), DVec3::from(body.spin));
-                let inertia = DMat3::from_cols_array(&body.inverse_inertia)
-                    .transpose()
-                    .inverse();
-                let rotation = if inertia.is_finite() {
-                    0.5 * w.dot(inertia * w)
-                } else {
-                    0.0
-                };
-                0.5 * v.length_squared() / body.inverse_mass + rotation
-            })
-            .sum()
-    }
-
-    /// The world's state as its status query answers it (JSON): its step, hosts, energy now
-    /// and at most, and every body.
-    pub fn status(&self, name: &str) -> serde_json::Value {
-        let bodies: Vec<_> = (0..self.world.body_count())
-            .map(|i| {
-                let b = self.world.body(i);
-                let local = self.world.local_body(i);
-                serde_json::json!({
-                    "name": self.names.get(i),
-                    "position": b.position.to_array(),
-                    "orientation": hapticd_core::kinematics::quat_to_wxyz(b.orientation),
-                    "velocity": b.velocity.to_array(),
-                    "spin": b.spin.to_array(),
-                    "mass": if local.inverse_mass > 0.0 { 1.0 / local.inverse_mass } else { 0.0 },
-                })
-            })
-            .collect();
-        let hosts: Vec<_> = self.hosts.iter().map(|h| &h.name).collect();
-        serde_json::json!({
-            "world": name,
-            "step": self.step,
-            "rate": 1.0 / self.period,
-            "hosts": hosts,
-            "kinetic_energy": self.kinetic_energy(),
-            "peak_kinetic_energy": self.peak_energy,
-            "bodies": bodies,
-        })
     }
 }
