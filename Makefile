@@ -19,7 +19,7 @@ HAPTICCTL := $(RELEASE)/hapticctl --mechanism-dir $(STAGE)
 
 # Debian packages the build and tests need beyond Rust itself.
 TEST_PACKAGES := gcc libc6-dev make pkg-config libusb-1.0-0-dev umockdev gir1.2-umockdev-1.0 python3-gi strace systemd dbus-daemon iproute2 openssl \
-	python3-jeepney python3-pytest python3-pip python3-setuptools \
+	python3-jeepney python3-pytest python3-pip python3-setuptools python3-numpy \
 	dpkg-dev binutils lintian man-db mesa-vulkan-drivers libvulkan1 \
 	xvfb libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0
 SUDO := $(shell [ "$$(id -u)" -eq 0 ] || echo sudo)

@@ -223,17 +223,17 @@ impl Config {
             let key = |field: &str| format!("devices[{i}].{field}");
             match (&device.sim, &device.usb) {
                 (Some(_), Some(_)) | (None, None) => f.error(
-                    &format!("devices[{i}]"),
-                    "give either `sim: MECHANISM` or `usb: all`".to_string(),
+                    format!("devices[{i}]"),
+                    "give either `sim: MECHANISM` or `usb: all`",
                 ),
                 (None, Some(usb)) => {
                     if usb != "all" {
-                        f.error(&key("usb"), format!("must be `all`, not {usb:?}"));
+                        f.error(key("usb"), format!("must be `all`, not {usb:?}"));
                     }
                     if device.hand.is_some() || device.name.is_some() {
                         f.error(
-                            &format!("devices[{i}]"),
-                            "`hand` and `name` are for simulated devices (`sim:`)".to_string(),
+                            format!("devices[{i}]"),
+                            "`hand` and `name` are for simulated devices (`sim:`)",
                         );
                     }
                 }
@@ -241,9 +241,9 @@ impl Config {
             }
             if let Some(name) = &device.name {
                 if let Err(e) = check_device_name(name) {
-                    f.error(&key("name"), e);
+                    f.error(key("name"), e);
                 } else if names.contains(&name) {
-                    f.error(&key("name"), format!("{name:?} names another device too"));
+                    f.error(key("name"), format!("{name:?} names another device too"));
                 }
                 names.push(name);
             }
@@ -304,6 +304,36 @@ mod tests {
                 "h.yaml:2:13: error: realtime.priority: must be 1–99, not 0",
                 "h.yaml:3:9: error: realtime.rate: Rate must be in [100, 10000], not 50000",
                 "h.yaml:5:14: error: safety.max_force: MaxForce must be a finite number, not NaN",
+            ]
+        );
+    }
+
+    #[test]
+    fn devices_are_listed_and_bad_entries_refused_with_their_place() {
+        let config = Config::parse(
+            "devices:\n  - usb: all\n  - sim: spidar-g\n    name: left\n    hand: /h.yaml\n",
+            Path::new("h.yaml"),
+        )
+        .unwrap();
+        assert_eq!(config.devices.len(), 2);
+        assert_eq!(config.devices[1].name.as_deref(), Some("left"));
+        let e = Config::parse(
+            "devices:\n  - usb: some\n    name: x\n  - sim: spidar-g\n    name: 2nd\n  - {}\n  \
+             - sim: spidar\n    name: a\n  - sim: spidar\n    name: a\n",
+            Path::new("h.yaml"),
+        )
+        .unwrap_err()
+        .to_string();
+        let lines: Vec<_> = e.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "h.yaml:2:10: error: devices[0].usb: must be `all`, not \"some\"",
+                "h.yaml:2:5: error: devices[0]: `hand` and `name` are for simulated devices (`sim:`)",
+                "h.yaml:5:11: error: devices[1].name: \"2nd\" is no device name: up to 64 letters, \
+                 digits, - and _, starting with a letter",
+                "h.yaml:6:5: error: devices[2]: give either `sim: MECHANISM` or `usb: all`",
+                "h.yaml:10:11: error: devices[4].name: \"a\" names another device too",
             ]
         );
     }

@@ -3,7 +3,7 @@
 use super::*;
 
 /// The Python package (`daemon/python`) against a running daemon: its pytest suite, run by
-/// Debian's python3 with jeepney and pytest (`make deps`), on this test's private bus.
+/// Debian's python3 with jeepney, pytest and numpy (`make deps`), on this test's private bus.
 #[test]
 fn the_python_client_reads_sets_switches_and_follows_every_tick() {
     let dir = support::shared_scratch("dbus", "python");
@@ -25,7 +25,7 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("36 passed"), "{said}");
+    assert!(said.contains("44 passed"), "{said}");
     daemon.stop();
     // With hapticd gone, `connect` says so itself, by type, rather than leaving the first
     // call to fail with the bus's words.

@@ -77,7 +77,7 @@ fn two_simulated_spidars_press_one_block_from_both_sides_in_one_world() {
         .filter_map(|name| {
             let said = format!("the haptic thread of {name} runs on CPU ");
             let line = log.lines().find(|l| l.contains(&said))?;
-            Some(line.split(&said).nth(1)?.split_whitespace().next()?)
+            line.split(&said).nth(1)?.split_whitespace().next()
         })
         .collect();
     if hapticd_service::cpus::allowed().unwrap().len() >= 2 {
@@ -122,4 +122,74 @@ fn two_simulated_spidars_press_one_block_from_both_sides_in_one_world() {
     );
     assert!(from_left < -0.3, "left: {from_left} N");
     assert!(from_right > 0.3, "right: {from_right} N");
+}
+
+/// Two devices of one hapticd from the configuration's `devices:` list, one named there and
+/// one by default, on the network: each is a ROS 2 node of its own name with topics of its
+/// own, and a subscriber to one device's grip hears that device alone (before names, both
+/// simulators were node `/hapticd_sim` and one subscriber heard both streams interleaved).
+#[test]
+fn two_devices_are_nodes_of_their_own_names_on_the_network() {
+    let dir = support::shared_scratch("dbus", "two-devices-network");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let hands = dir.join("hands");
+    std::fs::create_dir_all(&hands).unwrap();
+    // Each hand holds its grip somewhere else, so that their streams tell them apart.
+    for (name, x) in [("left", -0.03), ("right", 0.03)] {
+        std::fs::write(
+            hands.join(format!("{name}.yaml")),
+            format!(
+                "hands:\n  grip:\n    - move: {{ to: [{x}, 0, 0], seconds: 0.5 }}\n    \
+                 - hold: {{ seconds: 30 }}\n"
+            ),
+        )
+        .unwrap();
+    }
+    let config = format!(
+        "{}devices:\n  - sim: spidar-g\n    name: left\n    hand: {}\n  - sim: spidar-g\n    \
+         hand: {}\n",
+        std::fs::read_to_string(&setup.config).unwrap(),
+        hands.join("left.yaml").display(),
+        hands.join("right.yaml").display(),
+    );
+    std::fs::write(&setup.config, config).unwrap();
+    let daemon = Hapticd::start(&bus, &setup, &[]);
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "", None, None);
+    let follow = "xs = {}\n\
+        def taken(sample):\n\
+        \x20   device = str(sample.key_expr).split('/')[2]\n\
+        \x20   # PoseStamped: 4 bytes of encapsulation, the stamp, the frame, then x.\n\
+        \x20   data = sample.payload.to_bytes()\n\
+        \x20   frame = struct.unpack_from('<I', data, 12)[0]\n\
+        \x20   at = 16 + frame\n\
+        \x20   at += (-at + 4) % 8\n\
+        \x20   xs.setdefault(device, []).append(struct.unpack_from('<d', data, at)[0])\n\
+        subscribers = [session.declare_subscriber(f'0/hapticd/{d}/grip/pose/**', taken) for d in ['left', 'sim_spidar_g_1']]\n\
+        time.sleep(2)\n\
+        for s in subscribers:\n\
+        \x20   s.undeclare()\n\
+        nodes = sorted(str(r.ok.key_expr).split('/')[-1] for r in session.liveliness().get('@ros2_lv/0/*/*/*/NN/**', timeout=3.0) if r.ok)\n\
+        print(json.dumps({'nodes': nodes, 'x': {d: [min(v), max(v), len(v)] for d, v in xs.items()}}), flush=True)\n\
+        session.close()\n";
+    let said = zenoh_client(follow, &endpoint, &[], None);
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    daemon.stop();
+    println!("two devices on the network: {said}");
+    assert_eq!(
+        said["nodes"],
+        serde_json::json!(["hapticd_left", "hapticd_sim_spidar_g_1"]),
+        "{said}"
+    );
+    // Each stream its own device's grip: the left one at x = -0.03, the other at +0.03.
+    for (device, x) in [("left", -0.03), ("sim_spidar_g_1", 0.03)] {
+        let seen = &said["x"][device];
+        let (low, high) = (seen[0].as_f64().unwrap(), seen[1].as_f64().unwrap());
+        assert!(seen[2].as_u64().unwrap() > 100, "{device}: {said}");
+        assert!(
+            (low - x).abs() < 0.005 && (high - x).abs() < 0.005,
+            "{device}: {said}"
+        );
+    }
 }

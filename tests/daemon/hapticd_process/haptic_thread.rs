@@ -4,17 +4,65 @@ use super::*;
 
 #[test]
 fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
-    // strace sees every system call of every thread; the haptic thread names itself first.
-    let (trace, csv, hand) = (
-        scratch_file("rt.strace"),
-        scratch_file("strace.csv"),
-        press(),
+    let hand = press();
+    let daemon = |at: &Isolated| {
+        hapticd(
+            at,
+            &["--sim", "spidar-g", "--hand", &hand, "--duration", "1.5"],
+        )
+    };
+    let threads = haptic_system_calls("strace", daemon);
+    assert_eq!(threads.len(), 1);
+}
+
+/// Two haptic threads, of two devices in one world (the shipped `two-hands` scene, stepped
+/// by the daemon's world thread, the left hand pushing the block): each makes no system call
+/// but its sleep.
+#[test]
+fn two_haptic_threads_in_one_world_make_no_system_call_but_their_sleep() {
+    let (scene, hands) = (
+        repo_dir().join("config/scenes/two-hands.yaml"),
+        repo_dir().join("config/hands"),
     );
-    let at = on_bus("strace");
-    let daemon = hapticd(
-        &at,
-        &["--sim", "spidar-g", "--hand", &hand, "--duration", "1.5"],
+    let (left, right) = (
+        hands.join("two-hands-left.yaml"),
+        hands.join("two-hands-right.yaml"),
     );
+    let daemon = |at: &Isolated| {
+        hapticd_with_scene(
+            at,
+            &plugin_path("hapticd-scene-rapier"),
+            &[
+                "--sim",
+                "spidar-g",
+                "--sim",
+                "spidar-g",
+                "--scene-file",
+                scene.to_str().unwrap(),
+                "--hand",
+                left.to_str().unwrap(),
+                "--hand",
+                right.to_str().unwrap(),
+                "--duration",
+                "2",
+            ],
+        )
+    };
+    let threads = haptic_system_calls("strace-two", daemon);
+    assert_eq!(threads.len(), 2);
+}
+
+/// Under strace, hapticd as `daemon` builds it on a bus of its own (`name`), recording every
+/// frame: asserts that each haptic thread, between its first sleep and its last, called
+/// nothing but sleeps, and returns each one's sleeps.
+fn haptic_system_calls(name: &str, daemon: impl Fn(&Isolated) -> Command) -> Vec<usize> {
+    // strace sees every system call of every thread; a haptic thread names itself first.
+    let (trace, csv) = (
+        scratch_file(&format!("{name}.strace")),
+        scratch_file(&format!("{name}.csv")),
+    );
+    let at = on_bus(name);
+    let daemon = daemon(&at);
     let mut strace = Command::new("strace");
     strace
         .args(["-f", "-qq", "-o"])
@@ -34,40 +82,50 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
         .expect("strace is installed (Debian package strace; `make check` installs it)");
     support::succeeded(out);
     let trace = std::fs::read_to_string(&trace).unwrap();
-    let thread = trace
+    let threads: Vec<&str> = trace
         .lines()
-        .find(|l| l.contains("PR_SET_NAME, \"hapticd-rt\""))
-        .and_then(|l| l.split_whitespace().next())
-        .expect("the haptic thread names itself");
-    // The thread's calls in order; "<... resumed>" lines only finish a call already counted,
-    // and a sleep that the tracer interrupted goes on as `restart_syscall`.
-    let calls: Vec<&str> = trace
-        .lines()
-        .filter_map(|l| l.strip_prefix(thread)?.strip_prefix(' '))
-        .map(str::trim_start)
-        .filter(|l| !l.starts_with("<...") && !l.starts_with("---") && !l.starts_with("+++"))
-        .map(
-            |l| match l.contains("resuming interrupted clock_nanosleep") {
-                true => "clock_nanosleep",
-                false => l.split('(').next().unwrap(),
-            },
-        )
+        .filter(|l| l.contains("PR_SET_NAME, \"hapticd-rt\""))
+        .filter_map(|l| l.split_whitespace().next())
         .collect();
-    let first = calls.iter().position(|c| *c == "clock_nanosleep").unwrap();
-    let last = calls.iter().rposition(|c| *c == "clock_nanosleep").unwrap();
-    // Between its first sleep and its last, through 1.5 s of pressing on the floor while
-    // every frame is recorded: nothing but sleeps (the clock is read through the vDSO).
-    let ticking = &calls[first..=last];
-    assert!(ticking.len() > 500, "{} sleeps", ticking.len());
-    let mut others = std::collections::BTreeMap::new();
-    for call in ticking.iter().filter(|c| **c != "clock_nanosleep") {
-        *others.entry(*call).or_insert(0) += 1;
-    }
-    assert!(
-        others.is_empty(),
-        "the haptic thread called (times): {others:?}"
-    );
+    assert!(!threads.is_empty(), "no haptic thread named itself");
+    let sleeps = threads
+        .iter()
+        .map(|thread| {
+            // The thread's calls in order; "<... resumed>" lines only finish a call already
+            // counted, and a sleep that the tracer interrupted goes on as `restart_syscall`.
+            let calls: Vec<&str> = trace
+                .lines()
+                .filter_map(|l| l.strip_prefix(thread)?.strip_prefix(' '))
+                .map(str::trim_start)
+                .filter(|l| {
+                    !l.starts_with("<...") && !l.starts_with("---") && !l.starts_with("+++")
+                })
+                .map(
+                    |l| match l.contains("resuming interrupted clock_nanosleep") {
+                        true => "clock_nanosleep",
+                        false => l.split('(').next().unwrap(),
+                    },
+                )
+                .collect();
+            let first = calls.iter().position(|c| *c == "clock_nanosleep").unwrap();
+            let last = calls.iter().rposition(|c| *c == "clock_nanosleep").unwrap();
+            // Between its first sleep and its last, through the hands' scripts while every
+            // frame is recorded: nothing but sleeps (the clock is read through the vDSO).
+            let ticking = &calls[first..=last];
+            assert!(ticking.len() > 500, "{thread}: {} sleeps", ticking.len());
+            let mut others = std::collections::BTreeMap::new();
+            for call in ticking.iter().filter(|c| **c != "clock_nanosleep") {
+                *others.entry(*call).or_insert(0) += 1;
+            }
+            assert!(
+                others.is_empty(),
+                "haptic thread {thread} called (times): {others:?}"
+            );
+            ticking.len()
+        })
+        .collect();
     std::fs::remove_file(csv).ok();
+    sleeps
 }
 
 /// The CPUs thread `tid` of process `pid` may run on, and its name.
@@ -155,6 +213,66 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
         log.contains(&format!("runs on CPU {haptic} alone")),
         "{log}"
     );
+}
+
+/// Two devices: each haptic thread on a CPU of its own, never the same one, and (with a CPU
+/// to spare for them) every other thread off both.
+#[test]
+fn two_haptic_threads_have_cpus_of_their_own() {
+    let allowed = hapticd_service::cpus::allowed().unwrap();
+    let at = on_bus("cpus-two");
+    let child = hapticd(
+        &at,
+        &["--sim", "spidar-g", "--sim", "spidar-ii", "--duration", "2"],
+    )
+    .spawn()
+    .unwrap();
+    let pid = child.id();
+    let started = std::time::Instant::now();
+    let threads = loop {
+        let threads: Vec<(String, Vec<usize>, u32)> =
+            std::fs::read_dir(format!("/proc/{pid}/task"))
+                .unwrap()
+                .filter_map(|t| t.ok())
+                .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
+                .collect();
+        if threads.iter().filter(|t| t.0 == "hapticd-rt").count() == 2 {
+            break threads;
+        }
+        assert!(started.elapsed().as_secs() < 10, "no two haptic threads");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let out = finish(child);
+    let log = String::from_utf8_lossy(&out.stderr);
+    if allowed.len() < 2 {
+        assert!(
+            log.contains("2 haptic threads on 1 CPUs: they share"),
+            "{log}"
+        );
+        return;
+    }
+    let haptic: Vec<usize> = threads
+        .iter()
+        .filter(|t| t.0 == "hapticd-rt")
+        .map(|t| {
+            assert_eq!(t.1.len(), 1, "a haptic thread may run on {:?}", t.1);
+            t.1[0]
+        })
+        .collect();
+    assert_ne!(haptic[0], haptic[1]);
+    if allowed.len() == 2 {
+        assert!(
+            log.contains("each has a CPU of its own, which the daemon's other threads share"),
+            "{log}"
+        );
+        return;
+    }
+    for (name, cpus, _) in threads.iter().filter(|t| t.0 != "hapticd-rt") {
+        assert!(
+            !cpus.iter().any(|c| haptic.contains(c)),
+            "{name} may run on {cpus:?}, the haptic threads on {haptic:?}"
+        );
+    }
 }
 
 /// Every place a test starts hapticd names the bus it serves on: one started without `--bus`
