@@ -130,7 +130,7 @@ impl Lockstep {
             wrenches,
             |back| match back {
                 HandBack::Impulse(i) => impulses.push(i),
-                HandBack::Local(l) => locals.push(l),
+                HandBack::Local(l, _) => locals.push(l),
             },
         );
         for ((out, proxy), (p, at)) in self

@@ -71,6 +71,7 @@ pub fn linked(
                 let mut pending = Taken {
                     impulses: Vec::with_capacity(1024),
                     locals: Vec::with_capacity(1024),
+                    touched: Vec::with_capacity(1024),
                 };
                 let mut set = PlaneSet::default();
                 let (mut delivered, mut sent, mut seen) = (0, Instant::now(), 0);
@@ -104,11 +105,12 @@ pub fn linked(
                             &hands.pointers[..n],
                             &hands.proxies[..n],
                             &pending.impulses[..i],
-                            &pending.locals[..l],
+                            (&pending.locals[..l], &pending.touched[..l]),
                         );
                         link.send(message.bytes());
                         pending.impulses.drain(..i);
                         pending.locals.drain(..l);
+                        pending.touched.drain(..l);
                         sent = Instant::now();
                     }
                     std::thread::sleep(POLL);

@@ -88,6 +88,7 @@ pub fn start(
             pointers: grips,
             impulses: Vec::new(),
             locals: Vec::new(),
+            touched: Vec::new(),
         };
         if let Ok(Some(admitted)) = shared.take(host.name, first, now) {
             tracing::info!(

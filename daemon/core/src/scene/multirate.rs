@@ -47,6 +47,10 @@ pub struct PlaneSet {
     /// CPU: when the next set comes is up to them, so the world counts as failed only once
     /// [`STALE_PERIODS`] times [`MAX_PACE`] passed.
     pub yielding: bool,
+    /// Other hosts' hands touch the same world ([`shared_world`](super::shared_world)): a
+    /// body no hand here moved is the world's to move, since where this side, a round trip
+    /// behind, has it would undo their pushes.
+    pub shared: bool,
 }
 
 /// What the haptic side hands back to the physics when a period ends.
@@ -54,8 +58,9 @@ pub struct PlaneSet {
 pub enum HandBack {
     /// The momentum given to an object it did not move itself.
     Impulse(HapticdImpulse),
-    /// What the hand did to a body it moved.
-    Local(HapticdLocalState),
+    /// How a body it moved differs from the world's, and whether the hand moved it that
+    /// period (else the difference is the haptic side's own integration of it alone).
+    Local(HapticdLocalState, bool),
 }
 
 /// Hand-backs remembered until the physics says it took them in: more than the one period
@@ -606,10 +611,11 @@ impl PlaneRenderer {
             ..Pending::default()
         };
         let count = (next.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
-        // A body no hand here moved this period is the world's to move: what it did here
-        // alone (its contacts, integrated finer) would pull it back from where another
-        // host's hand took it, in a world several hosts share.
-        for body in self.locals.iter().flatten().filter(|b| b.touched()) {
+        let untouched_are_the_worlds = next.shared;
+        for body in self.locals.iter().flatten() {
+            if untouched_are_the_worlds && !body.touched() {
+                continue;
+            }
             // A body whose last change the physics left out (it would have gone into a fixed
             // solid) gets this period's hand alone, and so restarts where the physics has it:
             // handed the whole difference again, it was refused again, period after period,
@@ -622,7 +628,8 @@ impl PlaneRenderer {
             if !change.is_zero() {
                 record.changes[record.count] = (body.body, change);
                 record.count += 1;
-                emit(HandBack::Local(change.to_abi(body.body, record.sequence)));
+                let state = change.to_abi(body.body, record.sequence);
+                emit(HandBack::Local(state, body.touched()));
             }
         }
         if record.count > 0 {

@@ -39,10 +39,10 @@ use crate::wire::{Decoder, Encoder};
 pub const ENGINE: &str = "remote";
 
 /// First bytes of a [`WorldUpdate`].
-pub const WORLD_MAGIC: u32 = u32::from_le_bytes(*b"hdW1");
+pub const WORLD_MAGIC: u32 = u32::from_le_bytes(*b"hdW2");
 
 /// First bytes of a host's message.
-pub const HOST_MAGIC: u32 = u32::from_le_bytes(*b"hdH1");
+pub const HOST_MAGIC: u32 = u32::from_le_bytes(*b"hdH2");
 
 /// Most bodies whose poses one update carries (pictures of larger worlds show these).
 pub const MAX_POSES: usize = 512;
@@ -54,6 +54,7 @@ pub const MAX_HAND_BACKS: usize = 64;
 /// Largest encoded [`WorldUpdate`], bytes.
 pub const MAX_WORLD_BYTES: usize = 4
     + 8
+    + 4
     + 4
     + MAX_EFFECTORS * (4 + HAPTICD_MAX_PLANES * PLANE_BYTES)
     + 4
@@ -71,10 +72,10 @@ pub const MAX_HOST_BYTES: usize = 4
 
 const PLANE_BYTES: usize = 4 + 9 * 8;
 const CONTACT_BYTES: usize = 8 * 8;
-const BODY_BYTES: usize = 3 * 4 + 8 + 30 * 8 + 4 + HAPTICD_MAX_BODY_CONTACTS * CONTACT_BYTES;
+const BODY_BYTES: usize = 4 * 4 + 8 + 30 * 8 + 4 + HAPTICD_MAX_BODY_CONTACTS * CONTACT_BYTES;
 const POINTER_BYTES: usize = 10 * 8;
 const IMPULSE_BYTES: usize = 4 + 6 * 8;
-const LOCAL_BYTES: usize = 4 + 8 + 12 * 8;
+const LOCAL_BYTES: usize = 4 + 8 + 12 * 8 + 4;
 
 /// A remote scene file.
 #[derive(Debug, Deserialize)]
@@ -139,6 +140,7 @@ fn put_body(out: &mut Encoder, b: &HapticdLocalBody) {
     out.u32(b.body);
     out.u32(b.first_object);
     out.u32(b.object_count);
+    out.u32(b.left_out);
     out.u64(b.applied);
     out.f64s(&b.position);
     out.f64s(&b.orientation);
@@ -161,6 +163,7 @@ fn get_body(from: &mut Decoder) -> Option<HapticdLocalBody> {
         body: from.u32()?,
         first_object: from.u32()?,
         object_count: from.u32()?,
+        left_out: from.u32()?,
         applied: from.u64()?,
         position: from.array()?,
         orientation: from.array()?,
@@ -196,6 +199,7 @@ pub fn encode_world(
 ) {
     out.u32(WORLD_MAGIC);
     out.u64(step);
+    out.u32(u32::from(set.shared));
     let pointers = pointers.min(MAX_EFFECTORS);
     out.u32(pointers as u32);
     for planes in &set.planes[..pointers] {
@@ -234,6 +238,7 @@ pub fn decode_world(
         return None;
     }
     let step = from.u64()?;
+    set.shared = from.u32()? != 0;
     let pointers = from.count(MAX_EFFECTORS, 4)?;
     set.planes = [HapticdPlanes::default(); MAX_EFFECTORS];
     for planes in &mut set.planes[..pointers] {
@@ -284,6 +289,9 @@ pub struct HostUpdate {
     pub impulses: Vec<HapticdImpulse>,
     /// The hand's changes on bodies the host moved.
     pub locals: Vec<HapticdLocalState>,
+    /// For each of `locals`, whether the host's hand moved the body that period (else it only
+    /// brings the world's body to where the host's own integration has it).
+    pub touched: Vec<bool>,
 }
 
 /// Write a host's message: the world step it last rendered from, its grips and proxies (as
@@ -295,7 +303,7 @@ pub fn encode_host(
     pointers: &[HapticdPointer],
     proxies: &[HapticdPointer],
     impulses: &[HapticdImpulse],
-    locals: &[HapticdLocalState],
+    (locals, touched): (&[HapticdLocalState], &[bool]),
 ) {
     out.u32(HOST_MAGIC);
     out.u64(seen);
@@ -313,13 +321,14 @@ pub fn encode_host(
     }
     let locals = &locals[..locals.len().min(MAX_HAND_BACKS)];
     out.u32(locals.len() as u32);
-    for l in locals {
+    for (k, l) in locals.iter().enumerate() {
         out.u32(l.body);
         out.u64(l.sequence);
         out.f64s(&l.displacement);
         out.f64s(&l.rotation);
         out.f64s(&l.velocity);
         out.f64s(&l.spin);
+        out.u32(u32::from(touched.get(k).copied().unwrap_or(true)));
     }
 }
 
@@ -357,6 +366,7 @@ pub fn decode_host(bytes: &[u8]) -> Option<HostUpdate> {
             velocity: from.array()?,
             spin: from.array()?,
         });
+        update.touched.push(from.u32()? != 0);
     }
     from.finished().then_some(update)
 }
@@ -375,11 +385,13 @@ mod tests {
             velocity: [-1.0, 0.5, 0.25],
         };
         set.planes[1].count = 1;
+        set.shared = true;
         set.body_count = 1;
         set.bodies[0] = HapticdLocalBody {
             body: 3,
             first_object: 4,
             object_count: 2,
+            left_out: 1,
             applied: 99,
             position: [1.0, 2.0, 3.0],
             orientation: [1.0, 0.0, 0.0, 0.0],
@@ -447,6 +459,7 @@ mod tests {
                 displacement: [1e-3, 0.0, 0.0],
                 ..HapticdLocalState::default()
             }],
+            touched: vec![false],
         };
         let mut out = Encoder::default();
         encode_host(
@@ -455,7 +468,7 @@ mod tests {
             &sent.pointers,
             &sent.proxies,
             &sent.impulses,
-            &sent.locals,
+            (&sent.locals, &sent.touched),
         );
         assert!(out.bytes().len() <= MAX_HOST_BYTES);
         assert_eq!(decode_host(out.bytes()), Some(sent));

@@ -170,6 +170,7 @@ impl<W: Stepped> SharedWorld<W> {
                 (self.hosts.len() - 1, Some(admitted))
             }
         };
+        let shared = self.hosts.len() > 1;
         let host = &mut self.hosts[index];
         host.heard = now;
         let n = host.count.min(update.pointers.len());
@@ -179,9 +180,15 @@ impl<W: Stepped> SharedWorld<W> {
         // A hand-back covers the period before the last update the host had when it sent
         // it, or the one before that: taken as made on the older view.
         let base = update.seen.saturating_sub(2);
-        for change in &update.locals {
+        for (k, change) in update.locals.iter().enumerate() {
             let seen = host.applied.entry(change.body).or_insert(0);
             *seen = (*seen).max(change.sequence);
+            // Shared, the world moves what no hand moved: a host's view of a body is a
+            // round trip old, and where it has the body would undo another hand's push.
+            let touched = update.touched.get(k).copied().unwrap_or(true);
+            if !touched && shared {
+                continue;
+            }
             let taken = self.ledger.reconcile(host.id, base, self.step + 1, change);
             self.locals.push(taken);
         }
@@ -258,10 +265,12 @@ impl<W: Stepped> SharedWorld<W> {
     /// Each host's update of the last step, by name, written into `out` in turn.
     pub fn updates(&self, out: &mut Encoder, mut send: impl FnMut(&str, &[u8])) {
         let poses = &self.poses[..self.pose_count];
+        let shared = self.hosts.len() > 1;
         for host in &self.hosts {
             let mut set = PlaneSet {
                 body_count: self.body_count,
                 bodies: self.bodies,
+                shared,
                 ..PlaneSet::default()
             };
             set.planes[..host.count]

@@ -140,6 +140,8 @@ pub(crate) struct Hands {
 pub(crate) struct Taken {
     pub(crate) impulses: Vec<HapticdImpulse>,
     pub(crate) locals: Vec<HapticdLocalState>,
+    /// For each of `locals`, whether the hand moved the body.
+    pub(crate) touched: Vec<bool>,
 }
 
 impl Instance {

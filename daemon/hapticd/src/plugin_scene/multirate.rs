@@ -108,6 +108,7 @@ impl PhysicsSide {
     fn take_hand_backs(&mut self, taken: &mut Taken) {
         taken.impulses.clear();
         taken.locals.clear();
+        taken.touched.clear();
         self.add_hand_backs(taken);
     }
 
@@ -116,7 +117,10 @@ impl PhysicsSide {
         while let Some(back) = self.hand_backs_in.pop() {
             match back {
                 HandBack::Impulse(i) => taken.impulses.push(i),
-                HandBack::Local(l) => taken.locals.push(l),
+                HandBack::Local(l, touched) => {
+                    taken.locals.push(l);
+                    taken.touched.push(touched);
+                }
             }
         }
     }
@@ -253,6 +257,7 @@ impl MultiRateScene {
                     let mut taken = Taken {
                         impulses: Vec::with_capacity(1024),
                         locals: Vec::with_capacity(1024),
+                        touched: Vec::with_capacity(1024),
                     };
                     let mut set = PlaneSet::default();
                     while !physics.stopping() {
