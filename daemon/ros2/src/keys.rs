@@ -82,6 +82,11 @@ pub fn mangled(name: &str) -> String {
 /// is what these say.
 pub const DEFAULT_QOS: &str = "::,:,:,:,,";
 
+/// The QoS of a publisher that keeps its last message for subscriptions that come later, as
+/// ROS 2 latches a state: transient-local durability (`1`), keep last 1, the rest at the
+/// defaults.
+pub const TRANSIENT_LOCAL_QOS: &str = ":1:,1:,:,:,,";
+
 /// A ROS 2 node as rmw_zenoh announces it: the liveliness tokens through which `ros2 node
 /// list` and `ros2 topic list` find the node and its publishers and subscriptions.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -116,19 +121,20 @@ impl Node {
         self.prefix(self.id, "NN")
     }
 
-    /// The token of its publisher number `entity` of `topic`, messages `M`.
-    pub fn publisher<M: Message>(&self, entity: u32, topic: &str) -> String {
-        self.endpoint::<M>(entity, "MP", topic)
+    /// The token of its publisher number `entity` of `topic`, messages `M`, of QoS `qos`
+    /// ([`DEFAULT_QOS`], [`TRANSIENT_LOCAL_QOS`]).
+    pub fn publisher<M: Message>(&self, entity: u32, topic: &str, qos: &str) -> String {
+        self.endpoint::<M>(entity, "MP", topic, qos)
     }
 
     /// The token of its subscription number `entity` to `topic`, messages `M`.
     pub fn subscription<M: Message>(&self, entity: u32, topic: &str) -> String {
-        self.endpoint::<M>(entity, "MS", topic)
+        self.endpoint::<M>(entity, "MS", topic, DEFAULT_QOS)
     }
 
-    fn endpoint<M: Message>(&self, entity: u32, kind: &str, topic: &str) -> String {
+    fn endpoint<M: Message>(&self, entity: u32, kind: &str, topic: &str, qos: &str) -> String {
         format!(
-            "{}/{}/{}/{}/{DEFAULT_QOS}",
+            "{}/{}/{}/{}/{qos}",
             self.prefix(entity, kind),
             mangled(topic),
             dds_type_name(M::TYPE),
@@ -160,7 +166,7 @@ pub fn attachment(sequence: i64, time_ns: i64, publisher: &[u8; 16]) -> [u8; 33]
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::messages::{PoseStamped, WrenchStamped};
+    use crate::messages::{PoseStamped, StringMessage, WrenchStamped};
 
     #[test]
     fn a_topic_key_is_domain_name_type_and_hash() {
@@ -189,7 +195,7 @@ mod tests {
             };
             let (key, token) = (
                 topic_key::<PoseStamped>(graph, "/p"),
-                node.publisher::<PoseStamped>(4, "/p"),
+                node.publisher::<PoseStamped>(4, "/p", DEFAULT_QOS),
             );
             let hash = match name {
                 "humble" => "TypeHashNotSupported",
@@ -235,10 +241,14 @@ mod tests {
         };
         assert_eq!(node.token(), "@ros2_lv/0/a1b2/3/3/NN/%/%/hapticd_sim");
         assert_eq!(
-            node.publisher::<PoseStamped>(4, "/hapticd/sim/grip/pose"),
+            node.publisher::<PoseStamped>(4, "/hapticd/sim/grip/pose", DEFAULT_QOS),
             "@ros2_lv/0/a1b2/3/4/MP/%/%/hapticd_sim/%hapticd%sim%grip%pose/\
              geometry_msgs::msg::dds_::PoseStamped_/\
              RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8/::,:,:,:,,"
+        );
+        assert!(
+            node.publisher::<StringMessage>(5, "/hapticd/sim/state", TRANSIENT_LOCAL_QOS)
+                .ends_with("/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/:1:,1:,:,:,,")
         );
         let spaced = Node {
             namespace: "/lab".into(),

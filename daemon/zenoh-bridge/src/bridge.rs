@@ -3,7 +3,8 @@
 //! time; each publisher numbering its own messages and naming its own id in their
 //! attachments, as rmw_zenoh's do: [`RosPublisher`]), and whole under hapticd's own telemetry
 //! key; its world's bodies whenever its picture of the world changes
-//! (60 times a second); its state when it changes and once a second; each touch as it
+//! (60 times a second); its state when it changes and once a second, the last kept for
+//! subscriptions that come later (transient-local); each touch as it
 //! happens. The node and its publishers are announced by liveliness tokens as rmw_zenoh
 //! announces its own, and its status is answered as JSON. With commands on, each effector's
 //! `wrench_command` topic goes into the device's wrench input.
@@ -19,7 +20,7 @@ use hapticd_core::world_state::{MAX_BODIES, WorldFrame, state_of};
 use hapticd_ipc::client::{ClientError, Device};
 use hapticd_ipc::touch_events::{Touch, TouchTracker};
 use hapticd_ipc::world_share::MappedWorld;
-use hapticd_ros2::keys::{Graph, Node};
+use hapticd_ros2::keys::{DEFAULT_QOS, Graph, Node, TRANSIENT_LOCAL_QOS};
 use hapticd_ros2::messages::{
     Header, JointState, Message, PoseArray, PoseStamped, StringMessage, Time, TwistStamped,
     WrenchStamped,
@@ -118,14 +119,32 @@ impl<'a> Entities<'a> {
 
     /// The publisher of `topic`, messages `M`, announced.
     fn publisher<M: Message>(&mut self, topic: &Topic) -> Result<RosPublisher<'a>, BridgeError> {
-        let token = self.node.publisher::<M>(self.next(), &topic.name);
+        let token = self
+            .node
+            .publisher::<M>(self.next(), &topic.name, DEFAULT_QOS);
         self.announce(token.clone())?;
-        let publisher = self
-            .session
+        Ok(RosPublisher::new(self.declare(topic)?, &token))
+    }
+
+    /// The publisher of `topic`, messages `M`, announced as transient-local: its last message
+    /// reaches subscriptions that come later.
+    fn latched_publisher<M: Message>(
+        &mut self,
+        topic: &Topic,
+    ) -> Result<RosPublisher<'a>, BridgeError> {
+        let token = self
+            .node
+            .publisher::<M>(self.next(), &topic.name, TRANSIENT_LOCAL_QOS);
+        self.announce(token.clone())?;
+        RosPublisher::latched(self.session, self.declare(topic)?, &token).map_err(zenoh_error)
+    }
+
+    /// A Zenoh publisher on `topic`'s key.
+    fn declare(&self, topic: &Topic) -> Result<zenoh::pubsub::Publisher<'a>, BridgeError> {
+        self.session
             .declare_publisher(topic.key.clone())
             .wait()
-            .map_err(zenoh_error)?;
-        Ok(RosPublisher::new(publisher, &token))
+            .map_err(zenoh_error)
     }
 
     /// A subscription to `topic`, messages `M`, announced, handing each sample to `take`.
@@ -347,7 +366,7 @@ impl<'a> Publishers<'a> {
             effectors,
             strings: entities.publisher::<JointState>(&topics.strings)?,
             bodies: entities.publisher::<PoseArray>(&topics.bodies)?,
-            state: entities.publisher::<StringMessage>(&topics.state)?,
+            state: entities.latched_publisher::<StringMessage>(&topics.state)?,
             touches: entities.publisher::<StringMessage>(&topics.touches)?,
             telemetry: RosPublisher::new(
                 session

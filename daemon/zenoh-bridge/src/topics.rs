@@ -9,7 +9,7 @@
 //! | `/hapticd/<device>/<effector>/wrench` | `geometry_msgs/msg/WrenchStamped` | the wrench displayed |
 //! | `/hapticd/<device>/strings` | `sensor_msgs/msg/JointState` | each string's tension (effort) |
 //! | `/hapticd/<device>/bodies` | `geometry_msgs/msg/PoseArray` | the world's bodies, by id, at the world's rate |
-//! | `/hapticd/<device>/state` | `std_msgs/msg/String` | running, fault, … |
+//! | `/hapticd/<device>/state` | `std_msgs/msg/String` | running, fault, …; transient-local |
 //! | `/hapticd/<device>/touches` | `std_msgs/msg/String` | each touch begun, ended, slipping (JSON) |
 //! | `/hapticd/<device>/<effector>/wrench_command` | `geometry_msgs/msg/WrenchStamped` | taken: added to the displayed wrench (commands on) |
 

@@ -598,7 +598,24 @@ fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
         subscriber.undeclare()\n\
         tokens = [str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**', timeout=3.0) if r.ok]\n\
         rates = {topic: n / 4 for topic, n in heard.items()}\n\
-        print(json.dumps({'rates': rates, 'tokens': len(tokens), 'status': ask('hapticd/sim_spidar_g_1/status', None)}), flush=True)\n\
+        from zenoh import ext\n\
+        def first_state(latched):\n\
+        \x20   got, started = [], time.monotonic()\n\
+        \x20   taken = lambda s: got.append((time.monotonic() - started, s.payload.to_bytes()[-8:].decode(), len(s.attachment.to_bytes())))\n\
+        \x20   key = '0/hapticd/sim_spidar_g_1/state/**'\n\
+        \x20   if latched:\n\
+        \x20       sub = ext.declare_advanced_subscriber(session, key, taken, history=ext.HistoryConfig(detect_late_publishers=True, max_samples=1))\n\
+        \x20   else:\n\
+        \x20       sub = session.declare_subscriber(key, taken)\n\
+        \x20   while not got and time.monotonic() - started < 3:\n\
+        \x20       time.sleep(0.002)\n\
+        \x20   sub.undeclare()\n\
+        \x20   time.sleep(0.23)\n\
+        \x20   return got[0] if got else None\n\
+        late = [first_state(True) for _ in range(8)]\n\
+        plain = [first_state(False) for _ in range(8)]\n\
+        qos = [t.split('/')[-1] for t in tokens if '%state/' in t]\n\
+        print(json.dumps({'rates': rates, 'tokens': len(tokens), 'late': late, 'plain': plain, 'qos': qos, 'status': ask('hapticd/sim_spidar_g_1/status', None)}), flush=True)\n\
         session.close()\n";
     let said = zenoh_client(follow, &router, &[], None);
     let _ = bridge.kill();
@@ -608,6 +625,36 @@ fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
     let rate = said["rates"]["pose"].as_f64().unwrap();
     assert!((90.0..=110.0).contains(&rate), "{said}");
     assert!(said["tokens"].as_u64().unwrap() > 5, "{said}");
+    // `state` is transient-local, as ROS latches a state: announced so, and a subscription
+    // with history (rmw_zenoh's for TRANSIENT_LOCAL, an advanced subscriber) that comes
+    // late has the last state at once, with its attachment, where a plain one waits for the
+    // next (up to a second; eight tries a quarter second apart, at every phase of it).
+    assert_eq!(said["qos"], serde_json::json!([":1:,1:,:,:,,"]), "{said}");
+    let waits = |kind: &str| -> Vec<f64> {
+        said[kind]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|got| {
+                assert_eq!(got[1], "running\0", "{said}");
+                assert_eq!(got[2], 33, "{said}");
+                got[0].as_f64().unwrap()
+            })
+            .collect()
+    };
+    let (late, plain) = (waits("late"), waits("plain"));
+    let slowest = late.iter().copied().fold(0.0, f64::max);
+    let mean = |w: &[f64]| w.iter().sum::<f64>() / w.len() as f64;
+    println!(
+        "state: a late subscriber with history waits {:.1} ms at most, a plain one {:.0} ms on \
+         average",
+        slowest * 1e3,
+        mean(&plain) * 1e3
+    );
+    // Through the router at most a few round trips on the loopback; a plain wait averages
+    // half a second.
+    assert!(slowest < 0.1, "{late:?}");
+    assert!(mean(&plain) > 0.2, "{plain:?}");
     assert_eq!(said["status"].as_array().unwrap().len(), 1, "{said}");
 
     // No router where it connects: said once, and the bridge is up and publishing.
