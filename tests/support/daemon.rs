@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use super::bus::PrivateBus;
+use super::haptic_cpu::Turn;
 use super::{artifact, profile_dir, repo_dir};
 
 /// Where one test's hapticd runs: a directory, a configuration and a bus, all its own.
@@ -18,6 +19,8 @@ pub struct Isolated {
     config: PathBuf,
     address: String,
     bus: Option<PrivateBus>,
+    /// Its turn on the machine: beside the other tests', unless taken [`Isolated::alone`].
+    turn: Option<Turn>,
 }
 
 impl Isolated {
@@ -34,7 +37,17 @@ impl Isolated {
             config,
             address: bus.address.clone(),
             bus: Some(bus),
+            turn: Some(Turn::shared()),
         }
+    }
+
+    /// The same, its daemons running with no other test's: for a test that runs haptic
+    /// loops on every CPU.
+    pub fn alone(mut self) -> Self {
+        // The shared turn ends before the lone one is waited for.
+        self.turn = None;
+        self.turn = Some(Turn::alone());
+        self
     }
 
     /// No bus at all: an address in `dir` where nothing listens, for a hapticd that must stop
@@ -46,6 +59,7 @@ impl Isolated {
             config,
             address: format!("unix:path={}", dir.join("no-bus").display()),
             bus: None,
+            turn: Some(Turn::shared()),
         }
     }
 

@@ -50,3 +50,27 @@ pub fn keep_off(command: &mut Command) -> &mut Command {
     // on the stack: no allocation, no lock.
     unsafe { command.pre_exec(move || hapticd_service::cpus::pin(0, &others)) }
 }
+
+/// A test's turn on the machine, held while its daemons run: shared with the other tests,
+/// or alone for a test that measures a haptic loop's timing or runs loops on every CPU (a
+/// second `SCHED_FIFO` loop on the measured loop's CPU would be counted against it).
+pub enum Turn {
+    /// Beside any number of other shared turns.
+    Shared(std::sync::RwLockReadGuard<'static, ()>),
+    /// With no other turn.
+    Alone(std::sync::RwLockWriteGuard<'static, ()>),
+}
+
+static TURNS: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+impl Turn {
+    /// A turn beside the others.
+    pub fn shared() -> Self {
+        Turn::Shared(TURNS.read().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// A turn alone, once every other has ended.
+    pub fn alone() -> Self {
+        Turn::Alone(TURNS.write().unwrap_or_else(|p| p.into_inner()))
+    }
+}

@@ -79,7 +79,7 @@ fn bad_inputs_return_named_errors_and_change_nothing() {
     for refused in [
         "refused to set MaxForce of sim-spidar-g-1 to -1".to_string(),
         "refused to switch to scene \"nowhere\"".to_string(),
-        "refused to bind sim to mechanism \"no-such\"".to_string(),
+        "refused to bind sim-spidar-g-1 to mechanism \"no-such\"".to_string(),
     ] {
         assert!(
             log.contains(&format!("{refused}, for uid {uid}")),

@@ -13,6 +13,7 @@ use glam::DVec3;
 use hapticd_render::picture::Picture;
 use hapticd_ros2::messages::{Header, JointState, Message, StringMessage, Time, WrenchStamped};
 use support::bus::{NAME, PrivateBus, RENDERER};
+use support::haptic_cpu::Turn;
 use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
 
 mod access;
@@ -47,25 +48,11 @@ const SCENE: [&str; 3] = [
 
 const PICTURES: [&str; 3] = [RENDERER, "/org/hapticd/Renderer1", "org.hapticd.Renderer1"];
 
-/// Taken shared by every test's bus, and exclusively by the one that measures the loop's
-/// timing.
-static EXCLUSIVE: std::sync::RwLock<()> = std::sync::RwLock::new(());
-
 /// A private bus with the system bus's default policy plus the shipped hapticd policy.
 struct Bus {
     address: String,
     _private: PrivateBus,
     _turn: Turn,
-}
-
-/// A test's turn on the machine: shared with the other tests, or alone.
-enum Turn {
-    Shared {
-        _guard: std::sync::RwLockReadGuard<'static, ()>,
-    },
-    Alone {
-        _guard: std::sync::RwLockWriteGuard<'static, ()>,
-    },
 }
 
 impl Bus {
@@ -80,22 +67,13 @@ impl Bus {
 
     /// A bus for a test that runs beside the others.
     fn start(dir: &Path) -> Bus {
-        Bus::start_in_turn(
-            dir,
-            Turn::Shared {
-                _guard: EXCLUSIVE.read().unwrap_or_else(|p| p.into_inner()),
-            },
-        )
+        Bus::start_in_turn(dir, Turn::shared())
     }
 
-    /// A bus for a test that measures timing: no other test's daemons or clients run.
+    /// A bus for a test that measures timing, or runs haptic loops on every CPU: no other
+    /// test's daemons or clients run.
     fn start_alone(dir: &Path) -> Bus {
-        Bus::start_in_turn(
-            dir,
-            Turn::Alone {
-                _guard: EXCLUSIVE.write().unwrap_or_else(|p| p.into_inner()),
-            },
-        )
+        Bus::start_in_turn(dir, Turn::alone())
     }
 
     fn start_in_turn(dir: &Path, turn: Turn) -> Bus {

@@ -17,7 +17,7 @@ fn every_property_and_method_answers_as_the_bus_chapter_shows() {
     assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"static\"");
     assert!(bus.get(MANAGER, "Scenes").contains("\"static\""));
     assert_eq!(bus.get(MANAGER, "Mechanisms"), "as 1 \"spidar-g\"");
-    assert_eq!(bus.get(DEVICE, "Identity"), "s \"sim\"");
+    assert_eq!(bus.get(DEVICE, "Identity"), "s \"sim-spidar-g-1\"");
     assert_eq!(bus.get(DEVICE, "Mechanism"), "s \"spidar-g\"");
     assert_eq!(bus.get(DEVICE, "Effectors"), "as 1 \"grip\"");
     assert_eq!(bus.get(DEVICE, "State"), "s \"running\"");
@@ -67,11 +67,11 @@ fn every_property_and_method_answers_as_the_bus_chapter_shows() {
     for done in [
         "set Stiffness of sim-spidar-g-1 to 3000".to_string(),
         "set Rate of sim-spidar-g-1 to 2000".to_string(),
-        "calibrate sim".to_string(),
+        "calibrate sim-spidar-g-1".to_string(),
         "reset the fault of sim-spidar-g-1".to_string(),
         "switch to scene \"static\"".to_string(),
         "reload the configuration and plugins".to_string(),
-        "bind sim to mechanism \"spidar-g\"".to_string(),
+        "bind sim-spidar-g-1 to mechanism \"spidar-g\"".to_string(),
     ] {
         assert!(
             log.contains(&format!("{done}, for uid {uid}")),
@@ -269,7 +269,7 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("no device \"7\": hapticd drives 0 (sim)"),
+        stderr.contains("no device \"7\": hapticd drives 0 (sim-spidar-g-1)"),
         "{stderr}"
     );
     // A name that is no parameter: the parameters are listed, a property is read-only.
@@ -305,7 +305,10 @@ fn hapticctl_reaches_the_running_daemon_for_status_parameters_calibration_and_sc
         "one effector: {frames}"
     );
     assert_eq!(
-        frames.lines().filter(|l| l.starts_with("sim ")).count(),
+        frames
+            .lines()
+            .filter(|l| l.starts_with("sim-spidar-g-1 "))
+            .count(),
         2,
         "{frames}"
     );

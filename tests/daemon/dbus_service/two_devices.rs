@@ -23,7 +23,8 @@ fn ticks(address: &str, index: usize, seconds: f64) -> Vec<Sample> {
 #[test]
 fn two_simulated_spidars_press_one_block_from_both_sides_in_one_world() {
     let dir = support::shared_scratch("dbus", "two-devices");
-    let bus = Bus::start(&dir);
+    // Two loops on both CPUs: alone.
+    let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
     let hands = repo_dir().join("config/hands");
     let (left, right) = (
@@ -131,7 +132,8 @@ fn two_simulated_spidars_press_one_block_from_both_sides_in_one_world() {
 #[test]
 fn two_devices_are_nodes_of_their_own_names_on_the_network() {
     let dir = support::shared_scratch("dbus", "two-devices-network");
-    let bus = Bus::start(&dir);
+    // Two loops on both CPUs: alone.
+    let bus = Bus::start_alone(&dir);
     let setup = Setup::new(&dir);
     let hands = dir.join("hands");
     std::fs::create_dir_all(&hands).unwrap();

@@ -61,7 +61,7 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         'first': ticks[0], 'last': ticks[-1], 'start': start, 'end': end, \
         'kinds': {k: len(v) for k, v in samples.items()}, 'twist': samples['twist'][-1][0], \
         'angular': angular, \
-        'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 28), \
+        'header': payload[:4].hex(), 'position': struct.unpack_from('<3d', payload, 16 + len('hapticd_sim_spidar_g_1') + 1 + (4 - 16 - len('hapticd_sim_spidar_g_1') - 1) % 8), \
         'strings': samples['strings'][-1][2].hex(), 'state': samples['state'][-1][2].hex(), \
         'numbered': numbered, 'named': named, 'gids': len({a for v in samples.values() for _, _, _, a in v}), \
         'status': json.loads(status[0]), 'tokens': tokens, 'refused': refused}))\n";
@@ -370,7 +370,7 @@ fn the_zenoh_bridge_over_tls_answers_only_holders_of_its_certificates() {
     }
     let said = String::from_utf8_lossy(&ctl.stdout);
     assert!(ctl.status.success(), "{ctl:?}");
-    assert!(said.contains("sim: running, 1000 Hz"), "{said}");
+    assert!(said.contains("sim-spidar-g-1: running, 1000 Hz"), "{said}");
     let refused = String::from_utf8_lossy(&ctl_without.stderr);
     assert_eq!(ctl_without.status.code(), Some(1), "{ctl_without:?}");
     assert!(refused.contains("cannot reach"), "{refused}");

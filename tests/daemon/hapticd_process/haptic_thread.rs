@@ -11,7 +11,7 @@ fn the_haptic_thread_makes_no_system_call_but_its_sleep() {
             &["--sim", "spidar-g", "--hand", &hand, "--duration", "1.5"],
         )
     };
-    let threads = haptic_system_calls("strace", daemon);
+    let threads = haptic_system_calls("strace", on_bus("strace"), daemon);
     assert_eq!(threads.len(), 1);
 }
 
@@ -48,20 +48,24 @@ fn two_haptic_threads_in_one_world_make_no_system_call_but_their_sleep() {
             ],
         )
     };
-    let threads = haptic_system_calls("strace-two", daemon);
+    // Two loops on both CPUs: alone.
+    let threads = haptic_system_calls("strace-two", on_bus("strace-two").alone(), daemon);
     assert_eq!(threads.len(), 2);
 }
 
-/// Under strace, hapticd as `daemon` builds it on a bus of its own (`name`), recording every
-/// frame: asserts that each haptic thread, between its first sleep and its last, called
-/// nothing but sleeps, and returns each one's sleeps.
-fn haptic_system_calls(name: &str, daemon: impl Fn(&Isolated) -> Command) -> Vec<usize> {
+/// Under strace, hapticd as `daemon` builds it on the bus of `at`, recording every frame
+/// (the files called after `name`): asserts that each haptic thread, between its first sleep
+/// and its last, called nothing but sleeps, and returns each one's sleeps.
+fn haptic_system_calls(
+    name: &str,
+    at: Isolated,
+    daemon: impl Fn(&Isolated) -> Command,
+) -> Vec<usize> {
     // strace sees every system call of every thread; a haptic thread names itself first.
     let (trace, csv) = (
         scratch_file(&format!("{name}.strace")),
         scratch_file(&format!("{name}.csv")),
     );
-    let at = on_bus(name);
     let daemon = daemon(&at);
     let mut strace = Command::new("strace");
     strace
@@ -220,7 +224,8 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
 #[test]
 fn two_haptic_threads_have_cpus_of_their_own() {
     let allowed = hapticd_service::cpus::allowed().unwrap();
-    let at = on_bus("cpus-two");
+    // Two loops on both CPUs: alone.
+    let at = on_bus("cpus-two").alone();
     let child = hapticd(
         &at,
         &["--sim", "spidar-g", "--sim", "spidar-ii", "--duration", "2"],
