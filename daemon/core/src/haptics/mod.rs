@@ -1,6 +1,7 @@
 //! Haptic rendering (thesis Ch. 4): turning the grip's motion among virtual objects into the
 //! force the user feels, safely.
 //!
+//! - [`effects`]: springs, dampers, friction, vibrations and fields that come from no solid;
 //! - [`grasp`]: fingers holding an object, with the shape shell and the resultant shared
 //!   among them (4.2–4.7);
 //! - [`obstacle`]: solid shapes the proxy cannot enter; [`scenery`]: a static scene's
@@ -13,6 +14,7 @@
 //!   and dropped when it goes stale.
 
 pub mod bvh;
+pub mod effects;
 pub mod grasp;
 pub mod obstacle;
 pub mod passivity;

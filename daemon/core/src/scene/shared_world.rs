@@ -19,9 +19,8 @@ use hapticd_plugin_api::{
 
 use super::ledger::Ledger;
 use super::multirate::PlaneSet;
-use super::remote::{HostUpdate, encode_world};
+use super::remote::{HostUpdate, MAX_POSES, encode_world};
 use crate::wire::Encoder;
-use crate::world_state::MAX_BODIES;
 
 /// A world a [`SharedWorld`] steps: a rapier world in `hapticd-world`, a scene plugin's in
 /// hapticd.
@@ -129,7 +128,7 @@ impl<W: Stepped> SharedWorld<W> {
             impulses: Vec::new(),
             locals: Vec::new(),
             step: 0,
-            poses: vec![HapticdBodyPose::default(); MAX_BODIES].into(),
+            poses: vec![HapticdBodyPose::default(); MAX_POSES].into(),
             pose_count: 0,
         }
     }
@@ -258,7 +257,7 @@ impl<W: Stepped> SharedWorld<W> {
         self.impulses.clear();
         self.locals.clear();
         self.step += 1;
-        self.pose_count = self.world.poses(&mut self.poses).min(MAX_BODIES);
+        self.pose_count = self.world.poses(&mut self.poses).min(MAX_POSES);
         finite
     }
 

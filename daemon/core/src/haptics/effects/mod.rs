@@ -1,0 +1,429 @@
+//! Haptic effects: forces that do not come from the scene's solids (springs, dampers,
+//! friction, vibrations, constant forces, fields about shapes, magnets), up to
+//! [`MAX_EFFECTS`] of them on a device at once, each on one effector or all, each with its
+//! [`Envelope`].
+//!
+//! The loop asks for each effector's two sums every tick ([`EffectSet::wrenches`]): the
+//! passive effects' wrench, which joins the scene's before the passivity controller (so
+//! the observer watches it too), and the active effects' wrench, added after it like a
+//! commanded wrench, then bounded by the limits like everything else. Starting, stopping
+//! and changing an effect never step the force faster than the force-rate limit: ramps are
+//! never shorter than an effect's strongest force over that rate, a change cross-fades the
+//! old effect into the new over such a time, and the active sum is slew-limited at the rate
+//! besides (a square wave's edges included). Nothing here allocates.
+
+mod envelope;
+mod kind;
+mod shape;
+pub mod spec;
+
+pub use envelope::Envelope;
+pub use kind::{Anchor, Easing, Grip, Keep, Kind, Wave};
+pub use shape::Shape;
+
+use glam::DVec3;
+use kind::Memory;
+
+use crate::kinematics::{MAX_EFFECTORS, Wrench};
+
+/// Effects a device holds at once.
+pub const MAX_EFFECTS: usize = 64;
+
+/// One effect: what it does, on which effector, when.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Effect {
+    /// Its kind and parameters.
+    pub kind: Kind,
+    /// The effector it acts on (None: every one).
+    pub effector: Option<usize>,
+    /// When, and how strongly.
+    pub envelope: Envelope,
+}
+
+/// A change to a device's effects, by id (the caller numbers them).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EffectCommand {
+    /// Start this effect.
+    Add(u32, Effect),
+    /// Cross-fade that effect into this one.
+    Change(u32, Effect),
+    /// Fade that effect out, then forget it.
+    Remove(u32),
+    /// Fade every effect out.
+    Clear,
+}
+
+/// Why an effect command could not be carried out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EffectError {
+    /// Every slot holds an effect.
+    Full,
+    /// No effect has that id.
+    Unknown(u32),
+}
+
+/// An effect on its way out after a change: faded linearly from `gain` over `over` seconds
+/// from `since`; its own time began at `began` (loop seconds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Outgoing {
+    effect: Effect,
+    memory: [Memory; MAX_EFFECTORS],
+    began: f64,
+    since: f64,
+    gain: f64,
+    over: f64,
+}
+
+/// One held effect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Slot {
+    id: u32,
+    effect: Effect,
+    /// Its envelope with ramps no faster than the force-rate limit.
+    envelope: Envelope,
+    memory: [Memory; MAX_EFFECTORS],
+    /// When it was added, loop seconds.
+    added: f64,
+    /// When it was told to stop, seconds after it was added.
+    stopped: Option<f64>,
+    outgoing: Option<Outgoing>,
+}
+
+impl Slot {
+    /// Its strength now, `t` seconds after it was added.
+    fn gain(&self, t: f64) -> f64 {
+        self.envelope.gain(t, self.stopped)
+    }
+}
+
+/// The effects of one device.
+#[derive(Debug, Clone)]
+pub struct EffectSet {
+    slots: [Option<Slot>; MAX_EFFECTS],
+    time: f64,
+    max_force: f64,
+    max_force_rate: f64,
+    /// Each effector's active sum last tick, for the slew limit.
+    active: [DVec3; MAX_EFFECTORS],
+}
+
+impl EffectSet {
+    /// No effects yet, for forces of at most `max_force` N changing at most `max_force_rate`
+    /// N/s.
+    pub fn new(max_force: f64, max_force_rate: f64) -> Self {
+        Self {
+            slots: [None; MAX_EFFECTS],
+            time: 0.0,
+            max_force,
+            max_force_rate,
+            active: [DVec3::ZERO; MAX_EFFECTORS],
+        }
+    }
+
+    /// Effects held (fading ones included).
+    pub fn count(&self) -> usize {
+        self.slots.iter().flatten().count()
+    }
+
+    /// Change the limits, from the next tick.
+    pub fn set_limits(&mut self, max_force: f64, max_force_rate: f64) {
+        (self.max_force, self.max_force_rate) = (max_force, max_force_rate);
+    }
+
+    /// [rt] Carry out `command`.
+    pub fn command(&mut self, command: EffectCommand) -> Result<(), EffectError> {
+        match command {
+            EffectCommand::Add(id, effect) => {
+                if self.find(id).is_some() {
+                    // An id used again replaces its effect, cross-faded.
+                    return self.command(EffectCommand::Change(id, effect));
+                }
+                let envelope = self.rated(&effect.envelope, &effect.kind, 0.0);
+                let added = self.time;
+                let free = self
+                    .slots
+                    .iter_mut()
+                    .find(|s| s.is_none())
+                    .ok_or(EffectError::Full)?;
+                *free = Some(Slot {
+                    id,
+                    effect,
+                    envelope,
+                    memory: [Memory::default(); MAX_EFFECTORS],
+                    added,
+                    stopped: None,
+                    outgoing: None,
+                });
+                Ok(())
+            }
+            EffectCommand::Change(id, effect) => {
+                let index = self.find(id).ok_or(EffectError::Unknown(id))?;
+                let now = self.time;
+                let old = self.slots[index].expect("found");
+                let t = now - old.added;
+                let gain = old.gain(t);
+                let peaks = old.effect.kind.peak_force(self.max_force)
+                    + effect.kind.peak_force(self.max_force);
+                let over = self
+                    .fade_time(peaks)
+                    .max(old.envelope.fade)
+                    .max(effect.envelope.attack);
+                // The new one rises over the same time the old one falls; neither starts
+                // over from its own delay.
+                let envelope = Envelope {
+                    start: 0.0,
+                    attack: over,
+                    ..self.rated(&effect.envelope, &effect.kind, 0.0)
+                };
+                self.slots[index] = Some(Slot {
+                    id,
+                    effect,
+                    envelope,
+                    memory: old.memory,
+                    added: now,
+                    stopped: None,
+                    outgoing: Some(Outgoing {
+                        effect: old.effect,
+                        memory: old.memory,
+                        began: old.added + old.envelope.start,
+                        since: now,
+                        gain,
+                        over,
+                    }),
+                });
+                Ok(())
+            }
+            EffectCommand::Remove(id) => {
+                let index = self.find(id).ok_or(EffectError::Unknown(id))?;
+                let now = self.time;
+                if let Some(slot) = &mut self.slots[index] {
+                    slot.stopped.get_or_insert(now - slot.added);
+                }
+                Ok(())
+            }
+            EffectCommand::Clear => {
+                let now = self.time;
+                for slot in self.slots.iter_mut().flatten() {
+                    slot.stopped.get_or_insert(now - slot.added);
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The slot holding effect `id`, unless it is on its way out.
+    fn find(&self, id: u32) -> Option<usize> {
+        self.slots
+            .iter()
+            .position(|s| s.is_some_and(|s| s.id == id && s.stopped.is_none()))
+    }
+
+    /// The shortest ramp for `peak` newtons at the force-rate limit, seconds.
+    fn fade_time(&self, peak: f64) -> f64 {
+        if self.max_force_rate > 0.0 {
+            peak / self.max_force_rate
+        } else {
+            0.0
+        }
+    }
+
+    /// `envelope` of an effect of `kind`, its ramps at least `shortest` and no faster than
+    /// the force-rate limit.
+    fn rated(&self, envelope: &Envelope, kind: &Kind, shortest: f64) -> Envelope {
+        let e = envelope.within_rate(kind.peak_force(self.max_force), self.max_force_rate);
+        Envelope {
+            attack: e.attack.max(shortest),
+            fade: e.fade.max(shortest),
+            ..e
+        }
+    }
+
+    /// [rt] Move on by `dt`: effects that have faded out are forgotten.
+    pub fn advance(&mut self, dt: f64) {
+        self.time += dt;
+        let now = self.time;
+        for slot in &mut self.slots {
+            if let Some(s) = slot {
+                if s.envelope.is_over(now - s.added, s.stopped) {
+                    *slot = None;
+                } else if s.outgoing.is_some_and(|o| now - o.since >= o.over) {
+                    s.outgoing = None;
+                }
+            }
+        }
+    }
+
+    /// [rt] Effector `effector`'s passive and active wrenches this tick of `dt`, at `grip`.
+    pub fn wrenches(&mut self, effector: usize, grip: &Grip, dt: f64) -> (Wrench, Wrench) {
+        let now = self.time;
+        let (mut passive, mut active) = (Wrench::ZERO, Wrench::ZERO);
+        for slot in self.slots.iter_mut().flatten() {
+            if slot.effect.effector.is_some_and(|e| e != effector) {
+                continue;
+            }
+            let t = now - slot.added;
+            let mut w = slot.effect.kind.wrench(
+                grip,
+                t - slot.envelope.start,
+                dt,
+                &mut slot.memory[effector],
+            ) * slot.gain(t);
+            if let Some(o) = &mut slot.outgoing {
+                let left = o.gain * (1.0 - (now - o.since) / o.over).max(0.0);
+                let old = o
+                    .effect
+                    .kind
+                    .wrench(grip, now - o.began, dt, &mut o.memory[effector]);
+                w = w + old * left;
+            }
+            if slot.effect.kind.is_passive() {
+                passive = passive + w;
+            } else {
+                active = active + w;
+            }
+        }
+        // The active sum moves no faster than the force-rate limit.
+        if self.max_force_rate > 0.0 {
+            let last = self.active[effector];
+            let step =
+                crate::kinematics::clamp_length(active.force - last, self.max_force_rate * dt);
+            active.force = last + step;
+        }
+        self.active[effector] = active.force;
+        (passive, active)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::Pose;
+
+    const DT: f64 = 1e-3;
+
+    fn resting() -> Grip {
+        Grip {
+            pose: Pose::default(),
+            velocity: DVec3::ZERO,
+        }
+    }
+
+    fn constant(force: DVec3, attack: f64) -> Effect {
+        Effect {
+            kind: Kind::Constant {
+                force,
+                torque: DVec3::ZERO,
+            },
+            effector: None,
+            envelope: Envelope {
+                attack,
+                ..Envelope::default()
+            },
+        }
+    }
+
+    /// The active force on effector 0 at each of `ticks` ticks.
+    fn run(set: &mut EffectSet, ticks: usize) -> Vec<DVec3> {
+        (0..ticks)
+            .map(|_| {
+                set.advance(DT);
+                set.wrenches(0, &resting(), DT).1.force
+            })
+            .collect()
+    }
+
+    fn steepest(forces: &[DVec3]) -> f64 {
+        forces
+            .windows(2)
+            .map(|w| (w[1] - w[0]).length() / DT)
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn starting_changing_and_stopping_never_step_faster_than_the_rate_limit() {
+        let rate = 1000.0;
+        let mut set = EffectSet::new(10.0, rate);
+        set.command(EffectCommand::Add(1, constant(DVec3::X * 8.0, 0.0)))
+            .unwrap();
+        let mut forces = run(&mut set, 20);
+        // 8 N at 1000 N/s: 8 ms to rise, then held.
+        assert!((forces[19].x - 8.0).abs() < 1e-9, "{:?}", forces[19]);
+        set.command(EffectCommand::Change(1, constant(-DVec3::X * 8.0, 0.0)))
+            .unwrap();
+        forces.extend(run(&mut set, 30));
+        assert!((forces[49].x + 8.0).abs() < 1e-9, "{:?}", forces[49]);
+        set.command(EffectCommand::Remove(1)).unwrap();
+        forces.extend(run(&mut set, 20));
+        assert_eq!(forces[69], DVec3::ZERO);
+        assert_eq!(set.count(), 0, "faded out and forgotten");
+        assert!(
+            steepest(&forces) <= rate * (1.0 + 1e-9),
+            "{}",
+            steepest(&forces)
+        );
+    }
+
+    #[test]
+    fn a_square_wave_edges_at_the_rate_limit_and_keeps_its_amplitude() {
+        let rate = 2000.0;
+        let mut set = EffectSet::new(10.0, rate);
+        let square = Effect {
+            kind: Kind::Periodic {
+                wave: Wave::Square,
+                frequency: 10.0,
+                amplitude: 2.0,
+                direction: DVec3::Y,
+                phase: 0.0,
+            },
+            effector: None,
+            envelope: Envelope::default(),
+        };
+        set.command(EffectCommand::Add(7, square)).unwrap();
+        let forces = run(&mut set, 300);
+        assert!(steepest(&forces) <= rate * (1.0 + 1e-9));
+        let high = forces.iter().map(|f| f.y).fold(f64::MIN, f64::max);
+        let low = forces.iter().map(|f| f.y).fold(f64::MAX, f64::min);
+        assert!(
+            (high - 2.0).abs() < 1e-9 && (low + 2.0).abs() < 1e-9,
+            "{high} {low}"
+        );
+    }
+
+    #[test]
+    fn effects_act_on_their_effector_and_split_into_passive_and_active() {
+        let mut set = EffectSet::new(10.0, 0.0);
+        let spring = Effect {
+            kind: Kind::Spring {
+                anchor: Anchor::Point(DVec3::X),
+                stiffness: 100.0,
+                dead_band: 0.0,
+                saturation: 0.0,
+            },
+            effector: Some(1),
+            envelope: Envelope::default(),
+        };
+        set.command(EffectCommand::Add(1, spring)).unwrap();
+        set.command(EffectCommand::Add(2, constant(DVec3::Z, 0.0)))
+            .unwrap();
+        set.advance(DT);
+        let (passive0, active0) = set.wrenches(0, &resting(), DT);
+        let (passive1, active1) = set.wrenches(1, &resting(), DT);
+        assert_eq!((passive0.force, active0.force), (DVec3::ZERO, DVec3::Z));
+        assert_eq!(
+            (passive1.force, active1.force),
+            (DVec3::X * 100.0, DVec3::Z)
+        );
+        assert_eq!(
+            set.command(EffectCommand::Remove(9)),
+            Err(EffectError::Unknown(9))
+        );
+        for id in 3..=MAX_EFFECTS as u32 {
+            set.command(EffectCommand::Add(id, constant(DVec3::Z, 0.0)))
+                .unwrap();
+        }
+        assert_eq!(
+            set.command(EffectCommand::Add(100, constant(DVec3::Z, 0.0))),
+            Err(EffectError::Full)
+        );
+    }
+}

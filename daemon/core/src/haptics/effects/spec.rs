@@ -1,0 +1,599 @@
+//! Effects as people write them: one entry of a scene file's `effects:` list, or the text
+//! a client hands the bus, checked into an [`Effect`] with every mistake located.
+//!
+//! ```yaml
+//! - kind: sine              # constant, ramp, sine, square, triangle, saw_up, saw_down,
+//!                           # spring, rotational_spring, damper, inertia, friction,
+//!                           # fixture, shape, magnet
+//!   effector: grip          # default: every effector
+//!   direction: [0, 1, 0]
+//!   amplitude: 1.5          # N
+//!   frequency: 40           # Hz
+//!   attack: 0.1             # s, and fade, start, duration
+//! ```
+
+use glam::DVec3;
+use serde::Deserialize;
+
+use super::{Anchor, Easing, Effect, Envelope, Keep, Kind, Shape, Wave};
+use crate::diagnostics::Findings;
+
+/// One effect as written.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EffectSpec {
+    /// What it is.
+    pub kind: String,
+    /// The effector it acts on, by name (default: every one).
+    pub effector: Option<String>,
+    /// Constant, ramp (its start): force, N.
+    pub force: Option<[f64; 3]>,
+    /// Constant: torque, N·m.
+    pub torque: Option<[f64; 3]>,
+    /// Ramp: the force it ends at, N.
+    pub to: Option<[f64; 3]>,
+    /// Ramp: seconds it takes.
+    pub over: Option<f64>,
+    /// Periodic kinds: unit direction of the force.
+    pub direction: Option<[f64; 3]>,
+    /// Periodic kinds: Hz.
+    pub frequency: Option<f64>,
+    /// Periodic kinds: N.
+    pub amplitude: Option<f64>,
+    /// Periodic kinds: where in its period it starts, radians.
+    pub phase: Option<f64>,
+    /// Spring, fixture: the point it pulls toward (with `axis`: a line; `normal`: a plane).
+    pub anchor: Option<[f64; 3]>,
+    /// Spring, fixture: the line's direction.
+    pub axis: Option<[f64; 3]>,
+    /// Spring, fixture: the plane's normal.
+    pub normal: Option<[f64; 3]>,
+    /// Spring, rotational spring, fixture, shape, friction: N/m (N·m/rad).
+    pub stiffness: Option<f64>,
+    /// Damper: N·s/m.
+    pub damping: Option<f64>,
+    /// Spring: metres about the anchor where it is slack.
+    pub dead_band: Option<f64>,
+    /// Spring, rotational spring: its strongest force (N·m for the rotational one).
+    pub saturation: Option<f64>,
+    /// Rotational spring: the orientation it turns the grip to, `[w, x, y, z]`.
+    pub orientation: Option<[f64; 4]>,
+    /// Inertia: kg.
+    pub mass: Option<f64>,
+    /// Friction: the Coulomb force, N (magnet: its strongest pull).
+    pub friction: Option<f64>,
+    /// Damper: where it acts (default: everywhere).
+    pub region: Option<ShapeSpec>,
+    /// Fixture, shape, magnet: the shape.
+    pub shape: Option<ShapeSpec>,
+    /// Fixture: `on` (default), `in` or `out` of the shape.
+    pub keep: Option<String>,
+    /// Fixture, shape: the depth over which the force eases up to `stiffness × width`.
+    pub width: Option<f64>,
+    /// Fixture, shape: `linear` (default) or `smooth`.
+    pub easing: Option<String>,
+    /// Magnet: metres from the surface it pulls from.
+    pub reach: Option<f64>,
+    /// Seconds to rise to full strength.
+    pub attack: Option<f64>,
+    /// Seconds to fall to nothing.
+    pub fade: Option<f64>,
+    /// Seconds before it begins.
+    pub start: Option<f64>,
+    /// Seconds it holds (default: until removed).
+    pub duration: Option<f64>,
+}
+
+/// A shape as written: one of `sphere`, `box`, `capsule`, `cylinder`, `plane`, `cone`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ShapeSpec {
+    /// A ball of this radius, m.
+    pub sphere: Option<f64>,
+    /// A box of these edges, m (rounded by `radius`).
+    #[serde(rename = "box")]
+    pub cuboid: Option<[f64; 3]>,
+    /// A capsule between these two points, of `radius`.
+    pub capsule: Option<[[f64; 3]; 2]>,
+    /// A cylinder between these two points, of `radius`.
+    pub cylinder: Option<[[f64; 3]; 2]>,
+    /// A half-space behind the plane of this outward normal through `point`.
+    pub plane: Option<[f64; 3]>,
+    /// A cone of this half-angle (degrees), its tip at `point`, opening along `axis`,
+    /// `height` long.
+    pub cone: Option<f64>,
+    /// The centre of a sphere or box (default: the origin).
+    pub center: Option<[f64; 3]>,
+    /// A point of the plane, the cone's tip (default: the origin).
+    pub point: Option<[f64; 3]>,
+    /// The radius of a capsule or cylinder, the rounding of a box's edges, m.
+    pub radius: Option<f64>,
+    /// The cone's axis.
+    pub axis: Option<[f64; 3]>,
+    /// The cone's height, m.
+    pub height: Option<f64>,
+}
+
+/// What an effect is checked against.
+#[derive(Debug, Clone, Copy)]
+pub struct Limits<'a> {
+    /// The device's effectors, by name.
+    pub effectors: &'a [String],
+    /// The device's MaxForce, N.
+    pub max_force: f64,
+    /// The loop's rate, Hz: a periodic effect stays below half of it.
+    pub rate: f64,
+}
+
+/// Farthest an effect's point may be, metres: well outside any SPIDAR's frame.
+const EXTENT: f64 = 10.0;
+/// Stiffest spring, N/m, as the proxy's (the Stiffness parameter's range).
+const MAX_STIFFNESS: f64 = 100_000.0;
+/// Most viscosity, N·s/m, as the Damping parameter's.
+const MAX_DAMPING: f64 = 500.0;
+/// Heaviest inertia, kg.
+const MAX_MASS: f64 = 5.0;
+
+/// The keys each kind takes besides `kind`, `effector` and the envelope's.
+fn keys_of(kind: &str) -> Option<&'static [&'static str]> {
+    Some(match kind {
+        "constant" => &["force", "torque"],
+        "ramp" => &["force", "to", "over"],
+        "sine" | "square" | "triangle" | "saw_up" | "saw_down" => {
+            &["direction", "frequency", "amplitude", "phase"]
+        }
+        "spring" => &[
+            "anchor",
+            "axis",
+            "normal",
+            "stiffness",
+            "dead_band",
+            "saturation",
+        ],
+        "rotational_spring" => &["orientation", "stiffness", "saturation"],
+        "damper" => &["damping", "region"],
+        "inertia" => &["mass"],
+        "friction" => &["friction", "stiffness"],
+        "fixture" => &[
+            "anchor",
+            "axis",
+            "normal",
+            "shape",
+            "keep",
+            "stiffness",
+            "width",
+            "easing",
+        ],
+        "shape" => &["shape", "stiffness", "width", "easing"],
+        "magnet" => &["shape", "reach", "friction"],
+        _ => return None,
+    })
+}
+
+/// Every kind, for the message that names them.
+const KINDS: &str = "constant, ramp, sine, square, triangle, saw_up, saw_down, spring, \
+                     rotational_spring, damper, inertia, friction, fixture, shape, magnet";
+
+impl EffectSpec {
+    /// The keys given besides `kind` and `effector`, by name.
+    fn given(&self) -> Vec<&'static str> {
+        let present = [
+            ("force", self.force.is_some()),
+            ("torque", self.torque.is_some()),
+            ("to", self.to.is_some()),
+            ("over", self.over.is_some()),
+            ("direction", self.direction.is_some()),
+            ("frequency", self.frequency.is_some()),
+            ("amplitude", self.amplitude.is_some()),
+            ("phase", self.phase.is_some()),
+            ("anchor", self.anchor.is_some()),
+            ("axis", self.axis.is_some()),
+            ("normal", self.normal.is_some()),
+            ("stiffness", self.stiffness.is_some()),
+            ("damping", self.damping.is_some()),
+            ("dead_band", self.dead_band.is_some()),
+            ("saturation", self.saturation.is_some()),
+            ("orientation", self.orientation.is_some()),
+            ("mass", self.mass.is_some()),
+            ("friction", self.friction.is_some()),
+            ("region", self.region.is_some()),
+            ("shape", self.shape.is_some()),
+            ("keep", self.keep.is_some()),
+            ("width", self.width.is_some()),
+            ("easing", self.easing.is_some()),
+            ("reach", self.reach.is_some()),
+        ];
+        present
+            .iter()
+            .filter(|(_, given)| *given)
+            .map(|(k, _)| *k)
+            .collect()
+    }
+
+    /// The effect this entry (at field path `at`) describes, every mistake an error in `f`;
+    /// None when there was one.
+    pub fn check(&self, at: &str, limits: &Limits, f: &mut Findings) -> Option<Effect> {
+        let key = |k: &str| format!("{at}.{k}");
+        let Some(takes) = keys_of(&self.kind) else {
+            f.error(
+                key("kind"),
+                format!("{:?} is no kind of effect: one of {KINDS}", self.kind),
+            );
+            return None;
+        };
+        let mut bad = false;
+        for given in self.given() {
+            if !takes.contains(&given) {
+                f.error(key(given), format!("is no key of a {} effect", self.kind));
+                bad = true;
+            }
+        }
+        let effector = match &self.effector {
+            Some(name) => match limits.effectors.iter().position(|e| e == name) {
+                Some(index) => Some(index),
+                None => {
+                    f.error(
+                        key("effector"),
+                        format!(
+                            "no effector {name:?}: the device has {:?}",
+                            limits.effectors
+                        ),
+                    );
+                    bad = true;
+                    None
+                }
+            },
+            None => None,
+        };
+        let envelope = self.envelope(at, f);
+        let kind = Checker {
+            spec: self,
+            at,
+            limits,
+            f,
+        }
+        .kind();
+        match (kind, envelope, bad) {
+            (Some(kind), Some(envelope), false) => Some(Effect {
+                kind,
+                effector,
+                envelope,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Its envelope; None when a time was wrong (said in `f`).
+    fn envelope(&self, at: &str, f: &mut Findings) -> Option<Envelope> {
+        let mut e = Envelope::default();
+        let mut good = true;
+        for (name, value, slot, most) in [
+            ("attack", self.attack, &mut e.attack, 3600.0),
+            ("fade", self.fade, &mut e.fade, 3600.0),
+            ("start", self.start, &mut e.start, 3600.0),
+            ("duration", self.duration, &mut e.duration, 1e9),
+        ] {
+            if let Some(v) = value {
+                good &= f.within(format!("{at}.{name}"), v, 0.0, most, " s");
+                *slot = v;
+            }
+        }
+        good.then_some(e)
+    }
+}
+
+/// The checks of one entry's kind.
+struct Checker<'a, 'b, 'c> {
+    spec: &'a EffectSpec,
+    at: &'a str,
+    limits: &'a Limits<'a>,
+    f: &'b mut Findings<'c>,
+}
+
+impl Checker<'_, '_, '_> {
+    fn key(&self, k: &str) -> String {
+        format!("{}.{k}", self.at)
+    }
+
+    /// `value` of key `k`, which the kind needs.
+    fn needed<T: Copy>(&mut self, k: &str, value: Option<T>) -> Option<T> {
+        if value.is_none() {
+            self.f
+                .error(self.key(k), format!("a {} effect needs it", self.spec.kind));
+        }
+        value
+    }
+
+    /// A number of key `k` in `lo..=hi`.
+    fn number(
+        &mut self,
+        k: &str,
+        value: Option<f64>,
+        (lo, hi): (f64, f64),
+        unit: &str,
+    ) -> Option<f64> {
+        let v = self.needed(k, value)?;
+        self.f.within(self.key(k), v, lo, hi, unit).then_some(v)
+    }
+
+    /// An optional number of key `k` in `lo..=hi`, else `default`.
+    fn or(
+        &mut self,
+        k: &str,
+        value: Option<f64>,
+        (lo, hi): (f64, f64),
+        unit: &str,
+        default: f64,
+    ) -> f64 {
+        match value {
+            Some(v) if self.f.within(self.key(k), v, lo, hi, unit) => v,
+            Some(_) => default,
+            None => default,
+        }
+    }
+
+    /// A point of key `k`.
+    fn point(&mut self, k: &str, value: Option<[f64; 3]>) -> Option<DVec3> {
+        let v = self.needed(k, value)?;
+        self.f
+            .coordinates(self.key(k), &v, EXTENT, "m")
+            .then(|| DVec3::from(v))
+    }
+
+    /// A force of key `k`, at most MaxForce long.
+    fn force(&mut self, k: &str, value: Option<[f64; 3]>) -> Option<DVec3> {
+        let v = DVec3::from(self.needed(k, value)?);
+        let most = self.limits.max_force;
+        if !(v.is_finite() && v.length() <= most) {
+            self.f.error(
+                self.key(k),
+                format!("must be finite and at most MaxForce, {most} N, long"),
+            );
+            return None;
+        }
+        Some(v)
+    }
+
+    /// A unit direction of key `k` (any length but zero, made unit).
+    fn direction(&mut self, k: &str, value: Option<[f64; 3]>) -> Option<DVec3> {
+        let v = DVec3::from(self.needed(k, value)?);
+        let unit = v.try_normalize().filter(|_| v.is_finite());
+        if unit.is_none() {
+            self.f
+                .error(self.key(k), "must be a finite direction, not zero");
+        }
+        unit
+    }
+
+    fn kind(&mut self) -> Option<Kind> {
+        let s = self.spec;
+        let most = self.limits.max_force;
+        Some(match s.kind.as_str() {
+            "constant" => Kind::Constant {
+                force: match s.force {
+                    Some(_) => self.force("force", s.force)?,
+                    None => DVec3::ZERO,
+                },
+                torque: match s.torque {
+                    Some(t) => {
+                        let t = DVec3::from(t);
+                        if !t.is_finite() || t.length() > 10.0 {
+                            self.f.error(
+                                self.key("torque"),
+                                "must be finite and at most 10 N·m long",
+                            );
+                            return None;
+                        }
+                        t
+                    }
+                    None => DVec3::ZERO,
+                },
+            },
+            "ramp" => Kind::Ramp {
+                from: self.force("force", s.force)?,
+                to: self.force("to", s.to)?,
+                over: self.number("over", s.over, (0.0, 3600.0), " s")?,
+            },
+            "sine" | "square" | "triangle" | "saw_up" | "saw_down" => Kind::Periodic {
+                wave: match s.kind.as_str() {
+                    "sine" => Wave::Sine,
+                    "square" => Wave::Square,
+                    "triangle" => Wave::Triangle,
+                    "saw_up" => Wave::SawUp,
+                    _ => Wave::SawDown,
+                },
+                direction: self.direction("direction", s.direction)?,
+                // Below half the loop's rate, where it is still a wave.
+                frequency: self.number(
+                    "frequency",
+                    s.frequency,
+                    (0.0, 0.5 * self.limits.rate),
+                    " Hz",
+                )?,
+                amplitude: self.number("amplitude", s.amplitude, (0.0, most), " N")?,
+                phase: self.or("phase", s.phase, (-1e3, 1e3), " rad", 0.0),
+            },
+            "spring" => Kind::Spring {
+                anchor: self.anchor()?,
+                stiffness: self.number("stiffness", s.stiffness, (0.0, MAX_STIFFNESS), " N/m")?,
+                dead_band: self.or("dead_band", s.dead_band, (0.0, 1.0), " m", 0.0),
+                saturation: self.or("saturation", s.saturation, (0.0, most), " N", 0.0),
+            },
+            "rotational_spring" => Kind::Twist {
+                orientation: {
+                    let wxyz = self.needed("orientation", s.orientation)?;
+                    let at = self.key("orientation");
+                    self.f.unit_quaternion(at, wxyz)
+                },
+                stiffness: self.number("stiffness", s.stiffness, (0.0, 100.0), " N·m/rad")?,
+                saturation: self.or("saturation", s.saturation, (0.0, 10.0), " N·m", 0.0),
+            },
+            "damper" => Kind::Damper {
+                damping: self.number("damping", s.damping, (0.0, MAX_DAMPING), " N·s/m")?,
+                region: match &s.region {
+                    Some(r) => Some(self.shape("region", r)?),
+                    None => None,
+                },
+            },
+            "inertia" => Kind::Inertia {
+                mass: self.number("mass", s.mass, (0.0, MAX_MASS), " kg")?,
+            },
+            "friction" => Kind::Friction {
+                force: self.number("friction", s.friction, (0.0, most), " N")?,
+                stiffness: self.number("stiffness", s.stiffness, (1.0, MAX_STIFFNESS), " N/m")?,
+            },
+            "fixture" | "shape" => {
+                let keep = match (s.kind.as_str(), s.keep.as_deref()) {
+                    ("shape", _) | (_, Some("out")) => Keep::Out,
+                    (_, None | Some("on")) => Keep::On,
+                    (_, Some("in")) => Keep::In,
+                    (_, Some(other)) => {
+                        self.f
+                            .error(self.key("keep"), format!("{other:?}: `on`, `in` or `out`"));
+                        return None;
+                    }
+                };
+                let stiffness =
+                    self.number("stiffness", s.stiffness, (0.0, MAX_STIFFNESS), " N/m")?;
+                // A fixture on a line or a plane is a spring to it.
+                if s.shape.is_none() && s.kind == "fixture" {
+                    return Some(Kind::Spring {
+                        anchor: self.anchor()?,
+                        stiffness,
+                        dead_band: 0.0,
+                        saturation: 0.0,
+                    });
+                }
+                let shape = self.shape("shape", s.shape.as_ref()?)?;
+                Kind::Field {
+                    shape,
+                    keep,
+                    stiffness,
+                    width: self.or("width", s.width, (0.0, 1.0), " m", 0.0),
+                    easing: match s.easing.as_deref() {
+                        None | Some("linear") => Easing::Linear,
+                        Some("smooth") => Easing::Smooth,
+                        Some(other) => {
+                            self.f.error(
+                                self.key("easing"),
+                                format!("{other:?}: `linear` or `smooth`"),
+                            );
+                            return None;
+                        }
+                    },
+                }
+            }
+            "magnet" => Kind::Magnet {
+                shape: {
+                    let written = self.needed("shape", s.shape.as_ref())?;
+                    self.shape("shape", written)?
+                },
+                reach: self.number("reach", s.reach, (0.0, 1.0), " m")?,
+                force: self.number("friction", s.friction, (0.0, most), " N")?,
+            },
+            _ => unreachable!("keys_of knows every kind"),
+        })
+    }
+
+    /// A spring's anchor: a point, a line (`axis`) or a plane (`normal`).
+    fn anchor(&mut self) -> Option<Anchor> {
+        let s = self.spec;
+        let point = self.point("anchor", s.anchor)?;
+        Some(match (s.axis, s.normal) {
+            (Some(_), Some(_)) => {
+                self.f.error(
+                    self.key("normal"),
+                    "give `axis` (a line) or `normal` (a plane), not both",
+                );
+                return None;
+            }
+            (Some(_), None) => Anchor::Line {
+                point,
+                direction: self.direction("axis", s.axis)?,
+            },
+            (None, Some(_)) => Anchor::Plane {
+                point,
+                normal: self.direction("normal", s.normal)?,
+            },
+            (None, None) => Anchor::Point(point),
+        })
+    }
+
+    /// The shape written at key `k`.
+    fn shape(&mut self, k: &str, spec: &ShapeSpec) -> Option<Shape> {
+        let at = self.key(k);
+        let point = |v: Option<[f64; 3]>| DVec3::from(v.unwrap_or_default());
+        let radius = spec.radius.unwrap_or(0.0);
+        let given = [
+            spec.sphere.is_some(),
+            spec.cuboid.is_some(),
+            spec.capsule.is_some(),
+            spec.cylinder.is_some(),
+            spec.plane.is_some(),
+            spec.cone.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            self.f.error(
+                at,
+                "give one of sphere, box, capsule, cylinder, plane or cone",
+            );
+            return None;
+        }
+        let shape = if let Some(r) = spec.sphere {
+            Shape::Sphere {
+                centre: point(spec.center),
+                radius: r,
+            }
+        } else if let Some(edges) = spec.cuboid {
+            Shape::Box {
+                centre: point(spec.center),
+                half: DVec3::from(edges) * 0.5,
+                radius,
+            }
+        } else if let Some([a, b]) = spec.capsule {
+            Shape::Capsule {
+                a: DVec3::from(a),
+                b: DVec3::from(b),
+                radius,
+            }
+        } else if let Some([a, b]) = spec.cylinder {
+            Shape::Cylinder {
+                a: DVec3::from(a),
+                b: DVec3::from(b),
+                radius,
+            }
+        } else if let Some(n) = spec.plane {
+            Shape::Plane {
+                point: point(spec.point),
+                normal: DVec3::from(n).normalize_or_zero(),
+            }
+        } else {
+            Shape::Cone {
+                apex: point(spec.point),
+                axis: DVec3::from(spec.axis.unwrap_or([0.0, 1.0, 0.0])).normalize_or_zero(),
+                angle: spec.cone.unwrap_or_default().to_radians(),
+                height: spec.height.unwrap_or(0.0),
+            }
+        };
+        let inside = |p: DVec3| p.is_finite() && p.abs().max_element() <= EXTENT;
+        let placed = match shape {
+            Shape::Sphere { centre, radius } | Shape::Box { centre, radius, .. } => {
+                inside(centre) && radius <= EXTENT
+            }
+            Shape::Capsule { a, b, radius } | Shape::Cylinder { a, b, radius } => {
+                inside(a) && inside(b) && radius <= EXTENT
+            }
+            Shape::Plane { point, .. } => inside(point),
+            Shape::Cone { apex, height, .. } => inside(apex) && height <= EXTENT,
+        };
+        if !(placed && shape.is_valid()) {
+            self.f.error(
+                at,
+                "is no shape: sizes must be finite and positive (a box's rounding at most half \
+                 its smallest edge, a cone's angle under 90°), within 10 m of the origin",
+            );
+            return None;
+        }
+        Some(shape)
+    }
+}
