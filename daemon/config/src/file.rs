@@ -24,6 +24,7 @@
 //! safety:
 //!   max_force: 10           # N per effector
 //!   max_torque: 0.3         # N·m per effector
+//!   max_force_rate: 5000    # N/s: how fast an effect's force may change as it starts, stops or changes
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -117,6 +118,8 @@ pub struct SafetyConfig {
     pub max_force: f64,
     /// Largest torque per effector, newton-metres.
     pub max_torque: f64,
+    /// How fast an effect's force may change as it starts, stops or changes, N/s.
+    pub max_force_rate: f64,
 }
 
 impl Default for Config {
@@ -159,6 +162,7 @@ impl Default for SafetyConfig {
         Self {
             max_force: 10.0,
             max_torque: 0.3,
+            max_force_rate: hapticd_core::haptic_loop::MAX_FORCE_RATE,
         }
     }
 }
@@ -214,6 +218,9 @@ impl Config {
                 f.error(key, e.to_string());
             }
         }
+        let rate = self.safety.max_force_rate;
+        // From a tenth of MaxForce's range a second to MaxForce in a tick at 10 kHz.
+        f.within("safety.max_force_rate", rate, 5.0, 500_000.0, " N/s");
         self.check_devices(f);
     }
 

@@ -3,12 +3,13 @@
 //! 1. one transport update: write the D/A values of the previous tick, read the counters;
 //! 2. counts → lengths → pose of each effector (two warm-started Gauss–Newton iterations);
 //! 3. the scene renders a wrench for each pointer;
-//! 4. passivity controller, plus a wrench commanded from outside (teleoperation), then
+//! 4. the passive effects join the scene's wrench, then the passivity controller; the
+//!    active effects and a wrench commanded from outside (teleoperation) are added, then
 //!    limits, NaN guard and fault ramp;
 //! 5. wrench → tensions (the box QP) → D/A values, never above a motor's limit.
 //!
 //! Between ticks the loop takes [`LoopCommand`]s: new parameters, a calibration, a fault
-//! reset, a new scene (swapped in once the forces have ramped to zero, then ramped back up),
+//! reset, an effect added, changed or removed, a new scene (swapped in once the forces have ramped to zero, then ramped back up),
 //! the device opened again after it came back, a new source of commanded wrenches.
 //!
 //! Everything is allocated in [`HapticLoop::new`]; a tick allocates nothing, takes no lock
@@ -18,6 +19,7 @@
 use glam::DVec3;
 
 use crate::fault_hold::{FaultHold, SCENE_RECOVERY};
+use crate::haptics::effects::{EffectCommand, EffectSet, Grip};
 use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
 use crate::haptics::wrench_command::{CommandState, WrenchCommand, WrenchSource};
@@ -54,7 +56,12 @@ pub struct LoopSettings {
     pub safety: SafetyLimits,
     /// How hard the passivity controller may act.
     pub passivity: PassivityLimits,
+    /// How fast an effect's force may change as it starts, stops or changes, N/s.
+    pub max_force_rate: f64,
 }
+
+/// The default force-rate limit, N/s: MaxForce's default, 10 N, in 2 ms.
+pub const MAX_FORCE_RATE: f64 = 5000.0;
 
 impl Default for LoopSettings {
     fn default() -> Self {
@@ -63,6 +70,7 @@ impl Default for LoopSettings {
             velocity_cutoff: 200.0,
             safety: SafetyLimits::default(),
             passivity: PassivityLimits::default(),
+            max_force_rate: MAX_FORCE_RATE,
         }
     }
 }
@@ -115,6 +123,8 @@ pub struct Frame {
     pub angular_velocities: [DVec3; MAX_EFFECTORS],
     /// Wrench displayed on each effector (after passivity and safety).
     pub wrenches: [Wrench; MAX_EFFECTORS],
+    /// Effects held (fading ones included).
+    pub effects: usize,
     /// What each effector's pointer touches, as the scene says.
     pub touches: [Touch; MAX_EFFECTORS],
     /// Strings in use.
@@ -194,6 +204,8 @@ pub enum LoopCommand {
     /// Add the wrenches commanded in this block to the displayed ones from now on (the
     /// block read before is handed back).
     CommandWrenches(Box<dyn WrenchSource>),
+    /// Add, change or remove an effect.
+    Effect(EffectCommand),
 }
 
 /// Something the loop no longer uses, handed back to be freed off the real-time thread.
@@ -240,6 +252,7 @@ pub struct HapticLoop {
     /// The wrench commanded from outside, and each effector's share of it this tick.
     command: WrenchCommand,
     commanded: [Wrench; MAX_EFFECTORS],
+    effects: EffectSet,
     frame: Frame,
     parameters: Option<Parameters>,
     incoming: Option<Box<dyn Scene>>,
@@ -329,6 +342,7 @@ impl HapticLoop {
             wrenches: vec![Wrench::ZERO; pointers.len()],
             command: WrenchCommand::new(),
             commanded: [Wrench::ZERO; MAX_EFFECTORS],
+            effects: EffectSet::new(settings.safety.max_force, settings.max_force_rate),
             pointers,
             effectors,
             settings,
@@ -385,6 +399,8 @@ impl HapticLoop {
                 self.scene.set_proxy(&parameters.proxy);
                 self.scene
                     .set_wrench_limits(parameters.max_force, parameters.max_torque);
+                self.effects
+                    .set_limits(parameters.max_force, self.settings.max_force_rate);
                 self.parameters = Some(parameters);
             }
             LoopCommand::MeasureOffsets => self.measure = true,
@@ -426,6 +442,10 @@ impl HapticLoop {
                 if let Some(old) = self.command.replace(source) {
                     self.keep_retired(Retired::WrenchSource(old));
                 }
+            }
+            // The control plane numbers effects and counts them against MAX_EFFECTS.
+            LoopCommand::Effect(command) => {
+                let _ = self.effects.command(command);
             }
         }
     }
@@ -594,12 +614,20 @@ impl HapticLoop {
     #[inline]
     fn drive_strings(&mut self, dt: f64, healthy: bool) -> bool {
         let mut all_finite = true;
+        self.effects.advance(dt);
+        self.frame.effects = self.effects.count();
         for (index, e) in self.effectors.iter_mut().enumerate() {
-            let mut wrench = self.wrenches[index];
+            let grip = Grip {
+                pose: *e.pose.pose(),
+                velocity: e.velocity,
+            };
+            let (passive, active) = self.effects.wrenches(index, &grip, dt);
+            // Passive effects are watched by the observer like the scene.
+            let mut wrench = self.wrenches[index] + passive;
             wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);
-            // What the far side commands is no energy of the scene's: past the passivity
-            // controller, but within the limits and the guard like the rest.
-            wrench = wrench + self.commanded[index];
+            // What active effects and the far side give is energy by design: past the
+            // passivity controller, but within the limits and the guard like the rest.
+            wrench = wrench + active + self.commanded[index];
             all_finite &= e.guard.apply(&mut wrench, healthy, dt);
             self.frame.wrenches[index] = wrench;
             self.frame.poses[index] = *e.pose.pose();

@@ -517,6 +517,81 @@ device_interface! {
         Ok(())
     }
 
+    /// The effects the device renders besides its scene, by id, each as written (YAML).
+    #[zbus(property)]
+    fn effects(&self) -> Vec<(u32, String)> {
+        self.device.effects()
+    }
+
+    /// Start an effect (a spring, damper, friction, vibration, constant force, field or
+    /// magnet: `effect` in YAML, one entry of a scene file's `effects:`); its id. Checked
+    /// against the device (its effectors, MaxForce, rate): every mistake is an
+    /// InvalidEffect error naming its place, and nothing starts.
+    async fn add_effect(
+        &self,
+        effect: String,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<u32, BusError> {
+        let device = self.device.clone();
+        let result = self.workers.run(move || device.add_effect(&effect)).await;
+        let what = format!("add an effect to {}", self.device.identity());
+        audit(&what, &caller(connection, Some(&header)).await, &result.as_ref().map(|_| ()));
+        let id = result?;
+        report(self.effects_changed(&emitter).await);
+        Ok(id)
+    }
+
+    /// Cross-fade effect `id` into `effect` (YAML), never faster than the force-rate limit.
+    async fn change_effect(
+        &self,
+        id: u32,
+        effect: String,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(), BusError> {
+        let device = self.device.clone();
+        let result = self.workers.run(move || device.change_effect(id, &effect)).await;
+        let what = format!("change effect {id} of {}", self.device.identity());
+        audit(&what, &caller(connection, Some(&header)).await, &result);
+        result?;
+        report(self.effects_changed(&emitter).await);
+        Ok(())
+    }
+
+    /// Fade effect `id` out (over its fade, never faster than the force-rate limit).
+    async fn remove_effect(
+        &self,
+        id: u32,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(), BusError> {
+        let result = self.device.remove_effect(id);
+        let what = format!("remove effect {id} of {}", self.device.identity());
+        audit(&what, &caller(connection, Some(&header)).await, &result);
+        result?;
+        report(self.effects_changed(&emitter).await);
+        Ok(())
+    }
+
+    /// Fade every effect out.
+    async fn clear_effects(
+        &self,
+        #[zbus(signal_emitter)] emitter: SignalEmitter<'_>,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(), BusError> {
+        let result = self.device.clear_effects();
+        let what = format!("clear the effects of {}", self.device.identity());
+        audit(&what, &caller(connection, Some(&header)).await, &result);
+        result?;
+        report(self.effects_changed(&emitter).await);
+        Ok(())
+    }
+
     /// Forget the scene's contact state and let the forces come back after a fault.
     async fn reset_fault(
         &self,

@@ -40,6 +40,8 @@ fn name_of(error: &control::Error) -> &'static str {
         Command(CommandError::OutOfRange(_)) => "OutOfRange",
         Command(CommandError::Refused(_)) => "CommandRefused",
         Command(CommandError::Timeout(_)) => "Timeout",
+        InvalidEffect(_) => "InvalidEffect",
+        UnknownEffect(_) => "UnknownEffect",
     }
 }
 

@@ -59,6 +59,8 @@ pub struct DeviceHandle {
     /// What is remembered, under one lock so that concurrent requests persist in the order
     /// they take effect.
     remembered: Mutex<Remembered>,
+    /// The effects it renders.
+    pub(super) effects: Mutex<super::effects::Effects>,
 }
 
 /// A device's persisted record and the defaults its parameter overrides apply to.
@@ -154,6 +156,7 @@ impl DeviceHandle {
                 record: setup.record,
                 defaults: setup.defaults,
             }),
+            effects: Mutex::default(),
         }
     }
 
@@ -284,7 +287,7 @@ impl DeviceHandle {
             .unwrap_or_else(|| overrides.rate().unwrap_or(self.rate))
     }
 
-    fn send(&self, command: LoopCommand) -> Result<(), Error> {
+    pub(super) fn send(&self, command: LoopCommand) -> Result<(), Error> {
         lock(&self.commands)
             .try_push(command)
             .map_err(|_| not_taking_commands())

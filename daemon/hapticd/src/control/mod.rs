@@ -20,6 +20,7 @@ use hapticd_core::scene::control::CommandError;
 use hapticd_plugin_api::{HapticdBodyState, HapticdSceneCommand};
 
 mod device;
+mod effects;
 
 use device::lock;
 pub use device::{DeviceHandle, DeviceSetup, Fixed, Telemetry, scene_geometry};
@@ -56,6 +57,10 @@ pub enum Error {
     Preparing(String),
     /// A change to the running world was not carried out.
     Command(CommandError),
+    /// An effect's text is malformed or asks what the device cannot do: every finding.
+    InvalidEffect(Diagnostics),
+    /// No effect has that id.
+    UnknownEffect(String),
 }
 
 impl std::fmt::Display for Error {
@@ -63,9 +68,9 @@ impl std::fmt::Display for Error {
         match self {
             Error::Scene(e) => e.fmt(f),
             Error::Command(e) => e.fmt(f),
-            Error::SceneNotKept(findings) | Error::InvalidConfiguration(findings) => {
-                findings.fmt(f)
-            }
+            Error::SceneNotKept(findings)
+            | Error::InvalidConfiguration(findings)
+            | Error::InvalidEffect(findings) => findings.fmt(f),
             Error::NotFinite(m)
             | Error::OutOfRange(m)
             | Error::UnknownMechanism(m)
@@ -75,6 +80,7 @@ impl std::fmt::Display for Error {
             | Error::StillFaulted(m)
             | Error::Unavailable(m)
             | Error::NameExpected(m)
+            | Error::UnknownEffect(m)
             | Error::Preparing(m) => f.write_str(m),
         }
     }

@@ -170,6 +170,14 @@ fn keys_of(kind: &str) -> Option<&'static [&'static str]> {
     })
 }
 
+/// The path of key `k` of the entry at `at` (the top when empty).
+fn field(at: &str, k: &str) -> String {
+    match at {
+        "" => k.to_string(),
+        at => format!("{at}.{k}"),
+    }
+}
+
 /// Every kind, for the message that names them.
 const KINDS: &str = "constant, ramp, sine, square, triangle, saw_up, saw_down, spring, \
                      rotational_spring, damper, inertia, friction, fixture, shape, magnet";
@@ -213,7 +221,7 @@ impl EffectSpec {
     /// The effect this entry (at field path `at`) describes, every mistake an error in `f`;
     /// None when there was one.
     pub fn check(&self, at: &str, limits: &Limits, f: &mut Findings) -> Option<Effect> {
-        let key = |k: &str| format!("{at}.{k}");
+        let key = |k: &str| field(at, k);
         let Some(takes) = keys_of(&self.kind) else {
             f.error(
                 key("kind"),
@@ -274,7 +282,7 @@ impl EffectSpec {
             ("duration", self.duration, &mut e.duration, 1e9),
         ] {
             if let Some(v) = value {
-                good &= f.within(format!("{at}.{name}"), v, 0.0, most, " s");
+                good &= f.within(field(at, name), v, 0.0, most, " s");
                 *slot = v;
             }
         }
@@ -292,7 +300,7 @@ struct Checker<'a, 'b, 'c> {
 
 impl Checker<'_, '_, '_> {
     fn key(&self, k: &str) -> String {
-        format!("{}.{k}", self.at)
+        field(self.at, k)
     }
 
     /// `value` of key `k`, which the kind needs.

@@ -298,6 +298,7 @@ fn loop_settings(common: &Common) -> LoopSettings {
             max_torque: common.config.safety.max_torque,
             ..SafetyLimits::default()
         },
+        max_force_rate: common.config.safety.max_force_rate,
         ..LoopSettings::default()
     }
 }
