@@ -246,6 +246,31 @@ impl Device {
         Ok(zbus::block_on(self.proxy.reset_fault())?)
     }
 
+    /// The effects rendered besides the scene, by id, each as written.
+    pub fn effects(&self) -> Result<Vec<(u32, String)>, ClientError> {
+        Ok(zbus::block_on(self.proxy.effects())?)
+    }
+
+    /// Start the effect `yaml` describes (one entry of a scene file's `effects:`); its id.
+    pub fn add_effect(&self, yaml: &str) -> Result<u32, ClientError> {
+        Ok(zbus::block_on(self.proxy.add_effect(yaml))?)
+    }
+
+    /// Cross-fade effect `id` into the one `yaml` describes.
+    pub fn change_effect(&self, id: u32, yaml: &str) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.proxy.change_effect(id, yaml))?)
+    }
+
+    /// Fade effect `id` out.
+    pub fn remove_effect(&self, id: u32) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.proxy.remove_effect(id))?)
+    }
+
+    /// Fade every effect out.
+    pub fn clear_effects(&self) -> Result<(), ClientError> {
+        Ok(zbus::block_on(self.proxy.clear_effects())?)
+    }
+
     /// Drive the device with the installed mechanism `mechanism` from its next start.
     pub fn bind_mechanism(&self, mechanism: &str) -> Result<(), ClientError> {
         Ok(zbus::block_on(self.proxy.bind_mechanism(mechanism))?)

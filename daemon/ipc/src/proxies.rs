@@ -207,6 +207,17 @@ pub trait Device {
     fn calibrate(&self) -> zbus::Result<()>;
     /// Let the forces come back after a fault.
     fn reset_fault(&self) -> zbus::Result<()>;
+    /// The effects rendered besides the scene, by id, each as written (YAML).
+    #[zbus(property)]
+    fn effects(&self) -> zbus::Result<Vec<(u32, String)>>;
+    /// Start an effect (YAML, one entry of a scene file's `effects:`); its id.
+    fn add_effect(&self, effect: &str) -> zbus::Result<u32>;
+    /// Cross-fade effect `id` into another.
+    fn change_effect(&self, id: u32, effect: &str) -> zbus::Result<()>;
+    /// Fade effect `id` out.
+    fn remove_effect(&self, id: u32) -> zbus::Result<()>;
+    /// Fade every effect out.
+    fn clear_effects(&self) -> zbus::Result<()>;
     /// Drive the device with another installed mechanism from the next start.
     fn bind_mechanism(&self, mechanism: &str) -> zbus::Result<()>;
 }

@@ -18,6 +18,7 @@ use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
 
 mod access;
 mod clients;
+mod effects;
 mod persistence;
 mod properties;
 mod ramps;

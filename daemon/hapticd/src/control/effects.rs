@@ -36,8 +36,8 @@ impl DeviceHandle {
                 format!("must be at most {MAX_TEXT} bytes of YAML without NUL"),
             )));
         }
-        let parsed = diagnostics::parse_yaml::<EffectSpec>(text, named)
-            .map_err(Error::InvalidEffect)?;
+        let parsed =
+            diagnostics::parse_yaml::<EffectSpec>(text, named).map_err(Error::InvalidEffect)?;
         let map = parsed.map;
         let locate = |field: &str| map.find(field);
         let mut f = Findings::after_schema(named, &locate, parsed.schema);
@@ -49,7 +49,10 @@ impl DeviceHandle {
         let effect = parsed.value.check("", &limits, &mut f);
         f.finish().map_err(Error::InvalidEffect)?;
         effect.ok_or_else(|| {
-            Error::InvalidEffect(Diagnostics::file(named, "is no effect this device can render"))
+            Error::InvalidEffect(Diagnostics::file(
+                named,
+                "is no effect this device can render",
+            ))
         })
     }
 

@@ -32,6 +32,13 @@ pub struct DeviceArg {
     device: String,
 }
 
+impl DeviceArg {
+    /// The device as given: an index or an identity.
+    pub fn name(&self) -> &str {
+        &self.device
+    }
+}
+
 #[derive(Args)]
 pub struct GetArgs {
     /// Parameter or property name.

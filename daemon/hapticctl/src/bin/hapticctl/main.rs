@@ -4,6 +4,7 @@ mod body;
 mod client;
 mod completion;
 mod device;
+mod effect;
 mod experiment;
 mod manual;
 mod mechanism;
@@ -68,6 +69,10 @@ enum Command {
     /// The running world's bodies: list them, see where one is, or move, push, weigh one.
     #[command(subcommand)]
     Body(body::Command),
+    /// A device's haptic effects: springs, dampers, friction, vibrations, constant forces,
+    /// fields about shapes and magnets, started, changed and stopped.
+    #[command(subcommand)]
+    Effect(effect::Command),
     /// Draw one frame of a scene file to a PNG file with Vulkan (no daemon needed).
     Render(render::RenderArgs),
     /// Write a picture of the running daemon's world to a PNG file (from hapticd-render).
@@ -215,6 +220,7 @@ fn main() -> ExitCode {
             Command::Mesh(command) => mesh::run(command),
             Command::Scene(command) => scene::run(command, &cli.bus),
             Command::Body(command) => connect().and_then(|c| body::run(command, &c)),
+            Command::Effect(command) => connect().and_then(|c| effect::run(command, &c)),
             Command::Render(args) => render::run(&args, &catalog),
             Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
             Command::View(args) => pictures::view(&args, &cli.bus),
