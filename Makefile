@@ -58,6 +58,7 @@ bench:
 	$(CARGO) build --release --workspace
 	$(CARGO) bench -p hapticd-e2e --bench mechanism
 	$(CARGO) bench -p hapticd-e2e --bench physics
+	$(CARGO) bench -p hapticd-e2e --bench effects
 	$(CARGO) bench -p hapticd-e2e --bench render
 
 latency:

@@ -308,6 +308,70 @@ fn a_haptic_loop_tick_does_not_allocate() {
     }
 }
 
+/// Every kind of effect added, changed and removed between ticks, and ticks rendering all
+/// of them with a hand shaking through them, on every shipped mechanism: nothing allocated.
+#[test]
+fn effects_of_every_kind_added_changed_and_rendered_do_not_allocate() {
+    use hapticd_core::haptics::effects::EffectCommand;
+    use hapticd_core::haptics::effects::spec::{EffectSpec, Limits};
+    let kinds = [
+        "{kind: constant, force: [0, 1, 0], torque: [0, 0, 0.01]}",
+        "{kind: ramp, force: [0, 0, 0], to: [1, 0, 0], over: 0.5}",
+        "{kind: triangle, direction: [0, 1, 0], frequency: 40, amplitude: 1}",
+        "{kind: saw_down, direction: [1, 0, 0], frequency: 5, amplitude: 0.5, attack: 0.1}",
+        "{kind: spring, anchor: [0, 0, 0], normal: [0, 1, 0], stiffness: 100, dead_band: 0.002}",
+        "{kind: damper, damping: 2, region: {box: [0.1, 0.1, 0.1]}}",
+        "{kind: inertia, mass: 0.05}",
+        "{kind: friction, friction: 0.5, stiffness: 800}",
+        "{kind: fixture, shape: {capsule: [[0, 0, 0], [0, 0.1, 0]], radius: 0.02}, keep: in, stiffness: 500}",
+        "{kind: shape, shape: {cone: 30, height: 0.05}, stiffness: 2000, width: 0.003, easing: smooth}",
+        "{kind: magnet, shape: {plane: [0, 1, 0], point: [0, -0.04, 0]}, reach: 0.02, friction: 1}",
+        "{kind: rotational_spring, orientation: [1, 0, 0, 0], stiffness: 0.5, saturation: 0.1}",
+    ];
+    for m in shipped_mechanisms() {
+        let effectors: Vec<String> = m.effectors.iter().map(|e| e.name.clone()).collect();
+        let limits = Limits {
+            effectors: &effectors,
+            max_force: 10.0,
+            rate: 1000.0,
+        };
+        // Made before they reach the loop, as the daemon makes them.
+        let effects: Vec<_> = kinds
+            .iter()
+            .map(|text| {
+                let path = std::path::Path::new("effect");
+                let spec: EffectSpec = hapticd_core::diagnostics::parse_yaml(text, path)
+                    .unwrap()
+                    .value;
+                let mut f = hapticd_core::diagnostics::Findings::new(path, &|_| None);
+                spec.check("", &limits, &mut f).expect(text)
+            })
+            .collect();
+        let script = "hands:\n  grip:\n    - shake: { amplitude: [0.02, 0.01, 0], frequency: 3, seconds: 2 }\n";
+        let mut haptic = simulated_loop(&m, script, 1e-3);
+        let n = allocations_in(|| {
+            for (k, effect) in effects.iter().enumerate() {
+                haptic.command(LoopCommand::Effect(EffectCommand::Add(k as u32, *effect)));
+                std::hint::black_box(haptic.tick(1e-3));
+            }
+            for _ in 0..500 {
+                std::hint::black_box(haptic.tick(1e-3));
+            }
+            haptic.command(LoopCommand::Effect(EffectCommand::Change(2, effects[3])));
+            haptic.command(LoopCommand::Effect(EffectCommand::Remove(0)));
+            for _ in 0..500 {
+                std::hint::black_box(haptic.tick(1e-3));
+            }
+            haptic.command(LoopCommand::Effect(EffectCommand::Clear));
+            for _ in 0..100 {
+                std::hint::black_box(haptic.tick(1e-3));
+            }
+        });
+        assert_eq!(n, 0, "{}: {n} allocations", m.name);
+        assert_eq!(haptic.frame().effects, 0, "{}: all faded out", m.name);
+    }
+}
+
 #[test]
 fn commands_between_ticks_do_not_allocate() {
     let m = support::shipped("spidar-g");

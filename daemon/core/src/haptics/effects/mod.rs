@@ -29,6 +29,9 @@ use crate::kinematics::{MAX_EFFECTORS, Wrench};
 /// Effects a device holds at once.
 pub const MAX_EFFECTS: usize = 64;
 
+/// Slots of a set: room for as many more fading out after a change or a removal.
+const SLOTS: usize = 2 * MAX_EFFECTS;
+
 /// One effect: what it does, on which effector, when.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Effect {
@@ -99,7 +102,10 @@ impl Slot {
 /// The effects of one device.
 #[derive(Debug, Clone)]
 pub struct EffectSet {
-    slots: [Option<Slot>; MAX_EFFECTS],
+    /// The effects held, packed: the first `len` hold one, the rest none (a tick visits
+    /// only those).
+    slots: [Option<Slot>; SLOTS],
+    len: usize,
     time: f64,
     max_force: f64,
     max_force_rate: f64,
@@ -112,7 +118,8 @@ impl EffectSet {
     /// N/s.
     pub fn new(max_force: f64, max_force_rate: f64) -> Self {
         Self {
-            slots: [None; MAX_EFFECTS],
+            slots: [None; SLOTS],
+            len: 0,
             time: 0.0,
             max_force,
             max_force_rate,
@@ -122,7 +129,7 @@ impl EffectSet {
 
     /// Effects held (fading ones included).
     pub fn count(&self) -> usize {
-        self.slots.iter().flatten().count()
+        self.len
     }
 
     /// Change the limits, from the next tick.
@@ -138,14 +145,13 @@ impl EffectSet {
                     // An id used again replaces its effect, cross-faded.
                     return self.command(EffectCommand::Change(id, effect));
                 }
+                if self.len == SLOTS {
+                    return Err(EffectError::Full);
+                }
                 let envelope = self.rated(&effect.envelope, &effect.kind, 0.0);
                 let added = self.time;
-                let free = self
-                    .slots
-                    .iter_mut()
-                    .find(|s| s.is_none())
-                    .ok_or(EffectError::Full)?;
-                *free = Some(Slot {
+                self.len += 1;
+                self.slots[self.len - 1] = Some(Slot {
                     id,
                     effect,
                     envelope,
@@ -203,7 +209,7 @@ impl EffectSet {
             }
             EffectCommand::Clear => {
                 let now = self.time;
-                for slot in self.slots.iter_mut().flatten() {
+                for slot in self.slots[..self.len].iter_mut().flatten() {
                     slot.stopped.get_or_insert(now - slot.added);
                 }
                 Ok(())
@@ -213,7 +219,7 @@ impl EffectSet {
 
     /// The slot holding effect `id`, unless it is on its way out.
     fn find(&self, id: u32) -> Option<usize> {
-        self.slots
+        self.slots[..self.len]
             .iter()
             .position(|s| s.is_some_and(|s| s.id == id && s.stopped.is_none()))
     }
@@ -242,14 +248,19 @@ impl EffectSet {
     pub fn advance(&mut self, dt: f64) {
         self.time += dt;
         let now = self.time;
-        for slot in &mut self.slots {
-            if let Some(s) = slot {
-                if s.envelope.is_over(now - s.added, s.stopped) {
-                    *slot = None;
-                } else if s.outgoing.is_some_and(|o| now - o.since >= o.over) {
-                    s.outgoing = None;
-                }
+        let mut k = 0;
+        while k < self.len {
+            let slot = self.slots[k].as_mut().expect("packed");
+            if slot.envelope.is_over(now - slot.added, slot.stopped) {
+                // The last one takes its place.
+                self.len -= 1;
+                self.slots[k] = self.slots[self.len].take();
+                continue;
             }
+            if slot.outgoing.is_some_and(|o| now - o.since >= o.over) {
+                slot.outgoing = None;
+            }
+            k += 1;
         }
     }
 
@@ -257,7 +268,7 @@ impl EffectSet {
     pub fn wrenches(&mut self, effector: usize, grip: &Grip, dt: f64) -> (Wrench, Wrench) {
         let now = self.time;
         let (mut passive, mut active) = (Wrench::ZERO, Wrench::ZERO);
-        for slot in self.slots.iter_mut().flatten() {
+        for slot in self.slots[..self.len].iter_mut().flatten() {
             if slot.effect.effector.is_some_and(|e| e != effector) {
                 continue;
             }
@@ -417,12 +428,12 @@ mod tests {
             set.command(EffectCommand::Remove(9)),
             Err(EffectError::Unknown(9))
         );
-        for id in 3..=MAX_EFFECTS as u32 {
+        for id in 3..=SLOTS as u32 {
             set.command(EffectCommand::Add(id, constant(DVec3::Z, 0.0)))
                 .unwrap();
         }
         assert_eq!(
-            set.command(EffectCommand::Add(100, constant(DVec3::Z, 0.0))),
+            set.command(EffectCommand::Add(1000, constant(DVec3::Z, 0.0))),
             Err(EffectError::Full)
         );
     }
