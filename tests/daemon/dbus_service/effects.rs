@@ -261,3 +261,58 @@ fn a_spring_and_a_damper_follow_their_laws_and_give_the_hand_no_energy() {
     }
     daemon.stop();
 }
+
+/// A scene file's `effects:` come with the scene and go with it, listed among the device's
+/// effects; a scene file with a wrong effect is refused by its place in the file, and the
+/// running scene and its effects stay.
+#[test]
+fn a_scene_files_effects_come_and_go_with_the_scene() {
+    let dir = support::shared_scratch("dbus", "effects-scene");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    let said = |args: &[&str]| {
+        let out = bus.ctl(args);
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    // One of the user's own, which stays across switches.
+    let own = add(&bus, "{kind: damper, damping: 1}").unwrap();
+    said(&["scene", "switch", "effects"]);
+    let listed = said(&["effect", "list"]);
+    for kind in ["damper", "magnet", "spring", "sine"] {
+        assert!(
+            listed.contains(&format!("\"kind\":\"{kind}\"")),
+            "{kind}: {listed}"
+        );
+    }
+    assert_eq!(listed.lines().count(), 5, "{listed}");
+    // A file of the caller's with a wrong effect: refused by its place, nothing changed.
+    let wrong = dir.join("wrong.yaml");
+    std::fs::write(
+        &wrong,
+        "name: wrong\nshapes:\n  - floor: { height: -0.03 }\neffects:\n  - kind: sine\n    \
+         direction: [0, 1, 0]\n    frequency: 40\n    amplitude: 80\n",
+    )
+    .unwrap();
+    let out = bus.ctl(&["scene", "switch", wrong.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let error = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        error.contains(
+            "wrong.yaml:8:16: error: effects[0].amplitude: must be a number from 0 to 10 N, not 80"
+        ),
+        "{error}"
+    );
+    assert_eq!(bus.get(MANAGER, "ActiveScene"), "s \"effects\"");
+    assert_eq!(said(&["effect", "list"]).lines().count(), 5);
+    // Back to a scene without: only the user's own is left.
+    said(&["scene", "switch", "static"]);
+    let left = said(&["effect", "list"]);
+    assert_eq!(left.lines().count(), 1, "{left}");
+    assert!(
+        left.starts_with(&format!("{own:>4}  {{kind: damper")),
+        "{left}"
+    );
+    daemon.stop();
+}

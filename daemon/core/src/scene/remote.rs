@@ -83,6 +83,10 @@ const LOCAL_BYTES: usize = 4 + 8 + 12 * 8 + 4;
 struct RawRemote {
     engine: String,
     rate: f64,
+    /// Haptic effects: the daemon checks them against each device and renders them.
+    #[serde(default)]
+    #[allow(dead_code)]
+    effects: Vec<crate::haptics::effects::spec::EffectSpec>,
 }
 
 /// What a haptic host knows of a world stepped elsewhere before it hears from it.

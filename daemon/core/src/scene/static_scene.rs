@@ -45,6 +45,10 @@ struct RawScene {
     #[serde(default)]
     proxy: Option<RawProxy>,
     shapes: Vec<RawShape>,
+    /// Haptic effects: the daemon checks them against each device and renders them.
+    #[serde(default)]
+    #[allow(dead_code)]
+    effects: Vec<crate::haptics::effects::spec::EffectSpec>,
 }
 
 #[derive(Deserialize)]

@@ -1,12 +1,13 @@
 //! A device's effects as the control plane holds them: each by the id it was given and the
 //! text it was written in, checked against the device (its effectors, its MaxForce, its
-//! rate) before the loop is handed it.
+//! rate) before the loop is handed it. Those of the scene's file come and go with the scene;
+//! those added over the bus stay until removed.
 
 use std::path::Path;
 
 use hapticd_core::diagnostics::{self, Diagnostics, Findings};
 use hapticd_core::haptic_loop::LoopCommand;
-use hapticd_core::haptics::effects::spec::{EffectSpec, Limits};
+use hapticd_core::haptics::effects::spec::{EffectSpec, Limits, listed_in};
 use hapticd_core::haptics::effects::{Effect, EffectCommand, MAX_EFFECTS};
 use hapticd_core::parameters::Name;
 
@@ -21,9 +22,22 @@ const MAX_TEXT: usize = 16 << 10;
 pub struct Effects {
     /// The id the next effect gets.
     next: u32,
-    /// Each effect held, by id, as written.
-    held: Vec<(u32, String)>,
+    /// Each effect held.
+    held: Vec<Held>,
 }
+
+/// One effect held.
+#[derive(Debug, Clone)]
+struct Held {
+    id: u32,
+    /// As written.
+    text: String,
+    /// It came with the scene's file.
+    of_scene: bool,
+}
+
+/// The effects of a scene's file for one device, checked: each and its text.
+pub type SceneEffects = Vec<(Effect, String)>;
 
 impl DeviceHandle {
     /// The effect `text` describes, checked against this device; every mistake located in
@@ -59,7 +73,17 @@ impl DeviceHandle {
     /// Check and start the effect `text` describes; its id.
     pub fn add_effect(&self, text: &str) -> Result<u32, Error> {
         let effect = self.checked(text)?;
-        let mut effects = lock(&self.effects);
+        self.start(&mut lock(&self.effects), effect, text.to_string(), false)
+    }
+
+    /// Start `effect` (written `text`) among `effects`; its id.
+    fn start(
+        &self,
+        effects: &mut Effects,
+        effect: Effect,
+        text: String,
+        of_scene: bool,
+    ) -> Result<u32, Error> {
         if effects.held.len() >= MAX_EFFECTS {
             return Err(Error::OutOfRange(format!(
                 "the device renders {MAX_EFFECTS} effects already: remove one first"
@@ -68,8 +92,49 @@ impl DeviceHandle {
         let id = effects.next;
         self.send(LoopCommand::Effect(EffectCommand::Add(id, effect)))?;
         effects.next += 1;
-        effects.held.push((id, text.to_string()));
+        effects.held.push(Held { id, text, of_scene });
         Ok(id)
+    }
+
+    /// The effects of scene file `file` (none without one), checked against this device
+    /// with their places in the file.
+    pub fn scene_effects(&self, file: Option<&Path>) -> Result<SceneEffects, Error> {
+        let Some(file) = file else {
+            return Ok(Vec::new());
+        };
+        let limits = Limits {
+            effectors: self.effectors(),
+            max_force: self.parameter(Name::MaxForce),
+            rate: self.rate(),
+        };
+        let listed = listed_in(file, &limits).map_err(Error::InvalidEffect)?;
+        Ok(listed
+            .into_iter()
+            .map(|(effect, spec)| {
+                // JSON is YAML too: the text reads back as the effect.
+                let text = serde_json::to_string(&spec).unwrap_or_default();
+                (effect, text)
+            })
+            .collect())
+    }
+
+    /// Fade out the last scene's effects and start `effects`, the new scene's.
+    pub fn replace_scene_effects(&self, effects: SceneEffects) -> Result<(), Error> {
+        let mut held = lock(&self.effects);
+        let old: Vec<u32> = held
+            .held
+            .iter()
+            .filter(|h| h.of_scene)
+            .map(|h| h.id)
+            .collect();
+        for id in old {
+            self.send(LoopCommand::Effect(EffectCommand::Remove(id)))?;
+            held.held.retain(|h| h.id != id);
+        }
+        for (effect, text) in effects {
+            self.start(&mut held, effect, text, true)?;
+        }
+        Ok(())
     }
 
     /// Check `text` and cross-fade effect `id` into it.
@@ -79,10 +144,10 @@ impl DeviceHandle {
         let held = effects
             .held
             .iter_mut()
-            .find(|(held, _)| *held == id)
+            .find(|held| held.id == id)
             .ok_or_else(|| unknown(id))?;
         self.send(LoopCommand::Effect(EffectCommand::Change(id, effect)))?;
-        held.1 = text.to_string();
+        held.text = text.to_string();
         Ok(())
     }
 
@@ -92,7 +157,7 @@ impl DeviceHandle {
         let at = effects
             .held
             .iter()
-            .position(|(held, _)| *held == id)
+            .position(|held| held.id == id)
             .ok_or_else(|| unknown(id))?;
         self.send(LoopCommand::Effect(EffectCommand::Remove(id)))?;
         effects.held.remove(at);
@@ -109,7 +174,12 @@ impl DeviceHandle {
 
     /// The effects rendered, by id, as written.
     pub fn effects(&self) -> Vec<(u32, String)> {
-        lock(&self.effects).held.clone()
+        let effects = lock(&self.effects);
+        effects
+            .held
+            .iter()
+            .map(|h| (h.id, h.text.clone()))
+            .collect()
     }
 }
 

@@ -95,16 +95,20 @@ impl Error {
     fn naming(self, kept: &Path, shown: &Path) -> Error {
         let (kept_text, shown_text) = (kept.display().to_string(), shown.display().to_string());
         let rename = |m: String| m.replace(&kept_text, &shown_text);
-        match self {
-            Error::Scene(OpenError::Invalid(mut findings)) => {
-                for finding in &mut findings.diagnostics {
-                    if finding.file == kept {
-                        finding.file = shown.to_path_buf();
-                    }
-                    finding.message = rename(std::mem::take(&mut finding.message));
+        let renamed = |mut findings: Diagnostics| {
+            for finding in &mut findings.diagnostics {
+                if finding.file == kept {
+                    finding.file = shown.to_path_buf();
                 }
-                Error::Scene(OpenError::Invalid(findings))
+                finding.message = rename(std::mem::take(&mut finding.message));
             }
+            findings
+        };
+        match self {
+            Error::Scene(OpenError::Invalid(findings)) => {
+                Error::Scene(OpenError::Invalid(renamed(findings)))
+            }
+            Error::InvalidEffect(findings) => Error::InvalidEffect(renamed(findings)),
             Error::Scene(OpenError::Refused(m)) => Error::Scene(OpenError::Refused(rename(m))),
             Error::Scene(OpenError::NotFound(m)) => Error::Scene(OpenError::NotFound(rename(m))),
             Error::Preparing(m) => Error::Preparing(rename(m)),
@@ -315,10 +319,17 @@ impl Daemon {
                     .map_err(Error::Scene)?,
             );
         }
+        // The scene file's effects, checked for every device before anything changes.
+        let effects = self
+            .devices
+            .iter()
+            .map(|device| device.scene_effects(file.as_deref()))
+            .collect::<Result<Vec<_>, _>>()?;
         let loaded = scenes.first().map(|s| s.name().to_string());
-        for (device, scene) in self.devices.iter().zip(scenes) {
+        for ((device, scene), effects) in self.devices.iter().zip(scenes).zip(effects) {
             let carried = if carry { device.carried()? } else { Vec::new() };
             device.switch_scene_carrying(scene, &carried)?;
+            device.replace_scene_effects(effects)?;
         }
         let mut inner = lock(&self.inner);
         inner.active_scene = loaded.unwrap_or_else(|| scene.to_string());

@@ -103,8 +103,8 @@ impl Slot {
 #[derive(Debug, Clone)]
 pub struct EffectSet {
     /// The effects held, packed: the first `len` hold one, the rest none (a tick visits
-    /// only those).
-    slots: [Option<Slot>; SLOTS],
+    /// only those). On the heap: a loop is moved whole to its thread.
+    slots: Box<[Option<Slot>]>,
     len: usize,
     time: f64,
     max_force: f64,
@@ -118,7 +118,7 @@ impl EffectSet {
     /// N/s.
     pub fn new(max_force: f64, max_force_rate: f64) -> Self {
         Self {
-            slots: [None; SLOTS],
+            slots: vec![None; SLOTS].into_boxed_slice(),
             len: 0,
             time: 0.0,
             max_force,

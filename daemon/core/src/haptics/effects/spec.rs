@@ -12,105 +12,147 @@
 //!   attack: 0.1             # s, and fade, start, duration
 //! ```
 
+use std::path::Path;
+
 use glam::DVec3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::{Anchor, Easing, Effect, Envelope, Keep, Kind, Shape, Wave};
-use crate::diagnostics::Findings;
+use crate::diagnostics::{self, Diagnostics, Findings};
 
 /// One effect as written.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EffectSpec {
     /// What it is.
     pub kind: String,
     /// The effector it acts on, by name (default: every one).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub effector: Option<String>,
     /// Constant, ramp (its start): force, N.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub force: Option<[f64; 3]>,
     /// Constant: torque, N·m.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub torque: Option<[f64; 3]>,
     /// Ramp: the force it ends at, N.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub to: Option<[f64; 3]>,
     /// Ramp: seconds it takes.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub over: Option<f64>,
     /// Periodic kinds: unit direction of the force.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub direction: Option<[f64; 3]>,
     /// Periodic kinds: Hz.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub frequency: Option<f64>,
     /// Periodic kinds: N.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub amplitude: Option<f64>,
     /// Periodic kinds: where in its period it starts, radians.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub phase: Option<f64>,
     /// Spring, fixture: the point it pulls toward (with `axis`: a line; `normal`: a plane).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub anchor: Option<[f64; 3]>,
     /// Spring, fixture: the line's direction.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
     /// Spring, fixture: the plane's normal.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub normal: Option<[f64; 3]>,
     /// Spring, rotational spring, fixture, shape, friction: N/m (N·m/rad).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub stiffness: Option<f64>,
     /// Damper: N·s/m.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub damping: Option<f64>,
     /// Spring: metres about the anchor where it is slack.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub dead_band: Option<f64>,
     /// Spring, rotational spring: its strongest force (N·m for the rotational one).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub saturation: Option<f64>,
     /// Rotational spring: the orientation it turns the grip to, `[w, x, y, z]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub orientation: Option<[f64; 4]>,
     /// Inertia: kg.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub mass: Option<f64>,
     /// Friction: the Coulomb force, N (magnet: its strongest pull).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
     /// Damper: where it acts (default: everywhere).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub region: Option<ShapeSpec>,
     /// Fixture, shape, magnet: the shape.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub shape: Option<ShapeSpec>,
     /// Fixture: `on` (default), `in` or `out` of the shape.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub keep: Option<String>,
     /// Fixture, shape: the depth over which the force eases up to `stiffness × width`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub width: Option<f64>,
     /// Fixture, shape: `linear` (default) or `smooth`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub easing: Option<String>,
     /// Magnet: metres from the surface it pulls from.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub reach: Option<f64>,
     /// Seconds to rise to full strength.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub attack: Option<f64>,
     /// Seconds to fall to nothing.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub fade: Option<f64>,
     /// Seconds before it begins.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub start: Option<f64>,
     /// Seconds it holds (default: until removed).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub duration: Option<f64>,
 }
 
 /// A shape as written: one of `sphere`, `box`, `capsule`, `cylinder`, `plane`, `cone`.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ShapeSpec {
     /// A ball of this radius, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sphere: Option<f64>,
     /// A box of these edges, m (rounded by `radius`).
     #[serde(rename = "box")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub cuboid: Option<[f64; 3]>,
     /// A capsule between these two points, of `radius`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub capsule: Option<[[f64; 3]; 2]>,
     /// A cylinder between these two points, of `radius`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub cylinder: Option<[[f64; 3]; 2]>,
     /// A half-space behind the plane of this outward normal through `point`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub plane: Option<[f64; 3]>,
     /// A cone of this half-angle (degrees), its tip at `point`, opening along `axis`,
     /// `height` long.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub cone: Option<f64>,
     /// The centre of a sphere or box (default: the origin).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub center: Option<[f64; 3]>,
     /// A point of the plane, the cone's tip (default: the origin).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub point: Option<[f64; 3]>,
     /// The radius of a capsule or cylinder, the rounding of a box's edges, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub radius: Option<f64>,
     /// The cone's axis.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
     /// The cone's height, m.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub height: Option<f64>,
 }
 
@@ -604,4 +646,31 @@ impl Checker<'_, '_, '_> {
         }
         Some(shape)
     }
+}
+
+/// The `effects:` of the scene file `file`, each checked against `limits` with its place in
+/// the file; a file without any has none.
+pub fn listed_in(file: &Path, limits: &Limits) -> Result<Vec<(Effect, EffectSpec)>, Diagnostics> {
+    /// The one key read here; the scene's loader reads the rest.
+    #[derive(Deserialize, Default)]
+    struct Listed {
+        #[serde(default)]
+        effects: Vec<EffectSpec>,
+    }
+    let parsed = diagnostics::parse_yaml::<Listed>(&diagnostics::read_text(file)?, file)?;
+    let map = parsed.map;
+    let locate = |field: &str| map.find(field);
+    let mut f = Findings::after_schema(file, &locate, parsed.schema);
+    let effects: Vec<_> = parsed
+        .value
+        .effects
+        .iter()
+        .enumerate()
+        .filter_map(|(k, spec)| {
+            let effect = spec.check(&format!("effects[{k}]"), limits, &mut f)?;
+            Some((effect, spec.clone()))
+        })
+        .collect();
+    f.finish()?;
+    Ok(effects)
 }

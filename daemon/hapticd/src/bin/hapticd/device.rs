@@ -230,6 +230,13 @@ pub fn start(
         frame: *rt.frame(),
         stats: *rt.stats(),
     });
+    // The first scene's effects, as a switch to it would start them.
+    let file = scenes::file_of(common.scene, common.scene_file, &common.config.scene_dirs);
+    let effects = handle.scene_effects(file.as_deref());
+    if let Err(e) = effects.and_then(|e| handle.replace_scene_effects(e)) {
+        let _ = rt.stop();
+        return Err(format!("the effects of scene {scene_name}: {e}"));
+    }
     Ok(Device {
         rt,
         handle,

@@ -19,6 +19,11 @@ pub(super) struct RawScene {
     pub(super) material: RawMaterial,
     pub(super) bodies: Vec<RawBody>,
     pub(super) pointer: Option<RawPointer>,
+    /// Haptic effects: rendered by the daemon, not the engine (read here so that a file
+    /// of them is a scene file; checked by the daemon against each device).
+    #[serde(default)]
+    #[allow(dead_code)]
+    pub(super) effects: Vec<hapticd_core::haptics::effects::spec::EffectSpec>,
     pub(super) grasp: Option<RawGrasp>,
 }
 
