@@ -72,6 +72,7 @@ figures: stage
 	$(HAPTICCTL) mechanism workspace spidar --plot docs/figures/workspace-spidar.png
 	$(HAPTICCTL) experiment stiffness spidar --plot docs/figures/wall-stiffness.png
 	$(HAPTICCTL) experiment cylinder --plot docs/figures/cylinder-tracing.png
+	$(HAPTICCTL) experiment effects --plot docs/figures/effects.png
 	$(HAPTICCTL) scene run config/scenes/cube-drop.yaml --duration 2 --model volume --model point \
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png

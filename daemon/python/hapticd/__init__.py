@@ -152,6 +152,30 @@ class Device:
         """Take the counter offsets now, every grip held at its calibration pose."""
         self._bus.call(self.path, DEVICE, "Calibrate")
 
+    @property
+    def effects(self) -> List[Tuple[int, str]]:
+        """The effects rendered besides the scene, by id, each as written (YAML)."""
+        return [(int(i), str(text)) for i, text in self.get("Effects")]
+
+    def add_effect(self, effect: str) -> int:
+        """Start an effect written in YAML, one entry of a scene file's ``effects:`` (such as
+        ``"{kind: sine, direction: [0, 1, 0], frequency: 40, amplitude: 0.5}"``); its id.
+        Every mistake is an :class:`Error` named ``…Error.InvalidEffect`` saying where."""
+        (id_,) = self._bus.call(self.path, DEVICE, "AddEffect", "s", (effect,))
+        return int(id_)
+
+    def change_effect(self, id_: int, effect: str) -> None:
+        """Cross-fade effect ``id_`` into the one ``effect`` (YAML) describes."""
+        self._bus.call(self.path, DEVICE, "ChangeEffect", "us", (id_, effect))
+
+    def remove_effect(self, id_: int) -> None:
+        """Fade effect ``id_`` out."""
+        self._bus.call(self.path, DEVICE, "RemoveEffect", "u", (id_,))
+
+    def clear_effects(self) -> None:
+        """Fade every effect out."""
+        self._bus.call(self.path, DEVICE, "ClearEffects")
+
     def open_telemetry(self) -> Ring:
         """The device's telemetry ring, mapped read-only, its cursor at the next tick."""
         (fd,) = self._bus.call(self.path, DEVICE, "OpenTelemetry", "a{sv}", ({},))

@@ -133,6 +133,29 @@ def test_a_scene_file_of_ones_own_is_sent_by_descriptor(daemon, tmp_path):
     daemon.switch_scene("static")
 
 
+def test_an_effect_is_added_felt_changed_and_removed(daemon):
+    device = daemon.devices[0]
+    effect = device.add_effect("{kind: constant, force: [0, 0, 1.5]}")
+    try:
+        assert device.effects == [(effect, "{kind: constant, force: [0, 0, 1.5]}")]
+        # Past the forces' ramp back up after the last test's scene switch (0.2 s).
+        time.sleep(0.4)
+        felt = [s.force[2] for s in device.telemetry(0.1)]
+        assert all(abs(f - 1.5) < 1e-9 for f in felt), felt
+        device.change_effect(effect, "{kind: constant, force: [0, 0, -1]}")
+        time.sleep(0.1)
+        assert all(abs(s.force[2] + 1.0) < 1e-9 for s in device.telemetry(0.05))
+        with pytest.raises(hapticd.Error) as refused:
+            device.add_effect("{kind: sine, direction: [0, 1, 0], frequency: 40, amplitude: .nan}")
+        assert refused.value.name == "org.hapticd.Hapticd1.Error.InvalidEffect"
+        assert "amplitude" in refused.value.message
+    finally:
+        device.remove_effect(effect)
+    assert device.effects == []
+    time.sleep(0.1)
+    assert all(s.force[2] == 0.0 for s in device.telemetry(0.05))
+
+
 def test_calibrate_takes_the_offsets(daemon):
     device = daemon.devices[0]
     before = device.get("CalibrationOffsets")

@@ -12,11 +12,13 @@
 //! - [`shape_tracing`]: tracing a cylinder across the edge of the complete region (3.5.10);
 //! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
 //! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14);
-//! - [`incline`]: a block on a slope just below and just past the friction angle (5.3.6).
+//! - [`incline`]: a block on a slope just below and just past the friction angle (5.3.6);
+//! - [`effects`]: the periodic haptic effects and a cross-fade, within the force-rate limit.
 //!
 //! Each module's `report` gives what `hapticctl experiment` prints and draws, as a
 //! [`Report`](crate::report::Report).
 
+pub mod effects;
 pub mod grasp;
 pub mod incline;
 pub mod push_mass;

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::{
-    grasp, incline, push_mass, push_phase, shape_tracing, stack_timing, stick_slip, wall_stiffness,
+    effects, grasp, incline, push_mass, push_phase, shape_tracing, stack_timing, stick_slip,
+    wall_stiffness,
 };
 use hapticctl::report::Report;
 use hapticd_config::catalog::Catalog;
@@ -38,6 +39,9 @@ pub enum Command {
     /// Push blocks of 0.1–10 kg at 10, 20 and 30 Hz physics with local dynamics, impulse
     /// and position feedback, against physics at the haptic rate (thesis 6.5.4).
     PushMass(PushMassArgs),
+    /// Each periodic effect's force over time through the daemon's effect set, and a
+    /// constant force cross-faded: never faster than the force-rate limit.
+    Effects(Figure),
 }
 
 #[derive(Args)]
@@ -251,6 +255,7 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::Incline(args) => incline(&args),
         Command::Grasp(args) => grasp(&args),
         Command::PushPhase(args) => push(&args),
+        Command::Effects(figure) => show_figure(effects::report(), &figure),
         Command::PushMass(args) => {
             if !(2..=20).contains(&args.phases) {
                 return Err(Failure::usage("--phases must be 2–20"));
