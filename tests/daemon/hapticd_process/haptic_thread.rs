@@ -132,6 +132,15 @@ fn haptic_system_calls(
     sleeps
 }
 
+/// Every thread of process `pid`: its name, CPUs and scheduling policy ([`thread_cpus`]).
+fn every_thread(pid: u32) -> Vec<(String, Vec<usize>, u32)> {
+    std::fs::read_dir(format!("/proc/{pid}/task"))
+        .unwrap()
+        .filter_map(|t| t.ok())
+        .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
+        .collect()
+}
+
 /// The CPUs thread `tid` of process `pid` may run on, and its name.
 /// A thread's name, the CPUs it may run on, and its scheduling policy (1: SCHED_FIFO).
 fn thread_cpus(pid: u32, tid: &str) -> (String, Vec<usize>, u32) {
@@ -180,12 +189,7 @@ fn the_haptic_thread_has_a_cpu_the_daemon_keeps_off() {
     // Once started, list every thread's CPUs.
     let started = std::time::Instant::now();
     let threads = loop {
-        let threads: Vec<(String, Vec<usize>, u32)> =
-            std::fs::read_dir(format!("/proc/{pid}/task"))
-                .unwrap()
-                .filter_map(|t| t.ok())
-                .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
-                .collect();
+        let threads = every_thread(pid);
         let named = |n: &str| threads.iter().any(|t| t.0 == n);
         // The physics thread turns real-time after its first steps: wait for that, a while.
         let physics_fifo = threads.iter().any(|t| t.0 == "hapticd-physics" && t.2 == 1);
@@ -235,12 +239,7 @@ fn two_haptic_threads_have_cpus_of_their_own() {
     let pid = child.id();
     let started = std::time::Instant::now();
     let threads = loop {
-        let threads: Vec<(String, Vec<usize>, u32)> =
-            std::fs::read_dir(format!("/proc/{pid}/task"))
-                .unwrap()
-                .filter_map(|t| t.ok())
-                .map(|t| thread_cpus(pid, &t.file_name().to_string_lossy()))
-                .collect();
+        let threads = every_thread(pid);
         if threads.iter().filter(|t| t.0 == "hapticd-rt").count() == 2 {
             break threads;
         }

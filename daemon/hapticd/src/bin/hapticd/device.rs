@@ -230,8 +230,9 @@ pub fn start(
         frame: *rt.frame(),
         stats: *rt.stats(),
     });
-    // The first scene's effects, as a switch to it would start them.
-    let file = scenes::file_of(common.scene, common.scene_file, &common.config.scene_dirs);
+    // The first scene's effects, as a switch to it would start them: a scene file's own (a
+    // scene plugin's file is in its own format).
+    let file = scenes::file_of(common.scene, None, &common.config.scene_dirs);
     let effects = handle.scene_effects(file.as_deref());
     if let Err(e) = effects.and_then(|e| handle.replace_scene_effects(e)) {
         let _ = rt.stop();
