@@ -316,3 +316,70 @@ fn a_scene_files_effects_come_and_go_with_the_scene() {
     );
     daemon.stop();
 }
+
+/// A floor with a grating of 2 mm, slid over: the force along the floor's normal beats at
+/// the sliding speed over the period, within one bin of the spectrum.
+#[test]
+fn a_grating_slid_over_is_felt_at_the_speed_over_its_period() {
+    let dir = support::shared_scratch("dbus", "effects-grating");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let period = 0.002;
+    let scene = dir.join("grating.yaml");
+    std::fs::write(
+        &scene,
+        format!(
+            "name: grating\nshapes:\n  - floor: {{ height: -0.03 }}\n\
+             texture: {{ kind: grating, period: {period}, amplitude: 0.4, direction: [1, 0, 0] }}\n"
+        ),
+    )
+    .unwrap();
+    // Pressed 1 cm into the floor, slid 4 cm along x in 2 s.
+    let hand = dir.join("slide.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - move: { to: [-0.02, -0.04, 0], seconds: 1.0 }\n    \
+         - hold: { seconds: 0.3 }\n    - move: { to: [0.02, -0.04, 0], seconds: 2.0 }\n    \
+         - hold: { seconds: 30 }\n",
+    )
+    .unwrap();
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &[
+            "--sim",
+            "spidar-g",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--hand",
+            hand.to_str().unwrap(),
+        ],
+    );
+    // The middle of the slide: from 1.6 s to 2.8 s of the script.
+    let started = Instant::now();
+    std::thread::sleep(Duration::from_secs_f64(1.6).saturating_sub(started.elapsed()));
+    let samples = ticks(&bus, 1.0);
+    daemon.stop();
+    let proxy_speed = {
+        let (first, last) = (&samples[0], &samples[samples.len() - 1]);
+        (last.touch_points[0][0] - first.touch_points[0][0]) / (last.time - first.time)
+    };
+    let normal: Vec<f64> = samples.iter().map(|s| s.wrenches[0].force[1]).collect();
+    let mean = normal.iter().sum::<f64>() / normal.len() as f64;
+    let centred: Vec<f64> = normal.iter().map(|f| f - mean).collect();
+    let amplitudes = spectrum(&centred);
+    let peak = (1..amplitudes.len())
+        .max_by(|a, b| amplitudes[*a].total_cmp(&amplitudes[*b]))
+        .unwrap();
+    let expected = proxy_speed / period;
+    println!(
+        "grating: slid at {proxy_speed:.4} m/s, felt at {peak} Hz (v/period {expected:.1} Hz), \
+         {:.3} N",
+        amplitudes[peak]
+    );
+    assert!(samples.iter().all(|s| s.contacts > 0), "slid in contact");
+    assert!(
+        (peak as f64 - expected).abs() <= 1.0,
+        "{peak} Hz against {expected} Hz"
+    );
+}

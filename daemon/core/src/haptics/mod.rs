@@ -9,6 +9,7 @@
 //! - [`proxy`]: the god-object with Coulomb friction;
 //! - [`passivity`]: the time-domain passivity observer and controller on each port;
 //! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault;
+//! - [`texture`]: what a surface feels like while the proxy slides on it;
 //! - [`touch`]: what a pointer touches, for contact events;
 //! - [`wrench_command`]: a wrench commanded from outside (teleoperation), bounded, ramped,
 //!   and dropped when it goes stale.
@@ -21,5 +22,6 @@ pub mod passivity;
 pub mod proxy;
 pub mod safety;
 pub mod scenery;
+pub mod texture;
 pub mod touch;
 pub mod wrench_command;

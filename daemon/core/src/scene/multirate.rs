@@ -47,7 +47,7 @@ pub struct PlaneSet {
     /// CPU: when the next set comes is up to them, so the world counts as failed only once
     /// [`STALE_PERIODS`] times [`MAX_PACE`] passed.
     pub yielding: bool,
-    /// Other hosts' hands touch the same world ([`shared_world`](super::shared_world)): a
+    /// Other hosts' hands touch the same world (a shared world of several hosts): a
     /// body no hand here moved is the world's to move, since where this side, a round trip
     /// behind, has it would undo their pushes.
     pub shared: bool,

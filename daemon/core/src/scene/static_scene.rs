@@ -9,7 +9,12 @@
 //!   - sphere: { centre: [-0.03, -0.01, 0], radius: 0.015 }
 //!   - cylinder: { point: [0, 0, 0], axis: [0, 1, 0], radius: 0.2 }      # endless round bar
 //!   - box: { centre: [0.03, -0.02, 0], size: [0.02, 0.02, 0.02], orientation: [1, 0, 0, 0] }
+//! texture: { kind: grating, period: 0.002, amplitude: 0.4, direction: [1, 0, 0] }  # optional
+//! effects: []               # optional: haptic effects (`crate::haptics::effects::spec`)
 //! ```
+//!
+//! A texture is felt on every surface while the proxy rests on it: a grating's force along
+//! the surface's normal rises and falls across its ridges.
 //!
 //! A shape may also be a triangle mesh, `mesh: { file: bracket.obj, centre: [0, -0.02, 0],
 //! orientation: [1, 0, 0, 0], scale: 0.001, up: z }` (orientation, scale and up optional):
@@ -35,6 +40,7 @@ use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::haptics::scenery::Scenery;
+use crate::haptics::texture::{Texture, TextureSpec};
 use crate::kinematics::{SOLID_SIZES, Up, WORLD_EXTENT, Wrench, quat_to_wxyz};
 use crate::parameters::Name;
 
@@ -45,6 +51,9 @@ struct RawScene {
     #[serde(default)]
     proxy: Option<RawProxy>,
     shapes: Vec<RawShape>,
+    /// The texture of every surface.
+    #[serde(default)]
+    texture: Option<TextureSpec>,
     /// Haptic effects: the daemon checks them against each device and renders them.
     #[serde(default)]
     #[allow(dead_code)]
@@ -135,6 +144,8 @@ pub struct StaticSceneSpec {
     pub proxy: ProxyParameters,
     /// The solids.
     pub shapes: Vec<Shape>,
+    /// The texture felt on every surface while sliding, if any.
+    pub texture: Option<Texture>,
 }
 
 impl StaticSceneSpec {
@@ -213,11 +224,16 @@ impl StaticSceneSpec {
                 ),
             );
         }
+        let texture = raw
+            .texture
+            .as_ref()
+            .and_then(|t| t.check("texture", &mut f));
         f.finish()?;
         Ok(Self {
             name: raw.name,
             proxy,
             shapes,
+            texture,
         })
     }
 }
@@ -467,6 +483,23 @@ impl StaticScene {
     }
 }
 
+/// [rt] The outward normal at `p` of the surface of `shapes` nearest it (the one a proxy
+/// there rests on).
+fn normal_at(shapes: &[Shape], p: DVec3) -> DVec3 {
+    let nearest = shapes.iter().min_by(|a, b| {
+        a.signed_distance(p)
+            .abs()
+            .total_cmp(&b.signed_distance(p).abs())
+    });
+    let Some(shape) = nearest else {
+        return DVec3::ZERO;
+    };
+    // The distance's gradient, by central differences a micrometre apart.
+    let h = 1e-6;
+    let d = |e: DVec3| shape.signed_distance(p + e * h) - shape.signed_distance(p - e * h);
+    DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)).normalize_or_zero()
+}
+
 impl Scene for StaticScene {
     fn name(&self) -> &str {
         &self.spec.name
@@ -481,7 +514,13 @@ impl Scene for StaticScene {
                 &self.spec.proxy,
                 dt,
             );
-            *wrench = Wrench::force(out.force);
+            let texture = match (self.spec.texture, out.in_contact) {
+                (Some(texture), true) => {
+                    texture.force(out.proxy, normal_at(&self.spec.shapes, out.proxy))
+                }
+                _ => DVec3::ZERO,
+            };
+            *wrench = Wrench::force(out.force + texture);
         }
         true
     }

@@ -78,6 +78,7 @@ pub fn trace(lambda: f64, rate: f64) -> Vec<(f64, f64)> {
                 axis: DVec3::Y,
                 radius: RADIUS,
             }],
+            texture: None,
         },
         script,
         rate,

@@ -86,6 +86,7 @@ pub fn is_stable(
                 point: glam::DVec3::new(0.0, FLOOR, 0.0),
                 normal: glam::DVec3::Y,
             }],
+            texture: None,
         },
         script: press_script(&mechanism.effectors[0].name)?,
         rate,
