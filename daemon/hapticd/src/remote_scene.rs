@@ -1,6 +1,6 @@
 //! A scene whose world is stepped on another machine (`engine: remote`,
 //! [`hapticd_core::scene::remote`]) or by a world thread of this daemon shared by its devices
-//! ([`crate::shared_scene`]): rendered here exactly as a multi-rate plugin's world is
+//! (its shared scene): rendered here exactly as a multi-rate plugin's world is
 //! (the same haptic side, the same checks of what is published), but its "physics thread"
 //! steps nothing: it takes each world update the network bridge delivers into the device's
 //! world link, and sends back where the grips and proxies are with what the haptic side
@@ -49,7 +49,7 @@ pub fn open(
 /// The scene `name` of a world stepped `rate` times a second for `pointers` (drawn as
 /// `geometry`, the body of each of its objects in `object_bodies`), reached through `link`:
 /// from another machine through the bridge, or from a world of this daemon
-/// ([`crate::shared_scene`]).
+/// (its shared scene).
 pub fn linked(
     name: String,
     rate: f64,

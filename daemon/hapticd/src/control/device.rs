@@ -60,7 +60,27 @@ pub struct DeviceHandle {
     /// they take effect.
     remembered: Mutex<Remembered>,
     /// The effects it renders.
-    pub(super) effects: Mutex<super::effects::Effects>,
+    pub(super) effects: Mutex<Effects>,
+}
+
+/// The effects a device renders (see `control::effects`).
+#[derive(Debug, Default)]
+pub(super) struct Effects {
+    /// The id the next effect gets.
+    pub(super) next: u32,
+    /// Each effect held.
+    pub(super) held: Vec<Held>,
+}
+
+/// One effect held.
+#[derive(Debug, Clone)]
+pub(super) struct Held {
+    /// Its id.
+    pub(super) id: u32,
+    /// As written.
+    pub(super) text: String,
+    /// It came with the scene's file.
+    pub(super) of_scene: bool,
 }
 
 /// A device's persisted record and the defaults its parameter overrides apply to.

@@ -12,29 +12,10 @@ use hapticd_core::haptics::effects::{Effect, EffectCommand, MAX_EFFECTS};
 use hapticd_core::parameters::Name;
 
 use super::Error;
-use super::device::{DeviceHandle, lock};
+use super::device::{DeviceHandle, Effects, Held, lock};
 
 /// Longest text of one effect, bytes.
 const MAX_TEXT: usize = 16 << 10;
-
-/// The effects a device renders.
-#[derive(Debug, Default)]
-pub struct Effects {
-    /// The id the next effect gets.
-    next: u32,
-    /// Each effect held.
-    held: Vec<Held>,
-}
-
-/// One effect held.
-#[derive(Debug, Clone)]
-struct Held {
-    id: u32,
-    /// As written.
-    text: String,
-    /// It came with the scene's file.
-    of_scene: bool,
-}
 
 /// The effects of a scene's file for one device, checked: each and its text.
 pub type SceneEffects = Vec<(Effect, String)>;

@@ -424,8 +424,8 @@ fn is_multirate(info: &HapticdSceneInfo, vtable: &HapticdSceneVtable) -> bool {
         && (10.0..=1000.0).contains(&info.physics_rate)
 }
 
-/// A multi-rate scene plugin's world, stepped by whoever holds it
-/// ([`crate::shared_scene`]).
+/// A multi-rate scene plugin's world, stepped by whoever holds it (the
+/// daemon's thread of a world its devices share).
 pub struct PluginWorld {
     instance: Instance,
     /// The scene's name.
