@@ -444,25 +444,7 @@ impl Checker<'_, '_, '_> {
                 to: self.force("to", s.to)?,
                 over: self.number("over", s.over, (0.0, 3600.0), " s")?,
             },
-            "sine" | "square" | "triangle" | "saw_up" | "saw_down" => Kind::Periodic {
-                wave: match s.kind.as_str() {
-                    "sine" => Wave::Sine,
-                    "square" => Wave::Square,
-                    "triangle" => Wave::Triangle,
-                    "saw_up" => Wave::SawUp,
-                    _ => Wave::SawDown,
-                },
-                direction: self.direction("direction", s.direction)?,
-                // Below half the loop's rate, where it is still a wave.
-                frequency: self.number(
-                    "frequency",
-                    s.frequency,
-                    (0.0, 0.5 * self.limits.rate),
-                    " Hz",
-                )?,
-                amplitude: self.number("amplitude", s.amplitude, (0.0, most), " N")?,
-                phase: self.or("phase", s.phase, (-1e3, 1e3), " rad", 0.0),
-            },
+            "sine" | "square" | "triangle" | "saw_up" | "saw_down" => self.periodic()?,
             "spring" => Kind::Spring {
                 anchor: self.anchor()?,
                 stiffness: self.number("stiffness", s.stiffness, (0.0, MAX_STIFFNESS), " N/m")?,
@@ -492,47 +474,7 @@ impl Checker<'_, '_, '_> {
                 force: self.number("friction", s.friction, (0.0, most), " N")?,
                 stiffness: self.number("stiffness", s.stiffness, (1.0, MAX_STIFFNESS), " N/m")?,
             },
-            "fixture" | "shape" => {
-                let keep = match (s.kind.as_str(), s.keep.as_deref()) {
-                    ("shape", _) | (_, Some("out")) => Keep::Out,
-                    (_, None | Some("on")) => Keep::On,
-                    (_, Some("in")) => Keep::In,
-                    (_, Some(other)) => {
-                        self.f
-                            .error(self.key("keep"), format!("{other:?}: `on`, `in` or `out`"));
-                        return None;
-                    }
-                };
-                let stiffness =
-                    self.number("stiffness", s.stiffness, (0.0, MAX_STIFFNESS), " N/m")?;
-                // A fixture on a line or a plane is a spring to it.
-                if s.shape.is_none() && s.kind == "fixture" {
-                    return Some(Kind::Spring {
-                        anchor: self.anchor()?,
-                        stiffness,
-                        dead_band: 0.0,
-                        saturation: 0.0,
-                    });
-                }
-                let shape = self.shape("shape", s.shape.as_ref()?)?;
-                Kind::Field {
-                    shape,
-                    keep,
-                    stiffness,
-                    width: self.or("width", s.width, (0.0, 1.0), " m", 0.0),
-                    easing: match s.easing.as_deref() {
-                        None | Some("linear") => Easing::Linear,
-                        Some("smooth") => Easing::Smooth,
-                        Some(other) => {
-                            self.f.error(
-                                self.key("easing"),
-                                format!("{other:?}: `linear` or `smooth`"),
-                            );
-                            return None;
-                        }
-                    },
-                }
-            }
+            "fixture" | "shape" => self.field()?,
             "magnet" => Kind::Magnet {
                 shape: {
                     let written = self.needed("shape", s.shape.as_ref())?;
@@ -542,6 +484,75 @@ impl Checker<'_, '_, '_> {
                 force: self.number("friction", s.friction, (0.0, most), " N")?,
             },
             _ => unreachable!("keys_of knows every kind"),
+        })
+    }
+
+    /// A periodic kind: its wave, direction, frequency (below half the loop's rate, where
+    /// it is still a wave), amplitude and phase.
+    fn periodic(&mut self) -> Option<Kind> {
+        let s = self.spec;
+        Some(Kind::Periodic {
+            wave: match s.kind.as_str() {
+                "sine" => Wave::Sine,
+                "square" => Wave::Square,
+                "triangle" => Wave::Triangle,
+                "saw_up" => Wave::SawUp,
+                _ => Wave::SawDown,
+            },
+            direction: self.direction("direction", s.direction)?,
+            frequency: self.number(
+                "frequency",
+                s.frequency,
+                (0.0, 0.5 * self.limits.rate),
+                " Hz",
+            )?,
+            amplitude: self.number("amplitude", s.amplitude, (0.0, self.limits.max_force), " N")?,
+            phase: self.or("phase", s.phase, (-1e3, 1e3), " rad", 0.0),
+        })
+    }
+
+    /// A fixture or a shape: a field about a shape kept out of (a shape), or on or in (a
+    /// fixture); a fixture on a line or a plane is a spring to it.
+    fn field(&mut self) -> Option<Kind> {
+        let s = self.spec;
+        let keep = match (s.kind.as_str(), s.keep.as_deref()) {
+            ("shape", _) | (_, Some("out")) => Keep::Out,
+            (_, None | Some("on")) => Keep::On,
+            (_, Some("in")) => Keep::In,
+            (_, Some(other)) => {
+                self.f
+                    .error(self.key("keep"), format!("{other:?}: `on`, `in` or `out`"));
+                return None;
+            }
+        };
+        let stiffness = self.number("stiffness", s.stiffness, (0.0, MAX_STIFFNESS), " N/m")?;
+        if s.shape.is_none() && s.kind == "fixture" {
+            return Some(Kind::Spring {
+                anchor: self.anchor()?,
+                stiffness,
+                dead_band: 0.0,
+                saturation: 0.0,
+            });
+        }
+        let written = self.needed("shape", s.shape.as_ref())?;
+        let shape = self.shape("shape", written)?;
+        let easing = match s.easing.as_deref() {
+            None | Some("linear") => Easing::Linear,
+            Some("smooth") => Easing::Smooth,
+            Some(other) => {
+                self.f.error(
+                    self.key("easing"),
+                    format!("{other:?}: `linear` or `smooth`"),
+                );
+                return None;
+            }
+        };
+        Some(Kind::Field {
+            shape,
+            keep,
+            stiffness,
+            width: self.or("width", s.width, (0.0, 1.0), " m", 0.0),
+            easing,
         })
     }
 

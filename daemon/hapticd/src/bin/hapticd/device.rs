@@ -140,27 +140,18 @@ pub fn start(
     cpu: Option<(usize, bool)>,
     scene: Option<Box<dyn Scene>>,
 ) -> Result<Device, String> {
-    let Prepared {
-        kind,
-        identity,
-        mut record,
-        mechanism_name,
-        mechanism,
-        rate,
-        pointers,
-    } = device;
-    let fixed_mechanism = kind.fixed_mechanism().is_some();
+    let (kind, identity, mut record) = (device.kind, device.identity, device.record);
+    let (mechanism_name, mechanism) = (device.mechanism_name, device.mechanism);
+    let (rate, pointers) = (device.rate, device.pointers);
+    let fixed = Fixed {
+        mechanism: kind.fixed_mechanism().is_some(),
+        rate: common.rate.is_some(),
+    };
     let name = claim_name(&identity);
     let mut writers = Vec::new();
     let (traffic, reconnector) = watch(&kind, slot, common, recording.traffic, &mut writers)?;
     let transport = transport::open(kind, &identity, traffic, &mechanism, rate)?;
-    let world_link = WorldLinkFile::create()
-        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
-        .ok();
-    let mut scene = match scene {
-        Some(scene) => scene,
-        None => open_scene(common, world_link.as_ref(), &pointers, rate)?,
-    };
+    let (mut scene, world_link) = scene_and_link(scene, common, &identity, &pointers, rate)?;
     let control = scene.take_control();
     let scene_name = scene.name().to_string();
     let defaults = default_parameters(&*scene, &mechanism, common);
@@ -201,8 +192,7 @@ pub fn start(
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;
     let started = format!("{mechanism_name} on {identity}, scene {scene_name}, {rate} Hz");
-    let alone = cpu.is_some_and(|(_, alone)| alone);
-    let scheduling = report_scheduling(&rt, &identity, &started, alone);
+    let scheduling = report_scheduling(&rt, &identity, &started, cpu.is_some_and(|c| c.1));
     let handle = Arc::new(DeviceHandle::new(
         DeviceSetup {
             identity,
@@ -218,23 +208,12 @@ pub fn start(
             geometry,
             telemetry,
             world_link,
-            fixed: Fixed {
-                mechanism: fixed_mechanism,
-                rate: common.rate.is_some(),
-            },
+            fixed,
             control,
         },
         command_tx,
     ));
-    handle.publish(Telemetry {
-        frame: *rt.frame(),
-        stats: *rt.stats(),
-    });
-    // The first scene's effects, as a switch to it would start them: a scene file's own (a
-    // scene plugin's file is in its own format).
-    let file = scenes::file_of(common.scene, None, &common.config.scene_dirs);
-    let effects = handle.scene_effects(file.as_deref());
-    if let Err(e) = effects.and_then(|e| handle.replace_scene_effects(e)) {
+    if let Err(e) = make_ready(&handle, &mut rt, common) {
         let _ = rt.stop();
         return Err(format!("the effects of scene {scene_name}: {e}"));
     }
@@ -250,6 +229,22 @@ pub fn start(
         recording_failed: None,
         _name: name,
     })
+}
+
+/// Make `handle` ready for the bus: the loop's first telemetry (of `rt`), and the first
+/// scene's effects started as a switch to the scene would start them: a scene file's own (a
+/// scene plugin's file is in its own format).
+fn make_ready(
+    handle: &DeviceHandle,
+    rt: &mut RealtimeLoop,
+    common: &Common,
+) -> Result<(), hapticd::control::Error> {
+    handle.publish(Telemetry {
+        frame: *rt.frame(),
+        stats: *rt.stats(),
+    });
+    let file = scenes::file_of(common.scene, None, &common.config.scene_dirs);
+    handle.replace_scene_effects(handle.scene_effects(file.as_deref())?)
 }
 
 /// Hold device name `identity` on this host while the returned socket lives (an abstract
@@ -271,6 +266,25 @@ fn claim_name(identity: &str) -> Option<UnixDatagram> {
             None
         }
     }
+}
+
+/// The device's world link (for remote scenes), and `given` (a world it shares) or else the
+/// scene `common` names.
+fn scene_and_link(
+    given: Option<Box<dyn Scene>>,
+    common: &Common,
+    identity: &str,
+    pointers: &[Pointer],
+    rate: f64,
+) -> Result<(Box<dyn Scene>, Option<WorldLinkFile>), String> {
+    let world_link = WorldLinkFile::create()
+        .map_err(|e| tracing::warn!("{identity}: no world link for remote scenes: {e}"))
+        .ok();
+    let scene = match given {
+        Some(scene) => scene,
+        None => open_scene(common, world_link.as_ref(), pointers, rate)?,
+    };
+    Ok((scene, world_link))
 }
 
 /// The scene `common` names, a remote world reaching it through `world_link`.
