@@ -1,6 +1,9 @@
 //! Commands from the network, each a Zenoh query answered with what became of it:
 //!
 //! - `hapticd/<device>/set/<Parameter>`, payload a number: a parameter of the device;
+//! - `hapticd/<device>/effect/add`, payload an effect in YAML (answered with its id),
+//!   `…/effect/change/<id>` (payload the new effect), `…/effect/remove/<id>` and
+//!   `…/effect/clear`: the device's haptic effects;
 //! - `hapticd/scene/switch`, payload a scene's name;
 //! - `hapticd/scene/body/<body>/<action>`, payload JSON: `pose` `{"position": [x, y, z],
 //!   "orientation": [w, x, y, z]}`, `velocity` `{"velocity": […], "spin": […]}`, `impulse`
@@ -27,6 +30,13 @@ pub enum Command {
         /// Its new value.
         value: f64,
     },
+    /// Change the effects of the device whose word is `device`.
+    Effect {
+        /// The device's word in keys.
+        device: String,
+        /// What to do.
+        action: EffectAction,
+    },
     /// Switch every device to the scene named.
     SwitchScene(String),
     /// Act on a body of the world.
@@ -36,6 +46,19 @@ pub enum Command {
         /// What to do with it.
         action: BodyAction,
     },
+}
+
+/// What a command does to a device's effects.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EffectAction {
+    /// Start this one (YAML).
+    Add(String),
+    /// Cross-fade effect `id` into this one (YAML).
+    Change(u32, String),
+    /// Fade effect `id` out.
+    Remove(u32),
+    /// Fade every effect out.
+    Clear,
 }
 
 /// What a command does to a body.
@@ -64,6 +87,8 @@ pub enum ParseError {
     NoAction(String),
     /// The payload should be a number.
     NotANumber(String),
+    /// The key should end in an effect's id.
+    NotAnId(String),
     /// The payload should be JSON; the parser's reason.
     NotJson(String),
     /// A field should be a list of `count` numbers.
@@ -84,6 +109,7 @@ impl std::fmt::Display for ParseError {
                 write!(f, "the payload must be a number, not {payload:?}")
             }
             ParseError::NotJson(why) => write!(f, "the payload is not JSON: {why}"),
+            ParseError::NotAnId(id) => write!(f, "{id:?} is no effect's id"),
             ParseError::Numbers { field, count } => {
                 write!(f, "`{field}` must be a list of {count} numbers")
             }
@@ -153,6 +179,23 @@ pub fn parse(key: &str, payload: &str) -> Result<Command, ParseError> {
                 action,
             })
         }
+        ["hapticd", device, "effect", rest @ ..] => {
+            let id = |id: &str| {
+                id.parse::<u32>()
+                    .map_err(|_| ParseError::NotAnId(id.to_string()))
+            };
+            let action = match rest {
+                ["add"] => EffectAction::Add(payload.to_string()),
+                ["change", n] => EffectAction::Change(id(n)?, payload.to_string()),
+                ["remove", n] => EffectAction::Remove(id(n)?),
+                ["clear"] => EffectAction::Clear,
+                _ => return Err(ParseError::NoCommand(key.to_string())),
+            };
+            Ok(Command::Effect {
+                device: device.to_string(),
+                action,
+            })
+        }
         ["hapticd", device, "set", name] => Ok(Command::Set {
             device: device.to_string(),
             name: name.to_string(),
@@ -187,14 +230,26 @@ pub fn carry_out(
             name,
             value,
         } => {
-            let Some((_, found)) = devices.iter().find(|(word, _)| word == device) else {
-                return Err(ClientError::Refused {
-                    name: hapticd_ipc::names::UNKNOWN_DEVICE_ERROR.into(),
-                    message: format!("no device {device}"),
-                });
-            };
-            found.set(name, *value)?;
+            device_of(devices, device)?.set(name, *value)?;
             serde_json::json!({ "set": name, "value": value })
+        }
+        Command::Effect { device, action } => {
+            let found = device_of(devices, device)?;
+            match action {
+                EffectAction::Add(yaml) => serde_json::json!({ "id": found.add_effect(yaml)? }),
+                EffectAction::Change(id, yaml) => {
+                    found.change_effect(*id, yaml)?;
+                    serde_json::json!({ "changed": id })
+                }
+                EffectAction::Remove(id) => {
+                    found.remove_effect(*id)?;
+                    serde_json::json!({ "removed": id })
+                }
+                EffectAction::Clear => {
+                    found.clear_effects()?;
+                    serde_json::json!({ "cleared": true })
+                }
+            }
         }
         Command::SwitchScene(scene) => {
             // A scene still being prepared is answered as such, not waited for.
@@ -217,6 +272,18 @@ pub fn carry_out(
     Ok(answer.to_string())
 }
 
+/// The device whose word in keys is `word`.
+fn device_of<'a>(devices: &'a [(String, Device)], word: &str) -> Result<&'a Device, ClientError> {
+    devices
+        .iter()
+        .find(|(w, _)| w == word)
+        .map(|(_, d)| d)
+        .ok_or_else(|| ClientError::Refused {
+            name: hapticd_ipc::names::UNKNOWN_DEVICE_ERROR.into(),
+            message: format!("no device {word}"),
+        })
+}
+
 /// The word devices are named by in keys, for each device.
 pub fn device_words(devices: Vec<Device>) -> Result<Vec<(String, Device)>, ClientError> {
     devices
@@ -237,6 +304,20 @@ mod tests {
                 device: "sim".into(),
                 name: "Stiffness".into(),
                 value: 2000.0
+            })
+        );
+        assert_eq!(
+            parse("hapticd/sim/effect/change/3", "{kind: damper, damping: 2}"),
+            Ok(Command::Effect {
+                device: "sim".into(),
+                action: EffectAction::Change(3, "{kind: damper, damping: 2}".into())
+            })
+        );
+        assert_eq!(
+            parse("hapticd/sim/effect/clear", ""),
+            Ok(Command::Effect {
+                device: "sim".into(),
+                action: EffectAction::Clear
             })
         );
         assert_eq!(
@@ -273,6 +354,8 @@ mod tests {
                 r#"{"impulse": [0, 0, "x"]}"#,
             ),
             ("hapticd/scene/body/box/fly", "1"),
+            ("hapticd/sim/effect/remove/x", ""),
+            ("hapticd/sim/effect/spin", ""),
             ("hapticd/elsewhere", ""),
         ] {
             assert!(parse(key, payload).is_err(), "{key} {payload}");

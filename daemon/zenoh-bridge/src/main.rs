@@ -124,6 +124,7 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
     );
     let queryables = [
         session.declare_queryable(topics::SET_COMMANDS).wait(),
+        session.declare_queryable(topics::EFFECT_COMMANDS).wait(),
         session.declare_queryable(topics::SCENE_COMMANDS).wait(),
     ]
     .into_iter()

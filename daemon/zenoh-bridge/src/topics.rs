@@ -128,6 +128,10 @@ impl DeviceTopics {
 /// The keys devices' parameters are set at: `hapticd/<device>/set/<Parameter>`.
 pub const SET_COMMANDS: &str = "hapticd/*/set/*";
 
+/// The keys devices' effects are commanded at: `hapticd/<device>/effect/add`,
+/// `…/effect/change/<id>`, `…/effect/remove/<id>` and `…/effect/clear`.
+pub const EFFECT_COMMANDS: &str = "hapticd/*/effect/**";
+
 /// The keys of the scene's commands: `hapticd/scene/switch` and
 /// `hapticd/scene/body/<body>/<pose|velocity|impulse|force|mass|friction>`.
 pub const SCENE_COMMANDS: &str = "hapticd/scene/**";

@@ -392,7 +392,10 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
     // topic says what the hand felt, tick by tick.
     let command = "print(json.dumps({'set': ask('hapticd/sim_spidar_g_1/set/Stiffness', '1500'), \
         'bad': ask('hapticd/sim_spidar_g_1/set/Stiffness', 'nan'), \
-        'malformed': ask('hapticd/scene/body/x/pose', '[1]'), 'felt': push()}))\n";
+        'malformed': ask('hapticd/scene/body/x/pose', '[1]'), \
+        'effect': ask('hapticd/sim_spidar_g_1/effect/add', '{kind: damper, damping: 2}'), \
+        'bad_effect': ask('hapticd/sim_spidar_g_1/effect/add', '{kind: damper, damping: -2}'), \
+        'cleared': ask('hapticd/sim_spidar_g_1/effect/clear', ''), 'felt': push()}))\n";
     let push = "def push():\n\
         \x20   shown = []\n\
         \x20   def displayed(sample):\n\
@@ -516,6 +519,17 @@ fn the_zenoh_bridge_takes_commands_only_as_far_as_it_is_allowed() {
             .unwrap()
             .starts_with("error: ")
     );
+    // Effects from the network: started (their id answered), refused by name, cleared.
+    assert_eq!(said["effect"][0].as_str().unwrap(), r#"{"id":0}"#, "{said}");
+    assert!(
+        said["bad_effect"][0]
+            .as_str()
+            .unwrap()
+            .contains("org.hapticd.Hapticd1.Error.InvalidEffect"),
+        "{said}"
+    );
+    assert_eq!(said["cleared"][0].as_str().unwrap(), r#"{"cleared":true}"#);
+    assert_eq!(bus.get(DEVICE, "Effects"), "a(us) 0");
     // The push ramps in (the first samples felt are a fraction of it), then is felt whole;
     // the million newtons are MaxForce; once nothing comes, it is held for 0.1 s (a late
     // packet is no fault) and then ramped out.
