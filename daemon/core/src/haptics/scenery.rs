@@ -53,3 +53,28 @@ impl Obstacles for Scenery {
         });
     }
 }
+
+impl Scenery {
+    /// [rt] The outward normal at `p` of the solid whose surface is nearest it (the one a
+    /// proxy there rests on): the primitives scanned, the triangles near `p` found in the
+    /// tree; zero with no solid near.
+    pub fn normal_at(&self, p: DVec3) -> DVec3 {
+        let mut nearest: Option<(f64, Shape)> = None;
+        let mut consider = |shape: &Shape| {
+            let d = shape.signed_distance(p).abs();
+            if nearest.is_none_or(|(best, _)| d < best) {
+                nearest = Some((d, *shape));
+            }
+        };
+        self.primitives.iter().for_each(&mut consider);
+        self.tree
+            .visit_segment(p, p, MARGIN, |i| consider(&self.triangles[i]));
+        let Some((_, shape)) = nearest else {
+            return DVec3::ZERO;
+        };
+        // The distance's gradient, by central differences a micrometre apart.
+        let h = 1e-6;
+        let d = |e: DVec3| shape.signed_distance(p + e * h) - shape.signed_distance(p - e * h);
+        DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)).normalize_or_zero()
+    }
+}

@@ -483,23 +483,6 @@ impl StaticScene {
     }
 }
 
-/// [rt] The outward normal at `p` of the surface of `shapes` nearest it (the one a proxy
-/// there rests on).
-fn normal_at(shapes: &[Shape], p: DVec3) -> DVec3 {
-    let nearest = shapes.iter().min_by(|a, b| {
-        a.signed_distance(p)
-            .abs()
-            .total_cmp(&b.signed_distance(p).abs())
-    });
-    let Some(shape) = nearest else {
-        return DVec3::ZERO;
-    };
-    // The distance's gradient, by central differences a micrometre apart.
-    let h = 1e-6;
-    let d = |e: DVec3| shape.signed_distance(p + e * h) - shape.signed_distance(p - e * h);
-    DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)).normalize_or_zero()
-}
-
 impl Scene for StaticScene {
     fn name(&self) -> &str {
         &self.spec.name
@@ -516,7 +499,7 @@ impl Scene for StaticScene {
             );
             let texture = match (self.spec.texture, out.in_contact) {
                 (Some(texture), true) => {
-                    texture.force(out.proxy, normal_at(&self.spec.shapes, out.proxy))
+                    texture.force(out.proxy, self.scenery.normal_at(out.proxy))
                 }
                 _ => DVec3::ZERO,
             };

@@ -60,6 +60,21 @@ impl DeviceInterface {
         audit(&what, &who, &result);
         Ok(result?)
     }
+
+    /// The change to the effects `what` that the sender of `header` asked for, done with
+    /// `result`: audited, and `Effects` announced when it took.
+    async fn effects_changed_by<T>(
+        &self,
+        what: &str,
+        result: Result<T, crate::control::Error>,
+        (emitter, connection, header): (&SignalEmitter<'_>, &zbus::Connection, &Header<'_>),
+    ) -> Result<T, BusError> {
+        let who = caller(connection, Some(header)).await;
+        audit(what, &who, &result.as_ref().map(|_| ()));
+        let done = result?;
+        report(self.effects_changed(emitter).await);
+        Ok(done)
+    }
 }
 
 /// Refuse `options` of `method`, which takes none yet.
@@ -537,10 +552,8 @@ device_interface! {
         let device = self.device.clone();
         let result = self.workers.run(move || device.add_effect(&effect)).await;
         let what = format!("add an effect to {}", self.device.identity());
-        audit(&what, &caller(connection, Some(&header)).await, &result.as_ref().map(|_| ()));
-        let id = result?;
-        report(self.effects_changed(&emitter).await);
-        Ok(id)
+        let asked = (&emitter, connection, &header);
+        self.effects_changed_by(&what, result, asked).await
     }
 
     /// Cross-fade effect `id` into `effect` (YAML), never faster than the force-rate limit.
@@ -555,10 +568,8 @@ device_interface! {
         let device = self.device.clone();
         let result = self.workers.run(move || device.change_effect(id, &effect)).await;
         let what = format!("change effect {id} of {}", self.device.identity());
-        audit(&what, &caller(connection, Some(&header)).await, &result);
-        result?;
-        report(self.effects_changed(&emitter).await);
-        Ok(())
+        let asked = (&emitter, connection, &header);
+        self.effects_changed_by(&what, result, asked).await
     }
 
     /// Fade effect `id` out (over its fade, never faster than the force-rate limit).
@@ -571,10 +582,8 @@ device_interface! {
     ) -> Result<(), BusError> {
         let result = self.device.remove_effect(id);
         let what = format!("remove effect {id} of {}", self.device.identity());
-        audit(&what, &caller(connection, Some(&header)).await, &result);
-        result?;
-        report(self.effects_changed(&emitter).await);
-        Ok(())
+        let asked = (&emitter, connection, &header);
+        self.effects_changed_by(&what, result, asked).await
     }
 
     /// Fade every effect out.
@@ -586,10 +595,8 @@ device_interface! {
     ) -> Result<(), BusError> {
         let result = self.device.clear_effects();
         let what = format!("clear the effects of {}", self.device.identity());
-        audit(&what, &caller(connection, Some(&header)).await, &result);
-        result?;
-        report(self.effects_changed(&emitter).await);
-        Ok(())
+        let asked = (&emitter, connection, &header);
+        self.effects_changed_by(&what, result, asked).await
     }
 
     /// Forget the scene's contact state and let the forces come back after a fault.

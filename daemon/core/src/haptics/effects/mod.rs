@@ -148,7 +148,7 @@ impl EffectSet {
                 if self.len == SLOTS {
                     return Err(EffectError::Full);
                 }
-                let envelope = self.rated(&effect.envelope, &effect.kind, 0.0);
+                let envelope = self.rated(&effect.envelope, &effect.kind);
                 let added = self.time;
                 self.len += 1;
                 self.slots[self.len - 1] = Some(Slot {
@@ -179,7 +179,7 @@ impl EffectSet {
                 let envelope = Envelope {
                     start: 0.0,
                     attack: over,
-                    ..self.rated(&effect.envelope, &effect.kind, 0.0)
+                    ..self.rated(&effect.envelope, &effect.kind)
                 };
                 self.slots[index] = Some(Slot {
                     id,
@@ -233,15 +233,9 @@ impl EffectSet {
         }
     }
 
-    /// `envelope` of an effect of `kind`, its ramps at least `shortest` and no faster than
-    /// the force-rate limit.
-    fn rated(&self, envelope: &Envelope, kind: &Kind, shortest: f64) -> Envelope {
-        let e = envelope.within_rate(kind.peak_force(self.max_force), self.max_force_rate);
-        Envelope {
-            attack: e.attack.max(shortest),
-            fade: e.fade.max(shortest),
-            ..e
-        }
+    /// `envelope` of an effect of `kind`, its ramps no faster than the force-rate limit.
+    fn rated(&self, envelope: &Envelope, kind: &Kind) -> Envelope {
+        envelope.within_rate(kind.peak_force(self.max_force), self.max_force_rate)
     }
 
     /// [rt] Move on by `dt`: effects that have faded out are forgotten.

@@ -296,14 +296,15 @@ impl EffectSpec {
             None => None,
         };
         let envelope = self.envelope(at, f);
-        let kind = Checker {
+        let mut checker = Checker {
             spec: self,
             at,
             limits,
             f,
-        }
-        .kind();
-        match (kind, envelope, bad) {
+            bad: false,
+        };
+        let kind = checker.kind();
+        match (kind, envelope, bad || checker.bad) {
             (Some(kind), Some(envelope), false) => Some(Effect {
                 kind,
                 effector,
@@ -338,6 +339,8 @@ struct Checker<'a, 'b, 'c> {
     at: &'a str,
     limits: &'a Limits<'a>,
     f: &'b mut Findings<'c>,
+    /// An optional key was out of range (said in `f`): the kind stands, the effect does not.
+    bad: bool,
 }
 
 impl Checker<'_, '_, '_> {
@@ -377,7 +380,10 @@ impl Checker<'_, '_, '_> {
     ) -> f64 {
         match value {
             Some(v) if self.f.within(self.key(k), v, lo, hi, unit) => v,
-            Some(_) => default,
+            Some(_) => {
+                self.bad = true;
+                default
+            }
             None => default,
         }
     }
@@ -684,4 +690,36 @@ pub fn listed_in(file: &Path, limits: &Limits) -> Result<Vec<(Effect, EffectSpec
         .collect();
     f.finish()?;
     Ok(effects)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every mistake, an optional key's too, leaves no effect and an error at its place.
+    #[test]
+    fn an_out_of_range_optional_key_leaves_no_effect() {
+        let effectors = ["grip".to_string()];
+        let limits = Limits {
+            effectors: &effectors,
+            max_force: 10.0,
+            rate: 1000.0,
+        };
+        let path = Path::new("e");
+        let check = |text: &str| {
+            let spec: EffectSpec = diagnostics::parse_yaml(text, path).unwrap().value;
+            let mut f = Findings::new(path, &|_| None);
+            let effect = spec.check("", &limits, &mut f);
+            (effect, f.finish().err().map(|e| e.to_string()))
+        };
+        let (good, none) =
+            check("{kind: spring, anchor: [0, 0, 0], stiffness: 100, dead_band: 0.01}");
+        assert!(good.is_some() && none.is_none());
+        let (bad, said) = check("{kind: spring, anchor: [0, 0, 0], stiffness: 100, dead_band: 5}");
+        assert_eq!(bad, None);
+        assert!(
+            said.unwrap()
+                .contains("dead_band: must be a number from 0 to 1 m, not 5")
+        );
+    }
 }
