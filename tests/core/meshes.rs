@@ -10,7 +10,7 @@ use hapticd_core::haptics::obstacle::{Obstacles, Shape};
 use hapticd_core::haptics::proxy::{Proxy, ProxyParameters};
 use hapticd_core::haptics::scenery::Scenery;
 use hapticd_core::scene::static_scene::StaticSceneSpec;
-use hapticd_mesh::scene_triangles;
+use hapticd_mesh::scene_files;
 
 use crate::support::ball_mesh::ball_faces;
 use crate::support::{dir_with_mesh, scratch_root};
@@ -32,7 +32,7 @@ fn scene_dir(name: &str) -> PathBuf {
 }
 
 fn parse(dir: &Path, text: &str) -> Result<StaticSceneSpec, String> {
-    StaticSceneSpec::parse_with_meshes(text, &dir.join("scene.yaml"), &scene_triangles)
+    StaticSceneSpec::parse_with_files(text, &dir.join("scene.yaml"), scene_files())
         .map_err(|e| e.to_string())
 }
 

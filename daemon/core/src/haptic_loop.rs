@@ -22,6 +22,7 @@ use crate::fault_hold::{FaultHold, SCENE_RECOVERY};
 use crate::haptics::effects::{EffectCommand, EffectSet, Grip};
 use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
+use crate::haptics::surface::SurfaceFeel;
 use crate::haptics::wrench_command::{CommandState, WrenchCommand, WrenchSource};
 use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench, rotation_vector};
 use crate::mechanism::Mechanism;
@@ -228,6 +229,8 @@ struct EffectorLoop {
     previous: Pose,
     velocity: DVec3,
     spin: DVec3,
+    /// What it feels of the surface materials it touches.
+    surface: SurfaceFeel,
 }
 
 /// The haptic loop of one device.
@@ -315,6 +318,7 @@ impl HapticLoop {
                     previous: e.calibration,
                     velocity: DVec3::ZERO,
                     spin: DVec3::ZERO,
+                    surface: SurfaceFeel::default(),
                 }
             })
             .collect();
@@ -422,6 +426,7 @@ impl HapticLoop {
                 self.scene_hold.clear();
                 for e in &mut self.effectors {
                     e.passivity.reset();
+                    e.surface.reset();
                 }
             }
             LoopCommand::SwitchScene(scene) => {
@@ -621,9 +626,12 @@ impl HapticLoop {
                 pose: *e.pose.pose(),
                 velocity: e.velocity,
             };
-            let (passive, active) = self.effects.wrenches(index, &grip, dt);
-            // Passive effects are watched by the observer like the scene.
-            let mut wrench = self.wrenches[index] + passive;
+            let touch = &self.frame.touches[index];
+            let material = self.scene.material(index, touch);
+            let (texture, ring) = e.surface.update(material, touch, e.velocity, dt);
+            let (passive, active) = self.effects.wrenches(index, &grip, dt, ring);
+            // Passive effects and textures are watched by the observer like the scene.
+            let mut wrench = self.wrenches[index] + passive + Wrench::force(texture);
             wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);
             // What active effects and the far side give is energy by design: past the
             // passivity controller, but within the limits and the guard like the rest.

@@ -364,8 +364,8 @@ mod tests {
                 hapticd_core::mechanism::descriptor::parse(t, p).map(drop)
             }),
             ("hapticd-scene", |t, p| {
-                let meshes = &hapticd_mesh::scene_triangles;
-                hapticd_core::scene::static_scene::StaticSceneSpec::parse_with_meshes(t, p, meshes)
+                let files = hapticd_mesh::scene_files();
+                hapticd_core::scene::static_scene::StaticSceneSpec::parse_with_files(t, p, files)
                     .map(drop)
             }),
             ("hapticd-scene", |t, p| {

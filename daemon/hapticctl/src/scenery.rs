@@ -101,8 +101,7 @@ pub fn scenery(path: &Path, at: f64, rests: &[Pose]) -> Result<(Scenery, Camera)
             return Err(SceneryError::Static);
         }
         let geometry = Shaded::new(
-            StaticSceneSpec::parse_with_meshes(&text, path, &hapticd_mesh::scene_triangles)?
-                .geometry(),
+            StaticSceneSpec::parse_with_files(&text, path, hapticd_mesh::scene_files())?.geometry(),
         );
         let mut scenery = Scenery::of_geometry(&geometry, &[]);
         scenery.add_proxies(&resting);

@@ -11,6 +11,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hapticd_core::diagnostics::Diagnostics;
+use hapticd_core::haptics::surface::{self, Surfaces};
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::engine::{Engine, engine_of};
 use hapticd_core::scene::remote::{self, RemoteSceneSpec};
@@ -235,8 +236,9 @@ pub(crate) fn scene_plugin(name: &str, plugin_dirs: &[PathBuf]) -> Option<PathBu
 
 /// What a scene name comes to.
 enum Resolved {
-    /// A scene plugin, with the scene file it runs if any (checked by it).
-    Plugin(PathBuf, Option<PathBuf>),
+    /// A scene plugin, with the scene file it runs if any (checked by it), and the file's
+    /// surface materials (a physics scene file's; none for a plugin's own format).
+    Plugin(PathBuf, Option<PathBuf>, Surfaces),
     /// A static scene file, rendered by the daemon.
     Static(PathBuf),
     /// A world on another machine.
@@ -262,7 +264,11 @@ fn resolve(
         Err(why) => return Err(OpenError::NotFound(why.to_string())),
     };
     if path.extension().is_some_and(|e| e == "so") {
-        return Ok(Resolved::Plugin(path, file.map(Path::to_path_buf)));
+        return Ok(Resolved::Plugin(
+            path,
+            file.map(Path::to_path_buf),
+            Surfaces::default(),
+        ));
     }
     let engine = engine_of(&path).map_err(OpenError::Invalid)?;
     if engine == Engine::Plugin(remote::ENGINE.into()) {
@@ -274,7 +280,9 @@ fn resolve(
     let runner = EnginePlugin::find(&engine, &path, places.plugin_dirs)?;
     // Checked first, so that mistakes come back with their places.
     runner.check(&path, pointers)?;
-    Ok(Resolved::Plugin(runner.path, Some(path)))
+    let surfaces = surface::listed_in(&path, &hapticd_mesh::height_map::height_map)
+        .map_err(OpenError::Invalid)?;
+    Ok(Resolved::Plugin(runner.path, Some(path), surfaces))
 }
 
 fn find(
@@ -284,12 +292,15 @@ fn find(
     pointers: &[Pointer],
 ) -> Result<Box<dyn Scene>, OpenError> {
     match resolve(name, file, places, pointers.len())? {
-        Resolved::Plugin(plugin, file) => {
-            crate::plugin_scene::load(&plugin, file.as_deref(), pointers).map_err(OpenError::Plugin)
+        Resolved::Plugin(plugin, file, surfaces) => {
+            let mut scene = crate::plugin_scene::load(&plugin, file.as_deref(), pointers)
+                .map_err(OpenError::Plugin)?;
+            scene.set_surfaces(surfaces);
+            Ok(scene)
         }
         Resolved::Remote(path) => open_remote(&path, places, pointers),
         Resolved::Static(path) => {
-            let spec = StaticSceneSpec::load_with_meshes(&path, &hapticd_mesh::scene_triangles)
+            let spec = StaticSceneSpec::load_with_files(&path, hapticd_mesh::scene_files())
                 .map_err(OpenError::Invalid)?;
             Ok(Box::new(StaticScene::new(spec, pointers)))
         }
@@ -324,7 +335,7 @@ pub fn open_shared(
             "the devices' {pointers} grips are more than a scene's {MAX_EFFECTORS}"
         )));
     }
-    let Resolved::Plugin(plugin, file) = resolve(name, file, places, pointers)? else {
+    let Resolved::Plugin(plugin, file, surfaces) = resolve(name, file, places, pointers)? else {
         return Ok(Sharing::Apart(
             "it is no physics scene (a static or remote one)".into(),
         ));
@@ -342,6 +353,7 @@ pub fn open_shared(
     let (mut scenes, world) = shared_scene::start(world, hosts)
         .map_err(|e| OpenError::Refused(format!("{name}: cannot start its world's thread: {e}")))?;
     for (scene, host) in scenes.iter_mut().zip(hosts) {
+        scene.set_surfaces(surfaces.clone());
         fits_tick(scene.as_mut(), host.pointers, host.rate)?;
     }
     Ok(Sharing::Shared { scenes, world })

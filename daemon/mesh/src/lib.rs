@@ -7,6 +7,7 @@
 //! - [`properties`]: whether the surface is closed, its volume, centre and inertia;
 //! - [`decomposition`]: a movable mesh as convex pieces, kept between runs by [`cache`];
 //! - [`solid`]: a mesh as a physics body takes it;
+//! - [`height_map`]: a grey PNG a texture lays over a surface;
 //! - `obj`, `stl`, `gltf`: the three formats.
 //!
 //! Coordinates are metres once the scene's `scale:` is applied; every finding names the file.
@@ -15,6 +16,7 @@ pub mod cache;
 pub mod decomposition;
 mod error;
 mod gltf;
+pub mod height_map;
 mod obj;
 pub mod properties;
 mod solid;
@@ -25,7 +27,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
-use hapticd_core::scene::static_scene::MeshFaces;
+use hapticd_core::scene::static_scene::{MeshFaces, SceneFiles};
 
 pub use crate::error::{Budget, Format, MeshError, MeshFileError};
 
@@ -238,11 +240,20 @@ impl TriangleMesh {
     }
 }
 
+/// The readers of the files a scene names: its meshes ([`scene_triangles`]) and height maps
+/// ([`height_map::height_map`]).
+pub fn scene_files() -> SceneFiles<'static> {
+    SceneFiles {
+        meshes: &scene_triangles,
+        images: &height_map::height_map,
+    }
+}
+
 /// The triangles of the mesh `file` a scene in `scene_dir` names, scaled by `scale`, and
 /// whether they bound a solid: read under [`Limits::DEFAULT`], and only from within the
 /// scene's directory. The reader hapticd and hapticctl give static scenes
 /// (`hapticd_core::scene::static_scene::MeshReader`).
-pub fn scene_triangles(
+fn scene_triangles(
     file: &Path,
     scene_dir: &Path,
     scale: f64,

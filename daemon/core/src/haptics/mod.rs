@@ -9,7 +9,9 @@
 //! - [`proxy`]: the god-object with Coulomb friction;
 //! - [`passivity`]: the time-domain passivity observer and controller on each port;
 //! - [`safety`]: force limits, the NaN guard and the ramp to zero on any fault;
-//! - [`texture`]: what a surface feels like while the proxy slides on it;
+//! - [`surface`]: surface materials, felt by whatever touches them: a texture while
+//!   sliding, a transient on impact;
+//! - [`texture`]: the textures: gratings, random roughness, height maps;
 //! - [`touch`]: what a pointer touches, for contact events;
 //! - [`wrench_command`]: a wrench commanded from outside (teleoperation), bounded, ramped,
 //!   and dropped when it goes stale.
@@ -22,6 +24,7 @@ pub mod passivity;
 pub mod proxy;
 pub mod safety;
 pub mod scenery;
+pub mod surface;
 pub mod texture;
 pub mod touch;
 pub mod wrench_command;

@@ -105,6 +105,33 @@ impl Shape {
         })
     }
 
+    /// [rt] For a triangle: the normal at `p` (seen along the face) blended from the corners'
+    /// `normals` by `p`'s barycentric weights, on the side of `face` (the normal pushed
+    /// along there); None for other shapes.
+    pub fn blend(&self, p: DVec3, normals: &[DVec3; 3], face: DVec3) -> Option<DVec3> {
+        let Shape::Triangle {
+            corners: [a, b, c],
+            normal,
+            ..
+        } = *self
+        else {
+            return None;
+        };
+        let area = |x: DVec3, y: DVec3| (y - x).cross(p - x).dot(normal).max(0.0);
+        let weights = [area(b, c), area(c, a), area(a, b)];
+        let total: f64 = weights.iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let blended = (0..3).map(|k| normals[k] * weights[k]).sum::<DVec3>() / total;
+        let blended = blended.try_normalize()?;
+        Some(if blended.dot(face) < 0.0 {
+            -blended
+        } else {
+            blended
+        })
+    }
+
     /// Whether `p` is strictly inside (deeper than `tolerance`).
     pub fn contains(&self, p: DVec3, tolerance: f64) -> bool {
         self.signed_distance(p) < -tolerance

@@ -17,15 +17,21 @@ const MARGIN: f64 = 1e3 * SURFACE;
 pub struct Scenery {
     primitives: Vec<Shape>,
     triangles: Vec<Shape>,
+    /// Where each primitive, then each triangle, was among the shapes it was made from.
+    places: Vec<usize>,
     tree: Bvh,
 }
 
 impl Scenery {
     /// The scenery of `shapes` (built here, off the haptic thread).
     pub fn new(shapes: &[Shape]) -> Self {
-        let (triangles, primitives): (Vec<Shape>, Vec<Shape>) = shapes
-            .iter()
-            .partition(|s| matches!(s, Shape::Triangle { .. }));
+        let is_triangle = |s: &Shape| matches!(s, Shape::Triangle { .. });
+        let (triangles, primitives): (Vec<Shape>, Vec<Shape>) =
+            shapes.iter().partition(|s| is_triangle(s));
+        let places = (0..shapes.len())
+            .filter(|&i| !is_triangle(&shapes[i]))
+            .chain((0..shapes.len()).filter(|&i| is_triangle(&shapes[i])))
+            .collect();
         let boxes: Vec<(DVec3, DVec3)> = triangles
             .iter()
             .map(|t| match t {
@@ -37,6 +43,7 @@ impl Scenery {
             .collect();
         Self {
             tree: Bvh::build(&boxes),
+            places,
             primitives,
             triangles,
         }
@@ -55,26 +62,33 @@ impl Obstacles for Scenery {
 }
 
 impl Scenery {
-    /// [rt] The outward normal at `p` of the solid whose surface is nearest it (the one a
-    /// proxy there rests on): the primitives scanned, the triangles near `p` found in the
-    /// tree; zero with no solid near.
-    pub fn normal_at(&self, p: DVec3) -> DVec3 {
-        let mut nearest: Option<(f64, Shape)> = None;
-        let mut consider = |shape: &Shape| {
+    /// [rt] The shape whose surface is nearest `p` (the one a proxy there rests on; its place
+    /// among the shapes the scenery was made from) and its outward unit normal there: the
+    /// primitives scanned, the triangles near `p` found in the tree; None with no solid near.
+    pub fn nearest(&self, p: DVec3) -> Option<(usize, DVec3)> {
+        let mut nearest: Option<(f64, usize)> = None;
+        let mut consider = |k: usize, shape: &Shape| {
             let d = shape.signed_distance(p).abs();
             if nearest.is_none_or(|(best, _)| d < best) {
-                nearest = Some((d, *shape));
+                nearest = Some((d, k));
             }
         };
-        self.primitives.iter().for_each(&mut consider);
+        for (k, shape) in self.primitives.iter().enumerate() {
+            consider(k, shape);
+        }
+        let first = self.primitives.len();
         self.tree
-            .visit_segment(p, p, MARGIN, |i| consider(&self.triangles[i]));
-        let Some((_, shape)) = nearest else {
-            return DVec3::ZERO;
+            .visit_segment(p, p, MARGIN, |i| consider(first + i, &self.triangles[i]));
+        let (_, k) = nearest?;
+        let shape = if k < first {
+            &self.primitives[k]
+        } else {
+            &self.triangles[k - first]
         };
         // The distance's gradient, by central differences a micrometre apart.
         let h = 1e-6;
         let d = |e: DVec3| shape.signed_distance(p + e * h) - shape.signed_distance(p - e * h);
-        DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)).normalize_or_zero()
+        let normal = DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)).normalize_or_zero();
+        Some((self.places[k], normal))
     }
 }

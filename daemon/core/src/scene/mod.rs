@@ -27,6 +27,7 @@ pub mod world_link;
 use glam::DVec3;
 
 use crate::haptics::proxy::ProxyParameters;
+use crate::haptics::surface::{Material, Surfaces};
 pub use crate::haptics::touch::Touch;
 use crate::kinematics::{Pose, Wrench, quat_to_wxyz};
 use crate::mechanism::Mechanism;
@@ -113,6 +114,18 @@ pub trait Scene: Send {
     /// [rt, after `render`] What each pointer touches (one slot per pointer in `touches`,
     /// each [`Touch::NONE`] when called); the default says nothing.
     fn write_touches(&self, _touches: &mut [Touch]) {}
+
+    /// [main, before the loop gets the scene] Render `surfaces` on the world's bodies (by
+    /// body id): a physics scene file's materials, which the daemon reads. Scenes that know
+    /// their own surfaces ignore them.
+    fn set_surfaces(&mut self, _surfaces: Surfaces) {}
+
+    /// [rt, after `write_touches`] The material of the surface pointer `pointer` touches
+    /// (`touch`, as the scene wrote it): its texture and transient, if it has one; the
+    /// default has none.
+    fn material(&self, _pointer: usize, _touch: &Touch) -> Option<&Material> {
+        None
+    }
 
     /// [main] The control of the world's bodies from outside, taken once before the loop
     /// gets the scene (None: it cannot be changed from outside, or was taken).

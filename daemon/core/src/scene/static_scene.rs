@@ -40,7 +40,8 @@ use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
 use crate::haptics::scenery::Scenery;
-use crate::haptics::texture::{Texture, TextureSpec};
+use crate::haptics::surface::{Material, MaterialSpec, TransientSpec};
+use crate::haptics::texture::{ImageReader, TextureSpec};
 use crate::kinematics::{SOLID_SIZES, Up, WORLD_EXTENT, Wrench, quat_to_wxyz};
 use crate::parameters::Name;
 
@@ -50,10 +51,13 @@ struct RawScene {
     name: String,
     #[serde(default)]
     proxy: Option<RawProxy>,
-    shapes: Vec<RawShape>,
-    /// The texture of every surface.
+    shapes: Vec<RawEntry>,
+    /// The texture of every surface without one of its own.
     #[serde(default)]
     texture: Option<TextureSpec>,
+    /// The transient of every surface without one of its own.
+    #[serde(default)]
+    transient: Option<TransientSpec>,
     /// Haptic effects: the daemon checks them against each device and renders them.
     #[serde(default)]
     #[allow(dead_code)]
@@ -69,42 +73,114 @@ struct RawProxy {
     dynamic_friction: f64,
 }
 
+/// One of `shapes:`: a solid (one key naming its kind) and its material.
 #[derive(Deserialize)]
-#[serde(rename_all = "lowercase", deny_unknown_fields)]
+#[serde(deny_unknown_fields)]
+struct RawEntry {
+    floor: Option<RawFloor>,
+    plane: Option<RawPlane>,
+    sphere: Option<RawSphere>,
+    cylinder: Option<RawCylinder>,
+    #[serde(rename = "box")]
+    cuboid: Option<RawBox>,
+    mesh: Option<RawMesh>,
+    /// Felt while sliding on this solid.
+    texture: Option<TextureSpec>,
+    /// Felt on impact with this solid.
+    transient: Option<TransientSpec>,
+}
+
+impl RawEntry {
+    /// Its solid, or None when it names none or several.
+    fn shape(self) -> Option<RawShape> {
+        let shapes = [
+            self.floor.map(RawShape::Floor),
+            self.plane.map(RawShape::Plane),
+            self.sphere.map(RawShape::Sphere),
+            self.cylinder.map(RawShape::Cylinder),
+            self.cuboid.map(RawShape::Box),
+            self.mesh.map(RawShape::Mesh),
+        ];
+        let mut named = shapes.into_iter().flatten();
+        let shape = named.next();
+        shape.filter(|_| named.next().is_none())
+    }
+}
+
 enum RawShape {
-    Floor {
-        height: f64,
-    },
-    Plane {
-        point: [f64; 3],
-        normal: [f64; 3],
-    },
-    Sphere {
-        centre: [f64; 3],
-        radius: f64,
-    },
-    Cylinder {
-        point: [f64; 3],
-        axis: [f64; 3],
-        radius: f64,
-    },
-    Box {
-        centre: [f64; 3],
-        size: [f64; 3],
-        #[serde(default = "identity")]
-        orientation: [f64; 4],
-    },
-    Mesh {
-        file: String,
-        #[serde(default)]
-        centre: [f64; 3],
-        #[serde(default = "identity")]
-        orientation: [f64; 4],
-        #[serde(default = "unscaled")]
-        scale: f64,
-        #[serde(default)]
-        up: Up,
-    },
+    Floor(RawFloor),
+    Plane(RawPlane),
+    Sphere(RawSphere),
+    Cylinder(RawCylinder),
+    Box(RawBox),
+    Mesh(RawMesh),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFloor {
+    height: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlane {
+    point: [f64; 3],
+    normal: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSphere {
+    centre: [f64; 3],
+    radius: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCylinder {
+    point: [f64; 3],
+    axis: [f64; 3],
+    radius: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBox {
+    centre: [f64; 3],
+    size: [f64; 3],
+    #[serde(default = "identity")]
+    orientation: [f64; 4],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMesh {
+    file: String,
+    #[serde(default)]
+    centre: [f64; 3],
+    #[serde(default = "identity")]
+    orientation: [f64; 4],
+    #[serde(default = "unscaled")]
+    scale: f64,
+    #[serde(default)]
+    up: Up,
+    /// `smooth`: normals blended across faces (haptic shading); `flat` (the default): each
+    /// face's own.
+    #[serde(default)]
+    shading: Shading,
+}
+
+/// How a mesh's surface turns from face to face under the hand.
+#[derive(Deserialize, Default, Clone, Copy, PartialEq, Eq, Debug)]
+#[serde(rename_all = "lowercase")]
+pub enum Shading {
+    /// Each face pushes along its own normal: the facets are felt.
+    #[default]
+    Flat,
+    /// The push turns smoothly across faces, along normals blended from the corners'
+    /// (Phong's normals, felt: force shading).
+    Smooth,
 }
 
 fn identity() -> [f64; 4] {
@@ -120,6 +196,16 @@ fn unscaled() -> f64 {
 /// them with hapticd-mesh; the core itself reads no mesh format.
 pub type MeshReader<'a> =
     &'a dyn Fn(&Path, &Path, f64) -> Result<MeshFaces, Box<dyn std::error::Error + Send + Sync>>;
+
+/// The readers of the files a scene names, in its own directory: hapticd and hapticctl give
+/// hapticd-mesh's; the core itself reads no mesh or image format.
+#[derive(Clone, Copy)]
+pub struct SceneFiles<'a> {
+    /// Mesh files.
+    pub meshes: MeshReader<'a>,
+    /// Height maps.
+    pub images: ImageReader<'a>,
+}
 
 /// The triangles of a mesh file, as a [`MeshReader`] gives them.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -144,33 +230,59 @@ pub struct StaticSceneSpec {
     pub proxy: ProxyParameters,
     /// The solids.
     pub shapes: Vec<Shape>,
-    /// The texture felt on every surface while sliding, if any.
-    pub texture: Option<Texture>,
+    /// Each solid's surface (one per shape).
+    pub surfaces: Vec<ShapeSurface>,
+    /// The materials the surfaces name: the first the scene's own (of every surface without
+    /// one), the others the shapes'.
+    pub materials: Vec<Option<Material>>,
+    /// The corners' blended normals of the smoothly shaded triangles.
+    pub corner_normals: Vec<[DVec3; 3]>,
+}
+
+/// What a solid's surface is made of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ShapeSurface {
+    /// Its material among the scene's (0: the scene's own).
+    pub material: u16,
+    /// Its corners' normals among the scene's `corner_normals`, when it is smoothly shaded.
+    pub normals: Option<u32>,
 }
 
 impl StaticSceneSpec {
-    /// Load a scene file that names no mesh.
-    pub fn load(path: &Path) -> Result<Self, Diagnostics> {
-        Self::load_with_meshes(path, &no_meshes)
+    /// A scene of bare `shapes` (no texture or transient), touched with `proxy`.
+    pub fn bare(name: &str, proxy: ProxyParameters, shapes: Vec<Shape>) -> Self {
+        Self {
+            name: name.to_string(),
+            proxy,
+            surfaces: vec![ShapeSurface::default(); shapes.len()],
+            shapes,
+            materials: vec![None],
+            corner_normals: Vec::new(),
+        }
     }
 
-    /// Load a scene file, its meshes read by `meshes`.
-    pub fn load_with_meshes(path: &Path, meshes: MeshReader) -> Result<Self, Diagnostics> {
-        Self::parse_with_meshes(&diagnostics::read_text(path)?, path, meshes)
+    /// Load a scene file that names no mesh.
+    pub fn load(path: &Path) -> Result<Self, Diagnostics> {
+        Self::load_with_files(path, NO_FILES)
+    }
+
+    /// Load a scene file, the files it names read by `files`.
+    pub fn load_with_files(path: &Path, files: SceneFiles) -> Result<Self, Diagnostics> {
+        Self::parse_with_files(&diagnostics::read_text(path)?, path, files)
     }
 
     /// Parse and check scene `text`, which names no mesh; `path` names it in diagnostics,
     /// which come all at once, each at its line and column.
     pub fn parse(text: &str, path: &Path) -> Result<Self, Diagnostics> {
-        Self::parse_with_meshes(text, path, &no_meshes)
+        Self::parse_with_files(text, path, NO_FILES)
     }
 
-    /// [`StaticSceneSpec::parse`], the meshes the scene names read by `meshes` from the
+    /// [`StaticSceneSpec::parse`], the files the scene names read by `files` from the
     /// directory of `path`.
-    pub fn parse_with_meshes(
+    pub fn parse_with_files(
         text: &str,
         path: &Path,
-        meshes: MeshReader,
+        files: SceneFiles,
     ) -> Result<Self, Diagnostics> {
         let parsed = diagnostics::parse_yaml::<RawScene>(text, path)?;
         let (raw, map) = (parsed.value, parsed.map);
@@ -207,10 +319,23 @@ impl StaticSceneSpec {
             }
         };
         let dir = crate::diagnostics::directory_of(path);
-        let mut shapes = Vec::new();
-        for (i, s) in raw.shapes.into_iter().enumerate() {
-            shapes.extend(check_shape(&mut f, &format!("shapes[{i}]"), s, dir, meshes));
+        let scene_material = MaterialSpec {
+            texture: raw.texture,
+            transient: raw.transient,
+        };
+        let mut solids = Solids {
+            materials: vec![scene_material.check("", &mut f, dir, files.images)],
+            ..Solids::default()
+        };
+        for (i, entry) in raw.shapes.into_iter().enumerate() {
+            solids.add(&mut f, &format!("shapes[{i}]"), entry, dir, files);
         }
+        let Solids {
+            shapes,
+            surfaces,
+            materials,
+            corner_normals,
+        } = solids;
         let triangles = shapes
             .iter()
             .filter(|s| matches!(s, Shape::Triangle { .. }))
@@ -224,16 +349,14 @@ impl StaticSceneSpec {
                 ),
             );
         }
-        let texture = raw
-            .texture
-            .as_ref()
-            .and_then(|t| t.check("texture", &mut f));
         f.finish()?;
         Ok(Self {
             name: raw.name,
             proxy,
             shapes,
-            texture,
+            surfaces,
+            materials,
+            corner_normals,
         })
     }
 }
@@ -258,13 +381,93 @@ fn direction(f: &mut Findings, field: String, v: [f64; 3]) -> DVec3 {
     v.normalize_or(DVec3::Y)
 }
 
-/// The reader of programs that read no mesh files.
-fn no_meshes(
-    _: &Path,
-    _: &Path,
-    _: f64,
-) -> Result<MeshFaces, Box<dyn std::error::Error + Send + Sync>> {
-    Err("this program reads no mesh files (hapticd and hapticctl do)".into())
+/// The readers of programs that read no mesh or image files.
+pub const NO_FILES: SceneFiles<'static> = SceneFiles {
+    meshes: &|_, _, _| Err(NOT_READ.into()),
+    images: &|_, _| Err(NOT_READ.into()),
+};
+
+/// Why a program without readers refuses a file.
+const NOT_READ: &str = "this program reads no mesh or image files (hapticd and hapticctl do)";
+
+/// A static scene's solids as they are checked.
+#[derive(Default)]
+struct Solids {
+    shapes: Vec<Shape>,
+    surfaces: Vec<ShapeSurface>,
+    materials: Vec<Option<Material>>,
+    corner_normals: Vec<[DVec3; 3]>,
+}
+
+impl Solids {
+    /// Check shape entry `entry` (at `at`) and add its solids, with its material.
+    fn add(&mut self, f: &mut Findings, at: &str, entry: RawEntry, dir: &Path, files: SceneFiles) {
+        let spec = MaterialSpec {
+            texture: entry.texture.clone(),
+            transient: entry.transient,
+        };
+        let material = match spec.check(at, f, dir, files.images) {
+            Some(m) => {
+                self.materials.push(Some(m));
+                self.materials.len() as u16 - 1
+            }
+            None => 0,
+        };
+        let Some(shape) = entry.shape() else {
+            f.error(
+                at,
+                "must be one of floor, plane, sphere, cylinder, box or mesh (with texture and \
+                 transient optional)",
+            );
+            return;
+        };
+        let smooth = matches!(&shape, RawShape::Mesh(m) if m.shading == Shading::Smooth);
+        let added = check_shape(f, at, shape, dir, files.meshes);
+        let normals = if smooth {
+            corner_normals(&added)
+        } else {
+            Vec::new()
+        };
+        let first = self.corner_normals.len();
+        self.corner_normals.extend(normals);
+        for (k, _) in added.iter().enumerate() {
+            self.surfaces.push(ShapeSurface {
+                material,
+                normals: smooth.then_some((first + k) as u32),
+            });
+        }
+        self.shapes.extend(added);
+    }
+}
+
+/// The blended normals at the corners of a mesh's `triangles`: at each corner, the faces
+/// that meet there weighted by their angles at it.
+fn corner_normals(triangles: &[Shape]) -> Vec<[DVec3; 3]> {
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let mut summed: std::collections::HashMap<[u64; 3], DVec3> = std::collections::HashMap::new();
+    let faces: Vec<([DVec3; 3], DVec3)> = triangles
+        .iter()
+        .filter_map(|t| match *t {
+            Shape::Triangle {
+                corners, normal, ..
+            } => Some((corners, normal)),
+            _ => None,
+        })
+        .collect();
+    for (corners, normal) in &faces {
+        for k in 0..3 {
+            let (a, b, c) = (corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3]);
+            let angle = (b - a).angle_between(c - a);
+            let angle = if angle.is_finite() { angle } else { 0.0 };
+            *summed.entry(key(a)).or_default() += *normal * angle;
+        }
+    }
+    faces
+        .iter()
+        .map(|(corners, normal)| {
+            corners.map(|c| summed[&key(c)].try_normalize().unwrap_or(*normal))
+        })
+        .collect()
 }
 
 /// The faces of the mesh `file` (in `dir`) a scene places at `centre`, turned by
@@ -316,21 +519,21 @@ fn check_shape(
     meshes: MeshReader,
 ) -> Vec<Shape> {
     let primitive = match shape {
-        RawShape::Floor { height } => {
+        RawShape::Floor(RawFloor { height }) => {
             check_place(f, format!("{at}.floor.height"), &[height]);
             Shape::HalfSpace {
                 point: DVec3::new(0.0, height, 0.0),
                 normal: DVec3::Y,
             }
         }
-        RawShape::Plane { point, normal } => {
+        RawShape::Plane(RawPlane { point, normal }) => {
             check_place(f, format!("{at}.plane.point"), &point);
             Shape::HalfSpace {
                 point: DVec3::from(point),
                 normal: direction(f, format!("{at}.plane.normal"), normal),
             }
         }
-        RawShape::Sphere { centre, radius } => {
+        RawShape::Sphere(RawSphere { centre, radius }) => {
             check_place(f, format!("{at}.sphere.centre"), &centre);
             check_size(f, format!("{at}.sphere.radius"), radius);
             Shape::Sphere {
@@ -338,11 +541,11 @@ fn check_shape(
                 radius,
             }
         }
-        RawShape::Cylinder {
+        RawShape::Cylinder(RawCylinder {
             point,
             axis,
             radius,
-        } => {
+        }) => {
             check_place(f, format!("{at}.cylinder.point"), &point);
             check_size(f, format!("{at}.cylinder.radius"), radius);
             Shape::Cylinder {
@@ -351,11 +554,11 @@ fn check_shape(
                 radius,
             }
         }
-        RawShape::Box {
+        RawShape::Box(RawBox {
             centre,
             size,
             orientation,
-        } => {
+        }) => {
             check_place(f, format!("{at}.box.centre"), &centre);
             for (k, &side) in size.iter().enumerate() {
                 check_size(f, format!("{at}.box.size[{k}]"), side);
@@ -366,13 +569,14 @@ fn check_shape(
                 rotation: f.unit_quaternion(format!("{at}.box.orientation"), orientation),
             }
         }
-        RawShape::Mesh {
+        RawShape::Mesh(RawMesh {
             file,
             centre,
             orientation,
             scale,
             up,
-        } => {
+            ..
+        }) => {
             return mesh_faces(f, at, dir, meshes, (&file, centre, orientation, scale, up));
         }
     };
@@ -384,6 +588,8 @@ pub struct StaticScene {
     spec: StaticSceneSpec,
     scenery: Scenery,
     proxies: Vec<Proxy>,
+    /// The shape each proxy rests on and the normal it pushes along, if it touches one.
+    touched: Vec<Option<(usize, DVec3)>>,
     geometry: Geometry,
 }
 
@@ -466,6 +672,7 @@ impl StaticScene {
                 .iter()
                 .map(|p| Proxy::new(p.pose.position))
                 .collect(),
+            touched: vec![None; pointers.len()],
             geometry: spec.geometry(),
             scenery: Scenery::new(&spec.shapes),
             spec,
@@ -489,7 +696,8 @@ impl Scene for StaticScene {
     }
 
     fn render(&mut self, pointers: &[Pointer], dt: f64, wrenches: &mut [Wrench]) -> bool {
-        for ((proxy, pointer), wrench) in self.proxies.iter_mut().zip(pointers).zip(wrenches) {
+        let rendered = self.proxies.iter_mut().zip(pointers).zip(wrenches);
+        for (((proxy, pointer), wrench), touched) in rendered.zip(&mut self.touched) {
             let out = proxy.update(
                 pointer.pose.position,
                 pointer.velocity,
@@ -497,13 +705,23 @@ impl Scene for StaticScene {
                 &self.spec.proxy,
                 dt,
             );
-            let texture = match (self.spec.texture, out.in_contact) {
-                (Some(texture), true) => {
-                    texture.force(out.proxy, self.scenery.normal_at(out.proxy))
-                }
-                _ => DVec3::ZERO,
-            };
-            *wrench = Wrench::force(out.force + texture);
+            let mut force = out.force;
+            *touched = None;
+            if let Some((k, face)) = self.scenery.nearest(out.proxy).filter(|_| out.in_contact) {
+                let normal = match self.spec.surfaces[k].normals {
+                    // Force shading: the push along the face turned to the blended normal.
+                    Some(n) => {
+                        let blended = self.spec.shapes[k]
+                            .blend(out.proxy, &self.spec.corner_normals[n as usize], face)
+                            .unwrap_or(face);
+                        force += (blended - face) * force.dot(face);
+                        blended
+                    }
+                    None => face,
+                };
+                *touched = Some((k, normal));
+            }
+            *wrench = Wrench::force(force);
         }
         true
     }
@@ -531,9 +749,17 @@ impl Scene for StaticScene {
     }
 
     fn write_touches(&self, touches: &mut [Touch]) {
-        for (out, proxy) in touches.iter_mut().zip(&self.proxies) {
-            *out = proxy.touch();
+        for ((out, proxy), touched) in touches.iter_mut().zip(&self.proxies).zip(&self.touched) {
+            *out = Touch {
+                normal: touched.map_or(DVec3::ZERO, |(_, normal)| normal),
+                ..proxy.touch()
+            };
         }
+    }
+
+    fn material(&self, pointer: usize, _touch: &Touch) -> Option<&Material> {
+        let (k, _) = self.touched.get(pointer).copied().flatten()?;
+        self.spec.materials[usize::from(self.spec.surfaces[k].material)].as_ref()
     }
 
     fn write_proxies(&self, proxies: &mut [DVec3]) -> bool {

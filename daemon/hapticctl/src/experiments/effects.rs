@@ -32,7 +32,7 @@ fn run(commands: &[(f64, EffectCommand)], seconds: f64) -> Vec<(f64, f64)> {
                 let _ = set.command(*command);
             }
             set.advance(DT);
-            (t, set.wrenches(0, &grip, DT).1.force.x)
+            (t, set.wrenches(0, &grip, DT, DVec3::ZERO).1.force.x)
         })
         .collect()
 }

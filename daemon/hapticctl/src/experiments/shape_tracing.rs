@@ -65,21 +65,20 @@ pub fn trace(lambda: f64, rate: f64) -> Vec<(f64, f64)> {
     .expect("a valid script");
     let session = Session {
         mechanism: mechanism(lambda),
-        scene: StaticSceneSpec {
-            name: "bar".into(),
-            proxy: ProxyParameters {
+        scene: StaticSceneSpec::bare(
+            "bar",
+            ProxyParameters {
                 stiffness: 2000.0,
                 damping: 0.0,
                 static_friction: 0.0,
                 dynamic_friction: 0.0,
             },
-            shapes: vec![Shape::Cylinder {
+            vec![Shape::Cylinder {
                 point: DVec3::ZERO,
                 axis: DVec3::Y,
                 radius: RADIUS,
             }],
-            texture: None,
-        },
+        ),
         script,
         rate,
         settings: LoopSettings {

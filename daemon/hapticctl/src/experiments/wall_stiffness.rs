@@ -74,20 +74,19 @@ pub fn is_stable(
 ) -> Result<bool, ExperimentError> {
     let session = Session {
         mechanism: mechanism.clone(),
-        scene: StaticSceneSpec {
-            name: "floor".into(),
-            proxy: ProxyParameters {
+        scene: StaticSceneSpec::bare(
+            "floor",
+            ProxyParameters {
                 stiffness,
                 damping,
                 static_friction: 0.0,
                 dynamic_friction: 0.0,
             },
-            shapes: vec![Shape::HalfSpace {
+            vec![Shape::HalfSpace {
                 point: glam::DVec3::new(0.0, FLOOR, 0.0),
                 normal: glam::DVec3::Y,
             }],
-            texture: None,
-        },
+        ),
         script: press_script(&mechanism.effectors[0].name)?,
         rate,
         settings: LoopSettings {

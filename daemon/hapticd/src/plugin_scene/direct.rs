@@ -2,6 +2,7 @@
 
 use hapticd_plugin_api::*;
 
+use hapticd_core::haptics::surface::{Material, Surfaces};
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::control::SceneControl;
 use hapticd_core::scene::output_check::{OutputFault, WrenchChecker};
@@ -24,6 +25,8 @@ pub(super) struct DirectScene {
     pub(super) check: WrenchChecker,
     /// Why the plugin was disabled, when it was for its wrenches.
     pub(super) fault: Option<OutputFault>,
+    /// The materials of its bodies' surfaces.
+    pub(super) surfaces: Surfaces,
 }
 
 impl Scene for DirectScene {
@@ -94,6 +97,14 @@ impl Scene for DirectScene {
         if !self.failed {
             self.instance.touches(touches);
         }
+    }
+
+    fn set_surfaces(&mut self, surfaces: Surfaces) {
+        self.surfaces = surfaces;
+    }
+
+    fn material(&self, _pointer: usize, touch: &Touch) -> Option<&Material> {
+        self.surfaces.of(touch.body)
     }
 
     fn needs_quiet(&self) -> bool {

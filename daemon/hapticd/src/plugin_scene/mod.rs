@@ -393,6 +393,7 @@ pub fn load(
             failed: false,
             check: WrenchChecker::default(),
             fault: None,
+            surfaces: Default::default(),
         })),
         HAPTICD_SCENE_MULTIRATE if is_multirate(&info, &vtable) => {
             let scene = MultiRateScene::start(

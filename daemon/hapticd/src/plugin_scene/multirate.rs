@@ -11,6 +11,7 @@ use hapticd_plugin_api::*;
 use crate::physics_budget::Pacer;
 use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
+use hapticd_core::haptics::surface::{Material, Surfaces};
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::control::{Incoming, Reply, Request, SceneControl};
 use hapticd_core::scene::multirate::{
@@ -75,6 +76,8 @@ pub(crate) struct MultiRateScene {
     stop: Arc<AtomicBool>,
     /// The thread that steps or receives the world.
     pub(crate) thread: Option<JoinHandle<()>>,
+    /// The materials of its bodies' surfaces.
+    surfaces: Surfaces,
 }
 
 /// The physics thread's ends of a multi-rate scene's channels, and what it publishes.
@@ -228,6 +231,7 @@ impl MultiRateScene {
             fault: None,
             stop,
             thread: None,
+            surfaces: Surfaces::default(),
         };
         (scene, physics, replies)
     }
@@ -358,6 +362,14 @@ impl Scene for MultiRateScene {
 
     fn write_touches(&self, touches: &mut [Touch]) {
         self.renderer.write_touches(&self.object_bodies, touches);
+    }
+
+    fn set_surfaces(&mut self, surfaces: Surfaces) {
+        self.surfaces = surfaces;
+    }
+
+    fn material(&self, _pointer: usize, touch: &Touch) -> Option<&Material> {
+        self.surfaces.of(touch.body)
     }
 
     fn needs_quiet(&self) -> bool {

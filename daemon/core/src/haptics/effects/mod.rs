@@ -258,10 +258,17 @@ impl EffectSet {
         }
     }
 
-    /// [rt] Effector `effector`'s passive and active wrenches this tick of `dt`, at `grip`.
-    pub fn wrenches(&mut self, effector: usize, grip: &Grip, dt: f64) -> (Wrench, Wrench) {
+    /// [rt] Effector `effector`'s passive and active wrenches this tick of `dt`, at `grip`;
+    /// `ringing`, the contact transient it feels, joins the active sum (and its slew limit).
+    pub fn wrenches(
+        &mut self,
+        effector: usize,
+        grip: &Grip,
+        dt: f64,
+        ringing: DVec3,
+    ) -> (Wrench, Wrench) {
         let now = self.time;
-        let (mut passive, mut active) = (Wrench::ZERO, Wrench::ZERO);
+        let (mut passive, mut active) = (Wrench::ZERO, Wrench::force(ringing));
         for slot in self.slots[..self.len].iter_mut().flatten() {
             if slot.effect.effector.is_some_and(|e| e != effector) {
                 continue;
@@ -332,7 +339,7 @@ mod tests {
         (0..ticks)
             .map(|_| {
                 set.advance(DT);
-                set.wrenches(0, &resting(), DT).1.force
+                set.wrenches(0, &resting(), DT, DVec3::ZERO).1.force
             })
             .collect()
     }
@@ -411,8 +418,8 @@ mod tests {
         set.command(EffectCommand::Add(2, constant(DVec3::Z, 0.0)))
             .unwrap();
         set.advance(DT);
-        let (passive0, active0) = set.wrenches(0, &resting(), DT);
-        let (passive1, active1) = set.wrenches(1, &resting(), DT);
+        let (passive0, active0) = set.wrenches(0, &resting(), DT, DVec3::ZERO);
+        let (passive1, active1) = set.wrenches(1, &resting(), DT, DVec3::ZERO);
         assert_eq!((passive0.force, active0.force), (DVec3::ZERO, DVec3::Z));
         assert_eq!(
             (passive1.force, active1.force),

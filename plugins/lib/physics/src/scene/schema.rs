@@ -85,6 +85,12 @@ pub(super) struct RawMaterial {
     pub(super) point_stiffness: Option<f64>,
     pub(super) point_damping: Option<f64>,
     pub(super) scaling: Option<RawScaling>,
+    /// A surface texture and transient: rendered by the daemon (read here so that a file of
+    /// them is a scene file; checked by the daemon).
+    #[allow(dead_code)]
+    pub(super) texture: Option<hapticd_core::haptics::texture::TextureSpec>,
+    #[allow(dead_code)]
+    pub(super) transient: Option<hapticd_core::haptics::surface::TransientSpec>,
 }
 
 /// `material.scaling:`.
@@ -130,6 +136,11 @@ pub(super) struct RawBody {
     pub(super) velocity: [f64; 3],
     #[serde(default)]
     pub(super) spin: [f64; 3],
+    /// The body's own surface texture and transient (rendered by the daemon).
+    #[allow(dead_code)]
+    pub(super) texture: Option<hapticd_core::haptics::texture::TextureSpec>,
+    #[allow(dead_code)]
+    pub(super) transient: Option<hapticd_core::haptics::surface::TransientSpec>,
 }
 
 /// One of a body's `pieces:`.

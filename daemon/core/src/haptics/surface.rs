@@ -1,0 +1,339 @@
+//! Surface materials: what a surface feels like besides its solidity, felt by whatever
+//! touches it in any scene. A material has a texture, felt while sliding
+//! ([`crate::haptics::texture`]), and a contact transient, felt on impact: a decaying
+//! sinusoid along the normal whose amplitude follows the speed of the impact, as in
+//! event-based haptics (a rigid tap rings at the surface's frequency).
+//!
+//! Each effector's [`SurfaceFeel`] turns what its pointer touches into two forces a tick:
+//! the texture's, which joins the scene's before the passivity controller, and the
+//! transient's, added with the active effects. A texture's force is passive by
+//! construction: it gives the hand back only the energy it took from it (an energy tank),
+//! so a hand beating on a texture gains nothing from it.
+
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::texture::{ImageReader, Texture, TextureSpec};
+use super::touch::Touch;
+use crate::diagnostics::{self, Diagnostics, Findings};
+
+/// A contact transient: on impact at v m/s into the surface, gain·v·e^(−t/decay)·sin(2π·
+/// frequency·t) along the normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transient {
+    /// N per m/s of impact speed.
+    pub gain: f64,
+    /// Hz.
+    pub frequency: f64,
+    /// Seconds for the ringing to fall by e.
+    pub decay: f64,
+}
+
+/// A surface's material.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Material {
+    /// Felt while sliding.
+    pub texture: Option<Texture>,
+    /// Felt on impact.
+    pub transient: Option<Transient>,
+}
+
+/// A transient as a scene file writes it: `transient: { gain: 20, frequency: 300, decay:
+/// 0.01 }`.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransientSpec {
+    /// N per m/s.
+    pub gain: f64,
+    /// Hz.
+    pub frequency: f64,
+    /// s.
+    pub decay: f64,
+}
+
+/// Highest transient gain, N per m/s: a 0.5 m/s tap rings at most at 25 N before the limits.
+const STRONGEST_RING: f64 = 50.0;
+
+impl TransientSpec {
+    /// The transient, every mistake an error in `f` under `at`.
+    pub fn check(&self, at: &str, f: &mut Findings) -> Option<Transient> {
+        let mut ok = f.within(
+            format!("{at}.gain"),
+            self.gain,
+            0.0,
+            STRONGEST_RING,
+            " N·s/m",
+        );
+        ok &= f.within(
+            format!("{at}.frequency"),
+            self.frequency,
+            1.0,
+            1000.0,
+            " Hz",
+        );
+        ok &= f.within(format!("{at}.decay"), self.decay, 1e-3, 1.0, " s");
+        ok.then_some(Transient {
+            gain: self.gain,
+            frequency: self.frequency,
+            decay: self.decay,
+        })
+    }
+}
+
+/// A material's keys as a scene file writes them, on a shape, a body or a scene's
+/// `material:`.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+pub struct MaterialSpec {
+    /// `texture:`.
+    #[serde(default)]
+    pub texture: Option<TextureSpec>,
+    /// `transient:`.
+    #[serde(default)]
+    pub transient: Option<TransientSpec>,
+}
+
+impl MaterialSpec {
+    /// The material (None when it has neither key), each mistake an error in `f` under
+    /// `at`; a height map read by `images` from `dir`.
+    pub fn check(
+        &self,
+        at: &str,
+        f: &mut Findings,
+        dir: &Path,
+        images: ImageReader,
+    ) -> Option<Material> {
+        let prefix = |key: &str| {
+            if at.is_empty() {
+                key.to_string()
+            } else {
+                format!("{at}.{key}")
+            }
+        };
+        let texture = self
+            .texture
+            .as_ref()
+            .and_then(|t| t.check(&prefix("texture"), f, dir, images));
+        let transient = self
+            .transient
+            .as_ref()
+            .and_then(|t| t.check(&prefix("transient"), f));
+        (texture.is_some() || transient.is_some()).then_some(Material { texture, transient })
+    }
+}
+
+/// The materials of a world's bodies: each body's own, or the scene's.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Surfaces {
+    /// Every surface's without one of its own.
+    pub default: Option<Material>,
+    /// By body id.
+    pub bodies: Vec<Option<Material>>,
+}
+
+impl Surfaces {
+    /// [rt] The material of body `body` (the scene's for a solid of no body).
+    #[inline]
+    pub fn of(&self, body: u32) -> Option<&Material> {
+        self.bodies
+            .get(body as usize)
+            .and_then(Option::as_ref)
+            .or(self.default.as_ref())
+    }
+
+    /// Whether no surface has a material.
+    pub fn is_empty(&self) -> bool {
+        self.default.is_none() && self.bodies.iter().all(Option::is_none)
+    }
+}
+
+/// The surface materials of physics scene file `file`: its `material:`'s `texture:` and
+/// `transient:` for every body, and a body's own (body *i* is the *i*-th of `bodies:`), each
+/// checked with its place in the file; a height map read by `images`. The engine reads the
+/// file's other keys.
+pub fn listed_in(file: &Path, images: ImageReader) -> Result<Surfaces, Diagnostics> {
+    /// The keys read here.
+    #[derive(Deserialize, Default)]
+    struct Listed {
+        #[serde(default)]
+        material: MaterialSpec,
+        #[serde(default)]
+        bodies: Vec<MaterialSpec>,
+    }
+    let parsed = diagnostics::parse_yaml::<Listed>(&diagnostics::read_text(file)?, file)?;
+    let map = parsed.map;
+    let locate = |field: &str| map.find(field);
+    let mut f = Findings::after_schema(file, &locate, parsed.schema);
+    let dir = diagnostics::directory_of(file);
+    let listed = parsed.value;
+    let surfaces = Surfaces {
+        default: listed.material.check("material", &mut f, dir, images),
+        bodies: (listed.bodies.iter().enumerate())
+            .map(|(k, body)| body.check(&format!("bodies[{k}]"), &mut f, dir, images))
+            .collect(),
+    };
+    f.finish()?;
+    Ok(surfaces)
+}
+
+/// Most energy a texture holds to give back, J: a few strokes' worth.
+const TANK: f64 = 0.01;
+/// Slowest impact that rings, m/s: a resting touch that flickers does not.
+const SLOWEST_IMPACT: f64 = 0.005;
+/// Decay times after which a ringing is over.
+const RINGING: f64 = 10.0;
+
+/// What one effector feels of the surfaces it touches.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SurfaceFeel {
+    touching: bool,
+    /// Energy the texture took from the hand and may give back, J.
+    tank: f64,
+    /// The ringing: its amplitude (N), normal, age (s) and law.
+    ringing: Option<(f64, DVec3, f64, Transient)>,
+}
+
+impl SurfaceFeel {
+    /// [rt] After a tick of `dt` seconds in which the pointer touched `touch` (of material
+    /// `material`) moving at `velocity`: the texture's force (passive) and the transient's
+    /// (active).
+    #[inline]
+    pub fn update(
+        &mut self,
+        material: Option<&Material>,
+        touch: &Touch,
+        velocity: DVec3,
+        dt: f64,
+    ) -> (DVec3, DVec3) {
+        let onset = touch.touching && !self.touching;
+        self.touching = touch.touching;
+        let mut texture = DVec3::ZERO;
+        if let (true, Some(m)) = (touch.touching, material) {
+            if let Some(t) = &m.texture {
+                texture = self.passive(t.force(touch.point, touch.normal), velocity, dt);
+            }
+            let speed = -velocity.dot(touch.normal);
+            if let (true, Some(ring)) = (onset && speed > SLOWEST_IMPACT, m.transient) {
+                self.ringing = Some((ring.gain * speed, touch.normal, 0.0, ring));
+            }
+        } else if !touch.touching {
+            self.tank = 0.0;
+        }
+        let mut transient = DVec3::ZERO;
+        if let Some((amplitude, normal, age, ring)) = &mut self.ringing {
+            transient = *normal
+                * *amplitude
+                * (-*age / ring.decay).exp()
+                * (TAU * ring.frequency * *age).sin();
+            *age += dt;
+            if *age > RINGING * ring.decay {
+                self.ringing = None;
+            }
+        }
+        (texture, transient)
+    }
+
+    /// [rt] `force`, scaled down so that over a tick of `dt` at `velocity` it gives the hand
+    /// no more energy than it took.
+    #[inline]
+    fn passive(&mut self, force: DVec3, velocity: DVec3, dt: f64) -> DVec3 {
+        let given = force.dot(velocity) * dt;
+        let force = if given > self.tank {
+            force * (self.tank / given)
+        } else {
+            force
+        };
+        self.tank = (self.tank - force.dot(velocity) * dt).min(TANK);
+        force
+    }
+
+    /// [rt] Forget the touch (after a fault or a scene change).
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 1e-4;
+
+    fn floor(touching: bool, x: f64) -> Touch {
+        Touch {
+            touching,
+            point: DVec3::new(x, 0.0, 0.0),
+            normal: DVec3::Y,
+            ..Touch::NONE
+        }
+    }
+
+    /// A tap at v rings at gain·v·e^(−t/τ)·sin(2πft) exactly, and only once a touch.
+    #[test]
+    fn an_impact_rings_in_proportion_to_its_speed() {
+        let ring = Transient {
+            gain: 20.0,
+            frequency: 300.0,
+            decay: 0.01,
+        };
+        let material = Material {
+            texture: None,
+            transient: Some(ring),
+        };
+        for speed in [0.05, 0.2, 0.6] {
+            let mut feel = SurfaceFeel::default();
+            let down = DVec3::new(0.0, -speed, 0.0);
+            feel.update(Some(&material), &floor(false, 0.0), down, DT);
+            for k in 0..2_000 {
+                // It arrives at `speed`, and rests.
+                let v = if k == 0 { down } else { DVec3::ZERO };
+                let (_, f) = feel.update(Some(&material), &floor(true, 0.0), v, DT);
+                let t = k as f64 * DT;
+                // Over after ten decay times.
+                let expected = if t <= RINGING * 0.01 {
+                    20.0 * speed * (-t / 0.01).exp() * (TAU * 300.0 * t).sin()
+                } else {
+                    0.0
+                };
+                assert!((f.y - expected).abs() < 1e-12, "{t}: {} {expected}", f.y);
+            }
+        }
+        // The touch must begin toward the surface, faster than a flicker.
+        let mut feel = SurfaceFeel::default();
+        feel.update(Some(&material), &floor(true, 0.0), DVec3::Y * 0.3, DT);
+        let (_, f) = feel.update(Some(&material), &floor(true, 0.0), DVec3::ZERO, DT);
+        assert_eq!(f, DVec3::ZERO);
+    }
+
+    /// However a hand moves over a texture (beating, sliding, pressing, in any rhythm), the
+    /// texture's force gives it no energy.
+    #[test]
+    fn a_texture_gives_no_energy_to_a_hand_beating_on_it() {
+        let material = Material {
+            texture: Some(Texture::Grating {
+                period: 0.002,
+                amplitude: 2.0,
+                direction: DVec3::X,
+            }),
+            transient: None,
+        };
+        for (beat, slide) in [(7.0, 0.02), (31.0, 0.05), (3.0, 0.3), (113.0, 0.01)] {
+            let mut feel = SurfaceFeel::default();
+            let (mut energy, mut lowest, mut felt) = (0.0f64, 0.0f64, 0.0f64);
+            for k in 0..50_000 {
+                let t = k as f64 * DT;
+                let x = slide * t;
+                let y = -0.002 * (TAU * beat * t).sin();
+                let v = DVec3::new(slide, -0.002 * TAU * beat * (TAU * beat * t).cos(), 0.0);
+                let (f, _) = feel.update(Some(&material), &floor(y < 0.0, x), v, DT);
+                energy -= f.dot(v) * DT;
+                lowest = lowest.min(energy);
+                felt = felt.max(f.length());
+            }
+            assert!(lowest >= -1e-12, "{beat} Hz: {lowest} J");
+            assert!(felt > 1.0, "{beat} Hz: the texture was felt ({felt} N)");
+        }
+    }
+}
