@@ -33,7 +33,7 @@ fn call(bus: &Bus, method: &str, signature: &str, args: &[&str]) {
 }
 
 /// Every tick of the first device for `seconds`.
-fn ticks(bus: &Bus, seconds: f64) -> Vec<Sample> {
+pub(super) fn ticks(bus: &Bus, seconds: f64) -> Vec<Sample> {
     let client =
         hapticd_ipc::client::Hapticd::connect(&hapticd_ipc::bus::Bus::Address(bus.address.clone()))
             .unwrap();
@@ -45,7 +45,7 @@ fn ticks(bus: &Bus, seconds: f64) -> Vec<Sample> {
 
 /// The amplitude of `signal` (sampled at `rate`) at each frequency bin of its length, by a
 /// plain discrete Fourier transform: 2|X_k|/N.
-fn spectrum(signal: &[f64]) -> Vec<f64> {
+pub(super) fn spectrum(signal: &[f64]) -> Vec<f64> {
     let n = signal.len();
     (0..n / 2)
         .map(|k| {

@@ -19,6 +19,7 @@ use support::{artifact, hapticctl, is_root, plugin_path, repo_dir};
 mod access;
 mod clients;
 mod effects;
+mod materials;
 mod persistence;
 mod properties;
 mod ramps;

@@ -212,7 +212,8 @@ impl SurfaceFeel {
         let mut texture = DVec3::ZERO;
         if let (true, Some(m)) = (touch.touching, material) {
             if let Some(t) = &m.texture {
-                texture = self.passive(t.force(touch.point, touch.normal), velocity, dt);
+                let push = t.force(touch.point, touch.normal);
+                texture = self.passive(push, touch.normal, velocity, dt, t.amplitude());
             }
             let speed = -velocity.dot(touch.normal);
             if let (true, Some(ring)) = (onset && speed > SLOWEST_IMPACT, m.transient) {
@@ -235,18 +236,38 @@ impl SurfaceFeel {
         (texture, transient)
     }
 
-    /// [rt] `force`, scaled down so that over a tick of `dt` at `velocity` it gives the hand
-    /// no more energy than it took.
+    /// [rt] A texture's `push` along the surface's `normal`, made passive for a hand moving
+    /// at `velocity` over a tick of `dt`: the energy it would give the hand comes first from
+    /// what it took before, then from the hand's sliding, by a drag along the surface of at
+    /// most `strongest` N (as a real bump takes from the finger crossing it what it gives
+    /// back pushing it up); what neither covers, the push does without.
     #[inline]
-    fn passive(&mut self, force: DVec3, velocity: DVec3, dt: f64) -> DVec3 {
-        let given = force.dot(velocity) * dt;
-        let force = if given > self.tank {
-            force * (self.tank / given)
+    fn passive(
+        &mut self,
+        push: DVec3,
+        normal: DVec3,
+        velocity: DVec3,
+        dt: f64,
+        strongest: f64,
+    ) -> DVec3 {
+        let given = push.dot(velocity) * dt;
+        if given <= self.tank {
+            self.tank = (self.tank - given).min(TANK);
+            return push;
+        }
+        let sliding = velocity - normal * velocity.dot(normal);
+        let speed = sliding.length();
+        // The drag that takes the rest from the slide, within its bound.
+        let rest = given - self.tank;
+        let drag = if speed > 0.0 {
+            (rest / (speed * dt)).min(strongest)
         } else {
-            force
+            0.0
         };
-        self.tank = (self.tank - force.dot(velocity) * dt).min(TANK);
-        force
+        let taken = self.tank + drag * speed * dt;
+        self.tank = 0.0;
+        let push = push * (taken / given).min(1.0);
+        push - sliding * (drag / speed.max(f64::MIN_POSITIVE))
     }
 
     /// [rt] Forget the touch (after a fault or a scene change).

@@ -110,6 +110,16 @@ impl Texture {
         normal * self.profile(point, normal)
     }
 
+    /// [rt] Its strongest force, N.
+    #[inline]
+    pub fn amplitude(&self) -> f64 {
+        match self {
+            Texture::Grating { amplitude, .. }
+            | Texture::Roughness { amplitude, .. }
+            | Texture::HeightMap { amplitude, .. } => *amplitude,
+        }
+    }
+
     /// [rt] The force along the normal, N.
     #[inline]
     fn profile(&self, point: DVec3, normal: DVec3) -> f64 {
