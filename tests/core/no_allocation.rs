@@ -10,6 +10,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use glam::DVec3;
+use hapticctl::experiments::Session;
 use hapticd_core::haptic_loop::{DeviceState, HapticLoop, LoopCommand, LoopSettings, Retired};
 use hapticd_core::haptics::proxy::ProxyParameters;
 use hapticd_core::haptics::wrench_command::CommandState;
@@ -327,6 +328,8 @@ fn effects_of_every_kind_added_changed_and_rendered_do_not_allocate() {
         "{kind: shape, shape: {cone: 30, height: 0.05}, stiffness: 2000, width: 0.003, easing: smooth}",
         "{kind: magnet, shape: {plane: [0, 1, 0], point: [0, -0.04, 0]}, reach: 0.02, friction: 1}",
         "{kind: rotational_spring, orientation: [1, 0, 0, 0], stiffness: 0.5, saturation: 0.1}",
+        "{kind: waveform, samples: [0, 1, -0.5, 0.2], rate: 200, direction: [0, 0, 1]}",
+        "{kind: stick_slip, friction: 0.8, stiffness: 600}",
     ];
     for m in shipped_mechanisms() {
         let effectors: Vec<String> = m.effectors.iter().map(|e| e.name.clone()).collect();
@@ -842,4 +845,63 @@ fn a_plugins_output_is_checked_and_refused_without_allocating() {
     );
     assert!(rendered > 100, "rendered {rendered} ticks");
     assert_eq!(n, 0, "{n} allocations");
+}
+
+/// Surfaces of every material (roughness with a transient, a grating, a height map, a
+/// smoothly shaded mesh) touched, slid on and tapped, tick after tick: nothing allocated.
+#[test]
+fn surface_materials_of_every_kind_rendered_do_not_allocate() {
+    let dir = support::shared_scratch("core", "materials-alloc");
+    std::fs::copy(
+        support::repo_dir().join("config/scenes/meshes/bracket.obj"),
+        dir.join("bracket.obj"),
+    )
+    .unwrap();
+    // A 2 × 2 grey picture, written as a PNG by hand is more than this needs: the encoder.
+    let picture = std::fs::File::create(dir.join("bumps.png")).unwrap();
+    let mut encoder = png::Encoder::new(picture, 2, 2);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().unwrap();
+    writer.write_image_data(&[0, 255, 128, 64]).unwrap();
+    writer.finish().unwrap();
+    let text = "name: materials\nshapes:\n  - floor: { height: -0.03 }\n    texture: { kind: \
+                roughness, amplitude: 0.5, shortest: 0.0005, longest: 0.01 }\n    transient: { \
+                gain: 15, frequency: 300, decay: 0.01 }\n  - box: { centre: [0.03, -0.02, 0], \
+                size: [0.02, 0.02, 0.02] }\n    texture: { kind: grating, period: 0.002, \
+                amplitude: 0.4 }\n  - sphere: { centre: [-0.03, -0.02, 0], radius: 0.012 }\n    \
+                texture: { kind: height_map, file: bumps.png, size: [0.004, 0.004], amplitude: \
+                0.3 }\n  - mesh: { file: bracket.obj, centre: [0, -0.02, 0.04], scale: 0.001, \
+                shading: smooth }\n";
+    let scene = StaticSceneSpec::parse_with_files(
+        text,
+        &dir.join("materials.yaml"),
+        hapticd_mesh::scene_files(),
+    )
+    .unwrap();
+    for m in shipped_mechanisms() {
+        let script = format!(
+            "hands:\n  {}:\n    - move: {{ to: [-0.04, -0.04, 0], seconds: 0.3 }}\n    \
+             - move: {{ to: [0.05, -0.04, 0.05], seconds: 0.8 }}\n    \
+             - shake: {{ amplitude: [0, 0.015, 0], frequency: 6, seconds: 0.6 }}\n",
+            m.effectors[0].name
+        );
+        let mut haptic = Session {
+            mechanism: m.clone(),
+            scene: scene.clone(),
+            script: Script::parse(&script, std::path::Path::new("hand.yaml")).unwrap(),
+            rate: 1000.0,
+            settings: LoopSettings::default(),
+        }
+        .haptic_loop()
+        .unwrap();
+        let mut touched = 0;
+        let n = allocations_in(|| {
+            for _ in 0..1700 {
+                touched += usize::from(haptic.tick(1e-3).touches[0].touching);
+            }
+        });
+        assert_eq!(n, 0, "{}: {n} allocations in 1700 ticks", m.name);
+        assert!(touched > 300, "{}: touched in {touched} ticks", m.name);
+    }
 }

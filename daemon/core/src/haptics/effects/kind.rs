@@ -200,6 +200,28 @@ pub enum Kind {
         /// How it eases.
         easing: Easing,
     },
+    /// A force following samples along a direction, played at a rate, once or over again.
+    Waveform {
+        /// The samples, N (the first `len`).
+        samples: [f32; MAX_SAMPLES],
+        /// How many there are.
+        len: usize,
+        /// Samples a second.
+        rate: f64,
+        /// Unit direction.
+        direction: DVec3,
+        /// Whether it starts again after the last sample (or ends there).
+        repeat: bool,
+    },
+    /// Stick-slip: the grip sticks to a point held by a spring until it pulls harder than
+    /// `force`, then slips free and sticks again where it is (a sawtooth under a steady drag,
+    /// as a squeaking hinge or a bowed string).
+    StickSlip {
+        /// The force it slips at, N.
+        force: f64,
+        /// The spring holding it where it sticks, N/m.
+        stiffness: f64,
+    },
     /// A pull toward a shape's surface from outside it (none inside), growing smoothly as
     /// the grip nears it.
     Magnet {
@@ -211,6 +233,9 @@ pub enum Kind {
         force: f64,
     },
 }
+
+/// Most samples of a waveform.
+pub const MAX_SAMPLES: usize = 64;
 
 /// What an effect keeps of a grip between ticks.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -238,6 +263,7 @@ impl Kind {
             Kind::Constant { .. }
                 | Kind::Ramp { .. }
                 | Kind::Periodic { .. }
+                | Kind::Waveform { .. }
                 | Kind::Inertia { .. }
         )
     }
@@ -249,6 +275,10 @@ impl Kind {
             Kind::Constant { force, .. } => force.length(),
             Kind::Ramp { from, to, .. } => from.length().max(to.length()),
             Kind::Periodic { amplitude, .. } => amplitude,
+            Kind::Waveform { samples, len, .. } => samples[..len]
+                .iter()
+                .fold(0.0, |most, s| f64::max(most, f64::from(s.abs()))),
+            Kind::StickSlip { force, .. } => force,
             Kind::Spring { saturation, .. } => bounded(saturation),
             Kind::Twist { .. } => 0.0,
             Kind::Friction { force, .. } => force,
@@ -307,6 +337,45 @@ impl Kind {
                 let before = memory.velocity.replace(grip.velocity);
                 let acceleration = before.map_or(DVec3::ZERO, |v| (grip.velocity - v) / dt);
                 Wrench::force(-acceleration * mass)
+            }
+            Kind::Waveform {
+                samples,
+                len,
+                rate,
+                direction,
+                repeat,
+            } => {
+                let at = t * rate;
+                let at = if repeat {
+                    at.rem_euclid(len as f64)
+                } else {
+                    at
+                };
+                if at >= len as f64 {
+                    return Wrench::ZERO;
+                }
+                let k = at.floor() as usize;
+                let next = if k + 1 < len {
+                    samples[k + 1]
+                } else if repeat {
+                    samples[0]
+                } else {
+                    samples[k]
+                };
+                let s =
+                    f64::from(samples[k]) + (f64::from(next) - f64::from(samples[k])) * at.fract();
+                Wrench::force(direction * s)
+            }
+            Kind::StickSlip { force, stiffness } => {
+                let stuck = *memory.stuck_at.get_or_insert(p);
+                // Pulled past the force it holds: it slips and sticks again here.
+                let stuck = if (stuck - p).length() * stiffness > force {
+                    p
+                } else {
+                    stuck
+                };
+                memory.stuck_at = Some(stuck);
+                Wrench::force((stuck - p) * stiffness)
             }
             Kind::Friction { force, stiffness } => {
                 let stuck = *memory.stuck_at.get_or_insert(p);
@@ -447,6 +516,61 @@ mod tests {
         assert!((at(0.02, &mut m) + 1.0).abs() < 1e-12);
         // Back a little: the point it sticks to stayed 2 mm behind.
         assert!((at(0.019, &mut m) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn stick_slip_saws_under_a_steady_drag() {
+        let kind = Kind::StickSlip {
+            force: 1.0,
+            stiffness: 500.0,
+        };
+        let mut m = Memory::default();
+        let mut forces = Vec::new();
+        for k in 0..=50 {
+            let x = k as f64 * 1e-4;
+            forces.push(
+                kind.wrench(&grip(DVec3::X * x, DVec3::ZERO), 0.0, 1e-3, &mut m)
+                    .force
+                    .x,
+            );
+        }
+        // It builds to 1 N over 2 mm, drops to nothing, and builds again.
+        assert!((forces[20] + 1.0).abs() < 1e-9);
+        assert_eq!(forces[21], 0.0);
+        assert!((forces[31] + 0.5).abs() < 1e-9);
+        assert!(forces.iter().all(|f| *f <= 0.0 && *f >= -1.0));
+    }
+
+    #[test]
+    fn a_waveform_plays_its_samples_between_them_straight() {
+        let mut samples = [0.0; MAX_SAMPLES];
+        samples[..3].copy_from_slice(&[0.0, 2.0, -1.0]);
+        let wave = |repeat| Kind::Waveform {
+            samples,
+            len: 3,
+            rate: 100.0,
+            direction: DVec3::Y,
+            repeat,
+        };
+        let mut m = Memory::default();
+        let at = |k: &Kind, t: f64, m: &mut Memory| {
+            k.wrench(&grip(DVec3::ZERO, DVec3::ZERO), t, 1e-3, m)
+                .force
+                .y
+        };
+        for (t, expected) in [
+            (0.0, 0.0),
+            (0.005, 1.0),
+            (0.01, 2.0),
+            (0.015, 0.5),
+            (0.025, -0.5),
+        ] {
+            assert!((at(&wave(true), t, &mut m) - expected).abs() < 1e-6, "{t}");
+        }
+        // Again after three samples, or nothing.
+        assert!((at(&wave(true), 0.035, &mut m) - 1.0).abs() < 1e-6);
+        assert_eq!(at(&wave(false), 0.035, &mut m), 0.0);
+        assert!((wave(true).peak_force(10.0) - 2.0).abs() < 1e-12);
     }
 
     #[test]

@@ -3,8 +3,8 @@
 //!
 //! ```yaml
 //! - kind: sine              # constant, ramp, sine, square, triangle, saw_up, saw_down,
-//!                           # spring, rotational_spring, damper, inertia, friction,
-//!                           # fixture, shape, magnet
+//!                           # waveform, spring, rotational_spring, damper, inertia,
+//!                           # friction, stick_slip, fixture, shape, magnet
 //!   effector: grip          # default: every effector
 //!   direction: [0, 1, 0]
 //!   amplitude: 1.5          # N
@@ -17,6 +17,7 @@ use std::path::Path;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+use super::kind::MAX_SAMPLES;
 use super::{Anchor, Easing, Effect, Envelope, Keep, Kind, Shape, Wave};
 use crate::diagnostics::{self, Diagnostics, Findings};
 
@@ -53,6 +54,15 @@ pub struct EffectSpec {
     /// Periodic kinds: where in its period it starts, radians.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub phase: Option<f64>,
+    /// Waveform: its samples, N.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples: Option<Vec<f64>>,
+    /// Waveform: samples a second.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rate: Option<f64>,
+    /// Waveform: whether it starts again after its last sample (default: true).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub repeat: Option<bool>,
     /// Spring, fixture: the point it pulls toward (with `axis`: a line; `normal`: a plane).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub anchor: Option<[f64; 3]>,
@@ -80,7 +90,8 @@ pub struct EffectSpec {
     /// Inertia: kg.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mass: Option<f64>,
-    /// Friction: the Coulomb force, N (magnet: its strongest pull).
+    /// Friction: the Coulomb force, N (stick-slip: the force it slips at; magnet: its
+    /// strongest pull).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
     /// Damper: where it acts (default: everywhere).
@@ -195,7 +206,8 @@ fn keys_of(kind: &str) -> Option<&'static [&'static str]> {
         "rotational_spring" => &["orientation", "stiffness", "saturation"],
         "damper" => &["damping", "region"],
         "inertia" => &["mass"],
-        "friction" => &["friction", "stiffness"],
+        "waveform" => &["samples", "rate", "direction", "repeat"],
+        "friction" | "stick_slip" => &["friction", "stiffness"],
         "fixture" => &[
             "anchor",
             "axis",
@@ -221,8 +233,9 @@ fn field(at: &str, k: &str) -> String {
 }
 
 /// Every kind, for the message that names them.
-const KINDS: &str = "constant, ramp, sine, square, triangle, saw_up, saw_down, spring, \
-                     rotational_spring, damper, inertia, friction, fixture, shape, magnet";
+const KINDS: &str = "constant, ramp, sine, square, triangle, saw_up, saw_down, waveform, \
+                     spring, rotational_spring, damper, inertia, friction, stick_slip, fixture, \
+                     shape, magnet";
 
 impl EffectSpec {
     /// The keys given besides `kind` and `effector`, by name.
@@ -236,6 +249,9 @@ impl EffectSpec {
             ("frequency", self.frequency.is_some()),
             ("amplitude", self.amplitude.is_some()),
             ("phase", self.phase.is_some()),
+            ("samples", self.samples.is_some()),
+            ("rate", self.rate.is_some()),
+            ("repeat", self.repeat.is_some()),
             ("anchor", self.anchor.is_some()),
             ("axis", self.axis.is_some()),
             ("normal", self.normal.is_some()),
@@ -451,6 +467,7 @@ impl Checker<'_, '_, '_> {
                 over: self.number("over", s.over, (0.0, 3600.0), " s")?,
             },
             "sine" | "square" | "triangle" | "saw_up" | "saw_down" => self.periodic()?,
+            "waveform" => self.waveform()?,
             "spring" => Kind::Spring {
                 anchor: self.anchor()?,
                 stiffness: self.number("stiffness", s.stiffness, (0.0, MAX_STIFFNESS), " N/m")?,
@@ -477,6 +494,10 @@ impl Checker<'_, '_, '_> {
                 mass: self.number("mass", s.mass, (0.0, MAX_MASS), " kg")?,
             },
             "friction" => Kind::Friction {
+                force: self.number("friction", s.friction, (0.0, most), " N")?,
+                stiffness: self.number("stiffness", s.stiffness, (1.0, MAX_STIFFNESS), " N/m")?,
+            },
+            "stick_slip" => Kind::StickSlip {
                 force: self.number("friction", s.friction, (0.0, most), " N")?,
                 stiffness: self.number("stiffness", s.stiffness, (1.0, MAX_STIFFNESS), " N/m")?,
             },
@@ -514,6 +535,39 @@ impl Checker<'_, '_, '_> {
             )?,
             amplitude: self.number("amplitude", s.amplitude, (0.0, self.limits.max_force), " N")?,
             phase: self.or("phase", s.phase, (-1e3, 1e3), " rad", 0.0),
+        })
+    }
+
+    /// A waveform: 1 to [`MAX_SAMPLES`] samples within MaxForce, played at most at the
+    /// loop's rate, along a direction.
+    fn waveform(&mut self) -> Option<Kind> {
+        let s = self.spec;
+        let written = self.needed("samples", s.samples.as_ref())?;
+        let most = self.limits.max_force;
+        if written.is_empty() || written.len() > MAX_SAMPLES {
+            self.f.error(
+                self.key("samples"),
+                format!("must list 1 to {MAX_SAMPLES} forces, not {}", written.len()),
+            );
+            return None;
+        }
+        if let Some(bad) = written.iter().find(|x| !(-most..=most).contains(*x)) {
+            self.f.error(
+                self.key("samples"),
+                format!("each must be a number from -{most} to {most} N, not {bad}"),
+            );
+            return None;
+        }
+        let mut samples = [0.0; MAX_SAMPLES];
+        for (out, x) in samples.iter_mut().zip(written) {
+            *out = *x as f32;
+        }
+        Some(Kind::Waveform {
+            samples,
+            len: written.len(),
+            rate: self.number("rate", s.rate, (0.0, self.limits.rate), " Hz")?,
+            direction: self.direction("direction", s.direction)?,
+            repeat: s.repeat.unwrap_or(true),
         })
     }
 
