@@ -31,7 +31,7 @@ pub const ROUGHNESS_WAVES: usize = 32;
 pub struct PlaneWave {
     /// Its wave vector, radians per metre.
     pub wave: DVec3,
-    /// Its amplitude (the waves' add up to 1).
+    /// Its amplitude (the waves' squares add up to 1).
     pub amplitude: f64,
     /// Its phase, radians.
     pub phase: f64,
@@ -86,7 +86,8 @@ pub enum Texture {
     },
     /// Random roughness.
     Roughness {
-        /// Its largest force, N.
+        /// The amplitude of a sine of its power, N (its force's mean square is half its
+        /// square).
         amplitude: f64,
         /// Its plane waves.
         waves: [PlaneWave; ROUGHNESS_WAVES],
@@ -114,9 +115,10 @@ impl Texture {
     #[inline]
     pub fn amplitude(&self) -> f64 {
         match self {
-            Texture::Grating { amplitude, .. }
-            | Texture::Roughness { amplitude, .. }
-            | Texture::HeightMap { amplitude, .. } => *amplitude,
+            Texture::Grating { amplitude, .. } | Texture::HeightMap { amplitude, .. } => *amplitude,
+            Texture::Roughness { amplitude, waves } => {
+                amplitude * waves.iter().map(|w| w.amplitude).sum::<f64>()
+            }
         }
     }
 
@@ -348,7 +350,8 @@ impl TextureSpec {
 }
 
 /// The plane waves of a roughness from `shortest` to `longest` metres with power ∝
-/// f^-`exponent`, their directions and phases drawn from `seed`; amplitudes add up to 1.
+/// f^-`exponent`, their directions and phases drawn from `seed`; their powers add up to a
+/// unit sine's (their amplitudes' squares to 1).
 pub fn roughness_waves(
     shortest: f64,
     longest: f64,
@@ -390,7 +393,11 @@ pub fn roughness_waves(
             phase: TAU * uniform(),
         };
     }
-    let total: f64 = waves.iter().map(|w| w.amplitude).sum();
+    let total = waves
+        .iter()
+        .map(|w| w.amplitude.powi(2))
+        .sum::<f64>()
+        .sqrt();
     for w in &mut waves {
         w.amplitude /= total;
     }
@@ -428,7 +435,8 @@ mod tests {
     }
 
     /// The amplitudes follow the spectrum's law (their log-log slope is (1 − exponent)/2),
-    /// the force never passes the amplitude, and a seed makes the same surface.
+    /// their power is a unit sine's, the force never passes the strongest the texture
+    /// says, and a seed makes the same surface.
     #[test]
     fn roughness_follows_its_spectrum_and_its_bound() {
         for exponent in [0.0, 1.0, 2.0, 3.5] {
@@ -444,7 +452,7 @@ mod tests {
             let slope = points.iter().map(|(x, y)| (x - mx) * (y - my)).sum::<f64>()
                 / points.iter().map(|(x, _)| (x - mx).powi(2)).sum::<f64>();
             assert!((slope - (1.0 - exponent) / 2.0).abs() < 1e-9, "{slope}");
-            assert!((waves.iter().map(|w| w.amplitude).sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!((waves.iter().map(|w| w.amplitude.powi(2)).sum::<f64>() - 1.0).abs() < 1e-12);
             let lengths: Vec<f64> = waves.iter().map(|w| TAU / w.wave.length()).collect();
             assert!((lengths[0] - 0.02).abs() < 1e-12 && (lengths[31] - 0.0005).abs() < 1e-12);
         }
@@ -457,7 +465,7 @@ mod tests {
             let p = DVec3::new(k as f64 * 1.3e-5, 0.002, -(k as f64) * 0.7e-5);
             largest = largest.max(rough.force(p, DVec3::Y).length());
         }
-        assert!(largest <= 0.7 && largest > 0.2, "{largest}");
+        assert!(largest <= rough.amplitude() && largest > 0.7, "{largest}");
         assert_eq!(
             roughness_waves(0.001, 0.01, 2.0, 9),
             roughness_waves(0.001, 0.01, 2.0, 9)
