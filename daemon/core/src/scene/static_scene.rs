@@ -441,10 +441,11 @@ impl Solids {
 }
 
 /// The blended normals at the corners of a mesh's `triangles`: at each corner, the faces
-/// that meet there weighted by their angles at it.
+/// that meet there weighted by their angles at it. Corners within a nanometre are one (a
+/// file's rounding does not open a seam).
 fn corner_normals(triangles: &[Shape]) -> Vec<[DVec3; 3]> {
-    let key = |p: DVec3| p.to_array().map(f64::to_bits);
-    let mut summed: std::collections::HashMap<[u64; 3], DVec3> = std::collections::HashMap::new();
+    let key = |p: DVec3| (p * 1e9).round().to_array().map(|c| c as i64);
+    let mut summed: std::collections::HashMap<[i64; 3], DVec3> = std::collections::HashMap::new();
     let faces: Vec<([DVec3; 3], DVec3)> = triangles
         .iter()
         .filter_map(|t| match *t {
@@ -777,6 +778,7 @@ impl Scene for StaticScene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::Pose;
 
     #[test]
     fn the_shipped_scene_parses() {
@@ -826,5 +828,125 @@ mod tests {
                 "s.yaml:5:40: error: shapes[2].plane.normal: must not be zero",
             ]
         );
+    }
+
+    /// A prism of `sides` faces about y (radius 1 cm, 4 cm tall, closed), as a mesh reader
+    /// gives it.
+    fn prism(sides: usize) -> MeshFaces {
+        let corner = |k: usize, y: f64| {
+            let a = std::f64::consts::TAU * k as f64 / sides as f64;
+            DVec3::new(0.01 * a.cos(), y, 0.01 * a.sin())
+        };
+        let mut triangles = Vec::new();
+        for k in 0..sides {
+            let (a0, a1) = (corner(k, -0.02), corner(k + 1, -0.02));
+            let (b0, b1) = (corner(k, 0.02), corner(k + 1, 0.02));
+            triangles.push([a0, b1, a1]);
+            triangles.push([a0, b0, b1]);
+            triangles.push([DVec3::new(0.0, 0.02, 0.0), b1, b0]);
+            triangles.push([DVec3::new(0.0, -0.02, 0.0), a0, a1]);
+        }
+        MeshFaces {
+            triangles,
+            closed: true,
+        }
+    }
+
+    /// Pressed into a faceted prism beside a face's middle, the flat push is the face's
+    /// normal and the smooth one the corners' normals blended where the proxy rests: nearer
+    /// the round bar's radius, and as strong.
+    #[test]
+    fn a_smoothly_shaded_mesh_pushes_along_its_blended_normals() {
+        let files = SceneFiles {
+            meshes: &|_, _, _| Ok(prism(8)),
+            images: &|_, _| Err("none".into()),
+        };
+        let push = |shading: &str, angle: f64| {
+            let text = format!(
+                "name: bar\nproxy: {{ stiffness: 2000, damping: 0, static_friction: 0, \
+                 dynamic_friction: 0 }}\nshapes:\n  - mesh: {{ file: bar.obj, shading: {shading} }}\n"
+            );
+            let spec =
+                StaticSceneSpec::parse_with_files(&text, Path::new("s.yaml"), files).unwrap();
+            let outside = DVec3::new(0.02 * angle.cos(), 0.0, 0.02 * angle.sin());
+            let inside = DVec3::new(0.0085 * angle.cos(), 0.0, 0.0085 * angle.sin());
+            let at = |p: DVec3| Pointer {
+                pose: Pose {
+                    position: p,
+                    ..Pose::default()
+                },
+                velocity: DVec3::ZERO,
+            };
+            let mut scene = StaticScene::new(spec, &[at(outside)]);
+            let mut wrench = [Wrench::ZERO];
+            scene.render(&[at(outside)], 1e-3, &mut wrench);
+            for _ in 0..3 {
+                scene.render(&[at(inside)], 1e-3, &mut wrench);
+            }
+            let mut touch = [Touch::NONE];
+            scene.write_touches(&mut touch);
+            (wrench[0].force, touch[0])
+        };
+        let radial = |a: f64| DVec3::new(a.cos(), 0.0, a.sin());
+        // A quarter of the way across face 0 (from 0 to 45°).
+        let angle = 0.25 * std::f64::consts::FRAC_PI_4;
+        let (flat, flat_touch) = push("flat", angle);
+        let (smooth, smooth_touch) = push("smooth", angle);
+        let face = radial(std::f64::consts::FRAC_PI_8);
+        assert!(flat.normalize().dot(face) > 1.0 - 1e-9, "{flat}");
+        assert!((flat_touch.normal - flat.normalize()).length() < 1e-6);
+        // The corners' normals lean along the bar's radius (two side faces meet at each with
+        // equal angles; the cap's tilts them alike, and cancels half way up): blended at the
+        // proxy's place across the face, between 0° and 45°.
+        let (c0, c1) = (
+            radial(0.0) * 0.01,
+            radial(std::f64::consts::FRAC_PI_4) * 0.01,
+        );
+        let u = (smooth_touch.point - c0).dot(c1 - c0) / (c1 - c0).length_squared();
+        assert!(u > 0.2 && u < 0.4, "{u}");
+        let expected =
+            (radial(0.0) * (1.0 - u) + radial(std::f64::consts::FRAC_PI_4) * u).normalize();
+        assert!(
+            smooth.normalize().dot(expected) > 1.0 - 1e-6,
+            "{smooth} against {expected}"
+        );
+        assert!((smooth.length() - flat.length()).abs() < 1e-9);
+        assert!((smooth_touch.normal - expected).length() < 1e-6);
+    }
+
+    /// Each shape's material is its own; a shape without one has the scene's; an entry with
+    /// no solid or two is refused.
+    #[test]
+    fn each_shape_has_its_material_or_the_scenes() {
+        let text = "name: m\ntexture: { kind: grating, period: 0.002, amplitude: 0.1 }\nshapes:\n  \
+                    - floor: { height: -0.03 }\n  - box: { centre: [0, 0, 0], size: [0.01, 0.01, 0.01] }\n    \
+                    transient: { gain: 5, frequency: 200, decay: 0.01 }\n";
+        let spec = StaticSceneSpec::parse(text, Path::new("s.yaml")).unwrap();
+        assert_eq!(spec.surfaces[0].material, 0);
+        assert!(spec.materials[0].as_ref().unwrap().texture.is_some());
+        let own = spec.materials[usize::from(spec.surfaces[1].material)]
+            .as_ref()
+            .unwrap();
+        assert_eq!(own.transient.unwrap().frequency, 200.0);
+        assert!(own.texture.is_none());
+        for (text, expected) in [
+            (
+                "name: m\nshapes:\n  - texture: { kind: grating, period: 0.002, amplitude: 0.1 }\n",
+                "shapes[0]: must be one of",
+            ),
+            (
+                "name: m\nshapes:\n  - floor: { height: 0 }\n    sphere: { centre: [0, 0, 0], radius: 0.01 }\n",
+                "shapes[0]: must be one of",
+            ),
+            (
+                "name: m\nshapes:\n  - floor: { height: 0 }\n    transient: { gain: 5, frequency: 5000, decay: 0.01 }\n",
+                "shapes[0].transient.frequency: must be a number from 1 to 1000 Hz",
+            ),
+        ] {
+            let said = StaticSceneSpec::parse(text, Path::new("s.yaml"))
+                .unwrap_err()
+                .to_string();
+            assert!(said.contains(expected), "{said}");
+        }
     }
 }
