@@ -71,6 +71,12 @@ pub enum LoopEvent {
         time: f64,
         /// How late, nanoseconds.
         late_ns: u64,
+        /// How late the tick woke, nanoseconds.
+        woke_ns: u64,
+        /// How long it then took, nanoseconds.
+        busy_ns: u64,
+        /// Page faults the haptic thread took since the last overrun (or its start).
+        faults: u64,
     },
 }
 
@@ -180,6 +186,15 @@ pub fn hold_low_cpu_latency() -> Option<std::fs::File> {
     Some(file)
 }
 
+/// [rt] Page faults the calling thread has taken, minor and major.
+fn thread_faults() -> u64 {
+    // SAFETY: an all-zero rusage is valid, and getrusage writes one to a valid pointer.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: as above.
+    unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut usage) };
+    (usage.ru_minflt + usage.ru_majflt) as u64
+}
+
 /// Touch a generous slice of stack now, so the loop never page-faults on it later.
 #[inline(never)]
 fn prefault_stack() {
@@ -218,6 +233,7 @@ fn run_loop(
     // The scene (by its switch count) whose fault was reported.
     let mut reported = None;
     let mut next = monotonic_ns();
+    let mut faulted = thread_faults();
     let mut published = next;
     let mut pictured = next;
     while !stop.load(Ordering::Acquire) {
@@ -248,16 +264,23 @@ fn run_loop(
         }
         report(&mut events, &haptic, &frame, &mut reported, &mut state);
         let done = monotonic_ns();
+        // Taken before a skip moves `next`: the late wakes are the ones that matter.
+        let wait_ns = woke.saturating_sub(next);
         let overrun = done > next + period_ns;
         if overrun {
+            let faults = thread_faults();
             events.push(LoopEvent::Overrun {
                 time: frame.time,
                 late_ns: done - next - period_ns,
+                woke_ns: wait_ns,
+                busy_ns: done - woke,
+                faults: faults - faulted,
             });
+            faulted = faults;
             // Skip the missed deadlines instead of racing to catch up.
             next += (done - next) / period_ns * period_ns;
         }
-        stats.record(woke.saturating_sub(next), done - woke, overrun);
+        stats.record(wait_ns, done - woke, overrun);
         if done - published >= PUBLISH_NS {
             stats_writer.publish(|s| *s = stats);
             published = done;

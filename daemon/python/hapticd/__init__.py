@@ -177,7 +177,11 @@ class Device:
         self._bus.call(self.path, DEVICE, "ClearEffects")
 
     def open_telemetry(self) -> Ring:
-        """The device's telemetry ring, mapped read-only, its cursor at the next tick."""
+        """The device's telemetry ring, mapped read-only, its cursor at the next tick. The
+        calling thread moves off the CPU hapticd gives its haptic thread (the last one it may
+        use), as hapticd's renderer and bridge do: on a kernel without full preemption, a
+        reader's system calls there would delay the loop's wakes."""
+        _keep_off_the_haptic_cpu()
         (fd,) = self._bus.call(self.path, DEVICE, "OpenTelemetry", "a{sv}", ({},))
         raw = fd.to_raw_fd()
         try:
@@ -232,6 +236,14 @@ class Device:
         """The device's touches as the daemon announces them, from now on: iterating waits
         for each (up to ``timeout`` seconds, else :class:`TimeoutError`; None: for ever)."""
         return Touches(self._bus, self.path, timeout)
+
+
+def _keep_off_the_haptic_cpu() -> None:
+    """Move the calling thread off the last CPU it may use (hapticd's haptic CPU), unless
+    that is the only one."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) > 1:
+        os.sched_setaffinity(0, allowed[:-1])
 
 
 def _followed(ring: Ring, seconds: Optional[float]) -> Iterator[Sample]:

@@ -360,6 +360,11 @@ impl RecordArgs {
 /// and said.
 pub fn record(client: &Client, args: &RecordArgs) -> Result<(), Failure> {
     args.check()?;
+    // A reader of every tick keeps off the haptic thread's CPU, as the renderer does: on a
+    // kernel without full preemption its system calls there would delay the loop's wakes.
+    if let Err(e) = hapticd_service::cpus::keep_off_the_haptic_cpu() {
+        eprintln!("hapticctl: could not keep off the haptic CPU: {e}");
+    }
     let path = client.device(&args.device.device)?;
     let recorded = client.record(&path, args.duration, &args.file)?;
     let missed = match recorded.missed {

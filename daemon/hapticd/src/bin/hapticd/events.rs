@@ -68,13 +68,23 @@ pub fn spawn_event_logger(
                          plugin is disabled and the forces ramped to zero (switch scenes to load \
                          it again)"
                     ),
-                    LoopEvent::Overrun { time, late_ns } => {
+                    LoopEvent::Overrun {
+                        time,
+                        late_ns,
+                        woke_ns,
+                        busy_ns,
+                        faults,
+                    } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.
                         if overruns <= 5 || overruns.is_multiple_of(1000) {
                             tracing::warn!(
-                                "{identity}: {time:.3} s: tick overran by {:.1} µs ({overruns} so far)",
-                                late_ns as f64 / 1e3
+                                "{identity}: {time:.3} s: tick overran by {:.1} µs: woke {:.1} µs \
+                                 late, then busy {:.1} µs; {faults} page faults since the last \
+                                 ({overruns} so far)",
+                                late_ns as f64 / 1e3,
+                                woke_ns as f64 / 1e3,
+                                busy_ns as f64 / 1e3
                             );
                         }
                     }
