@@ -37,6 +37,7 @@ fn set_of(n: usize) -> EffectSet {
         effectors: &effectors,
         max_force: 10.0,
         rate: 1000.0,
+        bodies: &[],
     };
     let mut set = EffectSet::new(10.0, 5000.0);
     for k in 0..n {
@@ -75,7 +76,7 @@ fn tick(bencher: Bencher, n: usize) {
     bencher.bench_local(|| {
         k = (k + 1) % grips.len();
         set.advance(1e-3);
-        divan::black_box(set.wrenches(0, &grips[k], 1e-3))
+        divan::black_box(set.wrenches(0, &grips[k], 1e-3, DVec3::ZERO, &[]))
     });
 }
 

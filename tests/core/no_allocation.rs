@@ -337,6 +337,7 @@ fn effects_of_every_kind_added_changed_and_rendered_do_not_allocate() {
             effectors: &effectors,
             max_force: 10.0,
             rate: 1000.0,
+            bodies: &[],
         };
         // Made before they reach the loop, as the daemon makes them.
         let effects: Vec<_> = kinds

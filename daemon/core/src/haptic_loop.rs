@@ -17,6 +17,7 @@
 //! through [`HapticLoop::take_retired`] so that it is freed off the real-time thread.
 
 use glam::DVec3;
+use hapticd_plugin_api::HapticdBodyPose;
 
 use crate::fault_hold::{FaultHold, SCENE_RECOVERY};
 use crate::haptics::effects::{EffectCommand, EffectSet, Grip};
@@ -28,7 +29,7 @@ use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench, r
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
 use crate::scene::output_check::OutputFault;
-use crate::scene::{Pointer, Scene, Touch};
+use crate::scene::{MAX_BODIES, Pointer, Scene, Touch};
 use crate::solver::calibration::{lengths_from_counts, offsets_into};
 use crate::solver::pose::PoseSolver;
 use crate::solver::tension::{TensionSettings, TensionSolver};
@@ -256,6 +257,9 @@ pub struct HapticLoop {
     command: WrenchCommand,
     commanded: [Wrench; MAX_EFFECTORS],
     effects: EffectSet,
+    /// The poses of the bodies effects move with, this tick (on the heap: a loop is moved
+    /// whole to its thread).
+    body_poses: Box<[HapticdBodyPose]>,
     frame: Frame,
     parameters: Option<Parameters>,
     incoming: Option<Box<dyn Scene>>,
@@ -347,6 +351,7 @@ impl HapticLoop {
             command: WrenchCommand::new(),
             commanded: [Wrench::ZERO; MAX_EFFECTORS],
             effects: EffectSet::new(settings.safety.max_force, settings.max_force_rate),
+            body_poses: vec![HapticdBodyPose::default(); MAX_BODIES].into_boxed_slice(),
             pointers,
             effectors,
             settings,
@@ -621,6 +626,11 @@ impl HapticLoop {
         let mut all_finite = true;
         self.effects.advance(dt);
         self.frame.effects = self.effects.count();
+        let needed = self.effects.bodies_needed();
+        let bodies = match needed {
+            0 => 0,
+            n => self.scene.write_bodies(&mut self.body_poses[..n]).min(n),
+        };
         for (index, e) in self.effectors.iter_mut().enumerate() {
             let grip = Grip {
                 pose: *e.pose.pose(),
@@ -629,7 +639,9 @@ impl HapticLoop {
             let touch = &self.frame.touches[index];
             let material = self.scene.material(index, touch);
             let (texture, ring) = e.surface.update(material, touch, e.velocity, dt);
-            let (passive, active) = self.effects.wrenches(index, &grip, dt, ring);
+            let (passive, active) =
+                self.effects
+                    .wrenches(index, &grip, dt, ring, &self.body_poses[..bodies]);
             // Passive effects and textures are watched by the observer like the scene.
             let mut wrench = self.wrenches[index] + passive + Wrench::force(texture);
             wrench.force = e.passivity.filter(wrench.force, e.velocity, dt);

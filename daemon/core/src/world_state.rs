@@ -19,8 +19,7 @@ use crate::kinematics::{Dof, MAX_EFFECTORS, Pose, quat_from_wxyz, quat_to_wxyz};
 use crate::shared_header::{Header, WrongLayout};
 use crate::transport::CHANNELS;
 
-/// Most bodies a picture shows; a larger world shows its first ones.
-pub const MAX_BODIES: usize = 4096;
+pub use crate::scene::MAX_BODIES;
 
 /// First bytes of a shared world, so that a reader knows what it mapped.
 pub const MAGIC: [u8; 8] = *b"hapticdW";

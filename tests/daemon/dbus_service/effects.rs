@@ -383,3 +383,75 @@ fn a_grating_slid_over_is_felt_at_the_speed_over_its_period() {
         "{peak} Hz against {expected} Hz"
     );
 }
+
+/// A magnet on a body of a physics scene (its box in the body's frame, the body 5 cm along
+/// x): the force on a hand held near it is the magnet's law at each tick's grip (the pull
+/// toward the box's nearest face, F·s²(3 − 2s) with s = 1 − distance/reach); a magnet on a
+/// body the world lacks is refused by name.
+#[test]
+fn a_magnet_on_a_body_pulls_toward_where_the_body_is() {
+    let dir = support::shared_scratch("dbus", "effects-body-magnet");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let scene = dir.join("magnet.yaml");
+    std::fs::write(
+        &scene,
+        "name: magnet\nengine: penalty\ndt: 0.00025\ngravity: [0, 0, 0]\n\
+         material: { stiffness: 2.0e7, damping: 1.0e4, static_friction: 0.5, friction: 0.4, \
+         friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.02 }\n\
+         bodies:\n  - { name: block, box: [0.03, 0.03, 0.03], position: [0.05, 0, 0], fixed: true }\n\
+         pointer: { sphere: 0.002 }\n\
+         effects:\n  - { kind: magnet, body: block, shape: { box: [0.03, 0.03, 0.03] }, reach: 0.02, \
+         friction: 1 }\n",
+    )
+    .unwrap();
+    let hand = dir.join("near.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - move: { to: [0.025, 0, 0], seconds: 0.5 }\n    \
+         - hold: { seconds: 30 }\n",
+    )
+    .unwrap();
+    let daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &[
+            "--sim",
+            "spidar-g",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--hand",
+            hand.to_str().unwrap(),
+        ],
+    );
+    std::thread::sleep(Duration::from_millis(800));
+    let samples = ticks(&bus, 1.0);
+    let mut worst = 0.0f64;
+    for s in &samples {
+        let x = s.poses[0].position[0];
+        let distance = (0.05 - 0.015) - x;
+        let expected = if distance > 0.0 && distance < 0.02 {
+            let s = 1.0 - distance / 0.02;
+            s * s * (3.0 - 2.0 * s)
+        } else {
+            0.0
+        };
+        worst = worst.max((s.wrenches[0].force[0] - expected).abs());
+    }
+    let last = &samples[samples.len() - 1];
+    println!(
+        "magnet on a body: grip at x = {:.4} m, pulled {:.4} N; worst departure from the law \
+         {worst:.2e} N",
+        last.poses[0].position[0], last.wrenches[0].force[0]
+    );
+    // Held 1 cm from the block's face by the arm (300 N/m), pulled nearer.
+    assert!(last.wrenches[0].force[0] > 0.3, "pulled toward the block");
+    assert!(worst < 1e-6, "{worst} N from the law");
+    let (_, said) = add(
+        &bus,
+        "{kind: magnet, body: ghost, shape: {sphere: 0.01}, reach: 0.01, friction: 1}",
+    )
+    .unwrap_err();
+    assert!(said.contains("body: no body \"ghost\""), "{said}");
+    daemon.stop();
+}

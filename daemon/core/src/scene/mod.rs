@@ -65,6 +65,10 @@ impl Pointer {
     }
 }
 
+/// Most bodies a picture shows (a larger world shows its first ones), and the most the
+/// loop reads the poses of for effects that move with them.
+pub const MAX_BODIES: usize = 4096;
+
 /// A world the haptic loop renders.
 pub trait Scene: Send {
     /// [main] The scene's name.

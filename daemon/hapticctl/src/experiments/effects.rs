@@ -37,7 +37,7 @@ fn run(commands: &[(f64, EffectCommand)], seconds: f64) -> Vec<(f64, f64)> {
                 let _ = set.command(*command);
             }
             set.advance(DT);
-            (t, set.wrenches(0, &grip, DT, DVec3::ZERO).1.force.x)
+            (t, set.wrenches(0, &grip, DT, DVec3::ZERO, &[]).1.force.x)
         })
         .collect()
 }
@@ -53,6 +53,7 @@ fn periodic(wave: Wave) -> Vec<(f64, f64)> {
             phase: 0.0,
         },
         effector: None,
+        body: None,
         envelope: Envelope {
             attack: 0.15,
             fade: 0.1,
@@ -77,6 +78,7 @@ fn cross_fade() -> Vec<(f64, f64)> {
             torque: DVec3::ZERO,
         },
         effector: None,
+        body: None,
         envelope: Envelope {
             attack: 0.04,
             fade: 0.04,

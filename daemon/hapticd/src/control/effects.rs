@@ -36,10 +36,12 @@ impl DeviceHandle {
         let map = parsed.map;
         let locate = |field: &str| map.find(field);
         let mut f = Findings::after_schema(named, &locate, parsed.schema);
+        let bodies: Vec<String> = self.bodies().into_iter().map(|b| b.name).collect();
         let limits = Limits {
             effectors: self.effectors(),
             max_force: self.parameter(Name::MaxForce),
             rate: self.rate(),
+            bodies: &bodies,
         };
         let effect = parsed.value.check("", &limits, &mut f);
         f.finish().map_err(Error::InvalidEffect)?;
@@ -83,10 +85,12 @@ impl DeviceHandle {
         let Some(file) = file else {
             return Ok(Vec::new());
         };
+        // The file's own bodies are read with its effects.
         let limits = Limits {
             effectors: self.effectors(),
             max_force: self.parameter(Name::MaxForce),
             rate: self.rate(),
+            bodies: &[],
         };
         let listed = listed_in(file, &limits).map_err(Error::InvalidEffect)?;
         Ok(listed

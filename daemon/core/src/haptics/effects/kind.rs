@@ -1,7 +1,7 @@
 //! What each kind of effect does: the wrench it puts on a grip, from the grip's motion (and
 //! for some from time), and whether it is passive (it can only take energy from the hand:
 //! springs, dampers, friction, fields about shapes) or active (it gives it: forces that
-//! follow time, and inertia rendered from a differentiated velocity).
+//! follow time, inertia rendered from a differentiated velocity, and magnets' snaps).
 
 use std::f64::consts::{FRAC_2_PI, TAU};
 
@@ -257,6 +257,9 @@ pub struct Grip {
 
 impl Kind {
     /// Whether it only ever takes energy from the hand (given time-invariant parameters).
+    /// A magnet is not: it gives the hand the energy of its pull as it snaps it to the
+    /// surface (to the passivity controller, which cannot know where the hand began, that
+    /// would look like energy to take back, and it would damp the snap away).
     pub fn is_passive(&self) -> bool {
         !matches!(
             self,
@@ -265,6 +268,7 @@ impl Kind {
                 | Kind::Periodic { .. }
                 | Kind::Waveform { .. }
                 | Kind::Inertia { .. }
+                | Kind::Magnet { .. }
         )
     }
 

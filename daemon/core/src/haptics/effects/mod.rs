@@ -24,7 +24,9 @@ pub use shape::Shape;
 use glam::DVec3;
 use kind::Memory;
 
-use crate::kinematics::{MAX_EFFECTORS, Wrench};
+use hapticd_plugin_api::HapticdBodyPose;
+
+use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench, quat_from_wxyz};
 
 /// Effects a device holds at once.
 pub const MAX_EFFECTS: usize = 64;
@@ -39,6 +41,9 @@ pub struct Effect {
     pub kind: Kind,
     /// The effector it acts on (None: every one).
     pub effector: Option<usize>,
+    /// The body it moves with (None: the world): its shapes and anchors are in the body's
+    /// frame.
+    pub body: Option<u32>,
     /// When, and how strongly.
     pub envelope: Envelope,
 }
@@ -266,6 +271,7 @@ impl EffectSet {
         grip: &Grip,
         dt: f64,
         ringing: DVec3,
+        bodies: &[HapticdBodyPose],
     ) -> (Wrench, Wrench) {
         let now = self.time;
         let (mut passive, mut active) = (Wrench::ZERO, Wrench::force(ringing));
@@ -274,18 +280,21 @@ impl EffectSet {
                 continue;
             }
             let t = now - slot.added;
-            let mut w = slot.effect.kind.wrench(
-                grip,
-                t - slot.envelope.start,
-                dt,
-                &mut slot.memory[effector],
-            ) * slot.gain(t);
+            let mut w = on_body(&slot.effect, grip, bodies, |grip| {
+                slot.effect.kind.wrench(
+                    grip,
+                    t - slot.envelope.start,
+                    dt,
+                    &mut slot.memory[effector],
+                )
+            }) * slot.gain(t);
             if let Some(o) = &mut slot.outgoing {
                 let left = o.gain * (1.0 - (now - o.since) / o.over).max(0.0);
-                let old = o
-                    .effect
-                    .kind
-                    .wrench(grip, now - o.began, dt, &mut o.memory[effector]);
+                let old = on_body(&o.effect, grip, bodies, |grip| {
+                    o.effect
+                        .kind
+                        .wrench(grip, now - o.began, dt, &mut o.memory[effector])
+                });
                 w = w + old * left;
             }
             if slot.effect.kind.is_passive() {
@@ -304,12 +313,61 @@ impl EffectSet {
         self.active[effector] = active.force;
         (passive, active)
     }
+
+    /// [rt] How many of the world's first bodies the effects move with (0: none): the
+    /// poses [`wrenches`](Self::wrenches) needs.
+    pub fn bodies_needed(&self) -> usize {
+        let mut needed = 0;
+        for slot in self.slots[..self.len].iter().flatten() {
+            for effect in [
+                Some(&slot.effect),
+                slot.outgoing.as_ref().map(|o| &o.effect),
+            ] {
+                if let Some(body) = effect.and_then(|e| e.body) {
+                    needed = needed.max(body as usize + 1);
+                }
+            }
+        }
+        needed
+    }
+}
+
+/// [rt] `wrench` of `grip`, for an `effect` on a body seen in the body's frame (among
+/// `bodies`' poses) and turned back into the world's; nothing when its body is not there.
+#[inline]
+fn on_body(
+    effect: &Effect,
+    grip: &Grip,
+    bodies: &[HapticdBodyPose],
+    wrench: impl FnOnce(&Grip) -> Wrench,
+) -> Wrench {
+    let Some(body) = effect.body else {
+        return wrench(grip);
+    };
+    let Some(pose) = bodies.get(body as usize).map(|b| Pose {
+        position: DVec3::from(b.position),
+        orientation: quat_from_wxyz(b.orientation).normalize(),
+    }) else {
+        return Wrench::ZERO;
+    };
+    let back = pose.orientation.inverse();
+    let local = Grip {
+        pose: Pose {
+            position: back * (grip.pose.position - pose.position),
+            orientation: back * grip.pose.orientation,
+        },
+        velocity: back * grip.velocity,
+    };
+    let w = wrench(&local);
+    Wrench {
+        force: pose.orientation * w.force,
+        torque: pose.orientation * w.torque,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::Pose;
 
     const DT: f64 = 1e-3;
 
@@ -327,6 +385,7 @@ mod tests {
                 torque: DVec3::ZERO,
             },
             effector: None,
+            body: None,
             envelope: Envelope {
                 attack,
                 ..Envelope::default()
@@ -339,7 +398,7 @@ mod tests {
         (0..ticks)
             .map(|_| {
                 set.advance(DT);
-                set.wrenches(0, &resting(), DT, DVec3::ZERO).1.force
+                set.wrenches(0, &resting(), DT, DVec3::ZERO, &[]).1.force
             })
             .collect()
     }
@@ -388,6 +447,7 @@ mod tests {
                 phase: 0.0,
             },
             effector: None,
+            body: None,
             envelope: Envelope::default(),
         };
         set.command(EffectCommand::Add(7, square)).unwrap();
@@ -412,14 +472,15 @@ mod tests {
                 saturation: 0.0,
             },
             effector: Some(1),
+            body: None,
             envelope: Envelope::default(),
         };
         set.command(EffectCommand::Add(1, spring)).unwrap();
         set.command(EffectCommand::Add(2, constant(DVec3::Z, 0.0)))
             .unwrap();
         set.advance(DT);
-        let (passive0, active0) = set.wrenches(0, &resting(), DT, DVec3::ZERO);
-        let (passive1, active1) = set.wrenches(1, &resting(), DT, DVec3::ZERO);
+        let (passive0, active0) = set.wrenches(0, &resting(), DT, DVec3::ZERO, &[]);
+        let (passive1, active1) = set.wrenches(1, &resting(), DT, DVec3::ZERO, &[]);
         assert_eq!((passive0.force, active0.force), (DVec3::ZERO, DVec3::Z));
         assert_eq!(
             (passive1.force, active1.force),
@@ -437,5 +498,71 @@ mod tests {
             set.command(EffectCommand::Add(1000, constant(DVec3::Z, 0.0))),
             Err(EffectError::Full)
         );
+    }
+
+    /// A magnet on a body snaps to the body's surface where the body is now: its box, in
+    /// the body's frame, turned and moved with it; nothing where the body was, or when the
+    /// world has no such body.
+    #[test]
+    fn a_magnet_on_a_body_moves_with_it() {
+        let magnet = Effect {
+            kind: Kind::Magnet {
+                shape: Shape::Box {
+                    centre: DVec3::ZERO,
+                    half: DVec3::new(0.02, 0.01, 0.01),
+                    radius: 0.0,
+                },
+                reach: 0.01,
+                force: 2.0,
+            },
+            effector: None,
+            body: Some(1),
+            envelope: Envelope::default(),
+        };
+        let mut set = EffectSet::new(10.0, 0.0);
+        set.command(EffectCommand::Add(0, magnet)).unwrap();
+        set.advance(DT);
+        // Body 1 at (0.1, 0, 0), turned a quarter about z: its long side now along y.
+        let turned = glam::DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2);
+        let bodies = [
+            HapticdBodyPose::default(),
+            HapticdBodyPose {
+                position: [0.1, 0.0, 0.0],
+                orientation: [turned.w, turned.x, turned.y, turned.z],
+            },
+        ];
+        let at = |p: DVec3, bodies: &[HapticdBodyPose], set: &mut EffectSet| {
+            let grip = Grip {
+                pose: Pose {
+                    position: p,
+                    ..Pose::default()
+                },
+                velocity: DVec3::ZERO,
+            };
+            set.wrenches(0, &grip, DT, DVec3::ZERO, bodies).0.force
+        };
+        // 5 mm beyond its face at x = 0.1 + 0.01: pulled back along -x, at half reach the
+        // smooth profile's half.
+        let pulled = at(DVec3::new(0.115, 0.015, 0.0), &bodies, &mut set);
+        assert!(
+            (pulled - DVec3::new(-1.0, 0.0, 0.0)).length() < 1e-6,
+            "{pulled}"
+        );
+        // Its face is at x = 0.11 now, and x = 0.125 is 1.5 cm clear of it: past the reach,
+        // nothing.
+        assert_eq!(
+            at(DVec3::new(0.125, 0.0, 0.0), &bodies, &mut set),
+            DVec3::ZERO
+        );
+        // Where an unturned box at the origin would pull, nothing; nor without the body.
+        assert_eq!(
+            at(DVec3::new(0.025, 0.0, 0.0), &bodies, &mut set),
+            DVec3::ZERO
+        );
+        assert_eq!(
+            at(DVec3::new(0.115, 0.015, 0.0), &bodies[..1], &mut set),
+            DVec3::ZERO
+        );
+        assert_eq!(set.bodies_needed(), 2);
     }
 }

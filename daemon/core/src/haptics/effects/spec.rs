@@ -109,6 +109,10 @@ pub struct EffectSpec {
     /// Fixture, shape: `linear` (default) or `smooth`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub easing: Option<String>,
+    /// Magnet: the body whose surface it snaps to, by name (its `shape` then in the body's
+    /// frame, moving with it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body: Option<String>,
     /// Magnet: metres from the surface it pulls from.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reach: Option<f64>,
@@ -176,6 +180,8 @@ pub struct Limits<'a> {
     pub max_force: f64,
     /// The loop's rate, Hz: a periodic effect stays below half of it.
     pub rate: f64,
+    /// The world's bodies, by name (body *i* the *i*-th): a magnet may move with one.
+    pub bodies: &'a [String],
 }
 
 /// Farthest an effect's point may be, metres: well outside any SPIDAR's frame.
@@ -219,7 +225,7 @@ fn keys_of(kind: &str) -> Option<&'static [&'static str]> {
             "easing",
         ],
         "shape" => &["shape", "stiffness", "width", "easing"],
-        "magnet" => &["shape", "reach", "friction"],
+        "magnet" => &["shape", "reach", "friction", "body"],
         _ => return None,
     })
 }
@@ -268,6 +274,7 @@ impl EffectSpec {
             ("width", self.width.is_some()),
             ("easing", self.easing.is_some()),
             ("reach", self.reach.is_some()),
+            ("body", self.body.is_some()),
         ];
         present
             .iter()
@@ -311,6 +318,20 @@ impl EffectSpec {
             },
             None => None,
         };
+        let body = match &self.body {
+            Some(name) => match limits.bodies.iter().position(|b| b == name) {
+                Some(index) => Some(index as u32),
+                None => {
+                    f.error(
+                        key("body"),
+                        format!("no body {name:?}: the world has {:?}", limits.bodies),
+                    );
+                    bad = true;
+                    None
+                }
+            },
+            None => None,
+        };
         let envelope = self.envelope(at, f);
         let mut checker = Checker {
             spec: self,
@@ -324,6 +345,7 @@ impl EffectSpec {
             (Some(kind), Some(envelope), false) => Some(Effect {
                 kind,
                 effector,
+                body,
                 envelope,
             }),
             _ => None,
@@ -719,26 +741,40 @@ impl Checker<'_, '_, '_> {
     }
 }
 
-/// The `effects:` of the scene file `file`, each checked against `limits` with its place in
-/// the file; a file without any has none.
+/// The `effects:` of the scene file `file`, each checked against `limits` (its bodies those
+/// of the file's `bodies:`) with its place in the file; a file without any has none.
 pub fn listed_in(file: &Path, limits: &Limits) -> Result<Vec<(Effect, EffectSpec)>, Diagnostics> {
-    /// The one key read here; the scene's loader reads the rest.
+    /// The keys read here (the bodies' names, for magnets on them); the scene's loader
+    /// reads the rest.
     #[derive(Deserialize, Default)]
     struct Listed {
         #[serde(default)]
         effects: Vec<EffectSpec>,
+        #[serde(default)]
+        bodies: Vec<Named>,
+    }
+    /// A body, of which only its name is read here.
+    #[derive(Deserialize, Default)]
+    struct Named {
+        #[serde(default)]
+        name: String,
     }
     let parsed = diagnostics::parse_yaml::<Listed>(&diagnostics::read_text(file)?, file)?;
     let map = parsed.map;
     let locate = |field: &str| map.find(field);
     let mut f = Findings::after_schema(file, &locate, parsed.schema);
+    let names: Vec<String> = parsed.value.bodies.iter().map(|b| b.name.clone()).collect();
+    let limits = Limits {
+        bodies: &names,
+        ..*limits
+    };
     let effects: Vec<_> = parsed
         .value
         .effects
         .iter()
         .enumerate()
         .filter_map(|(k, spec)| {
-            let effect = spec.check(&format!("effects[{k}]"), limits, &mut f)?;
+            let effect = spec.check(&format!("effects[{k}]"), &limits, &mut f)?;
             Some((effect, spec.clone()))
         })
         .collect();
@@ -758,6 +794,7 @@ mod tests {
             effectors: &effectors,
             max_force: 10.0,
             rate: 1000.0,
+            bodies: &[],
         };
         let path = Path::new("e");
         let check = |text: &str| {
