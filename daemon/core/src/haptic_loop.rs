@@ -187,6 +187,9 @@ impl std::fmt::Display for FaultCause {
 }
 
 /// A request to the haptic loop, applied between ticks.
+// An effect crosses to the haptic thread by value, so that the thread never frees it: the
+// ring's slots are as large as an effect (a waveform's samples).
+#[allow(clippy::large_enum_variant)]
 pub enum LoopCommand {
     /// Render with these parameters from now on.
     Tune(Parameters),

@@ -24,11 +24,12 @@ fn fit(columns: &[Vec<f64>], signal: &[f64]) -> Vec<f64> {
             .max_by(|x, y| a[*x][c].abs().total_cmp(&a[*y][c].abs()))
             .unwrap();
         a.swap(c, pivot);
-        for r in 0..n {
+        let row = a[c].clone();
+        for (r, other) in a.iter_mut().enumerate() {
             if r != c {
-                let k = a[r][c] / a[c][c];
-                for j in c..=n {
-                    a[r][j] -= k * a[c][j];
+                let k = other[c] / row[c];
+                for (x, p) in other.iter_mut().zip(&row).skip(c) {
+                    *x -= k * p;
                 }
             }
         }

@@ -90,7 +90,7 @@ pub enum Texture {
         /// square).
         amplitude: f64,
         /// Its plane waves.
-        waves: [PlaneWave; ROUGHNESS_WAVES],
+        waves: Box<[PlaneWave; ROUGHNESS_WAVES]>,
     },
     /// A height map.
     HeightMap {
@@ -316,7 +316,12 @@ impl TextureSpec {
         ok &= f.within(format!("{at}.exponent"), exponent, -4.0, 6.0, "");
         ok.then(|| Texture::Roughness {
             amplitude: self.amplitude,
-            waves: roughness_waves(shortest, longest, exponent, self.seed.unwrap_or(0)),
+            waves: Box::new(roughness_waves(
+                shortest,
+                longest,
+                exponent,
+                self.seed.unwrap_or(0),
+            )),
         })
     }
 
@@ -458,7 +463,7 @@ mod tests {
         }
         let rough = Texture::Roughness {
             amplitude: 0.7,
-            waves: roughness_waves(0.0005, 0.02, 2.0, 3),
+            waves: Box::new(roughness_waves(0.0005, 0.02, 2.0, 3)),
         };
         let mut largest = 0.0f64;
         for k in 0..20_000 {

@@ -137,7 +137,7 @@ fn textures() -> Vec<(&'static str, Vec<(f64, f64)>)> {
             "roughness, 0.5-8 mm",
             slid(Texture::Roughness {
                 amplitude,
-                waves: roughness_waves(0.0005, 0.008, 2.0, 7),
+                waves: Box::new(roughness_waves(0.0005, 0.008, 2.0, 7)),
             }),
         ),
         (

@@ -115,6 +115,9 @@ impl Easing {
 }
 
 /// A kind of effect, with its parameters.
+// Held by value (a waveform's samples inline): an effect reaches and leaves the haptic
+// thread without an allocation to free there.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Kind {
     /// A constant force and torque.
