@@ -500,9 +500,9 @@ mod tests {
         );
     }
 
-    /// A magnet on a body snaps to the body's surface where the body is now: its box, in
-    /// the body's frame, turned and moved with it; nothing where the body was, or when the
-    /// world has no such body.
+    /// A magnet on a body (an active effect) snaps to the body's surface where the body is
+    /// now: its box, in the body's frame, turned and moved with it; nothing where the body
+    /// was, or when the world has no such body.
     #[test]
     fn a_magnet_on_a_body_moves_with_it() {
         let magnet = Effect {
@@ -539,7 +539,7 @@ mod tests {
                 },
                 velocity: DVec3::ZERO,
             };
-            set.wrenches(0, &grip, DT, DVec3::ZERO, bodies).0.force
+            set.wrenches(0, &grip, DT, DVec3::ZERO, bodies).1.force
         };
         // 5 mm beyond its face at x = 0.1 + 0.01: pulled back along -x, at half reach the
         // smooth profile's half.
