@@ -25,7 +25,9 @@ use crate::haptics::passivity::{PassivityController, PassivityLimits};
 use crate::haptics::safety::{SafetyGuard, SafetyLimits};
 use crate::haptics::surface::SurfaceFeel;
 use crate::haptics::wrench_command::{CommandState, WrenchCommand, WrenchSource};
-use crate::kinematics::{MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench, rotation_vector};
+use crate::kinematics::{
+    MAX_EFFECTORS, MAX_STRINGS_PER_EFFECTOR, Pose, Wrench, pose_of, rotation_vector,
+};
 use crate::mechanism::Mechanism;
 use crate::parameters::Parameters;
 use crate::scene::output_check::OutputFault;
@@ -629,7 +631,14 @@ impl HapticLoop {
         let mut all_finite = true;
         self.effects.advance(dt);
         self.frame.effects = self.effects.count();
-        let needed = self.effects.bodies_needed();
+        // The bodies effects move with, and those whose textures the pointers slide on.
+        let touched = (0..self.effectors.len()).filter_map(|i| {
+            let touch = &self.frame.touches[i];
+            let textured = self.scene.material(i, touch)?.texture.is_some();
+            let body = touch.body as usize;
+            (textured && body < MAX_BODIES).then_some(body + 1)
+        });
+        let needed = touched.fold(self.effects.bodies_needed(), usize::max);
         let bodies = match needed {
             0 => 0,
             n => self.scene.write_bodies(&mut self.body_poses[..n]).min(n),
@@ -641,7 +650,10 @@ impl HapticLoop {
             };
             let touch = &self.frame.touches[index];
             let material = self.scene.material(index, touch);
-            let (texture, ring) = e.surface.update(material, touch, e.velocity, dt);
+            let body = self.body_poses[..bodies]
+                .get(touch.body as usize)
+                .map(pose_of);
+            let (texture, ring) = e.surface.update(material, touch, body, e.velocity, dt);
             let (passive, active) =
                 self.effects
                     .wrenches(index, &grip, dt, ring, &self.body_poses[..bodies]);

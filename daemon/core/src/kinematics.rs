@@ -2,7 +2,7 @@
 //! degrees of freedom, its pose, and the size limits that fix every real-time buffer.
 
 use glam::{DQuat, DVec3};
-use hapticd_plugin_api::HapticdWrench;
+use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
 
 /// Most strings one end effector may have; fixes the size of every real-time buffer.
 pub const MAX_STRINGS_PER_EFFECTOR: usize = 16;
@@ -100,6 +100,14 @@ impl Pose {
 
 /// Most effectors a running device may have (the size of every per-tick record).
 pub const MAX_EFFECTORS: usize = 4;
+
+/// A pose from the ABI's (its orientation normalised).
+pub fn pose_of(pose: &HapticdBodyPose) -> Pose {
+    Pose {
+        position: DVec3::from(pose.position),
+        orientation: quat_from_wxyz(pose.orientation).normalize(),
+    }
+}
 
 /// A quaternion from the order files, D-Bus and the plugin ABI write it in: `[w, x, y, z]`.
 #[inline]

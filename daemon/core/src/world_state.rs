@@ -15,10 +15,11 @@ use glam::DVec3;
 use hapticd_plugin_api::{HapticdBodyPose, HapticdWrench};
 
 use crate::haptic_loop::{DeviceState, HapticLoop};
-use crate::kinematics::{Dof, MAX_EFFECTORS, Pose, quat_from_wxyz, quat_to_wxyz};
+use crate::kinematics::{Dof, MAX_EFFECTORS, Pose, quat_to_wxyz};
 use crate::shared_header::{Header, WrongLayout};
 use crate::transport::CHANNELS;
 
+pub use crate::kinematics::pose_of;
 pub use crate::scene::MAX_BODIES;
 
 /// First bytes of a shared world, so that a reader knows what it mapped.
@@ -169,14 +170,6 @@ pub fn body_pose(pose: &Pose) -> HapticdBodyPose {
     HapticdBodyPose {
         position: pose.position.to_array(),
         orientation: quat_to_wxyz(pose.orientation),
-    }
-}
-
-/// A pose from the ABI's (its orientation normalised).
-pub fn pose_of(pose: &HapticdBodyPose) -> Pose {
-    Pose {
-        position: DVec3::from(pose.position),
-        orientation: quat_from_wxyz(pose.orientation).normalize(),
     }
 }
 

@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use super::texture::{ImageReader, Texture, TextureSpec};
 use super::touch::Touch;
 use crate::diagnostics::{self, Diagnostics, Findings};
+use crate::kinematics::Pose;
 
 /// A contact transient: on impact at v m/s into the surface, gain·v·e^(−t/decay)·sin(2π·
 /// frequency·t) along the normal.
@@ -197,13 +198,14 @@ pub struct SurfaceFeel {
 
 impl SurfaceFeel {
     /// [rt] After a tick of `dt` seconds in which the pointer touched `touch` (of material
-    /// `material`) moving at `velocity`: the texture's force (passive) and the transient's
-    /// (active).
+    /// `material`, on a body now at `body`, whose texture moves with it) moving at
+    /// `velocity`: the texture's force (passive) and the transient's (active).
     #[inline]
     pub fn update(
         &mut self,
         material: Option<&Material>,
         touch: &Touch,
+        body: Option<Pose>,
         velocity: DVec3,
         dt: f64,
     ) -> (DVec3, DVec3) {
@@ -212,7 +214,14 @@ impl SurfaceFeel {
         let mut texture = DVec3::ZERO;
         if let (true, Some(m)) = (touch.touching, material) {
             if let Some(t) = &m.texture {
-                let push = t.force(touch.point, touch.normal);
+                let push = match body {
+                    Some(pose) => {
+                        let back = pose.orientation.inverse();
+                        let point = back * (touch.point - pose.position);
+                        pose.orientation * t.force(point, back * touch.normal)
+                    }
+                    None => t.force(touch.point, touch.normal),
+                };
                 texture = self.passive(push, touch.normal, velocity, dt, t.amplitude());
             }
             let speed = -velocity.dot(touch.normal);
@@ -306,11 +315,11 @@ mod tests {
         for speed in [0.05, 0.2, 0.6] {
             let mut feel = SurfaceFeel::default();
             let down = DVec3::new(0.0, -speed, 0.0);
-            feel.update(Some(&material), &floor(false, 0.0), down, DT);
+            feel.update(Some(&material), &floor(false, 0.0), None, down, DT);
             for k in 0..2_000 {
                 // It arrives at `speed`, and rests.
                 let v = if k == 0 { down } else { DVec3::ZERO };
-                let (_, f) = feel.update(Some(&material), &floor(true, 0.0), v, DT);
+                let (_, f) = feel.update(Some(&material), &floor(true, 0.0), None, v, DT);
                 let t = k as f64 * DT;
                 // Over after ten decay times.
                 let expected = if t <= RINGING * 0.01 {
@@ -323,8 +332,8 @@ mod tests {
         }
         // The touch must begin toward the surface, faster than a flicker.
         let mut feel = SurfaceFeel::default();
-        feel.update(Some(&material), &floor(true, 0.0), DVec3::Y * 0.3, DT);
-        let (_, f) = feel.update(Some(&material), &floor(true, 0.0), DVec3::ZERO, DT);
+        feel.update(Some(&material), &floor(true, 0.0), None, DVec3::Y * 0.3, DT);
+        let (_, f) = feel.update(Some(&material), &floor(true, 0.0), None, DVec3::ZERO, DT);
         assert_eq!(f, DVec3::ZERO);
     }
 
@@ -348,7 +357,7 @@ mod tests {
                 let x = slide * t;
                 let y = -0.002 * (TAU * beat * t).sin();
                 let v = DVec3::new(slide, -0.002 * TAU * beat * (TAU * beat * t).cos(), 0.0);
-                let (f, _) = feel.update(Some(&material), &floor(y < 0.0, x), v, DT);
+                let (f, _) = feel.update(Some(&material), &floor(y < 0.0, x), None, v, DT);
                 energy -= f.dot(v) * DT;
                 lowest = lowest.min(energy);
                 felt = felt.max(f.length());
@@ -356,5 +365,40 @@ mod tests {
             assert!(lowest >= -1e-12, "{beat} Hz: {lowest} J");
             assert!(felt > 1.0, "{beat} Hz: the texture was felt ({felt} N)");
         }
+    }
+
+    /// A body's texture moves with the body: slid on at the same place of the world, a
+    /// grating on a body moved half a period along it pushes the other way, and one on a
+    /// body turned a quarter about the normal has its ridges turned too.
+    #[test]
+    fn a_bodys_texture_moves_with_it() {
+        let material = Material {
+            texture: Some(Texture::Grating {
+                period: 0.004,
+                amplitude: 1.0,
+                direction: DVec3::X,
+            }),
+            transient: None,
+        };
+        let felt = |body: Option<Pose>| {
+            let mut feel = SurfaceFeel::default();
+            let slide = DVec3::X * 0.01;
+            feel.update(Some(&material), &floor(true, 0.001), body, slide, DT)
+                .0
+        };
+        let still = felt(None);
+        assert!((still - DVec3::Y).length() < 1e-12, "{still}");
+        let moved = Pose {
+            position: DVec3::new(0.002, 0.0, 0.0),
+            ..Pose::default()
+        };
+        assert!((felt(Some(moved)) + DVec3::Y).length() < 1e-12);
+        let turned = Pose {
+            orientation: glam::DQuat::from_rotation_y(std::f64::consts::FRAC_PI_2),
+            ..Pose::default()
+        };
+        // Its ridges now run along x: sliding along x crosses none, at z = 0 the profile's
+        // zero.
+        assert!(felt(Some(turned)).length() < 1e-12);
     }
 }

@@ -115,7 +115,7 @@ fn slid(texture: Texture) -> Vec<(f64, f64)> {
                 normal: DVec3::Y,
                 ..Touch::NONE
             };
-            let (force, _) = feel.update(Some(&material), &touch, DVec3::X * SLIDE, DT);
+            let (force, _) = feel.update(Some(&material), &touch, None, DVec3::X * SLIDE, DT);
             (x * 1e3, force.y)
         })
         .collect()
@@ -180,7 +180,7 @@ fn tap(speed: f64) -> Vec<(f64, f64)> {
             } else {
                 DVec3::ZERO
             };
-            let (_, ring) = feel.update(Some(&material), &touch, velocity, dt);
+            let (_, ring) = feel.update(Some(&material), &touch, None, velocity, dt);
             (k as f64 * dt * 1e3, ring.y)
         })
         .collect()

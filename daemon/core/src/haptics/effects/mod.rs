@@ -26,7 +26,7 @@ use kind::Memory;
 
 use hapticd_plugin_api::HapticdBodyPose;
 
-use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench, quat_from_wxyz};
+use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench, pose_of};
 
 /// Effects a device holds at once.
 pub const MAX_EFFECTS: usize = 64;
@@ -344,10 +344,7 @@ fn on_body(
     let Some(body) = effect.body else {
         return wrench(grip);
     };
-    let Some(pose) = bodies.get(body as usize).map(|b| Pose {
-        position: DVec3::from(b.position),
-        orientation: quat_from_wxyz(b.orientation).normalize(),
-    }) else {
+    let Some(pose) = bodies.get(body as usize).map(pose_of) else {
         return Wrench::ZERO;
     };
     let back = pose.orientation.inverse();
