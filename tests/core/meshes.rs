@@ -114,7 +114,7 @@ fn a_mesh_the_scene_may_not_read_is_an_error_at_its_place() {
     let e = StaticSceneSpec::parse(SCENE, &dir.join("scene.yaml"))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("reads no mesh files"), "{e}");
+    assert!(e.contains("reads no mesh or image files"), "{e}");
 }
 
 /// The proxy's walk over `path` (grip positions, a tick each) among `obstacles`: the forces.

@@ -228,15 +228,14 @@ fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
 
 #[test]
 fn a_static_scene_touching_a_large_mesh_does_not_allocate() {
-    let mut spec = StaticSceneSpec::parse(
-        "name: ball\nshapes:\n  - floor: { height: -0.2 }\n",
-        std::path::Path::new("ball.yaml"),
-    )
-    .unwrap();
-    // A ball of 99 600 triangles, its top at y = 0.
+    // A floor, and a ball of 99 600 triangles, its top at y = 0.
+    let mut shapes = vec![hapticd_core::haptics::obstacle::Shape::HalfSpace {
+        point: DVec3::new(0.0, -0.2, 0.0),
+        normal: DVec3::Y,
+    }];
     let centre = DVec3::new(0.0, -0.05, 0.0);
-    spec.shapes
-        .extend(support::ball_mesh::ball_faces(centre, 0.05, 250, 200));
+    shapes.extend(support::ball_mesh::ball_faces(centre, 0.05, 250, 200));
+    let spec = StaticSceneSpec::bare("ball", ProxyParameters::default(), shapes);
     let start = [Pointer {
         pose: Pose {
             position: DVec3::new(0.0, 0.02, 0.0),

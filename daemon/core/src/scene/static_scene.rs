@@ -709,11 +709,15 @@ impl Scene for StaticScene {
             let mut force = out.force;
             *touched = None;
             if let Some((k, face)) = self.scenery.nearest(out.proxy).filter(|_| out.in_contact) {
-                let normal = match self.spec.surfaces[k].normals {
+                let surface = self.spec.surfaces.get(k).copied().unwrap_or_default();
+                let corners = surface
+                    .normals
+                    .and_then(|n| self.spec.corner_normals.get(n as usize));
+                let normal = match corners {
                     // Force shading: the push along the face turned to the blended normal.
-                    Some(n) => {
+                    Some(corners) => {
                         let blended = self.spec.shapes[k]
-                            .blend(out.proxy, &self.spec.corner_normals[n as usize], face)
+                            .blend(out.proxy, corners, face)
                             .unwrap_or(face);
                         force += (blended - face) * force.dot(face);
                         blended
@@ -760,7 +764,11 @@ impl Scene for StaticScene {
 
     fn material(&self, pointer: usize, _touch: &Touch) -> Option<&Material> {
         let (k, _) = self.touched.get(pointer).copied().flatten()?;
-        self.spec.materials[usize::from(self.spec.surfaces[k].material)].as_ref()
+        let surface = self.spec.surfaces.get(k).copied().unwrap_or_default();
+        self.spec
+            .materials
+            .get(usize::from(surface.material))?
+            .as_ref()
     }
 
     fn write_proxies(&self, proxies: &mut [DVec3]) -> bool {
