@@ -9,7 +9,7 @@
 //! triple buffers and rings. When asked to stop it writes zero currents before it exits.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 
 use hapticd_core::haptic_loop::{DeviceState, FaultCause, Frame, HapticLoop, LoopCommand, Retired};
@@ -75,8 +75,6 @@ pub enum LoopEvent {
         woke_ns: u64,
         /// How long it then took, nanoseconds.
         busy_ns: u64,
-        /// Page faults the haptic thread took since the last overrun (or its start).
-        faults: u64,
     },
 }
 
@@ -96,6 +94,9 @@ pub struct Channels {
     pub telemetry: Option<TelemetryWriter>,
     /// The beat the guardian watches: a loop that drives and stops ticking is ended.
     pub heartbeat: Option<Heartbeat>,
+    /// Where the haptic thread writes its thread id as it starts: the logger reads its page
+    /// faults from /proc when it logs an overrun.
+    pub thread_id: Arc<AtomicI32>,
 }
 
 /// Pictures of the world per second: the renderer's frame rate.
@@ -186,13 +187,15 @@ pub fn hold_low_cpu_latency() -> Option<std::fs::File> {
     Some(file)
 }
 
-/// [rt] Page faults the calling thread has taken, minor and major.
-fn thread_faults() -> u64 {
-    // SAFETY: an all-zero rusage is valid, and getrusage writes one to a valid pointer.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: as above.
-    unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut usage) };
-    (usage.ru_minflt + usage.ru_majflt) as u64
+/// The page faults, minor and major, thread `tid` of this process has taken (None: no such
+/// thread, or 0: not started). Read from /proc, off the haptic thread.
+pub fn thread_faults(tid: i32) -> Option<u64> {
+    let stat = std::fs::read_to_string(format!("/proc/self/task/{tid}/stat")).ok()?;
+    // The fields after the command's closing parenthesis: state is the 3rd, minflt the 10th,
+    // majflt the 12th.
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let field = |n: usize| fields.get(n - 3)?.parse::<u64>().ok();
+    Some(field(10)? + field(12)?)
 }
 
 /// Touch a generous slice of stack now, so the loop never page-faults on it later.
@@ -222,6 +225,7 @@ fn run_loop(
         mut world,
         mut telemetry,
         heartbeat: guardian_beat,
+        thread_id,
     } = channels;
     let period_ns = (1e9 / rate).round() as u64;
     let period = period_ns as f64 * 1e-9;
@@ -232,8 +236,9 @@ fn run_loop(
     let mut state = DeviceState::Running;
     // The scene (by its switch count) whose fault was reported.
     let mut reported = None;
+    // SAFETY: gettid takes nothing and cannot fail; called once, before the first sleep.
+    thread_id.store(unsafe { libc::gettid() }, Ordering::Release);
     let mut next = monotonic_ns();
-    let mut faulted = thread_faults();
     let mut published = next;
     let mut pictured = next;
     while !stop.load(Ordering::Acquire) {
@@ -268,15 +273,12 @@ fn run_loop(
         let wait_ns = woke.saturating_sub(next);
         let overrun = done > next + period_ns;
         if overrun {
-            let faults = thread_faults();
             events.push(LoopEvent::Overrun {
                 time: frame.time,
                 late_ns: done - next - period_ns,
                 woke_ns: wait_ns,
                 busy_ns: done - woke,
-                faults: faults - faulted,
             });
-            faulted = faults;
             // Skip the missed deadlines instead of racing to catch up.
             next += (done - next) / period_ns * period_ns;
         }

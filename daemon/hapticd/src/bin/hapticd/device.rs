@@ -6,7 +6,7 @@ use std::os::linux::net::SocketAddrExt;
 use std::os::unix::net::{SocketAddr, UnixDatagram};
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicI32};
 use std::thread::JoinHandle;
 
 use hapticd::control::{DeviceHandle, DeviceSetup, Fixed, Telemetry, scene_geometry};
@@ -167,7 +167,9 @@ pub fn start(
     haptic.command(LoopCommand::Tune(record.parameters.resolve(&defaults)));
     restore_calibration(&mut haptic, &record, (&mechanism_name, strings), &identity)?;
     let (event_tx, event_rx) = spsc::channel(1024);
-    let logger = events::spawn_event_logger(identity.clone(), event_rx, common.done);
+    let thread_id = Arc::new(AtomicI32::new(0));
+    let logger =
+        events::spawn_event_logger(identity.clone(), event_rx, common.done, thread_id.clone());
     let frames = frame_recorder(recording.frames, header, rate, common.done, &mut writers)?;
     let (command_tx, command_rx) = spsc::channel(64);
     let (retired_tx, retired) = spsc::channel(4);
@@ -188,6 +190,7 @@ pub fn start(
             world: world_writer,
             telemetry: telemetry_writer,
             heartbeat: common.guardian.heartbeat(slot),
+            thread_id,
         },
     )
     .map_err(|e| format!("cannot start the haptic thread of {identity}: {e}"))?;

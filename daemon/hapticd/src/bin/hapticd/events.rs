@@ -1,22 +1,27 @@
 //! The logging thread: it logs what the real-time thread reports through its event ring.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::time::{Duration, Instant};
 
-use hapticd::realtime::LoopEvent;
+use hapticd::realtime::{LoopEvent, thread_faults};
 use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::sync::spsc;
 use hapticd_service::log_lines::{INTERVAL as FAULT_INTERVAL, LogLines};
 
 /// Log the events of the loop of device `identity` as they come (the real-time thread must
-/// not write itself); faults one line per [`FAULT_INTERVAL`] at most, the rest counted.
+/// not write itself); faults one line per [`FAULT_INTERVAL`] at most, the rest counted. An
+/// overrun says the page faults the haptic thread (`thread_id`, once it has started) took
+/// since the last one said.
 pub fn spawn_event_logger(
     identity: String,
     mut events: spsc::Consumer<LoopEvent>,
     done: &'static AtomicBool,
+    thread_id: Arc<AtomicI32>,
 ) -> std::thread::JoinHandle<()> {
     std::thread::spawn(move || {
         let mut overruns = 0u64;
+        let mut faulted = None;
         let started = Instant::now();
         let mut faults = LogLines::new(FAULT_INTERVAL);
         // The last fault was only counted, and so is its recovery.
@@ -73,15 +78,21 @@ pub fn spawn_event_logger(
                         late_ns,
                         woke_ns,
                         busy_ns,
-                        faults,
                     } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.
                         if overruns <= 5 || overruns.is_multiple_of(1000) {
+                            let now = thread_faults(thread_id.load(Ordering::Acquire));
+                            let faults = match (now, faulted) {
+                                (Some(now), Some(before)) => {
+                                    format!("; {} page faults since", now - before)
+                                }
+                                _ => String::new(),
+                            };
+                            faulted = now;
                             tracing::warn!(
                                 "{identity}: {time:.3} s: tick overran by {:.1} µs: woke {:.1} µs \
-                                 late, then busy {:.1} µs; {faults} page faults since the last \
-                                 ({overruns} so far)",
+                                 late, then busy {:.1} µs{faults} ({overruns} so far)",
                                 late_ns as f64 / 1e3,
                                 woke_ns as f64 / 1e3,
                                 busy_ns as f64 / 1e3
