@@ -7,7 +7,8 @@
 //! - [`properties`]: whether the surface is closed, its volume, centre and inertia;
 //! - [`decomposition`]: a movable mesh as convex pieces, kept between runs by [`cache`];
 //! - [`solid`]: a mesh as a physics body takes it;
-//! - [`height_map`]: a grey PNG a texture lays over a surface;
+//! - `height_map` and `scene_files` (feature `scene-files`): a grey PNG a texture lays over
+//!   a surface, and the readers of what a scene file names;
 //! - `obj`, `stl`, `gltf`: the three formats.
 //!
 //! Coordinates are metres once the scene's `scale:` is applied; every finding names the file.
@@ -16,6 +17,7 @@ pub mod cache;
 pub mod decomposition;
 mod error;
 mod gltf;
+#[cfg(feature = "scene-files")]
 pub mod height_map;
 mod obj;
 pub mod properties;
@@ -27,6 +29,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use hapticd_core::diagnostics::{Diagnostics, FileRules, read_file};
+#[cfg(feature = "scene-files")]
 use hapticd_core::scene::static_scene::{MeshFaces, SceneFiles};
 
 pub use crate::error::{Budget, Format, MeshError, MeshFileError};
@@ -242,6 +245,7 @@ impl TriangleMesh {
 
 /// The readers of the files a scene names: its meshes ([`scene_triangles`]) and height maps
 /// ([`height_map::height_map`]).
+#[cfg(feature = "scene-files")]
 pub fn scene_files() -> SceneFiles<'static> {
     SceneFiles {
         meshes: &scene_triangles,
@@ -253,6 +257,7 @@ pub fn scene_files() -> SceneFiles<'static> {
 /// whether they bound a solid: read under [`Limits::DEFAULT`], and only from within the
 /// scene's directory. The reader hapticd and hapticctl give static scenes
 /// (`hapticd_core::scene::static_scene::MeshReader`).
+#[cfg(feature = "scene-files")]
 fn scene_triangles(
     file: &Path,
     scene_dir: &Path,

@@ -43,6 +43,22 @@ pub(super) fn ticks(bus: &Bus, seconds: f64) -> Vec<Sample> {
         .collect()
 }
 
+/// hapticd on the simulated SPIDAR-G with scene file `scene`, its hand following `hand`.
+pub(super) fn on_sim(bus: &Bus, setup: &Setup, scene: &Path, hand: &Path) -> Hapticd {
+    Hapticd::start(
+        bus,
+        setup,
+        &[
+            "--sim",
+            "spidar-g",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--hand",
+            hand.to_str().unwrap(),
+        ],
+    )
+}
+
 /// The amplitude of `signal` (sampled at `rate`) at each frequency bin of its length, by a
 /// plain discrete Fourier transform: 2|X_k|/N.
 pub(super) fn spectrum(signal: &[f64]) -> Vec<f64> {
@@ -343,18 +359,7 @@ fn a_grating_slid_over_is_felt_at_the_speed_over_its_period() {
          - hold: { seconds: 30 }\n",
     )
     .unwrap();
-    let daemon = Hapticd::start(
-        &bus,
-        &setup,
-        &[
-            "--sim",
-            "spidar-g",
-            "--scene",
-            scene.to_str().unwrap(),
-            "--hand",
-            hand.to_str().unwrap(),
-        ],
-    );
+    let daemon = on_sim(&bus, &setup, &scene, &hand);
     // The middle of the slide: from 1.6 s to 2.8 s of the script.
     let started = Instant::now();
     std::thread::sleep(Duration::from_secs_f64(1.6).saturating_sub(started.elapsed()));
@@ -412,18 +417,7 @@ fn a_magnet_on_a_body_pulls_toward_where_the_body_is() {
          - hold: { seconds: 30 }\n",
     )
     .unwrap();
-    let daemon = Hapticd::start(
-        &bus,
-        &setup,
-        &[
-            "--sim",
-            "spidar-g",
-            "--scene",
-            scene.to_str().unwrap(),
-            "--hand",
-            hand.to_str().unwrap(),
-        ],
-    );
+    let daemon = on_sim(&bus, &setup, &scene, &hand);
     std::thread::sleep(Duration::from_millis(800));
     let samples = ticks(&bus, 1.0);
     let mut worst = 0.0f64;

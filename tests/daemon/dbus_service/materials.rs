@@ -3,7 +3,7 @@
 
 use super::*;
 
-use super::effects::ticks;
+use super::effects::{on_sim, ticks};
 
 /// Least squares: the coefficients of the `columns` that best fit `signal`, by the normal
 /// equations and Gaussian elimination.
@@ -75,18 +75,7 @@ fn a_tap_rings_in_proportion_to_its_speed_in_either_engine() {
             ),
         )
         .unwrap();
-        let daemon = Hapticd::start(
-            &bus,
-            &setup,
-            &[
-                "--sim",
-                "spidar-g",
-                "--scene",
-                scene.to_str().unwrap(),
-                "--hand",
-                hand.to_str().unwrap(),
-            ],
-        );
+        let daemon = on_sim(&bus, &setup, &scene, &hand);
         let samples = ticks(&bus, 3.6);
         daemon.stop();
         let onsets: Vec<usize> = (1..samples.len() - 90)
@@ -165,18 +154,7 @@ fn a_texture_beaten_on_gives_the_hand_no_energy() {
             ),
         )
         .unwrap();
-        let daemon = Hapticd::start(
-            &bus,
-            &setup,
-            &[
-                "--sim",
-                "spidar-g",
-                "--scene",
-                scene.to_str().unwrap(),
-                "--hand",
-                hand.to_str().unwrap(),
-            ],
-        );
+        let daemon = on_sim(&bus, &setup, &scene, &hand);
         let samples = ticks(&bus, 2.4);
         daemon.stop();
         let (mut energy, mut lowest) = (0.0f64, 0.0f64);

@@ -10,8 +10,8 @@
 //! - A height map: a grey PNG laid over the surface in tiles of `size` metres, seen along
 //!   the axis nearest the surface's normal; black is -1, white 1.
 //!
-//! Whether a texture's force may do work on the hand is the caller's concern
-//! (`crate::haptics::surface` gives it back only what it took).
+//! Whether a texture's force may do work on the hand is the caller's concern (the surface
+//! materials give it back only what it took).
 
 use std::error::Error;
 use std::f64::consts::TAU;

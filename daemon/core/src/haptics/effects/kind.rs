@@ -351,28 +351,7 @@ impl Kind {
                 rate,
                 direction,
                 repeat,
-            } => {
-                let at = t * rate;
-                let at = if repeat {
-                    at.rem_euclid(len as f64)
-                } else {
-                    at
-                };
-                if at >= len as f64 {
-                    return Wrench::ZERO;
-                }
-                let k = at.floor() as usize;
-                let next = if k + 1 < len {
-                    samples[k + 1]
-                } else if repeat {
-                    samples[0]
-                } else {
-                    samples[k]
-                };
-                let s =
-                    f64::from(samples[k]) + (f64::from(next) - f64::from(samples[k])) * at.fract();
-                Wrench::force(direction * s)
-            }
+            } => Wrench::force(direction * played(&samples[..len], t * rate, repeat)),
             Kind::StickSlip { force, stiffness } => {
                 let stuck = *memory.stuck_at.get_or_insert(p);
                 // Pulled past the force it holds: it slips and sticks again here.
@@ -403,24 +382,7 @@ impl Kind {
                 stiffness,
                 width,
                 easing,
-            } => {
-                let d = shape.distance(p);
-                // How far on the wrong side, and which way is back.
-                let (depth, back) = match keep {
-                    Keep::Out => (-d, 1.0),
-                    Keep::In => (d, -1.0),
-                    Keep::On => (d.abs(), -d.signum()),
-                };
-                if depth <= 0.0 {
-                    return Wrench::ZERO;
-                }
-                let magnitude = if width > 0.0 {
-                    stiffness * width * easing.at(depth / width)
-                } else {
-                    stiffness * depth
-                };
-                Wrench::force(shape.normal(p) * back * magnitude)
-            }
+            } => Wrench::force(field(&shape, keep, stiffness, (width, easing), p)),
             Kind::Magnet {
                 shape,
                 reach,
@@ -434,6 +396,57 @@ impl Kind {
             }
         }
     }
+}
+
+/// [rt] A field's force at `p` about `shape`, keeping to the side `keep`, of `stiffness`
+/// eased over `width` by `easing`.
+#[inline]
+fn field(
+    shape: &Shape,
+    keep: Keep,
+    stiffness: f64,
+    (width, easing): (f64, Easing),
+    p: DVec3,
+) -> DVec3 {
+    let d = shape.distance(p);
+    // How far on the wrong side, and which way is back.
+    let (depth, back) = match keep {
+        Keep::Out => (-d, 1.0),
+        Keep::In => (d, -1.0),
+        Keep::On => (d.abs(), -d.signum()),
+    };
+    if depth <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let magnitude = if width > 0.0 {
+        stiffness * width * easing.at(depth / width)
+    } else {
+        stiffness * depth
+    };
+    shape.normal(p) * back * magnitude
+}
+
+/// [rt] `samples` played at sample `at` (straight between them), over again when `repeat`,
+/// else nothing past the last.
+#[inline]
+fn played(samples: &[f32], at: f64, repeat: bool) -> f64 {
+    let len = samples.len();
+    let at = if repeat {
+        at.rem_euclid(len as f64)
+    } else {
+        at
+    };
+    if at >= len as f64 {
+        return 0.0;
+    }
+    let k = at.floor() as usize;
+    let next = match (samples.get(k + 1), repeat) {
+        (Some(next), _) => *next,
+        (None, true) => samples[0],
+        (None, false) => samples[k],
+    };
+    let here = f64::from(samples[k]);
+    here + (f64::from(next) - here) * at.fract()
 }
 
 /// `v` no longer than `most` (0: as it is).

@@ -9,6 +9,28 @@ use hapticd_core::haptic_loop::DeviceState;
 use hapticd_core::sync::spsc;
 use hapticd_service::log_lines::{INTERVAL as FAULT_INTERVAL, LogLines};
 
+/// Log overrun `event` of device `identity`, the `overruns`-th, with the haptic thread's page
+/// faults `since` the last one logged (when known).
+fn log_overrun(identity: &str, event: &LoopEvent, overruns: u64, since: Option<u64>) {
+    let LoopEvent::Overrun {
+        time,
+        late_ns,
+        woke_ns,
+        busy_ns,
+    } = *event
+    else {
+        return;
+    };
+    let faults = since.map_or(String::new(), |n| format!("; {n} page faults since"));
+    tracing::warn!(
+        "{identity}: {time:.3} s: tick overran by {:.1} µs: woke {:.1} µs late, then busy {:.1} \
+         µs{faults} ({overruns} so far)",
+        late_ns as f64 / 1e3,
+        woke_ns as f64 / 1e3,
+        busy_ns as f64 / 1e3
+    );
+}
+
 /// Log the events of the loop of device `identity` as they come (the real-time thread must
 /// not write itself); faults one line per [`FAULT_INTERVAL`] at most, the rest counted. An
 /// overrun says the page faults the haptic thread (`thread_id`, once it has started) took
@@ -73,30 +95,14 @@ pub fn spawn_event_logger(
                          plugin is disabled and the forces ramped to zero (switch scenes to load \
                          it again)"
                     ),
-                    LoopEvent::Overrun {
-                        time,
-                        late_ns,
-                        woke_ns,
-                        busy_ns,
-                    } => {
+                    LoopEvent::Overrun { .. } => {
                         overruns += 1;
                         // The first few in full; then only every thousandth.
                         if overruns <= 5 || overruns.is_multiple_of(1000) {
-                            let now = thread_faults(thread_id.load(Ordering::Acquire));
-                            let faults = match (now, faulted) {
-                                (Some(now), Some(before)) => {
-                                    format!("; {} page faults since", now - before)
-                                }
-                                _ => String::new(),
-                            };
-                            faulted = now;
-                            tracing::warn!(
-                                "{identity}: {time:.3} s: tick overran by {:.1} µs: woke {:.1} µs \
-                                 late, then busy {:.1} µs{faults} ({overruns} so far)",
-                                late_ns as f64 / 1e3,
-                                woke_ns as f64 / 1e3,
-                                busy_ns as f64 / 1e3
-                            );
+                            let faults = thread_faults(thread_id.load(Ordering::Acquire));
+                            let since = faults.zip(faulted).map(|(now, before)| now - before);
+                            faulted = faults;
+                            log_overrun(&identity, &event, overruns, since);
                         }
                     }
                 }
