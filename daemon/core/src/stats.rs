@@ -15,7 +15,7 @@ pub const BUCKETS: usize = 1000;
 ///     let late = if tick == 99 { 80_000 } else { 2_500 };
 ///     stats.record(late, 40_000, tick == 99);
 /// }
-/// assert_eq!((stats.ticks, stats.overruns), (100, 1));
+/// assert_eq!((stats.ticks, stats.overruns, stats.overruns_woken_late), (100, 1, 1));
 /// assert_eq!(stats.wait_percentile_ns(0.5), 3_000); // the 1 µs bucket's upper edge
 /// assert_eq!(stats.wait_max_tick, 100);
 /// assert_eq!(stats.busy_mean_ns(), 40_000);
@@ -26,6 +26,9 @@ pub struct LoopStats {
     pub ticks: u64,
     /// Ticks that ended after the next deadline.
     pub overruns: u64,
+    /// Of those, the ticks that woke later than they then took to compute: late from
+    /// outside (the kernel, the machine), not from their own work.
+    pub overruns_woken_late: u64,
     /// Longest wake-up latency, nanoseconds.
     pub wait_max_ns: u64,
     /// The tick (counted from 1) that woke that late: whether a spike comes at start-up or
@@ -44,6 +47,7 @@ impl Default for LoopStats {
         Self {
             ticks: 0,
             overruns: 0,
+            overruns_woken_late: 0,
             wait_max_ns: 0,
             wait_max_tick: 0,
             busy_max_ns: 0,
@@ -58,6 +62,7 @@ impl LoopStats {
     pub fn record(&mut self, wait_ns: u64, busy_ns: u64, overrun: bool) {
         self.ticks += 1;
         self.overruns += u64::from(overrun);
+        self.overruns_woken_late += u64::from(overrun && wait_ns > busy_ns);
         if wait_ns > self.wait_max_ns {
             self.wait_max_ns = wait_ns;
             self.wait_max_tick = self.ticks;

@@ -133,6 +133,10 @@ fn statistics(t: &Telemetry) -> HashMap<String, f64> {
     HashMap::from([
         ("ticks".to_string(), s.ticks as f64),
         ("overruns".to_string(), s.overruns as f64),
+        (
+            "overruns_woken_late".to_string(),
+            s.overruns_woken_late as f64,
+        ),
         ("wait_p50_us".to_string(), us(s.wait_percentile_ns(0.5))),
         ("wait_p99_us".to_string(), us(s.wait_percentile_ns(0.99))),
         ("wait_max_us".to_string(), us(s.wait_max_ns)),
