@@ -35,7 +35,7 @@ const FORMATS: [Format; 4] = [
         parts: &[
             (
                 "STATIC SCENES",
-                include_str!("../../core/src/scene/static_scene.rs"),
+                include_str!("../../core/src/scene/static_scene/mod.rs"),
             ),
             (
                 "PHYSICS SCENES",

@@ -35,6 +35,9 @@
 //!   scaling: { spring: 0.05, damper: 0.4 }   # optional: instead of the numbers above, each
 //!                              #   contact a spring 2·spring·m/dt² and damper damper·m/dt for
 //!                              #   its pair's reduced mass m (stable for any masses)
+//!   texture: { kind: roughness, amplitude: 0.2, shortest: 0.0005, longest: 0.01 }   # optional:
+//!   transient: { gain: 10, frequency: 250, decay: 0.01 }   # every surface's, felt by the hand
+//!                              #   (a body's own `texture:` and `transient:` stand for it)
 //! bodies:
 //!   - name: floor
 //!     box: [0.3, 0.02, 0.3]    # edge lengths, metres
