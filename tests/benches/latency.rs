@@ -26,8 +26,8 @@ const PRIORITY: u32 = 80;
 /// (p50, p99, max) in microseconds.
 type Latency = (f64, f64, f64);
 
-/// A run's latency and its overruns.
-type Timing = (Latency, u64);
+/// A run's latency, its overruns, and how many of them woke late (from outside the loop).
+type Timing = (Latency, u64, u64);
 
 /// Bodies of the large world, and its physics rate.
 const WORLD: (usize, f64) = (2000, 60.0);
@@ -105,13 +105,16 @@ fn hapticd_beside<T>(
         let rest = &line[line.find(key).expect(key) + key.len()..];
         rest.split_whitespace().next().unwrap().parse().unwrap()
     };
-    let overruns = line
+    // "…; N overruns, M of them woken late".
+    let counts: Vec<u64> = line[line.rfind(';').expect("the overruns close the line")..]
         .split_whitespace()
-        .rev()
-        .nth(1)
-        .and_then(|n| n.parse().ok())
-        .expect("the overruns close the line");
-    ((number("p50"), number("p99"), number("max")), overruns)
+        .filter_map(|w| w.trim_matches(',').parse().ok())
+        .collect();
+    (
+        (number("p50"), number("p99"), number("max")),
+        counts[0],
+        counts[1],
+    )
 }
 
 /// cyclictest's latency at `rate` Hz.
@@ -382,39 +385,43 @@ const FAST_ROUNDS: usize = 3;
 /// At [`FAST`] Hz, rounds of hapticd alone, cyclictest and hapticd beside the renderer, the
 /// bridge and two readers, one after the other; each round's figures, and their medians.
 fn fast_rounds() {
-    println!("at {FAST} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs; overruns):");
-    println!("{:<30}    p50      p99      max  overruns", "");
-    let show = |label: &str, (p50, p99, max): Latency, overruns: Option<f64>| {
-        let overruns = overruns.map_or("-".to_string(), |n| format!("{n:.0}"));
+    println!(
+        "at {FAST} Hz, SCHED_FIFO {PRIORITY}, {SECONDS} s each (µs; overruns, and the loop's \
+         own: those that did not wake late):"
+    );
+    println!("{:<30}    p50      p99      max  overruns  own", "");
+    let show = |label: &str, (p50, p99, max): Latency, overruns: Option<(u64, u64)>| {
+        let overruns = overruns.map_or("-".to_string(), |(all, own)| format!("{all:>8}  {own:>3}"));
         println!("{label:<30}{p50:7.1}  {p99:7.1}  {max:7.1}  {overruns:>8}");
     };
+    let counts = |t: &Timing| Some((t.1, t.1 - t.2));
     let mut rounds = Vec::new();
     for k in 1..=FAST_ROUNDS {
         let (alone, reference, loaded) = (fast(false), cyclictest(FAST), fast(true));
-        show(
-            &format!("{k}: hapticd alone"),
-            alone.0,
-            Some(alone.1 as f64),
-        );
+        show(&format!("{k}: hapticd alone"), alone.0, counts(&alone));
         show(&format!("{k}: cyclictest"), reference, None);
         show(
             &format!("{k}: drawn, bridged, 2 readers"),
             loaded.0,
-            Some(loaded.1 as f64),
+            counts(&loaded),
         );
         rounds.push((alone, reference, loaded));
     }
-    let overruns = |pick: fn(&(Timing, Latency, Timing)) -> u64| {
-        let mut v: Vec<u64> = rounds.iter().map(pick).collect();
-        v.sort_unstable();
-        v[v.len() / 2] as f64
+    let overruns = |pick: fn(&(Timing, Latency, Timing)) -> &Timing| {
+        let middle = |mut v: Vec<u64>| {
+            v.sort_unstable();
+            v[v.len() / 2]
+        };
+        let all = middle(rounds.iter().map(|r| pick(r).1).collect());
+        let own = middle(rounds.iter().map(|r| pick(r).1 - pick(r).2).collect());
+        Some((all, own))
     };
     let alone = median(rounds.iter().map(|r| r.0.0).collect());
     let reference = median(rounds.iter().map(|r| r.1).collect());
     let loaded = median(rounds.iter().map(|r| r.2.0).collect());
-    show("median: hapticd alone", alone, Some(overruns(|r| r.0.1)));
+    show("median: hapticd alone", alone, overruns(|r| &r.0));
     show("median: cyclictest", reference, None);
-    show("median: loaded", loaded, Some(overruns(|r| r.2.1)));
+    show("median: loaded", loaded, overruns(|r| &r.2));
     row(
         "median ratio loaded / cyclictest",
         ratio(loaded, reference),

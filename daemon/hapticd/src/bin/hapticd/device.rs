@@ -600,14 +600,15 @@ impl Stopped {
         }
         let stats = self.stats;
         tracing::info!(
-            "{}: stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs (tick {}); {} overruns",
+            "{}: stopped after {} ticks; motors at zero; wake latency p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs (tick {}); {} overruns, {} of them woken late",
             self.identity,
             stats.ticks,
             stats.wait_percentile_ns(0.5) as f64 / 1e3,
             stats.wait_percentile_ns(0.99) as f64 / 1e3,
             stats.wait_max_ns as f64 / 1e3,
             stats.wait_max_tick,
-            stats.overruns
+            stats.overruns,
+            stats.overruns_woken_late
         );
         failed.map_or(Ok(()), Err)
     }
