@@ -631,7 +631,8 @@ impl HapticLoop {
         let mut all_finite = true;
         self.effects.advance(dt);
         self.frame.effects = self.effects.count();
-        // The bodies effects move with, and those whose textures the pointers slide on.
+        // The bodies effects move with, and those whose textures the pointers slide on (the
+        // materials are looked up again below: reading the poses takes the scene mutably).
         let touched = (0..self.effectors.len()).filter_map(|i| {
             let touch = &self.frame.touches[i];
             let textured = self.scene.material(i, touch)?.texture.is_some();

@@ -96,6 +96,12 @@ impl Pose {
     pub fn transform_point(&self, knot: DVec3) -> DVec3 {
         self.position + self.orientation * knot
     }
+
+    /// A world point in this frame's coordinates (the inverse of
+    /// [`transform_point`](Self::transform_point)).
+    pub fn inverse_transform_point(&self, point: DVec3) -> DVec3 {
+        self.orientation.inverse() * (point - self.position)
+    }
 }
 
 /// Most effectors a running device may have (the size of every per-tick record).

@@ -187,8 +187,9 @@ pub fn hold_low_cpu_latency() -> Option<std::fs::File> {
     Some(file)
 }
 
-/// The page faults, minor and major, thread `tid` of this process has taken (None: no such
-/// thread, or 0: not started). Read from /proc, off the haptic thread.
+/// The page faults, minor and major, thread `tid` of this process has taken (None when it
+/// has no such thread, as before the haptic thread has said its id). Read from /proc, off
+/// the haptic thread.
 pub fn thread_faults(tid: i32) -> Option<u64> {
     let stat = std::fs::read_to_string(format!("/proc/self/task/{tid}/stat")).ok()?;
     // The fields after the command's closing parenthesis: state is the 3rd, minflt the 10th,

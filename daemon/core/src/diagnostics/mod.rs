@@ -181,6 +181,15 @@ impl<T> Parsed<T> {
     }
 }
 
+/// The field path of key `key` under the entry at `at` (the top when empty), as findings
+/// name fields.
+pub fn key_path(at: &str, key: &str) -> String {
+    match at {
+        "" => key.to_string(),
+        at => format!("{at}.{key}"),
+    }
+}
+
 /// Parse YAML `text` (named `file` in findings) into `T`, with the map of its field paths
 /// for locating the findings of later checks. A text the YAML library rejects is read
 /// again by the schema pass, so that every unknown key, wrong length and wrong type is

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use super::texture::{ImageReader, Texture, TextureSpec};
 use super::touch::Touch;
-use crate::diagnostics::{self, Diagnostics, Findings};
+use crate::diagnostics::{self, Diagnostics, Findings, key_path};
 use crate::kinematics::Pose;
 
 /// A contact transient: on impact at v m/s into the surface, gain·v·e^(−t/decay)·sin(2π·
@@ -106,21 +106,14 @@ impl MaterialSpec {
         dir: &Path,
         images: ImageReader,
     ) -> Option<Material> {
-        let prefix = |key: &str| {
-            if at.is_empty() {
-                key.to_string()
-            } else {
-                format!("{at}.{key}")
-            }
-        };
         let texture = self
             .texture
             .as_ref()
-            .and_then(|t| t.check(&prefix("texture"), f, dir, images));
+            .and_then(|t| t.check(&key_path(at, "texture"), f, dir, images));
         let transient = self
             .transient
             .as_ref()
-            .and_then(|t| t.check(&prefix("transient"), f));
+            .and_then(|t| t.check(&key_path(at, "transient"), f));
         (texture.is_some() || transient.is_some()).then_some(Material { texture, transient })
     }
 }
@@ -142,11 +135,6 @@ impl Surfaces {
             .get(body as usize)
             .and_then(Option::as_ref)
             .or(self.default.as_ref())
-    }
-
-    /// Whether no surface has a material.
-    pub fn is_empty(&self) -> bool {
-        self.default.is_none() && self.bodies.iter().all(Option::is_none)
     }
 }
 
@@ -216,9 +204,9 @@ impl SurfaceFeel {
             if let Some(t) = &m.texture {
                 let push = match body {
                     Some(pose) => {
-                        let back = pose.orientation.inverse();
-                        let point = back * (touch.point - pose.position);
-                        pose.orientation * t.force(point, back * touch.normal)
+                        let point = pose.inverse_transform_point(touch.point);
+                        let normal = pose.orientation.inverse() * touch.normal;
+                        pose.orientation * t.force(point, normal)
                     }
                     None => t.force(touch.point, touch.normal),
                 };

@@ -206,9 +206,9 @@ pub struct TextureSpec {
 }
 
 /// Finest feature, metres: finer than a fingertip's ridges is felt as nothing.
-pub const FINEST: f64 = 1e-4;
+const FINEST: f64 = 1e-4;
 /// Strongest texture, N.
-pub const STRONGEST: f64 = 10.0;
+const STRONGEST: f64 = 10.0;
 
 impl TextureSpec {
     /// The texture, every mistake an error in `f` on the fields under `at`; a height map's

@@ -350,7 +350,7 @@ fn on_body(
     let back = pose.orientation.inverse();
     let local = Grip {
         pose: Pose {
-            position: back * (grip.pose.position - pose.position),
+            position: pose.inverse_transform_point(grip.pose.position),
             orientation: back * grip.pose.orientation,
         },
         velocity: back * grip.velocity,

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use super::kind::MAX_SAMPLES;
 use super::{Anchor, Easing, Effect, Envelope, Keep, Kind, Shape, Wave};
-use crate::diagnostics::{self, Diagnostics, Findings};
+use crate::diagnostics::{self, Diagnostics, Findings, key_path};
 
 /// One effect as written.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
@@ -230,14 +230,6 @@ fn keys_of(kind: &str) -> Option<&'static [&'static str]> {
     })
 }
 
-/// The path of key `k` of the entry at `at` (the top when empty).
-fn field(at: &str, k: &str) -> String {
-    match at {
-        "" => k.to_string(),
-        at => format!("{at}.{k}"),
-    }
-}
-
 /// Every kind, for the message that names them.
 const KINDS: &str = "constant, ramp, sine, square, triangle, saw_up, saw_down, waveform, \
                      spring, rotational_spring, damper, inertia, friction, stick_slip, fixture, \
@@ -286,7 +278,7 @@ impl EffectSpec {
     /// The effect this entry (at field path `at`) describes, every mistake an error in `f`;
     /// None when there was one.
     pub fn check(&self, at: &str, limits: &Limits, f: &mut Findings) -> Option<Effect> {
-        let key = |k: &str| field(at, k);
+        let key = |k: &str| key_path(at, k);
         let Some(takes) = keys_of(&self.kind) else {
             f.error(
                 key("kind"),
@@ -363,7 +355,7 @@ impl EffectSpec {
             ("duration", self.duration, &mut e.duration, 1e9),
         ] {
             if let Some(v) = value {
-                good &= f.within(field(at, name), v, 0.0, most, " s");
+                good &= f.within(key_path(at, name), v, 0.0, most, " s");
                 *slot = v;
             }
         }
@@ -383,7 +375,7 @@ struct Checker<'a, 'b, 'c> {
 
 impl Checker<'_, '_, '_> {
     fn key(&self, k: &str) -> String {
-        field(self.at, k)
+        key_path(self.at, k)
     }
 
     /// `value` of key `k`, which the kind needs.
