@@ -90,6 +90,8 @@ fn serve_guardian(dest: &Path, units: &Path) -> (PathBuf, support::Killed) {
     let dir = support::scratch("install", &format!("guardian-{n}"));
     // systemd sets argv[0] from the `@` form; a link of that name does it here.
     let as_named = dir.join(name);
+    // A scratch directory of an earlier run with the same process id may hold one already.
+    let _ = std::fs::remove_file(&as_named);
     std::os::unix::fs::symlink(dest.join(program.trim_start_matches('/')), &as_named).unwrap();
     let socket = dir.join("guardian.socket");
     let service = Command::new("systemd-socket-activate")
