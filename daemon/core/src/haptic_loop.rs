@@ -631,13 +631,18 @@ impl HapticLoop {
         let mut all_finite = true;
         self.effects.advance(dt);
         self.frame.effects = self.effects.count();
-        // The bodies effects move with, and those whose textures the pointers slide on (the
-        // materials are looked up again below: reading the poses takes the scene mutably).
+        // The bodies effects move with, and those whose textures or shaded meshes the pointers
+        // touch (the materials are looked up again below: reading the poses takes the scene
+        // mutably).
         let touched = (0..self.effectors.len()).filter_map(|i| {
             let touch = &self.frame.touches[i];
-            let textured = self.scene.material(i, touch)?.texture.is_some();
+            let textured = self
+                .scene
+                .material(i, touch)
+                .is_some_and(|m| m.texture.is_some());
+            let felt = textured || self.scene.smooth_mesh(touch).is_some();
             let body = touch.body as usize;
-            (textured && body < MAX_BODIES).then_some(body + 1)
+            (felt && body < MAX_BODIES).then_some(body + 1)
         });
         let needed = touched.fold(self.effects.bodies_needed(), usize::max);
         let bodies = match needed {
@@ -654,6 +659,10 @@ impl HapticLoop {
             let body = self.body_poses[..bodies]
                 .get(touch.body as usize)
                 .map(pose_of);
+            if let (Some(mesh), Some(body)) = (self.scene.smooth_mesh(touch), body) {
+                let force = &mut self.wrenches[index].force;
+                *force = mesh.shade(*force, touch, &body);
+            }
             let (texture, ring) = e.surface.update(material, touch, body, e.velocity, dt);
             let (passive, active) =
                 self.effects

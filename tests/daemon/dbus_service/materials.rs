@@ -172,3 +172,122 @@ fn a_texture_beaten_on_gives_the_hand_no_energy() {
         assert!(lowest > -1e-4, "the texture gave the hand {lowest} J");
     }
 }
+
+/// An octagonal bar (radius 2 cm, 10 cm long along y) as OBJ text, wound outward: its sides
+/// from the bottom rim to the top, its caps as fans from their centres.
+fn octagonal_bar() -> String {
+    let (r, h) = (0.02, 0.05);
+    let mut obj = String::new();
+    for y in [-h, h] {
+        for k in 0..8 {
+            let a = k as f64 * std::f64::consts::FRAC_PI_4;
+            obj += &format!("v {} {y} {}\n", r * a.cos(), r * a.sin());
+        }
+    }
+    obj += &format!("v 0 {} 0\nv 0 {h} 0\n", -h);
+    // Vertices 1-8 the bottom rim, 9-16 the top, 17 and 18 the caps' centres.
+    for k in 0..8 {
+        let (b0, b1, t0, t1) = (k + 1, (k + 1) % 8 + 1, k + 9, (k + 1) % 8 + 9);
+        obj += &format!("f {b0} {t0} {t1}\nf {b0} {t1} {b1}\nf 17 {b0} {b1}\nf 18 {t1} {t0}\n");
+    }
+    obj
+}
+
+/// A finger pressed into a fixed octagonal bar a quarter of the way across a side, in either
+/// engine: flat, it is pushed along the side's normal; smoothly shaded (`shading: smooth`),
+/// along the blend of the side's corners' normals where it touches, which at the bar's
+/// mid-height (where the caps' tilts cancel) lean along the radii at the side's two edges in
+/// proportion to how far across the touch is.
+#[test]
+fn a_smoothly_shaded_body_pushes_along_its_blended_normals_in_either_engine() {
+    let dir = support::shared_scratch("dbus", "materials-shading");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    std::fs::write(dir.join("bar.obj"), octagonal_bar()).unwrap();
+    let radial = |a: f64| DVec3::new(a.cos(), 0.0, a.sin());
+    let (first, second) = (radial(0.0), radial(std::f64::consts::FRAC_PI_4));
+    let side = radial(std::f64::consts::FRAC_PI_8);
+    // The finger comes in along the normal of side 0 (from 0° to 45°), to a quarter of the
+    // way across it, from 1.5 cm out.
+    let quarter = (first * 0.75 + second * 0.25) * 0.02;
+    let axis = -side * 0.015 - quarter;
+    // Pressed 2 mm into the side: the penalty engine's finger is a ball of 5 mm, rapier's a
+    // point.
+    for (engine, depth) in [
+        (
+            "engine: penalty\ndt: 0.00025\nmaterial: { stiffness: 2.0e7, damping: 1.0e4, \
+             static_friction: 0, friction: 0, friction_stiffness: 2.0e7, friction_damping: \
+             1.0e4, slip_speed: 0.02 }",
+            0.002 - 0.005,
+        ),
+        (
+            "engine: rapier\nrate: 60\nmaterial: { static_friction: 0, friction: 0 }",
+            0.002,
+        ),
+    ] {
+        let pressed = axis + quarter - side * depth;
+        let hand = dir.join("press.yaml");
+        std::fs::write(
+            &hand,
+            format!(
+                "hands:\n  grip:\n    - hold: {{ at: [0, 0, 0], seconds: 0.5 }}\n    \
+                 - move: {{ to: [{:.5}, 0, {:.5}], seconds: 0.5 }}\n    \
+                 - hold: {{ seconds: 30 }}\n",
+                pressed.x, pressed.z
+            ),
+        )
+        .unwrap();
+        let press = |shading: &str| {
+            let scene = dir.join("bar.yaml");
+            std::fs::write(
+                &scene,
+                format!(
+                    "name: bar\n{engine}\nbodies:\n  - {{ name: bar, mesh: bar.obj, position: \
+                     [{:.5}, 0, {:.5}], fixed: true, shading: {shading} }}\npointer: {{ sphere: \
+                     0.005 }}\n",
+                    axis.x, axis.z
+                ),
+            )
+            .unwrap();
+            let daemon = on_sim(&bus, &setup, &scene, &hand);
+            // Rapier's finger rests on a proxy, which holds a finger pushed along the shaded
+            // normal where friction would.
+            for friction in ["DynamicFriction", "StaticFriction"] {
+                support::succeeded(bus.set(friction, "d", "0"));
+            }
+            let samples = ticks(&bus, 1.6);
+            daemon.stop();
+            // The last 0.3 s, held still in the bar.
+            let held = &samples[samples.len() - 300..];
+            assert!(held.iter().all(|s| s.contacts == 1), "{shading}: touching");
+            let mean = |f: &dyn Fn(&hapticd_core::telemetry::Sample) -> DVec3| {
+                held.iter().map(f).sum::<DVec3>() / held.len() as f64
+            };
+            (
+                mean(&|s| DVec3::from(s.wrenches[0].force)),
+                mean(&|s| DVec3::from(s.touch_points[0])),
+            )
+        };
+        let (flat, _) = press("flat");
+        let (smooth, point) = press("smooth");
+        let (c0, c1) = (axis + first * 0.02, axis + second * 0.02);
+        let u = (point - c0).dot(c1 - c0) / (c1 - c0).length_squared();
+        let expected = (first * (1.0 - u) + second * u).normalize();
+        println!(
+            "{}: flat {flat} N, smooth {smooth} N, touched {u:.3} across; smooth off the blend \
+             by {:.2e} rad, {:.4} times as hard",
+            engine.lines().next().unwrap(),
+            smooth.normalize().angle_between(expected),
+            smooth.length() / flat.length()
+        );
+        assert!(flat.normalize().angle_between(side) < 1e-3, "{flat}");
+        assert!((u - 0.25).abs() < 0.05, "{u}");
+        assert!(
+            smooth.normalize().angle_between(expected) < 1e-3,
+            "{smooth} against {expected}"
+        );
+        // As hard, but for where the hand (a spring following its path) settles when pushed
+        // along another direction: 0.3 mm aside, 2.7 % harder in either engine (measured).
+        assert!((smooth.length() / flat.length() - 1.0).abs() < 0.05);
+    }
+}

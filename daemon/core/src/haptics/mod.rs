@@ -24,6 +24,7 @@ pub mod passivity;
 pub mod proxy;
 pub mod safety;
 pub mod scenery;
+pub mod shading;
 pub mod surface;
 pub mod texture;
 pub mod touch;

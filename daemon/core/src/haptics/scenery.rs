@@ -66,6 +66,12 @@ impl Scenery {
     /// among the shapes the scenery was made from) and its outward unit normal there: the
     /// primitives scanned, the triangles near `p` found in the tree; None with no solid near.
     pub fn nearest(&self, p: DVec3) -> Option<(usize, DVec3)> {
+        self.nearest_within(p, MARGIN)
+    }
+
+    /// [rt] As [`nearest`](Self::nearest), looking at the triangles whose boxes `p` is within
+    /// `reach` of.
+    pub fn nearest_within(&self, p: DVec3, reach: f64) -> Option<(usize, DVec3)> {
         let mut nearest: Option<(f64, usize)> = None;
         let mut consider = |k: usize, shape: &Shape| {
             let d = shape.signed_distance(p).abs();
@@ -78,7 +84,7 @@ impl Scenery {
         }
         let first = self.primitives.len();
         self.tree
-            .visit_segment(p, p, MARGIN, |i| consider(first + i, &self.triangles[i]));
+            .visit_segment(p, p, reach, |i| consider(first + i, &self.triangles[i]));
         let (_, k) = nearest?;
         let shape = if k < first {
             &self.primitives[k]

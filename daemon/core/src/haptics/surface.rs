@@ -14,12 +14,14 @@ use std::f64::consts::TAU;
 use std::path::Path;
 
 use glam::DVec3;
+use hapticd_plugin_api::Geometry;
 use serde::{Deserialize, Serialize};
 
+use super::shading::{Shading, SmoothMesh};
 use super::texture::{ImageReader, Texture, TextureSpec};
 use super::touch::Touch;
 use crate::diagnostics::{self, Diagnostics, Findings, key_path};
-use crate::kinematics::Pose;
+use crate::kinematics::{Pose, pose_of};
 
 /// A contact transient: on impact at v m/s into the surface, gain·v·e^(−t/decay)·sin(2π·
 /// frequency·t) along the normal.
@@ -118,13 +120,18 @@ impl MaterialSpec {
     }
 }
 
-/// The materials of a world's bodies: each body's own, or the scene's.
+/// The materials of a world's bodies: each body's own, or the scene's; and how each body's
+/// mesh is shaded.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Surfaces {
     /// Every surface's without one of its own.
     pub default: Option<Material>,
     /// By body id.
     pub bodies: Vec<Option<Material>>,
+    /// How each body's mesh is shaded, by body id (flat past the end).
+    pub shading: Vec<Shading>,
+    /// The smoothly shaded bodies' meshes by body id, once [`shade`](Self::shade) made them.
+    smooth: Vec<Option<SmoothMesh>>,
 }
 
 impl Surfaces {
@@ -136,20 +143,58 @@ impl Surfaces {
             .and_then(Option::as_ref)
             .or(self.default.as_ref())
     }
+
+    /// The smooth shading of each body whose [`shading`](Self::shading) asks for it, from
+    /// its triangles in `geometry` (the scene's, as drawn) in the body's own frame (built
+    /// here, off the haptic thread).
+    pub fn shade(&mut self, geometry: &Geometry) {
+        let triangles = |body: u32| -> Vec<[DVec3; 3]> {
+            let solids = geometry.solids.iter().filter(|s| s.body == body);
+            solids
+                .flat_map(|solid| {
+                    let offset = pose_of(&solid.offset);
+                    (geometry.triangles_of(solid).iter())
+                        .map(move |t| t.corners.map(|c| offset.transform_point(c.into())))
+                })
+                .collect()
+        };
+        self.smooth = (self.shading.iter().enumerate())
+            .map(|(body, shading)| {
+                (*shading == Shading::Smooth)
+                    .then(|| SmoothMesh::new(&triangles(body as u32)))
+                    .flatten()
+            })
+            .collect();
+    }
+
+    /// [rt] The smoothly shaded mesh of body `body`, if it is one.
+    #[inline]
+    pub fn smooth(&self, body: u32) -> Option<&SmoothMesh> {
+        self.smooth.get(body as usize).and_then(Option::as_ref)
+    }
 }
 
 /// The surface materials of physics scene file `file`: its `material:`'s `texture:` and
-/// `transient:` for every body, and a body's own (body *i* is the *i*-th of `bodies:`), each
-/// checked with its place in the file; a height map read by `images`. The engine reads the
-/// file's other keys.
+/// `transient:` for every body, and a body's own (body *i* is the *i*-th of `bodies:`) with
+/// its mesh's `shading:`, each checked with its place in the file; a height map read by
+/// `images`. The engine reads the file's other keys.
 pub fn listed_in(file: &Path, images: ImageReader) -> Result<Surfaces, Diagnostics> {
+    /// A body's keys read here.
+    #[derive(Deserialize)]
+    struct Body {
+        #[serde(flatten)]
+        material: MaterialSpec,
+        #[serde(default)]
+        shading: Shading,
+        mesh: Option<serde::de::IgnoredAny>,
+    }
     /// The keys read here.
     #[derive(Deserialize, Default)]
     struct Listed {
         #[serde(default)]
         material: MaterialSpec,
         #[serde(default)]
-        bodies: Vec<MaterialSpec>,
+        bodies: Vec<Body>,
     }
     let parsed = diagnostics::parse_yaml::<Listed>(&diagnostics::read_text(file)?, file)?;
     let map = parsed.map;
@@ -157,11 +202,22 @@ pub fn listed_in(file: &Path, images: ImageReader) -> Result<Surfaces, Diagnosti
     let mut f = Findings::after_schema(file, &locate, parsed.schema);
     let dir = diagnostics::directory_of(file);
     let listed = parsed.value;
+    for (k, body) in listed.bodies.iter().enumerate() {
+        if body.shading == Shading::Smooth && body.mesh.is_none() {
+            f.error(
+                format!("bodies[{k}].shading"),
+                "smooth shading is for a body of a mesh file (mesh:); a box, ball or hull has \
+                 no faces to blend",
+            );
+        }
+    }
     let surfaces = Surfaces {
         default: listed.material.check("material", &mut f, dir, images),
         bodies: (listed.bodies.iter().enumerate())
-            .map(|(k, body)| body.check(&format!("bodies[{k}]"), &mut f, dir, images))
+            .map(|(k, body)| (body.material).check(&format!("bodies[{k}]"), &mut f, dir, images))
             .collect(),
+        shading: listed.bodies.iter().map(|b| b.shading).collect(),
+        smooth: Vec::new(),
     };
     f.finish()?;
     Ok(surfaces)

@@ -27,6 +27,7 @@ pub mod world_link;
 use glam::DVec3;
 
 use crate::haptics::proxy::ProxyParameters;
+use crate::haptics::shading::SmoothMesh;
 use crate::haptics::surface::{Material, Surfaces};
 pub use crate::haptics::touch::Touch;
 use crate::kinematics::{Pose, Wrench, quat_to_wxyz};
@@ -128,6 +129,13 @@ pub trait Scene: Send {
     /// (`touch`, as the scene wrote it): its texture and transient, if it has one; the
     /// default has none.
     fn material(&self, _pointer: usize, _touch: &Touch) -> Option<&Material> {
+        None
+    }
+
+    /// [rt, after `write_touches`] The smoothly shaded mesh of the body `touch` is on (in the
+    /// body's frame), whose blended normal the loop turns the scene's push to; None where the
+    /// scene shades its surfaces itself, or the body's faces are felt flat.
+    fn smooth_mesh(&self, _touch: &Touch) -> Option<&SmoothMesh> {
         None
     }
 

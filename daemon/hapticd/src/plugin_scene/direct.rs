@@ -2,6 +2,7 @@
 
 use hapticd_plugin_api::*;
 
+use hapticd_core::haptics::shading::SmoothMesh;
 use hapticd_core::haptics::surface::{Material, Surfaces};
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::control::SceneControl;
@@ -99,12 +100,17 @@ impl Scene for DirectScene {
         }
     }
 
-    fn set_surfaces(&mut self, surfaces: Surfaces) {
+    fn set_surfaces(&mut self, mut surfaces: Surfaces) {
+        surfaces.shade(&self.geometry);
         self.surfaces = surfaces;
     }
 
     fn material(&self, _pointer: usize, touch: &Touch) -> Option<&Material> {
         self.surfaces.of(touch.body)
+    }
+
+    fn smooth_mesh(&self, touch: &Touch) -> Option<&SmoothMesh> {
+        self.surfaces.smooth(touch.body)
     }
 
     fn needs_quiet(&self) -> bool {

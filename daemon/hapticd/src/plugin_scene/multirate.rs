@@ -11,6 +11,7 @@ use hapticd_plugin_api::*;
 use crate::physics_budget::Pacer;
 use glam::DVec3;
 use hapticd_core::haptics::proxy::ProxyParameters;
+use hapticd_core::haptics::shading::SmoothMesh;
 use hapticd_core::haptics::surface::{Material, Surfaces};
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::control::{Incoming, Reply, Request, SceneControl};
@@ -364,12 +365,17 @@ impl Scene for MultiRateScene {
         self.renderer.write_touches(&self.object_bodies, touches);
     }
 
-    fn set_surfaces(&mut self, surfaces: Surfaces) {
+    fn set_surfaces(&mut self, mut surfaces: Surfaces) {
+        surfaces.shade(&self.geometry);
         self.surfaces = surfaces;
     }
 
     fn material(&self, _pointer: usize, touch: &Touch) -> Option<&Material> {
         self.surfaces.of(touch.body)
+    }
+
+    fn smooth_mesh(&self, touch: &Touch) -> Option<&SmoothMesh> {
+        self.surfaces.smooth(touch.body)
     }
 
     fn needs_quiet(&self) -> bool {

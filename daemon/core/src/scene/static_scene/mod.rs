@@ -34,8 +34,7 @@
 mod spec;
 
 pub use spec::{
-    MAX_MESH_TRIANGLES, MeshFaces, MeshReader, NO_FILES, SceneFiles, Shading, ShapeSurface,
-    StaticSceneSpec,
+    MAX_MESH_TRIANGLES, MeshFaces, MeshReader, NO_FILES, SceneFiles, ShapeSurface, StaticSceneSpec,
 };
 
 use glam::DVec3;

@@ -14,6 +14,7 @@ use serde::Deserialize;
 use crate::diagnostics::{self, Diagnostics, Findings};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::ProxyParameters;
+use crate::haptics::shading::{Shading, corner_normals};
 use crate::haptics::surface::{Material, MaterialSpec, TransientSpec};
 use crate::haptics::texture::{ImageReader, TextureSpec};
 use crate::kinematics::{SOLID_SIZES, Up, WORLD_EXTENT, quat_to_wxyz};
@@ -143,18 +144,6 @@ struct RawMesh {
     /// face's own.
     #[serde(default)]
     shading: Shading,
-}
-
-/// How a mesh's surface turns from face to face under the hand.
-#[derive(Deserialize, Default, Clone, Copy, PartialEq, Eq, Debug)]
-#[serde(rename_all = "lowercase")]
-pub enum Shading {
-    /// Each face pushes along its own normal: the facets are felt.
-    #[default]
-    Flat,
-    /// The push turns smoothly across faces, along normals blended from the corners'
-    /// (Phong's normals, felt: force shading).
-    Smooth,
 }
 
 fn identity() -> [f64; 4] {
@@ -412,37 +401,6 @@ impl Solids {
         }
         self.shapes.extend(added);
     }
-}
-
-/// The blended normals at the corners of a mesh's `triangles`: at each corner, the faces
-/// that meet there weighted by their angles at it. Corners within a nanometre are one (a
-/// file's rounding does not open a seam).
-fn corner_normals(triangles: &[Shape]) -> Vec<[DVec3; 3]> {
-    let key = |p: DVec3| (p * 1e9).round().to_array().map(|c| c as i64);
-    let mut summed: std::collections::HashMap<[i64; 3], DVec3> = std::collections::HashMap::new();
-    let faces: Vec<([DVec3; 3], DVec3)> = triangles
-        .iter()
-        .filter_map(|t| match *t {
-            Shape::Triangle {
-                corners, normal, ..
-            } => Some((corners, normal)),
-            _ => None,
-        })
-        .collect();
-    for (corners, normal) in &faces {
-        for k in 0..3 {
-            let (a, b, c) = (corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3]);
-            let angle = (b - a).angle_between(c - a);
-            let angle = if angle.is_finite() { angle } else { 0.0 };
-            *summed.entry(key(a)).or_default() += *normal * angle;
-        }
-    }
-    faces
-        .iter()
-        .map(|(corners, normal)| {
-            corners.map(|c| summed[&key(c)].try_normalize().unwrap_or(*normal))
-        })
-        .collect()
 }
 
 /// The faces of the mesh `file` (in `dir`) a scene places at `centre`, turned by

@@ -141,6 +141,9 @@ pub(super) struct RawBody {
     pub(super) texture: Option<hapticd_core::haptics::texture::TextureSpec>,
     #[allow(dead_code)]
     pub(super) transient: Option<hapticd_core::haptics::surface::TransientSpec>,
+    /// How its mesh is felt across faces (shaded by the daemon).
+    #[allow(dead_code)]
+    pub(super) shading: Option<hapticd_core::haptics::shading::Shading>,
 }
 
 /// One of a body's `pieces:`.
