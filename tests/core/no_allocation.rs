@@ -905,3 +905,44 @@ fn surface_materials_of_every_kind_rendered_do_not_allocate() {
         assert!(touched > 300, "{}: touched in {touched} ticks", m.name);
     }
 }
+
+/// A physics body's smoothly shaded mesh (the shipped bracket, 1 mm to the unit) looked up
+/// and blended where a pointer touches it, beside every face, in a body turned and moved:
+/// nothing allocated.
+#[test]
+fn shading_a_body_of_a_mesh_does_not_allocate() {
+    use hapticd_core::haptics::shading::SmoothMesh;
+    use hapticd_core::scene::Touch;
+    let file = support::repo_dir().join("config/scenes/meshes/bracket.obj");
+    let mesh = hapticd_mesh::load(&file, 0.001, hapticd_mesh::Limits::DEFAULT, None).unwrap();
+    let vertex = |i: u32| mesh.vertices[i as usize];
+    let triangles: Vec<[DVec3; 3]> = mesh.triangles.iter().map(|t| t.map(vertex)).collect();
+    let shaded = SmoothMesh::new(&triangles).unwrap();
+    let body = Pose {
+        position: DVec3::new(0.01, -0.02, 0.03),
+        orientation: glam::DQuat::from_rotation_y(0.7),
+    };
+    let mut turned = 0;
+    let n = allocations_in(|| {
+        for k in 0..20_000 {
+            // Beside a face's corner, off it by up to a few millimetres either way.
+            let [a, b, c] = triangles[k % triangles.len()];
+            let t = k as f64 * 0.01;
+            let normal = (b - a).cross(c - a).normalize_or(DVec3::Y);
+            let local = a * 0.8 + b * 0.15 + c * 0.05 + normal * 0.004 * t.sin();
+            let touch = Touch {
+                touching: true,
+                point: body.transform_point(local),
+                normal: body.orientation * normal,
+                ..Touch::NONE
+            };
+            let force = touch.normal * 2.0;
+            turned += usize::from(shaded.shade(force, &touch, &body) != force);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 20 000 lookups");
+    assert!(
+        turned > 100,
+        "a lookup near a face turns the push: {turned} did"
+    );
+}

@@ -67,6 +67,7 @@
 //!     scale: 1                 #   the file's units to metres (optional)
 //!     position: [-0.1, 0, 0]   #   where the file's origin goes, turned by orientation:
 //!     density: 800             #   as the file has it
+//!     shading: smooth          #   optional: felt round across its faces (haptic shading)
 //! pointer:                     # optional: without one each pointer is a ball of 1 cm radius
 //!   box: [0.01, 0.01, 0.01]    # each pointer: this solid (or a hull), centred at the grip
 //!   coupling:                  # optional (thesis 4.1.2): the solid is a body of the world,
