@@ -5,11 +5,13 @@
 //! - [`world`]: a [`RapierScene`](hapticd_physics::scene::RapierScene) as a rapier
 //!   world; its physics step with impulse or position feedback;
 //! - [`control`]: its bodies moved, pushed or changed from outside between steps;
+//! - [`joints`]: the scene's joints as rapier's impulse joints, their coordinates read;
 //! - [`surfaces`]: the nearest point, outward normal and surface velocity of every body
 //!   within reach of a pointer, found through rapier's query pipeline;
 //! - [`convert`]: between the project's `f64` glam types and rapier's `f32` ones.
 
 pub mod control;
 pub mod convert;
+pub mod joints;
 pub mod surfaces;
 pub mod world;

@@ -26,6 +26,7 @@ use rapier3d::prelude::{
 };
 
 use crate::convert::{dquat, dvec, rotation, vector};
+use crate::joints::{JointState, Joints};
 use crate::surfaces::{self, Candidate};
 
 /// Where a body is and how it moves.
@@ -81,6 +82,8 @@ pub struct RapierWorld {
     feedback: Feedback,
     reach: f64,
     scratch: Vec<Candidate>,
+    /// The joints between the bodies.
+    pub(crate) joints: Joints,
 }
 
 /// The solid a pointer is in the physics under position feedback. The haptic side renders
@@ -295,6 +298,7 @@ impl RapierWorld {
             }
             bodies.push(handle);
         }
+        let joints = Joints::build(&mut physics, &bodies, &spec.joints);
         let mut world = Self {
             physics,
             bodies,
@@ -310,6 +314,7 @@ impl RapierWorld {
             feedback: spec.feedback,
             reach: surfaces::reach(spec.rate),
             scratch: Vec::new(),
+            joints,
         };
         if let Some((shape, primitive)) = &spec.pointer {
             // Sampled at the physics rate, a pointer jumps centimetres a step: its contacts
@@ -331,6 +336,16 @@ impl RapierWorld {
         }
         world.set_feedback(spec.feedback);
         world
+    }
+
+    /// The joints between the bodies.
+    pub fn joints(&self) -> &Joints {
+        &self.joints
+    }
+
+    /// Where joint `k` (in the file's order) is now.
+    pub fn joint_state(&self, k: usize) -> JointState {
+        self.joints.state(&self.physics, k)
     }
 
     /// What the world takes back from the hand.
@@ -405,7 +420,16 @@ impl RapierWorld {
         let mass = 1.0 / (inverse_mass + arm.cross(n).dot(turn));
         let along = dvec(b.velocity_at_point(vector(p))).dot(n);
         let most = ((hand_speed - along).max(0.0) * mass).min(j.length());
-        if most.is_finite() && most > 0.0 {
+        if !(most.is_finite() && most > 0.0) {
+            return;
+        }
+        let handle = self.bodies[body];
+        if self.joints.is_link(&self.physics, handle) {
+            let dt = f64::from(self.physics.integration_parameters.dt);
+            let kick = (n * most, arm.cross(n * most));
+            self.joints.kick(&mut self.physics, handle, kick, dt);
+        } else {
+            let b = &mut self.physics.bodies[handle];
             b.apply_impulse_at_point(vector(n * most), vector(p), true);
         }
     }
@@ -430,6 +454,17 @@ impl RapierWorld {
         }
         let b = &self.physics.bodies[handle];
         if !b.is_dynamic() {
+            return;
+        }
+        if self.joints.is_link(&self.physics, handle) {
+            // Its joints set where a link is: what the hand changed of its motion goes in
+            // as the momentum that change took.
+            self.applied[i] = self.applied[i].max(change.sequence);
+            let (inertia, mass) = self.inertia[i];
+            let turn = glam::DMat3::from_quat(dquat(*b.rotation()));
+            let kick = (v * mass, turn * inertia * turn.transpose() * w);
+            let dt = f64::from(self.physics.integration_parameters.dt);
+            self.joints.kick(&mut self.physics, handle, kick, dt);
             return;
         }
         let centre = dvec(b.center_of_mass());
@@ -695,6 +730,8 @@ impl RapierWorld {
     /// pointer's planes around its proxy and, under local feedback, the dynamic bodies they
     /// belong to. False when the world is no longer finite.
     pub fn step(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> bool {
+        // Before the hand's changes, which a jointed body takes in over this step.
+        self.physics.integration_parameters.dt = input.dt as f32;
         match self.feedback {
             Feedback::Local | Feedback::Impulse => {
                 for change in input.locals {
@@ -720,8 +757,9 @@ impl RapierWorld {
                 }
             }
         }
-        self.physics.integration_parameters.dt = input.dt as f32;
+        self.joints.before_step(&self.physics);
         self.physics.step();
+        self.joints.after_step(&mut self.physics);
         // Around the proxy, where the finger rests, or the grip when there is none.
         let around = if input.proxies.len() == input.pointers.len() {
             input.proxies

@@ -142,6 +142,7 @@ mod checks;
 mod contacts;
 mod control;
 mod geometry;
+mod joints;
 mod meshes;
 mod penalty;
 mod rapier;
@@ -159,6 +160,7 @@ pub use checks::{
     MAX_HULL_POINTS, MAX_PIECES, MAX_POINTERS, MAX_SPEED, MAX_STEPS_PER_CALL, MIN_DT, Primitive,
     RATE_RANGE,
 };
+pub use joints::{Joint, JointKind, Motor, MotorTarget, WORLD};
 pub use meshes::SCALE_RANGE;
 pub use penalty::PenaltyScene;
 pub use rapier::{Feedback, RapierScene};
@@ -243,6 +245,14 @@ impl SceneFile {
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
+        let fixed: Vec<bool> = raw.bodies.iter().map(|b| b.fixed).collect();
+        let joints = joints::joints(&mut f, &raw.joints, &raw.bodies, &fixed);
+        if penalty.is_some() && !raw.joints.is_empty() {
+            f.error(
+                "joints",
+                "the penalty engine joins no bodies yet: joints run in engine: rapier",
+            );
+        }
         let pointer = checks::pointer(&mut f, &raw, pointers);
         checks::grasp(&mut f, &raw, pointers);
         if let Some(penalty) = &penalty
@@ -252,7 +262,9 @@ impl SceneFile {
         }
         let warnings = f.finish()?;
         Ok(match penalty {
-            None => SceneFile::Rapier(Box::new(RapierScene::build(raw, bodies, pointer, warnings))),
+            None => SceneFile::Rapier(Box::new(RapierScene::build(
+                raw, bodies, joints, pointer, warnings,
+            ))),
             Some(penalty) => SceneFile::Penalty(Box::new(PenaltyScene::build(
                 raw, penalty, bodies, pointer, pointers, warnings,
             ))),

@@ -7,6 +7,7 @@ use glam::DVec3;
 use hapticd_core::diagnostics::Diagnostic;
 
 use super::checks::{Bodies, Primitive, RATE_RANGE};
+use super::joints::Joint;
 use super::schema::{RawFeedback, RawScene};
 use crate::body::Body;
 use crate::polyhedron::Polyhedron;
@@ -60,6 +61,8 @@ pub struct RapierScene {
     pub surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
     /// Names of the bodies.
     pub names: Vec<String>,
+    /// The joints between the bodies.
+    pub joints: Vec<Joint>,
     /// The pointers' solid, centred at the origin, if the file gives one.
     pub pointer: Option<(Body, Primitive)>,
     /// What works but is worth knowing.
@@ -67,10 +70,11 @@ pub struct RapierScene {
 }
 
 impl RapierScene {
-    /// The scene of checked `raw`, its `bodies` and `pointer` solid.
+    /// The scene of checked `raw`, its `bodies`, `joints` and `pointer` solid.
     pub(super) fn build(
         raw: RawScene,
         bodies: Bodies,
+        joints: Vec<Joint>,
         pointer: Option<(Polyhedron, Primitive)>,
         warnings: Vec<Diagnostic>,
     ) -> Self {
@@ -96,6 +100,7 @@ impl RapierScene {
             primitives,
             surfaces,
             names: raw.bodies.into_iter().map(|b| b.name).collect(),
+            joints,
             pointer: pointer.map(|(shape, primitive)| {
                 let density = raw.pointer.as_ref().map_or(1000.0, |p| p.density);
                 (Body::new(&shape, density, false), primitive)

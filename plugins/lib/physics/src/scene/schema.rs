@@ -25,6 +25,8 @@ pub(super) struct RawScene {
     #[allow(dead_code)]
     pub(super) effects: Vec<hapticd_core::haptics::effects::spec::EffectSpec>,
     pub(super) grasp: Option<RawGrasp>,
+    #[serde(default)]
+    pub(super) joints: Vec<super::joints::RawJoint>,
 }
 
 /// `grasp:`.
