@@ -736,3 +736,59 @@ fn an_open_mesh_is_a_fixed_surface_under_rapier_and_refused_where_a_volume_is_ne
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The shipped scene of joints run for 2 s with nothing touching it: `--json` reports every
+/// joint, the crank turned by its motor at 1 rad/s (2 rad, but for the first step's start)
+/// and the rest where the file placed them; `--record` has each joint's coordinate and rate
+/// every tick, the crank's rising at its speed.
+#[test]
+fn the_joints_scene_reports_and_records_each_joint() {
+    let record = support::scratch_root().join(format!("joints-{}.csv", std::process::id()));
+    let output = run(&[
+        &scene("joints.yaml"),
+        "--duration",
+        "2",
+        "--record",
+        record.to_str().unwrap(),
+        "--json",
+    ]);
+    bodies(&output);
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let joints = report["runs"][0]["joints"].as_array().unwrap();
+    assert_eq!(joints.len(), 12);
+    for joint in joints {
+        let (name, at) = (
+            joint["name"].as_str().unwrap(),
+            joint["position"].as_f64().unwrap(),
+        );
+        let rate = joint["velocity"].as_f64().unwrap();
+        if name == "crank" {
+            assert!(
+                (at - 2.0).abs() < 0.02 && (rate - 1.0).abs() < 1e-3,
+                "{joint}"
+            );
+        } else {
+            assert!(at.abs() < 1e-3 && rate.abs() < 1e-3, "{joint}");
+        }
+    }
+    let csv = std::fs::read_to_string(&record).unwrap();
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",joint,position,rate")
+    );
+    let crank: Vec<(f64, f64)> = csv
+        .lines()
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            (cells[16] == "crank").then(|| (cells[0].parse().unwrap(), cells[17].parse().unwrap()))
+        })
+        .collect();
+    assert_eq!(crank.len(), 2000);
+    // Shown between physics steps, the crank is where 1 rad/s has it within a step's turn.
+    for (t, at) in &crank {
+        assert!((at - t).abs() < 1.0 / 60.0 + 0.01, "{at} rad at {t} s");
+    }
+    std::fs::remove_file(&record).unwrap();
+}

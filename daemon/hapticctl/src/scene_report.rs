@@ -11,6 +11,8 @@ use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_device::sim::hand::HandTrack;
 use hapticd_physics::scene::{PenaltyScene, RapierScene};
+use hapticd_rapier::joints::JointState;
+use hapticd_rapier::world::RapierWorld;
 use hapticd_render::scenery::Scenery;
 use hapticd_render::shading::Shaded;
 use serde_json::{Value, json};
@@ -88,7 +90,7 @@ impl Recording {
             out: std::io::BufWriter::new(file),
         };
         recording.row(format_args!(
-            "t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz"
+            "t,model,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz,joint,position,rate"
         ))?;
         Ok(recording)
     }
@@ -103,8 +105,23 @@ impl Recording {
     ) -> Result<(), OutputError> {
         let [qw, qx, qy, qz] = quat_to_wxyz(orientation);
         self.row(format_args!(
-            "{t},{model},{name},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{}",
+            "{t},{model},{name},{},{},{},{qw},{qx},{qy},{qz},{},{},{},{},{},{},,,",
             p.x, p.y, p.z, v.x, v.y, v.z, w.x, w.y, w.z
+        ))
+    }
+
+    /// The row of joint `name` at `t` under `model`: its coordinate and rate (the body's
+    /// columns empty).
+    fn joint(
+        &mut self,
+        t: f64,
+        model: &str,
+        name: &str,
+        state: JointState,
+    ) -> Result<(), OutputError> {
+        self.row(format_args!(
+            "{t},{model},,,,,,,,,,,,,,,{name},{},{}",
+            state.position, state.velocity
         ))
     }
 
@@ -190,6 +207,10 @@ impl Outputs {
                     record.body(t, "rapier", name, state)?;
                 }
             }
+            let joints = run.world.joints();
+            for k in 0..joints.len() {
+                record.joint(t, "rapier", joints.name(k), run.world.joint_state(k))?;
+            }
         }
         Ok(())
     }
@@ -268,6 +289,7 @@ fn multirate_report(
             b.spin,
         ));
     }
+    let joints = report_joints(&mut text, &run.world);
     let pointers = report_pointers(&mut text, &felt, &peaks);
     Report {
         text,
@@ -276,6 +298,7 @@ fn multirate_report(
             "rate": spec.rate,
             "phase": phase,
             "bodies": bodies,
+            "joints": joints,
             "pointers": pointers,
         }]}),
         charts: vec![chart(&spec.name, quantity, series)],
@@ -426,6 +449,22 @@ fn chart(name: &str, quantity: Quantity, series: Vec<Series>) -> Chart {
 }
 
 /// One body's line of the report, and its JSON.
+/// Each joint of `world` where it is now: a line of `text`, and an entry of the report.
+fn report_joints(text: &mut String, world: &RapierWorld) -> Vec<Value> {
+    let joints = world.joints();
+    (0..joints.len())
+        .map(|k| {
+            let (name, state) = (joints.name(k), world.joint_state(k));
+            let _ = writeln!(
+                text,
+                "  joint {name:<12} at {:>9.5}, moving {:.5} a second",
+                state.position, state.velocity
+            );
+            json!({"name": name, "position": state.position, "velocity": state.velocity})
+        })
+        .collect()
+}
+
 fn report_body(
     text: &mut String,
     name: &str,
