@@ -35,6 +35,8 @@ use crate::convert::{dquat, dvec, rotation, vector};
 const MOTOR_SLACK: f64 = 0.01;
 /// How long a position motor takes to damp its swing about its target, s.
 const MOTOR_SETTLING: f64 = 0.05;
+/// Nearer its limit than this (rad or m), a coordinate is at it: rapier stops it in `f32`.
+const AT_LIMIT: f64 = 1e-3;
 
 /// Where a joint's coordinate is and how fast it moves.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -197,8 +199,8 @@ impl Joints {
                 continue;
             }
             let now = coordinate(physics, b);
-            let hit =
-                (now.position <= low && b.before < 0.0) || (now.position >= high && b.before > 0.0);
+            let hit = (now.position <= low + AT_LIMIT && b.before < 0.0)
+                || (now.position >= high - AT_LIMIT && b.before > 0.0);
             if hit {
                 rebound(physics, b, -e * b.before - now.velocity);
             }
