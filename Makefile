@@ -73,6 +73,7 @@ figures: stage
 	$(HAPTICCTL) experiment stiffness spidar --plot docs/figures/wall-stiffness.png
 	$(HAPTICCTL) experiment cylinder --plot docs/figures/cylinder-tracing.png
 	$(HAPTICCTL) experiment effects --plot docs/figures/effects.png
+	$(HAPTICCTL) experiment pendulum --plot docs/figures/pendulum.png
 	$(HAPTICCTL) scene run config/scenes/cube-drop.yaml --duration 2 --model volume --model point \
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png

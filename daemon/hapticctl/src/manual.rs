@@ -41,6 +41,10 @@ const FORMATS: [Format; 4] = [
                 "PHYSICS SCENES",
                 include_str!("../../../plugins/lib/physics/src/scene/mod.rs"),
             ),
+            (
+                "JOINTS",
+                include_str!("../../../plugins/lib/physics/src/scene/joints.rs"),
+            ),
         ],
     },
     Format {
@@ -411,6 +415,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, 7);
+        assert_eq!(checked, 8);
     }
 }

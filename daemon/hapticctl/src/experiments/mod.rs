@@ -13,7 +13,8 @@
 //! - [`stack_timing`]: the cost of a penalty step against stacked blocks (Fig. 5.10);
 //! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14);
 //! - [`incline`]: a block on a slope just below and just past the friction angle (5.3.6);
-//! - [`effects`]: the periodic haptic effects and a cross-fade, within the force-rate limit.
+//! - [`effects`]: the periodic haptic effects and a cross-fade, within the force-rate limit;
+//! - [`pendulum`]: a hinged box's period against its amplitude, against the exact formula.
 //!
 //! Each module's `report` gives what `hapticctl experiment` prints and draws, as a
 //! [`Report`](crate::report::Report).
@@ -21,6 +22,7 @@
 pub mod effects;
 pub mod grasp;
 pub mod incline;
+pub mod pendulum;
 pub mod push_mass;
 pub mod push_phase;
 pub mod shape_tracing;

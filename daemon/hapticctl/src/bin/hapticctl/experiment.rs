@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::{
-    effects, grasp, incline, push_mass, push_phase, shape_tracing, stack_timing, stick_slip,
-    wall_stiffness,
+    effects, grasp, incline, pendulum, push_mass, push_phase, shape_tracing, stack_timing,
+    stick_slip, wall_stiffness,
 };
 use hapticctl::report::Report;
 use hapticd_config::catalog::Catalog;
@@ -42,6 +42,9 @@ pub enum Command {
     /// Each periodic effect's force over time through the daemon's effect set, and a
     /// constant force cross-faded: never faster than the force-rate limit.
     Effects(Figure),
+    /// Release a hinged box from several amplitudes in rapier at several physics rates: its
+    /// period against the exact one of a large swing (joints, thesis 7.2).
+    Pendulum(PendulumArgs),
 }
 
 #[derive(Args)]
@@ -182,6 +185,18 @@ pub struct CylinderArgs {
 // Where an experiment's figure goes, and how its results are printed. A plain comment: clap
 // would take a doc comment for the about text of the subcommands that flatten this.
 #[derive(Args)]
+pub struct PendulumArgs {
+    /// Amplitudes it is released from, degrees (under 180).
+    #[arg(long, value_parser = parse_numbers, default_value = "5,10,15,20,25,30,35,40,45,50,55,60,65,70,75,80,85,90,95,100,105,110,115,120,125,130,135,140,145,150,155,160,165")]
+    amplitudes: Numbers,
+    /// Physics rates, hertz.
+    #[arg(long, value_parser = parse_numbers, default_value = "1000,60")]
+    rates: Numbers,
+    #[command(flatten)]
+    figure: Figure,
+}
+
+#[derive(Args)]
 pub struct Figure {
     /// Write the figure to this PNG file.
     #[arg(long)]
@@ -256,6 +271,17 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
         Command::Grasp(args) => grasp(&args),
         Command::PushPhase(args) => push(&args),
         Command::Effects(figure) => show_figure(effects::report(), &figure),
+        Command::Pendulum(args) => {
+            let swings = |a: &f64| (1.0..=170.0).contains(a);
+            let rates = |r: &f64| (10.0..=10_000.0).contains(r);
+            if !(args.amplitudes.iter().all(swings) && args.rates.iter().all(rates)) {
+                return Err(Failure::usage(
+                    "--amplitudes must be 1–170 degrees and --rates 10–10000 Hz",
+                ));
+            }
+            let report = pendulum::report(&args.amplitudes, &args.rates);
+            show_figure(report, &args.figure)
+        }
         Command::PushMass(args) => {
             if !(2..=20).contains(&args.phases) {
                 return Err(Failure::usage("--phases must be 2–20"));

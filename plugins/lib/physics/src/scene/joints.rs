@@ -5,18 +5,27 @@
 //! the joint, and a motor.
 //!
 //! ```yaml
+//! name: door
+//! engine: rapier               # joints run in rapier (the penalty engine refuses them yet)
+//! rate: 60
+//! material: { static_friction: 0.4, friction: 0.3 }
+//! bodies:
+//!   - { name: door, box: [0.08, 0.1, 0.005], position: [0.04, 0, 0] }
+//!   - { name: drawer, box: [0.06, 0.03, 0.06], position: [0, -0.06, 0.05] }
 //! joints:
 //!   - name: hinge              # optional: joint N by default
 //!     kind: revolute           # fixed, revolute (a hinge), prismatic (a slider) or spherical
 //!     bodies: [world, door]    # the first may be the world
-//!     anchor: [0.1, 0, 0]      # m, in the world at load
+//!     anchor: [0, 0, 0]        # m, in the world at load
 //!     axis: [0, 1, 0]          # about it (revolute) or along it (prismatic)
-//!     limits: [-1.5, 0]        # rad or m from where it starts (optional)
+//!     limits: [0, 1.5]         # rad or m from where it starts (optional)
 //!     restitution: 0.2         # of the speed a limit stops, given back (default 0)
-//!     stiffness: 0.5           # N·m/rad or N/m back to where it starts (default 0)
-//!     damping: 0.01            # N·m·s/rad or N·s/m (default 0)
-//!     motor: { velocity: 1.0, max_force: 2 }   # rad/s or m/s (or position: rad or m), with
-//!                              #   the most torque (N·m) or force (N) it may use
+//!     stiffness: 0.005         # N·m/rad or N/m back to where it starts (default 0)
+//!     damping: 0.001           # N·m·s/rad or N·s/m (default 0)
+//!     motor: { position: 0.5, max_force: 0.05 }   # rad or m (or velocity: rad/s or m/s),
+//!                              #   with the most torque (N·m) or force (N) it may use
+//!   - { kind: prismatic, bodies: [world, drawer], anchor: [0, -0.06, 0.05], axis: [0, 0, 1],
+//!       limits: [0, 0.04], damping: 0.5 }
 //! ```
 //!
 //! A joint's coordinate is 0 where the file places its bodies: a hinge's angle turns the

@@ -1,0 +1,169 @@
+//! A physical pendulum (a box hung from the middle of its top edge on a hinge) released from
+//! a range of amplitudes: its period against the exact one of a large swing,
+//! T = 4·√(I/(m·g·d))·K(sin(θ₀/2)), with I its moment about the hinge, d the hinge's
+//! distance from its centre and K the complete elliptic integral of the first kind.
+
+use glam::{DQuat, DVec3};
+use hapticd_physics::scene::{RapierScene, SceneFile};
+use hapticd_rapier::world::RapierWorld;
+use serde_json::{Value, json};
+
+use crate::plot::{Chart, PALETTE, Series};
+use crate::report::Report;
+
+/// The box, m (x, y, z edges; hung from its top edge, swinging about z).
+pub const SIZE: [f64; 3] = [0.02, 0.1, 0.02];
+/// Its density, kg/m³.
+pub const DENSITY: f64 = 1000.0;
+/// Gravity, m/s².
+const G: f64 = 9.81;
+
+/// The complete elliptic integral of the first kind K(k) (modulus k < 1), by the
+/// arithmetic-geometric mean.
+pub fn elliptic_k(k: f64) -> f64 {
+    let (mut a, mut b) = (1.0, ((1.0 - k) * (1.0 + k)).sqrt());
+    while (a - b).abs() > 1e-15 * a {
+        (a, b) = (0.5 * (a + b), (a * b).sqrt());
+    }
+    std::f64::consts::PI / (2.0 * a)
+}
+
+/// The exact period, s, of a box `size` of `density` hung from its top edge, swinging from
+/// `start` rad.
+pub fn exact_period(size: [f64; 3], density: f64, start: f64) -> f64 {
+    let m = density * size[0] * size[1] * size[2];
+    let d = size[1] / 2.0;
+    // About the hinge: the box's own moment about z, moved out by d.
+    let moment = m * (size[0] * size[0] + size[1] * size[1]) / 12.0 + m * d * d;
+    4.0 * (moment / (m * G * d)).sqrt() * elliptic_k((start / 2.0).sin())
+}
+
+/// The rapier scene of the box hung from the origin, turned `start` rad about z from hanging
+/// straight down, stepped at `rate` Hz.
+pub fn scene(size: [f64; 3], density: f64, start: f64, rate: f64) -> RapierScene {
+    let half = size[1] / 2.0;
+    let centre = DVec3::new(half * start.sin(), -half * start.cos(), 0.0);
+    let turn = DQuat::from_rotation_z(start);
+    let text = format!(
+        "name: pendulum\nengine: rapier\nrate: {rate}\ngravity: [0, -{G}, 0]\nmaterial: {{ \
+         static_friction: 0, friction: 0 }}\nbodies:\n  - {{ name: bob, box: {size:?}, \
+         density: {density}, position: [{}, {}, 0], orientation: [{}, {}, {}, {}] }}\njoints:\n  \
+         - {{ kind: revolute, bodies: [world, bob], anchor: [0, 0, 0], axis: [0, 0, 1] }}\n",
+        centre.x, centre.y, turn.w, turn.x, turn.y, turn.z
+    );
+    match SceneFile::parse(&text, std::path::Path::new("pendulum.yaml"), 0) {
+        Ok(SceneFile::Rapier(scene)) => *scene,
+        _ => unreachable!("a rapier scene of a valid box and hinge"),
+    }
+}
+
+/// The period, s, of the box `size` of `density` released from `start` rad and stepped at
+/// `rate` Hz: the mean time between the swing's turning points at the start side (where the
+/// hinge's rate crosses zero from above, found between steps by linear interpolation) over
+/// five swings.
+pub fn measured_period(size: [f64; 3], density: f64, start: f64, rate: f64) -> f64 {
+    let mut world = RapierWorld::new(&scene(size, density, start, rate), 0);
+    let dt = 1.0 / rate;
+    let steps = (6.0 * exact_period(size, density, start) * rate).ceil() as usize;
+    let mut last = world.joint_state(0).velocity;
+    let mut turns = Vec::new();
+    for k in 1..=steps {
+        world.step_untouched(dt);
+        let now = world.joint_state(0).velocity;
+        if last > 0.0 && now <= 0.0 {
+            turns.push((k as f64 - 1.0 + last / (last - now)) * dt);
+        }
+        last = now;
+    }
+    match turns.as_slice() {
+        [first, .., last] => (last - first) / (turns.len() - 1) as f64,
+        _ => f64::NAN,
+    }
+}
+
+/// The figure: the period over the small swing's (2π·√(I/(m·g·d))) against the amplitude,
+/// stepped at each of `rates`, beside the exact curve; amplitudes in degrees.
+pub fn report(amplitudes: &[f64], rates: &[f64]) -> Report {
+    let small = exact_period(SIZE, DENSITY, 0.0);
+    let exact: Vec<(f64, f64)> = (0..=170)
+        .map(|deg| {
+            let start = (deg as f64).to_radians();
+            (deg as f64, exact_period(SIZE, DENSITY, start) / small)
+        })
+        .collect();
+    let mut series = vec![Series {
+        label: "exact: 4 sqrt(I/(m g d)) K(sin(a/2))".into(),
+        points: exact,
+        color: PALETTE[0],
+    }];
+    let (mut text, mut rows, mut errors) = (String::new(), Vec::<Value>::new(), Vec::new());
+    for (k, &rate) in rates.iter().enumerate() {
+        let color = PALETTE[(k + 1) % PALETTE.len()];
+        let runs: Vec<(f64, f64, f64)> = amplitudes
+            .iter()
+            .map(|&deg| {
+                let start = deg.to_radians();
+                let measured = measured_period(SIZE, DENSITY, start, rate);
+                (deg, measured, exact_period(SIZE, DENSITY, start))
+            })
+            .collect();
+        for &(deg, measured, exact) in &runs {
+            text += &format!(
+                "  {rate:>5} Hz from {deg:>5.1}°: {measured:.5} s, exact {exact:.5} s ({:+.3} %)\n",
+                100.0 * (measured / exact - 1.0)
+            );
+            rows.push(
+                json!({"rate": rate, "amplitude_deg": deg, "period": measured, "exact": exact}),
+            );
+        }
+        series.push(Series {
+            label: format!("rapier at {rate} Hz"),
+            points: runs.iter().map(|r| (r.0, r.1 / small)).collect(),
+            color,
+        });
+        errors.push(Series {
+            label: format!("rapier at {rate} Hz"),
+            points: runs
+                .iter()
+                .map(|r| (r.0, 100.0 * (r.1 / r.2 - 1.0)))
+                .collect(),
+            color,
+        });
+    }
+    let charts = vec![
+        Chart {
+            title: "a hinged box's period against its amplitude".into(),
+            x_label: "amplitude [deg]".into(),
+            y_label: "period / small swing's".into(),
+            series,
+            ..Chart::default()
+        },
+        Chart {
+            title: "the period's departure from the exact one".into(),
+            x_label: "amplitude [deg]".into(),
+            y_label: "period error [%]".into(),
+            series: errors,
+            y_range: Some((-0.1, 0.1)),
+            ..Chart::default()
+        },
+    ];
+    Report {
+        text,
+        json: json!({ "results": rows }),
+        charts,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn k_is_known_where_it_has_a_closed_form() {
+        assert_eq!(elliptic_k(0.0), std::f64::consts::FRAC_PI_2);
+        // K(sin 45°) = Γ(¼)² / (4√π), Γ(¼) = 3.625609908221908.
+        let gamma = 3.625_609_908_221_908_f64;
+        let closed = gamma * gamma / (4.0 * std::f64::consts::PI.sqrt());
+        assert!((elliptic_k(std::f64::consts::FRAC_PI_4.sin()) - closed).abs() < 1e-14);
+    }
+}
