@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_device::sim::hand::HandTrack;
+use hapticd_physics::joint::JointState;
 use hapticd_physics::scene::{PenaltyScene, RapierScene};
-use hapticd_rapier::joints::JointState;
+use hapticd_physics::world::World;
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::scenery::Scenery;
 use hapticd_render::shading::Shaded;
@@ -177,6 +178,9 @@ impl Outputs {
                 let state = (b.position, b.orientation, b.velocity, b.spin);
                 record.body(step.t, step.model, &step.scene.names[i], state)?;
             }
+            for (name, state) in penalty_joints(&step.scene.world) {
+                record.joint(step.t, step.model, name, state)?;
+            }
         }
         Ok(())
     }
@@ -207,9 +211,8 @@ impl Outputs {
                     record.body(t, "rapier", name, state)?;
                 }
             }
-            let joints = run.world.joints();
-            for k in 0..joints.len() {
-                record.joint(t, "rapier", joints.name(k), run.world.joint_state(k))?;
+            for (name, state) in rapier_joints(&run.world) {
+                record.joint(t, "rapier", name, state)?;
             }
         }
         Ok(())
@@ -289,7 +292,7 @@ fn multirate_report(
             b.spin,
         ));
     }
-    let joints = report_joints(&mut text, &run.world);
+    let joints = report_joints(&mut text, rapier_joints(&run.world));
     let pointers = report_pointers(&mut text, &felt, &peaks);
     Report {
         text,
@@ -422,10 +425,12 @@ fn penalty_run(text: &mut String, t: &PenaltyTrace) -> Value {
         body["angular_momentum"] = json!(angular_momentum(b).to_array());
         bodies.push(body);
     }
+    let joints = report_joints(text, penalty_joints(&t.scene.world));
     let pointers = report_pointers(text, &t.felt, &t.peaks);
     json!({
         "model": t.model,
         "bodies": bodies,
+        "joints": joints,
         "pointers": pointers,
         "energy": {"start": energy.start, "end": energy.end, "peak": energy.peak},
     })
@@ -449,12 +454,13 @@ fn chart(name: &str, quantity: Quantity, series: Vec<Series>) -> Chart {
 }
 
 /// One body's line of the report, and its JSON.
-/// Each joint of `world` where it is now: a line of `text`, and an entry of the report.
-fn report_joints(text: &mut String, world: &RapierWorld) -> Vec<Value> {
-    let joints = world.joints();
-    (0..joints.len())
-        .map(|k| {
-            let (name, state) = (joints.name(k), world.joint_state(k));
+/// Each of `joints` (name, where it is now): a line of `text`, and an entry of the report.
+fn report_joints<'a>(
+    text: &mut String,
+    joints: impl Iterator<Item = (&'a str, JointState)>,
+) -> Vec<Value> {
+    joints
+        .map(|(name, state)| {
             let _ = writeln!(
                 text,
                 "  joint {name:<12} at {:>9.5}, moving {:.5} a second",
@@ -463,6 +469,17 @@ fn report_joints(text: &mut String, world: &RapierWorld) -> Vec<Value> {
             json!({"name": name, "position": state.position, "velocity": state.velocity})
         })
         .collect()
+}
+
+/// The joints of a rapier `world`, by name, where each is now.
+fn rapier_joints(world: &RapierWorld) -> impl Iterator<Item = (&str, JointState)> {
+    let joints = world.joints();
+    (0..joints.len()).map(move |k| (joints.name(k), world.joint_state(k)))
+}
+
+/// The joints of a penalty `world`, by name, where each is now.
+fn penalty_joints(world: &World) -> impl Iterator<Item = (&str, JointState)> {
+    (world.joints.iter()).map(move |l| (l.joint.name.as_str(), l.state(&world.bodies)))
 }
 
 fn report_body(

@@ -10,6 +10,7 @@
 //! - [`friction`]: static friction springs and dynamic friction with their state machine;
 //! - [`body`]: rigid bodies and their integration;
 //! - [`coupling`]: pointers tied to the grip by a 6-DOF spring and damper (thesis 4.1.2);
+//! - [`joint`]: joints between bodies and their coordinates (thesis 7.2);
 //! - [`world`]: bodies in contact, stepped by the penalty method;
 //! - [`grasping`]: bodies held between pointers (thesis 4.2–4.7);
 //! - [`scene`]: scene files (YAML) describing a world and its pointers.
@@ -22,6 +23,7 @@ pub mod friction;
 pub mod gjk;
 pub mod grasping;
 pub mod hull;
+pub mod joint;
 pub mod mass;
 pub mod polyhedron;
 pub mod scene;

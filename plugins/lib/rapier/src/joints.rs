@@ -22,7 +22,9 @@
 //! step ([`Joints::kick`]), which the multibody takes through its joints.
 
 use glam::{DQuat, DVec3};
-use hapticd_physics::scene::{Joint, JointKind, MotorTarget};
+use hapticd_physics::joint::{
+    FrameMotion, Joint, JointKind, JointState, MotorTarget, coordinate as stands,
+};
 use rapier3d::prelude::{
     GenericJointBuilder, JointAxesMask, JointAxis, MotorModel, MultibodyJointHandle, PhysicsWorld,
     Pose, RigidBodyBuilder, RigidBodyHandle,
@@ -37,16 +39,6 @@ const MOTOR_SLACK: f64 = 0.01;
 const MOTOR_SETTLING: f64 = 0.05;
 /// Nearer its limit than this (rad or m), a coordinate is at it: rapier stops it in `f32`.
 const AT_LIMIT: f64 = 1e-3;
-
-/// Where a joint's coordinate is and how fast it moves.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct JointState {
-    /// The angle (rad) or distance (m) from where the file placed the bodies; 0 for a fixed
-    /// or spherical joint.
-    pub position: f64,
-    /// Its rate, rad/s or m/s.
-    pub velocity: f64,
-}
 
 /// How rapier holds a joint.
 #[derive(Clone, Copy)]
@@ -276,40 +268,23 @@ fn joint(spec: &Joint, frames: [(DVec3, DQuat); 2]) -> rapier3d::prelude::Generi
     builder.build()
 }
 
-/// The pose of joint `b`'s frame on its body `side`, and the body's velocity at its origin
-/// and angular velocity.
-fn frame(physics: &PhysicsWorld, b: &Built, side: usize) -> (DVec3, DQuat, DVec3, DVec3) {
+/// Joint `b`'s frame on its body `side`, as the body now carries it.
+fn frame(physics: &PhysicsWorld, b: &Built, side: usize) -> FrameMotion {
     let body = &physics.bodies[b.bodies[side]];
     let (at, turn) = (dvec(body.translation()), dquat(*body.rotation()));
     let origin = at + turn * b.frames[side].0;
     let spin = dvec(body.angvel());
-    let velocity = dvec(body.linvel()) + spin.cross(origin - dvec(body.center_of_mass()));
-    (origin, turn * b.frames[side].1, velocity, spin)
+    FrameMotion {
+        origin,
+        turn: turn * b.frames[side].1,
+        velocity: dvec(body.linvel()) + spin.cross(origin - dvec(body.center_of_mass())),
+        spin,
+    }
 }
 
 /// Where joint `b`'s coordinate is and how fast it moves.
 fn coordinate(physics: &PhysicsWorld, b: &Built) -> JointState {
-    let (p1, r1, v1, w1) = frame(physics, b, 0);
-    let (p2, r2, v2, w2) = frame(physics, b, 1);
-    let axis = r1 * DVec3::X;
-    match b.spec.kind {
-        JointKind::Revolute => {
-            let turn = r1.inverse() * r2;
-            // The twist about the axis, the shorter way round.
-            let angle = 2.0 * turn.x.atan2(turn.w);
-            let angle = (angle + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                - std::f64::consts::PI;
-            JointState {
-                position: angle,
-                velocity: (w2 - w1).dot(axis),
-            }
-        }
-        JointKind::Prismatic => JointState {
-            position: (p2 - p1).dot(axis),
-            velocity: (v2 - v1).dot(axis),
-        },
-        JointKind::Fixed | JointKind::Spherical => JointState::default(),
-    }
+    stands(b.spec.kind, &frame(physics, b, 0), &frame(physics, b, 1))
 }
 
 /// Change joint `b`'s rate by `change` (rad/s or m/s): a multibody link's own joint rate,
@@ -325,8 +300,8 @@ fn rebound(physics: &mut PhysicsWorld, b: &Built, change: f64) {
         }
         return;
     }
-    let (anchor, r1, ..) = frame(physics, b, 0);
-    let axis = r1 * DVec3::X;
+    let first = frame(physics, b, 0);
+    let (anchor, axis) = (first.origin, first.turn * DVec3::X);
     // Each body's mobility along the joint's one free direction at the anchor.
     let mobility = |h: RigidBodyHandle| -> f64 {
         let body = &physics.bodies[h];

@@ -26,8 +26,9 @@ use rapier3d::prelude::{
 };
 
 use crate::convert::{dquat, dvec, rotation, vector};
-use crate::joints::{JointState, Joints};
+use crate::joints::Joints;
 use crate::surfaces::{self, Candidate};
+use hapticd_physics::joint::JointState;
 
 /// Where a body is and how it moves.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -42,8 +42,9 @@ pub enum Command {
     /// Each periodic effect's force over time through the daemon's effect set, and a
     /// constant force cross-faded: never faster than the force-rate limit.
     Effects(Figure),
-    /// Release a hinged box from several amplitudes in rapier at several physics rates: its
-    /// period against the exact one of a large swing (joints, thesis 7.2).
+    /// Release a hinged box from several amplitudes in the penalty engine and in rapier at
+    /// several physics rates: its period against the exact one of a large swing (joints,
+    /// thesis 7.2).
     Pendulum(PendulumArgs),
 }
 
@@ -189,7 +190,7 @@ pub struct PendulumArgs {
     /// Amplitudes it is released from, degrees (under 180).
     #[arg(long, value_parser = parse_numbers, default_value = "5,10,15,20,25,30,35,40,45,50,55,60,65,70,75,80,85,90,95,100,105,110,115,120,125,130,135,140,145,150,155,160,165")]
     amplitudes: Numbers,
-    /// Physics rates, hertz.
+    /// Rapier's physics rates, hertz (the penalty engine steps at 4 kHz beside them).
     #[arg(long, value_parser = parse_numbers, default_value = "1000,60")]
     rates: Numbers,
     #[command(flatten)]
@@ -279,7 +280,9 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
                     "--amplitudes must be 1–170 degrees and --rates 10–10000 Hz",
                 ));
             }
-            let report = pendulum::report(&args.amplitudes, &args.rates);
+            let mut runs = vec![("penalty", 4000.0)];
+            runs.extend(args.rates.iter().map(|&r| ("rapier", r)));
+            let report = pendulum::report(&args.amplitudes, &runs);
             show_figure(report, &args.figure)
         }
         Command::PushMass(args) => {

@@ -6,7 +6,7 @@
 //!
 //! ```yaml
 //! name: door
-//! engine: rapier               # joints run in rapier (the penalty engine refuses them yet)
+//! engine: rapier               # or penalty (with its dt and material)
 //! rate: 60
 //! material: { static_friction: 0.4, friction: 0.3 }
 //! bodies:
@@ -39,6 +39,7 @@ use hapticd_core::kinematics::WORLD_EXTENT;
 use serde::Deserialize;
 
 use super::schema::RawBody;
+use crate::joint::{Joint, JointKind, Motor, MotorTarget};
 
 /// The name that stands for the world in a joint's `bodies:`.
 pub const WORLD: &str = "world";
@@ -49,71 +50,6 @@ const STIFFEST: f64 = 1e6;
 const STRONGEST_MOTOR: f64 = 1e4;
 /// Fastest motor, rad/s or m/s.
 const FASTEST_MOTOR: f64 = 100.0;
-
-/// What a joint lets its bodies do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum JointKind {
-    /// Nothing: the two move as one.
-    Fixed,
-    /// Turn about the axis through the anchor (a hinge).
-    Revolute,
-    /// Slide along the axis (a slider, a drawer).
-    Prismatic,
-    /// Turn any way about the anchor (a ball joint).
-    Spherical,
-}
-
-impl JointKind {
-    /// Whether it has one coordinate (an angle or a distance), which limits, springs and
-    /// motors act on.
-    pub fn has_coordinate(self) -> bool {
-        matches!(self, JointKind::Revolute | JointKind::Prismatic)
-    }
-}
-
-/// What a motor drives its joint's coordinate to.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum MotorTarget {
-    /// A speed, rad/s or m/s.
-    Velocity(f64),
-    /// A coordinate, rad or m.
-    Position(f64),
-}
-
-/// A joint's motor.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Motor {
-    /// What it drives to.
-    pub target: MotorTarget,
-    /// The most torque (N·m) or force (N) it uses.
-    pub max_force: f64,
-}
-
-/// A joint, checked: its bodies by their index in `bodies:` (None for the world).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Joint {
-    /// Its name.
-    pub name: String,
-    /// What it lets the bodies do.
-    pub kind: JointKind,
-    /// The two bodies; the first may be the world (None).
-    pub bodies: (Option<usize>, usize),
-    /// Where it is, in the world at load, m.
-    pub anchor: DVec3,
-    /// Its unit axis, in the world at load.
-    pub axis: DVec3,
-    /// The lowest and highest coordinate, if limited.
-    pub limits: Option<[f64; 2]>,
-    /// Of the speed a limit stops, given back.
-    pub restitution: f64,
-    /// Spring back to coordinate 0.
-    pub stiffness: f64,
-    /// Damper on the coordinate's rate.
-    pub damping: f64,
-    /// Its motor, if it has one.
-    pub motor: Option<Motor>,
-}
 
 /// One of `joints:` as YAML gives it.
 #[derive(Deserialize)]
@@ -484,20 +420,5 @@ mod tests {
             let why = joints(&format!("  - {entry}\n")).unwrap_err();
             assert!(why.contains(said), "{entry}: {why}");
         }
-    }
-
-    #[test]
-    fn the_penalty_engine_refuses_joints_for_now() {
-        let text = BODIES.replace("engine: rapier", "engine: penalty\ndt: 0.00025").replace(
-            "material: { static_friction: 0.5, friction: 0.4 }",
-            "material: { stiffness: 2.0e7, damping: 1.0e4, static_friction: 0.5, friction: 0.4, \
-             friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.02 }",
-        ) + "joints:\n  - { kind: revolute, bodies: [world, lid], anchor: [0, 0, 0], axis: [0, 1, \
-             0] }\n";
-        let why = SceneFile::parse(&text, std::path::Path::new("j.yaml"), 0)
-            .err()
-            .unwrap()
-            .to_string();
-        assert!(why.contains("joins no bodies yet"), "{why}");
     }
 }

@@ -160,7 +160,7 @@ pub use checks::{
     MAX_HULL_POINTS, MAX_PIECES, MAX_POINTERS, MAX_SPEED, MAX_STEPS_PER_CALL, MIN_DT, Primitive,
     RATE_RANGE,
 };
-pub use joints::{Joint, JointKind, Motor, MotorTarget, WORLD};
+pub use joints::WORLD;
 pub use meshes::SCALE_RANGE;
 pub use penalty::PenaltyScene;
 pub use rapier::{Feedback, RapierScene};
@@ -247,12 +247,6 @@ impl SceneFile {
         };
         let fixed: Vec<bool> = raw.bodies.iter().map(|b| b.fixed).collect();
         let joints = joints::joints(&mut f, &raw.joints, &raw.bodies, &fixed);
-        if penalty.is_some() && !raw.joints.is_empty() {
-            f.error(
-                "joints",
-                "the penalty engine joins no bodies yet: joints run in engine: rapier",
-            );
-        }
         let pointer = checks::pointer(&mut f, &raw, pointers);
         checks::grasp(&mut f, &raw, pointers);
         if let Some(penalty) = &penalty
@@ -266,7 +260,12 @@ impl SceneFile {
                 raw, bodies, joints, pointer, warnings,
             ))),
             Some(penalty) => SceneFile::Penalty(Box::new(PenaltyScene::build(
-                raw, penalty, bodies, pointer, pointers, warnings,
+                raw,
+                penalty,
+                (bodies, joints),
+                pointer,
+                pointers,
+                warnings,
             ))),
         })
     }

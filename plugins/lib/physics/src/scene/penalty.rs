@@ -16,6 +16,7 @@ use crate::body::Body;
 use crate::coupling::Coupling;
 use crate::friction::FrictionParameters;
 use crate::grasping::Grasping;
+use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
 use crate::world::{ContactModel, Material, World};
 
@@ -73,7 +74,7 @@ impl PenaltyScene {
     pub(super) fn build(
         raw: RawScene,
         penalty: Penalty,
-        bodies: Bodies,
+        (bodies, joints): (Bodies, Vec<Joint>),
         pointer: Option<(Polyhedron, Primitive)>,
         pointers: usize,
         warnings: Vec<Diagnostic>,
@@ -166,6 +167,7 @@ impl PenaltyScene {
             warnings,
         };
         scene.set_model(penalty.model);
+        scene.world.join(&joints);
         scene
     }
 }

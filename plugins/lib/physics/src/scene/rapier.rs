@@ -7,9 +7,9 @@ use glam::DVec3;
 use hapticd_core::diagnostics::Diagnostic;
 
 use super::checks::{Bodies, Primitive, RATE_RANGE};
-use super::joints::Joint;
 use super::schema::{RawFeedback, RawScene};
 use crate::body::Body;
+use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
 
 /// What a multi-rate world takes back from the haptic side (`feedback:`, thesis 6.2–6.3).

@@ -126,6 +126,7 @@ impl World {
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
         if (a.fixed && b.fixed && !a.kinematic && !b.kinematic)
             || self.ignored_pairs.contains(&(i, j))
+            || self.joined(i, j)
         {
             return false;
         }

@@ -12,6 +12,9 @@ use super::gjk;
 use super::polyhedron::Polyhedron;
 
 mod collide;
+mod joints;
+
+pub use joints::Linked;
 
 /// How hard and how damped contacts are.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,6 +103,8 @@ pub struct World {
     /// the pointers holding it, whose forces come from the grasp instead. Room for
     /// [`IGNORED_PAIRS`] without allocating.
     pub ignored_pairs: Vec<(usize, usize)>,
+    /// The joints between bodies (see [`World::join`]).
+    pub joints: Vec<Linked>,
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
@@ -278,6 +283,7 @@ impl World {
             loads: vec![Wrench::ZERO; n],
             friction: vec![None; n],
             ignored_pairs: Vec::with_capacity(IGNORED_PAIRS),
+            joints: Vec::new(),
             bodies,
             gravity,
             material,
@@ -447,6 +453,7 @@ impl World {
                 }
             }
         }
+        self.add_joint_wrenches(dt);
         std::mem::swap(&mut self.contacts, &mut self.counting);
         self.counting.fill(0);
         for ((b, force), (w, asleep)) in self
@@ -462,9 +469,35 @@ impl World {
                 b.integrate(w.force, torque, dt);
             }
         }
+        self.stop_joints();
         if self.sleeping {
             self.fall_asleep(dt);
         }
+    }
+
+    /// Join the bodies by `joints` as they are placed now. Jointed bodies do not touch each
+    /// other, and a world with joints never sleeps (its joints' springs hold it).
+    pub fn join(&mut self, joints: &[crate::joint::Joint]) {
+        self.joints = joints
+            .iter()
+            .map(|j| Linked::new(j, &self.bodies))
+            .collect();
+        if !self.joints.is_empty() {
+            self.sleeping = false;
+        }
+    }
+
+    /// Where joint `k` stands now.
+    pub fn joint_state(&self, k: usize) -> crate::joint::JointState {
+        self.joints[k].state(&self.bodies)
+    }
+
+    /// Whether bodies `i` and `j` are joined.
+    fn joined(&self, i: usize, j: usize) -> bool {
+        self.joints.iter().any(|l| {
+            let (a, b) = (l.joint.bodies.0, l.joint.bodies.1);
+            (a == Some(i) && b == j) || (a == Some(j) && b == i)
+        })
     }
 
     /// Whether body `i` moves this step: awake and free, or a pointer moved by hand.

@@ -1,0 +1,118 @@
+//! Joints between bodies, whichever engine steps them (thesis 7.2): what a joint is once a
+//! scene file's `joints:` are checked, and where its one coordinate (a hinge's angle, a
+//! slider's distance) stands, read from the two bodies it joins.
+
+use glam::{DQuat, DVec3};
+use serde::Deserialize;
+
+/// What a joint lets its bodies do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointKind {
+    /// Nothing: the two move as one.
+    Fixed,
+    /// Turn about the axis through the anchor (a hinge).
+    Revolute,
+    /// Slide along the axis (a slider, a drawer).
+    Prismatic,
+    /// Turn any way about the anchor (a ball joint).
+    Spherical,
+}
+
+impl JointKind {
+    /// Whether it has one coordinate (an angle or a distance), which limits, springs and
+    /// motors act on.
+    pub fn has_coordinate(self) -> bool {
+        matches!(self, JointKind::Revolute | JointKind::Prismatic)
+    }
+}
+
+/// What a motor drives its joint's coordinate to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MotorTarget {
+    /// A speed, rad/s or m/s.
+    Velocity(f64),
+    /// A coordinate, rad or m.
+    Position(f64),
+}
+
+/// A joint's motor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motor {
+    /// What it drives to.
+    pub target: MotorTarget,
+    /// The most torque (N·m) or force (N) it uses.
+    pub max_force: f64,
+}
+
+/// A joint, checked: its bodies by their index in `bodies:` (None for the world).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    /// Its name.
+    pub name: String,
+    /// What it lets the bodies do.
+    pub kind: JointKind,
+    /// The two bodies; the first may be the world (None).
+    pub bodies: (Option<usize>, usize),
+    /// Where it is, in the world at load, m.
+    pub anchor: DVec3,
+    /// Its unit axis, in the world at load.
+    pub axis: DVec3,
+    /// The lowest and highest coordinate, if limited.
+    pub limits: Option<[f64; 2]>,
+    /// Of the speed a limit stops, given back.
+    pub restitution: f64,
+    /// Spring back to coordinate 0.
+    pub stiffness: f64,
+    /// Damper on the coordinate's rate.
+    pub damping: f64,
+    /// Its motor, if it has one.
+    pub motor: Option<Motor>,
+}
+
+/// Where a joint's coordinate is and how fast it moves.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JointState {
+    /// The angle (rad) or distance (m) from where the file placed the bodies; 0 for a fixed
+    /// or spherical joint.
+    pub position: f64,
+    /// Its rate, rad/s or m/s.
+    pub velocity: f64,
+}
+
+/// A joint's frame on one of its bodies, as the body now carries it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameMotion {
+    /// Its origin (the anchor), in the world.
+    pub origin: DVec3,
+    /// Its rotation in the world (its x axis the joint's axis).
+    pub turn: DQuat,
+    /// The body's velocity at the origin.
+    pub velocity: DVec3,
+    /// The body's angular velocity.
+    pub spin: DVec3,
+}
+
+/// Where the coordinate of a joint of `kind` stands, its frame on its first body `first`
+/// and on its second `second`: the second frame's twist about the first's x axis (the
+/// shorter way round) or its distance along it, and its rate.
+pub fn coordinate(kind: JointKind, first: &FrameMotion, second: &FrameMotion) -> JointState {
+    let axis = first.turn * DVec3::X;
+    match kind {
+        JointKind::Revolute => {
+            let turn = first.turn.inverse() * second.turn;
+            let angle = 2.0 * turn.x.atan2(turn.w);
+            let angle = (angle + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            JointState {
+                position: angle,
+                velocity: (second.spin - first.spin).dot(axis),
+            }
+        }
+        JointKind::Prismatic => JointState {
+            position: (second.origin - first.origin).dot(axis),
+            velocity: (second.velocity - first.velocity).dot(axis),
+        },
+        JointKind::Fixed | JointKind::Spherical => JointState::default(),
+    }
+}
