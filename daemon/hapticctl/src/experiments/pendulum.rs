@@ -85,7 +85,7 @@ impl Stepped {
     fn step(&mut self, dt: f64) {
         match self {
             Stepped::Rapier(world) => {
-                world.step_untouched(dt);
+                world.advance(dt);
             }
             Stepped::Penalty(scene) => scene.world.step(dt),
         }

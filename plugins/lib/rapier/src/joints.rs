@@ -347,6 +347,3 @@ fn rebound(physics: &mut PhysicsWorld, b: &Built, change: f64) {
         }
     }
 }
-
-#[cfg(test)]
-mod tests;

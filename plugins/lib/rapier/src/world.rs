@@ -349,24 +349,6 @@ impl RapierWorld {
         self.joints.state(&self.physics, k)
     }
 
-    /// One physics step of `dt` seconds with nothing touching the world (headless runs).
-    pub fn step_untouched(&mut self, dt: f64) -> bool {
-        self.step(
-            &PhysicsInput {
-                dt,
-                pointers: &[],
-                proxies: &[],
-                impulses: &[],
-                locals: &[],
-            },
-            &mut PhysicsOutput {
-                planes: &mut [],
-                bodies: &mut [],
-                body_count: &mut 0,
-            },
-        )
-    }
-
     /// What the world takes back from the hand.
     pub fn feedback(&self) -> Feedback {
         self.feedback

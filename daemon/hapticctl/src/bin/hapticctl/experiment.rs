@@ -188,7 +188,7 @@ pub struct CylinderArgs {
 #[derive(Args)]
 pub struct PendulumArgs {
     /// Amplitudes it is released from, degrees (under 180).
-    #[arg(long, value_parser = parse_numbers, default_value = "5,10,15,20,25,30,35,40,45,50,55,60,65,70,75,80,85,90,95,100,105,110,115,120,125,130,135,140,145,150,155,160,165")]
+    #[arg(long, value_parser = parse_numbers, default_value = "5,20,35,50,65,80,95,110,125,140,155,165")]
     amplitudes: Numbers,
     /// Rapier's physics rates, hertz (the penalty engine steps at 4 kHz beside them).
     #[arg(long, value_parser = parse_numbers, default_value = "1000,60")]

@@ -38,7 +38,6 @@ use hapticd_core::diagnostics::Findings;
 use hapticd_core::kinematics::WORLD_EXTENT;
 use serde::Deserialize;
 
-use super::schema::RawBody;
 use crate::joint::{Joint, JointKind, Motor, MotorTarget};
 
 /// The name that stands for the world in a joint's `bodies:`.
@@ -79,25 +78,21 @@ struct RawMotor {
     max_force: f64,
 }
 
-/// The `joints:` of a file whose `bodies:` are `bodies` (`fixed` says which are), each
-/// mistake reported at its place; those with one are left out.
-pub(super) fn joints(
-    f: &mut Findings,
-    raw: &[RawJoint],
-    bodies: &[RawBody],
-    fixed: &[bool],
-) -> Vec<Joint> {
+/// The `joints:` of a file whose `bodies:` are `bodies` (each one's name, and whether it is
+/// fixed), each mistake reported at its place; those with one are left out.
+pub(super) fn joints(f: &mut Findings, raw: &[RawJoint], bodies: &[(&str, bool)]) -> Vec<Joint> {
     let mut named: HashMap<&str, Option<usize>> = HashMap::new();
-    for (i, b) in bodies.iter().enumerate() {
+    for (i, (name, _)) in bodies.iter().enumerate() {
         // A name two bodies share names neither.
         named
-            .entry(b.name.as_str())
+            .entry(name)
             .and_modify(|e| *e = None)
             .or_insert(Some(i));
     }
+    let fixed: Vec<bool> = bodies.iter().map(|b| b.1).collect();
     raw.iter()
         .enumerate()
-        .filter_map(|(k, j)| joint(f, &format!("joints[{k}]"), k, j, &named, fixed))
+        .filter_map(|(k, j)| joint(f, &format!("joints[{k}]"), k, j, &named, &fixed))
         .collect()
 }
 

@@ -245,8 +245,12 @@ impl SceneFile {
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
-        let fixed: Vec<bool> = raw.bodies.iter().map(|b| b.fixed).collect();
-        let joints = joints::joints(&mut f, &raw.joints, &raw.bodies, &fixed);
+        let named: Vec<(&str, bool)> = raw
+            .bodies
+            .iter()
+            .map(|b| (b.name.as_str(), b.fixed))
+            .collect();
+        let joints = joints::joints(&mut f, &raw.joints, &named);
         let pointer = checks::pointer(&mut f, &raw, pointers);
         checks::grasp(&mut f, &raw, pointers);
         if let Some(penalty) = &penalty
