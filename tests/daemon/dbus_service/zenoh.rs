@@ -26,6 +26,10 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         &["--sim", "spidar-g", "--hand", hand.to_str().unwrap()],
     );
     let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 1000\n", None, None);
+    // The topics' subscriber is declared before the telemetry's and undeclared after it, so
+    // that every tick counted was published while the topics were heard: declared the
+    // other way round, a loaded machine counted three ticks the topics' subscriber had not
+    // yet been declared for.
     // A conformance check written from rmw_zenoh's rules, not from the bridge's code: each
     // publisher numbers its own messages 1, 2, 3… and attaches its GID, the XXH3-128 of its
     // liveliness token (low half first); the tick is in hapticd's own telemetry.
@@ -37,14 +41,15 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
         \x20   kind = str(sample.key_expr).split('/')[4 if '/grip/' in str(sample.key_expr) else 3]\n\
         \x20   samples.setdefault(kind, []).append((str(sample.key_expr), sequence, sample.payload.to_bytes(), attached[16:].hex()))\n\
         ticks = []\n\
-        telemetry = session.declare_subscriber('hapticd/sim_spidar_g_1/telemetry/**', lambda s: ticks.append(int.from_bytes(s.payload.to_bytes()[:8], 'little')))\n\
         subscriber = session.declare_subscriber('0/hapticd/sim_spidar_g_1/**', taken)\n\
+        telemetry = session.declare_subscriber('hapticd/sim_spidar_g_1/telemetry/**', lambda s: ticks.append(int.from_bytes(s.payload.to_bytes()[:8], 'little')))\n\
         start = json.loads(ask('hapticd/sim_spidar_g_1/status', None)[0])['tick']\n\
         time.sleep(10)\n\
         end = json.loads(ask('hapticd/sim_spidar_g_1/status', None)[0])['tick']\n\
         time.sleep(0.2)\n\
-        subscriber.undeclare()\n\
         telemetry.undeclare()\n\
+        time.sleep(0.2)\n\
+        subscriber.undeclare()\n\
         status = ask('hapticd/sim_spidar_g_1/status', None)\n\
         tokens = sorted(str(r.ok.key_expr) for r in session.liveliness().get('@ros2_lv/0/**') if r.ok)\n\
         refused = ask('hapticd/sim_spidar_g_1/set/Stiffness', '1500')\n\

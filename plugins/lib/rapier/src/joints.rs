@@ -2,11 +2,11 @@
 //! reduced coordinates, and each joint that would close a loop (a four-bar) as an impulse
 //! joint solved with the contacts.
 //!
-//! Measured on a box hinged at one end, released from 60° (`cargo test -p hapticd-rapier
-//! --lib joints -- --nocapture`): as impulse joints, its period was 1.8 % short at 60 Hz and
-//! the swing lost 36 % of its energy a minute at 1 kHz (the position correction of the
-//! locked axes takes it); as a multibody, the period is exact within 0.01 % at 60 Hz and the
-//! energy holds within 0.01 % a minute. Rapier damps a multibody's joints by default: the
+//! Measured on a box hinged at one end, released from 60° (the pendulum of `hapticctl
+//! experiment pendulum` and of the core tests' `a_hinged_box_*`): as impulse joints, its
+//! period was 1.8 % short at 60 Hz and the swing lost 36 % of its energy a minute at 1 kHz
+//! (the position correction of the locked axes takes it); as a multibody, the period is
+//! exact within 0.01 % at 60 Hz and the energy holds within 0.01 % a minute. Rapier damps a multibody's joints by default: the
 //! damping is set to none, and a joint's own is its drive's.
 //!
 //! A joint's frame on each body is set whole from the anchor and axis in the world at load
