@@ -77,16 +77,6 @@ struct EveryTick {
     realtime: bool,
 }
 
-/// The loop's own overruns so far: those whose tick woke on time and computed too long. On
-/// this shared 2-CPU machine every other overrun, alone or beside readers, woke 0.1-14 ms
-/// late and then computed 4-30 µs, with no page fault (hapticd logs each): the host stalling
-/// the haptic CPU, more often while the other CPU is busy, which nothing kept off the
-/// haptic CPU can cause through the loop (cyclictest's wakes are as late).
-fn own_overruns(bus: &Bus) -> f64 {
-    let stats = bus.get(DEVICE, "Statistics");
-    entry(&stats, "overruns") - entry(&stats, "overruns_woken_late")
-}
-
 fn every_tick(rate: &str) -> EveryTick {
     let dir = support::shared_scratch("dbus", &format!("record-{rate}"));
     // Alone: its overruns are compared across 20 s.
