@@ -5,8 +5,6 @@
 
 use crate::support;
 
-use glam::{DQuat, DVec3};
-
 use hapticctl::experiments::{grasp, pendulum, shape_tracing, wall_stiffness};
 use hapticd_core::haptics::grasp::Method;
 use support::{hapticctl, shipped};
@@ -246,45 +244,24 @@ fn a_hinged_box_swings_with_the_exact_period_of_its_amplitude() {
 /// and in rapier at 1 kHz and at 60 Hz.
 #[test]
 fn a_hinged_box_keeps_its_energy_for_a_minute() {
-    use hapticd_physics::scene::SceneFile;
     let start = 60f64.to_radians();
     let (size, density) = (pendulum::SIZE, pendulum::DENSITY);
     for (engine, rate) in [("penalty", 4000.0), ("rapier", 1000.0), ("rapier", 60.0)] {
-        let scene = pendulum::scene(engine, size, density, start, rate);
-        let body = match &scene {
-            SceneFile::Rapier(spec) => spec.bodies[0].clone(),
-            SceneFile::Penalty(scene) => scene.world.bodies[0].clone(),
+        let mut swinging =
+            pendulum::Pendulum::new(pendulum::scene(engine, size, density, start, rate));
+        let energy = |b: pendulum::Bob| {
+            let turn = glam::DMat3::from_quat(b.orientation);
+            0.5 * b.mass * b.velocity.length_squared()
+                + 0.5 * b.spin.dot(turn * b.inertia * turn.transpose() * b.spin)
+                + b.mass * 9.81 * b.position.y
         };
-        let (mass, inertia) = (body.mass, body.inertia);
         // The swing's energy: what falling from the start to hanging straight gives.
-        let swing = mass * 9.81 * size[1] / 2.0 * (1.0 - start.cos());
-        let energy = |p: DVec3, q: DQuat, v: DVec3, w: DVec3| {
-            let turn = glam::DMat3::from_quat(q);
-            0.5 * mass * v.length_squared()
-                + 0.5 * w.dot(turn * inertia * turn.transpose() * w)
-                + mass * 9.81 * p.y
-        };
-        let (mut rapier, mut penalty) = match scene {
-            SceneFile::Rapier(spec) => (
-                Some(hapticd_rapier::world::RapierWorld::new(&spec, 0)),
-                None,
-            ),
-            SceneFile::Penalty(scene) => (None, Some(scene)),
-        };
+        let swing = swinging.bob().mass * 9.81 * size[1] / 2.0 * (1.0 - start.cos());
         let period = (pendulum::exact_period(size, density, start) * rate).round() as usize;
         let (mut means, mut sum) = (Vec::new(), 0.0);
         for k in 1..=(60.0 * rate) as usize {
-            let now = if let Some(w) = rapier.as_mut() {
-                assert!(w.advance(1.0 / rate));
-                let b = w.body(0);
-                energy(b.position, b.orientation, b.velocity, b.spin)
-            } else {
-                let scene = penalty.as_mut().unwrap();
-                scene.world.step(1.0 / rate);
-                let b = &scene.world.bodies[0];
-                energy(b.position, b.orientation, b.velocity, b.spin)
-            };
-            sum += now;
+            assert!(swinging.step(1.0 / rate));
+            sum += energy(swinging.bob());
             if k % period == 0 {
                 means.push(sum / period as f64);
                 sum = 0.0;

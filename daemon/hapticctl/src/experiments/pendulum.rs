@@ -4,7 +4,7 @@
 //! distance from its centre and K the complete elliptic integral of the first kind, in
 //! either engine.
 
-use glam::{DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use hapticd_physics::joint::JointState;
 use hapticd_physics::scene::{PenaltyScene, SceneFile};
 use hapticd_rapier::world::RapierWorld;
@@ -68,33 +68,86 @@ pub fn scene(engine: &str, size: [f64; 3], density: f64, start: f64, rate: f64) 
         .expect("a valid box and hinge")
 }
 
+/// The box as it swings: its mass, inertia (about its centre, in its frame at load) and
+/// motion now.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bob {
+    /// kg.
+    pub mass: f64,
+    /// kg·m².
+    pub inertia: DMat3,
+    /// Its centre, m.
+    pub position: DVec3,
+    /// Its turn from where it was placed.
+    pub orientation: DQuat,
+    /// Its centre's velocity, m/s.
+    pub velocity: DVec3,
+    /// rad/s.
+    pub spin: DVec3,
+}
+
 /// A pendulum stepped by either engine.
-enum Stepped {
-    Rapier(Box<RapierWorld>),
+pub enum Pendulum {
+    /// In rapier, with the box's mass and inertia (rapier keeps its own).
+    Rapier(Box<RapierWorld>, (f64, DMat3)),
+    /// In the penalty engine.
     Penalty(Box<PenaltyScene>),
 }
 
-impl Stepped {
-    fn new(scene: SceneFile) -> Self {
+impl Pendulum {
+    /// The pendulum of `scene` (see [`scene`]).
+    pub fn new(scene: SceneFile) -> Self {
         match scene {
-            SceneFile::Rapier(spec) => Stepped::Rapier(Box::new(RapierWorld::new(&spec, 0))),
-            SceneFile::Penalty(scene) => Stepped::Penalty(scene),
-        }
-    }
-
-    fn step(&mut self, dt: f64) {
-        match self {
-            Stepped::Rapier(world) => {
-                world.advance(dt);
+            SceneFile::Rapier(spec) => {
+                let bob = (spec.bodies[0].mass, spec.bodies[0].inertia);
+                Pendulum::Rapier(Box::new(RapierWorld::new(&spec, 0)), bob)
             }
-            Stepped::Penalty(scene) => scene.world.step(dt),
+            SceneFile::Penalty(scene) => Pendulum::Penalty(scene),
         }
     }
 
-    fn hinge(&self) -> JointState {
+    /// One step of `dt`; whether the world is still finite.
+    pub fn step(&mut self, dt: f64) -> bool {
         match self {
-            Stepped::Rapier(world) => world.joint_state(0),
-            Stepped::Penalty(scene) => scene.world.joint_state(0),
+            Pendulum::Rapier(world, _) => world.advance(dt),
+            Pendulum::Penalty(scene) => {
+                scene.world.step(dt);
+                scene.world.bodies.iter().all(|b| b.velocity.is_finite())
+            }
+        }
+    }
+
+    /// Where its hinge stands.
+    pub fn hinge(&self) -> JointState {
+        match self {
+            Pendulum::Rapier(world, _) => world.joint_state(0),
+            Pendulum::Penalty(scene) => scene.world.joint_state(0),
+        }
+    }
+
+    /// The box now.
+    pub fn bob(&self) -> Bob {
+        let ((mass, inertia), motion) = match self {
+            Pendulum::Rapier(world, bob) => {
+                let b = world.body(0);
+                (*bob, (b.position, b.orientation, b.velocity, b.spin))
+            }
+            Pendulum::Penalty(scene) => {
+                let b = &scene.world.bodies[0];
+                (
+                    (b.mass, b.inertia),
+                    (b.position, b.orientation, b.velocity, b.spin),
+                )
+            }
+        };
+        let (position, orientation, velocity, spin) = motion;
+        Bob {
+            mass,
+            inertia,
+            position,
+            orientation,
+            velocity,
+            spin,
         }
     }
 }
@@ -104,7 +157,7 @@ impl Stepped {
 /// (where the hinge's rate crosses zero from above, found between steps by linear
 /// interpolation) over five swings.
 pub fn measured_period(engine: &str, size: [f64; 3], density: f64, start: f64, rate: f64) -> f64 {
-    let mut world = Stepped::new(scene(engine, size, density, start, rate));
+    let mut world = Pendulum::new(scene(engine, size, density, start, rate));
     let dt = 1.0 / rate;
     let steps = (6.0 * exact_period(size, density, start) * rate).ceil() as usize;
     let mut last = world.hinge().velocity;

@@ -110,48 +110,7 @@ fn joint(
         .name
         .as_ref()
         .is_none_or(|n| f.name(format!("{at}.name"), n));
-    let mut body = |side: usize| -> Option<Option<usize>> {
-        let given = &j.bodies[side];
-        if side == 0 && given == WORLD {
-            return Some(None);
-        }
-        match named.get(given.as_str()) {
-            Some(Some(i)) => Some(Some(*i)),
-            Some(None) => {
-                f.error(
-                    format!("{at}.bodies[{side}]"),
-                    format!("{given:?} names more than one body: give each a name of its own"),
-                );
-                None
-            }
-            None => {
-                f.error(
-                    format!("{at}.bodies[{side}]"),
-                    format!(
-                        "no body is named {given:?}{}",
-                        if side == 0 { " (nor is it world)" } else { "" }
-                    ),
-                );
-                None
-            }
-        }
-    };
-    let (first, second) = (body(0), body(1));
-    let bodies = match (first, second) {
-        (Some(a), Some(Some(b))) if a == Some(b) => {
-            f.error(format!("{at}.bodies"), "joins a body to itself");
-            None
-        }
-        (Some(a), Some(Some(b))) if a.is_none_or(|a| fixed[a]) && fixed[b] => {
-            f.error(
-                format!("{at}.bodies"),
-                "joins two bodies that never move (fixed, or the world)",
-            );
-            None
-        }
-        (Some(a), Some(Some(b))) => Some((a, b)),
-        _ => None,
-    };
+    let bodies = joined(f, at, j, named, fixed);
     ok &= f.coordinates(format!("{at}.anchor"), &j.anchor, WORLD_EXTENT, "m");
     let axis = match (j.axis, j.kind) {
         (Some(axis), _) => {
@@ -200,6 +159,59 @@ fn joint(
         damping: j.damping,
         motor,
     })
+}
+
+/// The two bodies joint `j` (at `at`) joins, the first None for the world, or None after
+/// reporting what is wrong with them.
+fn joined(
+    f: &mut Findings,
+    at: &str,
+    j: &RawJoint,
+    named: &HashMap<&str, Option<usize>>,
+    fixed: &[bool],
+) -> Option<(Option<usize>, usize)> {
+    let mut body = |side: usize| -> Option<Option<usize>> {
+        let given = &j.bodies[side];
+        if side == 0 && given == WORLD {
+            return Some(None);
+        }
+        match named.get(given.as_str()) {
+            Some(Some(i)) => Some(Some(*i)),
+            Some(None) => {
+                f.error(
+                    format!("{at}.bodies[{side}]"),
+                    format!("{given:?} names more than one body: give each a name of its own"),
+                );
+                None
+            }
+            None => {
+                f.error(
+                    format!("{at}.bodies[{side}]"),
+                    format!(
+                        "no body is named {given:?}{}",
+                        if side == 0 { " (nor is it world)" } else { "" }
+                    ),
+                );
+                None
+            }
+        }
+    };
+    let (first, second) = (body(0), body(1));
+    match (first, second) {
+        (Some(a), Some(Some(b))) if a == Some(b) => {
+            f.error(format!("{at}.bodies"), "joins a body to itself");
+            None
+        }
+        (Some(a), Some(Some(b))) if a.is_none_or(|a| fixed[a]) && fixed[b] => {
+            f.error(
+                format!("{at}.bodies"),
+                "joins two bodies that never move (fixed, or the world)",
+            );
+            None
+        }
+        (Some(a), Some(Some(b))) => Some((a, b)),
+        _ => None,
+    }
 }
 
 /// Whether joint `j`'s `limits:` (at `at`) are a range its kind can have.
