@@ -21,5 +21,7 @@ pub use export::{
     MechanismSpec, PhysicsInput, PhysicsOutput, SceneCheck, SceneError, SceneFactory,
     SceneInstance, log,
 };
-pub use ext::{scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*};
+pub use ext::{
+    scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*, scene_mobility::*,
+};
 pub use geometry::Geometry;

@@ -237,7 +237,7 @@ fn local_dynamics_tick(bencher: Bencher, n: usize) {
         };
     }
     let mut bodies: Vec<LocalBody> = (0..n)
-        .map(|_| LocalBody::new(&record, &Change::default(), 0.05, None).unwrap())
+        .map(|_| LocalBody::new((&record, None), &Change::default(), 0.05, None).unwrap())
         .collect();
     bencher.bench_local(|| {
         for body in &mut bodies {

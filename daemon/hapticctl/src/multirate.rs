@@ -113,6 +113,13 @@ impl Lockstep {
                 return Err(NotFinite { time: self.time });
             }
             set.body_count = body_count;
+            for (out, body) in set
+                .mobilities
+                .iter_mut()
+                .zip(&set.bodies[..body_count as usize])
+            {
+                *out = self.world.mobility(body.body as usize);
+            }
             self.impulses.clear();
             self.locals.clear();
             std::mem::swap(&mut self.poses.0, &mut self.poses.1);

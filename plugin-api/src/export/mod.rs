@@ -9,7 +9,9 @@ use std::sync::atomic::{AtomicPtr, Ordering};
 use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
-use crate::ext::{scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*};
+use crate::ext::{
+    scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*, scene_mobility::*,
+};
 
 mod macros;
 mod scene;
@@ -17,6 +19,7 @@ mod scene_contacts;
 mod scene_control;
 mod scene_files;
 mod scene_geometry;
+mod scene_mobility;
 
 use scene::instance_mut;
 pub use scene::*;
@@ -24,6 +27,7 @@ use scene_contacts::SCENE_CONTACTS;
 use scene_control::SCENE_CONTROL;
 pub use scene_files::*;
 use scene_geometry::SCENE_GEOMETRY;
+use scene_mobility::SCENE_MOBILITY;
 
 /// A mechanism as a Rust plugin author describes it.
 #[derive(Debug, Clone, PartialEq)]
@@ -323,8 +327,8 @@ pub type SceneError = Box<dyn std::error::Error + Send + Sync>;
 /// or its findings, one a line.
 pub type SceneCheck = fn(&str, usize) -> Result<(), SceneError>;
 
-/// Body of the exported `get_extension` function: the geometry, control and contacts
-/// extensions, and the files extension when the plugin runs scene files.
+/// Body of the exported `get_extension` function: the geometry, control, contacts and
+/// mobility extensions, and the files extension when the plugin runs scene files.
 ///
 /// # Safety
 /// `id` is null or NUL-terminated.
@@ -346,6 +350,9 @@ pub unsafe fn scene_extension(
     }
     if id == HAPTICD_EXT_SCENE_CONTACTS {
         return (&SCENE_CONTACTS as *const HapticdSceneContacts).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_MOBILITY {
+        return (&SCENE_MOBILITY as *const HapticdSceneMobility).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

@@ -4,7 +4,7 @@
 use std::ffi::{CStr, c_char};
 
 use crate::abi::*;
-use crate::ext::{scene_contacts::*, scene_control::*};
+use crate::ext::{scene_contacts::*, scene_control::*, scene_mobility::*};
 use crate::geometry::Geometry;
 
 use super::{SceneError, guard, log};
@@ -83,6 +83,14 @@ pub trait SceneInstance: Send {
     /// Must not allocate, lock, log or block.
     fn touch(&self, pointer: usize) -> Option<HapticdTouch> {
         let _ = pointer;
+        None
+    }
+
+    /// [physics, after a step] Since ABI 1.8: the articulated mobility of body `body`
+    /// (served through [`HAPTICD_EXT_SCENE_MOBILITY`]), None for a free body; the default
+    /// has no joints.
+    fn mobility(&self, body: u32) -> Option<HapticdMobility> {
+        let _ = body;
         None
     }
 }

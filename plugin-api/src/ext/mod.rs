@@ -7,8 +7,10 @@
 //! - [`scene_files`]: `"hapticd.scene.files/1"`, the scene files a plugin runs.
 //! - [`scene_control`]: `"hapticd.scene.control/1"`, a running world changed from outside.
 //! - [`scene_contacts`]: `"hapticd.scene.contacts/1"`, what each pointer touches.
+//! - [`scene_mobility`]: `"hapticd.scene.mobility/1"`, how a jointed body answers the hand.
 
 pub mod scene_contacts;
 pub mod scene_control;
 pub mod scene_files;
 pub mod scene_geometry;
+pub mod scene_mobility;

@@ -70,6 +70,10 @@ impl SceneInstance for Rapier {
         self.0.body_of(object).map(|b| b as u32)
     }
 
+    fn mobility(&self, body: u32) -> Option<HapticdMobility> {
+        self.0.mobility(body as usize)
+    }
+
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
         match self.0.control(command) {
             Some(after) => {

@@ -23,7 +23,11 @@
 //! neither sinks nor sticks to it, and a body pushed into a corner does not move into it.
 
 use glam::{DMat3, DQuat, DVec3};
-use hapticd_plugin_api::{HAPTICD_MAX_BODY_CONTACTS, HapticdLocalBody, HapticdLocalState};
+use hapticd_plugin_api::{
+    HAPTICD_MAX_BODY_CONTACTS, HapticdLocalBody, HapticdLocalState, HapticdMobility,
+};
+
+pub use mobility::Mobility;
 
 use crate::kinematics::{MAX_EFFECTORS, Pose, quat_from_wxyz, rotation_vector};
 
@@ -130,10 +134,9 @@ pub struct LocalBody {
     object_count: u32,
     /// The state the physics published, which the planes of this set were found at.
     base: Motion,
-    inverse_mass: f64,
-    /// Inverse inertia in world axes at `base`'s orientation, kept over the period.
-    inverse_inertia: DMat3,
-    acceleration: DVec3,
+    /// How it answers an impulse, as published (inertia in world axes at `base`'s
+    /// orientation), kept over the period.
+    mobility: Mobility,
     /// The contacts with the rest of the world as the step left them.
     rows: [Row; HAPTICD_MAX_BODY_CONTACTS],
     contact_count: usize,
@@ -163,7 +166,9 @@ struct Row {
     r: DVec3,
     /// Normal (along which the other solid pushes) and two tangents.
     directions: [DVec3; 3],
-    /// What a unit impulse along each direction does to the spin.
+    /// What a unit impulse along each direction does to the centre's velocity and to the
+    /// spin.
+    moves: [DVec3; 3],
     turns: [DVec3; 3],
     /// The point's mass along each direction.
     masses: [f64; 3],
@@ -195,6 +200,7 @@ pub struct Push {
 struct HandRow {
     r: DVec3,
     direction: DVec3,
+    moves: DVec3,
     turn: DVec3,
     /// The point's mass along the direction.
     mass: f64,
@@ -206,22 +212,17 @@ struct HandRow {
 }
 
 impl HandRow {
-    fn new(
-        push: &Push,
-        centre: DVec3,
-        inverse_mass: f64,
-        inverse_inertia: &DMat3,
-        dt: f64,
-    ) -> Self {
+    fn new(push: &Push, centre: DVec3, mobility: &Mobility, shift: DVec3, dt: f64) -> Self {
         let direction = push.force.normalize_or_zero();
         let r = push.point - centre;
-        let turn = *inverse_inertia * r.cross(direction);
+        let (moves, turn) = mobility.respond(direction, r.cross(direction), shift);
         let most = push.force.length() * dt;
         HandRow {
             r,
             direction,
+            moves,
             turn,
-            mass: 1.0 / (inverse_mass + r.cross(direction).dot(turn)),
+            mass: mass((moves + turn.cross(r)).dot(direction)),
             speed: push.speed,
             most,
             amount: most,
@@ -239,6 +240,12 @@ fn published_motion(published: &HapticdLocalBody) -> Motion {
     }
 }
 
+/// The mass of a point whose inverse mass along a line is `inverse`: none where joints hold
+/// it (a door pushed along its hinge), which no impulse then moves.
+fn mass(inverse: f64) -> f64 {
+    if inverse > 1e-9 { 1.0 / inverse } else { 0.0 }
+}
+
 /// The unit tangents of `n`.
 fn tangents(n: DVec3) -> (DVec3, DVec3) {
     let t = n.any_orthonormal_vector();
@@ -247,24 +254,27 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
 
 impl LocalBody {
     /// The body `published` describes, moved on by the changes still `pending` for it,
-    /// starting a physics period of `period` seconds. `shown`: where the body was displayed
-    /// just before, whose difference fades out over the period (None: start where it is).
-    /// None when the record is not finite or its mass is not positive.
+    /// starting a physics period of `period` seconds. `jointed`: how its joints let it
+    /// move, if any hold it. `shown`: where the body was displayed just before, whose
+    /// difference fades out over the period (None: start where it is). None when the
+    /// record is not finite or its mass is not positive.
     pub fn new(
-        published: &HapticdLocalBody,
+        (published, jointed): (&HapticdLocalBody, Option<&HapticdMobility>),
         pending: &Change,
         period: f64,
         shown: Option<Pose>,
     ) -> Option<LocalBody> {
         let base = published_motion(published);
         let inverse_inertia = DMat3::from_cols_array(&published.inverse_inertia).transpose();
-        let finite = base.is_finite()
-            && inverse_inertia.is_finite()
-            && DVec3::from(published.acceleration).is_finite();
+        let gravity = DVec3::from(published.acceleration);
+        let finite = base.is_finite() && inverse_inertia.is_finite() && gravity.is_finite();
         if !(finite && published.inverse_mass > 0.0 && published.inverse_mass.is_finite()) {
             return None;
         }
-        let inverse_mass = published.inverse_mass;
+        let mobility = match jointed {
+            Some(m) => Mobility::jointed(m)?,
+            None => Mobility::free(published.inverse_mass, inverse_inertia, gravity),
+        };
         let mut rows = [Row::default(); HAPTICD_MAX_BODY_CONTACTS];
         let mut count = 0;
         for c in published.contacts
@@ -279,14 +289,13 @@ impl LocalBody {
             let r = point - base.position;
             let (t1, t2) = tangents(normal);
             let directions = [normal, t1, t2];
-            let turns = directions.map(|d| inverse_inertia * r.cross(d));
-            let masses =
-                [0, 1, 2].map(|k| 1.0 / (inverse_mass + r.cross(directions[k]).dot(turns[k])));
+            let units = directions.map(|d| mobility.unit(r, d));
             rows[count] = Row {
                 r,
                 directions,
-                turns,
-                masses,
+                moves: units.map(|u| u.0),
+                turns: units.map(|u| u.1),
+                masses: units.map(|u| mass(u.2)),
                 gap: c.gap,
                 lever: r.cross(normal),
                 friction: if c.friction.is_finite() {
@@ -309,9 +318,7 @@ impl LocalBody {
             first_object: published.first_object,
             object_count: published.object_count,
             base,
-            inverse_mass,
-            inverse_inertia,
-            acceleration: DVec3::from(published.acceleration),
+            mobility,
             rows,
             contact_count: count,
             hand: start,
@@ -431,8 +438,11 @@ impl LocalBody {
         dt: f64,
         sums: &mut [DVec3; HAPTICD_MAX_BODY_CONTACTS],
     ) -> Motion {
-        let mut v = m.velocity + (force * self.inverse_mass + self.acceleration) * dt;
-        let mut w = m.spin + self.inverse_inertia * torque * dt;
+        let shift = m.position - self.base.position;
+        let (dv, dw) = self.mobility.respond(force * dt, torque * dt, shift);
+        let (a, alpha) = self.mobility.acceleration(shift);
+        let mut v = m.velocity + dv + a * dt;
+        let mut w = m.spin + dw + alpha * dt;
         // Each push starts whole; the sweeps take back what would carry its point faster
         // than its hand.
         let mut hands = [HandRow::default(); MAX_EFFECTORS];
@@ -442,14 +452,8 @@ impl LocalBody {
             .filter(|p| p.force != DVec3::ZERO)
             .take(MAX_EFFECTORS)
         {
-            let row = HandRow::new(
-                push,
-                m.position,
-                self.inverse_mass,
-                &self.inverse_inertia,
-                dt,
-            );
-            v += row.direction * (row.most * self.inverse_mass);
+            let row = HandRow::new(push, m.position, &self.mobility, shift, dt);
+            v += row.moves * row.most;
             w += row.turn * row.most;
             hands[hand_count] = row;
             hand_count += 1;
@@ -458,7 +462,7 @@ impl LocalBody {
         // How far the body has moved and turned since published (small: within a period).
         let turn = m.orientation * self.base.orientation.inverse();
         let turned = DVec3::new(turn.x, turn.y, turn.z) * (2.0 * turn.w.signum());
-        let moved = m.position - self.base.position;
+        let moved = shift;
         let rows = &self.rows[..self.contact_count];
         let mut closing = [0.0; HAPTICD_MAX_BODY_CONTACTS];
         for (closing, row) in closing.iter_mut().zip(rows) {
@@ -467,7 +471,7 @@ impl LocalBody {
             *closing = gap.max(0.0) / dt;
         }
         let push = |row: &Row, k: usize, amount: f64, v: &mut DVec3, w: &mut DVec3| {
-            *v += row.directions[k] * (amount * self.inverse_mass);
+            *v += row.moves[k] * amount;
             *w += row.turns[k] * amount;
         };
         for (row, sum) in rows.iter().zip(sums.iter()) {
@@ -495,7 +499,7 @@ impl LocalBody {
             for hand in hands.iter_mut() {
                 let along = (v + w.cross(hand.r)).dot(hand.direction);
                 let amount = (hand.amount + (hand.speed - along) * hand.mass).clamp(0.0, hand.most);
-                v += hand.direction * ((amount - hand.amount) * self.inverse_mass);
+                v += hand.moves * (amount - hand.amount);
                 w += hand.turn * (amount - hand.amount);
                 hand.amount = amount;
             }
@@ -516,14 +520,22 @@ impl LocalBody {
                 w = free.spin + dw * keep;
             }
         }
+        let step = v * dt;
         Motion {
-            position: m.position + v * dt,
+            position: m.position + step,
             orientation: (DQuat::from_scaled_axis(w * dt) * m.orientation).normalize(),
-            velocity: v,
+            // A jointed body's velocity field turns with it: the velocity at its centre is
+            // the field's at the point the centre moved to (a hinge stays still).
+            velocity: if self.mobility.is_jointed() {
+                v + w.cross(step)
+            } else {
+                v
+            },
             spin: w,
         }
     }
 }
 
+mod mobility;
 #[cfg(test)]
 mod tests;

@@ -19,7 +19,7 @@
 use glam::DVec3;
 use hapticd_plugin_api::{
     HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdImpulse, HapticdLocalBody,
-    HapticdLocalState, HapticdPlane, HapticdPlanes, HapticdPointer,
+    HapticdLocalState, HapticdMobility, HapticdPlane, HapticdPlanes, HapticdPointer,
 };
 
 use super::local_dynamics::{Change, LocalBody, Push};
@@ -39,6 +39,9 @@ pub struct PlaneSet {
     pub body_count: u32,
     /// The bodies near the pointers, to move here until the next set.
     pub bodies: [HapticdLocalBody; HAPTICD_MAX_LOCAL_BODIES],
+    /// For each of `bodies`, how its joints let it move (None: free, or a world that does
+    /// not say).
+    pub mobilities: [Option<HapticdMobility>; HAPTICD_MAX_LOCAL_BODIES],
     /// Seconds the step that made this set took (0: not measured). A world whose steps
     /// outlast its period rests as long as it works, so the next set comes no sooner than
     /// twice this.
@@ -578,14 +581,15 @@ impl PlaneRenderer {
         let old = self.locals;
         let count = (self.current.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
         self.locals = [None; HAPTICD_MAX_LOCAL_BODIES];
-        for (slot, published) in self.locals.iter_mut().zip(&self.current.bodies[..count]) {
+        let published = self.current.bodies.iter().zip(&self.current.mobilities);
+        for (slot, (published, jointed)) in self.locals.iter_mut().zip(published.take(count)) {
             let pending = pending_for(&self.pending, published);
             let shown = old
                 .iter()
                 .flatten()
                 .find(|b| b.body == published.body)
                 .map(|b| b.shown().pose());
-            *slot = LocalBody::new(published, &pending, self.pace, shown);
+            *slot = LocalBody::new((published, jointed.as_ref()), &pending, self.pace, shown);
         }
     }
 

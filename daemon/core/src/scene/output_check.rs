@@ -20,9 +20,10 @@
 use glam::DVec3;
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdLocalBody,
-    HapticdPlanes,
+    HapticdMobility, HapticdPlanes,
 };
 
+use super::local_dynamics::Mobility;
 use crate::haptics::safety::SafetyLimits;
 use crate::kinematics::{MAX_EFFECTORS, Wrench};
 
@@ -126,6 +127,12 @@ pub enum OutputFault {
     },
     /// A locally moved body without positive mass or inertia.
     BodyWithoutMass {
+        /// The body's place in the set.
+        index: usize,
+    },
+    /// A jointed body's mobility is not finite, not symmetric, or moves a point against a
+    /// push.
+    MobilityUnsound {
         /// The body's place in the set.
         index: usize,
     },
@@ -237,6 +244,11 @@ impl std::fmt::Display for OutputFault {
             Self::BodyWithoutMass { index } => {
                 write!(f, "local body {index}: no positive mass and inertia")
             }
+            Self::MobilityUnsound { index } => write!(
+                f,
+                "local body {index}: its joints' mobility is not finite, not symmetric or \
+                 moves a point against a push"
+            ),
             Self::BodyTooFast { index, speed, spin } => write!(
                 f,
                 "local body {index}: it moves at {speed:.3e} m/s and turns at {spin:.3e} rad/s, \
@@ -331,6 +343,20 @@ pub fn check_planes(planes: &[HapticdPlanes]) -> Result<(), OutputFault> {
                     object: p.object,
                 });
             }
+        }
+    }
+    Ok(())
+}
+
+/// [physics] Check the mobilities a step gives its first `count` bodies (the jointed ones);
+/// the first fault found.
+pub fn check_mobilities(
+    mobilities: &[Option<HapticdMobility>],
+    count: u32,
+) -> Result<(), OutputFault> {
+    for (index, m) in mobilities.iter().take(count as usize).enumerate() {
+        if m.is_some_and(|m| Mobility::jointed(&m).is_none()) {
+            return Err(OutputFault::MobilityUnsound { index });
         }
     }
     Ok(())

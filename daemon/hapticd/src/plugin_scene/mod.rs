@@ -47,6 +47,8 @@ struct Instance {
     >,
     /// The contacts extension's `touch`, when the plugin has one.
     touch: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdTouch) -> i32>,
+    /// The mobility extension's function, when the plugin has one.
+    mobility: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdMobility) -> i32>,
     /// The ABI minor the plugin was built for: fields newer than it are not read.
     minor: u32,
 }
@@ -114,6 +116,19 @@ impl Instance {
                     slipping: found.flags & HAPTICD_TOUCH_SLIPPING != 0,
                 };
             }
+        }
+    }
+
+    /// [physics, after a step] How the joints let each of `bodies` move, into `out` (None
+    /// for a free body, and for every body of a plugin without the mobility extension).
+    fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
+        for (body, out) in bodies.iter().zip(out) {
+            *out = self.mobility.and_then(|mobility| {
+                let mut found = HapticdMobility::default();
+                // SAFETY: a live instance on its physics thread, a valid out pointer.
+                let status = unsafe { mobility(self.pointer, body.body, &mut found) };
+                (status == HAPTICD_OK).then_some(found)
+            });
         }
     }
 
@@ -346,6 +361,7 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         pointer,
         apply: None,
         touch: None,
+        mobility: None,
         minor: loaded.abi.1,
     };
     let geometry =
@@ -354,6 +370,10 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         .map_err(|e| failed(SceneFault::Control(e)))?
         .unzip();
     let object_bodies = read_contacts(&loaded, &mut instance);
+    // SAFETY: HapticdSceneMobility is the struct of the mobility extension.
+    let mobility: Option<HapticdSceneMobility> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_MOBILITY) };
+    instance.mobility = mobility.and_then(|m| m.mobility);
     // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())

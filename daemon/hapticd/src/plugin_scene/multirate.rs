@@ -18,7 +18,9 @@ use hapticd_core::scene::control::{Incoming, Reply, Request, SceneControl};
 use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
 };
-use hapticd_core::scene::output_check::{OutputFault, check_bodies, check_planes};
+use hapticd_core::scene::output_check::{
+    OutputFault, check_bodies, check_mobilities, check_planes,
+};
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
 use hapticd_core::sync::triple_buffer::{self, Reader, Writer};
@@ -141,7 +143,8 @@ impl PhysicsSide {
     /// or bodies no world publishes disable the scene instead, as a failure does (false).
     pub(crate) fn publish(&mut self, set: &mut PlaneSet, count: usize) -> bool {
         let checked = check_planes(&set.planes[..self.pointers])
-            .and_then(|()| check_bodies(&set.bodies, set.body_count));
+            .and_then(|()| check_bodies(&set.bodies, set.body_count))
+            .and_then(|()| check_mobilities(&set.mobilities, set.body_count));
         if let Err(fault) = checked {
             self.fail(Some(fault));
             return false;
@@ -289,6 +292,10 @@ impl MultiRateScene {
                                 body_count: &mut set.body_count,
                             },
                         );
+                        if status == HAPTICD_OK {
+                            let count = (set.body_count as usize).min(set.bodies.len());
+                            instance.mobilities(&set.bodies[..count], &mut set.mobilities);
+                        }
                         set.step = (monotonic_ns() - started) as f64 * 1e-9;
                         set.yielding = pacer.judge();
                         if status != HAPTICD_OK {

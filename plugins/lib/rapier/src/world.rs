@@ -16,15 +16,17 @@ use hapticd_physics::scene::{Feedback, Primitive, RapierScene};
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HapticdBodyContact, HapticdBodyPose, HapticdImpulse,
-    HapticdLocalBody, HapticdLocalState, HapticdPlanes,
+    HapticdLocalBody, HapticdLocalState, HapticdMobility, HapticdPlanes,
 };
 use rapier3d::geometry::PairContacts;
+use rapier3d::na::Vector6;
 use rapier3d::parry::bounding_volume::BoundingVolume;
 use rapier3d::prelude::{
     Collider, ColliderBuilder, ColliderHandle, MassProperties, Matrix, PhysicsWorld, Pose,
     QueryFilter, RigidBodyBuilder, RigidBodyHandle, TriMeshFlags, Vector,
 };
 
+use crate::articulation;
 use crate::convert::{dquat, dvec, rotation, vector};
 use crate::joints::Joints;
 use crate::surfaces::{self, Candidate};
@@ -458,14 +460,11 @@ impl RapierWorld {
             return;
         }
         if self.joints.is_link(&self.physics, handle) {
-            // Its joints set where a link is: what the hand changed of its motion goes in
-            // as the momentum that change took.
+            // Its joints set where a link is: what the hand changed goes into their
+            // coordinates.
             self.applied[i] = self.applied[i].max(change.sequence);
-            let (inertia, mass) = self.inertia[i];
-            let turn = glam::DMat3::from_quat(dquat(*b.rotation()));
-            let kick = (v * mass, turn * inertia * turn.transpose() * w);
-            let dt = f64::from(self.physics.integration_parameters.dt);
-            self.joints.kick(&mut self.physics, handle, kick, dt);
+            let six = |a: DVec3, b: DVec3| Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z);
+            articulation::take_in(&mut self.physics, handle, six(d, r), six(v, w));
             return;
         }
         let centre = dvec(b.center_of_mass());
@@ -543,6 +542,11 @@ impl RapierWorld {
                 plane.point = point.to_array();
             }
         }
+    }
+
+    /// How body `i` answers the hand through its joints, None for a free body.
+    pub fn mobility(&self, i: usize) -> Option<HapticdMobility> {
+        articulation::mobility(&self.physics, *self.bodies.get(i)?)
     }
 
     /// Body `i` as the haptic side moves it: its state, mass, inertia and contacts now.

@@ -47,7 +47,7 @@ fn on_floor(body: &mut HapticdLocalBody, friction: f64) {
 fn no_point_of_a_pressed_body_moves_faster_than_the_hand() {
     let (mut record, _) = brick(0.039, DVec3::new(0.0, -9.81, 0.0));
     on_floor(&mut record, 0.4);
-    let mut body = LocalBody::new(&record, &Change::default(), 0.05, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.05, None).unwrap();
     let corners: Vec<DVec3> = (0..8)
         .map(|k| {
             let sign = |bit: usize| if k & bit == 0 { -1.0 } else { 1.0 };
@@ -95,7 +95,7 @@ fn a_hand_pushes_a_body_no_faster_than_it_moves_itself() {
     // 28 N (2 kN/m at 14 mm) on 39 g: unbounded, 0.7 m/s in one tick.
     let fastest_at = |at: DVec3| {
         let (record, _) = brick(0.039, DVec3::ZERO);
-        let mut body = LocalBody::new(&record, &Change::default(), 0.05, None).unwrap();
+        let mut body = LocalBody::new((&record, None), &Change::default(), 0.05, None).unwrap();
         let mut fastest: f64 = 0.0;
         for _ in 0..50 {
             let m = body.motion();
@@ -123,7 +123,7 @@ fn a_hand_pushes_a_body_no_faster_than_it_moves_itself() {
     assert!((0.1..=0.16).contains(&off_centre), "{off_centre} m/s");
     // 0.5 N on 5 kg: 1 mm/s a tick's worth, far below the hand.
     let (record, _) = brick(5.0, DVec3::ZERO);
-    let mut body = LocalBody::new(&record, &Change::default(), 0.05, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.05, None).unwrap();
     for _ in 0..10 {
         body.step(
             DVec3::ZERO,
@@ -142,7 +142,7 @@ fn a_hand_pushes_a_body_no_faster_than_it_moves_itself() {
 #[test]
 fn a_free_body_answers_a_force_with_its_mass_and_a_torque_with_its_inertia() {
     let (record, inertia) = brick(0.5, DVec3::ZERO);
-    let mut body = LocalBody::new(&record, &Change::default(), 0.05, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.05, None).unwrap();
     let (f, tau) = (DVec3::new(0.3, -0.2, 0.1), DVec3::new(0.0, 0.0, 2e-4));
     let ticks = 50;
     for _ in 0..ticks {
@@ -175,7 +175,7 @@ fn a_body_on_a_floor_neither_sinks_nor_sticks_and_slides_at_the_coulomb_rate() {
     let g = DVec3::new(0.0, -9.81, 0.0);
     let (mut record, _) = brick(1.0, g);
     on_floor(&mut record, 0.3);
-    let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.1, None).unwrap();
     // Gravity alone: it stays where it is (to a tenth of a micrometre while the
     // contacts' impulses settle in the first ticks).
     for _ in 0..100 {
@@ -201,7 +201,7 @@ fn a_body_on_a_floor_neither_sinks_nor_sticks_and_slides_at_the_coulomb_rate() {
         body.motion()
     );
     // By more: a = (F − μ m g) / m, exactly, and it still does not sink.
-    let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.1, None).unwrap();
     for _ in 0..100 {
         body.step(DVec3::X * 5.0, DVec3::ZERO, &[], DT);
     }
@@ -214,7 +214,7 @@ fn a_body_on_a_floor_neither_sinks_nor_sticks_and_slides_at_the_coulomb_rate() {
         body.motion()
     );
     // Lifted harder than its weight, it leaves the floor at (F − m g)/m.
-    let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.1, None).unwrap();
     for _ in 0..100 {
         body.step(DVec3::Y * 12.0, DVec3::ZERO, &[], DT);
     }
@@ -231,7 +231,7 @@ fn what_goes_back_is_the_difference_from_the_next_step_not_only_the_hands_part()
     let (mut record, _) = brick(1.0, DVec3::new(0.0, -g, 0.0));
     on_floor(&mut record, mu);
     record.velocity = [v, 0.0, 0.0];
-    let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.1, None).unwrap();
     for _ in 0..100 {
         body.step(DVec3::ZERO, DVec3::ZERO, &[], DT);
     }
@@ -286,7 +286,7 @@ fn a_ball_pushed_over_its_top_rolls_on_the_floor_without_sinking_into_it() {
         gap: 0.0,
         friction: 0.3,
     };
-    let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.1, None).unwrap();
     let (push, down) = (1.0, 10.0);
     let top = DVec3::new(0.0, radius, 0.0);
     for _ in 0..100 {
@@ -323,7 +323,7 @@ fn a_gap_is_closed_not_jumped() {
     for c in &mut record.contacts[..4] {
         c.gap = 0.01;
     }
-    let mut body = LocalBody::new(&record, &Change::default(), 0.1, None).unwrap();
+    let mut body = LocalBody::new((&record, None), &Change::default(), 0.1, None).unwrap();
     for _ in 0..200 {
         body.step(DVec3::ZERO, DVec3::ZERO, &[], DT);
     }
@@ -344,7 +344,7 @@ fn a_restart_keeps_what_is_shown_and_fades_the_jump_out_over_a_period() {
         position: DVec3::new(0.003, 0.0, 0.0),
         ..Pose::default()
     };
-    let mut body = LocalBody::new(&record, &pending, 0.05, Some(shown)).unwrap();
+    let mut body = LocalBody::new((&record, None), &pending, 0.05, Some(shown)).unwrap();
     // Nothing jumps: it is shown where it was.
     assert!((body.shown().position - shown.position).length() < 1e-15);
     // The pending change is in the state: it moves at 0.1 m/s from 2 mm.
@@ -376,7 +376,7 @@ fn an_orientation_written_with_the_other_sign_is_the_same_orientation() {
         orientation: DQuat::from_rotation_y(0.3),
         ..Pose::default()
     };
-    let body = LocalBody::new(&record, &Change::default(), 0.05, Some(shown)).unwrap();
+    let body = LocalBody::new((&record, None), &Change::default(), 0.05, Some(shown)).unwrap();
     assert!(
         (body.shown().spin - DVec3::Y * 0.2).length() < 1e-9,
         "{:?}",
@@ -400,8 +400,8 @@ fn an_orientation_written_with_the_other_sign_is_the_same_orientation() {
 fn a_record_that_is_not_finite_or_has_no_mass_is_refused() {
     let (mut record, _) = brick(1.0, DVec3::ZERO);
     record.velocity[1] = f64::NAN;
-    assert!(LocalBody::new(&record, &Change::default(), 0.05, None).is_none());
+    assert!(LocalBody::new((&record, None), &Change::default(), 0.05, None).is_none());
     let (mut record, _) = brick(1.0, DVec3::ZERO);
     record.inverse_mass = 0.0;
-    assert!(LocalBody::new(&record, &Change::default(), 0.05, None).is_none());
+    assert!(LocalBody::new((&record, None), &Change::default(), 0.05, None).is_none());
 }
