@@ -223,7 +223,7 @@ impl HandRow {
             moves,
             turn,
             mass: mass((moves + turn.cross(r)).dot(direction)),
-            speed: push.speed,
+            speed: push.speed * mobility.release(),
             most,
             amount: most,
         }
@@ -356,8 +356,19 @@ impl LocalBody {
     /// ball stays where it is however the ball spins (a box turns little in one period).
     /// Along the normal the surface moves as the plane does; the spin only slides it, which
     /// friction carries a finger along with.
+    /// A jointed body's plane turns with it: a door's face at its handle moves as the door
+    /// turns about its hinge, not as its centre does.
     pub fn carry(&self, point: DVec3, normal: DVec3) -> (DVec3, DVec3, DVec3) {
         let now = self.shown();
+        if self.mobility.is_jointed() {
+            let turn = now.orientation * self.base.orientation.inverse();
+            let at = now.position + turn * (point - self.base.position);
+            return (
+                at,
+                turn * normal,
+                now.velocity + now.spin.cross(at - now.position),
+            );
+        }
         let at = point + (now.position - self.base.position);
         let slide = now.spin.cross(at - now.position);
         (

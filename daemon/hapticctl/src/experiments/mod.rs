@@ -14,11 +14,14 @@
 //! - [`stick_slip`]: a weight pulled through a spring sticks and slips (Fig. 5.13/5.14);
 //! - [`incline`]: a block on a slope just below and just past the friction angle (5.3.6);
 //! - [`effects`]: the periodic haptic effects and a cross-fade, within the force-rate limit;
-//! - [`pendulum`]: a hinged box's period against its amplitude, against the exact formula.
+//! - [`pendulum`]: a hinged box's period against its amplitude, against the exact formula;
+//! - [`door`]: a door pushed at its handle at 10–60 Hz physics, with local dynamics through
+//!   its hinge, against physics at the haptic rate (6.5.4, 7.2).
 //!
 //! Each module's `report` gives what `hapticctl experiment` prints and draws, as a
 //! [`Report`](crate::report::Report).
 
+pub mod door;
 pub mod effects;
 pub mod grasp;
 pub mod incline;

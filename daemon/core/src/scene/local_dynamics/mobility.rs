@@ -97,6 +97,16 @@ impl Mobility {
         if self.jointed { shift } else { DVec3::ZERO }
     }
 
+    /// How much faster than the hand a push may send the point it pushes. The proxy's
+    /// spring gives back what it stored: struck by a hand of any mass, a body leaves at up
+    /// to twice its speed (an elastic strike off a moving wall), and a door swung open at
+    /// its handle does (measured at 1 kHz physics, `hapticctl experiment door`). A jointed
+    /// body may: its joints keep it where it is. A free body is held to the hand's speed,
+    /// lest a light one under a deep finger be thrown across the scene.
+    pub fn release(&self) -> f64 {
+        if self.jointed { 2.0 } else { 1.0 }
+    }
+
     /// Whether joints hold the body.
     pub fn is_jointed(&self) -> bool {
         self.jointed

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::{
-    effects, grasp, incline, pendulum, push_mass, push_phase, shape_tracing, stack_timing,
+    door, effects, grasp, incline, pendulum, push_mass, push_phase, shape_tracing, stack_timing,
     stick_slip, wall_stiffness,
 };
 use hapticctl::report::Report;
@@ -46,6 +46,10 @@ pub enum Command {
     /// several physics rates: its period against the exact one of a large swing (joints,
     /// thesis 7.2).
     Pendulum(PendulumArgs),
+    /// Push a door open at its handle with the physics at 10, 30 and 60 Hz (local dynamics
+    /// through its hinge) against 1 kHz: its swing, and the moment about the hinge the hand
+    /// met (joints, thesis 6.5.4 and 7.2).
+    Door(Figure),
 }
 
 #[derive(Args)]
@@ -284,6 +288,10 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
             runs.extend(args.rates.iter().map(|&r| ("rapier", r)));
             let report = pendulum::report(&args.amplitudes, &runs);
             show_figure(report, &args.figure)
+        }
+        Command::Door(figure) => {
+            let report = door::report(&door::Door::default()).map_err(Failure::failed)?;
+            show_figure(report, &figure)
         }
         Command::PushMass(args) => {
             if !(2..=20).contains(&args.phases) {
