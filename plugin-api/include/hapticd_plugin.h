@@ -29,7 +29,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 7
+#define HAPTICD_ABI_MINOR 8
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -1061,4 +1061,43 @@ typedef struct HapticdSceneGeometry {
    */
   int32_t (*triangles)(void *instance, uint32_t first, uint32_t count, struct HapticdTriangle *out);
 } HapticdSceneGeometry;
+/* ---------------------------------------------------------------------------
+ * Scene extension "hapticd.scene.mobility/1": how a jointed body answers the hand.
+ * ------------------------------------------------------------------------- */
+
+#define HAPTICD_EXT_SCENE_MOBILITY "hapticd.scene.mobility/1"
+
+/*
+ How a body held by joints moves under a wrench, as the last step left it.
+ */
+typedef struct HapticdMobility {
+  /*
+   6×6, by row: the change of (velocity of the centre of mass, spin) that an impulse
+   (N·s, then N·m·s about the centre of mass, world axes) gives the body through its
+   joints. Symmetric, positive semi-definite; its null space is what the joints lock.
+   */
+  double mobility[6][6];
+  /*
+   The body's acceleration without the hand or contacts (gravity on the whole
+   mechanism, through its joints): the centre's (m/s²), then the spin's (rad/s²).
+   */
+  double acceleration[6];
+} HapticdMobility;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_MOBILITY`] of a multi-rate scene plugin.
+ */
+typedef struct HapticdSceneMobility {
+  /*
+   `sizeof(HapticdSceneMobility)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [physics, after `step_world`] Write the mobility of body `body` (as numbered in the
+   step's [`HapticdLocalBody`](crate::HapticdLocalBody)) to `out` and return
+   [`HAPTICD_OK`](crate::HAPTICD_OK), or [`HAPTICD_ERROR_ARGUMENT`](crate::HAPTICD_ERROR_ARGUMENT)
+   for a free body, which its mass and inertia describe.
+   */
+  int32_t (*mobility)(void *instance, uint32_t body, struct HapticdMobility *out);
+} HapticdSceneMobility;
 #endif  /* HAPTICD_PLUGIN_H */

@@ -215,14 +215,14 @@ impl HandRow {
     fn new(push: &Push, centre: DVec3, mobility: &Mobility, shift: DVec3, dt: f64) -> Self {
         let direction = push.force.normalize_or_zero();
         let r = push.point - centre;
-        let (moves, turn) = mobility.respond(direction, r.cross(direction), shift);
+        let (moves, turn, inverse) = mobility.unit(r, direction, shift);
         let most = push.force.length() * dt;
         HandRow {
             r,
             direction,
             moves,
             turn,
-            mass: mass((moves + turn.cross(r)).dot(direction)),
+            mass: mass(inverse),
             speed: push.speed * mobility.release(),
             most,
             amount: most,
@@ -289,7 +289,7 @@ impl LocalBody {
             let r = point - base.position;
             let (t1, t2) = tangents(normal);
             let directions = [normal, t1, t2];
-            let units = directions.map(|d| mobility.unit(r, d));
+            let units = directions.map(|d| mobility.unit(r, d, DVec3::ZERO));
             rows[count] = Row {
                 r,
                 directions,
@@ -450,10 +450,10 @@ impl LocalBody {
         sums: &mut [DVec3; HAPTICD_MAX_BODY_CONTACTS],
     ) -> Motion {
         let shift = m.position - self.base.position;
-        let (dv, dw) = self.mobility.respond(force * dt, torque * dt, shift);
+        let (dv, dw) = self.mobility.respond(force, torque, shift);
         let (a, alpha) = self.mobility.acceleration(shift);
-        let mut v = m.velocity + dv + a * dt;
-        let mut w = m.spin + dw + alpha * dt;
+        let mut v = m.velocity + (dv + a) * dt;
+        let mut w = m.spin + (dw + alpha) * dt;
         // Each push starts whole; the sweeps take back what would carry its point faster
         // than its hand.
         let mut hands = [HandRow::default(); MAX_EFFECTORS];
@@ -464,7 +464,7 @@ impl LocalBody {
             .take(MAX_EFFECTORS)
         {
             let row = HandRow::new(push, m.position, &self.mobility, shift, dt);
-            v += row.moves * row.most;
+            v += self.mobility.moved(row.direction, row.moves, row.most);
             w += row.turn * row.most;
             hands[hand_count] = row;
             hand_count += 1;
@@ -482,7 +482,7 @@ impl LocalBody {
             *closing = gap.max(0.0) / dt;
         }
         let push = |row: &Row, k: usize, amount: f64, v: &mut DVec3, w: &mut DVec3| {
-            *v += row.moves[k] * amount;
+            *v += self.mobility.moved(row.directions[k], row.moves[k], amount);
             *w += row.turns[k] * amount;
         };
         for (row, sum) in rows.iter().zip(sums.iter()) {
@@ -510,7 +510,9 @@ impl LocalBody {
             for hand in hands.iter_mut() {
                 let along = (v + w.cross(hand.r)).dot(hand.direction);
                 let amount = (hand.amount + (hand.speed - along) * hand.mass).clamp(0.0, hand.most);
-                v += hand.moves * (amount - hand.amount);
+                v += self
+                    .mobility
+                    .moved(hand.direction, hand.moves, amount - hand.amount);
                 w += hand.turn * (amount - hand.amount);
                 hand.amount = amount;
             }

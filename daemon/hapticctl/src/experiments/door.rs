@@ -255,7 +255,7 @@ pub fn report(door: &Door) -> Result<Report, ExperimentError> {
         charts: vec![Chart {
             title: "a door pushed at its handle, by physics rate".into(),
             x_label: "time [s]".into(),
-            y_label: "door angle [°]".into(),
+            y_label: "door angle [degrees]".into(),
             series,
             ..Chart::default()
         }],

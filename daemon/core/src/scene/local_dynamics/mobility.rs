@@ -78,11 +78,30 @@ impl Mobility {
         )
     }
 
-    /// The change an impulse of 1 N·s along `direction` at `r` from the centre gives, and
-    /// the point's inverse mass along it (0: the joints hold it).
-    pub fn unit(&self, r: DVec3, direction: DVec3) -> (DVec3, DVec3, f64) {
-        let (v, w) = self.respond(direction, r.cross(direction), DVec3::ZERO);
-        (v, w, (v + w.cross(r)).dot(direction).max(0.0))
+    /// The change an impulse of 1 N·s along `direction` at `r` from the centre gives, the
+    /// centre `shift` away from where it was published, and the point's inverse mass along
+    /// it (0: the joints hold it; a free body's reckoned as it always was).
+    pub fn unit(&self, r: DVec3, direction: DVec3, shift: DVec3) -> (DVec3, DVec3, f64) {
+        let arm = r.cross(direction);
+        let (v, w) = self.respond(direction, arm, shift);
+        let inverse = if self.jointed {
+            (v + w.cross(r)).dot(direction)
+        } else {
+            self.linear.x_axis.x + arm.dot(w)
+        };
+        (v, w, inverse.max(0.0))
+    }
+
+    /// The change of the centre's velocity an impulse of `amount` along `direction` gives,
+    /// `moves` being what a unit one gives ([`Mobility::unit`]). A free body's is reckoned
+    /// as it always was, to the last bit: the motion of a body tipped over by a finger
+    /// follows its rounding.
+    pub fn moved(&self, direction: DVec3, moves: DVec3, amount: f64) -> DVec3 {
+        if self.jointed {
+            moves * amount
+        } else {
+            direction * (amount * self.linear.x_axis.x)
+        }
     }
 
     /// The acceleration without the hand or contacts, the centre `shift` away from where it

@@ -405,3 +405,84 @@ fn a_record_that_is_not_finite_or_has_no_mass_is_refused() {
     record.inverse_mass = 0.0;
     assert!(LocalBody::new((&record, None), &Change::default(), 0.05, None).is_none());
 }
+
+/// The mobility of a slab of `mass`, `width` × `thickness` (tall along y), hinged along y
+/// through the origin, its centre `width / 2` along x, written as a plugin gives it: the
+/// twist S = (a × c, a) of a unit rate about the hinge, over the moment about it, S·Sᵀ / I.
+fn door(mass: f64, width: f64, thickness: f64) -> (HapticdLocalBody, HapticdMobility, f64) {
+    let centre = DVec3::new(width / 2.0, 0.0, 0.0);
+    let moment = mass * ((width * width + thickness * thickness) / 12.0 + width * width / 4.0);
+    let (v, w) = (DVec3::Y.cross(centre), DVec3::Y);
+    let twist = [v.x, v.y, v.z, w.x, w.y, w.z];
+    let mut mobility = HapticdMobility::default();
+    for (r, row) in mobility.mobility.iter_mut().enumerate() {
+        for (c, x) in row.iter_mut().enumerate() {
+            *x = twist[r] * twist[c] / moment;
+        }
+    }
+    let (mut record, _) = brick(mass, DVec3::ZERO);
+    record.position = centre.to_array();
+    (record, mobility, moment)
+}
+
+/// A hinged door pushed at its handle, 15 N for a 50 ms period: it turns about its hinge as
+/// its moment there says (τ·t / I), its hinge stays where it is, and a push along the hinge
+/// moves it not at all; the same door as a free slab moves off.
+#[test]
+fn a_jointed_door_turns_about_its_hinge_by_its_moment_there() {
+    let (record, mobility, moment) = door(2.4, 0.4, 0.02);
+    let handle = DVec3::new(0.35, 0.1, 0.0);
+    let hinge = DVec3::new(0.0, 0.1, 0.0);
+    let push = |force: DVec3| Push {
+        point: handle,
+        force,
+        speed: 10.0,
+    };
+    let mut body =
+        LocalBody::new((&record, Some(&mobility)), &Change::default(), 0.05, None).unwrap();
+    let force = DVec3::new(0.0, 0.0, 15.0);
+    for _ in 0..50 {
+        body.step(DVec3::ZERO, DVec3::ZERO, &[push(force)], DT);
+    }
+    let m = body.motion();
+    let expected = (handle - hinge).cross(force).y * 0.05 / moment;
+    println!("spin {:.6} rad/s, τ·t/I {expected:.6} rad/s", m.spin.y);
+    assert!((m.spin.y / expected - 1.0).abs() < 1e-9);
+    assert!(m.spin.x.abs() + m.spin.z.abs() < 1e-12);
+    // The hinge's point of the door: still, and where it was.
+    let at_hinge = m.velocity + m.spin.cross(hinge - m.position);
+    let turn = m.orientation * quat_from_wxyz(record.orientation).inverse();
+    let moved = m.position + turn * (hinge - DVec3::from(record.position)) - hinge;
+    println!(
+        "hinge: {:.2e} m/s, {:.2e} m off",
+        at_hinge.length(),
+        moved.length()
+    );
+    assert!(at_hinge.length() < 1e-12);
+    // A first-order step of 50 ticks off the circle by (ω·dt)²/2 a tick at most.
+    assert!(moved.length() < 50.0 * (m.spin.y * DT).powi(2) * 0.35);
+    let mut along =
+        LocalBody::new((&record, Some(&mobility)), &Change::default(), 0.05, None).unwrap();
+    along.step(DVec3::ZERO, DVec3::ZERO, &[push(DVec3::Y * 15.0)], DT);
+    assert!(along.motion().velocity.length() < 1e-12);
+    assert_eq!(along.motion().spin, DVec3::ZERO);
+    let mut free = LocalBody::new((&record, None), &Change::default(), 0.05, None).unwrap();
+    free.step(DVec3::ZERO, DVec3::ZERO, &[push(DVec3::Y * 15.0)], DT);
+    assert!(free.motion().velocity.y > 0.0);
+}
+
+/// A mobility that is not finite, not symmetric or moves a point against a push is no
+/// jointed body's.
+#[test]
+fn an_unsound_mobility_is_refused() {
+    let (record, mobility, _) = door(2.4, 0.4, 0.02);
+    assert!(Mobility::jointed(&mobility).is_some());
+    let mut broken = [mobility; 3];
+    broken[0].mobility[2][3] = f64::NAN;
+    broken[1].mobility[0][5] += 1.0;
+    broken[2].mobility[4][4] = -1.0;
+    for m in broken {
+        assert!(Mobility::jointed(&m).is_none());
+        assert!(LocalBody::new((&record, Some(&m)), &Change::default(), 0.05, None).is_none());
+    }
+}

@@ -401,3 +401,28 @@ fn a_damper_the_loop_cannot_render_is_caught_buzzing() {
         Some(OutputFault::ZigZag { axis: 1, .. })
     ));
 }
+
+/// A jointed body's mobility that is not finite or not symmetric is a fault of the world
+/// at its place; free bodies (none given) and sound ones pass.
+#[test]
+fn an_unsound_mobility_is_a_fault_at_its_place() {
+    let mut sound = HapticdMobility::default();
+    sound.mobility[3][3] = 2.0;
+    let mut mobilities = [None, Some(sound), None];
+    assert_eq!(check_mobilities(&mobilities, 3), Ok(()));
+    let mut broken = sound;
+    broken.mobility[3][4] = 1.0;
+    mobilities[2] = Some(broken);
+    assert_eq!(
+        check_mobilities(&mobilities, 3),
+        Err(OutputFault::MobilityUnsound { index: 2 })
+    );
+    assert_eq!(check_mobilities(&mobilities, 2), Ok(()));
+    broken.acceleration[0] = f64::NAN;
+    broken.mobility[3][4] = 0.0;
+    mobilities[0] = Some(broken);
+    assert_eq!(
+        check_mobilities(&mobilities, 3),
+        Err(OutputFault::MobilityUnsound { index: 0 })
+    );
+}
