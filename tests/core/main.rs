@@ -13,5 +13,6 @@ mod meshes;
 mod no_allocation;
 mod pose;
 mod rapier_meshes;
+mod robots;
 mod ros2_cdr;
 mod tension;

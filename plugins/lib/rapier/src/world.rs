@@ -274,19 +274,17 @@ impl RapierWorld {
                     .map(|k| collider(body, k, primitives[k]))
                     .collect(),
             };
-            // A mesh's mass and inertia are its closed volume's, not its pieces'.
-            let density = match surface {
-                Some(_) => {
-                    let m = Matrix::from_cols_array(&body.inertia.as_mat3().to_cols_array());
-                    let mass =
-                        MassProperties::with_inertia_matrix(Vector::ZERO, body.mass as f32, m);
-                    physics.bodies[handle].set_additional_mass_properties(mass, false);
-                    0.0
-                }
-                None => {
-                    let volume: f64 = body.pieces.iter().map(|p| volume_and_centroid(p).0).sum();
-                    (body.mass / volume) as f32
-                }
+            // A mesh's mass and inertia are its closed volume's, not its pieces', and a
+            // robot link's are as its description gives them.
+            let weighed = spec.weighed.get(i).copied().unwrap_or(false);
+            let density = if weighed || surface.is_some() {
+                let m = Matrix::from_cols_array(&body.inertia.as_mat3().to_cols_array());
+                let mass = MassProperties::with_inertia_matrix(Vector::ZERO, body.mass as f32, m);
+                physics.bodies[handle].set_additional_mass_properties(mass, false);
+                0.0
+            } else {
+                let volume: f64 = body.pieces.iter().map(|p| volume_and_centroid(p).0).sum();
+                (body.mass / volume) as f32
             };
             objects.push((pieces.len() as u32, colliders.len() as u32));
             for c in colliders {

@@ -3,13 +3,13 @@
 //! stability on the file's step. Every check reports at its key and goes on, so that a file
 //! gets all its mistakes at once.
 
-use glam::{DQuat, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use hapticd_core::diagnostics::Findings;
-use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
+use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT, quat_from_wxyz};
 
 use super::Engine;
 use super::meshes::{MeshBody, MeshFiles, mesh_body};
-use super::schema::{RawBody, RawEngine, RawMaterial, RawModel, RawScene, identity};
+use super::schema::{RawBody, RawEngine, RawInertial, RawMaterial, RawModel, RawScene, identity};
 use crate::body::Body;
 use crate::polyhedron::Polyhedron;
 use crate::world::{ContactModel, Scaling};
@@ -388,6 +388,8 @@ pub(super) struct Bodies {
     pub(super) surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
     /// Each body that is one box: its half edges and orientation, for grasping.
     pub(super) boxes: Vec<Option<(DVec3, DQuat)>>,
+    /// Whether each body's mass and inertia are given (`inertial:`), not its solid's.
+    pub(super) weighed: Vec<bool>,
 }
 
 /// The `bodies:` of a scene for `engine` with `pointers` pointers; those with a mistake are
@@ -417,6 +419,7 @@ pub(super) fn bodies(
     // Each body that is one box: its half edges and orientation (the body's frame starts
     // as the world's), for grasping.
     let mut boxes = Vec::with_capacity(raw.bodies.len());
+    let mut weighed = Vec::with_capacity(raw.bodies.len());
     let mut surfaces = Vec::with_capacity(raw.bodies.len());
     for (i, b) in raw.bodies.iter().enumerate() {
         let at = format!("bodies[{i}]");
@@ -447,12 +450,19 @@ pub(super) fn bodies(
                 ),
                 None => Body::compound(&solids, b.density, b.fixed),
             };
+            if let Some(given) = &b.inertial {
+                let Some(weighed) = inertial(f, &at, b, given, &solids, body.volume) else {
+                    continue;
+                };
+                body = weighed;
+            }
             (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
             surfaces.push(mesh.map(|m| {
                 let centre = body.position;
                 m.surface.iter().map(|t| t.map(|c| c - centre)).collect()
             }));
             bodies.push(body);
+            weighed.push(b.inertial.is_some());
             boxes.push(match (kinds.as_slice(), &b.pieces) {
                 ([Primitive::Cuboid { half, rotation }], None) => Some((*half, *rotation)),
                 _ => None,
@@ -474,6 +484,71 @@ pub(super) fn bodies(
         primitives,
         surfaces,
         boxes,
+        weighed,
+    })
+}
+
+/// Heaviest and lightest body an `inertial:` may give, kg.
+const INERTIAL_MASS: (f64, f64) = (1e-5, 1e5);
+
+/// Body `b` (at `at`) touching through `solids` of `volume`, weighing as `given` says; None
+/// after reporting what is wrong: a mass out of range, an inertia that is not a solid's
+/// (not positive definite, or one moment larger than the other two together).
+fn inertial(
+    f: &mut Findings,
+    at: &str,
+    b: &RawBody,
+    given: &RawInertial,
+    solids: &[Polyhedron],
+    volume: f64,
+) -> Option<Body> {
+    let (light, heavy) = INERTIAL_MASS;
+    let mut ok = f.within(
+        format!("{at}.inertial.mass"),
+        given.mass,
+        light,
+        heavy,
+        " kg",
+    );
+    ok &= f.coordinates(
+        format!("{at}.inertial.centre"),
+        &given.centre,
+        WORLD_EXTENT,
+        "m",
+    );
+    let [xx, yy, zz, xy, xz, yz] = given.inertia;
+    let tensor = DMat3::from_cols(
+        DVec3::new(xx, xy, xz),
+        DVec3::new(xy, yy, yz),
+        DVec3::new(xz, yz, zz),
+    );
+    let field = format!("{at}.inertial.inertia");
+    if f.finite(field.clone(), &given.inertia) {
+        // Leading minors positive: positive definite; each moment at most the other two's
+        // sum, as any solid's are.
+        let minors = [xx, xx * yy - xy * xy, tensor.determinant()];
+        let triangle = xx <= yy + zz && yy <= xx + zz && zz <= xx + yy;
+        if !(minors.iter().all(|&m| m > 0.0) && triangle) {
+            f.error(
+                field,
+                "is no solid's inertia: it must be positive definite, each moment at most \
+                 the sum of the other two",
+            );
+            ok = false;
+        }
+    } else {
+        ok = false;
+    }
+    ok.then(|| {
+        let turn = quat_from_wxyz(b.orientation).normalize();
+        let axes = DMat3::from_quat(turn);
+        Body::from_parts(
+            solids,
+            (volume, given.mass),
+            DVec3::from(b.position) + turn * DVec3::from(given.centre),
+            axes * tensor * axes.transpose(),
+            b.fixed,
+        )
     })
 }
 

@@ -54,25 +54,25 @@ const FASTEST_MOTOR: f64 = 100.0;
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawJoint {
-    name: Option<String>,
-    kind: JointKind,
-    bodies: [String; 2],
-    anchor: [f64; 3],
-    axis: Option<[f64; 3]>,
-    limits: Option<[f64; 2]>,
+    pub(super) name: Option<String>,
+    pub(super) kind: JointKind,
+    pub(super) bodies: [String; 2],
+    pub(super) anchor: [f64; 3],
+    pub(super) axis: Option<[f64; 3]>,
+    pub(super) limits: Option<[f64; 2]>,
     #[serde(default)]
-    restitution: f64,
+    pub(super) restitution: f64,
     #[serde(default)]
-    stiffness: f64,
+    pub(super) stiffness: f64,
     #[serde(default)]
-    damping: f64,
-    motor: Option<RawMotor>,
+    pub(super) damping: f64,
+    pub(super) motor: Option<RawMotor>,
 }
 
 /// A joint's `motor:`.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawMotor {
+pub(super) struct RawMotor {
     velocity: Option<f64>,
     position: Option<f64>,
     max_force: f64,

@@ -148,6 +148,7 @@ mod penalty;
 mod rapier;
 mod schema;
 mod stepping;
+mod urdf;
 
 use std::path::Path;
 
@@ -241,6 +242,7 @@ impl SceneFile {
         }
         let locate = |field: &str| map.find(field);
         let mut f = Findings::after_schema(path, &locate, parsed.schema);
+        urdf::expand(&mut f, &mut raw, path);
         let (engine, penalty) = checks::scene_keys(&mut f, &raw);
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());

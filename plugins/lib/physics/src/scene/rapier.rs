@@ -59,6 +59,8 @@ pub struct RapierScene {
     /// The triangles of each body that is a mesh, in its frame: a fixed one's collider, and
     /// what is drawn instead of a body's convex pieces.
     pub surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
+    /// Whether each body's mass and inertia are given (a robot's link), not its solids'.
+    pub weighed: Vec<bool>,
     /// Names of the bodies.
     pub names: Vec<String>,
     /// The joints between the bodies.
@@ -82,6 +84,7 @@ impl RapierScene {
             bodies,
             primitives,
             surfaces,
+            weighed,
             ..
         } = bodies;
         let feedback = match raw.feedback {
@@ -99,6 +102,7 @@ impl RapierScene {
             bodies,
             primitives,
             surfaces,
+            weighed,
             names: raw.bodies.into_iter().map(|b| b.name).collect(),
             joints,
             pointer: pointer.map(|(shape, primitive)| {

@@ -27,6 +27,9 @@ pub(super) struct RawScene {
     pub(super) grasp: Option<RawGrasp>,
     #[serde(default)]
     pub(super) joints: Vec<super::joints::RawJoint>,
+    /// URDF robots, read into `bodies` and `joints` before any check.
+    #[serde(default)]
+    pub(super) urdf: Vec<RawRobot>,
 }
 
 /// `grasp:`.
@@ -146,6 +149,81 @@ pub(super) struct RawBody {
     /// How its mesh is felt across faces (shaded by the daemon).
     #[allow(dead_code)]
     pub(super) shading: Option<hapticd_core::haptics::shading::Shading>,
+    /// Its mass and inertia as given, instead of its solid's at `density`.
+    pub(super) inertial: Option<RawInertial>,
+}
+
+impl RawBody {
+    /// A body called `name` at `position` and `orientation`, its solid yet to be given.
+    pub(super) fn placed(
+        name: String,
+        position: [f64; 3],
+        orientation: [f64; 4],
+        fixed: bool,
+    ) -> Self {
+        RawBody {
+            name,
+            size: None,
+            hull: None,
+            sphere: None,
+            pieces: None,
+            mesh: None,
+            scale: None,
+            up: None,
+            position,
+            orientation,
+            fixed,
+            density: water(),
+            velocity: [0.0; 3],
+            spin: [0.0; 3],
+            texture: None,
+            transient: None,
+            shading: None,
+            inertial: None,
+        }
+    }
+}
+
+/// One of `urdf:` as YAML gives it.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRobot {
+    /// The URDF file, relative to the scene file.
+    pub(super) file: String,
+    /// Where the root link's frame is, metres.
+    #[serde(default)]
+    pub(super) position: [f64; 3],
+    /// How the robot is turned (w, x, y, z): a URDF's z is up, a scene's y.
+    #[serde(default = "identity")]
+    pub(super) orientation: [f64; 4],
+    /// What its bodies' and joints' names start with (default: the URDF's robot name).
+    pub(super) name: Option<String>,
+    /// Whether the world holds its root link.
+    #[serde(default)]
+    pub(super) base: RawBase,
+}
+
+/// `base:`.
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawBase {
+    #[default]
+    Fixed,
+    Free,
+}
+
+/// A body's `inertial:`: its mass, centre of mass and inertia about it, as a robot's
+/// description gives them (the solid then only touches).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawInertial {
+    /// kg.
+    pub(super) mass: f64,
+    /// The centre of mass in the body's frame (from its `position`, along its axes), m.
+    #[serde(default)]
+    pub(super) centre: [f64; 3],
+    /// About the centre of mass, the body's axes: [ixx, iyy, izz, ixy, ixz, iyz], kg·m².
+    pub(super) inertia: [f64; 6],
 }
 
 /// One of a body's `pieces:`.

@@ -1,0 +1,714 @@
+//! A URDF robot placed in a scene (`urdf:`, thesis 7.2's "robots"): the ROS ecosystem's
+//! robot description read into the scene's own bodies and joints, so both engines run it
+//! and every check of a scene file applies to it.
+//!
+//! Each link with a `<collision>` becomes a body named `ROBOT.LINK`: its boxes, spheres
+//! and cylinders (a 24-sided prism) become its pieces, or its one mesh (read by the mesh
+//! readers, relative to the URDF file) its mesh; its `<inertial>` gives its mass, centre of
+//! mass and inertia (a link without one weighs its collision solids at water's density).
+//! Each `revolute`, `continuous`, `prismatic` and `fixed` joint becomes a joint at its frame
+//! as the robot stands at load (every coordinate 0), with the URDF's `<limit>` (revolute
+//! and prismatic) and `<dynamics damping>`. The root link is held by the world (`base:
+//! fixed`, the default, as ROS places a robot) or free (`base: free`); a root without a
+//! collision is the world itself (ROS's `world` link). Elements hapticd does not use
+//! (`<visual>`, `<material>`, `<transmission>`, `<gazebo>`, a joint's `<safety_controller>`)
+//! are skipped, as the URDF specification asks of readers.
+//!
+//! Read with `roxmltree`, our own reading of what the specification says: `urdf-rs` brings
+//! three XML parsers and a regex engine for what this needs of one.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DQuat, DVec3};
+
+use hapticd_core::diagnostics::Findings;
+use hapticd_core::kinematics::WORLD_EXTENT;
+
+use super::joints::RawJoint;
+use super::schema::{RawBase, RawBody, RawInertial, RawPiece, RawRobot, RawScene};
+use crate::joint::JointKind;
+
+/// Largest URDF file read, bytes.
+const MAX_URDF_BYTES: u64 = 16 << 20;
+/// Sides of the prism a cylinder is read as.
+const CYLINDER_SIDES: usize = 24;
+/// Most links a robot may have.
+const MAX_LINKS: usize = 64;
+
+/// What is wrong with a URDF file, and where.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfError {
+    /// The line (1-based; 0 for the whole file).
+    pub line: u32,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl std::fmt::Display for UrdfError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line > 0 {
+            write!(f, "line {}: {}", self.line, self.message)
+        } else {
+            f.write_str(&self.message)
+        }
+    }
+}
+
+/// A placement in a link's or joint's frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Frame {
+    at: DVec3,
+    turn: DQuat,
+}
+
+impl Frame {
+    const IDENTITY: Frame = Frame {
+        at: DVec3::ZERO,
+        turn: DQuat::IDENTITY,
+    };
+
+    /// The parent's placement in this frame.
+    fn inverse(&self) -> Frame {
+        let turn = self.turn.inverse();
+        Frame {
+            at: -(turn * self.at),
+            turn,
+        }
+    }
+
+    /// `inner` (given in this frame) in this frame's parent.
+    fn then(&self, inner: &Frame) -> Frame {
+        Frame {
+            at: self.at + self.turn * inner.at,
+            turn: (self.turn * inner.turn).normalize(),
+        }
+    }
+}
+
+/// A collision solid of a link.
+#[derive(Debug, Clone, PartialEq)]
+enum Shape {
+    Box([f64; 3]),
+    Sphere(f64),
+    Cylinder { radius: f64, length: f64 },
+    Mesh { file: PathBuf, scale: f64 },
+}
+
+/// A link as the URDF gives it.
+#[derive(Debug, Clone, PartialEq)]
+struct Link {
+    name: String,
+    /// Mass, centre of mass and inertia about it, in the link's frame.
+    inertial: Option<(f64, DVec3, DMat3)>,
+    collisions: Vec<(Frame, Shape)>,
+}
+
+/// A joint as the URDF gives it.
+#[derive(Debug, Clone, PartialEq)]
+struct UrdfJoint {
+    name: String,
+    kind: JointKind,
+    parent: String,
+    child: String,
+    /// The child link's frame in the parent's, at coordinate 0.
+    origin: Frame,
+    /// Unit, in the joint's frame.
+    axis: DVec3,
+    limits: Option<[f64; 2]>,
+    damping: f64,
+}
+
+/// A robot as the URDF gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Robot {
+    name: String,
+    links: Vec<Link>,
+    joints: Vec<UrdfJoint>,
+    tree: Tree,
+}
+
+/// How a robot's links hang together.
+#[derive(Debug, Clone, PartialEq)]
+struct Tree {
+    /// Each link's frame at load, in the root's.
+    frames: Vec<Frame>,
+    /// The root link.
+    base: usize,
+    /// The joint whose child each link is (none for the root).
+    parents: Vec<Option<usize>>,
+}
+
+/// Read each of `raw`'s URDF robots (files relative to the scene file at `scene`) into its
+/// bodies and joints; what is wrong with one is reported at its `file`.
+pub(super) fn expand(f: &mut Findings, raw: &mut RawScene, scene: &Path) {
+    let dir = hapticd_core::diagnostics::directory_of(scene).to_path_buf();
+    let robots = std::mem::take(&mut raw.urdf);
+    for (k, robot) in robots.iter().enumerate() {
+        let at = format!("urdf[{k}]");
+        let ok = f.coordinates(format!("{at}.position"), &robot.position, WORLD_EXTENT, "m");
+        f.unit_quaternion(format!("{at}.orientation"), robot.orientation);
+        let file = dir.join(&robot.file);
+        let read = read(&file).and_then(|text| {
+            let from = hapticd_core::diagnostics::directory_of(&file);
+            Robot::parse(&text, from)?.entries(robot)
+        });
+        match read {
+            Ok((bodies, joints)) if ok && !f.has_errors() => {
+                raw.bodies.extend(bodies);
+                raw.joints.extend(joints);
+            }
+            Ok(_) => {}
+            Err(e) => f.error(format!("{at}.file"), format!("{}: {e}", file.display())),
+        }
+    }
+    raw.urdf = robots;
+}
+
+/// The text of URDF file `path`.
+fn read(path: &Path) -> Result<String, UrdfError> {
+    let whole = |message: String| UrdfError { line: 0, message };
+    let size = std::fs::metadata(path)
+        .map_err(|e| whole(e.to_string()))?
+        .len();
+    if size > MAX_URDF_BYTES {
+        return Err(whole(format!(
+            "{size} bytes; a URDF file may hold at most {MAX_URDF_BYTES}"
+        )));
+    }
+    std::fs::read_to_string(path).map_err(|e| whole(e.to_string()))
+}
+
+/// An element's line.
+fn line(node: roxmltree::Node<'_, '_>) -> u32 {
+    node.document().text_pos_at(node.range().start).row
+}
+
+fn error(node: roxmltree::Node<'_, '_>, message: impl Into<String>) -> UrdfError {
+    UrdfError {
+        line: line(node),
+        message: message.into(),
+    }
+}
+
+/// The element children of `node` named `tag`.
+fn children<'a, 'i>(
+    node: roxmltree::Node<'a, 'i>,
+    tag: &'static str,
+) -> impl Iterator<Item = roxmltree::Node<'a, 'i>> {
+    node.children()
+        .filter(move |n| n.is_element() && n.tag_name().name() == tag)
+}
+
+/// The one child of `node` named `tag`, if any (two are a mistake).
+fn child<'a, 'i>(
+    node: roxmltree::Node<'a, 'i>,
+    tag: &'static str,
+) -> Result<Option<roxmltree::Node<'a, 'i>>, UrdfError> {
+    let mut found = children(node, tag);
+    let first = found.next();
+    match found.next() {
+        Some(second) => Err(error(second, format!("a second <{tag}>"))),
+        None => Ok(first),
+    }
+}
+
+/// Attribute `name` of `node`, which must be there.
+fn attribute<'a>(node: roxmltree::Node<'a, '_>, name: &str) -> Result<&'a str, UrdfError> {
+    node.attribute(name)
+        .ok_or_else(|| error(node, format!("<{}> lacks `{name}`", node.tag_name().name())))
+}
+
+/// The `N` finite numbers of attribute `name` of `node`, or `default` when it is absent
+/// and one is given.
+fn numbers<const N: usize>(
+    node: roxmltree::Node<'_, '_>,
+    name: &str,
+    default: Option<[f64; N]>,
+) -> Result<[f64; N], UrdfError> {
+    let Some(text) = node.attribute(name) else {
+        return default
+            .ok_or_else(|| error(node, format!("<{}> lacks `{name}`", node.tag_name().name())));
+    };
+    let values: Vec<f64> = text
+        .split_whitespace()
+        .map(str::parse)
+        .collect::<Result<_, _>>()
+        .map_err(|_| error(node, format!("`{name}` must be numbers, not `{text}`")))?;
+    let values: [f64; N] = values
+        .try_into()
+        .map_err(|_| error(node, format!("`{name}` must be {N} numbers, not `{text}`")))?;
+    if values.iter().all(|v| v.is_finite()) {
+        Ok(values)
+    } else {
+        Err(error(
+            node,
+            format!("`{name}` must be finite, not `{text}`"),
+        ))
+    }
+}
+
+/// One number of attribute `name`.
+fn number(
+    node: roxmltree::Node<'_, '_>,
+    name: &str,
+    default: Option<f64>,
+) -> Result<f64, UrdfError> {
+    numbers::<1>(node, name, default.map(|d| [d])).map(|[v]| v)
+}
+
+/// The `<origin>` child of `node` (none: the identity).
+fn origin(node: roxmltree::Node<'_, '_>) -> Result<Frame, UrdfError> {
+    let Some(o) = child(node, "origin")? else {
+        return Ok(Frame::IDENTITY);
+    };
+    let at = numbers::<3>(o, "xyz", Some([0.0; 3]))?;
+    let [roll, pitch, yaw] = numbers::<3>(o, "rpy", Some([0.0; 3]))?;
+    // Fixed axes x, then y, then z: R = Rz(yaw)·Ry(pitch)·Rx(roll).
+    let turn =
+        DQuat::from_rotation_z(yaw) * DQuat::from_rotation_y(pitch) * DQuat::from_rotation_x(roll);
+    Ok(Frame {
+        at: DVec3::from(at),
+        turn,
+    })
+}
+
+impl Robot {
+    /// The robot of URDF `text`, whose relative mesh paths start at `dir`.
+    pub(super) fn parse(text: &str, dir: &Path) -> Result<Robot, UrdfError> {
+        let doc = roxmltree::Document::parse(text).map_err(|e| UrdfError {
+            line: e.pos().row,
+            message: e.to_string(),
+        })?;
+        let root = doc.root_element();
+        if root.tag_name().name() != "robot" {
+            return Err(error(root, "a URDF's root element is <robot>"));
+        }
+        let name = attribute(root, "name")?.to_string();
+        let links = children(root, "link")
+            .map(|l| link(l, dir))
+            .collect::<Result<Vec<_>, _>>()?;
+        if links.is_empty() || links.len() > MAX_LINKS {
+            return Err(error(
+                root,
+                format!("1 to {MAX_LINKS} links, not {}", links.len()),
+            ));
+        }
+        let joints = children(root, "joint")
+            .map(joint)
+            .collect::<Result<Vec<_>, _>>()?;
+        let tree = tree(&links, &joints).map_err(|m| error(root, m))?;
+        Ok(Robot {
+            name,
+            links,
+            joints,
+            tree,
+        })
+    }
+
+    /// The robot's bodies and joints as scene entries, placed by `robot` (the `urdf:` entry).
+    /// Links welded by `fixed` joints are one body, named after the link nearest the root
+    /// (as MuJoCo and Pinocchio read them): a weld between two bodies would only stiffen
+    /// the step, and a URDF's welded sensor weighs grams (RRBot's camera 10 mg).
+    pub(super) fn entries(
+        &self,
+        robot: &RawRobot,
+    ) -> Result<(Vec<RawBody>, Vec<RawJoint>), UrdfError> {
+        let prefix = robot.name.clone().unwrap_or_else(|| self.name.clone());
+        let [w, x, y, z] = robot.orientation;
+        let placed = Frame {
+            at: DVec3::from(robot.position),
+            turn: DQuat::from_xyzw(x, y, z, w).normalize(),
+        };
+        let fixed = robot.base == RawBase::Fixed;
+        // Each link's body: the nearest link up its welds.
+        let owners: Vec<usize> = (0..self.links.len())
+            .map(|mut at| {
+                while let Some(k) =
+                    self.tree.parents[at].filter(|&k| self.joints[k].kind == JointKind::Fixed)
+                {
+                    at = self.index(&self.joints[k].parent);
+                }
+                at
+            })
+            .collect();
+        let owner = &owners[..];
+        let members = |o: usize| (0..self.links.len()).filter(move |&i| owner[i] == o);
+        let is_world = |o: usize| {
+            o == self.tree.base && fixed && members(o).all(|i| self.links[i].collisions.is_empty())
+        };
+        let name_of = &|i: usize| {
+            if is_world(owner[i]) {
+                super::joints::WORLD.to_string()
+            } else {
+                format!("{prefix}.{}", self.links[owner[i]].name)
+            }
+        };
+        let mut bodies = Vec::new();
+        for o in (0..self.links.len()).filter(|&o| owner[o] == o && !is_world(o)) {
+            let inside = |i: usize| self.tree.frames[o].inverse().then(&self.tree.frames[i]);
+            let collisions: Vec<(Frame, Shape)> = members(o)
+                .flat_map(|i| {
+                    let frame = inside(i);
+                    self.links[i]
+                        .collisions
+                        .iter()
+                        .map(move |(at, shape)| (frame.then(at), shape.clone()))
+                })
+                .collect();
+            let inertials: Vec<(f64, DVec3, DMat3)> = members(o)
+                .filter_map(|i| {
+                    let (mass, centre, inertia) = self.links[i].inertial?;
+                    let frame = inside(i);
+                    let turn = DMat3::from_quat(frame.turn);
+                    Some((
+                        mass,
+                        frame.at + frame.turn * centre,
+                        turn * inertia * turn.transpose(),
+                    ))
+                })
+                .collect();
+            let frame = placed.then(&self.tree.frames[o]);
+            bodies.push(body(
+                &self.links[o].name,
+                (name_of(o), frame, fixed && o == self.tree.base),
+                &collisions,
+                combined(&inertials),
+            )?);
+        }
+        let joints = self
+            .joints
+            .iter()
+            .filter(|j| j.kind != JointKind::Fixed)
+            .map(|j| {
+                let (parent, child) = (self.index(&j.parent), self.index(&j.child));
+                let frame = placed.then(&self.tree.frames[child]);
+                RawJoint {
+                    name: Some(format!("{prefix}.{}", j.name)),
+                    kind: j.kind,
+                    bodies: [name_of(parent), name_of(child)],
+                    anchor: frame.at.to_array(),
+                    axis: Some((frame.turn * j.axis).to_array()),
+                    limits: j.limits,
+                    restitution: 0.0,
+                    stiffness: 0.0,
+                    damping: j.damping,
+                    motor: None,
+                }
+            })
+            .collect();
+        Ok((bodies, joints))
+    }
+
+    /// The index of the link called `name` (checked to be there when read).
+    fn index(&self, name: &str) -> usize {
+        self.links
+            .iter()
+            .position(|l| l.name == name)
+            .expect("a joint's links are checked when read")
+    }
+}
+
+/// Masses, centres and inertias (in one frame) as one body's: their sum, the centre of
+/// them all, and each inertia moved there (parallel axes). None for none.
+fn combined(parts: &[(f64, DVec3, DMat3)]) -> Option<(f64, DVec3, DMat3)> {
+    let mass: f64 = parts.iter().map(|p| p.0).sum();
+    if parts.is_empty() || mass <= 0.0 {
+        return None;
+    }
+    let centre = parts.iter().map(|p| p.1 * p.0).sum::<DVec3>() / mass;
+    let inertia = parts.iter().fold(DMat3::ZERO, |sum, &(m, c, i)| {
+        let d = c - centre;
+        sum + i
+            + (DMat3::from_diagonal(DVec3::splat(d.length_squared()))
+                - DMat3::from_cols(d * d.x, d * d.y, d * d.z))
+                * m
+    });
+    Some((mass, centre, inertia))
+}
+
+/// Each link's frame at load in the root's, the root's index and the joint whose child each
+/// link is: every link named once,
+/// every joint between two of them, each link but the root the child of one joint, and no
+/// loop.
+fn tree(links: &[Link], joints: &[UrdfJoint]) -> Result<Tree, String> {
+    let mut index = HashMap::new();
+    for (i, l) in links.iter().enumerate() {
+        if index.insert(l.name.as_str(), i).is_some() {
+            return Err(format!("two links are called `{}`", l.name));
+        }
+    }
+    let mut parent_of: Vec<Option<usize>> = vec![None; links.len()];
+    let mut names = HashMap::new();
+    for (k, j) in joints.iter().enumerate() {
+        let find = |name: &str| {
+            index
+                .get(name)
+                .copied()
+                .ok_or_else(|| format!("joint `{}` names no link `{name}`", j.name))
+        };
+        let child = find(&j.child)?;
+        find(&j.parent)?;
+        if names.insert(j.name.as_str(), k).is_some() {
+            return Err(format!("two joints are called `{}`", j.name));
+        }
+        if parent_of[child].replace(k).is_some() {
+            return Err(format!("link `{}` is the child of two joints", j.child));
+        }
+    }
+    let roots: Vec<usize> = (0..links.len())
+        .filter(|&i| parent_of[i].is_none())
+        .collect();
+    let [base] = roots[..] else {
+        return Err(format!(
+            "one link must be no joint's child, not {}",
+            roots.len()
+        ));
+    };
+    // From each link up toward the root: a loop never reaches it.
+    let mut frames = vec![None; links.len()];
+    frames[base] = Some(Frame::IDENTITY);
+    for start in 0..links.len() {
+        let mut path = Vec::new();
+        let mut at = start;
+        while frames[at].is_none() {
+            let Some(k) = parent_of[at] else { break };
+            if path.len() > links.len() {
+                return Err("its joints make a loop".into());
+            }
+            path.push(k);
+            at = index[joints[k].parent.as_str()];
+        }
+        let mut frame = frames[at].unwrap_or(Frame::IDENTITY);
+        for &k in path.iter().rev() {
+            frame = frame.then(&joints[k].origin);
+            frames[index[joints[k].child.as_str()]] = Some(frame);
+        }
+    }
+    Ok(Tree {
+        frames: frames
+            .into_iter()
+            .map(|f| f.unwrap_or(Frame::IDENTITY))
+            .collect(),
+        base,
+        parents: parent_of,
+    })
+}
+
+/// A `<link>`.
+fn link(node: roxmltree::Node<'_, '_>, dir: &Path) -> Result<Link, UrdfError> {
+    let name = attribute(node, "name")?.to_string();
+    let inertial = match child(node, "inertial")? {
+        None => None,
+        Some(i) => {
+            let frame = origin(i)?;
+            let mass_node = child(i, "mass")?.ok_or_else(|| error(i, "<inertial> lacks <mass>"))?;
+            let mass = number(mass_node, "value", None)?;
+            let t = child(i, "inertia")?.ok_or_else(|| error(i, "<inertial> lacks <inertia>"))?;
+            let get = |key| number(t, key, Some(0.0));
+            let (xx, yy, zz) = (get("ixx")?, get("iyy")?, get("izz")?);
+            let (xy, xz, yz) = (get("ixy")?, get("ixz")?, get("iyz")?);
+            let tensor = DMat3::from_cols(
+                DVec3::new(xx, xy, xz),
+                DVec3::new(xy, yy, yz),
+                DVec3::new(xz, yz, zz),
+            );
+            let turn = DMat3::from_quat(frame.turn);
+            Some((mass, frame.at, turn * tensor * turn.transpose()))
+        }
+    };
+    let collisions = children(node, "collision")
+        .map(|c| {
+            let frame = origin(c)?;
+            let g =
+                child(c, "geometry")?.ok_or_else(|| error(c, "<collision> lacks <geometry>"))?;
+            Ok((frame, shape(g, dir)?))
+        })
+        .collect::<Result<Vec<_>, UrdfError>>()?;
+    Ok(Link {
+        name,
+        inertial,
+        collisions,
+    })
+}
+
+/// A `<geometry>`'s one shape.
+fn shape(g: roxmltree::Node<'_, '_>, dir: &Path) -> Result<Shape, UrdfError> {
+    let mut shapes = g.children().filter(|n| n.is_element());
+    let (Some(s), None) = (shapes.next(), shapes.next()) else {
+        return Err(error(g, "<geometry> holds exactly one shape"));
+    };
+    match s.tag_name().name() {
+        "box" => Ok(Shape::Box(numbers::<3>(s, "size", None)?)),
+        "sphere" => Ok(Shape::Sphere(number(s, "radius", None)?)),
+        "cylinder" => Ok(Shape::Cylinder {
+            radius: number(s, "radius", None)?,
+            length: number(s, "length", None)?,
+        }),
+        "mesh" => {
+            let file = attribute(s, "filename")?;
+            let [sx, sy, sz] = numbers::<3>(s, "scale", Some([1.0; 3]))?;
+            if sx != sy || sy != sz {
+                return Err(error(s, "a mesh's scale must be the same along each axis"));
+            }
+            let path = file.strip_prefix("file://").unwrap_or(file);
+            if path.contains("://") {
+                return Err(error(
+                    s,
+                    format!("`{file}`: give the mesh's path, absolute or from the URDF file"),
+                ));
+            }
+            Ok(Shape::Mesh {
+                file: dir.join(path),
+                scale: sx,
+            })
+        }
+        other => Err(error(
+            s,
+            format!("<{other}> is no shape (box, sphere, cylinder, mesh)"),
+        )),
+    }
+}
+
+/// A `<joint>`.
+fn joint(node: roxmltree::Node<'_, '_>) -> Result<UrdfJoint, UrdfError> {
+    let name = attribute(node, "name")?.to_string();
+    let kind_text = attribute(node, "type")?;
+    let kind = match kind_text {
+        "revolute" | "continuous" => JointKind::Revolute,
+        "prismatic" => JointKind::Prismatic,
+        "fixed" => JointKind::Fixed,
+        other => {
+            return Err(error(
+                node,
+                format!(
+                    "joint `{name}`: `{other}` joints are not taken (revolute, continuous, prismatic, fixed)"
+                ),
+            ));
+        }
+    };
+    let link_of = |tag: &'static str| -> Result<String, UrdfError> {
+        let n = child(node, tag)?
+            .ok_or_else(|| error(node, format!("joint `{name}` lacks <{tag}>")))?;
+        Ok(attribute(n, "link")?.to_string())
+    };
+    let axis = match child(node, "axis")? {
+        Some(a) => {
+            let v = DVec3::from(numbers::<3>(a, "xyz", None)?);
+            v.try_normalize()
+                .ok_or_else(|| error(a, format!("joint `{name}`: a zero axis")))?
+        }
+        None => DVec3::X,
+    };
+    let limits = match (kind_text, child(node, "limit")?) {
+        ("revolute" | "prismatic", Some(l)) => Some([
+            number(l, "lower", Some(0.0))?,
+            number(l, "upper", Some(0.0))?,
+        ]),
+        ("revolute" | "prismatic", None) => {
+            return Err(error(
+                node,
+                format!("joint `{name}`: a {kind_text} joint needs <limit>"),
+            ));
+        }
+        _ => None,
+    };
+    let damping = match child(node, "dynamics")? {
+        Some(d) => number(d, "damping", Some(0.0))?,
+        None => 0.0,
+    };
+    let (parent, child_link) = (link_of("parent")?, link_of("child")?);
+    Ok(UrdfJoint {
+        name,
+        kind,
+        parent,
+        child: child_link,
+        origin: origin(node)?,
+        axis,
+        limits,
+        damping,
+    })
+}
+
+/// The body of link `link` and those welded to it, called `name`, its frame at `frame`,
+/// with their `collisions` and combined `inertial` in its frame.
+fn body(
+    link: &str,
+    (name, frame, fixed): (String, Frame, bool),
+    collisions: &[(Frame, Shape)],
+    inertial: Option<(f64, DVec3, DMat3)>,
+) -> Result<RawBody, UrdfError> {
+    let whole = |message: String| UrdfError { line: 0, message };
+    let orientation = [frame.turn.w, frame.turn.x, frame.turn.y, frame.turn.z];
+    let mut b = RawBody::placed(name, frame.at.to_array(), orientation, fixed);
+    match collisions {
+        [] => {
+            return Err(whole(format!(
+                "link `{link}` has no <collision>: every moving link needs a solid"
+            )));
+        }
+        [(at, Shape::Mesh { file, scale })] => {
+            if at.at.length() > 1e-12 || at.turn.angle_between(DQuat::IDENTITY) > 1e-12 {
+                return Err(whole(format!(
+                    "link `{link}`: a mesh's <origin> must be the link's own"
+                )));
+            }
+            b.mesh = Some(file.to_string_lossy().into_owned());
+            b.scale = Some(*scale);
+        }
+        _ => {
+            let pieces = collisions
+                .iter()
+                .map(|(at, s)| piece(link, at, s))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(whole)?;
+            b.pieces = Some(pieces);
+        }
+    }
+    b.inertial = inertial.map(|(mass, centre, inertia)| RawInertial {
+        mass,
+        centre: centre.to_array(),
+        inertia: [
+            inertia.x_axis.x,
+            inertia.y_axis.y,
+            inertia.z_axis.z,
+            inertia.y_axis.x,
+            inertia.z_axis.x,
+            inertia.z_axis.y,
+        ],
+    });
+    Ok(b)
+}
+
+/// A collision solid of link `link` at `at` in its frame, as a scene piece.
+fn piece(link: &str, at: &Frame, s: &Shape) -> Result<RawPiece, String> {
+    let mut p = RawPiece {
+        size: None,
+        hull: None,
+        sphere: None,
+        position: at.at.to_array(),
+        orientation: [at.turn.w, at.turn.x, at.turn.y, at.turn.z],
+    };
+    match *s {
+        Shape::Box(size) => p.size = Some(size),
+        Shape::Sphere(radius) => p.sphere = Some(radius),
+        Shape::Cylinder { radius, length } => {
+            // Along the frame's z, as URDF's cylinders stand.
+            p.hull = Some(
+                (0..CYLINDER_SIDES)
+                    .flat_map(|k| {
+                        let a = std::f64::consts::TAU * k as f64 / CYLINDER_SIDES as f64;
+                        let (x, y) = (radius * a.cos(), radius * a.sin());
+                        [[x, y, -length / 2.0], [x, y, length / 2.0]]
+                    })
+                    .collect(),
+            );
+        }
+        Shape::Mesh { .. } => {
+            return Err(format!(
+                "link `{link}`: a mesh is taken as a link's only <collision>"
+            ));
+        }
+    }
+    Ok(p)
+}
