@@ -142,3 +142,103 @@ fn a_urdf_arm_swings_as_mujoco_swings_it() {
         assert!(worst < 0.01);
     }
 }
+
+/// What a scene's robots and given inertias get wrong is refused at its place: a URDF
+/// mistake at the entry's `file` with the URDF's own line, a file that is not there, an
+/// inertia no solid has, a mass out of range.
+#[test]
+fn a_scene_refuses_a_broken_robot_or_inertia_at_its_place() {
+    let dir = support::scratch("urdf", "refused");
+    std::fs::write(
+        dir.join("broken.urdf"),
+        "<robot name=\"r\">\n  <link name=\"a\">\n    <collision><geometry><box size=\"1 \
+         1\"/></geometry></collision>\n  </link>\n</robot>\n",
+    )
+    .unwrap();
+    let scene = dir.join("s.yaml");
+    let with = |rest: &str| {
+        let text = format!(
+            "name: s\nengine: rapier\nrate: 60\nmaterial: {{ static_friction: 0.5, friction: \
+             0.4 }}\n{rest}"
+        );
+        let Err(e) = SceneFile::parse(&text, &scene, 0) else {
+            panic!("{rest} is accepted");
+        };
+        e.diagnostics
+            .iter()
+            .map(|d| format!("{}: {}", d.field, d.message))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let broken = with("bodies: []\nurdf:\n  - { file: broken.urdf }\n");
+    assert!(
+        broken.contains("urdf[0].file") && broken.contains("line 3: `size` must be 3 numbers"),
+        "{broken}"
+    );
+    let absent = with("bodies: []\nurdf:\n  - { file: absent.urdf }\n");
+    assert!(
+        absent.contains("urdf[0].file") && absent.contains("absent.urdf"),
+        "{absent}"
+    );
+    let body = |inertial: &str| {
+        with(&format!(
+            "bodies:\n  - {{ name: b, box: [0.1, 0.1, 0.1], position: [0, 0, 0], inertial: \
+             {inertial} }}\n"
+        ))
+    };
+    let flat = body("{ mass: 1, inertia: [1, 1, 3, 0, 0, 0] }");
+    assert!(
+        flat.contains("bodies[0].inertial.inertia") && flat.contains("no solid's inertia"),
+        "{flat}"
+    );
+    let skew = body("{ mass: 1, inertia: [1, 1, 1, 2, 0, 0] }");
+    assert!(skew.contains("no solid's inertia"), "{skew}");
+    let heavy = body("{ mass: 1.0e9, inertia: [1, 1, 1, 0, 0, 0] }");
+    assert!(heavy.contains("bodies[0].inertial.mass"), "{heavy}");
+    let nan = body("{ mass: 1, inertia: [.nan, 1, 1, 0, 0, 0] }");
+    assert!(nan.contains("bodies[0].inertial.inertia"), "{nan}");
+}
+
+/// A robot of a post, a cylinder on a hinge and a public mesh (the Stanford bunny) on a
+/// slider, placed free and turned: each link a body where its frame is, the bunny's link
+/// a mesh body weighing what its `<inertial>` says, its joints at their frames in the
+/// world.
+#[test]
+fn a_robot_of_cylinders_and_meshes_is_placed_where_its_entry_says() {
+    let dir = support::dir_with_mesh("urdf-mesh", "tests/corpus/bunny.obj", "bunny.obj");
+    std::fs::write(
+        dir.join("odd.urdf"),
+        "<robot name=\"odd\">\n\
+         <link name=\"post\"><collision><geometry><box size=\"0.05 0.05 0.2\"/></geometry></collision></link>\n\
+         <link name=\"drum\"><collision><origin xyz=\"0 0 0.05\"/><geometry><cylinder radius=\"0.03\" length=\"0.1\"/></geometry></collision>\n\
+           <inertial><origin xyz=\"0 0 0.05\"/><mass value=\"0.5\"/><inertia ixx=\"5e-4\" iyy=\"5e-4\" izz=\"2.25e-4\"/></inertial></link>\n\
+         <link name=\"bunny\"><collision><geometry><mesh filename=\"bunny.obj\" scale=\"0.0005 0.0005 0.0005\"/></geometry></collision>\n\
+           <inertial><mass value=\"0.2\"/><inertia ixx=\"1e-4\" iyy=\"1e-4\" izz=\"1e-4\"/></inertial></link>\n\
+         <joint name=\"hinge\" type=\"revolute\"><parent link=\"post\"/><child link=\"drum\"/><origin xyz=\"0 0 0.1\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\"/></joint>\n\
+         <joint name=\"slide\" type=\"prismatic\"><parent link=\"drum\"/><child link=\"bunny\"/><origin xyz=\"0.1 0 0.05\"/><axis xyz=\"1 0 0\"/><limit lower=\"0\" upper=\"0.05\"/></joint>\n\
+         </robot>\n",
+    )
+    .unwrap();
+    let text = "name: odd\nengine: rapier\nrate: 60\nmaterial: { static_friction: 0.5, friction: \
+                0.4 }\nbodies: []\nurdf:\n  - { file: odd.urdf, name: toy, base: free, position: \
+                [0.1, 0, 0], orientation: [0.7071067811865476, -0.7071067811865476, 0, 0] }\n";
+    let scene = dir.join("odd.yaml");
+    let SceneFile::Rapier(spec) = SceneFile::parse(text, &scene, 0).unwrap() else {
+        panic!("a rapier scene");
+    };
+    assert_eq!(spec.names, ["toy.post", "toy.drum", "toy.bunny"]);
+    assert!(spec.bodies.iter().all(|b| !b.fixed), "a free base");
+    // Turned −90° about x: the robot's z is the scene's y.
+    let drum = &spec.bodies[1];
+    assert!(drum.position.distance(DVec3::new(0.1, 0.15, 0.0)) < 1e-12);
+    assert!((drum.mass - 0.5).abs() < 1e-12);
+    let bunny = &spec.bodies[2];
+    assert!((bunny.mass - 0.2).abs() < 1e-12);
+    assert!(spec.surfaces[2].is_some(), "the bunny is a mesh body");
+    let anchors: Vec<DVec3> = spec.joints.iter().map(|j| j.anchor).collect();
+    assert!(anchors[0].distance(DVec3::new(0.1, 0.1, 0.0)) < 1e-12);
+    assert!(anchors[1].distance(DVec3::new(0.2, 0.15, 0.0)) < 1e-12);
+    assert!(spec.joints[0].axis.distance(DVec3::Y) < 1e-12);
+    assert!(spec.joints[1].axis.distance(DVec3::X) < 1e-12);
+    assert!(RapierWorld::new(&spec, 0).advance(1.0 / 60.0));
+}

@@ -712,3 +712,165 @@ fn piece(link: &str, at: &Frame, s: &Shape) -> Result<RawPiece, String> {
     }
     Ok(p)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RRBOT: &str = include_str!("../../../../../tests/corpus/rrbot.urdf");
+
+    /// A robot of one box link and `rest` (XML inside `<robot>`).
+    fn robot(rest: &str) -> String {
+        format!(
+            "<robot name=\"r\">\n<link name=\"a\"><collision><geometry><box size=\"0.1 0.1 \
+             0.1\"/></geometry></collision></link>\n{rest}\n</robot>\n"
+        )
+    }
+
+    /// A second link `b` and a joint `j` of `kind` from `a` to it, with `inside`.
+    fn jointed(kind: &str, inside: &str) -> String {
+        robot(&format!(
+            "<link name=\"b\"><collision><geometry><sphere radius=\"0.05\"/></geometry>\
+             </collision></link>\n<joint name=\"j\" type=\"{kind}\"><parent link=\"a\"/>\
+             <child link=\"b\"/>{inside}</joint>"
+        ))
+    }
+
+    fn refused(text: &str) -> UrdfError {
+        Robot::parse(text, Path::new("/robots")).expect_err(text)
+    }
+
+    /// RRBot as ROS publishes it: its post welded to the world is one fixed body, its
+    /// camera welded to its top link weighs with it, its two continuous joints are
+    /// hinges about y at their frames, damped as the file says.
+    #[test]
+    fn rrbot_reads_as_its_file_says() {
+        let robot = Robot::parse(RRBOT, Path::new("/robots")).unwrap();
+        let placed = RawRobot {
+            file: "rrbot.urdf".into(),
+            position: [0.0; 3],
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            name: None,
+            base: RawBase::Fixed,
+        };
+        let (bodies, joints) = robot.entries(&placed).unwrap();
+        let names: Vec<&str> = bodies.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(names, ["rrbot.world", "rrbot.link2", "rrbot.link3"]);
+        assert!(bodies[0].fixed && !bodies[1].fixed && !bodies[2].fixed);
+        assert!(bodies[0].inertial.as_ref().is_some_and(|i| i.mass == 1.0));
+        let top = bodies[2].inertial.as_ref().unwrap();
+        let mass = 1.0 + 1e-5;
+        assert_eq!(top.mass, mass);
+        let centre = (DVec3::new(0.0, 0.0, 0.45) + DVec3::new(0.05, 0.0, 0.9) * 1e-5) / mass;
+        assert!(DVec3::from(top.centre).distance(centre) < 1e-15);
+        assert_eq!(bodies[2].pieces.as_ref().map(Vec::len), Some(2));
+        assert_eq!(bodies[2].position, [0.0, 0.2, 2.85]);
+        let anchors: Vec<[f64; 3]> = joints.iter().map(|j| j.anchor).collect();
+        assert_eq!(anchors, [[0.0, 0.1, 1.95], [0.0, 0.2, 2.85]]);
+        for j in &joints {
+            assert_eq!(j.kind, JointKind::Revolute);
+            assert_eq!(j.axis, Some([0.0, 1.0, 0.0]));
+            assert_eq!((j.limits, j.damping), (None, 0.7));
+        }
+        assert_eq!(joints[1].bodies, ["rrbot.link2", "rrbot.link3"]);
+    }
+
+    /// Each mistake of a URDF file is refused with its line and what is wrong.
+    #[test]
+    fn hostile_urdf_files_are_refused_each_with_its_line() {
+        let cases = [
+            ("<robot name=\"r\">", "", 1),
+            ("<machine name=\"r\"/>", "root element is <robot>", 1),
+            ("<robot/>", "lacks `name`", 1),
+            (
+                &jointed("floating", ""),
+                "`floating` joints are not taken",
+                4,
+            ),
+            (&jointed("revolute", ""), "needs <limit>", 4),
+            (
+                &jointed("prismatic", "<axis xyz=\"0 0 0\"/><limit upper=\"1\"/>"),
+                "a zero axis",
+                4,
+            ),
+            (
+                &jointed("continuous", "<axis xyz=\"0 nan 1\"/>"),
+                "must be finite",
+                4,
+            ),
+            (
+                &jointed("continuous", "<axis xyz=\"0 1\"/>"),
+                "must be 3 numbers",
+                4,
+            ),
+            (
+                &jointed("continuous", "<origin xyz=\"a b c\"/>"),
+                "must be numbers",
+                4,
+            ),
+            (
+                &robot(
+                    "<joint name=\"j\" type=\"fixed\"><parent link=\"a\"/><child link=\"z\"/></joint>",
+                ),
+                "names no link `z`",
+                1,
+            ),
+            (&robot("<link name=\"a\"/>"), "two links are called `a`", 1),
+            (
+                &robot("<link name=\"b\"/>"),
+                "one link must be no joint's child, not 2",
+                1,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"/><link name=\"c\"/>\
+                     <joint name=\"j\" type=\"fixed\"><parent link=\"b\"/><child link=\"c\"/></joint>\
+                     <joint name=\"k\" type=\"fixed\"><parent link=\"c\"/><child link=\"b\"/></joint>",
+                ),
+                "its joints make a loop",
+                1,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"><collision><geometry><box size=\"1 1 1\"/><sphere radius=\"1\"/></geometry></collision></link>",
+                ),
+                "exactly one shape",
+                3,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"><collision><geometry><cone radius=\"1\"/></geometry></collision></link>",
+                ),
+                "<cone> is no shape",
+                3,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"><collision><geometry><mesh filename=\"m.stl\" scale=\"1 2 1\"/></geometry></collision></link>",
+                ),
+                "same along each axis",
+                3,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"><collision><geometry><mesh filename=\"package://arm/m.stl\"/></geometry></collision></link>",
+                ),
+                "give the mesh's path",
+                3,
+            ),
+            (
+                &robot("<link name=\"b\"><inertial><mass value=\"1\"/></inertial></link>"),
+                "lacks <inertia>",
+                3,
+            ),
+        ];
+        for (text, message, line) in cases {
+            let e = refused(text);
+            println!("{e}");
+            assert!(e.message.contains(message), "{text}: {e}");
+            if line > 0 {
+                assert_eq!(e.line, line, "{text}: {e}");
+            }
+        }
+    }
+}
