@@ -144,8 +144,8 @@ fn a_urdf_arm_swings_as_mujoco_swings_it() {
 }
 
 /// What a scene's robots and given inertias get wrong is refused at its place: a URDF
-/// mistake at the entry's `file` with the URDF's own line, a file that is not there, an
-/// inertia no solid has, a mass out of range.
+/// mistake at the entry's `file` with the URDF's own line, a file that is not there or
+/// outside the scene's directory, an inertia no solid has, a mass out of range.
 #[test]
 fn a_scene_refuses_a_broken_robot_or_inertia_at_its_place() {
     let dir = support::scratch("urdf", "refused");

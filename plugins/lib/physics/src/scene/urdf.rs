@@ -4,7 +4,7 @@
 //!
 //! Each link with a `<collision>` becomes a body named `ROBOT.LINK`: its boxes, spheres
 //! and cylinders (a 24-sided prism) become its pieces, or its one mesh (read by the mesh
-//! readers, relative to the URDF file) its mesh; its `<inertial>` gives its mass, centre of
+//! readers, its path from the URDF file) its mesh; its `<inertial>` gives its mass, centre of
 //! mass and inertia (a link without one weighs its collision solids at water's density).
 //! Each `revolute`, `continuous`, `prismatic` and `fixed` joint becomes a joint at its frame
 //! as the robot stands at load (every coordinate 0), with the URDF's `<limit>` (revolute
@@ -12,11 +12,12 @@
 //! fixed`, the default, as ROS places a robot) or free (`base: free`); a root without a
 //! collision is the world itself (ROS's `world` link). Elements hapticd does not use
 //! (`<visual>`, `<material>`, `<transmission>`, `<gazebo>`, a joint's `<safety_controller>`)
-//! are skipped, as the URDF specification asks of readers.
-//!
-//! Read with `roxmltree`, our own reading of what the specification says: `urdf-rs` brings
-//! three XML parsers and a regex engine for what this needs of one.
+//! are skipped, as the URDF specification asks of readers. The URDF file and its meshes
+//! are read from the scene file's directory and below it, never from elsewhere: a scene sent
+//! to the daemon over the bus names no file outside the daemon's copy of it.
 
+// Read with `roxmltree`, our own reading of what the URDF specification says: `urdf-rs`
+// brings three XML parsers and a regex engine for what this needs of one.
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -148,9 +149,18 @@ pub(super) fn expand(f: &mut Findings, raw: &mut RawScene, scene: &Path) {
         let at = format!("urdf[{k}]");
         let ok = f.coordinates(format!("{at}.position"), &robot.position, WORLD_EXTENT, "m");
         f.unit_quaternion(format!("{at}.orientation"), robot.orientation);
-        let file = dir.join(&robot.file);
+        // Only below the scene's directory: a scene sent over the bus is read in a
+        // directory of the daemon's own, and no path in it may reach further.
+        let Some(relative) = below(Path::new(""), &robot.file) else {
+            f.error(
+                format!("{at}.file"),
+                "must be a path from the scene file's directory that stays inside it",
+            );
+            continue;
+        };
+        let file = dir.join(&relative);
         let read = read(&file).and_then(|text| {
-            let from = hapticd_core::diagnostics::directory_of(&file);
+            let from = relative.parent().unwrap_or(Path::new(""));
             Robot::parse(&text, from)?.entries(robot)
         });
         match read {
@@ -163,6 +173,21 @@ pub(super) fn expand(f: &mut Findings, raw: &mut RawScene, scene: &Path) {
         }
     }
     raw.urdf = robots;
+}
+
+/// `path` from `from` (both relative to the scene file's directory), lexically: None when
+/// it is absolute or climbs out of that directory.
+fn below(from: &Path, path: &str) -> Option<PathBuf> {
+    let mut out = PathBuf::new();
+    for part in from.join(path).components() {
+        match part {
+            std::path::Component::Normal(name) => out.push(name),
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir if out.pop() => {}
+            _ => return None,
+        }
+    }
+    Some(out)
 }
 
 /// The text of URDF file `path`.
@@ -274,7 +299,8 @@ fn origin(node: roxmltree::Node<'_, '_>) -> Result<Frame, UrdfError> {
 }
 
 impl Robot {
-    /// The robot of URDF `text`, whose relative mesh paths start at `dir`.
+    /// The robot of URDF `text`, in directory `dir` (relative to the scene file's), where
+    /// its meshes' paths start.
     pub(super) fn parse(text: &str, dir: &Path) -> Result<Robot, UrdfError> {
         let doc = roxmltree::Document::parse(text).map_err(|e| UrdfError {
             line: e.pos().row,
@@ -551,15 +577,18 @@ fn shape(g: roxmltree::Node<'_, '_>, dir: &Path) -> Result<Shape, UrdfError> {
             if sx != sy || sy != sz {
                 return Err(error(s, "a mesh's scale must be the same along each axis"));
             }
-            let path = file.strip_prefix("file://").unwrap_or(file);
-            if path.contains("://") {
+            let path = below(dir, file).filter(|_| !file.contains("://"));
+            let Some(path) = path else {
                 return Err(error(
                     s,
-                    format!("`{file}`: give the mesh's path, absolute or from the URDF file"),
+                    format!(
+                        "`{file}`: give the mesh's path from the URDF file, inside the scene \
+                         file's directory"
+                    ),
                 ));
-            }
+            };
             Ok(Shape::Mesh {
-                file: dir.join(path),
+                file: path,
                 scale: sx,
             })
         }
@@ -737,7 +766,7 @@ mod tests {
     }
 
     fn refused(text: &str) -> UrdfError {
-        Robot::parse(text, Path::new("/robots")).expect_err(text)
+        Robot::parse(text, Path::new("robots")).expect_err(text)
     }
 
     /// RRBot as ROS publishes it: its post welded to the world is one fixed body, its
@@ -745,7 +774,7 @@ mod tests {
     /// hinges about y at their frames, damped as the file says.
     #[test]
     fn rrbot_reads_as_its_file_says() {
-        let robot = Robot::parse(RRBOT, Path::new("/robots")).unwrap();
+        let robot = Robot::parse(RRBOT, Path::new("robots")).unwrap();
         let placed = RawRobot {
             file: "rrbot.urdf".into(),
             position: [0.0; 3],
@@ -856,6 +885,20 @@ mod tests {
                     "<link name=\"b\"><collision><geometry><mesh filename=\"package://arm/m.stl\"/></geometry></collision></link>",
                 ),
                 "give the mesh's path",
+                3,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"><collision><geometry><mesh filename=\"/etc/m.stl\"/></geometry></collision></link>",
+                ),
+                "inside the scene file's directory",
+                3,
+            ),
+            (
+                &robot(
+                    "<link name=\"b\"><collision><geometry><mesh filename=\"../../m.stl\"/></geometry></collision></link>",
+                ),
+                "inside the scene file's directory",
                 3,
             ),
             (
