@@ -146,7 +146,7 @@ install: $(C_MECHANISM)
 		$(DESTDIR)$(PREFIX)/lib/hapticd/scenes $(DESTDIR)$(PREFIX)/include/hapticd \
 		$(DESTDIR)$(PREFIX)/share/pkgconfig \
 		$(DESTDIR)$(PREFIX)/share/hapticd/mechanisms $(DESTDIR)$(PREFIX)/share/hapticd/scenes/meshes \
-		$(DESTDIR)$(PREFIX)/share/hapticd/scenes/textures \
+		$(DESTDIR)$(PREFIX)/share/hapticd/scenes/textures $(DESTDIR)$(PREFIX)/share/hapticd/scenes/robots \
 		$(DESTDIR)$(PREFIX)/share/hapticd/hands $(DESTDIR)$(PREFIX)/share/doc/hapticd/examples \
 		$(DESTDIR)$(PREFIX)/share/doc/hapticd/docs/figures \
 		$(DESTDIR)$(SYSTEMLIBDIR)/systemd/system $(DESTDIR)$(SYSTEMLIBDIR)/sysusers.d \
@@ -173,6 +173,7 @@ install: $(C_MECHANISM)
 	install -m 644 config/scenes/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/scenes/
 	install -m 644 config/scenes/meshes/*.obj config/scenes/meshes/*.gltf $(DESTDIR)$(PREFIX)/share/hapticd/scenes/meshes/
 	install -m 644 config/scenes/textures/*.png $(DESTDIR)$(PREFIX)/share/hapticd/scenes/textures/
+	install -m 644 config/scenes/robots/*.urdf $(DESTDIR)$(PREFIX)/share/hapticd/scenes/robots/
 	install -m 644 config/hands/*.yaml $(DESTDIR)$(PREFIX)/share/hapticd/hands/
 	install -m 644 README.md LICENSE-MIT LICENSE-APACHE $(DESTDIR)$(PREFIX)/share/doc/hapticd/
 	install -m 644 docs/*.md $(DESTDIR)$(PREFIX)/share/doc/hapticd/docs/

@@ -191,6 +191,7 @@ fn make_install_lays_out_a_working_system() {
         "usr/lib/hapticd/scenes/libhapticd_scene_penalty.so",
         "usr/lib/hapticd/scenes/libhapticd_scene_rapier.so",
         "usr/share/hapticd/scenes/static.yaml",
+        "usr/share/hapticd/scenes/robots/arm.urdf",
         "usr/share/hapticd/mechanisms/spidar-6s.yaml",
         "usr/include/hapticd/hapticd_plugin.h",
         "usr/share/pkgconfig/hapticd-plugin.pc",

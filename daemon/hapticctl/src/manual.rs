@@ -45,6 +45,10 @@ const FORMATS: [Format; 4] = [
                 "JOINTS",
                 include_str!("../../../plugins/lib/physics/src/scene/joints.rs"),
             ),
+            (
+                "ROBOTS",
+                include_str!("../../../plugins/lib/physics/src/scene/urdf.rs"),
+            ),
         ],
     },
     Format {
@@ -415,6 +419,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, 8);
+        assert_eq!(checked, 9);
     }
 }

@@ -48,6 +48,10 @@
 //!     position: [0.03, -0.015, 0]
 //!     orientation: [1, 0, 0, 0]
 //!     density: 500             # kg/m³
+//!     inertial:                # optional, instead of density: its mass (kg), centre of mass
+//!       mass: 0.2              #   (m, in its frame; default its origin) and inertia about
+//!       centre: [0, 0, 0]      #   it ([ixx, iyy, izz, ixy, ixz, iyz], kg·m²), a solid's
+//!       inertia: [3.0e-5, 3.0e-5, 3.0e-5, 0, 0, 0]
 //!     velocity: [0, 0, 0]      # m/s, optional
 //!     spin: [0, 0, 0]          # rad/s, optional
 //!   - name: wedge

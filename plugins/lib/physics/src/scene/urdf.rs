@@ -15,6 +15,20 @@
 //! are skipped, as the URDF specification asks of readers. The URDF file and its meshes
 //! are read from the scene file's directory and below it, never from elsewhere: a scene sent
 //! to the daemon over the bus names no file outside the daemon's copy of it.
+//!
+//! ```yaml
+//! name: arm
+//! engine: rapier
+//! rate: 60
+//! material: { static_friction: 0.4, friction: 0.3 }
+//! bodies: []
+//! urdf:                          # robots in the scene, each of a URDF file
+//!   - file: robots/arm.urdf      # from the scene file's directory
+//!     position: [0.05, 0.07, 0]  # where its root link's frame goes (m)
+//!     orientation: [0.7071067811865476, -0.7071067811865476, 0, 0]  # its z up is y
+//!     name: arm                  # bodies arm.upper, arm.fore…; default: the robot's name
+//!     base: fixed                # the world holds its root link (the default), or free
+//! ```
 
 // Read with `roxmltree`, our own reading of what the URDF specification says: `urdf-rs`
 // brings three XML parsers and a regex engine for what this needs of one.
