@@ -390,6 +390,11 @@ impl LocalBody {
         self.shown().position - self.free.position
     }
 
+    /// Whether joints hold the body.
+    pub fn is_jointed(&self) -> bool {
+        self.mobility.is_jointed()
+    }
+
     /// Whether a hand moved the body since the period began.
     pub fn touched(&self) -> bool {
         self.hand != self.free

@@ -624,8 +624,13 @@ impl PlaneRenderer {
             // solid) gets this period's hand alone, and so restarts where the physics has it:
             // handed the whole difference again, it was refused again, period after period,
             // while it drifted on here (a pressed bunny went 10 cm from where the world had it).
+            // A jointed body gets the hand's part alone: how a mechanism moves by itself is
+            // the world's, and several links of one each handing back their own way of it
+            // moved its joints by all of them (an arm pushed at its hand at 10 Hz went
+            // unstable).
             let change = next.bodies[..count]
                 .iter()
+                .filter(|_| !body.is_jointed())
                 .find(|b| b.body == body.body && b.left_out == 0)
                 .and_then(|b| body.change_to(b, &pending_for(&self.pending, b)))
                 .unwrap_or_else(|| body.change());

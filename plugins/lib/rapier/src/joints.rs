@@ -146,6 +146,13 @@ impl Joints {
         coordinate(physics, &self.built[k])
     }
 
+    /// Whether a joint joins bodies `a` and `b`.
+    pub fn joins(&self, a: RigidBodyHandle, b: RigidBodyHandle) -> bool {
+        self.built
+            .iter()
+            .any(|j| j.bodies == [a, b] || j.bodies == [b, a])
+    }
+
     /// Whether `body` is a link of a multibody, whose velocities its joints set.
     pub fn is_link(&self, physics: &PhysicsWorld, body: RigidBodyHandle) -> bool {
         physics.multibody_joints.rigid_body_link(body).is_some()

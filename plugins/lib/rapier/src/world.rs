@@ -685,7 +685,7 @@ impl RapierWorld {
                 let fixed = solid
                     .parent()
                     .is_none_or(|p| self.physics.bodies.get(p).is_some_and(|b| b.is_fixed()));
-                if !fixed || paired.contains(&Some(other)) {
+                if !fixed || paired.contains(&Some(other)) || !self.is_world(handle, solid) {
                     continue;
                 }
                 let Some(c) = contact_now(mine, solid, margin) else {
@@ -702,10 +702,13 @@ impl RapierWorld {
     }
 
     /// Whether `solid` is part of the world body `handle` meets: not a piece of the body
-    /// itself, nor a pointer's.
+    /// itself, nor a pointer's, nor of a body joined to it (which its joint holds, and
+    /// which it does not touch).
     fn is_world(&self, handle: RigidBodyHandle, solid: &Collider) -> bool {
         solid.parent().is_none_or(|p| {
-            p != handle && self.physics.bodies.get(p).is_none_or(|b| !b.is_kinematic())
+            p != handle
+                && self.physics.bodies.get(p).is_none_or(|b| !b.is_kinematic())
+                && !self.joints.joins(handle, p)
         })
     }
 
