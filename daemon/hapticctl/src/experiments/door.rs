@@ -10,14 +10,15 @@
 //! spring and damper (the simulated hand's, as in `push-mass`), reaches `reach` past the
 //! face and withdraws; the door swings on.
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::Wrench;
 use hapticd_device::sim::SimParameters;
-use hapticd_physics::scene::{Feedback, RapierScene, SceneFile};
+use hapticd_physics::coupling::Grip;
+use hapticd_physics::scene::{Feedback, PenaltyScene, RapierScene, SceneFile};
 use serde_json::json;
 
 use super::ExperimentError;
-use crate::multirate::Lockstep;
+use crate::multirate::{Lockstep, NotFinite};
 use crate::plot::{Chart, PALETTE, Series};
 use crate::report::Report;
 
@@ -39,6 +40,8 @@ pub struct Door {
     pub reach: f64,
     /// Seconds simulated.
     pub seconds: f64,
+    /// The hinge's limits, rad (none: it swings freely).
+    pub limits: Option<[f64; 2]>,
 }
 
 impl Default for Door {
@@ -52,6 +55,7 @@ impl Default for Door {
             speed: 0.2,
             reach: 0.03,
             seconds: 1.2,
+            limits: None,
         }
     }
 }
@@ -68,19 +72,35 @@ impl Door {
         self.mass() * ((w * w + t * t) / 12.0 + w * w / 4.0)
     }
 
-    /// The rapier scene at `rate` Hz with `feedback`.
-    pub fn scene(&self, rate: f64, feedback: Feedback) -> Result<RapierScene, ExperimentError> {
+    /// The scene of the door for one pointer, stepped as `stepping` says (its engine, rate
+    /// and material keys).
+    pub fn file(&self, stepping: &str) -> Result<SceneFile, ExperimentError> {
         let [w, h, t] = self.size;
+        let limits = self.limits.map_or(String::new(), |[low, high]| {
+            format!(", limits: [{low}, {high}]")
+        });
         let text = format!(
-            "name: door\nengine: rapier\nrate: {rate}\nfeedback: {}\ngravity: [0, -9.81, 0]\n\
-             material: {{ static_friction: 0, friction: 0 }}\nbodies:\n  - {{ name: door, box: \
-             [{w}, {h}, {t}], density: {}, position: [{}, 0, 0] }}\njoints:\n  - {{ kind: \
-             revolute, bodies: [world, door], anchor: [0, 0, 0], axis: [0, -1, 0] }}\n",
-            feedback.name(),
+            "name: door\n{stepping}\ngravity: [0, -9.81, 0]\nbodies:\n  - {{ name: door, \
+             box: [{w}, {h}, {t}], density: {}, position: [{}, 0, 0] }}\njoints:\n  - {{ kind: \
+             revolute, bodies: [world, door], anchor: [0, 0, 0], axis: [0, -1, 0]{limits} }}\n",
             self.density,
             w / 2.0
         );
-        match SceneFile::parse(&text, std::path::Path::new("door.yaml"), 1)? {
+        Ok(SceneFile::parse(
+            &text,
+            std::path::Path::new("door.yaml"),
+            1,
+        )?)
+    }
+
+    /// The rapier scene at `rate` Hz with `feedback`.
+    pub fn scene(&self, rate: f64, feedback: Feedback) -> Result<RapierScene, ExperimentError> {
+        let stepping = format!(
+            "engine: rapier\nrate: {rate}\nfeedback: {}\nmaterial: {{ static_friction: 0, \
+             friction: 0 }}",
+            feedback.name()
+        );
+        match self.file(&stepping)? {
             SceneFile::Rapier(world) => Ok(*world),
             SceneFile::Penalty(_) => Err(ExperimentError::NotRapier),
         }
@@ -260,4 +280,129 @@ pub fn report(door: &Door) -> Result<Report, ExperimentError> {
             ..Chart::default()
         }],
     })
+}
+
+/// A door pushed shut against its stop by a steady hand.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Press {
+    /// Farthest the door went past its stop, rad: in the world, and as the hand felt it.
+    pub past: (f64, f64),
+    /// The force the hand felt along the push at every tick, N.
+    pub forces: Vec<f64>,
+}
+
+impl Press {
+    /// Ticks from `from` on at which the felt force turned back by more than `step` N twice
+    /// running (up, then down, or down, then up): a force that alternates.
+    pub fn alternations(&self, from: usize, step: f64) -> usize {
+        self.forces[from.min(self.forces.len())..]
+            .windows(3)
+            .filter(|w| {
+                let (a, b) = (w[1] - w[0], w[2] - w[1]);
+                a * b < 0.0 && a.abs() > step && b.abs() > step
+            })
+            .count()
+    }
+}
+
+/// The penalty engine's stepping of the door: 4 kHz, stiff frictionless contacts.
+pub const PENALTY: &str = "engine: penalty\ndt: 0.00025\nmaterial: { stiffness: 2.0e7, damping: \
+                           1.0e4, static_friction: 0, friction: 0, friction_stiffness: 2.0e7, \
+                           friction_damping: 1.0e4, slip_speed: 0.02 }";
+
+/// `door` (which must have limits, its stop at 0) pushed shut at its handle for `seconds`
+/// by a hand that pushes with `force` N (its arm's own damper slowing it), stepped as
+/// `stepping` says: rapier at its rate under local dynamics, or the penalty engine at the
+/// device rate.
+pub fn pressed(
+    door: &Door,
+    stepping: &str,
+    force: f64,
+    seconds: f64,
+) -> Result<Press, ExperimentError> {
+    let (_, damper) = SimParameters::default().arm;
+    let mass = SimParameters::default().hand_mass;
+    let dt = 1e-3;
+    let mut finger = (door.start(), 0.0);
+    let at = |z: f64| DVec3::new(door.handle, 0.1, z);
+    let mut out = Press {
+        past: (0.0, 0.0),
+        forces: Vec::new(),
+    };
+    let mut felt = [Wrench::default()];
+    let mut world = Stepped::new(door.file(stepping)?, at(finger.0));
+    for tick in 0..(seconds / dt).round() as usize {
+        world.tick(tick as f64 * dt, (at(finger.0), finger.1), &mut felt)?;
+        let push = force - damper * finger.1 + felt[0].force.z;
+        finger.1 += push / mass * dt;
+        finger.0 += finger.1 * dt;
+        out.forces.push(-felt[0].force.z);
+        let (there, felt_at) = world.hinge();
+        out.past = (out.past.0.max(there), out.past.1.max(felt_at));
+    }
+    Ok(out)
+}
+
+/// The door's world stepped at the device rate with one finger.
+enum Stepped {
+    /// Rapier with its haptic side.
+    Rapier(Box<Lockstep>),
+    /// The penalty engine.
+    Penalty(Box<PenaltyScene>),
+}
+
+impl Stepped {
+    /// The world of `file` with its finger at `finger`.
+    fn new(file: SceneFile, finger: DVec3) -> Self {
+        match file {
+            SceneFile::Rapier(spec) => Stepped::Rapier(Box::new(Lockstep::new(
+                &spec,
+                &Lockstep::pointers(&[(finger, DVec3::ZERO)]),
+                1000.0,
+                0.0,
+            ))),
+            SceneFile::Penalty(scene) => Stepped::Penalty(scene),
+        }
+    }
+
+    /// One millisecond from `t` with the finger at `finger`, moving along z at `speed`;
+    /// `felt` gets what the hand feels.
+    fn tick(
+        &mut self,
+        t: f64,
+        (finger, speed): (DVec3, f64),
+        felt: &mut [Wrench],
+    ) -> Result<(), ExperimentError> {
+        match self {
+            Stepped::Rapier(lockstep) => {
+                lockstep.tick(&Lockstep::pointers(&[(finger, DVec3::Z * speed)]), felt)?;
+            }
+            Stepped::Penalty(scene) => {
+                let grip = Grip {
+                    position: finger,
+                    orientation: DQuat::IDENTITY,
+                    velocity: DVec3::Z * speed,
+                    spin: DVec3::ZERO,
+                };
+                if !scene.step_pointers(1e-3, &[grip], felt) {
+                    return Err(NotFinite { time: t }.into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// How far the hinge is opened: in the world, and where the hand feels the door.
+    fn hinge(&self) -> (f64, f64) {
+        match self {
+            Stepped::Rapier(lockstep) => {
+                let felt = -lockstep.body(0).orientation.to_scaled_axis().y;
+                (lockstep.world.joint_state(0).position, felt)
+            }
+            Stepped::Penalty(scene) => {
+                let q = scene.world.joint_state(0).position;
+                (q, q)
+            }
+        }
+    }
 }

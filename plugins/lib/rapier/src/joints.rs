@@ -25,6 +25,7 @@ use glam::{DQuat, DVec3};
 use hapticd_physics::joint::{
     FrameMotion, Joint, JointKind, JointState, MotorTarget, coordinate as stands,
 };
+use hapticd_plugin_api::HapticdBodyContact;
 use rapier3d::prelude::{
     GenericJointBuilder, JointAxesMask, JointAxis, MotorModel, MultibodyJointHandle, PhysicsWorld,
     Pose, RigidBodyBuilder, RigidBodyHandle,
@@ -39,6 +40,8 @@ const MOTOR_SLACK: f64 = 0.01;
 const MOTOR_SETTLING: f64 = 0.05;
 /// Nearer its limit than this (rad or m), a coordinate is at it: rapier stops it in `f32`.
 const AT_LIMIT: f64 = 1e-3;
+/// The lever at which a link turning about its own centre has its limits held, m.
+const LIMIT_LEVER: f64 = 0.05;
 
 /// How rapier holds a joint.
 #[derive(Clone, Copy)]
@@ -144,6 +147,54 @@ impl Joints {
     /// Where joint `k` is now.
     pub fn state(&self, physics: &PhysicsWorld, k: usize) -> JointState {
         coordinate(physics, &self.built[k])
+    }
+
+    /// The limits of the joint holding link `body` to a body that does not move, as
+    /// contacts the haptic side keeps over a period (local dynamics): a point of the link
+    /// off the joint, pushed along its path back from the stop, its gap what the link may
+    /// still move there. Only those within `margin` (m at the point).
+    pub fn limit_contacts(
+        &self,
+        physics: &PhysicsWorld,
+        body: RigidBodyHandle,
+        margin: f64,
+    ) -> impl Iterator<Item = HapticdBodyContact> {
+        self.built
+            .iter()
+            .filter(move |b| b.bodies[1] == body && b.spec.kind.has_coordinate())
+            .filter(|b| !physics.bodies[b.bodies[0]].is_dynamic())
+            .flat_map(move |b| {
+                let [low, high] = b.spec.limits.unwrap_or([f64::NEG_INFINITY, f64::INFINITY]);
+                let q = coordinate(physics, b).position;
+                let first = frame(physics, b, 0);
+                let (anchor, axis) = (first.origin, first.turn * DVec3::X);
+                let centre = dvec(physics.bodies[body].center_of_mass());
+                let (point, path) = match b.spec.kind {
+                    JointKind::Revolute => {
+                        let off = centre - anchor;
+                        let along = axis * off.dot(axis);
+                        // A link turning about its own centre is held at a lever of its own.
+                        let arm = if (off - along).length() < LIMIT_LEVER / 10.0 {
+                            axis.any_orthonormal_vector() * LIMIT_LEVER
+                        } else {
+                            off - along
+                        };
+                        (anchor + along + arm, axis.cross(arm))
+                    }
+                    _ => (centre, axis),
+                };
+                let scale = path.length();
+                let direction = path / scale;
+                [(q - low, direction), (high - q, -direction)]
+                    .into_iter()
+                    .map(move |(room, normal)| HapticdBodyContact {
+                        point: point.to_array(),
+                        normal: normal.to_array(),
+                        gap: room * scale,
+                        friction: 0.0,
+                    })
+                    .filter(move |c| c.gap < margin)
+            })
     }
 
     /// Whether a joint joins bodies `a` and `b`.

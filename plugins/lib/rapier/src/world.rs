@@ -564,7 +564,10 @@ impl RapierWorld {
         // Then the nearest of the fixed solids it could reach in a period that the narrow
         // phase does not see yet (it predicts a fraction of a millimetre): a ball lifted off
         // the floor by a hair, pushed down by the hand, lands on it instead of going through.
-        for contact in self.fixed_near(handle, margin, &paired[..pairs]) {
+        // And a link's joint limits, where its joint holds it to what does not move: a door
+        // pushed against its stop between steps stays at it.
+        let limits = self.joints.limit_contacts(&self.physics, handle, margin);
+        for contact in limits.chain(self.fixed_near(handle, margin, &paired[..pairs])) {
             if count == HAPTICD_MAX_BODY_CONTACTS || !contact.gap.is_finite() {
                 break;
             }
