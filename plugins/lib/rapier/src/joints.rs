@@ -23,7 +23,7 @@
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::joint::{
-    FrameMotion, Joint, JointKind, JointState, MotorTarget, coordinate as stands,
+    FrameMotion, Joint, JointKind, JointState, MotorTarget, Turns, coordinate as stands,
 };
 use hapticd_plugin_api::HapticdBodyContact;
 use rapier3d::prelude::{
@@ -62,6 +62,8 @@ struct Built {
     frames: [(DVec3, DQuat); 2],
     /// The coordinate's rate before the step, for a limit's restitution.
     before: f64,
+    /// A hinge's whole turns.
+    turns: Turns,
 }
 
 /// A force and torque given to a body for one step, N and N·m.
@@ -113,6 +115,7 @@ impl Joints {
                     bodies: pair,
                     frames,
                     before: 0.0,
+                    turns: Turns::default(),
                 }
             })
             .collect();
@@ -144,9 +147,17 @@ impl Joints {
         self.built.is_empty()
     }
 
-    /// Where joint `k` is now.
+    /// Where joint `k` is now (a hinge counted in whole turns from load).
     pub fn state(&self, physics: &PhysicsWorld, k: usize) -> JointState {
-        coordinate(physics, &self.built[k])
+        let b = &self.built[k];
+        let state = coordinate(physics, b);
+        match b.spec.kind {
+            JointKind::Revolute => JointState {
+                position: b.turns.at(state.position),
+                ..state
+            },
+            _ => state,
+        }
     }
 
     /// The limits of the joint holding link `body` to a body that does not move, as
@@ -245,6 +256,12 @@ impl Joints {
             let b = &mut physics.bodies[body];
             b.add_force(vector(-force), false);
             b.add_torque(vector(-torque), false);
+        }
+        for b in self.built.iter_mut() {
+            if b.spec.kind == JointKind::Revolute {
+                let now = coordinate(physics, b).position;
+                b.turns.follow(now);
+            }
         }
         for b in &self.built {
             let (Some([low, high]), e) = (b.spec.limits, b.spec.restitution) else {

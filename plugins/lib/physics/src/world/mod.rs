@@ -470,6 +470,9 @@ impl World {
             }
         }
         self.stop_joints();
+        for link in &mut self.joints {
+            link.follow(&self.bodies);
+        }
         if self.sleeping {
             self.fall_asleep(dt);
         }
@@ -487,9 +490,9 @@ impl World {
         }
     }
 
-    /// Where joint `k` stands now.
+    /// Where joint `k` stands now (a hinge counted in whole turns from load).
     pub fn joint_state(&self, k: usize) -> crate::joint::JointState {
-        self.joints[k].state(&self.bodies)
+        self.joints[k].counted(&self.bodies)
     }
 
     /// Whether bodies `i` and `j` are joined.

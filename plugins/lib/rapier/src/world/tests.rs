@@ -377,3 +377,27 @@ fn a_stop_gives_back_its_restitution_of_the_speed() {
         assert!((came_off + e * came_in).abs() < 1e-3, "{came_off}");
     }
 }
+
+/// A wheel its motor turns at 6 rad/s for two seconds at 60 Hz counts its whole turns: its
+/// coordinate is the sum of its rate over the steps, past a turn and a half, never wrapped
+/// back at ±π.
+#[test]
+fn a_wheel_turned_round_counts_its_turns() {
+    let mut w = jointed(
+        "name: wheel\nengine: rapier\nrate: 60\ngravity: [0, 0, 0]\nmaterial: { \
+         static_friction: 0, friction: 0 }\nbodies:\n  - { name: wheel, box: [0.1, 0.1, \
+         0.02], density: 500, position: [0, 0, 0] }\njoints:\n  - { kind: revolute, bodies: \
+         [world, wheel], anchor: [0, 0, 0], axis: [0, 0, 1], motor: { velocity: 6.0, \
+         max_force: 0.5 } }\n",
+    );
+    let dt = 1.0 / 60.0;
+    let mut summed = 0.0;
+    for _ in 0..120 {
+        assert!(w.advance(dt));
+        summed += w.joint_state(0).velocity * dt;
+    }
+    let at = w.joint_state(0).position;
+    println!("{at:.4} rad after 2 s, its rate summed {summed:.4} rad");
+    assert!(at > 1.5 * std::f64::consts::TAU, "{at}");
+    assert!((at - summed).abs() < 1e-3, "{at} against {summed}");
+}
