@@ -1062,6 +1062,127 @@ typedef struct HapticdSceneGeometry {
   int32_t (*triangles)(void *instance, uint32_t first, uint32_t count, struct HapticdTriangle *out);
 } HapticdSceneGeometry;
 /* ---------------------------------------------------------------------------
+ * Scene extension "hapticd.scene.joints/1": a running world's joints, read and driven.
+ * ------------------------------------------------------------------------- */
+
+#define HAPTICD_EXT_SCENE_JOINTS "hapticd.scene.joints/1"
+
+/*
+ Joint kind: a weld.
+ */
+#define HAPTICD_JOINT_FIXED 0
+
+/*
+ Joint kind: a hinge; its coordinate is an angle, rad.
+ */
+#define HAPTICD_JOINT_REVOLUTE 1
+
+/*
+ Joint kind: a slider; its coordinate is a distance, m.
+ */
+#define HAPTICD_JOINT_PRISMATIC 2
+
+/*
+ Joint kind: a ball joint, without a coordinate.
+ */
+#define HAPTICD_JOINT_SPHERICAL 3
+
+/*
+ Joint command: change nothing; only report the joint's coordinate and rate.
+ */
+#define HAPTICD_JOINT_QUERY 0
+
+/*
+ Joint command: drive the coordinate at the rate `target` (rad/s or m/s) with at most
+ `max_force` (N·m or N).
+ */
+#define HAPTICD_JOINT_MOTOR_VELOCITY 1
+
+/*
+ Joint command: drive the coordinate to `target` (rad or m) with at most `max_force`.
+ */
+#define HAPTICD_JOINT_MOTOR_POSITION 2
+
+/*
+ Joint command: stop driving it (its spring and damper, if any, stay).
+ */
+#define HAPTICD_JOINT_MOTOR_OFF 3
+
+/*
+ A joint of a running world, as the joints extension lists it.
+ */
+typedef struct HapticdJointInfo {
+  /*
+   NUL-terminated UTF-8 name (unique within the world).
+   */
+  char name[HAPTICD_BODY_NAME_CAPACITY];
+  /*
+   One of the `HAPTICD_JOINT_` kinds.
+   */
+  uint32_t kind;
+} HapticdJointInfo;
+
+/*
+ A command to one joint of a running world.
+ */
+typedef struct HapticdJointCommand {
+  /*
+   One of the `HAPTICD_JOINT_` commands.
+   */
+  uint32_t kind;
+  /*
+   The joint's place in the list.
+   */
+  uint32_t joint;
+  /*
+   The motor's target: rad/s or m/s, or rad or m.
+   */
+  double target;
+  /*
+   The most force or torque the motor gives, N or N·m.
+   */
+  double max_force;
+} HapticdJointCommand;
+
+/*
+ Where a joint stands.
+ */
+typedef struct HapticdJointState {
+  /*
+   Its coordinate: rad (a hinge's counted in whole turns from load) or m.
+   */
+  double position;
+  /*
+   Its rate, rad/s or m/s.
+   */
+  double velocity;
+} HapticdJointState;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_JOINTS`] of a scene plugin: a running world's joints
+ listed, read and driven one command at a time between steps. The host checks each
+ command (a joint it lists, with a coordinate for a motor, finite values in range)
+ before it is sent.
+ */
+typedef struct HapticdSceneJoints {
+  /*
+   `sizeof(HapticdSceneJoints)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [main] After `create`, before the first step: write joint `index` to `out`;
+   [`HAPTICD_ERROR_ARGUMENT`](crate::HAPTICD_ERROR_ARGUMENT) past the last joint.
+   */
+  int32_t (*joint)(void *instance, uint32_t index, struct HapticdJointInfo *out);
+  /*
+   [the thread that steps the instance, between steps] Carry out `command` and write the
+   joint's state after it to `state`. Like a step it must not allocate, lock, log or block.
+   */
+  int32_t (*drive)(void *instance,
+                   const struct HapticdJointCommand *command,
+                   struct HapticdJointState *state);
+} HapticdSceneJoints;
+/* ---------------------------------------------------------------------------
  * Scene extension "hapticd.scene.mobility/1": how a jointed body answers the hand.
  * ------------------------------------------------------------------------- */
 

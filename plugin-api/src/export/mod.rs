@@ -10,7 +10,8 @@ use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
 use crate::ext::{
-    scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*, scene_mobility::*,
+    scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*, scene_joints::*,
+    scene_mobility::*,
 };
 
 mod macros;
@@ -19,6 +20,7 @@ mod scene_contacts;
 mod scene_control;
 mod scene_files;
 mod scene_geometry;
+mod scene_joints;
 mod scene_mobility;
 
 use scene::instance_mut;
@@ -27,6 +29,7 @@ use scene_contacts::SCENE_CONTACTS;
 use scene_control::SCENE_CONTROL;
 pub use scene_files::*;
 use scene_geometry::SCENE_GEOMETRY;
+use scene_joints::SCENE_JOINTS;
 use scene_mobility::SCENE_MOBILITY;
 
 /// A mechanism as a Rust plugin author describes it.
@@ -327,8 +330,8 @@ pub type SceneError = Box<dyn std::error::Error + Send + Sync>;
 /// or its findings, one a line.
 pub type SceneCheck = fn(&str, usize) -> Result<(), SceneError>;
 
-/// Body of the exported `get_extension` function: the geometry, control, contacts and
-/// mobility extensions, and the files extension when the plugin runs scene files.
+/// Body of the exported `get_extension` function: the geometry, control, contacts,
+/// mobility and joints extensions, and the files extension when the plugin runs scene files.
 ///
 /// # Safety
 /// `id` is null or NUL-terminated.
@@ -353,6 +356,9 @@ pub unsafe fn scene_extension(
     }
     if id == HAPTICD_EXT_SCENE_MOBILITY {
         return (&SCENE_MOBILITY as *const HapticdSceneMobility).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_JOINTS {
+        return (&SCENE_JOINTS as *const HapticdSceneJoints).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

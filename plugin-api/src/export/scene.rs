@@ -4,7 +4,7 @@
 use std::ffi::{CStr, c_char};
 
 use crate::abi::*;
-use crate::ext::{scene_contacts::*, scene_control::*, scene_mobility::*};
+use crate::ext::{scene_contacts::*, scene_control::*, scene_joints::*, scene_mobility::*};
 use crate::geometry::Geometry;
 
 use super::{SceneError, guard, log};
@@ -92,6 +92,20 @@ pub trait SceneInstance: Send {
     fn mobility(&self, body: u32) -> Option<HapticdMobility> {
         let _ = body;
         None
+    }
+
+    /// [main] Since ABI 1.8: joint `index` of the world (served through
+    /// [`HAPTICD_EXT_SCENE_JOINTS`]), None past the last; the default has none.
+    fn joint(&self, index: usize) -> Option<HapticdJointInfo> {
+        let _ = index;
+        None
+    }
+
+    /// [the stepping thread, between steps] Since ABI 1.8: carry out `command` on a joint
+    /// and write its state after it to `state`. Must not allocate, lock, log or block.
+    fn drive(&mut self, command: &HapticdJointCommand, state: &mut HapticdJointState) -> i32 {
+        let _ = (command, state);
+        HAPTICD_ERROR_FAILED
     }
 }
 

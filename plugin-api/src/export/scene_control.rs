@@ -30,29 +30,40 @@ impl HapticdSceneCommand {
     }
 }
 
+/// `name` as a body's or joint's NUL-terminated name: cut at a character to fit
+/// [`HAPTICD_BODY_NAME_CAPACITY`] − 1 bytes (a NUL ends it early).
+pub(super) fn name_buffer(name: &str) -> [c_char; HAPTICD_BODY_NAME_CAPACITY] {
+    let mut end = name.len().min(HAPTICD_BODY_NAME_CAPACITY - 1);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    let mut buf = [0 as c_char; HAPTICD_BODY_NAME_CAPACITY];
+    for (slot, byte) in buf.iter_mut().zip(name[..end].bytes()) {
+        *slot = byte as c_char;
+    }
+    buf
+}
+
+/// A name buffer's text up to its NUL, or `None` if it is unterminated or not UTF-8.
+pub(super) fn name_text(name: &[c_char; HAPTICD_BODY_NAME_CAPACITY]) -> Option<&str> {
+    // SAFETY: c_char and u8 have the same size and alignment.
+    let bytes: &[u8; HAPTICD_BODY_NAME_CAPACITY] = unsafe { &*name.as_ptr().cast() };
+    CStr::from_bytes_until_nul(bytes).ok()?.to_str().ok()
+}
+
 impl HapticdBodyInfo {
     /// A body called `name` (cut at a character to fit [`HAPTICD_BODY_NAME_CAPACITY`] − 1
     /// bytes; a NUL ends it early), fixed or free.
     pub fn new(name: &str, fixed: bool) -> Self {
-        let mut end = name.len().min(HAPTICD_BODY_NAME_CAPACITY - 1);
-        while !name.is_char_boundary(end) {
-            end -= 1;
-        }
-        let mut buf = [0 as c_char; HAPTICD_BODY_NAME_CAPACITY];
-        for (slot, byte) in buf.iter_mut().zip(name[..end].bytes()) {
-            *slot = byte as c_char;
-        }
         Self {
-            name: buf,
+            name: name_buffer(name),
             flags: if fixed { HAPTICD_SOLID_FIXED } else { 0 },
         }
     }
 
     /// The name up to its NUL, or `None` if it is unterminated or not UTF-8.
     pub fn name_str(&self) -> Option<&str> {
-        // SAFETY: c_char and u8 have the same size and alignment.
-        let bytes: &[u8; HAPTICD_BODY_NAME_CAPACITY] = unsafe { &*self.name.as_ptr().cast() };
-        CStr::from_bytes_until_nul(bytes).ok()?.to_str().ok()
+        name_text(&self.name)
     }
 }
 

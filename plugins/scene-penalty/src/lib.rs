@@ -7,6 +7,7 @@
 use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{Wrench, quat_from_wxyz, quat_to_wxyz};
 use hapticd_physics::coupling::Grip;
+use hapticd_physics::joint::DrivenJoints;
 use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene, SceneFile};
 use hapticd_plugin_api::*;
 
@@ -76,6 +77,20 @@ impl SceneInstance for Penalty {
         match self.0.apply(command) {
             Some(after) => {
                 *state = after;
+                HAPTICD_OK
+            }
+            None => HAPTICD_ERROR_ARGUMENT,
+        }
+    }
+
+    fn joint(&self, index: usize) -> Option<HapticdJointInfo> {
+        self.0.joint_info(index)
+    }
+
+    fn drive(&mut self, command: &HapticdJointCommand, state: &mut HapticdJointState) -> i32 {
+        match self.0.drive_joint(command) {
+            Some(now) => {
+                *state = now;
                 HAPTICD_OK
             }
             None => HAPTICD_ERROR_ARGUMENT,

@@ -6,6 +6,7 @@
 //! near each pointer's proxy as planes and the bodies they belong to.
 
 use hapticd_core::world_state::body_pose;
+use hapticd_physics::joint::DrivenJoints;
 use hapticd_physics::scene::{RapierScene, SceneFile};
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::*;
@@ -72,6 +73,20 @@ impl SceneInstance for Rapier {
 
     fn mobility(&self, body: u32) -> Option<HapticdMobility> {
         self.0.mobility(body as usize)
+    }
+
+    fn joint(&self, index: usize) -> Option<HapticdJointInfo> {
+        self.0.joint_info(index)
+    }
+
+    fn drive(&mut self, command: &HapticdJointCommand, state: &mut HapticdJointState) -> i32 {
+        match self.0.drive_joint(command) {
+            Some(now) => {
+                *state = now;
+                HAPTICD_OK
+            }
+            None => HAPTICD_ERROR_ARGUMENT,
+        }
     }
 
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {

@@ -488,3 +488,96 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
+
+/// The running world's joints over the bus under both engines: listed with their kinds,
+/// read, driven by their motors (a lever sent to 0.5 rad by a position motor stands there,
+/// and falls back on its spring when the motor is off), and hostile values refused by name
+/// before they reach the world.
+#[test]
+fn joints_are_read_and_driven_over_the_bus_under_both_engines() {
+    let dir = support::shared_scratch("dbus", "joints");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let _daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g"]);
+    assert_eq!(bus.get(SCENE, "Joints"), "a(ss) 0");
+    let joint = |args: &[&str]| -> (f64, f64) {
+        let out = bus.call(SCENE, args[0], &args[1..]);
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        let said = String::from_utf8_lossy(&out.stdout);
+        let words: Vec<f64> = said
+            .split_whitespace()
+            .skip(1)
+            .map(|w| w.parse().unwrap())
+            .collect();
+        (words[0], words[1])
+    };
+    let named = |short: &str| format!("org.hapticd.Hapticd1.Error.{short}");
+    for scene in ["hinges", "joints"] {
+        switch_when_prepared(&bus, scene);
+        let joints = bus.get(SCENE, "Joints");
+        for listed in [
+            "\"hinge\" \"revolute\"",
+            "\"handle\" \"fixed\"",
+            "\"runners\" \"prismatic\"",
+            "\"chain1\" \"spherical\"",
+        ] {
+            assert!(joints.contains(listed), "{scene}: {joints}");
+        }
+        let (at, _) = joint(&["Joint", "s", "pivot"]);
+        assert!(at.abs() < 0.05, "{scene}: the lever stands at {at} rad");
+        joint(&["DriveJoint", "ssdd", "pivot", "position", "0.5", "0.2"]);
+        std::thread::sleep(Duration::from_millis(1500));
+        let (driven, rate) = joint(&["Joint", "s", "pivot"]);
+        assert!(
+            (driven - 0.5).abs() < 0.02 && rate.abs() < 0.05,
+            "{scene}: driven to {driven} rad at {rate} rad/s"
+        );
+        joint(&["DriveJoint", "ssdd", "pivot", "off", "0", "0"]);
+        std::thread::sleep(Duration::from_millis(1500));
+        let (back, _) = joint(&["Joint", "s", "pivot"]);
+        assert!(
+            back.abs() < 0.05,
+            "{scene}: let go, it stands at {back} rad"
+        );
+        for (args, error) in [
+            (
+                ["string:pivot", "string:position", "double:nan", "double:1"],
+                "NotFinite",
+            ),
+            (
+                ["string:pivot", "string:velocity", "double:1e4", "double:1"],
+                "OutOfRange",
+            ),
+            (
+                ["string:pivot", "string:velocity", "double:1", "double:1e6"],
+                "OutOfRange",
+            ),
+            (
+                ["string:pivot", "string:velocity", "double:1", "double:0"],
+                "OutOfRange",
+            ),
+            (
+                ["string:pivot", "string:spin", "double:1", "double:1"],
+                "OutOfRange",
+            ),
+            (
+                ["string:chain1", "string:velocity", "double:1", "double:1"],
+                "CommandRefused",
+            ),
+            (
+                ["string:nothing", "string:off", "double:0", "double:0"],
+                "UnknownJoint",
+            ),
+        ] {
+            assert_eq!(
+                bus.drive_error("DriveJoint", &args),
+                named(error),
+                "{scene}: {args:?}"
+            );
+        }
+        assert_eq!(
+            bus.drive_error("Joint", &["string:door"]),
+            named("UnknownJoint")
+        );
+    }
+}

@@ -1,8 +1,9 @@
-//! A running world changed from outside: the host's half of the scene-control extension.
+//! A running world changed from outside: the host's half of the scene-control and joints
+//! extensions.
 //!
-//! The control plane holds a [`SceneControl`]: the world's bodies by name, a check of each
-//! command against them and against what a hand may safely meet, and a ring of requests to
-//! the thread that steps the world. That thread ([`Incoming`]) carries a command out
+//! The control plane holds a [`SceneControl`]: the world's bodies and joints by name, a
+//! check of each command against them and against what a hand may safely meet, and a ring
+//! of requests to the thread that steps the world. That thread ([`Incoming`]) carries a command out
 //! between two steps and answers with the body's state; a command that would jump a force
 //! (a body put somewhere else) is held until the loop has ramped the forces to zero, as a
 //! scene switch is.
@@ -12,6 +13,10 @@ use std::time::{Duration, Instant};
 use hapticd_plugin_api::*;
 
 use crate::sync::spsc;
+
+mod joints;
+
+pub use joints::Joint;
 
 /// Farthest a body may be put from the frame's centre, metres: a desk's world.
 pub const MAX_DISTANCE: f64 = 10.0;
@@ -37,23 +42,41 @@ pub struct Body {
     pub fixed: bool,
 }
 
+/// What the stepping thread is asked to do.
+#[derive(Debug, Clone, Copy)]
+pub enum Order {
+    /// A command to a body.
+    Body(HapticdSceneCommand),
+    /// A command to a joint.
+    Joint(HapticdJointCommand),
+}
+
 /// A command for the stepping thread, numbered to match its answer.
 #[derive(Debug, Clone, Copy)]
 pub struct Request {
     id: u64,
-    command: HapticdSceneCommand,
+    order: Order,
 }
 
 impl Request {
-    /// The command.
-    pub fn command(&self) -> &HapticdSceneCommand {
-        &self.command
+    /// What it asks.
+    pub fn order(&self) -> &Order {
+        &self.order
     }
 
     /// Whether carrying it out could jump the force a hand feels (a body put elsewhere).
     fn jumps(&self) -> bool {
-        self.command.kind == HAPTICD_COMMAND_SET_POSE
+        matches!(self.order, Order::Body(c) if c.kind == HAPTICD_COMMAND_SET_POSE)
     }
+}
+
+/// The state a request left its body or joint in.
+#[derive(Debug, Clone, Copy)]
+pub enum Answer {
+    /// A body's.
+    Body(HapticdBodyState),
+    /// A joint's.
+    Joint(HapticdJointState),
 }
 
 /// What the stepping thread did with a request.
@@ -61,16 +84,16 @@ impl Request {
 pub struct Reply {
     id: u64,
     status: i32,
-    state: HapticdBodyState,
+    answer: Answer,
 }
 
 impl Reply {
-    /// The answer to `request`: the plugin's status and the body's state after it.
-    pub fn to(request: &Request, status: i32, state: HapticdBodyState) -> Self {
+    /// The answer to `request`: the plugin's status and the state after it.
+    pub fn to(request: &Request, status: i32, answer: Answer) -> Self {
         Self {
             id: request.id,
             status,
-            state,
+            answer,
         }
     }
 }
@@ -80,6 +103,8 @@ impl Reply {
 pub enum CommandError {
     /// No body of that name or id.
     UnknownBody(String),
+    /// No joint of that name or id.
+    UnknownJoint(String),
     /// Forces do not move that body.
     FixedBody(String),
     /// A value that is NaN or infinite.
@@ -96,6 +121,7 @@ impl std::fmt::Display for CommandError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             CommandError::UnknownBody(m)
+            | CommandError::UnknownJoint(m)
             | CommandError::FixedBody(m)
             | CommandError::NotFinite(m)
             | CommandError::OutOfRange(m)
@@ -107,9 +133,11 @@ impl std::fmt::Display for CommandError {
 
 impl std::error::Error for CommandError {}
 
-/// [main] The control plane's end: the world's bodies and the requests to its stepping thread.
+/// [main] The control plane's end: the world's bodies and joints and the requests to its
+/// stepping thread.
 pub struct SceneControl {
     bodies: Vec<Body>,
+    joints: Vec<Joint>,
     requests: spsc::Producer<Request>,
     replies: spsc::Consumer<Reply>,
     next: u64,
@@ -122,14 +150,18 @@ const REQUESTS: usize = 4096;
 /// How long a command waits for the stepping thread: a ramp down and a physics step or two.
 const ANSWER_TIMEOUT: Duration = Duration::from_secs(3);
 
-/// The control of a world of `bodies`, its requests' end for the stepping thread, and the
-/// end that thread answers through (the same one, or the physics thread of a multi-rate
-/// scene).
-pub fn channel(bodies: Vec<Body>) -> (SceneControl, Incoming, spsc::Producer<Reply>) {
+/// The control of a world of `bodies` and `joints`, its requests' end for the stepping
+/// thread, and the end that thread answers through (the same one, or the physics thread of
+/// a multi-rate scene).
+pub fn channel(
+    bodies: Vec<Body>,
+    joints: Vec<Joint>,
+) -> (SceneControl, Incoming, spsc::Producer<Reply>) {
     let (requests, incoming) = spsc::channel(REQUESTS);
     let (answers, replies) = spsc::channel(REQUESTS);
     let control = SceneControl {
         bodies,
+        joints,
         requests,
         replies,
         next: 0,
@@ -266,11 +298,10 @@ impl SceneControl {
         let command = self.check(command)?;
         self.next += 1;
         let id = self.next;
-        self.requests
-            .try_push(Request { id, command })
-            .map_err(|_| {
-                CommandError::Timeout("the world has more changes waiting than it takes".into())
-            })
+        let order = Order::Body(command);
+        self.requests.try_push(Request { id, order }).map_err(|_| {
+            CommandError::Timeout("the world has more changes waiting than it takes".into())
+        })
     }
 
     /// Check `command`, hand it to the stepping thread and wait for its answer: the body's
@@ -278,6 +309,25 @@ impl SceneControl {
     pub fn send(&mut self, command: HapticdSceneCommand) -> Result<HapticdBodyState, CommandError> {
         let command = self.check(command)?;
         let name = self.bodies[command.body as usize].name.clone();
+        match self.wait(Order::Body(command), &name)? {
+            (HAPTICD_OK, Answer::Body(state)) => Ok(state),
+            _ if command.kind == HAPTICD_COMMAND_SET_MASS => {
+                Err(CommandError::OutOfRange(format!(
+                    "a mass of {} kg for {name} is not one its scene takes: as in a scene file, its \
+                 density must stay in the engine's range and its contact springs stable at the \
+                 scene's step",
+                    command.value
+                )))
+            }
+            (status, _) => Err(CommandError::Refused(format!(
+                "the scene refused the change to {name} (status {status})"
+            ))),
+        }
+    }
+
+    /// Hand `order` (for `name`) to the stepping thread and wait for its answer: the
+    /// plugin's status and the state it left.
+    fn wait(&mut self, order: Order, name: &str) -> Result<(i32, Answer), CommandError> {
         let timeout = || {
             CommandError::Timeout(format!(
                 "the world did not carry out the change to {name} within {} s",
@@ -289,28 +339,14 @@ impl SceneControl {
         self.next += 1;
         let id = self.next;
         self.requests
-            .try_push(Request { id, command })
+            .try_push(Request { id, order })
             .map_err(|_| timeout())?;
         let started = Instant::now();
         loop {
             while let Some(reply) = self.replies.pop() {
-                if reply.id != id {
-                    continue;
+                if reply.id == id {
+                    return Ok((reply.status, reply.answer));
                 }
-                return match reply.status {
-                    HAPTICD_OK => Ok(reply.state),
-                    _ if command.kind == HAPTICD_COMMAND_SET_MASS => {
-                        Err(CommandError::OutOfRange(format!(
-                            "a mass of {} kg for {name} is not one its scene takes: as in a \
-                             scene file, its density must stay in the engine's range and its \
-                             contact springs stable at the scene's step",
-                            command.value
-                        )))
-                    }
-                    status => Err(CommandError::Refused(format!(
-                        "the scene refused the change to {name} (status {status})"
-                    ))),
-                };
             }
             if started.elapsed() > ANSWER_TIMEOUT {
                 return Err(timeout());
@@ -356,17 +392,28 @@ impl Incoming {
 mod tests {
     use super::*;
 
+    /// The kind of a body's command.
+    fn kind(r: &Request) -> u32 {
+        match r.order() {
+            Order::Body(c) => c.kind,
+            Order::Joint(_) => unreachable!("only bodies here"),
+        }
+    }
+
     fn control() -> (SceneControl, Incoming, spsc::Producer<Reply>) {
-        channel(vec![
-            Body {
-                name: "floor".into(),
-                fixed: true,
-            },
-            Body {
-                name: "block".into(),
-                fixed: false,
-            },
-        ])
+        channel(
+            vec![
+                Body {
+                    name: "floor".into(),
+                    fixed: true,
+                },
+                Body {
+                    name: "block".into(),
+                    fixed: false,
+                },
+            ],
+            Vec::new(),
+        )
     }
 
     #[test]
@@ -500,14 +547,14 @@ mod tests {
             let mut held_seen = false;
             while order.len() < 3 {
                 while let Some(r) = incoming.due() {
-                    order.push(r.command().kind);
-                    answers.push(Reply::to(&r, HAPTICD_OK, HapticdBodyState::default()));
+                    order.push(kind(&r));
+                    answers.push(Reply::to(&r, HAPTICD_OK, Answer::Body(Default::default())));
                 }
                 if incoming.holding() {
                     held_seen = true;
                     let r = incoming.release().unwrap();
-                    order.push(r.command().kind);
-                    answers.push(Reply::to(&r, HAPTICD_OK, HapticdBodyState::default()));
+                    order.push(kind(&r));
+                    answers.push(Reply::to(&r, HAPTICD_OK, Answer::Body(Default::default())));
                 }
                 std::thread::sleep(Duration::from_millis(1));
             }

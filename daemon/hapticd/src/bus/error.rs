@@ -35,6 +35,7 @@ fn name_of(error: &control::Error) -> &'static str {
         NameExpected(_) => "NameExpected",
         Preparing(_) => "Preparing",
         Command(CommandError::UnknownBody(_)) => "UnknownBody",
+        Command(CommandError::UnknownJoint(_)) => "UnknownJoint",
         Command(CommandError::FixedBody(_)) => "FixedBody",
         Command(CommandError::NotFinite(_)) => "NotFinite",
         Command(CommandError::OutOfRange(_)) => "OutOfRange",

@@ -1,5 +1,5 @@
 //! `org.hapticd.Hapticd1.Scene` at `/org/hapticd/Hapticd1/scene`: the running world's
-//! bodies, read by anyone and changed by those who may change the daemon.
+//! bodies and joints, read by anyone and changed by those who may change the daemon.
 //!
 //! A body is named by its scene file's name, or by its id (its place in the world's list)
 //! written as a number. Every change is carried out between two steps of the world in every
@@ -133,6 +133,76 @@ impl SceneInterface {
             .into_iter()
             .map(|b| (b.name, b.fixed))
             .collect()
+    }
+
+    /// The joints of the running world, in order: each one's name and kind (`fixed`,
+    /// `revolute`, `prismatic`, `spherical`). Read again once the manager's ActiveScene
+    /// changes.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn joints(&self) -> Vec<(String, String)> {
+        self.daemon
+            .joints()
+            .into_iter()
+            .map(|j| (j.name.clone(), j.kind_name().to_string()))
+            .collect()
+    }
+
+    /// Where joint `joint` stands now: its coordinate (rad, a hinge's counted in whole
+    /// turns from load; or m) and its rate.
+    async fn joint(&self, joint: String) -> Result<(f64, f64), BusError> {
+        let query = HapticdJointCommand::default();
+        let daemon = self.daemon.clone();
+        let state = self
+            .workers
+            .run(move || daemon.drive_joint(&joint, query))
+            .await?;
+        Ok((state.position, state.velocity))
+    }
+
+    /// Drive joint `joint`'s coordinate with its motor: `motor` `velocity` (to the rate
+    /// `target`, rad/s or m/s) or `position` (to `target`, rad or m), with at most
+    /// `max_force` (N·m or N, up to 100), or `off`. Answers where the joint stands.
+    async fn drive_joint(
+        &self,
+        joint: String,
+        motor: String,
+        target: f64,
+        max_force: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<(f64, f64), BusError> {
+        let kind = match motor.as_str() {
+            "velocity" => Ok(HAPTICD_JOINT_MOTOR_VELOCITY),
+            "position" => Ok(HAPTICD_JOINT_MOTOR_POSITION),
+            "off" => Ok(HAPTICD_JOINT_MOTOR_OFF),
+            other => Err(control::Error::OutOfRange(format!(
+                "a motor drives by `velocity` or `position`, or is `off`, not {other:?}"
+            ))),
+        };
+        let daemon = self.daemon.clone();
+        let named = joint.clone();
+        let result = match kind {
+            Ok(kind) => {
+                let command = HapticdJointCommand {
+                    kind,
+                    joint: 0,
+                    target,
+                    max_force,
+                };
+                self.workers
+                    .run(move || daemon.drive_joint(&named, command))
+                    .await
+            }
+            Err(e) => Err(e),
+        };
+        let outcome = result.as_ref().map(|_| ()).map_err(|e| e.to_string());
+        audit(
+            &format!("drive the joint {joint:?} by {motor} to {target} with {max_force}"),
+            &caller(connection, Some(&header)).await,
+            &outcome,
+        );
+        let state = result?;
+        Ok((state.position, state.velocity))
     }
 
     /// Where `body` is and how it moves, now.

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use crate::state::{Calibration, DeviceRecord, StateDir};
 use hapticd_core::haptic_loop::{DeviceState, Frame, LoopCommand};
 use hapticd_core::parameters::{self, Name, Parameters};
-use hapticd_core::scene::control::Body;
+use hapticd_core::scene::control::{Body, Joint};
 use hapticd_core::scene::control::{CommandError, SceneControl};
 use hapticd_core::scene::{Pointer, Scene};
 use hapticd_core::stats::LoopStats;
@@ -20,7 +20,7 @@ use hapticd_ipc::world_share::SharedWorldFile;
 use hapticd_plugin_api::{
     HAPTICD_COMMAND_QUERY, HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION,
     HAPTICD_COMMAND_SET_MASS, HAPTICD_COMMAND_SET_POSE, HAPTICD_COMMAND_SET_VELOCITY,
-    HapticdBodyState, HapticdSceneCommand,
+    HapticdBodyState, HapticdJointCommand, HapticdJointState, HapticdSceneCommand,
 };
 
 use super::{Error, not_taking_commands};
@@ -541,6 +541,32 @@ impl DeviceHandle {
         })?;
         command.body = control.find(body).map_err(Error::Command)?;
         control.send(command).map_err(Error::Command)
+    }
+
+    /// The running world's joints (none when it cannot be changed from outside).
+    pub fn joints(&self) -> Vec<Joint> {
+        lock(&self.control)
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.joints().to_vec())
+    }
+
+    /// Carry out `command` on joint `joint` (its name) of the running world between two of
+    /// its steps; the joint's state after it.
+    pub fn drive_joint(
+        &self,
+        joint: &str,
+        mut command: HapticdJointCommand,
+    ) -> Result<HapticdJointState, Error> {
+        let mut control = lock(&self.control);
+        let control = control.as_mut().ok_or_else(|| {
+            Error::Unavailable(
+                "the running scene cannot be changed from outside (its plugin offers no \
+                 hapticd.scene.control/1)"
+                    .into(),
+            )
+        })?;
+        command.joint = control.find_joint(joint).map_err(Error::Command)?;
+        control.drive(command).map_err(Error::Command)
     }
 
     /// Refuse a mass the hand would fling: the proxy's spring of stiffness k pushes a body

@@ -15,9 +15,11 @@ use hapticd_config::Config;
 use hapticd_config::catalog::{Catalog, Entry};
 use hapticd_core::diagnostics::{Diagnostic, Diagnostics};
 use hapticd_core::parameters::ParameterError;
-pub use hapticd_core::scene::control::Body;
 use hapticd_core::scene::control::CommandError;
-use hapticd_plugin_api::{HapticdBodyState, HapticdSceneCommand};
+pub use hapticd_core::scene::control::{Body, Joint};
+use hapticd_plugin_api::{
+    HapticdBodyState, HapticdJointCommand, HapticdJointState, HapticdSceneCommand,
+};
 
 mod device;
 mod effects;
@@ -460,6 +462,26 @@ impl Daemon {
         let mut first = None;
         for device in &self.devices {
             let state = device.drive(body, command)?;
+            first.get_or_insert(state);
+        }
+        first.ok_or_else(|| Error::Unavailable("no device runs a world".into()))
+    }
+
+    /// The running world's joints (as the first device's world has them).
+    pub fn joints(&self) -> Vec<Joint> {
+        self.devices.first().map_or_else(Vec::new, |d| d.joints())
+    }
+
+    /// Carry out `command` on joint `joint` (its name) in every device's world; the joint's
+    /// state after it in the first.
+    pub fn drive_joint(
+        &self,
+        joint: &str,
+        command: HapticdJointCommand,
+    ) -> Result<HapticdJointState, Error> {
+        let mut first = None;
+        for device in &self.devices {
+            let state = device.drive_joint(joint, command)?;
             first.get_or_insert(state);
         }
         first.ok_or_else(|| Error::Unavailable("no device runs a world".into()))

@@ -28,6 +28,8 @@ pub enum ExtensionFault {
     Solids(GeometryError),
     /// A body's name is no UTF-8 text ending in NUL.
     BodyName(u32),
+    /// A joint's name is no UTF-8 text ending in NUL.
+    JointName(u32),
 }
 
 impl std::fmt::Display for ExtensionFault {
@@ -42,6 +44,9 @@ impl std::fmt::Display for ExtensionFault {
             ExtensionFault::Solids(e) => e.fmt(f),
             ExtensionFault::BodyName(index) => {
                 write!(f, "body {index} has no UTF-8 name ending in NUL")
+            }
+            ExtensionFault::JointName(index) => {
+                write!(f, "joint {index} has no UTF-8 name ending in NUL")
             }
         }
     }
@@ -144,8 +149,44 @@ pub(super) fn read_control(
         });
     }
     instance.apply = Some(apply);
-    let (control, incoming, replies) = control::channel(bodies);
+    let joints = read_joints(loaded, instance)?;
+    let (control, incoming, replies) = control::channel(bodies, joints);
     Ok(Some((control, (incoming, replies))))
+}
+
+/// Most joints a world's control lists.
+const MAX_JOINTS: u32 = 1024;
+
+/// [main] The joints of `instance`'s world as its plugin's joints extension lists them
+/// (none without one); the extension's `drive` is kept in the instance.
+fn read_joints(
+    loaded: &plugin::LoadedPlugin,
+    instance: &mut Instance,
+) -> Result<Vec<control::Joint>, ExtensionFault> {
+    // SAFETY: HapticdSceneJoints is the struct of the joints extension.
+    let extension: Option<HapticdSceneJoints> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_JOINTS) };
+    let Some(extension) = extension else {
+        return Ok(Vec::new());
+    };
+    let (Some(joint_of), Some(drive)) = (extension.joint, extension.drive) else {
+        return Err(ExtensionFault::LacksFunction("joints"));
+    };
+    let mut joints = Vec::new();
+    for index in 0..MAX_JOINTS {
+        let mut info = HapticdJointInfo::new("", 0);
+        // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
+        if unsafe { joint_of(instance.pointer, index, &mut info) } != HAPTICD_OK {
+            break;
+        }
+        let name = info.name_str().ok_or(ExtensionFault::JointName(index))?;
+        joints.push(control::Joint {
+            name: name.to_string(),
+            kind: info.kind,
+        });
+    }
+    instance.drive = Some(drive);
+    Ok(joints)
 }
 
 /// Most objects a multi-rate scene's planes may name, for contact events.

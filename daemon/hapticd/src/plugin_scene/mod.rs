@@ -27,7 +27,7 @@ use hapticd_plugin_api::*;
 use glam::DVec3;
 use hapticd_config::plugin;
 use hapticd_core::kinematics::MAX_EFFECTORS;
-use hapticd_core::scene::control::{Reply, Request, SceneControl};
+use hapticd_core::scene::control::{Answer, Order, Reply, Request, SceneControl};
 use hapticd_core::scene::output_check::WrenchChecker;
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
@@ -47,6 +47,14 @@ struct Instance {
     >,
     /// The contacts extension's `touch`, when the plugin has one.
     touch: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdTouch) -> i32>,
+    /// The joints extension's `drive`, when the plugin has one.
+    drive: Option<
+        unsafe extern "C" fn(
+            *mut c_void,
+            *const HapticdJointCommand,
+            *mut HapticdJointState,
+        ) -> i32,
+    >,
     /// The mobility extension's function, when the plugin has one.
     mobility: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdMobility) -> i32>,
     /// The ABI minor the plugin was built for: fields newer than it are not read.
@@ -61,16 +69,36 @@ impl Instance {
     /// [the stepping thread, between steps] Carry out `request` and answer it through
     /// `replies` (a full ring drops the answer: its caller has given up waiting).
     fn carry_out(&self, request: &Request, replies: &mut spsc::Producer<Reply>) {
-        let mut state = HapticdBodyState::default();
-        let status = match self.apply {
+        let answer = match request.order() {
+            Order::Body(command) => {
+                let mut state = HapticdBodyState::default();
+                let status = self.apply(command, &mut state);
+                (status, Answer::Body(state))
+            }
+            Order::Joint(command) => {
+                let mut state = HapticdJointState::default();
+                let status = match self.drive {
+                    // SAFETY: a live instance on its stepping thread, valid command and state.
+                    Some(drive) => unsafe { drive(self.pointer, command, &mut state) },
+                    None => HAPTICD_ERROR_FAILED,
+                };
+                (status, Answer::Joint(state))
+            }
+        };
+        replies.push(Reply::to(request, answer.0, answer.1));
+    }
+
+    /// [the stepping thread, between steps] Carry out body `command` through the control
+    /// extension, writing the body's state after it to `state`: the plugin's status.
+    fn apply(&self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
+        match self.apply {
             Some(apply) => {
-                let command = request.command();
                 if command.kind == HAPTICD_COMMAND_IMPULSE_AT_CENTRE && self.minor < 7 {
                     // A plugin before ABI 1.7: the centre read now and the impulse given
                     // there between the same two steps, so it is where the body is.
                     let query = HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, command.body);
                     // SAFETY: a live instance on its stepping thread, valid command and state.
-                    match unsafe { apply(self.pointer, &query, &mut state) } {
+                    match unsafe { apply(self.pointer, &query, state) } {
                         HAPTICD_OK => {
                             let through = HapticdSceneCommand {
                                 position: state.position,
@@ -78,18 +106,17 @@ impl Instance {
                                 ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE, command.body)
                             };
                             // SAFETY: as above.
-                            unsafe { apply(self.pointer, &through, &mut state) }
+                            unsafe { apply(self.pointer, &through, state) }
                         }
                         failed => failed,
                     }
                 } else {
                     // SAFETY: as above.
-                    unsafe { apply(self.pointer, command, &mut state) }
+                    unsafe { apply(self.pointer, command, state) }
                 }
             }
             None => HAPTICD_ERROR_FAILED,
-        };
-        replies.push(Reply::to(request, status, state));
+        }
     }
 
     /// [rt, after a direct step] What each pointer touches, into `touches`.
@@ -361,6 +388,7 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         pointer,
         apply: None,
         touch: None,
+        drive: None,
         mobility: None,
         minor: loaded.abi.1,
     };

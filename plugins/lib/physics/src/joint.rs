@@ -3,6 +3,12 @@
 //! slider's distance) stands, read from the two bodies it joins.
 
 use glam::{DQuat, DVec3};
+use hapticd_plugin_api::{
+    HAPTICD_JOINT_FIXED, HAPTICD_JOINT_MOTOR_OFF, HAPTICD_JOINT_MOTOR_POSITION,
+    HAPTICD_JOINT_MOTOR_VELOCITY, HAPTICD_JOINT_PRISMATIC, HAPTICD_JOINT_QUERY,
+    HAPTICD_JOINT_REVOLUTE, HAPTICD_JOINT_SPHERICAL, HapticdJointCommand, HapticdJointInfo,
+    HapticdJointState,
+};
 use serde::Deserialize;
 
 /// What a joint lets its bodies do.
@@ -24,6 +30,74 @@ impl JointKind {
     /// motors act on.
     pub fn has_coordinate(self) -> bool {
         matches!(self, JointKind::Revolute | JointKind::Prismatic)
+    }
+
+    /// Its `HAPTICD_JOINT_` kind.
+    pub fn abi(self) -> u32 {
+        match self {
+            JointKind::Fixed => HAPTICD_JOINT_FIXED,
+            JointKind::Revolute => HAPTICD_JOINT_REVOLUTE,
+            JointKind::Prismatic => HAPTICD_JOINT_PRISMATIC,
+            JointKind::Spherical => HAPTICD_JOINT_SPHERICAL,
+        }
+    }
+}
+
+/// A world whose joints the joints extension reads and drives, in either engine.
+pub trait DrivenJoints {
+    /// How many joints it has.
+    fn joint_count(&self) -> usize;
+    /// Joint `k` as the scene gives it.
+    fn joint(&self, k: usize) -> &Joint;
+    /// Give joint `k` `motor` (None: none), beside its spring and damper.
+    fn set_motor(&mut self, k: usize, motor: Option<Motor>);
+    /// Where joint `k` stands now.
+    fn joint_state(&self, k: usize) -> JointState;
+
+    /// Joint `k` as the joints extension lists it, None past the last.
+    fn joint_info(&self, k: usize) -> Option<HapticdJointInfo> {
+        (k < self.joint_count()).then(|| {
+            let joint = self.joint(k);
+            HapticdJointInfo::new(&joint.name, joint.kind.abi())
+        })
+    }
+
+    /// Carry out joint `command` (a query, or a change of its motor) and answer where the
+    /// joint stands; None for no such joint, an unknown command, or a motor on a joint
+    /// without a coordinate. Allocates nothing: it runs between steps, in the haptic tick
+    /// for a direct scene.
+    fn drive_joint(&mut self, command: &HapticdJointCommand) -> Option<HapticdJointState> {
+        let k = command.joint as usize;
+        if k >= self.joint_count() || !command.is_finite() {
+            return None;
+        }
+        match commanded(command) {
+            Some(motor) if self.joint(k).kind.has_coordinate() => self.set_motor(k, motor),
+            None if command.kind == HAPTICD_JOINT_QUERY => {}
+            _ => return None,
+        }
+        let state = self.joint_state(k);
+        Some(HapticdJointState {
+            position: state.position,
+            velocity: state.velocity,
+        })
+    }
+}
+
+/// What a joint command of the joints extension asks of the joint's motor: `Some(motor)`
+/// to drive it (None: to stop driving), or nothing for a query or an unknown command.
+fn commanded(command: &HapticdJointCommand) -> Option<Option<Motor>> {
+    let motor = |target| {
+        Some(Some(Motor {
+            target,
+            max_force: command.max_force,
+        }))
+    };
+    match command.kind {
+        HAPTICD_JOINT_MOTOR_VELOCITY => motor(MotorTarget::Velocity(command.target)),
+        HAPTICD_JOINT_MOTOR_POSITION => motor(MotorTarget::Position(command.target)),
+        HAPTICD_JOINT_MOTOR_OFF => Some(None),
+        _ => None,
     }
 }
 

@@ -23,12 +23,12 @@
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::joint::{
-    FrameMotion, Joint, JointKind, JointState, MotorTarget, Turns, coordinate as stands,
+    FrameMotion, Joint, JointKind, JointState, Motor, MotorTarget, Turns, coordinate as stands,
 };
 use hapticd_plugin_api::HapticdBodyContact;
 use rapier3d::prelude::{
-    GenericJointBuilder, JointAxesMask, JointAxis, MotorModel, MultibodyJointHandle, PhysicsWorld,
-    Pose, RigidBodyBuilder, RigidBodyHandle,
+    GenericJoint, GenericJointBuilder, ImpulseJointHandle, JointAxesMask, JointAxis, MotorModel,
+    MultibodyJointHandle, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle,
 };
 
 use crate::convert::{dquat, dvec, rotation, vector};
@@ -49,7 +49,7 @@ enum Handle {
     /// A link of a multibody: the joint to its parent.
     Multibody(MultibodyJointHandle),
     /// A constraint closing a loop.
-    Impulse,
+    Impulse(ImpulseJointHandle),
 }
 
 /// One joint in the world.
@@ -104,10 +104,7 @@ impl Joints {
                     .flatten();
                 let handle = match reduced {
                     Some(h) => Handle::Multibody(h),
-                    None => {
-                        physics.insert_impulse_joint(pair[0], pair[1], joint);
-                        Handle::Impulse
-                    }
+                    None => Handle::Impulse(physics.insert_impulse_joint(pair[0], pair[1], joint)),
                 };
                 Built {
                     spec: spec.clone(),
@@ -135,6 +132,46 @@ impl Joints {
     /// Joint `k`'s name.
     pub fn name(&self, k: usize) -> &str {
         &self.built[k].spec.name
+    }
+
+    /// What joint `k` is, as its scene gives it.
+    pub fn spec(&self, k: usize) -> &Joint {
+        &self.built[k].spec
+    }
+
+    /// Give joint `k` `motor` (None: none), beside its spring and damper.
+    pub fn set_motor(&mut self, physics: &mut PhysicsWorld, k: usize, motor: Option<Motor>) {
+        let b = &mut self.built[k];
+        b.spec.motor = motor;
+        if !b.spec.kind.has_coordinate() {
+            return;
+        }
+        let (axis, (position, velocity, stiffness, damping)) = drive(&b.spec);
+        let bound = motor.map_or(f32::MAX, |m| m.max_force as f32);
+        let set = |data: &mut GenericJoint| {
+            data.set_motor_model(axis, MotorModel::ForceBased)
+                .set_motor(axis, position, velocity, stiffness, damping)
+                .set_motor_max_force(axis, bound);
+        };
+        match b.handle {
+            Handle::Multibody(h) => {
+                if let Some((multibody, link)) = physics.multibody_joints.get_mut(h)
+                    && let Some(link) = multibody.link_mut(link)
+                {
+                    set(&mut link.joint.data);
+                }
+            }
+            Handle::Impulse(h) => {
+                if let Some(joint) = physics.impulse_joints.get_mut(h, true) {
+                    set(&mut joint.data);
+                }
+            }
+        }
+        for body in b.bodies {
+            if let Some(body) = physics.bodies.get_mut(body) {
+                body.wake_up(true);
+            }
+        }
     }
 
     /// How many there are.

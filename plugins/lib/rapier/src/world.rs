@@ -30,7 +30,7 @@ use crate::articulation;
 use crate::convert::{dquat, dvec, rotation, vector};
 use crate::joints::Joints;
 use crate::surfaces::{self, Candidate};
-use hapticd_physics::joint::JointState;
+use hapticd_physics::joint::{DrivenJoints, Joint, JointState, Motor};
 
 /// Where a body is and how it moves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -824,3 +824,21 @@ impl hapticd_core::scene::shared_world::Stepped for RapierWorld {
 
 #[cfg(test)]
 mod tests;
+
+impl DrivenJoints for RapierWorld {
+    fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    fn joint(&self, k: usize) -> &Joint {
+        self.joints.spec(k)
+    }
+
+    fn set_motor(&mut self, k: usize, motor: Option<Motor>) {
+        self.joints.set_motor(&mut self.physics, k, motor);
+    }
+
+    fn joint_state(&self, k: usize) -> JointState {
+        RapierWorld::joint_state(self, k)
+    }
+}
