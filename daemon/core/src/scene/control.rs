@@ -590,7 +590,7 @@ mod tests {
                     answers.push(Reply::to(
                         &r,
                         HAPTICD_ERROR_ARGUMENT,
-                        HapticdBodyState::default(),
+                        Answer::Body(HapticdBodyState::default()),
                     ));
                     return incoming;
                 }
