@@ -111,6 +111,25 @@ impl PenaltyScene {
     }
 }
 
+impl DrivenJoints for PenaltyScene {
+    fn joint_count(&self) -> usize {
+        self.world.joints.len()
+    }
+
+    fn joint(&self, k: usize) -> &Joint {
+        &self.world.joints[k].joint
+    }
+
+    fn set_motor(&mut self, k: usize, motor: Option<Motor>) {
+        // A world with joints does not sleep: the change takes at the next step.
+        self.world.joints[k].joint.motor = motor;
+    }
+
+    fn joint_state(&self, k: usize) -> JointState {
+        self.world.joint_state(k)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -285,24 +304,5 @@ pointer: { box: [0.01, 0.01, 0.01], density: 1000 }
             ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MASS, 1)
         };
         assert_eq!(scene.apply(&light).unwrap().mass, 6.1e-5);
-    }
-}
-
-impl DrivenJoints for PenaltyScene {
-    fn joint_count(&self) -> usize {
-        self.world.joints.len()
-    }
-
-    fn joint(&self, k: usize) -> &Joint {
-        &self.world.joints[k].joint
-    }
-
-    fn set_motor(&mut self, k: usize, motor: Option<Motor>) {
-        // A world with joints does not sleep: the change takes at the next step.
-        self.world.joints[k].joint.motor = motor;
-    }
-
-    fn joint_state(&self, k: usize) -> JointState {
-        self.world.joint_state(k)
     }
 }
