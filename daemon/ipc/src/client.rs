@@ -475,6 +475,45 @@ pub struct Body {
     pub fixed: bool,
 }
 
+/// A joint of the running world.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Joint {
+    /// Its name.
+    pub name: String,
+    /// `fixed`, `revolute`, `prismatic` or `spherical`.
+    pub kind: String,
+}
+
+/// Where a joint stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointState {
+    /// Its coordinate: rad (a hinge's counted in whole turns from load) or m.
+    pub position: f64,
+    /// Its rate, rad/s or m/s.
+    pub velocity: f64,
+}
+
+/// What a joint's motor does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JointMotor {
+    /// Drive the coordinate at this rate (rad/s or m/s) with at most `max_force`.
+    Velocity {
+        /// rad/s or m/s.
+        target: f64,
+        /// N·m or N.
+        max_force: f64,
+    },
+    /// Drive the coordinate to this position (rad or m) with at most `max_force`.
+    Position {
+        /// rad or m.
+        target: f64,
+        /// N·m or N.
+        max_force: f64,
+    },
+    /// Stop driving it.
+    Off,
+}
+
 /// A body's state, as a change left it (or now, for [`Scene::body`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyState {
@@ -620,5 +659,31 @@ impl Scene {
     /// Make the friction coefficient of `body`'s contacts `friction`.
     pub fn set_friction(&self, body: &str, friction: f64) -> Result<BodyState, ClientError> {
         BodyState::from_bus(zbus::block_on(self.proxy.set_friction(body, friction))?)
+    }
+
+    /// The joints, in order.
+    pub fn joints(&self) -> Result<Vec<Joint>, ClientError> {
+        Ok(zbus::block_on(self.proxy.joints())?
+            .into_iter()
+            .map(|(name, kind)| Joint { name, kind })
+            .collect())
+    }
+
+    /// Where `joint` stands now.
+    pub fn joint(&self, joint: &str) -> Result<JointState, ClientError> {
+        let (position, velocity) = zbus::block_on(self.proxy.joint(joint))?;
+        Ok(JointState { position, velocity })
+    }
+
+    /// Set `joint`'s motor; where the joint stands after it.
+    pub fn drive_joint(&self, joint: &str, motor: JointMotor) -> Result<JointState, ClientError> {
+        let (kind, target, max_force) = match motor {
+            JointMotor::Velocity { target, max_force } => ("velocity", target, max_force),
+            JointMotor::Position { target, max_force } => ("position", target, max_force),
+            JointMotor::Off => ("off", 0.0, 0.0),
+        };
+        let (position, velocity) =
+            zbus::block_on(self.proxy.drive_joint(joint, kind, target, max_force))?;
+        Ok(JointState { position, velocity })
     }
 }

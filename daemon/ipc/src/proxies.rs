@@ -222,7 +222,8 @@ pub trait Device {
     fn bind_mechanism(&self, mechanism: &str) -> zbus::Result<()>;
 }
 
-/// `org.hapticd.Hapticd1.Scene`: the running world's bodies, at [`crate::SCENE_PATH`]. A body
+/// `org.hapticd.Hapticd1.Scene`: the running world's bodies and joints, at
+/// [`crate::SCENE_PATH`]. A body
 /// is its name or its id as a number; every change answers with the body's state after it
 /// (`position`, `orientation`, `velocity`, `spin`, `force`, `mass`, `friction`).
 #[proxy(
@@ -271,6 +272,20 @@ pub trait Scene {
         body: &str,
         friction: f64,
     ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// The joints in order: each one's name and kind.
+    #[zbus(property(emits_changed_signal = "false"))]
+    fn joints(&self) -> zbus::Result<Vec<(String, String)>>;
+    /// Where `joint` stands: its coordinate and rate.
+    fn joint(&self, joint: &str) -> zbus::Result<(f64, f64)>;
+    /// Drive `joint` by `motor` (`velocity`, `position` or `off`) to `target` with at most
+    /// `max_force`; where it stands.
+    fn drive_joint(
+        &self,
+        joint: &str,
+        motor: &str,
+        target: f64,
+        max_force: f64,
+    ) -> zbus::Result<(f64, f64)>;
 }
 
 /// `org.hapticd.Renderer1`: pictures of the world.

@@ -580,4 +580,33 @@ fn joints_are_read_and_driven_over_the_bus_under_both_engines() {
             named("UnknownJoint")
         );
     }
+    // The same through hapticctl: the crank's motor turned up, and its turns counted.
+    let ctl = |args: &[&str]| {
+        let out = bus.ctl(args);
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    assert!(ctl(&["joint", "list"]).contains("crank"));
+    ctl(&[
+        "joint",
+        "drive",
+        "crank",
+        "--velocity",
+        "6",
+        "--max-force",
+        "0.5",
+    ]);
+    std::thread::sleep(Duration::from_millis(1500));
+    let shown: serde_json::Value =
+        serde_json::from_str(&ctl(&["joint", "show", "crank", "--json"])).unwrap();
+    let (at, rate) = (
+        shown["position"].as_f64().unwrap(),
+        shown["velocity"].as_f64().unwrap(),
+    );
+    assert!(
+        at > std::f64::consts::TAU && (rate - 6.0).abs() < 0.1,
+        "the crank at {at} rad, {rate} rad/s"
+    );
+    let refused = bus.ctl(&["joint", "drive", "crank", "--velocity", "1", "--off"]);
+    assert!(!refused.status.success());
 }

@@ -6,6 +6,7 @@ mod completion;
 mod device;
 mod effect;
 mod experiment;
+mod joint;
 mod manual;
 mod mechanism;
 mod mesh;
@@ -69,6 +70,9 @@ enum Command {
     /// The running world's bodies: list them, see where one is, or move, push, weigh one.
     #[command(subcommand)]
     Body(body::Command),
+    /// The running world's joints: list them, see where one stands, or drive one's motor.
+    #[command(subcommand)]
+    Joint(joint::Command),
     /// A device's haptic effects: springs, dampers, friction, vibrations, constant forces,
     /// fields about shapes and magnets, started, changed and stopped.
     #[command(subcommand)]
@@ -220,6 +224,7 @@ fn main() -> ExitCode {
             Command::Mesh(command) => mesh::run(command),
             Command::Scene(command) => scene::run(command, &cli.bus),
             Command::Body(command) => connect().and_then(|c| body::run(command, &c)),
+            Command::Joint(command) => connect().and_then(|c| joint::run(command, &c)),
             Command::Effect(command) => connect().and_then(|c| effect::run(command, &c)),
             Command::Render(args) => render::run(&args, &catalog),
             Command::Snapshot(args) => pictures::snapshot(&args, &cli.bus),
