@@ -58,6 +58,8 @@ __all__ = [
     "Touches",
     "Body",
     "BodyState",
+    "Joint",
+    "JointState",
     "Error",
     "NotRunning",
     "BAD_SHARED_MEMORY",
@@ -380,6 +382,26 @@ class BodyState:
     """The friction coefficient of its contacts."""
 
 
+@dataclass(frozen=True)
+class Joint:
+    """A joint of the running world."""
+
+    name: str
+    """Its name in the scene file."""
+    kind: str
+    """``fixed``, ``revolute``, ``prismatic`` or ``spherical``."""
+
+
+@dataclass(frozen=True)
+class JointState:
+    """Where a joint stands."""
+
+    position: float
+    """Its coordinate: rad (a hinge's counted in whole turns from load) or m."""
+    velocity: float
+    """Its rate, rad/s or m/s."""
+
+
 def _state(reply: Tuple[Any, ...]) -> BodyState:
     values = {key: value for key, (_, value) in reply[0].items()}
     return BodyState(
@@ -524,6 +546,38 @@ class Hapticd:
         """Make the friction coefficient of ``body``'s contacts ``friction`` (a contact takes
         the lower of its two bodies')."""
         return self._drive("SetFriction", "sd", str(body), float(friction))
+
+    @property
+    def joints(self) -> List[Joint]:
+        """The running world's joints, in order (none when its scene cannot be changed from
+        outside)."""
+        listed = self._bus.get(SCENE_PATH, SCENE, "Joints")[1]
+        return [Joint(name, kind) for name, kind in listed]
+
+    def joint(self, joint: str) -> JointState:
+        """Where ``joint`` stands now."""
+        return JointState(*self._bus.call(SCENE_PATH, SCENE, "Joint", "s", (joint,)))
+
+    def drive_joint(
+        self,
+        joint: str,
+        *,
+        velocity: Optional[float] = None,
+        position: Optional[float] = None,
+        max_force: float = 1.0,
+    ) -> JointState:
+        """Drive ``joint``'s coordinate with its motor at the rate ``velocity`` (rad/s or m/s)
+        or to ``position`` (rad or m) with at most ``max_force`` (N·m or N, up to 100); with
+        neither, stop driving it. Where it stands after."""
+        if velocity is not None and position is not None:
+            raise ValueError("a motor drives to a velocity or a position, not both")
+        motor, target = ("off", 0.0)
+        if velocity is not None:
+            motor, target = ("velocity", float(velocity))
+        elif position is not None:
+            motor, target = ("position", float(position))
+        args = (joint, motor, target, float(max_force))
+        return JointState(*self._bus.call(SCENE_PATH, SCENE, "DriveJoint", "ssdd", args))
 
     def add_body(self, body: str) -> int:
         """Add ``body``, one entry of a scene file's ``bodies:`` in YAML with a ``name:`` of its

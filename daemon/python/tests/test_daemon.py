@@ -230,3 +230,25 @@ def test_a_body_dropped_on_the_grip_is_announced_as_touched(daemon):
     assert -0.03 < touch.point[1] < 0.015, touch
     assert len(touch.normal) == 3 and len(touch.force) == 3
     daemon.switch_scene("static")
+
+
+def test_joints_are_read_and_driven_as_a_scientist_would(daemon):
+    daemon.switch_scene("hinges", wait=60)
+    kinds = {j.name: j.kind for j in daemon.joints}
+    assert kinds["pivot"] == "revolute" and kinds["runners"] == "prismatic"
+    daemon.drive_joint("runners", position=0.03, max_force=5.0)
+    time.sleep(1.5)
+    drawer = daemon.joint("runners")
+    assert abs(drawer.position - 0.03) < 0.002 and abs(drawer.velocity) < 0.01
+    daemon.drive_joint("runners")
+    for bad, reason in [
+        (dict(velocity=math.nan), "NotFinite"),
+        (dict(position=99.0), "OutOfRange"),
+    ]:
+        with pytest.raises(hapticd.Error) as refused:
+            daemon.drive_joint("runners", **bad)
+        assert refused.value.name == f"org.hapticd.Hapticd1.Error.{reason}"
+    with pytest.raises(hapticd.Error) as unknown:
+        daemon.joint("trapdoor")
+    assert unknown.value.name == "org.hapticd.Hapticd1.Error.UnknownJoint"
+    daemon.switch_scene("static")
