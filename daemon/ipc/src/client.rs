@@ -675,6 +675,14 @@ impl Scene {
         Ok(JointState { position, velocity })
     }
 
+    /// Where every joint stands, read between the same two steps of the world, by name.
+    pub fn joint_states(&self) -> Result<Vec<(String, JointState)>, ClientError> {
+        Ok(zbus::block_on(self.proxy.joint_states())?
+            .into_iter()
+            .map(|(name, position, velocity)| (name, JointState { position, velocity }))
+            .collect())
+    }
+
     /// Set `joint`'s motor; where the joint stands after it.
     pub fn drive_joint(&self, joint: &str, motor: JointMotor) -> Result<JointState, ClientError> {
         let (kind, target, max_force) = match motor {

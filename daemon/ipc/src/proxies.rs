@@ -277,6 +277,8 @@ pub trait Scene {
     fn joints(&self) -> zbus::Result<Vec<(String, String)>>;
     /// Where `joint` stands: its coordinate and rate.
     fn joint(&self, joint: &str) -> zbus::Result<(f64, f64)>;
+    /// Where every joint stands: name, coordinate and rate.
+    fn joint_states(&self) -> zbus::Result<Vec<(String, f64, f64)>>;
     /// Drive `joint` by `motor` (`velocity`, `position` or `off`) to `target` with at most
     /// `max_force`; where it stands.
     fn drive_joint(

@@ -17,7 +17,7 @@ use hapticd_core::kinematics::Wrench;
 use hapticd_core::telemetry::Sample;
 use hapticd_core::transport::CHANNELS;
 use hapticd_core::world_state::{MAX_BODIES, WorldFrame, state_of};
-use hapticd_ipc::client::{ClientError, Device};
+use hapticd_ipc::client::{ClientError, Device, Scene};
 use hapticd_ipc::touch_events::{Touch, TouchTracker};
 use hapticd_ipc::world_share::MappedWorld;
 use hapticd_ros2::keys::{DEFAULT_QOS, Graph, Node, TRANSIENT_LOCAL_QOS};
@@ -42,6 +42,8 @@ const STATE_EVERY: Duration = Duration::from_secs(1);
 
 /// How often the world's picture is looked at for new body poses: twice its rate.
 const WORLD_EVERY: Duration = Duration::from_micros(8333);
+/// How often the world's joints are read (each a call on the bus) and published.
+const JOINTS_EVERY: Duration = Duration::from_millis(20);
 
 /// What went wrong bridging a device.
 #[derive(Debug)]
@@ -221,11 +223,11 @@ fn touch_json(touch: &Touch, effectors: &[String]) -> String {
 }
 
 /// Publish `device`'s ticks on `session` as `settings` say until `until` (for ever without
-/// one); answer its status all the while. `declared` is dropped once everything is declared
+/// one), and where the joints of the `scene` it runs stand; answer its status all the while. `declared` is dropped once everything is declared
 /// (or the bridge failed first).
 pub fn run(
     session: &zenoh::Session,
-    device: &Device,
+    (device, scene): (&Device, Option<&Scene>),
     settings: Settings,
     until: Option<Instant>,
     declared: std::sync::mpsc::Sender<()>,
@@ -258,8 +260,13 @@ pub fn run(
     let world = device.open_world()?;
     let mut frame = Box::new(WorldFrame::empty());
     let (mut world_seen, mut world_looked) = (None, Instant::now());
+    let mut joints_read = Instant::now();
     drop(declared);
     while until.is_none_or(|t| Instant::now() < t) {
+        if joints_read.elapsed() >= JOINTS_EVERY {
+            joints_read = Instant::now();
+            publish_joints(scene, &topics.frame, &publishers.joints)?;
+        }
         if world_looked.elapsed() >= WORLD_EVERY {
             world_looked = Instant::now();
             publish_bodies(
@@ -340,6 +347,7 @@ struct Publishers<'a> {
     effectors: Vec<(RosPublisher<'a>, RosPublisher<'a>, RosPublisher<'a>)>,
     strings: RosPublisher<'a>,
     bodies: RosPublisher<'a>,
+    joints: RosPublisher<'a>,
     state: RosPublisher<'a>,
     touches: RosPublisher<'a>,
     /// Whole samples, under hapticd's own key: no ROS topic, so not announced (its id is
@@ -366,6 +374,7 @@ impl<'a> Publishers<'a> {
             effectors,
             strings: entities.publisher::<JointState>(&topics.strings)?,
             bodies: entities.publisher::<PoseArray>(&topics.bodies)?,
+            joints: entities.publisher::<JointState>(&topics.joints)?,
             state: entities.latched_publisher::<StringMessage>(&topics.state)?,
             touches: entities.publisher::<StringMessage>(&topics.touches)?,
             telemetry: RosPublisher::new(
@@ -395,6 +404,7 @@ fn declare_status(
         .chain([
             &topics.strings,
             &topics.bodies,
+            &topics.joints,
             &topics.state,
             &topics.touches,
         ])
@@ -422,6 +432,48 @@ fn declare_status(
         })
         .wait()
         .map_err(zenoh_error)
+}
+
+/// Publish where the world's joints with a coordinate stand, read between the same two
+/// steps: nothing when it has none, or when the world changed between the list and the
+/// states (the next round reads the new one).
+fn publish_joints(
+    scene: Option<&Scene>,
+    frame_id: &str,
+    publisher: &RosPublisher<'_>,
+) -> Result<(), BridgeError> {
+    let Some(scene) = scene else {
+        return Ok(());
+    };
+    let (Ok(joints), Ok(states)) = (scene.joints(), scene.joint_states()) else {
+        return Ok(());
+    };
+    let stamp = now_ns();
+    let mut message = JointState {
+        header: Header {
+            stamp: Time::from_nanos(stamp),
+            frame_id: frame_id.to_owned(),
+        },
+        name: Vec::new(),
+        position: Vec::new(),
+        velocity: Vec::new(),
+        effort: Vec::new(),
+    };
+    let moving = |kind: &str| kind == "revolute" || kind == "prismatic";
+    for (joint, (name, state)) in joints.iter().zip(states) {
+        if joint.name != name {
+            return Ok(());
+        }
+        if moving(&joint.kind) {
+            message.name.push(name);
+            message.position.push(state.position);
+            message.velocity.push(state.velocity);
+        }
+    }
+    if message.name.is_empty() {
+        return Ok(());
+    }
+    Ok(publisher.put(message.encode(), stamp as i64)?)
 }
 
 /// Publish the world's bodies if its picture (read into `frame`) is not the one `seen`.

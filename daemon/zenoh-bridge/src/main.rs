@@ -130,7 +130,10 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
     .into_iter()
     .collect::<Result<Vec<_>, _>>()
     .map_err(|e| format!("zenoh: {e}"))?;
+    // Without a scene to ask (the daemon's control of it refused), no joint states.
+    let scene = hapticd.scene().ok();
     std::thread::scope(|scope| {
+        let scene = scene.as_ref();
         let (session, hapticd, devices, config) = (&session, &hapticd, &devices, &config);
         let (declared, ready) = std::sync::mpsc::channel();
         let threads: Vec<_> = devices
@@ -146,7 +149,7 @@ fn run(cli: &ZenohCli) -> Result<(), String> {
                         every: (device_rate / config.rate).round().max(1.0) as u64,
                         commands: config.commands,
                     };
-                    bridge::run(session, device, settings, until, declared)
+                    bridge::run(session, (device, scene), settings, until, declared)
                 })
             })
             .collect();

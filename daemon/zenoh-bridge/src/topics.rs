@@ -9,6 +9,7 @@
 //! | `/hapticd/<device>/<effector>/wrench` | `geometry_msgs/msg/WrenchStamped` | the wrench displayed |
 //! | `/hapticd/<device>/strings` | `sensor_msgs/msg/JointState` | each string's tension (effort) |
 //! | `/hapticd/<device>/bodies` | `geometry_msgs/msg/PoseArray` | the world's bodies, by id, at the world's rate |
+//! | `/hapticd/<device>/joint_states` | `sensor_msgs/msg/JointState` | the world's joints with a coordinate: position (rad or m) and velocity, at 50 Hz |
 //! | `/hapticd/<device>/state` | `std_msgs/msg/String` | running, fault, …; transient-local |
 //! | `/hapticd/<device>/touches` | `std_msgs/msg/String` | each touch begun, ended, slipping (JSON) |
 //! | `/hapticd/<device>/<effector>/wrench_command` | `geometry_msgs/msg/WrenchStamped` | taken: added to the displayed wrench (commands on) |
@@ -75,6 +76,8 @@ pub struct DeviceTopics {
     pub strings: Topic,
     /// The poses of its world's bodies.
     pub bodies: Topic,
+    /// Its world's joints.
+    pub joints: Topic,
     /// Its state.
     pub state: Topic,
     /// Its touches.
@@ -102,6 +105,7 @@ impl DeviceTopics {
                 .collect(),
             strings: Topic::new::<JointState>(graph, format!("{base}/strings")),
             bodies: Topic::new::<PoseArray>(graph, format!("{base}/bodies")),
+            joints: Topic::new::<JointState>(graph, format!("{base}/joint_states")),
             state: Topic::new::<StringMessage>(graph, format!("{base}/state")),
             touches: Topic::new::<StringMessage>(graph, format!("{base}/touches")),
             device: word,

@@ -525,6 +525,15 @@ fn joints_are_read_and_driven_over_the_bus_under_both_engines() {
         }
         let (at, _) = joint(&["Joint", "s", "pivot"]);
         assert!(at.abs() < 0.05, "{scene}: the lever stands at {at} rad");
+        let all = bus.call(SCENE, "JointStates", &[]);
+        let all = String::from_utf8_lossy(&all.stdout);
+        assert!(
+            all.starts_with(&format!(
+                "a(sdd) {} \"hinge\"",
+                joints.split(' ').nth(1).unwrap()
+            )) && all.contains("\"pivot\""),
+            "{scene}: {all}"
+        );
         joint(&["DriveJoint", "ssdd", "pivot", "position", "0.5", "0.2"]);
         std::thread::sleep(Duration::from_millis(1500));
         let (driven, rate) = joint(&["Joint", "s", "pivot"]);

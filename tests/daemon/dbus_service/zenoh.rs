@@ -702,3 +702,60 @@ fn the_bridge_meets_nodes_through_a_router_and_says_when_none_answers() {
         "{said}"
     );
 }
+
+/// The world's joints on the ROS 2 side: `sensor_msgs/JointState` on
+/// `/hapticd/<device>/joint_states`, each hinge and slider by name with its position and
+/// velocity, as a Zenoh client hears it: the joints scene's crank, turned by its motor at
+/// 1 rad/s, counted past ±π and moving at its motor's rate.
+#[test]
+fn the_zenoh_bridge_publishes_the_worlds_joint_states() {
+    let dir = support::shared_scratch("dbus", "zenoh-joints");
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let daemon = Hapticd::start(&bus, &setup, &["--sim", "spidar-g", "--scene", "joints"]);
+    let (mut bridge, endpoint) = zenoh_bridge(&bus, &dir, "rate: 100\n", None, None);
+    let follow = "heard = []\n\
+        subscriber = session.declare_subscriber('0/hapticd/sim_spidar_g_1/joint_states/**', \
+        lambda s: heard.append((str(s.key_expr), time.monotonic(), s.payload.to_bytes())))\n\
+        time.sleep(4)\n\
+        subscriber.undeclare()\n\
+        print(json.dumps({'count': len(heard), 'key': heard[0][0], \
+        'span': heard[-1][1] - heard[0][1], \
+        'first': heard[0][2].hex(), 'last': heard[-1][2].hex()}))\n";
+    let said = zenoh_client(follow, &endpoint, &[], None);
+    let _ = bridge.kill();
+    let _ = bridge.wait();
+    daemon.stop();
+    println!("{said}");
+    let key = said["key"].as_str().unwrap();
+    assert!(
+        key.starts_with(
+            "0/hapticd/sim_spidar_g_1/joint_states/sensor_msgs::msg::dds_::JointState_/RIHS01_"
+        ),
+        "{key}"
+    );
+    // 50 a second, less what a loaded machine takes.
+    let count = said["count"].as_u64().unwrap();
+    assert!(count > 100, "{said}");
+    let decode =
+        |which: &str| JointState::decode(&hex_bytes(said[which].as_str().unwrap())).unwrap();
+    let (first, last) = (decode("first"), decode("last"));
+    assert_eq!(
+        last.name,
+        ["hinge", "runners", "pivot", "crank"],
+        "the hinges and sliders, in the file's order"
+    );
+    assert_eq!((last.position.len(), last.velocity.len()), (4, 4));
+    let span = said["span"].as_f64().unwrap();
+    let turned = last.position[3] - first.position[3];
+    assert!(
+        (turned / span - 1.0).abs() < 0.1 && (last.velocity[3] - 1.0).abs() < 0.05,
+        "the crank turned {turned} rad in {span} s, at {} rad/s",
+        last.velocity[3]
+    );
+    assert!(
+        last.position[3] > std::f64::consts::PI,
+        "{:?}",
+        last.position
+    );
+}

@@ -328,31 +328,54 @@ impl SceneControl {
     /// Hand `order` (for `name`) to the stepping thread and wait for its answer: the
     /// plugin's status and the state it left.
     fn wait(&mut self, order: Order, name: &str) -> Result<(i32, Answer), CommandError> {
+        let mut answers = self.wait_all(&[order], name)?;
+        Ok(answers.remove(0))
+    }
+
+    /// Hand `orders` (for `what`) to the stepping thread at once and wait for all their
+    /// answers, in order: carried out between the same two steps, when the ring holds them.
+    fn wait_all(
+        &mut self,
+        orders: &[Order],
+        what: &str,
+    ) -> Result<Vec<(i32, Answer)>, CommandError> {
         let timeout = || {
             CommandError::Timeout(format!(
-                "the world did not carry out the change to {name} within {} s",
+                "the world did not carry out the change to {what} within {} s",
                 ANSWER_TIMEOUT.as_secs()
             ))
         };
         // Answers to requests that timed out before are dropped on the way.
         while self.replies.pop().is_some() {}
-        self.next += 1;
-        let id = self.next;
-        self.requests
-            .try_push(Request { id, order })
-            .map_err(|_| timeout())?;
+        let first = self.next + 1;
+        for &order in orders {
+            self.next += 1;
+            let id = self.next;
+            self.requests
+                .try_push(Request { id, order })
+                .map_err(|_| timeout())?;
+        }
+        let mut answers = vec![None; orders.len()];
+        let mut left = orders.len();
         let started = Instant::now();
-        loop {
+        while left > 0 {
             while let Some(reply) = self.replies.pop() {
-                if reply.id == id {
-                    return Ok((reply.status, reply.answer));
+                let slot = reply.id.checked_sub(first).map(|k| k as usize);
+                if let Some(slot) = slot.and_then(|k| answers.get_mut(k))
+                    && slot.is_none()
+                {
+                    *slot = Some((reply.status, reply.answer));
+                    left -= 1;
                 }
             }
-            if started.elapsed() > ANSWER_TIMEOUT {
-                return Err(timeout());
+            if left > 0 {
+                if started.elapsed() > ANSWER_TIMEOUT {
+                    return Err(timeout());
+                }
+                std::thread::sleep(Duration::from_millis(1));
             }
-            std::thread::sleep(Duration::from_millis(1));
         }
+        Ok(answers.into_iter().flatten().collect())
     }
 }
 

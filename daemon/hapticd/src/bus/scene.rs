@@ -159,6 +159,17 @@ impl SceneInterface {
         Ok((state.position, state.velocity))
     }
 
+    /// Where every joint stands, read between the same two steps of the world: each one's
+    /// name, coordinate and rate, in the order of `Joints`.
+    async fn joint_states(&self) -> Result<Vec<(String, f64, f64)>, BusError> {
+        let daemon = self.daemon.clone();
+        let states = self.workers.run(move || daemon.joint_states()).await?;
+        Ok(states
+            .into_iter()
+            .map(|(name, s)| (name, s.position, s.velocity))
+            .collect())
+    }
+
     /// Drive joint `joint`'s coordinate with its motor: `motor` `velocity` (to the rate
     /// `target`, rad/s or m/s) or `position` (to `target`, rad or m), with at most
     /// `max_force` (N·m or N, up to 100), or `off`. Answers where the joint stands.

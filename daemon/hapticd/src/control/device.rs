@@ -550,6 +550,21 @@ impl DeviceHandle {
             .map_or_else(Vec::new, |c| c.joints().to_vec())
     }
 
+    /// Where each joint of the running world stands, by name, read between two steps.
+    pub fn joint_states(&self) -> Result<Vec<(String, HapticdJointState)>, Error> {
+        let mut control = lock(&self.control);
+        let Some(control) = control.as_mut() else {
+            return Ok(Vec::new());
+        };
+        let states = control.joint_states().map_err(Error::Command)?;
+        Ok(control
+            .joints()
+            .iter()
+            .map(|j| j.name.clone())
+            .zip(states)
+            .collect())
+    }
+
     /// Carry out `command` on joint `joint` (its name) of the running world between two of
     /// its steps; the joint's state after it.
     pub fn drive_joint(

@@ -472,6 +472,13 @@ impl Daemon {
         self.devices.first().map_or_else(Vec::new, |d| d.joints())
     }
 
+    /// Where each joint of the running world stands (in the first device's world).
+    pub fn joint_states(&self) -> Result<Vec<(String, HapticdJointState)>, Error> {
+        self.devices
+            .first()
+            .map_or_else(|| Ok(Vec::new()), |d| d.joint_states())
+    }
+
     /// Carry out `command` on joint `joint` (its name) in every device's world; the joint's
     /// state after it in the first.
     pub fn drive_joint(

@@ -122,6 +122,29 @@ impl SceneControl {
         }
     }
 
+    /// Where every joint stands, read between the same two steps (one wait for them all).
+    pub fn joint_states(&mut self) -> Result<Vec<HapticdJointState>, CommandError> {
+        let orders: Vec<Order> = (0..self.joints.len() as u32)
+            .map(|joint| {
+                Order::Joint(HapticdJointCommand {
+                    joint,
+                    ..HapticdJointCommand::default()
+                })
+            })
+            .collect();
+        self.wait_all(&orders, "the joints")?
+            .into_iter()
+            .zip(&self.joints)
+            .map(|(answer, joint)| match answer {
+                (HAPTICD_OK, Answer::Joint(state)) => Ok(state),
+                (status, _) => Err(CommandError::Refused(format!(
+                    "the scene refused to read {} (status {status})",
+                    joint.name
+                ))),
+            })
+            .collect()
+    }
+
     /// Check `command`, hand it to the stepping thread and wait for its answer: the joint's
     /// state after it.
     pub fn drive(
