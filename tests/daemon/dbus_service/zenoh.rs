@@ -186,14 +186,14 @@ fn the_zenoh_bridge_publishes_every_tick_for_a_zenoh_client_and_answers_its_stat
     assert_eq!(status["state"], "running");
     assert_eq!(status["rate"], 1000.0);
     assert_eq!(status["commands"], false);
-    // `ros2 node list` and `ros2 topic list` find the node and its seven publishers.
+    // `ros2 node list` and `ros2 topic list` find the node and its eight publishers.
     let tokens: Vec<&str> = said["tokens"]
         .as_array()
         .unwrap()
         .iter()
         .map(|t| t.as_str().unwrap())
         .collect();
-    assert_eq!(tokens.len(), 8, "{tokens:?}");
+    assert_eq!(tokens.len(), 9, "{tokens:?}");
     assert!(
         tokens
             .iter()
