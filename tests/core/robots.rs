@@ -5,9 +5,9 @@
 use std::process::Command;
 
 use glam::DVec3;
+use hapticctl::experiments::push_phase::Finger;
 use hapticctl::multirate::Lockstep;
 use hapticd_core::kinematics::Wrench;
-use hapticd_device::sim::SimParameters;
 use hapticd_physics::scene::{Feedback, SceneFile};
 use hapticd_rapier::world::RapierWorld;
 
@@ -256,27 +256,25 @@ fn arm_pushed(rate: f64, feedback: Feedback) -> (f64, f64) {
         panic!("a rapier scene");
     };
     (spec.rate, spec.feedback) = (rate, feedback);
-    let hand = SimParameters::default();
-    let ((k, c), mass) = (hand.arm, hand.hand_mass);
     // The hand's ball hangs at x = 0.05, y = −0.082: the finger starts 3 cm to its left,
     // moves right 4 cm at 0.1 m/s and back.
     let y = -0.082;
-    let mut finger = (0.02, 0.0);
+    let mut finger = Finger::at(0.02);
     let at = |x: f64, v: f64| Lockstep::pointers(&[(DVec3::new(x, y, 0.0), DVec3::X * v)]);
-    let mut lockstep = Lockstep::new(&spec, &at(finger.0, 0.0), 1000.0, 0.0);
+    let mut lockstep = Lockstep::new(&spec, &at(finger.position, 0.0), 1000.0, 0.0);
     let mut felt = [Wrench::default()];
     let (mut force, mut swing): (f64, f64) = (0.0, 0.0);
     for tick in 0..1500 {
         let t = f64::from(tick) * 1e-3;
-        lockstep.tick(&at(finger.0, finger.1), &mut felt).unwrap();
-        let (target, speed) = match t {
+        lockstep
+            .tick(&at(finger.position, finger.velocity), &mut felt)
+            .unwrap();
+        let target = match t {
             t if t < 0.1 => (0.02, 0.0),
             t if t < 0.5 => (0.02 + 0.1 * (t - 0.1), 0.1),
             t => ((0.06 - 0.1 * (t - 0.5)).max(0.02), -0.1),
         };
-        let push = k * (target - finger.0) + c * (speed - finger.1) + felt[0].force.x;
-        finger.1 += push / mass * 1e-3;
-        finger.0 += finger.1 * 1e-3;
+        finger.follow(target, felt[0].force.x, 1e-3);
         force = force.max(felt[0].force.length());
         swing = swing.max(lockstep.world.joint_state(0).position.abs());
     }

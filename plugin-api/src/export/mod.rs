@@ -130,6 +130,35 @@ fn guard(f: impl FnOnce() -> i32) -> i32 {
     catch_unwind(AssertUnwindSafe(f)).unwrap_or(HAPTICD_ERROR_PANIC)
 }
 
+/// Body of an extension function that answers one thing of an instance through `out`: what
+/// `ask` finds, [`HAPTICD_ERROR_ARGUMENT`] for a null instance or nothing to answer, the
+/// panic status if `ask` panics.
+///
+/// # Safety
+/// `instance` is null or a live instance this thread may use, as the extension's contract
+/// says; `out` is null or valid for writing one `T`.
+unsafe fn answer<T>(
+    instance: *mut std::ffi::c_void,
+    out: *mut T,
+    ask: impl FnOnce(&mut dyn SceneInstance) -> Option<T>,
+) -> i32 {
+    if instance.is_null() {
+        return HAPTICD_ERROR_ARGUMENT;
+    }
+    // SAFETY: non-null, and live and this thread's, per the contract.
+    let scene = unsafe { instance_mut(instance) };
+    let mut found = None;
+    let status = guard(|| {
+        found = ask(scene.as_mut());
+        HAPTICD_OK
+    });
+    if status != HAPTICD_OK {
+        return status;
+    }
+    // SAFETY: `out` is null or valid for one write, per the contract.
+    unsafe { write_out(out, found) }
+}
+
 /// Write `value` through `out` if it is non-null.
 ///
 /// # Safety

@@ -109,6 +109,18 @@ pub trait SceneInstance: Send {
     }
 }
 
+/// A command's answer as a [`SceneInstance`] method gives it: `value` written to `state`
+/// and [`HAPTICD_OK`], or [`HAPTICD_ERROR_ARGUMENT`] for a command the world could not take.
+pub fn answered<T>(state: &mut T, value: Option<T>) -> i32 {
+    match value {
+        Some(value) => {
+            *state = value;
+            HAPTICD_OK
+        }
+        None => HAPTICD_ERROR_ARGUMENT,
+    }
+}
+
 /// [`HapticdPhysicsInput`] as slices.
 #[derive(Debug, Clone, Copy)]
 pub struct PhysicsInput<'a> {

@@ -3,7 +3,7 @@
 use crate::abi::*;
 use crate::ext::{scene_contacts::*, scene_geometry::*};
 
-use super::{guard, instance_mut, write_out};
+use super::{answer, guard, instance_mut};
 unsafe extern "C" fn contacts_object_body(instance: *mut std::ffi::c_void, object: u32) -> u32 {
     if instance.is_null() {
         return HAPTICD_NO_BODY;
@@ -23,21 +23,9 @@ unsafe extern "C" fn contacts_touch(
     pointer: u32,
     out: *mut HapticdTouch,
 ) -> i32 {
-    if instance.is_null() {
-        return HAPTICD_ERROR_ARGUMENT;
-    }
-    // SAFETY: the host keeps the extension's contract: a live instance on its stepping thread.
-    let scene = unsafe { instance_mut(instance) };
-    let mut touch = None;
-    let status = guard(|| {
-        touch = scene.touch(pointer as usize);
-        HAPTICD_OK
-    });
-    if status != HAPTICD_OK {
-        return status;
-    }
-    // SAFETY: `out` is null or valid for one write, per the contract.
-    unsafe { write_out(out, touch) }
+    // SAFETY: the host keeps the extension's contract: a live instance on its stepping
+    // thread, `out` null or valid.
+    unsafe { answer(instance, out, |scene| scene.touch(pointer as usize)) }
 }
 
 /// The contacts extension every Rust scene plugin serves, around

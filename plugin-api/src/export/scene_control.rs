@@ -6,7 +6,7 @@ use std::ffi::{CStr, c_char};
 use crate::abi::*;
 use crate::ext::{scene_control::*, scene_geometry::*};
 
-use super::{guard, instance_mut, write_out};
+use super::{answer, guard, instance_mut};
 impl HapticdSceneCommand {
     /// A command of `kind` for body `body`, its numbers zero and its orientation none turned.
     pub fn new(kind: u32, body: u32) -> Self {
@@ -72,21 +72,9 @@ unsafe extern "C" fn control_body(
     index: u32,
     out: *mut HapticdBodyInfo,
 ) -> i32 {
-    if instance.is_null() {
-        return HAPTICD_ERROR_ARGUMENT;
-    }
-    // SAFETY: the host keeps the extension's contract: a live instance on the main thread.
-    let scene = unsafe { instance_mut(instance) };
-    let mut info = None;
-    let status = guard(|| {
-        info = scene.body(index as usize);
-        HAPTICD_OK
-    });
-    if status != HAPTICD_OK {
-        return status;
-    }
-    // SAFETY: `out` is null or valid for one write, per the contract.
-    unsafe { write_out(out, info) }
+    // SAFETY: the host keeps the extension's contract: a live instance on the main thread,
+    // `out` null or valid.
+    unsafe { answer(instance, out, |scene| scene.body(index as usize)) }
 }
 
 unsafe extern "C" fn control_apply(

@@ -4,7 +4,7 @@ use crate::abi::*;
 use crate::ext::scene_joints::*;
 
 use super::scene_control::{name_buffer, name_text};
-use super::{guard, instance_mut, write_out};
+use super::{answer, guard, instance_mut};
 
 impl HapticdJointInfo {
     /// A joint called `name` (cut as a body's name is) of `kind`.
@@ -33,21 +33,9 @@ unsafe extern "C" fn joints_joint(
     index: u32,
     out: *mut HapticdJointInfo,
 ) -> i32 {
-    if instance.is_null() {
-        return HAPTICD_ERROR_ARGUMENT;
-    }
-    // SAFETY: the host keeps the extension's contract: a live instance on the main thread.
-    let scene = unsafe { instance_mut(instance) };
-    let mut info = None;
-    let status = guard(|| {
-        info = scene.joint(index as usize);
-        HAPTICD_OK
-    });
-    if status != HAPTICD_OK {
-        return status;
-    }
-    // SAFETY: `out` is null or valid for one write, per the contract.
-    unsafe { write_out(out, info) }
+    // SAFETY: the host keeps the extension's contract: a live instance on the main thread,
+    // `out` null or valid.
+    unsafe { answer(instance, out, |scene| scene.joint(index as usize)) }
 }
 
 unsafe extern "C" fn joints_drive(

@@ -9,6 +9,7 @@ use hapticd_core::kinematics::{Wrench, quat_from_wxyz, quat_to_wxyz};
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::joint::DrivenJoints;
 use hapticd_physics::scene::{MAX_POINTERS, PenaltyScene, SceneFile};
+use hapticd_plugin_api::export::answered;
 use hapticd_plugin_api::*;
 
 /// The plugin's instance: a loaded scene and what it looks like.
@@ -74,13 +75,7 @@ impl SceneInstance for Penalty {
     }
 
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
-        match self.0.apply(command) {
-            Some(after) => {
-                *state = after;
-                HAPTICD_OK
-            }
-            None => HAPTICD_ERROR_ARGUMENT,
-        }
+        answered(state, self.0.apply(command))
     }
 
     fn joint(&self, index: usize) -> Option<HapticdJointInfo> {
@@ -88,13 +83,7 @@ impl SceneInstance for Penalty {
     }
 
     fn drive(&mut self, command: &HapticdJointCommand, state: &mut HapticdJointState) -> i32 {
-        match self.0.drive_joint(command) {
-            Some(now) => {
-                *state = now;
-                HAPTICD_OK
-            }
-            None => HAPTICD_ERROR_ARGUMENT,
-        }
+        answered(state, self.0.drive_joint(command))
     }
 }
 

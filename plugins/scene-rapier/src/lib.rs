@@ -8,7 +8,7 @@
 use hapticd_core::world_state::body_pose;
 use hapticd_physics::joint::DrivenJoints;
 use hapticd_physics::scene::{RapierScene, SceneFile};
-use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput, answered};
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
@@ -80,23 +80,11 @@ impl SceneInstance for Rapier {
     }
 
     fn drive(&mut self, command: &HapticdJointCommand, state: &mut HapticdJointState) -> i32 {
-        match self.0.drive_joint(command) {
-            Some(now) => {
-                *state = now;
-                HAPTICD_OK
-            }
-            None => HAPTICD_ERROR_ARGUMENT,
-        }
+        answered(state, self.0.drive_joint(command))
     }
 
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
-        match self.0.control(command) {
-            Some(after) => {
-                *state = after;
-                HAPTICD_OK
-            }
-            None => HAPTICD_ERROR_ARGUMENT,
-        }
+        answered(state, self.0.control(command))
     }
 }
 

@@ -18,6 +18,7 @@ use hapticd_physics::scene::{Feedback, PenaltyScene, RapierScene, SceneFile};
 use serde_json::json;
 
 use super::ExperimentError;
+use super::push_phase::Finger;
 use crate::multirate::{Lockstep, NotFinite};
 use crate::plot::{Chart, PALETTE, Series};
 use crate::report::Report;
@@ -166,15 +167,13 @@ impl Swing {
 /// The push on `door` with the physics at `rate` Hz and `feedback`.
 pub fn swing(door: &Door, rate: f64, feedback: Feedback) -> Result<Swing, ExperimentError> {
     let scene = door.scene(rate, feedback)?;
-    let hand = SimParameters::default();
-    let ((k, c), mass) = (hand.arm, hand.hand_mass);
     let height = 0.1;
-    let mut finger = (door.start(), 0.0);
+    let mut finger = Finger::at(door.start());
     let at =
         |z: f64, v: f64| Lockstep::pointers(&[(DVec3::new(door.handle, height, z), DVec3::Z * v)]);
     let haptic_rate = 1000.0;
     let dt = 1.0 / haptic_rate;
-    let mut lockstep = Lockstep::new(&scene, &at(finger.0, 0.0), haptic_rate, 0.0);
+    let mut lockstep = Lockstep::new(&scene, &at(finger.position, 0.0), haptic_rate, 0.0);
     let mut felt = [Wrench::default()];
     let ticks = (door.seconds * haptic_rate).round() as usize;
     let mut out = Swing {
@@ -187,7 +186,7 @@ pub fn swing(door: &Door, rate: f64, feedback: Feedback) -> Result<Swing, Experi
     };
     for _ in 0..ticks {
         let t = lockstep.time();
-        lockstep.tick(&at(finger.0, finger.1), &mut felt)?;
+        lockstep.tick(&at(finger.position, finger.velocity), &mut felt)?;
         // The door is pushed by the opposite of what the hand feels, at the proxy; it opens
         // about −y.
         let lever = lockstep.proxies()[0];
@@ -196,10 +195,7 @@ pub fn swing(door: &Door, rate: f64, feedback: Feedback) -> Result<Swing, Experi
         if felt[0].force != DVec3::ZERO {
             out.release = lockstep.time();
         }
-        let (target, speed) = door.target(t);
-        let force = k * (target - finger.0) + c * (speed - finger.1) + felt[0].force.z;
-        finger.1 += force / mass * dt;
-        finger.0 += finger.1 * dt;
+        finger.follow(door.target(t), felt[0].force.z, dt);
         let opened = -lockstep.body(0).orientation.to_scaled_axis().y;
         out.angles.push((lockstep.time(), opened));
     }

@@ -71,6 +71,36 @@ impl Setup {
     }
 }
 
+/// The finger along one axis: a mass the arm drives toward a scripted target by the
+/// simulated hand's spring and damper ([`SimParameters`]), the force displayed pushing back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Finger {
+    /// Where it is, m.
+    pub position: f64,
+    /// How fast it moves, m/s.
+    pub velocity: f64,
+}
+
+impl Finger {
+    /// A finger at rest at `position`.
+    pub fn at(position: f64) -> Self {
+        Self {
+            position,
+            velocity: 0.0,
+        }
+    }
+
+    /// One tick of `dt` toward `target` moving at `speed`, `felt` (N along the axis) pushing
+    /// back on it.
+    pub fn follow(&mut self, (target, speed): (f64, f64), felt: f64, dt: f64) {
+        let hand = SimParameters::default();
+        let (k, c) = hand.arm;
+        let force = k * (target - self.position) + c * (speed - self.velocity) + felt;
+        self.velocity += force / hand.hand_mass * dt;
+        self.position += self.velocity * dt;
+    }
+}
+
 /// The block's way along x during a run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Run {
@@ -123,16 +153,13 @@ pub fn run(world: &RapierScene, setup: &Setup, phase: f64) -> Result<Run, Experi
         .iter()
         .position(|n| n == "block")
         .ok_or(ExperimentError::NoBlock)?;
-    let hand = SimParameters::default();
-    let (k, c) = hand.arm;
-    let mass = hand.hand_mass;
     let (height, origin) = (
         world.bodies[block].position.y,
         world.bodies[block].position.x,
     );
-    let mut finger = (setup.start, 0.0);
+    let mut finger = Finger::at(setup.start);
     let at = |x: f64, v: f64| Lockstep::pointers(&[(DVec3::new(x, height, 0.0), DVec3::X * v)]);
-    let mut lockstep = Lockstep::new(world, &at(finger.0, 0.0), setup.haptic_rate, phase);
+    let mut lockstep = Lockstep::new(world, &at(finger.position, 0.0), setup.haptic_rate, phase);
     let dt = 1.0 / setup.haptic_rate;
     let ticks = (setup.seconds * setup.haptic_rate).round() as usize;
     let mut felt = [Wrench::default()];
@@ -145,13 +172,10 @@ pub fn run(world: &RapierScene, setup: &Setup, phase: f64) -> Result<Run, Experi
     };
     for _ in 0..ticks {
         let t = lockstep.time();
-        lockstep.tick(&at(finger.0, finger.1), &mut felt)?;
-        let (target, speed) = setup.target(t);
-        let force = k * (target - finger.0) + c * (speed - finger.1) + felt[0].force.x;
-        finger.1 += force / mass * dt;
-        finger.0 += finger.1 * dt;
+        lockstep.tick(&at(finger.position, finger.velocity), &mut felt)?;
+        finger.follow(setup.target(t), felt[0].force.x, dt);
         out.peak_force = out.peak_force.max(felt[0].force.length());
-        out.peak_finger_speed = out.peak_finger_speed.max(finger.1.abs());
+        out.peak_finger_speed = out.peak_finger_speed.max(finger.velocity.abs());
         out.peak_block_speed = out
             .peak_block_speed
             .max(lockstep.body(block).velocity.length());

@@ -531,6 +531,18 @@ impl DeviceHandle {
         {
             self.pushable(body, command.value)?;
         }
+        self.with_control(|control| {
+            command.body = control.find(body)?;
+            control.send(command)
+        })
+    }
+
+    /// `change` done with the running world's control: Unavailable when its plugin offers
+    /// none.
+    fn with_control<R>(
+        &self,
+        change: impl FnOnce(&mut SceneControl) -> Result<R, CommandError>,
+    ) -> Result<R, Error> {
         let mut control = lock(&self.control);
         let control = control.as_mut().ok_or_else(|| {
             Error::Unavailable(
@@ -539,8 +551,7 @@ impl DeviceHandle {
                     .into(),
             )
         })?;
-        command.body = control.find(body).map_err(Error::Command)?;
-        control.send(command).map_err(Error::Command)
+        change(control).map_err(Error::Command)
     }
 
     /// The running world's joints (none when it cannot be changed from outside).
@@ -572,16 +583,10 @@ impl DeviceHandle {
         joint: &str,
         mut command: HapticdJointCommand,
     ) -> Result<HapticdJointState, Error> {
-        let mut control = lock(&self.control);
-        let control = control.as_mut().ok_or_else(|| {
-            Error::Unavailable(
-                "the running scene cannot be changed from outside (its plugin offers no \
-                 hapticd.scene.control/1)"
-                    .into(),
-            )
-        })?;
-        command.joint = control.find_joint(joint).map_err(Error::Command)?;
-        control.drive(command).map_err(Error::Command)
+        self.with_control(|control| {
+            command.joint = control.find_joint(joint)?;
+            control.drive(command)
+        })
     }
 
     /// Refuse a mass the hand would fling: the proxy's spring of stiffness k pushes a body

@@ -459,10 +459,18 @@ impl Daemon {
         body: &str,
         command: HapticdSceneCommand,
     ) -> Result<HapticdBodyState, Error> {
+        self.in_every_world(|device| device.drive(body, command))
+    }
+
+    /// `change` done in every device's world (each runs the scene); its answer in the first.
+    fn in_every_world<R>(
+        &self,
+        change: impl Fn(&DeviceHandle) -> Result<R, Error>,
+    ) -> Result<R, Error> {
         let mut first = None;
         for device in &self.devices {
-            let state = device.drive(body, command)?;
-            first.get_or_insert(state);
+            let answer = change(device)?;
+            first.get_or_insert(answer);
         }
         first.ok_or_else(|| Error::Unavailable("no device runs a world".into()))
     }
@@ -486,12 +494,7 @@ impl Daemon {
         joint: &str,
         command: HapticdJointCommand,
     ) -> Result<HapticdJointState, Error> {
-        let mut first = None;
-        for device in &self.devices {
-            let state = device.drive_joint(joint, command)?;
-            first.get_or_insert(state);
-        }
-        first.ok_or_else(|| Error::Unavailable("no device runs a world".into()))
+        self.in_every_world(|device| device.drive_joint(joint, command))
     }
 
     /// Re-read the configuration file and rescan the mechanism directories, as a start
