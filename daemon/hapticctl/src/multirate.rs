@@ -10,6 +10,7 @@ use hapticd_core::scene::Pointer;
 use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
 };
+use hapticd_core::scene::shared_world::Stepped;
 use hapticd_physics::scene::RapierScene;
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{HapticdImpulse, HapticdLocalState, HapticdPointer};
@@ -113,13 +114,9 @@ impl Lockstep {
                 return Err(NotFinite { time: self.time });
             }
             set.body_count = body_count;
-            for (out, body) in set
-                .mobilities
-                .iter_mut()
-                .zip(&set.bodies[..body_count as usize])
-            {
-                *out = self.world.mobility(body.body as usize);
-            }
+            let count = body_count as usize;
+            self.world
+                .mobilities(&set.bodies[..count], &mut set.mobilities[..count]);
             self.impulses.clear();
             self.locals.clear();
             std::mem::swap(&mut self.poses.0, &mut self.poses.1);

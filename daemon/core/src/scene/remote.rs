@@ -6,7 +6,8 @@
 //! Two messages cross, little-endian ([`wire`](crate::wire)):
 //! - [`WorldUpdate`], world host → haptic host after every step: the planes near each of
 //!   the host's pointers, the bodies it moves itself (local dynamics, with the last of the
-//!   host's own changes the step took in), and where every body is, for pictures;
+//!   host's own changes the step took in, and how a jointed one moves through its joints),
+//!   and where every body is, for pictures;
 //! - host → world host, as often as the haptic side hands something back and at least
 //!   twice a world period ([`encode_host`]): where the grips and proxies are, and the
 //!   impulses and local changes since the last message.
@@ -25,8 +26,8 @@ use std::path::Path;
 
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdBodyContact,
-    HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState, HapticdPlane,
-    HapticdPlanes, HapticdPointer,
+    HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState, HapticdMobility,
+    HapticdPlane, HapticdPlanes, HapticdPointer,
 };
 use serde::Deserialize;
 
@@ -39,7 +40,7 @@ use crate::wire::{Decoder, Encoder};
 pub const ENGINE: &str = "remote";
 
 /// First bytes of a [`WorldUpdate`].
-pub const WORLD_MAGIC: u32 = u32::from_le_bytes(*b"hdW2");
+pub const WORLD_MAGIC: u32 = u32::from_le_bytes(*b"hdW3");
 
 /// First bytes of a host's message.
 pub const HOST_MAGIC: u32 = u32::from_le_bytes(*b"hdH2");
@@ -58,7 +59,7 @@ pub const MAX_WORLD_BYTES: usize = 4
     + 4
     + MAX_EFFECTORS * (4 + HAPTICD_MAX_PLANES * PLANE_BYTES)
     + 4
-    + HAPTICD_MAX_LOCAL_BODIES * BODY_BYTES
+    + HAPTICD_MAX_LOCAL_BODIES * (BODY_BYTES + MOBILITY_BYTES)
     + 4
     + MAX_POSES * 7 * 8;
 
@@ -72,6 +73,7 @@ pub const MAX_HOST_BYTES: usize = 4
 
 const PLANE_BYTES: usize = 4 + 9 * 8;
 const CONTACT_BYTES: usize = 8 * 8;
+const MOBILITY_BYTES: usize = 4 + 42 * 8;
 const BODY_BYTES: usize = 4 * 4 + 8 + 30 * 8 + 4 + HAPTICD_MAX_BODY_CONTACTS * CONTACT_BYTES;
 const POINTER_BYTES: usize = 10 * 8;
 const IMPULSE_BYTES: usize = 4 + 6 * 8;
@@ -192,6 +194,33 @@ fn get_body(from: &mut Decoder) -> Option<HapticdLocalBody> {
     Some(b)
 }
 
+/// A jointed body's mobility after its body (a flag, then its numbers), or a free body's
+/// flag alone.
+fn put_mobility(out: &mut Encoder, m: Option<&HapticdMobility>) {
+    out.u32(u32::from(m.is_some()));
+    if let Some(m) = m {
+        for row in &m.mobility {
+            out.f64s(row);
+        }
+        out.f64s(&m.acceleration);
+    }
+}
+
+fn get_mobility(from: &mut Decoder) -> Option<Option<HapticdMobility>> {
+    match from.u32()? {
+        0 => Some(None),
+        1 => {
+            let mut m = HapticdMobility::default();
+            for row in &mut m.mobility {
+                *row = from.array()?;
+            }
+            m.acceleration = from.array()?;
+            Some(Some(m))
+        }
+        _ => None,
+    }
+}
+
 /// Write the update of world step `step` for a host: the planes of its `pointers` first
 /// pointers in `set`, `set`'s local bodies, and `poses` (at most [`MAX_POSES`] of them).
 pub fn encode_world(
@@ -218,8 +247,9 @@ pub fn encode_world(
     }
     let bodies = (set.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
     out.u32(bodies as u32);
-    for b in &set.bodies[..bodies] {
+    for (b, m) in set.bodies[..bodies].iter().zip(&set.mobilities) {
         put_body(out, b);
+        put_mobility(out, m.as_ref());
     }
     let poses = &poses[..poses.len().min(MAX_POSES)];
     out.u32(poses.len() as u32);
@@ -259,11 +289,12 @@ pub fn decode_world(
     }
     let bodies = from.count(
         HAPTICD_MAX_LOCAL_BODIES,
-        BODY_BYTES - HAPTICD_MAX_BODY_CONTACTS * CONTACT_BYTES,
+        BODY_BYTES - HAPTICD_MAX_BODY_CONTACTS * CONTACT_BYTES + 4,
     )?;
     set.body_count = bodies as u32;
-    for b in &mut set.bodies[..bodies] {
+    for (b, m) in set.bodies[..bodies].iter_mut().zip(&mut set.mobilities) {
         *b = get_body(&mut from)?;
+        *m = get_mobility(&mut from)?;
     }
     let count = from.count(MAX_POSES.min(poses.len()), 7 * 8)?;
     for p in &mut poses[..count] {
@@ -390,7 +421,20 @@ mod tests {
         };
         set.planes[1].count = 1;
         set.shared = true;
-        set.body_count = 1;
+        set.body_count = 2;
+        // The second body a door through its hinge: its mobility crosses whole.
+        let mut door = HapticdMobility::default();
+        door.mobility[4][4] = 7.5;
+        door.mobility[2][4] = 0.25;
+        door.mobility[4][2] = 0.25;
+        door.acceleration = [0.0, 0.0, 0.1, 0.0, -0.5, 0.0];
+        set.mobilities[1] = Some(door);
+        set.bodies[1] = HapticdLocalBody {
+            body: 5,
+            orientation: [1.0, 0.0, 0.0, 0.0],
+            inverse_mass: 2.0,
+            ..HapticdLocalBody::default()
+        };
         set.bodies[0] = HapticdLocalBody {
             body: 3,
             first_object: 4,
@@ -436,8 +480,9 @@ mod tests {
             }
         );
         assert_eq!(got.planes[..2], sent.planes[..2]);
-        assert_eq!(got.body_count, 1);
-        assert_eq!(got.bodies[0], sent.bodies[0]);
+        assert_eq!(got.body_count, 2);
+        assert_eq!(got.bodies[..2], sent.bodies[..2]);
+        assert_eq!(got.mobilities[..2], sent.mobilities[..2]);
         assert_eq!(read[..3], poses);
     }
 

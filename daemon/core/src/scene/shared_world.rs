@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
     HAPTICD_MAX_LOCAL_BODIES, HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState,
-    HapticdPlanes, HapticdPointer,
+    HapticdMobility, HapticdPlanes, HapticdPointer,
 };
 
 use super::ledger::Ledger;
@@ -30,6 +30,12 @@ pub trait Stepped {
     fn step(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> bool;
     /// The poses of its bodies into `poses`, and how many it has.
     fn poses(&mut self, poses: &mut [HapticdBodyPose]) -> usize;
+    /// How the joints let each of the last step's local `bodies` move, into `out` (None for
+    /// a free body; a world without joints leaves them all None).
+    fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
+        let _ = bodies;
+        out.fill(None);
+    }
 }
 
 /// A new host's grips outnumber the world's free pointers.
@@ -81,6 +87,8 @@ pub struct SharedWorld<W> {
     planes: Vec<HapticdPlanes>,
     bodies: [HapticdLocalBody; HAPTICD_MAX_LOCAL_BODIES],
     body_count: u32,
+    /// How each of `bodies` moves through its joints.
+    mobilities: [Option<HapticdMobility>; HAPTICD_MAX_LOCAL_BODIES],
     hosts: Vec<Host>,
     admitted: u64,
     ledger: Ledger,
@@ -122,6 +130,7 @@ impl<W: Stepped> SharedWorld<W> {
             planes: vec![HapticdPlanes::default(); capacity],
             bodies: [HapticdLocalBody::default(); HAPTICD_MAX_LOCAL_BODIES],
             body_count: 0,
+            mobilities: [None; HAPTICD_MAX_LOCAL_BODIES],
             hosts: Vec::new(),
             admitted: 0,
             ledger: Ledger::default(),
@@ -254,6 +263,9 @@ impl<W: Stepped> SharedWorld<W> {
                 body_count: &mut self.body_count,
             },
         );
+        let count = (self.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
+        self.world
+            .mobilities(&self.bodies[..count], &mut self.mobilities[..count]);
         self.impulses.clear();
         self.locals.clear();
         self.step += 1;
@@ -269,6 +281,7 @@ impl<W: Stepped> SharedWorld<W> {
             let mut set = PlaneSet {
                 body_count: self.body_count,
                 bodies: self.bodies,
+                mobilities: self.mobilities,
                 shared,
                 ..PlaneSet::default()
             };

@@ -495,6 +495,10 @@ impl hapticd_core::scene::shared_world::Stepped for PluginWorld {
     fn poses(&mut self, poses: &mut [HapticdBodyPose]) -> usize {
         self.instance.poses(poses)
     }
+
+    fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
+        self.instance.mobilities(bodies, out);
+    }
 }
 
 /// The world of the scene plugin at `path` (with an optional scene file) for `pointers`

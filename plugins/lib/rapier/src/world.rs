@@ -820,10 +820,13 @@ impl hapticd_core::scene::shared_world::Stepped for RapierWorld {
         }
         self.body_count()
     }
-}
 
-#[cfg(test)]
-mod tests;
+    fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
+        for (out, body) in out.iter_mut().zip(bodies) {
+            *out = self.mobility(body.body as usize);
+        }
+    }
+}
 
 impl DrivenJoints for RapierWorld {
     fn joint_count(&self) -> usize {
@@ -842,3 +845,6 @@ impl DrivenJoints for RapierWorld {
         RapierWorld::joint_state(self, k)
     }
 }
+
+#[cfg(test)]
+mod tests;
