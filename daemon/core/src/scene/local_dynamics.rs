@@ -21,6 +21,12 @@
 //! Contacts are solved as unilateral velocity constraints with Coulomb friction by a few
 //! sweeps of projected Gauss–Seidel, speculative over their gap: a body resting on a floor
 //! neither sinks nor sticks to it, and a body pushed into a corner does not move into it.
+//!
+//! A body held by joints moves through its articulated mobility as the physics hands it
+//! over ([`Mobility`]): a door pushed at its handle swings as a mass I/r² would there and
+//! not at all along its hinge, its velocity field and its planes turning with it. It hands
+//! back the hand's part alone: how the mechanism moves by itself is the world's, and each
+//! link of one handing back its own way of it moved the joints by all of them.
 
 use glam::{DMat3, DQuat, DVec3};
 use hapticd_plugin_api::{

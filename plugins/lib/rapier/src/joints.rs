@@ -17,9 +17,11 @@
 //! stops the coordinate; what the stop gives back (`restitution:`) is turned around after
 //! each step, since rapier's limits give back nothing.
 //!
-//! A multibody sets its links' velocities from its joints' each step, so what the hand gives
-//! a link (an impulse, or what local dynamics moved it by) goes in as a force over the next
-//! step ([`Joints::kick`]), which the multibody takes through its joints.
+//! A multibody sets its links' velocities from its joints' each step, so an impulse the hand
+//! gives a link goes in as a force over the next step ([`Joints::kick`]), which the multibody
+//! takes through its joints; what local dynamics moved a link by goes straight into its
+//! joints' coordinates ([`articulation`](crate::articulation)). A link joined to what does
+//! not move has its limits felt between steps as contacts ([`Joints::limit_contacts`]).
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::joint::{
