@@ -11,8 +11,9 @@ use super::Engine;
 use super::meshes::{MeshBody, MeshFiles, mesh_body};
 use super::schema::{RawBody, RawEngine, RawInertial, RawMaterial, RawModel, RawScene, identity};
 use crate::body::Body;
+use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
-use crate::world::{ContactModel, Scaling};
+use crate::world::{ContactModel, Scaling, coordinate_bounds};
 
 /// Most pointers a scene steps.
 pub const MAX_POINTERS: usize = 8;
@@ -276,6 +277,28 @@ pub(super) fn stability(f: &mut Findings, m: &RawMaterial, dt: f64, bodies: &[Bo
                 f.warning(
                     format!("material.{key}"),
                     format!("gains energy: {message}"),
+                );
+            }
+        }
+    }
+}
+
+/// Warn of each of `joints` whose spring or damper is stiffer than the penalty step of `dt`
+/// integrates with `bodies` where they are: the world holds it at what the step takes.
+pub(super) fn joint_springs(f: &mut Findings, joints: &[Joint], dt: f64, bodies: &[Body]) {
+    for (k, j) in joints.iter().enumerate() {
+        let (stiffest, firmest) = coordinate_bounds(bodies, j, dt);
+        for (key, asked, most) in [
+            ("stiffness", j.stiffness, stiffest),
+            ("damping", j.damping, firmest),
+        ] {
+            if asked > most {
+                f.warning(
+                    format!("joints[{k}].{key}"),
+                    format!(
+                        "{asked} is more than a step of {dt} s takes with these bodies: it is \
+                         held at {most:.3e}"
+                    ),
                 );
             }
         }

@@ -263,6 +263,7 @@ impl SceneFile {
             && !f.has_errors()
         {
             checks::stability(&mut f, &raw.material, penalty.dt, &bodies.bodies);
+            checks::joint_springs(&mut f, &joints, penalty.dt, &bodies.bodies);
         }
         let warnings = f.finish()?;
         Ok(match penalty {

@@ -267,36 +267,50 @@ fn coordinate_force(
     let j = &link.joint;
     let now = coordinate(j.kind, first, second);
     let axis = first.turn * DVec3::X;
-    // What a force along the coordinate moves within a step (each body about its own centre,
-    // before the joint's locks turn it about the joint), which bounds the step's stiffness.
-    let (linear, angular) = reduced(bodies, j, (first.origin, second.origin), axis);
-    let m = if j.kind == JointKind::Revolute {
-        angular
-    } else {
-        linear
-    };
+    let (stiffest, firmest) = bounds(bodies, j, (first.origin, second.origin), axis, dt);
     // The file's spring and damper, no stiffer than the step allows (an explicit spring
     // past ω·dt = 1 would ring up).
-    let stiffness = j.stiffness.min(2.0 * SPRING * m / (dt * dt));
-    let damping = j.damping.min(DAMPER * m / dt);
+    let stiffness = j.stiffness.min(stiffest);
+    let damping = j.damping.min(firmest);
     let mut along = -stiffness * now.position - damping * now.velocity;
     if let Some(motor) = j.motor {
         // A stiff drive, no stiffer than the step allows, within its bound.
         let drive = match motor.target {
             MotorTarget::Velocity(v) => {
-                (motor.max_force / MOTOR_SLACK).min(DAMPER * m / dt) * (v - now.velocity)
+                (motor.max_force / MOTOR_SLACK).min(firmest) * (v - now.velocity)
             }
             MotorTarget::Position(p) => {
                 // Critically damped for what the joint moves, as far as the step allows.
-                let k = (motor.max_force / MOTOR_SLACK).min(2.0 * SPRING * m / (dt * dt));
+                let k = (motor.max_force / MOTOR_SLACK).min(stiffest);
                 let moving = along_coordinate(bodies, j, first.origin, axis);
-                let c = (2.0 * (k * moving).sqrt()).min(DAMPER * m / dt);
+                let c = (2.0 * (k * moving).sqrt()).min(firmest);
                 k * (p - now.position) - c * now.velocity
             }
         };
         along += drive.clamp(-motor.max_force, motor.max_force);
     }
     along
+}
+
+/// The stiffest spring and damper along joint `j`'s coordinate (its axis `axis`, its frames'
+/// origins `anchors`) that a step of `dt` integrates with `bodies` where they are: what a
+/// force along the coordinate moves within a step (each body about its own centre, before
+/// the joint's locks turn it about the joint) bounds them.
+fn bounds(bodies: &[Body], j: &Joint, anchors: (DVec3, DVec3), axis: DVec3, dt: f64) -> (f64, f64) {
+    let (linear, angular) = reduced(bodies, j, anchors, axis);
+    let m = if j.kind == JointKind::Revolute {
+        angular
+    } else {
+        linear
+    };
+    (2.0 * SPRING * m / (dt * dt), DAMPER * m / dt)
+}
+
+/// The stiffest spring and damper the penalty step of `dt` integrates along `joint`'s
+/// coordinate, its `bodies` as placed at load: the world holds a file's stiffer ones at
+/// these.
+pub fn coordinate_bounds(bodies: &[Body], joint: &Joint, dt: f64) -> (f64, f64) {
+    bounds(bodies, joint, (joint.anchor, joint.anchor), joint.axis, dt)
 }
 
 /// The pair's effective mass along `d` at the anchors, and moment about `d`: the reduced
@@ -450,6 +464,43 @@ mod tests {
         assert!(
             (now.position - 0.5).abs() < 1e-3 && now.velocity.abs() < 1e-3,
             "{now:?}"
+        );
+    }
+
+    /// A spring or damper stiffer than the step integrates is said at load, at its place,
+    /// with what the world holds it at: for the door 2·0.05·I/dt², I its moment about its
+    /// own centre (5.1·10⁴ N·m/rad at 4 kHz).
+    #[test]
+    fn a_joint_spring_past_what_the_step_takes_is_said_at_load() {
+        let text = |stiffness: f64| {
+            format!(
+                "name: door\nengine: penalty\ndt: 0.00025\ngravity: [0, 0, 0]\nmaterial: {{ \
+                 stiffness: 2.0e7, damping: 1.0e4, static_friction: 0, friction: 0, \
+                 friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.02 \
+                 }}\nbodies:\n  - {{ name: door, box: [0.4, 0.6, 0.02], density: 500, \
+                 position: [0.2, 0, 0] }}\njoints:\n  - {{ kind: revolute, bodies: [world, \
+                 door], anchor: [0, 0, 0], axis: [0, 1, 0], stiffness: {stiffness} }}\n"
+            )
+        };
+        let warnings = |stiffness| match SceneFile::parse(
+            &text(stiffness),
+            std::path::Path::new("door.yaml"),
+            0,
+        )
+        .unwrap()
+        {
+            SceneFile::Penalty(scene) => scene.warnings.clone(),
+            SceneFile::Rapier(_) => unreachable!("a penalty scene"),
+        };
+        assert!(warnings(100.0).is_empty());
+        let said = warnings(1.0e6);
+        let moment: f64 = 2.4 * (0.4f64 * 0.4 + 0.02 * 0.02) / 12.0;
+        let most = 2.0 * 0.05 * moment / (0.00025f64 * 0.00025);
+        assert_eq!(said.len(), 1, "{said:?}");
+        let message = said[0].to_string();
+        assert!(
+            message.contains("joints[0].stiffness") && message.contains(&format!("{most:.3e}")),
+            "{message}"
         );
     }
 

@@ -14,7 +14,7 @@ use super::polyhedron::Polyhedron;
 mod collide;
 mod joints;
 
-pub use joints::Linked;
+pub use joints::{Linked, coordinate_bounds};
 
 /// How hard and how damped contacts are.
 #[derive(Debug, Clone, Copy, PartialEq)]
