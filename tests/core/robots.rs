@@ -25,7 +25,8 @@ const SECONDS: f64 = 2.0;
 const SAMPLE: f64 = 0.05;
 
 /// The centres of mass of RRBot's two moving links every [`SAMPLE`] over [`SECONDS`], as
-/// MuJoCo integrates the URDF at `urdf` (RK4, 0.1 ms steps, contacts off).
+/// MuJoCo integrates the URDF at `urdf` (RK4, 0.1 ms steps, contacts off; the release the
+/// comparison was measured with, pinned).
 fn mujoco(urdf: &std::path::Path) -> Vec<[DVec3; 2]> {
     let g = gravity();
     let script = format!(
@@ -52,7 +53,7 @@ fn mujoco(urdf: &std::path::Path) -> Vec<[DVec3; 2]> {
         Command::new("/usr/bin/python3")
             .arg("-c")
             .arg(script)
-            .env("PYTHONPATH", support::python_package("mujoco"))
+            .env("PYTHONPATH", support::python_package("mujoco==4.0.1"))
             .output()
             .unwrap(),
     );
