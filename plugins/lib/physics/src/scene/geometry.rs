@@ -1,17 +1,23 @@
 //! What a physics scene looks like, as its plugin hands it out for pictures
 //! ([`hapticd_plugin_api::geometry`]): one body id per body of the world, in the order its
-//! poses are written, each piece a solid placed in its body's frame.
+//! poses are written, each piece a solid placed in its body's frame; and its joints, drawn
+//! faintly on the body they move.
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{Pose, quat_to_wxyz};
 use hapticd_plugin_api::{
-    Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_SPHERE, HAPTICD_SOLID_FIXED, HAPTICD_SOLID_POINTER,
-    HapticdBodyPose, HapticdSolid, HapticdTriangle,
+    Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_CYLINDER, HAPTICD_SHAPE_SPHERE, HAPTICD_SOLID_FIXED,
+    HAPTICD_SOLID_POINTER, HapticdBodyPose, HapticdSolid, HapticdTriangle,
 };
 
 use super::{PenaltyScene, Primitive, RapierScene};
 use crate::body::Body;
+use crate::joint::{Joint, JointKind};
 use crate::polyhedron::Polyhedron;
+
+/// A joint's colour: a dark slate, half see-through, so that it shows against the light
+/// background without hiding what it joins.
+const JOINT_COLOUR: [f32; 4] = [0.15, 0.2, 0.3, 0.5];
 
 impl PenaltyScene {
     /// The world's solids: every piece of every body as its faces (a mesh as its own
@@ -34,6 +40,8 @@ impl PenaltyScene {
                 geometry.add_triangles(solid_of(id, body, pointer), faces(piece));
             }
         }
+        let joints: Vec<&Joint> = self.world.joints.iter().map(|l| &l.joint).collect();
+        add_joints(&mut geometry, &self.world.bodies, &joints);
         geometry
     }
 
@@ -86,7 +94,41 @@ impl RapierScene {
                 }
             }
         }
+        let joints: Vec<&Joint> = self.joints.iter().collect();
+        add_joints(&mut geometry, &self.bodies, &joints);
         geometry
+    }
+}
+
+/// Draw `joints` faintly on the body each moves (its second), as `bodies` stand at load: a
+/// hinge as a thin bar along its axis through its anchor, a slider as a longer one, a ball
+/// joint as a small ball; a weld is not drawn.
+fn add_joints(geometry: &mut Geometry, bodies: &[Body], joints: &[&Joint]) {
+    for j in joints {
+        let Some(body) = bodies.get(j.bodies.1) else {
+            continue;
+        };
+        let (shape, size) = match j.kind {
+            JointKind::Revolute => (HAPTICD_SHAPE_CYLINDER, [0.002, 0.03, 0.0]),
+            JointKind::Prismatic => (HAPTICD_SHAPE_CYLINDER, [0.0015, 0.06, 0.0]),
+            JointKind::Spherical => (HAPTICD_SHAPE_SPHERE, [0.004, 0.0, 0.0]),
+            JointKind::Fixed => continue,
+        };
+        let back = body.orientation.inverse();
+        // A cylinder stands along its frame's y.
+        let turn = back * DQuat::from_rotation_arc(DVec3::Y, j.axis.normalize_or(DVec3::Y));
+        geometry.add_solid(HapticdSolid {
+            shape,
+            size,
+            colour: JOINT_COLOUR,
+            ..HapticdSolid {
+                body: j.bodies.1 as u32,
+                ..HapticdSolid::placed(
+                    (back * (j.anchor - body.position)).to_array(),
+                    quat_to_wxyz(turn.normalize()),
+                )
+            }
+        });
     }
 }
 
@@ -194,5 +236,43 @@ mod tests {
         );
         let ids: Vec<u32> = geometry.solids.iter().map(|s| s.body).collect();
         assert_eq!(ids, (0..17).collect::<Vec<_>>());
+    }
+
+    /// Each joint with a coordinate or a ball is drawn faintly on the body it moves, where
+    /// the file puts it, in both engines: the shipped joints' door hinge a bar along y
+    /// through its anchor; welds are not drawn.
+    #[test]
+    fn joints_are_drawn_faintly_where_they_join() {
+        for (name, engine) in [("hinges", "penalty"), ("joints", "rapier")] {
+            let (geometry, bodies, joints): (Geometry, Vec<Body>, Vec<Joint>) = match scene(name, 1)
+            {
+                SceneFile::Penalty(s) => (
+                    s.geometry(),
+                    s.world.bodies.clone(),
+                    s.world.joints.iter().map(|l| l.joint.clone()).collect(),
+                ),
+                SceneFile::Rapier(s) => (s.geometry(), s.bodies.clone(), s.joints.clone()),
+            };
+            assert_eq!(geometry.check(), Ok(()), "{engine}");
+            let faint: Vec<&HapticdSolid> = geometry
+                .solids
+                .iter()
+                .filter(|s| s.colour[3] < 1.0 && s.colour[3] > 0.0)
+                .collect();
+            let drawn = joints.iter().filter(|j| j.kind != JointKind::Fixed).count();
+            assert_eq!(faint.len(), drawn, "{engine}");
+            let hinge = &joints[0];
+            let bar = faint[0];
+            assert_eq!(
+                (bar.shape, bar.body),
+                (HAPTICD_SHAPE_CYLINDER, hinge.bodies.1 as u32)
+            );
+            let door = &bodies[hinge.bodies.1];
+            let at = door.position + door.orientation * DVec3::from(bar.offset.position);
+            assert!(at.distance(hinge.anchor) < 1e-12, "{engine}: {at}");
+            let [w, x, y, z] = bar.offset.orientation;
+            let along = door.orientation * DQuat::from_xyzw(x, y, z, w) * DVec3::Y;
+            assert!(along.distance(hinge.axis) < 1e-12, "{engine}: {along}");
+        }
     }
 }
