@@ -628,12 +628,11 @@ impl PlaneRenderer {
             // the world's, and several links of one each handing back their own way of it
             // moved its joints by all of them (an arm pushed at its hand at 10 Hz went
             // unstable).
-            let change = next.bodies[..count]
+            let whole = next.bodies[..count]
                 .iter()
-                .filter(|_| !body.is_jointed())
-                .find(|b| b.body == body.body && b.left_out == 0)
-                .and_then(|b| body.change_to(b, &pending_for(&self.pending, b)))
-                .unwrap_or_else(|| body.change());
+                .find(|b| b.body == body.body && b.left_out == 0 && !body.is_jointed())
+                .and_then(|b| body.change_to(b, &pending_for(&self.pending, b)));
+            let change = whole.unwrap_or_else(|| body.change());
             if !change.is_zero() {
                 record.changes[record.count] = (body.body, change);
                 record.count += 1;

@@ -130,6 +130,11 @@ impl Door {
     }
 }
 
+/// How far the door is opened (about −y) where the hand feels it, rad.
+fn opened(lockstep: &Lockstep) -> f64 {
+    -lockstep.body(0).orientation.to_scaled_axis().y
+}
+
 /// One push.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Swing {
@@ -196,8 +201,7 @@ pub fn swing(door: &Door, rate: f64, feedback: Feedback) -> Result<Swing, Experi
             out.release = lockstep.time();
         }
         finger.follow(door.target(t), felt[0].force.z, dt);
-        let opened = -lockstep.body(0).orientation.to_scaled_axis().y;
-        out.angles.push((lockstep.time(), opened));
+        out.angles.push((lockstep.time(), opened(&lockstep)));
     }
     out.rate_after = lockstep.world.joint_state(0).velocity;
     Ok(out)
@@ -391,10 +395,7 @@ impl Stepped {
     /// How far the hinge is opened: in the world, and where the hand feels the door.
     fn hinge(&self) -> (f64, f64) {
         match self {
-            Stepped::Rapier(lockstep) => {
-                let felt = -lockstep.body(0).orientation.to_scaled_axis().y;
-                (lockstep.world.joint_state(0).position, felt)
-            }
+            Stepped::Rapier(lockstep) => (lockstep.world.joint_state(0).position, opened(lockstep)),
             Stepped::Penalty(scene) => {
                 let q = scene.world.joint_state(0).position;
                 (q, q)

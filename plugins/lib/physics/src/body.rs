@@ -4,7 +4,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::mass::mass_properties;
+use super::mass::{mass_properties, moved_inertia};
 use super::polyhedron::Polyhedron;
 
 /// A rigid body.
@@ -51,12 +51,7 @@ impl Body {
         // Each piece's inertia moved to the common centroid (parallel axes).
         let inertia = properties
             .iter()
-            .map(|&(v, c, i)| {
-                let r = c - centroid;
-                i + (DMat3::from_diagonal(DVec3::splat(r.length_squared()))
-                    - DMat3::from_cols(r * r.x, r * r.y, r * r.z))
-                    * v
-            })
+            .map(|&(v, c, i)| moved_inertia(i, v, c - centroid))
             .fold(DMat3::ZERO, |sum, i| sum + i);
         let solid = (volume, volume * density);
         Self::from_parts(pieces, solid, centroid, inertia * density, fixed)

@@ -169,6 +169,18 @@ impl Turns {
         wrapped + std::f64::consts::TAU * (self.turns + Self::crossed(wrapped - self.last))
     }
 
+    /// `state` of a joint of `kind` with a hinge's coordinate counted from load (others as
+    /// they are).
+    pub fn counted(&self, kind: JointKind, state: JointState) -> JointState {
+        match kind {
+            JointKind::Revolute => JointState {
+                position: self.at(state.position),
+                ..state
+            },
+            _ => state,
+        }
+    }
+
     /// Follow the coordinate to `wrapped` (within ±π), as a step left it.
     pub fn follow(&mut self, wrapped: f64) {
         self.turns += Self::crossed(wrapped - self.last);

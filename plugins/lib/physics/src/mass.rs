@@ -51,3 +51,12 @@ pub fn mass_properties(p: &Polyhedron) -> (f64, DVec3, DMat3) {
     )) - covariance;
     (volume, centroid, inertia)
 }
+
+/// `inertia` about a body's centre moved to a point `offset` from it (parallel axes), the
+/// body of `mass`.
+pub fn moved_inertia(inertia: DMat3, mass: f64, offset: DVec3) -> DMat3 {
+    inertia
+        + (DMat3::from_diagonal(DVec3::splat(offset.length_squared()))
+            - DMat3::from_cols(offset * offset.x, offset * offset.y, offset * offset.z))
+            * mass
+}

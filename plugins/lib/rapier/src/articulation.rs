@@ -49,10 +49,9 @@ fn link(physics: &PhysicsWorld, body: RigidBodyHandle) -> Option<(Link, Multibod
 /// Link `body`'s articulated mobility and its acceleration under the gravity of its whole
 /// multibody; None for a body that is no link.
 pub fn mobility(physics: &PhysicsWorld, body: RigidBodyHandle) -> Option<HapticdMobility> {
-    let (link, _) = link(physics, body)?;
+    let (link, index) = link(physics, body)?;
     let m = &link.jacobian * &link.response;
-    let id = physics.multibody_joints.rigid_body_link(body)?;
-    let multibody = physics.multibody_joints.get_multibody(id.multibody)?;
+    let multibody = physics.multibody_joints.get_multibody(index)?;
     let n = multibody.ndofs();
     // Gravity on every link, as generalized forces.
     let gravity = dvec(physics.gravity);

@@ -189,14 +189,7 @@ impl Joints {
     /// Where joint `k` is now (a hinge counted in whole turns from load).
     pub fn state(&self, physics: &PhysicsWorld, k: usize) -> JointState {
         let b = &self.built[k];
-        let state = coordinate(physics, b);
-        match b.spec.kind {
-            JointKind::Revolute => JointState {
-                position: b.turns.at(state.position),
-                ..state
-            },
-            _ => state,
-        }
+        b.turns.counted(b.spec.kind, coordinate(physics, b))
     }
 
     /// The limits of the joint holding link `body` to a body that does not move, as

@@ -15,9 +15,10 @@ pub struct Mobility {
     angular: DMat3,
     /// The acceleration without the hand or contacts: the centre's and the spin's.
     acceleration: (DVec3, DVec3),
-    /// Whether joints hold the body: its velocity field then turns with it (a door swung
-    /// on keeps its hinge still), where a free body's centre keeps its velocity.
-    jointed: bool,
+    /// A free body's inverse mass; None when joints hold the body: its velocity field then
+    /// turns with it (a door swung on keeps its hinge still), where a free body's centre
+    /// keeps its velocity.
+    free: Option<f64>,
 }
 
 impl Mobility {
@@ -29,7 +30,7 @@ impl Mobility {
             coupling: DMat3::ZERO,
             angular: inverse_inertia,
             acceleration: (gravity, DVec3::ZERO),
-            jointed: false,
+            free: Some(inverse_mass),
         }
     }
 
@@ -60,7 +61,7 @@ impl Mobility {
                 DVec3::from_slice(&m.acceleration[..3]),
                 DVec3::from_slice(&m.acceleration[3..]),
             ),
-            jointed: true,
+            free: None,
         })
     }
 
@@ -84,10 +85,9 @@ impl Mobility {
     pub fn unit(&self, r: DVec3, direction: DVec3, shift: DVec3) -> (DVec3, DVec3, f64) {
         let arm = r.cross(direction);
         let (v, w) = self.respond(direction, arm, shift);
-        let inverse = if self.jointed {
-            (v + w.cross(r)).dot(direction)
-        } else {
-            self.linear.x_axis.x + arm.dot(w)
+        let inverse = match self.free {
+            Some(inverse_mass) => inverse_mass + arm.dot(w),
+            None => (v + w.cross(r)).dot(direction),
         };
         (v, w, inverse.max(0.0))
     }
@@ -97,10 +97,9 @@ impl Mobility {
     /// as it always was, to the last bit: the motion of a body tipped over by a finger
     /// follows its rounding.
     pub fn moved(&self, direction: DVec3, moves: DVec3, amount: f64) -> DVec3 {
-        if self.jointed {
-            moves * amount
-        } else {
-            direction * (amount * self.linear.x_axis.x)
+        match self.free {
+            Some(inverse_mass) => direction * (amount * inverse_mass),
+            None => moves * amount,
         }
     }
 
@@ -113,7 +112,11 @@ impl Mobility {
 
     /// How far the centre is from the point the mobility holds about.
     fn lever(&self, shift: DVec3) -> DVec3 {
-        if self.jointed { shift } else { DVec3::ZERO }
+        if self.free.is_none() {
+            shift
+        } else {
+            DVec3::ZERO
+        }
     }
 
     /// How much faster than the hand a push may send the point it pushes. The proxy's
@@ -123,11 +126,11 @@ impl Mobility {
     /// body may: its joints keep it where it is. A free body is held to the hand's speed,
     /// lest a light one under a deep finger be thrown across the scene.
     pub fn release(&self) -> f64 {
-        if self.jointed { 2.0 } else { 1.0 }
+        if self.free.is_none() { 2.0 } else { 1.0 }
     }
 
     /// Whether joints hold the body.
     pub fn is_jointed(&self) -> bool {
-        self.jointed
+        self.free.is_none()
     }
 }

@@ -43,6 +43,7 @@ use hapticd_core::kinematics::WORLD_EXTENT;
 use super::joints::RawJoint;
 use super::schema::{RawBase, RawBody, RawInertial, RawPiece, RawRobot, RawScene};
 use crate::joint::JointKind;
+use crate::mass::moved_inertia;
 
 /// Largest URDF file read, bytes.
 const MAX_URDF_BYTES: u64 = 16 << 20;
@@ -458,11 +459,7 @@ fn combined(parts: &[(f64, DVec3, DMat3)]) -> Option<(f64, DVec3, DMat3)> {
     }
     let centre = parts.iter().map(|p| p.1 * p.0).sum::<DVec3>() / mass;
     let inertia = parts.iter().fold(DMat3::ZERO, |sum, &(m, c, i)| {
-        let d = c - centre;
-        sum + i
-            + (DMat3::from_diagonal(DVec3::splat(d.length_squared()))
-                - DMat3::from_cols(d * d.x, d * d.y, d * d.z))
-                * m
+        sum + moved_inertia(i, m, c - centre)
     });
     Some((mass, centre, inertia))
 }

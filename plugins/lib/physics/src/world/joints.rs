@@ -86,14 +86,7 @@ impl Linked {
 
     /// Where the joint stands among `bodies`, a hinge counted in whole turns from load.
     pub fn counted(&self, bodies: &[Body]) -> JointState {
-        let state = self.state(bodies);
-        match self.joint.kind {
-            JointKind::Revolute => JointState {
-                position: self.turns.at(state.position),
-                ..state
-            },
-            _ => state,
-        }
+        self.turns.counted(self.joint.kind, self.state(bodies))
     }
 
     /// Follow a hinge's turns to where `bodies` have it now.
