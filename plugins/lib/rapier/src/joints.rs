@@ -1,6 +1,7 @@
 //! A scene's joints in rapier: a tree of them (chains, a robot's links) as multibodies, in
-//! reduced coordinates, and each joint that would close a loop (a four-bar) as an impulse
-//! joint solved with the contacts.
+//! reduced coordinates, and each joint that would close a loop (a four-bar), each ball joint
+//! and each joint of a branch too deep for a multibody at its rate as an impulse joint solved
+//! with the contacts.
 //!
 //! Measured on a box hinged at one end, released from 60° (the pendulum of `hapticctl
 //! experiment pendulum` and of the core tests' `a_hinged_box_*`): as impulse joints, its
@@ -22,6 +23,8 @@
 //! takes through its joints; what local dynamics moved a link by goes straight into its
 //! joints' coordinates ([`articulation`](crate::articulation)). A link joined to what does
 //! not move has its limits felt between steps as contacts ([`Joints::limit_contacts`]).
+
+use std::collections::HashMap;
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::joint::{
@@ -52,6 +55,51 @@ enum Handle {
     Multibody(MultibodyJointHandle),
     /// A constraint closing a loop.
     Impulse(ImpulseJointHandle),
+}
+
+/// The most links a branch of a multibody may have below what it hangs from. Measured in
+/// rapier at 60 Hz with hinge chains of 2 cm, 1.4 g or 14 g links swinging down onto a floor:
+/// chains 2 to 6 links deep (one, or three side by side) stayed whole for 5 s; 7 links deep
+/// in three branches, 8 in two or three, 12, 16 or 20 in one diverged within 2 s, and 20 cm
+/// links 12 deep did not. The same chains of impulse joints all stayed whole.
+const DEEPEST_BRANCH: usize = 6;
+
+/// Whether each joint of `specs` may be a multibody's: not a ball joint (a chain of them as
+/// a multibody diverged once it struck the floor, twenty 31 g links at 60 Hz, within a
+/// second), nor in a branch deeper than [`DEEPEST_BRANCH`]; such a whole branch is held by
+/// impulse joints.
+fn reducible(specs: &[Joint]) -> Vec<bool> {
+    let tree = |spec: &Joint| spec.kind != JointKind::Spherical;
+    // The tree joint that hangs each link from its parent, the first the file gives.
+    let mut hung_by = HashMap::new();
+    for (k, spec) in specs.iter().enumerate() {
+        if tree(spec) {
+            hung_by.entry(spec.bodies.1).or_insert(k);
+        }
+    }
+    // Each tree joint's branch (the top joint it hangs under) and its depth in it; a loop
+    // ends the climb once it has taken every joint.
+    let place = |k: usize| {
+        let (mut top, mut depth) = (k, 1);
+        while let Some(&up) = specs[top].bodies.0.and_then(|b| hung_by.get(&b))
+            && depth <= specs.len()
+        {
+            (top, depth) = (up, depth + 1);
+        }
+        (top, depth)
+    };
+    let places: Vec<(usize, usize)> = (0..specs.len()).map(place).collect();
+    let mut deepest = vec![0; specs.len()];
+    for (spec, &(top, depth)) in specs.iter().zip(&places) {
+        if tree(spec) {
+            deepest[top] = deepest[top].max(depth);
+        }
+    }
+    specs
+        .iter()
+        .zip(&places)
+        .map(|(spec, &(top, _))| tree(spec) && deepest[top] <= DEEPEST_BRANCH)
+        .collect()
 }
 
 /// One joint in the world.
@@ -85,9 +133,11 @@ impl Joints {
     pub fn build(physics: &mut PhysicsWorld, bodies: &[RigidBodyHandle], specs: &[Joint]) -> Self {
         let world = (specs.iter().any(|j| j.bodies.0.is_none()))
             .then(|| physics.insert_body(RigidBodyBuilder::fixed()));
+        let reducible = reducible(specs);
         let built: Vec<Built> = specs
             .iter()
-            .map(|spec| {
+            .zip(reducible)
+            .map(|(spec, reducible)| {
                 let first = spec.bodies.0.map_or_else(|| world.unwrap(), |i| bodies[i]);
                 let pair = [first, bodies[spec.bodies.1]];
                 let frame = DQuat::from_rotation_arc(DVec3::X, spec.axis);
@@ -98,10 +148,8 @@ impl Joints {
                 });
                 let joint = joint(spec, frames);
                 // A joint that would close a loop, or give a link a second parent, is
-                // refused as a multibody's. A chain of ball joints as a multibody diverged
-                // once it struck the floor (twenty 31 g links at 60 Hz, within a second),
-                // where as impulse joints it stays whole: ball joints are impulse joints.
-                let reduced = (spec.kind != JointKind::Spherical)
+                // refused as a multibody's.
+                let reduced = reducible
                     .then(|| physics.insert_multibody_joint(pair[0], pair[1], joint))
                     .flatten();
                 let handle = match reduced {

@@ -401,3 +401,85 @@ fn a_wheel_turned_round_counts_its_turns() {
     assert!(at > 1.5 * std::f64::consts::TAU, "{at}");
     assert!((at - summed).abs() < 1e-3, "{at} against {summed}");
 }
+
+/// A rapier scene at `rate` of `branches` hinge chains side by side, each of `depth` links
+/// 2 cm long and 1.4 g, held out level 20 cm up from the world and let go onto a floor 15 mm
+/// below per link: its world, and each link's hinge anchor on each side, in the link's frame
+/// and its parent's (the world's anchors where they hang from the world).
+fn hinge_chains(rate: f64, branches: usize, depth: usize) -> RapierWorld {
+    let (x, y) = (-0.2, 0.2);
+    let mut text = format!(
+        "name: chains\nengine: rapier\nrate: {rate}\nmaterial: {{ static_friction: 0.4, \
+         friction: 0.3 }}\nbodies:\n  - {{ name: floor, box: [0.6, 0.02, 0.6], position: [0, \
+         {}, 0], fixed: true }}\n",
+        y - 0.015 * depth as f64
+    );
+    let mut joints = String::from("joints:\n");
+    for b in 0..branches {
+        let z = 0.03 * b as f64;
+        for k in 0..depth {
+            let (start, name) = (x + 0.02 * k as f64, format!("link{b}_{k}"));
+            text += &format!(
+                "  - {{ name: {name}, box: [0.02, 0.006, 0.006], position: [{:.3}, {y}, {z}], \
+                 density: 2000 }}\n",
+                start + 0.01
+            );
+            let parent = match k {
+                0 => "world".to_string(),
+                _ => format!("link{b}_{}", k - 1),
+            };
+            joints += &format!(
+                "  - {{ kind: revolute, axis: [0, 0, 1], bodies: [{parent}, {name}], anchor: \
+                 [{start:.3}, {y}, {z}] }}\n"
+            );
+        }
+    }
+    jointed(&(text + &joints))
+}
+
+/// A hinge chain deeper than a multibody holds at 60 Hz is held by impulse joints, and
+/// whips down onto the floor without gaining energy (rapier's multibody of it diverged);
+/// chains no deeper stay multibodies, with articulated mobilities.
+#[test]
+fn a_chain_too_deep_for_a_multibody_strikes_the_floor_and_stays_whole() {
+    for (branches, depth) in [(1, 20), (1, 12), (3, 7)] {
+        let mut w = hinge_chains(60.0, branches, depth);
+        let start: Vec<f64> = (1..w.body_count()).map(|i| w.body(i).position.y).collect();
+        // A link's inertia about its centre per unit mass, in its frame.
+        let gyration = DVec3::new(
+            0.006f64.powi(2) * 2.0,
+            0.02f64.powi(2) + 0.006f64.powi(2),
+            0.02f64.powi(2) + 0.006f64.powi(2),
+        ) / 12.0;
+        let mut worst = f64::NEG_INFINITY;
+        for _ in 0..300 {
+            assert!(
+                w.advance(1.0 / 60.0),
+                "{branches} × {depth}: no longer finite"
+            );
+            // Links alike: their kinetic energy per unit mass against the height their
+            // centres lost, times g.
+            let kinetic: f64 = (1..w.body_count())
+                .map(|i| {
+                    let b = w.body(i);
+                    let spin = b.orientation.inverse() * b.spin;
+                    0.5 * (b.velocity.length_squared() + (gyration * spin).dot(spin))
+                })
+                .sum();
+            let fallen: f64 = (1..w.body_count())
+                .map(|i| 9.81 * (start[i - 1] - w.body(i).position.y))
+                .sum();
+            worst = worst.max(kinetic - fallen);
+        }
+        // The floor is body 0.
+        assert!((1..w.body_count()).all(|i| w.mobility(i).is_none()));
+        eprintln!("{branches} × {depth}: kinetic over fallen at worst {worst:.3e} J/kg");
+        assert!(worst < 0.0, "{branches} × {depth}: {worst} J/kg gained");
+    }
+    for (branches, depth) in [(1, 6), (3, 6)] {
+        let mut w = hinge_chains(60.0, branches, depth);
+        // A multibody's mass matrix is known once stepped.
+        assert!(w.advance(1.0 / 60.0));
+        assert!((1..w.body_count()).all(|i| w.mobility(i).is_some()));
+    }
+}
