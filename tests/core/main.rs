@@ -10,6 +10,7 @@ mod experiments;
 mod haptic_loop;
 mod mesh_readers;
 mod meshes;
+mod motors;
 mod no_allocation;
 mod pose;
 mod rapier_meshes;

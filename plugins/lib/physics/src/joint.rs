@@ -11,6 +11,8 @@ use hapticd_plugin_api::{
 };
 use serde::Deserialize;
 
+use crate::body::Body;
+
 /// What a joint lets its bodies do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -119,6 +121,25 @@ pub struct Motor {
     pub max_force: f64,
 }
 
+/// How far off its target a motor pushes with all of its force, rad or m (a position) and
+/// rad/s or m/s (a speed): stiff, without being a rigid constraint.
+pub const MOTOR_SLACK: f64 = 0.01;
+
+impl Motor {
+    /// Its drive's stiffness (toward a position) or firmness (toward a speed), N·m/rad or
+    /// N/m, N·m·s/rad or N·s/m: its whole bound at [`MOTOR_SLACK`] off.
+    pub fn stiffness(&self) -> f64 {
+        self.max_force / MOTOR_SLACK
+    }
+}
+
+/// The damper critical for a drive of `stiffness` moving `moved` (the inertia along the
+/// coordinate, [`Joint::inertia_along`]): a position motor's, in both engines. Rapier's
+/// damper at a twentieth of the stiffness overshot a 2.4 kg door's target by 86 %.
+pub fn critical_damping(stiffness: f64, moved: f64) -> f64 {
+    2.0 * (stiffness * moved).sqrt()
+}
+
 /// A joint, checked: its bodies by their index in `bodies:` (None for the world).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
@@ -142,6 +163,23 @@ pub struct Joint {
     pub damping: f64,
     /// Its motor, if it has one.
     pub motor: Option<Motor>,
+}
+
+impl Joint {
+    /// The inertia along its coordinate of what it joins (`bodies`, the scene's), its axis
+    /// `axis` through `anchor`: for a hinge each body's moment about the hinge line, for a
+    /// slider its mass, reduced over both (the world and fixed bodies do not move).
+    pub fn inertia_along(&self, bodies: &[Body], anchor: DVec3, axis: DVec3) -> f64 {
+        let give = |i: Option<usize>| match i.map(|i| &bodies[i]) {
+            Some(b) if !b.fixed && self.kind == JointKind::Revolute => {
+                1.0 / b.inertia_about_line(anchor, axis)
+            }
+            Some(b) if !b.fixed => 1.0 / b.mass,
+            _ => 0.0,
+        };
+        let total = give(self.bodies.0) + give(Some(self.bodies.1));
+        if total > 0.0 { 1.0 / total } else { 0.0 }
+    }
 }
 
 /// Where a joint's coordinate is and how fast it moves.

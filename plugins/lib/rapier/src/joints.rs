@@ -27,22 +27,20 @@
 use std::collections::HashMap;
 
 use glam::{DQuat, DVec3};
+use hapticd_physics::body::Body;
 use hapticd_physics::joint::{
     FrameMotion, Joint, JointKind, JointState, Motor, MotorTarget, Turns, coordinate as stands,
+    critical_damping,
 };
 use hapticd_plugin_api::HapticdBodyContact;
 use rapier3d::prelude::{
     GenericJoint, GenericJointBuilder, ImpulseJointHandle, JointAxesMask, JointAxis, MotorModel,
-    MultibodyJointHandle, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle,
+    MultibodyJointHandle, PhysicsWorld, Pose, RigidBodyActivation, RigidBodyBuilder,
+    RigidBodyHandle,
 };
 
 use crate::convert::{dquat, dvec, rotation, vector};
 
-/// How far off its target a motor's drive pushes with all of its force: rad or m off a
-/// position, rad/s or m/s off a speed (stiff, without being a rigid constraint).
-const MOTOR_SLACK: f64 = 0.01;
-/// How long a position motor takes to damp its swing about its target, s.
-const MOTOR_SETTLING: f64 = 0.05;
 /// Nearer its limit than this (rad or m), a coordinate is at it: rapier stops it in `f32`.
 const AT_LIMIT: f64 = 1e-3;
 /// The lever at which a link turning about its own centre has its limits held, m.
@@ -110,6 +108,9 @@ struct Built {
     /// The joint's frame in each body's frame: its origin (the anchor) and rotation (its x
     /// axis the joint's axis).
     frames: [(DVec3, DQuat); 2],
+    /// The inertia along its coordinate of the two bodies it joins, as loaded (a motor's
+    /// damper is critical for it).
+    moved: f64,
     /// The coordinate's rate before the step, for a limit's restitution.
     before: f64,
     /// A hinge's whole turns.
@@ -128,9 +129,14 @@ pub struct Joints {
 }
 
 impl Joints {
-    /// The joints `specs` between `bodies` (the file's, by index) of `physics`, a fixed body
-    /// of the world added for those that hold a body to it.
-    pub fn build(physics: &mut PhysicsWorld, bodies: &[RigidBodyHandle], specs: &[Joint]) -> Self {
+    /// The joints `specs` between `bodies` (the file's, by index, loaded as `loaded`) of
+    /// `physics`, a fixed body of the world added for those that hold a body to it.
+    pub fn build(
+        physics: &mut PhysicsWorld,
+        bodies: &[RigidBodyHandle],
+        loaded: &[Body],
+        specs: &[Joint],
+    ) -> Self {
         let world = (specs.iter().any(|j| j.bodies.0.is_none()))
             .then(|| physics.insert_body(RigidBodyBuilder::fixed()));
         let reducible = reducible(specs);
@@ -146,7 +152,8 @@ impl Joints {
                     let (at, turn) = (dvec(b.translation()), dquat(*b.rotation()));
                     (turn.inverse() * (spec.anchor - at), turn.inverse() * frame)
                 });
-                let joint = joint(spec, frames);
+                let moved = spec.inertia_along(loaded, spec.anchor, spec.axis);
+                let joint = joint(spec, moved, frames);
                 // A joint that would close a loop, or give a link a second parent, is
                 // refused as a multibody's.
                 let reduced = reducible
@@ -161,12 +168,19 @@ impl Joints {
                     handle,
                     bodies: pair,
                     frames,
+                    moved,
                     before: 0.0,
                     turns: Turns::default(),
                 }
             })
             .collect();
         for b in &built {
+            // A jointed body does not sleep, as in the penalty engine: rapier puts a body
+            // turning slower than 0.5 rad/s to sleep, a door swinging slowly or a motor's
+            // load at the top of its swing stopped dead.
+            for body in b.bodies {
+                *physics.bodies[body].activation_mut() = RigidBodyActivation::cannot_sleep();
+            }
             if let Handle::Multibody(h) = b.handle
                 && let Some((multibody, _)) = physics.multibody_joints.get_mut(h)
             {
@@ -196,13 +210,8 @@ impl Joints {
         if !b.spec.kind.has_coordinate() {
             return;
         }
-        let (axis, (position, velocity, stiffness, damping)) = drive(&b.spec);
-        let bound = motor.map_or(f32::MAX, |m| m.max_force as f32);
-        let set = |data: &mut GenericJoint| {
-            data.set_motor_model(axis, MotorModel::ForceBased)
-                .set_motor(axis, position, velocity, stiffness, damping)
-                .set_motor_max_force(axis, bound);
-        };
+        let (spec, moved) = (&b.spec, b.moved);
+        let set = |data: &mut GenericJoint| drive(data, spec, moved);
         match b.handle {
             Handle::Multibody(h) => {
                 if let Some((multibody, link)) = physics.multibody_joints.get_mut(h)
@@ -368,38 +377,45 @@ fn free_axis(kind: JointKind) -> JointAxis {
     }
 }
 
-/// The motor setting (target position, target velocity, stiffness, damping) of `spec`'s
-/// free axis: its spring and damper, and its motor's drive.
-fn drive(spec: &Joint) -> (JointAxis, (f32, f32, f32, f32)) {
+/// Drive `data`'s free axis as `spec` says (`moved` the inertia along it): its spring and
+/// damper, and its motor's drive, as rapier's force-based motor; none at all where it has
+/// neither (rapier holds an axis whose motor has no stiffness and no damping still).
+fn drive(data: &mut GenericJoint, spec: &Joint, moved: f64) {
+    let axis = free_axis(spec.kind);
     let (mut position, mut velocity) = (0.0, 0.0);
     let (mut stiffness, mut damping) = (spec.stiffness, spec.damping);
     if let Some(motor) = spec.motor {
         match motor.target {
             MotorTarget::Velocity(v) => {
                 velocity = v;
-                damping += motor.max_force / MOTOR_SLACK;
+                damping += motor.stiffness();
             }
             MotorTarget::Position(p) => {
                 position = p;
-                let k = motor.max_force / MOTOR_SLACK;
+                let k = motor.stiffness();
                 stiffness += k;
-                damping += k * MOTOR_SETTLING;
+                damping += critical_damping(k, moved);
             }
         }
     }
-    (
-        free_axis(spec.kind),
-        (
-            position as f32,
-            velocity as f32,
-            stiffness as f32,
-            damping as f32,
-        ),
-    )
+    if stiffness > 0.0 || damping > 0.0 {
+        let bound = spec.motor.map_or(f32::MAX, |m| m.max_force as f32);
+        data.set_motor_model(axis, MotorModel::ForceBased)
+            .set_motor(
+                axis,
+                position as f32,
+                velocity as f32,
+                stiffness as f32,
+                damping as f32,
+            )
+            .set_motor_max_force(axis, bound);
+    } else {
+        data.motor_axes.remove(axis.into());
+    }
 }
 
 /// The rapier joint of `spec`, its frame on each body `frames`.
-fn joint(spec: &Joint, frames: [(DVec3, DQuat); 2]) -> rapier3d::prelude::GenericJoint {
+fn joint(spec: &Joint, moved: f64, frames: [(DVec3, DQuat); 2]) -> GenericJoint {
     let locked = match spec.kind {
         JointKind::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
         JointKind::Revolute => JointAxesMask::LOCKED_REVOLUTE_AXES,
@@ -407,25 +423,19 @@ fn joint(spec: &Joint, frames: [(DVec3, DQuat); 2]) -> rapier3d::prelude::Generi
         JointKind::Spherical => JointAxesMask::LOCKED_SPHERICAL_AXES,
     };
     let pose = |(at, turn): (DVec3, DQuat)| Pose::from_parts(vector(at), rotation(turn));
-    let mut builder = GenericJointBuilder::new(locked)
+    let mut joint = GenericJointBuilder::new(locked)
         .local_frame1(pose(frames[0]))
         .local_frame2(pose(frames[1]))
         // Jointed bodies overlap at the joint: a hinge's leaves touch along it.
-        .contacts_enabled(false);
+        .contacts_enabled(false)
+        .build();
     if spec.kind.has_coordinate() {
-        let (axis, (position, velocity, stiffness, damping)) = drive(spec);
         if let Some([low, high]) = spec.limits {
-            builder = builder.limits(axis, [low as f32, high as f32]);
+            joint.set_limits(free_axis(spec.kind), [low as f32, high as f32]);
         }
-        if stiffness > 0.0 || damping > 0.0 {
-            let bound = spec.motor.map_or(f32::MAX, |m| m.max_force as f32);
-            builder = builder
-                .motor_model(axis, MotorModel::ForceBased)
-                .set_motor(axis, position, velocity, stiffness, damping)
-                .motor_max_force(axis, bound);
-        }
+        drive(&mut joint, spec, moved);
     }
-    builder.build()
+    joint
 }
 
 /// Joint `b`'s frame on its body `side`, as the body now carries it.

@@ -299,7 +299,7 @@ impl RapierWorld {
             }
             bodies.push(handle);
         }
-        let joints = Joints::build(&mut physics, &bodies, &spec.joints);
+        let joints = Joints::build(&mut physics, &bodies, &spec.bodies, &spec.joints);
         let mut world = Self {
             physics,
             bodies,

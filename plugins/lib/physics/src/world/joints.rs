@@ -11,15 +11,14 @@ use glam::{DQuat, DVec3};
 
 use super::World;
 use crate::body::Body;
-use crate::joint::{FrameMotion, Joint, JointKind, JointState, MotorTarget, Turns, coordinate};
+use crate::joint::{
+    FrameMotion, Joint, JointKind, JointState, MotorTarget, Turns, coordinate, critical_damping,
+};
 
 /// A locked direction's spring, as a fraction of what makes ω·dt = 1: 2·SPRING·m/dt².
 const SPRING: f64 = 0.05;
 /// A locked direction's damper: DAMPER·m/dt (about critical for that spring).
 const DAMPER: f64 = 0.4;
-/// How far off its target a motor pushes with all of its force, rad or m (a position) and
-/// rad/s or m/s (a speed).
-const MOTOR_SLACK: f64 = 0.01;
 
 /// A joint as the world holds it: its frame on each body (origin and rotation in the body's
 /// frame; on the world, in the world), the bodies by index (None: the world).
@@ -161,7 +160,7 @@ impl World {
             } else {
                 0.0
             };
-            let moving = along_coordinate(&self.bodies, &link.joint, anchor, axis);
+            let moving = link.joint.inertia_along(&self.bodies, anchor, axis);
             for (body, sign) in [(a, -1.0), (Some(b), 1.0)] {
                 let Some(i) = body.filter(|&i| !self.bodies[i].fixed) else {
                     continue;
@@ -269,14 +268,12 @@ fn coordinate_force(
     if let Some(motor) = j.motor {
         // A stiff drive, no stiffer than the step allows, within its bound.
         let drive = match motor.target {
-            MotorTarget::Velocity(v) => {
-                (motor.max_force / MOTOR_SLACK).min(firmest) * (v - now.velocity)
-            }
+            MotorTarget::Velocity(v) => motor.stiffness().min(firmest) * (v - now.velocity),
             MotorTarget::Position(p) => {
                 // Critically damped for what the joint moves, as far as the step allows.
-                let k = (motor.max_force / MOTOR_SLACK).min(stiffest);
-                let moving = along_coordinate(bodies, j, first.origin, axis);
-                let c = (2.0 * (k * moving).sqrt()).min(firmest);
+                let moving = j.inertia_along(bodies, first.origin, axis);
+                let k = motor.stiffness().min(stiffest);
+                let c = critical_damping(k, moving).min(firmest);
                 k * (p - now.position) - c * now.velocity
             }
         };
@@ -313,21 +310,6 @@ fn reduced(bodies: &[Body], j: &Joint, anchors: (DVec3, DVec3), d: DVec3) -> (f6
     let (m2, i2) = mobility(bodies, Some(j.bodies.1), anchors.1, d);
     let inverse = |a: f64, b: f64| if a + b > 0.0 { 1.0 / (a + b) } else { 0.0 };
     (inverse(m1, m2), inverse(i1, i2))
-}
-
-/// The pair's inertia along joint `j`'s coordinate, its axis `axis` through `anchor`: for a
-/// hinge each body's moment about the hinge line, for a slider its mass (reduced over both;
-/// the world and fixed bodies do not move).
-fn along_coordinate(bodies: &[Body], j: &Joint, anchor: DVec3, axis: DVec3) -> f64 {
-    let give = |i: Option<usize>| match i.map(|i| &bodies[i]) {
-        Some(b) if !b.fixed && j.kind == JointKind::Revolute => {
-            1.0 / b.inertia_about_line(anchor, axis)
-        }
-        Some(b) if !b.fixed => 1.0 / b.mass,
-        _ => 0.0,
-    };
-    let total = give(j.bodies.0) + give(Some(j.bodies.1));
-    if total > 0.0 { 1.0 / total } else { 0.0 }
 }
 
 /// Three orthonormal directions, the first `axis`.

@@ -404,8 +404,7 @@ fn a_wheel_turned_round_counts_its_turns() {
 
 /// A rapier scene at `rate` of `branches` hinge chains side by side, each of `depth` links
 /// 2 cm long and 1.4 g, held out level 20 cm up from the world and let go onto a floor 15 mm
-/// below per link: its world, and each link's hinge anchor on each side, in the link's frame
-/// and its parent's (the world's anchors where they hang from the world).
+/// below per link.
 fn hinge_chains(rate: f64, branches: usize, depth: usize) -> RapierWorld {
     let (x, y) = (-0.2, 0.2);
     let mut text = format!(
