@@ -16,4 +16,5 @@ mod pose;
 mod rapier_meshes;
 mod robots;
 mod ros2_cdr;
+mod soft;
 mod tension;

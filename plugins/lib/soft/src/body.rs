@@ -1,0 +1,194 @@
+//! A soft body: its nodes where they are and how fast they move, their lumped masses and
+//! pins, and what each element keeps of its rest shape (its corners' barycentric gradients,
+//! its volume) and of its last turn.
+
+use glam::{DMat3, DQuat, DVec3};
+
+use crate::element::{MOST_NODES, Order, barycentric_gradients};
+use crate::lattice::TetMesh;
+use crate::material::Material;
+use crate::rotation;
+
+/// A soft body.
+#[derive(Debug, Clone)]
+pub struct SoftBody {
+    /// Its mesh as it was cut: nodes at rest, elements, surface.
+    pub mesh: TetMesh,
+    /// What it is made of.
+    pub material: Material,
+    /// Each node now, m.
+    pub positions: Vec<DVec3>,
+    /// Each node's velocity, m/s.
+    pub velocities: Vec<DVec3>,
+    /// Each node's lumped mass, kg.
+    pub masses: Vec<f64>,
+    /// Nodes held where they are.
+    pub pinned: Vec<bool>,
+    /// Forces on the nodes for the next step alone (the hand's), N.
+    pub forces: Vec<DVec3>,
+    /// Each element's corners' barycentric gradients at rest.
+    pub(crate) gradients: Vec<[DVec3; 4]>,
+    /// Each element's volume at rest, m³.
+    pub(crate) volumes: Vec<f64>,
+    /// Each element's turn from rest, as last found.
+    pub(crate) turns: Vec<DQuat>,
+    /// Each node's stiffness along itself, a third of its block's trace (N/m): the
+    /// solver's preconditioner.
+    pub(crate) own_stiffness: Vec<f64>,
+}
+
+impl SoftBody {
+    /// The body of `mesh`, at rest, made of `material`.
+    pub fn new(mesh: TetMesh, material: Material) -> SoftBody {
+        let count = mesh.nodes.len();
+        let order = mesh.order;
+        let (mut gradients, mut volumes) = (Vec::new(), Vec::new());
+        let mut masses = vec![0.0; count];
+        let mut own_stiffness = vec![0.0; count];
+        let (lambda, mu) = (material.lambda(), material.mu());
+        for e in 0..mesh.element_count() {
+            let nodes = mesh.element(e);
+            let corners = [0, 1, 2, 3].map(|k| mesh.nodes[nodes[k] as usize]);
+            let (g, volume) = barycentric_gradients(corners);
+            for (k, &n) in nodes.iter().enumerate() {
+                masses[n as usize] += material.density * volume * order.mass_share(k);
+            }
+            let mut shape = [DVec3::ZERO; MOST_NODES];
+            for (at, weight) in order.quadrature() {
+                order.gradients(&g, at, &mut shape);
+                for (k, &n) in nodes.iter().enumerate() {
+                    own_stiffness[n as usize] +=
+                        weight * volume * (lambda + 4.0 * mu) * shape[k].length_squared() / 3.0;
+                }
+            }
+            gradients.push(g);
+            volumes.push(volume);
+        }
+        SoftBody {
+            positions: mesh.nodes.clone(),
+            velocities: vec![DVec3::ZERO; count],
+            pinned: vec![false; count],
+            forces: vec![DVec3::ZERO; count],
+            turns: vec![DQuat::IDENTITY; volumes.len()],
+            mesh,
+            material,
+            masses,
+            gradients,
+            volumes,
+            own_stiffness,
+        }
+    }
+
+    /// Pin the nodes at or below `value` along `axis` (0, 1, 2: x, y, z) at rest.
+    pub fn pin_below(&mut self, axis: usize, value: f64) {
+        for (pin, node) in self.pinned.iter_mut().zip(&self.mesh.nodes) {
+            *pin |= node[axis] <= value + 1e-12;
+        }
+    }
+
+    /// Its whole mass, kg.
+    pub fn mass(&self) -> f64 {
+        self.masses.iter().sum()
+    }
+
+    /// Its kinetic energy, J.
+    pub fn kinetic_energy(&self) -> f64 {
+        self.masses
+            .iter()
+            .zip(&self.velocities)
+            .map(|(m, v)| 0.5 * m * v.length_squared())
+            .sum()
+    }
+
+    /// Its elastic energy as its elements stand now, each taken along with the rotation
+    /// nearest its deformation, J.
+    pub fn elastic_energy(&self) -> f64 {
+        let mut energy = 0.0;
+        for e in 0..self.volumes.len() {
+            let mut turn = self.turns[e];
+            rotation::follow(&self.deformation(e), &mut turn, rotation::TURNS);
+            let (u, n) = self.displacements(e, turn, &self.positions, true);
+            let mut k = [DVec3::ZERO; MOST_NODES];
+            self.stiffness_times(e, &u, &mut k);
+            energy += 0.5 * (0..n).map(|i| u[i].dot(k[i])).sum::<f64>();
+        }
+        energy
+    }
+
+    /// Its volume now, m³ (each element's corners; a quadratic element's bulges left out).
+    pub fn volume(&self) -> f64 {
+        (0..self.volumes.len())
+            .map(|e| {
+                let nodes = self.mesh.element(e);
+                let c = [0, 1, 2, 3].map(|k| self.positions[nodes[k] as usize]);
+                (c[1] - c[0]).dot((c[2] - c[0]).cross(c[3] - c[0])) / 6.0
+            })
+            .sum()
+    }
+
+    /// Turn each element's rotation toward its deformation now, `turns` times at most.
+    pub(crate) fn follow_turns(&mut self, turns: usize) {
+        for e in 0..self.volumes.len() {
+            let f = self.deformation(e);
+            rotation::follow(&f, &mut self.turns[e], turns);
+        }
+    }
+
+    /// Element `e`'s deformation gradient now, from its corners.
+    fn deformation(&self, e: usize) -> DMat3 {
+        let nodes = self.mesh.element(e);
+        let now = [0, 1, 2, 3].map(|k| self.positions[nodes[k] as usize]);
+        rotation::deformation(&now, &self.gradients[e])
+    }
+
+    /// Element `e`'s nodes of `field` taken back into its rest frame (turned back by
+    /// `turn`), less their rest positions where `from_rest`; and how many nodes it has.
+    pub(crate) fn displacements(
+        &self,
+        e: usize,
+        turn: DQuat,
+        field: &[DVec3],
+        from_rest: bool,
+    ) -> ([DVec3; MOST_NODES], usize) {
+        let back = DMat3::from_quat(turn.conjugate());
+        let nodes = self.mesh.element(e);
+        let mut u = [DVec3::ZERO; MOST_NODES];
+        for (k, &n) in nodes.iter().enumerate() {
+            u[k] = back * field[n as usize];
+            if from_rest {
+                u[k] -= self.mesh.nodes[n as usize];
+            }
+        }
+        (u, nodes.len())
+    }
+
+    /// Element `e`'s stiffness times its nodes' displacements `u` (its rest frame), into
+    /// `out`: each node's share of ∫ σ(ε(u)) ∇N.
+    pub(crate) fn stiffness_times(
+        &self,
+        e: usize,
+        u: &[DVec3; MOST_NODES],
+        out: &mut [DVec3; MOST_NODES],
+    ) {
+        let order: Order = self.mesh.order;
+        let n = order.nodes();
+        let (lambda, mu) = (self.material.lambda(), self.material.mu());
+        let mut shape = [DVec3::ZERO; MOST_NODES];
+        out[..n].fill(DVec3::ZERO);
+        for (at, weight) in order.quadrature() {
+            order.gradients(&self.gradients[e], at, &mut shape);
+            let mut h = DMat3::ZERO;
+            for k in 0..n {
+                let (v, g) = (u[k], shape[k]);
+                h += DMat3::from_cols(v * g.x, v * g.y, v * g.z);
+            }
+            let strain = (h + h.transpose()) * 0.5;
+            let trace = strain.x_axis.x + strain.y_axis.y + strain.z_axis.z;
+            let stress = strain * (2.0 * mu) + DMat3::from_diagonal(DVec3::splat(lambda * trace));
+            let w = weight * self.volumes[e];
+            for k in 0..n {
+                out[k] += stress * shape[k] * w;
+            }
+        }
+    }
+}

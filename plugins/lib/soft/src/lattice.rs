@@ -1,0 +1,209 @@
+//! Cutting a box into tetrahedra: a grid of cubes at the resolution asked, each cube cut
+//! into six tetrahedra around its main diagonal (Kuhn's cut, which matches itself across
+//! every face, so the pieces join without cracks); a quadratic mesh adds a node at the
+//! middle of each edge, shared by the elements around it.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use crate::element::{EDGES, Order};
+
+/// A tetrahedral mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TetMesh {
+    /// The degree of its elements.
+    pub order: Order,
+    /// Its nodes, m.
+    pub nodes: Vec<DVec3>,
+    /// Each element's nodes, [`Order::nodes`] of them each, corners positively turned.
+    pub elements: Vec<u32>,
+    /// Its outer surface, triangles turned outward (a quadratic face in four).
+    pub surface: Vec<[u32; 3]>,
+}
+
+impl TetMesh {
+    /// How many elements it has.
+    pub fn element_count(&self) -> usize {
+        self.elements.len() / self.order.nodes()
+    }
+
+    /// Element `e`'s nodes.
+    pub fn element(&self, e: usize) -> &[u32] {
+        let n = self.order.nodes();
+        &self.elements[e * n..(e + 1) * n]
+    }
+}
+
+/// The faces of a positively turned tetrahedron, by corner, each turned outward.
+const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+
+/// The box of half-extents `half` about `centre`, cut into cubes no larger than
+/// `resolution` along each side (at least one across), and those into tetrahedra of `order`.
+pub fn cut_box(centre: DVec3, half: DVec3, resolution: f64, order: Order) -> TetMesh {
+    let cells = (2.0 * half / resolution).ceil().max(DVec3::ONE);
+    let n = [cells.x as usize, cells.y as usize, cells.z as usize];
+    let step = 2.0 * half / cells;
+    let index = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
+    let mut nodes = Vec::with_capacity((n[0] + 1) * (n[1] + 1) * (n[2] + 1));
+    for k in 0..=n[2] {
+        for j in 0..=n[1] {
+            for i in 0..=n[0] {
+                let at = DVec3::new(i as f64, j as f64, k as f64) * step;
+                nodes.push(centre - half + at);
+            }
+        }
+    }
+    let mut corners: Vec<[u32; 4]> = Vec::with_capacity(6 * n[0] * n[1] * n[2]);
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                for axes in [
+                    [0, 1, 2],
+                    [0, 2, 1],
+                    [1, 0, 2],
+                    [1, 2, 0],
+                    [2, 0, 1],
+                    [2, 1, 0],
+                ] {
+                    // From the cube's low corner to its high one, one axis at a time.
+                    let mut at = [i, j, k];
+                    let mut tet = [index(i, j, k); 4];
+                    for (s, &axis) in axes.iter().enumerate() {
+                        at[axis] += 1;
+                        tet[s + 1] = index(at[0], at[1], at[2]);
+                    }
+                    corners.push(turned_positively(&nodes, tet));
+                }
+            }
+        }
+    }
+    with_order(nodes, &corners, order)
+}
+
+/// `tet` with its corners in an order that gives it a positive volume.
+fn turned_positively(nodes: &[DVec3], mut tet: [u32; 4]) -> [u32; 4] {
+    let p = tet.map(|i| nodes[i as usize]);
+    if (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])) < 0.0 {
+        tet.swap(1, 2);
+    }
+    tet
+}
+
+/// The mesh of the tetrahedra `corners` over `nodes`, with the middles of edges added for
+/// a quadratic one, and its outer surface.
+fn with_order(mut nodes: Vec<DVec3>, corners: &[[u32; 4]], order: Order) -> TetMesh {
+    let mut middles: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut middle = |nodes: &mut Vec<DVec3>, a: u32, b: u32| {
+        *middles.entry((a.min(b), a.max(b))).or_insert_with(|| {
+            nodes.push((nodes[a as usize] + nodes[b as usize]) / 2.0);
+            (nodes.len() - 1) as u32
+        })
+    };
+    let mut elements = Vec::with_capacity(corners.len() * order.nodes());
+    for tet in corners {
+        elements.extend_from_slice(tet);
+        if order == Order::Quadratic {
+            for &(i, j) in &EDGES {
+                let m = middle(&mut nodes, tet[i], tet[j]);
+                elements.push(m);
+            }
+        }
+    }
+    // A face is outer where one element alone has it.
+    let mut faces: HashMap<[u32; 3], (usize, [u32; 3])> = HashMap::new();
+    for tet in corners {
+        for face in FACES {
+            let turned = face.map(|c| tet[c]);
+            let mut key = turned;
+            key.sort_unstable();
+            faces
+                .entry(key)
+                .and_modify(|f| f.0 += 1)
+                .or_insert((1, turned));
+        }
+    }
+    let mut outer: Vec<[u32; 3]> = faces
+        .into_values()
+        .filter(|(count, _)| *count == 1)
+        .map(|(_, face)| face)
+        .collect();
+    outer.sort_unstable();
+    let surface = match order {
+        Order::Linear => outer,
+        Order::Quadratic => outer
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let [ab, bc, ca] = [(a, b), (b, c), (c, a)].map(|(p, q)| middle(&mut nodes, p, q));
+                [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+            })
+            .collect(),
+    };
+    TetMesh {
+        order,
+        nodes,
+        elements,
+        surface,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::element::barycentric_gradients;
+
+    /// The cut fills the box: every element positive, their volumes summing to the box's;
+    /// its surface closed and outward, enclosing that volume (the divergence theorem); a
+    /// quadratic mesh's middles are each shared, not repeated.
+    #[test]
+    fn a_cut_box_is_filled_and_closed() {
+        let (centre, half) = (DVec3::new(0.1, -0.2, 0.3), DVec3::new(0.05, 0.02, 0.11));
+        for order in [Order::Linear, Order::Quadratic] {
+            let mesh = cut_box(centre, half, 0.013, order);
+            let mut volume = 0.0;
+            for e in 0..mesh.element_count() {
+                let c = mesh.element(e);
+                let (_, v) = barycentric_gradients([0, 1, 2, 3].map(|k| mesh.nodes[c[k] as usize]));
+                assert!(v > 0.0);
+                volume += v;
+            }
+            let boxed = 8.0 * half.x * half.y * half.z;
+            assert!((volume / boxed - 1.0).abs() < 1e-12, "{volume}");
+            let enclosed: f64 = mesh
+                .surface
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
+                    a.dot(b.cross(c)) / 6.0
+                })
+                .sum();
+            assert!((enclosed / boxed - 1.0).abs() < 1e-12, "{enclosed}");
+            // Every surface edge is met twice, once each way.
+            let mut edges = HashMap::new();
+            for t in &mesh.surface {
+                for k in 0..3 {
+                    *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+                }
+            }
+            assert!(
+                edges
+                    .iter()
+                    .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
+            );
+            let cells = [8, 4, 17];
+            let grid = (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1);
+            let expected = match order {
+                Order::Linear => grid,
+                // Each lattice edge, and each cube's diagonals: three faces' and one inside.
+                Order::Quadratic => {
+                    let [x, y, z] = cells;
+                    let lattice =
+                        x * (y + 1) * (z + 1) + (x + 1) * y * (z + 1) + (x + 1) * (y + 1) * z;
+                    let faces = x * y * (z + 1) + x * (y + 1) * z + (x + 1) * y * z;
+                    grid + lattice + faces + x * y * z
+                }
+            };
+            assert_eq!(mesh.nodes.len(), expected);
+        }
+    }
+}

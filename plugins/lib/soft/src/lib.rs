@@ -1,0 +1,18 @@
+//! Soft bodies (thesis 7.2): a volume cut into tetrahedra, its nodes moved by co-rotational
+//! linear finite elements under an implicit step, so a stiff material stays stable at any
+//! step and its energy under a still hand decays.
+//!
+//! - [`lattice`] cuts a box into tetrahedra at a resolution;
+//! - [`element`] is what one tetrahedron contributes: its shape functions' gradients at its
+//!   quadrature points, linear (4 nodes) or quadratic (10 nodes, which bends as a beam
+//!   should where linear ones lock);
+//! - [`rotation`] finds an element's turn, which its stiffness is taken along with;
+//! - [`body`] is a soft body's nodes, elements, masses and pins;
+//! - [`implicit`] steps it: backward Euler, solved by conjugate gradients.
+
+pub mod body;
+pub mod element;
+pub mod implicit;
+pub mod lattice;
+pub mod material;
+pub mod rotation;
