@@ -60,6 +60,7 @@ bench:
 	$(CARGO) bench -p hapticd-e2e --bench physics
 	$(CARGO) bench -p hapticd-e2e --bench effects
 	$(CARGO) bench -p hapticd-e2e --bench joints
+	$(CARGO) bench -p hapticd-e2e --bench soft
 	$(CARGO) bench -p hapticd-e2e --bench render
 
 latency:

@@ -41,7 +41,11 @@ const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 /// The box of half-extents `half` about `centre`, cut into cubes no larger than
 /// `resolution` along each side (at least one across), and those into tetrahedra of `order`.
 pub fn cut_box(centre: DVec3, half: DVec3, resolution: f64, order: Order) -> TetMesh {
-    let cells = (2.0 * half / resolution).ceil().max(DVec3::ONE);
+    // A side that is a whole number of resolutions is cut into that many, not one more
+    // for the last bit of rounding.
+    let cells = (2.0 * half / resolution * (1.0 - 1e-9))
+        .ceil()
+        .max(DVec3::ONE);
     let n = [cells.x as usize, cells.y as usize, cells.z as usize];
     let step = 2.0 * half / cells;
     let index = |i: usize, j: usize, k: usize| (i + (n[0] + 1) * (j + (n[1] + 1) * k)) as u32;
@@ -191,6 +195,10 @@ mod tests {
                     .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
             );
             let cells = [8, 4, 17];
+            assert_eq!(
+                cut_box(centre, half, 0.02, order).element_count(),
+                6 * 5 * 2 * 11
+            );
             let grid = (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1);
             let expected = match order {
                 Order::Linear => grid,

@@ -1,0 +1,88 @@
+//! A soft block pinned at its base and pressed at its top by a hand's force, stepped one
+//! device tick (1 ms) at a time: 504, 2 058 and 7 986 linear tetrahedra (Kuhn's cut of
+//! 84, 343 and 1 331 cubes), and the same blocks of quadratic ones; beside them, one tick of
+//! the penalty engine's rigid block of the same size on a floor (the stack of one). Issue
+//! 48's goal: 2 000 tetrahedra in 400 µs a tick.
+//!
+//! Run: `make bench`, or `cargo bench -p hapticd-e2e --bench soft`.
+
+use divan::Bencher;
+use glam::DVec3;
+use hapticctl::experiments::stack_timing::{DT, stack};
+use hapticd_soft::body::SoftBody;
+use hapticd_soft::element::Order;
+use hapticd_soft::implicit::{Solve, Solver};
+use hapticd_soft::lattice::cut_box;
+use hapticd_soft::material::Material;
+
+fn main() {
+    divan::main();
+}
+
+/// Cubes along x, y and z for each size.
+const GRIDS: [[usize; 3]; 3] = [[4, 7, 3], [7, 7, 7], [11, 11, 11]];
+
+/// A device tick's solve: at most 20 iterations, done with the velocities within 10 µm/s.
+const TICK: Solve = Solve {
+    budget: 20,
+    tolerance: 1e-5,
+};
+
+/// The block of `cells` 1 cm cubes, of rubber, its base pinned, pressed for 0.2 s at its
+/// top's middle node with 1 N, as it stands then.
+fn pressed(cells: [usize; 3], order: Order) -> (SoftBody, Solver) {
+    let half = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64) * 0.005;
+    let mesh = cut_box(DVec3::new(0.0, half.y, 0.0), half, 0.01, order);
+    let material = Material {
+        young: 1e5,
+        poisson: 0.45,
+        density: 1100.0,
+        damping: 0.002,
+    };
+    let mut body = SoftBody::new(mesh, material);
+    body.pin_below(1, 0.0);
+    let top = (0..body.positions.len())
+        .min_by(|&a, &b| {
+            let at = |i: usize| (body.mesh.nodes[i] - DVec3::new(0.0, 2.0 * half.y, 0.0)).length();
+            at(a).total_cmp(&at(b))
+        })
+        .expect("nodes");
+    let mut solver = Solver::new(body.positions.len());
+    for _ in 0..200 {
+        body.forces[top] = DVec3::new(0.0, -1.0, 0.0);
+        body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver);
+    }
+    (body, solver)
+}
+
+/// One tick of the pressed block: its elements' turns, its forces and its solve.
+fn tick(bencher: Bencher, cells: [usize; 3], order: Order) {
+    let (mut body, mut solver) = pressed(cells, order);
+    let elements = body.mesh.element_count();
+    let stepped = body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver);
+    println!("{elements} {order:?} elements: {stepped:?} a tick");
+    bencher.bench_local(|| body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver));
+}
+
+#[divan::bench(args = GRIDS)]
+fn linear_tick(bencher: Bencher, cells: [usize; 3]) {
+    tick(bencher, cells, Order::Linear);
+}
+
+#[divan::bench(args = GRIDS)]
+fn quadratic_tick(bencher: Bencher, cells: [usize; 3]) {
+    tick(bencher, cells, Order::Quadratic);
+}
+
+/// The penalty engine's one block resting on its floor, a tick (its steps of [`DT`]).
+#[divan::bench]
+fn rigid_tick(bencher: Bencher) {
+    let mut world = stack(1);
+    world.sleeping = false;
+    let steps = (0.001 / DT).round() as usize;
+    bencher.bench_local(|| {
+        for _ in 0..steps {
+            world.step(DT);
+        }
+    });
+}
