@@ -30,7 +30,7 @@ const TICK: Solve = Solve {
 
 /// The block of `cells` 1 cm cubes, of rubber, its base pinned, pressed for 0.2 s at its
 /// top's middle node with 1 N, as it stands then.
-fn pressed(cells: [usize; 3], order: Order) -> (SoftBody, Solver) {
+fn pressed(cells: [usize; 3], order: Order, factored: bool) -> (SoftBody, Solver) {
     let half = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64) * 0.005;
     let mesh = cut_box(DVec3::new(0.0, half.y, 0.0), half, 0.01, order);
     let material = Material {
@@ -47,7 +47,10 @@ fn pressed(cells: [usize; 3], order: Order) -> (SoftBody, Solver) {
             at(a).total_cmp(&at(b))
         })
         .expect("nodes");
-    let mut solver = Solver::new(body.positions.len());
+    let mut solver = match factored {
+        true => Solver::factored(&body, 0.001).expect("a physical block"),
+        false => Solver::new(body.positions.len()),
+    };
     for _ in 0..200 {
         body.forces[top] = DVec3::new(0.0, -1.0, 0.0);
         body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver);
@@ -55,23 +58,29 @@ fn pressed(cells: [usize; 3], order: Order) -> (SoftBody, Solver) {
     (body, solver)
 }
 
-/// One tick of the pressed block: its elements' turns, its forces and its solve.
-fn tick(bencher: Bencher, cells: [usize; 3], order: Order) {
-    let (mut body, mut solver) = pressed(cells, order);
+/// One tick of the pressed block: its elements' turns, its forces and its solve,
+/// preconditioned by its factored rest system or by its nodes' own diagonals.
+fn tick(bencher: Bencher, cells: [usize; 3], order: Order, factored: bool) {
+    let (mut body, mut solver) = pressed(cells, order, factored);
     let elements = body.mesh.element_count();
     let stepped = body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver);
-    println!("{elements} {order:?} elements: {stepped:?} a tick");
+    println!("{elements} {order:?} elements, factored {factored}: {stepped:?} a tick");
     bencher.bench_local(|| body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver));
 }
 
 #[divan::bench(args = GRIDS)]
 fn linear_tick(bencher: Bencher, cells: [usize; 3]) {
-    tick(bencher, cells, Order::Linear);
+    tick(bencher, cells, Order::Linear, true);
+}
+
+#[divan::bench(args = GRIDS)]
+fn linear_tick_diagonal(bencher: Bencher, cells: [usize; 3]) {
+    tick(bencher, cells, Order::Linear, false);
 }
 
 #[divan::bench(args = GRIDS)]
 fn quadratic_tick(bencher: Bencher, cells: [usize; 3]) {
-    tick(bencher, cells, Order::Quadratic);
+    tick(bencher, cells, Order::Quadratic, true);
 }
 
 /// The penalty engine's one block resting on its floor, a tick (its steps of [`DT`]).

@@ -12,6 +12,7 @@ use glam::{DMat3, DVec3};
 
 use crate::body::SoftBody;
 use crate::element::MOST_NODES;
+use crate::factor::{Factor, FactorError};
 
 /// How a step's linear solve ends.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,9 +39,13 @@ const TURNS_PER_STEP: usize = 2;
 /// A step long enough that inertia is nothing beside stiffness: a static solve, s.
 const SETTLING_STEP: f64 = 1e3;
 
-/// The buffers of a step's solve, made once: a step allocates nothing.
+/// The buffers of a step's solve, made once, and its preconditioner: a step allocates
+/// nothing.
 #[derive(Debug, Clone, Default)]
 pub struct Solver {
+    /// The rest system factored for the steps it is made for; each node's own diagonal
+    /// otherwise.
+    factor: Option<Factor>,
     rhs: Vec<DVec3>,
     residual: Vec<DVec3>,
     preconditioned: Vec<DVec3>,
@@ -49,15 +54,27 @@ pub struct Solver {
 }
 
 impl Solver {
-    /// Buffers for a body of `nodes` nodes.
+    /// Buffers for a body of `nodes` nodes, preconditioned by each node's own diagonal.
     pub fn new(nodes: usize) -> Solver {
         Solver {
+            factor: None,
             rhs: vec![DVec3::ZERO; nodes],
             residual: vec![DVec3::ZERO; nodes],
             preconditioned: vec![DVec3::ZERO; nodes],
             direction: vec![DVec3::ZERO; nodes],
             product: vec![DVec3::ZERO; nodes],
         }
+    }
+}
+
+impl Solver {
+    /// Buffers for `body`, preconditioned by its rest system factored for steps of `dt`:
+    /// made outside the tick (it allocates and orders), once a body's pins are set.
+    pub fn factored(body: &SoftBody, dt: f64) -> Result<Solver, FactorError> {
+        Ok(Solver {
+            factor: Some(Factor::new(body, body.material.damping * dt + dt * dt)?),
+            ..Solver::new(body.positions.len())
+        })
     }
 }
 
@@ -89,7 +106,7 @@ impl SoftBody {
         for i in 0..self.positions.len() {
             solver.residual[i] = solver.rhs[i] - solver.product[i];
         }
-        self.precondition(stiff, &solver.residual, &mut solver.preconditioned);
+        self.precondition(stiff, solver);
         solver.direction.copy_from_slice(&solver.preconditioned);
         let mut along = dot(&solver.residual, &solver.preconditioned);
         let mut stepped = Stepped {
@@ -107,7 +124,7 @@ impl SoftBody {
                 self.velocities[i] += alpha * solver.direction[i];
                 solver.residual[i] -= alpha * solver.product[i];
             }
-            self.precondition(stiff, &solver.residual, &mut solver.preconditioned);
+            self.precondition(stiff, solver);
             let next = dot(&solver.residual, &solver.preconditioned);
             let beta = next / along;
             along = next;
@@ -154,7 +171,7 @@ impl SoftBody {
 
     /// The step's system times `field`: (M + stiff·K_R)·field, its pinned nodes' rows left
     /// out (their velocities, zero, are no unknowns).
-    fn system_times(&self, stiff: f64, field: &[DVec3], out: &mut [DVec3]) {
+    pub(crate) fn system_times(&self, stiff: f64, field: &[DVec3], out: &mut [DVec3]) {
         out.fill(DVec3::ZERO);
         let mut k = [DVec3::ZERO; MOST_NODES];
         for e in 0..self.volumes.len() {
@@ -174,8 +191,14 @@ impl SoftBody {
         }
     }
 
-    /// Each node's residual over its own diagonal: mass and own stiffness.
-    fn precondition(&self, stiff: f64, residual: &[DVec3], out: &mut [DVec3]) {
+    /// The residual preconditioned: through the factored rest system where it was made for
+    /// this step, else each node's over its own diagonal (mass and own stiffness).
+    fn precondition(&self, stiff: f64, solver: &mut Solver) {
+        let (residual, out) = (&solver.residual, &mut solver.preconditioned);
+        if let Some(factor) = solver.factor.as_mut().filter(|f| f.stiff == stiff) {
+            factor.solve(residual, out);
+            return;
+        }
         for i in 0..residual.len() {
             out[i] = if self.pinned[i] {
                 DVec3::ZERO

@@ -12,6 +12,7 @@
 
 pub mod body;
 pub mod element;
+pub mod factor;
 pub mod implicit;
 pub mod lattice;
 pub mod material;
