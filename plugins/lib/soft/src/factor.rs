@@ -153,9 +153,9 @@ fn rest_system(body: &SoftBody, stiff: f64, index: &[usize]) -> BTreeMap<(usize,
                     if row == NONE {
                         continue;
                     }
-                    for da in 0..3 {
+                    for (da, value) in column[a].to_array().into_iter().enumerate() {
                         *entries.entry((3 * row + da, 3 * col + db)).or_insert(0.0) +=
-                            stiff * column[a][da];
+                            stiff * value;
                     }
                 }
             }
@@ -241,7 +241,7 @@ fn ldl(columns: &[Vec<(usize, f64)>]) -> Result<Ldl, FactorError> {
             values[end] = l;
             count[i] += 1;
         }
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return Err(FactorError::NotPositive);
         }
         pivots[k] = d;
