@@ -54,7 +54,14 @@ fn pressed(cells: [usize; 3], order: Order, factored: bool) -> (SoftBody, Solver
     };
     for _ in 0..200 {
         body.forces[top] = DVec3::new(0.0, -1.0, 0.0);
-        body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver);
+        body.step(
+            0.001,
+            DVec3::new(0.0, -9.81, 0.0),
+            &[],
+            &mut [],
+            TICK,
+            &mut solver,
+        );
     }
     (body, solver)
 }
@@ -64,9 +71,25 @@ fn pressed(cells: [usize; 3], order: Order, factored: bool) -> (SoftBody, Solver
 fn tick(bencher: Bencher, cells: [usize; 3], order: Order, factored: bool) {
     let (mut body, mut solver) = pressed(cells, order, factored);
     let elements = body.mesh.element_count();
-    let stepped = body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver);
+    let stepped = body.step(
+        0.001,
+        DVec3::new(0.0, -9.81, 0.0),
+        &[],
+        &mut [],
+        TICK,
+        &mut solver,
+    );
     println!("{elements} {order:?} elements, factored {factored}: {stepped:?} a tick");
-    bencher.bench_local(|| body.step(0.001, DVec3::new(0.0, -9.81, 0.0), TICK, &mut solver));
+    bencher.bench_local(|| {
+        body.step(
+            0.001,
+            DVec3::new(0.0, -9.81, 0.0),
+            &[],
+            &mut [],
+            TICK,
+            &mut solver,
+        )
+    });
 }
 
 #[divan::bench(args = GRIDS)]

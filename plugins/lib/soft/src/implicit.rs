@@ -11,6 +11,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::body::SoftBody;
+use crate::contact::{Held, Obstacle, Touch};
 use crate::element::MOST_NODES;
 use crate::factor::{Factor, FactorError};
 
@@ -36,6 +37,10 @@ pub struct Stepped {
 /// Turns toward each element's rotation a step makes, warm-started from the last.
 const TURNS_PER_STEP: usize = 2;
 
+/// How far a node may stand off a face it pressed on last step and still be held to it, or
+/// stand inside one it did not and be let be, m: the rounding of taking it to the face.
+const SLACK: f64 = 1e-9;
+
 /// A step long enough that inertia is nothing beside stiffness: a static solve, s.
 const SETTLING_STEP: f64 = 1e3;
 
@@ -52,6 +57,10 @@ pub struct Solver {
     sums: Vec<DQuat>,
     /// The residual turned back into the rest frame.
     turned: Vec<DVec3>,
+    /// The nodes held on obstacles this step.
+    held: Vec<Held>,
+    /// Whether each node pressed on an obstacle last step.
+    pressing: Vec<bool>,
     rhs: Vec<DVec3>,
     residual: Vec<DVec3>,
     preconditioned: Vec<DVec3>,
@@ -67,6 +76,8 @@ impl Solver {
             node_turns: vec![DQuat::IDENTITY; nodes],
             sums: vec![DQuat::IDENTITY; nodes],
             turned: vec![DVec3::ZERO; nodes],
+            held: Vec::with_capacity(nodes),
+            pressing: vec![false; nodes],
             rhs: vec![DVec3::ZERO; nodes],
             residual: vec![DVec3::ZERO; nodes],
             preconditioned: vec![DVec3::ZERO; nodes],
@@ -89,13 +100,23 @@ impl Solver {
 
 impl SoftBody {
     /// Step `dt` under `gravity` (m/s²) and the forces in [`SoftBody::forces`] (then
-    /// cleared), solving as `solve` says with `solver`'s buffers.
-    pub fn step(&mut self, dt: f64, gravity: DVec3, solve: Solve, solver: &mut Solver) -> Stepped {
+    /// cleared), its nodes kept out of `obstacles`, solving as `solve` says with `solver`'s
+    /// buffers; `touches` (one per obstacle) gets what the body pressed on each with.
+    pub fn step(
+        &mut self,
+        dt: f64,
+        gravity: DVec3,
+        obstacles: &[Obstacle],
+        touches: &mut [Touch],
+        solve: Solve,
+        solver: &mut Solver,
+    ) -> Stepped {
         self.follow_turns(TURNS_PER_STEP);
         if solver.factor.is_some() {
             self.node_turns(&mut solver.node_turns, &mut solver.sums);
         }
         let stiff = self.material.damping * dt + dt * dt;
+        self.hold(dt, obstacles, solver);
         // The right-hand side: momentum and the step's impulse.
         solver.rhs.fill(DVec3::ZERO);
         self.add_elastic_forces(&mut solver.rhs);
@@ -113,11 +134,16 @@ impl SoftBody {
                 *v = DVec3::ZERO;
             }
         }
-        // r = b − A·v, z = P⁻¹·r, p = z.
+        for h in &solver.held {
+            let v = &mut self.velocities[h.node];
+            *v += h.normal * (h.speed - h.normal.dot(*v));
+        }
+        // r = b − A·v, z = P⁻¹·r, p = z, each with the held directions taken out.
         self.system_times(stiff, &self.velocities, &mut solver.product);
         for i in 0..self.positions.len() {
             solver.residual[i] = solver.rhs[i] - solver.product[i];
         }
+        filter(&mut solver.residual, &solver.held);
         self.precondition(stiff, solver);
         solver.direction.copy_from_slice(&solver.preconditioned);
         let mut along = dot(&solver.residual, &solver.preconditioned);
@@ -127,6 +153,7 @@ impl SoftBody {
         };
         while stepped.iterations < solve.budget && stepped.residual > solve.tolerance {
             self.system_times(stiff, &solver.direction, &mut solver.product);
+            filter(&mut solver.product, &solver.held);
             let curvature = dot(&solver.direction, &solver.product);
             if curvature <= 0.0 {
                 break;
@@ -149,7 +176,63 @@ impl SoftBody {
         for (x, v) in self.positions.iter_mut().zip(&self.velocities) {
             *x += dt * *v;
         }
+        self.pressed(dt, stiff, obstacles, touches, solver);
         stepped
+    }
+
+    /// Find the nodes held on obstacles over the coming step of `dt`: those inside one,
+    /// and those on a face that they pressed on last step.
+    fn hold(&self, dt: f64, obstacles: &[Obstacle], solver: &mut Solver) {
+        solver.held.clear();
+        for (i, &x) in self.positions.iter().enumerate() {
+            if self.pinned[i] {
+                continue;
+            }
+            let slack = if solver.pressing[i] { SLACK } else { -SLACK };
+            let deepest = obstacles
+                .iter()
+                .enumerate()
+                .filter_map(|(k, o)| o.depth(x, slack).map(|(depth, n)| (k, depth, n)))
+                .filter(|&(_, depth, _)| depth > -slack)
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((k, depth, normal)) = deepest {
+                solver.held.push(Held {
+                    node: i,
+                    obstacle: k,
+                    normal,
+                    speed: obstacles[k].velocity_at(x).dot(normal) + depth.max(0.0) / dt,
+                });
+            }
+        }
+    }
+
+    /// What held each node on its face over the step: (A·v − b)·n/dt along its normal,
+    /// summed as each obstacle's touch; a node that pulled is let go next step.
+    fn pressed(
+        &self,
+        dt: f64,
+        stiff: f64,
+        obstacles: &[Obstacle],
+        touches: &mut [Touch],
+        solver: &mut Solver,
+    ) {
+        touches.fill(Touch::default());
+        solver.pressing.fill(false);
+        if solver.held.is_empty() {
+            return;
+        }
+        self.system_times(stiff, &self.velocities, &mut solver.product);
+        for h in &solver.held {
+            let push = (solver.product[h.node] - solver.rhs[h.node]).dot(h.normal) / dt;
+            if push <= 0.0 {
+                continue;
+            }
+            solver.pressing[h.node] = true;
+            let (on, at) = (h.normal * -push, self.positions[h.node]);
+            let touch = &mut touches[h.obstacle];
+            touch.force += on;
+            touch.torque += (at - obstacles[h.obstacle].centre).cross(on);
+        }
     }
 
     /// Bring the body to rest under `gravity`: steps so long that each is a static solve,
@@ -162,7 +245,7 @@ impl SoftBody {
             tolerance: 1e-18,
         };
         for _ in 0..rounds {
-            self.step(SETTLING_STEP, gravity, exact, solver);
+            self.step(SETTLING_STEP, gravity, &[], &mut [], exact, solver);
         }
         self.velocities.fill(DVec3::ZERO);
     }
@@ -238,15 +321,24 @@ impl SoftBody {
             for (o, q) in out.iter_mut().zip(&solver.node_turns) {
                 *o = *q * *o;
             }
-            return;
+        } else {
+            for i in 0..residual.len() {
+                out[i] = if self.pinned[i] {
+                    DVec3::ZERO
+                } else {
+                    residual[i] / (self.masses[i] + stiff * self.own_stiffness[i])
+                };
+            }
         }
-        for i in 0..residual.len() {
-            out[i] = if self.pinned[i] {
-                DVec3::ZERO
-            } else {
-                residual[i] / (self.masses[i] + stiff * self.own_stiffness[i])
-            };
-        }
+        filter(out, &solver.held);
+    }
+}
+
+/// Take the held nodes' normal parts out of `field`.
+fn filter(field: &mut [DVec3], held: &[Held]) {
+    for h in held {
+        let v = &mut field[h.node];
+        *v -= h.normal * h.normal.dot(*v);
     }
 }
 
@@ -261,6 +353,7 @@ fn largest(field: &[DVec3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::{Obstacle, Touch};
     use crate::element::Order;
     use crate::lattice::cut_box;
     use crate::material::Material;
@@ -325,7 +418,7 @@ mod tests {
             let mut body = SoftBody::new(mesh, rubber(1e5));
             let mut solver = Solver::new(body.positions.len());
             for _ in 0..100 {
-                body.step(0.001, GRAVITY, EXACT, &mut solver);
+                body.step(0.001, GRAVITY, &[], &mut [], EXACT, &mut solver);
             }
             for v in &body.velocities {
                 assert!((*v - GRAVITY * 0.1).length() < 1e-9, "{v}");
@@ -353,7 +446,14 @@ mod tests {
             let mut solver = Solver::new(body.positions.len());
             let mut last = stored;
             for _ in 0..50 {
-                body.step(100.0 * crossing, DVec3::ZERO, EXACT, &mut solver);
+                body.step(
+                    100.0 * crossing,
+                    DVec3::ZERO,
+                    &[],
+                    &mut [],
+                    EXACT,
+                    &mut solver,
+                );
                 let energy = body.kinetic_energy() + body.elastic_energy();
                 assert!(
                     energy.is_finite() && energy <= last + 1e-11 * stored,
@@ -392,10 +492,71 @@ mod tests {
                 budget: 50,
                 tolerance: 1e-9,
             };
-            let stepped = body.step(0.001, DVec3::ZERO, tick, &mut solver);
+            let stepped = body.step(0.001, DVec3::ZERO, &[], &mut [], tick, &mut solver);
             counts.push(stepped.iterations);
         }
         println!("iterations: {counts:?}");
         assert!(counts[1] <= counts[0], "{counts:?}");
+    }
+
+    /// A block let down onto a floor comes to rest on it: no node below it, and the floor
+    /// bears the block's weight, to a millionth; thrown upward, it leaves the floor.
+    #[test]
+    fn a_block_rests_on_a_floor_with_its_weight() {
+        let tick = Solve {
+            budget: 1000,
+            tolerance: 1e-12,
+        };
+        for order in [Order::Linear, Order::Quadratic] {
+            let mesh = cut_box(
+                DVec3::new(0.0, 0.0201, 0.0),
+                DVec3::new(0.03, 0.02, 0.02),
+                0.01,
+                order,
+            );
+            let material = Material {
+                damping: 0.01,
+                ..rubber(5e4)
+            };
+            let mut body = SoftBody::new(mesh, material);
+            let planes = [
+                (DVec3::Y, 0.0),
+                (-DVec3::Y, 1.0),
+                (DVec3::X, 1.0),
+                (-DVec3::X, 1.0),
+                (DVec3::Z, 1.0),
+                (-DVec3::Z, 1.0),
+            ];
+            let floor = Obstacle {
+                planes: &planes,
+                centre: DVec3::ZERO,
+                velocity: DVec3::ZERO,
+                spin: DVec3::ZERO,
+            };
+            let mut solver = Solver::factored(&body, 0.001).unwrap();
+            let mut touch = [Touch::default()];
+            for _ in 0..500 {
+                body.step(0.001, GRAVITY, &[floor], &mut touch, tick, &mut solver);
+            }
+            let weight = body.mass() * 9.81;
+            let lowest = body
+                .positions
+                .iter()
+                .map(|p| p.y)
+                .fold(f64::INFINITY, f64::min);
+            println!(
+                "{order:?}: floor bears {:?} of {weight} N; lowest node {lowest:e} m",
+                touch[0]
+            );
+            assert!(lowest > -1e-12, "{lowest}");
+            assert!((touch[0].force + DVec3::new(0.0, weight, 0.0)).length() < 1e-6 * weight);
+            assert!(body.kinetic_energy() < 1e-12, "{}", body.kinetic_energy());
+            body.velocities.fill(DVec3::new(0.0, 1.0, 0.0));
+            for _ in 0..2 {
+                body.step(0.001, GRAVITY, &[floor], &mut touch, tick, &mut solver);
+            }
+            assert_eq!(touch[0], Touch::default());
+            assert!(body.positions.iter().all(|p| p.y > 1e-4));
+        }
     }
 }

@@ -11,6 +11,7 @@
 //! - [`implicit`] steps it: backward Euler, solved by conjugate gradients.
 
 pub mod body;
+pub mod contact;
 pub mod element;
 pub mod factor;
 pub mod implicit;

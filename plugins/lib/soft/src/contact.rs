@@ -1,0 +1,90 @@
+//! What a soft body touches: convex solids (a pointer's tip, a floor, a rigid body's convex
+//! pieces) that its nodes may not enter. A node inside one is taken out to the face it is
+//! nearest within the step, as a constraint on its velocity along that face's normal
+//! (not a penalty spring: nothing to tune, nothing to ring), free along the face; what
+//! holds it there is the force it presses on the solid with.
+
+use glam::DVec3;
+
+/// A convex solid the nodes may not enter.
+#[derive(Debug, Clone, Copy)]
+pub struct Obstacle<'a> {
+    /// Its faces' planes: each outward unit normal n and offset d, n·x ≤ d inside.
+    pub planes: &'a [(DVec3, f64)],
+    /// The point its torque is taken about, m.
+    pub centre: DVec3,
+    /// Its velocity at `centre`, m/s.
+    pub velocity: DVec3,
+    /// Its angular velocity, rad/s.
+    pub spin: DVec3,
+}
+
+impl Obstacle<'_> {
+    /// How deep `x` is inside, m, and the normal of the face it is nearest; None outside
+    /// (or further out than `slack`).
+    pub fn depth(&self, x: DVec3, slack: f64) -> Option<(f64, DVec3)> {
+        let mut nearest: Option<(f64, DVec3)> = None;
+        for &(n, d) in self.planes {
+            let depth = d - n.dot(x);
+            if depth < -slack {
+                return None;
+            }
+            if nearest.is_none_or(|(best, _)| depth < best) {
+                nearest = Some((depth, n));
+            }
+        }
+        nearest
+    }
+
+    /// Its velocity at `x`, m/s.
+    pub fn velocity_at(&self, x: DVec3) -> DVec3 {
+        self.velocity + self.spin.cross(x - self.centre)
+    }
+}
+
+/// What a body pressed on an obstacle with over a step: force, N, and torque about the
+/// obstacle's centre, N·m.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Touch {
+    /// The force on the obstacle.
+    pub force: DVec3,
+    /// Its torque about the obstacle's centre.
+    pub torque: DVec3,
+}
+
+/// A node held on an obstacle's face over a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held {
+    /// The node.
+    pub node: usize,
+    /// The obstacle, by its place in the list stepped with.
+    pub obstacle: usize,
+    /// The face's outward normal.
+    pub normal: DVec3,
+    /// The node's velocity along it over the step: the face's, and out of its depth.
+    pub speed: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube's depth is the distance to its nearest face, along that face's normal.
+    #[test]
+    fn a_point_inside_is_as_deep_as_its_nearest_face() {
+        let planes: Vec<(DVec3, f64)> = [DVec3::X, DVec3::Y, DVec3::Z]
+            .into_iter()
+            .flat_map(|a| [(a, 0.5), (-a, 0.5)])
+            .collect();
+        let cube = Obstacle {
+            planes: &planes,
+            centre: DVec3::ZERO,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        };
+        let (depth, normal) = cube.depth(DVec3::new(0.1, -0.4, 0.2), 0.0).unwrap();
+        assert!((depth - 0.1).abs() < 1e-15 && normal == -DVec3::Y);
+        assert!(cube.depth(DVec3::new(0.1, 0.6, 0.2), 0.0).is_none());
+        assert!(cube.depth(DVec3::new(0.1, 0.6, 0.2), 0.2).is_some());
+    }
+}
