@@ -207,7 +207,8 @@ impl SoftBody {
     }
 
     /// What held each node on its face over the step: (A·v − b)·n/dt along its normal,
-    /// summed as each obstacle's touch; a node that pulled is let go next step.
+    /// summed as each obstacle's touch (a pull too: it acted over the step); a node that
+    /// pulled is let go next step.
     fn pressed(
         &self,
         dt: f64,
@@ -224,10 +225,7 @@ impl SoftBody {
         self.system_times(stiff, &self.velocities, &mut solver.product);
         for h in &solver.held {
             let push = (solver.product[h.node] - solver.rhs[h.node]).dot(h.normal) / dt;
-            if push <= 0.0 {
-                continue;
-            }
-            solver.pressing[h.node] = true;
+            solver.pressing[h.node] = push > 0.0;
             let (on, at) = (h.normal * -push, self.positions[h.node]);
             let touch = &mut touches[h.obstacle];
             touch.force += on;
