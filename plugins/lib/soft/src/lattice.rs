@@ -1,9 +1,10 @@
-//! Cutting a box into tetrahedra: a grid of cubes at the resolution asked, each cube cut
-//! into six tetrahedra around its main diagonal (Kuhn's cut, which matches itself across
-//! every face, so the pieces join without cracks); a quadratic mesh adds a node at the
-//! middle of each edge, shared by the elements around it.
+//! Cutting a box or a solid into tetrahedra: a grid of cubes at the resolution asked, each
+//! cube cut into six tetrahedra around its main diagonal (Kuhn's cut, which matches itself
+//! across every face, so the pieces join without cracks); a solid keeps the tetrahedra
+//! whose middles are inside it, and its surface nodes are moved onto its surface. A
+//! quadratic mesh adds a node at the middle of each edge, shared by the elements around it.
 
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 
 use glam::DVec3;
 
@@ -41,6 +42,108 @@ const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 /// The box of half-extents `half` about `centre`, cut into cubes no larger than
 /// `resolution` along each side (at least one across), and those into tetrahedra of `order`.
 pub fn cut_box(centre: DVec3, half: DVec3, resolution: f64, order: Order) -> TetMesh {
+    let (nodes, corners, _) = lattice(centre, half, resolution);
+    with_order(nodes, &corners, order)
+}
+
+/// A solid to cut into tetrahedra.
+pub trait Solid {
+    /// Whether `x` is inside it.
+    fn contains(&self, x: DVec3) -> bool;
+    /// The point of its surface nearest `x`.
+    fn nearest_on_surface(&self, x: DVec3) -> DVec3;
+}
+
+/// A ball.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ball {
+    /// Its centre, m.
+    pub centre: DVec3,
+    /// Its radius, m.
+    pub radius: f64,
+}
+
+impl Solid for Ball {
+    fn contains(&self, x: DVec3) -> bool {
+        x.distance(self.centre) < self.radius
+    }
+
+    fn nearest_on_surface(&self, x: DVec3) -> DVec3 {
+        self.centre + (x - self.centre).normalize_or(DVec3::X) * self.radius
+    }
+}
+
+/// The least a tetrahedron may keep of its lattice volume when its surface nodes are moved
+/// onto the solid's surface.
+const KEPT_VOLUME: f64 = 0.2;
+
+/// Passes of moving the surface nodes onto the solid's surface.
+const SNAPS: usize = 3;
+
+/// `solid`, within the box `half` about `centre` that holds it, cut at `resolution` into
+/// tetrahedra of `order`: the lattice's tetrahedra whose middles are inside, their surface
+/// nodes then moved onto the solid's surface as far as each may go (up to the whole way,
+/// halving the move while any tetrahedron around the node would keep less than a fifth of
+/// its volume).
+pub fn cut_solid(
+    solid: &impl Solid,
+    centre: DVec3,
+    half: DVec3,
+    resolution: f64,
+    order: Order,
+) -> TetMesh {
+    let (nodes, corners, cell) = lattice(centre, half, resolution);
+    let inside: Vec<[u32; 4]> = corners
+        .into_iter()
+        .filter(|tet| solid.contains(tet.iter().map(|&i| nodes[i as usize]).sum::<DVec3>() / 4.0))
+        .collect();
+    // Only the nodes the kept tetrahedra use, renumbered in their order.
+    let mut renumbered = vec![u32::MAX; nodes.len()];
+    let mut kept = Vec::new();
+    let corners: Vec<[u32; 4]> = inside
+        .iter()
+        .map(|tet| {
+            tet.map(|i| {
+                if renumbered[i as usize] == u32::MAX {
+                    renumbered[i as usize] = kept.len() as u32;
+                    kept.push(nodes[i as usize]);
+                }
+                renumbered[i as usize]
+            })
+        })
+        .collect();
+    let mut nodes = kept;
+    let mut around: Vec<Vec<usize>> = vec![Vec::new(); nodes.len()];
+    for (t, tet) in corners.iter().enumerate() {
+        for &i in tet {
+            around[i as usize].push(t);
+        }
+    }
+    let least = KEPT_VOLUME * cell.x * cell.y * cell.z / 6.0;
+    let outer: BTreeSet<u32> = outer_faces(&corners).into_iter().flatten().collect();
+    // A node held back may go on once its neighbours have moved.
+    for _ in 0..SNAPS {
+        for &node in &outer {
+            let i = node as usize;
+            let (from, to) = (nodes[i], solid.nearest_on_surface(nodes[i]));
+            for share in [1.0, 0.5, 0.25, 0.125] {
+                nodes[i] = from + (to - from) * share;
+                let kept = around[i]
+                    .iter()
+                    .all(|&t| volume(&nodes, corners[t]) >= least);
+                if kept {
+                    break;
+                }
+                nodes[i] = from;
+            }
+        }
+    }
+    with_order(nodes, &corners, order)
+}
+
+/// The lattice of the box `half` about `centre` at `resolution`: its nodes, its cubes cut
+/// into tetrahedra, and its cells' size.
+fn lattice(centre: DVec3, half: DVec3, resolution: f64) -> (Vec<DVec3>, Vec<[u32; 4]>, DVec3) {
     // A side that is a whole number of resolutions is cut into that many, not one more
     // for the last bit of rounding.
     let cells = (2.0 * half / resolution * (1.0 - 1e-9))
@@ -82,13 +185,41 @@ pub fn cut_box(centre: DVec3, half: DVec3, resolution: f64, order: Order) -> Tet
             }
         }
     }
-    with_order(nodes, &corners, order)
+    (nodes, corners, step)
+}
+
+/// The signed volume of the tetrahedron `tet` of `nodes`.
+fn volume(nodes: &[DVec3], tet: [u32; 4]) -> f64 {
+    let p = tet.map(|i| nodes[i as usize]);
+    (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])) / 6.0
+}
+
+/// The faces of `corners` that one tetrahedron alone has, turned outward.
+fn outer_faces(corners: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let mut faces: HashMap<[u32; 3], (usize, [u32; 3])> = HashMap::new();
+    for tet in corners {
+        for face in FACES {
+            let turned = face.map(|c| tet[c]);
+            let mut key = turned;
+            key.sort_unstable();
+            faces
+                .entry(key)
+                .and_modify(|f| f.0 += 1)
+                .or_insert((1, turned));
+        }
+    }
+    let mut outer: Vec<[u32; 3]> = faces
+        .into_values()
+        .filter(|(count, _)| *count == 1)
+        .map(|(_, face)| face)
+        .collect();
+    outer.sort_unstable();
+    outer
 }
 
 /// `tet` with its corners in an order that gives it a positive volume.
 fn turned_positively(nodes: &[DVec3], mut tet: [u32; 4]) -> [u32; 4] {
-    let p = tet.map(|i| nodes[i as usize]);
-    if (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])) < 0.0 {
+    if volume(nodes, tet) < 0.0 {
         tet.swap(1, 2);
     }
     tet
@@ -114,25 +245,7 @@ fn with_order(mut nodes: Vec<DVec3>, corners: &[[u32; 4]], order: Order) -> TetM
             }
         }
     }
-    // A face is outer where one element alone has it.
-    let mut faces: HashMap<[u32; 3], (usize, [u32; 3])> = HashMap::new();
-    for tet in corners {
-        for face in FACES {
-            let turned = face.map(|c| tet[c]);
-            let mut key = turned;
-            key.sort_unstable();
-            faces
-                .entry(key)
-                .and_modify(|f| f.0 += 1)
-                .or_insert((1, turned));
-        }
-    }
-    let mut outer: Vec<[u32; 3]> = faces
-        .into_values()
-        .filter(|(count, _)| *count == 1)
-        .map(|(_, face)| face)
-        .collect();
-    outer.sort_unstable();
+    let outer = outer_faces(corners);
     let surface = match order {
         Order::Linear => outer,
         Order::Quadratic => outer
@@ -213,5 +326,51 @@ mod tests {
             };
             assert_eq!(mesh.nodes.len(), expected);
         }
+    }
+
+    /// A ball cut at a tenth of its diameter: every tetrahedron positive, its surface
+    /// closed, its volume within 2 % of the ball's (measured 0.17 % over); most surface
+    /// nodes on the sphere, those held back where moving them would flatten a tetrahedron
+    /// within 5.7 mm of it (the cells are 10 mm).
+    #[test]
+    fn a_cut_ball_fills_the_ball() {
+        let ball = Ball {
+            centre: DVec3::new(0.01, 0.02, -0.03),
+            radius: 0.05,
+        };
+        let mesh = cut_solid(&ball, ball.centre, DVec3::splat(0.06), 0.01, Order::Linear);
+        let mut total = 0.0;
+        for e in 0..mesh.element_count() {
+            let c = mesh.element(e);
+            let v = volume(&mesh.nodes, [c[0], c[1], c[2], c[3]]);
+            assert!(v > 0.0);
+            total += v;
+        }
+        let exact = 4.0 / 3.0 * std::f64::consts::PI * ball.radius.powi(3);
+        let on: Vec<f64> = mesh
+            .surface
+            .iter()
+            .flatten()
+            .map(|&i| (mesh.nodes[i as usize].distance(ball.centre) - ball.radius).abs())
+            .collect();
+        let held = on.iter().filter(|&&d| d > 1e-12).count();
+        println!(
+            "{} elements, volume {:.4} of the ball's, {held} of {} surface corners off the sphere, \
+             by {:.2e} m at most",
+            mesh.element_count(),
+            total / exact,
+            on.len(),
+            on.iter().cloned().fold(0.0, f64::max)
+        );
+        assert!((total / exact - 1.0).abs() < 0.02);
+        let enclosed: f64 = mesh
+            .surface
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum();
+        assert!((enclosed / total - 1.0).abs() < 1e-12);
     }
 }

@@ -2,7 +2,8 @@
 //! linear finite elements under an implicit step, so a stiff material stays stable at any
 //! step and its energy under a still hand decays.
 //!
-//! - [`lattice`] cuts a box into tetrahedra at a resolution;
+//! - [`lattice`] cuts a box or a solid (a ball, a closed mesh) into tetrahedra at a
+//!   resolution;
 //! - [`element`] is what one tetrahedron contributes: its shape functions' gradients at its
 //!   quadrature points, linear (4 nodes) or quadratic (10 nodes, which bends as a beam
 //!   should where linear ones lock);
