@@ -35,6 +35,8 @@ pub struct SoftBody {
     /// Each node's stiffness along itself, a third of its block's trace (N/m): the
     /// solver's preconditioner.
     pub(crate) own_stiffness: Vec<f64>,
+    /// The material's λ and μ, Pa.
+    lame: [f64; 2],
 }
 
 impl SoftBody {
@@ -76,6 +78,7 @@ impl SoftBody {
             gradients,
             volumes,
             own_stiffness,
+            lame: [lambda, mu],
         }
     }
 
@@ -107,7 +110,8 @@ impl SoftBody {
         for e in 0..self.volumes.len() {
             let mut turn = self.turns[e];
             rotation::follow(&self.deformation(e), &mut turn, rotation::TURNS);
-            let (u, n) = self.displacements(e, turn, &self.positions, true);
+            let back = DMat3::from_quat(turn).transpose();
+            let (u, n) = self.displacements(e, &back, &self.positions, true);
             let mut k = [DVec3::ZERO; MOST_NODES];
             self.stiffness_times(e, &u, &mut k);
             energy += 0.5 * (0..n).map(|i| u[i].dot(k[i])).sum::<f64>();
@@ -142,15 +146,15 @@ impl SoftBody {
     }
 
     /// Element `e`'s nodes of `field` taken back into its rest frame (turned back by
-    /// `turn`), less their rest positions where `from_rest`; and how many nodes it has.
+    /// `turn`'s inverse, `back`), less their rest positions where `from_rest`; and how many
+    /// nodes it has.
     pub(crate) fn displacements(
         &self,
         e: usize,
-        turn: DQuat,
+        back: &DMat3,
         field: &[DVec3],
         from_rest: bool,
     ) -> ([DVec3; MOST_NODES], usize) {
-        let back = DMat3::from_quat(turn.conjugate());
         let nodes = self.mesh.element(e);
         let mut u = [DVec3::ZERO; MOST_NODES];
         for (k, &n) in nodes.iter().enumerate() {
@@ -171,24 +175,37 @@ impl SoftBody {
         out: &mut [DVec3; MOST_NODES],
     ) {
         let order: Order = self.mesh.order;
+        let volume = self.volumes[e];
+        if order == Order::Linear {
+            // One quadrature point, the corners' own gradients.
+            let g = &self.gradients[e];
+            let stress = self.stress(u[..4].iter().zip(g));
+            for k in 0..4 {
+                out[k] = stress * g[k] * volume;
+            }
+            return;
+        }
         let n = order.nodes();
-        let (lambda, mu) = (self.material.lambda(), self.material.mu());
         let mut shape = [DVec3::ZERO; MOST_NODES];
         out[..n].fill(DVec3::ZERO);
         for (at, weight) in order.quadrature() {
             order.gradients(&self.gradients[e], at, &mut shape);
-            let mut h = DMat3::ZERO;
-            for k in 0..n {
-                let (v, g) = (u[k], shape[k]);
-                h += DMat3::from_cols(v * g.x, v * g.y, v * g.z);
-            }
-            let strain = (h + h.transpose()) * 0.5;
-            let trace = strain.x_axis.x + strain.y_axis.y + strain.z_axis.z;
-            let stress = strain * (2.0 * mu) + DMat3::from_diagonal(DVec3::splat(lambda * trace));
-            let w = weight * self.volumes[e];
+            let stress = self.stress(u[..n].iter().zip(&shape[..n]));
+            let w = weight * volume;
             for k in 0..n {
                 out[k] += stress * shape[k] * w;
             }
         }
+    }
+
+    /// The stress of the displacements and shape gradients `nodes` at a point, Pa.
+    fn stress<'a>(&self, nodes: impl Iterator<Item = (&'a DVec3, &'a DVec3)>) -> DMat3 {
+        let mut h = DMat3::ZERO;
+        for (v, g) in nodes {
+            h += DMat3::from_cols(*v * g.x, *v * g.y, *v * g.z);
+        }
+        let strain = (h + h.transpose()) * 0.5;
+        let trace = strain.x_axis.x + strain.y_axis.y + strain.z_axis.z;
+        strain * (2.0 * self.lame[1]) + DMat3::from_diagonal(DVec3::splat(self.lame[0] * trace))
     }
 }

@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use crate::body::SoftBody;
 use crate::element::MOST_NODES;
@@ -30,16 +30,20 @@ pub enum FactorError {
 pub struct Factor {
     /// The step factor s it was made for.
     pub stiff: f64,
-    /// Each node's first unknown in the factor's order, NONE for a pinned node.
-    unknown: Vec<usize>,
-    /// L's columns (without its unit diagonal): starts, rows and values.
+    /// Each node's place in the factor's order, NONE for a pinned node.
+    place: Vec<usize>,
+    /// L by 3×3 blocks, a node's three directions together. Within each node: its
+    /// entries below the diagonal, (1, 0), (2, 0) and (2, 1).
+    within: Vec<[f64; 3]>,
+    /// Below each node's block, its column's blocks: starts, rows (nodes) and the blocks
+    /// (column b of a block is L's column 3J + b, rows 3I to 3I + 2).
     starts: Vec<usize>,
     rows: Vec<usize>,
-    values: Vec<f64>,
-    /// D.
-    pivots: Vec<f64>,
-    /// A vector of unknowns, to solve in.
-    work: Vec<f64>,
+    blocks: Vec<DMat3>,
+    /// D, by node.
+    pivots: Vec<DVec3>,
+    /// The unknowns, by node in the factor's order, to solve in.
+    work: Vec<DVec3>,
 }
 
 impl Factor {
@@ -68,63 +72,91 @@ impl Factor {
         }
         let (order, _, _) = amd::order(free.len(), &starts, &rows, &amd::Control::default())
             .map_err(|status| FactorError::Ordering(format!("{status:?}")))?;
-        // Unknown 3k + d in the factor is direction d of node order[k].
-        let mut unknown = vec![NONE; nodes];
-        let mut place = vec![0; 3 * free.len()];
+        // Node order[k] is the factor's k-th: its unknowns 3k to 3k + 2.
+        let mut place = vec![NONE; nodes];
+        let mut moved = vec![0; free.len()];
         for (k, &node) in order.iter().enumerate() {
-            unknown[free[node]] = 3 * k;
-            for d in 0..3 {
-                place[3 * node + d] = 3 * k + d;
-            }
+            place[free[node]] = k;
+            moved[node] = k;
         }
         // The permuted system's columns, whole (both triangles).
         let n = 3 * free.len();
+        let unknown = |a: usize| 3 * moved[a / 3] + a % 3;
         let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
         for (&(a, b), &v) in &entries {
-            columns[place[b]].push((place[a], v));
+            columns[unknown(b)].push((unknown(a), v));
         }
         let (starts, rows, values, pivots) = ldl(&columns)?;
+        let nodes_free = free.len();
+        let mut within = vec![[0.0; 3]; nodes_free];
+        let mut by_block: Vec<BTreeMap<usize, DMat3>> = vec![BTreeMap::new(); nodes_free];
+        for j in 0..n {
+            let (node, b) = (j / 3, j % 3);
+            for p in starts[j]..starts[j + 1] {
+                let (row, a) = (rows[p] / 3, rows[p] % 3);
+                if row == node {
+                    within[node][a + b - 1] = values[p];
+                } else {
+                    by_block[node].entry(row).or_insert(DMat3::ZERO).col_mut(b)[a] = values[p];
+                }
+            }
+        }
+        let mut block_starts = vec![0];
+        let (mut block_rows, mut blocks) = (Vec::new(), Vec::new());
+        for column in by_block {
+            for (row, block) in column {
+                block_rows.push(row);
+                blocks.push(block);
+            }
+            block_starts.push(blocks.len());
+        }
         Ok(Factor {
             stiff,
-            unknown,
-            starts,
-            rows,
-            values,
-            pivots,
-            work: vec![0.0; n],
+            place,
+            within,
+            starts: block_starts,
+            rows: block_rows,
+            blocks,
+            pivots: pivots.chunks(3).map(DVec3::from_slice).collect(),
+            work: vec![DVec3::ZERO; nodes_free],
         })
     }
 
     /// `out` = (M + s·K₀)⁻¹·`rhs` over the free nodes; zero at pinned ones.
     pub fn solve(&mut self, rhs: &[DVec3], out: &mut [DVec3]) {
-        for (i, &u) in self.unknown.iter().enumerate() {
-            if u != NONE {
-                self.work[u..u + 3].copy_from_slice(&rhs[i].to_array());
+        for (i, &k) in self.place.iter().enumerate() {
+            if k != NONE {
+                self.work[k] = rhs[i];
             }
         }
         let x = &mut self.work;
+        // L, then D, then Lᵀ, a node at a time.
         for j in 0..x.len() {
-            let xj = x[j];
+            let [l10, l20, l21] = self.within[j];
+            let mut xj = x[j];
+            xj.y -= l10 * xj.x;
+            xj.z -= l20 * xj.x + l21 * xj.y;
+            x[j] = xj;
             for p in self.starts[j]..self.starts[j + 1] {
-                x[self.rows[p]] -= self.values[p] * xj;
+                x[self.rows[p]] -= self.blocks[p] * xj;
             }
         }
         for (xj, d) in x.iter_mut().zip(&self.pivots) {
-            *xj /= d;
+            *xj /= *d;
         }
         for j in (0..x.len()).rev() {
             let mut xj = x[j];
             for p in self.starts[j]..self.starts[j + 1] {
-                xj -= self.values[p] * x[self.rows[p]];
+                let (b, xi) = (&self.blocks[p], x[self.rows[p]]);
+                xj -= DVec3::new(b.x_axis.dot(xi), b.y_axis.dot(xi), b.z_axis.dot(xi));
             }
+            let [l10, l20, l21] = self.within[j];
+            xj.y -= l21 * xj.z;
+            xj.x -= l10 * xj.y + l20 * xj.z;
             x[j] = xj;
         }
-        for (i, &u) in self.unknown.iter().enumerate() {
-            out[i] = if u == NONE {
-                DVec3::ZERO
-            } else {
-                DVec3::from_slice(&x[u..u + 3])
-            };
+        for (i, &k) in self.place.iter().enumerate() {
+            out[i] = if k == NONE { DVec3::ZERO } else { x[k] };
         }
     }
 }

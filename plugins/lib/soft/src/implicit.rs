@@ -253,9 +253,9 @@ impl SoftBody {
     fn add_elastic_forces(&self, out: &mut [DVec3]) {
         let mut k = [DVec3::ZERO; MOST_NODES];
         for e in 0..self.volumes.len() {
-            let (u, _) = self.displacements(e, self.turns[e], &self.positions, true);
-            self.stiffness_times(e, &u, &mut k);
             let turn = DMat3::from_quat(self.turns[e]);
+            let (u, _) = self.displacements(e, &turn.transpose(), &self.positions, true);
+            self.stiffness_times(e, &u, &mut k);
             for (f, &n) in k.iter().zip(self.mesh.element(e)) {
                 out[n as usize] -= turn * *f;
             }
@@ -268,11 +268,12 @@ impl SoftBody {
         out.fill(DVec3::ZERO);
         let mut k = [DVec3::ZERO; MOST_NODES];
         for e in 0..self.volumes.len() {
-            let (u, _) = self.displacements(e, self.turns[e], field, false);
-            self.stiffness_times(e, &u, &mut k);
             let turn = DMat3::from_quat(self.turns[e]);
+            let (u, _) = self.displacements(e, &turn.transpose(), field, false);
+            self.stiffness_times(e, &u, &mut k);
+            let turn = turn * stiff;
             for (f, &n) in k.iter().zip(self.mesh.element(e)) {
-                out[n as usize] += stiff * (turn * *f);
+                out[n as usize] += turn * *f;
             }
         }
         for (i, o) in out.iter_mut().enumerate() {
