@@ -117,18 +117,9 @@ impl SoftBody {
         }
         let stiff = self.material.damping * dt + dt * dt;
         self.hold(dt, obstacles, solver);
-        // The right-hand side: momentum and the step's impulse.
-        solver.rhs.fill(DVec3::ZERO);
-        self.add_elastic_forces(&mut solver.rhs);
-        for (i, b) in solver.rhs.iter_mut().enumerate() {
-            let m = self.masses[i];
-            *b = if self.pinned[i] {
-                DVec3::ZERO
-            } else {
-                m * self.velocities[i] + dt * (*b + m * gravity + self.forces[i])
-            };
-        }
-        self.forces.fill(DVec3::ZERO);
+        // The last velocities, whose momentum the step starts from; the solve starts from
+        // them too, pinned and held nodes as they must go.
+        solver.rhs.copy_from_slice(&self.velocities);
         for (v, &pin) in self.velocities.iter_mut().zip(&self.pinned) {
             if pin {
                 *v = DVec3::ZERO;
@@ -138,12 +129,11 @@ impl SoftBody {
             let v = &mut self.velocities[h.node];
             *v += h.normal * (h.speed - h.normal.dot(*v));
         }
-        // r = b − A·v, z = P⁻¹·r, p = z, each with the held directions taken out.
-        self.system_times(stiff, &self.velocities, &mut solver.product);
-        for i in 0..self.positions.len() {
-            solver.residual[i] = solver.rhs[i] - solver.product[i];
-        }
-        filter(&mut solver.residual, &solver.held);
+        // r = b − A·v, b = M·v₀ + dt·(f(x) + f_ext): in one pass over the elements.
+        self.initial_residual(dt, stiff, gravity, solver);
+        self.forces.fill(DVec3::ZERO);
+        // The held directions are no unknowns: the preconditioner leaves them out, and so
+        // every direction searched along; the residual keeps them, what holds the nodes.
         self.precondition(stiff, solver);
         solver.direction.copy_from_slice(&solver.preconditioned);
         let mut along = dot(&solver.residual, &solver.preconditioned);
@@ -153,7 +143,6 @@ impl SoftBody {
         };
         while stepped.iterations < solve.budget && stepped.residual > solve.tolerance {
             self.system_times(stiff, &solver.direction, &mut solver.product);
-            filter(&mut solver.product, &solver.held);
             let curvature = dot(&solver.direction, &solver.product);
             if curvature <= 0.0 {
                 break;
@@ -176,8 +165,39 @@ impl SoftBody {
         for (x, v) in self.positions.iter_mut().zip(&self.velocities) {
             *x += dt * *v;
         }
-        self.pressed(dt, stiff, obstacles, touches, solver);
+        self.pressed(dt, obstacles, touches, solver);
         stepped
+    }
+
+    /// The step's first residual b − A·v into the solver, b = M·v₀ + dt·(f(x) + m·g +
+    /// f_ext) with v₀ the last velocities (in its right-hand side's buffer): the momentum
+    /// terms cancel but where v differs from v₀, and each element's part is one product
+    /// with its stiffness, −R·K_e·(dt·(Rᵀ·x − X) + s·Rᵀ·v).
+    fn initial_residual(&self, dt: f64, stiff: f64, gravity: DVec3, solver: &mut Solver) {
+        let residual = &mut solver.residual;
+        for (i, r) in residual.iter_mut().enumerate() {
+            let m = self.masses[i];
+            *r = m * (solver.rhs[i] - self.velocities[i]) + dt * (m * gravity + self.forces[i]);
+        }
+        let mut k = [DVec3::ZERO; MOST_NODES];
+        for e in 0..self.volumes.len() {
+            let turn = DMat3::from_quat(self.turns[e]);
+            let back = turn.transpose();
+            let (mut u, n) = self.displacements(e, &back, &self.positions, true);
+            let (v, _) = self.displacements(e, &back, &self.velocities, false);
+            for (u, v) in u[..n].iter_mut().zip(&v) {
+                *u = *u * dt + *v * stiff;
+            }
+            self.stiffness_times(e, &u, &mut k);
+            for (f, &node) in k.iter().zip(self.mesh.element(e)) {
+                residual[node as usize] -= turn * *f;
+            }
+        }
+        for (r, &pin) in residual.iter_mut().zip(&self.pinned) {
+            if pin {
+                *r = DVec3::ZERO;
+            }
+        }
     }
 
     /// Find the nodes held on obstacles over the coming step of `dt`: those inside one,
@@ -206,25 +226,14 @@ impl SoftBody {
         }
     }
 
-    /// What held each node on its face over the step: (A·v − b)·n/dt along its normal,
-    /// summed as each obstacle's touch (a pull too: it acted over the step); a node that
-    /// pulled is let go next step.
-    fn pressed(
-        &self,
-        dt: f64,
-        stiff: f64,
-        obstacles: &[Obstacle],
-        touches: &mut [Touch],
-        solver: &mut Solver,
-    ) {
+    /// What held each node on its face over the step: (A·v − b)·n/dt along its normal, the
+    /// residual's part there turned round, summed as each obstacle's touch (a pull too: it
+    /// acted over the step); a node that pulled is let go next step.
+    fn pressed(&self, dt: f64, obstacles: &[Obstacle], touches: &mut [Touch], solver: &mut Solver) {
         touches.fill(Touch::default());
         solver.pressing.fill(false);
-        if solver.held.is_empty() {
-            return;
-        }
-        self.system_times(stiff, &self.velocities, &mut solver.product);
         for h in &solver.held {
-            let push = (solver.product[h.node] - solver.rhs[h.node]).dot(h.normal) / dt;
+            let push = -solver.residual[h.node].dot(h.normal) / dt;
             solver.pressing[h.node] = push > 0.0;
             let (on, at) = (h.normal * -push, self.positions[h.node]);
             let touch = &mut touches[h.obstacle];
@@ -246,20 +255,6 @@ impl SoftBody {
             self.step(SETTLING_STEP, gravity, &[], &mut [], exact, solver);
         }
         self.velocities.fill(DVec3::ZERO);
-    }
-
-    /// Add each node's elastic force where the nodes stand, each element taken along with
-    /// its turn: −R·K_e·(Rᵀ·x − X).
-    fn add_elastic_forces(&self, out: &mut [DVec3]) {
-        let mut k = [DVec3::ZERO; MOST_NODES];
-        for e in 0..self.volumes.len() {
-            let turn = DMat3::from_quat(self.turns[e]);
-            let (u, _) = self.displacements(e, &turn.transpose(), &self.positions, true);
-            self.stiffness_times(e, &u, &mut k);
-            for (f, &n) in k.iter().zip(self.mesh.element(e)) {
-                out[n as usize] -= turn * *f;
-            }
-        }
     }
 
     /// The step's system times `field`: (M + stiff·K_R)·field, its pinned nodes' rows left
@@ -315,6 +310,11 @@ impl SoftBody {
                 .zip(&solver.node_turns)
             {
                 *t = q.conjugate() * *r;
+            }
+            for h in &solver.held {
+                let n = solver.node_turns[h.node].conjugate() * h.normal;
+                let t = &mut solver.turned[h.node];
+                *t -= n * n.dot(*t);
             }
             factor.solve(&solver.turned, out);
             for (o, q) in out.iter_mut().zip(&solver.node_turns) {
