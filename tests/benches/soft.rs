@@ -10,6 +10,7 @@ use divan::Bencher;
 use glam::DVec3;
 use hapticctl::experiments::stack_timing::{DT, stack};
 use hapticd_soft::body::SoftBody;
+use hapticd_soft::contact::Obstacles;
 use hapticd_soft::element::Order;
 use hapticd_soft::implicit::{Solve, Solver};
 use hapticd_soft::lattice::cut_box;
@@ -57,7 +58,7 @@ fn pressed(cells: [usize; 3], order: Order, factored: bool) -> (SoftBody, Solver
         body.step(
             0.001,
             DVec3::new(0.0, -9.81, 0.0),
-            &[],
+            Obstacles::NONE,
             &mut [],
             TICK,
             &mut solver,
@@ -74,7 +75,7 @@ fn tick(bencher: Bencher, cells: [usize; 3], order: Order, factored: bool) {
     let stepped = body.step(
         0.001,
         DVec3::new(0.0, -9.81, 0.0),
-        &[],
+        Obstacles::NONE,
         &mut [],
         TICK,
         &mut solver,
@@ -84,7 +85,7 @@ fn tick(bencher: Bencher, cells: [usize; 3], order: Order, factored: bool) {
         body.step(
             0.001,
             DVec3::new(0.0, -9.81, 0.0),
-            &[],
+            Obstacles::NONE,
             &mut [],
             TICK,
             &mut solver,

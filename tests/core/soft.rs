@@ -6,7 +6,7 @@ use std::process::Command;
 
 use glam::DVec3;
 use hapticd_soft::body::SoftBody;
-use hapticd_soft::contact::{Obstacle, Touch};
+use hapticd_soft::contact::{Obstacle, Obstacles, Touch};
 use hapticd_soft::element::Order;
 use hapticd_soft::implicit::{Solve, Solver};
 use hapticd_soft::lattice::{TetMesh, cut_box};
@@ -178,11 +178,14 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
                 (DVec3::Z, side),
                 (-DVec3::Z, side),
             ];
-            let punch = Obstacle {
-                planes: &planes,
+            let solids = [Obstacle {
+                faces: (0, planes.len()),
                 centre: DVec3::new(0.0, height, 0.0),
-                velocity: DVec3::ZERO,
-                spin: DVec3::ZERO,
+                ..Obstacle::default()
+            }];
+            let punch = Obstacles {
+                planes: &planes,
+                solids: &solids,
             };
             let mut solver = Solver::new(body.positions.len());
             let mut touch = [Touch::default()];
@@ -192,10 +195,10 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
             };
             // The first static step is the linear problem (the elements not yet turned);
             // the next ones turn each element with its deformation.
-            body.step(1e3, DVec3::ZERO, &[punch], &mut touch, exact, &mut solver);
+            body.step(1e3, DVec3::ZERO, punch, &mut touch, exact, &mut solver);
             let linear = touch[0].force.y;
             for _ in 0..3 {
-                body.step(1e3, DVec3::ZERO, &[punch], &mut touch, exact, &mut solver);
+                body.step(1e3, DVec3::ZERO, punch, &mut touch, exact, &mut solver);
             }
             let ours = touch[0].force.y;
             // The nodes under the punch, by where they are (not by the faces they bound).

@@ -6,11 +6,21 @@
 
 use glam::DVec3;
 
-/// A convex solid the nodes may not enter.
+/// Convex solids the nodes may not enter, their faces' planes in one list (so a caller
+/// keeps them in buffers of its own, changed in place each tick).
 #[derive(Debug, Clone, Copy)]
-pub struct Obstacle<'a> {
-    /// Its faces' planes: each outward unit normal n and offset d, n·x ≤ d inside.
+pub struct Obstacles<'a> {
+    /// Every solid's faces' planes: each outward unit normal n and offset d, n·x ≤ d inside.
     pub planes: &'a [(DVec3, f64)],
+    /// The solids.
+    pub solids: &'a [Obstacle],
+}
+
+/// A convex solid the nodes may not enter.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Obstacle {
+    /// Its faces: the first of its planes in [`Obstacles::planes`], and how many.
+    pub faces: (usize, usize),
     /// The point its torque is taken about, m.
     pub centre: DVec3,
     /// Its velocity at `centre`, m/s.
@@ -19,12 +29,19 @@ pub struct Obstacle<'a> {
     pub spin: DVec3,
 }
 
-impl Obstacle<'_> {
-    /// How deep `x` is inside, m, and the normal of the face it is nearest; None outside
-    /// (or further out than `slack`).
-    pub fn depth(&self, x: DVec3, slack: f64) -> Option<(f64, DVec3)> {
+impl Obstacles<'_> {
+    /// None at all.
+    pub const NONE: Obstacles<'static> = Obstacles {
+        planes: &[],
+        solids: &[],
+    };
+
+    /// How deep `x` is inside solid `k`, m, and the normal of the face it is nearest; None
+    /// outside (or further out than `slack`).
+    pub fn depth(&self, k: usize, x: DVec3, slack: f64) -> Option<(f64, DVec3)> {
+        let (first, count) = self.solids[k].faces;
         let mut nearest: Option<(f64, DVec3)> = None;
-        for &(n, d) in self.planes {
+        for &(n, d) in &self.planes[first..first + count] {
             let depth = d - n.dot(x);
             if depth < -slack {
                 return None;
@@ -35,7 +52,9 @@ impl Obstacle<'_> {
         }
         nearest
     }
+}
 
+impl Obstacle {
     /// Its velocity at `x`, m/s.
     pub fn velocity_at(&self, x: DVec3) -> DVec3 {
         self.velocity + self.spin.cross(x - self.centre)
@@ -76,15 +95,17 @@ mod tests {
             .into_iter()
             .flat_map(|a| [(a, 0.5), (-a, 0.5)])
             .collect();
-        let cube = Obstacle {
+        let solids = [Obstacle {
+            faces: (0, 6),
+            ..Obstacle::default()
+        }];
+        let cube = Obstacles {
             planes: &planes,
-            centre: DVec3::ZERO,
-            velocity: DVec3::ZERO,
-            spin: DVec3::ZERO,
+            solids: &solids,
         };
-        let (depth, normal) = cube.depth(DVec3::new(0.1, -0.4, 0.2), 0.0).unwrap();
+        let (depth, normal) = cube.depth(0, DVec3::new(0.1, -0.4, 0.2), 0.0).unwrap();
         assert!((depth - 0.1).abs() < 1e-15 && normal == -DVec3::Y);
-        assert!(cube.depth(DVec3::new(0.1, 0.6, 0.2), 0.0).is_none());
-        assert!(cube.depth(DVec3::new(0.1, 0.6, 0.2), 0.2).is_some());
+        assert!(cube.depth(0, DVec3::new(0.1, 0.6, 0.2), 0.0).is_none());
+        assert!(cube.depth(0, DVec3::new(0.1, 0.6, 0.2), 0.2).is_some());
     }
 }

@@ -11,7 +11,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::body::SoftBody;
-use crate::contact::{Held, Obstacle, Touch};
+use crate::contact::{Held, Obstacles, Touch};
 use crate::element::MOST_NODES;
 use crate::factor::{Factor, FactorError};
 
@@ -106,7 +106,7 @@ impl SoftBody {
         &mut self,
         dt: f64,
         gravity: DVec3,
-        obstacles: &[Obstacle],
+        obstacles: Obstacles,
         touches: &mut [Touch],
         solve: Solve,
         solver: &mut Solver,
@@ -202,17 +202,15 @@ impl SoftBody {
 
     /// Find the nodes held on obstacles over the coming step of `dt`: those inside one,
     /// and those on a face that they pressed on last step.
-    fn hold(&self, dt: f64, obstacles: &[Obstacle], solver: &mut Solver) {
+    fn hold(&self, dt: f64, obstacles: Obstacles, solver: &mut Solver) {
         solver.held.clear();
         for (i, &x) in self.positions.iter().enumerate() {
             if self.pinned[i] {
                 continue;
             }
             let slack = if solver.pressing[i] { SLACK } else { -SLACK };
-            let deepest = obstacles
-                .iter()
-                .enumerate()
-                .filter_map(|(k, o)| o.depth(x, slack).map(|(depth, n)| (k, depth, n)))
+            let deepest = (0..obstacles.solids.len())
+                .filter_map(|k| obstacles.depth(k, x, slack).map(|(depth, n)| (k, depth, n)))
                 .filter(|&(_, depth, _)| depth > -slack)
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((k, depth, normal)) = deepest {
@@ -220,7 +218,7 @@ impl SoftBody {
                     node: i,
                     obstacle: k,
                     normal,
-                    speed: obstacles[k].velocity_at(x).dot(normal) + depth.max(0.0) / dt,
+                    speed: obstacles.solids[k].velocity_at(x).dot(normal) + depth.max(0.0) / dt,
                 });
             }
         }
@@ -229,7 +227,7 @@ impl SoftBody {
     /// What held each node on its face over the step: (A·v − b)·n/dt along its normal, the
     /// residual's part there turned round, summed as each obstacle's touch (a pull too: it
     /// acted over the step); a node that pulled is let go next step.
-    fn pressed(&self, dt: f64, obstacles: &[Obstacle], touches: &mut [Touch], solver: &mut Solver) {
+    fn pressed(&self, dt: f64, obstacles: Obstacles, touches: &mut [Touch], solver: &mut Solver) {
         touches.fill(Touch::default());
         solver.pressing.fill(false);
         for h in &solver.held {
@@ -238,7 +236,7 @@ impl SoftBody {
             let (on, at) = (h.normal * -push, self.positions[h.node]);
             let touch = &mut touches[h.obstacle];
             touch.force += on;
-            touch.torque += (at - obstacles[h.obstacle].centre).cross(on);
+            touch.torque += (at - obstacles.solids[h.obstacle].centre).cross(on);
         }
     }
 
@@ -252,7 +250,14 @@ impl SoftBody {
             tolerance: 1e-18,
         };
         for _ in 0..rounds {
-            self.step(SETTLING_STEP, gravity, &[], &mut [], exact, solver);
+            self.step(
+                SETTLING_STEP,
+                gravity,
+                Obstacles::NONE,
+                &mut [],
+                exact,
+                solver,
+            );
         }
         self.velocities.fill(DVec3::ZERO);
     }
@@ -352,7 +357,7 @@ fn largest(field: &[DVec3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::{Obstacle, Touch};
+    use crate::contact::{Obstacle, Obstacles, Touch};
     use crate::element::Order;
     use crate::lattice::cut_box;
     use crate::material::Material;
@@ -417,7 +422,7 @@ mod tests {
             let mut body = SoftBody::new(mesh, rubber(1e5));
             let mut solver = Solver::new(body.positions.len());
             for _ in 0..100 {
-                body.step(0.001, GRAVITY, &[], &mut [], EXACT, &mut solver);
+                body.step(0.001, GRAVITY, Obstacles::NONE, &mut [], EXACT, &mut solver);
             }
             for v in &body.velocities {
                 assert!((*v - GRAVITY * 0.1).length() < 1e-9, "{v}");
@@ -448,7 +453,7 @@ mod tests {
                 body.step(
                     100.0 * crossing,
                     DVec3::ZERO,
-                    &[],
+                    Obstacles::NONE,
                     &mut [],
                     EXACT,
                     &mut solver,
@@ -491,7 +496,14 @@ mod tests {
                 budget: 50,
                 tolerance: 1e-9,
             };
-            let stepped = body.step(0.001, DVec3::ZERO, &[], &mut [], tick, &mut solver);
+            let stepped = body.step(
+                0.001,
+                DVec3::ZERO,
+                Obstacles::NONE,
+                &mut [],
+                tick,
+                &mut solver,
+            );
             counts.push(stepped.iterations);
         }
         println!("iterations: {counts:?}");
@@ -526,16 +538,18 @@ mod tests {
                 (DVec3::Z, 1.0),
                 (-DVec3::Z, 1.0),
             ];
-            let floor = Obstacle {
+            let solids = [Obstacle {
+                faces: (0, 6),
+                ..Obstacle::default()
+            }];
+            let floor = Obstacles {
                 planes: &planes,
-                centre: DVec3::ZERO,
-                velocity: DVec3::ZERO,
-                spin: DVec3::ZERO,
+                solids: &solids,
             };
             let mut solver = Solver::factored(&body, 0.001).unwrap();
             let mut touch = [Touch::default()];
             for _ in 0..500 {
-                body.step(0.001, GRAVITY, &[floor], &mut touch, tick, &mut solver);
+                body.step(0.001, GRAVITY, floor, &mut touch, tick, &mut solver);
             }
             let weight = body.mass() * 9.81;
             let lowest = body
@@ -552,7 +566,7 @@ mod tests {
             assert!(body.kinetic_energy() < 1e-12, "{}", body.kinetic_energy());
             body.velocities.fill(DVec3::new(0.0, 1.0, 0.0));
             for _ in 0..2 {
-                body.step(0.001, GRAVITY, &[floor], &mut touch, tick, &mut solver);
+                body.step(0.001, GRAVITY, floor, &mut touch, tick, &mut solver);
             }
             assert_eq!(touch[0], Touch::default());
             assert!(body.positions.iter().all(|p| p.y > 1e-4));
