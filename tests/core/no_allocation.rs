@@ -227,6 +227,43 @@ fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
     assert_eq!(n, 0, "{n} allocations in 1500 ticks");
 }
 
+/// A soft ball pinned to a floor, pressed by a finger and let go, its first contacts and
+/// releases all in here, from the scene's first tick: nothing allocated.
+#[test]
+fn a_penalty_scene_with_a_soft_body_pressed_and_let_go_does_not_allocate() {
+    use glam::{DQuat, DVec3};
+    use hapticd_core::kinematics::Wrench;
+    use hapticd_physics::coupling::Grip;
+    use hapticd_physics::scene::PenaltyScene;
+    let text = "name: soft\ndt: 0.00025\nmaterial: { stiffness: 2.0e7, damping: 1.0e4, \
+                static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
+                friction_damping: 1.0e4, slip_speed: 0.001 }\nbodies:\n  - { name: floor, box: \
+                [0.2, 0.02, 0.2], position: [0, -0.01, 0], fixed: true }\n  - { name: ball, \
+                sphere: 0.03, position: [0, 0.029, 0], density: 1100, soft: { young: 5.0e4, \
+                poisson: 0.4, damping: 0.002, resolution: 0.01 }, pinned: { body: floor } }\n";
+    let mut scene = PenaltyScene::parse(text, std::path::Path::new("soft.yaml"), 1).unwrap();
+    let mut felt = [Wrench::default()];
+    let mut most: f64 = 0.0;
+    let n = allocations_in(|| {
+        for step in 0..600 {
+            let t = step as f64 * 1e-3;
+            // Down 1 cm into the ball's top over 0.3 s, and back up.
+            let depth = 0.01 * (1.0 - ((t - 0.3) / 0.3).abs()).max(0.0);
+            let grip = Grip {
+                position: DVec3::new(0.003, 0.068 - depth, 0.0),
+                orientation: DQuat::IDENTITY,
+                velocity: DVec3::ZERO,
+                spin: DVec3::ZERO,
+            };
+            assert!(scene.step_pointers(1e-3, &[grip], &mut felt));
+            most = most.max(felt[0].force.y);
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 600 ticks");
+    // It was pressed: the finger felt the ball push back.
+    assert!(most > 0.1, "{most} N");
+}
+
 #[test]
 fn a_static_scene_touching_a_large_mesh_does_not_allocate() {
     // A floor, and a ball of 99 600 triangles, its top at y = 0.

@@ -13,6 +13,7 @@
 //! - [`joint`]: joints between bodies and their coordinates (thesis 7.2);
 //! - [`world`]: bodies in contact, stepped by the penalty method;
 //! - [`grasping`]: bodies held between pointers (thesis 4.2–4.7);
+//! - [`soft`]: soft bodies stepped in a penalty world, touched by its pointers;
 //! - [`scene`]: scene files (YAML) describing a world and its pointers.
 
 pub mod body;
@@ -27,4 +28,5 @@ pub mod joint;
 pub mod mass;
 pub mod polyhedron;
 pub mod scene;
+pub mod soft;
 pub mod world;

@@ -1,13 +1,14 @@
 //! What a soft body touches: convex solids (a pointer's tip, a floor, a rigid body's convex
-//! pieces) that its nodes may not enter. A node inside one is taken out to the face it is
-//! nearest within the step, as a constraint on its velocity along that face's normal
+//! pieces) that its nodes may not enter. A node inside one where it stands at the end of
+//! the step is taken out to the face it is nearest within the step, as a constraint on its velocity along that face's normal
 //! (not a penalty spring: nothing to tune, nothing to ring), free along the face; what
 //! holds it there is the force it presses on the solid with.
 
 use glam::DVec3;
 
-/// Convex solids the nodes may not enter, their faces' planes in one list (so a caller
-/// keeps them in buffers of its own, changed in place each tick).
+/// Convex solids the nodes may not enter, where they stand at the end of the step, their
+/// faces' planes in one list (so a caller keeps them in buffers of its own, changed in
+/// place each tick).
 #[derive(Debug, Clone, Copy)]
 pub struct Obstacles<'a> {
     /// Every solid's faces' planes: each outward unit normal n and offset d, n·x ≤ d inside.
@@ -23,10 +24,6 @@ pub struct Obstacle {
     pub faces: (usize, usize),
     /// The point its torque is taken about, m.
     pub centre: DVec3,
-    /// Its velocity at `centre`, m/s.
-    pub velocity: DVec3,
-    /// Its angular velocity, rad/s.
-    pub spin: DVec3,
 }
 
 impl Obstacles<'_> {
@@ -54,13 +51,6 @@ impl Obstacles<'_> {
     }
 }
 
-impl Obstacle {
-    /// Its velocity at `x`, m/s.
-    pub fn velocity_at(&self, x: DVec3) -> DVec3 {
-        self.velocity + self.spin.cross(x - self.centre)
-    }
-}
-
 /// What a body pressed on an obstacle with over a step: force, N, and torque about the
 /// obstacle's centre, N·m.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -80,7 +70,7 @@ pub struct Held {
     pub obstacle: usize,
     /// The face's outward normal.
     pub normal: DVec3,
-    /// The node's velocity along it over the step: the face's, and out of its depth.
+    /// The node's velocity along it over the step: out of its depth, onto the face.
     pub speed: f64,
 }
 

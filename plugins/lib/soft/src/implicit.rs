@@ -218,7 +218,7 @@ impl SoftBody {
                     node: i,
                     obstacle: k,
                     normal,
-                    speed: obstacles.solids[k].velocity_at(x).dot(normal) + depth.max(0.0) / dt,
+                    speed: depth.max(0.0) / dt,
                 });
             }
         }

@@ -447,6 +447,10 @@ pub(super) fn bodies(
     for (i, b) in raw.bodies.iter().enumerate() {
         let at = format!("bodies[{i}]");
         f.text(format!("{at}.name"), &b.name);
+        // A soft body is no rigid body: its own checks make it.
+        if b.soft.is_some() {
+            continue;
+        }
         // A fixed mesh under rapier is its triangles; every other body touches through
         // convex pieces.
         let mesh = b.mesh.as_ref().and_then(|file| {

@@ -151,6 +151,7 @@ mod meshes;
 mod penalty;
 mod rapier;
 mod schema;
+mod soft;
 mod stepping;
 mod urdf;
 
@@ -251,9 +252,11 @@ impl SceneFile {
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
+        let soft = soft::soft_bodies(&mut f, &raw, engine, &bodies.bodies);
         let named: Vec<(&str, bool)> = raw
             .bodies
             .iter()
+            .filter(|b| b.soft.is_none())
             .map(|b| (b.name.as_str(), b.fixed))
             .collect();
         let joints = joints::joints(&mut f, &raw.joints, &named);
@@ -273,7 +276,7 @@ impl SceneFile {
             Some(penalty) => SceneFile::Penalty(Box::new(PenaltyScene::build(
                 raw,
                 penalty,
-                (bodies, joints),
+                (bodies, joints, soft),
                 pointer,
                 pointers,
                 warnings,

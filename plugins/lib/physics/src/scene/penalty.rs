@@ -12,12 +12,14 @@ use serde::de::IgnoredAny;
 use super::SceneFile;
 use super::checks::{Bodies, INERTIA_DAMPING_FACTOR, Penalty, Primitive};
 use super::schema::{RawGraspMethod, RawScene};
+use super::soft::Soft;
 use crate::body::Body;
 use crate::coupling::Coupling;
 use crate::friction::FrictionParameters;
 use crate::grasping::Grasping;
 use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
+use crate::soft::SoftPart;
 use crate::world::{ContactModel, Material, World};
 
 /// A loaded scene: the world with one fixed body per pointer at its end.
@@ -46,6 +48,8 @@ pub struct PenaltyScene {
     /// What the file asks for that works, but worth knowing (a step near its stability
     /// limit).
     pub warnings: Vec<Diagnostic>,
+    /// The soft bodies, stepped once a tick beside the world.
+    pub soft: Vec<SoftPart>,
 }
 
 impl PenaltyScene {
@@ -74,7 +78,7 @@ impl PenaltyScene {
     pub(super) fn build(
         raw: RawScene,
         penalty: Penalty,
-        (bodies, joints): (Bodies, Vec<Joint>),
+        (bodies, joints, soft): (Bodies, Vec<Joint>, Vec<Soft>),
         pointer: Option<(Polyhedron, Primitive)>,
         pointers: usize,
         warnings: Vec<Diagnostic>,
@@ -126,6 +130,10 @@ impl PenaltyScene {
                 }
             })
         });
+        let soft = soft
+            .into_iter()
+            .map(|s| SoftPart::new(s.name, s.body, s.solver, &bodies, first_pointer))
+            .collect();
         let material = Material {
             stiffness: penalty.stiffness,
             damping: penalty.damping,
@@ -156,6 +164,7 @@ impl PenaltyScene {
             names: raw
                 .bodies
                 .into_iter()
+                .filter(|b| b.soft.is_none())
                 .map(|b| b.name)
                 .chain((1..=pointers).map(|k| format!("pointer {k}")))
                 .collect(),
@@ -165,6 +174,7 @@ impl PenaltyScene {
             pointers_placed: false,
             grasping,
             warnings,
+            soft,
         };
         scene.set_model(penalty.model);
         scene.world.join(&joints);

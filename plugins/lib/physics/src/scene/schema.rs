@@ -151,6 +151,55 @@ pub(super) struct RawBody {
     pub(super) shading: Option<hapticd_core::haptics::shading::Shading>,
     /// Its mass and inertia as given, instead of its solid's at `density`.
     pub(super) inertial: Option<RawInertial>,
+    /// A soft body's material and cut: the body is then soft (a box or a ball).
+    pub(super) soft: Option<RawSoft>,
+    /// A soft body's nodes held still.
+    pub(super) pinned: Option<RawPinned>,
+}
+
+/// A body's `soft:`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSoft {
+    /// Young's modulus, Pa.
+    pub(super) young: f64,
+    /// Poisson's ratio.
+    pub(super) poisson: f64,
+    /// Stiffness-proportional damping, s.
+    #[serde(default)]
+    pub(super) damping: f64,
+    /// The largest element's edge along the cut's lattice, m.
+    pub(super) resolution: f64,
+    /// The elements' degree.
+    #[serde(default)]
+    pub(super) elements: RawElements,
+}
+
+/// `soft.elements:`.
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawElements {
+    #[default]
+    Linear,
+    Quadratic,
+}
+
+/// A soft body's `pinned:`: its nodes inside a fixed body, or at or below a height along an
+/// axis.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPinned {
+    pub(super) body: Option<String>,
+    pub(super) below: Option<(RawAxis, f64)>,
+}
+
+/// An axis of the scene's frame.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum RawAxis {
+    X,
+    Y,
+    Z,
 }
 
 impl RawBody {
@@ -180,6 +229,8 @@ impl RawBody {
             transient: None,
             shading: None,
             inertial: None,
+            soft: None,
+            pinned: None,
         }
     }
 }

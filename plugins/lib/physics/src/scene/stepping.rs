@@ -6,6 +6,7 @@ use hapticd_core::kinematics::Wrench;
 use super::MAX_STEPS_PER_CALL;
 use super::penalty::PenaltyScene;
 use crate::coupling::Grip;
+use crate::soft::SoftPart;
 use crate::world::ContactModel;
 
 impl PenaltyScene {
@@ -59,7 +60,13 @@ impl PenaltyScene {
         for out in felt.iter_mut() {
             *out = *out * (1.0 / steps as f64);
         }
-        felt.iter().all(Wrench::is_finite) && self.world.is_finite()
+        let gravity = self.world.gravity;
+        for soft in &mut self.soft {
+            soft.step(dt, gravity, &self.world.bodies, first, felt);
+        }
+        felt.iter().all(Wrench::is_finite)
+            && self.world.is_finite()
+            && self.soft.iter().all(SoftPart::is_finite)
     }
 
     /// Use `model` for contacts, with the material the file gives for it.

@@ -1,0 +1,384 @@
+//! A scene's soft bodies (`soft:` on a body): checked and cut into tetrahedra. A soft body
+//! is a box or a ball, runs under the penalty engine, and touches the pointers and the
+//! fixed bodies; its nodes may be pinned where they are inside a fixed body, or at or
+//! below a height along an axis.
+
+use glam::DVec3;
+use hapticd_core::diagnostics::Findings;
+use hapticd_soft::body::SoftBody;
+use hapticd_soft::element::Order;
+use hapticd_soft::implicit::Solver;
+use hapticd_soft::lattice::{Ball, cut_box, cut_solid};
+use hapticd_soft::material::Material;
+
+use super::Engine;
+use super::checks::DENSITY_RANGE;
+use super::schema::{RawAxis, RawBody, RawElements, RawScene};
+use crate::body::Body;
+use crate::soft::SOFT_TICK;
+
+/// The stiffest material a soft body may be, Pa (a hard rubber's is 10⁸).
+const YOUNG_RANGE: (f64, f64) = (1.0, 1e9);
+/// Poisson's ratio: up to a nearly incompressible rubber's.
+const POISSON_RANGE: (f64, f64) = (0.0, 0.49);
+/// The longest damping time, s.
+const MOST_DAMPING: f64 = 1.0;
+/// The most elements a soft body may be cut into: what a device tick steps.
+pub const MOST_ELEMENTS: usize = 20_000;
+
+/// A checked soft body, cut, its pins set, its solve factored.
+pub(super) struct Soft {
+    /// Its name.
+    pub(super) name: String,
+    /// The body.
+    pub(super) body: SoftBody,
+    /// Its solve.
+    pub(super) solver: Solver,
+}
+
+/// The soft bodies of `raw` for `engine`, their pins found in the rigid `bodies` (by the
+/// raw bodies' `names`, None for a soft one); those with a mistake are left out after it
+/// is reported.
+pub(super) fn soft_bodies(
+    f: &mut Findings,
+    raw: &RawScene,
+    engine: Engine,
+    bodies: &[Body],
+) -> Vec<Soft> {
+    let rigid: Vec<(&str, &Body)> = raw
+        .bodies
+        .iter()
+        .filter(|b| b.soft.is_none())
+        .map(|b| b.name.as_str())
+        .zip(bodies)
+        .collect();
+    let mut out = Vec::new();
+    for (i, b) in raw.bodies.iter().enumerate() {
+        let at = format!("bodies[{i}]");
+        let Some(soft) = &b.soft else {
+            if b.pinned.is_some() {
+                f.error(
+                    format!("{at}.pinned"),
+                    "pins hold a soft body's nodes: give soft:",
+                );
+            }
+            continue;
+        };
+        if engine != Engine::Penalty {
+            f.error(
+                format!("{at}.soft"),
+                "soft bodies run under the penalty engine for now",
+            );
+            continue;
+        }
+        if raw.pointer.as_ref().is_some_and(|p| p.coupling.is_some()) {
+            f.error(
+                "pointer.coupling",
+                "a coupled pointer does not touch soft bodies yet",
+            );
+            continue;
+        }
+        if let Some((moving, _)) = rigid.iter().find(|(_, body)| !body.fixed) {
+            f.error(
+                format!("{at}.soft"),
+                format!(
+                    "a soft body touches the pointers and the fixed bodies; {moving} moves, and \
+                     would pass through it"
+                ),
+            );
+            continue;
+        }
+        if b.fixed {
+            f.error(
+                format!("{at}.fixed"),
+                "a soft body moves: pin its nodes instead",
+            );
+        }
+        let (light, dense) = DENSITY_RANGE;
+        f.within(format!("{at}.density"), b.density, light, dense, " kg/m³");
+        let (soft_young, stiffest) = YOUNG_RANGE;
+        f.within(
+            format!("{at}.soft.young"),
+            soft.young,
+            soft_young,
+            stiffest,
+            " Pa",
+        );
+        let (least, most) = POISSON_RANGE;
+        f.within(format!("{at}.soft.poisson"), soft.poisson, least, most, "");
+        f.within(
+            format!("{at}.soft.damping"),
+            soft.damping,
+            0.0,
+            MOST_DAMPING,
+            " s",
+        );
+        let orientation = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
+        f.coordinates(format!("{at}.position"), &b.position, 1e3, "m");
+        let Some(extent) = extent(f, &at, b) else {
+            continue;
+        };
+        if !f.positive(format!("{at}.soft.resolution"), soft.resolution) {
+            continue;
+        }
+        let cells = (extent / soft.resolution).ceil().max(DVec3::ONE);
+        let elements = 6.0 * cells.x * cells.y * cells.z;
+        if elements > MOST_ELEMENTS as f64 {
+            f.error(
+                format!("{at}.soft.resolution"),
+                format!(
+                    "cuts it into {elements} tetrahedra; a soft body has at most {MOST_ELEMENTS}"
+                ),
+            );
+            continue;
+        }
+        if f.has_errors() {
+            continue;
+        }
+        let material = Material {
+            young: soft.young,
+            poisson: soft.poisson,
+            density: b.density,
+            damping: soft.damping,
+        };
+        let order = match soft.elements {
+            RawElements::Linear => Order::Linear,
+            RawElements::Quadratic => Order::Quadratic,
+        };
+        // Cut in its own frame, then placed.
+        let mut mesh = cut(b, order, soft.resolution);
+        for node in &mut mesh.nodes {
+            *node = orientation * *node + DVec3::from(b.position);
+        }
+        let mut body = SoftBody::new(mesh, material);
+        if let Some(pinned) = &b.pinned {
+            pin(f, &at, &mut body, pinned, &rigid);
+        }
+        match Solver::factored(&body, SOFT_TICK) {
+            Ok(solver) => out.push(Soft {
+                name: b.name.clone(),
+                body,
+                solver,
+            }),
+            Err(e) => f.error(format!("{at}.soft"), format!("cannot be solved: {e:?}")),
+        }
+    }
+    out
+}
+
+/// The size of soft body `b`'s solid along each axis (its own), m; None after reporting a
+/// solid that is neither a box nor a ball.
+fn extent(f: &mut Findings, at: &str, b: &RawBody) -> Option<DVec3> {
+    match (b.size, b.sphere) {
+        (Some(size), None) if f.coordinates(format!("{at}.box"), &size, 1e3, "m") => {
+            let size = DVec3::from(size);
+            (size.min_element() > 0.0).then_some(size).or_else(|| {
+                f.error(format!("{at}.box"), "each side must be > 0");
+                None
+            })
+        }
+        (None, Some(radius)) if f.positive(format!("{at}.sphere"), radius) => {
+            Some(DVec3::splat(2.0 * radius))
+        }
+        (None, None) | (Some(_), Some(_)) => {
+            f.error(format!("{at}.soft"), "a soft body is a box or a sphere");
+            None
+        }
+        _ => None,
+    }
+}
+
+/// Soft body `b`'s solid, about the origin in its own frame, cut at `resolution`.
+fn cut(b: &RawBody, order: Order, resolution: f64) -> hapticd_soft::lattice::TetMesh {
+    match (b.size, b.sphere) {
+        (Some(size), _) => cut_box(DVec3::ZERO, DVec3::from(size) / 2.0, resolution, order),
+        (_, Some(radius)) => {
+            let ball = Ball {
+                centre: DVec3::ZERO,
+                radius,
+            };
+            cut_solid(&ball, DVec3::ZERO, DVec3::splat(radius), resolution, order)
+        }
+        (None, None) => unreachable!("checked by extent"),
+    }
+}
+
+/// Pin `body`'s nodes as `pinned` says, inside one of the `rigid` bodies (by name) or at or
+/// below a height; an error when it pins none, or names a body that is not fixed.
+fn pin(
+    f: &mut Findings,
+    at: &str,
+    body: &mut SoftBody,
+    pinned: &super::schema::RawPinned,
+    rigid: &[(&str, &Body)],
+) {
+    if let Some((axis, value)) = pinned.below
+        && f.coordinates(format!("{at}.pinned.below"), &[value], 1e3, "m")
+    {
+        let axis = match axis {
+            RawAxis::X => 0,
+            RawAxis::Y => 1,
+            RawAxis::Z => 2,
+        };
+        body.pin_below(axis, value);
+    }
+    if let Some(name) = &pinned.body {
+        match rigid.iter().find(|(n, _)| n == name) {
+            None => f.error(
+                format!("{at}.pinned.body"),
+                format!("no rigid body named {name}"),
+            ),
+            Some((_, b)) if !b.fixed => f.error(
+                format!("{at}.pinned.body"),
+                format!("{name} moves; a soft body is pinned to a fixed body for now"),
+            ),
+            Some((_, b)) => {
+                for (pin, node) in body.pinned.iter_mut().zip(&body.mesh.nodes) {
+                    *pin |= b.world_pieces().iter().any(|p| p.contains(*node, 1e-9));
+                }
+            }
+        }
+    }
+    if pinned.below.is_some() || pinned.body.is_some() {
+        if !body.pinned.iter().any(|&p| p) {
+            f.error(format!("{at}.pinned"), "holds none of the body's nodes");
+        }
+    } else {
+        f.error(
+            format!("{at}.pinned"),
+            "give body: NAME or below: [axis, value]",
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::SceneFile;
+    use std::path::Path;
+
+    /// A soft box on a floor, its `soft:` and `pinned:` keys and its neighbours `extra`.
+    fn scene(engine: &str, soft: &str, pinned: &str, extra: &str) -> String {
+        format!(
+            "name: soft\n{engine}\nmaterial: {{ stiffness: 2.0e7, damping: 1.0e4, \
+             static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, friction_damping: \
+             1.0e4, slip_speed: 0.001 }}\nbodies:\n  - {{ name: floor, box: [0.2, 0.02, 0.2], \
+             position: [0, -0.01, 0], fixed: true }}\n  - {{ name: jelly, box: [0.04, 0.02, \
+             0.04], position: [0, 0.01, 0], soft: {soft}, pinned: {pinned} }}\n{extra}"
+        )
+    }
+
+    const PENALTY: &str = "dt: 0.00025";
+    const SOFT: &str = "{ young: 1.0e5, poisson: 0.45, resolution: 0.01 }";
+    const PINNED: &str = "{ below: [y, 0.0] }";
+
+    /// The error of parsing `text`, one line.
+    fn refused(text: &str) -> String {
+        match SceneFile::parse(text, Path::new("s.yaml"), 1) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    /// A good soft scene loads, its soft body apart from the rigid ones; each hostile value
+    /// is refused at its key, with what is wrong.
+    #[test]
+    fn soft_bodies_are_checked_at_their_keys() {
+        let SceneFile::Penalty(good) =
+            SceneFile::parse(&scene(PENALTY, SOFT, PINNED, ""), Path::new("s.yaml"), 1).unwrap()
+        else {
+            panic!("a penalty scene");
+        };
+        assert_eq!(good.names, ["floor", "pointer 1"]);
+        assert_eq!(good.soft.len(), 1);
+        assert_eq!(good.soft[0].name, "jelly");
+        let pinned = good.soft[0].body.pinned.iter().filter(|&&p| p).count();
+        assert_eq!(pinned, 5 * 5, "the base's nodes");
+        for (soft, pinned, extra, expected) in [
+            (
+                "{ young: .nan, poisson: 0.45, resolution: 0.01 }",
+                PINNED,
+                "",
+                "soft.young: must be a number from 1 to 1e9 Pa, not NaN",
+            ),
+            (
+                "{ young: -1, poisson: 0.45, resolution: 0.01 }",
+                PINNED,
+                "",
+                "soft.young",
+            ),
+            (
+                "{ young: 1.0e5, poisson: 0.5, resolution: 0.01 }",
+                PINNED,
+                "",
+                "soft.poisson: must be a number from 0 to 0.49",
+            ),
+            (
+                "{ young: 1.0e5, poisson: 0.45, resolution: 0 }",
+                PINNED,
+                "",
+                "soft.resolution: must be a finite number > 0",
+            ),
+            (
+                "{ young: 1.0e5, poisson: 0.45, resolution: 0.0005 }",
+                PINNED,
+                "",
+                "tetrahedra; a soft body has at most 20000",
+            ),
+            (
+                "{ young: 1.0e5, poisson: 0.45, damping: -1, resolution: 0.01 }",
+                PINNED,
+                "",
+                "soft.damping",
+            ),
+            (
+                "{ young: 1.0e5, poisson: 0.45, resolution: 0.01, stiff: 1 }",
+                PINNED,
+                "",
+                "soft.stiff: unknown key",
+            ),
+            (SOFT, "{ below: [w, 0.0] }", "", "pinned.below"),
+            (
+                SOFT,
+                "{ below: [y, -1.0] }",
+                "",
+                "pinned: holds none of the body's nodes",
+            ),
+            (
+                SOFT,
+                "{ body: wall }",
+                "",
+                "pinned.body: no rigid body named wall",
+            ),
+            (SOFT, "{}", "", "give body: NAME or below: [axis, value]"),
+            (
+                SOFT,
+                PINNED,
+                "  - { name: brick, box: [0.01, 0.01, 0.01], position: [0.1, 0.1, 0] }\n",
+                "brick moves, and would pass through it",
+            ),
+            (
+                SOFT,
+                PINNED,
+                "pointer: { box: [0.01, 0.01, 0.01], coupling: { stiffness: 100, damping: 1, \
+                 rotational_stiffness: 0.1, rotational_damping: 0.001 } }\n",
+                "a coupled pointer does not touch soft bodies yet",
+            ),
+        ] {
+            let e = refused(&scene(PENALTY, soft, pinned, extra));
+            assert!(e.contains(expected), "{expected:?} not in {e}");
+        }
+        let rapier = scene("engine: rapier\nrate: 60", SOFT, PINNED, "");
+        let rapier = rapier
+            .replace("stiffness: 2.0e7, damping: 1.0e4, ", "")
+            .replace(
+                ", friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.001",
+                "",
+            );
+        assert!(refused(&rapier).contains("soft bodies run under the penalty engine for now"));
+        let mesh = scene(PENALTY, SOFT, PINNED, "").replace(
+            "box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], soft",
+            "hull: [[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]], position: [0, 0.01, 0], soft",
+        );
+        assert!(refused(&mesh).contains("a soft body is a box or a sphere"));
+    }
+}

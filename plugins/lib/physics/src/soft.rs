@@ -1,0 +1,133 @@
+//! [rt] Soft bodies in a penalty world (issue: soft bodies, thesis 7.2), stepped once a
+//! device tick: each keeps its solve's buffers and its obstacles' planes, changed in place,
+//! so a tick allocates nothing. Its nodes are kept out of the pointers and the fixed
+//! bodies; what it presses on a pointer with is felt there.
+
+use glam::DVec3;
+use hapticd_core::kinematics::Wrench;
+use hapticd_soft::body::SoftBody;
+use hapticd_soft::contact::{Obstacle, Obstacles, Touch};
+use hapticd_soft::implicit::{Solve, Solver};
+
+use crate::body::Body;
+
+/// The device tick a soft body's solve is factored for (1 kHz), s: other ticks are solved
+/// with each node's own diagonal, more slowly.
+pub const SOFT_TICK: f64 = 0.001;
+
+/// A tick's solve: done with every node's velocity within 0.1 mm/s (its position within
+/// 0.1 µm of the tick's solution), in at most 20 iterations.
+const TICK: Solve = Solve {
+    budget: 20,
+    tolerance: 1e-4,
+};
+
+/// A soft body of a scene, ready to step.
+#[derive(Debug, Clone)]
+pub struct SoftPart {
+    /// Its name in the scene.
+    pub name: String,
+    /// The body.
+    pub body: SoftBody,
+    solver: Solver,
+    /// The world bodies it may not enter: the fixed ones, then the pointers.
+    touching: Vec<usize>,
+    planes: Vec<(DVec3, f64)>,
+    solids: Vec<Obstacle>,
+    touches: Vec<Touch>,
+}
+
+impl SoftPart {
+    /// `body` called `name`, solved by `solver`, in a world of `bodies` whose pointers
+    /// start at `first_pointer`: its obstacles sized.
+    pub fn new(
+        name: String,
+        body: SoftBody,
+        solver: Solver,
+        bodies: &[Body],
+        first_pointer: usize,
+    ) -> SoftPart {
+        let touching: Vec<usize> = (0..bodies.len())
+            .filter(|&i| i >= first_pointer || bodies[i].fixed)
+            .collect();
+        let mut solids = Vec::new();
+        let mut faces = 0;
+        for &i in &touching {
+            for piece in &bodies[i].pieces {
+                solids.push(Obstacle {
+                    faces: (faces, piece.planes.len()),
+                    ..Obstacle::default()
+                });
+                faces += piece.planes.len();
+            }
+        }
+        SoftPart {
+            name,
+            body,
+            solver,
+            touching,
+            planes: vec![(DVec3::ZERO, 0.0); faces],
+            touches: vec![Touch::default(); solids.len()],
+            solids,
+        }
+    }
+
+    /// [rt] Step `dt` under `gravity` against `bodies` where the tick leaves them; each pointer
+    /// (from `first_pointer`) gets what the body pressed on it with added to `felt`.
+    pub fn step(
+        &mut self,
+        dt: f64,
+        gravity: DVec3,
+        bodies: &[Body],
+        first_pointer: usize,
+        felt: &mut [Wrench],
+    ) {
+        let mut solid = 0;
+        for &i in &self.touching {
+            let b = &bodies[i];
+            for piece in b.world_pieces() {
+                let o = &mut self.solids[solid];
+                let (first, count) = o.faces;
+                for (out, plane) in self.planes[first..first + count]
+                    .iter_mut()
+                    .zip(&piece.planes)
+                {
+                    *out = (plane.normal, plane.offset);
+                }
+                o.centre = b.position;
+                solid += 1;
+            }
+        }
+        let obstacles = Obstacles {
+            planes: &self.planes,
+            solids: &self.solids,
+        };
+        self.body.step(
+            dt,
+            gravity,
+            obstacles,
+            &mut self.touches,
+            TICK,
+            &mut self.solver,
+        );
+        let mut solid = 0;
+        for &i in &self.touching {
+            for _ in &bodies[i].pieces {
+                if let Some(out) = i.checked_sub(first_pointer).and_then(|k| felt.get_mut(k)) {
+                    let t = self.touches[solid];
+                    *out = *out
+                        + Wrench {
+                            force: t.force,
+                            torque: t.torque,
+                        };
+                }
+                solid += 1;
+            }
+        }
+    }
+
+    /// Whether every node is where a finite number puts it.
+    pub fn is_finite(&self) -> bool {
+        self.body.positions.iter().all(|p| p.is_finite())
+    }
+}
