@@ -49,6 +49,10 @@ const FORMATS: [Format; 4] = [
                 "ROBOTS",
                 include_str!("../../../plugins/lib/physics/src/scene/urdf.rs"),
             ),
+            (
+                "SOFT BODIES",
+                include_str!("../../../plugins/lib/physics/src/scene/soft.rs"),
+            ),
         ],
     },
     Format {
@@ -419,6 +423,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, 9);
+        assert_eq!(checked, 10);
     }
 }

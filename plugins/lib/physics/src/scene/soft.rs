@@ -1,7 +1,35 @@
-//! A scene's soft bodies (`soft:` on a body): checked and cut into tetrahedra. A soft body
-//! is a box or a ball, runs under the penalty engine, and touches the pointers and the
-//! fixed bodies; its nodes may be pinned where they are inside a fixed body, or at or
-//! below a height along an axis.
+//! Soft bodies (`soft:` on a body, thesis 7.2): a box or a ball cut into tetrahedra at
+//! `resolution` (a lattice of cubes of that side, six tetrahedra each; a ball keeps those
+//! inside it and brings its surface nodes onto the sphere), its nodes moved by co-rotational
+//! linear elasticity of Young's modulus `young` (Pa), Poisson's ratio `poisson` (up to
+//! 0.49), the body's `density` and a stiffness-proportional `damping` (s), stepped once a
+//! device tick by an implicit step that no stiffness or resolution makes unstable. Its
+//! elements are `linear` (four nodes: fast, but a slender body bends too stiffly) or
+//! `quadratic` (ten nodes: a cantilever sags within 0.5 % of Euler–Bernoulli). A soft body
+//! has at most 20 000 elements.
+//!
+//! `pinned:` holds nodes still: those inside a fixed body (`body: NAME`), or at or below a
+//! height along an axis in the scene's frame (`below: [y, 0.0]`). A soft body runs under the
+//! penalty engine, in a scene whose other bodies are fixed, and touches them and the
+//! pointers: its nodes are kept out of them, and what it presses on a pointer with is what
+//! the hand feels there. It is not yet drawn, listed among the bodies, attached to a moving
+//! body, or touched by a coupled pointer.
+//!
+//! ```yaml
+//! name: jelly
+//! engine: penalty
+//! dt: 0.00025
+//! material: { stiffness: 2.0e7, damping: 1.0e4, static_friction: 0.4, friction: 0.3,
+//!             friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.001 }
+//! bodies:
+//!   - { name: table, box: [0.3, 0.02, 0.3], position: [0, -0.01, 0], fixed: true }
+//!   - name: jelly
+//!     box: [0.06, 0.03, 0.06]         # or sphere: RADIUS
+//!     position: [0, 0.015, 0]
+//!     density: 1100
+//!     soft: { young: 5.0e4, poisson: 0.45, damping: 0.002, resolution: 0.01 }
+//!     pinned: { body: table }         # or below: [y, 0.0]
+//! ```
 
 use glam::DVec3;
 use hapticd_core::diagnostics::Findings;
