@@ -12,7 +12,7 @@ use hapticctl::experiments::stack_timing::{DT, stack};
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::contact::Obstacles;
 use hapticd_soft::element::Order;
-use hapticd_soft::implicit::{Solve, Solver};
+use hapticd_soft::implicit::{Solve, Solver, Stepped};
 use hapticd_soft::lattice::cut_box;
 use hapticd_soft::material::Material;
 
@@ -55,16 +55,15 @@ fn pressed(cells: [usize; 3], order: Order, factored: bool) -> (SoftBody, Solver
     };
     for _ in 0..200 {
         body.forces[top] = DVec3::new(0.0, -1.0, 0.0);
-        body.step(
-            0.001,
-            DVec3::new(0.0, -9.81, 0.0),
-            Obstacles::NONE,
-            &mut [],
-            TICK,
-            &mut solver,
-        );
+        step(&mut body, &mut solver);
     }
     (body, solver)
+}
+
+/// One device tick of `body` under gravity.
+fn step(body: &mut SoftBody, solver: &mut Solver) -> Stepped {
+    let gravity = DVec3::new(0.0, -9.81, 0.0);
+    body.step(0.001, gravity, Obstacles::NONE, &mut [], TICK, solver)
 }
 
 /// One tick of the pressed block: its elements' turns, its forces and its solve,
@@ -72,25 +71,9 @@ fn pressed(cells: [usize; 3], order: Order, factored: bool) -> (SoftBody, Solver
 fn tick(bencher: Bencher, cells: [usize; 3], order: Order, factored: bool) {
     let (mut body, mut solver) = pressed(cells, order, factored);
     let elements = body.mesh.element_count();
-    let stepped = body.step(
-        0.001,
-        DVec3::new(0.0, -9.81, 0.0),
-        Obstacles::NONE,
-        &mut [],
-        TICK,
-        &mut solver,
-    );
+    let stepped = step(&mut body, &mut solver);
     println!("{elements} {order:?} elements, factored {factored}: {stepped:?} a tick");
-    bencher.bench_local(|| {
-        body.step(
-            0.001,
-            DVec3::new(0.0, -9.81, 0.0),
-            Obstacles::NONE,
-            &mut [],
-            TICK,
-            &mut solver,
-        )
-    });
+    bencher.bench_local(|| step(&mut body, &mut solver));
 }
 
 #[divan::bench(args = GRIDS)]

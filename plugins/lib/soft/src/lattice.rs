@@ -269,6 +269,18 @@ mod tests {
     use super::*;
     use crate::element::barycentric_gradients;
 
+    /// The volume `mesh`'s surface encloses (the divergence theorem): its elements' where
+    /// the surface is closed and turned outward.
+    fn enclosed(mesh: &TetMesh) -> f64 {
+        mesh.surface
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
     /// The cut fills the box: every element positive, their volumes summing to the box's;
     /// its surface closed and outward, enclosing that volume (the divergence theorem); a
     /// quadratic mesh's middles are each shared, not repeated.
@@ -286,14 +298,7 @@ mod tests {
             }
             let boxed = 8.0 * half.x * half.y * half.z;
             assert!((volume / boxed - 1.0).abs() < 1e-12, "{volume}");
-            let enclosed: f64 = mesh
-                .surface
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
-                    a.dot(b.cross(c)) / 6.0
-                })
-                .sum();
+            let enclosed = enclosed(&mesh);
             assert!((enclosed / boxed - 1.0).abs() < 1e-12, "{enclosed}");
             // Every surface edge is met twice, once each way.
             let mut edges = HashMap::new();
@@ -363,14 +368,6 @@ mod tests {
             on.iter().cloned().fold(0.0, f64::max)
         );
         assert!((total / exact - 1.0).abs() < 0.02);
-        let enclosed: f64 = mesh
-            .surface
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| mesh.nodes[i as usize]);
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum();
-        assert!((enclosed / total - 1.0).abs() < 1e-12);
+        assert!((enclosed(&mesh) / total - 1.0).abs() < 1e-12);
     }
 }
