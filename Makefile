@@ -77,6 +77,7 @@ figures: stage
 	$(HAPTICCTL) experiment effects --plot docs/figures/effects.png
 	$(HAPTICCTL) experiment pendulum --plot docs/figures/pendulum.png
 	$(HAPTICCTL) experiment door --plot docs/figures/door.png
+	$(HAPTICCTL) experiment beam --plot docs/figures/beam.png
 	$(HAPTICCTL) scene run config/scenes/cube-drop.yaml --duration 2 --model volume --model point \
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png
 	$(HAPTICCTL) experiment stack-timing --plot docs/figures/stack-timing.png

@@ -16,11 +16,13 @@
 //! - [`effects`]: the periodic haptic effects and a cross-fade, within the force-rate limit;
 //! - [`pendulum`]: a hinged box's period against its amplitude, against the exact formula;
 //! - [`door`]: a door pushed at its handle at 10–60 Hz physics, with local dynamics through
-//!   its hinge, against physics at the haptic rate (6.5.4, 7.2).
+//!   its hinge, against physics at the haptic rate (6.5.4, 7.2);
+//! - [`beam`]: a soft cantilever's sag under its weight against Euler–Bernoulli (7.2).
 //!
 //! Each module's `report` gives what `hapticctl experiment` prints and draws, as a
 //! [`Report`](crate::report::Report).
 
+pub mod beam;
 pub mod door;
 pub mod effects;
 pub mod grasp;

@@ -88,6 +88,12 @@ impl Solver {
 }
 
 impl Solver {
+    /// Buffers for `body` to [`SoftBody::settle`] it, preconditioned by its rest system
+    /// factored for that.
+    pub fn settling(body: &SoftBody) -> Result<Solver, FactorError> {
+        Solver::factored(body, SETTLING_STEP)
+    }
+
     /// Buffers for `body`, preconditioned by its rest system factored for steps of `dt`:
     /// made outside the tick (it allocates and orders), once a body's pins are set.
     pub fn factored(body: &SoftBody, dt: f64) -> Result<Solver, FactorError> {

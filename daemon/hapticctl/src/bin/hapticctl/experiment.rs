@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::{
-    door, effects, grasp, incline, pendulum, push_mass, push_phase, shape_tracing, stack_timing,
-    stick_slip, wall_stiffness,
+    beam, door, effects, grasp, incline, pendulum, push_mass, push_phase, shape_tracing,
+    stack_timing, stick_slip, wall_stiffness,
 };
 use hapticctl::report::Report;
 use hapticd_config::catalog::Catalog;
@@ -50,6 +50,19 @@ pub enum Command {
     /// through its hinge) against 1 kHz: its swing, and the moment about the hinge the hand
     /// met (joints, thesis 6.5.4 and 7.2).
     Door(Figure),
+    /// Let a soft cantilever sag under its weight at several Young's moduli, cut into
+    /// linear and quadratic elements: its tip's sag against Euler–Bernoulli's (soft bodies,
+    /// thesis 7.2).
+    Beam(BeamArgs),
+}
+
+#[derive(Args)]
+pub struct BeamArgs {
+    /// Young's moduli, pascals (10⁶ to 10¹¹).
+    #[arg(long, value_parser = parse_numbers, default_value = "1e7,1.5e7,2e7,3e7,5e7,7e7,1e8,2e8,5e8,1e9")]
+    moduli: Numbers,
+    #[command(flatten)]
+    figure: Figure,
 }
 
 #[derive(Args)]
@@ -287,6 +300,13 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
             let mut runs = vec![("penalty", 4000.0)];
             runs.extend(args.rates.iter().map(|&r| ("rapier", r)));
             let report = pendulum::report(&args.amplitudes, &runs);
+            show_figure(report, &args.figure)
+        }
+        Command::Beam(args) => {
+            if !args.moduli.iter().all(|e| (1e6..=1e11).contains(e)) {
+                return Err(Failure::usage("--moduli must be 1e6–1e11 Pa"));
+            }
+            let report = beam::report(&args.moduli).map_err(Failure::failed)?;
             show_figure(report, &args.figure)
         }
         Command::Door(figure) => {
