@@ -147,9 +147,9 @@ fn cantilevers_sag_as_scikit_fem_solves_the_same_elements() {
 /// A flat square punch about 2 cm wide pressed into a 4 × 2 × 4 cm block (its base
 /// clamped), with no friction, takes the force scikit-fem's solution of the same elements
 /// does with the nodes under the punch moved down by the depth and free sideways, at 0.5,
-/// 1 and 2 mm (to 10 % strain): to a millionth while the elements are not yet turned (the
-/// same linear problem), and within 5 % once each is turned with its deformation, which
-/// the linear theory leaves out (measured 1.1 %, 2.2 % and 4.5 % less for linear elements,
+/// 1 and 2 mm (to 10 % strain): while the elements are not yet turned, to a millionth for
+/// linear elements (the same linear problem) and within 0.2 % for quadratic ones; and within
+/// 5 % once each is turned with its deformation, which the linear theory leaves out (measured 1.1 %, 2.2 % and 4.5 % less for linear elements,
 /// 1.1 %, 2.2 % and 4.6 % for quadratic ones).
 #[test]
 fn a_flat_punch_presses_as_scikit_fem_says() {
@@ -222,7 +222,13 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
                 "{order:?}, {depth} m: {ours:.5} N ({linear:.8} N before its elements turn), \
                  scikit-fem {theirs:.8} N"
             );
-            assert!((linear / theirs - 1.0).abs() < 1e-6, "{linear} vs {theirs}");
+            // Quadratic elements' corners under a pressure pull a little (their consistent
+            // loads are negative), and are let go: a slightly other problem (0.09 %).
+            let same = match order {
+                Order::Linear => 1e-6,
+                Order::Quadratic => 2e-3,
+            };
+            assert!((linear / theirs - 1.0).abs() < same, "{linear} vs {theirs}");
             assert!((ours / theirs - 1.0).abs() < 0.05, "{ours} vs {theirs}");
         }
     }
@@ -299,5 +305,77 @@ fn a_soft_block_pressed_by_the_hand_pushes_back_as_scikit_fem_says() {
         println!("{depth} m: the hand feels {ours:.5} N, scikit-fem {theirs:.5} N");
         let within = if depth <= 0.001 { 0.05 } else { 0.1 };
         assert!((ours / theirs - 1.0).abs() < within, "{ours} vs {theirs}");
+    }
+}
+
+/// Soft blocks of the softest and the stiffest materials a scene may give, damped and not,
+/// at two resolutions, pressed 1 mm by the simulated hand and held there for a second: the
+/// world stays finite, the hand is never pulled, and once the press has settled (after
+/// 0.3 s) the force the hand feels alternates from tick to tick by no more than 0.1 % of
+/// itself (measured 0.016 % at most: nodes at the pointer's edge, pressing next to nothing,
+/// let go and taken again; a tenth of what a hand can tell apart is some 7 %).
+#[test]
+fn a_soft_block_of_any_material_held_pressed_neither_explodes_nor_buzzes() {
+    for (young, poisson, damping) in [
+        (1.0, 0.0, 0.0),
+        (1e9, 0.49, 0.0),
+        (1e5, 0.45, 0.0),
+        (1e5, 0.45, 0.01),
+    ] {
+        for resolution in [0.01, 0.005] {
+            let text = format!(
+                "name: held\nengine: penalty\ndt: 0.00025\nmaterial: {{ stiffness: 2.0e7, damping: \
+                 1.0e4, static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
+                 friction_damping: 1.0e4, slip_speed: 0.001 }}\nbodies:\n  - {{ name: floor, box: \
+                 [0.1, 0.01, 0.1], position: [0, -0.005, 0], fixed: true }}\n  - {{ name: block, \
+                 box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: 1100, soft: {{ young: \
+                 {young}, poisson: {poisson}, damping: {damping}, resolution: {resolution} }}, \
+                 pinned: {{ body: floor }} }}\npointer: {{ box: [0.0195, 0.02, 0.0195] }}\n"
+            );
+            let SceneFile::Penalty(mut scene) =
+                SceneFile::parse(&text, std::path::Path::new("held.yaml"), 1)
+                    .expect("a valid scene")
+            else {
+                unreachable!("a penalty scene");
+            };
+            let mut felt = [Wrench::default()];
+            let (mut forces, mut lowest) = (Vec::new(), f64::INFINITY);
+            for tick in 0..1200 {
+                // Down to 1 mm into the block over 0.1 s, then still.
+                let depth = (tick as f64 / 100.0).min(1.0) * 0.001;
+                let grip = Grip {
+                    position: DVec3::new(0.0, 0.03 - depth, 0.0),
+                    orientation: DQuat::IDENTITY,
+                    velocity: DVec3::ZERO,
+                    spin: DVec3::ZERO,
+                };
+                assert!(
+                    scene.step_pointers(0.001, &[grip], &mut felt),
+                    "E {young}: not finite"
+                );
+                lowest = lowest.min(felt[0].force.y);
+                if tick >= 300 {
+                    forces.push(felt[0].force.y);
+                }
+            }
+            let last = *forces.last().unwrap();
+            let steps: Vec<f64> = forces.windows(2).map(|w| w[1] - w[0]).collect();
+            // The largest tick-to-tick alternation: a change undone at the next tick.
+            let alternation = steps
+                .windows(2)
+                .filter(|w| w[0] * w[1] < 0.0)
+                .map(|w| w[0].abs().min(w[1].abs()))
+                .fold(0.0, f64::max);
+            println!(
+                "E {young} Pa, ν {poisson}, damping {damping} s, {resolution} m: {last:.4e} N \
+                 held, alternating by {:.2e} of it at most, least {lowest:.3e} N",
+                alternation / last.abs().max(f64::MIN_POSITIVE)
+            );
+            assert!(lowest >= 0.0, "pulled: {lowest}");
+            assert!(
+                alternation <= 1e-3 * last.abs(),
+                "E {young}: buzzes by {alternation} N"
+            );
+        }
     }
 }

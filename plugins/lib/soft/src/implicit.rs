@@ -41,6 +41,9 @@ const TURNS_PER_STEP: usize = 2;
 /// stand inside one it did not and be let be, m: the rounding of taking it to the face.
 const SLACK: f64 = 1e-9;
 
+/// Solves a step may take, letting go after each the nodes that would pull on their faces.
+const RELEASES: usize = 3;
+
 /// A step long enough that inertia is nothing beside stiffness: a static solve, s.
 const SETTLING_STEP: f64 = 1e3;
 
@@ -135,16 +138,51 @@ impl SoftBody {
             let v = &mut self.velocities[h.node];
             *v += h.normal * (h.speed - h.normal.dot(*v));
         }
+        // A node that would have to pull on its face to stay there is let go, and the step
+        // solved again without it: contact only pushes.
+        let mut stepped = Stepped {
+            iterations: 0,
+            residual: 0.0,
+        };
+        for _ in 0..RELEASES {
+            stepped = self.solve(dt, stiff, gravity, solve, solver, stepped.iterations);
+            let before = solver.held.len();
+            let residual = &solver.residual;
+            solver
+                .held
+                .retain(|h| residual[h.node].dot(h.normal) <= 0.0);
+            if solver.held.len() == before {
+                break;
+            }
+        }
+        self.forces.fill(DVec3::ZERO);
+        for (x, v) in self.positions.iter_mut().zip(&self.velocities) {
+            *x += dt * *v;
+        }
+        self.pressed(dt, obstacles, touches, solver);
+        stepped
+    }
+
+    /// Solve the step's velocities from where they stand, as `solve` says, counting on from
+    /// `iterations` already taken.
+    fn solve(
+        &mut self,
+        dt: f64,
+        stiff: f64,
+        gravity: DVec3,
+        solve: Solve,
+        solver: &mut Solver,
+        iterations: usize,
+    ) -> Stepped {
         // r = b − A·v, b = M·v₀ + dt·(f(x) + f_ext): in one pass over the elements.
         self.initial_residual(dt, stiff, gravity, solver);
-        self.forces.fill(DVec3::ZERO);
         // The held directions are no unknowns: the preconditioner leaves them out, and so
         // every direction searched along; the residual keeps them, what holds the nodes.
         self.precondition(stiff, solver);
         solver.direction.copy_from_slice(&solver.preconditioned);
         let mut along = dot(&solver.residual, &solver.preconditioned);
         let mut stepped = Stepped {
-            iterations: 0,
+            iterations,
             residual: largest(&solver.preconditioned),
         };
         while stepped.iterations < solve.budget && stepped.residual > solve.tolerance {
@@ -168,10 +206,6 @@ impl SoftBody {
             stepped.iterations += 1;
             stepped.residual = largest(&solver.preconditioned);
         }
-        for (x, v) in self.positions.iter_mut().zip(&self.velocities) {
-            *x += dt * *v;
-        }
-        self.pressed(dt, obstacles, touches, solver);
         stepped
     }
 
@@ -231,13 +265,12 @@ impl SoftBody {
     }
 
     /// What held each node on its face over the step: (A·v − b)·n/dt along its normal, the
-    /// residual's part there turned round, summed as each obstacle's touch (a pull too: it
-    /// acted over the step); a node that pulled is let go next step.
+    /// residual's part there turned round, summed as each obstacle's touch.
     fn pressed(&self, dt: f64, obstacles: Obstacles, touches: &mut [Touch], solver: &mut Solver) {
         touches.fill(Touch::default());
         solver.pressing.fill(false);
         for h in &solver.held {
-            let push = -solver.residual[h.node].dot(h.normal) / dt;
+            let push = (-solver.residual[h.node].dot(h.normal) / dt).max(0.0);
             solver.pressing[h.node] = push > 0.0;
             let (on, at) = (h.normal * -push, self.positions[h.node]);
             let touch = &mut touches[h.obstacle];
