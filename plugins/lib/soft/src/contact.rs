@@ -1,8 +1,10 @@
 //! What a soft body touches: convex solids (a pointer's tip, a floor, a rigid body's convex
 //! pieces) that its nodes may not enter. A node inside one where it stands at the end of
-//! the step is taken out to the face it is nearest within the step, as a constraint on its velocity along that face's normal
-//! (not a penalty spring: nothing to tune, nothing to ring), free along the face; what
-//! holds it there is the force it presses on the solid with.
+//! the step is taken out to the face it is nearest within the step, as a constraint on its
+//! velocity along that face's normal (not a penalty spring: nothing to tune, nothing to
+//! ring), free along the face; what holds it there is the force it presses on the solid
+//! with. A node that would have to pull to stay is let go, and the step solved again: a
+//! contact only pushes.
 
 use glam::DVec3;
 
