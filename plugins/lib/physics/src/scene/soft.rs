@@ -6,7 +6,7 @@
 //! device tick by an implicit step that no stiffness or resolution makes unstable. Its
 //! elements are `linear` (four nodes: fast, but a slender body bends too stiffly) or
 //! `quadratic` (ten nodes: a cantilever sags within 0.5 % of Euler–Bernoulli). A soft body
-//! has at most 20 000 elements.
+//! has at most 2 000 linear or 400 quadratic elements, what a device tick steps.
 //!
 //! `pinned:` holds nodes still: those inside a fixed body (`body: NAME`), or at or below a
 //! height along an axis in the scene's frame (`below: [y, 0.0]`). A soft body runs under the
@@ -51,8 +51,10 @@ const YOUNG_RANGE: (f64, f64) = (1.0, 1e9);
 const POISSON_RANGE: (f64, f64) = (0.0, 0.49);
 /// The longest damping time, s.
 const MOST_DAMPING: f64 = 1.0;
-/// The most elements a soft body may be cut into: what a device tick steps.
-pub const MOST_ELEMENTS: usize = 20_000;
+/// The most linear elements a soft body may be cut into, and quadratic ones: what a
+/// device tick steps (here 2 058 linear ones take 0.83 ms, and 504 quadratic ones 1.1 ms:
+/// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
+pub const MOST_ELEMENTS: [usize; 2] = [2_000, 400];
 
 /// A checked soft body, cut, its pins set, its solve factored.
 pub(super) struct Soft {
@@ -151,11 +153,16 @@ pub(super) fn soft_bodies(
         }
         let cells = (extent / soft.resolution).ceil().max(DVec3::ONE);
         let elements = 6.0 * cells.x * cells.y * cells.z;
-        if elements > MOST_ELEMENTS as f64 {
+        let (most, kind) = match soft.elements {
+            RawElements::Linear => (MOST_ELEMENTS[0], "linear"),
+            RawElements::Quadratic => (MOST_ELEMENTS[1], "quadratic"),
+        };
+        if elements > most as f64 {
             f.error(
                 format!("{at}.soft.resolution"),
                 format!(
-                    "cuts it into {elements} tetrahedra; a soft body has at most {MOST_ELEMENTS}"
+                    "cuts it into {elements} tetrahedra; a device tick steps at most {most} \
+                     {kind} ones"
                 ),
             );
             continue;
@@ -350,7 +357,7 @@ mod tests {
                 "{ young: 1.0e5, poisson: 0.45, resolution: 0.0005 }",
                 PINNED,
                 "",
-                "tetrahedra; a soft body has at most 20000",
+                "tetrahedra; a device tick steps at most 2000 linear ones",
             ),
             (
                 "{ young: 1.0e5, poisson: 0.45, damping: -1, resolution: 0.01 }",
