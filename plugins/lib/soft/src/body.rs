@@ -4,7 +4,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use crate::element::{MOST_NODES, Order, barycentric_gradients};
+use crate::element::{MOST_NODES, Order, barycentric_gradients, signed_volume};
 use crate::lattice::TetMesh;
 use crate::material::Material;
 use crate::rotation;
@@ -124,8 +124,7 @@ impl SoftBody {
         (0..self.volumes.len())
             .map(|e| {
                 let nodes = self.mesh.element(e);
-                let c = [0, 1, 2, 3].map(|k| self.positions[nodes[k] as usize]);
-                (c[1] - c[0]).dot((c[2] - c[0]).cross(c[3] - c[0])) / 6.0
+                signed_volume([0, 1, 2, 3].map(|k| self.positions[nodes[k] as usize]))
             })
             .sum()
     }

@@ -81,6 +81,12 @@ impl Order {
     }
 }
 
+/// The signed volume of the tetrahedron `corners`: positive where they turn positively.
+pub fn signed_volume(corners: [DVec3; 4]) -> f64 {
+    let [a, b, c, d] = corners;
+    (b - a).dot((c - a).cross(d - a)) / 6.0
+}
+
 /// The barycentric gradients of the tetrahedron `corners` and its signed volume.
 pub fn barycentric_gradients(corners: [DVec3; 4]) -> ([DVec3; 4], f64) {
     let (e1, e2, e3) = (

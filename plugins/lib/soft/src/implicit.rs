@@ -4,9 +4,10 @@
 //!
 //! (M + (β·dt + dt²)·K_R)·v⁺ = M·v + dt·(f(x) + f_ext),
 //!
-//! β the material's damping, by conjugate gradients preconditioned by each node's own
-//! stiffness, warm-started from the last velocities; pinned nodes stay still. No step is
-//! too long for it: the solve damps what it cannot follow.
+//! β the material's damping, by conjugate gradients warm-started from the last velocities,
+//! preconditioned by the rest system factored once ([`Factor`]) or else by each node's own
+//! stiffness; pinned nodes stay still. No step is too long for it: the solve damps what it
+//! cannot follow.
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -49,7 +50,7 @@ const SETTLING_STEP: f64 = 1e3;
 
 /// The buffers of a step's solve, made once, and its preconditioner: a step allocates
 /// nothing.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Solver {
     /// The rest system factored for the steps it is made for; each node's own diagonal
     /// otherwise.
@@ -64,7 +65,8 @@ pub struct Solver {
     held: Vec<Held>,
     /// Whether each node pressed on an obstacle last step.
     pressing: Vec<bool>,
-    rhs: Vec<DVec3>,
+    /// The velocities the step started from, whose momentum it carries.
+    before: Vec<DVec3>,
     residual: Vec<DVec3>,
     preconditioned: Vec<DVec3>,
     direction: Vec<DVec3>,
@@ -81,7 +83,7 @@ impl Solver {
             turned: vec![DVec3::ZERO; nodes],
             held: Vec::with_capacity(nodes),
             pressing: vec![false; nodes],
-            rhs: vec![DVec3::ZERO; nodes],
+            before: vec![DVec3::ZERO; nodes],
             residual: vec![DVec3::ZERO; nodes],
             preconditioned: vec![DVec3::ZERO; nodes],
             direction: vec![DVec3::ZERO; nodes],
@@ -128,7 +130,7 @@ impl SoftBody {
         self.hold(dt, obstacles, solver);
         // The last velocities, whose momentum the step starts from; the solve starts from
         // them too, pinned and held nodes as they must go.
-        solver.rhs.copy_from_slice(&self.velocities);
+        solver.before.copy_from_slice(&self.velocities);
         for (v, &pin) in self.velocities.iter_mut().zip(&self.pinned) {
             if pin {
                 *v = DVec3::ZERO;
@@ -210,14 +212,14 @@ impl SoftBody {
     }
 
     /// The step's first residual b − A·v into the solver, b = M·v₀ + dt·(f(x) + m·g +
-    /// f_ext) with v₀ the last velocities (in its right-hand side's buffer): the momentum
+    /// f_ext) with v₀ the velocities the step started from: the momentum
     /// terms cancel but where v differs from v₀, and each element's part is one product
     /// with its stiffness, −R·K_e·(dt·(Rᵀ·x − X) + s·Rᵀ·v).
     fn initial_residual(&self, dt: f64, stiff: f64, gravity: DVec3, solver: &mut Solver) {
         let residual = &mut solver.residual;
         for (i, r) in residual.iter_mut().enumerate() {
             let m = self.masses[i];
-            *r = m * (solver.rhs[i] - self.velocities[i]) + dt * (m * gravity + self.forces[i]);
+            *r = m * (solver.before[i] - self.velocities[i]) + dt * (m * gravity + self.forces[i]);
         }
         let mut k = [DVec3::ZERO; MOST_NODES];
         for e in 0..self.volumes.len() {

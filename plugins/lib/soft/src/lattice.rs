@@ -8,7 +8,7 @@ use std::collections::{BTreeSet, HashMap};
 
 use glam::DVec3;
 
-use crate::element::{EDGES, Order};
+use crate::element::{EDGES, Order, signed_volume};
 
 /// A tetrahedral mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -190,8 +190,7 @@ fn lattice(centre: DVec3, half: DVec3, resolution: f64) -> (Vec<DVec3>, Vec<[u32
 
 /// The signed volume of the tetrahedron `tet` of `nodes`.
 fn volume(nodes: &[DVec3], tet: [u32; 4]) -> f64 {
-    let p = tet.map(|i| nodes[i as usize]);
-    (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])) / 6.0
+    signed_volume(tet.map(|i| nodes[i as usize]))
 }
 
 /// The faces of `corners` that one tetrahedron alone has, turned outward.
