@@ -72,6 +72,8 @@ struct EveryTick {
     python: String,
     overruns: (f64, f64),
     frames: u64,
+    /// The longest time (s) the stream went without a new frame while the clients read.
+    stall: f64,
     /// Whether the haptic thread ran under SCHED_FIFO (else the readers compete with it for
     /// the CPUs, and its overruns say nothing of them).
     realtime: bool,
@@ -132,12 +134,24 @@ fn every_tick(rate: &str) -> EveryTick {
                   ticks = [s.tick for s in hapticd.connect(sys.argv[1]).devices[0].telemetry(seconds=10)]\n\
                   gaps = sum(1 for a, b in zip(ticks, ticks[1:]) if b != a + 1)\n\
                   print(f'{len(ticks)} ticks, {gaps} gaps')\n";
-    let python = Command::new("/usr/bin/python3")
+    let mut python = Command::new("/usr/bin/python3")
         .args(["-c", follow, &bus.address])
         .env("PYTHONPATH", repo_dir().join("daemon/python"))
         .env("PYTHONDONTWRITEBYTECODE", "1")
-        .output()
+        .stdout(Stdio::piped())
+        .spawn()
         .unwrap();
+    // The stream is watched while the clients read: the longest wait for a new frame.
+    let (mut last, mut since, mut stall) = (first_frame, std::time::Instant::now(), 0.0f64);
+    while python.try_wait().unwrap().is_none() {
+        std::thread::sleep(Duration::from_millis(20));
+        if ring.latest() != last {
+            last = ring.latest();
+            since = std::time::Instant::now();
+        }
+        stall = stall.max(since.elapsed().as_secs_f64());
+    }
+    let python = python.wait_with_output().unwrap();
     let recorded = record.wait_with_output().unwrap();
     let during = overruns() - before;
     done.store(true, std::sync::atomic::Ordering::Release);
@@ -157,9 +171,15 @@ fn every_tick(rate: &str) -> EveryTick {
         python: String::from_utf8_lossy(&python.stdout).trim().to_string(),
         overruns: (alone, during),
         frames,
+        stall,
         realtime,
     }
 }
+
+/// The longest wait (s) for a frame that still counts as a stream going on while the
+/// clients read: 0.72 to 1.11 s measured here over four rounds (19 to 32 frames in 10 s);
+/// a stream that stopped waits the whole 10 s.
+const STALL: f64 = 3.0;
 
 /// The issue's check: at 1 and 10 kHz, `hapticctl record` and the Python iterator each get
 /// every tick of 10 s while the renderer streams and 100 clients read properties, and the
@@ -177,19 +197,20 @@ fn every_tick_reaches_hapticctl_and_python_at_1_and_10_khz_beside_a_stream_and_1
                 python,
                 overruns: (alone, during),
                 frames,
+                stall,
                 realtime,
             } = every_tick(rate);
             let said = format!(
                 "{rate} Hz: overruns {alone} alone, {during} beside the readers, the renderer \
-                 streaming and 100 clients reading; {frames} frames streamed; python: \
-                 {python}; SCHED_FIFO: {realtime}"
+                 streaming and 100 clients reading; {frames} frames streamed, at most \
+                 {stall:.2} s apart; python: {python}; SCHED_FIFO: {realtime}"
             );
             println!("{said}");
             assert_eq!(python, format!("{ticks} ticks, 0 gaps"), "{said}");
             // The renderer shares the one CPU left to the test's load with the clients and
-            // readers: 45 frames at 1 kHz and 38 at 10 kHz measured; a stream that stopped
-            // would have none.
-            assert!(frames >= 30, "{said}");
+            // readers, so how many frames it draws is the host's (19 to 45 in 10 s measured):
+            // what matters is that the stream goes on.
+            assert!(frames > 0 && stall < STALL, "{said}");
             rounds.push(said);
             if !realtime || during <= 2.0 * alone + 10.0 {
                 break rows;
