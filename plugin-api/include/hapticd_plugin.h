@@ -29,7 +29,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 8
+#define HAPTICD_ABI_MINOR 9
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -895,6 +895,31 @@ typedef struct HapticdSceneControl {
                    struct HapticdBodyState *state);
 } HapticdSceneControl;
 /* ---------------------------------------------------------------------------
+ * Scene extension "hapticd.scene.deformation/1": where deforming solids stand now.
+ * ------------------------------------------------------------------------- */
+
+#define HAPTICD_EXT_SCENE_DEFORMATION "hapticd.scene.deformation/1"
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_DEFORMATION`] of a scene plugin: the corners of the
+ triangles of its [`HAPTICD_SOLID_DEFORMING`](crate::HAPTICD_SOLID_DEFORMING) solids as
+ they stand after the last step. The geometry extension gives those triangles as they
+ stand at load; this gives the same corners, moved.
+ */
+typedef struct HapticdSceneDeformation {
+  /*
+   `sizeof(HapticdSceneDeformation)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [the thread that steps the instance, between steps] Write the corners, metres in
+   each solid's frame, three floats each, solid by solid and triangle by triangle in
+   the geometry's order, to `out` (at most `capacity` corners); return how many corners
+   the deforming solids have. Like a step it must not allocate, lock, log or block.
+   */
+  uint32_t (*corners)(void *instance, float *out, uint32_t capacity);
+} HapticdSceneDeformation;
+/* ---------------------------------------------------------------------------
  * Scene extension "hapticd.scene.files/1": the scene files a plugin runs.
  * ------------------------------------------------------------------------- */
 
@@ -964,6 +989,12 @@ typedef struct HapticdSceneFiles {
  Solid flag: it follows a pointer (a finger's solid in the world).
  */
 #define HAPTICD_SOLID_POINTER 2
+
+/*
+ Solid flag (since ABI 1.9): a solid of triangles whose corners move on their own (a soft
+ body); the deformation extension says where they stand now.
+ */
+#define HAPTICD_SOLID_DEFORMING 4
 
 /*
  The `body` of a solid that belongs to no body: it stays where its `offset` puts it.

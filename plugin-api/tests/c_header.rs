@@ -122,7 +122,7 @@ fn c_header_matches_the_rust_abi() {
 fn each_extension_has_a_section_that_names_it_as_the_rust_abi_does() {
     let header = include_str!("../include/hapticd_plugin.h");
     let extensions = extensions(Path::new(env!("CARGO_MANIFEST_DIR")));
-    assert_eq!(extensions.len(), 6, "the extensions of ABI 1.8");
+    assert_eq!(extensions.len(), 7, "the extensions of ABI 1.9");
     for (name, id) in [
         (
             "HAPTICD_EXT_SCENE_GEOMETRY",
@@ -147,6 +147,10 @@ fn each_extension_has_a_section_that_names_it_as_the_rust_abi_does() {
         (
             "HAPTICD_EXT_SCENE_JOINTS",
             hapticd_plugin_api::HAPTICD_EXT_SCENE_JOINTS,
+        ),
+        (
+            "HAPTICD_EXT_SCENE_DEFORMATION",
+            hapticd_plugin_api::HAPTICD_EXT_SCENE_DEFORMATION,
         ),
     ] {
         let id = id.to_str().unwrap();

@@ -24,7 +24,7 @@ fn main() {
 fn blocks() -> Scenery {
     let path = support::repo_dir().join("config/scenes/blocks.yaml");
     let scene = PenaltyScene::load(&path, 0).unwrap();
-    Scenery::of_geometry(&Shaded::new(scene.geometry()), &scene.poses())
+    Scenery::of_geometry(&Shaded::new(scene.geometry()), &scene.poses(), &[])
 }
 
 fn bench_frame(bencher: Bencher, scenery: &Scenery) {

@@ -22,11 +22,15 @@ use crate::transport::CHANNELS;
 pub use crate::kinematics::pose_of;
 pub use crate::scene::MAX_BODIES;
 
+/// Most corners of deforming solids a picture shows (a larger world's are drawn as they
+/// stood at load): the surfaces of the largest soft bodies a tick steps, several times over.
+pub const MAX_CORNERS: usize = 8192;
+
 /// First bytes of a shared world, so that a reader knows what it mapped.
 pub const MAGIC: [u8; 8] = *b"hapticdW";
 
 /// Layout version: raised with any change to [`WorldFrame`] or [`SharedWorld`].
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 
 /// One picture of the world.
 #[repr(C)]
@@ -68,6 +72,12 @@ pub struct WorldFrame {
     pub tension_ranges: [[f64; 2]; CHANNELS],
     /// The first bodies' poses, in the order of their ids.
     pub bodies: [HapticdBodyPose; MAX_BODIES],
+    /// Corners of the deforming solids' triangles the world has (only the first
+    /// [`MAX_CORNERS`] are in `corners`).
+    pub corner_count: u32,
+    /// Where the deforming solids' corners stand, metres in each solid's frame, solid by
+    /// solid and triangle by triangle in the geometry's order.
+    pub corners: [[f32; 3]; MAX_CORNERS],
 }
 
 impl WorldFrame {
@@ -92,6 +102,8 @@ impl WorldFrame {
             tensions: [0.0; CHANNELS],
             tension_ranges: [[0.0; 2]; CHANNELS],
             bodies: [HapticdBodyPose::default(); MAX_BODIES],
+            corner_count: 0,
+            corners: [[0.0; 3]; MAX_CORNERS],
         }
     }
 
@@ -128,6 +140,17 @@ impl WorldFrame {
             *out = p.to_array();
         }
         self.body_count = scene.write_bodies(&mut self.bodies).min(u32::MAX as usize) as u32;
+        self.corner_count = scene
+            .write_corners(&mut self.corners)
+            .min(u32::MAX as usize) as u32;
+    }
+
+    /// The corners written, when there are no more than the frame holds (else the
+    /// deforming solids are drawn as they stood at load).
+    pub fn deformed_corners(&self) -> &[[f32; 3]] {
+        self.corners
+            .get(..self.corner_count as usize)
+            .unwrap_or_default()
     }
 
     /// The bodies written, as poses.

@@ -169,7 +169,7 @@ impl Outputs {
     ) -> Result<(), OutputError> {
         if let (Some(frames), Some(geometry)) = (self.frames.as_mut(), geometry) {
             frames.offer(step.t, || {
-                Scenery::of_geometry(geometry, &step.scene.poses())
+                Scenery::of_geometry(geometry, &step.scene.poses(), &step.scene.all_corners())
             })?;
         }
         if let Some(record) = self.record.as_mut() {
@@ -197,7 +197,7 @@ impl Outputs {
         if let Some(frames) = self.frames.as_mut() {
             frames.offer(t, || {
                 let poses: Vec<_> = (0..spec.bodies.len()).map(|i| run.body(i).pose()).collect();
-                let mut scenery = Scenery::of_geometry(geometry, &poses);
+                let mut scenery = Scenery::of_geometry(geometry, &poses, &[]);
                 let grips: Vec<DVec3> = tick.pointers.iter().map(|p| p.pose.position).collect();
                 scenery.add_pointers(&run.proxies(), &grips);
                 scenery

@@ -103,7 +103,7 @@ pub fn scenery(path: &Path, at: f64, rests: &[Pose]) -> Result<(Scenery, Camera)
         let geometry = Shaded::new(
             StaticSceneSpec::parse_with_files(&text, path, hapticd_mesh::scene_files())?.geometry(),
         );
-        let mut scenery = Scenery::of_geometry(&geometry, &[]);
+        let mut scenery = Scenery::of_geometry(&geometry, &[], &[]);
         scenery.add_proxies(&resting);
         let camera = scenery.camera();
         return Ok((scenery, camera));
@@ -143,11 +143,14 @@ fn penalty_scenery(
             .ok_or_else(|| SceneryError::NotFinite(path.to_path_buf()))
     };
     step(&mut scene)?;
-    let camera = Scenery::of_geometry(geometry, &scene.poses()).camera();
+    let camera = Scenery::of_geometry(geometry, &scene.poses(), &scene.all_corners()).camera();
     for _ in 1..(at / scene.dt).round() as usize {
         step(&mut scene)?;
     }
-    Ok((Scenery::of_geometry(geometry, &scene.poses()), camera))
+    Ok((
+        Scenery::of_geometry(geometry, &scene.poses(), &scene.all_corners()),
+        camera,
+    ))
 }
 
 /// A rapier scene's picture after `at` seconds, its pointers drawn where the fingers rest
@@ -161,7 +164,7 @@ fn rapier_scenery(
 ) -> Result<(Scenery, Camera), SceneryError> {
     let mut world = RapierWorld::new(spec, 0);
     let shown = |world: &RapierWorld| {
-        let mut scenery = Scenery::of_geometry(geometry, &world.poses());
+        let mut scenery = Scenery::of_geometry(geometry, &world.poses(), &[]);
         scenery.add_proxies(resting);
         scenery
     };

@@ -224,7 +224,7 @@ where
 fn scenery(shaded: &Shaded, frame: &WorldFrame) -> Scenery {
     let geometry = &shaded.geometry;
     let poses: Vec<Pose> = frame.body_poses().collect();
-    let mut scenery = Scenery::of_geometry(shaded, &poses);
+    let mut scenery = Scenery::of_geometry(shaded, &poses, frame.deformed_corners());
     let effectors = (frame.effectors as usize).min(frame.grips.len());
     let strings: Vec<DrawnString> = (0..(frame.strings as usize).min(frame.motors.len()))
         .map(|k| DrawnString {

@@ -89,15 +89,20 @@ impl Scenery {
     }
 
     /// The solids of `geometry`, each where its body's pose in `poses` (by body id) puts
-    /// it; a solid whose body has no pose is not drawn. The movable bodies are framed, or
-    /// when there are none the bounded fixed solids, and the pointers with them.
-    pub fn of_geometry(shaded: &Shaded, poses: &[Pose]) -> Self {
+    /// it, the deforming ones with their corners where `corners` says (see
+    /// [`WorldFrame::corners`](hapticd_core::world_state::WorldFrame::corners); as at load
+    /// when it does not say, or says something not finite); a solid whose body has no pose
+    /// is not drawn. The movable bodies are framed, or when there are none the bounded fixed
+    /// solids, and the pointers with them.
+    pub fn of_geometry(shaded: &Shaded, poses: &[Pose], corners: &[[f32; 3]]) -> Self {
         let geometry = &shaded.geometry;
         let mut s = Self::default();
         let (mut mesh, mut translucent) = (Mesh::default(), Mesh::default());
         let mut fixed: Vec<(DVec3, DVec3)> = Vec::new();
         let mut pointers: Option<(DVec3, DVec3)> = None;
+        let mut deformed = Deformed { corners, next: 0 };
         for (k, solid) in geometry.solids.iter().enumerate() {
+            let moved = deformed.take(shaded, k, solid);
             let body = match solid.body {
                 HAPTICD_NO_BODY => Pose::IDENTITY,
                 id => match poses.get(id as usize) {
@@ -116,7 +121,7 @@ impl Scenery {
             } else {
                 &mut mesh
             };
-            let Some((low, high)) = draw(target, shaded, solid, &frame, colour) else {
+            let Some((low, high)) = draw(target, shaded, solid, &frame, moved, colour) else {
                 continue;
             };
             if solid.flags & HAPTICD_SOLID_POINTER != 0 {
@@ -318,13 +323,58 @@ fn colour_of(solid: &HapticdSolid, k: usize) -> [f32; 4] {
     BODIES[index % BODIES.len()]
 }
 
-/// Draw `solid` at `frame` in `colour` into `mesh`; the box worth framing, None for a solid
+/// The corners of a world's deforming solids where a frame says they stand, taken solid by
+/// solid in the geometry's order.
+struct Deformed<'a> {
+    corners: &'a [[f32; 3]],
+    /// Where the next deforming solid's corners begin.
+    next: usize,
+}
+
+impl Deformed<'_> {
+    /// Deforming solid `solid` (place `k`) as its corners stand: each triangle's corners and
+    /// their normals; None for a solid that does not deform, or corners not finite or not
+    /// there.
+    fn take(
+        &mut self,
+        shaded: &Shaded,
+        k: usize,
+        solid: &HapticdSolid,
+    ) -> Option<Vec<[[DVec3; 3]; 2]>> {
+        if solid.flags & HAPTICD_SOLID_DEFORMING == 0 || solid.shape != HAPTICD_SHAPE_TRIANGLES {
+            return None;
+        }
+        let first = self.next;
+        self.next += 3 * solid.triangle_count as usize;
+        let corners: Vec<[DVec3; 3]> = self
+            .corners
+            .get(first..self.next)?
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]].map(|c| glam::Vec3::from(c).as_dvec3()))
+            .collect();
+        if !corners.iter().flatten().all(|c| c.is_finite()) {
+            return None;
+        }
+        let normals = shaded.deformed_normals(k, &corners)?;
+        Some(
+            corners
+                .into_iter()
+                .zip(normals)
+                .map(|(c, n)| [c, n])
+                .collect(),
+        )
+    }
+}
+
+/// Draw `solid` at `frame` in `colour` into `mesh`, a deforming one as `moved` (its
+/// triangles' corners and normals) when given; the box worth framing, None for a solid
 /// without bounds (planes and bars drawn across the workspace).
 fn draw(
     mesh: &mut Mesh,
     shaded: &Shaded,
     solid: &HapticdSolid,
     frame: &Pose,
+    moved: Option<Vec<[[DVec3; 3]; 2]>>,
     colour: [f32; 4],
 ) -> Option<(DVec3, DVec3)> {
     let centre = frame.position;
@@ -357,16 +407,23 @@ fn draw(
             None
         }
         _ => {
-            let first = solid.first_triangle as usize;
-            let triangles = shaded.geometry.triangles_of(solid);
-            for (k, t) in triangles.iter().enumerate() {
-                let corners = t.corners.map(|c| frame.transform_point(DVec3::from(c)));
-                let normals = shaded.normals(first + k).map(|n| frame.orientation * n);
-                mesh.shaded_triangle(corners, normals, colour);
+            let mut framed: Option<(DVec3, DVec3)> = None;
+            let mut put = |corners: [DVec3; 3], normals: [DVec3; 3]| {
+                let corners = corners.map(|c| frame.transform_point(c));
+                mesh.shaded_triangle(corners, normals.map(|n| frame.orientation * n), colour);
+                let (low, high) = bounds(corners.into_iter());
+                framed = Some(framed.map_or((low, high), |(l, h)| (l.min(low), h.max(high))));
+            };
+            match moved {
+                Some(moved) => moved.into_iter().for_each(|[c, n]| put(c, n)),
+                None => {
+                    let first = solid.first_triangle as usize;
+                    for (k, t) in shaded.geometry.triangles_of(solid).iter().enumerate() {
+                        put(t.corners.map(DVec3::from), shaded.normals(first + k));
+                    }
+                }
             }
-            let corners = triangles.iter().flat_map(|t| t.corners);
-            (!triangles.is_empty())
-                .then(|| bounds(corners.map(|c| frame.transform_point(DVec3::from(c)))))
+            framed
         }
     }
 }

@@ -10,14 +10,15 @@ use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
 use crate::ext::{
-    scene_contacts::*, scene_control::*, scene_files::*, scene_geometry::*, scene_joints::*,
-    scene_mobility::*,
+    scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*, scene_geometry::*,
+    scene_joints::*, scene_mobility::*,
 };
 
 mod macros;
 mod scene;
 mod scene_contacts;
 mod scene_control;
+mod scene_deformation;
 mod scene_files;
 mod scene_geometry;
 mod scene_joints;
@@ -27,6 +28,7 @@ use scene::instance_mut;
 pub use scene::*;
 use scene_contacts::SCENE_CONTACTS;
 use scene_control::SCENE_CONTROL;
+use scene_deformation::SCENE_DEFORMATION;
 pub use scene_files::*;
 use scene_geometry::SCENE_GEOMETRY;
 use scene_joints::SCENE_JOINTS;
@@ -360,7 +362,8 @@ pub type SceneError = Box<dyn std::error::Error + Send + Sync>;
 pub type SceneCheck = fn(&str, usize) -> Result<(), SceneError>;
 
 /// Body of the exported `get_extension` function: the geometry, control, contacts,
-/// mobility and joints extensions, and the files extension when the plugin runs scene files.
+/// mobility, joints and deformation extensions, and the files extension when the plugin
+/// runs scene files.
 ///
 /// # Safety
 /// `id` is null or NUL-terminated.
@@ -388,6 +391,9 @@ pub unsafe fn scene_extension(
     }
     if id == HAPTICD_EXT_SCENE_JOINTS {
         return (&SCENE_JOINTS as *const HapticdSceneJoints).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_DEFORMATION {
+        return (&SCENE_DEFORMATION as *const HapticdSceneDeformation).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

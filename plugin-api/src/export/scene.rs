@@ -107,6 +107,16 @@ pub trait SceneInstance: Send {
         let _ = (command, state);
         HAPTICD_ERROR_FAILED
     }
+
+    /// [the stepping thread, between steps] Since ABI 1.9: the corners of the deforming
+    /// solids as they stand now (served through
+    /// [`HAPTICD_EXT_SCENE_DEFORMATION`](crate::HAPTICD_EXT_SCENE_DEFORMATION)), the first
+    /// ones written to `out` (as many as it holds); returns how many there are. Must not
+    /// allocate, lock, log or block. The default has none.
+    fn corners(&self, out: &mut [[f32; 3]]) -> usize {
+        let _ = out;
+        0
+    }
 }
 
 /// A command's answer as a [`SceneInstance`] method gives it: `value` written to `state`

@@ -9,9 +9,11 @@
 //! - [`scene_contacts`]: `"hapticd.scene.contacts/1"`, what each pointer touches.
 //! - [`scene_mobility`]: `"hapticd.scene.mobility/1"`, how a jointed body answers the hand.
 //! - [`scene_joints`]: `"hapticd.scene.joints/1"`, a running world's joints, read and driven.
+//! - [`scene_deformation`]: `"hapticd.scene.deformation/1"`, where deforming solids stand.
 
 pub mod scene_contacts;
 pub mod scene_control;
+pub mod scene_deformation;
 pub mod scene_files;
 pub mod scene_geometry;
 pub mod scene_joints;

@@ -26,6 +26,9 @@ pub const HAPTICD_SHAPE_TRIANGLES: u32 = 5;
 pub const HAPTICD_SOLID_FIXED: u32 = 1;
 /// Solid flag: it follows a pointer (a finger's solid in the world).
 pub const HAPTICD_SOLID_POINTER: u32 = 2;
+/// Solid flag (since ABI 1.9): a solid of triangles whose corners move on their own (a soft
+/// body); the deformation extension says where they stand now.
+pub const HAPTICD_SOLID_DEFORMING: u32 = 4;
 
 /// The `body` of a solid that belongs to no body: it stays where its `offset` puts it.
 pub const HAPTICD_NO_BODY: u32 = u32::MAX;

@@ -85,6 +85,10 @@ impl SceneInstance for Penalty {
     fn drive(&mut self, command: &HapticdJointCommand, state: &mut HapticdJointState) -> i32 {
         answered(state, self.0.drive_joint(command))
     }
+
+    fn corners(&self, out: &mut [[f32; 3]]) -> usize {
+        self.0.corners(out)
+    }
 }
 
 /// Check a penalty scene file without building its world (or cutting its meshes).

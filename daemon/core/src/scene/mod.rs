@@ -116,6 +116,12 @@ pub trait Scene: Send {
         0
     }
 
+    /// [rt] For pictures: where the corners of the world's deforming solids stand now, the
+    /// first ones written to `corners` (as many as it holds); returns how many there are.
+    fn write_corners(&mut self, _corners: &mut [[f32; 3]]) -> usize {
+        0
+    }
+
     /// [rt, after `render`] What each pointer touches (one slot per pointer in `touches`,
     /// each [`Touch::NONE`] when called); the default says nothing.
     fn write_touches(&self, _touches: &mut [Touch]) {}

@@ -90,6 +90,10 @@ impl Scene for DirectScene {
         self.instance.poses(poses)
     }
 
+    fn write_corners(&mut self, corners: &mut [[f32; 3]]) -> usize {
+        self.instance.corners(corners)
+    }
+
     fn take_control(&mut self) -> Option<SceneControl> {
         self.control.take()
     }

@@ -57,6 +57,8 @@ struct Instance {
     >,
     /// The mobility extension's function, when the plugin has one.
     mobility: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdMobility) -> i32>,
+    /// The deformation extension's function, when the plugin has one.
+    corners: Option<unsafe extern "C" fn(*mut c_void, *mut f32, u32) -> u32>,
     /// The ABI minor the plugin was built for: fields newer than it are not read.
     minor: u32,
 }
@@ -157,6 +159,18 @@ impl Instance {
                 (status == HAPTICD_OK).then_some(found)
             });
         }
+    }
+
+    /// [the stepping thread] Where the corners of the plugin's deforming solids stand, into
+    /// `corners`; how many there are (none without the deformation extension).
+    fn corners(&self, corners: &mut [[f32; 3]]) -> usize {
+        let Some(write) = self.corners else {
+            return 0;
+        };
+        let capacity = corners.len().min(u32::MAX as usize) as u32;
+        // SAFETY: `corners` holds `capacity` corners of three floats; the instance is this
+        // thread's.
+        unsafe { write(self.pointer, corners.as_mut_ptr().cast(), capacity) as usize }
     }
 
     /// [the stepping thread] The plugin's bodies into `poses`; how many it has (none when
@@ -390,6 +404,7 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         touch: None,
         drive: None,
         mobility: None,
+        corners: None,
         minor: loaded.abi.1,
     };
     let geometry =
@@ -402,6 +417,10 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
     let mobility: Option<HapticdSceneMobility> =
         unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_MOBILITY) };
     instance.mobility = mobility.and_then(|m| m.mobility);
+    // SAFETY: HapticdSceneDeformation is the struct of the deformation extension.
+    let deformation: Option<HapticdSceneDeformation> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_DEFORMATION) };
+    instance.corners = deformation.and_then(|d| d.corners);
     // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())

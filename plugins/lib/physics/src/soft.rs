@@ -126,6 +126,17 @@ impl SoftPart {
         }
     }
 
+    /// The corners of its surface's triangles where the nodes stand now, triangle by
+    /// triangle (turned outward).
+    pub fn corners(&self) -> impl Iterator<Item = DVec3> + '_ {
+        let positions = &self.body.positions;
+        self.body
+            .mesh
+            .surface
+            .iter()
+            .flat_map(move |t| t.map(|n| positions[n as usize]))
+    }
+
     /// Whether every node is where a finite number puts it.
     pub fn is_finite(&self) -> bool {
         self.body.positions.iter().all(|p| p.is_finite())

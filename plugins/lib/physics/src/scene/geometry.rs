@@ -6,14 +6,16 @@
 use glam::{DQuat, DVec3};
 use hapticd_core::kinematics::{Pose, quat_to_wxyz};
 use hapticd_plugin_api::{
-    Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_CYLINDER, HAPTICD_SHAPE_SPHERE, HAPTICD_SOLID_FIXED,
-    HAPTICD_SOLID_POINTER, HapticdBodyPose, HapticdSolid, HapticdTriangle,
+    Geometry, HAPTICD_SHAPE_BOX, HAPTICD_SHAPE_CYLINDER, HAPTICD_SHAPE_SPHERE,
+    HAPTICD_SOLID_DEFORMING, HAPTICD_SOLID_FIXED, HAPTICD_SOLID_POINTER, HapticdBodyPose,
+    HapticdSolid, HapticdTriangle,
 };
 
 use super::{PenaltyScene, Primitive, RapierScene};
 use crate::body::Body;
 use crate::joint::{Joint, JointKind};
 use crate::polyhedron::Polyhedron;
+use crate::soft::SoftPart;
 
 /// A joint's colour: a dark slate, half see-through, so that it shows against the light
 /// background without hiding what it joins.
@@ -40,9 +42,43 @@ impl PenaltyScene {
                 geometry.add_triangles(solid_of(id, body, pointer), faces(piece));
             }
         }
+        // A soft body is its surface where it stands at load, moved by `corners`.
+        for part in &self.soft {
+            let corners: Vec<DVec3> = part.corners().collect();
+            geometry.add_triangles(
+                HapticdSolid {
+                    flags: HAPTICD_SOLID_DEFORMING,
+                    ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
+                },
+                corners.chunks_exact(3).map(|t| HapticdTriangle {
+                    corners: [t[0], t[1], t[2]].map(|c| c.to_array()),
+                }),
+            );
+        }
         let joints: Vec<&Joint> = self.world.joints.iter().map(|l| &l.joint).collect();
         add_joints(&mut geometry, &self.world.bodies, &joints);
         geometry
+    }
+
+    /// [rt] Where the corners of the soft bodies' surfaces ([`geometry`](Self::geometry)'s
+    /// deforming solids) stand now, the first ones into `out`; how many there are.
+    pub fn corners(&self, out: &mut [[f32; 3]]) -> usize {
+        let corners = self.soft.iter().flat_map(SoftPart::corners);
+        let mut count = 0;
+        for c in corners {
+            if let Some(slot) = out.get_mut(count) {
+                *slot = c.as_vec3().to_array();
+            }
+            count += 1;
+        }
+        count
+    }
+
+    /// Where the corners of the soft bodies' surfaces stand now, all of them.
+    pub fn all_corners(&self) -> Vec<[f32; 3]> {
+        let mut corners = vec![[0.0; 3]; self.corners(&mut [])];
+        self.corners(&mut corners);
+        corners
     }
 
     /// Where each body of [`geometry`](Self::geometry) is now, by id.
