@@ -39,7 +39,15 @@ pub struct RenderArgs {
     /// strings' tensions; drawn as an arrow at the grip (5 mm per newton).
     #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true)]
     force: Option<Numbers>,
+    /// Physics scenes: hold the first hand's pointer still here (x,y,z, metres) instead of
+    /// at its calibration pose, so that the picture shows the scene as it answers a finger
+    /// there (with `--at`: a soft body pressed).
+    #[arg(long, value_parser = parse_numbers, allow_negative_numbers = true)]
+    grip: Option<Numbers>,
 }
+
+/// Farthest a grip may be held from the origin, metres: well beyond any workspace.
+const FARTHEST_GRIP: f64 = 10.0;
 
 /// Draw one frame of `args.scene`, with the mechanism asked for from `catalog`.
 pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
@@ -63,10 +71,19 @@ pub fn run(args: &RenderArgs, catalog: &Catalog) -> Result<(), Failure> {
         .transpose()?;
     // The hands rest at the mechanism's calibration poses, or one at the origin, where
     // the shipped mechanisms calibrate theirs.
-    let rests: Vec<Pose> = match &mechanism {
+    let mut rests: Vec<Pose> = match &mechanism {
         Some(m) => m.effectors.iter().map(|e| e.calibration).collect(),
         None => vec![Pose::IDENTITY],
     };
+    if let Some(grip) = args.grip.as_deref() {
+        let grip = vec3(grip, "--grip")?;
+        if grip.length() > FARTHEST_GRIP {
+            return Err(Failure::usage(format!(
+                "--grip must lie within {FARTHEST_GRIP} m of the origin"
+            )));
+        }
+        rests[0].position = grip;
+    }
     let scene = crate::scene_file::resolve(&args.scene)?;
     let (mut scenery, mut camera) = scenery(&scene, args.at, &rests).map_err(|e| match e {
         SceneryError::Input(e) => Failure::from(e),
