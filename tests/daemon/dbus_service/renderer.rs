@@ -458,3 +458,110 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
     };
     assert!(line(&shot) > 0.3, "no status line in the window");
 }
+
+/// The shipped jelly pressed by the simulated hand's fingertip (a ball of 8 mm radius
+/// lowered from above its top at y = -0.01 to 2 mm into where the top stood; the hand gives
+/// as the jelly pushes back): the world the daemon shares holds its surface's corners where
+/// they stand, the one under the finger's middle on the finger's solid, the block's far
+/// ends where they stood; and the renderer draws it from them.
+#[test]
+fn a_soft_body_pressed_by_the_hand_is_shared_and_drawn_as_it_bends() {
+    use hapticd_ipc::proxies::DeviceProxy;
+    use hapticd_ipc::world_share::MappedWorld;
+    let dir = support::shared_scratch("dbus", "soft");
+    let hand = dir.join("press-jelly.yaml");
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - hold: { seconds: 0.3 }\n    - move: { to: [0, -0.012, 0], \
+         seconds: 0.5 }\n    - hold: { seconds: 30 }\n",
+    )
+    .unwrap();
+    let bus = Bus::start(&dir);
+    let setup = Setup::new(&dir);
+    let hand = hand.to_str().unwrap();
+    let _daemon = Hapticd::start(
+        &bus,
+        &setup,
+        &["--sim", "spidar-g", "--scene", "jelly", "--hand", hand],
+    );
+    let _renderer = Renderer::start(&bus, &dir, &[]);
+    let connection = bus.connect();
+    let (rest, moved, finger) = zbus::block_on(async {
+        let device = DeviceProxy::builder(&connection)
+            .path(hapticd_ipc::device_path(0))
+            .build()
+            .await
+            .unwrap();
+        let (fd, _) = device.open_geometry().await.unwrap();
+        let (_, geometry) = hapticd_ipc::geometry_share::read(&fd.into()).unwrap();
+        let world = MappedWorld::open(&device.open_world().await.unwrap().into()).unwrap();
+        let mut frame = Box::new(hapticd_core::world_state::WorldFrame::empty());
+        // Pressed from 0.8 s on; settled well before 2 s.
+        while world.read(&mut frame).is_none_or(|_| frame.time < 2.0) {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let deforming: Vec<_> = geometry
+            .solids
+            .iter()
+            .filter(|s| s.flags & hapticd_plugin_api::HAPTICD_SOLID_DEFORMING != 0)
+            .collect();
+        assert_eq!(deforming.len(), 1, "{:?}", geometry.solids);
+        let rest: Vec<[f64; 3]> = geometry
+            .triangles_of(deforming[0])
+            .iter()
+            .flat_map(|t| t.corners)
+            .collect();
+        // The finger's solid where it stands: its faces' outward planes.
+        let finger = geometry
+            .solids
+            .iter()
+            .find(|s| s.flags & hapticd_plugin_api::HAPTICD_SOLID_POINTER != 0)
+            .unwrap();
+        let at = hapticd_core::world_state::pose_of(&frame.bodies[finger.body as usize]);
+        let faces: Vec<(DVec3, DVec3)> = geometry
+            .triangles_of(finger)
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.corners.map(|c| at.transform_point(DVec3::from(c)));
+                ((b - a).cross(c - a).normalize(), a)
+            })
+            .collect();
+        let renderer = hapticd_ipc::proxies::RendererProxy::new(&connection)
+            .await
+            .unwrap();
+        let size = std::collections::HashMap::from([
+            ("width", zbus::Variant::U32(160)),
+            ("height", zbus::Variant::U32(120)),
+        ]);
+        let picture = Picture::from_png(&renderer.snapshot(size).await.unwrap()).unwrap();
+        // The device's frame, the table and the jelly: 0.19 of the picture here.
+        assert!(drawn_share(&picture) > 0.1, "{}", drawn_share(&picture));
+        (rest, frame.deformed_corners().to_vec(), faces)
+    });
+    assert_eq!(moved.len(), rest.len());
+    assert!(moved.iter().flatten().all(|c| c.is_finite()));
+    let middle: Vec<DVec3> = rest
+        .iter()
+        .zip(&moved)
+        .filter(|(r, _)| r[0].abs() < 1e-6 && (r[1] + 0.01).abs() < 1e-6 && r[2].abs() < 1e-6)
+        .map(|(_, m)| glam::Vec3::from(*m).as_dvec3())
+        .collect();
+    assert!(!middle.is_empty());
+    for corner in middle {
+        // Pressed, and on the finger's solid (its nearest face) within 50 µm.
+        assert!(corner.y < -0.012, "{corner}");
+        let outside = finger
+            .iter()
+            .map(|(normal, on)| normal.dot(corner - *on))
+            .fold(f64::MIN, f64::max);
+        assert!(outside.abs() < 5e-5, "{corner} is {outside} m off the finger");
+    }
+    // The block's far ends, 22.5 mm from the finger's middle, stay put.
+    for (r, m) in rest.iter().zip(&moved) {
+        if r[0].abs() > 0.022 && (r[1] + 0.01).abs() < 1e-6 {
+            let moved = (0..3).map(|i| f64::from(m[i]) - r[i]);
+            let distance = moved.map(|d| d * d).sum::<f64>().sqrt();
+            assert!(distance < 1e-3, "{r:?} moved {distance} m");
+        }
+    }
+}
