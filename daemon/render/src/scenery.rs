@@ -2,7 +2,7 @@
 //! frames them. The solids are whatever the scene's plugin (or the daemon, for static scenes)
 //! published ([`Geometry`]); nothing here knows a scene file.
 
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, Vec3};
 use hapticd_core::kinematics::{Dof, Pose, quat_from_wxyz};
 use hapticd_core::mechanism::Mechanism;
 use hapticd_plugin_api::*;
@@ -350,7 +350,7 @@ impl Deformed<'_> {
             .corners
             .get(first..self.next)?
             .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]].map(|c| glam::Vec3::from(c).as_dvec3()))
+            .map(|t| [t[0], t[1], t[2]].map(|c| Vec3::from(c).as_dvec3()))
             .collect();
         if !corners.iter().flatten().all(|c| c.is_finite()) {
             return None;
@@ -433,4 +433,97 @@ fn bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
     points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| {
         (l.min(p), h.max(p))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A square of two triangles in the x–z plane, facing up, that deforms.
+    fn sheet() -> Shaded {
+        let mut geometry = Geometry::default();
+        let [a, b, c, d] = [
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+        ];
+        geometry.add_triangles(
+            HapticdSolid {
+                flags: HAPTICD_SOLID_DEFORMING,
+                ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
+            },
+            [[a, b, c], [a, c, d]].map(|corners| HapticdTriangle { corners }),
+        );
+        Shaded::new(geometry)
+    }
+
+    fn positions(scenery: &Scenery) -> Vec<DVec3> {
+        scenery.meshes[0]
+            .vertices
+            .iter()
+            .map(|v| v.position)
+            .collect()
+    }
+
+    #[test]
+    fn a_deforming_solid_is_drawn_where_its_corners_stand_smoothly_shaded() {
+        let shaded = sheet();
+        // The corner at (1, 0, 0) lifted 0.2: the sheet folds along its diagonal, by 16°.
+        let lifted = [
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 0.2, 0.0],
+        ];
+        let scenery = Scenery::of_geometry(&shaded, &[], &lifted);
+        let drawn = positions(&scenery);
+        let expected: Vec<DVec3> = lifted.iter().map(|&c| Vec3::from(c).as_dvec3()).collect();
+        assert_eq!(drawn, expected);
+        // The fold's corners take the mean of both faces' normals, weighted by area; the
+        // lifted corner its own face's.
+        let faces = [
+            DVec3::Y,
+            (expected[4] - expected[3])
+                .cross(expected[5] - expected[3])
+                .normalize(),
+        ];
+        let normals: Vec<DVec3> = scenery.meshes[0]
+            .vertices
+            .iter()
+            .map(|v| v.normal)
+            .collect();
+        let area = [
+            1.0,
+            (expected[4] - expected[3])
+                .cross(expected[5] - expected[3])
+                .length(),
+        ];
+        let fold = (faces[0] * area[0] + faces[1] * area[1]).normalize();
+        assert!(normals[0].distance(fold) < 1e-6, "{normals:?}");
+        assert!(normals[4].distance(fold) < 1e-6, "{normals:?}");
+        assert!(normals[5].distance(faces[1]) < 1e-6, "{normals:?}");
+        // Unfolded, it is flat and faces up.
+        let flat = Scenery::of_geometry(&shaded, &[], &[]);
+        assert!(
+            flat.meshes[0]
+                .vertices
+                .iter()
+                .all(|v| v.normal.distance(DVec3::Y) < 1e-12)
+        );
+    }
+
+    #[test]
+    fn corners_that_are_not_finite_or_not_the_solids_leave_it_as_it_stood() {
+        let shaded = sheet();
+        let at_load = positions(&Scenery::of_geometry(&shaded, &[], &[]));
+        let mut broken = [[0.5f32; 3]; 6];
+        broken[2][1] = f32::NAN;
+        for corners in [&broken[..], &[[0.5; 3]; 5][..], &[[0.5; 3]; 3][..]] {
+            let drawn = positions(&Scenery::of_geometry(&shaded, &[], corners));
+            assert_eq!(drawn, at_load, "{corners:?}");
+        }
+    }
 }

@@ -554,7 +554,10 @@ fn a_soft_body_pressed_by_the_hand_is_shared_and_drawn_as_it_bends() {
             .iter()
             .map(|(normal, on)| normal.dot(corner - *on))
             .fold(f64::MIN, f64::max);
-        assert!(outside.abs() < 5e-5, "{corner} is {outside} m off the finger");
+        assert!(
+            outside.abs() < 5e-5,
+            "{corner} is {outside} m off the finger"
+        );
     }
     // The block's far ends, 22.5 mm from the finger's middle, stay put.
     for (r, m) in rest.iter().zip(&moved) {
