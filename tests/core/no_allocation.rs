@@ -167,6 +167,7 @@ fn every_shipped_penalty_scene_steps_without_allocating_from_its_first_tick() {
         ("stick-slip", 1),
         ("mug", 1),
         ("hinges", 1),
+        ("jelly", 1),
     ] {
         let path = support::repo_dir().join(format!("config/scenes/{name}.yaml"));
         let text = std::fs::read_to_string(&path).unwrap();
@@ -228,7 +229,8 @@ fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
 }
 
 /// A soft ball pinned to a floor, pressed by a finger and let go, its first contacts and
-/// releases all in here, from the scene's first tick: nothing allocated.
+/// releases all in here, from the scene's first tick, its surface's corners read for
+/// pictures every tick: nothing allocated.
 #[test]
 fn a_penalty_scene_with_a_soft_body_pressed_and_let_go_does_not_allocate() {
     use glam::{DQuat, DVec3};
@@ -244,6 +246,8 @@ fn a_penalty_scene_with_a_soft_body_pressed_and_let_go_does_not_allocate() {
     let mut scene = PenaltyScene::parse(text, std::path::Path::new("soft.yaml"), 1).unwrap();
     let mut felt = [Wrench::default()];
     let mut most: f64 = 0.0;
+    let mut corners = vec![[0.0f32; 3]; 8192];
+    let mut lowest = f32::INFINITY;
     let n = allocations_in(|| {
         for step in 0..600 {
             let t = step as f64 * 1e-3;
@@ -257,11 +261,15 @@ fn a_penalty_scene_with_a_soft_body_pressed_and_let_go_does_not_allocate() {
             };
             assert!(scene.step_pointers(1e-3, &[grip], &mut felt));
             most = most.max(felt[0].force.y);
+            let count = scene.corners(&mut corners);
+            lowest = corners[..count].iter().map(|c| c[1]).fold(lowest, f32::min);
         }
     });
     assert_eq!(n, 0, "{n} allocations in 600 ticks");
-    // It was pressed: the finger felt the ball push back.
+    // It was pressed: the finger felt the ball push back; and the corners were read, down
+    // to the ball's bottom pinned at y = -0.001.
     assert!(most > 0.1, "{most} N");
+    assert!((lowest + 0.001).abs() < 1e-6, "{lowest}");
 }
 
 #[test]
