@@ -36,7 +36,7 @@ pub struct SoftBody {
     /// solver's preconditioner.
     pub(crate) own_stiffness: Vec<f64>,
     /// The material's λ and μ, Pa.
-    lame: [f64; 2],
+    pub(crate) lame: [f64; 2],
 }
 
 impl SoftBody {
@@ -139,9 +139,22 @@ impl SoftBody {
 
     /// Element `e`'s deformation gradient now, from its corners.
     fn deformation(&self, e: usize) -> DMat3 {
+        self.gradient_of(e, &self.positions)
+    }
+
+    /// Σ field(corner k) ⊗ ∇λₖ over element `e`'s corners: the gradient of `field` over a
+    /// linear element (of its positions, its deformation gradient), from its corners'
+    /// differences from the first (the gradients sum to zero).
+    pub(crate) fn gradient_of(&self, e: usize, field: &[DVec3]) -> DMat3 {
         let nodes = self.mesh.element(e);
-        let now = [0, 1, 2, 3].map(|k| self.positions[nodes[k] as usize]);
-        rotation::deformation(&now, &self.gradients[e])
+        let g = &self.gradients[e];
+        let first = field[nodes[0] as usize];
+        let mut f = DMat3::ZERO;
+        for k in 1..4 {
+            let d = field[nodes[k] as usize] - first;
+            f += DMat3::from_cols(d * g[k].x, d * g[k].y, d * g[k].z);
+        }
+        f
     }
 
     /// Element `e`'s nodes of `field` taken back into its rest frame (turned back by

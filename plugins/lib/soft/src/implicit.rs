@@ -13,7 +13,7 @@ use glam::{DMat3, DQuat, DVec3};
 
 use crate::body::SoftBody;
 use crate::contact::{Held, Obstacles, Touch};
-use crate::element::MOST_NODES;
+use crate::element::{MOST_NODES, Order};
 use crate::factor::{Factor, FactorError};
 
 /// How a step's linear solve ends.
@@ -221,6 +221,28 @@ impl SoftBody {
             let m = self.masses[i];
             *r = m * (solver.before[i] - self.velocities[i]) + dt * (m * gravity + self.forces[i]);
         }
+        if self.mesh.order == Order::Linear {
+            self.linear_forces(residual, |e, turn| {
+                // Rᵀ·(dt·F(x) + s·F(v)) − dt·I: the rest positions' gradient is I.
+                let moved = self.gradient_of(e, &self.positions) * dt
+                    + self.gradient_of(e, &self.velocities) * stiff;
+                (
+                    turn.transpose() * moved - DMat3::from_diagonal(DVec3::splat(dt)),
+                    -1.0,
+                )
+            });
+        } else {
+            self.element_forces(dt, stiff, residual);
+        }
+        for (r, &pin) in residual.iter_mut().zip(&self.pinned) {
+            if pin {
+                *r = DVec3::ZERO;
+            }
+        }
+    }
+
+    /// Less each element's share of the first residual, from its stiffness at its nodes.
+    fn element_forces(&self, dt: f64, stiff: f64, residual: &mut [DVec3]) {
         let mut k = [DVec3::ZERO; MOST_NODES];
         for e in 0..self.volumes.len() {
             let turn = DMat3::from_quat(self.turns[e]);
@@ -235,10 +257,28 @@ impl SoftBody {
                 residual[node as usize] -= turn * *f;
             }
         }
-        for (r, &pin) in residual.iter_mut().zip(&self.pinned) {
-            if pin {
-                *r = DVec3::ZERO;
-            }
+    }
+
+    /// Linear elements: add to `out` each element's nodal forces R·σ(H)·∇λₖ·V·w for the
+    /// displacement gradient H (in its rest frame) and weight w that `gradient` gives
+    /// from its index and turn. One stress an element, and its corners' gradients sum to
+    /// zero, so the first corner's force is the others' negated.
+    fn linear_forces(&self, out: &mut [DVec3], gradient: impl Fn(usize, &DMat3) -> (DMat3, f64)) {
+        let [lambda, mu] = self.lame;
+        for e in 0..self.volumes.len() {
+            let turn = DMat3::from_quat(self.turns[e]);
+            let (h, weight) = gradient(e, &turn);
+            let trace = h.x_axis.x + h.y_axis.y + h.z_axis.z;
+            let stress =
+                (h + h.transpose()) * mu + DMat3::from_diagonal(DVec3::splat(lambda * trace));
+            let push = turn * stress * (self.volumes[e] * weight);
+            let g = &self.gradients[e];
+            let nodes = self.mesh.element(e);
+            let [f1, f2, f3] = [1, 2, 3].map(|k| push * g[k]);
+            out[nodes[0] as usize] -= f1 + f2 + f3;
+            out[nodes[1] as usize] += f1;
+            out[nodes[2] as usize] += f2;
+            out[nodes[3] as usize] += f3;
         }
     }
 
@@ -307,14 +347,20 @@ impl SoftBody {
     /// out (their velocities, zero, are no unknowns).
     pub(crate) fn system_times(&self, stiff: f64, field: &[DVec3], out: &mut [DVec3]) {
         out.fill(DVec3::ZERO);
-        let mut k = [DVec3::ZERO; MOST_NODES];
-        for e in 0..self.volumes.len() {
-            let turn = DMat3::from_quat(self.turns[e]);
-            let (u, _) = self.displacements(e, &turn.transpose(), field, false);
-            self.stiffness_times(e, &u, &mut k);
-            let turn = turn * stiff;
-            for (f, &n) in k.iter().zip(self.mesh.element(e)) {
-                out[n as usize] += turn * *f;
+        if self.mesh.order == Order::Linear {
+            self.linear_forces(out, |e, turn| {
+                (turn.transpose() * self.gradient_of(e, field), stiff)
+            });
+        } else {
+            let mut k = [DVec3::ZERO; MOST_NODES];
+            for e in 0..self.volumes.len() {
+                let turn = DMat3::from_quat(self.turns[e]);
+                let (u, _) = self.displacements(e, &turn.transpose(), field, false);
+                self.stiffness_times(e, &u, &mut k);
+                let turn = turn * stiff;
+                for (f, &n) in k.iter().zip(self.mesh.element(e)) {
+                    out[n as usize] += turn * *f;
+                }
             }
         }
         for (i, o) in out.iter_mut().enumerate() {

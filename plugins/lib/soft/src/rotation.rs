@@ -3,10 +3,13 @@
 //! columns a few times (Müller, Bender, Chentanez and Macklin, 2016). Warm-started, one or
 //! two turns suffice; an inverted element still gets a rotation, never a reflection.
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DMat3, DQuat};
 
 /// Turns that bring a rotation to the polar one from anywhere, at most.
 pub const TURNS: usize = 20;
+
+/// Turns smaller than this (rad) are taken to first order.
+const SMALL_TURN: f64 = 0.01;
 
 /// Turn `turn` toward the rotation nearest `gradient`, at most `turns` times.
 pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize) {
@@ -23,7 +26,14 @@ pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize) {
         if angle < 1e-12 {
             break;
         }
-        *turn = (DQuat::from_axis_angle(omega / angle, angle) * *turn).normalize();
+        // A small turn's quaternion to within its angle³/12 (what the next turn corrects),
+        // without the sine and cosine of the exact one.
+        let step = if angle < SMALL_TURN {
+            DQuat::from_xyzw(omega.x / 2.0, omega.y / 2.0, omega.z / 2.0, 1.0)
+        } else {
+            DQuat::from_axis_angle(omega / angle, angle)
+        };
+        *turn = (step * *turn).normalize();
     }
 }
 
@@ -34,19 +44,10 @@ pub fn nearest(gradient: &DMat3) -> DQuat {
     turn
 }
 
-/// The deformation gradient of the element whose corners are `now` and whose corners'
-/// barycentric gradients at rest are `gradients`: Σ xₖ ⊗ ∇λₖ.
-pub fn deformation(now: &[DVec3; 4], gradients: &[DVec3; 4]) -> DMat3 {
-    let mut f = DMat3::ZERO;
-    for (x, g) in now.iter().zip(gradients) {
-        f += DMat3::from_cols(*x * g.x, *x * g.y, *x * g.z);
-    }
-    f
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     /// A rotation times a stretch along any axes gives back the rotation.
     #[test]
