@@ -52,7 +52,7 @@ const POISSON_RANGE: (f64, f64) = (0.0, 0.49);
 /// The longest damping time, s.
 const MOST_DAMPING: f64 = 1.0;
 /// The most linear elements a soft body may be cut into, and quadratic ones: what a
-/// device tick steps (here 2 058 linear ones take 0.83 ms, and 504 quadratic ones 1.1 ms:
+/// device tick steps (here 2 058 linear ones take 0.63 ms, and 504 quadratic ones 0.9 ms:
 /// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
 pub const MOST_ELEMENTS: [usize; 2] = [2_000, 400];
 
