@@ -6,7 +6,7 @@
 use glam::DVec3;
 use hapticd_core::kinematics::Wrench;
 use hapticd_soft::body::SoftBody;
-use hapticd_soft::contact::{Obstacle, Obstacles, Touch};
+use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
 use hapticd_soft::implicit::{Solve, Solver};
 
 use crate::body::Body;
@@ -35,17 +35,18 @@ pub struct SoftPart {
     planes: Vec<(DVec3, f64)>,
     solids: Vec<Obstacle>,
     touches: Vec<Touch>,
+    friction: Friction,
 }
 
 impl SoftPart {
     /// `body` called `name`, solved by `solver`, in a world of `bodies` whose pointers
-    /// start at `first_pointer`: its obstacles sized.
+    /// start at `first_pointer`, touching them with `friction`: its obstacles sized.
     pub fn new(
         name: String,
-        body: SoftBody,
-        solver: Solver,
+        (body, solver): (SoftBody, Solver),
         bodies: &[Body],
         first_pointer: usize,
+        friction: Friction,
     ) -> SoftPart {
         let touching: Vec<usize> = (0..bodies.len())
             .filter(|&i| i >= first_pointer || bodies[i].fixed)
@@ -69,6 +70,7 @@ impl SoftPart {
             planes: vec![(DVec3::ZERO, 0.0); faces],
             touches: vec![Touch::default(); solids.len()],
             solids,
+            friction,
         }
     }
 
@@ -94,13 +96,14 @@ impl SoftPart {
                 {
                     *out = (plane.normal, plane.offset);
                 }
-                o.centre = b.position;
+                (o.centre, o.velocity, o.spin) = (b.position, b.velocity, b.spin);
                 solid += 1;
             }
         }
         let obstacles = Obstacles {
             planes: &self.planes,
             solids: &self.solids,
+            friction: self.friction,
         };
         self.body.step(
             dt,

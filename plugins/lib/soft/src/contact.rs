@@ -2,9 +2,13 @@
 //! pieces) that its nodes may not enter. A node inside one where it stands at the end of
 //! the step is taken out to the face it is nearest within the step, as a constraint on its
 //! velocity along that face's normal (not a penalty spring: nothing to tune, nothing to
-//! ring), free along the face; what holds it there is the force it presses on the solid
-//! with. A node that would have to pull to stay is let go, and the step solved again: a
-//! contact only pushes.
+//! ring); what holds it there is the force it presses on the solid with. A node that would
+//! have to pull to stay is let go, and the step solved again: a contact only pushes.
+//!
+//! With friction (Coulomb's), a held node first sticks: it moves with the solid's surface,
+//! held along the face too. Where holding it along the face takes more than the static
+//! coefficient times its push, it slides instead, under the kinetic coefficient times its
+//! push along the way it was held, and the step is solved again.
 
 use glam::DVec3;
 
@@ -17,6 +21,25 @@ pub struct Obstacles<'a> {
     pub planes: &'a [(DVec3, f64)],
     /// The solids.
     pub solids: &'a [Obstacle],
+    /// Friction between the nodes and every solid.
+    pub friction: Friction,
+}
+
+/// Coulomb friction between a body's nodes and the solids it touches.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Friction {
+    /// The most the force along a face may be, times the push, while a node sticks.
+    pub stick: f64,
+    /// The force along a face while a node slides, times the push.
+    pub slide: f64,
+}
+
+impl Friction {
+    /// None: the nodes slide freely along every face.
+    pub const NONE: Friction = Friction {
+        stick: 0.0,
+        slide: 0.0,
+    };
 }
 
 /// A convex solid the nodes may not enter.
@@ -26,6 +49,17 @@ pub struct Obstacle {
     pub faces: (usize, usize),
     /// The point its torque is taken about, m.
     pub centre: DVec3,
+    /// Its velocity over the step at `centre`, m/s.
+    pub velocity: DVec3,
+    /// Its angular velocity over the step, rad/s.
+    pub spin: DVec3,
+}
+
+impl Obstacle {
+    /// The velocity of its surface at `x`, m/s.
+    pub fn velocity_at(&self, x: DVec3) -> DVec3 {
+        self.velocity + self.spin.cross(x - self.centre)
+    }
 }
 
 impl Obstacles<'_> {
@@ -33,6 +67,7 @@ impl Obstacles<'_> {
     pub const NONE: Obstacles<'static> = Obstacles {
         planes: &[],
         solids: &[],
+        friction: Friction::NONE,
     };
 
     /// How deep `x` is inside solid `k`, m, and the normal of the face it is nearest; None
@@ -74,6 +109,20 @@ pub struct Held {
     pub normal: DVec3,
     /// The node's velocity along it over the step: out of its depth, onto the face.
     pub speed: f64,
+    /// Whether it sticks to the face: moves with it, held along it too.
+    pub stuck: bool,
+    /// The velocity of the face where the node is, m/s.
+    pub surface: DVec3,
+    /// The friction on the node while it slides, N.
+    pub friction: DVec3,
+}
+
+impl Held {
+    /// The velocity the node is held to while it sticks: the face's along the face, out of
+    /// its depth across it.
+    pub fn stuck_velocity(&self) -> DVec3 {
+        self.surface + self.normal * (self.speed - self.normal.dot(self.surface))
+    }
 }
 
 #[cfg(test)]
@@ -94,6 +143,7 @@ mod tests {
         let cube = Obstacles {
             planes: &planes,
             solids: &solids,
+            friction: Friction::NONE,
         };
         let (depth, normal) = cube.depth(0, DVec3::new(0.1, -0.4, 0.2), 0.0).unwrap();
         assert!((depth - 0.1).abs() < 1e-15 && normal == -DVec3::Y);
