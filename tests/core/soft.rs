@@ -480,3 +480,116 @@ fn two_fingers_pinch_a_soft_cube_and_lift_it_without_it_slipping() {
         }
     }
 }
+
+/// The force a fingertip (a ball of 8 mm radius) feels pressed 1.5 mm into the top of a
+/// block (2 × 1 × 2 cm, its top at y = 0.01) and dragged 1 cm across it at 1 cm/s, a device
+/// tick at a time, once the press has settled: soft (a 2.5 mm lattice, 1 536 tetrahedra,
+/// so that the finger's contact spans several nodes; μs = 0.4, μk = 0.3) or rigid.
+fn dragged(soft: bool) -> Vec<DVec3> {
+    let block = if soft {
+        "soft: { young: 1.0e5, poisson: 0.45, damping: 0.002, resolution: 0.0025 }, pinned: \
+         { body: floor }"
+    } else {
+        "fixed: true"
+    };
+    let text = format!(
+        "name: drag\nengine: penalty\ndt: 0.00025\ngravity: [0, 0, 0]\nmaterial: {{ \
+         stiffness: 2.0e7, damping: 1.0e4, static_friction: 0.4, friction: 0.3, \
+         friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.001 }}\nbodies:\n  \
+         - {{ name: floor, box: [0.1, 0.01, 0.1], position: [0, -0.005, 0], fixed: true }}\n  \
+         - {{ name: block, box: [0.02, 0.01, 0.02], position: [0, 0.005, 0], density: 1100, \
+         {block} }}\npointer: {{ sphere: 0.008 }}\n"
+    );
+    let SceneFile::Penalty(mut scene) =
+        SceneFile::parse(&text, std::path::Path::new("drag.yaml"), 1).expect("a valid scene")
+    else {
+        unreachable!("a penalty scene");
+    };
+    let mut felt = [Wrench::default()];
+    let mut forces = Vec::new();
+    let (above, depth) = (0.01 + 0.008 + 0.002, 0.0035);
+    for tick in 0..1700 {
+        let t = tick as f64 * 0.001;
+        // Down onto the top at x = -5 mm over 0.2 s, held 0.3 s, then across.
+        let down = (t / 0.2).min(1.0);
+        let across = (t - 0.5).clamp(0.0, 1.0);
+        let grip = Grip {
+            position: DVec3::new(-0.005 + 0.01 * across, above - depth * down, 0.0),
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::new(
+                if (0.5..1.5).contains(&t) { 0.01 } else { 0.0 },
+                if t < 0.2 { -depth / 0.2 } else { 0.0 },
+                0.0,
+            ),
+            spin: DVec3::ZERO,
+        };
+        assert!(scene.step_pointers(0.001, &[grip], &mut felt), "t = {t}");
+        if (0.6..1.5).contains(&t) {
+            forces.push(felt[0].force);
+        }
+    }
+    forces
+}
+
+/// Root-mean-square of `samples` (one a millisecond) above 100 Hz, by their discrete
+/// Fourier transform (their mean and slope taken out first).
+fn above_100_hz(samples: &[f64]) -> f64 {
+    let n = samples.len();
+    let (mean, slope) = {
+        let t_mean = (n as f64 - 1.0) / 2.0;
+        let mean = samples.iter().sum::<f64>() / n as f64;
+        let (mut num, mut den) = (0.0, 0.0);
+        for (k, s) in samples.iter().enumerate() {
+            num += (k as f64 - t_mean) * (s - mean);
+            den += (k as f64 - t_mean).powi(2);
+        }
+        (mean - num / den * t_mean, num / den)
+    };
+    let level: Vec<f64> = samples
+        .iter()
+        .enumerate()
+        .map(|(k, s)| s - mean - slope * k as f64)
+        .collect();
+    let mut power = 0.0;
+    // Bins of 1000/n Hz: from 100 Hz to Nyquist.
+    for bin in (100 * n / 1000)..=n / 2 {
+        let w = 2.0 * std::f64::consts::PI * bin as f64 / n as f64;
+        let (mut re, mut im) = (0.0, 0.0);
+        for (k, x) in level.iter().enumerate() {
+            re += x * (w * k as f64).cos();
+            im -= x * (w * k as f64).sin();
+        }
+        let twice = if bin == n / 2 { 1.0 } else { 2.0 };
+        power += twice * (re * re + im * im) / (n * n) as f64;
+    }
+    power.sqrt()
+}
+
+/// A fingertip dragged across a soft block feels no buzz: the part of its force above
+/// 100 Hz, in each direction, stays under 5 % of the force. Measured: 3.7 % along the drag
+/// and 0.55 % pressing, the texture of the lattice's nodes coming into and out of the
+/// finger's contact (the penalty engine's rigid block, whose contact is a volume, gives
+/// none: 10⁻¹⁴); before nodes were held as they came in, they entered the finger between
+/// ticks and were thrown out again, a tick in and a tick out, and the force pressing
+/// alternated by half of itself (0.53 above 100 Hz on a 5 mm lattice).
+#[test]
+fn a_finger_dragged_across_a_soft_block_feels_no_buzz() {
+    let (soft, rigid) = (dragged(true), dragged(false));
+    for (axis, name) in [(0, "along"), (1, "pressing")] {
+        let series = |forces: &[DVec3]| forces.iter().map(|f| f[axis]).collect::<Vec<f64>>();
+        let (s, r) = (series(&soft), series(&rigid));
+        let size = |x: &[f64]| x.iter().map(|v| v.abs()).sum::<f64>() / x.len() as f64;
+        let (buzz_soft, buzz_rigid) = (above_100_hz(&s), above_100_hz(&r));
+        println!(
+            "{name}: soft {:.4} N with {buzz_soft:.2e} N above 100 Hz; rigid {:.4} N with \
+             {buzz_rigid:.2e} N",
+            size(&s),
+            size(&r)
+        );
+        assert!(
+            buzz_soft < 0.05 * size(&s),
+            "{name}: {buzz_soft} of {}",
+            size(&s)
+        );
+    }
+}

@@ -2,8 +2,9 @@
 //! pieces) that its nodes may not enter. A node inside one where it stands at the end of
 //! the step is taken out to the face it is nearest within the step, as a constraint on its
 //! velocity along that face's normal (not a penalty spring: nothing to tune, nothing to
-//! ring); what holds it there is the force it presses on the solid with. A node that would
-//! have to pull to stay is let go, and the step solved again: a contact only pushes.
+//! ring); what holds it there is the force it presses on the solid with. A node the step
+//! would carry into a solid is held on its face in that same step. A node that would have
+//! to pull to stay is let go, and the step solved again: a contact only pushes.
 //!
 //! With friction (Coulomb's), a held node first sticks: it moves with the solid's surface,
 //! held along the face too. Where holding it along the face takes more than the static
@@ -107,10 +108,15 @@ pub struct Held {
     pub obstacle: usize,
     /// The face's outward normal.
     pub normal: DVec3,
-    /// The node's velocity along it over the step: out of its depth, onto the face.
+    /// The node's velocity along it over the step: out of its depth, or in across the gap
+    /// between them, onto the face.
     pub speed: f64,
     /// Whether it sticks to the face: moves with it, held along it too.
     pub stuck: bool,
+    /// Whether it has been sliding and is not yet at rest on the face: it then slides
+    /// again once holding it takes more than the kinetic friction, before the static one
+    /// (else a dragged node would stick and slip in turn, tick by tick).
+    pub kinetic: bool,
     /// The velocity of the face where the node is, m/s.
     pub surface: DVec3,
     /// The friction on the node while it slides, N.

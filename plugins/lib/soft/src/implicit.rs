@@ -66,11 +66,15 @@ pub struct Solver {
     turned: Vec<DVec3>,
     /// The nodes held on obstacles this step.
     held: Vec<Held>,
+    /// Whether each node is among them.
+    holding: Vec<bool>,
     /// Whether each node pressed on an obstacle last step.
     pressing: Vec<bool>,
     /// The friction on each node that slid last step (zero for one that did not): it
     /// starts the step sliding under it.
     sliding: Vec<DVec3>,
+    /// Whether each node ended last step in friction's kinetic regime ([`Held::kinetic`]).
+    kinetic: Vec<bool>,
     /// The velocities the step started from, whose momentum it carries.
     before: Vec<DVec3>,
     residual: Vec<DVec3>,
@@ -88,8 +92,10 @@ impl Solver {
             sums: vec![DQuat::IDENTITY; nodes],
             turned: vec![DVec3::ZERO; nodes],
             held: Vec::with_capacity(nodes),
+            holding: vec![false; nodes],
             pressing: vec![false; nodes],
             sliding: vec![DVec3::ZERO; nodes],
+            kinetic: vec![false; nodes],
             before: vec![DVec3::ZERO; nodes],
             residual: vec![DVec3::ZERO; nodes],
             preconditioned: vec![DVec3::ZERO; nodes],
@@ -158,15 +164,20 @@ impl SoftBody {
             iterations: 0,
             residual: 0.0,
         };
-        for _ in 0..RELEASES {
+        for pass in 1..=RELEASES {
             stepped = self.solve(dt, stiff, gravity, solve, solver, stepped.iterations);
+            // The last solve stands with the contacts it was made with.
+            if pass == RELEASES {
+                break;
+            }
             let velocities = &self.velocities;
-            if !release(
+            let released = release(
                 &mut solver.held,
                 (&solver.residual, velocities),
                 dt,
                 obstacles.friction,
-            ) {
+            );
+            if !(self.enter(dt, obstacles, solver) || released) {
                 break;
             }
         }
@@ -298,42 +309,100 @@ impl SoftBody {
         }
     }
 
-    /// Find the nodes held on obstacles over the coming step of `dt`: those inside one,
-    /// and those on a face that they pressed on last step.
+    /// Find the nodes held on obstacles over the coming step of `dt`: those inside one or
+    /// that would be by the step's end at their velocity, and those on a face that they
+    /// pressed on last step.
     fn hold(&self, dt: f64, obstacles: Obstacles, solver: &mut Solver) {
         solver.held.clear();
-        for (i, &x) in self.positions.iter().enumerate() {
+        for i in 0..self.positions.len() {
             if self.pinned[i] {
                 continue;
             }
             let slack = if solver.pressing[i] { SLACK } else { -SLACK };
-            let deepest = (0..obstacles.solids.len())
-                .filter_map(|k| obstacles.depth(k, x, slack).map(|(depth, n)| (k, depth, n)))
-                .filter(|&(_, depth, _)| depth > -slack)
-                .max_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((k, depth, normal)) = deepest {
-                let surface = obstacles.solids[k].velocity_at(x);
-                let slip = self.velocities[i] - surface;
-                let slip = slip - normal * slip.dot(normal);
-                // It sticks on as it stuck, and a new contact sticks where it does not
-                // slip: one that comes sliding in slides on (its friction set by its push
-                // once the solve finds it).
-                let stuck = if solver.pressing[i] {
-                    solver.sliding[i] == DVec3::ZERO
-                } else {
-                    slip.length() < STICKING
-                };
-                solver.held.push(Held {
-                    node: i,
-                    obstacle: k,
-                    normal,
-                    speed: depth.max(0.0) / dt,
-                    stuck: obstacles.friction.stick > 0.0 && stuck,
-                    surface,
-                    friction: solver.sliding[i],
-                });
+            if let Some(h) = self.contact(i, dt, obstacles, solver, slack) {
+                solver.held.push(h);
             }
         }
+    }
+
+    /// After a solve: hold too the free nodes it would take into a solid, each on the face
+    /// it would cross, its velocity set as held; whether there were any. Else a node
+    /// springing back toward a solid that draws away (a finger passing over a bulge) would
+    /// enter it between ticks and be thrown out again, a tick in and a tick out.
+    fn enter(&mut self, dt: f64, obstacles: Obstacles, solver: &mut Solver) -> bool {
+        solver.holding.fill(false);
+        for h in &solver.held {
+            solver.holding[h.node] = true;
+        }
+        let before = solver.held.len();
+        for i in 0..self.positions.len() {
+            if self.pinned[i] || solver.holding[i] {
+                continue;
+            }
+            let end = self.positions[i] + dt * self.velocities[i];
+            if !(0..obstacles.solids.len()).any(|k| obstacles.depth(k, end, -SLACK).is_some()) {
+                continue;
+            }
+            if let Some(h) = self.contact(i, dt, obstacles, solver, -SLACK) {
+                let v = &mut self.velocities[i];
+                *v = if h.stuck {
+                    h.stuck_velocity()
+                } else {
+                    *v + h.normal * (h.speed - h.normal.dot(*v))
+                };
+                solver.held.push(h);
+            }
+        }
+        solver.held.len() > before
+    }
+
+    /// Node `i` held on the obstacle it would be deepest in at the step's end at its
+    /// velocity, or else is deepest in now (within `slack`), if any: on that face, its
+    /// speed along the normal what brings it there from where it is (in across a gap, or
+    /// out of a depth), sticking or sliding as it did and as it comes in.
+    fn contact(
+        &self,
+        i: usize,
+        dt: f64,
+        obstacles: Obstacles,
+        solver: &Solver,
+        slack: f64,
+    ) -> Option<Held> {
+        let deepest = |at: DVec3| {
+            (0..obstacles.solids.len())
+                .filter_map(|k| {
+                    obstacles
+                        .depth(k, at, slack)
+                        .map(|(depth, n)| (k, depth, n))
+                })
+                .filter(|&(_, depth, _)| depth > -slack)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+        };
+        let (x, v) = (self.positions[i], self.velocities[i]);
+        let ahead = deepest(x + dt * v).map(|(k, depth, n)| (k, depth + dt * n.dot(v), n));
+        let (k, depth, normal) = ahead.or_else(|| deepest(x))?;
+        let surface = obstacles.solids[k].velocity_at(x);
+        let slip = v - surface;
+        let slip = slip - normal * slip.dot(normal);
+        // It sticks on as it stuck, and a new contact sticks where it does not slip: one
+        // that comes sliding in slides on (its friction set by its push once the solve
+        // finds it).
+        let (stuck, kinetic) = if solver.pressing[i] {
+            (solver.sliding[i] == DVec3::ZERO, solver.kinetic[i])
+        } else {
+            let stuck = slip.length() < STICKING;
+            (stuck, !stuck)
+        };
+        Some(Held {
+            node: i,
+            obstacle: k,
+            normal,
+            speed: depth / dt,
+            stuck: obstacles.friction.stick > 0.0 && stuck,
+            kinetic,
+            surface,
+            friction: solver.sliding[i],
+        })
     }
 
     /// What held each node on its face over the step: (A·v − b)·n/dt along its normal, the
@@ -342,6 +411,7 @@ impl SoftBody {
         touches.fill(Touch::default());
         solver.pressing.fill(false);
         solver.sliding.fill(DVec3::ZERO);
+        solver.kinetic.fill(false);
         for h in &solver.held {
             let held = -solver.residual[h.node] / dt;
             let push = held.dot(h.normal).max(0.0);
@@ -352,6 +422,10 @@ impl SoftBody {
                 solver.sliding[h.node] = h.friction;
                 h.friction
             };
+            // A node comes to rest on its face once it is held with half the kinetic
+            // friction to spare.
+            solver.kinetic[h.node] =
+                h.kinetic && along.length() > 0.5 * obstacles.friction.slide * push;
             let (on, at) = (-(h.normal * push + along), self.positions[h.node]);
             let touch = &mut touches[h.obstacle];
             touch.force += on;
@@ -482,10 +556,12 @@ fn filter(field: &mut [DVec3], held: &[Held]) {
 
 /// After a solve that left `residual` and `velocities`: let go the held nodes that would
 /// pull on their faces; set sliding those whose hold along the face takes more than
-/// `friction` allows, under the kinetic friction of their push the way they were held;
-/// set sticking again those that slide against their friction (it would have stopped
-/// them); and bring each sliding node's friction to its push. Whether the step must be
-/// solved again: a node let go or turned, or a friction changed by more than a tenth.
+/// `friction` allows (the static coefficient at rest, less in the kinetic regime), under
+/// the kinetic friction of their push the way they were held;
+/// set sticking again those that slide against their friction faster than [`STICKING`]
+/// (it would have stopped them); and bring each sliding node's friction to its push.
+/// Whether the step must be solved again: a node let go or turned, or a friction changed
+/// by more than a hundredth.
 fn release(
     held: &mut Vec<Held>,
     (residual, velocities): (&[DVec3], &[DVec3]),
@@ -502,18 +578,29 @@ fn release(
         let along = force - h.normal * push;
         let slip = velocities[h.node] - h.surface;
         let slip = slip - h.normal * slip.dot(h.normal);
-        if h.stuck && along.length() > friction.stick * push {
-            h.stuck = false;
+        // Once sliding, a node slides again beyond half-way from the kinetic friction to
+        // the static one: at the kinetic friction itself, a node dragged along would stick
+        // and slip in turn, tick by tick.
+        let limit = if h.kinetic {
+            (0.5 * (friction.stick + friction.slide)).max(1.05 * friction.slide)
+        } else {
+            friction.stick
+        };
+        if h.stuck && along.length() > limit * push {
+            (h.stuck, h.kinetic) = (false, true);
             h.friction = along.normalize_or_zero() * (friction.slide * push);
             changed = true;
-        } else if !h.stuck && slip.dot(h.friction) > 0.0 {
+        } else if !h.stuck && slip.dot(h.friction) > 0.0 && slip.length() > STICKING {
             (h.stuck, h.friction) = (true, DVec3::ZERO);
             changed = true;
         } else if !h.stuck {
-            // Against the slip, as the push now is.
-            let way = (-slip)
-                .try_normalize()
-                .unwrap_or(h.friction.normalize_or_zero());
+            // Against the slip, as the push now is; the way it was where the slip is too
+            // slow to tell (a node dragged along at nearly the finger's speed).
+            let way = if slip.length() > STICKING {
+                -slip.normalize()
+            } else {
+                h.friction.normalize_or_zero()
+            };
             let now = way * (friction.slide * push);
             changed |= (now - h.friction).length() > 0.01 * h.friction.length();
             h.friction = now;
