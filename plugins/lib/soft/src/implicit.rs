@@ -166,8 +166,10 @@ impl SoftBody {
         };
         for pass in 1..=RELEASES {
             stepped = self.solve(dt, stiff, gravity, solve, solver, stepped.iterations);
-            // The last solve stands with the contacts it was made with.
+            // The last solve stands with the contacts it was made with; but a node it would
+            // carry into a solid is still stopped on the face (its push left out).
             if pass == RELEASES {
+                self.enter(dt, obstacles, solver);
                 break;
             }
             let velocities = &self.velocities;
