@@ -422,14 +422,6 @@ fn two_fingers_pinch_a_soft_cube_and_lift_it_without_it_slipping() {
     let soft = |scene: &hapticd_physics::scene::PenaltyScene| scene.soft[0].body.clone();
     let weight = soft(&scene).mass() * 9.81;
     let start = soft(&scene);
-    let middle = |b: &SoftBody| {
-        b.positions
-            .iter()
-            .zip(&b.masses)
-            .map(|(x, m)| *x * *m)
-            .sum::<DVec3>()
-            / b.mass()
-    };
     let mut felt = [Wrench::default(); 2];
     let mut held = Vec::new();
     for tick in 0..2300 {
@@ -447,7 +439,7 @@ fn two_fingers_pinch_a_soft_cube_and_lift_it_without_it_slipping() {
         }
     }
     let body = soft(&scene);
-    let risen = middle(&body).y - middle(&start).y;
+    let risen = body.centre().y - start.centre().y;
     let lowest = body
         .positions
         .iter()

@@ -119,6 +119,17 @@ impl SoftBody {
         energy
     }
 
+    /// Its centre of mass now, m.
+    pub fn centre(&self) -> DVec3 {
+        let moment: DVec3 = self
+            .positions
+            .iter()
+            .zip(&self.masses)
+            .map(|(x, m)| *x * *m)
+            .sum();
+        moment / self.mass()
+    }
+
     /// Its volume now, m³ (each element's corners; a quadratic element's bulges left out).
     pub fn volume(&self) -> f64 {
         (0..self.volumes.len())

@@ -630,6 +630,26 @@ mod tests {
 
     const GRAVITY: DVec3 = DVec3::new(0.0, -9.81, 0.0);
 
+    /// A floor: the box 2 m wide below y = 0 (its top's outward normal +y).
+    const FLOOR: [(DVec3, f64); 6] = [
+        (DVec3::Y, 0.0),
+        (DVec3::NEG_Y, 1.0),
+        (DVec3::X, 1.0),
+        (DVec3::NEG_X, 1.0),
+        (DVec3::Z, 1.0),
+        (DVec3::NEG_Z, 1.0),
+    ];
+
+    impl Obstacle {
+        /// [`FLOOR`], still.
+        fn floor() -> Obstacle {
+            Obstacle {
+                faces: (0, FLOOR.len()),
+                ..Obstacle::default()
+            }
+        }
+    }
+
     fn rubber(young: f64) -> Material {
         Material {
             young,
@@ -795,18 +815,7 @@ mod tests {
                 ..rubber(5e4)
             };
             let mut body = SoftBody::new(mesh, material);
-            let planes = [
-                (DVec3::Y, 0.0),
-                (-DVec3::Y, 1.0),
-                (DVec3::X, 1.0),
-                (-DVec3::X, 1.0),
-                (DVec3::Z, 1.0),
-                (-DVec3::Z, 1.0),
-            ];
-            let solids = [Obstacle {
-                faces: (0, 6),
-                ..Obstacle::default()
-            }];
+            let (planes, solids) = (FLOOR, [Obstacle::floor()]);
             let floor = Obstacles {
                 planes: &planes,
                 solids: &solids,
@@ -870,18 +879,7 @@ mod tests {
                 ..rubber(5e4)
             };
             let mut body = SoftBody::new(mesh, material);
-            let planes = [
-                (DVec3::Y, 0.0),
-                (-DVec3::Y, 1.0),
-                (DVec3::X, 1.0),
-                (-DVec3::X, 1.0),
-                (DVec3::Z, 1.0),
-                (-DVec3::Z, 1.0),
-            ];
-            let solids = [Obstacle {
-                faces: (0, 6),
-                ..Obstacle::default()
-            }];
+            let (planes, solids) = (FLOOR, [Obstacle::floor()]);
             let floor = Obstacles {
                 planes: &planes,
                 solids: &solids,
@@ -894,14 +892,6 @@ mod tests {
                 body.step(0.001, GRAVITY, floor, &mut touch, tick, &mut solver);
             }
             let weight = body.mass() * 9.81;
-            let middle = |b: &SoftBody| {
-                b.positions
-                    .iter()
-                    .zip(&b.masses)
-                    .map(|(x, m)| *x * *m)
-                    .sum::<DVec3>()
-                    / b.mass()
-            };
             let mean_speed = |b: &SoftBody| {
                 b.velocities
                     .iter()
@@ -914,7 +904,7 @@ mod tests {
                 .filter(|&i| body.positions[i].y < 1e-9)
                 .collect();
             let start: Vec<DVec3> = bottom.iter().map(|&i| body.positions[i]).collect();
-            let (x0, steps) = (middle(&body).x, 200);
+            let (x0, steps) = (body.centre().x, 200);
             let mut speeds = Vec::new();
             for _ in 0..steps {
                 for (f, m) in body.forces.iter_mut().zip(&body.masses) {
@@ -939,7 +929,7 @@ mod tests {
             println!(
                 "a = {a}: floor holds {along} of the weight along it; bottom moved {moved:e} m, \
                  middle {:e} m",
-                middle(&body).x - x0
+                body.centre().x - x0
             );
             if slides {
                 // Speeding up at (a − μk)·g from the first tick: over the last 100 ticks.
