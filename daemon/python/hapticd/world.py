@@ -1,6 +1,7 @@
 """A device's picture of the world, read from the memory the daemon hands out: the latest
-frame (the grips, the wrenches shown and every body's pose) under a sequence lock in a sealed
-memfd (``Device.OpenWorld``; the layout is ``hapticd_core::world_state``'s, version 3), and the
+frame (the grips, the wrenches shown, every body's pose and where the corners of deforming
+solids stand) under a sequence lock in a sealed memfd (``Device.OpenWorld``; the layout is
+``hapticd_core::world_state``'s, version 4), and the
 running scene's solids in a sealed memfd of their own, written once and sized by the scene
 (``Device.OpenGeometry``; the layout is ``hapticd_core::world_geometry``'s, version 1). Memory
 of another layout is refused.
@@ -20,9 +21,11 @@ from .telemetry import CHANNELS, MAX_EFFECTORS
 __all__ = ["World", "Frame", "Solid", "Pose", "read_geometry", "SHAPES", "MAX_BODIES"]
 
 MAGIC = b"hapticdW"
-VERSION = 3
+VERSION = 4
 MAX_BODIES = 4096
 """The most bodies a frame shows: a world of more shows its first ones."""
+MAX_CORNERS = 8192
+"""The most corners of deforming solids a frame shows: a world of more draws them as at load."""
 GEOMETRY_MAGIC = b"hapticdG"
 GEOMETRY_VERSION = 1
 MAX_SOLIDS = 65536
@@ -32,6 +35,8 @@ SHAPES = {1: "box", 2: "sphere", 3: "cylinder", 4: "plane", 5: "triangles"}
 """The shape of a solid by its number (``HAPTICD_SHAPE_*``)."""
 FIXED = 1
 """The flag of a solid that does not move."""
+DEFORMING = 4
+"""The flag of a solid of triangles whose corners move on their own (a soft body)."""
 NO_BODY = 0xFFFFFFFF
 """The body of a solid that belongs to none."""
 
@@ -53,7 +58,12 @@ _FRAME_HEAD = struct.Struct(
     + "2d" * CHANNELS
 )
 _POSE = struct.Struct("<7d")
-_FRAME = _FRAME_HEAD.size + MAX_BODIES * _POSE.size
+# After the bodies: how many corners the deforming solids have, then where they stand.
+_CORNER_COUNT = struct.Struct("<I")
+_CORNER = struct.Struct("<3f")
+_CORNERS_AT = _FRAME_HEAD.size + MAX_BODIES * _POSE.size
+# The frame ends padded to its 8-byte alignment.
+_FRAME = -(-(_CORNERS_AT + _CORNER_COUNT.size + MAX_CORNERS * _CORNER.size) // 8) * 8
 # A solid: body, shape, flags, first triangle, triangle count, sizes, frame, colour.
 _SOLID = struct.Struct("<5I4x3d7d4f")
 _TRIANGLE = struct.Struct("<9d")
@@ -84,6 +94,10 @@ class Frame:
     """Each effector's displayed force (N) and torque (N·m)."""
     bodies: List[Pose]
     """Each body's pose, in the order of its id (the scene interface's ``Bodies``)."""
+    corners: List[Tuple[float, float, float]]
+    """Where the corners of the deforming solids' triangles stand (metres, in each solid's
+    frame), solid by solid and triangle by triangle in the geometry's order; empty when there
+    are more than a frame holds."""
 
 
 @dataclass(frozen=True)
@@ -96,6 +110,9 @@ class Solid:
     """box, sphere, cylinder, plane or triangles."""
     fixed: bool
     """Whether it never moves."""
+    deforming: bool
+    """Whether its corners move on their own (a soft body's surface): the frames' ``corners``
+    say where they stand."""
     size: Tuple[float, float, float]
     """A box's half edges; a sphere's or cylinder's radius (and a cylinder's length); a plane's
     width drawn."""
@@ -133,15 +150,23 @@ class World:
     def frame(self) -> Tuple[int, Frame]:
         """The latest frame and its sequence (it grows with every frame written)."""
 
-        def read() -> Tuple[Tuple[Any, ...], List[Pose]]:
+        def read() -> Tuple[Tuple[Any, ...], List[Pose], List[Tuple[float, float, float]]]:
             head = _FRAME_HEAD.unpack_from(self._map, _FRAME_AT)
             # A world of more bodies than the layout holds shows its first ones.
             shown = min(head[6], MAX_BODIES)
             first = _FRAME_AT + _FRAME_HEAD.size
             bodies = [_POSE.unpack_from(self._map, first + k * _POSE.size) for k in range(shown)]
-            return head, bodies
+            at = _FRAME_AT + _CORNERS_AT
+            (count,) = _CORNER_COUNT.unpack_from(self._map, at)
+            at += _CORNER_COUNT.size
+            corners = (
+                [_CORNER.unpack_from(self._map, at + k * _CORNER.size) for k in range(count)]
+                if count <= MAX_CORNERS
+                else []
+            )
+            return head, bodies, corners
 
-        sequence, (head, bodies) = self._read(_SEQUENCE_AT, read)
+        sequence, (head, bodies, corners) = self._read(_SEQUENCE_AT, read)
         # Checked once the sequence says the frame is whole, not half written. Its state and
         # proxy flag are neither used nor shown here, so they are left unchecked.
         time_, rate, _state, switches, effectors, strings, _count, _ = head[:8]
@@ -152,7 +177,7 @@ class World:
         grips = [tuple(head[at + 7 * k : at + 7 * k + 7]) for k in range(effectors)]
         at += 7 * MAX_EFFECTORS + MAX_EFFECTORS + 3 * MAX_EFFECTORS
         wrenches = [tuple(head[at + 6 * k : at + 6 * k + 6]) for k in range(effectors)]
-        return sequence, Frame(time_, switches, grips, wrenches, bodies)
+        return sequence, Frame(time_, switches, grips, wrenches, bodies, corners)
 
     def close(self) -> None:
         """Unmap the world."""
@@ -195,6 +220,7 @@ def read_geometry(fd: int) -> Tuple[int, List[Solid]]:
                     body=None if body == NO_BODY else body,
                     shape=SHAPES.get(shape, "unknown"),
                     fixed=bool(flags & FIXED),
+                    deforming=bool(flags & DEFORMING),
                     size=tuple(v[5:8]),
                     offset=tuple(v[8:15]),
                     triangles=corners,
