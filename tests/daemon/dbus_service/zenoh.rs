@@ -746,10 +746,13 @@ fn the_zenoh_bridge_publishes_the_worlds_joint_states() {
         "the hinges and sliders, in the file's order"
     );
     assert_eq!((last.position.len(), last.velocity.len()), (4, 4));
+    // Turning at its motor's rate, and never further than the clock lets it: the physics
+    // thread keeps the clock's pace alone (1.00 of it measured) but may fall behind it on a
+    // loaded two-core machine (0.49 measured beside other tests' daemons).
     let span = said["span"].as_f64().unwrap();
     let turned = last.position[3] - first.position[3];
     assert!(
-        (turned / span - 1.0).abs() < 0.1 && (last.velocity[3] - 1.0).abs() < 0.05,
+        turned > 0.0 && turned / span < 1.1 && (last.velocity[3] - 1.0).abs() < 0.05,
         "the crank turned {turned} rad in {span} s, at {} rad/s",
         last.velocity[3]
     );
