@@ -1,8 +1,9 @@
 //! A soft block pinned at its base and pressed at its top by a hand's force, stepped one
 //! device tick (1 ms) at a time: 504, 2 058 and 7 986 linear tetrahedra (Kuhn's cut of
-//! 84, 343 and 1 331 cubes), and the same blocks of quadratic ones; beside them, one tick of
-//! the penalty engine's rigid block of the same size on a floor (the stack of one). Issue
-//! 48's goal: 2 000 tetrahedra in 400 µs a tick.
+//! 84, 343 and 1 331 cubes), and the same blocks of quadratic ones; the linear blocks again
+//! under a finger dragged across them with friction; beside them, one tick of the penalty
+//! engine's rigid block of the same size on a floor (the stack of one). Issue 48's goal:
+//! 2 000 tetrahedra in 400 µs a tick.
 //!
 //! Run: `make bench`, or `cargo bench -p hapticd-e2e --bench soft`.
 
@@ -10,7 +11,7 @@ use divan::Bencher;
 use glam::DVec3;
 use hapticctl::experiments::stack_timing::{DT, stack};
 use hapticd_soft::body::SoftBody;
-use hapticd_soft::contact::Obstacles;
+use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
 use hapticd_soft::element::Order;
 use hapticd_soft::implicit::{Solve, Solver, Stepped};
 use hapticd_soft::lattice::cut_box;
@@ -89,6 +90,55 @@ fn linear_tick_diagonal(bencher: Bencher, cells: [usize; 3]) {
 #[divan::bench(args = GRIDS)]
 fn quadratic_tick(bencher: Bencher, cells: [usize; 3]) {
     tick(bencher, cells, Order::Quadratic, true);
+}
+
+/// A finger (a box 2 cm square) pressed 1 mm into the middle of the top of a block of
+/// `cells`, dragged along it at 1 cm/s with friction (μs = 0.4, μk = 0.3): a tick of the
+/// block under the finger, its contacts sticking, sliding and coming and going.
+#[divan::bench(args = GRIDS)]
+fn linear_tick_under_a_dragged_finger(bencher: Bencher, cells: [usize; 3]) {
+    let (mut body, mut solver) = pressed(cells, Order::Linear, true);
+    let elements = body.mesh.element_count();
+    let top = body.mesh.nodes.iter().map(|p| p.y).fold(f64::MIN, f64::max);
+    let mut x = 0.0;
+    let mut planes = [(DVec3::ZERO, 0.0); 6];
+    let mut touch = [Touch::default()];
+    let mut tick = || {
+        x += 1e-5;
+        // The finger's faces, its bottom 1 mm below the block's top.
+        let centre = DVec3::new(x, top + 0.01 - 0.001, 0.0);
+        for (k, axis) in [DVec3::X, DVec3::Y, DVec3::Z].into_iter().enumerate() {
+            for (j, side) in [1.0, -1.0].into_iter().enumerate() {
+                let n = axis * side;
+                planes[2 * k + j] = (n, n.dot(centre) + 0.01);
+            }
+        }
+        let solids = [Obstacle {
+            faces: (0, 6),
+            centre,
+            velocity: DVec3::new(0.01, 0.0, 0.0),
+            spin: DVec3::ZERO,
+        }];
+        let finger = Obstacles {
+            planes: &planes,
+            solids: &solids,
+            friction: Friction {
+                stick: 0.4,
+                slide: 0.3,
+            },
+        };
+        let gravity = DVec3::new(0.0, -9.81, 0.0);
+        body.step(0.001, gravity, finger, &mut touch, TICK, &mut solver)
+    };
+    // Pressed and sliding before it is timed.
+    for _ in 0..200 {
+        tick();
+    }
+    println!(
+        "{elements} elements under a dragged finger: {:?} a tick",
+        tick()
+    );
+    bencher.bench_local(tick);
 }
 
 /// The penalty engine's one block resting on its floor, a tick (its steps of [`DT`]).
