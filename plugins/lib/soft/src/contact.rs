@@ -124,10 +124,12 @@ pub struct Held {
 }
 
 impl Held {
-    /// The velocity the node is held to while it sticks: the face's along the face, out of
-    /// its depth across it.
-    pub fn stuck_velocity(&self) -> DVec3 {
-        self.surface + self.normal * (self.speed - self.normal.dot(self.surface))
+    /// The velocity the node is held to, from its own `v`: the face's along the face while
+    /// it sticks, its own while it slides; out of its depth (or across its gap) onto the
+    /// face either way.
+    pub fn held_velocity(&self, v: DVec3) -> DVec3 {
+        let along = if self.stuck { self.surface } else { v };
+        along + self.normal * (self.speed - self.normal.dot(along))
     }
 }
 

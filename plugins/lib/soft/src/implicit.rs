@@ -151,11 +151,7 @@ impl SoftBody {
         }
         for h in &solver.held {
             let v = &mut self.velocities[h.node];
-            *v = if h.stuck {
-                h.stuck_velocity()
-            } else {
-                *v + h.normal * (h.speed - h.normal.dot(*v))
-            };
+            *v = h.held_velocity(*v);
         }
         // A node that would have to pull on its face to stay there is let go, and one that
         // would take more friction to stick than its push gives slides: the step is solved
@@ -347,11 +343,7 @@ impl SoftBody {
             }
             if let Some(h) = self.contact(i, dt, obstacles, solver, -SLACK) {
                 let v = &mut self.velocities[i];
-                *v = if h.stuck {
-                    h.stuck_velocity()
-                } else {
-                    *v + h.normal * (h.speed - h.normal.dot(*v))
-                };
+                *v = h.held_velocity(*v);
                 solver.held.push(h);
             }
         }

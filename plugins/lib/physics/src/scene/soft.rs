@@ -11,8 +11,9 @@
 //! `pinned:` holds nodes still: those inside a fixed body (`body: NAME`), or at or below a
 //! height along an axis in the scene's frame (`below: [y, 0.0]`). A soft body runs under the
 //! penalty engine, in a scene whose other bodies are fixed, and touches them and the
-//! pointers: its nodes are kept out of them, and what it presses on a pointer with is what
-//! the hand feels there. It is drawn as it bends (its surface a deforming solid), but not
+//! pointers: its nodes are kept out of them, held there with the material's friction
+//! (`static_friction`, `friction`), and what it presses on a pointer with is what the hand
+//! feels there. It is drawn as it bends (its surface a deforming solid), but not
 //! yet listed among the bodies, attached to a moving body, or touched by a coupled pointer.
 //!
 //! ```yaml
