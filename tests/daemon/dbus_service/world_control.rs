@@ -393,10 +393,23 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
             &[],
             hosts_side,
         );
-        let pressing: Vec<f64> = daemons
-            .iter()
-            .map(|(bus, _, _)| -numbers(&bus.get(DEVICE, "Force"))[0])
-            .collect();
+        // Each finger's push along +x, asked until one presses (up to half a second): a
+        // single asking could fall between the block leaving one finger and meeting the
+        // other (once, both read 0 N).
+        let ask = || -> Vec<f64> {
+            daemons
+                .iter()
+                .map(|(bus, _, _)| -numbers(&bus.get(DEVICE, "Force"))[0])
+                .collect()
+        };
+        let mut pressing = ask();
+        for _ in 0..10 {
+            if pressing.iter().any(|f| *f > 0.05) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+            pressing = ask();
+        }
         world.kill().ok();
         world.wait().ok();
         let killed = Instant::now();
