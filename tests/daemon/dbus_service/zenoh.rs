@@ -734,9 +734,11 @@ fn the_zenoh_bridge_publishes_the_worlds_joint_states() {
         ),
         "{key}"
     );
-    // 50 a second, less what a loaded machine takes.
+    // 50 a second, less what a loaded machine takes: each is a call on the bus, and beside
+    // other tests' daemons on two cores 70 came in the 4 s (17 a second); a bridge that
+    // published only when the world's pictures change, or once a second, would send a few.
     let count = said["count"].as_u64().unwrap();
-    assert!(count > 100, "{said}");
+    assert!(count > 40, "{said}");
     let decode =
         |which: &str| JointState::decode(&hex_bytes(said[which].as_str().unwrap())).unwrap();
     let (first, last) = (decode("first"), decode("last"));
