@@ -5,7 +5,7 @@
 use std::process::Command;
 
 use glam::{DQuat, DVec3};
-use hapticd_core::kinematics::Wrench;
+use hapticd_core::kinematics::{Up, Wrench};
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::scene::SceneFile;
 use hapticd_soft::body::SoftBody;
@@ -584,4 +584,228 @@ fn a_finger_dragged_across_a_soft_block_feels_no_buzz() {
             size(&s)
         );
     }
+}
+
+/// The Stanford bunny (a public, closed reconstruction) made soft, upright and turned on
+/// its back by `up: z`: its tetrahedra fill the volume its surface closes and their outer
+/// nodes lie on that surface where a rigid body of the same keys would stand; and upright,
+/// once it has settled, a finger pressed 2 mm into its back is pushed out with a force that
+/// grows with the press, the world finite.
+#[test]
+fn a_public_mesh_made_soft_fills_its_surface_and_pushes_back_when_pressed() {
+    let dir = support::dir_with_mesh("soft-bunny", "tests/corpus/bunny.obj", "bunny.obj");
+    // Each way up, the lowest point of the bunny on the table.
+    let read = |up: &str, lift: f64| {
+        let text = format!(
+            "name: bunny\nengine: penalty\ndt: 0.00025\nmaterial: {{ stiffness: 2.0e7, damping: \
+             1.0e4, static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
+             friction_damping: 1.0e4, slip_speed: 0.001 }}\nbodies:\n  - {{ name: table, box: \
+             [0.2, 0.02, 0.2], position: [0, -0.01, 0], fixed: true }}\n  - {{ name: bunny, \
+             mesh: bunny.obj, scale: 0.006, up: {up}, position: [0, {lift}, 0], density: 1100, \
+             soft: {{ young: 2.0e5, poisson: 0.45, damping: 0.002, resolution: 0.0065 }}, \
+             pinned: {{ below: [y, 0.004] }} }}\npointer: {{ sphere: 0.004 }}\n"
+        );
+        let path = dir.join(format!("bunny-{up}.yaml"));
+        std::fs::write(&path, text).unwrap();
+        match SceneFile::load(&path, 1) {
+            Ok(SceneFile::Penalty(scene)) => scene,
+            Ok(_) => unreachable!("a penalty scene"),
+            Err(e) => panic!("{e}"),
+        }
+    };
+    let file = hapticd_mesh::load(
+        &dir.join("bunny.obj"),
+        0.006,
+        hapticd_mesh::Limits::DEFAULT,
+        None,
+    )
+    .expect("the bunny reads");
+    let closed = hapticd_mesh::properties::mass_properties(&file).volume;
+    for (up, turn) in [(Up::Y, "y"), (Up::Z, "z")] {
+        let turn_of = up.turn();
+        let lift = -file
+            .vertices
+            .iter()
+            .map(|v| (turn_of * *v).y)
+            .fold(f64::INFINITY, f64::min);
+        let mut scene = read(turn, lift);
+        let up = turn;
+        let soft = &scene.soft[0];
+        let elements = soft.body.mesh.element_count();
+        let volume = soft.body.volume();
+        println!(
+            "up {up}: {elements} tetrahedra of {:.2} cm³, the surface closes {:.2} cm³",
+            volume * 1e6,
+            closed * 1e6
+        );
+        assert!(elements > 500 && elements <= 2000, "{elements}");
+        // Measured 3.6 % under: the lattice keeps the tetrahedra whose middles are inside,
+        // and moves the outer nodes onto the surface only as far as their tetrahedra keep a
+        // fifth of their volume (74 of 288 held short).
+        assert!((volume / closed - 1.0).abs() < 0.05, "{volume} vs {closed}");
+        // The outer nodes, where the body stands at load, against the surface placed as a
+        // rigid mesh body of the same keys would be.
+        let placed = hapticd_mesh::TriangleMesh {
+            vertices: file
+                .vertices
+                .iter()
+                .map(|v| turn_of * *v + DVec3::new(0.0, lift, 0.0))
+                .collect(),
+            ..file.clone()
+        };
+        let surface = hapticd_mesh::enclosure::Enclosure::new(&placed);
+        let outer: std::collections::BTreeSet<u32> =
+            soft.body.mesh.surface.iter().flatten().copied().collect();
+        let off: Vec<f64> = outer
+            .iter()
+            .map(|&n| {
+                let x = soft.body.positions[n as usize];
+                surface.nearest(x).distance(x)
+            })
+            .collect();
+        let on = off.iter().filter(|&&d| d < 1e-9).count();
+        let farthest = off.iter().copied().fold(0.0, f64::max);
+        println!(
+            "up {up}: {on} of {} outer nodes on the surface, the farthest {:.2} mm off",
+            off.len(),
+            farthest * 1e3
+        );
+        // None further than a cell of the lattice (6.5 mm): measured 4.66 mm.
+        assert!(on > off.len() / 2 && farthest < 0.0065, "{on}, {farthest}");
+        if up == "z" {
+            // On its back it rests on a few pinned nodes and rolls away from a finger.
+            continue;
+        }
+        // Let it settle under its weight with the finger well above, then press from 1 mm
+        // above its highest point to 2 mm in, at 1 mm/s.
+        let mut felt = [Wrench::default()];
+        let mut finger = |at: DVec3, scene: &mut hapticd_physics::scene::PenaltyScene| {
+            let grip = Grip {
+                position: at,
+                orientation: DQuat::IDENTITY,
+                velocity: DVec3::ZERO,
+                spin: DVec3::ZERO,
+            };
+            assert!(scene.step_pointers(0.001, &[grip], &mut felt));
+            assert!(felt[0].force.is_finite(), "at {at}: {felt:?}");
+            felt[0].force
+        };
+        for _ in 0..2000 {
+            finger(DVec3::new(0.0, 0.2, 0.0), &mut scene);
+        }
+        // Its back: the highest point above its centre of mass (not an ear).
+        let body = &scene.soft[0].body;
+        let centre = body.centre();
+        let top = body
+            .positions
+            .iter()
+            .copied()
+            .filter(|p| (p - centre).with_y(0.0).length() < 0.005)
+            .max_by(|a, b| a.y.total_cmp(&b.y))
+            .unwrap();
+        let mut pushes = Vec::new();
+        for tick in 0..=3000 {
+            let depth = -0.001 + 1e-6 * tick as f64;
+            let push = finger(top + DVec3::new(0.0, 0.004 - depth, 0.0), &mut scene);
+            if tick % 1000 == 0 {
+                pushes.push(push.y);
+            }
+        }
+        println!("up {up}: pushed with {pushes:?} N at -1, 0, 1 and 2 mm");
+        assert!(scene.soft.iter().all(|s| s.is_finite()));
+        assert!(pushes[0] == 0.0 && pushes[1] < pushes[2] && pushes[2] < pushes[3]);
+    }
+}
+
+/// A soft mesh that cannot be cut as asked is refused at its key, with what is wrong: an
+/// open surface (the Utah teapot), a lattice too fine for a tick, one too coarse to keep a
+/// tetrahedron (a square frame, one lattice cell across, whose tetrahedra's middles all
+/// fall in its hole), and a mesh file outside the scene's directory.
+#[test]
+fn a_soft_mesh_that_cannot_be_cut_is_refused_at_its_key() {
+    let dir = support::dir_with_mesh("soft-refused", "tests/corpus/bunny.obj", "bunny.obj");
+    std::fs::copy(
+        support::repo_dir().join("tests/corpus/teapot.obj"),
+        dir.join("teapot.obj"),
+    )
+    .unwrap();
+    std::fs::write(dir.join("frame.obj"), frame()).unwrap();
+    for (mesh, resolution, expected) in [
+        ("teapot.obj", 0.01, "bodies[1].mesh"),
+        (
+            "bunny.obj",
+            0.001,
+            "bodies[1].soft.resolution: cuts it into about",
+        ),
+        (
+            "frame.obj",
+            1.0,
+            "cuts it into 0 tetrahedra; a device tick steps 1 to 2000",
+        ),
+        ("../bunny.obj", 0.01, "bodies[1].mesh"),
+    ] {
+        let path = dir.join("refused.yaml");
+        std::fs::write(
+            &path,
+            format!(
+                "name: refused\nengine: penalty\ndt: 0.00025\nmaterial: {{ stiffness: 2.0e7, \
+                 damping: 1.0e4, static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
+                 friction_damping: 1.0e4, slip_speed: 0.001 }}\nbodies:\n  - {{ name: table, \
+                 box: [0.2, 0.02, 0.2], position: [0, -0.01, 0], fixed: true }}\n  - {{ name: \
+                 soft, mesh: {mesh}, scale: 0.006, position: [0, 0, 0], density: 1100, soft: {{ \
+                 young: 1.0e5, poisson: 0.45, resolution: {resolution} }}, pinned: {{ below: [y, \
+                 0.004] }} }}\n"
+            ),
+        )
+        .unwrap();
+        let e = match SceneFile::load(&path, 1) {
+            Ok(_) => panic!("{mesh} at {resolution} m was accepted"),
+            Err(e) => e.to_string(),
+        };
+        // That alone.
+        assert!(
+            e.contains(expected) && e.matches("error:").count() == 1,
+            "{expected:?} not alone in {e}"
+        );
+    }
+}
+
+/// A square frame 6 units across (3.6 cm at the scene's scale) as OBJ: four bars of square
+/// section, apart by a hair, each a closed box, about a square hole.
+fn frame() -> String {
+    let (outer, bar, gap) = (6.0, 1.0, 0.01);
+    let bars = [
+        ([0.0, 0.0], [outer, bar]),
+        ([0.0, outer - bar], [outer, outer]),
+        ([0.0, bar + gap], [bar, outer - bar - gap]),
+        ([outer - bar, bar + gap], [outer, outer - bar - gap]),
+    ];
+    let mut obj = String::new();
+    for (k, (low, high)) in bars.into_iter().enumerate() {
+        for c in 0..8 {
+            let x = if c & 1 == 0 { low[0] } else { high[0] };
+            let y = if c & 2 == 0 { 0.0 } else { bar };
+            let z = if c & 4 == 0 { low[1] } else { high[1] };
+            obj += &format!("v {x} {y} {z}\n");
+        }
+        // The box's faces, counter-clockwise from outside, corners numbered by bits x, y, z.
+        for [a, b, c] in [
+            [0, 4, 6],
+            [0, 6, 2],
+            [1, 3, 7],
+            [1, 7, 5],
+            [0, 1, 5],
+            [0, 5, 4],
+            [2, 6, 7],
+            [2, 7, 3],
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 5, 7],
+            [4, 7, 6],
+        ] {
+            let v = |i: usize| 8 * k + i + 1;
+            obj += &format!("f {} {} {}\n", v(a), v(b), v(c));
+        }
+    }
+    obj
 }

@@ -6,6 +6,7 @@
 //! - [`load`] and [`Limits`]: reading a file by its extension, refusing what could hurt;
 //! - [`properties`]: whether the surface is closed, its volume, centre and inertia;
 //! - [`decomposition`]: a movable mesh as convex pieces, kept between runs by [`cache`];
+//! - [`enclosure`]: whether a closed mesh holds a point, and its surface nearest one;
 //! - [`solid`]: a mesh as a physics body takes it;
 //! - `height_map` and `scene_files` (feature `scene-files`): a grey PNG a texture lays over
 //!   a surface, and the readers of what a scene file names;
@@ -15,6 +16,7 @@
 
 pub mod cache;
 pub mod decomposition;
+pub mod enclosure;
 mod error;
 mod gltf;
 #[cfg(feature = "scene-files")]

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 use hapticd_core::diagnostics::Findings;
 use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT};
 use hapticd_mesh::cache::Cache;
@@ -48,16 +48,28 @@ pub(super) struct MeshBody {
     pub(super) inertia: DMat3,
 }
 
-/// The mesh `file` of body `b` (at field path `at`), with its convex pieces when `pieces`
-/// and `files` cuts meshes; `None` after reporting what is wrong.
-pub(super) fn mesh_body(
+/// How a body takes its mesh file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Reading {
+    /// A closed surface, with its convex pieces when the files cut meshes: a rigid body.
+    Pieces,
+    /// A closed surface alone: a soft body, cut into tetrahedra of its own.
+    Closed,
+    /// The triangles as they are, holes and all: a fixed body under rapier.
+    Surface,
+}
+
+/// The mesh `file` of body `b` (at field path `at`), read as `reading` says, in the file's
+/// frame times its scale, and the turn that places it (its orientation and `up:`); `None`
+/// after reporting what is wrong.
+pub(super) fn read_mesh(
     f: &mut Findings,
     at: &str,
     b: &RawBody,
     file: &str,
     files: &MeshFiles<'_>,
-    pieces: bool,
-) -> Option<MeshBody> {
+    reading: Reading,
+) -> Option<(hapticd_mesh::MeshSolid, DQuat)> {
     if b.size.is_some() || b.hull.is_some() || b.sphere.is_some() || b.pieces.is_some() {
         f.error(
             at,
@@ -74,12 +86,10 @@ pub(super) fn mesh_body(
     if !(placed && scaled) {
         return None;
     }
-    let cut = files.cache.filter(|_| pieces);
-    // A fixed mesh under rapier is its triangles alone, so it need not be closed.
-    let read = if pieces {
-        hapticd_mesh::solid(Path::new(file), &files.dir, scale, cut)
-    } else {
-        hapticd_mesh::surface(Path::new(file), &files.dir, scale)
+    let read = match reading {
+        Reading::Pieces => hapticd_mesh::solid(Path::new(file), &files.dir, scale, files.cache),
+        Reading::Closed => hapticd_mesh::solid(Path::new(file), &files.dir, scale, None),
+        Reading::Surface => hapticd_mesh::surface(Path::new(file), &files.dir, scale),
     };
     let solid = match read {
         Ok(solid) => solid,
@@ -98,6 +108,27 @@ pub(super) fn mesh_body(
         );
         return None;
     }
+    Some((solid, turn))
+}
+
+/// The mesh `file` of body `b` (at field path `at`), with its convex pieces when `pieces`
+/// and `files` cuts meshes; `None` after reporting what is wrong.
+pub(super) fn mesh_body(
+    f: &mut Findings,
+    at: &str,
+    b: &RawBody,
+    file: &str,
+    files: &MeshFiles<'_>,
+    pieces: bool,
+) -> Option<MeshBody> {
+    let reading = if pieces {
+        Reading::Pieces
+    } else {
+        Reading::Surface
+    };
+    let (solid, turn) = read_mesh(f, at, b, file, files, reading)?;
+    let cut = files.cache.is_some() && pieces;
+    let smallest = SOLID_SIZES.0;
     let position = DVec3::from(b.position);
     let place = |v: DVec3| turn * v + position;
     let mut convex = Vec::with_capacity(solid.pieces.len());
@@ -109,7 +140,7 @@ pub(super) fn mesh_body(
             convex.push(p.transformed(turn, position));
         }
     }
-    if cut.is_some() && convex.is_empty() {
+    if cut && convex.is_empty() {
         f.error(format!("{at}.mesh"), "no convex piece of it holds a volume");
         return None;
     }

@@ -252,7 +252,7 @@ impl SceneFile {
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
-        let soft = soft::soft_bodies(&mut f, &raw, engine, &bodies.bodies);
+        let soft = soft::soft_bodies(&mut f, &raw, engine, &bodies.bodies, &files);
         let named: Vec<(&str, bool)> = raw
             .bodies
             .iter()

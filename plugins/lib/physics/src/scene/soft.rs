@@ -1,6 +1,8 @@
-//! Soft bodies (`soft:` on a body, thesis 7.2): a box or a ball cut into tetrahedra at
-//! `resolution` (a lattice of cubes of that side, six tetrahedra each; a ball keeps those
-//! inside it and brings its surface nodes onto the sphere), its nodes moved by co-rotational
+//! Soft bodies (`soft:` on a body, thesis 7.2): a box, a ball or a closed mesh (`mesh:`,
+//! with `scale:` and `up:` as a rigid mesh body takes them) cut into tetrahedra at
+//! `resolution` (a lattice of cubes of that side, six tetrahedra each; a ball or a mesh
+//! keeps those whose middles are inside it and brings its outer nodes onto its surface as
+//! far as their tetrahedra keep their shape), its nodes moved by co-rotational
 //! linear elasticity of Young's modulus `young` (Pa), Poisson's ratio `poisson` (up to
 //! 0.49), the body's `density` and a stiffness-proportional `damping` (s), stepped once a
 //! device tick by an implicit step that no stiffness or resolution makes unstable. Its
@@ -32,16 +34,18 @@
 //!     pinned: { body: table }         # or below: [y, 0.0]
 //! ```
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::Findings;
+use hapticd_mesh::enclosure::Enclosure;
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::element::Order;
 use hapticd_soft::implicit::Solver;
-use hapticd_soft::lattice::{Ball, cut_box, cut_solid};
+use hapticd_soft::lattice::{Ball, Solid, TetMesh, cut_box, cut_solid};
 use hapticd_soft::material::Material;
 
 use super::Engine;
 use super::checks::DENSITY_RANGE;
+use super::meshes::{MeshFiles, Reading, read_mesh};
 use super::schema::{RawAxis, RawBody, RawElements, RawScene};
 use crate::body::Body;
 use crate::soft::SOFT_TICK;
@@ -56,6 +60,12 @@ const MOST_DAMPING: f64 = 1.0;
 /// device tick steps (here 2 058 linear ones take 0.63 ms, and 504 quadratic ones 0.9 ms:
 /// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
 pub const MOST_ELEMENTS: [usize; 2] = [2_000, 400];
+
+/// The most lattice tetrahedra a solid is cut from, for each it may keep: a mesh that
+/// fills a fiftieth of its bounds (a thin ring turned askew) is still cut, its 100 000
+/// lattice tetrahedra sorted inside or out at some 30 µs each against a mesh of half a
+/// million triangles (a release build here).
+const LATTICE_PER_ELEMENT: f64 = 50.0;
 
 /// A checked soft body, cut, its pins set, its solve factored.
 pub(super) struct Soft {
@@ -75,6 +85,7 @@ pub(super) fn soft_bodies(
     raw: &RawScene,
     engine: Engine,
     bodies: &[Body],
+    files: &MeshFiles<'_>,
 ) -> Vec<Soft> {
     let rigid: Vec<(&str, &Body)> = raw
         .bodies
@@ -144,26 +155,28 @@ pub(super) fn soft_bodies(
             MOST_DAMPING,
             " s",
         );
-        let orientation = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
-        f.coordinates(format!("{at}.position"), &b.position, 1e3, "m");
-        let Some(extent) = extent(f, &at, b) else {
+        let Some((shape, orientation)) = shape(f, &at, b, files) else {
             continue;
         };
         if !f.positive(format!("{at}.soft.resolution"), soft.resolution) {
             continue;
         }
-        let cells = (extent / soft.resolution).ceil().max(DVec3::ONE);
-        let elements = 6.0 * cells.x * cells.y * cells.z;
         let (most, kind) = match soft.elements {
             RawElements::Linear => (MOST_ELEMENTS[0], "linear"),
             RawElements::Quadratic => (MOST_ELEMENTS[1], "quadratic"),
         };
-        if elements > most as f64 {
+        // The lattice over the solid's bounds, before any is cut: what it would keep, by
+        // the share of the bounds the solid fills.
+        let (low, high) = shape.bounds();
+        let cells = ((high - low) / soft.resolution).ceil().max(DVec3::ONE);
+        let lattice = 6.0 * cells.x * cells.y * cells.z;
+        let elements = lattice * shape.filling();
+        if elements > most as f64 || lattice > LATTICE_PER_ELEMENT * most as f64 {
             f.error(
                 format!("{at}.soft.resolution"),
                 format!(
-                    "cuts it into {elements} tetrahedra; a device tick steps at most {most} \
-                     {kind} ones"
+                    "cuts it into about {elements:.0} tetrahedra; a device tick steps at most \
+                     {most} {kind} ones"
                 ),
             );
             continue;
@@ -182,7 +195,17 @@ pub(super) fn soft_bodies(
             RawElements::Quadratic => Order::Quadratic,
         };
         // Cut in its own frame, then placed.
-        let mut mesh = cut(b, order, soft.resolution);
+        let mut mesh = shape.cut(order, soft.resolution);
+        if mesh.element_count() == 0 || mesh.element_count() > most {
+            f.error(
+                format!("{at}.soft.resolution"),
+                format!(
+                    "cuts it into {} tetrahedra; a device tick steps 1 to {most} {kind} ones",
+                    mesh.element_count()
+                ),
+            );
+            continue;
+        }
         for node in &mut mesh.nodes {
             *node = orientation * *node + DVec3::from(b.position);
         }
@@ -202,41 +225,98 @@ pub(super) fn soft_bodies(
     out
 }
 
-/// The size of soft body `b`'s solid along each axis (its own), m; None after reporting a
-/// solid that is neither a box nor a ball.
-fn extent(f: &mut Findings, at: &str, b: &RawBody) -> Option<DVec3> {
-    match (b.size, b.sphere) {
-        (Some(size), None) if f.coordinates(format!("{at}.box"), &size, 1e3, "m") => {
-            let size = DVec3::from(size);
-            (size.min_element() > 0.0).then_some(size).or_else(|| {
-                f.error(format!("{at}.box"), "each side must be > 0");
-                None
-            })
+/// A soft body's solid, in its own frame.
+enum Shape {
+    /// A box of these sides about its centre.
+    Box(DVec3),
+    /// A ball of this radius about its centre.
+    Ball(f64),
+    /// A closed mesh, in its file's frame times its scale, and the volume it closes.
+    Mesh(Enclosure, f64),
+}
+
+impl Shape {
+    /// The box holding it: lowest and highest corner.
+    fn bounds(&self) -> (DVec3, DVec3) {
+        match self {
+            Shape::Box(size) => (-*size / 2.0, *size / 2.0),
+            Shape::Ball(radius) => (DVec3::splat(-radius), DVec3::splat(*radius)),
+            Shape::Mesh(mesh, _) => mesh.bounds(),
         }
-        (None, Some(radius)) if f.positive(format!("{at}.sphere"), radius) => {
-            Some(DVec3::splat(2.0 * radius))
+    }
+
+    /// The share of its bounds it fills.
+    fn filling(&self) -> f64 {
+        let (low, high) = self.bounds();
+        let bounds = (high - low).element_product();
+        match self {
+            Shape::Box(_) => 1.0,
+            Shape::Ball(_) => std::f64::consts::PI / 6.0,
+            Shape::Mesh(_, volume) => (volume / bounds).min(1.0),
         }
-        (None, None) | (Some(_), Some(_)) => {
-            f.error(format!("{at}.soft"), "a soft body is a box or a sphere");
-            None
+    }
+
+    /// It cut at `resolution` into tetrahedra of `order`.
+    fn cut(&self, order: Order, resolution: f64) -> TetMesh {
+        let (low, high) = self.bounds();
+        let (centre, half) = ((low + high) / 2.0, (high - low) / 2.0);
+        match self {
+            Shape::Box(_) => cut_box(centre, half, resolution, order),
+            &Shape::Ball(radius) => {
+                let ball = Ball {
+                    centre: DVec3::ZERO,
+                    radius,
+                };
+                cut_solid(&ball, centre, half, resolution, order)
+            }
+            Shape::Mesh(mesh, _) => cut_solid(&Enclosed(mesh), centre, half, resolution, order),
         }
-        _ => None,
     }
 }
 
-/// Soft body `b`'s solid, about the origin in its own frame, cut at `resolution`.
-fn cut(b: &RawBody, order: Order, resolution: f64) -> hapticd_soft::lattice::TetMesh {
-    match (b.size, b.sphere) {
-        (Some(size), _) => cut_box(DVec3::ZERO, DVec3::from(size) / 2.0, resolution, order),
-        (_, Some(radius)) => {
-            let ball = Ball {
-                centre: DVec3::ZERO,
-                radius,
-            };
-            cut_solid(&ball, DVec3::ZERO, DVec3::splat(radius), resolution, order)
-        }
-        (None, None) => unreachable!("checked by extent"),
+/// A closed mesh as a solid to cut.
+struct Enclosed<'a>(&'a Enclosure);
+
+impl Solid for Enclosed<'_> {
+    fn contains(&self, x: DVec3) -> bool {
+        self.0.contains(x)
     }
+
+    fn nearest_on_surface(&self, x: DVec3) -> DVec3 {
+        self.0.nearest(x)
+    }
+}
+
+/// Soft body `b`'s solid and the turn that places it; None after reporting a solid that is
+/// not a box, a ball or a closed mesh.
+fn shape(f: &mut Findings, at: &str, b: &RawBody, files: &MeshFiles<'_>) -> Option<(Shape, DQuat)> {
+    if let Some(file) = &b.mesh {
+        let (solid, turn) = read_mesh(f, at, b, file, files, Reading::Closed)?;
+        let volume = solid.properties.volume;
+        return Some((Shape::Mesh(Enclosure::new(&solid.mesh), volume), turn));
+    }
+    let orientation = f.unit_quaternion(format!("{at}.orientation"), b.orientation);
+    f.coordinates(format!("{at}.position"), &b.position, 1e3, "m");
+    let shape = match (b.size, b.sphere) {
+        (Some(size), None) if f.coordinates(format!("{at}.box"), &size, 1e3, "m") => {
+            let size = DVec3::from(size);
+            if size.min_element() <= 0.0 {
+                f.error(format!("{at}.box"), "each side must be > 0");
+                return None;
+            }
+            Shape::Box(size)
+        }
+        (None, Some(radius)) if f.positive(format!("{at}.sphere"), radius) => Shape::Ball(radius),
+        (None, None) | (Some(_), Some(_)) => {
+            f.error(
+                format!("{at}.soft"),
+                "a soft body is a box, a sphere or a closed mesh",
+            );
+            return None;
+        }
+        _ => return None,
+    };
+    Some((shape, orientation))
 }
 
 /// Pin `body`'s nodes as `pinned` says, inside one of the `rigid` bodies (by name) or at or
@@ -415,6 +495,6 @@ mod tests {
             "box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], soft",
             "hull: [[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]], position: [0, 0.01, 0], soft",
         );
-        assert!(refused(&mesh).contains("a soft body is a box or a sphere"));
+        assert!(refused(&mesh).contains("a soft body is a box, a sphere or a closed mesh"));
     }
 }
