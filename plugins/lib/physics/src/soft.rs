@@ -7,7 +7,7 @@ use glam::DVec3;
 use hapticd_core::kinematics::Wrench;
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
-use hapticd_soft::implicit::{Solve, Solver};
+use hapticd_soft::implicit::{Solve, Solver, Stepped};
 
 use crate::body::Body;
 
@@ -36,6 +36,8 @@ pub struct SoftPart {
     solids: Vec<Obstacle>,
     touches: Vec<Touch>,
     friction: Friction,
+    /// What its last tick's solve did.
+    pub stepped: Stepped,
 }
 
 impl SoftPart {
@@ -71,6 +73,10 @@ impl SoftPart {
             touches: vec![Touch::default(); solids.len()],
             solids,
             friction,
+            stepped: Stepped {
+                iterations: 0,
+                residual: 0.0,
+            },
         }
     }
 
@@ -105,7 +111,7 @@ impl SoftPart {
             solids: &self.solids,
             friction: self.friction,
         };
-        self.body.step(
+        self.stepped = self.body.step(
             dt,
             gravity,
             obstacles,
