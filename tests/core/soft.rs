@@ -318,71 +318,96 @@ fn a_soft_block_pressed_by_the_hand_pushes_back_as_scikit_fem_says() {
 /// world stays finite, the hand is never pulled, and once the press has settled (after
 /// 0.3 s) the force the hand feels alternates from tick to tick by no more than 0.1 % of
 /// itself (measured 0.016 % at most: nodes at the pointer's edge, pressing next to nothing,
-/// let go and taken again; a tenth of what a hand can tell apart is some 7 %).
+/// let go and taken again; a tenth of what a hand can tell apart is some 7 %). The same at
+/// a device rate of 10 kHz (the coarser blocks, held 0.6 s), whose ticks the factored rest
+/// system was not made for: held with the force of 1 kHz's.
 #[test]
 fn a_soft_block_of_any_material_held_pressed_neither_explodes_nor_buzzes() {
-    for (young, poisson, damping) in [
-        (1.0, 0.0, 0.0),
-        (1e9, 0.49, 0.0),
-        (1e5, 0.45, 0.0),
-        (1e5, 0.45, 0.01),
-    ] {
-        for resolution in [0.01, 0.005] {
-            let text = format!(
-                "name: held\nengine: penalty\ndt: 0.00025\nmaterial: {{ stiffness: 2.0e7, damping: \
-                 1.0e4, static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
-                 friction_damping: 1.0e4, slip_speed: 0.001 }}\nbodies:\n  - {{ name: floor, box: \
-                 [0.1, 0.01, 0.1], position: [0, -0.005, 0], fixed: true }}\n  - {{ name: block, \
-                 box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: 1100, soft: {{ young: \
-                 {young}, poisson: {poisson}, damping: {damping}, resolution: {resolution} }}, \
-                 pinned: {{ body: floor }} }}\npointer: {{ box: [0.0195, 0.02, 0.0195] }}\n"
-            );
-            let SceneFile::Penalty(mut scene) =
-                SceneFile::parse(&text, std::path::Path::new("held.yaml"), 1)
-                    .expect("a valid scene")
-            else {
-                unreachable!("a penalty scene");
-            };
-            let mut felt = [Wrench::default()];
-            let (mut forces, mut lowest) = (Vec::new(), f64::INFINITY);
-            for tick in 0..1200 {
-                // Down to 1 mm into the block over 0.1 s, then still.
-                let depth = (tick as f64 / 100.0).min(1.0) * 0.001;
-                let grip = Grip {
-                    position: DVec3::new(0.0, 0.03 - depth, 0.0),
-                    orientation: DQuat::IDENTITY,
-                    velocity: DVec3::ZERO,
-                    spin: DVec3::ZERO,
-                };
-                assert!(
-                    scene.step_pointers(0.001, &[grip], &mut felt),
-                    "E {young}: not finite"
-                );
-                lowest = lowest.min(felt[0].force.y);
-                if tick >= 300 {
-                    forces.push(felt[0].force.y);
+    let mut at_1_khz = Vec::new();
+    for (rate, resolutions, seconds) in [(1000.0, [0.01, 0.005], 1.2), (10_000.0, [0.01, 0.0], 0.6)]
+    {
+        for (young, poisson, damping) in [
+            (1.0, 0.0, 0.0),
+            (1e9, 0.49, 0.0),
+            (1e5, 0.45, 0.0),
+            (1e5, 0.45, 0.01),
+        ] {
+            for resolution in resolutions.into_iter().filter(|&r| r > 0.0) {
+                let last = held_pressed(rate, seconds, (young, poisson, damping), resolution);
+                if rate == 1000.0 {
+                    at_1_khz.push(((young, poisson, damping, resolution), last));
+                } else if let Some(&(_, slow)) = at_1_khz
+                    .iter()
+                    .find(|(m, _)| *m == (young, poisson, damping, resolution))
+                {
+                    println!("  held with {last:.5e} N at 10 kHz, {slow:.5e} N at 1 kHz");
+                    assert!((last - slow).abs() <= 1e-2 * slow.abs(), "{last} vs {slow}");
                 }
             }
-            let last = *forces.last().unwrap();
-            let steps: Vec<f64> = forces.windows(2).map(|w| w[1] - w[0]).collect();
-            // The largest tick-to-tick alternation: a change undone at the next tick.
-            let alternation = steps
-                .windows(2)
-                .filter(|w| w[0] * w[1] < 0.0)
-                .map(|w| w[0].abs().min(w[1].abs()))
-                .fold(0.0, f64::max);
-            println!(
-                "E {young} Pa, ν {poisson}, damping {damping} s, {resolution} m: {last:.4e} N \
-                 held, alternating by {:.2e} of it at most, least {lowest:.3e} N",
-                alternation / last.abs().max(f64::MIN_POSITIVE)
-            );
-            assert!(lowest >= 0.0, "pulled: {lowest}");
-            assert!(
-                alternation <= 1e-3 * last.abs(),
-                "E {young}: buzzes by {alternation} N"
-            );
         }
     }
+}
+
+/// A block of `material` (E, ν, damping) cut at `resolution`, stepped at `rate` ticks a
+/// second for `seconds`, pressed 1 mm over 0.1 s and held (see the test above): the force
+/// held at the end, after checking the world finite, the hand never pulled and the force
+/// not alternating.
+fn held_pressed(rate: f64, seconds: f64, material: (f64, f64, f64), resolution: f64) -> f64 {
+    let (young, poisson, damping) = material;
+    let text = format!(
+        "name: held\nengine: penalty\ndt: 0.00025\nmaterial: {{ stiffness: 2.0e7, damping: \
+         1.0e4, static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
+         friction_damping: 1.0e4, slip_speed: 0.001 }}\nbodies:\n  - {{ name: floor, box: \
+         [0.1, 0.01, 0.1], position: [0, -0.005, 0], fixed: true }}\n  - {{ name: block, \
+         box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: 1100, soft: {{ young: \
+         {young}, poisson: {poisson}, damping: {damping}, resolution: {resolution} }}, \
+         pinned: {{ body: floor }} }}\npointer: {{ box: [0.0195, 0.02, 0.0195] }}\n"
+    );
+    let SceneFile::Penalty(mut scene) =
+        SceneFile::parse(&text, std::path::Path::new("held.yaml"), 1).expect("a valid scene")
+    else {
+        unreachable!("a penalty scene");
+    };
+    let mut felt = [Wrench::default()];
+    let (mut forces, mut lowest) = (Vec::new(), f64::INFINITY);
+    for tick in 0..(seconds * rate) as usize {
+        // Down to 1 mm into the block over 0.1 s, then still.
+        let t = tick as f64 / rate;
+        let depth = (t / 0.1).min(1.0) * 0.001;
+        let grip = Grip {
+            position: DVec3::new(0.0, 0.03 - depth, 0.0),
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        };
+        assert!(
+            scene.step_pointers(1.0 / rate, &[grip], &mut felt),
+            "E {young}: not finite"
+        );
+        lowest = lowest.min(felt[0].force.y);
+        if t >= 0.3 {
+            forces.push(felt[0].force.y);
+        }
+    }
+    let last = *forces.last().unwrap();
+    let steps: Vec<f64> = forces.windows(2).map(|w| w[1] - w[0]).collect();
+    // The largest tick-to-tick alternation: a change undone at the next tick.
+    let alternation = steps
+        .windows(2)
+        .filter(|w| w[0] * w[1] < 0.0)
+        .map(|w| w[0].abs().min(w[1].abs()))
+        .fold(0.0, f64::max);
+    println!(
+        "{rate} Hz, E {young} Pa, ν {poisson}, damping {damping} s, {resolution} m: {last:.4e} N \
+         held, alternating by {:.2e} of it at most, least {lowest:.3e} N",
+        alternation / last.abs().max(f64::MIN_POSITIVE)
+    );
+    assert!(lowest >= 0.0, "pulled: {lowest}");
+    assert!(
+        alternation <= 1e-3 * last.abs(),
+        "E {young}: buzzes by {alternation} N"
+    );
+    last
 }
 
 /// Two fingers (boxes 10 mm thick, 40 × 20 mm faces, taller than the cube so that it cannot
