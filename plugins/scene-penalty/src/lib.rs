@@ -50,16 +50,16 @@ impl SceneInstance for Penalty {
         }
     }
 
-    /// Every body, the pointers' solids (after the scene file's bodies) too.
+    /// Every body by id: the scene file's rigid bodies, its soft ones, the pointers.
     fn poses(&self, poses: &mut [HapticdBodyPose]) -> usize {
-        let bodies = &self.0.world.bodies;
-        for (out, body) in poses.iter_mut().zip(bodies) {
+        for (id, out) in poses.iter_mut().enumerate().take(self.0.body_count()) {
+            let pose = self.0.pose_of(id);
             *out = HapticdBodyPose {
-                position: body.position.to_array(),
-                orientation: quat_to_wxyz(body.orientation),
+                position: pose.position.to_array(),
+                orientation: quat_to_wxyz(pose.orientation),
             };
         }
-        bodies.len()
+        self.0.body_count()
     }
 
     fn geometry(&self) -> Option<&Geometry> {

@@ -463,7 +463,8 @@ fn hapticctl_view_shows_the_daemons_frames_in_an_x11_window() {
 /// lowered from above its top at y = -0.01 to 2 mm into where the top stood; the hand gives
 /// as the jelly pushes back): the world the daemon shares holds its surface's corners where
 /// they stand, the one under the finger's middle on the finger's solid, the block's far
-/// ends where they stood; and the renderer draws it from them.
+/// ends where they stood; and the renderer draws it from them. Over the bus the jelly is
+/// a body after the table, its state its centre of mass and its mass.
 #[test]
 fn a_soft_body_pressed_by_the_hand_is_shared_and_drawn_as_it_bends() {
     use hapticd_ipc::proxies::DeviceProxy;
@@ -540,6 +541,20 @@ fn a_soft_body_pressed_by_the_hand_is_shared_and_drawn_as_it_bends() {
     });
     assert_eq!(moved.len(), rest.len());
     assert!(moved.iter().flatten().all(|c| c.is_finite()));
+    let bodies = bus.get(SCENE, "Bodies");
+    assert_eq!(bodies, "a(sb) 2 \"table\" true \"jelly\" false");
+    // The jelly's 4.5 × 2.25 × 3 cm of density 1100, its centre of mass pressed down from
+    // where it stood by less than a millimetre.
+    let jelly = bus.drive("Body", "s", &["jelly"]).unwrap();
+    assert!(
+        (jelly.mass - 0.045 * 0.0225 * 0.03 * 1100.0).abs() < 1e-12,
+        "{jelly:?}"
+    );
+    let stood = DVec3::new(0.0, -0.02125, 0.0);
+    assert!(
+        jelly.position.y < stood.y && (jelly.position - stood).length() < 1e-3,
+        "{jelly:?}"
+    );
     let middle: Vec<DVec3> = rest
         .iter()
         .zip(&moved)

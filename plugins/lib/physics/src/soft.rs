@@ -35,7 +35,10 @@ pub struct SoftPart {
     planes: Vec<(DVec3, f64)>,
     solids: Vec<Obstacle>,
     touches: Vec<Touch>,
-    friction: Friction,
+    /// The friction its nodes hold on the solids they touch with.
+    pub friction: Friction,
+    /// A force pushing it besides gravity, N, spread over its nodes by their mass.
+    pub load: DVec3,
     /// What its last tick's solve did.
     pub stepped: Stepped,
 }
@@ -73,6 +76,7 @@ impl SoftPart {
             touches: vec![Touch::default(); solids.len()],
             solids,
             friction,
+            load: DVec3::ZERO,
             stepped: Stepped {
                 iterations: 0,
                 residual: 0.0,
@@ -111,6 +115,12 @@ impl SoftPart {
             solids: &self.solids,
             friction: self.friction,
         };
+        if self.load != DVec3::ZERO {
+            let share = self.load / self.body.mass();
+            for (f, m) in self.body.forces.iter_mut().zip(&self.body.masses) {
+                *f += share * *m;
+            }
+        }
         self.stepped = self.body.step(
             dt,
             gravity,
@@ -133,6 +143,25 @@ impl SoftPart {
                 solid += 1;
             }
         }
+    }
+
+    /// [rt] What it pressed on world body `i` with over the last tick, if anything: the
+    /// force, N, and where its nodes pressed (weighed by their push).
+    pub fn pressed_on(&self, i: usize, bodies: &[Body]) -> Option<(DVec3, DVec3)> {
+        let mut sum = Touch::default();
+        let mut solid = 0;
+        for &j in &self.touching {
+            for _ in &bodies[j].pieces {
+                if j == i {
+                    let t = &self.touches[solid];
+                    sum.force += t.force;
+                    sum.moment += t.moment;
+                    sum.push += t.push;
+                }
+                solid += 1;
+            }
+        }
+        Some((sum.force, sum.point()?))
     }
 
     /// The corners of its surface's triangles where the nodes stand now, triangle by

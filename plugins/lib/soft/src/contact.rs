@@ -90,13 +90,25 @@ impl Obstacles<'_> {
 }
 
 /// What a body pressed on an obstacle with over a step: force, N, and torque about the
-/// obstacle's centre, N·m.
+/// obstacle's centre, N·m; and where, as the nodes that pressed stand, each weighed by its
+/// push.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Touch {
     /// The force on the obstacle.
     pub force: DVec3,
     /// Its torque about the obstacle's centre.
     pub torque: DVec3,
+    /// The pressing nodes' positions, each times its push (N·m).
+    pub moment: DVec3,
+    /// Their pushes summed, N.
+    pub push: f64,
+}
+
+impl Touch {
+    /// Where the nodes pressed, their pushes weighing them; None where none did.
+    pub fn point(&self) -> Option<DVec3> {
+        (self.push > 0.0).then(|| self.moment / self.push)
+    }
 }
 
 /// A node held on an obstacle's face over a step.

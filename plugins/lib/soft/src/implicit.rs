@@ -424,6 +424,8 @@ impl SoftBody {
             let touch = &mut touches[h.obstacle];
             touch.force += on;
             touch.torque += (at - obstacles.solids[h.obstacle].centre).cross(on);
+            touch.moment += at * push;
+            touch.push += push;
         }
     }
 

@@ -9,6 +9,7 @@
 //!   should where linear ones lock);
 //! - [`rotation`] finds an element's turn, which its stiffness is taken along with;
 //! - [`body`] is a soft body's nodes, elements, masses and pins;
+//! - [`motion`] takes it whole: its turn, velocity and spin, an impulse or a motion given;
 //! - [`implicit`] steps it: backward Euler, solved by conjugate gradients.
 
 pub mod body;
@@ -18,4 +19,5 @@ pub mod factor;
 pub mod implicit;
 pub mod lattice;
 pub mod material;
+pub mod motion;
 pub mod rotation;

@@ -6,12 +6,31 @@ use hapticd_plugin_api::{HAPTICD_NO_BODY, HAPTICD_TOUCH_SLIPPING, HapticdTouch};
 use super::PenaltyScene;
 
 impl PenaltyScene {
-    /// What pointer `pointer` touches after the last step (None: nothing). A pointer
-    /// touching another pointer touches no body of the file.
+    /// What pointer `pointer` touches after the last step (None: nothing): a soft body it
+    /// presses on first (the hardest pressed; no slip is told), else the rigid body it
+    /// presses hardest. A pointer touching another pointer touches no body of the file.
     pub fn touch(&self, pointer: usize) -> Option<HapticdTouch> {
         let me = self.first_pointer + pointer;
         if me >= self.world.bodies.len() {
             return None;
+        }
+        // A soft body it presses on (the hardest), by its id after the rigid bodies.
+        let soft = self
+            .soft
+            .iter()
+            .enumerate()
+            .filter_map(|(k, s)| Some((k, s.pressed_on(me, &self.world.bodies)?)))
+            .max_by(|a, b| a.1.0.length().total_cmp(&b.1.0.length()));
+        if let Some((k, (force, point))) = soft {
+            // Out of the soft body's surface: toward the pointer's centre from where the
+            // nodes press (the force leans with friction).
+            let out = (self.world.bodies[me].position - point).try_normalize();
+            return Some(HapticdTouch {
+                body: (self.first_pointer + k) as u32,
+                flags: 0,
+                point: point.to_array(),
+                normal: out.unwrap_or(force.normalize_or_zero()).to_array(),
+            });
         }
         let touching = self.world.strongest_contact(me)?;
         Some(HapticdTouch {

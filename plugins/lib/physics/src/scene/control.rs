@@ -9,17 +9,39 @@ use hapticd_plugin_api::*;
 use super::PenaltyScene;
 use super::checks::{DENSITY_RANGE, DIVERGENT_OMEGA_DT, contact_springs, omega_dt};
 use crate::joint::{DrivenJoints, Joint, JointState, Motor};
+use crate::soft::SoftPart;
 use crate::world::ContactModel;
+use hapticd_soft::contact::Friction;
 
 impl PenaltyScene {
-    /// Body `i` of the scene file as the control extension lists it (None past the last).
+    /// Body `i` of the scene file as the control extension lists it (None past the last):
+    /// its rigid bodies, then its soft ones.
     pub fn body_info(&self, i: usize) -> Option<HapticdBodyInfo> {
-        (i < self.first_pointer)
-            .then(|| HapticdBodyInfo::new(&self.names[i], self.world.bodies[i].fixed))
+        match self.soft_of(i) {
+            _ if i < self.first_pointer => Some(HapticdBodyInfo::new(
+                &self.names[i],
+                self.world.bodies[i].fixed,
+            )),
+            Some(soft) => Some(HapticdBodyInfo::new(&soft.name, false)),
+            None => None,
+        }
     }
 
-    /// Body `i`'s state now (`i` a body of the file).
+    /// Body `i`'s state now (`i` a body of the file): a soft one's taken whole, its
+    /// orientation the turn of its rest shape that best fits it.
     pub fn body_state(&self, i: usize) -> HapticdBodyState {
+        if let Some(soft) = self.soft_of(i) {
+            let body = &soft.body;
+            return HapticdBodyState {
+                position: body.centre().to_array(),
+                orientation: quat_to_wxyz(body.turn()),
+                velocity: body.velocity().to_array(),
+                spin: body.spin().to_array(),
+                mass: body.mass(),
+                friction: soft.friction.slide,
+                force: soft.load.to_array(),
+            };
+        }
         let b = &self.world.bodies[i];
         HapticdBodyState {
             position: b.position.to_array(),
@@ -32,12 +54,25 @@ impl PenaltyScene {
         }
     }
 
+    /// The soft body of id `i` (ids after the rigid bodies of the file), if it is one.
+    pub(super) fn soft_of(&self, i: usize) -> Option<&SoftPart> {
+        self.soft.get(i.checked_sub(self.first_pointer)?)
+    }
+
     /// Carry out `command` on a body of the file; its state after, or None for a command
     /// it cannot take (no such body, a value not finite, a push on a fixed body, an unknown
     /// kind). Allocates nothing: it runs in the haptic tick.
     pub fn apply(&mut self, command: &HapticdSceneCommand) -> Option<HapticdBodyState> {
         let i = command.body as usize;
-        if i >= self.first_pointer || !command.is_finite() {
+        if !command.is_finite() {
+            return None;
+        }
+        if self.soft_of(i).is_some() {
+            let soft = &mut self.soft[i - self.first_pointer];
+            apply_soft(soft, command)?;
+            return Some(self.body_state(i));
+        }
+        if i >= self.first_pointer {
             return None;
         }
         let fixed = self.world.bodies[i].fixed;
@@ -109,6 +144,34 @@ impl PenaltyScene {
         };
         omega_dt(k, mass, self.dt) < DIVERGENT_OMEGA_DT
     }
+}
+
+/// Carry out `command` (checked finite) on soft body `soft` taken whole, as on a rigid
+/// body: None for what it cannot take (moving it to a pose or changing its mass, which
+/// would take its solve made anew).
+fn apply_soft(soft: &mut SoftPart, command: &HapticdSceneCommand) -> Option<()> {
+    let (body, vector) = (&mut soft.body, DVec3::from(command.vector));
+    match command.kind {
+        HAPTICD_COMMAND_QUERY => {}
+        HAPTICD_COMMAND_SET_VELOCITY => body.set_motion(vector, DVec3::from(command.spin)),
+        HAPTICD_COMMAND_IMPULSE => body.give_impulse(vector, DVec3::from(command.position)),
+        HAPTICD_COMMAND_IMPULSE_AT_CENTRE => {
+            let centre = body.centre();
+            body.give_impulse(vector, centre);
+        }
+        HAPTICD_COMMAND_SET_FORCE => soft.load = vector,
+        HAPTICD_COMMAND_SET_FRICTION if command.value >= 0.0 => {
+            // The static coefficient keeps its ratio to the dynamic one.
+            let Friction { stick, slide } = soft.friction;
+            let ratio = if slide > 0.0 { stick / slide } else { 1.0 };
+            soft.friction = Friction {
+                stick: command.value * ratio,
+                slide: command.value,
+            };
+        }
+        _ => return None,
+    }
+    Some(())
 }
 
 impl DrivenJoints for PenaltyScene {

@@ -23,11 +23,14 @@ const JOINT_COLOUR: [f32; 4] = [0.15, 0.2, 0.3, 0.5];
 
 impl PenaltyScene {
     /// The world's solids: every piece of every body as its faces (a mesh as its own
-    /// triangles), the pointers' bodies
-    /// (from [`first_pointer`](Self::first_pointer) on) marked as such.
+    /// triangles), the pointers' bodies marked as such, and each soft body's surface as a
+    /// deforming solid. Body ids: the file's rigid bodies, its soft ones, the pointers.
     pub fn geometry(&self) -> Geometry {
         let mut geometry = Geometry::default();
         for (i, body) in self.world.bodies.iter().enumerate() {
+            if i == self.first_pointer {
+                self.add_soft_bodies(&mut geometry);
+            }
             let id = geometry.add_body();
             let pointer = if i >= self.first_pointer {
                 HAPTICD_SOLID_POINTER
@@ -42,7 +45,11 @@ impl PenaltyScene {
                 geometry.add_triangles(solid_of(id, body, pointer), faces(piece));
             }
         }
-        // A soft body is its surface where it stands at load, moved by `corners`.
+        if self.first_pointer == self.world.bodies.len() {
+            self.add_soft_bodies(&mut geometry);
+        }
+        // A soft body is its surface where it stands at load in the world's frame, moved
+        // by `corners` (not by its body's pose).
         for part in &self.soft {
             let corners: Vec<DVec3> = part.corners().collect();
             geometry.add_triangles(
@@ -58,6 +65,13 @@ impl PenaltyScene {
         let joints: Vec<&Joint> = self.world.joints.iter().map(|l| &l.joint).collect();
         add_joints(&mut geometry, &self.world.bodies, &joints);
         geometry
+    }
+
+    /// A body id for each soft body, after the file's rigid bodies, before the pointers.
+    fn add_soft_bodies(&self, geometry: &mut Geometry) {
+        for _ in &self.soft {
+            geometry.add_body();
+        }
     }
 
     /// [rt] Where the corners of the soft bodies' surfaces ([`geometry`](Self::geometry)'s
@@ -83,11 +97,35 @@ impl PenaltyScene {
 
     /// Where each body of [`geometry`](Self::geometry) is now, by id.
     pub fn poses(&self) -> Vec<Pose> {
-        let pose = |b: &Body| Pose {
-            position: b.position,
-            orientation: b.orientation,
+        (0..self.body_count()).map(|id| self.pose_of(id)).collect()
+    }
+
+    /// Bodies by id: the file's rigid ones, its soft ones, the pointers.
+    pub fn body_count(&self) -> usize {
+        self.world.bodies.len() + self.soft.len()
+    }
+
+    /// [rt] Where body `id` is now (a soft one's centre of mass, turned as its rest shape
+    /// best fits it); the identity past the last.
+    pub fn pose_of(&self, id: usize) -> Pose {
+        let soft = self.soft.len();
+        let world = match id.checked_sub(self.first_pointer) {
+            None => Some(id),
+            Some(k) if k < soft => {
+                let body = &self.soft[k].body;
+                return Pose {
+                    position: body.centre(),
+                    orientation: body.turn(),
+                };
+            }
+            Some(_) => Some(id - soft),
         };
-        self.world.bodies.iter().map(pose).collect()
+        world
+            .and_then(|i| self.world.bodies.get(i))
+            .map_or(Pose::IDENTITY, |b| Pose {
+                position: b.position,
+                orientation: b.orientation,
+            })
     }
 }
 

@@ -15,8 +15,9 @@
 //! penalty engine, in a scene whose other bodies are fixed, and touches them and the
 //! pointers: its nodes are kept out of them, held there with the material's friction
 //! (`static_friction`, `friction`), and what it presses on a pointer with is what the hand
-//! feels there. It is drawn as it bends (its surface a deforming solid), but not
-//! yet listed among the bodies, attached to a moving body, or touched by a coupled pointer.
+//! feels there. It is drawn as it bends (its surface a deforming solid) and listed among
+//! the bodies after the rigid ones, but not yet attached to a moving body or touched by a
+//! coupled pointer.
 //!
 //! ```yaml
 //! name: jelly
@@ -496,5 +497,110 @@ mod tests {
             "hull: [[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]], position: [0, 0.01, 0], soft",
         );
         assert!(refused(&mesh).contains("a soft body is a box, a sphere or a closed mesh"));
+    }
+
+    /// The soft body is a body like the rigid ones: listed after them by name, before the
+    /// pointers; its pose its centre of mass; an impulse changes its momentum by itself, a
+    /// motion set is read back, a held force and friction are kept; what cannot be done to
+    /// it whole is refused; and a pointer pressed into it touches it, pushed up.
+    #[test]
+    fn a_soft_body_is_listed_queried_pushed_and_touched_as_a_body() {
+        use crate::coupling::Grip;
+        use glam::{DQuat, DVec3};
+        use hapticd_core::kinematics::Wrench;
+        use hapticd_plugin_api::*;
+        let SceneFile::Penalty(mut scene) =
+            SceneFile::parse(&scene(PENALTY, SOFT, PINNED, ""), Path::new("s.yaml"), 1).unwrap()
+        else {
+            panic!("a penalty scene");
+        };
+        let names: Vec<String> = (0..4)
+            .map_while(|i| scene.body_info(i))
+            .map(|b| b.name_str().unwrap().to_string())
+            .collect();
+        assert_eq!(names, ["floor", "jelly"]);
+        assert_eq!(scene.geometry().body_count, 3);
+        assert_eq!(scene.poses().len(), 3);
+        let body = &scene.soft[0].body;
+        let (mass, centre) = (body.mass(), body.centre());
+        assert_eq!(scene.poses()[1].position, centre);
+        let query = HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 1);
+        let state = scene.apply(&query).expect("a soft body answers");
+        assert_eq!((state.mass, DVec3::from(state.position)), (mass, centre));
+        assert!((mass - 0.04 * 0.02 * 0.04 * 1000.0).abs() < 1e-12, "{mass}");
+        let impulse = DVec3::new(1e-4, 2e-4, -3e-4);
+        let pushed = scene
+            .apply(&HapticdSceneCommand {
+                vector: impulse.to_array(),
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_IMPULSE_AT_CENTRE, 1)
+            })
+            .unwrap();
+        let dp = DVec3::from(pushed.velocity) * mass;
+        assert!((dp - impulse).length() < 1e-15, "{dp}");
+        let moved = scene
+            .apply(&HapticdSceneCommand {
+                vector: [0.0, 0.01, 0.0],
+                spin: [0.0, 0.5, 0.0],
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 1)
+            })
+            .unwrap();
+        assert!((DVec3::from(moved.velocity) - DVec3::new(0.0, 0.01, 0.0)).length() < 1e-12);
+        assert!((DVec3::from(moved.spin) - DVec3::new(0.0, 0.5, 0.0)).length() < 1e-12);
+        let held = scene
+            .apply(&HapticdSceneCommand {
+                vector: [0.0, -0.2, 0.0],
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 1)
+            })
+            .unwrap();
+        assert_eq!(held.force, [0.0, -0.2, 0.0]);
+        let slippery = scene
+            .apply(&HapticdSceneCommand {
+                value: 0.15,
+                ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FRICTION, 1)
+            })
+            .unwrap();
+        assert_eq!(slippery.friction, 0.15);
+        assert!(
+            (scene.soft[0].friction.stick - 0.2).abs() < 1e-12,
+            "μs kept 4/3 of μk"
+        );
+        for kind in [HAPTICD_COMMAND_SET_POSE, HAPTICD_COMMAND_SET_MASS] {
+            assert!(scene.apply(&HapticdSceneCommand::new(kind, 1)).is_none());
+        }
+        assert!(
+            scene
+                .apply(&HapticdSceneCommand::new(HAPTICD_COMMAND_QUERY, 2))
+                .is_none()
+        );
+        // Still, then a fingertip 1 mm into its top.
+        scene.apply(&HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 1));
+        scene.apply(&HapticdSceneCommand::new(HAPTICD_COMMAND_SET_FORCE, 1));
+        let mut felt = [Wrench::default()];
+        let pointer = &scene.world.bodies[scene.first_pointer].pieces[0];
+        let top = 0.02
+            + pointer
+                .vertices
+                .iter()
+                .map(|v| v.y.abs())
+                .fold(0.0, f64::max);
+        for _ in 0..200 {
+            let grip = Grip {
+                position: DVec3::new(0.0, top - 0.001, 0.0),
+                orientation: DQuat::IDENTITY,
+                velocity: DVec3::ZERO,
+                spin: DVec3::ZERO,
+            };
+            assert!(scene.step_pointers(0.001, &[grip], &mut felt));
+        }
+        let touch = scene.touch(0).expect("the pointer touches the jelly");
+        assert_eq!(touch.body, 1);
+        // Where the pressed nodes are, 1 mm down, its normal up out of the top.
+        let point = DVec3::from(touch.point);
+        assert!(
+            point.with_y(0.0).length() < 0.002 && (point.y - 0.019).abs() < 2e-4,
+            "{touch:?}"
+        );
+        assert!(DVec3::from(touch.normal).y > 0.99, "{touch:?}");
+        assert!(felt[0].force.y > 0.0);
     }
 }
