@@ -121,13 +121,13 @@ impl SoftBody {
 
     /// Its centre of mass now, m.
     pub fn centre(&self) -> DVec3 {
-        let moment: DVec3 = self
-            .positions
-            .iter()
-            .zip(&self.masses)
-            .map(|(x, m)| *x * *m)
-            .sum();
-        moment / self.mass()
+        self.mean(&self.positions)
+    }
+
+    /// The mean of `field` over its nodes, each weighed by its mass.
+    pub(crate) fn mean(&self, field: &[DVec3]) -> DVec3 {
+        let sum: DVec3 = field.iter().zip(&self.masses).map(|(x, m)| *x * *m).sum();
+        sum / self.mass()
     }
 
     /// Its volume now, m³ (each element's corners; a quadratic element's bulges left out).

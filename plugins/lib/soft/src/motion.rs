@@ -29,13 +29,7 @@ impl SoftBody {
 
     /// Its momentum over its mass: the velocity of its centre of mass, m/s.
     pub fn velocity(&self) -> DVec3 {
-        let momentum: DVec3 = self
-            .velocities
-            .iter()
-            .zip(&self.masses)
-            .map(|(v, m)| *v * *m)
-            .sum();
-        momentum / self.mass()
+        self.mean(&self.velocities)
     }
 
     /// The spin its angular momentum about its centre of mass would be in a rigid body of
@@ -79,14 +73,7 @@ impl SoftBody {
 
     /// Its centre of mass at rest, m.
     fn rest_centre(&self) -> DVec3 {
-        let moment: DVec3 = self
-            .mesh
-            .nodes
-            .iter()
-            .zip(&self.masses)
-            .map(|(x, m)| *x * *m)
-            .sum();
-        moment / self.mass()
+        self.mean(&self.mesh.nodes)
     }
 
     /// The inverse of its nodes' inertia about `centre` as they stand (zero for nodes on
