@@ -87,7 +87,7 @@ impl Enclosure {
         let (mut best, mut distance) = (x, f64::INFINITY);
         let rings = self.cells.iter().max().copied().unwrap_or(1);
         for ring in 0..=rings {
-            // Every cell this ring out or further is at least a cell less away.
+            // Every cell this ring out or further is at least `ring − 1` cells away.
             if distance <= ring.saturating_sub(1) as f64 * self.cell {
                 break;
             }

@@ -129,18 +129,13 @@ impl SoftPart {
             TICK,
             &mut self.solver,
         );
-        let mut solid = 0;
-        for &i in &self.touching {
-            for _ in &bodies[i].pieces {
-                if let Some(out) = i.checked_sub(first_pointer).and_then(|k| felt.get_mut(k)) {
-                    let t = self.touches[solid];
-                    *out = *out
-                        + Wrench {
-                            force: t.force,
-                            torque: t.torque,
-                        };
-                }
-                solid += 1;
+        for (i, t) in self.touches_by_body(bodies) {
+            if let Some(out) = i.checked_sub(first_pointer).and_then(|k| felt.get_mut(k)) {
+                *out = *out
+                    + Wrench {
+                        force: t.force,
+                        torque: t.torque,
+                    };
             }
         }
     }
@@ -149,19 +144,24 @@ impl SoftPart {
     /// force, N, and where its nodes pressed (weighed by their push).
     pub fn pressed_on(&self, i: usize, bodies: &[Body]) -> Option<(DVec3, DVec3)> {
         let mut sum = Touch::default();
-        let mut solid = 0;
-        for &j in &self.touching {
-            for _ in &bodies[j].pieces {
-                if j == i {
-                    let t = &self.touches[solid];
-                    sum.force += t.force;
-                    sum.moment += t.moment;
-                    sum.push += t.push;
-                }
-                solid += 1;
-            }
+        for (_, t) in self.touches_by_body(bodies).filter(|&(j, _)| j == i) {
+            sum.force += t.force;
+            sum.moment += t.moment;
+            sum.push += t.push;
         }
         Some((sum.force, sum.point()?))
+    }
+
+    /// [rt] What it pressed on each solid of the world bodies it touches over the last
+    /// tick, with the world body the solid is a piece of.
+    fn touches_by_body<'a>(
+        &'a self,
+        bodies: &'a [Body],
+    ) -> impl Iterator<Item = (usize, &'a Touch)> + 'a {
+        self.touching
+            .iter()
+            .flat_map(|&i| std::iter::repeat_n(i, bodies[i].pieces.len()))
+            .zip(&self.touches)
     }
 
     /// The corners of its surface's triangles where the nodes stand now, triangle by

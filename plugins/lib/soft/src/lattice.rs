@@ -194,14 +194,22 @@ fn volume(nodes: &[DVec3], tet: [u32; 4]) -> f64 {
     signed_volume(tet.map(|i| nodes[i as usize]))
 }
 
+/// The faces of `tet`: each as a key the tetrahedron beside it shares (its corners
+/// sorted), and turned outward.
+fn faces_of(tet: &[u32; 4]) -> impl Iterator<Item = ([u32; 3], [u32; 3])> + '_ {
+    FACES.into_iter().map(|face| {
+        let turned = face.map(|c| tet[c]);
+        let mut key = turned;
+        key.sort_unstable();
+        (key, turned)
+    })
+}
+
 /// The faces of `corners` that one tetrahedron alone has, turned outward.
 fn outer_faces(corners: &[[u32; 4]]) -> Vec<[u32; 3]> {
     let mut faces: HashMap<[u32; 3], (usize, [u32; 3])> = HashMap::new();
     for tet in corners {
-        for face in FACES {
-            let turned = face.map(|c| tet[c]);
-            let mut key = turned;
-            key.sort_unstable();
+        for (key, turned) in faces_of(tet) {
             faces
                 .entry(key)
                 .and_modify(|f| f.0 += 1)
@@ -232,9 +240,7 @@ fn face_connected(tets: Vec<[u32; 4]>) -> Vec<[u32; 4]> {
     }
     let mut first_with: HashMap<[u32; 3], usize> = HashMap::new();
     for (t, tet) in tets.iter().enumerate() {
-        for face in FACES {
-            let mut key = face.map(|c| tet[c]);
-            key.sort_unstable();
+        for (key, _) in faces_of(tet) {
             match first_with.get(&key) {
                 Some(&other) => {
                     let (a, b) = (find(&mut root, t), find(&mut root, other));

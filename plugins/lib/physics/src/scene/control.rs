@@ -17,14 +17,14 @@ impl PenaltyScene {
     /// Body `i` of the scene file as the control extension lists it (None past the last):
     /// its rigid bodies, then its soft ones.
     pub fn body_info(&self, i: usize) -> Option<HapticdBodyInfo> {
-        match self.soft_of(i) {
-            _ if i < self.first_pointer => Some(HapticdBodyInfo::new(
+        if i < self.first_pointer {
+            return Some(HapticdBodyInfo::new(
                 &self.names[i],
                 self.world.bodies[i].fixed,
-            )),
-            Some(soft) => Some(HapticdBodyInfo::new(&soft.name, false)),
-            None => None,
+            ));
         }
+        self.soft_of(i)
+            .map(|soft| HapticdBodyInfo::new(&soft.name, false))
     }
 
     /// Body `i`'s state now (`i` a body of the file): a soft one's taken whole, its
@@ -67,8 +67,10 @@ impl PenaltyScene {
         if !command.is_finite() {
             return None;
         }
-        if self.soft_of(i).is_some() {
-            let soft = &mut self.soft[i - self.first_pointer];
+        if let Some(soft) = i
+            .checked_sub(self.first_pointer)
+            .and_then(|k| self.soft.get_mut(k))
+        {
             apply_soft(soft, command)?;
             return Some(self.body_state(i));
         }

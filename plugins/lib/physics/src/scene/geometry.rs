@@ -27,26 +27,25 @@ impl PenaltyScene {
     /// deforming solid. Body ids: the file's rigid bodies, its soft ones, the pointers.
     pub fn geometry(&self) -> Geometry {
         let mut geometry = Geometry::default();
-        for (i, body) in self.world.bodies.iter().enumerate() {
-            if i == self.first_pointer {
-                self.add_soft_bodies(&mut geometry);
-            }
+        let (rigid, pointers) = self.world.bodies.split_at(self.first_pointer);
+        for (i, body) in rigid.iter().enumerate() {
             let id = geometry.add_body();
-            let pointer = if i >= self.first_pointer {
-                HAPTICD_SOLID_POINTER
-            } else {
-                0
-            };
             if let Some(Some(surface)) = self.surfaces.get(i) {
                 geometry.add_triangles(solid_of(id, body, 0), triangles(surface));
                 continue;
             }
             for piece in &body.pieces {
-                geometry.add_triangles(solid_of(id, body, pointer), faces(piece));
+                geometry.add_triangles(solid_of(id, body, 0), faces(piece));
             }
         }
-        if self.first_pointer == self.world.bodies.len() {
-            self.add_soft_bodies(&mut geometry);
+        for _ in &self.soft {
+            geometry.add_body();
+        }
+        for body in pointers {
+            let id = geometry.add_body();
+            for piece in &body.pieces {
+                geometry.add_triangles(solid_of(id, body, HAPTICD_SOLID_POINTER), faces(piece));
+            }
         }
         // A soft body is its surface where it stands at load in the world's frame, moved
         // by `corners` (not by its body's pose).
@@ -65,13 +64,6 @@ impl PenaltyScene {
         let joints: Vec<&Joint> = self.world.joints.iter().map(|l| &l.joint).collect();
         add_joints(&mut geometry, &self.world.bodies, &joints);
         geometry
-    }
-
-    /// A body id for each soft body, after the file's rigid bodies, before the pointers.
-    fn add_soft_bodies(&self, geometry: &mut Geometry) {
-        for _ in &self.soft {
-            geometry.add_body();
-        }
     }
 
     /// [rt] Where the corners of the soft bodies' surfaces ([`geometry`](Self::geometry)'s
@@ -110,7 +102,6 @@ impl PenaltyScene {
     pub fn pose_of(&self, id: usize) -> Pose {
         let soft = self.soft.len();
         let world = match id.checked_sub(self.first_pointer) {
-            None => Some(id),
             Some(k) if k < soft => {
                 let body = &self.soft[k].body;
                 return Pose {
@@ -118,10 +109,12 @@ impl PenaltyScene {
                     orientation: body.turn(),
                 };
             }
-            Some(_) => Some(id - soft),
+            Some(_) => id - soft,
+            None => id,
         };
-        world
-            .and_then(|i| self.world.bodies.get(i))
+        self.world
+            .bodies
+            .get(world)
             .map_or(Pose::IDENTITY, |b| Pose {
                 position: b.position,
                 orientation: b.orientation,
