@@ -240,8 +240,11 @@ struct HostView {
     proxy: DVec3,
 }
 
-/// Follow host `address`'s first device for `seconds`: its ticks, then its picture.
-fn follow_host(address: &str, seconds: f64) -> HostView {
+/// Follow host `address`'s first device for `seconds`: its ticks; then, once all followers
+/// and the caller have met twice at `asked` (the caller asks the world between the two
+/// meetings), its picture. Read just after the world is asked, so that a block still pushed
+/// has not moved on between the two.
+fn follow_host(address: &str, seconds: f64, asked: &std::sync::Barrier) -> HostView {
     use hapticd_core::telemetry::Sample;
     use hapticd_core::world_state::WorldFrame;
     let client =
@@ -262,6 +265,8 @@ fn follow_host(address: &str, seconds: f64) -> HostView {
         std::thread::sleep(Duration::from_millis(5));
     }
     let world = device.open_world().unwrap();
+    asked.wait();
+    asked.wait();
     let mut frame = WorldFrame::empty();
     while world.read(&mut frame).is_none() {}
     assert_eq!(frame.has_proxies, 1, "a remote scene shows its proxies");
@@ -380,19 +385,32 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
             up.elapsed()
         );
         let seconds = 8.5 - up.elapsed().as_secs_f64();
-        let views: Vec<HostView> = std::thread::scope(|scope| {
+        // The hands go on pushing (0.1 N) after their scripts' moves, so the block may still
+        // creep: each host's picture is read just after the world is asked. Read before a
+        // Python client started on a loaded machine, a host's picture was 1.09 mm behind.
+        let asked = std::sync::Barrier::new(daemons.len() + 1);
+        let (views, status): (Vec<HostView>, _) = std::thread::scope(|scope| {
             let followers: Vec<_> = daemons
                 .iter()
-                .map(|(bus, _, _)| scope.spawn(|| follow_host(&bus.address, seconds)))
+                .map(|(bus, _, _)| scope.spawn(|| follow_host(&bus.address, seconds, &asked)))
                 .collect();
-            followers.into_iter().map(|f| f.join().unwrap()).collect()
+            asked.wait();
+            // A failed asking must still release the followers, or the scope never ends.
+            let status = std::panic::catch_unwind(|| {
+                zenoh_client(
+                    "print(ask('hapticd/world/shared/status', None)[0])",
+                    &world_endpoint,
+                    &[],
+                    hosts_side,
+                )
+            });
+            asked.wait();
+            let views = followers.into_iter().map(|f| f.join().unwrap()).collect();
+            (
+                views,
+                status.unwrap_or_else(|e| std::panic::resume_unwind(e)),
+            )
         });
-        let status = zenoh_client(
-            "print(ask('hapticd/world/shared/status', None)[0])",
-            &world_endpoint,
-            &[],
-            hosts_side,
-        );
         // Each finger's push along +x, asked until one presses (up to half a second): a
         // single asking could fall between the block leaving one finger and meeting the
         // other (once, both read 0 N).
