@@ -93,7 +93,7 @@ impl Enclosure {
             }
             for bin in self.ring(centre, ring) {
                 for &t in &self.bins[bin] {
-                    let p = closest_on_triangle(x, self.corners[t as usize]);
+                    let p = crate::triangle::nearest_point(x, self.corners[t as usize]);
                     let d = p.distance(x);
                     if d < distance {
                         (best, distance) = (p, d);
@@ -180,46 +180,6 @@ fn crossing(x: DVec3, c: [DVec3; 3], axis: usize, u: usize, v: usize) -> Option<
     Some((w[0] * c[0][axis] + w[1] * c[1][axis] + w[2] * c[2][axis]) / area)
 }
 
-/// The point of triangle `c` nearest `x`: in its face, on an edge, or a corner.
-fn closest_on_triangle(x: DVec3, [a, b, c]: [DVec3; 3]) -> DVec3 {
-    let (ab, ac, ap) = (b - a, c - a, x - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = x - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = x - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let sum = va + vb + vc;
-    if sum <= 0.0 {
-        // A triangle of no area: its corners' nearest.
-        return [a, b, c]
-            .into_iter()
-            .min_by(|p, q| p.distance(x).total_cmp(&q.distance(x)))
-            .unwrap_or(a);
-    }
-    a + ab * (vb / sum) + ac * (vc / sum)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,7 +257,7 @@ mod tests {
             let found = enclosure.nearest(x);
             let every = mesh
                 .corners()
-                .map(|c| closest_on_triangle(x, c))
+                .map(|c| crate::triangle::nearest_point(x, c))
                 .min_by(|p, q| p.distance(x).total_cmp(&q.distance(x)))
                 .unwrap();
             assert!(

@@ -8,6 +8,7 @@
 //! - [`decomposition`]: a movable mesh as convex pieces, kept between runs by [`cache`];
 //! - [`enclosure`]: whether a closed mesh holds a point, and its surface nearest one;
 //! - [`solid`]: a mesh as a physics body takes it;
+//! - [`triangle`]: a triangle's point nearest a point;
 //! - `height_map` and `scene_files` (feature `scene-files`): a grey PNG a texture lays over
 //!   a surface, and the readers of what a scene file names;
 //! - `obj`, `stl`, `gltf`: the three formats.
@@ -25,6 +26,7 @@ mod obj;
 pub mod properties;
 mod solid;
 mod stl;
+pub mod triangle;
 
 use std::collections::HashMap;
 use std::path::Path;
