@@ -29,7 +29,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 9
+#define HAPTICD_ABI_MINOR 10
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -673,6 +673,11 @@ typedef struct HapticdHost {
  */
 typedef const struct HapticdPluginDescriptor *(*HapticdPluginEntry)(const struct HapticdHost *host);
 
+/* ---------------------------------------------------------------------------
+ * Scene extension "hapticd.scene.compliance/1": how far a soft surface gives under a
+ * ------------------------------------------------------------------------- */
+
+#define HAPTICD_EXT_SCENE_COMPLIANCE "hapticd.scene.compliance/1"
 /* ---------------------------------------------------------------------------
  * Scene extension "hapticd.scene.contacts/1": what each pointer touches.
  * ------------------------------------------------------------------------- */

@@ -10,12 +10,13 @@ use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
 use crate::ext::{
-    scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*, scene_geometry::*,
+    scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*, scene_geometry::*,
     scene_joints::*, scene_mobility::*,
 };
 
 mod macros;
 mod scene;
+mod scene_compliance;
 mod scene_contacts;
 mod scene_control;
 mod scene_deformation;
@@ -26,6 +27,7 @@ mod scene_mobility;
 
 use scene::instance_mut;
 pub use scene::*;
+use scene_compliance::SCENE_COMPLIANCE;
 use scene_contacts::SCENE_CONTACTS;
 use scene_control::SCENE_CONTROL;
 use scene_deformation::SCENE_DEFORMATION;
@@ -362,7 +364,7 @@ pub type SceneError = Box<dyn std::error::Error + Send + Sync>;
 pub type SceneCheck = fn(&str, usize) -> Result<(), SceneError>;
 
 /// Body of the exported `get_extension` function: the geometry, control, contacts,
-/// mobility, joints and deformation extensions, and the files extension when the plugin
+/// mobility, joints, deformation and compliance extensions, and the files extension when the plugin
 /// runs scene files.
 ///
 /// # Safety
@@ -394,6 +396,9 @@ pub unsafe fn scene_extension(
     }
     if id == HAPTICD_EXT_SCENE_DEFORMATION {
         return (&SCENE_DEFORMATION as *const HapticdSceneDeformation).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_COMPLIANCE {
+        return (&SCENE_COMPLIANCE as *const HapticdSceneCompliance).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

@@ -4,7 +4,7 @@
 use std::ffi::{CStr, c_char};
 
 use crate::abi::*;
-use crate::ext::{scene_contacts::*, scene_control::*, scene_joints::*, scene_mobility::*};
+use crate::ext::{scene_compliance::*, scene_contacts::*, scene_control::*, scene_joints::*, scene_mobility::*};
 use crate::geometry::Geometry;
 
 use super::{SceneError, guard, log};
@@ -91,6 +91,14 @@ pub trait SceneInstance: Send {
     /// has no joints.
     fn mobility(&self, body: u32) -> Option<HapticdMobility> {
         let _ = body;
+        None
+    }
+
+    /// [physics, after a step] Since ABI 1.10: how plane `plane` of pointer `pointer`, as
+    /// the last step published them, gives under a press (served through
+    /// [`HAPTICD_EXT_SCENE_COMPLIANCE`]), None for a rigid one; the default is all rigid.
+    fn compliance(&self, pointer: u32, plane: u32) -> Option<HapticdPlaneCompliance> {
+        let _ = (pointer, plane);
         None
     }
 

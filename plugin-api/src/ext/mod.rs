@@ -10,7 +10,10 @@
 //! - [`scene_mobility`]: `"hapticd.scene.mobility/1"`, how a jointed body answers the hand.
 //! - [`scene_joints`]: `"hapticd.scene.joints/1"`, a running world's joints, read and driven.
 //! - [`scene_deformation`]: `"hapticd.scene.deformation/1"`, where deforming solids stand.
+//! - [`scene_compliance`]: `"hapticd.scene.compliance/1"`, how a soft surface gives between
+//!   two physics steps.
 
+pub mod scene_compliance;
 pub mod scene_contacts;
 pub mod scene_control;
 pub mod scene_deformation;
