@@ -22,7 +22,7 @@ pub use export::{
     SceneInstance, log,
 };
 pub use ext::{
-    scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*, scene_geometry::*,
-    scene_joints::*, scene_mobility::*,
+    scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*,
+    scene_geometry::*, scene_joints::*, scene_mobility::*,
 };
 pub use geometry::Geometry;

@@ -117,6 +117,8 @@ impl Lockstep {
             let count = body_count as usize;
             self.world
                 .mobilities(&set.bodies[..count], &mut set.mobilities[..count]);
+            self.world
+                .compliances(&set.planes[..n], &mut set.compliances[..n]);
             self.impulses.clear();
             self.locals.clear();
             std::mem::swap(&mut self.poses.0, &mut self.poses.1);

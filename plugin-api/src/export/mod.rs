@@ -10,8 +10,8 @@ use std::sync::{Once, OnceLock};
 
 use crate::abi::*;
 use crate::ext::{
-    scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*, scene_geometry::*,
-    scene_joints::*, scene_mobility::*,
+    scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*,
+    scene_geometry::*, scene_joints::*, scene_mobility::*,
 };
 
 mod macros;

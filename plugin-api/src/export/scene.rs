@@ -4,7 +4,9 @@
 use std::ffi::{CStr, c_char};
 
 use crate::abi::*;
-use crate::ext::{scene_compliance::*, scene_contacts::*, scene_control::*, scene_joints::*, scene_mobility::*};
+use crate::ext::{
+    scene_compliance::*, scene_contacts::*, scene_control::*, scene_joints::*, scene_mobility::*,
+};
 use crate::geometry::Geometry;
 
 use super::{SceneError, guard, log};

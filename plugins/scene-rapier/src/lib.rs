@@ -3,7 +3,9 @@
 //! multi-rate style of the scene ABI). Each step takes in what the hand did to the bodies
 //! near it (local dynamics; the impulses it gave them under `feedback: impulse`; with
 //! `feedback: position` a kinematic body moved to each pointer), and publishes the surfaces
-//! near each pointer's proxy as planes and the bodies they belong to.
+//! near each pointer's proxy as planes and the bodies they belong to. Soft bodies are
+//! stepped at the same rate, pressed by the impulses the hand gives them, their planes
+//! giving under the finger between two steps.
 
 use hapticd_core::world_state::body_pose;
 use hapticd_physics::joint::DrivenJoints;
@@ -68,7 +70,7 @@ impl SceneInstance for Rapier {
     }
 
     fn object_body(&self, object: u32) -> Option<u32> {
-        self.0.body_of(object).map(|b| b as u32)
+        self.0.object_body(object).map(|b| b as u32)
     }
 
     fn mobility(&self, body: u32) -> Option<HapticdMobility> {
@@ -85,6 +87,14 @@ impl SceneInstance for Rapier {
 
     fn apply(&mut self, command: &HapticdSceneCommand, state: &mut HapticdBodyState) -> i32 {
         answered(state, self.0.control(command))
+    }
+
+    fn corners(&self, out: &mut [[f32; 3]]) -> usize {
+        self.0.corners(out)
+    }
+
+    fn compliance(&self, pointer: u32, plane: u32) -> Option<HapticdPlaneCompliance> {
+        self.0.compliance(pointer, plane)
     }
 }
 

@@ -6,6 +6,12 @@
 //! and sums the force it displays into an impulse on the touched object over each physics
 //! period (6.3.4), handed back when the next set arrives (6.3.5).
 //!
+//! A soft surface gives under the finger between two sets: the world says how far its plane
+//! moves in for each newton pressed on it and the press it already stands under, and each
+//! tick moves it in by that compliance times the press beyond it, so that the finger meets
+//! the surface where the world's next step will have it (6.5.5) instead of a wall for a
+//! period.
+//!
 //! With local dynamics (6.5.4) the set also carries the bodies near the pointers: those are
 //! moved here every tick under the force displayed ([`local_dynamics`](super::local_dynamics)),
 //! their planes move with them, and what the hand did to them goes back instead of an
@@ -19,7 +25,8 @@
 use glam::DVec3;
 use hapticd_plugin_api::{
     HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdImpulse, HapticdLocalBody,
-    HapticdLocalState, HapticdMobility, HapticdPlane, HapticdPlanes, HapticdPointer,
+    HapticdLocalState, HapticdMobility, HapticdPlane, HapticdPlaneCompliance, HapticdPlanes,
+    HapticdPointer,
 };
 
 use super::local_dynamics::{Change, LocalBody, Push};
@@ -35,6 +42,9 @@ pub struct PlaneSet {
     pub sequence: u64,
     /// The planes near each pointer.
     pub planes: [HapticdPlanes; MAX_EFFECTORS],
+    /// How each of those planes gives under a press (zero: rigid, or a world that does not
+    /// say).
+    pub compliances: [[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]; MAX_EFFECTORS],
     /// Bodies in `bodies` (local dynamics; 0: impulses only).
     pub body_count: u32,
     /// The bodies near the pointers, to move here until the next set.
@@ -405,8 +415,8 @@ impl PlaneRenderer {
     /// [rt] The wrench of pointer `p` this tick, the reaction summed on what it touches.
     fn render_pointer(&mut self, p: usize, pointer: &Pointer, fraction: f64, dt: f64) -> Wrench {
         let count = (self.current.planes[p].count as usize).min(HAPTICD_MAX_PLANES);
-        let (surfaces, shapes) = self.surfaces(p, count, fraction);
         let grip = pointer.pose.position;
+        let (surfaces, shapes) = self.surfaces(p, count, fraction, grip);
         if self.embedded[p] && self.still_embedded(p, grip, &surfaces[..count]) {
             return Wrench::ZERO;
         }
@@ -458,13 +468,15 @@ impl PlaneRenderer {
         Wrench::force(force)
     }
 
-    /// [rt] Pointer `p`'s first `count` planes, `fraction` moved, as surfaces and half-spaces.
+    /// [rt] Pointer `p`'s first `count` planes, `fraction` moved and soft ones given under
+    /// `grip`, as surfaces and half-spaces.
     #[inline]
     fn surfaces(
         &self,
         p: usize,
         count: usize,
         fraction: f64,
+        grip: DVec3,
     ) -> ([Surface; HAPTICD_MAX_PLANES], [Shape; HAPTICD_MAX_PLANES]) {
         let mut surfaces = [Surface {
             point: DVec3::ZERO,
@@ -477,12 +489,48 @@ impl PlaneRenderer {
         }; HAPTICD_MAX_PLANES];
         for k in 0..count {
             surfaces[k] = self.interpolated(p, k, fraction);
+            let give = self.give(p, k, fraction);
+            surfaces[k].point -= surfaces[k].normal * self.given(&surfaces[k], give, grip);
             shapes[k] = Shape::HalfSpace {
                 point: surfaces[k].point,
                 normal: surfaces[k].normal,
             };
         }
         (surfaces, shapes)
+    }
+
+    /// How plane `k` of pointer `p` gives, `fraction` of the way from how the set before had
+    /// the same object's plane give: as the plane itself moves, so that a new set takes
+    /// over without a step in the force.
+    fn give(&self, p: usize, k: usize, fraction: f64) -> HapticdPlaneCompliance {
+        let plane = &self.current.planes[p].planes[k];
+        let now = self.current.compliances[p][k];
+        let earlier = &self.previous.planes[p];
+        let count = (earlier.count as usize).min(HAPTICD_MAX_PLANES);
+        let Some(old) = (0..count).find(|&j| earlier.planes[j].object == plane.object) else {
+            return now;
+        };
+        let old = self.previous.compliances[p][old];
+        let lerp = |a: f64, b: f64| a + (b - a) * fraction;
+        HapticdPlaneCompliance {
+            compliance: lerp(old.compliance, now.compliance),
+            load: lerp(old.load, now.load),
+        }
+    }
+
+    /// How far `surface`, giving as `give` says, moves in under a grip at `grip`, metres
+    /// (less than 0: out, the press it stood under eased). The proxy's spring k and the
+    /// surface's compliance c in series: pressed d behind the plane the grip meets
+    /// F = k·(d − s), and the surface moves s = c·(F − F₀), so s = c·(k·d − F₀)/(1 + c·k);
+    /// a grip clear of it leaves it at −c·F₀, where nothing presses.
+    fn given(&self, surface: &Surface, give: HapticdPlaneCompliance, grip: DVec3) -> f64 {
+        let (c, load) = (give.compliance, give.load);
+        if c <= 0.0 {
+            return 0.0;
+        }
+        let k = self.parameters.stiffness;
+        let behind = (surface.point - grip).dot(surface.normal);
+        (c * (k * behind - load) / (1.0 + c * k)).max(-c * load)
     }
 
     /// [rt] Restart pointer `p`'s proxy at `grip`; whether the grip is still inside a solid.

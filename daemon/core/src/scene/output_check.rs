@@ -12,6 +12,8 @@
 //!   body with more than [`HAPTICD_MAX_BODY_CONTACTS`] contacts, a state, inertia or contact
 //!   that is not finite, no positive mass or inertia, a body faster than
 //!   [`MAX_SURFACE_SPEED`] or spinning faster than [`MAX_SPIN`], or one body twice.
+//! - How planes give ([`check_compliances`]): a compliance or a load that is not finite, below
+//!   zero, or past [`MAX_COMPLIANCE`] or [`MAX_LOAD`].
 //! - Direct wrenches ([`WrenchChecker`]): non-finite, beyond [`WRENCH_MARGIN`] times the
 //!   device's limits, or zig-zagging by large steps for [`ZIGZAG_TICKS`] ticks in a row.
 //!
@@ -20,7 +22,7 @@
 use glam::DVec3;
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdLocalBody,
-    HapticdMobility, HapticdPlanes,
+    HapticdMobility, HapticdPlaneCompliance, HapticdPlanes,
 };
 
 use super::local_dynamics::Mobility;
@@ -35,6 +37,14 @@ pub const MAX_SURFACE_SPEED: f64 = 100.0;
 /// Fastest spin a locally moved body may report, rad/s: a 1 cm ball rolling at
 /// [`MAX_SURFACE_SPEED`] turns at ten thousand.
 pub const MAX_SPIN: f64 = 1.0e4;
+
+/// Most a plane may give, m/N: a surface that moves a metre for each newton is not there
+/// under a finger (a jelly's gives a few millimetres).
+pub const MAX_COMPLIANCE: f64 = 1.0;
+
+/// Most press a plane may say it stands under, N: ten times what a hand presses with (a
+/// device's strings pull tens of newtons).
+pub const MAX_LOAD: f64 = 1_000.0;
 
 /// How far a normal's length may be from 1. Single-precision engines (rapier) normalise to
 /// about 1e-7; a normal off by this much changes a contact force by 0.1 %.
@@ -135,6 +145,14 @@ pub enum OutputFault {
     MobilityUnsound {
         /// The body's place in the set.
         index: usize,
+    },
+    /// How a plane gives is not finite, below zero or past [`MAX_COMPLIANCE`] or
+    /// [`MAX_LOAD`].
+    ComplianceUnsound {
+        /// The pointer.
+        pointer: usize,
+        /// The plane's place in its set.
+        plane: usize,
     },
     /// A locally moved body faster than [`MAX_SURFACE_SPEED`] or [`MAX_SPIN`].
     BodyTooFast {
@@ -249,6 +267,11 @@ impl std::fmt::Display for OutputFault {
                 "local body {index}: its joints' mobility is not finite, not symmetric or \
                  moves a point against a push"
             ),
+            Self::ComplianceUnsound { pointer, plane } => write!(
+                f,
+                "pointer {pointer}, plane {plane}: how it gives is not finite, below zero or \
+                 past {MAX_COMPLIANCE} m/N under {MAX_LOAD} N"
+            ),
             Self::BodyTooFast { index, speed, spin } => write!(
                 f,
                 "local body {index}: it moves at {speed:.3e} m/s and turns at {spin:.3e} rad/s, \
@@ -357,6 +380,25 @@ pub fn check_mobilities(
     for (index, m) in mobilities.iter().take(count as usize).enumerate() {
         if m.is_some_and(|m| Mobility::jointed(&m).is_none()) {
             return Err(OutputFault::MobilityUnsound { index });
+        }
+    }
+    Ok(())
+}
+
+/// [physics] Check how the planes of `planes` give (`compliances`, pointer by pointer); the
+/// first fault found.
+pub fn check_compliances(
+    planes: &[HapticdPlanes],
+    compliances: &[[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]],
+) -> Result<(), OutputFault> {
+    for (pointer, (set, gives)) in planes.iter().zip(compliances).enumerate() {
+        let count = (set.count as usize).min(HAPTICD_MAX_PLANES);
+        for (plane, g) in gives[..count].iter().enumerate() {
+            let sound = (0.0..=MAX_COMPLIANCE).contains(&g.compliance)
+                && (0.0..=MAX_LOAD).contains(&g.load);
+            if !sound {
+                return Err(OutputFault::ComplianceUnsound { pointer, plane });
+            }
         }
     }
     Ok(())

@@ -13,8 +13,9 @@ use std::time::{Duration, Instant};
 
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
-    HAPTICD_MAX_LOCAL_BODIES, HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState,
-    HapticdMobility, HapticdPlanes, HapticdPointer,
+    HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdBodyPose, HapticdImpulse,
+    HapticdLocalBody, HapticdLocalState, HapticdMobility, HapticdPlaneCompliance, HapticdPlanes,
+    HapticdPointer,
 };
 
 use super::ledger::Ledger;
@@ -35,6 +36,16 @@ pub trait Stepped {
     fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
         let _ = bodies;
         out.fill(None);
+    }
+    /// How each of the last step's `planes` gives, pointer by pointer, into `out` (a world
+    /// of rigid bodies leaves them all rigid).
+    fn compliances(
+        &self,
+        planes: &[HapticdPlanes],
+        out: &mut [[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]],
+    ) {
+        let _ = planes;
+        out.fill([HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]);
     }
 }
 

@@ -59,6 +59,9 @@ struct Instance {
     mobility: Option<unsafe extern "C" fn(*mut c_void, u32, *mut HapticdMobility) -> i32>,
     /// The deformation extension's function, when the plugin has one.
     corners: Option<unsafe extern "C" fn(*mut c_void, *mut f32, u32) -> u32>,
+    /// The compliance extension's function, when the plugin has one.
+    compliance:
+        Option<unsafe extern "C" fn(*mut c_void, u32, u32, *mut HapticdPlaneCompliance) -> i32>,
     /// The ABI minor the plugin was built for: fields newer than it are not read.
     minor: u32,
 }
@@ -158,6 +161,29 @@ impl Instance {
                 let status = unsafe { mobility(self.pointer, body.body, &mut found) };
                 (status == HAPTICD_OK).then_some(found)
             });
+        }
+    }
+
+    /// [physics, after a step] How each of its `planes` gives, pointer by pointer, into `out`
+    /// (rigid for every plane of a plugin without the compliance extension).
+    fn compliances(
+        &self,
+        planes: &[HapticdPlanes],
+        out: &mut [[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]],
+    ) {
+        for (pointer, (set, out)) in planes.iter().zip(out).enumerate() {
+            let count = (set.count as usize).min(HAPTICD_MAX_PLANES);
+            for (plane, out) in out.iter_mut().enumerate() {
+                *out = HapticdPlaneCompliance::default();
+                let Some(compliance) = self.compliance.filter(|_| plane < count) else {
+                    continue;
+                };
+                // SAFETY: a live instance on its physics thread, a valid out pointer.
+                let status = unsafe { compliance(self.pointer, pointer as u32, plane as u32, out) };
+                if status != HAPTICD_OK {
+                    *out = HapticdPlaneCompliance::default();
+                }
+            }
         }
     }
 
@@ -405,6 +431,7 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         drive: None,
         mobility: None,
         corners: None,
+        compliance: None,
         minor: loaded.abi.1,
     };
     let geometry =
@@ -421,6 +448,10 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
     let deformation: Option<HapticdSceneDeformation> =
         unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_DEFORMATION) };
     instance.corners = deformation.and_then(|d| d.corners);
+    // SAFETY: HapticdSceneCompliance is the struct of the compliance extension.
+    let compliance: Option<HapticdSceneCompliance> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_COMPLIANCE) };
+    instance.compliance = compliance.and_then(|c| c.compliance);
     // A plugin running a scene file is known by the file's name (`blocks`), not the engine's.
     let name = scene_file
         .and_then(|f| f.file_stem()?.to_str())
@@ -517,6 +548,14 @@ impl hapticd_core::scene::shared_world::Stepped for PluginWorld {
 
     fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
         self.instance.mobilities(bodies, out);
+    }
+
+    fn compliances(
+        &self,
+        planes: &[HapticdPlanes],
+        out: &mut [[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]],
+    ) {
+        self.instance.compliances(planes, out);
     }
 }
 

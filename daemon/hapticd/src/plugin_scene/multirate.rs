@@ -19,7 +19,7 @@ use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
 };
 use hapticd_core::scene::output_check::{
-    OutputFault, check_bodies, check_mobilities, check_planes,
+    OutputFault, check_bodies, check_compliances, check_mobilities, check_planes,
 };
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
@@ -144,7 +144,8 @@ impl PhysicsSide {
     pub(crate) fn publish(&mut self, set: &mut PlaneSet, count: usize) -> bool {
         let checked = check_planes(&set.planes[..self.pointers])
             .and_then(|()| check_bodies(&set.bodies, set.body_count))
-            .and_then(|()| check_mobilities(&set.mobilities, set.body_count));
+            .and_then(|()| check_mobilities(&set.mobilities, set.body_count))
+            .and_then(|()| check_compliances(&set.planes, &set.compliances));
         if let Err(fault) = checked {
             self.fail(Some(fault));
             return false;
@@ -295,6 +296,7 @@ impl MultiRateScene {
                         if status == HAPTICD_OK {
                             let count = (set.body_count as usize).min(set.bodies.len());
                             instance.mobilities(&set.bodies[..count], &mut set.mobilities);
+                            instance.compliances(&set.planes, &mut set.compliances);
                         }
                         set.step = (monotonic_ns() - started) as f64 * 1e-9;
                         set.yielding = pacer.judge();

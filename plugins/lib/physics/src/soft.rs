@@ -4,7 +4,13 @@
 //! bodies; what it presses on a pointer with is felt there.
 
 use glam::DVec3;
-use hapticd_core::kinematics::Wrench;
+use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
+use hapticd_plugin_api::{
+    HAPTICD_COMMAND_IMPULSE, HAPTICD_COMMAND_IMPULSE_AT_CENTRE, HAPTICD_COMMAND_QUERY,
+    HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION, HAPTICD_COMMAND_SET_VELOCITY,
+    HapticdBodyState, HapticdSceneCommand,
+};
+use hapticd_mesh::triangle::nearest_weights;
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
 use hapticd_soft::implicit::{Solve, Solver, Stepped};
@@ -21,6 +27,21 @@ const TICK: Solve = Solve {
     budget: 20,
     tolerance: 1e-4,
 };
+
+/// The point of a soft body's surface nearest a point, as it stands now.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nearest {
+    /// How far it is, metres.
+    pub distance: f64,
+    /// The point.
+    pub point: DVec3,
+    /// Its triangle's outward unit normal.
+    pub normal: DVec3,
+    /// Its triangle's nodes, and how much of the point each is.
+    pub weights: [(usize, f64); 3],
+    /// How fast it moves, m/s.
+    pub velocity: DVec3,
+}
 
 /// A soft body of a scene, ready to step.
 #[derive(Debug, Clone)]
@@ -162,6 +183,95 @@ impl SoftPart {
             .iter()
             .flat_map(|&i| std::iter::repeat_n(i, bodies[i].pieces.len()))
             .zip(&self.touches)
+    }
+
+    /// [physics] The point of its surface nearest `x`, if it has a surface.
+    pub fn nearest(&self, x: DVec3) -> Option<Nearest> {
+        let (positions, velocities) = (&self.body.positions, &self.body.velocities);
+        let mut best: Option<Nearest> = None;
+        for t in &self.body.mesh.surface {
+            let nodes = t.map(|n| n as usize);
+            let corners = nodes.map(|n| positions[n]);
+            let w = nearest_weights(x, corners);
+            let point = corners[0] * w[0] + corners[1] * w[1] + corners[2] * w[2];
+            let distance = point.distance(x);
+            if best.is_some_and(|b| b.distance <= distance) {
+                continue;
+            }
+            let Some(normal) = (corners[1] - corners[0])
+                .cross(corners[2] - corners[0])
+                .try_normalize()
+            else {
+                continue;
+            };
+            best = Some(Nearest {
+                distance,
+                point,
+                normal,
+                weights: [0, 1, 2].map(|k| (nodes[k], w[k])),
+                velocity: (0..3).map(|k| velocities[nodes[k]] * w[k]).sum(),
+            });
+        }
+        best
+    }
+
+    /// [physics] Push it with `force`, N, at its surface's point nearest `at`, over its next
+    /// step (shared among that triangle's nodes).
+    pub fn push(&mut self, at: DVec3, force: DVec3) {
+        if let Some(near) = self.nearest(at) {
+            for (node, w) in near.weights {
+                self.body.forces[node] += force * w;
+            }
+        }
+    }
+
+    /// [physics] How far a step of `dt` moves the surface at `weights` along `normal` for
+    /// each newton pressed on it there, m/N ([`SoftBody::compliance`]).
+    pub fn compliance(&mut self, dt: f64, weights: &[(usize, f64)], normal: DVec3) -> Option<f64> {
+        self.body.compliance(&mut self.solver, dt, weights, normal)
+    }
+
+    /// Its state now, taken whole: its orientation the turn of its rest shape that best
+    /// fits it.
+    pub fn state(&self) -> HapticdBodyState {
+        let body = &self.body;
+        HapticdBodyState {
+            position: body.centre().to_array(),
+            orientation: quat_to_wxyz(body.turn()),
+            velocity: body.velocity().to_array(),
+            spin: body.spin().to_array(),
+            mass: body.mass(),
+            friction: self.friction.slide,
+            force: self.load.to_array(),
+        }
+    }
+
+    /// Carry out `command` (checked finite) on it taken whole, as on a rigid body: None for
+    /// what it cannot take (moving it to a pose or changing its mass, which would take its
+    /// solve made anew).
+    pub fn apply(&mut self, command: &HapticdSceneCommand) -> Option<()> {
+        let (body, vector) = (&mut self.body, DVec3::from(command.vector));
+        match command.kind {
+            HAPTICD_COMMAND_QUERY => {}
+            HAPTICD_COMMAND_SET_VELOCITY => body.set_motion(vector, DVec3::from(command.spin)),
+            HAPTICD_COMMAND_IMPULSE => body.give_impulse(vector, DVec3::from(command.position)),
+            HAPTICD_COMMAND_IMPULSE_AT_CENTRE => {
+                let centre = body.centre();
+                body.give_impulse(vector, centre);
+            }
+            HAPTICD_COMMAND_SET_FORCE => self.load = vector,
+            HAPTICD_COMMAND_SET_FRICTION if command.value >= 0.0 => {
+                // The static coefficient keeps its ratio to the dynamic one.
+                let Friction { stick, slide } = self.friction;
+                let ratio = if slide > 0.0 { stick / slide } else { 1.0 };
+                self.friction = Friction {
+                    stick: command.value * ratio,
+                    slide: command.value,
+                };
+            }
+            _ => return None,
+        }
+        Some(())
     }
 
     /// The corners of its surface's triangles where the nodes stand now, triangle by

@@ -13,8 +13,12 @@ use crate::convert::{dvec, rotation, vector};
 use crate::world::RapierWorld;
 
 impl RapierWorld {
-    /// Body `i` of the scene file as the control extension lists it (None past the last).
+    /// Body `i` of the scene file as the control extension lists it (None past the last):
+    /// its rigid bodies, then its soft ones.
     pub fn body_info(&self, i: usize) -> Option<HapticdBodyInfo> {
+        if let Some(soft) = self.soft_body(i) {
+            return Some(HapticdBodyInfo::new(&soft.name, false));
+        }
         let handle = self.bodies.get(i)?;
         let fixed = !self.physics.bodies[*handle].is_dynamic();
         Some(HapticdBodyInfo::new(&self.names[i], fixed))
@@ -22,6 +26,9 @@ impl RapierWorld {
 
     /// Body `i`'s state now (`i` a body of the file).
     pub fn body_state(&self, i: usize) -> HapticdBodyState {
+        if let Some(soft) = self.soft_body(i) {
+            return soft.state();
+        }
         let state = self.body(i);
         let b = &self.physics.bodies[self.bodies[i]];
         let friction = b
@@ -49,10 +56,14 @@ impl RapierWorld {
     /// kind).
     pub fn control(&mut self, command: &HapticdSceneCommand) -> Option<HapticdBodyState> {
         let i = command.body as usize;
-        let handle = *self.bodies.get(i)?;
         if !command.is_finite() {
             return None;
         }
+        if let Some(soft) = self.soft_body_mut(i) {
+            soft.apply(command)?;
+            return Some(soft.state());
+        }
+        let handle = *self.bodies.get(i)?;
         let b = &mut self.physics.bodies[handle];
         let free = b.is_dynamic();
         let (light, dense) = DENSITY_RANGE;

@@ -7,16 +7,26 @@
 //! has continuous collision detection, so a fast body at 10 Hz does not pass through a wall.
 //!
 //! Objects of planes and impulses are collider numbers in file order (one per convex
-//! piece), so a body that is not convex shows each piece as a plane of its own.
+//! piece), so a body that is not convex shows each piece as a plane of its own; then one per
+//! soft body.
+//!
+//! A soft body is stepped after the rigid ones, at the same rate, against the fixed bodies.
+//! The hand presses it through the impulses it gives it: each period's, as a force over
+//! the next step on the surface where it pressed (thesis 6.5.5: deformed by what the hand
+//! gave, not by how deep the finger went). Its plane under a pointer says how far the
+//! surface gives for each newton pressed on it before the next step (the compliance
+//! extension), so that the finger meets it where that step will have it.
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
 use hapticd_physics::mass::volume_and_centroid;
 use hapticd_physics::scene::{Feedback, Primitive, RapierScene};
+use hapticd_physics::soft::SoftPart;
 use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
-    HAPTICD_MAX_BODY_CONTACTS, HapticdBodyContact, HapticdBodyPose, HapticdImpulse,
-    HapticdLocalBody, HapticdLocalState, HapticdMobility, HapticdPlanes,
+    HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_PLANES, HapticdBodyContact, HapticdBodyPose,
+    HapticdImpulse, HapticdLocalBody, HapticdLocalState, HapticdMobility, HapticdPlane,
+    HapticdPlaneCompliance, HapticdPlanes,
 };
 use rapier3d::geometry::PairContacts;
 use rapier3d::na::Vector6;
@@ -87,6 +97,14 @@ pub struct RapierWorld {
     scratch: Vec<Candidate>,
     /// The joints between the bodies.
     pub(crate) joints: Joints,
+    /// The soft bodies: ids after the rigid bodies', objects after the colliders'.
+    pub(crate) soft: Vec<SoftPart>,
+    /// The bodies as the file has them: the fixed ones are what the soft bodies meet.
+    still: Vec<Body>,
+    /// What each soft body was pushed with at the last step: where, and the force, N.
+    soft_loads: Vec<Vec<(DVec3, DVec3)>>,
+    /// How each pointer's planes of the last step give.
+    gives: Vec<[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]>,
 }
 
 /// The solid a pointer is in the physics under position feedback. The haptic side renders
@@ -316,6 +334,11 @@ impl RapierWorld {
             reach: surfaces::reach(spec.rate),
             scratch: Vec::new(),
             joints,
+            soft: spec.soft.clone(),
+            still: spec.bodies.clone(),
+            // A push a pointer a period at most.
+            soft_loads: vec![Vec::with_capacity(pointers); spec.soft.len()],
+            gives: vec![[HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]; pointers],
         };
         if let Some((shape, primitive)) = &spec.pointer {
             // Sampled at the physics rate, a pointer jumps centimetres a step: its contacts
@@ -371,9 +394,9 @@ impl RapierWorld {
         self.reach
     }
 
-    /// Number of bodies of the file.
+    /// Number of bodies of the file: the rigid ones, then the soft ones.
     pub fn body_count(&self) -> usize {
-        self.bodies.len()
+        self.bodies.len() + self.soft.len()
     }
 
     /// Where each body of the file is now, in the file's order.
@@ -383,8 +406,18 @@ impl RapierWorld {
             .collect()
     }
 
-    /// Body `i` of the file, as it is now.
+    /// Body `i` of the file, as it is now (a soft one taken whole: its centre of mass,
+    /// turned as its rest shape best fits it).
     pub fn body(&self, i: usize) -> BodyState {
+        if let Some(soft) = self.soft_body(i) {
+            let body = &soft.body;
+            return BodyState {
+                position: body.centre(),
+                orientation: body.turn(),
+                velocity: body.velocity(),
+                spin: body.spin(),
+            };
+        }
         let b = &self.physics.bodies[self.bodies[i]];
         BodyState {
             position: dvec(b.center_of_mass()),
@@ -394,9 +427,91 @@ impl RapierWorld {
         }
     }
 
-    /// The body that object (collider) `object` belongs to.
+    /// The rigid body that object (collider) `object` belongs to.
     pub fn body_of(&self, object: u32) -> Option<usize> {
         self.pieces.get(object as usize).map(|(_, body)| *body)
+    }
+
+    /// The body, rigid or soft, that object `object` belongs to.
+    pub fn object_body(&self, object: u32) -> Option<usize> {
+        self.body_of(object)
+            .or_else(|| Some(self.bodies.len() + self.soft_of_object(object)?))
+    }
+
+    /// Which soft body object `object` is.
+    fn soft_of_object(&self, object: u32) -> Option<usize> {
+        (object as usize)
+            .checked_sub(self.pieces.len())
+            .filter(|&k| k < self.soft.len())
+    }
+
+    /// The soft body of id `i`, if it is one.
+    pub(crate) fn soft_body(&self, i: usize) -> Option<&SoftPart> {
+        self.soft.get(i.checked_sub(self.bodies.len())?)
+    }
+
+    /// The soft body of id `i`, if it is one, to change.
+    pub(crate) fn soft_body_mut(&mut self, i: usize) -> Option<&mut SoftPart> {
+        let k = i.checked_sub(self.bodies.len())?;
+        self.soft.get_mut(k)
+    }
+
+    /// Where the corners of the soft bodies' surfaces (the geometry's deforming solids)
+    /// stand now, the first ones into `out`; how many there are.
+    pub fn corners(&self, out: &mut [[f32; 3]]) -> usize {
+        hapticd_physics::scene::soft_corners(&self.soft, out)
+    }
+
+    /// How plane `plane` of pointer `pointer`, as the last step published them, gives
+    /// under a press: None for a rigid one.
+    pub fn compliance(&self, pointer: u32, plane: u32) -> Option<HapticdPlaneCompliance> {
+        let give = *self.gives.get(pointer as usize)?.get(plane as usize)?;
+        (give.compliance > 0.0).then_some(give)
+    }
+
+    /// Push soft body `k` with `impulse` given over `dt`: its mean force over the next step,
+    /// where it pressed. What is not finite is ignored.
+    fn push_soft(&mut self, k: usize, impulse: &HapticdImpulse, dt: f64) {
+        let (j, at) = (DVec3::from(impulse.impulse), DVec3::from(impulse.point));
+        let force = j / dt;
+        if !(force.is_finite() && at.is_finite()) {
+            return;
+        }
+        self.soft[k].push(at, force);
+        self.soft_loads[k].push((at, force));
+    }
+
+    /// Add each soft body's surface within reach of `at` to pointer `pointer`'s `out`, with
+    /// how it gives before the next step of `dt`.
+    fn soft_surfaces_near(&mut self, pointer: usize, at: DVec3, out: &mut HapticdPlanes, dt: f64) {
+        let first = self.pieces.len() as u32;
+        for k in 0..self.soft.len() {
+            let count = out.count as usize;
+            if count >= HAPTICD_MAX_PLANES {
+                return;
+            }
+            let Some(near) = self.soft[k].nearest(at).filter(|n| n.distance <= self.reach) else {
+                continue;
+            };
+            out.planes[count] = HapticdPlane {
+                object: first + k as u32,
+                point: near.point.to_array(),
+                normal: near.normal.to_array(),
+                velocity: near.velocity.to_array(),
+            };
+            out.count += 1;
+            // The press the surface stands under: the push taken in nearest it.
+            let load = self.soft_loads[k]
+                .iter()
+                .min_by(|a, b| a.0.distance(near.point).total_cmp(&b.0.distance(near.point)))
+                .map_or(0.0, |(_, force)| (-near.normal).dot(*force).max(0.0));
+            let compliance = self.soft[k]
+                .compliance(dt, &near.weights, near.normal)
+                .unwrap_or(0.0);
+            if let Some(give) = self.gives.get_mut(pointer) {
+                give[count] = HapticdPlaneCompliance { compliance, load };
+            }
+        }
     }
 
     /// Give the body of `impulse.object` the momentum `impulse.impulse` at `impulse.point`:
@@ -753,8 +868,14 @@ impl RapierWorld {
                     .iter()
                     .map(|p| DVec3::from(p.velocity).length())
                     .fold(0.0, f64::max);
+                for loads in &mut self.soft_loads {
+                    loads.clear();
+                }
                 for impulse in input.impulses {
-                    self.apply(impulse, hand_speed);
+                    match self.soft_of_object(impulse.object) {
+                        Some(k) => self.push_soft(k, impulse, input.dt),
+                        None => self.apply(impulse, hand_speed),
+                    }
                 }
             }
             Feedback::Position => {
@@ -769,14 +890,23 @@ impl RapierWorld {
         self.joints.before_step(&self.physics);
         self.physics.step();
         self.joints.after_step(&mut self.physics);
+        let gravity = dvec(self.physics.gravity);
+        for part in &mut self.soft {
+            part.step(input.dt, gravity, &self.still, self.still.len(), &mut []);
+        }
         // Around the proxy, where the finger rests, or the grip when there is none.
         let around = if input.proxies.len() == input.pointers.len() {
             input.proxies
         } else {
             input.pointers
         };
-        for (out, p) in output.planes.iter_mut().zip(around) {
-            self.surfaces_near(DVec3::from(p.position), out);
+        for gives in &mut self.gives {
+            *gives = [HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES];
+        }
+        for (k, (out, p)) in output.planes.iter_mut().zip(around).enumerate() {
+            let at = DVec3::from(p.position);
+            self.surfaces_near(at, out);
+            self.soft_surfaces_near(k, at, out, input.dt);
         }
         *output.body_count = 0;
         if self.feedback == Feedback::Local {
@@ -801,10 +931,11 @@ impl RapierWorld {
             }
             *output.body_count = count as u32;
         }
-        (0..self.bodies.len()).all(|i| {
+        let rigid = (0..self.bodies.len()).all(|i| {
             let b = self.body(i);
             b.position.is_finite() && b.velocity.is_finite() && b.spin.is_finite()
-        })
+        });
+        rigid && self.soft.iter().all(SoftPart::is_finite)
     }
 }
 
@@ -824,6 +955,16 @@ impl hapticd_core::scene::shared_world::Stepped for RapierWorld {
     fn mobilities(&self, bodies: &[HapticdLocalBody], out: &mut [Option<HapticdMobility>]) {
         for (out, body) in out.iter_mut().zip(bodies) {
             *out = self.mobility(body.body as usize);
+        }
+    }
+
+    fn compliances(
+        &self,
+        planes: &[HapticdPlanes],
+        out: &mut [[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]],
+    ) {
+        for ((out, gives), _) in out.iter_mut().zip(&self.gives).zip(planes) {
+            *out = *gives;
         }
     }
 }

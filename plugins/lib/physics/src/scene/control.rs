@@ -11,7 +11,6 @@ use super::checks::{DENSITY_RANGE, DIVERGENT_OMEGA_DT, contact_springs, omega_dt
 use crate::joint::{DrivenJoints, Joint, JointState, Motor};
 use crate::soft::SoftPart;
 use crate::world::ContactModel;
-use hapticd_soft::contact::Friction;
 
 impl PenaltyScene {
     /// Body `i` of the scene file as the control extension lists it (None past the last):
@@ -31,16 +30,7 @@ impl PenaltyScene {
     /// orientation the turn of its rest shape that best fits it.
     pub fn body_state(&self, i: usize) -> HapticdBodyState {
         if let Some(soft) = self.soft_of(i) {
-            let body = &soft.body;
-            return HapticdBodyState {
-                position: body.centre().to_array(),
-                orientation: quat_to_wxyz(body.turn()),
-                velocity: body.velocity().to_array(),
-                spin: body.spin().to_array(),
-                mass: body.mass(),
-                friction: soft.friction.slide,
-                force: soft.load.to_array(),
-            };
+            return soft.state();
         }
         let b = &self.world.bodies[i];
         HapticdBodyState {
@@ -71,7 +61,7 @@ impl PenaltyScene {
             .checked_sub(self.first_pointer)
             .and_then(|k| self.soft.get_mut(k))
         {
-            apply_soft(soft, command)?;
+            soft.apply(command)?;
             return Some(self.body_state(i));
         }
         if i >= self.first_pointer {
@@ -146,34 +136,6 @@ impl PenaltyScene {
         };
         omega_dt(k, mass, self.dt) < DIVERGENT_OMEGA_DT
     }
-}
-
-/// Carry out `command` (checked finite) on soft body `soft` taken whole, as on a rigid
-/// body: None for what it cannot take (moving it to a pose or changing its mass, which
-/// would take its solve made anew).
-fn apply_soft(soft: &mut SoftPart, command: &HapticdSceneCommand) -> Option<()> {
-    let (body, vector) = (&mut soft.body, DVec3::from(command.vector));
-    match command.kind {
-        HAPTICD_COMMAND_QUERY => {}
-        HAPTICD_COMMAND_SET_VELOCITY => body.set_motion(vector, DVec3::from(command.spin)),
-        HAPTICD_COMMAND_IMPULSE => body.give_impulse(vector, DVec3::from(command.position)),
-        HAPTICD_COMMAND_IMPULSE_AT_CENTRE => {
-            let centre = body.centre();
-            body.give_impulse(vector, centre);
-        }
-        HAPTICD_COMMAND_SET_FORCE => soft.load = vector,
-        HAPTICD_COMMAND_SET_FRICTION if command.value >= 0.0 => {
-            // The static coefficient keeps its ratio to the dynamic one.
-            let Friction { stick, slide } = soft.friction;
-            let ratio = if slide > 0.0 { stick / slide } else { 1.0 };
-            soft.friction = Friction {
-                stick: command.value * ratio,
-                slide: command.value,
-            };
-        }
-        _ => return None,
-    }
-    Some(())
 }
 
 impl DrivenJoints for PenaltyScene {

@@ -47,20 +47,7 @@ impl PenaltyScene {
                 geometry.add_triangles(solid_of(id, body, HAPTICD_SOLID_POINTER), faces(piece));
             }
         }
-        // A soft body is its surface where it stands at load in the world's frame, moved
-        // by `corners` (not by its body's pose).
-        for part in &self.soft {
-            let corners: Vec<DVec3> = part.corners().collect();
-            geometry.add_triangles(
-                HapticdSolid {
-                    flags: HAPTICD_SOLID_DEFORMING,
-                    ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
-                },
-                corners.chunks_exact(3).map(|t| HapticdTriangle {
-                    corners: [t[0], t[1], t[2]].map(|c| c.to_array()),
-                }),
-            );
-        }
+        add_soft_surfaces(&mut geometry, &self.soft);
         let joints: Vec<&Joint> = self.world.joints.iter().map(|l| &l.joint).collect();
         add_joints(&mut geometry, &self.world.bodies, &joints);
         geometry
@@ -69,15 +56,7 @@ impl PenaltyScene {
     /// [rt] Where the corners of the soft bodies' surfaces ([`geometry`](Self::geometry)'s
     /// deforming solids) stand now, the first ones into `out`; how many there are.
     pub fn corners(&self, out: &mut [[f32; 3]]) -> usize {
-        let corners = self.soft.iter().flat_map(SoftPart::corners);
-        let mut count = 0;
-        for c in corners {
-            if let Some(slot) = out.get_mut(count) {
-                *slot = c.as_vec3().to_array();
-            }
-            count += 1;
-        }
-        count
+        soft_corners(&self.soft, out)
     }
 
     /// Where the corners of the soft bodies' surfaces stand now, all of them.
@@ -161,10 +140,44 @@ impl RapierScene {
                 }
             }
         }
+        for _ in &self.soft {
+            geometry.add_body();
+        }
+        add_soft_surfaces(&mut geometry, &self.soft);
         let joints: Vec<&Joint> = self.joints.iter().collect();
         add_joints(&mut geometry, &self.bodies, &joints);
         geometry
     }
+}
+
+/// Each soft body of `parts` as a deforming solid: its surface where it stands at load in
+/// the world's frame, moved by [`soft_corners`] (not by its body's pose).
+fn add_soft_surfaces(geometry: &mut Geometry, parts: &[SoftPart]) {
+    for part in parts {
+        let corners: Vec<DVec3> = part.corners().collect();
+        geometry.add_triangles(
+            HapticdSolid {
+                flags: HAPTICD_SOLID_DEFORMING,
+                ..HapticdSolid::placed([0.0; 3], [1.0, 0.0, 0.0, 0.0])
+            },
+            corners.chunks_exact(3).map(|t| HapticdTriangle {
+                corners: [t[0], t[1], t[2]].map(|c| c.to_array()),
+            }),
+        );
+    }
+}
+
+/// [the stepping thread] Where the corners of `parts`' surfaces (the deforming solids of
+/// [`add_soft_surfaces`]) stand now, the first ones into `out`; how many there are.
+pub fn soft_corners(parts: &[SoftPart], out: &mut [[f32; 3]]) -> usize {
+    let mut count = 0;
+    for c in parts.iter().flat_map(SoftPart::corners) {
+        if let Some(slot) = out.get_mut(count) {
+            *slot = c.as_vec3().to_array();
+        }
+        count += 1;
+    }
+    count
 }
 
 /// Draw `joints` faintly on the body each moves (its second), as `bodies` stand at load: a

@@ -161,11 +161,14 @@ use hapticd_core::diagnostics::{self, Diagnostics, Findings};
 use hapticd_mesh::cache::Cache;
 use hapticd_plugin_api::Geometry;
 
+use crate::soft::SOFT_TICK;
+
 pub use checks::{
     DENSITY_RANGE, GRASP_STIFFNESS, INERTIA_DAMPING_FACTOR, MAX_DT, MAX_GRASP_DAMPING, MAX_GRAVITY,
     MAX_HULL_POINTS, MAX_PIECES, MAX_POINTERS, MAX_SPEED, MAX_STEPS_PER_CALL, MIN_DT, Primitive,
     RATE_RANGE,
 };
+pub use geometry::soft_corners;
 pub use joints::WORLD;
 pub use meshes::SCALE_RANGE;
 pub use penalty::PenaltyScene;
@@ -252,7 +255,13 @@ impl SceneFile {
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
-        let soft = soft::soft_bodies(&mut f, &raw, engine, &bodies.bodies, &files);
+        // A soft body is stepped each device tick under the penalty engine, each physics
+        // step under rapier.
+        let tick = match penalty {
+            Some(_) => SOFT_TICK,
+            None => 1.0 / raw.rate.unwrap_or(checks::RATE_RANGE.0),
+        };
+        let soft = soft::soft_bodies(&mut f, &raw, (engine, tick), &bodies.bodies, &files);
         let named: Vec<(&str, bool)> = raw
             .bodies
             .iter()
@@ -271,7 +280,10 @@ impl SceneFile {
         let warnings = f.finish()?;
         Ok(match penalty {
             None => SceneFile::Rapier(Box::new(RapierScene::build(
-                raw, bodies, joints, pointer, warnings,
+                raw,
+                (bodies, joints, soft),
+                pointer,
+                warnings,
             ))),
             Some(penalty) => SceneFile::Penalty(Box::new(PenaltyScene::build(
                 raw,

@@ -8,9 +8,12 @@ use hapticd_core::diagnostics::Diagnostic;
 
 use super::checks::{Bodies, Primitive, RATE_RANGE};
 use super::schema::{RawFeedback, RawScene};
+use super::soft::Soft;
 use crate::body::Body;
 use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
+use crate::soft::SoftPart;
+use hapticd_soft::contact::Friction;
 
 /// What a multi-rate world takes back from the haptic side (`feedback:`, thesis 6.2–6.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,6 +68,9 @@ pub struct RapierScene {
     pub names: Vec<String>,
     /// The joints between the bodies.
     pub joints: Vec<Joint>,
+    /// The soft bodies, stepped at the physics rate against the fixed bodies (their ids
+    /// after the rigid ones').
+    pub soft: Vec<SoftPart>,
     /// The pointers' solid, centred at the origin, if the file gives one.
     pub pointer: Option<(Body, Primitive)>,
     /// What works but is worth knowing.
@@ -72,11 +78,10 @@ pub struct RapierScene {
 }
 
 impl RapierScene {
-    /// The scene of checked `raw`, its `bodies`, `joints` and `pointer` solid.
+    /// The scene of checked `raw`, its `bodies`, `joints`, `soft` bodies and `pointer` solid.
     pub(super) fn build(
         raw: RawScene,
-        bodies: Bodies,
-        joints: Vec<Joint>,
+        (bodies, joints, soft): (Bodies, Vec<Joint>, Vec<Soft>),
         pointer: Option<(Polyhedron, Primitive)>,
         warnings: Vec<Diagnostic>,
     ) -> Self {
@@ -92,6 +97,19 @@ impl RapierScene {
             Some(RawFeedback::Local) | None => Feedback::Local,
             Some(RawFeedback::Impulse) => Feedback::Impulse,
         };
+        let friction = Friction {
+            stick: raw.material.static_friction,
+            slide: raw.material.friction,
+        };
+        // The hand presses a soft body through impulses, not as a body of the world: it
+        // touches the fixed bodies alone.
+        let soft = soft
+            .into_iter()
+            .map(|s| {
+                let parts = (s.body, s.solver);
+                SoftPart::new(s.name, parts, &bodies, bodies.len(), friction)
+            })
+            .collect();
         RapierScene {
             name: raw.name,
             gravity: DVec3::from(raw.gravity),
@@ -103,8 +121,14 @@ impl RapierScene {
             primitives,
             surfaces,
             weighed,
-            names: raw.bodies.into_iter().map(|b| b.name).collect(),
+            names: raw
+                .bodies
+                .into_iter()
+                .filter(|b| b.soft.is_none())
+                .map(|b| b.name)
+                .collect(),
             joints,
+            soft,
             pointer: pointer.map(|(shape, primitive)| {
                 let density = raw.pointer.as_ref().map_or(1000.0, |p| p.density);
                 (Body::new(&shape, density, false), primitive)

@@ -62,7 +62,7 @@ pub(super) enum RawEngine {
 }
 
 /// `feedback:`.
-#[derive(Deserialize, Clone, Copy)]
+#[derive(Deserialize, Clone, Copy, PartialEq)]
 #[serde(rename_all = "lowercase")]
 pub(super) enum RawFeedback {
     Local,

@@ -47,9 +47,8 @@ use hapticd_soft::material::Material;
 use super::Engine;
 use super::checks::DENSITY_RANGE;
 use super::meshes::{MeshFiles, Reading, read_mesh};
-use super::schema::{RawAxis, RawBody, RawElements, RawScene};
+use super::schema::{RawAxis, RawBody, RawElements, RawFeedback, RawScene};
 use crate::body::Body;
-use crate::soft::SOFT_TICK;
 
 /// The stiffest material a soft body may be, Pa (a hard rubber's is 10⁸).
 const YOUNG_RANGE: (f64, f64) = (1.0, 1e9);
@@ -61,6 +60,11 @@ const MOST_DAMPING: f64 = 1.0;
 /// device tick steps (here 2 058 linear ones take 0.63 ms, and 504 quadratic ones 0.9 ms:
 /// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
 pub const MOST_ELEMENTS: [usize; 2] = [2_000, 400];
+
+/// The same in a rapier scene, whose physics thread steps soft bodies at its own rate
+/// (`cargo bench -p hapticd-e2e --bench soft` steps 50 000 linear ones at the physics
+/// rate).
+pub const MOST_MULTIRATE_ELEMENTS: [usize; 2] = [50_000, 10_000];
 
 /// The most lattice tetrahedra a solid is cut from, for each it may keep: a mesh that
 /// fills a fiftieth of its bounds (a thin ring turned askew) is still cut, its 100 000
@@ -79,12 +83,12 @@ pub(super) struct Soft {
 }
 
 /// The soft bodies of `raw` for `engine`, their pins found in the rigid `bodies` (by the
-/// raw bodies' `names`, None for a soft one); those with a mistake are left out after it
-/// is reported.
+/// raw bodies' `names`, None for a soft one), their solves factored for steps of `tick`
+/// seconds; those with a mistake are left out after it is reported.
 pub(super) fn soft_bodies(
     f: &mut Findings,
     raw: &RawScene,
-    engine: Engine,
+    (engine, tick): (Engine, f64),
     bodies: &[Body],
     files: &MeshFiles<'_>,
 ) -> Vec<Soft> {
@@ -107,10 +111,11 @@ pub(super) fn soft_bodies(
             }
             continue;
         };
-        if engine != Engine::Penalty {
+        if engine == Engine::Rapier && raw.feedback == Some(RawFeedback::Position) {
             f.error(
-                format!("{at}.soft"),
-                "soft bodies run under the penalty engine for now",
+                "feedback",
+                "a soft body is pressed through the impulses the hand gives it: give \
+                 feedback: local or impulse",
             );
             continue;
         }
@@ -162,9 +167,13 @@ pub(super) fn soft_bodies(
         if !f.positive(format!("{at}.soft.resolution"), soft.resolution) {
             continue;
         }
+        let (caps, stepper) = match engine {
+            Engine::Penalty => (MOST_ELEMENTS, "a device tick"),
+            Engine::Rapier => (MOST_MULTIRATE_ELEMENTS, "a physics step"),
+        };
         let (most, kind) = match soft.elements {
-            RawElements::Linear => (MOST_ELEMENTS[0], "linear"),
-            RawElements::Quadratic => (MOST_ELEMENTS[1], "quadratic"),
+            RawElements::Linear => (caps[0], "linear"),
+            RawElements::Quadratic => (caps[1], "quadratic"),
         };
         // The lattice over the solid's bounds, before any is cut: what it would keep, by
         // the share of the bounds the solid fills.
@@ -176,7 +185,7 @@ pub(super) fn soft_bodies(
             f.error(
                 format!("{at}.soft.resolution"),
                 format!(
-                    "cuts it into about {elements:.0} tetrahedra; a device tick steps at most \
+                    "cuts it into about {elements:.0} tetrahedra; {stepper} steps at most \
                      {most} {kind} ones"
                 ),
             );
@@ -201,7 +210,7 @@ pub(super) fn soft_bodies(
             f.error(
                 format!("{at}.soft.resolution"),
                 format!(
-                    "cuts it into {} tetrahedra; a device tick steps 1 to {most} {kind} ones",
+                    "cuts it into {} tetrahedra; {stepper} steps 1 to {most} {kind} ones",
                     mesh.element_count()
                 ),
             );
@@ -214,7 +223,7 @@ pub(super) fn soft_bodies(
         if let Some(pinned) = &b.pinned {
             pin(f, &at, &mut body, pinned, &rigid);
         }
-        match Solver::factored(&body, SOFT_TICK) {
+        match Solver::factored(&body, tick) {
             Ok(solver) => out.push(Soft {
                 name: b.name.clone(),
                 body,
