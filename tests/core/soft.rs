@@ -5,8 +5,8 @@
 use std::process::Command;
 
 use glam::{DQuat, DVec3};
-use hapticd_core::kinematics::{Up, Wrench};
 use hapticctl::multirate::Lockstep;
+use hapticd_core::kinematics::{Up, Wrench};
 use hapticd_physics::coupling::Grip;
 use hapticd_physics::scene::SceneFile;
 use hapticd_soft::body::SoftBody;
@@ -922,7 +922,12 @@ fn a_soft_block_pressed_at_60_hz_physics_feels_as_at_1_khz_and_as_scikit_fem_say
          u = solve(*condense(K, f, D=clamped))\n\
          print(-(u[ys[{nodes:?}]] * np.array({weights:?})).sum())\n"
     );
-    let compliance = scikit_fem(&rest.body.mesh, Order::Linear, &rest.body.material, &problem);
+    let compliance = scikit_fem(
+        &rest.body.mesh,
+        Order::Linear,
+        &rest.body.material,
+        &problem,
+    );
     let k = hapticd_core::haptics::proxy::ProxyParameters::default().stiffness;
     for &d in &depths {
         let (ours, theirs) = (at(&reference, d), d / (1.0 / k + compliance));
@@ -953,6 +958,9 @@ fn a_soft_block_pressed_at_60_hz_physics_feels_as_at_1_khz_and_as_scikit_fem_say
             longest = longest.max(run);
         }
         println!("{rate} Hz: at most {longest} reversals of the force's change in a row");
-        assert!(longest <= 2, "the force alternates {longest} ticks in a row");
+        assert!(
+            longest <= 2,
+            "the force alternates {longest} ticks in a row"
+        );
     }
 }

@@ -669,3 +669,88 @@ fn an_impulse_through_the_centre_reaches_older_plugins_at_the_centre_they_report
     }
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// A soft body's plane gives under the finger through the real ABI: the rapier plugin, a
+/// world of a soft block pressed with 0.5 N, answers the compliance extension for the
+/// block's plane as the physics crate's own world (built here, in this process) says, the
+/// press it stands under included, and rigid for the floor's.
+#[test]
+fn a_soft_bodys_plane_gives_through_the_compliance_extension_as_its_world_says() {
+    use hapticd_core::scene::shared_world::Stepped;
+    use hapticd_physics::scene::SceneFile;
+    use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
+    use hapticd_plugin_api::*;
+    let dir = support::scratch("plugin-test", "compliance");
+    let file = dir.join("pressed.yaml");
+    std::fs::write(
+        &file,
+        "name: pressed\nengine: rapier\nrate: 60\ngravity: [0, 0, 0]\nmaterial: { static_friction: \
+         0.4, friction: 0.3 }\nbodies:\n  \
+         - { name: floor, box: [0.1, 0.01, 0.1], position: [0, -0.005, 0], fixed: true }\n  \
+         - { name: block, box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: 1100, \
+         soft: { young: 1.0e5, poisson: 0.45, damping: 0.002, resolution: 0.005 }, pinned: \
+         { body: floor } }\n",
+    )
+    .unwrap();
+    let mut plugin =
+        hapticd::plugin_scene::load_world(&plugin_path("hapticd-scene-rapier"), Some(&file), 1)
+            .unwrap()
+            .expect("a multi-rate world");
+    let SceneFile::Rapier(spec) = SceneFile::load(&file, 1).unwrap() else {
+        unreachable!("a rapier scene");
+    };
+    let mut here = hapticd_rapier::world::RapierWorld::new(&spec, 1);
+    // The finger half a millimetre above the block's top, which it pressed with 0.5 N over
+    // the last period (the block is object 1: the floor's one collider is 0).
+    let finger = [HapticdPointer {
+        position: [0.0012, 0.0205, 0.0021],
+        ..HapticdPointer::default()
+    }];
+    let dt = 1.0 / 60.0;
+    let pressed = [HapticdImpulse {
+        object: 1,
+        point: [0.0012, 0.02, 0.0021],
+        impulse: [0.0, -0.5 * dt, 0.0],
+    }];
+    let mut answers = Vec::new();
+    for world in [&mut plugin as &mut dyn Stepped, &mut here] {
+        let mut planes = [HapticdPlanes::default()];
+        let input = PhysicsInput {
+            dt,
+            pointers: &finger,
+            proxies: &finger,
+            impulses: &pressed,
+            locals: &[],
+        };
+        let mut output = PhysicsOutput {
+            planes: &mut planes,
+            bodies: &mut [],
+            body_count: &mut 0,
+        };
+        assert!(world.step(&input, &mut output));
+        let mut gives = [[HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]];
+        world.compliances(&planes, &mut gives);
+        answers.push((planes[0], gives[0]));
+    }
+    assert_eq!(answers[0], answers[1]);
+    let (planes, gives) = answers[0];
+    let block = (0..planes.count as usize)
+        .find(|&k| planes.planes[k].object == 1)
+        .expect("the block's plane");
+    println!(
+        "the block's plane: {:?}, {:?}",
+        planes.planes[block], gives[block]
+    );
+    assert!(gives[block].compliance > 1e-5, "{:?}", gives[block]);
+    // The press along the plane's normal, which the step has tilted.
+    let along = 0.5 * planes.planes[block].normal[1];
+    assert!(
+        (gives[block].load - along).abs() < 1e-9,
+        "{:?}",
+        gives[block]
+    );
+    for k in (0..planes.count as usize).filter(|&k| k != block) {
+        assert_eq!(gives[k], HapticdPlaneCompliance::default(), "plane {k}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}

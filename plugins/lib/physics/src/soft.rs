@@ -5,12 +5,12 @@
 
 use glam::DVec3;
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
+use hapticd_mesh::triangle::nearest_weights;
 use hapticd_plugin_api::{
     HAPTICD_COMMAND_IMPULSE, HAPTICD_COMMAND_IMPULSE_AT_CENTRE, HAPTICD_COMMAND_QUERY,
     HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION, HAPTICD_COMMAND_SET_VELOCITY,
     HapticdBodyState, HapticdSceneCommand,
 };
-use hapticd_mesh::triangle::nearest_weights;
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
 use hapticd_soft::implicit::{Solve, Solver, Stepped};

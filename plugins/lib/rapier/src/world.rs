@@ -490,7 +490,10 @@ impl RapierWorld {
             if count >= HAPTICD_MAX_PLANES {
                 return;
             }
-            let Some(near) = self.soft[k].nearest(at).filter(|n| n.distance <= self.reach) else {
+            let Some(near) = self.soft[k]
+                .nearest(at)
+                .filter(|n| n.distance <= self.reach)
+            else {
                 continue;
             };
             out.planes[count] = HapticdPlane {
@@ -503,7 +506,10 @@ impl RapierWorld {
             // The press the surface stands under: the push taken in nearest it.
             let load = self.soft_loads[k]
                 .iter()
-                .min_by(|a, b| a.0.distance(near.point).total_cmp(&b.0.distance(near.point)))
+                .min_by(|a, b| {
+                    a.0.distance(near.point)
+                        .total_cmp(&b.0.distance(near.point))
+                })
                 .map_or(0.0, |(_, force)| (-near.normal).dot(*force).max(0.0));
             let compliance = self.soft[k]
                 .compliance(dt, &near.weights, near.normal)

@@ -267,3 +267,58 @@ fn no_planes_yet_or_stale_planes_render_nothing_and_say_so() {
     assert!(!r.tick(&floor, &p, TICK, &mut w, |_| {}));
     assert_eq!(w[0], Wrench::ZERO);
 }
+
+/// A giving plane (compliance c, standing under a press F₀) held still, a grip pressed d
+/// behind it: the proxy's spring k and the surface in series, the hand feels exactly
+/// k·(d + c·F₀)/(1 + c·k); a grip in front of the plane by less than c·F₀ still presses
+/// (the surface stood pressed down), and one clear of that feels nothing. A set whose
+/// surface stands lower under more press takes over without a step in the force.
+#[test]
+fn a_giving_plane_pushes_back_as_the_spring_and_the_surface_in_series() {
+    let k = ProxyParameters::default().stiffness;
+    let (c, load) = (5e-4, 0.8);
+    let giving = |sequence, depth: f64, load: f64| {
+        let mut s = set(sequence, 2, DVec3::NEG_Y * depth, DVec3::Y, DVec3::ZERO);
+        s.compliances[0][0] = HapticdPlaneCompliance {
+            compliance: c,
+            load,
+        };
+        s
+    };
+    let above = [pointer(DVec3::new(0.0, 0.01, 0.0), DVec3::ZERO)];
+    let mut r = PlaneRenderer::new(RATE, &above);
+    let mut w = [Wrench::ZERO];
+    // A set a tick, all the same: the world stays fresh.
+    let mut sequence = 0;
+    let mut hold = |r: &mut PlaneRenderer, grip: f64, ticks: usize, w: &mut [Wrench; 1]| {
+        let at = [pointer(DVec3::new(0.0, grip, 0.0), DVec3::ZERO)];
+        for _ in 0..ticks {
+            sequence += 1;
+            r.tick(&giving(sequence, 0.0, load), &at, TICK, w, |_| {});
+        }
+    };
+    hold(&mut r, 0.01, 1, &mut w);
+    for d in [0.002, 0.0005, -0.0002] {
+        // The proxy walks to where it rests, then is held.
+        hold(&mut r, -d, 200, &mut w);
+        let exact = k * (d + c * load) / (1.0 + c * k);
+        println!("{d} m behind: {} N, exactly {exact} N", w[0].force.y);
+        assert!(
+            (w[0].force.y - exact).abs() < 1e-9,
+            "{} vs {exact}",
+            w[0].force.y
+        );
+    }
+    hold(&mut r, c * load + 1e-4, 1, &mut w);
+    assert_eq!(w[0].force, DVec3::ZERO);
+    hold(&mut r, -0.001, 200, &mut w);
+    let before = w[0].force.y;
+    let lower = giving(sequence + 1, c * load, 2.0 * load);
+    let pressed = [pointer(DVec3::new(0.0, -0.001, 0.0), DVec3::ZERO)];
+    r.tick(&lower, &pressed, TICK, &mut w, |_| {});
+    assert!(
+        (w[0].force.y - before).abs() < 1e-9,
+        "{before} then {}",
+        w[0].force.y
+    );
+}

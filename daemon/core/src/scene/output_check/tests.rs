@@ -426,3 +426,41 @@ fn an_unsound_mobility_is_a_fault_at_its_place() {
         Err(OutputFault::MobilityUnsound { index: 0 })
     );
 }
+
+/// How a plane gives that is not finite, below zero or past its bounds is a fault of the
+/// world at its place; a rigid one and a jelly's pass, and what lies past a pointer's
+/// planes in use is not read.
+#[test]
+fn an_unsound_compliance_is_a_fault_at_its_place() {
+    let set = planes();
+    let jelly = HapticdPlaneCompliance {
+        compliance: 5e-4,
+        load: 1.5,
+    };
+    let mut gives = [[HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]; 2];
+    gives[0][1] = jelly;
+    assert_eq!(check_compliances(&set, &gives), Ok(()));
+    for (compliance, load) in [
+        (f64::NAN, 1.0),
+        (-1e-4, 1.0),
+        (2.0 * MAX_COMPLIANCE, 1.0),
+        (1e-4, f64::INFINITY),
+        (1e-4, -0.5),
+        (1e-4, 2.0 * MAX_LOAD),
+    ] {
+        let mut broken = gives;
+        broken[0][1] = HapticdPlaneCompliance { compliance, load };
+        assert_eq!(
+            check_compliances(&set, &broken),
+            Err(OutputFault::ComplianceUnsound {
+                pointer: 0,
+                plane: 1
+            }),
+            "{compliance} m/N under {load} N"
+        );
+        // Past the planes in use: not read.
+        let mut unused = gives;
+        unused[0][5] = HapticdPlaneCompliance { compliance, load };
+        assert_eq!(check_compliances(&set, &unused), Ok(()));
+    }
+}
