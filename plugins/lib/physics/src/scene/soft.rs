@@ -405,8 +405,8 @@ mod tests {
         }
     }
 
-    /// A good soft scene loads, its soft body apart from the rigid ones; each hostile value
-    /// is refused at its key, with what is wrong.
+    /// A good soft scene loads under either engine, its soft body apart from the rigid
+    /// ones; each hostile value is refused at its key, with what is wrong.
     #[test]
     fn soft_bodies_are_checked_at_their_keys() {
         let SceneFile::Penalty(good) =
@@ -500,7 +500,21 @@ mod tests {
                 ", friction_stiffness: 2.0e7, friction_damping: 1.0e4, slip_speed: 0.001",
                 "",
             );
-        assert!(refused(&rapier).contains("soft bodies run under the penalty engine for now"));
+        let SceneFile::Rapier(multirate) =
+            SceneFile::parse(&rapier, Path::new("s.yaml"), 1).unwrap()
+        else {
+            panic!("a rapier scene");
+        };
+        assert_eq!(multirate.names, ["floor"]);
+        assert_eq!(multirate.soft[0].name, "jelly");
+        let position = rapier.replace("rate: 60", "rate: 60\nfeedback: position");
+        assert!(refused(&position).contains("feedback: local or impulse"));
+        let fine = rapier.replace("resolution: 0.01", "resolution: 0.0002");
+        assert!(
+            refused(&fine).contains("a physics step steps at most 50000 linear ones"),
+            "{}",
+            refused(&fine)
+        );
         let mesh = scene(PENALTY, SOFT, PINNED, "").replace(
             "box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], soft",
             "hull: [[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]], position: [0, 0.01, 0], soft",
