@@ -5,11 +5,20 @@
 //! engine's rigid block of the same size on a floor (the stack of one). Issue 48's goal:
 //! 2 000 tetrahedra in 400 µs a tick.
 //!
+//! The multi-rate regime: a rapier world's step at 60 Hz with a soft block of 20 250 and
+//! 48 000 linear tetrahedra pressed at its top by the hand's impulse, its plane and
+//! compliance published to a finger above it; beside them the same world's step with the
+//! block rigid.
+//!
 //! Run: `make bench`, or `cargo bench -p hapticd-e2e --bench soft`.
 
 use divan::Bencher;
 use glam::DVec3;
 use hapticctl::experiments::stack_timing::{DT, stack};
+use hapticd_physics::scene::SceneFile;
+use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
+use hapticd_plugin_api::{HapticdImpulse, HapticdPlanes, HapticdPointer};
+use hapticd_rapier::world::RapierWorld;
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
 use hapticd_soft::element::Order;
@@ -152,4 +161,95 @@ fn rigid_tick(bencher: Bencher) {
             world.step(DT);
         }
     });
+}
+
+/// Cubes along each side of the multi-rate blocks (of 0.4 cm): 20 250 and 48 000
+/// tetrahedra.
+const MULTIRATE_BLOCKS: [[usize; 3]; 2] = [[15, 15, 15], [20, 20, 20]];
+
+/// A rapier world at 60 Hz of a block of `cells` 4 mm cubes on a floor, soft (pinned to the
+/// floor) or rigid.
+fn multirate_block(cells: [usize; 3], soft: bool) -> RapierWorld {
+    let size = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64) * 0.004;
+    let kind = match soft {
+        true => {
+            ", soft: { young: 1.0e5, poisson: 0.45, damping: 0.002, resolution: 0.004 }, \
+             pinned: { body: floor }"
+        }
+        false => "",
+    };
+    let text = format!(
+        "name: block\nengine: rapier\nrate: 60\nmaterial: {{ static_friction: 0.4, \
+         friction: 0.3 }}\nbodies:\n  - {{ name: floor, box: [0.3, 0.01, 0.3], position: \
+         [0, -0.005, 0], fixed: true }}\n  - {{ name: block, box: [{}, {}, {}], position: [0, \
+         {}, 0], density: 1100{kind} }}\n",
+        size.x,
+        size.y,
+        size.z,
+        size.y / 2.0
+    );
+    let SceneFile::Rapier(spec) =
+        SceneFile::parse(&text, std::path::Path::new("block.yaml"), 1).expect("a valid scene")
+    else {
+        unreachable!("a rapier scene");
+    };
+    RapierWorld::new(&spec, 1)
+}
+
+/// One 60 Hz step of [`multirate_block`] pressed at its top's middle with 1 N (its object:
+/// the floor's collider is 0) under a finger just above it.
+fn multirate_step(bencher: Bencher, cells: [usize; 3], soft: bool) {
+    let started = std::time::Instant::now();
+    let mut world = multirate_block(cells, soft);
+    println!("SCRATCH built in {:?}", started.elapsed());
+    let top = cells[1] as f64 * 0.004;
+    let dt = 1.0 / 60.0;
+    let finger = [HapticdPointer {
+        position: [0.0011, top + 0.0005, 0.0013],
+        ..HapticdPointer::default()
+    }];
+    let pressed = [HapticdImpulse {
+        object: 1,
+        point: [0.0011, top, 0.0013],
+        impulse: [0.0, -dt, 0.0],
+    }];
+    let mut planes = [HapticdPlanes::default()];
+    let step = |world: &mut RapierWorld, planes: &mut [HapticdPlanes; 1]| {
+        let input = PhysicsInput {
+            dt,
+            pointers: &finger,
+            proxies: &finger,
+            impulses: &pressed,
+            locals: &[],
+        };
+        let mut output = PhysicsOutput {
+            planes,
+            bodies: &mut [],
+            body_count: &mut 0,
+        };
+        assert!(world.step(&input, &mut output));
+    };
+    for _ in 0..30 {
+        step(&mut world, &mut planes);
+    }
+    let started = std::time::Instant::now();
+    for _ in 0..10 {
+        step(&mut world, &mut planes);
+    }
+    println!("SCRATCH step {:?}", started.elapsed() / 10);
+    if let Some(part) = world.soft_bodies().first() {
+        let elements = part.body.mesh.element_count();
+        println!("{elements} elements at 60 Hz: {:?} a step", part.stepped);
+    }
+    bencher.bench_local(|| step(&mut world, &mut planes));
+}
+
+#[divan::bench(args = MULTIRATE_BLOCKS)]
+fn multirate_soft_step(bencher: Bencher, cells: [usize; 3]) {
+    multirate_step(bencher, cells, true);
+}
+
+#[divan::bench(args = MULTIRATE_BLOCKS)]
+fn multirate_rigid_step(bencher: Bencher, cells: [usize; 3]) {
+    multirate_step(bencher, cells, false);
 }

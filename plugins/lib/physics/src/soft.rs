@@ -43,6 +43,23 @@ pub struct Nearest {
     pub velocity: DVec3,
 }
 
+/// Steps a compliance is answered from the last solve for the same point, at most.
+pub const GIVE_KEPT: usize = 30;
+
+/// How far a normal may turn before the compliance along it is asked anew, radians.
+const GIVE_TURN: f64 = 0.01;
+
+/// A compliance answered: where and along what, for steps of what length, and how many
+/// steps ago.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Given {
+    weights: [(usize, f64); 3],
+    normal: DVec3,
+    dt: f64,
+    compliance: f64,
+    age: usize,
+}
+
 /// A soft body of a scene, ready to step.
 #[derive(Debug, Clone)]
 pub struct SoftPart {
@@ -62,6 +79,8 @@ pub struct SoftPart {
     pub load: DVec3,
     /// What its last tick's solve did.
     pub stepped: Stepped,
+    /// The last compliances answered (one for each finger on it, up to four).
+    given: [Option<Given>; 4],
 }
 
 impl SoftPart {
@@ -102,6 +121,7 @@ impl SoftPart {
                 iterations: 0,
                 residual: 0.0,
             },
+            given: [None; 4],
         }
     }
 
@@ -141,6 +161,12 @@ impl SoftPart {
             for (f, m) in self.body.forces.iter_mut().zip(&self.body.masses) {
                 *f += share * *m;
             }
+        }
+        for g in &mut self.given {
+            *g = g.filter(|g| g.age < GIVE_KEPT).map(|g| Given {
+                age: g.age + 1,
+                ..g
+            });
         }
         self.stepped = self.body.step(
             dt,
@@ -225,10 +251,34 @@ impl SoftPart {
         }
     }
 
-    /// [physics] How far a step of `dt` moves the surface at `weights` along `normal` for
-    /// each newton pressed on it there, m/N ([`SoftBody::compliance`]).
-    pub fn compliance(&mut self, dt: f64, weights: &[(usize, f64)], normal: DVec3) -> Option<f64> {
-        self.body.compliance(&mut self.solver, dt, weights, normal)
+    /// [physics] How far a step of `dt` moves the surface at `weights` (a triangle's
+    /// nodes) along `normal` for each newton pressed on it there, m/N
+    /// ([`SoftBody::compliance`]). It changes as slowly as the body turns: a finger held on
+    /// one spot is answered from the last time it was asked there (each answer costs a
+    /// solve through the factored system, most of a large body's step), asked anew once the
+    /// point, the normal or [`GIVE_KEPT`] steps have passed.
+    pub fn compliance(&mut self, dt: f64, weights: &[(usize, f64); 3], normal: DVec3) -> Option<f64> {
+        let same = |g: &Given| {
+            g.weights.iter().zip(weights).all(|(a, b)| a.0 == b.0 && (a.1 - b.1).abs() < 0.02)
+                && g.normal.dot(normal) > GIVE_TURN.cos()
+                && g.dt == dt
+        };
+        if let Some(g) = self.given.iter().flatten().find(|g| same(g)) {
+            return Some(g.compliance);
+        }
+        let compliance = self.body.compliance(&mut self.solver, dt, weights, normal)?;
+        // In the place of the oldest.
+        let slot = (0..self.given.len())
+            .max_by_key(|&k| self.given[k].map_or(usize::MAX, |g| g.age))
+            .unwrap_or(0);
+        self.given[slot] = Some(Given {
+            weights: *weights,
+            normal,
+            dt,
+            compliance,
+            age: 0,
+        });
+        Some(compliance)
     }
 
     /// Its state now, taken whole: its orientation the turn of its rest shape that best

@@ -445,6 +445,11 @@ impl RapierWorld {
             .filter(|&k| k < self.soft.len())
     }
 
+    /// The soft bodies, in the file's order.
+    pub fn soft_bodies(&self) -> &[SoftPart] {
+        &self.soft
+    }
+
     /// The soft body of id `i`, if it is one.
     pub(crate) fn soft_body(&self, i: usize) -> Option<&SoftPart> {
         self.soft.get(i.checked_sub(self.bodies.len())?)
