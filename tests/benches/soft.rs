@@ -199,9 +199,7 @@ fn multirate_block(cells: [usize; 3], soft: bool) -> RapierWorld {
 /// One 60 Hz step of [`multirate_block`] pressed at its top's middle with 1 N (its object:
 /// the floor's collider is 0) under a finger just above it.
 fn multirate_step(bencher: Bencher, cells: [usize; 3], soft: bool) {
-    let started = std::time::Instant::now();
     let mut world = multirate_block(cells, soft);
-    println!("SCRATCH built in {:?}", started.elapsed());
     let top = cells[1] as f64 * 0.004;
     let dt = 1.0 / 60.0;
     let finger = [HapticdPointer {
@@ -232,11 +230,6 @@ fn multirate_step(bencher: Bencher, cells: [usize; 3], soft: bool) {
     for _ in 0..30 {
         step(&mut world, &mut planes);
     }
-    let started = std::time::Instant::now();
-    for _ in 0..10 {
-        step(&mut world, &mut planes);
-    }
-    println!("SCRATCH step {:?}", started.elapsed() / 10);
     if let Some(part) = world.soft_bodies().first() {
         let elements = part.body.mesh.element_count();
         println!("{elements} elements at 60 Hz: {:?} a step", part.stepped);

@@ -11,13 +11,15 @@
 //! has at most 2 000 linear or 400 quadratic elements, what a device tick steps.
 //!
 //! `pinned:` holds nodes still: those inside a fixed body (`body: NAME`), or at or below a
-//! height along an axis in the scene's frame (`below: [y, 0.0]`). A soft body runs under the
-//! penalty engine, in a scene whose other bodies are fixed, and touches them and the
-//! pointers: its nodes are kept out of them, held there with the material's friction
-//! (`static_friction`, `friction`), and what it presses on a pointer with is what the hand
-//! feels there. It is drawn as it bends (its surface a deforming solid) and listed among
-//! the bodies after the rigid ones, but not yet attached to a moving body or touched by a
-//! coupled pointer.
+//! height along an axis in the scene's frame (`below: [y, 0.0]`). A soft body runs in a
+//! scene whose other bodies are fixed, and touches them: its nodes are kept out of them,
+//! held there with the material's friction (`static_friction`, `friction`). Under the
+//! penalty engine it is stepped each device tick and touches the pointers too: what it
+//! presses on a pointer with is what the hand feels there. Under rapier it is stepped each
+//! physics step, at most [`MOST_MULTIRATE_ELEMENTS`], and pressed by the impulses the hand
+//! gives it (`plugins/lib/rapier`). It is drawn as it bends (its surface a deforming solid)
+//! and listed among the bodies after the rigid ones, but not yet attached to a moving body
+//! or touched by a coupled pointer.
 //!
 //! ```yaml
 //! name: jelly
