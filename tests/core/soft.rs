@@ -843,14 +843,19 @@ fn frame() -> String {
     obj
 }
 
-/// A soft block 4 × 2 × 4 cm pinned to its floor, in a rapier scene at `rate` Hz physics.
-fn soft_block_at(rate: f64) -> Box<hapticd_physics::scene::RapierScene> {
+/// A soft block 4 × 2 × 4 cm pinned to its floor, in a rapier scene at `rate` Hz physics
+/// taking `feedback` from the hand.
+fn soft_block_at(
+    rate: f64,
+    feedback: &str,
+    young: f64,
+) -> Box<hapticd_physics::scene::RapierScene> {
     let text = format!(
-        "name: pressed\nengine: rapier\nrate: {rate}\ngravity: [0, 0, 0]\nmaterial: {{ \
+        "name: pressed\nengine: rapier\nrate: {rate}\nfeedback: {feedback}\ngravity: [0, 0, 0]\nmaterial: {{ \
          static_friction: 0.4, friction: 0.3 }}\nbodies:\n  \
          - {{ name: floor, box: [0.1, 0.01, 0.1], position: [0, -0.005, 0], fixed: true }}\n  \
          - {{ name: block, box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: 1100, \
-         soft: {{ young: 1.0e5, poisson: 0.45, damping: 0.002, resolution: 0.005 }}, pinned: \
+         soft: {{ young: {young}, poisson: 0.45, damping: 0.002, resolution: 0.005 }}, pinned: \
          {{ body: floor }} }}\n"
     );
     let SceneFile::Rapier(spec) =
@@ -865,11 +870,20 @@ fn soft_block_at(rate: f64) -> Box<hapticd_physics::scene::RapierScene> {
 /// the proxy) at 1 kHz, from 1 mm above to `deepest` into it: the force the hand feels each
 /// tick, with its depth.
 fn pressed_at(rate: f64, (x, z): (f64, f64), deepest: f64) -> Vec<(f64, f64)> {
-    let spec = soft_block_at(rate);
+    pressed_with(soft_block_at(rate, "local", 1e5), (x, z, 0.0), deepest)
+}
+
+/// `spec`'s block pressed as [`pressed_at`] presses it, by a grip `reach` above what
+/// presses (a fingertip's radius, where the finger is its solid).
+fn pressed_with(
+    spec: Box<hapticd_physics::scene::RapierScene>,
+    (x, z, reach): (f64, f64, f64),
+    deepest: f64,
+) -> Vec<(f64, f64)> {
     let (height, speed) = (0.02, 0.001);
     let grip = |depth: f64| {
         Lockstep::pointers(&[(
-            DVec3::new(x, height - depth, z),
+            DVec3::new(x, height - depth + reach, z),
             DVec3::new(0.0, -speed, 0.0),
         )])
     };
@@ -909,7 +923,7 @@ fn a_soft_block_pressed_at_60_hz_physics_feels_as_at_1_khz_and_as_scikit_fem_say
     };
     let reference = pressed_at(1000.0, (x, z), 0.002);
     // The reference: the rest block's compliance where the finger meets it, in scikit-fem.
-    let spec = soft_block_at(1000.0);
+    let spec = soft_block_at(1000.0, "local", 1e5);
     let rest = &spec.soft[0];
     let near = rest.nearest(DVec3::new(x, 0.03, z)).unwrap();
     assert!(near.normal.y > 0.999, "the finger meets the top: {near:?}");
@@ -945,22 +959,61 @@ fn a_soft_block_pressed_at_60_hz_physics_feels_as_at_1_khz_and_as_scikit_fem_say
             println!("{d} m at {rate} Hz: {slow:.5} N against {fast:.5} N at 1 kHz");
             assert!((slow / fast - 1.0).abs() < 0.02, "{slow} vs {fast}");
         }
-        // Reversals in a row of the tick-to-tick change, each by more than a millinewton
-        // (a thousandth of the force at 1 mm): a dip as a set arrives is two.
-        let (mut run, mut longest) = (0, 0);
-        for w in forces.windows(3) {
-            let (a, b) = (w[1].1 - w[0].1, w[2].1 - w[1].1);
-            run = if a * b < 0.0 && a.abs() > 1e-3 && b.abs() > 1e-3 {
-                run + 1
-            } else {
-                0
-            };
-            longest = longest.max(run);
-        }
+        // A dip as a set arrives is two.
+        let longest = alternations(&forces);
         println!("{rate} Hz: at most {longest} reversals of the force's change in a row");
         assert!(
             longest <= 2,
             "the force alternates {longest} ticks in a row"
         );
     }
+}
+
+/// Thesis 6.5.5 at 60 Hz physics: a block deformed by the impulses the hand gave is felt
+/// as stiff as it is, one deformed by the overlap of the finger's solid with it (`feedback:
+/// position`, the conventional method) is not. Pressed 1 mm, a block ten times as stiff
+/// (E = 10⁶ Pa against 10⁵) pushes back 2.12 times as hard through impulses (the proxy's
+/// spring in series bounds it) but the same to 0.2 % through the overlap (a fingertip of
+/// 1 cm radius): there the force is the proxy's spring against where the last step left
+/// the surface around the finger's solid, whatever the material.
+#[test]
+fn deformed_by_the_hands_impulses_a_stiffer_block_feels_stiffer_and_by_the_overlap_not() {
+    let (x, z) = (0.0012, 0.0021);
+    let at_1_mm = |forces: &[(f64, f64)]| {
+        forces
+            .iter()
+            .find(|(depth, _)| *depth >= 0.001 - 1e-12)
+            .map(|f| f.1)
+            .unwrap()
+    };
+    let mut ratios = Vec::new();
+    for (feedback, reach) in [("local", 0.0), ("position", 0.01)] {
+        let [soft, stiff] = [1e5, 1e6].map(|young| {
+            at_1_mm(&pressed_with(
+                soft_block_at(60.0, feedback, young),
+                (x, z, reach),
+                0.001,
+            ))
+        });
+        println!("{feedback}: {soft:.4} N, ten times as stiff {stiff:.4} N");
+        ratios.push(stiff / soft);
+    }
+    assert!(ratios[0] > 1.8, "{ratios:?}");
+    assert!((ratios[1] - 1.0).abs() < 0.01, "{ratios:?}");
+}
+
+/// The most reversals in a row of the tick-to-tick change of `forces` (depth, force), each
+/// by more than a millinewton (a thousandth of a finger's press on a jelly).
+fn alternations(forces: &[(f64, f64)]) -> usize {
+    let (mut run, mut longest) = (0, 0);
+    for w in forces.windows(3) {
+        let (a, b) = (w[1].1 - w[0].1, w[2].1 - w[1].1);
+        run = if a * b < 0.0 && a.abs() > 1e-3 && b.abs() > 1e-3 {
+            run + 1
+        } else {
+            0
+        };
+        longest = longest.max(run);
+    }
+    longest
 }

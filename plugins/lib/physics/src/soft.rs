@@ -93,28 +93,14 @@ impl SoftPart {
         first_pointer: usize,
         friction: Friction,
     ) -> SoftPart {
-        let touching: Vec<usize> = (0..bodies.len())
-            .filter(|&i| i >= first_pointer || bodies[i].fixed)
-            .collect();
-        let mut solids = Vec::new();
-        let mut faces = 0;
-        for &i in &touching {
-            for piece in &bodies[i].pieces {
-                solids.push(Obstacle {
-                    faces: (faces, piece.planes.len()),
-                    ..Obstacle::default()
-                });
-                faces += piece.planes.len();
-            }
-        }
-        SoftPart {
+        let mut part = SoftPart {
             name,
             body,
             solver,
-            touching,
-            planes: vec![(DVec3::ZERO, 0.0); faces],
-            touches: vec![Touch::default(); solids.len()],
-            solids,
+            touching: Vec::new(),
+            planes: Vec::new(),
+            solids: Vec::new(),
+            touches: Vec::new(),
             friction,
             load: DVec3::ZERO,
             stepped: Stepped {
@@ -122,7 +108,30 @@ impl SoftPart {
                 residual: 0.0,
             },
             given: [None; 4],
+        };
+        part.meet(bodies, first_pointer);
+        part
+    }
+
+    /// Touch the fixed bodies of `bodies` and its pointers (from `first_pointer`) from now
+    /// on: its obstacles sized for them.
+    pub fn meet(&mut self, bodies: &[Body], first_pointer: usize) {
+        self.touching = (0..bodies.len())
+            .filter(|&i| i >= first_pointer || bodies[i].fixed)
+            .collect();
+        self.solids.clear();
+        let mut faces = 0;
+        for &i in &self.touching {
+            for piece in &bodies[i].pieces {
+                self.solids.push(Obstacle {
+                    faces: (faces, piece.planes.len()),
+                    ..Obstacle::default()
+                });
+                faces += piece.planes.len();
+            }
         }
+        self.planes = vec![(DVec3::ZERO, 0.0); faces];
+        self.touches = vec![Touch::default(); self.solids.len()];
     }
 
     /// [rt] Step `dt` under `gravity` against `bodies` where the tick leaves them; each pointer
@@ -257,16 +266,26 @@ impl SoftPart {
     /// one spot is answered from the last time it was asked there (each answer costs a
     /// solve through the factored system, most of a large body's step), asked anew once the
     /// point, the normal or [`GIVE_KEPT`] steps have passed.
-    pub fn compliance(&mut self, dt: f64, weights: &[(usize, f64); 3], normal: DVec3) -> Option<f64> {
+    pub fn compliance(
+        &mut self,
+        dt: f64,
+        weights: &[(usize, f64); 3],
+        normal: DVec3,
+    ) -> Option<f64> {
         let same = |g: &Given| {
-            g.weights.iter().zip(weights).all(|(a, b)| a.0 == b.0 && (a.1 - b.1).abs() < 0.02)
+            g.weights
+                .iter()
+                .zip(weights)
+                .all(|(a, b)| a.0 == b.0 && (a.1 - b.1).abs() < 0.02)
                 && g.normal.dot(normal) > GIVE_TURN.cos()
                 && g.dt == dt
         };
         if let Some(g) = self.given.iter().flatten().find(|g| same(g)) {
             return Some(g.compliance);
         }
-        let compliance = self.body.compliance(&mut self.solver, dt, weights, normal)?;
+        let compliance = self
+            .body
+            .compliance(&mut self.solver, dt, weights, normal)?;
         // In the place of the oldest.
         let slot = (0..self.given.len())
             .max_by_key(|&k| self.given[k].map_or(usize::MAX, |g| g.age))

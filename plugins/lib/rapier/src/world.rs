@@ -15,7 +15,9 @@
 //! the next step on the surface where it pressed (thesis 6.5.5: deformed by what the hand
 //! gave, not by how deep the finger went). Its plane under a pointer says how far the
 //! surface gives for each newton pressed on it before the next step (the compliance
-//! extension), so that the finger meets it where that step will have it.
+//! extension), so that the finger meets it where that step will have it. Under position
+//! feedback the pointers' solids push its nodes out of their overlap instead (the
+//! conventional method), its planes rigid.
 
 use glam::{DQuat, DVec3};
 use hapticd_physics::body::Body;
@@ -26,7 +28,7 @@ use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput};
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_PLANES, HapticdBodyContact, HapticdBodyPose,
     HapticdImpulse, HapticdLocalBody, HapticdLocalState, HapticdMobility, HapticdPlane,
-    HapticdPlaneCompliance, HapticdPlanes,
+    HapticdPlaneCompliance, HapticdPlanes, HapticdPointer,
 };
 use rapier3d::geometry::PairContacts;
 use rapier3d::na::Vector6;
@@ -99,7 +101,9 @@ pub struct RapierWorld {
     pub(crate) joints: Joints,
     /// The soft bodies: ids after the rigid bodies', objects after the colliders'.
     pub(crate) soft: Vec<SoftPart>,
-    /// The bodies as the file has them: the fixed ones are what the soft bodies meet.
+    /// The bodies as the file has them, then the pointers' solids: the fixed ones, and the
+    /// pointers under position feedback (parked far away otherwise), are what the soft
+    /// bodies meet.
     still: Vec<Body>,
     /// What each soft body was pushed with at the last step: where, and the force, N.
     soft_loads: Vec<Vec<(DVec3, DVec3)>>,
@@ -358,6 +362,15 @@ impl RapierWorld {
             }
             world.pointer_solid = Some(PointerSolid::of(shape, *primitive));
         }
+        if let Some((shape, _)) = &spec.pointer {
+            world
+                .still
+                .extend(std::iter::repeat_n(shape.clone(), pointers));
+        }
+        let first = world.bodies.len();
+        for part in &mut world.soft {
+            part.meet(&world.still, first);
+        }
         world.set_feedback(spec.feedback);
         world
     }
@@ -486,6 +499,24 @@ impl RapierWorld {
         self.soft_loads[k].push((at, force));
     }
 
+    /// Under position feedback, put the pointers' solids the soft bodies meet where the
+    /// grips are (deforming them by their overlap, the conventional method); else far away.
+    fn place_pointer_solids(&mut self, grips: &[HapticdPointer]) {
+        let first = self.bodies.len();
+        for (k, solid) in self.still.iter_mut().skip(first).enumerate() {
+            let grip = grips
+                .get(k)
+                .map(|g| (DVec3::from(g.position), DVec3::from(g.velocity)));
+            (solid.position, solid.velocity) = match grip {
+                Some((at, v)) if self.feedback == Feedback::Position && at.is_finite() => {
+                    (at, if v.is_finite() { v } else { DVec3::ZERO })
+                }
+                _ => (DVec3::new(1e4 + 10.0 * k as f64, -1e4, 1e4), DVec3::ZERO),
+            };
+            solid.update_world_shape();
+        }
+    }
+
     /// Add each soft body's surface within reach of `at` to pointer `pointer`'s `out`, with
     /// how it gives before the next step of `dt`.
     fn soft_surfaces_near(&mut self, pointer: usize, at: DVec3, out: &mut HapticdPlanes, dt: f64) {
@@ -508,6 +539,12 @@ impl RapierWorld {
                 velocity: near.velocity.to_array(),
             };
             out.count += 1;
+            if let (Feedback::Position, Some(solid)) = (self.feedback, &self.pointer_solid) {
+                // The surface as the grip point meets it, and as rigid as its step left it.
+                let point = near.point + near.normal * solid.extent(-near.normal);
+                out.planes[count].point = point.to_array();
+                continue;
+            }
             // The press the surface stands under: the push taken in nearest it.
             let load = self.soft_loads[k]
                 .iter()
@@ -902,8 +939,10 @@ impl RapierWorld {
         self.physics.step();
         self.joints.after_step(&mut self.physics);
         let gravity = dvec(self.physics.gravity);
+        self.place_pointer_solids(input.pointers);
+        let first = self.bodies.len();
         for part in &mut self.soft {
-            part.step(input.dt, gravity, &self.still, self.still.len(), &mut []);
+            part.step(input.dt, gravity, &self.still, first, &mut []);
         }
         // Around the proxy, where the finger rests, or the grip when there is none.
         let around = if input.proxies.len() == input.pointers.len() {

@@ -62,7 +62,7 @@ pub(super) enum RawEngine {
 }
 
 /// `feedback:`.
-#[derive(Deserialize, Clone, Copy, PartialEq)]
+#[derive(Deserialize, Clone, Copy)]
 #[serde(rename_all = "lowercase")]
 pub(super) enum RawFeedback {
     Local,

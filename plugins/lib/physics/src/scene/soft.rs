@@ -17,7 +17,7 @@
 //! penalty engine it is stepped each device tick and touches the pointers too: what it
 //! presses on a pointer with is what the hand feels there. Under rapier it is stepped each
 //! physics step, at most [`MOST_MULTIRATE_ELEMENTS`], and pressed by the impulses the hand
-//! gives it (`plugins/lib/rapier`). It is drawn as it bends (its surface a deforming solid)
+//! gives it (under `feedback: position`, by the pointers' solids: `plugins/lib/rapier`). It is drawn as it bends (its surface a deforming solid)
 //! and listed among the bodies after the rigid ones, but not yet attached to a moving body
 //! or touched by a coupled pointer.
 //!
@@ -49,7 +49,7 @@ use hapticd_soft::material::Material;
 use super::Engine;
 use super::checks::DENSITY_RANGE;
 use super::meshes::{MeshFiles, Reading, read_mesh};
-use super::schema::{RawAxis, RawBody, RawElements, RawFeedback, RawScene};
+use super::schema::{RawAxis, RawBody, RawElements, RawScene};
 use crate::body::Body;
 
 /// The stiffest material a soft body may be, Pa (a hard rubber's is 10⁸).
@@ -113,14 +113,6 @@ pub(super) fn soft_bodies(
             }
             continue;
         };
-        if engine == Engine::Rapier && raw.feedback == Some(RawFeedback::Position) {
-            f.error(
-                "feedback",
-                "a soft body is pressed through the impulses the hand gives it: give \
-                 feedback: local or impulse",
-            );
-            continue;
-        }
         if raw.pointer.as_ref().is_some_and(|p| p.coupling.is_some()) {
             f.error(
                 "pointer.coupling",
@@ -509,8 +501,6 @@ mod tests {
         };
         assert_eq!(multirate.names, ["floor"]);
         assert_eq!(multirate.soft[0].name, "jelly");
-        let position = rapier.replace("rate: 60", "rate: 60\nfeedback: position");
-        assert!(refused(&position).contains("feedback: local or impulse"));
         let fine = rapier.replace("resolution: 0.01", "resolution: 0.0002");
         assert!(
             refused(&fine).contains("a physics step steps at most 50000 linear ones"),
