@@ -1017,3 +1017,57 @@ fn alternations(forces: &[(f64, f64)]) -> usize {
     }
     longest
 }
+
+/// A world shared over the network (thesis Fig. 6.13, `hapticd-world`) hands each host its
+/// soft planes with how they give, as the world says it: a host pressing the block with
+/// 0.5 N gets the block's plane with the world's compliance and the press it stands under.
+#[test]
+fn a_shared_world_hands_its_hosts_how_its_soft_planes_give() {
+    use hapticd_core::scene::multirate::PlaneSet;
+    use hapticd_core::scene::remote::{HostUpdate, decode_world};
+    use hapticd_core::scene::shared_world::{SharedWorld, Stepped};
+    use hapticd_plugin_api::{HapticdBodyPose, HapticdImpulse, HapticdPointer};
+    let spec = soft_block_at(60.0, "local", 1e5);
+    let world = hapticd_rapier::world::RapierWorld::new(&spec, 2);
+    let mut shared = SharedWorld::new(world, 60.0, 2);
+    let finger = HapticdPointer {
+        position: [0.0012, 0.0205, 0.0021],
+        ..HapticdPointer::default()
+    };
+    let pressing = |impulses: Vec<HapticdImpulse>| HostUpdate {
+        seen: 0,
+        pointers: vec![finger],
+        proxies: vec![finger],
+        impulses,
+        locals: Vec::new(),
+        touched: Vec::new(),
+    };
+    let now = std::time::Instant::now();
+    shared.take("near", pressing(Vec::new()), now).unwrap();
+    assert!(shared.step());
+    // The block is object 1 (the floor's one collider is 0).
+    let impulse = HapticdImpulse {
+        object: 1,
+        point: [0.0012, 0.02, 0.0021],
+        impulse: [0.0, -0.5 / 60.0, 0.0],
+    };
+    shared.take("near", pressing(vec![impulse]), now).unwrap();
+    assert!(shared.step());
+    let mut sent = Vec::new();
+    shared.updates(&mut hapticd_core::wire::Encoder::default(), |_, bytes| {
+        sent = bytes.to_vec()
+    });
+    let mut set = PlaneSet::default();
+    let mut poses = [HapticdBodyPose::default(); 4];
+    decode_world(&sent, &mut set, &mut poses).expect("an update");
+    let mut own = [[Default::default(); hapticd_plugin_api::HAPTICD_MAX_PLANES]; 2];
+    shared.world().compliances(&set.planes[..2], &mut own);
+    let block = (0..set.planes[0].count as usize)
+        .find(|&k| set.planes[0].planes[k].object == 1)
+        .expect("the block's plane");
+    let give = set.compliances[0][block];
+    println!("the host's block plane gives {give:?}");
+    assert!(give.compliance > 1e-5, "{give:?}");
+    assert!((give.load - 0.5 * set.planes[0].planes[block].normal[1]).abs() < 1e-9);
+    assert_eq!(give, own[0][block]);
+}

@@ -5,7 +5,7 @@
 //!
 //! Two messages cross, little-endian ([`wire`](crate::wire)):
 //! - [`WorldUpdate`], world host → haptic host after every step: the planes near each of
-//!   the host's pointers, the bodies it moves itself (local dynamics, with the last of the
+//!   the host's pointers (each with how it gives under a press: a soft body's), the bodies it moves itself (local dynamics, with the last of the
 //!   host's own changes the step took in, and how a jointed one moves through its joints),
 //!   and where every body is, for pictures;
 //! - host → world host, as often as the haptic side hands something back and at least
@@ -27,7 +27,7 @@ use std::path::Path;
 use hapticd_plugin_api::{
     HAPTICD_MAX_BODY_CONTACTS, HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdBodyContact,
     HapticdBodyPose, HapticdImpulse, HapticdLocalBody, HapticdLocalState, HapticdMobility,
-    HapticdPlane, HapticdPlanes, HapticdPointer,
+    HapticdPlane, HapticdPlaneCompliance, HapticdPlanes, HapticdPointer,
 };
 use serde::Deserialize;
 
@@ -40,7 +40,7 @@ use crate::wire::{Decoder, Encoder};
 pub const ENGINE: &str = "remote";
 
 /// First bytes of a [`WorldUpdate`].
-pub const WORLD_MAGIC: u32 = u32::from_le_bytes(*b"hdW3");
+pub const WORLD_MAGIC: u32 = u32::from_le_bytes(*b"hdW4");
 
 /// First bytes of a host's message.
 pub const HOST_MAGIC: u32 = u32::from_le_bytes(*b"hdH2");
@@ -71,7 +71,7 @@ pub const MAX_HOST_BYTES: usize = 4
     + 2 * 4
     + MAX_HAND_BACKS * (IMPULSE_BYTES + LOCAL_BYTES);
 
-const PLANE_BYTES: usize = 4 + 9 * 8;
+const PLANE_BYTES: usize = 4 + 11 * 8;
 const CONTACT_BYTES: usize = 8 * 8;
 const MOBILITY_BYTES: usize = 4 + 42 * 8;
 const BODY_BYTES: usize = 4 * 4 + 8 + 30 * 8 + 4 + HAPTICD_MAX_BODY_CONTACTS * CONTACT_BYTES;
@@ -235,14 +235,15 @@ pub fn encode_world(
     out.u32(u32::from(set.shared));
     let pointers = pointers.min(MAX_EFFECTORS);
     out.u32(pointers as u32);
-    for planes in &set.planes[..pointers] {
+    for (planes, gives) in set.planes[..pointers].iter().zip(&set.compliances) {
         let count = (planes.count as usize).min(HAPTICD_MAX_PLANES);
         out.u32(count as u32);
-        for p in &planes.planes[..count] {
+        for (p, g) in planes.planes[..count].iter().zip(gives) {
             out.u32(p.object);
             out.f64s(&p.point);
             out.f64s(&p.normal);
             out.f64s(&p.velocity);
+            out.f64s(&[g.compliance, g.load]);
         }
     }
     let bodies = (set.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
@@ -275,16 +276,19 @@ pub fn decode_world(
     set.shared = from.u32()? != 0;
     let pointers = from.count(MAX_EFFECTORS, 4)?;
     set.planes = [HapticdPlanes::default(); MAX_EFFECTORS];
-    for planes in &mut set.planes[..pointers] {
+    set.compliances = [[HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]; MAX_EFFECTORS];
+    for (planes, gives) in set.planes[..pointers].iter_mut().zip(&mut set.compliances) {
         let count = from.count(HAPTICD_MAX_PLANES, PLANE_BYTES)?;
         planes.count = count as u32;
-        for p in &mut planes.planes[..count] {
+        for (p, g) in planes.planes[..count].iter_mut().zip(gives.iter_mut()) {
             *p = HapticdPlane {
                 object: from.u32()?,
                 point: from.array()?,
                 normal: from.array()?,
                 velocity: from.array()?,
             };
+            let [compliance, load] = from.array()?;
+            *g = HapticdPlaneCompliance { compliance, load };
         }
     }
     let bodies = from.count(
@@ -419,6 +423,11 @@ mod tests {
             normal: [0.0, 1.0, 0.0],
             velocity: [-1.0, 0.5, 0.25],
         };
+        // A soft body's plane gives; the other plane is rigid.
+        set.compliances[0][1] = HapticdPlaneCompliance {
+            compliance: 4e-4,
+            load: 1.25,
+        };
         set.planes[1].count = 1;
         set.shared = true;
         set.body_count = 2;
@@ -480,6 +489,7 @@ mod tests {
             }
         );
         assert_eq!(got.planes[..2], sent.planes[..2]);
+        assert_eq!(got.compliances[..2], sent.compliances[..2]);
         assert_eq!(got.body_count, 2);
         assert_eq!(got.bodies[..2], sent.bodies[..2]);
         assert_eq!(got.mobilities[..2], sent.mobilities[..2]);

@@ -96,6 +96,8 @@ pub struct SharedWorld<W> {
     pointers: Vec<HapticdPointer>,
     proxies: Vec<HapticdPointer>,
     planes: Vec<HapticdPlanes>,
+    /// How each of `planes` gives under a press.
+    compliances: Vec<[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]>,
     bodies: [HapticdLocalBody; HAPTICD_MAX_LOCAL_BODIES],
     body_count: u32,
     /// How each of `bodies` moves through its joints.
@@ -139,6 +141,7 @@ impl<W: Stepped> SharedWorld<W> {
             proxies: pointers.clone(),
             pointers,
             planes: vec![HapticdPlanes::default(); capacity],
+            compliances: vec![[HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]; capacity],
             bodies: [HapticdLocalBody::default(); HAPTICD_MAX_LOCAL_BODIES],
             body_count: 0,
             mobilities: [None; HAPTICD_MAX_LOCAL_BODIES],
@@ -277,6 +280,7 @@ impl<W: Stepped> SharedWorld<W> {
         let count = (self.body_count as usize).min(HAPTICD_MAX_LOCAL_BODIES);
         self.world
             .mobilities(&self.bodies[..count], &mut self.mobilities[..count]);
+        self.world.compliances(&self.planes, &mut self.compliances);
         self.impulses.clear();
         self.locals.clear();
         self.step += 1;
@@ -298,6 +302,8 @@ impl<W: Stepped> SharedWorld<W> {
             };
             set.planes[..host.count]
                 .copy_from_slice(&self.planes[host.first..host.first + host.count]);
+            set.compliances[..host.count]
+                .copy_from_slice(&self.compliances[host.first..host.first + host.count]);
             for b in &mut set.bodies[..self.body_count as usize] {
                 b.applied = host.applied.get(&b.body).copied().unwrap_or(0);
             }
