@@ -670,10 +670,11 @@ fn an_impulse_through_the_centre_reaches_older_plugins_at_the_centre_they_report
     std::fs::remove_dir_all(dir).ok();
 }
 
-/// A soft body's plane gives under the finger through the real ABI: the rapier plugin, a
-/// world of a soft block pressed with 0.5 N, answers the compliance extension for the
-/// block's plane as the physics crate's own world (built here, in this process) says, the
-/// press it stands under included, and rigid for the floor's.
+/// A soft body through the real ABI: the rapier plugin, a world of a soft block, draws it
+/// deforming and names its body for its object; pressed with 0.5 N, it answers the
+/// compliance extension for the block's plane as the physics crate's own world (built
+/// here, in this process) says, the press it stands under included, and rigid for the
+/// floor's.
 #[test]
 fn a_soft_bodys_plane_gives_through_the_compliance_extension_as_its_world_says() {
     use hapticd_core::scene::shared_world::Stepped;
@@ -699,6 +700,12 @@ fn a_soft_bodys_plane_gives_through_the_compliance_extension_as_its_world_says()
     let SceneFile::Rapier(spec) = SceneFile::load(&file, 1).unwrap() else {
         unreachable!("a rapier scene");
     };
+    // Drawn as the file says (the block a deforming solid), its object the block's body
+    // (the floor is body 0, the block 1), its pose among the bodies.
+    assert_eq!(plugin.geometry, spec.geometry());
+    assert_eq!(plugin.object_bodies, [0, 1]);
+    let mut poses = [HapticdBodyPose::default(); 4];
+    assert_eq!(plugin.poses(&mut poses), 2);
     let mut here = hapticd_rapier::world::RapierWorld::new(&spec, 1);
     // The finger half a millimetre above the block's top, which it pressed with 0.5 N over
     // the last period (the block is object 1: the floor's one collider is 0).
