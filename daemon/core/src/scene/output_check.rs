@@ -42,9 +42,10 @@ pub const MAX_SPIN: f64 = 1.0e4;
 /// under a finger (a jelly's gives a few millimetres).
 pub const MAX_COMPLIANCE: f64 = 1.0;
 
-/// Most press a plane may say it stands under, N: ten times what a hand presses with (a
-/// device's strings pull tens of newtons).
-pub const MAX_LOAD: f64 = 1_000.0;
+/// Most press a plane may say it stands under, N: a hundred times what a device's strings
+/// pull (tens of newtons), and more than a proxy's spring gives across a device's whole
+/// frame, so that no press a hand can make is taken for a broken world.
+pub const MAX_LOAD: f64 = 10_000.0;
 
 /// How far a normal's length may be from 1. Single-precision engines (rapier) normalise to
 /// about 1e-7; a normal off by this much changes a contact force by 0.1 %.
