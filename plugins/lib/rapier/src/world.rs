@@ -362,7 +362,9 @@ impl RapierWorld {
             }
             world.pointer_solid = Some(PointerSolid::of(shape, *primitive));
         }
-        if let Some((shape, _)) = &spec.pointer {
+        // Only soft bodies meet the pointers' solids here (rapier's own bodies meet its
+        // kinematic pointers): a world without one keeps none to move each step.
+        if let Some((shape, _)) = spec.pointer.as_ref().filter(|_| !spec.soft.is_empty()) {
             world
                 .still
                 .extend(std::iter::repeat_n(shape.clone(), pointers));
