@@ -354,11 +354,18 @@ impl PlaneRenderer {
                 velocity,
             };
         }
-        let earlier = &self.previous.planes[p];
-        let old = earlier.planes[..(earlier.count as usize).min(HAPTICD_MAX_PLANES)]
-            .iter()
-            .find(|o| o.object == plane.object);
+        let old = self
+            .earlier(p, k)
+            .map(|j| &self.previous.planes[p].planes[j]);
         between(old, plane, fraction)
+    }
+
+    /// Where in the set before the current one pointer `p` had the object of its plane `k`.
+    fn earlier(&self, p: usize, k: usize) -> Option<usize> {
+        let object = self.current.planes[p].planes[k].object;
+        let earlier = &self.previous.planes[p];
+        let count = (earlier.count as usize).min(HAPTICD_MAX_PLANES);
+        (0..count).find(|&j| earlier.planes[j].object == object)
     }
 
     /// [rt] One haptic tick of `dt`: take `latest` if the physics published it since the
@@ -503,11 +510,8 @@ impl PlaneRenderer {
     /// the same object's plane give: as the plane itself moves, so that a new set takes
     /// over without a step in the force.
     fn give(&self, p: usize, k: usize, fraction: f64) -> HapticdPlaneCompliance {
-        let plane = &self.current.planes[p].planes[k];
         let now = self.current.compliances[p][k];
-        let earlier = &self.previous.planes[p];
-        let count = (earlier.count as usize).min(HAPTICD_MAX_PLANES);
-        let Some(old) = (0..count).find(|&j| earlier.planes[j].object == plane.object) else {
+        let Some(old) = self.earlier(p, k) else {
             return now;
         };
         let old = self.previous.compliances[p][old];

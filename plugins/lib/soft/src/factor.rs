@@ -102,24 +102,18 @@ impl Factor {
             .map(|c| c.into_iter().collect())
             .collect();
         let (block_starts, block_rows, unit, pivots) = block_ldl(&columns)?;
-        // Each node's pivot block W·D·Wᵀ, and below it L̃·W: the scalar L·D·Lᵀ in this order.
-        let mut within = vec![[0.0; 3]; nodes_free];
-        let mut diagonal = vec![DVec3::ZERO; nodes_free];
-        let mut turns = Vec::with_capacity(nodes_free);
-        for (j, p) in pivots.iter().enumerate() {
-            let (w, d) = small_ldl(p).ok_or(FactorError::NotPositive)?;
-            within[j] = w;
-            diagonal[j] = d;
-            turns.push(DMat3::from_cols(
-                DVec3::new(1.0, w[0], w[1]),
-                DVec3::new(0.0, 1.0, w[2]),
-                DVec3::Z,
-            ));
-        }
+        // Each node's pivot block is W·D·Wᵀ, and below it L̃·W: the scalar L·D·Lᵀ in this
+        // order.
+        let (within, diagonal): (Vec<[f64; 3]>, Vec<DVec3>) = pivots.into_iter().unzip();
         let mut blocks = Vec::with_capacity(unit.len());
-        for j in 0..nodes_free {
+        for (j, [l10, l20, l21]) in within.iter().copied().enumerate() {
+            let w = DMat3::from_cols(
+                DVec3::new(1.0, l10, l20),
+                DVec3::new(0.0, 1.0, l21),
+                DVec3::Z,
+            );
             for block in &unit[block_starts[j]..block_starts[j + 1]] {
-                blocks.push((*block * turns[j]).as_mat3());
+                blocks.push((*block * w).as_mat3());
             }
         }
         Ok(Factor {
@@ -224,9 +218,10 @@ fn rest_system(body: &SoftBody, stiff: f64, index: &[usize]) -> BTreeMap<(usize,
 /// L̃·P·L̃ᵀ of the symmetric matrix of 3×3 blocks whose upper triangle `columns` holds
 /// (each node column's rows, ascending, and blocks), L̃ unit lower triangular by blocks and
 /// P block diagonal, up-looking a node's row at a time along the elimination tree: L̃'s
-/// column starts, rows and blocks (its identity diagonal left out), and P. A node's three
-/// directions go together, so each step of the walk moves nine numbers, not one.
-type BlockLdl = (Vec<usize>, Vec<usize>, Vec<DMat3>, Vec<DMat3>);
+/// column starts, rows and blocks (its identity diagonal left out), and each block of P as
+/// its own W·D·Wᵀ ([`small_ldl`]). A node's three directions go together, so each step of
+/// the walk moves nine numbers, not one.
+type BlockLdl = (Vec<usize>, Vec<usize>, Vec<DMat3>, Vec<([f64; 3], DVec3)>);
 
 fn block_ldl(columns: &[Vec<(usize, DMat3)>]) -> Result<BlockLdl, FactorError> {
     let n = columns.len();
@@ -250,7 +245,7 @@ fn block_ldl(columns: &[Vec<(usize, DMat3)>]) -> Result<BlockLdl, FactorError> {
         starts[k + 1] = starts[k] + count[k];
     }
     let (mut rows, mut blocks) = (vec![0; starts[n]], vec![DMat3::ZERO; starts[n]]);
-    let (mut pivots, mut inverses) = (vec![DMat3::ZERO; n], vec![DMat3::ZERO; n]);
+    let (mut pivots, mut inverses) = (Vec::with_capacity(n), vec![DMat3::ZERO; n]);
     let (mut y, mut pattern) = (vec![DMat3::ZERO; n], vec![0; n]);
     count.fill(0);
     for k in 0..n {
@@ -287,10 +282,7 @@ fn block_ldl(columns: &[Vec<(usize, DMat3)>]) -> Result<BlockLdl, FactorError> {
             blocks[end] = l;
             count[i] += 1;
         }
-        if small_ldl(&pivot).is_none() {
-            return Err(FactorError::NotPositive);
-        }
-        pivots[k] = pivot;
+        pivots.push(small_ldl(&pivot).ok_or(FactorError::NotPositive)?);
         inverses[k] = pivot.inverse();
     }
     Ok((starts, rows, blocks, pivots))

@@ -259,7 +259,7 @@ impl SceneFile {
         // step under rapier.
         let tick = match penalty {
             Some(_) => SOFT_TICK,
-            None => 1.0 / raw.rate.unwrap_or(checks::RATE_RANGE.0),
+            None => 1.0 / rapier::physics_rate(&raw),
         };
         let soft = soft::soft_bodies(&mut f, &raw, (engine, tick), &bodies.bodies, &files);
         let named: Vec<(&str, bool)> = raw

@@ -21,7 +21,6 @@ use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
 use crate::soft::SoftPart;
 use crate::world::{ContactModel, Material, World};
-use hapticd_soft::contact::Friction;
 
 /// A loaded scene: the world with one fixed body per pointer at its end.
 pub struct PenaltyScene {
@@ -133,13 +132,7 @@ impl PenaltyScene {
         });
         let soft = soft
             .into_iter()
-            .map(|s| {
-                let friction = Friction {
-                    stick: raw.material.static_friction,
-                    slide: raw.material.friction,
-                };
-                SoftPart::new(s.name, (s.body, s.solver), &bodies, first_pointer, friction)
-            })
+            .map(|s| s.part(&bodies, first_pointer))
             .collect();
         let material = Material {
             stiffness: penalty.stiffness,

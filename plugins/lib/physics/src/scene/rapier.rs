@@ -13,7 +13,6 @@ use crate::body::Body;
 use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
 use crate::soft::SoftPart;
-use hapticd_soft::contact::Friction;
 
 /// What a multi-rate world takes back from the haptic side (`feedback:`, thesis 6.2–6.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,6 +76,11 @@ pub struct RapierScene {
     pub warnings: Vec<Diagnostic>,
 }
 
+/// The physics rate `raw` asks for, steps a second (the slowest allowed unless it says).
+pub(super) fn physics_rate(raw: &RawScene) -> f64 {
+    raw.rate.unwrap_or(RATE_RANGE.0)
+}
+
 impl RapierScene {
     /// The scene of checked `raw`, its `bodies`, `joints`, `soft` bodies and `pointer` solid.
     pub(super) fn build(
@@ -97,23 +101,17 @@ impl RapierScene {
             Some(RawFeedback::Local) | None => Feedback::Local,
             Some(RawFeedback::Impulse) => Feedback::Impulse,
         };
-        let friction = Friction {
-            stick: raw.material.static_friction,
-            slide: raw.material.friction,
-        };
-        // The hand presses a soft body through impulses, not as a body of the world: it
-        // touches the fixed bodies alone.
+        let rate = physics_rate(&raw);
+        // Among the file's bodies a soft body touches the fixed ones; the rapier world adds
+        // the pointers' solids, which it touches under position feedback alone.
         let soft = soft
             .into_iter()
-            .map(|s| {
-                let parts = (s.body, s.solver);
-                SoftPart::new(s.name, parts, &bodies, bodies.len(), friction)
-            })
+            .map(|s| s.part(&bodies, bodies.len()))
             .collect();
         RapierScene {
             name: raw.name,
             gravity: DVec3::from(raw.gravity),
-            rate: raw.rate.unwrap_or(RATE_RANGE.0),
+            rate,
             feedback,
             static_friction: raw.material.static_friction,
             friction: raw.material.friction,

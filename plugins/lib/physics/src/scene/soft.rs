@@ -41,6 +41,7 @@ use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::Findings;
 use hapticd_mesh::enclosure::Enclosure;
 use hapticd_soft::body::SoftBody;
+use hapticd_soft::contact::Friction;
 use hapticd_soft::element::Order;
 use hapticd_soft::implicit::Solver;
 use hapticd_soft::lattice::{Ball, Solid, TetMesh, cut_box, cut_solid};
@@ -51,6 +52,7 @@ use super::checks::DENSITY_RANGE;
 use super::meshes::{MeshFiles, Reading, read_mesh};
 use super::schema::{RawAxis, RawBody, RawElements, RawScene};
 use crate::body::Body;
+use crate::soft::SoftPart;
 
 /// The stiffest material a soft body may be, Pa (a hard rubber's is 10⁸).
 const YOUNG_RANGE: (f64, f64) = (1.0, 1e9);
@@ -77,11 +79,21 @@ const LATTICE_PER_ELEMENT: f64 = 50.0;
 /// A checked soft body, cut, its pins set, its solve factored.
 pub(super) struct Soft {
     /// Its name.
-    pub(super) name: String,
+    name: String,
     /// The body.
-    pub(super) body: SoftBody,
+    body: SoftBody,
     /// Its solve.
-    pub(super) solver: Solver,
+    solver: Solver,
+    /// The friction its nodes hold with: the scene material's.
+    friction: Friction,
+}
+
+impl Soft {
+    /// It ready to step in a world of `bodies` whose pointers start at `first_pointer`.
+    pub(super) fn part(self, bodies: &[Body], first_pointer: usize) -> SoftPart {
+        let parts = (self.body, self.solver);
+        SoftPart::new(self.name, parts, bodies, first_pointer, self.friction)
+    }
 }
 
 /// The soft bodies of `raw` for `engine`, their pins found in the rigid `bodies` (by the
@@ -222,6 +234,10 @@ pub(super) fn soft_bodies(
                 name: b.name.clone(),
                 body,
                 solver,
+                friction: Friction {
+                    stick: raw.material.static_friction,
+                    slide: raw.material.friction,
+                },
             }),
             Err(e) => f.error(format!("{at}.soft"), format!("cannot be solved: {e:?}")),
         }
