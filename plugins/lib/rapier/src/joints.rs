@@ -55,6 +55,13 @@ enum Handle {
     Impulse(ImpulseJointHandle),
 }
 
+/// The solver's iterations in a world with a loop of joints. A loop is closed by an impulse
+/// joint on a multibody's links, and it converges over the iterations: a four-bar's crank
+/// turned at 2 rad/s at 60 Hz left its loop open by 6 mm and its rocker 5.6° off the
+/// closure with rapier's 4, by 0.1 mm and 0.1° with 8, and no better with 16
+/// (`a_four_bar_turned_by_its_crank_rocks_as_its_closure_says`).
+const LOOP_ITERATIONS: usize = 8;
+
 /// The most links a branch of a multibody may have below what it hangs from. Measured in
 /// rapier at 60 Hz with hinge chains of 2 cm, 1.4 g or 14 g links swinging down onto a floor:
 /// chains 2 to 6 links deep (one, or three side by side) stayed whole for 5 s; 7 links deep
@@ -140,6 +147,7 @@ impl Joints {
         let world = (specs.iter().any(|j| j.bodies.0.is_none()))
             .then(|| physics.insert_body(RigidBodyBuilder::fixed()));
         let reducible = reducible(specs);
+        let mut loops = false;
         let built: Vec<Built> = specs
             .iter()
             .zip(reducible)
@@ -159,6 +167,7 @@ impl Joints {
                 let reduced = reducible
                     .then(|| physics.insert_multibody_joint(pair[0], pair[1], joint))
                     .flatten();
+                loops |= reducible && reduced.is_none();
                 let handle = match reduced {
                     Some(h) => Handle::Multibody(h),
                     None => Handle::Impulse(physics.insert_impulse_joint(pair[0], pair[1], joint)),
@@ -174,6 +183,9 @@ impl Joints {
                 }
             })
             .collect();
+        if loops {
+            physics.integration_parameters.num_solver_iterations = LOOP_ITERATIONS;
+        }
         for b in &built {
             // A jointed body does not sleep, as in the penalty engine: rapier puts a body
             // turning slower than 0.5 rad/s to sleep, a door swinging slowly or a motor's

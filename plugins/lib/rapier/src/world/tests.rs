@@ -402,6 +402,98 @@ fn a_wheel_turned_round_counts_its_turns() {
     assert!((at - summed).abs() < 1e-3, "{at} against {summed}");
 }
 
+/// A four-bar linkage whose last hinge closes the loop (a crank-rocker: crank 2 cm, coupler
+/// 8 cm, rocker 6 cm, pivots 7 cm apart, in the plane z = 0), its crank turned round by its
+/// motor at 60 Hz and at 1 kHz: the rocker stands where the loop's closure puts it (the
+/// coupler's and rocker's circles' meeting) and the loop stays shut at its last hinge.
+#[test]
+fn a_four_bar_turned_by_its_crank_rocks_as_its_closure_says() {
+    let (crank, coupler, rocker) = (0.02f64, 0.08, 0.06);
+    let pivot = DVec3::new(0.07, 0.0, 0.0);
+    // The crank's tip and where the coupler meets the rocker, the crank at `theta`: the
+    // meeting of the circles about the tip and the pivot on the side the linkage is built.
+    let closure = |theta: f64| {
+        let tip = DVec3::new(theta.cos(), theta.sin(), 0.0) * crank;
+        let apart = pivot - tip;
+        let (l, u) = (apart.length(), apart.normalize());
+        let along = (coupler * coupler - rocker * rocker + l * l) / (2.0 * l);
+        let across = (coupler * coupler - along * along).sqrt();
+        (tip, tip + u * along + DVec3::new(-u.y, u.x, 0.0) * across)
+    };
+    let turned = |from: DVec3, to: DVec3| (to - from).y.atan2((to - from).x);
+    // A bar from `from` to `to`, 4 mm thick.
+    let bar = |name: &str, from: DVec3, to: DVec3| {
+        let (centre, half) = ((from + to) / 2.0, turned(from, to) / 2.0);
+        format!(
+            "  - {{ name: {name}, box: [{}, 0.004, 0.004], position: [{}, {}, 0], orientation: \
+             [{}, 0, 0, {}], density: 1000 }}\n",
+            from.distance(to),
+            centre.x,
+            centre.y,
+            half.cos(),
+            half.sin()
+        )
+    };
+    let start = std::f64::consts::FRAC_PI_2;
+    let (tip, meeting) = closure(start);
+    let hinge = |a: &str, b: &str, at: DVec3, extra: &str| {
+        format!(
+            "  - {{ kind: revolute, bodies: [{a}, {b}], anchor: [{}, {}, 0], axis: [0, 0, 1]{extra} }}\n",
+            at.x, at.y
+        )
+    };
+    for rate in [1000.0, 60.0] {
+        let text = format!(
+            "name: four-bar\nengine: rapier\nrate: {rate}\ngravity: [0, 0, 0]\nmaterial: {{ \
+             static_friction: 0, friction: 0 }}\nbodies:\n{}{}{}\
+             joints:\n{}{}{}{}",
+            bar("crank", DVec3::ZERO, tip),
+            bar("coupler", tip, meeting),
+            bar("rocker", pivot, meeting),
+            hinge(
+                "world",
+                "crank",
+                DVec3::ZERO,
+                ", motor: { velocity: 2.0, max_force: 1.0 }"
+            ),
+            hinge("crank", "coupler", tip, ""),
+            hinge("coupler", "rocker", meeting, ""),
+            hinge("world", "rocker", pivot, ""),
+        );
+        let mut w = jointed(&text);
+        let dt = 1.0 / rate;
+        let (mut worst_turn, mut widest) = (0.0f64, 0.0f64);
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+        while w.joint_state(0).position < std::f64::consts::TAU {
+            assert!(w.advance(dt));
+            let theta = start + w.joint_state(0).position;
+            let expected = turned(pivot, closure(theta).1) - turned(pivot, meeting);
+            let rocked = w.joint_state(3).position;
+            worst_turn = worst_turn.max((rocked - expected).abs());
+            (low, high) = (low.min(rocked), high.max(rocked));
+            // The hinge that closes the loop: the rocker's end there, as the rocker stands
+            // (a body starts unturned, its solid placed as the file says), and the pivot.
+            let rocker_now = w.body(2);
+            let end =
+                rocker_now.position + rocker_now.orientation * (pivot - (pivot + meeting) / 2.0);
+            widest = widest.max(end.distance(pivot));
+        }
+        println!(
+            "{rate} Hz: rocker within {:.4}° of the closure, swung {:.2}° to {:.2}°; the loop \
+             open by {:.4} mm at most",
+            worst_turn.to_degrees(),
+            low.to_degrees(),
+            high.to_degrees(),
+            widest * 1e3
+        );
+        // Measured with the loop's iterations: within 0.10° and 0.11 mm at 60 Hz, 0.12° and
+        // 0.37 mm at 1 kHz (the widest for a step or two as the crank passes its quarter
+        // turns; otherwise micrometres).
+        assert!(worst_turn.to_degrees() < 0.5, "{rate} Hz: {worst_turn}");
+        assert!(widest < 1e-3, "{rate} Hz: {widest}");
+    }
+}
+
 /// A rapier scene at `rate` of `branches` hinge chains side by side, each of `depth` links
 /// 2 cm long and 1.4 g, held out level 20 cm up from the world and let go onto a floor 15 mm
 /// below per link.
