@@ -12,6 +12,7 @@ use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
 use hapticd_device::sim::hand::HandTrack;
 use hapticd_physics::joint::JointState;
 use hapticd_physics::scene::{PenaltyScene, RapierScene};
+use hapticd_physics::soft::SoftPart;
 use hapticd_physics::world::World;
 use hapticd_rapier::world::RapierWorld;
 use hapticd_render::scenery::Scenery;
@@ -178,6 +179,9 @@ impl Outputs {
                 let state = (b.position, b.orientation, b.velocity, b.spin);
                 record.body(step.t, step.model, &step.scene.names[i], state)?;
             }
+            for part in &step.scene.soft {
+                record.body(step.t, step.model, &part.name, soft_state(part))?;
+            }
             for (name, state) in penalty_joints(&step.scene.world) {
                 record.joint(step.t, step.model, name, state)?;
             }
@@ -210,6 +214,9 @@ impl Outputs {
                     let state = (b.position, b.orientation, b.velocity, b.spin);
                     record.body(t, "rapier", name, state)?;
                 }
+            }
+            for part in run.world.soft_bodies() {
+                record.body(t, "rapier", &part.name, soft_state(part))?;
             }
             for (name, state) in rapier_joints(&run.world) {
                 record.joint(t, "rapier", name, state)?;
@@ -292,6 +299,12 @@ fn multirate_report(
             b.spin,
         ));
     }
+    bodies.extend(
+        run.world
+            .soft_bodies()
+            .iter()
+            .map(|p| report_soft(&mut text, p)),
+    );
     let joints = report_joints(&mut text, rapier_joints(&run.world));
     let pointers = report_pointers(&mut text, &felt, &peaks);
     Report {
@@ -425,6 +438,7 @@ fn penalty_run(text: &mut String, t: &PenaltyTrace) -> Value {
         body["angular_momentum"] = json!(angular_momentum(b).to_array());
         bodies.push(body);
     }
+    bodies.extend(t.scene.soft.iter().map(|p| report_soft(text, p)));
     let joints = report_joints(text, penalty_joints(&t.scene.world));
     let pointers = report_pointers(text, &t.felt, &t.peaks);
     json!({
@@ -453,7 +467,6 @@ fn chart(name: &str, quantity: Quantity, series: Vec<Series>) -> Chart {
     }
 }
 
-/// One body's line of the report, and its JSON.
 /// Each of `joints` (name, where it is now): a line of `text`, and an entry of the report.
 fn report_joints<'a>(
     text: &mut String,
@@ -482,6 +495,40 @@ fn penalty_joints(world: &World) -> impl Iterator<Item = (&str, JointState)> {
     (world.joints.iter()).map(move |l| (l.joint.name.as_str(), l.state(&world.bodies)))
 }
 
+/// A soft body taken whole, as a rigid body's row is: its centre of mass, the turn that best
+/// carries its rest shape onto it, its momentum and angular momentum as velocity and spin.
+fn soft_state(part: &SoftPart) -> (DVec3, DQuat, DVec3, DVec3) {
+    let b = &part.body;
+    (b.centre(), b.turn(), b.velocity(), b.spin())
+}
+
+/// A soft body's lines of the report (taken whole as a body is; its cut, its volume against
+/// its rest volume and its energies), and its JSON.
+fn report_soft(text: &mut String, part: &SoftPart) -> Value {
+    let (position, orientation, velocity, spin) = soft_state(part);
+    let mut entry = report_body(text, &part.name, position, orientation, velocity, spin);
+    let b = &part.body;
+    let (nodes, elements) = (b.positions.len(), b.mesh.element_count());
+    let volume = b.volume() / b.rest_volume();
+    let (elastic, kinetic) = (b.elastic_energy(), b.kinetic_energy());
+    let _ = writeln!(
+        text,
+        "  {:<12} soft: {nodes} nodes, {elements} elements, volume {:.3} % of its rest, \
+         elastic energy {elastic:.6} J, kinetic {kinetic:.6} J",
+        "",
+        100.0 * volume
+    );
+    entry["soft"] = json!({
+        "nodes": nodes,
+        "elements": elements,
+        "volume": volume,
+        "elastic_energy": elastic,
+        "kinetic_energy": kinetic,
+    });
+    entry
+}
+
+/// One body's line of the report, and its JSON.
 fn report_body(
     text: &mut String,
     name: &str,

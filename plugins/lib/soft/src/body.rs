@@ -140,6 +140,11 @@ impl SoftBody {
             .sum()
     }
 
+    /// Its volume at rest, m³ (each element's corners, as [`SoftBody::volume`] takes them).
+    pub fn rest_volume(&self) -> f64 {
+        self.volumes.iter().sum()
+    }
+
     /// Turn each element's rotation toward its deformation now, `turns` times at most.
     pub(crate) fn follow_turns(&mut self, turns: usize) {
         for e in 0..self.volumes.len() {

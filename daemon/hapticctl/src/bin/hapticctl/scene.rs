@@ -49,8 +49,9 @@ pub struct RunArgs {
     /// one point (N/m, N·s/m).
     #[arg(long = "model", value_enum)]
     models: Vec<Model>,
-    /// Write every step's body states to this CSV file (rapier scenes: every haptic tick's,
-    /// the bodies moved between physics steps as graphics show them, thesis 6.5.2).
+    /// Write every step's body states (a soft body taken whole) and joint states to this
+    /// CSV file (rapier scenes: every haptic tick's, the bodies moved between physics steps
+    /// as graphics show them, thesis 6.5.2).
     #[arg(long)]
     record: Option<PathBuf>,
     /// Plot a quantity of every moving body against time to this PNG file.
