@@ -32,6 +32,11 @@ pub struct SoftBody {
     pub(crate) volumes: Vec<f64>,
     /// Each element's turn from rest, as last found.
     pub(crate) turns: Vec<DQuat>,
+    /// The same turns as matrices, made once a step for the step's many products.
+    pub(crate) rotations: Vec<DMat3>,
+    /// Each element's deformation gradient as its turn was last found from it (a step's
+    /// positions do not change until its end).
+    pub(crate) deformations: Vec<DMat3>,
     /// Each node's stiffness along itself, a third of its block's trace (N/m): the
     /// solver's preconditioner.
     pub(crate) own_stiffness: Vec<f64>,
@@ -72,6 +77,8 @@ impl SoftBody {
             pinned: vec![false; count],
             forces: vec![DVec3::ZERO; count],
             turns: vec![DQuat::IDENTITY; volumes.len()],
+            rotations: vec![DMat3::IDENTITY; volumes.len()],
+            deformations: vec![DMat3::IDENTITY; volumes.len()],
             mesh,
             material,
             masses,
@@ -109,7 +116,7 @@ impl SoftBody {
         let mut energy = 0.0;
         for e in 0..self.volumes.len() {
             let mut turn = self.turns[e];
-            rotation::follow(&self.deformation(e), &mut turn, rotation::TURNS);
+            rotation::follow(&self.deformation(e), &mut turn, rotation::TURNS, 0.0);
             let back = DMat3::from_quat(turn).transpose();
             let (u, n) = self.displacements(e, &back, &self.positions, true);
             let mut k = [DVec3::ZERO; MOST_NODES];
@@ -145,11 +152,14 @@ impl SoftBody {
         self.volumes.iter().sum()
     }
 
-    /// Turn each element's rotation toward its deformation now, `turns` times at most.
-    pub(crate) fn follow_turns(&mut self, turns: usize) {
+    /// Turn each element's rotation toward its deformation now, `turns` times at most and
+    /// no more once a turn was smaller than `settled` (rad).
+    pub(crate) fn follow_turns(&mut self, turns: usize, settled: f64) {
         for e in 0..self.volumes.len() {
             let f = self.deformation(e);
-            rotation::follow(&f, &mut self.turns[e], turns);
+            rotation::follow(&f, &mut self.turns[e], turns, settled);
+            self.rotations[e] = DMat3::from_quat(self.turns[e]);
+            self.deformations[e] = f;
         }
     }
 

@@ -46,8 +46,8 @@ pub struct Factor {
     starts: Vec<usize>,
     rows: Vec<usize>,
     blocks: Vec<Mat3>,
-    /// D, by node.
-    pivots: Vec<DVec3>,
+    /// D⁻¹, by node.
+    inverse_pivots: Vec<DVec3>,
     /// The unknowns, by node in the factor's order, to solve in.
     work: Vec<DVec3>,
 }
@@ -123,7 +123,7 @@ impl Factor {
             starts: block_starts,
             rows: block_rows,
             blocks,
-            pivots: diagonal,
+            inverse_pivots: diagonal.iter().map(|d| d.recip()).collect(),
             work: vec![DVec3::ZERO; nodes_free],
         })
     }
@@ -153,8 +153,8 @@ impl Factor {
                 x[self.rows[p]] -= self.blocks[p].as_dmat3() * xj;
             }
         }
-        for (xj, d) in x.iter_mut().zip(&self.pivots) {
-            *xj /= *d;
+        for (xj, d) in x.iter_mut().zip(&self.inverse_pivots) {
+            *xj *= *d;
         }
         for j in (0..x.len()).rev() {
             let mut xj = x[j];

@@ -11,8 +11,9 @@ pub const TURNS: usize = 20;
 /// Turns smaller than this (rad) are taken to first order.
 const SMALL_TURN: f64 = 0.01;
 
-/// Turn `turn` toward the rotation nearest `gradient`, at most `turns` times.
-pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize) {
+/// Turn `turn` toward the rotation nearest `gradient`, at most `turns` times, and no more
+/// once a turn was smaller than `settled` (rad).
+pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize, settled: f64) {
     for _ in 0..turns {
         let r = DMat3::from_quat(*turn);
         let pull = r.x_axis.cross(gradient.x_axis)
@@ -21,7 +22,7 @@ pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize) {
         let along = r.x_axis.dot(gradient.x_axis)
             + r.y_axis.dot(gradient.y_axis)
             + r.z_axis.dot(gradient.z_axis);
-        let omega = pull / (along.abs() + 1e-9);
+        let omega = pull * (along.abs() + 1e-9).recip();
         let angle = omega.length();
         if angle < 1e-12 {
             break;
@@ -34,13 +35,16 @@ pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize) {
             DQuat::from_axis_angle(omega / angle, angle)
         };
         *turn = (step * *turn).normalize();
+        if angle < settled {
+            break;
+        }
     }
 }
 
 /// The rotation nearest `gradient`, from the identity.
 pub fn nearest(gradient: &DMat3) -> DQuat {
     let mut turn = DQuat::IDENTITY;
-    follow(gradient, &mut turn, TURNS);
+    follow(gradient, &mut turn, TURNS, 0.0);
     turn
 }
 
