@@ -1,5 +1,6 @@
 //! Soft bodies (thesis 7.2): a volume cut into tetrahedra, its nodes moved by co-rotational
-//! linear finite elements under an implicit step, so a stiff material stays stable at any
+//! finite elements (the linear strain taken along with each element's turn, the volume's
+//! own ratio in the volume term) under an implicit step, so a stiff material stays stable at any
 //! step and its energy under a still hand decays.
 //!
 //! - [`lattice`] cuts a box or a solid (a ball, a closed mesh) into tetrahedra at a

@@ -3,7 +3,8 @@
 //! `resolution` (a lattice of cubes of that side, six tetrahedra each; a ball or a mesh
 //! keeps those whose middles are inside it and brings its outer nodes onto its surface as
 //! far as their tetrahedra keep their shape), its nodes moved by co-rotational
-//! linear elasticity of Young's modulus `young` (Pa), Poisson's ratio `poisson` (up to
+//! elasticity (its volume term the volume's own, so a squeeze keeps what a finite-strain
+//! solid keeps) of Young's modulus `young` (Pa), Poisson's ratio `poisson` (up to
 //! 0.49), the body's `density` and a stiffness-proportional `damping` (s), stepped once a
 //! device tick by an implicit step that no stiffness or resolution makes unstable. Its
 //! elements are `linear` (four nodes: fast, but a slender body bends too stiffly) or
