@@ -34,6 +34,18 @@ pub const HAPTICD_COMMAND_SET_FRICTION: u32 = 6;
 /// centre and gives the impulse there between the same two steps.)
 pub const HAPTICD_COMMAND_IMPULSE_AT_CENTRE: u32 = 7;
 
+/// Command (since ABI 1.11): make a soft body of Young's modulus `vector[0]` (Pa), Poisson's
+/// ratio `vector[1]` and damping `vector[2]` (s), its shape and motion kept.
+pub const HAPTICD_COMMAND_SET_MATERIAL: u32 = 8;
+
+/// Command (since ABI 1.11): hold still the nodes of a soft body that stand where
+/// n·x ≤ `value` (m) now, n the unit vector `vector`.
+pub const HAPTICD_COMMAND_PIN: u32 = 9;
+
+/// Command (since ABI 1.11): let go the held nodes of a soft body that stand where
+/// n·x ≤ `value` (m) now, n the unit vector `vector`.
+pub const HAPTICD_COMMAND_RELEASE: u32 = 10;
+
 /// Longest body name in bytes, including the terminating NUL.
 pub const HAPTICD_BODY_NAME_CAPACITY: usize = 64;
 
@@ -60,11 +72,14 @@ pub struct HapticdSceneCommand {
     pub position: [f64; 3],
     /// [`HAPTICD_COMMAND_SET_POSE`]: its orientation, unit quaternion (w, x, y, z).
     pub orientation: [f64; 4],
-    /// The velocity (m/s), impulse (N·s) or force (N) the kind names.
+    /// The velocity (m/s), impulse (N·s) or force (N) the kind names;
+    /// [`HAPTICD_COMMAND_SET_MATERIAL`]: the material; [`HAPTICD_COMMAND_PIN`] and
+    /// [`HAPTICD_COMMAND_RELEASE`]: the normal of the plane bounding the nodes.
     pub vector: [f64; 3],
     /// [`HAPTICD_COMMAND_SET_VELOCITY`]: the angular velocity, rad/s.
     pub spin: [f64; 3],
-    /// [`HAPTICD_COMMAND_SET_MASS`]: kg; [`HAPTICD_COMMAND_SET_FRICTION`]: the coefficient.
+    /// [`HAPTICD_COMMAND_SET_MASS`]: kg; [`HAPTICD_COMMAND_SET_FRICTION`]: the coefficient;
+    /// [`HAPTICD_COMMAND_PIN`] and [`HAPTICD_COMMAND_RELEASE`]: the plane's offset, m.
     pub value: f64,
 }
 

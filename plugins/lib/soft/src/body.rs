@@ -51,8 +51,6 @@ impl SoftBody {
         let order = mesh.order;
         let (mut gradients, mut volumes) = (Vec::new(), Vec::new());
         let mut masses = vec![0.0; count];
-        let mut own_stiffness = vec![0.0; count];
-        let (lambda, mu) = (material.lambda(), material.mu());
         for e in 0..mesh.element_count() {
             let nodes = mesh.element(e);
             let corners = [0, 1, 2, 3].map(|k| mesh.nodes[nodes[k] as usize]);
@@ -60,18 +58,11 @@ impl SoftBody {
             for (k, &n) in nodes.iter().enumerate() {
                 masses[n as usize] += material.density * volume * order.mass_share(k);
             }
-            let mut shape = [DVec3::ZERO; MOST_NODES];
-            for (at, weight) in order.quadrature() {
-                order.gradients(&g, at, &mut shape);
-                for (k, &n) in nodes.iter().enumerate() {
-                    own_stiffness[n as usize] +=
-                        weight * volume * (lambda + 4.0 * mu) * shape[k].length_squared() / 3.0;
-                }
-            }
             gradients.push(g);
             volumes.push(volume);
         }
-        SoftBody {
+        let (lambda, mu) = (material.lambda(), material.mu());
+        let mut body = SoftBody {
             positions: mesh.nodes.clone(),
             velocities: vec![DVec3::ZERO; count],
             pinned: vec![false; count],
@@ -84,9 +75,54 @@ impl SoftBody {
             masses,
             gradients,
             volumes,
-            own_stiffness,
+            own_stiffness: vec![0.0; count],
             lame: [lambda, mu],
+        };
+        body.weigh_own_stiffness();
+        body
+    }
+
+    /// Each node's stiffness along itself, from the material's λ and μ.
+    fn weigh_own_stiffness(&mut self) {
+        let [lambda, mu] = self.lame;
+        // Taken out while the elements are read (an empty vector holds no memory).
+        let mut own = std::mem::take(&mut self.own_stiffness);
+        own.fill(0.0);
+        for e in 0..self.volumes.len() {
+            let nodes = self.mesh.element(e);
+            self.each_point(e, |shape, w| {
+                for (k, &n) in nodes.iter().enumerate() {
+                    own[n as usize] += w * (lambda + 4.0 * mu) * shape[k].length_squared() / 3.0;
+                }
+            });
         }
+        self.own_stiffness = own;
+    }
+
+    /// Make it of Young's modulus `young` (Pa), Poisson's ratio `poisson` and damping
+    /// `damping` (s), its density, shape and motion kept. Allocates nothing.
+    pub fn set_material(&mut self, young: f64, poisson: f64, damping: f64) {
+        self.material = Material {
+            young,
+            poisson,
+            damping,
+            ..self.material
+        };
+        self.lame = [self.material.lambda(), self.material.mu()];
+        self.weigh_own_stiffness();
+    }
+
+    /// Hold still (`held`) or let go the nodes that stand where `normal`·x ≤ `offset` now;
+    /// how many changed.
+    pub fn pin_where(&mut self, normal: DVec3, offset: f64, held: bool) -> usize {
+        let mut changed = 0;
+        for (pin, x) in self.pinned.iter_mut().zip(&self.positions) {
+            if normal.dot(*x) <= offset && *pin != held {
+                *pin = held;
+                changed += 1;
+            }
+        }
+        changed
     }
 
     /// Pin the nodes at or below `value` along `axis` (0, 1, 2: x, y, z) at rest.

@@ -32,6 +32,8 @@ pub enum FactorError {
 pub struct Factor {
     /// The step factor s it was made for.
     pub stiff: f64,
+    /// The material's λ and μ it was made of, Pa.
+    lame: [f64; 2],
     /// Each node's place in the factor's order, NONE for a pinned node.
     place: Vec<usize>,
     /// L by 3×3 blocks, a node's three directions together. Within each node: its
@@ -118,6 +120,7 @@ impl Factor {
         }
         Ok(Factor {
             stiff,
+            lame: body.lame,
             place,
             within,
             starts: block_starts,
@@ -128,10 +131,16 @@ impl Factor {
         })
     }
 
-    /// Whether it was made for steps of factor `stiff`, to the rounding of a period counted
-    /// in nanoseconds (a physics thread's 60 Hz is 16 666 667 ns, not 1/60 s).
-    pub fn made_for(&self, stiff: f64) -> bool {
-        (self.stiff - stiff).abs() <= 1e-6 * stiff
+    /// Whether it was made of `body`'s material for steps of factor `stiff`, to the rounding
+    /// of a period counted in nanoseconds (a physics thread's 60 Hz is 16 666 667 ns, not
+    /// 1/60 s).
+    pub fn made_for(&self, body: &SoftBody, stiff: f64) -> bool {
+        (self.stiff - stiff).abs() <= 1e-6 * stiff && self.lame == body.lame
+    }
+
+    /// Whether node `i` was free when it was made (a pinned node has no unknowns in it).
+    pub fn holds(&self, i: usize) -> bool {
+        self.place[i] != NONE
     }
 
     /// `out` = (M + s·K₀)⁻¹·`rhs` over the free nodes; zero at pinned ones.
