@@ -29,7 +29,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 10
+#define HAPTICD_ABI_MINOR 11
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -788,6 +788,24 @@ typedef struct HapticdSceneContacts {
 #define HAPTICD_COMMAND_IMPULSE_AT_CENTRE 7
 
 /*
+ Command (since ABI 1.11): make a soft body of Young's modulus `vector[0]` (Pa), Poisson's
+ ratio `vector[1]` and damping `vector[2]` (s), its shape and motion kept.
+ */
+#define HAPTICD_COMMAND_SET_MATERIAL 8
+
+/*
+ Command (since ABI 1.11): hold still the nodes of a soft body that stand where
+ n·x ≤ `value` (m) now, n the unit vector `vector`.
+ */
+#define HAPTICD_COMMAND_PIN 9
+
+/*
+ Command (since ABI 1.11): let go the held nodes of a soft body that stand where
+ n·x ≤ `value` (m) now, n the unit vector `vector`.
+ */
+#define HAPTICD_COMMAND_RELEASE 10
+
+/*
  Longest body name in bytes, including the terminating NUL.
  */
 #define HAPTICD_BODY_NAME_CAPACITY 64
@@ -828,7 +846,9 @@ typedef struct HapticdSceneCommand {
    */
   double orientation[4];
   /*
-   The velocity (m/s), impulse (N·s) or force (N) the kind names.
+   The velocity (m/s), impulse (N·s) or force (N) the kind names;
+   [`HAPTICD_COMMAND_SET_MATERIAL`]: the material; [`HAPTICD_COMMAND_PIN`] and
+   [`HAPTICD_COMMAND_RELEASE`]: the normal of the plane bounding the nodes.
    */
   double vector[3];
   /*
@@ -836,7 +856,8 @@ typedef struct HapticdSceneCommand {
    */
   double spin[3];
   /*
-   [`HAPTICD_COMMAND_SET_MASS`]: kg; [`HAPTICD_COMMAND_SET_FRICTION`]: the coefficient.
+   [`HAPTICD_COMMAND_SET_MASS`]: kg; [`HAPTICD_COMMAND_SET_FRICTION`]: the coefficient;
+   [`HAPTICD_COMMAND_PIN`] and [`HAPTICD_COMMAND_RELEASE`]: the plane's offset, m.
    */
   double value;
 } HapticdSceneCommand;

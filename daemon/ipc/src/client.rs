@@ -661,6 +661,32 @@ impl Scene {
         BodyState::from_bus(zbus::block_on(self.proxy.set_friction(body, friction))?)
     }
 
+    /// Make soft `body` of Young's modulus `young` (Pa), Poisson's ratio `poisson` and
+    /// damping `damping` (s), its shape and motion kept.
+    pub fn set_material(
+        &self,
+        body: &str,
+        (young, poisson, damping): (f64, f64, f64),
+    ) -> Result<BodyState, ClientError> {
+        let set = self.proxy.set_material(body, young, poisson, damping);
+        BodyState::from_bus(zbus::block_on(set)?)
+    }
+
+    /// Hold still (`held`) or let go the nodes of soft `body` that stand where
+    /// `normal`·x ≤ `offset` (m) now.
+    pub fn pin(
+        &self,
+        body: &str,
+        (normal, offset): ([f64; 3], f64),
+        held: bool,
+    ) -> Result<BodyState, ClientError> {
+        let state = match held {
+            true => zbus::block_on(self.proxy.pin(body, &normal, offset))?,
+            false => zbus::block_on(self.proxy.release(body, &normal, offset))?,
+        };
+        BodyState::from_bus(state)
+    }
+
     /// The joints, in order.
     pub fn joints(&self) -> Result<Vec<Joint>, ClientError> {
         Ok(zbus::block_on(self.proxy.joints())?

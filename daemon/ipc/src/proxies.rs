@@ -272,6 +272,29 @@ pub trait Scene {
         body: &str,
         friction: f64,
     ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Make soft `body` of Young's modulus `young` (Pa), Poisson's ratio `poisson` and
+    /// damping `damping` (s).
+    fn set_material(
+        &self,
+        body: &str,
+        young: f64,
+        poisson: f64,
+        damping: f64,
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Hold still the nodes of soft `body` where normal·x ≤ `offset`.
+    fn pin(
+        &self,
+        body: &str,
+        normal: &[f64],
+        offset: f64,
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
+    /// Let go the held nodes of soft `body` where normal·x ≤ `offset`.
+    fn release(
+        &self,
+        body: &str,
+        normal: &[f64],
+        offset: f64,
+    ) -> zbus::Result<HashMap<String, OwnedVariant>>;
     /// The joints in order: each one's name and kind.
     #[zbus(property(emits_changed_signal = "false"))]
     fn joints(&self) -> zbus::Result<Vec<(String, String)>>;

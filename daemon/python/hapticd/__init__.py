@@ -6,8 +6,8 @@ loop as it comes (``Device.telemetry``, ``Device.telemetry_async`` for ``async f
 ``Device.telemetry_block``, a numpy array), announce their touches (``Device.touches``) and
 show their picture of the world (``Device.open_world``); ``scenes`` and ``switch_scene``
 choose the world, and ``bodies``, ``body``, ``set_pose``, ``set_velocity``, ``apply_impulse``,
-``set_force``, ``set_mass``, ``set_friction``, ``add_body`` and ``remove_body`` drive the
-running one. Every error the daemon returns is raised as :class:`Error` carrying its
+``set_force``, ``set_mass``, ``set_friction``, ``set_material``, ``pin``, ``release``,
+``add_body`` and ``remove_body`` drive the running one. Every error the daemon returns is raised as :class:`Error` carrying its
 D-Bus error name; shared memory holding what no daemon of its layout writes is refused as an
 :class:`Error` named :data:`BAD_SHARED_MEMORY`.
 """
@@ -546,6 +546,27 @@ class Hapticd:
         """Make the friction coefficient of ``body``'s contacts ``friction`` (a contact takes
         the lower of its two bodies')."""
         return self._drive("SetFriction", "sd", str(body), float(friction))
+
+    def set_material(
+        self, body: str, young: float, poisson: float, damping: float = 0.0
+    ) -> BodyState:
+        """Make soft ``body`` of Young's modulus ``young`` (Pa), Poisson's ratio ``poisson``
+        and damping ``damping`` (s), its shape and motion kept."""
+        return self._drive(
+            "SetMaterial", "sddd", str(body), float(young), float(poisson), float(damping)
+        )
+
+    def pin(self, body: str, normal: Sequence[float], offset: float) -> BodyState:
+        """Hold still the nodes of soft ``body`` that stand where ``normal``·x ≤ ``offset``
+        (metres) now, ``normal`` a unit vector."""
+        n = _floats("normal", normal, 3)
+        return self._drive("Pin", "sadd", str(body), n, float(offset))
+
+    def release(self, body: str, normal: Sequence[float], offset: float) -> BodyState:
+        """Let go the held nodes of soft ``body`` that stand where ``normal``·x ≤ ``offset``
+        (metres) now."""
+        n = _floats("normal", normal, 3)
+        return self._drive("Release", "sadd", str(body), n, float(offset))
 
     @property
     def joints(self) -> List[Joint]:

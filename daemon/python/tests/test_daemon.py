@@ -252,3 +252,27 @@ def test_joints_are_read_and_driven_as_a_scientist_would(daemon):
         daemon.joint("trapdoor")
     assert unknown.value.name == "org.hapticd.Hapticd1.Error.UnknownJoint"
     daemon.switch_scene("static")
+
+
+def test_a_soft_body_is_softened_and_let_go_as_a_scientist_would(daemon):
+    daemon.switch_scene("jelly", wait=60)
+    time.sleep(1.0)
+    stood = -0.02125
+    firm = daemon.body("jelly").position[1]
+    daemon.set_material("jelly", young=3.0e3, poisson=0.45, damping=0.004)
+    time.sleep(1.5)
+    soft = daemon.body("jelly").position[1]
+    # Ten times as soft, ten times the sag (the volume term stiffens it a little).
+    assert 9.5 < (stood - soft) / (stood - firm) < 10.1
+    daemon.release("jelly", normal=(0, 1, 0), offset=1.0)
+    daemon.pin("jelly", normal=(0, 1, 0), offset=-0.0315)
+    for bad, reason in [
+        (lambda: daemon.set_material("jelly", math.nan, 0.45), "NotFinite"),
+        (lambda: daemon.set_material("jelly", 3.0e3, 0.5), "OutOfRange"),
+        (lambda: daemon.set_material("table", 3.0e3, 0.45), "CommandRefused"),
+        (lambda: daemon.pin("jelly", (0, 0, 0), 0.0), "OutOfRange"),
+    ]:
+        with pytest.raises(hapticd.Error) as refused:
+            bad()
+        assert refused.value.name == f"org.hapticd.Hapticd1.Error.{reason}"
+    daemon.switch_scene("static")

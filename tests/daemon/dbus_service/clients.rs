@@ -25,7 +25,7 @@ fn the_python_client_reads_sets_switches_and_follows_every_tick() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(out.status.success(), "{said}");
-    assert!(said.contains("46 passed"), "{said}");
+    assert!(said.contains("47 passed"), "{said}");
     daemon.stop();
     // With hapticd gone, `connect` says so itself, by type, rather than leaving the first
     // call to fail with the bus's words.

@@ -32,6 +32,12 @@ pub const MAX_FORCE: f64 = 100.0;
 pub const MAX_MASS: f64 = 1000.0;
 /// Largest friction coefficient.
 pub const MAX_FRICTION: f64 = 10.0;
+/// A soft body's Young's modulus, least and most, Pa (a hard rubber's is 10⁸).
+pub const YOUNG_RANGE: (f64, f64) = (1.0, 1e9);
+/// A soft body's Poisson's ratio: up to a nearly incompressible rubber's.
+pub const POISSON_RANGE: (f64, f64) = (0.0, 0.49);
+/// A soft body's longest damping time, s.
+pub const MOST_DAMPING: f64 = 1.0;
 
 /// A body of the running world.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -285,6 +291,34 @@ impl SceneControl {
                 }
                 within("a friction coefficient", command.value, MAX_FRICTION, "")?;
             }
+            HAPTICD_COMMAND_SET_MATERIAL => {
+                let [young, poisson, damping] = command.vector;
+                let between = |what: &str, value: f64, (least, most): (f64, f64), unit: &str| {
+                    if (least..=most).contains(&value) {
+                        Ok(())
+                    } else {
+                        Err(CommandError::OutOfRange(format!(
+                            "{what} of {value}{unit} for {}: it is from {least}{unit} to \
+                             {most}{unit}",
+                            body.name
+                        )))
+                    }
+                };
+                between("a Young's modulus", young, YOUNG_RANGE, " Pa")?;
+                between("a Poisson's ratio", poisson, POISSON_RANGE, "")?;
+                between("a damping", damping, (0.0, MOST_DAMPING), " s")?;
+            }
+            HAPTICD_COMMAND_PIN | HAPTICD_COMMAND_RELEASE => {
+                let norm = length(&command.vector);
+                if !(0.9..=1.1).contains(&norm) {
+                    return Err(CommandError::OutOfRange(format!(
+                        "the plane's normal for {} is no unit vector: its length is {norm}",
+                        body.name
+                    )));
+                }
+                command.vector = command.vector.map(|n| n / norm);
+                within("a plane's offset", command.value.abs(), MAX_DISTANCE, "m")?;
+            }
             kind => {
                 return Err(CommandError::Refused(format!("no command of kind {kind}")));
             }
@@ -317,6 +351,16 @@ impl SceneControl {
                  density must stay in the engine's range and its contact springs stable at the \
                  scene's step",
                     command.value
+                )))
+            }
+            _ if matches!(
+                command.kind,
+                HAPTICD_COMMAND_SET_MATERIAL | HAPTICD_COMMAND_PIN | HAPTICD_COMMAND_RELEASE
+            ) =>
+            {
+                Err(CommandError::Refused(format!(
+                    "{name} is not a soft body (or its scene is too old to change one): only a \
+                     soft body has a material and nodes to hold"
                 )))
             }
             (status, _) => Err(CommandError::Refused(format!(

@@ -90,6 +90,30 @@ impl SceneInterface {
         }
         Ok(state_of(&body, &result?))
     }
+
+    /// Pin or release (`kind`) the nodes of soft `body` on the side of the plane
+    /// `(normal, offset)` toward which its normal does not point.
+    async fn hold(
+        &self,
+        body: String,
+        kind: u32,
+        (normal, offset): (Vec<f64>, f64),
+        connection: &zbus::Connection,
+        header: &Header<'_>,
+    ) -> Result<State, BusError> {
+        let set = numbers("normal", &normal).map(|n| {
+            command(kind, |c| {
+                (c.vector, c.value) = (n, offset);
+            })
+        });
+        let verb = if kind == HAPTICD_COMMAND_PIN {
+            "pin"
+        } else {
+            "release"
+        };
+        let what = format!("{verb} the nodes where {normal:?}·x ≤ {offset} m");
+        self.drive(body, set, Some(what), connection, header).await
+    }
 }
 
 /// Announce that the manager's ActiveSceneFile changed: a world built again comes from a new
@@ -118,7 +142,8 @@ fn command(kind: u32, fill: impl FnOnce(&mut HapticdSceneCommand)) -> HapticdSce
 }
 
 /// The running world's bodies, by name or id: where each is, how it moves, and changes to
-/// them (pose, velocity, impulse, a held force, mass, friction). Every change answers with
+/// them (pose, velocity, impulse, a held force, mass, friction; a soft body's material and
+/// held nodes). Every change answers with
 /// the body's state after it: `position`, `orientation` (w, x, y, z), `velocity`, `spin`,
 /// `force` (arrays of doubles), `mass` and `friction`, under those keys with `body`.
 #[interface(name = "org.hapticd.Hapticd1.Scene")]
@@ -379,5 +404,63 @@ impl SceneInterface {
         }));
         let what = format!("set the friction {friction}");
         self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Make soft `body` of Young's modulus `young` (Pa), Poisson's ratio `poisson` and
+    /// damping `damping` (s), its shape and motion kept.
+    async fn set_material(
+        &self,
+        body: String,
+        young: f64,
+        poisson: f64,
+        damping: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        let set = Ok(command(HAPTICD_COMMAND_SET_MATERIAL, |c| {
+            c.vector = [young, poisson, damping]
+        }));
+        let what = format!("set the material E {young} Pa, ν {poisson}, damping {damping} s");
+        self.drive(body, set, Some(what), connection, &header).await
+    }
+
+    /// Hold still the nodes of soft `body` that stand where normal·x ≤ `offset` (metres)
+    /// now, `normal` a unit vector.
+    async fn pin(
+        &self,
+        body: String,
+        normal: Vec<f64>,
+        offset: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        self.hold(
+            body,
+            HAPTICD_COMMAND_PIN,
+            (normal, offset),
+            connection,
+            &header,
+        )
+        .await
+    }
+
+    /// Let go the held nodes of soft `body` that stand where normal·x ≤ `offset` (metres)
+    /// now, `normal` a unit vector.
+    async fn release(
+        &self,
+        body: String,
+        normal: Vec<f64>,
+        offset: f64,
+        #[zbus(connection)] connection: &zbus::Connection,
+        #[zbus(header)] header: Header<'_>,
+    ) -> Result<State, BusError> {
+        self.hold(
+            body,
+            HAPTICD_COMMAND_RELEASE,
+            (normal, offset),
+            connection,
+            &header,
+        )
+        .await
     }
 }

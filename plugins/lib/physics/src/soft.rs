@@ -5,10 +5,12 @@
 
 use glam::DVec3;
 use hapticd_core::kinematics::{Wrench, quat_to_wxyz};
+use hapticd_core::scene::control::{MOST_DAMPING, POISSON_RANGE, YOUNG_RANGE};
 use hapticd_mesh::triangle::nearest_weights;
 use hapticd_plugin_api::{
-    HAPTICD_COMMAND_IMPULSE, HAPTICD_COMMAND_IMPULSE_AT_CENTRE, HAPTICD_COMMAND_QUERY,
-    HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION, HAPTICD_COMMAND_SET_VELOCITY,
+    HAPTICD_COMMAND_IMPULSE, HAPTICD_COMMAND_IMPULSE_AT_CENTRE, HAPTICD_COMMAND_PIN,
+    HAPTICD_COMMAND_QUERY, HAPTICD_COMMAND_RELEASE, HAPTICD_COMMAND_SET_FORCE,
+    HAPTICD_COMMAND_SET_FRICTION, HAPTICD_COMMAND_SET_MATERIAL, HAPTICD_COMMAND_SET_VELOCITY,
     HapticdBodyState, HapticdSceneCommand,
 };
 use hapticd_soft::body::SoftBody;
@@ -81,6 +83,8 @@ pub struct SoftPart {
     pub stepped: Stepped,
     /// The last compliances answered (one for each finger on it, up to four).
     given: [Option<Given>; 4],
+    /// Whether its material or pins changed since its solve was factored.
+    changed: bool,
 }
 
 impl SoftPart {
@@ -108,6 +112,7 @@ impl SoftPart {
                 residual: 0.0,
             },
             given: [None; 4],
+            changed: false,
         };
         part.meet(bodies, first_pointer);
         part
@@ -315,9 +320,12 @@ impl SoftPart {
         }
     }
 
-    /// Carry out `command` (checked finite) on it taken whole, as on a rigid body: None for
-    /// what it cannot take (moving it to a pose or changing its mass, which would take its
-    /// solve made anew).
+    /// Carry out `command` (checked finite) on it taken whole, as on a rigid body, or on its
+    /// material and held nodes: None for what it cannot take (moving it to a pose or
+    /// changing its mass, which would take its solve made anew; a material out of range).
+    /// A new material or new pins leave its factored rest system behind: its solve goes on
+    /// through it as far as it fits, and [`SoftPart::refactor`] makes it anew where the
+    /// stepping thread may take the time.
     pub fn apply(&mut self, command: &HapticdSceneCommand) -> Option<()> {
         let (body, vector) = (&mut self.body, DVec3::from(command.vector));
         match command.kind {
@@ -338,9 +346,38 @@ impl SoftPart {
                     slide: command.value,
                 };
             }
+            HAPTICD_COMMAND_SET_MATERIAL => {
+                let [young, poisson, damping] = command.vector;
+                let fits = |(least, most): (f64, f64), value: f64| (least..=most).contains(&value);
+                if !(fits(YOUNG_RANGE, young)
+                    && fits(POISSON_RANGE, poisson)
+                    && fits((0.0, MOST_DAMPING), damping))
+                {
+                    return None;
+                }
+                body.set_material(young, poisson, damping);
+                self.changed = true;
+            }
+            HAPTICD_COMMAND_PIN | HAPTICD_COMMAND_RELEASE => {
+                let held = command.kind == HAPTICD_COMMAND_PIN;
+                self.changed |= body.pin_where(vector, command.value, held) > 0;
+            }
             _ => return None,
         }
         Some(())
+    }
+
+    /// Make its solve's factored rest system anew if its material or pins changed since it
+    /// was made, for steps of `dt` (allocates, and takes a while for a large body: for a
+    /// physics thread, not a device tick). A body that cannot be factored (none can that
+    /// its scene took) keeps its solve's buffers and is solved by its nodes' diagonals.
+    pub fn refactor(&mut self, dt: f64) {
+        if std::mem::take(&mut self.changed) {
+            if let Ok(solver) = Solver::factored(&self.body, dt) {
+                self.solver = solver;
+            }
+            self.given = [None; 4];
+        }
     }
 
     /// The corners of its surface's triangles where the nodes stand now, triangle by

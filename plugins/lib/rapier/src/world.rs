@@ -944,6 +944,9 @@ impl RapierWorld {
         self.place_pointer_solids(input.pointers);
         let first = self.bodies.len();
         for part in &mut self.soft {
+            // A material or pins changed over the bus are factored here: the physics
+            // thread may take the time a device tick may not.
+            part.refactor(input.dt);
             part.step(input.dt, gravity, &self.still, first, &mut []);
         }
         // Around the proxy, where the finger rests, or the grip when there is none.

@@ -83,6 +83,35 @@ pub enum Command {
         /// The coefficient (a contact takes the lower of its two bodies').
         mu: f64,
     },
+    /// Make a soft body of Young's modulus YOUNG Pa and Poisson's ratio POISSON.
+    Material {
+        #[command(flatten)]
+        target: Target,
+        /// Young's modulus, Pa.
+        young: f64,
+        /// Poisson's ratio, 0 to 0.49.
+        poisson: f64,
+        /// Its damping, seconds (stiffness-proportional).
+        #[arg(long, default_value_t = 0.0)]
+        damping: f64,
+    },
+    /// Hold still the nodes of a soft body that stand where NX NY NZ · x ≤ OFFSET now.
+    Pin(Plane),
+    /// Let go the held nodes of a soft body that stand where NX NY NZ · x ≤ OFFSET now.
+    Release(Plane),
+}
+
+/// A soft body and the plane bounding its nodes a command is about.
+#[derive(Args)]
+pub struct Plane {
+    #[command(flatten)]
+    target: Target,
+    /// NX NY NZ: the plane's unit normal, pointing away from the nodes meant.
+    #[arg(num_args = 3, allow_negative_numbers = true, required = true)]
+    normal: Vec<f64>,
+    /// The plane's offset along its normal, metres.
+    #[arg(allow_negative_numbers = true)]
+    offset: f64,
 }
 
 /// The body a command is about, and how to print its state after it.
@@ -147,6 +176,20 @@ pub fn run(command: Command, client: &Client) -> Result<(), Failure> {
         Command::Force { target, force } => act(&target, &|s, b| s.set_force(b, three(&force))),
         Command::Mass { target, kg } => act(&target, &|s, b| s.set_mass(b, kg)),
         Command::Friction { target, mu } => act(&target, &|s, b| s.set_friction(b, mu)),
+        Command::Material {
+            target,
+            young,
+            poisson,
+            damping,
+        } => act(&target, &|s, b| {
+            s.set_material(b, (young, poisson, damping))
+        }),
+        Command::Pin(plane) => act(&plane.target, &|s, b| {
+            s.pin(b, (three(&plane.normal), plane.offset), true)
+        }),
+        Command::Release(plane) => act(&plane.target, &|s, b| {
+            s.pin(b, (three(&plane.normal), plane.offset), false)
+        }),
         Command::Add { body } => {
             let id = scene.add_body(&body).map_err(|e| client.refused(e))?;
             println!("added as body {id}");

@@ -48,6 +48,8 @@ use hapticd_soft::implicit::Solver;
 use hapticd_soft::lattice::{Ball, Solid, TetMesh, cut_box, cut_solid};
 use hapticd_soft::material::Material;
 
+use hapticd_core::scene::control::{MOST_DAMPING, POISSON_RANGE, YOUNG_RANGE};
+
 use super::Engine;
 use super::checks::DENSITY_RANGE;
 use super::meshes::{MeshFiles, Reading, read_mesh};
@@ -55,12 +57,6 @@ use super::schema::{RawAxis, RawBody, RawElements, RawScene};
 use crate::body::Body;
 use crate::soft::SoftPart;
 
-/// The stiffest material a soft body may be, Pa (a hard rubber's is 10⁸).
-const YOUNG_RANGE: (f64, f64) = (1.0, 1e9);
-/// Poisson's ratio: up to a nearly incompressible rubber's.
-const POISSON_RANGE: (f64, f64) = (0.0, 0.49);
-/// The longest damping time, s.
-const MOST_DAMPING: f64 = 1.0;
 /// The most linear elements a soft body may be cut into, and quadratic ones: what a
 /// device tick steps (here 2 058 linear ones take 0.63 ms, and 504 quadratic ones 0.9 ms:
 /// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
@@ -634,5 +630,82 @@ mod tests {
         );
         assert!(DVec3::from(touch.normal).y > 0.99, "{touch:?}");
         assert!(felt[0].force.y > 0.0);
+    }
+
+    /// A soft body pinned to its floor, let go over the scene control and pushed up at
+    /// 1 m/s, leaves the floor as a free body would; pinned again where it lands, the same
+    /// push leaves it where it stands; made ten times as soft, it sinks ten times as far.
+    #[test]
+    fn a_soft_body_let_go_leaves_its_floor_and_pinned_again_stays() {
+        use crate::coupling::Grip;
+        use glam::DVec3;
+        use hapticd_core::kinematics::Wrench;
+        use hapticd_plugin_api::*;
+        let SceneFile::Penalty(mut scene) = SceneFile::parse(
+            &scene(PENALTY, SOFT, PINNED, "gravity: [0, -9.81, 0]\n"),
+            Path::new("s.yaml"),
+            1,
+        )
+        .unwrap() else {
+            panic!("a penalty scene");
+        };
+        let far = Grip {
+            position: DVec3::new(0.0, 1.0, 0.0),
+            orientation: glam::DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        };
+        let mut felt = [Wrench::default()];
+        let mut run = |scene: &mut crate::scene::PenaltyScene, ticks: usize| {
+            for _ in 0..ticks {
+                assert!(scene.step_pointers(0.001, &[far], &mut felt));
+            }
+            scene.soft[0].body.centre()
+        };
+        let command = |kind: u32, vector: [f64; 3], value: f64| HapticdSceneCommand {
+            vector,
+            value,
+            ..HapticdSceneCommand::new(kind, 1)
+        };
+        let rest = run(&mut scene, 500);
+        let (mass, stood) = (scene.soft[0].body.mass(), 0.01);
+        // Ten times as soft: small strains are linear in the stress.
+        let set = command(HAPTICD_COMMAND_SET_MATERIAL, [1e4, 0.45, 0.0], 0.0);
+        scene.apply(&set).unwrap();
+        let soft = run(&mut scene, 1500);
+        let ratio = (stood - soft.y) / (stood - rest.y);
+        // Measured 9.98: the volume term stiffens with the squeeze (0.2 % at this sag).
+        assert!((ratio - 10.0).abs() < 0.3, "{ratio}");
+        let out_of_range = command(HAPTICD_COMMAND_SET_MATERIAL, [1e4, 0.5, 0.0], 0.0);
+        assert!(scene.apply(&out_of_range).is_none());
+        let set = command(HAPTICD_COMMAND_SET_MATERIAL, [1e5, 0.45, 0.0], 0.0);
+        scene.apply(&set).unwrap();
+        run(&mut scene, 1500);
+        let up = command(HAPTICD_COMMAND_IMPULSE_AT_CENTRE, [0.0, mass, 0.0], 0.0);
+        let let_go = command(HAPTICD_COMMAND_RELEASE, [0.0, 1.0, 0.0], 1.0);
+        scene.apply(&let_go).unwrap();
+        let from = scene.soft[0].body.centre();
+        scene.apply(&up).unwrap();
+        let flown = run(&mut scene, 100).y - from.y;
+        // Backward Euler's rise at 1 m/s under g over 100 ticks of 1 ms.
+        let free = 0.1 - 9.81 * 1e-6 * (100.0 * 101.0) / 2.0;
+        run(&mut scene, 1000);
+        let lowest = (scene.soft[0].body.positions.iter())
+            .map(|p| p.y)
+            .fold(f64::INFINITY, f64::min);
+        let pin = command(HAPTICD_COMMAND_PIN, [0.0, 1.0, 0.0], lowest + 1e-4);
+        scene.apply(&pin).unwrap();
+        let from = run(&mut scene, 500);
+        scene.apply(&up).unwrap();
+        let mut held = 0.0f64;
+        for _ in 0..100 {
+            held = held.max(run(&mut scene, 1).y - from.y);
+        }
+        println!(
+            "ten times as soft: sinks {ratio:.4} times as far; let go it rises {flown:.6} m \
+             ({free:.6} m free), pinned again {held:.6} m at most"
+        );
+        assert!((flown / free - 1.0).abs() < 1e-3, "{flown} {free}");
+        assert!(held < 0.002, "{held}");
     }
 }

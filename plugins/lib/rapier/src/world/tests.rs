@@ -1,6 +1,6 @@
 use super::*;
 use hapticd_physics::scene::SceneFile;
-use hapticd_plugin_api::HapticdPointer;
+use hapticd_plugin_api::{HAPTICD_COMMAND_SET_MATERIAL, HapticdPointer, HapticdSceneCommand};
 
 #[test]
 fn contacts_beyond_the_record_are_shared_among_the_solids_touched_and_spread_out() {
@@ -573,4 +573,62 @@ fn a_chain_too_deep_for_a_multibody_strikes_the_floor_and_stays_whole() {
         assert!(w.advance(1.0 / 60.0));
         assert!((1..w.body_count()).all(|i| w.mobility(i).is_some()));
     }
+}
+
+/// A soft block's material set while the world runs is factored anew at the next physics
+/// step: its plane under a finger then gives as a block loaded of that material gives
+/// (before, the factor of the old material would fit no more, and the plane would stand
+/// rigid).
+#[test]
+fn a_soft_blocks_material_set_while_it_runs_gives_as_one_made_of_it() {
+    let block = |young: f64| {
+        format!(
+            "name: block\nengine: rapier\nrate: 60\ngravity: [0, 0, 0]\nmaterial: {{ \
+             static_friction: 0.4, friction: 0.3 }}\nbodies:\n  - {{ name: floor, box: [0.1, \
+             0.01, 0.1], position: [0, -0.005, 0], fixed: true }}\n  - {{ name: block, box: \
+             [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: 1100, soft: {{ young: \
+             {young}, poisson: 0.45, damping: 0.002, resolution: 0.005 }}, pinned: {{ body: \
+             floor }} }}\n"
+        )
+    };
+    let finger = [HapticdPointer {
+        position: [0.0012, 0.0205, 0.0021],
+        ..HapticdPointer::default()
+    }];
+    // A step of the period the world was factored for.
+    let give = |w: &mut RapierWorld| {
+        let mut planes = [HapticdPlanes::default()];
+        let stepped = w.step(
+            &PhysicsInput {
+                dt: 1.0 / 60.0,
+                pointers: &finger,
+                proxies: &finger,
+                impulses: &[],
+                locals: &[],
+            },
+            &mut PhysicsOutput {
+                planes: &mut planes,
+                bodies: &mut [],
+                body_count: &mut 0,
+            },
+        );
+        assert!(stepped);
+        (0..planes[0].count)
+            .filter_map(|k| w.compliance(0, k))
+            .map(|g| g.compliance)
+            .fold(0.0, f64::max)
+    };
+    let (_, mut changed) = world(&block(1e5), 1);
+    let firm = give(&mut changed);
+    let set = HapticdSceneCommand {
+        vector: [1e4, 0.45, 0.002],
+        ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_MATERIAL, 1)
+    };
+    assert!(changed.control(&set).is_some());
+    let soft = give(&mut changed);
+    let (_, mut made) = world(&block(1e4), 1);
+    let made_so = give(&mut made);
+    println!("gives {firm:.4e} m/N firm, {soft:.4e} m/N made soft, {made_so:.4e} m/N made so");
+    assert!(firm > 0.0 && soft > 5.0 * firm, "{firm} {soft}");
+    assert!((soft / made_so - 1.0).abs() < 1e-3, "{soft} {made_so}");
 }
