@@ -230,13 +230,15 @@ fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
 
 /// A soft ball pinned to a floor, pressed by a finger and let go, its first contacts and
 /// releases all in here, from the scene's first tick, its surface's corners read for
-/// pictures every tick: nothing allocated.
+/// pictures every tick, its material changed while pressed and its nodes let go and pinned
+/// again: nothing allocated.
 #[test]
 fn a_penalty_scene_with_a_soft_body_pressed_and_let_go_does_not_allocate() {
     use glam::{DQuat, DVec3};
     use hapticd_core::kinematics::Wrench;
     use hapticd_physics::coupling::Grip;
     use hapticd_physics::scene::PenaltyScene;
+    use hapticd_plugin_api::*;
     let text = "name: soft\ndt: 0.00025\nmaterial: { stiffness: 2.0e7, damping: 1.0e4, \
                 static_friction: 0.4, friction: 0.3, friction_stiffness: 2.0e7, \
                 friction_damping: 1.0e4, slip_speed: 0.001 }\nbodies:\n  - { name: floor, box: \
@@ -248,8 +250,26 @@ fn a_penalty_scene_with_a_soft_body_pressed_and_let_go_does_not_allocate() {
     let mut most: f64 = 0.0;
     let mut corners = vec![[0.0f32; 3]; 8192];
     let mut lowest = f32::INFINITY;
+    let command = |kind: u32, vector: [f64; 3], value: f64| HapticdSceneCommand {
+        vector,
+        value,
+        ..HapticdSceneCommand::new(kind, 1)
+    };
+    let changes = [
+        (
+            150,
+            command(HAPTICD_COMMAND_SET_MATERIAL, [2e4, 0.45, 0.001], 0.0),
+        ),
+        (450, command(HAPTICD_COMMAND_RELEASE, [0.0, 1.0, 0.0], 1.0)),
+        (451, command(HAPTICD_COMMAND_PIN, [0.0, 1.0, 0.0], 0.0)),
+    ];
     let n = allocations_in(|| {
         for step in 0..600 {
+            for (at, change) in &changes {
+                if step == *at {
+                    assert!(scene.apply(change).is_some());
+                }
+            }
             let t = step as f64 * 1e-3;
             // Down 1 cm into the ball's top over 0.3 s, and back up.
             let depth = 0.01 * (1.0 - ((t - 0.3) / 0.3).abs()).max(0.0);
