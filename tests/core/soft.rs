@@ -164,9 +164,9 @@ fn cantilevers_sag_as_scikit_fem_solves_the_same_elements() {
 /// elasticity does, to a millionth for linear elements (the same linear problem) and within
 /// 0.2 % for quadratic ones; and within 5 % of its neo-Hookean solid of the same E and ν
 /// (Newton's method on the finite strains) once each element is turned with its
-/// deformation. Measured: 0.9 %, 1.8 % and 3.6 % under the neo-Hookean force for linear
-/// elements (its volume term stiffens faster), where linear elasticity is 2.3 %, 4.6 % and
-/// 9.3 % under it; and the same for quadratic ones.
+/// deformation (for quadratic elements at 2 mm alone). Measured: 0.9 %, 1.8 % and 3.6 %
+/// under the neo-Hookean force for linear elements (its volume term stiffens faster), where
+/// linear elasticity is 2.3 %, 4.6 % and 9.3 % under it; 1.8 % for quadratic ones at 2 mm.
 #[test]
 fn a_flat_punch_presses_as_scikit_fem_says() {
     let material = Material {
@@ -179,14 +179,18 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
     // elements, 1.25 cm for quadratic ones) by more than it goes down: the nodes under it
     // meet its face first.
     let (height, side) = (0.02, 0.01475);
-    for order in [Order::Linear, Order::Quadratic] {
+    let depths = [0.0005, 0.001, 0.002];
+    // The neo-Hookean solid from these depths on: at every one for linear elements; at the
+    // deepest for quadratic ones, whose Newton steps take scikit-fem some 10 s each.
+    for (order, finite_from) in [(Order::Linear, 0.0), (Order::Quadratic, 0.002)] {
         let mesh = cut_box(
             DVec3::new(0.0, height / 2.0, 0.0),
             DVec3::new(0.02, height / 2.0, 0.02),
             0.005,
             order,
         );
-        for depth in [0.0005, 0.001, 0.002] {
+        // Ours at each depth: before the elements turn, and once turned.
+        let forces = depths.map(|depth| {
             let mut body = SoftBody::new(mesh.clone(), material);
             body.pin_below(1, 0.0);
             let planes = [
@@ -208,7 +212,7 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
                 solids: &solids,
                 friction: Friction::NONE,
             };
-            let mut solver = Solver::new(body.positions.len());
+            let mut solver = Solver::factored(&body, 1e3).unwrap();
             let mut touch = [Touch::default()];
             let exact = Solve {
                 budget: 100_000,
@@ -221,48 +225,58 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
             for _ in 0..3 {
                 body.step(1e3, DVec3::ZERO, punch, &mut touch, exact, &mut solver);
             }
-            let ours = touch[0].force.y;
-            // The nodes under the punch, by where they are (not by the faces they bound).
-            let problem = format!(
-                "clamped = basis.get_dofs(lambda x: np.isclose(x[1], 0.0)).all()\n\
-                 ys = basis.nodal_dofs[1]\n\
-                 if basis.edge_dofs.size: ys = np.concatenate([ys, basis.edge_dofs[1]])\n\
-                 at = basis.doflocs[:, ys]\n\
-                 punched = ys[np.isclose(at[1], {height}) & (abs(at[0]) < {side}) & \
-                 (abs(at[2]) < {side})]\n\
-                 x = np.zeros(K.shape[0])\n\
-                 x[punched] = -{depth}\n\
-                 u = solve(*condense(K, np.zeros(K.shape[0]), x=x, D=np.concatenate([clamped, \
-                 punched])))\n\
-                 print(-(K @ u)[punched].sum())\n\
-                 from skfem.helpers import grad, ddot, det, inv, transpose, mul, identity, trace\n\
-                 lam, mu = lame_parameters({young}, {poisson})\n\
-                 def piola(F):\n\
-                 \x20   back = transpose(inv(F))\n\
-                 \x20   return mu * (F - back) + lam * np.log(det(F)) * back\n\
-                 @BilinearForm\n\
-                 def tangent(du, v, w):\n\
-                 \x20   F = grad(w['u']) + identity(w['u'])\n\
-                 \x20   back, dF = transpose(inv(F)), grad(du)\n\
-                 \x20   turned = mul(back, mul(transpose(dF), back))\n\
-                 \x20   dP = mu * dF + (mu - lam * np.log(det(F))) * turned + lam * trace(mul(inv(F), dF)) * back\n\
-                 \x20   return ddot(dP, grad(v))\n\
-                 @LinearForm\n\
-                 def inner(v, w):\n\
-                 \x20   return ddot(piola(grad(w['u']) + identity(w['u'])), grad(v))\n\
-                 D = np.concatenate([clamped, punched])\n\
-                 for _ in range(20):\n\
-                 \x20   at = basis.interpolate(u)\n\
-                 \x20   du = solve(*condense(asm(tangent, basis, u=at), -asm(inner, basis, u=at), D=D))\n\
-                 \x20   u += du\n\
-                 \x20   if np.abs(du).max() < 1e-13: break\n\
-                 print(-asm(inner, basis, u=basis.interpolate(u))[punched].sum())\n",
-                young = material.young,
-                poisson = material.poisson,
-            );
-            let [theirs, finite] = scikit_fem_numbers(&mesh, order, &material, &problem)[..] else {
-                panic!("two forces");
-            };
+            (linear, touch[0].force.y)
+        });
+        // Theirs, the nodes under the punch found by where they are (not by the faces they
+        // bound): at each depth the linear force, then the neo-Hookean one by Newton's method
+        // from the linear solution (0 where not asked for).
+        let problem = format!(
+            "from skfem.helpers import grad, ddot, det, inv, transpose, mul, identity, trace\n\
+             clamped = basis.get_dofs(lambda x: np.isclose(x[1], 0.0)).all()\n\
+             ys = basis.nodal_dofs[1]\n\
+             if basis.edge_dofs.size: ys = np.concatenate([ys, basis.edge_dofs[1]])\n\
+             at = basis.doflocs[:, ys]\n\
+             punched = ys[np.isclose(at[1], {height}) & (abs(at[0]) < {side}) & \
+             (abs(at[2]) < {side})]\n\
+             D = np.concatenate([clamped, punched])\n\
+             lam, mu = lame_parameters({young}, {poisson})\n\
+             def piola(F):\n\
+             \x20   back = transpose(inv(F))\n\
+             \x20   return mu * (F - back) + lam * np.log(det(F)) * back\n\
+             @BilinearForm\n\
+             def tangent(du, v, w):\n\
+             \x20   F = grad(w['u']) + identity(w['u'])\n\
+             \x20   back, dF = transpose(inv(F)), grad(du)\n\
+             \x20   turned = mul(back, mul(transpose(dF), back))\n\
+             \x20   dP = mu * dF + (mu - lam * np.log(det(F))) * turned + lam * trace(mul(inv(F), dF)) * back\n\
+             \x20   return ddot(dP, grad(v))\n\
+             @LinearForm\n\
+             def inner(v, w):\n\
+             \x20   return ddot(piola(grad(w['u']) + identity(w['u'])), grad(v))\n\
+             finite = []\n\
+             for depth in {depths:?}:\n\
+             \x20   x = np.zeros(K.shape[0])\n\
+             \x20   x[punched] = -depth\n\
+             \x20   u = solve(*condense(K, np.zeros(K.shape[0]), x=x, D=D))\n\
+             \x20   print(-(K @ u)[punched].sum())\n\
+             \x20   if depth < {finite_from}: finite.append(0.0); continue\n\
+             \x20   for _ in range(20):\n\
+             \x20       at = basis.interpolate(u)\n\
+             \x20       du = solve(*condense(asm(tangent, basis, u=at), -asm(inner, basis, u=at), D=D))\n\
+             \x20       u += du\n\
+             \x20       if np.abs(du).max() < 1e-13: break\n\
+             \x20   finite.append(-asm(inner, basis, u=basis.interpolate(u))[punched].sum())\n\
+             print(*finite)\n",
+            young = material.young,
+            poisson = material.poisson,
+        );
+        let theirs = scikit_fem_numbers(&mesh, order, &material, &problem);
+        assert_eq!(theirs.len(), 2 * depths.len(), "{theirs:?}");
+        let (linears, finites) = theirs.split_at(depths.len());
+        for (((depth, (linear, ours)), theirs), finite) in
+            depths.iter().zip(forces).zip(linears).zip(finites)
+        {
+            let (theirs, finite) = (*theirs, *finite);
             println!(
                 "{order:?}, {depth} m: {ours:.5} N ({linear:.8} N before its elements turn), \
                  scikit-fem {theirs:.8} N linear, {finite:.5} N neo-Hookean"
@@ -274,7 +288,9 @@ fn a_flat_punch_presses_as_scikit_fem_says() {
                 Order::Quadratic => 2e-3,
             };
             assert!((linear / theirs - 1.0).abs() < same, "{linear} vs {theirs}");
-            assert!((ours / finite - 1.0).abs() < 0.05, "{ours} vs {finite}");
+            if *depth >= finite_from {
+                assert!((ours / finite - 1.0).abs() < 0.05, "{ours} vs {finite}");
+            }
         }
     }
 }
