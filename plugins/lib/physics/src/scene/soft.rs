@@ -58,7 +58,7 @@ use crate::body::Body;
 use crate::soft::SoftPart;
 
 /// The most linear elements a soft body may be cut into, and quadratic ones: what a
-/// device tick steps (here 2 058 linear ones take 0.63 ms, and 504 quadratic ones 0.9 ms:
+/// device tick steps (here 2 058 linear ones take 0.42 ms, and 504 quadratic ones 0.5 ms:
 /// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
 pub const MOST_ELEMENTS: [usize; 2] = [2_000, 400];
 
