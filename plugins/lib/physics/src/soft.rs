@@ -62,6 +62,20 @@ struct Given {
     age: usize,
 }
 
+/// Nodes of a soft body held to a moving rigid body, which they pull on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Attachment {
+    /// The rigid body, by its place in the world.
+    pub body: usize,
+    /// Each held node and where it stands in the body's frame, from its centre of mass, m.
+    pub nodes: Vec<(usize, DVec3)>,
+    /// What the held nodes gave the body over the last tick, as a mean force and torque
+    /// about its centre of mass: what pushes it over the next.
+    pub pull: Wrench,
+    /// The body's own load while the pull is added to it.
+    pub held: Wrench,
+}
+
 /// A soft body of a scene, ready to step.
 #[derive(Debug, Clone)]
 pub struct SoftPart {
@@ -85,6 +99,8 @@ pub struct SoftPart {
     given: [Option<Given>; 4],
     /// Whether its material or pins changed since its solve was factored.
     changed: bool,
+    /// Its nodes held to a moving rigid body, if any.
+    pub attached: Option<Attachment>,
 }
 
 impl SoftPart {
@@ -113,6 +129,7 @@ impl SoftPart {
             },
             given: [None; 4],
             changed: false,
+            attached: None,
         };
         part.meet(bodies, first_pointer);
         part
@@ -182,6 +199,14 @@ impl SoftPart {
                 ..g
             });
         }
+        if let Some(a) = &self.attached {
+            // Its held nodes go where the body's motion over the tick has taken them.
+            let b = &bodies[a.body];
+            for &(n, at) in &a.nodes {
+                let target = b.position + b.orientation * at;
+                self.body.pin_velocities[n] = (target - self.body.positions[n]) / dt;
+            }
+        }
         self.stepped = self.body.step(
             dt,
             gravity,
@@ -190,6 +215,15 @@ impl SoftPart {
             TICK,
             &mut self.solver,
         );
+        if let Some(a) = &mut self.attached {
+            let centre = bodies[a.body].position;
+            a.pull = Wrench::default();
+            for &(n, _) in &a.nodes {
+                let push = self.body.reactions[n] / dt;
+                a.pull.force += push;
+                a.pull.torque += (self.body.positions[n] - centre).cross(push);
+            }
+        }
         for (i, t) in self.touches_by_body(bodies) {
             if let Some(out) = i.checked_sub(first_pointer).and_then(|k| felt.get_mut(k)) {
                 *out = *out

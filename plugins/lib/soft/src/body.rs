@@ -26,6 +26,12 @@ pub struct SoftBody {
     pub pinned: Vec<bool>,
     /// Forces on the nodes for the next step alone (the hand's), N.
     pub forces: Vec<DVec3>,
+    /// The velocity each pinned node moves at over the next step, m/s: zero for one held
+    /// to the world, its body's for one held to a moving body.
+    pub pin_velocities: Vec<DVec3>,
+    /// Where asked for (not empty), the impulse each pinned node gave what holds it over
+    /// the last step, N·s (zero at the free ones).
+    pub reactions: Vec<DVec3>,
     /// Each element's corners' barycentric gradients at rest.
     pub(crate) gradients: Vec<[DVec3; 4]>,
     /// Each element's volume at rest, m³.
@@ -67,6 +73,8 @@ impl SoftBody {
             velocities: vec![DVec3::ZERO; count],
             pinned: vec![false; count],
             forces: vec![DVec3::ZERO; count],
+            pin_velocities: vec![DVec3::ZERO; count],
+            reactions: Vec::new(),
             turns: vec![DQuat::IDENTITY; volumes.len()],
             rotations: vec![DMat3::IDENTITY; volumes.len()],
             deformations: vec![DMat3::IDENTITY; volumes.len()],
@@ -97,6 +105,11 @@ impl SoftBody {
             });
         }
         self.own_stiffness = own;
+    }
+
+    /// Node `i`'s stiffness along itself, N/m: how hard it is held back, moved alone.
+    pub fn own_stiffness(&self, i: usize) -> f64 {
+        self.own_stiffness[i]
     }
 
     /// Make it of Young's modulus `young` (Pa), Poisson's ratio `poisson` and damping

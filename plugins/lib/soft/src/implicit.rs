@@ -151,9 +151,11 @@ impl SoftBody {
         // The last velocities, whose momentum the step starts from; the solve starts from
         // them too, pinned and held nodes as they must go.
         solver.before.copy_from_slice(&self.velocities);
-        for (v, &pin) in self.velocities.iter_mut().zip(&self.pinned) {
+        for ((v, &pin), held) in
+            (self.velocities.iter_mut().zip(&self.pinned)).zip(&self.pin_velocities)
+        {
             if pin {
-                *v = DVec3::ZERO;
+                *v = *held;
             }
         }
         for h in &solver.held {
@@ -184,6 +186,18 @@ impl SoftBody {
             );
             if !(self.enter(dt, obstacles, solver) || released) {
                 break;
+            }
+        }
+        if !self.reactions.is_empty() {
+            // What is left of each pinned node's balance is what held it: b − A·v there.
+            self.residual(dt, stiff, gravity, solver);
+            for ((out, r), &pin) in self
+                .reactions
+                .iter_mut()
+                .zip(&solver.residual)
+                .zip(&self.pinned)
+            {
+                *out = if pin { *r } else { DVec3::ZERO };
             }
         }
         self.forces.fill(DVec3::ZERO);
@@ -245,6 +259,16 @@ impl SoftBody {
     /// terms cancel but where v differs from v₀, and each element's part is one product
     /// with its stiffness, −R·K_e·(dt·(Rᵀ·x − X) + s·Rᵀ·v).
     fn initial_residual(&self, dt: f64, stiff: f64, gravity: DVec3, solver: &mut Solver) {
+        self.residual(dt, stiff, gravity, solver);
+        for (r, &pin) in solver.residual.iter_mut().zip(&self.pinned) {
+            if pin {
+                *r = DVec3::ZERO;
+            }
+        }
+    }
+
+    /// b − A·v at every node into the solver's residual, the pinned ones' too.
+    fn residual(&self, dt: f64, stiff: f64, gravity: DVec3, solver: &mut Solver) {
         let residual = &mut solver.residual;
         for (i, r) in residual.iter_mut().enumerate() {
             let m = self.masses[i];
@@ -262,11 +286,6 @@ impl SoftBody {
             });
         } else {
             self.element_forces(dt, stiff, residual);
-        }
-        for (r, &pin) in residual.iter_mut().zip(&self.pinned) {
-            if pin {
-                *r = DVec3::ZERO;
-            }
         }
     }
 

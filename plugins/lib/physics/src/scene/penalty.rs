@@ -178,6 +178,8 @@ impl PenaltyScene {
         };
         scene.set_model(penalty.model);
         scene.world.join(&joints);
+        // A body holding a soft body's nodes is pulled by them every tick: none sleeps.
+        scene.world.sleeping &= scene.soft.iter().all(|s| s.attached.is_none());
         scene
     }
 }

@@ -36,6 +36,14 @@ impl PenaltyScene {
         }
         self.pointers_placed = true;
         let step = dt / steps as f64;
+        // A body holding a soft body's nodes is pulled over the tick by what they gave it
+        // over the last (the soft body steps after the world), besides its own load.
+        for soft in &mut self.soft {
+            if let Some(a) = &mut soft.attached {
+                a.held = self.world.loads[a.body];
+                self.world.loads[a.body] = a.held + a.pull;
+            }
+        }
         for _ in 0..steps {
             for (k, grip) in grips.iter().enumerate() {
                 if let Some(c) = &self.couplings[k] {
@@ -59,6 +67,11 @@ impl PenaltyScene {
         }
         for out in felt.iter_mut() {
             *out = *out * (1.0 / steps as f64);
+        }
+        for soft in self.soft.iter().rev() {
+            if let Some(a) = &soft.attached {
+                self.world.loads[a.body] = a.held;
+            }
         }
         let gravity = self.world.gravity;
         for soft in &mut self.soft {

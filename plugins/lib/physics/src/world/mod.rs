@@ -319,20 +319,26 @@ impl World {
     /// Weight and load of body `i`: what acts on it besides contacts, as a wrench about the
     /// origin (nothing on a body contacts cannot move).
     fn body_wrench(&self, i: usize) -> Wrench {
+        self.wrench_under(i, &self.loads)
+    }
+
+    /// Weight and load of body `i` under `loads`, as [`World::body_wrench`].
+    fn wrench_under(&self, i: usize, loads: &[Wrench]) -> Wrench {
         let b = &self.bodies[i];
         if b.fixed {
             return Wrench::default();
         }
-        let force = b.mass * self.gravity + self.loads[i].force;
+        let force = b.mass * self.gravity + loads[i].force;
         Wrench {
             force,
-            torque: b.position.cross(force) + self.loads[i].torque,
+            torque: b.position.cross(force) + loads[i].torque,
         }
     }
 
-    /// The contact force and torque (about its centroid) on body `i` in the last step.
+    /// The contact force and torque (about its centroid) on body `i` in the last step (its
+    /// load that step's, not one set since).
     pub fn contact_wrench(&self, i: usize) -> Wrench {
-        let (w, own) = (self.wrenches[i], self.body_wrench(i));
+        let (w, own) = (self.wrenches[i], self.wrench_under(i, &self.last_loads));
         let force = w.force - own.force;
         let b = &self.bodies[i];
         Wrench {
