@@ -886,3 +886,43 @@ fn a_soft_cube_settles_on_a_table_as_its_weight_squeezes_it_in_both_engines() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The shipped tray pushed along its table by the simulated fingertip (8 mm, from 6 cm left
+/// of the middle to 3 cm, 1 cm above the table): the tray slides on, as far as the finger
+/// went past where it first touched (13 mm) less what the proxy's spring holds (about a
+/// millimetre), and the jelly held on it goes with it to a tenth of a millimetre, its
+/// volume kept.
+#[test]
+fn the_shipped_tray_carries_its_jelly_where_the_finger_pushes_it() {
+    let hand = support::scratch_root().join(format!("push-tray-{}.yaml", std::process::id()));
+    std::fs::write(
+        &hand,
+        "hands:\n  grip:\n    - move: { to: [-0.06, 0.0, 0], seconds: 0.2 }\n    - move: { to: \
+         [-0.06, -0.0255, 0], seconds: 0.3 }\n    - move: { to: [-0.03, -0.0255, 0], seconds: \
+         1.0 }\n    - hold: { seconds: 0.5 }\n",
+    )
+    .unwrap();
+    let moved = bodies(&run(&[
+        &scene("tray.yaml"),
+        "--hand",
+        hand.to_str().unwrap(),
+        "--duration",
+        "2",
+        "--json",
+    ]));
+    std::fs::remove_file(&hand).unwrap();
+    let at = |name: &str| {
+        let body = moved.iter().find(|b| b["name"] == name).unwrap();
+        (vector(&body["position"]), body["soft"]["volume"].as_f64())
+    };
+    let ((tray, _), (jelly, volume)) = (at("tray"), at("jelly"));
+    println!(
+        "tray moved {:.4} mm, jelly {:.4} mm",
+        tray[0] * 1e3,
+        jelly[0] * 1e3
+    );
+    assert!((0.010..0.013).contains(&tray[0]), "{tray:?}");
+    assert!((tray[1] + 0.0295).abs() < 1e-4, "on the table: {tray:?}");
+    assert!((jelly[0] - tray[0]).abs() < 1e-4, "{jelly:?} {tray:?}");
+    assert!((volume.unwrap() - 1.0).abs() < 0.005, "{volume:?}");
+}
