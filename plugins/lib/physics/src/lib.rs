@@ -29,4 +29,5 @@ pub mod mass;
 pub mod polyhedron;
 pub mod scene;
 pub mod soft;
+pub mod soft_factoring;
 pub mod world;

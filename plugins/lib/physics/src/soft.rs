@@ -18,6 +18,7 @@ use hapticd_soft::contact::{Friction, Obstacle, Obstacles, Touch};
 use hapticd_soft::implicit::{Solve, Solver, Stepped};
 
 use crate::body::Body;
+use crate::soft_factoring::{Aside, Factoring};
 
 /// The device tick a soft body's solve is factored for (1 kHz), s: other ticks are solved
 /// with each node's own diagonal, more slowly.
@@ -101,6 +102,8 @@ pub struct SoftPart {
     changed: bool,
     /// Its nodes held to a moving rigid body, if any.
     pub attached: Option<Attachment>,
+    /// Its helper thread factoring its rest system anew after a change, in a penalty scene.
+    factoring: Aside,
 }
 
 impl SoftPart {
@@ -130,6 +133,7 @@ impl SoftPart {
             given: [None; 4],
             changed: false,
             attached: None,
+            factoring: Aside::default(),
         };
         part.meet(bodies, first_pointer);
         part
@@ -198,6 +202,13 @@ impl SoftPart {
                 age: g.age + 1,
                 ..g
             });
+        }
+        if let Some(f) = self.factoring.0.as_mut() {
+            f.take(&mut self.solver);
+            let stiff = self.body.material.damping * dt + dt * dt;
+            if self.changed && f.ask(&self.body, stiff) {
+                self.changed = false;
+            }
         }
         if let Some(a) = &self.attached {
             // Its held nodes go where the body's motion over the tick has taken them.
@@ -358,8 +369,8 @@ impl SoftPart {
     /// material and held nodes: None for what it cannot take (moving it to a pose or
     /// changing its mass, which would take its solve made anew; a material out of range).
     /// A new material or new pins leave its factored rest system behind: its solve goes on
-    /// through it as far as it fits, and [`SoftPart::refactor`] makes it anew where the
-    /// stepping thread may take the time.
+    /// through it as far as it fits, until its helper ([`SoftPart::factor_aside`]) or
+    /// [`SoftPart::refactor`], where the stepping thread may take the time, makes it anew.
     pub fn apply(&mut self, command: &HapticdSceneCommand) -> Option<()> {
         let (body, vector) = (&mut self.body, DVec3::from(command.vector));
         match command.kind {
@@ -399,6 +410,19 @@ impl SoftPart {
             _ => return None,
         }
         Some(())
+    }
+
+    /// Whether its solve is preconditioned by a factor of its material and pins as they
+    /// are, for steps of `dt`.
+    pub fn factored_for(&self, dt: f64) -> bool {
+        self.solver.factored_for(&self.body, dt)
+    }
+
+    /// From now on, factor its rest system anew on a helper thread after its material or
+    /// pins change, the new factor taken in by a later step (for a device tick, which may
+    /// not take the time); without a thread, it is solved as far as its factor fits.
+    pub fn factor_aside(&mut self) {
+        self.factoring = Aside(Factoring::start(&self.name, &self.body));
     }
 
     /// Make its solve's factored rest system anew if its material or pins changed since it

@@ -127,6 +127,21 @@ impl Solver {
             ..Solver::new(body.positions.len())
         })
     }
+
+    /// Whether it is preconditioned by a factor made of `body`'s material and pins for
+    /// steps of `dt`.
+    pub fn factored_for(&self, body: &SoftBody, dt: f64) -> bool {
+        let stiff = body.material.damping * dt + dt * dt;
+        self.factor.as_ref().is_some_and(|f| {
+            f.made_for(body, stiff) && (0..body.pinned.len()).all(|i| f.holds(i) != body.pinned[i])
+        })
+    }
+
+    /// Precondition with `factor` from now on; the factor it had before, if any (to be let
+    /// go where freeing memory may take the time).
+    pub fn swap_factor(&mut self, factor: Factor) -> Option<Factor> {
+        self.factor.replace(factor)
+    }
 }
 
 impl SoftBody {

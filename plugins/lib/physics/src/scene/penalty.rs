@@ -132,7 +132,11 @@ impl PenaltyScene {
         });
         let soft = soft
             .into_iter()
-            .map(|s| s.part(&bodies, first_pointer))
+            .map(|s| {
+                let mut part = s.part(&bodies, first_pointer);
+                part.factor_aside();
+                part
+            })
             .collect();
         let material = Material {
             stiffness: penalty.stiffness,

@@ -725,7 +725,18 @@ mod tests {
         // Ten times as soft: small strains are linear in the stress.
         let set = command(HAPTICD_COMMAND_SET_MATERIAL, [1e4, 0.45, 0.0], 0.0);
         scene.apply(&set).unwrap();
+        assert!(!scene.soft[0].factored_for(0.001));
         let soft = run(&mut scene, 1500);
+        // Its helper has factored the new material meanwhile (a fraction of a second).
+        let asked = std::time::Instant::now();
+        while !scene.soft[0].factored_for(0.001) {
+            assert!(
+                asked.elapsed().as_secs() < 10,
+                "no factor of the new material"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            run(&mut scene, 1);
+        }
         let ratio = (stood - soft.y) / (stood - rest.y);
         // Measured 9.98: the volume term stiffens with the squeeze (0.2 % at this sag).
         assert!((ratio - 10.0).abs() < 0.3, "{ratio}");
