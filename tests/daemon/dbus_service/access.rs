@@ -158,6 +158,18 @@ fn an_unprivileged_client_may_read_but_not_change() {
         "org.hapticd.Hapticd1.Scene.SetForce",
         &["string:block", "array:double:0,1,0"],
     );
+    denied(
+        SCENE,
+        "org.hapticd.Hapticd1.Scene.SetMaterial",
+        &["string:block", "double:1e5", "double:0.45", "double:0"],
+    );
+    for method in ["Pin", "Release"] {
+        denied(
+            SCENE,
+            &format!("org.hapticd.Hapticd1.Scene.{method}"),
+            &["string:block", "array:double:0,1,0", "double:0"],
+        );
+    }
     // Where a body is may be read by anyone: the daemon itself answers (no bodies here).
     let mut setpriv = Command::new("setpriv");
     setpriv.args([
