@@ -205,7 +205,7 @@ impl SoftPart {
         }
         if let Some(f) = self.factoring.0.as_mut() {
             f.take(&mut self.solver);
-            let stiff = self.body.material.damping * dt + dt * dt;
+            let stiff = self.body.material.step_factor(dt);
             if self.changed && f.ask(&self.body, stiff) {
                 self.changed = false;
             }

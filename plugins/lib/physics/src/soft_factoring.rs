@@ -4,7 +4,7 @@
 //! one when it is ready, handing the old one back to be freed there. The tick only tries to
 //! send and receive: it allocates, frees and waits for nothing.
 
-use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError, sync_channel};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 
 use hapticd_soft::body::SoftBody;
 use hapticd_soft::factor::Factor;
@@ -22,7 +22,7 @@ struct Ask {
 #[derive(Debug)]
 pub struct Factoring {
     asks: SyncSender<Ask>,
-    made: Receiver<(Factor, Vec<bool>)>,
+    made: Receiver<(Option<Factor>, Vec<bool>)>,
     spent: SyncSender<Option<Factor>>,
     /// The buffer the next ask carries its pins in (empty while the helper has it).
     pins: Vec<bool>,
@@ -46,14 +46,14 @@ impl Factoring {
                     let [young, poisson, damping] = ask.material;
                     own.set_material(young, poisson, damping);
                     own.pinned.copy_from_slice(&ask.pins);
-                    let Ok(factor) = Factor::new(&own, ask.stiff) else {
-                        continue;
-                    };
+                    // The pins' buffer goes back whether a factor could be made or not.
+                    let factor = Factor::new(&own, ask.stiff).ok();
+                    let made = factor.is_some();
                     if done.send((factor, ask.pins)).is_err() {
                         return;
                     }
                     // The factor it replaced, freed here.
-                    if freed.recv().is_err() {
+                    if made && freed.recv().is_err() {
                         return;
                     }
                 }
@@ -71,7 +71,7 @@ impl Factoring {
     /// [rt] Ask for `body`'s rest system factored for steps of factor `stiff`, unless an ask
     /// is out; whether it was asked.
     pub fn ask(&mut self, body: &SoftBody, stiff: f64) -> bool {
-        if self.asked || self.pins.len() != body.pinned.len() {
+        if self.asked {
             return false;
         }
         self.pins.copy_from_slice(&body.pinned);
@@ -89,18 +89,17 @@ impl Factoring {
     }
 
     /// [rt] Put a factor the helper has made into `solver`, the one it had sent back to be
-    /// freed; whether one was put in.
-    pub fn take(&mut self, solver: &mut Solver) -> bool {
-        match self.made.try_recv() {
-            Ok((factor, pins)) => {
-                self.pins = pins;
-                self.asked = false;
-                let old = solver.swap_factor(factor);
-                // The helper waits for it: the channel has room.
-                let _ = self.spent.try_send(old);
-                true
-            }
-            Err(TryRecvError::Empty | TryRecvError::Disconnected) => false,
+    /// freed (none when the system could not be factored: the solve goes on as it was).
+    pub fn take(&mut self, solver: &mut Solver) {
+        let Ok((factor, pins)) = self.made.try_recv() else {
+            return;
+        };
+        self.pins = pins;
+        self.asked = false;
+        if let Some(factor) = factor {
+            let old = solver.swap_factor(factor);
+            // The helper waits for it: the channel has room.
+            let _ = self.spent.try_send(old);
         }
     }
 }

@@ -123,7 +123,7 @@ impl Solver {
     /// made outside the tick (it allocates and orders), once a body's pins are set.
     pub fn factored(body: &SoftBody, dt: f64) -> Result<Solver, FactorError> {
         Ok(Solver {
-            factor: Some(Factor::new(body, body.material.damping * dt + dt * dt)?),
+            factor: Some(Factor::new(body, body.material.step_factor(dt))?),
             ..Solver::new(body.positions.len())
         })
     }
@@ -131,7 +131,7 @@ impl Solver {
     /// Whether it is preconditioned by a factor made of `body`'s material and pins for
     /// steps of `dt`.
     pub fn factored_for(&self, body: &SoftBody, dt: f64) -> bool {
-        let stiff = body.material.damping * dt + dt * dt;
+        let stiff = body.material.step_factor(dt);
         self.factor.as_ref().is_some_and(|f| {
             f.made_for(body, stiff) && (0..body.pinned.len()).all(|i| f.holds(i) != body.pinned[i])
         })
@@ -161,7 +161,7 @@ impl SoftBody {
         if solver.factor.is_some() {
             self.node_turns(&mut solver.node_turns, &mut solver.sums);
         }
-        let stiff = self.material.damping * dt + dt * dt;
+        let stiff = self.material.step_factor(dt);
         self.hold(dt, obstacles, solver);
         // The last velocities, whose momentum the step starts from; the solve starts from
         // them too, pinned and held nodes as they must go.
@@ -544,7 +544,7 @@ impl SoftBody {
         weights: &[(usize, f64)],
         normal: DVec3,
     ) -> Option<f64> {
-        let stiff = self.material.damping * dt + dt * dt;
+        let stiff = self.material.step_factor(dt);
         let factor = solver.factor.as_mut().filter(|f| f.made_for(self, stiff))?;
         solver.turned.fill(DVec3::ZERO);
         for &(node, w) in weights {

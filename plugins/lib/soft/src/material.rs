@@ -26,6 +26,12 @@ impl Material {
         self.young / (2.0 * (1.0 + self.poisson))
     }
 
+    /// The factor s = β·dt + dt² its stiffness weighs in a step of `dt` with (its damping β
+    /// and the step's own stiffening).
+    pub fn step_factor(&self, dt: f64) -> f64 {
+        self.damping * dt + dt * dt
+    }
+
     /// The speed of a pressure wave through it, m/s: how fast a push crosses an element.
     pub fn wave_speed(&self) -> f64 {
         ((self.lambda() + 2.0 * self.mu()) / self.density).sqrt()

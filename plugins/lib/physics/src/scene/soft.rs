@@ -51,6 +51,7 @@ use hapticd_soft::implicit::Solver;
 use hapticd_soft::lattice::{Ball, Solid, TetMesh, cut_box, cut_solid};
 use hapticd_soft::material::Material;
 
+use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::control::{MOST_DAMPING, POISSON_RANGE, YOUNG_RANGE};
 
 use super::Engine;
@@ -394,32 +395,35 @@ fn pin(
                         nodes.push((k, held.orientation.inverse() * (*node - held.position)));
                     }
                 }
-                // The body is pulled a tick after its nodes: a spring between them
-                // integrated ahead, stiff as the held nodes are held back. Measured with a
-                // jelly on a tray: at ω·dt = 1.0 both rest; at 1.8 the world diverged, at
-                // 2.0 and 4.5 the tray crept sideways.
-                let stiffness: f64 = nodes.iter().map(|&(n, _)| body.own_stiffness(n)).sum();
-                let tick = SOFT_TICK;
-                let omega_dt = (stiffness / held.mass).sqrt() * tick;
-                if !held.fixed && omega_dt > 1.0 {
-                    f.error(
-                        format!("{at}.pinned.body"),
-                        format!(
-                            "{name} ({:.4} kg) is too light to hold it: its held nodes' \
-                             {stiffness:.3e} N/m pull it with ω·dt = {omega_dt:.2} at the \
-                             device tick ({tick} s); {:.4} kg or more keeps it at 1, or a \
-                             softer material",
-                            held.mass,
-                            stiffness * tick * tick
-                        ),
-                    );
-                } else if !held.fixed {
-                    attached = Some(Attachment {
-                        body: i,
-                        nodes,
-                        pull: hapticd_core::kinematics::Wrench::default(),
-                        held: hapticd_core::kinematics::Wrench::default(),
-                    });
+                // Held to the world: pinned, nothing to pull on.
+                if !held.fixed {
+                    // The body is pulled a tick after its nodes: a spring between them
+                    // integrated ahead, stiff as the held nodes are held back. Measured with
+                    // a jelly on a tray: at ω·dt = 1.0 both rest; at 1.8 the world diverged,
+                    // at 2.0 and 4.5 the tray crept sideways.
+                    let stiffness: f64 = nodes.iter().map(|&(n, _)| body.own_stiffness(n)).sum();
+                    let tick = SOFT_TICK;
+                    let omega_dt = (stiffness / held.mass).sqrt() * tick;
+                    if omega_dt > 1.0 {
+                        f.error(
+                            format!("{at}.pinned.body"),
+                            format!(
+                                "{name} ({:.4} kg) is too light to hold it: its held nodes' \
+                                 {stiffness:.3e} N/m pull it with ω·dt = {omega_dt:.2} at the \
+                                 device tick ({tick} s); {:.4} kg or more keeps it at 1, or a \
+                                 softer material",
+                                held.mass,
+                                stiffness * tick * tick
+                            ),
+                        );
+                    } else {
+                        attached = Some(Attachment {
+                            body: i,
+                            nodes,
+                            pull: Wrench::default(),
+                            held: Wrench::default(),
+                        });
+                    }
                 }
             }
         }
@@ -773,10 +777,10 @@ mod tests {
         assert!(held < 0.002, "{held}");
     }
 
-    /// A jelly held by its base to a tray (a moving rigid body), the tray let fall from
-    /// above a floor: in the air the two fall together, the world's momentum what gravity
-    /// gave it (the pull the held nodes gave the tray in the last tick counted in, as the
-    /// tray takes it over the next); at rest on the floor, the floor bears the tray and the
+    /// A jelly held by its base to a tray (a moving rigid body), the tray thrown up above a
+    /// floor: in the air it yanks the jelly after it, the world's momentum what the throw
+    /// and gravity gave it (the pull the held nodes gave the tray in the last tick counted
+    /// in, as the tray takes it over the next); at rest on the floor, the floor bears the tray and the
     /// jelly; a moving body that holds no soft body is still refused, and under rapier so
     /// is one that does.
     #[test]
@@ -784,6 +788,7 @@ mod tests {
         use crate::coupling::Grip;
         use glam::{DQuat, DVec3};
         use hapticd_core::kinematics::Wrench;
+        use hapticd_plugin_api::{HAPTICD_COMMAND_SET_VELOCITY, HapticdSceneCommand};
         let held = "{ name: tray, box: [0.06, 0.01, 0.06], position: [0, 0.025, 0], density: \
                     2000 }\n  - { name: jelly, box: [0.04, 0.02, 0.04], position: [0, 0.039, 0], \
                     density: 1100, soft: { young: 5.0e4, poisson: 0.45, damping: 0.002, \
@@ -811,26 +816,37 @@ mod tests {
         let mut felt = [Wrench::default()];
         let (tray, jelly) = (scene.world.bodies[1].mass, scene.soft[0].body.mass());
         let total = tray + jelly;
-        // Falling 2 cm onto the floor takes 64 ms: in the air for the first 50 ticks.
+        // The tray thrown up at 0.3 m/s, yanking the jelly after it: in the air for the
+        // first 50 ticks (up 1.9 cm, down to 1 cm above the floor).
+        let thrown = HapticdSceneCommand {
+            vector: [0.0, 0.3, 0.0],
+            ..HapticdSceneCommand::new(HAPTICD_COMMAND_SET_VELOCITY, 1)
+        };
+        scene.apply(&thrown).unwrap();
+        let mut most = 0.0f64;
         for tick in 1..=50 {
             assert!(scene.step_pointers(0.001, &far, &mut felt));
             let soft = &scene.soft[0];
+            let pull = soft.attached.as_ref().unwrap().pull.force;
+            most = most.max(pull.length());
             let momentum = scene.world.bodies[1].velocity * tray
                 + (soft.body.velocities.iter().zip(&soft.body.masses))
                     .map(|(v, m)| *v * *m)
                     .sum::<DVec3>()
-                + soft.attached.as_ref().unwrap().pull.force * 0.001;
-            let given = total * 9.81 * tick as f64 * 0.001;
+                + pull * 0.001;
+            let given = tray * 0.3 - total * 9.81 * tick as f64 * 0.001;
             // Within what a tick's solve leaves of the jelly's own balance: each node's
-            // velocity within 0.1 mm/s of the tick's solution (measured: 2·10⁻⁹ N·s after
-            // two ticks, 10⁻⁶ of the momentum; a pull of the wrong sign or a tick late
-            // would be off by the jelly's weight times the tick, 1.7·10⁻⁴ N·s).
+            // velocity within 0.1 mm/s of the tick's solution.
             let solve = jelly * 1e-4 * tick as f64;
             assert!(
-                (momentum + DVec3::Y * given).length() < solve,
+                (momentum - DVec3::Y * given).length() < solve,
                 "tick {tick}: {momentum} against {given}"
             );
         }
+        // The pull that yanked the jelly: a pull of the wrong sign would leave the world's
+        // momentum off by twice its impulse in the tick, far past the solve's share.
+        println!("the tray pulled the jelly with {most:.4} N at most");
+        assert!(2.0 * most * 0.001 > 100.0 * jelly * 1e-4, "{most}");
         for _ in 0..1500 {
             assert!(scene.step_pointers(0.001, &far, &mut felt));
         }
