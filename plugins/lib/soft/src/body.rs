@@ -166,9 +166,15 @@ impl SoftBody {
         let [lambda, mu] = self.lame;
         let mut energy = 0.0;
         for e in 0..self.volumes.len() {
-            let mut turn = self.turns[e];
-            rotation::follow(&self.deformation(e), &mut turn, rotation::TURNS, 0.0);
-            let back = DMat3::from_quat(turn).transpose();
+            let (mut turn, mut matrix) = (self.turns[e], self.rotations[e]);
+            rotation::follow(
+                &self.deformation(e),
+                &mut turn,
+                &mut matrix,
+                rotation::TURNS,
+                0.0,
+            );
+            let back = matrix.transpose();
             let (u, n) = self.displacements(e, &back, &self.positions, true);
             self.each_point(e, |shape, w| {
                 let h = gradient_at(&u[..n], shape);
@@ -215,8 +221,13 @@ impl SoftBody {
     pub(crate) fn follow_turns(&mut self, turns: usize, settled: f64) {
         for e in 0..self.volumes.len() {
             let f = self.deformation(e);
-            rotation::follow(&f, &mut self.turns[e], turns, settled);
-            self.rotations[e] = DMat3::from_quat(self.turns[e]);
+            rotation::follow(
+                &f,
+                &mut self.turns[e],
+                &mut self.rotations[e],
+                turns,
+                settled,
+            );
             self.deformations[e] = f;
         }
     }

@@ -256,9 +256,13 @@ impl SoftBody {
                 self.velocities[i] += alpha * solver.direction[i];
                 solver.residual[i] -= alpha * solver.product[i];
             }
+            // β of the flexible form (Polak–Ribière): the preconditioner works in single
+            // precision, not quite symmetric, and with β = next/along the search stalled
+            // at a ten-millionth of the residual (a static solve to 10⁻¹⁸ stopped at 10⁻⁷).
+            let last = dot(&solver.residual, &solver.preconditioned);
             self.precondition(stiff, solver);
             let next = dot(&solver.residual, &solver.preconditioned);
-            let beta = next / along;
+            let beta = (next - last) / along;
             along = next;
             for i in 0..self.positions.len() {
                 solver.direction[i] = solver.preconditioned[i] + beta * solver.direction[i];

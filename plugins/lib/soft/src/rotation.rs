@@ -12,10 +12,17 @@ pub const TURNS: usize = 20;
 const SMALL_TURN: f64 = 0.01;
 
 /// Turn `turn` toward the rotation nearest `gradient`, at most `turns` times, and no more
-/// once a turn was smaller than `settled` (rad).
-pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize, settled: f64) {
+/// once a turn was smaller than `settled` (rad); `rotation` is its matrix before and after
+/// (kept, so a turn settled at once costs one matrix, not two).
+pub fn follow(
+    gradient: &DMat3,
+    turn: &mut DQuat,
+    rotation: &mut DMat3,
+    turns: usize,
+    settled: f64,
+) {
     for _ in 0..turns {
-        let r = DMat3::from_quat(*turn);
+        let r = *rotation;
         let pull = r.x_axis.cross(gradient.x_axis)
             + r.y_axis.cross(gradient.y_axis)
             + r.z_axis.cross(gradient.z_axis);
@@ -35,6 +42,7 @@ pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize, settled: f64) {
             DQuat::from_axis_angle(omega / angle, angle)
         };
         *turn = (step * *turn).normalize();
+        *rotation = DMat3::from_quat(*turn);
         if angle < settled {
             break;
         }
@@ -43,8 +51,8 @@ pub fn follow(gradient: &DMat3, turn: &mut DQuat, turns: usize, settled: f64) {
 
 /// The rotation nearest `gradient`, from the identity.
 pub fn nearest(gradient: &DMat3) -> DQuat {
-    let mut turn = DQuat::IDENTITY;
-    follow(gradient, &mut turn, TURNS, 0.0);
+    let (mut turn, mut rotation) = (DQuat::IDENTITY, DMat3::IDENTITY);
+    follow(gradient, &mut turn, &mut rotation, TURNS, 0.0);
     turn
 }
 
