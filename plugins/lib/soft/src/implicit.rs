@@ -12,6 +12,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::body::{SoftBody, gradient_at};
+use crate::capacitance::Capacitance;
 use crate::contact::{Friction, Held, Obstacles, Touch};
 use crate::element::{MOST_NODES, Order};
 use crate::factor::{Factor, FactorError};
@@ -65,6 +66,8 @@ pub struct Solver {
     /// The rest system factored for the steps it is made for; each node's own diagonal
     /// otherwise.
     factor: Option<Factor>,
+    /// Its answer corrected for the held nodes, where it is factored.
+    capacitance: Option<Capacitance>,
     /// Each node's turn: the mean of its elements' (the factored rest system is turned by
     /// them, so elements that turned a long way still find it near their own).
     node_turns: Vec<DQuat>,
@@ -95,6 +98,7 @@ impl Solver {
     pub fn new(nodes: usize) -> Solver {
         Solver {
             factor: None,
+            capacitance: None,
             node_turns: vec![DQuat::IDENTITY; nodes],
             sums: vec![DQuat::IDENTITY; nodes],
             turned: vec![DVec3::ZERO; nodes],
@@ -124,6 +128,7 @@ impl Solver {
     pub fn factored(body: &SoftBody, dt: f64) -> Result<Solver, FactorError> {
         Ok(Solver {
             factor: Some(Factor::new(body, body.material.step_factor(dt))?),
+            capacitance: Some(Capacitance::new(body.positions.len())),
             ..Solver::new(body.positions.len())
         })
     }
@@ -140,6 +145,9 @@ impl Solver {
     /// Precondition with `factor` from now on; the factor it had before, if any (to be let
     /// go where freeing memory may take the time).
     pub fn swap_factor(&mut self, factor: Factor) -> Option<Factor> {
+        if let Some(c) = &mut self.capacitance {
+            c.forget();
+        }
         self.factor.replace(factor)
     }
 }
@@ -163,6 +171,12 @@ impl SoftBody {
         }
         let stiff = self.material.step_factor(dt);
         self.hold(dt, obstacles, solver);
+        if let (Some(factor), Some(capacitance)) = (
+            solver.factor.as_mut().filter(|f| f.made_for(self, stiff)),
+            &mut solver.capacitance,
+        ) {
+            capacitance.step(factor, &solver.held);
+        }
         // The last velocities, whose momentum the step starts from; the solve starts from
         // them too, pinned and held nodes as they must go.
         solver.before.copy_from_slice(&self.velocities);
@@ -238,6 +252,9 @@ impl SoftBody {
         self.initial_residual(dt, stiff, gravity, solver);
         // The held directions are no unknowns: the preconditioner leaves them out, and so
         // every direction searched along; the residual keeps them, what holds the nodes.
+        if let Some(c) = &mut solver.capacitance {
+            c.prepare(&solver.held, &solver.node_turns);
+        }
         self.precondition(stiff, solver);
         solver.direction.copy_from_slice(&solver.preconditioned);
         let mut along = dot(&solver.residual, &solver.preconditioned);
@@ -588,6 +605,9 @@ impl SoftBody {
                 };
             }
             factor.solve(&solver.turned, out);
+            if let Some(c) = &mut solver.capacitance {
+                c.correct(out);
+            }
             for (i, (o, q)) in out.iter_mut().zip(&solver.node_turns).enumerate() {
                 *o = if self.pinned[i] {
                     DVec3::ZERO

@@ -11,9 +11,12 @@
 //! - [`rotation`] finds an element's turn, which its stiffness is taken along with;
 //! - [`body`] is a soft body's nodes, elements, masses and pins;
 //! - [`motion`] takes it whole: its turn, velocity and spin, an impulse or a motion given;
-//! - [`implicit`] steps it: backward Euler, solved by conjugate gradients.
+//! - [`implicit`] steps it: backward Euler, solved by conjugate gradients;
+//! - [`factor`] is its rest system factored, which preconditions the solve, and
+//!   [`capacitance`] corrects that for the nodes held on obstacles.
 
 pub mod body;
+pub mod capacitance;
 pub mod contact;
 pub mod element;
 pub mod factor;
