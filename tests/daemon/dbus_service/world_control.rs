@@ -540,8 +540,9 @@ fn two_hosts_push_one_block_of_a_world_on_a_third_over_a_slow_network() {
 /// stepped in the device tick). Made ten times as soft it sinks ten times as far under its
 /// weight (small strains are linear in the stress), and made firm again it stands where it
 /// stood; let go of its table and given an upward impulse it leaves it, and pinned again
-/// the same impulse leaves it in place. A rigid body has no material or nodes, and a
-/// hostile material or plane is refused by name, changing nothing.
+/// the same impulse leaves it in place. A world rebuilt around it (a body added or taken
+/// away) keeps its material and pins as they were set. A rigid body has no material or
+/// nodes, and a hostile material or plane is refused by name, changing nothing.
 #[test]
 fn a_soft_bodys_material_and_pins_are_changed_over_the_bus() {
     let dir = support::shared_scratch("dbus", "soft-control");
@@ -615,6 +616,22 @@ fn a_soft_bodys_material_and_pins_are_changed_over_the_bus() {
     // Measured 9.86: the volume term stiffens with the squeeze (1.4 % at this sag, on a
     // base held by its pins).
     assert!((ratio - 10.0).abs() < 0.3, "{ratio}");
+    // A world rebuilt around it (a body added) builds it anew at rest, of the material set:
+    // it sags as far again, not as its file's firm one.
+    let added = bus.call(
+        SCENE,
+        "AddBody",
+        &[
+            "s",
+            "{ name: shelf, box: [0.02, 0.005, 0.02], position: [0.1, 0.1, 0.1], fixed: true }",
+        ],
+    );
+    assert!(added.status.success(), "{added:?}");
+    let rebuilt = jelly(1500);
+    assert!(
+        (rebuilt.position - soft.position).length() < 0.02 * (stood - soft.position.y),
+        "{rebuilt:?} {soft:?}"
+    );
     bus.drive("SetMaterial", "sddd", &["jelly", "3.0e4", "0.45", "0.004"])
         .unwrap();
     let again = jelly(1500);
@@ -630,10 +647,12 @@ fn a_soft_bodys_material_and_pins_are_changed_over_the_bus() {
             .unwrap();
         jelly(200).position.x - state.position.x
     };
-    let released = bus
-        .drive("Release", "sadd", &["jelly", "3", "0", "1", "0", "1"])
+    bus.drive("Release", "sadd", &["jelly", "3", "0", "1", "0", "1"])
         .unwrap();
-    let slid = along(&released);
+    // Rebuilt again (the body taken away), it is still let go.
+    let removed = bus.call(SCENE, "RemoveBody", &["s", "shelf"]);
+    assert!(removed.status.success(), "{removed:?}");
+    let slid = along(&jelly(1000));
     bus.drive("Pin", "sadd", &["jelly", "3", "0", "1", "0", "-0.0315"])
         .unwrap();
     let held = along(&jelly(1000));

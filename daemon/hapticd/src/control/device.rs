@@ -18,9 +18,10 @@ use hapticd_ipc::telemetry_share::SharedTelemetryFile;
 use hapticd_ipc::world_link_share::{WorldLink, WorldLinkFile};
 use hapticd_ipc::world_share::SharedWorldFile;
 use hapticd_plugin_api::{
-    HAPTICD_COMMAND_QUERY, HAPTICD_COMMAND_SET_FORCE, HAPTICD_COMMAND_SET_FRICTION,
-    HAPTICD_COMMAND_SET_MASS, HAPTICD_COMMAND_SET_POSE, HAPTICD_COMMAND_SET_VELOCITY,
-    HapticdBodyState, HapticdJointCommand, HapticdJointState, HapticdSceneCommand,
+    HAPTICD_COMMAND_PIN, HAPTICD_COMMAND_QUERY, HAPTICD_COMMAND_RELEASE, HAPTICD_COMMAND_SET_FORCE,
+    HAPTICD_COMMAND_SET_FRICTION, HAPTICD_COMMAND_SET_MASS, HAPTICD_COMMAND_SET_MATERIAL,
+    HAPTICD_COMMAND_SET_POSE, HAPTICD_COMMAND_SET_VELOCITY, HapticdBodyState, HapticdJointCommand,
+    HapticdJointState, HapticdSceneCommand,
 };
 
 use super::{Error, not_taking_commands};
@@ -61,7 +62,15 @@ pub struct DeviceHandle {
     remembered: Mutex<Remembered>,
     /// The effects it renders.
     pub(super) effects: Mutex<Effects>,
+    /// The changes made to the running world's soft bodies (material, pins), by name, in
+    /// their order: a soft body is built anew at rest, so a world rebuilt around it takes
+    /// them again.
+    soft_changes: Mutex<Vec<(String, HapticdSceneCommand)>>,
 }
+
+/// The most pins and releases of one soft body kept for a rebuilt world; beyond them the
+/// oldest are forgotten (a script that pins and lets go in a loop keeps its last ones).
+const MOST_PIN_CHANGES: usize = 64;
 
 /// The effects a device renders (see `control::effects`).
 #[derive(Debug, Default)]
@@ -177,6 +186,7 @@ impl DeviceHandle {
                 defaults: setup.defaults,
             }),
             effects: Mutex::default(),
+            soft_changes: Mutex::default(),
         }
     }
 
@@ -439,7 +449,9 @@ impl DeviceHandle {
     /// Swap in `scene` with a force ramp; its proxy parameters become the defaults that the
     /// user's overrides apply to.
     pub fn switch_scene(&self, scene: Box<dyn Scene>) -> Result<(), Error> {
-        self.switch_scene_carrying(scene, &[])
+        self.switch_scene_carrying(scene, &[])?;
+        lock(&self.soft_changes).clear();
+        Ok(())
     }
 
     /// Swap in `scene` as [`DeviceHandle::switch_scene`] does, `carried` (changes to bodies
@@ -479,13 +491,17 @@ impl DeviceHandle {
         guard.defaults = defaults;
         drop(guard);
         self.wait_for("swap the scene", |f| f.scene_switches > before)?;
+        // A soft body removed takes its changes along (one added again of its name starts
+        // as its file says).
+        lock(&self.soft_changes)
+            .retain(|(name, _)| control.as_ref().is_some_and(|c| c.find(name).is_ok()));
         *lock(&self.control) = control;
         Ok(())
     }
 
     /// The running world's bodies as changes, by name, that put a world built anew from the
     /// same file where they are: pose, and for those that move their velocities, mass and
-    /// held force; friction.
+    /// held force; friction; and the soft bodies' materials and pins as they were set.
     pub(super) fn carried(&self) -> Result<Vec<(String, HapticdSceneCommand)>, Error> {
         let mut carried = Vec::new();
         for body in self.bodies() {
@@ -508,7 +524,25 @@ impl DeviceHandle {
                 });
             }
         }
+        carried.extend(lock(&self.soft_changes).iter().cloned());
         Ok(carried)
+    }
+
+    /// Keep `command`, carried out on soft body `name`, for a world rebuilt around it: a
+    /// material replaces the one set before, pins and releases follow each other.
+    fn remember_soft_change(&self, name: &str, command: HapticdSceneCommand) {
+        let mut changes = lock(&self.soft_changes);
+        let same = |(n, c): &(String, HapticdSceneCommand), pins: bool| {
+            n == name && (c.kind == HAPTICD_COMMAND_SET_MATERIAL) != pins
+        };
+        let pins = command.kind != HAPTICD_COMMAND_SET_MATERIAL;
+        if !pins {
+            changes.retain(|c| !same(c, false));
+        } else if changes.iter().filter(|c| same(c, true)).count() >= MOST_PIN_CHANGES {
+            let oldest = changes.iter().position(|c| same(c, true));
+            changes.remove(oldest.unwrap_or_default());
+        }
+        changes.push((name.to_string(), command));
     }
 
     /// The bodies of the running world (none when it cannot be changed from outside).
@@ -531,10 +565,21 @@ impl DeviceHandle {
         {
             self.pushable(body, command.value)?;
         }
-        self.with_control(|control| {
+        let (state, name) = self.with_control(|control| {
             command.body = control.find(body)?;
-            control.send(command)
-        })
+            let state = control.send(command)?;
+            Ok((state, control.bodies()[command.body as usize].name.clone()))
+        })?;
+        if [
+            HAPTICD_COMMAND_SET_MATERIAL,
+            HAPTICD_COMMAND_PIN,
+            HAPTICD_COMMAND_RELEASE,
+        ]
+        .contains(&command.kind)
+        {
+            self.remember_soft_change(&name, command);
+        }
+        Ok(state)
     }
 
     /// `change` done with the running world's control: Unavailable when its plugin offers
