@@ -365,13 +365,14 @@ impl RapierWorld {
         // Only soft bodies meet the pointers' solids here (rapier's own bodies meet its
         // kinematic pointers): a world without one keeps none to move each step.
         if let Some((shape, _)) = spec.pointer.as_ref().filter(|_| !spec.soft.is_empty()) {
-            world
-                .still
-                .extend(std::iter::repeat_n(shape.clone(), pointers));
+            // Placed at their grips: what a soft body presses on them with moves nothing.
+            let mut solid = shape.clone();
+            solid.kinematic = true;
+            world.still.extend(std::iter::repeat_n(solid, pointers));
         }
         let first = world.bodies.len();
         for part in &mut world.soft {
-            part.meet(&world.still, first);
+            part.meet(&world.still, first, false);
         }
         world.set_feedback(spec.feedback);
         world

@@ -102,6 +102,11 @@ pub struct Touch {
     pub moment: DVec3,
     /// Their pushes summed, N.
     pub push: f64,
+    /// What the step moved along with the obstacle, kg: each pressing node's mass and its
+    /// own stiffness times the step's factor (m + s·k, what answers a change of its
+    /// velocity within the step). A light body pushed a step late by nodes that outweigh
+    /// it would be thrown back harder each step; its pusher weighs its pushes by it.
+    pub inertia: f64,
 }
 
 impl Touch {

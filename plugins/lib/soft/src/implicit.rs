@@ -458,6 +458,7 @@ impl SoftBody {
     /// residual's part there turned round, summed as each obstacle's touch.
     fn pressed(&self, dt: f64, obstacles: Obstacles, touches: &mut [Touch], solver: &mut Solver) {
         touches.fill(Touch::default());
+        let stiff = self.material.step_factor(dt);
         solver.pressing.fill(false);
         solver.sliding.fill(DVec3::ZERO);
         solver.kinetic.fill(false);
@@ -481,6 +482,9 @@ impl SoftBody {
             touch.torque += (at - obstacles.solids[h.obstacle].centre).cross(on);
             touch.moment += at * push;
             touch.push += push;
+            if push > 0.0 {
+                touch.inertia += self.masses[h.node] + stiff * self.own_stiffness[h.node];
+            }
         }
     }
 

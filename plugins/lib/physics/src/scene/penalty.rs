@@ -21,6 +21,7 @@ use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
 use crate::soft::SoftPart;
 use crate::world::{ContactModel, Material, World};
+use hapticd_core::kinematics::Wrench;
 
 /// A loaded scene: the world with one fixed body per pointer at its end.
 pub struct PenaltyScene {
@@ -50,6 +51,13 @@ pub struct PenaltyScene {
     pub warnings: Vec<Diagnostic>,
     /// The soft bodies, stepped once a tick beside the world.
     pub soft: Vec<SoftPart>,
+    /// What the soft bodies push each world body with over a tick, and what they move
+    /// along with it, kg ([`crate::soft::pushed_load`]).
+    pub(super) pushed: Vec<(Wrench, f64)>,
+    /// Each coupled pointer's coupling load in the step.
+    pub(super) coupled: Vec<Wrench>,
+    /// Each world body's own load, kept while the soft bodies' pushes are added to it.
+    pub(super) own_loads: Vec<Wrench>,
 }
 
 impl PenaltyScene {
@@ -133,7 +141,7 @@ impl PenaltyScene {
         let soft = soft
             .into_iter()
             .map(|s| {
-                let mut part = s.part(&bodies, first_pointer);
+                let mut part = s.part(&bodies, first_pointer, true);
                 part.factor_aside();
                 part
             })
@@ -179,11 +187,21 @@ impl PenaltyScene {
             grasping,
             warnings,
             soft,
+            pushed: Vec::new(),
+            coupled: vec![Wrench::default(); pointers],
+            own_loads: Vec::new(),
         };
+        let bodies = scene.world.bodies.len();
+        scene.pushed = vec![(Wrench::default(), 0.0); bodies];
+        scene.own_loads = vec![Wrench::default(); bodies];
         scene.set_model(penalty.model);
         scene.world.join(&joints);
-        // A body holding a soft body's nodes is pulled by them every tick: none sleeps.
-        scene.world.sleeping &= scene.soft.iter().all(|s| s.attached.is_none());
+        // A body holding a soft body's nodes, or resting on one, is pushed by it every
+        // tick: none sleeps where a soft body may touch a body that moves.
+        scene.world.sleeping &= scene.soft.is_empty()
+            || scene.world.bodies[..scene.first_pointer]
+                .iter()
+                .all(|b| b.fixed);
         scene
     }
 }

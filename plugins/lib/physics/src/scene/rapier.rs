@@ -102,11 +102,12 @@ impl RapierScene {
             Some(RawFeedback::Impulse) => Feedback::Impulse,
         };
         let rate = physics_rate(&raw);
-        // Among the file's bodies a soft body touches the fixed ones; the rapier world adds
-        // the pointers' solids, which it touches under position feedback alone.
+        // Among the file's bodies a soft body touches the fixed ones (rapier moves the
+        // others); the rapier world adds the pointers' solids, which it touches under
+        // position feedback alone.
         let soft = soft
             .into_iter()
-            .map(|s| s.part(&bodies, bodies.len()))
+            .map(|s| s.part(&bodies, bodies.len(), false))
             .collect();
         RapierScene {
             name: raw.name,

@@ -6,7 +6,7 @@ use hapticd_core::kinematics::Wrench;
 use super::MAX_STEPS_PER_CALL;
 use super::penalty::PenaltyScene;
 use crate::coupling::Grip;
-use crate::soft::SoftPart;
+use crate::soft::{SoftPart, pushed_load};
 use crate::world::ContactModel;
 
 impl PenaltyScene {
@@ -36,18 +36,37 @@ impl PenaltyScene {
         }
         self.pointers_placed = true;
         let step = dt / steps as f64;
-        // A body holding a soft body's nodes is pulled over the tick by what they gave it
-        // over the last (the soft body steps after the world), besides its own load.
-        for soft in &mut self.soft {
-            if let Some(a) = &mut soft.attached {
-                a.held = self.world.loads[a.body];
-                self.world.loads[a.body] = a.held + a.pull;
+        // A body that holds a soft body's nodes, or that a soft body pressed on, is pushed
+        // over the tick by what they gave it over the last (the soft bodies step after the
+        // world), besides its own load (see `pushed_load`).
+        self.pushed.fill((Wrench::default(), 0.0));
+        for soft in &self.soft {
+            if let Some(a) = &soft.attached {
+                self.pushed[a.body].0 = self.pushed[a.body].0 + a.pull;
             }
+            for (i, push, inertia) in soft.pushes() {
+                let (sum, added) = &mut self.pushed[i];
+                (*sum, *added) = (*sum + push, *added + inertia);
+            }
+        }
+        self.own_loads.copy_from_slice(&self.world.loads);
+        let gravity = self.world.gravity;
+        for (((load, own), &(push, added)), body) in (self.world.loads.iter_mut())
+            .zip(&self.own_loads)
+            .zip(&self.pushed)
+            .zip(&self.world.bodies)
+        {
+            *load = pushed_load(*own, push, added, body.mass, gravity);
         }
         for _ in 0..steps {
             for (k, grip) in grips.iter().enumerate() {
                 if let Some(c) = &self.couplings[k] {
-                    self.world.loads[first + k] = c.load(grip, &self.world.bodies[first + k], step);
+                    let body = &self.world.bodies[first + k];
+                    let (push, added) = self.pushed[first + k];
+                    let coupling = c.load(grip, body, step);
+                    self.coupled[k] = coupling;
+                    self.world.loads[first + k] =
+                        pushed_load(coupling, push, added, body.mass, gravity);
                 }
             }
             if let Some(g) = &mut self.grasping {
@@ -58,7 +77,7 @@ impl PenaltyScene {
                 *out = *out
                     + match self.couplings[k] {
                         None => self.world.contact_wrench(first + k),
-                        Some(_) => self.world.loads[first + k] * -1.0,
+                        Some(_) => self.coupled[k] * -1.0,
                     };
                 if let Some(g) = &self.grasping {
                     *out = *out + g.felt(k);
@@ -68,12 +87,12 @@ impl PenaltyScene {
         for out in felt.iter_mut() {
             *out = *out * (1.0 / steps as f64);
         }
-        for soft in self.soft.iter().rev() {
-            if let Some(a) = &soft.attached {
-                self.world.loads[a.body] = a.held;
+        for (k, own) in self.own_loads.iter().enumerate() {
+            // A coupled pointer's load is its coupling's, set anew each step.
+            if !(k >= first && self.couplings[k - first].is_some()) {
+                self.world.loads[k] = *own;
             }
         }
-        let gravity = self.world.gravity;
         for soft in &mut self.soft {
             soft.step(dt, gravity, &self.world.bodies, first, felt);
         }
