@@ -210,10 +210,8 @@ impl Capacitance {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body::SoftBody;
     use crate::element::Order;
-    use crate::lattice::cut_box;
-    use crate::material::Material;
+    use crate::factor::tests::{pinned_block, unit_loads};
 
     /// Corrected, the factor solves the system with the held directions held: a stuck node
     /// and a sliding one on a block pinned at its base get nothing along what holds them,
@@ -222,21 +220,7 @@ mod tests {
     /// columns.
     #[test]
     fn the_corrected_factor_solves_the_system_with_the_held_directions_held() {
-        let mesh = cut_box(
-            DVec3::ZERO,
-            DVec3::new(0.03, 0.02, 0.025),
-            0.01,
-            Order::Linear,
-        );
-        let material = Material {
-            young: 1e5,
-            poisson: 0.45,
-            density: 1100.0,
-            damping: 0.002,
-        };
-        let mut body = SoftBody::new(mesh, material);
-        body.pin_below(1, -0.02);
-        let stiff = material.step_factor(0.001);
+        let (body, stiff) = pinned_block(Order::Linear);
         let mut factor = Factor::new(&body, stiff).unwrap();
         let nodes = body.positions.len();
         let top: Vec<usize> = (0..nodes)
@@ -269,12 +253,7 @@ mod tests {
             "three directions stuck, one sliding"
         );
 
-        let mut t: Vec<DVec3> = (0..nodes)
-            .map(|i| {
-                let s = i as f64;
-                DVec3::new(s.sin(), (1.3 * s).cos(), (0.7 * s).sin())
-            })
-            .collect();
+        let mut t = unit_loads(nodes);
         t[top[0]] = DVec3::ZERO;
         let along = normal * normal.dot(t[top[1]]);
         t[top[1]] -= along;

@@ -427,11 +427,36 @@ fn small_ldl(p: &DMat3) -> Option<([f64; 3], DVec3)> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::element::Order;
     use crate::lattice::cut_box;
     use crate::material::Material;
+
+    /// A rubber block 3 × 2 × 2.5 cm cut at 1 cm, its bottom face pinned, and the step
+    /// factor of a device tick for it.
+    pub(crate) fn pinned_block(order: Order) -> (SoftBody, f64) {
+        let mesh = cut_box(DVec3::ZERO, DVec3::new(0.03, 0.02, 0.025), 0.01, order);
+        let material = Material {
+            young: 1e5,
+            poisson: 0.45,
+            density: 1100.0,
+            damping: 0.002,
+        };
+        let mut body = SoftBody::new(mesh, material);
+        body.pin_below(1, -0.02);
+        (body, material.step_factor(0.001))
+    }
+
+    /// Loads of unit size on `nodes` nodes, each its own way.
+    pub(crate) fn unit_loads(nodes: usize) -> Vec<DVec3> {
+        (0..nodes)
+            .map(|i| {
+                let t = i as f64;
+                DVec3::new(t.sin(), (1.3 * t).cos(), (0.7 * t).sin())
+            })
+            .collect()
+    }
 
     /// The factor solves the rest system it was made of: (M + s·K₀)·x = b to the rounding of
     /// single precision, for both orders, with a face pinned. A tick's system is solved in
@@ -441,24 +466,10 @@ mod tests {
     #[test]
     fn the_factor_solves_the_rest_system() {
         for order in [Order::Linear, Order::Quadratic] {
-            let mesh = cut_box(DVec3::ZERO, DVec3::new(0.03, 0.02, 0.025), 0.01, order);
-            let material = Material {
-                young: 1e5,
-                poisson: 0.45,
-                density: 1100.0,
-                damping: 0.002,
-            };
-            let mut body = SoftBody::new(mesh, material);
-            body.pin_below(1, -0.02);
-            let stiff = 0.002 * 0.001 + 1e-6;
+            let (body, stiff) = pinned_block(order);
             let mut factor = Factor::new(&body, stiff).unwrap();
             let nodes = body.positions.len();
-            let b: Vec<DVec3> = (0..nodes)
-                .map(|i| {
-                    let t = i as f64;
-                    DVec3::new(t.sin(), (1.3 * t).cos(), (0.7 * t).sin())
-                })
-                .collect();
+            let b = unit_loads(nodes);
             let mut x = vec![DVec3::ZERO; nodes];
             factor.solve(&b, &mut x);
             let mut back = vec![DVec3::ZERO; nodes];
