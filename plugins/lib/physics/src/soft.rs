@@ -298,6 +298,7 @@ impl SoftPart {
             .filter(|(_, (_, inertia))| *inertia > 0.0)
             .map(|(&i, &(push, inertia))| (i, push, inertia))
     }
+
     /// [rt] What it pressed on world body `i` with over the last tick, if anything: the
     /// force, N, and where its nodes pressed (weighed by their push).
     pub fn pressed_on(&self, i: usize, bodies: &[Body]) -> Option<(DVec3, DVec3)> {
