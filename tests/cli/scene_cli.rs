@@ -926,3 +926,58 @@ fn the_shipped_tray_carries_its_jelly_where_the_finger_pushes_it() {
     assert!((jelly[0] - tray[0]).abs() < 1e-4, "{jelly:?} {tray:?}");
     assert!((volume.unwrap() - 1.0).abs() < 0.005, "{volume:?}");
 }
+
+/// The shipped weight (a brass plate of 11 g on the jelly, over three by three of its
+/// nodes) comes to rest on the jelly, sunk into it by its weight; the simulated fingertip
+/// pressing on it from above pushes it further in, and the jelly keeps its volume.
+#[test]
+fn the_shipped_weight_rests_on_its_jelly_and_sinks_where_the_finger_presses_it() {
+    let placed = -0.0079;
+    let at_rest = bodies(&run(&[&scene("weight.yaml"), "--duration", "1", "--json"]));
+    let weight = at_rest.iter().find(|b| b["name"] == "weight").unwrap();
+    let (rest, moving) = (
+        vector(&weight["position"]),
+        glam::DVec3::from(vector(&weight["velocity"])),
+    );
+    let hand = support::scratch_root().join(format!("press-weight-{}.yaml", std::process::id()));
+    // Down onto its middle, the fingertip's bottom 1 mm below where its top rests.
+    let pressed_to = rest[1] + 0.002 + 0.008 - 0.001;
+    std::fs::write(
+        &hand,
+        format!(
+            "hands:\n  grip:\n    - move: {{ to: [{x}, 0.01, 0], seconds: 0.2 }}\n    - move: {{ \
+             to: [{x}, {pressed_to}, 0], seconds: 0.5 }}\n    - hold: {{ seconds: 0.8 }}\n",
+            x = rest[0]
+        ),
+    )
+    .unwrap();
+    let pressed = bodies(&run(&[
+        &scene("weight.yaml"),
+        "--hand",
+        hand.to_str().unwrap(),
+        "--duration",
+        "1.5",
+        "--json",
+    ]));
+    std::fs::remove_file(&hand).unwrap();
+    let at = |name: &str| pressed.iter().find(|b| b["name"] == name).unwrap();
+    let down = vector(&at("weight")["position"]);
+    let volume = at("jelly")["soft"]["volume"].as_f64().unwrap();
+    println!(
+        "the weight sinks {:.4} mm under itself, {:.4} mm pressed; resting it moves at {:.4} \
+         mm/s",
+        (placed - rest[1]) * 1e3,
+        (placed - down[1]) * 1e3,
+        moving.length() * 1e3
+    );
+    // Its weight, 0.11 N over 3.3 cm²: a few tenths of a millimetre into a jelly of 30 kPa.
+    assert!((0.0001..0.001).contains(&(placed - rest[1])), "{rest:?}");
+    // At rest but for the jitter of the jelly's solve (each node within 0.1 mm/s of its
+    // tick's solution; measured up to 1 mm/s on the plate).
+    assert!(moving.length() < 3e-3, "{moving:?}");
+    assert!(
+        rest[1] - down[1] > 1e-4,
+        "pressed {down:?}, resting {rest:?}"
+    );
+    assert!((volume - 1.0).abs() < 0.005, "{volume}");
+}

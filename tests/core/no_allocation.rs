@@ -169,6 +169,7 @@ fn every_shipped_penalty_scene_steps_without_allocating_from_its_first_tick() {
         ("hinges", 1),
         ("jelly", 1),
         ("tray", 1),
+        ("weight", 1),
     ] {
         let path = support::repo_dir().join(format!("config/scenes/{name}.yaml"));
         let text = std::fs::read_to_string(&path).unwrap();
