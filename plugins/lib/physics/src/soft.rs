@@ -76,26 +76,44 @@ pub struct Attachment {
     pub pull: Wrench,
 }
 
-/// The load that moves a rigid body of `mass` (kg) over a tick as it would move with the
-/// soft nodes that pressed on it: its own load `own` and the soft bodies' `push` over that
-/// tick, `added` (kg) what they moved along with it ([`SoftPart::pushes`]), under
-/// `gravity`.
+/// The load that moves rigid body `body` over a tick as it would move with the soft nodes
+/// that pressed on it: its own load `own` and the soft bodies' `push` over that tick,
+/// `(added, turning)` what they moved and turned along with it ([`Touch::inertia`],
+/// [`Touch::turning`]), under `gravity`.
 ///
 /// The push comes a tick late, given for the body's motion of the last tick. Nodes that
 /// outweigh the body would throw it back harder each tick (the push answers its change of
 /// velocity with their inertia): so the body's whole imbalance, its weight included, moves
-/// it as though they moved with it, (own + push + m·g)·m/(m + added) − m·g, which leaves a
-/// steady push as it is. Pushed as given, a slab of 3.6 g on a soft block shook at 1 cm/s
-/// and stood 6 % too high; so moved, it rests where the block's column says.
-pub fn pushed_load(own: Wrench, push: Wrench, added: f64, mass: f64, gravity: DVec3) -> Wrench {
+/// it as though they moved with it, (own + push + m·g)·m/(m + added) − m·g, and its torque
+/// turns it as though they turned with it, shared likewise with its moment about the push's
+/// torque; a steady push is left as it is. Pushed as given, a slab of 3.6 g on a soft block
+/// shook at 1 cm/s and stood 6 % too high; so moved, it rested. A scene keeps such bodies
+/// heavy enough besides (see `scene::soft::rests_on`): the nodes' stiffness is pushed a
+/// tick late all the same.
+pub fn pushed_load(
+    own: Wrench,
+    push: Wrench,
+    (added, turning): (f64, f64),
+    body: &Body,
+    gravity: DVec3,
+) -> Wrench {
     if added <= 0.0 {
         return own + push;
     }
-    let weight = Wrench {
-        force: gravity * mass,
-        torque: DVec3::ZERO,
+    let weight = gravity * body.mass;
+    let torque = own.torque + push.torque;
+    let share = match push.torque.try_normalize() {
+        Some(axis) => {
+            let local = body.orientation.inverse() * axis;
+            let moment = local.dot(body.inertia * local);
+            moment / (moment + turning)
+        }
+        None => 1.0,
     };
-    (own + push + weight) * (mass / (mass + added)) + weight * -1.0
+    Wrench {
+        force: (own.force + push.force + weight) * (body.mass / (body.mass + added)) - weight,
+        torque: torque * share,
+    }
 }
 
 /// A soft body of a scene, ready to step.
@@ -112,7 +130,7 @@ pub struct SoftPart {
     /// about its centre of mass), where it moves on its own, and what the tick moved along
     /// with it ([`Touch::inertia`], kg): nothing for the fixed ones and the pointers placed
     /// at their grips.
-    pushes: Vec<(Wrench, f64)>,
+    pushes: Vec<(Wrench, (f64, f64))>,
     planes: Vec<(DVec3, f64)>,
     solids: Vec<Obstacle>,
     touches: Vec<Touch>,
@@ -173,7 +191,7 @@ impl SoftPart {
         self.touching = (0..bodies.len())
             .filter(|&i| moving || i >= first_pointer || bodies[i].fixed)
             .collect();
-        self.pushes = vec![(Wrench::default(), 0.0); self.touching.len()];
+        self.pushes = vec![(Wrench::default(), (0.0, 0.0)); self.touching.len()];
         self.solids.clear();
         let mut faces = 0;
         for &i in &self.touching {
@@ -266,12 +284,12 @@ impl SoftPart {
         }
         let mut solid = 0;
         for (&i, push) in self.touching.iter().zip(&mut self.pushes) {
-            *push = (Wrench::default(), 0.0);
+            *push = (Wrench::default(), (0.0, 0.0));
             let b = &bodies[i];
             let mut on = Touch::default();
             for t in &self.touches[solid..solid + b.pieces.len()] {
                 (on.force, on.torque) = (on.force + t.force, on.torque + t.torque);
-                on.inertia += t.inertia;
+                (on.inertia, on.turning) = (on.inertia + t.inertia, on.turning + t.turning);
             }
             solid += b.pieces.len();
             let touch = Wrench {
@@ -283,19 +301,19 @@ impl SoftPart {
                     *out = *out + touch;
                 }
             } else if !b.fixed {
-                *push = (touch, on.inertia);
+                *push = (touch, (on.inertia, on.turning));
             }
         }
     }
 
     /// [rt] What it pressed on each moving world body with over the last tick, and what
-    /// that tick moved along with the body, kg: see [`Touch::inertia`] and
-    /// [`pushed_load`].
-    pub fn pushes(&self) -> impl Iterator<Item = (usize, Wrench, f64)> + '_ {
+    /// that tick moved and turned along with the body, kg and kg·m²: see
+    /// [`Touch::inertia`] and [`pushed_load`].
+    pub fn pushes(&self) -> impl Iterator<Item = (usize, Wrench, (f64, f64))> + '_ {
         self.touching
             .iter()
             .zip(&self.pushes)
-            .filter(|(_, (_, inertia))| *inertia > 0.0)
+            .filter(|(_, (_, (inertia, _)))| *inertia > 0.0)
             .map(|(&i, &(push, inertia))| (i, push, inertia))
     }
 

@@ -8,8 +8,9 @@
 //! Z·t = A⁻¹·t − W·G⁻¹·(C·A⁻¹·t)
 //!
 //! solves the system with those directions held exactly. W is kept by node: the three
-//! columns of A⁻¹ at a held node (three solves, made the first step it is held and kept
-//! while slots last), from which any direction there is a sum; G is made anew for each
+//! columns of A⁻¹ at a held node (three solves, made the first step it is held, as many
+//! nodes a step as [`COLUMN_WORK`] allows, and kept while slots last), from which any
+//! direction there is a sum; G is made anew for each
 //! solve of a step, as its held directions stand. The same drag then took 2.2 iterations on
 //! the mean and 6 at most (`make bench`'s `linear_tick_under_a_dragged_finger` case).
 
@@ -23,6 +24,11 @@ const NONE: usize = usize::MAX;
 
 /// The most nodes whose columns are kept.
 const MOST_SLOTS: usize = 32;
+
+/// The work a step may give to making columns, in blocks of the factor read: a node's
+/// three solves of 2 058 tetrahedra's system (16 381 blocks) take it all, a small body's
+/// many nodes' fit.
+const COLUMN_WORK: usize = 100_000;
 
 /// The most memory kept columns may take, bytes: a body of 9 261 nodes (48 000 tetrahedra)
 /// keeps 6 nodes' columns in it.
@@ -80,28 +86,39 @@ impl Capacitance {
         self.slot_of.fill(NONE);
     }
 
-    /// At a step's start with nodes `held`: mark theirs used, and make the columns of one
-    /// held node that has none (three solves through `factor`; one a step, so a finger that
-    /// lands on many nodes spreads their cost over as many steps), in the slot held longest
-    /// ago.
+    /// At a step's start with nodes `held`: mark theirs used, and make the columns of held
+    /// nodes that have none (three solves through `factor` each), in the slots held longest
+    /// ago: as many as [`COLUMN_WORK`] allows, one at least, so a finger that lands on many
+    /// nodes of a large body spreads their cost over as many steps.
     pub fn step(&mut self, factor: &mut Factor, held: &[Held]) {
         self.steps += 1;
-        let mut missing = None;
         for h in held {
-            match self.slot_of[h.node] {
-                NONE if factor.holds(h.node) => missing = missing.or(Some(h.node)),
-                NONE => {}
-                s => self.used[s] = self.steps,
+            if let Some(&s) = self.slot_of.get(h.node).filter(|&&s| s != NONE) {
+                self.used[s] = self.steps;
             }
         }
-        let (Some(node), Some(slot)) = (
-            missing,
-            (0..self.owners.len())
+        let each = 3 * factor.work();
+        let mut left = COLUMN_WORK.max(each);
+        for h in held {
+            if left < each {
+                break;
+            }
+            if self.slot_of[h.node] != NONE || !factor.holds(h.node) {
+                continue;
+            }
+            let Some(slot) = (0..self.owners.len())
                 .filter(|&s| self.used[s] < self.steps)
-                .min_by_key(|&s| self.used[s]),
-        ) else {
-            return;
-        };
+                .min_by_key(|&s| self.used[s])
+            else {
+                break;
+            };
+            self.make_columns(factor, h.node, slot);
+            left -= each;
+        }
+    }
+
+    /// Make node `node`'s columns in slot `slot`.
+    fn make_columns(&mut self, factor: &mut Factor, node: usize, slot: usize) {
         if self.owners[slot] != NONE {
             self.slot_of[self.owners[slot]] = NONE;
         }
@@ -166,17 +183,9 @@ impl Capacitance {
         }
     }
 
-    /// Correct `y` = A⁻¹·t (rest frame) to Z·t: nothing along the held directions, the
-    /// rest as the system with them held answers.
-    pub fn correct(&mut self, y: &mut [DVec3]) {
-        let (m, nodes) = (self.held.len(), self.slot_of.len());
-        if m == 0 {
-            return;
-        }
-        for (w, &(s, c)) in self.weights.iter_mut().zip(&self.held) {
-            *w = c.dot(y[self.owners[s]]);
-        }
-        // G·λ = C·y, by the factored G.
+    /// `weights` = G⁻¹·`weights`, by the factored G.
+    fn solve_gram(&mut self) {
+        let m = self.held.len();
         for i in 0..m {
             let mut v = self.weights[i];
             for k in 0..i {
@@ -191,6 +200,20 @@ impl Capacitance {
             }
             self.weights[i] = v / self.gram[i * m + i];
         }
+    }
+
+    /// Correct `y` = A⁻¹·t (rest frame) to Z·t: nothing along the held directions, the
+    /// rest as the system with them held answers.
+    pub fn correct(&mut self, y: &mut [DVec3]) {
+        let (m, nodes) = (self.held.len(), self.slot_of.len());
+        if m == 0 {
+            return;
+        }
+        for (w, &(s, c)) in self.weights.iter_mut().zip(&self.held) {
+            *w = c.dot(y[self.owners[s]]);
+        }
+        // G·λ = C·y.
+        self.solve_gram();
         self.shares.fill(DVec3::ZERO);
         for (&(s, c), &w) in self.held.iter().zip(&self.weights) {
             self.shares[s] += c * w;
@@ -216,8 +239,7 @@ mod tests {
     /// Corrected, the factor solves the system with the held directions held: a stuck node
     /// and a sliding one on a block pinned at its base get nothing along what holds them,
     /// and every other direction's equation is met to single precision's rounding (that of
-    /// the factor itself: 1.4·10⁻⁶ for unit loads). Each step makes one held node's
-    /// columns.
+    /// the factor itself: 1.4·10⁻⁶ for unit loads).
     #[test]
     fn the_corrected_factor_solves_the_system_with_the_held_directions_held() {
         let (body, stiff) = pinned_block(Order::Linear);
@@ -243,9 +265,10 @@ mod tests {
             })
             .collect();
         let mut capacitance = Capacitance::new(nodes);
+        // A small body's nodes' columns are cheap: both are made in the first step.
+        assert!(3 * factor.work() * 2 <= COLUMN_WORK);
         capacitance.step(&mut factor, &held);
-        assert_eq!(capacitance.owners.iter().filter(|&&o| o != NONE).count(), 1);
-        capacitance.step(&mut factor, &held);
+        assert_eq!(capacitance.owners.iter().filter(|&&o| o != NONE).count(), 2);
         capacitance.prepare(&held, &vec![DQuat::IDENTITY; nodes]);
         assert_eq!(
             capacitance.held.len(),

@@ -107,6 +107,9 @@ pub struct Touch {
     /// velocity within the step). A light body pushed a step late by nodes that outweigh
     /// it would be thrown back harder each step; its pusher weighs its pushes by it.
     pub inertia: f64,
+    /// The same about the obstacle's centre, each node's times its distance squared,
+    /// kg·m².
+    pub turning: f64,
 }
 
 impl Touch {

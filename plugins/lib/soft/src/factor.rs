@@ -178,6 +178,11 @@ impl Factor {
         self.place[i] != NONE
     }
 
+    /// The blocks a solve reads, each twice: what it costs.
+    pub fn work(&self) -> usize {
+        2 * (self.lower.blocks.len() + self.lower.within.len())
+    }
+
     /// `out` = (M + s·K₀)⁻¹·`rhs` over the free nodes; zero at pinned ones.
     pub fn solve(&mut self, rhs: &[DVec3], out: &mut [DVec3]) {
         match &mut self.work {

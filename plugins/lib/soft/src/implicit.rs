@@ -483,7 +483,10 @@ impl SoftBody {
             touch.moment += at * push;
             touch.push += push;
             if push > 0.0 {
-                touch.inertia += self.masses[h.node] + stiff * self.own_stiffness[h.node];
+                let inertia = self.masses[h.node] + stiff * self.own_stiffness[h.node];
+                touch.inertia += inertia;
+                touch.turning +=
+                    inertia * (at - obstacles.solids[h.obstacle].centre).length_squared();
             }
         }
     }

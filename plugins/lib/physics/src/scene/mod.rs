@@ -270,6 +270,25 @@ impl SceneFile {
             .collect();
         let joints = joints::joints(&mut f, &raw.joints, &named);
         let pointer = checks::pointer(&mut f, &raw, pointers);
+        // A coupled pointer moves on its own: a soft body pushes it, as any body that moves.
+        if let (Some(_), Some((shape, _)), Some(coupled)) = (
+            &penalty,
+            &pointer,
+            raw.pointer.as_ref().filter(|p| p.coupling.is_some()),
+        ) {
+            let body = crate::body::Body::new(shape, coupled.density, false);
+            let gravity = glam::DVec3::from(raw.gravity);
+            for s in &soft {
+                let name = ("the coupled pointer", &body);
+                soft::rests_on(
+                    &mut f,
+                    "pointer.density",
+                    name,
+                    &s.lattice(gravity),
+                    gravity.length(),
+                );
+            }
+        }
         checks::grasp(&mut f, &raw, pointers);
         if let Some(penalty) = &penalty
             && !f.has_errors()

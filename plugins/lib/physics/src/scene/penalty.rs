@@ -51,9 +51,9 @@ pub struct PenaltyScene {
     pub warnings: Vec<Diagnostic>,
     /// The soft bodies, stepped once a tick beside the world.
     pub soft: Vec<SoftPart>,
-    /// What the soft bodies push each world body with over a tick, and what they move
-    /// along with it, kg ([`crate::soft::pushed_load`]).
-    pub(super) pushed: Vec<(Wrench, f64)>,
+    /// What the soft bodies push each world body with over a tick, and what they move and
+    /// turn along with it, kg and kg·m² ([`crate::soft::pushed_load`]).
+    pub(super) pushed: Vec<(Wrench, (f64, f64))>,
     /// Each coupled pointer's coupling load in the step.
     pub(super) coupled: Vec<Wrench>,
     /// Each world body's own load, kept while the soft bodies' pushes are added to it.
@@ -192,7 +192,7 @@ impl PenaltyScene {
             own_loads: Vec::new(),
         };
         let bodies = scene.world.bodies.len();
-        scene.pushed = vec![(Wrench::default(), 0.0); bodies];
+        scene.pushed = vec![(Wrench::default(), (0.0, 0.0)); bodies];
         scene.own_loads = vec![Wrench::default(); bodies];
         scene.set_model(penalty.model);
         scene.world.join(&joints);

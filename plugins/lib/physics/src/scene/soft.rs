@@ -90,6 +90,8 @@ pub(super) struct Soft {
     friction: Friction,
     /// Its nodes held to a moving rigid body.
     attached: Option<Attachment>,
+    /// Its lattice's resolution, m.
+    resolution: f64,
 }
 
 impl Soft {
@@ -242,6 +244,23 @@ pub(super) fn soft_bodies(
         if attached.is_some() {
             body.reactions = vec![DVec3::ZERO; body.positions.len()];
         }
+        if engine == Engine::Penalty {
+            let gravity = DVec3::from(raw.gravity);
+            let lattice = lattice_of(&body, soft.resolution, gravity);
+            // The body it is pinned to is checked at its pins.
+            let holder = b.pinned.as_ref().and_then(|p| p.body.as_deref());
+            for (name, other) in rigid.iter().filter(|(_, other)| !other.fixed) {
+                if Some(*name) != holder {
+                    rests_on(
+                        f,
+                        &format!("{at}.soft"),
+                        (name, other),
+                        &lattice,
+                        gravity.length(),
+                    );
+                }
+            }
+        }
         match Solver::factored(&body, tick) {
             Ok(solver) => out.push(Soft {
                 name: b.name.clone(),
@@ -252,11 +271,137 @@ pub(super) fn soft_bodies(
                     slide: raw.material.friction,
                 },
                 attached,
+                resolution: soft.resolution,
             }),
             Err(e) => f.error(format!("{at}.soft"), format!("cannot be solved: {e:?}")),
         }
     }
     out
+}
+
+/// What a rigid body resting on a soft body meets.
+pub(super) struct Lattice {
+    /// Its stiffest free node, N/m.
+    stiffest: f64,
+    /// Its lattice's resolution, m.
+    resolution: f64,
+    /// How many of its nodes are free.
+    free: usize,
+    /// Young's modulus, Pa.
+    young: f64,
+    /// The stress its own weight puts on its base, Pa (under `weight` m/s²).
+    own_weight: f64,
+    /// The most any free node's stiffness over a device tick outweighs its mass (s·k/m).
+    weightless: f64,
+}
+
+/// What a rigid body resting on `body`, cut at `resolution`, meets under gravity
+/// `gravity`.
+fn lattice_of(body: &SoftBody, resolution: f64, gravity: DVec3) -> Lattice {
+    let free = || (0..body.positions.len()).filter(|&n| !body.pinned[n]);
+    let down = gravity.normalize_or_zero();
+    let (low, high) = body
+        .positions
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), x| {
+            (lo.min(x.dot(down)), hi.max(x.dot(down)))
+        });
+    let stiff = body.material.step_factor(SOFT_TICK);
+    Lattice {
+        stiffest: free().map(|n| body.own_stiffness(n)).fold(0.0, f64::max),
+        resolution,
+        free: free().count(),
+        young: body.material.young,
+        own_weight: body.material.density * gravity.length() * (high - low).max(0.0),
+        weightless: free()
+            .map(|n| stiff * body.own_stiffness(n) / body.masses[n])
+            .fold(0.0, f64::max),
+    }
+}
+
+/// The most a soft body's nodes' stiffness over a device tick may outweigh their mass
+/// (s·k/m) where a rigid body may rest on it: the blocks a plate rested on measured up to
+/// 10 (10 kPa to 0.5 MPa, 1 100 kg/m³ and more); one of 10⁻³ kg/m³ (10⁷ and more) let the
+/// plate sink through to the floor or threw it off.
+const MOST_WEIGHTLESS: f64 = 1e3;
+
+/// Refuse (at `key`) rigid body `other` called `name` that may rest on a soft body of
+/// `lattice` in a penalty scene under gravity `weight` (m/s²):
+///
+/// - if the nodes under its broadest side (as many as the lattice puts there, all at the
+///   stiffest node's stiffness) would push it with ω·dt over 1 at the device tick. The
+///   push comes a tick late (see `crate::soft::pushed_load`); measured with plates dropped
+///   on 4 × 4 × 2 cm blocks at 1 cm, undamped: at ω·dt = 2.7 (0.9 kg on 10 MPa) a plate
+///   bounced higher each time and spun off the block, and one of 0.45 g on 1 GPa too;
+///   under 1, plates of 9 g to 0.9 kg on 10 kPa to 0.5 MPa came to rest;
+/// - if its weight over that side and the soft body's own would squeeze the soft body by
+///   more than a tenth (a stress over a tenth of Young's modulus): the soft body holds it
+///   on its nodes, and squeezed far its nodes slip past the rigid body's edges (a plate
+///   squeezing a block of 1 kPa by 40 % sank halfway through it; 0.9 kg on 1 Pa spun up
+///   and was thrown off);
+/// - if the soft body's nodes weigh next to nothing beside their stiffness
+///   ([`MOST_WEIGHTLESS`]).
+pub(super) fn rests_on(
+    f: &mut Findings,
+    key: &str,
+    (name, other): (&str, &Body),
+    lattice: &Lattice,
+    weight: f64,
+) {
+    let mut sides = [0.0f64; 3];
+    for piece in &other.pieces {
+        for v in &piece.vertices {
+            for (side, x) in sides.iter_mut().zip(v.abs().to_array()) {
+                *side = side.max(2.0 * x);
+            }
+        }
+    }
+    sides.sort_by(|a, b| b.total_cmp(a));
+    let across = |side: f64| (side / lattice.resolution).floor() + 1.0;
+    let under = (across(sides[0]) * across(sides[1])).min(lattice.free as f64);
+    let (tick, stiffest, mass) = (SOFT_TICK, lattice.stiffest, other.mass);
+    let omega_dt = (under * stiffest / mass).sqrt() * tick;
+    if omega_dt > 1.0 {
+        f.error(
+            key,
+            format!(
+                "{name} ({mass:.4} kg) is too light to rest on it: the {under} nodes under it, \
+                 of {stiffest:.3e} N/m, would push it with ω·dt = {omega_dt:.2} at the device \
+                 tick ({tick} s); {:.4} kg or more keeps it at 1, or a softer material",
+                under * stiffest * tick * tick
+            ),
+        );
+    }
+    let stress = mass * weight / (sides[0] * sides[1]) + lattice.own_weight;
+    if stress > 0.1 * lattice.young {
+        f.error(
+            key,
+            format!(
+                "{name} ({mass:.4} kg) is too heavy to rest on it: its weight over its broadest \
+                 side and the soft body's own, {stress:.3e} Pa, would squeeze it by more than a \
+                 tenth (Young's modulus {:.3e} Pa); a stiffer material or a lighter body",
+                lattice.young
+            ),
+        );
+    }
+    if lattice.weightless > MOST_WEIGHTLESS {
+        f.error(
+            key,
+            format!(
+                "{name} may rest on it, and its nodes weigh next to nothing beside their \
+                 stiffness over a device tick (s·k/m up to {:.3e}, at most {MOST_WEIGHTLESS:.0e}): \
+                 a denser or softer material",
+                lattice.weightless
+            ),
+        );
+    }
+}
+
+impl Soft {
+    /// What a rigid body resting on it meets under `gravity`, for [`rests_on`].
+    pub(super) fn lattice(&self, gravity: DVec3) -> Lattice {
+        lattice_of(&self.body, self.resolution, gravity)
+    }
 }
 
 /// A soft body's solid, in its own frame.
@@ -674,9 +819,8 @@ mod tests {
 
     /// A rigid slab dropped on a soft block pinned to its floor comes to rest on it, where
     /// the block's column, squeezed by the slab's weight and its own, says: with ν = 0 its
-    /// top sinks (σ·h + ρ·g·h²/2)/E, σ the slab's weight over the block's top. So does a
-    /// slab ten times lighter, which the nodes it lands on outweigh (pushed back a tick late
-    /// by all they took, it would be thrown back harder each tick). A coupled pointer
+    /// top sinks (σ·h + ρ·g·h²/2)/E, σ the slab's weight over the block's top; for 36 g and
+    /// for 22 g, about the lightest the block's nodes let rest on it. A coupled pointer
     /// pressed into the block stands on it, and the user feels the spring's stretch, what
     /// the block pushes the pointer with less its weight.
     #[test]
@@ -704,7 +848,7 @@ mod tests {
             spin: DVec3::ZERO,
         };
         let mut felt = [Wrench::default()];
-        for slab in [1000.0, 100.0] {
+        for slab in [1000.0, 600.0] {
             let SceneFile::Penalty(mut scene) =
                 SceneFile::parse(&text(slab, ""), Path::new("s.yaml"), 1).unwrap()
             else {
@@ -735,8 +879,15 @@ mod tests {
             assert!((sunk / column - 1.0).abs() < 0.02, "{sunk} {column}");
             assert!((push / (mass * g) - 1.0).abs() < 1e-3, "{push}");
         }
-        let coupled = "pointer: { box: [0.01, 0.01, 0.01], density: 1000, coupling: { stiffness: \
+        let coupled = "pointer: { box: [0.01, 0.01, 0.01], density: 2000, coupling: { stiffness: \
                        100, damping: 1, rotational_stiffness: 0.1, rotational_damping: 0.001 } }";
+        // A coupled pointer of 1 g would be pushed by the four nodes under it with ω·dt 1.26.
+        let light = text(1000.0, &coupled.replace("density: 2000", "density: 1000"));
+        let said = refused(&light);
+        assert!(
+            said.contains("pointer.density: the coupled pointer (0.0010 kg) is too light"),
+            "{said}"
+        );
         let scene =
             text(1000.0, coupled).replace("position: [0, 0.0255, 0]", "position: [0.2, 0.0255, 0]");
         let SceneFile::Penalty(mut scene) =
@@ -791,6 +942,85 @@ mod tests {
             "{}",
             felt[0].force.y
         );
+    }
+
+    /// A plate set on a soft block of any material and density a scene allows, of any
+    /// density itself, either rests on the block (it never sinks through to the floor, is
+    /// never thrown faster than it fell, and comes to rest) or is refused at the block's
+    /// key by name, saying why.
+    #[test]
+    fn a_rigid_body_on_a_soft_block_of_any_material_rests_on_it_or_is_refused() {
+        use crate::coupling::Grip;
+        use glam::{DQuat, DVec3};
+        use hapticd_core::kinematics::Wrench;
+        let far = [Grip {
+            position: DVec3::new(0.0, 1.0, 0.0),
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        }];
+        let mut rested = Vec::new();
+        for young in [1.0, 1e4, 1e5, 1e6, 1e9] {
+            for poisson in [0.0, 0.49] {
+                for plate in [10.0, 1e3, 1e4, 1e5] {
+                    for density in [1e-3, 1100.0, 1e4] {
+                        let text = format!(
+                            "name: plate\n{PENALTY}\ngravity: [0, -9.81, 0]\nmaterial: {{ \
+                             stiffness: 2.0e7, damping: 1.0e4, static_friction: 0.4, friction: \
+                             0.3, friction_stiffness: 2.0e7, friction_damping: 1.0e4, \
+                             slip_speed: 0.001 }}\nbodies:\n  - {{ name: floor, box: [0.2, \
+                             0.02, 0.2], position: [0, -0.01, 0], fixed: true }}\n  - {{ name: \
+                             jelly, box: [0.04, 0.02, 0.04], position: [0, 0.01, 0], density: \
+                             {density}, soft: {{ young: {young}, poisson: {poisson}, damping: \
+                             0.0, resolution: 0.01 }}, pinned: {{ below: [y, 0.0] }} }}\n  - \
+                             {{ name: plate, box: [0.03, 0.01, 0.03], position: [0.005, 0.0255, \
+                             0], density: {plate} }}\n"
+                        );
+                        let case = format!("{young} Pa, ν {poisson}, {density} and {plate} kg/m³");
+                        let SceneFile::Penalty(mut scene) =
+                            (match SceneFile::parse(&text, Path::new("s.yaml"), 1) {
+                                Ok(scene) => scene,
+                                Err(e) => {
+                                    let said = e.to_string();
+                                    assert!(
+                                        said.contains("bodies[1].soft: plate")
+                                            && ["too light", "too heavy", "next to nothing"]
+                                                .iter()
+                                                .any(|why| said.contains(why)),
+                                        "{case}: {said}"
+                                    );
+                                    continue;
+                                }
+                            })
+                        else {
+                            panic!("a penalty scene");
+                        };
+                        let mut felt = [Wrench::default()];
+                        let mut fastest = 0.0f64;
+                        for _ in 0..2000 {
+                            assert!(scene.step_pointers(0.001, &far, &mut felt), "{case}");
+                            fastest = fastest.max(scene.world.bodies[1].velocity.length());
+                        }
+                        let body = &scene.world.bodies[1];
+                        // Dropped 0.5 mm, it lands at 0.1 m/s; resting, what the block's
+                        // solve leaves of its balance moves it (each node within 0.1 mm/s
+                        // of the tick's solution; the undamped blocks here ring on, 8 mm/s
+                        // at most measured).
+                        assert!(
+                            body.position.y > 0.015
+                                && fastest < 0.2
+                                && body.velocity.length() < 0.02,
+                            "{case}: at {} moving {}, {fastest} m/s at most",
+                            body.position,
+                            body.velocity
+                        );
+                        rested.push(case);
+                    }
+                }
+            }
+        }
+        println!("rested: {rested:?}");
+        assert!(rested.len() >= 2, "{rested:?}");
     }
 
     /// A soft body pinned to its floor, let go over the scene control and pushed up at

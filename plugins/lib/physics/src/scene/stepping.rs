@@ -39,14 +39,14 @@ impl PenaltyScene {
         // A body that holds a soft body's nodes, or that a soft body pressed on, is pushed
         // over the tick by what they gave it over the last (the soft bodies step after the
         // world), besides its own load (see `pushed_load`).
-        self.pushed.fill((Wrench::default(), 0.0));
+        self.pushed.fill((Wrench::default(), (0.0, 0.0)));
         for soft in &self.soft {
             if let Some(a) = &soft.attached {
                 self.pushed[a.body].0 = self.pushed[a.body].0 + a.pull;
             }
-            for (i, push, inertia) in soft.pushes() {
-                let (sum, added) = &mut self.pushed[i];
-                (*sum, *added) = (*sum + push, *added + inertia);
+            for (i, push, (inertia, turning)) in soft.pushes() {
+                let (sum, (added, turned)) = &mut self.pushed[i];
+                (*sum, *added, *turned) = (*sum + push, *added + inertia, *turned + turning);
             }
         }
         self.own_loads.copy_from_slice(&self.world.loads);
@@ -56,7 +56,7 @@ impl PenaltyScene {
             .zip(&self.pushed)
             .zip(&self.world.bodies)
         {
-            *load = pushed_load(*own, push, added, body.mass, gravity);
+            *load = pushed_load(*own, push, added, body, gravity);
         }
         for _ in 0..steps {
             for (k, grip) in grips.iter().enumerate() {
@@ -65,8 +65,7 @@ impl PenaltyScene {
                     let (push, added) = self.pushed[first + k];
                     let coupling = c.load(grip, body, step);
                     self.coupled[k] = coupling;
-                    self.world.loads[first + k] =
-                        pushed_load(coupling, push, added, body.mass, gravity);
+                    self.world.loads[first + k] = pushed_load(coupling, push, added, body, gravity);
                 }
             }
             if let Some(g) = &mut self.grasping {
