@@ -28,7 +28,7 @@ const MOST_SLOTS: usize = 32;
 /// The work a step may give to making columns, in blocks of the factor read: a node's
 /// three solves of 2 058 tetrahedra's system (16 381 blocks) take it all, a small body's
 /// many nodes' fit.
-const COLUMN_WORK: usize = 100_000;
+pub const COLUMN_WORK: usize = 100_000;
 
 /// The most memory kept columns may take, bytes: a body of 9 261 nodes (48 000 tetrahedra)
 /// keeps 6 nodes' columns in it.
