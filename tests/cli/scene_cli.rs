@@ -933,7 +933,7 @@ fn the_shipped_tray_carries_its_jelly_where_the_finger_pushes_it() {
 /// volume.
 #[test]
 fn the_shipped_weight_rests_on_its_jelly_and_sinks_where_the_finger_presses_it() {
-    let placed = -0.0069;
+    let placed = -0.0129;
     let at_rest = bodies(&run(&[&scene("weight.yaml"), "--duration", "1", "--json"]));
     let weight = at_rest.iter().find(|b| b["name"] == "weight").unwrap();
     let (rest, moving) = (

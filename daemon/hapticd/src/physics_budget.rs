@@ -211,8 +211,9 @@ fn yield_to_others() {
     };
 }
 
-/// [physics] CPU time the calling thread has used, nanoseconds.
-fn thread_cpu_ns() -> u64 {
+/// CPU time the calling thread has used, nanoseconds: what its work cost, however much
+/// other threads preempted it.
+pub(crate) fn thread_cpu_ns() -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
