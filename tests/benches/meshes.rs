@@ -134,7 +134,7 @@ fn mesh(name: &str) -> TriangleMesh {
 fn decomposition(bencher: Bencher, name: &str) {
     let mesh = mesh(name);
     // What the timing is of: said once beside the table.
-    let pieces = decompose(&mesh, RESOLUTION);
+    let pieces = decompose(&mesh, RESOLUTION).unwrap();
     let volume = hapticd_mesh::properties::mass_properties(&mesh).volume;
     eprintln!(
         "{name}: {} triangles cut into {} pieces, their volume {:+.1} % of the mesh's",
@@ -142,7 +142,7 @@ fn decomposition(bencher: Bencher, name: &str) {
         pieces.pieces.len(),
         100.0 * (pieces.volume() / volume - 1.0)
     );
-    bencher.bench_local(|| decompose(&mesh, RESOLUTION).pieces.len());
+    bencher.bench_local(|| decompose(&mesh, RESOLUTION).unwrap().pieces.len());
 }
 
 /// The shipped `mug` scene, or with a box of the mug's size in its place.

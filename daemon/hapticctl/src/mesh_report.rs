@@ -6,10 +6,10 @@
 use std::path::{Path, PathBuf};
 
 use glam::DMat3;
-use hapticd_mesh::TriangleMesh;
 use hapticd_mesh::cache::Cache;
 use hapticd_mesh::decomposition::{RESOLUTION, decompose as cut};
 use hapticd_mesh::properties::{MassProperties, closure, is_convex, mass_properties};
+use hapticd_mesh::{MeshError, TriangleMesh};
 use serde_json::json;
 
 use crate::report::Report;
@@ -21,6 +21,8 @@ pub enum NoSolid {
     Open(PathBuf),
     /// The faces of the mesh in this file point inwards.
     Inward(PathBuf),
+    /// The mesh in this file could not be cut, as the error says.
+    Uncut(PathBuf, MeshError),
 }
 
 impl std::fmt::Display for NoSolid {
@@ -37,6 +39,7 @@ impl std::fmt::Display for NoSolid {
                 "{}: its faces point inwards (the volume they close is negative)",
                 file.display()
             ),
+            NoSolid::Uncut(file, error) => write!(f, "{}: {error}", file.display()),
         }
     }
 }
@@ -194,7 +197,7 @@ pub fn decompose(
         return Err(NoSolid::Inward(file.to_path_buf()));
     }
     let started = std::time::Instant::now();
-    let pieces = cut(mesh, resolution);
+    let pieces = cut(mesh, resolution).map_err(|e| NoSolid::Uncut(file.to_path_buf(), e))?;
     let seconds = started.elapsed().as_secs_f64();
     let kept = if resolution == RESOLUTION && scale == 1.0 {
         cache.store(mesh, &pieces.pieces)

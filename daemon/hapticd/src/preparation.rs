@@ -126,22 +126,24 @@ impl Preparation {
             .name("mesh-pieces".into())
             .spawn(move || {
                 for (path, mesh) in fresh {
-                    let pieces = decompose(&mesh, RESOLUTION).pieces;
-                    let kept = cache.store(&mesh, &pieces);
+                    // Uncut, it is left to its scene to refuse it, in its own words.
+                    let kept = decompose(&mesh, RESOLUTION)
+                        .map(|d| (cache.store(&mesh, &d.pieces), d.pieces.len()));
                     let seconds = start.elapsed().as_secs_f64();
                     match &kept {
-                        Some(entry) => tracing::info!(
-                            "{}: cut into {} convex pieces in {seconds:.1} s, kept in {}",
+                        Ok((Some(entry), pieces)) => tracing::info!(
+                            "{}: cut into {pieces} convex pieces in {seconds:.1} s, kept in {}",
                             path.display(),
-                            pieces.len(),
                             entry.display()
                         ),
-                        None => tracing::warn!(
+                        Ok((None, _)) => tracing::warn!(
                             "{}: cut into convex pieces, but the cache cannot keep them: each \
                              switch to its scenes cuts it again",
                             path.display()
                         ),
+                        Err(e) => tracing::warn!("{}: {e}", path.display()),
                     }
+                    let kept = kept.ok().and_then(|(entry, _)| entry);
                     let mut cutting = cutting.lock().unwrap_or_else(|e| e.into_inner());
                     cutting.running.remove(&path);
                     if kept.is_none() {

@@ -17,7 +17,7 @@ use glam::DVec3;
 use hapticd_core::diagnostics::{FileRules, read_file};
 
 use crate::decomposition::{RESOLUTION, decompose};
-use crate::{Limits, TriangleMesh};
+use crate::{Limits, MeshError, TriangleMesh};
 
 /// What an entry starts with: the format and its version (2: a convex mesh is its own one
 /// piece, where entries of 1 hold V-HACD's cut of it).
@@ -80,14 +80,15 @@ impl Cache {
     }
 
     /// `mesh`'s pieces, from the cache or decomposed now and kept (a cache that cannot be
-    /// written only costs the next run the time again); with whether they were cached.
-    pub fn pieces(&self, mesh: &TriangleMesh) -> (Vec<TriangleMesh>, bool) {
+    /// written only costs the next run the time again); with whether they were cached. An
+    /// error where the decomposition fails on it.
+    pub fn pieces(&self, mesh: &TriangleMesh) -> Result<(Vec<TriangleMesh>, bool), MeshError> {
         if let Some(pieces) = self.lookup(mesh) {
-            return (pieces, true);
+            return Ok((pieces, true));
         }
-        let pieces = decompose(mesh, RESOLUTION).pieces;
+        let pieces = decompose(mesh, RESOLUTION)?.pieces;
         self.store(mesh, &pieces);
-        (pieces, false)
+        Ok((pieces, false))
     }
 
     /// Keep `pieces` as `mesh`'s; where, if the cache could be written.
@@ -209,11 +210,11 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("hapticd-cache-{}", std::process::id()));
         let cache = Cache::at(&dir);
         let mesh = cuboid(DVec3::ZERO, DVec3::new(0.1, 0.05, 0.02));
-        let (pieces, cached) = cache.pieces(&mesh);
+        let (pieces, cached) = cache.pieces(&mesh).unwrap();
         assert!(!cached && !pieces.is_empty());
         let entry = cache.entry(&mesh).unwrap();
         assert!(entry.is_file());
-        assert_eq!(cache.pieces(&mesh), (pieces.clone(), true));
+        assert_eq!(cache.pieces(&mesh), Ok((pieces.clone(), true)));
         // Another mesh has another entry.
         let other = cuboid(DVec3::ZERO, DVec3::new(0.1, 0.05, 0.03));
         assert_ne!(cache.entry(&other), Some(entry.clone()));
@@ -233,8 +234,8 @@ mod tests {
         dangling[0].triangles[0][1] = 999;
         assert!(decode(&encode(key, &dangling), key, mesh.bounds()).is_none());
         std::fs::write(&entry, &bytes[..20]).unwrap();
-        assert_eq!(cache.pieces(&mesh), (pieces.clone(), false));
-        assert_eq!(cache.pieces(&mesh), (pieces.clone(), true));
+        assert_eq!(cache.pieces(&mesh), Ok((pieces.clone(), false)));
+        assert_eq!(cache.pieces(&mesh), Ok((pieces.clone(), true)));
         // A FIFO in the entry's place (which hung the reader) or a link to /dev/zero (which
         // read gigabytes) is no entry, at once.
         std::fs::remove_file(&entry).unwrap();

@@ -7,8 +7,8 @@ use glam::DVec3;
 use parry3d::math::Vector;
 use parry3d::transformation::vhacd::{VHACD, VHACDParameters};
 
-use crate::TriangleMesh;
 use crate::properties::{is_convex, mass_properties};
+use crate::{MeshError, TriangleMesh};
 
 /// Voxels along the mesh's longest side: V-HACD's default, fine enough for a mug's handle.
 pub const RESOLUTION: u32 = 64;
@@ -27,15 +27,16 @@ impl Decomposition {
     }
 }
 
-/// `mesh` cut into convex pieces at `resolution` voxels along its longest side (at least 8).
-pub fn decompose(mesh: &TriangleMesh, resolution: u32) -> Decomposition {
+/// `mesh` cut into convex pieces at `resolution` voxels along its longest side (at least 8);
+/// [`MeshError::Uncut`] where the decomposition fails on it.
+pub fn decompose(mesh: &TriangleMesh, resolution: u32) -> Result<Decomposition, MeshError> {
     if is_convex(mesh) {
-        return Decomposition {
+        return Ok(Decomposition {
             pieces: vec![TriangleMesh {
                 normals: None,
                 ..mesh.clone()
             }],
-        };
+        });
     }
     // The decomposition works in single precision: about the mesh's centre, so that a part
     // far from the origin keeps its detail.
@@ -49,15 +50,20 @@ pub fn decompose(mesh: &TriangleMesh, resolution: u32) -> Decomposition {
             Vector::new(p.x, p.y, p.z)
         })
         .collect();
+    let resolution = resolution.max(8);
     let parameters = VHACDParameters {
-        resolution: resolution.max(8),
+        resolution,
         ..Default::default()
     };
     // Keeping which triangles each voxel holds lets each piece be the hull of the mesh's own
-    // vertices, not of voxel corners.
-    let vhacd = VHACD::decompose(&parameters, &points, &mesh.triangles, true);
-    let pieces = vhacd
-        .compute_exact_convex_hulls(&points, &mesh.triangles)
+    // vertices, not of voxel corners. Its hulls can fail on a flat set of points it made (the
+    // shipped mug at 192 voxels): the mesh is refused, not the process ended.
+    let hulls = std::panic::catch_unwind(|| {
+        VHACD::decompose(&parameters, &points, &mesh.triangles, true)
+            .compute_exact_convex_hulls(&points, &mesh.triangles)
+    })
+    .map_err(|_| MeshError::Uncut(resolution))?;
+    let pieces = hulls
         .into_iter()
         .filter(|(_, triangles)| !triangles.is_empty())
         .map(|(vertices, triangles)| TriangleMesh {
@@ -69,7 +75,7 @@ pub fn decompose(mesh: &TriangleMesh, resolution: u32) -> Decomposition {
             normals: None,
         })
         .collect();
-    Decomposition { pieces }
+    Ok(Decomposition { pieces })
 }
 
 #[cfg(test)]
@@ -81,7 +87,7 @@ mod tests {
     fn a_convex_mesh_is_its_own_one_piece_and_two_apart_are_cut() {
         let (low, high) = (DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.1, 2.05, 3.2));
         let mesh = crate::properties::cuboid(low, high);
-        let d = decompose(&mesh, RESOLUTION);
+        let d = decompose(&mesh, RESOLUTION).unwrap();
         // Exactly the box: no voxel error added (V-HACD cut a cube into 9 pieces of +26 %).
         assert_eq!(d.pieces, vec![mesh.clone()]);
         // Two unit cubes a unit apart: convex along every edge, yet not one convex solid.
@@ -92,7 +98,7 @@ mod tests {
         pair.triangles
             .extend(other.triangles.iter().map(|t| t.map(|k| k + first)));
         assert!(!crate::properties::is_convex(&pair));
-        let d = decompose(&pair, RESOLUTION);
+        let d = decompose(&pair, RESOLUTION).unwrap();
         assert!(d.pieces.len() >= 2, "{}", d.pieces.len());
         for piece in &d.pieces {
             assert!(closure(piece).is_closed());

@@ -88,6 +88,9 @@ pub enum MeshError {
     },
     /// The surface's faces point inwards (the volume they close is negative).
     InsideOut,
+    /// The decomposition failed on it at this many voxels along its longest side: a fault
+    /// of the decomposition's, caught.
+    Uncut(u32),
 }
 
 impl MeshError {
@@ -160,6 +163,13 @@ impl fmt::Display for MeshError {
             MeshError::InsideOut => {
                 f.write_str("its faces point inwards (the volume they close is negative)")
             }
+            MeshError::Uncut(resolution) => write!(
+                f,
+                "V-HACD failed to cut it into convex pieces at {resolution} voxels along its \
+                 longest side (a fault of the decomposition's): remesh or simplify it, or make \
+                 the body fixed (fixed: true) under engine: rapier, which takes its triangles \
+                 as they are"
+            ),
         }
     }
 }

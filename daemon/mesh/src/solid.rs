@@ -44,7 +44,7 @@ pub fn solid(
         }));
     }
     let (pieces, cached) = match cache {
-        Some(cache) => cache.pieces(&mesh),
+        Some(cache) => cache.pieces(&mesh).map_err(refuse)?,
         None => (Vec::new(), false),
     };
     if mass_properties(&mesh).volume <= 0.0 {
