@@ -95,9 +95,10 @@ fn files_a_body_cannot_be_made_of_are_refused_with_why() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// V-HACD (parry3d 0.31) fails on the shipped mug at 192 voxels: a hull of points it made
-/// flat. The mug is refused with why, the command ends as any refusal does (not as a crash)
-/// and nothing is kept. The daemon and the scene plugins cut through the same function.
+/// V-HACD (parry3d 0.31) fails on the shipped mug at 192 voxels, in the hull of a part it
+/// clipped: the mug is refused with why, the command ends as any refusal does (not as a
+/// crash) and nothing is kept. The daemon and the scene plugins cut through the same
+/// function.
 #[test]
 fn a_mesh_the_decomposition_fails_on_is_refused_with_why() {
     let cache = scratch_root().join(format!("mesh-cli-uncut-{}", std::process::id()));
