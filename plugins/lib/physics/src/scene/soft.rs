@@ -63,8 +63,9 @@ use crate::body::Body;
 use crate::soft::{Attachment, SOFT_TICK, SoftPart};
 
 /// The most linear elements a soft body may be cut into, and quadratic ones: what a
-/// device tick steps (here 2 058 linear ones take 0.42 ms, and 504 quadratic ones 0.5 ms:
-/// `cargo bench -p hapticd-e2e --bench soft`); more would overrun every tick.
+/// device tick steps (here 2 058 linear ones take 0.29 ms pressed and 0.48 ms under a
+/// dragged finger at the fastest, and 504 quadratic ones 0.34 ms: `cargo bench -p
+/// hapticd-e2e --bench soft`); more would overrun every tick.
 pub const MOST_ELEMENTS: [usize; 2] = [2_000, 400];
 
 /// The same in a rapier scene, whose physics thread steps soft bodies at its own rate
