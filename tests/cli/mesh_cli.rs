@@ -95,7 +95,7 @@ fn files_a_body_cannot_be_made_of_are_refused_with_why() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// V-HACD (parry3d 0.31) fails on the shipped mug at 192 voxels, in the hull of a part it
+/// V-HACD (parry3d 0.31) fails on the shipped mug at 161 voxels, in the hull of a part it
 /// clipped: the mug is refused with why, the command ends as any refusal does (not as a
 /// crash) and nothing is kept. The daemon and the scene plugins cut through the same
 /// function.
@@ -109,14 +109,14 @@ fn a_mesh_the_decomposition_fails_on_is_refused_with_why() {
         "decompose",
         mug.to_str().unwrap(),
         "--resolution",
-        "192",
+        "161",
         "--cache",
         cache.to_str().unwrap(),
     ]);
     let said = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{said}");
     assert!(
-        said.contains("mug.obj: V-HACD failed to cut it into convex pieces at 192 voxels"),
+        said.contains("mug.obj: V-HACD failed to cut it into convex pieces at 161 voxels"),
         "{said}"
     );
     assert!(!cache.join("meshes").exists());

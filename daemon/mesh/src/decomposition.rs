@@ -57,7 +57,7 @@ pub fn decompose(mesh: &TriangleMesh, resolution: u32) -> Result<Decomposition, 
     };
     // Keeping which triangles each voxel holds lets each piece be the hull of the mesh's own
     // vertices, not of voxel corners. Its hull of a part it clipped can fail (parry3d 0.31
-    // panics on the shipped mug at 192 voxels): the mesh is refused, not the process ended.
+    // panics on the shipped mug at 161 voxels): the mesh is refused, not the process ended.
     let hulls = std::panic::catch_unwind(|| {
         VHACD::decompose(&parameters, &points, &mesh.triangles, true)
             .compute_exact_convex_hulls(&points, &mesh.triangles)
