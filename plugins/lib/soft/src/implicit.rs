@@ -76,6 +76,8 @@ pub struct Solver {
     turned: Vec<DVec3>,
     /// The nodes held on obstacles this step.
     held: Vec<Held>,
+    /// Each held node's friction in the last solve, while its nodes are let go or turned.
+    applied: Vec<(usize, DVec3)>,
     /// Whether each node is among them.
     holding: Vec<bool>,
     /// Whether each node pressed on an obstacle last step.
@@ -103,6 +105,7 @@ impl Solver {
             sums: vec![DQuat::IDENTITY; nodes],
             turned: vec![DVec3::ZERO; nodes],
             held: Vec::with_capacity(nodes),
+            applied: Vec::with_capacity(nodes),
             holding: vec![false; nodes],
             pressing: vec![false; nodes],
             sliding: vec![DVec3::ZERO; nodes],
@@ -198,14 +201,25 @@ impl SoftBody {
             iterations: 0,
             residual: 0.0,
         };
+        // The residual is made from the elements for the first solve, and for one after
+        // nodes were stopped on faces (their velocities set); otherwise the search's own
+        // stands for the next, but for the frictions that changed.
+        let mut fresh = true;
         for pass in 1..=RELEASES {
-            stepped = self.solve(dt, stiff, gravity, solve, solver, stepped.iterations);
+            if fresh {
+                self.initial_residual(dt, stiff, gravity, solver);
+            }
+            stepped = self.solve(stiff, solve, solver, stepped.iterations);
             // The last solve stands with the contacts it was made with; but a node it would
             // carry into a solid is still stopped on the face (its push left out).
             if pass == RELEASES {
                 self.enter(dt, obstacles, solver);
                 break;
             }
+            solver.applied.clear();
+            solver
+                .applied
+                .extend(solver.held.iter().map(|h| (h.node, h.friction)));
             let velocities = &self.velocities;
             let released = release(
                 &mut solver.held,
@@ -213,8 +227,16 @@ impl SoftBody {
                 dt,
                 obstacles.friction,
             );
-            if !(self.enter(dt, obstacles, solver) || released) {
+            fresh = self.enter(dt, obstacles, solver);
+            if !(fresh || released) {
                 break;
+            }
+            // b holds dt·friction at each held node.
+            for &(n, f) in &solver.applied {
+                solver.residual[n] -= dt * f;
+            }
+            for h in &solver.held {
+                solver.residual[h.node] += dt * h.friction;
             }
         }
         if !self.reactions.is_empty() {
@@ -237,19 +259,15 @@ impl SoftBody {
         stepped
     }
 
-    /// Solve the step's velocities from where they stand, as `solve` says, counting on from
-    /// `iterations` already taken.
+    /// Solve the step's velocities from where they stand and the residual b − A·v in the
+    /// solver, as `solve` says, counting on from `iterations` already taken.
     fn solve(
         &mut self,
-        dt: f64,
         stiff: f64,
-        gravity: DVec3,
         solve: Solve,
         solver: &mut Solver,
         iterations: usize,
     ) -> Stepped {
-        // r = b − A·v, b = M·v₀ + dt·(f(x) + f_ext): in one pass over the elements.
-        self.initial_residual(dt, stiff, gravity, solver);
         // The held directions are no unknowns: the preconditioner leaves them out, and so
         // every direction searched along; the residual keeps them, what holds the nodes.
         if let Some(c) = &mut solver.capacitance {
