@@ -231,12 +231,14 @@ impl SoftBody {
             if !(fresh || released) {
                 break;
             }
-            // b holds dt·friction at each held node.
-            for &(n, f) in &solver.applied {
-                solver.residual[n] -= dt * f;
-            }
-            for h in &solver.held {
-                solver.residual[h.node] += dt * h.friction;
+            if !fresh {
+                // The residual carried on, b holding dt·friction at each held node.
+                for &(n, f) in &solver.applied {
+                    solver.residual[n] -= dt * f;
+                }
+                for h in &solver.held {
+                    solver.residual[h.node] += dt * h.friction;
+                }
             }
         }
         if !self.reactions.is_empty() {
