@@ -116,6 +116,22 @@ pub fn pushed_load(
     }
 }
 
+/// [rt] What the solids `touches` (one per piece of each of the world bodies `touching`, in
+/// turn) were pressed with over the last tick, taken together by body.
+fn touches_by_body<'a>(
+    touching: &'a [usize],
+    touches: &'a [Touch],
+    bodies: &'a [Body],
+) -> impl Iterator<Item = (usize, Touch)> + 'a {
+    let mut solid = 0;
+    touching.iter().map(move |&i| {
+        let pieces = bodies[i].pieces.len();
+        let on = touches[solid..solid + pieces].iter().copied().sum();
+        solid += pieces;
+        (i, on)
+    })
+}
+
 /// A soft body of a scene, ready to step.
 #[derive(Debug, Clone)]
 pub struct SoftPart {
@@ -282,16 +298,10 @@ impl SoftPart {
                 a.pull.torque += (self.body.positions[n] - centre).cross(push);
             }
         }
-        let mut solid = 0;
-        for (&i, push) in self.touching.iter().zip(&mut self.pushes) {
+        let touched = touches_by_body(&self.touching, &self.touches, bodies);
+        for ((i, on), push) in touched.zip(&mut self.pushes) {
             *push = (Wrench::default(), (0.0, 0.0));
             let b = &bodies[i];
-            let mut on = Touch::default();
-            for t in &self.touches[solid..solid + b.pieces.len()] {
-                (on.force, on.torque) = (on.force + t.force, on.torque + t.torque);
-                (on.inertia, on.turning) = (on.inertia + t.inertia, on.turning + t.turning);
-            }
-            solid += b.pieces.len();
             let touch = Wrench {
                 force: on.force,
                 torque: on.torque,
@@ -320,25 +330,9 @@ impl SoftPart {
     /// [rt] What it pressed on world body `i` with over the last tick, if anything: the
     /// force, N, and where its nodes pressed (weighed by their push).
     pub fn pressed_on(&self, i: usize, bodies: &[Body]) -> Option<(DVec3, DVec3)> {
-        let mut sum = Touch::default();
-        for (_, t) in self.touches_by_body(bodies).filter(|&(j, _)| j == i) {
-            sum.force += t.force;
-            sum.moment += t.moment;
-            sum.push += t.push;
-        }
-        Some((sum.force, sum.point()?))
-    }
-
-    /// [rt] What it pressed on each solid of the world bodies it touches over the last
-    /// tick, with the world body the solid is a piece of.
-    fn touches_by_body<'a>(
-        &'a self,
-        bodies: &'a [Body],
-    ) -> impl Iterator<Item = (usize, &'a Touch)> + 'a {
-        self.touching
-            .iter()
-            .flat_map(|&i| std::iter::repeat_n(i, bodies[i].pieces.len()))
-            .zip(&self.touches)
+        let (_, on) =
+            touches_by_body(&self.touching, &self.touches, bodies).find(|&(j, _)| j == i)?;
+        Some((on.force, on.point()?))
     }
 
     /// [physics] The point of its surface nearest `x`, if it has a surface.

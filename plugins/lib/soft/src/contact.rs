@@ -119,6 +119,20 @@ impl Touch {
     }
 }
 
+/// Touches on obstacles that share a centre (the pieces of one body), taken together.
+impl std::iter::Sum for Touch {
+    fn sum<I: Iterator<Item = Touch>>(touches: I) -> Touch {
+        touches.fold(Touch::default(), |a, t| Touch {
+            force: a.force + t.force,
+            torque: a.torque + t.torque,
+            moment: a.moment + t.moment,
+            push: a.push + t.push,
+            inertia: a.inertia + t.inertia,
+            turning: a.turning + t.turning,
+        })
+    }
+}
+
 /// A node held on an obstacle's face over a step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Held {
