@@ -3,7 +3,7 @@
 //! items split at the median of their centres along the box's longest side), walked in the
 //! haptic thread with a stack of fixed size, so a query neither allocates nor recurses.
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 /// Most items in a leaf: a few triangle tests cost less than another level of boxes.
 const LEAF: usize = 4;
@@ -87,19 +87,37 @@ impl Bvh {
 
     /// [rt] Call `visit` with every item whose box, grown by `margin`, the segment from `a`
     /// to `b` meets (and perhaps a few more); no allocation.
-    pub fn visit_segment(&self, a: DVec3, b: DVec3, margin: f64, mut visit: impl FnMut(usize)) {
+    pub fn visit_segment(&self, a: DVec3, b: DVec3, margin: f64, visit: impl FnMut(usize)) {
+        let d = b - a;
+        let inverse = d.recip();
+        self.walk(
+            |node| meets(a, d, inverse, node.low - margin, node.high + margin),
+            visit,
+        );
+    }
+
+    /// [rt] Call `visit` with every item whose box comes within `reach` of the box from `low`
+    /// to `high` (and perhaps a few more); no allocation.
+    pub fn visit_box(&self, low: DVec3, high: DVec3, reach: f64, visit: impl FnMut(usize)) {
+        self.walk(
+            |node| (node.low - reach).cmple(high).all() && low.cmple(node.high + reach).all(),
+            visit,
+        );
+    }
+
+    /// [rt] Call `visit` with each item of the leaves whose nodes `enter` accepts, their
+    /// parents accepted too; a stack of fixed size, no recursion.
+    fn walk(&self, enter: impl Fn(&Node) -> bool, mut visit: impl FnMut(usize)) {
         if self.nodes.is_empty() {
             return;
         }
-        let d = b - a;
-        let inverse = d.recip();
         let mut stack = [0u32; DEPTH];
         let mut depth = 1;
         while depth > 0 {
             depth -= 1;
             let at = stack[depth];
-            let node = self.nodes[at as usize];
-            if !meets(a, d, inverse, node.low - margin, node.high + margin) {
+            let node = &self.nodes[at as usize];
+            if !enter(node) {
                 continue;
             }
             if node.count > 0 {
@@ -112,6 +130,60 @@ impl Bvh {
                 stack[depth] = at + 1;
                 stack[depth + 1] = node.start;
                 depth += 2;
+            }
+        }
+    }
+
+    /// [rt] Call `visit(mine, theirs)` with every pair of an item of this hierarchy and one
+    /// of `other`'s whose boxes come within `reach` of each other (and perhaps a few more),
+    /// `other`'s frame being placed in this one by `turn` then `shift`. Walks both trees
+    /// together (the wider node of a pair split first), `other`'s boxes taken as the balls
+    /// around them; a stack of fixed size, no allocation.
+    pub fn visit_pairs(
+        &self,
+        other: &Bvh,
+        (turn, shift): (DQuat, DVec3),
+        reach: f64,
+        mut visit: impl FnMut(usize, usize),
+    ) {
+        if self.nodes.is_empty() || other.nodes.is_empty() {
+            return;
+        }
+        // Each pair taken off pushes at most two, each a level deeper in one tree.
+        let mut stack = [(0u32, 0u32); 2 * DEPTH];
+        let mut depth = 1;
+        while depth > 0 {
+            depth -= 1;
+            let (a, b) = stack[depth];
+            let (mine, theirs) = (&self.nodes[a as usize], &other.nodes[b as usize]);
+            let centre = turn * ((theirs.low + theirs.high) / 2.0) + shift;
+            let radius = (theirs.high - theirs.low).length() / 2.0;
+            let gap = (mine.low - centre).max(centre - mine.high).max(DVec3::ZERO);
+            if gap.length_squared() > (radius + reach) * (radius + reach) {
+                continue;
+            }
+            match (mine.count > 0, theirs.count > 0) {
+                (true, true) => {
+                    for &i in &self.order[mine.start as usize..(mine.start + mine.count) as usize]
+                    {
+                        for &j in
+                            &other.order[theirs.start as usize..(theirs.start + theirs.count) as usize]
+                        {
+                            visit(i as usize, j as usize);
+                        }
+                    }
+                }
+                (leaf, other_leaf) => {
+                    let wider = (mine.high - mine.low).length() / 2.0 >= radius;
+                    if !leaf && (other_leaf || wider) {
+                        stack[depth] = (a + 1, b);
+                        stack[depth + 1] = (mine.start, b);
+                    } else {
+                        stack[depth] = (a, b + 1);
+                        stack[depth + 1] = (a, theirs.start);
+                    }
+                    depth += 2;
+                }
             }
         }
     }

@@ -2,6 +2,8 @@
 //! force the user feels, safely.
 //!
 //! - [`effects`]: springs, dampers, friction, vibrations and fields that come from no solid;
+//! - [`god_object`]: a held part's 6-DOF god-object, kept out of what it touches by a
+//!   constrained solve over the contacts of exact meshes ([`signed_mesh`]);
 //! - [`grasp`]: fingers holding an object, with the shape shell and the resultant shared
 //!   among them (4.2–4.7);
 //! - [`obstacle`]: solid shapes the proxy cannot enter; [`scenery`]: a static scene's
@@ -18,6 +20,7 @@
 
 pub mod bvh;
 pub mod effects;
+pub mod god_object;
 pub mod grasp;
 pub mod obstacle;
 pub mod passivity;
@@ -25,6 +28,7 @@ pub mod proxy;
 pub mod safety;
 pub mod scenery;
 pub mod shading;
+pub mod signed_mesh;
 pub mod surface;
 pub mod texture;
 pub mod touch;

@@ -1,0 +1,475 @@
+//! The 6-DOF god-object of a held part (thesis 7.2; Ortega et al. 2007, Wang et al. 2013):
+//! the part has a proxy pose that follows the grip's but never enters what it touches, and
+//! the user feels the 6-DOF spring between the grip and the proxy.
+//!
+//! Each tick the part's exact mesh is queried against every obstacle's both ways (the
+//! part's samples against the obstacle's triangles, the obstacle's samples against the
+//! part's, see [`SignedMesh`]), within the reach of this tick's motion. Each contact is a
+//! linear constraint on the proxy's small motion δ = (v, ω): the contact point moves no
+//! closer than its gap, n·(v + ω × r) ≥ −gap. The proxy moves by the δ that stretches the
+//! spring least in its own metric, K = diag(k, k, k, kᵣ, kᵣ, kᵣ), subject to them: a
+//! QP whose dual is solved by projected Gauss–Seidel over the contacts, warm-started from
+//! the last tick's forces. At its solution the spring's pull balances the contacts'
+//! push, so what the user feels is exactly the contacts' wrench, as statics has it.
+//!
+//! Time-critical, it degrades and never overruns: contacts past [`CONTACTS`] are left for
+//! the next tick (the deepest taken first), and the proxy then moves no farther than the
+//! nearest one left; the solve stops after [`SWEEPS`] and is cut back to what the
+//! contacts allow; a tick that finds more candidates than its table holds keeps the last
+//! pose.
+
+use glam::{DQuat, DVec3};
+
+use super::signed_mesh::{Near, SignedMesh};
+use crate::kinematics::{Wrench, rotation_vector};
+
+/// Most contacts a tick solves over.
+pub const CONTACTS: usize = 64;
+/// Most Gauss–Seidel sweeps over the contacts in a tick.
+pub const SWEEPS: usize = 60;
+/// Samples a query may find near one obstacle: a tick finding more keeps its last pose.
+pub const CANDIDATES: usize = 3072;
+/// Slots of the table the candidates are gathered in (a power of two, well over
+/// [`CANDIDATES`] so that probes stay short).
+const SLOTS: usize = 4096;
+/// How far a contact may still be violated when the solve stops, metres.
+const TOLERANCE: f64 = 1e-8;
+/// The least reach of a tick's query, metres: contacts resting within rounding of zero gap
+/// are always found.
+const MIN_REACH: f64 = 2e-5;
+/// Features of one sample whose normals are closer than this (cosine) are one constraint:
+/// the nearer is kept.
+const SAME_SIDE: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// The spring the user feels and how far the proxy may move in a tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GodObjectParameters {
+    /// Spring between grip and proxy, N/m.
+    pub stiffness: f64,
+    /// Rotational spring between grip and proxy, N·m/rad.
+    pub rotational_stiffness: f64,
+    /// Farthest any point of the part moves in one tick, metres: a hand far from the
+    /// proxy (at the start, or pressed deep) is caught up with at this pace.
+    pub max_step: f64,
+}
+
+impl Default for GodObjectParameters {
+    fn default() -> Self {
+        Self {
+            stiffness: 2_000.0,
+            rotational_stiffness: 2.0,
+            max_step: 2e-3,
+        }
+    }
+}
+
+/// Something the held part cannot enter, where it is now.
+#[derive(Debug, Clone, Copy)]
+pub struct Obstacle<'a> {
+    /// Its surface, in its own frame.
+    pub mesh: &'a SignedMesh,
+    /// Where its frame is.
+    pub position: DVec3,
+    /// How its frame is turned.
+    pub orientation: DQuat,
+}
+
+/// One contact of the part at the start of a tick.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Contact {
+    /// The obstacle touched, its place in the list the tick was given.
+    pub obstacle: usize,
+    /// The point of the part that touches, in the world.
+    pub point: DVec3,
+    /// Unit normal along which the obstacle pushes the part.
+    pub normal: DVec3,
+    /// How far apart they are along it, metres: negative where the part is inside.
+    pub gap: f64,
+    /// The force the obstacle pushes with, newtons, once the tick is solved.
+    pub force: f64,
+    /// Which sample and feature it is, to warm-start the next tick.
+    key: u64,
+}
+
+/// What a tick gives.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GodObjectOutput {
+    /// The wrench on the hand: force, and torque about the grip.
+    pub felt: Wrench,
+    /// The deepest the part was found inside anything at the start of the tick, metres
+    /// (0 when nowhere).
+    pub penetration: f64,
+    /// Whether the tick found too much to look at and kept the last pose.
+    pub held_back: bool,
+}
+
+/// One sample's features near an obstacle: the nearest, and others facing other ways.
+#[derive(Debug, Clone, Copy, Default)]
+struct Slot {
+    /// The sample, plus one (0 for an empty slot).
+    sample: u32,
+    kept: [Option<Near>; 3],
+}
+
+impl Slot {
+    /// Take `near` in: the nearest feature first whatever its side, then up to two others
+    /// outside the obstacle and facing more than 45° away from those kept.
+    fn take(&mut self, near: Near) {
+        let Some(first) = self.kept[0] else {
+            self.kept[0] = Some(near);
+            return;
+        };
+        let near = if near.distance.abs() < first.distance.abs() {
+            self.kept[0] = Some(near);
+            first
+        } else {
+            near
+        };
+        // Behind a face that is not the nearest is not inside the solid: such a feature
+        // is a far side, no constraint.
+        if near.distance <= 0.0 {
+            return;
+        }
+        for k in 0..3 {
+            match self.kept[k] {
+                Some(other) if other.normal.dot(near.normal) > SAME_SIDE => {
+                    if k > 0 && near.distance < other.distance {
+                        self.kept[k] = Some(near);
+                    }
+                    return;
+                }
+                Some(_) => {}
+                None => {
+                    self.kept[k] = Some(near);
+                    return;
+                }
+            }
+        }
+        if let Some(far) = (1..3).max_by(|&a, &b| {
+            let d = |k: usize| self.kept[k].map_or(f64::INFINITY, |n| n.distance);
+            d(a).total_cmp(&d(b))
+        }) && self.kept[far].is_some_and(|f| near.distance < f.distance)
+        {
+            self.kept[far] = Some(near);
+        }
+    }
+}
+
+/// The table a query gathers its candidates in: a slot per sample found, open addressing,
+/// emptied after each query by the slots it used.
+#[derive(Debug, Clone)]
+struct Table {
+    slots: Vec<Slot>,
+    used: Vec<u32>,
+}
+
+impl Table {
+    fn new() -> Self {
+        Self {
+            slots: vec![Slot::default(); SLOTS],
+            used: Vec::with_capacity(CANDIDATES),
+        }
+    }
+
+    /// [rt] Gather, for each sample of `samples` (placed in `triangles`' frame by
+    /// `placed`), its features on `triangles` within `reach`; false when more samples came
+    /// near than [`CANDIDATES`].
+    fn gather(
+        &mut self,
+        triangles: &SignedMesh,
+        samples: &SignedMesh,
+        (turn, shift): (DQuat, DVec3),
+        reach: f64,
+    ) -> bool {
+        let mut full = false;
+        triangles.visit_near(samples, (turn, shift), reach, |s, t| {
+            if full {
+                return;
+            }
+            let near = triangles.near(t, turn * samples.samples()[s] + shift);
+            if near.distance.abs() > reach {
+                return;
+            }
+            match self.slot(s) {
+                Some(slot) => slot.take(near),
+                None => full = true,
+            }
+        });
+        !full
+    }
+
+    /// [rt] The slot of `sample`, taken if it has none; None when the table is full.
+    fn slot(&mut self, sample: usize) -> Option<&mut Slot> {
+        let key = sample as u32 + 1;
+        let mut i = (key.wrapping_mul(0x9e37_79b1) >> (32 - SLOTS.trailing_zeros())) as usize;
+        loop {
+            match self.slots[i].sample {
+                s if s == key => return Some(&mut self.slots[i]),
+                0 => {
+                    if self.used.len() >= CANDIDATES {
+                        return None;
+                    }
+                    self.slots[i].sample = key;
+                    self.used.push(i as u32);
+                    return Some(&mut self.slots[i]);
+                }
+                _ => i = (i + 1) & (SLOTS - 1),
+            }
+        }
+    }
+
+    /// [rt] Empty the slots used.
+    fn clear(&mut self) {
+        for &i in &self.used {
+            self.slots[i as usize] = Slot::default();
+        }
+        self.used.clear();
+    }
+}
+
+/// The contacts of a tick, the deepest [`CONTACTS`] of those found.
+#[derive(Debug, Clone)]
+struct Found {
+    contacts: [Contact; CONTACTS],
+    count: usize,
+    /// The smallest gap of those left out (infinite when none was).
+    spill: f64,
+}
+
+impl Found {
+    /// [rt] Keep `contact` if it is among the deepest.
+    fn keep(&mut self, contact: Contact) {
+        if self.count < CONTACTS {
+            self.contacts[self.count] = contact;
+            self.count += 1;
+            return;
+        }
+        let (shallowest, gap) = (self.contacts.iter().enumerate())
+            .map(|(i, c)| (i, c.gap))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((0, f64::NEG_INFINITY));
+        if contact.gap < gap {
+            self.spill = self.spill.min(gap);
+            self.contacts[shallowest] = contact;
+        } else {
+            self.spill = self.spill.min(contact.gap);
+        }
+    }
+}
+
+/// The warm-start key of a contact: obstacle `o`, which way round the query went, the
+/// sample, and which of its features.
+fn key(o: usize, side: usize, sample: u32, feature: usize) -> u64 {
+    ((o as u64) << 36) | ((side as u64) << 34) | (u64::from(sample) << 2) | feature as u64
+}
+
+/// The god-object of one held part.
+#[derive(Debug, Clone)]
+pub struct GodObject {
+    part: SignedMesh,
+    position: DVec3,
+    orientation: DQuat,
+    parameters: GodObjectParameters,
+    found: Found,
+    /// Last tick's contacts' keys and forces.
+    previous: [(u64, f64); CONTACTS],
+    previous_count: usize,
+    /// The query's reach this tick, metres.
+    reach: f64,
+    table: Table,
+}
+
+impl GodObject {
+    /// The god-object of `part` (its mesh in its own frame, the grip holding that frame's
+    /// origin), starting at `position` and `orientation`.
+    pub fn new(
+        part: SignedMesh,
+        position: DVec3,
+        orientation: DQuat,
+        parameters: GodObjectParameters,
+    ) -> Self {
+        Self {
+            part,
+            position,
+            orientation: orientation.normalize(),
+            parameters,
+            found: Found {
+                contacts: [Contact::default(); CONTACTS],
+                count: 0,
+                spill: f64::INFINITY,
+            },
+            previous: [(0, 0.0); CONTACTS],
+            previous_count: 0,
+            reach: parameters.max_step,
+            table: Table::new(),
+        }
+    }
+
+    /// Where the proxy is.
+    pub fn pose(&self) -> (DVec3, DQuat) {
+        (self.position, self.orientation)
+    }
+
+    /// The part's mesh.
+    pub fn part(&self) -> &SignedMesh {
+        &self.part
+    }
+
+    /// The contacts of the last tick, their forces solved.
+    pub fn contacts(&self) -> &[Contact] {
+        &self.found.contacts[..self.found.count]
+    }
+
+    /// Put the proxy at a pose from outside (a scene loaded, the part let go and taken
+    /// again): its contacts start afresh.
+    pub fn reset(&mut self, position: DVec3, orientation: DQuat) {
+        (self.position, self.orientation) = (position, orientation.normalize());
+        (self.found.count, self.previous_count) = (0, 0);
+        self.reach = self.parameters.max_step;
+    }
+
+    /// [rt] Move the proxy towards the grip at `grip` (position, orientation) as far as the
+    /// `obstacles` let it, and give the wrench the user feels. Allocates nothing.
+    pub fn update(&mut self, grip: (DVec3, DQuat), obstacles: &[Obstacle]) -> GodObjectOutput {
+        let (grip_position, grip_orientation) = grip;
+        let found = self.find_contacts(obstacles);
+        let penetration = self.contacts().iter().map(|c| -c.gap).fold(0.0, f64::max);
+        if found {
+            let wanted = (
+                grip_position - self.position,
+                rotation_vector(grip_orientation * self.orientation.inverse()),
+            );
+            let (v, w) = self.solve(wanted);
+            let motion = v.length() + w.length() * self.part.radius();
+            // The next tick looks as far as this one wanted to go, and somewhat farther.
+            self.reach = (1.5 * motion + MIN_REACH).clamp(MIN_REACH, self.parameters.max_step);
+            // No point may pass a contact this tick left out, nor go beyond the reach.
+            let limit = self.parameters.max_step.min(self.found.spill.max(0.0));
+            let scale = if motion > limit { limit / motion } else { 1.0 };
+            let (position, orientation) = (
+                self.position + v * scale,
+                (DQuat::from_scaled_axis(w * scale) * self.orientation).normalize(),
+            );
+            if position.is_finite() && orientation.is_finite() {
+                (self.position, self.orientation) = (position, orientation);
+            }
+        } else {
+            self.reach = MIN_REACH;
+            self.previous_count = 0;
+        }
+        let p = &self.parameters;
+        GodObjectOutput {
+            felt: Wrench {
+                force: p.stiffness * (self.position - grip_position),
+                torque: p.rotational_stiffness
+                    * rotation_vector(self.orientation * grip_orientation.inverse()),
+            },
+            penetration,
+            held_back: !found,
+        }
+    }
+
+    /// [rt] Gather the contacts within this tick's reach, both ways round for each
+    /// obstacle; false when an obstacle had more candidates than the table holds.
+    fn find_contacts(&mut self, obstacles: &[Obstacle]) -> bool {
+        (self.found.count, self.found.spill) = (0, f64::INFINITY);
+        let part = (self.position, self.orientation);
+        for (o, obstacle) in obstacles.iter().enumerate() {
+            let other = (obstacle.position, obstacle.orientation);
+            for side in 0..2 {
+                // The samples of one against the triangles of the other, in the latter's
+                // frame: the part's against the obstacle's first, then the other way.
+                let (triangles, samples, (from, from_turn), (to, to_turn)) = if side == 0 {
+                    (obstacle.mesh, &self.part, part, other)
+                } else {
+                    (&self.part, obstacle.mesh, other, part)
+                };
+                let back = to_turn.inverse();
+                let placed = (back * from_turn, back * (from - to));
+                if !self.table.gather(triangles, samples, placed, self.reach) {
+                    self.table.clear();
+                    return false;
+                }
+                for &u in &self.table.used {
+                    let slot = &self.table.slots[u as usize];
+                    for (k, near) in slot.kept.iter().enumerate() {
+                        let Some(near) = near else { continue };
+                        let outward = to_turn * near.normal;
+                        let (point, normal) = if side == 0 {
+                            let sample = samples.samples()[slot.sample as usize - 1];
+                            (from_turn * sample + from, outward)
+                        } else {
+                            (to_turn * near.point + to, -outward)
+                        };
+                        self.found.keep(Contact {
+                            obstacle: o,
+                            point,
+                            normal,
+                            gap: near.distance,
+                            force: 0.0,
+                            key: key(o, side, slot.sample, k),
+                        });
+                    }
+                }
+                self.table.clear();
+            }
+        }
+        true
+    }
+
+    /// [rt] The proxy's motion (translation, rotation vector) for the `wanted` one: the
+    /// least spring stretch the contacts allow, by projected Gauss–Seidel over their forces
+    /// (warm-started from the last tick's), cut back where the contacts as linearised would
+    /// still be entered.
+    fn solve(&mut self, wanted: (DVec3, DVec3)) -> (DVec3, DVec3) {
+        let (k, kr) = (
+            self.parameters.stiffness,
+            self.parameters.rotational_stiffness,
+        );
+        let (mut v, mut w) = wanted;
+        let mut arms = [DVec3::ZERO; CONTACTS];
+        let mut reach = [0.0; CONTACTS];
+        let previous = &self.previous[..self.previous_count];
+        let contacts = &mut self.found.contacts[..self.found.count];
+        for (i, c) in contacts.iter_mut().enumerate() {
+            arms[i] = (c.point - self.position).cross(c.normal);
+            // How far the contact moves per newton of its own force.
+            reach[i] = 1.0 / k + arms[i].length_squared() / kr;
+            c.force = previous
+                .iter()
+                .find(|(key, _)| *key == c.key)
+                .map_or(0.0, |&(_, f)| f);
+            v += c.normal * (c.force / k);
+            w += arms[i] * (c.force / kr);
+        }
+        for _ in 0..SWEEPS {
+            let mut worst = 0.0f64;
+            for (i, c) in contacts.iter_mut().enumerate() {
+                let gap = c.gap + c.normal.dot(v) + arms[i].dot(w);
+                let force = (c.force - gap / reach[i]).max(0.0);
+                let change = force - c.force;
+                if change != 0.0 {
+                    v += c.normal * (change / k);
+                    w += arms[i] * (change / kr);
+                    c.force = force;
+                }
+                worst = worst.max(if force > 0.0 { gap.abs() } else { -gap });
+            }
+            if worst < TOLERANCE {
+                break;
+            }
+        }
+        let mut scale = 1.0f64;
+        for (i, c) in contacts.iter().enumerate() {
+            let along = c.normal.dot(v) + arms[i].dot(w);
+            if c.gap >= 0.0 && c.gap + along < 0.0 {
+                scale = scale.min(c.gap / -along);
+            }
+        }
+        for (slot, c) in self.previous.iter_mut().zip(contacts.iter()) {
+            *slot = (c.key, c.force);
+        }
+        self.previous_count = contacts.len();
+        (v * scale, w * scale)
+    }
+}

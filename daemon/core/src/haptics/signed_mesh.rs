@@ -1,0 +1,446 @@
+//! A closed triangle mesh that tells how far a point is from its surface, and on which side:
+//! the exact shape a held part and what it touches are queried as, concave or not.
+//!
+//! Near a point, the triangles are found through a [`Bvh`]; the closest point on each comes
+//! with the feature it lies on (the face, an edge, a corner), and the side is read from that
+//! feature's angle-weighted pseudo-normal (Bærentzen and Aanæs), which tells inside from
+//! outside wherever the closest point lies. Each mesh also carries samples of its own
+//! surface, its corners and points along its creased edges, for the other side of a
+//! two-way query: where two solids meet, a corner or an edge of one of them is nearest the
+//! other's surface, so checking both meshes' samples against each other's triangles finds
+//! every touch, edge crossing edge included to within the samples' spacing.
+
+use std::collections::HashMap;
+
+use glam::{DQuat, DVec3};
+
+use super::bvh::Bvh;
+
+/// An edge whose faces turn by less than this (radians) is flat: a crossing there cannot go
+/// deeper than the corners show.
+const FLAT: f64 = 1e-3;
+
+/// What is wrong with a mesh that cannot be a solid's surface.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeshFault {
+    /// No triangle.
+    Empty,
+    /// A corner that is not a finite point, or a triangle naming a corner that is not there.
+    Corrupt,
+    /// An edge with a face on one side only: the surface has a hole, so it bounds nothing.
+    Open {
+        /// How many such edges.
+        edges: usize,
+    },
+    /// An edge two faces cross in the same direction, or more than two faces share: the
+    /// surface folds over itself or is wound inconsistently.
+    Tangled {
+        /// How many such edges.
+        edges: usize,
+    },
+}
+
+impl std::fmt::Display for MeshFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MeshFault::Empty => write!(f, "it has no triangle"),
+            MeshFault::Corrupt => write!(f, "a corner is not a finite point or is not there"),
+            MeshFault::Open { edges } => write!(
+                f,
+                "its surface is open ({edges} edges have a face on one side only), so it encloses no solid"
+            ),
+            MeshFault::Tangled { edges } => write!(
+                f,
+                "its surface folds over itself or is wound both ways ({edges} edges)"
+            ),
+        }
+    }
+}
+
+/// Which part of a triangle a closest point lies on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Feature {
+    /// Inside the face.
+    Face,
+    /// On edge k, from corner k to corner k + 1 (mod 3).
+    Edge(u8),
+    /// At corner k.
+    Corner(u8),
+}
+
+/// The nearest a point comes to one triangle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Near {
+    /// Distance to the surface: positive outside, negative inside, metres.
+    pub distance: f64,
+    /// The closest point on the triangle.
+    pub point: DVec3,
+    /// The outward unit normal there: along the way from the closest point to a point
+    /// outside, against it for one inside.
+    pub normal: DVec3,
+}
+
+/// A closed, consistently wound triangle mesh in its own frame, ready for distance queries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SignedMesh {
+    vertices: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    /// Each triangle's outward unit normal.
+    normals: Vec<DVec3>,
+    /// Each corner's angle-weighted pseudo-normal.
+    corner_normals: Vec<DVec3>,
+    /// Each triangle's edges' pseudo-normals (edge k from corner k to k + 1): the mean of the
+    /// two faces' normals.
+    edge_normals: Vec<[DVec3; 3]>,
+    tree: Bvh,
+    samples: Vec<DVec3>,
+    sample_tree: Bvh,
+    /// The farthest any sample lies from the frame's origin.
+    radius: f64,
+}
+
+impl SignedMesh {
+    /// The mesh of `triangles` over `vertices` (counter-clockwise seen from outside),
+    /// corners at the same place welded, its creased edges sampled every `spacing` metres
+    /// or closer (at a right angle; shallower creases more sparsely, since a crossing
+    /// between samples goes less deep there). Built here, off the haptic thread.
+    pub fn new(
+        vertices: &[DVec3],
+        triangles: &[[u32; 3]],
+        spacing: f64,
+    ) -> Result<Self, MeshFault> {
+        if triangles.is_empty() {
+            return Err(MeshFault::Empty);
+        }
+        if !(spacing > 0.0 && spacing.is_finite())
+            || vertices.iter().any(|v| !v.is_finite())
+            || triangles.iter().flatten().any(|&i| i as usize >= vertices.len())
+        {
+            return Err(MeshFault::Corrupt);
+        }
+        // Corners at the same place are one: a file's faces often repeat them for their
+        // normals or texture coordinates.
+        let mut welded: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut points = Vec::new();
+        let index: Vec<u32> = vertices
+            .iter()
+            .map(|v| {
+                let key = (*v + DVec3::ZERO).to_array().map(f64::to_bits);
+                *welded.entry(key).or_insert_with(|| {
+                    points.push(*v);
+                    points.len() as u32 - 1
+                })
+            })
+            .collect();
+        let triangles: Vec<[u32; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| index[i as usize]))
+            .filter(|[a, b, c]| a != b && b != c && c != a)
+            .collect();
+        if triangles.is_empty() {
+            return Err(MeshFault::Empty);
+        }
+        let mut edges: HashMap<(u32, u32), (usize, usize)> = HashMap::new();
+        let mut tangled = 0;
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                if edges
+                    .insert((tri[k], tri[(k + 1) % 3]), (t, k))
+                    .is_some()
+                {
+                    tangled += 1;
+                }
+            }
+        }
+        if tangled > 0 {
+            return Err(MeshFault::Tangled { edges: tangled });
+        }
+        let open = edges.keys().filter(|&&(a, b)| !edges.contains_key(&(b, a))).count();
+        if open > 0 {
+            return Err(MeshFault::Open { edges: open });
+        }
+        let corner = |t: &[u32; 3], k: usize| points[t[k % 3] as usize];
+        let normals: Vec<DVec3> = triangles
+            .iter()
+            .map(|t| {
+                (corner(t, 1) - corner(t, 0))
+                    .cross(corner(t, 2) - corner(t, 0))
+                    .normalize_or_zero()
+            })
+            .collect();
+        let mut corner_normals = vec![DVec3::ZERO; points.len()];
+        for (t, n) in triangles.iter().zip(&normals) {
+            for k in 0..3 {
+                let (here, next, last) = (corner(t, k), corner(t, k + 1), corner(t, k + 2));
+                let angle = (next - here).angle_between(last - here);
+                if angle.is_finite() {
+                    corner_normals[t[k] as usize] += angle * *n;
+                }
+            }
+        }
+        for n in &mut corner_normals {
+            *n = n.normalize_or_zero();
+        }
+        let mut edge_normals = vec![[DVec3::ZERO; 3]; triangles.len()];
+        let mut samples = points.clone();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let (other, _) = edges[&(b, a)];
+                let (mine, theirs) = (normals[t], normals[other]);
+                edge_normals[t][k] = (mine + theirs).normalize_or_zero();
+                // Each edge sampled once, from the face where it runs from the lower corner.
+                let turn = mine.angle_between(theirs);
+                if a < b && turn > FLAT {
+                    let (p, q) = (points[a as usize], points[b as usize]);
+                    let step = spacing / (turn / 2.0).tan().clamp(0.25, 4.0).min(1.0 / FLAT);
+                    let pieces = ((q - p).length() / step).ceil() as usize;
+                    samples.extend((1..pieces).map(|i| p.lerp(q, i as f64 / pieces as f64)));
+                }
+            }
+        }
+        let boxes: Vec<(DVec3, DVec3)> = triangles
+            .iter()
+            .map(|t| {
+                let (a, b, c) = (corner(t, 0), corner(t, 1), corner(t, 2));
+                (a.min(b).min(c), a.max(b).max(c))
+            })
+            .collect();
+        let points_boxes: Vec<(DVec3, DVec3)> = samples.iter().map(|&s| (s, s)).collect();
+        let radius = samples.iter().map(|s| s.length()).fold(0.0, f64::max);
+        Ok(SignedMesh {
+            tree: Bvh::build(&boxes),
+            sample_tree: Bvh::build(&points_boxes),
+            vertices: points,
+            triangles,
+            normals,
+            corner_normals,
+            edge_normals,
+            samples,
+            radius,
+        })
+    }
+
+    /// The triangles, after welding.
+    pub fn triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        self.triangles
+            .iter()
+            .map(|t| t.map(|i| self.vertices[i as usize]))
+    }
+
+    /// The surface samples: every corner, then points along the creased edges.
+    pub fn samples(&self) -> &[DVec3] {
+        &self.samples
+    }
+
+    /// The farthest a sample lies from the frame's origin, metres.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// [rt] Call `visit(sample, triangle)` with each pair of a sample of `other` and a
+    /// triangle of this mesh that may come within `reach` of each other, `other` placed in
+    /// this mesh's frame by `turn` then `shift`; no allocation.
+    pub fn visit_near(
+        &self,
+        other: &SignedMesh,
+        placed: (DQuat, DVec3),
+        reach: f64,
+        mut visit: impl FnMut(usize, usize),
+    ) {
+        self.tree
+            .visit_pairs(&other.sample_tree, placed, reach, |t, s| visit(s, t));
+    }
+
+    /// [rt] How near `p` (in this mesh's frame) comes to triangle `t`, signed by the
+    /// pseudo-normal of the feature its closest point lies on.
+    pub fn near(&self, t: usize, p: DVec3) -> Near {
+        let tri = self.triangles[t];
+        let [a, b, c] = tri.map(|i| self.vertices[i as usize]);
+        let (point, feature) = closest_on_triangle(p, a, b, c);
+        let pseudo = match feature {
+            Feature::Face => self.normals[t],
+            Feature::Edge(k) => self.edge_normals[t][k as usize],
+            Feature::Corner(k) => self.corner_normals[tri[k as usize] as usize],
+        };
+        let away = p - point;
+        let length = away.length();
+        // Closer than rounding can tell a direction from: the feature's own normal.
+        if length <= 1e-12 {
+            return Near {
+                distance: 0.0,
+                point,
+                normal: pseudo,
+            };
+        }
+        let direction = away / length;
+        let sign = if direction.dot(pseudo) < 0.0 { -1.0 } else { 1.0 };
+        Near {
+            distance: sign * length,
+            point,
+            normal: sign * direction,
+        }
+    }
+
+    /// The signed distance from `p` (in this mesh's frame) to the surface, scanning every
+    /// triangle: for checks off the haptic thread.
+    pub fn distance(&self, p: DVec3) -> f64 {
+        (0..self.triangles.len())
+            .map(|t| self.near(t, p))
+            .min_by(|x, y| x.distance.abs().total_cmp(&y.distance.abs()))
+            .map_or(f64::INFINITY, |n| n.distance)
+    }
+}
+
+/// The point of triangle `a`, `b`, `c` closest to `p`, and the feature it lies on: the
+/// Voronoi regions of the corners, then the edges, then the face (Ericson, 5.1.5).
+fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Feature) {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, Feature::Corner(0));
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, Feature::Corner(1));
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return (a + ab * (d1 / (d1 - d3)), Feature::Edge(0));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, Feature::Corner(2));
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return (a + ac * (d2 / (d2 - d6)), Feature::Edge(2));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * w, Feature::Edge(1));
+    }
+    let total = va + vb + vc;
+    if total <= 0.0 {
+        // No area: the nearest of its edges' ends will do.
+        return (a, Feature::Corner(0));
+    }
+    (
+        a + ab * (vb / total) + ac * (vc / total),
+        Feature::Face,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube's 12 triangles, wound outward.
+    fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let v: Vec<DVec3> = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let t = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        (v, t)
+    }
+
+    /// A reproducible point in [-0.5, 1.5]³.
+    fn point(k: u64) -> DVec3 {
+        let hash = |s: u64| {
+            let x = (k.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ s).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        DVec3::new(hash(1), hash(2), hash(3)) * 2.0 - 0.5
+    }
+
+    #[test]
+    fn the_distance_to_a_cube_is_the_box_formula_inside_and_out() {
+        let (v, t) = cube();
+        let mesh = SignedMesh::new(&v, &t, 0.1).unwrap();
+        for k in 0..2000 {
+            let p = point(k);
+            let q = (p - 0.5).abs() - 0.5;
+            let exact = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
+            assert!((mesh.distance(p) - exact).abs() < 1e-12, "{p}");
+        }
+    }
+
+    #[test]
+    fn a_cube_is_sampled_at_its_corners_and_along_its_edges() {
+        let (v, t) = cube();
+        let mesh = SignedMesh::new(&v, &t, 0.1).unwrap();
+        // 8 corners and 9 points inside each of the 12 edges; none across the faces'
+        // diagonals, which are flat.
+        assert_eq!(mesh.samples().len(), 8 + 12 * 9);
+        assert!((mesh.radius() - 3f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_open_or_inside_out_surface_is_refused() {
+        let (v, mut t) = cube();
+        let welded_twice: Vec<DVec3> = v.iter().chain(&v).copied().collect();
+        let shifted: Vec<[u32; 3]> = t
+            .iter()
+            .enumerate()
+            .map(|(i, x)| if i % 2 == 0 { x.map(|i| i + 8) } else { *x })
+            .collect();
+        // Corners repeated at the same places are welded into a closed cube again.
+        assert!(SignedMesh::new(&welded_twice, &shifted, 0.1).is_ok());
+        t.pop();
+        assert_eq!(
+            SignedMesh::new(&v, &t, 0.1),
+            Err(MeshFault::Open { edges: 3 })
+        );
+        let (v, mut t) = cube();
+        t[0].swap(1, 2);
+        assert!(matches!(
+            SignedMesh::new(&v, &t, 0.1),
+            Err(MeshFault::Tangled { .. })
+        ));
+        let mut bad = v.clone();
+        bad[3].x = f64::NAN;
+        assert_eq!(SignedMesh::new(&bad, &t, 0.1), Err(MeshFault::Corrupt));
+        assert_eq!(SignedMesh::new(&v, &[], 0.1), Err(MeshFault::Empty));
+    }
+
+    #[test]
+    fn the_pairs_near_a_placed_mesh_are_those_a_scan_of_every_pair_finds() {
+        let (v, t) = cube();
+        let mesh = SignedMesh::new(&v, &t, 0.05).unwrap();
+        let turn = DQuat::from_rotation_y(0.4) * DQuat::from_rotation_x(0.3);
+        let shift = DVec3::new(0.7, 0.9, 0.2);
+        let reach = 0.05;
+        let mut found = Vec::new();
+        mesh.visit_near(&mesh, (turn, shift), reach, |s, t| {
+            if mesh.near(t, turn * mesh.samples()[s] + shift).distance.abs() <= reach {
+                found.push((s, t));
+            }
+        });
+        found.sort_unstable();
+        found.dedup();
+        let mut expected = Vec::new();
+        for (s, p) in mesh.samples().iter().enumerate() {
+            for t in 0..12 {
+                if mesh.near(t, turn * *p + shift).distance.abs() <= reach {
+                    expected.push((s, t));
+                }
+            }
+        }
+        assert!(!expected.is_empty());
+        assert_eq!(found, expected);
+    }
+}
