@@ -6,6 +6,7 @@
 #[path = "../support/mod.rs"]
 mod support;
 
+mod assembly;
 mod experiments;
 mod haptic_loop;
 mod mesh_readers;

@@ -164,10 +164,9 @@ impl Bvh {
             }
             match (mine.count > 0, theirs.count > 0) {
                 (true, true) => {
-                    for &i in &self.order[mine.start as usize..(mine.start + mine.count) as usize]
-                    {
-                        for &j in
-                            &other.order[theirs.start as usize..(theirs.start + theirs.count) as usize]
+                    for &i in &self.order[mine.start as usize..(mine.start + mine.count) as usize] {
+                        for &j in &other.order
+                            [theirs.start as usize..(theirs.start + theirs.count) as usize]
                         {
                             visit(i as usize, j as usize);
                         }

@@ -26,7 +26,7 @@ use crate::kinematics::{Wrench, rotation_vector};
 /// Most contacts a tick solves over.
 pub const CONTACTS: usize = 64;
 /// Most Gauss–Seidel sweeps over the contacts in a tick.
-pub const SWEEPS: usize = 60;
+pub const SWEEPS: usize = 200;
 /// Samples a query may find near one obstacle: a tick finding more keeps its last pose.
 pub const CANDIDATES: usize = 3072;
 /// Slots of the table the candidates are gathered in (a power of two, well over
@@ -41,13 +41,22 @@ const MIN_REACH: f64 = 2e-5;
 /// the nearer is kept.
 const SAME_SIDE: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
-/// The spring the user feels and how far the proxy may move in a tick.
+/// The spring and damper the user feels and how far the proxy may move in a tick.
+///
+/// A spring displayed a tick at a time gives back k·T/2 per unit speed squared more than
+/// it took (T the tick); a damper past that, b > k·T/2 (Colgate and Schenkel), keeps the
+/// whole passive, as the defaults are at 1 kHz. It acts only on the grip's motion relative
+/// to the proxy's: none when the part moves freely with the hand.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GodObjectParameters {
     /// Spring between grip and proxy, N/m.
     pub stiffness: f64,
+    /// Damper between grip and proxy, N·s/m.
+    pub damping: f64,
     /// Rotational spring between grip and proxy, N·m/rad.
     pub rotational_stiffness: f64,
+    /// Rotational damper between grip and proxy, N·m·s/rad.
+    pub rotational_damping: f64,
     /// Farthest any point of the part moves in one tick, metres: a hand far from the
     /// proxy (at the start, or pressed deep) is caught up with at this pace.
     pub max_step: f64,
@@ -57,7 +66,9 @@ impl Default for GodObjectParameters {
     fn default() -> Self {
         Self {
             stiffness: 2_000.0,
+            damping: 5.0,
             rotational_stiffness: 2.0,
+            rotational_damping: 5e-3,
             max_step: 2e-3,
         }
     }
@@ -186,10 +197,10 @@ impl Table {
             if full {
                 return;
             }
-            let near = triangles.near(t, turn * samples.samples()[s] + shift);
-            if near.distance.abs() > reach {
+            let Some(near) = triangles.near_within(t, turn * samples.samples()[s] + shift, reach)
+            else {
                 return;
-            }
+            };
             match self.slot(s) {
                 Some(slot) => slot.take(near),
                 None => full = true,
@@ -227,16 +238,120 @@ impl Table {
     }
 }
 
-/// The contacts of a tick, the deepest [`CONTACTS`] of those found.
+/// The contacts of a tick: those found, then the few that stand for them.
+///
+/// Contacts along one flat stretch of an obstacle (the same obstacle, normals within
+/// [`FLAT_COSINE`], the same plane to within [`SAME_PLANE`]) are one cluster. Each of their
+/// constraints n·(v + ω × r) ≥ −gap is affine in the point r where the surfaces are flat,
+/// so those at the corners of the cluster's spread imply the rest: each cluster keeps the
+/// points farthest along eight directions across its normal, and its deepest.
 #[derive(Debug, Clone)]
 struct Found {
+    raw: Vec<Contact>,
+    clusters: Vec<Cluster>,
     contacts: [Contact; CONTACTS],
     count: usize,
     /// The smallest gap of those left out (infinite when none was).
     spill: f64,
 }
 
+/// Contacts found before they are reduced, at most.
+const RAW: usize = 4096;
+/// Clusters a tick sorts its contacts into, at most.
+const CLUSTERS: usize = 128;
+/// Normals of one cluster are within this (cosine: 3°).
+const FLAT_COSINE: f64 = 0.9986;
+/// Contacts of one cluster lie on planes this close, metres.
+const SAME_PLANE: f64 = 2e-4;
+/// The directions across a cluster's normal its extreme points are taken along, and its
+/// deepest.
+const EXTREMES: usize = 9;
+
+/// Contacts along one flat stretch.
+#[derive(Debug, Clone, Copy)]
+struct Cluster {
+    obstacle: usize,
+    normal: DVec3,
+    /// The obstacle's plane: n·q for a point q of its surface.
+    offset: f64,
+    across: (DVec3, DVec3),
+    /// For each direction, the best score so far and its contact among the raw ones.
+    best: [(f64, u32); EXTREMES],
+}
+
 impl Found {
+    fn new() -> Self {
+        Self {
+            raw: Vec::with_capacity(RAW),
+            clusters: Vec::with_capacity(CLUSTERS),
+            contacts: [Contact::default(); CONTACTS],
+            count: 0,
+            spill: f64::INFINITY,
+        }
+    }
+
+    /// [rt] Start a tick.
+    fn clear(&mut self) {
+        self.raw.clear();
+        self.clusters.clear();
+        (self.count, self.spill) = (0, f64::INFINITY);
+    }
+
+    /// [rt] Take `contact` in, or count it as left out when there is no room.
+    fn add(&mut self, contact: Contact) {
+        if self.raw.len() < RAW {
+            self.raw.push(contact);
+        } else {
+            self.spill = self.spill.min(contact.gap);
+        }
+    }
+
+    /// [rt] Sort the contacts found into clusters and keep those that stand for each.
+    fn reduce(&mut self) {
+        for (i, c) in self.raw.iter().enumerate() {
+            let offset = c.normal.dot(c.point) - c.gap;
+            let found = self.clusters.iter().position(|k| {
+                k.obstacle == c.obstacle
+                    && k.normal.dot(c.normal) > FLAT_COSINE
+                    && (k.offset - offset).abs() < SAME_PLANE
+            });
+            let cluster = match found {
+                Some(k) => &mut self.clusters[k],
+                None if self.clusters.len() < CLUSTERS => {
+                    self.clusters.push(Cluster {
+                        obstacle: c.obstacle,
+                        normal: c.normal,
+                        offset,
+                        across: c.normal.any_orthonormal_pair(),
+                        best: [(f64::NEG_INFINITY, 0); EXTREMES],
+                    });
+                    self.clusters.last_mut().expect("just pushed")
+                }
+                None => {
+                    self.spill = self.spill.min(c.gap);
+                    continue;
+                }
+            };
+            let (a, b) = cluster.across;
+            let (x, y) = (c.point.dot(a), c.point.dot(b));
+            let scores = [x, -x, y, -y, x + y, -x - y, x - y, y - x, -c.gap];
+            for (best, score) in cluster.best.iter_mut().zip(scores) {
+                if score > best.0 {
+                    *best = (score, i as u32);
+                }
+            }
+        }
+        for k in 0..self.clusters.len() {
+            let best = self.clusters[k].best;
+            for (e, &(_, i)) in best.iter().enumerate() {
+                // A point extreme along several directions is kept once.
+                if best[..e].iter().all(|&(_, j)| j != i) {
+                    self.keep(self.raw[i as usize]);
+                }
+            }
+        }
+    }
+
     /// [rt] Keep `contact` if it is among the deepest.
     fn keep(&mut self, contact: Contact) {
         if self.count < CONTACTS {
@@ -277,6 +392,8 @@ pub struct GodObject {
     /// The query's reach this tick, metres.
     reach: f64,
     table: Table,
+    /// The grip's pose at the last tick.
+    last_grip: Option<(DVec3, DQuat)>,
 }
 
 impl GodObject {
@@ -293,15 +410,12 @@ impl GodObject {
             position,
             orientation: orientation.normalize(),
             parameters,
-            found: Found {
-                contacts: [Contact::default(); CONTACTS],
-                count: 0,
-                spill: f64::INFINITY,
-            },
+            found: Found::new(),
             previous: [(0, 0.0); CONTACTS],
             previous_count: 0,
             reach: parameters.max_step,
             table: Table::new(),
+            last_grip: None,
         }
     }
 
@@ -326,12 +440,20 @@ impl GodObject {
         (self.position, self.orientation) = (position, orientation.normalize());
         (self.found.count, self.previous_count) = (0, 0);
         self.reach = self.parameters.max_step;
+        self.last_grip = None;
     }
 
     /// [rt] Move the proxy towards the grip at `grip` (position, orientation) as far as the
-    /// `obstacles` let it, and give the wrench the user feels. Allocates nothing.
-    pub fn update(&mut self, grip: (DVec3, DQuat), obstacles: &[Obstacle]) -> GodObjectOutput {
+    /// `obstacles` let it, `dt` after the last tick, and give the wrench the user feels.
+    /// Allocates nothing.
+    pub fn update(
+        &mut self,
+        grip: (DVec3, DQuat),
+        dt: f64,
+        obstacles: &[Obstacle],
+    ) -> GodObjectOutput {
         let (grip_position, grip_orientation) = grip;
+        let (was, was_turned) = (self.position, self.orientation);
         let found = self.find_contacts(obstacles);
         let penetration = self.contacts().iter().map(|c| -c.gap).fold(0.0, f64::max);
         if found {
@@ -341,11 +463,14 @@ impl GodObject {
             );
             let (v, w) = self.solve(wanted);
             let motion = v.length() + w.length() * self.part.radius();
-            // The next tick looks as far as this one wanted to go, and somewhat farther.
-            self.reach = (1.5 * motion + MIN_REACH).clamp(MIN_REACH, self.parameters.max_step);
-            // No point may pass a contact this tick left out, nor go beyond the reach.
-            let limit = self.parameters.max_step.min(self.found.spill.max(0.0));
+            // No point may go beyond what this tick looked at, nor pass a contact it left
+            // out.
+            let limit = self.reach.min(self.found.spill.max(0.0));
             let scale = if motion > limit { limit / motion } else { 1.0 };
+            // The next tick looks somewhat farther than this one went: a part held back by
+            // its reach looks farther each tick, one that stopped looks close.
+            self.reach =
+                (1.5 * motion * scale + MIN_REACH).clamp(MIN_REACH, self.parameters.max_step);
             let (position, orientation) = (
                 self.position + v * scale,
                 (DQuat::from_scaled_axis(w * scale) * self.orientation).normalize(),
@@ -358,12 +483,24 @@ impl GodObject {
             self.previous_count = 0;
         }
         let p = &self.parameters;
+        let mut felt = Wrench {
+            force: p.stiffness * (self.position - grip_position),
+            torque: p.rotational_stiffness
+                * rotation_vector(self.orientation * grip_orientation.inverse()),
+        };
+        if let Some((last, last_turned)) = self.last_grip
+            && dt > 0.0
+        {
+            // The proxy's motion over the tick less the grip's.
+            let slip = (self.position - was) - (grip_position - last);
+            let turn = rotation_vector(self.orientation * was_turned.inverse())
+                - rotation_vector(grip_orientation * last_turned.inverse());
+            felt.force += p.damping / dt * slip;
+            felt.torque += p.rotational_damping / dt * turn;
+        }
+        self.last_grip = Some(grip);
         GodObjectOutput {
-            felt: Wrench {
-                force: p.stiffness * (self.position - grip_position),
-                torque: p.rotational_stiffness
-                    * rotation_vector(self.orientation * grip_orientation.inverse()),
-            },
+            felt,
             penetration,
             held_back: !found,
         }
@@ -372,7 +509,7 @@ impl GodObject {
     /// [rt] Gather the contacts within this tick's reach, both ways round for each
     /// obstacle; false when an obstacle had more candidates than the table holds.
     fn find_contacts(&mut self, obstacles: &[Obstacle]) -> bool {
-        (self.found.count, self.found.spill) = (0, f64::INFINITY);
+        self.found.clear();
         let part = (self.position, self.orientation);
         for (o, obstacle) in obstacles.iter().enumerate() {
             let other = (obstacle.position, obstacle.orientation);
@@ -401,7 +538,7 @@ impl GodObject {
                         } else {
                             (to_turn * near.point + to, -outward)
                         };
-                        self.found.keep(Contact {
+                        self.found.add(Contact {
                             obstacle: o,
                             point,
                             normal,
@@ -414,6 +551,7 @@ impl GodObject {
                 self.table.clear();
             }
         }
+        self.found.reduce();
         true
     }
 
@@ -462,8 +600,10 @@ impl GodObject {
         let mut scale = 1.0f64;
         for (i, c) in contacts.iter().enumerate() {
             let along = c.normal.dot(v) + arms[i].dot(w);
-            if c.gap >= 0.0 && c.gap + along < 0.0 {
-                scale = scale.min(c.gap / -along);
+            // Within the solve's tolerance is solved: a contact resting at no gap would
+            // otherwise hold the proxy still for good.
+            if c.gap >= 0.0 && c.gap + along < -TOLERANCE {
+                scale = scale.min((c.gap + TOLERANCE) / -along);
             }
         }
         for (slot, c) in self.previous.iter_mut().zip(contacts.iter()) {

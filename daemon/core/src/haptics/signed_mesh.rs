@@ -114,7 +114,10 @@ impl SignedMesh {
         }
         if !(spacing > 0.0 && spacing.is_finite())
             || vertices.iter().any(|v| !v.is_finite())
-            || triangles.iter().flatten().any(|&i| i as usize >= vertices.len())
+            || triangles
+                .iter()
+                .flatten()
+                .any(|&i| i as usize >= vertices.len())
         {
             return Err(MeshFault::Corrupt);
         }
@@ -144,10 +147,7 @@ impl SignedMesh {
         let mut tangled = 0;
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
-                if edges
-                    .insert((tri[k], tri[(k + 1) % 3]), (t, k))
-                    .is_some()
-                {
+                if edges.insert((tri[k], tri[(k + 1) % 3]), (t, k)).is_some() {
                     tangled += 1;
                 }
             }
@@ -155,7 +155,10 @@ impl SignedMesh {
         if tangled > 0 {
             return Err(MeshFault::Tangled { edges: tangled });
         }
-        let open = edges.keys().filter(|&&(a, b)| !edges.contains_key(&(b, a))).count();
+        let open = edges
+            .keys()
+            .filter(|&&(a, b)| !edges.contains_key(&(b, a)))
+            .count();
         if open > 0 {
             return Err(MeshFault::Open { edges: open });
         }
@@ -193,7 +196,9 @@ impl SignedMesh {
                 let turn = mine.angle_between(theirs);
                 if a < b && turn > FLAT {
                     let (p, q) = (points[a as usize], points[b as usize]);
-                    let step = spacing / (turn / 2.0).tan().clamp(0.25, 4.0).min(1.0 / FLAT);
+                    // A crossing between samples h apart goes about h/2·tan(turn/2) deep:
+                    // half the spacing whatever the crease.
+                    let step = spacing / (turn / 2.0).tan().min(4.0);
                     let pieces = ((q - p).length() / step).ceil() as usize;
                     samples.extend((1..pieces).map(|i| p.lerp(q, i as f64 / pieces as f64)));
                 }
@@ -257,7 +262,25 @@ impl SignedMesh {
     pub fn near(&self, t: usize, p: DVec3) -> Near {
         let tri = self.triangles[t];
         let [a, b, c] = tri.map(|i| self.vertices[i as usize]);
-        let (point, feature) = closest_on_triangle(p, a, b, c);
+        self.signed(t, p, closest_on_triangle(p, a, b, c))
+    }
+
+    /// [rt] As [`near`](Self::near), or None when `p` is farther than `reach` from the
+    /// triangle: its plane looked at first, which settles most.
+    pub fn near_within(&self, t: usize, p: DVec3, reach: f64) -> Option<Near> {
+        let tri = self.triangles[t];
+        let a = self.vertices[tri[0] as usize];
+        if (p - a).dot(self.normals[t]).abs() > reach {
+            return None;
+        }
+        let [b, c] = [tri[1], tri[2]].map(|i| self.vertices[i as usize]);
+        let closest = closest_on_triangle(p, a, b, c);
+        ((p - closest.0).length_squared() <= reach * reach).then(|| self.signed(t, p, closest))
+    }
+
+    /// The nearness of `p` to triangle `t` whose closest point is `point` on `feature`.
+    fn signed(&self, t: usize, p: DVec3, (point, feature): (DVec3, Feature)) -> Near {
+        let tri = self.triangles[t];
         let pseudo = match feature {
             Feature::Face => self.normals[t],
             Feature::Edge(k) => self.edge_normals[t][k as usize],
@@ -274,7 +297,11 @@ impl SignedMesh {
             };
         }
         let direction = away / length;
-        let sign = if direction.dot(pseudo) < 0.0 { -1.0 } else { 1.0 };
+        let sign = if direction.dot(pseudo) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         Near {
             distance: sign * length,
             point,
@@ -328,10 +355,7 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Featur
         // No area: the nearest of its edges' ends will do.
         return (a, Feature::Corner(0));
     }
-    (
-        a + ab * (vb / total) + ac * (vc / total),
-        Feature::Face,
-    )
+    (a + ab * (vb / total) + ac * (vc / total), Feature::Face)
 }
 
 #[cfg(test)]
@@ -426,7 +450,12 @@ mod tests {
         let reach = 0.05;
         let mut found = Vec::new();
         mesh.visit_near(&mesh, (turn, shift), reach, |s, t| {
-            if mesh.near(t, turn * mesh.samples()[s] + shift).distance.abs() <= reach {
+            if mesh
+                .near(t, turn * mesh.samples()[s] + shift)
+                .distance
+                .abs()
+                <= reach
+            {
                 found.push((s, t));
             }
         });

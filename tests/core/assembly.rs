@@ -1,0 +1,255 @@
+//! A held part's 6-DOF god-object putting pegs into holes, all as triangle meshes: with
+//! clearance the hand inserts the peg to the bottom, with interference it stops at the rim,
+//! and it never enters the block deeper than 0.1 mm by an exact formula for the solids
+//! (not the meshes' own queries); the torque felt against the rim is the rim contact's
+//! moment, and a hand beating the part on the block gets no energy back.
+
+use glam::{DQuat, DVec3};
+use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
+use hapticd_core::haptics::passivity::{PassivityController, PassivityLimits};
+use hapticd_core::haptics::signed_mesh::SignedMesh;
+use hapticd_core::kinematics::rotation_vector;
+
+use crate::support::parts::{Block, MM, Section, edge_points, peg};
+
+/// The haptic tick.
+const DT: f64 = 1e-3;
+/// How deep the peg at `pose` is inside the block, or the block inside the peg, by the
+/// exact formulas of both solids, at points 50 µm apart along every edge of both.
+struct Depth {
+    peg_points: Vec<DVec3>,
+    block_points: Vec<DVec3>,
+    peg_ring: Vec<DVec3>,
+    block_rings: [Vec<DVec3>; 2],
+}
+
+impl Depth {
+    fn new(peg: (&SignedMesh, Section), block: (&SignedMesh, &Block)) -> Self {
+        // Only the block's edges around its hole can reach a peg in or over it.
+        let near_hole = |p: &DVec3| DVec3::new(p.x, 0.0, p.z).length() < 1.5 * block.1.hole.apothem;
+        Self {
+            peg_points: edge_points(peg.0, 0.05 * MM),
+            block_points: edge_points(block.0, 0.05 * MM)
+                .into_iter()
+                .filter(near_hole)
+                .collect(),
+            peg_ring: peg.1.ring(0.0),
+            block_rings: [block.1.outer.ring(0.0), block.1.hole.ring(0.0)],
+        }
+    }
+
+    fn at(&self, block: &Block, peg: Section, length: f64, (at, turn): (DVec3, DQuat)) -> f64 {
+        let into_block = (self.peg_points.iter())
+            .map(|&p| block.depth(&self.block_rings, turn * p + at))
+            .fold(0.0, f64::max);
+        let back = turn.inverse();
+        let into_peg = (self.block_points.iter())
+            .map(|&p| peg.depth(&self.peg_ring, back * (p - at), -length / 2.0, length / 2.0))
+            .fold(0.0, f64::max);
+        into_block.max(into_peg)
+    }
+}
+
+/// A peg of `sides` sides and 10 mm across, 20 mm long, put by a hand into a hole 15 mm
+/// deep of `clearance` (the hole's width less the peg's), the hand 0.03 mm off and turned
+/// 1° about z (so that the peg, 20 mm long, does not fit unless it turns): the peg's lowest point in the end, and the deepest it went into the block.
+fn insert(sides: usize, clearance: f64) -> (f64, f64) {
+    let (length, width) = (20.0 * MM, 10.0 * MM);
+    let section = Section {
+        sides,
+        apothem: width / 2.0,
+    };
+    let block = Block {
+        outer: Section {
+            sides,
+            apothem: 15.0 * MM,
+        },
+        hole: Section {
+            sides,
+            apothem: (width + clearance) / 2.0,
+        },
+        height: 25.0 * MM,
+        depth: 15.0 * MM,
+    };
+    let (part, solid) = (peg(section, length), block.mesh());
+    let depth = Depth::new((&part, section), (&solid, &block));
+    let turn = DQuat::from_rotation_z(1f64.to_radians());
+    // The peg's tip centred over the hole to within the hand's 0.03 mm.
+    let start = DVec3::new(0.03 * MM, 5.0 * MM, 0.0) + turn * DVec3::Y * (length / 2.0);
+    let mut god = GodObject::new(part, start, turn, GodObjectParameters::default());
+    let obstacles = [Obstacle {
+        mesh: &solid,
+        position: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+    }];
+    let mut deepest = 0.0f64;
+    // Down at 40 mm/s for 0.6 s (to 4 mm below the hole's floor), then held there.
+    for tick in 0..800 {
+        let down = 40.0 * (tick.min(600) as f64 * DT);
+        let grip = (start - DVec3::Y * down * MM, turn);
+        let out = god.update(grip, DT, &obstacles);
+        assert!(!out.held_back, "tick {tick}");
+        assert!(out.felt.is_finite());
+        // The god-object's own account every tick, the exact one every 25th.
+        assert!(
+            out.penetration <= 0.1 * MM,
+            "tick {tick}: {}",
+            out.penetration
+        );
+        if tick % 25 == 0 || tick >= 790 {
+            deepest = deepest.max(depth.at(&block, section, length, god.pose()));
+        }
+    }
+    let (at, turn) = god.pose();
+    let lowest = (god.part().samples().iter())
+        .map(|&p| (turn * p + at).y)
+        .fold(f64::INFINITY, f64::min);
+    (lowest, deepest)
+}
+
+#[test]
+fn a_peg_with_clearance_goes_to_the_bottom_and_one_with_interference_stops_at_the_rim() {
+    for sides in [4, 48] {
+        let name = if sides == 4 { "square" } else { "round" };
+        let (bottom, deepest) = insert(sides, 0.2 * MM);
+        eprintln!(
+            "{name} peg, 0.2 mm clearance: its bottom at {:.4} mm, at most {:.4} mm into the block",
+            bottom / MM,
+            deepest / MM
+        );
+        assert!((bottom + 15.0 * MM).abs() < 0.01 * MM, "{name}: {bottom}");
+        assert!(deepest <= 0.1 * MM, "{name}: {deepest}");
+        let (bottom, deepest) = insert(sides, -0.2 * MM);
+        eprintln!(
+            "{name} peg, 0.2 mm interference: its bottom at {:.4} mm, at most {:.4} mm into the block",
+            bottom / MM,
+            deepest / MM
+        );
+        assert!(bottom.abs() < 0.1 * MM, "{name}: {bottom}");
+        assert!(deepest <= 0.1 * MM, "{name}: {deepest}");
+    }
+}
+
+/// The square peg and its block with 0.2 mm clearance.
+fn square_peg_and_block() -> (SignedMesh, Section, Block) {
+    let section = Section {
+        sides: 4,
+        apothem: 5.0 * MM,
+    };
+    let block = Block {
+        outer: Section {
+            sides: 4,
+            apothem: 15.0 * MM,
+        },
+        hole: Section {
+            sides: 4,
+            apothem: 5.1 * MM,
+        },
+        height: 25.0 * MM,
+        depth: 15.0 * MM,
+    };
+    (peg(section, 20.0 * MM), section, block)
+}
+
+#[test]
+fn the_torque_felt_against_the_rim_is_the_rim_contacts_moment() {
+    let (part, _, block) = square_peg_and_block();
+    let solid = block.mesh();
+    let obstacles = [Obstacle {
+        mesh: &solid,
+        position: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+    }];
+    let (half, rim) = (10.0 * MM, block.hole.apothem);
+    for degrees in [5.0f64, 10.0, 20.0] {
+        // Tilted so, the peg's bottom face spans the rim's edge along z at x = 5.1 mm: the
+        // edge is the one contact. The hand goes 3 mm past where the face meets it.
+        let tilt = degrees.to_radians();
+        let turn = DQuat::from_rotation_z(tilt);
+        let touching = (half - rim * tilt.sin()) / tilt.cos();
+        let start = DVec3::new(0.0, touching + 2.0 * MM, 0.0);
+        let mut god = GodObject::new(part.clone(), start, turn, GodObjectParameters::default());
+        let mut felt = None;
+        for tick in 0..800 {
+            // At 20 mm/s, to 3 mm past the touch.
+            let down = (20.0 * MM * tick as f64 * DT).min(5.0 * MM);
+            felt = Some(
+                god.update((start - DVec3::Y * down, turn), DT, &obstacles)
+                    .felt,
+            );
+        }
+        let felt = felt.expect("ticked");
+        let (at, proxy_turn) = god.pose();
+        // Statics of one contact: the rim's edge pushes along the face's normal, through the
+        // middle of the stretch of edge under the face.
+        let contact = DVec3::new(rim, 0.0, at.z);
+        let moment = (contact - at).cross(felt.force);
+        let normal = proxy_turn * DVec3::Y;
+        eprintln!(
+            "tilted {degrees}°: felt {:.4} N, {:.5} N·m; the rim contact's moment {:.5} N·m",
+            felt.force, felt.torque, moment
+        );
+        assert!(felt.force.length() > 1.0, "{felt:?}");
+        assert!(
+            felt.force.normalize().angle_between(normal) < 1f64.to_radians(),
+            "{degrees}°: {felt:?} against the face's normal {normal}"
+        );
+        assert!(
+            (felt.torque - moment).length() <= 0.1 * moment.length(),
+            "{degrees}°: {felt:?} against {moment}"
+        );
+    }
+}
+
+#[test]
+fn a_hand_beating_the_part_on_the_block_gets_no_energy_back() {
+    let (part, _, block) = square_peg_and_block();
+    let solid = block.mesh();
+    let obstacles = [Obstacle {
+        mesh: &solid,
+        position: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+    }];
+    // Over the block's top beside the hole: from 2 mm above it to 2 mm into it twice a
+    // second, sliding to and fro along x and rocking about it meanwhile.
+    let grip = |tick: usize| {
+        let t = tick as f64 * DT;
+        let tau = std::f64::consts::TAU;
+        let position = DVec3::new(
+            10.0 * MM + 1.5 * MM * (tau * t).sin(),
+            12.0 * MM - 4.0 * MM * (1.0 - (tau * 2.0 * t).cos()) / 2.0,
+            0.0,
+        );
+        (
+            position,
+            DQuat::from_rotation_x(3f64.to_radians() * (tau * 1.5 * t).sin()),
+        )
+    };
+    let mut god = GodObject::new(part, grip(0).0, grip(0).1, GodObjectParameters::default());
+    let mut passivity = [PassivityController::new(PassivityLimits::default()); 2];
+    let (mut given, mut raw) = (0.0, 0.0);
+    let mut cycles = Vec::new();
+    let mut velocity = (DVec3::ZERO, DVec3::ZERO);
+    for tick in 0..4000 {
+        let (now, next) = (grip(tick), grip(tick + 1));
+        let felt = god.update(now, DT, &obstacles).felt;
+        let force = passivity[0].filter(felt.force, velocity.0, DT);
+        let torque = passivity[1].filter(felt.torque, velocity.1, DT);
+        // The hand moves on while the wrench is displayed through the tick: the work done
+        // on it is the wrench times that motion.
+        let moved = (next.0 - now.0, rotation_vector(next.1 * now.1.inverse()));
+        given += force.dot(moved.0) + torque.dot(moved.1);
+        raw += felt.force.dot(moved.0) + felt.torque.dot(moved.1);
+        // What the loop knows at the next tick: the motion it just saw.
+        velocity = (moved.0 / DT, moved.1 / DT);
+        if (tick + 1) % 500 == 0 {
+            cycles.push((given, raw));
+            (given, raw) = (0.0, 0.0);
+        }
+    }
+    for (k, (given, raw)) in cycles.iter().enumerate() {
+        eprintln!("cycle {k}: {given:.3e} J to the hand ({raw:.3e} J before the controller)");
+        assert!(*raw <= 0.0, "cycle {k}: {raw} J");
+        assert!(*given <= 0.0, "cycle {k}: {given} J");
+    }
+}

@@ -1,0 +1,182 @@
+//! Parts to put together, as closed triangle meshes made to measure: pegs of any section
+//! and blocks with holes, with the exact distance to each solid for checking what the
+//! meshes' own queries say.
+
+use glam::DVec3;
+use hapticd_core::haptics::signed_mesh::SignedMesh;
+
+/// Millimetres.
+pub const MM: f64 = 1e-3;
+/// The creases' samples' spacing.
+pub const SPACING: f64 = 0.1 * MM;
+
+/// A right prism's cross-section: `sides` sides at `apothem` from its axis (y), a side's
+/// middle on +x.
+#[derive(Debug, Clone, Copy)]
+pub struct Section {
+    pub sides: usize,
+    pub apothem: f64,
+}
+
+impl Section {
+    /// Its corners at height `y`, counter-clockwise seen from above.
+    pub fn ring(&self, y: f64) -> Vec<DVec3> {
+        let n = self.sides as f64;
+        let radius = self.apothem / (std::f64::consts::PI / n).cos();
+        (0..self.sides)
+            .map(|i| {
+                let angle = (i as f64 + 0.5) * std::f64::consts::TAU / n;
+                DVec3::new(radius * angle.cos(), y, -radius * angle.sin())
+            })
+            .collect()
+    }
+
+    /// How deep `p` is inside the prism between heights `low` and `high` (0 outside),
+    /// exactly, its `ring` at height 0 given.
+    pub fn depth(&self, ring: &[DVec3], p: DVec3, low: f64, high: f64) -> f64 {
+        let mut deepest = (p.y - low).min(high - p.y);
+        for i in 0..self.sides {
+            let normal = (ring[i] + ring[(i + 1) % self.sides]).normalize();
+            deepest = deepest.min(self.apothem - DVec3::new(p.x, 0.0, p.z).dot(normal));
+            if deepest <= 0.0 {
+                return 0.0;
+            }
+        }
+        deepest
+    }
+
+    /// How far `p` is outside the prism between heights `low` and `high` (0 inside),
+    /// exactly, its `ring` at height 0 given.
+    pub fn outside(&self, ring: &[DVec3], p: DVec3, low: f64, high: f64) -> f64 {
+        let flat = DVec3::new(p.x, 0.0, p.z);
+        let beside = (0..self.sides).any(|i| {
+            let normal = (ring[i] + ring[(i + 1) % self.sides]).normalize();
+            flat.dot(normal) > self.apothem
+        });
+        // Beside it, the nearest side's segment across.
+        let across = if beside {
+            (0..self.sides)
+                .map(|i| {
+                    let (a, b) = (ring[i], ring[(i + 1) % self.sides]);
+                    let t = ((flat - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+                    (flat - (a + (b - a) * t)).length()
+                })
+                .fold(f64::INFINITY, f64::min)
+        } else {
+            0.0
+        };
+        let along = (low - p.y).max(p.y - high).max(0.0);
+        across.hypot(along)
+    }
+}
+
+/// A mesh being built: triangles wound by which way each should face.
+#[derive(Default)]
+struct Builder {
+    vertices: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Builder {
+    /// A triangle facing `outward` (its winding chosen for it).
+    fn triangle(&mut self, a: DVec3, b: DVec3, c: DVec3, outward: DVec3) {
+        let n = self.vertices.len() as u32;
+        let (b, c) = if (b - a).cross(c - a).dot(outward) >= 0.0 {
+            (b, c)
+        } else {
+            (c, b)
+        };
+        self.vertices.extend([a, b, c]);
+        self.triangles.push([n, n + 1, n + 2]);
+    }
+
+    /// The band of quads between two rings, facing away from (or towards, `inward`) the axis.
+    fn band(&mut self, lower: &[DVec3], upper: &[DVec3], inward: bool) {
+        let n = lower.len();
+        for i in 0..n {
+            let j = (i + 1) % n;
+            let middle = (lower[i] + lower[j]) / 2.0;
+            let out = DVec3::new(middle.x, 0.0, middle.z) * if inward { -1.0 } else { 1.0 };
+            self.triangle(lower[i], lower[j], upper[j], out);
+            self.triangle(lower[i], upper[j], upper[i], out);
+        }
+    }
+
+    /// A ring's cap, facing `outward`.
+    fn cap(&mut self, ring: &[DVec3], outward: DVec3) {
+        let centre = ring.iter().sum::<DVec3>() / ring.len() as f64;
+        for i in 0..ring.len() {
+            self.triangle(centre, ring[i], ring[(i + 1) % ring.len()], outward);
+        }
+    }
+
+    /// The flat ring between two rings at one height, facing `outward`.
+    fn annulus(&mut self, outer: &[DVec3], inner: &[DVec3], outward: DVec3) {
+        let n = outer.len();
+        for i in 0..n {
+            let j = (i + 1) % n;
+            self.triangle(outer[i], outer[j], inner[j], outward);
+            self.triangle(outer[i], inner[j], inner[i], outward);
+        }
+    }
+
+    fn mesh(&self) -> SignedMesh {
+        SignedMesh::new(&self.vertices, &self.triangles, SPACING).expect("a closed surface")
+    }
+}
+
+/// A peg of `section` and `length`, its frame at its middle.
+pub fn peg(section: Section, length: f64) -> SignedMesh {
+    let (bottom, top) = (section.ring(-length / 2.0), section.ring(length / 2.0));
+    let mut b = Builder::default();
+    b.band(&bottom, &top, false);
+    b.cap(&bottom, -DVec3::Y);
+    b.cap(&top, DVec3::Y);
+    b.mesh()
+}
+
+/// A block of `outer` section and `height` whose top is at y = 0, a hole of `hole` section
+/// and `depth` down from its top.
+pub struct Block {
+    pub outer: Section,
+    pub hole: Section,
+    pub height: f64,
+    pub depth: f64,
+}
+
+impl Block {
+    pub fn mesh(&self) -> SignedMesh {
+        let mut b = Builder::default();
+        let (bottom, top) = (self.outer.ring(-self.height), self.outer.ring(0.0));
+        let (rim, floor) = (self.hole.ring(0.0), self.hole.ring(-self.depth));
+        b.band(&bottom, &top, false);
+        b.cap(&bottom, -DVec3::Y);
+        b.annulus(&top, &rim, DVec3::Y);
+        b.band(&floor, &rim, true);
+        b.cap(&floor, DVec3::Y);
+        b.mesh()
+    }
+
+    /// How deep `p` is inside the block's solid (0 outside), exactly, its sections'
+    /// `rings` at height 0 given.
+    pub fn depth(&self, rings: &[Vec<DVec3>; 2], p: DVec3) -> f64 {
+        match self.outer.depth(&rings[0], p, -self.height, 0.0) {
+            0.0 => 0.0,
+            inside => inside.min(self.hole.outside(&rings[1], p, -self.depth, 1.0)),
+        }
+    }
+}
+
+/// Points every `step` along each edge of `mesh`'s triangles, in its frame.
+pub fn edge_points(mesh: &SignedMesh, step: f64) -> Vec<DVec3> {
+    let mut points = Vec::new();
+    for [a, b, c] in mesh.triangles() {
+        for (p, q) in [(a, b), (b, c), (c, a)] {
+            let n = ((q - p).length() / step).ceil().max(1.0) as usize;
+            points.extend((0..n).map(|i| p.lerp(q, i as f64 / n as f64)));
+        }
+    }
+    points.sort_unstable_by(|x, y| x.to_array().partial_cmp(&y.to_array()).unwrap());
+    points.dedup();
+    points
+}
