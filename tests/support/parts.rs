@@ -102,21 +102,45 @@ impl Builder {
         }
     }
 
-    /// A ring's cap, facing `outward`.
-    fn cap(&mut self, ring: &[DVec3], outward: DVec3) {
-        let centre = ring.iter().sum::<DVec3>() / ring.len() as f64;
-        for i in 0..ring.len() {
-            self.triangle(centre, ring[i], ring[(i + 1) % ring.len()], outward);
+    /// The side of a prism of `section` from height `low` to `high`, in layers no taller
+    /// than `step`, facing away from (or towards, `inward`) the axis.
+    fn side(&mut self, section: Section, (low, high): (f64, f64), step: f64, inward: bool) {
+        let layers = ((high - low) / step).ceil().max(1.0) as usize;
+        let at = |k: usize| low + (high - low) * k as f64 / layers as f64;
+        for k in 0..layers {
+            self.band(&section.ring(at(k)), &section.ring(at(k + 1)), inward);
         }
     }
 
-    /// The flat ring between two rings at one height, facing `outward`.
-    fn annulus(&mut self, outer: &[DVec3], inner: &[DVec3], outward: DVec3) {
-        let n = outer.len();
-        for i in 0..n {
-            let j = (i + 1) % n;
-            self.triangle(outer[i], outer[j], inner[j], outward);
-            self.triangle(outer[i], inner[j], inner[i], outward);
+    /// The flat ring at height `y` between sections of `sides` sides at apothems `inner`
+    /// (0: a disc) and `outer`, in rings no wider than `step`, facing `outward`.
+    fn flat(
+        &mut self,
+        sides: usize,
+        (inner, outer): (f64, f64),
+        y: f64,
+        step: f64,
+        outward: DVec3,
+    ) {
+        let rings = ((outer - inner) / step).ceil().max(1.0) as usize;
+        let ring = |k: usize| {
+            let apothem = inner + (outer - inner) * k as f64 / rings as f64;
+            Section { sides, apothem }.ring(y)
+        };
+        for k in 0..rings {
+            let (near, far) = (ring(k), ring(k + 1));
+            if k == 0 && inner == 0.0 {
+                let centre = DVec3::new(0.0, y, 0.0);
+                for i in 0..sides {
+                    self.triangle(centre, far[i], far[(i + 1) % sides], outward);
+                }
+                continue;
+            }
+            for i in 0..sides {
+                let j = (i + 1) % sides;
+                self.triangle(far[i], far[j], near[j], outward);
+                self.triangle(far[i], near[j], near[i], outward);
+            }
         }
     }
 
@@ -127,11 +151,17 @@ impl Builder {
 
 /// A peg of `section` and `length`, its frame at its middle.
 pub fn peg(section: Section, length: f64) -> SignedMesh {
-    let (bottom, top) = (section.ring(-length / 2.0), section.ring(length / 2.0));
+    fine_peg(section, length, f64::INFINITY)
+}
+
+/// A peg as [`peg`] gives, its faces cut into triangles no wider than about `step`.
+pub fn fine_peg(section: Section, length: f64, step: f64) -> SignedMesh {
     let mut b = Builder::default();
-    b.band(&bottom, &top, false);
-    b.cap(&bottom, -DVec3::Y);
-    b.cap(&top, DVec3::Y);
+    let half = length / 2.0;
+    b.side(section, (-half, half), step, false);
+    for (y, outward) in [(-half, -DVec3::Y), (half, DVec3::Y)] {
+        b.flat(section.sides, (0.0, section.apothem), y, step, outward);
+    }
     b.mesh()
 }
 
@@ -146,14 +176,19 @@ pub struct Block {
 
 impl Block {
     pub fn mesh(&self) -> SignedMesh {
+        self.fine_mesh(f64::INFINITY)
+    }
+
+    /// The mesh as [`Block::mesh`] gives it, its faces cut into triangles no wider than
+    /// about `step`.
+    pub fn fine_mesh(&self, step: f64) -> SignedMesh {
         let mut b = Builder::default();
-        let (bottom, top) = (self.outer.ring(-self.height), self.outer.ring(0.0));
-        let (rim, floor) = (self.hole.ring(0.0), self.hole.ring(-self.depth));
-        b.band(&bottom, &top, false);
-        b.cap(&bottom, -DVec3::Y);
-        b.annulus(&top, &rim, DVec3::Y);
-        b.band(&floor, &rim, true);
-        b.cap(&floor, DVec3::Y);
+        let (outer, hole, sides) = (self.outer, self.hole, self.outer.sides);
+        b.side(outer, (-self.height, 0.0), step, false);
+        b.flat(sides, (0.0, outer.apothem), -self.height, step, -DVec3::Y);
+        b.flat(sides, (hole.apothem, outer.apothem), 0.0, step, DVec3::Y);
+        b.side(hole, (-self.depth, 0.0), step, true);
+        b.flat(sides, (0.0, hole.apothem), -self.depth, step, DVec3::Y);
         b.mesh()
     }
 

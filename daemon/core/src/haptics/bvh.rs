@@ -1,15 +1,19 @@
 //! A bounding-volume hierarchy of axis-aligned boxes, for finding the few triangles of a
 //! large mesh that a proxy's step can reach: built once off the haptic thread (each node's
-//! items split at the median of their centres along the box's longest side), walked in the
-//! haptic thread with a stack of fixed size, so a query neither allocates nor recurses.
+//! items split at the middle of the box's longest side, or at the median of their centres
+//! where that leaves one side empty or the tree grows deep), walked in the haptic thread with
+//! a stack of fixed size, so a query neither allocates nor recurses.
 
 use glam::{DQuat, DVec3};
 
 /// Most items in a leaf: a few triangle tests cost less than another level of boxes.
 const LEAF: usize = 4;
-/// Nodes a walk holds at once: one more than the tree is deep, and median splits halve the
-/// items at each level, so 2^47 items would be needed to overflow it.
-const DEPTH: usize = 48;
+/// Levels split at the middle of a box, at most; deeper, at the median of the centres.
+const MIDDLE_SPLITS: usize = 48;
+/// Nodes a walk holds at once: one more than the tree is deep. Past [`MIDDLE_SPLITS`]
+/// levels median splits halve the items at each level, so 2^47 items would be needed to
+/// overflow it.
+const DEPTH: usize = MIDDLE_SPLITS + 48;
 
 /// One node: its box, and either its items (a leaf) or its second child (the first follows
 /// it).
@@ -39,13 +43,13 @@ impl Bvh {
             order: (0..boxes.len() as u32).collect(),
         };
         if !boxes.is_empty() {
-            bvh.split(boxes, 0, boxes.len());
+            bvh.split(boxes, 0, boxes.len(), 0);
         }
         bvh
     }
 
-    /// Add the node of items `order[start..end]` and its children; its index.
-    fn split(&mut self, boxes: &[(DVec3, DVec3)], start: usize, end: usize) -> usize {
+    /// Add the node of items `order[start..end]`, `level` deep, and its children; its index.
+    fn split(&mut self, boxes: &[(DVec3, DVec3)], start: usize, end: usize, level: usize) -> usize {
         let items = &mut self.order[start..end];
         let (low, high) =
             items
@@ -76,10 +80,24 @@ impl Bvh {
             let (a, b) = boxes[*i as usize];
             (a + b)[axis]
         };
-        let middle = items.len() / 2;
-        items.select_nth_unstable_by(middle, |x, y| centre(x).total_cmp(&centre(y)));
-        self.split(boxes, start, start + middle);
-        let second = self.split(boxes, start + middle, end);
+        // The middle of the box first: a median among many centres at one coordinate (the
+        // corners along a wall's vertical edges) leaves the few elsewhere in every leaf.
+        let half = (low + high)[axis];
+        let mut middle = 0;
+        if level < MIDDLE_SPLITS {
+            for k in 0..items.len() {
+                if centre(&items[k]) < half {
+                    items.swap(middle, k);
+                    middle += 1;
+                }
+            }
+        }
+        if middle == 0 || middle == items.len() {
+            middle = items.len() / 2;
+            items.select_nth_unstable_by(middle, |x, y| centre(x).total_cmp(&centre(y)));
+        }
+        self.split(boxes, start, start + middle, level + 1);
+        let second = self.split(boxes, start + middle, end, level + 1);
         self.nodes[index].start = second as u32;
         self.nodes[index].count = 0;
         index

@@ -124,7 +124,8 @@ struct Slot {
 
 impl Slot {
     /// Take `near` in: the nearest feature first whatever its side, then up to two others
-    /// outside the obstacle and facing more than 45° away from those kept.
+    /// outside the obstacle, seen from within their normal cones, and facing more than 45°
+    /// away from those kept.
     fn take(&mut self, near: Near) {
         let Some(first) = self.kept[0] else {
             self.kept[0] = Some(near);
@@ -137,8 +138,9 @@ impl Slot {
             near
         };
         // Behind a face that is not the nearest is not inside the solid: such a feature
-        // is a far side, no constraint.
-        if near.distance <= 0.0 {
+        // is a far side, no constraint; nor is an edge or corner seen from outside its
+        // normal cone (one inside a flat stretch, seen from beside it).
+        if near.distance <= 0.0 || !near.facing {
             return;
         }
         for k in 0..3 {
@@ -243,8 +245,9 @@ impl Table {
 /// Contacts along one flat stretch of an obstacle (the same obstacle, normals within
 /// [`FLAT_COSINE`], the same plane to within [`SAME_PLANE`]) are one cluster. Each of their
 /// constraints n·(v + ω × r) ≥ −gap is affine in the point r where the surfaces are flat,
-/// so those at the corners of the cluster's spread imply the rest: each cluster keeps the
-/// points farthest along eight directions across its normal, and its deepest.
+/// so those at the corners of the cluster's spread, reckoned with their gaps, imply the rest:
+/// each cluster keeps the points farthest along eight directions across its normal, each
+/// weighed against its gap, and its deepest.
 #[derive(Debug, Clone)]
 struct Found {
     raw: Vec<Contact>,
@@ -306,8 +309,9 @@ impl Found {
         }
     }
 
-    /// [rt] Sort the contacts found into clusters and keep those that stand for each.
-    fn reduce(&mut self) {
+    /// [rt] Sort the contacts found into clusters and keep those that stand for each, for a
+    /// tick that turns the part by at most `turn` radians.
+    fn reduce(&mut self, turn: f64) {
         for (i, c) in self.raw.iter().enumerate() {
             let offset = c.normal.dot(c.point) - c.gap;
             let found = self.clusters.iter().position(|k| {
@@ -333,8 +337,13 @@ impl Found {
                 }
             };
             let (a, b) = cluster.across;
-            let (x, y) = (c.point.dot(a), c.point.dot(b));
-            let scores = [x, -x, y, -y, x + y, -x - y, x - y, y - x, -c.gap];
+            // A constraint n·(v + ω × r) + gap is affine in the point across the cluster and
+            // in its gap: the least over the cluster, for a turn of at most `turn`, is at
+            // a point farthest along some direction d across it by turn·d·r − gap. The gap
+            // weighs in: where a crease of the part lies on a face, the points along it
+            // are the deepest, and those beside it, farther out, recede.
+            let (x, y) = (c.point.dot(a) * turn, c.point.dot(b) * turn);
+            let scores = [x, -x, y, -y, x + y, -x - y, x - y, y - x, 0.0].map(|s| s - c.gap);
             for (best, score) in cluster.best.iter_mut().zip(scores) {
                 if score > best.0 {
                     *best = (score, i as u32);
@@ -551,7 +560,8 @@ impl GodObject {
                 self.table.clear();
             }
         }
-        self.found.reduce();
+        self.found
+            .reduce(self.reach / self.part.radius().max(f64::MIN_POSITIVE));
         true
     }
 

@@ -78,6 +78,10 @@ pub struct Near {
     /// The outward unit normal there: along the way from the closest point to a point
     /// outside, against it for one inside.
     pub normal: DVec3,
+    /// Whether that way lies within the normal cone of the feature (between the normals of
+    /// the faces that meet there): always so for the surface's nearest feature; not for an
+    /// edge or corner inside a flat stretch seen from beside it, which no solid presents.
+    pub facing: bool,
 }
 
 /// A closed, consistently wound triangle mesh in its own frame, ready for distance queries.
@@ -89,6 +93,8 @@ pub struct SignedMesh {
     normals: Vec<DVec3>,
     /// Each corner's angle-weighted pseudo-normal.
     corner_normals: Vec<DVec3>,
+    /// Each corner's pseudo-normal's least cosine with its faces' normals.
+    corner_cones: Vec<f64>,
     /// Each triangle's edges' pseudo-normals (edge k from corner k to k + 1): the mean of the
     /// two faces' normals.
     edge_normals: Vec<[DVec3; 3]>,
@@ -184,8 +190,18 @@ impl SignedMesh {
         for n in &mut corner_normals {
             *n = n.normalize_or_zero();
         }
+        let mut corner_cones = vec![1.0f64; points.len()];
+        for (t, n) in triangles.iter().zip(&normals) {
+            for &i in t {
+                let cone = &mut corner_cones[i as usize];
+                *cone = cone.min(corner_normals[i as usize].dot(*n));
+            }
+        }
         let mut edge_normals = vec![[DVec3::ZERO; 3]; triangles.len()];
-        let mut samples = points.clone();
+        // Corners on a crease, then points along the creases: a corner amid flat faces only
+        // cuts a face into triangles, and a touch there shows first at the face's edges.
+        let mut creased = vec![false; points.len()];
+        let mut along = Vec::new();
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
@@ -195,15 +211,20 @@ impl SignedMesh {
                 // Each edge sampled once, from the face where it runs from the lower corner.
                 let turn = mine.angle_between(theirs);
                 if a < b && turn > FLAT {
+                    (creased[a as usize], creased[b as usize]) = (true, true);
                     let (p, q) = (points[a as usize], points[b as usize]);
                     // A crossing between samples h apart goes about h/2·tan(turn/2) deep:
                     // half the spacing whatever the crease.
                     let step = spacing / (turn / 2.0).tan().min(4.0);
                     let pieces = ((q - p).length() / step).ceil() as usize;
-                    samples.extend((1..pieces).map(|i| p.lerp(q, i as f64 / pieces as f64)));
+                    along.extend((1..pieces).map(|i| p.lerp(q, i as f64 / pieces as f64)));
                 }
             }
         }
+        let samples: Vec<DVec3> = (points.iter().zip(&creased))
+            .filter_map(|(p, &c)| c.then_some(*p))
+            .chain(along)
+            .collect();
         let boxes: Vec<(DVec3, DVec3)> = triangles
             .iter()
             .map(|t| {
@@ -220,6 +241,7 @@ impl SignedMesh {
             triangles,
             normals,
             corner_normals,
+            corner_cones,
             edge_normals,
             samples,
             radius,
@@ -233,7 +255,7 @@ impl SignedMesh {
             .map(|t| t.map(|i| self.vertices[i as usize]))
     }
 
-    /// The surface samples: every corner, then points along the creased edges.
+    /// The surface samples: every corner on a crease, then points along the creases.
     pub fn samples(&self) -> &[DVec3] {
         &self.samples
     }
@@ -281,10 +303,16 @@ impl SignedMesh {
     /// The nearness of `p` to triangle `t` whose closest point is `point` on `feature`.
     fn signed(&self, t: usize, p: DVec3, (point, feature): (DVec3, Feature)) -> Near {
         let tri = self.triangles[t];
-        let pseudo = match feature {
-            Feature::Face => self.normals[t],
-            Feature::Edge(k) => self.edge_normals[t][k as usize],
-            Feature::Corner(k) => self.corner_normals[tri[k as usize] as usize],
+        let (pseudo, cone) = match feature {
+            Feature::Face => (self.normals[t], 1.0),
+            Feature::Edge(k) => {
+                let n = self.edge_normals[t][k as usize];
+                (n, n.dot(self.normals[t]))
+            }
+            Feature::Corner(k) => {
+                let i = tri[k as usize] as usize;
+                (self.corner_normals[i], self.corner_cones[i])
+            }
         };
         let away = p - point;
         let length = away.length();
@@ -294,6 +322,7 @@ impl SignedMesh {
                 distance: 0.0,
                 point,
                 normal: pseudo,
+                facing: true,
             };
         }
         let direction = away / length;
@@ -306,6 +335,7 @@ impl SignedMesh {
             distance: sign * length,
             point,
             normal: sign * direction,
+            facing: sign * direction.dot(pseudo) >= cone - 1e-9,
         }
     }
 
