@@ -61,6 +61,7 @@ bench:
 	$(CARGO) bench -p hapticd-e2e --bench effects
 	$(CARGO) bench -p hapticd-e2e --bench joints
 	$(CARGO) bench -p hapticd-e2e --bench soft
+	$(CARGO) bench -p hapticd-e2e --bench assembly
 	$(CARGO) bench -p hapticd-e2e --bench render
 
 latency:

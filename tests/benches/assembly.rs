@@ -135,13 +135,13 @@ fn main() {
             } else {
                 start + (target.0 - start) * s
             };
-            god.update((way, target.1), DT, &obstacles);
+            god.update((way, target.1), DT, obstacles);
         }
         let (mut costs, mut contacts) = (Vec::with_capacity(TICKS), 0.0);
         for k in 3000..3000 + TICKS {
             let g = grip(k);
             let began = Instant::now();
-            let out = god.update(g, DT, &obstacles);
+            let out = god.update(g, DT, obstacles);
             costs.push(began.elapsed().as_secs_f64());
             std::hint::black_box(out);
             contacts += god.contacts().len() as f64;

@@ -94,7 +94,7 @@ fn insert(sides: usize, clearance: f64) -> (f64, f64) {
     for tick in 0..800 {
         let down = 40.0 * (tick.min(600) as f64 * DT);
         let grip = (start - DVec3::Y * down * MM, turn);
-        let out = god.update(grip, DT, &obstacles);
+        let out = god.update(grip, DT, obstacles);
         assert!(!out.held_back, "tick {tick}");
         assert!(out.felt.is_finite());
         // The god-object's own account every tick, the exact one every 25th.
@@ -181,7 +181,7 @@ fn the_torque_felt_against_the_rim_is_the_rim_contacts_moment() {
             // At 20 mm/s, to 3 mm past the touch.
             let down = (20.0 * MM * tick as f64 * DT).min(5.0 * MM);
             felt = Some(
-                god.update((start - DVec3::Y * down, turn), DT, &obstacles)
+                god.update((start - DVec3::Y * down, turn), DT, obstacles)
                     .felt,
             );
         }
@@ -243,7 +243,7 @@ fn a_hand_beating_the_part_on_the_block_gets_no_energy_back() {
     let mut velocity = (DVec3::ZERO, DVec3::ZERO);
     for tick in 0..4000 {
         let (now, next) = (grip(tick), grip(tick + 1));
-        let felt = god.update(now, DT, &obstacles).felt;
+        let felt = god.update(now, DT, obstacles).felt;
         let force = passivity[0].filter(felt.force, velocity.0, DT);
         let torque = passivity[1].filter(felt.torque, velocity.1, DT);
         // The hand moves on while the wrench is displayed through the tick: the work done
@@ -318,7 +318,7 @@ fn a_part_dragged_round_the_mugs_inside_stays_inside_touching_the_wall() {
     );
     let (mut deepest, mut farthest_apart) = (0.0f64, 0.0f64);
     for tick in 0..2300 {
-        let out = god.update((grip(tick), DQuat::IDENTITY), DT, &obstacles);
+        let out = god.update((grip(tick), DQuat::IDENTITY), DT, obstacles);
         let (at, turn) = god.pose();
         let radial = DVec3::new(at.x, 0.0, at.z).length();
         assert!(
@@ -343,4 +343,63 @@ fn a_part_dragged_round_the_mugs_inside_stays_inside_touching_the_wall() {
     );
     assert!(deepest <= 0.1 * MM, "{deepest}");
     assert!(farthest_apart <= 0.05 * MM, "{farthest_apart}");
+}
+
+#[test]
+fn a_tick_that_finds_too_much_keeps_the_last_pose_and_the_hand_feels_it() {
+    // A plate 200 mm square lying on a block's top: its bottom edges' samples every 0.1 mm,
+    // 8 000 of them all touching, more than a tick's table holds.
+    let (half, thickness) = (100.0 * MM, 2.0 * MM);
+    let plate = peg(
+        Section {
+            sides: 4,
+            apothem: half,
+        },
+        thickness,
+    );
+    let block = Block {
+        outer: Section {
+            sides: 4,
+            apothem: 150.0 * MM,
+        },
+        hole: Section {
+            sides: 4,
+            apothem: 1.0 * MM,
+        },
+        height: 25.0 * MM,
+        depth: 15.0 * MM,
+    }
+    .mesh();
+    let obstacles = [Obstacle {
+        mesh: &block,
+        position: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+    }];
+    let resting = DVec3::new(20.0 * MM, thickness / 2.0, 0.0);
+    let mut god = GodObject::new(
+        plate,
+        resting,
+        DQuat::IDENTITY,
+        GodObjectParameters::default(),
+    );
+    for tick in 0..10 {
+        // The hand pulls it along and down.
+        let grip = resting + DVec3::new(1.0, -1.0, 0.0) * MM * (tick + 1) as f64;
+        let out = god.update((grip, DQuat::IDENTITY), DT, obstacles);
+        assert!(out.held_back, "tick {tick}");
+        assert_eq!(god.pose(), (resting, DQuat::IDENTITY), "tick {tick}");
+        // The spring to the pose kept, and the damper against the hand's motion since the
+        // last tick (none the first tick).
+        let p = GodObjectParameters::default();
+        let moved = if tick > 0 {
+            DVec3::new(1.0, -1.0, 0.0) * MM
+        } else {
+            DVec3::ZERO
+        };
+        let expected = p.stiffness * (resting - grip) - p.damping / DT * moved;
+        assert!(
+            (out.felt.force - expected).length() < 1e-9 * expected.length(),
+            "{out:?}"
+        );
+    }
 }

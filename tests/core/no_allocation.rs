@@ -1027,3 +1027,62 @@ fn shading_a_body_of_a_mesh_does_not_allocate() {
         "a lookup near a face turns the push: {turned} did"
     );
 }
+
+#[test]
+fn a_held_parts_god_object_does_not_allocate() {
+    use glam::DQuat;
+    use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
+    use support::parts::{Block, MM, Section, peg};
+    // A square peg put into its hole, wobbled there and pulled out: contacts found, solved,
+    // warm-started and let go, tick after tick.
+    let section = Section {
+        sides: 4,
+        apothem: 5.0 * MM,
+    };
+    let block = Block {
+        outer: Section {
+            sides: 4,
+            apothem: 15.0 * MM,
+        },
+        hole: Section {
+            sides: 4,
+            apothem: 5.1 * MM,
+        },
+        height: 25.0 * MM,
+        depth: 15.0 * MM,
+    }
+    .mesh();
+    let obstacles = [Obstacle {
+        mesh: &block,
+        position: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+    }];
+    let start = DVec3::new(0.0, 15.0 * MM, 0.0);
+    let mut god = GodObject::new(
+        peg(section, 20.0 * MM),
+        start,
+        DQuat::IDENTITY,
+        GodObjectParameters::default(),
+    );
+    let grip = |tick: usize| {
+        let t = tick as f64 * 1e-3;
+        let depth = 25.0 * MM * (std::f64::consts::PI * t).sin();
+        let wobble = DQuat::from_rotation_z(0.02 * (20.0 * t).sin());
+        (start - DVec3::Y * depth, wobble)
+    };
+    god.update(grip(0), 1e-3, obstacles);
+    let (mut lowest, mut touched) = (f64::INFINITY, 0);
+    let allocations = allocations_in(|| {
+        for tick in 1..1000 {
+            god.update(grip(tick), 1e-3, obstacles);
+            lowest = lowest.min(god.pose().0.y);
+            touched = touched.max(god.contacts().len());
+        }
+    });
+    assert_eq!(allocations, 0);
+    // It went into the hole and touched its walls.
+    assert!(
+        lowest < 0.0 && touched > 0,
+        "{lowest} m, {touched} contacts"
+    );
+}

@@ -454,12 +454,13 @@ impl GodObject {
 
     /// [rt] Move the proxy towards the grip at `grip` (position, orientation) as far as the
     /// `obstacles` let it, `dt` after the last tick, and give the wrench the user feels.
-    /// Allocates nothing.
-    pub fn update(
+    /// Allocates nothing (the obstacles come as an iterator, so that a scene can give its
+    /// own without gathering them).
+    pub fn update<'m>(
         &mut self,
         grip: (DVec3, DQuat),
         dt: f64,
-        obstacles: &[Obstacle],
+        obstacles: impl IntoIterator<Item = Obstacle<'m>>,
     ) -> GodObjectOutput {
         let (grip_position, grip_orientation) = grip;
         let (was, was_turned) = (self.position, self.orientation);
@@ -517,10 +518,10 @@ impl GodObject {
 
     /// [rt] Gather the contacts within this tick's reach, both ways round for each
     /// obstacle; false when an obstacle had more candidates than the table holds.
-    fn find_contacts(&mut self, obstacles: &[Obstacle]) -> bool {
+    fn find_contacts<'m>(&mut self, obstacles: impl IntoIterator<Item = Obstacle<'m>>) -> bool {
         self.found.clear();
         let part = (self.position, self.orientation);
-        for (o, obstacle) in obstacles.iter().enumerate() {
+        for (o, obstacle) in obstacles.into_iter().enumerate() {
             let other = (obstacle.position, obstacle.orientation);
             for side in 0..2 {
                 // The samples of one against the triangles of the other, in the latter's

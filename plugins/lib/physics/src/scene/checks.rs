@@ -401,6 +401,9 @@ fn engine_keys(f: &mut Findings, raw: &RawScene, engine: Engine) {
     }
 }
 
+/// A mesh body's triangles, in its frame.
+pub(super) type Surface = Vec<[DVec3; 3]>;
+
 /// A scene's bodies as the file checks out, in its order.
 pub(super) struct Bodies {
     /// Each body (centroid, mass and inertia as the penalty engine has them).
@@ -408,7 +411,7 @@ pub(super) struct Bodies {
     /// What each piece of each body is.
     pub(super) primitives: Vec<Vec<Primitive>>,
     /// The triangles of each body that is a mesh, in its frame.
-    pub(super) surfaces: Vec<Option<Vec<[DVec3; 3]>>>,
+    pub(super) surfaces: Vec<Option<Surface>>,
     /// Each body that is one box: its half edges and orientation, for grasping.
     pub(super) boxes: Vec<Option<(DVec3, DQuat)>>,
     /// Whether each body's mass and inertia are given (`inertial:`), not its solid's.
@@ -447,47 +450,13 @@ pub(super) fn bodies(
     for (i, b) in raw.bodies.iter().enumerate() {
         let at = format!("bodies[{i}]");
         f.text(format!("{at}.name"), &b.name);
-        // A soft body is no rigid body: its own checks make it.
-        if b.soft.is_some() {
+        // A soft body is no rigid body of the world, nor is the body the pointer holds:
+        // their own checks make them.
+        if !b.rigid() {
             continue;
         }
-        // A fixed mesh under rapier is its triangles; every other body touches through
-        // convex pieces.
-        let mesh = b.mesh.as_ref().and_then(|file| {
-            let pieces = engine == Engine::Penalty || !b.fixed;
-            mesh_body(f, &at, b, file, files, pieces)
-        });
-        let pieces = pieces_of(f, &at, b, mesh.as_ref());
-        let (light, dense) = DENSITY_RANGE;
-        f.within(format!("{at}.density"), b.density, light, dense, " kg/m³");
-        let (speed, spin) = MAX_SPEED;
-        f.coordinates(format!("{at}.velocity"), &b.velocity, speed, "m/s");
-        f.coordinates(format!("{at}.spin"), &b.spin, spin, "rad/s");
-        if let Some(pieces) = pieces
-            && !f.has_errors()
-        {
-            let (solids, kinds): (Vec<Polyhedron>, Vec<Primitive>) = pieces.into_iter().unzip();
-            let mut body = match &mesh {
-                Some(m) => Body::from_parts(
-                    &solids,
-                    (m.volume, m.volume * b.density),
-                    m.centre,
-                    m.inertia * b.density,
-                    b.fixed,
-                ),
-                None => Body::compound(&solids, b.density, b.fixed),
-            };
-            if let Some(given) = &b.inertial {
-                let Some(weighed) = inertial(f, &at, b, given, &solids, body.volume) else {
-                    continue;
-                };
-                body = weighed;
-            }
-            (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
-            surfaces.push(mesh.map(|m| {
-                let centre = body.position;
-                m.surface.iter().map(|t| t.map(|c| c - centre)).collect()
-            }));
+        if let Some((body, kinds, surface)) = rigid_body(f, &at, b, engine, files) {
+            surfaces.push(surface);
             bodies.push(body);
             weighed.push(b.inertial.is_some());
             boxes.push(match (kinds.as_slice(), &b.pieces) {
@@ -513,6 +482,50 @@ pub(super) fn bodies(
         boxes,
         weighed,
     })
+}
+
+/// The rigid body `b` (at `at`) of a scene for `engine`: the body, what each of its pieces
+/// is, and its triangles in its frame when it is a mesh; None after reporting what is wrong.
+pub(super) fn rigid_body(
+    f: &mut Findings,
+    at: &str,
+    b: &RawBody,
+    engine: Engine,
+    files: &MeshFiles<'_>,
+) -> Option<(Body, Vec<Primitive>, Option<Surface>)> {
+    // A fixed mesh under rapier is its triangles; every other body touches through convex
+    // pieces.
+    let mesh = b.mesh.as_ref().and_then(|file| {
+        let pieces = engine == Engine::Penalty || !b.fixed;
+        mesh_body(f, at, b, file, files, pieces)
+    });
+    let pieces = pieces_of(f, at, b, mesh.as_ref());
+    let (light, dense) = DENSITY_RANGE;
+    f.within(format!("{at}.density"), b.density, light, dense, " kg/m³");
+    let (speed, spin) = MAX_SPEED;
+    f.coordinates(format!("{at}.velocity"), &b.velocity, speed, "m/s");
+    f.coordinates(format!("{at}.spin"), &b.spin, spin, "rad/s");
+    let pieces = pieces.filter(|_| !f.has_errors())?;
+    let (solids, kinds): (Vec<Polyhedron>, Vec<Primitive>) = pieces.into_iter().unzip();
+    let mut body = match &mesh {
+        Some(m) => Body::from_parts(
+            &solids,
+            (m.volume, m.volume * b.density),
+            m.centre,
+            m.inertia * b.density,
+            b.fixed,
+        ),
+        None => Body::compound(&solids, b.density, b.fixed),
+    };
+    if let Some(given) = &b.inertial {
+        body = inertial(f, at, b, given, &solids, body.volume)?;
+    }
+    (body.velocity, body.spin) = (DVec3::from(b.velocity), DVec3::from(b.spin));
+    let surface = mesh.map(|m| {
+        let centre = body.position;
+        m.surface.iter().map(|t| t.map(|c| c - centre)).collect()
+    });
+    Some((body, kinds, surface))
 }
 
 /// Heaviest and lightest body an `inertial:` may give, kg.
@@ -628,6 +641,10 @@ pub(super) fn pointer(
             }
             let (light, dense) = DENSITY_RANGE;
             f.within("pointer.density", pointer.density, light, dense, " kg/m³");
+        }
+        // A pointer that holds a body has that body for its solid (see `held`).
+        if pointer.holds.is_some() {
+            return None;
         }
         solid(f, "pointer", given!(pointer), [0.0; 3], identity())
     })

@@ -82,6 +82,16 @@
 //!   density: 1000              # kg/m³ of a coupled pointer (its weight is felt too)
 //! ```
 //!
+//! One pointer may hold a body of the scene instead (penalty engine), which is then its solid:
+//!
+//! ```yaml
+//! pointer:
+//!   holds: peg                 # a body of bodies: (a mesh, a box, a hull or a ball)
+//!   rendering: god-object      # the default: a 6-DOF god-object kept out of the fixed
+//!                              #   bodies' exact surfaces, the hand feeling the spring to it;
+//!                              #   or coupling: coupled by coupling: (then required)
+//! ```
+//!
 //! A mesh must close a volume (every edge shared by two faces): its mass, centre and
 //! inertia are those of that volume. Both engines touch a movable mesh through convex pieces
 //! (V-HACD at 64 voxels along its longest side), cut once and kept by the mesh's content in
@@ -146,6 +156,7 @@ mod checks;
 mod contacts;
 mod control;
 mod geometry;
+mod held;
 mod joints;
 mod meshes;
 mod penalty;
@@ -169,6 +180,7 @@ pub use checks::{
     RATE_RANGE,
 };
 pub use geometry::soft_corners;
+pub use held::{CREASE_SPACING, HeldPart};
 pub use joints::WORLD;
 pub use meshes::SCALE_RANGE;
 pub use penalty::PenaltyScene;
@@ -252,6 +264,7 @@ impl SceneFile {
         let mut f = Findings::after_schema(path, &locate, parsed.schema);
         urdf::expand(&mut f, &mut raw, path);
         let (engine, penalty) = checks::scene_keys(&mut f, &raw);
+        let held = held::take(&mut f, &mut raw, engine, pointers, &files);
         let Some(bodies) = checks::bodies(&mut f, &raw, engine, pointers, &files) else {
             return Err(f.into_error());
         };
@@ -265,7 +278,7 @@ impl SceneFile {
         let named: Vec<(&str, bool)> = raw
             .bodies
             .iter()
-            .filter(|b| b.soft.is_none())
+            .filter(|b| b.rigid())
             .map(|b| (b.name.as_str(), b.fixed))
             .collect();
         let joints = joints::joints(&mut f, &raw.joints, &named);
@@ -289,6 +302,7 @@ impl SceneFile {
                 );
             }
         }
+        let held = held.and_then(|held| held::pointer_body(&mut f, &raw, held, &bodies));
         checks::grasp(&mut f, &raw, pointers);
         if let Some(penalty) = &penalty
             && !f.has_errors()
@@ -308,7 +322,7 @@ impl SceneFile {
                 raw,
                 penalty,
                 (bodies, joints, soft),
-                pointer,
+                (pointer, held),
                 pointers,
                 warnings,
             ))),

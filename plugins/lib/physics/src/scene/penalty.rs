@@ -11,6 +11,7 @@ use serde::de::IgnoredAny;
 
 use super::SceneFile;
 use super::checks::{Bodies, INERTIA_DAMPING_FACTOR, Penalty, Primitive};
+use super::held::{HeldPart, HeldPointer};
 use super::schema::{RawGraspMethod, RawScene};
 use super::soft::Soft;
 use crate::body::Body;
@@ -22,6 +23,9 @@ use crate::polyhedron::Polyhedron;
 use crate::soft::SoftPart;
 use crate::world::{ContactModel, Material, World};
 use hapticd_core::kinematics::Wrench;
+
+/// The `pointer:` solid and what it is.
+type PointerSolid = (Polyhedron, Primitive);
 
 /// A loaded scene: the world with one fixed body per pointer at its end.
 pub struct PenaltyScene {
@@ -58,6 +62,8 @@ pub struct PenaltyScene {
     pub(super) coupled: Vec<Wrench>,
     /// Each world body's own load, kept while the soft bodies' pushes are added to it.
     pub(super) own_loads: Vec<Wrench>,
+    /// The body the pointer holds, rendered by its god-object (`pointer.holds`).
+    pub held: Option<HeldPart>,
 }
 
 impl PenaltyScene {
@@ -87,7 +93,7 @@ impl PenaltyScene {
         raw: RawScene,
         penalty: Penalty,
         (bodies, joints, soft): (Bodies, Vec<Joint>, Vec<Soft>),
-        pointer: Option<(Polyhedron, Primitive)>,
+        (pointer, held): (Option<PointerSolid>, Option<HeldPointer>),
         pointers: usize,
         warnings: Vec<Diagnostic>,
     ) -> Self {
@@ -100,17 +106,31 @@ impl PenaltyScene {
         let first_pointer = bodies.len();
         let dt = penalty.dt;
         let mut couplings = Vec::with_capacity(pointers);
-        if let (Some(pointer), Some((shape, _))) = (&raw.pointer, &pointer) {
-            for _ in 0..pointers {
-                let coupling = pointer.coupling.as_ref().map(|c| Coupling {
-                    stiffness: c.stiffness,
-                    damping: c.damping,
-                    rotational_stiffness: c.rotational_stiffness,
-                    rotational_damping: c.rotational_damping,
-                });
-                bodies.push(Body::new(shape, pointer.density, coupling.is_none()));
-                couplings.push(coupling);
+        let coupling = raw
+            .pointer
+            .as_ref()
+            .and_then(|p| p.coupling.as_ref())
+            .map(|c| Coupling {
+                stiffness: c.stiffness,
+                damping: c.damping,
+                rotational_stiffness: c.rotational_stiffness,
+                rotational_damping: c.rotational_damping,
+            });
+        let mut part = None;
+        match (&raw.pointer, &pointer, held) {
+            // The held body is the pointer: placed by its god-object, or coupled.
+            (_, _, Some((body, god))) => {
+                couplings.push(coupling.filter(|_| god.is_none()));
+                bodies.push(body);
+                part = god;
             }
+            (Some(p), Some((shape, _)), None) => {
+                for _ in 0..pointers {
+                    bodies.push(Body::new(shape, p.density, coupling.is_none()));
+                    couplings.push(coupling);
+                }
+            }
+            _ => {}
         }
         let grasping = raw.grasp.as_ref().filter(|_| pointers >= 2).map(|g| {
             // The pointer's half size: where its solid meets a face its centre is that far out.
@@ -176,7 +196,7 @@ impl PenaltyScene {
             names: raw
                 .bodies
                 .into_iter()
-                .filter(|b| b.soft.is_none())
+                .filter(|b| b.rigid())
                 .map(|b| b.name)
                 .chain((1..=pointers).map(|k| format!("pointer {k}")))
                 .collect(),
@@ -190,11 +210,17 @@ impl PenaltyScene {
             pushed: Vec::new(),
             coupled: vec![Wrench::default(); pointers],
             own_loads: Vec::new(),
+            held: part,
         };
         let bodies = scene.world.bodies.len();
         scene.pushed = vec![(Wrench::default(), (0.0, 0.0)); bodies];
         scene.own_loads = vec![Wrench::default(); bodies];
         scene.set_model(penalty.model);
+        // The god-object keeps the held body out of the fixed bodies; the world's contacts
+        // push the moving ones.
+        if scene.held.is_some() {
+            scene.world.guided = Some(first_pointer);
+        }
         scene.world.join(&joints);
         // A body holding a soft body's nodes, or resting on one, is pushed by it every
         // tick: none sleeps where a soft body may touch a body that moves.

@@ -123,7 +123,7 @@ impl RapierScene {
             names: raw
                 .bodies
                 .into_iter()
-                .filter(|b| b.soft.is_none())
+                .filter(|b| b.rigid())
                 .map(|b| b.name)
                 .collect(),
             joints,

@@ -155,6 +155,9 @@ pub(super) struct RawBody {
     pub(super) soft: Option<RawSoft>,
     /// A soft body's nodes held still.
     pub(super) pinned: Option<RawPinned>,
+    /// Whether the pointer holds it (set from `pointer.holds`, not read from the file).
+    #[serde(skip)]
+    pub(super) held: bool,
 }
 
 /// A body's `soft:`.
@@ -231,7 +234,13 @@ impl RawBody {
             inertial: None,
             soft: None,
             pinned: None,
+            held: false,
         }
+    }
+
+    /// Whether it is a rigid body of the world: not soft, not the pointer's.
+    pub(super) fn rigid(&self) -> bool {
+        self.soft.is_none() && !self.held
     }
 }
 
@@ -312,6 +321,22 @@ pub(super) struct RawPointer {
     pub(super) coupling: Option<RawCoupling>,
     #[serde(default = "water")]
     pub(super) density: f64,
+    /// A body of `bodies:` the pointer holds: the part the hand puts to others.
+    pub(super) holds: Option<String>,
+    /// How a held body is rendered.
+    #[serde(default)]
+    pub(super) rendering: RawRendering,
+}
+
+/// `pointer.rendering:`.
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "kebab-case")]
+pub(super) enum RawRendering {
+    /// A 6-DOF god-object kept out of the fixed bodies' exact surfaces.
+    #[default]
+    GodObject,
+    /// The held body coupled to the grip by `coupling:` (a body of the world).
+    Coupling,
 }
 
 impl RawPointer {
@@ -324,6 +349,8 @@ impl RawPointer {
             sphere: Some(0.01),
             coupling: None,
             density: water(),
+            holds: None,
+            rendering: RawRendering::default(),
         }
     }
 }

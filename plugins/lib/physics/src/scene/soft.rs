@@ -120,7 +120,7 @@ pub(super) fn soft_bodies(
     let rigid: Vec<(&str, &Body)> = raw
         .bodies
         .iter()
-        .filter(|b| b.soft.is_none())
+        .filter(|b| b.rigid())
         .map(|b| b.name.as_str())
         .zip(bodies)
         .collect();

@@ -1,7 +1,7 @@
 //! [rt] A penalty scene stepped in the haptic thread: pointers placed at (or coupled to)
 //! their grips, grasping, the world's steps, and the wrench each pointer feels.
 
-use hapticd_core::kinematics::Wrench;
+use hapticd_core::kinematics::{Wrench, rotation_vector};
 
 use super::MAX_STEPS_PER_CALL;
 use super::penalty::PenaltyScene;
@@ -26,6 +26,20 @@ impl PenaltyScene {
         let steps = steps as usize;
         let first = self.first_pointer;
         for (k, grip) in grips.iter().enumerate() {
+            // A held part goes where its god-object lets it, as a body moved by hand.
+            if k == 0
+                && let Some(held) = &mut self.held
+            {
+                held.follow(grip, dt, &self.world.bodies);
+                let (at, turn) = held.god.pose();
+                let body = &mut self.world.bodies[first];
+                let (velocity, spin) = (
+                    (at - body.position) / dt,
+                    rotation_vector(turn * body.orientation.inverse()) / dt,
+                );
+                body.place(at, turn, velocity, spin);
+                continue;
+            }
             let body = &mut self.world.bodies[first + k];
             let coupled = self.couplings[k].is_some();
             // A coupled pointer starts at its grip, then moves on its own.
@@ -80,6 +94,9 @@ impl PenaltyScene {
                     };
                 if let Some(g) = &self.grasping {
                     *out = *out + g.felt(k);
+                }
+                if let (0, Some(held)) = (k, &self.held) {
+                    *out = *out + held.felt;
                 }
             }
         }

@@ -124,7 +124,10 @@ impl World {
     /// of `dt`: between each piece of one and each piece of the other. Whether they touch.
     pub(super) fn collide(&mut self, i: usize, j: usize, dt: f64) -> bool {
         let (a, b) = (&self.bodies[i], &self.bodies[j]);
+        let guided = |k: usize, other: &Body| self.guided == Some(k) && other.fixed;
         if (a.fixed && b.fixed && !a.kinematic && !b.kinematic)
+            || guided(i, b)
+            || guided(j, a)
             || self.ignored_pairs.contains(&(i, j))
             || self.joined(i, j)
         {

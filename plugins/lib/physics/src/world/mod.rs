@@ -105,6 +105,9 @@ pub struct World {
     pub ignored_pairs: Vec<(usize, usize)>,
     /// The joints between bodies (see [`World::join`]).
     pub joints: Vec<Linked>,
+    /// A body placed from outside clear of the fixed bodies (a held part's god-object): its
+    /// contacts with them are left out.
+    pub guided: Option<usize>,
     clipper: Clipper,
     overlap: Polyhedron,
     wrenches: Vec<Wrench>,
@@ -284,6 +287,7 @@ impl World {
             friction: vec![None; n],
             ignored_pairs: Vec::with_capacity(IGNORED_PAIRS),
             joints: Vec::new(),
+            guided: None,
             bodies,
             gravity,
             material,

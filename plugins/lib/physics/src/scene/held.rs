@@ -1,0 +1,369 @@
+//! A body the pointer holds (`pointer.holds`): left out of the world's bodies and made the
+//! pointer's solid, rendered by a 6-DOF god-object kept out of the fixed bodies' exact
+//! surfaces (`rendering: god-object`, the default) or tied to the grip by `coupling:`
+//! (`rendering: coupling`).
+
+use glam::DVec3;
+use hapticd_core::diagnostics::Findings;
+use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
+use hapticd_core::haptics::signed_mesh::SignedMesh;
+use hapticd_core::kinematics::Wrench;
+
+use super::Engine;
+use super::checks::{Bodies, rigid_body};
+use super::meshes::MeshFiles;
+use super::schema::{RawRendering, RawScene};
+use crate::body::Body;
+use crate::coupling::Grip;
+use crate::polyhedron::Polyhedron;
+
+/// How far apart the samples along a surface's creases are at a right angle, metres: an
+/// edge crossing an edge between two goes at most half as deep.
+pub const CREASE_SPACING: f64 = 1e-4;
+
+/// The body the pointer holds, as the file gives it and checked.
+pub(super) struct Held {
+    /// The body where the file puts it.
+    pub(super) body: Body,
+    /// Its surface, in its frame.
+    pub(super) surface: SignedMesh,
+    /// How it is rendered.
+    pub(super) rendering: RawRendering,
+}
+
+/// The body `pointer.holds` names in `raw`, marked held (the world's bodies leave it out),
+/// checked as a rigid body of a scene for `engine` with `pointers` pointers; None without
+/// one, or after reporting what is wrong.
+pub(super) fn take(
+    f: &mut Findings,
+    raw: &mut RawScene,
+    engine: Engine,
+    pointers: usize,
+    files: &MeshFiles<'_>,
+) -> Option<Held> {
+    let pointer = raw.pointer.as_ref()?;
+    let name = pointer.holds.as_ref()?;
+    let mut ok = true;
+    let mut refuse = |field: &str, why: String| {
+        f.error(field, why);
+        ok = false;
+    };
+    if pointers != 1 {
+        refuse(
+            "pointer.holds",
+            format!("a held body is rendered for one pointer, not {pointers}"),
+        );
+    }
+    if engine != Engine::Penalty {
+        refuse(
+            "pointer.holds",
+            "only the penalty engine renders a held body".into(),
+        );
+    }
+    if pointer.size.is_some() || pointer.hull.is_some() || pointer.sphere.is_some() {
+        refuse(
+            "pointer.holds",
+            "the held body is the pointer's solid: give no box, hull or sphere".into(),
+        );
+    }
+    if pointer.rendering == RawRendering::Coupling && pointer.coupling.is_none() {
+        refuse(
+            "pointer.rendering",
+            "coupling needs pointer.coupling".into(),
+        );
+    }
+    let rendering = pointer.rendering;
+    let Some(i) = raw.bodies.iter().position(|b| &b.name == name) else {
+        refuse("pointer.holds", format!("no body is named {name:?}"));
+        return None;
+    };
+    let at = format!("bodies[{i}]");
+    let b = &mut raw.bodies[i];
+    b.held = true;
+    if b.fixed {
+        refuse(
+            &format!("{at}.fixed"),
+            "the pointer holds it: it moves".into(),
+        );
+    }
+    if b.soft.is_some() {
+        refuse(
+            &format!("{at}.soft"),
+            "the pointer holds it: it is rigid".into(),
+        );
+    }
+    if !ok {
+        return None;
+    }
+    let (body, _, surface) = rigid_body(f, &at, b, engine, files)?;
+    let surface = match surface {
+        Some(triangles) => triangles,
+        None if body.pieces.len() == 1 => faces(&body.pieces[0]),
+        None => {
+            f.error(
+                format!("{at}.pieces"),
+                "the pointer holds it: a mesh, a box, a hull or a ball, not pieces",
+            );
+            return None;
+        }
+    };
+    let surface = closed(f, &at, &surface)?;
+    Some(Held {
+        body,
+        surface,
+        rendering,
+    })
+}
+
+/// The held body of `raw` as the pointer's body: with its god-object among the fixed
+/// `bodies` (`rendering: god-object`), or coupled (`rendering: coupling`).
+pub(super) fn pointer_body(
+    f: &mut Findings,
+    raw: &RawScene,
+    held: Held,
+    bodies: &Bodies,
+) -> Option<HeldPointer> {
+    let coupling = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref());
+    if held.rendering == RawRendering::Coupling {
+        let mut body = held.body;
+        body.fixed = false;
+        return Some((body, None));
+    }
+    let mut parameters = GodObjectParameters::default();
+    if let Some(c) = coupling {
+        parameters.stiffness = c.stiffness;
+        parameters.damping = c.damping;
+        parameters.rotational_stiffness = c.rotational_stiffness;
+        parameters.rotational_damping = c.rotational_damping;
+    }
+    let names: Vec<&str> = raw
+        .bodies
+        .iter()
+        .filter(|b| b.rigid())
+        .map(|b| b.name.as_str())
+        .collect();
+    let mut body = held.body.clone();
+    (body.fixed, body.kinematic) = (true, true);
+    let part = HeldPart::new(f, held, parameters, (bodies, &names))?;
+    Some((body, Some(part)))
+}
+
+/// The triangles of `piece`'s faces, each face a fan from its first corner.
+fn faces(piece: &Polyhedron) -> Vec<[DVec3; 3]> {
+    let v = &piece.vertices;
+    piece
+        .faces
+        .iter()
+        .flat_map(|face| (1..face.len() - 1).map(|k| [v[face[0]], v[face[k]], v[face[k + 1]]]))
+        .collect()
+}
+
+/// The surface of `triangles` for exact queries; None after reporting at `at` why it cannot
+/// be one.
+fn closed(f: &mut Findings, at: &str, triangles: &[[DVec3; 3]]) -> Option<SignedMesh> {
+    let corners: Vec<DVec3> = triangles.iter().flatten().copied().collect();
+    let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
+    SignedMesh::new(&corners, &indices, CREASE_SPACING)
+        .map_err(|e| f.error(at, format!("its surface cannot be touched exactly: {e}")))
+        .ok()
+}
+
+/// The held body as the pointer's body, and its god-object unless it is coupled.
+pub(super) type HeldPointer = (Body, Option<HeldPart>);
+
+/// A held body's god-object and the fixed bodies it cannot enter.
+#[derive(Debug, Clone)]
+pub struct HeldPart {
+    /// The god-object; its pose is the held body's.
+    pub god: GodObject,
+    /// Each fixed body's surface (a mesh's own, or each of its convex pieces), in its frame,
+    /// by body.
+    obstacles: Vec<(usize, SignedMesh)>,
+    /// What the god-object's spring gave at the last tick.
+    pub(super) felt: Wrench,
+}
+
+impl HeldPart {
+    /// The god-object of `held` (its spring `parameters`) among the fixed ones of `bodies`
+    /// (`names` naming them in what is reported); None after reporting a surface that
+    /// cannot be touched exactly.
+    pub(super) fn new(
+        f: &mut Findings,
+        held: Held,
+        parameters: GodObjectParameters,
+        (bodies, names): (&Bodies, &[&str]),
+    ) -> Option<Self> {
+        let Bodies {
+            bodies, surfaces, ..
+        } = bodies;
+        let mut obstacles = Vec::new();
+        for (i, body) in bodies.iter().enumerate().filter(|(_, b)| b.fixed) {
+            let at = format!("pointer.holds: {:?}", names[i]);
+            match &surfaces[i] {
+                Some(triangles) => obstacles.push((i, closed(f, &at, triangles)?)),
+                None => {
+                    for piece in &body.pieces {
+                        obstacles.push((i, closed(f, &at, &faces(piece))?));
+                    }
+                }
+            }
+        }
+        let (position, orientation) = (held.body.position, held.body.orientation);
+        Some(Self {
+            god: GodObject::new(held.surface, position, orientation, parameters),
+            obstacles,
+            felt: Wrench::ZERO,
+        })
+    }
+
+    /// [rt] Move the proxy towards `grip` among `bodies` as they are now, `dt` after the last
+    /// tick; keeps what the user feels of its spring.
+    pub(super) fn follow(&mut self, grip: &Grip, dt: f64, bodies: &[Body]) {
+        let obstacles = self.obstacles.iter().map(|(i, mesh)| Obstacle {
+            mesh,
+            position: bodies[*i].position,
+            orientation: bodies[*i].orientation,
+        });
+        self.felt = self
+            .god
+            .update((grip.position, grip.orientation), dt, obstacles)
+            .felt;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use glam::{DQuat, DVec3};
+    use hapticd_core::kinematics::Wrench;
+
+    use crate::coupling::Grip;
+    use crate::scene::PenaltyScene;
+
+    /// A block whose top is at y = 0 with a square hole 10.2 mm wide and 15 mm deep, of
+    /// five box pieces, and a peg of `width` held by the pointer; `more` adds bodies.
+    fn scene(width: f64, more: &str) -> String {
+        format!(
+            "name: peg
+dt: 0.0001
+material: {{ stiffness: 1.0e7, damping: 2.0e4, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: 0.001 }}
+bodies:
+  - name: block
+    fixed: true
+    position: [0, 0, 0]
+    pieces:
+      - {{ box: [0.0099, 0.015, 0.030], position: [-0.01005, -0.0075, 0] }}
+      - {{ box: [0.0099, 0.015, 0.030], position: [0.01005, -0.0075, 0] }}
+      - {{ box: [0.0102, 0.015, 0.0099], position: [0, -0.0075, -0.01005] }}
+      - {{ box: [0.0102, 0.015, 0.0099], position: [0, -0.0075, 0.01005] }}
+      - {{ box: [0.030, 0.010, 0.030], position: [0, -0.020, 0] }}
+  - {{ name: peg, box: [{width}, 0.020, {width}], position: [0, 0.02, 0], density: 7800 }}
+{more}pointer:
+  holds: peg
+"
+        )
+    }
+
+    fn grip(position: DVec3) -> Grip {
+        Grip {
+            position,
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            spin: DVec3::ZERO,
+        }
+    }
+
+    /// The held peg of `width` lowered by the hand to 5 mm below the hole's floor: where its
+    /// centre ends, and what the hand feels there.
+    fn lowered(width: f64) -> (DVec3, Wrench) {
+        let text = scene(width, "");
+        let mut scene = PenaltyScene::parse(&text, Path::new("peg.yaml"), 1).unwrap();
+        let mut felt = [Wrench::default()];
+        for tick in 0..1000 {
+            let y = 0.02 - 0.03 * (tick as f64 / 700.0).min(1.0);
+            assert!(scene.step_pointers(1e-3, &[grip(DVec3::new(0.0, y, 0.0))], &mut felt));
+        }
+        (scene.world.bodies[scene.first_pointer].position, felt[0])
+    }
+
+    #[test]
+    fn a_held_peg_goes_into_a_hole_it_fits_and_stops_on_one_it_does_not() {
+        // 0.2 mm clearance: to the floor, 15 mm down, its centre 10 mm above it; the hand,
+        // 5 mm further, feels the spring's 2 000 N/m of it.
+        let (at, felt) = lowered(0.010);
+        assert!((at.y + 0.005).abs() < 1e-5, "{at}");
+        assert!((felt.force.y - 2000.0 * 0.005).abs() < 0.05, "{felt:?}");
+        // 0.2 mm interference: on the rim, the block's top.
+        let (at, felt) = lowered(0.0104);
+        assert!((at.y - 0.010).abs() < 1e-5, "{at}");
+        assert!((felt.force.y - 2000.0 * 0.020).abs() < 0.05, "{felt:?}");
+    }
+
+    #[test]
+    fn a_held_peg_pushes_a_moving_body_and_the_hand_feels_it() {
+        // A floor level with the block's foot, and a light box on it beside the block.
+        let more =
+            "  - { name: floor, box: [0.2, 0.01, 0.2], position: [0, -0.03, 0], fixed: true }
+  - { name: box, box: [0.01, 0.01, 0.01], position: [0.05, -0.02, 0], density: 500 }
+";
+        let text = scene(0.010, more);
+        let mut scene = PenaltyScene::parse(&text, Path::new("peg.yaml"), 1).unwrap();
+        let mut felt = [Wrench::default()];
+        let (mut pushed, mut most) = (0.0f64, 0.0f64);
+        // Over beside the block, down to 3 mm above the floor, then along x into the box.
+        let way = |tick: usize| match tick {
+            0..200 => DVec3::new(0.025, 0.03, 0.0),
+            200..400 => DVec3::new(0.025, 0.03 - 0.042 * (tick - 200) as f64 / 200.0, 0.0),
+            _ => DVec3::new(
+                0.025 + 0.04 * ((tick - 400) as f64 / 400.0).min(1.0),
+                -0.012,
+                0.0,
+            ),
+        };
+        for tick in 0..900 {
+            assert!(scene.step_pointers(1e-3, &[grip(way(tick))], &mut felt));
+            most = most.max(-felt[0].force.x);
+            pushed = pushed.max(scene.world.bodies[2].position.x - 0.05);
+        }
+        assert!(pushed > 0.01, "the box moved {pushed} m");
+        assert!(most > 0.0, "the hand felt {most} N against the push");
+    }
+
+    #[test]
+    fn a_pointer_that_holds_what_it_cannot_is_refused_by_name() {
+        let refused = |text: &str, pointers: usize, says: &str| {
+            let e = PenaltyScene::parse(text, Path::new("peg.yaml"), pointers)
+                .err()
+                .unwrap_or_else(|| panic!("accepted: {text}"))
+                .to_string();
+            assert!(e.contains(says), "{e}");
+        };
+        let good = scene(0.010, "");
+        refused(
+            &good.replace("holds: peg", "holds: pig"),
+            1,
+            "no body is named \"pig\"",
+        );
+        refused(&good.replace("holds: peg", "holds: block"), 1, "it moves");
+        refused(&good, 2, "one pointer, not 2");
+        refused(
+            &good.replace("holds: peg", "holds: peg\n  sphere: 0.01"),
+            1,
+            "give no box, hull or sphere",
+        );
+        refused(
+            &good.replace("holds: peg", "holds: peg\n  rendering: coupling"),
+            1,
+            "coupling needs pointer.coupling",
+        );
+        refused(
+            &good.replace("holds: peg", "holds: peg\n  rendering: glue"),
+            1,
+            "rendering",
+        );
+    }
+}
