@@ -17,10 +17,19 @@ use rapier3d::parry::query::PointQuery;
 use rapier3d::parry::shape::{TriMesh, TriMeshFlags};
 use rapier3d::prelude::Vector;
 
-use crate::support::parts::{Block, MM, SPACING, Section, edge_points, peg};
+use crate::support::parts::{Block, MM, SPACING, Section, edge_points, peg, square_peg_and_block};
 
 /// The haptic tick.
 const DT: f64 = 1e-3;
+/// `mesh` as the one obstacle, its frame the world's.
+fn unmoved(mesh: &SignedMesh) -> [Obstacle<'_>; 1] {
+    [Obstacle {
+        mesh,
+        position: DVec3::ZERO,
+        orientation: DQuat::IDENTITY,
+    }]
+}
+
 /// How deep the peg at `pose` is inside the block, or the block inside the peg, by the
 /// exact formulas of both solids, at points 50 µm apart along every edge of both.
 struct Depth {
@@ -84,11 +93,7 @@ fn insert(sides: usize, clearance: f64) -> (f64, f64) {
     // The peg's tip centred over the hole to within the hand's 0.03 mm.
     let start = DVec3::new(0.03 * MM, 5.0 * MM, 0.0) + turn * DVec3::Y * (length / 2.0);
     let mut god = GodObject::new(part, start, turn, GodObjectParameters::default());
-    let obstacles = [Obstacle {
-        mesh: &solid,
-        position: DVec3::ZERO,
-        orientation: DQuat::IDENTITY,
-    }];
+    let obstacles = unmoved(&solid);
     let mut deepest = 0.0f64;
     // Down at 40 mm/s for 0.6 s (to 4 mm below the hole's floor), then held there.
     for tick in 0..800 {
@@ -137,36 +142,11 @@ fn a_peg_with_clearance_goes_to_the_bottom_and_one_with_interference_stops_at_th
     }
 }
 
-/// The square peg and its block with 0.2 mm clearance.
-fn square_peg_and_block() -> (SignedMesh, Section, Block) {
-    let section = Section {
-        sides: 4,
-        apothem: 5.0 * MM,
-    };
-    let block = Block {
-        outer: Section {
-            sides: 4,
-            apothem: 15.0 * MM,
-        },
-        hole: Section {
-            sides: 4,
-            apothem: 5.1 * MM,
-        },
-        height: 25.0 * MM,
-        depth: 15.0 * MM,
-    };
-    (peg(section, 20.0 * MM), section, block)
-}
-
 #[test]
 fn the_torque_felt_against_the_rim_is_the_rim_contacts_moment() {
     let (part, _, block) = square_peg_and_block();
     let solid = block.mesh();
-    let obstacles = [Obstacle {
-        mesh: &solid,
-        position: DVec3::ZERO,
-        orientation: DQuat::IDENTITY,
-    }];
+    let obstacles = unmoved(&solid);
     let (half, rim) = (10.0 * MM, block.hole.apothem);
     for degrees in [5.0f64, 10.0, 20.0] {
         // Tilted so, the peg's bottom face spans the rim's edge along z at x = 5.1 mm: the
@@ -216,11 +196,7 @@ fn the_torque_felt_against_the_rim_is_the_rim_contacts_moment() {
 fn a_hand_beating_the_part_on_the_block_gets_no_energy_back() {
     let (part, _, block) = square_peg_and_block();
     let solid = block.mesh();
-    let obstacles = [Obstacle {
-        mesh: &solid,
-        position: DVec3::ZERO,
-        orientation: DQuat::IDENTITY,
-    }];
+    let obstacles = unmoved(&solid);
     // Over the block's top beside the hole: from 2 mm above it to 2 mm into it twice a
     // second, sliding to and fro along x and rocking about it meanwhile.
     let grip = |tick: usize| {
@@ -305,11 +281,7 @@ fn a_part_dragged_round_the_mugs_inside_stays_inside_touching_the_wall() {
         let angle = std::f64::consts::TAU * ((t - 0.3).max(0.0) / 2.0);
         centre + reach * out * DVec3::new(angle.cos(), 0.0, angle.sin())
     };
-    let obstacles = [Obstacle {
-        mesh: &solid,
-        position: DVec3::ZERO,
-        orientation: DQuat::IDENTITY,
-    }];
+    let obstacles = unmoved(&solid);
     let mut god = GodObject::new(
         part,
         centre,
@@ -370,11 +342,7 @@ fn a_tick_that_finds_too_much_keeps_the_last_pose_and_the_hand_feels_it() {
         depth: 15.0 * MM,
     }
     .mesh();
-    let obstacles = [Obstacle {
-        mesh: &block,
-        position: DVec3::ZERO,
-        orientation: DQuat::IDENTITY,
-    }];
+    let obstacles = unmoved(&block);
     let resting = DVec3::new(20.0 * MM, thickness / 2.0, 0.0);
     let mut god = GodObject::new(
         plate,

@@ -1032,38 +1032,18 @@ fn shading_a_body_of_a_mesh_does_not_allocate() {
 fn a_held_parts_god_object_does_not_allocate() {
     use glam::DQuat;
     use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
-    use support::parts::{Block, MM, Section, peg};
+    use support::parts::{MM, square_peg_and_block};
     // A square peg put into its hole, wobbled there and pulled out: contacts found, solved,
     // warm-started and let go, tick after tick.
-    let section = Section {
-        sides: 4,
-        apothem: 5.0 * MM,
-    };
-    let block = Block {
-        outer: Section {
-            sides: 4,
-            apothem: 15.0 * MM,
-        },
-        hole: Section {
-            sides: 4,
-            apothem: 5.1 * MM,
-        },
-        height: 25.0 * MM,
-        depth: 15.0 * MM,
-    }
-    .mesh();
+    let (peg, _, block) = square_peg_and_block();
+    let block = block.mesh();
     let obstacles = [Obstacle {
         mesh: &block,
         position: DVec3::ZERO,
         orientation: DQuat::IDENTITY,
     }];
     let start = DVec3::new(0.0, 15.0 * MM, 0.0);
-    let mut god = GodObject::new(
-        peg(section, 20.0 * MM),
-        start,
-        DQuat::IDENTITY,
-        GodObjectParameters::default(),
-    );
+    let mut god = GodObject::new(peg, start, DQuat::IDENTITY, GodObjectParameters::default());
     let grip = |tick: usize| {
         let t = tick as f64 * 1e-3;
         let depth = 25.0 * MM * (std::f64::consts::PI * t).sin();

@@ -215,3 +215,25 @@ pub fn edge_points(mesh: &SignedMesh, step: f64) -> Vec<DVec3> {
     points.dedup();
     points
 }
+
+/// A square peg 10 mm wide and 20 mm long, and its block: a hole 0.2 mm wider and 15 mm
+/// deep, 30 mm across and 25 mm tall.
+pub fn square_peg_and_block() -> (SignedMesh, Section, Block) {
+    let section = Section {
+        sides: 4,
+        apothem: 5.0 * MM,
+    };
+    let block = Block {
+        outer: Section {
+            sides: 4,
+            apothem: 15.0 * MM,
+        },
+        hole: Section {
+            sides: 4,
+            apothem: 5.1 * MM,
+        },
+        height: 25.0 * MM,
+        depth: 15.0 * MM,
+    };
+    (peg(section, 20.0 * MM), section, block)
+}

@@ -423,6 +423,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, 10);
+        assert_eq!(checked, 11);
     }
 }

@@ -85,6 +85,21 @@
 //! One pointer may hold a body of the scene instead (penalty engine), which is then its solid:
 //!
 //! ```yaml
+//! name: peg
+//! dt: 0.0001
+//! material: { stiffness: 1.0e7, damping: 2.0e4, static_friction: 0.5, friction: 0.4,
+//!             friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: 0.001 }
+//! bodies:
+//!   - name: block              # its top at y = 0, a square hole 10.2 mm wide, 15 mm deep
+//!     fixed: true
+//!     position: [0, 0, 0]
+//!     pieces:
+//!       - { box: [0.0099, 0.015, 0.030], position: [-0.01005, -0.0075, 0] }
+//!       - { box: [0.0099, 0.015, 0.030], position: [0.01005, -0.0075, 0] }
+//!       - { box: [0.0102, 0.015, 0.0099], position: [0, -0.0075, -0.01005] }
+//!       - { box: [0.0102, 0.015, 0.0099], position: [0, -0.0075, 0.01005] }
+//!       - { box: [0.030, 0.010, 0.030], position: [0, -0.020, 0] }
+//!   - { name: peg, box: [0.01, 0.02, 0.01], position: [0, 0.02, 0], density: 7800 }
 //! pointer:
 //!   holds: peg                 # a body of bodies: (a mesh, a box, a hull or a ball)
 //!   rendering: god-object      # the default: a 6-DOF god-object kept out of the fixed
