@@ -72,6 +72,21 @@ pub(super) fn take(
             "coupling needs pointer.coupling".into(),
         );
     }
+    // The god-object's proxy moves by the spring's compliance: a spring of none would
+    // leave it nowhere to go (one not a number is refused with the coupling's own checks).
+    if let (RawRendering::GodObject, Some(c)) = (pointer.rendering, &pointer.coupling) {
+        for (key, value) in [
+            ("stiffness", c.stiffness),
+            ("rotational_stiffness", c.rotational_stiffness),
+        ] {
+            if value <= 0.0 {
+                refuse(
+                    &format!("pointer.coupling.{key}"),
+                    "the god-object's spring: more than 0".into(),
+                );
+            }
+        }
+    }
     let rendering = pointer.rendering;
     let Some(i) = raw.bodies.iter().position(|b| &b.name == name) else {
         refuse("pointer.holds", format!("no body is named {name:?}"));
@@ -364,6 +379,14 @@ bodies:
             &good.replace("holds: peg", "holds: peg\n  rendering: glue"),
             1,
             "rendering",
+        );
+        refused(
+            &good.replace(
+                "holds: peg",
+                "holds: peg\n  coupling: { stiffness: 0, damping: 5 }",
+            ),
+            1,
+            "the god-object's spring: more than 0",
         );
     }
 }
