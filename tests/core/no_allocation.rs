@@ -199,6 +199,46 @@ fn every_shipped_penalty_scene_steps_without_allocating_from_its_first_tick() {
 }
 
 #[test]
+fn a_penalty_scene_step_with_a_held_body_does_not_allocate() {
+    use glam::{DQuat, DVec3};
+    use hapticd_core::kinematics::Wrench;
+    use hapticd_physics::coupling::Grip;
+    use hapticd_physics::scene::PenaltyScene;
+    // A held cube pressed on a fixed slab and slid along it, a free cube in its way: the
+    // god-object's contacts, the world's push on the free cube, both felt.
+    let text = "name: held
+dt: 0.0001
+material: { stiffness: 1.0e7, damping: 2.0e4, static_friction: 0.5, friction: 0.4,
+            friction_stiffness: 1.0e7, friction_damping: 2.0e4, slip_speed: 0.001 }
+bodies:
+  - { name: slab, box: [0.2, 0.01, 0.2], position: [0, -0.005, 0], fixed: true }
+  - { name: part, box: [0.02, 0.02, 0.02], position: [0, 0.01, 0] }
+  - { name: free, box: [0.01, 0.01, 0.01], position: [0.03, 0.005, 0], density: 500 }
+pointer:
+  holds: part
+";
+    let mut scene = PenaltyScene::parse(text, std::path::Path::new("held.yaml"), 1).unwrap();
+    let grip = |tick: usize| Grip {
+        position: DVec3::new(0.03 * tick as f64 / 1000.0, 0.009, 0.0),
+        orientation: DQuat::IDENTITY,
+        velocity: DVec3::ZERO,
+        spin: DVec3::ZERO,
+    };
+    let mut felt = [Wrench::default()];
+    scene.step_pointers(1e-3, &[grip(0)], &mut felt);
+    let mut most = 0.0f64;
+    let n = allocations_in(|| {
+        for tick in 1..1000 {
+            assert!(scene.step_pointers(1e-3, &[grip(tick)], &mut felt));
+            most = most.max(felt[0].force.length());
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 1 000 ticks");
+    // It pressed on the slab: the spring's 2 000 N/m over the millimetre felt.
+    assert!(most > 1.0, "{most} N");
+}
+
+#[test]
 fn a_penalty_scene_step_with_two_fingers_grasping_does_not_allocate() {
     use glam::{DQuat, DVec3};
     use hapticd_core::kinematics::Wrench;

@@ -114,15 +114,6 @@ impl Bvh {
         );
     }
 
-    /// [rt] Call `visit` with every item whose box comes within `reach` of the box from `low`
-    /// to `high` (and perhaps a few more); no allocation.
-    pub fn visit_box(&self, low: DVec3, high: DVec3, reach: f64, visit: impl FnMut(usize)) {
-        self.walk(
-            |node| (node.low - reach).cmple(high).all() && low.cmple(node.high + reach).all(),
-            visit,
-        );
-    }
-
     /// [rt] Call `visit` with each item of the leaves whose nodes `enter` accepts, their
     /// parents accepted too; a stack of fixed size, no recursion.
     fn walk(&self, enter: impl Fn(&Node) -> bool, mut visit: impl FnMut(usize)) {

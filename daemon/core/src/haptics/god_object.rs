@@ -443,15 +443,6 @@ impl GodObject {
         &self.found.contacts[..self.found.count]
     }
 
-    /// Put the proxy at a pose from outside (a scene loaded, the part let go and taken
-    /// again): its contacts start afresh.
-    pub fn reset(&mut self, position: DVec3, orientation: DQuat) {
-        (self.position, self.orientation) = (position, orientation.normalize());
-        (self.found.count, self.previous_count) = (0, 0);
-        self.reach = self.parameters.max_step;
-        self.last_grip = None;
-    }
-
     /// [rt] Move the proxy towards the grip at `grip` (position, orientation) as far as the
     /// `obstacles` let it, `dt` after the last tick, and give the wrench the user feels.
     /// Allocates nothing (the obstacles come as an iterator, so that a scene can give its

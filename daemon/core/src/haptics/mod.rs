@@ -20,6 +20,8 @@
 
 pub mod bvh;
 pub mod effects;
+#[cfg(test)]
+mod fixtures;
 pub mod god_object;
 pub mod grasp;
 pub mod obstacle;

@@ -492,30 +492,11 @@ mod tests {
         assert!(!out.sliding && (out.proxy.x - 0.005).abs() < 1e-9);
     }
 
-    /// The box `centre` ± `half` as the twelve triangles of its faces, as a mesh file would
-    /// give it.
+    /// The box `centre` ± `half` as the triangles a proxy walks among.
     fn box_faces(centre: DVec3, half: DVec3) -> Vec<Shape> {
-        let corner = |k: usize| {
-            centre
-                + half
-                    * DVec3::new(
-                        if k & 1 == 0 { -1.0 } else { 1.0 },
-                        if k & 2 == 0 { -1.0 } else { 1.0 },
-                        if k & 4 == 0 { -1.0 } else { 1.0 },
-                    )
-        };
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .map(|t| Shape::triangle(corner(t[0]), corner(t[1]), corner(t[2])).unwrap())
+        super::super::fixtures::box_faces(centre, half)
+            .into_iter()
+            .map(|[a, b, c]| Shape::triangle(a, b, c).unwrap())
             .collect()
     }
 

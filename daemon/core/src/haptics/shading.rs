@@ -116,19 +116,7 @@ mod tests {
 
     /// A unit cube's twelve faces, wound outward.
     fn cube() -> Vec<[DVec3; 3]> {
-        let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z) - 0.5;
-        let quads = [
-            [v(0., 0., 0.), v(0., 1., 0.), v(1., 1., 0.), v(1., 0., 0.)],
-            [v(0., 0., 1.), v(1., 0., 1.), v(1., 1., 1.), v(0., 1., 1.)],
-            [v(0., 0., 0.), v(1., 0., 0.), v(1., 0., 1.), v(0., 0., 1.)],
-            [v(0., 1., 0.), v(0., 1., 1.), v(1., 1., 1.), v(1., 1., 0.)],
-            [v(0., 0., 0.), v(0., 0., 1.), v(0., 1., 1.), v(0., 1., 0.)],
-            [v(1., 0., 0.), v(1., 1., 0.), v(1., 1., 1.), v(1., 0., 1.)],
-        ];
-        quads
-            .iter()
-            .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
-            .collect()
+        super::super::fixtures::box_faces(DVec3::ZERO, DVec3::splat(0.5))
     }
 
     #[test]

@@ -59,7 +59,7 @@ impl std::fmt::Display for MeshFault {
 
 /// Which part of a triangle a closest point lies on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Feature {
+enum Feature {
     /// Inside the face.
     Face,
     /// On edge k, from corner k to corner k + 1 (mod 3).
@@ -280,15 +280,8 @@ impl SignedMesh {
     }
 
     /// [rt] How near `p` (in this mesh's frame) comes to triangle `t`, signed by the
-    /// pseudo-normal of the feature its closest point lies on.
-    pub fn near(&self, t: usize, p: DVec3) -> Near {
-        let tri = self.triangles[t];
-        let [a, b, c] = tri.map(|i| self.vertices[i as usize]);
-        self.signed(t, p, closest_on_triangle(p, a, b, c))
-    }
-
-    /// [rt] As [`near`](Self::near), or None when `p` is farther than `reach` from the
-    /// triangle: its plane looked at first, which settles most.
+    /// pseudo-normal of the feature its closest point lies on; None when it is farther than
+    /// `reach`, the triangle's plane looked at first, which settles most.
     pub fn near_within(&self, t: usize, p: DVec3, reach: f64) -> Option<Near> {
         let tri = self.triangles[t];
         let a = self.vertices[tri[0] as usize];
@@ -338,15 +331,6 @@ impl SignedMesh {
             facing: sign * direction.dot(pseudo) >= cone - 1e-9,
         }
     }
-
-    /// The signed distance from `p` (in this mesh's frame) to the surface, scanning every
-    /// triangle: for checks off the haptic thread.
-    pub fn distance(&self, p: DVec3) -> f64 {
-        (0..self.triangles.len())
-            .map(|t| self.near(t, p))
-            .min_by(|x, y| x.distance.abs().total_cmp(&y.distance.abs()))
-            .map_or(f64::INFINITY, |n| n.distance)
-    }
 }
 
 /// The point of triangle `a`, `b`, `c` closest to `p`, and the feature it lies on: the
@@ -392,24 +376,28 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Featur
 mod tests {
     use super::*;
 
-    /// A unit cube's 12 triangles, wound outward.
+    /// A unit cube's 12 triangles, wound outward, each with corners of its own.
     fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
-        let v: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+        let faces = super::super::fixtures::box_faces(DVec3::splat(0.5), DVec3::splat(0.5));
+        let corners = faces.iter().flatten().copied().collect();
+        let triangles = (0..faces.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
             .collect();
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let t = quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect();
-        (v, t)
+        (corners, triangles)
+    }
+
+    /// How near `p` comes to triangle `t` of `mesh`.
+    fn near(mesh: &SignedMesh, t: usize, p: DVec3) -> Near {
+        mesh.near_within(t, p, f64::INFINITY)
+            .expect("within any reach")
+    }
+
+    /// The signed distance from `p` to `mesh`'s surface, scanning every triangle.
+    fn distance(mesh: &SignedMesh, p: DVec3) -> f64 {
+        (0..mesh.triangles.len())
+            .map(|t| near(mesh, t, p))
+            .min_by(|x, y| x.distance.abs().total_cmp(&y.distance.abs()))
+            .map_or(f64::INFINITY, |n| n.distance)
     }
 
     /// A reproducible point in [-0.5, 1.5]³.
@@ -429,7 +417,7 @@ mod tests {
             let p = point(k);
             let q = (p - 0.5).abs() - 0.5;
             let exact = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
-            assert!((mesh.distance(p) - exact).abs() < 1e-12, "{p}");
+            assert!((distance(&mesh, p) - exact).abs() < 1e-12, "{p}");
         }
     }
 
@@ -445,15 +433,9 @@ mod tests {
 
     #[test]
     fn an_open_or_inside_out_surface_is_refused() {
+        // Each triangle's corners its own: welded at the same places, they close a cube.
         let (v, mut t) = cube();
-        let welded_twice: Vec<DVec3> = v.iter().chain(&v).copied().collect();
-        let shifted: Vec<[u32; 3]> = t
-            .iter()
-            .enumerate()
-            .map(|(i, x)| if i % 2 == 0 { x.map(|i| i + 8) } else { *x })
-            .collect();
-        // Corners repeated at the same places are welded into a closed cube again.
-        assert!(SignedMesh::new(&welded_twice, &shifted, 0.1).is_ok());
+        assert!(SignedMesh::new(&v, &t, 0.1).is_ok());
         t.pop();
         assert_eq!(
             SignedMesh::new(&v, &t, 0.1),
@@ -480,8 +462,7 @@ mod tests {
         let reach = 0.05;
         let mut found = Vec::new();
         mesh.visit_near(&mesh, (turn, shift), reach, |s, t| {
-            if mesh
-                .near(t, turn * mesh.samples()[s] + shift)
+            if near(&mesh, t, turn * mesh.samples()[s] + shift)
                 .distance
                 .abs()
                 <= reach
@@ -494,7 +475,7 @@ mod tests {
         let mut expected = Vec::new();
         for (s, p) in mesh.samples().iter().enumerate() {
             for t in 0..12 {
-                if mesh.near(t, turn * *p + shift).distance.abs() <= reach {
+                if near(&mesh, t, turn * *p + shift).distance.abs() <= reach {
                     expected.push((s, t));
                 }
             }

@@ -10,7 +10,7 @@ use hapticd_core::haptics::signed_mesh::SignedMesh;
 use hapticd_core::kinematics::Wrench;
 
 use super::Engine;
-use super::checks::{Bodies, rigid_body};
+use super::checks::{Bodies, Surface, rigid_body};
 use super::meshes::MeshFiles;
 use super::schema::{RawRendering, RawScene};
 use crate::body::Body;
@@ -19,16 +19,18 @@ use crate::polyhedron::Polyhedron;
 
 /// How far apart the samples along a surface's creases are at a right angle, metres: an
 /// edge crossing an edge between two goes at most half as deep.
-pub const CREASE_SPACING: f64 = 1e-4;
+const CREASE_SPACING: f64 = 1e-4;
 
 /// The body the pointer holds, as the file gives it and checked.
 pub(super) struct Held {
     /// The body where the file puts it.
-    pub(super) body: Body,
-    /// Its surface, in its frame.
-    pub(super) surface: SignedMesh,
+    body: Body,
+    /// Its triangles in its frame when it is a mesh.
+    surface: Option<Surface>,
+    /// Where the file gives it, for what is reported.
+    at: String,
     /// How it is rendered.
-    pub(super) rendering: RawRendering,
+    rendering: RawRendering,
 }
 
 /// The body `pointer.holds` names in `raw`, marked held (the world's bodies leave it out),
@@ -111,21 +113,17 @@ pub(super) fn take(
         return None;
     }
     let (body, _, surface) = rigid_body(f, &at, b, engine, files)?;
-    let surface = match surface {
-        Some(triangles) => triangles,
-        None if body.pieces.len() == 1 => faces(&body.pieces[0]),
-        None => {
-            f.error(
-                format!("{at}.pieces"),
-                "the pointer holds it: a mesh, a box, a hull or a ball, not pieces",
-            );
-            return None;
-        }
-    };
-    let surface = closed(f, &at, &surface)?;
+    if surface.is_none() && body.pieces.len() > 1 {
+        f.error(
+            format!("{at}.pieces"),
+            "the pointer holds it: a mesh, a box, a hull or a ball, not pieces",
+        );
+        return None;
+    }
     Some(Held {
         body,
         surface,
+        at,
         rendering,
     })
 }
@@ -138,14 +136,21 @@ pub(super) fn pointer_body(
     held: Held,
     bodies: &Bodies,
 ) -> Option<HeldPointer> {
-    let coupling = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref());
-    if held.rendering == RawRendering::Coupling {
-        let mut body = held.body;
+    let Held {
+        mut body,
+        surface,
+        at,
+        rendering,
+    } = held;
+    if rendering == RawRendering::Coupling {
         body.fixed = false;
         return Some((body, None));
     }
+    // A mesh's own triangles, or the one convex piece's faces.
+    let surface = surface.unwrap_or_else(|| faces(&body.pieces[0]));
+    let surface = closed(f, &at, &surface)?;
     let mut parameters = GodObjectParameters::default();
-    if let Some(c) = coupling {
+    if let Some(c) = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref()) {
         parameters.stiffness = c.stiffness;
         parameters.damping = c.damping;
         parameters.rotational_stiffness = c.rotational_stiffness;
@@ -157,9 +162,9 @@ pub(super) fn pointer_body(
         .filter(|b| b.rigid())
         .map(|b| b.name.as_str())
         .collect();
-    let mut body = held.body.clone();
+    let god = GodObject::new(surface, body.position, body.orientation, parameters);
+    let part = HeldPart::new(f, god, (bodies, &names))?;
     (body.fixed, body.kinematic) = (true, true);
-    let part = HeldPart::new(f, held, parameters, (bodies, &names))?;
     Some((body, Some(part)))
 }
 
@@ -190,9 +195,9 @@ pub(super) type HeldPointer = (Body, Option<HeldPart>);
 
 /// A held body's god-object and the fixed bodies it cannot enter.
 #[derive(Debug, Clone)]
-pub struct HeldPart {
+pub(super) struct HeldPart {
     /// The god-object; its pose is the held body's.
-    pub god: GodObject,
+    pub(super) god: GodObject,
     /// Each fixed body's surface (a mesh's own, or each of its convex pieces), in its frame,
     /// by body.
     obstacles: Vec<(usize, SignedMesh)>,
@@ -201,15 +206,9 @@ pub struct HeldPart {
 }
 
 impl HeldPart {
-    /// The god-object of `held` (its spring `parameters`) among the fixed ones of `bodies`
-    /// (`names` naming them in what is reported); None after reporting a surface that
-    /// cannot be touched exactly.
-    pub(super) fn new(
-        f: &mut Findings,
-        held: Held,
-        parameters: GodObjectParameters,
-        (bodies, names): (&Bodies, &[&str]),
-    ) -> Option<Self> {
+    /// The held body's `god`-object among the fixed ones of `bodies` (`names` naming them in
+    /// what is reported); None after reporting a surface that cannot be touched exactly.
+    fn new(f: &mut Findings, god: GodObject, (bodies, names): (&Bodies, &[&str])) -> Option<Self> {
         let Bodies {
             bodies, surfaces, ..
         } = bodies;
@@ -225,9 +224,8 @@ impl HeldPart {
                 }
             }
         }
-        let (position, orientation) = (held.body.position, held.body.orientation);
         Some(Self {
-            god: GodObject::new(held.surface, position, orientation, parameters),
+            god,
             obstacles,
             felt: Wrench::ZERO,
         })

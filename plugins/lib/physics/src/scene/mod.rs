@@ -195,7 +195,6 @@ pub use checks::{
     RATE_RANGE,
 };
 pub use geometry::soft_corners;
-pub use held::{CREASE_SPACING, HeldPart};
 pub use joints::WORLD;
 pub use meshes::SCALE_RANGE;
 pub use penalty::PenaltyScene;

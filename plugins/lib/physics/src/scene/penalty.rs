@@ -63,7 +63,7 @@ pub struct PenaltyScene {
     /// Each world body's own load, kept while the soft bodies' pushes are added to it.
     pub(super) own_loads: Vec<Wrench>,
     /// The body the pointer holds, rendered by its god-object (`pointer.holds`).
-    pub held: Option<HeldPart>,
+    pub(super) held: Option<HeldPart>,
 }
 
 impl PenaltyScene {
