@@ -79,6 +79,7 @@ figures: stage
 	$(HAPTICCTL) experiment pendulum --plot docs/figures/pendulum.png
 	$(HAPTICCTL) experiment door --plot docs/figures/door.png
 	$(HAPTICCTL) experiment beam --plot docs/figures/beam.png
+	$(HAPTICCTL) experiment peg-in-hole --plot docs/figures/peg-in-hole.png
 	$(HAPTICCTL) render config/scenes/jelly.yaml --grip 0,-0.012,0 --at 0.5 --out docs/figures/jelly-pressed.png
 	$(HAPTICCTL) scene run config/scenes/cube-drop.yaml --duration 2 --model volume --model point \
 		--quantity angular-momentum-z --plot docs/figures/cube-drop.png

@@ -21,7 +21,7 @@ use hapticd_physics::scene::PenaltyScene;
 #[path = "../support/mod.rs"]
 mod support;
 
-use support::parts::{Block, MM, Section, fine_peg};
+use hapticctl::parts::{Block, MM, Section, fine_peg};
 
 /// Ticks timed per case, after as many to settle.
 const TICKS: usize = 20_000;

@@ -213,6 +213,79 @@ fn the_incline_experiment_holds_below_the_friction_angle_and_slides_past_it() {
     }
 }
 
+/// A held peg put into its hole by the shipped hand script (tilted onto the rim, wobbled,
+/// upright, in) through the god-object: with 0.2 mm clearance it reaches the hole's floor
+/// 15 mm down, with 0.2 mm interference it stays on the rim; neither solid goes 0.1 mm into
+/// the other by their exact formulas, no tick keeps its pose for finding too much, and the
+/// most the hand feels is the god-object's 2 000 N/m spring stretched by how far the hand
+/// ends past where the peg stops (5 mm past the floor, 20 mm past the rim) and its damper's
+/// 5 N·s/m at the hand's 28 mm/s.
+#[test]
+fn the_peg_in_hole_experiment_inserts_with_clearance_and_stops_at_the_rim_with_interference() {
+    let rows = experiment("peg-in-hole", &["--clearances", "0.2,-0.2"]);
+    let get = |r: &Value, key: &str| r[key].as_f64().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert!(
+        (get(&rows[0], "reached") - 0.015).abs() < 1e-5,
+        "{}",
+        rows[0]
+    );
+    assert!(get(&rows[1], "reached").abs() < 1e-5, "{}", rows[1]);
+    for (r, past) in rows.iter().zip([0.005, 0.020]) {
+        assert!(get(r, "deepest") <= 1e-4, "{r}");
+        assert_eq!(r["held_back"], 0, "{r}");
+        let spring = 2000.0 * past + 5.0 * 0.017 / 0.6;
+        assert!((get(r, "peak_force") - spring).abs() < 0.05, "{r}");
+        assert!(r["tick_us"]["p999"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    for bad in [
+        "--clearances=nan",
+        "--clearances=5",
+        "--sides=2",
+        "--duration=0",
+    ] {
+        assert_eq!(refused("peg-in-hole", &[bad]), Some(2), "{bad}");
+    }
+    assert_eq!(
+        refused("peg-in-hole", &["--hand", "/nonexistent/hand.yaml"]),
+        Some(1)
+    );
+}
+
+/// The shipped peg-in-hole scene run with the shipped hand: the penalty engine's held peg
+/// (a mesh against the block's mesh) ends on the hole's floor, the hand 5 mm past it
+/// feeling the god-object's spring of that straight up.
+#[test]
+fn the_shipped_peg_goes_to_the_floor_of_its_hole_in_its_scene() {
+    let hand = repo_dir().join("config/hands/peg-in-hole.yaml");
+    let output = run(&[
+        &scene("peg-in-hole.yaml"),
+        "--hand",
+        hand.to_str().unwrap(),
+        "--quantity",
+        "pointer-force",
+        "--duration",
+        "2.6",
+        "--json",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let force: Vec<f64> = report["runs"][0]["pointers"][0]["force"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(
+        force[0].abs() < 1e-3 && (force[1] - 10.0).abs() < 1e-2 && force[2].abs() < 1e-3,
+        "{force:?}"
+    );
+}
+
 #[test]
 fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
     // The rig as a scene: the weight is a pointer on a 400 N/m virtual coupling, the

@@ -17,7 +17,9 @@ use rapier3d::parry::query::PointQuery;
 use rapier3d::parry::shape::{TriMesh, TriMeshFlags};
 use rapier3d::prelude::Vector;
 
-use crate::support::parts::{Block, MM, SPACING, Section, edge_points, peg, square_peg_and_block};
+use hapticctl::parts::{
+    Block, MM, Overlap, SPACING, Section, edge_points, peg, square_peg_and_block,
+};
 
 /// The haptic tick.
 const DT: f64 = 1e-3;
@@ -28,42 +30,6 @@ fn unmoved(mesh: &SignedMesh) -> [Obstacle<'_>; 1] {
         position: DVec3::ZERO,
         orientation: DQuat::IDENTITY,
     }]
-}
-
-/// How deep the peg at `pose` is inside the block, or the block inside the peg, by the
-/// exact formulas of both solids, at points 50 µm apart along every edge of both.
-struct Depth {
-    peg_points: Vec<DVec3>,
-    block_points: Vec<DVec3>,
-    peg_ring: Vec<DVec3>,
-    block_rings: [Vec<DVec3>; 2],
-}
-
-impl Depth {
-    fn new(peg: (&SignedMesh, Section), block: (&SignedMesh, &Block)) -> Self {
-        // Only the block's edges around its hole can reach a peg in or over it.
-        let near_hole = |p: &DVec3| DVec3::new(p.x, 0.0, p.z).length() < 1.5 * block.1.hole.apothem;
-        Self {
-            peg_points: edge_points(peg.0, 0.05 * MM),
-            block_points: edge_points(block.0, 0.05 * MM)
-                .into_iter()
-                .filter(near_hole)
-                .collect(),
-            peg_ring: peg.1.ring(0.0),
-            block_rings: [block.1.outer.ring(0.0), block.1.hole.ring(0.0)],
-        }
-    }
-
-    fn at(&self, block: &Block, peg: Section, length: f64, (at, turn): (DVec3, DQuat)) -> f64 {
-        let into_block = (self.peg_points.iter())
-            .map(|&p| block.depth(&self.block_rings, turn * p + at))
-            .fold(0.0, f64::max);
-        let back = turn.inverse();
-        let into_peg = (self.block_points.iter())
-            .map(|&p| peg.depth(&self.peg_ring, back * (p - at), -length / 2.0, length / 2.0))
-            .fold(0.0, f64::max);
-        into_block.max(into_peg)
-    }
 }
 
 /// A peg of `sides` sides and 10 mm across, 20 mm long, put by a hand into a hole 15 mm
@@ -88,7 +54,7 @@ fn insert(sides: usize, clearance: f64) -> (f64, f64) {
         depth: 15.0 * MM,
     };
     let (part, solid) = (peg(section, length), block.mesh());
-    let depth = Depth::new((&part, section), (&solid, &block));
+    let overlap = Overlap::new((&part, section), (&solid, &block));
     let turn = DQuat::from_rotation_z(1f64.to_radians());
     // The peg's tip centred over the hole to within the hand's 0.03 mm.
     let start = DVec3::new(0.03 * MM, 5.0 * MM, 0.0) + turn * DVec3::Y * (length / 2.0);
@@ -109,7 +75,7 @@ fn insert(sides: usize, clearance: f64) -> (f64, f64) {
             out.penetration
         );
         if tick % 25 == 0 || tick >= 790 {
-            deepest = deepest.max(depth.at(&block, section, length, god.pose()));
+            deepest = deepest.max(overlap.at(&block, (section, length), god.pose()));
         }
     }
     let (at, turn) = god.pose();

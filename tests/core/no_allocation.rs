@@ -170,6 +170,10 @@ fn every_shipped_penalty_scene_steps_without_allocating_from_its_first_tick() {
         ("jelly", 1),
         ("tray", 1),
         ("weight", 1),
+        ("peg-in-hole", 1),
+        ("bolt", 1),
+        ("gears", 1),
+        ("mug-hook", 1),
     ] {
         let path = support::repo_dir().join(format!("config/scenes/{name}.yaml"));
         let text = std::fs::read_to_string(&path).unwrap();
@@ -1071,8 +1075,8 @@ fn shading_a_body_of_a_mesh_does_not_allocate() {
 #[test]
 fn a_held_parts_god_object_does_not_allocate() {
     use glam::DQuat;
+    use hapticctl::parts::{MM, square_peg_and_block};
     use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
-    use support::parts::{MM, square_peg_and_block};
     // A square peg put into its hole, wobbled there and pulled out: contacts found, solved,
     // warm-started and let go, tick after tick.
     let (peg, _, block) = square_peg_and_block();

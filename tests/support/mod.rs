@@ -9,7 +9,6 @@ pub mod bus;
 pub mod daemon;
 pub mod haptic_cpu;
 pub mod netns;
-pub mod parts;
 pub mod pile;
 pub mod qp;
 pub mod relay;

@@ -1,11 +1,18 @@
 #!/usr/bin/env python3
-"""Write hapticd's two example meshes, each as Wavefront OBJ and as glTF 2.0 (one .gltf
-file, its buffer embedded as base64), into this directory:
+"""Write hapticd's example meshes into this directory, the first two as Wavefront OBJ and as
+glTF 2.0 (one .gltf file, its buffer embedded as base64), the parts to put together as OBJ:
 
 - bracket: a 50 x 50 x 6 mm plate with a round hole of 8 mm radius through it (a solid
   with a hole: non-convex, genus one);
 - mug: a cup of 40 mm radius and 90 mm height with 4 mm walls and a 6 mm bottom, and a
-  handle (half a torus) standing off its side, as two closed shells.
+  handle (half a torus) standing off its side, as two closed shells;
+- peg and holed-block: a square peg 10 mm wide and 20 mm long (its origin at its middle),
+  and a block 30 mm square and 25 mm tall (its origin at the middle of its top) with a
+  square hole 10.2 mm wide and 15 mm deep;
+- bolt: a shank of 7.7 mm radius and 20 mm (the bracket's hole less 0.3 mm), its tip
+  chamfered, under a round head of 12 mm radius (its origin where the shank meets the head);
+- gear: a spur gear of 12 trapezoidal teeth, 4 mm module (24 mm pitch radius), 8 mm thick
+  (its origin at its middle): two of them mesh 48 mm apart.
 
 Units are metres, y up, triangles counter-clockwise seen from outside. Run it again after a
 change (python3 config/scenes/meshes/make-meshes.py); the test of the meshes checks the files
@@ -139,6 +146,101 @@ def mug():
             cup[1] + [tuple(k + offset for k in t) for t in handle[1]])
 
 
+class Solid:
+    """A closed surface being built of flat polygons, corners at the same place shared."""
+
+    def __init__(self):
+        self.vertices, self.triangles, self.index = [], [], {}
+
+    def corner(self, v):
+        key = tuple(round(c, 12) for c in v)
+        if key not in self.index:
+            self.index[key] = len(self.vertices)
+            self.vertices.append(tuple(v))
+        return self.index[key]
+
+    def polygon(self, points):
+        """A convex polygon, counter-clockwise seen from outside, as a fan."""
+        k = [self.corner(p) for p in points]
+        for i in range(1, len(k) - 1):
+            self.triangles.append((k[0], k[i], k[i + 1]))
+
+    def mesh(self):
+        return self.vertices, self.triangles
+
+
+def square(half, y):
+    """A square's corners at height y, counter-clockwise seen from above."""
+    return [(half, y, half), (-half, y, half), (-half, y, -half), (half, y, -half)]
+
+
+def walls(solid, lower, upper, inward=False):
+    """The quads between two rings (counter-clockwise seen from above), facing away from
+    their axis, or towards it."""
+    n = len(lower)
+    for i in range(n):
+        j = (i + 1) % n
+        quad = [lower[i], lower[j], upper[j], upper[i]]
+        solid.polygon(quad[::-1] if inward else quad)
+
+
+def peg():
+    half, length = 0.005, 0.020
+    s = Solid()
+    bottom, top = square(half, -length / 2), square(half, length / 2)
+    # Counter-clockwise seen from above is clockwise seen from below.
+    walls(s, bottom, top, inward=True)
+    s.polygon(top[::-1])
+    s.polygon(bottom)
+    return s.mesh()
+
+
+def holed_block():
+    outer, hole, height, depth = 0.015, 0.0051, 0.025, 0.015
+    s = Solid()
+    walls(s, square(outer, -height), square(outer, 0.0), inward=True)
+    s.polygon(square(outer, -height))
+    # The top, a trapezoid per side between the outer square and the hole's.
+    big, small = square(outer, 0.0), square(hole, 0.0)
+    for i in range(4):
+        j = (i + 1) % 4
+        s.polygon([small[i], small[j], big[j], big[i]])
+    walls(s, square(hole, -depth), small)
+    s.polygon(square(hole, -depth)[::-1])
+    return s.mesh()
+
+
+def bolt():
+    shank, length, chamfer, head, thickness = 0.0077, 0.020, 0.001, 0.012, 0.006
+    return revolve([(0.0, -length), (shank - chamfer, -length), (shank, -length + chamfer),
+                    (shank, 0.0), (head, 0.0), (head, thickness), (0.0, thickness)])
+
+
+def gear():
+    teeth, module, thickness = 12, 0.004, 0.008
+    pitch = module * teeth / 2
+    root, tip = pitch - 1.25 * module, pitch + module
+    # Each tooth a trapezoid, 0.5 of the pitch angle wide at the root and 0.25 at the tip.
+    step = 2 * math.pi / teeth
+    outline = []
+    for k in range(teeth):
+        a = k * step
+        for angle, r in ((a - 0.25 * step, root), (a - 0.125 * step, tip),
+                         (a + 0.125 * step, tip), (a + 0.25 * step, root)):
+            outline.append((r * math.cos(angle), r * math.sin(angle)))
+    s = Solid()
+    low = [(x, -thickness / 2, z) for x, z in outline]
+    high = [(x, thickness / 2, z) for x, z in outline]
+    walls(s, low, high, inward=True)
+    # The faces, fans from the axis: the outline is star-shaped about it.
+    n = len(outline)
+    for i in range(n):
+        j = (i + 1) % n
+        s.polygon([(0.0, thickness / 2, 0.0), high[j], high[i]])
+        s.polygon([(0.0, -thickness / 2, 0.0), low[i], low[j]])
+    return s.mesh()
+
+
 def write_obj(path, name, vertices, triangles):
     with open(path, "w") as f:
         f.write(f"# hapticd's example mesh '{name}', written by make-meshes.py; metres, y up\n")
@@ -183,6 +285,9 @@ def main():
     for name, (vertices, triangles) in (("bracket", bracket()), ("mug", mug())):
         write_obj(os.path.join(here, name + ".obj"), name, vertices, triangles)
         write_gltf(os.path.join(here, name + ".gltf"), name, vertices, triangles)
+    for name, (vertices, triangles) in (("peg", peg()), ("holed-block", holed_block()),
+                                        ("bolt", bolt()), ("gear", gear())):
+        write_obj(os.path.join(here, name + ".obj"), name, vertices, triangles)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ pub mod manual;
 pub mod mechanism_report;
 pub mod mesh_report;
 pub mod multirate;
+pub mod parts;
 pub mod pictures;
 pub mod plot;
 pub mod remote_daemon;

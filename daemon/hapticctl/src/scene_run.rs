@@ -3,7 +3,7 @@
 //! over time, the forces felt, and the moving bodies' energy. Each step is offered to a
 //! caller's closure (to record it or draw it); what the trace means is the caller's to print.
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DMat3, DVec3};
 use hapticd_core::kinematics::Wrench;
 use hapticd_core::scene::Pointer;
 use hapticd_device::sim::hand::HandTrack;
@@ -100,9 +100,9 @@ fn grips(hands: &[HandTrack], t: f64) -> Vec<Grip> {
             let c = h.at(t);
             Grip {
                 position: c.target,
-                orientation: DQuat::IDENTITY,
+                orientation: c.turn,
                 velocity: c.velocity,
-                spin: DVec3::ZERO,
+                spin: c.spin,
             }
         })
         .collect()

@@ -17,7 +17,9 @@
 //! - [`pendulum`]: a hinged box's period against its amplitude, against the exact formula;
 //! - [`door`]: a door pushed at its handle at 10–60 Hz physics, with local dynamics through
 //!   its hinge, against physics at the haptic rate (6.5.4, 7.2);
-//! - [`beam`]: a soft cantilever's sag under its weight against Euler–Bernoulli (7.2).
+//! - [`beam`]: a soft cantilever's sag under its weight against Euler–Bernoulli (7.2);
+//! - [`peg_in_hole`]: a held peg put into its hole through the 6-DOF god-object, at
+//!   several clearances (7.2).
 //!
 //! Each module's `report` gives what `hapticctl experiment` prints and draws, as a
 //! [`Report`](crate::report::Report).
@@ -27,6 +29,7 @@ pub mod door;
 pub mod effects;
 pub mod grasp;
 pub mod incline;
+pub mod peg_in_hole;
 pub mod pendulum;
 pub mod push_mass;
 pub mod push_phase;

@@ -6,12 +6,13 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Subcommand};
 use hapticctl::experiments::{
-    beam, door, effects, grasp, incline, pendulum, push_mass, push_phase, shape_tracing,
-    stack_timing, stick_slip, wall_stiffness,
+    beam, door, effects, grasp, incline, peg_in_hole, pendulum, push_mass, push_phase,
+    shape_tracing, stack_timing, stick_slip, wall_stiffness,
 };
 use hapticctl::report::Report;
 use hapticd_config::catalog::Catalog;
 use hapticd_core::haptics::grasp::Method;
+use hapticd_device::sim::hand::Script;
 use serde_json::json;
 
 use crate::Failure;
@@ -54,6 +55,29 @@ pub enum Command {
     /// linear and quadratic elements: its tip's sag against Euler–Bernoulli's (soft bodies,
     /// thesis 7.2).
     Beam(BeamArgs),
+    /// Put a held peg into its hole through the 6-DOF god-object, with a hand script
+    /// (approach, tilt, wobble, insert), at several clearances: the depth reached, the
+    /// deepest the solids went into each other, the peak force and torque, and the tick's
+    /// cost (assembly, thesis 7.2).
+    PegInHole(PegInHoleArgs),
+}
+
+#[derive(Args)]
+pub struct PegInHoleArgs {
+    /// The hole's width less the peg's, millimetres (less than 0: interference).
+    #[arg(long, value_parser = parse_numbers, default_value = "0.2,0.05,-0.2", allow_hyphen_values = true)]
+    clearances: Numbers,
+    /// Sides of the peg and its hole (4: square; 48: round).
+    #[arg(long, default_value_t = 4)]
+    sides: usize,
+    /// The hand's script (the first hand of it holds the peg); by default the shipped one.
+    #[arg(long, value_name = "SCRIPT")]
+    hand: Option<PathBuf>,
+    /// Simulated time, seconds.
+    #[arg(long, default_value_t = 2.6)]
+    duration: f64,
+    #[command(flatten)]
+    figure: Figure,
 }
 
 #[derive(Args)]
@@ -313,6 +337,7 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
             let report = door::report(&door::Door::default()).map_err(Failure::failed)?;
             show_figure(report, &figure)
         }
+        Command::PegInHole(args) => peg_in_hole(&args),
         Command::PushMass(args) => {
             if !(2..=20).contains(&args.phases) {
                 return Err(Failure::usage("--phases must be 2–20"));
@@ -321,6 +346,28 @@ pub fn run(command: Command, catalog: &Catalog) -> Result<(), Failure> {
             show(&args.output, report, args.plot.as_deref())
         }
     }
+}
+
+fn peg_in_hole(args: &PegInHoleArgs) -> Result<(), Failure> {
+    let mut values = vec![
+        ("--sides", args.sides as f64, 3.0..=64.0),
+        ("--duration", args.duration, 0.01..=30.0),
+    ];
+    values.extend(
+        args.clearances
+            .iter()
+            .map(|&c| ("--clearances", c, -2.0..=2.0)),
+    );
+    check_ranges(&values)?;
+    let script = match &args.hand {
+        Some(path) => Script::load(path),
+        None => peg_in_hole::shipped_script(),
+    }
+    .map_err(Failure::failed)?;
+    let clearances: Vec<f64> = args.clearances.iter().map(|c| c * 1e-3).collect();
+    let hand = peg_in_hole::hand(&script);
+    let report = peg_in_hole::report(args.sides, &clearances, &hand, args.duration);
+    show_figure(report, &args.figure)
 }
 
 /// Simulated time of the friction experiments: up to a minute.

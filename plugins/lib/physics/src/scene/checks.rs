@@ -9,7 +9,9 @@ use hapticd_core::kinematics::{SOLID_SIZES, WORLD_EXTENT, quat_from_wxyz};
 
 use super::Engine;
 use super::meshes::{MeshBody, MeshFiles, mesh_body};
-use super::schema::{RawBody, RawEngine, RawInertial, RawMaterial, RawModel, RawScene, identity};
+use super::schema::{
+    RawBody, RawEngine, RawInertial, RawMaterial, RawModel, RawPointer, RawScene, identity,
+};
 use crate::body::Body;
 use crate::joint::Joint;
 use crate::polyhedron::Polyhedron;
@@ -642,9 +644,11 @@ pub(super) fn pointer(
             let (light, dense) = DENSITY_RANGE;
             f.within("pointer.density", pointer.density, light, dense, " kg/m³");
         }
-        // A pointer that holds a body has that body for its solid (see `held`).
+        // The first pointer has the body it holds for its solid (see `held`); a device's
+        // other pointers are fingertips.
         if pointer.holds.is_some() {
-            return None;
+            let fingertip = RawPointer::fingertip();
+            return solid(f, "pointer", given!(fingertip), [0.0; 3], identity());
         }
         solid(f, "pointer", given!(pointer), [0.0; 3], identity())
     })

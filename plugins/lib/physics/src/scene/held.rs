@@ -3,7 +3,7 @@
 //! surfaces (`rendering: god-object`, the default) or tied to the grip by `coupling:`
 //! (`rendering: coupling`).
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::Findings;
 use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
 use hapticd_core::haptics::signed_mesh::SignedMesh;
@@ -27,6 +27,8 @@ pub(super) struct Held {
     body: Body,
     /// Its triangles in its frame when it is a mesh.
     surface: Option<Surface>,
+    /// Where the grip holds it: the point the file places (`position:`).
+    grip: DVec3,
     /// Where the file gives it, for what is reported.
     at: String,
     /// How it is rendered.
@@ -50,10 +52,10 @@ pub(super) fn take(
         f.error(field, why);
         ok = false;
     };
-    if pointers != 1 {
+    if pointers == 0 {
         refuse(
             "pointer.holds",
-            format!("a held body is rendered for one pointer, not {pointers}"),
+            "a held body needs a pointer to hold it, and this scene has none".into(),
         );
     }
     if engine != Engine::Penalty {
@@ -66,6 +68,12 @@ pub(super) fn take(
         refuse(
             "pointer.holds",
             "the held body is the pointer's solid: give no box, hull or sphere".into(),
+        );
+    }
+    if raw.grasp.is_some() {
+        refuse(
+            "pointer.holds",
+            "a held body is held by the first pointer, not grasped: give no grasp".into(),
         );
     }
     if pointer.rendering == RawRendering::Coupling && pointer.coupling.is_none() {
@@ -112,6 +120,7 @@ pub(super) fn take(
     if !ok {
         return None;
     }
+    let grip = DVec3::from(b.position);
     let (body, _, surface) = rigid_body(f, &at, b, engine, files)?;
     if surface.is_none() && body.pieces.len() > 1 {
         f.error(
@@ -123,6 +132,7 @@ pub(super) fn take(
     Some(Held {
         body,
         surface,
+        grip,
         at,
         rendering,
     })
@@ -139,6 +149,7 @@ pub(super) fn pointer_body(
     let Held {
         mut body,
         surface,
+        grip,
         at,
         rendering,
     } = held;
@@ -146,9 +157,12 @@ pub(super) fn pointer_body(
         body.fixed = false;
         return Some((body, None));
     }
-    // A mesh's own triangles, or the one convex piece's faces.
+    // A mesh's own triangles, or the one convex piece's faces, about the point the grip
+    // holds (a mesh's body frame is at its centre of volume, which the hand does not hold).
+    let centre = body.orientation.inverse() * (body.position - grip);
     let surface = surface.unwrap_or_else(|| faces(&body.pieces[0]));
-    let surface = closed(f, &at, &surface)?;
+    let held: Vec<[DVec3; 3]> = surface.iter().map(|t| t.map(|c| c + centre)).collect();
+    let surface = closed(f, &at, &held)?;
     let mut parameters = GodObjectParameters::default();
     if let Some(c) = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref()) {
         parameters.stiffness = c.stiffness;
@@ -162,8 +176,8 @@ pub(super) fn pointer_body(
         .filter(|b| b.rigid())
         .map(|b| b.name.as_str())
         .collect();
-    let god = GodObject::new(surface, body.position, body.orientation, parameters);
-    let part = HeldPart::new(f, god, (bodies, &names))?;
+    let god = GodObject::new(surface, grip, body.orientation, parameters);
+    let part = HeldPart::new(f, god, centre, (bodies, &names))?;
     (body.fixed, body.kinematic) = (true, true);
     Some((body, Some(part)))
 }
@@ -196,8 +210,10 @@ pub(super) type HeldPointer = (Body, Option<HeldPart>);
 /// A held body's god-object and the fixed bodies it cannot enter.
 #[derive(Debug, Clone)]
 pub(super) struct HeldPart {
-    /// The god-object; its pose is the held body's.
-    pub(super) god: GodObject,
+    /// The god-object; its pose is where the grip holds the held body.
+    god: GodObject,
+    /// The held body's centre from where the grip holds it, in the body's frame.
+    centre: DVec3,
     /// Each fixed body's surface (a mesh's own, or each of its convex pieces), in its frame,
     /// by body.
     obstacles: Vec<(usize, SignedMesh)>,
@@ -208,7 +224,12 @@ pub(super) struct HeldPart {
 impl HeldPart {
     /// The held body's `god`-object among the fixed ones of `bodies` (`names` naming them in
     /// what is reported); None after reporting a surface that cannot be touched exactly.
-    fn new(f: &mut Findings, god: GodObject, (bodies, names): (&Bodies, &[&str])) -> Option<Self> {
+    fn new(
+        f: &mut Findings,
+        god: GodObject,
+        centre: DVec3,
+        (bodies, names): (&Bodies, &[&str]),
+    ) -> Option<Self> {
         let Bodies {
             bodies, surfaces, ..
         } = bodies;
@@ -226,6 +247,7 @@ impl HeldPart {
         }
         Some(Self {
             god,
+            centre,
             obstacles,
             felt: Wrench::ZERO,
         })
@@ -243,6 +265,12 @@ impl HeldPart {
             .god
             .update((grip.position, grip.orientation), dt, obstacles)
             .felt;
+    }
+
+    /// Where the held body is now: its centre and orientation.
+    pub(super) fn body_pose(&self) -> (DVec3, DQuat) {
+        let (at, turn) = self.god.pose();
+        (at + turn * self.centre, turn)
     }
 }
 
@@ -347,6 +375,24 @@ bodies:
     }
 
     #[test]
+    fn on_a_device_of_two_the_first_pointer_holds_and_the_second_is_a_fingertip() {
+        let text = scene(0.010, "");
+        let mut scene = PenaltyScene::parse(&text, Path::new("peg.yaml"), 2).unwrap();
+        let mut felt = [Wrench::default(); 2];
+        // The peg held still where it starts; the fingertip (10 mm) pressed 2 mm into the
+        // block's top beside the hole.
+        let grips = [
+            grip(DVec3::new(0.0, 0.02, 0.0)),
+            grip(DVec3::new(0.012, 0.008, 0.0)),
+        ];
+        for _ in 0..200 {
+            assert!(scene.step_pointers(1e-3, &grips, &mut felt));
+        }
+        assert!(felt[0].force.length() < 1e-9, "{felt:?}");
+        assert!(felt[1].force.y > 1.0, "{felt:?}");
+    }
+
+    #[test]
     fn a_pointer_that_holds_what_it_cannot_is_refused_by_name() {
         let refused = |text: &str, pointers: usize, says: &str| {
             let e = PenaltyScene::parse(text, Path::new("peg.yaml"), pointers)
@@ -362,7 +408,12 @@ bodies:
             "no body is named \"pig\"",
         );
         refused(&good.replace("holds: peg", "holds: block"), 1, "it moves");
-        refused(&good, 2, "one pointer, not 2");
+        refused(&good, 0, "a held body needs a pointer to hold it");
+        refused(
+            &format!("{good}grasp: {{ grip_stiffness: 1000, inertia_stiffness: 1000 }}\n"),
+            2,
+            "give no grasp",
+        );
         refused(
             &good.replace("holds: peg", "holds: peg\n  sphere: 0.01"),
             1,

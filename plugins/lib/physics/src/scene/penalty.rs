@@ -12,7 +12,7 @@ use serde::de::IgnoredAny;
 use super::SceneFile;
 use super::checks::{Bodies, INERTIA_DAMPING_FACTOR, Penalty, Primitive};
 use super::held::{HeldPart, HeldPointer};
-use super::schema::{RawGraspMethod, RawScene};
+use super::schema::{RawGraspMethod, RawPointer, RawScene};
 use super::soft::Soft;
 use crate::body::Body;
 use crate::coupling::Coupling;
@@ -118,11 +118,18 @@ impl PenaltyScene {
             });
         let mut part = None;
         match (&raw.pointer, &pointer, held) {
-            // The held body is the pointer: placed by its god-object, or coupled.
-            (_, _, Some((body, god))) => {
+            // The held body is the first pointer: placed by its god-object, or coupled. The
+            // others are fingertips.
+            (_, fingertip, Some((body, god))) => {
                 couplings.push(coupling.filter(|_| god.is_none()));
                 bodies.push(body);
                 part = god;
+                if let Some((shape, _)) = fingertip {
+                    for _ in 1..pointers {
+                        bodies.push(Body::new(shape, RawPointer::fingertip().density, true));
+                        couplings.push(None);
+                    }
+                }
             }
             (Some(p), Some((shape, _)), None) => {
                 for _ in 0..pointers {

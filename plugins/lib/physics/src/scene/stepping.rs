@@ -31,7 +31,7 @@ impl PenaltyScene {
                 && let Some(held) = &mut self.held
             {
                 held.follow(grip, dt, &self.world.bodies);
-                let (at, turn) = held.god.pose();
+                let (at, turn) = held.body_pose();
                 let body = &mut self.world.bodies[first];
                 let (velocity, spin) = (
                     (at - body.position) / dt,

@@ -1,8 +1,9 @@
 //! Parts to put together, as closed triangle meshes made to measure: pegs of any section
-//! and blocks with holes, with the exact distance to each solid for checking what the
-//! meshes' own queries say.
+//! and blocks with holes, with the exact distance to each solid, so that how far one went
+//! into the other is measured by the solids' own formulas and not by the meshes' queries
+//! under test (`hapticctl experiment peg-in-hole`, the god-object's tests and benchmark).
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::haptics::signed_mesh::SignedMesh;
 
 /// Millimetres.
@@ -14,7 +15,9 @@ pub const SPACING: f64 = 0.1 * MM;
 /// middle on +x.
 #[derive(Debug, Clone, Copy)]
 pub struct Section {
+    /// How many sides.
     pub sides: usize,
+    /// The distance of each side from the axis, metres.
     pub apothem: f64,
 }
 
@@ -168,13 +171,18 @@ pub fn fine_peg(section: Section, length: f64, step: f64) -> SignedMesh {
 /// A block of `outer` section and `height` whose top is at y = 0, a hole of `hole` section
 /// and `depth` down from its top.
 pub struct Block {
+    /// Its outside.
     pub outer: Section,
+    /// Its hole's.
     pub hole: Section,
+    /// Its height, metres.
     pub height: f64,
+    /// Its hole's depth, metres.
     pub depth: f64,
 }
 
 impl Block {
+    /// Its mesh, each face as few triangles as make it.
     pub fn mesh(&self) -> SignedMesh {
         self.fine_mesh(f64::INFINITY)
     }
@@ -199,6 +207,53 @@ impl Block {
             0.0 => 0.0,
             inside => inside.min(self.hole.outside(&rings[1], p, -self.depth, 1.0)),
         }
+    }
+}
+
+/// How deep a peg and its block are in each other, by the exact formulas of both solids at
+/// points 50 µm apart along every edge of both.
+pub struct Overlap {
+    peg_points: Vec<DVec3>,
+    block_points: Vec<DVec3>,
+    peg_ring: Vec<DVec3>,
+    block_rings: [Vec<DVec3>; 2],
+}
+
+impl Overlap {
+    /// For the peg of `section` as `peg` meshes it and the block as `solid` meshes it.
+    pub fn new(
+        (peg, section): (&SignedMesh, Section),
+        (solid, block): (&SignedMesh, &Block),
+    ) -> Self {
+        // Only the block's edges around its hole can reach a peg in or over it.
+        let near_hole = |p: &DVec3| DVec3::new(p.x, 0.0, p.z).length() < 1.5 * block.hole.apothem;
+        Self {
+            peg_points: edge_points(peg, 0.05 * MM),
+            block_points: edge_points(solid, 0.05 * MM)
+                .into_iter()
+                .filter(near_hole)
+                .collect(),
+            peg_ring: section.ring(0.0),
+            block_rings: [block.outer.ring(0.0), block.hole.ring(0.0)],
+        }
+    }
+
+    /// The deepest a point of either went into the other, metres, with the block where it
+    /// is made and the peg (`section`, `length` long) at `pose` in the block's frame.
+    pub fn at(
+        &self,
+        block: &Block,
+        (section, length): (Section, f64),
+        (at, turn): (DVec3, DQuat),
+    ) -> f64 {
+        let into_block = (self.peg_points.iter())
+            .map(|&p| block.depth(&self.block_rings, turn * p + at))
+            .fold(0.0, f64::max);
+        let back = turn.inverse();
+        let into_peg = (self.block_points.iter())
+            .map(|&p| section.depth(&self.peg_ring, back * (p - at), -length / 2.0, length / 2.0))
+            .fold(0.0, f64::max);
+        into_block.max(into_peg)
     }
 }
 
