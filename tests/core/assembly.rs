@@ -337,3 +337,76 @@ fn a_tick_that_finds_too_much_keeps_the_last_pose_and_the_hand_feels_it() {
         );
     }
 }
+
+/// A 4 mm cube held on the block's top, pressed 4 mm into it (8 N through the 2 000 N/m
+/// spring), then dragged 4 mm across it. With Coulomb friction μ = 0.5 it sticks while the
+/// hand's pull is under μ times its press (2 mm of the spring's stretch) and then slides with
+/// the hand feeling μ times the press across, as Coulomb says; without friction it follows
+/// the hand across from the start and the hand feels nothing across.
+#[test]
+fn a_part_dragged_on_a_face_sticks_then_slides_by_coulombs_law() {
+    let (_, _, block) = square_peg_and_block();
+    let solid = block.mesh();
+    let obstacles = unmoved(&solid);
+    let cube = peg(
+        Section {
+            sides: 4,
+            apothem: 2.0 * MM,
+        },
+        4.0 * MM,
+    );
+    let resting = DVec3::new(10.0 * MM, 2.0 * MM, 0.0);
+    for mu in [0.5, 0.0] {
+        let parameters = GodObjectParameters {
+            friction: mu,
+            ..GodObjectParameters::default()
+        };
+        let mut god = GodObject::new(cube.clone(), resting, DQuat::IDENTITY, parameters);
+        let mut stuck = 0.0f64;
+        // Down 4 mm in 0.2 s, held 0.1 s, then 4 mm along z in 2 s.
+        let hand = |tick: usize| {
+            let t = tick as f64 * DT;
+            let down = 4.0 * MM * (t / 0.2).min(1.0);
+            let across = 4.0 * MM * ((t - 0.3) / 2.0).clamp(0.0, 1.0);
+            resting + DVec3::new(0.0, -down, across)
+        };
+        for tick in 0..2600 {
+            let grip = hand(tick);
+            let felt = god.update((grip, DQuat::IDENTITY), DT, obstacles).felt;
+            let (at, _) = god.pose();
+            let pulled = grip.z - resting.z;
+            let press = felt.force.y;
+            if tick > 250 {
+                // Pressed on the face by the spring's 8 N, with the damper's share of a
+                // slide at 2 mm/s (0.01 N).
+                assert!((press - 8.0).abs() < 0.02, "μ {mu}, tick {tick}: {felt:?}");
+            }
+            if mu > 0.0 && pulled < 1.9 * MM {
+                stuck = stuck.max((at.z - resting.z).abs());
+            }
+            if mu > 0.0 && pulled > 2.2 * MM {
+                let across = -felt.force.z;
+                assert!(
+                    (across - mu * press).abs() < 0.01 * mu * press,
+                    "tick {tick}: {across} N across, {press} N pressed"
+                );
+            }
+            if mu == 0.0 && tick > 250 {
+                // Nothing but the solve's rounding (its tolerance, 1e-8 m, is 2e-5 N).
+                assert!(felt.force.z.abs() < 1e-4, "tick {tick}: {felt:?}");
+            }
+        }
+        let (at, _) = god.pose();
+        let slid = at.z - resting.z;
+        let expected = if mu > 0.0 { 2.0 * MM } else { 4.0 * MM };
+        eprintln!(
+            "μ {mu}: slid {:.4} mm, at most {:.2e} mm while stuck",
+            slid / MM,
+            stuck / MM
+        );
+        assert!((slid - expected).abs() < 0.02 * MM, "μ {mu}: slid {slid}");
+        // Stuck, it creeps by no more than the solve's tolerance a tick (1e-8 m; measured:
+        // 0.74 µm over the 0.95 s it stuck).
+        assert!(stuck < 1e-8 * 1000.0, "μ {mu}: crept {stuck} m while stuck");
+    }
+}

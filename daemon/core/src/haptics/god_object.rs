@@ -12,6 +12,12 @@
 //! the last tick's forces. At its solution the spring's pull balances the contacts'
 //! push, so what the user feels is exactly the contacts' wrench, as statics has it.
 //!
+//! Friction (Coulomb's, one coefficient μ) holds each contact point still along its two
+//! tangents, with a force no larger than μ times the contact's push: in the same sweeps,
+//! each tangent's force is what cancels the point's sliding, clamped to that cone's edge
+//! (a box of two tangents). Held, the part stays where it was put until the hand pulls it
+//! sideways harder than μ times how hard it presses; sliding, the hand feels that much.
+//!
 //! Time-critical, it degrades and never overruns: contacts past [`CONTACTS`] are left for
 //! the next tick (the deepest taken first), and the proxy then moves no farther than the
 //! nearest one left; the solve stops after [`SWEEPS`] and is cut back to what the
@@ -60,6 +66,8 @@ pub struct GodObjectParameters {
     /// Farthest any point of the part moves in one tick, metres: a hand far from the
     /// proxy (at the start, or pressed deep) is caught up with at this pace.
     pub max_step: f64,
+    /// Coulomb's coefficient of friction at every contact (0: none).
+    pub friction: f64,
 }
 
 impl Default for GodObjectParameters {
@@ -70,6 +78,7 @@ impl Default for GodObjectParameters {
             rotational_stiffness: 2.0,
             rotational_damping: 5e-3,
             max_step: 2e-3,
+            friction: 0.0,
         }
     }
 }
@@ -98,6 +107,8 @@ pub struct Contact {
     pub gap: f64,
     /// The force the obstacle pushes with, newtons, once the tick is solved.
     pub force: f64,
+    /// The friction the obstacle holds the part with, newtons, across the normal.
+    pub friction: DVec3,
     /// Which sample and feature it is, to warm-start the next tick.
     key: u64,
 }
@@ -395,8 +406,8 @@ pub struct GodObject {
     orientation: DQuat,
     parameters: GodObjectParameters,
     found: Found,
-    /// Last tick's contacts' keys and forces.
-    previous: [(u64, f64); CONTACTS],
+    /// Last tick's contacts' keys, forces and friction.
+    previous: [(u64, f64, DVec3); CONTACTS],
     previous_count: usize,
     /// The query's reach this tick, metres.
     reach: f64,
@@ -420,7 +431,7 @@ impl GodObject {
             orientation: orientation.normalize(),
             parameters,
             found: Found::new(),
-            previous: [(0, 0.0); CONTACTS],
+            previous: [(0, 0.0, DVec3::ZERO); CONTACTS],
             previous_count: 0,
             reach: parameters.max_step,
             table: Table::new(),
@@ -545,6 +556,7 @@ impl GodObject {
                             normal,
                             gap: near.distance,
                             force: 0.0,
+                            friction: DVec3::ZERO,
                             key: key(o, side, slot.sample, k),
                         });
                     }
@@ -562,46 +574,73 @@ impl GodObject {
     /// (warm-started from the last tick's), cut back where the contacts as linearised would
     /// still be entered.
     fn solve(&mut self, wanted: (DVec3, DVec3)) -> (DVec3, DVec3) {
-        let (k, kr) = (
+        let (k, kr, mu) = (
             self.parameters.stiffness,
             self.parameters.rotational_stiffness,
+            self.parameters.friction,
         );
+        // A force f along direction d through arm r moves the proxy by f·(d/k, (r×d)/kr).
+        let push = |v: &mut DVec3, w: &mut DVec3, d: DVec3, arm: DVec3, f: f64| {
+            *v += d * (f / k);
+            *w += arm * (f / kr);
+        };
         let (mut v, mut w) = wanted;
-        let mut arms = [DVec3::ZERO; CONTACTS];
-        let mut reach = [0.0; CONTACTS];
+        let mut rows = [Rows::default(); CONTACTS];
         let previous = &self.previous[..self.previous_count];
         let contacts = &mut self.found.contacts[..self.found.count];
-        for (i, c) in contacts.iter_mut().enumerate() {
-            arms[i] = (c.point - self.position).cross(c.normal);
-            // How far the contact moves per newton of its own force.
-            reach[i] = 1.0 / k + arms[i].length_squared() / kr;
-            c.force = previous
+        for (row, c) in rows.iter_mut().zip(contacts.iter_mut()) {
+            let r = c.point - self.position;
+            let (t1, t2) = c.normal.any_orthonormal_pair();
+            *row = Rows::new(r, [c.normal, t1, t2], (k, kr));
+            (c.force, c.friction) = previous
                 .iter()
-                .find(|(key, _)| *key == c.key)
-                .map_or(0.0, |&(_, f)| f);
-            v += c.normal * (c.force / k);
-            w += arms[i] * (c.force / kr);
+                .find(|(key, _, _)| *key == c.key)
+                .map_or((0.0, DVec3::ZERO), |&(_, f, t)| {
+                    (f, t - c.normal * c.normal.dot(t))
+                });
+            push(&mut v, &mut w, c.normal, row.arms[0], c.force);
+            for j in 1..3 {
+                let f = c.friction.dot(row.directions[j]);
+                push(&mut v, &mut w, row.directions[j], row.arms[j], f);
+            }
         }
         for _ in 0..SWEEPS {
             let mut worst = 0.0f64;
-            for (i, c) in contacts.iter_mut().enumerate() {
-                let gap = c.gap + c.normal.dot(v) + arms[i].dot(w);
-                let force = (c.force - gap / reach[i]).max(0.0);
-                let change = force - c.force;
-                if change != 0.0 {
-                    v += c.normal * (change / k);
-                    w += arms[i] * (change / kr);
+            for (row, c) in rows.iter().zip(contacts.iter_mut()) {
+                let gap = c.gap + row.along(0, v, w);
+                let force = (c.force - gap / row.reach[0]).max(0.0);
+                if force != c.force {
+                    push(&mut v, &mut w, c.normal, row.arms[0], force - c.force);
                     c.force = force;
                 }
                 worst = worst.max(if force > 0.0 { gap.abs() } else { -gap });
+                if mu == 0.0 {
+                    continue;
+                }
+                // Each tangent's force cancels the point's sliding along it, within the
+                // cone's box.
+                let bound = mu * c.force;
+                for j in 1..3 {
+                    let d = row.directions[j];
+                    let held = c.friction.dot(d);
+                    let slide = row.along(j, v, w);
+                    let wanted = (held - slide / row.reach[j]).clamp(-bound, bound);
+                    if wanted != held {
+                        push(&mut v, &mut w, d, row.arms[j], wanted - held);
+                        c.friction += d * (wanted - held);
+                    }
+                    if wanted.abs() < bound {
+                        worst = worst.max(slide.abs());
+                    }
+                }
             }
             if worst < TOLERANCE {
                 break;
             }
         }
         let mut scale = 1.0f64;
-        for (i, c) in contacts.iter().enumerate() {
-            let along = c.normal.dot(v) + arms[i].dot(w);
+        for (row, c) in rows.iter().zip(contacts.iter()) {
+            let along = row.along(0, v, w);
             // Within the solve's tolerance is solved: a contact resting at no gap would
             // otherwise hold the proxy still for good.
             if c.gap >= 0.0 && c.gap + along < -TOLERANCE {
@@ -609,9 +648,36 @@ impl GodObject {
             }
         }
         for (slot, c) in self.previous.iter_mut().zip(contacts.iter()) {
-            *slot = (c.key, c.force);
+            *slot = (c.key, c.force, c.friction);
         }
         self.previous_count = contacts.len();
         (v * scale, w * scale)
+    }
+}
+
+/// A contact's three rows of the solve: its normal and two tangents.
+#[derive(Debug, Clone, Copy, Default)]
+struct Rows {
+    /// The normal, then the tangents.
+    directions: [DVec3; 3],
+    /// Each direction's moment arm about the proxy's origin, r × d.
+    arms: [DVec3; 3],
+    /// How far the point moves along each per newton along it.
+    reach: [f64; 3],
+}
+
+impl Rows {
+    fn new(r: DVec3, directions: [DVec3; 3], (k, kr): (f64, f64)) -> Self {
+        let arms = directions.map(|d| r.cross(d));
+        Self {
+            directions,
+            arms,
+            reach: arms.map(|a| 1.0 / k + a.length_squared() / kr),
+        }
+    }
+
+    /// How far the point moves along row `j` under the motion (v, w).
+    fn along(&self, j: usize, v: DVec3, w: DVec3) -> f64 {
+        self.directions[j].dot(v) + self.arms[j].dot(w)
     }
 }

@@ -163,7 +163,11 @@ pub(super) fn pointer_body(
     let surface = surface.unwrap_or_else(|| faces(&body.pieces[0]));
     let held: Vec<[DVec3; 3]> = surface.iter().map(|t| t.map(|c| c + centre)).collect();
     let surface = closed(f, &at, &held)?;
-    let mut parameters = GodObjectParameters::default();
+    // Its contacts hold with the material's (dynamic) friction: what the hand feels sliding.
+    let mut parameters = GodObjectParameters {
+        friction: raw.material.friction,
+        ..GodObjectParameters::default()
+    };
     if let Some(c) = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref()) {
         parameters.stiffness = c.stiffness;
         parameters.damping = c.damping;
