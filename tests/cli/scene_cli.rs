@@ -78,6 +78,22 @@ fn experiment(name: &str, args: &[&str]) -> Vec<Value> {
     report["results"].as_array().unwrap().clone()
 }
 
+/// The JSON report of `hapticctl scene run` on shipped scene `file` with shipped hand
+/// script `hand` and `args`, once it has succeeded.
+fn run_with_hand(file: &str, hand: &str, args: &[&str]) -> Value {
+    let hand = repo_dir().join("config/hands").join(hand);
+    let scene = scene(file);
+    let mut all = vec![scene.as_str(), "--hand", hand.to_str().unwrap(), "--json"];
+    all.extend(args);
+    let output = run(&all);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
 /// The exit code of `hapticctl experiment NAME ARGS… --plot FILE`.
 fn refused(name: &str, args: &[&str]) -> Option<i32> {
     let png = support::scratch_root().join(format!("hapticd-refused-{}.png", std::process::id()));
@@ -243,6 +259,8 @@ fn the_peg_in_hole_experiment_inserts_with_clearance_and_stops_at_the_rim_with_i
         "--clearances=5",
         "--sides=2",
         "--duration=0",
+        "--friction=nan",
+        "--friction=-1",
     ] {
         assert_eq!(refused("peg-in-hole", &[bad]), Some(2), "{bad}");
     }
@@ -257,23 +275,11 @@ fn the_peg_in_hole_experiment_inserts_with_clearance_and_stops_at_the_rim_with_i
 /// feeling the god-object's spring of that straight up.
 #[test]
 fn the_shipped_peg_goes_to_the_floor_of_its_hole_in_its_scene() {
-    let hand = repo_dir().join("config/hands/peg-in-hole.yaml");
-    let output = run(&[
-        &scene("peg-in-hole.yaml"),
-        "--hand",
-        hand.to_str().unwrap(),
-        "--quantity",
-        "pointer-force",
-        "--duration",
-        "2.6",
-        "--json",
-    ]);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let report = run_with_hand(
+        "peg-in-hole.yaml",
+        "peg-in-hole.yaml",
+        &["--quantity", "pointer-force", "--duration", "2.6"],
     );
-    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
     let force: Vec<f64> = report["runs"][0]["pointers"][0]["force"]
         .as_array()
         .unwrap()
@@ -290,21 +296,11 @@ fn the_shipped_peg_goes_to_the_floor_of_its_hole_in_its_scene() {
 fn the_stick_slip_scene_file_pulls_its_coupled_pointer_to_the_exact_peak() {
     // The rig as a scene: the weight is a pointer on a 400 N/m virtual coupling, the
     // spring's end a scripted grip.
-    let hand = repo_dir().join("config/hands/stick-slip-pull.yaml");
-    let output = run(&[
-        &scene("stick-slip.yaml"),
-        "--hand",
-        hand.to_str().unwrap(),
-        "--duration",
-        "2",
-        "--json",
-    ]);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let report = run_with_hand(
+        "stick-slip.yaml",
+        "stick-slip-pull.yaml",
+        &["--duration", "2"],
     );
-    let report: Value = serde_json::from_slice(&output.stdout).unwrap();
     let peak = report["runs"][0]["pointers"][0]["peak_force"]
         .as_f64()
         .unwrap();

@@ -128,8 +128,8 @@ pub struct Insertion {
 }
 
 /// Put the peg of `fit` into its hole with `hand` for `seconds`, the god-object ticking at
-/// 1 kHz with its default spring.
-pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64) -> Insertion {
+/// 1 kHz with its default spring and contacts of Coulomb's `friction`.
+pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64, friction: f64) -> Insertion {
     let (section, block) = (fit.section(), fit.block());
     let (part, solid) = (peg(section, fit.length), block.mesh());
     let overlap = Overlap::new((&part, section), (&solid, &block));
@@ -144,7 +144,11 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64) -> Insertion {
         (c.target, c.turn)
     };
     let (at, turn) = grip(0.0);
-    let mut god = GodObject::new(part, at, turn, GodObjectParameters::default());
+    let parameters = GodObjectParameters {
+        friction,
+        ..GodObjectParameters::default()
+    };
+    let mut god = GodObject::new(part, at, turn, parameters);
     let ticks = (seconds / DT).round() as usize;
     let mut run = Insertion {
         fit: *fit,
@@ -195,11 +199,17 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64) -> Insertion {
 }
 
 /// The peg of `sides` sides put in with `hand` for `seconds` at each of `clearances`
-/// (metres): the table of figures, and the depth, force and torque against time.
-pub fn report(sides: usize, clearances: &[f64], hand: &HandTrack, seconds: f64) -> Report {
+/// (metres), its contacts of Coulomb's `friction`: the table of figures, and the depth,
+/// force and torque against time.
+pub fn report(
+    sides: usize,
+    clearances: &[f64],
+    (hand, seconds): (&HandTrack, f64),
+    friction: f64,
+) -> Report {
     let runs: Vec<Insertion> = clearances
         .iter()
-        .map(|&c| insert(&Fit::shipped(sides, c), hand, seconds))
+        .map(|&c| insert(&Fit::shipped(sides, c), hand, seconds, friction))
         .collect();
     let label = |r: &Insertion| format!("clearance {:+.2} mm", r.fit.clearance / MM);
     let chart = |title: &str, y_label: &str, value: fn(&(f64, f64, f64, f64)) -> f64| Chart {
@@ -219,7 +229,8 @@ pub fn report(sides: usize, clearances: &[f64], hand: &HandTrack, seconds: f64) 
     };
     let shape = if sides == 4 { "square" } else { "round" };
     let mut text = format!(
-        "a {shape} peg 10 mm wide and 20 mm long into a hole 15 mm deep, the god-object at 1 kHz\n"
+        "a {shape} peg 10 mm wide and 20 mm long into a hole 15 mm deep, the god-object at 1 kHz, \
+         friction {friction}\n"
     );
     text += "  clearance   reached    into the block   peak force   peak torque   tick p50 / p99.9 / most   poses kept\n";
     for r in &runs {
@@ -252,7 +263,7 @@ pub fn report(sides: usize, clearances: &[f64], hand: &HandTrack, seconds: f64) 
         .collect();
     Report {
         text,
-        json: json!({ "sides": sides, "seconds": seconds, "results": rows }),
+        json: json!({ "sides": sides, "seconds": seconds, "friction": friction, "results": rows }),
         charts: vec![
             chart(
                 "the peg's bottom below the block's top",

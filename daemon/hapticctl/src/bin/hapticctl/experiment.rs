@@ -73,6 +73,9 @@ pub struct PegInHoleArgs {
     /// The hand's script (the first hand of it holds the peg); by default the shipped one.
     #[arg(long, value_name = "SCRIPT")]
     hand: Option<PathBuf>,
+    /// Coulomb's coefficient of friction at the contacts.
+    #[arg(long, default_value_t = 0.0)]
+    friction: f64,
     /// Simulated time, seconds.
     #[arg(long, default_value_t = 2.6)]
     duration: f64,
@@ -366,7 +369,12 @@ fn peg_in_hole(args: &PegInHoleArgs) -> Result<(), Failure> {
     .map_err(Failure::failed)?;
     let clearances: Vec<f64> = args.clearances.iter().map(|c| c * 1e-3).collect();
     let hand = peg_in_hole::hand(&script);
-    let report = peg_in_hole::report(args.sides, &clearances, &hand, args.duration);
+    let report = peg_in_hole::report(
+        args.sides,
+        &clearances,
+        (&hand, args.duration),
+        args.friction,
+    );
     show_figure(report, &args.figure)
 }
 
