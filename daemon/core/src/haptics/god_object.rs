@@ -614,7 +614,9 @@ impl GodObject {
                     c.force = force;
                 }
                 worst = worst.max(if force > 0.0 { gap.abs() } else { -gap });
-                if mu == 0.0 {
+                // A coefficient that is not a finite positive number holds nothing (and
+                // could not bound the clamp below).
+                if !(mu > 0.0 && mu.is_finite()) {
                     continue;
                 }
                 // Each tangent's force cancels the point's sliding along it, within the

@@ -355,6 +355,7 @@ fn peg_in_hole(args: &PegInHoleArgs) -> Result<(), Failure> {
     let mut values = vec![
         ("--sides", args.sides as f64, 3.0..=64.0),
         ("--duration", args.duration, 0.01..=30.0),
+        ("--friction", args.friction, 0.0..=2.0),
     ];
     values.extend(
         args.clearances
