@@ -66,7 +66,8 @@ pub struct GodObjectParameters {
     /// Farthest any point of the part moves in one tick, metres: a hand far from the
     /// proxy (at the start, or pressed deep) is caught up with at this pace.
     pub max_step: f64,
-    /// Coulomb's coefficient of friction at every contact (0: none).
+    /// Coulomb's coefficient of friction at every contact (0, or anything but a finite
+    /// positive number: none).
     pub friction: f64,
 }
 
