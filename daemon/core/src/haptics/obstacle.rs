@@ -3,6 +3,8 @@
 
 use glam::{DQuat, DVec3};
 
+use super::signed_mesh::closest_point;
+
 /// A solid convex shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
@@ -167,7 +169,8 @@ impl Shape {
                 if within_edges(&corners, normal, p) {
                     if two_sided { height.abs() } else { height }
                 } else {
-                    (p - closest_on_edges(&corners, p)).length()
+                    // Outside its edges, the nearest point of the triangle is on them.
+                    (p - closest_point(&corners, p)).length()
                 }
             }
         }
@@ -338,23 +341,6 @@ fn within_edges(corners: &[DVec3; 3], normal: DVec3, p: DVec3) -> bool {
         let edge = to - from;
         edge.cross(p - from).dot(normal) >= -SURFACE * edge.length()
     })
-}
-
-/// The point of the triangle's edges nearest `p`.
-fn closest_on_edges(corners: &[DVec3; 3], p: DVec3) -> DVec3 {
-    (0..3)
-        .map(|i| {
-            let (from, to) = (corners[i], corners[(i + 1) % 3]);
-            let edge = to - from;
-            let t = ((p - from).dot(edge) / edge.length_squared()).clamp(0.0, 1.0);
-            from + edge * t
-        })
-        .min_by(|x, y| {
-            (*x - p)
-                .length_squared()
-                .total_cmp(&(*y - p).length_squared())
-        })
-        .unwrap_or(corners[0])
 }
 
 /// Entry of a segment into a round surface (a sphere, or a cylinder seen across its axis):

@@ -333,6 +333,11 @@ impl SignedMesh {
     }
 }
 
+/// The point of `triangle` closest to `p`.
+pub(super) fn closest_point(triangle: &[DVec3; 3], p: DVec3) -> DVec3 {
+    closest_on_triangle(p, triangle[0], triangle[1], triangle[2]).0
+}
+
 /// The point of triangle `a`, `b`, `c` closest to `p`, and the feature it lies on: the
 /// Voronoi regions of the corners, then the edges, then the face (Ericson, 5.1.5).
 fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Feature) {

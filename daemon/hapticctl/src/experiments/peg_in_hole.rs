@@ -12,7 +12,7 @@
 
 use std::time::Instant;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::Diagnostics;
 use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
 use hapticd_device::sim::hand::{HandTrack, Script};
@@ -95,7 +95,7 @@ pub fn shipped_script() -> Result<Script, Diagnostics> {
 }
 
 /// What one tick cost, microseconds.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Cost {
     /// The median.
     pub median: f64,
@@ -103,6 +103,22 @@ pub struct Cost {
     pub p999: f64,
     /// The most.
     pub most: f64,
+}
+
+impl Cost {
+    /// Of the ticks' `costs`, microseconds (none: zeros).
+    fn of(mut costs: Vec<f64>) -> Cost {
+        costs.sort_by(f64::total_cmp);
+        let rank = |q: f64| {
+            let at = ((q * costs.len() as f64) as usize).min(costs.len().saturating_sub(1));
+            costs.get(at).copied().unwrap_or(0.0)
+        };
+        Cost {
+            median: rank(0.5),
+            p999: rank(0.999),
+            most: rank(1.0),
+        }
+    }
 }
 
 /// One insertion.
@@ -137,7 +153,7 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64, friction: f64) -> Inser
     let obstacles = [Obstacle {
         mesh: &solid,
         position: top,
-        orientation: glam::DQuat::IDENTITY,
+        orientation: DQuat::IDENTITY,
     }];
     let grip = |t: f64| {
         let c = hand.at(t);
@@ -158,11 +174,7 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64, friction: f64) -> Inser
         peak_force: 0.0,
         peak_torque: 0.0,
         held_back: 0,
-        cost: Cost {
-            median: 0.0,
-            p999: 0.0,
-            most: 0.0,
-        },
+        cost: Cost::default(),
     };
     let mut costs = Vec::with_capacity(ticks);
     for tick in 1..=ticks {
@@ -186,15 +198,7 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64, friction: f64) -> Inser
             run.deepest = run.deepest.max(into);
         }
     }
-    costs.sort_by(f64::total_cmp);
-    let rank = |q: f64| costs[((q * costs.len() as f64) as usize).min(costs.len() - 1)];
-    if !costs.is_empty() {
-        run.cost = Cost {
-            median: rank(0.5),
-            p999: rank(0.999),
-            most: costs[costs.len() - 1],
-        };
-    }
+    run.cost = Cost::of(costs);
     run
 }
 
