@@ -4,10 +4,11 @@
 //! where that leaves one side empty or the tree grows deep), walked in the haptic thread with
 //! a stack of fixed size, so a query neither allocates nor recurses.
 
-use glam::{DQuat, DVec3};
+use glam::{DAffine3, DVec3};
 
-/// Most items in a leaf: a few triangle tests cost less than another level of boxes.
-const LEAF: usize = 4;
+/// Most items in a leaf: measured on the god-object's benchmark, two beat one, four and eight
+/// (a pair of leaves pairs each item of one with each of the other's).
+const LEAF: usize = 2;
 /// Levels split at the middle of a box, at most; deeper, at the median of the centres.
 const MIDDLE_SPLITS: usize = 48;
 /// Nodes a walk holds at once: one more than the tree is deep. Past [`MIDDLE_SPLITS`]
@@ -21,6 +22,8 @@ const DEPTH: usize = MIDDLE_SPLITS + 48;
 struct Node {
     low: DVec3,
     high: DVec3,
+    /// Half the box's diagonal: the radius of the ball about its centre that holds it.
+    radius: f64,
     /// A leaf's first item in [`Bvh::order`], or an inner node's second child.
     start: u32,
     /// A leaf's item count; 0 for an inner node.
@@ -48,6 +51,16 @@ impl Bvh {
         bvh
     }
 
+    /// The hierarchy of items whose boxes are `boxes`, the items renumbered in the order its
+    /// leaves hold them (each leaf's items next to each other in the caller's arrays too,
+    /// which a walk then reads without jumping about memory), and for each new number the
+    /// item's old one.
+    pub fn build_renumbered(boxes: &[(DVec3, DVec3)]) -> (Self, Vec<u32>) {
+        let mut bvh = Self::build(boxes);
+        let old = std::mem::replace(&mut bvh.order, (0..boxes.len() as u32).collect());
+        (bvh, old)
+    }
+
     /// Add the node of items `order[start..end]`, `level` deep, and its children; its index.
     fn split(&mut self, boxes: &[(DVec3, DVec3)], start: usize, end: usize, level: usize) -> usize {
         let items = &mut self.order[start..end];
@@ -62,6 +75,7 @@ impl Bvh {
         self.nodes.push(Node {
             low,
             high,
+            radius: (high - low).length() / 2.0,
             start: start as u32,
             count: items.len() as u32,
         });
@@ -145,13 +159,13 @@ impl Bvh {
 
     /// [rt] Call `visit(mine, theirs)` with every pair of an item of this hierarchy and one
     /// of `other`'s whose boxes come within `reach` of each other (and perhaps a few more),
-    /// `other`'s frame being placed in this one by `turn` then `shift`. Walks both trees
+    /// `other`'s frame being `placed` in this one (turned and shifted only). Walks both trees
     /// together (the wider node of a pair split first), `other`'s boxes taken as the balls
     /// around them; a stack of fixed size, no allocation.
     pub fn visit_pairs(
         &self,
         other: &Bvh,
-        (turn, shift): (DQuat, DVec3),
+        placed: DAffine3,
         reach: f64,
         mut visit: impl FnMut(usize, usize),
     ) {
@@ -165,24 +179,28 @@ impl Bvh {
             depth -= 1;
             let (a, b) = stack[depth];
             let (mine, theirs) = (&self.nodes[a as usize], &other.nodes[b as usize]);
-            let centre = turn * ((theirs.low + theirs.high) / 2.0) + shift;
-            let radius = (theirs.high - theirs.low).length() / 2.0;
+            let centre = placed.transform_point3((theirs.low + theirs.high) / 2.0);
+            let radius = theirs.radius;
             let gap = (mine.low - centre).max(centre - mine.high).max(DVec3::ZERO);
             if gap.length_squared() > (radius + reach) * (radius + reach) {
                 continue;
             }
             match (mine.count > 0, theirs.count > 0) {
                 (true, true) => {
-                    for &i in &self.order[mine.start as usize..(mine.start + mine.count) as usize] {
-                        for &j in &other.order
-                            [theirs.start as usize..(theirs.start + theirs.count) as usize]
+                    // Each of theirs in turn with all of mine: a caller that places theirs
+                    // does so once for the run of calls.
+                    for &j in
+                        &other.order[theirs.start as usize..(theirs.start + theirs.count) as usize]
+                    {
+                        for &i in
+                            &self.order[mine.start as usize..(mine.start + mine.count) as usize]
                         {
                             visit(i as usize, j as usize);
                         }
                     }
                 }
                 (leaf, other_leaf) => {
-                    let wider = (mine.high - mine.low).length() / 2.0 >= radius;
+                    let wider = mine.radius >= radius;
                     if !leaf && (other_leaf || wider) {
                         stack[depth] = (a + 1, b);
                         stack[depth + 1] = (mine.start, b);

@@ -24,7 +24,7 @@
 //! contacts allow; a tick that finds more candidates than its table holds keeps the last
 //! pose.
 
-use glam::{DQuat, DVec3};
+use glam::{DAffine3, DQuat, DVec3};
 
 use super::signed_mesh::{Near, SignedMesh};
 use crate::kinematics::{Wrench, rotation_vector};
@@ -207,12 +207,17 @@ impl Table {
         reach: f64,
     ) -> bool {
         let mut full = false;
-        triangles.visit_near(samples, (turn, shift), reach, |s, t| {
+        let placed = DAffine3::from_rotation_translation(turn, shift);
+        // The sample last placed: pairs come a sample's triangles in a row.
+        let mut last = (usize::MAX, DVec3::ZERO);
+        triangles.visit_near(samples, placed, reach, |s, t| {
             if full {
                 return;
             }
-            let Some(near) = triangles.near_within(t, turn * samples.samples()[s] + shift, reach)
-            else {
+            if last.0 != s {
+                last = (s, placed.transform_point3(samples.samples()[s]));
+            }
+            let Some(near) = triangles.near_within(t, last.1, reach) else {
                 return;
             };
             match self.slot(s) {

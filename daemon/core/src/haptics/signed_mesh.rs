@@ -12,7 +12,7 @@
 
 use std::collections::HashMap;
 
-use glam::{DQuat, DVec3};
+use glam::{DAffine3, DVec3};
 
 use super::bvh::Bvh;
 
@@ -91,6 +91,8 @@ pub struct SignedMesh {
     triangles: Vec<[u32; 3]>,
     /// Each triangle's outward unit normal.
     normals: Vec<DVec3>,
+    /// How far each triangle's plane lies from the origin along its normal.
+    offsets: Vec<f64>,
     /// Each corner's angle-weighted pseudo-normal.
     corner_normals: Vec<DVec3>,
     /// Each corner's pseudo-normal's least cosine with its faces' normals.
@@ -234,16 +236,41 @@ impl SignedMesh {
             .collect();
         let points_boxes: Vec<(DVec3, DVec3)> = samples.iter().map(|&s| (s, s)).collect();
         let radius = samples.iter().map(|s| s.length()).fold(0.0, f64::max);
+        // Triangles and samples in their trees' order, corners in the order the triangles
+        // first name them: a query reads a leaf's together.
+        let (tree, order) = Bvh::build_renumbered(&boxes);
+        let (sample_tree, sample_order) = Bvh::build_renumbered(&points_boxes);
+        let triangles = renumbered(&triangles, &order);
+        let mut new_corner = vec![u32::MAX; points.len()];
+        let mut corner_order = Vec::with_capacity(points.len());
+        for &i in triangles.iter().flatten() {
+            if new_corner[i as usize] == u32::MAX {
+                new_corner[i as usize] = corner_order.len() as u32;
+                corner_order.push(i);
+            }
+        }
+        let triangles: Vec<[u32; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| new_corner[i as usize]))
+            .collect();
+        let normals = renumbered(&normals, &order);
+        let vertices = renumbered(&points, &corner_order);
+        let offsets = triangles
+            .iter()
+            .zip(&normals)
+            .map(|(t, n)| n.dot(vertices[t[0] as usize]))
+            .collect();
         Ok(SignedMesh {
-            tree: Bvh::build(&boxes),
-            sample_tree: Bvh::build(&points_boxes),
-            vertices: points,
+            tree,
+            sample_tree,
+            vertices,
             triangles,
             normals,
-            corner_normals,
-            corner_cones,
-            edge_normals,
-            samples,
+            offsets,
+            corner_normals: renumbered(&corner_normals, &corner_order),
+            corner_cones: renumbered(&corner_cones, &corner_order),
+            edge_normals: renumbered(&edge_normals, &order),
+            samples: renumbered(&samples, &sample_order),
             radius,
         })
     }
@@ -266,12 +293,12 @@ impl SignedMesh {
     }
 
     /// [rt] Call `visit(sample, triangle)` with each pair of a sample of `other` and a
-    /// triangle of this mesh that may come within `reach` of each other, `other` placed in
-    /// this mesh's frame by `turn` then `shift`; no allocation.
+    /// triangle of this mesh that may come within `reach` of each other, `other` `placed` in
+    /// this mesh's frame (turned and shifted only); no allocation.
     pub fn visit_near(
         &self,
         other: &SignedMesh,
-        placed: (DQuat, DVec3),
+        placed: DAffine3,
         reach: f64,
         mut visit: impl FnMut(usize, usize),
     ) {
@@ -283,12 +310,21 @@ impl SignedMesh {
     /// pseudo-normal of the feature its closest point lies on; None when it is farther than
     /// `reach`, the triangle's plane looked at first, which settles most.
     pub fn near_within(&self, t: usize, p: DVec3, reach: f64) -> Option<Near> {
-        let tri = self.triangles[t];
-        let a = self.vertices[tri[0] as usize];
-        if (p - a).dot(self.normals[t]).abs() > reach {
+        if (p.dot(self.normals[t]) - self.offsets[t]).abs() > reach {
             return None;
         }
-        let [b, c] = [tri[1], tri[2]].map(|i| self.vertices[i as usize]);
+        let [i, j, k] = self.triangles[t];
+        let (a, b, c) = (
+            self.vertices[i as usize],
+            self.vertices[j as usize],
+            self.vertices[k as usize],
+        );
+        // A leaf pairs every sample with every triangle of its own: those beside the
+        // triangle's box by more than the reach are settled before the closest point.
+        let (low, high) = (a.min(b).min(c) - reach, a.max(b).max(c) + reach);
+        if p.cmplt(low).any() || p.cmpgt(high).any() {
+            return None;
+        }
         let closest = closest_on_triangle(p, a, b, c);
         ((p - closest.0).length_squared() <= reach * reach).then(|| self.signed(t, p, closest))
     }
@@ -331,6 +367,11 @@ impl SignedMesh {
             facing: sign * direction.dot(pseudo) >= cone - 1e-9,
         }
     }
+}
+
+/// `items` taken in `order` (the old number of each new one).
+fn renumbered<T: Copy>(items: &[T], order: &[u32]) -> Vec<T> {
+    order.iter().map(|&i| items[i as usize]).collect()
 }
 
 /// The point of `triangle` closest to `p`.
@@ -380,6 +421,7 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (DVec3, Featur
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DQuat;
 
     /// A unit cube's 12 triangles, wound outward, each with corners of its own.
     fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
@@ -466,7 +508,8 @@ mod tests {
         let shift = DVec3::new(0.7, 0.9, 0.2);
         let reach = 0.05;
         let mut found = Vec::new();
-        mesh.visit_near(&mesh, (turn, shift), reach, |s, t| {
+        let placed = DAffine3::from_rotation_translation(turn, shift);
+        mesh.visit_near(&mesh, placed, reach, |s, t| {
             if near(&mesh, t, turn * mesh.samples()[s] + shift)
                 .distance
                 .abs()
