@@ -200,33 +200,23 @@ impl SignedMesh {
             }
         }
         let mut edge_normals = vec![[DVec3::ZERO; 3]; triangles.len()];
-        // Corners on a crease, then points along the creases: a corner amid flat faces only
-        // cuts a face into triangles, and a touch there shows first at the face's edges.
-        let mut creased = vec![false; points.len()];
-        let mut along = Vec::new();
+        let mut creases = Vec::new();
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 let (other, _) = edges[&(b, a)];
                 let (mine, theirs) = (normals[t], normals[other]);
                 edge_normals[t][k] = (mine + theirs).normalize_or_zero();
-                // Each edge sampled once, from the face where it runs from the lower corner.
-                let turn = mine.angle_between(theirs);
-                if a < b && turn > FLAT {
-                    (creased[a as usize], creased[b as usize]) = (true, true);
-                    let (p, q) = (points[a as usize], points[b as usize]);
-                    // A crossing between samples h apart goes about h/2·tan(turn/2) deep:
-                    // half the spacing whatever the crease.
-                    let step = spacing / (turn / 2.0).tan().min(4.0);
-                    let pieces = ((q - p).length() / step).ceil() as usize;
-                    along.extend((1..pieces).map(|i| p.lerp(q, i as f64 / pieces as f64)));
+                // Each edge once, from the face where it runs from the lower corner.
+                if a < b && mine.angle_between(theirs) > FLAT {
+                    creases.push(Crease {
+                        ends: [a, b],
+                        faces: [mine, theirs],
+                    });
                 }
             }
         }
-        let samples: Vec<DVec3> = (points.iter().zip(&creased))
-            .filter_map(|(p, &c)| c.then_some(*p))
-            .chain(along)
-            .collect();
+        let samples = crease_samples(&points, &creases, spacing);
         let boxes: Vec<(DVec3, DVec3)> = triangles
             .iter()
             .map(|t| {
@@ -369,6 +359,85 @@ impl SignedMesh {
     }
 }
 
+/// An edge where the surface turns.
+struct Crease {
+    /// Its corners, the lower first.
+    ends: [u32; 2],
+    /// The normals of its faces, the one it runs along counter-clockwise first.
+    faces: [DVec3; 2],
+}
+
+/// The samples of a surface's `creases` over `points`, `spacing` apart at a right angle:
+/// the corners where creases meet or turn, then points along each straight run of creases
+/// between them. A crease goes on straight through a corner that a finely cut face only
+/// put there (two creases in line between the same two faces), and is sampled at its own
+/// spacing across it: such corners every 0.3 mm would give a shallow crease ten times the
+/// samples it needs.
+fn crease_samples(points: &[DVec3], creases: &[Crease], spacing: f64) -> Vec<DVec3> {
+    let mut at: Vec<Vec<usize>> = vec![Vec::new(); points.len()];
+    for (e, crease) in creases.iter().enumerate() {
+        for &end in &crease.ends {
+            at[end as usize].push(e);
+        }
+    }
+    let same = |x: DVec3, y: DVec3| x.dot(y) > 1.0 - 1e-12;
+    let through = |v: usize| -> bool {
+        let [e, f] = at[v][..] else { return false };
+        let away = |e: usize| {
+            let [a, b] = creases[e].ends;
+            let other = if a as usize == v { b } else { a };
+            (points[other as usize] - points[v]).normalize_or_zero()
+        };
+        let ([m, n], [p, q]) = (creases[e].faces, creases[f].faces);
+        away(e).dot(away(f)) < -1.0 + 1e-12
+            && ((same(m, p) && same(n, q)) || (same(m, q) && same(n, p)))
+    };
+    let mut samples: Vec<DVec3> = (0..points.len())
+        .filter(|&v| !at[v].is_empty() && !through(v))
+        .map(|v| points[v])
+        .collect();
+    let mut walked = vec![false; creases.len()];
+    let run = |from: usize, mut e: usize, walked: &mut Vec<bool>, samples: &mut Vec<DVec3>| {
+        let mut here = from;
+        loop {
+            walked[e] = true;
+            let [a, b] = creases[e].ends;
+            here = if a as usize == here { b } else { a } as usize;
+            if !through(here) {
+                break;
+            }
+            e = at[here].iter().copied().find(|&f| f != e).unwrap_or(e);
+            if walked[e] {
+                break;
+            }
+        }
+        let (p, q) = (points[from], points[here]);
+        let [m, n] = creases[e].faces;
+        // A crossing between samples h apart goes about h/2·tan(turn/2) deep: half the
+        // spacing whatever the crease.
+        let step = spacing / (m.angle_between(n) / 2.0).tan().min(4.0);
+        let pieces = ((q - p).length() / step).ceil() as usize;
+        samples.extend((1..pieces).map(|i| p.lerp(q, i as f64 / pieces as f64)));
+    };
+    for v in (0..points.len()).filter(|&v| !through(v)) {
+        for &e in &at[v] {
+            if !walked[e] {
+                run(v, e, &mut walked, &mut samples);
+            }
+        }
+    }
+    // A ring of creases all in line cannot close; should rounding make one, it is walked
+    // from a corner of its own.
+    for e in 0..creases.len() {
+        if !walked[e] {
+            let from = creases[e].ends[0] as usize;
+            samples.push(points[from]);
+            run(from, e, &mut walked, &mut samples);
+        }
+    }
+    samples
+}
+
 /// `items` taken in `order` (the old number of each new one).
 fn renumbered<T: Copy>(items: &[T], order: &[u32]) -> Vec<T> {
     order.iter().map(|&i| items[i as usize]).collect()
@@ -476,6 +545,58 @@ mod tests {
         // diagonals, which are flat.
         assert_eq!(mesh.samples().len(), 8 + 12 * 9);
         assert!((mesh.radius() - 3f64.sqrt()).abs() < 1e-12);
+    }
+
+    /// A unit cube whose faces are cut into `n` × `n` squares of two triangles each.
+    fn cut_cube(n: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let (mut corners, mut triangles) = (Vec::new(), Vec::new());
+        for d in 0..3 {
+            for side in [0, n] {
+                // Grid point (i, j) of the face at `side` across axis d, by its whole
+                // coordinates, so that faces meeting at an edge name the same points.
+                let at = |i: u32, j: u32| {
+                    let mut c = [0u32; 3];
+                    (c[d], c[(d + 1) % 3], c[(d + 2) % 3]) = (side, i, j);
+                    DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) / n as f64
+                };
+                for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+                    let square = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+                    for mut t in [[0, 1, 2], [0, 2, 3]] {
+                        if side == 0 {
+                            t.swap(1, 2);
+                        }
+                        let first = corners.len() as u32;
+                        corners.extend(t.map(|k| square[k]));
+                        triangles.push([first, first + 1, first + 2]);
+                    }
+                }
+            }
+        }
+        (corners, triangles)
+    }
+
+    #[test]
+    fn a_finely_cut_face_adds_no_samples_along_its_creases() {
+        let (v, t) = cube();
+        let plain = SignedMesh::new(&v, &t, 0.1).unwrap();
+        for n in [2, 3, 7] {
+            let (v, t) = cut_cube(n);
+            let mesh = SignedMesh::new(&v, &t, 0.1).unwrap();
+            assert_eq!(mesh.samples().len(), plain.samples().len(), "cut in {n}");
+            for a in mesh.samples() {
+                assert!(
+                    plain.samples().iter().any(|b| a.distance(*b) < 1e-12),
+                    "cut in {n}: {a} is not a sample of the plain cube"
+                );
+            }
+            // And the distances it gives are the plain cube's.
+            for k in 0..500 {
+                let p = point(k);
+                let q = (p - 0.5).abs() - 0.5;
+                let exact = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
+                assert!((distance(&mesh, p) - exact).abs() < 1e-12, "{p}");
+            }
+        }
     }
 
     #[test]
