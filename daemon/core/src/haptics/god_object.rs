@@ -43,9 +43,10 @@ const TOLERANCE: f64 = 1e-8;
 /// The least reach of a tick's query, metres: contacts resting within rounding of zero gap
 /// are always found.
 const MIN_REACH: f64 = 2e-5;
-/// Features of one sample whose normals are closer than this (cosine) are one constraint:
-/// the nearer is kept.
-const SAME_SIDE: f64 = std::f64::consts::FRAC_1_SQRT_2;
+/// Features of one sample whose normals are closer than this (cosine: 3°, as a flat
+/// stretch's) are one constraint: the nearer is kept. Two faces meeting at a shallow inward
+/// fold are both kept: the nearer alone lets a sample slide along it through the other.
+const SAME_SIDE: f64 = FLAT_COSINE;
 
 /// The spring and damper the user feels and how far the proxy may move in a tick.
 ///
@@ -560,7 +561,7 @@ impl GodObject {
                             obstacle: o,
                             point,
                             normal,
-                            gap: near.distance,
+                            gap: near.gap,
                             force: 0.0,
                             friction: DVec3::ZERO,
                             key: key(o, side, slot.sample, k),

@@ -5,10 +5,12 @@
 //! with the feature it lies on (the face, an edge, a corner), and the side is read from that
 //! feature's angle-weighted pseudo-normal (Bærentzen and Aanæs), which tells inside from
 //! outside wherever the closest point lies. Each mesh also carries samples of its own
-//! surface, its corners and points along its creased edges, for the other side of a
-//! two-way query: where two solids meet, a corner or an edge of one of them is nearest the
-//! other's surface, so checking both meshes' samples against each other's triangles finds
-//! every touch, edge crossing edge included to within the samples' spacing.
+//! surface, its corners and points along the edges where it folds outward, for the other
+//! side of a two-way query: where two solids meet, a corner or an edge of one of them is
+//! nearest the other's surface, so checking both meshes' samples against each other's
+//! triangles finds every touch, edge crossing edge included to within the samples' spacing.
+//! An edge folded inward needs no samples (the other solid meets it with edges and corners
+//! that fold outward), but a point beside it is held off its faces' own planes.
 
 use std::collections::HashMap;
 
@@ -73,6 +75,11 @@ enum Feature {
 pub struct Near {
     /// Distance to the surface: positive outside, negative inside, metres.
     pub distance: f64,
+    /// How far the point may go along `normal` before it enters the solid, metres: the
+    /// distance, except beside an edge where the surface folds inward, where it is the
+    /// distance to the face's own plane (the space left there is what lies in front of
+    /// both faces).
+    pub gap: f64,
     /// The closest point on the triangle.
     pub point: DVec3,
     /// The outward unit normal there: along the way from the closest point to a point
@@ -100,6 +107,8 @@ pub struct SignedMesh {
     /// Each triangle's edges' pseudo-normals (edge k from corner k to k + 1): the mean of the
     /// two faces' normals.
     edge_normals: Vec<[DVec3; 3]>,
+    /// Each triangle's edges where the surface folds inward: bit k for edge k.
+    folds_in: Vec<u8>,
     tree: Bvh,
     samples: Vec<DVec3>,
     sample_tree: Bvh,
@@ -109,9 +118,9 @@ pub struct SignedMesh {
 
 impl SignedMesh {
     /// The mesh of `triangles` over `vertices` (counter-clockwise seen from outside),
-    /// corners at the same place welded, its creased edges sampled every `spacing` metres
-    /// or closer (at a right angle; shallower creases more sparsely, since a crossing
-    /// between samples goes less deep there). Built here, off the haptic thread.
+    /// corners at the same place welded, the edges where it folds outward sampled every
+    /// `spacing` metres or closer (at a right angle; shallower creases more sparsely, since a
+    /// crossing between samples goes less deep there). Built here, off the haptic thread.
     pub fn new(
         vertices: &[DVec3],
         triangles: &[[u32; 3]],
@@ -200,6 +209,7 @@ impl SignedMesh {
             }
         }
         let mut edge_normals = vec![[DVec3::ZERO; 3]; triangles.len()];
+        let mut folds_in = vec![0u8; triangles.len()];
         let mut creases = Vec::new();
         for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
@@ -207,8 +217,23 @@ impl SignedMesh {
                 let (other, _) = edges[&(b, a)];
                 let (mine, theirs) = (normals[t], normals[other]);
                 edge_normals[t][k] = (mine + theirs).normalize_or_zero();
-                // Each edge once, from the face where it runs from the lower corner.
-                if a < b && mine.angle_between(theirs) > FLAT {
+                if mine.angle_between(theirs) <= FLAT {
+                    continue;
+                }
+                // Inward where the other face's far corner lies in front of this face.
+                let far = triangles[other]
+                    .into_iter()
+                    .find(|&i| i != a && i != b)
+                    .map_or(points[a as usize], |i| points[i as usize]);
+                if (far - points[a as usize]).dot(mine) > 0.0 {
+                    folds_in[t] |= 1 << k;
+                    continue;
+                }
+                // Each edge once, from the face where it runs from the lower corner; only
+                // where the surface folds outward: where two solids touch, one folded
+                // inward (filling more than half the space round the edge) is met by the
+                // other's faces, edges and corners, which fold outward.
+                if a < b {
                     creases.push(Crease {
                         ends: [a, b],
                         faces: [mine, theirs],
@@ -260,6 +285,7 @@ impl SignedMesh {
             corner_normals: renumbered(&corner_normals, &corner_order),
             corner_cones: renumbered(&corner_cones, &corner_order),
             edge_normals: renumbered(&edge_normals, &order),
+            folds_in: renumbered(&folds_in, &order),
             samples: renumbered(&samples, &sample_order),
             radius,
         })
@@ -339,6 +365,7 @@ impl SignedMesh {
         if length <= 1e-12 {
             return Near {
                 distance: 0.0,
+                gap: 0.0,
                 point,
                 normal: pseudo,
                 facing: true,
@@ -350,8 +377,25 @@ impl SignedMesh {
         } else {
             1.0
         };
+        // Outside, beside an edge folded inward: held off the face's plane, which there
+        // bounds the space left (the way from the edge would let the point slide along the
+        // other face and through this one).
+        if let Feature::Edge(k) = feature
+            && self.folds_in[t] & (1 << k) != 0
+            && sign > 0.0
+        {
+            let normal = self.normals[t];
+            return Near {
+                distance: length,
+                gap: p.dot(normal) - self.offsets[t],
+                point,
+                normal,
+                facing: true,
+            };
+        }
         Near {
             distance: sign * length,
+            gap: sign * length,
             point,
             normal: sign * direction,
             facing: sign * direction.dot(pseudo) >= cone - 1e-9,
@@ -597,6 +641,54 @@ mod tests {
                 assert!((distance(&mesh, p) - exact).abs() < 1e-12, "{p}");
             }
         }
+    }
+
+    #[test]
+    fn an_edge_folded_inward_is_not_sampled_and_holds_off_both_faces() {
+        // A trough 1 deep: the section (-1, -1), (1, -1), (1, h), (0, 0), (-1, h), its top two
+        // faces folded inward by 10° each along the valley x = y = 0.
+        let h = 10f64.to_radians().tan();
+        let section = [[-1.0, -1.0], [1.0, -1.0], [1.0, h], [0.0, 0.0], [-1.0, h]];
+        let corners: Vec<DVec3> = [0.0, 1.0]
+            .iter()
+            .flat_map(|&z| section.iter().map(move |&[x, y]| DVec3::new(x, y, z)))
+            .collect();
+        let mut triangles = Vec::new();
+        for k in 1..4u32 {
+            // The ends fanned from (-1, -1): the near one seen from -z, the far from +z.
+            triangles.push([0, k + 1, k]);
+            triangles.push([5, 5 + k, 5 + k + 1]);
+        }
+        for k in 0..5u32 {
+            let next = (k + 1) % 5;
+            triangles.push([k, next, 5 + next]);
+            triangles.push([k, 5 + next, 5 + k]);
+        }
+        let mesh = SignedMesh::new(&corners, &triangles, 0.1).unwrap();
+        // Samples along every upright edge but the valley's.
+        let on = |x: f64, y: f64| {
+            (mesh.samples().iter())
+                .filter(|s| s.x == x && s.y == y && s.z > 0.0 && s.z < 1.0)
+                .count()
+        };
+        assert!(on(1.0, -1.0) > 0 && on(1.0, h) > 0 && on(-1.0, h) > 0);
+        assert_eq!(on(0.0, 0.0), 0);
+        // Just over the right face near the valley: the left face, whose nearest point is
+        // the valley, holds it off the left face's own plane.
+        let p = DVec3::new(0.02, 0.02 * h + 0.001, 0.5);
+        let left = DVec3::new(h, 1.0, 0.0).normalize();
+        let beside: Vec<Near> = (0..mesh.triangles.len())
+            .map(|t| near(&mesh, t, p))
+            .filter(|n| n.normal.dot(left) > 1.0 - 1e-12 && n.distance > 0.0)
+            .collect();
+        assert!(!beside.is_empty());
+        for n in &beside {
+            assert!((n.gap - left.dot(p)).abs() < 1e-12, "{n:?}");
+            assert!(n.facing && n.distance > n.gap + 0.01, "{n:?}");
+        }
+        // Above the right face, as the nearest feature says.
+        let right = DVec3::new(-h, 1.0, 0.0).normalize();
+        assert!((distance(&mesh, p) - right.dot(p)).abs() < 1e-12);
     }
 
     #[test]
