@@ -411,6 +411,18 @@ struct Crease {
     faces: [DVec3; 2],
 }
 
+impl Crease {
+    /// Its corner at the other end from corner `v`.
+    fn other(&self, v: usize) -> usize {
+        let [a, b] = self.ends;
+        if a as usize == v {
+            b as usize
+        } else {
+            a as usize
+        }
+    }
+}
+
 /// The samples of a surface's `creases` over `points`, `spacing` apart at a right angle:
 /// the corners where creases meet or turn, then points along each straight run of creases
 /// between them. A crease goes on straight through a corner that a finely cut face only
@@ -427,11 +439,7 @@ fn crease_samples(points: &[DVec3], creases: &[Crease], spacing: f64) -> Vec<DVe
     let same = |x: DVec3, y: DVec3| x.dot(y) > 1.0 - 1e-12;
     let through = |v: usize| -> bool {
         let [e, f] = at[v][..] else { return false };
-        let away = |e: usize| {
-            let [a, b] = creases[e].ends;
-            let other = if a as usize == v { b } else { a };
-            (points[other as usize] - points[v]).normalize_or_zero()
-        };
+        let away = |e: usize| (points[creases[e].other(v)] - points[v]).normalize_or_zero();
         let ([m, n], [p, q]) = (creases[e].faces, creases[f].faces);
         away(e).dot(away(f)) < -1.0 + 1e-12
             && ((same(m, p) && same(n, q)) || (same(m, q) && same(n, p)))
@@ -445,8 +453,7 @@ fn crease_samples(points: &[DVec3], creases: &[Crease], spacing: f64) -> Vec<DVe
         let mut here = from;
         loop {
             walked[e] = true;
-            let [a, b] = creases[e].ends;
-            here = if a as usize == here { b } else { a } as usize;
+            here = creases[e].other(here);
             if !through(here) {
                 break;
             }
@@ -569,15 +576,22 @@ mod tests {
         DVec3::new(hash(1), hash(2), hash(3)) * 2.0 - 0.5
     }
 
+    /// The exact signed distance from `p` to the unit cube at the origin's corner.
+    fn unit_cube_distance(p: DVec3) -> f64 {
+        let q = (p - 0.5).abs() - 0.5;
+        q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
+    }
+
     #[test]
     fn the_distance_to_a_cube_is_the_box_formula_inside_and_out() {
         let (v, t) = cube();
         let mesh = SignedMesh::new(&v, &t, 0.1).unwrap();
         for k in 0..2000 {
             let p = point(k);
-            let q = (p - 0.5).abs() - 0.5;
-            let exact = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
-            assert!((distance(&mesh, p) - exact).abs() < 1e-12, "{p}");
+            assert!(
+                (distance(&mesh, p) - unit_cube_distance(p)).abs() < 1e-12,
+                "{p}"
+            );
         }
     }
 
@@ -636,9 +650,10 @@ mod tests {
             // And the distances it gives are the plain cube's.
             for k in 0..500 {
                 let p = point(k);
-                let q = (p - 0.5).abs() - 0.5;
-                let exact = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
-                assert!((distance(&mesh, p) - exact).abs() < 1e-12, "{p}");
+                assert!(
+                    (distance(&mesh, p) - unit_cube_distance(p)).abs() < 1e-12,
+                    "{p}"
+                );
             }
         }
     }
