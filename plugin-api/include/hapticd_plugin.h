@@ -29,7 +29,7 @@ const struct HapticdPluginDescriptor *hapticd_plugin_entry(const struct HapticdH
  plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
  through [`HapticdHost::get_extension`].
  */
-#define HAPTICD_ABI_MINOR 11
+#define HAPTICD_ABI_MINOR 12
 
 /*
  Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
@@ -1118,6 +1118,94 @@ typedef struct HapticdSceneGeometry {
    */
   int32_t (*triangles)(void *instance, uint32_t first, uint32_t count, struct HapticdTriangle *out);
 } HapticdSceneGeometry;
+/* ---------------------------------------------------------------------------
+ * Scene extension "hapticd.scene.held/1": a held body and the exact surfaces it meets.
+ * ------------------------------------------------------------------------- */
+
+#define HAPTICD_EXT_SCENE_HELD "hapticd.scene.held/1"
+
+/*
+ A body a pointer holds, and the spring the hand feels it by.
+ */
+typedef struct HapticdHeld {
+  /*
+   The pointer that holds it.
+   */
+  uint32_t pointer;
+  /*
+   The body (its number among the world's bodies, as its poses are written).
+   */
+  uint32_t body;
+  /*
+   The point the grip holds, in the body's frame (about its centre of mass), metres.
+   */
+  double grip[3];
+  /*
+   Spring between grip and proxy, N/m (above 0).
+   */
+  double stiffness;
+  /*
+   Damper between grip and proxy, N·s/m.
+   */
+  double damping;
+  /*
+   Rotational spring, N·m/rad (above 0).
+   */
+  double rotational_stiffness;
+  /*
+   Rotational damper, N·m·s/rad.
+   */
+  double rotational_damping;
+  /*
+   Coulomb's coefficient of friction of the held body's contacts.
+   */
+  double friction;
+} HapticdHeld;
+
+/*
+ One closed piece of a body's surface.
+ */
+typedef struct HapticdSurfacePiece {
+  /*
+   How many triangles it has.
+   */
+  uint32_t triangle_count;
+  /*
+   1 when its body does not move, else 0.
+   */
+  uint32_t fixed;
+  /*
+   Where its body is now (its centre of mass, the frame of the triangles).
+   */
+  HapticdBodyPose pose;
+} HapticdSurfacePiece;
+
+/*
+ Extension [`HAPTICD_EXT_SCENE_HELD`] of a multi-rate scene plugin.
+ */
+typedef struct HapticdSceneHeld {
+  /*
+   `sizeof(HapticdSceneHeld)` as the plugin was compiled.
+   */
+  uint32_t struct_size;
+  /*
+   [main] Write the held body to `out` and return [`HAPTICD_OK`], or
+   [`HAPTICD_ERROR_ARGUMENT`] when no pointer holds one.
+   */
+  int32_t (*held)(void *instance, struct HapticdHeld *out);
+  /*
+   [main] Describe piece `piece` of body `body`'s surface in `info` and write its first
+   `capacity` triangles (counter-clockwise seen from outside, in the body's frame) to
+   `out` (which may be null when `capacity` is 0); [`HAPTICD_ERROR_ARGUMENT`] past the
+   body's last piece or the world's last body. Every piece is a closed surface.
+   */
+  int32_t (*surface)(void *instance,
+                     uint32_t body,
+                     uint32_t piece,
+                     struct HapticdSurfacePiece *info,
+                     HapticdTriangle *out,
+                     uint32_t capacity);
+} HapticdSceneHeld;
 /* ---------------------------------------------------------------------------
  * Scene extension "hapticd.scene.joints/1": a running world's joints, read and driven.
  * ------------------------------------------------------------------------- */

@@ -13,7 +13,7 @@ pub const HAPTICD_ABI_MAJOR: u32 = 1;
 /// plugin of any minor loads: the host reads no field newer than its own minor, and a
 /// plugin reads the host's minor in [`HapticdHost::abi_minor`] and asks for newer services
 /// through [`HapticdHost::get_extension`].
-pub const HAPTICD_ABI_MINOR: u32 = 11;
+pub const HAPTICD_ABI_MINOR: u32 = 12;
 
 /// Plugin kind: a mechanism (string geometry and motor constants of a SPIDAR-like device).
 pub const HAPTICD_KIND_MECHANISM: u32 = 1;

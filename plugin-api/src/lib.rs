@@ -23,6 +23,6 @@ pub use export::{
 };
 pub use ext::{
     scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*,
-    scene_geometry::*, scene_joints::*, scene_mobility::*,
+    scene_geometry::*, scene_held::*, scene_joints::*, scene_mobility::*,
 };
 pub use geometry::Geometry;

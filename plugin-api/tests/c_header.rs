@@ -122,7 +122,7 @@ fn c_header_matches_the_rust_abi() {
 fn each_extension_has_a_section_that_names_it_as_the_rust_abi_does() {
     let header = include_str!("../include/hapticd_plugin.h");
     let extensions = extensions(Path::new(env!("CARGO_MANIFEST_DIR")));
-    assert_eq!(extensions.len(), 8, "the extensions of ABI 1.10");
+    assert_eq!(extensions.len(), 9, "the extensions of ABI 1.12");
     for (name, id) in [
         (
             "HAPTICD_EXT_SCENE_GEOMETRY",
@@ -155,6 +155,10 @@ fn each_extension_has_a_section_that_names_it_as_the_rust_abi_does() {
         (
             "HAPTICD_EXT_SCENE_COMPLIANCE",
             hapticd_plugin_api::HAPTICD_EXT_SCENE_COMPLIANCE,
+        ),
+        (
+            "HAPTICD_EXT_SCENE_HELD",
+            hapticd_plugin_api::HAPTICD_EXT_SCENE_HELD,
         ),
     ] {
         let id = id.to_str().unwrap();

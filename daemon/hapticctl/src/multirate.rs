@@ -7,6 +7,7 @@
 use glam::DVec3;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use hapticd_core::scene::Pointer;
+use hapticd_core::scene::held_part::HeldPart;
 use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
 };
@@ -62,10 +63,16 @@ impl Lockstep {
         }
         let world = RapierWorld::new(spec, pointers.len());
         let now: Vec<BodyState> = (0..world.body_count()).map(|i| world.body(i)).collect();
+        let mut renderer = PlaneRenderer::new(spec.rate, pointers);
+        if let Some(held) = &spec.held {
+            let part = HeldPart::build(held, &spec.surface_pieces())
+                .expect("reading a scene file checks that its surfaces are closed");
+            renderer.hold(part);
+        }
         Self {
             poses: (now.clone(), now),
             world,
-            renderer: PlaneRenderer::new(spec.rate, pointers),
+            renderer,
             haptic_period: 1.0 / haptic_rate,
             physics_period,
             time: 0.0,

@@ -11,7 +11,7 @@ use std::sync::{Once, OnceLock};
 use crate::abi::*;
 use crate::ext::{
     scene_compliance::*, scene_contacts::*, scene_control::*, scene_deformation::*, scene_files::*,
-    scene_geometry::*, scene_joints::*, scene_mobility::*,
+    scene_geometry::*, scene_held::*, scene_joints::*, scene_mobility::*,
 };
 
 mod macros;
@@ -22,6 +22,7 @@ mod scene_control;
 mod scene_deformation;
 mod scene_files;
 mod scene_geometry;
+mod scene_held;
 mod scene_joints;
 mod scene_mobility;
 
@@ -33,6 +34,7 @@ use scene_control::SCENE_CONTROL;
 use scene_deformation::SCENE_DEFORMATION;
 pub use scene_files::*;
 use scene_geometry::SCENE_GEOMETRY;
+use scene_held::SCENE_HELD;
 use scene_joints::SCENE_JOINTS;
 use scene_mobility::SCENE_MOBILITY;
 
@@ -364,7 +366,7 @@ pub type SceneError = Box<dyn std::error::Error + Send + Sync>;
 pub type SceneCheck = fn(&str, usize) -> Result<(), SceneError>;
 
 /// Body of the exported `get_extension` function: the geometry, control, contacts,
-/// mobility, joints, deformation and compliance extensions, and the files extension when the plugin
+/// mobility, joints, deformation, compliance and held extensions, and the files extension when the plugin
 /// runs scene files.
 ///
 /// # Safety
@@ -399,6 +401,9 @@ pub unsafe fn scene_extension(
     }
     if id == HAPTICD_EXT_SCENE_COMPLIANCE {
         return (&SCENE_COMPLIANCE as *const HapticdSceneCompliance).cast();
+    }
+    if id == HAPTICD_EXT_SCENE_HELD {
+        return (&SCENE_HELD as *const HapticdSceneHeld).cast();
     }
     match files {
         Some(files) if id == HAPTICD_EXT_SCENE_FILES => {

@@ -5,7 +5,8 @@ use std::ffi::{CStr, c_char};
 
 use crate::abi::*;
 use crate::ext::{
-    scene_compliance::*, scene_contacts::*, scene_control::*, scene_joints::*, scene_mobility::*,
+    scene_compliance::*, scene_contacts::*, scene_control::*, scene_geometry::HapticdTriangle,
+    scene_held::*, scene_joints::*, scene_mobility::*,
 };
 use crate::geometry::Geometry;
 
@@ -101,6 +102,24 @@ pub trait SceneInstance: Send {
     /// [`HAPTICD_EXT_SCENE_COMPLIANCE`]), None for a rigid one; the default is all rigid.
     fn compliance(&self, pointer: u32, plane: u32) -> Option<HapticdPlaneCompliance> {
         let _ = (pointer, plane);
+        None
+    }
+
+    /// [main] Since ABI 1.12: the body a pointer holds (served through
+    /// [`HAPTICD_EXT_SCENE_HELD`]), None when none does; the default holds none.
+    fn held(&self) -> Option<HapticdHeld> {
+        None
+    }
+
+    /// [main] Since ABI 1.12: piece `piece` of body `body`'s surface, closed, its triangles
+    /// in the body's frame (served through [`HAPTICD_EXT_SCENE_HELD`]), None past the last;
+    /// the default has none.
+    fn surface(
+        &self,
+        body: u32,
+        piece: u32,
+    ) -> Option<(HapticdSurfacePiece, Vec<HapticdTriangle>)> {
+        let _ = (body, piece);
         None
     }
 

@@ -12,6 +12,8 @@
 //! - [`scene_deformation`]: `"hapticd.scene.deformation/1"`, where deforming solids stand.
 //! - [`scene_compliance`]: `"hapticd.scene.compliance/1"`, how a soft surface gives between
 //!   two physics steps.
+//! - [`scene_held`]: `"hapticd.scene.held/1"`, a body a pointer holds and the exact surfaces
+//!   it meets.
 
 pub mod scene_compliance;
 pub mod scene_contacts;
@@ -19,5 +21,6 @@ pub mod scene_control;
 pub mod scene_deformation;
 pub mod scene_files;
 pub mod scene_geometry;
+pub mod scene_held;
 pub mod scene_joints;
 pub mod scene_mobility;

@@ -14,8 +14,48 @@ use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput, answered};
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
-/// The plugin's instance: a world.
-struct Rapier(RapierWorld, Geometry);
+/// The plugin's instance: a world, its pictures, and the body its pointer holds with every
+/// body's surface pieces (what the held body meets), when it holds one.
+struct Rapier(RapierWorld, Geometry, Option<Held>);
+
+/// A held body as the held extension hands it out.
+struct Held {
+    held: HapticdHeld,
+    /// Each body's pieces: whether it is fixed, and its triangles in its frame.
+    pieces: Vec<Vec<(bool, Vec<HapticdTriangle>)>>,
+}
+
+impl Held {
+    /// The held body of `spec`, if its pointer holds one.
+    fn of(spec: &RapierScene) -> Option<Self> {
+        let h = spec.held?;
+        let p = &h.parameters;
+        let mut pieces = vec![Vec::new(); spec.bodies.len()];
+        for piece in spec.surface_pieces() {
+            let triangles = piece
+                .triangles
+                .iter()
+                .map(|t| HapticdTriangle {
+                    corners: t.map(|c| c.to_array()),
+                })
+                .collect();
+            pieces[piece.body as usize].push((piece.fixed, triangles));
+        }
+        Some(Held {
+            held: HapticdHeld {
+                pointer: h.pointer as u32,
+                body: h.body,
+                grip: h.grip.to_array(),
+                stiffness: p.stiffness,
+                damping: p.damping,
+                rotational_stiffness: p.rotational_stiffness,
+                rotational_damping: p.rotational_damping,
+                friction: p.friction,
+            },
+            pieces,
+        })
+    }
+}
 
 impl SceneInstance for Rapier {
     fn step_world(&mut self, input: &PhysicsInput<'_>, output: &mut PhysicsOutput<'_>) -> i32 {
@@ -96,6 +136,25 @@ impl SceneInstance for Rapier {
     fn compliance(&self, pointer: u32, plane: u32) -> Option<HapticdPlaneCompliance> {
         self.0.compliance(pointer, plane)
     }
+
+    fn held(&self) -> Option<HapticdHeld> {
+        self.2.as_ref().map(|h| h.held)
+    }
+
+    fn surface(
+        &self,
+        body: u32,
+        piece: u32,
+    ) -> Option<(HapticdSurfacePiece, Vec<HapticdTriangle>)> {
+        let pieces = &self.2.as_ref()?.pieces;
+        let (fixed, triangles) = pieces.get(body as usize)?.get(piece as usize)?;
+        let info = HapticdSurfacePiece {
+            triangle_count: triangles.len() as u32,
+            fixed: u32::from(*fixed),
+            pose: body_pose(&self.0.body(body as usize).pose()),
+        };
+        Some((info, triangles.clone()))
+    }
 }
 
 /// The rapier scene in the file at `path` for `pointers` pointers.
@@ -143,7 +202,8 @@ fn create(
         physics_rate: spec.rate,
     };
     let world = RapierWorld::new(&spec, pointers);
-    Ok((Box::new(Rapier(world, spec.geometry())), info))
+    let held = Held::of(&spec);
+    Ok((Box::new(Rapier(world, spec.geometry(), held)), info))
 }
 
 hapticd_plugin_api::export_scene!(

@@ -18,6 +18,11 @@ use glam::{DAffine3, DVec3};
 
 use super::bvh::Bvh;
 
+/// How far apart the samples along a solid's creases are at a right angle, metres
+/// ([`SignedMesh::of_triangles`]): an edge crossing an edge between two goes at most half as
+/// deep.
+pub const CREASE_SPACING: f64 = 1e-4;
+
 /// An edge whose faces turn by less than this (radians) is flat: a crossing there cannot go
 /// deeper than the corners show.
 const FLAT: f64 = 1e-3;
@@ -289,6 +294,17 @@ impl SignedMesh {
             samples: renumbered(&samples, &sample_order),
             radius,
         })
+    }
+
+    /// The surface of `triangles` (each counter-clockwise seen from outside, corners given
+    /// by position), its creases sampled every [`CREASE_SPACING`]: a solid's surface for
+    /// exact queries. Built here, off the haptic thread.
+    pub fn of_triangles(triangles: &[[DVec3; 3]]) -> Result<Self, MeshFault> {
+        let corners: Vec<DVec3> = triangles.iter().flatten().copied().collect();
+        let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect();
+        Self::new(&corners, &indices, CREASE_SPACING)
     }
 
     /// The triangles, after welding.

@@ -6,6 +6,8 @@
 //! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
 //! - [`local_dynamics`]: the bodies near a pointer, moved at the haptic rate between
 //!   physics steps (thesis 6.5.4);
+//! - [`held_part`]: a body a pointer holds in a multi-rate world, rendered by a 6-DOF
+//!   god-object that pushes the bodies moved here (thesis 7.2);
 //! - [`multirate`]: the haptic side of a world stepped at a low rate elsewhere (thesis
 //!   Ch. 6): interpolated planes, the proxy and the impulses handed back;
 //! - [`output_check`]: a plugin's planes and wrenches checked before they are used;
@@ -15,6 +17,7 @@
 
 pub mod control;
 pub mod engine;
+pub mod held_part;
 pub mod ledger;
 pub mod local_dynamics;
 pub mod multirate;

@@ -22,17 +22,18 @@
 //! The daemon runs this in the haptic thread against a physics thread; `hapticctl` runs it
 //! in step with the physics, at a chosen phase, for experiments. Neither allocates here.
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use hapticd_plugin_api::{
     HAPTICD_MAX_LOCAL_BODIES, HAPTICD_MAX_PLANES, HapticdImpulse, HapticdLocalBody,
     HapticdLocalState, HapticdMobility, HapticdPlane, HapticdPlaneCompliance, HapticdPlanes,
     HapticdPointer,
 };
 
-use super::local_dynamics::{Change, LocalBody, Push};
+use super::held_part::{HeldPart, line_of_action};
+use super::local_dynamics::{Change, LocalBody, Motion, Push};
 use crate::haptics::obstacle::Shape;
 use crate::haptics::proxy::{Proxy, ProxyParameters};
-use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench};
+use crate::kinematics::{MAX_EFFECTORS, Pose, Wrench, quat_to_wxyz};
 use crate::scene::{Pointer, Touch};
 
 /// One set of planes as the physics published it.
@@ -165,16 +166,30 @@ pub struct PlaneRenderer {
     /// The last hand-backs of local changes, newest at `hand_backs % PENDING`.
     pending: [Pending; PENDING],
     hand_backs: u64,
+    /// The body a pointer holds, if one does.
+    held: Option<Box<HeldPart>>,
 }
 
-/// The record of a proxy the physics is given: where it is (a [`PlaneRenderer::queries`]
-/// answer), and as its velocity the fastest its finger pushed over the period, along the
-/// grip's motion (`grip`'s, whose record it otherwise copies).
-pub fn proxy_record(grip: &HapticdPointer, (at, reach): (DVec3, f64)) -> HapticdPointer {
+/// Where the physics should find the surfaces around a pointer
+/// ([`PlaneRenderer::queries`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Query {
+    /// Where the pointer's proxy is, metres.
+    pub at: DVec3,
+    /// How a held body's proxy is turned (None: the grip's orientation).
+    pub orientation: Option<DQuat>,
+    /// The fastest its finger has pushed lately, m/s.
+    pub reach: f64,
+}
+
+/// The record of a proxy the physics is given: where it is and how a held body's is turned
+/// (a [`PlaneRenderer::queries`] answer), and as its velocity the fastest its finger pushed
+/// over the period, along the grip's motion (`grip`'s, whose record it otherwise copies).
+pub fn proxy_record(grip: &HapticdPointer, query: Query) -> HapticdPointer {
     HapticdPointer {
-        position: at.to_array(),
-        velocity: (DVec3::from(grip.velocity).normalize_or(DVec3::X) * reach).to_array(),
-        ..*grip
+        position: query.at.to_array(),
+        orientation: query.orientation.map_or(grip.orientation, quat_to_wxyz),
+        velocity: (DVec3::from(grip.velocity).normalize_or(DVec3::X) * query.reach).to_array(),
     }
 }
 
@@ -232,7 +247,18 @@ impl PlaneRenderer {
             reach: [0.0; MAX_EFFECTORS],
             pending: [Pending::default(); PENDING],
             hand_backs: 0,
+            held: None,
         }
+    }
+
+    /// Render `part` for the pointer that holds it from now on (made off the haptic thread).
+    pub fn hold(&mut self, part: HeldPart) {
+        self.held = Some(Box::new(part));
+    }
+
+    /// The held body, if a pointer holds one.
+    pub fn held(&self) -> Option<&HeldPart> {
+        self.held.as_deref()
     }
 
     /// [rt] What each pointer's proxy rests on, into `touches`: the body of the object
@@ -267,18 +293,31 @@ impl PlaneRenderer {
     /// toward where it was.
     ///
     /// With each, the fastest its finger has pushed lately (over about a physics period),
-    /// m/s: the physics bounds the impulses it takes in by it.
-    pub fn queries(&self) -> impl Iterator<Item = (DVec3, f64)> + '_ {
+    /// m/s: the physics bounds the impulses it takes in by it. A pointer that holds a body
+    /// gives its god-object's pose: the world puts the held body there.
+    pub fn queries(&self) -> impl Iterator<Item = Query> + '_ {
         self.proxies
             .iter()
             .zip(&self.touched)
             .zip(&self.reach)
-            .map(|((proxy, touched), reach)| {
+            .enumerate()
+            .map(|(p, ((proxy, touched), &reach))| {
+                if let Some(held) = self.held.as_ref().filter(|h| h.pointer() == p) {
+                    let pose = held.proxy();
+                    return Query {
+                        at: pose.position,
+                        orientation: Some(pose.orientation),
+                        reach,
+                    };
+                }
                 let body = touched
                     .and_then(|(object, _)| self.owner(object))
                     .and_then(|i| self.locals[i].as_ref());
-                let at = proxy.position() - body.map_or(DVec3::ZERO, LocalBody::unsent);
-                (at, *reach)
+                Query {
+                    at: proxy.position() - body.map_or(DVec3::ZERO, LocalBody::unsent),
+                    orientation: None,
+                    reach,
+                }
             })
     }
 
@@ -303,8 +342,12 @@ impl PlaneRenderer {
         self.ports = [0.0; MAX_EFFECTORS];
     }
 
-    /// The body of the scene numbered `body` where it is felt now, if it is moved here.
-    pub fn local(&self, body: u32) -> Option<super::local_dynamics::Motion> {
+    /// The body of the scene numbered `body` where it is felt now, if it is moved here (a
+    /// held body where its god-object is).
+    pub fn local(&self, body: u32) -> Option<Motion> {
+        if let Some(held) = self.held.as_ref().filter(|h| h.body() == body) {
+            return Some(held.motion());
+        }
         self.locals
             .iter()
             .flatten()
@@ -409,7 +452,10 @@ impl PlaneRenderer {
             if p >= self.proxies.len() {
                 break;
             }
-            *wrench = self.render_pointer(p, pointer, fraction, dt);
+            *wrench = match self.held.as_ref().is_some_and(|h| h.pointer() == p) {
+                true => self.render_held(p, pointer, dt),
+                false => self.render_pointer(p, pointer, fraction, dt),
+            };
         }
         for (body, load) in self.locals.iter_mut().zip(&self.loads) {
             if let Some(body) = body {
@@ -448,15 +494,7 @@ impl PlaneRenderer {
             &self.parameters,
             dt,
         );
-        // The finger is the proxy, which catches up over a physics period with a grip that
-        // went deeper while the body was held (pinned against another, or met as a wall
-        // until the physics moves it): without that, a body riding the finger would keep
-        // the depth, and its force, for as long as it is pushed.
-        // Remembered over about a period, fading (not reset when a set comes: what a body
-        // is given must not depend on when the physics samples).
-        let catch_up = grip.distance(out.proxy) / self.period;
-        let fading = self.reach[p] * (-dt / self.period).exp();
-        self.reach[p] = fading.max(pointer.velocity.length() + catch_up);
+        self.remember_reach(p, pointer, out.proxy, dt);
         self.resting[p] = None;
         self.touched[p] = None;
         if !out.in_contact {
@@ -473,6 +511,47 @@ impl PlaneRenderer {
             force = self.react((p, k), surfaces[k], pointer, out.proxy, force, dt);
         }
         Wrench::force(force)
+    }
+
+    /// [rt] The wrench of pointer `p`, which holds a body, this tick: its god-object's, among
+    /// the fixed bodies and the bodies moved here, which its contacts push.
+    fn render_held(&mut self, p: usize, pointer: &Pointer, dt: f64) -> Wrench {
+        let Some(held) = self.held.as_mut() else {
+            return Wrench::ZERO;
+        };
+        let (out, loads) = held.follow(pointer.pose, dt, &self.locals);
+        let proxy = held.proxy().position;
+        self.remember_reach(p, pointer, proxy, dt);
+        let mut pushed = false;
+        for (i, load) in loads.into_iter().enumerate() {
+            let Some(body) = self.locals[i].as_ref().map(LocalBody::motion) else {
+                continue;
+            };
+            if load.0 == DVec3::ZERO {
+                continue;
+            }
+            let point = line_of_action(body.position, load);
+            self.loads[i][p] = self.passive_push(p, (&body, point), load.0, pointer.velocity, dt);
+            pushed = true;
+        }
+        if !pushed {
+            self.ports[p] = 0.0;
+        }
+        out.felt
+    }
+
+    /// [rt] Remember how fast pointer `p`'s finger pushes, its proxy now at `proxy`, `dt`
+    /// after the last tick.
+    fn remember_reach(&mut self, p: usize, pointer: &Pointer, proxy: DVec3, dt: f64) {
+        // The finger is the proxy, which catches up over a physics period with a grip that
+        // went deeper while the body was held (pinned against another, or met as a wall
+        // until the physics moves it): without that, a body riding the finger would keep
+        // the depth, and its force, for as long as it is pushed.
+        // Remembered over about a period, fading (not reset when a set comes: what a body
+        // is given must not depend on when the physics samples).
+        let catch_up = pointer.pose.position.distance(proxy) / self.period;
+        let fading = self.reach[p] * (-dt / self.period).exp();
+        self.reach[p] = fading.max(pointer.velocity.length() + catch_up);
     }
 
     /// [rt] Pointer `p`'s first `count` planes, `fraction` moved and soft ones given under
@@ -577,25 +656,7 @@ impl PlaneRenderer {
             .owner(object)
             .and_then(|i| Some((i, self.locals[i].as_ref()?.motion())));
         if let Some((i, body)) = moved {
-            let arm = proxy - body.position;
-            // Passivity on the body port: the body takes no more work than the hand
-            // has put into the contact (what the finger presses on is the body's
-            // nearest face as the last step saw it, and a ball rolling from under it
-            // would otherwise be driven by a face it no longer has).
-            let on_body = -force;
-            let given = on_body.dot(body.velocity + body.spin.cross(arm)) * dt;
-            let available = self.ports[p] + on_body.dot(pointer.velocity) * dt;
-            let share = if given > available.max(0.0) {
-                (available / given).max(0.0)
-            } else {
-                1.0
-            };
-            self.ports[p] = available - share * given;
-            self.loads[i][p] = Push {
-                point: proxy,
-                force: on_body * share,
-                speed: self.reach[p],
-            };
+            self.loads[i][p] = self.passive_push(p, (&body, proxy), -force, pointer.velocity, dt);
         } else {
             self.ports[p] = 0.0;
             let sum = &mut self.sums[p][k];
@@ -605,6 +666,35 @@ impl PlaneRenderer {
             sum.weight += magnitude;
         }
         force
+    }
+
+    /// [rt] Pointer `p`'s push on a body moving as `body`, at `point` with `on_body`, the hand
+    /// moving at `hand`, as much of it as keeps the body port passive: the body takes no more
+    /// work than the hand has put into the contact (what the finger presses on is the body's
+    /// nearest face as the last step saw it, and a ball rolling from under it would
+    /// otherwise be driven by a face it no longer has).
+    fn passive_push(
+        &mut self,
+        p: usize,
+        (body, point): (&Motion, DVec3),
+        on_body: DVec3,
+        hand: DVec3,
+        dt: f64,
+    ) -> Push {
+        let arm = point - body.position;
+        let given = on_body.dot(body.velocity + body.spin.cross(arm)) * dt;
+        let available = self.ports[p] + on_body.dot(hand) * dt;
+        let share = if given > available.max(0.0) {
+            (available / given).max(0.0)
+        } else {
+            1.0
+        };
+        self.ports[p] = available - share * given;
+        Push {
+            point,
+            force: on_body * share,
+            speed: self.reach[p],
+        }
     }
 
     /// A face a proxy rests on stays the face it rests on: a new set whose plane of that

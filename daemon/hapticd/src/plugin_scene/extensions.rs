@@ -4,8 +4,12 @@
 use hapticd_plugin_api::geometry::GeometryError;
 use hapticd_plugin_api::*;
 
+use glam::DVec3;
 use hapticd_config::plugin;
+use hapticd_core::haptics::god_object::GodObjectParameters;
+use hapticd_core::kinematics::pose_of;
 use hapticd_core::scene::control::{self, Incoming, Reply, SceneControl};
+use hapticd_core::scene::held_part::{HeldPart, HeldSpec, SurfacePiece};
 use hapticd_core::sync::spsc;
 use hapticd_core::world_geometry::{MAX_SOLIDS, MAX_TRIANGLES};
 use hapticd_core::world_state::MAX_BODIES;
@@ -30,6 +34,8 @@ pub enum ExtensionFault {
     BodyName(u32),
     /// A joint's name is no UTF-8 text ending in NUL.
     JointName(u32),
+    /// The held body it gives cannot be held, for this reason.
+    Held(String),
 }
 
 impl std::fmt::Display for ExtensionFault {
@@ -48,6 +54,7 @@ impl std::fmt::Display for ExtensionFault {
             ExtensionFault::JointName(index) => {
                 write!(f, "joint {index} has no UTF-8 name ending in NUL")
             }
+            ExtensionFault::Held(why) => f.write_str(why),
         }
     }
 }
@@ -210,4 +217,141 @@ pub(super) fn read_contacts(loaded: &plugin::LoadedPlugin, instance: &mut Instan
         .map(|object| unsafe { object_body(instance.pointer, object) })
         .take_while(|&body| body != HAPTICD_NO_BODY)
         .collect()
+}
+
+/// [main] The body a pointer of `instance`'s world of `bodies` bodies and `pointers`
+/// pointers holds, as its plugin's held extension gives it, with its god-object built
+/// against every body's surface; None without the extension or a held body.
+pub(super) fn read_held(
+    loaded: &plugin::LoadedPlugin,
+    instance: &Instance,
+    (bodies, pointers): (u32, usize),
+) -> Result<Option<HeldPart>, ExtensionFault> {
+    // SAFETY: HapticdSceneHeld is the struct of the held extension.
+    let extension: Option<HapticdSceneHeld> =
+        unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_HELD) };
+    let Some(extension) = extension else {
+        return Ok(None);
+    };
+    let (Some(held_of), Some(surface_of)) = (extension.held, extension.surface) else {
+        return Err(ExtensionFault::LacksFunction("held"));
+    };
+    let mut held = HapticdHeld::default();
+    // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
+    match unsafe { held_of(instance.pointer, &mut held) } {
+        HAPTICD_OK => {}
+        HAPTICD_ERROR_ARGUMENT => return Ok(None),
+        status => {
+            return Err(ExtensionFault::Failed {
+                what: "held body".into(),
+                status,
+            });
+        }
+    }
+    let spec = held_spec(&held, (bodies, pointers)).map_err(ExtensionFault::Held)?;
+    let mut pieces = Vec::new();
+    let mut triangles_read = 0usize;
+    for body in 0..bodies {
+        for piece in 0.. {
+            let mut info = HapticdSurfacePiece::default();
+            // SAFETY: as above; no triangles asked for.
+            let status = unsafe {
+                surface_of(
+                    instance.pointer,
+                    body,
+                    piece,
+                    &mut info,
+                    std::ptr::null_mut(),
+                    0,
+                )
+            };
+            if status == HAPTICD_ERROR_ARGUMENT {
+                break;
+            }
+            if status != HAPTICD_OK {
+                return Err(ExtensionFault::Failed {
+                    what: format!("body {body}'s surface"),
+                    status,
+                });
+            }
+            triangles_read += info.triangle_count as usize;
+            if triangles_read > MAX_TRIANGLES {
+                return Err(ExtensionFault::Held(format!(
+                    "its bodies' surfaces have more than {MAX_TRIANGLES} triangles"
+                )));
+            }
+            let mut triangles = vec![HapticdTriangle::default(); info.triangle_count as usize];
+            // SAFETY: as above; `triangles` holds `triangle_count` triangles.
+            let status = unsafe {
+                surface_of(
+                    instance.pointer,
+                    body,
+                    piece,
+                    &mut info,
+                    triangles.as_mut_ptr(),
+                    info.triangle_count,
+                )
+            };
+            if status != HAPTICD_OK || info.triangle_count as usize != triangles.len() {
+                return Err(ExtensionFault::Failed {
+                    what: format!("body {body}'s surface"),
+                    status,
+                });
+            }
+            let pose = pose_of(&info.pose);
+            if !(pose.position.is_finite() && pose.orientation.is_finite()) {
+                return Err(ExtensionFault::Held(format!(
+                    "body {body} stands at no finite pose"
+                )));
+            }
+            pieces.push(SurfacePiece {
+                body,
+                fixed: info.fixed != 0,
+                pose,
+                triangles: triangles
+                    .iter()
+                    .map(|t| t.corners.map(DVec3::from))
+                    .collect(),
+            });
+        }
+    }
+    HeldPart::build(&spec, &pieces)
+        .map(Some)
+        .map_err(ExtensionFault::Held)
+}
+
+/// How `held` says the body is held, checked against a world of `bodies` bodies and
+/// `pointers` pointers: every number finite, the springs above zero.
+fn held_spec(held: &HapticdHeld, (bodies, pointers): (u32, usize)) -> Result<HeldSpec, String> {
+    if held.pointer as usize >= pointers || held.body >= bodies {
+        return Err(format!(
+            "pointer {} holds body {}, of {pointers} pointers and {bodies} bodies",
+            held.pointer, held.body
+        ));
+    }
+    let grip = DVec3::from(held.grip);
+    let springs = [held.stiffness, held.rotational_stiffness];
+    let dampers = [held.damping, held.rotational_damping, held.friction];
+    if !grip.is_finite()
+        || springs.iter().any(|k| !(k.is_finite() && *k > 0.0))
+        || dampers.iter().any(|b| !(b.is_finite() && *b >= 0.0))
+    {
+        return Err(format!(
+            "a grip at {grip} with springs {springs:?} and dampers and friction {dampers:?}: \
+             finite, springs above 0, the rest not below"
+        ));
+    }
+    Ok(HeldSpec {
+        pointer: held.pointer as usize,
+        body: held.body,
+        grip,
+        parameters: GodObjectParameters {
+            stiffness: held.stiffness,
+            damping: held.damping,
+            rotational_stiffness: held.rotational_stiffness,
+            rotational_damping: held.rotational_damping,
+            friction: held.friction,
+            ..GodObjectParameters::default()
+        },
+    })
 }

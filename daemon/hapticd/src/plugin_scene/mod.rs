@@ -28,6 +28,7 @@ use glam::DVec3;
 use hapticd_config::plugin;
 use hapticd_core::kinematics::MAX_EFFECTORS;
 use hapticd_core::scene::control::{Answer, Order, Reply, Request, SceneControl};
+use hapticd_core::scene::held_part::HeldPart;
 use hapticd_core::scene::output_check::WrenchChecker;
 use hapticd_core::scene::{Pointer, Scene, Touch};
 use hapticd_core::sync::spsc;
@@ -35,7 +36,7 @@ use hapticd_core::sync::spsc;
 use direct::DirectScene;
 pub(crate) use extensions::Commands;
 pub use extensions::ExtensionFault;
-use extensions::{read_contacts, read_control, read_geometry};
+use extensions::{read_contacts, read_control, read_geometry, read_held};
 pub(crate) use multirate::MultiRateScene;
 /// A created scene instance; destroyed when dropped.
 struct Instance {
@@ -324,6 +325,8 @@ pub enum SceneFault {
     Geometry(ExtensionFault),
     /// Its bodies cannot be listed.
     Control(ExtensionFault),
+    /// The body its pointer holds cannot be held.
+    Held(ExtensionFault),
     /// Its physics thread could not be started, for this reason.
     Thread(std::io::ErrorKind),
     /// A scene style, or a physics rate, the host does not run.
@@ -365,6 +368,7 @@ impl std::fmt::Display for SceneFault {
             }
             SceneFault::Geometry(e) => write!(f, "cannot draw its world: {e}"),
             SceneFault::Control(e) => write!(f, "cannot list its bodies: {e}"),
+            SceneFault::Held(e) => write!(f, "cannot hold its held body: {e}"),
             SceneFault::Thread(e) => write!(f, "cannot start its physics thread: {e}"),
             SceneFault::Style { style, rate } => {
                 write!(f, "unsupported scene style {style} (physics rate {rate})")
@@ -384,6 +388,8 @@ struct Created {
     control: Option<SceneControl>,
     commands: Option<Commands>,
     object_bodies: Vec<u32>,
+    /// The body a pointer holds, rendered by its god-object.
+    held: Option<HeldPart>,
 }
 
 /// Create the scene of the plugin at `path` for `pointers` pointers, with an optional scene
@@ -440,6 +446,8 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         .map_err(|e| failed(SceneFault::Control(e)))?
         .unzip();
     let object_bodies = read_contacts(&loaded, &mut instance);
+    let held = read_held(&loaded, &instance, (geometry.body_count, pointers))
+        .map_err(|e| failed(SceneFault::Held(e)))?;
     // SAFETY: HapticdSceneMobility is the struct of the mobility extension.
     let mobility: Option<HapticdSceneMobility> =
         unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_MOBILITY) };
@@ -464,6 +472,7 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         control,
         commands,
         object_bodies,
+        held,
     })
 }
 
@@ -503,6 +512,7 @@ pub fn load(
                     created.commands,
                     created.object_bodies,
                 ),
+                created.held,
                 info.physics_rate,
                 pointers,
             )

@@ -15,6 +15,7 @@ use hapticd_core::haptics::shading::SmoothMesh;
 use hapticd_core::haptics::surface::{Material, Surfaces};
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::control::{Incoming, Reply, Request, SceneControl};
+use hapticd_core::scene::held_part::HeldPart;
 use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
 };
@@ -241,15 +242,20 @@ impl MultiRateScene {
         (scene, physics, replies)
     }
 
-    /// Start the physics thread of `instance` at `rate` Hz for `pointers`.
+    /// Start the physics thread of `instance` at `rate` Hz for `pointers`, the `held` body
+    /// rendered by its god-object.
     pub(super) fn start(
         name: String,
         instance: Instance,
         parts: (Geometry, Option<SceneControl>, Option<Commands>, Vec<u32>),
+        held: Option<HeldPart>,
         rate: f64,
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
         let (mut scene, mut physics, mut replies) = Self::new(name, parts, rate, pointers);
+        if let Some(held) = held {
+            scene.renderer.hold(held);
+        }
         let n = pointers.len();
         let period_ns = (1e9 / rate) as u64;
         let name = scene.name.clone();

@@ -109,6 +109,9 @@ pub struct RapierWorld {
     soft_loads: Vec<Vec<(DVec3, DVec3)>>,
     /// How each pointer's planes of the last step give.
     gives: Vec<[HapticdPlaneCompliance; HAPTICD_MAX_PLANES]>,
+    /// The body the first pointer holds, placed where its proxy is, and the point the grip
+    /// holds in its frame.
+    held: Option<(RigidBodyHandle, DVec3)>,
 }
 
 /// The solid a pointer is in the physics under position feedback. The haptic side renders
@@ -274,8 +277,11 @@ impl RapierWorld {
         let mut bodies = Vec::with_capacity(spec.bodies.len());
         let mut pieces = Vec::new();
         let mut objects = Vec::with_capacity(spec.bodies.len());
+        let held = spec.held.map(|h| h.body as usize);
         for (i, (body, primitives)) in spec.bodies.iter().zip(&spec.primitives).enumerate() {
-            let builder = if body.fixed {
+            let builder = if held == Some(i) {
+                RigidBodyBuilder::kinematic_position_based()
+            } else if body.fixed {
                 RigidBodyBuilder::fixed()
             } else {
                 RigidBodyBuilder::dynamic().ccd_enabled(true)
@@ -310,9 +316,12 @@ impl RapierWorld {
             };
             objects.push((pieces.len() as u32, colliders.len() as u32));
             for c in colliders {
+                // The haptic side pushes what the held body touches (local dynamics): the
+                // world's contacts with it would push those twice.
                 let c = c
                     .density(density)
                     .friction(spec.friction as f32)
+                    .sensor(held == Some(i))
                     .user_data(pieces.len() as u128);
                 let c = physics
                     .colliders
@@ -343,7 +352,9 @@ impl RapierWorld {
             // A push a pointer a period at most.
             soft_loads: vec![Vec::with_capacity(pointers); spec.soft.len()],
             gives: vec![[HapticdPlaneCompliance::default(); HAPTICD_MAX_PLANES]; pointers],
+            held: None,
         };
+        world.held = spec.held.map(|h| (world.bodies[h.body as usize], h.grip));
         if let Some((shape, primitive)) = &spec.pointer {
             // Sampled at the physics rate, a pointer jumps centimetres a step: its contacts
             // are predicted along that jump (soft CCD), so it strikes what lies in its path
@@ -870,6 +881,43 @@ impl RapierWorld {
         near
     }
 
+    /// Write to `out` the bodies that move near the held body (within the reach of a
+    /// period), for the haptic side to move; how many.
+    fn near_held(&self, out: &mut [HapticdLocalBody]) -> usize {
+        let Some((handle, _)) = self.held else {
+            return 0;
+        };
+        let mut count = 0;
+        let query = self
+            .physics
+            .query_pipeline_with_filter(QueryFilter::default().exclude_rigid_body(handle));
+        for &collider in self.physics.bodies[handle].colliders() {
+            let aabb = self.physics.colliders[collider]
+                .compute_aabb()
+                .loosened(self.reach as f32);
+            for (_, solid) in query.intersect_aabb_conservative(aabb) {
+                let Some(body) = solid.parent().and_then(|p| self.body_index(p)) else {
+                    continue;
+                };
+                let listed = out[..count].iter().any(|b| b.body == body as u32);
+                if listed
+                    || count == out.len()
+                    || !self.physics.bodies[self.bodies[body]].is_dynamic()
+                {
+                    continue;
+                }
+                out[count] = self.local_body(body);
+                count += 1;
+            }
+        }
+        count
+    }
+
+    /// The number of the body whose rigid body is `handle`.
+    fn body_index(&self, handle: RigidBodyHandle) -> Option<usize> {
+        self.bodies.iter().position(|&b| b == handle)
+    }
+
     /// Whether `solid` is part of the world body `handle` meets: not a piece of the body
     /// itself, nor a pointer's, nor of a body joined to it (which its joint holds, and
     /// which it does not touch).
@@ -938,6 +986,18 @@ impl RapierWorld {
                 }
             }
         }
+        if let (Some((handle, grip)), Some(proxy)) = (self.held, input.proxies.first()) {
+            let (at, turn) = (
+                DVec3::from(proxy.position),
+                hapticd_core::kinematics::quat_from_wxyz(proxy.orientation),
+            );
+            if at.is_finite() && turn.is_finite() && turn.length() > 0.5 {
+                let turn = turn.normalize();
+                let centre = at - turn * grip;
+                self.physics.bodies[handle]
+                    .set_next_kinematic_position(Pose::from_parts(vector(centre), rotation(turn)));
+            }
+        }
         self.joints.before_step(&self.physics);
         self.physics.step();
         self.joints.after_step(&mut self.physics);
@@ -966,7 +1026,7 @@ impl RapierWorld {
         }
         *output.body_count = 0;
         if self.feedback == Feedback::Local {
-            let mut count = 0;
+            let mut count = self.near_held(output.bodies);
             let planes = output
                 .planes
                 .iter()

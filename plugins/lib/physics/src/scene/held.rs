@@ -2,29 +2,34 @@
 //! pointer's solid, rendered by a 6-DOF god-object kept out of the fixed bodies' exact
 //! surfaces (`rendering: god-object`, the default) or tied to the grip by `coupling:`
 //! (`rendering: coupling`).
+//!
+//! Under rapier the held body goes back among the world's bodies, last of the file's rigid
+//! ones, as a body the proxy places: the haptic side renders its god-object against every
+//! body's exact surface and pushes the bodies near it by local dynamics
+//! (`hapticd_core::scene::held_part`).
 
 use glam::{DQuat, DVec3};
 use hapticd_core::diagnostics::Findings;
 use hapticd_core::haptics::god_object::{GodObject, GodObjectParameters, Obstacle};
 use hapticd_core::haptics::signed_mesh::SignedMesh;
 use hapticd_core::kinematics::Wrench;
+use hapticd_core::scene::held_part::HeldSpec;
 
 use super::Engine;
+use super::checks::Primitive;
 use super::checks::{Bodies, Surface, rigid_body};
 use super::meshes::MeshFiles;
-use super::schema::{RawRendering, RawScene};
+use super::schema::{RawFeedback, RawRendering, RawScene};
 use crate::body::Body;
 use crate::coupling::Grip;
 use crate::polyhedron::Polyhedron;
-
-/// How far apart the samples along a surface's creases are at a right angle, metres: an
-/// edge crossing an edge between two goes at most half as deep.
-const CREASE_SPACING: f64 = 1e-4;
 
 /// The body the pointer holds, as the file gives it and checked.
 pub(super) struct Held {
     /// The body where the file puts it.
     body: Body,
+    /// What each of its pieces is.
+    primitives: Vec<Primitive>,
     /// Its triangles in its frame when it is a mesh.
     surface: Option<Surface>,
     /// Where the grip holds it: the point the file places (`position:`).
@@ -58,11 +63,22 @@ pub(super) fn take(
             "a held body needs a pointer to hold it, and this scene has none".into(),
         );
     }
-    if engine != Engine::Penalty {
-        refuse(
-            "pointer.holds",
-            "only the penalty engine renders a held body".into(),
-        );
+    if engine == Engine::Rapier {
+        if pointer.rendering == RawRendering::Coupling {
+            refuse(
+                "pointer.rendering",
+                "under rapier a held body is rendered by the god-object".into(),
+            );
+        }
+        if matches!(
+            raw.feedback,
+            Some(RawFeedback::Impulse | RawFeedback::Position)
+        ) {
+            refuse(
+                "feedback",
+                "a held body pushes the bodies near it by local dynamics: give local".into(),
+            );
+        }
     }
     if pointer.size.is_some() || pointer.hull.is_some() || pointer.sphere.is_some() {
         refuse(
@@ -121,7 +137,7 @@ pub(super) fn take(
         return None;
     }
     let grip = DVec3::from(b.position);
-    let (body, _, surface) = rigid_body(f, &at, b, engine, files)?;
+    let (body, primitives, surface) = rigid_body(f, &at, b, engine, files)?;
     if surface.is_none() && body.pieces.len() > 1 {
         f.error(
             format!("{at}.pieces"),
@@ -131,6 +147,7 @@ pub(super) fn take(
     }
     Some(Held {
         body,
+        primitives,
         surface,
         grip,
         at,
@@ -152,6 +169,7 @@ pub(super) fn pointer_body(
         grip,
         at,
         rendering,
+        ..
     } = held;
     if rendering == RawRendering::Coupling {
         body.fixed = false;
@@ -163,17 +181,7 @@ pub(super) fn pointer_body(
     let surface = surface.unwrap_or_else(|| faces(&body.pieces[0]));
     let held: Vec<[DVec3; 3]> = surface.iter().map(|t| t.map(|c| c + centre)).collect();
     let surface = closed(f, &at, &held)?;
-    // Its contacts hold with the material's (dynamic) friction: what the hand feels sliding.
-    let mut parameters = GodObjectParameters {
-        friction: raw.material.friction,
-        ..GodObjectParameters::default()
-    };
-    if let Some(c) = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref()) {
-        parameters.stiffness = c.stiffness;
-        parameters.damping = c.damping;
-        parameters.rotational_stiffness = c.rotational_stiffness;
-        parameters.rotational_damping = c.rotational_damping;
-    }
+    let parameters = god_object_parameters(raw);
     let names: Vec<&str> = raw
         .bodies
         .iter()
@@ -184,6 +192,72 @@ pub(super) fn pointer_body(
     let part = HeldPart::new(f, god, centre, (bodies, &names))?;
     (body.fixed, body.kinematic) = (true, true);
     Some((body, Some(part)))
+}
+
+/// The god-object's spring as `raw`'s `pointer.coupling:` gives it (the defaults without
+/// one); its contacts hold with the material's (dynamic) friction, what the hand feels
+/// sliding.
+fn god_object_parameters(raw: &RawScene) -> GodObjectParameters {
+    let mut parameters = GodObjectParameters {
+        friction: raw.material.friction,
+        ..GodObjectParameters::default()
+    };
+    if let Some(c) = raw.pointer.as_ref().and_then(|p| p.coupling.as_ref()) {
+        parameters.stiffness = c.stiffness;
+        parameters.damping = c.damping;
+        parameters.rotational_stiffness = c.rotational_stiffness;
+        parameters.rotational_damping = c.rotational_damping;
+    }
+    parameters
+}
+
+/// The held body of `raw` as rapier's: the body, its pieces, its mesh if it is one, its name,
+/// and how it is held (numbered `body`).
+pub(super) fn rapier_body(
+    raw: &RawScene,
+    held: Held,
+    body: usize,
+) -> (Body, Vec<Primitive>, Option<Surface>, String, HeldSpec) {
+    let name = raw
+        .pointer
+        .as_ref()
+        .and_then(|p| p.holds.clone())
+        .unwrap_or_default();
+    let grip = held.body.orientation.inverse() * (held.grip - held.body.position);
+    let spec = HeldSpec {
+        pointer: 0,
+        body: body as u32,
+        grip,
+        parameters: god_object_parameters(raw),
+    };
+    (held.body, held.primitives, held.surface, name, spec)
+}
+
+/// Report at `pointer.holds` each body of `bodies`, and the `held` one, whose surface cannot
+/// be touched exactly: the haptic side renders a held body of a rapier world against every
+/// body's surface.
+pub(super) fn check_surfaces(f: &mut Findings, held: &Held, bodies: &Bodies, names: &[&str]) {
+    for piece in surface_pieces(&held.body, held.surface.as_ref()) {
+        closed(f, &held.at, &piece);
+    }
+    let Bodies {
+        bodies, surfaces, ..
+    } = bodies;
+    for (i, body) in bodies.iter().enumerate() {
+        let at = format!("pointer.holds: {:?}", names[i]);
+        for piece in surface_pieces(body, surfaces[i].as_ref()) {
+            closed(f, &at, &piece);
+        }
+    }
+}
+
+/// Each closed piece of a body's surface, in its frame: a mesh's own triangles (`surface`),
+/// else each convex piece's faces.
+pub(super) fn surface_pieces(body: &Body, surface: Option<&Surface>) -> Vec<Surface> {
+    match surface {
+        Some(triangles) => vec![triangles.clone()],
+        None => body.pieces.iter().map(faces).collect(),
+    }
 }
 
 /// The triangles of `piece`'s faces, each face a fan from its first corner.
@@ -199,11 +273,7 @@ fn faces(piece: &Polyhedron) -> Vec<[DVec3; 3]> {
 /// The surface of `triangles` for exact queries; None after reporting at `at` why it cannot
 /// be one.
 fn closed(f: &mut Findings, at: &str, triangles: &[[DVec3; 3]]) -> Option<SignedMesh> {
-    let corners: Vec<DVec3> = triangles.iter().flatten().copied().collect();
-    let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
-        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-        .collect();
-    SignedMesh::new(&corners, &indices, CREASE_SPACING)
+    SignedMesh::of_triangles(triangles)
         .map_err(|e| f.error(at, format!("its surface cannot be touched exactly: {e}")))
         .ok()
 }
@@ -240,13 +310,8 @@ impl HeldPart {
         let mut obstacles = Vec::new();
         for (i, body) in bodies.iter().enumerate().filter(|(_, b)| b.fixed) {
             let at = format!("pointer.holds: {:?}", names[i]);
-            match &surfaces[i] {
-                Some(triangles) => obstacles.push((i, closed(f, &at, triangles)?)),
-                None => {
-                    for piece in &body.pieces {
-                        obstacles.push((i, closed(f, &at, &faces(piece))?));
-                    }
-                }
+            for piece in surface_pieces(body, surfaces[i].as_ref()) {
+                obstacles.push((i, closed(f, &at, &piece)?));
             }
         }
         Some(Self {

@@ -316,7 +316,20 @@ impl SceneFile {
                 );
             }
         }
-        let held = held.and_then(|held| held::pointer_body(&mut f, &raw, held, &bodies));
+        // The penalty engine makes the held body the pointer's; rapier keeps it a body.
+        let (held, rapier_held) = match penalty {
+            Some(_) => (
+                held.and_then(|held| held::pointer_body(&mut f, &raw, held, &bodies)),
+                None,
+            ),
+            None => {
+                if let Some(held) = &held {
+                    let names: Vec<&str> = named.iter().map(|(name, _)| *name).collect();
+                    held::check_surfaces(&mut f, held, &bodies, &names);
+                }
+                (None, held)
+            }
+        };
         checks::grasp(&mut f, &raw, pointers);
         if let Some(penalty) = &penalty
             && !f.has_errors()
@@ -329,7 +342,7 @@ impl SceneFile {
             None => SceneFile::Rapier(Box::new(RapierScene::build(
                 raw,
                 (bodies, joints, soft),
-                pointer,
+                (pointer, rapier_held),
                 warnings,
             ))),
             Some(penalty) => SceneFile::Penalty(Box::new(PenaltyScene::build(

@@ -7,6 +7,10 @@ use glam::DVec3;
 use hapticd_core::diagnostics::Diagnostic;
 
 use super::checks::{Bodies, Primitive, RATE_RANGE};
+use hapticd_core::kinematics::Pose;
+use hapticd_core::scene::held_part::{HeldSpec, SurfacePiece};
+
+use super::held::{self, Held};
 use super::schema::{RawFeedback, RawScene};
 use super::soft::Soft;
 use crate::body::Body;
@@ -72,6 +76,9 @@ pub struct RapierScene {
     pub soft: Vec<SoftPart>,
     /// The pointers' solid, centred at the origin, if the file gives one.
     pub pointer: Option<(Body, Primitive)>,
+    /// The body the first pointer holds (`pointer.holds`), last of `bodies`, which the
+    /// world places where the god-object's proxy is.
+    pub held: Option<HeldSpec>,
     /// What works but is worth knowing.
     pub warnings: Vec<Diagnostic>,
 }
@@ -82,20 +89,38 @@ pub(super) fn physics_rate(raw: &RawScene) -> f64 {
 }
 
 impl RapierScene {
-    /// The scene of checked `raw`, its `bodies`, `joints`, `soft` bodies and `pointer` solid.
+    /// The scene of checked `raw`, its `bodies`, `joints`, `soft` bodies, `pointer` solid
+    /// and the body that pointer holds.
     pub(super) fn build(
         raw: RawScene,
         (bodies, joints, soft): (Bodies, Vec<Joint>, Vec<Soft>),
-        pointer: Option<(Polyhedron, Primitive)>,
+        (pointer, held): (Option<(Polyhedron, Primitive)>, Option<Held>),
         warnings: Vec<Diagnostic>,
     ) -> Self {
         let Bodies {
-            bodies,
-            primitives,
-            surfaces,
-            weighed,
+            mut bodies,
+            mut primitives,
+            mut surfaces,
+            mut weighed,
             ..
         } = bodies;
+        let mut names: Vec<String> = raw
+            .bodies
+            .iter()
+            .filter(|b| b.rigid())
+            .map(|b| b.name.clone())
+            .collect();
+        // After the file's other rigid bodies, so that their numbers (and the joints'
+        // between them) stand, and before the soft ones.
+        let held = held.map(|held| {
+            let (body, kinds, surface, name, spec) = held::rapier_body(&raw, held, bodies.len());
+            bodies.push(body);
+            primitives.push(kinds);
+            surfaces.push(surface);
+            weighed.push(false);
+            names.push(name);
+            spec
+        });
         let feedback = match raw.feedback {
             Some(RawFeedback::Position) => Feedback::Position,
             Some(RawFeedback::Local) | None => Feedback::Local,
@@ -120,19 +145,36 @@ impl RapierScene {
             primitives,
             surfaces,
             weighed,
-            names: raw
-                .bodies
-                .into_iter()
-                .filter(|b| b.rigid())
-                .map(|b| b.name)
-                .collect(),
+            names,
             joints,
             soft,
             pointer: pointer.map(|(shape, primitive)| {
                 let density = raw.pointer.as_ref().map_or(1000.0, |p| p.density);
                 (Body::new(&shape, density, false), primitive)
             }),
+            held,
             warnings,
         }
+    }
+
+    /// Each closed piece of each rigid body's surface where the file puts it (a mesh's own
+    /// triangles, else its convex pieces' faces): what a held body meets.
+    pub fn surface_pieces(&self) -> Vec<SurfacePiece> {
+        let mut out = Vec::new();
+        for (i, (body, surface)) in self.bodies.iter().zip(&self.surfaces).enumerate() {
+            let pose = Pose {
+                position: body.position,
+                orientation: body.orientation,
+            };
+            for triangles in held::surface_pieces(body, surface.as_ref()) {
+                out.push(SurfacePiece {
+                    body: i as u32,
+                    fixed: body.fixed,
+                    pose,
+                    triangles,
+                });
+            }
+        }
+        out
     }
 }
