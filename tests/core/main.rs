@@ -9,6 +9,7 @@ mod support;
 mod assembly;
 mod experiments;
 mod haptic_loop;
+mod held_in_rapier;
 mod mesh_readers;
 mod meshes;
 mod motors;

@@ -647,6 +647,53 @@ fn a_haptic_tick_of_a_rapier_scene_does_not_allocate() {
     }
 }
 
+/// The held peg of the rapier plugin's `peg-and-blocks` scene, loaded as hapticd loads it,
+/// pushing a block along the table: the god-object's ticks against every body's surface,
+/// the block moved here under the peg's contacts, its change handed back and the world's
+/// picture taken, allocate nothing on the haptic thread.
+#[test]
+fn a_haptic_tick_of_a_part_held_in_rapiers_world_does_not_allocate() {
+    use hapticd::plugin_scene;
+    let path = support::repo_dir().join("config/scenes/peg-and-blocks.yaml");
+    let at = |x: f64, y: f64| resting_at(DVec3::new(x, y, 0.0));
+    let mut scene = plugin_scene::load(
+        &support::plugin_path("hapticd-scene-rapier"),
+        Some(&path),
+        &at(0.0, 0.0),
+    )
+    .unwrap();
+    let mut wrenches = [Wrench::ZERO];
+    let tick = std::time::Duration::from_millis(1);
+    // Beside the holed block (the peg's face 2 mm short of the near block's, at x = 0.03),
+    // and down to 5 mm over the table, uncounted: the first planes come with the physics
+    // thread's first step.
+    let ways = (0..300).map(|k| (0.022 * k as f64 / 300.0, 0.0));
+    for (x, y) in ways.chain((0..300).map(|k| (0.022, -0.04 * k as f64 / 300.0))) {
+        scene.render(&at(x, y), 1e-3, &mut wrenches);
+        std::thread::sleep(tick);
+    }
+    let mut bodies = [HapticdBodyPose::default(); 5];
+    let mut pushed = 0.0f64;
+    let first = std::time::Instant::now();
+    // Then along x at 0.05 m/s for 400 ms, pushing the near block 18 mm on.
+    let n = allocations_in(|| {
+        for k in 1..=400u32 {
+            let x = 0.022 + 0.05 * f64::from(k) * 1e-3;
+            assert!(scene.render(&at(x, -0.04), 1e-3, &mut wrenches));
+            pushed = pushed.max(-wrenches[0].force.x);
+            assert_eq!(scene.write_bodies(&mut bodies), 5);
+            let deadline = first + tick * k;
+            if let Some(rest) = deadline.checked_duration_since(std::time::Instant::now()) {
+                std::thread::sleep(rest);
+            }
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 400 ticks");
+    let moved = bodies[2].position[0] - 0.04;
+    assert!(moved > 0.01, "the near block moved {moved} m");
+    assert!(pushed > 0.0, "the hand felt {pushed} N against the push");
+}
+
 /// Four hundred ticks of a finger pushing the `push` block at `path` without allocating.
 fn rapier_ticks(path: &std::path::Path, feedback: &str) {
     use hapticd::plugin_scene;

@@ -334,6 +334,46 @@ fn the_physics_plugins_describe_their_worlds_as_their_files_do() {
     }
 }
 
+/// The rapier plugin hands its held peg to the host through the held extension: the host
+/// builds the god-object from the plugin's surfaces and renders it in the tick, so the peg
+/// lowered into its hole stands on the hole's floor, where the pictures show it, and the hand
+/// feels the spring's stiffness times how far the grip went past.
+#[test]
+fn the_rapier_plugin_hands_its_held_peg_to_the_haptic_side() {
+    use hapticd_core::kinematics::{Pose, pose_of};
+    use hapticd_core::scene::Pointer;
+    let file = repo_dir().join("config/scenes/peg-and-blocks.yaml");
+    let grip = |y: f64| Pointer {
+        pose: Pose {
+            position: DVec3::new(0.0, y, 0.0),
+            ..Pose::IDENTITY
+        },
+        velocity: DVec3::ZERO,
+    };
+    let mut scene = hapticd::plugin_scene::load(
+        &plugin_path("hapticd-scene-rapier"),
+        Some(&file),
+        &[grip(0.0)],
+    )
+    .unwrap();
+    // Down from where the peg rests, 2 cm over the block's top, to 5 mm past the hole's
+    // floor (the peg's middle stops 10 mm over it, at y = -0.035), in 1 ms ticks of real
+    // time (the world steps in its own thread), then held.
+    let mut felt = [Wrench::ZERO];
+    let (ticks, mut rendered) = (2500, 0);
+    for tick in 0..ticks {
+        let y = -0.04 * (tick as f64 / 1500.0).min(1.0);
+        rendered += usize::from(scene.render(&[grip(y)], 1e-3, &mut felt));
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(rendered > ticks / 2, "{rendered} of {ticks} ticks rendered");
+    assert!((felt[0].force.y - 2000.0 * 0.005).abs() < 0.05, "{felt:?}");
+    let mut poses = vec![hapticd_plugin_api::HapticdBodyPose::default(); 8];
+    let count = scene.write_bodies(&mut poses);
+    let peg = pose_of(&poses[count - 1]).position;
+    assert!(peg.distance(DVec3::new(0.0, -0.035, 0.0)) < 1e-5, "{peg}");
+}
+
 /// The C example answers the geometry extension by hand: its floor, one plane of no body.
 #[test]
 fn the_c_example_describes_its_floor() {

@@ -21,7 +21,7 @@
 pub mod bvh;
 pub mod effects;
 #[cfg(test)]
-mod fixtures;
+pub(crate) mod fixtures;
 pub mod god_object;
 pub mod grasp;
 pub mod obstacle;

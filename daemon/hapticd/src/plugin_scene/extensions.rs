@@ -355,3 +355,51 @@ fn held_spec(held: &HapticdHeld, (bodies, pointers): (u32, usize)) -> Result<Hel
         },
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_held_body_no_world_could_hold_is_refused() {
+        let good = HapticdHeld {
+            pointer: 0,
+            body: 2,
+            grip: [0.0, 0.01, 0.0],
+            stiffness: 2000.0,
+            damping: 5.0,
+            rotational_stiffness: 2.0,
+            rotational_damping: 5e-3,
+            friction: 0.4,
+        };
+        let spec = held_spec(&good, (3, 1)).unwrap();
+        assert_eq!((spec.body, spec.grip), (2, DVec3::new(0.0, 0.01, 0.0)));
+        assert_eq!(spec.parameters.friction, 0.4);
+        for bad in [
+            HapticdHeld { body: 3, ..good },
+            HapticdHeld { pointer: 1, ..good },
+            HapticdHeld {
+                stiffness: 0.0,
+                ..good
+            },
+            HapticdHeld {
+                rotational_stiffness: f64::INFINITY,
+                ..good
+            },
+            HapticdHeld {
+                damping: -1.0,
+                ..good
+            },
+            HapticdHeld {
+                friction: f64::NAN,
+                ..good
+            },
+            HapticdHeld {
+                grip: [f64::NAN, 0.0, 0.0],
+                ..good
+            },
+        ] {
+            assert!(held_spec(&bad, (3, 1)).is_err(), "{bad:?}");
+        }
+    }
+}

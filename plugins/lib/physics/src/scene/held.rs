@@ -507,4 +507,42 @@ bodies:
             "the god-object's spring: more than 0",
         );
     }
+
+    #[test]
+    fn under_rapier_a_held_body_is_the_god_objects_with_local_dynamics_or_refused() {
+        use crate::scene::SceneFile;
+        // The penalty test's block and peg in rapier's world.
+        let penalty = scene(0.010, "");
+        let bodies = &penalty[penalty.find("bodies:").unwrap()..];
+        let good = format!(
+            "name: peg\nengine: rapier\nrate: 100\nmaterial: {{ static_friction: 0.5, friction: 0.4 }}\n{bodies}"
+        );
+        let Ok(SceneFile::Rapier(world)) = SceneFile::parse(&good, Path::new("peg.yaml"), 1) else {
+            panic!("refused: {good}");
+        };
+        // The peg is the world's last rigid body, held at its middle.
+        let held = world.held.expect("a held body");
+        assert_eq!(held.body as usize, world.bodies.len() - 1);
+        assert_eq!(world.names[held.body as usize], "peg");
+        assert!(held.grip.length() < 1e-12, "{held:?}");
+        assert_eq!(held.parameters.friction, 0.4);
+        let refused = |text: String, says: &str| {
+            let e = SceneFile::parse(&text, Path::new("peg.yaml"), 1)
+                .err()
+                .unwrap_or_else(|| panic!("accepted: {text}"))
+                .to_string();
+            assert!(e.contains(says), "{e}");
+        };
+        refused(
+            good.replace(
+                "holds: peg",
+                "holds: peg\n  rendering: coupling\n  coupling: { stiffness: 1000, damping: 5 }",
+            ),
+            "under rapier a held body is rendered by the god-object",
+        );
+        refused(
+            good.replace("rate: 100", "rate: 100\nfeedback: impulse"),
+            "give local",
+        );
+    }
 }
