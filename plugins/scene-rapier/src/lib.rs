@@ -5,7 +5,9 @@
 //! `feedback: position` a kinematic body moved to each pointer), and publishes the surfaces
 //! near each pointer's proxy as planes and the bodies they belong to. Soft bodies are
 //! stepped at the same rate, pressed by the impulses the hand gives them, their planes
-//! giving under the finger between two steps.
+//! giving under the finger between two steps. A body the pointer holds (`pointer.holds`) is
+//! handed to the host with every body's surface through the held extension, and placed
+//! where the host's god-object puts it.
 
 use hapticd_core::world_state::body_pose;
 use hapticd_physics::joint::DrivenJoints;
