@@ -1125,6 +1125,12 @@ typedef struct HapticdSceneGeometry {
 #define HAPTICD_EXT_SCENE_HELD "hapticd.scene.held/1"
 
 /*
+ The `object` of a piece that is no one object (a mesh's whole surface, whatever pieces
+ the world collides it as).
+ */
+#define HAPTICD_NO_OBJECT UINT32_MAX
+
+/*
  A body a pointer holds, and the spring the hand feels it by.
  */
 typedef struct HapticdHeld {
@@ -1174,6 +1180,26 @@ typedef struct HapticdSurfacePiece {
    1 when its body does not move, else 0.
    */
   uint32_t fixed;
+  /*
+   The object it is (the `object` of its planes), or [`HAPTICD_NO_OBJECT`].
+   */
+  uint32_t object;
+  /*
+   [`HAPTICD_SHAPE_BOX`](crate::HAPTICD_SHAPE_BOX) or
+   [`HAPTICD_SHAPE_SPHERE`](crate::HAPTICD_SHAPE_SPHERE) when the piece is exactly that
+   solid (its triangles then draw it), else
+   [`HAPTICD_SHAPE_TRIANGLES`](crate::HAPTICD_SHAPE_TRIANGLES).
+   */
+  uint32_t shape;
+  /*
+   The solid's sizes as its shape reads them (a box's half edges, a ball's radius
+   first), metres.
+   */
+  double size[3];
+  /*
+   The solid's frame in its body's frame.
+   */
+  HapticdBodyPose offset;
   /*
    Where its body is now (its centre of mass, the frame of the triangles).
    */

@@ -7,6 +7,7 @@
 mod support;
 
 mod assembly;
+mod exact_shapes;
 mod experiments;
 mod haptic_loop;
 mod held_in_rapier;

@@ -374,6 +374,76 @@ fn the_rapier_plugin_hands_its_held_peg_to_the_haptic_side() {
     assert!(peg.distance(DVec3::new(0.0, -0.035, 0.0)) < 1e-5, "{peg}");
 }
 
+/// The rapier plugin says which of its pieces are exactly boxes (the held extension's
+/// surfaces), and the host's haptic side touches them as such: a finger slid off a block's
+/// top in a 10 Hz world, through the daemon's loader and physics thread, drops off the edge
+/// as it passes it instead of riding on the top's plane until the next step.
+#[test]
+fn a_finger_slid_off_a_rapier_blocks_top_drops_off_its_edge() {
+    use hapticd_core::kinematics::Pose;
+    use hapticd_core::scene::Pointer;
+    let dir = support::scratch("plugin-test", "edge");
+    let file = dir.join("edge.yaml");
+    std::fs::write(
+        &file,
+        "name: edge
+engine: rapier
+rate: 10
+material: { static_friction: 0.5, friction: 0.5 }
+bodies:
+  - { name: floor, box: [0.3, 0.02, 0.3], position: [0, -0.06, 0], fixed: true }
+  - { name: block, box: [0.1, 0.1, 0.1], position: [0, 0, 0], density: 1000 }
+pointer:
+  sphere: 0.005
+",
+    )
+    .unwrap();
+    let grip = |at: DVec3| Pointer {
+        pose: Pose {
+            position: at,
+            ..Pose::IDENTITY
+        },
+        velocity: DVec3::ZERO,
+    };
+    let way = |tick: usize| match tick {
+        0..300 => DVec3::new(0.0, 0.07, 0.0),
+        300..600 => DVec3::new(0.0, 0.07 - 0.021 * (tick - 300) as f64 / 300.0, 0.0),
+        _ => DVec3::new(0.08 * ((tick - 600) as f64 / 600.0).min(1.0), 0.049, 0.0),
+    };
+    let mut scene = hapticd::plugin_scene::load(
+        &plugin_path("hapticd-scene-rapier"),
+        Some(&file),
+        &[grip(way(0))],
+    )
+    .unwrap();
+    let mut felt = [Wrench::ZERO];
+    let mut bodies = vec![hapticd_plugin_api::HapticdBodyPose::default(); 2];
+    let (mut on_top, mut beyond, mut pressed_beyond) = (0, 0, 0);
+    for tick in 0..1400 {
+        let fresh = scene.render(&[grip(way(tick))], 1e-3, &mut felt);
+        std::thread::sleep(std::time::Duration::from_millis(1));
+        if !fresh {
+            continue;
+        }
+        scene.write_bodies(&mut bodies);
+        let edge = bodies[1].position[0] + 0.05;
+        let (x, force) = (way(tick).x, felt[0].force.length());
+        if tick > 600 && x < edge - 0.005 {
+            on_top += usize::from(force > 1.0);
+        }
+        if x > edge + 1e-3 {
+            beyond += 1;
+            pressed_beyond += usize::from(force > 0.1);
+        }
+    }
+    assert!(
+        on_top > 300 && beyond > 300,
+        "{on_top} pressed on top, {beyond} past"
+    );
+    assert_eq!(pressed_beyond, 0, "of {beyond} ticks past the edge");
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// The C example answers the geometry extension by hand: its floor, one plane of no body.
 #[test]
 fn the_c_example_describes_its_floor() {

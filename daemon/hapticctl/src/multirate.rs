@@ -7,6 +7,7 @@
 use glam::DVec3;
 use hapticd_core::kinematics::{MAX_EFFECTORS, Pose, Wrench};
 use hapticd_core::scene::Pointer;
+use hapticd_core::scene::exact_shapes::ExactShapes;
 use hapticd_core::scene::held_part::HeldPart;
 use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
@@ -64,11 +65,13 @@ impl Lockstep {
         let world = RapierWorld::new(spec, pointers.len());
         let now: Vec<BodyState> = (0..world.body_count()).map(|i| world.body(i)).collect();
         let mut renderer = PlaneRenderer::new(spec.rate, pointers);
+        let pieces = spec.surface_pieces();
         if let Some(held) = &spec.held {
-            let part = HeldPart::build(held, &spec.surface_pieces())
+            let part = HeldPart::build(held, &pieces)
                 .expect("reading a scene file checks that its surfaces are closed");
             renderer.hold(part);
         }
+        renderer.set_exact_shapes(ExactShapes::of_pieces(&pieces));
         Self {
             poses: (now.clone(), now),
             world,

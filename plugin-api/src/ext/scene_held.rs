@@ -9,6 +9,10 @@
 //! The world puts the held body where the pointer's proxy record says (its position is the
 //! point the grip holds, its orientation the body's), and hands over as local bodies those
 //! near it, which the god-object's contacts push.
+//!
+//! A world serves the surfaces whether or not anything is held: a piece that is exactly a
+//! ball or a box says so, and a fingertip on a body moved here touches that solid where the
+//! body is each tick, not the plane the last step found.
 
 use std::ffi::c_void;
 
@@ -40,6 +44,10 @@ pub struct HapticdHeld {
     pub friction: f64,
 }
 
+/// The `object` of a piece that is no one object (a mesh's whole surface, whatever pieces
+/// the world collides it as).
+pub const HAPTICD_NO_OBJECT: u32 = u32::MAX;
+
 /// One closed piece of a body's surface.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -48,6 +56,18 @@ pub struct HapticdSurfacePiece {
     pub triangle_count: u32,
     /// 1 when its body does not move, else 0.
     pub fixed: u32,
+    /// The object it is (the `object` of its planes), or [`HAPTICD_NO_OBJECT`].
+    pub object: u32,
+    /// [`HAPTICD_SHAPE_BOX`](crate::HAPTICD_SHAPE_BOX) or
+    /// [`HAPTICD_SHAPE_SPHERE`](crate::HAPTICD_SHAPE_SPHERE) when the piece is exactly that
+    /// solid (its triangles then draw it), else
+    /// [`HAPTICD_SHAPE_TRIANGLES`](crate::HAPTICD_SHAPE_TRIANGLES).
+    pub shape: u32,
+    /// The solid's sizes as its shape reads them (a box's half edges, a ball's radius
+    /// first), metres.
+    pub size: [f64; 3],
+    /// The solid's frame in its body's frame.
+    pub offset: HapticdBodyPose,
     /// Where its body is now (its centre of mass, the frame of the triangles).
     pub pose: HapticdBodyPose,
 }

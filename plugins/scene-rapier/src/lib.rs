@@ -9,6 +9,9 @@
 //! handed to the host with every body's surface through the held extension, and placed
 //! where the host's god-object puts it.
 
+use glam::{DQuat, DVec3};
+use hapticd_core::kinematics::Pose;
+use hapticd_core::scene::exact_shapes::Solid;
 use hapticd_core::world_state::body_pose;
 use hapticd_physics::joint::DrivenJoints;
 use hapticd_physics::scene::{RapierScene, SceneFile};
@@ -16,35 +19,23 @@ use hapticd_plugin_api::export::{PhysicsInput, PhysicsOutput, answered};
 use hapticd_plugin_api::*;
 use hapticd_rapier::world::RapierWorld;
 
-/// The plugin's instance: a world, its pictures, and the body its pointer holds with every
-/// body's surface pieces (what the held body meets), when it holds one.
-struct Rapier(RapierWorld, Geometry, Option<Held>);
+/// The plugin's instance: a world, its pictures, and what the held extension hands out.
+struct Rapier(RapierWorld, Geometry, Surfaces);
 
-/// A held body as the held extension hands it out.
-struct Held {
-    held: HapticdHeld,
-    /// Each body's pieces: whether it is fixed, and its triangles in its frame.
-    pieces: Vec<Vec<(bool, Vec<HapticdTriangle>)>>,
+/// The body the pointer holds, if it holds one, and every body's surface pieces.
+struct Surfaces {
+    held: Option<HapticdHeld>,
+    /// Each body's pieces: what each is (its pose filled in when asked), and its triangles
+    /// in the body's frame.
+    pieces: Vec<Vec<(HapticdSurfacePiece, Vec<HapticdTriangle>)>>,
 }
 
-impl Held {
-    /// The held body of `spec`, if its pointer holds one.
-    fn of(spec: &RapierScene) -> Option<Self> {
-        let h = spec.held?;
-        let p = &h.parameters;
-        let mut pieces = vec![Vec::new(); spec.bodies.len()];
-        for piece in spec.surface_pieces() {
-            let triangles = piece
-                .triangles
-                .iter()
-                .map(|t| HapticdTriangle {
-                    corners: t.map(|c| c.to_array()),
-                })
-                .collect();
-            pieces[piece.body as usize].push((piece.fixed, triangles));
-        }
-        Some(Held {
-            held: HapticdHeld {
+impl Surfaces {
+    /// The surfaces of `spec`'s bodies, and its held body.
+    fn of(spec: &RapierScene) -> Self {
+        let held = spec.held.map(|h| {
+            let p = &h.parameters;
+            HapticdHeld {
                 pointer: h.pointer as u32,
                 body: h.body,
                 grip: h.grip.to_array(),
@@ -53,9 +44,57 @@ impl Held {
                 rotational_stiffness: p.rotational_stiffness,
                 rotational_damping: p.rotational_damping,
                 friction: p.friction,
-            },
-            pieces,
-        })
+            }
+        });
+        let mut pieces = vec![Vec::new(); spec.bodies.len()];
+        for piece in spec.surface_pieces() {
+            let triangles: Vec<HapticdTriangle> = (piece.triangles.iter())
+                .map(|t| HapticdTriangle {
+                    corners: t.map(|c| c.to_array()),
+                })
+                .collect();
+            let (object, shape, size, offset) = match piece.exact {
+                Some((object, Solid::Ball { centre, radius })) => (
+                    object,
+                    HAPTICD_SHAPE_SPHERE,
+                    [radius, 0.0, 0.0],
+                    (centre, DQuat::IDENTITY),
+                ),
+                Some((
+                    object,
+                    Solid::Box {
+                        centre,
+                        rotation,
+                        half,
+                    },
+                )) => (
+                    object,
+                    HAPTICD_SHAPE_BOX,
+                    half.to_array(),
+                    (centre, rotation),
+                ),
+                None => (
+                    HAPTICD_NO_OBJECT,
+                    HAPTICD_SHAPE_TRIANGLES,
+                    [0.0; 3],
+                    (DVec3::ZERO, DQuat::IDENTITY),
+                ),
+            };
+            let info = HapticdSurfacePiece {
+                triangle_count: triangles.len() as u32,
+                fixed: u32::from(piece.fixed),
+                object,
+                shape,
+                size,
+                offset: body_pose(&Pose {
+                    position: offset.0,
+                    orientation: offset.1,
+                }),
+                pose: HapticdBodyPose::default(),
+            };
+            pieces[piece.body as usize].push((info, triangles));
+        }
+        Surfaces { held, pieces }
     }
 }
 
@@ -140,7 +179,7 @@ impl SceneInstance for Rapier {
     }
 
     fn held(&self) -> Option<HapticdHeld> {
-        self.2.as_ref().map(|h| h.held)
+        self.2.held
     }
 
     fn surface(
@@ -148,12 +187,10 @@ impl SceneInstance for Rapier {
         body: u32,
         piece: u32,
     ) -> Option<(HapticdSurfacePiece, Vec<HapticdTriangle>)> {
-        let pieces = &self.2.as_ref()?.pieces;
-        let (fixed, triangles) = pieces.get(body as usize)?.get(piece as usize)?;
+        let (info, triangles) = self.2.pieces.get(body as usize)?.get(piece as usize)?;
         let info = HapticdSurfacePiece {
-            triangle_count: triangles.len() as u32,
-            fixed: u32::from(*fixed),
             pose: body_pose(&self.0.body(body as usize).pose()),
+            ..*info
         };
         Some((info, triangles.clone()))
     }
@@ -204,8 +241,8 @@ fn create(
         physics_rate: spec.rate,
     };
     let world = RapierWorld::new(&spec, pointers);
-    let held = Held::of(&spec);
-    Ok((Box::new(Rapier(world, spec.geometry(), held)), info))
+    let surfaces = Surfaces::of(&spec);
+    Ok((Box::new(Rapier(world, spec.geometry(), surfaces)), info))
 }
 
 hapticd_plugin_api::export_scene!(

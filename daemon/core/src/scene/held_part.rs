@@ -12,6 +12,7 @@
 use glam::DVec3;
 use hapticd_plugin_api::HAPTICD_MAX_LOCAL_BODIES;
 
+use super::exact_shapes::Solid;
 use super::local_dynamics::{LocalBody, Motion};
 use crate::haptics::god_object::{GodObject, GodObjectOutput, GodObjectParameters, Obstacle};
 use crate::haptics::signed_mesh::SignedMesh;
@@ -44,6 +45,9 @@ pub struct SurfacePiece {
     pub pose: Pose,
     /// Its triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[DVec3; 3]>,
+    /// When the piece is exactly a ball or a box (its triangles drawing it), the object it
+    /// is (the `object` of its planes) and that solid.
+    pub exact: Option<(u32, Solid)>,
 }
 
 /// The surfaces a held body meets: each a solid's closed surface in its body's frame (whose
@@ -261,6 +265,7 @@ mod tests {
                 orientation: DQuat::IDENTITY,
             },
             triangles: box_faces(DVec3::ZERO, DVec3::splat(0.01)),
+            exact: None,
         }
     }
 

@@ -6,6 +6,8 @@
 //! - [`static_scene`]: fixed floors, walls, boxes and spheres rendered through the proxy;
 //! - [`local_dynamics`]: the bodies near a pointer, moved at the haptic rate between
 //!   physics steps (thesis 6.5.4);
+//! - [`exact_shapes`]: the balls and boxes of a multi-rate world's bodies, touched as
+//!   themselves where local dynamics has them each tick;
 //! - [`held_part`]: a body a pointer holds in a multi-rate world, rendered by a 6-DOF
 //!   god-object that pushes the bodies moved here (thesis 7.2);
 //! - [`multirate`]: the haptic side of a world stepped at a low rate elsewhere (thesis
@@ -17,6 +19,7 @@
 
 pub mod control;
 pub mod engine;
+pub mod exact_shapes;
 pub mod held_part;
 pub mod ledger;
 pub mod local_dynamics;

@@ -29,6 +29,7 @@ use hapticd_plugin_api::{
     HapticdPointer,
 };
 
+use super::exact_shapes::{ExactShapes, nearest_on};
 use super::held_part::{HeldPart, line_of_action};
 use super::local_dynamics::{Change, LocalBody, Motion, Push};
 use crate::haptics::obstacle::Shape;
@@ -168,6 +169,8 @@ pub struct PlaneRenderer {
     hand_backs: u64,
     /// The body a pointer holds, if one does.
     held: Option<Box<HeldPart>>,
+    /// The pieces of the bodies that are exactly balls or boxes.
+    exact: ExactShapes,
 }
 
 /// Where the physics should find the surfaces around a pointer
@@ -248,7 +251,14 @@ impl PlaneRenderer {
             pending: [Pending::default(); PENDING],
             hand_backs: 0,
             held: None,
+            exact: ExactShapes::default(),
         }
+    }
+
+    /// Touch the bodies moved here by these exact pieces from now on (made off the haptic
+    /// thread).
+    pub fn set_exact_shapes(&mut self, shapes: ExactShapes) {
+        self.exact = shapes;
     }
 
     /// Render `part` for the pointer that holds it from now on (made off the haptic thread).
@@ -574,6 +584,10 @@ impl PlaneRenderer {
             normal: DVec3::Y,
         }; HAPTICD_MAX_PLANES];
         for k in 0..count {
+            if let Some((surface, shape)) = self.exact(p, k) {
+                (surfaces[k], shapes[k]) = (surface, shape);
+                continue;
+            }
             surfaces[k] = self.interpolated(p, k, fraction);
             let give = self.give(p, k, fraction);
             surfaces[k].point -= surfaces[k].normal * self.given(&surfaces[k], give, grip);
@@ -583,6 +597,24 @@ impl PlaneRenderer {
             };
         }
         (surfaces, shapes)
+    }
+
+    /// Plane `k` of pointer `p`, when it is of an exact piece of a body moved here: that
+    /// piece where the body is now, and its tangent plane at the point nearest the proxy.
+    #[inline]
+    fn exact(&self, p: usize, k: usize) -> Option<(Surface, Shape)> {
+        let object = self.current.planes[p].planes[k].object;
+        let solid = self.exact.of(object)?;
+        let body = self.locals[self.owner(object)?].as_ref()?.shown();
+        let shape = solid.placed(&body.pose());
+        let (point, normal) = nearest_on(&shape, self.proxies[p].position())?;
+        let velocity = body.velocity + body.spin.cross(point - body.position);
+        let surface = Surface {
+            point,
+            normal,
+            velocity,
+        };
+        Some((surface, shape))
     }
 
     /// How plane `k` of pointer `p` gives, `fraction` of the way from how the set before had

@@ -9,6 +9,7 @@ use hapticd_config::plugin;
 use hapticd_core::haptics::god_object::GodObjectParameters;
 use hapticd_core::kinematics::pose_of;
 use hapticd_core::scene::control::{self, Incoming, Reply, SceneControl};
+use hapticd_core::scene::exact_shapes::{ExactShapes, Solid};
 use hapticd_core::scene::held_part::{HeldPart, HeldSpec, SurfacePiece};
 use hapticd_core::sync::spsc;
 use hapticd_core::world_geometry::{MAX_SOLIDS, MAX_TRIANGLES};
@@ -219,36 +220,41 @@ pub(super) fn read_contacts(loaded: &plugin::LoadedPlugin, instance: &mut Instan
         .collect()
 }
 
-/// [main] The body a pointer of `instance`'s world of `bodies` bodies and `pointers`
-/// pointers holds, as its plugin's held extension gives it, with its god-object built
-/// against every body's surface; None without the extension or a held body.
-pub(super) fn read_held(
+/// [main] What `instance`'s plugin's held extension says of its world of `pointers`
+/// pointers, whose objects belong to `object_bodies`: the body a pointer holds, with its
+/// god-object built against every body's surface, and the pieces that are exactly balls or
+/// boxes; nothing without the extension.
+pub(super) fn read_bodies(
     loaded: &plugin::LoadedPlugin,
     instance: &Instance,
-    (bodies, pointers): (u32, usize),
-) -> Result<Option<HeldPart>, ExtensionFault> {
+    (object_bodies, pointers): (&[u32], usize),
+    bodies: u32,
+) -> Result<(Option<HeldPart>, ExactShapes), ExtensionFault> {
     // SAFETY: HapticdSceneHeld is the struct of the held extension.
     let extension: Option<HapticdSceneHeld> =
         unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_HELD) };
     let Some(extension) = extension else {
-        return Ok(None);
+        return Ok((None, ExactShapes::default()));
     };
     let (Some(held_of), Some(surface_of)) = (extension.held, extension.surface) else {
         return Err(ExtensionFault::LacksFunction("held"));
     };
     let mut held = HapticdHeld::default();
     // SAFETY: a live instance of this plugin on the main thread, a valid out pointer.
-    match unsafe { held_of(instance.pointer, &mut held) } {
-        HAPTICD_OK => {}
-        HAPTICD_ERROR_ARGUMENT => return Ok(None),
+    let spec = match unsafe { held_of(instance.pointer, &mut held) } {
+        HAPTICD_OK => Some(held_spec(&held, (bodies, pointers)).map_err(ExtensionFault::Held)?),
+        HAPTICD_ERROR_ARGUMENT => None,
         status => {
             return Err(ExtensionFault::Failed {
                 what: "held body".into(),
                 status,
             });
         }
-    }
-    let spec = held_spec(&held, (bodies, pointers)).map_err(ExtensionFault::Held)?;
+    };
+    let failed = |body: u32, status: i32| ExtensionFault::Failed {
+        what: format!("body {body}'s surface"),
+        status,
+    };
     let mut pieces = Vec::new();
     let mut triangles_read = 0usize;
     for body in 0..bodies {
@@ -265,38 +271,40 @@ pub(super) fn read_held(
                     0,
                 )
             };
-            if status == HAPTICD_ERROR_ARGUMENT {
-                break;
+            match status {
+                HAPTICD_OK => {}
+                HAPTICD_ERROR_ARGUMENT => break,
+                status => return Err(failed(body, status)),
             }
-            if status != HAPTICD_OK {
-                return Err(ExtensionFault::Failed {
-                    what: format!("body {body}'s surface"),
-                    status,
-                });
-            }
-            triangles_read += info.triangle_count as usize;
+            // The triangles are the god-object's: without a held body, what each piece is
+            // is enough.
+            let count = if spec.is_some() {
+                info.triangle_count
+            } else {
+                0
+            };
+            triangles_read += count as usize;
             if triangles_read > MAX_TRIANGLES {
                 return Err(ExtensionFault::Held(format!(
                     "its bodies' surfaces have more than {MAX_TRIANGLES} triangles"
                 )));
             }
-            let mut triangles = vec![HapticdTriangle::default(); info.triangle_count as usize];
-            // SAFETY: as above; `triangles` holds `triangle_count` triangles.
-            let status = unsafe {
-                surface_of(
-                    instance.pointer,
-                    body,
-                    piece,
-                    &mut info,
-                    triangles.as_mut_ptr(),
-                    info.triangle_count,
-                )
-            };
-            if status != HAPTICD_OK || info.triangle_count as usize != triangles.len() {
-                return Err(ExtensionFault::Failed {
-                    what: format!("body {body}'s surface"),
-                    status,
-                });
+            let mut triangles = vec![HapticdTriangle::default(); count as usize];
+            if count > 0 {
+                // SAFETY: as above; `triangles` holds `count` triangles.
+                let status = unsafe {
+                    surface_of(
+                        instance.pointer,
+                        body,
+                        piece,
+                        &mut info,
+                        triangles.as_mut_ptr(),
+                        count,
+                    )
+                };
+                if status != HAPTICD_OK || info.triangle_count != count {
+                    return Err(failed(body, status));
+                }
             }
             let pose = pose_of(&info.pose);
             if !(pose.position.is_finite() && pose.orientation.is_finite()) {
@@ -304,6 +312,8 @@ pub(super) fn read_held(
                     "body {body} stands at no finite pose"
                 )));
             }
+            // A piece names an object of its own body, or none.
+            let own = object_bodies.get(info.object as usize) == Some(&body);
             pieces.push(SurfacePiece {
                 body,
                 fixed: info.fixed != 0,
@@ -312,12 +322,33 @@ pub(super) fn read_held(
                     .iter()
                     .map(|t| t.corners.map(DVec3::from))
                     .collect(),
+                exact: exact_solid(&info).filter(|_| own).map(|s| (info.object, s)),
             });
         }
     }
-    HeldPart::build(&spec, &pieces)
-        .map(Some)
-        .map_err(ExtensionFault::Held)
+    let held = spec
+        .map(|spec| HeldPart::build(&spec, &pieces))
+        .transpose()
+        .map_err(ExtensionFault::Held)?;
+    Ok((held, ExactShapes::of_pieces(&pieces)))
+}
+
+/// The ball or box `info` says its piece is exactly, if it says one.
+fn exact_solid(info: &HapticdSurfacePiece) -> Option<Solid> {
+    let offset = pose_of(&info.offset);
+    let size = DVec3::from(info.size);
+    match info.shape {
+        HAPTICD_SHAPE_SPHERE => Some(Solid::Ball {
+            centre: offset.position,
+            radius: size.x,
+        }),
+        HAPTICD_SHAPE_BOX => Some(Solid::Box {
+            centre: offset.position,
+            rotation: offset.orientation,
+            half: size,
+        }),
+        _ => None,
+    }
 }
 
 /// How `held` says the body is held, checked against a world of `bodies` bodies and

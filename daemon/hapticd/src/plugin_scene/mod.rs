@@ -28,6 +28,7 @@ use glam::DVec3;
 use hapticd_config::plugin;
 use hapticd_core::kinematics::MAX_EFFECTORS;
 use hapticd_core::scene::control::{Answer, Order, Reply, Request, SceneControl};
+use hapticd_core::scene::exact_shapes::ExactShapes;
 use hapticd_core::scene::held_part::HeldPart;
 use hapticd_core::scene::output_check::WrenchChecker;
 use hapticd_core::scene::{Pointer, Scene, Touch};
@@ -36,7 +37,7 @@ use hapticd_core::sync::spsc;
 use direct::DirectScene;
 pub(crate) use extensions::Commands;
 pub use extensions::ExtensionFault;
-use extensions::{read_contacts, read_control, read_geometry, read_held};
+use extensions::{read_bodies, read_contacts, read_control, read_geometry};
 pub(crate) use multirate::MultiRateScene;
 /// A created scene instance; destroyed when dropped.
 struct Instance {
@@ -390,6 +391,8 @@ struct Created {
     object_bodies: Vec<u32>,
     /// The body a pointer holds, rendered by its god-object.
     held: Option<HeldPart>,
+    /// The pieces of its bodies that are exactly balls or boxes.
+    exact: ExactShapes,
 }
 
 /// Create the scene of the plugin at `path` for `pointers` pointers, with an optional scene
@@ -446,8 +449,13 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         .map_err(|e| failed(SceneFault::Control(e)))?
         .unzip();
     let object_bodies = read_contacts(&loaded, &mut instance);
-    let held = read_held(&loaded, &instance, (geometry.body_count, pointers))
-        .map_err(|e| failed(SceneFault::Held(e)))?;
+    let (held, exact) = read_bodies(
+        &loaded,
+        &instance,
+        (&object_bodies, pointers),
+        geometry.body_count,
+    )
+    .map_err(|e| failed(SceneFault::Held(e)))?;
     // SAFETY: HapticdSceneMobility is the struct of the mobility extension.
     let mobility: Option<HapticdSceneMobility> =
         unsafe { loaded.scene_extension(HAPTICD_EXT_SCENE_MOBILITY) };
@@ -473,6 +481,7 @@ fn create(path: &Path, scene_file: Option<&Path>, pointers: usize) -> Result<Cre
         commands,
         object_bodies,
         held,
+        exact,
     })
 }
 
@@ -512,7 +521,7 @@ pub fn load(
                     created.commands,
                     created.object_bodies,
                 ),
-                created.held,
+                (created.held, created.exact),
                 info.physics_rate,
                 pointers,
             )

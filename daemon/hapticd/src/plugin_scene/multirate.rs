@@ -15,6 +15,7 @@ use hapticd_core::haptics::shading::SmoothMesh;
 use hapticd_core::haptics::surface::{Material, Surfaces};
 use hapticd_core::kinematics::{MAX_EFFECTORS, Wrench};
 use hapticd_core::scene::control::{Incoming, Reply, Request, SceneControl};
+use hapticd_core::scene::exact_shapes::ExactShapes;
 use hapticd_core::scene::held_part::HeldPart;
 use hapticd_core::scene::multirate::{
     HandBack, PlaneRenderer, PlaneSet, pose_between, proxy_record,
@@ -243,12 +244,12 @@ impl MultiRateScene {
     }
 
     /// Start the physics thread of `instance` at `rate` Hz for `pointers`, the `held` body
-    /// rendered by its god-object.
+    /// rendered by its god-object and the `exact` balls and boxes touched as themselves.
     pub(super) fn start(
         name: String,
         instance: Instance,
         parts: (Geometry, Option<SceneControl>, Option<Commands>, Vec<u32>),
-        held: Option<HeldPart>,
+        (held, exact): (Option<HeldPart>, ExactShapes),
         rate: f64,
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
@@ -256,6 +257,7 @@ impl MultiRateScene {
         if let Some(held) = held {
             scene.renderer.hold(held);
         }
+        scene.renderer.set_exact_shapes(exact);
         let n = pointers.len();
         let period_ns = (1e9 / rate) as u64;
         let name = scene.name.clone();

@@ -297,7 +297,7 @@ impl RapierWorld {
             );
             let surface = spec.surfaces.get(i).and_then(Option::as_ref);
             let colliders: Vec<ColliderBuilder> = match surface {
-                Some(surface) if body.fixed => vec![trimesh(surface)],
+                Some(surface) if spec.is_trimesh(i) => vec![trimesh(surface)],
                 _ => (0..primitives.len())
                     .map(|k| collider(body, k, primitives[k]))
                     .collect(),

@@ -8,6 +8,7 @@ use hapticd_core::diagnostics::Diagnostic;
 
 use super::checks::{Bodies, Primitive, RATE_RANGE};
 use hapticd_core::kinematics::Pose;
+use hapticd_core::scene::exact_shapes::Solid;
 use hapticd_core::scene::held_part::{HeldSpec, SurfacePiece};
 
 use super::held::{self, Held};
@@ -157,23 +158,58 @@ impl RapierScene {
         }
     }
 
+    /// Whether body `i` collides as its mesh's own triangles (a fixed mesh), one object,
+    /// rather than as its convex pieces, one object each.
+    pub fn is_trimesh(&self, i: usize) -> bool {
+        self.bodies[i].fixed && self.surfaces[i].is_some()
+    }
+
     /// Each closed piece of each rigid body's surface where the file puts it (a mesh's own
-    /// triangles, else its convex pieces' faces): what a held body meets.
+    /// triangles, else its convex pieces' faces): what a held body meets. A piece that is a
+    /// ball or a box says so, with its object (the world numbers its bodies' objects in
+    /// order, a body's pieces in order).
     pub fn surface_pieces(&self) -> Vec<SurfacePiece> {
         let mut out = Vec::new();
+        let mut first_object = 0u32;
         for (i, (body, surface)) in self.bodies.iter().zip(&self.surfaces).enumerate() {
             let pose = Pose {
                 position: body.position,
                 orientation: body.orientation,
             };
-            for triangles in held::surface_pieces(body, surface.as_ref()) {
+            let primitives = &self.primitives[i];
+            let pieces = held::surface_pieces(body, surface.as_ref());
+            // A mesh is one piece, its own surface, whatever its objects.
+            let exact: Vec<Option<(u32, Solid)>> = match surface {
+                Some(_) => Vec::new(),
+                None => (primitives.iter().zip(&body.pieces).enumerate())
+                    .map(|(k, (kind, piece))| {
+                        let centre = piece.vertex_centre();
+                        let solid = match *kind {
+                            Primitive::Ball { radius } => Solid::Ball { centre, radius },
+                            Primitive::Cuboid { half, rotation } => Solid::Box {
+                                centre,
+                                rotation,
+                                half,
+                            },
+                            Primitive::Hull => return None,
+                        };
+                        Some((first_object + k as u32, solid))
+                    })
+                    .collect(),
+            };
+            for (k, triangles) in pieces.into_iter().enumerate() {
                 out.push(SurfacePiece {
                     body: i as u32,
                     fixed: body.fixed,
                     pose,
                     triangles,
+                    exact: exact.get(k).copied().flatten(),
                 });
             }
+            first_object += match self.is_trimesh(i) {
+                true => 1,
+                false => primitives.len() as u32,
+            };
         }
         out
     }
