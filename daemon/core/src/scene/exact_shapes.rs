@@ -1,14 +1,29 @@
-//! The pieces of a multi-rate world's bodies that are exactly a ball or a box, by object: a
-//! finger on a body moved here (local dynamics) touches that shape where the body is this
-//! tick, instead of the plane the last physics step found, carried along with the body's
+//! The pieces of a multi-rate world's bodies, as the world describes them, and those that
+//! are exactly a ball or a box, by object: a finger on a body moved here (local dynamics)
+//! touches that shape where the body is this tick, instead of the plane the last physics step found, carried along with the body's
 //! centre. A finger sliding over a ball between two steps of a 10 Hz world follows its
 //! round surface, not one flat facet a period wide.
 
 use glam::{DQuat, DVec3};
 
-use super::held_part::SurfacePiece;
 use crate::haptics::obstacle::Shape;
 use crate::kinematics::Pose;
+
+/// One closed piece of a body's surface, as a world describes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfacePiece {
+    /// Its body's number.
+    pub body: u32,
+    /// Whether its body does not move.
+    pub fixed: bool,
+    /// Where its body is: its centre of mass, the frame of the triangles.
+    pub pose: Pose,
+    /// Its triangles, counter-clockwise seen from outside.
+    pub triangles: Vec<[DVec3; 3]>,
+    /// When the piece is exactly a ball or a box (its triangles drawing it), the object it
+    /// is (the `object` of its planes) and that solid.
+    pub exact: Option<(u32, Solid)>,
+}
 
 /// A piece that is exactly a ball or a box, in its body's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

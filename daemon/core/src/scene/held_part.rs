@@ -12,7 +12,7 @@
 use glam::DVec3;
 use hapticd_plugin_api::HAPTICD_MAX_LOCAL_BODIES;
 
-use super::exact_shapes::Solid;
+use super::exact_shapes::SurfacePiece;
 use super::local_dynamics::{LocalBody, Motion};
 use crate::haptics::god_object::{GodObject, GodObjectOutput, GodObjectParameters, Obstacle};
 use crate::haptics::signed_mesh::SignedMesh;
@@ -32,22 +32,6 @@ pub struct HeldSpec {
     pub grip: DVec3,
     /// Its god-object's spring and friction.
     pub parameters: GodObjectParameters,
-}
-
-/// One closed piece of a body's surface, as a world describes it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SurfacePiece {
-    /// Its body's number.
-    pub body: u32,
-    /// Whether its body does not move.
-    pub fixed: bool,
-    /// Where its body is: its centre of mass, the frame of the triangles.
-    pub pose: Pose,
-    /// Its triangles, counter-clockwise seen from outside.
-    pub triangles: Vec<[DVec3; 3]>,
-    /// When the piece is exactly a ball or a box (its triangles drawing it), the object it
-    /// is (the `object` of its planes) and that solid.
-    pub exact: Option<(u32, Solid)>,
 }
 
 /// The surfaces a held body meets: each a solid's closed surface in its body's frame (whose

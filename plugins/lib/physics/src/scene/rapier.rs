@@ -8,8 +8,8 @@ use hapticd_core::diagnostics::Diagnostic;
 
 use super::checks::{Bodies, Primitive, RATE_RANGE};
 use hapticd_core::kinematics::Pose;
-use hapticd_core::scene::exact_shapes::Solid;
-use hapticd_core::scene::held_part::{HeldSpec, SurfacePiece};
+use hapticd_core::scene::exact_shapes::{Solid, SurfacePiece};
+use hapticd_core::scene::held_part::HeldSpec;
 
 use super::held::{self, Held};
 use super::schema::{RawFeedback, RawScene};
