@@ -7,32 +7,42 @@
 //! part's, see [`SignedMesh`]), within the reach of this tick's motion. Each contact is a
 //! linear constraint on the proxy's small motion δ = (v, ω): the contact point moves no
 //! closer than its gap, n·(v + ω × r) ≥ −gap. The proxy moves by the δ that stretches the
-//! spring least in its own metric, K = diag(k, k, k, kᵣ, kᵣ, kᵣ), subject to them: a
-//! QP whose dual is solved by projected Gauss–Seidel over the contacts, warm-started from
-//! the last tick's forces. At its solution the spring's pull balances the contacts'
-//! push, so what the user feels is exactly the contacts' wrench, as statics has it.
+//! spring least in its own metric, K = diag(k, k, k, kᵣ, kᵣ, kᵣ), subject to them: in
+//! that metric the shortest motion into the constraints' polyhedron, a least-distance
+//! problem solved exactly ([`LeastDistance`]), each contact's push its multiplier. At the
+//! solution the spring's pull balances the contacts' push, so what the user feels is
+//! exactly the contacts' wrench, as statics has it. (Projected Gauss–Seidel over the
+//! contacts crawls where a peg's edge lies along a rim's, rows a few degrees apart: the
+//! torque felt there chattered by a tenth of itself.)
 //!
 //! Friction (Coulomb's, one coefficient μ) holds each contact point still along its two
-//! tangents, with a force no larger than μ times the contact's push: in the same sweeps,
-//! each tangent's force is what cancels the point's sliding, clamped to that cone's edge
-//! (a box of two tangents). Held, the part stays where it was put until the hand pulls it
-//! sideways harder than μ times how hard it presses; sliding, the hand feels that much.
+//! tangents, with a force no larger than μ times the contact's push: Gauss–Seidel sweeps
+//! over the tangents, warm-started from the last tick's, give each tangent the force that
+//! cancels the point's sliding, clamped to that cone's edge (a box of two tangents), in
+//! rounds alternating with the pushes' exact solve. Held, the part stays where it was put
+//! until the hand pulls it sideways harder than μ times how hard it presses; sliding, the
+//! hand feels that much.
 //!
 //! Time-critical, it degrades and never overruns: contacts past [`CONTACTS`] are left for
 //! the next tick (the deepest taken first), and the proxy then moves no farther than the
-//! nearest one left; the solve stops after [`SWEEPS`] and is cut back to what the
-//! contacts allow; a tick that finds more candidates than its table holds keeps the last
-//! pose.
+//! nearest one left; the rounds and sweeps are bounded, and the solve is cut back to what
+//! the contacts allow; a tick that finds more candidates than its table holds, or whose
+//! pushes need more steps than their solve takes, keeps the last pose.
 
 use glam::{DAffine3, DQuat, DVec3};
 
+use super::least_distance::LeastDistance;
 use super::signed_mesh::{Near, SignedMesh};
 use crate::kinematics::{Wrench, rotation_vector};
 
 /// Most contacts a tick solves over.
 pub const CONTACTS: usize = 64;
-/// Most Gauss–Seidel sweeps over the contacts in a tick.
-pub const SWEEPS: usize = 200;
+/// Gauss–Seidel sweeps over the contacts' tangents in a round of the friction.
+pub const SWEEPS: usize = 20;
+/// Most rounds of friction and pushes in a tick.
+const ROUNDS: usize = 10;
+/// Most steps of the pushes' exact solve in a round: a tick that needs more keeps its pose.
+const LEAST_STEPS: usize = 8 * CONTACTS;
 /// Samples a query may find near one obstacle: a tick finding more keeps its last pose.
 pub const CANDIDATES: usize = 3072;
 /// Slots of the table the candidates are gathered in (a power of two, well over
@@ -421,6 +431,8 @@ pub struct GodObject {
     table: Table,
     /// The grip's pose at the last tick.
     last_grip: Option<(DVec3, DQuat)>,
+    /// The pushes' exact solve.
+    least: LeastDistance,
 }
 
 impl GodObject {
@@ -443,6 +455,7 @@ impl GodObject {
             reach: parameters.max_step,
             table: Table::new(),
             last_grip: None,
+            least: LeastDistance::default(),
         }
     }
 
@@ -577,73 +590,71 @@ impl GodObject {
     }
 
     /// [rt] The proxy's motion (translation, rotation vector) for the `wanted` one: the
-    /// least spring stretch the contacts allow, by projected Gauss–Seidel over their forces
-    /// (warm-started from the last tick's), cut back where the contacts as linearised would
-    /// still be entered.
+    /// least spring stretch the contacts allow. Their pushes are solved exactly (a
+    /// least-distance problem, [`LeastDistance`]); with friction, rounds of Gauss–Seidel
+    /// sweeps over the tangents (warm-started from the last tick's) alternate with it, each
+    /// holding the other's forces. Cut back where the contacts as linearised would still be
+    /// entered.
     fn solve(&mut self, wanted: (DVec3, DVec3)) -> (DVec3, DVec3) {
         let (k, kr, mu) = (
             self.parameters.stiffness,
             self.parameters.rotational_stiffness,
             self.parameters.friction,
         );
-        // A force f along direction d through arm r moves the proxy by f·(d/k, (r×d)/kr).
-        let push = |v: &mut DVec3, w: &mut DVec3, d: DVec3, arm: DVec3, f: f64| {
-            *v += d * (f / k);
-            *w += arm * (f / kr);
-        };
-        let (mut v, mut w) = wanted;
+        // A coefficient that is not a finite positive number holds nothing (and could not
+        // bound the clamp below).
+        let frictional = mu > 0.0 && mu.is_finite();
         let mut rows = [Rows::default(); CONTACTS];
         let previous = &self.previous[..self.previous_count];
         let contacts = &mut self.found.contacts[..self.found.count];
+        // The wanted motion with the friction's push: what the pushes are solved against.
+        let mut held = wanted;
         for (row, c) in rows.iter_mut().zip(contacts.iter_mut()) {
             let r = c.point - self.position;
             let (t1, t2) = c.normal.any_orthonormal_pair();
             *row = Rows::new(r, [c.normal, t1, t2], (k, kr));
-            (c.force, c.friction) = previous
-                .iter()
-                .find(|(key, _, _)| *key == c.key)
-                .map_or((0.0, DVec3::ZERO), |&(_, f, t)| {
-                    (f, t - c.normal * c.normal.dot(t))
-                });
-            push(&mut v, &mut w, c.normal, row.arms[0], c.force);
+            c.force = 0.0;
+            c.friction = match frictional {
+                true => previous
+                    .iter()
+                    .find(|(key, _, _)| *key == c.key)
+                    .map_or(DVec3::ZERO, |&(_, _, t)| t - c.normal * c.normal.dot(t)),
+                false => DVec3::ZERO,
+            };
             for j in 1..3 {
-                let f = c.friction.dot(row.directions[j]);
-                push(&mut v, &mut w, row.directions[j], row.arms[j], f);
+                row.push(j, c.friction.dot(row.directions[j]), &mut held, (k, kr));
             }
         }
-        for _ in 0..SWEEPS {
-            let mut worst = 0.0f64;
-            for (row, c) in rows.iter().zip(contacts.iter_mut()) {
-                let gap = c.gap + row.along(0, v, w);
-                let force = (c.force - gap / row.reach[0]).max(0.0);
-                if force != c.force {
-                    push(&mut v, &mut w, c.normal, row.arms[0], force - c.force);
-                    c.force = force;
-                }
-                worst = worst.max(if force > 0.0 { gap.abs() } else { -gap });
-                // A coefficient that is not a finite positive number holds nothing (and
-                // could not bound the clamp below).
-                if !(mu > 0.0 && mu.is_finite()) {
-                    continue;
-                }
-                // Each tangent's force cancels the point's sliding along it, within the
-                // cone's box.
-                let bound = mu * c.force;
-                for j in 1..3 {
-                    let d = row.directions[j];
-                    let held = c.friction.dot(d);
-                    let slide = row.along(j, v, w);
-                    let wanted = (held - slide / row.reach[j]).clamp(-bound, bound);
-                    if wanted != held {
-                        push(&mut v, &mut w, d, row.arms[j], wanted - held);
-                        c.friction += d * (wanted - held);
-                    }
-                    if wanted.abs() < bound {
-                        worst = worst.max(slide.abs());
+        let rows = &rows[..contacts.len()];
+        let (mut v, mut w) = wanted;
+        for _ in 0..ROUNDS {
+            (v, w) = pushes(&mut self.least, rows, contacts, held, (k, kr));
+            if !frictional {
+                break;
+            }
+            // Each tangent's force cancels the point's sliding along it, within the cone's
+            // box, the pushes held.
+            let mut changed = 0.0f64;
+            for _ in 0..SWEEPS {
+                for (row, c) in rows.iter().zip(contacts.iter_mut()) {
+                    let bound = mu * c.force;
+                    for j in 1..3 {
+                        let d = row.directions[j];
+                        let now = c.friction.dot(d);
+                        let slide = row.along(j, v, w);
+                        let next = (now - slide / row.reach[j]).clamp(-bound, bound);
+                        if next != now {
+                            let mut motion = (v, w);
+                            row.push(j, next - now, &mut motion, (k, kr));
+                            (v, w) = motion;
+                            row.push(j, next - now, &mut held, (k, kr));
+                            c.friction += d * (next - now);
+                            changed = changed.max((next - now).abs());
+                        }
                     }
                 }
             }
-            if worst < TOLERANCE {
+            if changed * (1.0 / k) < TOLERANCE {
                 break;
             }
         }
@@ -662,6 +673,48 @@ impl GodObject {
         self.previous_count = contacts.len();
         (v * scale, w * scale)
     }
+}
+
+/// [rt] The contacts' pushes for the motion `base` (the wanted one with the friction's
+/// push), exactly: in the spring's metric, the shortest change of it that enters no contact
+/// as linearised (n·(v + ω × r) ≥ −gap), each push the constraint's multiplier. Where no
+/// motion meets them all (a part found inside solids on opposite sides) it is asked only to
+/// go no deeper into any, which standing still does. Gives the motion, the pushes into
+/// `contacts`.
+fn pushes(
+    least: &mut LeastDistance,
+    rows: &[Rows],
+    contacts: &mut [Contact],
+    base: (DVec3, DVec3),
+    (k, kr): (f64, f64),
+) -> (DVec3, DVec3) {
+    let (sk, skr) = (k.sqrt(), kr.sqrt());
+    for deeper_only in [false, true] {
+        least.clear();
+        for (row, c) in rows.iter().zip(contacts.iter()) {
+            let (d, a) = (row.directions[0] / sk, row.arms[0] / skr);
+            let gap = if deeper_only { c.gap.max(0.0) } else { c.gap };
+            least.push(
+                [d.x, d.y, d.z, a.x, a.y, a.z],
+                -gap - row.along(0, base.0, base.1),
+            );
+        }
+        if let Some(s) = least.solve(LEAST_STEPS) {
+            for (c, &force) in contacts.iter_mut().zip(&s.multipliers) {
+                c.force = force;
+            }
+            let y = s.y;
+            return (
+                base.0 + DVec3::new(y[0], y[1], y[2]) / sk,
+                base.1 + DVec3::new(y[3], y[4], y[5]) / skr,
+            );
+        }
+    }
+    // Out of steps: the proxy stays where it is, pushed by nothing this tick.
+    for c in contacts.iter_mut() {
+        c.force = 0.0;
+    }
+    (DVec3::ZERO, DVec3::ZERO)
 }
 
 /// A contact's three rows of the solve: its normal and two tangents.
@@ -688,5 +741,12 @@ impl Rows {
     /// How far the point moves along row `j` under the motion (v, w).
     fn along(&self, j: usize, v: DVec3, w: DVec3) -> f64 {
         self.directions[j].dot(v) + self.arms[j].dot(w)
+    }
+
+    /// Move `motion` as a force `f` along row `j` moves the proxy through the springs
+    /// (k, kᵣ): by f·(d/k, (r×d)/kᵣ).
+    fn push(&self, j: usize, f: f64, motion: &mut (DVec3, DVec3), (k, kr): (f64, f64)) {
+        motion.0 += self.directions[j] * (f / k);
+        motion.1 += self.arms[j] * (f / kr);
     }
 }

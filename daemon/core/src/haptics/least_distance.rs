@@ -275,13 +275,19 @@ mod tests {
                 let l = s.multipliers[i];
                 assert!(along >= h - 1e-9, "trial {trial}: {along} < {h}");
                 assert!(l >= 0.0);
-                assert!(l * (along - h) < 1e-9 * (1.0 + l), "trial {trial}: slack {l}");
+                assert!(
+                    l * (along - h) < 1e-9 * (1.0 + l),
+                    "trial {trial}: slack {l}"
+                );
                 for k in 0..DIM {
                     sum[k] += l * g[k];
                 }
             }
             for k in 0..DIM {
-                assert!((sum[k] - s.y[k]).abs() < 1e-9 * (1.0 + s.y[k].abs()), "trial {trial}");
+                assert!(
+                    (sum[k] - s.y[k]).abs() < 1e-9 * (1.0 + s.y[k].abs()),
+                    "trial {trial}"
+                );
             }
         }
         eprintln!("at most {most} steps");

@@ -3,7 +3,8 @@
 //!
 //! - [`effects`]: springs, dampers, friction, vibrations and fields that come from no solid;
 //! - [`god_object`]: a held part's 6-DOF god-object, kept out of what it touches by a
-//!   constrained solve over the contacts of exact meshes ([`signed_mesh`]);
+//!   constrained solve over the contacts of exact meshes ([`signed_mesh`]), their pushes
+//!   solved exactly as a [`least_distance`] problem;
 //! - [`grasp`]: fingers holding an object, with the shape shell and the resultant shared
 //!   among them (4.2–4.7);
 //! - [`obstacle`]: solid shapes the proxy cannot enter; [`scenery`]: a static scene's
@@ -24,6 +25,7 @@ pub mod effects;
 pub(crate) mod fixtures;
 pub mod god_object;
 pub mod grasp;
+pub mod least_distance;
 pub mod obstacle;
 pub mod passivity;
 pub mod proxy;

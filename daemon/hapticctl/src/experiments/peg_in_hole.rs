@@ -137,6 +137,9 @@ pub struct Insertion {
     pub peak_force: f64,
     /// The largest torque felt, N·m.
     pub peak_torque: f64,
+    /// How much the torque felt changes from one tick to the next while the peg leans on
+    /// the block (pressed, its bottom within [`ON_TOP`] of the top): the mean, N·m.
+    pub rim_chatter: f64,
     /// Ticks the god-object kept its last pose, having found too much.
     pub held_back: usize,
     /// What a tick of the god-object cost.
@@ -173,6 +176,7 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64, friction: f64) -> Inser
         deepest: 0.0,
         peak_force: 0.0,
         peak_torque: 0.0,
+        rim_chatter: 0.0,
         held_back: 0,
         cost: Cost::default(),
     };
@@ -199,7 +203,24 @@ pub fn insert(fit: &Fit, hand: &HandTrack, seconds: f64, friction: f64) -> Inser
         }
     }
     run.cost = Cost::of(costs);
+    run.rim_chatter = rim_chatter(&run.samples);
     run
+}
+
+/// How far below the block's top the peg's bottom may be and still lean on it, metres.
+pub const ON_TOP: f64 = 2.0 * MM;
+
+/// The mean change of the torque felt from one tick to the next over the ticks that lean
+/// on the block (pressed, by more than half a newton, with the bottom within [`ON_TOP`] of
+/// the top), N·m; 0 without any.
+fn rim_chatter(samples: &[(f64, f64, f64, f64)]) -> f64 {
+    let leaning = |s: &(f64, f64, f64, f64)| s.2 > 0.5 && s.1 < ON_TOP;
+    let changes: Vec<f64> = samples
+        .windows(2)
+        .filter(|w| leaning(&w[0]) && leaning(&w[1]))
+        .map(|w| (w[1].3 - w[0].3).abs())
+        .collect();
+    changes.iter().sum::<f64>() / changes.len().max(1) as f64
 }
 
 /// The peg of `sides` sides put in with `hand` for `seconds` at each of `clearances`
@@ -236,15 +257,16 @@ pub fn report(
         "a {shape} peg 10 mm wide and 20 mm long into a hole 15 mm deep, the god-object at 1 kHz, \
          friction {friction}\n"
     );
-    text += "  clearance   reached    into the block   peak force   peak torque   tick p50 / p99.9 / most   poses kept\n";
+    text += "  clearance   reached    into the block   peak force   peak torque   rim chatter    tick p50 / p99.9 / most   poses kept\n";
     for r in &runs {
         text += &format!(
-            "  {:+7.3} mm  {:7.3} mm  {:9.4} mm    {:8.2} N  {:8.4} N·m   {:5.0} / {:5.0} / {:5.0} µs   {:6}\n",
+            "  {:+7.3} mm  {:7.3} mm  {:9.4} mm    {:8.2} N  {:8.4} N·m  {:8.5} N·m   {:5.0} / {:5.0} / {:5.0} µs   {:6}\n",
             r.fit.clearance / MM,
             r.reached / MM,
             r.deepest / MM,
             r.peak_force,
             r.peak_torque,
+            r.rim_chatter,
             r.cost.median,
             r.cost.p999,
             r.cost.most,
@@ -260,6 +282,7 @@ pub fn report(
                 "deepest": r.deepest,
                 "peak_force": r.peak_force,
                 "peak_torque": r.peak_torque,
+                "rim_chatter": r.rim_chatter,
                 "held_back": r.held_back,
                 "tick_us": { "median": r.cost.median, "p999": r.cost.p999, "most": r.cost.most },
             })
