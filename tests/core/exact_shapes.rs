@@ -24,20 +24,6 @@ fn parse(text: &str) -> RapierScene {
     }
 }
 
-/// A 10 cm block of 1 kg on a floor (its top at y = 0.05, its edges at x = ±0.05), in a
-/// world stepped at 10 Hz.
-const BLOCK: &str = "name: edge
-engine: rapier
-rate: 10
-gravity: [0, -9.81, 0]
-material: { static_friction: 0.5, friction: 0.5 }
-bodies:
-  - { name: floor, box: [0.3, 0.02, 0.3], position: [0, -0.06, 0], fixed: true }
-  - { name: block, box: [0.1, 0.1, 0.1], position: [0, 0, 0], density: 1000 }
-pointer:
-  sphere: 0.005
-";
-
 #[test]
 fn a_finger_slid_off_a_blocks_top_drops_off_its_edge_as_it_passes_it() {
     // Down onto the top's middle, pressed 1 mm in, then along x past the edge at x = 0.05
@@ -47,7 +33,7 @@ fn a_finger_slid_off_a_blocks_top_drops_off_its_edge_as_it_passes_it() {
         200..500 => DVec3::new(0.0, 0.07 - 0.021 * (tick - 200) as f64 / 300.0, 0.0),
         _ => DVec3::new(0.08 * ((tick - 500) as f64 / 600.0).min(1.0), 0.049, 0.0),
     };
-    let scene = parse(BLOCK);
+    let scene = parse(support::BLOCK_AT_10_HZ);
     let start = Lockstep::pointers(&[(way(0), DVec3::ZERO)]);
     let mut run = Lockstep::new(&scene, &start, HAPTIC_RATE, 0.0);
     let mut felt = [Wrench::ZERO];

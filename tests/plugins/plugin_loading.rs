@@ -384,20 +384,7 @@ fn a_finger_slid_off_a_rapier_blocks_top_drops_off_its_edge() {
     use hapticd_core::scene::Pointer;
     let dir = support::scratch("plugin-test", "edge");
     let file = dir.join("edge.yaml");
-    std::fs::write(
-        &file,
-        "name: edge
-engine: rapier
-rate: 10
-material: { static_friction: 0.5, friction: 0.5 }
-bodies:
-  - { name: floor, box: [0.3, 0.02, 0.3], position: [0, -0.06, 0], fixed: true }
-  - { name: block, box: [0.1, 0.1, 0.1], position: [0, 0, 0], density: 1000 }
-pointer:
-  sphere: 0.005
-",
-    )
-    .unwrap();
+    std::fs::write(&file, support::BLOCK_AT_10_HZ).unwrap();
     let grip = |at: DVec3| Pointer {
         pose: Pose {
             position: at,

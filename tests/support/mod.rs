@@ -76,6 +76,21 @@ pub fn loopback_endpoint() -> (String, u16) {
     (format!("tcp/127.0.0.1:{port}"), port)
 }
 
+/// A 10 cm block of 1 kg on a floor, its top at y = 0.05 and its edges at x = ±0.05, in
+/// rapier's world stepped at 10 Hz: a finger slid off its top shows whether the haptic side
+/// touches the block itself or the last step's plane.
+pub const BLOCK_AT_10_HZ: &str = "name: edge
+engine: rapier
+rate: 10
+gravity: [0, -9.81, 0]
+material: { static_friction: 0.5, friction: 0.5 }
+bodies:
+  - { name: floor, box: [0.3, 0.02, 0.3], position: [0, -0.06, 0], fixed: true }
+  - { name: block, box: [0.1, 0.1, 0.1], position: [0, 0, 0], density: 1000 }
+pointer:
+  sphere: 0.005
+";
+
 /// The repository root.
 pub fn repo_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -255,23 +255,22 @@ pub(super) fn read_bodies(
         what: format!("body {body}'s surface"),
         status,
     };
+    // Piece `piece` of body `body` into `info`, and its first triangles into `out`.
+    let ask = |body, piece, info: &mut HapticdSurfacePiece, out: &mut [HapticdTriangle]| {
+        let at = match out.is_empty() {
+            true => std::ptr::null_mut(),
+            false => out.as_mut_ptr(),
+        };
+        // SAFETY: a live instance of this plugin on the main thread, `info` valid, `out`
+        // null or holding the `out.len()` triangles asked for.
+        unsafe { surface_of(instance.pointer, body, piece, info, at, out.len() as u32) }
+    };
     let mut pieces = Vec::new();
     let mut triangles_read = 0usize;
     for body in 0..bodies {
         for piece in 0.. {
             let mut info = HapticdSurfacePiece::default();
-            // SAFETY: as above; no triangles asked for.
-            let status = unsafe {
-                surface_of(
-                    instance.pointer,
-                    body,
-                    piece,
-                    &mut info,
-                    std::ptr::null_mut(),
-                    0,
-                )
-            };
-            match status {
+            match ask(body, piece, &mut info, &mut []) {
                 HAPTICD_OK => {}
                 HAPTICD_ERROR_ARGUMENT => break,
                 status => return Err(failed(body, status)),
@@ -291,17 +290,7 @@ pub(super) fn read_bodies(
             }
             let mut triangles = vec![HapticdTriangle::default(); count as usize];
             if count > 0 {
-                // SAFETY: as above; `triangles` holds `count` triangles.
-                let status = unsafe {
-                    surface_of(
-                        instance.pointer,
-                        body,
-                        piece,
-                        &mut info,
-                        triangles.as_mut_ptr(),
-                        count,
-                    )
-                };
+                let status = ask(body, piece, &mut info, &mut triangles);
                 if status != HAPTICD_OK || info.triangle_count != count {
                     return Err(failed(body, status));
                 }
