@@ -174,7 +174,7 @@ impl LeastDistance {
         }
         // residual = f − E·u; its last entry is 1 − h·u, zero when no y meets them all.
         let last = residual[DIM];
-        if !(last > tolerance) {
+        if last.is_nan() || last <= tolerance {
             return None;
         }
         let mut y = [0.0; DIM];
@@ -213,7 +213,7 @@ fn least_squares(columns: &[[f64; ROWS]], set: &[usize]) -> Option<[f64; ROWS]> 
             }
         }
         let length = dot(&v, &v).sqrt();
-        if !(length > 1e-10 * norm) {
+        if length.is_nan() || length <= 1e-10 * norm {
             return None;
         }
         r[k][k] = length;
@@ -367,15 +367,12 @@ mod tests {
                     l * (along - h) < 1e-9 * (1.0 + l),
                     "trial {trial}: slack {l}"
                 );
-                for k in 0..DIM {
-                    sum[k] += l * g[k];
+                for (total, v) in sum.iter_mut().zip(g) {
+                    *total += l * v;
                 }
             }
-            for k in 0..DIM {
-                assert!(
-                    (sum[k] - s.y[k]).abs() < 1e-9 * (1.0 + s.y[k].abs()),
-                    "trial {trial}"
-                );
+            for (total, y) in sum.iter().zip(&s.y) {
+                assert!((total - y).abs() < 1e-9 * (1.0 + y.abs()), "trial {trial}");
             }
         }
         eprintln!("at most {most} steps");
