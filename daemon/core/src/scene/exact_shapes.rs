@@ -163,11 +163,6 @@ impl ExactShapes {
             .ok()?;
         Some(&self.by_object[k].1)
     }
-
-    /// Whether it has none.
-    pub fn is_empty(&self) -> bool {
-        self.by_object.is_empty()
-    }
 }
 
 #[cfg(test)]

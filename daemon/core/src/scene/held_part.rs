@@ -37,11 +37,11 @@ pub struct HeldSpec {
 /// The surfaces a held body meets: each a solid's closed surface in its body's frame (whose
 /// origin is the body's centre of mass).
 #[derive(Debug, Clone, Default)]
-pub struct HeldWorld {
+struct HeldWorld {
     /// The fixed bodies' surfaces, each where its body stands.
-    pub fixed: Vec<(SignedMesh, Pose)>,
+    fixed: Vec<(SignedMesh, Pose)>,
     /// The surfaces of the bodies that move, each with its body's number.
-    pub moving: Vec<(u32, SignedMesh)>,
+    moving: Vec<(u32, SignedMesh)>,
 }
 
 /// A held body and its god-object.
@@ -62,7 +62,7 @@ impl HeldPart {
     /// holds, which starts at `at` (the body's orientation there), its centre of mass at
     /// `centre` from that point in its frame, rendered with `parameters` among `world`
     /// (which must leave the held body out).
-    pub fn new(
+    fn new(
         (pointer, body): (usize, u32),
         part: SignedMesh,
         (at, centre): (Pose, DVec3),
@@ -153,11 +153,6 @@ impl HeldPart {
             velocity: self.velocity,
             spin: DVec3::ZERO,
         }
-    }
-
-    /// The god-object, for its contacts.
-    pub fn god_object(&self) -> &GodObject {
-        &self.god
     }
 
     /// [rt] Move the proxy towards `grip` among the fixed bodies and the `locals` as they are

@@ -266,11 +266,6 @@ impl PlaneRenderer {
         self.held = Some(Box::new(part));
     }
 
-    /// The held body, if a pointer holds one.
-    pub fn held(&self) -> Option<&HeldPart> {
-        self.held.as_deref()
-    }
-
     /// [rt] What each pointer's proxy rests on, into `touches`: the body of the object
     /// touched (`bodies[object]`, none past its end), the plane's normal, whether it slides.
     pub fn write_touches(&self, bodies: &[u32], touches: &mut [Touch]) {
