@@ -626,9 +626,9 @@ impl GodObject {
             }
         }
         let rows = &rows[..contacts.len()];
-        let (mut v, mut w) = wanted;
+        let mut motion = wanted;
         for _ in 0..ROUNDS {
-            (v, w) = pushes(&mut self.least, rows, contacts, held, (k, kr));
+            motion = pushes(&mut self.least, rows, contacts, held, (k, kr));
             if !frictional {
                 break;
             }
@@ -641,12 +641,10 @@ impl GodObject {
                     for j in 1..3 {
                         let d = row.directions[j];
                         let now = c.friction.dot(d);
-                        let slide = row.along(j, v, w);
+                        let slide = row.along(j, motion.0, motion.1);
                         let next = (now - slide / row.reach[j]).clamp(-bound, bound);
                         if next != now {
-                            let mut motion = (v, w);
                             row.push(j, next - now, &mut motion, (k, kr));
-                            (v, w) = motion;
                             row.push(j, next - now, &mut held, (k, kr));
                             c.friction += d * (next - now);
                             changed = changed.max((next - now).abs());
@@ -654,10 +652,11 @@ impl GodObject {
                     }
                 }
             }
-            if changed * (1.0 / k) < TOLERANCE {
+            if changed / k < TOLERANCE {
                 break;
             }
         }
+        let (v, w) = motion;
         let mut scale = 1.0f64;
         for (row, c) in rows.iter().zip(contacts.iter()) {
             let along = row.along(0, v, w);

@@ -157,7 +157,7 @@ impl HeldPart {
 
     /// [rt] Move the proxy towards `grip` among the fixed bodies and the `locals` as they are
     /// shown now, `dt` after the last tick: what the god-object gives, and what its contacts
-    /// load each of `locals` with.
+    /// load each of `locals` with (the torque about the centre its local dynamics has).
     pub fn follow(
         &mut self,
         grip: Pose,
@@ -165,15 +165,18 @@ impl HeldPart {
         locals: &[Option<LocalBody>; HAPTICD_MAX_LOCAL_BODIES],
     ) -> (GodObjectOutput, [Load; HAPTICD_MAX_LOCAL_BODIES]) {
         let was = self.motion().position;
+        // Each body where it is shown (what the part meets), and the centre its local
+        // dynamics turns it about (what its push is taken about), once a tick.
+        let placed = locals.map(|b| b.map(|b| (b.body, b.shown().pose(), b.motion().position)));
         let fixed = self.world.fixed.iter().map(|(mesh, pose)| Obstacle {
             mesh,
             position: pose.position,
             orientation: pose.orientation,
         });
-        let shown = moving_shown(&self.world.moving, locals).map(|(_, mesh, m)| Obstacle {
+        let shown = moving_shown(&self.world.moving, &placed).map(|(_, mesh, at)| Obstacle {
             mesh,
-            position: m.position,
-            orientation: m.orientation,
+            position: at.position,
+            orientation: at.orientation,
         });
         let out = self
             .god
@@ -187,33 +190,39 @@ impl HeldPart {
             let Some(k) = c.obstacle.checked_sub(first) else {
                 continue;
             };
-            let Some((i, _, m)) = moving_shown(&self.world.moving, locals).nth(k) else {
+            let Some((i, _, _)) = moving_shown(&self.world.moving, &placed).nth(k) else {
+                continue;
+            };
+            let Some((_, _, centre)) = placed[i] else {
                 continue;
             };
             let on_body = -(c.normal * c.force + c.friction);
             let (force, torque) = &mut loads[i];
             *force += on_body;
-            *torque += (c.point - m.position).cross(on_body);
+            *torque += (c.point - centre).cross(on_body);
         }
         (out, loads)
     }
 }
 
-/// Each surface of `moving` whose body is among `locals`, with that body's slot and where
-/// it is shown now.
+/// A local body's number, where it is shown and the centre its local dynamics turns it
+/// about, by slot.
+type Placed = [Option<(u32, Pose, DVec3)>; HAPTICD_MAX_LOCAL_BODIES];
+
+/// Each surface of `moving` whose body is among the `placed` local bodies, with that body's
+/// slot and where it is shown now.
 fn moving_shown<'a>(
     moving: &'a [(u32, SignedMesh)],
-    locals: &'a [Option<LocalBody>; HAPTICD_MAX_LOCAL_BODIES],
-) -> impl Iterator<Item = (usize, &'a SignedMesh, Motion)> + 'a {
-    locals
+    placed: &'a Placed,
+) -> impl Iterator<Item = (usize, &'a SignedMesh, Pose)> + 'a {
+    placed
         .iter()
         .enumerate()
-        .filter_map(|(i, b)| Some((i, b.as_ref()?)))
-        .flat_map(move |(i, b)| {
-            let shown = b.shown();
+        .filter_map(|(i, b)| Some((i, (*b)?)))
+        .flat_map(move |(i, (body, shown, _))| {
             moving
                 .iter()
-                .filter(move |(body, _)| *body == b.body)
+                .filter(move |(of, _)| *of == body)
                 .map(move |(_, mesh)| (i, mesh, shown))
         })
 }

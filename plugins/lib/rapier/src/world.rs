@@ -888,15 +888,16 @@ impl RapierWorld {
             return 0;
         };
         let mut count = 0;
+        // The held body and the pointers' solids are kinematic.
         let query = self
             .physics
-            .query_pipeline_with_filter(QueryFilter::default().exclude_rigid_body(handle));
+            .query_pipeline_with_filter(QueryFilter::exclude_kinematic());
         for &collider in self.physics.bodies[handle].colliders() {
             let aabb = self.physics.colliders[collider]
                 .compute_aabb()
                 .loosened(self.reach as f32);
             for (_, solid) in query.intersect_aabb_conservative(aabb) {
-                let Some(body) = solid.parent().and_then(|p| self.body_index(p)) else {
+                let Some(body) = self.body_of(solid.user_data as u32) else {
                     continue;
                 };
                 let listed = out[..count].iter().any(|b| b.body == body as u32);
@@ -911,11 +912,6 @@ impl RapierWorld {
             }
         }
         count
-    }
-
-    /// The number of the body whose rigid body is `handle`.
-    fn body_index(&self, handle: RigidBodyHandle) -> Option<usize> {
-        self.bodies.iter().position(|&b| b == handle)
     }
 
     /// Whether `solid` is part of the world body `handle` meets: not a piece of the body
