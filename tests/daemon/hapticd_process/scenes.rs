@@ -235,11 +235,14 @@ fn the_simulated_grip_puts_the_held_peg_into_its_hole_in_rapiers_world() {
   grip:
     - hold: { at: [0, 0, 0], seconds: 0.3 }
     - move: { to: [0, -0.04, 0], seconds: 1.5 }
-    - hold: { seconds: 0.8 }
+    - hold: { seconds: 1.6 }
 ",
     )
     .unwrap();
-    run_rapier(&scene, &hand, "2.6", &csv);
+    // Run past the window looked at: the daemon stops by the wall clock, and ticks a loaded
+    // machine skips (CI, beside other tests' loops on the same CPU) end the hand's script
+    // short of it (measured in CI: 165 ms of ticks lost).
+    run_rapier(&scene, &hand, "3.4", &csv);
     let rows = columns(&csv, &["time", "state", "pose_y", "force_y"]);
     assert!(rows.iter().all(|r| r[1] == "running"), "the scene faulted");
     let v = |r: &Vec<String>, k: usize| r[k].parse::<f64>().unwrap();
