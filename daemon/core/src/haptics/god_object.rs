@@ -26,12 +26,8 @@
 //! Time-critical, it degrades and never overruns: contacts past [`CONTACTS`] are left for
 //! the next tick (the deepest taken first), and the proxy then moves no farther than the
 //! nearest one left; the rounds and sweeps are bounded, and the solve is cut back to what
-//! the contacts allow; a tick that finds more candidates than its table holds, whose
-//! pushes need more steps than their solve takes, or (on a real-time thread, see
-//! [`GodObject::keep_to_the_clock`]) whose query runs past its share of the tick, keeps the
-//! last pose.
-
-use std::time::{Duration, Instant};
+//! the contacts allow; a tick that finds more candidates than its table holds, or whose
+//! pushes need more steps than their solve takes, keeps the last pose.
 
 use glam::{DAffine3, DQuat, DVec3};
 
@@ -52,13 +48,6 @@ pub const CANDIDATES: usize = 3072;
 /// Slots of the table the candidates are gathered in (a power of two, well over
 /// [`CANDIDATES`] so that probes stay short).
 const SLOTS: usize = 4096;
-/// The share of a tick (by the wall clock) a god-object that keeps to the clock gives its
-/// contact query: the rest of the tick is the solve's (bounded by its steps), the device's
-/// and the tension's.
-pub const QUERY_SHARE: f64 = 0.4;
-/// Pairs a query visits between looks at the clock (a look costs tens of nanoseconds, a
-/// pair about as much).
-const CLOCK_EVERY: u32 = 64;
 /// How far a contact may still be violated when the solve stops, metres.
 const TOLERANCE: f64 = 1e-8;
 /// The least reach of a tick's query, metres: contacts resting within rounding of zero gap
@@ -144,8 +133,7 @@ pub struct GodObjectOutput {
     /// The deepest the part was found inside anything at the start of the tick, metres
     /// (0 when nowhere).
     pub penetration: f64,
-    /// Whether the tick found too much to look at, or ran out of time looking, and kept the
-    /// last pose.
+    /// Whether the tick found too much to look at and kept the last pose.
     pub held_back: bool,
 }
 
@@ -221,27 +209,20 @@ impl Table {
 
     /// [rt] Gather, for each sample of `samples` (placed in `triangles`' frame by
     /// `placed`), its features on `triangles` within `reach`; false when more samples came
-    /// near than [`CANDIDATES`], or the clock passed `deadline`.
+    /// near than [`CANDIDATES`].
     fn gather(
         &mut self,
         triangles: &SignedMesh,
         samples: &SignedMesh,
         (turn, shift): (DQuat, DVec3),
         reach: f64,
-        deadline: Option<Instant>,
     ) -> bool {
         let mut full = false;
-        let mut visits = 0u32;
         let placed = DAffine3::from_rotation_translation(turn, shift);
         // The sample last placed: pairs come a sample's triangles in a row.
         let mut last = (usize::MAX, DVec3::ZERO);
         triangles.visit_near(samples, placed, reach, |s, t| {
             if full {
-                return;
-            }
-            visits = visits.wrapping_add(1);
-            if visits % CLOCK_EVERY == 0 && deadline.is_some_and(|d| Instant::now() >= d) {
-                full = true;
                 return;
             }
             if last.0 != s {
@@ -452,8 +433,6 @@ pub struct GodObject {
     last_grip: Option<(DVec3, DQuat)>,
     /// The pushes' exact solve.
     least: LeastDistance,
-    /// Whether a tick's query keeps to [`QUERY_SHARE`] of the tick.
-    on_the_clock: bool,
 }
 
 impl GodObject {
@@ -477,16 +456,7 @@ impl GodObject {
             table: Table::new(),
             last_grip: None,
             least: LeastDistance::default(),
-            on_the_clock: false,
         }
-    }
-
-    /// Keep each tick's contact query to [`QUERY_SHARE`] of the tick by the wall clock: a
-    /// tick whose query runs past it keeps the last pose, as one that finds too much does.
-    /// For a god-object on a real-time thread; one run in simulated time (an experiment, a
-    /// test) leaves it off and comes out the same on every run.
-    pub fn keep_to_the_clock(&mut self) {
-        self.on_the_clock = true;
     }
 
     /// Where the proxy is.
@@ -516,10 +486,7 @@ impl GodObject {
     ) -> GodObjectOutput {
         let (grip_position, grip_orientation) = grip;
         let (was, was_turned) = (self.position, self.orientation);
-        // Reading the clock takes no lock and no system call (the vDSO's).
-        let deadline = (self.on_the_clock && dt > 0.0)
-            .then(|| Instant::now() + Duration::from_secs_f64((QUERY_SHARE * dt).min(1.0)));
-        let found = self.find_contacts(obstacles, deadline);
+        let found = self.find_contacts(obstacles);
         let penetration = self.contacts().iter().map(|c| -c.gap).fold(0.0, f64::max);
         if found {
             let wanted = (
@@ -572,13 +539,8 @@ impl GodObject {
     }
 
     /// [rt] Gather the contacts within this tick's reach, both ways round for each
-    /// obstacle; false when an obstacle had more candidates than the table holds, or the
-    /// clock passed `deadline`.
-    fn find_contacts<'m>(
-        &mut self,
-        obstacles: impl IntoIterator<Item = Obstacle<'m>>,
-        deadline: Option<Instant>,
-    ) -> bool {
+    /// obstacle; false when an obstacle had more candidates than the table holds.
+    fn find_contacts<'m>(&mut self, obstacles: impl IntoIterator<Item = Obstacle<'m>>) -> bool {
         self.found.clear();
         let part = (self.position, self.orientation);
         for (o, obstacle) in obstacles.into_iter().enumerate() {
@@ -593,10 +555,7 @@ impl GodObject {
                 };
                 let back = to_turn.inverse();
                 let placed = (back * from_turn, back * (from - to));
-                if !self
-                    .table
-                    .gather(triangles, samples, placed, self.reach, deadline)
-                {
+                if !self.table.gather(triangles, samples, placed, self.reach) {
                     self.table.clear();
                     return false;
                 }

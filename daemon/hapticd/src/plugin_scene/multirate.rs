@@ -254,8 +254,7 @@ impl MultiRateScene {
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
         let (mut scene, mut physics, mut replies) = Self::new(name, parts, rate, pointers);
-        if let Some(mut held) = held {
-            held.keep_to_the_clock();
+        if let Some(held) = held {
             scene.renderer.hold(held);
         }
         scene.renderer.set_exact_shapes(exact);
