@@ -344,6 +344,75 @@ fn a_tick_that_finds_too_much_keeps_the_last_pose_and_the_hand_feels_it() {
 /// the hand feeling μ times the press across, as Coulomb says; without friction it follows
 /// the hand across from the start and the hand feels nothing across.
 #[test]
+fn a_query_out_of_time_goes_on_at_the_next_tick_and_ends_where_a_whole_one_does() {
+    // The square peg standing on the block's top beside the hole, the hand 1 mm below and
+    // 0.5 mm aside: its bottom edges' 400 samples touch, a query of thousands of pairs.
+    let (part, _, block) = square_peg_and_block();
+    let solid = block.mesh();
+    let obstacles = unmoved(&solid);
+    let resting = DVec3::new(10.0 * MM, 10.0 * MM, 0.0);
+    let grip = (resting + DVec3::new(0.5, -1.0, 0.0) * MM, DQuat::IDENTITY);
+    // A tick of 10 ns gives the query 4 ns: each tick's walk stops at its first look at
+    // the clock, a few dozen pairs of nodes on.
+    let tick = 1e-8;
+    let mut timed = GodObject::new(part, resting, DQuat::IDENTITY, Default::default());
+    let mut whole = timed.clone();
+    timed.keep_to_the_clock();
+    let mut ticks = 0;
+    while timed.update(grip, tick, obstacles).held_back {
+        // Held where it was, touching nothing it has not finished looking at.
+        assert_eq!(timed.pose(), (resting, DQuat::IDENTITY));
+        assert!(timed.contacts().is_empty());
+        ticks += 1;
+        assert!(ticks < 100_000, "the query never ended");
+    }
+    assert!(ticks > 10, "done after {ticks} ticks");
+    // Off the clock (a run in simulated time), one tick looks at everything: the same
+    // contacts and the same step.
+    assert!(!whole.update(grip, tick, obstacles).held_back);
+    assert!(whole.contacts().len() >= 4, "{:?}", whole.contacts());
+    assert_eq!(timed.contacts(), whole.contacts());
+    assert_eq!(timed.pose(), whole.pose());
+    assert_ne!(timed.pose().0, resting);
+}
+
+#[test]
+fn a_query_out_of_time_whose_obstacle_moved_looks_again_from_the_start() {
+    let (part, _, block) = square_peg_and_block();
+    let solid = block.mesh();
+    let resting = DVec3::new(10.0 * MM, 10.0 * MM, 0.0);
+    let grip = (resting + DVec3::new(0.5, -1.0, 0.0) * MM, DQuat::IDENTITY);
+    let mut god = GodObject::new(part, resting, DQuat::IDENTITY, Default::default());
+    god.keep_to_the_clock();
+    // The block lowered by 1 µm every tick: no query is ever finished, the part held.
+    for k in 0..2000 {
+        let obstacles = [Obstacle {
+            mesh: &solid,
+            position: DVec3::new(0.0, -1e-6 * k as f64, 0.0),
+            orientation: DQuat::IDENTITY,
+        }];
+        assert!(god.update(grip, 1e-8, obstacles).held_back, "tick {k}");
+        assert_eq!(god.pose(), (resting, DQuat::IDENTITY));
+    }
+    // Standing still, it finishes, where the block is now.
+    let obstacles = [Obstacle {
+        mesh: &solid,
+        position: DVec3::new(0.0, -2e-3, 0.0),
+        orientation: DQuat::IDENTITY,
+    }];
+    let mut whole = GodObject::new(
+        god.part().clone(),
+        resting,
+        DQuat::IDENTITY,
+        Default::default(),
+    );
+    while god.update(grip, 1e-8, obstacles).held_back {}
+    whole.update(grip, 1e-8, obstacles);
+    assert_eq!(god.contacts(), whole.contacts());
+    assert_eq!(god.pose(), whole.pose());
+}
+
+#[test]
 fn a_part_dragged_on_a_face_sticks_then_slides_by_coulombs_law() {
     let (_, _, block) = square_peg_and_block();
     let solid = block.mesh();

@@ -106,8 +106,10 @@ fn create(
     pointers: usize,
 ) -> Result<(Box<dyn SceneInstance>, HapticdSceneInfo), SceneError> {
     let path = path.ok_or("the penalty scene needs a scene file")?;
-    let scene =
+    let mut scene =
         PenaltyScene::load(std::path::Path::new(path), pointers).map_err(|e| e.to_string())?;
+    // Stepped in the haptic thread: a held part's query keeps to its share of the tick.
+    scene.keep_to_the_clock();
     for warning in &scene.warnings {
         hapticd_plugin_api::log(HAPTICD_LOG_WARN, &warning.to_string());
     }

@@ -4,11 +4,16 @@
 //! where that leaves one side empty or the tree grows deep), walked in the haptic thread with
 //! a stack of fixed size, so a query neither allocates nor recurses.
 
+use std::time::Instant;
+
 use glam::{DAffine3, DVec3};
 
 /// Most items in a leaf: measured on the god-object's benchmark, two beat one, four and eight
 /// (a pair of leaves pairs each item of one with each of the other's).
 const LEAF: usize = 2;
+/// Pairs a walk takes between looks at the clock (a look costs tens of nanoseconds, a pair
+/// a few).
+const CLOCK_EVERY: u32 = 64;
 /// Levels split at the middle of a box, at most; deeper, at the median of the centres.
 const MIDDLE_SPLITS: usize = 48;
 /// Nodes a walk holds at once: one more than the tree is deep. Past [`MIDDLE_SPLITS`]
@@ -159,25 +164,34 @@ impl Bvh {
 
     /// [rt] Call `visit(mine, theirs)` with every pair of an item of this hierarchy and one
     /// of `other`'s whose boxes come within `reach` of each other (and perhaps a few more),
-    /// `other`'s frame being `placed` in this one (turned and shifted only). Walks both trees
-    /// together (the wider node of a pair split first), `other`'s boxes taken as the balls
-    /// around them; a stack of fixed size, no allocation.
-    pub fn visit_pairs(
+    /// `other`'s frame being `placed` in this one (turned and shifted only), going on with
+    /// `walk` from where it stopped. Walks both trees together (the wider node of a pair
+    /// split first), `other`'s boxes taken as the balls around them; a stack of fixed size,
+    /// no allocation.
+    ///
+    /// True when the walk is done; false when the clock passed `deadline` first, `walk`
+    /// then holding the pairs still to look at: called again with the same trees, placing
+    /// and reach, it visits just those, each leaf's pairs whole in one call or the next.
+    pub fn walk_pairs(
         &self,
         other: &Bvh,
-        placed: DAffine3,
-        reach: f64,
+        (placed, reach): (DAffine3, f64),
+        walk: &mut PairWalk,
+        deadline: Option<Instant>,
         mut visit: impl FnMut(usize, usize),
-    ) {
+    ) -> bool {
         if self.nodes.is_empty() || other.nodes.is_empty() {
-            return;
+            walk.depth = 0;
+            return true;
         }
-        // Each pair taken off pushes at most two, each a level deeper in one tree.
-        let mut stack = [(0u32, 0u32); 2 * DEPTH];
-        let mut depth = 1;
-        while depth > 0 {
-            depth -= 1;
-            let (a, b) = stack[depth];
+        let mut taken = 0u32;
+        while walk.depth > 0 {
+            taken = taken.wrapping_add(1);
+            if taken % CLOCK_EVERY == 0 && deadline.is_some_and(|d| Instant::now() >= d) {
+                return false;
+            }
+            walk.depth -= 1;
+            let (a, b) = walk.stack[walk.depth];
             let (mine, theirs) = (&self.nodes[a as usize], &other.nodes[b as usize]);
             let centre = placed.transform_point3((theirs.low + theirs.high) / 2.0);
             let radius = theirs.radius;
@@ -201,17 +215,44 @@ impl Bvh {
                 }
                 (leaf, other_leaf) => {
                     let wider = mine.radius >= radius;
+                    let depth = walk.depth;
                     if !leaf && (other_leaf || wider) {
-                        stack[depth] = (a + 1, b);
-                        stack[depth + 1] = (mine.start, b);
+                        walk.stack[depth] = (a + 1, b);
+                        walk.stack[depth + 1] = (mine.start, b);
                     } else {
-                        stack[depth] = (a, b + 1);
-                        stack[depth + 1] = (a, theirs.start);
+                        walk.stack[depth] = (a, b + 1);
+                        walk.stack[depth + 1] = (a, theirs.start);
                     }
-                    depth += 2;
+                    walk.depth += 2;
                 }
             }
         }
+        true
+    }
+}
+
+/// Where a walk of two hierarchies' pairs stands ([`Bvh::walk_pairs`]): the pairs of nodes
+/// still to look at.
+#[derive(Debug, Clone)]
+pub struct PairWalk {
+    /// Each pair taken off pushes at most two, each a level deeper in one tree.
+    stack: [(u32, u32); 2 * DEPTH],
+    depth: usize,
+}
+
+impl Default for PairWalk {
+    fn default() -> Self {
+        Self {
+            stack: [(0, 0); 2 * DEPTH],
+            depth: 1,
+        }
+    }
+}
+
+impl PairWalk {
+    /// [rt] Start again from the roots.
+    pub fn restart(&mut self) {
+        (self.stack[0], self.depth) = ((0, 0), 1);
     }
 }
 

@@ -23,14 +23,21 @@
 //! until the hand pulls it sideways harder than μ times how hard it presses; sliding, the
 //! hand feels that much.
 //!
-//! Time-critical, it degrades and never overruns: contacts past [`CONTACTS`] are left for
+//! Time-critical, it degrades and does not overrun: contacts past [`CONTACTS`] are left for
 //! the next tick (the deepest taken first), and the proxy then moves no farther than the
 //! nearest one left; the rounds and sweeps are bounded, and the solve is cut back to what
 //! the contacts allow; a tick that finds more candidates than its table holds, or whose
-//! pushes need more steps than their solve takes, keeps the last pose.
+//! pushes need more steps than their solve takes, keeps the last pose. On a real-time
+//! thread ([`GodObject::keep_to_the_clock`]) a query that runs past its share of the tick
+//! stops where it is and goes on at the next tick, the proxy held where it was meanwhile:
+//! a pose whose query takes two ticks is moved from every other tick, never frozen, as it
+//! would be if each tick began the query again and timed out the same way.
+
+use std::time::{Duration, Instant};
 
 use glam::{DAffine3, DQuat, DVec3};
 
+use super::bvh::PairWalk;
 use super::least_distance::LeastDistance;
 use super::signed_mesh::{Near, SignedMesh};
 use crate::kinematics::{Wrench, rotation_vector};
@@ -48,6 +55,10 @@ pub const CANDIDATES: usize = 3072;
 /// Slots of the table the candidates are gathered in (a power of two, well over
 /// [`CANDIDATES`] so that probes stay short).
 const SLOTS: usize = 4096;
+/// The share of a tick (by the wall clock) that a god-object keeping to the clock gives its
+/// contact query: the rest is the solve's (bounded by its steps), the device's and the
+/// strings' tensions'.
+pub const QUERY_SHARE: f64 = 0.4;
 /// How far a contact may still be violated when the solve stops, metres.
 const TOLERANCE: f64 = 1e-8;
 /// The least reach of a tick's query, metres: contacts resting within rounding of zero gap
@@ -133,7 +144,8 @@ pub struct GodObjectOutput {
     /// The deepest the part was found inside anything at the start of the tick, metres
     /// (0 when nowhere).
     pub penetration: f64,
-    /// Whether the tick found too much to look at and kept the last pose.
+    /// Whether the tick kept the last pose: it found too much to look at, or its query,
+    /// out of time, goes on at the next tick.
     pub held_back: bool,
 }
 
@@ -199,6 +211,17 @@ struct Table {
     used: Vec<u32>,
 }
 
+/// How a gathering of candidates ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Gathered {
+    /// Every candidate is in the table.
+    Done,
+    /// More than [`CANDIDATES`] came near.
+    Full,
+    /// The clock passed the deadline: the walk holds where to go on from.
+    Stopped,
+}
+
 impl Table {
     fn new() -> Self {
         Self {
@@ -208,20 +231,20 @@ impl Table {
     }
 
     /// [rt] Gather, for each sample of `samples` (placed in `triangles`' frame by
-    /// `placed`), its features on `triangles` within `reach`; false when more samples came
-    /// near than [`CANDIDATES`].
+    /// `placed`), its features on `triangles` within `reach`, `walk` going on from where it
+    /// stands, until done or the clock passes `deadline`.
     fn gather(
         &mut self,
         triangles: &SignedMesh,
         samples: &SignedMesh,
-        (turn, shift): (DQuat, DVec3),
-        reach: f64,
-    ) -> bool {
+        ((turn, shift), reach): ((DQuat, DVec3), f64),
+        (walk, deadline): (&mut PairWalk, Option<Instant>),
+    ) -> Gathered {
         let mut full = false;
         let placed = DAffine3::from_rotation_translation(turn, shift);
         // The sample last placed: pairs come a sample's triangles in a row.
         let mut last = (usize::MAX, DVec3::ZERO);
-        triangles.visit_near(samples, placed, reach, |s, t| {
+        let done = triangles.walk_near(samples, (placed, reach), walk, deadline, |s, t| {
             if full {
                 return;
             }
@@ -236,7 +259,11 @@ impl Table {
                 None => full = true,
             }
         });
-        !full
+        match (full, done) {
+            (true, _) => Gathered::Full,
+            (false, true) => Gathered::Done,
+            (false, false) => Gathered::Stopped,
+        }
     }
 
     /// [rt] The slot of `sample`, taken if it has none; None when the table is full.
@@ -433,6 +460,44 @@ pub struct GodObject {
     last_grip: Option<(DVec3, DQuat)>,
     /// The pushes' exact solve.
     least: LeastDistance,
+    /// The walk of the query's trees, kept while a query waits for the next tick.
+    walk: PairWalk,
+    /// Whether a tick's query keeps to [`QUERY_SHARE`] of the tick.
+    on_the_clock: bool,
+    /// Where a query out of time stopped.
+    pending: Option<Pending>,
+}
+
+/// Where a query that ran out of time stopped: the obstacle and the way round it was
+/// gathering, and what the obstacles up to it looked like, so that the next tick goes on
+/// only if none of them moved.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Pending {
+    obstacle: usize,
+    side: usize,
+    print: u64,
+}
+
+/// [rt] `print` mixed with obstacle `o`'s place: a digest that changes when any obstacle
+/// moves at all.
+fn fingerprint(print: u64, o: usize, obstacle: &Obstacle) -> u64 {
+    let (p, q) = (obstacle.position, obstacle.orientation);
+    [o as f64, p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+        .into_iter()
+        .fold(print, |h, v| {
+            (h ^ v.to_bits()).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+}
+
+/// How a tick's query ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Query {
+    /// Every contact within reach is found.
+    Found,
+    /// More candidates than the table holds: the tick keeps its pose and looks close next.
+    TooMany,
+    /// Out of time: it goes on at the next tick, the pose held.
+    Unfinished,
 }
 
 impl GodObject {
@@ -456,7 +521,18 @@ impl GodObject {
             table: Table::new(),
             last_grip: None,
             least: LeastDistance::default(),
+            walk: PairWalk::default(),
+            on_the_clock: false,
+            pending: None,
         }
+    }
+
+    /// Keep each tick's contact query to [`QUERY_SHARE`] of the tick by the wall clock: a
+    /// query out of time goes on at the next tick, the proxy held where it was until it is
+    /// done. For a god-object on a real-time thread; one run in simulated time (an
+    /// experiment, a test) leaves it off and comes out the same on every run.
+    pub fn keep_to_the_clock(&mut self) {
+        self.on_the_clock = true;
     }
 
     /// Where the proxy is.
@@ -486,9 +562,12 @@ impl GodObject {
     ) -> GodObjectOutput {
         let (grip_position, grip_orientation) = grip;
         let (was, was_turned) = (self.position, self.orientation);
-        let found = self.find_contacts(obstacles);
+        // Reading the clock takes no lock and no system call (the vDSO's).
+        let deadline = (self.on_the_clock && dt > 0.0)
+            .then(|| Instant::now() + Duration::from_secs_f64((QUERY_SHARE * dt).min(1.0)));
+        let query = self.find_contacts(obstacles, deadline);
         let penetration = self.contacts().iter().map(|c| -c.gap).fold(0.0, f64::max);
-        if found {
+        if query == Query::Found {
             let wanted = (
                 grip_position - self.position,
                 rotation_vector(grip_orientation * self.orientation.inverse()),
@@ -510,7 +589,7 @@ impl GodObject {
             if position.is_finite() && orientation.is_finite() {
                 (self.position, self.orientation) = (position, orientation);
             }
-        } else {
+        } else if query == Query::TooMany {
             self.reach = MIN_REACH;
             self.previous_count = 0;
         }
@@ -534,18 +613,41 @@ impl GodObject {
         GodObjectOutput {
             felt,
             penetration,
-            held_back: !found,
+            held_back: query != Query::Found,
         }
     }
 
     /// [rt] Gather the contacts within this tick's reach, both ways round for each
-    /// obstacle; false when an obstacle had more candidates than the table holds.
-    fn find_contacts<'m>(&mut self, obstacles: impl IntoIterator<Item = Obstacle<'m>>) -> bool {
-        self.found.clear();
+    /// obstacle, until done or the clock passes `deadline`: going on from where the last
+    /// tick's query stopped if none of the obstacles it had looked at moved since, else
+    /// (they are looked at again at the next tick) from the start.
+    fn find_contacts<'m>(
+        &mut self,
+        obstacles: impl IntoIterator<Item = Obstacle<'m>>,
+        deadline: Option<Instant>,
+    ) -> Query {
+        // Between queries the table is empty and the walk at the roots.
+        let pending = self.pending.take();
+        if pending.is_none() {
+            self.found.clear();
+        }
+        let mut resumed = false;
         let part = (self.position, self.orientation);
+        let mut print = 0xcbf2_9ce4_8422_2325;
         for (o, obstacle) in obstacles.into_iter().enumerate() {
+            print = fingerprint(print, o, &obstacle);
+            let mut first_side = 0;
+            if let Some(p) = pending.filter(|_| !resumed) {
+                if o < p.obstacle {
+                    continue;
+                }
+                if p.print != print {
+                    break;
+                }
+                (resumed, first_side) = (true, p.side);
+            }
             let other = (obstacle.position, obstacle.orientation);
-            for side in 0..2 {
+            for side in first_side..2 {
                 // The samples of one against the triangles of the other, in the latter's
                 // frame: the part's against the obstacle's first, then the other way.
                 let (triangles, samples, (from, from_turn), (to, to_turn)) = if side == 0 {
@@ -555,9 +657,25 @@ impl GodObject {
                 };
                 let back = to_turn.inverse();
                 let placed = (back * from_turn, back * (from - to));
-                if !self.table.gather(triangles, samples, placed, self.reach) {
-                    self.table.clear();
-                    return false;
+                let walk = (&mut self.walk, deadline);
+                match self
+                    .table
+                    .gather(triangles, samples, (placed, self.reach), walk)
+                {
+                    Gathered::Done => self.walk.restart(),
+                    Gathered::Full => {
+                        self.table.clear();
+                        self.walk.restart();
+                        return Query::TooMany;
+                    }
+                    Gathered::Stopped => {
+                        self.pending = Some(Pending {
+                            obstacle: o,
+                            side,
+                            print,
+                        });
+                        return Query::Unfinished;
+                    }
                 }
                 for &u in &self.table.used {
                     let slot = &self.table.slots[u as usize];
@@ -584,9 +702,15 @@ impl GodObject {
                 self.table.clear();
             }
         }
+        if pending.is_some() && !resumed {
+            // What it had looked at moved (or is gone): the next tick starts again.
+            self.table.clear();
+            self.walk.restart();
+            return Query::Unfinished;
+        }
         self.found
             .reduce(self.reach / self.part.radius().max(f64::MIN_POSITIVE));
-        true
+        Query::Found
     }
 
     /// [rt] The proxy's motion (translation, rotation vector) for the `wanted` one: the

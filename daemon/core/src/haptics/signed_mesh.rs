@@ -13,10 +13,11 @@
 //! that fold outward), but a point beside it is held off its faces' own planes.
 
 use std::collections::HashMap;
+use std::time::Instant;
 
 use glam::{DAffine3, DVec3};
 
-use super::bvh::Bvh;
+use super::bvh::{Bvh, PairWalk};
 
 /// How far apart the samples along a solid's creases are at a right angle, metres
 /// ([`SignedMesh::of_triangles`]): an edge crossing an edge between two goes at most half as
@@ -326,16 +327,24 @@ impl SignedMesh {
 
     /// [rt] Call `visit(sample, triangle)` with each pair of a sample of `other` and a
     /// triangle of this mesh that may come within `reach` of each other, `other` `placed` in
-    /// this mesh's frame (turned and shifted only); no allocation.
-    pub fn visit_near(
+    /// this mesh's frame (turned and shifted only), going on with `walk` from where it
+    /// stopped; no allocation. True when done, false when the clock passed `deadline` first
+    /// (see [`Bvh::walk_pairs`]).
+    pub fn walk_near(
         &self,
         other: &SignedMesh,
-        placed: DAffine3,
-        reach: f64,
+        (placed, reach): (DAffine3, f64),
+        walk: &mut PairWalk,
+        deadline: Option<Instant>,
         mut visit: impl FnMut(usize, usize),
-    ) {
-        self.tree
-            .visit_pairs(&other.sample_tree, placed, reach, |t, s| visit(s, t));
+    ) -> bool {
+        self.tree.walk_pairs(
+            &other.sample_tree,
+            (placed, reach),
+            walk,
+            deadline,
+            |t, s| visit(s, t),
+        )
     }
 
     /// [rt] How near `p` (in this mesh's frame) comes to triangle `t`, signed by the
@@ -745,6 +754,31 @@ mod tests {
     }
 
     #[test]
+    fn a_walk_stopped_by_the_clock_and_taken_up_again_visits_the_pairs_of_a_whole_one() {
+        let (v, t) = cube();
+        let mesh = SignedMesh::new(&v, &t, 0.05).unwrap();
+        let turn = DQuat::from_rotation_y(0.4) * DQuat::from_rotation_x(0.3);
+        let query = (
+            DAffine3::from_rotation_translation(turn, DVec3::new(0.7, 0.9, 0.2)),
+            0.05,
+        );
+        let mut whole = Vec::new();
+        let mut walk = PairWalk::default();
+        assert!(mesh.walk_near(&mesh, query, &mut walk, None, |s, t| whole.push((s, t))));
+        // A deadline already past: each call takes a few dozen pairs of nodes and stops.
+        let (mut pieces, mut calls) = (Vec::new(), 1);
+        walk.restart();
+        while !mesh.walk_near(&mesh, query, &mut walk, Some(Instant::now()), |s, t| {
+            pieces.push((s, t))
+        }) {
+            calls += 1;
+        }
+        assert!(calls > 1, "{calls} calls");
+        assert!(!whole.is_empty());
+        assert_eq!(pieces, whole);
+    }
+
+    #[test]
     fn the_pairs_near_a_placed_mesh_are_those_a_scan_of_every_pair_finds() {
         let (v, t) = cube();
         let mesh = SignedMesh::new(&v, &t, 0.05).unwrap();
@@ -753,7 +787,8 @@ mod tests {
         let reach = 0.05;
         let mut found = Vec::new();
         let placed = DAffine3::from_rotation_translation(turn, shift);
-        mesh.visit_near(&mesh, placed, reach, |s, t| {
+        let mut walk = PairWalk::default();
+        let done = mesh.walk_near(&mesh, (placed, reach), &mut walk, None, |s, t| {
             if near(&mesh, t, turn * mesh.samples()[s] + shift)
                 .distance
                 .abs()
@@ -762,6 +797,7 @@ mod tests {
                 found.push((s, t));
             }
         });
+        assert!(done);
         found.sort_unstable();
         found.dedup();
         let mut expected = Vec::new();

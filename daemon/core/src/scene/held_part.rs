@@ -125,6 +125,12 @@ impl HeldPart {
         ))
     }
 
+    /// Keep the god-object's query to its share of each tick by the wall clock, as on the
+    /// haptic thread (see [`GodObject::keep_to_the_clock`]).
+    pub fn keep_to_the_clock(&mut self) {
+        self.god.keep_to_the_clock();
+    }
+
     /// The pointer that holds it.
     pub fn pointer(&self) -> usize {
         self.pointer

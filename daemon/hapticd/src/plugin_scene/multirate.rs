@@ -254,7 +254,8 @@ impl MultiRateScene {
         pointers: &[Pointer],
     ) -> std::io::Result<Self> {
         let (mut scene, mut physics, mut replies) = Self::new(name, parts, rate, pointers);
-        if let Some(held) = held {
+        if let Some(mut held) = held {
+            held.keep_to_the_clock();
             scene.renderer.hold(held);
         }
         scene.renderer.set_exact_shapes(exact);

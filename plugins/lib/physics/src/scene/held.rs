@@ -322,6 +322,12 @@ impl HeldPart {
         })
     }
 
+    /// Keep the god-object's query to its share of each tick by the wall clock (see
+    /// [`GodObject::keep_to_the_clock`]).
+    pub(super) fn keep_to_the_clock(&mut self) {
+        self.god.keep_to_the_clock();
+    }
+
     /// [rt] Move the proxy towards `grip` among `bodies` as they are now, `dt` after the last
     /// tick; keeps what the user feels of its spring.
     pub(super) fn follow(&mut self, grip: &Grip, dt: f64, bodies: &[Body]) {

@@ -72,6 +72,17 @@ impl PenaltyScene {
         Self::parse(&diagnostics::read_text(path)?, path, pointers)
     }
 
+    /// Keep a held body's god-object to its share of each tick by the wall clock, as on the
+    /// haptic thread (see [`GodObject::keep_to_the_clock`]); a run in simulated time leaves
+    /// it off.
+    ///
+    /// [`GodObject::keep_to_the_clock`]: hapticd_core::haptics::god_object::GodObject::keep_to_the_clock
+    pub fn keep_to_the_clock(&mut self) {
+        if let Some(held) = &mut self.held {
+            held.keep_to_the_clock();
+        }
+    }
+
     /// Parse penalty scene `text` for `pointers` pointers (see [`SceneFile::parse`]); a
     /// file for another engine is an error at its `engine:`.
     pub fn parse(text: &str, path: &Path, pointers: usize) -> Result<Self, Diagnostics> {
