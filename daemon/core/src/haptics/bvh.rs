@@ -184,14 +184,19 @@ impl Bvh {
             walk.depth = 0;
             return true;
         }
+        // The stack and its depth in the walk's place only between calls: the loop keeps
+        // them where the compiler likes.
+        let PairWalk { stack, depth } = walk;
+        let mut at = *depth;
         let mut taken = 0u32;
-        while walk.depth > 0 {
+        while at > 0 {
             taken = taken.wrapping_add(1);
             if taken % CLOCK_EVERY == 0 && deadline.is_some_and(|d| Instant::now() >= d) {
+                *depth = at;
                 return false;
             }
-            walk.depth -= 1;
-            let (a, b) = walk.stack[walk.depth];
+            at -= 1;
+            let (a, b) = stack[at];
             let (mine, theirs) = (&self.nodes[a as usize], &other.nodes[b as usize]);
             let centre = placed.transform_point3((theirs.low + theirs.high) / 2.0);
             let radius = theirs.radius;
@@ -215,18 +220,18 @@ impl Bvh {
                 }
                 (leaf, other_leaf) => {
                     let wider = mine.radius >= radius;
-                    let depth = walk.depth;
                     if !leaf && (other_leaf || wider) {
-                        walk.stack[depth] = (a + 1, b);
-                        walk.stack[depth + 1] = (mine.start, b);
+                        stack[at] = (a + 1, b);
+                        stack[at + 1] = (mine.start, b);
                     } else {
-                        walk.stack[depth] = (a, b + 1);
-                        walk.stack[depth + 1] = (a, theirs.start);
+                        stack[at] = (a, b + 1);
+                        stack[at + 1] = (a, theirs.start);
                     }
-                    walk.depth += 2;
+                    at += 2;
                 }
             }
         }
+        *depth = 0;
         true
     }
 }
