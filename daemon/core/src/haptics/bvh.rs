@@ -191,7 +191,7 @@ impl Bvh {
         let mut taken = 0u32;
         while at > 0 {
             taken = taken.wrapping_add(1);
-            if taken % CLOCK_EVERY == 0 && deadline.is_some_and(|d| Instant::now() >= d) {
+            if taken.is_multiple_of(CLOCK_EVERY) && deadline.is_some_and(|d| Instant::now() >= d) {
                 *depth = at;
                 return false;
             }
