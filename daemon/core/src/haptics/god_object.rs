@@ -478,15 +478,15 @@ struct Pending {
     print: u64,
 }
 
-/// [rt] `print` mixed with obstacle `o`'s place: a digest that changes when any obstacle
-/// moves at all.
+/// [rt] `print` mixed with obstacle `o`'s surface and place: a digest that changes when
+/// any obstacle moves at all, or another takes its place in the list.
 fn fingerprint(print: u64, o: usize, obstacle: &Obstacle) -> u64 {
     let (p, q) = (obstacle.position, obstacle.orientation);
-    [o as f64, p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+    let surface = std::ptr::from_ref(obstacle.mesh) as u64;
+    [o as u64, surface]
         .into_iter()
-        .fold(print, |h, v| {
-            (h ^ v.to_bits()).wrapping_mul(0x0000_0100_0000_01b3)
-        })
+        .chain([p.x, p.y, p.z, q.x, q.y, q.z, q.w].map(f64::to_bits))
+        .fold(print, |h, v| (h ^ v).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
 /// How a tick's query ended.
