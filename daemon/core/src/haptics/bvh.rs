@@ -237,7 +237,7 @@ impl Bvh {
 }
 
 /// Where a walk of two hierarchies' pairs stands ([`Bvh::walk_pairs`]): the pairs of nodes
-/// still to look at.
+/// still to look at. A new one stands at the roots.
 #[derive(Debug, Clone)]
 pub struct PairWalk {
     /// Each pair taken off pushes at most two, each a level deeper in one tree.
