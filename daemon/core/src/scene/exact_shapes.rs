@@ -1,8 +1,8 @@
 //! The pieces of a multi-rate world's bodies, as the world describes them, and those that
 //! are exactly a ball or a box, by object: a finger on a body moved here (local dynamics)
-//! touches that shape where the body is this tick, instead of the plane the last physics step found, carried along with the body's
-//! centre. A finger sliding over a ball between two steps of a 10 Hz world follows its
-//! round surface, not one flat facet a period wide.
+//! touches that shape where the body is this tick, instead of the plane the last physics
+//! step found, carried along with the body's centre. A finger sliding over a ball between
+//! two steps of a 10 Hz world follows its round surface, not one flat facet a period wide.
 
 use glam::{DQuat, DVec3};
 
